@@ -1,0 +1,64 @@
+"""The one family of errors that spinemesh raises for bad input.
+
+Every error names the file and, where it is known, the line or byte offset, so that the
+CLI can print one clear sentence instead of a traceback.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class SpineMeshError(Exception):
+    """Bad input or a failed operation that a user can act on.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in words a user understands.
+    path : str or Path, optional
+        The file the problem is in.
+    line : int, optional
+        1-based line number in a text file.
+    offset : int, optional
+        Byte offset in a binary file.
+    """
+
+    def __init__(self, message: str, path: str | Path | None = None,
+                 line: int | None = None, offset: int | None = None):
+        self.message = message
+        self.path = str(path) if path is not None else None
+        self.line = line
+        self.offset = offset
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = self.path or ""
+        if self.line is not None:
+            where += f":{self.line}"
+        if self.offset is not None:
+            where += f" (byte {self.offset})"
+        return f"{where}: {self.message}" if where else self.message
+
+
+class AtlasError(SpineMeshError):
+    """A texture atlas that cannot be read."""
+
+
+class SkeletonError(SpineMeshError):
+    """A skeleton document (JSON) that cannot be read."""
+
+
+class SkelFormatError(SpineMeshError):
+    """A binary ``.skel`` file that is truncated, corrupted or of an unsupported version.
+
+    ``offset`` is the byte offset where reading failed and ``message`` says what was expected.
+    """
+
+
+class ImageError(SpineMeshError):
+    """A page or region image that is missing or cannot be decoded."""
+
+
+class UnsafePathError(SpineMeshError):
+    """A path in a project file that would reach outside the project folder."""

@@ -1,0 +1,81 @@
+"""Spine's binary skeleton format (``.skel``), versions 3.6 to 4.2, read and written.
+
+:func:`read_skel` turns a ``.skel`` into the same document that the Spine editor's JSON
+export of that version holds; :func:`write_skel` turns such a document back into bytes.
+Each major version's structures are declared once, in :mod:`.v3` and :mod:`.v4`, as
+functions of a :mod:`.stream` that serve both directions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import SkelFormatError
+from .stream import SkelReader, SkelWriter
+
+
+def sniff_version(data: bytes) -> str:
+    """The editor version string stored in a ``.skel`` header, e.g. ``"4.2.43"``.
+
+    4.x files start with an 8-byte hash and then the version string; 3.x files start with
+    the hash as a string. Both are tried.
+    """
+    for layout in ("v4", "v3"):
+        r = SkelReader(data)
+        try:
+            if layout == "v4":
+                r.i64()
+            else:
+                r.string()
+            version = r.string()
+        except SkelFormatError:
+            continue
+        if version and version[:1].isdigit() and "." in version:
+            return version
+    raise SkelFormatError("expected a Spine version string in the header", offset=0)
+
+
+def _codec(version: str):
+    major = version.split(".")[0]
+    if major == "3":
+        from . import v3 as codec
+    elif major == "4":
+        from . import v4 as codec
+    else:
+        raise SkelFormatError(f"expected Spine 3.6 to 4.2, found version {version!r}", offset=0)
+    return codec
+
+
+def read_skel(source: str | Path | bytes, path: str | Path | None = None) -> dict:
+    """Read a ``.skel`` into a JSON-equivalent skeleton document.
+
+    Raises
+    ------
+    SkelFormatError
+        For truncated, corrupted or unsupported input; it carries the byte offset and what
+        was expected. No other exception escapes.
+    """
+    if isinstance(source, (str, Path)):
+        path = path or source
+        data = Path(source).read_bytes()
+    else:
+        data = bytes(source)
+    try:
+        version = sniff_version(data)
+        reader = SkelReader(data, path)
+        return _codec(version).read(reader)
+    except SkelFormatError as e:
+        if e.path is None and path is not None:
+            e.path = str(path)
+        raise
+    except (ValueError, TypeError, KeyError, IndexError, OverflowError, RecursionError, MemoryError) as e:
+        off = reader.pos if "reader" in locals() else 0
+        raise SkelFormatError(f"expected valid skeleton data ({type(e).__name__}: {e})", path, offset=off) from None
+
+
+def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
+    """Encode a skeleton document as ``.skel`` bytes of the version in ``doc["skeleton"]["spine"]``."""
+    version = str(doc.get("skeleton", {}).get("spine", ""))
+    writer = SkelWriter(path)
+    _codec(version).write(writer, doc)
+    return writer.getvalue()
