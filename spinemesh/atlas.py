@@ -1,0 +1,306 @@
+"""Spine/libGDX texture atlases: read, model, write.
+
+Two syntaxes exist and both are read and written back in the form they came in:
+
+- the 3.x one: ``rotate: true|false``, ``xy:``, ``size:``, ``orig:``, ``offset:``, ``index:``,
+  ``split:``, ``pad:``;
+- the 4.x one: ``bounds:``, ``offsets:``, ``rotate: true|90|180|270``, and the page fields
+  ``size:``, ``format:``, ``filter:``, ``repeat:``, ``pma:``, ``scale:``.
+
+The model keeps every ``key: values`` entry of a page or region in file order, unknown keys
+included, so writing a parsed atlas reproduces it. Geometry is derived from the entries on
+demand (:meth:`AtlasRegion.geometry`), one rule for both syntaxes.
+
+Coordinates: ``x, y`` is the top-left of the packed rectangle on the page (y down);
+``width, height`` is the packed image *before* rotation, so a region rotated by 90 or 270
+degrees occupies ``height x width`` page pixels. ``offset_x, offset_y`` is the whitespace
+stripped at the left and at the *bottom* (libGDX counts y up) of the original image of size
+``original_width x original_height``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import AtlasError
+
+#: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
+_V4_KEYS = {"bounds", "offsets", "pma", "scale"}
+
+
+@dataclass
+class Entry:
+    """One ``key: v1, v2, ...`` line, with the formatting needed to write it back."""
+
+    key: str
+    values: list[str]
+    indent: str = ""
+    sep: str = ", "
+    colon: str = ": "
+
+    def line(self) -> str:
+        return f"{self.indent}{self.key}{self.colon}{self.sep.join(self.values)}"
+
+
+@dataclass
+class RegionGeometry:
+    """Where a region lies on its page and in its original image (all in page pixels)."""
+
+    x: int
+    y: int
+    width: int
+    height: int
+    offset_x: int
+    offset_y: int
+    original_width: int
+    original_height: int
+    degrees: int
+
+    @property
+    def page_width(self) -> int:
+        """Width of the rectangle the region occupies on the page."""
+        return self.height if self.degrees in (90, 270) else self.width
+
+    @property
+    def page_height(self) -> int:
+        return self.width if self.degrees in (90, 270) else self.height
+
+
+@dataclass
+class AtlasRegion:
+    """A named region of a page. ``entries`` hold every field in file order."""
+
+    name: str
+    page: int
+    entries: list[Entry] = field(default_factory=list)
+    line: int = 0
+
+    def get(self, key: str) -> list[str] | None:
+        for e in self.entries:
+            if e.key == key:
+                return e.values
+        return None
+
+    @property
+    def index(self) -> int:
+        v = self.get("index")
+        return int(v[0]) if v else -1
+
+    def geometry(self, source: str | None = None) -> RegionGeometry:
+        """Geometry from either syntax; raises :class:`AtlasError` on malformed numbers."""
+        ints = lambda key, n: _ints(self, key, n, source)  # noqa: E731
+        bounds = ints("bounds", 4)
+        if bounds is not None:
+            x, y, w, h = bounds
+        else:
+            xy, size = ints("xy", 2), ints("size", 2)
+            if xy is None or size is None:
+                raise AtlasError(f"region {self.name!r} has neither bounds: nor xy:/size:", source, line=self.line)
+            (x, y), (w, h) = xy, size
+        offsets = ints("offsets", 4)
+        if offsets is not None:
+            ox, oy, ow, oh = offsets
+        else:
+            off, orig = ints("offset", 2), ints("orig", 2)
+            ox, oy = off if off is not None else (0, 0)
+            ow, oh = orig if orig is not None else (w, h)
+        rotate = self.get("rotate")
+        degrees = 0
+        if rotate:
+            r = rotate[0].strip().lower()
+            if r == "true":
+                degrees = 90
+            elif r == "false":
+                degrees = 0
+            else:
+                try:
+                    degrees = int(r) % 360
+                except ValueError:
+                    raise AtlasError(f"region {self.name!r}: rotate must be true, false or degrees, found {r!r}",
+                                     source, line=self.line) from None
+                if degrees % 90:
+                    raise AtlasError(f"region {self.name!r}: rotate must be a multiple of 90, found {r}",
+                                     source, line=self.line)
+        if w < 0 or h < 0 or ow < 0 or oh < 0:
+            raise AtlasError(f"region {self.name!r} has a negative size", source, line=self.line)
+        return RegionGeometry(x, y, w, h, ox, oy, ow, oh, degrees)
+
+
+@dataclass
+class AtlasPage:
+    """A page image and its fields (``size``, ``format``, ``filter``, ``repeat``, ``pma``, ``scale``...)."""
+
+    name: str
+    entries: list[Entry] = field(default_factory=list)
+    line: int = 0
+
+    def get(self, key: str) -> list[str] | None:
+        for e in self.entries:
+            if e.key == key:
+                return e.values
+        return None
+
+    @property
+    def pma(self) -> bool:
+        v = self.get("pma")
+        return bool(v) and v[0].strip().lower() == "true"
+
+    @property
+    def scale(self) -> float:
+        """The export scale of the page: atlas pixels per original image pixel (default 1)."""
+        v = self.get("scale")
+        try:
+            return float(v[0]) if v else 1.0
+        except ValueError:
+            raise AtlasError(f"page {self.name!r}: scale must be a number, found {v[0]!r}", line=self.line) from None
+
+
+@dataclass
+class Atlas:
+    """A parsed atlas. ``syntax`` is ``"3"`` or ``"4"``; ``path`` is where it was read from."""
+
+    pages: list[AtlasPage]
+    regions: list[AtlasRegion]
+    syntax: str = "4"
+    header: list[Entry] = field(default_factory=list)
+    path: Path | None = None
+    leading_blank: bool = False
+
+    def find(self, name: str) -> AtlasRegion | None:
+        """The first region called ``name``, as the runtimes' ``findRegion`` returns it."""
+        if not hasattr(self, "_by_name"):
+            self._by_name: dict[str, AtlasRegion] = {}
+            for r in self.regions:
+                self._by_name.setdefault(r.name, r)
+        return self._by_name.get(name)
+
+    def page_path(self, region_or_page: AtlasRegion | AtlasPage) -> str:
+        page = region_or_page if isinstance(region_or_page, AtlasPage) else self.pages[region_or_page.page]
+        return page.name
+
+    def dumps(self) -> str:
+        """The atlas as text in its own syntax."""
+        out: list[str] = []
+        if self.leading_blank:
+            out.append("")
+        out.extend(e.line() for e in self.header)
+        by_page: dict[int, list[AtlasRegion]] = {}
+        for r in self.regions:
+            by_page.setdefault(r.page, []).append(r)
+        for i, page in enumerate(self.pages):
+            if i > 0 or self.header:
+                out.append("")
+            out.append(page.name)
+            out.extend(e.line() for e in page.entries)
+            for r in by_page.get(i, []):
+                out.append(r.name)
+                out.extend(e.line() for e in r.entries)
+        return "\n".join(out) + "\n"
+
+    def model(self) -> dict:
+        """A plain, comparable view of the atlas: pages and regions with their fields."""
+        return {
+            "syntax": self.syntax,
+            "header": [(e.key, e.values) for e in self.header],
+            "pages": [(p.name, [(e.key, e.values) for e in p.entries]) for p in self.pages],
+            "regions": [(r.name, r.page, [(e.key, e.values) for e in r.entries]) for r in self.regions],
+        }
+
+
+def _ints(item, key: str, n: int, source) -> list[int] | None:
+    values = item.get(key)
+    if values is None:
+        return None
+    if len(values) < n:
+        raise AtlasError(f"{item.name!r}: {key}: needs {n} numbers, found {len(values)}", source, line=item.line)
+    try:
+        return [int(v) for v in values[:n]]
+    except ValueError:
+        raise AtlasError(f"{item.name!r}: {key}: expected whole numbers, found {', '.join(values)!r}",
+                         source, line=item.line) from None
+
+
+def _entry(raw: str) -> Entry | None:
+    """Parse ``key: a, b`` (or ``None`` for a line without a colon, i.e. a name)."""
+    stripped = raw.strip()
+    colon = stripped.find(":")
+    if colon < 0:
+        return None
+    key = stripped[:colon].strip()
+    after = stripped[colon + 1:]
+    rest = after.strip()
+    colon_text = stripped[len(stripped[:colon].rstrip()):colon + 1 + len(after) - len(after.lstrip())]
+    values = [v.strip() for v in rest.split(",")] if rest else []
+    sep = ", " if ", " in rest else ","
+    indent = raw[: len(raw) - len(raw.lstrip())]
+    return Entry(key, values, indent, sep, colon_text)
+
+
+def parse_atlas(text: str, source: str | Path | None = None) -> Atlas:
+    """Parse atlas text of either syntax.
+
+    The structure follows the runtimes' reader: a blank line ends a page, the next name
+    starts a page, and any other name starts a region of the current page. Names may
+    contain colons only in the sense that a line with a colon is always an entry.
+
+    Raises
+    ------
+    AtlasError
+        With the line number, for an entry before any name or a file with no pages.
+    """
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    if text.startswith("\ufeff"):
+        lines[0] = lines[0][1:]
+    atlas = Atlas(pages=[], regions=[], path=Path(source) if source else None)
+    i = 0
+    while i < len(lines) and not lines[i].strip():
+        atlas.leading_blank = True
+        i += 1
+    # Header entries before the first page name (rare; the runtimes ignore them).
+    while i < len(lines) and lines[i].strip() and _entry(lines[i]) is not None:
+        atlas.header.append(_entry(lines[i]))
+        i += 1
+    page: AtlasPage | None = None
+    current: AtlasPage | AtlasRegion | None = None
+    for n in range(i, len(lines)):
+        raw = lines[n]
+        if not raw.strip():
+            page = current = None
+            continue
+        entry = _entry(raw)
+        if entry is not None:
+            if current is None:
+                raise AtlasError(f"entry {entry.key!r} does not belong to any page or region", source, line=n + 1)
+            current.entries.append(entry)
+            continue
+        name = raw.strip()
+        if page is None:
+            page = AtlasPage(name=name, line=n + 1)
+            atlas.pages.append(page)
+            current = page
+        else:
+            region = AtlasRegion(name=name, page=len(atlas.pages) - 1, line=n + 1)
+            atlas.regions.append(region)
+            current = region
+    if not atlas.pages:
+        raise AtlasError("no atlas pages found (empty or not an atlas)", source)
+    keys = {e.key for r in atlas.regions for e in r.entries} | {e.key for p in atlas.pages for e in p.entries}
+    atlas.syntax = "4" if keys & _V4_KEYS or "xy" not in keys and atlas.regions else "3"
+    for r in atlas.regions:
+        r.geometry(str(source) if source else None)  # validate numbers now, with line numbers
+    return atlas
+
+
+def read_atlas(path: str | Path) -> Atlas:
+    """Read an atlas file (``.atlas``, ``.atlas.txt``...). Raises :class:`AtlasError`."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise AtlasError(f"cannot read atlas: {e.strerror}", path) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise AtlasError(f"atlas is not UTF-8 text (byte {e.start})", path) from None
+    return parse_atlas(text, path)
