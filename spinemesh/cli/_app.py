@@ -16,3 +16,11 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+@app.callback()
+def _root() -> None:
+    """Automatic triangle meshes for Spine projects.
+
+    Example: spinemesh upgrade project/ --out meshed/
+    """
