@@ -1,0 +1,72 @@
+"""``spinemesh info`` and the CLI's error handling, run as a user would."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from spinemesh.fsutil import atomic_write_bytes, resolve_inside
+from spinemesh.errors import UnsafePathError
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS="200")
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], capture_output=True, text=True, env=env)
+
+
+def test_info_on_a_project_folder(examples):
+    r = run("info", str(examples / "4.2/dragon"))
+    assert r.returncode == 0, r.stderr
+    assert "Spine 4.2" in r.stdout and "dragon.atlas" in r.stdout
+    assert "region" in r.stdout and "every attachment image was found" in r.stdout
+
+
+def test_info_reports_missing_images(tmp_path, examples):
+    proj = tmp_path / "p"
+    proj.mkdir()
+    (proj / "s.json").write_text('{"skeleton": {"spine": "4.2.1"}, "bones": [{"name": "root"}],'
+                                 '"slots": [{"name": "a", "bone": "root"}],'
+                                 '"skins": [{"name": "default", "attachments": {"a": {"ghost": {}}}}]}')
+    r = run("info", str(proj / "s.json"))
+    assert r.returncode == 0, r.stderr
+    assert "1 attachment image(s) not found" in r.stdout and "'ghost'" in r.stdout
+
+
+def test_bad_input_is_one_line_not_a_traceback(tmp_path):
+    f = tmp_path / "bad.atlas"
+    f.write_text("p.png\n\tsize: 4, 4\nr\n\tbounds: 0, x, 1, 1\n")
+    (tmp_path / "s.json").write_text('{"bones": [')
+    r = run("info", str(tmp_path))
+    assert "Traceback" not in r.stdout + r.stderr
+    assert "bad.atlas:3" in r.stderr and "s.json:1" in r.stderr
+    r = run("info", str(tmp_path / "nope"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "no such file" in r.stderr
+
+
+def test_help_has_an_example():
+    r = run("info", "--help")
+    assert r.returncode == 0 and "Example:" in r.stdout
+
+
+def test_resolve_inside(tmp_path):
+    assert resolve_inside(tmp_path, "a/b.png") == (tmp_path / "a/b.png").resolve()
+    for bad in ("../x.png", "a/../../x.png", "/etc/passwd"):
+        with pytest.raises(UnsafePathError):
+            resolve_inside(tmp_path, bad)
+
+
+def test_atomic_write_leaves_no_partial_file(tmp_path, monkeypatch):
+    target = tmp_path / "out.bin"
+    atomic_write_bytes(target, b"old")
+
+    def crash(*args):
+        raise OSError("simulated crash before the rename")
+
+    monkeypatch.setattr(os, "replace", crash)
+    with pytest.raises(OSError):
+        atomic_write_bytes(target, b"new")
+    assert target.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.bin"]

@@ -1,0 +1,158 @@
+"""Region images cut from real atlases against the original unpacked images of 4.2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from spinemesh.atlas import parse_atlas, read_atlas
+from spinemesh.errors import AtlasError, ImageError, UnsafePathError
+from spinemesh.images import AtlasImages, FolderImages, cut_region, premultiply, unpremultiply
+
+from conftest import example_projects
+
+
+def _cases():
+    """(atlas, region name, original image path) for every 4.2 region that has an original."""
+    out = []
+    for proj in example_projects("4.2"):
+        for atlas_path in sorted(proj.glob("*.atlas")):
+            atlas = read_atlas(atlas_path)
+            for r in atlas.regions:
+                orig = proj / "images" / f"{r.name}.png"
+                if orig.exists():
+                    out.append((atlas_path, r.name, orig, atlas.pages[r.page].pma, atlas.pages[r.page].scale))
+    return out
+
+
+CASES = _cases()
+
+
+def _by_kind(pma: bool, scaled: bool):
+    return [c for c in CASES if c[3] == pma and (c[4] != 1) == scaled]
+
+
+def _load(case):
+    atlas_path, name, orig_path, _, _ = case
+    got = AtlasImages([read_atlas(atlas_path)]).get(name)
+    orig = np.asarray(Image.open(orig_path).convert("RGBA"))
+    return got, orig
+
+
+def test_there_are_real_cases(examples):
+    assert len(_by_kind(False, False)) == 148
+    assert len(_by_kind(True, False)) == 148
+    assert len(_by_kind(False, True)) + len(_by_kind(True, True)) > 500
+
+
+def test_plain_atlas_regions_are_exact(examples):
+    for case in _by_kind(False, False):
+        got, orig = _load(case)
+        assert got.scale == 1
+        assert got.rgba.shape == orig.shape, case[1]
+        assert np.array_equal(got.rgba[..., 3], orig[..., 3]), case[1]
+        opaque = orig[..., 3] > 0
+        assert np.array_equal(got.rgba[..., :3][opaque], orig[..., :3][opaque]), case[1]
+
+
+def test_pma_atlas_regions_match_in_premultiplied_space(examples):
+    for case in _by_kind(True, False):
+        got, orig = _load(case)
+        atlas = read_atlas(case[0])
+        region = atlas.find(case[1])
+        page = np.asarray(Image.open(case[0].parent / atlas.pages[region.page].name).convert("RGBA"))
+        stored = cut_region(page, region, pma=False)  # the page's premultiplied pixels, uncut
+        want = premultiply(orig).astype(int)
+        assert np.abs(stored.astype(int) - want).max() <= 1, case[1]
+        assert np.abs(premultiply(got.rgba).astype(int) - want).max() <= 1, case[1]
+
+
+def test_scaled_atlas_regions_match_resized_originals(examples):
+    import cv2
+
+    ious = []
+    for case in _by_kind(False, True) + _by_kind(True, True):
+        got, orig = _load(case)
+        assert got.scale == case[4]
+        if (orig[..., 3] > 128).sum() < 200:
+            continue
+        h, w = got.rgba.shape[:2]
+        assert abs(w - orig.shape[1] * got.scale) <= 1 and abs(h - orig.shape[0] * got.scale) <= 1
+        resized = cv2.resize(orig, (w, h), interpolation=cv2.INTER_AREA)
+        a, b = got.rgba[..., 3] > 128, resized[..., 3] > 128
+        ious.append((a & b).sum() / max((a | b).sum(), 1))
+    ious = np.array(ious)
+    assert len(ious) > 400
+    assert (ious >= 0.95).mean() >= 0.98
+    assert np.median(ious) >= 0.99
+
+
+def test_unpremultiply_round_trips_within_one():
+    rng = np.random.default_rng(0)
+    straight = rng.integers(0, 256, (64, 64, 4), dtype=np.uint8)
+    pm = premultiply(straight)
+    assert np.abs(premultiply(unpremultiply(pm)).astype(int) - pm.astype(int)).max() <= 1
+
+
+def test_rotations_of_a_synthetic_region():
+    """A region stored at 90, 180 and 270 degrees comes back upright."""
+    rng = np.random.default_rng(1)
+    image = rng.integers(0, 256, (5, 3, 4), dtype=np.uint8)  # 3 wide, 5 tall
+    for degrees in (0, 90, 180, 270):
+        stored = np.rot90(image, degrees // 90)  # packers turn counter-clockwise
+        page = np.zeros((10, 10, 4), np.uint8)
+        page[1:1 + stored.shape[0], 2:2 + stored.shape[1]] = stored
+        atlas = parse_atlas(f"p.png\n\tsize: 10, 10\nr\n\tbounds: 2, 1, 3, 5\n\trotate: {degrees}\n")
+        assert np.array_equal(cut_region(page, atlas.regions[0]), image), degrees
+
+
+def test_whitespace_is_restored_at_the_right_side():
+    """offsets count from the left and from the bottom (y up)."""
+    page = np.zeros((4, 4, 4), np.uint8)
+    page[0:2, 0:2] = 255
+    atlas = parse_atlas("p.png\n\tsize: 4, 4\nr\n\tbounds: 0, 0, 2, 2\n\toffsets: 1, 3, 5, 6\n")
+    out = cut_region(page, atlas.regions[0])
+    assert out.shape == (6, 5, 4)
+    ys, xs = np.nonzero(out[..., 3])
+    assert (ys.min(), ys.max(), xs.min(), xs.max()) == (1, 2, 1, 2)
+
+
+def test_region_outside_page_is_an_error():
+    atlas = parse_atlas("p.png\n\tsize: 4, 4\nr\n\tbounds: 3, 3, 2, 2\n", "x.atlas")
+    with pytest.raises(AtlasError, match="outside"):
+        cut_region(np.zeros((4, 4, 4), np.uint8), atlas.regions[0], source="x.atlas")
+
+
+def test_page_name_leaving_the_project_is_refused(tmp_path):
+    (tmp_path / "proj").mkdir()
+    Image.new("RGBA", (4, 4)).save(tmp_path / "secret.png")
+    f = tmp_path / "proj" / "a.atlas"
+    f.write_text("../secret.png\n\tsize: 4, 4\nr\n\tbounds: 0, 0, 2, 2\n")
+    with pytest.raises(UnsafePathError) as e:
+        AtlasImages([read_atlas(f)]).get("r")
+    assert "a.atlas" in str(e.value) and "outside" in str(e.value)
+
+
+def test_folder_images(tmp_path):
+    (tmp_path / "images" / "sub").mkdir(parents=True)
+    Image.new("RGBA", (3, 2), (1, 2, 3, 4)).save(tmp_path / "images" / "sub" / "a.png")
+    Image.new("RGBA", (2, 2), (9, 9, 9, 255)).save(tmp_path / "images" / "b.webp", lossless=True)
+    src = FolderImages(tmp_path / "images")
+    assert src.names() == ["b", "sub/a"]
+    img = src.get("sub/a")
+    assert img.rgba.shape == (2, 3, 4) and tuple(img.rgba[0, 0]) == (1, 2, 3, 4) and img.scale == 1
+    assert tuple(src.get("b").rgba[1, 1]) == (9, 9, 9, 255)
+    with pytest.raises(ImageError, match="no image"):
+        src.get("missing")
+    with pytest.raises(UnsafePathError):
+        src.get("../../etc/passwd")
+
+
+def test_broken_page_image_is_a_clear_error(tmp_path):
+    (tmp_path / "p.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
+    f = tmp_path / "a.atlas"
+    f.write_text("p.png\n\tsize: 4, 4\nr\n\tbounds: 0, 0, 2, 2\n")
+    with pytest.raises(ImageError) as e:
+        AtlasImages([read_atlas(f)]).get("r")
+    assert "p.png" in str(e.value)
