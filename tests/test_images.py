@@ -156,3 +156,19 @@ def test_broken_page_image_is_a_clear_error(tmp_path):
     with pytest.raises(ImageError) as e:
         AtlasImages([read_atlas(f)]).get("r")
     assert "p.png" in str(e.value)
+
+
+@pytest.mark.parametrize("fmt, suffix, exact", [("PNG", "png", True), ("WEBP", "webp", True), ("AVIF", "avif", False)])
+def test_page_formats(tmp_path, fmt, suffix, exact):
+    """Pages in PNG, WebP and AVIF decode through Pillow; a 4x2 region comes back in place."""
+    rng = np.random.default_rng(2)
+    pixels = rng.integers(0, 256, (8, 8, 4), dtype=np.uint8)
+    pixels[..., 3] = 255
+    options = {"lossless": True} if fmt == "WEBP" else {"quality": 100} if fmt == "AVIF" else {}
+    Image.fromarray(pixels).save(tmp_path / f"p.{suffix}", format=fmt, **options)
+    f = tmp_path / "a.atlas"
+    f.write_text(f"p.{suffix}\n\tsize: 8, 8\nr\n\tbounds: 1, 2, 4, 2\n")
+    got = AtlasImages([read_atlas(f)]).get("r").rgba
+    assert got.shape == (2, 4, 4)
+    diff = np.abs(got.astype(int) - pixels[2:4, 1:5].astype(int)).max()
+    assert diff == 0 if exact else diff < 40
