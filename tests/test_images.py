@@ -161,9 +161,9 @@ def test_broken_page_image_is_a_clear_error(tmp_path):
 @pytest.mark.parametrize("fmt, suffix, exact", [("PNG", "png", True), ("WEBP", "webp", True), ("AVIF", "avif", False)])
 def test_page_formats(tmp_path, fmt, suffix, exact):
     """Pages in PNG, WebP and AVIF decode through Pillow; a 4x2 region comes back in place."""
-    rng = np.random.default_rng(2)
-    pixels = rng.integers(0, 256, (8, 8, 4), dtype=np.uint8)
-    pixels[..., 3] = 255
+    # A smooth gradient: lossy AVIF keeps it close, where random noise would not survive.
+    yy, xx = np.mgrid[0:8, 0:8]
+    pixels = np.stack([xx * 30, yy * 30, (xx + yy) * 15, np.full_like(xx, 255)], -1).astype(np.uint8)
     options = {"lossless": True} if fmt == "WEBP" else {"quality": 100} if fmt == "AVIF" else {}
     Image.fromarray(pixels).save(tmp_path / f"p.{suffix}", format=fmt, **options)
     f = tmp_path / "a.atlas"
@@ -171,4 +171,4 @@ def test_page_formats(tmp_path, fmt, suffix, exact):
     got = AtlasImages([read_atlas(f)]).get("r").rgba
     assert got.shape == (2, 4, 4)
     diff = np.abs(got.astype(int) - pixels[2:4, 1:5].astype(int)).max()
-    assert diff == 0 if exact else diff < 40
+    assert diff == 0 if exact else diff <= 16
