@@ -55,7 +55,7 @@ def _same_as(other: str, fallback: Any) -> Callable[[dict, Any], Any]:
 
 _BONE = {"parent": None, "length": 0, "x": 0, "y": 0, "rotation": 0, "scaleX": 1, "scaleY": 1,
          "shearX": 0, "shearY": 0, "transform": "normal", "inherit": "normal", "skin": False,
-         "color": "989898ff", "icon": None, "visible": True, "inheritScale": True,
+         "color": "9b9b9bff", "icon": None, "visible": True, "inheritScale": True,
          "inheritRotation": True}
 _SLOT = {"color": "ffffffff", "dark": None, "attachment": None, "blend": "normal", "visible": True}
 _IK = {"order": 0, "skin": False, "bones": [], "mix": 1, "softness": 0, "bendPositive": True,
@@ -75,7 +75,7 @@ _PHYSICS = {"order": 0, "skin": False, "x": 0, "y": 0, "rotate": 0, "scaleX": 0,
             "dampingGlobal": False, "massGlobal": False, "windGlobal": False,
             "gravityGlobal": False, "mixGlobal": False}
 _SKIN = {"bones": [], "ik": [], "transform": [], "path": [], "physics": [], "attachments": {},
-         "color": "99999900"}
+         "color": "fe9e4fff"}
 _EVENT = {"int": 0, "float": 0, "string": "", "audio": None, "volume": 1, "balance": 0}
 _SKELETON = {"hash": None, "spine": None, "x": 0, "y": 0, "width": 0, "height": 0, "fps": 30,
              "images": "", "audio": "", "referenceScale": 100}
@@ -126,7 +126,8 @@ _KEYFRAMES = {
     "mass": {"value": 0}, "wind": {"value": 0}, "gravity": {"value": 0},
     "physicsmix": {"value": 0}, "reset": {},
     "deform": {"offset": 0, "vertices": []},
-    "sequence": {"mode": "hold", "index": 0, "delay": 0},
+    # A sequence key's delay defaults to the previous key's (SkeletonJson's lastDelay).
+    "sequence": {"mode": "hold", "index": 0, "delay": lambda node, name, prev=None: (prev or {}).get("delay", 0)},
     "drawOrder": {"offsets": []},
     "events": {"int": None, "float": None, "string": None, "volume": None, "balance": None},
 }
@@ -182,8 +183,10 @@ _TABLES = {"skeleton": _SKELETON, "bones": _BONE, "slots": _SLOT, "ik": _IK,
            "event": _EVENT, "sequence": _SEQUENCE}
 
 
-def default_for(path: tuple, node: dict, key: str) -> Any:
+def default_for(path: tuple, node: dict, key: str, prev: dict | None = None) -> Any:
     """The value ``key`` takes in the dict ``node`` at ``path`` when the key is absent.
+
+    ``prev`` is the previous keyframe, for defaults that carry over from it.
 
     Returns a private sentinel when the key has no default there (it is required).
     """
@@ -198,7 +201,7 @@ def default_for(path: tuple, node: dict, key: str) -> Any:
     else:
         value = _TABLES.get(context, {}).get(key, _MISSING)
     if callable(value):
-        value = value(node, name)
+        value = value(node, name, prev) if context == "key" and sub == "sequence" else value(node, name)
     return value
 
 
@@ -260,7 +263,7 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
         text = "/".join(map(str, path))
         return any(fnmatch.fnmatchcase(text, p) for p in patterns)
 
-    def walk(a: Any, b: Any, path: tuple) -> None:
+    def walk(a: Any, b: Any, path: tuple, prev_a: Any = None, prev_b: Any = None) -> None:
         if len(out) >= limit or ignored(path):
             return
         if isinstance(a, dict) and isinstance(b, dict):
@@ -271,9 +274,9 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
                 va = a.get(key, _MISSING)
                 vb = b.get(key, _MISSING)
                 if va is _MISSING:
-                    va = default_for(path, a, key)
+                    va = default_for(path, a, key, prev_a)
                 if vb is _MISSING:
-                    vb = default_for(path, b, key)
+                    vb = default_for(path, b, key, prev_b)
                 if va is _MISSING or vb is _MISSING:
                     out.append(Difference("/".join(map(str, sub)),
                                           "<missing>" if va is _MISSING else va,
@@ -285,7 +288,7 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
                 out.append(Difference("/".join(map(str, path)), f"<{len(a)} items>", f"<{len(b)} items>"))
                 return
             for i, (x, y) in enumerate(zip(a, b)):
-                walk(x, y, path + (i,))
+                walk(x, y, path + (i,), a[i - 1] if i else None, b[i - 1] if i else None)
         elif isinstance(a, dict) and isinstance(b, list) or isinstance(a, list) and isinstance(b, dict):
             out.append(Difference("/".join(map(str, path)), type(a).__name__, type(b).__name__))
         elif not _values_equal(a, b, abs_tol, rel_tol):
