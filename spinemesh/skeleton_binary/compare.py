@@ -267,6 +267,8 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
         if len(out) >= limit or ignored(path):
             return
         if isinstance(a, dict) and isinstance(b, dict):
+            if ("vertices" in a or "vertices" in b) and _context(path) == ("key", "deform"):
+                a, b = _dense_deform(a, b)
             for key in list(a.keys()) + [k for k in b.keys() if k not in a]:
                 sub = path + (key,)
                 if ignored(sub):
@@ -284,6 +286,9 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
                     continue
                 walk(va, vb, sub)
         elif isinstance(a, list) and isinstance(b, list):
+            if _context(path[:-1]) == ("skin", None) and path[-1] in _SKIN and all(isinstance(x, str) for x in a + b):
+                # A skin's bones and constraints are a set; exports list them in any order.
+                a, b = sorted(a), sorted(b)
             if len(a) != len(b):
                 out.append(Difference("/".join(map(str, path)), f"<{len(a)} items>", f"<{len(b)} items>"))
                 return
@@ -296,6 +301,22 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
 
     walk(left, right, ())
     return out
+
+
+def _dense_deform(a: dict, b: dict) -> tuple[dict, dict]:
+    """Deform keys with ``offset`` folded into ``vertices``, both padded to one length.
+
+    The editor trims leading and trailing zeros of a deform key; where its rounding made a
+    tiny offset zero, it trims more than the binary. Both spell the same offsets.
+    """
+    da = [0] * int(a.get("offset", 0)) + list(a.get("vertices", []))
+    db = [0] * int(b.get("offset", 0)) + list(b.get("vertices", []))
+    n = max(len(da), len(db))
+    a = {k: v for k, v in a.items() if k not in ("offset", "vertices")}
+    b = {k: v for k, v in b.items() if k not in ("offset", "vertices")}
+    a["vertices"] = da + [0] * (n - len(da))
+    b["vertices"] = db + [0] * (n - len(db))
+    return a, b
 
 
 def documents_equal(left: Any, right: Any, **kwargs) -> bool:

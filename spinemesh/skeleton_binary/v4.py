@@ -380,7 +380,8 @@ def ik(s, node: dict, c: Context) -> None:
     value_flags = 0
     if not s.reading:
         mix = node.get("mix", 1)
-        value_flags = (32 if not _same(mix, 0.0) else 0) | (64 if not _same(mix, 0.0) and not _same(mix, 1.0) else 0) \
+        # The editor sets "mix is not 1" even when "mix is not 0" is clear (mix 0).
+        value_flags = (32 if not _same(mix, 0.0) else 0) | (64 if not _same(mix, 1.0) else 0) \
             | (128 if flag(node, "softness", 0) else 0)
     flags = _flag_byte(s, node, ((1, "skin", False), (2, "bendPositive", True), (4, "compress", False),
                                  (8, "stretch", False), (16, "uniform", False)), value_flags)
@@ -1325,7 +1326,7 @@ def ik_timeline(s, frames: list | None, c: Context) -> list:
     s.count(bezier_count(frames, 2))
     for i, f in enumerate(frames):
         mix = f.get("mix", 1)
-        flags = (1 if not _same(mix, 0.0) else 0) | (2 if not _same(mix, 0.0) and not _same(mix, 1.0) else 0) \
+        flags = (1 if not _same(mix, 0.0) else 0) | (2 if not _same(mix, 1.0) else 0) \
             | (4 if flag(f, "softness", 0) else 0) | (8 if f.get("bendPositive", True) else 0) \
             | (16 if f.get("compress") else 0) | (32 if f.get("stretch") else 0)
         cv = frames[i - 1].get("curve") if i else None
@@ -1335,7 +1336,7 @@ def ik_timeline(s, frames: list | None, c: Context) -> list:
             flags |= 128
         s.u8(flags)
         _time(s, f)
-        if flags & 2:
+        if flags & 3 == 3:
             s.f32(mix)
         if flags & 4:
             s.f32(f.get("softness", 0))
