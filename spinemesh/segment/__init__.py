@@ -1,0 +1,162 @@
+"""Foreground masks for sprites, from their alpha or from the shipped network (issue 7).
+
+Paper section 3.1 has two mask paths: threshold the alpha at 128 when the image has a
+meaningful alpha channel, else run the segmentation network. This package holds the
+torch-free side: :func:`predict_mask` runs the shipped ONNX model with ONNX Runtime,
+:func:`has_meaningful_alpha` decides between the paths, and :func:`mask_for` applies the
+``--mask alpha|model|auto`` choice. Training lives in :mod:`spinemesh.train` (needs torch).
+
+ONNX Runtime is imported on first use, so meshing images with alpha never loads it.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ImageError, SpineMeshError
+from .composite import ALPHA_THRESHOLD, alpha_mask
+from .preprocess import from_output, to_input
+
+#: Masks modes of ``--mask``: always alpha, always the network, or alpha when meaningful.
+MASK_MODES = ("alpha", "model", "auto")
+
+#: The model that ships with the package, and its card (input size, normalisation, threshold).
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+DEFAULT_MODEL = MODELS_DIR / "segment.onnx"
+
+
+class ModelError(SpineMeshError):
+    """The segmentation model file is missing or unreadable."""
+
+
+def model_card(model_path: str | Path | None = None) -> dict:
+    """The JSON card beside a model (``<model>.json``): input size, mean, std, threshold, figures."""
+    path = Path(model_path or DEFAULT_MODEL).with_suffix(".json")
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ModelError("model card not found (it must sit beside the .onnx file)", path) from None
+    except (OSError, ValueError) as e:
+        raise ModelError(f"unreadable model card: {e}", path) from None
+
+
+@lru_cache(maxsize=4)
+def _session(model_path: str, threads: int):
+    import onnxruntime as ort
+
+    if not Path(model_path).is_file():
+        raise ModelError("segmentation model not found", model_path)
+    opts = ort.SessionOptions()
+    if threads:
+        opts.intra_op_num_threads = threads
+    try:
+        return ort.InferenceSession(model_path, opts, providers=["CPUExecutionProvider"])
+    except Exception as e:  # onnxruntime raises its own exception types
+        raise ModelError(f"cannot load ONNX model: {e}", model_path) from None
+
+
+def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads: int = 0) -> np.ndarray:
+    """Foreground probability at model size.
+
+    Parameters
+    ----------
+    rgb : ndarray, shape (H, W, 3) or (H, W, 4), uint8
+        The image; a fourth channel is ignored.
+    model_path : path, optional
+        An ONNX model with its card beside it (default: the shipped one).
+    threads : int
+        ONNX Runtime intra-op threads (0: its default, all cores).
+
+    Returns
+    -------
+    ndarray, shape (S, S), float32 in 0..1, S the model's input side.
+    """
+    path = str(model_path or DEFAULT_MODEL)
+    size = int(model_card(path)["input_size"])
+    sess = _session(path, threads)
+    x = to_input(rgb[..., :3], size)[None]
+    logits = sess.run(None, {sess.get_inputs()[0].name: x})[0]
+    return (1.0 / (1.0 + np.exp(-logits[0, 0]))).astype(np.float32)
+
+
+def predict_mask(rgb: np.ndarray, model_path: str | Path | None = None, threshold: float | None = None,
+                 threads: int = 0) -> np.ndarray:
+    """Binary foreground mask of an image without (meaningful) alpha, by the network.
+
+    The image is resized to the model's square input, the probabilities are resized back
+    bilinearly and thresholded (paper section 3.1: 0.5, or the model card's value).
+
+    Parameters
+    ----------
+    rgb : ndarray, shape (H, W, 3) or (H, W, 4), uint8
+    model_path : path, optional
+        Default: the model shipped in ``spinemesh/models/segment.onnx``.
+    threshold : float, optional
+        Probability threshold (default: the model card's).
+    threads : int
+        ONNX Runtime threads (0: all cores).
+
+    Returns
+    -------
+    ndarray, shape (H, W), bool
+    """
+    if rgb.ndim != 3 or rgb.shape[2] not in (3, 4) or rgb.dtype != np.uint8:
+        raise ValueError(f"expected an (H, W, 3|4) uint8 image, got {rgb.shape} {rgb.dtype}")
+    card = model_card(model_path)
+    t = card.get("threshold", 0.5) if threshold is None else threshold
+    prob = predict_proba(rgb, model_path, threads)
+    return from_output(prob, rgb.shape[0], rgb.shape[1], t)
+
+
+def has_meaningful_alpha(rgba: np.ndarray, threshold: int = ALPHA_THRESHOLD, min_fraction: float = 0.001) -> bool:
+    """Whether the alpha channel separates a sprite from its background (paper section 3.1).
+
+    It does not when the image has no alpha channel, when it is (nearly) uniformly opaque,
+    or when it is (nearly) uniformly transparent (an export that lost its alpha).
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (H, W, C), uint8
+    threshold : int
+        Alpha above this is foreground (section 3.1: 128).
+    min_fraction : float
+        Both foreground and background must cover at least this fraction of the pixels
+        (default 0.1%: a few stray edge pixels do not count as an alpha channel).
+    """
+    if rgba.ndim != 3 or rgba.shape[2] < 4 or rgba.size == 0:
+        return False
+    fg = float(alpha_mask(rgba, threshold).mean())
+    return min_fraction <= fg <= 1.0 - min_fraction
+
+
+def mask_for(rgba: np.ndarray, mode: str = "auto", model_path: str | Path | None = None,
+             threads: int = 0) -> tuple[np.ndarray, str]:
+    """The mask ``--mask`` asks for, and which path made it.
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (H, W, 3) or (H, W, 4), uint8
+    mode : {"alpha", "model", "auto"}
+        ``alpha``: threshold alpha at 128 (an image without alpha is all foreground);
+        ``model``: the network; ``auto``: alpha when :func:`has_meaningful_alpha`, else the network.
+
+    Returns
+    -------
+    mask : ndarray, shape (H, W), bool
+    used : {"alpha", "model"}
+    """
+    if mode not in MASK_MODES:
+        raise ValueError(f"mask mode must be one of {MASK_MODES}, got {mode!r}")
+    if mode == "alpha" or (mode == "auto" and has_meaningful_alpha(rgba)):
+        if rgba.ndim == 3 and rgba.shape[2] == 4:
+            return alpha_mask(rgba), "alpha"
+        return np.ones(rgba.shape[:2], bool), "alpha"
+    return predict_mask(rgba, model_path, threads=threads), "model"
+
+
+__all__ = ["MASK_MODES", "DEFAULT_MODEL", "ModelError", "ImageError", "model_card", "predict_proba",
+           "predict_mask", "has_meaningful_alpha", "mask_for"]

