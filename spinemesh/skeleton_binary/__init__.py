@@ -37,12 +37,16 @@ def sniff_version(data: bytes) -> str:
 
 def _codec(version: str):
     major = version.split(".")[0]
-    if major == "3":
-        from . import v3 as codec
-    elif major == "4":
-        from . import v4 as codec
-    else:
-        raise SkelFormatError(f"expected Spine 3.6 to 4.2, found version {version!r}", offset=0)
+    try:
+        if major == "3":
+            from . import v3 as codec
+        elif major == "4":
+            from . import v4 as codec
+        else:
+            raise SkelFormatError(f"expected Spine 3.6 to 4.2, found version {version!r}", offset=0)
+    except ImportError:
+        # A codec not (yet) in this installation is an unsupported version, not a crash.
+        raise SkelFormatError(f"expected a supported Spine version, found {version!r}", offset=0) from None
     return codec
 
 

@@ -114,7 +114,7 @@ _KEYFRAMES = {
     "inherit": {"inherit": "normal"},
     "attachment": {"name": None},
     "color": {"color": "ffffffff"}, "rgba": {"color": "ffffffff"}, "rgb": {"color": "ffffff"},
-    "alpha": {"value": 1}, "twocolor": {"light": "ffffffff", "dark": "ffffff"},
+    "alpha": {"value": 0}, "twocolor": {"light": "ffffffff", "dark": "ffffff"},
     "rgba2": {"light": "ffffffff", "dark": "ffffff"}, "rgb2": {"light": "ffffff", "dark": "ffffff"},
     "ik": {"mix": 1, "softness": 0, "bendPositive": True, "compress": False, "stretch": False},
     "transform": {"mixRotate": 1, "mixX": 1, "mixY": _same_as("mixX", 1), "mixScaleX": 1,

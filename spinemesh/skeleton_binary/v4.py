@@ -577,20 +577,8 @@ def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | 
             weighted = s.bool()
         if not weighted:
             node["vertices"] = floats(s, None, 2 * n, "vertices")
-            return n
-        out = []
-        nbones = len(c.bones[0])
-        for _ in range(n):
-            k = s.count(what="bones per vertex")
-            out.append(k)
-            for _ in range(k):
-                at = s.pos
-                b = s.varint()
-                if not 0 <= b < nbones:
-                    raise s.fail(f"bone index below {nbones}, found {b}", at)
-                out.append(b)
-                out.extend(struct.unpack(">3f", s.raw(n=12, what="weighted vertex")))
-        node["vertices"] = out
+        else:
+            node["vertices"] = s.weighted(None, n, len(c.bones[0]))
         return n
     verts = node.get("vertices", [])
     n = _vertex_count(node, count_key)
@@ -600,19 +588,8 @@ def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | 
         s.bool(is_weighted)
     if not is_weighted:
         floats(s, verts, 2 * n, "vertices")
-        return n
-    i = 0
-    try:
-        for _ in range(n):
-            k = int(verts[i])
-            s.count(k)
-            i += 1
-            for _ in range(k):
-                s.varint(int(verts[i]))
-                s.raw(struct.pack(">3f", verts[i + 1], verts[i + 2], verts[i + 3]))
-                i += 4
-    except (IndexError, ValueError, TypeError, struct.error):
-        raise s.fail("weighted vertices [boneCount, (bone, x, y, weight)...]") from None
+    else:
+        s.weighted(verts, n)
     return n
 
 
@@ -637,7 +614,9 @@ def shorts(s, node: dict, key: str, n: int | None, c: Context) -> None:
         else:
             if n is None:
                 n = s.count(what=f"{key} count")
-            node[key] = [s.varint() for _ in range(n)]
+            if n < 0:
+                raise s.fail(f"a mesh with at least 3 vertices, found {n // 3} {key}")
+            node[key] = s.varints(None, n, key)
         return
     items = node.get(key, [])
     if c.L.short_arrays:
@@ -651,8 +630,7 @@ def shorts(s, node: dict, key: str, n: int | None, c: Context) -> None:
         s.count(len(items))
     elif n != len(items):
         raise s.fail(f"{n} {key} indices for this mesh (2 * vertices - hull - 2 triangles), got {len(items)}")
-    for v in items:
-        s.varint(int(v))
+    s.varints(items, n)
 
 
 def attachment(s, node: dict, key: str, c: Context) -> None:
@@ -1118,7 +1096,10 @@ def _color_fn(*keys):
                 raw = s.raw(n=nbytes, what="colour")
                 _put(f, key, raw.hex(), d)
             else:
-                v = str(f.get(key, d))
+                v = f.get(key, d)
+                if v is None:
+                    raise s.fail(f"a {key} colour in every key of this timeline")
+                v = str(v)
                 try:
                     s.raw(bytes.fromhex(v[:2 * nbytes].ljust(2 * nbytes, "f")))
                 except ValueError:
@@ -1128,18 +1109,19 @@ def _color_fn(*keys):
 
 def _alpha(s, f):
     if s.reading:
-        _put(f, "value", s.u8() / 255, 1)
+        _put(f, "value", s.u8() / 255, 0)
     else:
-        s.u8(max(0, min(255, round(float(f.get("value", 1)) * 255))))
+        s.u8(max(0, min(255, round(float(f.get("value", 0)) * 255))))
 
 
-#: Slot timeline types: (JSON name, values, channels).
+#: Slot timeline types: (JSON name, values, channels). Key colours have no default in the
+#: JSON format: they are always written.
 SLOT_TIMELINES = (
     ("attachment", None, 0),
-    ("rgba", _color_fn(("color", 4, "ffffffff")), 4),
-    ("rgb", _color_fn(("color", 3, "ffffff")), 3),
-    ("rgba2", _color_fn(("light", 4, "ffffffff"), ("dark", 3, "ffffff")), 7),
-    ("rgb2", _color_fn(("light", 3, "ffffff"), ("dark", 3, "ffffff")), 6),
+    ("rgba", _color_fn(("color", 4, None)), 4),
+    ("rgb", _color_fn(("color", 3, None)), 3),
+    ("rgba2", _color_fn(("light", 4, None), ("dark", 3, None)), 7),
+    ("rgb2", _color_fn(("light", 3, None), ("dark", 3, None)), 6),
     ("alpha", _alpha, 1),
 )
 
@@ -1766,16 +1748,119 @@ def string_table(doc: dict, L: Layout) -> list[str]:
     return list(seen)
 
 
+_F32 = struct.Struct(">f")
+
+
 class _RefReader(SkelReader):
     """A reader that also records which table index every string reference used.
 
     The editor's string table may hold a string more than once and references pick any
     copy, so the indices themselves are needed to write the same bytes again.
+
+    It also reads the hottest primitives straight from a ``bytes`` copy of the file and
+    adds bulk reads (:meth:`varints`, :meth:`weighted`): meshes are most of a file.
     """
 
     def __init__(self, data, path=None):
         super().__init__(data, path)
+        self.buf = bytes(self.data)
         self.refs: list[int] = []
+
+    def _eof(self, what: str):
+        return self.fail(f"{what}, found end of file after {len(self.buf) - self.pos} bytes")
+
+    def u8(self, value=None, what: str = "byte") -> int:
+        pos = self.pos
+        try:
+            b = self.buf[pos]
+        except IndexError:
+            raise self._eof(what) from None
+        self.pos = pos + 1
+        return b
+
+    def bool(self, value=None, what: str = "boolean") -> bool:
+        return self.u8(what=what) != 0
+
+    def f32(self, value=None, what: str = "float") -> float:
+        pos = self.pos
+        try:
+            v = _F32.unpack_from(self.buf, pos)[0]
+        except struct.error:
+            raise self._eof(what) from None
+        self.pos = pos + 4
+        return v
+
+    def varint(self, value=None, positive: bool = True, what: str = "varint") -> int:
+        buf, pos = self.buf, self.pos
+        try:
+            b = buf[pos]
+            if b < 0x80 and positive:
+                self.pos = pos + 1
+                return b
+            result, shift = 0, 0
+            while True:
+                b = buf[pos]
+                pos += 1
+                result |= (b & 0x7F) << shift
+                if not b & 0x80 or shift == 28:
+                    break
+                shift += 7
+        except IndexError:
+            raise self._eof(what) from None
+        self.pos = pos
+        result &= 0xFFFFFFFF
+        if positive:
+            return result - (1 << 32) if result & 0x80000000 else result
+        return (result >> 1) ^ -(result & 1)
+
+    def varints(self, values=None, n: int = 0, what: str = "indices") -> list[int]:
+        """``n`` non-negative varints (triangles, edges of 4.2 meshes)."""
+        buf, pos = self.buf, self.pos
+        out = []
+        append = out.append
+        try:
+            for _ in range(n):
+                b = buf[pos]
+                pos += 1
+                if b < 0x80:
+                    append(b)
+                    continue
+                result, shift = b & 0x7F, 7
+                while True:
+                    b = buf[pos]
+                    pos += 1
+                    result |= (b & 0x7F) << shift
+                    if not b & 0x80 or shift == 28:
+                        break
+                    shift += 7
+                append(result & 0xFFFFFFFF)
+        except IndexError:
+            self.pos = pos
+            raise self._eof(what) from None
+        self.pos = pos
+        return out
+
+    def weighted(self, values=None, n: int = 0, nbones: int = 0) -> list:
+        """``n`` weighted vertices as the JSON's flat ``[count, (bone, x, y, weight)*]``."""
+        buf = self.buf
+        out = []
+        append, extend = out.append, out.extend
+        unpack = _XYW.unpack_from
+        for _ in range(n):
+            k = self.count(what="bones per vertex")
+            append(k)
+            for _ in range(k):
+                at = self.pos
+                b = self.varint()
+                if not 0 <= b < nbones:
+                    raise self.fail(f"bone index below {nbones}, found {b}", at)
+                append(b)
+                try:
+                    extend(unpack(buf, self.pos))
+                except struct.error:
+                    raise self._eof("weighted vertex") from None
+                self.pos += 12
+        return out
 
     def string_ref(self, value=None, what: str = "string reference"):
         at = self.pos
@@ -1788,8 +1873,36 @@ class _RefReader(SkelReader):
         return self.strings[i - 1]
 
 
+_XYW = struct.Struct(">3f")
+
+
 class _RefWriter(SkelWriter):
-    """A writer that reuses recorded string-reference indices where they still fit."""
+    """A writer that reuses recorded string-reference indices where they still fit.
+
+    It has the reader's bulk methods, so that declarations stay symmetric.
+    """
+
+    def varints(self, values, n: int = 0, what: str = "indices") -> list[int]:
+        for v in values:
+            self.varint(int(v))
+        return values
+
+    def weighted(self, values, n: int = 0, nbones: int = 0) -> list:
+        i = 0
+        try:
+            for _ in range(n):
+                k = int(values[i])
+                self.count(k)
+                i += 1
+                for _ in range(k):
+                    self.varint(int(values[i]))
+                    self.out += _XYW.pack(values[i + 1], values[i + 2], values[i + 3])
+                    i += 4
+        except (IndexError, ValueError, TypeError, struct.error):
+            raise self.fail("weighted vertices [boneCount, (bone, x, y, weight)...]") from None
+        if i != len(values):
+            raise self.fail(f"{i} numbers of weighted vertices, got {len(values)}")
+        return values
 
     def __init__(self, path=None, refs: list[int] | None = None):
         super().__init__(path)

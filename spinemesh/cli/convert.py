@@ -1,0 +1,52 @@
+"""``spinemesh convert``: a skeleton from binary ``.skel`` to ``.json`` and back, same version."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ..errors import SpineMeshError
+from ..fsutil import atomic_write_bytes, atomic_write_text
+from ..skeleton import dumps_skeleton, load_skeleton, spine_version
+from ..skeleton_binary import write_skel
+from ..skeleton_binary.v4 import EXTRA
+from ._app import app, console
+
+_BINARY_SUFFIXES = (".skel", ".skel.bytes")
+
+
+def _is_binary_name(path: Path) -> bool:
+    return path.name.lower().endswith(_BINARY_SUFFIXES)
+
+
+@app.command()
+def convert(
+    source: Path = typer.Argument(..., help="Skeleton to read: .skel (binary) or .json.", exists=True,
+                                  dir_okay=False),
+    target: Path = typer.Argument(..., help="Skeleton to write; its extension (.skel or .json) picks the format."),
+    keep_binary_info: bool = typer.Option(
+        False, "--keep-binary-info",
+        help=f"Keep the binary-only data (string table order) under {EXTRA!r} in the JSON, so that "
+             "converting it back gives the original .skel byte for byte."),
+) -> None:
+    """Convert a skeleton between binary .skel and .json, keeping its Spine version (4.0 to 4.2).
+
+    The JSON has the layout of the Spine editor's own export of that version.
+
+    Example: spinemesh convert spineboy-pro.skel spineboy-pro.json
+    """
+    if source.resolve() == target.resolve():
+        raise SpineMeshError("source and target are the same file; the input is never overwritten", target)
+    doc = load_skeleton(source)
+    if _is_binary_name(target):
+        atomic_write_bytes(target, write_skel(doc, target))
+        kind = "binary"
+    elif target.suffix.lower() == ".json":
+        if not keep_binary_info:
+            doc = {k: v for k, v in doc.items() if k != EXTRA}
+        atomic_write_text(target, dumps_skeleton(doc))
+        kind = "JSON"
+    else:
+        raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)
+    console.print(f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})")
