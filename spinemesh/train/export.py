@@ -115,3 +115,43 @@ def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
     card.update(extra)
     Path(path).write_text(json.dumps(card, indent=1) + "\n", encoding="utf-8")
     return Path(path)
+
+
+def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarray], check: list[np.ndarray],
+            int8: bool = True) -> dict:
+    """Export a checkpoint as the model that ships: ONNX (static int8 or fp32) plus its card.
+
+    Parameters
+    ----------
+    checkpoint : path
+        ``best.pt`` from the training loop.
+    out : path
+        The ``.onnx`` to write; the card goes beside it as ``.json``.
+    calibration : list of (3, S, S) float32
+        Inputs to calibrate int8 activations on (training composites).
+    check : list of (3, S, S) float32
+        Inputs to measure torch/ONNX parity on (held-out composites).
+    int8 : bool
+        Quantise (default) or ship fp32.
+
+    Returns
+    -------
+    dict
+        The card written.
+    """
+    out = Path(out)
+    model = load_checkpoint(checkpoint)
+    ckpt = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    fp32 = out.with_suffix(".fp32.onnx") if int8 else out
+    export_onnx(model, fp32)
+    extra = {"precision": "int8" if int8 else "fp32",
+             "parity_fp32": parity(model, fp32, check),
+             "training": {"best_epoch": ckpt["metrics"], **ckpt.get("meta", {})}}
+    if int8:
+        quantize_int8(fp32, out, calibration)
+        extra["parity_int8"] = parity(model, out, check)
+        extra["quantisation"] = "static QDQ, per-channel int8 weights, uint8 activations, MinMax calibration"
+        fp32.unlink()
+    extra["size_bytes"] = out.stat().st_size
+    write_card(out.with_suffix(".json"), model, extra)
+    return json.loads(out.with_suffix(".json").read_text())
