@@ -1,0 +1,18 @@
+"""The auto-mesher: one sprite image in, one triangle mesh out (paper sec. 3).
+
+>>> from spinemesh.mesher import mesh_image
+>>> mesh = mesh_image(rgba)                      # default preset: never clips, sparse
+>>> mesh = mesh_image(rgba, preset="paper")      # the paper's parameters exactly
+>>> mesh = mesh_image(rgba, density=2.0, max_vertices=60)
+
+Modules follow the pipeline: :mod:`.mask` (sec. 3.1), :mod:`.exterior` (sec. 3.2),
+:mod:`.interior` (sec. 3.3), :mod:`.triangulate` (sec. 3.4), :mod:`.params` (presets),
+:mod:`.mesh` (the result and ``mesh.json``), :mod:`.preview` (figures).
+"""
+
+from .mask import compute_mask
+from .mesh import Mesh
+from .params import PRESETS, MesherParams
+from .pipeline import mesh_image, resolve_params
+
+__all__ = ["mesh_image", "Mesh", "PRESETS", "MesherParams", "compute_mask", "resolve_params"]

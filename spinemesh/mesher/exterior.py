@@ -1,0 +1,383 @@
+"""Step 2 of the pipeline (paper sec. 3.2): the outer loop, and the holes.
+
+Two algorithms:
+
+:func:`paper_loops`
+    The paper's: smooth the mask (Gaussian, sigma 1), ``findContours``, keep components of at
+    least 100 px^2, Douglas-Peucker with ``eps = 0.003 P``, adaptive arc subdivision with
+    ``n_target = 50`` exterior vertices split between components by perimeter. Vertices lie
+    *on* the contour, so the mesh cuts through the edge pixels: it clips anti-aliased art.
+
+:func:`covering_hull`
+    The default: a single simple loop that contains every art pixel square. The contour is
+    simplified with Douglas-Peucker, then each simplified edge is pushed outward, parallel to
+    itself, until the pixel squares it replaced are on its inner side; vertices are the
+    intersections of consecutive pushed edges. An exact rasterised check follows, and any pixel
+    still outside pulls the nearest edge out through its far corner. If all else fails the
+    convex hull of the pixel squares is used, which always covers.
+
+Islands (several separate pieces of art in one image): Spine's editor expects one hull loop,
+so we join the pieces into one: the pieces are linked by a minimum spanning tree of shortest
+bridges (3 px wide strips drawn into the coverage mask) and the hull wraps the result. The
+bridge area is small compared with a convex hull around all pieces, and one loop keeps every
+piece deformable by the same bones. Tiny specks are covered too: never clipping wins.
+
+Holes (transparent regions enclosed by art, e.g. a ring): the hull stays one loop; each hole
+of at least ``min_hole_area`` px^2 becomes a second loop of constrained edges, *inscribed* in
+the hole (shrunk by about one tolerance so it never touches an art pixel), and the triangles
+inside it are removed. Smaller holes are meshed over (their waste is small and a hole costs
+vertices).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
+from .geometry import dp_indices, loop_is_simple, signed_area
+
+
+# --------------------------------------------------------------------------- paper
+def paper_loops(mask: np.ndarray, blur_sigma: float = 1.0, min_area: float = 100.0,
+                dp_ratio: float = 0.003, n_target: int = 50) -> list[np.ndarray]:
+    """Exterior vertices of each component, as in the paper (sec. 3.2).
+
+    Parameters
+    ----------
+    mask : ndarray, shape (H, W), bool
+    blur_sigma : float
+        Gaussian smoothing of the mask before contouring (1 px).
+    min_area : float
+        Components with a contour area below this (px^2) are skipped (100).
+    dp_ratio : float
+        DP tolerance as a share of each contour's perimeter (0.003).
+    n_target : int
+        Exterior vertices to aim for over all components together (50): the longest arc between
+        vertices is ``sum(P) / n_target``, so each component gets a share proportional to its
+        perimeter.
+
+    Returns
+    -------
+    list of ndarray, shape (n, 2)
+        One loop per component, pixel-centre coordinates, largest component first.
+    """
+    m = mask.astype(np.float32)
+    if blur_sigma > 0:
+        m = cv2.GaussianBlur(m, (0, 0), blur_sigma)
+    m = (m >= 0.5).astype(np.uint8)
+    contours, _ = cv2.findContours(np.pad(m, 1), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    contours = [c.reshape(-1, 2).astype(np.float64) - 1 + 0.5 for c in contours]
+    if not contours:
+        return []
+    contours.sort(key=lambda c: (-abs(signed_area(c)), c[0, 0], c[0, 1]))
+    # a sprite smaller than min_area would vanish entirely; keep its largest piece instead
+    contours = [c for i, c in enumerate(contours) if i == 0 or abs(signed_area(c)) >= min_area]
+    if len(contours[0]) < 3:
+        return []
+    perims = [_perimeter(c) for c in contours]
+    l_max = sum(perims) / max(n_target, 1)
+    return [_arc_subdivide(c, dp_indices(c, dp_ratio * P), l_max) for c, P in zip(contours, perims)]
+
+
+def _perimeter(c: np.ndarray) -> float:
+    return float(np.hypot(*(np.roll(c, -1, axis=0) - c).T).sum())
+
+
+def _arc_subdivide(c: np.ndarray, keys: np.ndarray, l_max: float) -> np.ndarray:
+    """Adaptive arc subdivision (sec. 3.2 step 3).
+
+    Keypoints are always kept. A stretch between two keypoints is subdivided along the contour
+    path every ``l_max`` when it is part of a curve, i.e. when the polygon angle at both of its
+    keypoints is obtuse (> 90 degrees); a stretch ending at a sharp (acute) corner stays one
+    straight edge, which keeps the corner crisp.
+    """
+    n = len(c)
+    k = len(keys)
+    if k < 3:
+        return c[keys]
+    seg_len = np.hypot(*(np.roll(c, -1, axis=0) - c).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg_len)])
+    kp = c[keys]
+    prev, nxt = np.roll(kp, 1, axis=0), np.roll(kp, -1, axis=0)
+    u, w = prev - kp, nxt - kp
+    cosang = (u * w).sum(1) / np.maximum(np.hypot(*u.T) * np.hypot(*w.T), 1e-12)
+    obtuse = cosang < 0
+    out = []
+    for j in range(k):
+        a, b = keys[j], keys[(j + 1) % k]
+        out.append(c[a])
+        if not (obtuse[j] and obtuse[(j + 1) % k]):
+            continue
+        s0, s1 = cum[a], cum[b] if b > a else cum[b] + cum[n]
+        m = int(np.ceil((s1 - s0) / l_max)) if l_max > 0 else 1
+        for s in np.linspace(s0, s1, m + 1)[1:-1]:
+            i = int(np.searchsorted(cum, s % cum[n])) % n
+            out.append(c[i])
+    pts = np.asarray(out)
+    _, first = np.unique(np.round(pts, 6), axis=0, return_index=True)
+    return pts[np.sort(first)]
+
+
+# --------------------------------------------------------------------------- default
+def bridge_islands(mask: np.ndarray, width: int = 3) -> np.ndarray:
+    """Join all 8-connected pieces of ``mask`` with the shortest bridges (a spanning tree).
+
+    Returns a mask with the bridges drawn in (a superset of ``mask``, one piece).
+    """
+    n, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+    if n <= 2:
+        return mask
+    out = mask.astype(np.uint8).copy()
+    # boundary points of each piece, thinned so that the pairwise distances stay cheap
+    # RETR_LIST: pieces lying inside another piece's hole have no external contour of their own
+    contours, _ = cv2.findContours(out, cv2.RETR_LIST, cv2.CHAIN_APPROX_SIMPLE)
+    pieces: dict[int, list] = {}
+    for c in contours:
+        c = c.reshape(-1, 2)
+        lab = int(labels[c[0, 1], c[0, 0]])
+        pieces.setdefault(lab, []).append(c)
+    labs = sorted(pieces)
+    pts = []
+    for lab in labs:
+        p = np.concatenate(pieces[lab])
+        step = max(1, len(p) // 200)
+        pts.append(p[::step].astype(np.float64))
+    # Prim's algorithm over pieces with the closest-point distance
+    k = len(labs)
+    in_tree = np.zeros(k, bool)
+    in_tree[0] = True
+    best = np.full(k, np.inf)
+    best_pair: list = [None] * k
+    last = 0
+    for _ in range(k - 1):
+        for j in range(k):
+            if in_tree[j]:
+                continue
+            d = np.hypot(*(pts[last][:, None, :] - pts[j][None, :, :]).transpose(2, 0, 1))
+            a, b = np.unravel_index(int(np.argmin(d)), d.shape)
+            if d[a, b] < best[j]:
+                best[j] = d[a, b]
+                best_pair[j] = (pts[last][a], pts[j][b])
+        cand = np.where(in_tree, np.inf, best)
+        j = int(np.argmin(cand))
+        p, q = best_pair[j]
+        cv2.line(out, (int(p[0]), int(p[1])), (int(q[0]), int(q[1])), 1, width)
+        in_tree[j] = True
+        last = j
+    return out.astype(bool)
+
+
+def outer_contour(mask: np.ndarray) -> np.ndarray:
+    """The outer contour of the largest piece, as pixel indices (n, 2) ``(col, row)``, int."""
+    contours, _ = cv2.findContours(np.pad(mask.astype(np.uint8), 1), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    c = max(contours, key=lambda c: (cv2.contourArea(c), len(c)))
+    return c.reshape(-1, 2) - 1
+
+
+def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarray:
+    """Move each simplified edge outward until the pixel squares of its stretch are inside.
+
+    Parameters
+    ----------
+    contour : ndarray, shape (n, 2)
+        Pixel indices along the loop.
+    keys : ndarray, shape (k,)
+        Indices of the simplified polygon's vertices on the contour.
+    orient : float
+        Sign of the contour's signed area (decides which side is outward).
+
+    Returns
+    -------
+    ndarray, shape (m, 2): the pushed polygon (bevels may add vertices).
+    """
+    n = len(contour)
+    k = len(keys)
+    centre = contour.astype(np.float64) + 0.5
+    kp = centre[keys]
+    normals = np.zeros((k, 2))
+    offsets = np.zeros(k)
+    for j in range(k):
+        a, b = keys[j], keys[(j + 1) % k]
+        d = kp[(j + 1) % k] - kp[j]
+        L = np.hypot(*d)
+        # outward normal: for a positive (clockwise on screen) loop it is (dy, -dx)
+        nrm = np.array([d[1], -d[0]]) / L * orient
+        idx = np.arange(a, b + 1) if b > a else np.concatenate([np.arange(a, n), np.arange(0, b + 1)])
+        pts = centre[idx]
+        # farthest corner of each pixel square along the normal: centre + 0.5 (|nx| + |ny|)
+        ext = (pts - kp[j]) @ nrm + 0.5 * (abs(nrm[0]) + abs(nrm[1]))
+        normals[j] = nrm
+        offsets[j] = max(0.0, float(ext.max())) + 1e-6
+    out = []
+    for j in range(k):
+        i = j - 1
+        n1, c1 = normals[i], normals[i] @ kp[i] + offsets[i]
+        n2, c2 = normals[j], normals[j] @ kp[j] + offsets[j]
+        det = n1[0] * n2[1] - n1[1] * n2[0]
+        corner = kp[j]
+        p1 = corner + (c1 - n1 @ corner) * n1  # corner pushed onto each line
+        p2 = corner + (c2 - n2 @ corner) * n2
+        if abs(det) > 0.15:
+            x = np.array([(c1 * n2[1] - c2 * n1[1]) / det, (n1[0] * c2 - n2[0] * c1) / det])
+            limit = 2.0 * max(offsets[i], offsets[j]) + 2.0
+            if np.hypot(*(x - corner)) <= limit:
+                out.append(x)
+                continue
+        # nearly parallel edges or a sharp spike: a short bevel instead of a far miter
+        if np.hypot(*(p1 - p2)) < 1e-6:
+            out.append(p1)
+        else:
+            out.extend([p1, p2])
+    return np.asarray(out)
+
+
+def _uncovered(loop: np.ndarray, cover: np.ndarray) -> np.ndarray:
+    """Pixels of ``cover`` (row, col) whose square is not entirely inside ``loop``."""
+    segs = loop_segments([loop])
+    inside = centres_inside(segs, cover.shape) & ~crossed_pixels(segs, cover.shape)
+    return np.argwhere(cover & ~inside)
+
+
+def _repair(loop: np.ndarray, cover: np.ndarray, max_rounds: int = 30) -> np.ndarray | None:
+    """Pull edges out through the far corner of any art pixel they still leave outside."""
+    orient = np.sign(signed_area(loop)) or 1.0
+    for _ in range(max_rounds):
+        bad = _uncovered(loop, cover)
+        if len(bad) == 0:
+            return loop
+        corners = np.concatenate([bad[:, ::-1] + off for off in ([0, 0], [1, 0], [0, 1], [1, 1])]).astype(np.float64)
+        a = loop
+        b = np.roll(loop, -1, axis=0)
+        ab = b - a
+        L = np.maximum(np.hypot(*ab.T), 1e-12)
+        nrm = np.stack([ab[:, 1], -ab[:, 0]], axis=1) / L[:, None] * orient
+        # distance of each corner to each edge, and how far outside each edge's line it is
+        t = np.clip(((corners[:, None, :] - a[None]) * ab[None]).sum(-1) / (L ** 2)[None], 0, 1)
+        q = a[None] + t[..., None] * ab[None]
+        dist = np.hypot(*(corners[:, None, :] - q).transpose(2, 0, 1))
+        out_dist = ((corners[:, None, :] - a[None]) * nrm[None]).sum(-1)
+        edge = np.argmin(dist, axis=1)
+        new = dict()
+        for ci, e in enumerate(edge):
+            od = out_dist[ci, e]
+            if od > 0 and (e not in new or od > new[e][0]):
+                new[e] = (od, corners[ci])
+        if not new:
+            return None
+        pts = []
+        for j in range(len(loop)):
+            pts.append(loop[j])
+            if j in new:
+                pts.append(new[j][1] + nrm[j] * 1e-6)
+        loop = np.asarray(pts)
+    return loop if len(_uncovered(loop, cover)) == 0 else None
+
+
+def convex_cover(cover: np.ndarray, orient: float = 1.0) -> np.ndarray:
+    """Convex hull of all art pixel squares: always a valid covering loop."""
+    rc = np.argwhere(cover)
+    pts = np.concatenate([rc[:, ::-1] + off for off in ([0, 0], [1, 0], [0, 1], [1, 1])]).astype(np.float32)
+    hull = cv2.convexHull(pts).reshape(-1, 2).astype(np.float64)
+    return hull if np.sign(signed_area(hull)) == orient else hull[::-1]
+
+
+def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """One simple loop containing every pixel square of ``cover``, with few vertices.
+
+    Parameters
+    ----------
+    cover : ndarray, shape (H, W), bool
+        Art that must be covered (all pixels with alpha >= the threshold).
+    eps : float
+        Douglas-Peucker tolerance (px). The loop strays at most about ``eps + 1`` px outside
+        the art; larger means fewer vertices and more waste.
+    close_kernel : int
+        Gaps narrower than this (px) between parts are closed before contouring, so the loop
+        does not squeeze into cracks it cannot follow without touching itself.
+
+    Returns
+    -------
+    loop : ndarray, shape (n, 2)
+        Vertices in order, positive signed area (clockwise on screen).
+    region : ndarray, shape (H, W), bool
+        The bridged, closed mask the loop wraps (its holes are candidate mesh holes).
+    """
+    region = bridge_islands(cover)
+    if close_kernel > 1:
+        k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_kernel, close_kernel))
+        pad = close_kernel
+        closed = cv2.morphologyEx(np.pad(region, pad).astype(np.uint8), cv2.MORPH_CLOSE, k)[pad:-pad, pad:-pad]
+        region = region | closed.astype(bool)
+    contour = outer_contour(region)
+    orient = 1.0
+    c_area = signed_area(contour.astype(np.float64))
+    c_orient = np.sign(c_area) or 1.0
+    for e in (eps, eps / 2, eps / 4, 0.5):
+        keys = dp_indices(contour.astype(np.float64), e)
+        if len(keys) < 3:
+            continue
+        loop = _push_out(contour, keys, c_orient)
+        if c_orient != orient:
+            loop = loop[::-1]
+        loop = _dedupe_loop(loop)
+        if not loop_is_simple(loop):
+            continue
+        loop = _repair(loop, cover)
+        if loop is not None and loop_is_simple(loop):
+            return loop, region
+    return convex_cover(cover, orient), region
+
+
+def _dedupe_loop(loop: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+    d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+    return loop[d > tol]
+
+
+def hole_loops(region: np.ndarray, cover: np.ndarray, hull: np.ndarray, min_area: float, eps: float) -> list[np.ndarray]:
+    """Loops inscribed in the transparent holes of ``region`` that are big enough to cut out.
+
+    Each hole is eroded by ``ceil(eps) + 1`` px and its contour simplified with tolerance
+    ``<= eps``, so the loop stays at least about half a pixel off every art pixel; a loop that
+    would still touch art (checked exactly) is dropped and the hole is meshed over.
+
+    Returns
+    -------
+    list of ndarray, shape (n, 2): loops with negative signed area (holes run the other way).
+    """
+    m = region.astype(np.uint8)
+    contours, hier = cv2.findContours(np.pad(m, 1), cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hier is None:
+        return []
+    out = []
+    h, w = region.shape
+    for c, hh in zip(contours, hier[0]):
+        if hh[3] < 0:  # outer contours have no parent; holes do
+            continue
+        c = c.reshape(-1, 2) - 1
+        if abs(cv2.contourArea(c.reshape(-1, 1, 2).astype(np.float32))) < min_area:
+            continue
+        x0, y0 = np.maximum(c.min(0) - 2, 0)
+        x1, y1 = np.minimum(c.max(0) + 3, [w, h])
+        sub = region[y0:y1, x0:x1]
+        fill = np.zeros(sub.shape, np.uint8)
+        cv2.drawContours(fill, [(c - [x0, y0]).reshape(-1, 1, 2).astype(np.int32)], -1, 1, -1)
+        hole = (fill > 0) & ~sub
+        e = max(0.9, min(eps, 0.25 * np.sqrt(hole.sum())))
+        k = int(np.ceil(e)) + 1
+        inner = cv2.erode(hole.astype(np.uint8), np.ones((3, 3), np.uint8), iterations=k)
+        if inner.sum() < 9:
+            continue
+        cc, _ = cv2.findContours(inner, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        cc = max(cc, key=cv2.contourArea).reshape(-1, 2).astype(np.float64) + 0.5
+        loop = cc[dp_indices(cc, min(e, k - 0.6))] + [x0, y0]
+        if len(loop) < 3 or not loop_is_simple(loop):
+            continue
+        if signed_area(loop) > 0:
+            loop = loop[::-1]
+        segs = loop_segments([loop])
+        touch = centres_inside(segs, cover.shape) | touched_pixels(segs, cover.shape)
+        if (touch & cover).any():
+            continue
+        out.append(loop)
+    return out

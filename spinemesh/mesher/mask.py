@@ -1,0 +1,56 @@
+"""Step 1 of the pipeline (paper sec. 3.1): the foreground mask."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ImageError
+
+
+def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -> np.ndarray:
+    """Foreground mask of a sprite.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, 4) or (H, W, 3), uint8
+        Straight (not premultiplied) RGBA, or RGB.
+    source : {"alpha", "model", "auto"}
+        ``"alpha"``: threshold the alpha channel (an RGB image is all foreground).
+        ``"model"``: the segmentation network (:func:`spinemesh.segment.predict_mask`).
+        ``"auto"``: alpha when it is meaningful (:func:`spinemesh.segment.has_meaningful_alpha`),
+        else the network; the paper's rule (sec. 3.1).
+    threshold : int
+        Foreground is ``alpha >= threshold``. The paper's ``alpha > 128`` is ``threshold=129``.
+
+    Returns
+    -------
+    ndarray, shape (H, W), bool
+    """
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] not in (3, 4) or image.dtype != np.uint8:
+        raise ImageError(f"expected an (H, W, 3|4) uint8 image, got {image.shape} {image.dtype}")
+    if source not in ("alpha", "model", "auto"):
+        raise ValueError(f"mask source must be 'alpha', 'model' or 'auto', not {source!r}")
+    has_alpha = image.shape[2] == 4
+    if source == "auto":
+        if has_alpha and _segment().has_meaningful_alpha(image):
+            source = "alpha"
+        else:
+            source = "model"
+    if source == "alpha":
+        if not has_alpha:
+            return np.ones(image.shape[:2], dtype=bool)
+        return image[:, :, 3] >= threshold
+    mask = _segment().predict_mask(np.ascontiguousarray(image[:, :, :3]))
+    return np.asarray(mask, dtype=bool)
+
+
+def _segment():
+    # Imported lazily: the alpha path must work without the segmentation model installed.
+    try:
+        from .. import segment
+    except ImportError as e:  # pragma: no cover - depends on the install
+        raise ImageError(f"the segmentation model is not available ({e}); use --mask alpha") from None
+    if not hasattr(segment, "predict_mask"):
+        raise ImageError("the segmentation model is not available yet; use the alpha mask")
+    return segment

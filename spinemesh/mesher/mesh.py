@@ -1,0 +1,109 @@
+"""The :class:`Mesh` result and its ``mesh.json`` file format.
+
+``mesh.json`` (stable; other tools read it)::
+
+    {
+      "width": W, "height": H,            # size of the image the mesh was made for (px)
+      "vertices": [[x, y], ...],          # pixel coordinates, origin top-left, x right, y down
+      "triangles": [[i, j, k], ...],      # vertex indices, see winding below
+      "hull": N,                          # the first N vertices form the outer loop, in order
+      "edges": [[i, j], ...],             # constrained edges: hull loop + interior chains + holes
+      "interior": [false, ..., true, ...] # optional: vertex was placed inside (not on the hull/holes)
+    }
+
+Extra keys are allowed and ignored by readers. Winding: every triangle ``(i, j, k)`` has a
+*positive* signed area ``(xj-xi)(yk-yi) - (xk-xi)(yj-yi) > 0`` in the stored coordinates,
+i.e. it is clockwise as seen on screen (y down) and counter-clockwise in a y-up frame such
+as Spine's UV-to-world mapping after the y flip. The hull loop has the same orientation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh over one image.
+
+    Attributes
+    ----------
+    vertices : ndarray, shape (N, 2), float64
+        Pixel coordinates of the original image (x right, y down, origin top-left corner of the
+        top-left pixel). The first ``hull`` vertices form the outer loop in order.
+    triangles : ndarray, shape (M, 3), int32
+        Vertex indices, positive signed area in image coordinates (see module docstring).
+    hull : int
+        Number of leading vertices that form the outer loop.
+    edges : ndarray, shape (K, 2), int32
+        Constrained edges: the hull loop, hole loops and interior boundary chains.
+    width, height : int
+        Size of the image (px).
+    is_interior : ndarray, shape (N,), bool
+        True for vertices placed inside the art (yellow in previews), False for vertices on the
+        hull or on a hole loop (blue).
+    info : dict
+        Free-form diagnostics (timings, preset name); written to JSON under ``"info"``.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    hull: int
+    edges: np.ndarray
+    width: int
+    height: int
+    is_interior: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 2)
+        self.triangles = np.asarray(self.triangles, dtype=np.int32).reshape(-1, 3)
+        self.edges = np.asarray(self.edges, dtype=np.int32).reshape(-1, 2)
+        self.is_interior = np.asarray(self.is_interior, dtype=bool).reshape(-1)
+        self.hull = int(self.hull)
+        self.width = int(self.width)
+        self.height = int(self.height)
+
+    @property
+    def vertex_count(self) -> int:
+        return len(self.vertices)
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.triangles)
+
+    def to_json(self) -> dict:
+        """The ``mesh.json`` dict (coordinates rounded to 1/1000 px for stable output)."""
+        verts = np.round(self.vertices, 3)
+        out = {
+            "width": self.width,
+            "height": self.height,
+            "vertices": [[_num(x), _num(y)] for x, y in verts],
+            "triangles": self.triangles.tolist(),
+            "hull": self.hull,
+            "edges": self.edges.tolist(),
+            "interior": self.is_interior.tolist(),
+        }
+        if self.info:
+            out["info"] = self.info
+        return out
+
+    @classmethod
+    def from_json(cls, doc: dict) -> "Mesh":
+        """Read a ``mesh.json`` dict; ``interior`` defaults to "not on the hull"."""
+        verts = np.asarray(doc["vertices"], dtype=np.float64).reshape(-1, 2)
+        hull = int(doc["hull"])
+        interior = doc.get("interior")
+        if interior is None:
+            interior = np.arange(len(verts)) >= hull
+        return cls(vertices=verts, triangles=doc["triangles"], hull=hull, edges=doc.get("edges", []),
+                   width=doc["width"], height=doc["height"], is_interior=interior,
+                   info=dict(doc.get("info", {})))
+
+
+def _num(v: float):
+    """Integers print as integers so that JSON stays short and byte-stable."""
+    f = float(v)
+    return int(f) if f.is_integer() else f

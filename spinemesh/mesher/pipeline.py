@@ -1,0 +1,275 @@
+"""``mesh_image``: the whole pipeline, image in, :class:`Mesh` out."""
+
+from __future__ import annotations
+
+import time
+
+import cv2
+import numpy as np
+
+from ..errors import ImageError
+from . import exterior, interior, triangulate
+from .geometry import loop_is_simple, segments_cross, signed_area
+from .mask import compute_mask
+from .mesh import Mesh
+from .params import PRESETS, MesherParams
+
+
+def resolve_params(preset: str | MesherParams = "default", **overrides) -> MesherParams:
+    """Preset name (or params) plus overrides -> :class:`MesherParams`."""
+    if isinstance(preset, MesherParams):
+        base = preset
+    else:
+        try:
+            base = PRESETS[preset]
+        except KeyError:
+            raise ValueError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}") from None
+    return base.with_overrides(**overrides) if overrides else base
+
+
+def mesh_image(image: np.ndarray, preset: str | MesherParams = "default", mask: np.ndarray | None = None,
+               **overrides) -> Mesh:
+    """Turn one sprite image into a triangle mesh.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, 4) or (H, W, 3), uint8
+        Straight RGBA (or RGB) at its original size.
+    preset : {"default", "paper"} or MesherParams
+        See :mod:`spinemesh.mesher.params`.
+    mask : ndarray, shape (H, W), bool, optional
+        Foreground to use instead of computing one (e.g. from a segmentation model).
+    **overrides
+        Any :class:`MesherParams` field, e.g. ``density=2.0``, ``max_vertices=40``.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ImageError
+        If the image is not an (H, W, 3|4) uint8 array or has no foreground pixel.
+    """
+    p = resolve_params(preset, **overrides)
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] not in (3, 4) or image.dtype != np.uint8:
+        raise ImageError(f"expected an (H, W, 3|4) uint8 image, got shape {image.shape} {image.dtype}")
+    t0 = time.perf_counter()
+    if mask is None:
+        mask = compute_mask(image, p.mask_source, p.alpha_threshold)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != image.shape[:2]:
+        raise ImageError(f"mask shape {mask.shape} differs from image shape {image.shape[:2]}")
+    if not mask.any():
+        raise ImageError("the image has no opaque pixel (alpha >= "
+                         f"{p.alpha_threshold}): nothing to mesh")
+    if p.style == "paper":
+        mesh = _paper(image, mask, p)
+    elif p.style == "default":
+        mesh = _default(image, mask, p)
+    else:
+        raise ValueError(f"unknown mesher style {p.style!r}")
+    mesh.info["ms"] = round(1000 * (time.perf_counter() - t0), 2)
+    return mesh
+
+
+# --------------------------------------------------------------------------- paper
+def _paper(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
+    h, w = mask.shape
+    loops = exterior.paper_loops(mask, p.mask_blur_sigma, p.min_component_area, p.dp_epsilon_ratio, p.n_target)
+    if not loops:
+        raise ImageError(f"no foreground component of at least {p.min_component_area:g} px^2")
+    ext = np.concatenate(loops)
+    chains = interior.interior_chains(image, mask, p)
+    inner = np.concatenate(chains) if chains else np.zeros((0, 2))
+    pts, is_int = _dedupe(np.vstack([ext, inner]), np.r_[np.zeros(len(ext), bool), np.ones(len(inner), bool)],
+                          p.triangulation_dedup)
+    verts, tris = triangulate.delaunay_centroid_filter(pts, mask)
+    return _finish(verts, tris, is_int, np.zeros((0, 2), np.int64), w, h, preset="paper")
+
+
+def _dedupe(pts: np.ndarray, flags: np.ndarray, radius: float):
+    """Drop points within ``radius`` of an earlier point (paper sec. 3.4: 2 px)."""
+    keep = []
+    for i, q in enumerate(pts):
+        if keep and radius > 0 and np.min(np.hypot(*(pts[keep] - q).T)) < radius:
+            continue
+        keep.append(i)
+    return pts[keep], flags[keep]
+
+
+# --------------------------------------------------------------------------- default
+def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
+    h, w = mask.shape
+    # Huge images are analysed at an integer downscale s. The coverage mask is max-pooled, so
+    # each low-res pixel square holds every full-res art pixel inside it, and a loop covering the
+    # low-res squares covers the full-res ones exactly once scaled by s.
+    s = max(1, int(np.ceil(max(h, w) / max(p.analysis_max_side, 16))))
+    cover = _maxpool(mask, s)
+    small = image if s == 1 else cv2.resize(image, (cover.shape[1], cover.shape[0]), interpolation=cv2.INTER_AREA)
+    area = float(cover.sum())
+    eps = max(0.5, p.hull_tolerance * np.sqrt(area) / max(p.density, 1e-6))
+    budget = p.max_vertices
+    hull, region = exterior.covering_hull(cover, eps)
+    holes = exterior.hole_loops(region, cover, hull, p.min_hole_area / (s * s), eps)
+    # hard budget: simplify the hull further, then give up holes, until the loops fit
+    while budget is not None and len(hull) + sum(map(len, holes)) > budget:
+        if holes:
+            holes = holes[:-1]
+            continue
+        if len(hull) <= 3:
+            break
+        eps *= 1.5
+        new, region = exterior.covering_hull(cover, eps)
+        if len(new) >= len(hull) and eps > 4 * max(cover.shape):
+            break
+        hull = new if len(new) < len(hull) else hull
+    loops = [hull] + holes
+    ring = np.concatenate(loops)
+    density = max(p.density, 1e-6)
+    chains = []
+    if p.max_segment > 0 and (budget is None or budget > len(ring)):
+        small_mask = cover if s == 1 else cv2.resize(mask.astype(np.uint8), (cover.shape[1], cover.shape[0]),
+                                                     interpolation=cv2.INTER_AREA) > 0
+        scaled = p.with_overrides(min_contour_length=p.min_contour_length / s, max_segment=p.max_segment / s,
+                                  dedup_radius=p.dedup_radius / s, border_distance=p.border_distance / s)
+        chains = interior.interior_chains(small, small_mask, scaled, scale=density, taken=ring)
+        chains = _drop_crossing(chains, loops)
+        if budget is not None:
+            chains = _fit_budget(chains, budget - len(ring))
+    pts = [ring] + chains
+    flags = [np.zeros(len(ring), bool)] + [np.ones(len(c), bool) for c in chains]
+    edges, start = [], 0
+    for loop in loops:
+        n = len(loop)
+        edges += [(start + i, start + (i + 1) % n) for i in range(n)]
+        start += n
+    for c in chains:
+        edges += [(start + i, start + i + 1) for i in range(len(c) - 1)]
+        start += len(c)
+    pts = np.concatenate(pts) * s
+    is_int = np.concatenate(flags)
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    verts, tris = triangulate.constrained(pts, edges, [l * s for l in loops])
+    if len(verts) > len(pts):  # crossing constraints were split: the new points are interior
+        is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
+    return _finish(verts, tris, is_int, edges, w, h, preset="default")
+
+
+def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:
+    if s == 1:
+        return mask
+    h, w = mask.shape
+    H, W = -(-h // s), -(-w // s)
+    pad = np.zeros((H * s, W * s), bool)
+    pad[:h, :w] = mask
+    return pad.reshape(H, s, W, s).any(axis=(1, 3))
+
+
+def _drop_crossing(chains: list[np.ndarray], loops: list[np.ndarray]) -> list[np.ndarray]:
+    """Split chains where a segment would cross a loop or an earlier chain."""
+    walls = np.concatenate([np.stack([l, np.roll(l, -1, axis=0)], axis=1) for l in loops])
+    out = []
+    for c in chains:
+        run = [c[0]]
+        for a, b in zip(c[:-1], c[1:]):
+            seg = np.array([[a, b]])
+            if segments_cross(seg, walls).any():
+                if len(run) > 1:
+                    out.append(np.asarray(run))
+                else:
+                    out.append(np.asarray(run))
+                run = [b]
+                continue
+            run.append(b)
+            walls = np.concatenate([walls, seg])
+        out.append(np.asarray(run))
+    return out
+
+
+def _fit_budget(chains: list[np.ndarray], room: int) -> list[np.ndarray]:
+    """Keep the longest chains that fit in ``room`` vertices."""
+    if room <= 0:
+        return []
+    order = sorted(range(len(chains)), key=lambda i: (-len(chains[i]), i))
+    keep, used = [], 0
+    for i in order:
+        if used + len(chains[i]) <= room:
+            keep.append(i)
+            used += len(chains[i])
+    return [chains[i] for i in sorted(keep)]
+
+
+# --------------------------------------------------------------------------- common
+def _finish(verts: np.ndarray, tris: np.ndarray, is_int: np.ndarray, edges: np.ndarray,
+            w: int, h: int, preset: str) -> Mesh:
+    """Drop unused vertices, put the outer boundary loop first, orient triangles positively."""
+    tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+    a = verts[tris]
+    sa = (a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1]) - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])
+    tris = np.where((sa < 0)[:, None], tris[:, [0, 2, 1]], tris)
+    tris = tris[np.abs(sa) > 1e-9]
+    loop = _outer_loop(tris, verts)
+    used = np.unique(tris)
+    rest = np.setdiff1d(used, loop)
+    order = np.concatenate([loop, rest]).astype(np.int64)
+    remap = np.full(len(verts), -1, np.int64)
+    remap[order] = np.arange(len(order))
+    new_edges = remap[edges] if len(edges) else np.zeros((0, 2), np.int64)
+    new_edges = new_edges[(new_edges >= 0).all(axis=1)]
+    # edges that the triangulation split are replaced by their pieces: keep only real triangle edges
+    tri_new = remap[tris]
+    te = np.concatenate([tri_new[:, [0, 1]], tri_new[:, [1, 2]], tri_new[:, [2, 0]]])
+    te_set = {tuple(sorted(e)) for e in te.tolist()}
+    new_edges = np.array([e for e in new_edges.tolist() if tuple(sorted(e)) in te_set], dtype=np.int64).reshape(-1, 2)
+    hull_edges = [[i, (i + 1) % len(loop)] for i in range(len(loop))]
+    have = {tuple(sorted(e)) for e in new_edges.tolist()}
+    extra = [e for e in hull_edges if tuple(sorted(e)) not in have]
+    if extra:
+        new_edges = np.vstack([np.asarray(extra, dtype=np.int64).reshape(-1, 2), new_edges])
+    interior_flag = is_int[order].copy()
+    interior_flag[:len(loop)] = False
+    return Mesh(vertices=verts[order], triangles=tri_new, hull=len(loop), edges=new_edges,
+                width=w, height=h, is_interior=interior_flag, info={"preset": preset})
+
+
+def _outer_loop(tris: np.ndarray, verts: np.ndarray) -> np.ndarray:
+    """The boundary loop of largest area, in the triangles' direction, as vertex indices.
+
+    With several loops (islands of the paper preset) the largest is the hull; the others stay
+    in the mesh as ordinary vertices.
+    """
+    if len(tris) == 0:
+        return np.zeros(0, np.int64)
+    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    key = np.sort(e, axis=1)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    b = e[counts[inv.reshape(-1)] == 1]
+    nxt: dict[int, list[int]] = {}
+    for i, j in sorted(b.tolist()):
+        nxt.setdefault(i, []).append(j)
+    used = set()
+    loops = []
+    for start in sorted(nxt):
+        for j0 in nxt[start]:
+            if (start, j0) in used:
+                continue
+            loop = [start]
+            used.add((start, j0))
+            cur = j0
+            while cur != start and len(loop) <= len(b):
+                loop.append(cur)
+                options = [j for j in nxt.get(cur, []) if (cur, j) not in used]
+                if not options:
+                    break
+                j = options[0]
+                used.add((cur, j))
+                cur = j
+            if cur == start:
+                loops.append(loop)
+    if not loops:
+        return np.zeros(0, np.int64)
+    best = max(loops, key=lambda l: (signed_area(verts[l]), -min(l)))
+    k = best.index(min(best))  # start at the lowest index: deterministic
+    return np.asarray(best[k:] + best[:k], dtype=np.int64)
