@@ -28,7 +28,7 @@ import base64
 import math
 import struct
 
-from .stream import SkelReader, SkelWriter
+from .stream import MAX_STRING_BYTES, SkelReader, SkelWriter
 
 #: Key of the binary-only information in a document (see module docstring).
 EXTRA = "_skel"
@@ -86,8 +86,21 @@ def _same(v, default) -> bool:
 
 
 def _put(node: dict, key: str, v, default) -> None:
-    if not _same(v, default):
+    """Set ``node[key] = v`` unless ``v`` is the default (the hottest helper: kept inline-fast)."""
+    if v != default:
         node[key] = v
+    elif v == 0 and type(v) is float and math.copysign(1.0, v) < 0:
+        node[key] = v
+
+
+def fields(s, node: dict, keys_defaults: tuple) -> None:
+    """Consecutive float32 fields ``(key, default)``, read or written in one go."""
+    n = len(keys_defaults)
+    if s.reading:
+        for (key, d), v in zip(keys_defaults, floats(s, None, n, "floats")):
+            _put(node, key, v, d)
+    else:
+        floats(s, [node.get(key, d) for key, d in keys_defaults], n, ", ".join(k for k, _ in keys_defaults))
 
 
 def fld(s, node: dict, key: str, default=0.0):
@@ -189,7 +202,7 @@ def enum(s, node: dict, key: str, names: tuple, default: str, as_byte: bool = Fa
 def floats(s, values, n: int, what: str = "floats") -> list:
     """``n`` float32 values in one go (bulk arrays: vertices, uvs, deform offsets)."""
     if s.reading:
-        return list(struct.unpack(f">{n}f", s.raw(n=4 * n, what=what)))
+        return list(struct.unpack(f">{n}f", s.raw(n=4 * n, what=what))) if n else []
     try:
         s.raw(struct.pack(f">{n}f", *values))
     except struct.error:
@@ -272,6 +285,10 @@ def header(s, doc: dict, extra: dict) -> tuple[Layout, bool]:
 
 # -- bones, slots, constraints ---------------------------------------------------------
 
+_BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
+                ("shearX", 0), ("shearY", 0), ("length", 0))
+
+
 def bone(s, node: dict, c: Context, i: int) -> None:
     if s.reading:
         node["name"] = s.string(what="bone name")
@@ -284,9 +301,7 @@ def bone(s, node: dict, c: Context, i: int) -> None:
         s.string(node.get("name"))
         if i > 0:
             index(s, node, "parent", *c.bones, "bone")
-    for key, d in (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
-                   ("shearX", 0), ("shearY", 0), ("length", 0)):
-        fld(s, node, key, d)
+    fields(s, node, _BONE_FIELDS)
     enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
     boolean(s, node, "skin")
     if c.nonessential:
@@ -633,6 +648,10 @@ def shorts(s, node: dict, key: str, n: int | None, c: Context) -> None:
     s.varints(items, n)
 
 
+_REGION_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
+                  ("width", 0), ("height", 0))
+
+
 def attachment(s, node: dict, key: str, c: Context) -> None:
     if c.L.flags:
         attachment_42(s, node, key, c)
@@ -686,8 +705,7 @@ def attachment_42(s, node: dict, key: str, c: Context) -> None:
             color(s, node, "color", None)
         sequence(s, node, flags & 64)
         opt(s, node, "rotation", flags & 128)
-        for k, d in (("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1), ("width", 0), ("height", 0)):
-            fld(s, node, k, d)
+        fields(s, node, _REGION_FIELDS[1:])
     elif kind == "boundingbox":
         vertices(s, node, bool(flags & 16), c)
         if c.nonessential:
@@ -784,9 +802,7 @@ def attachment_40(s, node: dict, key: str, c: Context) -> None:
     kind = ATTACHMENT_TYPES[t]
     if kind == "region":
         ref(s, node, "path")
-        for k, d in (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
-                     ("width", 0), ("height", 0)):
-            fld(s, node, k, d)
+        fields(s, node, _REGION_FIELDS)
         color(s, node, "color", "ffffffff")
         _sequence_40(s, node, L)
     elif kind == "boundingbox":
@@ -1050,6 +1066,9 @@ def curve_timeline(s, frames: list | None, values, channels: int, curve_first: b
     if s.reading:
         n = s.count(what="frame count")
         s.count(what="bezier count")
+        keys = getattr(values, "float_keys", None)
+        if keys is not None and not curve_first and hasattr(s, "float_frames"):
+            return s.float_frames(n, keys, channels)
         frames = []
         prev = None
         for _ in range(n):
@@ -1083,8 +1102,9 @@ def curve_timeline(s, frames: list | None, values, channels: int, curve_first: b
 
 def _value_fn(*keys_defaults):
     def values(s, f):
-        for key, d in keys_defaults:
-            fld(s, f, key, d)
+        fields(s, f, keys_defaults)
+    # Read by curve_timeline's fast path: time and values are one run of floats.
+    values.float_keys = keys_defaults
     return values
 
 
@@ -1781,6 +1801,30 @@ class _RefReader(SkelReader):
     def bool(self, value=None, what: str = "boolean") -> bool:
         return self.u8(what=what) != 0
 
+    def raw(self, value=None, n: int = 0, what: str = "bytes") -> bytes:
+        pos = self.pos
+        end = pos + n
+        if end > len(self.buf) or n < 0:
+            raise self._eof(f"{what} ({n} bytes)")
+        self.pos = end
+        return self.buf[pos:end]
+
+    def color(self, value=None, what: str = "colour") -> str:
+        return self.raw(n=4, what=what).hex()
+
+    def string(self, value=None, what: str = "string") -> str | None:
+        at = self.pos
+        n = self.varint(what=f"{what} length")
+        if n == 0:
+            return None
+        if n < 0 or n - 1 > MAX_STRING_BYTES:
+            raise self.fail(f"{what} length, found {n - 1} bytes", at)
+        raw = self.raw(n=n - 1, what=what)
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise self.fail(f"UTF-8 {what}: {e.reason}", at) from None
+
     def f32(self, value=None, what: str = "float") -> float:
         pos = self.pos
         try:
@@ -1812,6 +1856,50 @@ class _RefReader(SkelReader):
         if positive:
             return result - (1 << 32) if result & 0x80000000 else result
         return (result >> 1) ^ -(result & 1)
+
+    def float_frames(self, n: int, keys: tuple, channels: int) -> list[dict]:
+        """Frames of a timeline whose values are floats: the hot loop of animations.
+
+        Same result as :func:`curve_timeline` with values read by :func:`fields`.
+        """
+        buf = self.buf
+        unpack = struct.Struct(f">{1 + len(keys)}f").unpack_from
+        size = 4 * (1 + len(keys))
+        curve_unpack = struct.Struct(f">{4 * channels}f").unpack_from
+        curve_size = 16 * channels
+        frames = []
+        prev = None
+        copysign = math.copysign
+        pos = self.pos
+        try:
+            for _ in range(n):
+                vals = unpack(buf, pos)
+                pos += size
+                f = {}
+                t = vals[0]
+                if t != 0 or copysign(1.0, t) < 0:
+                    f["time"] = t
+                for (key, d), v in zip(keys, vals[1:]):
+                    if v != d or (v == 0 and copysign(1.0, v) < 0):
+                        f[key] = v
+                if prev is not None:
+                    kind = buf[pos]
+                    pos += 1
+                    if kind == CURVE_BEZIER:
+                        prev["curve"] = list(curve_unpack(buf, pos))
+                        pos += curve_size
+                    elif kind == CURVE_STEPPED:
+                        prev["curve"] = "stepped"
+                    elif kind != CURVE_LINEAR:
+                        self.pos = pos - 1
+                        raise self.fail(f"a curve type 0, 1 or 2, found {kind}")
+                frames.append(f)
+                prev = f
+        except (struct.error, IndexError):
+            self.pos = pos
+            raise self._eof("timeline frames") from None
+        self.pos = pos
+        return frames
 
     def varints(self, values=None, n: int = 0, what: str = "indices") -> list[int]:
         """``n`` non-negative varints (triangles, edges of 4.2 meshes)."""

@@ -1,0 +1,100 @@
+"""Read speed of our ``.skel`` reader against SkelToJson, on every 4.2 example, same run.
+
+SkelToJson (PyPI ``skeltojson``, MIT) is the only other pure-Python reader of 4.2 binaries;
+install it with ``pip install -e .[dev]``. Each file is read ``--repeat`` times by each
+reader, taking turns, and the best time is kept (the least disturbed by other load). Peak
+Python memory of one read is measured separately with tracemalloc, which slows reading.
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_skel_read.py [--repeat 7] [--examples ../shared/spine-examples]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from spinemesh.skeleton_binary import read_skel, write_skel  # noqa: E402
+
+
+def best_times(fns, data: bytes, repeat: int) -> list[float]:
+    """Best wall time of each ``fn(data)`` over ``repeat`` rounds, in seconds.
+
+    The functions take turns within each round, so that a burst of load from other
+    processes hits them alike.
+    """
+    best = [float("inf")] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            gc.collect()
+            t = time.perf_counter()
+            fn(data)
+            best[i] = min(best[i], time.perf_counter() - t)
+    return best
+
+
+def peak_memory(fn, data: bytes) -> int:
+    """Peak bytes allocated by Python during ``fn(data)``."""
+    gc.collect()
+    tracemalloc.start()
+    fn(data)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--examples", type=Path, default=REPO.parent / "shared" / "spine-examples")
+    ap.add_argument("--repeat", type=int, default=7)
+    args = ap.parse_args()
+    try:
+        from SkelToJson import SkelConverter
+    except ImportError:
+        sys.exit("SkelToJson is not installed: pip install -e .[dev]")
+
+    def theirs(data: bytes) -> dict:
+        return SkelConverter().convert(data)
+
+    files = sorted((args.examples / "4.2").glob("*/*.skel"))
+    if not files:
+        sys.exit(f"no 4.2 .skel files under {args.examples}")
+    print(f"{len(files)} Spine 4.2 .skel files, best of {args.repeat} runs each\n")
+    head = f"{'file':34} {'KiB':>6} {'ours ms':>8} {'SkelToJson ms':>14} {'speed-up':>9} {'ours write ms':>14}"
+    print(head)
+    print("-" * len(head))
+    rows = []
+    for path in files:
+        data = path.read_bytes()
+        doc = read_skel(data)
+        ours, other, write = best_times([read_skel, theirs, lambda _d: write_skel(doc)], data, args.repeat)
+        rows.append((path, len(data), ours, other, write))
+        print(f"{path.name:34} {len(data) / 1024:6.1f} {ours * 1e3:8.2f} {other * 1e3:14.2f} "
+              f"{other / ours:8.1f}x {write * 1e3:14.2f}")
+    total_ours = sum(r[2] for r in rows)
+    total_other = sum(r[3] for r in rows)
+    print("-" * len(head))
+    print(f"{'total':34} {sum(r[1] for r in rows) / 1024:6.1f} {total_ours * 1e3:8.2f} "
+          f"{total_other * 1e3:14.2f} {total_other / total_ours:8.1f}x {sum(r[4] for r in rows) * 1e3:14.2f}")
+    print(f"\nspeed-up: total {total_other / total_ours:.1f}x, "
+          f"median per file {statistics.median(r[3] / r[2] for r in rows):.1f}x, "
+          f"slowest file {min(r[3] / r[2] for r in rows):.1f}x (goal: at least 3x)")
+
+    biggest = max(rows, key=lambda r: r[1])[0]
+    data = biggest.read_bytes()
+    mine, other = peak_memory(read_skel, data), peak_memory(theirs, data)
+    print(f"peak Python memory reading {biggest.name}: ours {mine / 2**20:.1f} MiB, "
+          f"SkelToJson {other / 2**20:.1f} MiB ({other / mine:.1f}x)")
+
+
+if __name__ == "__main__":
+    main()
