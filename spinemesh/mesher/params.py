@@ -76,13 +76,13 @@ class MesherParams:
         hull is simplified further. Never below what the hull needs to cover the art (>= 3).
     min_vertex_distance : float
         Default preset: no two vertices closer than this (px).
-    fill_spacing : float
-        Default preset: target spacing (px, before ``density``) of the Steiner points that the
-        constrained Delaunay refinement may add to keep angles good; 0 disables.
+    fill_ratio : float
+        Default preset: the constrained Delaunay refinement (Ruppert-style Steiner points, which
+        lift small angles) may add this share of the placed vertices; 0 disables.
     min_angle : float
         Default preset: refinement goal for the smallest triangle angle (degrees).
     max_fill_vertices : int
-        Default preset: at most this many refinement vertices.
+        Default preset: at most this many refinement vertices (times ``density``).
     min_hole_area : float
         Default preset: transparent holes smaller than this (px^2) are meshed over.
     analysis_max_side : int
@@ -115,8 +115,8 @@ class MesherParams:
     density: float = 1.0
     max_vertices: int | None = None
     min_vertex_distance: float = 2.0
-    fill_spacing: float = 0.0
-    min_angle: float = 20.0
+    fill_ratio: float = 0.0
+    min_angle: float = 0.0
     max_fill_vertices: int = 40
     min_hole_area: float = 400.0
     analysis_max_side: int = 1024
@@ -145,14 +145,16 @@ DEFAULT = MesherParams(
     style="default",
     alpha_threshold=8,
     min_component_area=0.0,
-    hull_tolerance=0.04,
+    hull_tolerance=0.08,
     min_contour_length=60.0,
     interior_dp_ratio=0.05,
     max_segment=80.0,
     border_distance=6.0,
     dedup_radius=24.0,
     min_vertex_distance=4.0,
-    fill_spacing=0.0,
+    fill_ratio=0.3,
+    min_angle=25.0,
+    max_fill_vertices=30,
 )
 
 #: Preset name -> parameters.

@@ -151,10 +151,21 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     pts = np.concatenate(pts) * s
     is_int = np.concatenate(flags)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    verts, tris = triangulate.constrained(pts, edges, [l * s for l in loops])
+    n_steiner = _steiner_budget(p, len(pts), density)
+    if budget is not None:
+        n_steiner = max(0, min(n_steiner, budget - len(pts)))
+    verts, tris, edges = triangulate.constrained(pts, edges, [l * s for l in loops], p.min_angle, n_steiner,
+                                                 p.min_vertex_distance * s)
     if len(verts) > len(pts):  # crossing constraints were split: the new points are interior
         is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
     return _finish(verts, tris, is_int, edges, w, h, preset="default")
+
+
+def _steiner_budget(p: MesherParams, n_points: int, density: float) -> int:
+    """How many points the angle refinement may add: ``fill_ratio`` of the placed points."""
+    if p.min_angle <= 0 or p.fill_ratio <= 0:
+        return 0
+    return int(min(p.max_fill_vertices * density, np.ceil(p.fill_ratio * n_points)))
 
 
 def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:

@@ -70,13 +70,18 @@ def constrained(points: np.ndarray, edges: np.ndarray, loops: list[np.ndarray],
     vertices : ndarray, shape (N', 2)
         ``points`` first, then any point the refinement added.
     triangles : ndarray, shape (M, 3), positive signed area
+    edges : ndarray, shape (K', 2)
+        The constrained edges after refinement (a split edge is replaced by its pieces).
     """
     t = _triangulation(points, edges)
     if max_steiner > 0 and min_angle > 0:
+        # refine only inside: outer and hole triangles are excluded (the threshold is in degrees)
+        skip = t.collect_outer_triangles_and_holes()
         t.refine_triangles(int(max_steiner), cdt.RefinementCriterion.SMALLEST_ANGLE,
-                           float(cdt.deg_to_rad(min_angle)), None, float(min_edge))
+                           float(min_angle), skip, float(min_edge))
     t.erase_super_triangle()
     verts, tris = _arrays(t)
+    fixed = np.array(sorted((e.v1, e.v2) for e in t.fixed_edges), dtype=np.int64).reshape(-1, 2)
     cen = verts[tris].mean(axis=1)
     keep = points_in_loops(cen, loops)
-    return verts, tris[keep]
+    return verts, tris[keep], fixed
