@@ -210,3 +210,127 @@ def test_examples_present_or_skipped():
     # Guard against a silently empty parametrisation when the data is present.
     if EXAMPLES.is_dir():
         assert len(PAIRS) == 69
+
+
+# -- spinemesh convert ------------------------------------------------------------------
+
+def _cli(*args: str):
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, COLUMNS="200")
+    return subprocess.run([sys.executable, "-m", "spinemesh", "convert", *args],
+                          capture_output=True, text=True, env=env)
+
+
+def test_convert_skel_to_json_and_back(examples, tmp_path):
+    src = examples / "4.1/goblins/goblins-pro.skel"
+    out_json, out_skel = tmp_path / "g.json", tmp_path / "g.skel"
+    r = _cli(str(src), str(out_json))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out_json.read_text(encoding="utf-8"))
+    assert EXTRA not in doc and doc["skeleton"]["spine"] == "4.1.17"
+    # Shortest float32 decimals, not float64 expansions.
+    assert all(len(repr(v)) <= 16 for v in doc["skeleton"].values() if isinstance(v, float))
+    editor = json.loads(src.with_suffix(".json").read_text(encoding="utf-8"))
+    assert not diff_documents(doc, editor)
+    r = _cli(str(out_json), str(out_skel))
+    assert r.returncode == 0, r.stderr
+    # Every float32 comes back exactly: the same document as the original .skel gives.
+    assert not diff_documents(read_skel(out_skel), read_skel(src), abs_tol=0, rel_tol=0, ignore=[EXTRA])
+
+
+def test_convert_keeps_bytes_with_binary_info(examples, tmp_path):
+    src = examples / "4.2/mix-and-match/mix-and-match-pro.skel"
+    r = _cli(str(src), str(tmp_path / "m.json"), "--keep-binary-info")
+    assert r.returncode == 0, r.stderr
+    r = _cli(str(tmp_path / "m.json"), str(tmp_path / "m.skel"))
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "m.skel").read_bytes() == src.read_bytes()
+
+
+def test_convert_editor_json_to_skel(examples, tmp_path):
+    src = examples / "4.0/raptor/raptor-pro.json"
+    r = _cli(str(src), str(tmp_path / "r.skel"))
+    assert r.returncode == 0, r.stderr
+    assert not diff_documents(read_skel(tmp_path / "r.skel"), json.loads(src.read_text(encoding="utf-8")),
+                              abs_tol=1e-4, rel_tol=1e-6)
+
+
+def test_convert_errors_are_one_line(examples, tmp_path):
+    bad = tmp_path / "bad.skel"
+    bad.write_bytes((examples / "4.2/owl/owl-pro.skel").read_bytes()[:300])
+    r = _cli(str(bad), str(tmp_path / "x.json"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "bad.skel" in r.stderr and "byte" in r.stderr and "expected" in r.stderr
+    assert not (tmp_path / "x.json").exists()
+    r = _cli(str(examples / "4.2/owl/owl-pro.skel"), str(tmp_path / "x.txt"))
+    assert r.returncode == 2 and ".json" in r.stderr
+
+
+# -- the official runtime loads what we write ---------------------------------------------
+
+RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"
+
+
+@pytest.fixture(scope="module")
+def spine_runtime(tmp_path_factory) -> Path:
+    """The official Spine runtime tool, installed once into a temporary copy (needs Node/npm)."""
+    import shutil
+    import subprocess
+
+    if not (RUNTIME / "dump.mjs").is_file() or not shutil.which("node") or not shutil.which("npm"):
+        pytest.skip("the spine-runtime tool, node or npm is absent")
+    dest = tmp_path_factory.mktemp("rt") / "spine-runtime"
+    shutil.copytree(RUNTIME, dest, ignore=shutil.ignore_patterns("node_modules"))
+    r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True,
+                       timeout=300)
+    if r.returncode:
+        pytest.skip(f"npm ci failed: {r.stderr[-300:]}")
+    return dest
+
+
+def _dump(runtime: Path, atlas: Path, skeleton: Path, out: Path, anim: str) -> dict:
+    import subprocess
+
+    r = subprocess.run(["node", "dump.mjs", str(atlas), str(skeleton), "--anim", anim, "--times", "0,0.5",
+                        "--out", str(out)], cwd=runtime, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(out.read_text())
+
+
+def _max_difference(a, b, path="") -> float:
+    if isinstance(a, dict):
+        keys = set(a) - {"input", "timing_ms", "hash"}
+        assert keys == set(b) - {"input", "timing_ms", "hash"}, path
+        return max([_max_difference(a[k], b[k], f"{path}/{k}") for k in keys] + [0.0])
+    if isinstance(a, list):
+        assert len(a) == len(b), path
+        return max([_max_difference(x, y, path) for x, y in zip(a, b)] + [0.0])
+    if isinstance(a, (int, float)) and not isinstance(a, bool):
+        return abs(a - b)
+    assert a == b, (path, a, b)
+    return 0.0
+
+
+@pytest.mark.parametrize("version,project,name,anim", [
+    ("4.0", "tank", "tank-pro", "drive"), ("4.1", "mix-and-match", "mix-and-match-pro", "walk"),
+    ("4.2", "celestial-circus", "celestial-circus-pro", "swing"), ("4.2", "spineboy", "spineboy-pro", "run"),
+])
+def test_official_runtime_poses_match(spine_runtime, examples, tmp_path, version, project, name, anim):
+    """What we write loads in the official runtime and poses like the editor's export:
+    our .skel from the editor's JSON like that JSON, our JSON from the editor's .skel like
+    that .skel (exactly: no value changes on the way)."""
+    folder = examples / version / project
+    atlas = folder / f"{project}.atlas"
+    ours_skel = tmp_path / f"{name}.skel"
+    ours_skel.write_bytes(write_skel(json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))))
+    ours_json = tmp_path / f"{name}.json"
+    ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
+    a = _dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
+    b = _dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim)
+    assert _max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
+    c = _dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim)
+    d = _dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim)
+    assert _max_difference(c, d) == 0.0

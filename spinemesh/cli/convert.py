@@ -10,7 +10,7 @@ from ..errors import SpineMeshError
 from ..fsutil import atomic_write_bytes, atomic_write_text
 from ..skeleton import dumps_skeleton, load_skeleton, spine_version
 from ..skeleton_binary import write_skel
-from ..skeleton_binary.v4 import EXTRA
+from ..skeleton_binary.v4 import EXTRA, tidy_floats
 from ._app import app, console
 
 _BINARY_SUFFIXES = (".skel", ".skel.bytes")
@@ -45,6 +45,9 @@ def convert(
     elif target.suffix.lower() == ".json":
         if not keep_binary_info:
             doc = {k: v for k, v in doc.items() if k != EXTRA}
+        if _is_binary_name(source):
+            # float32 values as their shortest decimals, not as float64 expansions.
+            doc = tidy_floats(doc)
         atomic_write_text(target, dumps_skeleton(doc))
         kind = "JSON"
     else:

@@ -28,7 +28,7 @@ import base64
 import math
 import struct
 
-from .stream import MAX_STRING_BYTES, SkelReader, SkelWriter
+from .stream import MAX_COUNT, MAX_STRING_BYTES, SkelReader, SkelWriter
 
 #: Key of the binary-only information in a document (see module docstring).
 EXTRA = "_skel"
@@ -1714,10 +1714,8 @@ def skeleton(s, doc: dict) -> dict:
             extra["timelines"] = counts
         if not s.at_end:
             raise s.fail(f"end of file, found {len(s.data) - s.pos} more bytes")
-        table = string_table(doc, L)
-        first = {x: i + 1 for i, x in reversed(list(enumerate(s.strings)))}
         refs = getattr(s, "refs", [])
-        if table != s.strings or any(k and first[s.strings[k - 1]] != k for k in refs):
+        if not _derivable(s.strings, refs):
             extra["strings"] = list(s.strings)
             extra["refs"] = list(refs)
         if extra:
@@ -1729,6 +1727,24 @@ def skeleton(s, doc: dict) -> dict:
             s.string(name)
             animation(s, anim, c, counts, name)
     return doc
+
+
+def _derivable(strings: list[str], refs: list[int]) -> bool:
+    """Whether the writer's own string table (:func:`string_table`) gives these bytes.
+
+    It does when the table has no duplicate and the references, in file order, first use
+    index 1, then 2, and so on: the writer numbers strings in the order it first writes
+    them, which is the reader's order.
+    """
+    if len(set(strings)) != len(strings):
+        return False
+    expected = 1
+    for k in refs:
+        if k == expected:
+            expected += 1
+        elif k > expected:
+            return False
+    return expected - 1 == len(strings)
 
 
 def string_table(doc: dict, L: Layout) -> list[str]:
@@ -1769,6 +1785,16 @@ def string_table(doc: dict, L: Layout) -> list[str]:
 
 
 _F32 = struct.Struct(">f")
+_STRUCTS: dict[int, tuple] = {}
+
+
+def _floats_struct(n: int) -> tuple:
+    """``(unpack_from, size)`` for ``n`` big-endian float32s, cached."""
+    got = _STRUCTS.get(n)
+    if got is None:
+        st = struct.Struct(f">{n}f")
+        got = _STRUCTS[n] = (st.unpack_from, st.size)
+    return got
 
 
 class _RefReader(SkelReader):
@@ -1863,10 +1889,8 @@ class _RefReader(SkelReader):
         Same result as :func:`curve_timeline` with values read by :func:`fields`.
         """
         buf = self.buf
-        unpack = struct.Struct(f">{1 + len(keys)}f").unpack_from
-        size = 4 * (1 + len(keys))
-        curve_unpack = struct.Struct(f">{4 * channels}f").unpack_from
-        curve_size = 16 * channels
+        unpack, size = _floats_struct(1 + len(keys))
+        curve_unpack, curve_size = _floats_struct(4 * channels)
         frames = []
         prev = None
         copysign = math.copysign
@@ -1900,6 +1924,13 @@ class _RefReader(SkelReader):
             raise self._eof("timeline frames") from None
         self.pos = pos
         return frames
+
+    def count(self, value=None, what: str = "count") -> int:
+        at = self.pos
+        n = self.varint(what=what)
+        if n < 0 or n > MAX_COUNT:
+            raise self.fail(f"{what} between 0 and {MAX_COUNT}, found {n}", at)
+        return n
 
     def varints(self, values=None, n: int = 0, what: str = "indices") -> list[int]:
         """``n`` non-negative varints (triangles, edges of 4.2 meshes)."""
@@ -2026,6 +2057,31 @@ def write(writer, doc: dict) -> None:
     w = _RefWriter(writer.path, extra.get("refs") if extra.get("strings") is not None else None)
     skeleton(w, doc)
     writer.raw(w.getvalue())
+
+
+def tidy_floats(node):
+    """A copy of a document with every float written as the shortest decimal that is still
+    the same float32 (``-188.6337890625`` becomes ``-188.63379``, ``100.0`` becomes ``100``).
+
+    For JSON text meant for people: writing the copy as ``.skel`` gives the same bytes.
+    """
+    import numpy as np
+
+    return _tidy(node, np.float32)
+
+
+def _tidy(node, f32):
+    if isinstance(node, float):
+        if node != node or node in (math.inf, -math.inf):
+            return node
+        if node.is_integer() and math.copysign(1.0, node) > 0:
+            return int(node)
+        return float(str(f32(node)))
+    if isinstance(node, dict):
+        return {k: _tidy(v, f32) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_tidy(v, f32) for v in node]
+    return node
 
 
 _TOP_ORDER = ("skeleton", "bones", "slots", "ik", "transform", "path", "physics", "skins",
