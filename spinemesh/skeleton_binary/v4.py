@@ -93,6 +93,14 @@ def _put(node: dict, key: str, v, default) -> None:
         node[key] = v
 
 
+def _to_end(node: dict, keys: tuple) -> None:
+    """Move ``keys`` (those present) to the end of ``node``, in that order: the editor's
+    JSON key order where it differs from the binary's field order."""
+    for k in keys:
+        if k in node:
+            node[k] = node.pop(k)
+
+
 def fields(s, node: dict, keys_defaults: tuple) -> None:
     """Consecutive float32 fields ``(key, default)``, read or written in one go."""
     n = len(keys_defaults)
@@ -289,6 +297,10 @@ _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1
                 ("shearX", 0), ("shearY", 0), ("length", 0))
 
 
+_BONE_ORDER = ("length", "rotation", "x", "y", "scaleX", "scaleY", "shearX", "shearY", "inherit",
+               "transform", "skin", "color", "icon", "visible")
+
+
 def bone(s, node: dict, c: Context, i: int) -> None:
     if s.reading:
         node["name"] = s.string(what="bone name")
@@ -309,6 +321,8 @@ def bone(s, node: dict, c: Context, i: int) -> None:
         if c.L.flags:
             text(s, node, "icon")
             boolean(s, node, "visible", True)
+    if s.reading:
+        _to_end(node, _BONE_ORDER)
 
 
 def bones(s, doc: dict, c: Context) -> None:
@@ -406,6 +420,14 @@ def ik(s, node: dict, c: Context) -> None:
     elif s.reading:
         node["mix"] = 0
     opt(s, node, "softness", flags & 128)
+    if s.reading:
+        _skin_after_order(node)
+
+
+def _skin_after_order(node: dict) -> None:
+    """4.2 keeps a constraint's skin flag in a flag byte after its bones; the JSON has it
+    right after the order."""
+    _to_end(node, tuple(k for k in node if k not in ("name", "order", "skin")))
 
 
 def fld_int(s, node: dict, key: str, default: int = 0) -> int:
@@ -470,6 +492,8 @@ def transform(s, node: dict, c: Context) -> None:
                 _mix_field(s, node, key, d)
             elif s.reading:
                 _put(node, key, 0, _json_default(node, key, d))
+    if s.reading:
+        _skin_after_order(node)
 
 
 def _mix_field(s, node: dict, key: str, d) -> None:
@@ -652,6 +676,9 @@ _REGION_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY",
                   ("width", 0), ("height", 0))
 
 
+_REGION_ORDER = ("x", "y", "scaleX", "scaleY", "rotation", "width", "height", "sequence")
+
+
 def attachment(s, node: dict, key: str, c: Context) -> None:
     if c.L.flags:
         attachment_42(s, node, key, c)
@@ -706,6 +733,8 @@ def attachment_42(s, node: dict, key: str, c: Context) -> None:
         sequence(s, node, flags & 64)
         opt(s, node, "rotation", flags & 128)
         fields(s, node, _REGION_FIELDS[1:])
+        if s.reading:
+            _to_end(node, _REGION_ORDER)
     elif kind == "boundingbox":
         vertices(s, node, bool(flags & 16), c)
         if c.nonessential:
@@ -805,6 +834,8 @@ def attachment_40(s, node: dict, key: str, c: Context) -> None:
         fields(s, node, _REGION_FIELDS)
         color(s, node, "color", "ffffffff")
         _sequence_40(s, node, L)
+        if s.reading:
+            _to_end(node, _REGION_ORDER)
     elif kind == "boundingbox":
         vertices(s, node, None, c)
         if c.nonessential:
