@@ -3,11 +3,13 @@
 Whatever the bytes, :func:`read_skel` either returns a document or raises
 :class:`SkelFormatError` carrying a byte offset inside the file and what was expected: no
 other exception escapes. The mutation loop has a fixed seed and a time budget
-(``SPINEMESH_FUZZ_SECONDS``, default 20 s in all), so it is repeatable and bounded.
+(``SPINEMESH_FUZZ_SECONDS``, default 20 s for the reader, a quarter of it for the writer),
+so it is repeatable and bounded. The writer is fuzzed too, with damaged JSON documents.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import time
@@ -89,3 +91,58 @@ def test_every_truncation_of_a_small_file(version):
         with pytest.raises(SkelFormatError) as e:
             read_skel(data[:cut], name)
         assert e.value.offset is not None and e.value.offset <= cut
+
+
+# -- the writer, on broken documents ------------------------------------------------------
+
+JUNK = (None, "x", -1, 1e40, [], {}, True, 3.5, 0, "ffffffff", [1, 2], {"a": 1})
+
+
+def _damage(doc, rng: random.Random) -> str:
+    """Delete or replace one value somewhere in ``doc`` (in place); returns what was done."""
+    cur, parent = doc, None
+    while isinstance(cur, (dict, list)) and cur:
+        key = rng.choice(list(cur)) if isinstance(cur, dict) else rng.randrange(len(cur))
+        parent, cur = (cur, key), cur[key]
+        if rng.random() < 0.15:
+            break
+    if parent is None:
+        return "nothing"
+    container, key = parent
+    if rng.random() < 0.35:
+        del container[key]
+        return "delete"
+    container[key] = json.loads(json.dumps(rng.choice(JUNK)))
+    return "replace"
+
+
+@pytest.mark.parametrize("version", ["4.0", "4.1", "4.2"])
+def test_broken_documents_raise_only_skel_format_error(version):
+    """Hand-edited JSON may hold anything: the writer either writes a file that reads back,
+    or raises SkelFormatError."""
+    from spinemesh.skeleton_binary import write_skel
+
+    pairs = skel_json_pairs(version)
+    if not pairs:
+        pytest.skip("../shared/spine-examples is absent")
+    docs = [(js.name, js.read_text(encoding="utf-8")) for _, js in pairs]
+    rng = random.Random(f"spinemesh-write-fuzz-{version}")
+    deadline = time.monotonic() + BUDGET_S / 12
+    tried = written = 0
+    while time.monotonic() < deadline:
+        name, text = rng.choice(docs)
+        doc = json.loads(text)
+        what = [_damage(doc, rng) for _ in range(rng.randint(1, 3))]
+        tried += 1
+        try:
+            data = write_skel(doc)
+        except SkelFormatError:
+            continue
+        except Exception as e:  # pragma: no cover
+            pytest.fail(f"{name} after {what}: write raised {type(e).__name__}: {e}")
+        written += 1
+        try:
+            read_skel(data)
+        except Exception as e:  # pragma: no cover
+            pytest.fail(f"{name} after {what}: the written file does not read: {e}")
+    assert tried >= 10 and written >= 1, (tried, written)

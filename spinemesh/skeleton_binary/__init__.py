@@ -79,7 +79,10 @@ def read_skel(source: str | Path | bytes, path: str | Path | None = None) -> dic
 
 def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
     """Encode a skeleton document as ``.skel`` bytes of the version in ``doc["skeleton"]["spine"]``."""
-    version = str(doc.get("skeleton", {}).get("spine", ""))
+    skeleton = doc.get("skeleton") if isinstance(doc, dict) else None
+    if not isinstance(skeleton, dict):
+        raise SkelFormatError("cannot write: expected a document with a 'skeleton' object", path)
+    version = str(skeleton.get("spine", ""))
     writer = SkelWriter(path)
     _codec(version).write(writer, doc)
     return writer.getvalue()

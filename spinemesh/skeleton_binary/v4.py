@@ -141,14 +141,6 @@ def boolean(s, node: dict, key: str, default: bool = False) -> bool:
     return s.bool(node.get(key, default))
 
 
-def bit(s, flags: int, mask: int, node: dict, key: str, default: bool = False) -> int:
-    """Put bit ``mask`` of ``flags`` into ``node[key]`` (reading) or into ``flags`` (writing)."""
-    if s.reading:
-        _put(node, key, bool(flags & mask), default)
-        return flags
-    return flags | mask if node.get(key, default) else flags
-
-
 def color(s, node: dict, key: str, default: str | None):
     if s.reading:
         v = s.color()
@@ -234,7 +226,7 @@ def seq(s, items: list | None, fn, *args, what: str = "count") -> list:
 
 
 def _names(items) -> tuple[list, dict]:
-    names = [x["name"] for x in items]
+    names = [x.get("name") for x in items]
     lookup = {}
     for i, n in enumerate(names):
         lookup.setdefault(n, i)
@@ -601,15 +593,19 @@ def sequence(s, node: dict, present: bool) -> None:
     fld_int(s, sq, "setup", 0)
 
 
-def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | None = "vertexCount") -> int:
+def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | None = "vertexCount",
+             n: int | None = None) -> int:
     """Vertex count, then plain ``x, y`` pairs or, when weighted, per vertex
     ``boneCount, (bone, x, y, weight) * boneCount``: the JSON's ``vertices`` layout.
 
-    ``weighted`` is ``None`` for 4.0/4.1, where a boolean before the data says it.
+    ``weighted`` is ``None`` for 4.0/4.1, where a boolean before the data says it. ``n``
+    is the vertex count when it came earlier (4.0/4.1 meshes store it before the uvs).
     Returns the vertex count.
     """
+    counted = n is not None
     if s.reading:
-        n = s.count(what="vertex count")
+        if not counted:
+            n = s.count(what="vertex count")
         if count_key:
             node[count_key] = n
         if weighted is None:
@@ -620,8 +616,9 @@ def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | 
             node["vertices"] = s.weighted(None, n, len(c.bones[0]))
         return n
     verts = node.get("vertices", [])
-    n = _vertex_count(node, count_key)
-    s.count(n)
+    if not counted:
+        n = _vertex_count(node, count_key)
+        s.count(n)
     is_weighted = len(verts) != 2 * n
     if weighted is None:
         s.bool(is_weighted)
@@ -847,14 +844,11 @@ def attachment_40(s, node: dict, key: str, c: Context) -> None:
             n = s.count(what="vertex count")
             node["uvs"] = floats(s, None, 2 * n, "uvs")
             shorts(s, node, "triangles", None, c)
-            tmp = {}
-            _vertices_after_count(s, tmp, n, c)
-            node["vertices"] = tmp["vertices"]
         else:
             n = s.count(_vertex_count(node, None))
             floats(s, node.get("uvs", []), 2 * n, "uvs")
             shorts(s, node, "triangles", None, c)
-            _vertices_after_count(s, node, n, c)
+        vertices(s, node, None, c, count_key=None, n=n)
         fld_int(s, node, "hull", None)
         _sequence_40(s, node, L)
         if c.nonessential:
@@ -885,44 +879,6 @@ def attachment_40(s, node: dict, key: str, c: Context) -> None:
         vertices(s, node, None, c)
         if c.nonessential:
             color(s, node, "color", "ce3a3aff")
-
-
-def _vertices_after_count(s, node: dict, n: int, c: Context) -> None:
-    """4.0/4.1 mesh vertices, whose count came before the uvs."""
-    tmp = _CountedReader(s, n) if s.reading else _CountedWriter(s)
-    vertices(tmp, node, None, c, count_key=None)
-
-
-class _CountedReader:
-    """A reader whose next :meth:`count` returns a count already read."""
-
-    reading = True
-
-    def __init__(self, s, n):
-        self._s, self._n = s, n
-
-    def count(self, value=None, what=""):
-        n, self._n = self._n, None
-        return self._s.count(what=what) if n is None else n
-
-    def __getattr__(self, name):
-        return getattr(self._s, name)
-
-
-class _CountedWriter:
-    reading = False
-
-    def __init__(self, s):
-        self._s, self._skip = s, True
-
-    def count(self, value, what=""):
-        if self._skip:
-            self._skip = False
-            return value
-        return self._s.count(value, what=what)
-
-    def __getattr__(self, name):
-        return getattr(self._s, name)
 
 
 def _sequence_40(s, node: dict, L: Layout) -> None:
@@ -992,16 +948,9 @@ def skin(s, node: dict, c: Context) -> None:
         text(s, node, "name")
     if c.nonessential and c.L.flags:
         color(s, node, "color", "fe9e4fff")
-    if s.reading:
-        n = s.count(what="skin bone count")
-        if n:
-            tmp = _CountedReader(s, n)
-            _bone_list(tmp, node, c)
-    else:
-        if node.get("bones"):
-            _bone_list(s, node, c)
-        else:
-            s.count(0)
+    _bone_list(s, node, c)
+    if s.reading and not node["bones"]:
+        del node["bones"]
     _constraint_names(s, node, "ik", c.ik)
     _constraint_names(s, node, "transform", c.transform)
     _constraint_names(s, node, "path", c.path)
@@ -1021,7 +970,7 @@ def skins(s, doc: dict, c: Context) -> None:
             out.append(default)
         out.extend(seq(s, None, skin, c, what="skin count"))
         return
-    items = doc.get("skins", [])
+    items = _written_skins(doc)
     default = items[0] if items and items[0].get("name") == "default" else None
     if default is None:
         s.count(0)
@@ -1029,6 +978,15 @@ def skins(s, doc: dict, c: Context) -> None:
         s.count(len(default.get("attachments", {})))
         skin_attachments(s, default, c)
     seq(s, items[1:] if default is not None else items, skin, c)
+
+
+def _written_skins(doc: dict) -> list:
+    """The skins as the binary has them: a default skin without attachments has no place
+    there (its slot count 0 means "no default skin"), and skin indices skip it."""
+    items = doc.get("skins", [])
+    if items and items[0].get("name") == "default" and not items[0].get("attachments"):
+        return items[1:]
+    return items
 
 
 # -- events ----------------------------------------------------------------------------
@@ -1713,7 +1671,7 @@ def skeleton(s, doc: dict) -> dict:
             if node["skin"] == "default":
                 del node["skin"]
     else:
-        c.skins = _names(doc.get("skins", []))
+        c.skins = _names(_written_skins(doc))
         skins(s, doc, c)
     # Events: a list in the binary, a name-keyed object in the JSON.
     if s.reading:
@@ -2084,9 +2042,17 @@ def read(reader: SkelReader) -> dict:
 
 def write(writer, doc: dict) -> None:
     """Encode a document (read from ``.skel`` or loaded from JSON) as 4.x ``.skel`` bytes."""
+    if not isinstance(doc, dict):
+        raise writer.fail(f"a skeleton document (a JSON object), got {type(doc).__name__}")
     extra = doc.get(EXTRA, {})
+    if not isinstance(extra, dict):
+        extra = {}
     w = _RefWriter(writer.path, extra.get("refs") if extra.get("strings") is not None else None)
-    skeleton(w, doc)
+    try:
+        skeleton(w, doc)
+    except (AttributeError, TypeError, ValueError, KeyError, IndexError, OverflowError, struct.error) as e:
+        # A document whose values have the wrong types (e.g. a hand-edited JSON).
+        raise w.fail(f"a well-formed 4.x skeleton document ({type(e).__name__}: {e})") from None
     writer.raw(w.getvalue())
 
 
