@@ -362,3 +362,33 @@ def test_corpus_binaries_round_trip(corpus):
         plain = {k: v for k, v in doc.items() if k != EXTRA}
         again = read_skel(write_skel(json.loads(json.dumps(plain))))
         assert not diff_documents(again, plain, abs_tol=0, rel_tol=0, ignore=[EXTRA]), path
+
+
+# -- the comparison helper itself -----------------------------------------------------------
+
+def test_compare_rounding_and_defaults():
+    a = {"bones": [{"name": "b", "x": 10.004, "scaleX": 1.0, "length": 2000.9}],
+         "transform": [{"name": "t", "mixX": 0.5, "mixY": 0.5}],
+         "skins": [{"name": "s", "bones": ["b", "c"]}]}
+    b = {"bones": [{"name": "b", "x": 10, "length": 2001.9}],          # rel 5e-4 on length
+         "transform": [{"name": "t", "mixX": 0.5}],                     # mixY defaults to mixX
+         "skins": [{"name": "s", "bones": ["c", "b"]}]}                 # a skin's bones are a set
+    assert diff_documents(a, b) == []
+    b["bones"][0]["x"] = 10.02
+    b["transform"][0]["mixY"] = 0.4
+    assert {d.path for d in diff_documents(a, b)} == {"bones/0/x", "transform/0/mixY"}
+    assert [d.path for d in diff_documents(a, b, ignore=["bones/*/x"])] == ["transform/0/mixY"]
+
+
+def test_compare_keyframe_defaults():
+    anim = {"attachments": {"default": {"s": {"a": {
+        "deform": [{"offset": 2, "vertices": [1.0, 0.004]}],
+        "sequence": [{"delay": 0.1}, {"time": 1}]}}}},
+        "events": [{"name": "e", "int": 3}]}
+    left = {"events": {"e": {"int": 3}}, "animations": {"x": anim}}
+    right = json.loads(json.dumps(left))
+    frame = right["animations"]["x"]["attachments"]["default"]["s"]["a"]
+    frame["deform"][0] = {"vertices": [0, 0, 1.0]}   # same offsets, spelt differently
+    frame["sequence"][1]["delay"] = 0.1              # the previous key's delay is the default
+    del right["animations"]["x"]["events"][0]["int"]  # an event key's int defaults to its event's
+    assert diff_documents(left, right) == []

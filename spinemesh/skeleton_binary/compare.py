@@ -129,7 +129,8 @@ _KEYFRAMES = {
     # A sequence key's delay defaults to the previous key's (SkeletonJson's lastDelay).
     "sequence": {"mode": "hold", "index": 0, "delay": lambda node, name, prev=None: (prev or {}).get("delay", 0)},
     "drawOrder": {"offsets": []},
-    "events": {"int": None, "float": None, "string": None, "volume": None, "balance": None},
+    # An event key's values default to its event's: see default_for.
+    "events": {},
 }
 
 
@@ -183,10 +184,11 @@ _TABLES = {"skeleton": _SKELETON, "bones": _BONE, "slots": _SLOT, "ik": _IK,
            "event": _EVENT, "sequence": _SEQUENCE}
 
 
-def default_for(path: tuple, node: dict, key: str, prev: dict | None = None) -> Any:
+def default_for(path: tuple, node: dict, key: str, prev: dict | None = None, root: dict | None = None) -> Any:
     """The value ``key`` takes in the dict ``node`` at ``path`` when the key is absent.
 
-    ``prev`` is the previous keyframe, for defaults that carry over from it.
+    ``prev`` is the previous keyframe, for defaults that carry over from it; ``root`` the
+    whole document, for event keys whose values default to their event's.
 
     Returns a private sentinel when the key has no default there (it is required).
     """
@@ -195,6 +197,10 @@ def default_for(path: tuple, node: dict, key: str, prev: dict | None = None) -> 
     if context == "attachment":
         table = _ATTACHMENT.get(node.get("type", "region"), {})
         value = table.get(key, _ATTACHMENT_COMMON.get(key, _MISSING))
+    elif context == "key" and sub == "events" and key in _EVENT:
+        events = root.get("events", {}) if isinstance(root, dict) else {}
+        data = events.get(node.get("name"), {}) if isinstance(events, dict) else {}
+        value = data.get(key, _EVENT[key]) if isinstance(data, dict) else _EVENT[key]
     elif context == "key":
         table = _KEYFRAMES.get(sub or "", {})
         value = table.get(key, _KEY.get(key, _MISSING))
@@ -276,9 +282,9 @@ def diff_documents(left: Any, right: Any, *, abs_tol: float = ABS_TOL, rel_tol: 
                 va = a.get(key, _MISSING)
                 vb = b.get(key, _MISSING)
                 if va is _MISSING:
-                    va = default_for(path, a, key, prev_a)
+                    va = default_for(path, a, key, prev_a, left)
                 if vb is _MISSING:
-                    vb = default_for(path, b, key, prev_b)
+                    vb = default_for(path, b, key, prev_b, right)
                 if va is _MISSING or vb is _MISSING:
                     out.append(Difference("/".join(map(str, sub)),
                                           "<missing>" if va is _MISSING else va,
