@@ -101,12 +101,20 @@ def _to_end(node: dict, keys: tuple) -> None:
             node[k] = node.pop(k)
 
 
-def fields(s, node: dict, keys_defaults: tuple) -> None:
-    """Consecutive float32 fields ``(key, default)``, read or written in one go."""
+def fields(s, node: dict, keys_defaults: tuple, order: tuple | None = None) -> None:
+    """Consecutive float32 fields ``(key, default)``, read or written in one go.
+
+    ``order``, indices into ``keys_defaults``, is the order in which a read puts them into
+    ``node`` when the editor's JSON orders them differently from the binary.
+    """
     n = len(keys_defaults)
     if s.reading:
-        for (key, d), v in zip(keys_defaults, floats(s, None, n, "floats")):
-            _put(node, key, v, d)
+        values = s.f32s(n)
+        for i in order or range(n):
+            key, d = keys_defaults[i]
+            v = values[i]
+            if v != d or (v == 0 and math.copysign(1.0, v) < 0):
+                node[key] = v
     else:
         floats(s, [node.get(key, d) for key, d in keys_defaults], n, ", ".join(k for k, _ in keys_defaults))
 
@@ -289,10 +297,6 @@ _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1
                 ("shearX", 0), ("shearY", 0), ("length", 0))
 
 
-_BONE_ORDER = ("length", "rotation", "x", "y", "scaleX", "scaleY", "shearX", "shearY", "inherit",
-               "transform", "skin", "color", "icon", "visible")
-
-
 def bone(s, node: dict, c: Context, i: int) -> None:
     if s.reading:
         node["name"] = s.string(what="bone name")
@@ -305,7 +309,7 @@ def bone(s, node: dict, c: Context, i: int) -> None:
         s.string(node.get("name"))
         if i > 0:
             index(s, node, "parent", *c.bones, "bone")
-    fields(s, node, _BONE_FIELDS)
+    fields(s, node, _BONE_FIELDS, order=(7, 0, 1, 2, 3, 4, 5, 6))  # the JSON has length first
     enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
     boolean(s, node, "skin")
     if c.nonessential:
@@ -313,8 +317,6 @@ def bone(s, node: dict, c: Context, i: int) -> None:
         if c.L.flags:
             text(s, node, "icon")
             boolean(s, node, "visible", True)
-    if s.reading:
-        _to_end(node, _BONE_ORDER)
 
 
 def bones(s, doc: dict, c: Context) -> None:
@@ -673,7 +675,6 @@ _REGION_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY",
                   ("width", 0), ("height", 0))
 
 
-_REGION_ORDER = ("x", "y", "scaleX", "scaleY", "rotation", "width", "height", "sequence")
 
 
 def attachment(s, node: dict, key: str, c: Context) -> None:
@@ -731,7 +732,7 @@ def attachment_42(s, node: dict, key: str, c: Context) -> None:
         opt(s, node, "rotation", flags & 128)
         fields(s, node, _REGION_FIELDS[1:])
         if s.reading:
-            _to_end(node, _REGION_ORDER)
+            _to_end(node, ("rotation", "width", "height", "sequence"))
     elif kind == "boundingbox":
         vertices(s, node, bool(flags & 16), c)
         if c.nonessential:
@@ -789,6 +790,8 @@ def attachment_42(s, node: dict, key: str, c: Context) -> None:
         node_lengths(s, node, n)
         if c.nonessential:
             color(s, node, "color", "ff7f00ff")
+        if s.reading:
+            _to_end(node, ("vertexCount", "vertices", "color"))  # the JSON has lengths first
     elif kind == "point":
         point(s, node, c)
     elif kind == "clipping":
@@ -828,11 +831,12 @@ def attachment_40(s, node: dict, key: str, c: Context) -> None:
     kind = ATTACHMENT_TYPES[t]
     if kind == "region":
         ref(s, node, "path")
-        fields(s, node, _REGION_FIELDS)
+        fields(s, node, _REGION_FIELDS, order=(1, 2, 3, 4, 0, 5, 6))
         color(s, node, "color", "ffffffff")
         _sequence_40(s, node, L)
         if s.reading:
-            _to_end(node, _REGION_ORDER)
+            # The JSON has the colour before the geometry.
+            _to_end(node, ("x", "y", "scaleX", "scaleY", "rotation", "width", "height", "sequence"))
     elif kind == "boundingbox":
         vertices(s, node, None, c)
         if c.nonessential:
@@ -1776,6 +1780,7 @@ def string_table(doc: dict, L: Layout) -> list[str]:
 
 
 _F32 = struct.Struct(">f")
+_I32 = struct.Struct(">i")
 _STRUCTS: dict[int, tuple] = {}
 _FRAME_STRUCTS: dict[tuple, struct.Struct] = {}
 
@@ -1804,6 +1809,7 @@ class _RefReader(SkelReader):
     def __init__(self, data, path=None):
         super().__init__(data, path)
         self.buf = bytes(self.data)
+        self.end = len(self.buf)
         self.refs: list[int] = []
 
     def _eof(self, what: str):
@@ -1824,7 +1830,7 @@ class _RefReader(SkelReader):
     def raw(self, value=None, n: int = 0, what: str = "bytes") -> bytes:
         pos = self.pos
         end = pos + n
-        if end > len(self.buf) or n < 0:
+        if end > self.end or n < 0:
             raise self._eof(f"{what} ({n} bytes)")
         self.pos = end
         return self.buf[pos:end]
@@ -1832,8 +1838,25 @@ class _RefReader(SkelReader):
     def color(self, value=None, what: str = "colour") -> str:
         return self.raw(n=4, what=what).hex()
 
+    def i32(self, value=None, what: str = "int") -> int:
+        pos = self.pos
+        if pos + 4 > self.end:
+            raise self._eof(what)
+        self.pos = pos + 4
+        return _I32.unpack_from(self.buf, pos)[0]
+
     def string(self, value=None, what: str = "string") -> str | None:
-        at = self.pos
+        at = pos = self.pos
+        if pos < self.end and 1 < self.buf[pos] < 0x80:
+            # The common case: a short string, its length in one byte.
+            end = pos + self.buf[pos]
+            if end <= self.end:
+                try:
+                    text = self.buf[pos + 1:end].decode("utf-8")
+                except UnicodeDecodeError as e:
+                    raise self.fail(f"UTF-8 {what}: {e.reason}", at) from None
+                self.pos = end
+                return text
         n = self.varint(what=f"{what} length")
         if n == 0:
             return None
@@ -1891,6 +1914,9 @@ class _RefReader(SkelReader):
                 ">f" + "".join("f" if kind == "f" else f"{kind}s" for _, kind, _ in layout))
         unpack, size = st.unpack_from, st.size
         curve_unpack, curve_size = _floats_struct(4 * channels)
+        # One float value (rotate, translatex, ...): the most common timelines.
+        single = len(layout) == 1 and layout[0][1] == "f"
+        key0, _, d0 = layout[0]
         frames = []
         prev = None
         copysign = math.copysign
@@ -1903,11 +1929,16 @@ class _RefReader(SkelReader):
                 t = vals[0]
                 if t != 0 or copysign(1.0, t) < 0:
                     f["time"] = t
-                for (key, kind, d), v in zip(layout, vals[1:]):
-                    if kind != "f":
-                        f[key] = v.hex()
-                    elif v != d or (v == 0 and copysign(1.0, v) < 0):
-                        f[key] = v
+                if single:
+                    v = vals[1]
+                    if v != d0 or (v == 0 and copysign(1.0, v) < 0):
+                        f[key0] = v
+                else:
+                    for (key, kind, d), v in zip(layout, vals[1:]):
+                        if kind != "f":
+                            f[key] = v.hex()
+                        elif v != d or (v == 0 and copysign(1.0, v) < 0):
+                            f[key] = v
                 if prev is not None:
                     kind = buf[pos]
                     pos += 1
@@ -1937,7 +1968,7 @@ class _RefReader(SkelReader):
     def f32s(self, n: int, what: str = "floats") -> list[float]:
         """``n`` float32s as a list (bulk arrays and runs of fields)."""
         pos = self.pos
-        if n < 0 or pos + 4 * n > len(self.buf):
+        if n < 0 or pos + 4 * n > self.end:
             raise self._eof(f"{what} ({n} floats)")
         unpack, size = _floats_struct(n)
         self.pos = pos + size
@@ -1972,24 +2003,35 @@ class _RefReader(SkelReader):
 
     def weighted(self, values=None, n: int = 0, nbones: int = 0) -> list:
         """``n`` weighted vertices as the JSON's flat ``[count, (bone, x, y, weight)*]``."""
-        buf = self.buf
+        buf, pos = self.buf, self.pos
         out = []
         append, extend = out.append, out.extend
         unpack = _XYW.unpack_from
-        for _ in range(n):
-            k = self.count(what="bones per vertex")
-            append(k)
-            for _ in range(k):
-                at = self.pos
-                b = self.varint()
-                if not 0 <= b < nbones:
-                    raise self.fail(f"bone index below {nbones}, found {b}", at)
-                append(b)
-                try:
-                    extend(unpack(buf, self.pos))
-                except struct.error:
-                    raise self._eof("weighted vertex") from None
-                self.pos += 12
+        try:
+            for _ in range(n):
+                k = buf[pos]
+                pos += 1
+                if k >= 0x80:  # over 127 bones on one vertex: the long varint path
+                    self.pos = pos - 1
+                    k = self.count(what="bones per vertex")
+                    pos = self.pos
+                append(k)
+                for _ in range(k):
+                    b = buf[pos]
+                    pos += 1
+                    if b >= 0x80:
+                        self.pos = pos - 1
+                        b = self.varint()
+                        pos = self.pos
+                    if not 0 <= b < nbones:
+                        raise self.fail(f"bone index below {nbones}, found {b}", pos - 1)
+                    append(b)
+                    extend(unpack(buf, pos))
+                    pos += 12
+        except (IndexError, struct.error):
+            self.pos = pos
+            raise self._eof("weighted vertices") from None
+        self.pos = pos
         return out
 
     def string_ref(self, value=None, what: str = "string reference"):
