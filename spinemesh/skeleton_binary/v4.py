@@ -2035,12 +2035,16 @@ class _RefReader(SkelReader):
         return out
 
     def string_ref(self, value=None, what: str = "string reference"):
-        at = self.pos
-        i = self.varint(what=what)
+        at = pos = self.pos
+        if pos < self.end and self.buf[pos] < 0x80:
+            i = self.buf[pos]
+            self.pos = pos + 1
+        else:
+            i = self.varint(what=what)
         self.refs.append(i)
         if i == 0:
             return None
-        if not 0 < i <= len(self.strings):
+        if i < 0 or i > len(self.strings):
             raise self.fail(f"{what} into a table of {len(self.strings)} strings, found {i}", at)
         return self.strings[i - 1]
 
