@@ -1,0 +1,326 @@
+"""One project in, its unique attachment images out (runs in worker processes).
+
+A *project* is a folder that holds a Spine project: the first folder, walking down from
+a corpus argument, that directly holds a skeleton, an atlas or a ``.source.json``. Its
+*game* decides the train/validation split: the ``repo`` of its ``.source.json`` (so that
+all projects taken from one game repository land on the same side), else the project
+folder's own name (so ``spine-examples/3.8/spineboy`` and ``4.2/spineboy`` are one game).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..atlas import Atlas, read_atlas
+from ..errors import SpineMeshError
+from ..images import AtlasImages, FolderImages
+from ..project import ATLAS_SUFFIXES, find_project, image_source_for, is_skeleton_file, needed_images
+from ..skeleton import (AttachmentRef, image_paths, is_binary_skeleton, iter_attachments,
+                        iter_skins, load_skeleton, spine_version)
+from .format import VAL_FRACTION, encode_mesh, encode_png, mask_of
+
+SOURCE_FILE = ".source.json"
+
+
+def find_projects(corpus: str | Path) -> list[Path]:
+    """Project folders under ``corpus`` (see the module notes), sorted; hidden folders skipped."""
+    corpus = Path(corpus)
+    if not corpus.is_dir():
+        raise SpineMeshError("corpus folder not found", corpus)
+    out: list[Path] = []
+
+    def walk(folder: Path) -> None:
+        entries = sorted(folder.iterdir())
+        files = [p for p in entries if p.is_file()]
+        if any(p.name == SOURCE_FILE or p.name.lower().endswith(ATLAS_SUFFIXES) or is_skeleton_file(p)
+               for p in files):
+            out.append(folder)
+            return
+        for p in entries:
+            if p.is_dir() and not p.name.startswith("."):
+                walk(p)
+
+    walk(corpus)
+    return out
+
+
+def game_of(project: Path) -> str:
+    """The game a project belongs to: its source repository, else its folder name."""
+    source = project / SOURCE_FILE
+    if source.is_file():
+        try:
+            repo = json.loads(source.read_text("utf-8")).get("repo")
+            if isinstance(repo, str) and repo:
+                return repo
+        except (OSError, ValueError):
+            pass
+    return project.name
+
+
+def split_of(game: str, val_fraction: float = VAL_FRACTION) -> str:
+    """``"val"`` for a fixed ~10 % of games, by a hash of the game name, else ``"train"``.
+
+    A hash rather than a draw over the games seen: the answer never changes when the
+    corpus grows or a run is resumed, and no game can be on both sides.
+    """
+    h = int.from_bytes(hashlib.blake2b(game.encode("utf-8"), digest_size=8).digest(), "big")
+    return "val" if h / 2.0**64 < val_fraction else "train"
+
+
+def content_id(rgba: np.ndarray) -> str:
+    """128-bit hash of an image's size and pixels, as 32 hex digits."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(np.asarray(rgba.shape, np.int64).tobytes())
+    h.update(np.ascontiguousarray(rgba).tobytes())
+    return h.hexdigest()
+
+
+def mesh_pixels(att: dict, width: int, height: int) -> dict:
+    """An artist mesh in image pixels.
+
+    Parameters
+    ----------
+    att : dict
+        A mesh attachment of the skeleton document (``uvs``, ``triangles``, ``hull``,
+        ``edges``). UVs run over the original image, u right and v down, so they give pixel
+        positions whether the skeleton vertices are weighted or not.
+    width, height : int
+        The image size in pixels.
+
+    Returns
+    -------
+    dict
+        ``vertices`` (N, 2) float32, ``triangles`` (T, 3) int32, ``hull`` (H,) int32 (the
+        first ``hull`` vertices, Spine's outline), ``edges`` (E, 2) int32 vertex pairs
+        (Spine writes edges as float-array indices, i.e. twice the vertex index).
+    """
+    uvs = np.asarray(att.get("uvs", []), np.float64).reshape(-1, 2)
+    vertices = (uvs * (width, height)).astype(np.float32)
+    triangles = np.asarray(att.get("triangles", []), np.int32).reshape(-1, 3)
+    hull = np.arange(min(int(att.get("hull", 0) or 0), len(vertices)), dtype=np.int32)
+    edges = (np.asarray(att.get("edges", []) or [], np.int32) // 2).reshape(-1, 2)
+    n = len(vertices)
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= n):
+        raise ValueError(f"triangle index out of range for {n} vertices")
+    return {"vertices": vertices, "triangles": triangles, "hull": hull, "edges": edges}
+
+
+@dataclass
+class Sample:
+    """One unique image of a project, encoded, with its index row (no shard fields yet)."""
+
+    row: dict
+    image: bytes
+    mask: bytes
+    mesh: bytes | None
+
+
+@dataclass
+class ProjectResult:
+    """What one project yielded: samples, and what was skipped and why."""
+
+    project: str
+    game: str
+    samples: list[Sample] = field(default_factory=list)
+    skipped: dict[str, int] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+    skeletons: int = 0
+
+    def skip(self, reason: str, n: int = 1) -> None:
+        self.skipped[reason] = self.skipped.get(reason, 0) + n
+
+    def error(self, message: str) -> None:
+        """Record a problem once, however many images it touches."""
+        if message not in self.errors:
+            self.errors.append(message)
+
+
+@dataclass
+class _Want:
+    """An image some attachment draws; a mesh wins over a region for the same image."""
+
+    kind: str          # "atlas" or "folder"
+    where: Path        # atlas file or images folder
+    order: tuple       # (page, name) for atlases: cut page by page
+    name: str
+    attachment: str    # region, mesh or linkedmesh
+    mesh: dict | None
+    skeleton: str
+    version: str
+
+
+def _linked_parent(doc: dict, ref: AttachmentRef) -> dict | None:
+    """The mesh a linked mesh takes its geometry from (same slot, ``skin`` or the default)."""
+    parent, skin = ref.attachment.get("parent"), ref.attachment.get("skin") or "default"
+    for name, slots in iter_skins(doc):
+        if name == skin:
+            att = (slots.get(ref.slot) or {}).get(parent)
+            if isinstance(att, dict) and att.get("type", "region") == "mesh":
+                return att
+    return None
+
+
+def _skeletons_to_read(skeletons: list[Path]) -> list[Path]:
+    """JSON first, so a ``.skel`` beside a ``.json`` of the same name can be left out.
+
+    The examples export both from one project state; reading both would only find the
+    same images twice.
+    """
+    def key(p: Path):
+        return (is_binary_skeleton(p), str(p))
+    return sorted(skeletons, key=key)
+
+
+def extract_project(folder: str | Path, name: str, min_side: int = 1) -> ProjectResult:
+    """Extract every unique attachment image of one project.
+
+    Parameters
+    ----------
+    folder : path
+        The project folder.
+    name : str
+        How the project is called in the index (e.g. ``spine-examples/4.2/spineboy``).
+    min_side : int
+        Images smaller than this in width or height are skipped (1: keep all non-empty).
+
+    Returns
+    -------
+    ProjectResult
+        Never raises for bad input: a broken skeleton, atlas or image is recorded in
+        ``errors`` / ``skipped`` and the rest of the project goes on.
+    """
+    folder = Path(folder)
+    result = ProjectResult(project=name, game=game_of(folder))
+    try:
+        _extract(folder, result, min_side)
+    except Exception as e:  # a bug or an unforeseen input must not stop the other projects
+        result.samples.clear()
+        last = traceback.extract_tb(e.__traceback__)[-1]
+        result.errors.append(f"{folder}: internal error {type(e).__name__}: {e} "
+                             f"({Path(last.filename).name}:{last.lineno})")
+    return result
+
+
+def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
+    project = find_project(folder)
+    atlases: dict[Path, Atlas] = {}
+    for p in project.atlases:
+        try:
+            atlas = read_atlas(p)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        # An atlas whose page images are absent is reported once here, rather than once
+        # per region, and left out so that another atlas or an images folder can serve.
+        missing = [pg.name for pg in atlas.pages if not (p.parent / pg.name).is_file()]
+        if missing:
+            result.errors.append(f"{p}: page image {missing[0]!r} not found; atlas not used")
+            continue
+        atlases[p] = atlas
+    project.atlases = list(atlases)
+
+    wants: dict[tuple, _Want] = {}
+    loaded_stems: set[Path] = set()
+    for skel in _skeletons_to_read(project.skeletons):
+        stem = skel.parent / skel.name.split(".")[0]
+        if is_binary_skeleton(skel) and stem in loaded_stems:
+            continue
+        try:
+            doc = load_skeleton(skel)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        loaded_stems.add(stem)
+        result.skeletons += 1
+        _collect(doc, skel, project, atlases, wants, result)
+
+    seen: set[str] = set()
+    ordered = sorted(wants.values(), key=lambda w: (w.kind, str(w.where), w.order))
+    source, source_at = None, None
+    for w in ordered:
+        if source_at != (w.kind, w.where):
+            # One source at a time, so only its page cache (two pages) is in memory.
+            source = (AtlasImages([atlases[w.where]], root=project.root) if w.kind == "atlas"
+                      else FolderImages(w.where))
+            source_at = (w.kind, w.where)
+        try:
+            image = source.get(w.name)
+        except SpineMeshError as e:
+            result.skip("image unreadable")
+            result.error(str(e))
+            continue
+        rgba, scale = image.rgba, float(image.scale)
+        h, wd = rgba.shape[:2]
+        if h < min_side or wd < min_side:
+            result.skip("empty image")
+            continue
+        cid = content_id(rgba)
+        if cid in seen:
+            result.skip("same image in this project")
+            continue
+        mesh = None
+        if w.mesh is not None:
+            try:
+                mesh = mesh_pixels(w.mesh, wd, h)
+            except (ValueError, TypeError) as e:
+                result.skip("mesh unreadable (kept as region)")
+                result.error(f"{w.skeleton}: mesh for {w.name!r}: {e}")
+        seen.add(cid)
+        kind = "mesh" if mesh is not None else "region"
+        row = {"id": cid, "project": result.project, "game": result.game, "version": w.version,
+               "split": split_of(result.game), "type": kind, "attachment": w.attachment,
+               "name": w.name, "skeleton": w.skeleton, "width": int(wd), "height": int(h),
+               "scale": scale, "n_vertices": int(len(mesh["vertices"])) if mesh else 0,
+               "n_triangles": int(len(mesh["triangles"])) if mesh else 0}
+        result.samples.append(Sample(row, encode_png(rgba), encode_png(mask_of(rgba)),
+                                     encode_mesh(mesh) if mesh else None))
+
+
+def _collect(doc: dict, skel: Path, project, atlases: dict, wants: dict, result: ProjectResult) -> None:
+    """Add the images one skeleton draws to ``wants``, located in one atlas or folder."""
+    rel = skel.relative_to(project.root).as_posix()
+    version = spine_version(doc)
+    try:
+        source = image_source_for(doc, skel, project, atlases=atlases)
+    except SpineMeshError as e:
+        result.errors.append(str(e))
+        return
+    if source is None:
+        if not needed_images(doc):
+            return  # a skeleton without image attachments (only clipping, paths, ...)
+        result.errors.append(f"{skel}: no atlas or images folder holds this skeleton's images")
+        return
+    for ref in iter_attachments(doc):
+        mesh = None
+        if ref.type == "mesh":
+            mesh = ref.attachment
+        elif ref.type == "linkedmesh":
+            mesh = _linked_parent(doc, ref)
+        for path in image_paths(ref):
+            where = _locate(source, path)
+            if where is None:
+                result.skip("image not found")
+                continue
+            key = (where[0], where[1], path)
+            old = wants.get(key)
+            if old is None or (old.mesh is None and mesh is not None):
+                wants[key] = _Want(where[0], where[1], where[2], path, ref.type, mesh, rel, version)
+
+
+def _locate(source, name: str) -> tuple[str, Path, tuple] | None:
+    """Which atlas (and page) or folder serves ``name``, or None when it is missing."""
+    if isinstance(source, AtlasImages):
+        for atlas in source.atlases:
+            region = atlas.find(name)
+            if region is not None:
+                return "atlas", atlas.path, (region.page, name)
+        return None
+    if name in source:
+        return "folder", source.folder, (0, name)
+    return None

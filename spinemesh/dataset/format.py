@@ -1,0 +1,241 @@
+"""The data set on disk: tar shards of PNGs and one JSONL index, read by :func:`open_dataset`.
+
+Layout of a data set folder ``DS``::
+
+    DS/meta.json         format name and version, mask threshold, validation fraction
+    DS/index.jsonl       one JSON object per sample (a "row"), see below
+    DS/projects.jsonl    one JSON object per processed project: name, game, counts, errors
+    DS/shards/*.tar      plain (uncompressed) tar files holding, per sample ``<id>``:
+                           <id>.png       the RGBA image at original size
+                           <id>.mask.png  its mask (alpha > 128), 1-bit PNG
+                           <id>.mesh.npz  artist mesh, for mesh samples only (numpy .npz)
+
+A row holds ``id`` (128-bit content hash of the image, hex), ``project``, ``game``,
+``version`` (Spine editor version), ``split`` (``"train"`` or ``"val"``), ``type``
+(``"region"`` or ``"mesh"``), ``attachment`` (the skeleton's own type: region, mesh or
+linkedmesh), ``name`` (image path), ``skeleton`` (file, relative to the project), ``width``,
+``height`` (pixels), ``scale`` (atlas page scale: image pixels per skeleton unit),
+``n_vertices``, ``n_triangles`` (0 for regions), ``shard`` (path relative to ``DS``) and
+``image``, ``mask``, ``mesh``: ``[byte offset, byte size]`` of that member's data inside the
+shard (``mesh`` is ``null`` for regions). So any sample is one ``pread`` away, and the
+index can be streamed line by line; nothing needs to be unpacked.
+
+The mesh ``.npz`` holds ``vertices`` (N, 2) float32 pixel positions (UV times image size, x
+right, y down), ``triangles`` (T, 3) int32 vertex indices, ``hull`` (H,) int32 indices of
+the outline vertices in order (Spine puts them first), ``edges`` (E, 2) int32 vertex-index
+pairs of the artist's extra edges (may be empty).
+
+Crash safety: a shard is written to a temporary file and renamed into place before any
+row points into it; rows and project lines are appended with one write each and synced.
+A run killed mid-append leaves at most one torn last line, which readers ignore and the
+next run cuts off before appending (:func:`repair_tail`).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tarfile
+from collections import OrderedDict
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+from PIL import Image
+
+from ..errors import SpineMeshError
+
+FORMAT = "spinemesh-dataset"
+FORMAT_VERSION = 1
+#: Mask threshold of the paper (sec. 3, "Alpha Channel Path": tau_alpha = 128).
+MASK_ALPHA_THRESHOLD = 128
+#: Share of games held out for validation (paper sec. 4, "Dataset Statistics": 90/10).
+VAL_FRACTION = 0.10
+
+INDEX = "index.jsonl"
+PROJECTS = "projects.jsonl"
+META = "meta.json"
+SHARDS = "shards"
+
+
+def mask_of(rgba: np.ndarray) -> np.ndarray:
+    """The paper's binary mask: alpha > 128 (sec. 3). (H, W, 4) uint8 -> (H, W) bool."""
+    return rgba[..., 3] > MASK_ALPHA_THRESHOLD
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    """PNG bytes of an (H, W, 4) uint8 or (H, W) bool array.
+
+    Compression level 1: about as small as level 6 for sprites (mostly flat alpha) and
+    several times faster to write.
+    """
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="PNG", compress_level=1)
+    return buf.getvalue()
+
+
+def encode_mesh(mesh: dict) -> bytes:
+    """``.npz`` bytes of a mesh dict (vertices, triangles, hull, edges)."""
+    buf = io.BytesIO()
+    np.savez(buf, **mesh)
+    return buf.getvalue()
+
+
+def read_jsonl(path: Path) -> Iterator[dict]:
+    """Rows of a JSONL file, streamed; a torn last line (killed writer) is skipped."""
+    if not path.is_file():
+        return
+    with open(path, "rb") as f:
+        for line in f:
+            if not line.endswith(b"\n"):
+                break
+            yield json.loads(line)
+
+
+def repair_tail(path: Path) -> None:
+    """Cut a torn last line off a JSONL file so that appends start on a fresh line."""
+    if not path.is_file():
+        return
+    with open(path, "rb+") as f:
+        size = f.seek(0, os.SEEK_END)
+        if size == 0:
+            return
+        f.seek(size - 1)
+        if f.read(1) == b"\n":
+            return
+        # Walk back to the last newline; JSONL rows are short, so this reads little.
+        pos = size
+        while pos > 0:
+            step = min(65536, pos)
+            f.seek(pos - step)
+            chunk = f.read(step)
+            nl = chunk.rfind(b"\n")
+            if nl >= 0:
+                f.truncate(pos - step + nl + 1)
+                return
+            pos -= step
+        f.truncate(0)
+
+
+def append_jsonl(path: Path, rows: list[dict]) -> None:
+    """Append rows with one write and an fsync (see the module notes on crash safety)."""
+    if not rows:
+        return
+    data = "".join(json.dumps(r, ensure_ascii=False, separators=(",", ":")) + "\n" for r in rows)
+    with open(path, "ab") as f:
+        f.write(data.encode("utf-8"))
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def write_shard(path: Path, members: list[tuple[str, bytes]]) -> dict[str, tuple[int, int]]:
+    """Write a tar shard atomically and return ``{member name: (data offset, size)}``.
+
+    The offsets are read back from the finished tar, so they are what a reader will find.
+    """
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tarfile.open(tmp, "w", format=tarfile.USTAR_FORMAT) as tar:
+        for name, data in members:
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            info.mode = 0o644
+            tar.addfile(info, io.BytesIO(data))
+    with tarfile.open(tmp, "r") as tar:
+        offsets = {m.name: (m.offset_data, m.size) for m in tar.getmembers()}
+    with open(tmp, "rb+") as f:
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+    return offsets
+
+
+class Dataset:
+    """A data set folder written by :func:`spinemesh.dataset.build_dataset`.
+
+    Opening reads only ``meta.json``; :meth:`rows` streams the index, and the ``load_*``
+    methods read one member straight from its shard (a few open files are cached, so the
+    object can be used from one process or thread at a time; open one per worker).
+    """
+
+    def __init__(self, root: str | Path, max_open: int = 16):
+        self.root = Path(root)
+        meta_path = self.root / META
+        if not meta_path.is_file():
+            raise SpineMeshError("not a spinemesh data set (no meta.json)", self.root)
+        try:
+            self.meta = json.loads(meta_path.read_text("utf-8"))
+        except (OSError, ValueError) as e:
+            raise SpineMeshError(f"unreadable meta.json: {e}", meta_path) from None
+        if self.meta.get("format") != FORMAT or self.meta.get("version") != FORMAT_VERSION:
+            raise SpineMeshError(f"unsupported data set format {self.meta.get('format')!r} "
+                                 f"version {self.meta.get('version')!r}", meta_path)
+        self._files: OrderedDict[str, int] = OrderedDict()
+        self._max_open = max_open
+
+    def rows(self, split: str | None = None) -> Iterator[dict]:
+        """Index rows in write order; ``split`` None (all), ``"train"`` or ``"val"``."""
+        if split not in (None, "train", "val"):
+            raise ValueError(f"split must be None, 'train' or 'val', not {split!r}")
+        for row in read_jsonl(self.root / INDEX):
+            if split is None or row["split"] == split:
+                yield row
+
+    def projects(self) -> Iterator[dict]:
+        """One row per processed project: name, game, counts, errors."""
+        return read_jsonl(self.root / PROJECTS)
+
+    def _read(self, row: dict, member: str) -> bytes:
+        shard = row["shard"]
+        fd = self._files.get(shard)
+        if fd is None:
+            fd = os.open(self.root / shard, os.O_RDONLY)
+            self._files[shard] = fd
+            while len(self._files) > self._max_open:
+                os.close(self._files.popitem(last=False)[1])
+        else:
+            self._files.move_to_end(shard)
+        offset, size = row[member]
+        data = os.pread(fd, size, offset)
+        if len(data) != size:
+            raise SpineMeshError(f"shard is shorter than the index says (sample {row['id']})",
+                                 self.root / shard, offset=offset)
+        return data
+
+    def load_image(self, row: dict) -> np.ndarray:
+        """The sample's RGBA image, (H, W, 4) uint8, straight alpha."""
+        with Image.open(io.BytesIO(self._read(row, "image"))) as im:
+            return np.asarray(im.convert("RGBA"))
+
+    def load_mask(self, row: dict) -> np.ndarray:
+        """The sample's mask (alpha > 128), (H, W) bool."""
+        with Image.open(io.BytesIO(self._read(row, "mask"))) as im:
+            return np.asarray(im.convert("1"), dtype=bool)
+
+    def load_mesh(self, row: dict) -> dict | None:
+        """The artist mesh in pixels (see the module notes), or None for region samples."""
+        if not row.get("mesh"):
+            return None
+        with np.load(io.BytesIO(self._read(row, "mesh"))) as z:
+            return {k: z[k] for k in z.files}
+
+    def close(self) -> None:
+        for fd in self._files.values():
+            os.close(fd)
+        self._files.clear()
+
+    def __enter__(self) -> "Dataset":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+def open_dataset(path: str | Path) -> Dataset:
+    """Open a data set folder; cheap (reads ``meta.json`` only). See :class:`Dataset`."""
+    return Dataset(path)

@@ -1,0 +1,97 @@
+"""Counts and the paper's four dataset plots (sec. 4, figure "Dataset statistics")."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from .format import Dataset
+
+
+def dataset_stats(ds: Dataset) -> dict:
+    """Counts and distributions of a data set, from one pass over the index.
+
+    Returns
+    -------
+    dict
+        ``samples``; ``by_type``, ``by_split``, ``by_version``, ``by_game``, ``by_project``
+        (Counters); ``games_by_split`` (split -> number of games); ``max_side`` (S,) int
+        array of max(width, height) in pixels per sample; ``n_vertices`` (M,) int array, one
+        per mesh sample; ``pixels`` total image area.
+    """
+    by = {k: Counter() for k in ("type", "split", "version", "game", "project")}
+    games: dict[str, set] = {"train": set(), "val": set()}
+    sides, verts, pixels = [], [], 0
+    for row in ds.rows():
+        for k, c in by.items():
+            c[row[k]] += 1
+        games[row["split"]].add(row["game"])
+        sides.append(max(row["width"], row["height"]))
+        pixels += row["width"] * row["height"]
+        if row["type"] == "mesh":
+            verts.append(row["n_vertices"])
+    return {"samples": sum(by["type"].values()),
+            **{f"by_{k}": c for k, c in by.items()},
+            "games_by_split": {k: len(v) for k, v in games.items()},
+            "max_side": np.asarray(sides, np.int64), "n_vertices": np.asarray(verts, np.int64),
+            "pixels": pixels}
+
+
+def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
+    """Write the paper's four panels as PNG files; returns their paths.
+
+    ``samples_per_game.png`` (histogram of samples per game), ``type_share.png`` (region vs
+    mesh pie with counts), ``vertex_counts.png`` (mesh vertex counts, median line),
+    ``image_sizes.png`` (max image side in pixels, median line).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..fsutil import atomic_write_bytes
+
+    out_dir = Path(out_dir)
+    written = []
+
+    def save(fig, name: str) -> None:
+        import io
+
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        atomic_write_bytes(out_dir / name, buf.getvalue())
+        written.append(out_dir / name)
+
+    per_game = np.asarray(sorted(stats["by_game"].values()), np.int64)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    if len(per_game):
+        ax.hist(per_game, bins=min(40, max(5, len(per_game))), color="#4c72b0")
+    ax.set(xlabel="samples per game", ylabel="games",
+           title=f"(a) {stats['samples']:,} samples from {len(per_game)} games")
+    save(fig, "samples_per_game.png")
+
+    types = stats["by_type"]
+    fig, ax = plt.subplots(figsize=(5, 5))
+    labels = [t for t in ("region", "mesh") if types.get(t)]
+    if labels:
+        counts = [types[t] for t in labels]
+        ax.pie(counts, labels=[f"{t}\n{n:,}" for t, n in zip(labels, counts)], autopct="%1.1f%%",
+               colors=["#4c72b0", "#dd8452"][:len(labels)], startangle=90)
+    ax.set(title="(b) attachment type")
+    save(fig, "type_share.png")
+
+    for name, values, label, title in (
+            ("vertex_counts.png", stats["n_vertices"], "vertices per mesh", "(c) mesh vertex counts"),
+            ("image_sizes.png", stats["max_side"], "max image side (px)", "(d) image sizes")):
+        fig, ax = plt.subplots(figsize=(6, 4))
+        if len(values):
+            ax.hist(values, bins=50, color="#55a868")
+            med = float(np.median(values))
+            ax.axvline(med, color="k", linestyle="--", label=f"median {med:g}")
+            ax.legend()
+        ax.set(xlabel=label, ylabel="samples", title=title)
+        save(fig, name)
+    return written
