@@ -13,6 +13,7 @@ from ._app import app, console, err_console  # noqa: F401
 from . import info  # noqa: F401,E402
 from . import convert  # noqa: F401,E402
 from . import segment  # noqa: F401,E402
+from . import dataset  # noqa: F401,E402
 
 
 def main() -> None:
