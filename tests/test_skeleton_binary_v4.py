@@ -392,3 +392,24 @@ def test_compare_keyframe_defaults():
     frame["sequence"][1]["delay"] = 0.1              # the previous key's delay is the default
     del right["animations"]["x"]["events"][0]["int"]  # an event key's int defaults to its event's
     assert diff_documents(left, right) == []
+
+
+NONESSENTIAL = {"color", "icon", "visible", "edges", "width", "height", "images", "audio", "fps"}
+
+
+@pytest.mark.parametrize("skel,js", PAIRS[::5], ids=IDS[::5])
+def test_without_nonessential_data(skel: Path, js: Path):
+    """All examples carry nonessential data; a file without it (the editor's export option)
+    drops exactly that data, and round-trips."""
+    editor = json.loads(js.read_text(encoding="utf-8"))
+    editor[EXTRA] = {"nonessential": False}
+    data = write_skel(editor)
+    doc = read_skel(data)
+    assert doc[EXTRA] == {"nonessential": False}
+    assert write_skel(doc) == data
+    diffs = diff_documents(doc, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
+    assert diffs and all(d.path.rsplit("/", 1)[-1] in NONESSENTIAL for d in diffs), diffs[:10]
+    # Region sizes are essential: every region keeps its width and height.
+    regions = [a for sk in doc["skins"] for sl in sk.get("attachments", {}).values() for a in sl.values()
+               if a.get("type", "region") == "region"]
+    assert regions and all("width" in a and "height" in a for a in regions)

@@ -104,8 +104,9 @@ _ATTACHMENT = {
 }
 _ATTACHMENT["skinnedmesh"] = _ATTACHMENT["weightedmesh"] = _ATTACHMENT["mesh"]
 
-# Keyframes. ``time`` is 0 and ``curve`` linear everywhere.
-_KEY = {"time": 0, "curve": "linear"}
+# Keyframes. ``time`` is 0 and ``curve`` linear everywhere; 3.8 spells a bezier as
+# ``"curve": cx1`` plus ``c2``, ``c3``, ``c4``.
+_KEY = {"time": 0, "curve": "linear", "c2": 0, "c3": 1, "c4": 1}
 _KEYFRAMES = {
     "rotate": {"value": 0, "angle": 0},
     "translate": {"x": 0, "y": 0}, "translatex": {"value": 0}, "translatey": {"value": 0},
