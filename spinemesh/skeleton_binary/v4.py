@@ -9,14 +9,26 @@ What the three versions change is read as data from a :class:`Layout`: 4.1 added
 sequences and attachment timelines; 4.2 packs optional fields behind flag bytes, adds
 physics constraints, inherit timelines, a reference scale, bone icons and visibility.
 
+Reading is done by :class:`_RefReader`, a reader with bulk methods for the hot spots
+(mesh arrays, weighted vertices, timeline frames); writing by :class:`_RefWriter`.
+
 Binary-only information
 -----------------------
-A few things of a ``.skel`` have no place in the editor's JSON: whether nonessential data
-is present, and the order of the shared string table when it is not the order in which
-the document first uses each string. They are kept under the top-level key ``"_skel"``
-(absent when everything is derivable), so that reading and writing a ``.skel`` gives back
-the same bytes. A document loaded from JSON has no ``"_skel"``; the writer then writes
-nonessential data and derives the string table.
+A few things of a ``.skel`` have no place in the editor's JSON. They are kept under the
+top-level key ``"_skel"``, absent when everything is derivable, so that reading and
+writing a ``.skel`` gives back the same bytes:
+
+- ``"nonessential": false`` when the file lacks nonessential data (colours, mesh edges and
+  sizes, bone icons...);
+- ``"strings"`` and ``"refs"``: the shared string table and the index each string reference
+  used. The editor's table may hold a string twice and in any order; the writer's own
+  table (:func:`string_table`) holds each once, in order of first use;
+- ``"timelines"``: per animation, the stored timeline count where it is not the one
+  :func:`timeline_count` derives (never seen in the examples).
+
+A document loaded from JSON has no ``"_skel"``; the writer then writes nonessential data
+and its own string table. If a document was edited so that it uses strings the recorded
+table lacks, the recorded table is dropped the same way.
 
 Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` and
 ``SkeletonJson`` loaders (spine-libgdx, branches 4.0 to 4.2); no code was taken from them.
