@@ -24,8 +24,10 @@ JSON path timelines     paths  paths  path
 Binary-only information
 -----------------------
 Two things of a ``.skel`` have no place in the editor's JSON: whether nonessential data is
-present, and (3.8) the order of the shared string table when it is not the order in which
-the document first uses each string. They are kept under the top-level key ``"_skel"``
+present (``"nonessential": false``), and (3.8) the shared string table (``"strings"``) when
+it is not in the order in which the document first uses each string, as in every 3.8
+example, plus the index of every reference (``"refs"``) when the table holds a string
+twice. They are kept under the top-level key ``"_skel"``
 (absent when everything is derivable), so that reading and writing a ``.skel`` gives the
 same bytes. A document loaded from JSON has no ``"_skel"``: the writer then writes
 nonessential data and numbers strings in first-use order.
@@ -676,18 +678,31 @@ def event(s, node: dict, c: Context) -> None:
 
 # -- animations ------------------------------------------------------------------------
 
+class Always:
+    """A key value the JSON always holds, whatever its value: the version's JSON loader
+    requires it, or its default there differs from the usual one (3.6/3.7 scale keys
+    default to 0). ``default`` is what the writer uses when a document lacks it."""
+
+    def __init__(self, default):
+        self.default = default
+
+
+_NEVER = object()  # a default no value equals: the value is always kept
+
+
 def value(s, f: dict, key: str, kind: str, default) -> None:
     """One value of a key: ``"f"`` float32, ``"rgba"`` colour, ``"rgb"`` dark colour,
     ``"bend"`` bend direction byte, ``"bool"`` boolean."""
+    if isinstance(default, Always):
+        if not s.reading and key not in f:
+            f = {key: default.default}
+        default = _NEVER
     if kind == "f":
         fld(s, f, key, default)
     elif kind == "rgba":
         color(s, f, key, default)
     elif kind == "rgb":
-        if s.reading:
-            dark(s, f, key)
-        else:
-            dark(s, {key: f.get(key, default)}, key)
+        dark(s, f, key)
     elif kind == "bend":
         bend(s, f, key)
     else:
@@ -762,14 +777,22 @@ def attachment_frames(s, items, c: Context, values=None) -> list:
     return seq(s, items, one, c, what="frame count")
 
 
-#: Timeline types per group, in the order of their type byte: (JSON key, values).
+#: Timeline types per group, in the order of their type byte: (JSON key, values), each
+#: value ``(key, kind, default)``. The JSON loaders require colour keys' colours; 3.6 and
+#: 3.7 also every bone key's values (the editor writes them all).
 SLOT_TIMELINES = (("attachment", None),
-                  ("color", (("color", "rgba", "ffffffff"),)),
-                  ("twoColor", (("light", "rgba", "ffffffff"), ("dark", "rgb", "ffffff"))))
-BONE_TIMELINES = (("rotate", (("angle", "f", 0),)),
-                  ("translate", (("x", "f", 0), ("y", "f", 0))),
-                  ("scale", (("x", "f", 1), ("y", "f", 1))),
-                  ("shear", (("x", "f", 0), ("y", "f", 0))))
+                  ("color", (("color", "rgba", Always("ffffffff")),)),
+                  ("twoColor", (("light", "rgba", Always("ffffffff")), ("dark", "rgb", Always("ffffff")))))
+BONE_TIMELINES = {
+    "3.8": (("rotate", (("angle", "f", 0),)),
+            ("translate", (("x", "f", 0), ("y", "f", 0))),
+            ("scale", (("x", "f", 1), ("y", "f", 1))),
+            ("shear", (("x", "f", 0), ("y", "f", 0)))),
+    "3.6": (("rotate", (("angle", "f", Always(0)),)),
+            ("translate", (("x", "f", Always(0)), ("y", "f", Always(0)))),
+            ("scale", (("x", "f", Always(0)), ("y", "f", Always(0)))),
+            ("shear", (("x", "f", Always(0)), ("y", "f", Always(0))))),
+}
 PATH_TIMELINES = (("position", (("position", "f", 0),)),
                   ("spacing", (("spacing", "f", 0),)),
                   ("mix", (("rotateMix", "f", 1), ("translateMix", "f", 1))))
@@ -911,7 +934,7 @@ def animation(s, anim: dict, c: Context) -> None:
     keyed(s, anim, "slots", c.slots, "slot",
           lambda s, tl: typed_timelines(s, tl, c, SLOT_TIMELINES, "slot"))
     keyed(s, anim, "bones", c.bones, "bone",
-          lambda s, tl: typed_timelines(s, tl, c, BONE_TIMELINES, "bone"))
+          lambda s, tl: typed_timelines(s, tl, c, BONE_TIMELINES["3.8" if L.minor >= 8 else "3.6"], "bone"))
     keyed(s, anim, "ik", c.ik, "IK constraint", lambda s, fs: frames(s, fs, c, L.ik_frame()))
     keyed(s, anim, "transform", c.transform, "transform constraint",
           lambda s, fs: frames(s, fs, c, TRANSFORM_FRAME))
@@ -1038,8 +1061,14 @@ def read(reader: SkelReader) -> dict:
     finally:
         reader.pos = r.pos
     if c.L.refs and not _derivable(r.strings, r.refs):
+        # The editor's own table order (not first use): keep it, and the indices too
+        # when some reference does not point at its string's first copy.
         extra["strings"] = list(r.strings)
-        extra["refs"] = list(r.refs)
+        first = {}
+        for i, x in enumerate(r.strings):
+            first.setdefault(x, i + 1)
+        if any(k and first[r.strings[k - 1]] != k for k in r.refs):
+            extra["refs"] = list(r.refs)
     if extra:
         doc[EXTRA] = extra
     return doc
