@@ -326,19 +326,41 @@ def bone(s, node: dict, c: Context, i: int) -> None:
         color(s, node, "color", "9b9b9bff")
 
 
+#: The editor's JSON key order where it differs from the binary's field order.
+BONE_ORDER = ("name", "parent", "length", "rotation", "x", "y", "scaleX", "scaleY", "shearX", "shearY",
+              "transform", "skin", "color")
+ATTACHMENT_ORDER = {
+    "region": ("name", "path", "x", "y", "scaleX", "scaleY", "rotation", "width", "height", "color"),
+    "mesh": ("name", "type", "path", "color", "uvs", "triangles", "vertices", "hull", "edges", "width", "height"),
+    "linkedmesh": ("name", "type", "path", "color", "skin", "parent", "deform", "width", "height"),
+    "boundingbox": ("name", "type", "vertexCount", "vertices", "color"),
+    "path": ("name", "type", "closed", "constantSpeed", "lengths", "vertexCount", "vertices", "color"),
+    "point": ("name", "type", "x", "y", "rotation", "color"),
+    "clipping": ("name", "type", "end", "vertexCount", "vertices", "color"),
+}
+
+
+def _ordered(node: dict, keys: tuple) -> dict:
+    """``node`` with ``keys`` first, in that order (a read's cosmetic last step)."""
+    return {k: node[k] for k in keys if k in node} | node
+
+
 def bones(s, doc: dict, c: Context) -> None:
     # A bone's parent is an index into the bones before it, so the table grows as it goes.
-    items = doc.setdefault("bones", []) if s.reading else doc.get("bones", [])
+    items = [] if s.reading else doc.get("bones", [])
     names: list = []
+    lookup: dict = {}
+    c.bones = (names, lookup)
     n = s.count(len(items), what="bone count")
     for i in range(n):
         node = {} if s.reading else items[i]
-        c.bones = _names(names)
         bone(s, node, c, i)
+        lookup.setdefault(node.get("name"), len(names))
         names.append(node.get("name"))
         if s.reading:
-            items.append(node)
-    c.bones = _names(names)
+            items.append(_ordered(node, BONE_ORDER))
+    if s.reading:
+        doc["bones"] = items
 
 
 def dark(s, node: dict, key: str) -> None:
@@ -560,12 +582,6 @@ def clipping(s, node: dict, c: Context) -> None:
 ATTACHMENTS = {"region": region, "boundingbox": bounding_box, "mesh": mesh, "linkedmesh": linked_mesh,
                "path": path_attachment, "point": point, "clipping": clipping}
 
-#: The editor's JSON key order of an attachment (keys not listed keep their place after).
-_ATTACHMENT_ORDER = ("type", "name", "path", "skin", "parent", "deform", "color", "closed", "constantSpeed",
-                     "end", "x", "y", "scaleX", "scaleY", "rotation", "width", "height", "uvs",
-                     "triangles", "vertexCount", "vertices", "lengths", "hull", "edges")
-
-
 def attachment(s, node: dict, c: Context) -> dict:
     name(s, c, node, "name")
     if s.reading:
@@ -583,7 +599,7 @@ def attachment(s, node: dict, c: Context) -> dict:
         s.u8(ATTACHMENT_TYPES.index(kind))
     ATTACHMENTS[kind](s, node, c)
     if s.reading:
-        node = {k: node[k] for k in _ATTACHMENT_ORDER if k in node} | node
+        node = _ordered(node, ATTACHMENT_ORDER[kind])
     return node
 
 
