@@ -8,10 +8,14 @@ functions of a :mod:`.stream` that serve both directions.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from ..errors import SkelFormatError
 from .stream import SkelReader, SkelWriter
+
+
+_VERSION = re.compile(r"\d{1,2}\.\d{1,2}(\.\d{1,3})?([-.][\w.-]{1,20})?")
 
 
 def sniff_version(data: bytes) -> str:
@@ -30,7 +34,9 @@ def sniff_version(data: bytes) -> str:
             version = r.string()
         except SkelFormatError:
             continue
-        if version and version[:1].isdigit() and "." in version:
+        # A real version ("4.2.22", "3.8.99", "4.3.39-beta"), not base64 hash characters
+        # that a wrong guess of the layout happened to read as a string.
+        if version and _VERSION.fullmatch(version):
             return version
     raise SkelFormatError("expected a Spine version string in the header", offset=0)
 
