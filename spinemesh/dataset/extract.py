@@ -23,7 +23,7 @@ from ..images import AtlasImages, FolderImages
 from ..project import ATLAS_SUFFIXES, find_project, image_source_for, is_skeleton_file, needed_images
 from ..skeleton import (AttachmentRef, image_paths, is_binary_skeleton, iter_attachments,
                         iter_skins, load_skeleton, spine_version)
-from .format import VAL_FRACTION, encode_mesh, encode_png, mask_of
+from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
 
 SOURCE_FILE = ".source.json"
 
@@ -73,12 +73,19 @@ def split_of(game: str, val_fraction: float = VAL_FRACTION) -> str:
     return "val" if h / 2.0**64 < val_fraction else "train"
 
 
-def content_id(rgba: np.ndarray) -> str:
-    """128-bit hash of an image's size and pixels, as 32 hex digits."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(np.asarray(rgba.shape, np.int64).tobytes())
-    h.update(np.ascontiguousarray(rgba).tobytes())
-    return h.hexdigest()
+def content_id(rgba: np.ndarray, box: tuple | None = None) -> str:
+    """128-bit hash of an image's size and pixels, as 32 hex digits.
+
+    Only the pixels inside ``box`` (:func:`~spinemesh.dataset.format.tight_box`, computed
+    when not given) are hashed, with the size and the box: everything outside is zero, so
+    this identifies the whole image at a fraction of the cost. SHA-256, truncated, because
+    CPUs hash it in hardware.
+    """
+    box = tight_box(rgba) if box is None else box
+    h = hashlib.sha256()
+    h.update(np.asarray(tuple(rgba.shape) + tuple(box), np.int64).tobytes())
+    h.update(np.ascontiguousarray(crop(rgba, box)))
+    return h.hexdigest()[:32]
 
 
 def mesh_pixels(att: dict, width: int, height: int) -> dict:
@@ -153,6 +160,7 @@ class _Want:
     mesh: dict | None
     skeleton: str
     version: str
+    ref: list          # [skin, slot, attachment name] of the first attachment that drew it
 
 
 def _linked_parent(doc: dict, ref: AttachmentRef) -> dict | None:
@@ -260,7 +268,8 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
         if h < min_side or wd < min_side:
             result.skip("empty image")
             continue
-        cid = content_id(rgba)
+        box = tight_box(rgba)
+        cid = content_id(rgba, box)
         if cid in seen:
             result.skip("same image in this project")
             continue
@@ -275,10 +284,12 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
         kind = "mesh" if mesh is not None else "region"
         row = {"id": cid, "project": result.project, "game": result.game, "version": w.version,
                "split": split_of(result.game), "type": kind, "attachment": w.attachment,
-               "name": w.name, "skeleton": w.skeleton, "width": int(wd), "height": int(h),
+               "name": w.name, "skeleton": w.skeleton, "ref": w.ref,
+               "source": _relative(w.where, folder), "width": int(wd), "height": int(h),
                "scale": scale, "n_vertices": int(len(mesh["vertices"])) if mesh else 0,
-               "n_triangles": int(len(mesh["triangles"])) if mesh else 0}
-        result.samples.append(Sample(row, encode_png(rgba), encode_png(mask_of(rgba)),
+               "n_triangles": int(len(mesh["triangles"])) if mesh else 0, "box": list(box)}
+        part = crop(rgba, box)
+        result.samples.append(Sample(row, encode_png(part), encode_png(mask_of(part)),
                                      encode_mesh(mesh) if mesh else None))
 
 
@@ -310,7 +321,15 @@ def _collect(doc: dict, skel: Path, project, atlases: dict, wants: dict, result:
             key = (where[0], where[1], path)
             old = wants.get(key)
             if old is None or (old.mesh is None and mesh is not None):
-                wants[key] = _Want(where[0], where[1], where[2], path, ref.type, mesh, rel, version)
+                wants[key] = _Want(where[0], where[1], where[2], path, ref.type, mesh, rel, version,
+                                   [ref.skin, ref.slot, ref.name])
+
+
+def _relative(path: Path, folder: Path) -> str:
+    try:
+        return Path(path).resolve().relative_to(folder.resolve()).as_posix()
+    except ValueError:
+        return Path(path).name
 
 
 def _locate(source, name: str) -> tuple[str, Path, tuple] | None:
