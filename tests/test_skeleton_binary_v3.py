@@ -336,3 +336,71 @@ def test_corpus_binaries_round_trip(corpus):
         assert write_skel(doc) == data, path
         again = read_skel(write_skel(json.loads(json.dumps(doc))))
         assert not diff_documents(again, doc, abs_tol=0, rel_tol=0), path
+
+
+# -- the official runtime loads what we write (3.8: the runtime tool has no 3.6/3.7) ------
+
+RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"
+
+
+@pytest.fixture(scope="module")
+def spine_runtime(tmp_path_factory) -> Path:
+    """The runtime tool, installed once into a temporary copy (needs Node and npm)."""
+    import shutil
+    import subprocess
+
+    if not (RUNTIME / "dump.mjs").is_file() or not shutil.which("node") or not shutil.which("npm"):
+        pytest.skip("the spine-runtime tool, node or npm is absent")
+    dest = tmp_path_factory.mktemp("rt") / "spine-runtime"
+    shutil.copytree(RUNTIME, dest, ignore=shutil.ignore_patterns("node_modules"))
+    r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True,
+                       timeout=300)
+    if r.returncode:
+        pytest.skip(f"npm ci failed: {r.stderr[-300:]}")
+    return dest
+
+
+def _dump(runtime: Path, atlas: Path, skeleton: Path, out: Path, anim: str) -> dict:
+    import subprocess
+
+    r = subprocess.run(["node", "dump.mjs", str(atlas), str(skeleton), "--anim", anim, "--times", "0,0.3,0.7",
+                        "--out", str(out)], cwd=runtime, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(out.read_text())
+
+
+def _max_difference(a, b, path="") -> float:
+    """The largest difference between two dumps' numbers; anything else must be equal."""
+    if isinstance(a, dict):
+        keys = set(a) - {"input", "timing_ms", "hash"}
+        assert keys == set(b) - {"input", "timing_ms", "hash"}, path
+        return max([_max_difference(a[k], b[k], f"{path}/{k}") for k in keys] + [0.0])
+    if isinstance(a, list):
+        assert len(a) == len(b), path
+        return max([_max_difference(x, y, path) for x, y in zip(a, b)] + [0.0])
+    if isinstance(a, (int, float)) and not isinstance(a, bool):
+        return abs(a - b)
+    assert a == b, (path, a, b)
+    return 0.0
+
+
+@pytest.mark.parametrize("project,name,anim", [
+    ("spineboy", "spineboy-pro", "run"), ("tank", "tank-pro", "drive"), ("raptor", "raptor-pro", "walk"),
+    ("stretchyman", "stretchyman-pro", "sneak"), ("mix-and-match", "mix-and-match-pro", "dance"),
+])
+def test_runtime_poses_match(spine_runtime, examples, tmp_path, project, name, anim):
+    """What we write loads in a 3.8 runtime and poses like the editor's export: our .skel
+    from the editor's JSON like that JSON, our JSON from the editor's .skel exactly like
+    that .skel."""
+    folder = examples / "3.8" / project
+    atlas = folder / f"{project}.atlas"
+    ours_skel = tmp_path / f"{name}.skel"
+    ours_skel.write_bytes(write_skel(_editor(folder / f"{name}.json")))
+    ours_json = tmp_path / f"{name}.json"
+    ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
+    a = _dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
+    b = _dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim)
+    assert _max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
+    c = _dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim)
+    d = _dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim)
+    assert _max_difference(c, d) == 0.0
