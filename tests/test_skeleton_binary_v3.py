@@ -221,6 +221,15 @@ def test_events_and_audio(examples):
     assert "audio" not in read_skel(examples / "3.6/spineboy/spineboy-pro.skel")["skeleton"]
 
 
+def test_default_skin_anywhere_in_json(examples):
+    """The binary holds the default skin first; a JSON object may list it anywhere."""
+    doc = _editor(examples / "3.6/goblins/goblins-pro.json")
+    doc["skins"] = {k: doc["skins"][k] for k in ("goblin", "default", "goblingirl")}
+    again = read_skel(write_skel(doc))
+    assert list(again["skins"]) == ["default", "goblin", "goblingirl"]
+    assert not diff_documents(again, doc, abs_tol=1e-4, rel_tol=1e-6)
+
+
 def test_examples_present_or_skipped():
     # Guard against a silently empty parametrisation when the data is present.
     if EXAMPLES.is_dir():

@@ -645,9 +645,9 @@ def skins(s, doc: dict, c: Context) -> None:
         c.skins = _names([sk.get("name") for sk in listed])
         return
     listed = written_skins(doc, L)
-    default = listed[0] if listed and listed[0].get("name") == "default" else None
+    default = next((sk for sk in listed if sk.get("name") == "default"), None)
     skin_attachments(s, default["attachments"] if default else {}, c)
-    others = listed[1:] if default else listed
+    others = [sk for sk in listed if sk is not default]
     s.count(len(others), what="skin count")
     for sk in others:
         name(s, c, sk, "name")
@@ -684,7 +684,13 @@ def event(s, node: dict, c: Context) -> None:
     else:
         s.varint(int(node.get("int", 0)), positive=False)
     fld(s, node, "float", 0)
-    text(s, node, "string")
+    # The editor writes "" for no string, and its JSON leaves that out; a null is kept.
+    if s.reading:
+        v = s.string(what="string")
+        if v != "":
+            node["string"] = v
+    else:
+        s.string(node.get("string", ""), what="string")
     if c.L.audio:
         text(s, node, "audio")
         if node.get("audio") is not None:
