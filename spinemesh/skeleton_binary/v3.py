@@ -120,6 +120,9 @@ def _names(names: list) -> tuple[list, dict]:
 # Each reads a value into ``node[key]`` (leaving it out when it is the JSON default) or
 # writes ``node.get(key, default)``. ``-0.0`` is kept: it packs to other bytes than 0.
 
+_NEVER = object()  # a default no value equals: the value is always kept
+
+
 def _put(node: dict, key: str, v, default) -> None:
     if v != default:
         node[key] = v
@@ -395,7 +398,7 @@ def slot(s, node: dict, c: Context) -> None:
 def _constraint_head(s, node: dict, c: Context) -> None:
     text(s, node, "name")
     if s.reading:
-        _put(node, "order", s.varint(what="order"), 0)
+        node["order"] = s.varint(what="order")  # the editor writes it, 0 included
     else:
         s.varint(node.get("order", 0))
     if c.L.skin_required:
@@ -576,7 +579,7 @@ def clipping(s, node: dict, c: Context) -> None:
     index(s, node, "end", c.slots, "slot")
     vertices(s, node, vertex_count(s, node), c)
     if c.nonessential:
-        color(s, node, "color", "ce3a3aff")
+        color(s, node, "color", _NEVER if s.reading else "ce3a3aff")  # the editor writes it
 
 
 ATTACHMENTS = {"region": region, "boundingbox": bounding_box, "mesh": mesh, "linkedmesh": linked_mesh,
@@ -707,9 +710,6 @@ class Always:
 
     def __init__(self, default):
         self.default = default
-
-
-_NEVER = object()  # a default no value equals: the value is always kept
 
 
 def value(s, f: dict, key: str, kind: str, default) -> None:
