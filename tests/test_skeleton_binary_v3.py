@@ -347,6 +347,33 @@ def test_corpus_binaries_round_trip(corpus):
         assert not diff_documents(again, doc, abs_tol=0, rel_tol=0), path
 
 
+
+def _corpus_json(root: Path) -> list[tuple[Path, dict]]:
+    from spinemesh.skeleton import is_binary_skeleton
+
+    out = []
+    for p in sorted(root.rglob("*.json")):
+        if is_binary_skeleton(p):
+            continue
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8-sig"))
+        except (ValueError, UnicodeDecodeError):
+            continue
+        if isinstance(doc, dict) and str(doc.get("skeleton", {}).get("spine", "")).startswith("3."):
+            out.append((p, doc))
+    return out
+
+
+def test_corpus_json_writes_skel_that_reads_back(corpus):
+    """Every 3.x JSON of the game projects, editor downgrades such as ``3.8-from-4.0.64``
+    included, writes a .skel that reads back to the same document."""
+    docs = _corpus_json(corpus)
+    assert len(docs) >= 40
+    for path, doc in docs:
+        again = read_skel(write_skel(doc, path))
+        diffs = diff_documents(again, doc, abs_tol=1e-4, rel_tol=1e-6)
+        assert not diffs, (path, diffs[:5])
+
 # -- the official runtime loads what we write (3.8: the runtime tool has no 3.6/3.7) ------
 
 RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"

@@ -39,6 +39,7 @@ Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` a
 from __future__ import annotations
 
 import math
+import re
 import struct
 
 from .stream import SkelReader, SkelWriter
@@ -67,7 +68,7 @@ class Layout:
 
     def __init__(self, version: str):
         self.version = version
-        self.minor = int(version.split(".")[1])
+        self.minor = int(re.match(r"3\.(\d)", version).group(1))
         self.bounds_xy = self.minor >= 8          # skeleton x, y before width, height
         self.audio = self.minor >= 7              # skeleton and event audio paths
         self.ik_flags = self.minor >= 7           # IK compress, stretch (uniform on constraints)
@@ -91,8 +92,9 @@ class Layout:
 
 
 def layout_of(s, version: str) -> Layout:
-    parts = version.split(".")
-    if len(parts) < 2 or parts[0] != "3" or parts[1] not in ("6", "7", "8"):
+    """The layout of ``version``: ``3.6.x``, ``3.7.x``, ``3.8.x``, or the editor's
+    downgraded exports such as ``3.8-from-4.0.64`` (a 3.8 file)."""
+    if not re.match(r"3\.[678](?!\d)", version):
         raise s.fail(f"Spine 3.6, 3.7 or 3.8, found version {version!r}", 0)
     return Layout(version)
 
