@@ -112,6 +112,7 @@ class Context:
 
 
 def _names(names: list) -> tuple[list, dict]:
+    """``(names, name -> first index)``: a table that indices in the binary point into."""
     lookup: dict = {}
     for i, n in enumerate(names):
         lookup.setdefault(n, i)
@@ -126,6 +127,7 @@ _NEVER = object()  # a default no value equals: the value is always kept
 
 
 def _put(node: dict, key: str, v, default) -> None:
+    """Set ``node[key] = v`` unless ``v`` is the JSON default (``-0.0`` is kept)."""
     if v != default:
         node[key] = v
     elif type(v) is float and v == 0 and math.copysign(1.0, v) < 0:
@@ -142,6 +144,7 @@ def fld(s, node: dict, key: str, default=0.0):
 
 
 def boolean(s, node: dict, key: str, default: bool = False) -> bool:
+    """A boolean byte."""
     if s.reading:
         v = s.bool(what=key)
         _put(node, key, v, default)
@@ -284,6 +287,11 @@ def shorts(s, node: dict, key: str) -> None:
 # -- header ----------------------------------------------------------------------------
 
 def header(s, doc: dict, extra: dict) -> Context:
+    """The skeleton header: hash, version, bounds and (nonessential) fps and paths.
+
+    Returns the :class:`Context` for the rest of the file; ``extra`` gets (reading) or
+    gives (writing) the nonessential flag.
+    """
     if s.reading:
         sk = doc["skeleton"] = {}
         text(s, sk, "hash")
@@ -319,6 +327,7 @@ _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1
 
 
 def bone(s, node: dict, c: Context, i: int) -> None:
+    """One bone; the root (``i == 0``) has no parent index."""
     text(s, node, "name")
     if i > 0:
         index(s, node, "parent", c.bones, "bone")
@@ -351,6 +360,7 @@ def _ordered(node: dict, keys: tuple) -> dict:
 
 
 def bones(s, doc: dict, c: Context) -> None:
+    """The bones, filling ``c.bones`` as they come."""
     # A bone's parent is an index into the bones before it, so the table grows as it goes.
     items = [] if s.reading else doc.get("bones", [])
     names: list = []
@@ -389,6 +399,7 @@ def dark(s, node: dict, key: str) -> None:
 
 
 def slot(s, node: dict, c: Context) -> None:
+    """One slot: bone, colours, setup attachment, blend mode."""
     text(s, node, "name")
     index(s, node, "bone", c.bones, "bone")
     color(s, node, "color", "ffffffff")
@@ -398,6 +409,7 @@ def slot(s, node: dict, c: Context) -> None:
 
 
 def _constraint_head(s, node: dict, c: Context) -> None:
+    """What all constraints start with: name, order, (3.8) skin flag, bones."""
     text(s, node, "name")
     if s.reading:
         node["order"] = s.varint(what="order")  # the editor writes it, 0 included
@@ -411,6 +423,7 @@ def _constraint_head(s, node: dict, c: Context) -> None:
 
 
 def ik(s, node: dict, c: Context) -> None:
+    """One IK constraint."""
     _constraint_head(s, node, c)
     index(s, node, "target", c.bones, "bone")
     fld(s, node, "mix", 1)
@@ -440,6 +453,7 @@ _TRANSFORM_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 0), ("scale
 
 
 def transform(s, node: dict, c: Context) -> None:
+    """One transform constraint: target, local/relative flags, offsets, mixes."""
     _constraint_head(s, node, c)
     index(s, node, "target", c.bones, "bone")
     boolean(s, node, "local")
@@ -449,6 +463,7 @@ def transform(s, node: dict, c: Context) -> None:
 
 
 def path_constraint(s, node: dict, c: Context) -> None:
+    """One path constraint; its target is a slot."""
     _constraint_head(s, node, c)
     index(s, node, "target", c.slots, "slot")
     enum(s, node, "positionMode", POSITION_MODE, "percent")
@@ -459,6 +474,7 @@ def path_constraint(s, node: dict, c: Context) -> None:
 
 
 def constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
+    """A list of constraints under ``doc[key]`` (left out when empty); returns their name table."""
     items = nodes(s, None if s.reading else doc.get(key, []), fn, c, what=f"{key} constraint count")
     if s.reading and items:
         doc[key] = items
@@ -507,6 +523,7 @@ def vertices(s, node: dict, n: int, c: Context) -> None:
 
 
 def vertex_count(s, node: dict) -> int:
+    """The ``vertexCount`` of a bounding box, path or clipping attachment."""
     if s.reading:
         n = s.count(what="vertex count")
         node["vertexCount"] = n
@@ -515,6 +532,7 @@ def vertex_count(s, node: dict) -> int:
 
 
 def region(s, node: dict, c: Context) -> None:
+    """A region attachment: path, transform, size (always in the JSON), colour."""
     name(s, c, node, "path")
     for key, d in (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1)):
         fld(s, node, key, d)
@@ -527,12 +545,15 @@ def region(s, node: dict, c: Context) -> None:
 
 
 def bounding_box(s, node: dict, c: Context) -> None:
+    """A bounding box attachment."""
     vertices(s, node, vertex_count(s, node), c)
     if c.nonessential:
         color(s, node, "color", "60f000ff")
 
 
 def mesh(s, node: dict, c: Context) -> None:
+    """A mesh attachment: ``uvs`` (2 per vertex), ``triangles``, ``vertices``, ``hull``
+    (vertex count) and, nonessential, ``edges``, ``width``, ``height``."""
     name(s, c, node, "path")
     color(s, node, "color", "ffffffff")
     n = s.count(len(node.get("uvs", [])) // 2, what="vertex count")
@@ -550,6 +571,7 @@ def mesh(s, node: dict, c: Context) -> None:
 
 
 def linked_mesh(s, node: dict, c: Context) -> None:
+    """A linked mesh: a mesh sharing its ``parent``'s geometry (``skin`` null: default)."""
     name(s, c, node, "path")
     color(s, node, "color", "ffffffff")
     name(s, c, node, "skin")
@@ -561,6 +583,7 @@ def linked_mesh(s, node: dict, c: Context) -> None:
 
 
 def path_attachment(s, node: dict, c: Context) -> None:
+    """A path attachment: bezier control points and one length per curve."""
     boolean(s, node, "closed")
     boolean(s, node, "constantSpeed", True)
     n = vertex_count(s, node)
@@ -571,6 +594,7 @@ def path_attachment(s, node: dict, c: Context) -> None:
 
 
 def point(s, node: dict, c: Context) -> None:
+    """A point attachment."""
     for key in ("rotation", "x", "y"):
         fld(s, node, key, 0)
     if c.nonessential:
@@ -578,6 +602,7 @@ def point(s, node: dict, c: Context) -> None:
 
 
 def clipping(s, node: dict, c: Context) -> None:
+    """A clipping attachment, clipping up to the ``end`` slot."""
     index(s, node, "end", c.slots, "slot")
     vertices(s, node, vertex_count(s, node), c)
     if c.nonessential:
@@ -588,6 +613,8 @@ ATTACHMENTS = {"region": region, "boundingbox": bounding_box, "mesh": mesh, "lin
                "path": path_attachment, "point": point, "clipping": clipping}
 
 def attachment(s, node: dict, c: Context) -> dict:
+    """One attachment: name (null when it is the key), type byte, then its type's fields.
+    Returns the node (reading: a new one in the editor's key order)."""
     name(s, c, node, "name")
     if s.reading:
         at = s.pos
@@ -683,6 +710,7 @@ def skin_members(s, sk: dict, c: Context) -> None:
 # -- events ----------------------------------------------------------------------------
 
 def event(s, node: dict, c: Context) -> None:
+    """One event definition."""
     name(s, c, node, "name")
     if s.reading:
         _put(node, "int", s.varint(positive=False, what="int"), 0)
@@ -734,6 +762,7 @@ def value(s, f: dict, key: str, kind: str, default) -> None:
 
 
 def time(s, f: dict, c: Context) -> None:
+    """A key's time in seconds (3.8's JSON leaves out 0)."""
     if s.reading:
         t = s.f32(what="time")
         if not c.L.time_default or t != 0 or math.copysign(1.0, t) < 0:
@@ -905,6 +934,7 @@ def deform(s, anim: dict, c: Context) -> None:
 
 
 def draw_order(s, anim: dict, c: Context) -> None:
+    """Draw order keys: per key, the slots that move and by how many places."""
     def offset(s, o):
         o = {} if o is None else o
         index(s, o, "slot", c.slots, "slot")
@@ -954,6 +984,7 @@ def events_timeline(s, anim: dict, c: Context) -> None:
 
 
 def animation(s, anim: dict, c: Context) -> None:
+    """One animation's timelines, group by group in the binary's order."""
     L = c.L
     keyed(s, anim, "slots", c.slots, "slot",
           lambda s, tl: typed_timelines(s, tl, c, SLOT_TIMELINES, "slot"))
