@@ -19,18 +19,23 @@ skin bones/constraints  -      -      yes
 JSON skins              dict   dict   list
 JSON bezier curve       list   list   c1..c4
 JSON path timelines     paths  paths  path
+JSON keys' time 0       kept   kept   left out
 ======================  =====  =====  =====
 
 Binary-only information
 -----------------------
-Two things of a ``.skel`` have no place in the editor's JSON: whether nonessential data is
-present (``"nonessential": false``), and (3.8) the shared string table (``"strings"``) when
-it is not in the order in which the document first uses each string, as in every 3.8
-example, plus the index of every reference (``"refs"``) when the table holds a string
-twice. They are kept under the top-level key ``"_skel"``
-(absent when everything is derivable), so that reading and writing a ``.skel`` gives the
-same bytes. A document loaded from JSON has no ``"_skel"``: the writer then writes
-nonessential data and numbers strings in first-use order.
+Two things of a ``.skel`` have no place in the editor's JSON, so they are kept under the
+top-level key ``"_skel"`` (absent when derivable) to write the same bytes back:
+
+- ``"nonessential": false`` when the file has no nonessential data (colours of bones and
+  non-rendered attachments, mesh edges and size, fps, image and audio paths);
+- (3.8) ``"strings"``, the shared string table, when it is not in the order in which the
+  document first uses each string (true of all 21 3.8 examples: the editor has its own
+  order), and ``"refs"``, the index of every reference, when the table holds a string
+  more than once and references pick among the copies.
+
+A document loaded from JSON has no ``"_skel"``: the writer then writes nonessential data
+and numbers strings in first-use order.
 
 Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` and
 ``SkeletonJson`` loaders (spine-libgdx, branches 3.6 to 3.8); no code was taken from them.
