@@ -62,9 +62,9 @@ KNOWN = [
      "the binary moves them linearly. Between those keys the star's colour keys hold alpha 0: "
      "the difference is never seen."),
     ("3.8", "*", "skeleton/hash", None,
-     "The 3.8 editor wrote another hash into the binary than into the JSON for 17 of the 21 "
-     "projects, though all else matches: the hash names an export, not the data "
-     "(3.6 and 3.7 exports share theirs)."),
+     "The 3.8 editor wrote another hash into the binary than into the JSON for 16 of the 21 "
+     "files, though all else matches: the hash names an export, not the data "
+     "(all 3.6 and 3.7 pairs share theirs)."),
     ("3.8", "hero-pro.skel", "skins", None,
      "The JSON has two skins with bones and constraints but no attachments (weapon/morningstar, "
      "weapon/sword); the 3.8.76 binary has no skin but the default one: it leaves such skins out."),
