@@ -177,11 +177,13 @@ def test_a_killed_run_resumes_cleanly(examples, tmp_path):
     # As if killed while appending: a torn index row, and the last project not marked done.
     with open(out / INDEX, "ab") as f:
         f.write(b'{"id": "torn')
+    (out / "shards" / ".half-written.tar.tmp").write_bytes(b"x" * 700)
     lines = (out / PROJECTS).read_bytes().splitlines(keepends=True)
     (out / PROJECTS).write_bytes(b"".join(lines[:-1]))
     again = build_dataset([corpus / "coin", corpus / "owl"], out)
     assert again.samples == 0 and again.projects == 1
     assert _rows(out) == rows
+    assert not list((out / "shards").glob("*.tmp"))
     assert all(line.endswith(b"\n") for line in (out / INDEX).read_bytes().splitlines(keepends=True))
 
 

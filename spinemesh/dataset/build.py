@@ -123,6 +123,8 @@ def _open_output(out: Path) -> None:
         atomic_write_json(path, meta)
     for name in (INDEX, PROJECTS):
         repair_tail(out / name)
+    for tmp in (out / SHARDS).glob(".*.tmp"):
+        tmp.unlink()  # a shard a killed run did not finish; no row points into it
 
 
 def _free_shard_path(out: Path, project: str) -> Path:
@@ -203,13 +205,15 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
     t0 = time.perf_counter()
     out = Path(out)
     projects = _project_names([Path(c) for c in corpora])
-    _open_output(out)
+    out.mkdir(parents=True, exist_ok=True)
     lock = open(out / ".lock", "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
+        lock.close()
         raise SpineMeshError("another spinemesh dataset run is writing this folder", out) from None
     try:
+        _open_output(out)
         return _run(out, projects, jobs, retry_failed, on_project, t0)
     finally:
         lock.close()

@@ -248,7 +248,7 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
         result.skeletons += 1
         _collect(doc, skel, project, atlases, wants, result)
 
-    seen: set[str] = set()
+    seen: dict[str, int] = {}  # content id -> index in result.samples
     ordered = sorted(wants.values(), key=lambda w: (w.kind, str(w.where), w.order))
     source, source_at = None, None
     for w in ordered:
@@ -263,34 +263,41 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
             result.skip("image unreadable")
             result.error(str(e))
             continue
-        rgba, scale = image.rgba, float(image.scale)
-        h, wd = rgba.shape[:2]
-        if h < min_side or wd < min_side:
+        rgba = image.rgba
+        if rgba.shape[0] < min_side or rgba.shape[1] < min_side:
             result.skip("empty image")
             continue
         box = tight_box(rgba)
         cid = content_id(rgba, box)
         if cid in seen:
             result.skip("same image in this project")
+            # The same pixels drawn by a region and by a mesh: keep the mesh, it says more.
+            if w.mesh is not None and result.samples[seen[cid]].mesh is None:
+                result.samples[seen[cid]] = _sample(w, rgba, float(image.scale), box, cid, result, folder)
             continue
-        mesh = None
-        if w.mesh is not None:
-            try:
-                mesh = mesh_pixels(w.mesh, wd, h)
-            except (ValueError, TypeError) as e:
-                result.skip("mesh unreadable (kept as region)")
-                result.error(f"{w.skeleton}: mesh for {w.name!r}: {e}")
-        seen.add(cid)
-        kind = "mesh" if mesh is not None else "region"
-        row = {"id": cid, "project": result.project, "game": result.game, "version": w.version,
-               "split": split_of(result.game), "type": kind, "attachment": w.attachment,
-               "name": w.name, "skeleton": w.skeleton, "ref": w.ref,
-               "source": _relative(w.where, folder), "width": int(wd), "height": int(h),
-               "scale": scale, "n_vertices": int(len(mesh["vertices"])) if mesh else 0,
-               "n_triangles": int(len(mesh["triangles"])) if mesh else 0, "box": list(box)}
-        part = crop(rgba, box)
-        result.samples.append(Sample(row, encode_png(part), encode_png(mask_of(part)),
-                                     encode_mesh(mesh) if mesh else None))
+        seen[cid] = len(result.samples)
+        result.samples.append(_sample(w, rgba, float(image.scale), box, cid, result, folder))
+
+
+def _sample(w: _Want, rgba: np.ndarray, scale: float, box: tuple, cid: str, result: ProjectResult,
+            folder: Path) -> Sample:
+    """Encode one image (cropped to ``box``), its mask and its mesh, with its index row."""
+    h, wd = rgba.shape[:2]
+    mesh = None
+    if w.mesh is not None:
+        try:
+            mesh = mesh_pixels(w.mesh, wd, h)
+        except (ValueError, TypeError) as e:
+            result.skip("mesh unreadable (kept as region)")
+            result.error(f"{w.skeleton}: mesh for {w.name!r}: {e}")
+    row = {"id": cid, "project": result.project, "game": result.game, "version": w.version,
+           "split": split_of(result.game), "type": "mesh" if mesh is not None else "region",
+           "attachment": w.attachment, "name": w.name, "skeleton": w.skeleton, "ref": w.ref,
+           "source": _relative(w.where, folder), "width": int(wd), "height": int(h),
+           "scale": scale, "n_vertices": int(len(mesh["vertices"])) if mesh else 0,
+           "n_triangles": int(len(mesh["triangles"])) if mesh else 0, "box": list(box)}
+    part = crop(rgba, box)
+    return Sample(row, encode_png(part), encode_png(mask_of(part)), encode_mesh(mesh) if mesh else None)
 
 
 def _collect(doc: dict, skel: Path, project, atlases: dict, wants: dict, result: ProjectResult) -> None:
