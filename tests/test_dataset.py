@@ -18,7 +18,7 @@ from spinemesh.cli import app
 from spinemesh.dataset import build_dataset, content_id, find_projects, open_dataset, split_of
 from spinemesh.dataset.format import INDEX, PROJECTS
 from spinemesh.images import load_rgba, premultiply
-from spinemesh.skeleton import iter_attachments, load_skeleton
+from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
 
 
 def _broken_corpus(tmp: Path, examples: Path) -> Path:
@@ -228,3 +228,32 @@ def test_not_a_dataset_is_a_clear_error(tmp_path):
     (tmp_path / "meta.json").write_text(json.dumps({"format": "other"}))
     with pytest.raises(SpineMeshError, match="unsupported"):
         open_dataset(tmp_path)
+
+
+def test_sequence_frames_are_expanded(built):
+    out, _, _ = built
+    names = {r["name"] for r in _rows(out) if r["project"] == "4.2/dragon"}
+    assert {f"left-wing{i:02d}" for i in range(1, 10)} <= names
+    assert {f"right-wing{i:02d}" for i in range(1, 10)} <= names
+
+
+def test_a_game_with_only_a_3_8_binary_skeleton(corpus, tmp_path):
+    """bmyq-bigwin ships a 3.8 .skel and no JSON; its meshes come out in pixels."""
+    s = build_dataset([corpus / "bmyq-bigwin"], tmp_path / "ds")
+    rows = _rows(tmp_path / "ds")
+    assert s.samples == len(rows) > 10 and not s.errors
+    assert {r["version"] for r in rows} == {"3.8.99"}
+    assert {r["game"] for r in rows} == {"igs-jackhung/baimayinqiang-demo-spine"}
+    # 49 mesh attachments draw 3 images, 993 regions 27 more: one sample per image.
+    doc = load_skeleton(corpus / "bmyq-bigwin" / "BinWin_Omen.skel")
+    drawn = defaultdict(set)
+    for ref in iter_attachments(doc):
+        for p in image_paths(ref):
+            drawn[p].add(ref.type)
+    meshes = [r for r in rows if r["type"] == "mesh"]
+    assert sorted(r["name"] for r in meshes) == sorted(p for p, t in drawn.items() if "mesh" in t)
+    assert len(rows) <= len(drawn)
+    ds = open_dataset(tmp_path / "ds")
+    for r in meshes:
+        v = ds.load_mesh(r)["vertices"]
+        assert (v >= -1).all() and (v <= (r["width"] + 1, r["height"] + 1)).all()

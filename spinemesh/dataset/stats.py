@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from pathlib import Path
 
@@ -16,8 +17,8 @@ def dataset_stats(ds: Dataset) -> dict:
     Returns
     -------
     dict
-        ``samples``; ``by_type``, ``by_split``, ``by_version``, ``by_game``, ``by_project``
-        (Counters); ``games_by_split`` (split -> number of games); ``max_side`` (S,) int
+        ``samples``; ``by_type``, ``by_split``, ``by_version`` (major.minor), ``by_game``,
+        ``by_project`` (Counters); ``games_by_split`` (split -> number of games); ``max_side`` (S,) int
         array of max(width, height) in pixels per sample; ``n_vertices`` (M,) int array, one
         per mesh sample; ``pixels`` total image area.
     """
@@ -25,8 +26,11 @@ def dataset_stats(ds: Dataset) -> dict:
     games: dict[str, set] = {"train": set(), "val": set()}
     sides, verts, pixels = [], [], 0
     for row in ds.rows():
-        for k, c in by.items():
-            c[row[k]] += 1
+        for k in ("type", "split", "game", "project"):
+            by[k][row[k]] += 1
+        # "3.8-from-4.0.64", "3.8.99" -> "3.8": editors write many patch versions.
+        major_minor = re.match(r"\d+\.\d+", row["version"] or "")
+        by["version"][major_minor.group(0) if major_minor else "?"] += 1
         games[row["split"]].add(row["game"])
         sides.append(max(row["width"], row["height"]))
         pixels += row["width"] * row["height"]
