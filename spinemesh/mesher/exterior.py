@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
-from .geometry import dp_indices, loop_is_simple, signed_area
+from .geometry import clip_loop_to_rect, dp_indices, drop_redundant, loop_is_simple, signed_area
 
 
 # --------------------------------------------------------------------------- paper
@@ -282,7 +282,8 @@ def convex_cover(cover: np.ndarray, orient: float = 1.0) -> np.ndarray:
     return hull if np.sign(signed_area(hull)) == orient else hull[::-1]
 
 
-def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5) -> tuple[np.ndarray, np.ndarray]:
+def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
+                  min_distance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """One simple loop containing every pixel square of ``cover``, with few vertices.
 
     Parameters
@@ -295,6 +296,12 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5) -> tuple
     close_kernel : int
         Gaps narrower than this (px) between parts are closed before contouring, so the loop
         does not squeeze into cracks it cannot follow without touching itself.
+    min_distance : float
+        Vertices closer than this (px) to their successor are dropped where the loop still
+        covers the art without them.
+
+    The loop is clipped to the image rectangle ``[0, W] x [0, H]``: UVs outside the image
+    would sample neighbouring regions of the atlas page.
 
     Returns
     -------
@@ -313,6 +320,7 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5) -> tuple
     orient = 1.0
     c_area = signed_area(contour.astype(np.float64))
     c_orient = np.sign(c_area) or 1.0
+    first = None
     for e in (eps, eps / 2, eps / 4, 0.5):
         keys = dp_indices(contour.astype(np.float64), e)
         if len(keys) < 3:
@@ -324,9 +332,64 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5) -> tuple
         if not loop_is_simple(loop):
             continue
         loop = _repair(loop, cover)
-        if loop is not None and loop_is_simple(loop):
-            return loop, region
-    return convex_cover(cover, orient), region
+        if loop is None:
+            continue
+        loop = clip_loop_to_rect(loop, cover.shape[1], cover.shape[0])
+        if len(loop) >= 3 and loop_is_simple(loop):
+            loop = _spread(loop, cover, min_distance)
+            if _shortest_edge(loop) >= min_distance:
+                return loop, region
+            # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
+            first = loop if first is None else first
+    if first is not None:
+        return first, region
+    loop = clip_loop_to_rect(convex_cover(cover, orient), cover.shape[1], cover.shape[0])
+    return _spread(loop, cover, min_distance), region
+
+
+def _shortest_edge(loop: np.ndarray) -> float:
+    return float(np.hypot(*(np.roll(loop, -1, axis=0) - loop).T).min())
+
+
+def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    return np.stack([np.clip(loop[:, 0], 0, shape[1]), np.clip(loop[:, 1], 0, shape[0])], axis=1)
+
+
+def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndarray:
+    """Drop a vertex of each too-short edge when the loop still covers and stays simple."""
+    if min_distance <= 0:
+        return loop
+    for _ in range(len(loop)):
+        d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+        short = np.flatnonzero(d < min_distance)
+        if len(short) == 0 or len(loop) <= 3:
+            break
+        done = False
+        for j in short:
+            k = (j + 1) % len(loop)
+            mid = np.delete(loop, k, axis=0)
+            mid[j if k > j else j - 1] = 0.5 * (loop[j] + loop[k])
+            # or stretch the edge to min_distance along its own line (on the image border this
+            # only adds area, where the art touches the border at a single spot)
+            u = (loop[j] - loop[k]) / max(d[j], 1e-12)
+            grow = 0.5 * (min_distance - d[j]) + 1e-6
+            apart = loop.copy()
+            apart[j] += u * grow
+            apart[k] -= u * grow
+            apart = _clamp(apart, cover.shape)
+            # drop either end of the short edge, or merge both into its midpoint, or stretch it
+            both = np.delete(loop, [j, k], axis=0)
+            for cand in (np.delete(loop, j, axis=0), np.delete(loop, k, axis=0), mid, apart, both):
+                if len(cand) < 3:
+                    continue
+                if loop_is_simple(cand) and len(_uncovered(cand, cover)) == 0:
+                    loop, done = cand, True
+                    break
+            if done:
+                break
+        if not done:
+            break
+    return loop
 
 
 def _dedupe_loop(loop: np.ndarray, tol: float = 1e-6) -> np.ndarray:
@@ -363,7 +426,8 @@ def hole_loops(region: np.ndarray, cover: np.ndarray, hull: np.ndarray, min_area
         fill = np.zeros(sub.shape, np.uint8)
         cv2.drawContours(fill, [(c - [x0, y0]).reshape(-1, 1, 2).astype(np.int32)], -1, 1, -1)
         hole = (fill > 0) & ~sub
-        e = max(0.9, min(eps, 0.25 * np.sqrt(hole.sum())))
+        # half the hull tolerance: a hole's band of waste is paid on both sides of its loop
+        e = max(0.9, min(0.5 * eps, 0.1 * np.sqrt(hole.sum())))
         k = int(np.ceil(e)) + 1
         inner = cv2.erode(hole.astype(np.uint8), np.ones((3, 3), np.uint8), iterations=k)
         if inner.sum() < 9:

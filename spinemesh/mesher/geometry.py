@@ -149,3 +149,52 @@ def loops_disjoint(a: np.ndarray, b: np.ndarray) -> bool:
     sa = np.stack([a, np.roll(a, -1, axis=0)], axis=1)
     sb = np.stack([b, np.roll(b, -1, axis=0)], axis=1)
     return not segments_cross(sa, sb).any()
+
+
+def clip_loop_to_rect(loop: np.ndarray, width: float, height: float) -> np.ndarray:
+    """Sutherland-Hodgman clip of a closed polygon to ``[0, width] x [0, height]``.
+
+    Exact for the region: the result encloses ``polygon ∩ rectangle``. Used to keep the hull
+    inside the image, since UVs outside 0..1 would sample neighbouring atlas regions.
+    Consecutive duplicate vertices and exactly collinear vertices on the rectangle are removed.
+    """
+    pts = [tuple(p) for p in np.asarray(loop, dtype=np.float64)]
+    for axis, bound, keep_less in ((0, 0.0, False), (0, float(width), True), (1, 0.0, False), (1, float(height), True)):
+        if not pts:
+            break
+        out = []
+        for i in range(len(pts)):
+            cur, prev = pts[i], pts[i - 1]
+            cin = cur[axis] <= bound if keep_less else cur[axis] >= bound
+            pin = prev[axis] <= bound if keep_less else prev[axis] >= bound
+            if cin != pin:
+                t = (bound - prev[axis]) / (cur[axis] - prev[axis])
+                x = (prev[0] + t * (cur[0] - prev[0]), prev[1] + t * (cur[1] - prev[1]))
+                x = (bound, x[1]) if axis == 0 else (x[0], bound)
+                out.append(x)
+            if cin:
+                out.append(cur)
+        pts = out
+    if len(pts) < 3:
+        return np.asarray(pts).reshape(-1, 2)
+    return drop_redundant(np.asarray(pts))
+
+
+def drop_redundant(loop: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """Remove repeated consecutive vertices and vertices lying on the segment of their neighbours."""
+    changed = True
+    while changed and len(loop) > 3:
+        changed = False
+        d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+        if (d <= tol).any():
+            loop = loop[d > tol]
+            changed = True
+            continue
+        prev, nxt = np.roll(loop, 1, axis=0), np.roll(loop, -1, axis=0)
+        u, w = loop - prev, nxt - loop
+        cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+        straight = (np.abs(cross) <= tol * np.maximum(1.0, np.hypot(*u.T) * np.hypot(*w.T))) & ((u * w).sum(1) > 0)
+        if straight.any():
+            loop = loop[~straight]
+            changed = True
+    return loop

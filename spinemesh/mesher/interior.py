@@ -10,6 +10,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .geometry import dp_indices
 from .params import MesherParams
 
 
@@ -95,10 +96,7 @@ def simplify_chain(c: np.ndarray, dp_ratio: float, max_segment: float) -> np.nda
     ndarray, shape (k, 2): vertices along the chain, in order.
     """
     length = float(np.hypot(*np.diff(c, axis=0).T).sum())
-    eps = dp_ratio * length
-    keep = cv2.approxPolyDP(c.reshape(-1, 1, 2).astype(np.float32), eps, False).reshape(-1, 2)
-    # indices of the kept points on the chain (approxPolyDP returns a subset of the input)
-    idx = _indices_of(c, keep)
+    idx = dp_indices(c, dp_ratio * length, closed=False)
     pts = []
     cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c, axis=0).T))])
     for a, b in zip(idx[:-1], idx[1:]):
@@ -111,15 +109,6 @@ def simplify_chain(c: np.ndarray, dp_ratio: float, max_segment: float) -> np.nda
                 pts.append(c[min(j, len(c) - 1)])
     pts.append(c[idx[-1]])
     return np.asarray(pts, dtype=np.float64)
-
-
-def _indices_of(c: np.ndarray, keep: np.ndarray) -> list[int]:
-    idx, j = [], 0
-    for k in keep:
-        while j < len(c) and not np.allclose(c[j], k, atol=1e-3):
-            j += 1
-        idx.append(min(j, len(c) - 1))
-    return idx
 
 
 def interior_chains(image: np.ndarray, mask: np.ndarray, p: MesherParams, scale: float = 1.0,

@@ -88,6 +88,9 @@ class MesherParams:
     analysis_max_side : int
         Default preset: images larger than this are analysed on an integer-downscaled copy
         (the coverage mask is max-pooled, so the hull still covers every full-size pixel).
+    interior_max_side : int
+        Default preset: interior edges are detected on a copy at most this large (0: full
+        size). The paper preset always works at full size.
     """
 
     style: str = "default"
@@ -120,6 +123,7 @@ class MesherParams:
     max_fill_vertices: int = 40
     min_hole_area: float = 400.0
     analysis_max_side: int = 1024
+    interior_max_side: int = 512
 
     def with_overrides(self, **overrides) -> "MesherParams":
         """A copy with some fields replaced; unknown names raise ``TypeError``."""

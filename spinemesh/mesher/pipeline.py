@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import ImageError
 from . import exterior, interior, triangulate
-from .geometry import loop_is_simple, segments_cross, signed_area
+from .geometry import clip_loop_to_rect, segments_cross, signed_area
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
@@ -107,11 +107,10 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     # low-res squares covers the full-res ones exactly once scaled by s.
     s = max(1, int(np.ceil(max(h, w) / max(p.analysis_max_side, 16))))
     cover = _maxpool(mask, s)
-    small = image if s == 1 else cv2.resize(image, (cover.shape[1], cover.shape[0]), interpolation=cv2.INTER_AREA)
     area = float(cover.sum())
     eps = max(0.5, p.hull_tolerance * np.sqrt(area) / max(p.density, 1e-6))
     budget = p.max_vertices
-    hull, region = exterior.covering_hull(cover, eps)
+    hull, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
     holes = exterior.hole_loops(region, cover, hull, p.min_hole_area / (s * s), eps)
     # hard budget: simplify the hull further, then give up holes, until the loops fit
     while budget is not None and len(hull) + sum(map(len, holes)) > budget:
@@ -121,7 +120,7 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
         if len(hull) <= 3:
             break
         eps *= 1.5
-        new, region = exterior.covering_hull(cover, eps)
+        new, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
         if len(new) >= len(hull) and eps > 4 * max(cover.shape):
             break
         hull = new if len(new) < len(hull) else hull
@@ -130,14 +129,18 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     density = max(p.density, 1e-6)
     chains = []
     if p.max_segment > 0 and (budget is None or budget > len(ring)):
-        small_mask = cover if s == 1 else cv2.resize(mask.astype(np.uint8), (cover.shape[1], cover.shape[0]),
-                                                     interpolation=cv2.INTER_AREA) > 0
-        scaled = p.with_overrides(min_contour_length=p.min_contour_length / s, max_segment=p.max_segment / s,
-                                  dedup_radius=p.dedup_radius / s, border_distance=p.border_distance / s)
-        chains = interior.interior_chains(small, small_mask, scaled, scale=density, taken=ring)
-        chains = _drop_crossing(chains, loops)
+        chains = _interior(image, mask, p, s, ring, density)
+        chains = _drop_crossing(chains, [l * s for l in loops])
         if budget is not None:
             chains = _fit_budget(chains, budget - len(ring))
+    ring = ring * s
+    if s > 1:
+        # the analysis grid may overhang the image by < s px: clip exactly at full size
+        hull_full = clip_loop_to_rect(loops[0] * s, w, h)
+        loops = [hull_full] + [l * s for l in loops[1:]]
+        ring = np.concatenate(loops)
+    else:
+        loops = [l * s for l in loops]
     pts = [ring] + chains
     flags = [np.zeros(len(ring), bool)] + [np.ones(len(c), bool) for c in chains]
     edges, start = [], 0
@@ -148,17 +151,42 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     for c in chains:
         edges += [(start + i, start + i + 1) for i in range(len(c) - 1)]
         start += len(c)
-    pts = np.concatenate(pts) * s
+    pts = np.concatenate(pts)
     is_int = np.concatenate(flags)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     n_steiner = _steiner_budget(p, len(pts), density)
     if budget is not None:
         n_steiner = max(0, min(n_steiner, budget - len(pts)))
-    verts, tris, edges = triangulate.constrained(pts, edges, [l * s for l in loops], p.min_angle, n_steiner,
-                                                 p.min_vertex_distance * s)
+    verts, tris, edges = triangulate.constrained(pts, edges, loops, p.min_angle, n_steiner,
+                                                 p.min_vertex_distance)
     if len(verts) > len(pts):  # crossing constraints were split: the new points are interior
         is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
     return _finish(verts, tris, is_int, edges, w, h, preset="default")
+
+
+def _interior(image: np.ndarray, mask: np.ndarray, p: MesherParams, s: int, ring: np.ndarray,
+              density: float) -> list[np.ndarray]:
+    """Interior chains in full-size pixel coordinates.
+
+    The edge detection (a bilateral filter costs ``d^2`` per pixel) runs on a copy whose longer
+    side is at most ``interior_max_side``; lengths are scaled to match, so the chains are the
+    same boundaries at the resolution that decides vertex spacing anyway.
+    """
+    h, w = mask.shape
+    si = max(s, int(np.ceil(max(h, w) / p.interior_max_side))) if p.interior_max_side else s
+    if si == 1:
+        small, small_mask = image, mask
+    else:
+        size = (max(1, round(w / si)), max(1, round(h / si)))
+        small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+        small_mask = cv2.resize(mask.astype(np.uint8) * 255, size, interpolation=cv2.INTER_AREA) >= 128
+    sx, sy = w / small_mask.shape[1], h / small_mask.shape[0]
+    f = max(sx, sy)
+    scaled = p.with_overrides(min_contour_length=p.min_contour_length / f, max_segment=p.max_segment / f,
+                              dedup_radius=p.dedup_radius / f, border_distance=p.border_distance / f)
+    taken = ring * s / [sx, sy]
+    chains = interior.interior_chains(small, small_mask, scaled, scale=density, taken=taken)
+    return [c * [sx, sy] for c in chains]
 
 
 def _steiner_budget(p: MesherParams, n_points: int, density: float) -> int:
@@ -169,13 +197,16 @@ def _steiner_budget(p: MesherParams, n_points: int, density: float) -> int:
 
 
 def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:
+    """Block-wise "any" over ``s x s`` blocks (the last blocks padded with background)."""
     if s == 1:
         return mask
     h, w = mask.shape
     H, W = -(-h // s), -(-w // s)
-    pad = np.zeros((H * s, W * s), bool)
+    pad = np.zeros((H * s, W * s), np.uint8)
     pad[:h, :w] = mask
-    return pad.reshape(H, s, W, s).any(axis=(1, 3))
+    # reduce the contiguous axis first: much faster than one any() over two strided axes
+    cols = pad.reshape(H * s, W, s).max(axis=2)
+    return cols.reshape(H, s, W).max(axis=1).astype(bool)
 
 
 def _drop_crossing(chains: list[np.ndarray], loops: list[np.ndarray]) -> list[np.ndarray]:
