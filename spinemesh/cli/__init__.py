@@ -14,6 +14,7 @@ from . import info  # noqa: F401,E402
 from . import convert  # noqa: F401,E402
 from . import segment  # noqa: F401,E402
 from . import dataset  # noqa: F401,E402
+from . import mesh  # noqa: F401,E402
 
 
 def main() -> None:
