@@ -320,6 +320,10 @@ def bone(s, node: dict, c: Context, i: int) -> None:
     else:
         s.string(node.get("name"))
         if i > 0:
+            # A parent comes before its children: the reader knows only earlier bones.
+            parent = c.bones[1].get(node.get("parent"))
+            if parent is not None and parent >= i:
+                raise s.fail(f"bone {node.get('name')!r} to come after its parent {node.get('parent')!r}")
             index(s, node, "parent", *c.bones, "bone")
     fields(s, node, _BONE_FIELDS, order=(7, 0, 1, 2, 3, 4, 5, 6))  # the JSON has length first
     enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
@@ -639,7 +643,7 @@ def vertices(s, node: dict, weighted: bool | None, c: Context, count_key: str | 
     if not is_weighted:
         floats(s, verts, 2 * n, "vertices")
     else:
-        s.weighted(verts, n)
+        s.weighted(verts, n, len(c.bones[0]))
     return n
 
 
@@ -2083,7 +2087,10 @@ class _RefWriter(SkelWriter):
                 self.count(k)
                 i += 1
                 for _ in range(k):
-                    self.varint(int(values[i]))
+                    b = int(values[i])
+                    if not 0 <= b < nbones:
+                        raise self.fail(f"bone index below {nbones} in weighted vertices, got {b}")
+                    self.varint(b)
                     self.out += _XYW.pack(values[i + 1], values[i + 2], values[i + 3])
                     i += 4
         except (IndexError, ValueError, TypeError, struct.error):
