@@ -1,0 +1,212 @@
+"""Walking a project: every artist mesh, re-meshed by our presets and the baselines, measured.
+
+One :class:`DiffRow` per ``"type": "mesh"`` attachment. ``linkedmesh`` attachments are
+skipped (counted in :attr:`DiffResult.skipped`): they reuse their parent's vertices and
+triangles, so they would count the parent's mesh again. A sequence mesh is compared on its
+first frame. When a folder holds a skeleton both as ``.json`` and ``.skel`` of the same name
+(the examples do: the same state), only the ``.json`` is read, so no mesh counts twice.
+
+Meshes generated for an image are made once and reused for every attachment that draws it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..mesher import Mesh, mesh_image
+from ..metrics import mesh_metrics, significant_edges
+from ..project import find_project, image_source_for
+from ..skeleton import image_paths, iter_attachments, load_skeleton
+from .baselines import BASELINES, baseline_mesh
+from .compare import artist_mesh, compare
+
+#: Our presets first, then the paper's baselines in the order of its table.
+PRESET_METHODS = ("default", "paper")
+METHODS = PRESET_METHODS + BASELINES
+
+
+@dataclass
+class DiffRow:
+    """One artist mesh attachment and every mesh it is compared with.
+
+    Attributes
+    ----------
+    project, skeleton : str
+        Project folder name and skeleton file name.
+    skin, slot, attachment, image : str
+        Where the attachment lives and the image path it draws.
+    width, height : int
+        Size of the image (px, original size).
+    rgba : ndarray, shape (H, W, 4), uint8
+        The image (kept for the HTML report; not written to JSON).
+    meshes : dict
+        ``"artist"`` and each method name -> :class:`Mesh` (absent when meshing failed).
+    metrics : dict
+        ``"artist"`` and each method name -> measures (see :func:`spinemesh.diff.compare.compare`),
+        or ``{"error": message}``.
+    """
+
+    project: str
+    skeleton: str
+    skin: str
+    slot: str
+    attachment: str
+    image: str
+    width: int
+    height: int
+    rgba: np.ndarray = field(repr=False)
+    meshes: dict = field(default_factory=dict, repr=False)
+    metrics: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """The row as written to ``report.json`` (no pixels, no meshes)."""
+        return {"project": self.project, "skeleton": self.skeleton, "skin": self.skin, "slot": self.slot,
+                "attachment": self.attachment, "image": self.image, "width": self.width,
+                "height": self.height, "metrics": self.metrics}
+
+
+@dataclass
+class DiffResult:
+    """All rows of a run, the methods compared, and what was skipped and why."""
+
+    rows: list[DiffRow]
+    methods: tuple[str, ...]
+    skipped: list[dict]
+
+
+def skeletons_to_read(skeletons: list[Path]) -> list[Path]:
+    """Drop a binary skeleton when a ``.json`` of the same name sits beside it."""
+    def stem(p: Path) -> tuple[Path, str]:
+        name = p.name
+        for suf in (".json.txt", ".skel.bytes", ".json", ".skel"):
+            if name.lower().endswith(suf):
+                return p.parent, name[: -len(suf)]
+        return p.parent, name
+
+    have_json = {stem(p) for p in skeletons if p.name.lower().endswith((".json", ".json.txt"))}
+    return [p for p in skeletons
+            if p.name.lower().endswith((".json", ".json.txt")) or stem(p) not in have_json]
+
+
+def make_mesh(rgba: np.ndarray, method: str) -> Mesh:
+    """The mesh of one method (a preset of :data:`PRESET_METHODS` or a baseline)."""
+    if method in PRESET_METHODS:
+        return mesh_image(rgba, preset=method)
+    return baseline_mesh(rgba, method)
+
+
+def collect(paths: list[Path], images: Path | None = None) -> tuple[list[tuple], list[dict]]:
+    """Every artist mesh of the projects, before any meshing.
+
+    Returns
+    -------
+    tasks : list of tuple
+        ``(project name, skeleton path, AttachmentRef, image source, image path)``.
+    skipped : list of dict
+        ``{"project", "skeleton", "slot", "attachment", "reason"}``.
+    """
+    tasks, skipped = [], []
+    for path in paths:
+        project = find_project(path)
+        atlases: dict = {}
+        for skel in skeletons_to_read(project.skeletons):
+            doc = load_skeleton(skel)
+            source = None
+            for ref in iter_attachments(doc):
+                where = {"project": project.root.name, "skeleton": skel.name, "slot": ref.slot,
+                         "attachment": ref.name}
+                if ref.type == "linkedmesh":
+                    skipped.append({**where, "reason": "linkedmesh (reuses its parent's mesh)"})
+                    continue
+                if ref.type != "mesh":
+                    continue
+                if source is None:
+                    source = image_source_for(doc, skel, project, images, atlases)
+                if source is None:
+                    skipped.append({**where, "reason": "no atlas or images folder holds its image"})
+                    continue
+                names = image_paths(ref)
+                if not names:
+                    skipped.append({**where, "reason": "draws no image"})
+                    continue
+                tasks.append((project.root.name, skel, ref, source, names[0]))
+    return tasks, skipped
+
+
+def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images: str | Path | None = None,
+             limit: int | None = None,
+             progress: Callable[[int, int, str], None] | None = None) -> DiffResult:
+    """Compare every artist mesh of the projects with the generated ones.
+
+    Parameters
+    ----------
+    paths : list of path
+        Project folders (or skeleton files); each is its own project for image lookup.
+    methods : tuple of str
+        Subset of :data:`METHODS`.
+    images : path, optional
+        An images folder to take the images from instead of the atlases.
+    limit : int, optional
+        Stop after this many attachments (quick looks at big projects).
+    progress : callable, optional
+        ``progress(done, total, label)`` after each attachment.
+
+    Raises
+    ------
+    SpineMeshError
+        For a missing project or an unreadable skeleton or atlas.
+    """
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        raise ValueError(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(METHODS)}")
+    tasks, skipped = collect([Path(p) for p in paths], Path(images) if images else None)
+    if limit is not None:
+        tasks = tasks[:limit]
+    cache: dict = {}  # (id(source), image) -> (rgba, edge pixels, {method: (mesh, metrics)})
+    rows = []
+    for done, (project, skel, ref, source, name) in enumerate(tasks, 1):
+        where = {"project": project, "skeleton": skel.name, "slot": ref.slot, "attachment": ref.name}
+        try:
+            key = (id(source), name)
+            if key not in cache:
+                cache[key] = _generate(source.get(name).rgba, methods)
+            rgba, edges, generated = cache[key]
+            h, w = rgba.shape[:2]
+            artist = artist_mesh(ref.attachment, w, h)
+        except (SpineMeshError, ValueError) as e:
+            skipped.append({**where, "reason": str(e)})
+            if progress:
+                progress(done, len(tasks), f"{project}/{ref.name}")
+            continue
+        row = DiffRow(project, skel.name, ref.skin, ref.slot, ref.name, name, w, h, rgba)
+        row.meshes["artist"] = artist
+        row.metrics["artist"] = mesh_metrics(artist, rgba, edge_pixels=edges)
+        for m in methods:
+            mesh, own = generated[m]
+            if mesh is None:
+                row.metrics[m] = own
+                continue
+            row.meshes[m] = mesh
+            row.metrics[m] = compare(artist, mesh, rgba, own=own)
+        rows.append(row)
+        if progress:
+            progress(done, len(tasks), f"{project}/{ref.name}")
+    return DiffResult(rows, tuple(methods), skipped)
+
+
+def _generate(rgba: np.ndarray, methods: tuple[str, ...]):
+    """Meshes and own measures of every method for one image (``(None, {"error"})`` on failure)."""
+    edges = significant_edges(rgba)
+    out = {}
+    for m in methods:
+        try:
+            mesh = make_mesh(rgba, m)
+            out[m] = (mesh, mesh_metrics(mesh, rgba, edge_pixels=edges))
+        except SpineMeshError as e:
+            out[m] = (None, {"error": e.message})
+    return rgba, edges, out
