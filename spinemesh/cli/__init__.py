@@ -15,6 +15,7 @@ from . import convert  # noqa: F401,E402
 from . import segment  # noqa: F401,E402
 from . import dataset  # noqa: F401,E402
 from . import mesh  # noqa: F401,E402
+from . import diff  # noqa: F401,E402
 
 
 def main() -> None:

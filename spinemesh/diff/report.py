@@ -1,0 +1,328 @@
+"""The diff report: ``report.md``, ``report.json`` and a self-contained ``index.html``.
+
+The HTML page needs no network: one ``index.html`` with its own CSS and a little JavaScript,
+and beside it ``assets/`` with one PNG per image (at most :data:`SPRITE_MAX_SIDE` px) and one
+SVG overlay per attachment and method (the artist's mesh green, the generated mesh orange,
+exterior vertices blue, interior vertices yellow). The sprite sits on a checkerboard so that
+transparent pixels show. A radio button picks the method shown in every overlay and in the
+per-attachment table, whose columns sort on click.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text
+from ..mesher import Mesh
+from .run import DiffResult
+
+#: Longest side of a sprite PNG in the HTML assets (px); the SVG overlays stay exact.
+SPRITE_MAX_SIDE = 384
+
+#: Measures of the aggregate table: (key, heading, format). Means over all attachments.
+COLUMNS = (
+    ("vertices", "Vertices", "{:.1f}"),
+    ("triangles", "Triangles", "{:.1f}"),
+    ("coverage", "Coverage", "{:.1%}"),
+    ("waste", "Waste", "{:.1%}"),
+    ("boundary_adherence", "Boundary adherence", "{:.1%}"),
+    ("angle_ratio", "Angle ratio", "{:.3f}"),
+    ("hull_iou", "Hull IoU", "{:.3f}"),
+    ("chamfer", "Chamfer (px)", "{:.2f}"),
+)
+
+#: What each method is, for the tables' first column.
+METHOD_LABELS = {
+    "artist": "Artist (reference)",
+    "default": "spinemesh default preset",
+    "paper": "spinemesh paper preset (sec. 3)",
+    "hull": "Alpha-only hull (baseline)",
+    "grid": "Uniform grid (baseline)",
+    "shi-tomasi": "Shi-Tomasi corners (baseline)",
+}
+
+COLOURS = {"artist": "#1fbf3f", "ours": "#ff8c1a", "exterior": "#2f6bff", "interior": "#ffd21f"}
+
+
+# --------------------------------------------------------------------------- tables
+def aggregate(result: DiffResult) -> list[dict]:
+    """One dict per method (artist first): ``method``, ``n``, ``failed`` and the mean of each
+    measure of :data:`COLUMNS` over the attachments where the method produced a mesh."""
+    out = []
+    for method in ("artist",) + tuple(result.methods):
+        ok = [r.metrics[method] for r in result.rows if "error" not in r.metrics.get(method, {"error": 1})]
+        row = {"method": method, "n": len(ok), "failed": len(result.rows) - len(ok)}
+        for key, _, _ in COLUMNS:
+            vals = [m[key] for m in ok if key in m and np.isfinite(m[key])]
+            row[key] = float(np.mean(vals)) if vals else None
+        if method == "artist":
+            row["hull_iou"], row["chamfer"] = None, None  # against itself: 1 and 0 by definition
+        out.append(row)
+    return out
+
+
+def _fmt(value, fmt: str) -> str:
+    return "-" if value is None else fmt.format(value)
+
+
+def aggregate_markdown(agg: list[dict]) -> str:
+    """The aggregate table in Markdown (like the paper's comparison table, sec. 5)."""
+    head = "| Method | Meshes | " + " | ".join(h for _, h, _ in COLUMNS) + " |"
+    sep = "|---|---:|" + "---:|" * len(COLUMNS)
+    lines = [head, sep]
+    for a in agg:
+        cells = [_fmt(a[k], f) for k, _, f in COLUMNS]
+        n = str(a["n"]) + (f" ({a['failed']} failed)" if a["failed"] else "")
+        lines.append(f"| {METHOD_LABELS.get(a['method'], a['method'])} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def rows_markdown(result: DiffResult) -> str:
+    """One row per attachment: artist counts, then per method vertices, Chamfer and IoU."""
+    methods = result.methods
+    head = ("| Project | Skeleton | Slot | Attachment | Size | Artist V/T | "
+            + " | ".join(f"{m} V / Chamfer / IoU" for m in methods) + " |")
+    lines = [head, "|---|---|---|---|---|---:|" + "---:|" * len(methods)]
+    for r in result.rows:
+        a = r.metrics["artist"]
+        cells = []
+        for m in methods:
+            x = r.metrics[m]
+            cells.append("failed" if "error" in x else f"{x['vertices']} / {x['chamfer']:.1f} / {x['hull_iou']:.2f}")
+        lines.append(f"| {r.project} | {r.skeleton} | {r.slot} | {r.attachment} | {r.width}x{r.height} | "
+                     f"{a['vertices']}/{a['triangles']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
+    """``report.md``: aggregate table, per-attachment table, skipped attachments."""
+    agg = aggregate(result) if agg is None else agg
+    parts = [
+        "# spinemesh diff: generated meshes against the artists' meshes\n",
+        f"{len(result.rows)} artist mesh attachments; means over attachments. Coverage: art pixels "
+        "(alpha >= 8) entirely inside the mesh; waste: transparent share of the mesh area; boundary "
+        "adherence: significant internal edge pixels with a vertex within 10 px; angle ratio: mean "
+        "smallest/largest angle per triangle; hull IoU: covered area against the artist's; Chamfer: "
+        "mean of both directed mean nearest-vertex distances to the artist's vertices (px).\n",
+        aggregate_markdown(agg),
+        "\n## Per attachment\n",
+        rows_markdown(result),
+    ]
+    if result.skipped:
+        parts.append("\n## Skipped\n")
+        parts += [f"- {s['project']}/{s['skeleton']} {s['slot']}/{s['attachment']}: {s['reason']}\n"
+                  for s in result.skipped]
+    return "\n".join(parts)
+
+
+def to_json(result: DiffResult, agg: list[dict] | None = None) -> dict:
+    """``report.json``: ``methods``, ``aggregate``, ``rows``, ``skipped``."""
+    agg = aggregate(result) if agg is None else agg
+    return {"methods": list(result.methods), "aggregate": agg, "rows": [r.to_json() for r in result.rows],
+            "skipped": result.skipped}
+
+
+# --------------------------------------------------------------------------- SVG
+def _viewbox(meshes: list[Mesh], w: int, h: int) -> tuple[float, float, float, float]:
+    """A box holding the image and every mesh, with a small margin: (x, y, width, height)."""
+    pts = np.vstack([m.vertices for m in meshes] + [np.array([[0.0, 0.0], [w, h]])])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.02 * float(max(hi - lo))
+    return lo[0] - pad, lo[1] - pad, hi[0] - lo[0] + 2 * pad, hi[1] - lo[1] + 2 * pad
+
+
+def _edges_path(mesh: Mesh) -> str:
+    """SVG path data drawing each triangle edge once."""
+    t = np.asarray(mesh.triangles, dtype=np.int64)
+    if len(t) == 0:
+        return ""
+    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    e = np.unique(e, axis=0)
+    v = np.round(mesh.vertices, 1)
+    return "".join(f"M{v[i, 0]:g} {v[i, 1]:g}L{v[j, 0]:g} {v[j, 1]:g}" for i, j in e)
+
+
+def overlay_svg(artist: Mesh, mesh: Mesh | None, box: tuple[float, float, float, float]) -> str:
+    """An SVG with the artist's wireframe (green) and ``mesh`` (orange, blue/yellow vertices).
+
+    Strokes do not scale with the view, so lines stay one screen pixel wide at any size.
+    """
+    x, y, w, h = box
+    r = max(w, h) / 160.0
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x:g} {y:g} {w:g} {h:g}" '
+             f'preserveAspectRatio="xMidYMid meet">',
+             f'<path d="{_edges_path(artist)}" fill="none" stroke="{COLOURS["artist"]}" stroke-width="1.5" '
+             'vector-effect="non-scaling-stroke" stroke-opacity="0.9"/>']
+    if mesh is not None:
+        parts.append(f'<path d="{_edges_path(mesh)}" fill="none" stroke="{COLOURS["ours"]}" stroke-width="1.2" '
+                     'vector-effect="non-scaling-stroke"/>')
+        interior = np.asarray(mesh.is_interior, dtype=bool)
+        for flag, colour in ((False, COLOURS["exterior"]), (True, COLOURS["interior"])):
+            pts = np.round(mesh.vertices[interior == flag], 1)
+            circles = "".join(f'<circle cx="{px:g}" cy="{py:g}" r="{r:.2f}"/>' for px, py in pts)
+            parts.append(f'<g fill="{colour}" stroke="#000" stroke-width="0.5" '
+                         f'vector-effect="non-scaling-stroke">{circles}</g>')
+    parts.append("</svg>\n")
+    return "".join(parts)
+
+
+def _sprite_png(rgba: np.ndarray) -> np.ndarray:
+    h, w = rgba.shape[:2]
+    s = SPRITE_MAX_SIDE / max(h, w)
+    if s >= 1:
+        return rgba
+    return cv2.resize(rgba, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
+
+
+# --------------------------------------------------------------------------- HTML
+_CSS = """
+body{font:14px/1.4 system-ui,sans-serif;margin:1.5em;color:#222;background:#fafafa}
+table{border-collapse:collapse;margin:.5em 0 1.5em}
+th,td{border:1px solid #ccc;padding:3px 7px;text-align:right}
+th{background:#eee;cursor:pointer;user-select:none}
+td:first-child,th:first-child{text-align:left}
+td.l{text-align:left}
+.legend span{display:inline-block;width:12px;height:12px;margin:0 4px 0 12px;vertical-align:middle;border:1px solid #000}
+.cards{display:flex;flex-wrap:wrap;gap:12px}
+.card{background:#fff;border:1px solid #ccc;padding:6px;width:260px}
+.card h3{font-size:12px;margin:0 0 4px;word-break:break-all}
+.stage{position:relative;width:256px;height:256px;
+ background:repeating-conic-gradient(#ddd 0% 25%,#fff 0% 50%) 0 0/16px 16px}
+.stage img{position:absolute;display:block}
+.stage img.ov{left:0;top:0;width:100%;height:100%}
+.card p{font-size:11px;margin:4px 0 0;color:#444}
+"""
+
+_JS = """
+(function(){
+  var data = JSON.parse(document.getElementById('rows').textContent);
+  var cols = [['project','Project'],['skeleton','Skeleton'],['slot','Slot'],['attachment','Attachment'],
+    ['a_vertices','Artist V'],['vertices','V'],['triangles','T'],['coverage','Coverage'],['waste','Waste'],
+    ['boundary_adherence','Adherence'],['angle_ratio','Angle'],['hull_iou','Hull IoU'],['chamfer','Chamfer']];
+  var method = data.methods[0], sortKey = null, sortDir = 1;
+  function val(r, k){
+    if (k === 'a_vertices') return r.metrics.artist.vertices;
+    if (['project','skeleton','slot','attachment'].indexOf(k) >= 0) return r[k];
+    var m = r.metrics[method]; return (m && k in m) ? m[k] : null;
+  }
+  function fmt(v){ return v === null ? 'failed' : (typeof v === 'number' && !Number.isInteger(v)) ? v.toFixed(3) : String(v); }
+  function render(){
+    var idx = data.rows.map(function(_, i){ return i; });
+    if (sortKey) idx.sort(function(a, b){
+      var x = val(data.rows[a], sortKey), y = val(data.rows[b], sortKey);
+      if (x === y) return 0; if (x === null) return 1; if (y === null) return -1;
+      return (x < y ? -1 : 1) * sortDir; });
+    var head = '<tr>' + cols.map(function(c){ return '<th data-k="' + c[0] + '">' + c[1] + '</th>'; }).join('') + '</tr>';
+    var body = idx.map(function(i){ var r = data.rows[i];
+      return '<tr>' + cols.map(function(c, j){ var v = val(r, c[0]);
+        return j < 4 ? '<td class="l">' + (j === 3 ? '<a href="#a' + i + '">' : '') + String(v).replace(/&/g,'&amp;').replace(/</g,'&lt;') + (j === 3 ? '</a>' : '') + '</td>' : '<td>' + fmt(v) + '</td>'; }).join('') + '</tr>'; }).join('');
+    var t = document.getElementById('per');
+    t.innerHTML = head + body;
+    Array.prototype.forEach.call(t.querySelectorAll('th'), function(th){
+      th.onclick = function(){ var k = th.getAttribute('data-k'); sortDir = (sortKey === k) ? -sortDir : 1; sortKey = k; render(); }; });
+  }
+  function show(m){
+    method = m;
+    Array.prototype.forEach.call(document.querySelectorAll('img.ov'), function(img){
+      img.src = 'assets/' + img.getAttribute('data-i') + '-' + m + '.svg'; });
+    Array.prototype.forEach.call(document.querySelectorAll('.card'), function(c){
+      var r = data.rows[+c.getAttribute('data-i')], x = r.metrics[m];
+      c.querySelector('p').textContent = x && !('error' in x) ?
+        'artist ' + r.metrics.artist.vertices + ' V, ' + m + ' ' + x.vertices + ' V, IoU ' + x.hull_iou.toFixed(2) + ', Chamfer ' + x.chamfer.toFixed(1) + ' px'
+        : m + ' failed';
+    });
+    render();
+  }
+  Array.prototype.forEach.call(document.querySelectorAll('input[name=m]'), function(el){
+    el.onchange = function(){ if (el.checked) show(el.value); }; });
+  show(method);
+})();
+"""
+
+
+def _aggregate_html(agg: list[dict]) -> str:
+    head = "<tr><th>Method</th><th>Meshes</th>" + "".join(f"<th>{html.escape(h)}</th>" for _, h, _ in COLUMNS) + "</tr>"
+    body = []
+    for a in agg:
+        cells = "".join(f"<td>{_fmt(a[k], f)}</td>" for k, _, f in COLUMNS)
+        body.append(f"<tr><td>{html.escape(METHOD_LABELS.get(a['method'], a['method']))}</td><td>{a['n']}</td>{cells}</tr>")
+    return "<table>" + head + "".join(body) + "</table>"
+
+
+def _card(i: int, row, box) -> str:
+    x, y, w, h = box
+    s = 256.0 / max(w, h)
+    # the overlay SVG is centred in the square stage (xMidYMid meet): place the sprite to match
+    ox, oy = (256.0 - w * s) / 2, (256.0 - h * s) / 2
+    left, top = ox + (0 - x) * s, oy + (0 - y) * s
+    title = html.escape(f"{row.project} / {row.skeleton} / {row.slot} / {row.attachment} ({row.width}x{row.height})")
+    return (f'<div class="card" id="a{i}" data-i="{i}"><h3>{title}</h3><div class="stage">'
+            f'<img src="assets/{i}.png" alt="" style="left:{left:.2f}px;top:{top:.2f}px;'
+            f'width:{row.width * s:.2f}px;height:{row.height * s:.2f}px">'
+            f'<img class="ov" data-i="{i}" alt="mesh overlay" src="assets/{i}-artist.svg"></div><p></p></div>')
+
+
+def to_html(result: DiffResult, agg: list[dict]) -> str:
+    """``index.html`` (the assets are written by :func:`write_report`)."""
+    boxes = [_viewbox(list(r.meshes.values()), r.width, r.height) for r in result.rows]
+    radios = "".join(
+        f'<label><input type="radio" name="m" value="{m}"{" checked" if k == 0 else ""}> '
+        f'{html.escape(METHOD_LABELS.get(m, m))}</label> ' for k, m in enumerate(result.methods))
+    legend = "".join(f'<span style="background:{COLOURS[k]}"></span>{label}' for k, label in (
+        ("artist", "artist mesh"), ("ours", "generated mesh"), ("exterior", "exterior vertex"),
+        ("interior", "interior vertex")))
+    data = {"methods": list(result.methods), "rows": [r.to_json() for r in result.rows]}
+    # "</" must not appear inside a <script> element
+    data_json = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    cards = "".join(_card(i, r, b) for i, (r, b) in enumerate(zip(result.rows, boxes)))
+    skipped = "".join(f"<li>{html.escape(s['project'] + '/' + s['skeleton'] + ' ' + s['slot'] + '/' + s['attachment'])}: "
+                      f"{html.escape(s['reason'])}</li>" for s in result.skipped)
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>spinemesh diff</title>
+<link rel="icon" href="data:,">
+<style>{_CSS}</style></head><body>
+<h1>spinemesh diff: generated meshes against the artists' meshes</h1>
+<p>{len(result.rows)} artist mesh attachments. Means over attachments.</p>
+{_aggregate_html(agg)}
+<p>Show: {radios}</p>
+<p class="legend">{legend}</p>
+<h2>Per attachment</h2>
+<p>Click a heading to sort; click an attachment to see its mesh.</p>
+<table id="per"></table>
+<h2>Meshes</h2>
+<div class="cards">{cards}</div>
+{"<h2>Skipped</h2><ul>" + skipped + "</ul>" if skipped else ""}
+<script type="application/json" id="rows">{data_json}</script>
+<script>{_JS}</script>
+</body></html>
+"""
+
+
+def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
+    """Write ``report.md``, ``report.json``, ``index.html`` and ``assets/`` into folder ``out``.
+
+    Returns
+    -------
+    dict
+        ``{"markdown", "json", "html"}`` -> written path.
+    """
+    out = Path(out)
+    (out / "assets").mkdir(parents=True, exist_ok=True)
+    agg = aggregate(result)
+    for i, r in enumerate(result.rows):
+        box = _viewbox(list(r.meshes.values()), r.width, r.height)
+        atomic_write_png(out / "assets" / f"{i}.png", np.ascontiguousarray(_sprite_png(r.rgba)))
+        for m in ("artist",) + tuple(result.methods):
+            mesh = None if m == "artist" else r.meshes.get(m)
+            atomic_write_bytes(out / "assets" / f"{i}-{m}.svg",
+                               overlay_svg(r.meshes["artist"], mesh, box).encode("utf-8"))
+    paths = {"markdown": out / "report.md", "json": out / "report.json", "html": out / "index.html"}
+    atomic_write_text(paths["markdown"], to_markdown(result, agg))
+    atomic_write_json(paths["json"], to_json(result, agg))
+    atomic_write_text(paths["html"], to_html(result, agg))
+    return paths
