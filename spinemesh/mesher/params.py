@@ -157,7 +157,7 @@ DEFAULT = MesherParams(
     dedup_radius=24.0,
     min_vertex_distance=4.0,
     fill_ratio=0.3,
-    min_angle=25.0,
+    min_angle=30.0,
     max_fill_vertices=30,
 )
 

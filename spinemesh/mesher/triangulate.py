@@ -75,10 +75,10 @@ def constrained(points: np.ndarray, edges: np.ndarray, loops: list[np.ndarray],
     """
     t = _triangulation(points, edges)
     if max_steiner > 0 and min_angle > 0:
-        # refine only inside: outer and hole triangles are excluded (the threshold is in degrees)
+        # refine only inside: outer and hole triangles are excluded (pythoncdt takes radians)
         skip = t.collect_outer_triangles_and_holes()
         t.refine_triangles(int(max_steiner), cdt.RefinementCriterion.SMALLEST_ANGLE,
-                           float(min_angle), skip, float(min_edge))
+                           float(np.radians(min_angle)), skip, float(min_edge))
     t.erase_super_triangle()
     verts, tris = _arrays(t)
     fixed = np.array(sorted((e.v1, e.v2) for e in t.fixed_edges), dtype=np.int64).reshape(-1, 2)
