@@ -75,8 +75,13 @@ class Mesh:
         return len(self.triangles)
 
     def to_json(self) -> dict:
-        """The ``mesh.json`` dict (coordinates rounded to 1/1000 px for stable output)."""
-        verts = np.round(self.vertices, 3)
+        """The ``mesh.json`` dict.
+
+        Coordinates are written at full precision (shortest round-trip repr): hull vertices can
+        sit exactly on pixel corners, and rounding them inward would clip art by a sliver.
+        A consumer that must round should round hull vertices away from the mesh.
+        """
+        verts = self.vertices
         out = {
             "width": self.width,
             "height": self.height,
