@@ -88,6 +88,20 @@ def _layout(s, version: str) -> Layout:
 
 # -- small symmetric helpers -----------------------------------------------------------
 
+_STRUCTS: dict[int, tuple] = {}
+
+
+def _floats_struct(n: int) -> tuple:
+    """``(unpack_from, size)`` for ``n`` big-endian float32s, cached."""
+    got = _STRUCTS.get(n)
+    if got is None:
+        st = struct.Struct(f">{n}f")
+        got = (st.unpack_from, st.size)
+        if n <= 64:  # field runs and curves; long arrays vary too much to be worth keeping
+            _STRUCTS[n] = got
+    return got
+
+
 def _same(v, default) -> bool:
     """``v`` equals ``default`` and may be left out (keeps ``-0.0``, which packs differently)."""
     if v is None or default is None:
@@ -1075,9 +1089,9 @@ def curve_timeline(s, frames: list | None, values, channels: int, curve_first: b
     if s.reading:
         n = s.count(what="frame count")
         s.count(what="bezier count")
-        layout = getattr(values, "layout", None)
-        if layout is not None and not curve_first and hasattr(s, "plain_frames"):
-            return s.plain_frames(n, layout, channels)
+        spec = getattr(values, "spec", None)
+        if spec is not None and not curve_first and hasattr(s, "plain_frames"):
+            return s.plain_frames(n, spec)
         frames = []
         prev = None
         for _ in range(n):
@@ -1113,8 +1127,25 @@ def _value_fn(*keys_defaults):
     def values(s, f):
         fields(s, f, keys_defaults)
     # For curve_timeline's fast path: (key, "f" for float32, default).
-    values.layout = tuple((key, "f", d) for key, d in keys_defaults)
+    values.spec = _FrameSpec(tuple((key, "f", d) for key, d in keys_defaults), len(keys_defaults))
     return values
+
+
+class _FrameSpec:
+    """How :meth:`_RefReader.plain_frames` reads the frames of one kind of timeline.
+
+    ``layout`` holds ``(key, kind, default)`` per value, kind ``"f"`` for a float32 or a
+    byte count for a colour; ``channels`` is the number of bezier curves per segment.
+    """
+
+    def __init__(self, layout: tuple, channels: int):
+        self.layout = layout
+        st = struct.Struct(">f" + "".join("f" if kind == "f" else f"{kind}s" for _, kind, _ in layout))
+        self.unpack, self.size = st.unpack_from, st.size
+        self.curve_unpack, self.curve_size = _floats_struct(4 * channels)
+        # One float value (rotate, translatex, ...): the most common timelines.
+        self.single = len(layout) == 1 and layout[0][1] == "f"
+        self.key0, _, self.d0 = layout[0]
 
 
 def _color_fn(*keys):
@@ -1134,7 +1165,7 @@ def _color_fn(*keys):
                 except ValueError:
                     raise s.fail(f"a hex colour for {key}, got {v!r}") from None
     # For curve_timeline's fast path: (key, byte count, default).
-    values.layout = keys
+    values.spec = _FrameSpec(keys, sum(nbytes for _, nbytes, _ in keys))
     return values
 
 
@@ -1797,21 +1828,6 @@ def string_table(doc: dict, L: Layout) -> list[str]:
 
 _F32 = struct.Struct(">f")
 _I32 = struct.Struct(">i")
-_STRUCTS: dict[int, tuple] = {}
-_FRAME_STRUCTS: dict[tuple, struct.Struct] = {}
-
-
-def _floats_struct(n: int) -> tuple:
-    """``(unpack_from, size)`` for ``n`` big-endian float32s, cached."""
-    got = _STRUCTS.get(n)
-    if got is None:
-        st = struct.Struct(f">{n}f")
-        got = (st.unpack_from, st.size)
-        if n <= 64:  # field runs and curves; long arrays vary too much to be worth keeping
-            _STRUCTS[n] = got
-    return got
-
-
 class _RefReader(SkelReader):
     """A reader that also records which table index every string reference used.
 
@@ -1916,23 +1932,14 @@ class _RefReader(SkelReader):
             return result - (1 << 32) if result & 0x80000000 else result
         return (result >> 1) ^ -(result & 1)
 
-    def plain_frames(self, n: int, layout: tuple, channels: int) -> list[dict]:
+    def plain_frames(self, n: int, spec: "_FrameSpec") -> list[dict]:
         """Frames of a timeline whose values are float32s or colour bytes, the hot loop of
-        animations: the same result as :func:`curve_timeline`, in fewer steps.
-
-        ``layout`` holds ``(key, kind, default)`` per value, kind ``"f"`` for a float32 or a
-        byte count for a colour.
-        """
+        animations: the same result as :func:`curve_timeline`, in fewer steps."""
         buf = self.buf
-        st = _FRAME_STRUCTS.get(layout)
-        if st is None:
-            st = _FRAME_STRUCTS[layout] = struct.Struct(
-                ">f" + "".join("f" if kind == "f" else f"{kind}s" for _, kind, _ in layout))
-        unpack, size = st.unpack_from, st.size
-        curve_unpack, curve_size = _floats_struct(4 * channels)
-        # One float value (rotate, translatex, ...): the most common timelines.
-        single = len(layout) == 1 and layout[0][1] == "f"
-        key0, _, d0 = layout[0]
+        layout = spec.layout
+        unpack, size = spec.unpack, spec.size
+        curve_unpack, curve_size = spec.curve_unpack, spec.curve_size
+        single, key0, d0 = spec.single, spec.key0, spec.d0
         frames = []
         prev = None
         copysign = math.copysign
@@ -1976,6 +1983,9 @@ class _RefReader(SkelReader):
 
     def count(self, value=None, what: str = "count") -> int:
         at = self.pos
+        if at < self.end and self.buf[at] < 0x80:
+            self.pos = at + 1
+            return self.buf[at]
         n = self.varint(what=what)
         if n < 0 or n > MAX_COUNT:
             raise self.fail(f"{what} between 0 and {MAX_COUNT}, found {n}", at)
