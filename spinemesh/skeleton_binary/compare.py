@@ -157,12 +157,11 @@ def _context(path: tuple) -> tuple[str, str | None]:
             return "sequence", None
     if top == "animations" and n >= 4:
         group = path[2]
-        last = path[-1]
         if group in ("bones", "slots") and n == 6:
             return "key", str(path[4]).lower()
         if group in ("ik", "transform") and n == 5:
             return "key", group
-        if group == "path" and n == 6:
+        if group in ("path", "paths") and n == 6:  # 3.6/3.7 call the group "paths"
             return "key", str(path[4])
         if group == "physics" and n == 6:
             kind = str(path[4])
