@@ -1,0 +1,148 @@
+"""Where a region attachment's image lies in its bone's space, and the mesh that replaces it.
+
+A region attachment draws its original image as a quad. The image point ``(u, v)``
+(u right, v down, 0..1 over the original image) sits at::
+
+    ((u - 0.5) * width * scaleX, (0.5 - v) * height * scaleY)
+
+rotated by ``rotation`` degrees and moved by ``(x, y)``. A mesh attachment that replaces
+the region puts each vertex at exactly that position, with the same ``(u, v)`` as its UV,
+so it renders in the same place. The runtimes map mesh UVs through the atlas region's
+offsets and rotation themselves, so UVs stay relative to the original image.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..skeleton import number
+
+#: JSON key order of a mesh attachment in the editor's export.
+MESH_KEY_ORDER = ("name", "type", "path", "color", "uvs", "triangles", "vertices", "hull",
+                  "sequence", "edges", "width", "height")
+
+
+def region_quad_transform(region: dict, source=None) -> np.ndarray:
+    """The affine map from UV to attachment space for a region attachment.
+
+    Parameters
+    ----------
+    region : dict
+        The region attachment (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``,
+        ``width``, ``height``; defaults 0, 0, 0, 1, 1, 32, 32 as in the runtimes).
+
+    Returns
+    -------
+    ndarray, shape (2, 3)
+        ``A`` such that ``A @ [u, v, 1]`` is the position in the slot's bone space.
+    """
+    x = number(region, "x", 0, source)
+    y = number(region, "y", 0, source)
+    rot = math.radians(number(region, "rotation", 0, source))
+    sx = number(region, "scaleX", 1, source) * number(region, "width", 32, source)
+    sy = number(region, "scaleY", 1, source) * number(region, "height", 32, source)
+    c, s = math.cos(rot), math.sin(rot)
+    # local = (sx*(u - 0.5), sy*(0.5 - v)); world = R @ local + (x, y)
+    scale_uv = np.array([[sx, 0.0, -0.5 * sx], [0.0, -sy, 0.5 * sy]])
+    rotate = np.array([[c, -s], [s, c]])
+    out = rotate @ scale_uv
+    out[:, 2] += (x, y)
+    return out
+
+
+def uvs_of(vertices: np.ndarray, width: int, height: int) -> np.ndarray:
+    """UVs, shape (N, 2), of pixel positions (N, 2) in an image of ``width x height`` pixels."""
+    uv = np.asarray(vertices, dtype=np.float64) / (float(width), float(height))
+    return np.clip(uv, 0.0, 1.0)
+
+
+def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray, hull: int,
+                    edges: np.ndarray, image_width: int, image_height: int, source=None) -> dict:
+    """The mesh attachment that replaces ``region``.
+
+    Parameters
+    ----------
+    region : dict
+        The region attachment; its ``name``, ``path``, ``color`` and ``sequence`` are kept.
+    vertices_px : ndarray, shape (N, 2)
+        Mesh vertices in pixels of the original image (x right, y down); the first
+        ``hull`` form the outer loop.
+    triangles : ndarray, shape (M, 3)
+    edges : ndarray, shape (K, 2)
+        Constrained edges as vertex index pairs (written doubled, as Spine's JSON wants).
+    image_width, image_height : int
+        Size in pixels of the image the vertices refer to.
+
+    Returns
+    -------
+    dict
+        A JSON mesh attachment with ``uvs``, ``triangles``, ``vertices`` (unweighted),
+        ``hull``, ``edges``, ``width`` and ``height``, keys in the editor's order.
+    """
+    uv = uvs_of(vertices_px, image_width, image_height)
+    pos = (region_quad_transform(region, source) @ np.c_[uv, np.ones(len(uv))].T).T
+    fields = {
+        "name": region.get("name"),
+        "type": "mesh",
+        "path": region.get("path"),
+        "color": region.get("color"),
+        "uvs": [round(float(c), 6) for c in uv.ravel()],
+        "triangles": [int(i) for i in np.asarray(triangles).ravel()],
+        "vertices": [round(float(c), 4) for c in pos.ravel()],
+        "hull": int(hull),
+        "sequence": region.get("sequence"),
+        "edges": [int(i) * 2 for i in np.asarray(edges).ravel()],
+        "width": region.get("width", 32),
+        "height": region.get("height", 32),
+    }
+    out = {k: fields[k] for k in MESH_KEY_ORDER if fields[k] is not None}
+    # Unknown fields of the region (tool-specific extras) are kept, after the known ones.
+    known = {"name", "type", "path", "color", "sequence", "width", "height", "x", "y", "rotation", "scaleX", "scaleY"}
+    for k, v in region.items():
+        if k not in known and k not in out:
+            out[k] = v
+    return out
+
+
+def spine_triangles(vertices: np.ndarray, hull: int, edges: np.ndarray) -> np.ndarray | None:
+    """A full constrained triangulation of the hull polygon, as Spine's mesh model wants it.
+
+    Spine meshes are one hull polygon whose inside is entirely triangulated: the 4.2 binary
+    format does not even store the triangle count, which must be ``2 * N - hull - 2``.
+    The mesher may leave holes open (a ring's middle); here holes are triangulated too,
+    while their outlines stay constrained edges, so the parts still deform independently.
+
+    Parameters
+    ----------
+    vertices : ndarray, shape (N, 2)
+    hull : int
+        The first ``hull`` vertices, in order, form the outer loop.
+    edges : ndarray, shape (K, 2)
+        Constrained edges (the hull loop is added if missing).
+
+    Returns
+    -------
+    ndarray, shape (2N - hull - 2, 3), or None
+        None when no such triangulation exists (a vertex outside the hull, crossing edges).
+    """
+    import pythoncdt as cdt
+
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    loop = np.stack([np.arange(hull), (np.arange(hull) + 1) % hull], axis=1)
+    all_edges = np.unique(np.sort(np.concatenate([loop, np.asarray(edges, int).reshape(-1, 2)]), axis=1), axis=0)
+    t = cdt.Triangulation(cdt.VertexInsertionOrder.AS_PROVIDED,
+                          cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
+    try:
+        t.insert_vertices(v)
+        t.insert_edges(np.ascontiguousarray(all_edges, dtype=np.uint32))
+        t.erase_outer_triangles()
+    except Exception:  # pythoncdt raises its own errors for crossing constraints
+        return None
+    if len(t.vertices_array()) != len(v):
+        return None
+    tris = t.triangles_array()["vertices"].astype(np.int64)
+    if len(tris) != 2 * len(v) - hull - 2:
+        return None
+    return tris
