@@ -397,7 +397,7 @@ def _dedupe_loop(loop: np.ndarray, tol: float = 1e-6) -> np.ndarray:
     return loop[d > tol]
 
 
-def hole_loops(region: np.ndarray, cover: np.ndarray, hull: np.ndarray, min_area: float, eps: float) -> list[np.ndarray]:
+def hole_loops(region: np.ndarray, cover: np.ndarray, min_area: float, eps: float) -> list[np.ndarray]:
     """Loops inscribed in the transparent holes of ``region`` that are big enough to cut out.
 
     Each hole is eroded by ``ceil(eps) + 1`` px and its contour simplified with tolerance

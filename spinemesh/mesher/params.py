@@ -70,7 +70,8 @@ class MesherParams:
         Paper (sec. 3.4): vertices within this distance (px) are merged before Delaunay (2).
     density : float
         Default preset: multiplies vertex density. 1 is artist-like; about 4 approaches the
-        paper's density. Interior spacing, hull tolerance and fill spacing divide by it.
+        paper's density. Interior spacing and hull tolerance divide by it; the refinement
+        budget multiplies by it.
     max_vertices : int or None
         Hard budget on the vertex count (None: no limit). Interior vertices go first, then the
         hull is simplified further. Never below what the hull needs to cover the art (>= 3).

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import cv2
 import numpy as np
 
@@ -55,7 +53,6 @@ def mesh_image(image: np.ndarray, preset: str | MesherParams = "default", mask: 
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] not in (3, 4) or image.dtype != np.uint8:
         raise ImageError(f"expected an (H, W, 3|4) uint8 image, got shape {image.shape} {image.dtype}")
-    t0 = time.perf_counter()
     if mask is None:
         mask = compute_mask(image, p.mask_source, p.alpha_threshold)
     mask = np.asarray(mask, dtype=bool)
@@ -70,7 +67,6 @@ def mesh_image(image: np.ndarray, preset: str | MesherParams = "default", mask: 
         mesh = _default(image, mask, p)
     else:
         raise ValueError(f"unknown mesher style {p.style!r}")
-    mesh.info["ms"] = round(1000 * (time.perf_counter() - t0), 2)
     return mesh
 
 
@@ -111,7 +107,7 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     eps = max(0.5, p.hull_tolerance * np.sqrt(area) / max(p.density, 1e-6))
     budget = p.max_vertices
     hull, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
-    holes = exterior.hole_loops(region, cover, hull, p.min_hole_area / (s * s), eps)
+    holes = exterior.hole_loops(region, cover, p.min_hole_area / (s * s), eps)
     # hard budget: simplify the hull further, then give up holes, until the loops fit
     while budget is not None and len(hull) + sum(map(len, holes)) > budget:
         if holes:
@@ -129,7 +125,7 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     density = max(p.density, 1e-6)
     chains = []
     if p.max_segment > 0 and (budget is None or budget > len(ring)):
-        chains = _interior(image, mask, p, s, ring, density)
+        chains = _interior(image, mask, p, s, ring, density, cover if s > 1 else None)
         chains = _drop_crossing(chains, [l * s for l in loops])
         if budget is not None:
             chains = _fit_budget(chains, budget - len(ring))
@@ -165,7 +161,7 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
 
 
 def _interior(image: np.ndarray, mask: np.ndarray, p: MesherParams, s: int, ring: np.ndarray,
-              density: float) -> list[np.ndarray]:
+              density: float, cover: np.ndarray | None = None) -> list[np.ndarray]:
     """Interior chains in full-size pixel coordinates.
 
     The edge detection (a bilateral filter costs ``d^2`` per pixel) runs on a copy whose longer
@@ -179,7 +175,9 @@ def _interior(image: np.ndarray, mask: np.ndarray, p: MesherParams, s: int, ring
     else:
         size = (max(1, round(w / si)), max(1, round(h / si)))
         small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-        small_mask = cv2.resize(mask.astype(np.uint8) * 255, size, interpolation=cv2.INTER_AREA) >= 128
+        # from the analysis-size cover when there is one: 1/s^2 of the pixels to read
+        src = mask if cover is None else cover
+        small_mask = cv2.resize(src.astype(np.uint8) * 255, size, interpolation=cv2.INTER_AREA) >= 128
     sx, sy = w / small_mask.shape[1], h / small_mask.shape[0]
     f = max(sx, sy)
     scaled = p.with_overrides(min_contour_length=p.min_contour_length / f, max_segment=p.max_segment / f,
@@ -204,6 +202,10 @@ def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:
     H, W = -(-h // s), -(-w // s)
     pad = np.zeros((H * s, W * s), np.uint8)
     pad[:h, :w] = mask
+    if s <= 15:
+        # OpenCV's area resize at an integer factor is the exact block mean; one art pixel in
+        # a block of 255s gives at least 255 / 225 >= 1, so "> 0" is "any" (and ~10x faster)
+        return cv2.resize(pad * np.uint8(255), (W, H), interpolation=cv2.INTER_AREA) > 0
     # reduce the contiguous axis first: much faster than one any() over two strided axes
     cols = pad.reshape(H * s, W, s).max(axis=2)
     return cols.reshape(H, s, W).max(axis=1).astype(bool)
@@ -218,10 +220,8 @@ def _drop_crossing(chains: list[np.ndarray], loops: list[np.ndarray]) -> list[np
         for a, b in zip(c[:-1], c[1:]):
             seg = np.array([[a, b]])
             if segments_cross(seg, walls).any():
-                if len(run) > 1:
-                    out.append(np.asarray(run))
-                else:
-                    out.append(np.asarray(run))
+                # the chain would cut a loop or another chain: it goes on as a new run
+                out.append(np.asarray(run))
                 run = [b]
                 continue
             run.append(b)
@@ -312,6 +312,18 @@ def _outer_loop(tris: np.ndarray, verts: np.ndarray) -> np.ndarray:
                 loops.append(loop)
     if not loops:
         return np.zeros(0, np.int64)
+    loops = [part for l in loops for part in _simple_parts(l)]
     best = max(loops, key=lambda l: (signed_area(verts[l]), -min(l)))
     k = best.index(min(best))  # start at the lowest index: deterministic
     return np.asarray(best[k:] + best[:k], dtype=np.int64)
+
+
+def _simple_parts(loop: list[int]) -> list[list[int]]:
+    """Split a boundary walk that passes a vertex twice (a pinch) into simple loops."""
+    seen: dict[int, int] = {}
+    for j, v in enumerate(loop):
+        if v in seen:
+            i = seen[v]
+            return _simple_parts(loop[i:j]) + _simple_parts(loop[:i] + loop[j:])
+        seen[v] = j
+    return [loop] if len(loop) >= 3 else []
