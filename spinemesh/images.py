@@ -40,12 +40,22 @@ class RegionImage:
         The region or image path it was looked up by.
     source : str
         The file the pixels came from (page image or image file).
+    content : tuple of int
+        ``(x0, y0, x1, y1)``: the part of the original image that the atlas actually stores
+        (the rest was stripped whitespace). Anything drawn outside it samples whatever lies
+        next to the region on the page. The whole image for an images folder.
     """
 
     rgba: np.ndarray
     scale: float
     name: str
     source: str
+    content: tuple[int, int, int, int] | None = None
+
+    def __post_init__(self):
+        if self.content is None:
+            h, w = self.rgba.shape[:2]
+            self.content = (0, 0, w, h)
 
 
 def load_rgba(path: str | Path) -> np.ndarray:
@@ -185,7 +195,10 @@ class AtlasImages:
         page_path = self.page_file(atlas, region.page)
         page = atlas.pages[region.page]
         rgba = cut_region(self._page(page_path), region, page.pma, str(atlas.path))
-        return RegionImage(rgba, page.scale, name, str(page_path))
+        g = region.geometry(str(atlas.path))
+        top = g.original_height - g.offset_y - g.height
+        content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
+        return RegionImage(rgba, page.scale, name, str(page_path), content)
 
 
 class FolderImages:

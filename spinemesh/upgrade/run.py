@@ -91,15 +91,28 @@ def composite_image(images: list[np.ndarray]) -> np.ndarray:
     return out
 
 
+def stored_box(boxes: list[tuple[int, int, int, int]]) -> tuple[int, int, int, int] | None:
+    """The part of the original image that every frame stores on the atlas page (intersection)."""
+    x0, y0 = max(b[0] for b in boxes), max(b[1] for b in boxes)
+    x1, y1 = min(b[2] for b in boxes), min(b[3] for b in boxes)
+    return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
+
+
+def _inside(visible: np.ndarray, box: tuple[int, int, int, int]) -> bool:
+    x0, y0, x1, y1 = box
+    return int(visible.sum()) == int(visible[y0:y1, x0:x1].sum())
+
+
 def image_key(rgba: np.ndarray) -> str:
     return hashlib.sha1(rgba.tobytes() + str(rgba.shape).encode()).hexdigest()
 
 
 def plan_skeleton(doc: dict, skeleton: str, source, options: Options,
-                  images: dict[str, np.ndarray]) -> list[Target]:
+                  images: dict[str, tuple]) -> list[Target]:
     """Decide for every region attachment of ``doc`` what to do; load the images it needs.
 
-    ``images`` collects each unique composited image by content key.
+    ``images`` collects each unique composited image, with the box the atlas stores of it,
+    by content key.
     """
     targets = []
     for skin, slots in iter_skins(doc):
@@ -131,19 +144,24 @@ def plan_skeleton(doc: dict, skeleton: str, source, options: Options,
                     t.status, t.reason = "failed", "no atlas or images folder holds its image"
                     continue
                 try:
-                    frames = [source.get(p).rgba for p in paths]
+                    loaded = [source.get(p) for p in paths]
                 except SpineMeshError as e:
                     t.status, t.reason = "failed", str(e)
                     continue
-                if len({f.shape for f in frames}) > 1:
+                if len({f.rgba.shape for f in loaded}) > 1:
                     t.status, t.reason = "failed", "sequence frames differ in size"
                     continue
-                rgba = composite_image(frames)
+                rgba = composite_image([f.rgba for f in loaded])
                 if not (rgba[..., 3] > 0).any() and options.mask == "alpha":
                     t.status, t.reason = "skipped", "image is fully transparent"
                     continue
-                t.key = image_key(rgba)
-                images.setdefault(t.key, rgba)
+                box = stored_box([f.content for f in loaded])
+                if box is None or not _inside(rgba[..., 3] > 0, box):
+                    t.status, t.reason = ("skipped", "sequence frames were trimmed differently on the atlas page, "
+                                          "so one mesh would sample neighbouring regions; re-pack keeping whitespace")
+                    continue
+                t.key = image_key(rgba) + "-%d-%d-%d-%d" % box
+                images.setdefault(t.key, (rgba, box))
                 t.status = "planned"
     return targets
 
@@ -162,7 +180,10 @@ def sampling_margin(mask: np.ndarray) -> np.ndarray:
 
 def _mesh_one(args):
     """Worker: mesh one image; returns (key, mesh json or None, error, seconds, coverage, waste)."""
-    key, rgba, preset, mask_source, overrides = args
+    key, (full, box), preset, mask_source, overrides = args
+    # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
+    x0, y0, x1, y1 = box
+    rgba = np.ascontiguousarray(full[y0:y1, x0:x1])
     from ..mesher import compute_mask, mesh_image, resolve_params
     from ..metrics import coverage, opaque_mask, waste
 
@@ -176,10 +197,13 @@ def _mesh_one(args):
     seconds = time.perf_counter() - start
     art = opaque_mask(rgba)
     cov = coverage(mesh.vertices, mesh.triangles, art) if art.any() else 1.0
-    return key, mesh.to_json(), "", seconds, cov, waste(mesh.vertices, mesh.triangles, art)
+    wst = waste(mesh.vertices, mesh.triangles, art)
+    doc = mesh.to_json()
+    doc["vertices"] = (np.asarray(doc["vertices"], float) + (x0, y0)).tolist()
+    return key, doc, "", seconds, cov, wst
 
 
-def mesh_jobs(images: dict[str, np.ndarray], options: Options,
+def mesh_jobs(images: dict[str, tuple], options: Options,
               progress: Callable[[int], None] | None = None) -> dict[str, tuple]:
     """Mesh every unique image once; ``progress(1)`` is called after each."""
     work = [(k, im, options.preset, options.mask, options.overrides) for k, im in sorted(images.items())]
@@ -200,7 +224,7 @@ def mesh_jobs(images: dict[str, np.ndarray], options: Options,
 
 
 def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, tuple],
-                 images: dict[str, np.ndarray], source_name: str) -> None:
+                 images: dict[str, tuple], source_name: str) -> None:
     """Replace each meshed region in ``doc`` by its mesh attachment, in place, keeping key order."""
     by_place = {(t.skin, t.slot, t.name): t for t in targets if t.status == "planned"}
     for skin, slots in iter_skins(doc):
@@ -216,7 +240,7 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, tuple],
                 if mesh_json is None:
                     t.status, t.reason = "failed", error
                     continue
-                h, w = images[t.key].shape[:2]
+                h, w = images[t.key][0].shape[:2]
                 verts = np.asarray(mesh_json["vertices"], float)
                 edges = np.asarray(mesh_json["edges"], int).reshape(-1, 2)
                 tris = spine_triangles(verts, mesh_json["hull"], edges)
@@ -324,7 +348,7 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     result = Result()
     atlases: dict = {}
     plans = []
-    images: dict[str, np.ndarray] = {}
+    images: dict[str, tuple] = {}
 
     t0 = time.perf_counter()
     for path in proj.skeletons:
