@@ -186,6 +186,7 @@ def test_report_builds_for_a_42_example(sack_report):
     assert [a["method"] for a in doc["aggregate"]] == ["artist", *METHODS]
     for row, att in zip(doc["rows"], expected):
         m = row["metrics"]
+        assert Path(row["source"]).parent.name == "images"  # the editor's originals
         assert m["artist"]["vertices"] == len(att["uvs"]) // 2
         assert m["artist"]["triangles"] == len(att["triangles"]) // 3
         for method in METHODS:
@@ -216,6 +217,19 @@ def test_artist_against_itself_on_real_data(examples):
         # the artist's covered area is where the art is: IoU with the art's pixels is high
         assert row.metrics["artist"]["coverage"] > 0.99
         assert opaque_mask(row.rgba).any()
+
+
+def test_originals_are_preferred_to_atlas_regions(examples):
+    # celestial-circus's atlas is packed at scale 0.4 or 0.5; its images/ folder has the originals
+    project = EXAMPLES / "4.2" / "celestial-circus"
+    orig = run_diff([project], methods=("hull",), limit=2)
+    packed = run_diff([project], methods=("hull",), limit=2, originals=False)
+    for a, b in zip(orig.rows, packed.rows):
+        assert Path(a.source).parent.name == "images" and Path(b.source).suffix == ".png"
+        assert Path(b.source).parent == project
+        assert a.width > b.width and a.height > b.height
+        # the same artist mesh either way: uvs are relative to the image
+        assert a.metrics["artist"]["vertices"] == b.metrics["artist"]["vertices"]
 
 
 def test_linkedmesh_attachments_are_skipped_with_a_reason(examples):

@@ -21,6 +21,9 @@ def diff(
                                                "(default: all)."),
     images: Optional[Path] = typer.Option(None, "--images", help="Take the images from this folder instead of the atlases."),
     limit: Optional[int] = typer.Option(None, "--limit", help="Compare at most this many attachments."),
+    originals: bool = typer.Option(True, "--originals/--atlas",
+                                   help="Mesh the editor's original images when an images folder holds them "
+                                        "(default), or the atlas regions at atlas resolution."),
 ) -> None:
     """Compare every artist mesh with our presets and the paper's three baselines.
 
@@ -31,6 +34,7 @@ def diff(
     has one row per attachment, an aggregate table like the paper's comparison table, and an
     HTML page: the sprite with the artist's mesh in green and ours in orange (exterior
     vertices blue, interior yellow). linkedmesh attachments are skipped (they reuse a parent).
+    Images are the editor's originals when an images/ folder holds them, else atlas regions.
 
     Example: spinemesh diff ../shared/spine-examples/4.2/sack --out sack-diff/
 
@@ -51,7 +55,7 @@ def diff(
         def progress(done: int, total: int, label: str) -> None:
             bar.update(task, completed=done, total=total, description=label)
 
-        result = run_diff(projects, chosen, images=images, limit=limit, progress=progress)
+        result = run_diff(projects, chosen, images=images, limit=limit, originals=originals, progress=progress)
     if not result.rows:
         err_console.print("[bold red]error:[/] no artist mesh attachment found "
                           f"({len(result.skipped)} skipped)")

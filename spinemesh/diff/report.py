@@ -153,7 +153,7 @@ def overlay_svg(artist: Mesh, mesh: Mesh | None, box: tuple[float, float, float,
     Strokes do not scale with the view, so lines stay one screen pixel wide at any size.
     """
     x, y, w, h = box
-    r = max(w, h) / 160.0
+    r = max(w, h) / 80.0  # ~3 screen px on the 256 px stage
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x:g} {y:g} {w:g} {h:g}" '
              f'preserveAspectRatio="xMidYMid meet">',
              f'<path d="{_edges_path(artist)}" fill="none" stroke="{COLOURS["artist"]}" stroke-width="1.5" '

@@ -6,6 +6,12 @@ triangles, so they would count the parent's mesh again. A sequence mesh is compa
 first frame. When a folder holds a skeleton both as ``.json`` and ``.skel`` of the same name
 (the examples do: the same state), only the ``.json`` is read, so no mesh counts twice.
 
+Images: by default the editor's original images (an ``images/`` folder, or the skeleton's
+``images`` path, holding every image the skeleton's meshes draw), since the artist meshed
+those and every pixel length of the paper (sec. 3) refers to them; atlases are often packed
+at scale 0.5. Otherwise, or with ``originals=False``, the atlas regions at atlas resolution.
+UVs are relative to the image, so the artist's mesh fits either.
+
 Meshes generated for an image are made once and reused for every attachment that draws it.
 """
 
@@ -18,9 +24,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
-from ..project import find_project, image_source_for
+from ..project import Project, find_project, image_source_for
 from ..skeleton import image_paths, iter_attachments, load_skeleton
 from .baselines import BASELINES, baseline_mesh
 from .compare import artist_mesh, compare
@@ -44,6 +51,8 @@ class DiffRow:
         Size of the image (px, original size).
     rgba : ndarray, shape (H, W, 4), uint8
         The image (kept for the HTML report; not written to JSON).
+    source : str
+        The file its pixels came from (an original image or an atlas page).
     meshes : dict
         ``"artist"`` and each method name -> :class:`Mesh` (absent when meshing failed).
     metrics : dict
@@ -60,6 +69,7 @@ class DiffRow:
     width: int
     height: int
     rgba: np.ndarray = field(repr=False)
+    source: str = ""
     meshes: dict = field(default_factory=dict, repr=False)
     metrics: dict = field(default_factory=dict)
 
@@ -67,7 +77,7 @@ class DiffRow:
         """The row as written to ``report.json`` (no pixels, no meshes)."""
         return {"project": self.project, "skeleton": self.skeleton, "skin": self.skin, "slot": self.slot,
                 "attachment": self.attachment, "image": self.image, "width": self.width,
-                "height": self.height, "metrics": self.metrics}
+                "height": self.height, "source": self.source, "metrics": self.metrics}
 
 
 @dataclass
@@ -100,8 +110,25 @@ def make_mesh(rgba: np.ndarray, method: str) -> Mesh:
     return baseline_mesh(rgba, method)
 
 
-def collect(paths: list[Path], images: Path | None = None) -> tuple[list[tuple], list[dict]]:
+def original_images(doc: dict, skeleton: Path, project: Project) -> FolderImages | None:
+    """The editor's images folder when it holds every image the skeleton's meshes draw."""
+    names = {image_paths(r)[0] for r in iter_attachments(doc) if r.type == "mesh" and image_paths(r)}
+    hint = doc.get("skeleton", {}).get("images") if isinstance(doc.get("skeleton"), dict) else None
+    folders = ([(skeleton.parent / hint).resolve()] if isinstance(hint, str) and hint else []) + project.image_folders
+    root = project.root.resolve()
+    for folder in folders:
+        # a hint may point anywhere; only folders inside the project are read
+        if folder.is_dir() and folder.resolve().is_relative_to(root):
+            source = FolderImages(folder)
+            if names and all(n in source for n in names):
+                return source
+    return None
+
+
+def collect(paths: list[Path], images: Path | None = None, originals: bool = True) -> tuple[list[tuple], list[dict]]:
     """Every artist mesh of the projects, before any meshing.
+
+    ``originals``: prefer the editor's images folder to the atlases (see the module docstring).
 
     Returns
     -------
@@ -125,6 +152,8 @@ def collect(paths: list[Path], images: Path | None = None) -> tuple[list[tuple],
                     continue
                 if ref.type != "mesh":
                     continue
+                if source is None and images is None and originals:
+                    source = original_images(doc, skel, project)
                 if source is None:
                     source = image_source_for(doc, skel, project, images, atlases)
                 if source is None:
@@ -139,7 +168,7 @@ def collect(paths: list[Path], images: Path | None = None) -> tuple[list[tuple],
 
 
 def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images: str | Path | None = None,
-             limit: int | None = None,
+             limit: int | None = None, originals: bool = True,
              progress: Callable[[int, int, str], None] | None = None) -> DiffResult:
     """Compare every artist mesh of the projects with the generated ones.
 
@@ -153,6 +182,8 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
         An images folder to take the images from instead of the atlases.
     limit : int, optional
         Stop after this many attachments (quick looks at big projects).
+    originals : bool
+        Prefer the editor's original images to the atlas regions (True).
     progress : callable, optional
         ``progress(done, total, label)`` after each attachment.
 
@@ -164,18 +195,19 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise ValueError(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(METHODS)}")
-    tasks, skipped = collect([Path(p) for p in paths], Path(images) if images else None)
+    tasks, skipped = collect([Path(p) for p in paths], Path(images) if images else None, originals)
     if limit is not None:
         tasks = tasks[:limit]
-    cache: dict = {}  # (id(source), image) -> (rgba, edge pixels, {method: (mesh, metrics)})
+    cache: dict = {}  # (id(source), image) -> (file, rgba, edge pixels, {method: (mesh, metrics)})
     rows = []
     for done, (project, skel, ref, source, name) in enumerate(tasks, 1):
         where = {"project": project, "skeleton": skel.name, "slot": ref.slot, "attachment": ref.name}
         try:
             key = (id(source), name)
             if key not in cache:
-                cache[key] = _generate(source.get(name).rgba, methods)
-            rgba, edges, generated = cache[key]
+                region = source.get(name)
+                cache[key] = (region.source,) + _generate(region.rgba, methods)
+            pixels, rgba, edges, generated = cache[key]
             h, w = rgba.shape[:2]
             artist = artist_mesh(ref.attachment, w, h)
         except (SpineMeshError, ValueError) as e:
@@ -183,7 +215,7 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
             if progress:
                 progress(done, len(tasks), f"{project}/{ref.name}")
             continue
-        row = DiffRow(project, skel.name, ref.skin, ref.slot, ref.name, name, w, h, rgba)
+        row = DiffRow(project, skel.name, ref.skin, ref.slot, ref.name, name, w, h, rgba, pixels)
         row.meshes["artist"] = artist
         row.metrics["artist"] = mesh_metrics(artist, rgba, edge_pixels=edges)
         for m in methods:
