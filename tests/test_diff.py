@@ -264,8 +264,9 @@ def test_html_opens_in_headless_chromium_without_errors(sack_report, tmp_path):
     # the script ran to its end: it filled the per-attachment table and the captions
     assert re.search(r'<table id="per"><tbody><tr><th data-k="project">', dom.stdout)
     assert dom.stdout.count("assets/0-default.svg") == 1 and "IoU" in dom.stdout
+    # the screenshot shows another method, chosen through the page's #m= anchor
     run = subprocess.run(common + [f"--user-data-dir={tmp_path / 'profile2'}", f"--screenshot={shot}",
-                                   "--window-size=1280,1600", "--virtual-time-budget=5000", page],
+                                   "--window-size=1280,1600", "--virtual-time-budget=5000", page + "#m=grid"],
                          capture_output=True, text=True, timeout=120, env=env)
     assert run.returncode == 0, run.stderr[-2000:]
     log = dom.stderr + run.stderr

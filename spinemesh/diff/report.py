@@ -5,7 +5,7 @@ and beside it ``assets/`` with one PNG per image (at most :data:`SPRITE_MAX_SIDE
 SVG overlay per attachment and method (the artist's mesh green, the generated mesh orange,
 exterior vertices blue, interior vertices yellow). The sprite sits on a checkerboard so that
 transparent pixels show. A radio button picks the method shown in every overlay and in the
-per-attachment table, whose columns sort on click.
+per-attachment table, whose columns sort on click; ``index.html#m=grid`` opens on one method.
 """
 
 from __future__ import annotations
@@ -153,7 +153,7 @@ def overlay_svg(artist: Mesh, mesh: Mesh | None, box: tuple[float, float, float,
     Strokes do not scale with the view, so lines stay one screen pixel wide at any size.
     """
     x, y, w, h = box
-    r = max(w, h) / 80.0  # ~3 screen px on the 256 px stage
+    r = max(w, h) / 110.0  # ~2.3 screen px on the 256 px stage
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x:g} {y:g} {w:g} {h:g}" '
              f'preserveAspectRatio="xMidYMid meet">',
              f'<path d="{_edges_path(artist)}" fill="none" stroke="{COLOURS["artist"]}" stroke-width="1.5" '
@@ -238,7 +238,11 @@ _JS = """
     });
     render();
   }
+  // index.html#m=grid opens with that method shown
+  var h = /m=([a-z-]+)/.exec(location.hash);
+  if (h && data.methods.indexOf(h[1]) >= 0) method = h[1];
   Array.prototype.forEach.call(document.querySelectorAll('input[name=m]'), function(el){
+    el.checked = (el.value === method);
     el.onchange = function(){ if (el.checked) show(el.value); }; });
   show(method);
 })();
