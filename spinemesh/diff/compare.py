@@ -21,7 +21,7 @@ from ..mesher import Mesh
 from ..metrics import mesh_coverage_mask, mesh_metrics
 
 
-def directed_mean_distance(a: np.ndarray, b: np.ndarray, chunk: int = 1024) -> float:
+def directed_mean_distance(a: np.ndarray, b: np.ndarray, chunk: int = 256) -> float:
     """Mean over points of ``a`` of the distance to the nearest point of ``b`` (px).
 
     Parameters
