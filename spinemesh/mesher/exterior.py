@@ -269,7 +269,7 @@ def _repair(loop: np.ndarray, cover: np.ndarray, max_rounds: int = 30) -> np.nda
         for j in range(len(loop)):
             pts.append(loop[j])
             if j in new:
-                pts.append(new[j][1] + nrm[j] * 1e-6)
+                pts.append(new[j][1])  # exactly the corner: the open-square rule lets it touch
         loop = np.asarray(pts)
     return loop if len(_uncovered(loop, cover)) == 0 else None
 
@@ -347,6 +347,22 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
     return _spread(loop, cover, min_distance), region
 
 
+def _snap_to_border(loop: np.ndarray, i: int, shape: tuple[int, int], reach: float) -> np.ndarray:
+    """Move vertex ``i`` onto the image border when it is within ``reach`` of it (else no-op).
+
+    Near the border this moves the vertex outward, so its short edge can then be stretched
+    along the border.
+    """
+    out = loop.copy()
+    x, y = out[i]
+    h, w = shape
+    d = [x, w - x, y, h - y]
+    side = int(np.argmin(d))
+    if 0 < d[side] < reach:
+        out[i] = [(0, y), (w, y), (x, 0), (x, h)][side]
+    return out
+
+
 def _shortest_edge(loop: np.ndarray) -> float:
     return float(np.hypot(*(np.roll(loop, -1, axis=0) - loop).T).min())
 
@@ -362,6 +378,7 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
     for _ in range(len(loop)):
         d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
         short = np.flatnonzero(d < min_distance)
+        short = short[np.argsort(d[short], kind="stable")]  # shortest first
         if len(short) == 0 or len(loop) <= 3:
             break
         done = False
@@ -379,7 +396,8 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
             apart = _clamp(apart, cover.shape)
             # drop either end of the short edge, or merge both into its midpoint, or stretch it
             both = np.delete(loop, [j, k], axis=0)
-            for cand in (np.delete(loop, j, axis=0), np.delete(loop, k, axis=0), mid, apart, both):
+            snaps = [_snap_to_border(loop, i, cover.shape, min_distance) for i in (j, k)]
+            for cand in (np.delete(loop, j, axis=0), np.delete(loop, k, axis=0), mid, apart, both, *snaps):
                 if len(cand) < 3:
                     continue
                 if loop_is_simple(cand) and len(_uncovered(cand, cover)) == 0:
@@ -392,7 +410,9 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
     return loop
 
 
-def _dedupe_loop(loop: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+def _dedupe_loop(loop: np.ndarray, tol: float = 1e-3) -> np.ndarray:
+    # near-duplicates come from pushing two almost parallel edges; the repair step that
+    # follows wins back any sliver this costs
     d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
     return loop[d > tol]
 

@@ -133,7 +133,8 @@ def loop_is_simple(loop: np.ndarray) -> bool:
     n = len(loop)
     if n < 3:
         return False
-    if len(np.unique(np.round(loop, 9), axis=0)) != n:
+    # "+ 0.0" turns -0.0 into 0.0: unique(axis=0) compares rows bit by bit
+    if len(np.unique(np.round(loop, 9) + 0.0, axis=0)) != n:
         return False
     seg = np.stack([loop, np.roll(loop, -1, axis=0)], axis=1)
     x = segments_cross(seg, seg)
