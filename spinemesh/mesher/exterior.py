@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
-from .geometry import clip_loop_to_rect, dp_indices, drop_redundant, loop_is_simple, signed_area
+from .geometry import clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 
 # --------------------------------------------------------------------------- paper
