@@ -151,6 +151,23 @@ def test_jobs_give_the_same_result(demo, tmp_path):
     assert (tmp_path / "one/demo-binary.skel").read_bytes() == (tmp_path / "two/demo-binary.skel").read_bytes()
 
 
+def test_mesh_cache_meshes_each_image_once(demo, tmp_path, monkeypatch):
+    import spinemesh.upgrade.run as run
+
+    cache = {}
+    upgrade_project(demo, tmp_path / "one", Options(), mesh_cache=cache)
+    assert cache
+
+    def no_meshing(item):
+        raise AssertionError(f"meshed again: {item[0]}")
+
+    monkeypatch.setattr(run, "_mesh_one", no_meshing)
+    upgrade_project(demo, tmp_path / "two", Options(), mesh_cache=cache)
+    assert (tmp_path / "one/demo.json").read_bytes() == (tmp_path / "two/demo.json").read_bytes()
+    with pytest.raises(AssertionError, match="meshed again"):  # other settings are other meshes
+        upgrade_project(demo, tmp_path / "three", Options(preset="paper"), mesh_cache=cache)
+
+
 def test_images_folder_written_for_the_editor(demo, tmp_path):
     upgrade_project(demo, tmp_path / "out", Options(images_out=tmp_path / "img"))
     assert (tmp_path / "img/body.png").exists() and (tmp_path / "img/spark/frame3.png").exists()

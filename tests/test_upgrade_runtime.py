@@ -37,6 +37,10 @@ LOST_PIXEL_ALLOWANCE = 3
 CLIPPED_OFF_SHARE = 0.02
 
 
+#: Meshes shared by all cases: the versions' examples are mostly the same art, meshed once.
+MESHES: dict = {}
+
+
 @pytest.fixture(scope="session")
 def runtime(tmp_path_factory, examples):
     tool = install(tmp_path_factory.mktemp("spine-runtime") / "tool")
@@ -57,17 +61,26 @@ def _atlas_for(skeleton, project_root):
 @pytest.mark.parametrize("project", CASES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_upgraded_project_renders_like_the_original(project, runtime, tmp_path):
     out = tmp_path / "out"
-    result = upgrade_project(project, out, Options())
+    result = upgrade_project(project, out, Options(), mesh_cache=MESHES)
     assert not result.errors, result.errors
     failed = [t for t in result.targets if t.status == "failed"]
+    if not list(project.glob("*.atlas*")) and not (project / "images").is_dir():
+        # 3.8, 4.0 and 4.1 spinosaurus ship skeletons only: the runtime cannot load them
+        # either. The upgrade must report every region and leave it one.
+        assert result.targets and len(failed) == len(result.targets) and result.partial
+        assert all("no atlas or images folder" in t.reason for t in failed)
+        pytest.skip(f"{project} ships no atlas and no images: nothing to mesh or render")
     assert not failed, [(t.skeleton, t.name, t.reason) for t in failed]
-    assert sum(t.status == "meshed" for t in result.targets) > 0
+    # vine has no region attachments at all: nothing is meshed, and the renders below
+    # must match all the same.
+    if result.targets:
+        assert sum(t.status == "meshed" for t in result.targets) > 0
 
     problems = []
     for skeleton in sorted(p for p in project.iterdir() if p.suffix in (".json", ".skel")):
         atlas = _atlas_for(skeleton, project)
         if atlas is None:
-            continue
+            continue  # meshed from an images folder (4.2 spinosaurus): the runtime needs an atlas
         ours = out / skeleton.name
         ours_atlas = out / atlas.relative_to(project)
         doc = load_skeleton(skeleton)

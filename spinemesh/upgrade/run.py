@@ -204,10 +204,21 @@ def _mesh_one(args):
 
 
 def mesh_jobs(images: dict[str, tuple], options: Options,
-              progress: Callable[[int], None] | None = None) -> dict[str, tuple]:
-    """Mesh every unique image once; ``progress(1)`` is called after each."""
-    work = [(k, im, options.preset, options.mask, options.overrides) for k, im in sorted(images.items())]
+              progress: Callable[[int], None] | None = None, cache: dict | None = None) -> dict[str, tuple]:
+    """Mesh every unique image once; ``progress(1)`` is called after each.
+
+    ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
+    that runs over projects sharing images (the same art exported for several Spine
+    versions) mesh each image only once.
+    """
+    settings = (options.preset, options.mask, tuple(sorted(options.overrides.items())))
     results = {}
+    if cache is not None:
+        results = {k: cache[(k, settings)] for k in images if (k, settings) in cache}
+        if progress and results:
+            progress(len(results))
+    work = [(k, im, options.preset, options.mask, options.overrides)
+            for k, im in sorted(images.items()) if k not in results]
     if options.jobs > 1 and len(work) > 1:
         with ProcessPoolExecutor(max_workers=options.jobs) as pool:
             for res in pool.map(_mesh_one, work, chunksize=1):
@@ -220,6 +231,8 @@ def mesh_jobs(images: dict[str, tuple], options: Options,
             results[res[0]] = res[1:]
             if progress:
                 progress(1)
+    if cache is not None:
+        cache.update({(k, settings): v for k, v in results.items()})
     return results
 
 
@@ -322,7 +335,8 @@ class Result:
 
 def upgrade_project(project: str | Path, out: str | Path, options: Options | None = None,
                     on_start: Callable[[int], None] | None = None,
-                    on_progress: Callable[[int], None] | None = None) -> Result:
+                    on_progress: Callable[[int], None] | None = None,
+                    mesh_cache: dict | None = None) -> Result:
     """Upgrade every skeleton of a project into ``out``.
 
     Parameters
@@ -334,6 +348,8 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     options : Options
     on_start, on_progress : callable, optional
         Told the number of unique images to mesh, then called once per image meshed.
+    mesh_cache : dict, optional
+        Meshes kept across calls (see :func:`mesh_jobs`); None meshes afresh.
 
     Returns
     -------
@@ -373,7 +389,7 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     t0 = time.perf_counter()
     if on_start:
         on_start(len(images))
-    meshes = mesh_jobs(images, options, on_progress)
+    meshes = mesh_jobs(images, options, on_progress, mesh_cache)
     result.seconds["mesh"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
