@@ -95,6 +95,14 @@ def test_artist_mesh_from_spine_uvs():
         artist_mesh({"uvs": [0, 0, 1, 0, 1, 1], "triangles": [0, 1, 3]}, 10, 10)
 
 
+def test_report_json_has_no_nan_or_infinity():
+    from spinemesh.diff.report import finite
+
+    doc = finite({"a": float("inf"), "b": [1.5, float("nan")], "c": {"d": -float("inf"), "e": 2}})
+    assert doc == {"a": None, "b": [1.5, None], "c": {"d": None, "e": 2}}
+    json.dumps(doc, allow_nan=False)
+
+
 # --------------------------------------------------------------------------- baselines
 def _disc_sprite(size=240, radius=100) -> np.ndarray:
     """An opaque disc with a 4x4 black-and-white checker inside (corners for Shi-Tomasi)."""
@@ -199,6 +207,9 @@ def test_report_builds_for_a_42_example(sack_report):
     md = (sack_report / "report.md").read_text(encoding="utf-8")
     assert "| Uniform grid (baseline) | 3 |" in md and "| cape-front |" in md
     html = (sack_report / "index.html").read_text(encoding="utf-8")
+    # the page's data is strict JSON (a browser's JSON.parse refuses NaN and Infinity)
+    data = re.search(r'<script type="application/json" id="rows">(.*?)</script>', html, re.S).group(1)
+    assert len(json.loads(data, parse_constant=lambda c: pytest.fail(f"{c} in the page's JSON"))["rows"]) == 3
     assert "http://" not in html.replace('xmlns="http://www.w3.org/2000/svg"', "") and "https://" not in html
     for i in range(3):
         for method in ("artist", *METHODS):

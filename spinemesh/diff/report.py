@@ -120,11 +120,22 @@ def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
     return "\n".join(parts)
 
 
+def finite(obj):
+    """``obj`` with every NaN or infinite float replaced by None: strict JSON, which browsers parse."""
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite(v) for v in obj]
+    return obj
+
+
 def to_json(result: DiffResult, agg: list[dict] | None = None) -> dict:
-    """``report.json``: ``methods``, ``aggregate``, ``rows``, ``skipped``."""
+    """``report.json``: ``methods``, ``aggregate``, ``rows``, ``skipped`` (no NaN or Infinity)."""
     agg = aggregate(result) if agg is None else agg
-    return {"methods": list(result.methods), "aggregate": agg, "rows": [r.to_json() for r in result.rows],
-            "skipped": result.skipped}
+    return finite({"methods": list(result.methods), "aggregate": agg, "rows": [r.to_json() for r in result.rows],
+                   "skipped": result.skipped})
 
 
 # --------------------------------------------------------------------------- SVG
@@ -210,6 +221,7 @@ _JS = """
     if (['project','skeleton','slot','attachment'].indexOf(k) >= 0) return r[k];
     var m = r.metrics[method]; return (m && k in m) ? m[k] : null;
   }
+  function num(v, d){ return typeof v === 'number' ? v.toFixed(d) : '-'; }
   function fmt(v){ return v === null ? 'failed' : (typeof v === 'number' && !Number.isInteger(v)) ? v.toFixed(3) : String(v); }
   function render(){
     var idx = data.rows.map(function(_, i){ return i; });
@@ -233,7 +245,7 @@ _JS = """
     Array.prototype.forEach.call(document.querySelectorAll('.card'), function(c){
       var r = data.rows[+c.getAttribute('data-i')], x = r.metrics[m];
       c.querySelector('p').textContent = x && !('error' in x) ?
-        'artist ' + r.metrics.artist.vertices + ' V, ' + m + ' ' + x.vertices + ' V, IoU ' + x.hull_iou.toFixed(2) + ', Chamfer ' + x.chamfer.toFixed(1) + ' px'
+        'artist ' + r.metrics.artist.vertices + ' V, ' + m + ' ' + x.vertices + ' V, IoU ' + num(x.hull_iou, 2) + ', Chamfer ' + num(x.chamfer, 1) + ' px'
         : m + ' failed';
     });
     render();
@@ -280,9 +292,9 @@ def to_html(result: DiffResult, agg: list[dict]) -> str:
     legend = "".join(f'<span style="background:{COLOURS[k]}"></span>{label}' for k, label in (
         ("artist", "artist mesh"), ("ours", "generated mesh"), ("exterior", "exterior vertex"),
         ("interior", "interior vertex")))
-    data = {"methods": list(result.methods), "rows": [r.to_json() for r in result.rows]}
+    data = finite({"methods": list(result.methods), "rows": [r.to_json() for r in result.rows]})
     # "</" must not appear inside a <script> element
-    data_json = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    data_json = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     cards = "".join(_card(i, r, b) for i, (r, b) in enumerate(zip(result.rows, boxes)))
     skipped = "".join(f"<li>{html.escape(s['project'] + '/' + s['skeleton'] + ' ' + s['slot'] + '/' + s['attachment'])}: "
                       f"{html.escape(s['reason'])}</li>" for s in result.skipped)
@@ -327,6 +339,6 @@ def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
                                overlay_svg(r.meshes["artist"], mesh, box).encode("utf-8"))
     paths = {"markdown": out / "report.md", "json": out / "report.json", "html": out / "index.html"}
     atomic_write_text(paths["markdown"], to_markdown(result, agg))
-    atomic_write_json(paths["json"], to_json(result, agg))
+    atomic_write_json(paths["json"], to_json(result, agg))  # finite(): strict JSON
     atomic_write_text(paths["html"], to_html(result, agg))
     return paths

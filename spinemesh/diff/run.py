@@ -238,7 +238,12 @@ def _generate(rgba: np.ndarray, methods: tuple[str, ...]):
     for m in methods:
         try:
             mesh = make_mesh(rgba, m)
-            out[m] = (mesh, mesh_metrics(mesh, rgba, edge_pixels=edges))
         except SpineMeshError as e:
             out[m] = (None, {"error": e.message})
+            continue
+        if len(mesh.triangles) == 0:
+            # the paper preset returns an empty mesh for some thin sprites instead of raising
+            out[m] = (None, {"error": "empty mesh (no triangle)"})
+            continue
+        out[m] = (mesh, mesh_metrics(mesh, rgba, edge_pixels=edges))
     return rgba, edges, out
