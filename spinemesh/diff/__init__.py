@@ -11,7 +11,8 @@ Modules: :mod:`.baselines` (the paper's hull / grid / Shi-Tomasi baselines, sec.
 
 from .baselines import BASELINES, baseline_mesh
 from .compare import artist_mesh, chamfer_distance, coverage_iou, hull_iou
+from .report import write_report
 from .run import METHODS, DiffResult, DiffRow, run_diff
 
 __all__ = ["BASELINES", "baseline_mesh", "artist_mesh", "chamfer_distance", "coverage_iou", "hull_iou",
-           "METHODS", "DiffResult", "DiffRow", "run_diff"]
+           "METHODS", "DiffResult", "DiffRow", "run_diff", "write_report"]
