@@ -54,13 +54,25 @@ def compare_dumps(tool: Path, a: Path, b: Path) -> tuple[bool, str]:
 
 
 def render_difference(a: Path, b: Path, tol: int = 2) -> dict:
-    """Share of pixels off by more than ``tol``/255, and pixels visible in ``a`` (alpha >= 8) lost in ``b``."""
-    pa = np.asarray(Image.open(a).convert("RGBA")).astype(int)
-    pb = np.asarray(Image.open(b).convert("RGBA")).astype(int)
+    """Share of pixels off by more than ``tol``/255, and pixels visible in ``a`` (alpha >= 8) lost in ``b``.
+
+    Colours are compared premultiplied by alpha, as they are composited: the PNGs store
+    straight colour, and a pixel with alpha 0 may carry any colour there (a mesh drawn over
+    transparent texels leaves their colour in it) while it shows nothing.
+    """
+    pa = _premultiplied(np.asarray(Image.open(a).convert("RGBA")).astype(int))
+    pb = _premultiplied(np.asarray(Image.open(b).convert("RGBA")).astype(int))
     off = np.abs(pa - pb).max(-1) > tol
     lost = (pa[..., 3] >= 8) & (pb[..., 3] == 0)
     return {"off_share": float(off.mean()), "lost": int(lost.sum()), "visible": int((pa[..., 3] >= 8).sum()),
             "lost_where": [tuple(map(int, p)) for p in np.argwhere(lost)[:5]]}
+
+
+def _premultiplied(rgba: np.ndarray) -> np.ndarray:
+    """RGBA (H, W, 4) ints 0..255 with colour multiplied by alpha, rounded."""
+    out = rgba.copy()
+    out[..., :3] = (rgba[..., :3] * rgba[..., 3:] + 127) // 255
+    return out
 
 
 def first_animation(skeleton_json_or_doc) -> str | None:

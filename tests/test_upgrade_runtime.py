@@ -13,6 +13,8 @@ For every example project of 3.8, 4.0, 4.1 and 4.2, from both ``.json`` and ``.s
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from spinemesh.project import find_project
@@ -22,7 +24,9 @@ from spinemesh.upgrade import Options, upgrade_project
 from conftest import example_projects
 from runtime_tool import compare_dumps, dump, first_animation, install, render, render_difference
 
-CASES = [p for v in ("3.8", "4.0", "4.1", "4.2") for p in example_projects(v)]
+#: The bundled demo (ours: stripped whitespace, a rotated region, a sequence) and the examples.
+DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
+CASES = [DEMO] + [p for v in ("3.8", "4.0", "4.1", "4.2") for p in example_projects(v)]
 TIMES = "0.3,0.7"
 
 #: At most this many visible pixels of a render may vanish. They are single pixels on the
