@@ -137,8 +137,31 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
         ring = np.concatenate(loops)
     else:
         loops = [l * s for l in loops]
-    pts = [ring] + chains
-    flags = [np.zeros(len(ring), bool)] + [np.ones(len(c), bool) for c in chains]
+    n_loop = len(ring)
+    for _ in range(4):
+        pts, is_int, edges = _assemble(loops, chains)
+        n_steiner = _steiner_budget(p, len(pts), density)
+        if budget is not None:
+            n_steiner = max(0, min(n_steiner, budget - len(pts)))
+        verts, tris, edges = triangulate.constrained(pts, edges, loops, p.min_angle, n_steiner,
+                                                     p.min_vertex_distance)
+        # A chain vertex almost on the line of two others can give a sliver triangle that would
+        # leave a T-junction (a crack when animated): drop that vertex and triangulate again.
+        middle = _sliver_middles(verts, tris)
+        middle = [i for i in middle if n_loop <= i < len(pts)]
+        if not middle:
+            break
+        chains = _drop_chain_vertices(chains, [i - n_loop for i in middle])
+    if len(verts) > len(pts):  # refinement points: interior unless they ended up on the hull
+        is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
+    return _finish(verts, tris, is_int, edges, w, h, preset="default")
+
+
+def _assemble(loops: list[np.ndarray], chains: list[np.ndarray]):
+    """Points (loops first, then chains), their interior flags and the constrained edges."""
+    pts = np.concatenate(loops + chains)
+    n_loops = sum(map(len, loops))
+    is_int = np.r_[np.zeros(n_loops, bool), np.ones(len(pts) - n_loops, bool)]
     edges, start = [], 0
     for loop in loops:
         n = len(loop)
@@ -147,17 +170,30 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     for c in chains:
         edges += [(start + i, start + i + 1) for i in range(len(c) - 1)]
         start += len(c)
-    pts = np.concatenate(pts)
-    is_int = np.concatenate(flags)
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    n_steiner = _steiner_budget(p, len(pts), density)
-    if budget is not None:
-        n_steiner = max(0, min(n_steiner, budget - len(pts)))
-    verts, tris, edges = triangulate.constrained(pts, edges, loops, p.min_angle, n_steiner,
-                                                 p.min_vertex_distance)
-    if len(verts) > len(pts):  # crossing constraints were split: the new points are interior
-        is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
-    return _finish(verts, tris, is_int, edges, w, h, preset="default")
+    return pts, is_int, np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+
+
+def _sliver_middles(verts: np.ndarray, tris: np.ndarray, min_area: float = 1e-6) -> list[int]:
+    """For each near-zero-area triangle, the vertex at its largest angle (the one "in between")."""
+    a = verts[tris]
+    sa = (a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1]) - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])
+    out = []
+    for t in np.flatnonzero(np.abs(sa) <= 2 * min_area):
+        p = a[t]
+        lens = [np.hypot(*(p[(k + 1) % 3] - p[(k + 2) % 3])) for k in range(3)]
+        out.append(int(tris[t][int(np.argmax(lens))]))  # opposite the longest side
+    return sorted(set(out))
+
+
+def _drop_chain_vertices(chains: list[np.ndarray], flat: list[int]) -> list[np.ndarray]:
+    drop = set(flat)
+    out, start = [], 0
+    for c in chains:
+        keep = [i for i in range(len(c)) if start + i not in drop]
+        if keep:
+            out.append(c[keep])
+        start += len(c)
+    return out
 
 
 def _interior(image: np.ndarray, mask: np.ndarray, p: MesherParams, s: int, ring: np.ndarray,
