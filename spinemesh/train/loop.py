@@ -15,6 +15,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -182,6 +183,8 @@ def train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = 
         torch.set_flush_denormal(True)  # denormals make CPU training up to 5x slower
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
+            # OpenCV's own thread pool (compositing, resizing) would otherwise spin on every core.
+            cv2.setNumThreads(cfg.threads)
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     train_s, val_s = sprites if sprites is not None else split_sprites(cfg)
