@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
-from .geometry import clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
+from .geometry import changed_edges, clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 
 # --------------------------------------------------------------------------- paper
@@ -371,10 +371,18 @@ def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return np.stack([np.clip(loop[:, 0], 0, shape[1]), np.clip(loop[:, 1], 0, shape[0])], axis=1)
 
 
+#: Most candidate loops :func:`_spread` checks for one hull (keeps huge speckled hulls fast).
+MAX_SPREAD_TRIES = 1500
+
+
 def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndarray:
     """Drop a vertex of each too-short edge when the loop still covers and stays simple."""
     if min_distance <= 0:
         return loop
+    # Each try checks simplicity and coverage of the whole loop; on art made of many specks
+    # (hundreds of hull vertices) unbounded tries took close to a minute, so they are counted.
+    tries = 0
+    incremental = loop_is_simple(loop)
     for _ in range(len(loop)):
         d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
         short = np.flatnonzero(d < min_distance)
@@ -400,7 +408,12 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
             for cand in (np.delete(loop, j, axis=0), np.delete(loop, k, axis=0), mid, apart, both, *snaps):
                 if len(cand) < 3:
                     continue
-                if loop_is_simple(cand) and len(_uncovered(cand, cover)) == 0:
+                tries += 1
+                if tries > MAX_SPREAD_TRIES:
+                    return loop
+                # the loop was simple, so only the edges this candidate made can cross anything
+                only = changed_edges(loop, cand) if incremental else None
+                if loop_is_simple(cand, only) and len(_uncovered(cand, cover)) == 0:
                     loop, done = cand, True
                     break
             if done:

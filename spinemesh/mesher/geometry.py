@@ -128,8 +128,13 @@ def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
     return proper | touching | col
 
 
-def loop_is_simple(loop: np.ndarray) -> bool:
-    """True if no two non-adjacent edges of the closed polygon meet, and no vertex repeats."""
+def loop_is_simple(loop: np.ndarray, edges: np.ndarray | None = None) -> bool:
+    """True if no two non-adjacent edges of the closed polygon meet, and no vertex repeats.
+
+    ``edges`` (indices of edges, edge ``i`` runs from vertex ``i`` to ``i + 1``) limits the test
+    to those edges against all others: enough when only they changed in a loop known to be
+    simple, and it turns an O(n^2) test into O(n).
+    """
     n = len(loop)
     if n < 3:
         return False
@@ -137,12 +142,23 @@ def loop_is_simple(loop: np.ndarray) -> bool:
     if len(np.unique(np.round(loop, 9) + 0.0, axis=0)) != n:
         return False
     seg = np.stack([loop, np.roll(loop, -1, axis=0)], axis=1)
-    x = segments_cross(seg, seg)
-    i = np.arange(n)
-    x[i, i] = False
-    x[i, (i + 1) % n] = False
-    x[(i + 1) % n, i] = False
+    rows = np.arange(n) if edges is None else np.unique(np.asarray(edges, dtype=np.int64) % n)
+    x = segments_cross(seg[rows], seg)
+    r = np.arange(len(rows))
+    x[r, rows] = False
+    x[r, (rows + 1) % n] = False
+    x[r, (rows - 1) % n] = False
     return not x.any()
+
+
+def changed_edges(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """Indices of the edges of closed polygon ``new`` that are not edges of ``old``."""
+    def keys(loop):
+        nxt = np.roll(loop, -1, axis=0)
+        return [(*a, *b) for a, b in zip(np.round(loop, 9).tolist(), np.round(nxt, 9).tolist())]
+
+    before = set(keys(old))
+    return np.array([i for i, k in enumerate(keys(new)) if k not in before], dtype=np.int64)
 
 
 def loops_disjoint(a: np.ndarray, b: np.ndarray) -> bool:
