@@ -67,8 +67,20 @@ class RegionGeometry:
         return self.width if self.degrees in (90, 270) else self.height
 
 
+class _Fields:
+    """Lookup of a page's or region's ``key: values`` entries (the first entry of a key wins)."""
+
+    entries: list[Entry]
+
+    def get(self, key: str) -> list[str] | None:
+        for e in self.entries:
+            if e.key == key:
+                return e.values
+        return None
+
+
 @dataclass
-class AtlasRegion:
+class AtlasRegion(_Fields):
     """A named region of a page. ``entries`` hold every field in file order."""
 
     name: str
@@ -76,11 +88,6 @@ class AtlasRegion:
     entries: list[Entry] = field(default_factory=list)
     line: int = 0
 
-    def get(self, key: str) -> list[str] | None:
-        for e in self.entries:
-            if e.key == key:
-                return e.values
-        return None
 
     @property
     def index(self) -> int:
@@ -128,18 +135,13 @@ class AtlasRegion:
 
 
 @dataclass
-class AtlasPage:
+class AtlasPage(_Fields):
     """A page image and its fields (``size``, ``format``, ``filter``, ``repeat``, ``pma``, ``scale``...)."""
 
     name: str
     entries: list[Entry] = field(default_factory=list)
     line: int = 0
 
-    def get(self, key: str) -> list[str] | None:
-        for e in self.entries:
-            if e.key == key:
-                return e.values
-        return None
 
     @property
     def pma(self) -> bool:

@@ -49,15 +49,10 @@ import struct
 
 from .stream import SkelReader, SkelWriter
 
-#: Key of the binary-only information in a document (see module docstring).
-EXTRA = "_skel"
+from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE  # noqa: F401
+from .enums import INHERIT as TRANSFORM_MODE
 
-ATTACHMENT_TYPES = ("region", "boundingbox", "mesh", "linkedmesh", "path", "point", "clipping")
-TRANSFORM_MODE = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
-BLEND = ("normal", "additive", "multiply", "screen")
-POSITION_MODE = ("fixed", "percent")
 SPACING_MODE = ("length", "fixed", "percent")
-ROTATE_MODE = ("tangent", "chain", "chainScale")
 
 CURVE_LINEAR, CURVE_STEPPED, CURVE_BEZIER = 0, 1, 2
 

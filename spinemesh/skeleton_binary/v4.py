@@ -42,15 +42,9 @@ import struct
 
 from .stream import MAX_COUNT, MAX_STRING_BYTES, SkelReader, SkelWriter
 
-#: Key of the binary-only information in a document (see module docstring).
-EXTRA = "_skel"
+from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, INHERIT, POSITION_MODE, ROTATE_MODE  # noqa: F401
 
-ATTACHMENT_TYPES = ("region", "boundingbox", "mesh", "linkedmesh", "path", "point", "clipping")
-INHERIT = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
-BLEND = ("normal", "additive", "multiply", "screen")
-POSITION_MODE = ("fixed", "percent")
 SPACING_MODE = ("length", "fixed", "percent", "proportional")
-ROTATE_MODE = ("tangent", "chain", "chainScale")
 SEQUENCE_MODE = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
 
 CURVE_LINEAR, CURVE_STEPPED, CURVE_BEZIER = 0, 1, 2

@@ -1,0 +1,16 @@
+"""Names that the binary format stores as small integers, shared by every version.
+
+A table lists the names in the order of their integer codes. Versions that add names extend
+a table (see ``SPACING_MODE`` in :mod:`.v4`); those that keep it import it from here.
+"""
+
+#: Key of the binary-only information in a document (whether the file has nonessential
+#: data, the string table); see the module docstrings of :mod:`.v3` and :mod:`.v4`.
+EXTRA = "_skel"
+
+ATTACHMENT_TYPES = ("region", "boundingbox", "mesh", "linkedmesh", "path", "point", "clipping")
+#: A bone's transform mode (3.x) or inherit mode (4.x): the same five names in both.
+INHERIT = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
+BLEND = ("normal", "additive", "multiply", "screen")
+POSITION_MODE = ("fixed", "percent")
+ROTATE_MODE = ("tangent", "chain", "chainScale")
