@@ -176,14 +176,17 @@ def _batch(size: int, n: int = 4):
     return torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(ys))[:, None]
 
 
-def test_one_batch_training_step_learns(one_thread):
+def test_one_batch_training_step_learns(one_thread, request):
     torch = pytest.importorskip("torch")
     pytest.importorskip("efficientnet_lite_pytorch")
     from spinemesh.train.loop import evaluate, seg_loss, train_step
     from spinemesh.train.model import SegmentationModel
 
     torch.manual_seed(0)
+    # Flushing denormals is a process-wide CPU flag: switched off again at the end so later
+    # tests (exact float32 round trips of .skel files) run with ordinary arithmetic.
     torch.set_flush_denormal(True)
+    request.addfinalizer(lambda: torch.set_flush_denormal(False))
     model = SegmentationModel("efficientnet-lite0", 64, pretrained=True)
     opt = torch.optim.AdamW(model.param_groups(1e-3, 1e-4, 1e-4))
     x, y = _batch(64)

@@ -159,6 +159,20 @@ def split_sprites(cfg: TrainConfig) -> tuple[list[Sprite], list[Sprite]]:
 
 def train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = None,
           progress=None) -> dict:
+    """Train a segmentation model; see :func:`_train` for the parameters.
+
+    CPU training flushes denormal floats to zero, a process-wide CPU flag; it is switched off
+    again afterwards, since it also changes every later float computation in the process
+    (it made float32 round trips of skeleton files inexact).
+    """
+    try:
+        return _train(cfg, sprites, progress)
+    finally:
+        torch.set_flush_denormal(False)
+
+
+def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = None,
+          progress=None) -> dict:
     """Train, keeping the checkpoint with the best validation IoU.
 
     Writes into ``cfg.out``: ``split.json`` (games and sprite ids per side), ``log.jsonl``
