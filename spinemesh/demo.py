@@ -29,28 +29,28 @@ def demo_images() -> dict[str, np.ndarray]:
     im, d = _canvas(120, 160)
     d.ellipse((10, 10, 110, 150), fill=(70, 110, 200, 255))
     d.ellipse((30, 60, 90, 140), fill=(240, 200, 60, 255))  # a belly: an interior boundary
-    out["body"] = np.asarray(im)
+    out["demo-body"] = np.asarray(im)
     im, d = _canvas(90, 90)
     d.ellipse((5, 5, 85, 85), fill=(250, 210, 170, 255))
     d.ellipse((25, 30, 38, 43), fill=(30, 30, 30, 255))
     d.ellipse((52, 30, 65, 43), fill=(30, 30, 30, 255))
-    out["head"] = np.asarray(im)
+    out["demo-head"] = np.asarray(im)
     im, d = _canvas(100, 100)
     d.ellipse((4, 4, 96, 96), fill=(200, 60, 60, 255))
     d.ellipse((30, 30, 70, 70), fill=(0, 0, 0, 0))  # the hole
-    out["ring"] = np.asarray(im)
+    out["demo-ring"] = np.asarray(im)
     im, d = _canvas(140, 60)
     d.ellipse((5, 5, 55, 55), fill=(60, 180, 90, 255))
     d.rectangle((85, 10, 135, 50), fill=(60, 180, 90, 255))
-    out["blobs"] = np.asarray(im)
+    out["demo-blobs"] = np.asarray(im)
     im, d = _canvas(40, 120)
     d.rounded_rectangle((8, 4, 32, 116), radius=10, fill=(250, 210, 170, 255))
-    out["arm"] = np.asarray(im)
+    out["demo-arm"] = np.asarray(im)
     for i in range(3):
         im, d = _canvas(64, 64)
         r = 12 + 8 * i
         d.regular_polygon((32, 32, r), 5, rotation=20 * i, fill=(255, 240, 120, 255))
-        out[f"spark/frame{i + 1}"] = np.asarray(im)
+        out[f"demo-spark/frame{i + 1}"] = np.asarray(im)
     return out
 
 
@@ -118,22 +118,22 @@ def demo_skeleton(images: dict[str, np.ndarray]) -> dict:
             {"name": "props", "parent": "root", "x": 170, "y": 60},
         ],
         "slots": [
-            {"name": "arm", "bone": "arm", "attachment": "arm"},
-            {"name": "body", "bone": "body", "attachment": "body"},
-            {"name": "head", "bone": "head", "attachment": "head"},
-            {"name": "ring", "bone": "props", "attachment": "ring"},
-            {"name": "blobs", "bone": "props", "attachment": "blobs"},
+            {"name": "arm", "bone": "arm", "attachment": "demo-arm"},
+            {"name": "body", "bone": "body", "attachment": "demo-body"},
+            {"name": "head", "bone": "head", "attachment": "demo-head"},
+            {"name": "ring", "bone": "props", "attachment": "demo-ring"},
+            {"name": "blobs", "bone": "props", "attachment": "demo-blobs"},
             {"name": "spark", "bone": "head", "attachment": "spark", "color": "ffffffc0"},
         ],
         "skins": [{"name": "default", "attachments": {
-            "arm": {"arm": region("arm", y=-50, rotation=90, scaleX=0.9)},
-            "body": {"body": region("body")},
-            "head": {"head": region("head", y=10)},
-            "ring": {"ring": region("ring", y=120, scaleX=0.8, scaleY=0.8)},
-            "blobs": {"blobs": region("blobs", x=10, y=-10, rotation=15)},
-            "spark": {"spark": region("spark/frame1", x=40, y=50, color="ffe0a0ff",
+            "arm": {"demo-arm": region("demo-arm", y=-50, rotation=90, scaleX=0.9)},
+            "body": {"demo-body": region("demo-body")},
+            "head": {"demo-head": region("demo-head", y=10)},
+            "ring": {"demo-ring": region("demo-ring", y=120, scaleX=0.8, scaleY=0.8)},
+            "blobs": {"demo-blobs": region("demo-blobs", x=10, y=-10, rotation=15)},
+            "spark": {"spark": region("demo-spark/frame1", x=40, y=50, color="ffe0a0ff",
                                       sequence={"count": 3, "setup": 0})
-                      | {"path": "spark/frame"}},
+                      | {"path": "demo-spark/frame"}},
         }}],
         "animations": {"wave": {
             "bones": {"arm": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 1, "value": 0}]},
@@ -147,7 +147,7 @@ def make_demo_project(folder: str | Path, with_images_folder: bool = True) -> Pa
     """Write the demo project (``demo.json``, ``demo.atlas``, ``demo.png``, ``images/``) to ``folder``."""
     folder = Path(folder)
     images = demo_images()
-    atlas_text, page = pack_atlas(images, "demo.png", rotate={"arm"}, keep_whitespace=("spark/",))
+    atlas_text, page = pack_atlas(images, "demo.png", rotate={"demo-arm"}, keep_whitespace=("demo-spark/",))
     atomic_write_text(folder / "demo.atlas", atlas_text)
     atomic_write_png(folder / "demo.png", page)
     doc = demo_skeleton(images)

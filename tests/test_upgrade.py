@@ -81,7 +81,7 @@ def test_demo_upgrade_json_and_skel(demo, tmp_path):
         types = {r.name: r.attachment for r in iter_attachments(doc)}
         assert all(a["type"] == "mesh" for a in types.values()), name
         spark = types["spark"]
-        assert spark["sequence"]["count"] == 3 and spark["path"] == "spark/frame"
+        assert spark["sequence"]["count"] == 3 and spark["path"] == "demo-spark/frame"
         for att in types.values():
             n = len(att["uvs"]) // 2
             assert len(att["triangles"]) // 3 == 2 * n - att["hull"] - 2
@@ -101,7 +101,7 @@ def test_sequence_mesh_covers_every_frame(demo, tmp_path):
     spark = next(r.attachment for r in iter_attachments(load_skeleton(out / "demo.json")) if r.name == "spark")
     uv = np.array(spark["uvs"]).reshape(-1, 2)
     tris = np.array(spark["triangles"]).reshape(-1, 3)
-    for frame in ("spark/frame1", "spark/frame2", "spark/frame3"):
+    for frame in ("demo-spark/frame1", "demo-spark/frame2", "demo-spark/frame3"):
         rgba = FolderImages(demo / "images").get(frame).rgba
         px = uv * (rgba.shape[1], rgba.shape[0])
         assert coverage(px, tris, opaque_mask(rgba)) == 1.0, frame
@@ -110,12 +110,12 @@ def test_sequence_mesh_covers_every_frame(demo, tmp_path):
 def test_options_only_exclude_min_size_dry_run(demo, tmp_path):
     r = upgrade_project(demo, tmp_path / "a", Options(only=["ring"], dry_run=True))
     status = {(t.skeleton, t.name): t.status for t in r.targets}
-    assert status[("demo.json", "ring")] == "would mesh"
-    assert status[("demo.json", "head")] == "skipped"
+    assert status[("demo.json", "demo-ring")] == "would mesh"
+    assert status[("demo.json", "demo-head")] == "skipped"
     assert not (tmp_path / "a").exists(), "a dry run writes nothing"
-    r = upgrade_project(demo, tmp_path / "b", Options(exclude=["spark/*"], min_size=95))
+    r = upgrade_project(demo, tmp_path / "b", Options(exclude=["demo-spark/*"], min_size=95))
     reasons = {t.name: t.reason for t in r.targets if t.skeleton == "demo.json"}
-    assert "exclude" in reasons["spark"] and "min-size" in reasons["head"] and reasons["body"] == ""
+    assert "exclude" in reasons["spark"] and "min-size" in reasons["demo-head"] and reasons["demo-body"] == ""
 
 
 def test_missing_image_is_reported_and_left_a_region(demo, tmp_path):
@@ -170,7 +170,7 @@ def test_mesh_cache_meshes_each_image_once(demo, tmp_path, monkeypatch):
 
 def test_images_folder_written_for_the_editor(demo, tmp_path):
     upgrade_project(demo, tmp_path / "out", Options(images_out=tmp_path / "img"))
-    assert (tmp_path / "img/body.png").exists() and (tmp_path / "img/spark/frame3.png").exists()
+    assert (tmp_path / "img/demo-body.png").exists() and (tmp_path / "img/demo-spark/frame3.png").exists()
 
 
 def test_real_skel_in_skel_out(examples, tmp_path):
