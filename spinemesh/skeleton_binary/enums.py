@@ -14,3 +14,6 @@ INHERIT = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "no
 BLEND = ("normal", "additive", "multiply", "screen")
 POSITION_MODE = ("fixed", "percent")
 ROTATE_MODE = ("tangent", "chain", "chainScale")
+
+#: How a timeline frame curves to the next: the codes both versions store.
+CURVE_LINEAR, CURVE_STEPPED, CURVE_BEZIER = 0, 1, 2

@@ -54,7 +54,7 @@ from .enums import INHERIT as TRANSFORM_MODE
 
 SPACING_MODE = ("length", "fixed", "percent")
 
-CURVE_LINEAR, CURVE_STEPPED, CURVE_BEZIER = 0, 1, 2
+from .enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED  # noqa: E402,F401
 
 
 class Layout:

@@ -47,7 +47,7 @@ from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, INHERIT, POSITION_MODE, ROTAT
 SPACING_MODE = ("length", "fixed", "percent", "proportional")
 SEQUENCE_MODE = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
 
-CURVE_LINEAR, CURVE_STEPPED, CURVE_BEZIER = 0, 1, 2
+from .enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED  # noqa: E402,F401
 
 
 class Layout:
