@@ -9,6 +9,7 @@ atlases that hold the skeleton's images.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,7 +18,9 @@ from .errors import SpineMeshError
 from .images import AtlasImages, FolderImages
 from .skeleton import image_paths, iter_attachments
 
-SKELETON_SUFFIXES = (".json", ".skel", ".json.txt", ".skel.bytes")
+#: Skeleton file names: the editor's, Unity's (``.json.txt``, ``.skel.bytes``) and Godot's
+#: (``.spine-json``).
+SKELETON_SUFFIXES = (".json", ".skel", ".json.txt", ".skel.bytes", ".spine-json")
 ATLAS_SUFFIXES = (".atlas", ".atlas.txt")
 
 
@@ -25,8 +28,11 @@ def _has_suffix(path: Path, suffixes) -> bool:
     return path.name.lower().endswith(suffixes)
 
 
+_SKELETON_OBJECT = re.compile(rb'"skeleton"\s*:\s*\{')
+
+
 def is_skeleton_file(path: Path) -> bool:
-    """Whether ``path`` looks like a skeleton: binary by name, or JSON with skeleton keys."""
+    """Whether ``path`` is a skeleton: binary by name, or JSON with a ``"skeleton"`` object."""
     name = path.name.lower()
     if not path.is_file() or not _has_suffix(path, SKELETON_SUFFIXES) or name.endswith(".source.json"):
         return False
@@ -38,30 +44,75 @@ def is_skeleton_file(path: Path) -> bool:
     if not stripped.startswith(b"{"):
         # Binary skeletons shipped under a .json name: version string in the header.
         return b"\x00" in head[:16] or b"4." in head[:40] or b"3." in head[:40]
-    return b'"skeleton"' in head or b'"bones"' in head
+    # A top-level "skeleton" object, which every editor export has (first key, so within the
+    # head); a report or any other JSON that only names a skeleton does not count.
+    return _SKELETON_OBJECT.search(head) is not None
 
 
 @dataclass
 class Project:
-    """The skeletons, atlases and image folders found under ``root``."""
+    """The skeletons, atlases and image folders found under ``root``.
+
+    Attributes
+    ----------
+    files : list of Path
+        Every regular, non-hidden file of the project whose real path lies inside ``root``
+        (what ``upgrade`` copies).
+    problems : list of str
+        One line per thing left out: symlinks leading outside, broken atlases, missing pages.
+    """
 
     root: Path
     skeletons: list[Path] = field(default_factory=list)
     atlases: list[Path] = field(default_factory=list)
     image_folders: list[Path] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    parsed_atlases: dict[Path, Atlas] | None = field(default=None, repr=False)
+
+
+def _walk(root: Path, problems: list[str]) -> tuple[list[Path], list[Path]]:
+    """Non-hidden files and folders under ``root``, sorted, without following symlinked folders.
+
+    A symlinked file is kept only when its real path lies inside ``root``.
+    """
+    files, folders = [], []
+    for here, dirs, names in os.walk(root, followlinks=False):
+        here_path = Path(here)
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for d in list(dirs):
+            p = here_path / d
+            if p.is_symlink():
+                dirs.remove(d)
+                if not is_within(p, root):
+                    problems.append(f"{p}: symlink to a folder outside the project; skipped")
+                continue
+            folders.append(p)
+        for name in sorted(names):
+            p = here_path / name
+            if name.startswith("."):
+                continue
+            if p.is_symlink() and not is_within(p, root):
+                problems.append(f"{p}: symlink to a file outside the project; skipped")
+                continue
+            if p.is_file():
+                files.append(p)
+    return sorted(files), sorted(folders)
 
 
 def find_project(path: str | Path) -> Project:
     """Collect a project from a folder (searched recursively) or from one skeleton file.
 
     For a skeleton file, the project root is its folder and only that skeleton is taken.
+    Nothing outside the project's real folder is taken (see the module notes).
     """
     path = Path(path)
     if not path.exists():
         raise SpineMeshError("no such file or folder", path)
     root = path.parent if path.is_file() else path
-    files = sorted(p for p in root.rglob("*") if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts))
     project = Project(root=root)
+    files, folders = _walk(root, project.problems)
+    project.files = files
     if path.is_file():
         if not is_skeleton_file(path):
             raise SpineMeshError("not a Spine skeleton (.json or .skel)", path)
@@ -69,9 +120,41 @@ def find_project(path: str | Path) -> Project:
     else:
         project.skeletons = [p for p in files if is_skeleton_file(p)]
     project.atlases = [p for p in files if _has_suffix(p, ATLAS_SUFFIXES)]
-    project.image_folders = sorted({p.parent for p in files if p.parent.name == "images"} |
-                                   {d for d in root.rglob("images") if d.is_dir()})
+    project.image_folders = [d for d in folders if d.name == "images"]
     return project
+
+
+def project_atlases(project: Project) -> dict[Path, Atlas]:
+    """Every usable atlas of the project, read once; the one policy for broken atlases.
+
+    An atlas that cannot be read or parsed, or one of whose page images is missing or lies
+    outside the project, is reported once in ``project.problems`` and left out, so that another
+    atlas or an images folder can serve its skeletons and the rest of the project goes on.
+    A region with malformed numbers leaves only the attachments that draw it failing.
+
+    Returns
+    -------
+    dict
+        Atlas path to parsed :class:`~spinemesh.atlas.Atlas`, in ``project.atlases`` order.
+    """
+    if project.parsed_atlases is not None:
+        return project.parsed_atlases
+    usable: dict[Path, Atlas] = {}
+    for p in project.atlases:
+        try:
+            atlas = read_atlas(p, strict=False)
+            for page in atlas.pages:
+                page_file = AtlasImages.page_path(atlas, page.name, project.root)
+                if not page_file.is_file():
+                    raise SpineMeshError(f"page image {page.name!r} not found", p, line=page.line)
+        except SpineMeshError as e:
+            project.problems.append(f"{e}; atlas not used")
+            continue
+        for problem in atlas.problems:
+            project.problems.append(f"{problem}; attachments drawing this region are left as they are")
+        usable[p] = atlas
+    project.parsed_atlases = usable
+    return usable
 
 
 def _atlas_rank(atlas: Atlas, skeleton: Path, covered: int) -> tuple:
@@ -105,7 +188,7 @@ def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path |
     images : path, optional
         An images folder given by the user; it wins when set.
     atlases : dict, optional
-        Already parsed atlases by path, reused across skeletons.
+        Parsed atlases to choose from (default: :func:`project_atlases`).
 
     Returns
     -------
@@ -113,16 +196,17 @@ def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path |
         Atlases are chosen greedily: the one that holds the most of the skeleton's images
         (preferring scale 1 and straight alpha, since meshes are best built at full
         resolution), then others for whatever is still missing. Without atlases, an images
-        folder (``skeleton.images`` or an ``images/`` folder) is used.
+        folder (``skeleton.images`` or an ``images/`` folder) inside the project is used.
+
+    Raises
+    ------
+    SkeletonError
+        For a sequence whose frame count or digits exceed :mod:`spinemesh.limits`.
     """
     if images is not None:
         return FolderImages(images)
     needed = needed_images(doc)
-    parsed = atlases if atlases is not None else {}
-    for p in project.atlases:
-        if p not in parsed:
-            parsed[p] = read_atlas(p)
-    candidates = list(parsed.values())
+    candidates = list((atlases if atlases is not None else project_atlases(project)).values())
     chosen: list[Atlas] = []
     missing = set(needed)
     while missing and candidates:
@@ -136,12 +220,29 @@ def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path |
         missing = {n for n in missing if not best.find(n)}
     if chosen:
         return AtlasImages(chosen, root=project.root)
+    folder = images_folder_for(doc, skeleton, project)
+    return FolderImages(folder) if folder is not None else None
+
+
+def images_folder_for(doc: dict, skeleton: Path, project: Project) -> Path | None:
+    """The images folder of a skeleton: its ``skeleton.images`` hint, else an ``images/`` folder.
+
+    Only folders whose real path lies inside the project count. The hint is often an
+    absolute path on the artist's machine, so one that cannot be used is passed over quietly,
+    but one that climbs out of the project (``../``) is noted in ``project.problems``.
+    """
+    skel = doc.get("skeleton")
+    hint = skel.get("images") if isinstance(skel, dict) else None
     folders = []
-    hint = doc.get("skeleton", {}).get("images") if isinstance(doc.get("skeleton"), dict) else None
-    if hint:
-        folders.append((skeleton.parent / hint).resolve())
+    if isinstance(hint, str) and hint.strip():
+        rel_dir = real(skeleton.parent).relative_to(real(project.root)).as_posix()
+        try:
+            folders.append(resolve_inside(project.root, f"{rel_dir}/{hint}", skeleton))
+        except UnsafePathError as e:
+            if not os.path.isabs(hint.replace("\\", "/")) and not hint[1:2] == ":":
+                project.problems.append(f"{e}; skeleton.images hint not used")
     folders += project.image_folders
     for folder in folders:
-        if folder.is_dir() and str(folder).startswith(str(project.root.resolve())):
-            return FolderImages(folder)
+        if folder.is_dir() and is_within(folder, project.root):
+            return folder
     return None

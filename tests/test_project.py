@@ -44,3 +44,24 @@ def test_unity_names_in_the_corpus(corpus):
         found_atlas_txt |= any(p.name.endswith(".atlas.txt") for p in proj.atlases)
         found_unity_skel |= any(p.name.endswith((".json.txt", ".skel.bytes")) for p in proj.skeletons)
     assert found_atlas_txt and found_unity_skel
+
+
+def test_every_corpus_project_has_skeletons_that_load(corpus):
+    """Each corpus project, whatever its engine's file names (Godot's ``.spine-json``
+    included), yields at least one skeleton, and every skeleton loads; a file that is
+    neither is not taken for one."""
+    from collections import Counter
+
+    from spinemesh.skeleton import load_skeleton, spine_version
+
+    versions: Counter = Counter()
+    godot = 0
+    for proj_dir in sorted(p for p in corpus.iterdir() if p.is_dir()):
+        proj = find_project(proj_dir)
+        assert proj.skeletons, proj_dir
+        for path in proj.skeletons:
+            godot += path.name.endswith(".spine-json")
+            versions[spine_version(load_skeleton(path))[:3]] += 1
+    print(f"skeletons by version: {dict(sorted(versions.items()))}")
+    assert godot >= 1
+    assert sum(versions.values()) >= 200
