@@ -6,12 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ..errors import SpineMeshError
-from ..fsutil import atomic_write_bytes, atomic_write_text
-from ..skeleton import dumps_skeleton, load_skeleton, spine_version
-from ..skeleton_binary import write_skel
-from ..skeleton_binary.v4 import EXTRA, tidy_floats
-from ._app import app, console
+from ._app import Annotated, app
 
 _BINARY_SUFFIXES = (".skel", ".skel.bytes")
 
@@ -22,20 +17,29 @@ def _is_binary_name(path: Path) -> bool:
 
 @app.command()
 def convert(
-    source: Path = typer.Argument(..., help="Skeleton to read: .skel (binary) or .json.", exists=True,
-                                  dir_okay=False),
-    target: Path = typer.Argument(..., help="Skeleton to write; its extension (.skel or .json) picks the format."),
-    keep_binary_info: bool = typer.Option(
-        False, "--keep-binary-info",
-        help=f"Keep the binary-only data (string table order) under {EXTRA!r} in the JSON, so that "
-             "converting it back gives the original .skel byte for byte."),
+    source: Annotated[Path, typer.Argument(help="Skeleton to read: .skel (binary) or .json.", exists=True,
+                                           dir_okay=False)],
+    target: Annotated[Path, typer.Argument(help="Skeleton to write; its extension (.skel or .json) picks "
+                                                "the format.")],
+    keep_binary_info: Annotated[bool, typer.Option(
+        "--keep-binary-info",
+        help="Keep the binary-only data (string table order) in the JSON, so that converting it back "
+             "gives the original .skel byte for byte.")] = False,
 ) -> None:
-    """Convert a skeleton between binary .skel and .json, keeping its Spine version (4.0 to 4.2).
+    """Convert a skeleton between binary .skel and .json, keeping its Spine version (3.6 to 4.3).
 
     The JSON has the layout of the Spine editor's own export of that version.
 
-    Example: spinemesh convert spineboy-pro.skel spineboy-pro.json
+    \b
+    Example: spinemesh convert hero.skel hero.json
     """
+    # Imported here, not at the top: `spinemesh --help` and the other commands do not need them.
+    from ..errors import SpineMeshError
+    from ..fsutil import atomic_write_bytes, atomic_write_text
+    from ..skeleton import dumps_skeleton, load_skeleton, spine_version
+    from ..skeleton_binary import tidy_floats, write_skel
+    from ..skeleton_binary.enums import EXTRA
+
     if source.resolve() == target.resolve():
         raise SpineMeshError("source and target are the same file; the input is never overwritten", target)
     doc = load_skeleton(source)
@@ -52,4 +56,5 @@ def convert(
         kind = "JSON"
     else:
         raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)
-    console.print(f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})")
+    # Plain echo: a rich console would cost more start-up than the conversion of a small skeleton.
+    typer.echo(f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})")

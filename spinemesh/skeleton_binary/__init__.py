@@ -1,4 +1,4 @@
-"""Spine's binary skeleton format (``.skel``), versions 3.6 to 4.2, read and written.
+"""Spine's binary skeleton format (``.skel``), versions 3.6 to 4.3, read and written.
 
 :func:`read_skel` turns a ``.skel`` into the same document that the Spine editor's JSON
 export of that version holds; :func:`write_skel` turns such a document back into bytes.
@@ -8,6 +8,7 @@ functions of a :mod:`.stream` that serve both directions.
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -42,17 +43,14 @@ def sniff_version(data: bytes) -> str:
 
 
 def _codec(version: str):
+    """The module that declares this version's structures: :mod:`.v3` or :mod:`.v4`."""
     major = version.split(".")[0]
-    try:
-        if major == "3":
-            from . import v3 as codec
-        elif major == "4":
-            from . import v4 as codec
-        else:
-            raise SkelFormatError(f"expected Spine 3.6 to 4.2, found version {version!r}", offset=0)
-    except ImportError:
-        # A codec not (yet) in this installation is an unsupported version, not a crash.
-        raise SkelFormatError(f"expected a supported Spine version, found {version!r}", offset=0) from None
+    if major == "3":
+        from . import v3 as codec
+    elif major == "4":
+        from . import v4 as codec
+    else:
+        raise SkelFormatError(f"expected Spine 3.6 to 4.3, found version {version!r}", offset=0)
     return codec
 
 
@@ -92,3 +90,28 @@ def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
     writer = SkelWriter(path)
     _codec(version).write(writer, doc)
     return writer.getvalue()
+
+
+def tidy_floats(node):
+    """A copy of a document with every float written as the shortest decimal that is still
+    the same float32 (``-188.6337890625`` becomes ``-188.63379``, ``100.0`` becomes ``100``).
+
+    For JSON text meant for people: writing the copy as ``.skel`` gives the same bytes.
+    """
+    import numpy as np
+
+    return _tidy(node, np.float32)
+
+
+def _tidy(node, f32):
+    if isinstance(node, float):
+        if node != node or node in (math.inf, -math.inf):
+            return node
+        if node.is_integer() and math.copysign(1.0, node) > 0:
+            return int(node)
+        return float(str(f32(node)))
+    if isinstance(node, dict):
+        return {k: _tidy(v, f32) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_tidy(v, f32) for v in node]
+    return node

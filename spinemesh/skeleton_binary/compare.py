@@ -323,8 +323,3 @@ def _dense_deform(a: dict, b: dict) -> tuple[dict, dict]:
     a["vertices"] = da + [0] * (n - len(da))
     b["vertices"] = db + [0] * (n - len(db))
     return a, b
-
-
-def documents_equal(left: Any, right: Any, **kwargs) -> bool:
-    """``True`` when :func:`diff_documents` finds nothing."""
-    return not diff_documents(left, right, limit=1, **kwargs)

@@ -1,0 +1,102 @@
+"""Bones and slots."""
+
+from __future__ import annotations
+
+from .fields import _names, boolean, color, enum, fields, index, ref, text
+from .layout import Context
+from ..enums import BLEND, INHERIT
+
+
+# -- bones, slots, constraints ---------------------------------------------------------
+
+_BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
+                ("shearX", 0), ("shearY", 0), ("length", 0))
+
+
+def bone(s, node: dict, c: Context, i: int) -> None:
+    if s.reading:
+        node["name"] = s.string(what="bone name")
+        if i > 0:
+            index(s, node, "parent", *c.bones, "bone")
+            c.bones[0].append(node["name"])
+        else:
+            c.bones[0].append(node["name"])
+    else:
+        s.string(node.get("name"))
+        if i > 0:
+            # A parent comes before its children: the reader knows only earlier bones.
+            parent = c.bones[1].get(node.get("parent"))
+            if parent is not None and parent >= i:
+                raise s.fail(f"bone {node.get('name')!r} to come after its parent {node.get('parent')!r}")
+            index(s, node, "parent", *c.bones, "bone")
+    fields(s, node, _BONE_FIELDS, order=(7, 0, 1, 2, 3, 4, 5, 6))  # the JSON has length first
+    enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
+    boolean(s, node, "skin")
+    if c.nonessential:
+        color(s, node, "color", "9b9b9bff")
+        if c.L.flags:
+            text(s, node, "icon")
+            boolean(s, node, "visible", True)
+
+
+def bones(s, doc: dict, c: Context) -> None:
+    if s.reading:
+        c.bones = ([], {})
+        out = doc["bones"] = []
+        for i in range(s.count(what="bone count")):
+            node = {}
+            bone(s, node, c, i)
+            out.append(node)
+        c.bones = (c.bones[0], {n: i for i, n in reversed(list(enumerate(c.bones[0])))})
+    else:
+        items = doc.get("bones", [])
+        c.bones = _names(items)
+        s.count(len(items))
+        for i, node in enumerate(items):
+            bone(s, node, c, i)
+
+
+def slot(s, node: dict, c: Context) -> None:
+    text(s, node, "name")
+    index(s, node, "bone", *c.bones, "bone")
+    color(s, node, "color", "ffffffff")
+    if s.reading:
+        dark = s.i32()
+        if dark != -1:
+            node["dark"] = "%06x" % (dark & 0xFFFFFF)
+            if dark >> 24 & 0xFF:
+                node["dark"] += "%02x" % (dark >> 24 & 0xFF)
+    else:
+        dark = node.get("dark")
+        s.i32(-1 if dark is None else _dark_int(s, dark))
+    ref(s, node, "attachment")
+    enum(s, node, "blend", BLEND, "normal")
+    if c.nonessential and c.L.flags:
+        boolean(s, node, "visible", True)
+
+
+def _dark_int(s, dark: str) -> int:
+    try:
+        v = int(dark[:6], 16) | (int(dark[6:8], 16) << 24 if len(dark) >= 8 else 0)
+    except ValueError:
+        raise s.fail(f"a hex dark colour, got {dark!r}") from None
+    return v - (1 << 32) if v & 0x80000000 else v
+
+
+def _bone_list(s, node: dict, c: Context, key: str = "bones") -> None:
+    names, lookup = c.bones
+    if s.reading:
+        out = node[key] = []
+        for _ in range(s.count(what="bone count")):
+            at = s.pos
+            i = s.varint()
+            if not 0 <= i < len(names):
+                raise s.fail(f"bone index below {len(names)}, found {i}", at)
+            out.append(names[i])
+        return
+    items = node.get(key, [])
+    s.count(len(items))
+    for name in items:
+        if name not in lookup:
+            raise s.fail(f"a known bone, got {name!r}")
+        s.varint(lookup[name])

@@ -1,0 +1,210 @@
+"""Symmetric helpers: one call reads a field into a node or writes it from the node."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+
+# -- small symmetric helpers -----------------------------------------------------------
+
+_STRUCTS: dict[int, tuple] = {}
+
+
+def _floats_struct(n: int) -> tuple:
+    """``(unpack_from, size)`` for ``n`` big-endian float32s, cached."""
+    got = _STRUCTS.get(n)
+    if got is None:
+        st = struct.Struct(f">{n}f")
+        got = (st.unpack_from, st.size)
+        if n <= 64:  # field runs and curves; long arrays vary too much to be worth keeping
+            _STRUCTS[n] = got
+    return got
+
+
+def _same(v, default) -> bool:
+    """``v`` equals ``default`` and may be left out (keeps ``-0.0``, which packs differently)."""
+    if v is None or default is None:
+        return v is default
+    if v != default:
+        return False
+    return not (isinstance(v, float) and v == 0 and math.copysign(1.0, v) < 0)
+
+
+def _put(node: dict, key: str, v, default) -> None:
+    """Set ``node[key] = v`` unless ``v`` is the default (the hottest helper: kept inline-fast)."""
+    if v != default:
+        node[key] = v
+    elif v == 0 and type(v) is float and math.copysign(1.0, v) < 0:
+        node[key] = v
+
+
+def _to_end(node: dict, keys: tuple) -> None:
+    """Move ``keys`` (those present) to the end of ``node``, in that order: the editor's
+    JSON key order where it differs from the binary's field order."""
+    for k in keys:
+        if k in node:
+            node[k] = node.pop(k)
+
+
+def fields(s, node: dict, keys_defaults: tuple, order: tuple | None = None) -> None:
+    """Consecutive float32 fields ``(key, default)``, read or written in one go.
+
+    ``order``, indices into ``keys_defaults``, is the order in which a read puts them into
+    ``node`` when the editor's JSON orders them differently from the binary.
+    """
+    n = len(keys_defaults)
+    if s.reading:
+        values = s.f32s(n)
+        for i in order or range(n):
+            key, d = keys_defaults[i]
+            v = values[i]
+            if v != d or (v == 0 and math.copysign(1.0, v) < 0):
+                node[key] = v
+    else:
+        floats(s, [node.get(key, d) for key, d in keys_defaults], n, ", ".join(k for k, _ in keys_defaults))
+
+
+def fld(s, node: dict, key: str, default=0.0):
+    """A float32 that is always stored; left out of the document when it is ``default``."""
+    if s.reading:
+        v = s.f32()
+        _put(node, key, v, default)
+        return v
+    return s.f32(node.get(key, default), what=key)
+
+
+def opt(s, node: dict, key: str, present: bool, default=0.0):
+    """A float32 stored only when a flag says so (4.2)."""
+    if not present:
+        return default
+    return fld(s, node, key, default)
+
+
+def flag(node: dict, key: str, default, stored_default=0.0) -> bool:
+    """Writer side of a 4.2 flag bit: set when the value differs from the binary default."""
+    v = node.get(key, default)
+    return not _same(v, stored_default) if isinstance(v, (int, float)) else v != stored_default
+
+
+def boolean(s, node: dict, key: str, default: bool = False) -> bool:
+    if s.reading:
+        v = s.bool()
+        _put(node, key, v, default)
+        return v
+    return s.bool(node.get(key, default))
+
+
+def color(s, node: dict, key: str, default: str | None):
+    if s.reading:
+        v = s.color()
+        _put(node, key, v, default)
+        return v
+    return s.color(node.get(key, default), what=key)
+
+
+def ref(s, node: dict, key: str):
+    """A string-table reference; null means the key is absent."""
+    if s.reading:
+        v = s.string_ref()
+        if v is not None:
+            node[key] = v
+        return v
+    return s.string_ref(node.get(key))
+
+
+def text(s, node: dict, key: str):
+    """An inline string; null means the key is absent."""
+    if s.reading:
+        v = s.string()
+        if v is not None:
+            node[key] = v
+        return v
+    return s.string(node.get(key))
+
+
+def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
+    """A varint index into ``names`` stored as the name itself in the document."""
+    if s.reading:
+        at = s.pos
+        i = s.varint(what=what) - offset
+        if not 0 <= i < len(names):
+            raise s.fail(f"{what} index below {len(names)}, found {i}", at)
+        node[key] = names[i]
+        return names[i]
+    name = node.get(key)
+    if name not in lookup:
+        raise s.fail(f"a known {what} for {key!r}, got {name!r}")
+    s.varint(lookup[name] + offset)
+    return name
+
+
+def enum(s, node: dict, key: str, names: tuple, default: str, as_byte: bool = False):
+    if s.reading:
+        at = s.pos
+        i = s.u8() if as_byte else s.varint()
+        if not 0 <= i < len(names):
+            raise s.fail(f"{key} between 0 and {len(names) - 1}, found {i}", at)
+        _put(node, key, names[i], default)
+        return names[i]
+    v = node.get(key, default)
+    if v not in names:
+        raise s.fail(f"{key} one of {', '.join(names)}, got {v!r}")
+    return s.u8(names.index(v)) if as_byte else s.varint(names.index(v))
+
+
+def floats(s, values, n: int, what: str = "floats") -> list:
+    """``n`` float32 values in one go (bulk arrays: vertices, uvs, deform offsets)."""
+    if s.reading:
+        return s.f32s(n, what)
+    try:
+        s.raw(struct.pack(f">{n}f", *values))
+    except struct.error:
+        raise s.fail(f"{n} numbers for {what}") from None
+    return values
+
+
+def seq(s, items: list | None, fn, *args, what: str = "count") -> list:
+    """A varint count followed by that many structures."""
+    if s.reading:
+        out = []
+        for _ in range(s.count(what=what)):
+            node = {}
+            fn(s, node, *args)
+            out.append(node)
+        return out
+    s.count(len(items))
+    for node in items:
+        fn(s, node, *args)
+    return items
+
+
+def _names(items) -> tuple[list, dict]:
+    names = [x.get("name") for x in items]
+    lookup = {}
+    for i, n in enumerate(names):
+        lookup.setdefault(n, i)
+    return names, lookup
+
+
+def fld_int(s, node: dict, key: str, default: int = 0) -> int:
+    if s.reading:
+        v = s.varint()
+        _put(node, key, v, default)
+        return v
+    return s.varint(node.get(key, default))
+
+
+def _flag_byte(s, node: dict, bits: tuple, value_flags: int = 0) -> int:
+    """A flag byte: boolean keys at the low ``bits`` masks, plus precomputed ``value_flags``."""
+    if s.reading:
+        flags = s.u8()
+        for mask, key, d in bits:
+            _put(node, key, bool(flags & mask), d)
+        return flags
+    flags = value_flags
+    for mask, key, d in bits:
+        if node.get(key, d):
+            flags |= mask
+    s.u8(flags)
+    return flags
