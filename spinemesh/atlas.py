@@ -23,7 +23,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import AtlasError
+import math
+
+from .errors import AtlasError, SpineMeshError
+from .limits import check_file_size, check_image_size
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
 _V4_KEYS = {"bounds", "offsets", "pma", "scale"}
@@ -87,7 +90,8 @@ class AtlasRegion(_Fields):
     page: int
     entries: list[Entry] = field(default_factory=list)
     line: int = 0
-
+    #: Why the region cannot be used (set by a lenient parse); :meth:`geometry` raises it.
+    error: SpineMeshError | None = field(default=None, compare=False, repr=False)
 
     @property
     def index(self) -> int:
@@ -95,7 +99,17 @@ class AtlasRegion(_Fields):
         return int(v[0]) if v else -1
 
     def geometry(self, source: str | None = None) -> RegionGeometry:
-        """Geometry from either syntax; raises :class:`AtlasError` on malformed numbers."""
+        """Geometry from either syntax.
+
+        Raises
+        ------
+        AtlasError
+            On malformed or negative numbers.
+        LimitError
+            When the packed or original size exceeds :mod:`spinemesh.limits`.
+        """
+        if self.error is not None:
+            raise self.error
         ints = lambda key, n: _ints(self, key, n, source)  # noqa: E731
         bounds = ints("bounds", 4)
         if bounds is not None:
@@ -131,6 +145,8 @@ class AtlasRegion(_Fields):
                                      source, line=self.line)
         if w < 0 or h < 0 or ow < 0 or oh < 0:
             raise AtlasError(f"region {self.name!r} has a negative size", source, line=self.line)
+        check_image_size(w, h, f"region {self.name!r} size", source, self.line)
+        check_image_size(ow, oh, f"region {self.name!r} original size", source, self.line)
         return RegionGeometry(x, y, w, h, ox, oy, ow, oh, degrees)
 
 
@@ -142,7 +158,6 @@ class AtlasPage(_Fields):
     entries: list[Entry] = field(default_factory=list)
     line: int = 0
 
-
     @property
     def pma(self) -> bool:
         v = self.get("pma")
@@ -150,12 +165,25 @@ class AtlasPage(_Fields):
 
     @property
     def scale(self) -> float:
-        """The export scale of the page: atlas pixels per original image pixel (default 1)."""
+        """The export scale of the page: atlas pixels per original image pixel (default 1).
+
+        Checked when the atlas is parsed: a finite number above 0.
+        """
         v = self.get("scale")
+        return float(v[0]) if v else 1.0
+
+    def validate(self, source) -> None:
+        """Raise :class:`AtlasError` (file and line) for a scale that is not a finite number above 0."""
+        v = self.get("scale")
+        if not v:
+            return
         try:
-            return float(v[0]) if v else 1.0
+            scale = float(v[0])
         except ValueError:
-            raise AtlasError(f"page {self.name!r}: scale must be a number, found {v[0]!r}", line=self.line) from None
+            scale = math.nan
+        if not math.isfinite(scale) or scale <= 0:
+            raise AtlasError(f"page {self.name!r}: scale must be a number above 0, found {v[0]!r}",
+                             source, line=self.line)
 
 
 @dataclass
@@ -168,6 +196,8 @@ class Atlas:
     header: list[Entry] = field(default_factory=list)
     path: Path | None = None
     leading_blank: bool = False
+    #: Regions that cannot be used, one line each (only filled by a lenient parse).
+    problems: list[str] = field(default_factory=list)
 
     def find(self, name: str) -> AtlasRegion | None:
         """The first region called ``name``, as the runtimes' ``findRegion`` returns it."""
@@ -239,17 +269,25 @@ def _entry(raw: str) -> Entry | None:
     return Entry(key, values, indent, sep, colon_text)
 
 
-def parse_atlas(text: str, source: str | Path | None = None) -> Atlas:
+def parse_atlas(text: str, source: str | Path | None = None, strict: bool = True) -> Atlas:
     """Parse atlas text of either syntax.
 
     The structure follows the runtimes' reader: a blank line ends a page, the next name
     starts a page, and any other name starts a region of the current page. Names may
     contain colons only in the sense that a line with a colon is always an entry.
 
+    Parameters
+    ----------
+    strict : bool
+        True: a region with malformed geometry fails the whole atlas. False: the region
+        keeps its error (raised when it is used) and ``atlas.problems`` lists it, so one bad
+        region only fails the attachments that draw it.
+
     Raises
     ------
     AtlasError
-        With the line number, for an entry before any name or a file with no pages.
+        With the line number, for an entry before any name, a file with no pages, a page
+        scale that is not a number above 0, or (``strict``) a malformed region.
     """
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     if text.startswith("\ufeff"):
@@ -289,15 +327,28 @@ def parse_atlas(text: str, source: str | Path | None = None) -> Atlas:
         raise AtlasError("no atlas pages found (empty or not an atlas)", source)
     keys = {e.key for r in atlas.regions for e in r.entries} | {e.key for p in atlas.pages for e in p.entries}
     atlas.syntax = "4" if keys & _V4_KEYS or "xy" not in keys and atlas.regions else "3"
+    where = str(source) if source else None
+    for p in atlas.pages:
+        p.validate(where)
     for r in atlas.regions:
-        r.geometry(str(source) if source else None)  # validate numbers now, with line numbers
+        try:
+            r.geometry(where)  # validate numbers now, with line numbers
+        except SpineMeshError as e:
+            if strict:
+                raise
+            r.error = e
+            atlas.problems.append(str(e))
     return atlas
 
 
-def read_atlas(path: str | Path) -> Atlas:
-    """Read an atlas file (``.atlas``, ``.atlas.txt``...). Raises :class:`AtlasError`."""
+def read_atlas(path: str | Path, strict: bool = True) -> Atlas:
+    """Read an atlas file (``.atlas``, ``.atlas.txt``...). Raises :class:`AtlasError`.
+
+    ``strict``: see :func:`parse_atlas`.
+    """
     path = Path(path)
     try:
+        check_file_size(path, "atlas")
         raw = path.read_bytes()
     except OSError as e:
         raise AtlasError(f"cannot read atlas: {e.strerror}", path) from None
@@ -305,4 +356,4 @@ def read_atlas(path: str | Path) -> Atlas:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise AtlasError(f"atlas is not UTF-8 text (byte {e.start})", path) from None
-    return parse_atlas(text, path)
+    return parse_atlas(text, path, strict)

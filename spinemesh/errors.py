@@ -62,3 +62,12 @@ class ImageError(SpineMeshError):
 
 class UnsafePathError(SpineMeshError):
     """A path in a project file that would reach outside the project folder."""
+
+
+class LimitError(SpineMeshError):
+    """Input that exceeds one of the resource limits of :mod:`spinemesh.limits`."""
+
+
+class OutputError(SpineMeshError):
+    """An output path that may not be written (inside the input, onto an input file, through a
+    symlink) or that the file system refused (read-only, full disk)."""

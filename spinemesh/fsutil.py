@@ -1,18 +1,37 @@
 """File-system rules that every command follows.
 
-- Paths named inside project files never leave the project folder (:func:`resolve_inside`).
+- Paths named inside project files never leave the project folder (:func:`resolve_inside`),
+  compared as real paths (symlinks resolved), never as string prefixes.
+- Nothing is written inside an input project, onto an input file, or through a symlink
+  (:class:`OutputGuard`; every command checks each path it writes).
 - Output is written atomically (:func:`atomic_write_bytes`): a crash leaves either the old
-  file or the new one, never half of one.
+  file or the new one, never half of one; the temporary file has a unique name in the target
+  folder (two runs into one folder do not collide) and is removed on any error or interruption.
+- No NaN or Infinity is ever written as JSON (:func:`atomic_write_json`).
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
+from typing import Iterable
 
-from .errors import UnsafePathError
+from .errors import OutputError, SpineMeshError, UnsafePathError
+
+
+def real(path: str | Path) -> Path:
+    """The absolute path with every symlink resolved (the file a path really names)."""
+    return Path(os.path.realpath(path))
+
+
+def is_within(path: str | Path, folder: str | Path) -> bool:
+    """Whether ``path`` is ``folder`` or lies inside it, comparing real paths."""
+    p, f = real(path), real(folder)
+    return p == f or f in p.parents
 
 
 def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None) -> Path:
@@ -32,14 +51,79 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
     UnsafePathError
         If ``relative`` is absolute or climbs out of ``root`` (``../``), also through symlinks.
     """
-    root = Path(root).resolve()
+    root = real(root)
     rel = relative.replace("\\", "/")
+    if "\x00" in rel:
+        raise UnsafePathError(f"path {relative!r} holds a NUL character", source or root)
     if os.path.isabs(rel) or (len(rel) > 1 and rel[1] == ":"):
         raise UnsafePathError(f"absolute path {relative!r} is not allowed", source or root)
-    candidate = (root / rel).resolve()
+    candidate = real(root / rel)
     if candidate != root and root not in candidate.parents:
         raise UnsafePathError(f"path {relative!r} leads outside the project folder", source or root)
     return candidate
+
+
+class OutputGuard:
+    """The one check made before writing any file.
+
+    Parameters
+    ----------
+    inputs : iterable of path
+        Input files and folders (projects, images folders, source files). Nothing is written
+        onto an input file or anywhere inside an input folder.
+    root : path, optional
+        The output folder, when a command writes a tree of files. No path below it may pass
+        through a symlink (a symlink planted in the output folder would redirect the write)
+        or climb out of it.
+
+    Notes
+    -----
+    Paths are compared after resolving symlinks (``os.path.realpath``), never as strings,
+    so ``p-evil/`` is not mistaken for being inside ``p/`` and ``out/link -> p/`` is caught.
+    """
+
+    def __init__(self, inputs: Iterable[str | Path | None], root: str | Path | None = None):
+        self.inputs = [(Path(p), real(p)) for p in inputs if p is not None]
+        self.root = Path(root) if root is not None else None
+
+    def check_folder(self, folder: str | Path, what: str = "output folder") -> Path:
+        """Refuse an output folder that is an existing file, an input, or inside an input."""
+        folder = Path(folder)
+        if folder.is_symlink():
+            raise OutputError(f"{what} is a symlink; give the real folder", folder)
+        if folder.exists() and not folder.is_dir():
+            raise OutputError(f"{what} exists and is not a folder", folder)
+        self._refuse_inputs(folder, what)
+        return folder
+
+    def check(self, path: str | Path, what: str = "output file") -> Path:
+        """Return ``path`` if it may be written; raise :class:`OutputError` otherwise."""
+        path = Path(path)
+        if path.is_symlink():
+            raise OutputError(f"{what} is a symlink; refusing to write through it", path)
+        if path.is_dir():
+            raise OutputError(f"{what} is a folder", path)
+        if self.root is not None:
+            lexical = Path(os.path.abspath(path))
+            root = Path(os.path.abspath(self.root))
+            try:
+                rel = lexical.relative_to(root)
+            except ValueError:
+                raise OutputError(f"{what} would lie outside the output folder {self.root}", path) from None
+            if ".." in rel.parts:
+                raise OutputError(f"{what} would lie outside the output folder {self.root}", path)
+            if real(path) != real(root) / rel:
+                raise OutputError(f"{what} passes through a symlink inside the output folder", path)
+        self._refuse_inputs(path, what)
+        return path
+
+    def _refuse_inputs(self, path: Path, what: str) -> None:
+        target = real(path)
+        for given, inp in self.inputs:
+            if target == inp:
+                raise OutputError(f"{what} is the input {given}; the input is never overwritten", path)
+            if inp.is_dir() and inp in target.parents:
+                raise OutputError(f"{what} lies inside the input {given}; nothing is written there", path)
 
 
 def _umask() -> int:
@@ -48,38 +132,106 @@ def _umask() -> int:
     return mask
 
 
+def _write_error(e: OSError, path: Path) -> OutputError:
+    if e.errno == errno.ENOSPC:
+        reason = "disk full"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        reason = "permission denied (read-only?)"
+    else:
+        reason = e.strerror or str(e)
+    return OutputError(f"cannot write: {reason}", path)
+
+
+def make_folder(folder: str | Path) -> Path:
+    """``mkdir -p`` that reports a failure as :class:`OutputError` naming the folder."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputError("cannot create folder: a file of that name exists", folder) from None
+    except OSError as e:
+        raise _write_error(e, folder) from None
+    return folder
+
+
+def _atomic(path: Path, fill) -> None:
+    """Create a unique temporary file beside ``path``, let ``fill(file)`` write it, then rename."""
+    make_folder(path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise _write_error(e, path) from None
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, "wb") as f:
+            fill(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as e:
+        # Also on KeyboardInterrupt and the SystemExit that SIGTERM becomes: no temporary file stays.
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        if isinstance(e, OSError):
+            raise _write_error(e, path) from None
+        raise
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename.
 
     The file gets the permissions an ordinary ``open()`` would give it (0666 less the umask),
     not the owner-only ones of the temporary file.
+
+    Raises
+    ------
+    OutputError
+        When the file system refuses (read-only, disk full, a file where a folder should be).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    _atomic(Path(path), lambda f: f.write(data))
+
+
+def atomic_copy(source: str | Path, path: str | Path) -> None:
+    """Copy the file ``source`` to ``path`` atomically (see :func:`atomic_write_bytes`)."""
+    def fill(f):
+        with open(source, "rb") as src:
+            shutil.copyfileobj(src, f, 1 << 20)
+
+    _atomic(Path(path), fill)
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Atomic :func:`atomic_write_bytes` for UTF-8 text."""
-    atomic_write_bytes(path, text.encode("utf-8"))
+    try:
+        data = text.encode("utf-8")
+    except UnicodeEncodeError as e:
+        raise SpineMeshError(f"not written: text holds an invalid character at {e.start}", path) from None
+    atomic_write_bytes(path, data)
+
+
+def strict_json(obj, indent=None) -> str:
+    """JSON text that never holds NaN or Infinity (strict parsers and the runtimes reject them).
+
+    Raises
+    ------
+    SpineMeshError
+        If ``obj`` holds a non-finite number.
+    """
+    try:
+        return json.dumps(obj, indent=indent, ensure_ascii=False, allow_nan=False)
+    except ValueError as e:
+        raise SpineMeshError(f"refusing to write a non-finite number: {e}") from None
 
 
 def atomic_write_json(path: str | Path, obj, indent: int | None = 2) -> None:
-    """Atomically write ``obj`` as JSON (UTF-8, non-ASCII kept)."""
-    atomic_write_text(path, json.dumps(obj, indent=indent, ensure_ascii=False) + "\n")
+    """Atomically write ``obj`` as strict JSON (UTF-8, non-ASCII kept, no NaN or Infinity)."""
+    try:
+        text = strict_json(obj, indent)
+    except SpineMeshError as e:
+        raise SpineMeshError(e.message, path) from None
+    atomic_write_text(path, text + "\n")
 
 
 def atomic_write_png(path: str | Path, image) -> None:

@@ -11,6 +11,7 @@ scale, so that ``skeleton units = atlas pixels / scale``.
 
 from __future__ import annotations
 
+import warnings
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,8 +20,9 @@ import numpy as np
 from PIL import Image
 
 from .atlas import Atlas, AtlasRegion, read_atlas
-from .errors import AtlasError, ImageError
+from .errors import AtlasError, ImageError, UnsafePathError
 from .fsutil import resolve_inside
+from .limits import MAX_IMAGE_PIXELS, check_image_size
 
 #: Image file extensions looked for in an images folder, in order of preference.
 IMAGE_EXTENSIONS = (".png", ".webp", ".avif", ".jpg", ".jpeg")
@@ -44,6 +46,11 @@ class RegionImage:
         ``(x0, y0, x1, y1)``: the part of the original image that the atlas actually stores
         (the rest was stripped whitespace). Anything drawn outside it samples whatever lies
         next to the region on the page. The whole image for an images folder.
+    drawn : ndarray, shape (H, W), bool
+        Texels a runtime draws anything with: alpha > 0, or on a premultiplied page any
+        channel > 0 (a premultiplied texel with alpha 0 and colour > 0 is light that adds to
+        whatever lies below it, in normal and additive blending alike; straight alpha cannot
+        hold it, so ``rgba`` shows it as transparent). Default: ``alpha > 0``.
     """
 
     rgba: np.ndarray
@@ -51,24 +58,48 @@ class RegionImage:
     name: str
     source: str
     content: tuple[int, int, int, int] | None = None
+    drawn: np.ndarray | None = None
 
     def __post_init__(self):
         if self.content is None:
             h, w = self.rgba.shape[:2]
             self.content = (0, 0, w, h)
+        if self.drawn is None:
+            self.drawn = self.rgba[..., 3] > 0
 
 
 def load_rgba(path: str | Path) -> np.ndarray:
-    """Decode a PNG, WebP, AVIF or JPEG file to an (H, W, 4) uint8 RGBA array."""
+    """Decode a PNG, WebP, AVIF or JPEG file to an (H, W, 4) uint8 RGBA array.
+
+    The size is read from the header and checked against :mod:`spinemesh.limits` before
+    any pixel is decoded, so a small file that claims a huge image (a decompression bomb,
+    or a large, mostly empty sprite) is refused without allocating it.
+
+    Raises
+    ------
+    ImageError
+        Missing or undecodable file.
+    LimitError
+        Image larger than the limits.
+    """
     try:
-        with Image.open(path) as im:
-            im.load()
-            if im.mode != "RGBA":
-                im = im.convert("RGBA")
-            return np.asarray(im, dtype=np.uint8).copy()
+        with warnings.catch_warnings():
+            # Pillow's bomb warning becomes our error (the size check below comes first).
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                check_image_size(im.width, im.height, "image", path)
+                im.load()
+                if im.mode != "RGBA":
+                    im = im.convert("RGBA")
+                # np.array copies once from Pillow's buffer; asarray().copy() held two copies.
+                return np.array(im, dtype=np.uint8)
     except FileNotFoundError:
         raise ImageError("image file not found", path) from None
-    except (OSError, ValueError, Image.DecompressionBombError) as e:
+    except IsADirectoryError:
+        raise ImageError("is a folder, not an image", path) from None
+    except (Image.DecompressionBombWarning, Image.DecompressionBombError):
+        raise ImageError(f"image exceeds the limit of {MAX_IMAGE_PIXELS:,} pixels", path) from None
+    except (OSError, ValueError, SyntaxError, EOFError) as e:
         raise ImageError(f"cannot decode image: {e}", path) from None
 
 
@@ -168,13 +199,27 @@ class AtlasImages:
     def names(self) -> list[str]:
         return list(self._index)
 
+    @staticmethod
+    def page_path(atlas: Atlas, page_name: str, root: str | Path | None = None) -> Path:
+        """The real path of a page image named in ``atlas``, refusing names that leave ``root``.
+
+        Raises
+        ------
+        UnsafePathError
+            If the page name climbs out of ``root`` (default: the atlas's folder), also through
+            a symlink.
+        """
+        assert atlas.path is not None
+        root = Path(root) if root is not None else atlas.path.parent
+        try:
+            rel_dir = atlas.path.parent.resolve().relative_to(root.resolve())
+        except ValueError:
+            raise UnsafePathError("atlas lies outside the project folder", atlas.path) from None
+        return resolve_inside(root, f"{rel_dir.as_posix()}/{page_name}", atlas.path)
+
     def page_file(self, atlas: Atlas, page_index: int) -> Path:
         """The page image path, refusing names that leave the project (``../``)."""
-        assert atlas.path is not None
-        page = atlas.pages[page_index]
-        root = self.root or atlas.path.parent
-        rel_dir = atlas.path.parent.resolve().relative_to(Path(root).resolve())
-        return resolve_inside(root, str(rel_dir / page.name), atlas.path)
+        return self.page_path(atlas, atlas.pages[page_index].name, self.root)
 
     def _page(self, path: Path) -> np.ndarray:
         if path in self._pages:
@@ -194,11 +239,13 @@ class AtlasImages:
         atlas, region = found
         page_path = self.page_file(atlas, region.page)
         page = atlas.pages[region.page]
-        rgba = cut_region(self._page(page_path), region, page.pma, str(atlas.path))
+        pixels = self._page(page_path)
+        rgba = cut_region(pixels, region, page.pma, str(atlas.path))
         g = region.geometry(str(atlas.path))
         top = g.original_height - g.offset_y - g.height
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
-        return RegionImage(rgba, page.scale, name, str(page_path), content)
+        drawn = cut_region(pixels, region, False, str(atlas.path)).max(axis=-1) > 0 if page.pma else None
+        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn)
 
 
 class FolderImages:
@@ -234,3 +281,25 @@ class FolderImages:
             raise ImageError(f"no image {name!r} (looked for {', '.join(name + e for e in IMAGE_EXTENSIONS)})",
                              self.folder)
         return RegionImage(load_rgba(p), 1.0, name, str(p))
+
+
+def content_id(rgba: np.ndarray, box: tuple[int, int, int, int]) -> str:
+    """128-bit hash of an image's size and the pixels inside ``box``, as 32 hex digits.
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (H, W, 4), uint8
+    box : (x, y, w, h)
+        The part that counts (the callers know everything outside it is zero, or unused).
+        The size and the box are hashed too, so equal pixels in other places differ.
+
+    SHA-256, truncated, because CPUs hash it in hardware. The one image hash of the
+    package: ``upgrade`` meshes each id once, ``dataset`` stores each id once.
+    """
+    import hashlib
+
+    x, y, w, h = box
+    digest = hashlib.sha256()
+    digest.update(np.asarray(tuple(rgba.shape) + tuple(box), np.int64).tobytes())
+    digest.update(np.ascontiguousarray(rgba[y:y + h, x:x + w]))
+    return digest.hexdigest()[:32]

@@ -1,0 +1,61 @@
+"""Resource limits on input, so that a small hostile file cannot exhaust memory or time.
+
+Each limit is far above what real Spine projects use and is checked where the value is read,
+raising :class:`~spinemesh.errors.LimitError` that names the file.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .errors import LimitError, SpineMeshError
+
+#: Largest image, page or original region size, in pixels (Pillow's own bomb threshold,
+#: about 9459 x 9459; the Spine editor packs pages of at most 8192 x 8192 = 67 Mpx).
+MAX_IMAGE_PIXELS = 89_478_485
+
+#: Largest width or height of one image, page or original region, in pixels.
+MAX_IMAGE_SIDE = 16_384
+
+#: Most frames in one sequence attachment (real projects use tens).
+MAX_SEQUENCE_FRAMES = 10_000
+
+#: Most zero-padding digits of a sequence frame number.
+MAX_SEQUENCE_DIGITS = 9
+
+#: Deepest nesting of arrays and objects in a skeleton JSON (real ones reach about 8).
+MAX_JSON_DEPTH = 100
+
+
+def check_image_size(width: int, height: int, what: str, source=None, line: int | None = None) -> None:
+    """Refuse an image, page or region whose size exceeds the limits above.
+
+    Raises
+    ------
+    LimitError
+        Naming ``what`` (e.g. ``"region 'head' original size"``) and the file.
+    """
+    if width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE or width * height > MAX_IMAGE_PIXELS:
+        raise LimitError(f"{what} {width}x{height} exceeds the limit of {MAX_IMAGE_SIDE} pixels a side "
+                         f"and {MAX_IMAGE_PIXELS:,} pixels", source, line=line)
+
+
+def finite(value: float, what: str, source=None) -> float:
+    """``value`` as a float, refusing NaN and infinities (never meshed, never written)."""
+    value = float(value)
+    if not math.isfinite(value):
+        raise SpineMeshError(f"{what} is {value!r}; only finite numbers are allowed", source)
+    return value
+
+
+#: Largest skeleton or atlas file read whole into memory (real ones stay under 50 MB).
+MAX_DOCUMENT_BYTES = 256 * 1024 * 1024
+
+
+def check_file_size(path, what: str) -> None:
+    """Refuse a ``what`` file (skeleton, atlas) larger than :data:`MAX_DOCUMENT_BYTES`."""
+    import os
+
+    size = os.stat(path).st_size
+    if size > MAX_DOCUMENT_BYTES:
+        raise LimitError(f"{what} of {size:,} bytes exceeds the limit of {MAX_DOCUMENT_BYTES:,} bytes", path)

@@ -1,0 +1,55 @@
+"""Process hygiene: interruptions that clean up, and workers that end with their parent.
+
+- :func:`exit_on_terminate` turns SIGTERM (and SIGHUP) into ``SystemExit``, so the cleanup of
+  :mod:`spinemesh.fsutil` (temporary files removed) runs as it does for Ctrl-C.
+- :func:`die_with_parent` is the initializer of every worker process: on Linux the kernel
+  sends the worker SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``), elsewhere a
+  watchdog thread ends it when it is re-parented. A killed run leaves no workers behind.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import sys
+import threading
+import time
+
+#: ``PR_SET_PDEATHSIG`` from ``<linux/prctl.h>``.
+_PR_SET_PDEATHSIG = 1
+
+
+def _terminate(signum, frame):
+    raise SystemExit(128 + signum)
+
+
+def exit_on_terminate() -> None:
+    """Make SIGTERM and SIGHUP raise ``SystemExit(128 + signal)`` in the main thread."""
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) in (signal.SIG_DFL, None):
+            signal.signal(sig, _terminate)
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        if os.getppid() != parent:
+            os._exit(1)
+        time.sleep(1.0)
+
+
+def die_with_parent() -> None:
+    """Worker initializer: end this process when the process that started it dies."""
+    parent = os.getppid()
+    # A worker that inherited the parent's SIGTERM handler would raise inside the pool's
+    # machinery; the parent cleans up, the worker just ends.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
+            if os.getppid() != parent:  # the parent died before prctl took effect
+                os._exit(1)
+            return
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
