@@ -246,3 +246,55 @@ def images_folder_for(doc: dict, skeleton: Path, project: Project) -> Path | Non
         if folder.is_dir() and is_within(folder, project.root):
             return folder
     return None
+
+
+#: A file that marks a folder as one project even when its files lie in subfolders (where a
+#: project came from: ``{"repo": ...}``).
+SOURCE_FILE = ".source.json"
+
+#: Skeleton names that are JSON text (the rest are binary).
+_JSON_SUFFIXES = (".json", ".json.txt", ".spine-json")
+
+
+def find_projects(folder: str | Path) -> list[Path]:
+    """Project folders under ``folder``, sorted; hidden folders skipped.
+
+    A project is the first folder, walking down, that directly holds a skeleton, an atlas
+    or a :data:`SOURCE_FILE`; nothing below it is searched for further projects.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise SpineMeshError("folder not found", folder)
+    out: list[Path] = []
+
+    def walk(here: Path) -> None:
+        entries = sorted(here.iterdir())
+        files = [p for p in entries if p.is_file()]
+        if any(p.name == SOURCE_FILE or _has_suffix(p, ATLAS_SUFFIXES) or is_skeleton_file(p) for p in files):
+            out.append(here)
+            return
+        for p in entries:
+            if p.is_dir() and not p.name.startswith("."):
+                walk(p)
+
+    walk(folder)
+    return out
+
+
+def _stem(path: Path) -> tuple[Path, str]:
+    """``(folder, name without its skeleton suffix)``: what a ``.json`` and its ``.skel`` twin share."""
+    name = path.name
+    for suffix in sorted(SKELETON_SUFFIXES, key=len, reverse=True):
+        if name.lower().endswith(suffix):
+            return path.parent, name[: -len(suffix)]
+    return path.parent, name
+
+
+def skeletons_to_read(skeletons: list[Path]) -> list[Path]:
+    """The skeletons without binary twins: a ``.skel`` beside a ``.json`` of the same name is left out.
+
+    The editor exports both from one project state, so reading both finds the same
+    attachments twice.
+    """
+    have_json = {_stem(p) for p in skeletons if p.name.lower().endswith(_JSON_SUFFIXES)}
+    return [p for p in skeletons if p.name.lower().endswith(_JSON_SUFFIXES) or _stem(p) not in have_json]

@@ -111,7 +111,7 @@ def test_options_only_exclude_min_size_dry_run(demo, tmp_path):
     r = upgrade_project(demo, tmp_path / "a", Options(only=["ring"], dry_run=True))
     status = {(t.skeleton, t.name): t.status for t in r.targets}
     assert status[("demo.json", "demo-ring")] == "would mesh"
-    assert status[("demo.json", "demo-head")] == "skipped"
+    assert status[("demo.json", "demo-head")] == "kept"
     assert not (tmp_path / "a").exists(), "a dry run writes nothing"
     r = upgrade_project(demo, tmp_path / "b", Options(exclude=["demo-spark/*"], min_size=95))
     reasons = {t.name: t.reason for t in r.targets if t.skeleton == "demo.json"}
@@ -159,9 +159,9 @@ def test_mesh_cache_meshes_each_image_once(demo, tmp_path, monkeypatch):
     assert cache
 
     def no_meshing(item):
-        raise AssertionError(f"meshed again: {item[0]}")
+        raise AssertionError(f"meshed again: {item.key}")
 
-    monkeypatch.setattr(run, "_mesh_one", no_meshing)
+    monkeypatch.setattr(run, "mesh_one", no_meshing)
     upgrade_project(demo, tmp_path / "two", Options(), mesh_cache=cache)
     assert (tmp_path / "one/demo.json").read_bytes() == (tmp_path / "two/demo.json").read_bytes()
     with pytest.raises(AssertionError, match="meshed again"):  # other settings are other meshes

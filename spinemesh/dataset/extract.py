@@ -20,35 +20,12 @@ import numpy as np
 from ..atlas import Atlas, read_atlas
 from ..errors import SpineMeshError
 from ..images import AtlasImages, FolderImages
-from ..project import ATLAS_SUFFIXES, find_project, image_source_for, is_skeleton_file, needed_images
-from ..skeleton import (AttachmentRef, image_paths, is_binary_skeleton, iter_attachments,
+from ..images import content_id as image_content_id
+from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
+                       needed_images, skeletons_to_read)
+from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
                         iter_skins, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
-
-SOURCE_FILE = ".source.json"
-
-
-def find_projects(corpus: str | Path) -> list[Path]:
-    """Project folders under ``corpus`` (see the module notes), sorted; hidden folders skipped."""
-    corpus = Path(corpus)
-    if not corpus.is_dir():
-        raise SpineMeshError("corpus folder not found", corpus)
-    out: list[Path] = []
-
-    def walk(folder: Path) -> None:
-        entries = sorted(folder.iterdir())
-        files = [p for p in entries if p.is_file()]
-        if any(p.name == SOURCE_FILE or p.name.lower().endswith(ATLAS_SUFFIXES) or is_skeleton_file(p)
-               for p in files):
-            out.append(folder)
-            return
-        for p in entries:
-            if p.is_dir() and not p.name.startswith("."):
-                walk(p)
-
-    walk(corpus)
-    return out
-
 
 def game_of(project: Path) -> str:
     """The game a project belongs to: its source repository, else its folder name."""
@@ -74,18 +51,13 @@ def split_of(game: str, val_fraction: float = VAL_FRACTION) -> str:
 
 
 def content_id(rgba: np.ndarray, box: tuple | None = None) -> str:
-    """128-bit hash of an image's size and pixels, as 32 hex digits.
+    """:func:`spinemesh.images.content_id` over the image's tight box.
 
     Only the pixels inside ``box`` (:func:`~spinemesh.dataset.format.tight_box`, computed
     when not given) are hashed, with the size and the box: everything outside is zero, so
-    this identifies the whole image at a fraction of the cost. SHA-256, truncated, because
-    CPUs hash it in hardware.
+    this identifies the whole image at a fraction of the cost.
     """
-    box = tight_box(rgba) if box is None else box
-    h = hashlib.sha256()
-    h.update(np.asarray(tuple(rgba.shape) + tuple(box), np.int64).tobytes())
-    h.update(np.ascontiguousarray(crop(rgba, box)))
-    return h.hexdigest()[:32]
+    return image_content_id(rgba, tight_box(rgba) if box is None else box)
 
 
 def mesh_pixels(att: dict, width: int, height: int) -> dict:
@@ -174,17 +146,6 @@ def _linked_parent(doc: dict, ref: AttachmentRef) -> dict | None:
     return None
 
 
-def _skeletons_to_read(skeletons: list[Path]) -> list[Path]:
-    """JSON first, so a ``.skel`` beside a ``.json`` of the same name can be left out.
-
-    The examples export both from one project state; reading both would only find the
-    same images twice.
-    """
-    def key(p: Path):
-        return (is_binary_skeleton(p), str(p))
-    return sorted(skeletons, key=key)
-
-
 def extract_project(folder: str | Path, name: str, min_side: int = 1) -> ProjectResult:
     """Extract every unique attachment image of one project.
 
@@ -234,17 +195,12 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
     project.atlases = list(atlases)
 
     wants: dict[tuple, _Want] = {}
-    loaded_stems: set[Path] = set()
-    for skel in _skeletons_to_read(project.skeletons):
-        stem = skel.parent / skel.name.split(".")[0]
-        if is_binary_skeleton(skel) and stem in loaded_stems:
-            continue
+    for skel in skeletons_to_read(project.skeletons):
         try:
             doc = load_skeleton(skel)
         except SpineMeshError as e:
             result.errors.append(str(e))
             continue
-        loaded_stems.add(stem)
         result.skeletons += 1
         _collect(doc, skel, project, atlases, wants, result)
 

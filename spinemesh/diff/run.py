@@ -27,7 +27,7 @@ from ..errors import SpineMeshError
 from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
-from ..project import Project, find_project, image_source_for
+from ..project import Project, find_project, image_source_for, skeletons_to_read
 from ..skeleton import image_paths, iter_attachments, load_skeleton
 from .baselines import BASELINES, baseline_mesh
 from .compare import artist_mesh, compare
@@ -87,20 +87,6 @@ class DiffResult:
     rows: list[DiffRow]
     methods: tuple[str, ...]
     skipped: list[dict]
-
-
-def skeletons_to_read(skeletons: list[Path]) -> list[Path]:
-    """Drop a binary skeleton when a ``.json`` of the same name sits beside it."""
-    def stem(p: Path) -> tuple[Path, str]:
-        name = p.name
-        for suf in (".json.txt", ".skel.bytes", ".json", ".skel"):
-            if name.lower().endswith(suf):
-                return p.parent, name[: -len(suf)]
-        return p.parent, name
-
-    have_json = {stem(p) for p in skeletons if p.name.lower().endswith((".json", ".json.txt"))}
-    return [p for p in skeletons
-            if p.name.lower().endswith((".json", ".json.txt")) or stem(p) not in have_json]
 
 
 def make_mesh(rgba: np.ndarray, method: str) -> Mesh:

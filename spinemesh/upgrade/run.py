@@ -1,40 +1,50 @@
 """Upgrading whole projects: every region attachment becomes a mesh attachment.
 
-The work is split in three so that each part can be read on its own:
+The work is split so that each part can be read on its own:
 
-1. :func:`plan_skeleton` walks a skeleton and decides, per region attachment, which image(s)
-   it needs or why it is skipped;
-2. :func:`mesh_jobs` meshes each unique image once (a process pool with ``jobs > 1``);
-3. :func:`upgrade_project` writes skeletons in the format and version they came in, copies
-   everything else, and reports.
+1. :func:`plan_project` reads the skeletons and decides, per region attachment, which
+   image(s) it needs or why it is left alone; each unique image becomes one
+   :class:`MeshTask` holding only the part the atlas stores (a small crop, not a page);
+2. :func:`mesh_tasks` hands the tasks to workers (this process, local processes or a
+   Dask cluster, see :mod:`spinemesh.cluster`), largest first, and collects the meshes as
+   they come back;
+3. :func:`write_project` puts the meshes into the skeletons, writes them in the format and
+   version they came in, and copies everything else.
 
-One bad attachment never aborts a project: it stays a region and the report says why.
+:func:`upgrade_project` runs the three for one project, :func:`upgrade_library` for every
+project under a folder, with one set of workers. One bad attachment never aborts a
+project: it stays a region and the report says why. The output does not depend on the
+workers: results are put back by image, never by arrival order.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import fnmatch
-import hashlib
 import os
 import shutil
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 
+from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text
-from ..project import find_project, image_source_for
-from ..skeleton import (
-    dumps_skeleton, image_paths, is_binary_skeleton, iter_skins, load_skeleton, AttachmentRef,
-)
+from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, resolve_inside
+from ..images import RegionImage, content_id
+from ..project import Project, find_project, find_projects, image_source_for
+from ..skeleton import AttachmentRef, dumps_skeleton, image_paths, is_binary_skeleton, iter_attachments, load_skeleton
 from .geometry import mesh_attachment, spine_triangles
 
 #: Exit status of a run in which some attachments could not be upgraded.
 EXIT_PARTIAL = 3
+
+#: A file that marks a folder as written by ``upgrade``: only such a folder is replaced by
+#: ``overwrite`` (a mistyped ``--out ~/Documents --overwrite`` must not delete a user's files).
+OUTPUT_MARKER = ".spinemesh-output"
 
 
 @dataclass
@@ -42,15 +52,31 @@ class Options:
     """What the user asked for (see ``spinemesh upgrade --help``)."""
 
     preset: str = "default"
-    mask: str = "alpha"
+    mask: str = "auto"
     only: list[str] = field(default_factory=list)
     exclude: list[str] = field(default_factory=list)
     min_size: float = 0.0
     dry_run: bool = False
     jobs: int = 1
+    dask: str | None = None
     images_out: Path | None = None
     images_in: Path | None = None
     overrides: dict = field(default_factory=dict)
+    overwrite: bool = False
+
+    def mesh_settings(self) -> tuple:
+        """What, besides the pixels, decides a mesh: part of every cache key."""
+        return (self.preset, mask_source_for_upgrade(self.mask), tuple(sorted(self.overrides.items())))
+
+
+def mask_source_for_upgrade(mask: str) -> str:
+    """The mask source that ``upgrade`` uses for ``--mask``.
+
+    ``auto`` means alpha here: an atlas region is drawn by the runtime through its alpha (a
+    page without alpha is drawn whole), so alpha is what keeps every drawn pixel inside the
+    mesh. The network's guess (``model``) may cut drawn pixels off and is used only when asked.
+    """
+    return "alpha" if mask == "auto" else mask
 
 
 @dataclass
@@ -62,7 +88,9 @@ class Target:
     slot: str
     name: str
     paths: list[str]
-    status: str = "pending"          # meshed | skipped | failed | planned
+    # meshed | kept (a deliberate, documented skip; ``reason`` says why) | failed;
+    # planned while the run is under way, "would mesh" in a dry run.
+    status: str = "pending"
     reason: str = ""
     key: str = ""                    # content key of its (composited) image
     vertices: int = 0
@@ -73,6 +101,60 @@ class Target:
 
     def row(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k != "key"}
+
+
+@dataclass
+class MeshTask:
+    """What a worker needs to mesh one unique image: small, and the same wherever it runs.
+
+    Attributes
+    ----------
+    key : str
+        Content key of the image (:func:`spinemesh.images.content_id` of the stored part).
+    rgba : ndarray, shape (h, w, 4), uint8
+        The part of the original image that the atlas stores (straight alpha).
+    origin : (int, int)
+        Where that part starts in the original image, in pixels (x, y).
+    size : (int, int)
+        The original image's width and height in pixels.
+    settings : tuple
+        ``(preset, mask source, overrides)`` as :meth:`Options.mesh_settings` gives them.
+    drawn : ndarray, shape (h, w), bool, optional
+        Texels of ``rgba`` that the runtime draws anything with (any frame), see
+        :attr:`spinemesh.images.RegionImage.drawn`; default ``alpha > 0``.
+    """
+
+    key: str
+    rgba: np.ndarray
+    origin: tuple[int, int]
+    size: tuple[int, int]
+    settings: tuple
+    drawn: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.drawn is None:
+            self.drawn = self.rgba[..., 3] > 0
+
+
+@dataclass
+class MeshResult:
+    """A worker's answer for one :class:`MeshTask`.
+
+    ``vertices`` (N, 2) float64 are pixels of the original image; the first ``hull`` are
+    the outline in order. ``triangles`` (T, 3) int64 triangulate the whole hull polygon
+    (Spine's mesh model), ``edges`` (E, 2) int64 are kept boundaries. On failure
+    ``vertices`` is None and ``error`` says why. ``seconds`` is the meshing time.
+    """
+
+    key: str
+    vertices: np.ndarray | None = None
+    triangles: np.ndarray | None = None
+    hull: int = 0
+    edges: np.ndarray | None = None
+    error: str = ""
+    seconds: float = 0.0
+    coverage: float | None = None
+    waste: float | None = None
 
 
 def _matches(patterns: list[str], ref: AttachmentRef, paths: list[str]) -> bool:
@@ -103,67 +185,124 @@ def _inside(visible: np.ndarray, box: tuple[int, int, int, int]) -> bool:
     return int(visible.sum()) == int(visible[y0:y1, x0:x1].sum())
 
 
-def image_key(rgba: np.ndarray) -> str:
-    return hashlib.sha1(rgba.tobytes() + str(rgba.shape).encode()).hexdigest()
+def skip_reason(ref: AttachmentRef, paths: list[str], options: Options) -> str:
+    """Why the user's options leave this region alone (``""`` when they do not)."""
+    if options.only and not _matches(options.only, ref, paths):
+        return "not matched by --only"
+    if options.exclude and _matches(options.exclude, ref, paths):
+        return "matched by --exclude"
+    w, h = float(ref.attachment.get("width", 32)), float(ref.attachment.get("height", 32))
+    if max(w, h) < options.min_size:
+        return f"smaller than --min-size {options.min_size:g}"
+    return ""
 
 
-def plan_skeleton(doc: dict, skeleton: str, source, options: Options,
-                  images: dict[str, tuple]) -> list[Target]:
-    """Decide for every region attachment of ``doc`` what to do; load the images it needs.
+def source_identity(source) -> tuple:
+    """Sources with equal identities give equal images for equal paths (twin skeletons share one)."""
+    atlases = getattr(source, "atlases", None)
+    if atlases is not None:
+        return ("atlas",) + tuple(str(a.path) for a in atlases)
+    return ("folder", str(getattr(source, "folder", id(source))))
 
-    ``images`` collects each unique composited image, with the box the atlas stores of it,
-    by content key.
+
+def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTask | None, str, str]:
+    """The mesh task of an attachment's frame image(s), or ``(None, status, reason)``."""
+    if len({f.rgba.shape for f in frames}) > 1:
+        return None, "failed", "sequence frames differ in size"
+    rgba = composite_image([f.rgba for f in frames])
+    drawn = np.logical_or.reduce([f.drawn for f in frames])
+    if options.mask != "model" and not drawn.any():
+        return None, "kept", "image is fully transparent"
+    box = stored_box([f.content for f in frames])
+    if box is None or not _inside(drawn, box):
+        return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
+                                 "would sample neighbouring regions; re-pack keeping whitespace")
+    x0, y0, x1, y1 = box
+    # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
+    crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
+    drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
+    key = content_id(rgba, (x0, y0, x1 - x0, y1 - y0))
+    if not np.array_equal(drawn, crop[..., 3] > 0):
+        # Premultiplied light (alpha 0, colour > 0) is not in the straight pixels: key it too.
+        key += "-" + content_id(np.repeat(drawn[..., None], 4, axis=-1).astype(np.uint8), (0, 0, x1 - x0, y1 - y0))[:16]
+    size = (rgba.shape[1], rgba.shape[0])
+    return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
+
+
+def write_editor_image(frame: RegionImage, folder: Path) -> None:
+    """``<folder>/<path>.png``, the original-size image the editor re-imports.
+
+    Atlas images exported at a scale other than 1 are resized back to skeleton size.
     """
-    targets = []
-    for skin, slots in iter_skins(doc):
-        for slot, attachments in slots.items():
-            if not isinstance(attachments, dict):
+    rgba = frame.rgba
+    if frame.scale != 1:
+        import cv2
+
+        h, w = rgba.shape[:2]
+        size = (max(1, round(w / frame.scale)), max(1, round(h / frame.scale)))
+        rgba = cv2.resize(rgba, size, interpolation=cv2.INTER_CUBIC)
+    atomic_write_png(resolve_inside(folder, frame.name + ".png"), rgba)
+
+
+@dataclass
+class Planner:
+    """Plans skeletons one after another, sharing what they share.
+
+    Each image is decoded once: twin skeletons (``.json`` and ``.skel`` of one project)
+    reuse the first one's decision, and the editor images (``--images``) are written from
+    that same decode.
+    """
+
+    options: Options
+    tasks: dict[str, MeshTask] = field(default_factory=dict)
+    decided: dict[tuple, tuple[str, str, str]] = field(default_factory=dict)
+    editor_images: set[str] = field(default_factory=set)
+
+    def plan_skeleton(self, doc: dict, skeleton: str, source) -> list[Target]:
+        """A :class:`Target` for every region attachment of ``doc``, in document order."""
+        targets = []
+        for ref in iter_attachments(doc):
+            if ref.type != "region":
                 continue
-            for name, att in attachments.items():
-                if not isinstance(att, dict) or att.get("type", "region") != "region":
-                    continue
-                ref = AttachmentRef(skin, slot, name, att)
-                paths = image_paths(ref)
-                t = Target(skeleton, skin, slot, name, paths)
-                targets.append(t)
-                if options.only and not _matches(options.only, ref, paths):
-                    t.status, t.reason = "skipped", "not matched by --only"
-                    continue
-                if options.exclude and _matches(options.exclude, ref, paths):
-                    t.status, t.reason = "skipped", "matched by --exclude"
-                    continue
-                try:
-                    w, h = float(att.get("width", 32)), float(att.get("height", 32))
-                except (TypeError, ValueError):
-                    t.status, t.reason = "failed", "width/height are not numbers"
-                    continue
-                if max(w, h) < options.min_size:
-                    t.status, t.reason = "skipped", f"smaller than --min-size {options.min_size:g}"
-                    continue
-                if source is None:
-                    t.status, t.reason = "failed", "no atlas or images folder holds its image"
-                    continue
-                try:
-                    loaded = [source.get(p) for p in paths]
-                except SpineMeshError as e:
-                    t.status, t.reason = "failed", str(e)
-                    continue
-                if len({f.rgba.shape for f in loaded}) > 1:
-                    t.status, t.reason = "failed", "sequence frames differ in size"
-                    continue
-                rgba = composite_image([f.rgba for f in loaded])
-                if not (rgba[..., 3] > 0).any() and options.mask == "alpha":
-                    t.status, t.reason = "skipped", "image is fully transparent"
-                    continue
-                box = stored_box([f.content for f in loaded])
-                if box is None or not _inside(rgba[..., 3] > 0, box):
-                    t.status, t.reason = ("skipped", "sequence frames were trimmed differently on the atlas page, "
-                                          "so one mesh would sample neighbouring regions; re-pack keeping whitespace")
-                    continue
-                t.key = image_key(rgba) + "-%d-%d-%d-%d" % box
-                images.setdefault(t.key, (rgba, box))
-                t.status = "planned"
-    return targets
+            paths = image_paths(ref)
+            t = Target(skeleton, ref.skin, ref.slot, ref.name, paths)
+            targets.append(t)
+            try:
+                reason = skip_reason(ref, paths, self.options)
+            except (TypeError, ValueError):
+                t.status, t.reason = "failed", "width/height are not numbers"
+                continue
+            if reason:
+                t.status, t.reason = "kept", reason
+            elif source is None:
+                t.status, t.reason = "failed", "no atlas or images folder holds its image"
+            else:
+                t.status, t.reason, t.key = self._decide(source, paths)
+        return targets
+
+    def _decide(self, source, paths: list[str]) -> tuple[str, str, str]:
+        seen = (source_identity(source), tuple(paths))
+        if seen not in self.decided:
+            try:
+                frames = [source.get(p) for p in paths]
+            except SpineMeshError as e:
+                self.decided[seen] = ("failed", str(e), "")
+            else:
+                task, status, reason = task_for_frames(frames, self.options)
+                if task is not None:
+                    self.tasks.setdefault(task.key, task)
+                    self._write_editor_images(frames)
+                self.decided[seen] = (status, reason, task.key if task else "")
+        return self.decided[seen]
+
+    def _write_editor_images(self, frames: list[RegionImage]) -> None:
+        folder = self.options.images_out
+        if folder is None or self.options.dry_run:
+            return
+        for frame in frames:
+            if frame.name not in self.editor_images:
+                self.editor_images.add(frame.name)
+                write_editor_image(frame, Path(folder))
 
 
 def sampling_margin(mask: np.ndarray) -> np.ndarray:
@@ -178,99 +317,110 @@ def sampling_margin(mask: np.ndarray) -> np.ndarray:
     return cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
 
 
-def _mesh_one(args):
-    """Worker: mesh one image; returns (key, mesh json or None, error, seconds, coverage, waste)."""
-    key, (full, box), preset, mask_source, overrides = args
-    # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
-    x0, y0, x1, y1 = box
-    rgba = np.ascontiguousarray(full[y0:y1, x0:x1])
-    from ..mesher import compute_mask, mesh_image, resolve_params
+def drawn_art(task: MeshTask, params, overrides: dict) -> np.ndarray:
+    """What a mesh must cover, before :func:`sampling_margin`: shape (h, w), bool.
+
+    With the alpha mask (``alpha`` or ``auto``) and no ``alpha_threshold`` asked for, it is
+    every texel the runtime draws (:attr:`MeshTask.drawn`): one with alpha 1 still shows,
+    faint layers add up (glows stacked over each other, art scaled up by an animation), and a
+    premultiplied page's light (alpha 0, colour > 0) adds to what lies below. Any threshold
+    above that loses pixels the original draws. Otherwise the mesher's own mask.
+    """
+    from ..mesher import compute_mask
+
+    if params.mask_source in ("alpha", "auto") and "alpha_threshold" not in overrides:
+        return task.drawn
+    return compute_mask(task.rgba, params.mask_source, params.alpha_threshold)
+
+
+def mesh_one(task: MeshTask) -> MeshResult:
+    """Worker: mesh one image and triangulate its whole hull, as Spine needs.
+
+    A pure function of the task, so that any worker (local or on a cluster) gives the same
+    answer. Problems of the image (:class:`SpineMeshError`) become the result's ``error``.
+    """
+    from ..mesher import mesh_image, resolve_params
     from ..metrics import coverage, opaque_mask, waste
 
+    preset, mask_source, overrides = task.settings
     start = time.perf_counter()
     try:
-        params = resolve_params(preset, **{**overrides, "mask_source": mask_source})
-        mask = sampling_margin(compute_mask(rgba, params.mask_source, params.alpha_threshold))
-        mesh = mesh_image(rgba, params, mask=mask)
+        params = resolve_params(preset, **{**dict(overrides), "mask_source": mask_source})
+        mask = sampling_margin(drawn_art(task, params, dict(overrides)))
+        mesh = mesh_image(task.rgba, params, mask=mask)
     except SpineMeshError as e:
-        return key, None, str(e), time.perf_counter() - start, None, None
+        return MeshResult(task.key, error=str(e), seconds=time.perf_counter() - start)
     seconds = time.perf_counter() - start
-    art = opaque_mask(rgba)
+    art = opaque_mask(task.rgba)
     cov = coverage(mesh.vertices, mesh.triangles, art) if art.any() else 1.0
     wst = waste(mesh.vertices, mesh.triangles, art)
-    doc = mesh.to_json()
-    doc["vertices"] = (np.asarray(doc["vertices"], float) + (x0, y0)).tolist()
-    return key, doc, "", seconds, cov, wst
+    vertices = np.asarray(mesh.vertices, np.float64) + task.origin
+    edges = np.asarray(mesh.edges, np.int64).reshape(-1, 2)
+    triangles = spine_triangles(vertices, mesh.hull, edges)
+    if triangles is None:
+        return MeshResult(task.key, error="mesh is not one fully triangulated hull polygon", seconds=seconds)
+    return MeshResult(task.key, vertices, np.asarray(triangles, np.int64), int(mesh.hull), edges,
+                      seconds=seconds, coverage=cov, waste=wst)
 
 
-def mesh_jobs(images: dict[str, tuple], options: Options,
-              progress: Callable[[int], None] | None = None, cache: dict | None = None) -> dict[str, tuple]:
-    """Mesh every unique image once; ``progress(1)`` is called after each.
+def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
+               progress: Callable[[int], None] | None = None,
+               cache: dict | None = None) -> dict[str, MeshResult]:
+    """Mesh every unique image once; ``progress(n)`` is told as results arrive.
+
+    Tasks go out largest first, so that no big image starts last and keeps one worker busy
+    while the others idle; results are collected as they finish.
 
     ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
     that runs over projects sharing images (the same art exported for several Spine
     versions) mesh each image only once.
     """
-    settings = (options.preset, options.mask, tuple(sorted(options.overrides.items())))
-    results = {}
+    results: dict[str, MeshResult] = {}
     if cache is not None:
-        results = {k: cache[(k, settings)] for k in images if (k, settings) in cache}
+        results = {k: cache[(k, t.settings)] for k, t in tasks.items() if (k, t.settings) in cache}
         if progress and results:
             progress(len(results))
-    work = [(k, im, options.preset, options.mask, options.overrides)
-            for k, im in sorted(images.items()) if k not in results]
-    if options.jobs > 1 and len(work) > 1:
-        with ProcessPoolExecutor(max_workers=options.jobs) as pool:
-            for res in pool.map(_mesh_one, work, chunksize=1):
-                results[res[0]] = res[1:]
-                if progress:
-                    progress(1)
-    else:
-        for item in work:
-            res = _mesh_one(item)
-            results[res[0]] = res[1:]
-            if progress:
-                progress(1)
-    if cache is not None:
-        cache.update({(k, settings): v for k, v in results.items()})
+    todo = sorted((t for k, t in tasks.items() if k not in results),
+                  key=lambda t: (-t.rgba.shape[0] * t.rgba.shape[1], t.key))
+    futures = [workers.submit(mesh_one, t) for t in todo]
+    for future in workers.as_completed(futures):
+        res = future.result()
+        results[res.key] = res
+        if cache is not None:
+            cache[(res.key, tasks[res.key].settings)] = res
+        if progress:
+            progress(1)
     return results
 
 
-def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, tuple],
-                 images: dict[str, tuple], source_name: str) -> None:
-    """Replace each meshed region in ``doc`` by its mesh attachment, in place, keeping key order."""
+def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult],
+                 tasks: dict[str, MeshTask], source_name: str) -> None:
+    """Replace each planned region in ``doc`` by its mesh attachment, in place, keeping key order."""
     by_place = {(t.skin, t.slot, t.name): t for t in targets if t.status == "planned"}
-    for skin, slots in iter_skins(doc):
-        for slot, attachments in slots.items():
-            if not isinstance(attachments, dict):
-                continue
-            for name in list(attachments):
-                t = by_place.get((skin, slot, name))
-                if t is None:
-                    continue
-                mesh_json, error, seconds, cov, wst = meshes[t.key]
-                t.seconds = round(seconds, 4)
-                if mesh_json is None:
-                    t.status, t.reason = "failed", error
-                    continue
-                h, w = images[t.key][0].shape[:2]
-                verts = np.asarray(mesh_json["vertices"], float)
-                edges = np.asarray(mesh_json["edges"], int).reshape(-1, 2)
-                tris = spine_triangles(verts, mesh_json["hull"], edges)
-                if tris is None:
-                    t.status, t.reason = "failed", "mesh is not one fully triangulated hull polygon"
-                    continue
-                try:
-                    attachments[name] = mesh_attachment(
-                        attachments[name], verts, tris, mesh_json["hull"], edges, w, h, source_name)
-                except SpineMeshError as e:
-                    t.status, t.reason = "failed", str(e)
-                    continue
-                t.status = "meshed"
-                t.vertices = len(mesh_json["vertices"])
-                t.triangles = len(tris)
-                t.coverage = None if cov is None else round(cov, 6)
-                t.waste = None if wst is None else round(wst, 6)
+    for ref in list(iter_attachments(doc)):
+        t = by_place.get((ref.skin, ref.slot, ref.name))
+        if t is None:
+            continue
+        res = meshes[t.key]
+        t.seconds = round(res.seconds, 4)
+        if res.vertices is None:
+            t.status, t.reason = "failed", res.error
+            continue
+        w, h = tasks[t.key].size
+        try:
+            mesh = mesh_attachment(ref.attachment, res.vertices, res.triangles, res.hull, res.edges, w, h,
+                                   source_name)
+        except SpineMeshError as e:
+            t.status, t.reason = "failed", str(e)
+            continue
+        # The document's own dict, changed in place: it keeps its place among its siblings.
+        ref.attachment.clear()
+        ref.attachment.update(mesh)
+        t.status = "meshed"
+        t.vertices = len(res.vertices)
+        t.triangles = len(res.triangles)
+        t.coverage = None if res.coverage is None else round(res.coverage, 6)
+        t.waste = None if res.waste is None else round(res.waste, 6)
 
 
 def check_output_folder(project_root: Path, out: Path) -> None:
@@ -280,37 +430,44 @@ def check_output_folder(project_root: Path, out: Path) -> None:
         raise SpineMeshError(f"output folder {out} must not be the project folder or inside it", out)
 
 
+def prepare_output_folder(out: Path, overwrite: bool) -> None:
+    """Make ``out`` an empty folder marked as ours, or refuse.
+
+    An existing non-empty ``out`` is refused unless ``overwrite``; then it is removed as a
+    whole (no stale file of an earlier run stays), but only if an earlier ``upgrade`` wrote it
+    (:data:`OUTPUT_MARKER`).
+    """
+    if out.exists() and not out.is_dir():
+        raise SpineMeshError("output folder exists and is not a folder", out)
+    if out.is_dir() and any(out.iterdir()):
+        if not overwrite:
+            raise SpineMeshError("output folder is not empty; pass --overwrite to replace it as a whole", out)
+        if not (out / OUTPUT_MARKER).is_file():
+            raise SpineMeshError("output folder is not empty and was not written by spinemesh upgrade; "
+                                 "refusing to delete it, choose another --out", out)
+        shutil.rmtree(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / OUTPUT_MARKER).write_text("written by spinemesh upgrade; --overwrite may replace this folder\n")
+
+
+def files_needed(doc: dict, source) -> set[Path]:
+    """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
+    from ..images import AtlasImages, FolderImages
+    from ..project import needed_images
+
+    if isinstance(source, AtlasImages):
+        return {Path(a.path).resolve() for a in source.atlases} | {
+            source.page_file(a, i).resolve() for a in source.atlases for i in range(len(a.pages))}
+    if isinstance(source, FolderImages):
+        return {p.resolve() for p in map(source.path_of, sorted(needed_images(doc))) if p is not None}
+    return set()
+
+
 def _copy_atomic(src: Path, dst: Path) -> None:
     dst.parent.mkdir(parents=True, exist_ok=True)
     tmp = dst.with_name(f".{dst.name}.tmp")
     shutil.copyfile(src, tmp)
     os.replace(tmp, dst)
-
-
-def write_editor_images(targets: list[Target], source, folder: Path) -> None:
-    """Write the original-size images (``<folder>/<path>.png``) the editor re-imports.
-
-    Atlas images exported at a scale other than 1 are resized back to skeleton size.
-    """
-    import cv2
-
-    done = set()
-    for t in targets:
-        if t.status != "meshed":
-            continue
-        for p in t.paths:
-            if p in done:
-                continue
-            done.add(p)
-            img = source.get(p)
-            rgba = img.rgba
-            if img.scale != 1:
-                h, w = rgba.shape[:2]
-                size = (max(1, round(w / img.scale)), max(1, round(h / img.scale)))
-                rgba = cv2.resize(rgba, size, interpolation=cv2.INTER_CUBIC)
-            from ..fsutil import resolve_inside
-
-            atomic_write_png(resolve_inside(folder, p + ".png"), rgba)
 
 
 @dataclass
@@ -333,10 +490,129 @@ class Result:
         return out
 
 
+@dataclass
+class SkeletonPlan:
+    """One skeleton read and planned: its document, targets and image source."""
+
+    path: Path
+    rel: str
+    doc: dict
+    targets: list[Target]
+    source: object
+
+
+@dataclass
+class ProjectPlan:
+    """Everything :func:`write_project` needs, and the unique images to mesh."""
+
+    project: Project
+    skeletons: list[SkeletonPlan]
+    tasks: dict[str, MeshTask]
+    only_needed: bool = False  # one skeleton file was asked for: copy only the files it uses
+
+
+def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan:
+    """Read every skeleton of ``proj`` and plan its regions; unreadable skeletons go to ``result.errors``."""
+    t0 = time.perf_counter()
+    planner = Planner(options)
+    atlases: dict = {}
+    skeletons = []
+    for path in proj.skeletons:
+        rel = path.relative_to(proj.root).as_posix()
+        try:
+            doc = load_skeleton(path)
+            source = image_source_for(doc, path, proj, images=options.images_in, atlases=atlases)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        targets = planner.plan_skeleton(doc, rel, source)
+        result.targets += targets
+        skeletons.append(SkeletonPlan(path, rel, doc, targets, source))
+    result.seconds["read"] += time.perf_counter() - t0
+    return ProjectPlan(proj, skeletons, planner.tasks)
+
+
+def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
+    """Write ``doc`` to ``dest`` in the format ``path`` came in (binary ``.skel`` or JSON)."""
+    if is_binary_skeleton(path):
+        from ..skeleton_binary import write_skel
+
+        atomic_write_bytes(dest, write_skel(doc, dest))
+    else:
+        atomic_write_text(dest, dumps_skeleton(doc))
+
+
+def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
+    """Copy every file of the project that is not a skeleton (atlases, pages, anything else).
+
+    With ``needed`` (real paths), only those files: one skeleton asked for does not bring its
+    twins (``hero.json`` beside ``hero.skel``) or other skeletons' atlases along.
+    """
+    out_resolved = out.resolve()
+    for f in sorted(proj.root.rglob("*")):
+        if not f.is_file() or f.resolve() in written or any(p.startswith(".") for p in f.relative_to(proj.root).parts):
+            continue
+        if out_resolved in f.resolve().parents:
+            continue
+        if f in proj.skeletons:
+            continue  # a skeleton that could not be upgraded is not copied as if it had been
+        if needed is not None and f.resolve() not in needed:
+            continue
+        _copy_atomic(f, out / f.relative_to(proj.root))
+
+
+def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result) -> None:
+    """Put the meshes into the skeletons, write them, and copy every other file to ``out``."""
+    t0 = time.perf_counter()
+    written = set()
+    for sk in plan.skeletons:
+        apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
+        try:
+            write_skeleton(sk.doc, sk.path, out / sk.rel)
+        except SpineMeshError as e:
+            result.errors.append(f"{sk.path}: not written: {e}")
+            continue
+        written.add(sk.path.resolve())
+        result.written.append(sk.rel)
+    needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
+    copy_other_files(plan.project, out, written, needed)
+    result.seconds["write"] += time.perf_counter() - t0
+
+
+@contextlib.contextmanager
+def meshing_workers(options: Options, workers: Workers | None, tasks: int) -> Iterator[Workers]:
+    """The given workers, or ones opened for this run (none for a single image)."""
+    if workers is not None:
+        yield workers
+        return
+    # Loaded before workers fork, so that they start with the mesher already imported.
+    from .. import mesher  # noqa: F401
+
+    jobs = options.jobs if tasks > 1 else 1
+    with open_workers(jobs, options.dask) as opened:
+        yield opened
+
+
+def _mesh_and_write(plan: ProjectPlan, out: Path, options: Options, result: Result, workers: Workers | None,
+                    on_start, on_progress, mesh_cache) -> None:
+    if options.dry_run:
+        for t in result.targets:
+            if t.status == "planned":
+                t.status = "would mesh"
+        return
+    t0 = time.perf_counter()
+    if on_start:
+        on_start(len(plan.tasks))
+    with meshing_workers(options, workers, len(plan.tasks)) as w:
+        meshes = mesh_tasks(plan.tasks, w, on_progress, mesh_cache)
+    result.seconds["mesh"] += time.perf_counter() - t0
+    write_project(plan, meshes, out, result)
+
+
 def upgrade_project(project: str | Path, out: str | Path, options: Options | None = None,
                     on_start: Callable[[int], None] | None = None,
                     on_progress: Callable[[int], None] | None = None,
-                    mesh_cache: dict | None = None) -> Result:
+                    mesh_cache: dict | None = None, workers: Workers | None = None) -> Result:
     """Upgrade every skeleton of a project into ``out``.
 
     Parameters
@@ -347,9 +623,12 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
         Output folder; refused if it is the project folder or inside it.
     options : Options
     on_start, on_progress : callable, optional
-        Told the number of unique images to mesh, then called once per image meshed.
+        Told the number of unique images to mesh, then the number meshed as they finish.
     mesh_cache : dict, optional
-        Meshes kept across calls (see :func:`mesh_jobs`); None meshes afresh.
+        Meshes kept across calls (see :func:`mesh_tasks`); None meshes afresh.
+    workers : Workers, optional
+        Workers to mesh on (kept open by the caller across projects); default: opened here
+        from ``options.jobs`` and ``options.dask``.
 
     Returns
     -------
@@ -361,67 +640,69 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     out = Path(out)
     proj = find_project(project)
     check_output_folder(proj.root, out)
+    if not options.dry_run:
+        prepare_output_folder(out, options.overwrite)
     result = Result()
-    atlases: dict = {}
-    plans = []
-    images: dict[str, tuple] = {}
-
-    t0 = time.perf_counter()
-    for path in proj.skeletons:
-        rel = path.relative_to(proj.root).as_posix()
-        try:
-            doc = load_skeleton(path)
-            source = image_source_for(doc, path, proj, images=options.images_in, atlases=atlases)
-        except SpineMeshError as e:
-            result.errors.append(str(e))
-            continue
-        targets = plan_skeleton(doc, rel, source, options, images)
-        result.targets += targets
-        plans.append((path, rel, doc, targets, source))
-    result.seconds["read"] = time.perf_counter() - t0
-
-    if options.dry_run:
-        for t in result.targets:
-            if t.status == "planned":
-                t.status = "would mesh"
-        return result
-
-    t0 = time.perf_counter()
-    if on_start:
-        on_start(len(images))
-    meshes = mesh_jobs(images, options, on_progress, mesh_cache)
-    result.seconds["mesh"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    written = set()
-    for path, rel, doc, targets, source in plans:
-        apply_meshes(doc, targets, meshes, images, str(path))
-        dest = out / rel
-        try:
-            if is_binary_skeleton(path):
-                from ..skeleton_binary import write_skel
-
-                atomic_write_bytes(dest, write_skel(doc, dest))
-            else:
-                atomic_write_text(dest, dumps_skeleton(doc))
-        except SpineMeshError as e:
-            result.errors.append(f"{rel}: not written: {e}")
-            continue
-        written.add(path.resolve())
-        result.written.append(rel)
-        if options.images_out is not None and source is not None:
-            write_editor_images(targets, source, Path(options.images_out))
-    out_resolved = out.resolve()
-    for f in sorted(proj.root.rglob("*")):
-        if not f.is_file() or f.resolve() in written or any(p.startswith(".") for p in f.relative_to(proj.root).parts):
-            continue
-        if out_resolved in f.resolve().parents:
-            continue
-        if f in proj.skeletons:
-            continue  # a skeleton that could not be upgraded is not copied as if it had been
-        _copy_atomic(f, out / f.relative_to(proj.root))
-    result.seconds["write"] = time.perf_counter() - t0
+    plan = plan_project(proj, options, result)
+    plan.only_needed = Path(project).is_file()
+    _mesh_and_write(plan, out, options, result, workers, on_start, on_progress, mesh_cache)
     return result
+
+
+def is_library(folder: str | Path) -> bool:
+    """Whether ``folder`` holds several projects (or one below it) rather than being one project."""
+    folder = Path(folder)
+    return folder.is_dir() and find_projects(folder) != [folder]
+
+
+def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
+                    on_start: Callable[[int], None] | None = None,
+                    on_progress: Callable[[int], None] | None = None,
+                    on_project: Callable[[str], None] | None = None) -> Result:
+    """Upgrade every project under ``library`` into the same place under ``out``; one result.
+
+    Projects are found as :func:`spinemesh.project.find_projects` finds them; each is
+    upgraded as :func:`upgrade_project` would, to ``out/<its path under library>``, on one
+    set of workers started once. Files outside every project are not copied. In the
+    result, skeletons (and errors) are named by their path under ``library``.
+    """
+    options = options or Options()
+    library, out = Path(library), Path(out)
+    check_output_folder(library, out)
+    if not options.dry_run:
+        prepare_output_folder(out, options.overwrite)
+    if options.images_in is not None:
+        raise SpineMeshError("--from-images reads one project's images; give one project, not a folder of them",
+                             options.images_in)
+    result = Result()
+    from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
+
+    with open_workers(options.jobs, options.dask) as workers:
+        for folder in find_projects(library):
+            rel = folder.relative_to(library).as_posix()
+            if on_project:
+                on_project(rel)
+            sub = dataclasses.replace(
+                options, images_out=None if options.images_out is None else Path(options.images_out) / rel)
+            part = Result()
+            try:
+                plan = plan_project(find_project(folder), sub, part)
+                _mesh_and_write(plan, out / rel, sub, part, workers, on_start, on_progress, None)
+            except SpineMeshError as e:
+                part.errors.append(str(e))
+            _merge(result, part, "" if rel == "." else rel + "/")
+    return result
+
+
+def _merge(into: Result, part: Result, prefix: str) -> None:
+    """Add one project's result to a library's, naming its skeletons by their path in the library."""
+    for t in part.targets:
+        t.skeleton = prefix + t.skeleton
+    into.targets += part.targets
+    into.written += [prefix + w for w in part.written]
+    into.errors += part.errors  # they name their files already
+    for k, v in part.seconds.items():
+        into.seconds[k] += v
 
 
 def write_report(result: Result, path: str | Path) -> None:
