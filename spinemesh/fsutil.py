@@ -211,27 +211,23 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write_bytes(path, data)
 
 
-def strict_json(obj, indent=None) -> str:
+def strict_json(obj, indent=None, path: str | Path | None = None) -> str:
     """JSON text that never holds NaN or Infinity (strict parsers and the runtimes reject them).
 
     Raises
     ------
     SpineMeshError
-        If ``obj`` holds a non-finite number.
+        If ``obj`` holds a non-finite number (naming ``path``, the file it was meant for).
     """
     try:
         return json.dumps(obj, indent=indent, ensure_ascii=False, allow_nan=False)
     except ValueError as e:
-        raise SpineMeshError(f"refusing to write a non-finite number: {e}") from None
+        raise SpineMeshError(f"not written: it would hold a non-finite number ({e})", path) from None
 
 
 def atomic_write_json(path: str | Path, obj, indent: int | None = 2) -> None:
     """Atomically write ``obj`` as strict JSON (UTF-8, non-ASCII kept, no NaN or Infinity)."""
-    try:
-        text = strict_json(obj, indent)
-    except SpineMeshError as e:
-        raise SpineMeshError(e.message, path) from None
-    atomic_write_text(path, text + "\n")
+    atomic_write_text(path, strict_json(obj, indent, path) + "\n")
 
 
 def atomic_write_png(path: str | Path, image) -> None:

@@ -5,16 +5,27 @@ A project as exported for game runtimes is a folder (often nested) holding skele
 ``.atlas.txt``) with their page images, or an ``images/`` folder as the editor uses.
 No file says which atlas belongs to which skeleton, so :func:`image_source_for` picks the
 atlases that hold the skeleton's images.
+
+Safety rules, in one place for every command:
+
+- only files whose real path lies inside the project are taken; a symlink leading outside
+  is skipped with a note in ``Project.problems``, and symlinked folders are not entered;
+- :func:`project_atlases` is the one way atlases are read: a broken atlas is reported in
+  ``Project.problems`` and left out, and the rest of the project goes on;
+- image folders (the ``skeleton.images`` hint, ``images/`` folders) are used only when their
+  real path lies inside the project.
 """
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .atlas import Atlas, read_atlas
-from .errors import SpineMeshError
+from .errors import SpineMeshError, UnsafePathError
+from .fsutil import is_within, real, resolve_inside
 from .images import AtlasImages, FolderImages
 from .skeleton import image_paths, iter_attachments
 

@@ -12,11 +12,16 @@ the difference.
 from __future__ import annotations
 
 import json
+import math
+import re
 from pathlib import Path
 from typing import Iterator, NamedTuple
 
-from .errors import SkeletonError
-from .fsutil import atomic_write_text
+import numpy as np
+
+from .errors import LimitError, SkeletonError
+from .fsutil import atomic_write_text, strict_json
+from .limits import MAX_JSON_DEPTH, MAX_SEQUENCE_DIGITS, MAX_SEQUENCE_FRAMES, check_file_size
 
 #: Attachment types that draw an image from the atlas.
 IMAGE_TYPES = ("region", "mesh", "linkedmesh")
@@ -52,6 +57,10 @@ def load_skeleton(path: str | Path) -> dict:
         With the byte offset, for a broken ``.skel``.
     """
     path = Path(path)
+    try:
+        check_file_size(path, "skeleton")
+    except OSError as e:
+        raise SkeletonError(f"cannot read skeleton: {e.strerror}", path) from None
     if is_binary_skeleton(path):
         from .skeleton_binary import read_skel
 
@@ -62,18 +71,100 @@ def load_skeleton(path: str | Path) -> dict:
         raise SkeletonError(f"cannot read skeleton: {e.strerror}", path) from None
     except UnicodeDecodeError as e:
         raise SkeletonError(f"skeleton is not UTF-8 text (byte {e.start})", path) from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise SkeletonError(f"invalid JSON: {e.msg} (column {e.colno})", path, line=e.lineno) from None
+    doc = parse_skeleton_json(text, path)
     if not isinstance(doc, dict) or not isinstance(doc.get("bones", []), list):
         raise SkeletonError("not a Spine skeleton (no top-level object with 'bones')", path)
     return doc
 
 
-def dumps_skeleton(doc: dict) -> str:
-    """The document as JSON text, tab-indented like the editor's export."""
-    return json.dumps(doc, indent="\t", ensure_ascii=False) + "\n"
+def _refuse_constant(name: str):
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):  # 1e999 parses as inf
+        raise ValueError(f"{text} is beyond the range of a number")
+    return value
+
+
+_BRACKET_STEP = np.zeros(256, np.int8)
+_BRACKET_STEP[[0x5B, 0x7B]] = 1   # [ {
+_BRACKET_STEP[[0x5D, 0x7D]] = -1  # ] }
+
+
+def _bracket_depth(text: str) -> int:
+    """Deepest running count of ``[{`` minus ``]}`` in ``text``."""
+    raw = np.frombuffer(text.encode("utf-8", "surrogatepass"), np.uint8)
+    return int(np.cumsum(_BRACKET_STEP[raw], dtype=np.int32).max(initial=0))
+
+
+def _json_depth(text: str) -> int:
+    """How deep arrays and objects nest in JSON ``text``.
+
+    Counted on the raw characters first (fast); brackets inside strings can make that count
+    too high, so a high count is counted again with strings blanked out. (Strings full of
+    closing brackets can make it too low; the parser's own recursion check backs this up.)
+    """
+    depth = _bracket_depth(text)
+    if depth <= MAX_JSON_DEPTH:
+        return depth
+    return _bracket_depth(re.sub(r'"(?:[^"\\]|\\.)*"', '""', text))
+
+
+#: A ``\\uD800``-``\\uDFFF`` escape (a UTF-16 surrogate) not escaped itself.
+_SURROGATE = re.compile(r'(?<!\\)(?:\\\\)*\\u[dD][89a-fA-F][0-9a-fA-F]{2}')
+
+
+def _lone_surrogate(text: str) -> bool:
+    """Whether ``text`` escapes a UTF-16 surrogate that is not half of a valid pair."""
+    if "\\ud" not in text and "\\uD" not in text:
+        return False
+    for m in _SURROGATE.finditer(text):
+        code = int(m.group()[-4:], 16)
+        if code >= 0xDC00:
+            before = text[max(0, m.end() - 12):m.end() - 6]
+            if not re.fullmatch(r"\\u[dD][89abAB][0-9a-fA-F]{2}", before):
+                return True
+        else:
+            after = text[m.end():m.end() + 6]
+            if not re.fullmatch(r"\\u[dD][c-fC-F][0-9a-fA-F]{2}", after):
+                return True
+    return False
+
+
+def parse_skeleton_json(text: str, source: str | Path | None = None):
+    """Parse skeleton JSON strictly: what could not be written back, or would exhaust memory, is refused.
+
+    Refused, each with a :class:`SkeletonError` naming ``source``: invalid JSON (with line and
+    column), ``NaN``/``Infinity`` and numbers beyond float range (never meshed, never written),
+    nesting deeper than :data:`~spinemesh.limits.MAX_JSON_DEPTH`, integers longer than Python
+    parses, and escaped lone UTF-16 surrogates (no UTF-8 file can hold them).
+    """
+    depth = _json_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise LimitError(f"JSON nests {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}", source)
+    if _lone_surrogate(text):
+        raise SkeletonError("JSON holds an escaped lone UTF-16 surrogate (\\ud800-\\udfff), "
+                            "which is not text", source)
+    try:
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+    except json.JSONDecodeError as e:
+        raise SkeletonError(f"invalid JSON: {e.msg} (column {e.colno})", source, line=e.lineno) from None
+    except (ValueError, RecursionError) as e:
+        raise SkeletonError(f"invalid JSON: {e}", source) from None
+
+
+def dumps_skeleton(doc: dict, path: str | Path | None = None) -> str:
+    """The document as JSON text, tab-indented like the editor's export.
+
+    Raises
+    ------
+    SpineMeshError
+        If the document holds NaN or Infinity (strict JSON and the runtimes reject them),
+        naming ``path``, the file it was meant for.
+    """
+    return strict_json(doc, "\t", path) + "\n"
 
 
 def save_skeleton(doc: dict, path: str | Path) -> None:
@@ -85,7 +176,7 @@ def save_skeleton(doc: dict, path: str | Path) -> None:
 
         atomic_write_bytes(path, write_skel(doc, path))
     else:
-        atomic_write_text(path, dumps_skeleton(doc))
+        atomic_write_text(path, dumps_skeleton(doc, path))
 
 
 def is_binary_skeleton(path: str | Path) -> bool:
@@ -145,10 +236,27 @@ def sequence_paths(path: str, sequence: dict) -> list[str]:
     """Frame image paths of a sequence: ``path`` + frame number, zero-padded to ``digits``.
 
     Defaults as in the editor's export: ``start`` 1, ``digits`` 0.
+
+    Raises
+    ------
+    SkeletonError
+        When ``count``, ``start`` or ``digits`` is not a whole number, or ``count`` or
+        ``digits`` is negative or exceeds :mod:`spinemesh.limits` (a tiny file could
+        otherwise ask for billions of frames).
     """
-    count = int(sequence.get("count", 0))
-    start = int(sequence.get("start", 1))
-    digits = int(sequence.get("digits", 0))
+    def whole(key: str, default: int, low: int, high: int) -> int:
+        value = sequence.get(key, default)
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SkeletonError(f"sequence of {path!r}: {key!r} must be a whole number, found {value!r}")
+        if not low <= value <= high:
+            raise LimitError(f"sequence of {path!r}: {key!r} is {value}, outside {low} to {high}")
+        return value
+
+    count = whole("count", 0, 0, MAX_SEQUENCE_FRAMES)
+    start = whole("start", 1, -2**31, 2**31 - 1)
+    digits = whole("digits", 0, 0, MAX_SEQUENCE_DIGITS)
     return [path + str(start + i).zfill(digits) for i in range(count)]
 
 
