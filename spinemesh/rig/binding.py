@@ -1,0 +1,133 @@
+"""Binding mesh attachments to bones, exactly in the setup pose.
+
+A weighted mesh stores, per vertex, its bone count, then per bone: the bone's index, the
+vertex's position in that bone's local space, and the weight. The runtime draws the vertex
+at ``sum(weight * M_bone @ local)``. Writing ``local = M_bone^-1 @ p`` with ``p`` the
+vertex's setup-pose world position, and weights that sum to exactly 1, the weighted mesh
+is drawn where the mesh was in the setup pose, whatever the weights are. ``M_bone`` comes
+from :mod:`.bones`, which follows the runtime; a bone whose setup transform it cannot
+reproduce is never bound to.
+
+Numbers are rounded for the JSON export (positions to 1e-4, weights to 1e-4 with the
+heaviest taking the remainder so that each vertex's weights still sum to 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SpineMeshError
+
+
+@dataclass
+class MeshVertices:
+    """A mesh attachment's vertices: unweighted ``(N, 2)`` local positions, or bone influences."""
+
+    count: int
+    local: np.ndarray | None = None                      # (N, 2) in the slot bone's space
+    influences: list[list[tuple[int, float, float, float]]] = field(default_factory=list)
+
+    @property
+    def weighted(self) -> bool:
+        return self.local is None
+
+    def bones(self) -> list[int]:
+        return sorted({b for inf in self.influences for b, *_ in inf})
+
+
+def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
+    """Read a mesh attachment's ``vertices`` (the JSON layout, also what the binary reader gives).
+
+    Raises
+    ------
+    SpineMeshError
+        When the list does not match ``uvs`` or names a bone that does not exist.
+    """
+    uvs, verts = att.get("uvs"), att.get("vertices")
+    if not isinstance(uvs, list) or not isinstance(verts, list) or len(uvs) % 2:
+        raise SpineMeshError("mesh has no uvs/vertices lists")
+    n = len(uvs) // 2
+    if len(verts) == 2 * n:
+        return MeshVertices(n, local=np.asarray(verts, float).reshape(n, 2))
+    out = MeshVertices(n)
+    i = 0
+    try:
+        for _ in range(n):
+            k = int(verts[i])
+            entry = []
+            for j in range(k):
+                b, x, y, w = verts[i + 1 + 4 * j: i + 5 + 4 * j]
+                if not 0 <= int(b) < bone_count:
+                    raise SpineMeshError(f"weighted vertex names bone {int(b)}, the skeleton has {bone_count}")
+                entry.append((int(b), float(x), float(y), float(w)))
+            out.influences.append(entry)
+            i += 1 + 4 * k
+    except (ValueError, TypeError) as e:
+        raise SpineMeshError(f"weighted vertices do not parse: {e}") from None
+    if i != len(verts) or len(out.influences) != n:
+        raise SpineMeshError("weighted vertices do not match the uv count")
+    return out
+
+
+def _apply(m: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    return xy @ m[:, :2].T + m[:, 2]
+
+
+def setup_world(mesh: MeshVertices, worlds: list[np.ndarray], slot_bone: int) -> np.ndarray:
+    """World positions, shape (N, 2), of the vertices in the setup pose, as the runtime draws them."""
+    if not mesh.weighted:
+        return _apply(worlds[slot_bone], mesh.local)
+    out = np.zeros((mesh.count, 2))
+    for v, entry in enumerate(mesh.influences):
+        for b, x, y, w in entry:
+            out[v] += w * _apply(worlds[b], np.array([x, y]))
+    return out
+
+
+def rounded_weights(row: np.ndarray) -> list[float]:
+    """Weights rounded to 1e-4 that still sum to 1: the heaviest takes the remainder."""
+    w = [round(float(x), 4) for x in row]
+    top = int(np.argmax(row))
+    w[top] = round(1.0 - sum(x for i, x in enumerate(w) if i != top), 4)
+    return w
+
+
+def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: list[np.ndarray]) -> list:
+    """The JSON ``vertices`` list of a weighted mesh.
+
+    Parameters
+    ----------
+    world : ndarray, shape (N, 2)
+        Setup-pose world positions of the vertices.
+    weights : ndarray, shape (N, B)
+        Sparse weights (rows sum to 1) over ``bone_ids``.
+    bone_ids : list of int
+        Skeleton index of each weight column.
+    worlds : list of ndarray (2, 3)
+        Setup world transform of every bone of the skeleton.
+
+    Returns
+    -------
+    list
+        Per vertex: bone count, then (bone index, local x, local y, weight) per bone.
+    """
+    inverse = {}
+    for b in bone_ids:
+        m = worlds[b]
+        inv2 = np.linalg.inv(m[:, :2])
+        inverse[b] = np.c_[inv2, -inv2 @ m[:, 2]]
+    out: list = []
+    for v in range(len(world)):
+        cols = np.flatnonzero(weights[v] > 0)
+        ws = rounded_weights(weights[v, cols])
+        keep = [(c, w) for c, w in zip(cols, ws) if w > 0]
+        out.append(len(keep))
+        for c, w in keep:
+            b = bone_ids[c]
+            x, y = _apply(inverse[b], world[v])
+            out += [int(b), round(float(x), 4), round(float(y), 4), w]
+    if not all(np.isfinite(float(x)) for x in out):
+        raise SpineMeshError("binding produced a non-finite number")
+    return out

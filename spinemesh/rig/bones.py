@@ -1,0 +1,210 @@
+"""Bones of a skeleton document and their world transforms in the setup pose.
+
+The world transform of a bone is the affine map from its local space to the skeleton's:
+``world = M[:, :2] @ local + M[:, 2]``, with ``M = [[a, b, worldX], [c, d, worldY]]`` as the
+runtimes name them. It is computed the way the official runtimes compute it for every
+version this package reads (3.6 to 4.3): local rotation, scale and shear, then the parent's
+transform, filtered by the bone's inherit mode (called transform mode before 4.2). The
+skeleton itself sits at the origin with scale 1, as it does when a game loads it.
+
+IK, transform and path constraints move their bones after this computation, even in the
+setup pose (unless all their mixes are 0). Those bones and everything below them are marked *not exact*: their setup
+world transform is not reproduced here, and nothing is bound to them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: Inherit modes (4.2: ``inherit``; 3.x-4.1: ``transform``): the same five names everywhere.
+INHERIT_MODES = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
+
+
+@dataclass
+class Bone:
+    """One bone's setup data and its setup-pose world transform.
+
+    ``world`` has shape (2, 3); ``exact`` is False, with ``why``, when the runtime's setup
+    world transform cannot be reproduced (a constraint moves the bone or an ancestor).
+    """
+
+    index: int
+    name: str
+    parent: int | None
+    length: float
+    world: np.ndarray
+    exact: bool = True
+    why: str = ""
+    skin_required: bool = False
+    children: list[int] = field(default_factory=list)
+
+    def segment(self) -> np.ndarray:
+        """The bone's segment in world space, shape (2, 2): origin, then origin + length along local x."""
+        origin = self.world[:, 2]
+        return np.array([origin, origin + self.world[:, 0] * self.length])
+
+    def invertible(self) -> bool:
+        return abs(float(np.linalg.det(self.world[:, :2]))) > 1e-9
+
+
+def _num(node: dict, key: str, default: float) -> float:
+    value = node.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return float(default)
+    return float(value)
+
+
+def _cos_sin(degrees: float) -> tuple[float, float]:
+    r = math.radians(degrees)
+    return math.cos(r), math.sin(r)
+
+
+def local_matrix(node: dict) -> tuple[float, float, float, float]:
+    """``(la, lb, lc, ld)``: a bone's local rotation, scale and shear as a 2x2 matrix."""
+    rot = _num(node, "rotation", 0)
+    sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
+    cx, sx_ = _cos_sin(rot + _num(node, "shearX", 0))
+    cy, sy_ = _cos_sin(rot + 90 + _num(node, "shearY", 0))
+    return cx * sx, cy * sy, sx_ * sx, sy_ * sy
+
+
+def inherit_mode(node: dict) -> str:
+    """The bone's inherit mode from either key (4.2+ ``inherit``, older ``transform``)."""
+    mode = node.get("inherit", node.get("transform", "normal"))
+    if mode not in INHERIT_MODES:
+        # 3.4 and older: inheritRotation / inheritScale flags.
+        rot, scale = node.get("inheritRotation", True), node.get("inheritScale", True)
+        mode = {(True, True): "normal", (False, True): "noRotationOrReflection",
+                (True, False): "noScale", (False, False): "onlyTranslation"}[(bool(rot), bool(scale))]
+    return mode
+
+
+def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
+    """The setup-pose world transform of one bone, shape (2, 3).
+
+    Follows the runtimes' ``Bone.updateWorldTransform`` for each inherit mode, with the
+    skeleton at the origin and scale 1 (the runtimes divide and multiply by the skeleton's
+    scale, which is then a no-op).
+
+    Parameters
+    ----------
+    node : dict
+        The bone's JSON (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``, ``shearX``,
+        ``shearY``, ``inherit``/``transform``).
+    parent : ndarray, shape (2, 3), or None
+        The parent's world transform; None for the root.
+    """
+    x, y = _num(node, "x", 0), _num(node, "y", 0)
+    la, lb, lc, ld = local_matrix(node)
+    if parent is None:
+        return np.array([[la, lb, x], [lc, ld, y]])
+    pa, pb, wx = parent[0]
+    pc, pd, wy = parent[1]
+    world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
+    mode = inherit_mode(node)
+    if mode == "normal":
+        m = (pa * la + pb * lc, pa * lb + pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
+    elif mode == "onlyTranslation":
+        m = (la, lb, lc, ld)
+    elif mode == "noRotationOrReflection":
+        s = pa * pa + pc * pc
+        if s > 0.0001:
+            s = abs(pa * pd - pb * pc) / s
+            pb, pd = pc * s, pa * s
+            prx = math.degrees(math.atan2(pc, pa))
+        else:
+            pa = pc = 0.0
+            prx = 90 - math.degrees(math.atan2(pd, pb))
+        rot = _num(node, "rotation", 0)
+        sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
+        cx, snx = _cos_sin(rot + _num(node, "shearX", 0) - prx)
+        cy, sny = _cos_sin(rot + _num(node, "shearY", 0) - prx + 90)
+        la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
+        m = (pa * la - pb * lc, pa * lb - pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
+    else:  # noScale, noScaleOrReflection
+        cos, sin = _cos_sin(_num(node, "rotation", 0))
+        za, zc = pa * cos + pb * sin, pc * cos + pd * sin
+        s = math.hypot(za, zc)
+        if s > 0.00001:
+            s = 1 / s
+        za, zc = za * s, zc * s
+        s = math.hypot(za, zc)
+        if mode == "noScale" and pa * pd - pb * pc < 0:
+            s = -s
+        r = math.pi / 2 + math.atan2(zc, za)
+        zb, zd = math.cos(r) * s, math.sin(r) * s
+        sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
+        cx, snx = _cos_sin(_num(node, "shearX", 0))
+        cy, sny = _cos_sin(90 + _num(node, "shearY", 0))
+        la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
+        m = (za * la + zb * lc, za * lb + zb * ld, zc * la + zd * lc, zc * lb + zd * ld)
+    return np.array([[m[0], m[1], world_x], [m[2], m[3], world_y]])
+
+
+def _constrained_bones(doc: dict, index: dict[str, int]) -> dict[int, str]:
+    """Bones a constraint moves in the setup pose, with the constraint that does."""
+    out: dict[int, str] = {}
+
+    def mark(names, why):
+        for n in names if isinstance(names, list) else []:
+            if n in index:
+                out.setdefault(index[n], why)
+
+    for c in doc.get("ik", []) or []:
+        if isinstance(c, dict) and _num(c, "mix", 1) != 0:
+            mark(c.get("bones"), f"IK constraint {c.get('name')!r}")
+    for c in doc.get("transform", []) or []:
+        if not isinstance(c, dict):
+            continue
+        if any(k in c for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")):  # 3.x
+            mixes = [_num(c, k, 1) for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")]
+        else:  # 4.x: mixY defaults to mixX, mixScaleY to mixScaleX
+            mix_x, mix_sx = _num(c, "mixX", 1), _num(c, "mixScaleX", 1)
+            mixes = [_num(c, "mixRotate", 1), mix_x, _num(c, "mixY", mix_x), mix_sx,
+                     _num(c, "mixScaleY", mix_sx), _num(c, "mixShearY", 1)]
+        if any(m != 0 for m in mixes):
+            mark(c.get("bones"), f"transform constraint {c.get('name')!r}")
+    for c in doc.get("path", []) or []:
+        if isinstance(c, dict):
+            mark(c.get("bones"), f"path constraint {c.get('name')!r}")
+    # Physics constraints (4.2) are left out on purpose: the setup pose resets them, and with
+    # zero offsets they leave their bone's world transform as it is.
+    return out
+
+
+def skeleton_bones(doc: dict) -> list[Bone]:
+    """Every bone of ``doc`` with its setup-pose world transform, in document order.
+
+    Bones come parents first (the format requires it). A bone moved by a constraint in the
+    setup pose, and every bone below it, is marked not exact with the reason; so is a bone
+    whose transform is not invertible (a zero scale), which nothing can be bound to.
+    """
+    nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
+    index = {str(b.get("name")): i for i, b in enumerate(nodes)}
+    constrained = _constrained_bones(doc, index)
+    skin_bones = set()
+    for b in nodes:
+        if b.get("skin") is True:
+            skin_bones.add(index[str(b.get("name"))])
+    bones: list[Bone] = []
+    for i, node in enumerate(nodes):
+        p = index.get(node.get("parent")) if node.get("parent") is not None else None
+        if p is not None and p >= i:
+            p = None  # malformed order: treat as a root, and do not trust it
+        parent = bones[p] if p is not None else None
+        bone = Bone(i, str(node.get("name")), p, _num(node, "length", 0),
+                    world_transform(node, None if parent is None else parent.world))
+        bone.skin_required = i in skin_bones
+        if parent is not None:
+            parent.children.append(i)
+            if not parent.exact:
+                bone.exact, bone.why = False, f"below {parent.name!r}: {parent.why}"
+        if i in constrained:
+            bone.exact, bone.why = False, f"moved in the setup pose by the {constrained[i]}"
+        if bone.exact and not bone.invertible():
+            bone.exact, bone.why = False, "zero scale: its transform cannot be inverted"
+        bones.append(bone)
+    return bones

@@ -1,0 +1,91 @@
+"""Which bones a mesh is bound to.
+
+``keep``: the bones it is bound to now (its slot's bone for an unweighted mesh).
+
+``auto``, from the setup pose: the slot's bone, plus every bone whose segment (origin to
+origin + length along the bone's x axis; a zero-length bone is a point) passes over the
+art or within ``NEAR`` of it, where the art is the mesh's triangles in world space and
+``NEAR`` is a share of its size. Typically these are the parent and the children across
+the joints the art spans. Not chosen automatically: the root bone (it moves the whole
+skeleton, never a part), bones that only some skins activate (unless this attachment's
+skin does), and bones whose setup transform is not exact (see :mod:`.bones`). When more
+than ``MAX_AUTO_BONES`` qualify, those with the longest segment over the art are kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: A bone counts as near the art within this share of the art's bounding-box diagonal.
+NEAR = 0.05
+
+#: Most bones chosen automatically for one mesh.
+MAX_AUTO_BONES = 8
+
+
+@dataclass
+class Choice:
+    """Bones chosen for one mesh, in skeleton order, and why each (or why left out)."""
+
+    bones: list[int]
+    why: dict[int, str]
+    left_out: dict[int, str]
+
+
+def distance_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Distance of each point (P, 2) to the union of the mesh's triangles (0 inside), world units."""
+    tri = world[np.asarray(triangles, int).reshape(-1, 3)]              # (T, 3, 2)
+    p = np.asarray(points, float)[:, None, None, :]                     # (P, 1, 1, 2)
+    a, b = tri[None], tri[None][:, :, [1, 2, 0]]                        # edges a -> b
+    ab = b - a
+    cross = ab[..., 0] * (p[..., 1] - a[..., 1]) - ab[..., 1] * (p[..., 0] - a[..., 0])  # (P, T, 3)
+    inside = ((cross >= 0).all(-1) | (cross <= 0).all(-1)).any(-1)
+    denom = np.maximum((ab ** 2).sum(-1), 1e-12)
+    t = np.clip(((p - a) * ab).sum(-1) / denom, 0, 1)
+    d = np.linalg.norm(p - (a + t[..., None] * ab), axis=-1).min(axis=(1, 2))
+    return np.where(inside, 0.0, d)
+
+
+def over_art(segment: np.ndarray, world: np.ndarray, triangles: np.ndarray, near: float,
+             samples: int = 65) -> float:
+    """Length of a bone segment within ``near`` of the art (sampled); a point bone there counts as ``near``."""
+    a, b = segment
+    length = float(np.linalg.norm(b - a))
+    if length == 0:
+        return near if distance_to_art(a[None], world, triangles)[0] <= near else 0.0
+    t = np.linspace(0, 1, samples)[:, None]
+    close = distance_to_art(a + t * (b - a), world, triangles) <= near
+    return length * float(close.mean())
+
+
+def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
+                skin_bones: set[int]) -> Choice:
+    """The ``auto`` rule (module docstring) for a mesh with setup world vertices ``world`` (N, 2)."""
+    why: dict[int, str] = {}
+    left_out: dict[int, str] = {}
+    near = NEAR * float(np.linalg.norm(np.ptp(world, axis=0)))
+    scored = []
+    for bone in bones:
+        if bone.index == slot_bone:
+            continue
+        length = over_art(bone.segment(), world, triangles, near)
+        if length <= 0:
+            continue
+        if bone.parent is None:
+            left_out[bone.index] = "root bone: moves the whole skeleton"
+        elif not bone.exact:
+            left_out[bone.index] = bone.why
+        elif bone.skin_required and bone.index not in skin_bones:
+            left_out[bone.index] = "only active in other skins"
+        else:
+            scored.append((-length, bone.index))
+    scored.sort()
+    for rank, (neg, i) in enumerate(scored):
+        if rank + 1 >= MAX_AUTO_BONES:
+            left_out[i] = f"more than {MAX_AUTO_BONES} bones qualify; shorter over the art"
+            continue
+        why[i] = f"segment over the art ({-neg:.1f} units)" if bones[i].length > 0 else "point bone on the art"
+    why[slot_bone] = "slot bone"
+    return Choice(sorted(why), why, left_out)

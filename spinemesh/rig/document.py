@@ -1,0 +1,207 @@
+"""Weighting the mesh attachments of one skeleton document, in place.
+
+Per mesh attachment: choose its bones (:mod:`.choice`), compute weights on its triangles in
+the setup pose (:mod:`.weights`), bind exactly (:mod:`.binding`). Left as they are, with
+the reason: meshes keyed by deform timelines (their keys are laid out per bone entry, so
+new bindings would break them), meshes whose current setup position depends on a bone the
+setup transform of which is not reproduced exactly (see :mod:`.bones`), and meshes already
+weighted unless ``replace``. Linked meshes draw their parent's vertices and follow it.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..skeleton import AttachmentRef, image_paths, iter_attachments
+from .binding import bind, parse_vertices, setup_world
+from .bones import Bone, skeleton_bones
+from .choice import Choice, choose_auto
+from .weights import solve_weights, sparsify
+
+METHODS = ("bbw", "harmonic", "biharmonic")
+
+
+@dataclass
+class WeightOptions:
+    """What to weight and how (see ``spinemesh weights --help``)."""
+
+    bones: str = "auto"               # keep | auto
+    max_bones: int = 4
+    min_weight: float = 0.01
+    replace: bool = False
+    method: str = "bbw"
+    only: list[str] = field(default_factory=list)
+    exclude: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Outcome:
+    """What became of one mesh attachment (a report row)."""
+
+    skeleton: str
+    skin: str
+    slot: str
+    name: str
+    status: str = "pending"           # weighted | skipped | failed
+    reason: str = ""
+    bones: dict = field(default_factory=dict)      # bone name -> why chosen
+    left_out: dict = field(default_factory=dict)   # bone name -> why not
+    vertices: int = 0
+    seconds: float = 0.0
+
+    def row(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Rig:
+    """What the weighting needs to know about a skeleton, computed once per document."""
+
+    bones: list[Bone]
+    slot_bone: dict[str, int]
+    skin_bones: dict[str, set[int]]
+    keyed: dict[tuple[str, str, str], str]
+
+    @property
+    def worlds(self) -> list[np.ndarray]:
+        return [b.world for b in self.bones]
+
+
+def _deform_keys(doc: dict) -> dict[tuple[str, str, str], str]:
+    """``(skin, slot, attachment) -> animation`` for every deform timeline.
+
+    Up to 4.1 deform timelines sit under ``animations.A.deform`` (``ffd`` before 3.5); from
+    4.2 under ``animations.A.attachments`` beside sequence timelines, which do not depend on
+    the vertex layout and do not count.
+    """
+    out = {}
+    anims = doc.get("animations")
+    for anim_name, anim in (anims.items() if isinstance(anims, dict) else []):
+        if not isinstance(anim, dict):
+            continue
+        for key in ("deform", "ffd", "attachments"):
+            skins = anim.get(key)
+            for skin, slots in (skins.items() if isinstance(skins, dict) else []):
+                for slot, atts in (slots.items() if isinstance(slots, dict) else []):
+                    for att, timeline in (atts.items() if isinstance(atts, dict) else []):
+                        if key == "attachments" and not (isinstance(timeline, dict) and "deform" in timeline):
+                            continue
+                        out.setdefault((str(skin), str(slot), str(att)), str(anim_name))
+    return out
+
+
+def build_rig(doc: dict) -> Rig:
+    """Bones with setup world transforms, slot bones, skin bones and deform-keyed attachments."""
+    bones = skeleton_bones(doc)
+    index = {b.name: b.index for b in bones}
+    slot_bone = {}
+    for s in doc.get("slots", []) or []:
+        if isinstance(s, dict) and s.get("bone") in index:
+            slot_bone[str(s.get("name"))] = index[s["bone"]]
+    skin_bones: dict[str, set[int]] = {}
+    skins = doc.get("skins")
+    if isinstance(skins, list):
+        for skin in skins:
+            if isinstance(skin, dict):
+                skin_bones[str(skin.get("name", ""))] = {index[n] for n in skin.get("bones", []) or [] if n in index}
+    keyed = _deform_keys(doc)
+    # A linked mesh plays its parent's deform timelines: keys on it hold the parent too.
+    for ref in iter_attachments(doc):
+        if ref.type == "linkedmesh" and (ref.skin, ref.slot, ref.name) in keyed:
+            parent_skin = str(ref.attachment.get("skin") or "default")
+            keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
+                             keyed[(ref.skin, ref.slot, ref.name)])
+    return Rig(bones, slot_bone, skin_bones, keyed)
+
+
+def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
+    names = [ref.slot, ref.name, *image_paths(ref)]
+    return any(fnmatch.fnmatchcase(n, p) for p in patterns for n in names)
+
+
+def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.ndarray,
+           mode: str) -> Choice:
+    """The bones for one mesh: its current ones (``keep``) or the ``auto`` rule."""
+    slot_bone = rig.slot_bone[ref.slot]
+    if mode == "keep":
+        current = mesh.bones() if mesh.weighted else [slot_bone]
+        why = {b: ("artist's bone" if mesh.weighted else "slot bone") for b in current}
+        left = {b: rig.bones[b].why for b in current if not rig.bones[b].exact}
+        keep = [b for b in current if rig.bones[b].exact]
+        return Choice(keep, {b: why[b] for b in keep}, left)
+    return choose_auto(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
+
+
+def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome) -> None:
+    """Choose bones, compute weights and bind one mesh attachment, in place; fills ``outcome``."""
+    att = ref.attachment
+    if ref.slot not in rig.slot_bone:
+        outcome.status, outcome.reason = "failed", "its slot has no bone"
+        return
+    if (ref.skin, ref.slot, ref.name) in rig.keyed:
+        outcome.status = "skipped"
+        outcome.reason = (f"keyed by a deform timeline (animation {rig.keyed[(ref.skin, ref.slot, ref.name)]!r}); "
+                          "its keys are laid out per bone entry")
+        return
+    mesh = parse_vertices(att, len(rig.bones))
+    outcome.vertices = mesh.count
+    if mesh.weighted and not options.replace:
+        outcome.status, outcome.reason = "skipped", "already weighted (use --replace)"
+        return
+    slot_bone = rig.slot_bone[ref.slot]
+    depends = mesh.bones() if mesh.weighted else [slot_bone]
+    inexact = [rig.bones[b] for b in depends if not rig.bones[b].exact]
+    if inexact:
+        outcome.status = "skipped"
+        outcome.reason = f"setup position depends on bone {inexact[0].name!r}, {inexact[0].why}"
+        return
+    world = setup_world(mesh, rig.worlds, slot_bone)
+    triangles = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+    if len(triangles) == 0 or triangles.max() >= mesh.count or triangles.min() < 0:
+        outcome.status, outcome.reason = "failed", "triangles do not index the vertices"
+        return
+    choice = choose(rig, ref, mesh, world, triangles, options.bones)
+    outcome.left_out = {rig.bones[b].name: w for b, w in choice.left_out.items()}
+    if not choice.bones:
+        outcome.status, outcome.reason = "skipped", "none of its bones has an exact setup transform"
+        return
+    segments = np.stack([rig.bones[b].segment() for b in choice.bones])
+    weights = solve_weights(world, triangles, segments, options.method)
+    weights = sparsify(weights, options.max_bones, options.min_weight)
+    att["vertices"] = bind(world, weights, choice.bones, rig.worlds)
+    outcome.bones = {rig.bones[b].name: choice.why[b] for b in choice.bones}
+    outcome.status = "weighted"
+
+
+def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig | None = None) -> list[Outcome]:
+    """Weight every selected mesh attachment of ``doc`` in place; one outcome per mesh attachment.
+
+    One bad attachment never stops the others: it is left as it was and reported failed.
+    """
+    rig = rig or build_rig(doc)
+    outcomes = []
+    for ref in iter_attachments(doc):
+        if ref.type != "mesh":
+            continue
+        o = Outcome(skeleton, ref.skin, ref.slot, ref.name)
+        outcomes.append(o)
+        if options.only and not _matches(options.only, ref):
+            o.status, o.reason = "skipped", "not matched by --only"
+            continue
+        if options.exclude and _matches(options.exclude, ref):
+            o.status, o.reason = "skipped", "matched by --exclude"
+            continue
+        start = time.perf_counter()
+        before = ref.attachment.get("vertices")
+        try:
+            weight_mesh(rig, ref, options, o)
+        except SpineMeshError as e:
+            ref.attachment["vertices"] = before
+            o.status, o.reason = "failed", str(e)
+        o.seconds = round(time.perf_counter() - start, 4)
+    return outcomes

@@ -1,0 +1,230 @@
+"""Bone weights of mesh vertices: bounded biharmonic weights (Jacobson et al., SIGGRAPH 2011).
+
+Bones are handles: the points along each bone's segment (origin to origin + length along
+its x axis) that lie on the mesh are fixed to weight 1 for that bone and 0 for the others;
+libigl's ``bbw`` then finds, for every other point, the smoothest weights (minimal
+Laplacian energy) bounded to [0, 1]. This is what the Spine editor's automatic weights are
+credited to.
+
+A mesh as drawn by an artist or by the mesher has few vertices (often 10 to 50), too few
+for a smooth solution or for handles to fall on bone segments. The weights are therefore
+solved on a *refinement* of the mesh: every triangle is cut into ``k * k`` similar triangles
+(shared edges get the same points), which keeps the domain exactly, including concave
+outlines and pieces joined only at a vertex. The original vertices are vertices of the
+refinement, so their weights are read off directly.
+
+Per vertex, weights are then made sparse for the runtime: at most ``max_bones`` bones,
+weights below ``min_weight`` dropped, the rest renormalised to sum 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Upper bound on the vertices of the refinement the weights are solved on (speed).
+REFINED_VERTEX_BUDGET = 600
+
+#: Most triangles per original triangle side (``k``).
+MAX_SUBDIVISION = 8
+
+
+def refine(vertices: np.ndarray, triangles: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cut every triangle into ``k * k`` similar triangles, sharing points along shared edges.
+
+    Parameters
+    ----------
+    vertices : ndarray, shape (N, 2)
+    triangles : ndarray, shape (M, 3)
+    k : int
+        Points per side minus one; 1 returns the mesh unchanged.
+
+    Returns
+    -------
+    points : ndarray, shape (P, 2)
+        The first N are the original vertices, in order.
+    faces : ndarray, shape (M * k * k, 3)
+    """
+    vertices = np.asarray(vertices, float)
+    index: dict[tuple, int] = {((i, k),): i for i in range(len(vertices))}
+    points = [p for p in vertices]
+
+    def point(i, j, l, a, b):
+        # Barycentric (a, b, k - a - b) over (i, j, l), keyed by its exact integer weights
+        # so that a point on a shared edge is the same point from both triangles.
+        w = {}
+        for v, c in ((i, a), (j, b), (l, k - a - b)):
+            if c:
+                w[v] = w.get(v, 0) + c
+        key = tuple(sorted(w.items()))
+        got = index.get(key)
+        if got is None:
+            got = index[key] = len(points)
+            points.append(sum(vertices[v] * c for v, c in w.items()) / k)
+        return got
+
+    faces = []
+    for i, j, l in np.asarray(triangles, int).reshape(-1, 3):
+        grid = {(a, b): point(i, j, l, a, b) for a in range(k + 1) for b in range(k + 1 - a)}
+        for a in range(k):
+            for b in range(k - a):
+                faces.append((grid[a + 1, b], grid[a, b + 1], grid[a, b]))
+                if a + b + 1 < k:
+                    faces.append((grid[a + 1, b], grid[a + 1, b + 1], grid[a, b + 1]))
+    return np.asarray(points, float).reshape(-1, 2), np.asarray(faces, np.int64).reshape(-1, 3)
+
+
+def subdivision_for(triangles: int) -> int:
+    """The ``k`` of :func:`refine` that keeps the refinement within the vertex budget."""
+    k = int(np.sqrt(2 * REFINED_VERTEX_BUDGET / max(triangles, 1)))
+    return int(np.clip(k, 1, MAX_SUBDIVISION))
+
+
+def _segment_distance(points: np.ndarray, segment: np.ndarray) -> np.ndarray:
+    """Distance of each point (P, 2) to a segment (2, 2) (a point if it has zero length)."""
+    a, b = segment
+    ab = b - a
+    denom = float(ab @ ab)
+    t = np.zeros(len(points)) if denom == 0 else np.clip((points - a) @ ab / denom, 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
+
+
+def _components(n: int, faces: np.ndarray) -> np.ndarray:
+    """Connected component label of each of ``n`` points, through shared faces."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    g = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    return connected_components(g, directed=False)[1]
+
+
+def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing: float) -> dict[int, int]:
+    """Which refined point is fixed to which bone: ``{point: bone column}``.
+
+    A point within ``spacing / 2`` of a bone's segment is a handle of the nearest such bone.
+    In every connected piece of the mesh, each bone also gets the point of that piece nearest
+    to its segment if none lies on it, so that every piece sees every bone (the solve needs
+    one handle per bone per piece).
+    """
+    used = np.unique(faces)
+    dist = np.stack([_segment_distance(points[used], s) for s in segments], axis=1)  # (U, B)
+    near = dist.min(axis=1) <= spacing / 2
+    out = {int(used[i]): int(dist[i].argmin()) for i in np.flatnonzero(near)}
+    labels = _components(len(points), faces)[used]
+    for piece in np.unique(labels):
+        rows = np.flatnonzero(labels == piece)
+        have = {out[int(used[r])] for r in rows if int(used[r]) in out}
+        for bone in range(len(segments)):
+            if bone in have:
+                continue
+            for r in rows[np.argsort(dist[rows, bone], kind="stable")]:
+                if int(used[r]) not in out:
+                    out[int(used[r])] = bone
+                    break
+    return out
+
+
+def _clean_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Faces with a usable area (degenerate ones make the cotangent Laplacian infinite)."""
+    p = points[faces]
+    area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                        - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
+    scale = float(np.ptp(points, axis=0).max()) if len(points) else 1.0
+    return faces[area > 1e-10 * max(scale, 1.0) ** 2]
+
+
+def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndarray,
+                  method: str = "bbw") -> np.ndarray:
+    """Dense weights of each vertex for each bone.
+
+    Parameters
+    ----------
+    vertices : ndarray, shape (N, 2)
+        Setup-pose world positions of the mesh vertices.
+    triangles : ndarray, shape (M, 3)
+    segments : ndarray, shape (B, 2, 2)
+        Each bone's world segment (origin, tip); a zero-length bone is a point.
+    method : {"bbw", "harmonic", "biharmonic"}
+        Bounded biharmonic weights; harmonic weights (a linear solve, like heat
+        diffusion); or unbounded biharmonic weights clipped to [0, 1].
+
+    Returns
+    -------
+    ndarray, shape (N, B)
+        Non-negative, rows summing to 1. A vertex in no usable triangle follows the
+        nearest bone.
+    """
+    vertices = np.asarray(vertices, float)
+    segments = np.asarray(segments, float).reshape(-1, 2, 2)
+    n, nb = len(vertices), len(segments)
+    if nb == 1:
+        return np.ones((n, 1))
+    tris = np.asarray(triangles, np.int64).reshape(-1, 3)
+    points, faces = refine(vertices, tris, subdivision_for(len(tris)))
+    faces = _clean_faces(points, faces)
+    nearest = np.stack([_segment_distance(vertices, s) for s in segments], axis=1).argmin(axis=1)
+    out = np.eye(nb)[nearest]
+    if len(faces) == 0:
+        return out
+    # The refinement's typical edge: handles are the points within half of it of a bone.
+    e = points[faces[:, [1, 2, 0]]] - points[faces]
+    spacing = float(np.median(np.linalg.norm(e, axis=2)))
+    fixed = handles(points, faces, segments, spacing)
+    w = _solve(points, faces, fixed, nb, method)
+    used = np.zeros(len(points), bool)
+    used[np.unique(faces)] = True
+    ok = used[:n] & np.isfinite(w[:n]).all(axis=1)
+    out[ok] = w[:n][ok]
+    out = np.clip(out, 0.0, None)
+    total = out.sum(axis=1, keepdims=True)
+    bad = total[:, 0] <= 0
+    out[bad] = np.eye(nb)[nearest[bad]]
+    return out / out.sum(axis=1, keepdims=True)
+
+
+def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int, method: str) -> np.ndarray:
+    """libigl's bbw (or harmonic) on the refinement; rows of unused points are left at 0."""
+    import igl
+
+    # libigl wants every point in some face: solve on the used points only.
+    used = np.unique(faces)
+    remap = np.full(len(points), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    v = np.ascontiguousarray(points[used])
+    f = np.ascontiguousarray(remap[faces])
+    b = np.array(sorted(fixed), np.int64)
+    bc = np.zeros((len(b), nb))
+    bc[np.arange(len(b)), [fixed[i] for i in b]] = 1.0
+    b = np.ascontiguousarray(remap[b])
+    if method in ("harmonic", "biharmonic"):
+        # Unbounded k-harmonic weights; negative lobes are clipped by the caller.
+        w = igl.harmonic(v, f, b, bc, 1 if method == "harmonic" else 2)
+    else:
+        w = igl.bbw(v, f, b, bc, partition_unity=False, max_iter=50)
+    out = np.zeros((len(points), nb))
+    out[used] = w
+    return out
+
+
+def sparsify(weights: np.ndarray, max_bones: int = 4, min_weight: float = 0.01) -> np.ndarray:
+    """At most ``max_bones`` weights per row, none below ``min_weight``, rows summing to 1.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (N, B)
+        Non-negative weights whose rows sum to 1.
+
+    Returns
+    -------
+    ndarray, shape (N, B)
+        The heaviest bone of a row always stays.
+    """
+    w = np.asarray(weights, float).copy()
+    if w.shape[1] > max_bones:
+        order = np.argsort(-w, axis=1, kind="stable")
+        w[np.arange(len(w))[:, None], order[:, max_bones:]] = 0.0
+    heaviest = w.argmax(axis=1)
+    keep = w >= min_weight
+    keep[np.arange(len(w)), heaviest] = True
+    w = np.where(keep, w, 0.0)
+    return w / w.sum(axis=1, keepdims=True)
