@@ -1,13 +1,16 @@
-"""The ``.skel`` layout of Spine 4.0, 4.1 and 4.2, declared once for reading and writing.
+"""The ``.skel`` layout of Spine 4.0 to 4.3, declared once for reading and writing.
 
 Every function below takes a stream ``s`` (a :class:`~.stream.SkelReader` or
 :class:`~.stream.SkelWriter`) and the document node it fills (reading) or encodes
 (writing). The document is the one the Spine editor's JSON export of the same version
 holds: same keys, same nesting, values equal to their defaults left out.
 
-What the three versions change is read as data from a :class:`Layout`: 4.1 added
+What the four versions change is read as data from a :class:`Layout`: 4.1 added
 sequences and attachment timelines; 4.2 packs optional fields behind flag bytes, adds
-physics constraints, inherit timelines, a reference scale, bone icons and visibility.
+physics constraints, inherit timelines, a reference scale, bone icons and visibility;
+4.3 keeps every constraint in one typed list with sliders (:mod:`.constraint_list`) and
+adds draw order folders, animation colours and a few attachment fields (see
+:class:`Layout`).
 
 Reading is done by :class:`_RefReader`, a reader with bulk methods for the hot spots
 (mesh arrays, weighted vertices, timeline frames); writing by :class:`_RefWriter`.
@@ -24,14 +27,18 @@ writing a ``.skel`` gives back the same bytes:
   used. The editor's table may hold a string twice and in any order; the writer's own
   table (:func:`string_table`) holds each once, in order of first use;
 - ``"timelines"``: per animation, the stored timeline count where it is not the one
-  :func:`timeline_count` derives (never seen in the examples).
+  :func:`timeline_count` derives (never seen in the examples);
+- ``"timelineSlots"`` (4.3): ``[skin, slot, mesh, [slot, ...]]`` for meshes whose stored
+  timeline slots differ from those the runtime derives from linked meshes
+  (:func:`~.attachments.derived_timeline_slots`).
 
 A document loaded from JSON has no ``"_skel"``; the writer then writes nonessential data
 and its own string table. If a document was edited so that it uses strings the recorded
 table lacks, the recorded table is dropped the same way.
 
 Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` and
-``SkeletonJson`` loaders (spine-libgdx, branches 4.0 to 4.2); no code was taken from them.
+``SkeletonJson`` loaders (spine-libgdx, branches 4.0 to 4.2; for 4.3, the npm package
+``@esotericsoftware/spine-core`` 4.3.13); no code was taken from them.
 """
 
 from __future__ import annotations
@@ -41,6 +48,8 @@ import struct
 from ..enums import EXTRA
 from ..stream import SkelReader
 from .animation import animation
+from .attachments import derived_timeline_slots
+from .constraint_list import constraint_list, slider_animations
 from .bones import bones, slot
 from .constraints import ik, path_constraint, physics, transform
 from .events import event
@@ -65,26 +74,51 @@ def _constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
 
 
 def skeleton(s, doc: dict) -> dict:
+    """The whole file, in file order."""
     extra = {} if s.reading else dict(doc.get(EXTRA, {}))
     L, nonessential = header(s, doc, extra)
     c = Context(L, nonessential)
-    # The shared string table.
+    _string_table(s, doc, extra, L)
+    bones(s, doc, c)
+    _slots(s, doc, c)
+    if L.constraint_list:
+        constraint_list(s, doc, c)
+    else:
+        c.ik = _constraints(s, doc, "ik", ik, c)
+        c.transform = _constraints(s, doc, "transform", transform, c)
+        c.path = _constraints(s, doc, "path", path_constraint, c)
+        if L.physics:
+            c.physics = _constraints(s, doc, "physics", physics, c)
+    _skins(s, doc, extra, c)
+    _events(s, doc, c)
+    _animations(s, doc, extra, c)
+    if L.constraint_list:
+        slider_animations(s, doc, c)
+    if s.reading:
+        _finish_read(s, doc, extra, c)
+    return doc
+
+
+def _string_table(s, doc: dict, extra: dict, L: Layout) -> None:
+    """The shared string table: as read, as recorded in ``extra``, or the writer's own."""
     if s.reading:
         s.strings = [s.string() for _ in range(s.count(what="string count"))]
         if any(x is None for x in s.strings):
             raise s.fail("non-null strings in the string table")
-    else:
-        strings = extra.get("strings")
-        derived = string_table(doc, L)
-        if strings is None or not set(derived) <= set(strings):
-            # No recorded table, or the document now uses strings it lacks.
-            strings = derived
-            s.refs = []
-        s.set_strings(strings)
-        s.count(len(strings))
-        for x in strings:
-            s.string(x)
-    bones(s, doc, c)
+        return
+    strings = extra.get("strings")
+    derived = string_table(doc, L)
+    if strings is None or not set(derived) <= set(strings):
+        # No recorded table, or the document now uses strings it lacks.
+        strings = derived
+        s.refs = []
+    s.set_strings(strings)
+    s.count(len(strings))
+    for x in strings:
+        s.string(x)
+
+
+def _slots(s, doc: dict, c: Context) -> None:
     if s.reading:
         items = seq(s, None, slot, c, what="slot count")
         doc["slots"] = items
@@ -92,25 +126,37 @@ def skeleton(s, doc: dict) -> dict:
     else:
         c.slots = _names(doc.get("slots", []))
         seq(s, doc.get("slots", []), slot, c)
-    c.ik = _constraints(s, doc, "ik", ik, c)
-    c.transform = _constraints(s, doc, "transform", transform, c)
-    c.path = _constraints(s, doc, "path", path_constraint, c)
-    if L.physics:
-        c.physics = _constraints(s, doc, "physics", physics, c)
-    if s.reading:
-        skins(s, doc, c)
-        c.skins = _names(doc["skins"])
-        for node, at in c.linked:
-            i = node["skin"]
-            if not 0 <= i < len(c.skins[0]):
-                raise s.fail(f"skin index below {len(c.skins[0])}, found {i}", at)
-            node["skin"] = c.skins[0][i]
-            if node["skin"] == "default":
-                del node["skin"]
-    else:
+
+
+def _skins(s, doc: dict, extra: dict, c: Context) -> None:
+    """Skins; then, reading, each linked mesh's skin index resolved to its name."""
+    if not s.reading:
         c.skins = _names(_written_skins(doc))
+        if c.L.constraint_list:
+            c.timeline_slots = derived_timeline_slots(doc)
+            for skin_name, slot_name, name, slots in extra.get("timelineSlots", []):
+                c.timeline_slots[(skin_name, slot_name, name)] = slots
         skins(s, doc, c)
-    # Events: a list in the binary, a name-keyed object in the JSON.
+        return
+    skins(s, doc, c)
+    c.skins = _names(doc["skins"])
+    for node, at in c.linked:
+        i = node["skin"]
+        if not 0 <= i < len(c.skins[0]):
+            raise s.fail(f"skin index below {len(c.skins[0])}, found {i}", at)
+        node["skin"] = c.skins[0][i]
+        if node["skin"] == "default":
+            del node["skin"]
+    if c.L.constraint_list:
+        # Mesh timeline slots the runtime would not derive from the JSON are kept aside.
+        derived = derived_timeline_slots(doc)
+        kept = [[*where, slots] for where, slots in c.timeline_slots.items() if derived.get(where, []) != slots]
+        if kept:
+            extra["timelineSlots"] = kept
+
+
+def _events(s, doc: dict, c: Context) -> None:
+    """Events: a list in the binary, a name-keyed object in the JSON."""
     if s.reading:
         items = seq(s, None, event, c, what="event count")
         c.events = items
@@ -119,40 +165,44 @@ def skeleton(s, doc: dict) -> dict:
             doc["events"] = {e.pop("name", ""): e for e in items}
             for e, name in zip(items, c.event_names[0]):
                 e["name"] = name
-    else:
-        evs = doc.get("events", {})
-        items = [dict(v, name=k) for k, v in evs.items()]
-        c.events = items
-        c.event_names = _names(items)
-        seq(s, items, event, c)
-    counts = {} if s.reading else extra.get("timelines", {})
+        return
+    items = [dict(v, name=k) for k, v in doc.get("events", {}).items()]
+    c.events = items
+    c.event_names = _names(items)
+    seq(s, items, event, c)
+
+
+def _animations(s, doc: dict, extra: dict, c: Context) -> None:
+    counts = extra.setdefault("timelines", {}) if s.reading else extra.get("timelines", {})
     if s.reading:
-        anims = {}
+        anims = doc["animations"] = {}
         for _ in range(s.count(what="animation count")):
             name = s.string(what="animation name")
-            anim = {}
+            anim: dict = {}
             animation(s, anim, c, counts, name)
             anims[name] = anim
-        doc["animations"] = anims
-        for e in c.events:
-            e.pop("name", None)
-        if counts:
-            extra["timelines"] = counts
-        if not s.at_end:
-            raise s.fail(f"end of file, found {len(s.data) - s.pos} more bytes")
-        refs = getattr(s, "refs", [])
-        if not _derivable(s.strings, refs):
-            extra["strings"] = list(s.strings)
-            extra["refs"] = list(refs)
-        if extra:
-            doc[EXTRA] = extra
-    else:
-        anims = doc.get("animations", {})
-        s.count(len(anims))
-        for name, anim in anims.items():
-            s.string(name)
-            animation(s, anim, c, counts, name)
-    return doc
+        if not counts:
+            del extra["timelines"]
+        return
+    anims = doc.get("animations", {})
+    s.count(len(anims))
+    for name, anim in anims.items():
+        s.string(name)
+        animation(s, anim, c, counts, name)
+
+
+def _finish_read(s, doc: dict, extra: dict, c: Context) -> None:
+    """The end of the file, and what the document keeps under ``EXTRA``."""
+    for e in c.events:
+        e.pop("name", None)
+    if not s.at_end:
+        raise s.fail(f"end of file, found {len(s.data) - s.pos} more bytes")
+    refs = getattr(s, "refs", [])
+    if not _derivable(s.strings, refs):
+        extra["strings"] = list(s.strings)
+        extra["refs"] = list(refs)
+    if extra:
+        doc[EXTRA] = extra
 
 
 def _derivable(strings: list[str], refs: list[int]) -> bool:
@@ -194,7 +244,7 @@ def string_table(doc: dict, L: Layout) -> list[str]:
                 if att.get("type") == "linkedmesh":
                     if L.names_are_refs:
                         add(att.get("skin"))
-                    add(att.get("parent"))
+                    add(att.get("source" if L.constraint_list else "parent"))
     if L.names_are_refs:
         for name in doc.get("events", {}):
             add(name)
@@ -238,7 +288,7 @@ def write(writer, doc: dict) -> None:
     writer.raw(w.getvalue())
 
 
-_TOP_ORDER = ("skeleton", "bones", "slots", "ik", "transform", "path", "physics", "skins",
+_TOP_ORDER = ("skeleton", "bones", "slots", "constraints", "ik", "transform", "path", "physics", "skins",
               "events", "animations", EXTRA)
 
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from .fields import _put, fld, index, text
+from .fields import _put, color, fld, index, seq, text
 from .layout import Context, Layout
-from .timelines import _bone_body, _deform_values, _path_body, _physics_body, _sequence_frames, _slot_body, _time, _transform_values, _typed_groups, curve_timeline, ik_timeline
+from .timelines import _slider_body, _transform_values_43, _bone_body, _deform_values, _path_body, _physics_body, _sequence_frames, _slot_body, _time, _transform_values, _typed_groups, curve_timeline, ik_timeline
 
 
 def attachment_timelines(s, anim: dict, c: Context) -> None:
@@ -66,35 +66,61 @@ def attachment_timelines(s, anim: dict, c: Context) -> None:
                     curve_timeline(s, frames, _deform_values, 1, curve_first=True)
 
 
-def draw_order(s, anim: dict, c: Context) -> None:
-    names, lookup = c.slots
+def _draw_order_key(s, f: dict, table: tuple) -> None:
+    """Time, then the slots that move and by how much; ``table`` names the slots (all of
+    them, or a 4.3 folder's)."""
+    names, lookup = table
+    _time(s, f)
     if s.reading:
-        n = s.count(what="draw order count")
-        if not n:
-            return
-        frames = anim["drawOrder"] = []
-        for _ in range(n):
-            f = {}
-            _time(s, f)
-            k = s.count(what="offset count")
-            if k:
-                offsets = f["offsets"] = []
-                for _ in range(k):
-                    o = {}
-                    index(s, o, "slot", names, lookup, "slot")
-                    o["offset"] = s.varint()
-                    offsets.append(o)
-            frames.append(f)
+        k = s.count(what="offset count")
+        if k:
+            offsets = f["offsets"] = []
+            for _ in range(k):
+                o = {}
+                index(s, o, "slot", names, lookup, "slot")
+                o["offset"] = s.varint()
+                offsets.append(o)
         return
-    frames = anim.get("drawOrder", anim.get("draworder", []))
-    s.count(len(frames))
-    for f in frames:
-        _time(s, f)
-        offsets = f.get("offsets") or []
-        s.count(len(offsets))
-        for o in offsets:
-            index(s, o, "slot", names, lookup, "slot")
-            s.varint(int(o.get("offset", 0)))
+    offsets = f.get("offsets") or []
+    s.count(len(offsets))
+    for o in offsets:
+        index(s, o, "slot", names, lookup, "slot")
+        s.varint(int(o.get("offset", 0)))
+
+
+def draw_order(s, anim: dict, c: Context) -> None:
+    if s.reading:
+        frames = seq(s, None, _draw_order_key, c.slots, what="draw order count")
+        if frames:
+            anim["drawOrder"] = frames
+        return
+    seq(s, anim.get("drawOrder", anim.get("draworder", [])), _draw_order_key, c.slots)
+
+
+def _folder(s, folder: dict, c: Context) -> None:
+    """4.3: a draw order timeline over some slots only; its keys index those slots."""
+    if s.reading:
+        slots = folder["slots"] = []
+        for _ in range(s.count(what="folder slot count")):
+            tmp: dict = {}
+            index(s, tmp, "k", *c.slots, "slot")
+            slots.append(tmp["k"])
+    else:
+        slots = folder.get("slots", [])
+        s.count(len(slots))
+        for name in slots:
+            index(s, {"k": name}, "k", *c.slots, "slot")
+    table = (slots, {n: i for i, n in reversed(list(enumerate(slots)))})
+    keys = seq(s, None if s.reading else folder.get("keys", []), _draw_order_key, table, what="folder key count")
+    if s.reading:
+        folder["keys"] = keys
+
+
+def draw_order_folders(s, anim: dict, c: Context) -> None:
+    folders = seq(s, None if s.reading else anim.get("drawOrderFolder", []), _folder, c,
+                  what="draw order folder count")
+    if s.reading and folders:
+        anim["drawOrderFolder"] = folders
 
 
 def events_timeline(s, anim: dict, c: Context) -> None:
@@ -139,7 +165,7 @@ def _event_key(s, f: dict, data: dict, c: Context) -> None:
 def timeline_count(anim: dict, L: Layout) -> int:
     """How many runtime timelines an animation makes: the count stored before it."""
     n = 0
-    for group in ("slots", "bones", "path", "physics"):
+    for group in ("slots", "bones", "path", "physics", "slider"):
         for timelines in anim.get(group, {}).values():
             n += len(timelines)
     n += len(anim.get("ik", {})) + len(anim.get("transform", {}))
@@ -152,6 +178,7 @@ def timeline_count(anim: dict, L: Layout) -> int:
             for by_att in by_slot.values():
                 n += len(by_att)
     n += 1 if anim.get("drawOrder") else 0
+    n += len(anim.get("drawOrderFolder", []))
     n += 1 if anim.get("events") else 0
     return n
 
@@ -167,6 +194,7 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
         if s.reading and got:
             anim[key] = got
     # IK and transform constraints: one timeline each.
+    transform_values = _transform_values_43 if c.L.constraint_list else _transform_values
     for key, table in (("ik", c.ik), ("transform", c.transform)):
         names, lookup = table
         if s.reading:
@@ -179,7 +207,7 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
                     if key == "ik":
                         out[tmp["k"]] = ik_timeline(s, None, c)
                     else:
-                        out[tmp["k"]] = curve_timeline(s, None, _transform_values, 6)
+                        out[tmp["k"]] = curve_timeline(s, None, transform_values, 6)
         else:
             group = anim.get(key, {})
             s.count(len(group))
@@ -188,7 +216,7 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
                 if key == "ik":
                     ik_timeline(s, frames, c)
                 else:
-                    curve_timeline(s, frames, _transform_values, 6)
+                    curve_timeline(s, frames, transform_values, 6)
     got = _typed_groups(s, None if s.reading else anim.get("path", {}), *c.path, "path", _path_body)
     if s.reading and got:
         anim["path"] = got
@@ -200,8 +228,16 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
                             "physics", _physics_body)
         if s.reading and got:
             anim["physics"] = got
+    if c.L.constraint_list:
+        got = _typed_groups(s, None if s.reading else anim.get("slider", {}), *c.sliders, "slider", _slider_body)
+        if s.reading and got:
+            anim["slider"] = got
     attachment_timelines(s, anim, c)
     draw_order(s, anim, c)
+    if c.L.constraint_list:
+        draw_order_folders(s, anim, c)
     events_timeline(s, anim, c)
+    if c.L.constraint_list and c.nonessential:
+        color(s, anim, "color", "ffffffff")
     if s.reading and count != timeline_count(anim, c.L):
         extra_counts[name] = count

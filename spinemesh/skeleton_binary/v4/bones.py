@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .fields import _names, boolean, color, enum, fields, index, ref, text
+from .fields import _names, _to_end, boolean, color, enum, fields, fld, index, ref, text
 from .layout import Context
 from ..enums import BLEND, INHERIT
 
@@ -29,13 +29,24 @@ def bone(s, node: dict, c: Context, i: int) -> None:
             if parent is not None and parent >= i:
                 raise s.fail(f"bone {node.get('name')!r} to come after its parent {node.get('parent')!r}")
             index(s, node, "parent", *c.bones, "bone")
-    fields(s, node, _BONE_FIELDS, order=(7, 0, 1, 2, 3, 4, 5, 6))  # the JSON has length first
-    enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
+    if c.L.constraint_list:
+        # 4.3: the length comes after the inherit mode.
+        fields(s, node, _BONE_FIELDS[:7])
+        enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=True)
+        fld(s, node, "length", 0)
+        if s.reading:
+            _to_end(node, tuple(k for k in node if k not in ("name", "parent", "length")))
+    else:
+        fields(s, node, _BONE_FIELDS, order=(7, 0, 1, 2, 3, 4, 5, 6))  # the JSON has length first
+        enum(s, node, c.L.inherit_key, INHERIT, "normal", as_byte=c.L.flags)
     boolean(s, node, "skin")
     if c.nonessential:
         color(s, node, "color", "9b9b9bff")
         if c.L.flags:
             text(s, node, "icon")
+            if c.L.constraint_list:
+                fld(s, node, "iconSize", 1)
+                fld(s, node, "iconRotation", 0)
             boolean(s, node, "visible", True)
 
 

@@ -110,23 +110,8 @@ def path_constraint(s, node: dict, c: Context) -> None:
     _bone_list(s, node, c)
     index(s, node, "target", *c.slots, "slot")
     if c.L.flags:
-        if s.reading:
-            flags = s.u8()
-            for key, names, shift, mask, d in _PATH_MODES:
-                i = flags >> shift & mask
-                if i >= len(names):
-                    raise s.fail(f"a valid {key}, found {i}", s.pos - 1)
-                _put(node, key, names[i], d)
-        else:
-            flags = 0
-            for key, names, shift, mask, d in _PATH_MODES:
-                v = node.get(key, d)
-                if v not in names:
-                    raise s.fail(f"{key} one of {', '.join(names)}, got {v!r}")
-                flags |= names.index(v) << shift
-            if flag(node, "rotation", 0):
-                flags |= 128
-            s.u8(flags)
+        flags = _mode_byte(s, node, _PATH_MODES, (),
+                           0 if s.reading else (128 if flag(node, "rotation", 0) else 0))
         opt(s, node, "rotation", flags & 128)
     else:
         enum(s, node, "positionMode", POSITION_MODE, "percent")
@@ -138,6 +123,26 @@ def path_constraint(s, node: dict, c: Context) -> None:
     _mix_field(s, node, "mixRotate", 1)
     _mix_field(s, node, "mixX", 1)
     _mix_field(s, node, "mixY", None)
+
+
+def _mode_byte(s, node: dict, modes: tuple, bits: tuple, value_flags: int = 0) -> int:
+    """A flag byte holding enum ``modes`` ``(key, names, shift, mask, default)`` besides
+    boolean ``bits`` and precomputed ``value_flags`` (see :func:`_flag_byte`)."""
+    if s.reading:
+        at = s.pos
+        flags = _flag_byte(s, node, bits)
+        for key, names, shift, mask, d in modes:
+            i = flags >> shift & mask
+            if i >= len(names):
+                raise s.fail(f"a valid {key}, found {i}", at)
+            _put(node, key, names[i], d)
+        return flags
+    for key, names, shift, mask, d in modes:
+        v = node.get(key, d)
+        if v not in names:
+            raise s.fail(f"{key} one of {', '.join(names)}, got {v!r}")
+        value_flags |= names.index(v) << shift
+    return _flag_byte(s, node, bits, value_flags)
 
 
 _PATH_MODES = (("positionMode", POSITION_MODE, 0, 1, "percent"),

@@ -128,8 +128,9 @@ def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset:
     if s.reading:
         at = s.pos
         i = s.varint(what=what) - offset
-        if not 0 <= i < len(names):
-            raise s.fail(f"{what} index below {len(names)}, found {i}", at)
+        if not 0 <= i < len(names) or names[i] is None:
+            # None: in 4.3's one constraint list, a constraint of another type.
+            raise s.fail(f"a {what} index below {len(names)}, found {i}", at)
         node[key] = names[i]
         return names[i]
     name = node.get(key)

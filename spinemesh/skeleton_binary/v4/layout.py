@@ -5,6 +5,12 @@ from __future__ import annotations
 
 SPACING_MODE = ("length", "fixed", "percent", "proportional")
 SEQUENCE_MODE = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
+#: 4.3: what a transform constraint or slider reads from a bone, and what it writes to.
+PROPERTIES = ("rotate", "x", "y", "scaleX", "scaleY", "shearY")
+#: 4.3: how IK and physics constraints change scaleY.
+SCALE_Y_MODE = ("none", "uniform", "volume")
+
+
 class Layout:
     """What one 4.x minor version stores, as flags read by the declarations.
 
@@ -26,12 +32,19 @@ class Layout:
         self.attachment_timelines = self.minor >= 1  # "attachments": deform + sequence
         self.linked_key = "timelines" if self.minor >= 1 else "deform"
         self.short_arrays = self.minor < 2           # triangles, edges as int16
+        # 4.3 keeps every constraint in one list ("constraints", each with its "type", sliders
+        # new), which skins and timelines index; bones store their length after the
+        # inherit mode and an icon size and rotation; weighted vertices are preceded by the
+        # length of their bone list; meshes list the slots of linked meshes that share their
+        # timelines, linked meshes name their source's slot; clipping can be convex or
+        # inverse; animations gain draw order folders and a colour.
+        self.constraint_list = self.minor >= 3
 
 
 def _layout(s, version: str) -> Layout:
     parts = version.split(".")
-    if len(parts) < 2 or not parts[1].isdigit() or parts[0] != "4" or int(parts[1]) > 2:
-        raise s.fail(f"Spine 4.0, 4.1 or 4.2, found version {version!r}", 8)
+    if len(parts) < 2 or not parts[1].isdigit() or parts[0] != "4" or int(parts[1]) > 3:
+        raise s.fail(f"Spine 4.0 to 4.3, found version {version!r}", 8)
     return Layout(version)
 
 
@@ -47,3 +60,11 @@ class Context:
         self.event_names = ([], {})
         #: 4.2 linked meshes read before their skin's name is known: (node, offset).
         self.linked: list = []
+        #: 4.3: the one constraint list, as (types, names, {(type, name): index}).
+        self.constraints: tuple = ([], [], {})
+        self.sliders = ([], {})
+        #: 4.3: the skin and slot whose attachments are being read or written.
+        self.skin_name = "default"
+        self.slot_name = None
+        #: 4.3: mesh timeline slots as read, by (skin, slot, attachment); as written.
+        self.timeline_slots: dict = {}

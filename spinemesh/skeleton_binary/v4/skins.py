@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .attachments import attachment
+from .constraint_list import skin_constraints
 from .bones import _bone_list
 from .fields import color, ref, seq, text
 from .layout import Context
@@ -20,6 +21,7 @@ def skin_attachments(s, skin: dict, c: Context, nslots: int | None = None) -> No
             if not 0 <= i < len(names):
                 raise s.fail(f"slot index below {len(names)}, found {i}", at)
             slot_atts = atts.setdefault(names[i], {})
+            c.slot_name = names[i]
             for _ in range(s.count(what="attachment count")):
                 key = s.string_ref()
                 if key is None:
@@ -34,6 +36,7 @@ def skin_attachments(s, skin: dict, c: Context, nslots: int | None = None) -> No
         if slot_name not in lookup:
             raise s.fail(f"a known slot in skin {skin.get('name')!r}, got {slot_name!r}")
         s.varint(lookup[slot_name])
+        c.slot_name = slot_name
         s.count(len(slot_atts))
         for key, node in slot_atts.items():
             s.string_ref(key)
@@ -71,11 +74,15 @@ def skin(s, node: dict, c: Context) -> None:
     _bone_list(s, node, c)
     if s.reading and not node["bones"]:
         del node["bones"]
-    _constraint_names(s, node, "ik", c.ik)
-    _constraint_names(s, node, "transform", c.transform)
-    _constraint_names(s, node, "path", c.path)
-    if c.L.physics:
-        _constraint_names(s, node, "physics", c.physics)
+    if c.L.constraint_list:
+        skin_constraints(s, node, c)
+    else:
+        _constraint_names(s, node, "ik", c.ik)
+        _constraint_names(s, node, "transform", c.transform)
+        _constraint_names(s, node, "path", c.path)
+        if c.L.physics:
+            _constraint_names(s, node, "physics", c.physics)
+    c.skin_name = node.get("name")
     nslots = s.count(len(node.get("attachments", {})), what="skin slot count")
     skin_attachments(s, node, c, nslots)
 

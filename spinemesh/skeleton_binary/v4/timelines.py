@@ -180,6 +180,26 @@ def _transform_values(s, f):
         _mix_field(s, f, key, d)
 
 
+def _transform_values_43(s, f):
+    # 4.3's JSON: mixY still follows mixX, but mixScaleY defaults to 1.
+    for key, d in (("mixRotate", 1), ("mixX", 1), ("mixY", None), ("mixScaleX", 1),
+                   ("mixScaleY", 1), ("mixShearY", 1)):
+        _mix_field(s, f, key, d)
+
+
+#: 4.3 slider timeline types by type byte; both values default to 1 in the JSON.
+SLIDER_TIMELINES = ("time", "mix")
+_V1 = _value_fn(("value", 1))
+
+
+def _slider_body(s, timelines, kind):
+    t = _type_byte(s, kind, SLIDER_TIMELINES, "slider")
+    name = SLIDER_TIMELINES[t]
+    frames = curve_timeline(s, None if s.reading else timelines[kind], _V1, 1)
+    if s.reading:
+        timelines[name] = frames
+
+
 def _path_mix_values(s, f):
     for key, d in (("mixRotate", 1), ("mixX", 1), ("mixY", None)):
         _mix_field(s, f, key, d)
