@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from spinemesh.fsutil import atomic_write_bytes, resolve_inside
-from spinemesh.errors import UnsafePathError
+from spinemesh.errors import OutputError, UnsafePathError
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -38,12 +38,24 @@ def test_info_reports_missing_images(tmp_path, examples):
 def test_bad_input_is_one_line_not_a_traceback(tmp_path):
     f = tmp_path / "bad.atlas"
     f.write_text("p.png\n\tsize: 4, 4\nr\n\tbounds: 0, x, 1, 1\n")
-    (tmp_path / "s.json").write_text('{"bones": [')
+    atomic_write_bytes(tmp_path / "p.png", _png_4x4())
+    (tmp_path / "s.json").write_text('{"skeleton": {"spine": "4.2.1"}, "bones": [')
     r = run("info", str(tmp_path))
     assert "Traceback" not in r.stdout + r.stderr
     assert "bad.atlas:3" in r.stderr and "s.json:1" in r.stderr
+    assert r.returncode == 1, "an unreadable skeleton or atlas is not a success"
     r = run("info", str(tmp_path / "nope"))
     assert r.returncode == 2 and "Traceback" not in r.stderr and "no such file" in r.stderr
+
+
+def _png_4x4() -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGBA", (4, 4)).save(buf, format="PNG")
+    return buf.getvalue()
 
 
 def test_help_has_an_example():
@@ -66,7 +78,7 @@ def test_atomic_write_leaves_no_partial_file(tmp_path, monkeypatch):
         raise OSError("simulated crash before the rename")
 
     monkeypatch.setattr(os, "replace", crash)
-    with pytest.raises(OSError):
+    with pytest.raises(OutputError, match="simulated crash"):  # one line naming the file, not a traceback
         atomic_write_bytes(target, b"new")
     assert target.read_bytes() == b"old"
     assert [p.name for p in tmp_path.iterdir()] == ["out.bin"]

@@ -20,11 +20,20 @@ from . import upgrade  # noqa: F401,E402
 
 
 def main() -> None:
-    """Console-script entry point."""
-    from ..errors import SpineMeshError
+    """Console-script entry point.
 
+    A :class:`~spinemesh.errors.SpineMeshError` is printed as one line (never wrapped, even
+    when stderr is not a terminal, so that scripts can grep it) and exits with 2. SIGTERM and
+    SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out.
+    """
+    from ..errors import SpineMeshError
+    from ..processes import exit_on_terminate
+
+    exit_on_terminate()
     try:
         app()
     except SpineMeshError as e:
-        err_console.print(f"[bold red]error:[/] {e}")
+        from rich.markup import escape
+
+        err_console.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)

@@ -1,26 +1,110 @@
-"""The shared typer application and consoles."""
+"""The shared typer application, its consoles, choices, checks and progress bar.
+
+Start-up time matters for a command line: ``spinemesh --help`` or ``spinemesh convert``
+should not pay for numpy, OpenCV, ONNX Runtime, matplotlib or PIL. So nothing here imports
+more than typer: the rich consoles are made on first use, and each command imports what it
+needs inside its own function. Help is click's plain layout (``rich_markup_mode=None``):
+typer's rich help imports rich's Markdown renderer, which alone costs about 60 ms.
+``benchmarks/bench_startup.py`` measures it.
+"""
 
 from __future__ import annotations
 
+import math
+from enum import Enum
+from typing import Annotated, Optional
+
 import typer
-from rich.console import Console
+
+from .. import __version__
 
 app = typer.Typer(
     name="spinemesh",
     help="Automatic triangle meshes for Spine projects.\n\n"
-         "Example: spinemesh upgrade project/ --out meshed/",
+         "Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
-    rich_markup_mode="rich",
+    rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
-console = Console()
-err_console = Console(stderr=True)
+
+
+class Preset(str, Enum):
+    """Mesher presets (the keys of :data:`spinemesh.mesher.PRESETS`)."""
+
+    default = "default"
+    paper = "paper"
+
+
+class MaskSource(str, Enum):
+    """Where the foreground comes from (:data:`spinemesh.segment.MASK_MODES`)."""
+
+    auto = "auto"
+    alpha = "alpha"
+    model = "model"
+
+
+class _LazyConsole:
+    """A rich ``Console`` made on first use, so that importing the CLI does not import rich."""
+
+    def __init__(self, stderr: bool):
+        self._stderr = stderr
+        self._console = None
+
+    @property
+    def real(self):
+        """The rich ``Console`` itself (for rich objects that take a ``console=``)."""
+        if self._console is None:
+            from rich.console import Console
+
+            # Messages on stderr are never wrapped: one error stays one line in a log or a pipe.
+            self._console = Console(stderr=self._stderr, soft_wrap=self._stderr)
+        return self._console
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+
+console = _LazyConsole(stderr=False)
+err_console = _LazyConsole(stderr=True)
+
+
+def progress_bar(label: str, transient: bool = False):
+    """A rich progress bar on stderr: label, bar, done/total, elapsed, time remaining, current item."""
+    from rich.progress import (
+        BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
+    )
+
+    return Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"),
+                    console=err_console.real, transient=transient)
+
+
+def positive_finite(value: Optional[float]) -> Optional[float]:
+    """Option callback: a number that is finite and above zero (None passes)."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise typer.BadParameter(f"must be a finite number above 0, not {value:g}")
+    return value
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        print(f"spinemesh {__version__}")
+        raise typer.Exit()
 
 
 @app.callback()
-def _root() -> None:
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
+) -> None:
     """Automatic triangle meshes for Spine projects.
 
-    Example: spinemesh upgrade project/ --out meshed/
+    \b
+    Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
     """
+
+
+__all__ = ["app", "console", "err_console", "progress_bar", "positive_finite", "Preset", "MaskSource",
+           "Annotated", "Optional"]

@@ -6,30 +6,30 @@ import os
 from pathlib import Path
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
-from ._app import app, console, err_console
+from ._app import Annotated, Optional, app, console, err_console, progress_bar
 
 
 @app.command()
 def dataset(
-    corpus: list[Path] = typer.Argument(..., help="Folders holding Spine projects, at any depth."),
-    out: Path = typer.Option(..., "--out", "-o", help="Data set folder (created, or resumed)."),
-    jobs: int = typer.Option(min(4, os.cpu_count() or 1), "--jobs", "-j", help="Worker processes."),
-    retry_failed: bool = typer.Option(False, "--retry-failed",
-                                      help="Read again projects that had errors in an earlier run."),
+    corpus: Annotated[list[Path], typer.Argument(help="Folders holding Spine projects, at any depth.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Data set folder (created, or resumed).")],
+    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, help="Worker processes.")] = min(4, os.cpu_count() or 1),
+    retry_failed: Annotated[bool, typer.Option(
+        "--retry-failed", help="Read again projects that had errors in an earlier run.")] = False,
 ) -> None:
     """Extract every unique attachment image (region, mesh, sequence frames) with its mask
     (alpha > 128) and, for meshes, the artist's vertices in pixels, into tar shards and a
     JSONL index, split 90/10 by game. Re-running resumes and adds nothing twice.
 
-    Example: spinemesh dataset ../shared/spine-examples ../shared/spine-corpus --out ds/ --jobs 2
+    \b
+    Example: spinemesh dataset studio-projects/ other-games/ --out ds/ --jobs 2
     """
+    from rich.table import Table
+
     from ..dataset import build_dataset
 
-    with Progress(TextColumn("[bold]projects"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), console=console, transient=True) as progress:
+    with progress_bar("projects", transient=True) as progress:
         task = progress.add_task("", total=None)
 
         def on_project(name: str, done: int, total: int) -> None:
@@ -74,15 +74,18 @@ def dataset(
 
 @app.command("dataset-stats")
 def dataset_stats_cmd(
-    ds: Path = typer.Argument(..., help="Data set folder written by `spinemesh dataset`."),
-    plots: Path = typer.Option(None, "--plots", help="Folder for the PNG plots (default: DS/stats)."),
+    ds: Annotated[Path, typer.Argument(help="Data set folder written by `spinemesh dataset`.")],
+    plots: Annotated[Optional[Path], typer.Option("--plots", help="Folder for the PNG plots "
+                                                  "(default: DS/stats).")] = None,
 ) -> None:
     """Counts, image sizes and mesh vertex counts of a data set, with the paper's four
     dataset plots as PNG (samples per game, region/mesh share, vertex counts, image sizes).
 
+    \b
     Example: spinemesh dataset-stats ds/ --plots ds/stats
     """
     import numpy as np
+    from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
 

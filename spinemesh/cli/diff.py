@@ -6,24 +6,25 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from ._app import app, console, err_console
+from ._app import Annotated, app, console, err_console, progress_bar
 
 
 @app.command()
 def diff(
-    projects: List[Path] = typer.Argument(..., help="Project folders (or skeleton files); each is searched for "
-                                                    "skeletons and their atlases or images folder."),
-    out: Path = typer.Option(..., "--out", "-o", help="Report folder: report.md, report.json, index.html, assets/."),
-    methods: Optional[str] = typer.Option(None, "--methods",
-                                          help="Comma-separated subset of: default, paper, hull, grid, shi-tomasi "
-                                               "(default: all)."),
-    images: Optional[Path] = typer.Option(None, "--images", help="Take the images from this folder instead of the atlases."),
-    limit: Optional[int] = typer.Option(None, "--limit", help="Compare at most this many attachments."),
-    originals: bool = typer.Option(True, "--originals/--atlas",
-                                   help="Mesh the editor's original images when an images folder holds them "
-                                        "(default), or the atlas regions at atlas resolution."),
+    projects: Annotated[List[Path], typer.Argument(help="Project folders (or skeleton files); each is searched "
+                                                        "for skeletons and their atlases or images folder.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder: report.md, report.json, index.html, "
+                                      "assets/.")],
+    methods: Annotated[Optional[str], typer.Option(
+        "--methods", help="Comma-separated subset of: default, paper, hull, grid, shi-tomasi (default: all).")] = None,
+    images: Annotated[Optional[Path], typer.Option(
+        "--images", help="Take the images from this folder instead of the atlases.")] = None,
+    limit: Annotated[Optional[int], typer.Option("--limit", min=1, help="Compare at most this many "
+                                                 "attachments.")] = None,
+    originals: Annotated[bool, typer.Option(
+        "--originals/--atlas", help="Mesh the editor's original images when an images folder holds them "
+                                    "(default), or the atlas regions at atlas resolution.")] = True,
 ) -> None:
     """Compare every artist mesh with our presets and the paper's three baselines.
 
@@ -36,9 +37,9 @@ def diff(
     vertices blue, interior yellow). linkedmesh attachments are skipped (they reuse a parent).
     Images are the editor's originals when an images/ folder holds them, else atlas regions.
 
-    Example: spinemesh diff ../shared/spine-examples/4.2/sack --out sack-diff/
-
-    Example: spinemesh diff ../shared/spine-examples/4.2/*/ --out diff-4.2/ --methods default,paper
+    \b
+    Example: spinemesh diff hero/ --out hero-diff/
+    Example: spinemesh diff projects/*/ --out diff/ --methods default,paper
     """
     from ..diff.report import aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
@@ -48,8 +49,7 @@ def diff(
     if bad:
         err_console.print(f"[bold red]error:[/] unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}")
         raise typer.Exit(2)
-    with Progress(TextColumn("[bold]comparing"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                  TextColumn("{task.description}"), console=err_console) as bar:
+    with progress_bar("comparing") as bar:
         task = bar.add_task("reading projects", total=None)
 
         def progress(done: int, total: int, label: str) -> None:

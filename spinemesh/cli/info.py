@@ -2,32 +2,33 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from pathlib import Path
 
 import typer
-from rich.table import Table
 
-from ..atlas import read_atlas
-from ..errors import SpineMeshError
-from ..project import find_project, image_source_for
-from ..skeleton import image_paths, iter_attachments, load_skeleton, spine_version
-from ._app import app, console, err_console
+from ._app import Annotated, app, console, err_console
 
 
 @app.command()
-def info(project: Path = typer.Argument(..., help="Project folder or skeleton file (.json/.skel).")) -> None:
+def info(project: Annotated[Path, typer.Argument(help="Project folder or skeleton file (.json/.skel).")]) -> None:
     """Show the Spine version, attachments by type, atlas pages and regions, and missing images.
 
-    Example: spinemesh info ../shared/spine-examples/4.2/spineboy
+    Exits with 1 when no skeleton was found or a skeleton or atlas could not be read.
+
+    \b
+    Example: spinemesh info project/
+    Example: spinemesh info project/hero.skel
     """
+    from collections import Counter
+
+    from rich.table import Table
+
+    from ..errors import SpineMeshError
+    from ..project import find_project, image_source_for, project_atlases
+    from ..skeleton import image_paths, iter_attachments, load_skeleton, spine_version
+
     proj = find_project(project)
-    atlases = {}
-    for p in proj.atlases:
-        try:
-            atlases[p] = read_atlas(p)
-        except SpineMeshError as e:
-            err_console.print(f"[yellow]skipped atlas:[/] {e}")
+    atlases = project_atlases(proj)
     table = Table(title=f"Atlases in {proj.root}")
     for col in ("atlas", "syntax", "pages", "regions", "scale", "pma"):
         table.add_column(col)
@@ -35,17 +36,28 @@ def info(project: Path = typer.Argument(..., help="Project folder or skeleton fi
         table.add_row(str(p.relative_to(proj.root)), a.syntax, str(len(a.pages)), str(len(a.regions)),
                       ",".join(sorted({f"{pg.scale:g}" for pg in a.pages})), "yes" if any(pg.pma for pg in a.pages) else "no")
     console.print(table)
+    if not proj.skeletons:
+        err_console.print(f"[yellow]warning:[/] no Spine skeleton (.json with a \"skeleton\" object, or .skel) "
+                          f"found in {project}", highlight=False)
+        raise typer.Exit(1)
     for path in proj.skeletons:
         try:
             doc = load_skeleton(path)
         except SpineMeshError as e:
-            err_console.print(f"[red]unreadable skeleton:[/] {e}")
+            proj.problems.append(f"unreadable skeleton: {e}")
             continue
         refs = list(iter_attachments(doc))
         counts = Counter(r.type for r in refs)
-        source = image_source_for(doc, path, proj, atlases=atlases)
-        missing = sorted({(r.skin, r.slot, r.name, p) for r in refs for p in image_paths(r)
-                          if source is None or p not in source})
+        source = image_source_for(doc, path, proj)
+        missing = set()
+        for r in refs:
+            try:
+                paths = image_paths(r)
+            except SpineMeshError as e:
+                proj.problems.append(f"{path}: skin {r.skin!r} slot {r.slot!r} attachment {r.name!r}: {e}")
+                continue
+            missing |= {(r.skin, r.slot, r.name, p) for p in paths if source is None or p not in source}
+        missing = sorted(missing)
         console.print(f"\n[bold]{path.relative_to(proj.root)}[/]  Spine {spine_version(doc) or '?'}  "
                       f"images from: {_describe(source)}")
         t = Table()
@@ -58,11 +70,15 @@ def info(project: Path = typer.Argument(..., help="Project folder or skeleton fi
         if missing:
             console.print(f"[yellow]{len(missing)} attachment image(s) not found:[/]")
             for skin, slot, name, p in missing[:50]:
-                console.print(f"  skin {skin!r} slot {slot!r} attachment {name!r}: image {p!r}")
+                console.print(f"  skin {skin!r} slot {slot!r} attachment {name!r}: image {p!r}", markup=False)
             if len(missing) > 50:
                 console.print(f"  ... and {len(missing) - 50} more")
         else:
             console.print("every attachment image was found")
+    for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
+        err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
+    if proj.problems:
+        raise typer.Exit(1)
 
 
 def _describe(source) -> str:

@@ -5,37 +5,38 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
 import typer
-from rich.progress import Progress
-from rich.table import Table
 
-from ..fsutil import atomic_write_json, atomic_write_png
-from ..images import load_rgba
-from ._app import app, console, err_console
+from ._app import Annotated, MaskSource, Optional, app, console, err_console, progress_bar
 
 REPO_SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 
 
 @app.command()
 def segment(
-    image: Path = typer.Argument(..., help="Image file (PNG, WebP, AVIF, JPEG)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Mask PNG to write (0 background, 255 sprite)."),
-    mask: str = typer.Option("auto", "--mask", help="alpha: threshold alpha at 128; model: the network; "
-                             "auto: alpha when the image has a meaningful alpha channel, else the network."),
-    model: Path = typer.Option(None, "--model", help="ONNX model with its .json card beside it "
-                               "(default: the one shipped with spinemesh)."),
+    image: Annotated[Path, typer.Argument(help="Image file (PNG, WebP, AVIF, JPEG).", exists=True,
+                                          dir_okay=False)],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Mask PNG to write (0 background, 255 sprite).")],
+    mask: Annotated[MaskSource, typer.Option(
+        "--mask", help="auto: alpha when the image has a meaningful alpha channel, else the network; "
+                       "alpha: threshold alpha at 128; model: the network.")] = MaskSource.auto,
+    model: Annotated[Optional[Path], typer.Option(
+        "--model", help="ONNX model with its .json card beside it (default: the one shipped with "
+                        "spinemesh).")] = None,
 ) -> None:
     """Write the binary sprite mask of an image, at the image's size.
 
-    Example: spinemesh segment hero-on-blue.png --out hero-mask.png --mask auto
+    \b
+    Example: spinemesh segment hero-on-blue.png --out hero-mask.png
     """
-    from ..segment import MASK_MODES, mask_for
+    import numpy as np
 
-    if mask not in MASK_MODES:
-        raise typer.BadParameter(f"must be one of {', '.join(MASK_MODES)}", param_hint="--mask")
+    from ..fsutil import atomic_write_png
+    from ..images import load_rgba
+    from ..segment import mask_for
+
     rgba = load_rgba(image)
-    m, used = mask_for(rgba, mask, model)
+    m, used = mask_for(rgba, mask.value, model)
     atomic_write_png(out, np.where(m, 255, 0).astype(np.uint8))
     console.print(f"{out}: {m.shape[1]}x{m.shape[0]} mask from {used}, "
                   f"{100 * m.mean():.1f}% foreground")
@@ -61,6 +62,9 @@ def segment_eval(
 
     Example: spinemesh segment-eval --per-project 40 --json scores.json
     """
+    from rich.table import Table
+
+    from ..fsutil import atomic_write_json
     from ..segment import DEFAULT_MODEL, model_card
     from ..segment.composite import BACKGROUNDS
     from ..segment.evaluate import default_methods, evaluate_methods
@@ -72,7 +76,7 @@ def segment_eval(
         raise typer.Exit(1)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
     methods = default_methods(model, names, threads)
-    with Progress(console=err_console, transient=True) as bar:
+    with progress_bar("scoring", transient=True) as bar:
         task = bar.add_task("segment-eval", total=len(sprites) * len(BACKGROUNDS))
         scores = evaluate_methods(sprites, methods, progress=lambda: bar.advance(task))
     table = Table(title=f"{len(sprites)} held-out sprites from {len({s.project for s in sprites})} projects "
@@ -147,6 +151,8 @@ def segment_export(
 
     Example: spinemesh segment-export runs/segment/best.pt --out spinemesh/models/segment.onnx
     """
+    import numpy as np
+
     from ..segment.samples import gather_sprites, split_of
     from ..train.data import make_sample
     from ..train.export import load_checkpoint, release

@@ -2,64 +2,90 @@
 
 from __future__ import annotations
 
-import statistics
-import sys
 from pathlib import Path
-from typing import List, Optional
+from typing import List
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
-from ..upgrade import EXIT_PARTIAL, Options, upgrade_project, write_report
-from ._app import app, console, err_console
+from ._app import Annotated, MaskSource, Optional, Preset, app, console, err_console, positive_finite, progress_bar
 
 
 @app.command()
 def upgrade(
-    project: Path = typer.Argument(..., help="Project folder, or one skeleton file (.json/.skel)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Output folder (not the project folder, not inside it)."),
-    preset: str = typer.Option("default", "--preset", "-p", help="Mesher preset: default (for animation) or paper."),
-    mask: str = typer.Option("alpha", "--mask", help="Where the foreground comes from: alpha, model or auto."),
-    density: Optional[float] = typer.Option(None, "--density", help="Vertex density: below 1 sparser, above 1 denser."),
-    max_vertices: Optional[int] = typer.Option(None, "--max-vertices", help="Hard vertex budget per mesh."),
-    only: List[str] = typer.Option([], "--only", help="Glob on slot, attachment or image path; repeatable."),
-    exclude: List[str] = typer.Option([], "--exclude", help="Glob on slot, attachment or image path; repeatable."),
-    min_size: float = typer.Option(0.0, "--min-size", help="Leave regions whose larger side is below this many pixels."),
-    dry_run: bool = typer.Option(False, "--dry-run", help="Plan and report only; write nothing."),
-    report: Optional[Path] = typer.Option(None, "--report", help="Write a JSON report of every attachment."),
-    jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Processes meshing in parallel."),
-    images: Optional[Path] = typer.Option(None, "--images",
-                                          help="Also write the original-size images here, for re-import in the editor."),
-    images_in: Optional[Path] = typer.Option(None, "--from-images",
-                                             help="Read attachment images from this folder instead of atlases."),
+    project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder: not the project folder, not inside "
+                                      "it; refused if not empty, unless --overwrite.")],
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
+                                            "earlier upgrade wrote), so that no stale file stays.")] = False,
+    preview: Annotated[Optional[Path], typer.Option(
+        "--preview", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
+                          "the new meshes, every attachment's old quad and new mesh, and the transparent "
+                          "area no longer drawn.")] = None,
+    preset: Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
+                                           "paper (the paper's section 3 exactly).")] = Preset.default,
+    mask: Annotated[MaskSource, typer.Option(
+        "--mask", help="Where the foreground comes from. auto (here: alpha, which is what the runtime draws); "
+                       "alpha; model (the segmentation network, which may cut drawn pixels).")] = MaskSource.auto,
+    density: Annotated[Optional[float], typer.Option(
+        "--density", callback=positive_finite, help="Vertex density, above 0: below 1 sparser, above 1 "
+                                                    "denser (default 1).")] = None,
+    max_vertices: Annotated[Optional[int], typer.Option("--max-vertices", min=3,
+                                                        help="Hard vertex budget per mesh.")] = None,
+    only: Annotated[List[str], typer.Option("--only", help="Glob on slot, attachment name or image path; "
+                                            "repeatable. Others are kept as regions.")] = [],
+    exclude: Annotated[List[str], typer.Option("--exclude", help="Glob on slot, attachment name or image "
+                                               "path; repeatable.")] = [],
+    min_size: Annotated[float, typer.Option("--min-size", min=0, help="Keep as regions those whose larger "
+                                            "side is below this many pixels.")] = 0.0,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
+    report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report of every "
+                                                   "attachment.")] = None,
+    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel.")] = 1,
+    images: Annotated[Optional[Path], typer.Option(
+        "--images", help="Also write the original-size images here, for re-import in the editor.")] = None,
+    images_in: Annotated[Optional[Path], typer.Option(
+        "--from-images", help="Read attachment images from this folder instead of atlases.")] = None,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
 
-    Skeletons are written in the format and version they came in (.json or .skel); atlases
-    and page images are copied. An attachment whose image is missing or broken stays a
-    region; the exit code is then 3 (partial success).
+    Skeletons are written in the format and version they came in (.json or .skel); atlases,
+    page images and other files are copied. For one skeleton file, only that skeleton and
+    the atlases or images it uses are written.
 
-    Example: spinemesh upgrade project/ --out meshed/ --report meshed/report.json
+    Region attachments left as they are on purpose (--only, --exclude, --min-size, fully
+    transparent images, sequences trimmed differently on the atlas page) are counted as
+    "kept" with the reason in the report. Exit status: 0 when everything asked was done;
+    3 when some attachment or skeleton failed (it stays as it was; the report says why);
+    1 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing.
+
+    \b
+    Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
+    Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
     """
+    import statistics
+
+    from ..upgrade import EXIT_PARTIAL, Options, upgrade_project, write_report
+
     overrides = {}
     if density is not None:
         overrides["density"] = density
     if max_vertices is not None:
         overrides["max_vertices"] = max_vertices
-    options = Options(preset=preset, mask=mask, only=only, exclude=exclude, min_size=min_size,
-                      dry_run=dry_run, jobs=jobs, images_out=images, images_in=images_in, overrides=overrides)
-    with Progress(TextColumn("[bold]meshing"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err_console, transient=True) as bar:
-        task = bar.add_task("mesh", total=None)
+    options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
+                      dry_run=dry_run, jobs=jobs, images_out=images, images_in=images_in, overrides=overrides,
+                      overwrite=overwrite)
+    with progress_bar("meshing", transient=True) as bar:
+        task = bar.add_task("unique images", total=None)
         result = upgrade_project(project, out, options,
                                  on_start=lambda n: bar.update(task, total=n),
                                  on_progress=lambda n: bar.advance(task, n))
     if report is not None:
         write_report(result, report)
 
+    from rich.table import Table
+
     table = Table(title="spinemesh upgrade" + (" (dry run)" if dry_run else ""))
-    for col in ("skeleton", "meshed", "skipped", "failed", "median vertices"):
+    for col in ("skeleton", "meshed", "kept as region", "failed", "median vertices"):
         table.add_column(col, justify="right" if col != "skeleton" else "left")
     by_skel: dict[str, list] = {}
     for t in result.targets:
@@ -67,17 +93,48 @@ def upgrade(
     for name, targets in by_skel.items():
         verts = [t.vertices for t in targets if t.status == "meshed"]
         table.add_row(name, str(sum(t.status in ("meshed", "would mesh") for t in targets)),
-                      str(sum(t.status == "skipped" for t in targets)),
+                      str(sum(t.status == "kept" for t in targets)),
                       str(sum(t.status == "failed" for t in targets)),
                       f"{statistics.median(verts):g}" if verts else "-")
-    console.print(table)
+    if by_skel:
+        console.print(table)
     s = result.seconds
     console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s")
+    reasons: dict[str, int] = {}
     for t in result.targets:
-        if t.status == "failed":
+        if t.status == "kept":
+            reasons[t.reason] = reasons.get(t.reason, 0) + 1
+        elif t.status == "failed":
             err_console.print(f"[yellow]left a region:[/] {t.skeleton} skin {t.skin!r} slot {t.slot!r} "
-                              f"attachment {t.name!r}: {t.reason}")
+                              f"attachment {t.name!r}: {t.reason}", highlight=False)
+    for why, n in sorted(reasons.items()):
+        console.print(f"kept as region: {n} ({why})", highlight=False, markup=False)
     for e in result.errors:
-        err_console.print(f"[red]error:[/] {e}")
+        err_console.print(f"[red]error:[/] {e}", highlight=False)
+
+    nothing = _nothing_to_do(result, project, only or exclude)
+    if preview is not None and not dry_run and result.written:
+        from ..upgrade.preview import write_preview
+
+        page = write_preview(result, project, out, preview)
+        console.print(f"preview: {page}", highlight=False, markup=False)
     if result.partial:
-        sys.exit(EXIT_PARTIAL)
+        raise typer.Exit(EXIT_PARTIAL)
+    if nothing:
+        err_console.print(f"[yellow]warning:[/] {nothing}", highlight=False)
+        raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else 1)
+
+
+def _nothing_to_do(result, project: Path, filtered: bool) -> str:
+    """A warning with a hint when the run upgraded nothing, or an empty string."""
+    if result.errors or any(t.status in ("meshed", "would mesh", "failed") for t in result.targets):
+        return ""
+    if not result.written and not result.targets:
+        return (f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" object); "
+                "give the folder the editor exported to")
+    if filtered and any("--only" in t.reason or "--exclude" in t.reason for t in result.targets):
+        return ("--only/--exclude left no region attachment to upgrade; patterns match the slot, the "
+                "attachment name or the image path, e.g. --only 'head*' --only 'arms/*'")
+    if not result.targets:
+        return "nothing to upgrade: every attachment is already a mesh (or of another type); files were copied"
+    return "nothing to upgrade: every region attachment was kept (see the reasons above)"

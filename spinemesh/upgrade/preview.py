@@ -1,0 +1,387 @@
+"""``upgrade --preview DIR``: one self-contained HTML page that shows what an upgrade changed.
+
+The page (``DIR/index.html``, images inlined as PNG data URIs, vectors as inline SVG, no
+script) has:
+
+- a summary: attachments meshed, kept and failed, and the project's **fill rate**: texels
+  drawn before (each region draws the rectangle its atlas stores) and after (the mesh), and
+  how many of them were fully transparent. Transparent texels cost the GPU as much as visible
+  ones, which is the saving that matters to game teams;
+- per skeleton, its **setup pose** drawn by our own geometry (bone world transforms from
+  :mod:`spinemesh.rig.bones`, attachments placed as the runtimes place them) with the
+  wireframe of every upgraded attachment that the setup pose shows;
+- per upgraded image, the sprite with the old quad (dashed) and the new mesh, vertex and
+  triangle counts and the transparent area no longer drawn.
+
+Counts are texels of the image as the atlas stores it (a page exported at scale 0.5 has a
+quarter of the texels); each upgraded attachment counts once.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..fsutil import atomic_write_text
+from ..project import find_project, image_source_for
+from ..skeleton import AttachmentRef, image_paths, iter_skins, load_skeleton
+from .geometry import region_quad_transform
+
+#: Largest side of the setup-pose picture and of a sprite picture, pixels.
+POSE_SIZE = 900
+CARD_SIZE = 300
+
+
+@dataclass
+class FillRate:
+    """Texels drawn for one attachment before (its stored quad) and after (its mesh)."""
+
+    before: int
+    after: int
+    transparent_before: int
+    transparent_after: int
+
+    def __add__(self, other: "FillRate") -> "FillRate":
+        return FillRate(self.before + other.before, self.after + other.after,
+                        self.transparent_before + other.transparent_before,
+                        self.transparent_after + other.transparent_after)
+
+
+def mesh_raster(uvs: np.ndarray, triangles: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Texels whose centre a mesh covers, shape (height, width), bool.
+
+    Parameters
+    ----------
+    uvs : ndarray, shape (N, 2)
+        Vertex UVs, 0..1 over the image.
+    triangles : ndarray, shape (M, 3)
+    """
+    import cv2
+
+    canvas = np.zeros((height, width), np.uint8)
+    # Sub-pixel precision (4 fractional bits), texel centres at integer + 0.5.
+    pts = np.round((uvs * (width, height) - 0.5) * 16).astype(np.int32)
+    for tri in triangles:
+        cv2.fillConvexPoly(canvas, pts[tri], 1, lineType=cv2.LINE_8, shift=4)
+    return canvas.astype(bool)
+
+
+def fill_rate(rgba: np.ndarray, box: tuple[int, int, int, int], uvs: np.ndarray,
+              triangles: np.ndarray) -> FillRate:
+    """Texels drawn by a region (its stored ``box``) and by the mesh that replaced it.
+
+    A texel is transparent when its alpha is 0: drawing it changes nothing on screen.
+    """
+    h, w = rgba.shape[:2]
+    x0, y0, x1, y1 = box
+    quad = np.zeros((h, w), bool)
+    quad[y0:y1, x0:x1] = True
+    mesh = mesh_raster(uvs, triangles, w, h) & quad  # the mesh never draws outside what is stored
+    clear = rgba[..., 3] == 0
+    return FillRate(int(quad.sum()), int(mesh.sum()), int((quad & clear).sum()), int((mesh & clear).sum()))
+
+
+def _png_uri(rgba: np.ndarray) -> str:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=6)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _fit(rgba: np.ndarray, size: int) -> np.ndarray:
+    import cv2
+
+    h, w = rgba.shape[:2]
+    k = size / max(h, w)
+    if k >= 1:
+        return rgba
+    return cv2.resize(rgba, (max(1, round(w * k)), max(1, round(h * k))), interpolation=cv2.INTER_AREA)
+
+
+def _find(doc: dict, skin: str, slot: str, name: str) -> dict | None:
+    for s, slots in iter_skins(doc):
+        if s == skin and isinstance(slots.get(slot), dict):
+            att = slots[slot].get(name)
+            return att if isinstance(att, dict) else None
+    return None
+
+
+def _mesh_arrays(att: dict) -> tuple[np.ndarray, np.ndarray, int]:
+    uvs = np.asarray(att.get("uvs", []), float).reshape(-1, 2)
+    tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+    return uvs, tris, int(att.get("hull", 0))
+
+
+def _mesh_svg(uvs: np.ndarray, tris: np.ndarray, hull: int, to_xy, stroke: float) -> str:
+    """SVG of a mesh: triangle edges, the hull loop thicker."""
+    pts = to_xy(uvs)
+    edges = {tuple(sorted((int(a), int(b)))) for t in tris for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    d = "".join(f"M{pts[a, 0]:.1f} {pts[a, 1]:.1f}L{pts[b, 0]:.1f} {pts[b, 1]:.1f}" for a, b in sorted(edges))
+    out = f'<path d="{d}" class="tri" stroke-width="{stroke:.2f}"/>'
+    if hull >= 3:
+        loop = " ".join(f"{x:.1f},{y:.1f}" for x, y in pts[:hull])
+        out += f'<polygon points="{loop}" class="hull" stroke-width="{1.8 * stroke:.2f}"/>'
+    return out
+
+
+# --- setup pose ---------------------------------------------------------------------------
+
+def _attachment_geometry(att: dict, world: np.ndarray, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """UVs (N, 2), skeleton-space positions (N, 2) and triangles of a region or mesh attachment.
+
+    ``world`` is the slot bone's world transform (2, 3); weighted meshes use ``bones``.
+    """
+    kind = att.get("type", "region")
+    if kind == "region":
+        corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+        local = corners @ region_quad_transform(att)[:, :2].T + region_quad_transform(att)[:, 2]
+        pos = local @ world[:, :2].T + world[:, 2]
+        return corners, pos, np.array([[0, 1, 2], [0, 2, 3]])
+    if kind != "mesh":
+        return None
+    uvs, tris, _ = _mesh_arrays(att)
+    verts = att.get("vertices", [])
+    n = len(uvs)
+    if len(verts) == 2 * n:
+        local = np.asarray(verts, float).reshape(-1, 2)
+        pos = local @ world[:, :2].T + world[:, 2]
+    else:  # weighted: per vertex, a bone count, then (bone, x, y, weight) for each bone
+        pos = np.zeros((n, 2))
+        i = 0
+        for v in range(n):
+            count = int(verts[i])
+            i += 1
+            for _ in range(count):
+                b, x, y, w = int(verts[i]), verts[i + 1], verts[i + 2], verts[i + 3]
+                i += 4
+                m = bones[b].world
+                pos[v] += w * (m[:, :2] @ (x, y) + m[:, 2])
+    return uvs, pos, tris
+
+
+def _draw(canvas: np.ndarray, rgba: np.ndarray, uvs: np.ndarray, dst: np.ndarray, tris: np.ndarray) -> None:
+    """Composite an image drawn through a triangle mesh onto ``canvas`` (H, W, 3 float, 0..1).
+
+    When one affine map carries every vertex (a region, or a mesh made from one), the image is
+    warped once and masked by the triangles, so no seam shows between them.
+    """
+    import cv2
+
+    h, w = rgba.shape[:2]
+    src = uvs * (w, h)
+    ones = np.c_[src, np.ones(len(src))]
+    affine, *_ = np.linalg.lstsq(ones, dst, rcond=None)
+    pieces = [(affine.T, tris)] if np.abs(ones @ affine - dst).max() < 0.5 else [
+        (cv2.getAffineTransform(src[t].astype(np.float32), dst[t].astype(np.float32)), t[None]) for t in tris]
+    H, W = canvas.shape[:2]
+    for m, part in pieces:
+        x0, y0 = np.floor(dst[part.ravel()].min(axis=0)).astype(int).clip(0, (W, H))
+        x1, y1 = np.ceil(dst[part.ravel()].max(axis=0) + 1).astype(int).clip(0, (W, H))
+        if x1 <= x0 or y1 <= y0:
+            continue
+        m = np.asarray(m, float).copy()
+        m[:, 2] -= (x0, y0)
+        warped = cv2.warpAffine(rgba, m, (int(x1 - x0), int(y1 - y0)), flags=cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0)).astype(np.float32) / 255
+        inside = np.zeros(warped.shape[:2], np.uint8)
+        for t in part:
+            cv2.fillConvexPoly(inside, np.round((dst[t] - (x0, y0)) * 16).astype(np.int32), 1, shift=4)
+        a = warped[..., 3:4] * inside[..., None]
+        roi = canvas[y0:y1, x0:x1]
+        roi[:] = warped[..., :3] * a + roi * (1 - a)
+
+
+def setup_pose(doc: dict, source, upgraded: set[tuple[str, str]]) -> str:
+    """HTML (a PNG under an SVG) of a skeleton's setup pose, with the wireframes of ``upgraded``.
+
+    Parameters
+    ----------
+    doc : dict
+        The upgraded skeleton.
+    source : image source or None
+        Where the images come from (see :func:`spinemesh.project.image_source_for`).
+    upgraded : set of (slot, attachment name)
+        Attachments whose wireframe is drawn.
+    """
+    from ..errors import SpineMeshError
+    from ..rig.bones import skeleton_bones
+
+    bones = skeleton_bones(doc)
+    by_name = {b.name: b for b in bones}
+    skins = dict(iter_skins(doc))
+    default = skins.get("default", next(iter(skins.values()), {}))
+    parts = []
+    for slot in doc.get("slots", []):
+        if not isinstance(slot, dict) or slot.get("attachment") is None or slot.get("bone") not in by_name:
+            continue
+        name = str(slot["attachment"])
+        att = (default.get(slot.get("name")) or {}).get(name)
+        if not isinstance(att, dict):
+            continue
+        geometry = _attachment_geometry(att, by_name[slot["bone"]].world, bones)
+        if geometry is None:
+            continue
+        paths = image_paths(AttachmentRef("default", slot.get("name"), name, att))
+        parts.append((slot.get("name"), name, att, paths, geometry))
+    if not parts:
+        return "<p>The setup pose shows no region or mesh attachment.</p>"
+    everything = np.concatenate([g[1] for *_, g in parts])
+    lo, hi = everything.min(axis=0), everything.max(axis=0)
+    k = (POSE_SIZE - 20) / max(float((hi - lo).max()), 1e-6)
+    W, H = (np.ceil((hi - lo) * k) + 20).astype(int)
+
+    def to_canvas(p: np.ndarray) -> np.ndarray:  # skeleton y is up, pictures' y is down
+        return np.c_[(p[:, 0] - lo[0]) * k + 10, (hi[1] - p[:, 1]) * k + 10]
+
+    canvas = np.full((H, W, 3), 0.93, np.float32)
+    wires = []
+    for slot, name, att, paths, (uvs, pos, tris) in parts:
+        dst = to_canvas(pos)
+        if source is not None and paths:
+            try:
+                _draw(canvas, source.get(paths[0]).rgba, uvs, dst, tris)
+            except SpineMeshError:
+                pass  # a missing image: its wireframe (if upgraded) still shows where it is
+        if (slot, name) in upgraded and att.get("type") == "mesh":
+            wires.append(_mesh_svg(uvs, tris, int(att.get("hull", 0)), lambda _uv, d=dst: d, 1.0))
+    png = _png_uri((canvas * 255).round().astype(np.uint8))
+    return (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
+            f'alt="setup pose"><svg viewBox="0 0 {W} {H}" width="{W}" height="{H}">{"".join(wires)}</svg></div>')
+
+
+# --- the page ------------------------------------------------------------------------------
+
+_CSS = """
+body{font:14px/1.4 system-ui,sans-serif;margin:24px;color:#222;background:#fff}
+h1{font-size:22px}h2{font-size:18px;margin-top:32px}
+table.sum{border-collapse:collapse}table.sum td,table.sum th{padding:3px 10px;border-bottom:1px solid #ddd;text-align:right}
+table.sum td:first-child,table.sum th:first-child{text-align:left}
+.big{font-size:20px;font-weight:600;color:#146c2e}
+.pose{position:relative;margin:8px 0;border:1px solid #ccc}
+.pose img,.pose svg,.card .pic img,.card .pic svg{position:absolute;left:0;top:0}
+.cards{display:flex;flex-wrap:wrap;gap:14px}
+.card{border:1px solid #ccc;border-radius:6px;padding:8px;width:300px}
+.card .pic{position:relative;margin:auto;background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px}
+.card .name{font-weight:600;word-break:break-all}.card .who{color:#666;font-size:12px;word-break:break-all}
+.card td{padding:1px 6px}.card td:nth-child(2),.card td:nth-child(3){text-align:right}
+svg .tri{fill:none;stroke:#e0582b;stroke-opacity:.9}svg .hull{fill:none;stroke:#1f5fd1}
+svg .quad{fill:none;stroke:#c00;stroke-dasharray:5 4}
+.legend span{display:inline-block;margin-right:18px}.legend i{display:inline-block;width:22px;height:0;vertical-align:middle;margin-right:6px}
+"""
+
+_LEGEND = ('<p class="legend"><span><i style="border-top:3px dashed #c00"></i>old quad (what the region drew)</span>'
+           '<span><i style="border-top:3px solid #1f5fd1"></i>new mesh hull</span>'
+           '<span><i style="border-top:2px solid #e0582b"></i>new mesh triangles</span></p>')
+
+
+def _pct(part: int, whole: int) -> str:
+    return f"{100 * part / whole:.1f}%" if whole else "-"
+
+
+def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) -> str:
+    uvs, tris, hull = _mesh_arrays(att)
+    h, w = rgba.shape[:2]
+    pic = _fit(rgba, CARD_SIZE - 20)
+    ph, pw = pic.shape[:2]
+    k = pw / w
+    x0, y0, x1, y1 = box
+    stroke = 1.0 / k
+    svg = (f'<svg viewBox="0 0 {w} {h}" width="{pw}" height="{ph}">'
+           f'<rect x="{x0}" y="{y0}" width="{x1 - x0}" height="{y1 - y0}" class="quad" stroke-width="{1.5 * stroke:.2f}"/>'
+           + _mesh_svg(uvs, tris, hull, lambda uv: uv * (w, h), stroke) + "</svg>")
+    saved = rate.transparent_before - rate.transparent_after
+    rows = [("vertices", "4", str(len(uvs))), ("triangles", "2", str(len(tris))),
+            ("texels drawn", f"{rate.before:,}", f"{rate.after:,}"),
+            ("of them transparent", f"{rate.transparent_before:,}", f"{rate.transparent_after:,}")]
+    table = "<table><tr><td></td><td>region</td><td>mesh</td></tr>" + "".join(
+        f"<tr><td>{a}</td><td>{b}</td><td>{c}</td></tr>" for a, b, c in rows) + "</table>"
+    who = html.escape(", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else ""))
+    return (f'<div class="card"><div class="name">{html.escape(att.get("path") or names[0].rsplit("/", 1)[-1])}</div>'
+            f'<div class="who">{who}</div>'
+            f'<div class="pic" style="width:{pw}px;height:{ph}px"><img src="{_png_uri(pic)}" width="{pw}" '
+            f'height="{ph}" alt="">{svg}</div>{table}'
+            f'<div>transparent area no longer drawn: <b>{saved:,}</b> texels '
+            f'({_pct(saved, rate.transparent_before)} of it)</div></div>')
+
+
+def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
+                  images_in: str | Path | None = None) -> Path:
+    """Write ``folder/index.html`` for an upgrade run and return its path.
+
+    Parameters
+    ----------
+    result : spinemesh.upgrade.run.Result
+        What :func:`~spinemesh.upgrade.upgrade_project` returned.
+    project : path
+        The project (folder or skeleton file) that was upgraded: images are read from it.
+    out : path
+        The output folder the upgraded skeletons were written to.
+    images_in : path, optional
+        The ``--from-images`` folder, if the run used one.
+    """
+    from ..errors import SpineMeshError
+
+    proj = find_project(project)
+    out, folder = Path(out), Path(folder)
+    total = FillRate(0, 0, 0, 0)
+    sections = []
+    for rel in result.written:
+        targets = [t for t in result.targets if t.skeleton == rel and t.status == "meshed"]
+        try:
+            doc = load_skeleton(out / rel)
+            source = image_source_for(load_skeleton(proj.root / rel), proj.root / rel, proj, images=images_in)
+        except SpineMeshError as e:
+            sections.append(f"<h2>{html.escape(rel)}</h2><p>not shown: {html.escape(str(e))}</p>")
+            continue
+        cards, seen = [], {}
+        for t in targets:
+            seen.setdefault(t.key, []).append(t)
+        skeleton_rate = FillRate(0, 0, 0, 0)
+        for key, group in seen.items():
+            t = group[0]
+            att = _find(doc, t.skin, t.slot, t.name)
+            if att is None or source is None:
+                continue
+            image = source.get(t.paths[0])
+            uvs, tris, _ = _mesh_arrays(att)
+            rate = fill_rate(image.rgba, image.content, uvs, tris)
+            for _ in group:  # every attachment drawing this image saves as much
+                skeleton_rate = skeleton_rate + rate
+            cards.append((rate.transparent_before - rate.transparent_after,
+                          _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
+        total = total + skeleton_rate
+        cards.sort(key=lambda c: -c[0])
+        upgraded = {(t.slot, t.name) for t in targets if t.skin == "default"} or {(t.slot, t.name) for t in targets}
+        sections.append(
+            f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
+            f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
+            f"(−{_pct(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
+            f" Setup pose, drawn from the upgraded skeleton; wireframes of the new meshes:</p>"
+            + setup_pose(doc, source, upgraded)
+            + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
+            + "".join(c for _, c in cards) + "</div>")
+    counts = result.counts()
+    saved = total.transparent_before - total.transparent_after
+    summary = (
+        f'<p class="big">{_pct(saved, total.transparent_before)} fewer transparent texels drawn</p>'
+        '<table class="sum"><tr><th></th><th>regions (before)</th><th>meshes (after)</th><th>change</th></tr>'
+        f"<tr><td>texels drawn</td><td>{total.before:,}</td><td>{total.after:,}</td>"
+        f"<td>−{_pct(total.before - total.after, total.before)}</td></tr>"
+        f"<tr><td>of them fully transparent</td><td>{total.transparent_before:,}</td>"
+        f"<td>{total.transparent_after:,}</td><td>−{_pct(saved, total.transparent_before)}</td></tr></table>"
+        f"<p>Attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
+        f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
+        "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>")
+    page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh upgrade: "
+            f"{html.escape(proj.root.name)}</title><style>{_CSS}</style></head><body>"
+            f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>"
+            f"{summary}{''.join(sections)}</body></html>\n")
+    path = folder / "index.html"
+    atomic_write_text(path, page)
+    return path

@@ -1,0 +1,210 @@
+"""The command line as a user meets it: start-up, options, output folders, exit codes.
+
+Everything runs on the demo project drawn by our own code (no ../shared data needed).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from spinemesh.demo import make_demo_project
+
+REPO = Path(__file__).resolve().parents[1]
+COMMANDS = ["info", "convert", "segment", "segment-eval", "train", "segment-export", "dataset", "dataset-stats",
+            "mesh", "diff", "upgrade"]
+HEAVY = ("numpy", "cv2", "onnxruntime", "matplotlib", "PIL", "torch", "scipy")
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS="200")
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], capture_output=True, text=True, env=env,
+                          cwd=cwd)
+
+
+@pytest.fixture
+def demo(tmp_path) -> Path:
+    return make_demo_project(tmp_path / "demo")
+
+
+# --- start-up -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args", [["--help"], ["upgrade", "--help"], ["mesh", "--help"], ["convert", "--help"],
+                                  ["--version"]])
+def test_help_imports_nothing_heavy(args):
+    """`--help` and `--version` load typer and our option definitions only (issue 19: start-up)."""
+    code = ("import sys, runpy; sys.argv = ['spinemesh', *%r]\n"
+            "try:\n    runpy.run_module('spinemesh', run_name='__main__')\n"
+            "except SystemExit:\n    pass\n"
+            "print('LOADED', sorted(m for m in %r if m in sys.modules))" % (args, HEAVY))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "LOADED []" in r.stdout, r.stdout[-500:] + r.stderr[-2000:]
+
+
+def test_convert_imports_no_image_library(tmp_path):
+    """numpy is allowed: it writes float32 values as their shortest decimals, faster than Python."""
+    doc = tmp_path / "d"
+    make_demo_project(doc, with_images_folder=False)
+    code = ("import sys, runpy; sys.argv = ['spinemesh', 'convert', %r, %r]\n"
+            "try:\n    runpy.run_module('spinemesh', run_name='__main__')\n"
+            "except SystemExit as e:\n    assert not e.code, e.code\n"
+            "print('LOADED', sorted(m for m in %r if m in sys.modules))"
+            % (str(doc / "demo-binary.skel"), str(tmp_path / "o.json"), HEAVY[1:]))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "LOADED []" in r.stdout, r.stdout[-500:] + r.stderr[-2000:]
+    assert json.loads((tmp_path / "o.json").read_text())["skeleton"]["spine"].startswith("4.2")
+
+
+# --- options --------------------------------------------------------------------------------
+
+def test_version():
+    from spinemesh import __version__
+
+    r = run("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"spinemesh {__version__}"
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_help_has_an_example_and_no_team_paths(command):
+    r = run(command, "--help")
+    assert r.returncode == 0, r.stderr
+    assert "Example" in r.stdout
+    for internal in ("../shared", "spine-examples", "spine-corpus", "--shared"):
+        assert internal not in r.stdout, f"{command} --help mentions {internal}"
+
+
+def test_the_package_never_names_team_paths():
+    """The product (code, help, defaults) does not point at this team's data folders."""
+    for path in (REPO / "spinemesh").rglob("*"):
+        if path.suffix in (".py", ".json", ".txt", ".md", ".atlas") and path.is_file():
+            text = path.read_text(encoding="utf-8", errors="replace")
+            for internal in ("../shared", "spine-examples", "spine-corpus"):
+                assert internal not in text, f"{path.relative_to(REPO)} mentions {internal}"
+
+
+def test_choices_match_the_library():
+    from spinemesh.cli._app import MaskSource, Preset
+    from spinemesh.mesher import PRESETS
+    from spinemesh.segment import MASK_MODES
+
+    assert sorted(p.value for p in Preset) == sorted(PRESETS)
+    assert sorted(m.value for m in MaskSource) == sorted(MASK_MODES)
+
+
+def test_mask_defaults_to_auto_everywhere():
+    for command in ("mesh", "upgrade", "segment"):
+        r = run(command, "--help")
+        line = " ".join(r.stdout.split())
+        assert "--mask [auto|alpha|model]" in line or "--mask <auto|alpha|model>" in line, line
+        assert line.split("--mask", 1)[1].split("--", 1)[0].count("[default: auto]") == 1, command
+
+
+@pytest.mark.parametrize("bad", [["--preset", "nope"], ["--mask", "alfa"], ["--density", "0"],
+                                 ["--density", "-3"], ["--density", "nan"], ["--density", "inf"],
+                                 ["--max-vertices", "2"], ["--jobs", "0"], ["--min-size", "-1"]])
+def test_bad_option_values_are_refused_in_one_line(demo, tmp_path, bad):
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "o"), *bad)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr and "Invalid value" in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_mesh_writes_into_the_current_folder_not_beside_the_art(demo, tmp_path):
+    here = tmp_path / "here"
+    here.mkdir()
+    art = demo / "images" / "demo-head.png"
+    before = sorted(p.name for p in art.parent.iterdir())
+    r = run("mesh", str(art), cwd=here)
+    assert r.returncode == 0, r.stderr
+    assert (here / "demo-head.mesh.json").is_file()
+    assert sorted(p.name for p in art.parent.iterdir()) == before
+    r = run("mesh", str(demo / "images" / "demo-spark"), cwd=here)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (here / "demo-spark-meshes").iterdir()) == [
+        "frame1.json", "frame2.json", "frame3.json"]
+
+
+# --- output folder --------------------------------------------------------------------------
+
+def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
+    out = tmp_path / "out"
+    assert run("upgrade", str(demo), "--out", str(out)).returncode == 0
+    (out / "stale.txt").write_text("from an earlier run")
+    r = run("upgrade", str(demo), "--out", str(out))
+    assert r.returncode == 2 and "--overwrite" in r.stderr and "Traceback" not in r.stderr
+    assert (out / "stale.txt").exists()
+    r = run("upgrade", str(demo), "--out", str(out), "--overwrite", "--only", "demo-head")
+    assert r.returncode == 0, r.stderr
+    assert not (out / "stale.txt").exists(), "--overwrite replaces the folder as a whole"
+    assert (out / "demo.json").is_file()
+
+
+def test_overwrite_never_deletes_a_folder_we_did_not_write(demo, tmp_path):
+    mine = tmp_path / "documents"
+    mine.mkdir()
+    (mine / "thesis.txt").write_text("precious")
+    r = run("upgrade", str(demo), "--out", str(mine), "--overwrite")
+    assert r.returncode == 2 and "not written by spinemesh" in r.stderr
+    assert (mine / "thesis.txt").read_text() == "precious"
+
+
+def test_a_report_is_not_a_skeleton(demo, tmp_path):
+    out = tmp_path / "out"
+    r = run("upgrade", str(demo), "--out", str(out), "--report", str(out / "report.json"))
+    assert r.returncode == 0, r.stderr
+    info = run("info", str(out))
+    assert info.returncode == 0, info.stderr
+    assert "report.json" not in info.stdout and "demo.json" in info.stdout
+
+
+def test_one_skeleton_file_brings_only_what_it_needs(demo, tmp_path):
+    out = tmp_path / "out"
+    r = run("upgrade", str(demo / "demo.json"), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()
+                     and not p.name.startswith("."))
+    assert written == ["demo.atlas", "demo.json", "demo.png"], written  # not its twin demo-binary.skel
+
+
+# --- exit codes and messages ----------------------------------------------------------------
+
+def test_deliberate_skips_exit_0_and_are_counted_as_kept(demo, tmp_path):
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "o"), "--min-size", "95",
+            "--report", str(tmp_path / "r.json"))
+    assert r.returncode == 0, r.stderr
+    assert "kept as region" in r.stdout and "smaller than --min-size 95" in r.stdout
+    rows = json.loads((tmp_path / "r.json").read_text())["attachments"]
+    assert {t["status"] for t in rows} == {"meshed", "kept"}
+
+
+def test_only_that_matches_nothing_warns_with_a_hint(demo, tmp_path):
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "o"), "--only", "no-such-*")
+    assert r.returncode == 1
+    assert "warning" in r.stderr and "--only 'head*'" in r.stderr
+
+
+def test_empty_folder_warns_with_a_hint(tmp_path):
+    (tmp_path / "empty").mkdir()
+    r = run("upgrade", str(tmp_path / "empty"), "--out", str(tmp_path / "o"))
+    assert r.returncode == 1 and "no Spine skeleton found" in r.stderr
+    r = run("info", str(tmp_path / "empty"))
+    assert r.returncode == 1 and "no Spine skeleton" in r.stderr
+
+
+def test_an_upgraded_project_has_nothing_to_do(demo, tmp_path):
+    assert run("upgrade", str(demo), "--out", str(tmp_path / "a")).returncode == 0
+    r = run("upgrade", str(tmp_path / "a"), "--out", str(tmp_path / "b"))
+    assert r.returncode == 0 and "nothing to upgrade" in r.stderr and "already a mesh" in r.stderr
+
+
+def test_a_failure_exits_3(demo, tmp_path):
+    doc = json.loads((demo / "demo.json").read_text())
+    doc["skins"][0]["attachments"]["head"]["ghost"] = {"width": 10, "height": 10}
+    (demo / "demo.json").write_text(json.dumps(doc))
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "o"))
+    assert r.returncode == 3 and "ghost" in r.stderr
