@@ -6,7 +6,7 @@ Every field of :class:`MesherParams` can be overridden per call:
 Two presets:
 
 ``paper``
-    Exactly the parameters of section 3 of *SpriteToMesh* (``../shared/paper``): alpha
+    Exactly the parameters of section 3 of the *SpriteToMesh* paper: alpha
     threshold 128, DP with 0.003 P and 50 target exterior vertices, bilateral + multi-channel
     Canny interior vertices, plain Delaunay with the centroid-in-mask filter. Use it to
     reproduce and compare the paper's numbers; it may clip art and may leave several loops.
