@@ -15,24 +15,64 @@ from conftest import SHARED
 TOOL = SHARED / "tools" / "spine-runtime"
 
 
-def install(dest: Path) -> Path | None:
-    """Copy the tool (``../shared`` is read-only) and ``npm ci`` it; None if Node is missing."""
-    if not TOOL.is_dir() or not shutil.which("node") or not shutil.which("npm"):
-        return None
+class ToolUnavailable(Exception):
+    """The runtime tool cannot be set up here; the message says why."""
+
+
+#: ``npm ci`` fetches nothing when the npm cache has the packages, but a cold cache on a
+#: slow network can take minutes; past this it is reported rather than waited for.
+NPM_CI_TIMEOUT_S = 600
+
+
+def install(dest: Path) -> Path:
+    """Copy the tool (``../shared`` is read-only) to ``dest`` and ``npm ci`` it, once.
+
+    A later call with the same ``dest`` (another pytest-xdist worker) reuses a finished
+    install. Raises :class:`ToolUnavailable` with the cause, and npm's own error output
+    when ``npm ci`` fails or times out.
+    """
+    done = dest / ".installed"
+    if done.is_file():
+        return dest
+    if not (TOOL / "package.json").is_file():
+        raise ToolUnavailable(f"{TOOL} is absent")
+    for program in ("node", "npm"):
+        if not shutil.which(program):
+            raise ToolUnavailable(f"{program} is not installed (the official Spine runtime runs on Node)")
+    if dest.exists():
+        shutil.rmtree(dest)  # a half-done install of an interrupted run
     shutil.copytree(TOOL, dest, ignore=shutil.ignore_patterns("node_modules"))
-    r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True)
-    return dest if r.returncode == 0 else None
+    try:
+        r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True,
+                           timeout=NPM_CI_TIMEOUT_S)
+    except subprocess.TimeoutExpired as e:
+        err = e.stderr.decode(errors="replace") if isinstance(e.stderr, bytes) else e.stderr or ""
+        raise ToolUnavailable(f"npm ci in {dest} took over {NPM_CI_TIMEOUT_S} s: {err[-2000:]}") from None
+    if r.returncode != 0:
+        raise ToolUnavailable(f"npm ci in {dest} failed ({r.returncode}):\n{(r.stdout + r.stderr)[-3000:]}")
+    done.write_text("ok\n")
+    return dest
 
 
 def node(tool: Path, *args) -> subprocess.CompletedProcess:
     return subprocess.run(["node", *map(str, args)], cwd=tool, capture_output=True, text=True, timeout=300)
 
 
-def render(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, prefix: Path,
-           frame_from: Path | None = None) -> list[Path]:
-    args = ["render.mjs", atlas, skeleton, "--out", prefix]
+def _pose_args(anim: str | None, times: str, poses: str | None, skin: str | None) -> list:
+    """Harness options for one animation at ``times``, a ``--poses`` list, a skin."""
+    args = []
     if anim:
         args += ["--anim", anim, "--times", times]
+    if poses:
+        args += ["--poses", poses]
+    if skin:
+        args += ["--skin", skin]
+    return args
+
+
+def render(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, prefix: Path,
+           frame_from: Path | None = None, poses: str | None = None, skin: str | None = None) -> list[Path]:
+    args = ["render.mjs", atlas, skeleton, "--out", prefix, *_pose_args(anim, times, poses, skin)]
     if frame_from:
         args += ["--frame-from", frame_from]
     r = node(tool, *args)
@@ -40,10 +80,9 @@ def render(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str
     return sorted(prefix.parent.glob(prefix.name + ".*.png"))
 
 
-def dump(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, out: Path) -> None:
-    args = ["dump.mjs", atlas, skeleton, "--out", out]
-    if anim:
-        args += ["--anim", anim, "--times", times]
+def dump(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, out: Path,
+         poses: str | None = None, skin: str | None = None) -> None:
+    args = ["dump.mjs", atlas, skeleton, "--out", out, *_pose_args(anim, times, poses, skin)]
     r = node(tool, *args)
     assert r.returncode == 0, f"dump of {skeleton} failed: {r.stderr[-2000:]}"
 
@@ -56,16 +95,23 @@ def compare_dumps(tool: Path, a: Path, b: Path) -> tuple[bool, str]:
 def render_difference(a: Path, b: Path, tol: int = 2) -> dict:
     """Share of pixels off by more than ``tol``/255, and pixels visible in ``a`` (alpha >= 8) lost in ``b``.
 
+    Also: ``worst``, the largest difference in /255; ``off``, how many pixels are off;
+    ``added``, pixels visible in ``b`` where ``a`` draws nothing (alpha 0).
+
     Colours are compared premultiplied by alpha, as they are composited: the PNGs store
     straight colour, and a pixel with alpha 0 may carry any colour there (a mesh drawn over
     transparent texels leaves their colour in it) while it shows nothing.
     """
     pa = _premultiplied(np.asarray(Image.open(a).convert("RGBA")).astype(int))
     pb = _premultiplied(np.asarray(Image.open(b).convert("RGBA")).astype(int))
-    off = np.abs(pa - pb).max(-1) > tol
+    delta = np.abs(pa - pb).max(-1)
+    off = delta > tol
     lost = (pa[..., 3] >= 8) & (pb[..., 3] == 0)
+    added = (pb[..., 3] >= 8) & (pa[..., 3] == 0)
     return {"off_share": float(off.mean()), "lost": int(lost.sum()), "visible": int((pa[..., 3] >= 8).sum()),
-            "lost_where": [tuple(map(int, p)) for p in np.argwhere(lost)[:5]]}
+            "lost_where": [tuple(map(int, p)) for p in np.argwhere(lost)[:5]],
+            "worst": int(delta.max(initial=0)), "off": int(off.sum()), "added": int(added.sum()),
+            "added_where": [tuple(map(int, p)) for p in np.argwhere(added)[:5]]}
 
 
 def _premultiplied(rgba: np.ndarray) -> np.ndarray:
