@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .fields import _put, color, fld, index, seq, text
 from .layout import Context, Layout
-from .timelines import _slider_body, _transform_values_43, _bone_body, _deform_values, _path_body, _physics_body, _sequence_frames, _slot_body, _time, _transform_values, _typed_groups, curve_timeline, ik_timeline
+from .timelines import _physics_body_43, _slider_body, _transform_values_43, _bone_body, _deform_values, _path_body, _physics_body, _sequence_frames, _slot_body, _time, _transform_values, _typed_groups, curve_timeline, ik_timeline
 
 
 def attachment_timelines(s, anim: dict, c: Context) -> None:
@@ -224,8 +224,8 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
         # Index 0 means every physics constraint: the JSON's "" key.
         names = [""] + c.physics[0]
         lookup = {n: i for i, n in reversed(list(enumerate(names)))}
-        got = _typed_groups(s, None if s.reading else anim.get("physics", {}), names, lookup,
-                            "physics", _physics_body)
+        got = _typed_groups(s, None if s.reading else anim.get("physics", {}), names, lookup, "physics",
+                            _physics_body_43 if c.L.constraint_list else _physics_body)
         if s.reading and got:
             anim["physics"] = got
     if c.L.constraint_list:

@@ -300,7 +300,7 @@ def _path_body(s, timelines, kind):
         timelines[name] = frames
 
 
-def _physics_body(s, timelines, kind):
+def _physics_body(s, timelines, kind, mix_values=None):
     t = _type_byte(s, kind, _PHYSICS_NAMES, "physics")
     name = PHYSICS_TIMELINES[t]
     if name == "reset":
@@ -317,9 +317,15 @@ def _physics_body(s, timelines, kind):
             for f in frames:
                 _time(s, f)
         return
-    frames = curve_timeline(s, None if s.reading else timelines[kind], _V0, 1)
+    values = mix_values if name == "mix" and mix_values is not None else _V0
+    frames = curve_timeline(s, None if s.reading else timelines[kind], values, 1)
     if s.reading:
         timelines[name] = frames
+
+
+def _physics_body_43(s, timelines, kind):
+    """4.3's JSON: a physics mix key's value defaults to 1 (4.2: 0, like the others)."""
+    _physics_body(s, timelines, kind, _V1)
 
 
 def ik_timeline(s, frames: list | None, c: Context) -> list:
