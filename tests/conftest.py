@@ -1,7 +1,14 @@
-"""Shared fixtures: the real Spine data in ../shared, skipped cleanly when absent."""
+"""Shared fixtures: the real Spine data in ../shared and the official runtime tool.
+
+A proof that cannot run is never silently a pass. Outside CI, tests that need
+``../shared`` (or Node, npm, Chromium) skip with the reason; in CI (``CI=true``) the same
+absence is a failure, with the reason (and a failed install's own error output) shown.
+"""
 
 from __future__ import annotations
 
+import fcntl
+import os
 from pathlib import Path
 
 import pytest
@@ -12,10 +19,20 @@ EXAMPLES = SHARED / "spine-examples"
 CORPUS = SHARED / "spine-corpus"
 VERSIONS = ["3.6", "3.7", "3.8", "4.0", "4.1", "4.2"]
 
+#: CI sets ``CI=true``: there every proof must run.
+IN_CI = os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
+
+
+def unavailable(reason: str) -> None:
+    """A test's proof cannot run: a failure in CI, a skip with ``reason`` elsewhere."""
+    if IN_CI:
+        pytest.fail(f"{reason} (CI=true: a proof that cannot run fails)", pytrace=False)
+    pytest.skip(reason)
+
 
 def _need(path: Path) -> Path:
     if not path.is_dir():
-        pytest.skip(f"{path} is absent: real Spine data is needed for this test")
+        unavailable(f"{path} is absent: real Spine data is needed for this test")
     return path
 
 
@@ -27,8 +44,28 @@ def examples() -> Path:
 
 @pytest.fixture(scope="session")
 def corpus() -> Path:
-    """``../shared/spine-corpus``: 61 real game projects."""
+    """``../shared/spine-corpus``: real game projects."""
     return _need(CORPUS)
+
+
+@pytest.fixture(scope="session")
+def spine_runtime(tmp_path_factory, examples) -> Path:
+    """``../shared/tools/spine-runtime`` with its packages, installed once per test run.
+
+    Under pytest-xdist every worker is a session of its own; they share one install
+    (the first to take the lock runs ``npm ci``, the others reuse its result).
+    """
+    from runtime_tool import ToolUnavailable, install
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # shared by all workers of this run
+    with open(root / "spine-runtime.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            return install(root / "spine-runtime")
+        except ToolUnavailable as e:
+            unavailable(str(e))
 
 
 def example_projects(version: str) -> list[Path]:

@@ -398,23 +398,6 @@ def test_corpus_json_writes_skel_that_reads_back(corpus):
 RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"
 
 
-@pytest.fixture(scope="module")
-def spine_runtime(tmp_path_factory) -> Path:
-    """The runtime tool, installed once into a temporary copy (needs Node and npm)."""
-    import shutil
-    import subprocess
-
-    if not (RUNTIME / "dump.mjs").is_file() or not shutil.which("node") or not shutil.which("npm"):
-        pytest.skip("the spine-runtime tool, node or npm is absent")
-    dest = tmp_path_factory.mktemp("rt") / "spine-runtime"
-    shutil.copytree(RUNTIME, dest, ignore=shutil.ignore_patterns("node_modules"))
-    r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True,
-                       timeout=300)
-    if r.returncode:
-        pytest.skip(f"npm ci failed: {r.stderr[-300:]}")
-    return dest
-
-
 def _dump(runtime: Path, atlas: Path, skeleton: Path, out: Path, anim: str) -> dict:
     import subprocess
 
