@@ -53,7 +53,7 @@ class FillRate:
 
 
 def mesh_raster(uvs: np.ndarray, triangles: np.ndarray, width: int, height: int) -> np.ndarray:
-    """Texels whose centre a mesh covers, shape (height, width), bool.
+    """Texels whose centre a mesh covers (edges included), shape (height, width), bool.
 
     Parameters
     ----------
@@ -61,14 +61,23 @@ def mesh_raster(uvs: np.ndarray, triangles: np.ndarray, width: int, height: int)
         Vertex UVs, 0..1 over the image.
     triangles : ndarray, shape (M, 3)
     """
-    import cv2
+    pts = np.asarray(uvs, float) * (width, height)
+    out = np.zeros((height, width), bool)
+    for tri in np.asarray(triangles, int).reshape(-1, 3):
+        a, b, c = pts[tri]
+        x0, y0 = np.floor(np.minimum(np.minimum(a, b), c)).astype(int).clip(0, (width, height))
+        x1, y1 = np.ceil(np.maximum(np.maximum(a, b), c)).astype(int).clip(0, (width, height))
+        if x1 <= x0 or y1 <= y0:
+            continue
+        cx, cy = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
 
-    canvas = np.zeros((height, width), np.uint8)
-    # Sub-pixel precision (4 fractional bits), texel centres at integer + 0.5.
-    pts = np.round((uvs * (width, height) - 0.5) * 16).astype(np.int32)
-    for tri in triangles:
-        cv2.fillConvexPoly(canvas, pts[tri], 1, lineType=cv2.LINE_8, shift=4)
-    return canvas.astype(bool)
+        def side(p, q):  # signed area of (p, q, centre): which side of edge p->q each centre lies on
+            return (q[0] - p[0]) * (cy - p[1]) - (q[1] - p[1]) * (cx - p[0])
+
+        s1, s2, s3 = side(a, b), side(b, c), side(c, a)
+        inside = ((s1 >= 0) & (s2 >= 0) & (s3 >= 0)) | ((s1 <= 0) & (s2 <= 0) & (s3 <= 0))
+        out[y0:y1, x0:x1] |= inside
+    return out
 
 
 def fill_rate(rgba: np.ndarray, box: tuple[int, int, int, int], uvs: np.ndarray,
@@ -267,7 +276,7 @@ table.sum td:first-child,table.sum th:first-child{text-align:left}
 .pose img,.pose svg,.card .pic img,.card .pic svg{position:absolute;left:0;top:0}
 .cards{display:flex;flex-wrap:wrap;gap:14px}
 .card{border:1px solid #ccc;border-radius:6px;padding:8px;width:300px}
-.card .pic{position:relative;margin:auto;background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px}
+.card .pic{position:relative;margin:auto;image-rendering:pixelated;background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px}
 .card .name{font-weight:600;word-break:break-all}.card .who{color:#666;font-size:12px;word-break:break-all}
 .card td{padding:1px 6px}.card td:nth-child(2),.card td:nth-child(3){text-align:right}
 svg .tri{fill:none;stroke:#e0582b;stroke-opacity:.9}svg .hull{fill:none;stroke:#1f5fd1}
@@ -288,8 +297,8 @@ def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) ->
     uvs, tris, hull = _mesh_arrays(att)
     h, w = rgba.shape[:2]
     pic = _fit(rgba, CARD_SIZE - 20)
-    ph, pw = pic.shape[:2]
-    k = pw / w
+    k = min((CARD_SIZE - 20) / max(w, h), 4.0)  # small sprites are shown up to 4x, texels kept square
+    pw, ph = max(1, round(w * k)), max(1, round(h * k))
     x0, y0, x1, y1 = box
     stroke = 1.0 / k
     svg = (f'<svg viewBox="0 0 {w} {h}" width="{pw}" height="{ph}">'
