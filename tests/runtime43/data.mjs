@@ -36,7 +36,7 @@ function ser(v, top) {
 }
 
 function skin(s) {
-  const entries = s.getAttachments().map((e) => [e.slotIndex, e.name, ser(e.attachment, true)]);
+  const entries = s.getAttachments().map((e) => [e.slotIndex, e.placeholder, ser(e.attachment, true)]);
   entries.sort((a, b) => a[0] - b[0] || (a[1] < b[1] ? -1 : a[1] > b[1] ? 1 : 0));
   return { name: s.name, bones: s.bones.map((b) => b.name), constraints: s.constraints.map((c) => c.name),
     color: ser(s.color, false), attachments: entries };
