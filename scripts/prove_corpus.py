@@ -109,19 +109,20 @@ def harness_copy(path: Path, binary: bool, work: Path) -> Path:
 
 
 def harness_atlas(atlas: Path, work: Path) -> Path:
-    """``atlas`` as the harness can load it: premultiplied pages must be PNG there.
+    """``atlas`` as the harness can read it whole: its pages must be PNG there.
 
-    The harness decodes premultiplied pages with its own PNG decoder (to upload the texels
-    as they are stored); other formats (WebP) are decoded here, losslessly, and written as
-    PNG beside a copy of the atlas naming them. Original and upgrade are rendered from the
-    same copy. Atlases that need nothing are used as they are.
+    The harness decodes premultiplied pages (to upload the texels as they are stored) and,
+    in the dump check, every page with its own PNG decoder; other formats (WebP, JPEG) are
+    decoded here and written as PNG beside a copy of the atlas naming them (the same texels:
+    WebP is decoded without premultiplying). Original and upgrade are rendered from the
+    same copy. Atlases with PNG pages only are used as they are.
     """
     from PIL import Image
 
     from spinemesh.atlas import read_atlas
 
     parsed = read_atlas(atlas)
-    convert = [p for p in parsed.pages if p.pma and not p.name.lower().endswith(".png")]
+    convert = [p for p in parsed.pages if not p.name.lower().endswith(".png")]
     if not convert:
         return atlas
     dest = work / "atlas"
@@ -166,7 +167,8 @@ def atlas_for(doc: dict, skeleton: Path, project_root: Path) -> tuple[Path | Non
     return atlases[0].path, ""
 
 
-def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row) -> Row:
+def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
+                   animations: int = ANIMATIONS) -> Row:
     """Render and dump ``skeleton`` and its upgrade in ``out``; fill in ``row``."""
     doc = load_skeleton(skeleton)
     row.version = spine_version(doc)
@@ -190,7 +192,7 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
         atlas = b_atlas = harness_atlas(atlas, work)
     clipped = any(r.type == "clipping" for r in iter_attachments(doc))
     max_share = CLIPPED_OFF_SHARE if clipped else MAX_OFF_SHARE
-    poses = pose_list(doc)
+    poses = pose_list(doc, animations)
     problems, dumps_ok = [], True
     for k, skin in enumerate(skins_to_render(doc)):
         tag = f"{k}"
@@ -216,7 +218,8 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
         ok, text = compare_dumps(tool, work / f"a{tag}.dump.json", work / f"b{tag}.dump.json")
         if not ok:
             dumps_ok = False
-            problems.append("dump: " + " | ".join(line for line in text.splitlines() if line.startswith("FAIL"))[:600])
+            fails = [line for line in text.splitlines() if line.startswith("FAIL")] or text.strip().splitlines()[-1:]
+            problems.append("dump: " + " | ".join(fails)[:600])
     row.dump_ok = dumps_ok
     row.details = problems
     row.status = "FAIL" if problems else "pass"
@@ -225,16 +228,34 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
     return row
 
 
-def prove_project(tool: Path, project: Path, work: Path, mesh_cache: dict | None = None) -> list[Row]:
-    """Upgrade ``project`` into ``work`` and prove each of its skeletons; one row per skeleton."""
+def prove_project(tool: Path, project: Path, work: Path, mesh_cache: dict | None = None,
+                  animations: int = ANIMATIONS) -> list[Row]:
+    """Upgrade ``project`` (a folder, or one skeleton file) into ``work`` and prove each skeleton.
+
+    Returns one :class:`Row` per skeleton.
+    """
     out = work / "out"
+    given = project
+    skeletons = find_project(project).skeletons
+    if project.is_file():
+        project = project.parent
     name = project.name
+    versions = {}
+    for skeleton in skeletons:
+        try:
+            versions[skeleton] = spine_version(load_skeleton(skeleton))
+        except SpineMeshError:
+            versions[skeleton] = "?"
+    if not any(v[:3] in RENDERABLE for v in versions.values()):
+        # Nothing the harness can render: not worth meshing here.
+        return [Row(name, s.relative_to(project).as_posix(), v, status="not rendered",
+                    cause=f"Spine {v}: the harness has no runtime for it") for s, v in versions.items()]
     try:
-        result = upgrade_project(project, out, Options(), mesh_cache=mesh_cache)
+        result = upgrade_project(given, out, Options(), mesh_cache=mesh_cache)
     except SpineMeshError as e:
         return [Row(name, "-", status="FAIL", cause=f"upgrade refused the project: {e}")]
     rows = []
-    for skeleton in find_project(project).skeletons:
+    for skeleton in skeletons:
         rel = skeleton.relative_to(project).as_posix()
         row = Row(name, rel)
         mine = [t for t in result.targets if t.skeleton == rel]
@@ -244,7 +265,7 @@ def prove_project(tool: Path, project: Path, work: Path, mesh_cache: dict | None
         scratch = work / "render" / rel.replace("/", "~")
         scratch.mkdir(parents=True, exist_ok=True)
         try:
-            prove_skeleton(tool, project, out, skeleton, scratch, row)
+            prove_skeleton(tool, project, out, skeleton, scratch, row, animations)
         except (AssertionError, SpineMeshError) as e:  # the harness failed to load or render
             row.status, row.cause = "FAIL", f"harness: {str(e).strip().splitlines()[-1][:300]}"
         if failed and row.status == "pass":
@@ -279,6 +300,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path, help="project folders (default: every corpus project)")
     ap.add_argument("--only", action="append", default=[], help="glob on project names; repeatable")
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
+    ap.add_argument("--animations", type=int, default=ANIMATIONS, help="animations sampled per skeleton")
     ap.add_argument("--keep", type=Path, help="keep upgrades and renders here (default: a temporary folder)")
     args = ap.parse_args(argv)
     projects = args.projects or sorted(p for p in CORPUS.iterdir() if p.is_dir())
@@ -294,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         work = base / project.name
         shutil.rmtree(work, ignore_errors=True)
-        new = prove_project(tool, project, work, cache)
+        new = prove_project(tool, project, work, cache, args.animations)
         rows += new
         for r in new:
             print(f"{r.project}/{r.skeleton}: {r.status} {r.cause} {r.details[:3]}", file=sys.stderr, flush=True)
