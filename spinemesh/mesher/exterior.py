@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
-from .geometry import changed_edges, clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
+from .geometry import clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 
 # --------------------------------------------------------------------------- paper
@@ -129,7 +129,7 @@ def bridge_islands(mask: np.ndarray, width: int = 3) -> np.ndarray:
     if n <= 2:
         return mask
     out = mask.astype(np.uint8).copy()
-    # boundary points of each piece, thinned so that the pairwise distances stay cheap
+    # boundary points of each piece, thinned to at most ~200 per piece
     # RETR_LIST: pieces lying inside another piece's hole have no external contour of their own
     contours, _ = cv2.findContours(out, cv2.RETR_LIST, cv2.CHAIN_APPROX_SIMPLE)
     pieces: dict[int, list] = {}
@@ -138,33 +138,71 @@ def bridge_islands(mask: np.ndarray, width: int = 3) -> np.ndarray:
         lab = int(labels[c[0, 1], c[0, 0]])
         pieces.setdefault(lab, []).append(c)
     labs = sorted(pieces)
-    pts = []
-    for lab in labs:
+    pts, owner = [], []
+    for i, lab in enumerate(labs):
         p = np.concatenate(pieces[lab])
         step = max(1, len(p) // 200)
         pts.append(p[::step].astype(np.float64))
-    # Prim's algorithm over pieces with the closest-point distance
-    k = len(labs)
-    in_tree = np.zeros(k, bool)
-    in_tree[0] = True
-    best = np.full(k, np.inf)
-    best_pair: list = [None] * k
-    last = 0
-    for _ in range(k - 1):
-        for j in range(k):
-            if in_tree[j]:
-                continue
-            d = np.hypot(*(pts[last][:, None, :] - pts[j][None, :, :]).transpose(2, 0, 1))
-            a, b = np.unravel_index(int(np.argmin(d)), d.shape)
-            if d[a, b] < best[j]:
-                best[j] = d[a, b]
-                best_pair[j] = (pts[last][a], pts[j][b])
-        cand = np.where(in_tree, np.inf, best)
-        j = int(np.argmin(cand))
-        p, q = best_pair[j]
+        owner.append(np.full(len(pts[-1]), i))
+    for p, q in _bridges(pts, np.concatenate(owner)):
         cv2.line(out, (int(p[0]), int(p[1])), (int(q[0]), int(q[1])), 1, width)
-        in_tree[j] = True
-        last = j
+    return out.astype(bool)
+
+
+def _bridges(pts: list[np.ndarray], owner: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The shortest bridges that join all pieces: a minimum spanning tree over pieces.
+
+    Parameters
+    ----------
+    pts : list of ndarray, shape (n_i, 2)
+        Boundary points of each piece.
+    owner : ndarray, shape (sum n_i,)
+        The piece of each point, in the order of ``pts`` concatenated.
+
+    Returns
+    -------
+    list of (p, q): one bridge per tree edge, its end points on two pieces.
+
+    The closest pair of points between two groups is a Delaunay edge (the circle on it as a
+    diameter holds no other point: that point would be closer to one end), so the tree over
+    pieces only needs the Delaunay edges of all points, not every pair (scipy's csgraph
+    finds the tree).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import minimum_spanning_tree
+
+    allp = np.concatenate(pts)
+    k = len(pts)
+    a, b = _delaunay_edges(allp)
+    cross = owner[a] != owner[b]
+    a, b = a[cross], b[cross]
+    d = np.hypot(*(allp[a] - allp[b]).T)
+    # per pair of pieces, the shortest link (ties: the lowest point indices)
+    pa, pb = np.minimum(owner[a], owner[b]), np.maximum(owner[a], owner[b])
+    order = np.lexsort((b, a, d, pb, pa))
+    pair = pa[order] * k + pb[order]
+    first = order[np.r_[True, pair[1:] != pair[:-1]]]
+    graph = coo_matrix((d[first], (pa[first], pb[first])), shape=(k, k)).tocsr()
+    tree = minimum_spanning_tree(graph).tocoo()
+    link = {(int(i), int(j)): (allp[a[e]], allp[b[e]]) for e, i, j in zip(first, pa[first], pb[first])}
+    return [link[(int(i), int(j))] for i, j in sorted(zip(tree.row.tolist(), tree.col.tolist()))]
+
+
+def _delaunay_edges(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (a, b) of the Delaunay edges of ``points``; every pair when there are too few."""
+    from scipy.spatial import Delaunay, QhullError
+
+    n = len(points)
+    try:
+        if n < 4:
+            raise QhullError("too few points")
+        tri = Delaunay(points).simplices
+        e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    except QhullError:  # all points on one line, or too few: every pair (they are few then)
+        i, j = np.triu_indices(n, 1)
+        e = np.stack([i, j], axis=1)
+    e = np.unique(np.sort(e, axis=1), axis=0)
+    return e[:, 0], e[:, 1]
     return out.astype(bool)
 
 
@@ -376,13 +414,19 @@ MAX_SPREAD_TRIES = 1500
 
 
 def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndarray:
-    """Drop a vertex of each too-short edge when the loop still covers and stays simple."""
+    """Drop a vertex of each too-short edge when the loop still covers and stays simple.
+
+    Each candidate changes the edges around one short edge of a loop known to cover the art
+    and to be simple, so only those edges are checked: against the other edges for
+    crossings, and the pixels in their bounding box for coverage. A short edge whose
+    candidates all failed is not tried again until one of the four vertices around it moves.
+    """
     if min_distance <= 0:
         return loop
-    # Each try checks simplicity and coverage of the whole loop; on art made of many specks
-    # (hundreds of hull vertices) unbounded tries took close to a minute, so they are counted.
     tries = 0
-    incremental = loop_is_simple(loop)
+    if not loop_is_simple(loop):
+        return loop
+    failed: set[tuple] = set()
     for _ in range(len(loop)):
         d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
         short = np.flatnonzero(d < min_distance)
@@ -391,36 +435,87 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
             break
         done = False
         for j in short:
-            k = (j + 1) % len(loop)
-            mid = np.delete(loop, k, axis=0)
-            mid[j if k > j else j - 1] = 0.5 * (loop[j] + loop[k])
-            # or stretch the edge to min_distance along its own line (on the image border this
-            # only adds area, where the art touches the border at a single spot)
-            u = (loop[j] - loop[k]) / max(d[j], 1e-12)
-            grow = 0.5 * (min_distance - d[j]) + 1e-6
-            apart = loop.copy()
-            apart[j] += u * grow
-            apart[k] -= u * grow
-            apart = _clamp(apart, cover.shape)
-            # drop either end of the short edge, or merge both into its midpoint, or stretch it
-            both = np.delete(loop, [j, k], axis=0)
-            snaps = [_snap_to_border(loop, i, cover.shape, min_distance) for i in (j, k)]
-            for cand in (np.delete(loop, j, axis=0), np.delete(loop, k, axis=0), mid, apart, both, *snaps):
+            n = len(loop)
+            k = (j + 1) % n
+            window = loop[[(j - 1) % n, j, k, (k + 1) % n]]
+            around = tuple(np.round(window, 9).ravel().tolist())
+            if around in failed:
+                continue
+            for cand, changed in _spread_candidates(loop, j, k, d[j], cover.shape, min_distance):
                 if len(cand) < 3:
                     continue
                 tries += 1
                 if tries > MAX_SPREAD_TRIES:
                     return loop
-                # the loop was simple, so only the edges this candidate made can cross anything
-                only = changed_edges(loop, cand) if incremental else None
-                if loop_is_simple(cand, only) and len(_uncovered(cand, cover)) == 0:
+                if loop_is_simple(cand, changed) and _still_covers(window, cand, changed, cover):
                     loop, done = cand, True
                     break
             if done:
                 break
+            failed.add(around)
         if not done:
             break
     return loop
+
+
+def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: tuple[int, int],
+                       min_distance: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Loops without the short edge ``j -> k``, each with the indices of the edges it changed.
+
+    In order: drop either end, merge both into the midpoint, stretch the edge to
+    ``min_distance`` along its own line (on the image border this only adds area, where the
+    art touches the border at a single spot), drop both, snap either end onto the border.
+    Edge ``i`` runs from vertex ``i`` to ``i + 1``.
+    """
+    n = len(loop)
+    out = []
+    for drop in (j, k):  # the edge joining the neighbours of the dropped vertex is new
+        out.append((np.delete(loop, drop, axis=0), np.array([(drop - 1) % (n - 1)])))
+    mid = np.delete(loop, k, axis=0)
+    jj = j if k > j else j - 1
+    mid[jj] = 0.5 * (loop[j] + loop[k])
+    out.append((mid, np.array([(jj - 1) % (n - 1), jj])))
+    u = (loop[j] - loop[k]) / max(length, 1e-12)
+    grow = 0.5 * (min_distance - length) + 1e-6
+    apart = loop.copy()
+    apart[j] = _clamp(apart[j:j + 1] + u * grow, shape)[0]
+    apart[k] = _clamp(apart[k:k + 1] - u * grow, shape)[0]
+    out.append((apart, np.array([(j - 1) % n, j, k])))
+    both = np.delete(loop, [j, k], axis=0)
+    first = min(j, k) if k > j else k  # both removed: the neighbours' new edge starts before them
+    out.append((both, np.array([(first - 1) % max(n - 2, 1)])))
+    for i in (j, k):
+        snapped = _snap_to_border(loop, i, shape, min_distance)
+        if not np.array_equal(snapped, loop):  # not near the border: no candidate
+            out.append((snapped, np.array([(i - 1) % n, i])))
+    return out
+
+
+def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
+    """Whether ``new`` covers ``cover``, given that the old loop does and differs only locally.
+
+    ``window`` holds the old vertices of every edge that changed, ``changed`` the indices of
+    the new loop's edges that changed. The two loops enclose different regions only inside
+    the bounding box of those edges, so only the pixels there are rasterised (exactly, as
+    :func:`_uncovered` does).
+    """
+    n = len(new)
+    ends = np.concatenate([window, new[changed % n], new[(changed + 1) % n]])
+    h, w = cover.shape
+    x0, y0 = np.floor(ends.min(0)).astype(int) - 1
+    x1, y1 = np.ceil(ends.max(0)).astype(int) + 1
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+    if x1 <= x0 or y1 <= y0:
+        return True
+    segs = loop_segments([new - [x0, y0]])
+    h, w = y1 - y0, x1 - x0
+    lo, hi = segs.min(axis=1), segs.max(axis=1)
+    # rows: only segments spanning the box's rows toggle its centres (those left of it too);
+    # crossings: only segments meeting the box
+    rows = (hi[:, 1] >= 0) & (lo[:, 1] <= h)
+    box = rows & (hi[:, 0] >= 0) & (lo[:, 0] <= w)
+    inside = centres_inside(segs[rows], (h, w)) & ~crossed_pixels(segs[box], (h, w))
+    return not (cover[y0:y1, x0:x1] & ~inside).any()
 
 
 def _dedupe_loop(loop: np.ndarray, tol: float = 1e-3) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 
 def signed_area(loop: np.ndarray) -> float:
@@ -79,18 +80,14 @@ def points_in_loops(points: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     inside = np.zeros(len(pts), dtype=bool)
     for loop in loops:
-        a = loop
-        b = np.roll(loop, -1, axis=0)
-        px, py = pts[:, 0:1], pts[:, 1:2]
-        cond = (a[None, :, 1] > py) != (b[None, :, 1] > py)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xc = a[None, :, 0] + (py - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-        inside ^= (cond & (px < xc)).sum(axis=1) % 2 == 1
+        inside ^= shapely.contains_xy(shapely.Polygon(loop), pts[:, 0], pts[:, 1])
     return inside
 
 
 def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Which pairs of segments properly intersect or touch (excluding shared endpoints).
+    """Which pairs of segments meet, other than at a shared end point.
+
+    Two segments that share an end point and lie on one line, overlapping, also meet.
 
     Parameters
     ----------
@@ -101,100 +98,83 @@ def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (n, m), bool
     """
-    p, r = s[:, None, 0], s[:, None, 1] - s[:, None, 0]
-    q, u = t[None, :, 0], t[None, :, 1] - t[None, :, 0]
+    s = np.asarray(s, dtype=np.float64).reshape(-1, 2, 2)
+    t = np.asarray(t, dtype=np.float64).reshape(-1, 2, 2)
+    out = np.zeros((len(s), len(t)), dtype=bool)
+    if len(s) == 0 or len(t) == 0:
+        return out
+    ls, lt = shapely.linestrings(s), shapely.linestrings(t)
+    i, j = shapely.STRtree(lt).query(ls, predicate="intersects")
+    if len(i) == 0:
+        return out
+    # a meeting at a common end point is not a crossing, unless the segments overlap there
+    shared = _shares_end(s[i], t[j])
+    meet = ~shared | shapely.overlaps(ls[i], lt[j]) | shapely.equals(ls[i], lt[j])
+    if shared.any():
+        # meeting elsewhere as well (a segment folding back onto the other)
+        inter = shapely.intersection(ls[i[shared]], lt[j[shared]])
+        meet[shared] |= shapely.get_num_coordinates(inter) > 1
+    out[i[meet], j[meet]] = True
+    return out
 
-    def cross(a, b):
-        return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
-    denom = cross(r, u)
-    qp = q - p
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tt = cross(qp, u) / denom
-        uu = cross(qp, r) / denom
-    eps = 1e-9
-    proper = (denom != 0) & (tt > eps) & (tt < 1 - eps) & (uu > eps) & (uu < 1 - eps)
-    # T-junctions: an endpoint of one lying on the interior of the other
-    touching = (denom != 0) & (((np.abs(tt) <= eps) | (np.abs(tt - 1) <= eps)) & (uu > eps) & (uu < 1 - eps)
-                               | ((np.abs(uu) <= eps) | (np.abs(uu - 1) <= eps)) & (tt > eps) & (tt < 1 - eps))
-    # collinear overlaps
-    col = (denom == 0) & (np.abs(cross(qp, r)) < 1e-9)
-    if col.any():
-        rr = np.maximum((r * r).sum(-1), 1e-300)
-        t0 = (qp * r).sum(-1) / rr
-        t1 = t0 + (u * r).sum(-1) / rr
-        lo, hi = np.minimum(t0, t1), np.maximum(t0, t1)
-        col &= (hi > eps) & (lo < 1 - eps)
-    return proper | touching | col
+def _shares_end(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per pair of segments (k, 2, 2), whether they have an end point in common."""
+    return ((a[:, :, None, :] == b[:, None, :, :]).all(-1)).any((1, 2))
 
 
 def loop_is_simple(loop: np.ndarray, edges: np.ndarray | None = None) -> bool:
     """True if no two non-adjacent edges of the closed polygon meet, and no vertex repeats.
 
-    ``edges`` (indices of edges, edge ``i`` runs from vertex ``i`` to ``i + 1``) limits the test
-    to those edges against all others: enough when only they changed in a loop known to be
-    simple, and it turns an O(n^2) test into O(n).
+    ``edges`` (indices of edges, edge ``i`` runs from vertex ``i`` to ``i + 1``) may name the
+    edges that changed in a loop known to be simple; the test is then the same but it is
+    answered by a spatial index query of only those edges.
     """
+    loop = np.asarray(loop, dtype=np.float64)
     n = len(loop)
-    if n < 3:
+    if n < 3 or (np.roll(loop, -1, axis=0) == loop).all(axis=1).any():
         return False
-    # "+ 0.0" turns -0.0 into 0.0: unique(axis=0) compares rows bit by bit
-    if len(np.unique(np.round(loop, 9) + 0.0, axis=0)) != n:
-        return False
+    if edges is None:
+        return bool(shapely.is_simple(shapely.linearrings(loop))) and _no_repeat(loop)
     seg = np.stack([loop, np.roll(loop, -1, axis=0)], axis=1)
-    rows = np.arange(n) if edges is None else np.unique(np.asarray(edges, dtype=np.int64) % n)
+    rows = np.unique(np.asarray(edges, dtype=np.int64) % n)
     x = segments_cross(seg[rows], seg)
     r = np.arange(len(rows))
     x[r, rows] = False
     x[r, (rows + 1) % n] = False
     x[r, (rows - 1) % n] = False
-    return not x.any()
+    return not x.any() and _no_repeat(loop)
 
 
-def changed_edges(old: np.ndarray, new: np.ndarray) -> np.ndarray:
-    """Indices of the edges of closed polygon ``new`` that are not edges of ``old``."""
-    def keys(loop):
-        nxt = np.roll(loop, -1, axis=0)
-        return [(*a, *b) for a, b in zip(np.round(loop, 9).tolist(), np.round(nxt, 9).tolist())]
-
-    before = set(keys(old))
-    return np.array([i for i, k in enumerate(keys(new)) if k not in before], dtype=np.int64)
-
-
-def loops_disjoint(a: np.ndarray, b: np.ndarray) -> bool:
-    """True if the edges of two closed polygons do not meet."""
-    sa = np.stack([a, np.roll(a, -1, axis=0)], axis=1)
-    sb = np.stack([b, np.roll(b, -1, axis=0)], axis=1)
-    return not segments_cross(sa, sb).any()
+def _no_repeat(loop: np.ndarray) -> bool:
+    # "+ 0.0" turns -0.0 into 0.0: unique(axis=0) compares rows bit by bit
+    return len(np.unique(loop + 0.0, axis=0)) == len(loop)
 
 
 def clip_loop_to_rect(loop: np.ndarray, width: float, height: float) -> np.ndarray:
-    """Sutherland-Hodgman clip of a closed polygon to ``[0, width] x [0, height]``.
+    """The part of a closed polygon inside ``[0, width] x [0, height]``, as one loop.
 
-    Exact for the region: the result encloses ``polygon ∩ rectangle``. Used to keep the hull
-    inside the image, since UVs outside 0..1 would sample neighbouring atlas regions.
-    Consecutive duplicate vertices and exactly collinear vertices on the rectangle are removed.
+    Used to keep the hull inside the image, since UVs outside 0..1 would sample neighbouring
+    atlas regions. Orientation is kept; repeated and exactly collinear vertices are removed.
+    When the clip leaves several pieces (a loop leaving the image and coming back), the
+    largest is returned.
     """
-    pts = [tuple(p) for p in np.asarray(loop, dtype=np.float64)]
-    for axis, bound, keep_less in ((0, 0.0, False), (0, float(width), True), (1, 0.0, False), (1, float(height), True)):
-        if not pts:
-            break
-        out = []
-        for i in range(len(pts)):
-            cur, prev = pts[i], pts[i - 1]
-            cin = cur[axis] <= bound if keep_less else cur[axis] >= bound
-            pin = prev[axis] <= bound if keep_less else prev[axis] >= bound
-            if cin != pin:
-                t = (bound - prev[axis]) / (cur[axis] - prev[axis])
-                x = (prev[0] + t * (cur[0] - prev[0]), prev[1] + t * (cur[1] - prev[1]))
-                x = (bound, x[1]) if axis == 0 else (x[0], bound)
-                out.append(x)
-            if cin:
-                out.append(cur)
-        pts = out
-    if len(pts) < 3:
-        return np.asarray(pts).reshape(-1, 2)
-    return drop_redundant(np.asarray(pts))
+    loop = np.asarray(loop, dtype=np.float64)
+    poly = shapely.Polygon(loop)
+    box = shapely.box(0.0, 0.0, float(width), float(height))
+    if shapely.contains_properly(box, poly) or len(loop) < 3:
+        return drop_redundant(loop) if len(loop) >= 3 else loop.reshape(-1, 2)
+    part = shapely.clip_by_rect(poly, 0.0, 0.0, float(width), float(height))
+    if part.is_empty:
+        return np.zeros((0, 2))
+    pieces = list(getattr(part, "geoms", [part]))
+    piece = max((g for g in pieces if g.geom_type == "Polygon"), key=lambda g: g.area, default=None)
+    if piece is None:
+        return np.zeros((0, 2))
+    out = np.asarray(piece.exterior.coords)[:-1]
+    if np.sign(signed_area(out)) != np.sign(signed_area(loop)):
+        out = out[::-1]
+    return drop_redundant(out)
 
 
 def drop_redundant(loop: np.ndarray, tol: float = 1e-9) -> np.ndarray:
