@@ -79,6 +79,44 @@ def test_mutations_raise_only_skel_format_error(version):
     assert failed >= tried // 4, (tried, failed, kinds)
 
 
+def _seeds_43() -> list[tuple[str, bytes]]:
+    """4.3 files: no editor export is available, so ours, written from the 4.3 corpus JSON
+    and from a document using every 4.3 field (``skel43_features``)."""
+    from skel43_features import features_document
+    from spinemesh.skeleton_binary import write_skel
+
+    from conftest import CORPUS
+
+    docs = [("features.skel", features_document())]
+    for name in ("tmd-ar15", "tmd-npcportrait"):
+        for js in sorted((CORPUS / name).glob("*.json")) if (CORPUS / name).is_dir() else []:
+            if not js.name.endswith(".source.json"):
+                docs.append((js.stem + ".skel", json.loads(js.read_text(encoding="utf-8-sig"))))
+    return [(name, write_skel(doc)) for name, doc in docs]
+
+
+def test_mutations_raise_only_skel_format_error_43():
+    """The same guarantee for 4.3, whose layout differs most (one typed constraint list,
+    sliders, draw order folders)."""
+    files = _seeds_43()
+    rng = random.Random("spinemesh-fuzz-4.3")
+    deadline = time.monotonic() + BUDGET_S / len(VERSIONS)
+    tried = failed = 0
+    while time.monotonic() < deadline:
+        name, data = rng.choice(files)
+        kind, bad = mutate(data, rng)
+        tried += 1
+        try:
+            read_skel(bad, name)
+        except SkelFormatError as e:
+            failed += 1
+            assert e.offset is not None and 0 <= e.offset <= len(bad), (name, kind, e)
+            assert "expected" in e.message and e.path == name, (name, kind, e)
+        except Exception as e:  # pragma: no cover - the failure this test exists to find
+            pytest.fail(f"{name}, {kind} mutation (seed spinemesh-fuzz-4.3, try {tried}): {type(e).__name__}: {e}")
+    assert tried >= 20 and failed >= tried // 4, (tried, failed)
+
+
 @pytest.mark.parametrize("version", VERSIONS)
 def test_every_truncation_of_a_small_file(version):
     """Every prefix of the smallest file of each version fails with the end-of-file offset."""
@@ -116,16 +154,21 @@ def _damage(doc, rng: random.Random) -> str:
     return "replace"
 
 
-@pytest.mark.parametrize("version", ["4.0", "4.1", "4.2"])
+@pytest.mark.parametrize("version", ["4.0", "4.1", "4.2", "4.3"])
 def test_broken_documents_raise_only_skel_format_error(version):
     """Hand-edited JSON may hold anything: the writer either writes a file that reads back,
     or raises SkelFormatError."""
     from spinemesh.skeleton_binary import write_skel
 
-    pairs = skel_json_pairs(version)
-    if not pairs:
-        pytest.skip("../shared/spine-examples is absent")
-    docs = [(js.name, js.read_text(encoding="utf-8")) for _, js in pairs]
+    if version == "4.3":
+        from skel43_features import features_document
+
+        docs = [("features.json", json.dumps(features_document()))]
+    else:
+        pairs = skel_json_pairs(version)
+        if not pairs:
+            pytest.skip("../shared/spine-examples is absent")
+        docs = [(js.name, js.read_text(encoding="utf-8")) for _, js in pairs]
     rng = random.Random(f"spinemesh-write-fuzz-{version}")
     deadline = time.monotonic() + BUDGET_S / 12
     tried = written = 0
