@@ -84,3 +84,18 @@ def skel_json_pairs(version: str | None = None) -> list[tuple[Path, Path]]:
                 if js.exists():
                     out.append((skel, js))
     return out
+
+
+#: Test files whose cases are spread one by one over pytest-xdist workers: they hold the
+#: slow runtime proofs and build nothing per module. Every other file stays on one worker,
+#: so that its module and session fixtures are built once.
+SPREAD = {"test_upgrade_runtime", "test_weights_runtime"}
+
+
+def pytest_collection_modifyitems(config, items):
+    if not config.pluginmanager.hasplugin("xdist"):
+        return
+    for item in items:
+        module = item.module.__name__ if item.module is not None else ""
+        if module not in SPREAD:
+            item.add_marker(pytest.mark.xdist_group(module or item.nodeid.split("::")[0]))

@@ -12,7 +12,8 @@ from ._app import Annotated, MaskSource, Optional, Preset, app, console, err_con
 
 @app.command()
 def upgrade(
-    project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
+    project: Annotated[Path, typer.Argument(help="Project folder, one skeleton file (.json/.skel), or a folder of "
+                                                "projects (each upgraded to the same place under OUT).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder: not the project folder, not inside "
                                       "it; refused if not empty, unless --overwrite.")],
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
@@ -40,7 +41,12 @@ def upgrade(
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report of every "
                                                    "attachment.")] = None,
-    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel.")] = 1,
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel "
+                                                "(default: the CPU cores this process may use).")] = None,
+    dask: Annotated[Optional[str], typer.Option(
+        "--dask", metavar="ADDRESS", help="Mesh on a Dask cluster: a scheduler address (tcp://host:8786), a "
+                                          "scheduler file, or 'local' (--jobs workers here). Same output as a "
+                                          "local run; needs the 'cluster' extra.")] = None,
     images: Annotated[Optional[Path], typer.Option(
         "--images", help="Also write the original-size images here, for re-import in the editor.")] = None,
     images_in: Annotated[Optional[Path], typer.Option(
@@ -58,13 +64,19 @@ def upgrade(
     3 when some attachment or skeleton failed (it stays as it was; the report says why);
     1 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing.
 
+    A folder holding several projects (any depth: a project is the first folder holding a
+    skeleton or an atlas) is upgraded project by project into the same tree under OUT, on one
+    set of workers, with one report.
+
     \b
     Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
+    Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
     Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
     """
     import statistics
 
-    from ..upgrade import EXIT_PARTIAL, Options, upgrade_project, write_report
+    from ..cluster import available_cores
+    from ..upgrade import EXIT_PARTIAL, Options, is_library, upgrade_library, upgrade_project, write_report
 
     overrides = {}
     if density is not None:
@@ -72,13 +84,23 @@ def upgrade(
     if max_vertices is not None:
         overrides["max_vertices"] = max_vertices
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
-                      dry_run=dry_run, jobs=jobs, images_out=images, images_in=images_in, overrides=overrides,
-                      overwrite=overwrite)
+                      dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
+                      images_in=images_in, overrides=overrides, overwrite=overwrite)
+    library = is_library(project)
+    if library and preview is not None:
+        raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
     with progress_bar("meshing", transient=True) as bar:
         task = bar.add_task("unique images", total=None)
-        result = upgrade_project(project, out, options,
-                                 on_start=lambda n: bar.update(task, total=n),
-                                 on_progress=lambda n: bar.advance(task, n))
+        if library:
+            def next_project(name: str) -> None:
+                bar.reset(task, total=None, description=f"unique images of {name}")
+
+            result = upgrade_library(project, out, options, on_start=lambda n: bar.update(task, total=n),
+                                     on_progress=lambda n: bar.advance(task, n), on_project=next_project)
+        else:
+            result = upgrade_project(project, out, options,
+                                     on_start=lambda n: bar.update(task, total=n),
+                                     on_progress=lambda n: bar.advance(task, n))
     if report is not None:
         write_report(result, report)
 

@@ -43,6 +43,14 @@ def _one_thread_per_worker() -> None:
     cv2.setNumThreads(1)
 
 
+def _start_worker() -> None:
+    """Worker start-up: end with the parent (no orphans after a kill), one OpenCV thread."""
+    from ..processes import die_with_parent
+
+    die_with_parent()
+    _one_thread_per_worker()
+
+
 class Workers:
     """Runs ``fn(arg)`` tasks; subclasses decide where.
 
@@ -88,7 +96,7 @@ class ProcessWorkers(Workers):
         methods = multiprocessing.get_all_start_methods()
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
         self.kind = f"{jobs} local processes"
-        self._pool = context.Pool(jobs, initializer=_one_thread_per_worker, maxtasksperchild=max_tasks_per_child)
+        self._pool = context.Pool(jobs, initializer=_start_worker, maxtasksperchild=max_tasks_per_child)
 
     def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
         future: Future = Future()
@@ -127,7 +135,8 @@ class DaskWorkers(Workers):
             self._client = Client(scheduler_file=address)
         else:
             try:
-                self._client = Client(address, timeout=30)
+                # Waits as long as Dask's connect timeout (distributed.comm.timeouts.connect).
+                self._client = Client(address)
             except (OSError, TimeoutError) as e:
                 raise SpineMeshError(f"cannot reach the Dask scheduler at {address}: {e}") from None
         self.kind = f"Dask at {self._client.scheduler.address}"

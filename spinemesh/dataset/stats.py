@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SpineMeshError
 from .format import Dataset
 
 
@@ -50,8 +51,10 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
     mesh pie with counts), ``vertex_counts.png`` (mesh vertex counts, median line),
     ``image_sizes.png`` (max image side in pixels, median line).
     """
-    import matplotlib
-
+    try:
+        import matplotlib
+    except ImportError:
+        raise SpineMeshError("dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
