@@ -1,10 +1,15 @@
 """Training loop of paper section 3.1: BCE + Dice, AdamW with two learning rates, cosine
 schedule, best checkpoint by validation IoU, JSON-lines log and PNG curves.
 
+Data: data sets made by ``spinemesh dataset`` (``--data``, several allowed), gathered once
+into a sprite pack (:mod:`spinemesh.train.data`), or a pack directly; the data sets' game
+split decides training and validation sprites. Samples are composited by DataLoader worker
+processes (``workers``) as uint8 and normalised on the device.
+
 Runs on the CPU (a small configuration: 160 px input, a time budget) and on a GPU
-(``device="cuda"``) unchanged. On a time budget the cosine schedule follows whichever of
-steps and wall time is further along, so the learning rate reaches its floor when the
-budget ends rather than being cut off half-way.
+(``device="cuda"``: bf16 autocast, channels-last) unchanged. On a time budget the cosine
+schedule follows whichever of steps and wall time is further along, so the learning rate
+reaches its floor when the budget ends rather than being cut off half-way.
 """
 
 from __future__ import annotations
@@ -19,10 +24,9 @@ import cv2
 import numpy as np
 import torch
 import torch.nn.functional as F
-from torch.utils.data import DataLoader
+from torch.utils.data import DataLoader, IterableDataset
 
-from ..segment.samples import Sprite, gather_sprites, split_of
-from .data import CompositeDataset, FixedValDataset
+from .data import VAL_BACKGROUNDS, flat_sample, normalise, read_pack, training_sample, write_pack
 from .model import SegmentationModel, count_parameters
 
 
@@ -34,7 +38,7 @@ class TrainConfig:
     the ``train`` command's options override.
     """
 
-    shared: str = "../shared"
+    data: list = field(default_factory=list)  # data set folders and/or sprite packs (.npz)
     out: str = "runs/segment"
     encoder: str = "efficientnet-lite0"
     pretrained: bool = True
@@ -50,8 +54,9 @@ class TrainConfig:
     device: str = "cpu"
     threads: int = 0                # 0: torch's default
     seed: int = 0
-    max_side: int = 320
-    limit_per_project: int = 0      # 0: all sprites (a few for smoke tests)
+    workers: int = 0                # DataLoader processes compositing samples (0: in the loop)
+    init: str = ""                  # a state dict (encoder or whole model) to start from
+    warmup_steps: int = 100
     extra: dict = field(default_factory=dict)
 
 
@@ -94,8 +99,9 @@ def evaluate(model: SegmentationModel, loader: DataLoader, device: str) -> dict[
     per = {"iou": [], "dice": [], "acc": []}
     n = 0
     for x, y in loader:
-        x, y = x.to(device), y.to(device)
-        logits = model(x)
+        x, y = prepare(x, y, device)
+        with autocast(device):
+            logits = model(x).float()
         loss, bce, dl = seg_loss(logits, y)
         k = len(x)
         sums["loss"] += float(loss) * k
@@ -109,12 +115,28 @@ def evaluate(model: SegmentationModel, loader: DataLoader, device: str) -> dict[
     return out
 
 
-def train_step(model: SegmentationModel, opt: torch.optim.Optimizer, x: torch.Tensor, y: torch.Tensor
-               ) -> tuple[float, float, float]:
-    """One optimisation step; returns (loss, bce, dice loss)."""
+def autocast(device: str):
+    """bf16 autocast on a GPU (Hopper and Ampere run it at full speed); plain float32 on the CPU."""
+    return torch.autocast("cuda", dtype=torch.bfloat16, enabled=device.startswith("cuda"))
+
+
+def prepare(x: torch.Tensor, y: torch.Tensor, device: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """uint8 (N, S, S, 3) images and (N, S, S) masks to normalised float NCHW on the device."""
+    x = normalise(x.to(device, non_blocking=True))
+    y = y.to(device, non_blocking=True).float()[:, None]
+    if device.startswith("cuda"):
+        x = x.contiguous(memory_format=torch.channels_last)
+    return x, y
+
+
+def train_step(model: SegmentationModel, opt: torch.optim.Optimizer, x: torch.Tensor, y: torch.Tensor,
+               device: str = "cpu") -> tuple[float, float, float]:
+    """One optimisation step on a prepared batch; returns (loss, bce, dice loss)."""
     model.train()
     opt.zero_grad(set_to_none=True)
-    loss, bce, dl = seg_loss(model(x), y)
+    with autocast(device):
+        logits = model(x)
+    loss, bce, dl = seg_loss(logits.float(), y)
     loss.backward()
     opt.step()
     return float(loss.detach()), bce, dl
@@ -149,16 +171,70 @@ def plot_curves(log: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def split_sprites(cfg: TrainConfig) -> tuple[list[Sprite], list[Sprite]]:
-    limit = cfg.limit_per_project or None
-    sprites = gather_sprites(cfg.shared, cfg.max_side, limit_per_project=limit)
-    train = [s for s in sprites if split_of(s.game) == "train"]
-    val = [s for s in sprites if split_of(s.game) == "val"]
-    return train, val
+class AugmentedSprites(IterableDataset):
+    """An endless stream of augmented (image, mask) uint8 pairs of random training sprites.
+
+    Each DataLoader worker draws from its own random stream (seed, worker id).
+    """
+
+    def __init__(self, sprites: list[np.ndarray], size: int, seed: int = 0):
+        self.sprites, self.size, self.seed = sprites, size, seed
+
+    def __iter__(self):
+        info = torch.utils.data.get_worker_info()
+        if info is not None:
+            cv2.setNumThreads(1)  # one process per core already; OpenCV's pool would oversubscribe
+        rng = np.random.default_rng((self.seed, info.id if info else 0))
+        while True:
+            x, y = training_sample(self.sprites, int(rng.integers(len(self.sprites))), self.size, rng)
+            yield torch.from_numpy(x), torch.from_numpy(y)
 
 
-def train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = None,
-          progress=None) -> dict:
+def fixed_validation(sprites: list[np.ndarray], size: int, seed: int = 12345
+                     ) -> tuple[torch.Tensor, torch.Tensor]:
+    """One fixed image per held-out sprite, in its own frame as inference sees it, the
+    background cycling through :data:`~spinemesh.train.data.VAL_BACKGROUNDS`."""
+    xs, ys = [], []
+    for i, s in enumerate(sprites):
+        x, y = flat_sample(s, VAL_BACKGROUNDS[i % len(VAL_BACKGROUNDS)], size, np.random.default_rng((seed, i)))
+        xs.append(x)
+        ys.append(y)
+    return torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(ys))
+
+
+def load_sprites(cfg: TrainConfig, workers: int = 1) -> dict[str, list]:
+    """Training and held-out sprites of ``cfg.data``: packs are read, data set folders are
+    first gathered into ``OUT/sprites.npz`` (see :func:`~spinemesh.train.data.write_pack`)."""
+    folders = [p for p in cfg.data if Path(p).is_dir()]
+    packs = [p for p in cfg.data if not Path(p).is_dir()]
+    if folders:
+        pack = Path(cfg.out) / "sprites.npz"
+        write_pack(folders, pack)
+        packs.append(str(pack))
+    merged: dict[str, list] = {}
+    for p in packs:
+        for k, v in read_pack(p, workers).items():
+            merged.setdefault(k, []).extend(v)
+    return merged
+
+
+def init_weights(model: SegmentationModel, path: str) -> None:
+    """Start from a saved state dict: a whole model's, or the encoder's alone."""
+    state = torch.load(path, map_location="cpu", weights_only=False)
+    state = state.get("model", state)
+    target = model if any(k.startswith("encoder.") for k in state) else model.encoder
+    missing, unexpected = target.load_state_dict({k: v.float() for k, v in state.items()}, strict=False)
+    if unexpected or (target is model.encoder and missing):
+        raise ValueError(f"{path}: weights do not fit the model (missing {missing[:3]}, unexpected {unexpected[:3]})")
+
+
+def half_state(model: SegmentationModel) -> dict:
+    """State dict with float tensors in float16: half the size, and the exported model's
+    float32 weights differ by less than the int8 quantisation step."""
+    return {k: v.half() if v.is_floating_point() else v for k, v in model.state_dict().items()}
+
+
+def train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict:
     """Train a segmentation model; see :func:`_train` for the parameters.
 
     CPU training flushes denormal floats to zero, a process-wide CPU flag; it is switched off
@@ -171,19 +247,18 @@ def train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = 
         torch.set_flush_denormal(False)
 
 
-def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None = None,
-          progress=None) -> dict:
+def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict:
     """Train, keeping the checkpoint with the best validation IoU.
 
-    Writes into ``cfg.out``: ``split.json`` (games and sprite ids per side), ``log.jsonl``
-    (one line per epoch), ``curves.png``, ``best.pt`` and ``last.pt`` (``{"config", "model",
-    "metrics"}``).
+    Writes into ``cfg.out``: ``split.json`` (games per side), ``log.jsonl`` (one line per
+    epoch), ``curves.png``, ``best.pt`` and ``last.pt`` (``{"config", "model", "metrics",
+    "meta"}``, float16 weights).
 
     Parameters
     ----------
     cfg : TrainConfig
-    sprites : (train, val), optional
-        Already gathered sprites (default: gathered from ``cfg.shared``).
+    sprites : dict, optional
+        Already loaded sprites, as :func:`load_sprites` returns them.
     progress : callable(str), optional
         Receives one line per epoch.
 
@@ -193,33 +268,46 @@ def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None =
         The best epoch's record.
     """
     torch.manual_seed(cfg.seed)
+    cuda = cfg.device.startswith("cuda")
     if cfg.device == "cpu":
         torch.set_flush_denormal(True)  # denormals make CPU training up to 5x slower
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
             # OpenCV's own thread pool (compositing, resizing) would otherwise spin on every core.
             cv2.setNumThreads(cfg.threads)
+    if cuda:
+        torch.backends.cudnn.benchmark = True
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
-    train_s, val_s = sprites if sprites is not None else split_sprites(cfg)
+    sprites = sprites if sprites is not None else load_sprites(cfg, max(1, cfg.workers))
+    train_s, val_s = sprites["train"], sprites["val"]
     if not train_s or not val_s:
-        raise ValueError(f"no training or validation sprites under {cfg.shared}")
+        raise ValueError(f"no training or no held-out sprites in {cfg.data} (the data sets' game split "
+                         f"gives {len(train_s)} and {len(val_s)})")
     (out / "split.json").write_text(json.dumps({
-        "train_games": sorted({s.game for s in train_s}), "val_games": sorted({s.game for s in val_s}),
-        "train": [s.id for s in train_s], "val": [s.id for s in val_s]}, indent=1))
+        "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
+        "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1))
 
-    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained,
-                              bn_momentum=cfg.bn_momentum or None).to(cfg.device)
+    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained and not cfg.init,
+                              bn_momentum=cfg.bn_momentum or None)
+    if cfg.init:
+        init_weights(model, cfg.init)
+    model = model.to(cfg.device)
+    if cuda:
+        model = model.to(memory_format=torch.channels_last)
     opt = torch.optim.AdamW(model.param_groups(cfg.lr_decoder, cfg.lr_encoder, cfg.weight_decay))
     base_lrs = [g["lr"] for g in opt.param_groups]
-    train_ds = CompositeDataset(train_s, cfg.image_size, cfg.seed)
-    val_loader = DataLoader(FixedValDataset(val_s, cfg.image_size), batch_size=cfg.batch_size)
-    per_epoch = cfg.epoch_samples or len(train_ds)
+    loader = iter(DataLoader(AugmentedSprites(train_s, cfg.image_size, cfg.seed), batch_size=cfg.batch_size,
+                             num_workers=cfg.workers, pin_memory=cuda, persistent_workers=cfg.workers > 0,
+                             prefetch_factor=4 if cfg.workers else None))
+    vx, vy = fixed_validation(val_s, cfg.image_size)
+    val_loader = list(zip(vx.split(cfg.batch_size), vy.split(cfg.batch_size)))
+    per_epoch = cfg.epoch_samples or len(train_s)
     steps_per_epoch = max(1, per_epoch // cfg.batch_size)
     total_steps = steps_per_epoch * cfg.epochs
-    rng = np.random.default_rng(cfg.seed)
     meta = {"parameters": count_parameters(model), "encoder_parameters": count_parameters(model.encoder),
-            "train_sprites": len(train_s), "val_sprites": len(val_s)}
+            "train_sprites": len(train_s), "val_sprites": len(val_s),
+            "train_games": len(set(sprites.get("train_games", []))), "val_games": len(set(sprites.get("val_games", [])))}
     (out / "config.json").write_text(json.dumps({"config": asdict(cfg), **meta}, indent=1))
 
     log: list[dict] = []
@@ -230,20 +318,18 @@ def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None =
     for epoch in range(1, cfg.epochs + 1):
         t0 = time.monotonic()
         losses = []
-        order = rng.permutation(len(train_ds))[:steps_per_epoch * cfg.batch_size]
-        if len(order) < steps_per_epoch * cfg.batch_size:  # fewer sprites than one epoch asks
-            order = rng.choice(len(train_ds), steps_per_epoch * cfg.batch_size)
+        wait = 0.0
         stop = False
-        for b in range(steps_per_epoch):
-            idx = order[b * cfg.batch_size:(b + 1) * cfg.batch_size]
-            items = [train_ds[int(i)] for i in idx]
-            x = torch.stack([t[0] for t in items]).to(cfg.device)
-            y = torch.stack([t[1] for t in items]).to(cfg.device)
+        for _ in range(steps_per_epoch):
+            tw = time.monotonic()
+            x, y = prepare(*next(loader), cfg.device)
+            wait += time.monotonic() - tw
             elapsed = time.monotonic() - start
             prog = max(step / total_steps, elapsed / limit_s if limit_s else 0.0)
+            warm = min(1.0, (step + 1) / cfg.warmup_steps) if cfg.warmup_steps else 1.0
             for g, lr in zip(opt.param_groups, base_lrs):
-                g["lr"] = lr * cosine_factor(prog)
-            losses.append(train_step(model, opt, x, y)[0])
+                g["lr"] = lr * warm * cosine_factor(prog)
+            losses.append(train_step(model, opt, x, y, cfg.device)[0])
             step += 1
             if limit_s and time.monotonic() - start >= limit_s:
                 stop = True
@@ -251,12 +337,13 @@ def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None =
         val = evaluate(model, val_loader, cfg.device)
         rec = {"epoch": epoch, "step": step, "train_loss": float(np.mean(losses)), "val": val,
                "lr_decoder": opt.param_groups[1]["lr"], "epoch_s": time.monotonic() - t0,
-               "elapsed_s": time.monotonic() - start, "samples_seen": step * cfg.batch_size}
+               "data_wait_s": wait, "elapsed_s": time.monotonic() - start,
+               "samples_seen": step * cfg.batch_size}
         log.append(rec)
         with open(out / "log.jsonl", "a", encoding="utf-8") as f:
             f.write(json.dumps(rec) + "\n")
         plot_curves(log, out / "curves.png")
-        ckpt = {"config": model.config, "model": model.state_dict(), "metrics": rec, "meta": meta}
+        ckpt = {"config": model.config, "model": half_state(model), "metrics": rec, "meta": meta}
         torch.save(ckpt, out / "last.pt")
         if not best or val["iou"] > best["val"]["iou"]:
             best = rec
@@ -264,7 +351,7 @@ def _train(cfg: TrainConfig, sprites: tuple[list[Sprite], list[Sprite]] | None =
         if progress:
             progress(f"epoch {epoch}: train loss {rec['train_loss']:.4f}, val loss {val['loss']:.4f}, "
                      f"val IoU {val['iou']:.4f}, Dice {val['dice']:.4f}, acc {val['acc']:.4f} "
-                     f"({rec['epoch_s']:.0f} s)")
+                     f"({rec['epoch_s']:.0f} s, {wait:.0f} s waiting for data)")
         if stop:
             break
     return best
