@@ -1,9 +1,14 @@
-"""Read speed of our ``.skel`` reader against SkelToJson, on every 4.2 example, same run.
+"""Read speed of our ``.skel`` reader against SkelToJson, on every 4.2 example, same run;
+then our read and write of the 4.3 files.
 
 SkelToJson (PyPI ``skeltojson``, MIT) is the only other pure-Python reader of 4.2 binaries;
 install it with ``pip install -e .[dev]``. Each file is read ``--repeat`` times by each
 reader, taking turns, and the best CPU time is kept (``--wall`` for wall time). Peak
 Python memory of one read is measured separately with tracemalloc, which slows reading.
+
+No editor-exported 4.3 ``.skel`` exists in ``../shared``: the 4.3 rows are the 4.3 corpus
+projects' JSON written as ``.skel`` by our writer (SkelToJson does not read 4.3; its
+column says what it does with them).
 
 Usage::
 
@@ -56,6 +61,7 @@ def peak_memory(fn, data: bytes) -> int:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--examples", type=Path, default=REPO.parent / "shared" / "spine-examples")
+    ap.add_argument("--corpus", type=Path, default=REPO.parent / "shared" / "spine-corpus")
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--wall", action="store_true", help="time with the wall clock instead of CPU time")
     args = ap.parse_args()
@@ -98,6 +104,36 @@ def main() -> None:
     mine, other = peak_memory(read_skel, data), peak_memory(theirs, data)
     print(f"peak Python memory reading {biggest.name}: ours {mine / 2**20:.1f} MiB, "
           f"SkelToJson {other / 2**20:.1f} MiB ({other / mine:.1f}x)")
+    bench_43(args.corpus, args.repeat, clock, theirs)
+
+
+def bench_43(corpus: Path, repeat: int, clock, theirs) -> None:
+    """Our read and write of every 4.3 skeleton of the corpus, written as ``.skel``."""
+    from spinemesh.skeleton import is_binary_skeleton, load_skeleton, spine_version
+
+    docs = []
+    for js in sorted(corpus.rglob("*.json")):
+        if js.name.endswith(".source.json") or is_binary_skeleton(js):
+            continue
+        doc = load_skeleton(js)
+        if spine_version(doc).startswith("4.3"):
+            docs.append((js, doc))
+    if not docs:
+        print(f"\nno 4.3 skeletons under {corpus}")
+        return
+    print(f"\n{len(docs)} Spine 4.3 skeletons (corpus JSON written as .skel by us), best of {repeat} runs\n")
+    head = f"{'file':34} {'KiB':>6} {'ours read ms':>13} {'ours write ms':>14} {'SkelToJson':>24}"
+    print(head)
+    print("-" * len(head))
+    for js, doc in docs:
+        data = write_skel(doc)
+        try:
+            theirs(data)
+            verdict = "reads it"
+        except Exception as e:  # whatever it raises: it is only reported
+            verdict = f"fails ({type(e).__name__})"
+        read, write = best_times([read_skel, lambda _d: write_skel(doc)], data, repeat, clock)
+        print(f"{js.stem + '.skel':34} {len(data) / 1024:6.1f} {read * 1e3:13.2f} {write * 1e3:14.2f} {verdict:>24}")
 
 
 if __name__ == "__main__":
