@@ -232,6 +232,39 @@ def attachment_path(ref: AttachmentRef) -> str:
     return str(att.get("path") or att.get("name") or ref.name)
 
 
+def linked_source(ref: AttachmentRef) -> tuple[str, str, str]:
+    """``(skin, slot, name)`` of the mesh whose geometry a linked mesh reuses.
+
+    Before 4.3 the JSON names it ``"parent"``, in the linked mesh's own slot; 4.3 names it
+    ``"source"`` and, when it sits in another slot, that ``"slot"``. The skin is ``"skin"``,
+    else the default skin.
+    """
+    att = ref.attachment
+    name = att.get("source", att.get("parent"))
+    return str(att.get("skin") or "default"), str(att.get("slot") or ref.slot), str(name)
+
+
+#: Constraint kinds, as 4.3's ``"type"`` and as the list keys of earlier versions.
+CONSTRAINT_KINDS = ("ik", "transform", "path", "physics", "slider")
+
+
+def iter_constraints(doc: dict, kind: str) -> Iterator[dict]:
+    """The constraints of one kind (one of :data:`CONSTRAINT_KINDS`), in document order.
+
+    4.3 keeps every constraint in one ``"constraints"`` list, each with its ``"type"``;
+    earlier versions keep one list per kind under the kind's name. Note that 4.3 also renamed
+    fields: a transform constraint's ``"target"`` bone became ``"source"`` (what it reads)
+    and a path constraint's ``"target"`` slot became ``"slot"``.
+    """
+    items = doc.get("constraints")
+    if isinstance(items, list):
+        yield from (c for c in items if isinstance(c, dict) and c.get("type") == kind)
+        return
+    items = doc.get(kind)
+    if isinstance(items, list):
+        yield from (c for c in items if isinstance(c, dict))
+
+
 def sequence_paths(path: str, sequence: dict) -> list[str]:
     """Frame image paths of a sequence: ``path`` + frame number, zero-padded to ``digits``.
 
