@@ -24,7 +24,7 @@ from ..images import content_id as image_content_id
 from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
                        needed_images, skeletons_to_read)
 from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
-                        iter_skins, load_skeleton, spine_version)
+                        iter_skins, linked_source, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
 
 def game_of(project: Path) -> str:
@@ -136,11 +136,11 @@ class _Want:
 
 
 def _linked_parent(doc: dict, ref: AttachmentRef) -> dict | None:
-    """The mesh a linked mesh takes its geometry from (same slot, ``skin`` or the default)."""
-    parent, skin = ref.attachment.get("parent"), ref.attachment.get("skin") or "default"
+    """The mesh a linked mesh takes its geometry from (see :func:`~spinemesh.skeleton.linked_source`)."""
+    skin, slot, parent = linked_source(ref)
     for name, slots in iter_skins(doc):
         if name == skin:
-            att = (slots.get(ref.slot) or {}).get(parent)
+            att = (slots.get(slot) or {}).get(parent)
             if isinstance(att, dict) and att.get("type", "region") == "mesh":
                 return att
     return None
