@@ -363,34 +363,69 @@ def mesh_one(task: MeshTask) -> MeshResult:
                       seconds=seconds, coverage=cov, waste=wst)
 
 
+@dataclass
+class Meshing:
+    """Meshes on their way: those known already, and the futures of those being made."""
+
+    known: dict[str, MeshResult]
+    futures: list
+
+
+def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | None = None,
+                  inflight: dict | None = None) -> Meshing:
+    """Send every task whose mesh is not known yet to the workers, largest first.
+
+    Largest first, so that no big image starts last and keeps one worker busy while the
+    others idle. ``cache`` (results by image key and mesher settings) and ``inflight``
+    (futures by the same key) let runs over many projects mesh each image only once, even
+    while an earlier project's copy of it is still being meshed.
+    """
+    known: dict[str, MeshResult] = {}
+    futures = []
+    for t in sorted(tasks.values(), key=lambda t: (-t.rgba.shape[0] * t.rgba.shape[1], t.key)):
+        key = (t.key, t.settings)
+        if cache is not None and key in cache:
+            known[t.key] = cache[key]
+        elif inflight is not None and key in inflight:
+            futures.append(inflight[key])
+        else:
+            future = workers.submit(mesh_one, t)
+            futures.append(future)
+            if inflight is not None:
+                inflight[key] = future
+    return Meshing(known, futures)
+
+
+def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Workers,
+                   progress: Callable[[int], None] | None = None, cache: dict | None = None,
+                   inflight: dict | None = None) -> dict[str, MeshResult]:
+    """Collect the meshes as they arrive; ``progress(n)`` is told how many came."""
+    results = dict(meshing.known)
+    if progress and results:
+        progress(len(results))
+    for future in workers.as_completed(meshing.futures):
+        res = future.result()
+        results[res.key] = res
+        key = (res.key, tasks[res.key].settings)
+        if cache is not None:
+            cache[key] = res
+        if inflight is not None:
+            inflight.pop(key, None)
+        if progress:
+            progress(1)
+    return results
+
+
 def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
                progress: Callable[[int], None] | None = None,
                cache: dict | None = None) -> dict[str, MeshResult]:
-    """Mesh every unique image once; ``progress(n)`` is told as results arrive.
-
-    Tasks go out largest first, so that no big image starts last and keeps one worker busy
-    while the others idle; results are collected as they finish.
+    """Mesh every unique image once (:func:`start_meshing`, then :func:`finish_meshing`).
 
     ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
     that runs over projects sharing images (the same art exported for several Spine
     versions) mesh each image only once.
     """
-    results: dict[str, MeshResult] = {}
-    if cache is not None:
-        results = {k: cache[(k, t.settings)] for k, t in tasks.items() if (k, t.settings) in cache}
-        if progress and results:
-            progress(len(results))
-    todo = sorted((t for k, t in tasks.items() if k not in results),
-                  key=lambda t: (-t.rgba.shape[0] * t.rgba.shape[1], t.key))
-    futures = [workers.submit(mesh_one, t) for t in todo]
-    for future in workers.as_completed(futures):
-        res = future.result()
-        results[res.key] = res
-        if cache is not None:
-            cache[(res.key, tasks[res.key].settings)] = res
-        if progress:
-            progress(1)
-    return results
+    return finish_meshing(start_meshing(tasks, workers, cache), tasks, workers, progress, cache)
 
 
 def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult],
@@ -579,6 +614,13 @@ def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, r
     result.seconds["write"] += time.perf_counter() - t0
 
 
+def _mark_would_mesh(result: Result) -> None:
+    """A dry run: what would have been meshed says so."""
+    for t in result.targets:
+        if t.status == "planned":
+            t.status = "would mesh"
+
+
 @contextlib.contextmanager
 def meshing_workers(options: Options, workers: Workers | None, tasks: int) -> Iterator[Workers]:
     """The given workers, or ones opened for this run (none for a single image)."""
@@ -596,9 +638,7 @@ def meshing_workers(options: Options, workers: Workers | None, tasks: int) -> It
 def _mesh_and_write(plan: ProjectPlan, out: Path, options: Options, result: Result, workers: Workers | None,
                     on_start, on_progress, mesh_cache) -> None:
     if options.dry_run:
-        for t in result.targets:
-            if t.status == "planned":
-                t.status = "would mesh"
+        _mark_would_mesh(result)
         return
     t0 = time.perf_counter()
     if on_start:
@@ -677,21 +717,67 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     result = Result()
     from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
 
+    # One project is planned (and, at the end, written) by this process while the workers
+    # mesh the one before: the workers never wait for reading or writing.
+    cache: dict = {}
+    inflight: dict = {}
     with open_workers(options.jobs, options.dask) as workers:
+        waiting = None
         for folder in find_projects(library):
-            rel = folder.relative_to(library).as_posix()
-            if on_project:
-                on_project(rel)
-            sub = dataclasses.replace(
-                options, images_out=None if options.images_out is None else Path(options.images_out) / rel)
-            part = Result()
-            try:
-                plan = plan_project(find_project(folder), sub, part)
-                _mesh_and_write(plan, out / rel, sub, part, workers, on_start, on_progress, None)
-            except SpineMeshError as e:
-                part.errors.append(str(e))
-            _merge(result, part, "" if rel == "." else rel + "/")
+            started = _start_library_project(library, folder, options, workers, cache, inflight)
+            if waiting is not None:
+                _finish_library_project(waiting, out, workers, cache, inflight, result,
+                                        on_start, on_progress, on_project)
+            waiting = started
+        if waiting is not None:
+            _finish_library_project(waiting, out, workers, cache, inflight, result, on_start, on_progress, on_project)
     return result
+
+
+@dataclass
+class _LibraryProject:
+    """One project of a library between planning and writing."""
+
+    rel: str
+    options: Options
+    result: Result
+    plan: ProjectPlan | None = None
+    meshing: Meshing | None = None
+
+
+def _start_library_project(library: Path, folder: Path, options: Options, workers: Workers,
+                           cache: dict, inflight: dict) -> _LibraryProject:
+    rel = folder.relative_to(library).as_posix()
+    sub = dataclasses.replace(options, images_out=None if options.images_out is None
+                              else Path(options.images_out) / rel)
+    p = _LibraryProject(rel, sub, Result())
+    try:
+        p.plan = plan_project(find_project(folder), sub, p.result)
+    except SpineMeshError as e:
+        p.result.errors.append(str(e))
+        return p
+    if not sub.dry_run:
+        p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight)
+    return p
+
+
+def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cache: dict, inflight: dict,
+                            result: Result, on_start, on_progress, on_project) -> None:
+    if on_project:
+        on_project(p.rel)
+    if p.plan is not None and p.options.dry_run:
+        _mark_would_mesh(p.result)
+    elif p.plan is not None:
+        t0 = time.perf_counter()
+        if on_start:
+            on_start(len(p.plan.tasks))
+        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, on_progress, cache, inflight)
+        p.result.seconds["mesh"] += time.perf_counter() - t0
+        try:
+            write_project(p.plan, meshes, out / p.rel, p.result)
+        except SpineMeshError as e:
+            p.result.errors.append(str(e))
+    _merge(result, p.result, "" if p.rel == "." else p.rel + "/")
 
 
 def _merge(into: Result, part: Result, prefix: str) -> None:
