@@ -87,6 +87,28 @@ def dump(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, 
     assert r.returncode == 0, f"dump of {skeleton} failed: {r.stderr[-2000:]}"
 
 
+def pose_dump(tool: Path, atlas: Path, skeleton: Path, out: Path, anim: str, times: str = "0,0.5") -> dict:
+    """:func:`dump` of one animation at ``times``, loaded."""
+    dump(tool, atlas, skeleton, anim, times, out)
+    return json.loads(out.read_text())
+
+
+def max_difference(a, b, path: str = "") -> float:
+    """Largest difference between the numbers of two dumps of one skeleton; everything else
+    (keys, lengths, strings) must be equal. The input files, timings and hash are not compared."""
+    if isinstance(a, dict):
+        keys = set(a) - {"input", "timing_ms", "hash"}
+        assert keys == set(b) - {"input", "timing_ms", "hash"}, path
+        return max([max_difference(a[k], b[k], f"{path}/{k}") for k in keys] + [0.0])
+    if isinstance(a, list):
+        assert len(a) == len(b), path
+        return max([max_difference(x, y, path) for x, y in zip(a, b)] + [0.0])
+    if isinstance(a, (int, float)) and not isinstance(a, bool):
+        return abs(a - b)
+    assert a == b, (path, a, b)
+    return 0.0
+
+
 def compare_dumps(tool: Path, a: Path, b: Path) -> tuple[bool, str]:
     r = node(tool, "compare.mjs", a, b, "--quiet")
     return r.returncode == 0, (r.stdout + r.stderr)[-3000:]

@@ -25,6 +25,7 @@ from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.v4 import EXTRA
 
 from conftest import EXAMPLES, skel_json_pairs
+from runtime_tool import max_difference, pose_dump
 
 PAIRS = [p for v in ("4.0", "4.1", "4.2") for p in skel_json_pairs(v)]
 IDS = [f"{s.parts[-3]}/{s.name}" for s, _ in PAIRS]
@@ -271,32 +272,6 @@ def test_convert_errors_are_one_line(examples, tmp_path):
 
 # -- the official runtime loads what we write ---------------------------------------------
 
-RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"
-
-
-def _dump(runtime: Path, atlas: Path, skeleton: Path, out: Path, anim: str) -> dict:
-    import subprocess
-
-    r = subprocess.run(["node", "dump.mjs", str(atlas), str(skeleton), "--anim", anim, "--times", "0,0.5",
-                        "--out", str(out)], cwd=runtime, capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr[-2000:]
-    return json.loads(out.read_text())
-
-
-def _max_difference(a, b, path="") -> float:
-    if isinstance(a, dict):
-        keys = set(a) - {"input", "timing_ms", "hash"}
-        assert keys == set(b) - {"input", "timing_ms", "hash"}, path
-        return max([_max_difference(a[k], b[k], f"{path}/{k}") for k in keys] + [0.0])
-    if isinstance(a, list):
-        assert len(a) == len(b), path
-        return max([_max_difference(x, y, path) for x, y in zip(a, b)] + [0.0])
-    if isinstance(a, (int, float)) and not isinstance(a, bool):
-        return abs(a - b)
-    assert a == b, (path, a, b)
-    return 0.0
-
-
 @pytest.mark.parametrize("version,project,name,anim", [
     ("4.0", "tank", "tank-pro", "drive"), ("4.1", "mix-and-match", "mix-and-match-pro", "walk"),
     ("4.2", "celestial-circus", "celestial-circus-pro", "swing"), ("4.2", "spineboy", "spineboy-pro", "run"),
@@ -311,12 +286,12 @@ def test_official_runtime_poses_match(spine_runtime, examples, tmp_path, version
     ours_skel.write_bytes(write_skel(json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))))
     ours_json = tmp_path / f"{name}.json"
     ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
-    a = _dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
-    b = _dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim)
-    assert _max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
-    c = _dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim)
-    d = _dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim)
-    assert _max_difference(c, d) == 0.0
+    a = pose_dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
+    b = pose_dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim)
+    assert max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
+    c = pose_dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim)
+    d = pose_dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim)
+    assert max_difference(c, d) == 0.0
 
 
 # -- real game exports ---------------------------------------------------------------------
