@@ -114,11 +114,12 @@ def compare_dumps(tool: Path, a: Path, b: Path) -> tuple[bool, str]:
     return r.returncode == 0, (r.stdout + r.stderr)[-3000:]
 
 
-def render_difference(a: Path, b: Path, tol: int = 2) -> dict:
+def render_difference(a: Path, b: Path, tol: int = 2, where: int = 5) -> dict:
     """Share of pixels off by more than ``tol``/255, and pixels visible in ``a`` (alpha >= 8) lost in ``b``.
 
     Also: ``worst``, the largest difference in /255; ``off``, how many pixels are off;
-    ``added``, pixels visible in ``b`` where ``a`` draws nothing (alpha 0).
+    ``added``, pixels visible in ``b`` where ``a`` draws nothing (alpha 0). ``lost_where`` and
+    ``added_where`` list the first ``where`` of those pixels as (row, column).
 
     Colours are compared premultiplied by alpha, as they are composited: the PNGs store
     straight colour, and a pixel with alpha 0 may carry any colour there (a mesh drawn over
@@ -131,9 +132,9 @@ def render_difference(a: Path, b: Path, tol: int = 2) -> dict:
     lost = (pa[..., 3] >= 8) & (pb[..., 3] == 0)
     added = (pb[..., 3] >= 8) & (pa[..., 3] == 0)
     return {"off_share": float(off.mean()), "lost": int(lost.sum()), "visible": int((pa[..., 3] >= 8).sum()),
-            "lost_where": [tuple(map(int, p)) for p in np.argwhere(lost)[:5]],
+            "lost_where": [tuple(map(int, p)) for p in np.argwhere(lost)[:where]],
             "worst": int(delta.max(initial=0)), "off": int(off.sum()), "added": int(added.sum()),
-            "added_where": [tuple(map(int, p)) for p in np.argwhere(added)[:5]]}
+            "added_where": [tuple(map(int, p)) for p in np.argwhere(added)[:where]]}
 
 
 def _premultiplied(rgba: np.ndarray) -> np.ndarray:
