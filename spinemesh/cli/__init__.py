@@ -17,6 +17,7 @@ from . import dataset  # noqa: F401,E402
 from . import mesh  # noqa: F401,E402
 from . import diff  # noqa: F401,E402
 from . import upgrade  # noqa: F401,E402
+from . import weights  # noqa: F401,E402
 
 
 def main() -> None:

@@ -39,6 +39,7 @@ class Bone:
     exact: bool = True
     why: str = ""
     skin_required: bool = False
+    target_of: str = ""              # a constraint that aims at this bone (a control bone)
     children: list[int] = field(default_factory=list)
 
     def segment(self) -> np.ndarray:
@@ -175,6 +176,16 @@ def _constrained_bones(doc: dict, index: dict[str, int]) -> dict[int, str]:
     return out
 
 
+def _constraint_targets(doc: dict, index: dict[str, int]) -> dict[int, str]:
+    """Bones that IK, transform or path constraints aim at, with the constraint's name."""
+    out: dict[int, str] = {}
+    for kind in ("ik", "transform", "path"):
+        for c in doc.get(kind, []) or []:
+            if isinstance(c, dict) and c.get("target") in index:
+                out.setdefault(index[c["target"]], f"{kind} constraint {c.get('name')!r}")
+    return out
+
+
 def skeleton_bones(doc: dict) -> list[Bone]:
     """Every bone of ``doc`` with its setup-pose world transform, in document order.
 
@@ -185,6 +196,7 @@ def skeleton_bones(doc: dict) -> list[Bone]:
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
     constrained = _constrained_bones(doc, index)
+    targets = _constraint_targets(doc, index)
     skin_bones = set()
     for b in nodes:
         if b.get("skin") is True:
@@ -198,6 +210,7 @@ def skeleton_bones(doc: dict) -> list[Bone]:
         bone = Bone(i, str(node.get("name")), p, _num(node, "length", 0),
                     world_transform(node, None if parent is None else parent.world))
         bone.skin_required = i in skin_bones
+        bone.target_of = targets.get(i, "")
         if parent is not None:
             parent.children.append(i)
             if not parent.exact:

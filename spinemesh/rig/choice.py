@@ -7,9 +7,13 @@ origin + length along the bone's x axis; a zero-length bone is a point) passes o
 art or within ``NEAR`` of it, where the art is the mesh's triangles in world space and
 ``NEAR`` is a share of its size. Typically these are the parent and the children across
 the joints the art spans. Not chosen automatically: the root bone (it moves the whole
-skeleton, never a part), bones that only some skins activate (unless this attachment's
-skin does), and bones whose setup transform is not exact (see :mod:`.bones`). When more
-than ``MAX_AUTO_BONES`` qualify, those with the longest segment over the art are kept.
+skeleton, never a part), control bones that constraints aim at (animators' handles), bones that only some skins activate (unless this attachment's
+skin does), and bones whose setup transform is not exact (see :mod:`.bones`). Of the bones
+that qualify, only those joined to the slot bone through the bone tree by qualifying bones
+(or through the slot bone's parent) are kept: art of another part overlapping this one (a
+rider on a mount, a weapon over a body) hangs off elsewhere in the tree. When more than
+``MAX_AUTO_BONES`` remain, the nearest to the slot bone in the tree are kept, then those
+with the longest segment over the art.
 """
 
 from __future__ import annotations
@@ -66,25 +70,52 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}
     near = NEAR * float(np.linalg.norm(np.ptp(world, axis=0)))
+    lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
     scored = []
     for bone in bones:
         if bone.index == slot_bone:
             continue
+        seg = bone.segment()
+        if (seg.max(axis=0) < lo).any() or (seg.min(axis=0) > hi).any():
+            continue  # cheap rejection: the segment's box misses the art's
         length = over_art(bone.segment(), world, triangles, near)
         if length <= 0:
             continue
         if bone.parent is None:
             left_out[bone.index] = "root bone: moves the whole skeleton"
+        elif bone.target_of:
+            left_out[bone.index] = f"control bone: target of the {bone.target_of}"
         elif not bone.exact:
             left_out[bone.index] = bone.why
         elif bone.skin_required and bone.index not in skin_bones:
             left_out[bone.index] = "only active in other skins"
         else:
             scored.append((-length, bone.index))
-    scored.sort()
-    for rank, (neg, i) in enumerate(scored):
+    # Keep the bones connected to the slot bone through the bone tree by bones that also
+    # qualify (or through the slot bone's parent): overlapping art of another part (a rider
+    # over a mount, a weapon over a body) hangs off elsewhere in the tree.
+    over = {i: -neg for neg, i in scored}
+    start = bones[slot_bone]
+    depth = {slot_bone: 0}
+    frontier = [slot_bone] + ([start.parent] if start.parent is not None else [])
+    if start.parent is not None:
+        depth[start.parent] = 1
+    while frontier:
+        nxt = []
+        for i in frontier:
+            b = bones[i]
+            for j in b.children + ([b.parent] if b.parent is not None else []):
+                if j in over and j not in depth:
+                    depth[j] = depth[i] + 1
+                    nxt.append(j)
+        frontier = nxt
+    ranked = sorted((depth[i], -over[i], i) for i in over if i in depth)
+    for i in over:
+        if i not in depth:
+            left_out[i] = "over the art, but not joined to the slot bone through bones on the art"
+    for rank, (_, neg, i) in enumerate(ranked):
         if rank + 1 >= MAX_AUTO_BONES:
-            left_out[i] = f"more than {MAX_AUTO_BONES} bones qualify; shorter over the art"
+            left_out[i] = f"more than {MAX_AUTO_BONES} bones qualify; farther from the slot bone in the tree"
             continue
         why[i] = f"segment over the art ({-neg:.1f} units)" if bones[i].length > 0 else "point bone on the art"
     why[slot_bone] = "slot bone"

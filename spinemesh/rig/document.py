@@ -20,7 +20,7 @@ from ..errors import SpineMeshError
 from ..skeleton import AttachmentRef, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
-from .choice import Choice, choose_auto
+from .choice import NEAR, Choice, choose_auto
 from .weights import solve_weights, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
@@ -171,10 +171,15 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
         outcome.status, outcome.reason = "skipped", "none of its bones has an exact setup transform"
         return
     segments = np.stack([rig.bones[b].segment() for b in choice.bones])
-    weights = solve_weights(world, triangles, segments, options.method)
+    reach = NEAR * float(np.linalg.norm(np.ptp(world, axis=0)))
+    weights = solve_weights(world, triangles, segments, options.method, reach)
     weights = sparsify(weights, options.max_bones, options.min_weight)
     att["vertices"] = bind(world, weights, choice.bones, rig.worlds)
-    outcome.bones = {rig.bones[b].name: choice.why[b] for b in choice.bones}
+    for col, b in enumerate(choice.bones):
+        if weights[:, col].any():
+            outcome.bones[rig.bones[b].name] = choice.why[b]
+        else:
+            outcome.left_out[rig.bones[b].name] = "no vertex weighted to it: its segment is not on or near the art"
     outcome.status = "weighted"
 
 

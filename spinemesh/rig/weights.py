@@ -98,29 +98,33 @@ def _components(n: int, faces: np.ndarray) -> np.ndarray:
     return connected_components(g, directed=False)[1]
 
 
-def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing: float) -> dict[int, int]:
+def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing: float,
+            reach: float) -> dict[int, int]:
     """Which refined point is fixed to which bone: ``{point: bone column}``.
 
     A point within ``spacing / 2`` of a bone's segment is a handle of the nearest such bone.
-    In every connected piece of the mesh, each bone also gets the point of that piece nearest
-    to its segment if none lies on it, so that every piece sees every bone (the solve needs
-    one handle per bone per piece).
+    A bone whose segment misses the art but passes within ``reach`` of it gets the nearest
+    point as its one handle; a bone farther away gets none and ends with weight 0 (its
+    motion says little about this art). A connected piece of the mesh with no handle at all
+    follows the bone nearest to it (one handle on its nearest point), so that every piece
+    has a solution.
     """
     used = np.unique(faces)
     dist = np.stack([_segment_distance(points[used], s) for s in segments], axis=1)  # (U, B)
     near = dist.min(axis=1) <= spacing / 2
     out = {int(used[i]): int(dist[i].argmin()) for i in np.flatnonzero(near)}
+    have = set(out.values())
+    for bone in range(len(segments)):
+        r = int(dist[:, bone].argmin())
+        if bone not in have and dist[r, bone] <= reach and int(used[r]) not in out:
+            out[int(used[r])] = bone
     labels = _components(len(points), faces)[used]
     for piece in np.unique(labels):
         rows = np.flatnonzero(labels == piece)
-        have = {out[int(used[r])] for r in rows if int(used[r]) in out}
-        for bone in range(len(segments)):
-            if bone in have:
-                continue
-            for r in rows[np.argsort(dist[rows, bone], kind="stable")]:
-                if int(used[r]) not in out:
-                    out[int(used[r])] = bone
-                    break
+        if any(int(used[r]) in out for r in rows):
+            continue
+        r, bone = np.unravel_index(int(dist[rows].argmin()), dist[rows].shape)
+        out[int(used[rows[r]])] = int(bone)
     return out
 
 
@@ -134,7 +138,7 @@ def _clean_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndarray,
-                  method: str = "bbw") -> np.ndarray:
+                  method: str = "bbw", reach: float = 0.0) -> np.ndarray:
     """Dense weights of each vertex for each bone.
 
     Parameters
@@ -144,6 +148,9 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     triangles : ndarray, shape (M, 3)
     segments : ndarray, shape (B, 2, 2)
         Each bone's world segment (origin, tip); a zero-length bone is a point.
+    reach : float
+        A bone whose segment misses the art by at most this much still gets a handle
+        (see :func:`handles`); world units.
     method : {"bbw", "harmonic", "biharmonic"}
         Bounded biharmonic weights; harmonic weights (a linear solve, like heat
         diffusion); or unbounded biharmonic weights clipped to [0, 1].
@@ -151,8 +158,8 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     Returns
     -------
     ndarray, shape (N, B)
-        Non-negative, rows summing to 1. A vertex in no usable triangle follows the
-        nearest bone.
+        Non-negative, rows summing to 1; a bone with no handle has a zero column. A vertex
+        in no usable triangle follows the nearest bone.
     """
     vertices = np.asarray(vertices, float)
     segments = np.asarray(segments, float).reshape(-1, 2, 2)
@@ -169,7 +176,7 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     # The refinement's typical edge: handles are the points within half of it of a bone.
     e = points[faces[:, [1, 2, 0]]] - points[faces]
     spacing = float(np.median(np.linalg.norm(e, axis=2)))
-    fixed = handles(points, faces, segments, spacing)
+    fixed = handles(points, faces, segments, spacing, reach)
     w = _solve(points, faces, fixed, nb, method)
     used = np.zeros(len(points), bool)
     used[np.unique(faces)] = True

@@ -1,0 +1,262 @@
+"""Rig replay: our automatic weights against the artists', played in the official runtime.
+
+    .venv/bin/python benchmarks/bench_weights.py [--examples 4.2] [--corpus N] [--method bbw]
+        [--anims 4] [--times 4] [--tool DIR] [--json OUT]
+
+For every artist-weighted mesh attachment not keyed by deform timelines, the weights are
+recomputed with ``--replace --bones keep`` (the artist's vertices and bones) and with
+``--replace --bones auto``; the artist's animations are played in the official runtime
+(``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
+``--times`` evenly spaced samples of each) and every vertex's world position is compared with
+the artist's version. Per attachment: the mean distance in world units (pixels at scale 1)
+over its vertices and sampled frames. Baseline: every vertex follows its heaviest artist
+bone rigidly (same setup pose). Printed per project and overall: the median error, the
+median ratio to the baseline (attachments where the baseline is exact are left out of the
+ratio), for keep and auto, and the share of triangles that flip (signed area changes sign
+against the setup pose) in the sampled frames, ours and the artists'. Setup-pose drift
+(largest vertex distance in the setup pose, ours against the artists') is printed too.
+
+Needs Node and ``npm ci`` in the tool folder (``--tool`` names an installed copy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+SHARED = REPO.parent / "shared"
+
+from spinemesh.project import find_project, image_source_for  # noqa: E402
+from spinemesh.rig.binding import bind, parse_vertices, setup_world  # noqa: E402
+from spinemesh.rig.document import WeightOptions, build_rig, weight_document  # noqa: E402
+from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton, spine_version  # noqa: E402
+
+RUNTIME_VERSIONS = ("3.8", "4.0", "4.1", "4.2")
+
+
+def skeletons(examples: str | None, corpus: int) -> list[tuple[str, Path]]:
+    """``(project label, skeleton)`` pairs: one skeleton per example/corpus project, JSON first."""
+    out = []
+    roots = []
+    if examples:
+        roots += [("examples", p) for p in sorted((SHARED / "spine-examples" / examples).iterdir()) if p.is_dir()]
+    if corpus:
+        corp = [p for p in sorted((SHARED / "spine-corpus").iterdir()) if p.is_dir()]
+        roots += [("corpus", p) for p in corp[:corpus]]
+    for kind, proj in roots:
+        files = sorted(proj.rglob("*.json")) + sorted(proj.rglob("*.skel"))
+        names = {f.with_suffix("") for f in files if f.suffix == ".json"}
+        for f in files:
+            if f.suffix == ".skel" and f.with_suffix("") in names:
+                continue  # its JSON twin is replayed
+            try:
+                doc = load_skeleton(f)
+            except Exception:  # noqa: BLE001 - a benchmark lists what it cannot read and moves on
+                continue
+            if spine_version(doc)[:3] in RUNTIME_VERSIONS:
+                out.append((f"{kind}/{proj.name}", f))
+    return out
+
+
+def anim_length(node) -> float:
+    """Largest key ``time`` anywhere in an animation (its duration)."""
+    if isinstance(node, dict):
+        t = float(node["time"]) if isinstance(node.get("time"), (int, float)) else 0.0
+        return max([t] + [anim_length(v) for v in node.values()])
+    if isinstance(node, list):
+        return max([0.0] + [anim_length(v) for v in node])
+    return 0.0
+
+
+def poses(doc: dict, anims: int, times: int) -> list[str]:
+    out = []
+    for name, anim in list((doc.get("animations") or {}).items())[:anims]:
+        length = anim_length(anim)
+        if length <= 0:
+            continue
+        out += [f"{name}@{length * (i + 1) / (times + 1):.4f}" for i in range(times)]
+    return out
+
+
+def rigid_baseline(doc: dict, rig, places: set) -> None:
+    """Every chosen mesh's vertices bound rigidly to their heaviest artist bone, setup unchanged."""
+    for ref in iter_attachments(doc):
+        if (ref.skin, ref.slot, ref.name) not in places:
+            continue
+        mesh = parse_vertices(ref.attachment, len(rig.bones))
+        world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
+        heaviest = [max(inf, key=lambda e: e[3])[0] for inf in mesh.influences]
+        ids = sorted(set(heaviest))
+        w = np.zeros((mesh.count, len(ids)))
+        w[np.arange(mesh.count), [ids.index(b) for b in heaviest]] = 1.0
+        ref.attachment["vertices"] = bind(world, w, ids, rig.worlds)
+
+
+def dump(tool: Path, atlas: Path, skeleton: Path, pose_list: list[str], out: Path) -> dict:
+    args = ["node", "dump.mjs", str(atlas), str(skeleton), "--out", str(out)]
+    if pose_list:
+        args += ["--poses", ",".join(pose_list)]
+    r = subprocess.run(args, cwd=tool, capture_output=True, text=True, timeout=600)
+    if r.returncode:
+        raise RuntimeError(r.stderr[-500:])
+    return {p["label"]: {(d["slot"], d["attachment"]): d for d in p["attachments"]}
+            for p in json.loads(out.read_text())["poses"]}
+
+
+def signed_areas(v: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    a, b, c = v[tris[:, 0]], v[tris[:, 1]], v[tris[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+
+def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, times: int) -> list[dict]:
+    """One row per artist-weighted mesh compared: errors of keep, auto and baseline, flips."""
+    doc = load_skeleton(skeleton)
+    proj = find_project(skeleton.parent)
+    source = image_source_for(doc, skeleton, proj)
+    if source is None or not hasattr(source, "atlases"):
+        return []
+    atlas = source.atlases[0].path
+    rig = build_rig(doc)
+    variants = {"artist": doc}
+    outcomes = {}
+    for mode in ("keep", "auto"):
+        d = copy.deepcopy(doc)
+        outcomes[mode] = {(o.skin, o.slot, o.name): o for o in weight_document(
+            d, skeleton.name, WeightOptions(bones=mode, replace=True, method=method), rig)}
+        variants[mode] = d
+    artist_weighted = {(r.skin, r.slot, r.name) for r in iter_attachments(doc) if r.type == "mesh"
+                       and len(r.attachment.get("vertices", [])) != len(r.attachment.get("uvs", []))}
+    places = {k for k in artist_weighted
+              if outcomes["keep"][k].status == "weighted" and outcomes["auto"][k].status == "weighted"}
+    if not places:
+        return []
+    base = copy.deepcopy(doc)
+    rigid_baseline(base, rig, places)
+    variants["rigid"] = base
+    pose_list = poses(doc, anims, times)
+    dumps = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, d in variants.items():
+            path = Path(tmp) / f"{name}.json"
+            path.write_text(dumps_skeleton(d))
+            dumps[name] = dump(tool, atlas, path, pose_list, Path(tmp) / f"{name}.dump.json")
+    rows = []
+    by_slot = {(k[1], k[2]) for k in places}
+    tri_of = {(r.slot, r.name): np.asarray(r.attachment["triangles"], int).reshape(-1, 3)
+              for r in iter_attachments(doc) if (r.skin, r.slot, r.name) in places}
+    for slot_att in sorted(by_slot):
+        err = {m: [] for m in ("keep", "auto", "rigid")}
+        flips = {m: [0, 0] for m in ("keep", "auto", "artist")}
+        setup_drift = 0.0
+        tris = tri_of[slot_att]
+        ref_setup = dumps["artist"]["setup"].get(slot_att)
+        for pose in dumps["artist"]:
+            a = dumps["artist"][pose].get(slot_att)
+            if a is None:
+                continue
+            va = np.asarray(a["vertices"], float).reshape(-1, 2)
+            for m in ("keep", "auto", "rigid"):
+                b = dumps[m][pose].get(slot_att)
+                if b is None:
+                    continue
+                vb = np.asarray(b["vertices"], float).reshape(-1, 2)
+                d = float(np.linalg.norm(va - vb, axis=1).mean())
+                if pose == "setup":
+                    setup_drift = max(setup_drift, float(np.linalg.norm(va - vb, axis=1).max()))
+                    continue
+                err[m].append(d)
+                if m != "rigid" and ref_setup is not None:
+                    s0 = np.sign(signed_areas(np.asarray(ref_setup["vertices"], float).reshape(-1, 2), tris))
+                    s1 = np.sign(signed_areas(vb, tris))
+                    flips[m][0] += int(((s0 * s1) < 0).sum())
+                    flips[m][1] += len(tris)
+            if pose != "setup" and ref_setup is not None:
+                s0 = np.sign(signed_areas(np.asarray(ref_setup["vertices"], float).reshape(-1, 2), tris))
+                flips["artist"][0] += int(((s0 * np.sign(signed_areas(va, tris))) < 0).sum())
+                flips["artist"][1] += len(tris)
+        if not err["keep"]:
+            continue
+        row = {"project": label, "skeleton": skeleton.name, "slot": slot_att[0], "attachment": slot_att[1],
+               "setup_drift": setup_drift}
+        for m in ("keep", "auto", "rigid"):
+            row[m] = float(np.mean(err[m])) if err[m] else None
+        for m in ("keep", "auto", "artist"):
+            row[f"flips_{m}"] = flips[m]
+        rows.append(row)
+    return rows
+
+
+def summary(rows: list[dict]) -> dict:
+    def med(xs):
+        xs = [x for x in xs if x is not None]
+        return statistics.median(xs) if xs else float("nan")
+
+    def ratio(m):
+        return med([r[m] / r["rigid"] for r in rows if r[m] is not None and r["rigid"] and r["rigid"] > 1e-6])
+
+    def share(m):
+        f = sum(r[f"flips_{m}"][0] for r in rows)
+        n = sum(r[f"flips_{m}"][1] for r in rows)
+        return f / n if n else float("nan")
+
+    return {"meshes": len(rows), "keep": med([r["keep"] for r in rows]), "keep_ratio": ratio("keep"),
+            "auto": med([r["auto"] for r in rows]), "auto_ratio": ratio("auto"),
+            "rigid": med([r["rigid"] for r in rows]), "flips_keep": share("keep"), "flips_auto": share("auto"),
+            "flips_artist": share("artist"), "setup_drift": max((r["setup_drift"] for r in rows), default=0.0)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--examples", default="4.2", help="example version to replay ('' for none)")
+    ap.add_argument("--corpus", type=int, default=0, help="first N corpus projects")
+    ap.add_argument("--method", default="bbw")
+    ap.add_argument("--anims", type=int, default=4)
+    ap.add_argument("--times", type=int, default=4)
+    ap.add_argument("--tool", type=Path, required=True, help="installed copy of tools/spine-runtime")
+    ap.add_argument("--only", default="", help="substring of project labels to run")
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    rows = []
+    for label, skel in skeletons(args.examples, args.corpus):
+        if args.only and args.only not in label:
+            continue
+        try:
+            got = replay(label, skel, args.tool, args.method, args.anims, args.times)
+        except (RuntimeError, subprocess.TimeoutExpired) as e:
+            print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
+            continue
+        rows += got
+        if got:
+            s = summary(got)
+            print(f"{label:34s} {skel.name:28s} n={s['meshes']:3d} keep {s['keep']:7.2f} ({s['keep_ratio']:.2f}x) "
+                  f"auto {s['auto']:7.2f} ({s['auto_ratio']:.2f}x) rigid {s['rigid']:7.2f} "
+                  f"flips {s['flips_keep']:.3f}/{s['flips_auto']:.3f}/{s['flips_artist']:.3f} "
+                  f"setup {s['setup_drift']:.3f}", flush=True)
+    by_project: dict[str, list] = {}
+    for r in rows:
+        by_project.setdefault(r["project"], []).append(r)
+    print("\n| project | meshes | keep px | keep / rigid | auto px | auto / rigid | rigid px | flips keep / auto / artist |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, rs in sorted(by_project.items()) + [("**all**", rows)]:
+        s = summary(rs)
+        print(f"| {name} | {s['meshes']} | {s['keep']:.2f} | {s['keep_ratio']:.2f} | {s['auto']:.2f} | "
+              f"{s['auto_ratio']:.2f} | {s['rigid']:.2f} | {s['flips_keep']:.3f} / {s['flips_auto']:.3f} / "
+              f"{s['flips_artist']:.3f} |")
+    s = summary(rows)
+    print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {args.method}")
+    if args.json:
+        args.json.write_text(json.dumps({"rows": rows, "overall": s}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

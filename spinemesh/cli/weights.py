@@ -1,0 +1,108 @@
+"""``spinemesh weights``: bind mesh attachments to bones and compute their weights."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import List
+
+import typer
+
+from ._app import Annotated, Optional, app, console, err_console
+
+
+class BoneChoice(str, Enum):
+    """Which bones a mesh is bound to (:mod:`spinemesh.rig.choice`)."""
+
+    keep = "keep"
+    auto = "auto"
+
+
+class WeightMethod(str, Enum):
+    """How weights are computed (:data:`spinemesh.rig.document.METHODS`)."""
+
+    bbw = "bbw"
+    harmonic = "harmonic"
+    biharmonic = "biharmonic"
+
+
+@app.command()
+def weights(
+    project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (not the project folder, not "
+                                      "inside it).")],
+    replace: Annotated[bool, typer.Option("--replace", help="Also recompute meshes that are already "
+                                          "weighted.")] = False,
+    bones: Annotated[BoneChoice, typer.Option(
+        "--bones", help="keep: the bones a mesh is bound to now (its slot's bone when unweighted); auto: the "
+                        "slot's bone and the bones whose segments pass over or near the art.")] = BoneChoice.auto,
+    max_bones: Annotated[int, typer.Option("--max-bones", min=1, max=16, help="Most bones per vertex.")] = 4,
+    method: Annotated[WeightMethod, typer.Option(
+        "--method", help="bbw: bounded biharmonic weights (Jacobson et al. 2011); harmonic: heat-diffusion-"
+                         "like weights, faster; biharmonic: unbounded, clipped.")] = WeightMethod.bbw,
+    only: Annotated[List[str], typer.Option("--only", help="Glob on slot, attachment name or image path; "
+                                            "repeatable.")] = [],
+    exclude: Annotated[List[str], typer.Option("--exclude", help="Glob on slot, attachment name or image "
+                                               "path; repeatable.")] = [],
+    report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report: per attachment, "
+                                                   "the bones chosen and why, and the time.")] = None,
+    preview: Annotated[Optional[Path], typer.Option(
+        "--preview", help="Write one PNG per weighted attachment here: the wireframe over the sprite with "
+                          "vertices coloured by bone, and the mesh in one bent pose.")] = None,
+) -> None:
+    """Bind the mesh attachments of a project to bones and compute their weights.
+
+    Meshes that are not weighted yet are treated (all of them with --replace). The setup pose
+    does not change: each vertex is bound at its setup-pose position in each bone's space.
+    Meshes keyed by deform timelines, and meshes whose bones a constraint moves in the setup
+    pose, are left as they are, with the reason in the report. Exit status 3 when some
+    attachment or skeleton failed.
+
+    \b
+    Example: spinemesh weights project/ --out weighted/ --report weighted/report.json
+    Example: spinemesh weights hero.skel --out weighted/ --replace --bones keep --preview previews/
+    """
+    from ..fsutil import OutputGuard
+    from ..rig.document import WeightOptions
+    from ..rig.run import EXIT_PARTIAL, weight_project, write_report
+
+    guard = OutputGuard([project])
+    guard.check_folder(out)
+    if report is not None:
+        guard.check(report, "report")
+    if preview is not None:
+        guard.check_folder(preview, "preview folder")
+    options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
+                            only=only, exclude=exclude)
+    result = weight_project(project, out, options, preview=preview)
+    if report is not None:
+        write_report(result, report)
+
+    from rich.table import Table
+
+    table = Table(title="spinemesh weights")
+    for col in ("skeleton", "weighted", "skipped", "failed", "median bones"):
+        table.add_column(col, justify="right" if col != "skeleton" else "left")
+    by_skel: dict[str, list] = {}
+    for o in result.outcomes:
+        by_skel.setdefault(o.skeleton, []).append(o)
+    for name, rows in by_skel.items():
+        done = sorted(len(o.bones) for o in rows if o.status == "weighted")
+        table.add_row(name, str(len(done)), str(sum(o.status == "skipped" for o in rows)),
+                      str(sum(o.status == "failed" for o in rows)), str(done[len(done) // 2]) if done else "-")
+    console.print(table)
+    reasons: dict[str, int] = {}
+    for o in result.outcomes:
+        if o.status == "skipped":
+            key = o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason
+            reasons[key] = reasons.get(key, 0) + 1
+        elif o.status == "failed":
+            err_console.print(f"[yellow]left as it was:[/] {o.skeleton} skin {o.skin!r} slot {o.slot!r} "
+                              f"attachment {o.name!r}: {o.reason}", highlight=False)
+    for why, n in sorted(reasons.items()):
+        console.print(f"left as it was: {n} ({why})", highlight=False, markup=False)
+    for e in result.errors:
+        err_console.print(f"[red]error:[/] {e}", highlight=False)
+    console.print(f"{result.seconds:.1f} s", highlight=False)
+    if result.partial:
+        raise typer.Exit(EXIT_PARTIAL)

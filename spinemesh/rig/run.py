@@ -1,0 +1,108 @@
+"""``spinemesh weights``: bind and weight the mesh attachments of whole projects.
+
+Every skeleton of the project is read (``.json`` or ``.skel``, any version the package
+reads), its mesh attachments are weighted (:func:`.document.weight_document`), and it is
+written to the output folder in the format and version it came in; every other file is
+copied. The input is never modified and the output folder may not be inside it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import SpineMeshError
+from ..fsutil import atomic_write_json
+from ..project import find_project
+from ..skeleton import load_skeleton
+from .document import Outcome, WeightOptions, build_rig, weight_document
+
+#: Exit status of a run in which some attachments or skeletons failed.
+EXIT_PARTIAL = 3
+
+
+@dataclass
+class WeightResult:
+    """Every mesh attachment's outcome, the skeletons written and the problems met."""
+
+    outcomes: list[Outcome] = field(default_factory=list)
+    written: list[str] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def partial(self) -> bool:
+        return bool(self.errors) or any(o.status == "failed" for o in self.outcomes)
+
+    def counts(self) -> dict:
+        out: dict[str, int] = {}
+        for o in self.outcomes:
+            out[o.status] = out.get(o.status, 0) + 1
+        return out
+
+
+def weight_project(project: str | Path, out: str | Path, options: WeightOptions | None = None,
+                   preview: str | Path | None = None) -> WeightResult:
+    """Weight every skeleton of a project into ``out``.
+
+    Parameters
+    ----------
+    project : path
+        A project folder or one skeleton file.
+    out : path
+        Output folder; refused if it is the project folder or inside it.
+    options : WeightOptions
+    preview : path, optional
+        Folder for one picture per weighted attachment (:mod:`.preview`).
+
+    Returns
+    -------
+    WeightResult
+    """
+    from ..upgrade.run import check_output_folder, copy_other_files, write_skeleton
+
+    options = options or WeightOptions()
+    out = Path(out)
+    proj = find_project(project)
+    check_output_folder(proj.root, out)
+    if preview is not None:
+        check_output_folder(proj.root, Path(preview))
+    result = WeightResult()
+    start = time.perf_counter()
+    written = set()
+    for path in proj.skeletons:
+        rel = path.relative_to(proj.root).as_posix()
+        try:
+            doc = load_skeleton(path)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        rig = build_rig(doc)
+        outcomes = weight_document(doc, rel, options, rig)
+        result.outcomes += outcomes
+        try:
+            write_skeleton(doc, path, out / rel)
+        except SpineMeshError as e:
+            result.errors.append(f"{rel}: not written: {e}")
+            continue
+        written.add(path.resolve())
+        result.written.append(rel)
+        if preview is not None:
+            from .preview import write_previews
+
+            result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview))
+    copy_other_files(proj, out, written)
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def write_report(result: WeightResult, path: str | Path) -> None:
+    """``report.json``: one row per mesh attachment (bones chosen and why, time), plus totals."""
+    atomic_write_json(path, {
+        "counts": result.counts(),
+        "skeletons_written": result.written,
+        "errors": result.errors,
+        "seconds": round(result.seconds, 3),
+        "attachments": [o.row() for o in result.outcomes],
+    })
