@@ -153,3 +153,19 @@ def test_unreachable_scheduler_is_one_clear_line(tmp_path):
                        env=dict(os.environ, DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="2s"))
     assert r.returncode != 0
     assert "Traceback" not in r.stderr and "Dask scheduler" in r.stderr
+
+
+def test_dataset_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, examples, tmp_path):
+    import shutil
+
+    corpus = tmp_path / "corpus"
+    shutil.copytree(EXAMPLES / "4.2" / "owl", corpus / "owl")
+    shutil.copytree(EXAMPLES / "4.2" / "coin", corpus / "coin")
+    local, cluster = tmp_path / "local", tmp_path / "cluster"
+    r = _spinemesh("dataset", corpus, "--out", local, "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    r = _spinemesh("dataset", corpus, "--out", cluster, "--dask", scheduler_file)
+    assert r.returncode == 0, r.stderr
+    files = tree_bytes(local)
+    assert files == tree_bytes(cluster)
+    assert any(name.startswith("shards/") for name in files) and "index.jsonl" in files

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import typer
@@ -14,7 +13,12 @@ from ._app import Annotated, Optional, app, console, err_console, progress_bar
 def dataset(
     corpus: Annotated[list[Path], typer.Argument(help="Folders holding Spine projects, at any depth.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Data set folder (created, or resumed).")],
-    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, help="Worker processes.")] = min(4, os.cpu_count() or 1),
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Worker processes (default: the CPU "
+                                                "cores this process may use).")] = None,
+    dask: Annotated[Optional[str], typer.Option(
+        "--dask", metavar="ADDRESS", help="Extract on a Dask cluster: a scheduler address (tcp://host:8786), a "
+                                          "scheduler file, or 'local' (--jobs workers here). Same data set as a "
+                                          "local run; needs the 'cluster' extra.")] = None,
     retry_failed: Annotated[bool, typer.Option(
         "--retry-failed", help="Read again projects that had errors in an earlier run.")] = False,
 ) -> None:
@@ -27,6 +31,7 @@ def dataset(
     """
     from rich.table import Table
 
+    from ..cluster import available_cores
     from ..dataset import build_dataset
 
     with progress_bar("projects", transient=True) as progress:
@@ -35,7 +40,8 @@ def dataset(
         def on_project(name: str, done: int, total: int) -> None:
             progress.update(task, completed=done, total=total, description=name)
 
-        summary = build_dataset(corpus, out, jobs=jobs, retry_failed=retry_failed, on_project=on_project)
+        summary = build_dataset(corpus, out, jobs=jobs or available_cores(), retry_failed=retry_failed,
+                                on_project=on_project, dask=dask)
 
     rate = summary.samples / summary.seconds if summary.seconds else 0.0
     console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
 from ..errors import SpineMeshError
+from ..processes import die_with_parent
 
 
 def available_cores() -> int:
@@ -45,8 +46,6 @@ def _one_thread_per_worker() -> None:
 
 def _start_worker() -> None:
     """Worker start-up: end with the parent (no orphans after a kill), one OpenCV thread."""
-    from ..processes import die_with_parent
-
     die_with_parent()
     _one_thread_per_worker()
 
@@ -59,6 +58,8 @@ class Workers:
     """
 
     kind = "this process"
+    #: How many tasks run at once (callers keep about twice this many in flight).
+    slots = 1
 
     def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
         future: Future = Future()
@@ -96,6 +97,7 @@ class ProcessWorkers(Workers):
         methods = multiprocessing.get_all_start_methods()
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
         self.kind = f"{jobs} local processes"
+        self.slots = jobs
         self._pool = context.Pool(jobs, initializer=_start_worker, maxtasksperchild=max_tasks_per_child)
 
     def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
@@ -140,6 +142,7 @@ class DaskWorkers(Workers):
             except (OSError, TimeoutError) as e:
                 raise SpineMeshError(f"cannot reach the Dask scheduler at {address}: {e}") from None
         self.kind = f"Dask at {self._client.scheduler.address}"
+        self.slots = max(1, sum(self._client.nthreads().values()))
 
     def submit(self, fn: Callable[[Any], Any], arg: Any):
         # pure=False: Dask would otherwise hash every argument to name the task.

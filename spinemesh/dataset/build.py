@@ -14,8 +14,8 @@ so even a project redone after a kill adds nothing twice.
 from __future__ import annotations
 
 import fcntl
+import itertools
 import json
-import multiprocessing
 import re
 import time
 from collections import Counter, deque
@@ -25,6 +25,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..cluster import open_workers
 from ..errors import SpineMeshError
 from ..fsutil import atomic_write_json
 from .extract import ProjectResult, extract_project, find_projects
@@ -182,7 +183,7 @@ def _extract_task(task: tuple[str, str]) -> ProjectResult:
 
 
 def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, retry_failed: bool = False,
-                  on_project: Callable[[str, int, int], None] | None = None) -> Summary:
+                  on_project: Callable[[str, int, int], None] | None = None, dask: str | None = None) -> Summary:
     """Extract every unique attachment image of the projects under ``corpora`` into ``out``.
 
     Parameters
@@ -193,6 +194,9 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
         The data set folder; created, or resumed when it exists.
     jobs : int
         Worker processes; 1 runs in this process.
+    dask : str, optional
+        Run the projects on a Dask cluster instead (see :func:`spinemesh.cluster.open_workers`:
+        ``"local"``, a scheduler address or a scheduler file); the data set is the same.
     retry_failed : bool
         Read again the projects that had errors last time (e.g. after a reader got better).
     on_project : callable, optional
@@ -214,12 +218,13 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
         raise SpineMeshError("another spinemesh dataset run is writing this folder", out) from None
     try:
         _open_output(out)
-        return _run(out, projects, jobs, retry_failed, on_project, t0)
+        return _run(out, projects, jobs, retry_failed, on_project, t0, dask)
     finally:
         lock.close()
 
 
-def _run(out: Path, projects, jobs: int, retry_failed: bool, on_project, t0: float) -> Summary:
+def _run(out: Path, projects, jobs: int, retry_failed: bool, on_project, t0: float,
+         dask: str | None = None) -> Summary:
     summary = Summary()
     done: dict[str, bool] = {}
     for p in read_jsonl(out / PROJECTS):
@@ -237,30 +242,23 @@ def _run(out: Path, projects, jobs: int, retry_failed: bool, on_project, t0: flo
     total = len(todo)
     if on_project:
         on_project("", 0, total)
-    if jobs <= 1:
-        for i, task in enumerate(todo, 1):
-            _write(out, _extract_task(task), known, summary)
+    with open_workers(jobs, dask, max_tasks_per_child=20) as workers:
+        # A sliding window in project order: bounded memory, deterministic writes (the
+        # parent writes each project's result in order, whichever worker made it).
+        pending: deque = deque()
+        it = iter(todo)
+        for task in itertools.islice(it, 2 * workers.slots):
+            pending.append((task, workers.submit(_extract_task, task)))
+        i = 0
+        while pending:
+            task, future = pending.popleft()
+            _write(out, future.result(), known, summary)
+            i += 1
             if on_project:
                 on_project(task[1], i, total)
-    else:
-        with multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=20) as pool:
-            # A sliding window in project order: bounded memory, deterministic writes.
-            pending: deque = deque()
-            it = iter(todo)
-            i = 0
-            for task in it:
-                pending.append((task, pool.apply_async(_extract_task, (task,))))
-                if len(pending) >= 2 * jobs:
-                    break
-            while pending:
-                task, res = pending.popleft()
-                _write(out, res.get(), known, summary)
-                i += 1
-                if on_project:
-                    on_project(task[1], i, total)
-                nxt = next(it, None)
-                if nxt is not None:
-                    pending.append((nxt, pool.apply_async(_extract_task, (nxt,))))
+            nxt = next(it, None)
+            if nxt is not None:
+                pending.append((nxt, workers.submit(_extract_task, nxt)))
     summary.total_samples = len(known)
     summary.seconds = time.perf_counter() - t0
     return summary
