@@ -281,7 +281,9 @@ def _chromium() -> str | None:
 def test_html_opens_in_headless_chromium_without_errors(sack_report, tmp_path):
     browser = _chromium()
     if browser is None:
-        pytest.skip("chromium is not installed (scripts/setup.sh installs it as root)")
+        from conftest import unavailable
+
+        unavailable("chromium is not installed (scripts/setup.sh installs it as root)")
     page = (sack_report / "index.html").resolve().as_uri()
     shot = tmp_path / "report.png"
     common = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

@@ -19,7 +19,7 @@ import pytest
 from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton_binary import read_skel
 
-from conftest import VERSIONS, skel_json_pairs
+from conftest import VERSIONS, skel_json_pairs, unavailable
 
 BUDGET_S = float(os.environ.get("SPINEMESH_FUZZ_SECONDS", "20"))
 #: Bytes that are boundaries of the encodings: varint continuation, sign, null/empty string.
@@ -53,7 +53,7 @@ def mutate(data: bytes, rng: random.Random) -> tuple[str, bytes]:
 def test_mutations_raise_only_skel_format_error(version):
     pairs = skel_json_pairs(version)
     if not pairs:
-        pytest.skip("../shared/spine-examples is absent")
+        unavailable("../shared/spine-examples is absent")
     files = [(s.name, s.read_bytes()) for s, _ in pairs]
     rng = random.Random(f"spinemesh-fuzz-{version}")
     deadline = time.monotonic() + BUDGET_S / len(VERSIONS)
@@ -122,7 +122,7 @@ def test_every_truncation_of_a_small_file(version):
     """Every prefix of the smallest file of each version fails with the end-of-file offset."""
     pairs = skel_json_pairs(version)
     if not pairs:
-        pytest.skip("../shared/spine-examples is absent")
+        unavailable("../shared/spine-examples is absent")
     name, data = min(((s.name, s.read_bytes()) for s, _ in pairs), key=lambda x: len(x[1]))
     step = max(1, len(data) // 400)
     for cut in range(0, len(data), step):
@@ -167,7 +167,7 @@ def test_broken_documents_raise_only_skel_format_error(version):
     else:
         pairs = skel_json_pairs(version)
         if not pairs:
-            pytest.skip("../shared/spine-examples is absent")
+            unavailable("../shared/spine-examples is absent")
         docs = [(js.name, js.read_text(encoding="utf-8")) for _, js in pairs]
     rng = random.Random(f"spinemesh-write-fuzz-{version}")
     deadline = time.monotonic() + BUDGET_S / 12
