@@ -46,18 +46,31 @@ def test_help_imports_nothing_heavy(args):
     assert "LOADED []" in r.stdout, r.stdout[-500:] + r.stderr[-2000:]
 
 
-def test_convert_imports_no_image_library(tmp_path):
-    """numpy is allowed: it writes float32 values as their shortest decimals, faster than Python."""
+def test_convert_imports_nothing_heavy(tmp_path):
+    """Not even numpy: a .skel becomes JSON with the standard library alone."""
     doc = tmp_path / "d"
     make_demo_project(doc, with_images_folder=False)
     code = ("import sys, runpy; sys.argv = ['spinemesh', 'convert', %r, %r]\n"
             "try:\n    runpy.run_module('spinemesh', run_name='__main__')\n"
             "except SystemExit as e:\n    assert not e.code, e.code\n"
             "print('LOADED', sorted(m for m in %r if m in sys.modules))"
-            % (str(doc / "demo-binary.skel"), str(tmp_path / "o.json"), HEAVY[1:]))
+            % (str(doc / "demo-binary.skel"), str(tmp_path / "o.json"), HEAVY))
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert "LOADED []" in r.stdout, r.stdout[-500:] + r.stderr[-2000:]
     assert json.loads((tmp_path / "o.json").read_text())["skeleton"]["spine"].startswith("4.2")
+
+
+def test_shortest_float32_matches_numpy():
+    """convert's pure-Python float32 rounding (no numpy import) gives numpy's shortest decimals."""
+    import numpy as np
+
+    from spinemesh.skeleton_binary import shortest_float32
+
+    rng = np.random.default_rng(1)
+    values = rng.integers(0, 2 ** 32, 50_000, dtype=np.uint64).astype(np.uint32).view(np.float32)
+    human = (rng.integers(-10 ** 5, 10 ** 5, 20_000) / 10.0 ** rng.integers(0, 5, 20_000)).astype(np.float32)
+    for v in np.concatenate([values[np.isfinite(values)], human, np.float32([1e-45, -3e-45, 1.1754944e-38])]):
+        assert shortest_float32(float(v)) == float(str(v)), repr(v)
 
 
 # --- options --------------------------------------------------------------------------------
