@@ -179,3 +179,18 @@ def test_real_skel_in_skel_out(examples, tmp_path):
     doc = load_skeleton(tmp_path / "out/spineboy-ess.skel")
     types = [a.type for a in iter_attachments(doc)]
     assert types.count("mesh") == 26 and "region" not in types
+
+
+@pytest.mark.parametrize("which", ["demo", "4.2/coin"])
+def test_same_bytes_from_two_separate_processes(which, demo, tmp_path, request):
+    """Determinism across processes: other hash seeds, one run with worker processes, same bytes."""
+    project = demo if which == "demo" else request.getfixturevalue("examples") / which
+    digests = []
+    for seed, jobs in (("1", "1"), ("2", "2")):
+        out = tmp_path / f"run-{seed}"
+        r = subprocess.run([sys.executable, "-m", "spinemesh", "upgrade", str(project), "--out", str(out),
+                            "--jobs", jobs], capture_output=True, text=True,
+                           env=dict(os.environ, PYTHONHASHSEED=seed, COLUMNS="200"))
+        assert r.returncode == 0, r.stderr
+        digests.append(_tree_digest(out))
+    assert digests[0] == digests[1]
