@@ -7,6 +7,7 @@ from typing import List
 
 import typer
 
+from .weights import Weights
 from ._app import Annotated, MaskSource, Optional, Preset, app, console, err_console, positive_finite, progress_bar
 
 
@@ -51,6 +52,10 @@ def upgrade(
         "--images", help="Also write the original-size images here, for re-import in the editor.")] = None,
     images_in: Annotated[Optional[Path], typer.Option(
         "--from-images", help="Read attachment images from this folder instead of atlases.")] = None,
+    weights: Annotated[Weights, typer.Option(
+        "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
+                          "to the bones crossing the art, with vertices at the joints and automatic "
+                          "weights (as 'spinemesh weights --bones auto').")] = Weights.none,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
 
@@ -85,7 +90,8 @@ def upgrade(
         overrides["max_vertices"] = max_vertices
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
-                      images_in=images_in, overrides=overrides, overwrite=overwrite)
+                      images_in=images_in, overrides=overrides, overwrite=overwrite,
+                      weights=weights.value)
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")

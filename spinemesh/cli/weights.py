@@ -18,6 +18,13 @@ class BoneChoice(str, Enum):
     auto = "auto"
 
 
+class Weights(str, Enum):
+    """``upgrade --weights``: leave upgraded meshes on their slot's bone, or weight them."""
+
+    none = "none"
+    auto = "auto"
+
+
 class WeightMethod(str, Enum):
     """How weights are computed (:data:`spinemesh.rig.document.METHODS`)."""
 

@@ -63,6 +63,7 @@ class Options:
     images_in: Path | None = None
     overrides: dict = field(default_factory=dict)
     overwrite: bool = False
+    weights: str = "none"  # auto: bind and weight the upgraded meshes (spinemesh.rig)
 
     def mesh_settings(self) -> tuple:
         """What, besides the pixels, decides a mesh: part of every cache key."""
@@ -99,8 +100,10 @@ class Target:
     waste: float | None = None
     seconds: float = 0.0
 
+    weights: dict | None = None      # --weights auto: bones chosen and why (spinemesh.rig.upgrade)
+
     def row(self) -> dict:
-        return {k: v for k, v in self.__dict__.items() if k != "key"}
+        return {k: v for k, v in self.__dict__.items() if k != "key" and not (k == "weights" and v is None)}
 
 
 @dataclass
@@ -544,6 +547,7 @@ class ProjectPlan:
     skeletons: list[SkeletonPlan]
     tasks: dict[str, MeshTask]
     only_needed: bool = False  # one skeleton file was asked for: copy only the files it uses
+    options: Options | None = None
 
 
 def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan:
@@ -564,7 +568,7 @@ def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan
         result.targets += targets
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source))
     result.seconds["read"] += time.perf_counter() - t0
-    return ProjectPlan(proj, skeletons, planner.tasks)
+    return ProjectPlan(proj, skeletons, planner.tasks, options=options)
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
@@ -602,6 +606,10 @@ def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, r
     written = set()
     for sk in plan.skeletons:
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
+        if plan.options is not None and plan.options.weights == "auto":
+            from ..rig.upgrade import weight_upgraded
+
+            weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"))
         try:
             write_skeleton(sk.doc, sk.path, out / sk.rel)
         except SpineMeshError as e:
