@@ -194,3 +194,27 @@ def test_same_bytes_from_two_separate_processes(which, demo, tmp_path, request):
         assert r.returncode == 0, r.stderr
         digests.append(_tree_digest(out))
     assert digests[0] == digests[1]
+
+
+def test_a_folder_of_projects_is_mirrored_with_one_report(tmp_path):
+    """``upgrade LIBRARY --out OUT``: every project lands at its own path under OUT; one report."""
+    from spinemesh.upgrade import is_library, upgrade_library, write_report
+
+    library = tmp_path / "library"
+    make_demo_project(library / "heroes" / "knight")
+    make_demo_project(library / "props")
+    (library / "notes.txt").write_text("not a project")
+    assert is_library(library) and not is_library(library / "props")
+    out = tmp_path / "out"
+    result = upgrade_library(library, out, Options(jobs=2))
+    assert not result.partial, result.errors
+    assert {"heroes/knight/demo.json", "heroes/knight/demo-binary.skel", "props/demo.json"} <= set(result.written)
+    for project in ("heroes/knight", "props"):
+        assert (out / project / "demo.atlas").is_file()
+        one = upgrade_project(library / project, tmp_path / "alone" / project, Options())
+        assert not one.partial
+        assert (out / project / "demo.json").read_bytes() == (tmp_path / "alone" / project / "demo.json").read_bytes()
+    assert not (out / "notes.txt").exists()  # files outside every project are not copied
+    write_report(result, tmp_path / "report.json")
+    rows = json.loads((tmp_path / "report.json").read_text())["attachments"]
+    assert {r["skeleton"].rsplit("/", 1)[0] for r in rows} == {"heroes/knight", "props"}
