@@ -17,10 +17,8 @@ import re
 from pathlib import Path
 from typing import Iterator, NamedTuple
 
-import numpy as np
-
-from .errors import LimitError, SkeletonError
-from .fsutil import atomic_write_text, strict_json
+from .errors import LimitError, SkeletonError, SpineMeshError
+from .fsutil import atomic_write_text
 from .limits import MAX_JSON_DEPTH, MAX_SEQUENCE_DIGITS, MAX_SEQUENCE_FRAMES, check_file_size
 
 #: Attachment types that draw an image from the atlas.
@@ -64,7 +62,12 @@ def load_skeleton(path: str | Path) -> dict:
     if is_binary_skeleton(path):
         from .skeleton_binary import read_skel
 
-        return read_skel(path)
+        doc = read_skel(path)
+        where = first_non_finite(doc)
+        if where is not None:
+            raise SkeletonError(f"holds a non-finite number (NaN or infinity) at {where}; refused, "
+                                "since it could not be written back as valid JSON or meshed", path)
+        return doc
     try:
         text = path.read_bytes().decode("utf-8-sig")
     except OSError as e:
@@ -75,6 +78,30 @@ def load_skeleton(path: str | Path) -> dict:
     if not isinstance(doc, dict) or not isinstance(doc.get("bones", []), list):
         raise SkeletonError("not a Spine skeleton (no top-level object with 'bones')", path)
     return doc
+
+
+def first_non_finite(doc) -> str | None:
+    """Where the first NaN or infinity in a document is (``"skins/0/attachments/..."``), or None.
+
+    JSON input refuses them while parsing; a binary ``.skel`` stores raw floats, so its
+    document is checked once after reading.
+    """
+    try:
+        json.dumps(doc, allow_nan=False)  # the fast answer, in C; the walk below only says where
+        return None
+    except ValueError:
+        pass
+    stack = [("", doc)]
+    while stack:
+        where, node = stack.pop()
+        if isinstance(node, float):
+            if not math.isfinite(node):
+                return where or "the top level"
+        elif isinstance(node, dict):
+            stack.extend((f"{where}/{k}", v) for k, v in node.items())
+        elif isinstance(node, list):
+            stack.extend((f"{where}/{i}", v) for i, v in enumerate(node))
+    return None
 
 
 def _refuse_constant(name: str):
@@ -88,15 +115,16 @@ def _finite_float(text: str) -> float:
     return value
 
 
-_BRACKET_STEP = np.zeros(256, np.int8)
-_BRACKET_STEP[[0x5B, 0x7B]] = 1   # [ {
-_BRACKET_STEP[[0x5D, 0x7D]] = -1  # ] }
-
-
 def _bracket_depth(text: str) -> int:
     """Deepest running count of ``[{`` minus ``]}`` in ``text``."""
+    # numpy is imported here, not at the top: `spinemesh convert` of a .skel never needs it.
+    import numpy as np
+
+    step = np.zeros(256, np.int8)
+    step[[0x5B, 0x7B]] = 1   # [ {
+    step[[0x5D, 0x7D]] = -1  # ] }
     raw = np.frombuffer(text.encode("utf-8", "surrogatepass"), np.uint8)
-    return int(np.cumsum(_BRACKET_STEP[raw], dtype=np.int32).max(initial=0))
+    return int(np.cumsum(step[raw], dtype=np.int32).max(initial=0))
 
 
 def _json_depth(text: str) -> int:
@@ -155,8 +183,18 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
         raise SkeletonError(f"invalid JSON: {e}", source) from None
 
 
-def dumps_skeleton(doc: dict, path: str | Path | None = None) -> str:
-    """The document as JSON text, tab-indented like the editor's export.
+def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None = None) -> str:
+    """The document as JSON text in the editor's export style, or in the style of ``like``.
+
+    Parameters
+    ----------
+    doc : dict
+    path : path, optional
+        The file the text is meant for, named in errors.
+    like : str, optional
+        The JSON text ``doc`` was read from. Only the values that changed are rewritten (in
+        the style detected from ``like``) and every other byte is kept, so that a
+        version-control diff shows only what changed (see :mod:`spinemesh.json_style`).
 
     Raises
     ------
@@ -164,7 +202,12 @@ def dumps_skeleton(doc: dict, path: str | Path | None = None) -> str:
         If the document holds NaN or Infinity (strict JSON and the runtimes reject them),
         naming ``path``, the file it was meant for.
     """
-    return strict_json(doc, "\t", path) + "\n"
+    from .json_style import EDITOR_STYLE, dumps, splice
+
+    try:
+        return splice(like, doc) if like is not None else dumps(doc, EDITOR_STYLE) + "\n"
+    except ValueError as e:
+        raise SpineMeshError(f"not written: it would hold a non-finite number ({e})", path) from None
 
 
 def save_skeleton(doc: dict, path: str | Path) -> None:
@@ -308,8 +351,12 @@ def image_paths(ref: AttachmentRef) -> list[str]:
 
 
 def number(att: dict, key: str, default: float, source: str | Path | None = None, what: str = "") -> float:
-    """A numeric field of an attachment, with a clear error when it is not a number."""
+    """A numeric field of an attachment, with a clear error when it is not a finite number.
+
+    NaN and infinities (a binary ``.skel`` can hold them) are refused: a mesh built from them
+    would be written with non-finite vertices that the runtimes reject.
+    """
     value = att.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SkeletonError(f"{what or 'attachment'}: {key!r} must be a number, found {value!r}", source)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SkeletonError(f"{what or 'attachment'}: {key!r} must be a finite number, found {value!r}", source)
     return float(value)

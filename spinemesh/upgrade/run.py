@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import fnmatch
-import os
 import shutil
 import time
 from dataclasses import dataclass, field
@@ -33,11 +32,15 @@ import numpy as np
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, resolve_inside
+from ..fsutil import (
+    OutputGuard, atomic_copy, make_folder, atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, resolve_inside,
+)
 from ..images import RegionImage, content_id
+from ..mesher.worth import DEFAULT_MIN_SAVING
 from ..project import Project, find_project, find_projects, image_source_for
 from ..skeleton import AttachmentRef, dumps_skeleton, image_paths, is_binary_skeleton, iter_attachments, load_skeleton
 from .geometry import mesh_attachment, spine_triangles
+from .repack import write_repacked_atlas
 
 #: Exit status of a run in which some attachments could not be upgraded.
 EXIT_PARTIAL = 3
@@ -63,11 +66,16 @@ class Options:
     images_in: Path | None = None
     overrides: dict = field(default_factory=dict)
     overwrite: bool = False
+    repack: bool = False
+    # keep a region when its mesh would save less than this share of drawn pixels (or needs
+    # too many vertices): spinemesh.mesher.worth; None meshes every region
+    min_saving: float | None = DEFAULT_MIN_SAVING
     weights: str = "none"  # auto: bind and weight the upgraded meshes (spinemesh.rig)
 
     def mesh_settings(self) -> tuple:
         """What, besides the pixels, decides a mesh: part of every cache key."""
-        return (self.preset, mask_source_for_upgrade(self.mask), tuple(sorted(self.overrides.items())))
+        overrides = {**self.overrides, "min_saving": self.min_saving}
+        return (self.preset, mask_source_for_upgrade(self.mask), tuple(sorted(overrides.items())))
 
 
 def mask_source_for_upgrade(mask: str) -> str:
@@ -155,6 +163,7 @@ class MeshResult:
     hull: int = 0
     edges: np.ndarray | None = None
     error: str = ""
+    kept: str = ""  # why the image stays a region (spinemesh.mesher.worth); "" when meshed or failed
     seconds: float = 0.0
     coverage: float | None = None
     waste: float | None = None
@@ -218,8 +227,11 @@ def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTa
         return None, "kept", "image is fully transparent"
     box = stored_box([f.content for f in frames])
     if box is None or not _inside(drawn, box):
-        return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
-                                 "would sample neighbouring regions; re-pack keeping whitespace")
+        if not options.repack:
+            return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
+                                  "would sample neighbouring regions; --repack stores them untrimmed")
+        # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
+        box = (0, 0, rgba.shape[1], rgba.shape[0])
     x0, y0, x1, y1 = box
     # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
     crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
@@ -230,6 +242,13 @@ def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTa
         key += "-" + content_id(np.repeat(drawn[..., None], 4, axis=-1).astype(np.uint8), (0, 0, x1 - x0, y1 - y0))[:16]
     size = (rgba.shape[1], rgba.shape[0])
     return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
+
+
+def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
+    """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
+    whole = (0, 0) + tuple(task.size)
+    return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
+        tuple(f.content) != whole for f in frames)
 
 
 def write_editor_image(frame: RegionImage, folder: Path) -> None:
@@ -244,7 +263,7 @@ def write_editor_image(frame: RegionImage, folder: Path) -> None:
         h, w = rgba.shape[:2]
         size = (max(1, round(w / frame.scale)), max(1, round(h / frame.scale)))
         rgba = cv2.resize(rgba, size, interpolation=cv2.INTER_CUBIC)
-    atomic_write_png(resolve_inside(folder, frame.name + ".png"), rgba)
+    atomic_write_png(resolve_inside(folder, frame.name + ".png", folder, "--images folder"), rgba)
 
 
 @dataclass
@@ -260,6 +279,8 @@ class Planner:
     tasks: dict[str, MeshTask] = field(default_factory=dict)
     decided: dict[tuple, tuple[str, str, str]] = field(default_factory=dict)
     editor_images: set[str] = field(default_factory=set)
+    #: ``--repack``: atlas path -> names of the regions to store untrimmed.
+    untrimmed: dict[Path, set[str]] = field(default_factory=dict)
 
     def plan_skeleton(self, doc: dict, skeleton: str, source) -> list[Target]:
         """A :class:`Target` for every region attachment of ``doc``, in document order."""
@@ -267,7 +288,11 @@ class Planner:
         for ref in iter_attachments(doc):
             if ref.type != "region":
                 continue
-            paths = image_paths(ref)
+            try:
+                paths = image_paths(ref)
+            except SpineMeshError as e:  # a malformed sequence: this attachment alone stays a region
+                targets.append(Target(skeleton, ref.skin, ref.slot, ref.name, [], "failed", str(e)))
+                continue
             t = Target(skeleton, ref.skin, ref.slot, ref.name, paths)
             targets.append(t)
             try:
@@ -293,8 +318,17 @@ class Planner:
             else:
                 task, status, reason = task_for_frames(frames, self.options)
                 if task is not None:
+                    try:
+                        self._write_editor_images(frames)
+                    except SpineMeshError as e:
+                        # Without its editor image the mesh could not be re-imported: stays a region.
+                        task, status, reason = None, "failed", f"editor image not written: {e}"
+                if task is not None:
                     self.tasks.setdefault(task.key, task)
-                    self._write_editor_images(frames)
+                    if self.options.repack and needs_repack(frames, task):
+                        for name in paths:
+                            atlas = next(a for a in source.atlases if a.find(name) is not None)
+                            self.untrimmed.setdefault(atlas.path, set()).add(name)
                 self.decided[seen] = (status, reason, task.key if task else "")
         return self.decided[seen]
 
@@ -342,7 +376,7 @@ def mesh_one(task: MeshTask) -> MeshResult:
     A pure function of the task, so that any worker (local or on a cluster) gives the same
     answer. Problems of the image (:class:`SpineMeshError`) become the result's ``error``.
     """
-    from ..mesher import mesh_image, resolve_params
+    from ..mesher import NotWorthMeshing, mesh_image, resolve_params
     from ..metrics import coverage, opaque_mask, waste
 
     preset, mask_source, overrides = task.settings
@@ -351,6 +385,8 @@ def mesh_one(task: MeshTask) -> MeshResult:
         params = resolve_params(preset, **{**dict(overrides), "mask_source": mask_source})
         mask = sampling_margin(drawn_art(task, params, dict(overrides)))
         mesh = mesh_image(task.rgba, params, mask=mask)
+    except NotWorthMeshing as e:  # decided early, from the mask and the hull
+        return MeshResult(task.key, kept=str(e), seconds=time.perf_counter() - start)
     except SpineMeshError as e:
         return MeshResult(task.key, error=str(e), seconds=time.perf_counter() - start)
     seconds = time.perf_counter() - start
@@ -359,7 +395,11 @@ def mesh_one(task: MeshTask) -> MeshResult:
     wst = waste(mesh.vertices, mesh.triangles, art)
     vertices = np.asarray(mesh.vertices, np.float64) + task.origin
     edges = np.asarray(mesh.edges, np.int64).reshape(-1, 2)
-    triangles = spine_triangles(vertices, mesh.hull, edges)
+    # the mesher's own triangles with its holes filled; a fresh triangulation only for meshes
+    # that are not one hull polygon (the paper preset's several loops)
+    triangles = mesh.hull_triangles()
+    if triangles is None:
+        triangles = spine_triangles(vertices, mesh.hull, edges)
     if triangles is None:
         return MeshResult(task.key, error="mesh is not one fully triangulated hull polygon", seconds=seconds)
     return MeshResult(task.key, vertices, np.asarray(triangles, np.int64), int(mesh.hull), edges,
@@ -442,7 +482,7 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
         res = meshes[t.key]
         t.seconds = round(res.seconds, 4)
         if res.vertices is None:
-            t.status, t.reason = "failed", res.error
+            t.status, t.reason = ("kept", res.kept) if res.kept else ("failed", res.error)
             continue
         w, h = tasks[t.key].size
         try:
@@ -461,11 +501,9 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
         t.waste = None if res.waste is None else round(res.waste, 6)
 
 
-def check_output_folder(project_root: Path, out: Path) -> None:
-    """Refuse an output folder that is the project folder or inside it."""
-    root, dest = project_root.resolve(), out.resolve()
-    if dest == root or root in dest.parents:
-        raise SpineMeshError(f"output folder {out} must not be the project folder or inside it", out)
+def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
+    """Refuse an output folder that is an input, lies inside one or holds one (see :class:`OutputGuard`)."""
+    OutputGuard([project_root, images_in]).check_folder(out, may_hold_inputs=False)
 
 
 def prepare_output_folder(out: Path, overwrite: bool) -> None:
@@ -484,8 +522,8 @@ def prepare_output_folder(out: Path, overwrite: bool) -> None:
             raise SpineMeshError("output folder is not empty and was not written by spinemesh upgrade; "
                                  "refusing to delete it, choose another --out", out)
         shutil.rmtree(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / OUTPUT_MARKER).write_text("written by spinemesh upgrade; --overwrite may replace this folder\n")
+    make_folder(out)
+    atomic_write_text(out / OUTPUT_MARKER, "written by spinemesh upgrade; --overwrite may replace this folder\n")
 
 
 def files_needed(doc: dict, source) -> set[Path]:
@@ -499,13 +537,6 @@ def files_needed(doc: dict, source) -> set[Path]:
     if isinstance(source, FolderImages):
         return {p.resolve() for p in map(source.path_of, sorted(needed_images(doc))) if p is not None}
     return set()
-
-
-def _copy_atomic(src: Path, dst: Path) -> None:
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.with_name(f".{dst.name}.tmp")
-    shutil.copyfile(src, tmp)
-    os.replace(tmp, dst)
 
 
 @dataclass
@@ -547,6 +578,7 @@ class ProjectPlan:
     skeletons: list[SkeletonPlan]
     tasks: dict[str, MeshTask]
     only_needed: bool = False  # one skeleton file was asked for: copy only the files it uses
+    untrimmed: dict[Path, set[str]] = field(default_factory=dict)  # --repack: atlas -> regions
     options: Options | None = None
 
 
@@ -554,31 +586,36 @@ def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan
     """Read every skeleton of ``proj`` and plan its regions; unreadable skeletons go to ``result.errors``."""
     t0 = time.perf_counter()
     planner = Planner(options)
-    atlases: dict = {}
     skeletons = []
     for path in proj.skeletons:
         rel = path.relative_to(proj.root).as_posix()
         try:
             doc = load_skeleton(path)
-            source = image_source_for(doc, path, proj, images=options.images_in, atlases=atlases)
+            source = image_source_for(doc, path, proj, images=options.images_in)
         except SpineMeshError as e:
             result.errors.append(str(e))
             continue
         targets = planner.plan_skeleton(doc, rel, source)
         result.targets += targets
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source))
+    result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
     result.seconds["read"] += time.perf_counter() - t0
-    return ProjectPlan(proj, skeletons, planner.tasks, options=options)
+    return ProjectPlan(proj, skeletons, planner.tasks, untrimmed=planner.untrimmed, options=options)
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
-    """Write ``doc`` to ``dest`` in the format ``path`` came in (binary ``.skel`` or JSON)."""
+    """Write ``doc`` to ``dest`` in the format ``path`` came in (binary ``.skel`` or JSON).
+
+    JSON keeps the text of ``path`` wherever ``doc`` did not change, in its formatting, so
+    that a version-control diff shows only the upgraded attachments.
+    """
     if is_binary_skeleton(path):
         from ..skeleton_binary import write_skel
 
         atomic_write_bytes(dest, write_skel(doc, dest))
     else:
-        atomic_write_text(dest, dumps_skeleton(doc))
+        original = path.read_bytes().decode("utf-8-sig")
+        atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))
 
 
 def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
@@ -587,17 +624,14 @@ def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[P
     With ``needed`` (real paths), only those files: one skeleton asked for does not bring its
     twins (``hero.json`` beside ``hero.skel``) or other skeletons' atlases along.
     """
-    out_resolved = out.resolve()
-    for f in sorted(proj.root.rglob("*")):
-        if not f.is_file() or f.resolve() in written or any(p.startswith(".") for p in f.relative_to(proj.root).parts):
-            continue
-        if out_resolved in f.resolve().parents:
+    for f in proj.files:  # only files inside the project by real path (see find_project)
+        if f.resolve() in written:
             continue
         if f in proj.skeletons:
             continue  # a skeleton that could not be upgraded is not copied as if it had been
         if needed is not None and f.resolve() not in needed:
             continue
-        _copy_atomic(f, out / f.relative_to(proj.root))
+        atomic_copy(f, out / f.relative_to(proj.root))
 
 
 def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result) -> None:
@@ -619,6 +653,11 @@ def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, r
         result.written.append(sk.rel)
     needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
     copy_other_files(plan.project, out, written, needed)
+    for atlas_path, names in sorted(plan.untrimmed.items()):
+        try:
+            write_repacked_atlas(atlas_path, names, plan.project.root, out)
+        except SpineMeshError as e:
+            result.errors.append(f"{atlas_path}: not re-packed: {e}")
     result.seconds["write"] += time.perf_counter() - t0
 
 
@@ -687,7 +726,9 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     options = options or Options()
     out = Path(out)
     proj = find_project(project)
-    check_output_folder(proj.root, out)
+    check_output_folder(proj.root, out, options.images_in)
+    if options.images_out is not None:
+        check_output_folder(proj.root, Path(options.images_out), options.images_in)
     if not options.dry_run:
         prepare_output_folder(out, options.overwrite)
     result = Result()

@@ -1,0 +1,353 @@
+r"""JSON written in the style it came in, with unchanged parts kept byte for byte.
+
+The Spine editor exports skeleton JSON in a compact pretty style: top-level keys are not
+indented, nesting is indented with tabs, a flat object (one holding no object or array) is
+written on one line when it is short, and a flat array (say a mesh's ``uvs``) always on one
+line. A tool that rewrites a whole skeleton in another style turns a version-control diff
+of a few changed attachments into a diff of the whole file.
+
+:func:`detect_style` reads the style of a JSON text, :func:`dumps` writes a value in a
+style, and :func:`splice` writes a changed document into the text it was read from,
+re-writing only the values that changed (each in the detected style) and keeping every
+other byte.
+
+Examples
+--------
+>>> text = '{\n"bones": [\n\t{ "name": "root", "x": 10, "y": 20 }\n],\n"skins": {\n\t"a": { "x": 1 }\n}\n}\n'
+>>> doc = {"bones": [{"name": "root", "x": 10, "y": 20}], "skins": {"a": {"x": 1, "type": "mesh"}}}
+>>> print(splice(text, doc), end="")  # doctest: +NORMALIZE_WHITESPACE
+{
+"bones": [
+	{ "name": "root", "x": 10, "y": 20 }
+],
+"skins": {
+	"a": { "x": 1, "type": "mesh" }
+}
+}
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass
+from decimal import Decimal
+from json.decoder import scanstring
+
+__all__ = ["JsonStyle", "EDITOR_STYLE", "detect_style", "dumps", "splice"]
+
+
+@dataclass(frozen=True)
+class JsonStyle:
+    """How a JSON text is laid out.
+
+    Attributes
+    ----------
+    indent : str
+        One level of indentation (``"\\t"`` in the editor's exports); ignored when ``minified``.
+    top_level_indented : bool
+        Whether the keys of the top-level object are indented (False in the editor's exports).
+    object_columns : float
+        A flat, non-empty object whose one-line form is at most this many characters long
+        is written on one line; ``-1`` never, ``inf`` always.
+    object_items : float
+        ... and holds at most this many items (the editor breaks bones of seven fields
+        even when they are short).
+    array_columns : float
+        The same for flat arrays (``inf`` in the editor's exports: ``uvs`` stay on one line).
+    pad : str
+        Inside the brackets of a one-line object or array: ``" "`` gives ``{ "x": 1 }``.
+    colon : str
+        Between a key and its value: ``": "`` or ``":"``.
+    java_exponents : bool
+        Numbers below 0.001 or from 10^7 up written as Java writes them (``1.0E-5``), as the
+        editor does; otherwise as Python does (``1e-05``).
+    minified : bool
+        Everything on one line, no spaces (the editor's "pretty print" switched off).
+    newline : str
+        ``"\\n"`` or ``"\\r\\n"``.
+    """
+
+    indent: str = "\t"
+    top_level_indented: bool = False
+    object_columns: float = 100
+    object_items: float = 6
+    array_columns: float = math.inf
+    pad: str = " "
+    colon: str = ": "
+    java_exponents: bool = True
+    minified: bool = False
+    newline: str = "\n"
+
+
+#: The Spine editor's export style, for JSON written from a ``.skel`` or from scratch.
+EDITOR_STYLE = JsonStyle()
+
+_MINIFIED = JsonStyle(indent="", pad="", colon=":", minified=True)
+
+
+# -- writing ---------------------------------------------------------------------------------
+
+def _scalar(value, java_exponents: bool = False) -> str:
+    """A string, number, boolean or null as JSON; integral floats as integers, like the editor."""
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if value is None or isinstance(value, bool):
+        return json.dumps(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{value!r} cannot be written as JSON")
+        if value.is_integer() and abs(value) < 1e15:
+            return str(int(value))
+        if java_exponents and not 1e-3 <= abs(value) < 1e7:
+            return _java_double(value)
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not a JSON value")
+
+
+def _java_double(value: float) -> str:
+    """The shortest digits of ``value`` in Java's scientific form: ``1.0E-5``, ``-2.5E8``."""
+    sign, digits, exponent = Decimal(repr(value)).normalize().as_tuple()
+    rest = "".join(map(str, digits[1:])) or "0"
+    return f"{'-' if sign else ''}{digits[0]}.{rest}E{exponent + len(digits) - 1}"
+
+
+def _is_flat(value) -> bool:
+    items = value.values() if isinstance(value, dict) else value
+    return not any(isinstance(v, (dict, list)) for v in items)
+
+
+def _one_line(value, style: JsonStyle) -> str:
+    sep = "," if style.minified else ", "
+    if isinstance(value, dict):
+        body = sep.join(_scalar(str(k)) + style.colon + _scalar(v, style.java_exponents) for k, v in value.items())
+        return "{" + style.pad + body + style.pad + "}"
+    return "[" + style.pad + sep.join(_scalar(v, style.java_exponents) for v in value) + style.pad + "]"
+
+
+def _write(value, style: JsonStyle, close: str, inner: str, out: list[str]) -> None:
+    """Append ``value`` to ``out``; ``close`` indents its closing bracket, ``inner`` its items."""
+    if not isinstance(value, (dict, list)):
+        out.append(_scalar(value, style.java_exponents))
+        return
+    empty = "{}" if isinstance(value, dict) else "[]"
+    if not value:
+        out.append(empty)
+        return
+    if style.minified:
+        columns = math.inf
+    else:
+        columns = style.object_columns if isinstance(value, dict) else style.array_columns
+    if _is_flat(value) and (style.minified or not isinstance(value, dict) or len(value) <= style.object_items):
+        line = _one_line(value, style)
+        if len(line) <= columns:
+            out.append(line)
+            return
+    nl = "" if style.minified else style.newline
+    out.append(empty[0] + nl)
+    items = list(value.items()) if isinstance(value, dict) else [(None, v) for v in value]
+    for i, (key, item) in enumerate(items):
+        out.append(inner)
+        if key is not None:
+            out.append(_scalar(str(key)) + style.colon)
+        _write(item, style, inner, inner + style.indent, out)
+        out.append(("," if i < len(items) - 1 else "") + nl)
+    out.append(close + empty[1])
+
+
+def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "") -> str:
+    """``value`` as JSON text in ``style``.
+
+    Parameters
+    ----------
+    value : dict, list, str, int, float, bool or None
+        Non-finite numbers are refused (``ValueError``): strict parsers and the Spine
+        runtimes reject them.
+    style : JsonStyle, default EDITOR_STYLE
+    indent : str, default ""
+        Indentation of the line the value starts on; its closing bracket gets the same.
+
+    Examples
+    --------
+    >>> print(dumps({"skeleton": {"spine": "4.2.22"}, "bones": [{"name": "root"}]}))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    {
+    "skeleton": { "spine": "4.2.22" },
+    "bones": [
+    	{ "name": "root" }
+    ]
+    }
+    """
+    out: list[str] = []
+    top = indent == "" and isinstance(value, dict)
+    inner = indent + (style.indent if (style.top_level_indented or not top) else "")
+    _write(value, style, indent, inner, out)
+    return "".join(out)
+
+
+# -- reading the style of a text -------------------------------------------------------------
+
+_WS = re.compile(r"[ \t\n\r]*")
+#: One flat object or array alone on its line (after an optional key), as the pretty styles write them.
+_INLINE_OBJECT = re.compile(r'^[ \t]*(?:"(?:[^"\\]|\\.)*"[ \t]*:[ \t]*)?(\{[^\n{}\[\]]*\})[ \t]*,?[ \t]*\r?$', re.M)
+_INLINE_ARRAY = re.compile(r'^[ \t]*(?:"(?:[^"\\]|\\.)*"[ \t]*:[ \t]*)?(\[[^\n{}\[\]]*\])[ \t]*,?[ \t]*\r?$', re.M)
+#: A non-empty array whose first item, a number or string, opens the next line.
+_BROKEN_ARRAY = re.compile(r'\[[ \t]*\r?\n[ \t]*[-\d"]')
+_KEY = re.compile(r'"(?:[^"\\]|\\.)*"[ \t]*:')
+
+
+def _line_indent(text: str, pos: int) -> str:
+    """The whitespace that starts the line holding ``pos``."""
+    line_start = text.rfind("\n", 0, pos) + 1
+    return _WS.match(text, line_start).group().lstrip("\r\n")
+
+
+def detect_style(text: str) -> JsonStyle:
+    """The layout of a JSON text, read from the text itself.
+
+    The one-line limits are the longest flat object and array the text holds on one line
+    (``-1`` when it holds every such value over several lines; ``inf`` for arrays when it
+    never breaks one).
+
+    Examples
+    --------
+    >>> detect_style('{\\n"a": { "x": 1 },\\n"b": [ 1, 2 ]\\n}').indent == "\\t"
+    True
+    >>> detect_style('{"a":{"x":1}}').minified
+    True
+    """
+    body = text.lstrip("\ufeff").strip()
+    if "\n" not in body:
+        return _MINIFIED
+    newline = "\r\n" if "\r\n" in body else "\n"
+    indents = [m.group(1) for m in re.finditer(r"\n([ \t]+)[\"{\[]", body)]
+    unit = min(indents, key=len) if indents else "\t"
+    if unit.startswith(" "):
+        unit = " " * min(len(i) for i in indents if i.startswith(" "))
+    second_line = body.split("\n", 2)[1] if body.count("\n") >= 1 else ""
+    top_indented = second_line[:1] in (" ", "\t")
+    pad = " " if len(re.findall(r"[{\[] ", body)) >= len(re.findall(r"[{\[][^\s\]}]", body)) else ""
+    colon = ": " if body.count('": ') >= body.count('":') - body.count('": ') else ":"
+    objects = [m.group(1) for m in _INLINE_OBJECT.finditer(body)]
+    objects = [o for o in objects if o not in ("{}",)]
+    arrays = [len(m.group(1)) for m in _INLINE_ARRAY.finditer(body) if m.group(1) != "[]"]
+    object_columns = max(map(len, objects)) if objects else -1
+    object_items = max(len(_KEY.findall(o)) for o in objects) if objects else EDITOR_STYLE.object_items
+    array_columns = (math.inf if not _BROKEN_ARRAY.search(body)
+                     else max(arrays) if arrays else -1)
+    python_exponents = re.search(r"\de-\d", body) is not None
+    java_exponents = re.search(r"\d\.\dE-?\d", body) is not None or not python_exponents
+    return JsonStyle(indent=unit, top_level_indented=top_indented, object_columns=object_columns,
+                     object_items=object_items, java_exponents=java_exponents,
+                     array_columns=array_columns, pad=pad, colon=colon, newline=newline)
+
+
+# -- writing a changed document into its original text ------------------------------------------
+
+_DECODER = json.JSONDecoder()
+
+
+def _same(a, b) -> bool:
+    """Equal as JSON text would be: 1 and 1.0 alike, but not True and 1."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return type(a) is type(b) and a == b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return a == b or (a != a and b != b)
+    if isinstance(a, dict) and isinstance(b, dict):
+        return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return type(a) is type(b) and a == b
+
+
+def _skip(text: str, pos: int) -> int:
+    """The end of the JSON value that starts at ``pos`` (read by the C decoder)."""
+    return _DECODER.raw_decode(text, pos)[1]
+
+
+def _items(text: str, pos: int, is_object: bool):
+    """Walk the items of the object or array opening at ``pos``: yield ``(key, value_start)``;
+    the caller sends back each value's end. Returns the position after the closing bracket."""
+    closer = "}" if is_object else "]"
+    pos = _WS.match(text, pos + 1).end()
+    if text.startswith(closer, pos):
+        return pos + 1
+    while True:
+        key = None
+        if is_object:
+            key, pos = scanstring(text, pos + 1)
+            pos = _WS.match(text, pos).end() + 1          # past the colon
+        pos = _WS.match(text, pos).end()
+        end = yield key, pos
+        pos = _WS.match(text, end).end()
+        if text.startswith(",", pos):
+            pos = _WS.match(text, pos + 1).end()
+            continue
+        return pos + 1
+
+
+def _changes(text: str, pos: int, old, new, style: JsonStyle, out: list) -> int:
+    """Collect (start, end, replacement) for the smallest values of ``old`` that differ in
+    ``new``; ``pos`` is where ``old`` starts in ``text``. Returns where it ends.
+
+    Unchanged values are stepped over by the C decoder; only the path down to each change
+    is walked here.
+    """
+    if _same(old, new):
+        return _skip(text, pos)
+    same_keys = isinstance(old, dict) and isinstance(new, dict) and list(old) == list(new)
+    same_length = isinstance(old, list) and isinstance(new, list) and len(old) == len(new)
+    if same_keys or same_length:
+        found: list = []
+        walker = _items(text, pos, same_keys)
+        keys = iter(old) if same_keys else iter(range(len(old)))
+        try:
+            key, start = next(walker)
+            while True:
+                expected = next(keys, None)
+                if same_keys and key != expected:
+                    break  # a key written twice: rewrite the whole object below
+                end = _changes(text, start, old[expected], new[expected], style, found)
+                key, start = walker.send(end)
+        except StopIteration as stop:
+            if next(keys, None) is None:
+                out += found
+                return stop.value
+    end = _skip(text, pos)
+    out.append((pos, end, dumps(new, style, _line_indent(text, pos))))
+    return end
+
+
+def splice(text: str, new, style: JsonStyle | None = None) -> str:
+    """``new`` written into ``text`` (the JSON it was read from): only changed values are rewritten.
+
+    Parameters
+    ----------
+    text : str
+        The original JSON text, as read (a byte-order mark is kept).
+    new : dict or list
+        The changed document.
+    style : JsonStyle, optional
+        Style of the rewritten values; by default :func:`detect_style` of ``text``.
+
+    Returns
+    -------
+    str
+        ``text`` with each changed value replaced. Values added to or removed from an object
+        rewrite that object; everything else keeps its exact text. If ``text`` is not JSON,
+        the whole document is written in ``style``.
+    """
+    style = style or detect_style(text)
+    offset = _WS.match(text, 1 if text.startswith("\ufeff") else 0).end()
+    try:
+        old = json.loads(text[offset:])
+    except ValueError:
+        return dumps(new, style) + style.newline
+    edits: list = []
+    _changes(text, offset, old, new, style, edits)
+    for start, end, replacement in sorted(edits, reverse=True):
+        text = text[:start] + replacement + text[end:]
+    return text

@@ -1,0 +1,139 @@
+"""Skeleton JSON written in the style it came in: a version-control diff shows only what changed."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spinemesh.json_style import EDITOR_STYLE, JsonStyle, _items, _skip, detect_style, dumps, splice
+from spinemesh.skeleton import dumps_skeleton, iter_attachments
+from spinemesh.upgrade.geometry import mesh_attachment
+
+from conftest import CORPUS, EXAMPLES
+
+EXAMPLE_JSON = sorted(p for p in EXAMPLES.glob("*/*/*.json"))
+CORPUS_JSON = sorted(p for p in CORPUS.rglob("*.json") if not p.name.endswith(".source.json"))
+
+
+def _skeleton_text(path: Path) -> str | None:
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+        doc = json.loads(text)
+    except (UnicodeDecodeError, ValueError):
+        return None  # a binary skeleton under a .json name
+    return text if isinstance(doc, dict) and "skeleton" in doc else None
+
+
+def _removed_lines(before: str, after: str) -> int:
+    """Lines of ``before`` that ``after`` no longer holds (counted with repeats): what a
+    line diff shows as removed when nothing moved."""
+    return sum((Counter(before.splitlines()) - Counter(after.splitlines())).values())
+
+
+def _spans_of(text: str, doc, wanted: set[int]) -> list[tuple[int, int]]:
+    """(start, end) in ``text`` of the objects of ``doc`` whose ``id`` is in ``wanted``."""
+    found = []
+
+    def walk(value, pos: int) -> int:
+        if isinstance(value, (dict, list)) and value:
+            keys = iter(value) if isinstance(value, dict) else iter(range(len(value)))
+            walker = _items(text, pos, isinstance(value, dict))
+            try:
+                _, start = next(walker)
+                while True:
+                    _, start = walker.send(walk(value[next(keys)], start))
+            except StopIteration as stop:
+                end = stop.value
+        else:
+            end = _skip(text, pos)
+        if id(value) in wanted:
+            found.append((pos, end))
+        return end
+
+    walk(doc, len(text) - len(text.lstrip()))
+    return found
+
+
+def _upgrade_regions(doc: dict) -> list[dict]:
+    """Turn every region attachment into a 6-vertex mesh with the real mesh writer, in place."""
+    upgraded = []
+    verts = np.array([[0, 0], [10, 0], [20, 5], [20, 20], [0, 20], [10, 10]], float)
+    tris = np.array([[0, 1, 5], [1, 2, 5], [2, 3, 5], [3, 4, 5], [4, 0, 5]])
+    for ref in iter_attachments(doc):
+        att = ref.attachment
+        if att.get("type", "region") != "region" or "width" not in att:
+            continue
+        mesh = mesh_attachment(att, verts, tris, 5, np.zeros((0, 2), int), 20, 20)
+        att.clear()
+        att.update(mesh)
+        upgraded.append(att)
+    return upgraded
+
+
+@pytest.mark.parametrize("path", EXAMPLE_JSON + CORPUS_JSON, ids=lambda p: str(p.relative_to(p.parents[2])))
+def test_unchanged_document_keeps_its_exact_text(path):
+    text = _skeleton_text(path)
+    if text is None:
+        pytest.skip("binary skeleton under a .json name")
+    assert splice(text, json.loads(text)) == text
+
+
+@pytest.mark.parametrize("path", EXAMPLE_JSON, ids=lambda p: str(p.relative_to(p.parents[2])))
+def test_upgrade_removes_only_the_lines_of_upgraded_regions(path):
+    """The check of issue #14: lines removed <= lines of the region attachments upgraded."""
+    text = _skeleton_text(path)
+    doc = json.loads(text)
+    ids = {id(ref.attachment) for ref in iter_attachments(doc)
+           if ref.attachment.get("type", "region") == "region" and "width" in ref.attachment}
+    region_lines = sum(text.count("\n", start, end) + 1 for start, end in _spans_of(text, doc, ids))
+    upgraded = _upgrade_regions(doc)
+    assert len(upgraded) == len(ids)
+    out = dumps_skeleton(doc, path, like=text)
+    assert json.loads(out) == json.loads(json.dumps(doc))
+    assert _removed_lines(text, out) <= region_lines
+
+
+def test_detected_style_rewrites_editor_exports_exactly(examples):
+    """Written from scratch in the detected style, the editor's exports come out byte for byte
+    (all but a few, whose one-line limits the editor chose differently per object)."""
+    texts = [t for t in map(_skeleton_text, EXAMPLE_JSON) if t]
+    exact = [dumps(json.loads(t), detect_style(t)) == t.rstrip("\r\n") for t in texts]
+    assert len(texts) >= 100 and sum(exact) >= 0.9 * len(texts), (sum(exact), len(texts))
+
+
+def test_styles_are_detected():
+    editor = '{\n"bones": [\n\t{ "name": "root", "x": 1.0E-5 }\n]\n}\n'
+    st = detect_style(editor)
+    assert (st.indent, st.top_level_indented, st.pad, st.java_exponents, st.minified) == ("\t", False, " ", True, False)
+    python = json.dumps({"bones": [{"name": "root", "x": 1e-05}]}, indent=2)
+    st = detect_style(python)
+    assert (st.indent, st.top_level_indented, st.object_columns, st.java_exponents) == ("  ", True, -1, False)
+    assert dumps(json.loads(python), st) == python
+    assert detect_style('{"bones":[{"name":"root"}]}').minified
+    assert detect_style('{\r\n"a": 1\r\n}').newline == "\r\n"
+
+
+def test_numbers_as_the_editor_writes_them():
+    assert dumps([1.0, 0.5, 1e-05, -2.5e-4, 12345678.5, 3], EDITOR_STYLE) == "[ 1, 0.5, 1.0E-5, -2.5E-4, 1.23456785E7, 3 ]"
+    assert dumps([1e-05], JsonStyle(java_exponents=False)) == "[ 1e-05 ]"
+    with pytest.raises(ValueError):
+        dumps({"x": math.nan})
+    with pytest.raises(ValueError):
+        dumps([math.inf])
+
+
+def test_a_changed_value_deep_inside_rewrites_only_its_line():
+    text = '{\n"skeleton": { "spine": "4.2.22" },\n"bones": [\n\t{ "name": "root" },\n\t{ "name": "hip", "x": 2 }\n]\n}\n'
+    doc = json.loads(text)
+    doc["bones"][1]["x"] = 3.5
+    assert splice(text, doc) == text.replace('"x": 2', '"x": 3.5')
+
+
+def test_unreadable_original_falls_back_to_a_full_rewrite():
+    doc = {"skeleton": {"spine": "4.2.22"}}
+    assert json.loads(splice("{ not json", doc)) == doc
