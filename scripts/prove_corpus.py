@@ -136,7 +136,6 @@ def harness_atlas(atlas: Path, dest: Path) -> Path:
     convert = [p for p in parsed.pages if not p.name.lower().endswith(".png")]
     if not convert:
         return atlas
-    dest = work
     dest.mkdir(parents=True, exist_ok=True)
     for page in parsed.pages:
         src = atlas.parent / page.name
@@ -357,19 +356,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path, help="project folders (default: every corpus project)")
     ap.add_argument("--only", action="append", default=[], help="glob on project names; repeatable")
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
+    ap.add_argument("--smallest-first", action="store_true", help="prove small projects (bytes on disk) first")
+    ap.add_argument("--shard", default="0/1", help="I/N: prove every N-th project from the I-th (parallel runs)")
     ap.add_argument("--repack", action="store_true", help="upgrade with --repack (sequences trimmed differently)")
     ap.add_argument("--animations", type=int, default=ANIMATIONS, help="animations sampled per skeleton")
+    ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
     ap.add_argument("--keep", type=Path, help="keep upgrades and renders here (default: a temporary folder)")
     args = ap.parse_args(argv)
     projects = args.projects or sorted(p for p in CORPUS.iterdir() if p.is_dir())
     if args.only:
         projects = [p for p in projects if any(fnmatch.fnmatchcase(p.name, g) for g in args.only)]
+    if args.smallest_first:
+        projects.sort(key=lambda p: sum(f.stat().st_size for f in p.rglob("*") if f.is_file()))
+    shard, shards = (int(v) for v in args.shard.split("/"))
+    projects = projects[shard::shards]
     base = Path(tempfile.mkdtemp(prefix="prove-corpus-")) if args.keep is None else args.keep
     tool = install(base / "tool") if not (base / "tool" / "node_modules").is_dir() else base / "tool"
     if tool is None:
         print("Node/npm or the spine-runtime tool is unavailable", file=sys.stderr)
         return 2
     rows, cache = [], {}
+    if args.resume and args.json and args.json.is_file():
+        rows = [Row(**r) for r in json.loads(args.json.read_text())]
+        done = {r.project for r in rows}
+        projects = [p for p in projects if p.name not in done]
     for project in projects:
         t0 = time.perf_counter()
         work = base / project.name
