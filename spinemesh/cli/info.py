@@ -10,7 +10,7 @@ from ._app import Annotated, app, console, err_console
 
 
 @app.command()
-def info(project: Annotated[Path, typer.Argument(help="Project folder or skeleton file (.json/.skel).")]) -> None:
+def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder or skeleton file (.json/.skel).")]) -> None:
     """Show the Spine version, attachments by type, atlas pages and regions, and missing images.
 
     Exits with 1 when no skeleton was found or a skeleton or atlas could not be read.
