@@ -215,9 +215,12 @@ def test_report_builds_for_a_42_example(sack_report):
     for i in range(3):
         for method in ("artist", *METHODS):
             svg = (sack_report / "assets" / f"{i}-{method}.svg").read_text(encoding="utf-8")
-            assert svg.startswith("<svg") and "#1fbf3f" in svg  # the artist's mesh, green
-            if method != "artist":
-                assert "#ff8c1a" in svg and "#2f6bff" in svg  # ours orange, exterior blue
+            assert svg.startswith("<svg")
+            # drawn side by side: the artist's mesh green on its own, ours orange with blue exterior vertices
+            if method == "artist":
+                assert "#1fbf3f" in svg and "#ff8c1a" not in svg
+            else:
+                assert "#ff8c1a" in svg and "#2f6bff" in svg and "#1fbf3f" not in svg
         assert (sack_report / "assets" / f"{i}.png").stat().st_size > 0
 
 
@@ -285,7 +288,7 @@ def test_html_opens_in_headless_chromium_without_errors(sack_report, tmp_path):
 
         unavailable("chromium is not installed (scripts/setup.sh installs it as root)")
     page = (sack_report / "index.html").resolve().as_uri()
-    shot = tmp_path / "report.png"
+    shot = Path(os.environ.get("SPINEMESH_SCREENSHOT_DIR", tmp_path)) / "diff-report.png"
     common = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
               "--disable-component-update", "--disable-sync", "--no-first-run", "--enable-logging=stderr",
               "--v=0", "--allow-file-access-from-files"]
@@ -297,6 +300,8 @@ def test_html_opens_in_headless_chromium_without_errors(sack_report, tmp_path):
     # the script ran to its end: it filled the per-attachment table and the captions
     assert re.search(r'<table id="per"><tbody><tr><th data-k="project">', dom.stdout)
     assert dom.stdout.count("assets/0-default.svg") == 1 and "IoU" in dom.stdout
+    # per-attachment numbers in the summary's formats (coverage as a percentage, not "1")
+    assert re.search(r"<td>100\.0%</td>", dom.stdout)
     # the screenshot shows another method, chosen through the page's #m= anchor
     run = subprocess.run(common + [f"--user-data-dir={tmp_path / 'profile2'}", f"--screenshot={shot}",
                                    "--window-size=1280,1600", "--virtual-time-budget=5000", page + "#m=grid"],

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -158,25 +159,33 @@ def _edges_path(mesh: Mesh) -> str:
     return "".join(f"M{v[i, 0]:g} {v[i, 1]:g}L{v[j, 0]:g} {v[j, 1]:g}" for i, j in e)
 
 
-def overlay_svg(artist: Mesh, mesh: Mesh | None, box: tuple[float, float, float, float]) -> str:
-    """An SVG with the artist's wireframe (green) and ``mesh`` (orange, blue/yellow vertices).
+def overlay_svg(artist: Mesh | None, mesh: Mesh | None, box: tuple[float, float, float, float]) -> str:
+    """An SVG with the artist's wireframe (green) and/or ``mesh`` (orange, blue/yellow vertices).
 
-    Strokes do not scale with the view, so lines stay one screen pixel wide at any size.
+    The page shows the two side by side, each on its own copy of the sprite, so that dense
+    meshes stay readable. Strokes do not scale with the view, so lines stay one screen pixel
+    wide at any size.
     """
     x, y, w, h = box
-    r = max(w, h) / 110.0  # ~2.3 screen px on the 256 px stage
+    r = max(w, h) / 80.0  # ~4 screen px on the 320 px stage
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x:g} {y:g} {w:g} {h:g}" '
-             f'preserveAspectRatio="xMidYMid meet">',
-             f'<path d="{_edges_path(artist)}" fill="none" stroke="{COLOURS["artist"]}" stroke-width="1.5" '
-             'vector-effect="non-scaling-stroke" stroke-opacity="0.9"/>']
+             f'preserveAspectRatio="xMidYMid meet">']
+    if artist is not None:
+        parts.append(f'<path d="{_edges_path(artist)}" fill="none" stroke="{COLOURS["artist"]}" stroke-width="1.5" '
+                     'vector-effect="non-scaling-stroke" stroke-opacity="0.9"/>')
     if mesh is not None:
+        # dots shrink on dense meshes so that neighbouring vertices stay apart
+        t = np.asarray(mesh.triangles, dtype=np.int64).reshape(-1, 3)
+        if len(t):
+            v = np.asarray(mesh.vertices, float)
+            r = min(r, 0.3 * float(np.median(np.linalg.norm(v[t[:, 0]] - v[t[:, 1]], axis=1))))
         parts.append(f'<path d="{_edges_path(mesh)}" fill="none" stroke="{COLOURS["ours"]}" stroke-width="1.2" '
                      'vector-effect="non-scaling-stroke"/>')
         interior = np.asarray(mesh.is_interior, dtype=bool)
         for flag, colour in ((False, COLOURS["exterior"]), (True, COLOURS["interior"])):
             pts = np.round(mesh.vertices[interior == flag], 1)
             circles = "".join(f'<circle cx="{px:g}" cy="{py:g}" r="{r:.2f}"/>' for px, py in pts)
-            parts.append(f'<g fill="{colour}" stroke="#000" stroke-width="0.5" '
+            parts.append(f'<g fill="{colour}" stroke="#000" stroke-width="1" '
                          f'vector-effect="non-scaling-stroke">{circles}</g>')
     parts.append("</svg>\n")
     return "".join(parts)
@@ -200,9 +209,12 @@ td:first-child,th:first-child{text-align:left}
 td.l{text-align:left}
 .legend span{display:inline-block;width:12px;height:12px;margin:0 4px 0 12px;vertical-align:middle;border:1px solid #000}
 .cards{display:flex;flex-wrap:wrap;gap:12px}
-.card{background:#fff;border:1px solid #ccc;padding:6px;width:260px}
+.card{background:#fff;border:1px solid #ccc;padding:6px;width:652px}
+.pair{display:flex;gap:6px}
+.pair figure{margin:0}
+.pair figcaption{font-size:11px;color:#444}
 .card h3{font-size:12px;margin:0 0 4px;word-break:break-all}
-.stage{position:relative;width:256px;height:256px;
+.stage{position:relative;width:320px;height:320px;
  background:repeating-conic-gradient(#ddd 0% 25%,#fff 0% 50%) 0 0/16px 16px}
 .stage img{position:absolute;display:block}
 .stage img.ov{left:0;top:0;width:100%;height:100%}
@@ -221,8 +233,14 @@ _JS = """
     if (['project','skeleton','slot','attachment'].indexOf(k) >= 0) return r[k];
     var m = r.metrics[method]; return (m && k in m) ? m[k] : null;
   }
-  function num(v, d){ return typeof v === 'number' ? v.toFixed(d) : '-'; }
-  function fmt(v){ return v === null ? 'failed' : (typeof v === 'number' && !Number.isInteger(v)) ? v.toFixed(3) : String(v); }
+  // the same number formats as the summary table (data.formats comes from COLUMNS)
+  function fmt(v, k){
+    if (v === null) return 'failed';
+    if (typeof v !== 'number') return String(v);
+    var f = data.formats[k];
+    if (!f || Number.isInteger(v)) return f && f[0] === 'pct' ? (v * 100).toFixed(f[1]) + '%' : String(v);
+    return f[0] === 'pct' ? (v * 100).toFixed(f[1]) + '%' : v.toFixed(f[1]);
+  }
   function render(){
     var idx = data.rows.map(function(_, i){ return i; });
     if (sortKey) idx.sort(function(a, b){
@@ -232,7 +250,7 @@ _JS = """
     var head = '<tr>' + cols.map(function(c){ return '<th data-k="' + c[0] + '">' + c[1] + '</th>'; }).join('') + '</tr>';
     var body = idx.map(function(i){ var r = data.rows[i];
       return '<tr>' + cols.map(function(c, j){ var v = val(r, c[0]);
-        return j < 4 ? '<td class="l">' + (j === 3 ? '<a href="#a' + i + '">' : '') + String(v).replace(/&/g,'&amp;').replace(/</g,'&lt;') + (j === 3 ? '</a>' : '') + '</td>' : '<td>' + fmt(v) + '</td>'; }).join('') + '</tr>'; }).join('');
+        return j < 4 ? '<td class="l">' + (j === 3 ? '<a href="#a' + i + '">' : '') + String(v).replace(/&/g,'&amp;').replace(/</g,'&lt;') + (j === 3 ? '</a>' : '') + '</td>' : '<td>' + fmt(v, c[0]) + '</td>'; }).join('') + '</tr>'; }).join('');
     var t = document.getElementById('per');
     t.innerHTML = head + body;
     Array.prototype.forEach.call(t.querySelectorAll('th'), function(th){
@@ -240,12 +258,14 @@ _JS = """
   }
   function show(m){
     method = m;
-    Array.prototype.forEach.call(document.querySelectorAll('img.ov'), function(img){
+    Array.prototype.forEach.call(document.querySelectorAll('img.gen'), function(img){
       img.src = 'assets/' + img.getAttribute('data-i') + '-' + m + '.svg'; });
     Array.prototype.forEach.call(document.querySelectorAll('.card'), function(c){
       var r = data.rows[+c.getAttribute('data-i')], x = r.metrics[m];
+      c.querySelector('figcaption.gen').textContent = m;
       c.querySelector('p').textContent = x && !('error' in x) ?
-        'artist ' + r.metrics.artist.vertices + ' V, ' + m + ' ' + x.vertices + ' V, IoU ' + num(x.hull_iou, 2) + ', Chamfer ' + num(x.chamfer, 1) + ' px'
+        'artist ' + r.metrics.artist.vertices + ' vertices, ' + m + ' ' + x.vertices + ' vertices; hull IoU ' +
+        fmt(x.hull_iou, 'hull_iou') + ', Chamfer ' + fmt(x.chamfer, 'chamfer') + ' px, coverage ' + fmt(x.coverage, 'coverage')
         : m + ' failed';
     });
     render();
@@ -261,6 +281,15 @@ _JS = """
 """
 
 
+def _js_formats() -> dict:
+    """COLUMNS' formats for the page's script: ``{key: ["pct" | "fixed", digits]}``."""
+    out = {}
+    for key, _, fmt in COLUMNS:
+        m = re.fullmatch(r"\{:\.(\d)([f%])\}", fmt)
+        out[key] = ["pct" if m.group(2) == "%" else "fixed", int(m.group(1))]
+    return out
+
+
 def _aggregate_html(agg: list[dict]) -> str:
     head = "<tr><th>Method</th><th>Meshes</th>" + "".join(f"<th>{html.escape(h)}</th>" for _, h, _ in COLUMNS) + "</tr>"
     body = []
@@ -270,17 +299,24 @@ def _aggregate_html(agg: list[dict]) -> str:
     return "<table>" + head + "".join(body) + "</table>"
 
 
+#: Side of the square in which each mesh is drawn on the page (CSS px).
+STAGE = 320
+
+
 def _card(i: int, row, box) -> str:
     x, y, w, h = box
-    s = 256.0 / max(w, h)
+    s = STAGE / max(w, h)
     # the overlay SVG is centred in the square stage (xMidYMid meet): place the sprite to match
-    ox, oy = (256.0 - w * s) / 2, (256.0 - h * s) / 2
+    ox, oy = (STAGE - w * s) / 2, (STAGE - h * s) / 2
     left, top = ox + (0 - x) * s, oy + (0 - y) * s
     title = html.escape(f"{row.project} / {row.skeleton} / {row.slot} / {row.attachment} ({row.width}x{row.height})")
-    return (f'<div class="card" id="a{i}" data-i="{i}"><h3>{title}</h3><div class="stage">'
-            f'<img src="assets/{i}.png" alt="" style="left:{left:.2f}px;top:{top:.2f}px;'
-            f'width:{row.width * s:.2f}px;height:{row.height * s:.2f}px">'
-            f'<img class="ov" data-i="{i}" alt="mesh overlay" src="assets/{i}-artist.svg"></div><p></p></div>')
+    sprite = (f'<img src="assets/{i}.png" alt="" style="left:{left:.2f}px;top:{top:.2f}px;'
+              f'width:{row.width * s:.2f}px;height:{row.height * s:.2f}px">')
+    return (f'<div class="card" id="a{i}" data-i="{i}"><h3>{title}</h3><div class="pair">'
+            f'<figure><div class="stage">{sprite}<img class="ov" alt="artist mesh" src="assets/{i}-artist.svg">'
+            f'</div><figcaption>artist</figcaption></figure>'
+            f'<figure><div class="stage">{sprite}<img class="ov gen" data-i="{i}" alt="generated mesh" src="">'
+            f'</div><figcaption class="gen"></figcaption></figure></div><p></p></div>')
 
 
 def to_html(result: DiffResult, agg: list[dict]) -> str:
@@ -292,7 +328,8 @@ def to_html(result: DiffResult, agg: list[dict]) -> str:
     legend = "".join(f'<span style="background:{COLOURS[k]}"></span>{label}' for k, label in (
         ("artist", "artist mesh"), ("ours", "generated mesh"), ("exterior", "exterior vertex"),
         ("interior", "interior vertex")))
-    data = finite({"methods": list(result.methods), "rows": [r.to_json() for r in result.rows]})
+    data = finite({"methods": list(result.methods), "rows": [r.to_json() for r in result.rows],
+                   "formats": _js_formats()})
     # "</" must not appear inside a <script> element
     data_json = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     cards = "".join(_card(i, r, b) for i, (r, b) in enumerate(zip(result.rows, boxes)))
@@ -334,9 +371,8 @@ def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
         box = _viewbox(list(r.meshes.values()), r.width, r.height)
         atomic_write_png(out / "assets" / f"{i}.png", np.ascontiguousarray(_sprite_png(r.rgba)))
         for m in ("artist",) + tuple(result.methods):
-            mesh = None if m == "artist" else r.meshes.get(m)
-            atomic_write_bytes(out / "assets" / f"{i}-{m}.svg",
-                               overlay_svg(r.meshes["artist"], mesh, box).encode("utf-8"))
+            svg = overlay_svg(r.meshes["artist"], None, box) if m == "artist" else overlay_svg(None, r.meshes.get(m), box)
+            atomic_write_bytes(out / "assets" / f"{i}-{m}.svg", svg.encode("utf-8"))
     paths = {"markdown": out / "report.md", "json": out / "report.json", "html": out / "index.html"}
     atomic_write_text(paths["markdown"], to_markdown(result, agg))
     atomic_write_json(paths["json"], to_json(result, agg))  # finite(): strict JSON
