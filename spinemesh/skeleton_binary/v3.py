@@ -48,6 +48,7 @@ import re
 import struct
 
 from .stream import SkelReader, SkelWriter
+from .symmetric import boolean, color, first_use_table, fld, put, text
 
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
@@ -126,51 +127,6 @@ def _names(names: list) -> tuple[list, dict]:
 _NEVER = object()  # a default no value equals: the value is always kept
 
 
-def _put(node: dict, key: str, v, default) -> None:
-    """Set ``node[key] = v`` unless ``v`` is the JSON default (``-0.0`` is kept)."""
-    if v != default:
-        node[key] = v
-    elif type(v) is float and v == 0 and math.copysign(1.0, v) < 0:
-        node[key] = v
-
-
-def fld(s, node: dict, key: str, default=0.0):
-    """A float32."""
-    if s.reading:
-        v = s.f32(what=key)
-        _put(node, key, v, default)
-        return v
-    return s.f32(node.get(key, default), what=key)
-
-
-def boolean(s, node: dict, key: str, default: bool = False) -> bool:
-    """A boolean byte."""
-    if s.reading:
-        v = s.bool(what=key)
-        _put(node, key, v, default)
-        return v
-    return s.bool(node.get(key, default))
-
-
-def color(s, node: dict, key: str, default: str):
-    """An RGBA8888 colour as ``rrggbbaa``."""
-    if s.reading:
-        v = s.color(what=key)
-        _put(node, key, v, default)
-        return v
-    return s.color(node.get(key, default), what=key)
-
-
-def text(s, node: dict, key: str):
-    """An inline string; null means the key is absent."""
-    if s.reading:
-        v = s.string(what=key)
-        if v is not None:
-            node[key] = v
-        return v
-    return s.string(node.get(key), what=key)
-
-
 def name(s, c: Context, node: dict, key: str):
     """A name: a string-table reference in 3.8, an inline string before; null is absent."""
     if not c.L.refs:
@@ -218,7 +174,7 @@ def enum(s, node: dict, key: str, names: tuple, default: str) -> str:
         i = s.varint(what=key)
         if not 0 <= i < len(names):
             raise s.fail(f"{key} below {len(names)}, found {i}", at)
-        _put(node, key, names[i], default)
+        put(node, key, names[i], default)
         return names[i]
     v = node.get(key, default)
     if v not in names:
@@ -443,7 +399,7 @@ def bend(s, node: dict, key: str) -> None:
         v = s.i8(what="bend direction")
         if v not in (1, -1):
             raise s.fail(f"a bend direction of 1 or -1, found {v}", at)
-        _put(node, key, v > 0, True)
+        put(node, key, v > 0, True)
     else:
         s.i8(1 if node.get(key, True) else -1)
 
@@ -713,7 +669,7 @@ def event(s, node: dict, c: Context) -> None:
     """One event definition."""
     name(s, c, node, "name")
     if s.reading:
-        _put(node, "int", s.varint(positive=False, what="int"), 0)
+        put(node, "int", s.varint(positive=False, what="int"), 0)
     else:
         s.varint(int(node.get("int", 0)), positive=False)
     fld(s, node, "float", 0)
@@ -782,9 +738,9 @@ def curve(s, f: dict, c: Context) -> None:
             c1, c2, c3, c4 = struct.unpack(">4f", s.raw(n=16, what="bezier curve"))
             if c.L.split_curve:
                 f["curve"] = c1
-                _put(f, "c2", c2, 0)
-                _put(f, "c3", c3, 1)
-                _put(f, "c4", c4, 1)
+                put(f, "c2", c2, 0)
+                put(f, "c3", c3, 1)
+                put(f, "c4", c4, 1)
             else:
                 f["curve"] = [c1, c2, c3, c4]
         elif kind != CURVE_LINEAR:
@@ -900,7 +856,7 @@ def deform(s, anim: dict, c: Context) -> None:
         end = s.count(len(verts), what="deform length")
         if end:
             if s.reading:
-                _put(f, "offset", s.count(what="deform offset"), 0)
+                put(f, "offset", s.count(what="deform offset"), 0)
             else:
                 s.count(int(f.get("offset", 0)))
             floats(s, f, "vertices", end)
@@ -967,7 +923,7 @@ def events_timeline(s, anim: dict, c: Context) -> None:
         index(s, f, "name", c.event_names, "event")
         data = defs[c.event_names[1][f["name"]]]
         if s.reading:
-            _put(f, "int", s.varint(positive=False, what="int"), data.get("int", 0))
+            put(f, "int", s.varint(positive=False, what="int"), data.get("int", 0))
         else:
             s.varint(int(f.get("int", data.get("int", 0))), positive=False)
         fld(s, f, "float", data.get("float", 0))
@@ -1084,19 +1040,6 @@ class _TableWriter(SkelWriter):
         return value
 
 
-def _derivable(strings: list[str], refs: list[int]) -> bool:
-    """Whether numbering strings in first-use order gives this table and these refs."""
-    if len(set(strings)) != len(strings):
-        return False
-    expected = 1
-    for k in refs:
-        if k == expected:
-            expected += 1
-        elif k > expected:
-            return False
-    return expected - 1 == len(strings)
-
-
 def read(reader: SkelReader) -> dict:
     """Read a whole 3.6/3.7/3.8 ``.skel`` into a JSON-layout document."""
     r = _RefReader(reader.data, reader.path)
@@ -1115,7 +1058,7 @@ def read(reader: SkelReader) -> dict:
             raise r.fail(f"end of file, found {len(r.data) - r.pos} more bytes")
     finally:
         reader.pos = r.pos
-    if c.L.refs and not _derivable(r.strings, r.refs):
+    if c.L.refs and not first_use_table(r.strings, r.refs):
         # The editor's own table order (not first use): keep it, and the indices too
         # when some reference does not point at its string's first copy.
         extra["strings"] = list(r.strings)

@@ -2,7 +2,7 @@
 // Loads a skeleton with its atlas in the official Spine 4.3 runtime, poses the setup pose
 // and writes, for every region and mesh attachment of every skin, the world positions of
 // its vertices and their texture coordinates (UVs on the atlas page), as the runtime
-// computes them to draw: {"skin/slot/name": {"type", "world": [x, y, ...], "uvs": [u, v, ...]}}.
+// computes them to draw: {"skin\tslot\tname": {"type", "world": [x, y, ...], "uvs": [u, v, ...]}}.
 import fs from "node:fs";
 import { loadSkeletonData, spine } from "./load.mjs";
 
@@ -19,7 +19,7 @@ const out = {};
 for (const skin of data.skins) {
   for (const { slotIndex, placeholder: name, attachment } of skin.getAttachments()) {
     const slot = skeleton.slots[slotIndex];
-    const key = `${skin.name}/${slot.data.name}/${name}`;
+    const key = `${skin.name}\t${slot.data.name}\t${name}`;
     // The frame the setup pose shows (a sequence's setup index).
     const index = attachment.sequence ? attachment.sequence.resolveIndex(slot.pose) : 0;
     if (attachment instanceof spine.RegionAttachment) {

@@ -47,6 +47,7 @@ import struct
 
 from ..enums import EXTRA
 from ..stream import SkelReader
+from ..symmetric import first_use_table
 from .animation import animation
 from .attachments import derived_timeline_slots
 from .constraint_list import constraint_list, slider_animations
@@ -198,29 +199,11 @@ def _finish_read(s, doc: dict, extra: dict, c: Context) -> None:
     if not s.at_end:
         raise s.fail(f"end of file, found {len(s.data) - s.pos} more bytes")
     refs = getattr(s, "refs", [])
-    if not _derivable(s.strings, refs):
+    if not first_use_table(s.strings, refs):
         extra["strings"] = list(s.strings)
         extra["refs"] = list(refs)
     if extra:
         doc[EXTRA] = extra
-
-
-def _derivable(strings: list[str], refs: list[int]) -> bool:
-    """Whether the writer's own string table (:func:`string_table`) gives these bytes.
-
-    It does when the table has no duplicate and the references, in file order, first use
-    index 1, then 2, and so on: the writer numbers strings in the order it first writes
-    them, which is the reader's order.
-    """
-    if len(set(strings)) != len(strings):
-        return False
-    expected = 1
-    for k in refs:
-        if k == expected:
-            expected += 1
-        elif k > expected:
-            return False
-    return expected - 1 == len(strings)
 
 
 def string_table(doc: dict, L: Layout) -> list[str]:

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import struct
 
-from .fields import _put, _to_end, boolean, color, fields, flag, fld, fld_int, floats, index, opt, ref
+from ..symmetric import boolean, color, fld, put as _put
+from .fields import _to_end, fields, flag, fld_int, floats, index, opt, ref
 from .layout import Context, Layout
 from ..enums import ATTACHMENT_TYPES
 

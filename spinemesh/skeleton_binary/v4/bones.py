@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .fields import _names, _to_end, boolean, color, enum, fields, fld, index, ref, text
+from ..symmetric import boolean, color, fld, text
+from .fields import _names, _to_end, enum, fields, index, ref
 from .layout import Context
 from ..enums import BLEND, INHERIT
 

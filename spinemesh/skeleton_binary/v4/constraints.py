@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 
+from ..symmetric import boolean, fld, put as _put, text
 from .bones import _bone_list
-from .fields import _flag_byte, _put, _same, _to_end, boolean, enum, flag, fld, fld_int, index, opt, text
+from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, index, opt
 from .layout import Context, SPACING_MODE
 from ..enums import POSITION_MODE, ROTATE_MODE
 

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .fields import _put, fld, ref, text
+from ..symmetric import fld, put as _put, text
+from .fields import ref
 from .layout import Context
 
 

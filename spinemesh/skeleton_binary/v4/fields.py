@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import struct
 
+from ..symmetric import fld, put as _put
+
 
 # -- small symmetric helpers -----------------------------------------------------------
 
@@ -29,14 +31,6 @@ def _same(v, default) -> bool:
     if v != default:
         return False
     return not (isinstance(v, float) and v == 0 and math.copysign(1.0, v) < 0)
-
-
-def _put(node: dict, key: str, v, default) -> None:
-    """Set ``node[key] = v`` unless ``v`` is the default (the hottest helper: kept inline-fast)."""
-    if v != default:
-        node[key] = v
-    elif v == 0 and type(v) is float and math.copysign(1.0, v) < 0:
-        node[key] = v
 
 
 def _to_end(node: dict, keys: tuple) -> None:
@@ -65,15 +59,6 @@ def fields(s, node: dict, keys_defaults: tuple, order: tuple | None = None) -> N
         floats(s, [node.get(key, d) for key, d in keys_defaults], n, ", ".join(k for k, _ in keys_defaults))
 
 
-def fld(s, node: dict, key: str, default=0.0):
-    """A float32 that is always stored; left out of the document when it is ``default``."""
-    if s.reading:
-        v = s.f32()
-        _put(node, key, v, default)
-        return v
-    return s.f32(node.get(key, default), what=key)
-
-
 def opt(s, node: dict, key: str, present: bool, default=0.0):
     """A float32 stored only when a flag says so (4.2)."""
     if not present:
@@ -87,22 +72,6 @@ def flag(node: dict, key: str, default, stored_default=0.0) -> bool:
     return not _same(v, stored_default) if isinstance(v, (int, float)) else v != stored_default
 
 
-def boolean(s, node: dict, key: str, default: bool = False) -> bool:
-    if s.reading:
-        v = s.bool()
-        _put(node, key, v, default)
-        return v
-    return s.bool(node.get(key, default))
-
-
-def color(s, node: dict, key: str, default: str | None):
-    if s.reading:
-        v = s.color()
-        _put(node, key, v, default)
-        return v
-    return s.color(node.get(key, default), what=key)
-
-
 def ref(s, node: dict, key: str):
     """A string-table reference; null means the key is absent."""
     if s.reading:
@@ -111,16 +80,6 @@ def ref(s, node: dict, key: str):
             node[key] = v
         return v
     return s.string_ref(node.get(key))
-
-
-def text(s, node: dict, key: str):
-    """An inline string; null means the key is absent."""
-    if s.reading:
-        v = s.string()
-        if v is not None:
-            node[key] = v
-        return v
-    return s.string(node.get(key))
 
 
 def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import base64
 import struct
 
-from .fields import fld, text
+from ..symmetric import fld, text
 from .layout import Layout, _layout
 
 

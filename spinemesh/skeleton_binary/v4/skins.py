@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from ..symmetric import color, text
 from .attachments import attachment
 from .constraint_list import skin_constraints
 from .bones import _bone_list
-from .fields import color, ref, seq, text
+from .fields import ref, seq
 from .layout import Context
 
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import struct
 
+from ..symmetric import boolean, fld, put as _put
 from .constraints import _mix_field
-from .fields import _floats_struct, _put, _same, boolean, enum, fields, flag, fld, floats, index, opt, seq
+from .fields import _floats_struct, _same, enum, fields, flag, floats, index, opt, seq
 from .layout import Context, SEQUENCE_MODE
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 
