@@ -85,7 +85,7 @@ def test_unchanged_document_keeps_its_exact_text(path):
 
 @pytest.mark.parametrize("path", EXAMPLE_JSON, ids=lambda p: str(p.relative_to(p.parents[2])))
 def test_upgrade_removes_only_the_lines_of_upgraded_regions(path):
-    """The check of issue #14: lines removed <= lines of the region attachments upgraded."""
+    """For every example JSON: lines removed <= lines of the region attachments upgraded."""
     text = _skeleton_text(path)
     doc = json.loads(text)
     ids = {id(ref.attachment) for ref in iter_attachments(doc)

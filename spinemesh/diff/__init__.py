@@ -1,4 +1,4 @@
-"""``spinemesh diff``: generated meshes against the artists' own (issue 8).
+"""``spinemesh diff``: generated meshes against the artists' own (paper sec. 5: the comparison with artists).
 
 >>> from spinemesh.diff import run_diff, write_report
 >>> result = run_diff(["../shared/spine-examples/4.2/sack"])
