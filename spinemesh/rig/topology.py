@@ -57,6 +57,21 @@ def _edge_distance(points: np.ndarray, vertices: np.ndarray, edges: np.ndarray) 
     return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1).min(axis=1)
 
 
+def _row(loop: np.ndarray, start: np.ndarray, normal: np.ndarray, spacing: float, margin: float) -> list:
+    """Points from a joint towards the outline along ``normal``, evenly spread over the art's width.
+
+    At least one point however narrow the art (unless it is narrower than ``margin``), so
+    that a fold line crosses the art at every joint.
+    """
+    size = float(np.ptp(loop, axis=0).max())
+    steps = np.arange(1.0, size, 1.0)
+    ok = _inside(loop, start + steps[:, None] * normal, 0.0)
+    reach = float(steps[np.argmin(ok)]) if not ok.all() else size  # first step outside the art
+    count = max(1, int(reach // spacing))
+    cand = np.array([start + normal * reach * k / (count + 1) for k in range(1, count + 1)])
+    return list(cand[_inside(loop, cand, min(margin, reach / (count + 1) / 2))])
+
+
 def rig_points(vertices: np.ndarray, hull: int, segments: np.ndarray, parents: list[int | None],
                budget: int) -> np.ndarray:
     """Candidate vertices for the joints, rows across joints and bone segments, in priority order.
@@ -95,12 +110,7 @@ def rig_points(vertices: np.ndarray, hull: int, segments: np.ndarray, parents: l
             joints.append(a)
             if direction is not None and np.linalg.norm(direction) > 0:
                 normal = np.array([-direction[1], direction[0]]) / np.linalg.norm(direction)
-                for k in range(1, 64):
-                    cand = np.array([a + k * spacing * normal, a - k * spacing * normal])
-                    ok = _inside(loop, cand, margin)
-                    if not ok.any():
-                        break
-                    rows += list(cand[ok])
+                rows += _row(loop, a, normal, spacing, margin) + _row(loop, a, -normal, spacing, margin)
         if n > 0:
             steps = int(n // spacing)
             for k in range(1, steps + 1):

@@ -112,6 +112,10 @@ def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing
     used = np.unique(faces)
     dist = np.stack([_segment_distance(points[used], s) for s in segments], axis=1)  # (U, B)
     near = dist.min(axis=1) <= spacing / 2
+    if dist.shape[1] > 1:
+        # A point as near to two bones (a joint) is left free: the solve blends it.
+        two = np.sort(dist, axis=1)[:, :2]
+        near &= two[:, 1] - two[:, 0] > 1e-6 * max(spacing, 1e-9)
     out = {int(used[i]): int(dist[i].argmin()) for i in np.flatnonzero(near)}
     have = set(out.values())
     for bone in range(len(segments)):

@@ -1,0 +1,224 @@
+"""Bones, weights, binding and rig-aware topology on data made by our own code (no ../shared)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+
+import numpy as np
+import pytest
+
+from spinemesh.rig.binding import bind, parse_vertices, rounded_weights, setup_world
+from spinemesh.rig.bones import skeleton_bones, world_transform
+from spinemesh.rig.document import WeightOptions, build_rig, weight_document
+from spinemesh.rig.topology import add_rig_vertices
+from spinemesh.rig.weights import refine, solve_weights, sparsify
+from spinemesh.skeleton import iter_attachments
+
+from rig_project import make_worm_project, worm_skeleton
+
+
+def _rot(deg, sx=1.0, sy=1.0):
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c * sx, -s * sy], [s * sx, c * sy]])
+
+
+def test_normal_bones_compose_parent_and_local():
+    parent = np.array([[0.0, -2.0, 10.0], [2.0, 0.0, 5.0]])  # turned 90 degrees, scaled 2
+    m = world_transform({"x": 3, "y": 1, "rotation": 30, "scaleX": 1.5, "scaleY": 0.5}, parent)
+    assert np.allclose(m[:, :2], parent[:, :2] @ _rot(30, 1.5, 0.5))
+    assert np.allclose(m[:, 2], parent[:, :2] @ [3, 1] + parent[:, 2])
+
+
+@pytest.mark.parametrize("mode", ["onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection"])
+def test_inherit_modes_drop_what_they_say(mode):
+    parent = np.c_[_rot(40, 2.0, 2.0), [7.0, -3.0]]
+    for key in ("inherit", "transform"):  # 4.2 and 3.x-4.1 spellings
+        m = world_transform({"rotation": 10, key: mode}, parent)
+        assert np.allclose(m[:, 2], [7, -3])
+        if mode == "onlyTranslation":
+            assert np.allclose(m[:, :2], _rot(10))
+        elif mode == "noRotationOrReflection":
+            assert np.allclose(m[:, :2], _rot(10, 2, 2))  # scale kept, rotation not
+        else:
+            assert np.allclose(m[:, :2], _rot(50))  # rotation kept, scale not
+
+
+def test_constraints_make_bones_and_children_not_exact():
+    doc = worm_skeleton()
+    doc["ik"] = [{"name": "reach", "bones": ["seg2"], "target": "seg1"}]
+    bones = {b.name: b for b in skeleton_bones(doc)}
+    assert bones["seg1"].exact and not bones["seg2"].exact and not bones["seg3"].exact
+    assert "IK constraint 'reach'" in bones["seg3"].why
+    assert bones["seg1"].target_of
+    doc["ik"][0]["mix"] = 0  # a constraint with mix 0 moves nothing
+    assert all(b.exact for b in skeleton_bones(doc))
+    doc["transform"] = [{"name": "t", "bones": ["seg3"], "target": "seg1", "mixRotate": 0, "mixX": 0,
+                         "mixScaleX": 0, "mixShearY": 0}]  # mixY and mixScaleY default to mixX, mixScaleX
+    assert all(b.exact for b in skeleton_bones(doc))
+    doc["transform"][0]["mixScaleY"] = 1
+    assert not skeleton_bones(doc)[3].exact
+
+
+def test_refine_shares_edge_points_and_keeps_vertices_first():
+    v = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    t = np.array([[0, 1, 2], [0, 2, 3]])
+    p, f = refine(v, t, 3)
+    assert np.array_equal(p[:4], v)
+    assert len(f) == 2 * 9
+    assert len(p) == 16  # a 4x4 grid of points: the diagonal's points are shared
+    assert len(np.unique(np.round(p, 9), axis=0)) == len(p)
+
+
+def _strip(n=9, length=300.0, width=40.0):
+    xs = np.linspace(0, length, n)
+    v = np.r_[np.c_[xs, np.zeros(n)], np.c_[xs[::-1], np.full(n, width)]]
+    tris = []
+    for i in range(n - 1):
+        a, b, c, d = i, i + 1, 2 * n - 2 - i, 2 * n - 1 - i
+        tris += [(a, b, c), (a, c, d)]
+    return v, np.array(tris)
+
+
+@pytest.mark.parametrize("method", ["bbw", "harmonic", "biharmonic"])
+def test_weights_follow_the_bones(method):
+    v, t = _strip()
+    segs = np.array([[[0, 20], [150, 20]], [[150, 20], [300, 20]]], float)
+    w = solve_weights(v, t, segs, method)
+    assert w.shape == (len(v), 2) and (w >= 0).all() and np.allclose(w.sum(1), 1)
+    left, right = v[:, 0] < 60, v[:, 0] > 240
+    assert (w[left, 0] > 0.8).all() and (w[right, 1] > 0.8).all()
+    # mirror symmetry of the strip and the bones
+    order = np.lexsort((v[:, 1], v[:, 0]))
+    mirror = np.lexsort((v[:, 1], 300 - v[:, 0]))
+    assert np.allclose(w[order, 0], w[mirror, 1], atol=0.1)  # the triangulation is not symmetric
+
+
+def test_sparsify_bounds_counts_and_sums():
+    w = np.array([[0.5, 0.2, 0.15, 0.1, 0.045, 0.005], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
+    s = sparsify(w, max_bones=4, min_weight=0.01)
+    assert ((s > 0).sum(1) <= 4).all() and np.allclose(s.sum(1), 1) and (s[s > 0] >= 0.01).all()
+    assert s[0, 5] == 0 and s[0, 4] == 0 and s[1, 2] == 1
+
+
+def test_rounded_weights_sum_to_exactly_one():
+    for row in np.random.default_rng(1).dirichlet(np.ones(4), 200):
+        assert sum(rounded_weights(row)) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_binding_keeps_setup_positions():
+    rng = np.random.default_rng(2)
+    worlds = [np.c_[_rot(a, s, s), rng.uniform(-100, 100, 2)] for a, s in ((0, 1), (37, 2), (-120, 0.5))]
+    world = rng.uniform(-200, 200, (30, 2))
+    w = sparsify(rng.dirichlet(np.ones(3), 30))
+    verts = bind(world, w, [0, 1, 2], worlds)
+    mesh = parse_vertices({"uvs": [0.0] * 60, "vertices": verts}, 3)
+    assert mesh.weighted and mesh.count == 30
+    assert np.abs(setup_world(mesh, worlds, 0) - world).max() < 1e-3
+
+
+def test_worm_is_weighted_to_its_chain_and_keeps_its_setup_pose():
+    doc = worm_skeleton()
+    att = doc["skins"][0]["attachments"]["worm"]["worm"]
+    # the region as a 2 x 9 strip mesh in seg1's space (origin at the worm's left end)
+    v, t = _strip(9, 240, 60)
+    att.update({"type": "mesh", "uvs": (v / (240, 60)).ravel().tolist(),
+                "vertices": (v - (0, 30)).ravel().tolist(), "triangles": t.ravel().tolist(), "hull": len(v)})
+    before = setup_world(parse_vertices(att, 4), build_rig(doc).worlds, 1)
+    out = weight_document(doc, "worm.json", WeightOptions(bones="auto"))
+    assert [o.status for o in out] == ["weighted"]
+    assert set(out[0].bones) == {"seg1", "seg2", "seg3"}
+    assert "root" in out[0].left_out
+    mesh = parse_vertices(att, 4)
+    assert mesh.weighted and set(mesh.bones()) == {1, 2, 3}
+    assert all(len(inf) <= 4 and abs(sum(e[3] for e in inf) - 1) < 1e-9 for inf in mesh.influences)
+    assert np.abs(setup_world(mesh, build_rig(doc).worlds, 1) - before).max() < 1e-3
+    # a second run leaves weighted meshes alone unless asked to replace them
+    again = weight_document(doc, "worm.json", WeightOptions(bones="auto"))
+    assert again[0].status == "skipped" and "--replace" in again[0].reason
+    # keep: an unweighted mesh stays on its slot's bone only
+    doc2 = copy.deepcopy(worm_skeleton())
+    doc2["skins"][0]["attachments"]["worm"]["worm"] = copy.deepcopy(att)
+    doc2["skins"][0]["attachments"]["worm"]["worm"]["vertices"] = (v - (0, 30)).ravel().tolist()
+    keep = weight_document(doc2, "w", WeightOptions(bones="keep"))
+    assert list(keep[0].bones) == ["seg1"]
+
+
+def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():
+    doc = worm_skeleton()
+    att = doc["skins"][0]["attachments"]["worm"]["worm"]
+    v, t = _strip(3, 240, 60)
+    att.update({"type": "mesh", "uvs": (v / (240, 60)).ravel().tolist(), "vertices": v.ravel().tolist(),
+                "triangles": t.ravel().tolist(), "hull": len(v)})
+    keyed = copy.deepcopy(doc)
+    keyed["animations"]["wiggle"]["attachments"] = {"default": {"worm": {"worm": {"deform": [{"time": 0}]}}}}
+    original = copy.deepcopy(att)
+    out = weight_document(keyed, "w", WeightOptions())
+    assert out[0].status == "skipped" and "deform timeline" in out[0].reason
+    assert keyed["skins"][0]["attachments"]["worm"]["worm"] == original
+    constrained = copy.deepcopy(doc)
+    constrained["ik"] = [{"name": "ik", "bones": ["seg1"], "target": "root"}]
+    out = weight_document(constrained, "w", WeightOptions())
+    assert out[0].status == "skipped" and "IK constraint" in out[0].reason
+
+
+def test_rig_vertices_fold_the_mesh_at_joints_within_budget():
+    v, t = _strip(3, 240, 60)  # a coarse strip: nothing at the joints
+    att = {"type": "mesh", "uvs": (v / (240, 60)).ravel().tolist(), "vertices": (v - (0, 30)).ravel().tolist(),
+           "triangles": t.ravel().tolist(), "hull": len(v), "edges": [], "width": 240, "height": 60}
+    segs = np.array([[[0, 0], [80, 0]], [[80, 0], [160, 0]], [[160, 0], [240, 0]]], float)
+    added = add_rig_vertices(att, segs, [None, 0, 1])
+    n = len(att["uvs"]) // 2
+    assert added > 0 and n == len(v) + added
+    assert len(att["triangles"]) // 3 == 2 * n - len(v) - 2  # one fully triangulated hull
+    local = np.asarray(att["vertices"]).reshape(-1, 2)
+    uv = np.asarray(att["uvs"]).reshape(-1, 2)
+    assert np.allclose(local, uv * (240, 60) - (0, 30), atol=1e-3)  # positions and UVs agree
+    assert any(np.allclose(p, [80, 0], atol=1e-3) for p in local)  # a vertex on the joint
+    across = [p for p in local[len(v):] if abs(p[0] - 80) < 1e-3 and abs(p[1]) > 1]
+    assert across, "a row of vertices across the joint"
+    budget = copy.deepcopy(att)
+    assert add_rig_vertices(budget, segs, [None, 0, 1], max_vertices=n) == 0  # budget spent
+
+
+def test_weighted_mesh_survives_the_binary_writer(tmp_path):
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    doc = worm_skeleton()
+    att = doc["skins"][0]["attachments"]["worm"]["worm"]
+    v, t = _strip(5, 240, 60)
+    att.update({"type": "mesh", "uvs": (v / (240, 60)).ravel().tolist(), "vertices": v.ravel().tolist(),
+                "triangles": t.ravel().tolist(), "hull": len(v)})
+    weight_document(doc, "w", WeightOptions(bones="auto"))
+    path = tmp_path / "worm.skel"
+    path.write_bytes(write_skel(doc, path))
+    back = read_skel(path)
+    a = parse_vertices(next(r for r in iter_attachments(back) if r.name == "worm").attachment, 4)
+    b = parse_vertices(att, 4)
+    assert a.count == b.count and [len(i) for i in a.influences] == [len(i) for i in b.influences]
+    worlds = build_rig(doc).worlds
+    assert np.abs(setup_world(a, worlds, 1) - setup_world(b, worlds, 1)).max() < 1e-3
+
+
+def test_cli_weights_a_project_without_touching_it(tmp_path):
+    from typer.testing import CliRunner
+
+    from spinemesh.cli import app
+
+    project = make_worm_project(tmp_path / "p").parent
+    upgraded = tmp_path / "up"
+    before = {p.name: p.read_bytes() for p in project.iterdir()}
+    r = CliRunner().invoke(app, ["upgrade", str(project), "--out", str(upgraded), "--weights", "none"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(app, ["weights", str(upgraded), "--out", str(tmp_path / "w"), "--report",
+                                 str(tmp_path / "r.json"), "--preview", str(tmp_path / "prev"), "--method",
+                                 "harmonic"])
+    assert r.exit_code == 0, r.output
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["counts"] == {"weighted": 1}
+    assert set(report["attachments"][0]["bones"]) == {"seg1", "seg2", "seg3"}
+    assert len(list((tmp_path / "prev").glob("*.png"))) == 1
+    assert {p.name: p.read_bytes() for p in project.iterdir()} == before
+    r = CliRunner().invoke(app, ["weights", str(upgraded), "--out", str(upgraded / "inside")])
+    assert r.exit_code != 0
