@@ -22,9 +22,10 @@ import pytest
 from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
 from spinemesh.skeleton_binary.compare import diff_documents
-from spinemesh.skeleton_binary.v3 import EXTRA
+from spinemesh.skeleton_binary.enums import EXTRA
 
 from conftest import EXAMPLES, skel_json_pairs
+from runtime_tool import max_difference, pose_dump
 
 PAIRS = [p for v in ("3.6", "3.7", "3.8") for p in skel_json_pairs(v)]
 IDS = [f"{s.parts[-3]}/{s.name}" for s, _ in PAIRS]
@@ -395,31 +396,7 @@ def test_corpus_json_writes_skel_that_reads_back(corpus):
 
 # -- the official runtime loads what we write (3.8: the runtime tool has no 3.6/3.7) ------
 
-RUNTIME = EXAMPLES.parent / "tools" / "spine-runtime"
-
-
-def _dump(runtime: Path, atlas: Path, skeleton: Path, out: Path, anim: str) -> dict:
-    import subprocess
-
-    r = subprocess.run(["node", "dump.mjs", str(atlas), str(skeleton), "--anim", anim, "--times", "0,0.3,0.7",
-                        "--out", str(out)], cwd=runtime, capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr[-2000:]
-    return json.loads(out.read_text())
-
-
-def _max_difference(a, b, path="") -> float:
-    """The largest difference between two dumps' numbers; anything else must be equal."""
-    if isinstance(a, dict):
-        keys = set(a) - {"input", "timing_ms", "hash"}
-        assert keys == set(b) - {"input", "timing_ms", "hash"}, path
-        return max([_max_difference(a[k], b[k], f"{path}/{k}") for k in keys] + [0.0])
-    if isinstance(a, list):
-        assert len(a) == len(b), path
-        return max([_max_difference(x, y, path) for x, y in zip(a, b)] + [0.0])
-    if isinstance(a, (int, float)) and not isinstance(a, bool):
-        return abs(a - b)
-    assert a == b, (path, a, b)
-    return 0.0
+TIMES = "0,0.3,0.7"
 
 
 @pytest.mark.parametrize("project,name,anim", [
@@ -436,9 +413,9 @@ def test_runtime_poses_match(spine_runtime, examples, tmp_path, project, name, a
     ours_skel.write_bytes(write_skel(_editor(folder / f"{name}.json")))
     ours_json = tmp_path / f"{name}.json"
     ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
-    a = _dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
-    b = _dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim)
-    assert _max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
-    c = _dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim)
-    d = _dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim)
-    assert _max_difference(c, d) == 0.0
+    a = pose_dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim, TIMES)
+    b = pose_dump(spine_runtime, atlas, ours_skel, tmp_path / "b.json", anim, TIMES)
+    assert max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
+    c = pose_dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim, TIMES)
+    d = pose_dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim, TIMES)
+    assert max_difference(c, d) == 0.0

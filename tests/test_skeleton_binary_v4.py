@@ -22,7 +22,7 @@ import pytest
 from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
 from spinemesh.skeleton_binary.compare import diff_documents
-from spinemesh.skeleton_binary.v4 import EXTRA
+from spinemesh.skeleton_binary.enums import EXTRA
 
 from conftest import EXAMPLES, skel_json_pairs
 from runtime_tool import max_difference, pose_dump
