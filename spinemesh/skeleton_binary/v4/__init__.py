@@ -1,6 +1,8 @@
 """The ``.skel`` layout of Spine 4.0 to 4.3, declared once for reading and writing.
 
-Every function below takes a stream ``s`` (a :class:`~.stream.SkelReader` or
+Every declaration in this package (one module per structure: :mod:`.header`, :mod:`.bones`,
+:mod:`.constraints`, :mod:`.constraint_list`, :mod:`.attachments`, :mod:`.skins`, :mod:`.events`,
+:mod:`.timelines`, :mod:`.animation`) takes a stream ``s`` (a :class:`~.stream.SkelReader` or
 :class:`~.stream.SkelWriter`) and the document node it fills (reading) or encodes
 (writing). The document is the one the Spine editor's JSON export of the same version
 holds: same keys, same nesting, values equal to their defaults left out.

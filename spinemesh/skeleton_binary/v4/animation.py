@@ -5,7 +5,9 @@ from __future__ import annotations
 from ..symmetric import color, fld, put as _put, text
 from .fields import index, seq
 from .layout import Context, Layout
-from .timelines import _physics_body_43, _slider_body, _transform_values_43, _bone_body, _deform_values, _path_body, _physics_body, _sequence_frames, _slot_body, _time, _transform_values, _typed_groups, curve_timeline, ik_timeline
+from .timelines import (_bone_body, _deform_values, _path_body, _physics_body, _physics_body_43,
+                        _sequence_frames, _slider_body, _slot_body, _time, _transform_values,
+                        _transform_values_43, _typed_groups, curve_timeline, ik_timeline)
 
 
 def attachment_timelines(s, anim: dict, c: Context) -> None:
