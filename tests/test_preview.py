@@ -92,3 +92,17 @@ def test_page_renders_in_headless_chromium(page, tmp_path):
     # the setup pose shows the demo's blue body and the new meshes' orange wireframe
     near = lambda rgb: (np.abs(img - rgb).sum(axis=2) < 40).sum()  # noqa: E731
     assert near((70, 110, 200)) > 2000 and near((224, 88, 43)) > 200
+
+
+def test_setup_pose_dresses_an_empty_default_skin():
+    """A project whose default skin is empty (mix-and-match) is drawn with the skin that
+    supplies most of the slots' setup attachments, then the default skin."""
+    from spinemesh.upgrade.preview import pose_skins
+
+    doc = {"slots": [{"name": "a", "bone": "root", "attachment": "x"}, {"name": "b", "bone": "root", "attachment": "y"}],
+           "skins": [{"name": "default", "attachments": {}},
+                     {"name": "one", "attachments": {"a": {"x": {}}}},
+                     {"name": "both", "attachments": {"a": {"x": {}}, "b": {"y": {}}}}]}
+    assert pose_skins(doc) == ["both", "default"]
+    doc["skins"] = doc["skins"][:1]
+    assert pose_skins(doc) == ["default"]

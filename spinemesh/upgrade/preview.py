@@ -206,7 +206,22 @@ def _draw(canvas: np.ndarray, rgba: np.ndarray, uvs: np.ndarray, dst: np.ndarray
         roi[:] = warped[..., :3] * a + roi * (1 - a)
 
 
-def setup_pose(doc: dict, source, upgraded: set[tuple[str, str]]) -> str:
+def pose_skins(doc: dict) -> list[str]:
+    """The skins the setup pose is drawn with, first match first: the skin that supplies most of
+    the slots' setup attachments (a project whose default skin is empty dresses it in one), then
+    ``default``, as a runtime falls back to the default skin."""
+    skins = dict(iter_skins(doc))
+    wanted = [(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
+              if isinstance(s, dict) and s.get("attachment") is not None]
+
+    def supplies(skin: str) -> int:
+        return sum(isinstance((skins[skin].get(slot) or {}).get(name), dict) for slot, name in wanted)
+
+    best = max((k for k in skins if k != "default"), key=supplies, default=None)
+    return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
+
+
+def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
     """HTML (a PNG under an SVG) of a skeleton's setup pose, with the wireframes of ``upgraded``.
 
     Parameters
@@ -215,7 +230,7 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str]]) -> str:
         The upgraded skeleton.
     source : image source or None
         Where the images come from (see :func:`spinemesh.project.image_source_for`).
-    upgraded : set of (slot, attachment name)
+    upgraded : set of (skin, slot, attachment name)
         Attachments whose wireframe is drawn.
     """
     from ..errors import SpineMeshError
@@ -224,20 +239,22 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str]]) -> str:
     bones = skeleton_bones(doc)
     by_name = {b.name: b for b in bones}
     skins = dict(iter_skins(doc))
-    default = skins.get("default", next(iter(skins.values()), {}))
+    order = pose_skins(doc)
     parts = []
     for slot in doc.get("slots", []):
         if not isinstance(slot, dict) or slot.get("attachment") is None or slot.get("bone") not in by_name:
             continue
         name = str(slot["attachment"])
-        att = (default.get(slot.get("name")) or {}).get(name)
-        if not isinstance(att, dict):
+        found = [(k, skins[k][slot.get("name")][name]) for k in order
+                 if isinstance((skins[k].get(slot.get("name")) or {}).get(name), dict)]
+        if not found:
             continue
+        skin, att = found[0]
         geometry = _attachment_geometry(att, by_name[slot["bone"]].world, bones)
         if geometry is None:
             continue
-        paths = image_paths(AttachmentRef("default", slot.get("name"), name, att))
-        parts.append((slot.get("name"), name, att, paths, geometry))
+        paths = image_paths(AttachmentRef(skin, slot.get("name"), name, att))
+        parts.append(((skin, slot.get("name"), name), att, paths, geometry))
     if not parts:
         return "<p>The setup pose shows no region or mesh attachment.</p>"
     everything = np.concatenate([g[1] for *_, g in parts])
@@ -250,17 +267,18 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str]]) -> str:
 
     canvas = np.full((H, W, 3), 0.93, np.float32)
     wires = []
-    for slot, name, att, paths, (uvs, pos, tris) in parts:
+    for place, att, paths, (uvs, pos, tris) in parts:
         dst = to_canvas(pos)
         if source is not None and paths:
             try:
                 _draw(canvas, source.get(paths[0]).rgba, uvs, dst, tris)
             except SpineMeshError:
                 pass  # a missing image: its wireframe (if upgraded) still shows where it is
-        if (slot, name) in upgraded and att.get("type") == "mesh":
+        if place in upgraded and att.get("type") == "mesh":
             wires.append(_mesh_svg(uvs, tris, int(att.get("hull", 0)), lambda _uv, d=dst: d, 1.0))
     png = _png_uri((canvas * 255).round().astype(np.uint8))
-    return (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
+    caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
+    return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
             f'alt="setup pose"><svg viewBox="0 0 {W} {H}" width="{W}" height="{H}">{"".join(wires)}</svg></div>')
 
 
@@ -319,6 +337,27 @@ def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) ->
             f'({_pct(saved, rate.transparent_before)} of it)</div></div>')
 
 
+def _reasons_table(result) -> str:
+    """Why attachments were kept as regions or failed, with counts, most frequent first.
+
+    Reasons are grouped by their words before the first colon ("not worth meshing: the art
+    fills 98% ..." and "... 92% ..." are one row), with one full reason as an example.
+    """
+    groups: dict[tuple[str, str], list[str]] = {}
+    for t in result.targets:
+        if t.status in ("kept", "failed"):
+            groups.setdefault((t.status, t.reason.split(":", 1)[0]), []).append(t.reason)
+    if not groups:
+        return ""
+    rows = "".join(
+        f"<tr><td>{html.escape(status)}</td><td style=\"text-align:left\">{html.escape(reasons[0])}"
+        + (f" <i>(and {len(set(reasons)) - 1} similar)</i>" if len(set(reasons)) > 1 else "")
+        + f"</td><td>{len(reasons):,}</td></tr>"
+        for (status, _), reasons in sorted(groups.items(), key=lambda kv: (-len(kv[1]), kv[0])))
+    return ('<table class="sum"><tr><th>left a region</th><th style="text-align:left">why (an example)</th>'
+            f"<th>attachments</th></tr>{rows}</table>")
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None) -> Path:
     """Write ``folder/index.html`` for an upgrade run and return its path.
@@ -366,7 +405,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
                           _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
         total = total + skeleton_rate
         cards.sort(key=lambda c: -c[0])
-        upgraded = {(t.slot, t.name) for t in targets if t.skin == "default"} or {(t.slot, t.name) for t in targets}
+        upgraded = {(t.skin, t.slot, t.name) for t in targets}
         sections.append(
             f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
             f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
@@ -386,7 +425,8 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         f"<td>{total.transparent_after:,}</td><td>−{_pct(saved, total.transparent_before)}</td></tr></table>"
         f"<p>Attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
         f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
-        "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>")
+        "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>"
+        + _reasons_table(result))
     page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh upgrade: "
             f"{html.escape(proj.root.name)}</title><style>{_CSS}</style></head><body>"
             f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>"
