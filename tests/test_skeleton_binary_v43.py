@@ -345,3 +345,36 @@ def test_convert_43_both_ways(tmp_path):
     back = load_skeleton(tmp_path / "g.json")
     assert not diff_documents(back, doc, abs_tol=1e-5, rel_tol=1e-6)
     assert read_skel(tmp_path / "f.skel") == read_skel(write_skel(doc))
+
+
+# -- 4.3 JSON: lossless, and walked like every other version ----------------------------------
+
+@pytest.mark.parametrize("case", PROJECTS43)
+def test_json_43_is_lossless_and_walked(case, tmp_path):
+    from spinemesh.skeleton import dumps_skeleton, image_paths, iter_attachments
+
+    path = _corpus_json(case)
+    doc = load_skeleton(path)
+    copy = tmp_path / path.name
+    copy.write_text(dumps_skeleton(doc), encoding="utf-8")
+    assert load_skeleton(copy) == doc == json.loads(path.read_text(encoding="utf-8-sig"))
+    refs = list(iter_attachments(doc))
+    expected = sum(len(atts) for sk in doc["skins"] for atts in sk.get("attachments", {}).values())
+    assert refs and len(refs) == expected
+    # Sequences (AR15's effect mesh has 8 frames) name every frame's image.
+    assert any(len(image_paths(r)) > 1 for r in refs) == (case == "tmd-ar15")
+
+
+def test_walker_helpers_follow_4_3_layout():
+    """4.3 moved constraints into one typed list and names a linked mesh's mesh 'source'."""
+    from spinemesh.skeleton import iter_attachments, iter_constraints, linked_source
+
+    doc = features_document()
+    assert [c["name"] for c in iter_constraints(doc, "ik")] == ["reach", "point"]
+    assert [c["name"] for c in iter_constraints(doc, "slider")] == ["timer", "dial"]
+    linked = {r.name: linked_source(r) for r in iter_attachments(doc) if r.type == "linkedmesh"}
+    assert linked == {"copy": ("default", "arm", "arm"), "arm-alt": ("default", "arm", "arm")}
+    old = {"ik": [{"name": "a"}], "skins": [{"name": "default", "attachments": {"s": {"l": {
+        "type": "linkedmesh", "parent": "m"}}}}]}
+    assert [c["name"] for c in iter_constraints(old, "ik")] == ["a"]
+    assert [linked_source(r) for r in iter_attachments(old)] == [("default", "s", "m")]
