@@ -142,6 +142,25 @@ def test_mesh_writes_into_the_current_folder_not_beside_the_art(demo, tmp_path):
         "frame1.json", "frame2.json", "frame3.json"]
 
 
+def test_mesh_of_a_jpeg_follows_the_art_not_its_rectangle(tmp_path):
+    """--mask auto (the default): an image without alpha is masked by the segmentation network."""
+    import numpy as np
+    from PIL import Image, ImageDraw
+
+    im = Image.new("RGB", (160, 160), (255, 255, 255))
+    draw = ImageDraw.Draw(im)
+    draw.ellipse((30, 30, 130, 130), fill=(200, 40, 40))
+    draw.ellipse((60, 60, 80, 80), fill=(30, 30, 120))
+    im.save(tmp_path / "disc.jpg", quality=95)
+    r = run("mesh", str(tmp_path / "disc.jpg"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    mesh = json.loads((tmp_path / "disc.mesh.json").read_text())
+    x, y = np.asarray(mesh["vertices"], float)[: mesh["hull"]].T
+    hull_area = 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1)))
+    disc = np.pi * 50 ** 2
+    assert disc <= hull_area < 1.3 * disc < 160 * 160  # the disc, not the 160x160 rectangle
+
+
 # --- output folder --------------------------------------------------------------------------
 
 def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
