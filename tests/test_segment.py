@@ -98,7 +98,7 @@ def test_shipped_model_and_card():
     card = model_card()
     assert card["input_size"] % 32 == 0
     assert DEFAULT_MODEL.stat().st_size < 15 * 2 ** 20
-    assert "spine-corpus" in card["training_data"]
+    assert "spinemesh dataset" in card["training_data"]
 
 
 @pytest.mark.parametrize("kind", BACKGROUNDS)
@@ -138,12 +138,27 @@ def test_segment_command_writes_binary_mask(tmp_path):
     assert mask_metrics(mask > 0, alpha_mask(sprite))[0] > 0.8
 
 
-@pytest.mark.skipif(not (SHARED / "spine-corpus").is_dir(), reason="../shared/spine-corpus is absent")
-def test_shipped_model_beats_trivial_baseline_on_held_out_games():
-    from spinemesh.segment.samples import gather_sprites, split_of
+@pytest.fixture(scope="module")
+def held_out_dataset(tmp_path_factory):
+    """A data set of one official example whose game is on the held-out side of the split."""
+    from conftest import unavailable
+    from spinemesh.dataset import build_dataset, split_of
 
-    sprites = gather_sprites(SHARED, max_side=256, split="val", limit_per_project=3)
-    assert sprites and all(split_of(s.game) == "val" for s in sprites)
+    project = SHARED / "spine-examples" / "4.2" / "coin"
+    if not project.is_dir():
+        unavailable(f"{project} is absent: real Spine data is needed for this test")
+    assert split_of("coin") == "val"
+    out = tmp_path_factory.mktemp("ds") / "ds"
+    build_dataset([project], out, jobs=1)
+    return out
+
+
+def test_shipped_model_beats_trivial_baseline_on_held_out_games(held_out_dataset):
+    from spinemesh.segment.samples import load_sprites
+
+    sprites = load_sprites([held_out_dataset], split="val", max_side=256)
+    assert sprites and {s.game for s in sprites} == {"coin"}
+    assert not load_sprites([held_out_dataset], split="train")
     rng = np.random.default_rng(0)
     net, everything = [], []
     for i, s in enumerate(sprites):
@@ -153,6 +168,80 @@ def test_shipped_model_beats_trivial_baseline_on_held_out_games():
         everything.append(mask_metrics(np.ones_like(truth), truth)[0])
     assert np.mean(net) > np.mean(everything) + 0.2
     assert np.mean(net) > 0.7
+
+
+def test_segment_eval_scores_every_kind_and_draws_worst_cases(held_out_dataset, tmp_path):
+    import json
+    from typer.testing import CliRunner
+    from spinemesh.cli import app
+
+    res = CliRunner().invoke(app, ["segment-eval", "--data", str(held_out_dataset), "--per-project", "3",
+                                   "--backgrounds", "solid,noise", "--baselines", "floodfill",
+                                   "--json", str(tmp_path / "s.json"), "--worst", str(tmp_path / "w.png")])
+    assert res.exit_code == 0, res.output
+    scores = json.loads((tmp_path / "s.json").read_text())
+    assert scores["games"] == ["coin"] and scores["sprites"] == 3
+    for kind in ("solid", "noise"):
+        for method in ("network", "floodfill"):
+            s = scores["scores"][kind][method]
+            assert s["n"] == 3 and 0 <= s["iou_median"] <= 1 and 0 <= s["dice"] <= 1
+    assert np.asarray(Image.open(tmp_path / "w.png")).shape[0] > 160
+
+
+def test_grabcut_failure_is_reported_not_scored_as_a_mask():
+    from spinemesh.segment.baseline import BaselineFailed
+    from spinemesh.segment.evaluate import MethodScores
+
+    flat = np.full((2, 5, 3), 90, np.uint8)  # every pixel is border: no foreground model to fit
+    with pytest.raises(BaselineFailed):
+        grabcut_mask(flat)
+    scores = MethodScores()
+    assert scores.add(None, np.ones((4, 4), bool), 0.0) == 0.0
+    assert scores.summary()["failed"] == 1
+
+
+def test_floodfill_combination_only_on_flat_backgrounds():
+    from spinemesh.segment import combine_with_floodfill
+
+    sprite = synthetic_sprite(seed=12)
+    truth = alpha_mask(sprite)
+    rgb = flatten(sprite, "solid", np.random.default_rng(13))
+    unsure = np.where(truth, 0.6, 0.4).astype(np.float32)  # right everywhere, confident nowhere
+    combined = combine_with_floodfill(unsure, rgb)
+    assert combined is not None and mask_metrics(combined, truth)[0] > 0.95
+    busy = flatten(sprite, "noise", np.random.default_rng(14))
+    assert combine_with_floodfill(unsure, busy) is None
+
+
+def test_segment_warns_on_an_empty_mask_of_a_visible_sprite(tmp_path):
+    from typer.testing import CliRunner
+    from spinemesh.cli import app
+
+    sprite = synthetic_sprite(seed=15)
+    sprite[..., 3] = 0  # an export that lost its alpha: the colours are all still there
+    src = tmp_path / "lost-alpha.png"
+    Image.fromarray(sprite).save(src)
+    res = CliRunner().invoke(app, ["segment", str(src), "--out", str(tmp_path / "m.png"), "--mask", "alpha"])
+    assert res.exit_code == 0, res.output
+    assert "warning" in res.output and "lost-alpha.png" in res.output
+
+
+def test_training_samples_and_pack_round_trip(held_out_dataset, tmp_path):
+    from spinemesh.train.data import read_pack, training_sample, write_pack
+
+    counts = write_pack([held_out_dataset], tmp_path / "p.npz")
+    assert counts["val"] > 0 and counts["train"] == 0
+    pack = read_pack(tmp_path / "p.npz")
+    assert len(pack["val"]) == counts["val"] and set(pack["val_games"]) == {"coin"}
+    rng = np.random.default_rng(0)
+    fg = []
+    for i in range(40):
+        img, mask = training_sample(pack["val"], i % len(pack["val"]), 96, rng)
+        assert img.shape == (96, 96, 3) and img.dtype == np.uint8 and mask.shape == (96, 96)
+        assert set(np.unique(mask)) <= {0, 1}
+        fg.append(mask.mean())
+    # Sprites are placed at many scales, sometimes across the border, never all missing.
+    assert 0 < np.mean(fg) < 0.9 and max(fg) > 0.3 and sum(f > 0 for f in fg) >= 36
 
 
 # --- training side (needs the train extra) ----------------------------------------------
@@ -167,13 +256,22 @@ def one_thread():
     torch.set_num_threads(before)
 
 
-def _batch(size: int, n: int = 4):
+def _raw_batch(size: int, n: int = 4):
+    """Augmented samples of synthetic sprites as the DataLoader gives them: uint8 NHWC, NHW."""
     torch = pytest.importorskip("torch")
-    from spinemesh.train.data import make_sample
+    from spinemesh.train.data import training_sample
 
     rng = np.random.default_rng(0)
-    xs, ys = zip(*(make_sample(synthetic_sprite(seed=i), size, rng) for i in range(n)))
-    return torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(ys))[:, None]
+    sprites = [synthetic_sprite(seed=i) for i in range(n)]
+    xs, ys = zip(*(training_sample(sprites, i, size, rng) for i in range(n)))
+    return torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(ys))
+
+
+def _batch(size: int, n: int = 4):
+    """The same, normalised for the model: float NCHW images, (N, 1, S, S) targets."""
+    from spinemesh.train.loop import prepare
+
+    return prepare(*_raw_batch(size, n), "cpu")
 
 
 def test_one_batch_training_step_learns(one_thread, request):
@@ -189,13 +287,14 @@ def test_one_batch_training_step_learns(one_thread, request):
     request.addfinalizer(lambda: torch.set_flush_denormal(False))
     model = SegmentationModel("efficientnet-lite0", 64, pretrained=True)
     opt = torch.optim.AdamW(model.param_groups(1e-3, 1e-4, 1e-4))
+    raw = _raw_batch(64)
     x, y = _batch(64)
     before = {k: v.clone() for k, v in model.decoder.state_dict().items()}
     losses = [train_step(model, opt, x, y)[0] for _ in range(6)]
     assert all(np.isfinite(losses))
     assert losses[-1] < losses[0]
     assert any(not torch.equal(before[k], v) for k, v in model.decoder.state_dict().items())
-    metrics = evaluate(model, [(x, y)], "cpu")
+    metrics = evaluate(model, [raw], "cpu")
     assert 0 <= metrics["iou"] <= 1 and metrics["loss"] > 0
     loss, bce, dice = seg_loss(torch.zeros_like(y), y)
     assert abs(bce - np.log(2)) < 1e-5 and 0 < dice < 1

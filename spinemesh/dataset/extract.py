@@ -17,27 +17,38 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atlas import Atlas, read_atlas
 from ..errors import SpineMeshError
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
 from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
-                       needed_images, skeletons_to_read)
+                       images_folder_for, needed_images, project_atlases, skeletons_to_read)
 from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
                         iter_skins, linked_source, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
 
 def game_of(project: Path) -> str:
-    """The game a project belongs to: its source repository, else its folder name."""
+    """The game a project belongs to: its source repository, else its folder name.
+
+    Raises
+    ------
+    SpineMeshError
+        For a :data:`SOURCE_FILE` that cannot be read or has no ``repo`` string: falling
+        back to the folder name would silently move the project to another game, and so
+        perhaps across the train/validation split.
+    """
     source = project / SOURCE_FILE
-    if source.is_file():
-        try:
-            repo = json.loads(source.read_text("utf-8")).get("repo")
-            if isinstance(repo, str) and repo:
-                return repo
-        except (OSError, ValueError):
-            pass
-    return project.name
+    if not source.is_file():
+        return project.name
+    try:
+        doc = json.loads(source.read_text("utf-8"))
+    except OSError as e:
+        raise SpineMeshError(f"cannot read: {e.strerror}", source) from None
+    except (UnicodeDecodeError, ValueError) as e:
+        raise SpineMeshError(f"malformed JSON ({e}); the project's game cannot be told", source) from None
+    repo = doc.get("repo") if isinstance(doc, dict) else None
+    if not isinstance(repo, str) or not repo:
+        raise SpineMeshError("no \"repo\" string; the project's game cannot be told", source)
+    return repo
 
 
 def split_of(game: str, val_fraction: float = VAL_FRACTION) -> str:
@@ -165,7 +176,11 @@ def extract_project(folder: str | Path, name: str, min_side: int = 1) -> Project
         ``errors`` / ``skipped`` and the rest of the project goes on.
     """
     folder = Path(folder)
-    result = ProjectResult(project=name, game=game_of(folder))
+    try:
+        game = game_of(folder)
+    except SpineMeshError as e:  # its split cannot be decided: the project is left out, said why
+        return ProjectResult(project=name, game=folder.name, errors=[f"{e}; project not used"])
+    result = ProjectResult(project=name, game=game)
     try:
         _extract(folder, result, min_side)
     except Exception as e:  # a bug or an unforeseen input must not stop the other projects
@@ -178,21 +193,7 @@ def extract_project(folder: str | Path, name: str, min_side: int = 1) -> Project
 
 def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
     project = find_project(folder)
-    atlases: dict[Path, Atlas] = {}
-    for p in project.atlases:
-        try:
-            atlas = read_atlas(p)
-        except SpineMeshError as e:
-            result.errors.append(str(e))
-            continue
-        # An atlas whose page images are absent is reported once here, rather than once
-        # per region, and left out so that another atlas or an images folder can serve.
-        missing = [pg.name for pg in atlas.pages if not (p.parent / pg.name).is_file()]
-        if missing:
-            result.errors.append(f"{p}: page image {missing[0]!r} not found; atlas not used")
-            continue
-        atlases[p] = atlas
-    project.atlases = list(atlases)
+    atlases = project_atlases(project)  # broken ones are in project.problems, reported below
 
     wants: dict[tuple, _Want] = {}
     for skel in skeletons_to_read(project.skeletons):
@@ -202,7 +203,8 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
             result.errors.append(str(e))
             continue
         result.skeletons += 1
-        _collect(doc, skel, project, atlases, wants, result)
+        _collect(doc, skel, project, wants, result)
+    result.errors += project.problems
 
     seen: dict[str, int] = {}  # content id -> index in result.samples
     ordered = sorted(wants.values(), key=lambda w: (w.kind, str(w.where), w.order))
@@ -256,12 +258,12 @@ def _sample(w: _Want, rgba: np.ndarray, scale: float, box: tuple, cid: str, resu
     return Sample(row, encode_png(part), encode_png(mask_of(part)), encode_mesh(mesh) if mesh else None)
 
 
-def _collect(doc: dict, skel: Path, project, atlases: dict, wants: dict, result: ProjectResult) -> None:
+def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult) -> None:
     """Add the images one skeleton draws to ``wants``, located in one atlas or folder."""
     rel = skel.relative_to(project.root).as_posix()
     version = spine_version(doc)
     try:
-        source = image_source_for(doc, skel, project, atlases=atlases)
+        source = image_source_for(doc, skel, project)
     except SpineMeshError as e:
         result.errors.append(str(e))
         return
@@ -270,14 +272,25 @@ def _collect(doc: dict, skel: Path, project, atlases: dict, wants: dict, result:
             return  # a skeleton without image attachments (only clipping, paths, ...)
         result.errors.append(f"{skel}: no atlas or images folder holds this skeleton's images")
         return
+    # A downscaled atlas beside an images folder: the folder holds the originals (editor
+    # images are at skeleton size), so images it has are read from it at full size.
+    originals = images_folder_for(doc, skel, project) if isinstance(source, AtlasImages) else None
+    originals = FolderImages(originals) if originals is not None else None
     for ref in iter_attachments(doc):
         mesh = None
         if ref.type == "mesh":
             mesh = ref.attachment
         elif ref.type == "linkedmesh":
             mesh = _linked_parent(doc, ref)
-        for path in image_paths(ref):
+        try:
+            paths = image_paths(ref)
+        except SpineMeshError as e:  # a malformed sequence: only this attachment is left out
+            result.error(f"{skel}: {e}")
+            continue
+        for path in paths:
             where = _locate(source, path)
+            if where is not None and originals is not None and _downscaled(source, where) and path in originals:
+                where = ("folder", originals.folder, (0, path))
             if where is None:
                 result.skip("image not found")
                 continue
@@ -293,6 +306,13 @@ def _relative(path: Path, folder: Path) -> str:
         return Path(path).resolve().relative_to(folder.resolve()).as_posix()
     except ValueError:
         return Path(path).name
+
+
+def _downscaled(source: AtlasImages, where: tuple) -> bool:
+    """Whether an atlas location's page was exported below full size (``scale:`` under 1)."""
+    kind, path, (page, _name) = where
+    atlas = next((a for a in source.atlases if a.path == path), None)
+    return kind == "atlas" and atlas is not None and float(atlas.pages[page].scale) < 1.0
 
 
 def _locate(source, name: str) -> tuple[str, Path, tuple] | None:

@@ -57,6 +57,7 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
         raise SpineMeshError("dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     from ..fsutil import atomic_write_bytes
 
@@ -78,6 +79,7 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
         ax.hist(per_game, bins=min(40, max(5, len(per_game))), color="#4c72b0")
     ax.set(xlabel="samples per game", ylabel="games",
            title=f"(a) {stats['samples']:,} samples from {len(per_game)} games")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of games is whole
     save(fig, "samples_per_game.png")
 
     types = stats["by_type"]

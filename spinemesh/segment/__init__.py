@@ -15,6 +15,7 @@ import json
 from functools import lru_cache
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..errors import ImageError, SpineMeshError
@@ -59,7 +60,8 @@ def _session(model_path: str, threads: int):
         raise ModelError(f"cannot load ONNX model: {e}", model_path) from None
 
 
-def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads: int = 0) -> np.ndarray:
+def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads: int = 0,
+                  flips: bool = False) -> np.ndarray:
     """Foreground probability at model size.
 
     Parameters
@@ -70,6 +72,8 @@ def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads
         An ONNX model with its card beside it (default: the shipped one).
     threads : int
         ONNX Runtime intra-op threads (0: its default, all cores).
+    flips : bool
+        Test-time augmentation: also run the mirrored image and average (twice the time).
 
     Returns
     -------
@@ -78,17 +82,56 @@ def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads
     path = str(model_path or DEFAULT_MODEL)
     size = int(model_card(path)["input_size"])
     sess = _session(path, threads)
+    name = sess.get_inputs()[0].name
     x = to_input(rgb[..., :3], size)[None]
-    logits = sess.run(None, {sess.get_inputs()[0].name: x})[0]
-    return (1.0 / (1.0 + np.exp(-logits[0, 0]))).astype(np.float32)
+    logits = sess.run(None, {name: x})[0][0, 0]
+    if flips:
+        mirrored = sess.run(None, {name: np.ascontiguousarray(x[..., ::-1])})[0][0, 0]
+        logits = 0.5 * (logits + mirrored[:, ::-1])
+    return (1.0 / (1.0 + np.exp(-logits))).astype(np.float32)
+
+
+def combine_with_floodfill(prob: np.ndarray, rgb: np.ndarray, unsure: float = 0.25,
+                           min_agreement: float = 0.8) -> np.ndarray | None:
+    """Where the network is unsure and the background is flat, the border flood fill decides.
+
+    The background counts as flat when the flood fill from the border reaches at least 90 %
+    of the border and agrees with the network's confident pixels (IoU at least
+    ``min_agreement``). Then every pixel whose probability is within ``unsure`` of 0.5 takes
+    the flood fill's answer.
+
+    Parameters
+    ----------
+    prob : ndarray, shape (H, W), float32
+        The network's probabilities at the image's size.
+    rgb : ndarray, shape (H, W, 3), uint8
+
+    Returns
+    -------
+    ndarray, shape (H, W), bool, or None when the background is not flat.
+    """
+    from .baseline import floodfill_mask
+
+    fill = floodfill_mask(rgb)
+    border = np.concatenate([fill[0], fill[-1], fill[:, 0], fill[:, -1]])
+    if border.mean() > 0.1:
+        return None
+    confident = np.abs(prob - 0.5) >= unsure
+    net = prob > 0.5
+    inter = np.logical_and(fill, net)[confident].sum()
+    union = np.logical_or(fill, net)[confident].sum()
+    if union and inter / union < min_agreement:
+        return None
+    return np.where(confident, net, fill)
 
 
 def predict_mask(rgb: np.ndarray, model_path: str | Path | None = None, threshold: float | None = None,
-                 threads: int = 0) -> np.ndarray:
+                 threads: int = 0, flips: bool | None = None, floodfill: bool | None = None) -> np.ndarray:
     """Binary foreground mask of an image without (meaningful) alpha, by the network.
 
-    The image is resized to the model's square input, the probabilities are resized back
-    bilinearly and thresholded (paper section 3.1: 0.5, or the model card's value).
+    The image is resized to the model's square input (area filter, so thin lines fade
+    rather than vanish), the probabilities are resized back bilinearly and thresholded
+    (paper section 3.1: 0.5, or the model card's value).
 
     Parameters
     ----------
@@ -99,6 +142,10 @@ def predict_mask(rgb: np.ndarray, model_path: str | Path | None = None, threshol
         Probability threshold (default: the model card's).
     threads : int
         ONNX Runtime threads (0: all cores).
+    flips : bool, optional
+        Average with the mirrored image (default: the model card's ``inference.flips``).
+    floodfill : bool, optional
+        :func:`combine_with_floodfill` (default: the model card's ``inference.floodfill``).
 
     Returns
     -------
@@ -107,9 +154,31 @@ def predict_mask(rgb: np.ndarray, model_path: str | Path | None = None, threshol
     if rgb.ndim != 3 or rgb.shape[2] not in (3, 4) or rgb.dtype != np.uint8:
         raise ValueError(f"expected an (H, W, 3|4) uint8 image, got {rgb.shape} {rgb.dtype}")
     card = model_card(model_path)
+    options = card.get("inference", {})
     t = card.get("threshold", 0.5) if threshold is None else threshold
-    prob = predict_proba(rgb, model_path, threads)
-    return from_output(prob, rgb.shape[0], rgb.shape[1], t)
+    flips = options.get("flips", False) if flips is None else flips
+    floodfill = options.get("floodfill", False) if floodfill is None else floodfill
+    prob = predict_proba(rgb, model_path, threads, flips)
+    h, w = rgb.shape[:2]
+    if floodfill:
+        full = cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR)
+        combined = combine_with_floodfill(full, np.ascontiguousarray(rgb[..., :3]))
+        if combined is not None:
+            return combined
+        return full > t
+    return from_output(prob, h, w, t)
+
+
+def looks_empty(mask: np.ndarray, rgb: np.ndarray, min_fraction: float = 0.001) -> bool:
+    """Whether a mask is (nearly) empty although the image visibly holds something.
+
+    An image holds something when its colours are not (nearly) uniform: some pixel differs
+    from the median colour by more than 24 levels.
+    """
+    if mask.mean() >= min_fraction:
+        return False
+    diff = np.abs(rgb[..., :3].astype(np.int16) - np.median(rgb[..., :3].reshape(-1, 3), axis=0)).max()
+    return bool(diff > 24)
 
 
 def has_meaningful_alpha(rgba: np.ndarray, threshold: int = ALPHA_THRESHOLD, min_fraction: float = 0.001) -> bool:
@@ -159,4 +228,4 @@ def mask_for(rgba: np.ndarray, mode: str = "auto", model_path: str | Path | None
 
 
 __all__ = ["MASK_MODES", "DEFAULT_MODEL", "ModelError", "ImageError", "model_card", "predict_proba",
-           "predict_mask", "has_meaningful_alpha", "mask_for"]
+           "predict_mask", "combine_with_floodfill", "looks_empty", "has_meaningful_alpha", "mask_for"]

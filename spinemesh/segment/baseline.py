@@ -1,4 +1,4 @@
-"""Classical masks for art without alpha, to compare the network against (issue 7).
+"""Classical masks for art without alpha, to compare the network against.
 
 ``floodfill``
     Everything connected to the image border through small colour steps is background.
@@ -8,7 +8,9 @@
     OpenCV's GrabCut, with the one-pixel border as sure background and the rest as
     probable foreground: colour models rather than connectivity.
 
-Both take an (H, W, 3) uint8 image and return an (H, W) bool mask (True: sprite).
+Both take an (H, W, 3) uint8 image and return an (H, W) bool mask (True: sprite), or raise
+:class:`BaselineFailed` when the method gives no answer (evaluation counts that as a
+failure, never as some default mask).
 """
 
 from __future__ import annotations
@@ -17,6 +19,10 @@ import cv2
 import numpy as np
 
 BASELINES = ("floodfill", "grabcut")
+
+
+class BaselineFailed(ValueError):
+    """A classical method could not produce a mask for this image."""
 
 
 def floodfill_mask(rgb: np.ndarray, tolerance: int = 6) -> np.ndarray:
@@ -61,6 +67,11 @@ def grabcut_mask(rgb: np.ndarray, iterations: int = 5, max_side: int = 256) -> n
     Returns
     -------
     ndarray, shape (H, W), bool
+
+    Raises
+    ------
+    BaselineFailed
+        When OpenCV cannot fit its colour models (too few pixels of one class).
     """
     h, w = rgb.shape[:2]
     s = min(1.0, max_side / max(h, w))
@@ -71,8 +82,8 @@ def grabcut_mask(rgb: np.ndarray, iterations: int = 5, max_side: int = 256) -> n
     bgd, fgd = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
     try:
         cv2.grabCut(small, mask, None, bgd, fgd, iterations, cv2.GC_INIT_WITH_MASK)
-    except cv2.error:
-        return np.ones((h, w), bool)  # too few pixels of a class to fit its colour model
+    except cv2.error as e:
+        raise BaselineFailed(f"GrabCut failed on a {w}x{h} image: {str(e).strip().splitlines()[-1]}") from None
     fg = np.isin(mask, (cv2.GC_FGD, cv2.GC_PR_FGD)).astype(np.uint8)
     if s < 1:
         fg = cv2.resize(fg, (w, h), interpolation=cv2.INTER_NEAREST)

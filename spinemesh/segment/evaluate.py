@@ -1,9 +1,13 @@
 """``segment-eval``: how well the network and the classical baselines recover sprite masks.
 
-Each held-out sprite (games the network never saw, :func:`~spinemesh.segment.samples.split_of`)
-is flattened onto each of the three kinds of background of paper section 3.4, every method
-predicts a mask at the image's own size, and IoU, Dice and pixel accuracy are averaged per
-image against the alpha mask (alpha > 128).
+Every held-out sprite (games on the ``val`` side of the data sets' split, which training
+never reads) is flattened, in its own frame, onto each kind of background of
+:data:`~spinemesh.segment.composite.BACKGROUNDS`; every method predicts a mask at the image's
+own size, scored against the alpha mask (alpha > 128): IoU, Dice and pixel accuracy per
+image, their mean and median per kind and method, and the worst cases.
+
+A method that fails on an image (a baseline raising
+:class:`~spinemesh.segment.baseline.BaselineFailed`) scores 0 there and is counted.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .baseline import baseline_mask
+from .baseline import BaselineFailed, baseline_mask
 from .composite import BACKGROUNDS, alpha_mask, flatten
 from .samples import Sprite
 
@@ -36,22 +40,40 @@ class MethodScores:
     dice: list[float] = field(default_factory=list)
     acc: list[float] = field(default_factory=list)
     seconds: list[float] = field(default_factory=list)
+    failed: int = 0
 
-    def add(self, pred: np.ndarray, truth: np.ndarray, seconds: float) -> None:
-        i, d, a = mask_metrics(pred, truth)
+    def add(self, pred: np.ndarray | None, truth: np.ndarray, seconds: float) -> float:
+        """Score one prediction (``None``: the method failed, scored 0); returns its IoU."""
+        if pred is None:
+            self.failed += 1
+            i, d, a = 0.0, 0.0, float((~truth).mean())
+        else:
+            i, d, a = mask_metrics(pred, truth)
         self.iou.append(i)
         self.dice.append(d)
         self.acc.append(a)
         self.seconds.append(seconds)
+        return i
 
     def summary(self) -> dict[str, float]:
-        return {"iou": float(np.mean(self.iou)), "dice": float(np.mean(self.dice)),
+        return {"iou": float(np.mean(self.iou)), "iou_median": float(np.median(self.iou)),
+                "dice": float(np.mean(self.dice)), "dice_median": float(np.median(self.dice)),
                 "acc": float(np.mean(self.acc)), "ms": 1000 * float(np.median(self.seconds)),
-                "n": len(self.iou)}
+                "n": len(self.iou), "failed": self.failed}
+
+
+def eval_image(sprite: Sprite, kind_index: int, sprite_index: int, seed: int) -> np.ndarray:
+    """The flattened image one (sprite, background kind) pair is scored on: (H, W, 3) uint8.
+
+    Deterministic in its arguments, so every method (and a later picture of the worst
+    cases) sees the same image.
+    """
+    rng = np.random.default_rng((seed, kind_index, sprite_index))
+    return flatten(sprite.rgba, BACKGROUNDS[kind_index], rng)
 
 
 def evaluate_methods(sprites: list[Sprite], methods: dict, backgrounds=BACKGROUNDS, seed: int = 7,
-                     progress=None) -> dict[str, dict[str, dict[str, float]]]:
+                     progress=None) -> tuple[dict, list[tuple[float, str, int]]]:
     """Score mask methods on sprites flattened onto each kind of background.
 
     Parameters
@@ -59,39 +81,88 @@ def evaluate_methods(sprites: list[Sprite], methods: dict, backgrounds=BACKGROUN
     sprites : list of Sprite
         Held-out sprites with alpha (the ground truth).
     methods : dict of name -> callable((H, W, 3) uint8) -> (H, W) bool
+        The first one is "the" method whose worst cases are returned.
     backgrounds : iterable of str
         Kinds from :data:`~spinemesh.segment.composite.BACKGROUNDS`.
     seed : int
-        The backgrounds are drawn from this seed, so every method sees the same images.
+        The backgrounds are drawn from this seed.
     progress : callable(), optional
         Called once per sprite and background.
 
     Returns
     -------
-    dict
-        ``scores[background][method] = {"iou", "dice", "acc", "ms", "n"}`` (means per image;
-        ``ms`` is the median time per image).
+    scores : dict
+        ``scores[background][method] = {"iou", "iou_median", "dice", "dice_median", "acc",
+        "ms", "n", "failed"}`` (``ms``: median time per image).
+    per_image : list of (iou, background, sprite index)
+        The first method's IoU on every image.
     """
     out: dict[str, dict[str, MethodScores]] = {b: {m: MethodScores() for m in methods} for b in backgrounds}
-    for bi, kind in enumerate(backgrounds):
+    first = next(iter(methods))
+    per_image = []
+    for kind in backgrounds:
+        ki = BACKGROUNDS.index(kind)
         for si, sprite in enumerate(sprites):
-            rng = np.random.default_rng((seed, bi, si))
-            rgb = flatten(sprite.rgba, kind, rng)
+            rgb = eval_image(sprite, ki, si, seed)
             truth = alpha_mask(sprite.rgba)
             for name, fn in methods.items():
                 t0 = time.perf_counter()
-                pred = fn(rgb)
-                out[kind][name].add(pred, truth, time.perf_counter() - t0)
+                try:
+                    pred = fn(rgb)
+                except BaselineFailed:
+                    pred = None
+                iou = out[kind][name].add(pred, truth, time.perf_counter() - t0)
+                if name == first:
+                    per_image.append((iou, kind, si))
             if progress:
                 progress()
-    return {b: {m: s.summary() for m, s in per.items()} for b, per in out.items()}
+    return {b: {m: s.summary() for m, s in per.items()} for b, per in out.items()}, per_image
 
 
-def default_methods(model_path=None, baselines=("floodfill", "grabcut"), threads: int = 0) -> dict:
-    """The network (ONNX) and the named classical baselines, as ``evaluate_methods`` wants them."""
+def worst_cases_picture(sprites: list[Sprite], per_image: list[tuple[float, str, int]], method, n: int = 16,
+                        seed: int = 7, cell: int = 160) -> np.ndarray:
+    """A grid of the ``n`` lowest-IoU images: flattened input, truth, prediction, each
+    ``cell`` px high, with the IoU and the sprite's name written under it.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), uint8 RGB
+    """
+    import cv2
+
+    rows = []
+    for iou, kind, si in sorted(per_image)[:n]:
+        rgb = eval_image(sprites[si], BACKGROUNDS.index(kind), si, seed)
+        truth = alpha_mask(sprites[si].rgba)
+        pred = method(rgb)
+        h, w = rgb.shape[:2]
+        s = cell / h
+        size = (max(1, min(3 * cell, round(w * s))), cell)
+        panels = [cv2.resize(rgb, size, interpolation=cv2.INTER_AREA)]
+        for m in (truth, pred):
+            panels.append(cv2.resize(np.where(m, 255, 0).astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)[..., None]
+                          .repeat(3, 2))
+        row = np.hstack([np.pad(p, ((0, 0), (0, 4), (0, 0)), constant_values=128) for p in panels])
+        label = np.full((18, row.shape[1], 3), 255, np.uint8)
+        cv2.putText(label, f"IoU {iou:.2f} {kind}: {sprites[si].name}"[:120], (2, 13), cv2.FONT_HERSHEY_PLAIN,
+                    0.9, (0, 0, 0), 1, cv2.LINE_AA)
+        rows.append(np.vstack([row, label]))
+    width = max(r.shape[1] for r in rows) if rows else 1
+    rows = [np.pad(r, ((0, 4), (0, width - r.shape[1]), (0, 0)), constant_values=255) for r in rows]
+    half = (len(rows) + 1) // 2
+    left, right = np.vstack(rows[:half] or [np.full((1, width, 3), 255, np.uint8)]), rows[half:]
+    if right:
+        right = np.vstack(right)
+        right = np.pad(right, ((0, left.shape[0] - right.shape[0]), (0, 0), (0, 0)), constant_values=255)
+        return np.hstack([left, np.full((left.shape[0], 8, 3), 255, np.uint8), right])
+    return left
+
+
+def default_methods(model_path=None, baselines=("floodfill", "grabcut"), threads: int = 0, **options) -> dict:
+    """The network (ONNX, with ``predict_mask`` options) and the named classical baselines."""
     from . import predict_mask
 
-    methods = {"network": lambda rgb: predict_mask(rgb, model_path, threads=threads)}
+    methods = {"network": lambda rgb: predict_mask(rgb, model_path, threads=threads, **options)}
     for b in baselines:
         methods[b] = lambda rgb, b=b: baseline_mask(rgb, b)
     return methods

@@ -17,11 +17,19 @@ from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
 from .model import SegmentationModel, build_model
 
 
-def load_checkpoint(path: str | Path) -> SegmentationModel:
-    """A model in eval mode from a ``best.pt``/``last.pt`` written by the training loop."""
+def load_checkpoint(path: str | Path, image_size: int | None = None) -> SegmentationModel:
+    """A float32 model in eval mode from a ``best.pt``/``last.pt`` written by the training loop.
+
+    ``image_size`` builds it for another input side than it was trained at (a multiple of
+    32: the network is fully convolutional and its static padding is the same for all of
+    them), to trade accuracy for speed at inference.
+    """
     ckpt = torch.load(path, map_location="cpu", weights_only=False)
-    model = build_model(ckpt["config"])
-    model.load_state_dict(ckpt["model"])
+    config = dict(ckpt["config"], **({"image_size": image_size} if image_size else {}))
+    if config["image_size"] % 32:
+        raise ValueError(f"input size must be a multiple of 32, not {config['image_size']}")
+    model = build_model(config)
+    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ckpt["model"].items()})
     return model.eval()
 
 
@@ -110,7 +118,7 @@ def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
         "architecture": {"encoder": model.config["encoder"], "decoder": "U-Net",
                          "decoder_channels": model.config["decoder_channels"],
                          "parameters": int(sum(p.numel() for p in model.parameters()))},
-        "training_data": "trained on spine-corpus + spine-examples at run time (no data ships)",
+        "training_data": "sprites of data sets made by `spinemesh dataset` (no data ships)",
     }
     card.update(extra)
     Path(path).write_text(json.dumps(card, indent=1) + "\n", encoding="utf-8")
@@ -118,7 +126,7 @@ def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
 
 
 def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarray], check: list[np.ndarray],
-            int8: bool = True) -> dict:
+            int8: bool = True, image_size: int | None = None) -> dict:
     """Export a checkpoint as the model that ships: ONNX (static int8 or fp32) plus its card.
 
     Parameters
@@ -133,6 +141,8 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
         Inputs to measure torch/ONNX parity on (held-out composites).
     int8 : bool
         Quantise (default) or ship fp32.
+    image_size : int, optional
+        Input side of the exported model (default: the training side).
 
     Returns
     -------
@@ -140,7 +150,7 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
         The card written.
     """
     out = Path(out)
-    model = load_checkpoint(checkpoint)
+    model = load_checkpoint(checkpoint, image_size)
     ckpt = torch.load(checkpoint, map_location="cpu", weights_only=False)
     fp32 = out.with_suffix(".fp32.onnx") if int8 else out
     export_onnx(model, fp32)
