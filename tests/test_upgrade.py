@@ -74,11 +74,15 @@ def test_demo_upgrade_json_and_skel(demo, tmp_path):
     out = tmp_path / "out"
     result = upgrade_project(demo, out, Options())
     assert not result.partial, [(t.name, t.reason) for t in result.targets if t.status == "failed"]
+    assert {(t.name, t.reason.split(":")[0]) for t in result.targets if t.status == "kept"} == {
+        ("demo-arm", "not worth meshing")}
     assert _tree_digest(demo) == before, "the input was modified"
     assert {"demo.json", "demo-binary.skel", "demo.atlas", "demo.png"} <= {p.name for p in out.iterdir()}
     for name in ("demo.json", "demo-binary.skel"):
         doc = load_skeleton(out / name)
         types = {r.name: r.attachment for r in iter_attachments(doc)}
+        # the arm is a plain rectangle: a mesh cannot draw fewer pixels, so it stays a region
+        assert types.pop("demo-arm").get("type", "region") == "region", name
         assert all(a["type"] == "mesh" for a in types.values()), name
         spark = types["spark"]
         assert spark["sequence"]["count"] == 3 and spark["path"] == "demo-spark/frame"

@@ -39,6 +39,11 @@ def upgrade(
                                                "path; repeatable.")] = [],
     min_size: Annotated[float, typer.Option("--min-size", min=0, help="Keep as regions those whose larger "
                                             "side is below this many pixels.")] = 0.0,
+    min_saving: Annotated[Optional[float], typer.Option(
+        "--min-saving", min=0.0, max=1.0,
+        help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
+             "quad (0..1; default 0.1). Art of many scattered islands, or whose outline needs over 200 "
+             "vertices, is kept a region too. Kept regions are reported with the reason.")] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report of every "
                                                    "attachment.")] = None,
@@ -91,7 +96,7 @@ def upgrade(
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
                       images_in=images_in, overrides=overrides, overwrite=overwrite,
-                      weights=weights.value)
+                      weights=weights.value, **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")

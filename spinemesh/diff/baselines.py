@@ -34,7 +34,7 @@ from ..mesher import exterior, triangulate
 from ..mesher.params import PAPER
 # The pipeline's own merge and finishing steps, so that a baseline differs from the paper
 # preset only in where its interior points come from.
-from ..mesher.pipeline import _dedupe, _finish
+from ..mesher.pipeline import finish_mesh, merge_close_points
 
 #: Baseline names, in the order of the paper's comparison table.
 BASELINES = ("hull", "grid", "shi-tomasi")
@@ -136,11 +136,11 @@ def mesh_with_interior(mask: np.ndarray, inner: np.ndarray, name: str) -> Mesh:
     ext = exterior_points(mask)
     inner = np.asarray(inner, dtype=np.float64).reshape(-1, 2)
     flags = np.r_[np.zeros(len(ext), bool), np.ones(len(inner), bool)]
-    pts, is_int = _dedupe(np.vstack([ext, inner]), flags, PAPER.triangulation_dedup)
+    pts, is_int = merge_close_points(np.vstack([ext, inner]), flags, PAPER.triangulation_dedup)
     verts, tris = triangulate.delaunay_centroid_filter(pts, mask)
     if len(tris) == 0:
         raise ImageError("the baseline mesh has no triangle (the sprite is too thin)")
-    mesh = _finish(verts, tris, is_int, np.zeros((0, 2), np.int64), w, h, preset=name)
+    mesh = finish_mesh(verts, tris, is_int, np.zeros((0, 2), np.int64), w, h, preset=name)
     return mesh
 
 

@@ -7,12 +7,15 @@
 
 Modules follow the pipeline: :mod:`.mask` (sec. 3.1), :mod:`.exterior` (sec. 3.2),
 :mod:`.interior` (sec. 3.3), :mod:`.triangulate` (sec. 3.4), :mod:`.params` (presets),
-:mod:`.mesh` (the result and ``mesh.json``), :mod:`.preview` (figures).
+:mod:`.mesh` (the result and ``mesh.json``), :mod:`.preview` (figures), :mod:`.worth` (when a
+region should stay a region).
 """
 
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
 from .pipeline import mesh_image, resolve_params
+from .worth import DEFAULT_MIN_SAVING, NotWorthMeshing, worth_meshing
 
-__all__ = ["mesh_image", "Mesh", "PRESETS", "MesherParams", "compute_mask", "resolve_params"]
+__all__ = ["mesh_image", "Mesh", "PRESETS", "MesherParams", "compute_mask", "resolve_params",
+           "worth_meshing", "NotWorthMeshing", "DEFAULT_MIN_SAVING"]

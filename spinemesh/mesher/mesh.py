@@ -46,6 +46,10 @@ class Mesh:
         hull or on a hole loop (blue).
     info : dict
         Free-form diagnostics (timings, preset name); written to JSON under ``"info"``.
+    hole_triangles : ndarray, shape (H, 3), int32
+        Triangles filling the holes the mesh leaves open (same winding), so that
+        ``triangles`` and ``hole_triangles`` together triangulate the whole hull polygon,
+        as a Spine mesh attachment must. Not written to ``mesh.json``.
     """
 
     vertices: np.ndarray
@@ -56,12 +60,14 @@ class Mesh:
     height: int
     is_interior: np.ndarray
     info: dict = field(default_factory=dict)
+    hole_triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int32))
 
     def __post_init__(self):
         self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 2)
         self.triangles = np.asarray(self.triangles, dtype=np.int32).reshape(-1, 3)
         self.edges = np.asarray(self.edges, dtype=np.int32).reshape(-1, 2)
         self.is_interior = np.asarray(self.is_interior, dtype=bool).reshape(-1)
+        self.hole_triangles = np.asarray(self.hole_triangles, dtype=np.int32).reshape(-1, 3)
         self.hull = int(self.hull)
         self.width = int(self.width)
         self.height = int(self.height)
@@ -73,6 +79,24 @@ class Mesh:
     @property
     def triangle_count(self) -> int:
         return len(self.triangles)
+
+    def hull_triangles(self) -> np.ndarray | None:
+        """Every triangle of the hull polygon, holes filled: Spine's mesh model.
+
+        A Spine mesh is one hull polygon triangulated entirely (the 4.2 binary format does not
+        even store the triangle count, which must be ``2 * N - hull - 2``), so the mesher's
+        own triangulation is returned with its holes filled, hole outlines kept as edges.
+
+        Returns
+        -------
+        ndarray, shape (2N - hull - 2, 3), or None
+            None when the triangles do not make such a triangulation (e.g. a mesh read from
+            ``mesh.json``, which has no hole triangles, or a paper-preset mesh of several loops).
+        """
+        tris = np.concatenate([self.triangles, self.hole_triangles]).astype(np.int64)
+        if len(tris) != 2 * len(self.vertices) - self.hull - 2 or len(np.unique(tris)) != len(self.vertices):
+            return None
+        return tris
 
     def to_json(self) -> dict:
         """The ``mesh.json`` dict.

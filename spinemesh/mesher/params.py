@@ -92,6 +92,11 @@ class MesherParams:
     interior_max_side : int
         Default preset: interior edges are detected on a copy at most this large (0: full
         size). The paper preset always works at full size.
+    min_saving : float or None
+        Default preset: None meshes whatever the cost. A share (0..1) turns on the rules of
+        :mod:`spinemesh.mesher.worth`: :class:`~spinemesh.mesher.worth.NotWorthMeshing` is
+        raised, early, when the mesh would draw less than this share fewer pixels than the
+        image's quad, or would need too many vertices (``upgrade --min-saving``).
     """
 
     style: str = "default"
@@ -125,6 +130,7 @@ class MesherParams:
     min_hole_area: float = 400.0
     analysis_max_side: int = 1024
     interior_max_side: int = 512
+    min_saving: float | None = None
 
     def with_overrides(self, **overrides) -> "MesherParams":
         """A copy with some fields replaced; unknown names raise ``TypeError``."""

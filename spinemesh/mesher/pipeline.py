@@ -11,6 +11,7 @@ from .geometry import clip_loop_to_rect, segments_cross, signed_area
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
+from .worth import NotWorthMeshing, art_share_reason, hull_reason, islands_reason
 
 
 def resolve_params(preset: str | MesherParams = "default", **overrides) -> MesherParams:
@@ -79,20 +80,40 @@ def _paper(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     ext = np.concatenate(loops)
     chains = interior.interior_chains(image, mask, p)
     inner = np.concatenate(chains) if chains else np.zeros((0, 2))
-    pts, is_int = _dedupe(np.vstack([ext, inner]), np.r_[np.zeros(len(ext), bool), np.ones(len(inner), bool)],
-                          p.triangulation_dedup)
+    pts, is_int = merge_close_points(np.vstack([ext, inner]),
+                                     np.r_[np.zeros(len(ext), bool), np.ones(len(inner), bool)], p.triangulation_dedup)
     verts, tris = triangulate.delaunay_centroid_filter(pts, mask)
-    return _finish(verts, tris, is_int, np.zeros((0, 2), np.int64), w, h, preset="paper")
+    return finish_mesh(verts, tris, is_int, np.zeros((0, 2), np.int64), w, h, preset="paper")
 
 
-def _dedupe(pts: np.ndarray, flags: np.ndarray, radius: float):
-    """Drop points within ``radius`` of an earlier point (paper sec. 3.4: 2 px)."""
-    keep = []
-    for i, q in enumerate(pts):
-        if keep and radius > 0 and np.min(np.hypot(*(pts[keep] - q).T)) < radius:
-            continue
-        keep.append(i)
-    return pts[keep], flags[keep]
+def merge_close_points(pts: np.ndarray, flags: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Drop each point closer than ``radius`` to an earlier kept point (paper sec. 3.4: 2 px).
+
+    Parameters
+    ----------
+    pts : ndarray, shape (n, 2)
+    flags : ndarray, shape (n,)
+        Carried along with the points (e.g. "interior").
+    radius : float
+        Pixels; 0 keeps every point.
+
+    Returns
+    -------
+    (pts, flags) of the kept points, in their order.
+    """
+    from scipy.spatial import cKDTree
+
+    if radius <= 0 or len(pts) < 2:
+        return pts, flags
+    near = cKDTree(pts).query_pairs(radius, output_type="ndarray")
+    near = near[np.hypot(*(pts[near[:, 0]] - pts[near[:, 1]]).T) < radius]  # strictly closer
+    earlier: dict[int, list[int]] = {}
+    for i, j in near.tolist():  # query_pairs gives i < j
+        earlier.setdefault(j, []).append(i)
+    kept = np.zeros(len(pts), bool)
+    for i in range(len(pts)):
+        kept[i] = not any(kept[j] for j in earlier.get(i, ()))
+    return pts[kept], flags[kept]
 
 
 # --------------------------------------------------------------------------- default
@@ -103,12 +124,40 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     # low-res squares covers the full-res ones exactly once scaled by s.
     s = max(1, int(np.ceil(max(h, w) / max(p.analysis_max_side, 16))))
     cover = _maxpool(mask, s)
-    area = float(cover.sum())
-    eps = max(0.5, p.hull_tolerance * np.sqrt(area) / max(p.density, 1e-6))
+    if p.min_saving is not None:  # keep-region rules 1 and 2, before any geometry
+        reason = art_share_reason(mask, p.min_saving) or islands_reason(cover)
+        if reason:
+            raise NotWorthMeshing(reason)
+    density = max(p.density, 1e-6)
+    eps = max(0.5, p.hull_tolerance * np.sqrt(float(cover.sum())) / density)
+    loops = _hull_and_holes(cover, eps, p, s)
+    if s > 1:
+        # the analysis grid may overhang the image by < s px: clip exactly at full size
+        loops = [clip_loop_to_rect(loops[0] * s, w, h)] + [l * s for l in loops[1:]]
+    if p.min_saving is not None:  # rule 3, before the interior edges and the triangulation
+        reason = hull_reason(loops[0], w, h, p.min_saving)
+        if reason:
+            raise NotWorthMeshing(reason)
+    ring = np.concatenate(loops)
+    budget = p.max_vertices
+    chains = []
+    if p.max_segment > 0 and (budget is None or budget > len(ring)):
+        chains = _interior(image, mask, p, s, ring, density, cover if s > 1 else None)
+        chains = _drop_crossing(chains, loops)
+        if budget is not None:
+            chains = _fit_budget(chains, budget - len(ring))
+    return _triangulate(loops, chains, p, w, h)
+
+
+def _hull_and_holes(cover: np.ndarray, eps: float, p: MesherParams, s: int) -> list[np.ndarray]:
+    """The covering hull and the hole loops, in analysis pixels, within ``max_vertices``.
+
+    Over the budget, holes are given up first (last first), then the hull is simplified
+    further (``eps`` x 1.5 per try) until the loops fit or cannot shrink.
+    """
     budget = p.max_vertices
     hull, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
     holes = exterior.hole_loops(region, cover, p.min_hole_area / (s * s), eps)
-    # hard budget: simplify the hull further, then give up holes, until the loops fit
     while budget is not None and len(hull) + sum(map(len, holes)) > budget:
         if holes:
             holes = holes[:-1]
@@ -120,41 +169,32 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
         if len(new) >= len(hull) and eps > 4 * max(cover.shape):
             break
         hull = new if len(new) < len(hull) else hull
-    loops = [hull] + holes
-    ring = np.concatenate(loops)
+    return [hull] + holes
+
+
+def _triangulate(loops: list[np.ndarray], chains: list[np.ndarray], p: MesherParams, w: int, h: int) -> Mesh:
+    """Constrained Delaunay of loops and chains, refined, without sliver-making chain vertices.
+
+    A chain vertex almost on the line of two others can give a sliver triangle that would
+    leave a T-junction (a crack when animated): that vertex is dropped and the points are
+    triangulated again (at most four times).
+    """
     density = max(p.density, 1e-6)
-    chains = []
-    if p.max_segment > 0 and (budget is None or budget > len(ring)):
-        chains = _interior(image, mask, p, s, ring, density, cover if s > 1 else None)
-        chains = _drop_crossing(chains, [l * s for l in loops])
-        if budget is not None:
-            chains = _fit_budget(chains, budget - len(ring))
-    ring = ring * s
-    if s > 1:
-        # the analysis grid may overhang the image by < s px: clip exactly at full size
-        hull_full = clip_loop_to_rect(loops[0] * s, w, h)
-        loops = [hull_full] + [l * s for l in loops[1:]]
-        ring = np.concatenate(loops)
-    else:
-        loops = [l * s for l in loops]
-    n_loop = len(ring)
+    n_loop = sum(map(len, loops))
     for _ in range(4):
         pts, is_int, edges = _assemble(loops, chains)
         n_steiner = _steiner_budget(p, len(pts), density)
-        if budget is not None:
-            n_steiner = max(0, min(n_steiner, budget - len(pts)))
-        verts, tris, edges = triangulate.constrained(pts, edges, loops, p.min_angle, n_steiner,
-                                                     p.min_vertex_distance)
-        # A chain vertex almost on the line of two others can give a sliver triangle that would
-        # leave a T-junction (a crack when animated): drop that vertex and triangulate again.
-        middle = _sliver_middles(verts, tris)
-        middle = [i for i in middle if n_loop <= i < len(pts)]
+        if p.max_vertices is not None:
+            n_steiner = max(0, min(n_steiner, p.max_vertices - len(pts)))
+        verts, tris, edges, holes = triangulate.constrained(pts, edges, loops, p.min_angle, n_steiner,
+                                                            p.min_vertex_distance)
+        middle = [i for i in _sliver_middles(verts, tris) if n_loop <= i < len(pts)]
         if not middle:
             break
         chains = _drop_chain_vertices(chains, [i - n_loop for i in middle])
     if len(verts) > len(pts):  # refinement points: interior unless they ended up on the hull
         is_int = np.r_[is_int, np.ones(len(verts) - len(pts), bool)]
-    return _finish(verts, tris, is_int, edges, w, h, preset="default")
+    return finish_mesh(verts, tris, is_int, edges, w, h, preset="default", hole_triangles=holes)
 
 
 def _assemble(loops: list[np.ndarray], chains: list[np.ndarray]):
@@ -218,7 +258,7 @@ def _interior(image: np.ndarray, mask: np.ndarray, p: MesherParams, s: int, ring
     f = max(sx, sy)
     scaled = p.with_overrides(min_contour_length=p.min_contour_length / f, max_segment=p.max_segment / f,
                               dedup_radius=p.dedup_radius / f, border_distance=p.border_distance / f)
-    taken = ring * s / [sx, sy]
+    taken = ring / [sx, sy]
     chains = interior.interior_chains(small, small_mask, scaled, scale=density, taken=taken)
     return [c * [sx, sy] for c in chains]
 
@@ -280,16 +320,18 @@ def _fit_budget(chains: list[np.ndarray], room: int) -> list[np.ndarray]:
 
 
 # --------------------------------------------------------------------------- common
-def _finish(verts: np.ndarray, tris: np.ndarray, is_int: np.ndarray, edges: np.ndarray,
-            w: int, h: int, preset: str) -> Mesh:
-    """Drop unused vertices, put the outer boundary loop first, orient triangles positively."""
-    tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-    a = verts[tris]
-    sa = (a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1]) - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])
-    tris = np.where((sa < 0)[:, None], tris[:, [0, 2, 1]], tris)
-    tris = tris[np.abs(sa) > 1e-9]
+def finish_mesh(verts: np.ndarray, tris: np.ndarray, is_int: np.ndarray, edges: np.ndarray,
+                w: int, h: int, preset: str, hole_triangles: np.ndarray | None = None) -> Mesh:
+    """The :class:`Mesh` of a triangulation: unused vertices dropped, the outer loop first.
+
+    Triangles are oriented positively and degenerate ones dropped; constrained edges that the
+    triangulation split are replaced by their pieces. ``hole_triangles`` (triangles filling
+    the mesh's holes, for a fully triangulated hull) are carried along, re-indexed.
+    """
+    tris = _oriented(verts, tris)
+    holes = _oriented(verts, hole_triangles if hole_triangles is not None else np.zeros((0, 3), np.int64))
     loop = _outer_loop(tris, verts)
-    used = np.unique(tris)
+    used = np.union1d(np.unique(tris), np.unique(holes))
     rest = np.setdiff1d(used, loop)
     order = np.concatenate([loop, rest]).astype(np.int64)
     remap = np.full(len(verts), -1, np.int64)
@@ -309,7 +351,17 @@ def _finish(verts: np.ndarray, tris: np.ndarray, is_int: np.ndarray, edges: np.n
     interior_flag = is_int[order].copy()
     interior_flag[:len(loop)] = False
     return Mesh(vertices=verts[order], triangles=tri_new, hull=len(loop), edges=new_edges,
-                width=w, height=h, is_interior=interior_flag, info={"preset": preset})
+                width=w, height=h, is_interior=interior_flag, info={"preset": preset},
+                hole_triangles=remap[holes])
+
+
+def _oriented(verts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Triangles (M, 3) with positive signed area; degenerate ones (|area| <= 1e-9) dropped."""
+    tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+    a = verts[tris]
+    sa = (a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1]) - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])
+    tris = np.where((sa < 0)[:, None], tris[:, [0, 2, 1]], tris)
+    return tris[np.abs(sa) > 1e-9]
 
 
 def _outer_loop(tris: np.ndarray, verts: np.ndarray) -> np.ndarray:

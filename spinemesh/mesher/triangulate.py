@@ -72,6 +72,9 @@ def constrained(points: np.ndarray, edges: np.ndarray, loops: list[np.ndarray],
     triangles : ndarray, shape (M, 3), positive signed area
     edges : ndarray, shape (K', 2)
         The constrained edges after refinement (a split edge is replaced by its pieces).
+    hole_triangles : ndarray, shape (H, 3)
+        The triangles inside the hole loops (``loops[1:]``): with them the hull polygon is
+        triangulated entirely, as Spine's mesh model wants.
     """
     t = _triangulation(points, edges)
     if max_steiner > 0 and min_angle > 0:
@@ -84,4 +87,5 @@ def constrained(points: np.ndarray, edges: np.ndarray, loops: list[np.ndarray],
     fixed = np.array(sorted((e.v1, e.v2) for e in t.fixed_edges), dtype=np.int64).reshape(-1, 2)
     cen = verts[tris].mean(axis=1)
     keep = points_in_loops(cen, loops)
-    return verts, tris[keep], fixed
+    in_hull = points_in_loops(cen, loops[:1])
+    return verts, tris[keep], fixed, tris[in_hull & ~keep]

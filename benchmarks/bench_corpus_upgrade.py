@@ -1,0 +1,223 @@
+"""Upgrade every project of the game corpus: what was meshed, what was kept, and what it saves.
+
+    nice -n 10 .venv/bin/python benchmarks/bench_corpus_upgrade.py run --out rows.json
+    .venv/bin/python benchmarks/bench_corpus_upgrade.py table rows.json [other_rows.json]
+
+``run`` upgrades each project folder of ``../shared/spine-corpus`` with the default options
+(one job), each in its own process with a time limit, into a temporary folder, and writes
+one row per region attachment: status, reason, mesh seconds, vertices, the pixels the region
+draws (its stored box on the atlas page) and the pixels the mesh draws (the area of its hull
+polygon, holes included, as Spine fills them).
+
+``table`` prints, for one or two row files side by side: attachments meshed, kept (by
+reason), skipped and failed; the drawn-pixel saving against the regions in total and per
+project; vertices added; mesh time per attachment (median, p90, p99, max) and in total.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+CORPUS = REPO.parent / "shared" / "spine-corpus"
+
+
+def hull_area(doc: dict) -> float:
+    """Area (px^2) of the hull polygon of a ``mesh.json`` dict: what Spine draws."""
+    import numpy as np
+
+    v = np.asarray(doc["vertices"], dtype=np.float64).reshape(-1, 2)[: int(doc["hull"])]
+    x, y = v[:, 0], v[:, 1]
+    return abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
+
+
+def box_area(key: str) -> int | None:
+    """Pixels of the stored box of an image key ``<hash>-x0-y0-x1-y1`` (None if absent)."""
+    parts = key.rsplit("-", 4)
+    if len(parts) != 5:
+        return None
+    x0, y0, x1, y1 = map(int, parts[1:])
+    return (x1 - x0) * (y1 - y0)
+
+
+def child(project: Path) -> None:
+    """Upgrade one project; print its rows as one JSON line."""
+    from spinemesh.upgrade import Options, upgrade_project
+
+    cache: dict = {}
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()
+        result = upgrade_project(project, Path(out) / "o", Options(), mesh_cache=cache)
+        wall = time.perf_counter() - t0
+    docs = {k: v for (k, _settings), v in cache.items()}
+    rows = []
+    for t in result.targets:
+        row = {"skeleton": t.skeleton, "slot": t.slot, "name": t.name, "status": t.status,
+               "reason": t.reason, "seconds": float(t.seconds or 0.0), "vertices": int(t.vertices or 0),
+               "image": t.key, "region_px": None, "mesh_px": None}
+        region = getattr(t, "region_pixels", None)
+        row["region_px"] = region if region is not None else (box_area(t.key) if t.key else None)
+        got = docs.get(t.key)
+        if t.status == "meshed" and got is not None and got[0] is not None:
+            row["mesh_px"] = hull_area(got[0])
+        rows.append(row)
+    print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows}))
+
+
+def run(out: Path, timeout: float, only: list[str]) -> None:
+    projects = sorted(p for p in CORPUS.iterdir() if p.is_dir() and not p.name.startswith("."))
+    if only:
+        projects = [p for p in projects if p.name in only]
+    result = {"projects": {}}
+    for i, p in enumerate(projects):
+        t0 = time.perf_counter()
+        try:
+            r = subprocess.run([sys.executable, __file__, "child", str(p)], capture_output=True, text=True,
+                               timeout=timeout)
+            if r.returncode != 0:
+                entry = {"error": r.stderr.strip().splitlines()[-1] if r.stderr.strip() else f"exit {r.returncode}"}
+            else:
+                entry = json.loads(r.stdout.strip().splitlines()[-1])
+        except subprocess.TimeoutExpired:
+            entry = {"error": f"timed out after {timeout:g} s"}
+        entry["process_s"] = time.perf_counter() - t0
+        result["projects"][p.name] = entry
+        n = len(entry.get("rows", []))
+        print(f"[{i + 1}/{len(projects)}] {p.name}: {n} attachments, {entry['process_s']:.1f} s"
+              + (f"  ERROR {entry['error']}" if "error" in entry else ""), file=sys.stderr, flush=True)
+        out.write_text(json.dumps(result))  # after each project: a partial run is still readable
+
+
+def _reason_kind(reason: str) -> str:
+    """A reason without its figures, for counting (``not worth meshing: 3 % saved`` -> its head)."""
+    return reason.split(":")[0].split("(")[0].strip() or "-"
+
+
+def summary(data: dict) -> dict:
+    import numpy as np
+
+    rows = [r for e in data["projects"].values() for r in e.get("rows", [])]
+    out: dict = {"projects": len(data["projects"]),
+                 "project_errors": sum("error" in e for e in data["projects"].values()),
+                 "attachments": len(rows)}
+    by_status: dict[str, int] = {}
+    by_reason: dict[str, int] = {}
+    for r in rows:
+        by_status[r["status"]] = by_status.get(r["status"], 0) + 1
+        if r["status"] != "meshed":
+            k = f"{r['status']}: {_reason_kind(r['reason'])}"
+            by_reason[k] = by_reason.get(k, 0) + 1
+    out["status"] = by_status
+    out["reasons"] = by_reason
+    # drawn pixels: every attachment that reached the mesher (meshed, kept, failed) draws its
+    # region unless it was meshed
+    considered = [r for r in rows if r["region_px"] is not None and r["status"] in ("meshed", "kept", "failed")]
+    region = sum(r["region_px"] for r in considered)
+    drawn = sum(r["mesh_px"] if r["status"] == "meshed" and r["mesh_px"] is not None else r["region_px"]
+                for r in considered)
+    out["region_px"] = region
+    out["drawn_px"] = drawn
+    out["saving"] = 1 - drawn / region if region else 0.0
+    meshed = [r for r in rows if r["status"] == "meshed" and r["mesh_px"] is not None and r["region_px"]]
+    out["worse_than_region"] = sum(r["mesh_px"] > r["region_px"] for r in meshed)
+    out["vertices_added"] = sum(r["vertices"] - 4 for r in rows if r["status"] == "meshed")
+    out["over_200_vertices"] = sum(r["vertices"] > 200 for r in rows if r["status"] == "meshed")
+    secs = np.array([r["seconds"] for r in rows if r["status"] in ("meshed", "kept", "failed")] or [0.0])
+    out["seconds"] = {"median": float(np.median(secs)), "p90": float(np.percentile(secs, 90)),
+                      "p99": float(np.percentile(secs, 99)), "max": float(secs.max()), "sum": float(secs.sum()),
+                      "over_2s": int((secs > 2).sum())}
+    # an image shared by several attachments is meshed once
+    once = {(name, r["image"]): r["seconds"] for name, e in data["projects"].items() for r in e.get("rows", [])
+            if r["status"] in ("meshed", "kept", "failed") and r.get("image")}
+    out["seconds"]["sum"] = float(sum(once.values()))
+    out["images_meshed"] = len(once)
+    out["wall"] = sum(e.get("process_s", 0.0) for e in data["projects"].values())
+    per = {}
+    for name, e in data["projects"].items():
+        rs = [r for r in e.get("rows", []) if r["region_px"] is not None and r["status"] in ("meshed", "kept", "failed")]
+        reg = sum(r["region_px"] for r in rs)
+        dr = sum(r["mesh_px"] if r["status"] == "meshed" and r["mesh_px"] is not None else r["region_px"] for r in rs)
+        per[name] = {"saving": 1 - dr / reg if reg else None,
+                     "meshed": sum(r["status"] == "meshed" for r in rs),
+                     "kept": sum(r["status"] == "kept" for r in rs),
+                     "seconds": sum(r["seconds"] for r in rs)}
+    out["per_project"] = per
+    return out
+
+
+def table(files: list[Path], per_project: bool) -> None:
+    import numpy as np
+
+    sums = [summary(json.loads(f.read_text())) for f in files]
+    w = 16
+    names = [f.stem[:w] for f in files]
+    print(f"{'':42}" + "".join(f"{n:>{w}}" for n in names))
+
+    def line(label, vals):
+        print(f"{label:42}" + "".join(f"{v:>{w}}" for v in vals))
+
+    line("projects (errors)", [f"{s['projects']} ({s['project_errors']})" for s in sums])
+    line("region attachments", [s["attachments"] for s in sums])
+    for st in sorted({k for s in sums for k in s["status"]}):
+        line(f"  {st}", [s["status"].get(st, 0) for s in sums])
+    for rk in sorted({k for s in sums for k in s["reasons"]}):
+        line(f"    {rk[:38]}", [s["reasons"].get(rk, 0) for s in sums])
+    line("drawn pixels, regions (Mpx)", [f"{s['region_px'] / 1e6:.1f}" for s in sums])
+    line("drawn pixels, after upgrade (Mpx)", [f"{s['drawn_px'] / 1e6:.1f}" for s in sums])
+    line("drawn-pixel saving, total", [f"{s['saving']:.1%}" for s in sums])
+    line("drawn-pixel saving, project median", [f"{np.median([p['saving'] for p in s['per_project'].values() if p['saving'] is not None]):.1%}" for s in sums])
+    line("meshes drawing more than their region", [s["worse_than_region"] for s in sums])
+    line("vertices added (over 4 per quad)", [s["vertices_added"] for s in sums])
+    line("meshes over 200 vertices", [s["over_200_vertices"] for s in sums])
+    for k in ("median", "p90", "p99", "max"):
+        line(f"mesh s per attachment, {k}", [f"{s['seconds'][k]:.3f}" for s in sums])
+    line("attachments over 2 s", [s["seconds"]["over_2s"] for s in sums])
+    line("unique images sent to the mesher", [s["images_meshed"] for s in sums])
+    line("mesh s, sum over unique images", [f"{s['seconds']['sum']:.0f}" for s in sums])
+    line("wall s, all projects (one process each)", [f"{s['wall']:.0f}" for s in sums])
+    if per_project:
+        print()
+        print(f"{'project':28}" + "".join(f"{n + ' saving':>{w + 4}}{'meshed/kept':>{w}}" for n in names))
+        for name in sorted(sums[0]["per_project"]):
+            cells = []
+            for s in sums:
+                p = s["per_project"].get(name)
+                if p is None:
+                    cells.append(f"{'-':>{w + 4}}{'-':>{w}}")
+                    continue
+                sv = "-" if p["saving"] is None else f"{p['saving']:.1%}"
+                cells.append(f"{sv:>{w + 4}}{str(p['meshed']) + '/' + str(p['kept']):>{w}}")
+            print(f"{name[:28]:28}" + "".join(cells))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--timeout", type=float, default=900.0, help="seconds per project")
+    r.add_argument("--only", nargs="*", default=[], help="project folder names")
+    t = sub.add_parser("table")
+    t.add_argument("files", type=Path, nargs="+")
+    t.add_argument("--per-project", action="store_true")
+    c = sub.add_parser("child")
+    c.add_argument("project", type=Path)
+    args = ap.parse_args()
+    if args.cmd == "child":
+        child(args.project)
+    elif args.cmd == "run":
+        if not CORPUS.is_dir():
+            sys.exit(f"{CORPUS} is absent: the benchmark needs the game corpus")
+        run(args.out, args.timeout, args.only)
+    else:
+        table(args.files, args.per_project)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,99 @@
+"""When a region should stay a region: a mesh that saves little costs more than it gives.
+
+Game teams mesh to draw fewer pixels (fill rate) and to deform. A mesh adds vertices that
+the runtime transforms every frame and uploads; a quad has four. So a region stays a region
+(``upgrade`` reports it as *kept*, a deliberate skip, not a failure) when any of these holds,
+tested in this order, each as soon as what it needs is known:
+
+1. **The art fills the region.** Every mesh contains all art pixels (the default preset
+   never clips), so it draws at least the art's area: when the art covers more than
+   ``1 - min_saving`` of the region, no mesh can save ``min_saving``. Decided from the mask
+   alone, before any geometry.
+2. **Scattered islands.** One Spine mesh is one hull loop, so separate pieces of art (rain,
+   snow, sparkles) are bridged into one outline that needs a few vertices per piece; with
+   more than :data:`MAX_ISLANDS` pieces the outline alone would pass the vertex budget, and
+   nobody deforms a rain sheet. Decided from the mask's connected pieces, before bridging.
+3. **The hull saves too little.** Once the covering hull is known (before the interior
+   edges and the triangulation, the expensive steps), the mesh is kept a region when the
+   hull draws less than ``min_saving`` fewer pixels than the quad, or when its outline needs
+   more than :data:`MAX_HULL_VERTICES` vertices while saving fewer than
+   :data:`MIN_PIXELS_PER_VERTEX` pixels per vertex (a big mesh that saves a lot still pays).
+
+``min_saving`` (``spinemesh upgrade --min-saving``, :data:`DEFAULT_MIN_SAVING`) and the two
+limits were chosen from an upgrade of a corpus of real game projects
+(``benchmarks/bench_corpus_upgrade.py``; figures in the README).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..errors import ImageError
+
+#: ``upgrade``'s default: keep the region when a mesh would draw less than this share fewer pixels.
+DEFAULT_MIN_SAVING = 0.10
+#: More separate pieces of art than this: one bridged hull would need too many vertices.
+MAX_ISLANDS = 32
+#: A hull with more vertices than this must save at least MIN_PIXELS_PER_VERTEX pixels per vertex.
+MAX_HULL_VERTICES = 200
+MIN_PIXELS_PER_VERTEX = 500
+
+
+class NotWorthMeshing(ImageError):
+    """The image is better drawn as a region; the message says why (it starts "not worth meshing")."""
+
+
+def art_share_reason(mask: np.ndarray, min_saving: float) -> str:
+    """Rule 1: ``""``, or why no mesh of ``mask`` can save ``min_saving`` of the region."""
+    share = float(np.count_nonzero(mask)) / max(mask.size, 1)
+    if min_saving > 0 and 1.0 - share < min_saving:
+        return (f"not worth meshing: the art fills {share:.0%} of the region, so a mesh would draw "
+                f"at most {1 - share:.0%} fewer pixels (--min-saving {min_saving:.0%})")
+    return ""
+
+
+def islands_reason(mask: np.ndarray, max_islands: int = MAX_ISLANDS) -> str:
+    """Rule 2: ``""``, or why ``mask`` has too many separate pieces for one hull."""
+    n = cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)[0] - 1
+    if n > max_islands:
+        return (f"not worth meshing: {n} separate islands of art (more than {max_islands}); one hull "
+                f"around them all would need hundreds of vertices")
+    return ""
+
+
+def hull_reason(hull: np.ndarray, width: float, height: float, min_saving: float,
+                max_vertices: int = MAX_HULL_VERTICES, min_per_vertex: float = MIN_PIXELS_PER_VERTEX) -> str:
+    """Rule 3: ``""``, or why a mesh with this covering ``hull`` (n, 2) px would not pay."""
+    x, y = hull[:, 0], hull[:, 1]
+    area = abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
+    saving = 1.0 - area / max(float(width) * float(height), 1e-12)
+    if min_saving > 0 and saving < min_saving:
+        return (f"not worth meshing: a mesh would draw only {max(saving, 0.0):.0%} fewer pixels than the "
+                f"region (--min-saving {min_saving:.0%})")
+    saved = saving * float(width) * float(height)
+    if len(hull) > max_vertices and saved < min_per_vertex * len(hull):
+        return (f"not worth meshing: its outline needs {len(hull)} vertices (more than {max_vertices}) to save "
+                f"{saved / len(hull):.0f} pixels per vertex (fewer than {min_per_vertex:g})")
+    return ""
+
+
+def worth_meshing(mask: np.ndarray, min_saving: float = DEFAULT_MIN_SAVING,
+                  max_islands: int = MAX_ISLANDS) -> str:
+    """Rules 1 and 2, from the mask alone: ``""`` when a mesh may pay, else the reason.
+
+    Parameters
+    ----------
+    mask : ndarray, shape (H, W), bool
+        What the mesh must cover (the art, with any sampling margin), over the whole region.
+    min_saving : float
+        Share of the region's pixels a mesh must save (0..1); 0 turns rule 1 off.
+    max_islands : int
+        Most separate (8-connected) pieces of art one hull may join.
+
+    Returns
+    -------
+    str
+        ``""`` or a reason starting with "not worth meshing".
+    """
+    return art_share_reason(mask, min_saving) or islands_reason(mask, max_islands)

@@ -1,0 +1,80 @@
+"""When a region stays a region (spinemesh.mesher.worth), and what the mesher hands upgrade."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from spinemesh.mesher import NotWorthMeshing, mesh_image, worth_meshing
+from spinemesh.mesher.worth import MAX_ISLANDS, hull_reason
+from spinemesh.metrics import coverage, mesh_problems
+
+
+def _rgba(mask: np.ndarray) -> np.ndarray:
+    img = np.zeros(mask.shape + (4,), np.uint8)
+    img[mask] = (200, 120, 60, 255)
+    return img
+
+
+def test_art_filling_the_region_is_kept_before_any_geometry():
+    mask = np.ones((64, 48), bool)
+    mask[:3, :3] = False  # 97% filled: no mesh can save 10%
+    assert worth_meshing(mask, 0.10).startswith("not worth meshing: the art fills 100%")
+    assert worth_meshing(mask, 0.0) == ""
+    with pytest.raises(NotWorthMeshing, match="art fills"):
+        mesh_image(_rgba(mask), min_saving=0.10)
+    # without the rule (the mesh command's default) it is meshed
+    assert len(mesh_image(_rgba(mask)).vertices) >= 3
+
+
+def test_scattered_islands_are_kept():
+    rng = np.random.default_rng(0)
+    mask = np.zeros((400, 400), bool)
+    for x, y in rng.integers(5, 395, (MAX_ISLANDS + 8, 2)):
+        cv2.circle(mask.view(np.uint8), (int(x), int(y)), 2, 1, -1)
+    reason = worth_meshing(mask, 0.10)
+    assert reason.startswith("not worth meshing:") and "islands" in reason
+    few = np.zeros((400, 400), np.uint8)
+    for x in range(3):
+        cv2.circle(few, (60 + 120 * x, 200), 30, 1, -1)
+    assert worth_meshing(few.astype(bool), 0.10) == ""
+
+
+def test_hull_rule_counts_saving_and_vertices():
+    square = np.array([[0, 0], [90, 0], [90, 100], [0, 100]], float)
+    assert "only 10% fewer" in hull_reason(square * [1, 1], 100, 100, 0.2)
+    assert hull_reason(square, 100, 100, 0.05) == ""
+    # a many-vertex outline that saves little per vertex
+    t = np.linspace(0, 2 * np.pi, 300, endpoint=False)
+    circle = np.stack([50 + 49 * np.cos(t), 50 + 49 * np.sin(t)], axis=1)
+    assert "300 vertices" in hull_reason(circle, 100, 100, 0.05)
+    # the same outline on a large region saves plenty per vertex: meshed
+    assert hull_reason(circle * 10, 1000, 1000, 0.05) == ""
+
+
+def test_sparse_art_is_meshed_with_rules_on():
+    mask = np.zeros((120, 120), np.uint8)
+    cv2.circle(mask, (60, 60), 30, 1, -1)
+    img = _rgba(mask.astype(bool))
+    mesh = mesh_image(img, min_saving=0.10)
+    assert coverage(mesh.vertices, mesh.triangles, mask.astype(bool)) == 1.0
+
+
+def test_hull_triangles_fill_holes_for_spine():
+    # a ring: the default preset leaves its hole open; Spine needs the hull fully triangulated
+    img = np.zeros((200, 200, 4), np.uint8)
+    cv2.circle(img, (100, 100), 80, (200, 100, 50, 255), -1)
+    cv2.circle(img, (100, 100), 40, (0, 0, 0, 0), -1)
+    mesh = mesh_image(img)
+    assert len(mesh.hole_triangles) > 0
+    full = mesh.hull_triangles()
+    assert full is not None and len(full) == 2 * len(mesh.vertices) - mesh.hull - 2
+    assert not mesh_problems(mesh.vertices, full, mesh.hull)
+    # holes filled: the hull polygon's area, exactly
+    x, y = mesh.vertices[: mesh.hull].T
+    hull_area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    a = mesh.vertices[full]
+    area = 0.5 * np.abs((a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1])
+                        - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])).sum()
+    assert area == pytest.approx(hull_area)
