@@ -49,23 +49,36 @@ def box_area(key: str) -> int | None:
 def child(project: Path) -> None:
     """Upgrade one project; print its rows as one JSON line."""
     from spinemesh.upgrade import Options, upgrade_project
+    from spinemesh.upgrade import run as upgrade_run
 
+    sizes: dict[str, int] = {}
+    if hasattr(upgrade_run, "mesh_one"):
+        # the stored box each image is meshed on (what its region draws), as the worker sees it
+        mesh_one = upgrade_run.mesh_one
+
+        def recording(task):
+            sizes[task.key] = int(task.rgba.shape[0] * task.rgba.shape[1])
+            return mesh_one(task)
+
+        upgrade_run.mesh_one = recording
     cache: dict = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         result = upgrade_project(project, Path(out) / "o", Options(), mesh_cache=cache)
         wall = time.perf_counter() - t0
-    docs = {k: v for (k, _settings), v in cache.items()}
+    meshes = {k: v for (k, _settings), v in cache.items()}
     rows = []
     for t in result.targets:
         row = {"skeleton": t.skeleton, "slot": t.slot, "name": t.name, "status": t.status,
                "reason": t.reason, "seconds": float(t.seconds or 0.0), "vertices": int(t.vertices or 0),
-               "image": t.key, "region_px": None, "mesh_px": None}
-        region = getattr(t, "region_pixels", None)
-        row["region_px"] = region if region is not None else (box_area(t.key) if t.key else None)
-        got = docs.get(t.key)
-        if t.status == "meshed" and got is not None and got[0] is not None:
-            row["mesh_px"] = hull_area(got[0])
+               "image": t.key, "region_px": sizes.get(t.key) or (box_area(t.key) if t.key else None),
+               "mesh_px": None}
+        got = meshes.get(t.key)
+        if t.status == "meshed" and got is not None:
+            if isinstance(got, tuple):  # before the upgrade restructuring: (mesh.json dict, ...)
+                row["mesh_px"] = hull_area(got[0])
+            else:  # a MeshResult
+                row["mesh_px"] = hull_area({"vertices": got.vertices, "hull": got.hull})
         rows.append(row)
     print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows}))
 
