@@ -61,6 +61,15 @@ def test_constraints_make_bones_and_children_not_exact():
     assert not skeleton_bones(doc)[3].exact
 
 
+def test_spine_43_constraints_list_is_read():
+    doc = worm_skeleton("4.3.23")
+    doc["constraints"] = [{"type": "ik", "name": "reach", "bones": ["seg3"], "target": "seg1"},
+                          {"type": "physics", "name": "wobble", "bone": "seg2"}]
+    bones = {b.name: b for b in skeleton_bones(doc)}
+    assert not bones["seg3"].exact and bones["seg2"].exact  # physics leaves the setup pose as it is
+    assert "ik constraint 'reach'" in bones["seg1"].target_of
+
+
 def test_refine_shares_edge_points_and_keeps_vertices_first():
     v = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
     t = np.array([[0, 1, 2], [0, 2, 3]])

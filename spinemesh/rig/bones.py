@@ -145,20 +145,30 @@ def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
     return np.array([[m[0], m[1], world_x], [m[2], m[3], world_y]])
 
 
+def constraints_of(doc: dict, kind: str) -> list[dict]:
+    """Constraints of one kind: the ``ik``/``transform``/``path``/``physics`` lists (3.x-4.2),
+    or the entries of 4.3's single ``constraints`` list whose ``type`` is ``kind``."""
+    out = [c for c in doc.get(kind, []) or [] if isinstance(c, dict)]
+    out += [c for c in doc.get("constraints", []) or [] if isinstance(c, dict) and c.get("type") == kind]
+    return out
+
+
 def _constrained_bones(doc: dict, index: dict[str, int]) -> dict[int, str]:
     """Bones a constraint moves in the setup pose, with the constraint that does."""
     out: dict[int, str] = {}
+    four_three = bool(doc.get("constraints"))
 
     def mark(names, why):
         for n in names if isinstance(names, list) else []:
             if n in index:
                 out.setdefault(index[n], why)
 
-    for c in doc.get("ik", []) or []:
-        if isinstance(c, dict) and _num(c, "mix", 1) != 0:
+    for c in constraints_of(doc, "ik"):
+        if _num(c, "mix", 1) != 0:
             mark(c.get("bones"), f"IK constraint {c.get('name')!r}")
-    for c in doc.get("transform", []) or []:
-        if not isinstance(c, dict):
+    for c in constraints_of(doc, "transform"):
+        if four_three:  # 4.3 maps properties freely: any transform constraint counts
+            mark(c.get("bones"), f"transform constraint {c.get('name')!r}")
             continue
         if any(k in c for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")):  # 3.x
             mixes = [_num(c, k, 1) for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")]
@@ -168,9 +178,10 @@ def _constrained_bones(doc: dict, index: dict[str, int]) -> dict[int, str]:
                      _num(c, "mixScaleY", mix_sx), _num(c, "mixShearY", 1)]
         if any(m != 0 for m in mixes):
             mark(c.get("bones"), f"transform constraint {c.get('name')!r}")
-    for c in doc.get("path", []) or []:
-        if isinstance(c, dict):
-            mark(c.get("bones"), f"path constraint {c.get('name')!r}")
+    for c in constraints_of(doc, "path"):
+        mark(c.get("bones"), f"path constraint {c.get('name')!r}")
+    for c in constraints_of(doc, "slider"):  # 4.3: an animation drives bones through it
+        mark(c.get("bones") or [c.get("bone")], f"slider constraint {c.get('name')!r}")
     # Physics constraints (4.2) are left out on purpose: the setup pose resets them, and with
     # zero offsets they leave their bone's world transform as it is.
     return out
@@ -180,8 +191,8 @@ def _constraint_targets(doc: dict, index: dict[str, int]) -> dict[int, str]:
     """Bones that IK, transform or path constraints aim at, with the constraint's name."""
     out: dict[int, str] = {}
     for kind in ("ik", "transform", "path"):
-        for c in doc.get(kind, []) or []:
-            if isinstance(c, dict) and c.get("target") in index:
+        for c in constraints_of(doc, kind):
+            if c.get("target") in index:
                 out.setdefault(index[c["target"]], f"{kind} constraint {c.get('name')!r}")
     return out
 

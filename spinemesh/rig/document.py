@@ -191,6 +191,11 @@ def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig |
     rig = rig or build_rig(doc)
     outcomes = []
     for ref in iter_attachments(doc):
+        if ref.type == "linkedmesh":
+            # It draws its parent's vertices (same slot): it follows whatever the parent becomes.
+            outcomes.append(Outcome(skeleton, ref.skin, ref.slot, ref.name, status="linked",
+                                    reason=f"draws the vertices of its parent {ref.attachment.get('parent')!r}"))
+            continue
         if ref.type != "mesh":
             continue
         o = Outcome(skeleton, ref.skin, ref.slot, ref.name)
