@@ -35,6 +35,8 @@ from .geometry import region_quad_transform
 #: Largest side of the setup-pose picture and of a sprite picture, pixels.
 POSE_SIZE = 900
 CARD_SIZE = 300
+#: Most images shown per skeleton (largest saving first), so that the page stays light.
+CARD_LIMIT = 200
 
 
 @dataclass
@@ -250,7 +252,10 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
         if not found:
             continue
         skin, att = found[0]
-        geometry = _attachment_geometry(att, by_name[slot["bone"]].world, bones)
+        try:
+            geometry = _attachment_geometry(att, by_name[slot["bone"]].world, bones)
+        except (SpineMeshError, TypeError, ValueError, IndexError):
+            continue  # malformed numbers or bone indices: the rest of the pose is still drawn
         if geometry is None:
             continue
         paths = image_paths(AttachmentRef(skin, slot.get("name"), name, att))
@@ -405,6 +410,9 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
                           _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
         total = total + skeleton_rate
         cards.sort(key=lambda c: -c[0])
+        more = len(cards) - CARD_LIMIT
+        cards = cards[:CARD_LIMIT] + ([(0, f"<p>… and {more} more images with smaller savings (counted in the "
+                                              "totals).</p>")] if more > 0 else [])
         upgraded = {(t.skin, t.slot, t.name) for t in targets}
         sections.append(
             f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
