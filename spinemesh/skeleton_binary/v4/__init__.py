@@ -52,8 +52,8 @@ from ..stream import SkelReader
 from ..symmetric import first_use_table
 from .animation import animation
 from .attachments import derived_timeline_slots
-from .constraint_list import constraint_list, slider_animations
 from .bones import bones, slot
+from .constraint_list import constraint_list, slider_animations
 from .constraints import ik, path_constraint, physics, transform
 from .events import event
 from .fields import _names, seq
@@ -62,8 +62,6 @@ from .layout import Context, Layout
 from .skins import _written_skins, skins
 from .streams import _RefReader, _RefWriter
 
-
-# -- the whole file --------------------------------------------------------------------
 
 def _constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
     if s.reading:

@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import struct
 
+from ..enums import ATTACHMENT_TYPES
 from ..symmetric import boolean, color, fld, put as _put
 from .fields import _to_end, fields, flag, fld_int, floats, index, opt, ref
 from .layout import Context, Layout
-from ..enums import ATTACHMENT_TYPES
 
-
-# -- attachments -----------------------------------------------------------------------
 
 def sequence(s, node: dict, present: bool) -> None:
     if not present:

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import struct
 
+from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import fld, put as _put
 from .bones import _bone_list
 from .constraints import _PHYSICS_GLOBALS, _mix_field, _mode_byte
 from .fields import _flag_byte, _same, _to_end, enum, flag, index, opt
 from .layout import PROPERTIES, SCALE_Y_MODE, SPACING_MODE, Context
-from ..enums import POSITION_MODE, ROTATE_MODE
 
 #: Constraint types by their type byte.
 CONSTRAINT_TYPES = ("ik", "path", "transform", "physics", "slider")

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 
+from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import boolean, fld, put as _put, text
 from .bones import _bone_list
 from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, index, opt
 from .layout import Context, SPACING_MODE
-from ..enums import POSITION_MODE, ROTATE_MODE
 
 
 def ik(s, node: dict, c: Context) -> None:

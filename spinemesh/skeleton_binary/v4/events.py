@@ -7,8 +7,6 @@ from .fields import ref
 from .layout import Context
 
 
-# -- events ----------------------------------------------------------------------------
-
 def event(s, node: dict, c: Context) -> None:
     # Events are a JSON object keyed by name; the list form here is turned into it later.
     if c.L.names_are_refs:

@@ -8,8 +8,6 @@ import struct
 from ..symmetric import fld, put as _put
 
 
-# -- small symmetric helpers -----------------------------------------------------------
-
 _STRUCTS: dict[int, tuple] = {}
 
 

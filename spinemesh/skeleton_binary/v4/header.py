@@ -9,8 +9,6 @@ from ..symmetric import fld, text
 from .layout import Layout, _layout
 
 
-# -- skeleton header -------------------------------------------------------------------
-
 def header(s, doc: dict, extra: dict) -> tuple[Layout, bool]:
     sk = doc.setdefault("skeleton", {}) if s.reading else doc.get("skeleton", {})
     if s.reading:

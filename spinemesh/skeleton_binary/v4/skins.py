@@ -4,13 +4,11 @@ from __future__ import annotations
 
 from ..symmetric import color, text
 from .attachments import attachment
-from .constraint_list import skin_constraints
 from .bones import _bone_list
+from .constraint_list import skin_constraints
 from .fields import ref, seq
 from .layout import Context
 
-
-# -- skins -----------------------------------------------------------------------------
 
 def skin_attachments(s, skin: dict, c: Context, nslots: int | None = None) -> None:
     names, lookup = c.slots

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 import struct
 
-from .fields import _floats_struct
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED
 from ..stream import MAX_COUNT, MAX_STRING_BYTES, SkelReader, SkelWriter
+from .fields import _floats_struct
 from .timelines import _FrameSpec
 
 _F32 = struct.Struct(">f")

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import struct
 
+from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 from ..symmetric import boolean, fld, put as _put
 from .constraints import _mix_field
 from .fields import _floats_struct, _same, enum, fields, flag, floats, index, opt, seq
 from .layout import Context, SEQUENCE_MODE
-from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 
-
-# -- timelines -------------------------------------------------------------------------
 
 def _time(s, frame: dict) -> float:
     if s.reading:
