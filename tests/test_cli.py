@@ -16,8 +16,18 @@ import pytest
 from spinemesh.demo import make_demo_project
 
 REPO = Path(__file__).resolve().parents[1]
-COMMANDS = ["info", "convert", "segment", "segment-eval", "train", "segment-export", "dataset", "dataset-stats",
-            "mesh", "diff", "upgrade"]
+
+
+def _commands() -> list[str]:
+    """Every command the app registers, so that a new one is checked too."""
+    import typer
+
+    from spinemesh.cli import app
+
+    return sorted(typer.main.get_command(app).commands)
+
+
+COMMANDS = _commands()
 HEAVY = ("numpy", "cv2", "onnxruntime", "matplotlib", "PIL", "torch", "scipy")
 
 
