@@ -51,6 +51,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
+from ..mesher.mask import foreground
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -67,7 +68,7 @@ SHARDS = "shards"
 
 def mask_of(rgba: np.ndarray) -> np.ndarray:
     """The paper's binary mask: alpha > 128 (sec. 3). (H, W, 4) uint8 -> (H, W) bool."""
-    return rgba[..., 3] > MASK_ALPHA_THRESHOLD
+    return foreground(rgba, MASK_ALPHA_THRESHOLD + 1)
 
 
 def tight_box(rgba: np.ndarray) -> tuple[int, int, int, int]:

@@ -29,7 +29,8 @@ import cv2
 import numpy as np
 
 from ..errors import ImageError
-from ..mesher import Mesh, compute_mask
+from ..mesher import Mesh
+from ..mesher.mask import foreground
 from ..mesher import exterior, triangulate
 from ..mesher.params import PAPER
 # The pipeline's own merge and finishing steps, so that a baseline differs from the paper
@@ -49,7 +50,7 @@ SHI_TOMASI_BLOCK_SIZE = 3
 
 def paper_mask(image: np.ndarray) -> np.ndarray:
     """The paper's foreground mask, ``alpha > 128`` (sec. 3.1), shape (H, W) bool."""
-    mask = compute_mask(image, "alpha", PAPER.alpha_threshold)
+    mask = foreground(image, PAPER.alpha_threshold)
     if not mask.any():
         raise ImageError("the image has no pixel with alpha > 128: nothing to mesh")
     return mask

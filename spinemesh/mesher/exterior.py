@@ -34,7 +34,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..metrics import crossed_pixels, centres_inside, loop_segments, touched_pixels
+from .raster import centres_inside, crossed_pixels, loop_segments, touched_pixels
 from .geometry import clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 

@@ -24,6 +24,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..mesher.mask import foreground
+
 #: The kinds ``segment-eval`` scores; the first three are the ones the model card leads with.
 BACKGROUNDS = ("solid", "gradient", "noise", "radial", "perlin", "grain", "texture")
 
@@ -44,7 +46,7 @@ def alpha_mask(rgba: np.ndarray, threshold: int = ALPHA_THRESHOLD) -> np.ndarray
     -------
     ndarray, shape (H, W), bool
     """
-    return rgba[..., 3] > threshold
+    return foreground(rgba, threshold + 1)
 
 
 def _random_colour(rng: np.random.Generator) -> np.ndarray:
