@@ -172,9 +172,6 @@ LOADER_DIFFERENCES = [
     ("skins/*/color/*", None, "SkeletonJson does not read a skin's colour; SkeletonBinary does."),
     ("slots/*/setupPose/darkColor/a", None,
      "A dark colour has no alpha: SkeletonJson sets 1, SkeletonBinary's rgb888 leaves 0."),
-    ("events/*/setupPose/stringValue", None,
-     "An event without a string: SkeletonJson's default is \"\", SkeletonBinary keeps null."),
-    ("animations/*/timelines/*/events/*/stringValue", None, "As for the events' own strings."),
     ("skeleton/fps", lambda doc, i: "fps" not in doc["skeleton"],
      "Without fps in the JSON, SkeletonJson leaves it undefined; the binary stores the editor's 30."),
 ]

@@ -18,7 +18,17 @@ def event(s, node: dict, c: Context) -> None:
     else:
         s.varint(int(node.get("int", 0)), positive=False)
     fld(s, node, "float", 0)
-    text(s, node, "string")
+    if c.L.constraint_list:
+        # 4.3: "" for no string, as the 4.2 editor stores it and as SkeletonJson defaults
+        # (a null here would load as null in SkeletonBinary but "" from the JSON).
+        if s.reading:
+            v = s.string(what="event string")
+            if v:
+                node["string"] = v
+        else:
+            s.string(node.get("string", ""), what="event string")
+    else:
+        text(s, node, "string")
     text(s, node, "audio")
     if node.get("audio") is not None:
         fld(s, node, "volume", 1)
