@@ -9,6 +9,9 @@ one row per region attachment: status, reason, mesh seconds, vertices, the pixel
 draws (its stored box on the atlas page) and the pixels the mesh draws (the area of its hull
 polygon, holes included, as Spine fills them).
 
+Mesh seconds are wall time as the upgrade reports them (inflated by whatever else runs on the
+machine); where the upgrade exposes its worker function, CPU seconds per image are recorded too.
+
 ``table`` prints, for one or two row files side by side: attachments meshed, kept (by
 reason), skipped and failed; the drawn-pixel saving against the regions in total and per
 project; vertices added; mesh time per attachment (median, p90, p99, max) and in total.
@@ -48,19 +51,28 @@ def box_area(key: str) -> int | None:
 
 def child(project: Path) -> None:
     """Upgrade one project; print its rows as one JSON line."""
+    import cv2
+
     from spinemesh.upgrade import Options, upgrade_project
     from spinemesh.upgrade import run as upgrade_run
 
     sizes: dict[str, int] = {}
+    cpu: dict[str, float] = {}
     if hasattr(upgrade_run, "mesh_one"):
-        # the stored box each image is meshed on (what its region draws), as the worker sees it
+        # the stored box each image is meshed on (what its region draws), as the worker sees it,
+        # and the CPU time of meshing it (one job: this process), which the machine's load does
+        # not inflate as it does wall time
         mesh_one = upgrade_run.mesh_one
 
         def recording(task):
             sizes[task.key] = int(task.rgba.shape[0] * task.rgba.shape[1])
-            return mesh_one(task)
+            c0 = time.process_time()
+            res = mesh_one(task)
+            cpu[task.key] = time.process_time() - c0
+            return res
 
         upgrade_run.mesh_one = recording
+    cv2.setNumThreads(1)  # CPU time then measures the work, not idle threads spinning
     cache: dict = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
@@ -72,7 +84,7 @@ def child(project: Path) -> None:
         row = {"skeleton": t.skeleton, "slot": t.slot, "name": t.name, "status": t.status,
                "reason": t.reason, "seconds": float(t.seconds or 0.0), "vertices": int(t.vertices or 0),
                "image": t.key, "region_px": sizes.get(t.key) or (box_area(t.key) if t.key else None),
-               "mesh_px": None}
+               "mesh_px": None, "cpu_seconds": cpu.get(t.key)}
         got = meshes.get(t.key)
         if t.status == "meshed" and got is not None:
             if isinstance(got, tuple):  # before the upgrade restructuring: (mesh.json dict, ...)
@@ -145,6 +157,10 @@ def summary(data: dict) -> dict:
     out["seconds"] = {"median": float(np.median(secs)), "p90": float(np.percentile(secs, 90)),
                       "p99": float(np.percentile(secs, 99)), "max": float(secs.max()), "sum": float(secs.sum()),
                       "over_2s": int((secs > 2).sum())}
+    cpus = np.array([r["cpu_seconds"] for r in rows if r.get("cpu_seconds") is not None] or [np.nan])
+    out["cpu"] = {"n": int(np.isfinite(cpus).sum()), "median": float(np.median(cpus)),
+                  "p90": float(np.percentile(cpus, 90)), "p99": float(np.percentile(cpus, 99)),
+                  "max": float(np.max(cpus)), "over_0.5s": int((cpus > 0.5).sum())}
     # an image shared by several attachments is meshed once
     once = {(name, r["image"]): r["seconds"] for name, e in data["projects"].items() for r in e.get("rows", [])
             if r["status"] in ("meshed", "kept", "failed") and r.get("image")}
@@ -191,6 +207,9 @@ def table(files: list[Path], per_project: bool) -> None:
     for k in ("median", "p90", "p99", "max"):
         line(f"mesh s per attachment, {k}", [f"{s['seconds'][k]:.3f}" for s in sums])
     line("attachments over 2 s", [s["seconds"]["over_2s"] for s in sums])
+    for k in ("median", "p90", "p99", "max"):
+        line(f"mesh CPU s per attachment, {k}", ["-" if not s["cpu"]["n"] else f"{s['cpu'][k]:.3f}" for s in sums])
+    line("attachments over 0.5 s CPU", ["-" if not s["cpu"]["n"] else s["cpu"]["over_0.5s"] for s in sums])
     line("unique images sent to the mesher", [s["images_meshed"] for s in sums])
     line("mesh s, sum over unique images", [f"{s['seconds']['sum']:.0f}" for s in sums])
     line("wall s, all projects (one process each)", [f"{s['wall']:.0f}" for s in sums])
