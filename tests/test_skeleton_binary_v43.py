@@ -234,9 +234,15 @@ def test_official_runtime_loads_our_skel_like_the_json(case, runtime43, tmp_path
     assert len(from_skel["animations"]) == len(doc["animations"]) and from_skel["skins"]
     diffs = runtime_differences(from_json, from_skel, doc)
     assert not diffs, "\n".join(diffs[:40])
-    # Every unconditional named difference is still needed (the list does not rot).
+    # Every unconditional named difference is still needed (the list does not rot), and the
+    # comparison sees a change of a hundredth anywhere.
     if case == "features":
         import fnmatch
+
+        moved = json.loads(json.dumps(from_skel))
+        moved["animations"][0]["timelines"][-1]["frames"][-1] += 0.01
+        moved["constraints"][2]["setupPose"]["mixX"] += 0.01
+        assert len(runtime_differences(from_json, moved, doc)) == 2
 
         raw = _raw_paths(from_json, from_skel)
         for pattern, condition, _reason in LOADER_DIFFERENCES:
