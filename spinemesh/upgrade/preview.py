@@ -101,7 +101,7 @@ def _png_uri(rgba: np.ndarray) -> str:
     from PIL import Image
 
     buf = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=6)
+    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=3)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -363,6 +363,26 @@ def _reasons_table(result) -> str:
             f"<th>attachments</th></tr>{rows}</table>")
 
 
+class _ImageCache:
+    """An image source that decodes each atlas page once per page (not once per lookup) and
+    keeps each image it was asked for: the pose and the cards ask for the same images, in orders
+    that would make a two-page cache decode pages again and again."""
+
+    def __init__(self, source):
+        from ..images import AtlasImages
+
+        if isinstance(source, AtlasImages):
+            pages = sum(len(a.pages) for a in source.atlases)
+            source = AtlasImages(source.atlases, source.root, cache_pages=min(pages, 8))
+        self.source = source
+        self.images: dict = {}
+
+    def get(self, name: str):
+        if name not in self.images:
+            self.images[name] = self.source.get(name)
+        return self.images[name]
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None) -> Path:
     """Write ``folder/index.html`` for an upgrade run and return its path.
@@ -392,6 +412,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         except SpineMeshError as e:
             sections.append(f"<h2>{html.escape(rel)}</h2><p>not shown: {html.escape(str(e))}</p>")
             continue
+        source = None if source is None else _ImageCache(source)
         cards, seen = [], {}
         for t in targets:
             seen.setdefault(t.key, []).append(t)
