@@ -621,15 +621,21 @@ def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
 def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
     """Copy every file of the project that is not a skeleton (atlases, pages, anything else).
 
-    With ``needed`` (real paths), only those files: one skeleton asked for does not bring its
-    twins (``hero.json`` beside ``hero.skel``) or other skeletons' atlases along.
+    With ``needed`` (real paths), skeletons, atlases and images are copied only if listed: one
+    skeleton asked for does not bring its twins (``hero.json`` beside ``hero.skel``) or other
+    skeletons' atlases along; other files (a licence, audio) still come.
     """
+    from ..images import IMAGE_EXTENSIONS
+    from ..project import ATLAS_SUFFIXES, is_skeleton_file
+
     for f in proj.files:  # only files inside the project by real path (see find_project)
         if f.resolve() in written:
             continue
         if f in proj.skeletons:
             continue  # a skeleton that could not be upgraded is not copied as if it had been
-        if needed is not None and f.resolve() not in needed:
+        if needed is not None and f.resolve() not in needed and (
+                f.suffix.lower() in IMAGE_EXTENSIONS or f.name.lower().endswith(ATLAS_SUFFIXES)
+                or is_skeleton_file(f)):
             continue
         atomic_copy(f, out / f.relative_to(proj.root))
 
