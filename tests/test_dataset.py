@@ -99,10 +99,10 @@ def test_images_match_the_original_images(built):
             a, b = got[..., 3] > 128, resized[..., 3] > 128
             union = (a | b).sum()
             ious.append((a & b).sum() / union if union else 1.0)  # shadows: no alpha > 128 at all
-    assert exact > 100 and exact + pma + len(ious) > 700
-    ious = np.array(ious)
-    assert len(ious) > 50
-    assert (ious >= 0.95).mean() >= 0.98 and np.median(ious) >= 0.99
+    assert exact > 100 and exact + pma > 700
+    # Every 4.2 example keeps its originals in images/: a downscaled atlas (raptor, at 0.5)
+    # is never read where that folder holds the image.
+    assert not ious, f"{len(ious)} samples cut from a downscaled atlas"
 
 
 def test_masks_are_alpha_above_128(built):
@@ -211,6 +211,12 @@ def test_cli_dataset_and_stats(examples, tmp_path):
     r = CliRunner().invoke(app, ["dataset", str(examples / "4.2" / "owl"), "--out", str(out), "-j", "1"])
     assert r.exit_code == 0, r.output
     assert "new samples" in r.output and "region" in r.output
+    # One game: one side of the split is empty, and the run says so.
+    assert "warning: no game" in r.output
+    r = CliRunner().invoke(app, ["dataset", str(examples / "4.2" / "owl"), "--out", str(out), "-j", "1"])
+    assert r.exit_code == 0, r.output
+    n = sum(1 for _ in open_dataset(out).rows())
+    assert "nothing new" in r.output and f"{n:,} samples" in r.output
     r = CliRunner().invoke(app, ["dataset-stats", str(out)])
     assert r.exit_code == 0, r.output
     n = sum(1 for _ in open_dataset(out).rows())

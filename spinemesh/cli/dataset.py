@@ -47,14 +47,27 @@ def dataset(
     console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "
                   f"{summary.seconds:.1f} s ({rate:.0f} samples/s); {summary.projects_done_before} projects "
                   f"done before; data set now holds {summary.total_samples:,} samples in {out}")
-    t = Table(title="new samples")
-    t.add_column("by type")
-    t.add_column("count", justify="right")
-    for k, n in sorted(summary.by_type.items()):
-        t.add_row(k, f"{n:,}")
-    for k, n in sorted(summary.by_split.items()):
-        t.add_row(f"split {k}", f"{n:,}")
-    console.print(t)
+    from ..dataset import dataset_stats, open_dataset
+
+    whole = dataset_stats(open_dataset(out))
+    if summary.samples:
+        t = Table(title="new samples")
+        t.add_column("by type")
+        t.add_column("count", justify="right")
+        for k, n in sorted(summary.by_type.items()):
+            t.add_row(k, f"{n:,}")
+        for k, n in sorted(summary.by_split.items()):
+            t.add_row(f"split {k}", f"{n:,}")
+        console.print(t)
+    else:  # a re-run: say what is already there rather than print an empty table
+        console.print(f"nothing new: the data set already holds {whole['samples']:,} samples from "
+                      f"{len(whole['by_project'])} projects of {len(whole['by_game'])} games "
+                      f"({', '.join(f'{k} {n:,}' for k, n in sorted(whole['by_split'].items()))})")
+    for side in ("train", "val"):
+        if not whole["games_by_split"].get(side):
+            err_console.print(f"warning: no game of {out} falls on the {side} side of the split "
+                              f"({len(whole['by_game'])} games; the split is by a hash of the game name, "
+                              f"so a data set of few games can leave one side empty)", markup=False)
     if summary.by_project:
         t = Table(title="new samples by project")
         t.add_column("project")
@@ -96,8 +109,12 @@ def dataset_stats_cmd(
     from ..dataset import dataset_stats, open_dataset, plot_stats
 
     stats = dataset_stats(open_dataset(ds))
-    t = Table(title=f"{ds}: {stats['samples']:,} samples, {len(stats['by_game'])} games, "
-                    f"{len(stats['by_project'])} projects")
+    def count(n: int, what: str) -> str:
+        return f"{n:,} {what}{'' if n == 1 else 's'}"
+
+    console.print(f"{ds}: {count(stats['samples'], 'sample')} from {count(len(stats['by_project']), 'project')} "
+                  f"of {count(len(stats['by_game']), 'game')}", highlight=False)
+    t = Table()
     t.add_column("")
     t.add_column("samples", justify="right")
     for key in ("by_type", "by_split", "by_version"):

@@ -9,6 +9,7 @@ folder's own name (so ``spine-examples/3.8/spineboy`` and ``4.2/spineboy`` are o
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import traceback
@@ -301,7 +302,9 @@ def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult)
                                    [ref.skin, ref.slot, ref.name])
 
 
+@functools.lru_cache(maxsize=256)
 def _relative(path: Path, folder: Path) -> str:
+    """``path`` relative to ``folder`` (real paths), or its name; cached: one per atlas or folder."""
     try:
         return Path(path).resolve().relative_to(folder.resolve()).as_posix()
     except ValueError:
