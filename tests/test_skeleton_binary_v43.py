@@ -381,3 +381,20 @@ def test_walker_helpers_follow_4_3_layout():
         "type": "linkedmesh", "parent": "m"}}}}]}
     assert [c["name"] for c in iter_constraints(old, "ik")] == ["a"]
     assert [linked_source(r) for r in iter_attachments(old)] == [("default", "s", "m")]
+
+
+def test_compare_knows_4_3_defaults():
+    """diff_documents treats a 4.3 value spelled out at its default like one left out."""
+    doc = features_document()
+    read_back = read_skel(write_skel(doc))
+    c = {x["name"]: x for x in doc["constraints"]}
+    c["sway"].update(inertia=0.5, damping=0.85, strength=100, mix=1)
+    c["plain"].update(mixY=0, mixX=0, mixRotate=0, localSource=False)  # no bone receives x: mixes 0
+    c["timer"].update(scale=1, local=False)
+    walk = doc["animations"]["walk"]
+    walk["slider"]["dial"]["mix"][0]["value"] = 1
+    walk["physics"]["wobble"]["mix"][1]["value"] = 1
+    walk["transform"]["follow"][0]["mixScaleY"] = 1
+    assert not diff_documents(read_back, doc, abs_tol=1e-5, rel_tol=1e-6, ignore=[EXTRA])
+    c["plain"]["mixY"] = 0.5
+    assert [d.path for d in diff_documents(read_back, doc, abs_tol=1e-5, rel_tol=1e-6)] == ["constraints/3/mixY"]

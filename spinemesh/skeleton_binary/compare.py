@@ -55,8 +55,8 @@ def _same_as(other: str, fallback: Any) -> Callable[[dict, Any], Any]:
 
 _BONE = {"parent": None, "length": 0, "x": 0, "y": 0, "rotation": 0, "scaleX": 1, "scaleY": 1,
          "shearX": 0, "shearY": 0, "transform": "normal", "inherit": "normal", "skin": False,
-         "color": "9b9b9bff", "icon": None, "visible": True, "inheritScale": True,
-         "inheritRotation": True}
+         "color": "9b9b9bff", "icon": None, "iconSize": 1, "iconRotation": 0, "visible": True,
+         "inheritScale": True, "inheritRotation": True}
 _SLOT = {"color": "ffffffff", "dark": None, "attachment": None, "blend": "normal", "visible": True}
 _IK = {"order": 0, "skin": False, "bones": [], "mix": 1, "softness": 0, "bendPositive": True,
        "compress": False, "stretch": False, "uniform": False}
@@ -74,8 +74,42 @@ _PHYSICS = {"order": 0, "skin": False, "x": 0, "y": 0, "rotate": 0, "scaleX": 0,
             "wind": 0, "gravity": 0, "mix": 1, "inertiaGlobal": False, "strengthGlobal": False,
             "dampingGlobal": False, "massGlobal": False, "windGlobal": False,
             "gravityGlobal": False, "mixGlobal": False}
-_SKIN = {"bones": [], "ik": [], "transform": [], "path": [], "physics": [], "attachments": {},
+_SKIN = {"bones": [], "ik": [], "transform": [], "path": [], "physics": [], "slider": [], "attachments": {},
          "color": "fe9e4fff"}
+
+
+def _mix_43(key: str, prop: str) -> Callable[[dict, Any], Any]:
+    """4.3 transform constraint mixes: 0 unless a bone receives ``prop``; then 1, except that
+    mixY follows mixX and mixScaleY follows mixScaleX."""
+    def default(node: dict, name: Any) -> Any:
+        targets = {t for entry in (node.get("properties") or {}).values() for t in (entry.get("to") or {})}
+        if prop not in targets:
+            return 0
+        if key in ("mixY", "mixScaleY"):
+            other = "mixX" if key == "mixY" else "mixScaleX"
+            return node.get(other, default_43_mix(node, other))
+        return 1
+    return default
+
+
+def default_43_mix(node: dict, key: str) -> Any:
+    return _CONSTRAINTS_43["transform"][key](node, None)
+
+
+#: 4.3's one constraint list, by "type".
+_CONSTRAINTS_43 = {
+    "ik": {"skin": False, "bones": [], "mix": 1, "softness": 0, "bendPositive": True, "compress": False,
+           "stretch": False, "scaleY": "none"},
+    "transform": {"skin": False, "bones": [], "localSource": False, "localTarget": False, "additive": False,
+                  "clamp": False, "properties": {}, "rotation": 0, "x": 0, "y": 0, "scaleX": 0, "scaleY": 0,
+                  "shearY": 0, **{k: _mix_43(k, prop) for k, prop in (
+                      ("mixRotate", "rotate"), ("mixX", "x"), ("mixY", "y"), ("mixScaleX", "scaleX"),
+                      ("mixScaleY", "scaleY"), ("mixShearY", "shearY"))}},
+    "path": {**_PATH, "order": None},
+    "physics": {**_PHYSICS, "order": None, "inertia": 0.5, "damping": 0.85, "scaleY": "none"},
+    "slider": {"skin": False, "loop": False, "additive": False, "time": 0, "mix": 1, "bone": None,
+               "from": 0, "to": 0, "scale": 1, "max": 0, "local": False},
+}
 _EVENT = {"int": 0, "float": 0, "string": "", "audio": None, "volume": 1, "balance": 0}
 _SKELETON = {"hash": None, "spine": None, "x": 0, "y": 0, "width": 0, "height": 0, "fps": 30,
              "images": "", "audio": "", "referenceScale": 100}
@@ -96,11 +130,11 @@ _ATTACHMENT = {
     "region": {"x": 0, "y": 0, "rotation": 0, "scaleX": 1, "scaleY": 1, "color": "ffffffff"},
     "mesh": {"color": "ffffffff", "hull": 0, "edges": None, "width": 0, "height": 0},
     "linkedmesh": {"color": "ffffffff", "skin": None, "timelines": True, "deform": True,
-                   "width": 0, "height": 0},
+                   "width": 0, "height": 0, "slot": None},
     "boundingbox": {"color": "60f000ff"},
     "path": {"closed": False, "constantSpeed": True, "color": "ff7f00ff"},
     "point": {"x": 0, "y": 0, "rotation": 0, "color": "f1f100ff"},
-    "clipping": {"end": None, "color": "ce3a3aff"},
+    "clipping": {"end": None, "color": "ce3a3aff", "convex": False, "inverse": False},
 }
 _ATTACHMENT["skinnedmesh"] = _ATTACHMENT["weightedmesh"] = _ATTACHMENT["mesh"]
 
@@ -126,6 +160,10 @@ _KEYFRAMES = {
     "physics": {"value": 0}, "inertia": {"value": 0}, "strength": {"value": 0}, "damping": {"value": 0},
     "mass": {"value": 0}, "wind": {"value": 0}, "gravity": {"value": 0},
     "physicsmix": {"value": 0}, "reset": {},
+    # 4.3: slider timelines, and a physics mix key's value defaults to 1 (see default_for).
+    "time": {"value": 1}, "slidermix": {"value": 1}, "physicsmix43": {"value": 1},
+    "transform43": {"mixRotate": 1, "mixX": 1, "mixY": _same_as("mixX", 1), "mixScaleX": 1,
+                    "mixScaleY": 1, "mixShearY": 1},
     "deform": {"offset": 0, "vertices": []},
     # A sequence key's delay defaults to the previous key's (SkeletonJson's lastDelay).
     "sequence": {"mode": "hold", "index": 0, "delay": lambda node, name, prev=None: (prev or {}).get("delay", 0)},
@@ -145,6 +183,8 @@ def _context(path: tuple) -> tuple[str, str | None]:
         return "skeleton", None
     if n == 2 and top in ("bones", "slots", "ik", "transform", "path", "physics"):
         return top, None
+    if n == 2 and top == "constraints":
+        return "constraint", None
     if n == 2 and top == "events":
         return "event", None
     if top == "skins":
@@ -166,6 +206,9 @@ def _context(path: tuple) -> tuple[str, str | None]:
         if group == "physics" and n == 6:
             kind = str(path[4])
             return "key", "physicsmix" if kind == "mix" else kind
+        if group == "slider" and n == 6:
+            kind = str(path[4])
+            return "key", "slidermix" if kind == "mix" else kind
         if group in ("deform",) and n == 7:
             return "key", "deform"
         if group == "attachments" and n == 8:
@@ -201,7 +244,11 @@ def default_for(path: tuple, node: dict, key: str, prev: dict | None = None, roo
         events = root.get("events", {}) if isinstance(root, dict) else {}
         data = events.get(node.get("name"), {}) if isinstance(events, dict) else {}
         value = data.get(key, _EVENT[key]) if isinstance(data, dict) else _EVENT[key]
+    elif context == "constraint":
+        value = _CONSTRAINTS_43.get(node.get("type"), {}).get(key, _MISSING)
     elif context == "key":
+        if sub in ("physicsmix", "transform") and _is_43(root):
+            sub += "43"
         table = _KEYFRAMES.get(sub or "", {})
         value = table.get(key, _KEY.get(key, _MISSING))
     else:
@@ -209,6 +256,11 @@ def default_for(path: tuple, node: dict, key: str, prev: dict | None = None, roo
     if callable(value):
         value = value(node, name, prev) if context == "key" and sub == "sequence" else value(node, name)
     return value
+
+
+def _is_43(root: Any) -> bool:
+    skel = root.get("skeleton") if isinstance(root, dict) else None
+    return isinstance(skel, dict) and str(skel.get("spine", "")).startswith("4.3")
 
 
 # -- comparison ------------------------------------------------------------------------
