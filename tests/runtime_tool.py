@@ -7,6 +7,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import cv2
 import numpy as np
 from PIL import Image
 
@@ -125,9 +126,12 @@ def render_difference(a: Path, b: Path, tol: int = 2, where: int = 5) -> dict:
     straight colour, and a pixel with alpha 0 may carry any colour there (a mesh drawn over
     transparent texels leaves their colour in it) while it shows nothing.
     """
-    pa = _premultiplied(np.asarray(Image.open(a).convert("RGBA")).astype(int))
-    pb = _premultiplied(np.asarray(Image.open(b).convert("RGBA")).astype(int))
-    delta = np.abs(pa - pb).max(-1)
+    # uint8 throughout (premultiplied colour fits in it): renders of large skeletons hold
+    # tens of millions of pixels, and int64 copies of them took a minute per case.
+    pa = _premultiplied(np.asarray(Image.open(a).convert("RGBA")))
+    pb = _premultiplied(np.asarray(Image.open(b).convert("RGBA")))
+    d = cv2.split(cv2.absdiff(pa, pb))
+    delta = cv2.max(cv2.max(d[0], d[1]), cv2.max(d[2], d[3]))
     off = delta > tol
     lost = (pa[..., 3] >= 8) & (pb[..., 3] == 0)
     added = (pb[..., 3] >= 8) & (pa[..., 3] == 0)
@@ -138,10 +142,11 @@ def render_difference(a: Path, b: Path, tol: int = 2, where: int = 5) -> dict:
 
 
 def _premultiplied(rgba: np.ndarray) -> np.ndarray:
-    """RGBA (H, W, 4) ints 0..255 with colour multiplied by alpha, rounded."""
-    out = rgba.copy()
-    out[..., :3] = (rgba[..., :3] * rgba[..., 3:] + 127) // 255
-    return out
+    """RGBA (H, W, 4) uint8 with colour multiplied by alpha, rounded (uint8 out)."""
+    r, g, b, a = cv2.split(rgba)
+    # OpenCV rounds x * a / 255 to nearest, which equals (x * a + 127) // 255 for every pair
+    # of 8-bit values (checked over all 65,536), at a fraction of numpy's cost.
+    return cv2.merge([cv2.multiply(c, a, scale=1 / 255) for c in (r, g, b)] + [a])
 
 
 def first_animation(skeleton_json_or_doc) -> str | None:
