@@ -172,7 +172,8 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
         return
     segments = np.stack([rig.bones[b].segment() for b in choice.bones])
     reach = NEAR * float(np.linalg.norm(np.ptp(world, axis=0)))
-    weights = solve_weights(world, triangles, segments, options.method, reach)
+    prefer = choice.bones.index(slot_bone) if slot_bone in choice.bones else None
+    weights = solve_weights(world, triangles, segments, options.method, reach, prefer)
     weights = sparsify(weights, options.max_bones, options.min_weight)
     att["vertices"] = bind(world, weights, choice.bones, rig.worlds)
     for col, b in enumerate(choice.bones):

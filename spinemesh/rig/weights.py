@@ -99,15 +99,15 @@ def _components(n: int, faces: np.ndarray) -> np.ndarray:
 
 
 def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing: float,
-            reach: float) -> dict[int, int]:
+            reach: float, prefer: int | None = None) -> dict[int, int]:
     """Which refined point is fixed to which bone: ``{point: bone column}``.
 
     A point within ``spacing / 2`` of a bone's segment is a handle of the nearest such bone.
     A bone whose segment misses the art but passes within ``reach`` of it gets the nearest
     point as its one handle; a bone farther away gets none and ends with weight 0 (its
     motion says little about this art). A connected piece of the mesh with no handle at all
-    follows the bone nearest to it (one handle on its nearest point), so that every piece
-    has a solution.
+    follows bone ``prefer`` (the slot's bone) if given, else the bone nearest to it (one
+    handle on its nearest point), so that every piece has a solution.
     """
     used = np.unique(faces)
     dist = np.stack([_segment_distance(points[used], s) for s in segments], axis=1)  # (U, B)
@@ -127,7 +127,10 @@ def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing
         rows = np.flatnonzero(labels == piece)
         if any(int(used[r]) in out for r in rows):
             continue
-        r, bone = np.unravel_index(int(dist[rows].argmin()), dist[rows].shape)
+        if prefer is not None:
+            r, bone = int(dist[rows, prefer].argmin()), prefer
+        else:
+            r, bone = np.unravel_index(int(dist[rows].argmin()), dist[rows].shape)
         out[int(used[rows[r]])] = int(bone)
     return out
 
@@ -142,7 +145,7 @@ def _clean_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndarray,
-                  method: str = "bbw", reach: float = 0.0) -> np.ndarray:
+                  method: str = "bbw", reach: float = 0.0, prefer: int | None = None) -> np.ndarray:
     """Dense weights of each vertex for each bone.
 
     Parameters
@@ -155,6 +158,8 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     reach : float
         A bone whose segment misses the art by at most this much still gets a handle
         (see :func:`handles`); world units.
+    prefer : int, optional
+        Column of the bone that art reached by no bone follows (the slot's bone).
     method : {"bbw", "harmonic", "biharmonic"}
         Bounded biharmonic weights; harmonic weights (a linear solve, like heat
         diffusion); or unbounded biharmonic weights clipped to [0, 1].
@@ -180,7 +185,7 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     # The refinement's typical edge: handles are the points within half of it of a bone.
     e = points[faces[:, [1, 2, 0]]] - points[faces]
     spacing = float(np.median(np.linalg.norm(e, axis=2)))
-    fixed = handles(points, faces, segments, spacing, reach)
+    fixed = handles(points, faces, segments, spacing, reach, prefer)
     w = _solve(points, faces, fixed, nb, method)
     used = np.zeros(len(points), bool)
     used[np.unique(faces)] = True
