@@ -78,3 +78,18 @@ def test_hull_triangles_fill_holes_for_spine():
     area = 0.5 * np.abs((a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1])
                         - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1])).sum()
     assert area == pytest.approx(hull_area)
+
+
+def test_preview_legend_and_hole_loops_drawn_distinctly():
+    from spinemesh.mesher.preview import MAGENTA, edge_kinds, preview
+
+    img = np.zeros((200, 200, 4), np.uint8)
+    cv2.circle(img, (100, 100), 80, (200, 100, 50, 255), -1)
+    cv2.circle(img, (100, 100), 40, (0, 0, 0, 0), -1)
+    mesh = mesh_image(img)
+    kinds = edge_kinds(mesh)
+    assert len(kinds["hull"]) == mesh.hull and len(kinds["hole"]) >= 3
+    pic = preview(img, mesh, size=400)
+    assert pic.shape[0] > 400 and pic.shape[1] == 400  # a legend band below the picture
+    # the hole loop is drawn in its own colour
+    assert (np.abs(pic[:400].astype(int) - MAGENTA).sum(axis=2) < 30).sum() > 50
