@@ -22,6 +22,8 @@ import fnmatch
 import math
 from typing import Any, Callable, Iterable, NamedTuple
 
+from .v4.constraint_list import implied_mix
+
 #: Tolerances for numbers: the editor writes about 2 decimals (``abs``) and, for large
 #: values, about 4 significant digits (``rel``). Issue 3 of the project fixes both.
 ABS_TOL = 0.011
@@ -78,33 +80,14 @@ _SKIN = {"bones": [], "ik": [], "transform": [], "path": [], "physics": [], "sli
          "color": "fe9e4fff"}
 
 
-def _mix_43(key: str, prop: str) -> Callable[[dict, Any], Any]:
-    """4.3 transform constraint mixes: 0 unless a bone receives ``prop``; then 1, except that
-    mixY follows mixX and mixScaleY follows mixScaleX."""
-    def default(node: dict, name: Any) -> Any:
-        targets = {t for entry in (node.get("properties") or {}).values() for t in (entry.get("to") or {})}
-        if prop not in targets:
-            return 0
-        if key in ("mixY", "mixScaleY"):
-            other = "mixX" if key == "mixY" else "mixScaleX"
-            return node.get(other, default_43_mix(node, other))
-        return 1
-    return default
-
-
-def default_43_mix(node: dict, key: str) -> Any:
-    return _CONSTRAINTS_43["transform"][key](node, None)
-
-
 #: 4.3's one constraint list, by "type".
 _CONSTRAINTS_43 = {
     "ik": {"skin": False, "bones": [], "mix": 1, "softness": 0, "bendPositive": True, "compress": False,
            "stretch": False, "scaleY": "none"},
     "transform": {"skin": False, "bones": [], "localSource": False, "localTarget": False, "additive": False,
                   "clamp": False, "properties": {}, "rotation": 0, "x": 0, "y": 0, "scaleX": 0, "scaleY": 0,
-                  "shearY": 0, **{k: _mix_43(k, prop) for k, prop in (
-                      ("mixRotate", "rotate"), ("mixX", "x"), ("mixY", "y"), ("mixScaleX", "scaleX"),
-                      ("mixScaleY", "scaleY"), ("mixShearY", "shearY"))}},
+                  "shearY": 0, **{k: (lambda node, name, k=k: implied_mix(node, k))
+                                  for k in ("mixRotate", "mixX", "mixY", "mixScaleX", "mixScaleY", "mixShearY")}},
     "path": {**_PATH, "order": None},
     "physics": {**_PHYSICS, "order": None, "inertia": 0.5, "damping": 0.85, "scaleY": "none"},
     "slider": {"skin": False, "loop": False, "additive": False, "time": 0, "mix": 1, "bone": None,

@@ -102,16 +102,21 @@ _MIXES = (("mixRotate", 1, "rotate"), ("mixX", 2, "x"), ("mixY", 4, "y"), ("mixS
           ("mixScaleY", 16, "scaleY"), ("mixShearY", 32, "shearY"))
 
 
-def _mix_implied(key: str, prop: str, targets: set, values: dict) -> float:
-    """The mix a runtime assumes when the JSON leaves ``key`` out: 0 for a property no bone
-    receives, else 1, except that mixY follows mixX and mixScaleY follows mixScaleX."""
+def implied_mix(node: dict, key: str) -> float:
+    """The value of a transform constraint's mix ``key`` when 4.3's JSON leaves it out: 0 for
+    a property no bone receives, else 1, except that mixY follows mixX and mixScaleY follows
+    mixScaleX (as SkeletonJson reads them)."""
+    prop = _MIX_PROPERTY[key]
+    targets = {dst for entry in (node.get("properties") or {}).values() for dst in (entry.get("to") or {})}
     if prop not in targets:
         return 0.0
-    if key == "mixY":
-        return values["mixX"]
-    if key == "mixScaleY":
-        return values["mixScaleX"]
+    if key in ("mixY", "mixScaleY"):
+        other = "mixX" if key == "mixY" else "mixScaleX"
+        return node.get(other, implied_mix(node, other))
     return 1.0
+
+
+_MIX_PROPERTY = {key: prop for key, _, prop in _MIXES}
 
 
 def transform(s, node: dict, c: Context) -> None:
@@ -130,20 +135,16 @@ def transform(s, node: dict, c: Context) -> None:
     flags = _flag_byte(s, node, (), value_flags)
     for key, bit in _OFFSETS:
         opt(s, node, key, flags & bit)
-    targets = {dst for entry in node.get("properties", {}).values() for dst in entry.get("to", {})}
-    values: dict = {}
+    value_flags = 0
     if not s.reading:
-        for key, bit, prop in _MIXES:
-            values[key] = node.get(key, _mix_implied(key, prop, targets, values))
-    value_flags = 0 if s.reading else sum(bit for key, bit, _ in _MIXES if not _same(values[key], 0.0))
+        value_flags = sum(bit for key, bit, _ in _MIXES if not _same(node.get(key, implied_mix(node, key)), 0.0))
     flags = _flag_byte(s, node, (), value_flags)
-    for key, bit, prop in _MIXES:
+    for key, bit, _ in _MIXES:
         if s.reading:
-            v = s.f32() if flags & bit else 0.0
-            values[key] = v
-            _put(node, key, v, _mix_implied(key, prop, targets, values))
+            # Read in order: mixY's implied value needs mixX already in the node.
+            _put(node, key, s.f32() if flags & bit else 0.0, implied_mix(node, key))
         elif flags & bit:
-            s.f32(values[key], what=key)
+            s.f32(node.get(key, implied_mix(node, key)), what=key)
     if s.reading:
         _target_first(node, "source")
 
