@@ -812,7 +812,9 @@ def _start_library_project(library: Path, folder: Path, options: Options, worker
         p.result.errors.append(str(e))
         return p
     if not sub.dry_run:
+        t0 = time.perf_counter()  # with workers, sending only; in this process, the meshing itself
         p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight)
+        p.result.seconds["mesh"] += time.perf_counter() - t0
     return p
 
 
