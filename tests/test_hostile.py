@@ -1,0 +1,656 @@
+"""Hostile input: what an attacker or an unlucky user gives the command line.
+
+Every case mutates a copy (in ``tmp_path``) of a small project our own code draws
+(``examples/demo``, made by ``scripts/make_demo_project.py``) or, when present, of
+``../shared/spine-examples/4.2/powerup``, then runs ``python -m spinemesh`` in a subprocess
+under a memory limit (``RLIMIT_AS``) and a time limit, and checks what the README's
+"Safety" section promises:
+
+- the exit status is 0, 2 (refused, one line naming the file) or 3 (partial);
+- no traceback;
+- every input file is byte-identical afterwards (sha256), and nothing is written outside
+  the outputs the command was given;
+- no JSON written holds NaN or Infinity, and no temporary file is left behind.
+
+Cases are small so that the whole file runs in well under a minute and a half.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import resource
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+import zlib
+from pathlib import Path
+
+import pytest
+
+from conftest import EXAMPLES, REPO
+
+DEMO = REPO / "examples" / "demo"
+POWERUP = EXAMPLES / "4.2" / "powerup"
+
+#: Address-space limit of every run: a tiny file asking for gigabytes fails fast instead.
+MEMORY_LIMIT = 3 * 1024**3
+#: Seconds one run may take (cases are small; a hang is a failure).
+TIME_LIMIT = 90
+
+
+def _limits(memory: int, file_size: int | None):
+    def apply():
+        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+        if file_size is not None:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (file_size, file_size))
+    return apply
+
+
+def run_cli(*args, cwd: Path, memory: int = MEMORY_LIMIT, file_size: int | None = None,
+            timeout: float = TIME_LIMIT) -> subprocess.CompletedProcess:
+    """``python -m spinemesh ARGS`` in ``cwd`` under the limits, with a narrow terminal."""
+    env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1", "OMP_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout,
+                          preexec_fn=_limits(memory, file_size))
+
+
+def snapshot(root: Path) -> dict[str, str]:
+    """sha256 of every file under ``root`` (symlinks as their target text), by relative path."""
+    out = {}
+    for p in sorted(root.rglob("*")):
+        rel = p.relative_to(root).as_posix()
+        if p.is_symlink():
+            out[rel] = "link:" + os.readlink(p)
+        elif p.is_file():
+            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def _strict(text: str, where: str):
+    def refuse(name):
+        raise AssertionError(f"{where} holds {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def check_run(r: subprocess.CompletedProcess, before: dict, tmp: Path, outputs: list[str],
+              codes=(0, 2, 3)) -> None:
+    """The promises every run keeps, whatever it was given."""
+    text = r.stdout + r.stderr
+    if r.returncode == 1 and "no Spine skeleton found" in r.stderr:
+        codes = (*codes, 1)  # the command line's "nothing to do" status (the skeleton was not one)
+    assert r.returncode in codes, f"exit {r.returncode}\n{text[-3000:]}"
+    assert "Traceback" not in text, text[-3000:]
+    after = snapshot(tmp)
+    for rel, digest in before.items():
+        assert after.get(rel) == digest, f"input {rel} was changed or removed"
+    copies = set(before.values())
+    for rel in set(after) - set(before):
+        assert any(rel == o or rel.startswith(o.rstrip("/") + "/") for o in outputs), \
+            f"{rel} written outside the outputs {outputs}"
+        name = rel.rsplit("/", 1)[-1]
+        assert not name.endswith(".tmp"), f"temporary file {rel} left behind"
+        if name.endswith(".json") and after[rel] not in copies:  # what we wrote, not a copied input
+            _strict((tmp / rel).read_text("utf-8"), rel)
+    if r.returncode == 2:
+        # ours ("error: FILE: why") or the option parser's ("Error: Invalid value for '--x': ...")
+        errors = [line for line in r.stderr.splitlines() if line.lower().startswith("error:")]
+        assert errors, f"exit 2 without an 'error:' line:\n{r.stderr}"
+
+
+def written_skeleton(path: Path) -> dict:
+    from spinemesh.skeleton import first_non_finite, load_skeleton
+
+    doc = load_skeleton(path)
+    assert first_non_finite(doc) is None
+    return doc
+
+
+# --- projects -------------------------------------------------------------------------------
+
+@pytest.fixture
+def demo(tmp_path) -> Path:
+    """A copy of the bundled demo project (atlas, page, images folder, .json and .skel)."""
+    dest = tmp_path / "p"
+    shutil.copytree(DEMO, dest)
+    return dest
+
+
+def _demo_json(p: Path) -> dict:
+    return json.loads((p / "demo.json").read_text())
+
+
+def _write_json(path: Path, doc) -> None:
+    path.write_text(json.dumps(doc))
+
+
+def _json_only(p: Path) -> None:
+    """Leave only demo.json as skeleton, so that a case is about one file."""
+    (p / "demo-binary.skel").unlink()
+
+
+def _attachment(doc: dict, slot: str, name: str) -> dict:
+    return doc["skins"][0]["attachments"][slot][name]
+
+
+def _set(p: Path, slot: str, name: str, **fields) -> None:
+    doc = _demo_json(p)
+    _attachment(doc, slot, name).update(fields)
+    _write_json(p / "demo.json", doc)
+
+
+def _upgrade(tmp: Path, p: Path, *extra, outputs=("o",), **kw):
+    before = snapshot(tmp)
+    r = run_cli("upgrade", p.name, "--out", "o", *extra, cwd=tmp, **kw)
+    check_run(r, before, tmp, list(outputs))
+    return r
+
+
+# --- skeleton JSON mutations ------------------------------------------------------------------
+
+SKELETON_CASES = {
+    # issue #11 reproductions (3, 4, 5)
+    "sequence count 200 million": lambda p: _set(p, "spark", "spark", sequence={"count": 200_000_000}),
+    "sequence count not a number": lambda p: _set(p, "spark", "spark", sequence={"count": "many"}),
+    "sequence digits a billion": lambda p: _set(p, "spark", "spark", sequence={"count": 3, "digits": 10**9}),
+    "sequence count negative": lambda p: _set(p, "spark", "spark", sequence={"count": -5}),
+    "nesting 5000 deep": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"bones"', '"deep": ' + "[" * 5000 + "]" * 5000 + ', "bones"', 1)),
+    "lone surrogate in a name": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"demo-head"', '"demo-head\\ud800"', 1)),
+    "width NaN": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"width": 90', '"width": NaN', 1)),
+    "x Infinity": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"y": 10', '"y": Infinity', 1)),
+    "number beyond float range": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"y": 10', '"y": 1e999', 1)),
+    "integer of 5000 digits": lambda p: (p / "demo.json").write_text(
+        (p / "demo.json").read_text().replace('"y": 10', '"y": ' + "9" * 5000, 1)),
+    "width a string": lambda p: _set(p, "head", "demo-head", width="wide"),
+    "scale a list": lambda p: _set(p, "head", "demo-head", scaleX=[1, 2]),
+    "region named to climb out": lambda p: _set(p, "head", "demo-head", path="../../../../etc/passwd"),
+    "absolute image path": lambda p: _set(p, "head", "demo-head", path="/etc/passwd"),
+    "NUL in a path": lambda p: _set(p, "head", "demo-head", path="demo\u0000head"),
+    "skins not a list": lambda p: _write_json(p / "demo.json", {**_demo_json(p), "skins": 7}),
+    "top level a list": lambda p: _write_json(p / "demo.json", [1, 2, 3]),
+    "truncated JSON": lambda p: (p / "demo.json").write_text((p / "demo.json").read_text()[:300]),
+    "not UTF-8": lambda p: (p / "demo.json").write_bytes(b'{"bones": ["\xff\xfe"]}'),
+    "empty file": lambda p: (p / "demo.json").write_bytes(b""),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SKELETON_CASES))
+def test_hostile_skeleton(tmp_path, demo, case):
+    _json_only(demo)
+    SKELETON_CASES[case](demo)
+    r = _upgrade(tmp_path, demo, "--report", "o-report.json", outputs=("o", "o-report.json"))
+    if "demo.json" in json.loads((tmp_path / "o-report.json").read_text())["skeletons_written"]:
+        written_skeleton(tmp_path / "o" / "demo.json")
+
+
+def test_refused_skeleton_names_its_file_and_others_go_on(tmp_path, demo):
+    """A skeleton refused for NaN is reported with its name; its binary twin is still upgraded."""
+    (demo / "demo.json").write_text((demo / "demo.json").read_text().replace('"width": 90', '"width": NaN', 1))
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode == 3
+    assert "demo.json" in r.stderr and "non-finite" in r.stderr.replace("NaN", "non-finite")
+    written_skeleton(tmp_path / "o" / "demo-binary.skel")
+
+
+def test_sequence_limit_fails_one_attachment_only(tmp_path, demo):
+    _json_only(demo)
+    _set(demo, "spark", "spark", sequence={"count": 200_000_000})
+    t0 = time.perf_counter()
+    r = _upgrade(tmp_path, demo, "--report", "r.json", outputs=("o", "r.json"))
+    assert time.perf_counter() - t0 < 60
+    assert r.returncode == 3
+    rows = json.loads((tmp_path / "r.json").read_text())["attachments"]
+    by_name = {row["name"]: row for row in rows}
+    assert by_name["spark"]["status"] == "failed" and "count" in by_name["spark"]["reason"]
+    assert by_name["demo-head"]["status"] == "meshed"
+
+
+# --- binary .skel mutations -------------------------------------------------------------------
+
+def _mutate_skel(p: Path, change) -> None:
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    path = p / "demo-binary.skel"
+    doc = read_skel(path)
+    change(doc)
+    path.write_bytes(write_skel(doc, path))
+
+
+def _skel_attachment(doc, slot, name):
+    skins = doc["skins"]
+    return (skins[0]["attachments"] if isinstance(skins, list) else skins["default"])[slot][name]
+
+
+@pytest.mark.parametrize("case", ["count 2e9", "x NaN", "width Infinity"])
+def test_hostile_binary_skeleton(tmp_path, demo, case):
+    (demo / "demo.json").unlink()
+    if case == "count 2e9":
+        _mutate_skel(demo, lambda d: _skel_attachment(d, "spark", "spark")["sequence"].update(count=2_000_000_000))
+    elif case == "x NaN":
+        _mutate_skel(demo, lambda d: _skel_attachment(d, "head", "demo-head").update(x=float("nan")))
+    else:
+        _mutate_skel(demo, lambda d: _skel_attachment(d, "head", "demo-head").update(width=float("inf")))
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode in (0, 3)
+    if (tmp_path / "o" / "demo-binary.skel").is_file():
+        written_skeleton(tmp_path / "o" / "demo-binary.skel")
+
+
+# --- atlas and page mutations -----------------------------------------------------------------
+
+def _atlas(p: Path, old: str, new: str) -> None:
+    text = (p / "demo.atlas").read_text()
+    assert old in text
+    (p / "demo.atlas").write_text(text.replace(old, new, 1))
+
+
+def _png_header_only(path: Path, width: int, height: int) -> None:
+    """A PNG that claims ``width x height`` pixels with almost no data (a decompression bomb's header)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\x00" * 64))
+                     + chunk(b"IEND", b""))
+
+
+ATLAS_CASES = {
+    "offsets 20000 square": lambda p: _atlas(p, "offsets: 5, 4, 90, 90", "offsets: 0, 0, 20000, 20000"),
+    "negative size region": lambda p: _atlas(p, "bounds: 105, 2, 81, 81", "bounds: 105, 2, -81, 81"),
+    "scale abc": lambda p: _atlas(p, "filter: Linear, Linear", "filter: Linear, Linear\n\tscale: abc"),
+    "scale 0": lambda p: _atlas(p, "filter: Linear, Linear", "filter: Linear, Linear\n\tscale: 0"),
+    "scale nan": lambda p: _atlas(p, "filter: Linear, Linear", "filter: Linear, Linear\n\tscale: nan"),
+    "bounds beyond the page": lambda p: _atlas(p, "bounds: 105, 2, 81, 81", "bounds: 2000000000, 2, 81, 81"),
+    "region named to climb out": lambda p: _atlas(p, "demo-head\n", "../../../../x\n"),
+    "page named to climb out": lambda p: _atlas(p, "demo.png", "../../../../etc/hostname"),
+    "page absolute": lambda p: _atlas(p, "demo.png", "/etc/hostname"),
+    "page missing": lambda p: (p / "demo.png").unlink(),
+    "page not an image": lambda p: (p / "demo.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really"),
+    "page truncated": lambda p: (p / "demo.png").write_bytes((p / "demo.png").read_bytes()[:400]),
+    "page claims 13000 square": lambda p: _png_header_only(p / "demo.png", 13000, 13000),
+    "page claims 100000 by 1": lambda p: _png_header_only(p / "demo.png", 100_000, 1),
+    "atlas not UTF-8": lambda p: (p / "demo.atlas").write_bytes(b"\xff\xfe\x00junk"),
+    "atlas entry before a name": lambda p: (p / "demo.atlas").write_text("size: 1, 2\n"),
+    "unreadable second atlas": lambda p: (p / "other.atlas").write_bytes(b"\xff" * 64),
+    "second atlas climbing out": lambda p: (p / "other.atlas").write_text("../../x.png\nsize: 4, 4\nr\n  bounds: 0,0,1,1\n"),
+    "rotate sideways": lambda p: _atlas(p, "rotate: 90", "rotate: sideways"),
+    "huge number": lambda p: _atlas(p, "bounds: 105, 2, 81, 81", "bounds: 105, 2, 81, " + "9" * 5000),
+}
+
+
+@pytest.mark.parametrize("case", sorted(ATLAS_CASES))
+def test_hostile_atlas(tmp_path, demo, case):
+    _json_only(demo)
+    ATLAS_CASES[case](demo)
+    r = _upgrade(tmp_path, demo, "--images", "o-images", outputs=("o", "o-images"))
+    assert r.returncode in (0, 3), r.stderr
+    written_skeleton(tmp_path / "o" / "demo.json")  # one bad thing never stops the project
+
+
+def test_unreadable_atlas_elsewhere_does_not_stop_info(tmp_path, demo):
+    (demo / "other.atlas").write_bytes(b"\xff" * 64)
+    before = snapshot(tmp_path)
+    r = run_cli("info", demo.name, cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(0, 1, 3))
+    assert "other.atlas" in r.stderr and "demo.json" in r.stdout
+
+
+def test_scale_abc_names_the_atlas_and_line(tmp_path, demo):
+    _json_only(demo)
+    ATLAS_CASES["scale abc"](demo)
+    r = _upgrade(tmp_path, demo)
+    assert "demo.atlas:" in r.stderr and "scale" in r.stderr
+
+
+def test_region_climbing_out_of_images_folder_blames_it(tmp_path, demo):
+    _json_only(demo)
+    _atlas(demo, "demo-head\n", "../../../../x\n")
+    _set(demo, "head", "demo-head", path="../../../../x")
+    r = _upgrade(tmp_path, demo, "--images", "o-images", outputs=("o", "o-images"))
+    assert r.returncode == 3 and "--images folder" in r.stderr
+    assert not (tmp_path.parent / "x.png").exists()
+
+
+# --- image folder and containment ------------------------------------------------------------
+
+def test_images_hint_outside_the_project_is_not_read(tmp_path, demo):
+    """``skeleton.images: ../p-evil/`` once passed a string-prefix test for project ``p``."""
+    _json_only(demo)
+    (demo / "demo.atlas").unlink()
+    shutil.move(demo / "images", tmp_path / "p-evil")
+    doc = _demo_json(demo)
+    doc["skeleton"]["images"] = "../p-evil/"
+    _write_json(demo / "demo.json", doc)
+    r = _upgrade(tmp_path, demo, "--images", "o-images", outputs=("o", "o-images"))
+    assert r.returncode == 3 and "outside the project" in r.stderr
+    assert not (tmp_path / "o-images").exists()
+    out = written_skeleton(tmp_path / "o" / "demo.json")
+    assert all(a.get("type", "region") == "region" for s in out["skins"][0]["attachments"].values()
+               for a in s.values())
+
+
+def test_relative_project_path_uses_its_images_folder(tmp_path, demo):
+    _json_only(demo)
+    (demo / "demo.atlas").unlink()
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode == 0, r.stderr
+    out = written_skeleton(tmp_path / "o" / "demo.json")
+    assert _attachment(out, "head", "demo-head")["type"] == "mesh"
+
+
+def test_symlink_to_outside_is_not_copied(tmp_path, demo):
+    (tmp_path / "secret.txt").write_text("secret")
+    (demo / "notes.txt").symlink_to(tmp_path / "secret.txt")
+    (demo / "linked").symlink_to(tmp_path, target_is_directory=True)
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode == 3 and "notes.txt" in r.stderr
+    assert not (tmp_path / "o" / "notes.txt").exists() and not (tmp_path / "o" / "linked").exists()
+
+
+# --- output targets ---------------------------------------------------------------------------
+
+def _nested_project(tmp: Path, demo: Path) -> None:
+    """``p/p/demo.json``: a project holding a folder of its own name (issue #11, case 1)."""
+    _json_only(demo)
+    (demo / "p").mkdir()
+    _write_json(demo / "p" / "demo.json", {"skeleton": {"spine": "4.2.22"}, "bones": [{"name": "root"}]})
+
+
+OUTPUT_CASES = {
+    "out is the parent of the project": (["--out", "."], []),
+    "out inside the project": (["--out", "p/o"], []),
+    "out is the project": (["--out", "p"], []),
+    "report onto an input": (["--out", "o", "--report", "p/demo.json"], ["o"]),
+    "report inside the project": (["--out", "o", "--report", "p/new.json"], ["o"]),
+    "images into the project": (["--out", "o", "--images", "p"], ["o"]),
+    "images onto an input file": (["--out", "o", "--images", "p/demo.json"], ["o"]),
+    "out names an existing file": (["--out", "f.txt"], []),
+    "report is a folder": (["--out", "o", "--report", "o2"], ["o"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OUTPUT_CASES))
+def test_hostile_output_target(tmp_path, demo, case):
+    _nested_project(tmp_path, demo)
+    (tmp_path / "f.txt").write_text("keep me")
+    (tmp_path / "o2").mkdir()
+    args, outputs = OUTPUT_CASES[case]
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", *args, cwd=tmp_path)
+    check_run(r, before, tmp_path, outputs)
+    assert r.returncode == 2, r.stdout + r.stderr
+
+
+def test_symlink_planted_in_output_is_not_written_through(tmp_path, demo):
+    _json_only(demo)
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "demo.json").symlink_to(demo / "demo.json")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o"])
+    assert r.returncode == 2
+    (out / ".spinemesh-output").write_text("marker")  # as if an earlier run wrote it
+    before = {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("o/")}
+    r = run_cli("upgrade", "p", "--out", "o", "--overwrite", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o"])
+    assert r.returncode == 0 and not (out / "demo.json").is_symlink()
+
+
+def test_output_through_symlinked_folder_is_refused(tmp_path, demo):
+    (tmp_path / "o").symlink_to(demo, target_is_directory=True)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+
+
+def test_full_disk_leaves_no_temporary_file(tmp_path, demo):
+    """A write that the file system refuses (here: a file-size limit, as a full disk would) is one line."""
+    _json_only(demo)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", cwd=tmp_path, file_size=3000)
+    check_run(r, before, tmp_path, ["o"])
+    assert r.returncode in (2, 3) and "cannot write" in r.stderr
+
+
+def test_two_runs_into_one_output(tmp_path, demo):
+    _json_only(demo)
+    before = snapshot(tmp_path)
+    env = {**os.environ, "COLUMNS": "60"}
+    procs = [subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", "p", "--out", "o", "--overwrite"],
+                              cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    for p in procs:
+        stdout, stderr = p.communicate(timeout=TIME_LIMIT)
+        check_run(subprocess.CompletedProcess(p.args, p.returncode, stdout, stderr), before, tmp_path, ["o"])
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_read_only_output(tmp_path, demo):
+    _json_only(demo)
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o").chmod(0o500)
+    try:
+        before = snapshot(tmp_path)
+        r = run_cli("upgrade", "p", "--out", "o", cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o"])
+        assert r.returncode in (2, 3)
+    finally:
+        (tmp_path / "o").chmod(0o700)
+
+
+# --- options ----------------------------------------------------------------------------------
+
+OPTION_CASES = {
+    "preset bogus": ["--preset", "bogus"],
+    "mask bogus": ["--mask", "bogus"],
+    "density nan": ["--density", "nan"],
+    "density inf": ["--density", "inf"],
+    "density negative": ["--density", "-1"],
+    "density zero": ["--density", "0"],
+    "max vertices negative": ["--max-vertices", "-5"],
+    "min size nan": ["--min-size", "nan"],
+    "jobs zero": ["--jobs", "0"],
+}
+
+
+@pytest.mark.parametrize("case", sorted(OPTION_CASES))
+def test_hostile_option(tmp_path, demo, case):
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", *OPTION_CASES[case], cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2 and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args", [["--density", "nan"], ["--preset", "bogus"], ["--alpha-threshold", "-3"],
+                                  ["--max-vertices", "0"]])
+def test_hostile_mesh_option(tmp_path, demo, args):
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "p/images/demo-head.png", "--out", "m.json", *args, cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+
+
+# --- the other commands' outputs and inputs ---------------------------------------------------
+
+def test_convert_refuses_its_own_source_and_names_bad_files(tmp_path, demo):
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "p/demo.json", "p/demo.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+    (tmp_path / "link.json").symlink_to(demo / "demo-binary.skel")
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "p/demo.json", "link.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+    doc = _demo_json(demo)
+    doc["skeleton"]["spine"] = "banana"
+    _write_json(tmp_path / "banana.json", doc)
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "banana.json", "b.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["b.skel"])
+    assert r.returncode == 2 and "b.skel" in r.stderr or "banana.json" in r.stderr
+
+
+def test_mesh_and_segment_refuse_writing_onto_their_input(tmp_path, demo):
+    img = "p/images/demo-head.png"
+    for args in (["mesh", img, "--out", img], ["mesh", img, "--preview", img], ["segment", img, "--out", img],
+                 ["mesh", "p/images", "--out", "p/images/sub"]):
+        before = snapshot(tmp_path)
+        r = run_cli(*args, cwd=tmp_path)
+        check_run(r, before, tmp_path, [])
+        assert r.returncode == 2, args
+
+
+def test_mesh_image_bomb_and_noise(tmp_path):
+    from PIL import Image
+    import numpy as np
+
+    _png_header_only(tmp_path / "bomb.png", 13000, 13000)
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "bomb.png", "--out", "bomb.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2 and "bomb.png" in r.stderr and "limit" in r.stderr
+    rng = np.random.default_rng(0)
+    Image.fromarray(rng.integers(0, 256, (600, 600, 4), dtype=np.uint8)).save(tmp_path / "noise.png")
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "noise.png", "--preset", "paper", "--out", "noise.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["noise.json"])
+
+
+def test_dataset_refuses_writing_into_its_corpus(tmp_path, demo):
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "p", "--out", "p/ds", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+
+
+def test_malformed_source_json_is_reported_not_guessed(tmp_path, demo):
+    (demo / ".source.json").write_text("{not json")
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "p", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["ds"])
+    assert ".source.json" in r.stdout + r.stderr
+
+
+def test_error_line_is_not_wrapped(tmp_path, demo):
+    """A long path in an error stays on one line when stderr is not a terminal."""
+    deep = tmp_path / ("a" * 60) / ("b" * 60)
+    deep.mkdir(parents=True)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", str(deep / "missing"), "--out", "o", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    line = next(line for line in r.stderr.splitlines() if line.startswith("error:"))
+    assert str(deep / "missing") in line
+
+
+# --- interruption and worker processes --------------------------------------------------------
+
+def test_workers_end_with_their_parent(tmp_path):
+    """A pool started with spinemesh's worker initializer does not outlive a SIGKILLed parent."""
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import os, sys, time\n"
+        "from spinemesh.cluster import ProcessWorkers\n"
+        "w = ProcessWorkers(2)\n"
+        "futures = [w.submit(time.sleep, 60) for _ in range(2)]\n"
+        "time.sleep(1.5)\n"
+        "print(' '.join(str(p.pid) for p in w._pool._pool), flush=True)\n"
+        "time.sleep(60)\n")
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, cwd=REPO)
+    pids = [int(p) for p in parent.stdout.readline().split()]
+    assert len(pids) == 2
+    parent.send_signal(signal.SIGKILL)
+    parent.wait(10)
+    deadline = time.monotonic() + 10
+    alive = pids
+    while alive and time.monotonic() < deadline:
+        time.sleep(0.2)
+        alive = [p for p in pids if _alive(p)]
+    assert not alive, f"workers {alive} outlived their parent"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_interrupted_write_leaves_no_temporary_file(tmp_path):
+    from spinemesh.fsutil import atomic_copy
+
+    class Interrupted(KeyboardInterrupt):
+        pass
+
+    src = tmp_path / "src.bin"
+    src.write_bytes(b"x" * 100)
+
+    def interrupting_open(*a, **k):
+        raise Interrupted
+
+    import builtins
+
+    real_open = builtins.open
+    builtins.open = interrupting_open
+    try:
+        with pytest.raises(Interrupted):
+            atomic_copy(src, tmp_path / "out" / "dst.bin")
+    finally:
+        builtins.open = real_open
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_sigterm_during_upgrade_cleans_up(tmp_path, demo):
+    """SIGTERM mid-run ends the run like Ctrl-C: no temporary file stays, no traceback."""
+    before = snapshot(tmp_path)
+    env = {**os.environ, "COLUMNS": "60"}
+    proc = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", "p", "--out", "o", "--jobs", "2",
+                             "--density", "4"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=TIME_LIMIT)
+    check_run(subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr), before, tmp_path, ["o"],
+              codes=(0, 3, 128 + signal.SIGTERM))
+
+
+# --- a real project, when present --------------------------------------------------------------
+
+@pytest.fixture
+def powerup(tmp_path) -> Path:
+    if not POWERUP.is_dir():
+        pytest.skip(f"{POWERUP} is absent")
+    dest = tmp_path / "p"
+    dest.mkdir()
+    for name in ("powerup.atlas", "powerup.png", "powerup-pro.json"):
+        shutil.copy(POWERUP / name, dest / name)
+    return dest
+
+
+def test_powerup_issue_reproduction(tmp_path, powerup):
+    """Issue #11 case 1 on real data: the nested same-named folder, upgraded into the parent."""
+    (powerup / "p").mkdir()
+    for name in ("powerup.atlas", "powerup.png"):
+        shutil.copy(powerup / name, powerup / "p" / name)
+    _write_json(powerup / "p" / "powerup-pro.json", {"skeleton": {"spine": "4.2.22"}, "bones": [{"name": "root"}]})
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", ".", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+    r = run_cli("upgrade", "p", "--out", "o", "--report", "o-report.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "o-report.json"])
+    assert r.returncode == 0, r.stderr
+    written_skeleton(tmp_path / "o" / "powerup-pro.json")
