@@ -34,7 +34,8 @@ def is_within(path: str | Path, folder: str | Path) -> bool:
     return p == f or f in p.parents
 
 
-def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None) -> Path:
+def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None,
+                   what: str = "project folder") -> Path:
     """Join ``relative`` to ``root`` and refuse any result outside ``root``.
 
     Parameters
@@ -45,6 +46,8 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
         A path as written in a project file (atlas page name, image path).
     source : path, optional
         The file that named ``relative``, for the error message.
+    what : str
+        What ``root`` is, for the error message.
 
     Raises
     ------
@@ -59,7 +62,7 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
         raise UnsafePathError(f"absolute path {relative!r} is not allowed", source or root)
     candidate = real(root / rel)
     if candidate != root and root not in candidate.parents:
-        raise UnsafePathError(f"path {relative!r} leads outside the project folder", source or root)
+        raise UnsafePathError(f"path {relative!r} leads outside the {what}", source or root)
     return candidate
 
 
@@ -86,14 +89,23 @@ class OutputGuard:
         self.inputs = [(Path(p), real(p)) for p in inputs if p is not None]
         self.root = Path(root) if root is not None else None
 
-    def check_folder(self, folder: str | Path, what: str = "output folder") -> Path:
-        """Refuse an output folder that is an existing file, an input, or inside an input."""
+    def check_folder(self, folder: str | Path, what: str = "output folder", may_hold_inputs: bool = True) -> Path:
+        """Refuse an output folder that is an existing file, an input, or inside an input.
+
+        ``may_hold_inputs=False`` also refuses a folder that holds an input (for an output
+        folder that may be emptied as a whole, like ``upgrade --overwrite`` does).
+        """
         folder = Path(folder)
         if folder.is_symlink():
             raise OutputError(f"{what} is a symlink; give the real folder", folder)
         if folder.exists() and not folder.is_dir():
             raise OutputError(f"{what} exists and is not a folder", folder)
         self._refuse_inputs(folder, what)
+        if not may_hold_inputs:
+            target = real(folder)
+            for given, inp in self.inputs:
+                if target in inp.parents:
+                    raise OutputError(f"{what} holds the input {given}; choose a folder beside it", folder)
         return folder
 
     def check(self, path: str | Path, what: str = "output file") -> Path:
@@ -124,6 +136,31 @@ class OutputGuard:
                 raise OutputError(f"{what} is the input {given}; the input is never overwritten", path)
             if inp.is_dir() and inp in target.parents:
                 raise OutputError(f"{what} lies inside the input {given}; nothing is written there", path)
+
+
+def project_folder(path: str | Path) -> Path:
+    """The folder an input stands for: itself for a folder, its folder for a file (a skeleton's
+    project is the folder it lies in)."""
+    path = Path(path)
+    return path if path.is_dir() else path.parent
+
+
+def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
+                  folders: Iterable[str | Path | None] = ()) -> None:
+    """Check, before any work, every output a command was given (``None`` entries are ignored).
+
+    Raises
+    ------
+    OutputError
+        For the first output that :class:`OutputGuard` refuses, naming it.
+    """
+    guard = OutputGuard(inputs)
+    for folder in folders:
+        if folder is not None:
+            guard.check_folder(folder)
+    for file in files:
+        if file is not None:
+            guard.check(file)
 
 
 def _umask() -> int:

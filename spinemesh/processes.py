@@ -10,7 +10,6 @@
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 import signal
 import sys
@@ -41,13 +40,19 @@ def _watch_parent(parent: int) -> None:
 
 
 def die_with_parent() -> None:
-    """Worker initializer: end this process when the process that started it dies."""
+    """Worker initializer: end this process when the process that started it dies.
+
+    It imports nothing and starts no subprocess: a worker forked from a parent with threads
+    could deadlock on a lock (the import lock) that another thread held at the fork.
+    """
     parent = os.getppid()
     # A worker that inherited the parent's SIGTERM handler would raise inside the pool's
     # machinery; the parent cleans up, the worker just ends.
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # Ctrl-C reaches the whole process group: the parent stops the pool, workers stay quiet.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc = ctypes.CDLL(None, use_errno=True)  # this process's own symbols, libc's prctl among them
         if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
             if os.getppid() != parent:  # the parent died before prctl took effect
                 os._exit(1)

@@ -186,38 +186,40 @@ def _common_prefix(a: str, b: str) -> str:
 
 
 def needed_images(doc: dict) -> set[str]:
-    """Every image path the skeleton's attachments draw."""
-    return {p for ref in iter_attachments(doc) for p in image_paths(ref)}
+    """Every image path the skeleton's attachments draw.
+
+    An attachment whose sequence is malformed is passed over here; whoever processes that
+    attachment reports it (it fails alone, not the skeleton).
+    """
+    needed: set[str] = set()
+    for ref in iter_attachments(doc):
+        try:
+            needed.update(image_paths(ref))
+        except SpineMeshError:
+            continue
+    return needed
 
 
-def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path | None = None,
-                     atlases: dict[Path, Atlas] | None = None):
+def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path | None = None):
     """The image source that serves a skeleton best.
 
     Parameters
     ----------
     images : path, optional
         An images folder given by the user; it wins when set.
-    atlases : dict, optional
-        Parsed atlases to choose from (default: :func:`project_atlases`).
 
     Returns
     -------
     AtlasImages or FolderImages or None
-        Atlases are chosen greedily: the one that holds the most of the skeleton's images
+        Atlases (read once per project by :func:`project_atlases`) are chosen greedily: the one that holds the most of the skeleton's images
         (preferring scale 1 and straight alpha, since meshes are best built at full
         resolution), then others for whatever is still missing. Without atlases, an images
         folder (``skeleton.images`` or an ``images/`` folder) inside the project is used.
-
-    Raises
-    ------
-    SkeletonError
-        For a sequence whose frame count or digits exceed :mod:`spinemesh.limits`.
     """
     if images is not None:
         return FolderImages(images)
     needed = needed_images(doc)
-    candidates = list((atlases if atlases is not None else project_atlases(project)).values())
+    candidates = list(project_atlases(project).values())
     chosen: list[Atlas] = []
     missing = set(needed)
     while missing and candidates:
