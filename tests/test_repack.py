@@ -131,3 +131,44 @@ def test_repacked_project_renders_like_the_original(trimmed_project, tmp_path):
         assert (distance <= 1.0).all(), distance.max()
         fringe += d["added"]
     assert rows[0].renders == 3
+
+
+def test_cover_resample_covers_every_texel_in_relative_coordinates():
+    from spinemesh.upgrade.geometry import cover_resample
+
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        h, w = (int(v) for v in rng.integers(1, 30, 2))
+        big_h, big_w = h + int(rng.integers(0, 30)), w + int(rng.integers(0, 30))
+        mask = rng.random((h, w)) < 0.05
+        cells = cover_resample(mask, big_w, big_h)
+        for y, x in zip(*np.nonzero(mask)):
+            rows = slice(y * big_h // h, -(-(y + 1) * big_h // h))
+            cols = slice(x * big_w // w, -(-(x + 1) * big_w // w))
+            assert cells[rows, cols].all()
+        assert np.array_equal(cover_resample(mask, w, h), mask)
+
+
+@pytest.mark.parametrize("repack", [False, True])
+def test_sequence_frames_of_different_sizes_share_one_mesh(tmp_path, repack):
+    """Frames drawn at 64, 96 and 48 px share one mesh in coordinates relative to each frame."""
+    import cv2
+
+    images = demo_images()
+    for name, size in zip(SPARK, (64, 96, 48)):
+        images[name] = cv2.resize(images[name], (size, size), interpolation=cv2.INTER_LINEAR)
+    keep = () if repack else ("demo-spark/",)
+    text, page = pack_atlas(images, "demo.png", rotate={"demo-spark/frame2"}, keep_whitespace=keep)
+    folder = tmp_path / "project"
+    atomic_write_text(folder / "demo.atlas", text)
+    atomic_write_png(folder / "demo.png", page)
+    atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
+    result = upgrade_project(folder, tmp_path / "out", Options(repack=repack))
+    assert all(t.status == "meshed" for t in result.targets), [(t.name, t.reason) for t in result.targets]
+    mesh = json.loads((tmp_path / "out" / "demo.json").read_text())["skins"][0]["attachments"]["spark"]["spark"]
+    uv = np.asarray(mesh["uvs"], float).reshape(-1, 2)
+    triangles = np.asarray(mesh["triangles"], int).reshape(-1, 3)
+    for name in SPARK:
+        drawn = images[name][..., 3] > 0
+        h, w = drawn.shape
+        assert not uncovered_pixels(uv * (w, h), triangles, drawn).any()

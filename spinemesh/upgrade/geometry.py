@@ -146,3 +146,73 @@ def spine_triangles(vertices: np.ndarray, hull: int, edges: np.ndarray) -> np.nd
     if len(tris) != 2 * len(v) - hull - 2:
         return None
     return tris
+
+
+def cover_resample(mask: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Resample a bool mask to ``height x width`` so that every cell any set texel overlaps is set.
+
+    Cell ``(i, j)`` of the result covers ``[j/width, (j+1)/width] x [i/height, (i+1)/height]``
+    of the image, as texel ``(y, x)`` of ``mask`` covers ``[x/w, (x+1)/w] x [y/h, (y+1)/h]``:
+    a conservative resampling in normalised image coordinates (a mesh covering the result
+    covers every set texel).
+
+    Parameters
+    ----------
+    mask : ndarray, shape (h, w), bool
+    width, height : int
+
+    Returns
+    -------
+    ndarray, shape (height, width), bool
+    """
+    mask = np.asarray(mask, bool)
+    h, w = mask.shape
+
+    def spans(n_out: int, n_in: int) -> tuple[np.ndarray, np.ndarray]:
+        i = np.arange(n_out)
+        return (i * n_in) // n_out, -((-(i + 1) * n_in) // n_out)  # [first, end) overlapping each cell
+
+    x0, x1 = spans(width, w)
+    y0, y1 = spans(height, h)
+    along_x = np.concatenate([np.zeros((h, 1), np.int64), np.cumsum(mask, axis=1)], axis=1)
+    cols = (along_x[:, x1] - along_x[:, x0]) > 0
+    along_y = np.concatenate([np.zeros((1, width), np.int64), np.cumsum(cols, axis=0)], axis=0)
+    return (along_y[y1] - along_y[y0]) > 0
+
+
+def frames_on_one_grid(frames: list) -> list:
+    """Sequence frames of different original sizes brought to the largest one's pixel grid.
+
+    A sequence draws every frame over the attachment's one rectangle, whatever each frame's
+    original size: runtimes place a frame's texel by its position relative to that frame's
+    original size (its UV). One mesh serves every frame in those relative coordinates, so
+    frames are compared on one grid: the largest frame's size. Colours are resampled
+    bilinearly (they only guide interior edges), the drawn texels conservatively
+    (:func:`cover_resample`), and the stored rectangle inwards, so that a mesh inside it
+    samples every frame inside that frame's own stored rectangle.
+
+    Parameters
+    ----------
+    frames : list of RegionImage
+
+    Returns
+    -------
+    list of RegionImage
+        ``frames`` itself when all have one size, else new images on the common grid.
+    """
+    import cv2
+
+    from ..images import RegionImage
+
+    if len({f.rgba.shape[:2] for f in frames}) <= 1:
+        return frames
+    height = max(f.rgba.shape[0] for f in frames)
+    width = max(f.rgba.shape[1] for f in frames)
+    out = []
+    for f in frames:
+        h, w = f.rgba.shape[:2]
+        x0, y0, x1, y1 = f.content
+        content = (-(-x0 * width // w), -(-y0 * height // h), x1 * width // w, y1 * height // h)
+        rgba = cv2.resize(f.rgba, (width, height), interpolation=cv2.INTER_LINEAR)
+        out.append(RegionImage(rgba, f.scale, f.name, f.source, content, cover_resample(f.drawn, width, height)))
+    return out

@@ -39,7 +39,7 @@ from ..images import RegionImage, content_id
 from ..mesher.worth import DEFAULT_MIN_SAVING
 from ..project import Project, find_project, find_projects, image_source_for
 from ..skeleton import AttachmentRef, dumps_skeleton, image_paths, is_binary_skeleton, iter_attachments, load_skeleton
-from .geometry import mesh_attachment, spine_triangles
+from .geometry import frames_on_one_grid, mesh_attachment, spine_triangles
 from .repack import write_repacked_atlas
 
 #: Exit status of a run in which some attachments could not be upgraded.
@@ -219,8 +219,8 @@ def source_identity(source) -> tuple:
 
 def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTask | None, str, str]:
     """The mesh task of an attachment's frame image(s), or ``(None, status, reason)``."""
-    if len({f.rgba.shape for f in frames}) > 1:
-        return None, "failed", "sequence frames differ in size"
+    # Frames of different sizes are compared where the runtime draws them: relative to their size.
+    frames = frames_on_one_grid(frames)
     rgba = composite_image([f.rgba for f in frames])
     drawn = np.logical_or.reduce([f.drawn for f in frames])
     if options.mask != "model" and not drawn.any():
@@ -246,9 +246,8 @@ def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTa
 
 def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
     """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
-    whole = (0, 0) + tuple(task.size)
     return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
-        tuple(f.content) != whole for f in frames)
+        tuple(f.content) != (0, 0, f.rgba.shape[1], f.rgba.shape[0]) for f in frames)
 
 
 def write_editor_image(frame: RegionImage, folder: Path) -> None:
