@@ -266,6 +266,8 @@ def _png_header_only(path: Path, width: int, height: int) -> None:
 
 ATLAS_CASES = {
     "offsets 20000 square": lambda p: _atlas(p, "offsets: 5, 4, 90, 90", "offsets: 0, 0, 20000, 20000"),
+    # just under the pixel limit: a large, almost empty original is meshed within the memory limit
+    "offsets 9000 square": lambda p: _atlas(p, "offsets: 5, 4, 90, 90", "offsets: 5, 4, 9000, 9000"),
     "negative size region": lambda p: _atlas(p, "bounds: 105, 2, 81, 81", "bounds: 105, 2, -81, 81"),
     "scale abc": lambda p: _atlas(p, "filter: Linear, Linear", "filter: Linear, Linear\n\tscale: abc"),
     "scale 0": lambda p: _atlas(p, "filter: Linear, Linear", "filter: Linear, Linear\n\tscale: 0"),
