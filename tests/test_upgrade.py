@@ -142,7 +142,7 @@ def test_missing_image_is_reported_and_left_a_region(demo, tmp_path):
 
 
 def test_output_inside_the_project_is_refused(demo):
-    with pytest.raises(SpineMeshError, match="must not be the project folder"):
+    with pytest.raises(SpineMeshError, match="inside the input"):
         upgrade_project(demo, demo / "out", Options())
     with pytest.raises(SpineMeshError):
         upgrade_project(demo, demo, Options())

@@ -126,7 +126,6 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
     tasks, skipped = [], []
     for path in paths:
         project = find_project(path)
-        atlases: dict = {}
         for skel in skeletons_to_read(project.skeletons):
             doc = load_skeleton(skel)
             source = None
@@ -141,7 +140,7 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
                 if source is None and images is None and originals:
                     source = original_images(doc, skel, project)
                 if source is None:
-                    source = image_source_for(doc, skel, project, images, atlases)
+                    source = image_source_for(doc, skel, project, images)
                 if source is None:
                     skipped.append({**where, "reason": "no atlas or images folder holds its image"})
                     continue

@@ -43,15 +43,18 @@ def sniff_version(data: bytes) -> str:
     raise SkelFormatError("expected a Spine version string in the header", offset=0)
 
 
-def _codec(version: str):
-    """The module that declares this version's structures: :mod:`.v3` or :mod:`.v4`."""
+def _codec(version: str, path: str | Path | None = None):
+    """The module that declares this version's structures: :mod:`.v3` or :mod:`.v4`.
+
+    ``path`` is the file read or written, for the error message.
+    """
     major = version.split(".")[0]
     if major == "3":
         from . import v3 as codec
     elif major == "4":
         from . import v4 as codec
     else:
-        raise SkelFormatError(f"expected Spine 3.6 to 4.3, found version {version!r}", offset=0)
+        raise SkelFormatError(f"expected Spine 3.6 to 4.3, found version {version!r}", path, offset=0)
     return codec
 
 
@@ -89,7 +92,7 @@ def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
         raise SkelFormatError("cannot write: expected a document with a 'skeleton' object", path)
     version = str(skeleton.get("spine", ""))
     writer = SkelWriter(path)
-    _codec(version).write(writer, doc)
+    _codec(version, path).write(writer, doc)
     return writer.getvalue()
 
 
