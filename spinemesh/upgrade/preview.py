@@ -274,13 +274,24 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
     wires = []
     for place, att, paths, (uvs, pos, tris) in parts:
         dst = to_canvas(pos)
+        image = None
         if source is not None and paths:
             try:
-                _draw(canvas, source.get(paths[0]).rgba, uvs, dst, tris)
+                image = source.get(paths[0])
+                _draw(canvas, image.rgba, uvs, dst, tris)
             except SpineMeshError:
                 pass  # a missing image: its wireframe (if upgraded) still shows where it is
         if place in upgraded and att.get("type") == "mesh":
             wires.append(_mesh_svg(uvs, tris, int(att.get("hull", 0)), lambda _uv, d=dst: d, 1.0))
+        elif att.get("type", "region") == "region":  # left a region: the rectangle it draws, dashed
+            corners = dst
+            if image is not None:  # the part of the image its atlas stores, as on the cards
+                h, w = image.rgba.shape[:2]
+                x0, y0, x1, y1 = image.content
+                box = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float) / (w, h)
+                corners = box @ (dst[1] - dst[0], dst[3] - dst[0]) + dst[0]
+            points = " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
+            wires.append(f'<polygon points="{points}" class="quad" stroke-width="1.2"/>')
     png = _png_uri((canvas * 255).round().astype(np.uint8))
     caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
     return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
@@ -439,7 +450,8 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
             f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
             f"(−{_pct(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
-            f" Setup pose, drawn from the upgraded skeleton; wireframes of the new meshes:</p>"
+            f" Setup pose, drawn from the upgraded skeleton: wireframes of the new meshes, regions left as they "
+            f"are dashed:</p>"
             + setup_pose(doc, source, upgraded)
             + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
             + "".join(c for _, c in cards) + "</div>")
