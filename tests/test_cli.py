@@ -175,7 +175,9 @@ def test_mesh_of_a_jpeg_follows_the_art_not_its_rectangle(tmp_path):
 
 def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
     out = tmp_path / "out"
-    assert run("upgrade", str(demo), "--out", str(out)).returncode == 0
+    r = run("upgrade", str(demo), "--out", str(out), "--preview", str(tmp_path / "preview"))
+    assert r.returncode == 0, r.stderr
+    assert f"preview: {tmp_path / 'preview' / 'index.html'}" in r.stdout.replace("\n", "")
     (out / "stale.txt").write_text("from an earlier run")
     r = run("upgrade", str(demo), "--out", str(out))
     assert r.returncode == 2 and "--overwrite" in r.stderr and "Traceback" not in r.stderr
