@@ -288,20 +288,31 @@ def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:
 
 
 def _drop_crossing(chains: list[np.ndarray], loops: list[np.ndarray]) -> list[np.ndarray]:
-    """Split chains where a segment would cross a loop or an earlier chain."""
+    """Split chains where a segment would cross a loop or an earlier chain's kept segment.
+
+    All crossings are found at once (two spatial-index queries), then the chains are walked
+    in order, so a segment is dropped only for the segments kept before it.
+    """
+    if not chains:
+        return []
     walls = np.concatenate([np.stack([l, np.roll(l, -1, axis=0)], axis=1) for l in loops])
-    out = []
+    pieces = [np.stack([c[:-1], c[1:]], axis=1) for c in chains]
+    segs = np.concatenate(pieces) if any(len(x) for x in pieces) else np.zeros((0, 2, 2))
+    hits_loop = segments_cross(segs, walls).any(axis=1)
+    hits_chain = segments_cross(segs, segs)
+    kept = np.zeros(len(segs), bool)
+    out, k = [], 0
     for c in chains:
         run = [c[0]]
-        for a, b in zip(c[:-1], c[1:]):
-            seg = np.array([[a, b]])
-            if segments_cross(seg, walls).any():
+        for b in c[1:]:
+            if hits_loop[k] or (hits_chain[k] & kept).any():
                 # the chain would cut a loop or another chain: it goes on as a new run
                 out.append(np.asarray(run))
                 run = [b]
-                continue
-            run.append(b)
-            walls = np.concatenate([walls, seg])
+            else:
+                kept[k] = True
+                run.append(b)
+            k += 1
         out.append(np.asarray(run))
     return out
 
