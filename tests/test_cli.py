@@ -119,6 +119,18 @@ def test_choices_match_the_library():
     assert sorted(m.value for m in MaskSource) == sorted(MASK_MODES)
 
 
+def test_progress_bars_show_the_time_remaining():
+    """Every command's progress bar comes from one place, which has an ETA column."""
+    from rich.progress import TimeRemainingColumn
+
+    from spinemesh.cli._app import progress_bar
+
+    assert any(isinstance(c, TimeRemainingColumn) for c in progress_bar("x").columns)
+    for path in (REPO / "spinemesh" / "cli").glob("*.py"):
+        if path.name != "_app.py":
+            assert "Progress(" not in path.read_text(), f"{path.name}: use _app.progress_bar (it shows the ETA)"
+
+
 def test_mask_defaults_to_auto_everywhere():
     for command in ("mesh", "upgrade", "segment"):
         r = run(command, "--help")
