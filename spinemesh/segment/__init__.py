@@ -96,9 +96,9 @@ def combine_with_floodfill(prob: np.ndarray, rgb: np.ndarray, unsure: float = 0.
     """Where the network is unsure and the background is flat, the border flood fill decides.
 
     The background counts as flat when the flood fill from the border reaches at least 90 %
-    of the border and agrees with the network's confident pixels (IoU at least
-    ``min_agreement``). Then every pixel whose probability is within ``unsure`` of 0.5 takes
-    the flood fill's answer.
+    of the border and its foreground agrees with the network's (IoU at least
+    ``min_agreement``): then the two differ only along the outline. Every pixel whose
+    probability is within ``unsure`` of 0.5 takes the flood fill's answer.
 
     Parameters
     ----------
@@ -116,13 +116,11 @@ def combine_with_floodfill(prob: np.ndarray, rgb: np.ndarray, unsure: float = 0.
     border = np.concatenate([fill[0], fill[-1], fill[:, 0], fill[:, -1]])
     if border.mean() > 0.1:
         return None
-    confident = np.abs(prob - 0.5) >= unsure
     net = prob > 0.5
-    inter = np.logical_and(fill, net)[confident].sum()
-    union = np.logical_or(fill, net)[confident].sum()
-    if union and inter / union < min_agreement:
+    union = np.logical_or(fill, net).sum()
+    if union == 0 or np.logical_and(fill, net).sum() / union < min_agreement:
         return None
-    return np.where(confident, net, fill)
+    return np.where(np.abs(prob - 0.5) >= unsure, net, fill)
 
 
 def predict_mask(rgb: np.ndarray, model_path: str | Path | None = None, threshold: float | None = None,
