@@ -4,7 +4,7 @@ A *project* is a folder that holds a Spine project: the first folder, walking do
 a corpus argument, that directly holds a skeleton, an atlas or a ``.source.json``. Its
 *game* decides the train/validation split: the ``repo`` of its ``.source.json`` (so that
 all projects taken from one game repository land on the same side), else the project
-folder's own name (so ``spine-examples/3.8/spineboy`` and ``4.2/spineboy`` are one game).
+folder's own name (so ``examples/3.8/hero`` and ``examples/4.2/hero`` are one game).
 """
 
 from __future__ import annotations
@@ -166,7 +166,7 @@ def extract_project(folder: str | Path, name: str, min_side: int = 1) -> Project
     folder : path
         The project folder.
     name : str
-        How the project is called in the index (e.g. ``spine-examples/4.2/spineboy``).
+        How the project is called in the index (e.g. ``examples/4.2/hero``).
     min_side : int
         Images smaller than this in width or height are skipped (1: keep all non-empty).
 
