@@ -92,6 +92,7 @@ class Row:
     ties: int = 0                   # of those lost or added, rasterisation ties on a quad edge (TIE_PX)
     dump_ok: bool | None = None
     meshed: int = 0                 # region attachments of this skeleton that became meshes
+    kept: int = 0                   # left regions on purpose (the report says why)
     regions: int = 0
     status: str = ""                # pass | FAIL | not rendered
     cause: str = ""
@@ -253,6 +254,10 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
         if [p.name[len(tag) + 1:] for p in a] != [p.name[len(tag) + 1:] for p in b]:
             problems.append("renders differ in poses")
         shown = json.loads((work / f"a{tag}.frame.json").read_text())
+        if any(v is None for v in shown["frame"].values()):
+            # No bounds in the file and nothing drawn in the setup pose: nothing to frame.
+            row.status, row.cause = "not rendered", "the setup pose draws nothing and the file has no bounds"
+            return row
         drawn = {re.sub(r"[^\w@.+-]", "~", pose["label"]): pose["attachments"]
                  for pose in json.loads((work / f"a{tag}.dump.json").read_text())["poses"]}
         for pa, pb in zip(a, b):
@@ -317,6 +322,7 @@ def prove_project(tool: Path, project: Path, work: Path, mesh_cache: dict | None
         mine = [t for t in result.targets if t.skeleton == rel]
         row.regions = len(mine)
         row.meshed = sum(t.status == "meshed" for t in mine)
+        row.kept = sum(t.status == "kept" for t in mine)
         failed = {t.reason for t in mine if t.status == "failed"}
         scratch = work / "render" / rel.replace("/", "~")
         scratch.mkdir(parents=True, exist_ok=True)
@@ -358,6 +364,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
     ap.add_argument("--smallest-first", action="store_true", help="prove small projects (bytes on disk) first")
     ap.add_argument("--shard", default="0/1", help="I/N: prove every N-th project from the I-th (parallel runs)")
+    ap.add_argument("--mesh-all", action="store_true",
+                    help="mesh every region, also those upgrade keeps by default as not worth meshing")
     ap.add_argument("--repack", action="store_true", help="upgrade with --repack (sequences trimmed differently)")
     ap.add_argument("--animations", type=int, default=ANIMATIONS, help="animations sampled per skeleton")
     ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
@@ -384,7 +392,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         work = base / project.name
         shutil.rmtree(work, ignore_errors=True)
-        new = prove_project(tool, project, work, cache, args.animations, Options(repack=args.repack))
+        new = prove_project(tool, project, work, cache, args.animations, Options(repack=args.repack, **({"min_saving": None} if args.mesh_all else {})))
         rows += new
         for r in new:
             print(f"{r.project}/{r.skeleton}: {r.status} {r.cause} {r.details[:3]}", file=sys.stderr, flush=True)
