@@ -11,6 +11,7 @@ scale, so that ``skeleton units = atlas pixels / scale``.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -26,6 +27,16 @@ from .limits import MAX_IMAGE_PIXELS, check_image_size
 
 #: Image file extensions looked for in an images folder, in order of preference.
 IMAGE_EXTENSIONS = (".png", ".webp", ".avif", ".jpg", ".jpeg")
+
+#: The only formats Pillow is allowed to decode: what atlases and editor images use. Others
+#: (TIFF, PSD, EPS, which would even start Ghostscript) are refused whatever a file is named.
+IMAGE_FORMATS = ("PNG", "WEBP", "AVIF", "JPEG")
+
+
+@functools.lru_cache(maxsize=None)
+def _decodable_formats() -> tuple[str, ...]:
+    Image.init()
+    return tuple(f for f in IMAGE_FORMATS if f in Image.OPEN)
 
 
 @dataclass
@@ -86,7 +97,7 @@ def load_rgba(path: str | Path) -> np.ndarray:
         with warnings.catch_warnings():
             # Pillow's bomb warning becomes our error (the size check below comes first).
             warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(path) as im:
+            with Image.open(path, formats=_decodable_formats()) as im:
                 check_image_size(im.width, im.height, "image", path)
                 im.load()
                 if im.mode != "RGBA":

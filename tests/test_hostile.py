@@ -264,6 +264,15 @@ def _png_header_only(path: Path, width: int, height: int) -> None:
                      + chunk(b"IEND", b""))
 
 
+def _as_tiff(path: Path) -> None:
+    """The page re-encoded as TIFF under its .png name: only the formats atlases use are decoded."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        im.load()
+        im.save(path, format="TIFF")
+
+
 ATLAS_CASES = {
     "offsets 20000 square": lambda p: _atlas(p, "offsets: 5, 4, 90, 90", "offsets: 0, 0, 20000, 20000"),
     # just under the pixel limit: a large, almost empty original is meshed within the memory limit
@@ -281,6 +290,7 @@ ATLAS_CASES = {
     "page truncated": lambda p: (p / "demo.png").write_bytes((p / "demo.png").read_bytes()[:400]),
     "page claims 13000 square": lambda p: _png_header_only(p / "demo.png", 13000, 13000),
     "page claims 100000 by 1": lambda p: _png_header_only(p / "demo.png", 100_000, 1),
+    "page a TIFF named .png": lambda p: _as_tiff(p / "demo.png"),
     "atlas not UTF-8": lambda p: (p / "demo.atlas").write_bytes(b"\xff\xfe\x00junk"),
     "atlas entry before a name": lambda p: (p / "demo.atlas").write_text("size: 1, 2\n"),
     "unreadable second atlas": lambda p: (p / "other.atlas").write_bytes(b"\xff" * 64),
