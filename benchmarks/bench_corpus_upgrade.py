@@ -124,6 +124,15 @@ def _reason_kind(reason: str) -> str:
     return reason.split(":")[0].split("(")[0].strip() or "-"
 
 
+def _considered(row: dict) -> bool:
+    """Whether an attachment counts in the drawn pixels: it reached the mesher (meshed, failed,
+    or kept as not worth meshing); it then draws its region unless it was meshed. Regions
+    left out before meshing (fully transparent, trimmed sequences) count in neither run."""
+    if row["region_px"] is None:
+        return False
+    return row["status"] in ("meshed", "failed") or row["reason"].startswith("not worth meshing")
+
+
 def summary(data: dict) -> dict:
     import numpy as np
 
@@ -140,9 +149,7 @@ def summary(data: dict) -> dict:
             by_reason[k] = by_reason.get(k, 0) + 1
     out["status"] = by_status
     out["reasons"] = by_reason
-    # drawn pixels: every attachment that reached the mesher (meshed, kept, failed) draws its
-    # region unless it was meshed
-    considered = [r for r in rows if r["region_px"] is not None and r["status"] in ("meshed", "kept", "failed")]
+    considered = [r for r in rows if _considered(r)]
     region = sum(r["region_px"] for r in considered)
     drawn = sum(r["mesh_px"] if r["status"] == "meshed" and r["mesh_px"] is not None else r["region_px"]
                 for r in considered)
@@ -153,23 +160,24 @@ def summary(data: dict) -> dict:
     out["worse_than_region"] = sum(r["mesh_px"] > r["region_px"] for r in meshed)
     out["vertices_added"] = sum(r["vertices"] - 4 for r in rows if r["status"] == "meshed")
     out["over_200_vertices"] = sum(r["vertices"] > 200 for r in rows if r["status"] == "meshed")
-    secs = np.array([r["seconds"] for r in rows if r["status"] in ("meshed", "kept", "failed")] or [0.0])
+    secs = np.array([r["seconds"] for r in rows if _considered(r)] or [0.0])
     out["seconds"] = {"median": float(np.median(secs)), "p90": float(np.percentile(secs, 90)),
                       "p99": float(np.percentile(secs, 99)), "max": float(secs.max()), "sum": float(secs.sum()),
                       "over_2s": int((secs > 2).sum())}
-    cpus = np.array([r["cpu_seconds"] for r in rows if r.get("cpu_seconds") is not None] or [np.nan])
+    cpus = np.array([r["cpu_seconds"] for r in rows if _considered(r) and r.get("cpu_seconds") is not None]
+                    or [np.nan])
     out["cpu"] = {"n": int(np.isfinite(cpus).sum()), "median": float(np.median(cpus)),
                   "p90": float(np.percentile(cpus, 90)), "p99": float(np.percentile(cpus, 99)),
                   "max": float(np.max(cpus)), "over_0.5s": int((cpus > 0.5).sum())}
     # an image shared by several attachments is meshed once
     once = {(name, r["image"]): r["seconds"] for name, e in data["projects"].items() for r in e.get("rows", [])
-            if r["status"] in ("meshed", "kept", "failed") and r.get("image")}
+            if _considered(r) and r.get("image")}
     out["seconds"]["sum"] = float(sum(once.values()))
     out["images_meshed"] = len(once)
     out["wall"] = sum(e.get("process_s", 0.0) for e in data["projects"].values())
     per = {}
     for name, e in data["projects"].items():
-        rs = [r for r in e.get("rows", []) if r["region_px"] is not None and r["status"] in ("meshed", "kept", "failed")]
+        rs = [r for r in e.get("rows", []) if _considered(r)]
         reg = sum(r["region_px"] for r in rs)
         dr = sum(r["mesh_px"] if r["status"] == "meshed" and r["mesh_px"] is not None else r["region_px"] for r in rs)
         per[name] = {"saving": 1 - dr / reg if reg else None,

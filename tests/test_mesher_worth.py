@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from spinemesh.mesher import NotWorthMeshing, mesh_image, worth_meshing
-from spinemesh.mesher.worth import MAX_ISLANDS, hull_reason
+from spinemesh.mesher.worth import MAX_HULL_VERTICES, VERTICES_PER_ISLAND, hull_reason, islands_reason
 from spinemesh.metrics import coverage, mesh_problems
 
 
@@ -28,17 +28,28 @@ def test_art_filling_the_region_is_kept_before_any_geometry():
     assert len(mesh_image(_rgba(mask)).vertices) >= 3
 
 
-def test_scattered_islands_are_kept():
-    rng = np.random.default_rng(0)
-    mask = np.zeros((400, 400), bool)
-    for x, y in rng.integers(5, 395, (MAX_ISLANDS + 8, 2)):
-        cv2.circle(mask.view(np.uint8), (int(x), int(y)), 2, 1, -1)
-    reason = worth_meshing(mask, 0.10)
+def test_scattered_islands_are_kept_unless_they_save_enough_per_vertex():
+    n = MAX_HULL_VERTICES // VERTICES_PER_ISLAND + 10  # the outline needs more than the budget
+    grid = int(np.ceil(np.sqrt(n)))
+
+    def drops(side):
+        mask = np.zeros((side, side), np.uint8)
+        step = side // (grid + 1)
+        for k in range(n):
+            cv2.circle(mask, (step * (1 + k % grid), step * (1 + k // grid)), 2, 1, -1)
+        return mask.astype(bool)
+
+    rain = drops(300)  # 300^2 px for ~230 vertices: under 500 px saved per vertex
+    reason = worth_meshing(rain, 0.05)
     assert reason.startswith("not worth meshing:") and "islands" in reason
+    # the same drops far apart on a big region save plenty per vertex: meshed
+    assert worth_meshing(drops(1000), 0.05) == ""
+    # a downscaled mask: each of its pixels stands for pixel_area full-size ones
+    assert islands_reason(rain, pixel_area=16.0) == ""
     few = np.zeros((400, 400), np.uint8)
     for x in range(3):
         cv2.circle(few, (60 + 120 * x, 200), 30, 1, -1)
-    assert worth_meshing(few.astype(bool), 0.10) == ""
+    assert worth_meshing(few.astype(bool), 0.05) == ""
 
 
 def test_hull_rule_counts_saving_and_vertices():

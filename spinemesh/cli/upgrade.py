@@ -42,8 +42,9 @@ def upgrade(
     min_saving: Annotated[Optional[float], typer.Option(
         "--min-saving", min=0.0, max=1.0,
         help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
-             "quad (0..1; default 0.1). Art of many scattered islands, or whose outline needs over 200 "
-             "vertices, is kept a region too. Kept regions are reported with the reason.")] = None,
+             "quad (0..1; default 0.05). Art whose outline needs over 200 vertices (many scattered "
+             "islands) and saves under 500 pixels per vertex is kept a region too. Kept regions are "
+             "reported with the reason.")] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report of every "
                                                    "attachment.")] = None,

@@ -125,7 +125,7 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     s = max(1, int(np.ceil(max(h, w) / max(p.analysis_max_side, 16))))
     cover = _maxpool(mask, s)
     if p.min_saving is not None:  # keep-region rules 1 and 2, before any geometry
-        reason = art_share_reason(mask, p.min_saving) or islands_reason(cover)
+        reason = art_share_reason(mask, p.min_saving) or islands_reason(cover, pixel_area=s * s)
         if reason:
             raise NotWorthMeshing(reason)
     density = max(p.density, 1e-6)

@@ -10,9 +10,12 @@ tested in this order, each as soon as what it needs is known:
    ``1 - min_saving`` of the region, no mesh can save ``min_saving``. Decided from the mask
    alone, before any geometry.
 2. **Scattered islands.** One Spine mesh is one hull loop, so separate pieces of art (rain,
-   snow, sparkles) are bridged into one outline that needs a few vertices per piece; with
-   more than :data:`MAX_ISLANDS` pieces the outline alone would pass the vertex budget, and
-   nobody deforms a rain sheet. Decided from the mask's connected pieces, before bridging.
+   snow, sparkles) are bridged into one outline that needs at least
+   :data:`VERTICES_PER_ISLAND` vertices per piece. When that many vertices pass
+   :data:`MAX_HULL_VERTICES` and even the best mesh (drawing only the art) would save fewer
+   than :data:`MIN_PIXELS_PER_VERTEX` pixels per vertex, the region is kept: the rule 3
+   below, bounded from the mask's connected pieces before the costly bridging. Nobody
+   deforms a rain sheet.
 3. **The hull saves too little.** Once the covering hull is known (before the interior
    edges and the triangulation, the expensive steps), the mesh is kept a region when the
    hull draws less than ``min_saving`` fewer pixels than the quad, or when its outline needs
@@ -32,12 +35,12 @@ import numpy as np
 from ..errors import ImageError
 
 #: ``upgrade``'s default: keep the region when a mesh would draw less than this share fewer pixels.
-DEFAULT_MIN_SAVING = 0.10
-#: More separate pieces of art than this: one bridged hull would need too many vertices.
-MAX_ISLANDS = 32
+DEFAULT_MIN_SAVING = 0.05
 #: A hull with more vertices than this must save at least MIN_PIXELS_PER_VERTEX pixels per vertex.
 MAX_HULL_VERTICES = 200
 MIN_PIXELS_PER_VERTEX = 500
+#: Fewest hull vertices one bridged island adds (its bridge's two sides and its far side).
+VERTICES_PER_ISLAND = 3
 
 
 class NotWorthMeshing(ImageError):
@@ -53,12 +56,21 @@ def art_share_reason(mask: np.ndarray, min_saving: float) -> str:
     return ""
 
 
-def islands_reason(mask: np.ndarray, max_islands: int = MAX_ISLANDS) -> str:
-    """Rule 2: ``""``, or why ``mask`` has too many separate pieces for one hull."""
-    n = cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)[0] - 1
-    if n > max_islands:
-        return (f"not worth meshing: {n} separate islands of art (more than {max_islands}); one hull "
-                f"around them all would need hundreds of vertices")
+def islands_reason(mask: np.ndarray, pixel_area: float = 1.0, max_vertices: int = MAX_HULL_VERTICES,
+                   min_per_vertex: float = MIN_PIXELS_PER_VERTEX) -> str:
+    """Rule 2: ``""``, or why the separate pieces of ``mask`` cost more vertices than they save.
+
+    ``mask`` may be a block-maximum downscale of the art (what the hull is built on); then
+    its pieces are counted at that scale and each of its pixels stands for ``pixel_area``
+    full-size pixels.
+    """
+    need = VERTICES_PER_ISLAND * (cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)[0] - 1)
+    if need <= max_vertices:
+        return ""
+    best = pixel_area * float(mask.size - np.count_nonzero(mask)) / need  # pixels saved per vertex, at best
+    if best < min_per_vertex:
+        return (f"not worth meshing: {need // VERTICES_PER_ISLAND} separate islands of art need {need}+ "
+                f"outline vertices to save at most {best:.0f} pixels each (fewer than {min_per_vertex:g})")
     return ""
 
 
@@ -78,8 +90,7 @@ def hull_reason(hull: np.ndarray, width: float, height: float, min_saving: float
     return ""
 
 
-def worth_meshing(mask: np.ndarray, min_saving: float = DEFAULT_MIN_SAVING,
-                  max_islands: int = MAX_ISLANDS) -> str:
+def worth_meshing(mask: np.ndarray, min_saving: float = DEFAULT_MIN_SAVING) -> str:
     """Rules 1 and 2, from the mask alone: ``""`` when a mesh may pay, else the reason.
 
     Parameters
@@ -88,12 +99,10 @@ def worth_meshing(mask: np.ndarray, min_saving: float = DEFAULT_MIN_SAVING,
         What the mesh must cover (the art, with any sampling margin), over the whole region.
     min_saving : float
         Share of the region's pixels a mesh must save (0..1); 0 turns rule 1 off.
-    max_islands : int
-        Most separate (8-connected) pieces of art one hull may join.
 
     Returns
     -------
     str
         ``""`` or a reason starting with "not worth meshing".
     """
-    return art_share_reason(mask, min_saving) or islands_reason(mask, max_islands)
+    return art_share_reason(mask, min_saving) or islands_reason(mask)
