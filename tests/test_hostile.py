@@ -181,7 +181,16 @@ SKELETON_CASES = {
     "truncated JSON": lambda p: (p / "demo.json").write_text((p / "demo.json").read_text()[:300]),
     "not UTF-8": lambda p: (p / "demo.json").write_bytes(b'{"bones": ["\xff\xfe"]}'),
     "empty file": lambda p: (p / "demo.json").write_bytes(b""),
+    # rich markup in names once crashed the summary with a MarkupError traceback
+    "markup in names": lambda p: _write_json(p / "demo.json", _with_markup_names(_demo_json(p))),
 }
+
+
+def _with_markup_names(doc: dict) -> dict:
+    attachments = doc["skins"][0]["attachments"]
+    attachments["head"]["[/bold]"] = {"width": 10, "height": 10}  # no such region: fails, is printed
+    attachments["head"]["[red]x"] = {"type": "[/x]"}
+    return doc
 
 
 @pytest.mark.parametrize("case", sorted(SKELETON_CASES))

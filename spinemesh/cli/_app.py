@@ -81,6 +81,13 @@ def progress_bar(label: str, transient: bool = False):
                     console=err_console.real, transient=transient)
 
 
+def finite(value: Optional[float]) -> Optional[float]:
+    """Option callback: a finite number (None passes); click's ``min=``/``max=`` let NaN through."""
+    if value is not None and not math.isfinite(value):
+        raise typer.BadParameter(f"must be a finite number, not {value:g}")
+    return value
+
+
 def positive_finite(value: Optional[float]) -> Optional[float]:
     """Option callback: a number that is finite and above zero (None passes)."""
     if value is not None and not (math.isfinite(value) and value > 0):
@@ -106,5 +113,5 @@ def _root(
     """
 
 
-__all__ = ["app", "console", "err_console", "progress_bar", "positive_finite", "Preset", "MaskSource",
+__all__ = ["app", "console", "err_console", "progress_bar", "finite", "positive_finite", "Preset", "MaskSource",
            "Annotated", "Optional"]

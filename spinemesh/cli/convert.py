@@ -17,9 +17,9 @@ def _is_binary_name(path: Path) -> bool:
 
 @app.command()
 def convert(
-    source: Annotated[Path, typer.Argument(help="Skeleton to read: .skel (binary) or .json.", exists=True,
+    source: Annotated[Path, typer.Argument(metavar="SOURCE", help="Skeleton to read: .skel (binary) or .json.", exists=True,
                                            dir_okay=False)],
-    target: Annotated[Path, typer.Argument(help="Skeleton to write; its extension (.skel or .json) picks "
+    target: Annotated[Path, typer.Argument(metavar="TARGET", help="Skeleton to write; its extension (.skel or .json) picks "
                                                 "the format.")],
     keep_binary_info: Annotated[bool, typer.Option(
         "--keep-binary-info",
@@ -35,13 +35,12 @@ def convert(
     """
     # Imported here, not at the top: `spinemesh --help` and the other commands do not need them.
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_bytes, atomic_write_text
+    from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs
     from ..skeleton import dumps_skeleton, load_skeleton, spine_version
     from ..skeleton_binary import tidy_floats, write_skel
     from ..skeleton_binary.enums import EXTRA
 
-    if source.resolve() == target.resolve():
-        raise SpineMeshError("source and target are the same file; the input is never overwritten", target)
+    check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
     if _is_binary_name(target):
         atomic_write_bytes(target, write_skel(doc, target))
@@ -52,7 +51,7 @@ def convert(
         if _is_binary_name(source):
             # float32 values as their shortest decimals, not as float64 expansions.
             doc = tidy_floats(doc)
-        atomic_write_text(target, dumps_skeleton(doc))
+        atomic_write_text(target, dumps_skeleton(doc, target))
         kind = "JSON"
     else:
         raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)

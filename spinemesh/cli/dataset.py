@@ -11,7 +11,7 @@ from ._app import Annotated, Optional, app, console, err_console, progress_bar
 
 @app.command()
 def dataset(
-    corpus: Annotated[list[Path], typer.Argument(help="Folders holding Spine projects, at any depth.")],
+    corpus: Annotated[list[Path], typer.Argument(metavar="FOLDER...", help="Folders holding Spine projects, at any depth.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Data set folder (created, or resumed).")],
     jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Worker processes (default: the CPU "
                                                 "cores this process may use).")] = None,
@@ -33,7 +33,9 @@ def dataset(
 
     from ..cluster import available_cores
     from ..dataset import build_dataset
+    from ..fsutil import check_outputs
 
+    check_outputs(corpus, folders=[out])
     with progress_bar("projects", transient=True) as progress:
         task = progress.add_task("", total=None)
 
@@ -93,7 +95,7 @@ def dataset(
 
 @app.command("dataset-stats")
 def dataset_stats_cmd(
-    ds: Annotated[Path, typer.Argument(help="Data set folder written by `spinemesh dataset`.")],
+    ds: Annotated[Path, typer.Argument(metavar="DS", help="Data set folder written by `spinemesh dataset`.")],
     plots: Annotated[Optional[Path], typer.Option("--plots", help="Folder for the PNG plots "
                                                   "(default: DS/stats).")] = None,
 ) -> None:

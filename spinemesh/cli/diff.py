@@ -12,7 +12,7 @@ from ._app import Annotated, app, console, err_console, progress_bar
 
 @app.command()
 def diff(
-    projects: Annotated[List[Path], typer.Argument(help="Project folders (or skeleton files); each is searched "
+    projects: Annotated[List[Path], typer.Argument(metavar="PROJECT...", help="Project folders (or skeleton files); each is searched "
                                                         "for skeletons and their atlases or images folder.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Report folder: report.md, report.json, index.html, "
                                       "assets/.")],
@@ -43,6 +43,9 @@ def diff(
     """
     from ..diff.report import aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
+    from ..fsutil import check_outputs, project_folder
+
+    check_outputs([*map(project_folder, projects), images], folders=[out])
 
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else METHODS
     bad = [m for m in chosen if m not in METHODS]

@@ -21,6 +21,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     """
     from collections import Counter
 
+    from rich.markup import escape  # names come from the project: never markup
     from rich.table import Table
 
     from ..errors import SpineMeshError
@@ -29,11 +30,11 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
 
     proj = find_project(project)
     atlases = project_atlases(proj)
-    table = Table(title=f"Atlases in {proj.root}")
+    table = Table(title="Atlases in " + escape(str(proj.root)))
     for col in ("atlas", "syntax", "pages", "regions", "scale", "pma"):
         table.add_column(col)
     for p, a in atlases.items():
-        table.add_row(str(p.relative_to(proj.root)), a.syntax, str(len(a.pages)), str(len(a.regions)),
+        table.add_row(escape(str(p.relative_to(proj.root))), a.syntax, str(len(a.pages)), str(len(a.regions)),
                       ",".join(sorted({f"{pg.scale:g}" for pg in a.pages})), "yes" if any(pg.pma for pg in a.pages) else "no")
     console.print(table)
     if not proj.skeletons:
@@ -58,13 +59,13 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
                 continue
             missing |= {(r.skin, r.slot, r.name, p) for p in paths if source is None or p not in source}
         missing = sorted(missing)
-        console.print(f"\n[bold]{path.relative_to(proj.root)}[/]  Spine {spine_version(doc) or '?'}  "
-                      f"images from: {_describe(source)}")
+        console.print(f"\n[bold]{escape(str(path.relative_to(proj.root)))}[/]  "
+                      + escape(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source)}"))
         t = Table()
         t.add_column("attachment type")
         t.add_column("count", justify="right")
         for kind, n in sorted(counts.items()):
-            t.add_row(kind, str(n))
+            t.add_row(escape(str(kind)), str(n))
         t.add_row("[bold]total[/]", str(len(refs)))
         console.print(t)
         if missing:
@@ -83,7 +84,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
 
 def _describe(source) -> str:
     if source is None:
-        return "[red]none[/]"
+        return "none"
     if hasattr(source, "atlases"):
         return ", ".join(a.path.name for a in source.atlases)
     return str(source.folder)

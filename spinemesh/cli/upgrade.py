@@ -8,19 +8,21 @@ from typing import List
 import typer
 
 from .weights import Weights
-from ._app import Annotated, MaskSource, Optional, Preset, app, console, err_console, positive_finite, progress_bar
+from ._app import (
+    Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite, progress_bar,
+)
 
 
 @app.command()
 def upgrade(
-    project: Annotated[Path, typer.Argument(help="Project folder, one skeleton file (.json/.skel), or a folder of "
+    project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder, one skeleton file (.json/.skel), or a folder of "
                                                 "projects (each upgraded to the same place under OUT).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder: not the project folder, not inside "
+    out: Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder: not the project folder, not inside "
                                       "it; refused if not empty, unless --overwrite.")],
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
                                             "earlier upgrade wrote), so that no stale file stays.")] = False,
     preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
+        "--preview", metavar="DIR", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
                           "the new meshes, every attachment's old quad and new mesh, and the transparent "
                           "area no longer drawn.")] = None,
     preset: Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
@@ -33,20 +35,20 @@ def upgrade(
                                                     "denser (default 1).")] = None,
     max_vertices: Annotated[Optional[int], typer.Option("--max-vertices", min=3,
                                                         help="Hard vertex budget per mesh.")] = None,
-    only: Annotated[List[str], typer.Option("--only", help="Glob on slot, attachment name or image path; "
+    only: Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
                                             "repeatable. Others are kept as regions.")] = [],
-    exclude: Annotated[List[str], typer.Option("--exclude", help="Glob on slot, attachment name or image "
+    exclude: Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
                                                "path; repeatable.")] = [],
-    min_size: Annotated[float, typer.Option("--min-size", min=0, help="Keep as regions those whose larger "
+    min_size: Annotated[float, typer.Option("--min-size", min=0, callback=finite, help="Keep as regions those whose larger "
                                             "side is below this many pixels.")] = 0.0,
     min_saving: Annotated[Optional[float], typer.Option(
-        "--min-saving", min=0.0, max=1.0,
+        "--min-saving", min=0.0, max=1.0, callback=finite,
         help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
              "quad (0..1; default 0.05). Art whose outline needs over 200 vertices (many scattered "
              "islands) and saves under 500 pixels per vertex is kept a region too. Kept regions are "
              "reported with the reason.")] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
-    report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report of every "
+    report: Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
                                                    "attachment.")] = None,
     jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel "
                                                 "(default: the CPU cores this process may use).")] = None,
@@ -55,9 +57,12 @@ def upgrade(
                                           "scheduler file, or 'local' (--jobs workers here). Same output as a "
                                           "local run; needs the 'cluster' extra.")] = None,
     images: Annotated[Optional[Path], typer.Option(
-        "--images", help="Also write the original-size images here, for re-import in the editor.")] = None,
+        "--images", metavar="DIR", help="Also write the original-size images here, for re-import in the editor.")] = None,
     images_in: Annotated[Optional[Path], typer.Option(
-        "--from-images", help="Read attachment images from this folder instead of atlases.")] = None,
+        "--from-images", metavar="DIR", help="Read attachment images from this folder instead of atlases.")] = None,
+    repack: Annotated[bool, typer.Option(
+        "--repack", help="Mesh sequences whose frames were trimmed differently: their frames are stored "
+                         "whole on new atlas pages (the atlas is rewritten in OUT; the input is untouched).")] = False,
     weights: Annotated[Weights, typer.Option(
         "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                           "to the bones crossing the art, with vertices at the joints and automatic "
@@ -70,7 +75,8 @@ def upgrade(
     the atlases or images it uses are written.
 
     Region attachments left as they are on purpose (--only, --exclude, --min-size, fully
-    transparent images, sequences trimmed differently on the atlas page) are counted as
+    transparent images, sequences trimmed differently on the atlas page unless --repack, regions a
+    mesh would not make cheaper to draw: --min-saving) are counted as
     "kept" with the reason in the report. Exit status: 0 when everything asked was done;
     3 when some attachment or skeleton failed (it stays as it was; the report says why);
     1 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing.
@@ -87,8 +93,11 @@ def upgrade(
     import statistics
 
     from ..cluster import available_cores
+    from ..fsutil import check_outputs, project_folder
     from ..upgrade import EXIT_PARTIAL, Options, is_library, upgrade_library, upgrade_project, write_report
 
+    # Every output checked before any work: never inside the project, onto an input, or through a symlink.
+    check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
     overrides = {}
     if density is not None:
         overrides["density"] = density
@@ -96,8 +105,8 @@ def upgrade(
         overrides["max_vertices"] = max_vertices
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
-                      images_in=images_in, overrides=overrides, overwrite=overwrite,
-                      weights=weights.value, **({} if min_saving is None else {"min_saving": min_saving}))
+                      images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, weights=weights.value,
+                      **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
@@ -116,6 +125,7 @@ def upgrade(
     if report is not None:
         write_report(result, report)
 
+    from rich.markup import escape  # names and reasons come from the project: never markup
     from rich.table import Table
 
     table = Table(title="spinemesh upgrade" + (" (dry run)" if dry_run else ""))
@@ -126,7 +136,7 @@ def upgrade(
         by_skel.setdefault(t.skeleton, []).append(t)
     for name, targets in by_skel.items():
         verts = [t.vertices for t in targets if t.status == "meshed"]
-        table.add_row(name, str(sum(t.status in ("meshed", "would mesh") for t in targets)),
+        table.add_row(escape(name), str(sum(t.status in ("meshed", "would mesh") for t in targets)),
                       str(sum(t.status == "kept" for t in targets)),
                       str(sum(t.status == "failed" for t in targets)),
                       f"{statistics.median(verts):g}" if verts else "-")
@@ -139,23 +149,23 @@ def upgrade(
         if t.status == "kept":
             reasons[t.reason] = reasons.get(t.reason, 0) + 1
         elif t.status == "failed":
-            err_console.print(f"[yellow]left a region:[/] {t.skeleton} skin {t.skin!r} slot {t.slot!r} "
-                              f"attachment {t.name!r}: {t.reason}", highlight=False)
+            err_console.print("[yellow]left a region:[/] " + escape(f"{t.skeleton} skin {t.skin!r} slot {t.slot!r} "
+                                                                  f"attachment {t.name!r}: {t.reason}"), highlight=False)
     for why, n in sorted(reasons.items()):
         console.print(f"kept as region: {n} ({why})", highlight=False, markup=False)
     for e in result.errors:
-        err_console.print(f"[red]error:[/] {e}", highlight=False)
+        err_console.print(f"[red]error:[/] {escape(e)}", highlight=False)
 
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         from ..upgrade.preview import write_preview
 
-        page = write_preview(result, project, out, preview)
+        page = write_preview(result, project, out, preview, images_in=images_in)
         console.print(f"preview: {page}", highlight=False, markup=False)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
     if nothing:
-        err_console.print(f"[yellow]warning:[/] {nothing}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {escape(nothing)}", highlight=False)
         raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else 1)
 
 
