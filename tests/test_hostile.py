@@ -98,8 +98,9 @@ def check_run(r: subprocess.CompletedProcess, before: dict, tmp: Path, outputs: 
         if name.endswith(".json") and after[rel] not in copies:  # what we wrote, not a copied input
             _strict((tmp / rel).read_text("utf-8"), rel)
     if r.returncode == 2:
-        # ours ("error: FILE: why") or the option parser's ("Error: Invalid value for '--x': ...")
-        errors = [line for line in r.stderr.splitlines() if line.lower().startswith("error:")]
+        # ours ("error: FILE: why"), the option parser's ("Error: Invalid value for '--x': ...") or,
+        # for a folder of images of which none could be meshed, one "skipped: FILE: why" per image
+        errors = [line for line in r.stderr.splitlines() if line.lower().startswith(("error:", "skipped:"))]
         assert errors, f"exit 2 without an 'error:' line:\n{r.stderr}"
 
 
@@ -532,6 +533,15 @@ def test_mesh_and_segment_refuse_writing_onto_their_input(tmp_path, demo):
         r = run_cli(*args, cwd=tmp_path)
         check_run(r, before, tmp_path, [])
         assert r.returncode == 2, args
+    # a symlink planted inside the output folder, leading into the input
+    (tmp_path / "art" / "sub").mkdir(parents=True)
+    shutil.copy(demo / "images" / "demo-head.png", tmp_path / "art" / "sub")
+    (tmp_path / "mo").mkdir()
+    (tmp_path / "mo" / "sub").symlink_to(demo / "images", target_is_directory=True)
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art", "--out", "mo", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["mo"])
+    assert r.returncode == 2 and not list((demo / "images").glob("*.json"))
 
 
 def test_mesh_image_bomb_and_noise(tmp_path):

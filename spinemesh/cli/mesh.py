@@ -87,7 +87,7 @@ def mesh(
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import check_outputs
+    from ..fsutil import OutputGuard, check_outputs
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     if image.is_dir():
@@ -109,9 +109,11 @@ def mesh(
                 rel = f.relative_to(image).with_suffix("")
                 bar.update(task, description=str(rel))
                 try:
-                    m = _one(f, preset.value, overrides, out_dir / rel.with_suffix(".json"),
-                             preview / rel.with_suffix(".png") if preview else None,
-                             steps / rel.with_suffix(".png") if steps else None)
+                    # Each file too: a symlink planted inside an output folder is not written through.
+                    m = _one(f, preset.value, overrides,
+                             OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),
+                             OutputGuard([image], preview).check(preview / rel.with_suffix(".png")) if preview else None,
+                             OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None)
                     rows.append((str(rel), m))
                 except SpineMeshError as e:
                     failed += 1
