@@ -68,7 +68,8 @@ def snapshot(root: Path) -> dict[str, str]:
         if p.is_symlink():
             out[rel] = "link:" + os.readlink(p)
         elif p.is_file():
-            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+            with open(p, "rb") as f:
+                out[rel] = hashlib.file_digest(f, "sha256").hexdigest()
     return out
 
 
@@ -182,9 +183,16 @@ SKELETON_CASES = {
     "truncated JSON": lambda p: (p / "demo.json").write_text((p / "demo.json").read_text()[:300]),
     "not UTF-8": lambda p: (p / "demo.json").write_bytes(b'{"bones": ["\xff\xfe"]}'),
     "empty file": lambda p: (p / "demo.json").write_bytes(b""),
+    "a 300 MB skeleton (sparse)": lambda p: _sparse(p / "demo.json", b'{"bones": [', 300 * 1024**2),
     # rich markup in names once crashed the summary with a MarkupError traceback
     "markup in names": lambda p: _write_json(p / "demo.json", _with_markup_names(_demo_json(p))),
 }
+
+
+def _sparse(path: Path, head: bytes, size: int) -> None:
+    """``head`` followed by zeros up to ``size`` bytes, without using the disk space."""
+    path.write_bytes(head)
+    os.truncate(path, size)
 
 
 def _with_markup_names(doc: dict) -> dict:
@@ -301,6 +309,7 @@ ATLAS_CASES = {
     "page claims 13000 square": lambda p: _png_header_only(p / "demo.png", 13000, 13000),
     "page claims 100000 by 1": lambda p: _png_header_only(p / "demo.png", 100_000, 1),
     "page a TIFF named .png": lambda p: _as_tiff(p / "demo.png"),
+    "page a FIFO": lambda p: ((p / "demo.png").unlink(), os.mkfifo(p / "demo.png")),
     "atlas not UTF-8": lambda p: (p / "demo.atlas").write_bytes(b"\xff\xfe\x00junk"),
     "atlas entry before a name": lambda p: (p / "demo.atlas").write_text("size: 1, 2\n"),
     "unreadable second atlas": lambda p: (p / "other.atlas").write_bytes(b"\xff" * 64),
