@@ -65,3 +65,69 @@ def test_every_corpus_project_has_skeletons_that_load(corpus):
     print(f"skeletons by version: {dict(sorted(versions.items()))}")
     assert godot >= 1
     assert sum(versions.values()) >= 200
+
+
+def _demo(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    dest = tmp_path / "p"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "demo", dest)
+    return dest
+
+
+def test_one_policy_for_broken_atlases(tmp_path):
+    """A broken atlas is reported once and left out; a bad region fails only itself."""
+    from spinemesh.errors import AtlasError
+    from spinemesh.project import project_atlases
+
+    p = _demo(tmp_path)
+    (p / "broken.atlas").write_bytes(b"\xff\xfe junk")
+    (p / "pageless.atlas").write_text("gone.png\nsize: 4, 4\nr\n  bounds: 0, 0, 1, 1\n")
+    text = (p / "demo.atlas").read_text()
+    (p / "demo.atlas").write_text(text.replace("bounds: 105, 2, 81, 81", "bounds: 105, 2, -81, 81"))
+    proj = find_project(p)
+    atlases = project_atlases(proj)
+    assert [a.name for a in atlases] == ["demo.atlas"]
+    assert any("broken.atlas" in m and "not UTF-8" in m for m in proj.problems)
+    assert any("pageless.atlas" in m and "gone.png" in m for m in proj.problems)
+    assert any("demo-head" in m and "negative" in m for m in proj.problems)
+    source = image_source_for(load_skeleton(p / "demo.json"), p / "demo.json", proj)
+    assert source.get("demo-body").rgba.shape == (160, 120, 4)
+    import pytest
+
+    with pytest.raises(AtlasError, match="negative"):
+        source.get("demo-head")
+
+
+def test_symlinks_leading_outside_are_skipped(tmp_path):
+    p = _demo(tmp_path)
+    (tmp_path / "secret.txt").write_text("secret")
+    (p / "notes.txt").symlink_to(tmp_path / "secret.txt")
+    (p / "inside.txt").symlink_to(p / "demo.atlas")
+    (p / "outside").symlink_to(tmp_path, target_is_directory=True)
+    proj = find_project(p)
+    names = {f.name for f in proj.files}
+    assert "notes.txt" not in names and "inside.txt" in names
+    assert not any(f.relative_to(p).parts[0] == "outside" for f in proj.files)
+    assert sum("outside the project" in m for m in proj.problems) == 2
+
+
+def test_images_hint_is_contained_by_real_path(tmp_path):
+    """``../p-evil/`` once passed a string-prefix test for project ``p``."""
+    import json
+    import shutil
+
+    p = _demo(tmp_path)
+    (p / "demo.atlas").unlink()
+    shutil.move(p / "images", tmp_path / "p-evil")
+    doc = json.loads((p / "demo.json").read_text())
+    doc["skeleton"]["images"] = "../p-evil/"
+    proj = find_project(p)
+    assert image_source_for(doc, p / "demo.json", proj) is None
+    assert any("p-evil" in m for m in proj.problems)
+    doc["skeleton"]["images"] = "D:/artist/images/"  # an absolute hint from another machine: passed over
+    (tmp_path / "p-evil").rename(p / "images")
+    proj = find_project(p)
+    source = image_source_for(doc, p / "demo.json", proj)
+    assert isinstance(source, FolderImages) and source.folder.name == "images" and not proj.problems
