@@ -3,17 +3,18 @@
 ``keep``: the bones it is bound to now (its slot's bone for an unweighted mesh).
 
 ``auto``, from the setup pose: the slot's bone, plus every bone whose segment (origin to
-origin + length along the bone's x axis; a zero-length bone is a point) passes over the
-art or within ``NEAR`` of it, where the art is the mesh's triangles in world space and
-``NEAR`` is a share of its size. Typically these are the parent and the children across
-the joints the art spans. Not chosen automatically: the root bone (it moves the whole
-skeleton, never a part), control bones that constraints aim at (animators' handles), bones that only some skins activate (unless this attachment's
-skin does), and bones whose setup transform is not exact (see :mod:`.bones`). Of the bones
-that qualify, only those joined to the slot bone through the bone tree by qualifying bones
-(or through the slot bone's parent) are kept: art of another part overlapping this one (a
-rider on a mount, a weapon over a body) hangs off elsewhere in the tree. When more than
-``MAX_AUTO_BONES`` remain, the nearest to the slot bone in the tree are kept, then those
-with the longest segment over the art.
+origin + length along the bone's x axis) passes over the art or within ``NEAR`` of it,
+where the art is the mesh's triangles in world space and ``NEAR`` is a share of its size.
+Typically these are the parent and the children across the joints the art spans. Not
+chosen automatically: the root bone (it moves the whole skeleton, never a part);
+zero-length bones (points: effects and controls more often than parts); every other bone
+when the art hangs on the root bone; control bones that constraints aim at (animators'
+handles); bones that only some skins activate (unless this attachment's skin does); and
+bones whose setup transform is not exact (see :mod:`.bones`). Of the bones that qualify,
+only those joined to the slot bone through the bone tree by qualifying bones are kept: art
+of another part overlapping this one (a rider on a mount, a weapon over a body) hangs off
+elsewhere in the tree. When more than ``MAX_AUTO_BONES`` remain, the nearest to the slot
+bone in the tree are kept, then those with the longest segment over the art.
 """
 
 from __future__ import annotations
@@ -81,7 +82,11 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
         length = over_art(bone.segment(), world, triangles, near)
         if length <= 0:
             continue
-        if bone.parent is None:
+        if bone.length == 0:
+            left_out[bone.index] = "zero-length bone: a point (effects, controls), not a part the art bends with"
+        elif bones[slot_bone].parent is None:
+            left_out[bone.index] = "the art hangs on the root bone: not a part of a limb"
+        elif bone.parent is None:
             left_out[bone.index] = "root bone: moves the whole skeleton"
         elif bone.target_of:
             left_out[bone.index] = f"control bone: target of the {bone.target_of}"
@@ -92,14 +97,11 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
         else:
             scored.append((-length, bone.index))
     # Keep the bones connected to the slot bone through the bone tree by bones that also
-    # qualify (or through the slot bone's parent): overlapping art of another part (a rider
-    # over a mount, a weapon over a body) hangs off elsewhere in the tree.
+    # qualify: overlapping art of another part (a rider over a mount, a weapon over a body,
+    # an effect over a character) hangs off elsewhere in the tree.
     over = {i: -neg for neg, i in scored}
-    start = bones[slot_bone]
     depth = {slot_bone: 0}
-    frontier = [slot_bone] + ([start.parent] if start.parent is not None else [])
-    if start.parent is not None:
-        depth[start.parent] = 1
+    frontier = [slot_bone]
     while frontier:
         nxt = []
         for i in frontier:
@@ -117,6 +119,6 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
         if rank + 1 >= MAX_AUTO_BONES:
             left_out[i] = f"more than {MAX_AUTO_BONES} bones qualify; farther from the slot bone in the tree"
             continue
-        why[i] = f"segment over the art ({-neg:.1f} units)" if bones[i].length > 0 else "point bone on the art"
+        why[i] = f"segment over the art ({-neg:.1f} units)"
     why[slot_bone] = "slot bone"
     return Choice(sorted(why), why, left_out)

@@ -216,7 +216,12 @@ def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int
         # Unbounded k-harmonic weights; negative lobes are clipped by the caller.
         w = igl.harmonic(v, f, b, bc, 1 if method == "harmonic" else 2)
     else:
-        w = igl.bbw(v, f, b, bc, partition_unity=False, max_iter=50)
+        try:
+            w = igl.bbw(v, f, b, bc, partition_unity=False, max_iter=50)
+        except RuntimeError:
+            # libigl's active-set solver gives up on some meshes (it says "failed to compute
+            # weights"); harmonic weights always exist, so the mesh is still weighted.
+            w = igl.harmonic(v, f, b, bc, 1)
     out = np.zeros((len(points), nb))
     out[used] = w
     return out
