@@ -39,7 +39,7 @@ def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -
         ``"alpha"``: threshold the alpha channel (an RGB image is all foreground).
         ``"model"``: the segmentation network (:func:`spinemesh.segment.predict_mask`).
         ``"auto"``: alpha when it is meaningful (:func:`spinemesh.segment.has_meaningful_alpha`),
-        else the network; the paper's rule (sec. 3.1).
+        else the network; the paper's rule (sec. 3.1). A blank image (every pixel alike) uses alpha.
     threshold : int
         Foreground is ``alpha >= threshold``. The paper's ``alpha > 128`` is ``threshold=129``.
 
@@ -54,7 +54,10 @@ def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -
         raise ValueError(f"mask source must be 'alpha', 'model' or 'auto', not {source!r}")
     has_alpha = image.shape[2] == 4
     if source == "auto":
-        if has_alpha and _segment().has_meaningful_alpha(image):
+        # A blank image (every pixel the same) holds no art for the network to find either:
+        # its alpha is the answer (an empty mask for a fully transparent one).
+        blank = bool((image == image[:1, :1]).all())
+        if blank or (has_alpha and _segment().has_meaningful_alpha(image)):
             source = "alpha"
         else:
             source = "model"
