@@ -49,8 +49,11 @@ def box_area(key: str) -> int | None:
     return (x1 - x0) * (y1 - y0)
 
 
-def child(project: Path) -> None:
-    """Upgrade one project; print its rows as one JSON line."""
+def child(project: Path, min_saving: str = "") -> None:
+    """Upgrade one project; print its rows as one JSON line.
+
+    ``min_saving``: "" for the upgrade's default, "none" to mesh every region, or a share.
+    """
     import cv2
 
     from spinemesh.upgrade import Options, upgrade_project
@@ -76,7 +79,9 @@ def child(project: Path) -> None:
     cache: dict = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
-        result = upgrade_project(project, Path(out) / "o", Options(), mesh_cache=cache)
+        options = Options() if not min_saving else Options(
+            min_saving=None if min_saving == "none" else float(min_saving))
+        result = upgrade_project(project, Path(out) / "o", options, mesh_cache=cache)
         wall = time.perf_counter() - t0
     meshes = {k: v for (k, _settings), v in cache.items()}
     rows = []
@@ -95,7 +100,7 @@ def child(project: Path) -> None:
     print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows}))
 
 
-def run(out: Path, timeout: float, only: list[str]) -> None:
+def run(out: Path, timeout: float, only: list[str], min_saving: str = "") -> None:
     projects = sorted(p for p in CORPUS.iterdir() if p.is_dir() and not p.name.startswith("."))
     if only:
         projects = [p for p in projects if p.name in only]
@@ -103,8 +108,8 @@ def run(out: Path, timeout: float, only: list[str]) -> None:
     for i, p in enumerate(projects):
         t0 = time.perf_counter()
         try:
-            r = subprocess.run([sys.executable, __file__, "child", str(p)], capture_output=True, text=True,
-                               timeout=timeout)
+            r = subprocess.run([sys.executable, __file__, "child", str(p), "--min-saving", min_saving],
+                               capture_output=True, text=True, timeout=timeout)
             if r.returncode != 0:
                 entry = {"error": r.stderr.strip().splitlines()[-1] if r.stderr.strip() else f"exit {r.returncode}"}
             else:
@@ -243,18 +248,21 @@ def main() -> None:
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--timeout", type=float, default=900.0, help="seconds per project")
     r.add_argument("--only", nargs="*", default=[], help="project folder names")
+    r.add_argument("--min-saving", default="", help="'none' meshes every region (no keep rule); default: "
+                                                    "the upgrade's own default")
     t = sub.add_parser("table")
     t.add_argument("files", type=Path, nargs="+")
     t.add_argument("--per-project", action="store_true")
     c = sub.add_parser("child")
     c.add_argument("project", type=Path)
+    c.add_argument("--min-saving", default="")
     args = ap.parse_args()
     if args.cmd == "child":
-        child(args.project)
+        child(args.project, args.min_saving)
     elif args.cmd == "run":
         if not CORPUS.is_dir():
             sys.exit(f"{CORPUS} is absent: the benchmark needs the game corpus")
-        run(args.out, args.timeout, args.only)
+        run(args.out, args.timeout, args.only, args.min_saving)
     else:
         table(args.files, args.per_project)
 
