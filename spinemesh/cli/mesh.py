@@ -78,7 +78,8 @@ def mesh(
     Exterior vertices are drawn blue and interior vertices yellow in --preview and --steps;
     --steps is the paper's six panels (input, mask, exterior, interior, triangles, final) for
     tuning parameters on one image. Files are written into the current folder unless --out
-    says otherwise, never beside the source art.
+    says otherwise, never beside the source art. For a folder, exit status 3 means some
+    images could not be meshed (each named), 2 that none could.
 
     \b
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
