@@ -123,7 +123,9 @@ def segment_eval(
         atomic_write_png(worst, worst_cases_picture(sprites, per_image, methods["network"]))
         console.print(f"worst cases: {worst}")
     result = {"sprites": len(sprites), "projects": sorted({s.project for s in sprites}), "games": games,
-              "data": [str(d) for d in data], "scores": scores}
+              "data": [str(d) for d in data], "scores": scores,
+              "network_worst": [{"iou": round(iou, 4), "background": kind, "sprite": sprites[si].name}
+                                for iou, kind, si in sorted(per_image)[:40]]}
     if json_out:
         atomic_write_json(json_out, result)
     if card:

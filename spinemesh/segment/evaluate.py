@@ -119,10 +119,25 @@ def evaluate_methods(sprites: list[Sprite], methods: dict, backgrounds=BACKGROUN
     return {b: {m: s.summary() for m, s in per.items()} for b, per in out.items()}, per_image
 
 
+def _fit(image: np.ndarray, cell: int, nearest: bool) -> np.ndarray:
+    """An (H, W, 3) uint8 image scaled to fit a (cell, cell) box, centred on mid grey."""
+    import cv2
+
+    h, w = image.shape[:2]
+    s = cell / max(h, w)
+    size = (max(1, round(w * s)), max(1, round(h * s)))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_NEAREST if nearest else cv2.INTER_AREA)
+    box = np.full((cell, cell, 3), 128, np.uint8)
+    y, x = (cell - size[1]) // 2, (cell - size[0]) // 2
+    box[y:y + size[1], x:x + size[0]] = small
+    return box
+
+
 def worst_cases_picture(sprites: list[Sprite], per_image: list[tuple[float, str, int]], method, n: int = 16,
-                        seed: int = 7, cell: int = 160) -> np.ndarray:
-    """A grid of the ``n`` lowest-IoU images: flattened input, truth, prediction, each
-    ``cell`` px high, with the IoU and the sprite's name written under it.
+                        seed: int = 7, cell: int = 128) -> np.ndarray:
+    """A grid of the ``n`` lowest-IoU images, two columns; each entry shows the flattened
+    input, the truth and the prediction (white: sprite), each fitted in a ``cell`` px square
+    on grey, over a line with the IoU, the background kind and the sprite's name.
 
     Returns
     -------
@@ -130,32 +145,27 @@ def worst_cases_picture(sprites: list[Sprite], per_image: list[tuple[float, str,
     """
     import cv2
 
-    rows = []
+    entries = []
     for iou, kind, si in sorted(per_image)[:n]:
         rgb = eval_image(sprites[si], BACKGROUNDS.index(kind), si, seed)
-        truth = alpha_mask(sprites[si].rgba)
-        pred = method(rgb)
-        h, w = rgb.shape[:2]
-        s = cell / h
-        size = (max(1, min(3 * cell, round(w * s))), cell)
-        panels = [cv2.resize(rgb, size, interpolation=cv2.INTER_AREA)]
-        for m in (truth, pred):
-            panels.append(cv2.resize(np.where(m, 255, 0).astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)[..., None]
-                          .repeat(3, 2))
-        row = np.hstack([np.pad(p, ((0, 0), (0, 4), (0, 0)), constant_values=128) for p in panels])
-        label = np.full((18, row.shape[1], 3), 255, np.uint8)
-        cv2.putText(label, f"IoU {iou:.2f} {kind}: {sprites[si].name}"[:120], (2, 13), cv2.FONT_HERSHEY_PLAIN,
-                    0.9, (0, 0, 0), 1, cv2.LINE_AA)
-        rows.append(np.vstack([row, label]))
-    width = max(r.shape[1] for r in rows) if rows else 1
-    rows = [np.pad(r, ((0, 4), (0, width - r.shape[1]), (0, 0)), constant_values=255) for r in rows]
-    half = (len(rows) + 1) // 2
-    left, right = np.vstack(rows[:half] or [np.full((1, width, 3), 255, np.uint8)]), rows[half:]
-    if right:
-        right = np.vstack(right)
-        right = np.pad(right, ((0, left.shape[0] - right.shape[0]), (0, 0), (0, 0)), constant_values=255)
-        return np.hstack([left, np.full((left.shape[0], 8, 3), 255, np.uint8), right])
-    return left
+        panels = [_fit(rgb, cell, False)]
+        for m in (alpha_mask(sprites[si].rgba), method(rgb)):
+            panels.append(_fit(np.repeat(np.where(m, 255, 0).astype(np.uint8)[..., None], 3, 2), cell, True))
+        row = np.hstack([np.pad(p, ((0, 0), (0, 4), (0, 0)), constant_values=255) for p in panels])
+        label = np.full((30, row.shape[1], 3), 255, np.uint8)
+        name = sprites[si].name
+        cv2.putText(label, f"IoU {iou:.2f} on {kind}", (2, 12), cv2.FONT_HERSHEY_PLAIN, 0.9, (0, 0, 0), 1,
+                    cv2.LINE_AA)
+        cv2.putText(label, name if len(name) <= 64 else "..." + name[-61:], (2, 26), cv2.FONT_HERSHEY_PLAIN,
+                    0.8, (0, 0, 0), 1, cv2.LINE_AA)
+        entries.append(np.vstack([row, label, np.full((6, row.shape[1], 3), 255, np.uint8)]))
+    if not entries:
+        return np.full((cell, cell, 3), 255, np.uint8)
+    half = (len(entries) + 1) // 2
+    left = np.vstack(entries[:half])
+    right = np.vstack(entries[half:]) if entries[half:] else np.full((1, left.shape[1], 3), 255, np.uint8)
+    right = np.pad(right, ((0, left.shape[0] - right.shape[0]), (0, 0), (0, 0)), constant_values=255)
+    return np.hstack([left, np.full((left.shape[0], 12, 3), 255, np.uint8), right])
 
 
 def default_methods(model_path=None, baselines=("floodfill", "grabcut"), threads: int = 0, **options) -> dict:
