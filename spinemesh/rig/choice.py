@@ -7,8 +7,7 @@ origin + length along the bone's x axis) passes over the art or within ``NEAR`` 
 where the art is the mesh's triangles in world space and ``NEAR`` is a share of its size.
 Typically these are the parent and the children across the joints the art spans. Not
 chosen automatically: the root bone (it moves the whole skeleton, never a part);
-zero-length bones (points: effects and controls more often than parts); every other bone
-when the art hangs on the root bone; control bones that constraints aim at (animators'
+zero-length bones (points: effects and controls more often than parts); control bones that constraints aim at (animators'
 handles); bones that only some skins activate (unless this attachment's skin does); and
 bones whose setup transform is not exact (see :mod:`.bones`). Of the bones that qualify,
 only those joined to the slot bone through the bone tree by qualifying bones are kept: art
@@ -84,8 +83,6 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
             continue
         if bone.length == 0:
             left_out[bone.index] = "zero-length bone: a point (effects, controls), not a part the art bends with"
-        elif bones[slot_bone].parent is None:
-            left_out[bone.index] = "the art hangs on the root bone: not a part of a limb"
         elif bone.parent is None:
             left_out[bone.index] = "root bone: moves the whole skeleton"
         elif bone.target_of:
