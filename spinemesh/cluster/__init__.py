@@ -33,21 +33,27 @@ def available_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _one_thread_per_worker() -> None:
-    """Worker start-up: one OpenCV thread per process.
+def _one_opencv_thread() -> int:
+    """Make OpenCV single-threaded in this process; return the thread count it had.
 
-    With as many processes as cores, OpenCV's own thread pool in each would only fight
-    over the same cores (measured several times slower on a loaded 2-core machine).
+    Called in the parent while its pool of workers lives, so that every worker, forked now or
+    later (``max_tasks_per_child``), starts with one OpenCV thread: with as many processes as
+    cores, OpenCV's own threads in each would only fight over the same cores (measured
+    several times slower on a loaded 2-core machine). Workers must not resize OpenCV's pool
+    themselves: a forked copy of the parent's running pool hung for ever in
+    ``cv2.setNumThreads`` (``pthread_cond_destroy`` waiting for threads that do not exist in
+    the child; seen in test_upgrade's jobs test under pytest).
     """
     import cv2
 
+    threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
+    return threads
 
 
 def _start_worker() -> None:
-    """Worker start-up: end with the parent (no orphans after a kill), one OpenCV thread."""
+    """Worker start-up: end with the parent (no orphans after a kill)."""
     die_with_parent()
-    _one_thread_per_worker()
 
 
 class Workers:
@@ -98,6 +104,7 @@ class ProcessWorkers(Workers):
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
         self.kind = f"{jobs} local processes"
         self.slots = jobs
+        self._opencv_threads = _one_opencv_thread()
         self._pool = context.Pool(jobs, initializer=_start_worker, maxtasksperchild=max_tasks_per_child)
 
     def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
@@ -109,6 +116,9 @@ class ProcessWorkers(Workers):
     def close(self) -> None:
         self._pool.terminate()
         self._pool.join()
+        import cv2
+
+        cv2.setNumThreads(self._opencv_threads)
 
 
 class DaskWorkers(Workers):
