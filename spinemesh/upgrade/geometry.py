@@ -52,6 +52,62 @@ def region_quad_transform(region: dict, source=None) -> np.ndarray:
     return out
 
 
+def region_positions(region: dict, vertices_px: np.ndarray, image_width: int, image_height: int,
+                     box: tuple[int, int, int, int] | None = None, source=None) -> np.ndarray:
+    """Attachment-space positions of image pixels, computed as the runtimes compute a region's corners.
+
+    Mathematically the same map as :func:`region_quad_transform`, but evaluated in the
+    runtimes' order of operations from the stored rectangle's corner: a vertex on an edge of
+    the stored rectangle then gets, once rounded to float32 as the runtimes store both, the
+    very coordinate of the region quad's edge. Along an edge the quad and the mesh share
+    (wherever art reaches the border of a trimmed region), the rasteriser then sees one line,
+    and pixels whose centres lie on it (axis-aligned poses put many there) are decided alike.
+
+    Parameters
+    ----------
+    region : dict
+        The region attachment (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``, ``width``,
+        ``height``).
+    vertices_px : ndarray, shape (N, 2)
+        Pixels of the original image (x right, y down).
+    image_width, image_height : int
+        The original image's size (the atlas region's original size).
+    box : (x0, y0, x1, y1), optional
+        The stored rectangle in the same pixels (default: the whole image).
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Positions in the slot's bone space, float64 (store them as float32).
+    """
+    x = number(region, "x", 0, source)
+    y = number(region, "y", 0, source)
+    rotation = number(region, "rotation", 0, source)
+    scale_x, scale_y = number(region, "scaleX", 1, source), number(region, "scaleY", 1, source)
+    width, height = number(region, "width", 32, source), number(region, "height", 32, source)
+    x0, _, _, y1 = box if box is not None else (0, 0, image_width, image_height)
+    region_scale_x = width / image_width * scale_x
+    region_scale_y = height / image_height * scale_y
+    offset_x, offset_y = x0, image_height - y1  # the stored rectangle's corner, y up from the bottom
+    local_x = -width / 2 * scale_x + offset_x * region_scale_x
+    local_y = -height / 2 * scale_y + offset_y * region_scale_y
+    px = np.asarray(vertices_px, np.float64)
+    lx = local_x + (px[:, 0] - offset_x) * region_scale_x
+    ly = local_y + ((image_height - px[:, 1]) - offset_y) * region_scale_y
+    radians = rotation * math.pi / 180
+    cos, sin = math.cos(radians), math.sin(radians)
+    return np.stack([(lx * cos + x) - ly * sin, (ly * cos + y) + lx * sin], axis=1)
+
+
+def float32_exact(value: float) -> float:
+    """``value`` rounded to float32, as the shortest decimal that reads back as that float32.
+
+    Runtimes store vertices as float32: written this way, a JSON number loads as exactly the
+    float32 a binary skeleton would hold, and no digit is spent beyond that.
+    """
+    return float(np.format_float_positional(np.float32(value), unique=True, trim="-"))
+
+
 def uvs_of(vertices: np.ndarray, width: int, height: int) -> np.ndarray:
     """UVs, shape (N, 2), of pixel positions (N, 2) in an image of ``width x height`` pixels."""
     uv = np.asarray(vertices, dtype=np.float64) / (float(width), float(height))
@@ -59,7 +115,8 @@ def uvs_of(vertices: np.ndarray, width: int, height: int) -> np.ndarray:
 
 
 def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray, hull: int,
-                    edges: np.ndarray, image_width: int, image_height: int, source=None) -> dict:
+                    edges: np.ndarray, image_width: int, image_height: int, source=None,
+                    box: tuple[int, int, int, int] | None = None) -> dict:
     """The mesh attachment that replaces ``region``.
 
     Parameters
@@ -74,6 +131,8 @@ def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray
         Constrained edges as vertex index pairs (written doubled, as Spine's JSON wants).
     image_width, image_height : int
         Size in pixels of the image the vertices refer to.
+    box : (x0, y0, x1, y1), optional
+        The part of that image the atlas stores (see :func:`region_positions`).
 
     Returns
     -------
@@ -82,7 +141,7 @@ def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray
         ``hull``, ``edges``, ``width`` and ``height``, keys in the editor's order.
     """
     uv = uvs_of(vertices_px, image_width, image_height)
-    pos = (region_quad_transform(region, source) @ np.c_[uv, np.ones(len(uv))].T).T
+    pos = region_positions(region, vertices_px, image_width, image_height, box, source)
     fields = {
         "name": region.get("name"),
         "type": "mesh",
@@ -90,7 +149,7 @@ def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray
         "color": region.get("color"),
         "uvs": [round(float(c), 6) for c in uv.ravel()],
         "triangles": [int(i) for i in np.asarray(triangles).ravel()],
-        "vertices": [round(float(c), 4) for c in pos.ravel()],
+        "vertices": [float32_exact(c) for c in pos.ravel()],
         "hull": int(hull),
         "sequence": region.get("sequence"),
         "edges": [int(i) * 2 for i in np.asarray(edges).ravel()],

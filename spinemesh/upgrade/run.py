@@ -483,10 +483,12 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
         if res.vertices is None:
             t.status, t.reason = ("kept", res.kept) if res.kept else ("failed", res.error)
             continue
-        w, h = tasks[t.key].size
+        task = tasks[t.key]
+        w, h = task.size
+        (x0, y0), (bh, bw) = task.origin, task.rgba.shape[:2]
         try:
             mesh = mesh_attachment(ref.attachment, res.vertices, res.triangles, res.hull, res.edges, w, h,
-                                   source_name)
+                                   source_name, box=(x0, y0, x0 + bw, y0 + bh))
         except SpineMeshError as e:
             t.status, t.reason = "failed", str(e)
             continue
