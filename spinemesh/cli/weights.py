@@ -114,3 +114,7 @@ def weights(
     console.print(f"{result.seconds:.1f} s", highlight=False)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
+    if not result.written:
+        err_console.print(f"[yellow]warning:[/] no Spine skeleton found in {project} (a .skel file, or a .json "
+                          "with a \"skeleton\" object); give the folder the editor exported to", highlight=False)
+        raise typer.Exit(1)
