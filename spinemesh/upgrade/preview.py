@@ -143,37 +143,26 @@ def _mesh_svg(uvs: np.ndarray, tris: np.ndarray, hull: int, to_xy, stroke: float
 
 # --- setup pose ---------------------------------------------------------------------------
 
-def _attachment_geometry(att: dict, world: np.ndarray, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _attachment_geometry(att: dict, slot_bone: int, worlds: list[np.ndarray]
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """UVs (N, 2), skeleton-space positions (N, 2) and triangles of a region or mesh attachment.
 
-    ``world`` is the slot bone's world transform (2, 3); weighted meshes use ``bones``.
+    ``worlds`` are the bones' setup-pose world transforms (2, 3), ``slot_bone`` the index of
+    the slot's bone; weighted meshes are placed by :func:`spinemesh.rig.binding.setup_world`.
     """
     kind = att.get("type", "region")
+    world = worlds[slot_bone]
     if kind == "region":
         corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
-        local = corners @ region_quad_transform(att)[:, :2].T + region_quad_transform(att)[:, 2]
-        pos = local @ world[:, :2].T + world[:, 2]
-        return corners, pos, np.array([[0, 1, 2], [0, 2, 3]])
+        quad = region_quad_transform(att)
+        local = corners @ quad[:, :2].T + quad[:, 2]
+        return corners, local @ world[:, :2].T + world[:, 2], np.array([[0, 1, 2], [0, 2, 3]])
     if kind != "mesh":
         return None
+    from ..rig.binding import parse_vertices, setup_world
+
     uvs, tris, _ = _mesh_arrays(att)
-    verts = att.get("vertices", [])
-    n = len(uvs)
-    if len(verts) == 2 * n:
-        local = np.asarray(verts, float).reshape(-1, 2)
-        pos = local @ world[:, :2].T + world[:, 2]
-    else:  # weighted: per vertex, a bone count, then (bone, x, y, weight) for each bone
-        pos = np.zeros((n, 2))
-        i = 0
-        for v in range(n):
-            count = int(verts[i])
-            i += 1
-            for _ in range(count):
-                b, x, y, w = int(verts[i]), verts[i + 1], verts[i + 2], verts[i + 3]
-                i += 4
-                m = bones[b].world
-                pos[v] += w * (m[:, :2] @ (x, y) + m[:, 2])
-    return uvs, pos, tris
+    return uvs, setup_world(parse_vertices(att, len(worlds)), worlds, slot_bone), tris
 
 
 def _draw(canvas: np.ndarray, rgba: np.ndarray, uvs: np.ndarray, dst: np.ndarray, tris: np.ndarray) -> None:
@@ -240,6 +229,7 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
 
     bones = skeleton_bones(doc)
     by_name = {b.name: b for b in bones}
+    worlds = [b.world for b in bones]
     skins = dict(iter_skins(doc))
     order = pose_skins(doc)
     parts = []
@@ -253,7 +243,7 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
             continue
         skin, att = found[0]
         try:
-            geometry = _attachment_geometry(att, by_name[slot["bone"]].world, bones)
+            geometry = _attachment_geometry(att, by_name[slot["bone"]].index, worlds)
         except (SpineMeshError, TypeError, ValueError, IndexError):
             continue  # malformed numbers or bone indices: the rest of the pose is still drawn
         if geometry is None:
