@@ -61,7 +61,9 @@ class RegionImage:
         Texels a runtime draws anything with: alpha > 0, or on a premultiplied page any
         channel > 0 (a premultiplied texel with alpha 0 and colour > 0 is light that adds to
         whatever lies below it, in normal and additive blending alike; straight alpha cannot
-        hold it, so ``rgba`` shows it as transparent). Default: ``alpha > 0``.
+        hold it, so ``rgba`` shows it as transparent); from an atlas, also the border texels
+        next to drawn texels just outside the stored rectangle on the page, which the quad's
+        edge samples (:func:`bleeding_in`). Default: ``alpha > 0``.
     """
 
     rgba: np.ndarray
@@ -162,19 +164,60 @@ def cut_region(page: np.ndarray, region: AtlasRegion, pma: bool = False,
         raise AtlasError(f"region {region.name!r} ({g.x}, {g.y}, {g.page_width}x{g.page_height}) "
                          f"lies outside its {pw}x{ph} page", source, line=region.line)
     crop = page[g.y:g.y + g.page_height, g.x:g.x + g.page_width]
+    return upright_at_original_size(unpremultiply(crop) if pma else crop, region, source)
+
+
+def upright_at_original_size(stored: np.ndarray, region: AtlasRegion, source: str | None = None) -> np.ndarray:
+    """Texels (or any per-texel values) as the page stores them, turned upright and placed at the offsets.
+
+    Parameters
+    ----------
+    stored : ndarray, shape (page_height, page_width, ...)
+        The region's rectangle as it lies on the page.
+
+    Returns
+    -------
+    ndarray, shape (original_height, original_width, ...)
+        Zero where whitespace was stripped.
+    """
+    g = region.geometry(source)
     if g.degrees:
         # Packers store the image turned counter-clockwise; turning it clockwise undoes that.
-        crop = np.rot90(crop, -(g.degrees // 90))
-    if pma:
-        crop = unpremultiply(crop)
+        stored = np.rot90(stored, -(g.degrees // 90))
     top = g.original_height - g.offset_y - g.height
     left = g.offset_x
     if top < 0 or left < 0 or left + g.width > g.original_width or top + g.height > g.original_height:
         raise AtlasError(f"region {region.name!r}: offsets place the image outside its original "
                          f"{g.original_width}x{g.original_height} size", source, line=region.line)
-    out = np.zeros((g.original_height, g.original_width, 4), np.uint8)
-    out[top:top + g.height, left:left + g.width] = crop
+    out = np.zeros((g.original_height, g.original_width) + stored.shape[2:], stored.dtype)
+    out[top:top + g.height, left:left + g.width] = stored
     return out
+
+
+def bleeding_in(page: np.ndarray, region: AtlasRegion, pma: bool = False, source: str | None = None) -> np.ndarray:
+    """Texels on the border of a region's rectangle next to drawn texels just outside it on the page.
+
+    A runtime draws a region's quad up to the rectangle's edge, sampling bilinearly, so the
+    pixels along that edge take some colour from the page's texels just outside it: a
+    neighbouring region's art where the packer left no padding. A mesh reproduces that only
+    if it covers those border texels too.
+
+    Returns
+    -------
+    ndarray, shape (original_height, original_width), bool
+    """
+    import cv2
+
+    g = region.geometry(source)
+    ph, pw = page.shape[:2]
+    x0, y0, x1, y1 = g.x - 1, g.y - 1, g.x + g.page_width + 1, g.y + g.page_height + 1
+    ring = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    near = page[max(0, y0):min(ph, y1), max(0, x0):min(pw, x1)]
+    shown = near.max(axis=-1) > 0 if pma else near[..., 3] > 0
+    ring[max(0, y0) - y0:max(0, y0) - y0 + shown.shape[0], max(0, x0) - x0:max(0, x0) - x0 + shown.shape[1]] = shown
+    ring[1:-1, 1:-1] = 0  # only what lies outside the rectangle
+    border = cv2.dilate(ring, np.ones((3, 3), np.uint8))[1:-1, 1:-1].astype(bool)
+    return upright_at_original_size(border, region, source)
 
 
 class AtlasImages:
@@ -255,7 +298,8 @@ class AtlasImages:
         g = region.geometry(str(atlas.path))
         top = g.original_height - g.offset_y - g.height
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
-        drawn = cut_region(pixels, region, False, str(atlas.path)).max(axis=-1) > 0 if page.pma else None
+        drawn = cut_region(pixels, region, False, str(atlas.path)).max(axis=-1) > 0 if page.pma else rgba[..., 3] > 0
+        drawn |= bleeding_in(pixels, region, page.pma, str(atlas.path))
         return RegionImage(rgba, page.scale, name, str(page_path), content, drawn)
 
 
