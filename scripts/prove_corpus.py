@@ -73,7 +73,11 @@ ANIMATIONS = 3
 
 #: Differences over the tolerance that were investigated and are not fixed, with their cause,
 #: by (project, skeleton path). Measured sizes are in the README's runtime-proof section.
-CAUSES: dict[tuple[str, str], str] = {}
+CAUSES: dict[tuple[str, str], str] = {
+    ("pail-crowd-w3", "man2/world_3_man_2.json"):
+        "dump check only: in Dance@0.7 the propeller's quad is scaled to zero width (area 6.6e-4), "
+        "where its UV estimate is ill-conditioned; the renders match (worst 1/255)",
+}
 
 
 @dataclass
