@@ -55,7 +55,7 @@ def test_shelf_pack_places_every_rectangle_apart_and_on_its_page():
 
 
 def test_sequence_trimmed_differently_is_kept_without_repack(trimmed_project, tmp_path):
-    result = upgrade_project(trimmed_project, tmp_path / "out", Options())
+    result = upgrade_project(trimmed_project, tmp_path / "out", Options(repack=False))
     spark = [t for t in result.targets if t.name == "spark"]
     assert spark and spark[0].status == "kept" and "--repack" in spark[0].reason
 
