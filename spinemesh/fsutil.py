@@ -163,10 +163,19 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
             guard.check(file)
 
 
-def _umask() -> int:
+def _read_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+#: Read once, at import: reading it means setting it for a moment, which would race with
+#: files and folders created by other threads (upgrade copies files on threads).
+_UMASK = _read_umask()
+
+
+def _umask() -> int:
+    return _UMASK
 
 
 def _write_error(e: OSError, path: Path) -> OutputError:

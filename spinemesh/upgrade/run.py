@@ -24,6 +24,8 @@ import dataclasses
 import fnmatch
 import shutil
 import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
@@ -620,7 +622,16 @@ def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
 
 
 def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
-    """Copy every file of the project that is not a skeleton (atlases, pages, anything else).
+    """Copy every file of the project that is not a skeleton (atlases, pages, anything else)."""
+    for source, dest in files_to_copy(proj, out, written, needed):
+        atomic_copy(source, dest)
+
+
+def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None
+                  ) -> list[tuple[Path, Path]]:
+    """``(source, destination)`` of every file of the project that is copied as it is.
+
+    Every file but the skeletons (atlases, pages, anything else).
 
     With ``needed`` (real paths), skeletons, atlases and images are copied only if listed: one
     skeleton asked for does not bring its twins (``hero.json`` beside ``hero.skel``) or other
@@ -629,6 +640,7 @@ def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[P
     from ..images import IMAGE_EXTENSIONS
     from ..project import ATLAS_SUFFIXES, is_skeleton_file
 
+    pairs = []
     for f in proj.files:  # only files inside the project by real path (see find_project)
         if f.resolve() in written:
             continue
@@ -638,12 +650,24 @@ def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[P
                 f.suffix.lower() in IMAGE_EXTENSIONS or f.name.lower().endswith(ATLAS_SUFFIXES)
                 or is_skeleton_file(f)):
             continue
-        atomic_copy(f, out / f.relative_to(proj.root))
+        pairs.append((f, out / f.relative_to(proj.root)))
+    return pairs
+
+
+#: Threads copying a project's other files (atlases, pages) while its skeletons are written.
+COPY_THREADS = 4
 
 
 def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result) -> None:
     """Put the meshes into the skeletons, write them, and copy every other file to ``out``."""
     t0 = time.perf_counter()
+    needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
+    skeletons = {sk.path.resolve() for sk in plan.skeletons}
+    # Copies are disk work (reads, writes, fsync) that leaves the interpreter free: they run
+    # on threads while this thread writes the skeletons.
+    copier = ThreadPoolExecutor(COPY_THREADS)
+    copies = [copier.submit(atomic_copy, source, dest)
+              for source, dest in files_to_copy(plan.project, out, skeletons, needed)]
     written = set()
     for sk in plan.skeletons:
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
@@ -658,8 +682,12 @@ def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, r
             continue
         written.add(sk.path.resolve())
         result.written.append(sk.rel)
-    needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
-    copy_other_files(plan.project, out, written, needed)
+    for copy in copies:
+        try:
+            copy.result()
+        except SpineMeshError as e:
+            result.errors.append(f"not copied: {e}")
+    copier.shutdown()
     for atlas_path, names in sorted(plan.untrimmed.items()):
         try:
             write_repacked_atlas(atlas_path, names, plan.project.root, out)
@@ -773,21 +801,27 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     result = Result()
     from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
 
-    # One project is planned (and, at the end, written) by this process while the workers
-    # mesh the one before: the workers never wait for reading or writing.
+    # This process plans projects ahead while the workers mesh earlier ones, and writes each
+    # project (in order) once its meshes are back: the workers never wait for reading or
+    # writing. How far ahead is bounded by the pixels sent and not yet written.
     cache: dict = {}
     inflight: dict = {}
     with open_workers(options.jobs, options.dask) as workers:
-        waiting = None
+        ahead: deque[_LibraryProject] = deque()
         for folder in find_projects(library):
-            started = _start_library_project(library, folder, options, workers, cache, inflight)
-            if waiting is not None:
-                _finish_library_project(waiting, out, workers, cache, inflight, result,
+            ahead.append(_start_library_project(library, folder, options, workers, cache, inflight))
+            while ahead and sum(p.pixels for p in ahead) > AHEAD_PIXELS:
+                _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
                                         on_start, on_progress, on_project)
-            waiting = started
-        if waiting is not None:
-            _finish_library_project(waiting, out, workers, cache, inflight, result, on_start, on_progress, on_project)
+        while ahead:
+            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
+                                    on_start, on_progress, on_project)
     return result
+
+
+#: Image pixels a library run sends to its workers ahead of writing: enough that workers
+#: stay busy across small projects, few enough to bound memory (4 bytes each: 128 MB).
+AHEAD_PIXELS = 32_000_000
 
 
 @dataclass
@@ -799,6 +833,11 @@ class _LibraryProject:
     result: Result
     plan: ProjectPlan | None = None
     meshing: Meshing | None = None
+
+    @property
+    def pixels(self) -> int:
+        """Pixels of the images this project sent to the workers."""
+        return sum(t.rgba.shape[0] * t.rgba.shape[1] for t in self.plan.tasks.values()) if self.plan else 0
 
 
 def _start_library_project(library: Path, folder: Path, options: Options, workers: Workers,
