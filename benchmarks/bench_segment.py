@@ -1,12 +1,13 @@
-"""CPU time of the segmentation mask paths (issue 7), per image, on real-size inputs.
+"""CPU time of the segmentation mask paths, per image, on real-size inputs.
 
-Times the shipped ONNX model (and any other ONNX models given), the classical baselines,
+Times the shipped ONNX model (alone, with the flood fill combination, with a test-time
+flip), any other ONNX models given (each with its card beside it), the classical baselines,
 and, when torch and a checkpoint are given, the torch forward pass, on synthetic sprites
-flattened onto the three kinds of background. Prints a table with ratios to the shipped
-model.
+flattened onto solid, gradient and coarse-noise backgrounds. The methods take turns image by
+image. Prints median and fastest milliseconds with ratios to the shipped model.
 
     .venv/bin/python benchmarks/bench_segment.py --threads 2 --repeat 20
-    .venv/bin/python benchmarks/bench_segment.py --onnx /tmp/seg-runs/lite0.fp32.onnx --checkpoint /tmp/seg-runs/lite0/best.pt
+    .venv/bin/python benchmarks/bench_segment.py --onnx previous/segment.onnx --checkpoint runs/segment/best.pt
 """
 
 from __future__ import annotations
@@ -36,17 +37,22 @@ def sprite(h: int, w: int, seed: int) -> np.ndarray:
     return np.dstack([rgb, a]).astype(np.uint8)
 
 
-def timed(fn, images, repeat: int) -> tuple[float, float]:
-    """(median, fastest) milliseconds per call over ``repeat`` rounds of ``images`` (after one
-    warm-up). On a shared machine the fastest call is the better estimate of an idle one."""
-    fn(images[0])
-    times = []
+def timed_together(fns: dict, images, repeat: int, clock=time.perf_counter) -> dict[str, tuple[float, float]]:
+    """(median, fastest) milliseconds per call of each function, taking turns image by image
+    (after one warm-up each), so that a shared machine's changing load hits all alike. On a
+    loaded machine the fastest call is the better estimate of an idle one; ``clock``
+    ``time.process_time`` counts the CPU time of all the process's threads instead, which
+    load changes little (with one thread it is the idle machine's wall time)."""
+    for fn in fns.values():
+        fn(images[0])
+    times: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(repeat):
         for img in images:
-            t0 = time.perf_counter()
-            fn(img)
-            times.append(time.perf_counter() - t0)
-    return 1000 * float(np.median(times)), 1000 * float(np.min(times))
+            for name, fn in fns.items():
+                t0 = clock()
+                fn(img)
+                times[name].append(clock() - t0)
+    return {name: (1000 * float(np.median(t)), 1000 * float(np.min(t))) for name, t in times.items()}
 
 
 def main() -> None:
@@ -57,27 +63,24 @@ def main() -> None:
     ap.add_argument("--onnx", type=Path, nargs="*", default=[], help="more ONNX models (card beside, or same "
                     "input size as the shipped one)")
     ap.add_argument("--checkpoint", type=Path, help="a best.pt, to time the torch forward pass too")
+    ap.add_argument("--clock", choices=("wall", "cpu"), default="wall", help="wall time, or the CPU time of "
+                    "all threads (steadier on a shared machine; use with --threads 1)")
     args = ap.parse_args()
 
     h, w = args.size
     images = [flatten(sprite(h, w, i), BACKGROUNDS[i % 3], np.random.default_rng(i)) for i in range(3)]
     card = model_card()
-    rows = [(f"network, shipped ({card.get('precision', '?')}, {card['input_size']} px, "
-             f"{DEFAULT_MODEL.stat().st_size / 2**20:.1f} MB)",
-             timed(lambda im: predict_mask(im, threads=args.threads, flips=False, floodfill=False), images,
-                   args.repeat)),
-            ("  + flood fill where unsure on a flat background",
-             timed(lambda im: predict_mask(im, threads=args.threads, flips=False, floodfill=True), images,
-                   args.repeat)),
-            ("  + test-time flip",
-             timed(lambda im: predict_mask(im, threads=args.threads, flips=True, floodfill=False), images,
-                   args.repeat))]
+    fns = {f"network, shipped ({card.get('precision', '?')}, {card['input_size']} px, "
+           f"{DEFAULT_MODEL.stat().st_size / 2**20:.1f} MB)":
+               lambda im: predict_mask(im, threads=args.threads, flips=False, floodfill=False),
+           "  + flood fill where unsure on a flat background (shipped default)":
+               lambda im: predict_mask(im, threads=args.threads, flips=False, floodfill=True),
+           "  + test-time flip": lambda im: predict_mask(im, threads=args.threads, flips=True, floodfill=False)}
     for path in args.onnx:
         if not path.with_suffix(".json").is_file():
-            import shutil
-            shutil.copy(DEFAULT_MODEL.with_suffix(".json"), path.with_suffix(".json"))
-        rows.append((f"network, {path.name} ({path.stat().st_size / 2**20:.1f} MB)",
-                     timed(lambda im, p=path: predict_mask(im, p, threads=args.threads), images, args.repeat)))
+            raise SystemExit(f"{path}: its model card {path.with_suffix('.json')} is missing")
+        fns[f"network, {path.name} ({model_card(path)['input_size']} px, {path.stat().st_size / 2**20:.1f} MB)"] = \
+            lambda im, p=path: predict_mask(im, p, threads=args.threads, flips=False, floodfill=False)
     if args.checkpoint:
         import torch
         from spinemesh.train.export import load_checkpoint
@@ -91,16 +94,19 @@ def main() -> None:
         def forward(im):
             return model(torch.from_numpy(to_input(im, size)[None]))
 
-        rows.append((f"network, torch forward ({size} px)", timed(forward, images, args.repeat)))
-    rows.append(("baseline: border flood fill", timed(floodfill_mask, images, args.repeat)))
-    rows.append(("baseline: GrabCut (at most 256 px)", timed(grabcut_mask, images, max(1, args.repeat // 3))))
+        fns[f"network, torch forward ({size} px)"] = forward
+    fns["baseline: border flood fill"] = floodfill_mask
+    clock = time.process_time if args.clock == "cpu" else time.perf_counter
+    rows = list(timed_together(fns, images, args.repeat, clock).items())
+    rows += list(timed_together({"baseline: GrabCut (at most 256 px)": grabcut_mask}, images,
+                                max(1, args.repeat // 3), clock).items())
 
     ref = rows[0][1][0]
-    print(f"CPU time per {w}x{h} image, {args.threads} thread(s), {args.repeat} rounds x 3 images, "
+    print(f"{args.clock} time per {w}x{h} image, {args.threads} thread(s), {args.repeat} rounds x 3 images, "
           f"load average {os.getloadavg()[0]:.1f}")
-    print(f"{'method':<58} {'median ms':>10} {'fastest ms':>11} {'x shipped':>10}")
+    print(f"{'method':<68} {'median ms':>10} {'fastest ms':>11} {'x shipped':>10}")
     for name, (ms, fastest) in rows:
-        print(f"{name:<58} {ms:10.1f} {fastest:11.1f} {ms / ref:10.2f}")
+        print(f"{name:<68} {ms:10.1f} {fastest:11.1f} {ms / ref:10.2f}")
 
 
 if __name__ == "__main__":
