@@ -128,7 +128,8 @@ def test_library_upgrade_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, 
     assert {"birds/owl/owl-pro.json", "birds/owl/owl-pro.skel", "coin/coin-pro.json"} <= set(files)
     rows = json.loads((tmp_path / "cluster.json").read_text())["attachments"]
     assert {r["skeleton"].split("/")[0] for r in rows} == {"birds", "coin"}
-    assert all(r["status"] == "meshed" for r in rows)
+    assert all(r["status"] in ("meshed", "kept") for r in rows)  # kept: the mesher's keep rule, with a reason
+    assert sum(r["status"] == "meshed" for r in rows) > len(rows) // 2
 
 
 def test_dask_local_cluster_gives_the_same_bytes(tmp_path):
