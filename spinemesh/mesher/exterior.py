@@ -416,6 +416,11 @@ MAX_SPREAD_TRIES = 1500
 def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndarray:
     """Drop a vertex of each too-short edge when the loop still covers and stays simple.
 
+    Short edges are taken shortest first; spreading ends at the first short edge that can be
+    neither removed nor moved onto the image border (further changes would only make the
+    hull hug the art more tightly, which costs render fidelity at the silhouette more than
+    the vertex saves).
+
     Each candidate changes the edges around one short edge of a loop known to cover the art
     and to be simple, so only those edges are checked: against the other edges for
     crossings, and the pixels in their bounding box for coverage. A short edge whose
@@ -442,6 +447,8 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
             if around in failed:
                 continue
             for cand, changed in _spread_candidates(loop, j, k, d[j], cover.shape, min_distance):
+                if cand is None:  # an end that is not near the border: nothing more to try
+                    return loop
                 if len(cand) < 3:
                     continue
                 tries += 1
@@ -459,13 +466,14 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
 
 
 def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: tuple[int, int],
-                       min_distance: float) -> list[tuple[np.ndarray, np.ndarray]]:
+                       min_distance: float) -> list[tuple[np.ndarray | None, np.ndarray | None]]:
     """Loops without the short edge ``j -> k``, each with the indices of the edges it changed.
 
     In order: drop either end, merge both into the midpoint, stretch the edge to
     ``min_distance`` along its own line (on the image border this only adds area, where the
     art touches the border at a single spot), drop both, snap either end onto the border.
-    Edge ``i`` runs from vertex ``i`` to ``i + 1``.
+    Edge ``i`` runs from vertex ``i`` to ``i + 1``. An end not near the border gives
+    ``(None, None)`` in place of its snap: the spreading stops there.
     """
     n = len(loop)
     out = []
@@ -486,8 +494,7 @@ def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: t
     out.append((both, np.array([(first - 1) % max(n - 2, 1)])))
     for i in (j, k):
         snapped = _snap_to_border(loop, i, shape, min_distance)
-        if not np.array_equal(snapped, loop):  # not near the border: no candidate
-            out.append((snapped, np.array([(i - 1) % n, i])))
+        out.append((snapped, np.array([(i - 1) % n, i])) if not np.array_equal(snapped, loop) else (None, None))
     return out
 
 
