@@ -370,8 +370,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shard", default="0/1", help="I/N: prove every N-th project from the I-th (parallel runs)")
     ap.add_argument("--mesh-all", action="store_true",
                     help="mesh every region, also those upgrade keeps by default as not worth meshing")
-    ap.add_argument("--no-repack", dest="repack", action="store_false",
-                    help="upgrade with --no-repack (sequences trimmed differently stay regions)")
+    ap.add_argument("--repack", action="store_true", help="upgrade with --repack (sequences trimmed differently)")
     ap.add_argument("--animations", type=int, default=ANIMATIONS, help="animations sampled per skeleton")
     ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
     ap.add_argument("--keep", type=Path, help="keep upgrades and renders here (default: a temporary folder)")

@@ -63,7 +63,8 @@ def upgrade(
     repack: Annotated[bool, typer.Option(
         "--repack/--no-repack", help="Mesh sequences whose frames were trimmed differently: their frames are "
                                      "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
-                                     "is untouched). --no-repack keeps such sequences regions.")] = True,
+                                     "is untouched; a frame's art on its trimmed border then also draws its "
+                                     "half-texel fringe). Default: such sequences stay regions.")] = False,
     weights: Annotated[Weights, typer.Option(
         "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                           "to the bones crossing the art, with vertices at the joints and automatic "
@@ -76,7 +77,7 @@ def upgrade(
     the atlases or images it uses are written.
 
     Region attachments left as they are on purpose (--only, --exclude, --min-size, fully
-    transparent images, sequences trimmed differently on the atlas page with --no-repack, regions a
+    transparent images, sequences trimmed differently on the atlas page unless --repack, regions a
     mesh would not make cheaper to draw: --min-saving) are counted as
     "kept" with the reason in the report. Exit status: 0 when everything asked was done;
     3 when some attachment or skeleton failed (it stays as it was; the report says why);

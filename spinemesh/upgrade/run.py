@@ -68,7 +68,7 @@ class Options:
     images_in: Path | None = None
     overrides: dict = field(default_factory=dict)
     overwrite: bool = False
-    repack: bool = True  # store sequence frames whole where one mesh cannot fit them trimmed
+    repack: bool = False  # store sequence frames whole where one mesh cannot fit them trimmed
     # keep a region when its mesh would save less than this share of drawn pixels (or needs
     # too many vertices): spinemesh.mesher.worth; None meshes every region
     min_saving: float | None = DEFAULT_MIN_SAVING
@@ -231,7 +231,7 @@ def task_for_frames(frames: list[RegionImage], options: Options) -> tuple[MeshTa
     if box is None or not _inside(drawn, box):
         if not options.repack:
             return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
-                                  "would sample neighbouring regions (--no-repack); --repack stores them whole")
+                                  "would sample neighbouring regions; --repack stores them whole")
         # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
         box = (0, 0, rgba.shape[1], rgba.shape[0])
     x0, y0, x1, y1 = box
