@@ -170,12 +170,10 @@ def mesh_problems(vertices, triangles, hull: int | None = None, min_distance: fl
         if d < min_distance:
             problems.append(f"two vertices {d:.3f} px apart (< {min_distance})")
     if hull is not None and hull >= 3:
-        loop = v[:hull]
         seg = {tuple(sorted((i, (i + 1) % hull))) for i in range(hull)}
         b = {tuple(sorted(x)) for x in boundary_index_edges(t)}
         if not seg <= b:
             problems.append("the first `hull` vertices do not form a boundary loop")
-        del loop
     return problems
 
 

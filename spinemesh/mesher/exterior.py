@@ -203,7 +203,6 @@ def _delaunay_edges(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         e = np.stack([i, j], axis=1)
     e = np.unique(np.sort(e, axis=1), axis=0)
     return e[:, 0], e[:, 1]
-    return out.astype(bool)
 
 
 def outer_contour(mask: np.ndarray) -> np.ndarray:
