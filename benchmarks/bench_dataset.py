@@ -8,6 +8,7 @@ Run::
 
     .venv/bin/python benchmarks/bench_dataset.py                 # jobs 1 and 2
     .venv/bin/python benchmarks/bench_dataset.py --jobs 2        # quicker
+    .venv/bin/python benchmarks/bench_dataset.py --compare-png   # PNG writers side by side, jobs 1
 
 Prints one table per run: samples, wall seconds, samples/s (wall), CPU seconds (all
 processes) and samples per CPU-second, peak memory (parent process; all processes
@@ -114,10 +115,50 @@ def read_back(out: Path) -> tuple[int, float]:
     return n, n / (time.perf_counter() - t0)
 
 
+def pil_png(image) -> bytes:
+    """The PNG writer used before (PIL, zlib level 1, adaptive filters), for ``--compare-png``."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="PNG", compress_level=1)
+    return buf.getvalue()
+
+
+def compare_png() -> None:
+    """The corpus built in this process (jobs 1) with the previous PIL writer and the current
+    OpenCV one, taking turns, side by side."""
+    import spinemesh.dataset.extract as extract
+
+    current = extract.encode_png
+    tmp = Path(tempfile.mkdtemp(prefix="bench-dataset-png-"))
+    rows = []
+    try:
+        for writer, fn in (("PIL (before)", pil_png), ("OpenCV (now)", current)):
+            extract.encode_png = fn
+            try:
+                rows.append((writer, run("spine-corpus", CORPORA["spine-corpus"], tmp / writer[:3], 1)))
+            finally:
+                extract.encode_png = current
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"\n{'PNG writer':<14} {'load':>5} {'samples':>8} {'wall s':>7} {'samples/s':>9} {'CPU s':>7} "
+          f"{'smp/CPU-s':>9} {'peak MB':>8} {'KB/sample':>9}")
+    for writer, r in rows:
+        print(f"{writer:<14} {r['load']:>5.1f} {r['samples']:>8} {r['wall']:>7.1f} {r['samples'] / r['wall']:>9.0f} "
+              f"{r['cpu']:>7.1f} {r['samples'] / r['cpu']:>9.0f} {r['peak_total']:>8.0f} "
+              f"{r['disk'] / max(r['samples'], 1) / 1024:>9.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--jobs", default="1,2", help="comma-separated worker counts (default 1,2)")
+    ap.add_argument("--compare-png", action="store_true", help="only compare the PNG writers (corpus, jobs 1)")
     args = ap.parse_args()
+    if args.compare_png:
+        compare_png()
+        return
     jobs_list = [int(j) for j in args.jobs.split(",")]
     missing = [p for ps in CORPORA.values() for p in ps if not p.is_dir()]
     if missing:
