@@ -193,6 +193,8 @@ def test_binary_skeletons_give_the_same_samples_as_json(examples, tmp_path):
     src = examples / "4.2" / "spineboy"
     for p in list(src.glob("*.skel")) + list(src.glob("*.atlas")) + list(src.glob("*.png")):
         shutil.copy(p, proj / p.name)
+    # The same image sources on both sides (originals beside a downscaled atlas are preferred).
+    shutil.copytree(src / "images", proj / "images")
     build_dataset([proj.parent], tmp_path / "a")
     build_dataset([src], tmp_path / "b")
     a, b = _rows(tmp_path / "a"), _rows(tmp_path / "b")
