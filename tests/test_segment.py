@@ -1,4 +1,4 @@
-"""Segmentation for art without alpha (issue 7): inference, baselines, training step, export parity.
+"""Segmentation for art without alpha: inference, baselines, training step, export parity.
 
 Tests that need torch skip cleanly without the train extra; those on real sprites skip
 without ../shared.

@@ -1,4 +1,4 @@
-"""Training data from Spine projects: attachment images, masks and artist meshes (issue 6).
+"""Training data from Spine projects: attachment images, masks and artist meshes.
 
 The paper (sec. 4, "Dataset") trained its segmentation network on 100,363 attachment
 images of 172 games, cut out of their atlases with the skeletons' own parsers. This

@@ -1,4 +1,4 @@
-"""Foreground masks for sprites, from their alpha or from the shipped network (issue 7).
+"""Foreground masks for sprites, from their alpha or from the shipped network.
 
 Paper section 3.1 has two mask paths: threshold the alpha at 128 when the image has a
 meaningful alpha channel, else run the segmentation network. This package holds the

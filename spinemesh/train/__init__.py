@@ -1,4 +1,4 @@
-"""Training of the segmentation network (paper section 3.1, issue 7). Needs the ``train`` extra.
+"""Training of the segmentation network (paper section 3.1). Needs the ``train`` extra.
 
 The package is imported only by training and export: meshing and ``spinemesh segment`` run
 the shipped ONNX model with ONNX Runtime and never import torch.

@@ -1,4 +1,4 @@
-"""ONNX export of a trained checkpoint and static int8 quantisation (issue 7).
+"""ONNX export of a trained checkpoint and static int8 quantisation.
 
 Dynamic int8 quantisation in ONNX Runtime is 5-8x slower than fp32 on this network;
 static quantisation (QDQ, per-channel weights, activations calibrated on real composites)
