@@ -1,7 +1,7 @@
 """``spinemesh diff``: generated meshes against the artists' own (paper sec. 5: the comparison with artists).
 
 >>> from spinemesh.diff import run_diff, write_report
->>> result = run_diff(["../shared/spine-examples/4.2/sack"])
+>>> result = run_diff(["projects/sack"])
 >>> write_report(result, "sack-diff/")      # report.md, report.json, index.html, assets/
 
 Modules: :mod:`.baselines` (the paper's hull / grid / Shi-Tomasi baselines, sec. 5),
