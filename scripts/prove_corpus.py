@@ -78,9 +78,10 @@ CAUSES: dict[tuple[str, str], str] = {
         "dump check only: in Dance@0.7 the propeller's quad is scaled to zero width (area 6.6e-4), "
         "where its UV estimate is ill-conditioned; the renders match (worst 1/255)",
     ("dq-ui", "BigWinWindow.json"):
-        "not explained: setup pose, 28 pixels at the visibility threshold (alpha 8 against 0: 14 lost, "
-        "14 added) and 416 pixels (0.007%) over 2/255, worst 8/255; none on a clip path or a quad edge; "
-        "the skeleton has a sequence whose frames differ in size",
+        "setup pose, 28 pixels at the visibility threshold (alpha 8 against 0: 14 lost, 14 added) and 416 "
+        "pixels (0.007%) over 2/255, worst 8/255, every one under eight stacked additive particle layers "
+        "(b_dots..b_dots8): each faint sample rounds to 0 or 1/255 by its triangle's interpolation, and "
+        "eight layers add up to 8/255",
 }
 
 
