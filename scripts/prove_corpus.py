@@ -79,7 +79,7 @@ CAUSES: dict[tuple[str, str], str] = {
         "where its UV estimate is ill-conditioned; the renders match (worst 1/255)",
     ("dq-ui", "BigWinWindow.json"):
         "setup pose, 28 pixels at the visibility threshold (alpha 8 against 0: 14 lost, 14 added) and 416 "
-        "pixels (0.007%) over 2/255, worst 8/255, every one under eight stacked additive particle layers "
+        "pixels (0.007%) over 2/255, worst 8/255, all sampled ones under eight stacked additive particle layers "
         "(b_dots..b_dots8): each faint sample rounds to 0 or 1/255 by its triangle's interpolation, and "
         "eight layers add up to 8/255",
 }
