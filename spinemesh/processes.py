@@ -2,23 +2,16 @@
 
 - :func:`exit_on_terminate` turns SIGTERM (and SIGHUP) into ``SystemExit``, so the cleanup of
   :mod:`spinemesh.fsutil` (temporary files removed) runs as it does for Ctrl-C.
-- :func:`die_with_parent` is the initializer of every worker process: on Linux the kernel
-  sends the worker SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``), elsewhere a
-  watchdog thread ends it when it is re-parented. A killed run leaves no workers behind.
+- :func:`die_with_parent` is the initializer of every worker process: a watchdog thread ends
+  the worker within a second of its re-parenting. A killed run leaves no workers behind.
 """
 
 from __future__ import annotations
 
-import ctypes
 import os
 import signal
-import sys
 import threading
 import time
-
-#: ``PR_SET_PDEATHSIG`` from ``<linux/prctl.h>``.
-_PR_SET_PDEATHSIG = 1
-
 
 def _terminate(signum, frame):
     raise SystemExit(128 + signum)
@@ -51,10 +44,9 @@ def die_with_parent() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # Ctrl-C reaches the whole process group: the parent stops the pool, workers stay quiet.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if sys.platform.startswith("linux"):
-        libc = ctypes.CDLL(None, use_errno=True)  # this process's own symbols, libc's prctl among them
-        if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
-            if os.getppid() != parent:  # the parent died before prctl took effect
-                os._exit(1)
-            return
+    # Not prctl(PR_SET_PDEATHSIG): Linux sends that signal when the *thread* that forked the
+    # worker ends, and a multiprocessing pool forks replacement workers (maxtasksperchild)
+    # from its handler thread. Pool.terminate() ends that thread first; the kernel then killed
+    # idle workers while they held the task queue's lock, and terminate() waited for that lock
+    # for ever (a dataset run over the whole corpus hung at its very end).
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
