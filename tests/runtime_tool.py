@@ -141,6 +141,43 @@ def render_difference(a: Path, b: Path, tol: int = 2, where: int = 5) -> dict:
             "added_where": [tuple(map(int, p)) for p in np.argwhere(added)[:where]]}
 
 
+#: A pixel drawn by one side only whose centre lies this close (screen pixels) to an edge of a
+#: region's quad is a rasterisation tie, not art added or lost: the mesh's outline runs along
+#: the quad's edge wherever the art reaches the border of its stored rectangle (always, for
+#: trimmed regions), but between other end points, and the rasteriser snaps end points to a
+#: sub-pixel grid, so centres within a small fraction of a pixel of that edge fall either way.
+TIE_PX = 1 / 32
+
+
+def edge_distances(pixels: list[tuple[int, int]], attachments: list[dict], frame: dict, ppu: float) -> np.ndarray:
+    """Distance (screen pixels) from each pixel's centre to the nearest edge of a region quad.
+
+    Parameters
+    ----------
+    pixels : list of (row, column)
+    attachments : list of dict
+        One pose's draw list from a harness dump of the original.
+    frame : dict
+        The render's frame (``x``, ``y``, ``width``, ``height``, world units), ``ppu`` its scale.
+
+    Returns
+    -------
+    ndarray, shape (len(pixels),)
+        ``inf`` where the pose draws no region.
+    """
+    quads = [np.asarray(a["vertices"], float).reshape(4, 2) for a in attachments if a["type"] == "region"]
+    if not pixels or not quads:
+        return np.full(len(pixels), np.inf)
+    q = np.stack(quads)  # (Q, 4, 2) world, y up
+    q = np.stack([(q[..., 0] - frame["x"]) * ppu, (frame["y"] + frame["height"] - q[..., 1]) * ppu], -1)
+    a, b = q, np.roll(q, -1, axis=1)  # (Q, 4, 2) edges a -> b
+    c = np.asarray(pixels, float)[:, ::-1] + 0.5  # (P, 2) centres, x then y
+    ab = (b - a)[None]
+    t = np.clip(((c[:, None, None] - a[None]) * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12), 0, 1)
+    nearest = a[None] + t[..., None] * ab
+    return np.linalg.norm(c[:, None, None] - nearest, axis=-1).reshape(len(pixels), -1).min(axis=1)
+
+
 def _premultiplied(rgba: np.ndarray) -> np.ndarray:
     """RGBA (H, W, 4) uint8 with colour multiplied by alpha, rounded (uint8 out)."""
     r, g, b, a = cv2.split(rgba)
