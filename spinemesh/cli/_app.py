@@ -58,8 +58,9 @@ class _LazyConsole:
         if self._console is None:
             from rich.console import Console
 
-            # Messages on stderr are never wrapped: one error stays one line in a log or a pipe.
-            self._console = Console(stderr=self._stderr, soft_wrap=self._stderr)
+            # Text is never wrapped by us (tables still fit the width): one error stays one line in
+            # a log or a pipe, and a path in a message stays whole, to copy and paste.
+            self._console = Console(stderr=self._stderr, soft_wrap=True)
         return self._console
 
     def __getattr__(self, name):
