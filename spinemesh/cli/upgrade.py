@@ -96,7 +96,8 @@ def upgrade(
 
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder
-    from ..upgrade import EXIT_PARTIAL, Options, is_library, upgrade_library, upgrade_project, write_report
+    from ..runs import EXIT_PARTIAL
+    from ..upgrade import Options, is_library, upgrade_library, upgrade_project, write_report
 
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], folders=[preview])

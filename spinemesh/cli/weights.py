@@ -71,7 +71,8 @@ def weights(
     """
     from ..fsutil import OutputGuard
     from ..rig.document import WeightOptions
-    from ..rig.run import EXIT_PARTIAL, weight_project, write_report
+    from ..rig.run import weight_project, write_report
+    from ..runs import EXIT_PARTIAL
 
     guard = OutputGuard([project])
     guard.check_folder(out)

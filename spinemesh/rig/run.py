@@ -15,15 +15,14 @@ from pathlib import Path
 from ..errors import SpineMeshError
 from ..fsutil import atomic_write_json
 from ..project import find_project
+from ..runs import RunSummary
 from ..skeleton import load_skeleton
 from .document import Outcome, WeightOptions, build_rig, weight_document
 
-#: Exit status of a run in which some attachments or skeletons failed.
-EXIT_PARTIAL = 3
 
 
 @dataclass
-class WeightResult:
+class WeightResult(RunSummary):
     """Every mesh attachment's outcome, the skeletons written and the problems met."""
 
     outcomes: list[Outcome] = field(default_factory=list)
@@ -31,15 +30,8 @@ class WeightResult:
     errors: list[str] = field(default_factory=list)
     seconds: float = 0.0
 
-    @property
-    def partial(self) -> bool:
-        return bool(self.errors) or any(o.status == "failed" for o in self.outcomes)
-
-    def counts(self) -> dict:
-        out: dict[str, int] = {}
-        for o in self.outcomes:
-            out[o.status] = out.get(o.status, 0) + 1
-        return out
+    def _items(self):
+        return self.outcomes
 
 
 def weight_project(project: str | Path, out: str | Path, options: WeightOptions | None = None,

@@ -5,8 +5,9 @@
 writes the result; a folder of many projects is upgraded with one set of workers.
 """
 
+from ..runs import EXIT_PARTIAL
 from .geometry import mesh_attachment, region_quad_transform, uvs_of
-from .run import (EXIT_PARTIAL, Options, Result, is_library, upgrade_library, upgrade_project,
+from .run import (Options, Result, is_library, upgrade_library, upgrade_project,
                   write_report)
 
 __all__ = ["mesh_attachment", "region_quad_transform", "uvs_of", "EXIT_PARTIAL", "Options",

@@ -40,12 +40,10 @@ from ..fsutil import (
 from ..images import RegionImage, content_id
 from ..mesher.worth import DEFAULT_MIN_SAVING
 from ..project import Project, find_project, find_projects, image_source_for
+from ..runs import RunSummary
 from ..skeleton import AttachmentRef, dumps_skeleton, image_paths, is_binary_skeleton, iter_attachments, load_skeleton
 from .geometry import frames_on_one_grid, mesh_attachment, spine_triangles
 from .repack import write_repacked_atlas
-
-#: Exit status of a run in which some attachments could not be upgraded.
-EXIT_PARTIAL = 3
 
 #: A file that marks a folder as written by ``upgrade``: only such a folder is replaced by
 #: ``overwrite`` (a mistyped ``--out ~/Documents --overwrite`` must not delete a user's files).
@@ -543,7 +541,7 @@ def files_needed(doc: dict, source) -> set[Path]:
 
 
 @dataclass
-class Result:
+class Result(RunSummary):
     """What a run did: every target, the skeletons written and the problems met."""
 
     targets: list[Target] = field(default_factory=list)
@@ -551,15 +549,8 @@ class Result:
     errors: list[str] = field(default_factory=list)
     seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "write": 0.0})
 
-    @property
-    def partial(self) -> bool:
-        return bool(self.errors) or any(t.status == "failed" for t in self.targets)
-
-    def counts(self) -> dict:
-        out: dict[str, int] = {}
-        for t in self.targets:
-            out[t.status] = out.get(t.status, 0) + 1
-        return out
+    def _items(self):
+        return self.targets
 
 
 @dataclass
