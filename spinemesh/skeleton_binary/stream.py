@@ -247,3 +247,27 @@ class SkelWriter:
     def raw(self, value, n: int = 0, what: str = "bytes") -> bytes:
         self.out += bytes(value)
         return value
+
+
+class RecordedRefs:
+    """Writer mixin: string references written with the table indices a read recorded.
+
+    The editor's string table may hold a string twice, and only the indices tell which copy
+    a reference used; so each recorded index is written again while it still names the same
+    string (``refs[i]`` for the ``i``-th reference). Other references follow the writer's
+    own rule (the next class in the method resolution order).
+    """
+
+    def replay(self, refs: list[int] | None) -> None:
+        self.refs = refs or []
+        self._next = 0
+
+    def string_ref(self, value, what: str = "string reference"):
+        i = self._next
+        self._next += 1
+        if i < len(self.refs):
+            k = self.refs[i]
+            if (k == 0 and value is None) or (0 < k <= len(self.strings) and self.strings[k - 1] == value):
+                self.varint(k)
+                return value
+        return super().string_ref(value, what)

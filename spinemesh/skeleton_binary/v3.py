@@ -47,7 +47,7 @@ import math
 import re
 import struct
 
-from .stream import SkelReader, SkelWriter
+from .stream import RecordedRefs, SkelReader, SkelWriter
 from .symmetric import boolean, color, first_use_table, fld, put, text
 
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE  # noqa: F401
@@ -1009,24 +1009,10 @@ class _RefReader(SkelReader):
         return v
 
 
-class _TableWriter(SkelWriter):
-    """A writer that builds the string table as it goes: it replays recorded indices
-    where they still name the same string, and numbers new strings in first-use order."""
-
-    def __init__(self, path=None, strings: list | None = None, refs: list | None = None):
-        super().__init__(path)
-        self.set_strings(strings or [])
-        self.refs = refs or []
-        self._next = 0
+class _GrowingTableWriter(SkelWriter):
+    """A writer that builds the string table as it goes, numbering new strings in first-use order."""
 
     def string_ref(self, value, what: str = "string reference"):
-        i = self._next
-        self._next += 1
-        if i < len(self.refs):
-            k = self.refs[i]
-            if (k == 0 and value is None) or (0 < k <= len(self.strings) and self.strings[k - 1] == value):
-                self.varint(k)
-                return value
         if value is None:
             self.varint(0)
             return None
@@ -1038,6 +1024,16 @@ class _TableWriter(SkelWriter):
             self.strings.append(value)
         self.varint(k + 1)
         return value
+
+
+class _TableWriter(RecordedRefs, _GrowingTableWriter):
+    """Replays recorded indices where they still name the same string; new strings are
+    added to the table in first-use order."""
+
+    def __init__(self, path=None, strings: list | None = None, refs: list | None = None):
+        super().__init__(path)
+        self.set_strings(strings or [])
+        self.replay(refs)
 
 
 def read(reader: SkelReader) -> dict:

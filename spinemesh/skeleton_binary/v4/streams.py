@@ -6,7 +6,7 @@ import math
 import struct
 
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED
-from ..stream import MAX_COUNT, MAX_STRING_BYTES, SkelReader, SkelWriter
+from ..stream import MAX_COUNT, MAX_STRING_BYTES, RecordedRefs, SkelReader, SkelWriter
 from .fields import _floats_struct
 from .timelines import _FrameSpec
 
@@ -264,7 +264,7 @@ class _RefReader(SkelReader):
 _XYW = struct.Struct(">3f")
 
 
-class _RefWriter(SkelWriter):
+class _RefWriter(RecordedRefs, SkelWriter):
     """A writer that reuses recorded string-reference indices where they still fit.
 
     It has the reader's bulk methods, so that declarations stay symmetric.
@@ -297,15 +297,4 @@ class _RefWriter(SkelWriter):
 
     def __init__(self, path=None, refs: list[int] | None = None):
         super().__init__(path)
-        self.refs = refs or []
-        self._next = 0
-
-    def string_ref(self, value, what: str = "string reference"):
-        i = self._next
-        self._next += 1
-        if i < len(self.refs):
-            k = self.refs[i]
-            if (k == 0 and value is None) or (0 < k <= len(self.strings) and self.strings[k - 1] == value):
-                self.varint(k)
-                return value
-        return super().string_ref(value, what)
+        self.replay(refs)
