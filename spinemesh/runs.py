@@ -9,8 +9,12 @@ from __future__ import annotations
 
 from collections import Counter
 
-#: Exit status of a run in which some attachments or files could not be done. (0: all that
-#: was asked was done, deliberate skips included; 2: bad input or options.)
+#: Exit status when the input or options give nothing to work on: a bad value, a folder
+#: without a skeleton, ``--only`` matching nothing (0: all that was asked was done, deliberate
+#: skips included).
+EXIT_BAD_INPUT = 2
+
+#: Exit status of a run in which some attachments or files could not be done.
 EXIT_PARTIAL = 3
 
 

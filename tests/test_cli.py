@@ -240,16 +240,16 @@ def test_deliberate_skips_exit_0_and_are_counted_as_kept(demo, tmp_path):
 
 def test_only_that_matches_nothing_warns_with_a_hint(demo, tmp_path):
     r = run("upgrade", str(demo), "--out", str(tmp_path / "o"), "--only", "no-such-*")
-    assert r.returncode == 1
+    assert r.returncode == 2
     assert "warning" in r.stderr and "--only 'head*'" in r.stderr
 
 
 def test_empty_folder_warns_with_a_hint(tmp_path):
     (tmp_path / "empty").mkdir()
     r = run("upgrade", str(tmp_path / "empty"), "--out", str(tmp_path / "o"))
-    assert r.returncode == 1 and "no Spine skeleton found" in r.stderr
+    assert r.returncode == 2 and "no Spine skeleton found" in r.stderr
     r = run("info", str(tmp_path / "empty"))
-    assert r.returncode == 1 and "no Spine skeleton" in r.stderr
+    assert r.returncode == 2 and "no Spine skeleton" in r.stderr
 
 
 def test_an_upgraded_project_has_nothing_to_do(demo, tmp_path):

@@ -43,7 +43,7 @@ def test_bad_input_is_one_line_not_a_traceback(tmp_path):
     r = run("info", str(tmp_path))
     assert "Traceback" not in r.stdout + r.stderr
     assert "bad.atlas:3" in r.stderr and "s.json:1" in r.stderr
-    assert r.returncode == 1, "an unreadable skeleton or atlas is not a success"
+    assert r.returncode == 3, "an unreadable skeleton or atlas is not a success"
     r = run("info", str(tmp_path / "nope"))
     assert r.returncode == 2 and "Traceback" not in r.stderr and "no such file" in r.stderr
 

@@ -233,4 +233,4 @@ def test_cli_weights_a_project_without_touching_it(tmp_path):
     assert r.exit_code != 0
     (tmp_path / "empty").mkdir()
     r = CliRunner().invoke(app, ["weights", str(tmp_path / "empty"), "--out", str(tmp_path / "e-out")])
-    assert r.exit_code == 1 and "no Spine skeleton found" in r.output
+    assert r.exit_code == 2 and "no Spine skeleton found" in r.output

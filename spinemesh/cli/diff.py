@@ -7,6 +7,7 @@ from typing import List, Optional
 
 import typer
 
+from ..runs import EXIT_BAD_INPUT
 from ._app import Annotated, app, console, err_console, progress_bar
 
 
@@ -62,7 +63,7 @@ def diff(
     if not result.rows:
         err_console.print("[bold red]error:[/] no artist mesh attachment found "
                           f"({len(result.skipped)} skipped)")
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(result.rows)} attachments compared, {len(result.skipped)} skipped")

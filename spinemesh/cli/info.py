@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 from ._app import Annotated, app, console, err_console
 
 
@@ -13,7 +14,7 @@ from ._app import Annotated, app, console, err_console
 def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder or skeleton file (.json/.skel).")]) -> None:
     """Show the Spine version, attachments by type, atlas pages and regions, and missing images.
 
-    Exits with 1 when no skeleton was found or a skeleton or atlas could not be read.
+    Exits with 2 when no skeleton was found, 3 when a skeleton or atlas could not be read.
 
     \b
     Example: spinemesh info project/
@@ -40,7 +41,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     if not proj.skeletons:
         err_console.print(f"[yellow]warning:[/] no Spine skeleton (.json with a \"skeleton\" object, or .skel) "
                           f"found in {project}", highlight=False)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
     for path in proj.skeletons:
         try:
             doc = load_skeleton(path)
@@ -79,7 +80,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
         err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
     if proj.problems:
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_PARTIAL)
 
 
 def _describe(source) -> str:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 
+from ..runs import EXIT_BAD_INPUT
 from ._app import Annotated, MaskSource, Optional, app, console, err_console, finite, progress_bar
 
 DataOption = Annotated[list[Path], typer.Option(
@@ -99,7 +100,7 @@ def segment_eval(
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)
     if not sprites:
         err_console.print(f"no held-out sprites in {', '.join(map(str, data))}", markup=False)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
     options = {k: v for k, v in (("flips", flips), ("floodfill", floodfill)) if v is not None}
     methods = default_methods(model, names, threads, **options)
@@ -179,7 +180,7 @@ def train(
         from ..train.loop import train as run
     except ImportError as e:
         err_console.print(f"training needs the train extra (pip install 'spinemesh[train]'): {e}", markup=False)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
     if write_pack:
         from ..train.data import write_pack as pack
 
@@ -226,7 +227,7 @@ def segment_export(
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
     if not train_s or not val_s:
         err_console.print(f"no training or no held-out sprites in {', '.join(map(str, data))}", markup=False)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
 
     def inputs(sprites, n):
         pick = rng.choice(len(sprites), min(n, len(sprites)), replace=False)

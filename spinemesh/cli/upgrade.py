@@ -81,7 +81,8 @@ def upgrade(
     mesh would not make cheaper to draw: --min-saving) are counted as
     "kept" with the reason in the report. Exit status: 0 when everything asked was done;
     3 when some attachment or skeleton failed (it stays as it was; the report says why);
-    1 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing.
+    2 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing
+    (as for an invalid option).
 
     A folder holding several projects (any depth: a project is the first folder holding a
     skeleton or an atlas) is upgraded project by project into the same tree under OUT, on one
@@ -96,7 +97,7 @@ def upgrade(
 
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder
-    from ..runs import EXIT_PARTIAL
+    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..upgrade import Options, is_library, upgrade_library, upgrade_project, write_report
 
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
@@ -169,7 +170,7 @@ def upgrade(
         raise typer.Exit(EXIT_PARTIAL)
     if nothing:
         err_console.print(f"[yellow]warning:[/] {escape(nothing)}", highlight=False)
-        raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else 1)
+        raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else EXIT_BAD_INPUT)
 
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> str:

@@ -72,7 +72,7 @@ def weights(
     from ..fsutil import OutputGuard
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
-    from ..runs import EXIT_PARTIAL
+    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 
     guard = OutputGuard([project])
     guard.check_folder(out)
@@ -118,4 +118,4 @@ def weights(
     if not result.written:
         err_console.print(f"[yellow]warning:[/] no Spine skeleton found in {project} (a .skel file, or a .json "
                           "with a \"skeleton\" object); give the folder the editor exported to", highlight=False)
-        raise typer.Exit(1)
+        raise typer.Exit(EXIT_BAD_INPUT)
