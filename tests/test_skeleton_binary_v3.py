@@ -12,7 +12,6 @@ same project state. For each pair:
 
 from __future__ import annotations
 
-import fnmatch
 import json
 import re
 from pathlib import Path
@@ -24,6 +23,8 @@ from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
+from binary_pairs import (check_document_equals_editor_json, check_json_writes_a_skel_that_reads_back,
+                          check_round_trip, check_survives_json_text, editor_json)
 from conftest import EXAMPLES, skel_json_pairs
 from runtime_tool import max_difference, pose_dump
 
@@ -77,57 +78,25 @@ KNOWN = [
 ]
 
 
-def _known(version: str, name: str, doc: dict, path: str) -> bool:
-    for v, f, pattern, condition, _reason in KNOWN:
-        if fnmatch.fnmatchcase(version, v) and fnmatch.fnmatchcase(name, f) \
-                and fnmatch.fnmatchcase(path, pattern) and (condition is None or condition(doc, path)):
-            return True
-    return False
-
-
-def _editor(js: Path) -> dict:
-    return json.loads(js.read_text(encoding="utf-8-sig"))
-
-
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_round_trip_is_byte_identical(skel: Path, js: Path):
-    data = skel.read_bytes()
-    assert write_skel(read_skel(data, skel)) == data
+    check_round_trip(skel)
 
 
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_document_equals_editor_json(skel: Path, js: Path):
-    doc = read_skel(skel)
-    version = skel.parts[-3]
-    diffs = diff_documents(doc, _editor(js), ignore=[EXTRA], limit=100_000)
-    unexplained = [d for d in diffs if not _known(version, skel.name, doc, d.path)]
-    assert not unexplained, "\n".join(map(str, unexplained[:30]))
-    # Entries tied to this very file must still be needed: the list does not rot.
-    for v, f, pattern, _c, _r in KNOWN:
-        if f == skel.name and fnmatch.fnmatchcase(version, v):
-            assert any(fnmatch.fnmatchcase(d.path, pattern) for d in diffs), f"{pattern} no longer differs"
+    check_document_equals_editor_json(skel, js, KNOWN)
 
 
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_json_document_writes_a_skel_that_reads_back(skel: Path, js: Path):
-    editor = _editor(js)
-    data = write_skel(editor)
-    again = read_skel(data)
-    # A string table in first-use order is derivable: nothing binary-only is left.
-    assert EXTRA not in again
-    # Only float32 rounding of the JSON's decimals separates the two.
-    diffs = diff_documents(again, editor, abs_tol=1e-4, rel_tol=1e-6)
-    assert not diffs, "\n".join(map(str, diffs[:30]))
-    assert write_skel(again) == data
-    assert sniff_version(data) == editor["skeleton"]["spine"]
+    # A 3.x string table in first-use order is derivable: nothing binary-only is left.
+    check_json_writes_a_skel_that_reads_back(js)
 
 
 @pytest.mark.parametrize("skel,js", PAIRS[::6], ids=IDS[::6])
 def test_document_survives_json_text(skel: Path, js: Path):
-    """A document read from .skel, saved as JSON text with its binary-only data and loaded
-    again, still writes the original bytes."""
-    data = skel.read_bytes()
-    assert write_skel(json.loads(json.dumps(read_skel(data)))) == data
+    check_survives_json_text(skel)
 
 
 NONESSENTIAL = {"color", "edges", "width", "height", "images", "audio", "fps"}
@@ -225,7 +194,7 @@ def test_events_and_audio(examples):
 
 def test_default_skin_anywhere_in_json(examples):
     """The binary holds the default skin first; a JSON object may list it anywhere."""
-    doc = _editor(examples / "3.6/goblins/goblins-pro.json")
+    doc = editor_json(examples / "3.6/goblins/goblins-pro.json")
     doc["skins"] = {k: doc["skins"][k] for k in ("goblin", "default", "goblingirl")}
     again = read_skel(write_skel(doc))
     assert list(again["skins"]) == ["default", "goblin", "goblingirl"]
@@ -300,7 +269,7 @@ def test_unsupported_version(spineboy3, version):
 
 def test_writer_rejects_broken_documents(examples):
     def editor() -> dict:
-        return _editor(examples / "3.7/spineboy/spineboy-pro.json")
+        return editor_json(examples / "3.7/spineboy/spineboy-pro.json")
 
     doc = editor()
     doc["slots"][0]["bone"] = "no-such-bone"
@@ -410,7 +379,7 @@ def test_runtime_poses_match(spine_runtime, examples, tmp_path, project, name, a
     folder = examples / "3.8" / project
     atlas = folder / f"{project}.atlas"
     ours_skel = tmp_path / f"{name}.skel"
-    ours_skel.write_bytes(write_skel(_editor(folder / f"{name}.json")))
+    ours_skel.write_bytes(write_skel(editor_json(folder / f"{name}.json")))
     ours_json = tmp_path / f"{name}.json"
     ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
     a = pose_dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim, TIMES)

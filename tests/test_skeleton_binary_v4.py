@@ -12,7 +12,6 @@ same project state. For each pair:
 
 from __future__ import annotations
 
-import fnmatch
 import json
 import struct
 from pathlib import Path
@@ -24,6 +23,8 @@ from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
+from binary_pairs import (check_document_equals_editor_json, check_json_writes_a_skel_that_reads_back,
+                          check_round_trip, check_survives_json_text)
 from conftest import EXAMPLES, skel_json_pairs
 from runtime_tool import max_difference, pose_dump
 
@@ -55,55 +56,24 @@ KNOWN = [
 ]
 
 
-def _known(version: str, name: str, doc: dict, path: str) -> bool:
-    for v, f, pattern, condition, _reason in KNOWN:
-        if fnmatch.fnmatchcase(version, v) and fnmatch.fnmatchcase(name, f) \
-                and fnmatch.fnmatchcase(path, pattern) and (condition is None or condition(doc, path)):
-            return True
-    return False
-
-
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_round_trip_is_byte_identical(skel: Path, js: Path):
-    data = skel.read_bytes()
-    assert write_skel(read_skel(data, skel)) == data
+    check_round_trip(skel)
 
 
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_document_equals_editor_json(skel: Path, js: Path):
-    doc = read_skel(skel)
-    editor = json.loads(js.read_text(encoding="utf-8-sig"))
-    version = skel.parts[-3]
-    diffs = diff_documents(doc, editor, ignore=[EXTRA], limit=100_000)
-    unexplained = [d for d in diffs if not _known(version, skel.name, doc, d.path)]
-    assert not unexplained, "\n".join(map(str, unexplained[:30]))
-    # Entries tied to this very file must still be needed: the list does not rot.
-    for v, f, pattern, _c, _r in KNOWN:
-        if f == skel.name and fnmatch.fnmatchcase(version, v):
-            assert any(fnmatch.fnmatchcase(d.path, pattern) for d in diffs), f"{pattern} no longer differs"
+    check_document_equals_editor_json(skel, js, KNOWN)
 
 
 @pytest.mark.parametrize("skel,js", PAIRS, ids=IDS)
 def test_json_document_writes_a_skel_that_reads_back(skel: Path, js: Path):
-    editor = json.loads(js.read_text(encoding="utf-8-sig"))
-    data = write_skel(editor)
-    again = read_skel(data)
-    assert EXTRA not in again or set(again[EXTRA]) <= {"strings", "refs", "timelines"}
-    # Only float32 rounding separates the two.
-    diffs = diff_documents(again, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
-    assert not diffs, "\n".join(map(str, diffs[:30]))
-    # And that .skel is itself stable.
-    assert write_skel(again) == data
-    assert sniff_version(data) == editor["skeleton"]["spine"]
+    check_json_writes_a_skel_that_reads_back(js, binary_only=frozenset({"strings", "refs", "timelines"}))
 
 
 @pytest.mark.parametrize("skel,js", PAIRS[::7], ids=IDS[::7])
 def test_document_survives_json_text(skel: Path, js: Path):
-    """A document read from .skel, saved as JSON text with its binary-only data and loaded
-    again, still writes the original bytes."""
-    data = skel.read_bytes()
-    text = json.dumps(read_skel(data))
-    assert write_skel(json.loads(text)) == data
+    check_survives_json_text(skel)
 
 
 def test_json_layout_per_version(examples):

@@ -1,0 +1,68 @@
+"""The checks every ``.skel`` of the examples passes against its ``.json`` twin, for the 3.x
+and 4.x binary tests alike (each names its pairs and its known differences).
+
+A known difference is ``(version, file, path pattern, condition on the .skel document, reason)``:
+a place where the two exports really hold different information.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+from pathlib import Path
+
+from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary.compare import diff_documents
+from spinemesh.skeleton_binary.enums import EXTRA
+
+
+def editor_json(js: Path) -> dict:
+    return json.loads(js.read_text(encoding="utf-8-sig"))
+
+
+def is_known(known: list, version: str, name: str, doc: dict, path: str) -> bool:
+    """Whether the difference at ``path`` is one of ``known``."""
+    for v, f, pattern, condition, _reason in known:
+        if fnmatch.fnmatchcase(version, v) and fnmatch.fnmatchcase(name, f) \
+                and fnmatch.fnmatchcase(path, pattern) and (condition is None or condition(doc, path)):
+            return True
+    return False
+
+
+def check_round_trip(skel: Path) -> None:
+    """Reading the ``.skel`` and writing it back gives the same bytes."""
+    data = skel.read_bytes()
+    assert write_skel(read_skel(data, skel)) == data
+
+
+def check_document_equals_editor_json(skel: Path, js: Path, known: list) -> None:
+    """The document read from the ``.skel`` equals the editor's JSON but for ``known``, and
+    every entry of ``known`` tied to this very file is still needed (the list does not rot)."""
+    doc = read_skel(skel)
+    version = skel.parts[-3]
+    diffs = diff_documents(doc, editor_json(js), ignore=[EXTRA], limit=100_000)
+    unexplained = [d for d in diffs if not is_known(known, version, skel.name, doc, d.path)]
+    assert not unexplained, "\n".join(map(str, unexplained[:30]))
+    for v, f, pattern, _c, _r in known:
+        if f == skel.name and fnmatch.fnmatchcase(version, v):
+            assert any(fnmatch.fnmatchcase(d.path, pattern) for d in diffs), f"{pattern} no longer differs"
+
+
+def check_json_writes_a_skel_that_reads_back(js: Path, binary_only: frozenset = frozenset()) -> None:
+    """The editor's JSON written as ``.skel`` reads back to it (up to float32 rounding), and
+    that ``.skel`` is stable; ``binary_only`` are the ``EXTRA`` keys the reader may add."""
+    editor = editor_json(js)
+    data = write_skel(editor)
+    again = read_skel(data)
+    assert EXTRA not in again or set(again[EXTRA]) <= binary_only
+    diffs = diff_documents(again, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
+    assert not diffs, "\n".join(map(str, diffs[:30]))
+    assert write_skel(again) == data
+    assert sniff_version(data) == editor["skeleton"]["spine"]
+
+
+def check_survives_json_text(skel: Path) -> None:
+    """A document read from ``.skel``, saved as JSON text with its binary-only data and loaded
+    again, still writes the original bytes."""
+    data = skel.read_bytes()
+    assert write_skel(json.loads(json.dumps(read_skel(data)))) == data
