@@ -206,7 +206,7 @@ def _with_markup_names(doc: dict) -> dict:
 def test_hostile_skeleton(tmp_path, demo, case):
     _json_only(demo)
     SKELETON_CASES[case](demo)
-    r = _upgrade(tmp_path, demo, "--report", "o-report.json", outputs=("o", "o-report.json"))
+    _upgrade(tmp_path, demo, "--report", "o-report.json", outputs=("o", "o-report.json"))
     if "demo.json" in json.loads((tmp_path / "o-report.json").read_text())["skeletons_written"]:
         written_skeleton(tmp_path / "o" / "demo.json")
 

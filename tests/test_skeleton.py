@@ -12,7 +12,7 @@ from spinemesh.skeleton import (
     sequence_paths, spine_version,
 )
 
-from conftest import CORPUS, EXAMPLES
+from conftest import EXAMPLES
 
 JSONS = sorted(EXAMPLES.glob("*/*/*.json"))
 
