@@ -36,6 +36,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 SHARED = REPO.parent / "shared"
 
+from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project, image_source_for  # noqa: E402
 from spinemesh.rig.binding import bind, parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.document import WeightOptions, build_rig, weight_document  # noqa: E402
@@ -65,7 +66,7 @@ def skeletons(examples: str | None, corpus: int) -> list[tuple[str, Path]]:
                 continue  # its JSON twin is replayed
             try:
                 doc = load_skeleton(f)
-            except Exception:  # noqa: BLE001 - a benchmark lists what it cannot read and moves on
+            except SpineMeshError:  # a file the readers refuse: the replay moves on
                 continue
             if spine_version(doc)[:3] in RUNTIME_VERSIONS:
                 out.append((f"{kind}/{proj.name}", f))

@@ -271,7 +271,7 @@ class Dataset:
     def __del__(self) -> None:
         try:
             self.close()
-        except Exception:
+        except OSError:  # a descriptor already gone at interpreter exit
             pass
 
 

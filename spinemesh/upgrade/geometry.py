@@ -197,7 +197,7 @@ def spine_triangles(vertices: np.ndarray, hull: int, edges: np.ndarray) -> np.nd
         t.insert_vertices(v)
         t.insert_edges(np.ascontiguousarray(all_edges, dtype=np.uint32))
         t.erase_outer_triangles()
-    except Exception:  # pythoncdt raises its own errors for crossing constraints
+    except RuntimeError:  # pythoncdt's refusal: crossing constraint edges, duplicate vertices
         return None
     if len(t.vertices_array()) != len(v):
         return None
