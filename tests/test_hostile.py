@@ -694,3 +694,19 @@ def test_powerup_issue_reproduction(tmp_path, powerup):
     check_run(r, before, tmp_path, ["o", "o-report.json"])
     assert r.returncode == 0, r.stderr
     written_skeleton(tmp_path / "o" / "powerup-pro.json")
+
+
+@pytest.mark.parametrize("args", [
+    ["segment-eval", "--data", "ds", "--json", "ds/index.jsonl"],
+    ["train", "--data", "ds", "--out", "ds/runs"],
+    ["segment-export", "best.pt", "--data", "ds", "--out", "ds/model.onnx"],
+], ids=["segment-eval --json", "train --out", "segment-export --out"])
+def test_training_commands_never_write_into_a_data_set(tmp_path, args):
+    """The segmentation commands' outputs are guarded like every other command's."""
+    (tmp_path / "ds").mkdir()
+    (tmp_path / "ds" / "index.jsonl").write_text("{}\n")
+    (tmp_path / "best.pt").write_bytes(b"not a checkpoint")
+    before = snapshot(tmp_path)
+    r = run_cli(*args, cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2 and "lies inside the input" in r.stderr

@@ -86,11 +86,13 @@ def segment_eval(
     \b
     Example: spinemesh segment-eval --data ds/ --json scores.json --worst worst.png
     """
-    from ..fsutil import atomic_write_json, atomic_write_png
+    from ..fsutil import atomic_write_json, atomic_write_png, check_outputs
     from ..segment import DEFAULT_MODEL, model_card
     from ..segment.composite import BACKGROUNDS
     from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
     from ..segment.samples import load_sprites
+
+    check_outputs([*data, model], files=[json_out, worst])  # never into a data set, never onto the model
 
     kinds = [b.strip() for b in backgrounds.split(",") if b.strip()]
     unknown = [k for k in kinds if k not in BACKGROUNDS]
@@ -181,6 +183,9 @@ def train(
     except ImportError as e:
         err_console.print(f"training needs the train extra (pip install 'spinemesh[train]'): {e}", markup=False)
         raise typer.Exit(EXIT_BAD_INPUT)
+    from ..fsutil import check_outputs
+
+    check_outputs(data, files=[write_pack], folders=[None if write_pack else out])  # never into a data set
     if write_pack:
         from ..train.data import write_pack as pack
 
@@ -217,9 +222,12 @@ def segment_export(
     """
     import numpy as np
 
+    from ..fsutil import check_outputs
     from ..segment.samples import load_sprites
     from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise
     from ..train.export import load_checkpoint, release
+
+    check_outputs([checkpoint, *data], files=[out])
 
     side = size or load_checkpoint(checkpoint).config["image_size"]
     rng = np.random.default_rng(0)
