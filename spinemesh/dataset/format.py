@@ -269,6 +269,8 @@ class Dataset:
         self.close()
 
     def __del__(self) -> None:
+        if not hasattr(self, "_files"):  # __init__ refused the folder before opening anything
+            return
         try:
             self.close()
         except OSError:  # a descriptor already gone at interpreter exit

@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import fnmatch
+import os
 import shutil
 import time
 from collections import deque
@@ -31,6 +32,11 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
+
+try:
+    import fcntl  # POSIX: a run holds its output folder
+except ImportError:  # Windows: no lock
+    fcntl = None
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
@@ -507,24 +513,39 @@ def check_output_folder(project_root: Path, out: Path, images_in: Path | None = 
     OutputGuard([project_root, images_in]).check_folder(out, may_hold_inputs=False)
 
 
-def prepare_output_folder(out: Path, overwrite: bool) -> None:
-    """Make ``out`` an empty folder marked as ours, or refuse.
+@contextlib.contextmanager
+def output_folder(out: Path, overwrite: bool):
+    """Hold ``out`` for one run: an empty folder marked as ours, or refused.
 
-    An existing non-empty ``out`` is refused unless ``overwrite``; then it is removed as a
-    whole (no stale file of an earlier run stays), but only if an earlier ``upgrade`` wrote it
-    (:data:`OUTPUT_MARKER`).
+    An existing non-empty ``out`` is refused unless ``overwrite``; then its contents are
+    removed (no stale file of an earlier run stays), but only if an earlier ``upgrade`` wrote
+    it (:data:`OUTPUT_MARKER`). The folder itself is kept and locked (``flock``) while the
+    run lasts: a second run into the same folder waits for the first to end instead of
+    deleting or overwriting its files half-way.
     """
     if out.exists() and not out.is_dir():
         raise SpineMeshError("output folder exists and is not a folder", out)
-    if out.is_dir() and any(out.iterdir()):
-        if not overwrite:
-            raise SpineMeshError("output folder is not empty; pass --overwrite to replace it as a whole", out)
-        if not (out / OUTPUT_MARKER).is_file():
-            raise SpineMeshError("output folder is not empty and was not written by spinemesh upgrade; "
-                                 "refusing to delete it, choose another --out", out)
-        shutil.rmtree(out)
     make_folder(out)
-    atomic_write_text(out / OUTPUT_MARKER, "written by spinemesh upgrade; --overwrite may replace this folder\n")
+    fd = os.open(out, os.O_RDONLY)
+    try:
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        entries = list(out.iterdir())
+        if entries:
+            if not overwrite:
+                raise SpineMeshError("output folder is not empty; pass --overwrite to replace it as a whole", out)
+            if not (out / OUTPUT_MARKER).is_file():
+                raise SpineMeshError("output folder is not empty and was not written by spinemesh upgrade; "
+                                     "refusing to delete it, choose another --out", out)
+            for entry in entries:
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry)
+                else:
+                    entry.unlink()
+        atomic_write_text(out / OUTPUT_MARKER, "written by spinemesh upgrade; --overwrite may replace this folder\n")
+        yield out
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def files_needed(doc: dict, source) -> set[Path]:
@@ -755,13 +776,14 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     check_output_folder(proj.root, out, options.images_in)
     if options.images_out is not None:
         check_output_folder(proj.root, Path(options.images_out), options.images_in)
-    if not options.dry_run:
-        prepare_output_folder(out, options.overwrite)
-    result = Result()
-    plan = plan_project(proj, options, result)
-    plan.only_needed = Path(project).is_file()
-    _mesh_and_write(plan, out, options, result, workers, on_start, on_progress, mesh_cache)
-    return result
+    with contextlib.ExitStack() as held:
+        if not options.dry_run:
+            held.enter_context(output_folder(out, options.overwrite))
+        result = Result()
+        plan = plan_project(proj, options, result)
+        plan.only_needed = Path(project).is_file()
+        _mesh_and_write(plan, out, options, result, workers, on_start, on_progress, mesh_cache)
+        return result
 
 
 def is_library(folder: str | Path) -> bool:
@@ -784,11 +806,16 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     options = options or Options()
     library, out = Path(library), Path(out)
     check_output_folder(library, out)
-    if not options.dry_run:
-        prepare_output_folder(out, options.overwrite)
     if options.images_in is not None:
         raise SpineMeshError("--from-images reads one project's images; give one project, not a folder of them",
                              options.images_in)
+    with contextlib.ExitStack() as held:
+        if not options.dry_run:
+            held.enter_context(output_folder(out, options.overwrite))
+        return _upgrade_library(library, out, options, on_start, on_progress, on_project)
+
+
+def _upgrade_library(library: Path, out: Path, options: Options, on_start, on_progress, on_project) -> Result:
     result = Result()
     from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
 
