@@ -78,14 +78,14 @@ class Workers:
     def as_completed(self, futures: Iterable) -> Iterator:
         return as_completed(list(futures))
 
-    def close(self) -> None:
-        pass
+    def close(self, finished: bool = True) -> None:
+        """End the workers; ``finished`` is false when the run stopped on an error."""
 
     def __enter__(self) -> "Workers":
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        self.close(finished=exc_type is None)
 
 
 class ProcessWorkers(Workers):
@@ -113,8 +113,14 @@ class ProcessWorkers(Workers):
         self._pool.apply_async(fn, (arg,), callback=future.set_result, error_callback=future.set_exception)
         return future
 
-    def close(self) -> None:
-        self._pool.terminate()
+    def close(self, finished: bool = True) -> None:
+        # After a run that finished, each worker takes its end-of-queue marker and exits on
+        # its own: no signal. Terminating a pool whose workers are still starting (a library
+        # with no project) once left a worker blocked on the queue's lock for ever.
+        if finished:
+            self._pool.close()
+        else:
+            self._pool.terminate()
         self._pool.join()
         import cv2
 
@@ -163,7 +169,7 @@ class DaskWorkers(Workers):
 
         return iter(dask_as_completed(list(futures)))
 
-    def close(self) -> None:
+    def close(self, finished: bool = True) -> None:
         self._client.close()
         if self._cluster is not None:
             self._cluster.close()
