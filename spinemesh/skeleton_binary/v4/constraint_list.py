@@ -14,7 +14,7 @@ from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import fld, put as _put
 from .bones import _bone_list
 from .constraints import _PHYSICS_GLOBALS, _mix_field, _mode_byte
-from .fields import _flag_byte, _same, _to_end, enum, flag, index, opt
+from .fields import _flag_byte, _same, _to_end, enum, flag, fld_u8, index, opt
 from .layout import PROPERTIES, SCALE_Y_MODE, SPACING_MODE, Context
 
 #: Constraint types by their type byte.
@@ -208,10 +208,7 @@ def physics(s, node: dict, c: Context) -> None:
     _physics_scale(s, node, bool(flags & 16))
     opt(s, node, "shearX", flags & 32)
     opt(s, node, "limit", flags & 64, 5000)
-    if s.reading:
-        _put(node, "fps", s.u8(), 60)
-    else:
-        s.u8(int(node.get("fps", 60)))
+    fld_u8(s, node, "fps", 60)
     # 4.3's JSON defaults for inertia and damping are 0.5 and 0.85 (4.2: 1 and 1).
     fld(s, node, "inertia", 0.5)
     fld(s, node, "strength", 100)

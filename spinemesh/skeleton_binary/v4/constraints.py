@@ -7,17 +7,23 @@ import math
 from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import boolean, fld, put as _put, text
 from .bones import _bone_list
-from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, index, opt
+from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, fld_u8, index, opt
 from .layout import Context, SPACING_MODE
 
 
-def ik(s, node: dict, c: Context) -> None:
+def _bone_target_head(s, node: dict, c: Context) -> None:
+    """What IK and transform constraints start with: name, order, skin flag (before 4.3's
+    flag bytes), the constrained bones and the target bone."""
     text(s, node, "name")
     fld_int(s, node, "order")
     if not c.L.flags:
         boolean(s, node, "skin")
     _bone_list(s, node, c)
     index(s, node, "target", *c.bones, "bone")
+
+
+def ik(s, node: dict, c: Context) -> None:
+    _bone_target_head(s, node, c)
     if not c.L.flags:
         fld(s, node, "mix", 1)
         fld(s, node, "softness", 0)
@@ -66,12 +72,7 @@ def _json_default(node: dict, key: str, d):
 
 
 def transform(s, node: dict, c: Context) -> None:
-    text(s, node, "name")
-    fld_int(s, node, "order")
-    if not c.L.flags:
-        boolean(s, node, "skin")
-    _bone_list(s, node, c)
-    index(s, node, "target", *c.bones, "bone")
+    _bone_target_head(s, node, c)
     if not c.L.flags:
         boolean(s, node, "local")
         boolean(s, node, "relative")
@@ -173,10 +174,7 @@ def physics(s, node: dict, c: Context) -> None:
     for key, d, mask in _PHYSICS_1:
         opt(s, node, key, flags & mask)
     opt(s, node, "limit", flags & 64, 5000)
-    if s.reading:
-        _put(node, "fps", s.u8(), 60)
-    else:
-        s.u8(int(node.get("fps", 60)))
+    fld_u8(s, node, "fps", 60)
     fld(s, node, "inertia", 1)
     fld(s, node, "strength", 100)
     fld(s, node, "damping", 1)

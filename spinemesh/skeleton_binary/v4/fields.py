@@ -153,6 +153,15 @@ def fld_int(s, node: dict, key: str, default: int = 0) -> int:
     return s.varint(node.get(key, default))
 
 
+def fld_u8(s, node: dict, key: str, default: int = 0) -> int:
+    """A whole number stored in one byte (physics ``fps``)."""
+    if s.reading:
+        v = s.u8()
+        _put(node, key, v, default)
+        return v
+    return s.u8(int(node.get(key, default)))
+
+
 def _flag_byte(s, node: dict, bits: tuple, value_flags: int = 0) -> int:
     """A flag byte: boolean keys at the low ``bits`` masks, plus precomputed ``value_flags``."""
     if s.reading:
