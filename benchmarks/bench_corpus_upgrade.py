@@ -49,10 +49,12 @@ def box_area(key: str) -> int | None:
     return (x1 - x0) * (y1 - y0)
 
 
-def child(project: Path, min_saving: str = "") -> None:
+def child(project: Path, min_saving: str = "", settings: list[str] | None = None) -> None:
     """Upgrade one project; print its rows as one JSON line.
 
     ``min_saving``: "" for the upgrade's default, "none" to mesh every region, or a share.
+    ``settings``: mesher parameters ``NAME=NUMBER`` (:class:`spinemesh.mesher.MesherParams`)
+    passed as the upgrade's overrides, for measuring their effect.
     """
     import cv2
 
@@ -79,8 +81,9 @@ def child(project: Path, min_saving: str = "") -> None:
     cache: dict = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
-        options = Options() if not min_saving else Options(
-            min_saving=None if min_saving == "none" else float(min_saving))
+        options = Options(overrides=parse_settings(settings or []))
+        if min_saving:
+            options.min_saving = None if min_saving == "none" else float(min_saving)
         result = upgrade_project(project, Path(out) / "o", options, mesh_cache=cache)
         wall = time.perf_counter() - t0
     meshes = {k: v for (k, _settings), v in cache.items()}
@@ -100,7 +103,16 @@ def child(project: Path, min_saving: str = "") -> None:
     print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows}))
 
 
-def run(out: Path, timeout: float, only: list[str], min_saving: str = "") -> None:
+def parse_settings(settings: list[str]) -> dict:
+    """``["hull_tolerance=0.02"]`` -> ``{"hull_tolerance": 0.02}`` (numbers only)."""
+    out = {}
+    for item in settings:
+        name, _, value = item.partition("=")
+        out[name.strip()] = int(value) if value.strip().lstrip("-").isdigit() else float(value)
+    return out
+
+
+def run(out: Path, timeout: float, only: list[str], min_saving: str = "", settings: list[str] | None = None) -> None:
     projects = sorted(p for p in CORPUS.iterdir() if p.is_dir() and not p.name.startswith("."))
     if only:
         projects = [p for p in projects if p.name in only]
@@ -108,7 +120,8 @@ def run(out: Path, timeout: float, only: list[str], min_saving: str = "") -> Non
     for i, p in enumerate(projects):
         t0 = time.perf_counter()
         try:
-            r = subprocess.run([sys.executable, __file__, "child", str(p), "--min-saving", min_saving],
+            r = subprocess.run([sys.executable, __file__, "child", str(p), "--min-saving", min_saving,
+                                *[f"--set={s}" for s in settings or []]],
                                capture_output=True, text=True, timeout=timeout)
             if r.returncode != 0:
                 entry = {"error": r.stderr.strip().splitlines()[-1] if r.stderr.strip() else f"exit {r.returncode}"}
@@ -250,19 +263,22 @@ def main() -> None:
     r.add_argument("--only", nargs="*", default=[], help="project folder names")
     r.add_argument("--min-saving", default="", help="'none' meshes every region (no keep rule); default: "
                                                     "the upgrade's own default")
+    r.add_argument("--set", action="append", default=[], metavar="NAME=NUMBER",
+                   help="a mesher parameter for the upgrade (repeatable), e.g. hull_tolerance=0.02")
     t = sub.add_parser("table")
     t.add_argument("files", type=Path, nargs="+")
     t.add_argument("--per-project", action="store_true")
     c = sub.add_parser("child")
     c.add_argument("project", type=Path)
     c.add_argument("--min-saving", default="")
+    c.add_argument("--set", action="append", default=[])
     args = ap.parse_args()
     if args.cmd == "child":
-        child(args.project, args.min_saving)
+        child(args.project, args.min_saving, args.set)
     elif args.cmd == "run":
         if not CORPUS.is_dir():
             sys.exit(f"{CORPUS} is absent: the benchmark needs the game corpus")
-        run(args.out, args.timeout, args.only, args.min_saving)
+        run(args.out, args.timeout, args.only, args.min_saving, args.set)
     else:
         table(args.files, args.per_project)
 

@@ -344,7 +344,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
     ap.add_argument("--keep", type=Path, help="keep upgrades and renders here (default: a temporary folder)")
     args = ap.parse_args(argv)
-    projects = args.projects or sorted(p for p in CORPUS.iterdir() if p.is_dir())
+    # absolute: the harness runs in the tool's folder, where a relative path means something else
+    projects = [p.resolve() for p in args.projects] or sorted(p for p in CORPUS.iterdir() if p.is_dir())
     if args.only:
         projects = [p for p in projects if any(fnmatch.fnmatchcase(p.name, g) for g in args.only)]
     if args.smallest_first:

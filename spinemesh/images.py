@@ -64,6 +64,10 @@ class RegionImage:
         hold it, so ``rgba`` shows it as transparent); from an atlas, also the border texels
         next to drawn texels just outside the stored rectangle on the page, which the quad's
         edge samples (:func:`bleeding_in`). Default: ``alpha > 0``.
+    shown : ndarray, shape (H, W), bool
+        The part of ``drawn`` that can change a pixel by more than :data:`FAINT_TEXEL`/255
+        when drawn with normal blending (:func:`shown_texels`); the bleed-in border texels
+        always. Default: ``alpha > FAINT_TEXEL``.
     """
 
     rgba: np.ndarray
@@ -72,6 +76,7 @@ class RegionImage:
     source: str
     content: tuple[int, int, int, int] | None = None
     drawn: np.ndarray | None = None
+    shown: np.ndarray | None = None
 
     def __post_init__(self):
         if self.content is None:
@@ -79,6 +84,41 @@ class RegionImage:
             self.content = (0, 0, w, h)
         if self.drawn is None:
             self.drawn = self.rgba[..., 3] > 0
+        if self.shown is None:
+            self.shown = self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
+
+
+#: A texel none of whose premultiplied channels exceeds this (/255) changes no pixel by more
+#: than this much when drawn once with normal blending: below the 2/255 the runtime proof
+#: tolerates (see :func:`shown_texels`).
+FAINT_TEXEL = 2
+
+
+def shown_texels(stored: np.ndarray, pma: bool) -> np.ndarray:
+    """Texels of a page that change a pixel by more than :data:`FAINT_TEXEL`/255 in one normal-blended layer.
+
+    Normal blending draws a premultiplied texel ``(c, a)`` over ``d`` as ``c + (1 - a) d``: it
+    moves each channel by ``c - a d``, at most ``max(c, a)``; a straight texel is premultiplied
+    first (``c = rgb a <= a``). Bilinear sampling never exceeds the largest of the four texels
+    it mixes, and slot colours are at most 1, so a texel whose stored channels (premultiplied)
+    are all at most :data:`FAINT_TEXEL` cannot move a pixel by more than that, wherever and
+    however large it is drawn. Additive and other blend modes are meant to be stacked, where
+    such faint layers add up, so ``upgrade`` covers every drawn texel there
+    (:attr:`RegionImage.drawn`).
+
+    Parameters
+    ----------
+    stored : ndarray, shape (H, W, 4), uint8
+        Texels as the page stores them.
+    pma : bool
+        Whether the page is premultiplied (then colour counts as well as alpha).
+
+    Returns
+    -------
+    ndarray, shape (H, W), bool
+    """
+    strength = stored.max(axis=-1) if pma else stored[..., 3]
+    return strength > FAINT_TEXEL
 
 
 def load_rgba(path: str | Path) -> np.ndarray:
@@ -298,9 +338,11 @@ class AtlasImages:
         g = region.geometry(str(atlas.path))
         top = g.original_height - g.offset_y - g.height
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
-        drawn = cut_region(pixels, region, False, str(atlas.path)).max(axis=-1) > 0 if page.pma else rgba[..., 3] > 0
-        drawn |= bleeding_in(pixels, region, page.pma, str(atlas.path))
-        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn)
+        stored = cut_region(pixels, region, False, str(atlas.path)) if page.pma else rgba
+        drawn = stored.max(axis=-1) > 0 if page.pma else rgba[..., 3] > 0
+        shown = shown_texels(stored, page.pma)
+        bleed = bleeding_in(pixels, region, page.pma, str(atlas.path))
+        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn | bleed, shown | bleed)
 
 
 class FolderImages:

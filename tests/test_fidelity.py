@@ -3,7 +3,9 @@
 The demo sprites (:mod:`spinemesh.demo`) are packed trimmed, one of them rotated, on a
 premultiplied page, with a glow added in an additive slot, scaled up: its outer ring fainter
 than alpha 8 and, inside, premultiplied light (alpha 0, colour > 0), which adds to whatever lies
-below it. Two regions touch on the page with no padding between them.
+below it. The same glow is drawn again in a normal slot, where texels of at most 2/255 may be
+left out of the mesh (``images.FAINT_TEXEL``). Two regions touch on the page with no padding
+between them.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import pytest
 from spinemesh.atlas import parse_atlas
 from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
 from spinemesh.fsutil import atomic_write_png, atomic_write_text
-from spinemesh.images import bleeding_in, premultiply
+from spinemesh.images import FAINT_TEXEL, bleeding_in, premultiply, shown_texels
 from spinemesh.upgrade import Options, upgrade_project
 from spinemesh.upgrade.geometry import float32_exact, region_positions
 
@@ -47,6 +49,8 @@ def glow_project(tmp_path):
     skin = doc["skins"][0]["attachments"]
     del skin["spark"]
     skin["glow"] = {"demo-glow": {"y": 30, "scaleX": 2.5, "scaleY": 2.5, "width": 64, "height": 64}}
+    doc["slots"].append({"name": "glow-normal", "bone": "body", "attachment": "demo-glow"})
+    skin["glow-normal"] = {"demo-glow": {"x": 60, "y": -20, "scaleX": 2.5, "scaleY": 2.5, "width": 64, "height": 64}}
     del doc["animations"]["wave"]["attachments"]
     folder = tmp_path / "project"
     atomic_write_text(folder / "demo.atlas", text)
@@ -106,4 +110,50 @@ def test_glow_project_renders_like_the_original(glow_project, tmp_path):
         pytest.skip("Node/npm or ../shared/tools/spine-runtime unavailable")
     rows = _prove_corpus().prove_project(tool, glow_project, tmp_path / "work", options=Options(min_saving=None))
     assert [r.status for r in rows] == ["pass"], [(r.cause, r.details) for r in rows]
-    assert rows[0].meshed == rows[0].regions == 6 and rows[0].renders == 3
+    assert rows[0].meshed == rows[0].regions == 7 and rows[0].renders == 3
+
+
+def test_a_texel_shown_texels_leaves_out_moves_no_pixel_by_more_than_faint_in_normal_blending():
+    """The bound behind leaving faint texels out of meshes in normal slots: drawing a texel
+    ``shown_texels`` leaves out changes no channel of any pixel by more than FAINT_TEXEL/255,
+    for premultiplied and straight pages, over any destination, at any slot tint <= 1."""
+    rng = np.random.default_rng(7)
+    n = 200_000
+    texels = rng.integers(0, 256, (n, 4)).astype(np.uint8)
+    texels[: n // 2] = rng.integers(0, 2 * FAINT_TEXEL, (n // 2, 4))  # many near the threshold
+    dest = rng.random((n, 4))
+    tint = rng.random((n, 4))
+    for pma in (True, False):
+        left_out = ~shown_texels(texels.reshape(n, 1, 4), pma).ravel()
+        t = texels[left_out].astype(float) / 255 * tint[left_out]
+        c = t[:, :3] if pma else t[:, :3] * t[:, 3:4]  # premultiplied colour
+        a = t[:, 3:4]
+        src = np.concatenate([c, a], axis=1)
+        over = src + (1 - a) * dest[left_out]  # normal blending, premultiplied
+        assert left_out.sum() > 1000
+        assert np.abs(over - dest[left_out]).max() <= FAINT_TEXEL / 255 + 1e-12
+    # a texel just above it is shown; on a premultiplied page colour counts as well as alpha
+    assert shown_texels(np.array([[[0, 0, 0, FAINT_TEXEL + 1]]], np.uint8), False).all()
+    assert shown_texels(np.array([[[FAINT_TEXEL + 1, 0, 0, 0]]], np.uint8), True).all()
+    assert not shown_texels(np.array([[[FAINT_TEXEL + 1, 0, 0, 0]]], np.uint8), False).any()
+
+
+def test_faint_texels_are_left_out_in_normal_slots_only(glow_project, tmp_path):
+    result = upgrade_project(glow_project, tmp_path / "out", Options(min_saving=None))
+    assert all(t.status == "meshed" for t in result.targets)
+    skin = json.loads((tmp_path / "out" / "demo.json").read_text())["skins"][0]["attachments"]
+    from spinemesh.metrics import mesh_area, uncovered_pixels
+
+    glow = _glow()
+    meshes = {}
+    for slot in ("glow", "glow-normal"):
+        mesh = skin[slot]["demo-glow"]
+        uv = np.asarray(mesh["uvs"], float).reshape(-1, 2) * 64
+        triangles = np.asarray(mesh["triangles"], int).reshape(-1, 3)
+        meshes[slot] = (uv, triangles)
+    shown = shown_texels(glow, True)
+    assert shown.any() and not shown.all()
+    # additive: every drawn texel; normal: every texel above FAINT_TEXEL, and a smaller mesh
+    assert not uncovered_pixels(*meshes["glow"], glow.max(axis=-1) > 0).any()
+    assert not uncovered_pixels(*meshes["glow-normal"], shown).any()
+    assert mesh_area(*meshes["glow-normal"]) < mesh_area(*meshes["glow"])

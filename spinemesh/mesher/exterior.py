@@ -319,6 +319,53 @@ def convex_cover(cover: np.ndarray, orient: float = 1.0) -> np.ndarray:
     return hull if np.sign(signed_area(hull)) == orient else hull[::-1]
 
 
+#: Widest closing (px) tried before a covering loop falls back to the convex hull.
+MAX_CLOSE_KERNEL = 129
+
+
+def _closed(region: np.ndarray, kernel: int) -> np.ndarray:
+    """``region`` with gaps narrower than ``kernel`` px closed (morphological closing, elliptic)."""
+    if kernel <= 1:
+        return region
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel, kernel))
+    closed = cv2.morphologyEx(np.pad(region, kernel).astype(np.uint8), cv2.MORPH_CLOSE, k)[kernel:-kernel, kernel:-kernel]
+    return region | closed.astype(bool)
+
+
+def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, eps: float,
+                          min_distance: float) -> np.ndarray | None:
+    """A simple loop around ``region``'s outer contour containing every square of ``cover``, or None.
+
+    Douglas-Peucker at ``eps`` (then finer) with each edge pushed out over the squares it
+    replaced (:func:`_push_out`), repaired, clipped to the image and spread (``min_distance``).
+    """
+    contour = outer_contour(region)
+    orient = 1.0
+    c_orient = np.sign(signed_area(contour.astype(np.float64))) or 1.0
+    first = None
+    for e in (eps, eps / 2, eps / 4, 0.5):
+        keys = dp_indices(contour.astype(np.float64), e)
+        if len(keys) < 3:
+            continue
+        loop = _push_out(contour, keys, c_orient)
+        if c_orient != orient:
+            loop = loop[::-1]
+        loop = _dedupe_loop(loop)
+        if not loop_is_simple(loop):
+            continue
+        loop = _repair(loop, cover)
+        if loop is None:
+            continue
+        loop = clip_loop_to_rect(loop, cover.shape[1], cover.shape[0])
+        if len(loop) >= 3 and loop_is_simple(loop):
+            loop = _spread(loop, cover, min_distance)
+            if _shortest_edge(loop) >= min_distance:
+                return loop
+            # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
+            first = loop if first is None else first
+    return first
+
+
 def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
                   min_distance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """One simple loop containing every pixel square of ``cover``, with few vertices.
@@ -347,39 +394,21 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
     region : ndarray, shape (H, W), bool
         The bridged, closed mask the loop wraps (its holes are candidate mesh holes).
     """
-    region = bridge_islands(cover)
-    if close_kernel > 1:
-        k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_kernel, close_kernel))
-        pad = close_kernel
-        closed = cv2.morphologyEx(np.pad(region, pad).astype(np.uint8), cv2.MORPH_CLOSE, k)[pad:-pad, pad:-pad]
-        region = region | closed.astype(bool)
-    contour = outer_contour(region)
+    bridged = bridge_islands(cover)
+    # A loop pushed out from both sides of a slit narrower than about 2 eps crosses itself; a
+    # wider closing fills such slits, so it is tried (kernel doubling) before the convex hull,
+    # which may draw most of the image for art that touches the border in several places.
+    kernel = close_kernel
+    while True:
+        region = _closed(bridged, kernel)
+        loop = _simple_covering_loop(region, cover, eps, min_distance)
+        if loop is not None:
+            return loop, region
+        kernel = max(2 * kernel, 9)
+        if kernel > max(cover.shape) // 2 or kernel > MAX_CLOSE_KERNEL:
+            break
+    region = _closed(bridged, close_kernel)
     orient = 1.0
-    c_area = signed_area(contour.astype(np.float64))
-    c_orient = np.sign(c_area) or 1.0
-    first = None
-    for e in (eps, eps / 2, eps / 4, 0.5):
-        keys = dp_indices(contour.astype(np.float64), e)
-        if len(keys) < 3:
-            continue
-        loop = _push_out(contour, keys, c_orient)
-        if c_orient != orient:
-            loop = loop[::-1]
-        loop = _dedupe_loop(loop)
-        if not loop_is_simple(loop):
-            continue
-        loop = _repair(loop, cover)
-        if loop is None:
-            continue
-        loop = clip_loop_to_rect(loop, cover.shape[1], cover.shape[0])
-        if len(loop) >= 3 and loop_is_simple(loop):
-            loop = _spread(loop, cover, min_distance)
-            if _shortest_edge(loop) >= min_distance:
-                return loop, region
-            # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
-            first = loop if first is None else first
-    if first is not None:
-        return first, region
     loop = clip_loop_to_rect(convex_cover(cover, orient), cover.shape[1], cover.shape[0])
     return _spread(loop, cover, min_distance), region
 

@@ -273,5 +273,6 @@ def frames_on_one_grid(frames: list) -> list:
         x0, y0, x1, y1 = f.content
         content = (-(-x0 * width // w), -(-y0 * height // h), x1 * width // w, y1 * height // h)
         rgba = cv2.resize(f.rgba, (width, height), interpolation=cv2.INTER_LINEAR)
-        out.append(RegionImage(rgba, f.scale, f.name, f.source, content, cover_resample(f.drawn, width, height)))
+        out.append(RegionImage(rgba, f.scale, f.name, f.source, content, cover_resample(f.drawn, width, height),
+                               cover_resample(f.shown, width, height)))
     return out
