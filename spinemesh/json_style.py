@@ -31,15 +31,13 @@ from __future__ import annotations
 import json
 import math
 import re
-from dataclasses import dataclass
-from decimal import Decimal
 from json.decoder import scanstring
+from typing import NamedTuple
 
-__all__ = ["JsonStyle", "EDITOR_STYLE", "detect_style", "dumps", "splice"]
+__all__ = ["JsonStyle", "EDITOR_STYLE", "NumberText", "detect_style", "dumps", "splice"]
 
 
-@dataclass(frozen=True)
-class JsonStyle:
+class JsonStyle(NamedTuple):
     """How a JSON text is laid out.
 
     Attributes
@@ -93,6 +91,9 @@ _MINIFIED = JsonStyle(indent="", pad="", colon=":", minified=True)
 #: without building an encoder per value (``spinemesh convert`` writes ~100,000 of them).
 _quote = json.encoder.encode_basestring
 _LITERALS = {None: "null", True: "true", False: "false"}
+#: Exact types of the values a flat line may hold, and of those written through ``NumberText``.
+_SCALAR_TYPES = frozenset((str, int, float, bool, type(None)))
+_NUMBER_TYPES = frozenset((int, float))
 
 
 def _scalar(value, java_exponents: bool = False) -> str:
@@ -116,55 +117,107 @@ def _scalar(value, java_exponents: bool = False) -> str:
 
 def _java_double(value: float) -> str:
     """The shortest digits of ``value`` in Java's scientific form: ``1.0E-5``, ``-2.5E8``."""
+    from decimal import Decimal  # rare values only: not imported for every `spinemesh convert`
+
     sign, digits, exponent = Decimal(repr(value)).normalize().as_tuple()
     rest = "".join(map(str, digits[1:])) or "0"
     return f"{'-' if sign else ''}{digits[0]}.{rest}E{exponent + len(digits) - 1}"
 
 
-def _is_flat(value) -> bool:
-    items = value.values() if isinstance(value, dict) else value
-    return not any(isinstance(v, (dict, list)) for v in items)
+class NumberText(dict):
+    """How numbers are written: ``numbers[value]`` is the JSON text of an ``int`` or ``float``.
+
+    Each text is made once and remembered (a skeleton repeats its values: keys, weights,
+    uvs), and lines of numbers are joined from it. Subclasses change :meth:`text`, say to
+    write float32 values as their shortest decimals (:class:`spinemesh.skeleton_binary.Float32Text`).
+    Only exact ``int`` and ``float`` values are looked up (``True == 1`` as a key), and none of
+    magnitude 1e15 or more is remembered: there ``int`` and ``float`` keys that compare equal
+    are written differently.
+
+    Parameters
+    ----------
+    java_exponents : bool, default True
+        See :attr:`JsonStyle.java_exponents`.
+    """
+
+    __slots__ = ("java_exponents",)
+
+    def __init__(self, java_exponents: bool = True):
+        super().__init__()
+        self.java_exponents = java_exponents
+
+    def __missing__(self, value) -> str:
+        text = self.text(value)  # raises ValueError for NaN and infinities
+        if -1e15 < value < 1e15:
+            self[value] = text
+        return text
+
+    def text(self, value) -> str:
+        """The JSON text of one number, as :func:`dumps` writes it by default."""
+        return _scalar(value, self.java_exponents)
 
 
-def _one_line(value, style: JsonStyle) -> str:
+def _value_text(value, numbers: NumberText) -> str:
+    """One scalar value as JSON, a number through ``numbers``."""
+    return numbers[value] if type(value) in _NUMBER_TYPES else _scalar(value, numbers.java_exponents)
+
+
+def _one_line(value, style: JsonStyle, numbers: NumberText) -> str | None:
+    """``value`` (a non-empty dict or list) on one line, or None when it holds a dict or list."""
     sep = "," if style.minified else ", "
-    if isinstance(value, dict):
-        body = sep.join(_scalar(str(k)) + style.colon + _scalar(v, style.java_exponents) for k, v in value.items())
+    is_dict = isinstance(value, dict)
+    items = value.values() if is_dict else value
+    # The set of exact types tells a flat value, and a line of numbers only, without a loop here.
+    types = set(map(type, items))
+    if not types <= _SCALAR_TYPES and any(issubclass(t, (dict, list)) for t in types):
+        return None
+    if is_dict:
+        colon = style.colon
+        body = sep.join([_quote(str(k)) + colon + _value_text(v, numbers) for k, v in value.items()])
         return "{" + style.pad + body + style.pad + "}"
-    return "[" + style.pad + sep.join(_scalar(v, style.java_exponents) for v in value) + style.pad + "]"
+    if types <= _NUMBER_TYPES:
+        body = sep.join(map(numbers.__getitem__, value))
+    else:
+        body = sep.join([_value_text(v, numbers) for v in value])
+    return "[" + style.pad + body + style.pad + "]"
 
 
-def _write(value, style: JsonStyle, close: str, inner: str, out: list[str]) -> None:
+def _write(value, style: JsonStyle, close: str, inner: str, out: list[str], numbers: NumberText) -> None:
     """Append ``value`` to ``out``; ``close`` indents its closing bracket, ``inner`` its items."""
     if not isinstance(value, (dict, list)):
-        out.append(_scalar(value, style.java_exponents))
+        out.append(_value_text(value, numbers))
         return
-    empty = "{}" if isinstance(value, dict) else "[]"
+    is_dict = isinstance(value, dict)
     if not value:
-        out.append(empty)
+        out.append("{}" if is_dict else "[]")
         return
     if style.minified:
         columns = math.inf
     else:
-        columns = style.object_columns if isinstance(value, dict) else style.array_columns
-    if _is_flat(value) and (style.minified or not isinstance(value, dict) or len(value) <= style.object_items):
-        line = _one_line(value, style)
-        if len(line) <= columns:
+        columns = style.object_columns if is_dict else style.array_columns
+    if style.minified or not is_dict or len(value) <= style.object_items:
+        line = _one_line(value, style, numbers)
+        if line is not None and len(line) <= columns:
             out.append(line)
             return
     nl = "" if style.minified else style.newline
-    out.append(empty[0] + nl)
-    items = list(value.items()) if isinstance(value, dict) else [(None, v) for v in value]
-    for i, (key, item) in enumerate(items):
-        out.append(inner)
-        if key is not None:
-            out.append(_scalar(str(key)) + style.colon)
-        _write(item, style, inner, inner + style.indent, out)
-        out.append(("," if i < len(items) - 1 else "") + nl)
-    out.append(close + empty[1])
+    out.append(("{" if is_dict else "[") + nl)
+    last = len(value) - 1
+    if is_dict:
+        colon = style.colon
+        for i, (key, item) in enumerate(value.items()):
+            out.append(inner + _quote(str(key)) + colon)
+            _write(item, style, inner, inner + style.indent, out, numbers)
+            out.append(("," if i < last else "") + nl)
+    else:
+        for i, item in enumerate(value):
+            out.append(inner)
+            _write(item, style, inner, inner + style.indent, out, numbers)
+            out.append(("," if i < last else "") + nl)
+    out.append(close + ("}" if is_dict else "]"))
 
 
-def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "") -> str:
+def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "", numbers: type[NumberText] = NumberText) -> str:
     """``value`` as JSON text in ``style``.
 
     Parameters
@@ -175,6 +228,8 @@ def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "") -> str:
     style : JsonStyle, default EDITOR_STYLE
     indent : str, default ""
         Indentation of the line the value starts on; its closing bracket gets the same.
+    numbers : type, default NumberText
+        How numbers are written (a :class:`NumberText` class, made with ``style.java_exponents``).
 
     Examples
     --------
@@ -190,7 +245,7 @@ def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "") -> str:
     out: list[str] = []
     top = indent == "" and isinstance(value, dict)
     inner = indent + (style.indent if (style.top_level_indented or not top) else "")
-    _write(value, style, indent, inner, out)
+    _write(value, style, indent, inner, out, numbers(style.java_exponents))
     return "".join(out)
 
 

@@ -60,10 +60,10 @@ def load_skeleton(path: str | Path) -> dict:
     except OSError as e:
         raise SkeletonError(f"cannot read skeleton: {e.strerror}", path) from None
     if is_binary_skeleton(path):
-        from .skeleton_binary import read_skel
+        from .skeleton_binary import read_skel_finite
 
-        doc = read_skel(path)
-        where = first_non_finite(doc)
+        doc, finite = read_skel_finite(path)
+        where = None if finite else first_non_finite(doc)
         if where is not None:
             raise SkeletonError(f"holds a non-finite number (NaN or infinity) at {where}; refused, "
                                 "since it could not be written back as valid JSON or meshed", path)
@@ -183,7 +183,7 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
         raise SkeletonError(f"invalid JSON: {e}", source) from None
 
 
-def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None = None) -> str:
+def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None = None, numbers=None) -> str:
     """The document as JSON text in the editor's export style, or in the style of ``like``.
 
     Parameters
@@ -195,6 +195,10 @@ def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None =
         The JSON text ``doc`` was read from. Only the values that changed are rewritten (in
         the style detected from ``like``) and every other byte is kept, so that a
         version-control diff shows only what changed (see :mod:`spinemesh.json_style`).
+    numbers : type, optional
+        How numbers are written when ``like`` is not given: a
+        :class:`~spinemesh.json_style.NumberText` class, by default that one;
+        :class:`~spinemesh.skeleton_binary.Float32Text` for a document read from a ``.skel``.
 
     Raises
     ------
@@ -202,10 +206,12 @@ def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None =
         If the document holds NaN or Infinity (strict JSON and the runtimes reject them),
         naming ``path``, the file it was meant for.
     """
-    from .json_style import EDITOR_STYLE, dumps, splice
+    from .json_style import EDITOR_STYLE, NumberText, dumps, splice
 
     try:
-        return splice(like, doc) if like is not None else dumps(doc, EDITOR_STYLE) + "\n"
+        if like is not None:
+            return splice(like, doc)
+        return dumps(doc, EDITOR_STYLE, numbers=numbers or NumberText) + "\n"
     except ValueError as e:
         raise SpineMeshError(f"not written: it would hold a non-finite number ({e})", path) from None
 

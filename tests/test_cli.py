@@ -70,6 +70,45 @@ def test_convert_imports_nothing_heavy(tmp_path):
     assert json.loads((tmp_path / "o.json").read_text())["skeleton"]["spine"].startswith("4.2")
 
 
+def _convert_both_ways(args: list[str], cwd: Path) -> list[tuple]:
+    """``spinemesh convert ARGS`` run by the console script with its plain path and with the
+    plain path turned off (typer parses): (exit code, stdout, stderr, output bytes) of each."""
+    results = []
+    for entry in ("from spinemesh.cli import main as run",
+                  "import spinemesh.cli.convert_files as f; f.run_plain_convert = lambda args: False\n"
+                  "from spinemesh.cli import main as run"):
+        out = cwd / "out"
+        if out.exists():
+            for f in out.iterdir():
+                f.unlink()
+        else:
+            out.mkdir()
+        code = (f"import sys; sys.argv = ['spinemesh', 'convert', *{args!r}]\n{entry}\n"
+                "try:\n    run()\nfinally:\n    print('typer parsed:', 'spinemesh.cli.convert' in sys.modules, file=sys.stderr)")
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd)
+        files = {f.name: f.read_bytes() for f in sorted(out.iterdir())}
+        stderr, typer_parsed = r.stderr.rsplit("typer parsed: ", 1)
+        results.append((r.returncode, r.stdout, stderr, files, typer_parsed.strip() == "True"))
+    return results
+
+
+@pytest.mark.parametrize("args", [["demo-binary.skel", "out/a.json"], ["demo-binary.skel", "out/a.skel"],
+                                  ["--keep-binary-info", "demo-binary.skel", "out/a.json"],
+                                  ["demo.json", "out/a.skel"], ["demo-binary.skel", "out/a.txt"],
+                                  ["demo-binary.skel", "demo-binary.skel"], ["missing.skel", "out/a.json"],
+                                  ["images", "out/a.json"], ["demo-binary.skel", "out/a.json", "--bogus"]])
+def test_plain_convert_is_the_typer_command(demo, args):
+    """The console script runs a plain ``convert`` without typer (start-up, issue 19): same files,
+    output and exit code as the typer command; what it does not handle falls through to typer."""
+    plain, typed = _convert_both_ways(args, demo)
+    assert plain[:4] == typed[:4]
+    assert typed[4], "the typer path did not run the typer command"
+    handled = not any(a in ("missing.skel", "images", "--bogus") for a in args)
+    assert plain[4] != handled, f"plain path {'not ' if handled else ''}taken for {args}"
+    if handled and args[-1] == "out/a.json":
+        assert plain[0] == 0 and "a.json" in plain[3]
+
+
 def test_shortest_float32_matches_numpy():
     """convert's pure-Python float32 rounding (no numpy import) gives numpy's shortest decimals."""
     import numpy as np
@@ -81,6 +120,26 @@ def test_shortest_float32_matches_numpy():
     human = (rng.integers(-10 ** 5, 10 ** 5, 20_000) / 10.0 ** rng.integers(0, 5, 20_000)).astype(np.float32)
     for v in np.concatenate([values[np.isfinite(values)], human, np.float32([1e-45, -3e-45, 1.1754944e-38])]):
         assert shortest_float32(float(v)) == float(str(v)), repr(v)
+
+
+def test_float32_text_is_numpys_shortest_decimal_as_the_editor_writes_it():
+    """convert's JSON text of a float32 (exact arithmetic, no formatting per candidate) is numpy's
+    shortest decimal, written as the editor does (integers without ``.0``, Java exponents)."""
+    import numpy as np
+
+    from spinemesh.json_style import _scalar
+    from spinemesh.skeleton_binary import Float32Text
+
+    rng = np.random.default_rng(2)
+    values = rng.integers(0, 2 ** 32, 50_000, dtype=np.uint64).astype(np.uint32).view(np.float32)
+    in_range = (rng.choice([-1, 1], 100_000) * 10.0 ** rng.uniform(-3.2, 7.2, 100_000)).astype(np.float32)
+    human = (rng.integers(-10 ** 5, 10 ** 5, 20_000) / 10.0 ** rng.integers(0, 5, 20_000)).astype(np.float32)
+    powers = np.float32([10.0 ** k for k in range(-4, 8)] + [-(10.0 ** k) for k in range(-4, 8)] + [1e-45, 0.0, -0.0])
+    text = Float32Text()
+    for v in np.concatenate([values[np.isfinite(values)], in_range, human, powers]):
+        x = float(v)
+        expected = str(int(x)) if x > 0 and x.is_integer() else _scalar(float(str(v)), java_exponents=True)
+        assert text[x] == expected, repr(v)
 
 
 # --- options --------------------------------------------------------------------------------

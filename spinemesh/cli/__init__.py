@@ -1,23 +1,39 @@
 """The ``spinemesh`` command line.
 
-Each command lives in its own module of this package and registers itself on :data:`app`;
-this module only imports them. Errors of the :class:`~spinemesh.errors.SpineMeshError`
-family are printed as one line, never as a traceback.
+Each command lives in its own module of this package and registers itself on the typer
+application, ``app``; it is built on first use (``from spinemesh.cli import app`` works as
+before), so that the console script can run a plain ``spinemesh convert SOURCE TARGET``
+without importing typer (:mod:`.convert_files`). Errors of the
+:class:`~spinemesh.errors.SpineMeshError` family are printed as one line, never as a traceback.
 """
 
 from __future__ import annotations
 
 import sys
 
-from ._app import app, console, err_console  # noqa: F401
-from . import info  # noqa: F401,E402
-from . import convert  # noqa: F401,E402
-from . import segment  # noqa: F401,E402
-from . import dataset  # noqa: F401,E402
-from . import mesh  # noqa: F401,E402
-from . import diff  # noqa: F401,E402
-from . import upgrade  # noqa: F401,E402
-from . import weights  # noqa: F401,E402
+_COMMAND_MODULES = ("info", "convert", "segment", "dataset", "mesh", "diff", "upgrade", "weights")
+
+
+def _load_app():
+    """The typer application with every command registered (imports typer and the command modules)."""
+    from importlib import import_module
+
+    from ._app import app
+
+    for name in _COMMAND_MODULES:
+        import_module(f"{__name__}.{name}")
+    return app
+
+
+def __getattr__(name: str):
+    # PEP 562: `app`, `console` and `err_console` are made on first access, not at import.
+    if name == "app":
+        return _load_app()
+    if name in ("console", "err_console"):
+        from . import _app
+
+        return getattr(_app, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main() -> None:
@@ -32,9 +48,17 @@ def main() -> None:
 
     exit_on_terminate()
     try:
-        app()
+        args = sys.argv[1:]
+        if args[:1] == ["convert"]:
+            from .convert_files import run_plain_convert
+
+            if run_plain_convert(args[1:]):
+                return
+        _load_app()()
     except SpineMeshError as e:
         from rich.markup import escape
+
+        from ._app import err_console
 
         err_console.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)

@@ -54,6 +54,10 @@ class SkelReader:
         self.path = str(path) if path is not None else None
         #: The shared string table of 3.8+ files (``readStringRef``).
         self.strings: list[str] = []
+        #: The sum of every float read, as a float64: finite exactly when each one was, since
+        #: float32 values cannot overflow it and a NaN or infinity makes it NaN or infinite.
+        #: One addition per value (or per bulk read) instead of a walk over the document.
+        self.float_sum = 0.0
 
     # -- errors ---------------------------------------------------------------------
     def fail(self, expected: str, at: int | None = None) -> SkelFormatError:
@@ -90,7 +94,9 @@ class SkelReader:
         return _I64.unpack(self._take(8, what))[0]
 
     def f32(self, value=None, what: str = "float") -> float:
-        return _F32.unpack(self._take(4, what))[0]
+        v = _F32.unpack(self._take(4, what))[0]
+        self.float_sum += v
+        return v
 
     def varint(self, value=None, positive: bool = True, what: str = "varint") -> int:
         result = 0

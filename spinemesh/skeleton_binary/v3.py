@@ -214,6 +214,7 @@ def floats(s, node: dict, key: str, n: int) -> list:
     if s.reading:
         raw = s.raw(n=4 * n, what=f"{key} ({n} floats)")
         v = list(struct.unpack(f">{n}f", raw))
+        s.float_sum += sum(v)
         node[key] = v
         return v
     v = node.get(key, [])
@@ -460,6 +461,7 @@ def vertices(s, node: dict, n: int, c: Context) -> None:
                     raise s.fail(f"bone index below {nbones}, found {b}", at)
                 out.append(b)
                 out += struct.unpack(">3f", s.raw(n=12, what="weighted vertex"))
+        s.float_sum += sum(out)  # its counts and bone indices are small ints
         node["vertices"] = out
         return
     i = 0
@@ -736,6 +738,7 @@ def curve(s, f: dict, c: Context) -> None:
             f["curve"] = "stepped"
         elif kind == CURVE_BEZIER:
             c1, c2, c3, c4 = struct.unpack(">4f", s.raw(n=16, what="bezier curve"))
+            s.float_sum += c1 + c2 + c3 + c4
             if c.L.split_curve:
                 f["curve"] = c1
                 put(f, "c2", c2, 0)
@@ -1054,6 +1057,7 @@ def read(reader: SkelReader) -> dict:
             raise r.fail(f"end of file, found {len(r.data) - r.pos} more bytes")
     finally:
         reader.pos = r.pos
+        reader.float_sum += r.float_sum
     if c.L.refs and not first_use_table(r.strings, r.refs):
         # The editor's own table order (not first use): keep it, and the indices too
         # when some reference does not point at its string's first copy.

@@ -252,6 +252,7 @@ def read(reader: SkelReader) -> dict:
         skeleton(r, doc)
     finally:
         reader.pos = r.pos
+        reader.float_sum += r.float_sum
     return _json_order(doc)
 
 

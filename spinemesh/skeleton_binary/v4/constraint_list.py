@@ -8,6 +8,7 @@ animation, stored by index after every animation has been read.
 
 from __future__ import annotations
 
+import math
 import struct
 
 from ..enums import POSITION_MODE, ROTATE_MODE
@@ -217,7 +218,9 @@ def physics(s, node: dict, c: Context) -> None:
         # The binary keeps the inverse of the mass that the JSON holds.
         if s.reading:
             inv = s.f32()
-            _put(node, "mass", 1 / inv if inv else float("inf"), 1)
+            mass = 1 / inv if inv else math.inf
+            s.float_sum += mass  # infinite for a zero inverse, refused like a stored one
+            _put(node, "mass", mass, 1)
         else:
             s.f32(1 / node.get("mass", 1))
     fld(s, node, "wind", 0)

@@ -182,7 +182,9 @@ def physics(s, node: dict, c: Context) -> None:
         # The binary keeps the inverse of the mass that the JSON holds.
         if s.reading:
             inv = s.f32()
-            _put(node, "mass", 1 / inv if inv else math.inf, 1)
+            mass = 1 / inv if inv else math.inf
+            s.float_sum += mass  # infinite for a zero inverse, refused like a stored one
+            _put(node, "mass", mass, 1)
         else:
             s.f32(1 / node.get("mass", 1))
     fld(s, node, "wind", 0)

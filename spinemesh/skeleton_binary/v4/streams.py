@@ -93,6 +93,7 @@ class _RefReader(SkelReader):
         except struct.error:
             raise self._eof(what) from None
         self.pos = pos + 4
+        self.float_sum += v
         return v
 
     def varint(self, value=None, positive: bool = True, what: str = "varint") -> int:
@@ -130,29 +131,35 @@ class _RefReader(SkelReader):
         prev = None
         copysign = math.copysign
         pos = self.pos
+        total = 0.0  # of the floats read, for float_sum
         try:
             for _ in range(n):
                 vals = unpack(buf, pos)
                 pos += size
                 f = {}
                 t = vals[0]
+                total += t
                 if t != 0 or copysign(1.0, t) < 0:
                     f["time"] = t
                 if single:
                     v = vals[1]
+                    total += v
                     if v != d0 or (v == 0 and copysign(1.0, v) < 0):
                         f[key0] = v
                 else:
                     for (key, kind, d), v in zip(layout, vals[1:]):
                         if kind != "f":
                             f[key] = v.hex()
-                        elif v != d or (v == 0 and copysign(1.0, v) < 0):
+                            continue
+                        total += v
+                        if v != d or (v == 0 and copysign(1.0, v) < 0):
                             f[key] = v
                 if prev is not None:
                     kind = buf[pos]
                     pos += 1
                     if kind == CURVE_BEZIER:
-                        prev["curve"] = list(curve_unpack(buf, pos))
+                        prev["curve"] = bezier = list(curve_unpack(buf, pos))
+                        total += sum(bezier)
                         pos += curve_size
                     elif kind == CURVE_STEPPED:
                         prev["curve"] = "stepped"
@@ -165,6 +172,7 @@ class _RefReader(SkelReader):
             self.pos = pos
             raise self._eof("timeline frames") from None
         self.pos = pos
+        self.float_sum += total
         return frames
 
     def count(self, value=None, what: str = "count") -> int:
@@ -184,7 +192,9 @@ class _RefReader(SkelReader):
             raise self._eof(f"{what} ({n} floats)")
         unpack, size = _floats_struct(n)
         self.pos = pos + size
-        return list(unpack(self.buf, pos))
+        values = list(unpack(self.buf, pos))
+        self.float_sum += sum(values)
+        return values
 
     def varints(self, values=None, n: int = 0, what: str = "indices") -> list[int]:
         """``n`` non-negative varints (triangles, edges of 4.2 meshes)."""
@@ -244,6 +254,7 @@ class _RefReader(SkelReader):
             self.pos = pos
             raise self._eof("weighted vertices") from None
         self.pos = pos
+        self.float_sum += sum(out)  # its counts and bone indices are small ints
         return out
 
     def string_ref(self, value=None, what: str = "string reference"):

@@ -1,0 +1,77 @@
+"""What ``spinemesh convert`` does, without typer: one skeleton file to another format.
+
+:func:`convert_files` is the command's whole work, called by the typer command in
+:mod:`.convert`. :func:`run_plain_convert` lets the console script run a plain
+``spinemesh convert SOURCE TARGET [--keep-binary-info]`` without importing typer at all
+(about 30 ms of a 90 ms run on a large skeleton, issue 19); anything else (``--help``, a
+missing source, an option it does not know, ``--``) goes to the typer command, which gives
+the usual help and errors.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+_BINARY_SUFFIXES = (".skel", ".skel.bytes")
+KEEP_BINARY_INFO = "--keep-binary-info"
+
+
+def is_binary_name(path: Path) -> bool:
+    """Whether a file name says binary skeleton (``.skel``, ``.skel.bytes``)."""
+    return path.name.lower().endswith(_BINARY_SUFFIXES)
+
+
+def convert_files(source: Path, target: Path, keep_binary_info: bool = False) -> str:
+    """Convert the skeleton ``source`` to ``target``, whose extension picks the format; return
+    the line to print (``wrote TARGET (JSON, Spine 4.2.22)``).
+
+    Raises
+    ------
+    SpineMeshError
+        For an unreadable source, a refused target (onto the source, through a symlink) or a
+        target extension that is neither ``.skel``, ``.skel.bytes`` nor ``.json``.
+    """
+    from ..errors import SpineMeshError
+    from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs
+    from ..skeleton import dumps_skeleton, load_skeleton, spine_version
+    from ..skeleton_binary.enums import EXTRA
+
+    check_outputs([source], files=[target])  # never onto the source, never through a symlink
+    doc = load_skeleton(source)
+    if is_binary_name(target):
+        from ..skeleton_binary import write_skel
+
+        atomic_write_bytes(target, write_skel(doc, target))
+        kind = "binary"
+    elif target.suffix.lower() == ".json":
+        if not keep_binary_info:
+            doc = {k: v for k, v in doc.items() if k != EXTRA}
+        numbers = None
+        if is_binary_name(source):
+            from ..skeleton_binary import Float32Text
+
+            numbers = Float32Text  # float32 values as their shortest decimals, not float64 expansions
+        atomic_write_text(target, dumps_skeleton(doc, target, numbers=numbers))
+        kind = "JSON"
+    else:
+        raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)
+    return f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})"
+
+
+def run_plain_convert(args: list[str]) -> bool:
+    """Run ``convert`` for arguments that need no parsing; False (nothing done) for any other.
+
+    Plain means: two paths not starting with ``-``, the source an existing readable file (what
+    the typer command checks), and at most the ``--keep-binary-info`` flag. Errors of the work
+    itself are raised as from the typer command.
+    """
+    keep = KEEP_BINARY_INFO in args
+    paths = [a for a in args if a != KEEP_BINARY_INFO]
+    if len(paths) != 2 or args.count(KEEP_BINARY_INFO) > 1 or any(not p or p.startswith("-") for p in paths):
+        return False
+    source, target = map(Path, paths)
+    if not (source.is_file() and os.access(source, os.R_OK)):
+        return False
+    print(convert_files(source, target, keep))
+    return True
