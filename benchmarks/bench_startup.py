@@ -39,11 +39,17 @@ def script(name: str) -> str:
     return str(path)
 
 
+#: The children run as a user's shell runs them: with bytecode caching on even where this shell
+#: turned it off (PYTHONDONTWRITEBYTECODE), since `pip install` compiles an installed package's
+#: .pyc files and the warm-up run writes them for a source checkout.
+CHILD_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def run_once(cmd: list[str]) -> tuple[float, float]:
     """Wall and CPU (user + system) seconds of one run of ``cmd`` in a child process."""
     before = os.times()
     start = time.perf_counter()
-    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=CHILD_ENV)
     wall = time.perf_counter() - start
     after = os.times()
     if done.returncode != 0:
