@@ -332,18 +332,19 @@ def _closed(region: np.ndarray, kernel: int) -> np.ndarray:
     return region | closed.astype(bool)
 
 
-def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, eps: float,
+def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tuple[float, ...],
                           min_distance: float) -> np.ndarray | None:
     """A simple loop around ``region``'s outer contour containing every square of ``cover``, or None.
 
-    Douglas-Peucker at ``eps`` (then finer) with each edge pushed out over the squares it
-    replaced (:func:`_push_out`), repaired, clipped to the image and spread (``min_distance``).
+    Douglas-Peucker at each of ``tolerances`` in turn (px) with each edge pushed out over the
+    squares it replaced (:func:`_push_out`), repaired, clipped to the image and spread
+    (``min_distance``); the first that gives a simple loop.
     """
     contour = outer_contour(region)
     orient = 1.0
     c_orient = np.sign(signed_area(contour.astype(np.float64))) or 1.0
     first = None
-    for e in (eps, eps / 2, eps / 4, 0.5):
+    for e in tolerances:
         keys = dp_indices(contour.astype(np.float64), e)
         if len(keys) < 3:
             continue
@@ -395,19 +396,24 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
         The bridged, closed mask the loop wraps (its holes are candidate mesh holes).
     """
     bridged = bridge_islands(cover)
-    # A loop pushed out from both sides of a slit narrower than about 2 eps crosses itself; a
-    # wider closing fills such slits, so it is tried (kernel doubling) before the convex hull,
-    # which may draw most of the image for art that touches the border in several places.
-    kernel = close_kernel
-    while True:
-        region = _closed(bridged, kernel)
-        loop = _simple_covering_loop(region, cover, eps, min_distance)
-        if loop is not None:
-            return loop, region
-        kernel = max(2 * kernel, 9)
-        if kernel > max(cover.shape) // 2 or kernel > MAX_CLOSE_KERNEL:
-            break
     region = _closed(bridged, close_kernel)
+    tolerances = (eps, eps / 2, eps / 4, 0.5)
+    loop = _simple_covering_loop(region, cover, tolerances, min_distance)
+    if loop is not None:
+        return loop, region
+    # A loop pushed out from both sides of a slit narrower than about 2 eps crosses itself. A
+    # wider closing fills such slits: tried before the convex hull (which may draw most of the
+    # image for art touching the border in several places), coarsest tolerance first, so that
+    # a wider closing wins over a finer tolerance (fewer vertices).
+    kernels = [k for k in (9, 17, 33, 65, MAX_CLOSE_KERNEL) if close_kernel < k <= max(cover.shape) // 2]
+    closings: dict[int, np.ndarray] = {}
+    for e in tolerances:
+        for k in kernels:
+            if k not in closings:
+                closings[k] = _closed(bridged, k)
+            loop = _simple_covering_loop(closings[k], cover, (e,), min_distance)
+            if loop is not None:
+                return loop, closings[k]
     orient = 1.0
     loop = clip_loop_to_rect(convex_cover(cover, orient), cover.shape[1], cover.shape[0])
     return _spread(loop, cover, min_distance), region
