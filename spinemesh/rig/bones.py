@@ -8,8 +8,9 @@ transform, filtered by the bone's inherit mode (called transform mode before 4.2
 skeleton itself sits at the origin with scale 1, as it does when a game loads it.
 
 IK, transform and path constraints move their bones after this computation, even in the
-setup pose (unless all their mixes are 0). Those bones and everything below them are marked *not exact*: their setup
-world transform is not reproduced here, and nothing is bound to them.
+setup pose (unless all their mixes are 0): :mod:`.constraints` applies them as the runtime does.
+Bones whose setup world transform it does not reproduce, and everything below them, are
+marked *not exact*, and nothing is bound to them.
 """
 
 from __future__ import annotations
@@ -83,29 +84,37 @@ def inherit_mode(node: dict) -> str:
     return mode
 
 
-def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
-    """The setup-pose world transform of one bone, shape (2, 3).
+def local_values(node: dict) -> tuple[float, ...]:
+    """``(x, y, rotation, scaleX, scaleY, shearX, shearY)`` of a bone's setup pose, with defaults."""
+    return (_num(node, "x", 0), _num(node, "y", 0), _num(node, "rotation", 0), _num(node, "scaleX", 1),
+            _num(node, "scaleY", 1), _num(node, "shearX", 0), _num(node, "shearY", 0))
 
-    Follows the runtimes' ``Bone.updateWorldTransform`` for each inherit mode, with the
+
+def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | None) -> np.ndarray:
+    """A bone's world transform, shape (2, 3), from its local values and its parent's world transform.
+
+    Follows the runtimes' ``Bone.updateWorldTransformWith`` for each inherit mode, with the
     skeleton at the origin and scale 1 (the runtimes divide and multiply by the skeleton's
-    scale, which is then a no-op).
+    scale, which is then a no-op). The formulas are the same in 3.8 to 4.2 at that scale.
 
     Parameters
     ----------
-    node : dict
-        The bone's JSON (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``, ``shearX``,
-        ``shearY``, ``inherit``/``transform``).
+    values : tuple of 7 floats
+        ``(x, y, rotation, scaleX, scaleY, shearX, shearY)``, degrees for the angles.
+    mode : str
+        One of :data:`INHERIT_MODES`.
     parent : ndarray, shape (2, 3), or None
         The parent's world transform; None for the root.
     """
-    x, y = _num(node, "x", 0), _num(node, "y", 0)
-    la, lb, lc, ld = local_matrix(node)
+    x, y, rot, sx, sy, shear_x, shear_y = values
+    cx, snx = _cos_sin(rot + shear_x)
+    cy, sny = _cos_sin(rot + 90 + shear_y)
+    la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
     if parent is None:
         return np.array([[la, lb, x], [lc, ld, y]])
-    pa, pb, wx = parent[0]
-    pc, pd, wy = parent[1]
+    pa, pb, wx = (float(v) for v in parent[0])
+    pc, pd, wy = (float(v) for v in parent[1])
     world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
-    mode = inherit_mode(node)
     if mode == "normal":
         m = (pa * la + pb * lc, pa * lb + pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
     elif mode == "onlyTranslation":
@@ -119,14 +128,12 @@ def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
         else:
             pa = pc = 0.0
             prx = 90 - math.degrees(math.atan2(pd, pb))
-        rot = _num(node, "rotation", 0)
-        sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
-        cx, snx = _cos_sin(rot + _num(node, "shearX", 0) - prx)
-        cy, sny = _cos_sin(rot + _num(node, "shearY", 0) - prx + 90)
+        cx, snx = _cos_sin(rot + shear_x - prx)
+        cy, sny = _cos_sin(rot + shear_y - prx + 90)
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
         m = (pa * la - pb * lc, pa * lb - pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
     else:  # noScale, noScaleOrReflection
-        cos, sin = _cos_sin(_num(node, "rotation", 0))
+        cos, sin = _cos_sin(rot)
         za, zc = pa * cos + pb * sin, pc * cos + pd * sin
         s = math.hypot(za, zc)
         if s > 0.00001:
@@ -137,12 +144,25 @@ def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
             s = -s
         r = math.pi / 2 + math.atan2(zc, za)
         zb, zd = math.cos(r) * s, math.sin(r) * s
-        sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
-        cx, snx = _cos_sin(_num(node, "shearX", 0))
-        cy, sny = _cos_sin(90 + _num(node, "shearY", 0))
+        cx, snx = _cos_sin(shear_x)
+        cy, sny = _cos_sin(90 + shear_y)
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
         m = (za * la + zb * lc, za * lb + zb * ld, zc * la + zd * lc, zc * lb + zd * ld)
     return np.array([[m[0], m[1], world_x], [m[2], m[3], world_y]])
+
+
+def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
+    """The setup-pose world transform of one bone from its JSON, shape (2, 3), ignoring constraints.
+
+    Parameters
+    ----------
+    node : dict
+        The bone's JSON (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``, ``shearX``,
+        ``shearY``, ``inherit``/``transform``).
+    parent : ndarray, shape (2, 3), or None
+        The parent's world transform; None for the root.
+    """
+    return world_from_local(local_values(node), inherit_mode(node), parent)
 
 
 def constraints_of(doc: dict, kind: str) -> list[dict]:
@@ -150,40 +170,6 @@ def constraints_of(doc: dict, kind: str) -> list[dict]:
     or the entries of 4.3's single ``constraints`` list whose ``type`` is ``kind``."""
     out = [c for c in doc.get(kind, []) or [] if isinstance(c, dict)]
     out += [c for c in doc.get("constraints", []) or [] if isinstance(c, dict) and c.get("type") == kind]
-    return out
-
-
-def _constrained_bones(doc: dict, index: dict[str, int]) -> dict[int, str]:
-    """Bones a constraint moves in the setup pose, with the constraint that does."""
-    out: dict[int, str] = {}
-    four_three = bool(doc.get("constraints"))
-
-    def mark(names, why):
-        for n in names if isinstance(names, list) else []:
-            if n in index:
-                out.setdefault(index[n], why)
-
-    for c in constraints_of(doc, "ik"):
-        if _num(c, "mix", 1) != 0:
-            mark(c.get("bones"), f"IK constraint {c.get('name')!r}")
-    for c in constraints_of(doc, "transform"):
-        if four_three:  # 4.3 maps properties freely: any transform constraint counts
-            mark(c.get("bones"), f"transform constraint {c.get('name')!r}")
-            continue
-        if any(k in c for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")):  # 3.x
-            mixes = [_num(c, k, 1) for k in ("rotateMix", "translateMix", "scaleMix", "shearMix")]
-        else:  # 4.x: mixY defaults to mixX, mixScaleY to mixScaleX
-            mix_x, mix_sx = _num(c, "mixX", 1), _num(c, "mixScaleX", 1)
-            mixes = [_num(c, "mixRotate", 1), mix_x, _num(c, "mixY", mix_x), mix_sx,
-                     _num(c, "mixScaleY", mix_sx), _num(c, "mixShearY", 1)]
-        if any(m != 0 for m in mixes):
-            mark(c.get("bones"), f"transform constraint {c.get('name')!r}")
-    for c in constraints_of(doc, "path"):
-        mark(c.get("bones"), f"path constraint {c.get('name')!r}")
-    for c in constraints_of(doc, "slider"):  # 4.3: an animation drives bones through it
-        mark(c.get("bones") or [c.get("bone")], f"slider constraint {c.get('name')!r}")
-    # Physics constraints (4.2) are left out on purpose: the setup pose resets them, and with
-    # zero offsets they leave their bone's world transform as it is.
     return out
 
 
@@ -200,34 +186,26 @@ def _constraint_targets(doc: dict, index: dict[str, int]) -> dict[int, str]:
 def skeleton_bones(doc: dict) -> list[Bone]:
     """Every bone of ``doc`` with its setup-pose world transform, in document order.
 
-    Bones come parents first (the format requires it). A bone moved by a constraint in the
-    setup pose, and every bone below it, is marked not exact with the reason; so is a bone
-    whose transform is not invertible (a zero scale), which nothing can be bound to.
+    Bones come parents first (the format requires it). The setup pose is the runtime's,
+    constraints applied (:func:`.constraints.setup_pose`); a bone whose transform that module
+    does not reproduce, and every bone below it, is marked not exact with the reason; so is a
+    bone whose transform is not invertible (a zero scale), which nothing can be bound to.
     """
+    # Imported here: the constraints module builds on this module's transforms.
+    from .constraints import setup_pose
+
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
-    constrained = _constrained_bones(doc, index)
     targets = _constraint_targets(doc, index)
-    skin_bones = set()
-    for b in nodes:
-        if b.get("skin") is True:
-            skin_bones.add(index[str(b.get("name"))])
     bones: list[Bone] = []
-    for i, node in enumerate(nodes):
-        p = index.get(node.get("parent")) if node.get("parent") is not None else None
-        if p is not None and p >= i:
-            p = None  # malformed order: treat as a root, and do not trust it
-        parent = bones[p] if p is not None else None
-        bone = Bone(i, str(node.get("name")), p, _num(node, "length", 0),
-                    world_transform(node, None if parent is None else parent.world))
-        bone.skin_required = i in skin_bones
+    for posed in setup_pose(doc):
+        i = posed.index
+        p = posed.parent.index if posed.parent is not None else None
+        bone = Bone(i, posed.name, p, posed.length, posed.world, posed.exact, posed.why)
+        bone.skin_required = nodes[i].get("skin") is True
         bone.target_of = targets.get(i, "")
-        if parent is not None:
-            parent.children.append(i)
-            if not parent.exact:
-                bone.exact, bone.why = False, f"below {parent.name!r}: {parent.why}"
-        if i in constrained:
-            bone.exact, bone.why = False, f"moved in the setup pose by the {constrained[i]}"
+        if p is not None:
+            bones[p].children.append(i)
         if bone.exact and not bone.invertible():
             bone.exact, bone.why = False, "zero scale: its transform cannot be inverted"
         bones.append(bone)

@@ -1,0 +1,789 @@
+"""The setup pose with its constraints applied, as the official runtimes 3.8 to 4.2 compute it.
+
+A game that loads a skeleton sets it to the setup pose and calls ``updateWorldTransform``
+once: the runtime walks an *update cache*, a list of bones and constraints sorted once per
+skeleton, in which every constraint comes after the bones it reads and every bone a
+constraint moves is updated again after it. This module builds that list the way each
+runtime family builds it (3.8, 4.0, 4.1, 4.2 differ in details listed where they matter),
+then plays it once: bones take their world transform from their parent, IK constraints
+(one and two bones: mix, bend direction, compress, stretch, uniform, softness) turn and
+scale their bones towards the target, transform constraints (world or local, absolute or
+relative) pull their bones' transforms towards the target's.
+
+Each bone carries an *exact* flag. A path constraint (not reproduced here), a constraint
+only some skins activate, a 4.3 skeleton or one older than 3.8 (not checked against a
+runtime) leaves the bones it moves not exact, with the reason, and so does any constraint
+that reads a bone that is not exact; children of a bone that is not exact are not exact.
+The math follows the public runtime sources (EsotericSoftware spine-runtimes, spine-ts);
+the implementation is ours.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bones import INHERIT_MODES, _num, constraints_of, inherit_mode, local_values, world_from_local
+
+#: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
+FAMILIES = ("3.8", "4.0", "4.1", "4.2")
+
+RAD = math.pi / 180
+
+
+def runtime_family(doc: dict) -> str | None:
+    """``"3.8"``, ``"4.0"``, ``"4.1"`` or ``"4.2"`` from ``skeleton.spine``; None for others."""
+    version = str((doc.get("skeleton") or {}).get("spine") or "")
+    family = ".".join(version.split(".")[:2])
+    return family if family in FAMILIES else None
+
+
+@dataclass(eq=False)
+class PoseBone:
+    """One bone as the runtime holds it while it computes the pose.
+
+    ``local`` is the setup pose (x, y, rotation, scaleX, scaleY, shearX, shearY); ``applied``
+    the values its world transform was last computed from; ``world`` is (2, 3) as in
+    :mod:`.bones`. ``applied_exact`` says whether ``applied`` is reproduced exactly (False once
+    a constraint we do not reproduce has moved the bone).
+    """
+
+    index: int
+    name: str
+    parent: PoseBone | None
+    inherit: str
+    length: float
+    local: tuple[float, ...]
+    family: str
+    applied: list[float] = field(default_factory=list)
+    world: np.ndarray = field(default_factory=lambda: np.array([[1.0, 0, 0], [0, 1.0, 0]]))
+    applied_valid: bool = True        # 3.8 recomputes applied values from the world lazily
+    applied_exact: bool = True
+    exact: bool = True
+    why: str = ""
+    active: bool = True
+    sorted: bool = False
+    children: list[PoseBone] = field(default_factory=list)
+
+    # -- the runtime's Bone methods ------------------------------------------------------
+    def update_with(self, values) -> None:
+        """``updateWorldTransformWith``: world from ``values``, which become the applied values."""
+        self.applied = [float(v) for v in values]
+        self.applied_valid = True
+        self.world = world_from_local(tuple(self.applied), self.inherit,
+                                      None if self.parent is None else self.parent.world)
+
+    def update(self) -> None:
+        """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones."""
+        if self.family == "3.8":
+            self.update_with(self.local)
+            self.applied_exact = True
+        else:
+            self.update_with(self.applied)
+        parent_ok = self.parent is None or self.parent.exact
+        self.exact = parent_ok and self.applied_exact
+        if not parent_ok:
+            self.why = f"below {self.parent.name!r}: {self.parent.why}"
+
+    def ensure_applied(self) -> None:
+        """3.8: ``if (!appliedValid) updateAppliedTransform()``."""
+        if not self.applied_valid:
+            self.update_applied()
+
+    def update_applied(self) -> None:
+        """``updateAppliedTransform``: local values that give the current world transform."""
+        self.applied_valid = True
+        (a, b, wx), (c, d, wy) = self.world.tolist()
+        if self.parent is None:
+            self.applied = [wx, wy, math.degrees(math.atan2(c, a)), math.hypot(a, c), math.hypot(b, d), 0.0,
+                            math.degrees(math.atan2(a * b + c * d, a * d - b * c))]
+            return
+        (pa, pb, pwx), (pc, pd, pwy) = self.parent.world.tolist()
+        pid = 1 / (pa * pd - pb * pc)
+        ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
+        dx, dy = wx - pwx, wy - pwy
+        ax, ay = dx * ia - dy * ib, dy * id_ - dx * ic
+        if self.family == "4.2" and self.inherit == "onlyTranslation":
+            ra, rb, rc, rd = a, b, c, d
+        else:
+            if self.family == "4.2" and self.inherit == "noRotationOrReflection":
+                s = abs(pa * pd - pb * pc) / (pa * pa + pc * pc)
+                pb, pd = -pc * s, pa * s
+                pid = 1 / (pa * pd - pb * pc)
+                ia, ib = pd * pid, pb * pid
+            elif self.family == "4.2" and self.inherit in ("noScale", "noScaleOrReflection"):
+                cos, sin = math.cos(self.local[2] * RAD), math.sin(self.local[2] * RAD)
+                pa, pc = pa * cos + pb * sin, pc * cos + pd * sin
+                s = math.hypot(pa, pc)
+                if s > 0.00001:
+                    s = 1 / s
+                pa, pc = pa * s, pc * s
+                s = math.hypot(pa, pc)
+                if self.inherit == "noScale" and pid < 0:
+                    s = -s
+                r = math.pi / 2 + math.atan2(pc, pa)
+                pb, pd = math.cos(r) * s, math.sin(r) * s
+                pid = 1 / (pa * pd - pb * pc)
+                ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
+            ra, rb = ia * a - ib * c, ia * b - ib * d
+            rc, rd = id_ * c - ic * a, id_ * d - ic * b
+        scale_x = math.hypot(ra, rc)
+        if scale_x > 0.0001:
+            det = ra * rd - rb * rc
+            scale_y = det / scale_x
+            # 4.2 fixed the sign of the recovered shear; 3.8-4.1 return it negated.
+            shear_y = math.degrees(math.atan2(ra * rb + rc * rd, det)) * (-1 if self.family == "4.2" else 1)
+            rotation = math.degrees(math.atan2(rc, ra))
+        else:
+            scale_x, scale_y, shear_y = 0.0, math.hypot(rb, rd), 0.0
+            rotation = 90 - math.degrees(math.atan2(rd, rb))
+        self.applied = [ax, ay, rotation, scale_x, scale_y, 0.0, shear_y]
+
+
+def _wrap180(degrees: float) -> float:
+    if degrees > 180:
+        return degrees - 360
+    if degrees < -180:
+        return degrees + 360
+    return degrees
+
+
+def _wrap_pi(r: float) -> float:
+    if r > math.pi:
+        return r - 2 * math.pi
+    if r < -math.pi:
+        return r + 2 * math.pi
+    return r
+
+
+def _wrap_turns(degrees: float) -> float:
+    """3.8-4.1 local transform constraints: the angle brought near [-180, 180] by whole turns."""
+    return degrees - (16384 - int(16384.499999999996 - degrees / 360)) * 360
+
+
+# -- IK ------------------------------------------------------------------------------------
+def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, stretch: bool, uniform: bool,
+           alpha: float, family: str) -> None:
+    """One-bone IK: turn (and with compress/stretch, scale) ``bone`` to point at the target."""
+    if family == "3.8":
+        bone.ensure_applied()
+    parent = bone.parent
+    (pa, pb, pwx), (pc, pd, pwy) = parent.world.tolist()
+    ax, ay, arot, asx, asy, ashx, ashy = bone.applied
+    (_, _, bwx), (_, _, bwy) = bone.world.tolist()
+    rotation_ik = -ashx - arot
+    if bone.inherit == "onlyTranslation":
+        tx, ty = tx_world - bwx, ty_world - bwy
+    else:
+        if bone.inherit == "noRotationOrReflection":
+            den = pa * pa + pc * pc
+            if family in ("4.1", "4.2"):
+                den = max(0.0001, den)
+            s = abs(pa * pd - pb * pc) / den
+            pb, pd = -pc * s, pa * s
+            rotation_ik += math.degrees(math.atan2(pc, pa))
+        x, y = tx_world - pwx, ty_world - pwy
+        d = pa * pd - pb * pc
+        if family in ("4.1", "4.2") and abs(d) <= 0.0001:
+            tx = ty = 0.0
+        else:
+            tx, ty = (x * pd - y * pb) / d - ax, (y * pa - x * pc) / d - ay
+    rotation_ik += math.degrees(math.atan2(ty, tx))
+    if asx < 0:
+        rotation_ik += 180
+    rotation_ik = _wrap180(rotation_ik)
+    sx, sy = asx, asy
+    if compress or stretch:
+        if bone.inherit in ("noScale", "noScaleOrReflection"):
+            tx, ty = tx_world - bwx, ty_world - bwy
+        b = bone.length * sx
+        if family == "4.2":
+            dd = tx * tx + ty * ty
+            hit = b > 0.0001 and ((compress and dd < b * b) or (stretch and dd > b * b))
+            dist = math.sqrt(dd)
+        else:  # 3.8-4.1 guard only the stretch case against a zero length
+            dist = math.hypot(tx, ty)
+            hit = (compress and dist < b) or (stretch and dist > b and b > 0.0001)
+        if hit:
+            s = (dist / b - 1) * alpha + 1
+            sx *= s
+            if uniform:
+                sy *= s
+    bone.update_with((ax, ay, arot + rotation_ik * alpha, sx, sy, ashx, ashy))
+
+
+def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, bend: int, stretch: bool,
+           uniform: bool, softness: float, alpha: float, family: str) -> None:
+    """Two-bone IK: turn ``parent`` and ``child`` so the child's tip reaches the target."""
+    if family == "3.8":
+        if alpha == 0:
+            child.update_with(child.local)
+            return
+        parent.ensure_applied()
+        child.ensure_applied()
+    elif family == "4.2" and (parent.inherit != "normal" or child.inherit != "normal"):
+        return
+    px, py, prot, psx, psy = parent.applied[:5]
+    sx, sy = psx, psy
+    csx = child.applied[3]
+    if psx < 0:
+        psx, os1, s2 = -psx, 180.0, -1
+    else:
+        os1, s2 = 0.0, 1
+    if psy < 0:
+        psy, s2 = -psy, -s2
+    if csx < 0:
+        csx, os2 = -csx, 180.0
+    else:
+        os2 = 0.0
+    cx = child.applied[0]
+    (a, b, pwx), (c, d, pwy) = parent.world.tolist()
+    u = abs(psx - psy) <= 0.0001
+    if not u or (stretch and family != "3.8"):
+        cy = 0.0
+        cwx, cwy = a * cx + pwx, c * cx + pwy
+    else:
+        cy = child.applied[1]
+        cwx, cwy = a * cx + b * cy + pwx, c * cx + d * cy + pwy
+    (a, b, ppwx), (c, d, ppwy) = parent.parent.world.tolist()
+    det = a * d - b * c
+    if family in ("4.1", "4.2"):
+        inv = 0.0 if abs(det) <= 0.0001 else 1 / det
+    else:
+        inv = 1 / det
+    x, y = cwx - ppwx, cwy - ppwy
+    dx, dy = (x * d - y * b) * inv - px, (y * a - x * c) * inv - py
+    l1, l2 = math.hypot(dx, dy), child.length * csx
+    if l1 < 0.0001:
+        ik_one(parent, tx_world, ty_world, False, stretch, False, alpha, family)
+        ca = child.applied
+        child.update_with((cx, cy, 0.0, ca[3], ca[4], ca[5], ca[6]))
+        return
+    x, y = tx_world - ppwx, ty_world - ppwy
+    tx, ty = (x * d - y * b) * inv - px, (y * a - x * c) * inv - py
+    dd = tx * tx + ty * ty
+    if softness != 0:
+        softness *= psx * (csx + 1) * 0.5
+        td = math.sqrt(dd)
+        sd = td - l1 - l2 * psx + softness
+        if sd > 0:
+            p = min(1.0, sd / (softness * 2)) - 1
+            p = (sd - softness * (1 - p * p)) / td
+            tx -= p * tx
+            ty -= p * ty
+            dd = tx * tx + ty * ty
+    if u:
+        l2 *= psx
+        cos = (dd - l1 * l1 - l2 * l2) / (2 * l1 * l2)
+        if cos < -1:
+            cos, a2 = -1.0, math.pi * bend
+        elif cos > 1:
+            cos, a2 = 1.0, 0.0
+            if stretch:
+                s = (math.sqrt(dd) / (l1 + l2) - 1) * alpha + 1
+                sx *= s
+                if uniform and family != "3.8":
+                    sy *= s
+        else:
+            a2 = math.acos(cos) * bend
+        a = l1 + l2 * cos
+        b = l2 * math.sin(a2)
+        a1 = math.atan2(ty * a - tx * b, tx * a + ty * b)
+    else:
+        a1, a2 = _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family)
+    os = math.atan2(cy, cx) * s2
+    a1 = _wrap180(math.degrees(a1 - os) + os1 - prot)
+    parent.update_with((px, py, prot + a1 * alpha, sx, sy if family != "3.8" else parent.applied[4], 0.0, 0.0))
+    ca = child.applied
+    crot = ca[2]
+    a2 = _wrap180((math.degrees(a2 + os) - ca[5]) * s2 + os2 - crot)
+    child.update_with((cx, cy, crot + a2 * alpha, ca[3], ca[4], ca[5], ca[6]))
+
+
+def _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family) -> tuple[float, float]:
+    """Two-bone IK angles when the parent's scale is not uniform (an ellipse meets a circle)."""
+    a, b = psx * l2, psy * l2
+    aa, bb, ta = a * a, b * b, math.atan2(ty, tx)
+    c = bb * l1 * l1 + aa * dd - aa * bb
+    c1, c2 = -2 * bb * l1, bb - aa
+    d = c1 * c1 - 4 * c2 * c
+    if d >= 0:
+        q = math.sqrt(d)
+        if c1 < 0:
+            q = -q
+        q = -(c1 + q) * 0.5
+        r0, r1 = q / c2, c / q
+        r = r0 if abs(r0) < abs(r1) else r1
+        if dd - r * r >= 0:
+            y = math.sqrt(dd - r * r) * bend
+            return ta - math.atan2(y, r), math.atan2(y / psy, (r - l1) / psx)
+    min_angle, min_x, min_y = math.pi, l1 - a, 0.0
+    max_angle, max_x, max_y = 0.0, l1 + a, 0.0
+    min_dist, max_dist = min_x * min_x, max_x * max_x
+    c = -a * l1 / (aa - bb)
+    if -1 <= c <= 1:
+        c = math.acos(c)
+        x, y = a * math.cos(c) + l1, b * math.sin(c)
+        d = x * x + y * y
+        if d < min_dist:
+            min_angle, min_dist, min_x, min_y = c, d, x, y
+        if d > max_dist:
+            max_angle, max_dist, max_x, max_y = c, d, x, y
+    if dd <= (min_dist + max_dist) * 0.5:
+        return ta - math.atan2(min_y * bend, min_x), min_angle * bend
+    return ta - math.atan2(max_y * bend, max_x), max_angle * bend
+
+
+# -- transform constraints -------------------------------------------------------------------
+@dataclass
+class TransformMix:
+    """A transform constraint's setup values (3.x ``rotateMix``... become the 4.x six mixes)."""
+
+    rotate: float
+    x: float
+    y: float
+    scale_x: float
+    scale_y: float
+    shear_y: float
+    offset: tuple[float, float, float, float, float, float]  # rotation, x, y, scaleX, scaleY, shearY
+    local: bool
+    relative: bool
+
+    @classmethod
+    def from_json(cls, c: dict, family: str | None) -> TransformMix:
+        """Read the setup values; ``family`` None tells 3.x from 4.x keys by their names."""
+        three = family == "3.8" if family else any(
+            k in c for k in ("rotateMix", "translateMix", "scaleMix", "shearMix"))
+        if three:
+            r, t, s, sh = (_num(c, k, 1) for k in ("rotateMix", "translateMix", "scaleMix", "shearMix"))
+            mixes = (r, t, t, s, s, sh)
+        else:
+            mix_x, mix_sx = _num(c, "mixX", 1), _num(c, "mixScaleX", 1)
+            mixes = (_num(c, "mixRotate", 1), mix_x, _num(c, "mixY", mix_x), mix_sx,
+                     _num(c, "mixScaleY", mix_sx), _num(c, "mixShearY", 1))
+        offset = tuple(_num(c, k, 0) for k in ("rotation", "x", "y", "scaleX", "scaleY", "shearY"))
+        return cls(*mixes, offset, bool(c.get("local", False)), bool(c.get("relative", False)))
+
+    def moves_nothing(self, family: str) -> bool:
+        """The runtime's early return (4.0 tests mixScaleX twice instead of mixScaleY)."""
+        if family == "3.8":
+            return False
+        scale_y = self.scale_x if family == "4.0" else self.scale_y
+        return not any((self.rotate, self.x, self.y, self.scale_x, scale_y, self.shear_y))
+
+
+def transform_apply(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
+    """Apply a transform constraint to ``bones`` (the runtime's four variants)."""
+    if mix.moves_nothing(family):
+        return
+    if mix.local:
+        _transform_local(mix, target, bones, family)
+    else:
+        _transform_world(mix, target, bones, family)
+
+
+def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
+    (ta, tb, _), (tc, td, _) = target.world.tolist()
+    reflect = RAD if ta * td - tb * tc > 0 else -RAD
+    off_rot, off_x, off_y, off_sx, off_sy, off_shear = mix.offset
+    off_rot, off_shear = off_rot * reflect, off_shear * reflect
+    tm = target.world
+    # 3.8 tests scale and shear mixes with > 0 (and scale against 1e-5), 4.x with != 0.
+    scale_on = (lambda m: m > 0) if family == "3.8" else (lambda m: m != 0)
+    for bone in bones:
+        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        modified = False
+        if mix.rotate != 0:
+            if mix.relative:
+                r = _wrap_pi(math.atan2(tc, ta) + off_rot)
+            else:
+                r = _wrap_pi(math.atan2(tc, ta) - math.atan2(c, a) + off_rot)
+            r *= mix.rotate
+            cos, sin = math.cos(r), math.sin(r)
+            a, b, c, d = cos * a - sin * c, cos * b - sin * d, sin * a + cos * c, sin * b + cos * d
+            modified = True
+        if mix.x != 0 or mix.y != 0:
+            px = float(tm[0, 0] * off_x + tm[0, 1] * off_y + tm[0, 2])
+            py = float(tm[1, 0] * off_x + tm[1, 1] * off_y + tm[1, 2])
+            if mix.relative:
+                wx, wy = wx + px * mix.x, wy + py * mix.y
+            else:
+                wx, wy = wx + (px - wx) * mix.x, wy + (py - wy) * mix.y
+            modified = True
+        for axis, (m, off) in enumerate(((mix.scale_x, off_sx), (mix.scale_y, off_sy))):
+            if not scale_on(m):
+                continue
+            t_len = math.hypot(ta, tc) if axis == 0 else math.hypot(tb, td)
+            if mix.relative:
+                s = (t_len - 1 + off) * m + 1
+            else:
+                s = math.hypot(a, c) if axis == 0 else math.hypot(b, d)
+                if (s > 0.00001) if family == "3.8" else (s != 0):
+                    s = (s + (t_len - s + off) * m) / s
+            if axis == 0:
+                a, c = a * s, c * s
+            else:
+                b, d = b * s, d * s
+            modified = True
+        if mix.shear_y > 0:
+            if mix.relative:
+                r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta))
+                r = math.atan2(d, b) + (r - math.pi / 2 + off_shear) * mix.shear_y
+            else:
+                by = math.atan2(d, b)
+                r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta) - (by - math.atan2(c, a)))
+                r = by + (r + off_shear) * mix.shear_y
+            s = math.hypot(b, d)
+            b, d = math.cos(r) * s, math.sin(r) * s
+            modified = True
+        bone.world = np.array([[a, b, wx], [c, d, wy]])
+        if family == "3.8":
+            if modified:
+                bone.applied_valid = False
+        else:
+            bone.update_applied()
+
+
+def _transform_local(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
+    off_rot, off_x, off_y, off_sx, off_sy, off_shear = mix.offset
+    if family == "3.8":
+        target.ensure_applied()
+    t = target.applied
+    for bone in bones:
+        if family == "3.8":
+            bone.ensure_applied()
+        x, y, rotation, scale_x, scale_y, shear_x, shear_y = bone.applied
+        if mix.relative:
+            if family == "3.8":
+                rotation += (t[2] + off_rot) * mix.rotate if mix.rotate != 0 else 0.0
+                if mix.x != 0:
+                    x, y = x + (t[0] + off_x) * mix.x, y + (t[1] + off_y) * mix.y
+                if mix.scale_x > 0:
+                    if scale_x > 0.00001:
+                        scale_x *= (t[3] - 1 + off_sx) * mix.scale_x + 1
+                    if scale_y > 0.00001:
+                        scale_y *= (t[4] - 1 + off_sy) * mix.scale_y + 1
+                if mix.shear_y > 0:
+                    shear_y += (t[6] + off_shear) * mix.shear_y
+            else:
+                rotation += (t[2] + off_rot) * mix.rotate
+                x += (t[0] + off_x) * mix.x
+                y += (t[1] + off_y) * mix.y
+                scale_x *= (t[3] - 1 + off_sx) * mix.scale_x + 1
+                scale_y *= (t[4] - 1 + off_sy) * mix.scale_y + 1
+                shear_y += (t[6] + off_shear) * mix.shear_y
+        else:
+            wrap = _wrap_turns if family != "4.2" else (lambda r: r)
+            if mix.rotate != 0:
+                rotation += wrap(t[2] - rotation + off_rot) * mix.rotate
+            if family != "3.8" or mix.x != 0:
+                x += (t[0] - x + off_x) * mix.x
+                y += (t[1] - y + off_y) * mix.y
+            # The runtimes divide the mixed scale by the bone's own scale here (kept as they do).
+            if family == "3.8":
+                if mix.scale_x > 0:
+                    if scale_x > 0.00001:
+                        scale_x = (scale_x + (t[3] - scale_x + off_sx) * mix.scale_x) / scale_x
+                    if scale_y > 0.00001:
+                        scale_y = (scale_y + (t[4] - scale_y + off_sy) * mix.scale_y) / scale_y
+                # 3.8 writes the mixed shear into the bone's local shear, not into this pose.
+            else:
+                if mix.scale_x != 0 and scale_x != 0:
+                    scale_x = (scale_x + (t[3] - scale_x + off_sx) * mix.scale_x) / scale_x
+                if mix.scale_y != 0 and scale_y != 0:
+                    scale_y = (scale_y + (t[4] - scale_y + off_sy) * mix.scale_y) / scale_y
+                if mix.shear_y != 0:
+                    shear_y += wrap(t[6] - shear_y + off_shear) * mix.shear_y
+        bone.update_with((x, y, rotation, scale_x, scale_y, shear_x, shear_y))
+
+
+# -- the update cache -------------------------------------------------------------------------
+@dataclass
+class _Constraint:
+    kind: str                 # "ik", "transform", "path", "physics"
+    name: str
+    order: int
+    data: dict
+    bones: list[PoseBone]
+    target: PoseBone | None   # the target bone (IK, transform); None for path and physics
+    active: bool = True
+
+    def label(self) -> str:
+        return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
+
+
+def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> tuple[list[_Constraint], list[str]]:
+    """Every IK, transform, path and physics constraint (document order within each kind), and
+    the names of constraints that cannot be read (a bone they name is missing)."""
+    out, bad = [], []
+    for kind in ("ik", "transform", "path", "physics"):
+        for c in constraints_of(doc, kind):
+            names = c.get("bones") if kind != "physics" else [c.get("bone")]
+            names = names if isinstance(names, list) else []
+            bones = [by_name.get(str(n)) for n in names]
+            target = by_name.get(str(c.get("target"))) if kind in ("ik", "transform") else None
+            if any(b is None for b in bones) or not bones or (kind in ("ik", "transform") and target is None):
+                bad.append(str(c.get("name")))
+                continue
+            order = c.get("order", 0)
+            order = order if isinstance(order, int) and not isinstance(order, bool) else 0
+            out.append(_Constraint(kind, str(c.get("name")), order, c, bones, target))
+    return out, bad
+
+
+class _Cache:
+    """The runtime's update cache: ``sortBone``, ``sortReset`` and each constraint's sort."""
+
+    def __init__(self, family: str):
+        self.family = family
+        self.items: list = []
+        self.reset: list[PoseBone] = []   # 3.8: bones whose applied values are reset first
+
+    def sort_bone(self, bone: PoseBone) -> None:
+        if bone.sorted:
+            return
+        if bone.parent is not None:
+            self.sort_bone(bone.parent)
+        bone.sorted = True
+        self.items.append(bone)
+
+    def sort_reset(self, bones: list[PoseBone]) -> None:
+        for bone in bones:
+            if not bone.active:
+                continue
+            if bone.sorted:
+                self.sort_reset(bone.children)
+            bone.sorted = False
+
+    def _in_cache(self, bone: PoseBone) -> bool:
+        return any(item is bone for item in self.items)
+
+    def sort(self, c: _Constraint, doc: dict) -> None:
+        if c.kind == "ik":
+            self.sort_bone(c.target)
+            parent = c.bones[0]
+            self.sort_bone(parent)
+            if len(c.bones) > 1:
+                child = c.bones[-1]
+                if self.family == "3.8":
+                    if not self._in_cache(child):
+                        self.reset.append(child)
+                else:
+                    self.sort_bone(child)
+            self.items.append(c)
+            self.sort_reset(parent.children)
+            c.bones[-1].sorted = True
+        elif c.kind == "transform":
+            self.sort_bone(c.target)
+            for bone in c.bones:
+                if c.data.get("local", False):
+                    self.sort_bone(bone.parent) if bone.parent is not None else None
+                    if self.family == "3.8":
+                        if not self._in_cache(bone):
+                            self.reset.append(bone)
+                    else:
+                        self.sort_bone(bone)
+                else:
+                    self.sort_bone(bone)
+            self._push_and_reset(c)
+        elif c.kind == "path":
+            # The path's bones are read before it (the slot's bone; a weighted path's bones
+            # only change when, not how, unconstrained bones are computed).
+            if c.target is not None:
+                self.sort_bone(c.target)
+            for bone in c.bones:
+                self.sort_bone(bone)
+            self._push_and_reset(c)
+        else:  # physics (4.2)
+            self.sort_bone(c.bones[0])
+            self.items.append(c)
+            self.sort_reset(c.bones[0].children)
+            c.bones[0].sorted = True
+
+    def _push_and_reset(self, c: _Constraint) -> None:
+        self.items.append(c)
+        for bone in c.bones:
+            self.sort_reset(bone.children)
+        for bone in c.bones:
+            bone.sorted = True
+
+
+def _inputs_exact(c: _Constraint) -> tuple[bool, str]:
+    """Whether every bone the constraint reads is exact, else the reason."""
+    read = [c.target] if c.target is not None else []
+    for bone in c.bones:
+        read += [bone] + ([bone.parent] if bone.parent is not None else [])
+    if c.kind == "ik" and len(c.bones) == 2 and c.bones[0].parent is not None:
+        read.append(c.bones[0].parent.parent) if c.bones[0].parent.parent is not None else None
+    for bone in read:
+        if bone is not None and not bone.exact:
+            return False, f"moved in the setup pose by the {c.label()}, which reads {bone.name!r}: {bone.why}"
+    return True, ""
+
+
+def _mark(bones: list[PoseBone], why: str) -> None:
+    for bone in bones:
+        bone.exact = bone.applied_exact = False
+        bone.why = why
+
+
+def _run(c: _Constraint, family: str) -> None:
+    """One constraint's update in the cache."""
+    if c.kind == "physics":
+        return  # the setup pose resets physics: it leaves its bone's transform as it is
+    if c.kind == "path":
+        _mark(c.bones, f"moved in the setup pose by the {c.label()} (path constraints are not reproduced)")
+        return
+    ok, why = _inputs_exact(c)
+    d = c.data
+    if c.kind == "ik":
+        mix = _num(d, "mix", 1)
+        if mix == 0 and family != "3.8":
+            return
+        tx, ty = (float(v) for v in c.target.world[:, 2])
+        if len(c.bones) == 1 and c.bones[0].parent is not None:
+            ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
+                   bool(d.get("uniform", False)), mix, family)
+        elif len(c.bones) == 2 and c.bones[0].parent is not None and c.bones[0].parent.parent is not None \
+                and c.bones[1].parent is c.bones[0]:
+            bend = 1 if d.get("bendPositive", True) else -1
+            ik_two(c.bones[0], c.bones[1], tx, ty, bend, bool(d.get("stretch", False)),
+                   bool(d.get("uniform", False)), _num(d, "softness", 0), mix, family)
+        else:
+            ok, why = False, f"moved in the setup pose by the {c.label()} (a chain it cannot solve)"
+    else:
+        transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
+    if not ok:
+        _mark(c.bones, why)
+    else:
+        for bone in c.bones:
+            bone.applied_exact = True
+            bone.exact = True
+
+
+def _moves_something(c: _Constraint, family: str | None) -> bool:
+    """Whether the constraint changes its bones in the setup pose (mix 0 leaves them)."""
+    if c.kind == "ik":
+        return _num(c.data, "mix", 1) != 0
+    if c.kind == "transform":
+        return not TransformMix.from_json(c.data, family).moves_nothing("4.2")
+    return c.kind in ("path", "slider")
+
+
+def setup_pose(doc: dict) -> list[PoseBone]:
+    """Every bone's setup-pose world transform with the constraints applied, in document order.
+
+    Parameters
+    ----------
+    doc : dict
+        A skeleton document (JSON layout; binary skeletons as :func:`spinemesh.skeleton.load_skeleton`
+        reads them).
+
+    Returns
+    -------
+    list of PoseBone
+        ``world`` (2, 3) per bone; ``exact`` False, with ``why``, for bones whose setup transform
+        is not reproduced (see the module's docstring). Bones only some skins activate are not
+        posed by the runtime without that skin: they are computed from their parent, as if the
+        skin were set, and never moved by a constraint here.
+    """
+    family = runtime_family(doc)
+    nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
+    index = {str(b.get("name")): i for i, b in enumerate(nodes)}
+    bones: list[PoseBone] = []
+    for i, node in enumerate(nodes):
+        p = index.get(node.get("parent")) if node.get("parent") is not None else None
+        if p is not None and p >= i:
+            p = None  # malformed order: treat as a root, and do not trust it
+        parent = bones[p] if p is not None else None
+        mode = inherit_mode(node)
+        bone = PoseBone(i, str(node.get("name")), parent, mode if mode in INHERIT_MODES else "normal",
+                        _num(node, "length", 0), local_values(node), family or "4.2")
+        bone.active = node.get("skin") is not True
+        bone.applied = list(bone.local)
+        if parent is not None:
+            parent.children.append(bone)
+        bones.append(bone)
+    by_name = {b.name: b for b in bones}
+    constraints, _ = _read_constraints(doc, by_name)
+    if family is None:
+        return _without_constraints(bones, constraints, doc)
+
+    # Constraints only some skins activate (or aiming at a bone only some skins activate) are
+    # not in the cache of a skeleton without a skin: their bones are marked below.
+    for c in constraints:
+        reads = [c.target] if c.target is not None else []
+        c.active = all(b.active for b in reads) and c.data.get("skin") is not True
+        if c.kind == "path":
+            slot = next((s for s in doc.get("slots", []) if isinstance(s, dict)
+                         and s.get("name") == c.data.get("target")), None)
+            c.target = by_name.get(str(slot.get("bone"))) if slot else None
+            c.active = c.data.get("skin") is not True and (c.target is None or c.target.active)
+    for bone in bones:
+        bone.sorted = not bone.active
+    cache = _Cache(family)
+    kinds = ("ik", "transform", "path") + (("physics",) if family == "4.2" else ())
+    for i in range(sum(1 for c in constraints if c.kind in kinds)):
+        for kind in kinds:
+            c = next((c for c in constraints if c.kind == kind and c.order == i), None)
+            if c is not None:
+                if c.active:
+                    cache.sort(c, doc)
+                break
+    for bone in bones:
+        cache.sort_bone(bone)
+
+    # updateWorldTransform: applied values start as the local ones, then the cache plays once.
+    for bone in bones:
+        bone.applied = list(bone.local)
+    for item in cache.items:
+        if isinstance(item, PoseBone):
+            item.update()
+        else:
+            _run(item, family)
+
+    skipped = {id(c) for c in constraints if c.active}
+    for bone in bones:
+        if not bone.active:  # not posed by a runtime without its skin: from its parent
+            bone.update_with(bone.local)
+            bone.exact = bone.parent is None or bone.parent.exact
+            if not bone.exact:
+                bone.why = f"below {bone.parent.name!r}: {bone.parent.why}"
+    for c in constraints:
+        if id(c) not in skipped and _moves_something(c, family):
+            _mark(c.bones, f"moved by the {c.label()}, which only some skins activate")
+    _propagate(bones)
+    return bones
+
+
+def _propagate(bones: list[PoseBone]) -> None:
+    """A bone below one that is not exact is not exact either (parents come first)."""
+    for bone in bones:
+        if bone.exact and bone.parent is not None and not bone.parent.exact:
+            bone.exact, bone.why = False, f"below {bone.parent.name!r}: {bone.parent.why}"
+
+
+def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], doc: dict) -> list[PoseBone]:
+    """Versions whose runtime is not reproduced: bones from their parents, and every bone a
+    constraint moves in the setup pose (and those below it) not exact."""
+    version = (doc.get("skeleton") or {}).get("spine")
+    four_three = bool(doc.get("constraints"))
+    for bone in bones:
+        bone.update_with(bone.local)
+    for c in constraints:
+        moves = True if (four_three and c.kind == "transform") else _moves_something(c, None)
+        if c.kind != "physics" and moves:
+            for bone in c.bones:
+                if bone.exact:
+                    bone.exact = False
+                    bone.why = (f"moved in the setup pose by the {c.label()} (constraints are solved "
+                                f"for 3.8-4.2 skeletons; this one is {version or 'of an unknown version'})")
+    for c in constraints_of(doc, "slider"):  # 4.3: an animation drives bones through it
+        for n in (c.get("bones") or [c.get("bone")]) if isinstance(c.get("bones") or [c.get("bone")], list) else []:
+            b = next((x for x in bones if x.name == n), None)
+            if b is not None and b.exact:
+                b.exact, b.why = False, f"moved in the setup pose by the slider constraint {c.get('name')!r}"
+    _propagate(bones)
+    return bones
