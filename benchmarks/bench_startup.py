@@ -2,10 +2,12 @@
 
 Each command runs as a user runs it (a fresh process through the venv's console scripts),
 ``--repeat`` times, the commands taking turns within each round so that the load of a
-shared machine hits them alike. Reported per command: best and median wall time, and best
-CPU time of the child process (user + system), which load changes least. The ratio row
-compares ``spinemesh convert`` with ``skel-to-json`` (PyPI ``skeltojson``, MIT, in the dev
-extra) on the same ``.skel``, both writing JSON.
+shared machine hits them alike. Reported per command: best and median wall time, and best and
+median CPU time of the child process (user + system, from ``wait4``), which load changes least.
+The ratio row compares ``spinemesh convert`` with ``skel-to-json`` (PyPI ``skeltojson``, MIT, in
+the dev extra) on the same ``.skel``, both writing JSON: issue 19's CLI-to-CLI goal (>= 1.5x).
+This is the one script for that comparison; ``bench_skel_read.py`` compares the readers in
+process.
 
 Usage::
 
@@ -46,15 +48,18 @@ CHILD_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECOD
 
 
 def run_once(cmd: list[str]) -> tuple[float, float]:
-    """Wall and CPU (user + system) seconds of one run of ``cmd`` in a child process."""
-    before = os.times()
+    """Wall and CPU (user + system, from ``wait4``'s resource usage, to the microsecond) seconds
+    of one run of ``cmd`` in a child process."""
     start = time.perf_counter()
-    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=CHILD_ENV)
+    child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=CHILD_ENV)
+    stderr = child.stderr.read()
+    _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
-    after = os.times()
-    if done.returncode != 0:
-        sys.exit(f"{' '.join(cmd)} failed: {done.stderr.decode()[-500:]}")
-    return wall, (after.children_user - before.children_user) + (after.children_system - before.children_system)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    child.stderr.close()
+    if child.returncode != 0:
+        sys.exit(f"{' '.join(cmd)} failed: {stderr.decode()[-500:]}")
+    return wall, usage.ru_utime + usage.ru_stime
 
 
 def main() -> None:
@@ -87,16 +92,17 @@ def main() -> None:
 
     print(f"{args.repeat} runs each, taking turns; {os.cpu_count()} CPUs, load average "
           f"{os.getloadavg()[0]:.1f}\n")
-    print(f"| {'command':<52} | best wall ms | median wall ms | best CPU ms |")
-    print(f"|{'-' * 54}|-------------:|---------------:|------------:|")
+    print(f"| {'command':<52} | best wall ms | median wall ms | best CPU ms | median CPU ms |")
+    print(f"|{'-' * 54}|-------------:|---------------:|------------:|--------------:|")
     for name in commands:
         print(f"| {name:<52} | {1000 * min(walls[name]):12.0f} | {1000 * statistics.median(walls[name]):14.0f} "
-              f"| {1000 * min(cpus[name]):11.0f} |")
+              f"| {1000 * min(cpus[name]):11.0f} | {1000 * statistics.median(cpus[name]):13.0f} |")
     conv, ref = list(commands)[-2], list(commands)[-1]
     print(f"\nconvert CLI-to-CLI, skel-to-json time / spinemesh time: best wall "
           f"{min(walls[ref]) / min(walls[conv]):.2f}x, median wall "
           f"{statistics.median(walls[ref]) / statistics.median(walls[conv]):.2f}x, best CPU "
-          f"{min(cpus[ref]) / min(cpus[conv]):.2f}x")
+          f"{min(cpus[ref]) / min(cpus[conv]):.2f}x, median CPU "
+          f"{statistics.median(cpus[ref]) / statistics.median(cpus[conv]):.2f}x")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from itertools import repeat
 from json.decoder import scanstring
 from typing import NamedTuple
 
@@ -157,64 +158,66 @@ class NumberText(dict):
         return _scalar(value, self.java_exponents)
 
 
-def _value_text(value, numbers: NumberText) -> str:
-    """One scalar value as JSON, a number through ``numbers``."""
-    return numbers[value] if type(value) in _NUMBER_TYPES else _scalar(value, numbers.java_exponents)
+def _writer(style: JsonStyle, numbers: NumberText, out: list[str]):
+    """The function that appends a value to ``out`` in ``style``: ``write(value, close, inner)``,
+    where ``close`` indents the value's closing bracket and ``inner`` its items.
 
+    The style's settings are bound once here rather than looked up for each of the ~10,000
+    containers of a large skeleton; flat values are told by the set of their items' exact types,
+    and lines of numbers are joined from ``numbers`` without a call per value.
+    """
+    java = style.java_exponents
+    minified = style.minified
+    sep = "," if minified else ", "
+    colon, pad, step = style.colon, style.pad, style.indent
+    nl = "" if minified else style.newline
+    object_columns = math.inf if minified else style.object_columns
+    array_columns = math.inf if minified else style.array_columns
+    object_items = math.inf if minified else style.object_items
+    number = numbers.__getitem__
+    append = out.append
 
-def _one_line(value, style: JsonStyle, numbers: NumberText) -> str | None:
-    """``value`` (a non-empty dict or list) on one line, or None when it holds a dict or list."""
-    sep = "," if style.minified else ", "
-    is_dict = isinstance(value, dict)
-    items = value.values() if is_dict else value
-    # The set of exact types tells a flat value, and a line of numbers only, without a loop here.
-    types = set(map(type, items))
-    if not types <= _SCALAR_TYPES and any(issubclass(t, (dict, list)) for t in types):
-        return None
-    if is_dict:
-        colon = style.colon
-        body = sep.join([_quote(str(k)) + colon + _value_text(v, numbers) for k, v in value.items()])
-        return "{" + style.pad + body + style.pad + "}"
-    if types <= _NUMBER_TYPES:
-        body = sep.join(map(numbers.__getitem__, value))
-    else:
-        body = sep.join([_value_text(v, numbers) for v in value])
-    return "[" + style.pad + body + style.pad + "]"
+    def scalar(value) -> str:
+        return number(value) if type(value) in _NUMBER_TYPES else _scalar(value, java)
 
+    def one_line(value, is_dict: bool) -> str | None:
+        types = set(map(type, value.values() if is_dict else value))
+        if not types <= _SCALAR_TYPES and any(issubclass(t, (dict, list)) for t in types):
+            return None
+        if is_dict:
+            return "{" + pad + sep.join([_quote(str(k)) + colon + scalar(v) for k, v in value.items()]) + pad + "}"
+        if types <= _NUMBER_TYPES:
+            return "[" + pad + sep.join(map(number, value)) + pad + "]"
+        return "[" + pad + sep.join(map(scalar, value)) + pad + "]"
 
-def _write(value, style: JsonStyle, close: str, inner: str, out: list[str], numbers: NumberText) -> None:
-    """Append ``value`` to ``out``; ``close`` indents its closing bracket, ``inner`` its items."""
-    if not isinstance(value, (dict, list)):
-        out.append(_value_text(value, numbers))
-        return
-    is_dict = isinstance(value, dict)
-    if not value:
-        out.append("{}" if is_dict else "[]")
-        return
-    if style.minified:
-        columns = math.inf
-    else:
-        columns = style.object_columns if is_dict else style.array_columns
-    if style.minified or not is_dict or len(value) <= style.object_items:
-        line = _one_line(value, style, numbers)
-        if line is not None and len(line) <= columns:
-            out.append(line)
+    def write(value, close: str, inner: str) -> None:
+        is_dict = isinstance(value, dict)
+        if not is_dict and not isinstance(value, list):
+            append(scalar(value))
             return
-    nl = "" if style.minified else style.newline
-    out.append(("{" if is_dict else "[") + nl)
-    last = len(value) - 1
-    if is_dict:
-        colon = style.colon
-        for i, (key, item) in enumerate(value.items()):
-            out.append(inner + _quote(str(key)) + colon)
-            _write(item, style, inner, inner + style.indent, out, numbers)
-            out.append(("," if i < last else "") + nl)
-    else:
-        for i, item in enumerate(value):
-            out.append(inner)
-            _write(item, style, inner, inner + style.indent, out, numbers)
-            out.append(("," if i < last else "") + nl)
-    out.append(close + ("}" if is_dict else "]"))
+        if not value:
+            append("{}" if is_dict else "[]")
+            return
+        if not is_dict or len(value) <= object_items:
+            line = one_line(value, is_dict)
+            if line is not None and len(line) <= (object_columns if is_dict else array_columns):
+                append(line)
+                return
+        deeper = inner + step
+        last = len(value) - 1
+        append(("{" if is_dict else "[") + nl)
+        for i, (key, item) in enumerate(value.items() if is_dict else zip(repeat(None), value)):
+            head = inner if key is None else inner + _quote(str(key)) + colon
+            end = ("," if i < last else "") + nl
+            if type(item) in _SCALAR_TYPES:
+                append(head + scalar(item) + end)
+            else:
+                append(head)
+                write(item, inner, deeper)
+                append(end)
+        append(close + ("}" if is_dict else "]"))
+
+    return write
 
 
 def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "", numbers: type[NumberText] = NumberText) -> str:
@@ -245,7 +248,7 @@ def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "", numbers: typ
     out: list[str] = []
     top = indent == "" and isinstance(value, dict)
     inner = indent + (style.indent if (style.top_level_indented or not top) else "")
-    _write(value, style, indent, inner, out, numbers(style.java_exponents))
+    _writer(style, numbers(style.java_exponents), out)(value, indent, inner)
     return "".join(out)
 
 

@@ -199,6 +199,11 @@ class _RefReader(SkelReader):
     def varints(self, values=None, n: int = 0, what: str = "indices") -> list[int]:
         """``n`` non-negative varints (triangles, edges of 4.2 meshes)."""
         buf, pos = self.buf, self.pos
+        head = buf[pos:pos + n]
+        if len(head) == n and (not n or max(head) < 0x80):
+            # The common case (meshes of under 128 vertices): n one-byte varints, read at once.
+            self.pos = pos + n
+            return list(head)
         out = []
         append = out.append
         try:
@@ -229,10 +234,26 @@ class _RefReader(SkelReader):
         out = []
         append, extend = out.append, out.extend
         unpack = _XYW.unpack_from
+        # A vertex's bones in one unpack, (bone, x, y, weight) per bone, when every bone index is
+        # one byte and names a bone; else bone by bone below. Half the time of a mesh-heavy file.
+        fast_below = min(nbones, 0x80)
+        structs = _BONES_XYW
         try:
             for _ in range(n):
                 k = buf[pos]
                 pos += 1
+                if 0 < k < 0x80:
+                    try:
+                        st = structs[k]
+                    except IndexError:
+                        st = None
+                    if st is not None:
+                        group = st.unpack_from(buf, pos)
+                        if max(group[::4]) < fast_below:
+                            append(k)
+                            extend(group)
+                            pos += st.size
+                            continue
                 if k >= 0x80:  # over 127 bones on one vertex: the long varint path
                     self.pos = pos - 1
                     k = self.count(what="bones per vertex")
@@ -273,6 +294,8 @@ class _RefReader(SkelReader):
 
 
 _XYW = struct.Struct(">3f")
+#: By bone count k (1 to 8): k times a one-byte bone index and x, y, weight as float32.
+_BONES_XYW = (None, *(struct.Struct(">" + "B3f" * k) for k in range(1, 9)))
 
 
 class _RefWriter(RecordedRefs, SkelWriter):
