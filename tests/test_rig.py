@@ -45,20 +45,98 @@ def test_inherit_modes_drop_what_they_say(mode):
             assert np.allclose(m[:, :2], _rot(50))  # rotation kept, scale not
 
 
-def test_constraints_make_bones_and_children_not_exact():
-    doc = worm_skeleton()
-    doc["ik"] = [{"name": "reach", "bones": ["seg2"], "target": "seg1"}]
-    bones = {b.name: b for b in skeleton_bones(doc)}
+def _posed(doc):
+    return {b.name: b for b in skeleton_bones(doc)}
+
+
+def _tip(bone):
+    return bone.world[:, 2] + bone.world[:, 0] * bone.length
+
+
+def _worm_with(version="4.2.22", **extra_bones):
+    """The worm plus a ``target`` bone at (x, y) under the root."""
+    doc = worm_skeleton(version)
+    x, y = extra_bones.get("target", (60, 50))
+    doc["bones"].append({"name": "target", "parent": "root", "x": x, "y": y})
+    return doc
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.0.64", "4.1.24", "4.2.22"])
+def test_one_bone_ik_aims_the_bone_at_its_target(version):
+    doc = _worm_with(version)
+    doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target"}]
+    bones = _posed(doc)
+    seg3, target = bones["seg3"], bones["target"]
+    assert seg3.exact and bones["seg2"].exact
+    to_target = target.world[:, 2] - seg3.world[:, 2]
+    x_axis = seg3.world[:, 0]
+    assert abs(x_axis[0] * to_target[1] - x_axis[1] * to_target[0]) < 1e-6 and x_axis @ to_target > 0
+    assert np.allclose(np.linalg.norm(x_axis), 1)  # no stretch asked: the length is kept
+    doc["ik"][0].update(compress=True)  # target nearer than the bone's length: the bone shrinks to it
+    assert np.allclose(_tip(_posed(doc)["seg3"]), target.world[:, 2])
+    doc["bones"][-1]["y"] = 150
+    doc["ik"][0].update(compress=False, stretch=True)  # out of reach: the bone stretches to it
+    assert np.allclose(_tip(_posed(doc)["seg3"]), [60, 150])
+    doc["bones"][-1]["y"] = 50
+    doc["ik"][0].update(stretch=False, mix=0.5)  # half way between the setup and the aimed rotation
+    angle = math.degrees(math.atan2(*_posed(doc)["seg3"].world[::-1, 0]))
+    assert np.isclose(angle, math.degrees(math.atan2(to_target[1], to_target[0])) / 2)
+
+
+@pytest.mark.parametrize("bend", [True, False])
+def test_two_bone_ik_reaches_the_target_on_the_bend_side(bend):
+    doc = _worm_with(target=(0, 60))  # seg2 starts at x = -40: the target is within 160 of it
+    doc["ik"] = [{"name": "leg", "bones": ["seg2", "seg3"], "target": "target", "bendPositive": bend}]
+    bones = _posed(doc)
+    assert bones["seg2"].exact and bones["seg3"].exact
+    assert np.allclose(_tip(bones["seg3"]), bones["target"].world[:, 2], atol=1e-6)
+    knee, hip, foot = bones["seg3"].world[:, 2], bones["seg2"].world[:, 2], _tip(bones["seg3"])
+    (fx, fy), (kx, ky) = foot - hip, knee - hip
+    side = fx * ky - fy * kx
+    assert (side < 0) if bend else (side > 0)  # bendPositive bends towards positive angles
+
+
+def test_transform_constraint_copies_the_target_rotation_in_update_order():
+    doc = _worm_with()
+    doc["bones"].append({"name": "follower", "parent": "root", "y": -100, "length": 20})
+    doc["ik"] = [{"name": "aim", "order": 0, "bones": ["seg3"], "target": "target"}]
+    doc["transform"] = [{"name": "copy", "order": 1, "bones": ["follower"], "target": "seg3",
+                         "mixX": 0, "mixScaleX": 0, "mixShearY": 0, "rotation": 10}]
+    bones = _posed(doc)
+    def angle(b):
+        return math.degrees(math.atan2(b.world[1, 0], b.world[0, 0]))
+    assert bones["follower"].exact and np.isclose(angle(bones["follower"]), angle(bones["seg3"]) + 10)
+    # ordered before the IK, the copy reads seg3 before it is aimed (as the runtime's update cache does)
+    doc["transform"][0]["order"], doc["ik"][0]["order"] = 0, 1
+    bones = _posed(doc)
+    assert np.isclose(angle(bones["follower"]), 10) and not np.isclose(angle(bones["seg3"]), 0)
+
+
+def test_constraints_not_reproduced_leave_bones_and_children_not_exact():
+    doc = _worm_with()
+    doc["slots"].append({"name": "rail", "bone": "root"})
+    doc["path"] = [{"name": "rail", "bones": ["seg2"], "target": "rail"}]
+    bones = _posed(doc)
     assert bones["seg1"].exact and not bones["seg2"].exact and not bones["seg3"].exact
-    assert "IK constraint 'reach'" in bones["seg3"].why
-    assert bones["seg1"].target_of
+    assert "path constraint 'rail'" in bones["seg3"].why and bones["seg3"].why.startswith("below")
+    doc = _worm_with()  # a constraint only some skins activate: the setup pose depends on the skin
+    doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target", "skin": True}]
+    assert "only some skins" in _posed(doc)["seg3"].why
+    doc = _worm_with()  # an IK that reads a bone that is not exact is not exact either
+    doc["path"] = [{"name": "rail", "bones": ["target"], "target": "worm"}]
+    doc["ik"] = [{"name": "aim", "order": 1, "bones": ["seg3"], "target": "target"}]
+    bones = _posed(doc)
+    assert not bones["target"].exact and not bones["seg3"].exact and bones["seg2"].exact
+    assert "which reads 'target'" in bones["seg3"].why
+    doc = _worm_with("3.7.94")  # versions whose runtime is not reproduced: as before
+    doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target"}]
+    assert "3.8-4.2" in _posed(doc)["seg3"].why
     doc["ik"][0]["mix"] = 0  # a constraint with mix 0 moves nothing
+    doc["transform"] = [{"name": "t", "bones": ["seg3"], "target": "seg1", "rotateMix": 0, "translateMix": 0,
+                         "scaleMix": 0, "shearMix": 0}]
     assert all(b.exact for b in skeleton_bones(doc))
-    doc["transform"] = [{"name": "t", "bones": ["seg3"], "target": "seg1", "mixRotate": 0, "mixX": 0,
-                         "mixScaleX": 0, "mixShearY": 0}]  # mixY and mixScaleY default to mixX, mixScaleX
-    assert all(b.exact for b in skeleton_bones(doc))
-    doc["transform"][0]["mixScaleY"] = 1
-    assert not skeleton_bones(doc)[3].exact
+    doc["transform"][0]["scaleMix"] = 1
+    assert not _posed(doc)["seg3"].exact
 
 
 def test_spine_43_constraints_list_is_read():

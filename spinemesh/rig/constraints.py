@@ -21,6 +21,7 @@ the implementation is ours.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,9 +35,11 @@ RAD = math.pi / 180
 
 
 def runtime_family(doc: dict) -> str | None:
-    """``"3.8"``, ``"4.0"``, ``"4.1"`` or ``"4.2"`` from ``skeleton.spine``; None for others."""
+    """``"3.8"``, ``"4.0"``, ``"4.1"`` or ``"4.2"`` from ``skeleton.spine``'s leading numbers
+    (the runtime a game of that version loads it with); None for others."""
     version = str((doc.get("skeleton") or {}).get("spine") or "")
-    family = ".".join(version.split(".")[:2])
+    m = re.match(r"(\d+)\.(\d+)", version)  # "4.1-from-4.2.33": a 4.2 project exported for 4.1
+    family = f"{m[1]}.{m[2]}" if m else None
     return family if family in FAMILIES else None
 
 
