@@ -244,10 +244,15 @@ def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():
     out = weight_document(keyed, "w", WeightOptions())
     assert out[0].status == "skipped" and "deform timeline" in out[0].reason
     assert keyed["skins"][0]["attachments"]["worm"]["worm"] == original
-    constrained = copy.deepcopy(doc)
+    constrained = copy.deepcopy(doc)  # a path constraint's pose is not reproduced: left as it is
+    constrained["slots"].append({"name": "rail", "bone": "root"})
+    constrained["path"] = [{"name": "rail", "bones": ["seg1"], "target": "rail"}]
+    out = weight_document(constrained, "w", WeightOptions())
+    assert out[0].status == "skipped" and "path constraint" in out[0].reason
+    constrained = copy.deepcopy(doc)  # an IK's is: the mesh is weighted
     constrained["ik"] = [{"name": "ik", "bones": ["seg1"], "target": "root"}]
     out = weight_document(constrained, "w", WeightOptions())
-    assert out[0].status == "skipped" and "IK constraint" in out[0].reason
+    assert out[0].status == "weighted", out[0].reason
 
 
 def test_rig_vertices_fold_the_mesh_at_joints_within_budget():
