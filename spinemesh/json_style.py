@@ -31,15 +31,21 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections import namedtuple
 from itertools import repeat
 from json.decoder import scanstring
-from typing import NamedTuple
 
 __all__ = ["JsonStyle", "EDITOR_STYLE", "NumberText", "detect_style", "dumps", "splice"]
 
 
-class JsonStyle(NamedTuple):
-    """How a JSON text is laid out.
+# A collections.namedtuple, not typing's: `spinemesh convert` does not import typing.
+_STYLE_FIELDS = {"indent": "\t", "top_level_indented": False, "object_columns": 100, "object_items": 6,
+                 "array_columns": math.inf, "pad": " ", "colon": ": ", "java_exponents": True,
+                 "minified": False, "newline": "\n"}
+
+
+class JsonStyle(namedtuple("JsonStyle", _STYLE_FIELDS, defaults=_STYLE_FIELDS.values())):
+    """How a JSON text is laid out (defaults: the editor's export style).
 
     Attributes
     ----------
@@ -68,16 +74,7 @@ class JsonStyle(NamedTuple):
         ``"\\n"`` or ``"\\r\\n"``.
     """
 
-    indent: str = "\t"
-    top_level_indented: bool = False
-    object_columns: float = 100
-    object_items: float = 6
-    array_columns: float = math.inf
-    pad: str = " "
-    colon: str = ": "
-    java_exponents: bool = True
-    minified: bool = False
-    newline: str = "\n"
+    __slots__ = ()
 
 
 #: The Spine editor's export style, for JSON written from a ``.skel`` or from scratch.
@@ -117,12 +114,17 @@ def _scalar(value, java_exponents: bool = False) -> str:
 
 
 def _java_double(value: float) -> str:
-    """The shortest digits of ``value`` in Java's scientific form: ``1.0E-5``, ``-2.5E8``."""
-    from decimal import Decimal  # rare values only: not imported for every `spinemesh convert`
-
-    sign, digits, exponent = Decimal(repr(value)).normalize().as_tuple()
-    rest = "".join(map(str, digits[1:])) or "0"
-    return f"{'-' if sign else ''}{digits[0]}.{rest}E{exponent + len(digits) - 1}"
+    """The shortest digits of ``value`` (Python's ``repr``) in Java's scientific form:
+    ``1.0E-5``, ``-2.5E8``, ``5.0E-4``."""
+    text = repr(value)
+    sign = "-" if text.startswith("-") else ""
+    mantissa, _, exponent = text.lstrip("-").partition("e")
+    whole, _, fraction = mantissa.partition(".")
+    digits = whole + fraction
+    significant = digits.lstrip("0")
+    power = int(exponent or 0) + len(whole) - 1 - (len(digits) - len(significant))
+    significant = significant.rstrip("0") or "0"
+    return f"{sign}{significant[0]}.{significant[1:] or '0'}E{power}"
 
 
 class NumberText(dict):

@@ -15,7 +15,8 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Iterator, NamedTuple
+from collections import namedtuple
+from collections.abc import Iterator
 
 from .errors import LimitError, SkeletonError, SpineMeshError
 from .fsutil import atomic_write_text
@@ -25,16 +26,14 @@ from .limits import MAX_JSON_DEPTH, MAX_SEQUENCE_DIGITS, MAX_SEQUENCE_FRAMES, ch
 IMAGE_TYPES = ("region", "mesh", "linkedmesh")
 
 
-class AttachmentRef(NamedTuple):
-    """One attachment of one skin: ``(skin, slot, name, attachment)``.
+class AttachmentRef(namedtuple("AttachmentRef", "skin slot name attachment")):
+    """One attachment of one skin: ``(skin, slot, name, attachment)``, three ``str`` and a ``dict``.
 
-    ``attachment`` is the document's own dict: changing it changes the document.
+    ``attachment`` is the document's own dict: changing it changes the document. (A
+    collections.namedtuple: `spinemesh convert` does not import typing.)
     """
 
-    skin: str
-    slot: str
-    name: str
-    attachment: dict
+    __slots__ = ()
 
     @property
     def type(self) -> str:
