@@ -3,9 +3,11 @@
 For every example project of 3.8, 4.0, 4.1 and 4.2, from ``.json`` and ``.skel``, every mesh
 attachment is (re)weighted with ``--replace --bones auto``; the runtime's dump of the setup
 pose must draw each weighted mesh's vertices within 0.05 px of where the original project
-draws them. The bone world transforms computed by :mod:`spinemesh.rig.bones` must equal the
-runtime's for every bone they call exact (bones only some skins activate are not posed by
-the runtime in the default skin, and are not compared).
+draws them. The bone world transforms computed by :mod:`spinemesh.rig.bones` (IK and transform
+constraints applied, :mod:`spinemesh.rig.constraints`) must equal the runtime's for every bone
+they call exact (bones only some skins activate are not posed by the runtime in the default
+skin, and are not compared), on those examples and on every corpus skeleton of 3.8-4.2 in whose
+setup pose an IK or transform constraint moves a bone.
 """
 
 from __future__ import annotations
@@ -16,14 +18,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from spinemesh.errors import SpineMeshError
 from spinemesh.project import find_project, image_source_for
 from spinemesh.rig.bones import skeleton_bones
+from spinemesh.rig.constraints import solved_constraints
 from spinemesh.rig.document import WeightOptions
 from spinemesh.rig.run import weight_project
 from spinemesh.rig.binding import parse_vertices, setup_world
 from spinemesh.skeleton import iter_attachments, load_skeleton
 
-from conftest import example_projects
+from conftest import CORPUS, example_projects
 from runtime_tool import node
 
 #: Example projects the runtime cannot load, with the reason (checked below, so the list cannot rot).
@@ -57,6 +61,48 @@ def _ancestors(bones, b):
         b = bones[b].parent
 
 
+#: Why a bone may be left not exact (the first bone of a chain; those below say "below").
+LEFT_OUT = ("path constraint", "only some skins", "zero scale", "which reads")
+
+
+def assert_exact_bones_match(bones, pose: dict) -> int:
+    """Every bone called exact (and posed by the runtime without a skin) equals the runtime's
+    world transform within 1e-3; every bone left out says why. Returns how many were compared."""
+    compared = 0
+    for bone in bones:
+        if bone.exact and not any(x.skin_required for x in _ancestors(bones, bone.index)):
+            m = np.array(pose["bones"][bone.name])
+            runtime = np.array([[m[0], m[1], m[4]], [m[2], m[3], m[5]]])
+            assert np.abs(runtime - bone.world).max() < 1e-3, (bone.name, runtime, bone.world)
+            compared += 1
+        elif not bone.exact and not bone.why.startswith("below"):
+            assert any(w in bone.why for w in LEFT_OUT), (bone.name, bone.why)
+    return compared
+
+
+def constrained_corpus_skeletons() -> dict[str, list[Path]]:
+    """Corpus skeletons of 3.8-4.2 (one per JSON/binary pair) in whose setup pose an IK or
+    transform constraint moves a bone, by project; empty when the corpus is absent."""
+    out: dict[str, list[Path]] = {}
+    projects = sorted(p for p in CORPUS.iterdir() if p.is_dir()) if CORPUS.is_dir() else []
+    for project in projects:
+        files = sorted(project.rglob("*.json")) + sorted(project.rglob("*.skel"))
+        twins = {f.with_suffix("") for f in files if f.suffix == ".json"}
+        for f in files:
+            if f.suffix == ".skel" and f.with_suffix("") in twins:
+                continue
+            try:
+                doc = load_skeleton(f)
+            except SpineMeshError:  # not a skeleton (an atlas or a package file in JSON)
+                continue
+            if isinstance(doc, dict) and solved_constraints(doc):
+                out.setdefault(project.name, []).append(f)
+    return out
+
+
+CORPUS_CASES = constrained_corpus_skeletons()
+
+
 def test_projects_left_out_ship_no_atlas(examples):
     left_out = [s for s in ALL_SKELETONS if s.parent.name in NO_ATLAS]
     assert left_out and all(atlas_for(s) is None for s in left_out)
@@ -79,11 +125,7 @@ def test_weighted_meshes_draw_where_the_originals_did(skeleton, spine_runtime, t
                    tmp_path / "b.json")
 
     bones = skeleton_bones(load_skeleton(skeleton))
-    for bone in bones:
-        if bone.exact and not any(x.skin_required for x in _ancestors(bones, bone.index)):
-            m = np.array(a["bones"][bone.name])
-            runtime = np.array([[m[0], m[1], m[4]], [m[2], m[3], m[5]]])
-            assert np.abs(runtime - bone.world).max() < 1e-3, (bone.name, runtime, bone.world)
+    assert_exact_bones_match(bones, a)
 
     ours = {(d["slot"], d["attachment"]): d for d in b["attachments"]}
     checked, worst = 0, 0.0
@@ -122,6 +164,19 @@ def test_weighted_meshes_draw_where_the_originals_did(skeleton, spine_runtime, t
         placed += 1
     if weighted:
         assert checked + placed > 0
+
+
+@pytest.mark.parametrize("project", sorted(CORPUS_CASES))
+def test_constraints_pose_bones_as_the_runtime_does_on_the_corpus(project, spine_runtime, tmp_path):
+    """One setup-pose dump per skeleton: the bones IK and transform constraints move are exact
+    (unless they read a bone that is not) and equal to the runtime's, as every other exact bone
+    (the skeletons are those :func:`solved_constraints` names)."""
+    for skeleton in CORPUS_CASES[project]:
+        atlas = atlas_for(skeleton)
+        assert atlas is not None, f"{skeleton}: no atlas"
+        bones = skeleton_bones(load_skeleton(skeleton))
+        # Compared, and no bone left out for an IK or transform constraint alone (LEFT_OUT).
+        assert assert_exact_bones_match(bones, setup_dump(spine_runtime, atlas, skeleton, tmp_path / "a.json"))
 
 
 UPGRADE_CASES = ["worm", "demo", "raptor-pro.json"]

@@ -692,6 +692,11 @@ def setup_pose(doc: dict) -> list[PoseBone]:
         posed by the runtime without that skin: they are computed from their parent, as if the
         skin were set, and never moved by a constraint here.
     """
+    return _solve(doc)[0]
+
+
+def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
+    """:func:`setup_pose`'s bones, and the constraints read (``active`` as in the runtime's cache)."""
     family = runtime_family(doc)
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
@@ -712,7 +717,7 @@ def setup_pose(doc: dict) -> list[PoseBone]:
     by_name = {b.name: b for b in bones}
     constraints, _ = _read_constraints(doc, by_name)
     if family is None:
-        return _without_constraints(bones, constraints, doc)
+        return _without_constraints(bones, constraints, doc), constraints
 
     # Constraints only some skins activate (or aiming at a bone only some skins activate) are
     # not in the cache of a skeleton without a skin: their bones are marked below.
@@ -758,7 +763,7 @@ def setup_pose(doc: dict) -> list[PoseBone]:
         if id(c) not in skipped and _moves_something(c, family):
             _mark(c.bones, f"moved by the {c.label()}, which only some skins activate")
     _propagate(bones)
-    return bones
+    return bones, constraints
 
 
 def _propagate(bones: list[PoseBone]) -> None:
@@ -790,3 +795,15 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
                 b.exact, b.why = False, f"moved in the setup pose by the slider constraint {c.get('name')!r}"
     _propagate(bones)
     return bones
+
+
+def solved_constraints(doc: dict) -> dict[str, list[str]]:
+    """IK and transform constraints this module applies that move bones in the setup pose of
+    ``doc`` (a mix not 0, active without a skin), by name, with the names of the bones they move; empty
+    for versions whose runtime is not reproduced."""
+    family = runtime_family(doc)
+    if family is None:
+        return {}
+    _, constraints = _solve(doc)
+    return {c.name: [b.name for b in c.bones] for c in constraints
+            if c.kind in ("ik", "transform") and c.active and _moves_something(c, family)}
