@@ -52,8 +52,11 @@ def main() -> None:
         if args[:1] == ["convert"]:
             from .convert_files import run_plain_convert
 
-            if run_plain_convert(args[1:]):
-                return
+            try:
+                if run_plain_convert(args[1:]):
+                    return
+            except KeyboardInterrupt:
+                sys.exit("Aborted!")  # what click prints for Ctrl-C, with its exit status 1
         _load_app()()
     except SpineMeshError as e:
         from rich.markup import escape
