@@ -517,10 +517,10 @@ class _Constraint:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
 
 
-def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> tuple[list[_Constraint], list[str]]:
-    """Every IK, transform, path and physics constraint (document order within each kind), and
-    the names of constraints that cannot be read (a bone they name is missing)."""
-    out, bad = [], []
+def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constraint]:
+    """Every IK, transform, path and physics constraint (document order within each kind); one
+    that names a missing bone is left out (a runtime refuses such a skeleton)."""
+    out = []
     for kind in ("ik", "transform", "path", "physics"):
         for c in constraints_of(doc, kind):
             names = c.get("bones") if kind != "physics" else [c.get("bone")]
@@ -528,12 +528,11 @@ def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> tuple[list[_Co
             bones = [by_name.get(str(n)) for n in names]
             target = by_name.get(str(c.get("target"))) if kind in ("ik", "transform") else None
             if any(b is None for b in bones) or not bones or (kind in ("ik", "transform") and target is None):
-                bad.append(str(c.get("name")))
                 continue
             order = c.get("order", 0)
             order = order if isinstance(order, int) and not isinstance(order, bool) else 0
             out.append(_Constraint(kind, str(c.get("name")), order, c, bones, target))
-    return out, bad
+    return out
 
 
 class _Cache:
@@ -563,7 +562,7 @@ class _Cache:
     def _in_cache(self, bone: PoseBone) -> bool:
         return any(item is bone for item in self.items)
 
-    def sort(self, c: _Constraint, doc: dict) -> None:
+    def sort(self, c: _Constraint) -> None:
         if c.kind == "ik":
             self.sort_bone(c.target)
             parent = c.bones[0]
@@ -582,7 +581,8 @@ class _Cache:
             self.sort_bone(c.target)
             for bone in c.bones:
                 if c.data.get("local", False):
-                    self.sort_bone(bone.parent) if bone.parent is not None else None
+                    if bone.parent is not None:
+                        self.sort_bone(bone.parent)
                     if self.family == "3.8":
                         if not self._in_cache(bone):
                             self.reset.append(bone)
@@ -619,7 +619,7 @@ def _inputs_exact(c: _Constraint) -> tuple[bool, str]:
     for bone in c.bones:
         read += [bone] + ([bone.parent] if bone.parent is not None else [])
     if c.kind == "ik" and len(c.bones) == 2 and c.bones[0].parent is not None:
-        read.append(c.bones[0].parent.parent) if c.bones[0].parent.parent is not None else None
+        read.append(c.bones[0].parent.parent)  # two-bone IK works in the grandparent's space
     for bone in read:
         if bone is not None and not bone.exact:
             return False, f"moved in the setup pose by the {c.label()}, which reads {bone.name!r}: {bone.why}"
@@ -715,7 +715,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
             parent.children.append(bone)
         bones.append(bone)
     by_name = {b.name: b for b in bones}
-    constraints, _ = _read_constraints(doc, by_name)
+    constraints = _read_constraints(doc, by_name)
     if family is None:
         return _without_constraints(bones, constraints, doc), constraints
 
@@ -738,7 +738,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
             c = next((c for c in constraints if c.kind == kind and c.order == i), None)
             if c is not None:
                 if c.active:
-                    cache.sort(c, doc)
+                    cache.sort(c)
                 break
     for bone in bones:
         cache.sort_bone(bone)
@@ -752,7 +752,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
         else:
             _run(item, family)
 
-    skipped = {id(c) for c in constraints if c.active}
+    active = {id(c) for c in constraints if c.active}
     for bone in bones:
         if not bone.active:  # not posed by a runtime without its skin: from its parent
             bone.update_with(bone.local)
@@ -760,7 +760,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
             if not bone.exact:
                 bone.why = f"below {bone.parent.name!r}: {bone.parent.why}"
     for c in constraints:
-        if id(c) not in skipped and _moves_something(c, family):
+        if id(c) not in active and _moves_something(c, family):
             _mark(c.bones, f"moved by the {c.label()}, which only some skins activate")
     _propagate(bones)
     return bones, constraints
