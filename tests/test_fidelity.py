@@ -157,3 +157,40 @@ def test_faint_texels_are_left_out_in_normal_slots_only(glow_project, tmp_path):
     assert not uncovered_pixels(*meshes["glow"], glow.max(axis=-1) > 0).any()
     assert not uncovered_pixels(*meshes["glow-normal"], shown).any()
     assert mesh_area(*meshes["glow-normal"]) < mesh_area(*meshes["glow"])
+
+
+def test_the_hull_keeps_half_a_texel_around_every_drawn_texel_after_its_inset():
+    """``upgrade`` grows the art by one texel and moves the hull half a texel back in
+    (``hull_inset``): every point bilinear sampling takes a drawn texel's colour at (within
+    half a texel of its square, inside the stored rectangle) must stay inside the hull."""
+    import shapely
+
+    from spinemesh.mesher import mesh_image, resolve_params
+    from spinemesh.upgrade.run import SAMPLING_INSET, sampling_margin
+
+    rng = np.random.default_rng(3)
+    masks = []
+    for _ in range(12):
+        h, w = rng.integers(20, 90, 2)
+        noise = rng.random((h // 4 + 2, w // 4 + 2))
+        import cv2
+
+        smooth = cv2.resize(noise, (int(w), int(h)), interpolation=cv2.INTER_CUBIC)
+        masks.append(smooth > np.quantile(smooth, rng.uniform(0.4, 0.8)))  # blobs, often on the border
+    masks.append(_glow()[2:62, 2:62].max(axis=-1) > 0)  # a disc touching its trimmed border
+    params = resolve_params("default", hull_inset=SAMPLING_INSET)
+    inset_somewhere = False
+    for art in masks:
+        if not art.any():
+            continue
+        rgba = np.zeros(art.shape + (4,), np.uint8)
+        rgba[art, 3] = 255
+        grown = sampling_margin(art)
+        mesh = mesh_image(rgba, params, mask=grown)
+        plain = mesh_image(rgba, resolve_params("default"), mask=grown)
+        hull = shapely.Polygon(np.asarray(mesh.vertices)[: mesh.hull]).buffer(1e-9)
+        crop = shapely.box(0, 0, art.shape[1], art.shape[0])
+        reach = [shapely.box(x - 0.5, y - 0.5, x + 1.5, y + 1.5).intersection(crop) for y, x in np.argwhere(art)]
+        assert all(hull.contains(r) for r in reach)
+        inset_somewhere |= hull.area < shapely.Polygon(np.asarray(plain.vertices)[: plain.hull]).area - 1
+    assert inset_somewhere

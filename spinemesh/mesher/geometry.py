@@ -195,3 +195,67 @@ def drop_redundant(loop: np.ndarray, tol: float = 1e-9) -> np.ndarray:
             loop = loop[~straight]
             changed = True
     return loop
+
+
+def inset_loop(loop: np.ndarray, distance: float, width: float, height: float) -> np.ndarray | None:
+    """``loop`` with every edge moved ``distance`` px inwards, except edges on the image border.
+
+    Each convex vertex off the border goes to the intersection of its two edges' moved
+    lines, each reflex one ``distance`` along its bisector, the others stay (the vertex count and order stay, and the result contains the erosion by a disc of
+    radius ``distance`` of ``loop`` united with everything outside the image
+    ``[0, width] x [0, height]``: edges on the image border stay). Used for the sampling margin: a hull around a mask grown by one texel may lie
+    half a texel inside it (``MesherParams.hull_inset``).
+
+    Parameters
+    ----------
+    loop : ndarray, shape (n, 2)
+        A simple loop inside the image, either winding.
+    distance : float
+        How far to move the edges (px).
+
+    Returns
+    -------
+    ndarray, shape (n, 2), or None
+        None when moving the edges would turn one round, make the loop cross itself (an
+        edge shorter than the move, a narrow neck) or leave the image (a reflex corner's
+        mitre near the border): the caller keeps ``loop``.
+    """
+    loop = np.asarray(loop, np.float64)
+    n = len(loop)
+    a, b = loop, np.roll(loop, -1, axis=0)
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    if n < 3 or (length <= 0).any():
+        return None
+    # inward normal of each edge: left of the direction for a positive (clockwise on screen) loop
+    sign = 1.0 if signed_area(loop) > 0 else -1.0
+    normal = sign * np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
+    on_border = (((a[:, 0] == 0) & (b[:, 0] == 0)) | ((a[:, 0] == width) & (b[:, 0] == width))
+                 | ((a[:, 1] == 0) & (b[:, 1] == 0)) | ((a[:, 1] == height) & (b[:, 1] == height)))
+    shift = np.where(on_border, 0.0, distance)
+    # vertex i joins edge i-1 (into it) and edge i (out of it)
+    n0, n1 = np.roll(normal, 1, axis=0), normal
+    s0, s1 = np.roll(shift, 1), shift
+    # solve p . n0 = a_i . n0 + s0 and p . n1 = a_i . n1 + s1 for the moved vertex p = a_i + q
+    det = n0[:, 0] * n1[:, 1] - n0[:, 1] * n1[:, 0]
+    nearly_straight = np.abs(det) < 1e-6
+    q = np.stack([(s0 * n1[:, 1] - s1 * n0[:, 1]), (n0[:, 0] * s1 - n1[:, 0] * s0)], axis=1)
+    q = q / np.where(nearly_straight, 1.0, det)[:, None]
+    q[nearly_straight] = (n1[nearly_straight] * np.maximum(s0, s1)[nearly_straight, None])
+    # At a reflex vertex the erosion is rounded about the vertex (the moved lines' crossing
+    # would cut into it): the vertex goes onto that arc, on the bisector, and its edges run
+    # outside the erosion. A vertex between a border edge and a moved one stays (its moved
+    # edge then runs between the old and the moved line).
+    d_in = np.roll(d, 1, axis=0)
+    reflex = (sign * (d_in[:, 0] * d[:, 1] - d_in[:, 1] * d[:, 0]) < 0) & ~nearly_straight
+    bisector = n0 + n1
+    bisector /= np.maximum(np.hypot(bisector[:, 0], bisector[:, 1]), 1e-12)[:, None]
+    q[reflex] = bisector[reflex] * s1[reflex, None]
+    q[s0 != s1] = 0.0
+    out = loop + q
+    if (out < 0).any() or (out[:, 0] > width).any() or (out[:, 1] > height).any():
+        return None  # a reflex corner's mitre would leave the image
+    moved = np.roll(out, -1, axis=0) - out
+    if ((moved * d).sum(axis=1) <= 0).any() or not loop_is_simple(out):
+        return None
+    return out

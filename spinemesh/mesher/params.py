@@ -92,6 +92,10 @@ class MesherParams:
     interior_max_side : int
         Default preset: interior edges are detected on a copy at most this large (0: full
         size). The paper preset always works at full size.
+    hull_inset : float
+        Default preset: how far (px) the hull may lie inside the squares of the mask's
+        pixels, off the image border (0). ``upgrade`` grows the art by one texel for bilinear
+        sampling, which reaches only half a texel beyond a texel's square, and sets 0.5.
     min_saving : float or None
         Default preset: None meshes whatever the cost. A share (0..1) turns on the rules of
         :mod:`spinemesh.mesher.worth`: :class:`~spinemesh.mesher.worth.NotWorthMeshing` is
@@ -130,6 +134,7 @@ class MesherParams:
     min_hole_area: float = 400.0
     analysis_max_side: int = 1024
     interior_max_side: int = 512
+    hull_inset: float = 0.0
     min_saving: float | None = None
 
     def with_overrides(self, **overrides) -> "MesherParams":

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import shapely
 
 from ..errors import ImageError
 from . import exterior, interior, triangulate
-from .geometry import clip_loop_to_rect, segments_cross, signed_area
+from .geometry import clip_loop_to_rect, inset_loop, segments_cross, signed_area
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
@@ -134,6 +135,8 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     if s > 1:
         # the analysis grid may overhang the image by < s px: clip exactly at full size
         loops = [clip_loop_to_rect(loops[0] * s, w, h)] + [l * s for l in loops[1:]]
+    if p.hull_inset > 0:
+        loops[0] = _inset_hull(loops, p.hull_inset, w, h)
     if p.min_saving is not None:  # rule 3, before the interior edges and the triangulation
         reason = hull_reason(loops[0], w, h, p.min_saving)
         if reason:
@@ -147,6 +150,21 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
         if budget is not None:
             chains = _fit_budget(chains, budget - len(ring))
     return _triangulate(loops, chains, p, w, h)
+
+
+def _inset_hull(loops: list[np.ndarray], distance: float, w: int, h: int) -> np.ndarray:
+    """The hull moved ``distance`` px inwards off the image border (``hull_inset``), or as it is.
+
+    Kept as it is where the move is not clean (:func:`inset_loop`) or would touch a hole loop.
+    """
+    inset = inset_loop(loops[0], distance, w, h)
+    if inset is None:
+        return loops[0]
+    if len(loops) > 1:
+        hull = shapely.Polygon(inset)
+        if not all(hull.contains(shapely.Polygon(hole)) for hole in loops[1:]):
+            return loops[0]
+    return inset
 
 
 def _hull_and_holes(cover: np.ndarray, eps: float, p: MesherParams, s: int) -> list[np.ndarray]:

@@ -371,12 +371,20 @@ class Planner:
                 write_editor_image(frame, Path(folder))
 
 
+#: How far (texels) the hull may lie inside the squares of the :func:`sampling_margin` mask.
+SAMPLING_INSET = 0.5
+
+
 def sampling_margin(mask: np.ndarray) -> np.ndarray:
     """Grow the art mask by one texel on every side.
 
     Runtimes sample textures bilinearly: a screen pixel whose sample point falls within half
-    a texel of a visible texel takes some of its colour. A mesh that covers only the visible
-    texels cuts those pixels off at its edge; covering one more texel keeps them.
+    a texel of a visible texel's square (within one texel of its centre) takes some of its
+    colour. A mesh that covers only the visible texels cuts those pixels off at its edge.
+    The mask can only grow by whole texels, so the mesher covers the grown mask's squares
+    and then moves the hull :data:`SAMPLING_INSET` texels back inwards
+    (``MesherParams.hull_inset``): every point within half a texel of a visible texel's
+    square stays inside. (Mipmapped pages, minified, sample further; the corpus has none.)
     """
     import cv2
 
@@ -413,7 +421,8 @@ def mesh_one(task: MeshTask) -> MeshResult:
     preset, mask_source, overrides = task.settings
     start = time.perf_counter()
     try:
-        params = resolve_params(preset, **{**dict(overrides), "mask_source": mask_source})
+        # the mask grows the art by a whole texel; bilinear sampling needs half (sampling_margin)
+        params = resolve_params(preset, **{"hull_inset": SAMPLING_INSET, **dict(overrides), "mask_source": mask_source})
         mask = sampling_margin(drawn_art(task, params, dict(overrides)))
         mesh = mesh_image(task.rgba, params, mask=mask)
     except NotWorthMeshing as e:  # decided early, from the mask and the hull
