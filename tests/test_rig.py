@@ -112,18 +112,39 @@ def test_transform_constraint_copies_the_target_rotation_in_update_order():
     assert np.isclose(angle(bones["follower"]), 10) and not np.isclose(angle(bones["seg3"]), 0)
 
 
+def _with_rail(doc, **path):
+    """A straight path slot ``rail`` on the root, from (-100, 100) to (200, 100), and a path
+    constraint on seg2 and seg3 along it."""
+    doc["slots"].append({"name": "rail", "bone": "root", "attachment": "rail"})
+    doc["skins"][0]["attachments"]["rail"] = {"rail": {
+        "type": "path", "vertexCount": 6, "lengths": [300, 600],
+        "vertices": [-200, 100, -100, 100, 0, 100, 100, 100, 200, 100, 300, 100]}}
+    doc["path"] = [{"name": "rail", "bones": ["seg2", "seg3"], "target": "rail", **path}]
+    return doc
+
+
+@pytest.mark.parametrize("constant_speed", [True, False])
+def test_path_constraint_lays_bones_along_the_path(constant_speed):
+    doc = _with_rail(worm_skeleton("4.1.24"), positionMode="fixed", position=50)
+    doc["skins"][0]["attachments"]["rail"]["rail"]["constantSpeed"] = constant_speed
+    bones = _posed(doc)
+    assert bones["seg2"].exact and bones["seg3"].exact
+    # "length" spacing: each bone starts where the previous one's length ends, turned along the path
+    assert np.allclose(bones["seg2"].world[:, 2], [-50, 100], atol=1e-6)
+    assert np.allclose(bones["seg3"].world[:, 2], [30, 100], atol=1e-6)
+    assert np.allclose(bones["seg3"].world[:, :2], np.eye(2), atol=1e-6)
+
+
 def test_constraints_not_reproduced_leave_bones_and_children_not_exact():
-    doc = _worm_with()
-    doc["slots"].append({"name": "rail", "bone": "root"})
-    doc["path"] = [{"name": "rail", "bones": ["seg2"], "target": "rail"}]
+    doc = _with_rail(worm_skeleton("3.8.99"))  # path constraints are solved for 4.0-4.2
     bones = _posed(doc)
     assert bones["seg1"].exact and not bones["seg2"].exact and not bones["seg3"].exact
-    assert "path constraint 'rail'" in bones["seg3"].why and bones["seg3"].why.startswith("below")
+    assert "path constraint 'rail'" in bones["seg2"].why
     doc = _worm_with()  # a constraint only some skins activate: the setup pose depends on the skin
     doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target", "skin": True}]
     assert "only some skins" in _posed(doc)["seg3"].why
-    doc = _worm_with()  # an IK that reads a bone that is not exact is not exact either
-    doc["path"] = [{"name": "rail", "bones": ["target"], "target": "worm"}]
+    doc = _with_rail(_worm_with("3.8.99"))  # an IK that reads a bone that is not exact is not exact either
+    doc["path"][0]["bones"] = ["target"]
     doc["ik"] = [{"name": "aim", "order": 1, "bones": ["seg3"], "target": "target"}]
     bones = _posed(doc)
     assert not bones["target"].exact and not bones["seg3"].exact and bones["seg2"].exact
@@ -244,9 +265,9 @@ def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():
     out = weight_document(keyed, "w", WeightOptions())
     assert out[0].status == "skipped" and "deform timeline" in out[0].reason
     assert keyed["skins"][0]["attachments"]["worm"]["worm"] == original
-    constrained = copy.deepcopy(doc)  # a path constraint's pose is not reproduced: left as it is
-    constrained["slots"].append({"name": "rail", "bone": "root"})
-    constrained["path"] = [{"name": "rail", "bones": ["seg1"], "target": "rail"}]
+    constrained = _with_rail(copy.deepcopy(doc))  # a 3.8 path constraint's pose is not reproduced
+    constrained["skeleton"]["spine"] = "3.8.99"
+    constrained["path"][0]["bones"] = ["seg1"]
     out = weight_document(constrained, "w", WeightOptions())
     assert out[0].status == "skipped" and "path constraint" in out[0].reason
     constrained = copy.deepcopy(doc)  # an IK's is: the mesh is weighted

@@ -8,7 +8,8 @@ transform, filtered by the bone's inherit mode (called transform mode before 4.2
 skeleton itself sits at the origin with scale 1, as it does when a game loads it.
 
 IK, transform and path constraints move their bones after this computation, even in the
-setup pose (unless all their mixes are 0): :mod:`.constraints` applies them as the runtime does.
+setup pose (unless all their mixes are 0): :mod:`.constraints` applies them as the runtimes
+3.8-4.2 do.
 Bones whose setup world transform it does not reproduce, and everything below them, are
 marked *not exact*, and nothing is bound to them.
 """

@@ -4,18 +4,21 @@ A game that loads a skeleton sets it to the setup pose and calls ``updateWorldTr
 once: the runtime walks an *update cache*, a list of bones and constraints sorted once per
 skeleton, in which every constraint comes after the bones it reads and every bone a
 constraint moves is updated again after it. This module builds that list the way each
-runtime family builds it (3.8, 4.0, 4.1, 4.2 differ in details listed where they matter),
-then plays it once: bones take their world transform from their parent, IK constraints
+runtime family builds it (3.8, 4.0, 4.1, 4.2 differ in details noted where they matter),
+then plays it once: bones take their world transform from their parent; IK constraints
 (one and two bones: mix, bend direction, compress, stretch, uniform, softness) turn and
-scale their bones towards the target, transform constraints (world or local, absolute or
-relative) pull their bones' transforms towards the target's.
+scale their bones towards the target; transform constraints (world or local, absolute or
+relative) pull their bones' transforms towards the target's; path constraints (4.0-4.2:
+position, spacing and rotate modes, constant speed or not, open or closed paths) lay their
+bones along the target slot's path.
 
-Each bone carries an *exact* flag. A path constraint (not reproduced here), a constraint
-only some skins activate, a 4.3 skeleton or one older than 3.8 (not checked against a
-runtime) leaves the bones it moves not exact, with the reason, and so does any constraint
-that reads a bone that is not exact; children of a bone that is not exact are not exact.
-The math follows the public runtime sources (EsotericSoftware spine-runtimes, spine-ts);
-the implementation is ours.
+Each bone carries an *exact* flag. A 3.8 path constraint (the runtime checked against, a
+port, differs from the official one there), a constraint only some skins activate, a 4.3
+skeleton or one older than 3.8 (no runtime to check against) leaves the bones it moves not
+exact, with the reason, and so does any constraint that reads a bone that is not exact;
+children of a bone that is not exact are not exact. Physics constraints (4.2) leave the
+setup pose as it is. The math follows the public runtime sources (EsotericSoftware
+spine-runtimes, spine-ts); the implementation is ours.
 """
 
 from __future__ import annotations
@@ -26,6 +29,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SpineMeshError
+from ..skeleton import iter_skins
+from .binding import parse_vertices, setup_world
 from .bones import INHERIT_MODES, _num, constraints_of, inherit_mode, local_values, world_from_local
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
@@ -502,6 +508,285 @@ def _transform_local(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
         bone.update_with((x, y, rotation, scale_x, scale_y, shear_x, shear_y))
 
 
+# -- path constraints (4.0-4.2) ---------------------------------------------------------------
+#: Below this setup length a bone has no direction of its own for path spacing.
+_EPSILON = 0.00001
+_NONE, _BEFORE, _AFTER = -1, -2, -3
+
+
+def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone]) -> list[float] | None:
+    """A path attachment's vertices in world space, flat ``[x0, y0, x1, y1, ...]``, or None when
+    its vertices do not parse. Weighted when ``vertices`` is longer than ``2 * vertexCount``."""
+    count = att.get("vertexCount")
+    verts = att.get("vertices")
+    if not isinstance(count, int) or isinstance(count, bool) or count <= 0 or not isinstance(verts, list):
+        return None
+    try:  # the mesh reader's layout; a path has no uvs, only its vertex count
+        mesh = parse_vertices({"uvs": [0.0] * (2 * count), "vertices": verts}, len(bones))
+    except SpineMeshError:
+        return None
+    world = setup_world(mesh, [b.world for b in bones], slot_bone.index)
+    return [float(v) for v in world.reshape(-1)]
+
+
+def _curve_position(p, x1, y1, cx1, cy1, cx2, cy2, x2, y2, tangents) -> tuple[float, float, float | None]:
+    """Point (and with ``tangents`` its direction, radians) at parameter ``p`` of a cubic Bezier."""
+    if p == 0 or math.isnan(p):
+        return x1, y1, math.atan2(cy1 - y1, cx1 - x1)
+    tt, u = p * p, 1 - p
+    ttt, uu = tt * p, u * u
+    uuu, ut = uu * u, u * p
+    ut3 = ut * 3
+    uut3, utt3 = u * ut3, ut3 * p
+    x = x1 * uuu + cx1 * uut3 + cx2 * utt3 + x2 * ttt
+    y = y1 * uuu + cy1 * uut3 + cy2 * utt3 + y2 * ttt
+    if not tangents:
+        return x, y, None
+    if p < 0.001:
+        return x, y, math.atan2(cy1 - y1, cx1 - x1)
+    return x, y, math.atan2(y - (y1 * uu + cy1 * ut * 2 + cy2 * tt), x - (x1 * uu + cx1 * ut * 2 + cx2 * tt))
+
+
+def _beyond(p: float, x1: float, y1: float, x2: float, y2: float, at_end: bool) -> tuple[float, float, float]:
+    """A position ``p`` past either end of an open path, along its first or last segment."""
+    r = math.atan2(y2 - y1, x2 - x1)
+    x, y = (x2, y2) if at_end else (x1, y1)
+    return x + p * math.cos(r), y + p * math.sin(r), r
+
+
+def _put(out: list, o: int, xyr: tuple) -> None:
+    out[o], out[o + 1] = xyr[0], xyr[1]
+    if xyr[2] is not None:
+        out[o + 2] = xyr[2]
+
+
+def _seek(lengths, start: int, p: float) -> tuple[int, float]:
+    """The index of the first cumulative length at or past ``p`` from ``start``, and ``p``
+    made relative to that piece (0..1)."""
+    i = start
+    while i < len(lengths) - 1 and p > lengths[i]:
+        i += 1
+    if i == 0:
+        return i, p / lengths[i]
+    prev = lengths[i - 1]
+    return i, (p - prev) / (lengths[i] - prev)
+
+
+def path_positions(att: dict, world: list[float], spaces: list[float], tangents: bool, position: float,
+                   position_mode: str, spacing_mode: str) -> list[float]:
+    """``computeWorldPositions``: ``[x, y, r]`` per space along the path, flat, plus two."""
+    spaces_count = len(spaces)
+    out = [0.0] * (spaces_count * 3 + 2)
+    closed = bool(att.get("closed", False))
+    vertices_length = len(world)
+    curve_count = vertices_length // 6
+    prev_curve = _NONE
+    if not att.get("constantSpeed", True):
+        lengths = [float(v) for v in att.get("lengths", [])]
+        curve_count -= 1 if closed else 2
+        path_length = lengths[curve_count]
+        if position_mode == "percent":
+            position *= path_length
+        multiplier = {"percent": path_length, "proportional": path_length / spaces_count}.get(spacing_mode, 1)
+        curve = 0
+        w = world
+        for i in range(spaces_count):
+            o = 3 * i
+            space = spaces[i] * multiplier
+            position += space
+            p = position
+            if closed:
+                p = math.fmod(p, path_length)
+                if p < 0:
+                    p += path_length
+                curve = 0
+            elif p < 0:
+                _put(out, o, _beyond(p, *w[2:6], at_end=False))
+                continue
+            elif p > path_length:
+                _put(out, o, _beyond(p - path_length, *w[vertices_length - 6:vertices_length - 2], at_end=True))
+                continue
+            curve, p = _seek(lengths, curve, p)
+            if closed and curve == curve_count:
+                pts = w[vertices_length - 4:vertices_length] + w[0:4]
+            else:
+                pts = w[curve * 6 + 2:curve * 6 + 10]
+            prev_curve = curve
+            _put(out, o, _curve_position(p, *pts, tangents or (i > 0 and space == 0)))
+        return out
+    # Constant speed: lengths measured here, along the world vertices.
+    if closed:
+        vertices_length += 2
+        w = world[2:] + world[0:2]
+        w = w + w[0:2]
+    else:
+        curve_count -= 1
+        vertices_length -= 4
+        w = world[2:2 + vertices_length]
+    curves = []
+    path_length = 0.0
+    x1, y1 = w[0], w[1]
+    for i in range(curve_count):
+        cx1, cy1, cx2, cy2, x2, y2 = w[2 + 6 * i:8 + 6 * i]
+        tmpx, tmpy = (x1 - cx1 * 2 + cx2) * 0.1875, (y1 - cy1 * 2 + cy2) * 0.1875
+        dddfx, dddfy = ((cx1 - cx2) * 3 - x1 + x2) * 0.09375, ((cy1 - cy2) * 3 - y1 + y2) * 0.09375
+        ddfx, ddfy = tmpx * 2 + dddfx, tmpy * 2 + dddfy
+        dfx = (cx1 - x1) * 0.75 + tmpx + dddfx * 0.16666667
+        dfy = (cy1 - y1) * 0.75 + tmpy + dddfy * 0.16666667
+        path_length += math.sqrt(dfx * dfx + dfy * dfy)
+        dfx += ddfx
+        dfy += ddfy
+        ddfx += dddfx
+        ddfy += dddfy
+        path_length += math.sqrt(dfx * dfx + dfy * dfy)
+        dfx += ddfx
+        dfy += ddfy
+        path_length += math.sqrt(dfx * dfx + dfy * dfy)
+        dfx += ddfx + dddfx
+        dfy += ddfy + dddfy
+        path_length += math.sqrt(dfx * dfx + dfy * dfy)
+        curves.append(path_length)
+        x1, y1 = x2, y2
+    if position_mode == "percent":
+        position *= path_length
+    multiplier = {"percent": path_length, "proportional": path_length / spaces_count}.get(spacing_mode, 1)
+    segments = [0.0] * 10
+    curve_length = 0.0
+    curve = segment = 0
+    pts = None
+    for i in range(spaces_count):
+        o = 3 * i
+        space = spaces[i] * multiplier
+        position += space
+        p = position
+        if closed:
+            p = math.fmod(p, path_length)
+            if p < 0:
+                p += path_length
+            curve = 0
+        elif p < 0:
+            _put(out, o, _beyond(p, *w[0:4], at_end=False))
+            continue
+        elif p > path_length:
+            _put(out, o, _beyond(p - path_length, *w[vertices_length - 4:vertices_length], at_end=True))
+            continue
+        curve, p = _seek(curves, curve, p)
+        if curve != prev_curve:
+            prev_curve = curve
+            pts = w[curve * 6:curve * 6 + 8]
+            x1, y1, cx1, cy1, cx2, cy2, x2, y2 = pts
+            tmpx, tmpy = (x1 - cx1 * 2 + cx2) * 0.03, (y1 - cy1 * 2 + cy2) * 0.03
+            dddfx, dddfy = ((cx1 - cx2) * 3 - x1 + x2) * 0.006, ((cy1 - cy2) * 3 - y1 + y2) * 0.006
+            ddfx, ddfy = tmpx * 2 + dddfx, tmpy * 2 + dddfy
+            dfx = (cx1 - x1) * 0.3 + tmpx + dddfx * 0.16666667
+            dfy = (cy1 - y1) * 0.3 + tmpy + dddfy * 0.16666667
+            curve_length = math.sqrt(dfx * dfx + dfy * dfy)
+            segments[0] = curve_length
+            for ii in range(1, 8):
+                dfx += ddfx
+                dfy += ddfy
+                ddfx += dddfx
+                ddfy += dddfy
+                curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+                segments[ii] = curve_length
+            dfx += ddfx
+            dfy += ddfy
+            curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+            segments[8] = curve_length
+            dfx += ddfx + dddfx
+            dfy += ddfy + dddfy
+            curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+            segments[9] = curve_length
+            segment = 0
+        p *= curve_length
+        segment, frac = _seek(segments, segment, p)
+        p = frac if segment == 0 else segment + frac
+        _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0)))
+    return out
+
+
+def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bones: list[PoseBone],
+               family: str) -> None:
+    """A path constraint's update (4.0-4.2): bones placed along the path, turned along it."""
+    mix_rotate, mix_x = _num(d, "mixRotate", 1), _num(d, "mixX", 1)
+    mix_y = _num(d, "mixY", mix_x)
+    if mix_rotate == 0 and mix_x == 0 and mix_y == 0:
+        return
+    rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
+    tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
+    count = len(bones)
+    spaces_count = count if tangents else count + 1
+    spaces = [0.0] * spaces_count
+    lengths = [0.0] * count
+    spacing = _num(d, "spacing", 0)
+    if spacing_mode == "percent":
+        for i in range(spaces_count - 1) if scale else ():
+            (a, _, _), (c, _, _) = bones[i].world.tolist()
+            short = family != "4.2" and bones[i].length < _EPSILON  # 4.0-4.1 give short bones no length
+            lengths[i] = 0.0 if short else math.hypot(bones[i].length * a, bones[i].length * c)
+        spaces[1:] = [spacing] * (spaces_count - 1)
+    else:
+        total = 0.0
+        for i in range(spaces_count - 1):
+            bone = bones[i]
+            setup = bone.length
+            if setup < _EPSILON:
+                lengths[i] = 0.0
+                spaces[i + 1] = spacing
+                continue
+            (a, _, _), (c, _, _) = bone.world.tolist()
+            length = math.hypot(setup * a, setup * c)
+            lengths[i] = length
+            if spacing_mode == "proportional":
+                spaces[i + 1] = length
+                total += length
+            else:
+                spaces[i + 1] = (setup + spacing if spacing_mode == "length" else spacing) * length / setup
+        if spacing_mode == "proportional" and total > 0:
+            k = spaces_count / total * spacing
+            spaces[1:] = [v * k for v in spaces[1:]]
+    positions = path_positions(att, world, spaces, tangents, _num(d, "position", 0),
+                               d.get("positionMode", "percent"), spacing_mode)
+    bone_x, bone_y = positions[0], positions[1]
+    offset = _num(d, "rotation", 0)
+    if offset == 0:
+        tip = rotate_mode == "chain"
+    else:
+        tip = False
+        (pa, pb, _), (pc, pd, _) = target_bone.world.tolist()
+        offset *= RAD if pa * pd - pb * pc > 0 else -RAD
+    for i, bone in enumerate(bones):
+        p = 3 * (i + 1)
+        (a, b, wx), (c, dd, wy) = bone.world.tolist()
+        wx += (bone_x - wx) * mix_x
+        wy += (bone_y - wy) * mix_y
+        x, y = positions[p], positions[p + 1]
+        dx, dy = x - bone_x, y - bone_y
+        if scale and lengths[i] != 0:
+            s = (math.hypot(dx, dy) / lengths[i] - 1) * mix_rotate + 1
+            a, c = a * s, c * s
+        bone_x, bone_y = x, y
+        if mix_rotate > 0:
+            if tangents:
+                r = positions[p - 1]
+            elif spaces[i + 1] == 0:
+                r = positions[p + 2]
+            else:
+                r = math.atan2(dy, dx)
+            r -= math.atan2(c, a)
+            if tip:
+                cos, sin = math.cos(r), math.sin(r)
+                bone_x += (bone.length * (cos * a - sin * c) - dx) * mix_rotate
+                bone_y += (bone.length * (sin * a + cos * c) - dy) * mix_rotate
+            else:
+                r += offset
+            r = _wrap_pi(r) * mix_rotate
+            cos, sin = math.cos(r), math.sin(r)
+            a, b, c, dd = cos * a - sin * c, cos * b - sin * dd, sin * a + cos * c, sin * b + cos * dd
+        bone.world = np.array([[a, b, wx], [c, dd, wy]])
+        bone.update_applied()
+
+
 # -- the update cache -------------------------------------------------------------------------
 @dataclass
 class _Constraint:
@@ -510,8 +795,10 @@ class _Constraint:
     order: int
     data: dict
     bones: list[PoseBone]
-    target: PoseBone | None   # the target bone (IK, transform); None for path and physics
+    target: PoseBone | None   # the target bone (IK, transform), the target slot's bone (path)
     active: bool = True
+    path: dict | None = None  # path: the target slot's setup attachment when it is a path
+    reads: list[PoseBone] = field(default_factory=list)  # path: bones its vertices follow, sorted first
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
@@ -592,10 +879,8 @@ class _Cache:
                     self.sort_bone(bone)
             self._push_and_reset(c)
         elif c.kind == "path":
-            # The path's bones are read before it (the slot's bone; a weighted path's bones
-            # only change when, not how, unconstrained bones are computed).
-            if c.target is not None:
-                self.sort_bone(c.target)
+            for bone in c.reads:  # the bones every path attachment of the slot follows
+                self.sort_bone(bone)
             for bone in c.bones:
                 self.sort_bone(bone)
             self._push_and_reset(c)
@@ -615,7 +900,7 @@ class _Cache:
 
 def _inputs_exact(c: _Constraint) -> tuple[bool, str]:
     """Whether every bone the constraint reads is exact, else the reason."""
-    read = [c.target] if c.target is not None else []
+    read = ([c.target] if c.target is not None else []) + c.reads
     for bone in c.bones:
         read += [bone] + ([bone.parent] if bone.parent is not None else [])
     if c.kind == "ik" and len(c.bones) == 2 and c.bones[0].parent is not None:
@@ -632,15 +917,23 @@ def _mark(bones: list[PoseBone], why: str) -> None:
         bone.why = why
 
 
-def _run(c: _Constraint, family: str) -> None:
-    """One constraint's update in the cache."""
+def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
+    """One constraint's update in the cache (``skeleton``: every bone, by index)."""
     if c.kind == "physics":
         return  # the setup pose resets physics: it leaves its bone's transform as it is
-    if c.kind == "path":
-        _mark(c.bones, f"moved in the setup pose by the {c.label()} (path constraints are not reproduced)")
+    if c.kind == "path" and family == "3.8":
+        _mark(c.bones, f"moved in the setup pose by the {c.label()} (path constraints are solved for 4.0-4.2)")
         return
     ok, why = _inputs_exact(c)
     d = c.data
+    if c.kind == "path":
+        if c.path is None:
+            return  # no path attachment in the setup pose: the runtime leaves the bones as they are
+        world = path_world_vertices(c.path, c.target, skeleton)
+        if world is None or len(world) < 8:
+            _mark(c.bones, f"moved in the setup pose by the {c.label()}, whose path does not parse")
+            return
+        path_apply(d, c.path, world, c.target, c.bones, family)
     if c.kind == "ik":
         mix = _num(d, "mix", 1)
         if mix == 0 and family != "3.8":
@@ -656,7 +949,7 @@ def _run(c: _Constraint, family: str) -> None:
                    bool(d.get("uniform", False)), _num(d, "softness", 0), mix, family)
         else:
             ok, why = False, f"moved in the setup pose by the {c.label()} (a chain it cannot solve)"
-    else:
+    elif c.kind == "transform":
         transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
     if not ok:
         _mark(c.bones, why)
@@ -725,10 +1018,8 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
         reads = [c.target] if c.target is not None else []
         c.active = all(b.active for b in reads) and c.data.get("skin") is not True
         if c.kind == "path":
-            slot = next((s for s in doc.get("slots", []) if isinstance(s, dict)
-                         and s.get("name") == c.data.get("target")), None)
-            c.target = by_name.get(str(slot.get("bone"))) if slot else None
-            c.active = c.data.get("skin") is not True and (c.target is None or c.target.active)
+            _read_path_target(c, doc, by_name, bones)
+            c.active = c.data.get("skin") is not True and c.target is not None and c.target.active
     for bone in bones:
         bone.sorted = not bone.active
     cache = _Cache(family)
@@ -750,7 +1041,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
         if isinstance(item, PoseBone):
             item.update()
         else:
-            _run(item, family)
+            _run(item, family, bones)
 
     active = {id(c) for c in constraints if c.active}
     for bone in bones:
@@ -764,6 +1055,38 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
             _mark(c.bones, f"moved by the {c.label()}, which only some skins activate")
     _propagate(bones)
     return bones, constraints
+
+
+def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], bones: list[PoseBone]) -> None:
+    """A path constraint's target slot: its bone, its setup attachment when that is a path of
+    the default skin (the only skin of a skeleton without one), and the bones that every path
+    attachment of the slot in any skin follows (the runtime sorts them before the constraint)."""
+    slots = [s for s in doc.get("slots", []) if isinstance(s, dict)]
+    slot = next((s for s in slots if s.get("name") == c.data.get("target")), None)
+    c.target = by_name.get(str(slot.get("bone"))) if slot else None
+    if c.target is None:
+        return
+    skins = list(iter_skins(doc))
+    setup_name = slot.get("attachment")
+    default = next((atts for name, atts in skins if name == "default"), {})
+    setup = (default.get(slot["name"]) or {}).get(setup_name) if setup_name is not None else None
+    c.path = setup if isinstance(setup, dict) and setup.get("type") == "path" else None
+    ordered = [atts.get(slot["name"]) or {} for name, atts in skins if name == "default"]
+    ordered += [atts.get(slot["name"]) or {} for _, atts in skins] + [{"": c.path} if c.path else {}]
+    for attachments in ordered:
+        for att in attachments.values() if isinstance(attachments, dict) else ():
+            if not isinstance(att, dict) or att.get("type") != "path":
+                continue
+            count = att.get("vertexCount")
+            verts = att.get("vertices") if isinstance(att.get("vertices"), list) else []
+            if isinstance(count, int) and len(verts) != 2 * count:  # weighted: its bones
+                try:
+                    mesh = parse_vertices({"uvs": [0.0] * (2 * count), "vertices": verts}, len(bones))
+                except SpineMeshError:
+                    continue  # the constraint marks its bones when it cannot read its path
+                c.reads += [bones[b] for b in mesh.bones()]
+            else:
+                c.reads.append(c.target)
 
 
 def _propagate(bones: list[PoseBone]) -> None:
