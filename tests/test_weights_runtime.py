@@ -7,7 +7,7 @@ draws them. The bone world transforms computed by :mod:`spinemesh.rig.bones` (IK
 constraints applied, :mod:`spinemesh.rig.constraints`) must equal the runtime's for every bone
 they call exact (bones only some skins activate are not posed by the runtime in the default
 skin, and are not compared), on those examples and on every corpus skeleton of 3.8-4.2 in whose
-setup pose an IK or transform constraint moves a bone.
+setup pose an IK, transform or path constraint moves a bone.
 """
 
 from __future__ import annotations
@@ -61,8 +61,10 @@ def _ancestors(bones, b):
         b = bones[b].parent
 
 
-#: Why a bone may be left not exact (the first bone of a chain; those below say "below").
-LEFT_OUT = ("path constraint", "only some skins", "zero scale", "which reads")
+#: Why a bone may be left not exact (the first bone of a chain; those below say "below"):
+#: a 3.8 path constraint, a constraint only some skins activate, a zero scale, or a constraint
+#: that reads such a bone.
+LEFT_OUT = ("solved for 4.0-4.2", "only some skins", "zero scale", "which reads")
 
 
 def assert_exact_bones_match(bones, pose: dict) -> int:
@@ -81,8 +83,8 @@ def assert_exact_bones_match(bones, pose: dict) -> int:
 
 
 def constrained_corpus_skeletons() -> dict[str, list[Path]]:
-    """Corpus skeletons of 3.8-4.2 (one per JSON/binary pair) in whose setup pose an IK or
-    transform constraint moves a bone, by project; empty when the corpus is absent."""
+    """Corpus skeletons of 3.8-4.2 (one per JSON/binary pair) in whose setup pose an IK,
+    transform or path constraint moves a bone, by project; empty when the corpus is absent."""
     out: dict[str, list[Path]] = {}
     projects = sorted(p for p in CORPUS.iterdir() if p.is_dir()) if CORPUS.is_dir() else []
     for project in projects:
@@ -168,14 +170,14 @@ def test_weighted_meshes_draw_where_the_originals_did(skeleton, spine_runtime, t
 
 @pytest.mark.parametrize("project", sorted(CORPUS_CASES))
 def test_constraints_pose_bones_as_the_runtime_does_on_the_corpus(project, spine_runtime, tmp_path):
-    """One setup-pose dump per skeleton: the bones IK and transform constraints move are exact
-    (unless they read a bone that is not) and equal to the runtime's, as every other exact bone
-    (the skeletons are those :func:`solved_constraints` names)."""
+    """One setup-pose dump per skeleton: the bones IK, transform and path constraints move are
+    exact (unless they read a bone that is not) and equal to the runtime's, as every other exact
+    bone (the skeletons are those for which :func:`solved_constraints` names a constraint)."""
     for skeleton in CORPUS_CASES[project]:
         atlas = atlas_for(skeleton)
         assert atlas is not None, f"{skeleton}: no atlas"
         bones = skeleton_bones(load_skeleton(skeleton))
-        # Compared, and no bone left out for an IK or transform constraint alone (LEFT_OUT).
+        # Compared, and no bone left out for a constraint that is solved (LEFT_OUT).
         assert assert_exact_bones_match(bones, setup_dump(spine_runtime, atlas, skeleton, tmp_path / "a.json"))
 
 

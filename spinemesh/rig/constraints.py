@@ -965,7 +965,12 @@ def _moves_something(c: _Constraint, family: str | None) -> bool:
         return _num(c.data, "mix", 1) != 0
     if c.kind == "transform":
         return not TransformMix.from_json(c.data, family).moves_nothing("4.2")
-    return c.kind in ("path", "slider")
+    if c.kind == "path":
+        if any(k in c.data for k in ("rotateMix", "translateMix")):  # 3.x names
+            return _num(c.data, "rotateMix", 1) != 0 or _num(c.data, "translateMix", 1) != 0
+        mix_x = _num(c.data, "mixX", 1)
+        return any(m != 0 for m in (_num(c.data, "mixRotate", 1), mix_x, _num(c.data, "mixY", mix_x)))
+    return c.kind == "slider"
 
 
 def setup_pose(doc: dict) -> list[PoseBone]:
@@ -1121,12 +1126,13 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
 
 
 def solved_constraints(doc: dict) -> dict[str, list[str]]:
-    """IK and transform constraints this module applies that move bones in the setup pose of
-    ``doc`` (a mix not 0, active without a skin), by name, with the names of the bones they move; empty
-    for versions whose runtime is not reproduced."""
+    """IK, transform and path constraints this module applies that move bones in the setup pose
+    of ``doc`` (a mix not 0, active without a skin; paths from 4.0), by name, with the names of
+    the bones they move; empty for versions whose runtime is not reproduced."""
     family = runtime_family(doc)
     if family is None:
         return {}
     _, constraints = _solve(doc)
     return {c.name: [b.name for b in c.bones] for c in constraints
-            if c.kind in ("ik", "transform") and c.active and _moves_something(c, family)}
+            if (c.kind in ("ik", "transform") or (c.kind == "path" and family != "3.8"))
+            and c.active and _moves_something(c, family)}
