@@ -10,6 +10,7 @@ the usual help and errors.
 
 from __future__ import annotations
 
+import gc
 import os
 from pathlib import Path
 
@@ -73,5 +74,8 @@ def run_plain_convert(args: list[str]) -> bool:
     source, target = map(Path, paths)
     if not (source.is_file() and os.access(source, os.R_OK)):
         return False
+    # The process ends with this command, whose ~100,000 objects hold no reference cycle: the
+    # cyclic collector would only walk them again and again while they are made (~3 ms of 90).
+    gc.disable()
     print(convert_files(source, target, keep))
     return True
