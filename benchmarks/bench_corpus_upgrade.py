@@ -14,7 +14,11 @@ machine); where the upgrade exposes its worker function, CPU seconds per image a
 
 ``table`` prints, for one or two row files side by side: attachments meshed, kept (by
 reason), skipped and failed; the drawn-pixel saving against the regions in total and per
-project; vertices added; mesh time per attachment (median, p90, p99, max) and in total.
+project; vertices added; mesh time per attachment (median, p90, p99, max) and in total; and,
+for several files, the saving on the attachments every run counts (runs that read more
+projects or mesh more sequences are then compared on the same set).
+
+``run --set NAME=NUMBER`` passes a mesher parameter to the upgrade (to measure its effect).
 """
 
 from __future__ import annotations
@@ -206,10 +210,44 @@ def summary(data: dict) -> dict:
     return out
 
 
+def same_set(datas: list[dict]) -> dict:
+    """Each run restricted to the attachments every run counts in its drawn pixels.
+
+    Attachments are matched by project, skeleton, slot and name (in order where a name
+    repeats); a run that counts more attachments (sequences it can mesh, projects it reads)
+    is then compared on the others' set. Returns ``{"attachments": n, "region_px": [...],
+    "drawn_px": [...], "vertices_added": [...]}``, one entry per run.
+    """
+    keyed = []
+    for data in datas:
+        rows: dict = {}
+        for name, e in data["projects"].items():
+            for r in e.get("rows", []):
+                rows.setdefault((name, r["skeleton"], r["slot"], r["name"]), []).append(r)
+        keyed.append(rows)
+    out = {"attachments": 0, "region_px": [0] * len(datas), "drawn_px": [0.0] * len(datas),
+           "vertices_added": [0] * len(datas)}
+    for key in set.intersection(*(set(k) for k in keyed)):
+        lists = [k[key] for k in keyed]
+        if len({len(rows) for rows in lists}) != 1:
+            continue
+        for same in zip(*lists):
+            if not all(_considered(r) for r in same):
+                continue
+            out["attachments"] += 1
+            for i, r in enumerate(same):
+                meshed = r["status"] == "meshed" and r["mesh_px"] is not None
+                out["region_px"][i] += r["region_px"]
+                out["drawn_px"][i] += r["mesh_px"] if meshed else r["region_px"]
+                out["vertices_added"][i] += r["vertices"] - 4 if r["status"] == "meshed" else 0
+    return out
+
+
 def table(files: list[Path], per_project: bool) -> None:
     import numpy as np
 
-    sums = [summary(json.loads(f.read_text())) for f in files]
+    datas = [json.loads(f.read_text()) for f in files]
+    sums = [summary(d) for d in datas]
     w = 16
     names = [f.stem[:w] for f in files]
     print(f"{'':42}" + "".join(f"{n:>{w}}" for n in names))
@@ -239,6 +277,14 @@ def table(files: list[Path], per_project: bool) -> None:
     line("unique images sent to the mesher", [s["images_meshed"] for s in sums])
     line("mesh s, sum over unique images", [f"{s['seconds']['sum']:.0f}" for s in sums])
     line("wall s, all projects (one process each)", [f"{s['wall']:.0f}" for s in sums])
+    if len(datas) > 1:
+        same = same_set(datas)
+        print(f"\non the {same['attachments']:,} attachments every run counts:")
+        line("  drawn pixels, regions (Mpx)", [f"{v / 1e6:.1f}" for v in same["region_px"]])
+        line("  drawn pixels, after upgrade (Mpx)", [f"{v / 1e6:.1f}" for v in same["drawn_px"]])
+        line("  drawn-pixel saving, total", [f"{1 - d / r:.1%}" if r else "-"
+                                            for d, r in zip(same["drawn_px"], same["region_px"])])
+        line("  vertices added (over 4 per quad)", same["vertices_added"])
     if per_project:
         print()
         print(f"{'project':28}" + "".join(f"{n + ' saving':>{w + 4}}{'meshed/kept':>{w}}" for n in names))
