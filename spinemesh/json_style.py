@@ -162,7 +162,8 @@ class NumberText(dict):
 
 def _writer(style: JsonStyle, numbers: NumberText, out: list[str]):
     """The function that appends a value to ``out`` in ``style``: ``write(value, close, inner)``,
-    where ``close`` indents the value's closing bracket and ``inner`` its items.
+    where ``close`` indents the value's closing bracket and ``inner`` its items; and the one to
+    call when done, ``release()``.
 
     The style's settings are bound once here rather than looked up for each of the ~10,000
     containers of a large skeleton; flat values are told by the set of their items' exact types,
@@ -219,7 +220,13 @@ def _writer(style: JsonStyle, numbers: NumberText, out: list[str]):
                 append(end)
         append(close + ("}" if is_dict else "]"))
 
-    return write
+    def release() -> None:
+        # A closure that calls itself is a reference cycle: without this, `out` and `numbers`
+        # would live until the cyclic collector runs (at exit for `spinemesh convert`).
+        nonlocal write
+        write = None
+
+    return write, release
 
 
 def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "", numbers: type[NumberText] = NumberText) -> str:
@@ -250,7 +257,11 @@ def dumps(value, style: JsonStyle = EDITOR_STYLE, indent: str = "", numbers: typ
     out: list[str] = []
     top = indent == "" and isinstance(value, dict)
     inner = indent + (style.indent if (style.top_level_indented or not top) else "")
-    _writer(style, numbers(style.java_exponents), out)(value, indent, inner)
+    write, release = _writer(style, numbers(style.java_exponents), out)
+    try:
+        write(value, indent, inner)
+    finally:
+        release()
     return "".join(out)
 
 
