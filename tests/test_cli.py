@@ -6,6 +6,7 @@ Everything runs on the demo project drawn by our own code (no ../shared data nee
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -140,6 +141,12 @@ def test_float32_text_is_numpys_shortest_decimal_as_the_editor_writes_it():
         x = float(v)
         expected = str(int(x)) if x > 0 and x.is_integer() else _scalar(float(str(v)), java_exponents=True)
         assert text[x] == expected, repr(v)
+    # Beyond float32 (a physics mass read as 1 / a tiny float32) is written as it is; NaN and
+    # infinities are refused with the writer's ValueError.
+    assert text[-1e40] == "-1.0E40" and float(text[1e40]) == 1e40
+    for bad in (math.nan, math.inf, -math.inf):
+        with pytest.raises(ValueError):
+            text[bad]
 
 
 # --- options --------------------------------------------------------------------------------

@@ -130,7 +130,7 @@ class Float32Text(NumberText):
     __slots__ = ()
 
     def __missing__(self, value) -> str:
-        if type(value) is float:
+        if type(value) is float and -_FLOAT32_MAX <= value <= _FLOAT32_MAX:
             target = _FLOAT32.unpack(_FLOAT32.pack(value))[0]
             magnitude = target if target > 0 else -target
             if 1e-3 <= magnitude < 1e7 and not target.is_integer():
@@ -144,7 +144,10 @@ class Float32Text(NumberText):
     def text(self, value) -> str:
         if type(value) is float and value > 0 and value.is_integer():
             return str(int(value))  # as an int, whatever its size, as JSON from a .skel always was
-        return super().text(value if type(value) is int else shortest_float32(value))
+        if type(value) is int or abs(value) > _FLOAT32_MAX:
+            # Beyond float32 (a physics mass read as the inverse of a tiny float32): as it is.
+            return super().text(value)
+        return super().text(shortest_float32(value))
 
 
 #: Decade boundaries from 1e-2 to 1e6: ``bisect_right`` of a magnitude of 1e-3 to 1e7 gives its
@@ -158,6 +161,7 @@ _TRIES = tuple(tuple(("%%.%dg" % n, 10.0 ** (n - 1 - e)) for n in (6, 7, 8, 9) i
 
 _FLOAT32 = struct.Struct("<f")
 _FLOAT32_SMALLEST_NORMAL = 1.1754943508222875e-38
+_FLOAT32_MAX = 3.4028234663852886e38
 
 
 def shortest_float32(value: float) -> float:
