@@ -122,9 +122,10 @@ class Float32Text(NumberText):
     exact arithmetic: with ``n`` significant digits (6 to 9) and ``k = n - 1 - floor(log10|x|)``
     between 0 and 11, the float32 ``x`` times ``10**k`` is exact in float64 (24 bits times
     5**11's 26), so ``round`` gives the correctly rounded digits, ties to even, as ``"%.*g"``
-    does, and their quotient by ``10**k`` is the float those digits parse to. That is 1.5 times
-    faster than formatting and parsing every candidate (:func:`shortest_float32`), which the
-    other values take, with the same result.
+    does, and their quotient by ``10**k`` is the float those digits parse to. That takes three
+    quarters of the time of formatting and parsing every candidate (:func:`shortest_float32`,
+    17 against 23 ms for mix-and-match-pro's 11,655 such values), which the other values take,
+    with the same result.
     """
 
     __slots__ = ()
