@@ -338,3 +338,41 @@ def test_cli_weights_a_project_without_touching_it(tmp_path):
     (tmp_path / "empty").mkdir()
     r = CliRunner().invoke(app, ["weights", str(tmp_path / "empty"), "--out", str(tmp_path / "e-out")])
     assert r.exit_code == 2 and "no Spine skeleton found" in r.output
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.1.24", "4.2.22"])
+def test_malformed_or_degenerate_constraints_never_raise(version):
+    """Constraints that name missing bones, chains the runtimes cannot solve, zero scales and
+    unreadable paths: every bone still gets a transform, exact ones finite, the rest say why."""
+    broken = [
+        {"ik": [{"name": "a", "bones": "seg2", "target": "target"}]},
+        {"ik": [{"name": "a", "bones": ["nope"], "target": "target"}]},
+        {"ik": [{"name": "a", "bones": ["seg2"], "target": "nope", "order": "x"}]},
+        {"ik": [{"name": "a", "bones": ["root"], "target": "target"}]},
+        {"ik": [{"name": "a", "bones": ["seg1", "seg2", "seg3"], "target": "target"}]},
+        {"ik": [{"name": "a", "bones": ["seg1", "seg3"], "target": "target", "softness": 5, "stretch": True}]},
+        {"transform": [{"name": "t", "bones": ["seg3"], "target": "target", "local": True, "scaleX": -1}]},
+        {"path": [{"name": "p", "bones": ["seg2"], "target": "nope"}]},
+    ]
+    for extra in broken:
+        doc = _worm_with(version)
+        doc.update(extra)
+        _check_finite_or_explained(doc)
+    doc = _worm_with(version)  # zero scale under the constrained bones
+    doc["bones"][1]["scaleX"] = 0
+    doc["bones"][1]["scaleY"] = 0
+    doc["ik"] = [{"name": "a", "bones": ["seg2", "seg3"], "target": "target", "stretch": True}]
+    doc["transform"] = [{"name": "t", "bones": ["seg3"], "target": "seg1"}]
+    _check_finite_or_explained(doc)
+    doc = _with_rail(_worm_with(version))  # a path whose vertices do not parse, then an empty one
+    doc["skins"][0]["attachments"]["rail"]["rail"]["vertices"] = [3, "x", 1, 2]
+    _check_finite_or_explained(doc)
+    doc["skins"][0]["attachments"]["rail"]["rail"].update(vertices=[0, 0] * 6, constantSpeed=True)
+    _check_finite_or_explained(doc)
+
+
+def _check_finite_or_explained(doc):
+    bones = skeleton_bones(doc)
+    assert len(bones) == len(doc["bones"])
+    for b in bones:
+        assert (b.exact and np.isfinite(b.world).all()) or (not b.exact and b.why), (b.name, b.why, b.world)

@@ -86,15 +86,23 @@ class PoseBone:
 
     def update(self) -> None:
         """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones."""
-        if self.family == "3.8":
-            self.update_with(self.local)
-            self.applied_exact = True
-        else:
-            self.update_with(self.applied)
+        try:
+            if self.family == "3.8":
+                self.update_with(self.local)
+                self.applied_exact = True
+            else:
+                self.update_with(self.applied)
+        except (ValueError, OverflowError):  # an infinite angle left by a degenerate constraint
+            self.world = np.full((2, 3), np.nan)
         parent_ok = self.parent is None or self.parent.exact
-        self.exact = parent_ok and self.applied_exact
+        self.exact = parent_ok and self.applied_exact and self.finite()
         if not parent_ok:
             self.why = f"below {self.parent.name!r}: {self.parent.why}"
+        elif not self.exact and self.applied_exact:
+            self.why = "its setup transform is not finite"
+
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.world).all())
 
     def ensure_applied(self) -> None:
         """3.8: ``if (!appliedValid) updateAppliedTransform()``."""
@@ -383,14 +391,16 @@ class TransformMix:
         return not any((self.rotate, self.x, self.y, self.scale_x, scale_y, self.shear_y))
 
 
-def transform_apply(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
-    """Apply a transform constraint to ``bones`` (the runtime's four variants)."""
+def transform_apply(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> bool:
+    """Apply a transform constraint to ``bones`` (the runtime's four variants); False when the
+    runtime returns first (every mix 0)."""
     if mix.moves_nothing(family):
-        return
+        return False
     if mix.local:
         _transform_local(mix, target, bones, family)
     else:
         _transform_world(mix, target, bones, family)
+    return True
 
 
 def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
@@ -706,12 +716,13 @@ def path_positions(att: dict, world: list[float], spaces: list[float], tangents:
 
 
 def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bones: list[PoseBone],
-               family: str) -> None:
-    """A path constraint's update (4.0-4.2): bones placed along the path, turned along it."""
+               family: str) -> bool:
+    """A path constraint's update (4.0-4.2): bones placed along the path, turned along it;
+    False when every mix is 0 (the runtime returns first)."""
     mix_rotate, mix_x = _num(d, "mixRotate", 1), _num(d, "mixX", 1)
     mix_y = _num(d, "mixY", mix_x)
     if mix_rotate == 0 and mix_x == 0 and mix_y == 0:
-        return
+        return False
     rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
     tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
     count = len(bones)
@@ -785,6 +796,7 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
             a, b, c, dd = cos * a - sin * c, cos * b - sin * dd, sin * a + cos * c, sin * b + cos * dd
         bone.world = np.array([[a, b, wx], [c, dd, wy]])
         bone.update_applied()
+    return True
 
 
 # -- the update cache -------------------------------------------------------------------------
@@ -925,19 +937,43 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
         _mark(c.bones, f"moved in the setup pose by the {c.label()} (path constraints are solved for 4.0-4.2)")
         return
     ok, why = _inputs_exact(c)
+    try:
+        if not _apply(c, family, skeleton):
+            return
+    except (ZeroDivisionError, ValueError, OverflowError, IndexError):
+        # A degenerate pose (a zero scale, a zero-length path) where the runtime divides by zero.
+        ok, why = False, f"moved in the setup pose by the {c.label()}, degenerate there"
+    except _Unsolved as e:
+        ok, why = False, f"moved in the setup pose by the {c.label()} ({e})"
+    if ok and not all(b.finite() for b in c.bones):
+        ok, why = False, f"moved in the setup pose by the {c.label()}, not finite there"
+    if not ok:
+        _mark(c.bones, why)
+    else:
+        for bone in c.bones:
+            bone.applied_exact = True
+            bone.exact = True
+
+
+class _Unsolved(Exception):
+    """A constraint this module does not apply (the reason is the message)."""
+
+
+def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
+    """Apply one IK, transform or path constraint to its bones' transforms; False when the
+    runtime returns without touching them (mixes 0, no path attachment in the setup pose)."""
     d = c.data
     if c.kind == "path":
         if c.path is None:
-            return  # no path attachment in the setup pose: the runtime leaves the bones as they are
+            return False
         world = path_world_vertices(c.path, c.target, skeleton)
         if world is None or len(world) < 8:
-            _mark(c.bones, f"moved in the setup pose by the {c.label()}, whose path does not parse")
-            return
-        path_apply(d, c.path, world, c.target, c.bones, family)
+            raise _Unsolved("its path does not parse")
+        return path_apply(d, c.path, world, c.target, c.bones, family)
     if c.kind == "ik":
         mix = _num(d, "mix", 1)
         if mix == 0 and family != "3.8":
-            return
+            return False
         tx, ty = (float(v) for v in c.target.world[:, 2])
         if len(c.bones) == 1 and c.bones[0].parent is not None:
             ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
@@ -948,15 +984,9 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
             ik_two(c.bones[0], c.bones[1], tx, ty, bend, bool(d.get("stretch", False)),
                    bool(d.get("uniform", False)), _num(d, "softness", 0), mix, family)
         else:
-            ok, why = False, f"moved in the setup pose by the {c.label()} (a chain it cannot solve)"
-    elif c.kind == "transform":
-        transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
-    if not ok:
-        _mark(c.bones, why)
-    else:
-        for bone in c.bones:
-            bone.applied_exact = True
-            bone.exact = True
+            raise _Unsolved("a chain it cannot solve")
+        return True
+    return transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
 
 
 def _moves_something(c: _Constraint, family: str | None) -> bool:
