@@ -18,6 +18,8 @@ project; vertices added; mesh time per attachment (median, p90, p99, max) and in
 for several files, the saving on the attachments every run counts (runs that read more
 projects or mesh more sequences are then compared on the same set).
 
+``gap A.json B.json`` says where B draws more pixels than A: by slot blend mode, meshed or kept.
+
 ``run --set NAME=NUMBER`` passes a mesher parameter to the upgrade (to measure its effect).
 """
 
@@ -243,6 +245,65 @@ def same_set(datas: list[dict]) -> dict:
     return out
 
 
+def slot_blends(project: Path) -> dict:
+    """``(skeleton, slot) -> blend mode`` for every skeleton of a corpus project folder."""
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.project import find_project
+    from spinemesh.skeleton import load_skeleton
+
+    out: dict = {}
+    try:
+        proj = find_project(project)
+    except SpineMeshError:
+        return out
+    for skeleton in proj.skeletons:
+        try:
+            doc = load_skeleton(skeleton)
+        except SpineMeshError:
+            continue
+        for s in doc.get("slots", []):
+            if isinstance(s, dict):
+                for name in {skeleton.name, skeleton.relative_to(project).as_posix()}:
+                    out[(name, s.get("name"))] = s.get("blend", "normal")
+    return out
+
+
+def gap(base: Path, other: Path) -> None:
+    """Where ``other`` draws more pixels than ``base``, on the attachments both count: by the
+    slot's blend mode (normal, or additive/multiply/screen) and by what ``other`` did with the
+    attachment (meshed, or kept as a region)."""
+    datas = [json.loads(f.read_text()) for f in (base, other)]
+    blends: dict = {}
+    for name in datas[1]["projects"]:
+        blends.update({(name, *k): v for k, v in slot_blends(CORPUS / name).items()})
+    keyed = []
+    for data in datas:
+        rows: dict = {}
+        for name, e in data["projects"].items():
+            for r in e.get("rows", []):
+                rows.setdefault((name, r["skeleton"], r["slot"], r["name"]), []).append(r)
+        keyed.append(rows)
+    more: dict = {}
+    regions: dict = {}
+    for key in set(keyed[0]) & set(keyed[1]):
+        if len(keyed[0][key]) != len(keyed[1][key]):
+            continue
+        blend = blends.get(key[:3], "normal")
+        kind = "normal" if blend == "normal" else "additive, multiply, screen"
+        for a, b in zip(keyed[0][key], keyed[1][key]):
+            if not (_considered(a) and _considered(b)):
+                continue
+            drawn = [r["mesh_px"] if r["status"] == "meshed" and r["mesh_px"] is not None else r["region_px"]
+                     for r in (a, b)]
+            done = "meshed" if b["status"] == "meshed" else "kept as a region"
+            more[(kind, done)] = more.get((kind, done), 0.0) + drawn[1] - drawn[0]
+            regions[kind] = regions.get(kind, 0) + a["region_px"]
+    print(f"pixels {other.stem} draws more than {base.stem} on the attachments both count (Mpx):")
+    for (kind, done), v in sorted(more.items()):
+        print(f"  {kind:28} {done:18} {v / 1e6:8.2f}   (regions of these slots: {regions[kind] / 1e6:.1f} Mpx)")
+    print(f"  {'total':47} {sum(more.values()) / 1e6:8.2f}")
+
+
 def table(files: list[Path], per_project: bool) -> None:
     import numpy as np
 
@@ -314,6 +375,9 @@ def main() -> None:
     t = sub.add_parser("table")
     t.add_argument("files", type=Path, nargs="+")
     t.add_argument("--per-project", action="store_true")
+    g = sub.add_parser("gap")
+    g.add_argument("base", type=Path)
+    g.add_argument("other", type=Path)
     c = sub.add_parser("child")
     c.add_argument("project", type=Path)
     c.add_argument("--min-saving", default="")
@@ -325,6 +389,8 @@ def main() -> None:
         if not CORPUS.is_dir():
             sys.exit(f"{CORPUS} is absent: the benchmark needs the game corpus")
         run(args.out, args.timeout, args.only, args.min_saving, args.set)
+    elif args.cmd == "gap":
+        gap(args.base, args.other)
     else:
         table(args.files, args.per_project)
 
