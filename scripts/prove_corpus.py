@@ -16,6 +16,12 @@ tolerance (2/255) in all renders together, the largest share of one render's pix
 visible pixels lost and added, and the cause of any failure: one named in ``CAUSES`` after
 investigation, or what kept the skeleton from being rendered.
 
+"Visible" is alpha >= 8 (the dump check's ``alpha-tol``); anything fainter that differs counts
+in the pixels over the tolerance. The upgrade agrees with that: in normal slots it leaves out
+only texels whose premultiplied channels are at most 2/255 (``spinemesh.images.FAINT_TEXEL``),
+which move no pixel by more than the tolerance in one layer, so a pixel it loses or adds on its
+own is never visible; stacked faint layers can add up, and show as pixels over the tolerance.
+
     .venv/bin/python scripts/prove_corpus.py                      # whole corpus (slow: run with nice)
     .venv/bin/python scripts/prove_corpus.py --only 'dm-*' --json build/proof.json --keep build/proof
 """
