@@ -8,7 +8,9 @@ tested in this order, each as soon as what it needs is known:
 1. **The art fills the region.** Every mesh contains all art pixels (the default preset
    never clips), so it draws at least the art's area: when the art covers more than
    ``1 - min_saving`` of the region, no mesh can save ``min_saving``. Decided from the mask
-   alone, before any geometry.
+   alone, before any geometry. (``upgrade``'s mask carries a whole texel of sampling margin,
+   of which the hull keeps half, ``MesherParams.hull_inset``: the bound is then high by at
+   most half a texel along the outline.)
 2. **Scattered islands.** One Spine mesh is one hull loop, so separate pieces of art (rain,
    snow, sparkles) are bridged into one outline that needs at least
    :data:`VERTICES_PER_ISLAND` vertices per piece. When that many vertices pass
