@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sys
 
+#: The modules that register the commands, in the order of `spinemesh --help`: a new command's
+#: module goes here.
 _COMMAND_MODULES = ("info", "convert", "segment", "dataset", "mesh", "diff", "upgrade", "weights")
 
 
