@@ -123,9 +123,10 @@ def _with_rail(doc, **path):
     return doc
 
 
+@pytest.mark.parametrize("version", ["3.8.99", "4.1.24", "4.2.22"])
 @pytest.mark.parametrize("constant_speed", [True, False])
-def test_path_constraint_lays_bones_along_the_path(constant_speed):
-    doc = _with_rail(worm_skeleton("4.1.24"), positionMode="fixed", position=50)
+def test_path_constraint_lays_bones_along_the_path(constant_speed, version):
+    doc = _with_rail(worm_skeleton(version), positionMode="fixed", position=50)
     doc["skins"][0]["attachments"]["rail"]["rail"]["constantSpeed"] = constant_speed
     bones = _posed(doc)
     assert bones["seg2"].exact and bones["seg3"].exact
@@ -136,14 +137,14 @@ def test_path_constraint_lays_bones_along_the_path(constant_speed):
 
 
 def test_constraints_not_reproduced_leave_bones_and_children_not_exact():
-    doc = _with_rail(worm_skeleton("3.8.99"))  # path constraints are solved for 4.0-4.2
+    doc = _with_rail(worm_skeleton("3.8.99"), rotateMode="chain")  # 3.8 chain paths are not solved
     bones = _posed(doc)
     assert bones["seg1"].exact and not bones["seg2"].exact and not bones["seg3"].exact
     assert "path constraint 'rail'" in bones["seg2"].why
     doc = _worm_with()  # a constraint only some skins activate: the setup pose depends on the skin
     doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target", "skin": True}]
     assert "only some skins" in _posed(doc)["seg3"].why
-    doc = _with_rail(_worm_with("3.8.99"))  # an IK that reads a bone that is not exact is not exact either
+    doc = _with_rail(_worm_with("3.8.99"), rotateMode="chain")  # an IK reading a bone not exact is not exact
     doc["path"][0]["bones"] = ["target"]
     doc["ik"] = [{"name": "aim", "order": 1, "bones": ["seg3"], "target": "target"}]
     bones = _posed(doc)
@@ -265,7 +266,7 @@ def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():
     out = weight_document(keyed, "w", WeightOptions())
     assert out[0].status == "skipped" and "deform timeline" in out[0].reason
     assert keyed["skins"][0]["attachments"]["worm"]["worm"] == original
-    constrained = _with_rail(copy.deepcopy(doc))  # a 3.8 path constraint's pose is not reproduced
+    constrained = _with_rail(copy.deepcopy(doc), rotateMode="chain")  # a 3.8 chain path is not solved
     constrained["skeleton"]["spine"] = "3.8.99"
     constrained["path"][0]["bones"] = ["seg1"]
     out = weight_document(constrained, "w", WeightOptions())

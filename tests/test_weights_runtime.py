@@ -62,9 +62,9 @@ def _ancestors(bones, b):
 
 
 #: Why a bone may be left not exact (the first bone of a chain; those below say "below"):
-#: a 3.8 path constraint, a constraint only some skins activate, a zero scale, or a constraint
-#: that reads such a bone.
-LEFT_OUT = ("solved for 4.0-4.2", "only some skins", "zero scale", "which reads")
+#: a 3.8 path constraint in a chain mode, a constraint only some skins activate, a zero scale,
+#: or a constraint that reads such a bone.
+LEFT_OUT = ("3.8 chain paths", "only some skins", "zero scale", "which reads")
 
 
 def assert_exact_bones_match(bones, pose: dict) -> int:

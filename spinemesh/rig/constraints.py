@@ -8,12 +8,13 @@ runtime family builds it (3.8, 4.0, 4.1, 4.2 differ in details noted where they 
 then plays it once: bones take their world transform from their parent; IK constraints
 (one and two bones: mix, bend direction, compress, stretch, uniform, softness) turn and
 scale their bones towards the target; transform constraints (world or local, absolute or
-relative) pull their bones' transforms towards the target's; path constraints (4.0-4.2:
-position, spacing and rotate modes, constant speed or not, open or closed paths) lay their
-bones along the target slot's path.
+relative) pull their bones' transforms towards the target's; path constraints (position,
+spacing and rotate modes, constant speed or not, open or closed paths) lay their bones along
+the target slot's path.
 
-Each bone carries an *exact* flag. A 3.8 path constraint (the runtime checked against, a
-port, differs from the official one there), a constraint only some skins activate, a 4.3
+Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
+runtime checked against, a port, turns those bones unlike the official one), a constraint
+only some skins activate, a 4.3
 skeleton or one older than 3.8 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
 children of a bone that is not exact are not exact. Physics constraints (4.2) leave the
@@ -539,10 +540,16 @@ def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone]) -
     return [float(v) for v in world.reshape(-1)]
 
 
-def _curve_position(p, x1, y1, cx1, cy1, cx2, cy2, x2, y2, tangents) -> tuple[float, float, float | None]:
-    """Point (and with ``tangents`` its direction, radians) at parameter ``p`` of a cubic Bezier."""
+def _curve_position(p, x1, y1, cx1, cy1, cx2, cy2, x2, y2, tangents, family) -> tuple[float, float, float | None]:
+    """Point (and with ``tangents`` its direction, radians) at parameter ``p`` of a cubic Bezier.
+
+    At the very start 4.x returns the first point and its handle's direction; 3.8 evaluates
+    the curve a little further (p = 1e-4) and takes the tangent there."""
     if p == 0 or math.isnan(p):
-        return x1, y1, math.atan2(cy1 - y1, cx1 - x1)
+        if family == "3.8":
+            p = 1e-4
+        else:
+            return x1, y1, math.atan2(cy1 - y1, cx1 - x1)
     tt, u = p * p, 1 - p
     ttt, uu = tt * p, u * u
     uuu, ut = uu * u, u * p
@@ -552,7 +559,7 @@ def _curve_position(p, x1, y1, cx1, cy1, cx2, cy2, x2, y2, tangents) -> tuple[fl
     y = y1 * uuu + cy1 * uut3 + cy2 * utt3 + y2 * ttt
     if not tangents:
         return x, y, None
-    if p < 0.001:
+    if p < 0.001 and family != "3.8":
         return x, y, math.atan2(cy1 - y1, cx1 - x1)
     return x, y, math.atan2(y - (y1 * uu + cy1 * ut * 2 + cy2 * tt), x - (x1 * uu + cx1 * ut * 2 + cx2 * tt))
 
@@ -583,7 +590,7 @@ def _seek(lengths, start: int, p: float) -> tuple[int, float]:
 
 
 def path_positions(att: dict, world: list[float], spaces: list[float], tangents: bool, position: float,
-                   position_mode: str, spacing_mode: str) -> list[float]:
+                   position_mode: str, spacing_mode: str, family: str) -> list[float]:
     """``computeWorldPositions``: ``[x, y, r]`` per space along the path, flat, plus two."""
     spaces_count = len(spaces)
     out = [0.0] * (spaces_count * 3 + 2)
@@ -622,7 +629,7 @@ def path_positions(att: dict, world: list[float], spaces: list[float], tangents:
             else:
                 pts = w[curve * 6 + 2:curve * 6 + 10]
             prev_curve = curve
-            _put(out, o, _curve_position(p, *pts, tangents or (i > 0 and space == 0)))
+            _put(out, o, _curve_position(p, *pts, tangents or (i > 0 and space == 0), family))
         return out
     # Constant speed: lengths measured here, along the world vertices.
     if closed:
@@ -711,18 +718,25 @@ def path_positions(att: dict, world: list[float], spaces: list[float], tangents:
         p *= curve_length
         segment, frac = _seek(segments, segment, p)
         p = frac if segment == 0 else segment + frac
-        _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0)))
+        _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0), family))
     return out
 
 
 def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bones: list[PoseBone],
                family: str) -> bool:
-    """A path constraint's update (4.0-4.2): bones placed along the path, turned along it;
-    False when every mix is 0 (the runtime returns first)."""
-    mix_rotate, mix_x = _num(d, "mixRotate", 1), _num(d, "mixX", 1)
-    mix_y = _num(d, "mixY", mix_x)
-    if mix_rotate == 0 and mix_x == 0 and mix_y == 0:
-        return False
+    """A path constraint's update: bones placed along the path, turned along it; False when
+    every mix is 0 (the runtime returns first). 3.8 reads ``rotateMix``/``translateMix`` and
+    gives a bone shorter than the epsilon no space (4.x gives it the spacing)."""
+    if family == "3.8":
+        mix_rotate, mix_x = _num(d, "rotateMix", 1), _num(d, "translateMix", 1)
+        mix_y = mix_x
+        if mix_rotate <= 0 and mix_x <= 0:
+            return False
+    else:
+        mix_rotate, mix_x = _num(d, "mixRotate", 1), _num(d, "mixX", 1)
+        mix_y = _num(d, "mixY", mix_x)
+        if mix_rotate == 0 and mix_x == 0 and mix_y == 0:
+            return False
     rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
     tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
     count = len(bones)
@@ -730,7 +744,9 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
     spaces = [0.0] * spaces_count
     lengths = [0.0] * count
     spacing = _num(d, "spacing", 0)
-    if spacing_mode == "percent":
+    if family == "3.8" and not scale and spacing_mode != "length":
+        spaces[1:] = [spacing] * (spaces_count - 1)
+    elif spacing_mode == "percent" and family != "3.8":
         for i in range(spaces_count - 1) if scale else ():
             (a, _, _), (c, _, _) = bones[i].world.tolist()
             short = family != "4.2" and bones[i].length < _EPSILON  # 4.0-4.1 give short bones no length
@@ -743,12 +759,12 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
             setup = bone.length
             if setup < _EPSILON:
                 lengths[i] = 0.0
-                spaces[i + 1] = spacing
+                spaces[i + 1] = 0.0 if family == "3.8" else spacing
                 continue
             (a, _, _), (c, _, _) = bone.world.tolist()
             length = math.hypot(setup * a, setup * c)
             lengths[i] = length
-            if spacing_mode == "proportional":
+            if spacing_mode == "proportional" and family != "3.8":
                 spaces[i + 1] = length
                 total += length
             else:
@@ -757,7 +773,7 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
             k = spaces_count / total * spacing
             spaces[1:] = [v * k for v in spaces[1:]]
     positions = path_positions(att, world, spaces, tangents, _num(d, "position", 0),
-                               d.get("positionMode", "percent"), spacing_mode)
+                               d.get("positionMode", "percent"), spacing_mode, family)
     bone_x, bone_y = positions[0], positions[1]
     offset = _num(d, "rotation", 0)
     if offset == 0:
@@ -795,7 +811,10 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
             cos, sin = math.cos(r), math.sin(r)
             a, b, c, dd = cos * a - sin * c, cos * b - sin * dd, sin * a + cos * c, sin * b + cos * dd
         bone.world = np.array([[a, b, wx], [c, dd, wy]])
-        bone.update_applied()
+        if family == "3.8":
+            bone.applied_valid = False
+        else:
+            bone.update_applied()
     return True
 
 
@@ -933,8 +952,9 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
     """One constraint's update in the cache (``skeleton``: every bone, by index)."""
     if c.kind == "physics":
         return  # the setup pose resets physics: it leaves its bone's transform as it is
-    if c.kind == "path" and family == "3.8":
-        _mark(c.bones, f"moved in the setup pose by the {c.label()} (path constraints are solved for 4.0-4.2)")
+    if _chain_path_38(c, family):
+        # The 3.8 runtime checked against (a port) turns chain-mode bones unlike the official one.
+        _mark(c.bones, f"moved in the setup pose by the {c.label()} (3.8 chain paths are not solved)")
         return
     ok, why = _inputs_exact(c)
     try:
@@ -953,6 +973,12 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
         for bone in c.bones:
             bone.applied_exact = True
             bone.exact = True
+
+
+def _chain_path_38(c: _Constraint, family: str) -> bool:
+    """A 3.8 path constraint that turns its bones in a chain mode (not solved here)."""
+    return (c.kind == "path" and family == "3.8" and c.data.get("rotateMode", "tangent") != "tangent"
+            and _num(c.data, "rotateMix", 1) > 0)
 
 
 class _Unsolved(Exception):
@@ -1157,12 +1183,12 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
 
 def solved_constraints(doc: dict) -> dict[str, list[str]]:
     """IK, transform and path constraints this module applies that move bones in the setup pose
-    of ``doc`` (a mix not 0, active without a skin; paths from 4.0), by name, with the names of
+    of ``doc`` (a mix not 0, active without a skin; not 3.8 chain paths), by name, with the names of
     the bones they move; empty for versions whose runtime is not reproduced."""
     family = runtime_family(doc)
     if family is None:
         return {}
     _, constraints = _solve(doc)
     return {c.name: [b.name for b in c.bones] for c in constraints
-            if (c.kind in ("ik", "transform") or (c.kind == "path" and family != "3.8"))
-            and c.active and _moves_something(c, family)}
+            if c.kind in ("ik", "transform", "path") and c.active and _moves_something(c, family)
+            and not _chain_path_38(c, family)}
