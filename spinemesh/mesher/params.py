@@ -92,6 +92,10 @@ class MesherParams:
     interior_max_side : int
         Default preset: interior edges are detected on a copy at most this large (0: full
         size). The paper preset always works at full size.
+    max_hull_tolerance : float
+        Default preset: upper bound (px) on the hull tolerance, whatever the art's size (0:
+        none). The tolerance grows with sqrt(mask area), so on large art a hull may stray tens
+        of pixels outside it to save a few vertices.
     hull_inset : float
         Default preset: how far (px) the hull may lie inside the squares of the mask's
         pixels, off the image border (0). ``upgrade`` grows the art by one texel for bilinear
@@ -134,6 +138,7 @@ class MesherParams:
     min_hole_area: float = 400.0
     analysis_max_side: int = 1024
     interior_max_side: int = 512
+    max_hull_tolerance: float = 0.0
     hull_inset: float = 0.0
     min_saving: float | None = None
 

@@ -131,6 +131,8 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
             raise NotWorthMeshing(reason)
     density = max(p.density, 1e-6)
     eps = max(0.5, p.hull_tolerance * np.sqrt(float(cover.sum())) / density)
+    if p.max_hull_tolerance > 0:  # large art: a few more hull vertices save many pixels
+        eps = max(0.5, min(eps, p.max_hull_tolerance / s))
     loops = _hull_and_holes(cover, eps, p, s)
     if s > 1:
         # the analysis grid may overhang the image by < s px: clip exactly at full size

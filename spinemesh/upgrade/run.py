@@ -44,7 +44,7 @@ from ..fsutil import (
     OutputGuard, atomic_copy, make_folder, atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, resolve_inside,
 )
 from ..images import FAINT_TEXEL, RegionImage, content_id
-from ..mesher.worth import DEFAULT_MIN_SAVING
+from ..mesher.worth import DEFAULT_MIN_SAVING, MAX_HULL_TOLERANCE
 from ..project import Project, find_project, find_projects, image_source_for
 from ..runs import RunSummary
 from ..skeleton import AttachmentRef, dumps_skeleton, image_paths, is_binary_skeleton, iter_attachments, load_skeleton
@@ -421,8 +421,10 @@ def mesh_one(task: MeshTask) -> MeshResult:
     preset, mask_source, overrides = task.settings
     start = time.perf_counter()
     try:
-        # the mask grows the art by a whole texel; bilinear sampling needs half (sampling_margin)
-        params = resolve_params(preset, **{"hull_inset": SAMPLING_INSET, **dict(overrides), "mask_source": mask_source})
+        # the mask grows the art by a whole texel; bilinear sampling needs half (sampling_margin);
+        # large art: a tighter hull pays for its vertices (worth.MAX_HULL_TOLERANCE)
+        params = resolve_params(preset, **{"hull_inset": SAMPLING_INSET, "max_hull_tolerance": MAX_HULL_TOLERANCE,
+                                           **dict(overrides), "mask_source": mask_source})
         mask = sampling_margin(drawn_art(task, params, dict(overrides)))
         mesh = mesh_image(task.rgba, params, mask=mask)
     except NotWorthMeshing as e:  # decided early, from the mask and the hull
