@@ -10,8 +10,9 @@ by side:
 - ``per slot``: in normal slots the texels that can move a pixel by more than 2/255
   (``images.FAINT_TEXEL``), in additive/multiply/screen slots every drawn texel; whole-texel
   margin;
-- ``per slot, half-texel margin``: the same with the hull moved half a texel back in
-  (``MesherParams.hull_inset``): what ``upgrade`` does now.
+- ``per slot, half-texel margin, tolerance <= 16 px``: the same with the hull moved half a
+  texel back in (``MesherParams.hull_inset``) and its tolerance capped on large art
+  (``MesherParams.max_hull_tolerance``): what ``upgrade`` does now.
 
 Printed per variant: images, vertices (median, mean, p90), mesh area as a share of the image,
 waste (share of the mesh area over texels that draw nothing), images whose mesh is the whole
@@ -36,10 +37,11 @@ from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
 from spinemesh.upgrade.run import Options, mesh_one, task_for_frames
 
 #: name -> (slot blend mode to plan with: None for the attachment's own, mesher overrides)
-VARIANTS = {"alpha >= 8": ("additive", {"alpha_threshold": 8, "hull_inset": 0.0}),
-            "every drawn texel": ("additive", {"hull_inset": 0.0}),
-            "per slot": (None, {"hull_inset": 0.0}),
-            "per slot, half-texel margin": (None, {})}
+BEFORE_20 = {"hull_inset": 0.0, "max_hull_tolerance": 0.0}  # the margin and tolerance before #20's follow-up
+VARIANTS = {"alpha >= 8": ("additive", {"alpha_threshold": 8, **BEFORE_20}),
+            "every drawn texel": ("additive", BEFORE_20),
+            "per slot": (None, BEFORE_20),
+            "per slot, half-texel margin, tolerance <= 16 px": (None, {})}
 
 
 def sample_tasks(roots: list[Path], sample: int) -> list:
