@@ -72,6 +72,34 @@ def over_art(segment: np.ndarray, world: np.ndarray, triangles: np.ndarray, near
     return length * float(close.mean())
 
 
+def _largest_group(bones, slot_bone: int, over: dict[int, float], touching: set[int]) -> int | None:
+    """The top bone of the group of bones on the art, below ``slot_bone``, with the most length over it.
+
+    A group is a set of bones on the art (``touching``) joined through parent and child
+    links among themselves; ``over`` maps each bone that may be chosen to its length over
+    the art, and only those count.
+    """
+    best, best_total = None, 0.0
+    for i in touching:
+        if bones[i].parent in touching:
+            continue  # not the top of its group
+        j = i
+        while j is not None and j != slot_bone:
+            j = bones[j].parent
+        if j is None:
+            continue  # not below the slot bone
+        group, stack = {i}, [i]
+        while stack:
+            for c in bones[stack.pop()].children:
+                if c in touching and c not in group:
+                    group.add(c)
+                    stack.append(c)
+        total = sum(over.get(g, 0.0) for g in group)
+        if total > best_total:
+            best, best_total = i, total
+    return best
+
+
 def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
                 skin_bones: set[int]) -> Choice:
     """The ``auto`` rule (module docstring) for a mesh with setup world vertices ``world`` (N, 2)."""
@@ -79,20 +107,23 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     left_out: dict[int, str] = {}
     near = OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))
     lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
-    scored = []
-    for bone in bones:
-        if bone.index == slot_bone:
-            continue
+
+    def on_art(bone) -> bool:
         seg = bone.segment()
         if (seg.max(axis=0) < lo).any() or (seg.min(axis=0) > hi).any():
-            continue  # cheap rejection: the segment's box misses the art's
-        length = over_art(seg, world, triangles, near)
+            return False  # cheap rejection: the segment's box misses the art's
         if bone.length == 0:
             # A point has no length over the art: it counts when it lies on it.
-            if distance_to_art(seg[:1], world, triangles)[0] > near:
-                continue
-        elif length <= 0:
+            return bool(distance_to_art(seg[:1], world, triangles)[0] <= near)
+        return over_art(seg, world, triangles, near) > 0
+
+    scored = []
+    touching = set()  # every bone on the art, chosen or not: the tree is walked through them
+    for bone in bones:
+        if bone.index == slot_bone or not on_art(bone):
             continue
+        touching.add(bone.index)
+        length = over_art(bone.segment(), world, triangles, near)
         if bone.length == 0:
             left_out[bone.index] = "zero-length bone: a point (effects, controls), not a part the art bends with"
         elif bone.parent is None:
@@ -105,18 +136,26 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
             left_out[bone.index] = "only active in other skins"
         else:
             scored.append((-length, bone.index))
-    # Keep the bones connected to the slot bone through the bone tree by bones that also
-    # qualify: overlapping art of another part (a rider over a mount, a weapon over a body,
+    # Keep the bones connected to the slot bone through the bone tree by bones that are also
+    # on the art: overlapping art of another part (a rider over a mount, a weapon over a body,
     # an effect over a character) hangs off elsewhere in the tree.
     over = {i: -neg for neg, i in scored}
     depth = {slot_bone: 0}
     frontier = [slot_bone]
+    if not on_art(bones[slot_bone]) and over:
+        # The slot bone is elsewhere (often the root, for art bound to a whole limb or body
+        # chain): the art follows the group of bones below it that covers most of it.
+        top = _largest_group(bones, slot_bone, over, touching)
+        if top is not None:
+            depth[top] = 1
+            frontier = [top]
     while frontier:
         nxt = []
         for i in frontier:
             b = bones[i]
             for j in b.children + ([b.parent] if b.parent is not None else []):
-                if j in over and j not in depth:
+                # A point or control bone on the art joins bones without being chosen (a hip).
+                if j in touching and j not in depth:
                     depth[j] = depth[i] + 1
                     nxt.append(j)
         frontier = nxt
