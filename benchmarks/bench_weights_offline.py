@@ -1,0 +1,326 @@
+"""Rig replay without the runtime in the loop: many weighting variants against the artists' own.
+
+    .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
+        [--every K] [--variants NAME,...] [--learned]
+
+``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
+about 15 minutes for one variant pair). Linear blend skinning is linear in the weights, so one
+dump of the artist's skeleton per skeleton is enough to judge any number of variants: the
+dump gives every bone's world transform in every sampled frame and every artist vertex's
+position; a variant's vertex is then ``sum_j w_j * M_j(frame) @ M_j(setup)^-1 @ p_setup``
+(``M_j(setup)`` and ``p_setup`` from :mod:`spinemesh.rig`, which match the runtime's setup pose),
+exactly what the runtime draws for a mesh bound the way ``spinemesh weights`` binds it.
+(Checked: the artists' own weights, bound that way, give a median ratio of 0.00.)
+
+Printed per variant: meshes compared, the median error per attachment (world units), the
+median ratio to the rigid heaviest-artist-bone baseline (attachments the baseline places
+within 0.05 left out, as in ``bench_weights.py``), the geometric mean of the ratios, and the
+seconds the weights took. Variants:
+
+- ``bbw``: the default (bounded biharmonic weights, handles on the bone segments);
+- ``bbw-fine``: the same on a refinement of up to 2,000 points instead of 600;
+- ``harmonic``: harmonic weights (a linear solve);
+- ``bbw-mid-handles``: handles on the middle 60% of each segment only;
+- ``bbw-point-handles``: one handle per bone, at its segment's middle;
+- ``bbw-smoothed``: the default, then one step of averaging with mesh neighbours;
+- ``auto``, ``auto-near``: the ``--bones auto`` choice (segments over the art), and the same
+  with bones within 5% of the art's size also chosen (the rule before this script).
+
+``--learned`` adds an upper bound for any rule computed from the geometry: a small network
+(per vertex and bone: the bbw weights of three handle layouts, distances to every segment,
+bone length, the segment parameter, slot bone, bone count) trained on the artists' own weights
+of half of the projects and judged on the other half, and the other way round (needs torch,
+the ``train`` extra). It shows how much of the artists' weights the geometry can predict.
+
+Needs Node and ``npm ci`` in the runtime tool folder (``--tool``), as ``bench_weights.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import random
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import bench_weights  # noqa: E402
+from spinemesh.errors import SpineMeshError  # noqa: E402
+from spinemesh.project import find_project, image_source_for  # noqa: E402
+from spinemesh.rig import weights as rig_weights  # noqa: E402
+from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
+from spinemesh.rig.choice import NEAR, choose_auto  # noqa: E402
+from spinemesh.rig.document import build_rig  # noqa: E402
+from spinemesh.rig.weights import _segment_distance, solve_weights, sparsify  # noqa: E402
+from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
+
+
+def matrix(m: list[float]) -> np.ndarray:
+    """The dump's ``[a, b, c, d, worldX, worldY]`` as a (2, 3) affine matrix."""
+    a, b, c, d, x, y = m
+    return np.array([[a, b, x], [c, d, y]], float)
+
+
+def collect(tool: Path, cache: Path, examples: str, corpus: int) -> list[tuple[str, Path, Path]]:
+    """One runtime dump of each artist skeleton (setup pose and sampled frames), cached."""
+    cache.mkdir(parents=True, exist_ok=True)
+    out = []
+    for i, (label, skel) in enumerate(bench_weights.skeletons(examples, corpus)):
+        doc = load_skeleton(skel)
+        source = image_source_for(doc, skel, find_project(skel.parent))
+        if source is None or not hasattr(source, "atlases"):
+            continue
+        dump = cache / f"{i:04d}-{skel.stem}.json"
+        if not dump.exists():
+            try:
+                bench_weights.dump(tool, source.atlases[0].path, skel, bench_weights.poses(doc, 4, 4), dump)
+            except RuntimeError as e:
+                print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
+                continue
+        out.append((label, skel, dump))
+    return out
+
+
+def cases_of(label: str, skel: Path, dump_file: Path) -> list[dict]:
+    """Every artist-weighted mesh the weights command would replace, with what a replay needs."""
+    doc = load_skeleton(skel)
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    poses = json.loads(dump_file.read_text())["poses"]
+    frames = poses[1:]  # poses[0] is the setup pose: bound positions come from our own transforms
+    every_frame = [np.stack([matrix(p["bones"][n]) for n in names]) for p in frames]
+    drawn = [{(d["slot"], d["attachment"]): d for d in p["attachments"]} for p in poses]
+    out = []
+    for ref in iter_attachments(doc):
+        att = ref.attachment
+        if ref.type != "mesh" or len(att.get("vertices", [])) == len(att.get("uvs", [])):
+            continue
+        if (ref.skin, ref.slot, ref.name) in rig.keyed or ref.slot not in rig.slot_bone:
+            continue
+        try:
+            mesh = parse_vertices(att, len(rig.bones))
+        except SpineMeshError:
+            continue
+        bones = mesh.bones()
+        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+        key = (ref.slot, ref.name)
+        if any(not rig.bones[b].exact for b in bones) or not len(tris) or tris.max() >= mesh.count:
+            continue
+        seen = [k for k in range(len(frames)) if key in drawn[k + 1]
+                and len(drawn[k + 1][key]["vertices"]) == 2 * mesh.count]
+        if not seen:
+            continue
+        artist = np.zeros((mesh.count, len(bones)))
+        for i, influences in enumerate(mesh.influences):
+            for b, _, _, w in influences:
+                artist[i, bones.index(b)] += w
+        world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
+        out.append(dict(
+            label=label, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
+            bones=bones, artist=artist, slot_bone=rig.slot_bone[ref.slot],
+            setup_matrices=np.stack(rig.worlds), frame_matrices=np.stack([every_frame[k] for k in seen]),
+            frame_vertices=np.stack([np.asarray(drawn[k + 1][key]["vertices"], float).reshape(-1, 2) for k in seen])))
+    return out
+
+
+def replay(case: dict, weights: np.ndarray, bones: list[int]) -> float:
+    """Mean distance (world units) of the variant's vertices from the artist's, over frames."""
+    p = case["world"]
+    local = []
+    for m in case["setup_matrices"][bones]:
+        inv = np.linalg.inv(np.vstack([m, [0, 0, 1]]))[:2]
+        local.append(p @ inv[:, :2].T + inv[:, 2])
+    local = np.stack(local)                                               # (B, N, 2)
+    frames = case["frame_matrices"][:, bones]                             # (F, B, 2, 3)
+    moved = np.einsum("fbij,bnj->fbni", frames[..., :2], local) + frames[:, :, None, :, 2]
+    drawn = np.einsum("nb,fbni->fni", weights, moved)
+    return float(np.linalg.norm(drawn - case["frame_vertices"], axis=2).mean())
+
+
+def rigid_error(case: dict) -> float:
+    a = case["artist"]
+    return replay(case, np.eye(a.shape[1])[a.argmax(1)], case["bones"])
+
+
+def segments(case: dict, bones: list[int], middle: tuple[float, float] = (0.0, 1.0)) -> np.ndarray:
+    s = np.stack([case["rig"].bones[b].segment() for b in bones])
+    a, b = s[:, :1], s[:, 1:]
+    return np.concatenate([a + middle[0] * (b - a), a + middle[1] * (b - a)], axis=1)
+
+
+def keep(method: str = "bbw", middle=(0.0, 1.0), smooth: int = 0):
+    def variant(case):
+        bones = case["bones"]
+        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
+        slot = bones.index(case["slot_bone"]) if case["slot_bone"] in bones else None
+        w = solve_weights(case["world"], case["tris"], segments(case, bones, middle), method, reach, slot)
+        for _ in range(smooth):
+            w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
+        return bones, w
+    return variant
+
+
+def segments_first():
+    """The default, but zero-length bones get weight only when no bone of the mesh has a length."""
+    base = keep()
+
+    def variant(case):
+        bones = case["bones"]
+        long = [b for b in bones if case["rig"].bones[b].length > 0]
+        if not long or len(long) == len(bones):
+            return base(case)
+        _, w = base(dict(case, bones=long))
+        out = np.zeros((len(case["world"]), len(bones)))
+        out[:, [bones.index(b) for b in long]] = w
+        return bones, out
+    return variant
+
+
+def neighbour_mean(w: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    from scipy.sparse import coo_matrix
+
+    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    adj = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(len(w), len(w))).tocsr()
+    adj.data[:] = 1.0
+    deg = np.maximum(np.asarray(adj.sum(1)).ravel(), 1.0)
+    return (adj @ w) / deg[:, None]
+
+
+def fine(variant):
+    def run(case):
+        old = rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION
+        rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION = 2000, 16
+        try:
+            return variant(case)
+        finally:
+            rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION = old
+    return run
+
+
+def auto(near: float | None = None):
+    def variant(case):
+        import spinemesh.rig.choice as choice
+
+        rig, old = case["rig"], choice.OVER_ART
+        if near is not None:
+            choice.OVER_ART = near
+        try:
+            chosen = choose_auto(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                 rig.skin_bones.get(case["skin"], set())).bones
+        finally:
+            choice.OVER_ART = old
+        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
+        slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
+        return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
+    return variant
+
+
+VARIANTS = {
+    "bbw": keep(),
+    "bbw-fine": fine(keep()),
+    "harmonic": keep("harmonic"),
+    "bbw-mid-handles": keep(middle=(0.2, 0.8)),
+    "bbw-point-handles": keep(middle=(0.5, 0.5)),
+    "bbw-smoothed": keep(smooth=1),
+    "bbw-segments-first": segments_first(),
+    "auto": auto(),
+    "auto-near": auto(NEAR),
+}
+
+
+def judge(cases: list[dict], results: dict[int, float]) -> dict:
+    ratios = [results[i] / cases[i]["rigid"] for i in results if cases[i]["rigid"] > bench_weights.RIGID_FLOOR]
+    return {"meshes": len(results), "error": statistics.median(results.values()),
+            "ratio": statistics.median(ratios), "geomean": float(np.exp(np.mean(np.log(np.maximum(ratios, 1e-3)))))}
+
+
+def learned_bound(cases: list[dict], seed: int = 0) -> dict[int, float]:
+    """Errors of a network trained on the artists' weights of the other half of the projects."""
+    import torch
+
+    torch.manual_seed(seed)
+    layouts = [keep(), keep(middle=(0.2, 0.8)), keep(middle=(0.5, 0.5))]
+    feats = []
+    for c in cases:
+        w = [v(c)[1] for v in layouts]
+        segs = segments(c, c["bones"])
+        diag = float(np.linalg.norm(np.ptp(c["world"], axis=0))) + 1e-9
+        d = np.stack([_segment_distance(c["world"], s) for s in segs], 1) / diag
+        length = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1) / diag
+        t = np.zeros_like(d)
+        for j, (a, b) in enumerate(segs):
+            ab = b - a
+            t[:, j] = ((c["world"] - a) @ ab) / (ab @ ab) if ab @ ab > 0 else 0.0
+        slot = np.array([b == c["slot_bone"] for b in c["bones"]], float)
+        f = np.stack([*w, d, d - d.min(1, keepdims=True), np.broadcast_to(length, d.shape),
+                      np.clip(t, -2, 3), np.broadcast_to(slot, d.shape), np.full(d.shape, 1 / len(segs))], -1)
+        feats.append(torch.tensor(f, dtype=torch.float32))
+    projects = sorted({c["label"] for c in cases})
+    random.Random(seed).shuffle(projects)
+    fold = {p: i % 2 for i, p in enumerate(projects)}
+    out = {}
+    for k in (0, 1):
+        net = torch.nn.Sequential(torch.nn.Linear(feats[0].shape[-1], 32), torch.nn.ReLU(),
+                                  torch.nn.Linear(32, 32), torch.nn.ReLU(), torch.nn.Linear(32, 1))
+        opt = torch.optim.Adam(net.parameters(), 3e-3)
+        train = [i for i, c in enumerate(cases) if fold[c["label"]] != k and len(c["bones"]) > 1]
+        for _ in range(15):
+            random.Random(seed).shuffle(train)
+            for i in train:
+                w = torch.softmax(net(feats[i]).squeeze(-1), dim=1)
+                loss = (w - torch.tensor(cases[i]["artist"], dtype=torch.float32)).abs().sum(1).mean()
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+        with torch.no_grad():
+            for i, c in enumerate(cases):
+                if fold[c["label"]] == k:
+                    w = torch.softmax(net(feats[i]).squeeze(-1), dim=1).numpy().astype(float)
+                    out[i] = replay(c, sparsify(w, 4, 0.01), c["bones"])
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--tool", type=Path, required=True, help="installed copy of tools/spine-runtime")
+    ap.add_argument("--examples", default="4.2")
+    ap.add_argument("--corpus", type=int, default=200)
+    ap.add_argument("--cache", type=Path, default=Path("weights-replay-cache"), help="folder for the dumps")
+    ap.add_argument("--every", type=int, default=1, help="judge every K-th mesh (faster)")
+    ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
+    ap.add_argument("--learned", action="store_true")
+    args = ap.parse_args()
+    cases = []
+    for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus):
+        cases += cases_of(label, skel, dump)
+    cases = cases[::args.every]
+    for c in cases:
+        c["rigid"] = rigid_error(c)
+    print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)
+    print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | seconds |")
+    print("|---|---|---|---|---|---|")
+    names = [n for n in args.variants.split(",") if n]
+    for name in names + (["learned (project-held-out upper bound)"] if args.learned else []):
+        start = time.perf_counter()
+        if name.startswith("learned"):
+            results = learned_bound(cases)
+        else:
+            results = {}
+            for i, c in enumerate(cases):
+                bones, w = VARIANTS[name](c)
+                results[i] = replay(c, sparsify(w, 4, 0.01), bones)
+        s = judge(cases, results)
+        print(f"| {name} | {s['meshes']} | {s['error']:.3f} | {s['ratio']:.3f} | {s['geomean']:.3f} | "
+              f"{time.perf_counter() - start:.0f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
