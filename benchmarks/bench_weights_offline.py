@@ -23,6 +23,7 @@ seconds the weights took. Variants:
 - ``bbw-mid-handles``: handles on the middle 60% of each segment only;
 - ``bbw-point-handles``: one handle per bone, at its segment's middle;
 - ``bbw-smoothed``: the default, then one step of averaging with mesh neighbours;
+- ``bbw-segments-first``: zero-length bones weighted only when no bone of the mesh has a length;
 - ``auto``, ``auto-near``: the ``--bones auto`` choice (segments over the art), and the same
   with bones within 5% of the art's size also chosen (the rule before this script).
 
