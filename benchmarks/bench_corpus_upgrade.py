@@ -212,6 +212,15 @@ def summary(data: dict) -> dict:
     return out
 
 
+def rows_by_attachment(data: dict) -> dict:
+    """A run's report rows by ``(project, skeleton, slot, name)``, in order where a name repeats."""
+    rows: dict = {}
+    for name, e in data["projects"].items():
+        for r in e.get("rows", []):
+            rows.setdefault((name, r["skeleton"], r["slot"], r["name"]), []).append(r)
+    return rows
+
+
 def same_set(datas: list[dict]) -> dict:
     """Each run restricted to the attachments every run counts in its drawn pixels.
 
@@ -220,13 +229,7 @@ def same_set(datas: list[dict]) -> dict:
     is then compared on the others' set. Returns ``{"attachments": n, "region_px": [...],
     "drawn_px": [...], "vertices_added": [...]}``, one entry per run.
     """
-    keyed = []
-    for data in datas:
-        rows: dict = {}
-        for name, e in data["projects"].items():
-            for r in e.get("rows", []):
-                rows.setdefault((name, r["skeleton"], r["slot"], r["name"]), []).append(r)
-        keyed.append(rows)
+    keyed = [rows_by_attachment(data) for data in datas]
     out = {"attachments": 0, "region_px": [0] * len(datas), "drawn_px": [0.0] * len(datas),
            "vertices_added": [0] * len(datas)}
     for key in set.intersection(*(set(k) for k in keyed)):
@@ -276,13 +279,7 @@ def gap(base: Path, other: Path) -> None:
     blends: dict = {}
     for name in datas[1]["projects"]:
         blends.update({(name, *k): v for k, v in slot_blends(CORPUS / name).items()})
-    keyed = []
-    for data in datas:
-        rows: dict = {}
-        for name, e in data["projects"].items():
-            for r in e.get("rows", []):
-                rows.setdefault((name, r["skeleton"], r["slot"], r["name"]), []).append(r)
-        keyed.append(rows)
+    keyed = [rows_by_attachment(data) for data in datas]
     more: dict = {}
     regions: dict = {}
     for key in set(keyed[0]) & set(keyed[1]):
