@@ -108,22 +108,24 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     near = OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))
     lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
 
-    def on_art(bone) -> bool:
+    def length_on_art(bone) -> float | None:
+        """The bone's length over the art (0 for a point on it), or None when it misses the art."""
         seg = bone.segment()
         if (seg.max(axis=0) < lo).any() or (seg.min(axis=0) > hi).any():
-            return False  # cheap rejection: the segment's box misses the art's
+            return None  # cheap rejection: the segment's box misses the art's
         if bone.length == 0:
             # A point has no length over the art: it counts when it lies on it.
-            return bool(distance_to_art(seg[:1], world, triangles)[0] <= near)
-        return over_art(seg, world, triangles, near) > 0
+            return 0.0 if distance_to_art(seg[:1], world, triangles)[0] <= near else None
+        length = over_art(seg, world, triangles, near)
+        return length if length > 0 else None
 
     scored = []
     touching = set()  # every bone on the art, chosen or not: the tree is walked through them
     for bone in bones:
-        if bone.index == slot_bone or not on_art(bone):
+        length = None if bone.index == slot_bone else length_on_art(bone)
+        if length is None:
             continue
         touching.add(bone.index)
-        length = over_art(bone.segment(), world, triangles, near)
         if bone.length == 0:
             left_out[bone.index] = "zero-length bone: a point (effects, controls), not a part the art bends with"
         elif bone.parent is None:
@@ -142,7 +144,7 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     over = {i: -neg for neg, i in scored}
     depth = {slot_bone: 0}
     frontier = [slot_bone]
-    if not on_art(bones[slot_bone]) and over:
+    if length_on_art(bones[slot_bone]) is None and over:
         # The slot bone is elsewhere (often the root, for art bound to a whole limb or body
         # chain): the art follows the group of bones below it that covers most of it.
         top = _largest_group(bones, slot_bone, over, touching)
