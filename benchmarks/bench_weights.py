@@ -170,6 +170,10 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
             if a is None:
                 continue
             va = np.asarray(a["vertices"], float).reshape(-1, 2)
+            if not np.isfinite(va).all():
+                # the artist's own rig draws NaN here (a bone scaled to 0, say): nothing to compare,
+                # and one NaN would make every median of the table meaningless
+                continue
             for m in ("keep", "auto", "rigid"):
                 b = dumps[m][pose].get(slot_att)
                 if b is None:

@@ -1,7 +1,7 @@
 """Rig replay without the runtime in the loop: many weighting variants against the artists' own.
 
     .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
-        [--every K] [--variants NAME,...] [--learned]
+        [--every K] [--variants NAME,...] [--bounds] [--learned]
 
 ``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
 about 15 minutes for one variant pair). Linear blend skinning is linear in the weights, so one
@@ -26,6 +26,12 @@ seconds the weights took. Variants:
 - ``bbw-segments-first``: zero-length bones weighted only when no bone of the mesh has a length;
 - ``auto``, ``auto-near``: the ``--bones auto`` choice (segments over the art), and the same
   with bones within 5% of the art's size also chosen (the rule before this script).
+
+``--bounds`` adds rows that use the artist's answer, to show how far any tuning of these
+weights could go: per mesh, the bbw weights sharpened or softened (``w ** p``, renormalised)
+with the ``p`` that replays best against the artist; bbw with the artist's heaviest bone put
+first at every vertex; and, per mesh, the best of the keep variants run. No tool can know these
+choices for a new project; they bound what choosing them could gain.
 
 ``--learned`` adds an upper bound for any rule computed from the geometry: a small network
 (per vertex and bone: the bbw weights of three handle layouts, distances to every segment,
@@ -114,8 +120,10 @@ def cases_of(label: str, skel: Path, dump_file: Path) -> list[dict]:
         key = (ref.slot, ref.name)
         if any(not rig.bones[b].exact for b in bones) or not len(tris) or tris.max() >= mesh.count:
             continue
+        # frames where the artist's own rig draws NaN (a bone scaled to 0, say) compare nothing
         seen = [k for k in range(len(frames)) if key in drawn[k + 1]
-                and len(drawn[k + 1][key]["vertices"]) == 2 * mesh.count]
+                and len(drawn[k + 1][key]["vertices"]) == 2 * mesh.count
+                and np.isfinite(np.asarray(drawn[k + 1][key]["vertices"], float)).all()]
         if not seen:
             continue
         artist = np.zeros((mesh.count, len(bones)))
@@ -243,6 +251,42 @@ def judge(cases: list[dict], results: dict[int, float]) -> dict:
             "ratio": statistics.median(ratios), "geomean": float(np.exp(np.mean(np.log(np.maximum(ratios, 1e-3)))))}
 
 
+#: Exponents tried by the sharpness bound: below 1 softens the blend, above 1 sharpens it.
+SHARPNESS = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 10.0, 30.0)
+
+
+def sharpened(w: np.ndarray, p: float) -> np.ndarray:
+    """Weights raised to the power ``p``, rows renormalised to sum 1."""
+    w = np.asarray(w, float) ** p
+    return w / w.sum(axis=1, keepdims=True)
+
+
+def heaviest_swapped(w: np.ndarray, artist: np.ndarray) -> np.ndarray:
+    """``w`` with, at each vertex, its largest weight moved to the artist's heaviest bone."""
+    w = w.copy()
+    rows = np.arange(len(w))
+    ours, theirs = w.argmax(1), artist.argmax(1)
+    big, other = w[rows, ours], w[rows, theirs]
+    w[rows, theirs], w[rows, ours] = big, other
+    return w
+
+
+def oracle_bounds(cases: list[dict], per_variant: dict[str, dict[int, float]]) -> dict[str, dict[int, float]]:
+    """Errors of choices made with the artist's answer (see ``--bounds``)."""
+    sharp, swapped = {}, {}
+    for i, c in enumerate(cases):
+        bones, w = VARIANTS["bbw"](c)
+        sharp[i] = min(replay(c, sparsify(sharpened(w, p), 4, 0.01), bones) for p in SHARPNESS)
+        swapped[i] = replay(c, sparsify(heaviest_swapped(w, c["artist"]), 4, 0.01), bones)
+    out = {"bbw, sharpness chosen per mesh against the artist (bound)": sharp,
+           "bbw, artist's heaviest bone put first (bound)": swapped}
+    kept_bones = {n: r for n, r in per_variant.items() if not n.startswith("auto")}
+    if len(kept_bones) > 1:  # the auto variants bind other bones: not compared here
+        best = {i: min(r[i] for r in kept_bones.values()) for i in range(len(cases))}
+        out[f"best of the {len(kept_bones)} keep variants per mesh (bound)"] = best
+    return out
+
+
 def learned_bound(cases: list[dict], seed: int = 0) -> dict[int, float]:
     """Errors of a network trained on the artists' weights of the other half of the projects."""
     import torch
@@ -297,6 +341,7 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=Path("weights-replay-cache"), help="folder for the dumps")
     ap.add_argument("--every", type=int, default=1, help="judge every K-th mesh (faster)")
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
+    ap.add_argument("--bounds", action="store_true", help="add the bounds that use the artist's answer")
     ap.add_argument("--learned", action="store_true")
     args = ap.parse_args()
     cases = []
@@ -309,18 +354,28 @@ def main() -> None:
     print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | seconds |")
     print("|---|---|---|---|---|---|")
     names = [n for n in args.variants.split(",") if n]
-    for name in names + (["learned (project-held-out upper bound)"] if args.learned else []):
-        start = time.perf_counter()
-        if name.startswith("learned"):
-            results = learned_bound(cases)
-        else:
-            results = {}
-            for i, c in enumerate(cases):
-                bones, w = VARIANTS[name](c)
-                results[i] = replay(c, sparsify(w, 4, 0.01), bones)
+    per_variant: dict[str, dict[int, float]] = {}
+
+    def row(name: str, results: dict[int, float], start: float) -> None:
         s = judge(cases, results)
         print(f"| {name} | {s['meshes']} | {s['error']:.3f} | {s['ratio']:.3f} | {s['geomean']:.3f} | "
               f"{time.perf_counter() - start:.0f} |", flush=True)
+
+    for name in names:
+        start = time.perf_counter()
+        results = {}
+        for i, c in enumerate(cases):
+            bones, w = VARIANTS[name](c)
+            results[i] = replay(c, sparsify(w, 4, 0.01), bones)
+        per_variant[name] = results
+        row(name, results, start)
+    if args.bounds:
+        start = time.perf_counter()
+        for name, results in oracle_bounds(cases, per_variant).items():
+            row(name, results, start)
+    if args.learned:
+        start = time.perf_counter()
+        row("learned (project-held-out upper bound)", learned_bound(cases), start)
 
 
 if __name__ == "__main__":
