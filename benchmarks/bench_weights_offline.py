@@ -49,6 +49,7 @@ import json
 import random
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -66,7 +67,7 @@ from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.choice import NEAR, choose_auto  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
 from spinemesh.rig.weights import _segment_distance, solve_weights, sparsify  # noqa: E402
-from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
+from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton  # noqa: E402
 
 
 def matrix(m: list[float]) -> np.ndarray:
@@ -87,7 +88,12 @@ def collect(tool: Path, cache: Path, examples: str, corpus: int) -> list[tuple[s
         dump = cache / f"{i:04d}-{skel.stem}.json"
         if not dump.exists():
             try:
-                bench_weights.dump(tool, source.atlases[0].path, skel, bench_weights.poses(doc, 4, 4), dump)
+                # played from our JSON of it, as bench_weights.py plays its variants: the harness
+                # picks its reader by the file name, and some exports are binary named .json
+                with tempfile.TemporaryDirectory() as tmp:
+                    played = Path(tmp) / f"{skel.stem}.json"
+                    played.write_text(dumps_skeleton(doc))
+                    bench_weights.dump(tool, source.atlases[0].path, played, bench_weights.poses(doc, 4, 4), dump)
             except RuntimeError as e:
                 print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
                 continue
