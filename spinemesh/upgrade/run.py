@@ -115,9 +115,14 @@ class Target:
     seconds: float = 0.0
 
     weights: dict | None = None      # --weights auto: bones chosen and why (spinemesh.rig.upgrade)
+    # --weights auto, meshed only because it would bend: the keep rule's reason, and the region
+    # it replaced (put back if the mesh does not get more than one bone); not report columns
+    overruled: str = ""
+    region: dict | None = None
 
     def row(self) -> dict:
-        return {k: v for k, v in self.__dict__.items() if k != "key" and not (k == "weights" and v is None)}
+        return {k: v for k, v in self.__dict__.items()
+                if k not in ("key", "overruled", "region") and not (k == "weights" and v is None)}
 
 
 @dataclass
@@ -139,6 +144,9 @@ class MeshTask:
     drawn : ndarray, shape (h, w), bool, optional
         Texels of ``rgba`` the mesh must cover (any frame): those that can show in the
         attachment's slot (:func:`texels_to_cover`); default ``alpha > 0``.
+    bends : bool
+        ``--weights auto``: the art would bend with the skeleton (:func:`bending_task`), so a
+        keep rule on saving alone does not keep it; the result says what the rule said.
     """
 
     key: str
@@ -147,6 +155,7 @@ class MeshTask:
     size: tuple[int, int]
     settings: tuple
     drawn: np.ndarray | None = None
+    bends: bool = False
 
     def __post_init__(self):
         if self.drawn is None:
@@ -170,6 +179,7 @@ class MeshResult:
     edges: np.ndarray | None = None
     error: str = ""
     kept: str = ""  # why the image stays a region (spinemesh.mesher.worth); "" when meshed or failed
+    overruled: str = ""  # a bending task meshed although the keep rule gave this reason
     seconds: float = 0.0
     coverage: float | None = None
     waste: float | None = None
@@ -272,6 +282,22 @@ def texels_to_cover(frames: list[RegionImage], blend: str) -> list[np.ndarray]:
     return [f.shown if blend == "normal" else f.drawn for f in frames]
 
 
+#: Key prefix of a :class:`MeshTask` meshed because its art bends: the same image keyed apart,
+#: so that an image shared by a bending and a non-bending attachment gets both results.
+BENDS_KEY = "bends:"
+
+
+def bending_task(task: MeshTask) -> MeshTask:
+    """The same image meshed for an attachment that bends (``--weights auto``).
+
+    Bending with the skeleton is worth a mesh whatever it saves: the keep rule's saving tests
+    (:mod:`spinemesh.mesher.worth` rules 1 and 3) are dropped for it; its vertex-cost tests
+    (scattered islands, a huge outline) still hold, since nobody bends a rain sheet. Where the
+    rule does not keep the image, the mesh is the one the plain task gives.
+    """
+    return dataclasses.replace(task, key=BENDS_KEY + task.key, bends=True)
+
+
 def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
     """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
     return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
@@ -305,12 +331,21 @@ class Planner:
     options: Options
     tasks: dict[str, MeshTask] = field(default_factory=dict)
     decided: dict[tuple, tuple[str, str, str]] = field(default_factory=dict)
+    #: tasks decided, by key; in ``tasks`` only once an attachment uses them (a bending
+    #: attachment uses its bending variant instead)
+    found: dict[str, MeshTask] = field(default_factory=dict)
+    #: ``--weights auto``: art outline (uv, triangles) by task key (spinemesh.rig.upgrade.art_outline)
+    outlines: dict[str, tuple] = field(default_factory=dict)
     editor_images: set[str] = field(default_factory=set)
     #: ``--repack``: atlas path -> names of the regions to store untrimmed.
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)
 
-    def plan_skeleton(self, doc: dict, skeleton: str, source) -> list[Target]:
-        """A :class:`Target` for every region attachment of ``doc``, in document order."""
+    def plan_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
+        """A :class:`Target` for every region attachment of ``doc``, in document order.
+
+        ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
+        ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
+        """
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
@@ -334,10 +369,29 @@ class Planner:
             elif source is None:
                 t.status, t.reason = "failed", "no atlas or images folder holds its image"
             else:
-                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"))
+                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"),
+                                                         self._bend_test(bending, ref))
         return targets
 
-    def _decide(self, source, paths: list[str], blend: str = "normal") -> tuple[str, str, str]:
+    def _bend_test(self, bending, ref: AttachmentRef) -> Callable[[MeshTask], bool] | None:
+        """Whether ``ref``'s art bends, given its task; None when even its whole quad does not.
+
+        Only with a keep rule on saving (``min_saving`` > 0): without it every region is meshed.
+        """
+        if bending is None or not self.options.min_saving or not bending.bends(ref):
+            return None
+
+        def art_bends(task: MeshTask) -> bool:
+            from ..rig.upgrade import art_outline
+
+            if task.key not in self.outlines:
+                self.outlines[task.key] = art_outline(task.drawn, task.origin, task.size)
+            return bending.bends(ref, *self.outlines[task.key])
+
+        return art_bends
+
+    def _decide(self, source, paths: list[str], blend: str = "normal",
+                bends: Callable[[MeshTask], bool] | None = None) -> tuple[str, str, str]:
         seen = (source_identity(source), tuple(paths), blend == "normal")
         if seen not in self.decided:
             try:
@@ -353,13 +407,20 @@ class Planner:
                         # Without its editor image the mesh could not be re-imported: stays a region.
                         task, status, reason = None, "failed", f"editor image not written: {e}"
                 if task is not None:
-                    self.tasks.setdefault(task.key, task)
+                    self.found[task.key] = task
                     if self.options.repack and needs_repack(frames, task):
                         for name in paths:
                             atlas = next(a for a in source.atlases if a.find(name) is not None)
                             self.untrimmed.setdefault(atlas.path, set()).add(name)
                 self.decided[seen] = (status, reason, task.key if task else "")
-        return self.decided[seen]
+        status, reason, key = self.decided[seen]
+        if key:
+            task = self.found[key]
+            if bends is not None and bends(task):
+                task = bending_task(task)
+            self.tasks.setdefault(task.key, task)
+            key = task.key
+        return status, reason, key
 
     def _write_editor_images(self, frames: list[RegionImage]) -> None:
         folder = self.options.images_out
@@ -426,7 +487,15 @@ def mesh_one(task: MeshTask) -> MeshResult:
         params = resolve_params(preset, **{"hull_inset": SAMPLING_INSET, "max_hull_tolerance": MAX_HULL_TOLERANCE,
                                            **dict(overrides), "mask_source": mask_source})
         mask = sampling_margin(drawn_art(task, params, dict(overrides)))
-        mesh = mesh_image(task.rgba, params, mask=mask)
+        overruled = ""
+        try:
+            mesh = mesh_image(task.rgba, params, mask=mask)
+        except NotWorthMeshing as e:
+            if not task.bends or not params.min_saving:
+                raise
+            # art that bends is worth a mesh for that alone: only the vertex-cost rules stay
+            overruled = str(e)
+            mesh = mesh_image(task.rgba, dataclasses.replace(params, min_saving=0.0), mask=mask)
     except NotWorthMeshing as e:  # decided early, from the mask and the hull
         return MeshResult(task.key, kept=str(e), seconds=time.perf_counter() - start)
     except SpineMeshError as e:
@@ -445,7 +514,7 @@ def mesh_one(task: MeshTask) -> MeshResult:
     if triangles is None:
         return MeshResult(task.key, error="mesh is not one fully triangulated hull polygon", seconds=seconds)
     return MeshResult(task.key, vertices, np.asarray(triangles, np.int64), int(mesh.hull), edges,
-                      seconds=seconds, coverage=cov, waste=wst)
+                      seconds=seconds, coverage=cov, waste=wst, overruled=overruled)
 
 
 @dataclass
@@ -535,6 +604,8 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
         except SpineMeshError as e:
             t.status, t.reason = "failed", str(e)
             continue
+        if res.overruled:  # meshed only because it bends: the region comes back if it does not
+            t.overruled, t.region = res.overruled, dict(ref.attachment)
         # The document's own dict, changed in place: it keeps its place among its siblings.
         ref.attachment.clear()
         ref.attachment.update(mesh)
@@ -620,6 +691,7 @@ class SkeletonPlan:
     doc: dict
     targets: list[Target]
     source: object
+    rig: object = None  # --weights auto: spinemesh.rig.document.Rig, built once per skeleton
 
 
 @dataclass
@@ -647,12 +719,24 @@ def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan
         except SpineMeshError as e:
             result.errors.append(str(e))
             continue
-        targets = planner.plan_skeleton(doc, rel, source)
+        bending = bending_regions(doc) if options.weights == "auto" else None
+        targets = planner.plan_skeleton(doc, rel, source, bending)
         result.targets += targets
-        skeletons.append(SkeletonPlan(path, rel, doc, targets, source))
+        skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
     result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectPlan(proj, skeletons, planner.tasks, untrimmed=planner.untrimmed, options=options)
+
+
+def bending_regions(doc: dict):
+    """:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, or None when its rig cannot be built."""
+    from ..rig.document import build_rig
+    from ..rig.upgrade import BendingRegions
+
+    try:
+        return BendingRegions.of(build_rig(doc))
+    except SpineMeshError:
+        return None  # the weighting reports it, per mesh
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
@@ -723,7 +807,7 @@ def write_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, r
         if plan.options is not None and plan.options.weights == "auto":
             from ..rig.upgrade import weight_upgraded
 
-            weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"))
+            weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"), sk.rig)
         try:
             write_skeleton(sk.doc, sk.path, out / sk.rel)
         except SpineMeshError as e:
