@@ -1,0 +1,183 @@
+"""``upgrade --weights auto`` meshes the regions that bend, even where the keep rule would keep them.
+
+The fixture is drawn by our own code: one fully opaque 200x40 bar image (so the keep rule's
+first test keeps it: its art fills the whole region), used by two region attachments. ``bar``
+hangs on ``upper`` and lies across the joint to ``lower`` (a chain of two 100-unit bones): it
+would bend. ``flag`` hangs on ``lone``, far from every other bone: it would not.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from spinemesh.skeleton import iter_attachments
+from spinemesh.upgrade import Options, upgrade_project
+from spinemesh.upgrade.run import BENDS_KEY, Result, Target, plan_project
+from spinemesh.project import find_project
+
+WIDTH, HEIGHT = 200, 40
+
+
+def bar_skeleton(lower_x: float = 100.0) -> dict:
+    """``lower_x``: where ``lower`` starts on ``upper`` (100: at the bar's middle; far away: nothing bends)."""
+    return {
+        "skeleton": {"hash": "YmFyYmFyYmFy", "spine": "4.2.22", "x": -110, "y": -30, "width": 220, "height": 360},
+        "bones": [
+            {"name": "root"},
+            {"name": "upper", "parent": "root", "length": 100, "x": -100},
+            {"name": "lower", "parent": "upper", "length": 100, "x": lower_x},
+            {"name": "lone", "parent": "root", "length": 50, "y": 300},
+        ],
+        "slots": [{"name": "bar", "bone": "upper", "attachment": "bar"},
+                  {"name": "flag", "bone": "lone", "attachment": "bar"}],
+        "skins": [{"name": "default", "attachments": {
+            "bar": {"bar": {"x": 100, "width": WIDTH, "height": HEIGHT}},
+            "flag": {"bar": {"width": WIDTH, "height": HEIGHT}}}}],
+        "animations": {"bend": {"bones": {
+            "lower": {"rotate": [{"value": 60}]}}}},
+    }
+
+
+def make_bar_project(folder: Path, lower_x: float = 100.0) -> Path:
+    """``bar.json``, ``bar.atlas`` and ``bar.png`` in ``folder``; returns the skeleton path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    page = np.zeros((64, 256, 4), np.uint8)
+    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
+    page[2:2 + HEIGHT, 2:2 + WIDTH, 0] = np.where((x // 25) % 2 == 0, 210, 70)
+    page[2:2 + HEIGHT, 2:2 + WIDTH, 1] = 140
+    page[2:2 + HEIGHT, 2:2 + WIDTH, 3] = 255
+    Image.fromarray(page).save(folder / "bar.png")
+    (folder / "bar.atlas").write_text(
+        "bar.png\n\tsize: 256, 64\n\tfilter: Linear, Linear\nbar\n\tbounds: 2, 2, 200, 40\n")
+    path = folder / "bar.json"
+    path.write_text(json.dumps(bar_skeleton(lower_x), indent=1))
+    return path
+
+
+def by_slot(result) -> dict:
+    return {t.slot: t for t in result.targets}
+
+
+def attachments(path: Path) -> dict:
+    return {(r.slot, r.name): r.attachment for r in iter_attachments(json.loads(path.read_text()))}
+
+
+def test_a_bending_region_is_meshed_and_weighted_with_auto_and_kept_with_none(tmp_path):
+    project = make_bar_project(tmp_path / "p")
+    none = by_slot(upgrade_project(project, tmp_path / "none", Options(weights="none")))
+    auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
+
+    # --weights none: the keep rule keeps both (the art fills the whole region)
+    for slot in ("bar", "flag"):
+        assert none[slot].status == "kept" and none[slot].reason.startswith("not worth meshing"), none[slot]
+    assert attachments(tmp_path / "none" / "bar.json") == attachments(project)
+
+    # --weights auto: the bending one is meshed and bound to both bones, and says why
+    bar = auto["bar"]
+    assert bar.status == "meshed", bar
+    assert bar.weights["status"] == "weighted" and bar.weights["meshed_to_bend"] is True
+    assert set(bar.weights["bones"]) == {"upper", "lower"}
+    assert bar.reason.startswith("meshed because it bends over 2 bones; the keep rule alone: not worth meshing")
+    assert "overruled" not in bar.row() and "region" not in bar.row()
+    out = attachments(tmp_path / "auto" / "bar.json")
+    mesh = out[("bar", "bar")]
+    assert mesh["type"] == "mesh"
+    assert len(mesh["vertices"]) > len(mesh["uvs"])  # weighted: bone count, bone, x, y, weight per vertex
+    # the one that does not bend is unaffected: kept, for the same reason, as it was
+    assert auto["flag"].status == "kept" and auto["flag"].reason == none["flag"].reason
+    assert auto["flag"].weights is None
+    assert out[("flag", "bar")] == attachments(project)[("flag", "bar")]
+
+
+def test_one_image_gets_both_results_by_its_two_keys(tmp_path):
+    """The shared image is planned twice under --weights auto (plain and bending), once under none."""
+    project = find_project(make_bar_project(tmp_path / "p"))
+    keys = {}
+    for weights in ("none", "auto"):
+        plan = plan_project(project, Options(weights=weights), Result())
+        keys[weights] = sorted(plan.tasks)
+        targets = {t.slot: t for sk in plan.skeletons for t in sk.targets}
+        assert targets["flag"].key in plan.tasks and targets["bar"].key in plan.tasks
+    assert len(keys["none"]) == 1 and not keys["none"][0].startswith(BENDS_KEY)
+    assert keys["auto"] == sorted([keys["none"][0], BENDS_KEY + keys["none"][0]])
+
+
+def test_none_output_does_not_depend_on_the_bones(tmp_path):
+    """--weights none: the same attachments, byte for byte, whether the bar lies across a joint or not."""
+    bending = make_bar_project(tmp_path / "bending")
+    straight = make_bar_project(tmp_path / "straight", lower_x=1000.0)
+    upgrade_project(bending, tmp_path / "a", Options(weights="none", min_saving=None))
+    upgrade_project(straight, tmp_path / "b", Options(weights="none", min_saving=None))
+    a = json.loads((tmp_path / "a" / "bar.json").read_text())
+    b = json.loads((tmp_path / "b" / "bar.json").read_text())
+    assert a["skins"][0]["attachments"]["bar"]["bar"]["type"] == "mesh"
+    assert json.dumps(a["skins"]) == json.dumps(b["skins"])
+
+
+def test_a_region_that_moves_away_from_the_joint_is_not_bent(tmp_path):
+    """The same bar with ``lower`` far off its art: not bending, so the keep rule keeps it under auto too."""
+    project = make_bar_project(tmp_path / "p", lower_x=1000.0)
+    auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
+    assert auto["bar"].status == "kept" and auto["bar"].reason.startswith("not worth meshing"), auto["bar"]
+
+
+def test_a_mesh_made_to_bend_that_gets_one_bone_is_its_region_again(tmp_path):
+    """weight_upgraded puts the region back when the mesh meshed only to bend is bound to one bone."""
+    from spinemesh.rig.upgrade import weight_upgraded
+
+    project = make_bar_project(tmp_path / "p")
+    # flag meshed with the rule off, as a bending task would be, then weighted: it gets one bone
+    result = upgrade_project(project, tmp_path / "meshed", Options(weights="none", min_saving=None))
+    doc = json.loads((tmp_path / "meshed" / "bar.json").read_text())
+    region = copy.deepcopy(bar_skeleton()["skins"][0]["attachments"]["flag"]["bar"])
+    targets = []
+    for t in result.targets:
+        assert t.status == "meshed"
+        if t.slot == "flag":
+            t.overruled, t.region = "not worth meshing: (the rule's reason)", copy.deepcopy(region)
+        targets.append(t)
+    weight_upgraded(doc, targets)
+    flag = next(t for t in targets if t.slot == "flag")
+    assert flag.status == "kept" and flag.vertices == 0
+    assert flag.reason == "not worth meshing: (the rule's reason) (its region would bend, but its mesh was weighted to 1 bone)"
+    assert flag.weights["meshed_to_bend"] is False
+    assert doc["skins"][0]["attachments"]["flag"]["bar"] == region
+    # the other mesh (not meshed to bend) stays a mesh, weighted over both bones
+    bar = next(t for t in targets if t.slot == "bar")
+    assert bar.status == "meshed" and "meshed_to_bend" not in bar.weights
+    assert set(bar.weights["bones"]) == {"upper", "lower"}
+
+
+def test_the_runtime_draws_the_bent_mesh_where_the_region_was_and_bends_it(spine_runtime, tmp_path):
+    """Official runtime: in the setup pose the new weighted mesh draws where the region did
+    (``compare.mjs``), and at ``bend`` the mesh curls with ``lower`` where the kept region cannot."""
+    from runtime_tool import compare_dumps, node
+    from test_weights_runtime import setup_dump
+
+    project = make_bar_project(tmp_path / "p")
+    for weights in ("none", "auto"):
+        upgrade_project(project, tmp_path / weights, Options(weights=weights))
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    setup_dump(spine_runtime, project.parent / "bar.atlas", project, a)
+    setup_dump(spine_runtime, tmp_path / "auto" / "bar.atlas", tmp_path / "auto" / "bar.json", b)
+    ok, text = compare_dumps(spine_runtime, a, b)
+    assert ok, text
+
+    def spread(which: str) -> float:
+        path = tmp_path / f"{which}-bend.json"
+        r = node(spine_runtime, "dump.mjs", tmp_path / which / "bar.atlas", tmp_path / which / "bar.json",
+                 "--out", path, "--poses", "bend@0.5")
+        assert r.returncode == 0, r.stderr[-2000:]
+        pose = json.loads(path.read_text())["poses"][1]
+        bar = next(x for x in pose["attachments"] if x.get("slot") == "bar")
+        return float(np.ptp(np.asarray(bar["vertices"]).reshape(-1, 2)[:, 1]))
+
+    # the region is a rigid 40-unit-high quad on ``upper``; the mesh's far half turns 60 degrees up
+    assert spread("none") == pytest.approx(HEIGHT, abs=0.1)
+    assert spread("auto") > HEIGHT + 40
