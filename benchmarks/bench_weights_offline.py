@@ -209,10 +209,11 @@ def neighbour_mean(w: np.ndarray, tris: np.ndarray) -> np.ndarray:
     return (adj @ w) / deg[:, None]
 
 
-def fine(variant):
+def fine(variant, points: int = 2000, most: int = 16):
+    """The variant on a refinement of up to ``points`` points, ``most`` per triangle side."""
     def run(case):
         old = rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION
-        rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION = 2000, 16
+        rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION = points, most
         try:
             return variant(case)
         finally:
@@ -241,6 +242,10 @@ def auto(near: float | None = None):
 VARIANTS = {
     "bbw": keep(),
     "bbw-fine": fine(keep()),
+    "bbw-600": fine(keep(), 600, 8),
+    "bbw-1200": fine(keep(), 1200, 16),
+    "bbw-libigl-600": fine(keep("bbw-libigl"), 600, 8),
+    "bbw-libigl-fine": fine(keep("bbw-libigl")),
     "harmonic": keep("harmonic"),
     "bbw-mid-handles": keep(middle=(0.2, 0.8)),
     "bbw-point-handles": keep(middle=(0.5, 0.5)),

@@ -13,7 +13,7 @@ from spinemesh.rig.binding import bind, parse_vertices, rounded_weights, setup_w
 from spinemesh.rig.bones import skeleton_bones, world_transform
 from spinemesh.rig.document import WeightOptions, build_rig, weight_document
 from spinemesh.rig.topology import add_rig_vertices
-from spinemesh.rig.weights import refine, solve_weights, sparsify
+from spinemesh.rig.weights import bounded_biharmonic, refine, solve_weights, sparsify
 from spinemesh.skeleton import iter_attachments
 
 from rig_project import make_worm_project, worm_skeleton
@@ -190,7 +190,7 @@ def _strip(n=9, length=300.0, width=40.0):
     return v, np.array(tris)
 
 
-@pytest.mark.parametrize("method", ["bbw", "harmonic", "biharmonic"])
+@pytest.mark.parametrize("method", ["bbw", "bbw-libigl", "harmonic", "biharmonic"])
 def test_weights_follow_the_bones(method):
     v, t = _strip()
     segs = np.array([[[0, 20], [150, 20]], [[150, 20], [300, 20]]], float)
@@ -202,6 +202,39 @@ def test_weights_follow_the_bones(method):
     order = np.lexsort((v[:, 1], v[:, 0]))
     mirror = np.lexsort((v[:, 1], 300 - v[:, 0]))
     assert np.allclose(w[order, 0], w[mirror, 1], atol=0.1)  # the triangulation is not symmetric
+
+
+def _strip_problem(bones=3):
+    """A refined strip with handles along ``bones`` equal segments of its mid-line."""
+    v, t = _strip()
+    p, f = refine(v, t, 4)
+    b = np.flatnonzero(np.isclose(p[:, 1], 20.0))
+    bc = np.eye(bones)[np.minimum((p[b, 0] / (300.0 / bones)).astype(int), bones - 1)]
+    return p, f, b, bc
+
+
+@pytest.mark.parametrize("bones", [2, 3])
+def test_bounded_biharmonic_matches_libigl(bones):
+    import igl
+
+    p, f, b, bc = _strip_problem(bones)
+    w = bounded_biharmonic(p, f, b, bc)
+    ref = igl.bbw(p, f, b, bc, partition_unity=False, max_iter=200)
+    assert np.abs(w - ref).max() < 1e-4
+    assert np.array_equal(w[b], bc) and w.min() > -1e-7 and w.max() < 1 + 1e-7
+    assert np.allclose(w.sum(1), 1, atol=1e-4)  # handles one-hot, Q 1 = 0: the optimum is a partition
+
+
+def test_bone_without_handle_gets_zero_and_a_failed_solve_falls_back_to_harmonic(monkeypatch):
+    from spinemesh.rig import weights as rig_weights
+
+    p, f, b, bc = _strip_problem(2)
+    w = bounded_biharmonic(p, f, b, np.c_[bc[:, :1], np.zeros(len(b)), bc[:, 1:]])
+    assert (w[:, 1] == 0).all() and np.allclose(w[:, [0, 2]], bounded_biharmonic(p, f, b, bc))
+    v, t = _strip()
+    segs = np.array([[[0, 20], [150, 20]], [[150, 20], [300, 20]]], float)
+    monkeypatch.setattr(rig_weights, "bounded_biharmonic", lambda *a: None)
+    assert np.allclose(solve_weights(v, t, segs, "bbw"), solve_weights(v, t, segs, "harmonic"))
 
 
 def test_sparsify_bounds_counts_and_sums():

@@ -2,16 +2,21 @@
 
 Bones are handles: the points along each bone's segment (origin to origin + length along
 its x axis) that lie on the mesh are fixed to weight 1 for that bone and 0 for the others;
-libigl's ``bbw`` then finds, for every other point, the smoothest weights (minimal
-Laplacian energy) bounded to [0, 1]. This is what the Spine editor's automatic weights are
-credited to.
+every other point gets, bone by bone, the smoothest weights (minimal Laplacian energy
+``w^T L M^-1 L w``, libigl's operator) bounded to [0, 1]. This is what the Spine editor's
+automatic weights are credited to. Each bone's bound-constrained QP is solved by PIQP's
+sparse interior-point solver (:func:`bounded_biharmonic`); libigl's own active-set ``bbw``
+stays available as ``method="bbw-libigl"`` but is 4 to 7 times slower on the refinement
+used here and often stops at its iteration cap there.
 
 A mesh as drawn by an artist or by the mesher has few vertices (often 10 to 50), too few
 for a smooth solution or for handles to fall on bone segments. The weights are therefore
 solved on a *refinement* of the mesh: every triangle is cut into ``k * k`` similar triangles
 (shared edges get the same points), which keeps the domain exactly, including concave
 outlines and pieces joined only at a vertex. The original vertices are vertices of the
-refinement, so their weights are read off directly.
+refinement, so their weights are read off directly. The refinement has up to
+``REFINED_VERTEX_BUDGET`` points: on the artists' own meshes, replayed against their
+animations, 2,000 points bend closer to the artists' weights than 600 did.
 
 Per vertex, weights are then made sparse for the runtime: at most ``max_bones`` bones,
 weights below ``min_weight`` dropped, the rest renormalised to sum 1.
@@ -22,10 +27,10 @@ from __future__ import annotations
 import numpy as np
 
 #: Upper bound on the vertices of the refinement the weights are solved on (speed).
-REFINED_VERTEX_BUDGET = 600
+REFINED_VERTEX_BUDGET = 2000
 
 #: Most triangles per original triangle side (``k``).
-MAX_SUBDIVISION = 8
+MAX_SUBDIVISION = 16
 
 
 def refine(vertices: np.ndarray, triangles: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -160,9 +165,11 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
         (see :func:`handles`); world units.
     prefer : int, optional
         Column of the bone that art reached by no bone follows (the slot's bone).
-    method : {"bbw", "harmonic", "biharmonic"}
-        Bounded biharmonic weights; harmonic weights (a linear solve, like heat
-        diffusion); or unbounded biharmonic weights clipped to [0, 1].
+    method : {"bbw", "bbw-libigl", "harmonic", "biharmonic"}
+        Bounded biharmonic weights (:func:`bounded_biharmonic`; harmonic weights where its
+        solver fails); the same problem solved by libigl's active-set ``bbw`` (slower, stops
+        after 50 active-set steps); harmonic weights (a linear solve, like heat diffusion);
+        or unbounded biharmonic weights clipped to [0, 1].
 
     Returns
     -------
@@ -199,7 +206,7 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
 
 
 def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int, method: str) -> np.ndarray:
-    """libigl's bbw (or harmonic) on the refinement; rows of unused points are left at 0."""
+    """The chosen method on the refinement; rows of points in no face are left at 0."""
     import igl
 
     # libigl wants every point in some face: solve on the used points only.
@@ -215,16 +222,91 @@ def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int
     if method in ("harmonic", "biharmonic"):
         # Unbounded k-harmonic weights; negative lobes are clipped by the caller.
         w = igl.harmonic(v, f, b, bc, 1 if method == "harmonic" else 2)
-    else:
+    elif method == "bbw-libigl":
         try:
             w = igl.bbw(v, f, b, bc, partition_unity=False, max_iter=50)
         except RuntimeError:
-            # libigl's active-set solver gives up on some meshes (it says "failed to compute
-            # weights"); harmonic weights always exist, so the mesh is still weighted.
+            # libigl's active-set solver gives up on some meshes ("failed to compute weights").
+            w = igl.harmonic(v, f, b, bc, 1)
+    else:
+        w = bounded_biharmonic(v, f, b, bc)
+        if w is None:
+            # The QP solver did not converge; harmonic weights always exist, so the mesh
+            # is still weighted.
             w = igl.harmonic(v, f, b, bc, 1)
     out = np.zeros((len(points), nb))
     out[used] = w
     return out
+
+
+def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray | None:
+    """Bounded biharmonic weights, one bound-constrained QP per bone (Jacobson et al. 2011, eq. 3).
+
+    Minimises ``w^T Q w`` with ``Q = L M^-1 L`` (libigl's cotangent Laplacian ``L`` and
+    Voronoi mass matrix ``M``, the operator of libigl's ``bbw``), ``w[b] = bc`` and
+    ``0 <= w <= 1``, each bone on its own (no partition of unity: the caller normalises
+    rows). PIQP's sparse interior-point solver does the solving: about 20 factorisations
+    per bone whatever the mesh, where libigl's active set refactorises once per change of
+    its active set and often stops at its iteration cap on fine meshes.
+
+    Two facts of the problem save solves exactly: a bone with no handle has weight 0
+    everywhere (0 is feasible with energy 0), and when exactly two bones have handles the
+    second bone's weights are one minus the first's (``Q 1 = 0`` since ``L 1 = 0``, and
+    ``1 - w`` keeps the bounds and handles, so it has the same energy as ``w``).
+
+    Parameters
+    ----------
+    v : ndarray, shape (P, 2)
+        Points, each in some face of ``f``.
+    f : ndarray, shape (F, 3)
+    b : ndarray, shape (H,)
+        Handle points; every connected piece of the mesh needs one.
+    bc : ndarray, shape (H, B)
+        Each handle's weights, one 1 per row.
+
+    Returns
+    -------
+    ndarray, shape (P, B), or None
+        None when the solver reports no solution for some bone (or the operator is not finite).
+    """
+    import igl
+    import piqp
+    from scipy import sparse
+
+    n, nb = len(v), bc.shape[1]
+    # Q scales as 1 / size^2 (L is scale-free in 2-D, M is an area): solve at unit size so
+    # the solver's absolute tolerances mean the same on every mesh.
+    v = (v - v.mean(axis=0)) / max(float(np.ptp(v, axis=0).max()), 1e-12)
+    lap = igl.cotmatrix(v, f).tocsc()
+    mass = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    if not (np.all(np.isfinite(lap.data)) and np.all(mass > 0)):
+        return None
+    q = (lap @ sparse.diags(1.0 / mass) @ lap).tocsr()
+    free = np.setdiff1d(np.arange(n), b)
+    w = np.zeros((n, nb))
+    w[b] = bc
+    bones = [j for j in range(nb) if bc[:, j].any()]
+    if not len(free) or not bones:
+        return w
+    q_free = q[free][:, free].tocsc()
+    linear = np.asarray(q[free][:, b] @ bc)
+    solver = piqp.SparseSolver()
+    solver.settings.verbose = False
+    solver.settings.eps_abs = solver.settings.eps_rel = 1e-7
+    solved = bones[:1] if len(bones) == 2 else bones
+    zeros, ones = np.zeros(len(free)), np.ones(len(free))
+    for i, j in enumerate(solved):
+        c = np.ascontiguousarray(linear[:, j])
+        if i == 0:
+            solver.setup(sparse.triu(q_free, format="csc"), c, x_l=zeros, x_u=ones)
+        else:
+            solver.update(c=c)
+        if solver.solve() != piqp.PIQP_SOLVED:
+            return None
+        w[free, j] = solver.result.x
+    if len(bones) == 2:
+        w[free, bones[1]] = 1.0 - w[free, bones[0]]
+    return w
 
 
 def sparsify(weights: np.ndarray, max_bones: int = 4, min_weight: float = 0.01) -> np.ndarray:
