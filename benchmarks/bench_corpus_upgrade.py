@@ -21,12 +21,18 @@ projects or mesh more sequences are then compared on the same set).
 ``gap A.json B.json`` says where B draws more pixels than A: by slot blend mode, meshed or kept.
 
 ``run --set NAME=NUMBER`` passes a mesher parameter to the upgrade (to measure its effect).
+
+``run --weights auto`` upgrades with ``--weights auto``: rows then carry the bones each mesh
+is weighted to and whether it was meshed only because it bends (the keep rule alone would keep
+it), and ``table`` counts them. ``run --root FOLDER`` reads the project folders of another
+library (the examples of one Spine version, say) instead of the corpus.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import subprocess
 import sys
 import tempfile
@@ -55,7 +61,7 @@ def box_area(key: str) -> int | None:
     return (x1 - x0) * (y1 - y0)
 
 
-def child(project: Path, min_saving: str = "", settings: list[str] | None = None) -> None:
+def child(project: Path, min_saving: str = "", settings: list[str] | None = None, weights: str = "none") -> None:
     """Upgrade one project; print its rows as one JSON line.
 
     ``min_saving``: "" for the upgrade's default, "none" to mesh every region, or a share.
@@ -87,7 +93,7 @@ def child(project: Path, min_saving: str = "", settings: list[str] | None = None
     cache: dict = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
-        options = Options(overrides=parse_settings(settings or []))
+        options = Options(overrides=parse_settings(settings or []), weights=weights)
         if min_saving:
             options.min_saving = None if min_saving == "none" else float(min_saving)
         result = upgrade_project(project, Path(out) / "o", options, mesh_cache=cache)
@@ -99,6 +105,9 @@ def child(project: Path, min_saving: str = "", settings: list[str] | None = None
                "reason": t.reason, "seconds": float(t.seconds or 0.0), "vertices": int(t.vertices or 0),
                "image": t.key, "region_px": sizes.get(t.key) or (box_area(t.key) if t.key else None),
                "mesh_px": None, "cpu_seconds": cpu.get(t.key)}
+        if t.weights is not None:  # --weights auto
+            row["bones"] = len(t.weights["bones"]) if t.weights["status"] == "weighted" else 0
+            row["meshed_to_bend"] = t.weights.get("meshed_to_bend")
         got = meshes.get(t.key)
         if t.status == "meshed" and got is not None:
             if isinstance(got, tuple):  # before the upgrade restructuring: (mesh.json dict, ...)
@@ -106,7 +115,7 @@ def child(project: Path, min_saving: str = "", settings: list[str] | None = None
             else:  # a MeshResult
                 row["mesh_px"] = hull_area({"vertices": got.vertices, "hull": got.hull})
         rows.append(row)
-    print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows}))
+    print(json.dumps({"wall": wall, "errors": result.errors, "rows": rows, "seconds": result.seconds}))
 
 
 def parse_settings(settings: list[str]) -> dict:
@@ -118,16 +127,18 @@ def parse_settings(settings: list[str]) -> dict:
     return out
 
 
-def run(out: Path, timeout: float, only: list[str], min_saving: str = "", settings: list[str] | None = None) -> None:
-    projects = sorted(p for p in CORPUS.iterdir() if p.is_dir() and not p.name.startswith("."))
+def run(out: Path, timeout: float, only: list[str], min_saving: str = "", settings: list[str] | None = None,
+        weights: str = "none", root: Path = CORPUS) -> None:
+    projects = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
     if only:
         projects = [p for p in projects if p.name in only]
     result = {"projects": {}}
     for i, p in enumerate(projects):
         t0 = time.perf_counter()
+        c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         try:
             r = subprocess.run([sys.executable, __file__, "child", str(p), "--min-saving", min_saving,
-                                *[f"--set={s}" for s in settings or []]],
+                                "--weights", weights, *[f"--set={s}" for s in settings or []]],
                                capture_output=True, text=True, timeout=timeout)
             if r.returncode != 0:
                 entry = {"error": r.stderr.strip().splitlines()[-1] if r.stderr.strip() else f"exit {r.returncode}"}
@@ -136,9 +147,11 @@ def run(out: Path, timeout: float, only: list[str], min_saving: str = "", settin
         except subprocess.TimeoutExpired:
             entry = {"error": f"timed out after {timeout:g} s"}
         entry["process_s"] = time.perf_counter() - t0
+        c1 = resource.getrusage(resource.RUSAGE_CHILDREN)  # CPU: what the machine's load does not inflate
+        entry["process_cpu_s"] = c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime
         result["projects"][p.name] = entry
         n = len(entry.get("rows", []))
-        print(f"[{i + 1}/{len(projects)}] {p.name}: {n} attachments, {entry['process_s']:.1f} s"
+        print(f"[{i + 1}/{len(projects)}] {p.name}: {n} attachments, {entry['process_s']:.1f} s, {entry['process_cpu_s']:.1f} s CPU"
               + (f"  ERROR {entry['error']}" if "error" in entry else ""), file=sys.stderr, flush=True)
         out.write_text(json.dumps(result))  # after each project: a partial run is still readable
 
@@ -199,6 +212,8 @@ def summary(data: dict) -> dict:
     out["seconds"]["sum"] = float(sum(once.values()))
     out["images_meshed"] = len(once)
     out["wall"] = sum(e.get("process_s", 0.0) for e in data["projects"].values())
+    cpu_runs = [e["process_cpu_s"] for e in data["projects"].values() if "process_cpu_s" in e]
+    out["cpu_total"] = sum(cpu_runs) if cpu_runs else None
     per = {}
     for name, e in data["projects"].items():
         rs = [r for r in e.get("rows", []) if _considered(r)]
@@ -209,6 +224,12 @@ def summary(data: dict) -> dict:
                      "kept": sum(r["status"] == "kept" for r in rs),
                      "seconds": sum(r["seconds"] for r in rs)}
     out["per_project"] = per
+    if any("bones" in r for r in rows):  # --weights auto
+        out["weights"] = {"weighted": sum(r.get("bones", 0) > 0 for r in rows if r["status"] == "meshed"),
+                          "more_than_one_bone": sum(r.get("bones", 0) > 1 for r in rows if r["status"] == "meshed"),
+                          "meshed_to_bend": sum(r.get("meshed_to_bend") is True for r in rows),
+                          "kept_one_bone": sum(r.get("meshed_to_bend") is False for r in rows),
+                          "write_s": sum(e.get("seconds", {}).get("write", 0.0) for e in data["projects"].values())}
     return out
 
 
@@ -335,6 +356,16 @@ def table(files: list[Path], per_project: bool) -> None:
     line("unique images sent to the mesher", [s["images_meshed"] for s in sums])
     line("mesh s, sum over unique images", [f"{s['seconds']['sum']:.0f}" for s in sums])
     line("wall s, all projects (one process each)", [f"{s['wall']:.0f}" for s in sums])
+    line("CPU s, all projects (one process each)", ["-" if s["cpu_total"] is None else f"{s['cpu_total']:.0f}"
+                                                     for s in sums])
+    if any("weights" in s for s in sums):
+        labels = {"weighted": "meshes weighted (--weights auto)", "more_than_one_bone": "  to more than one bone",
+                  "meshed_to_bend": "  meshed only because they bend",
+                  "kept_one_bone": "made to bend, one bone: region again",
+                  "write_s": "write s, weighting included (sum)"}
+        for k, label in labels.items():
+            line(label, ["-" if "weights" not in s else (f"{s['weights'][k]:.0f}" if k == "write_s"
+                                                          else s["weights"][k]) for s in sums])
     if len(datas) > 1:
         same = same_set(datas)
         print(f"\non the {same['attachments']:,} attachments every run counts:")
@@ -369,6 +400,8 @@ def main() -> None:
                                                     "the upgrade's own default")
     r.add_argument("--set", action="append", default=[], metavar="NAME=NUMBER",
                    help="a mesher parameter for the upgrade (repeatable), e.g. hull_tolerance=0.02")
+    r.add_argument("--weights", choices=("none", "auto"), default="none", help="the upgrade's --weights")
+    r.add_argument("--root", type=Path, default=CORPUS, help="folder of project folders (default: the corpus)")
     t = sub.add_parser("table")
     t.add_argument("files", type=Path, nargs="+")
     t.add_argument("--per-project", action="store_true")
@@ -379,13 +412,14 @@ def main() -> None:
     c.add_argument("project", type=Path)
     c.add_argument("--min-saving", default="")
     c.add_argument("--set", action="append", default=[])
+    c.add_argument("--weights", default="none")
     args = ap.parse_args()
     if args.cmd == "child":
-        child(args.project, args.min_saving, args.set)
+        child(args.project, args.min_saving, args.set, args.weights)
     elif args.cmd == "run":
-        if not CORPUS.is_dir():
-            sys.exit(f"{CORPUS} is absent: the benchmark needs the game corpus")
-        run(args.out, args.timeout, args.only, args.min_saving, args.set)
+        if not args.root.is_dir():
+            sys.exit(f"{args.root} is absent: the benchmark needs the game corpus (or the --root given)")
+        run(args.out, args.timeout, args.only, args.min_saving, args.set, args.weights, args.root)
     elif args.cmd == "gap":
         gap(args.base, args.other)
     else:
