@@ -178,6 +178,10 @@ def test_refine_shares_edge_points_and_keeps_vertices_first():
     assert len(f) == 2 * 9
     assert len(p) == 16  # a 4x4 grid of points: the diagonal's points are shared
     assert len(np.unique(np.round(p, 9), axis=0)) == len(p)
+    # a degenerate triangle along the diagonal adds faces but no point: its points are the diagonal's
+    p2, f2 = refine(v, np.r_[t, [[0, 2, 2]]], 3)
+    assert np.array_equal(p2, p) and np.array_equal(f2[:18], f) and len(f2) == 27
+    assert set(f2[18:].ravel()) <= set(f[:9].ravel()) & set(f[9:].ravel())
 
 
 def _strip(n=9, length=300.0, width=40.0):

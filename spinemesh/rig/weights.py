@@ -49,33 +49,51 @@ def refine(vertices: np.ndarray, triangles: np.ndarray, k: int) -> tuple[np.ndar
         The first N are the original vertices, in order.
     faces : ndarray, shape (M * k * k, 3)
     """
-    vertices = np.asarray(vertices, float)
-    index: dict[tuple, int] = {((i, k),): i for i in range(len(vertices))}
-    points = [p for p in vertices]
-
-    def point(i, j, l, a, b):
-        # Barycentric (a, b, k - a - b) over (i, j, l), keyed by its exact integer weights
-        # so that a point on a shared edge is the same point from both triangles.
-        w = {}
-        for v, c in ((i, a), (j, b), (l, k - a - b)):
-            if c:
-                w[v] = w.get(v, 0) + c
-        key = tuple(sorted(w.items()))
-        got = index.get(key)
-        if got is None:
-            got = index[key] = len(points)
-            points.append(sum(vertices[v] * c for v, c in w.items()) / k)
-        return got
-
-    faces = []
-    for i, j, l in np.asarray(triangles, int).reshape(-1, 3):
-        grid = {(a, b): point(i, j, l, a, b) for a in range(k + 1) for b in range(k + 1 - a)}
-        for a in range(k):
-            for b in range(k - a):
-                faces.append((grid[a + 1, b], grid[a, b + 1], grid[a, b]))
-                if a + b + 1 < k:
-                    faces.append((grid[a + 1, b], grid[a + 1, b + 1], grid[a, b + 1]))
-    return np.asarray(points, float).reshape(-1, 2), np.asarray(faces, np.int64).reshape(-1, 3)
+    vertices = np.asarray(vertices, float).reshape(-1, 2)
+    given = np.asarray(triangles, np.int64).reshape(-1, 3)
+    n, m = len(vertices), len(given)
+    grid = [(a, b, k - a - b) for a in range(k + 1) for b in range(k + 1 - a)]
+    at = {g[:2]: i for i, g in enumerate(grid)}
+    local = []
+    for a in range(k):
+        for b in range(k - a):
+            local.append((at[a + 1, b], at[a, b + 1], at[a, b]))
+            if a + b + 1 < k:
+                local.append((at[a + 1, b], at[a + 1, b + 1], at[a, b + 1]))
+    if not m:
+        return vertices.copy(), np.zeros((0, 3), np.int64)
+    # Each grid point as integer weights (summing to k) on its triangle's corners, the corners
+    # in increasing order and a corner named twice (a degenerate triangle) merged: a point on
+    # an edge then reads the same (corner, corner, weight) from every triangle with that edge.
+    order = np.argsort(given, axis=1, kind="stable")
+    corner = np.take_along_axis(given, order, 1)[:, None, :].repeat(len(grid), 1)   # (M, G, 3)
+    weight = np.take_along_axis(np.asarray(grid, np.int64)[None].repeat(m, 0), order[:, None, :], 2)
+    for s in (2, 1):
+        same = (corner[:, :1, s] == corner[:, :1, s - 1])
+        weight[..., s - 1] += np.where(same, weight[..., s], 0)
+        weight[..., s] = np.where(same, 0, weight[..., s])
+    on = weight > 0
+    count = on.sum(axis=2).ravel()
+    first, last = on.argmax(axis=2)[..., None], 2 - on[..., ::-1].argmax(axis=2)[..., None]
+    c0 = np.take_along_axis(corner, first, 2).ravel()
+    c1 = np.take_along_axis(corner, last, 2).ravel()
+    w0 = np.take_along_axis(weight, first, 2).ravel()
+    ids = np.where(count == 1, c0, -1)  # an original vertex keeps its index
+    # New points are numbered in the order a walk over the triangles and their grids meets
+    # them: an edge point at its first meeting, an inner point (in one triangle only) at its own.
+    met = np.arange(len(count))
+    edge = np.flatnonzero(count == 2)
+    span = max(n, int(given.max()) + 1)
+    _, head, back = np.unique((c0[edge] * span + c1[edge]) * (k + 1) + w0[edge],
+                              return_index=True, return_inverse=True)
+    met[edge] = edge[head][back.reshape(-1)]
+    new = np.flatnonzero(count >= 2)
+    heads = np.unique(met[new])
+    ids[new] = n + np.searchsorted(heads, met[new])
+    w = weight.reshape(-1, 3)[heads]
+    added = (vertices[corner.reshape(-1, 3)[heads]] * w[..., None]).sum(axis=1) / k
+    faces = ids.reshape(m, len(grid))[:, np.asarray(local, np.int64)]
+    return np.concatenate([vertices, added]), faces.reshape(-1, 3)
 
 
 def subdivision_for(triangles: int) -> int:
