@@ -181,3 +181,35 @@ def test_the_runtime_draws_the_bent_mesh_where_the_region_was_and_bends_it(spine
     # the region is a rigid 40-unit-high quad on ``upper``; the mesh's far half turns 60 degrees up
     assert spread("none") == pytest.approx(HEIGHT, abs=0.1)
     assert spread("auto") > HEIGHT + 40
+
+
+#: 4.2 example skeletons with regions that only bending gets meshed (from ``benchmarks/
+#: bench_corpus_upgrade.py run --root .../4.2 --weights auto``), JSON and binary.
+BENDING_EXAMPLES = ["windmill-ess.json", "windmill-ess.skel", "cloud-pot.json", "mix-and-match-pro.skel"]
+
+
+@pytest.mark.parametrize("name", BENDING_EXAMPLES)
+def test_examples_meshed_to_bend_load_in_the_runtime_in_their_setup_pose(name, spine_runtime, tmp_path):
+    """Official runtime, real examples: the skeletons with meshes made only to bend load, and in
+    the setup pose every mesh draws where its region did (``compare.mjs``)."""
+    from conftest import example_projects
+    from runtime_tool import compare_dumps
+    from test_weights_runtime import atlas_for, setup_dump
+
+    found = [p / name for p in example_projects("4.2") if (p / name).is_file()]
+    if not found:
+        from conftest import unavailable
+
+        unavailable(f"4.2 example {name} absent")
+    skeleton = found[0]
+    result = upgrade_project(skeleton, tmp_path / "auto", Options(weights="auto"))
+    assert not result.errors and not [t for t in result.targets if t.status == "failed"]
+    bent = [t for t in result.targets if t.weights and t.weights.get("meshed_to_bend")]
+    assert bent, "no region meshed only because it bends"
+    assert all(t.status == "meshed" and len(t.weights["bones"]) > 1 for t in bent)
+    atlas = atlas_for(skeleton)
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    setup_dump(spine_runtime, atlas, skeleton, a)
+    setup_dump(spine_runtime, tmp_path / "auto" / atlas.relative_to(skeleton.parent), tmp_path / "auto" / name, b)
+    ok, text = compare_dumps(spine_runtime, a, b)
+    assert ok, text
