@@ -18,8 +18,8 @@ within 0.05 left out, as in ``bench_weights.py``), the geometric mean of the rat
 seconds the weights took. Variants:
 
 - ``bbw``: the default (bounded biharmonic weights, handles on the bone segments);
-- ``bbw-fine``: the same on a refinement of up to 2,000 points (the default's size since the
-  PIQP solver); ``bbw-600``, ``bbw-1200``: on up to 600 (the size before) or 1,200 points;
+- ``bbw-fine``: the same on a refinement of up to 2,000 points (the default is 1,600);
+  ``bbw-600``, ``bbw-1200``: on up to 600 (the size before PIQP) or 1,200 points;
 - ``bbw-libigl-600``, ``bbw-libigl-fine``: the same problem solved by libigl's active-set
   ``bbw`` on up to 600 points (the default before) or 2,000 points;
 - ``harmonic``: harmonic weights (a linear solve);
