@@ -31,8 +31,12 @@ from .topology import add_rig_vertices
 QUAD_UV = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
 
-#: How far (texels) the art outline of :func:`art_outline` may stray from the texels' squares.
-OUTLINE_TOLERANCE = 1.0
+#: How far the art outline of :func:`art_outline` may stray from the texels' squares: this
+#: share of the art's diagonal, at least one texel. The bone choice tests every bone sample
+#: against every triangle, so a finer outline costs time (1 texel: 44 ms per region on a corpus
+#: robot, against 2 ms for its quad) for a decision the mesh's own hull (within up to 16 px,
+#: ``worth.MAX_HULL_TOLERANCE``) does not make finer.
+OUTLINE_TOLERANCE = 0.01
 
 #: Most separate pieces of art outlined one by one; art in more pieces (particles, rain) is
 #: outlined by the convex hull of them all, which bounds the time (a 2000x2000 sheet of 80,000
@@ -54,7 +58,8 @@ def art_outline(drawn: np.ndarray, origin: tuple[int, int], size: tuple[int, int
     size : (int, int)
         The original image's width and height in pixels.
     tolerance : float
-        Simplification of the outline, texels (:data:`OUTLINE_TOLERANCE`).
+        Simplification of the outline, a share of the drawn texels' diagonal (at least one
+        texel; :data:`OUTLINE_TOLERANCE`).
 
     Returns
     -------
@@ -79,7 +84,8 @@ def art_outline(drawn: np.ndarray, origin: tuple[int, int], size: tuple[int, int
     if not pieces:
         return np.zeros((0, 2)), np.zeros((0, 3), int)
     art = shapely.union_all(pieces).buffer(0.5, cap_style="square", join_style="mitre")
-    art = shapely.simplify(art, tolerance)
+    x0, y0, x1, y1 = art.bounds
+    art = shapely.simplify(art, max(1.0, tolerance * float(np.hypot(x1 - x0, y1 - y0))))
     tris = shapely.get_parts(shapely.constrained_delaunay_triangles(art))
     corners = np.stack([shapely.get_coordinates(t)[:3] for t in tris]) if len(tris) else np.zeros((0, 3, 2))
     uv = (corners.reshape(-1, 2) + np.asarray(origin, float)) / np.asarray(size, float)
