@@ -83,11 +83,17 @@ def art_outline(drawn: np.ndarray, origin: tuple[int, int], size: tuple[int, int
               for c in contours]
     if not pieces:
         return np.zeros((0, 2)), np.zeros((0, 3), int)
-    art = shapely.union_all(pieces).buffer(0.5, cap_style="square", join_style="mitre")
-    x0, y0, x1, y1 = art.bounds
-    art = shapely.simplify(art, max(1.0, tolerance * float(np.hypot(x1 - x0, y1 - y0))))
-    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(art))
-    corners = np.stack([shapely.get_coordinates(t)[:3] for t in tris]) if len(tris) else np.zeros((0, 3, 2))
+    try:
+        art = shapely.union_all(pieces).buffer(0.5, cap_style="square", join_style="mitre")
+        x0, y0, x1, y1 = art.bounds
+        art = shapely.simplify(art, max(1.0, tolerance * float(np.hypot(x1 - x0, y1 - y0))))
+        tris = shapely.get_parts(shapely.constrained_delaunay_triangles(art))
+        corners = np.stack([shapely.get_coordinates(t)[:3] for t in tris]) if len(tris) else np.zeros((0, 3, 2))
+    except shapely.errors.GEOSException:
+        # geometry GEOS cannot process: the convex hull of the art, a fan (it is convex)
+        hull = cv2.convexHull(np.concatenate(contours))[:, 0] + 0.5
+        corners = np.stack([np.stack([hull[0], hull[i], hull[i + 1]]) for i in range(1, len(hull) - 1)]) \
+            if len(hull) >= 3 else np.zeros((0, 3, 2))
     uv = (corners.reshape(-1, 2) + np.asarray(origin, float)) / np.asarray(size, float)
     return uv, np.arange(len(uv)).reshape(-1, 3)
 
