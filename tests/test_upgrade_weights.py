@@ -213,3 +213,28 @@ def test_examples_meshed_to_bend_load_in_the_runtime_in_their_setup_pose(name, s
     setup_dump(spine_runtime, tmp_path / "auto" / atlas.relative_to(skeleton.parent), tmp_path / "auto" / name, b)
     ok, text = compare_dumps(spine_runtime, a, b)
     assert ok, text
+
+
+def _area(uv: np.ndarray, triangles: np.ndarray, size: tuple[int, int]) -> float:
+    p = uv[triangles] * np.asarray(size, float)                     # (T, 3, 2) pixels
+    a, b, c = p[:, 0], p[:, 1], p[:, 2]
+    u, v = b - a, c - a
+    return float(np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum() / 2)
+
+
+def test_art_outline_covers_the_texels_it_is_given():
+    """The outline is the drawn texels' squares (within the simplification), in the image's uv."""
+    from spinemesh.rig.upgrade import art_outline
+
+    drawn = np.zeros((60, 100), bool)
+    drawn[10:50, 20:90] = True          # 70 x 40 block
+    drawn[5, 5] = True                  # one lone texel: its square counts
+    uv, tri = art_outline(drawn, (4, 6), (120, 80))
+    assert np.isclose(_area(uv, tri, (120, 80)), 70 * 40 + 1, rtol=0.02)
+    px = uv * (120, 80)
+    assert px[:, 0].min() == pytest.approx(4 + 5) and px[:, 0].max() == pytest.approx(4 + 90)
+    # art in many pieces (specks): one convex hull around them all, quickly
+    specks = np.zeros((200, 200), bool)
+    specks[::10, ::10] = True           # 400 pieces
+    uv, tri = art_outline(specks, (0, 0), (200, 200))
+    assert len(tri) <= 8 and _area(uv, tri, (200, 200)) == pytest.approx(190 * 190, rel=0.02)
