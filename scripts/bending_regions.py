@@ -5,7 +5,7 @@
 For every project folder under each argument (or the argument itself, when it is a project),
 every skeleton is read and each region attachment's whole quad is placed in the setup pose
 (:class:`spinemesh.rig.upgrade.BendingRegions`): it *may bend* when the ``auto`` bone choice
-gives it more than one bone (``upgrade --weights auto`` then checks its art's outline too, so
+gives it more than one bone (``upgrade --weights auto`` then lets the bone choice on the mesh decide, so
 this is an upper bound). Prints per project: skeletons, region attachments, regions on an
 exact slot bone, regions whose quad may bend, seconds. ``--names`` prints only the names of the
 projects with at least ``--min`` such regions, space-separated (for ``bench_corpus_upgrade.py

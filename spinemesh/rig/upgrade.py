@@ -6,11 +6,13 @@ setup-pose binding (:mod:`.document`). A mesh that cannot be weighted (its slot'
 moved by a constraint in the setup pose, say) stays the unweighted mesh the upgrade made,
 without the added vertices, and the report says why.
 
-Before meshing, :class:`BendingRegions` tells which region attachments would bend: their art,
+Before meshing, :class:`BendingRegions` tells which region attachments may bend: their quad,
 in the setup pose, lies over more than one ``auto`` bone. ``upgrade`` meshes those even where
 the keep rule (:mod:`spinemesh.mesher.worth`) would keep them for saving too few pixels: a mesh
-that bends with the skeleton is worth having for that alone. One that then does not get more
-than one bone is put back as the region it was.
+that bends with the skeleton is worth having for that alone. The art decides: a mesh made only
+to bend whose own triangles do not get more than one bone (the art misses the other bones) is
+put back as the region it was, before any weights are solved; so is one whose weights leave
+all but one bone out.
 """
 
 from __future__ import annotations
@@ -31,80 +33,17 @@ from .topology import add_rig_vertices
 QUAD_UV = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
 
-#: How far the art outline of :func:`art_outline` may stray from the texels' squares: this
-#: share of the art's diagonal, at least one texel. The bone choice tests every bone sample
-#: against every triangle, so a finer outline costs time (1 texel: 44 ms per region on a corpus
-#: robot, against 2 ms for its quad) for a decision the mesh's own hull (within up to 16 px,
-#: ``worth.MAX_HULL_TOLERANCE``) does not make finer.
-OUTLINE_TOLERANCE = 0.01
-
-#: Most separate pieces of art outlined one by one; art in more pieces (particles, rain) is
-#: outlined by the convex hull of them all, which bounds the time (a 2000x2000 sheet of 80,000
-#: specks took minutes piece by piece). Such art is kept by the keep rule's vertex-cost tests
-#: anyway (``worth.islands_reason``: 200 outline vertices are about 66 pieces).
-MAX_OUTLINE_PIECES = 64
-
-
-def art_outline(drawn: np.ndarray, origin: tuple[int, int], size: tuple[int, int],
-                tolerance: float = OUTLINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
-    """The art's outline, triangulated, in the image's (u, v): what a mesh of it will cover.
-
-    Parameters
-    ----------
-    drawn : ndarray, shape (h, w), bool
-        The texels the mesh must cover, in the stored part of the image (``MeshTask.drawn``).
-    origin : (int, int)
-        Where that part starts in the original image, pixels (x, y).
-    size : (int, int)
-        The original image's width and height in pixels.
-    tolerance : float
-        Simplification of the outline, a share of the drawn texels' diagonal (at least one
-        texel; :data:`OUTLINE_TOLERANCE`).
-
-    Returns
-    -------
-    uv : ndarray, shape (N, 2)
-        Outline points, 0..1 over the original image (u right, v down).
-    triangles : ndarray, shape (T, 3), int
-        A constrained Delaunay triangulation of each outer outline (holes filled, as the mesh
-        fills them); empty when nothing is drawn. Art in more than :data:`MAX_OUTLINE_PIECES`
-        pieces: the convex hull of them all.
-    """
-    import cv2
-    import shapely
-
-    contours, _ = cv2.findContours(np.asarray(drawn, np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    if len(contours) > MAX_OUTLINE_PIECES:
-        contours = [cv2.convexHull(np.concatenate(contours))]
-    # Contours run through texel centres: half a texel out (mitred) gives the texels' squares,
-    # lines and points (one-texel-wide art) included.
-    pieces = [shapely.make_valid(shapely.Polygon(c[:, 0] + 0.5)) if len(c) >= 3
-              else shapely.LineString(c[:, 0] + 0.5) if len(c) == 2 else shapely.Point(c[0, 0] + 0.5)
-              for c in contours]
-    if not pieces:
-        return np.zeros((0, 2)), np.zeros((0, 3), int)
-    try:
-        art = shapely.union_all(pieces).buffer(0.5, cap_style="square", join_style="mitre")
-        x0, y0, x1, y1 = art.bounds
-        art = shapely.simplify(art, max(1.0, tolerance * float(np.hypot(x1 - x0, y1 - y0))))
-        tris = shapely.get_parts(shapely.constrained_delaunay_triangles(art))
-        corners = np.stack([shapely.get_coordinates(t)[:3] for t in tris]) if len(tris) else np.zeros((0, 3, 2))
-    except shapely.errors.GEOSException:
-        # geometry GEOS cannot process: the convex hull of the art, a fan (it is convex)
-        hull = cv2.convexHull(np.concatenate(contours))[:, 0] + 0.5
-        corners = np.stack([np.stack([hull[0], hull[i], hull[i + 1]]) for i in range(1, len(hull) - 1)]) \
-            if len(hull) >= 3 else np.zeros((0, 3, 2))
-    uv = (corners.reshape(-1, 2) + np.asarray(origin, float)) / np.asarray(size, float)
-    return uv, np.arange(len(uv)).reshape(-1, 3)
-
-
 @dataclass
 class BendingRegions:
-    """Which region attachments of one skeleton would bend, from its setup pose.
+    """Which region attachments of one skeleton may bend, from its setup pose.
 
-    A region *bends* when the ``auto`` bone choice (:func:`.choice.choose_auto`) for its art,
-    placed where the region draws it in the setup pose, gives more than one bone. Only regions
-    whose slot bone's setup transform is exact are considered (nothing is bound otherwise).
+    A region *may bend* when the ``auto`` bone choice (:func:`.choice.choose_auto`) for its
+    quad, placed where the region draws it in the setup pose, gives more than one bone. Only
+    regions whose slot bone's setup transform is exact are considered (nothing is bound
+    otherwise). The quad, not the art: the art is known only once meshed, and the bone choice
+    on the mesh (:func:`weight_upgraded`) settles it then. Testing the art's outline here cost
+    the planning 212 s on a corpus skeleton of 494 bones, for the ~7% of regions that the keep
+    rule keeps at all.
 
     Attributes
     ----------
@@ -206,6 +145,14 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
                 world = setup_world(mesh, rig.worlds, slot_bone)
                 tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
                 choice = choose(rig, ref, mesh, world, tris, "auto")
+                if t.overruled and len(choice.bones) < 2:
+                    # meshed only to bend, but its art misses the other bones: no weights to solve
+                    outcome.status, outcome.reason = "skipped", "its art lies over one bone only"
+                    t.weights = {"status": outcome.status, "reason": outcome.reason, "bones": {},
+                                 "left_out": {rig.bones[b].name: w for b, w in choice.left_out.items()},
+                                 "added_vertices": 0}
+                    _settle_bending(ref, t, outcome)
+                    continue
                 if len(choice.bones) > 1:
                     index = {b: i for i, b in enumerate(choice.bones)}
                     parents = [index.get(rig.bones[b].parent) for b in choice.bones]
@@ -223,7 +170,7 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
             t.triangles = len(ref.attachment["triangles"]) // 3
         t.weights = {"status": outcome.status, "reason": outcome.reason, "bones": outcome.bones,
                      "left_out": outcome.left_out, "added_vertices": added}
-        if getattr(t, "overruled", ""):
+        if t.overruled:
             _settle_bending(ref, t, outcome)
 
 
@@ -234,12 +181,12 @@ def _settle_bending(ref: AttachmentRef, t, outcome: Outcome) -> None:
     if bends:
         t.reason = f"meshed because it bends over {len(outcome.bones)} bones; the keep rule alone: {t.overruled}"
         return
-    why = (f"weighted to {len(outcome.bones)} bone" if outcome.status == "weighted"
-           else f"not weighted: {outcome.reason}")
+    why = (f"its mesh was weighted to {len(outcome.bones)} bone" if outcome.status == "weighted"
+           else outcome.reason if outcome.status == "skipped" else f"its mesh was not weighted: {outcome.reason}")
     ref.attachment.clear()
     ref.attachment.update(t.region)
     t.status = "kept"
-    t.reason = f"{t.overruled} (its region would bend, but its mesh was {why})"
+    t.reason = f"{t.overruled} (its region may bend, but {why})"
     t.vertices = t.triangles = 0
     t.coverage = t.waste = None
     t.weights["added_vertices"] = 0

@@ -334,8 +334,6 @@ class Planner:
     #: tasks decided, by key; in ``tasks`` only once an attachment uses them (a bending
     #: attachment uses its bending variant instead)
     found: dict[str, MeshTask] = field(default_factory=dict)
-    #: ``--weights auto``: art outline (uv, triangles) by task key (spinemesh.rig.upgrade.art_outline)
-    outlines: dict[str, tuple] = field(default_factory=dict)
     editor_images: set[str] = field(default_factory=set)
     #: ``--repack``: atlas path -> names of the regions to store untrimmed.
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)
@@ -369,29 +367,13 @@ class Planner:
             elif source is None:
                 t.status, t.reason = "failed", "no atlas or images folder holds its image"
             else:
-                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"),
-                                                         self._bend_test(bending, ref))
+                # only with a keep rule on saving (min_saving > 0): without it every region is meshed
+                bends = bending is not None and bool(self.options.min_saving) and bending.bends(ref)
+                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"), bends)
         return targets
 
-    def _bend_test(self, bending, ref: AttachmentRef) -> Callable[[MeshTask], bool] | None:
-        """Whether ``ref``'s art bends, given its task; None when even its whole quad does not.
-
-        Only with a keep rule on saving (``min_saving`` > 0): without it every region is meshed.
-        """
-        if bending is None or not self.options.min_saving or not bending.bends(ref):
-            return None
-
-        def art_bends(task: MeshTask) -> bool:
-            from ..rig.upgrade import art_outline
-
-            if task.key not in self.outlines:
-                self.outlines[task.key] = art_outline(task.drawn, task.origin, task.size)
-            return bending.bends(ref, *self.outlines[task.key])
-
-        return art_bends
-
     def _decide(self, source, paths: list[str], blend: str = "normal",
-                bends: Callable[[MeshTask], bool] | None = None) -> tuple[str, str, str]:
+                bends: bool = False) -> tuple[str, str, str]:
         seen = (source_identity(source), tuple(paths), blend == "normal")
         if seen not in self.decided:
             try:
@@ -416,7 +398,7 @@ class Planner:
         status, reason, key = self.decided[seen]
         if key:
             task = self.found[key]
-            if bends is not None and bends(task):
+            if bends:
                 task = bending_task(task)
             self.tasks.setdefault(task.key, task)
             key = task.key
