@@ -33,6 +33,7 @@ from .topology import add_rig_vertices
 QUAD_UV = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
 
+
 @dataclass
 class BendingRegions:
     """Which region attachments of one skeleton may bend, from its setup pose.
