@@ -60,16 +60,43 @@ def distance_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray
     return np.where(inside, 0.0, d)
 
 
-def over_art(segment: np.ndarray, world: np.ndarray, triangles: np.ndarray, near: float,
-             samples: int = 65) -> float:
-    """Length of a bone segment within ``near`` of the art (sampled); a point bone there counts as ``near``."""
-    a, b = segment
-    length = float(np.linalg.norm(b - a))
-    if length == 0:
-        return near if distance_to_art(a[None], world, triangles)[0] <= near else 0.0
-    t = np.linspace(0, 1, samples)[:, None]
-    close = distance_to_art(a + t * (b - a), world, triangles) <= near
-    return length * float(close.mean())
+#: Point-triangle pairs :func:`lengths_on_art` measures at once: small enough for the
+#: temporaries to stay in cache (100,000 at once was 30% slower than one bone at a time).
+PAIRS_AT_ONCE = 5_000
+
+
+def lengths_on_art(bones, world: np.ndarray, triangles: np.ndarray, near: float,
+                   samples: int = 65) -> dict[int, float]:
+    """Each bone's length over the art, for the bones that reach the art; a bone missing it is absent.
+
+    The length over the art is the segment's length times the share of ``samples`` evenly
+    spaced points of it within ``near`` of the art; a zero-length bone on the art has 0.
+
+    All bones are measured in one pass over their sample points (a rig of hundreds of bones
+    near the art would otherwise take one distance computation per bone). A bone whose
+    segment's bounding box misses the art's (grown by ``near``) is rejected without measuring.
+    """
+    if not len(bones):
+        return {}
+    lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
+    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    meets = ~((segs.max(axis=1) < lo).any(axis=1) | (segs.min(axis=1) > hi).any(axis=1))
+    idx = np.flatnonzero(meets)
+    point = np.array([bones[i].length == 0 for i in idx], bool)
+    a, b = segs[idx, 0], segs[idx, 1]
+    t = np.linspace(0, 1, samples)[None, :, None]
+    sampled = (a[~point][:, None] + t * (b - a)[~point][:, None]).reshape(-1, 2)
+    flat = np.concatenate([sampled, a[point]])
+    step = max(1, PAIRS_AT_ONCE // max(len(triangles), 1))
+    close = np.concatenate([distance_to_art(flat[i:i + step], world, triangles) <= near
+                            for i in range(0, len(flat), step)] or [np.zeros(0, bool)])
+    on_segment = close[:len(sampled)].reshape(-1, samples)
+    span = np.linalg.norm((b - a)[~point], axis=1)
+    # a bone scaled to nothing is a point: on the art it counts as ``near``
+    length = np.where(span > 0, span * on_segment.mean(axis=1), np.where(on_segment[:, 0], near, 0.0))
+    out = {int(i): float(x) for i, x in zip(idx[~point], length) if x > 0}
+    out.update({int(i): 0.0 for i, c in zip(idx[point], close[len(sampled):]) if c})
+    return out
 
 
 def _largest_group(bones, slot_bone: int, over: dict[int, float], touching: set[int]) -> int | None:
@@ -106,23 +133,12 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}
     near = OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))
-    lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
-
-    def length_on_art(bone) -> float | None:
-        """The bone's length over the art (0 for a point on it), or None when it misses the art."""
-        seg = bone.segment()
-        if (seg.max(axis=0) < lo).any() or (seg.min(axis=0) > hi).any():
-            return None  # cheap rejection: the segment's box misses the art's
-        if bone.length == 0:
-            # A point has no length over the art: it counts when it lies on it.
-            return 0.0 if distance_to_art(seg[:1], world, triangles)[0] <= near else None
-        length = over_art(seg, world, triangles, near)
-        return length if length > 0 else None
+    on_art = lengths_on_art(bones, world, triangles, near)
 
     scored = []
     touching = set()  # every bone on the art, chosen or not: the tree is walked through them
     for bone in bones:
-        length = None if bone.index == slot_bone else length_on_art(bone)
+        length = None if bone.index == slot_bone else on_art.get(bone.index)
         if length is None:
             continue
         touching.add(bone.index)
@@ -144,7 +160,7 @@ def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
     over = {i: -neg for neg, i in scored}
     depth = {slot_bone: 0}
     frontier = [slot_bone]
-    if length_on_art(bones[slot_bone]) is None and over:
+    if slot_bone not in on_art and over:
         # The slot bone is elsewhere (often the root, for art bound to a whole limb or body
         # chain): the art follows the group of bones below it that covers most of it.
         top = _largest_group(bones, slot_bone, over, touching)
