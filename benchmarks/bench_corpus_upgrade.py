@@ -71,7 +71,10 @@ def child(project: Path, min_saving: str = "", settings: list[str] | None = None
     import cv2
 
     from spinemesh.upgrade import Options, upgrade_project
-    from spinemesh.upgrade import run as upgrade_run
+    try:  # where the worker's function lives (older versions: one module for the whole upgrade)
+        from spinemesh.upgrade import meshing as upgrade_run
+    except ImportError:
+        from spinemesh.upgrade import run as upgrade_run
 
     sizes: dict[str, int] = {}
     cpu: dict[str, float] = {}

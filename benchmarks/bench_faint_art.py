@@ -34,7 +34,9 @@ from spinemesh.errors import SpineMeshError
 from spinemesh.metrics import mesh_area, uncovered_pixels
 from spinemesh.project import find_project, image_source_for
 from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
-from spinemesh.upgrade.run import Options, mesh_one, task_for_frames
+from spinemesh.upgrade.meshing import mesh_one
+from spinemesh.upgrade.options import Options
+from spinemesh.upgrade.plan import task_for_frames
 
 #: name -> (slot blend mode to plan with: None for the attachment's own, mesher overrides)
 BEFORE_20 = {"hull_inset": 0.0, "max_hull_tolerance": 0.0}  # the margin and tolerance before #20's follow-up

@@ -166,7 +166,7 @@ def test_the_hull_keeps_half_a_texel_around_every_drawn_texel_after_its_inset():
     import shapely
 
     from spinemesh.mesher import mesh_image, resolve_params
-    from spinemesh.upgrade.run import SAMPLING_INSET, sampling_margin
+    from spinemesh.upgrade.meshing import SAMPLING_INSET, sampling_margin
 
     rng = np.random.default_rng(3)
     masks = []

@@ -297,7 +297,7 @@ def _affine(uvs: np.ndarray, world: np.ndarray) -> np.ndarray:
 def test_upgraded_43_project_in_official_runtime(name, kind, runtime43, tmp_path):
     """Every region becomes a mesh that the 4.3 runtime loads, each vertex within 0.05 px of
     where the region drew the same texel, with UVs inside the region's."""
-    from spinemesh.upgrade.run import Options, upgrade_project
+    from spinemesh.upgrade import Options, upgrade_project
 
     project = _project_as(name, kind, tmp_path)
     out = tmp_path / "out"

@@ -156,7 +156,7 @@ def test_jobs_give_the_same_result(demo, tmp_path):
 
 
 def test_mesh_cache_meshes_each_image_once(demo, tmp_path, monkeypatch):
-    import spinemesh.upgrade.run as run
+    import spinemesh.upgrade.meshing as run
 
     cache = {}
     upgrade_project(demo, tmp_path / "one", Options(), mesh_cache=cache)

@@ -18,7 +18,8 @@ from PIL import Image
 
 from spinemesh.skeleton import iter_attachments
 from spinemesh.upgrade import Options, upgrade_project
-from spinemesh.upgrade.run import BENDS_KEY, Result, plan_project
+from spinemesh.upgrade.plan import BENDS_KEY, plan_project
+from spinemesh.upgrade.report import Result
 from spinemesh.project import find_project
 
 WIDTH, HEIGHT = 200, 40

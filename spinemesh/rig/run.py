@@ -52,7 +52,8 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     -------
     WeightResult
     """
-    from ..upgrade.run import check_output_folder, copy_other_files, write_skeleton
+    from ..upgrade.output import check_output_folder
+    from ..upgrade.write import copy_other_files, write_skeleton
 
     options = options or WeightOptions()
     out = Path(out)

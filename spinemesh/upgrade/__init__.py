@@ -1,14 +1,20 @@
 """``spinemesh upgrade``: region attachments become mesh attachments, whole projects at a time.
 
-:mod:`.geometry` holds the one rule that places a mesh where the region's quad was;
-:mod:`.run` plans projects, meshes each unique image once on the workers asked for, and
-writes the result; a folder of many projects is upgraded with one set of workers.
+The stages, each a module: :mod:`.plan` (read and plan), :mod:`.meshing` (mesh on the
+workers asked for), :mod:`.write` (meshes into documents, documents and files written),
+:mod:`.report` (what became of every region); :mod:`.run` runs them for one project and
+:mod:`.library` for a folder of projects on one set of workers. :mod:`.options` holds
+what the user asked for, :mod:`.output` the output-folder rules, :mod:`.geometry` the one
+rule that places a mesh where the region's quad was, :mod:`.repack` the atlases of
+sequences stored whole, :mod:`.preview` the HTML page.
 """
 
 from ..runs import EXIT_PARTIAL
 from .geometry import mesh_attachment, region_quad_transform, uvs_of
-from .run import (Options, Result, is_library, upgrade_library, upgrade_project,
-                  write_report)
+from .library import is_library, upgrade_library
+from .options import Options
+from .report import Result, write_report
+from .run import upgrade_project
 
 __all__ = ["mesh_attachment", "region_quad_transform", "uvs_of", "EXIT_PARTIAL", "Options",
            "Result", "is_library", "upgrade_library", "upgrade_project", "write_report"]

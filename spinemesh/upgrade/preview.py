@@ -390,7 +390,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
 
     Parameters
     ----------
-    result : spinemesh.upgrade.run.Result
+    result : spinemesh.upgrade.report.Result
         What :func:`~spinemesh.upgrade.upgrade_project` returned.
     project : path
         The project (folder or skeleton file) that was upgraded: images are read from it.

@@ -1,0 +1,135 @@
+"""A library run: every project under a folder, on one set of workers started once.
+
+This process plans projects ahead while the workers mesh earlier ones, and writes each
+project (in order) once its meshes are back, so that the workers never wait for reading or
+writing. Each project goes through the same stages as :func:`.run.upgrade_project`;
+its :class:`~.report.Result` is merged into the library's.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from ..cluster import Workers, open_workers
+from ..errors import SpineMeshError
+from ..project import find_project, find_projects
+from .meshing import Meshing, finish_meshing, start_meshing
+from .options import Options
+from .output import check_output_folder, output_folder
+from .plan import ProjectPlan, plan_project
+from .report import Result, mark_would_mesh, merge
+from .run import finish_project
+
+
+def is_library(folder: str | Path) -> bool:
+    """Whether ``folder`` holds several projects (or one below it) rather than being one project."""
+    folder = Path(folder)
+    return folder.is_dir() and find_projects(folder) != [folder]
+
+
+def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
+                    on_start: Callable[[int], None] | None = None,
+                    on_progress: Callable[[int], None] | None = None,
+                    on_project: Callable[[str], None] | None = None) -> Result:
+    """Upgrade every project under ``library`` into the same place under ``out``; one result.
+
+    Projects are found as :func:`spinemesh.project.find_projects` finds them; each is
+    upgraded as :func:`.run.upgrade_project` would, to ``out/<its path under library>``, on one
+    set of workers started once. Files outside every project are not copied. In the
+    result, skeletons (and errors) are named by their path under ``library``.
+    """
+    options = options or Options()
+    library, out = Path(library), Path(out)
+    check_output_folder(library, out)
+    if options.images_in is not None:
+        raise SpineMeshError("--from-images reads one project's images; give one project, not a folder of them",
+                             options.images_in)
+    with contextlib.ExitStack() as held:
+        if not options.dry_run:
+            held.enter_context(output_folder(out, options.overwrite))
+        return _upgrade_library(library, out, options, on_start, on_progress, on_project)
+
+
+def _upgrade_library(library: Path, out: Path, options: Options, on_start, on_progress, on_project) -> Result:
+    result = Result()
+    from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
+
+    # Projects are planned ahead while the workers mesh earlier ones (see the module's
+    # docstring); how far ahead is bounded by the pixels sent and not yet written.
+    cache: dict = {}
+    inflight: dict = {}
+    with open_workers(options.jobs, options.dask) as workers:
+        ahead: deque[_LibraryProject] = deque()
+        for folder in find_projects(library):
+            ahead.append(_start_library_project(library, folder, options, workers, cache, inflight))
+            while ahead and sum(p.pixels for p in ahead) > AHEAD_PIXELS:
+                _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
+                                        on_start, on_progress, on_project)
+        while ahead:
+            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
+                                    on_start, on_progress, on_project)
+    return result
+
+
+#: Image pixels a library run sends to its workers ahead of writing: enough that workers
+#: stay busy across small projects, few enough to bound memory (4 bytes each: 128 MB).
+AHEAD_PIXELS = 32_000_000
+
+
+@dataclass
+class _LibraryProject:
+    """One project of a library between planning and writing."""
+
+    rel: str
+    options: Options
+    result: Result
+    plan: ProjectPlan | None = None
+    meshing: Meshing | None = None
+
+    @property
+    def pixels(self) -> int:
+        """Pixels of the images this project sent to the workers."""
+        return sum(t.rgba.shape[0] * t.rgba.shape[1] for t in self.plan.tasks.values()) if self.plan else 0
+
+
+def _start_library_project(library: Path, folder: Path, options: Options, workers: Workers,
+                           cache: dict, inflight: dict) -> _LibraryProject:
+    rel = folder.relative_to(library).as_posix()
+    sub = dataclasses.replace(options, images_out=None if options.images_out is None
+                              else Path(options.images_out) / rel)
+    p = _LibraryProject(rel, sub, Result())
+    try:
+        p.plan = plan_project(find_project(folder), sub, p.result)
+    except SpineMeshError as e:
+        p.result.errors.append(str(e))
+        return p
+    if not sub.dry_run:
+        t0 = time.perf_counter()  # with workers, sending only; in this process, the meshing itself
+        p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight)
+        p.result.seconds["mesh"] += time.perf_counter() - t0
+    return p
+
+
+def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cache: dict, inflight: dict,
+                            result: Result, on_start, on_progress, on_project) -> None:
+    if on_project:
+        on_project(p.rel)
+    if p.plan is not None and p.options.dry_run:
+        mark_would_mesh(p.result)
+    elif p.plan is not None:
+        t0 = time.perf_counter()
+        if on_start:
+            on_start(len(p.plan.tasks))
+        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, on_progress, cache, inflight)
+        p.result.seconds["mesh"] += time.perf_counter() - t0
+        try:
+            finish_project(p.plan, meshes, out / p.rel, p.result)
+        except SpineMeshError as e:
+            p.result.errors.append(str(e))
+    merge(result, p.result, "" if p.rel == "." else p.rel + "/")

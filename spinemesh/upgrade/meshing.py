@@ -1,0 +1,213 @@
+"""Meshing: every unique image meshed once, on the workers asked for.
+
+:func:`mesh_one` is the worker's whole job, a pure function of a :class:`~.plan.MeshTask`
+that gives a :class:`MeshResult`, so that this process, local processes and a Dask cluster
+(:mod:`spinemesh.cluster`) all give the same answer. :func:`start_meshing` sends the tasks,
+largest first; :func:`finish_meshing` collects the results by image key, never by arrival
+order, so the output does not depend on the workers. A library run starts one project's
+meshing while it writes an earlier one (:mod:`.library`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Callable, Iterator
+
+import numpy as np
+
+from ..cluster import Workers, open_workers
+from ..errors import SpineMeshError
+from ..mesher.worth import MAX_HULL_TOLERANCE
+from .geometry import spine_triangles
+from .options import Options
+from .plan import MeshTask
+
+
+@dataclass
+class MeshResult:
+    """A worker's answer for one :class:`MeshTask`.
+
+    ``vertices`` (N, 2) float64 are pixels of the original image; the first ``hull`` are
+    the outline in order. ``triangles`` (T, 3) int64 triangulate the whole hull polygon
+    (Spine's mesh model), ``edges`` (E, 2) int64 are kept boundaries. On failure
+    ``vertices`` is None and ``error`` says why. ``seconds`` is the meshing time.
+    """
+
+    key: str
+    vertices: np.ndarray | None = None
+    triangles: np.ndarray | None = None
+    hull: int = 0
+    edges: np.ndarray | None = None
+    error: str = ""
+    kept: str = ""  # why the image stays a region (spinemesh.mesher.worth); "" when meshed or failed
+    overruled: str = ""  # a bending task meshed although the keep rule gave this reason
+    seconds: float = 0.0
+    coverage: float | None = None
+    waste: float | None = None
+
+
+#: How far (texels) the hull may lie inside the squares of the :func:`sampling_margin` mask.
+SAMPLING_INSET = 0.5
+
+
+def sampling_margin(mask: np.ndarray) -> np.ndarray:
+    """Grow the art mask by one texel on every side.
+
+    Runtimes sample textures bilinearly: a screen pixel whose sample point falls within half
+    a texel of a visible texel's square (within one texel of its centre) takes some of its
+    colour. A mesh that covers only the visible texels cuts those pixels off at its edge.
+    The mask can only grow by whole texels, so the mesher covers the grown mask's squares
+    and then moves the hull :data:`SAMPLING_INSET` texels back inwards
+    (``MesherParams.hull_inset``): every point within half a texel of a visible texel's
+    square stays inside. (Mipmapped pages, minified, sample further; the corpus has none.)
+    """
+    import cv2
+
+    return cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def drawn_art(task: MeshTask, params, overrides: dict) -> np.ndarray:
+    """What a mesh must cover, before :func:`sampling_margin`: shape (h, w), bool.
+
+    With the alpha mask (``alpha`` or ``auto``) and no ``alpha_threshold`` asked for, it is
+    every texel that can show where the attachment is drawn (:attr:`MeshTask.drawn`, from
+    :func:`~.plan.texels_to_cover`): in additive, multiply and screen slots every texel the runtime
+    draws (faint glows stacked over each other add up, and a premultiplied page's light,
+    alpha 0 and colour > 0, adds to what lies below); in normal slots those that can move a
+    pixel by more than :data:`~spinemesh.images.FAINT_TEXEL`/255. A single alpha threshold
+    would lose pixels the original draws. Otherwise the mesher's own mask.
+    """
+    from ..mesher import compute_mask
+
+    if params.mask_source in ("alpha", "auto") and "alpha_threshold" not in overrides:
+        return task.drawn
+    return compute_mask(task.rgba, params.mask_source, params.alpha_threshold)
+
+
+def mesh_one(task: MeshTask) -> MeshResult:
+    """Worker: mesh one image and triangulate its whole hull, as Spine needs.
+
+    A pure function of the task, so that any worker (local or on a cluster) gives the same
+    answer. Problems of the image (:class:`SpineMeshError`) become the result's ``error``.
+    """
+    from ..mesher import NotWorthMeshing, mesh_image, resolve_params
+    from ..metrics import coverage, opaque_mask, waste
+
+    preset, mask_source, overrides = task.settings
+    start = time.perf_counter()
+    try:
+        # the mask grows the art by a whole texel; bilinear sampling needs half (sampling_margin);
+        # large art: a tighter hull pays for its vertices (worth.MAX_HULL_TOLERANCE)
+        params = resolve_params(preset, **{"hull_inset": SAMPLING_INSET, "max_hull_tolerance": MAX_HULL_TOLERANCE,
+                                           **dict(overrides), "mask_source": mask_source})
+        mask = sampling_margin(drawn_art(task, params, dict(overrides)))
+        overruled = ""
+        try:
+            mesh = mesh_image(task.rgba, params, mask=mask)
+        except NotWorthMeshing as e:
+            if not task.bends or not params.min_saving:
+                raise
+            # art that bends is worth a mesh for that alone: only the vertex-cost rules stay
+            overruled = str(e)
+            mesh = mesh_image(task.rgba, dataclasses.replace(params, min_saving=0.0), mask=mask)
+    except NotWorthMeshing as e:  # decided early, from the mask and the hull
+        return MeshResult(task.key, kept=str(e), seconds=time.perf_counter() - start)
+    except SpineMeshError as e:
+        return MeshResult(task.key, error=str(e), seconds=time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    art = opaque_mask(task.rgba)
+    cov = coverage(mesh.vertices, mesh.triangles, art) if art.any() else 1.0
+    wst = waste(mesh.vertices, mesh.triangles, art)
+    vertices = np.asarray(mesh.vertices, np.float64) + task.origin
+    edges = np.asarray(mesh.edges, np.int64).reshape(-1, 2)
+    # the mesher's own triangles with its holes filled; a fresh triangulation only for meshes
+    # that are not one hull polygon (the paper preset's several loops)
+    triangles = mesh.hull_triangles()
+    if triangles is None:
+        triangles = spine_triangles(vertices, mesh.hull, edges)
+    if triangles is None:
+        return MeshResult(task.key, error="mesh is not one fully triangulated hull polygon", seconds=seconds)
+    return MeshResult(task.key, vertices, np.asarray(triangles, np.int64), int(mesh.hull), edges,
+                      seconds=seconds, coverage=cov, waste=wst, overruled=overruled)
+
+
+@dataclass
+class Meshing:
+    """Meshes on their way: those known already, and the futures of those being made."""
+
+    known: dict[str, MeshResult]
+    futures: list
+
+
+def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | None = None,
+                  inflight: dict | None = None) -> Meshing:
+    """Send every task whose mesh is not known yet to the workers, largest first.
+
+    Largest first, so that no big image starts last and keeps one worker busy while the
+    others idle. ``cache`` (results by image key and mesher settings) and ``inflight``
+    (futures by the same key) let runs over many projects mesh each image only once, even
+    while an earlier project's copy of it is still being meshed.
+    """
+    known: dict[str, MeshResult] = {}
+    futures = []
+    for t in sorted(tasks.values(), key=lambda t: (-t.rgba.shape[0] * t.rgba.shape[1], t.key)):
+        key = (t.key, t.settings)
+        if cache is not None and key in cache:
+            known[t.key] = cache[key]
+        elif inflight is not None and key in inflight:
+            futures.append(inflight[key])
+        else:
+            future = workers.submit(mesh_one, t)
+            futures.append(future)
+            if inflight is not None:
+                inflight[key] = future
+    return Meshing(known, futures)
+
+
+def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Workers,
+                   progress: Callable[[int], None] | None = None, cache: dict | None = None,
+                   inflight: dict | None = None) -> dict[str, MeshResult]:
+    """Collect the meshes as they arrive; ``progress(n)`` is told how many came."""
+    results = dict(meshing.known)
+    if progress and results:
+        progress(len(results))
+    for future in workers.as_completed(meshing.futures):
+        res = future.result()
+        results[res.key] = res
+        key = (res.key, tasks[res.key].settings)
+        if cache is not None:
+            cache[key] = res
+        if inflight is not None:
+            inflight.pop(key, None)
+        if progress:
+            progress(1)
+    return results
+
+
+def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
+               progress: Callable[[int], None] | None = None,
+               cache: dict | None = None) -> dict[str, MeshResult]:
+    """Mesh every unique image once (:func:`start_meshing`, then :func:`finish_meshing`).
+
+    ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
+    that runs over projects sharing images (the same art exported for several Spine
+    versions) mesh each image only once.
+    """
+    return finish_meshing(start_meshing(tasks, workers, cache), tasks, workers, progress, cache)
+
+
+@contextlib.contextmanager
+def meshing_workers(options: Options, workers: Workers | None, tasks: int) -> Iterator[Workers]:
+    """The given workers, or ones opened for this run (none for a single image)."""
+    if workers is not None:
+        yield workers
+        return
+    # Loaded before workers fork, so that they start with the mesher already imported.
+    from .. import mesher  # noqa: F401
+
+    jobs = options.jobs if tasks > 1 else 1
+    with open_workers(jobs, options.dask) as opened:
+        yield opened

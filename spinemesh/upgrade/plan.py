@@ -1,0 +1,320 @@
+"""Reading and planning: which region attachments become meshes, and the unique images to mesh.
+
+:func:`plan_project` reads every skeleton of a project and gives a :class:`ProjectPlan`:
+per skeleton a :class:`SkeletonPlan` (its document, its :class:`~.report.Target` rows and
+its image source), and the :class:`MeshTask` of every unique image, each holding only the
+part the atlas stores (a small crop, not a page). Per attachment, the :class:`Planner`
+decides which image(s) it needs and which texels a mesh must cover
+(:func:`texels_to_cover`), or why it is left alone; with ``--weights auto`` regions whose
+art would bend get a :func:`bending_task`. Nothing is meshed or written here but the
+editor images (``--images``), written as they are met.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..images import FAINT_TEXEL, RegionImage, content_id
+from ..project import Project, image_source_for
+from ..skeleton import image_paths, iter_attachments, load_skeleton
+from .geometry import frames_on_one_grid
+from .options import Options, skip_reason
+from .output import write_editor_image
+from .report import Result, Target
+
+
+@dataclass
+class MeshTask:
+    """What a worker needs to mesh one unique image: small, and the same wherever it runs.
+
+    Attributes
+    ----------
+    key : str
+        Content key of the image (:func:`spinemesh.images.content_id` of the stored part).
+    rgba : ndarray, shape (h, w, 4), uint8
+        The part of the original image that the atlas stores (straight alpha).
+    origin : (int, int)
+        Where that part starts in the original image, in pixels (x, y).
+    size : (int, int)
+        The original image's width and height in pixels.
+    settings : tuple
+        ``(preset, mask source, overrides)`` as :meth:`Options.mesh_settings` gives them.
+    drawn : ndarray, shape (h, w), bool, optional
+        Texels of ``rgba`` the mesh must cover (any frame): those that can show in the
+        attachment's slot (:func:`texels_to_cover`); default ``alpha > 0``.
+    bends : bool
+        ``--weights auto``: the art would bend with the skeleton (:func:`bending_task`), so a
+        keep rule on saving alone does not keep it; the result says what the rule said.
+    """
+
+    key: str
+    rgba: np.ndarray
+    origin: tuple[int, int]
+    size: tuple[int, int]
+    settings: tuple
+    drawn: np.ndarray | None = None
+    bends: bool = False
+
+    def __post_init__(self):
+        if self.drawn is None:
+            self.drawn = self.rgba[..., 3] > 0
+
+
+def composite_image(images: list[np.ndarray]) -> np.ndarray:
+    """One image whose alpha covers every frame of a sequence (max over frames).
+
+    Colours come from the first frame, which is what interior boundaries are found on.
+    """
+    out = images[0].copy()
+    for im in images[1:]:
+        out[..., 3] = np.maximum(out[..., 3], im[..., 3])
+    return out
+
+
+def stored_box(boxes: list[tuple[int, int, int, int]]) -> tuple[int, int, int, int] | None:
+    """The part of the original image that every frame stores on the atlas page (intersection)."""
+    x0, y0 = max(b[0] for b in boxes), max(b[1] for b in boxes)
+    x1, y1 = min(b[2] for b in boxes), min(b[3] for b in boxes)
+    return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
+
+
+def _inside(visible: np.ndarray, box: tuple[int, int, int, int]) -> bool:
+    x0, y0, x1, y1 = box
+    return int(visible.sum()) == int(visible[y0:y1, x0:x1].sum())
+
+
+def source_identity(source) -> tuple:
+    """Sources with equal identities give equal images for equal paths (twin skeletons share one)."""
+    atlases = getattr(source, "atlases", None)
+    if atlases is not None:
+        return ("atlas",) + tuple(str(a.path) for a in atlases)
+    return ("folder", str(getattr(source, "folder", id(source))))
+
+
+def task_for_frames(frames: list[RegionImage], options: Options,
+                    blend: str = "normal") -> tuple[MeshTask | None, str, str]:
+    """The mesh task of an attachment's frame image(s), or ``(None, status, reason)``.
+
+    ``blend`` is the slot's blend mode: with ``normal`` the mesh must cover the texels that
+    can show (:attr:`RegionImage.shown`), with any other every texel drawn (see
+    :func:`texels_to_cover`).
+    """
+    # Frames of different sizes are compared where the runtime draws them: relative to their size.
+    frames = frames_on_one_grid(frames)
+    rgba = composite_image([f.rgba for f in frames])
+    if options.mask != "model" and not np.logical_or.reduce([f.drawn for f in frames]).any():
+        return None, "kept", "image is fully transparent"
+    drawn = np.logical_or.reduce(texels_to_cover(frames, blend))
+    if options.mask != "model" and not drawn.any():
+        return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+    box = stored_box([f.content for f in frames])
+    if box is None or not _inside(drawn, box):
+        if not options.repack:
+            return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
+                                  "would sample neighbouring regions; --repack stores them whole")
+        # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
+        box = (0, 0, rgba.shape[1], rgba.shape[0])
+    x0, y0, x1, y1 = box
+    # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
+    crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
+    drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
+    key = content_id(rgba, (x0, y0, x1 - x0, y1 - y0))
+    if not np.array_equal(drawn, crop[..., 3] > 0):
+        # Premultiplied light (alpha 0, colour > 0) is not in the straight pixels: key it too.
+        key += "-" + content_id(np.repeat(drawn[..., None], 4, axis=-1).astype(np.uint8), (0, 0, x1 - x0, y1 - y0))[:16]
+    size = (rgba.shape[1], rgba.shape[0])
+    return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
+
+
+def texels_to_cover(frames: list[RegionImage], blend: str) -> list[np.ndarray]:
+    """Per frame, the texels a mesh drawn in a slot with this ``blend`` mode must cover.
+
+    Normal blending: the texels that can move a pixel by more than
+    :data:`~spinemesh.images.FAINT_TEXEL`/255 (:attr:`RegionImage.shown`); fainter ones
+    cannot, in one layer, wherever and however large they are drawn. Additive, multiply and
+    screen slots are made to be stacked (glows, particles), where faint layers add up: every
+    texel drawn (:attr:`RegionImage.drawn`). Measured with the runtime proof: leaving texels
+    of at most 2/255 out in additive slots too, one corpus skeleton of eight stacked additive
+    particle layers lost 44,509 visible pixels (worst 16/255).
+    """
+    return [f.shown if blend == "normal" else f.drawn for f in frames]
+
+
+#: Key prefix of a :class:`MeshTask` meshed because its art bends: the same image keyed apart,
+#: so that an image shared by a bending and a non-bending attachment gets both results.
+BENDS_KEY = "bends:"
+
+
+def bending_task(task: MeshTask) -> MeshTask:
+    """The same image meshed for an attachment that bends (``--weights auto``).
+
+    Bending with the skeleton is worth a mesh whatever it saves: the keep rule's saving tests
+    (:mod:`spinemesh.mesher.worth` rules 1 and 3) are dropped for it; its vertex-cost tests
+    (scattered islands, a huge outline) still hold, since nobody bends a rain sheet. Where the
+    rule does not keep the image, the mesh is the one the plain task gives.
+    """
+    return dataclasses.replace(task, key=BENDS_KEY + task.key, bends=True)
+
+
+def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
+    """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
+    return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
+        tuple(f.content) != (0, 0, f.rgba.shape[1], f.rgba.shape[0]) for f in frames)
+
+
+@dataclass
+class Planner:
+    """Plans skeletons one after another, sharing what they share.
+
+    Each image is decoded once: twin skeletons (``.json`` and ``.skel`` of one project)
+    reuse the first one's decision, and the editor images (``--images``) are written from
+    that same decode.
+    """
+
+    options: Options
+    tasks: dict[str, MeshTask] = field(default_factory=dict)
+    decided: dict[tuple, tuple[str, str, str]] = field(default_factory=dict)
+    #: tasks decided, by key; in ``tasks`` only once an attachment uses them (a bending
+    #: attachment uses its bending variant instead)
+    found: dict[str, MeshTask] = field(default_factory=dict)
+    editor_images: set[str] = field(default_factory=set)
+    #: ``--repack``: atlas path -> names of the regions to store untrimmed.
+    untrimmed: dict[Path, set[str]] = field(default_factory=dict)
+
+    def plan_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
+        """A :class:`Target` for every region attachment of ``doc``, in document order.
+
+        ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
+        ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
+        """
+        targets = []
+        # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
+        blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
+        for ref in iter_attachments(doc):
+            if ref.type != "region":
+                continue
+            try:
+                paths = image_paths(ref)
+            except SpineMeshError as e:  # a malformed sequence: this attachment alone stays a region
+                targets.append(Target(skeleton, ref.skin, ref.slot, ref.name, [], "failed", str(e)))
+                continue
+            t = Target(skeleton, ref.skin, ref.slot, ref.name, paths)
+            targets.append(t)
+            try:
+                reason = skip_reason(ref, paths, self.options)
+            except (TypeError, ValueError):
+                t.status, t.reason = "failed", "width/height are not numbers"
+                continue
+            if reason:
+                t.status, t.reason = "kept", reason
+            elif source is None:
+                t.status, t.reason = "failed", "no atlas or images folder holds its image"
+            else:
+                # only with a keep rule on saving (min_saving > 0): without it every region is meshed
+                bends = bending is not None and bool(self.options.min_saving) and bending.bends(ref)
+                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"), bends)
+        return targets
+
+    def _decide(self, source, paths: list[str], blend: str = "normal",
+                bends: bool = False) -> tuple[str, str, str]:
+        seen = (source_identity(source), tuple(paths), blend == "normal")
+        if seen not in self.decided:
+            try:
+                frames = [source.get(p) for p in paths]
+            except SpineMeshError as e:
+                self.decided[seen] = ("failed", str(e), "")
+            else:
+                task, status, reason = task_for_frames(frames, self.options, blend)
+                if task is not None:
+                    try:
+                        self._write_editor_images(frames)
+                    except SpineMeshError as e:
+                        # Without its editor image the mesh could not be re-imported: stays a region.
+                        task, status, reason = None, "failed", f"editor image not written: {e}"
+                if task is not None:
+                    self.found[task.key] = task
+                    if self.options.repack and needs_repack(frames, task):
+                        for name in paths:
+                            atlas = next(a for a in source.atlases if a.find(name) is not None)
+                            self.untrimmed.setdefault(atlas.path, set()).add(name)
+                self.decided[seen] = (status, reason, task.key if task else "")
+        status, reason, key = self.decided[seen]
+        if key:
+            task = self.found[key]
+            if bends:
+                task = bending_task(task)
+            self.tasks.setdefault(task.key, task)
+            key = task.key
+        return status, reason, key
+
+    def _write_editor_images(self, frames: list[RegionImage]) -> None:
+        folder = self.options.images_out
+        if folder is None or self.options.dry_run:
+            return
+        for frame in frames:
+            if frame.name not in self.editor_images:
+                self.editor_images.add(frame.name)
+                write_editor_image(frame, Path(folder))
+
+
+@dataclass
+class SkeletonPlan:
+    """One skeleton read and planned: its document, targets and image source."""
+
+    path: Path
+    rel: str
+    doc: dict
+    targets: list[Target]
+    source: object
+    rig: object = None  # --weights auto: spinemesh.rig.document.Rig, built once per skeleton
+
+
+@dataclass
+class ProjectPlan:
+    """Everything the later stages need (:func:`.run.finish_project`), and the unique images to mesh."""
+
+    project: Project
+    skeletons: list[SkeletonPlan]
+    tasks: dict[str, MeshTask]
+    only_needed: bool = False  # one skeleton file was asked for: copy only the files it uses
+    untrimmed: dict[Path, set[str]] = field(default_factory=dict)  # --repack: atlas -> regions
+    options: Options | None = None
+
+
+def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan:
+    """Read every skeleton of ``proj`` and plan its regions; unreadable skeletons go to ``result.errors``."""
+    t0 = time.perf_counter()
+    planner = Planner(options)
+    skeletons = []
+    for path in proj.skeletons:
+        rel = path.relative_to(proj.root).as_posix()
+        try:
+            doc = load_skeleton(path)
+            source = image_source_for(doc, path, proj, images=options.images_in)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        bending = bending_regions(doc) if options.weights == "auto" else None
+        targets = planner.plan_skeleton(doc, rel, source, bending)
+        result.targets += targets
+        skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
+    result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
+    result.seconds["read"] += time.perf_counter() - t0
+    return ProjectPlan(proj, skeletons, planner.tasks, untrimmed=planner.untrimmed, options=options)
+
+
+def bending_regions(doc: dict):
+    """:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, or None when its rig cannot be built."""
+    from ..rig.document import build_rig
+    from ..rig.upgrade import BendingRegions
+
+    try:
+        return BendingRegions.of(build_rig(doc))
+    except SpineMeshError:
+        return None  # the weighting reports it, per mesh

@@ -1,0 +1,87 @@
+"""What a run did, attachment by attachment: the rows every stage fills in, and the report.
+
+A :class:`Target` is made for every region attachment when the project is planned
+(:mod:`.plan`); the meshing and writing stages set its status, and :func:`write_report`
+writes one row per target. A library run :func:`merge` s its projects' results into one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..fsutil import atomic_write_json
+from ..runs import RunSummary
+
+
+@dataclass
+class Target:
+    """One region attachment and what became of it."""
+
+    skeleton: str
+    skin: str
+    slot: str
+    name: str
+    paths: list[str]
+    # meshed | kept (a deliberate, documented skip; ``reason`` says why) | failed;
+    # planned while the run is under way, "would mesh" in a dry run.
+    status: str = "pending"
+    reason: str = ""
+    key: str = ""                    # content key of its (composited) image
+    vertices: int = 0
+    triangles: int = 0
+    coverage: float | None = None
+    waste: float | None = None
+    seconds: float = 0.0
+
+    weights: dict | None = None      # --weights auto: bones chosen and why (spinemesh.rig.upgrade)
+    # --weights auto, meshed only because it would bend: the keep rule's reason, and the region
+    # it replaced (put back if the mesh does not get more than one bone); not report columns
+    overruled: str = ""
+    region: dict | None = None
+
+    def row(self) -> dict:
+        return {k: v for k, v in self.__dict__.items()
+                if k not in ("key", "overruled", "region") and not (k == "weights" and v is None)}
+
+
+@dataclass
+class Result(RunSummary):
+    """What a run did: every target, the skeletons written and the problems met."""
+
+    targets: list[Target] = field(default_factory=list)
+    written: list[str] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+    seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "write": 0.0})
+
+    def _items(self):
+        return self.targets
+
+
+def mark_would_mesh(result: Result) -> None:
+    """A dry run: what would have been meshed says so."""
+    for t in result.targets:
+        if t.status == "planned":
+            t.status = "would mesh"
+
+
+def merge(into: Result, part: Result, prefix: str) -> None:
+    """Add one project's result to a library's, naming its skeletons by their path in the library."""
+    for t in part.targets:
+        t.skeleton = prefix + t.skeleton
+    into.targets += part.targets
+    into.written += [prefix + w for w in part.written]
+    into.errors += part.errors  # they name their files already
+    for k, v in part.seconds.items():
+        into.seconds[k] += v
+
+
+def write_report(result: Result, path: str | Path) -> None:
+    """``report.json``: one row per region attachment, plus totals and timings."""
+    atomic_write_json(path, {
+        "counts": result.counts(),
+        "skeletons_written": result.written,
+        "errors": result.errors,
+        "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
+        "attachments": [t.row() for t in result.targets],
+    })

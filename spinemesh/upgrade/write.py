@@ -1,0 +1,177 @@
+"""Writing: meshes into the documents, documents to files, every other file copied.
+
+:func:`apply_project` puts each :class:`~.meshing.MeshResult` into the documents of a
+:class:`~.plan.ProjectPlan` (and, with ``--weights auto``, binds and weights the new
+meshes); :func:`write_skeletons` writes each document in the format and version it came in;
+:func:`copying_other_files` copies atlases, pages and everything else on threads meanwhile;
+:func:`write_repacked_atlases` rewrites the atlases whose sequences ``--repack`` stores
+whole. Each problem is one line in the :class:`~.report.Result`, never an abort.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Iterator
+
+from ..errors import SpineMeshError
+from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_text
+from ..project import Project
+from ..skeleton import dumps_skeleton, is_binary_skeleton, iter_attachments
+from .geometry import mesh_attachment
+from .meshing import MeshResult
+from .plan import MeshTask, ProjectPlan
+from .repack import write_repacked_atlas
+from .report import Result, Target
+
+
+def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult],
+                 tasks: dict[str, MeshTask], source_name: str) -> None:
+    """Replace each planned region in ``doc`` by its mesh attachment, in place, keeping key order."""
+    by_place = {(t.skin, t.slot, t.name): t for t in targets if t.status == "planned"}
+    for ref in list(iter_attachments(doc)):
+        t = by_place.get((ref.skin, ref.slot, ref.name))
+        if t is None:
+            continue
+        res = meshes[t.key]
+        t.seconds = round(res.seconds, 4)
+        if res.vertices is None:
+            t.status, t.reason = ("kept", res.kept) if res.kept else ("failed", res.error)
+            continue
+        task = tasks[t.key]
+        w, h = task.size
+        (x0, y0), (bh, bw) = task.origin, task.rgba.shape[:2]
+        try:
+            mesh = mesh_attachment(ref.attachment, res.vertices, res.triangles, res.hull, res.edges, w, h,
+                                   source_name, box=(x0, y0, x0 + bw, y0 + bh))
+        except SpineMeshError as e:
+            t.status, t.reason = "failed", str(e)
+            continue
+        if res.overruled:  # meshed only because it bends: the region comes back if it does not
+            t.overruled, t.region = res.overruled, dict(ref.attachment)
+        # The document's own dict, changed in place: it keeps its place among its siblings.
+        ref.attachment.clear()
+        ref.attachment.update(mesh)
+        t.status = "meshed"
+        t.vertices = len(res.vertices)
+        t.triangles = len(res.triangles)
+        t.coverage = None if res.coverage is None else round(res.coverage, 6)
+        t.waste = None if res.waste is None else round(res.waste, 6)
+
+
+def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult]) -> None:
+    """Put the meshes into every document of ``plan``, in place; ``--weights auto`` also weights them."""
+    for sk in plan.skeletons:
+        apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
+        if plan.options is not None and plan.options.weights == "auto":
+            from ..rig.upgrade import weight_upgraded
+
+            weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"), sk.rig)
+
+
+def write_skeletons(plan: ProjectPlan, out: Path, result: Result) -> None:
+    """Write every document of ``plan`` under ``out``; those written go to ``result.written``."""
+    for sk in plan.skeletons:
+        try:
+            write_skeleton(sk.doc, sk.path, out / sk.rel)
+        except SpineMeshError as e:
+            result.errors.append(f"{sk.path}: not written: {e}")
+            continue
+        result.written.append(sk.rel)
+
+
+def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
+    """Write ``doc`` to ``dest`` in the format ``path`` came in (binary ``.skel`` or JSON).
+
+    JSON keeps the text of ``path`` wherever ``doc`` did not change, in its formatting, so
+    that a version-control diff shows only the upgraded attachments.
+    """
+    if is_binary_skeleton(path):
+        from ..skeleton_binary import write_skel
+
+        atomic_write_bytes(dest, write_skel(doc, dest))
+    else:
+        original = path.read_bytes().decode("utf-8-sig")
+        atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))
+
+
+def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
+    """Copy every file of the project that is not a skeleton (atlases, pages, anything else)."""
+    for source, dest in files_to_copy(proj, out, written, needed):
+        atomic_copy(source, dest)
+
+
+def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None
+                  ) -> list[tuple[Path, Path]]:
+    """``(source, destination)`` of every file of the project that is copied as it is.
+
+    Every file but the skeletons (atlases, pages, anything else).
+
+    With ``needed`` (real paths), skeletons, atlases and images are copied only if listed: one
+    skeleton asked for does not bring its twins (``hero.json`` beside ``hero.skel``) or other
+    skeletons' atlases along; other files (a licence, audio) still come.
+    """
+    from ..images import IMAGE_EXTENSIONS
+    from ..project import ATLAS_SUFFIXES, is_skeleton_file
+
+    pairs = []
+    for f in proj.files:  # only files inside the project by real path (see find_project)
+        if f.resolve() in written:
+            continue
+        if f in proj.skeletons:
+            continue  # a skeleton that could not be upgraded is not copied as if it had been
+        if needed is not None and f.resolve() not in needed and (
+                f.suffix.lower() in IMAGE_EXTENSIONS or f.name.lower().endswith(ATLAS_SUFFIXES)
+                or is_skeleton_file(f)):
+            continue
+        pairs.append((f, out / f.relative_to(proj.root)))
+    return pairs
+
+
+def files_needed(doc: dict, source) -> set[Path]:
+    """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
+    from ..images import AtlasImages, FolderImages
+    from ..project import needed_images
+
+    if isinstance(source, AtlasImages):
+        return {Path(a.path).resolve() for a in source.atlases} | {
+            source.page_file(a, i).resolve() for a in source.atlases for i in range(len(a.pages))}
+    if isinstance(source, FolderImages):
+        return {p.resolve() for p in map(source.path_of, sorted(needed_images(doc))) if p is not None}
+    return set()
+
+
+#: Threads copying a project's other files (atlases, pages) while its skeletons are written.
+COPY_THREADS = 4
+
+
+@contextlib.contextmanager
+def copying_other_files(plan: ProjectPlan, out: Path, result: Result) -> Iterator[None]:
+    """Copy the project's other files (:func:`files_to_copy`) on threads while the body runs.
+
+    Copies are disk work (reads, writes, fsync) that leaves the interpreter free: they run
+    while this thread finishes and writes the skeletons. Files not copied go to
+    ``result.errors`` when the body ends.
+    """
+    needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
+    skeletons = {sk.path.resolve() for sk in plan.skeletons}
+    copier = ThreadPoolExecutor(COPY_THREADS)
+    copies = [copier.submit(atomic_copy, source, dest)
+              for source, dest in files_to_copy(plan.project, out, skeletons, needed)]
+    yield
+    for copy in copies:
+        try:
+            copy.result()
+        except SpineMeshError as e:
+            result.errors.append(f"not copied: {e}")
+    copier.shutdown()
+
+
+def write_repacked_atlases(plan: ProjectPlan, out: Path, result: Result) -> None:
+    """``--repack``: rewrite each atlas whose sequences are stored whole (:mod:`.repack`) under ``out``."""
+    for atlas_path, names in sorted(plan.untrimmed.items()):
+        try:
+            write_repacked_atlas(atlas_path, names, plan.project.root, out)
+        except SpineMeshError as e:
+            result.errors.append(f"{atlas_path}: not re-packed: {e}")
