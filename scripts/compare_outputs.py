@@ -7,8 +7,9 @@ the preview page names, is read as ``<run>``; everything else must match.
 
 Cases: the 4.2 examples folder as a library (with a report), a 3.8 binary skeleton with
 a preview, a 4.2 binary skeleton with ``--weights auto`` and a report, a 3.8 JSON skeleton
-with editor images, a 3.8 binary skeleton as a dry run with a report, and one skeleton file
-of a project (only the files it uses are copied).
+with editor images, a 3.8 binary skeleton as a dry run with a report, one skeleton file
+of a project (only the files it uses are copied), and ``spinemesh weights`` on a 3.8
+project. What the commands print is compared too, but for the timing lines.
 
 Usage::
 
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -32,15 +34,21 @@ from pathlib import Path
 EXAMPLES = Path(os.environ.get("SPINE_EXAMPLES", "/work/shared/spine-examples"))
 CORPUS = Path(os.environ.get("SPINE_CORPUS", "/work/shared/spine-corpus"))
 
-#: name -> (input, extra arguments); outputs go to ``<run>/<name>/out`` and beside it.
+#: name -> (command, input, extra arguments); outputs go to ``<run>/<name>/out`` and beside it,
+#: what the command printed to ``stdout.txt`` and ``stderr.txt``.
 CASES = {
-    "examples-4.2": (EXAMPLES / "4.2", ["--report", "{dir}/r.json"]),
-    "tga-hero": (CORPUS / "tga-hero", ["--preview", "{dir}/preview"]),
-    "halloween-weights": (CORPUS / "halloween-creature", ["--weights", "auto", "--report", "{dir}/r.json"]),
-    "cat-game-images": (CORPUS / "cat-game", ["--images", "{dir}/images", "--report", "{dir}/r.json"]),
-    "bmyq-dry-run": (CORPUS / "bmyq-bigwin", ["--dry-run", "--report", "{dir}/r.json"]),
-    "spineboy-one-file": (EXAMPLES / "4.2/spineboy/spineboy-pro.skel", ["--report", "{dir}/r.json"]),
+    "examples-4.2": ("upgrade", EXAMPLES / "4.2", ["--report", "{dir}/r.json", "--jobs", "2"]),
+    "tga-hero": ("upgrade", CORPUS / "tga-hero", ["--preview", "{dir}/preview", "--jobs", "2"]),
+    "halloween-weights": ("upgrade", CORPUS / "halloween-creature",
+                          ["--weights", "auto", "--report", "{dir}/r.json", "--jobs", "2"]),
+    "cat-game-images": ("upgrade", CORPUS / "cat-game", ["--images", "{dir}/images", "--report", "{dir}/r.json"]),
+    "bmyq-dry-run": ("upgrade", CORPUS / "bmyq-bigwin", ["--dry-run", "--report", "{dir}/r.json"]),
+    "spineboy-one-file": ("upgrade", EXAMPLES / "4.2/spineboy/spineboy-pro.skel", ["--report", "{dir}/r.json"]),
+    "isk-slime-weights-command": ("weights", CORPUS / "isk-slime", []),
 }
+
+#: Printed lines that hold timings: left out of the comparison.
+TIMINGS = re.compile(r"^(read [0-9.]+ s, mesh [0-9.]+ s, write [0-9.]+ s|[0-9.]+ s)$", re.M)
 
 
 def run(folder: Path) -> None:
@@ -48,13 +56,15 @@ def run(folder: Path) -> None:
     folder.mkdir(parents=True, exist_ok=False)
     spinemesh = Path(sys.executable).with_name("spinemesh")
     codes = {}
-    for name, (source, extra) in CASES.items():
+    for name, (command, source, extra) in CASES.items():
         case = folder / name
         case.mkdir()
         args = [a.format(dir=case) for a in extra]
-        done = subprocess.run([str(spinemesh), "upgrade", str(source), "--out", str(case / "out"), "--jobs", "2",
-                               *args], capture_output=True, text=True)
+        done = subprocess.run([str(spinemesh), command, str(source), "--out", str(case / "out"), *args],
+                              capture_output=True, text=True, env={**os.environ, "COLUMNS": "120"})
         codes[name] = done.returncode
+        (case / "stdout.txt").write_text(TIMINGS.sub("<timing>", done.stdout))
+        (case / "stderr.txt").write_text(TIMINGS.sub("<timing>", done.stderr))
         print(f"{name}: exit {done.returncode}", flush=True)
     (folder / "exit-codes.json").write_text(json.dumps(codes, indent=1))
 

@@ -1,4 +1,9 @@
-"""``spinemesh upgrade``: the main job."""
+"""``spinemesh upgrade``: the main job.
+
+The options are declared once each above the command (typer reads them from the
+annotations); the command builds :class:`spinemesh.upgrade.Options`, runs the upgrade with
+a progress bar and prints what became of every region attachment.
+"""
 
 from __future__ import annotations
 
@@ -13,62 +18,85 @@ from ._app import (
 )
 
 
+# The command's options, one declaration each (see --help for what they do).
+_Project = Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder, one skeleton file (.json/.skel), or a folder of "
+                                              "projects (each upgraded to the same place under OUT).")]
+_Out = Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder: not the project folder, not inside "
+                                    "it; refused if not empty, unless --overwrite.")]
+_Overwrite = Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
+                                          "earlier upgrade wrote), so that no stale file stays.")]
+_Preview = Annotated[Optional[Path], typer.Option(
+    "--preview", metavar="DIR", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
+                      "the new meshes, every attachment's old quad and new mesh, and the transparent "
+                      "area no longer drawn.")]
+_Preset = Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
+                                         "paper (the paper's section 3 exactly).")]
+_Mask = Annotated[MaskSource, typer.Option(
+    "--mask", help="Where the foreground comes from. auto (here: alpha, which is what the runtime draws); "
+                   "alpha; model (the segmentation network, which may cut drawn pixels).")]
+_Density = Annotated[Optional[float], typer.Option(
+    "--density", callback=positive_finite, help="Vertex density, above 0: below 1 sparser, above 1 "
+                                                "denser (default 1).")]
+_MaxVertices = Annotated[Optional[int], typer.Option("--max-vertices", min=3,
+                                                     help="Hard vertex budget per mesh.")]
+_Only = Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
+                                          "repeatable. Others are kept as regions.")]
+_Exclude = Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
+                                             "path; repeatable.")]
+_MinSize = Annotated[float, typer.Option("--min-size", min=0, callback=finite, help="Keep as regions those whose larger "
+                                         "side is below this many pixels.")]
+_MinSaving = Annotated[Optional[float], typer.Option(
+    "--min-saving", min=0.0, max=1.0, callback=finite,
+    help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
+         "quad (0..1; default 0.05). Art whose outline needs over 200 vertices (many scattered "
+         "islands) and saves under 500 pixels per vertex is kept a region too. Kept regions are "
+         "reported with the reason.")]
+_DryRun = Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")]
+_Report = Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
+                                                 "attachment.")]
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel "
+                                              "(default: the CPU cores this process may use).")]
+_Dask = Annotated[Optional[str], typer.Option(
+    "--dask", metavar="ADDRESS", help="Mesh on a Dask cluster: a scheduler address (tcp://host:8786), a "
+                                      "scheduler file, or 'local' (--jobs workers here). Same output as a "
+                                      "local run; needs the 'cluster' extra.")]
+_Images = Annotated[Optional[Path], typer.Option(
+    "--images", metavar="DIR", help="Also write the original-size images here, for re-import in the editor.")]
+_ImagesIn = Annotated[Optional[Path], typer.Option(
+    "--from-images", metavar="DIR", help="Read attachment images from this folder instead of atlases.")]
+_Repack = Annotated[bool, typer.Option(
+    "--repack/--no-repack", help="Mesh sequences whose frames were trimmed differently: their frames are "
+                                 "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
+                                 "is untouched; a frame's art on its trimmed border then also draws its "
+                                 "half-texel fringe). Default: such sequences stay regions.")]
+_Weights = Annotated[Weights, typer.Option(
+    "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
+                      "to the bones crossing the art, with vertices at the joints and automatic "
+                      "weights (as 'spinemesh weights --bones auto').")]
+
+
 @app.command()
 def upgrade(
-    project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder, one skeleton file (.json/.skel), or a folder of "
-                                                "projects (each upgraded to the same place under OUT).")],
-    out: Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder: not the project folder, not inside "
-                                      "it; refused if not empty, unless --overwrite.")],
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
-                                            "earlier upgrade wrote), so that no stale file stays.")] = False,
-    preview: Annotated[Optional[Path], typer.Option(
-        "--preview", metavar="DIR", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
-                          "the new meshes, every attachment's old quad and new mesh, and the transparent "
-                          "area no longer drawn.")] = None,
-    preset: Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
-                                           "paper (the paper's section 3 exactly).")] = Preset.default,
-    mask: Annotated[MaskSource, typer.Option(
-        "--mask", help="Where the foreground comes from. auto (here: alpha, which is what the runtime draws); "
-                       "alpha; model (the segmentation network, which may cut drawn pixels).")] = MaskSource.auto,
-    density: Annotated[Optional[float], typer.Option(
-        "--density", callback=positive_finite, help="Vertex density, above 0: below 1 sparser, above 1 "
-                                                    "denser (default 1).")] = None,
-    max_vertices: Annotated[Optional[int], typer.Option("--max-vertices", min=3,
-                                                        help="Hard vertex budget per mesh.")] = None,
-    only: Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
-                                            "repeatable. Others are kept as regions.")] = [],
-    exclude: Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
-                                               "path; repeatable.")] = [],
-    min_size: Annotated[float, typer.Option("--min-size", min=0, callback=finite, help="Keep as regions those whose larger "
-                                            "side is below this many pixels.")] = 0.0,
-    min_saving: Annotated[Optional[float], typer.Option(
-        "--min-saving", min=0.0, max=1.0, callback=finite,
-        help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
-             "quad (0..1; default 0.05). Art whose outline needs over 200 vertices (many scattered "
-             "islands) and saves under 500 pixels per vertex is kept a region too. Kept regions are "
-             "reported with the reason.")] = None,
-    dry_run: Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")] = False,
-    report: Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
-                                                   "attachment.")] = None,
-    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel "
-                                                "(default: the CPU cores this process may use).")] = None,
-    dask: Annotated[Optional[str], typer.Option(
-        "--dask", metavar="ADDRESS", help="Mesh on a Dask cluster: a scheduler address (tcp://host:8786), a "
-                                          "scheduler file, or 'local' (--jobs workers here). Same output as a "
-                                          "local run; needs the 'cluster' extra.")] = None,
-    images: Annotated[Optional[Path], typer.Option(
-        "--images", metavar="DIR", help="Also write the original-size images here, for re-import in the editor.")] = None,
-    images_in: Annotated[Optional[Path], typer.Option(
-        "--from-images", metavar="DIR", help="Read attachment images from this folder instead of atlases.")] = None,
-    repack: Annotated[bool, typer.Option(
-        "--repack/--no-repack", help="Mesh sequences whose frames were trimmed differently: their frames are "
-                                     "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
-                                     "is untouched; a frame's art on its trimmed border then also draws its "
-                                     "half-texel fringe). Default: such sequences stay regions.")] = False,
-    weights: Annotated[Weights, typer.Option(
-        "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
-                          "to the bones crossing the art, with vertices at the joints and automatic "
-                          "weights (as 'spinemesh weights --bones auto').")] = Weights.none,
+    project: _Project,
+    out: _Out,
+    overwrite: _Overwrite = False,
+    preview: _Preview = None,
+    preset: _Preset = Preset.default,
+    mask: _Mask = MaskSource.auto,
+    density: _Density = None,
+    max_vertices: _MaxVertices = None,
+    only: _Only = [],
+    exclude: _Exclude = [],
+    min_size: _MinSize = 0.0,
+    min_saving: _MinSaving = None,
+    dry_run: _DryRun = False,
+    report: _Report = None,
+    jobs: _Jobs = None,
+    dask: _Dask = None,
+    images: _Images = None,
+    images_in: _ImagesIn = None,
+    repack: _Repack = False,
+    weights: _Weights = Weights.none,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
 
@@ -93,20 +121,14 @@ def upgrade(
     Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
     Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
     """
-    import statistics
-
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder
-    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
-    from ..upgrade import Options, is_library, upgrade_library, upgrade_project, write_report
+    from ..upgrade import Options, is_library, write_report
 
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
-    overrides = {}
-    if density is not None:
-        overrides["density"] = density
-    if max_vertices is not None:
-        overrides["max_vertices"] = max_vertices
+    overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
+                 if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, weights=weights.value,
@@ -114,58 +136,62 @@ def upgrade(
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
-    with progress_bar("meshing", transient=True) as bar:
-        task = bar.add_task("unique images", total=None)
-        if library:
-            def next_project(name: str) -> None:
-                bar.reset(task, total=None, description=f"unique images of {name}")
-
-            result = upgrade_library(project, out, options, on_start=lambda n: bar.update(task, total=n),
-                                     on_progress=lambda n: bar.advance(task, n), on_project=next_project)
-        else:
-            result = upgrade_project(project, out, options,
-                                     on_start=lambda n: bar.update(task, total=n),
-                                     on_progress=lambda n: bar.advance(task, n))
+    result = _run(project, out, options, library)
     if report is not None:
         write_report(result, report)
-
-    from rich.markup import escape  # names and reasons come from the project: never markup
-    from rich.table import Table
-
-    table = Table(title="spinemesh upgrade" + (" (dry run)" if dry_run else ""))
-    for col in ("skeleton", "meshed", "kept as region", "failed", "median vertices"):
-        table.add_column(col, justify="right" if col != "skeleton" else "left")
-    by_skel: dict[str, list] = {}
-    for t in result.targets:
-        by_skel.setdefault(t.skeleton, []).append(t)
-    for name, targets in by_skel.items():
-        verts = [t.vertices for t in targets if t.status == "meshed"]
-        table.add_row(escape(name), str(sum(t.status in ("meshed", "would mesh") for t in targets)),
-                      str(sum(t.status == "kept" for t in targets)),
-                      str(sum(t.status == "failed" for t in targets)),
-                      f"{statistics.median(verts):g}" if verts else "-")
-    if by_skel:
-        console.print(table)
-    s = result.seconds
-    console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s")
-    reasons: dict[str, int] = {}
-    for t in result.targets:
-        if t.status == "kept":
-            reasons[t.reason] = reasons.get(t.reason, 0) + 1
-        elif t.status == "failed":
-            err_console.print("[yellow]left a region:[/] " + escape(f"{t.skeleton} skin {t.skin!r} slot {t.slot!r} "
-                                                                  f"attachment {t.name!r}: {t.reason}"), highlight=False)
-    for why, n in sorted(reasons.items()):
-        console.print(f"kept as region: {n} ({why})", highlight=False, markup=False)
-    for e in result.errors:
-        err_console.print(f"[red]error:[/] {escape(e)}", highlight=False)
-
+    _print_result(result, dry_run)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         from ..upgrade.preview import write_preview
 
         page = write_preview(result, project, out, preview, images_in=images_in)
         console.print(f"preview: {page}", highlight=False, markup=False)
+    _exit(result, nothing)
+
+
+def _run(project: Path, out: Path, options, library: bool):
+    """Upgrade ``project`` (a library when ``library``) with a progress bar of the unique images meshed."""
+    from ..upgrade import upgrade_library, upgrade_project
+
+    with progress_bar("meshing", transient=True) as bar:
+        task = bar.add_task("unique images", total=None)
+        if library:
+            def next_project(name: str) -> None:
+                bar.reset(task, total=None, description=f"unique images of {name}")
+
+            return upgrade_library(project, out, options, on_start=lambda n: bar.update(task, total=n),
+                                   on_progress=lambda n: bar.advance(task, n), on_project=next_project)
+        return upgrade_project(project, out, options,
+                               on_start=lambda n: bar.update(task, total=n),
+                               on_progress=lambda n: bar.advance(task, n))
+
+
+def _print_result(result, dry_run: bool) -> None:
+    """A table per skeleton, the timings, why regions were kept, what failed and the errors."""
+    import statistics
+
+    from ._summary import print_left_alone, skeleton_table
+
+    def cells(targets: list) -> list[str]:
+        verts = [t.vertices for t in targets if t.status == "meshed"]
+        return [str(sum(t.status in ("meshed", "would mesh") for t in targets)),
+                str(sum(t.status == "kept" for t in targets)), str(sum(t.status == "failed" for t in targets)),
+                f"{statistics.median(verts):g}" if verts else "-"]
+
+    if result.targets:
+        console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""),
+                                     ("meshed", "kept as region", "failed", "median vertices"), result.targets, cells))
+    s = result.seconds
+    console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s")
+    print_left_alone(result.targets, result.errors, "kept", "kept as region", "left a region")
+
+
+def _exit(result, nothing: str) -> None:
+    """Exit 3 when something failed; 2 (or 0 with a warning) when there was nothing to upgrade."""
+    from rich.markup import escape
+
+    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
     if nothing:

@@ -86,32 +86,17 @@ def weights(
     if report is not None:
         write_report(result, report)
 
-    from rich.markup import escape  # names and reasons come from the project: never markup
-    from rich.table import Table
+    from ._summary import print_left_alone, skeleton_table
 
-    table = Table(title="spinemesh weights")
-    for col in ("skeleton", "weighted", "skipped", "failed", "median bones"):
-        table.add_column(col, justify="right" if col != "skeleton" else "left")
-    by_skel: dict[str, list] = {}
-    for o in result.outcomes:
-        by_skel.setdefault(o.skeleton, []).append(o)
-    for name, rows in by_skel.items():
+    def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
-        table.add_row(escape(name), str(len(done)), str(sum(o.status == "skipped" for o in rows)),
-                      str(sum(o.status == "failed" for o in rows)), str(done[len(done) // 2]) if done else "-")
-    console.print(table)
-    reasons: dict[str, int] = {}
-    for o in result.outcomes:
-        if o.status == "skipped":
-            key = o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason
-            reasons[key] = reasons.get(key, 0) + 1
-        elif o.status == "failed":
-            err_console.print("[yellow]left as it was:[/] " + escape(f"{o.skeleton} skin {o.skin!r} slot {o.slot!r} "
-                                                                    f"attachment {o.name!r}: {o.reason}"), highlight=False)
-    for why, n in sorted(reasons.items()):
-        console.print(f"left as it was: {n} ({why})", highlight=False, markup=False)
-    for e in result.errors:
-        err_console.print(f"[red]error:[/] {escape(e)}", highlight=False)
+        return [str(len(done)), str(sum(o.status == "skipped" for o in rows)),
+                str(sum(o.status == "failed" for o in rows)), str(done[len(done) // 2]) if done else "-"]
+
+    console.print(skeleton_table("spinemesh weights", ("weighted", "skipped", "failed", "median bones"),
+                                 result.outcomes, cells))
+    print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
+                     reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)

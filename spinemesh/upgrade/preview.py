@@ -384,6 +384,44 @@ class _ImageCache:
         return self.images[name]
 
 
+def _skeleton_section(rel: str, targets: list, doc: dict, source) -> tuple[str, FillRate]:
+    """One skeleton's part of the page, and its fill rate over its meshed ``targets``.
+
+    ``doc`` is the upgraded skeleton; ``source`` the project's images (an :class:`_ImageCache`,
+    or None when the project has none for it).
+    """
+    cards, seen = [], {}
+    for t in targets:
+        seen.setdefault(t.key, []).append(t)
+    skeleton_rate = FillRate(0, 0, 0, 0)
+    for key, group in seen.items():
+        t = group[0]
+        att = _find(doc, t.skin, t.slot, t.name)
+        if att is None or source is None:
+            continue
+        image = source.get(t.paths[0])
+        uvs, tris, _ = _mesh_arrays(att)
+        rate = fill_rate(image.rgba, image.content, uvs, tris)
+        for _ in group:  # every attachment drawing this image saves as much
+            skeleton_rate = skeleton_rate + rate
+        cards.append((rate.transparent_before - rate.transparent_after,
+                      _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
+    cards.sort(key=lambda c: -c[0])
+    more = len(cards) - CARD_LIMIT
+    cards = cards[:CARD_LIMIT] + ([(0, f"<p>… and {more} more images with smaller savings (counted in the "
+                                          "totals).</p>")] if more > 0 else [])
+    upgraded = {(t.skin, t.slot, t.name) for t in targets}
+    return (
+        f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
+        f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
+        f"(−{_pct(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
+        f" Setup pose, drawn from the upgraded skeleton: wireframes of the new meshes, regions left as they "
+        f"are dashed:</p>"
+        + setup_pose(doc, source, upgraded)
+        + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
+        + "".join(c for _, c in cards) + "</div>", skeleton_rate)
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None) -> Path:
     """Write ``folder/index.html`` for an upgrade run and return its path.
@@ -414,37 +452,9 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             sections.append(f"<h2>{html.escape(rel)}</h2><p>not shown: {html.escape(str(e))}</p>")
             continue
         source = None if source is None else _ImageCache(source)
-        cards, seen = [], {}
-        for t in targets:
-            seen.setdefault(t.key, []).append(t)
-        skeleton_rate = FillRate(0, 0, 0, 0)
-        for key, group in seen.items():
-            t = group[0]
-            att = _find(doc, t.skin, t.slot, t.name)
-            if att is None or source is None:
-                continue
-            image = source.get(t.paths[0])
-            uvs, tris, _ = _mesh_arrays(att)
-            rate = fill_rate(image.rgba, image.content, uvs, tris)
-            for _ in group:  # every attachment drawing this image saves as much
-                skeleton_rate = skeleton_rate + rate
-            cards.append((rate.transparent_before - rate.transparent_after,
-                          _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
+        section, skeleton_rate = _skeleton_section(rel, targets, doc, source)
         total = total + skeleton_rate
-        cards.sort(key=lambda c: -c[0])
-        more = len(cards) - CARD_LIMIT
-        cards = cards[:CARD_LIMIT] + ([(0, f"<p>… and {more} more images with smaller savings (counted in the "
-                                              "totals).</p>")] if more > 0 else [])
-        upgraded = {(t.skin, t.slot, t.name) for t in targets}
-        sections.append(
-            f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
-            f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
-            f"(−{_pct(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
-            f" Setup pose, drawn from the upgraded skeleton: wireframes of the new meshes, regions left as they "
-            f"are dashed:</p>"
-            + setup_pose(doc, source, upgraded)
-            + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
-            + "".join(c for _, c in cards) + "</div>")
+        sections.append(section)
     counts = result.counts()
     saved = total.transparent_before - total.transparent_after
     summary = (
