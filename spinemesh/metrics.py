@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from .mesher.interior import edge_map, long_contours
-from .mesher.mask import foreground
+from .foreground import foreground
 from .mesher.params import PAPER
 from .mesher.raster import boundary_index_edges, boundary_segments, mesh_coverage_mask
 

@@ -11,9 +11,10 @@ import pytest
 from PIL import Image
 
 from conftest import SHARED
+from spinemesh.foreground import alpha_mask
 from spinemesh.segment import DEFAULT_MODEL, has_meaningful_alpha, mask_for, model_card, predict_mask
 from spinemesh.segment.baseline import floodfill_mask, grabcut_mask
-from spinemesh.segment.composite import BACKGROUNDS, alpha_mask, composite, flatten, make_background
+from spinemesh.segment.composite import BACKGROUNDS, composite, flatten, make_background
 from spinemesh.segment.evaluate import mask_metrics
 from spinemesh.segment.preprocess import from_output, to_input
 

@@ -51,12 +51,12 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..mesher.mask import foreground
+from ..foreground import ALPHA_THRESHOLD, alpha_mask
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
 #: Mask threshold of the paper (sec. 3, "Alpha Channel Path": tau_alpha = 128).
-MASK_ALPHA_THRESHOLD = 128
+MASK_ALPHA_THRESHOLD = ALPHA_THRESHOLD
 #: Share of games held out for validation (paper sec. 4, "Dataset Statistics": 90/10).
 VAL_FRACTION = 0.10
 
@@ -68,7 +68,7 @@ SHARDS = "shards"
 
 def mask_of(rgba: np.ndarray) -> np.ndarray:
     """The paper's binary mask: alpha > 128 (sec. 3). (H, W, 4) uint8 -> (H, W) bool."""
-    return foreground(rgba, MASK_ALPHA_THRESHOLD + 1)
+    return alpha_mask(rgba, MASK_ALPHA_THRESHOLD)
 
 
 def tight_box(rgba: np.ndarray) -> tuple[int, int, int, int]:

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import ImageError
 from ..mesher import Mesh
-from ..mesher.mask import foreground
+from ..foreground import foreground
 from ..mesher import exterior, triangulate
 from ..mesher.params import PAPER
 # The pipeline's own merge and finishing steps, so that a baseline differs from the paper

@@ -5,27 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ImageError
-
-
-def foreground(image: np.ndarray, threshold: int = 8) -> np.ndarray:
-    """The one definition of foreground by alpha: ``alpha >= threshold``.
-
-    Parameters
-    ----------
-    image : ndarray, shape (H, W, 4) or (H, W, 3), uint8
-        Straight RGBA; an image without alpha is foreground everywhere.
-    threshold : int
-        Smallest alpha that counts (0..255). 8 (default): faint glow and anti-aliasing are
-        art too. The paper's ``alpha > 128`` (sec. 3.1) is ``threshold=129``.
-
-    Returns
-    -------
-    ndarray, shape (H, W), bool
-    """
-    image = np.asarray(image)
-    if image.ndim == 3 and image.shape[2] == 4:
-        return image[:, :, 3] >= threshold
-    return np.ones(image.shape[:2], dtype=bool)
+from ..foreground import foreground
 
 
 def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -> np.ndarray:

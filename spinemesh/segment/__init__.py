@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ..errors import ImageError, SpineMeshError
-from .composite import ALPHA_THRESHOLD, alpha_mask
+from ..foreground import ALPHA_THRESHOLD, alpha_mask
 from .preprocess import from_output, to_input
 
 #: Masks modes of ``--mask``: always alpha, always the network, or alpha when meaningful.

@@ -24,29 +24,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..mesher.mask import foreground
 
 #: The kinds ``segment-eval`` scores; the first three are the ones the model card leads with.
 BACKGROUNDS = ("solid", "gradient", "noise", "radial", "perlin", "grain", "texture")
-
-#: Alpha above this is foreground (paper section 3.1, tau_alpha = 128).
-ALPHA_THRESHOLD = 128
-
-
-def alpha_mask(rgba: np.ndarray, threshold: int = ALPHA_THRESHOLD) -> np.ndarray:
-    """Ground-truth mask of a sprite: ``alpha > threshold``.
-
-    Parameters
-    ----------
-    rgba : ndarray, shape (H, W, 4), uint8
-    threshold : int
-        Paper section 3.1: 128.
-
-    Returns
-    -------
-    ndarray, shape (H, W), bool
-    """
-    return foreground(rgba, threshold + 1)
 
 
 def _random_colour(rng: np.random.Generator) -> np.ndarray:

@@ -17,8 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..foreground import alpha_mask
 from .baseline import BaselineFailed, baseline_mask
-from .composite import BACKGROUNDS, alpha_mask, flatten
+from .composite import BACKGROUNDS, flatten
 from .samples import Sprite
 
 

@@ -18,8 +18,8 @@ from typing import Iterable
 import cv2
 import numpy as np
 
+from ..foreground import alpha_mask
 from ..images import premultiply, unpremultiply
-from .composite import alpha_mask
 
 
 @dataclass

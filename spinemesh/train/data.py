@@ -257,7 +257,8 @@ def flat_sample(rgba: np.ndarray, kind: str, size: int, rng: np.random.Generator
                 ) -> tuple[np.ndarray, np.ndarray]:
     """A sprite in its own frame flattened onto one background kind and resized to the input,
     as inference sees it (validation, int8 calibration): (size, size, 3) uint8, (size, size) uint8."""
-    from ..segment.composite import alpha_mask, flatten
+    from ..foreground import alpha_mask
+    from ..segment.composite import flatten
 
     rgb = flatten(rgba, kind, rng)
     mask = resize(alpha_mask(rgba).astype(np.float32), size, size) > 0.5
