@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from spinemesh.rig.binding import bind, parse_vertices, rounded_weights, setup_world
-from spinemesh.rig.bones import skeleton_bones, world_transform
+from spinemesh.rig.bones import skeleton_bones
 from spinemesh.rig.document import WeightOptions, build_rig, weight_document
 from spinemesh.rig.topology import add_rig_vertices
+from spinemesh.rig.transform import world_transform
 from spinemesh.rig.weights import bounded_biharmonic, refine, solve_weights, sparsify
 from spinemesh.skeleton import iter_attachments
 

@@ -1,11 +1,7 @@
 """Bones of a skeleton document and their world transforms in the setup pose.
 
-The world transform of a bone is the affine map from its local space to the skeleton's:
-``world = M[:, :2] @ local + M[:, 2]``, with ``M = [[a, b, worldX], [c, d, worldY]]`` as the
-runtimes name them. It is computed the way the official runtimes compute it for every
-version this package reads (3.6 to 4.3): local rotation, scale and shear, then the parent's
-transform, filtered by the bone's inherit mode (called transform mode before 4.2). The
-skeleton itself sits at the origin with scale 1, as it does when a game loads it.
+A bone's world transform (:mod:`.transform`) is computed the way the official runtimes
+compute it for every version this package reads (3.6 to 4.3).
 
 IK, transform and path constraints move their bones after this computation, even in the
 setup pose (unless all their mixes are 0): :mod:`.constraints` applies them as the runtimes
@@ -16,13 +12,11 @@ marked *not exact*, and nothing is bound to them.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-#: Inherit modes (4.2: ``inherit``; 3.x-4.1: ``transform``): the same five names everywhere.
-INHERIT_MODES = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
+from .constraints import constraints_of, setup_pose
 
 
 @dataclass
@@ -53,127 +47,6 @@ class Bone:
         return abs(float(np.linalg.det(self.world[:, :2]))) > 1e-9
 
 
-def _num(node: dict, key: str, default: float) -> float:
-    value = node.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return float(default)
-    return float(value)
-
-
-def _cos_sin(degrees: float) -> tuple[float, float]:
-    r = math.radians(degrees)
-    return math.cos(r), math.sin(r)
-
-
-def local_matrix(node: dict) -> tuple[float, float, float, float]:
-    """``(la, lb, lc, ld)``: a bone's local rotation, scale and shear as a 2x2 matrix."""
-    rot = _num(node, "rotation", 0)
-    sx, sy = _num(node, "scaleX", 1), _num(node, "scaleY", 1)
-    cx, sx_ = _cos_sin(rot + _num(node, "shearX", 0))
-    cy, sy_ = _cos_sin(rot + 90 + _num(node, "shearY", 0))
-    return cx * sx, cy * sy, sx_ * sx, sy_ * sy
-
-
-def inherit_mode(node: dict) -> str:
-    """The bone's inherit mode from either key (4.2+ ``inherit``, older ``transform``)."""
-    mode = node.get("inherit", node.get("transform", "normal"))
-    if mode not in INHERIT_MODES:
-        # 3.4 and older: inheritRotation / inheritScale flags.
-        rot, scale = node.get("inheritRotation", True), node.get("inheritScale", True)
-        mode = {(True, True): "normal", (False, True): "noRotationOrReflection",
-                (True, False): "noScale", (False, False): "onlyTranslation"}[(bool(rot), bool(scale))]
-    return mode
-
-
-def local_values(node: dict) -> tuple[float, ...]:
-    """``(x, y, rotation, scaleX, scaleY, shearX, shearY)`` of a bone's setup pose, with defaults."""
-    return (_num(node, "x", 0), _num(node, "y", 0), _num(node, "rotation", 0), _num(node, "scaleX", 1),
-            _num(node, "scaleY", 1), _num(node, "shearX", 0), _num(node, "shearY", 0))
-
-
-def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | None) -> np.ndarray:
-    """A bone's world transform, shape (2, 3), from its local values and its parent's world transform.
-
-    Follows the runtimes' ``Bone.updateWorldTransformWith`` for each inherit mode, with the
-    skeleton at the origin and scale 1 (the runtimes divide and multiply by the skeleton's
-    scale, which is then a no-op). The formulas are the same in 3.8 to 4.2 at that scale.
-
-    Parameters
-    ----------
-    values : tuple of 7 floats
-        ``(x, y, rotation, scaleX, scaleY, shearX, shearY)``, degrees for the angles.
-    mode : str
-        One of :data:`INHERIT_MODES`.
-    parent : ndarray, shape (2, 3), or None
-        The parent's world transform; None for the root.
-    """
-    x, y, rot, sx, sy, shear_x, shear_y = values
-    cx, snx = _cos_sin(rot + shear_x)
-    cy, sny = _cos_sin(rot + 90 + shear_y)
-    la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
-    if parent is None:
-        return np.array([[la, lb, x], [lc, ld, y]])
-    pa, pb, wx = (float(v) for v in parent[0])
-    pc, pd, wy = (float(v) for v in parent[1])
-    world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
-    if mode == "normal":
-        m = (pa * la + pb * lc, pa * lb + pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
-    elif mode == "onlyTranslation":
-        m = (la, lb, lc, ld)
-    elif mode == "noRotationOrReflection":
-        s = pa * pa + pc * pc
-        if s > 0.0001:
-            s = abs(pa * pd - pb * pc) / s
-            pb, pd = pc * s, pa * s
-            prx = math.degrees(math.atan2(pc, pa))
-        else:
-            pa = pc = 0.0
-            prx = 90 - math.degrees(math.atan2(pd, pb))
-        cx, snx = _cos_sin(rot + shear_x - prx)
-        cy, sny = _cos_sin(rot + shear_y - prx + 90)
-        la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
-        m = (pa * la - pb * lc, pa * lb - pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
-    else:  # noScale, noScaleOrReflection
-        cos, sin = _cos_sin(rot)
-        za, zc = pa * cos + pb * sin, pc * cos + pd * sin
-        s = math.hypot(za, zc)
-        if s > 0.00001:
-            s = 1 / s
-        za, zc = za * s, zc * s
-        s = math.hypot(za, zc)
-        if mode == "noScale" and pa * pd - pb * pc < 0:
-            s = -s
-        r = math.pi / 2 + math.atan2(zc, za)
-        zb, zd = math.cos(r) * s, math.sin(r) * s
-        cx, snx = _cos_sin(shear_x)
-        cy, sny = _cos_sin(90 + shear_y)
-        la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
-        m = (za * la + zb * lc, za * lb + zb * ld, zc * la + zd * lc, zc * lb + zd * ld)
-    return np.array([[m[0], m[1], world_x], [m[2], m[3], world_y]])
-
-
-def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
-    """The setup-pose world transform of one bone from its JSON, shape (2, 3), ignoring constraints.
-
-    Parameters
-    ----------
-    node : dict
-        The bone's JSON (``x``, ``y``, ``rotation``, ``scaleX``, ``scaleY``, ``shearX``,
-        ``shearY``, ``inherit``/``transform``).
-    parent : ndarray, shape (2, 3), or None
-        The parent's world transform; None for the root.
-    """
-    return world_from_local(local_values(node), inherit_mode(node), parent)
-
-
-def constraints_of(doc: dict, kind: str) -> list[dict]:
-    """Constraints of one kind: the ``ik``/``transform``/``path``/``physics`` lists (3.x-4.2),
-    or the entries of 4.3's single ``constraints`` list whose ``type`` is ``kind``."""
-    out = [c for c in doc.get(kind, []) or [] if isinstance(c, dict)]
-    out += [c for c in doc.get("constraints", []) or [] if isinstance(c, dict) and c.get("type") == kind]
-    return out
-
-
 def _constraint_targets(doc: dict, index: dict[str, int]) -> dict[int, str]:
     """Bones that IK, transform or path constraints aim at, with the constraint's name."""
     out: dict[int, str] = {}
@@ -192,9 +65,6 @@ def skeleton_bones(doc: dict) -> list[Bone]:
     does not reproduce, and every bone below it, is marked not exact with the reason; so is a
     bone whose transform is not invertible (a zero scale), which nothing can be bound to.
     """
-    # Imported here: the constraints module builds on this module's transforms.
-    from .constraints import setup_pose
-
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
     targets = _constraint_targets(doc, index)

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import parse_vertices, setup_world
-from .bones import INHERIT_MODES, _num, constraints_of, inherit_mode, local_values, world_from_local
+from .transform import INHERIT_MODES, _num, inherit_mode, local_values, world_from_local
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
 FAMILIES = ("3.8", "4.0", "4.1", "4.2")
@@ -50,13 +50,21 @@ def runtime_family(doc: dict) -> str | None:
     return family if family in FAMILIES else None
 
 
+def constraints_of(doc: dict, kind: str) -> list[dict]:
+    """Constraints of one kind: the ``ik``/``transform``/``path``/``physics`` lists (3.x-4.2),
+    or the entries of 4.3's single ``constraints`` list whose ``type`` is ``kind``."""
+    out = [c for c in doc.get(kind, []) or [] if isinstance(c, dict)]
+    out += [c for c in doc.get("constraints", []) or [] if isinstance(c, dict) and c.get("type") == kind]
+    return out
+
+
 @dataclass(eq=False)
 class PoseBone:
     """One bone as the runtime holds it while it computes the pose.
 
     ``local`` is the setup pose (x, y, rotation, scaleX, scaleY, shearX, shearY); ``applied``
     the values its world transform was last computed from; ``world`` is (2, 3) as in
-    :mod:`.bones`. ``applied_exact`` says whether ``applied`` is reproduced exactly (False once
+    :mod:`.transform`. ``applied_exact`` says whether ``applied`` is reproduced exactly (False once
     a constraint we do not reproduce has moved the bone).
     """
 
@@ -245,26 +253,9 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
         return
     px, py, prot, psx, psy = parent.applied[:5]
     sx, sy = psx, psy
-    csx = child.applied[3]
-    if psx < 0:
-        psx, os1, s2 = -psx, 180.0, -1
-    else:
-        os1, s2 = 0.0, 1
-    if psy < 0:
-        psy, s2 = -psy, -s2
-    if csx < 0:
-        csx, os2 = -csx, 180.0
-    else:
-        os2 = 0.0
-    cx = child.applied[0]
-    (a, b, pwx), (c, d, pwy) = parent.world.tolist()
+    psx, psy, csx, os1, os2, s2 = _ik_two_signs(psx, psy, child.applied[3])
     u = abs(psx - psy) <= 0.0001
-    if not u or (stretch and family != "3.8"):
-        cy = 0.0
-        cwx, cwy = a * cx + pwx, c * cx + pwy
-    else:
-        cy = child.applied[1]
-        cwx, cwy = a * cx + b * cy + pwx, c * cx + d * cy + pwy
+    cx, cy, cwx, cwy = _ik_two_child_position(parent, child, u and not (stretch and family != "3.8"))
     (a, b, ppwx), (c, d, ppwy) = parent.parent.world.tolist()
     det = a * d - b * c
     if family in ("4.1", "4.2"):
@@ -283,32 +274,12 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     tx, ty = (x * d - y * b) * inv - px, (y * a - x * c) * inv - py
     dd = tx * tx + ty * ty
     if softness != 0:
-        softness *= psx * (csx + 1) * 0.5
-        td = math.sqrt(dd)
-        sd = td - l1 - l2 * psx + softness
-        if sd > 0:
-            p = min(1.0, sd / (softness * 2)) - 1
-            p = (sd - softness * (1 - p * p)) / td
-            tx -= p * tx
-            ty -= p * ty
-            dd = tx * tx + ty * ty
+        tx, ty, dd = _ik_two_soften(tx, ty, dd, softness * (psx * (csx + 1) * 0.5), l1, l2 * psx)
     if u:
-        l2 *= psx
-        cos = (dd - l1 * l1 - l2 * l2) / (2 * l1 * l2)
-        if cos < -1:
-            cos, a2 = -1.0, math.pi * bend
-        elif cos > 1:
-            cos, a2 = 1.0, 0.0
-            if stretch:
-                s = (math.sqrt(dd) / (l1 + l2) - 1) * alpha + 1
-                sx *= s
-                if uniform and family != "3.8":
-                    sy *= s
-        else:
-            a2 = math.acos(cos) * bend
-        a = l1 + l2 * cos
-        b = l2 * math.sin(a2)
-        a1 = math.atan2(ty * a - tx * b, tx * a + ty * b)
+        a1, a2, scale = _ik_two_uniform(l1, l2 * psx, tx, ty, dd, bend, stretch, alpha)
+        sx *= scale
+        if uniform and family != "3.8":
+            sy *= scale
     else:
         a1, a2 = _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family)
     os = math.atan2(cy, cx) * s2
@@ -318,6 +289,67 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     crot = ca[2]
     a2 = _wrap180((math.degrees(a2 + os) - ca[5]) * s2 + os2 - crot)
     child.update_with((cx, cy, crot + a2 * alpha, ca[3], ca[4], ca[5], ca[6]))
+
+
+def _ik_two_signs(psx: float, psy: float, csx: float) -> tuple[float, float, float, float, float, int]:
+    """The parent's and child's scales made positive, with the turns and sign that undo it:
+    ``(psx, psy, csx, os1, os2, s2)``."""
+    if psx < 0:
+        psx, os1, s2 = -psx, 180.0, -1
+    else:
+        os1, s2 = 0.0, 1
+    if psy < 0:
+        psy, s2 = -psy, -s2
+    if csx < 0:
+        csx, os2 = -csx, 180.0
+    else:
+        os2 = 0.0
+    return psx, psy, csx, os1, os2, s2
+
+
+def _ik_two_child_position(parent: PoseBone, child: PoseBone, with_y: bool) -> tuple[float, float, float, float]:
+    """The child's local ``(cx, cy)`` and world ``(cwx, cwy)`` position; its local y counts only
+    with ``with_y`` (uniform parent scale, and no stretch after 3.8)."""
+    cx = child.applied[0]
+    (a, b, pwx), (c, d, pwy) = parent.world.tolist()
+    if not with_y:
+        return cx, 0.0, a * cx + pwx, c * cx + pwy
+    cy = child.applied[1]
+    return cx, cy, a * cx + b * cy + pwx, c * cx + d * cy + pwy
+
+
+def _ik_two_soften(tx: float, ty: float, dd: float, softness: float, l1: float, l2: float
+                   ) -> tuple[float, float, float]:
+    """Softness: the target pulled back towards the parent as the chain nears full reach;
+    the new ``(tx, ty)`` and its squared distance. ``softness`` and ``l2`` are scaled already."""
+    td = math.sqrt(dd)
+    sd = td - l1 - l2 + softness
+    if sd > 0:
+        p = min(1.0, sd / (softness * 2)) - 1
+        p = (sd - softness * (1 - p * p)) / td
+        tx -= p * tx
+        ty -= p * ty
+        dd = tx * tx + ty * ty
+    return tx, ty, dd
+
+
+def _ik_two_uniform(l1: float, l2: float, tx: float, ty: float, dd: float, bend: int, stretch: bool,
+                    alpha: float) -> tuple[float, float, float]:
+    """Two-bone IK angles ``(a1, a2)`` (radians) when the parent's scale is uniform (the law of
+    cosines), and the parent's stretch factor (1 unless stretched to reach the target)."""
+    scale = 1.0
+    cos = (dd - l1 * l1 - l2 * l2) / (2 * l1 * l2)
+    if cos < -1:
+        cos, a2 = -1.0, math.pi * bend
+    elif cos > 1:
+        cos, a2 = 1.0, 0.0
+        if stretch:
+            scale = (math.sqrt(dd) / (l1 + l2) - 1) * alpha + 1
+    else:
+        a2 = math.acos(cos) * bend
+    a = l1 + l2 * cos
+    b = l2 * math.sin(a2)
+    return math.atan2(ty * a - tx * b, tx * a + ty * b), a2, scale
 
 
 def _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family) -> tuple[float, float]:
@@ -591,47 +623,83 @@ def _seek(lengths, start: int, p: float) -> tuple[int, float]:
 
 def path_positions(att: dict, world: list[float], spaces: list[float], tangents: bool, position: float,
                    position_mode: str, spacing_mode: str, family: str) -> list[float]:
-    """``computeWorldPositions``: ``[x, y, r]`` per space along the path, flat, plus two."""
-    spaces_count = len(spaces)
-    out = [0.0] * (spaces_count * 3 + 2)
+    """``computeWorldPositions``: ``[x, y, r]`` per space along the path, flat, plus two.
+
+    A path whose ``constantSpeed`` is off places its points by the curve lengths the editor
+    stored; otherwise the lengths are measured here along the world vertices, as the runtime
+    does, and each curve is walked in ten segments of about equal length."""
+    out = [0.0] * (len(spaces) * 3 + 2)
+    if not att.get("constantSpeed", True):
+        return _positions_by_stored_lengths(att, world, spaces, tangents, position, position_mode, spacing_mode,
+                                            family, out)
+    return _positions_at_constant_speed(att, world, spaces, tangents, position, position_mode, spacing_mode,
+                                        family, out)
+
+
+def _start_and_multiplier(position: float, position_mode: str, spacing_mode: str, path_length: float,
+                          spaces_count: int) -> tuple[float, float]:
+    """The path position in path units, and the factor that turns spaces into path units."""
+    if position_mode == "percent":
+        position *= path_length
+    multiplier = {"percent": path_length, "proportional": path_length / spaces_count}.get(spacing_mode, 1)
+    return position, multiplier
+
+
+def _on_path(spaces: list[float], multiplier: float, position: float, path_length: float, closed: bool,
+             first: list[float], last: list[float], out: list[float]):
+    """The runtime's walk over the spaces: yields ``(i, o, p, space)`` for each point that falls
+    on the path (``p`` its distance along it, wrapped on a closed path; ``o`` its offset in
+    ``out``). A point before or past the ends of an open path is written to ``out`` here, along
+    the line through the first or last two points (``first``, ``last``: ``[x1, y1, x2, y2]``)."""
+    for i in range(len(spaces)):
+        o = 3 * i
+        space = spaces[i] * multiplier
+        position += space
+        p = position
+        if closed:
+            p = math.fmod(p, path_length)
+            if p < 0:
+                p += path_length
+        elif p < 0:
+            _put(out, o, _beyond(p, *first, at_end=False))
+            continue
+        elif p > path_length:
+            _put(out, o, _beyond(p - path_length, *last, at_end=True))
+            continue
+        yield i, o, p, space
+
+
+def _positions_by_stored_lengths(att: dict, world: list[float], spaces: list[float], tangents: bool,
+                                 position: float, position_mode: str, spacing_mode: str, family: str,
+                                 out: list[float]) -> list[float]:
+    """:func:`path_positions` with ``constantSpeed`` off: the attachment's ``lengths``."""
     closed = bool(att.get("closed", False))
     vertices_length = len(world)
     curve_count = vertices_length // 6
-    prev_curve = _NONE
-    if not att.get("constantSpeed", True):
-        lengths = [float(v) for v in att.get("lengths", [])]
-        curve_count -= 1 if closed else 2
-        path_length = lengths[curve_count]
-        if position_mode == "percent":
-            position *= path_length
-        multiplier = {"percent": path_length, "proportional": path_length / spaces_count}.get(spacing_mode, 1)
-        curve = 0
-        w = world
-        for i in range(spaces_count):
-            o = 3 * i
-            space = spaces[i] * multiplier
-            position += space
-            p = position
-            if closed:
-                p = math.fmod(p, path_length)
-                if p < 0:
-                    p += path_length
-                curve = 0
-            elif p < 0:
-                _put(out, o, _beyond(p, *w[2:6], at_end=False))
-                continue
-            elif p > path_length:
-                _put(out, o, _beyond(p - path_length, *w[vertices_length - 6:vertices_length - 2], at_end=True))
-                continue
-            curve, p = _seek(lengths, curve, p)
-            if closed and curve == curve_count:
-                pts = w[vertices_length - 4:vertices_length] + w[0:4]
-            else:
-                pts = w[curve * 6 + 2:curve * 6 + 10]
-            prev_curve = curve
-            _put(out, o, _curve_position(p, *pts, tangents or (i > 0 and space == 0), family))
-        return out
-    # Constant speed: lengths measured here, along the world vertices.
+    lengths = [float(v) for v in att.get("lengths", [])]
+    curve_count -= 1 if closed else 2
+    path_length = lengths[curve_count]
+    position, multiplier = _start_and_multiplier(position, position_mode, spacing_mode, path_length, len(spaces))
+    w = world
+    curve = 0
+    for i, o, p, space in _on_path(spaces, multiplier, position, path_length, closed, w[2:6],
+                                   w[vertices_length - 6:vertices_length - 2], out):
+        curve, p = _seek(lengths, 0 if closed else curve, p)
+        if closed and curve == curve_count:
+            pts = w[vertices_length - 4:vertices_length] + w[0:4]
+        else:
+            pts = w[curve * 6 + 2:curve * 6 + 10]
+        _put(out, o, _curve_position(p, *pts, tangents or (i > 0 and space == 0), family))
+    return out
+
+
+def _positions_at_constant_speed(att: dict, world: list[float], spaces: list[float], tangents: bool,
+                                 position: float, position_mode: str, spacing_mode: str, family: str,
+                                 out: list[float]) -> list[float]:
+    """:func:`path_positions` with ``constantSpeed`` on: lengths measured along the world vertices."""
+    closed = bool(att.get("closed", False))
+    vertices_length = len(world)
+    curve_count = vertices_length // 6
     if closed:
         vertices_length += 2
         w = world[2:] + world[0:2]
@@ -640,6 +708,32 @@ def path_positions(att: dict, world: list[float], spaces: list[float], tangents:
         curve_count -= 1
         vertices_length -= 4
         w = world[2:2 + vertices_length]
+    curves, path_length = _curve_lengths(w, curve_count)
+    position, multiplier = _start_and_multiplier(position, position_mode, spacing_mode, path_length, len(spaces))
+    segments: list[float] = []
+    curve_length = 0.0
+    curve = segment = 0
+    prev_curve = _NONE
+    pts = None
+    for i, o, p, space in _on_path(spaces, multiplier, position, path_length, closed, w[0:4],
+                                   w[vertices_length - 4:vertices_length], out):
+        curve, p = _seek(curves, 0 if closed else curve, p)
+        if curve != prev_curve:
+            prev_curve = curve
+            pts = w[curve * 6:curve * 6 + 8]
+            segments = _segment_lengths(pts)
+            curve_length = segments[9]
+            segment = 0
+        p *= curve_length
+        segment, frac = _seek(segments, segment, p)
+        p = frac if segment == 0 else segment + frac
+        _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0), family))
+    return out
+
+
+def _curve_lengths(w: list[float], curve_count: int) -> tuple[list[float], float]:
+    """Cumulative lengths of the path's curves, each estimated from four forward differences
+    as the runtime does, and the whole path's length (``w``: the curves' points, flat)."""
     curves = []
     path_length = 0.0
     x1, y1 = w[0], w[1]
@@ -664,62 +758,37 @@ def path_positions(att: dict, world: list[float], spaces: list[float], tangents:
         path_length += math.sqrt(dfx * dfx + dfy * dfy)
         curves.append(path_length)
         x1, y1 = x2, y2
-    if position_mode == "percent":
-        position *= path_length
-    multiplier = {"percent": path_length, "proportional": path_length / spaces_count}.get(spacing_mode, 1)
+    return curves, path_length
+
+
+def _segment_lengths(pts: list[float]) -> list[float]:
+    """Cumulative lengths of one curve's ten segments, by forward differences as the runtime
+    does (``pts``: its four points, flat)."""
+    x1, y1, cx1, cy1, cx2, cy2, x2, y2 = pts
     segments = [0.0] * 10
-    curve_length = 0.0
-    curve = segment = 0
-    pts = None
-    for i in range(spaces_count):
-        o = 3 * i
-        space = spaces[i] * multiplier
-        position += space
-        p = position
-        if closed:
-            p = math.fmod(p, path_length)
-            if p < 0:
-                p += path_length
-            curve = 0
-        elif p < 0:
-            _put(out, o, _beyond(p, *w[0:4], at_end=False))
-            continue
-        elif p > path_length:
-            _put(out, o, _beyond(p - path_length, *w[vertices_length - 4:vertices_length], at_end=True))
-            continue
-        curve, p = _seek(curves, curve, p)
-        if curve != prev_curve:
-            prev_curve = curve
-            pts = w[curve * 6:curve * 6 + 8]
-            x1, y1, cx1, cy1, cx2, cy2, x2, y2 = pts
-            tmpx, tmpy = (x1 - cx1 * 2 + cx2) * 0.03, (y1 - cy1 * 2 + cy2) * 0.03
-            dddfx, dddfy = ((cx1 - cx2) * 3 - x1 + x2) * 0.006, ((cy1 - cy2) * 3 - y1 + y2) * 0.006
-            ddfx, ddfy = tmpx * 2 + dddfx, tmpy * 2 + dddfy
-            dfx = (cx1 - x1) * 0.3 + tmpx + dddfx * 0.16666667
-            dfy = (cy1 - y1) * 0.3 + tmpy + dddfy * 0.16666667
-            curve_length = math.sqrt(dfx * dfx + dfy * dfy)
-            segments[0] = curve_length
-            for ii in range(1, 8):
-                dfx += ddfx
-                dfy += ddfy
-                ddfx += dddfx
-                ddfy += dddfy
-                curve_length += math.sqrt(dfx * dfx + dfy * dfy)
-                segments[ii] = curve_length
-            dfx += ddfx
-            dfy += ddfy
-            curve_length += math.sqrt(dfx * dfx + dfy * dfy)
-            segments[8] = curve_length
-            dfx += ddfx + dddfx
-            dfy += ddfy + dddfy
-            curve_length += math.sqrt(dfx * dfx + dfy * dfy)
-            segments[9] = curve_length
-            segment = 0
-        p *= curve_length
-        segment, frac = _seek(segments, segment, p)
-        p = frac if segment == 0 else segment + frac
-        _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0), family))
-    return out
+    tmpx, tmpy = (x1 - cx1 * 2 + cx2) * 0.03, (y1 - cy1 * 2 + cy2) * 0.03
+    dddfx, dddfy = ((cx1 - cx2) * 3 - x1 + x2) * 0.006, ((cy1 - cy2) * 3 - y1 + y2) * 0.006
+    ddfx, ddfy = tmpx * 2 + dddfx, tmpy * 2 + dddfy
+    dfx = (cx1 - x1) * 0.3 + tmpx + dddfx * 0.16666667
+    dfy = (cy1 - y1) * 0.3 + tmpy + dddfy * 0.16666667
+    curve_length = math.sqrt(dfx * dfx + dfy * dfy)
+    segments[0] = curve_length
+    for ii in range(1, 8):
+        dfx += ddfx
+        dfy += ddfy
+        ddfx += dddfx
+        ddfy += dddfy
+        curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+        segments[ii] = curve_length
+    dfx += ddfx
+    dfy += ddfy
+    curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+    segments[8] = curve_length
+    dfx += ddfx + dddfx
+    dfy += ddfy + dddfy
+    curve_length += math.sqrt(dfx * dfx + dfy * dfy)
+    segments[9] = curve_length
+    return segments
 
 
 def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bones: list[PoseBone],
@@ -727,23 +796,49 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
     """A path constraint's update: bones placed along the path, turned along it; False when
     every mix is 0 (the runtime returns first). 3.8 reads ``rotateMix``/``translateMix`` and
     gives a bone shorter than the epsilon no space (4.x gives it the spacing)."""
+    mixes = _path_mixes(d, family)
+    if mixes is None:
+        return False
+    rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
+    tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
+    spaces, lengths = _path_spaces(bones, _num(d, "spacing", 0), spacing_mode, tangents, scale, family)
+    positions = path_positions(att, world, spaces, tangents, _num(d, "position", 0),
+                               d.get("positionMode", "percent"), spacing_mode, family)
+    offset = _num(d, "rotation", 0)
+    if offset == 0:
+        tip = rotate_mode == "chain"
+    else:
+        tip = False
+        (pa, pb, _), (pc, pd, _) = target_bone.world.tolist()
+        offset *= RAD if pa * pd - pb * pc > 0 else -RAD
+    _lay_bones(bones, positions, spaces, lengths, mixes, tangents, scale, tip, offset, family)
+    return True
+
+
+def _path_mixes(d: dict, family: str) -> tuple[float, float, float] | None:
+    """A path constraint's ``(rotate, x, y)`` mixes; None when the runtime would do nothing
+    (3.8: rotate and translate mixes not above 0; 4.x: all three 0)."""
     if family == "3.8":
         mix_rotate, mix_x = _num(d, "rotateMix", 1), _num(d, "translateMix", 1)
         mix_y = mix_x
         if mix_rotate <= 0 and mix_x <= 0:
-            return False
+            return None
     else:
         mix_rotate, mix_x = _num(d, "mixRotate", 1), _num(d, "mixX", 1)
         mix_y = _num(d, "mixY", mix_x)
         if mix_rotate == 0 and mix_x == 0 and mix_y == 0:
-            return False
-    rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
-    tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
+            return None
+    return mix_rotate, mix_x, mix_y
+
+
+def _path_spaces(bones: list[PoseBone], spacing: float, spacing_mode: str, tangents: bool, scale: bool,
+                 family: str) -> tuple[list[float], list[float]]:
+    """The spaces between the bones along the path (one more than the bones unless the rotate
+    mode is tangent) and each bone's world length (for chain scale), by the spacing mode."""
     count = len(bones)
     spaces_count = count if tangents else count + 1
     spaces = [0.0] * spaces_count
     lengths = [0.0] * count
-    spacing = _num(d, "spacing", 0)
     if family == "3.8" and not scale and spacing_mode != "length":
         spaces[1:] = [spacing] * (spaces_count - 1)
     elif spacing_mode == "percent" and family != "3.8":
@@ -772,16 +867,15 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
         if spacing_mode == "proportional" and total > 0:
             k = spaces_count / total * spacing
             spaces[1:] = [v * k for v in spaces[1:]]
-    positions = path_positions(att, world, spaces, tangents, _num(d, "position", 0),
-                               d.get("positionMode", "percent"), spacing_mode, family)
+    return spaces, lengths
+
+
+def _lay_bones(bones: list[PoseBone], positions: list[float], spaces: list[float], lengths: list[float],
+               mixes: tuple[float, float, float], tangents: bool, scale: bool, tip: bool, offset: float,
+               family: str) -> None:
+    """Each bone moved to its point on the path, scaled (chain scale) and turned along it, by the mixes."""
+    mix_rotate, mix_x, mix_y = mixes
     bone_x, bone_y = positions[0], positions[1]
-    offset = _num(d, "rotation", 0)
-    if offset == 0:
-        tip = rotate_mode == "chain"
-    else:
-        tip = False
-        (pa, pb, _), (pc, pd, _) = target_bone.world.tolist()
-        offset *= RAD if pa * pd - pb * pc > 0 else -RAD
     for i, bone in enumerate(bones):
         p = 3 * (i + 1)
         (a, b, wx), (c, dd, wy) = bone.world.tolist()
@@ -815,7 +909,6 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
             bone.applied_valid = False
         else:
             bone.update_applied()
-    return True
 
 
 # -- the update cache -------------------------------------------------------------------------
