@@ -29,8 +29,6 @@ def dataset(
     \b
     Example: spinemesh dataset studio-projects/ other-games/ --out ds/ --jobs 2
     """
-    from rich.table import Table
-
     from ..cluster import available_cores
     from ..dataset import build_dataset
     from ..fsutil import check_outputs
@@ -53,37 +51,44 @@ def dataset(
 
     whole = dataset_stats(open_dataset(out))
     if summary.samples:
-        t = Table(title="new samples")
-        t.add_column("by type")
-        t.add_column("count", justify="right")
-        for k, n in sorted(summary.by_type.items()):
-            t.add_row(k, f"{n:,}")
-        for k, n in sorted(summary.by_split.items()):
-            t.add_row(f"split {k}", f"{n:,}")
-        console.print(t)
+        console.print(_count_table("new samples", "by type", "count", [
+            *sorted(summary.by_type.items()), *((f"split {k}", n) for k, n in sorted(summary.by_split.items()))]))
     else:  # a re-run: say what is already there rather than print an empty table
         console.print(f"nothing new: the data set already holds {whole['samples']:,} samples from "
                       f"{len(whole['by_project'])} projects of {len(whole['by_game'])} games "
                       f"({', '.join(f'{k} {n:,}' for k, n in sorted(whole['by_split'].items()))})")
+    _warn_empty_sides(whole, out)
+    if summary.by_project:
+        console.print(_count_table("new samples by project", "project", "samples",
+                                   sorted(summary.by_project.items())))
+    if summary.skipped:
+        console.print(_count_table("skipped images", "why", "count", summary.skipped.most_common()))
+    _print_problems(summary, out)
+
+
+def _count_table(title: str, what: str, counted: str, rows):
+    """A two-column table of ``(label, count)`` rows, counts with thousands separators."""
+    from rich.table import Table
+
+    t = Table(title=title)
+    t.add_column(what)
+    t.add_column(counted, justify="right")
+    for k, n in rows:
+        t.add_row(k, f"{n:,}")
+    return t
+
+
+def _warn_empty_sides(whole: dict, out: Path) -> None:
+    """A warning for each side of the game split that holds no game (``whole``: the data set's stats)."""
     for side in ("train", "val"):
         if not whole["games_by_split"].get(side):
             err_console.print(f"warning: no game of {out} falls on the {side} side of the split "
                               f"({len(whole['by_game'])} games; the split is by a hash of the game name, "
                               f"so a data set of few games can leave one side empty)", markup=False)
-    if summary.by_project:
-        t = Table(title="new samples by project")
-        t.add_column("project")
-        t.add_column("samples", justify="right")
-        for k, n in sorted(summary.by_project.items()):
-            t.add_row(k, f"{n:,}")
-        console.print(t)
-    if summary.skipped:
-        t = Table(title="skipped images")
-        t.add_column("why")
-        t.add_column("count", justify="right")
-        for k, n in summary.skipped.most_common():
-            t.add_row(k, f"{n:,}")
-        console.print(t)
+
+
+def _print_problems(summary, out: Path) -> None:
+    """The run's problems, the first 40 of them by name (the rest are in ``projects.jsonl``)."""
     if summary.errors:
         err_console.print(f"[yellow]{len(summary.errors)} problem(s) in {summary.projects_with_errors} "
                           f"project(s); their other files were used:[/]")

@@ -85,53 +85,65 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
+    from ..fsutil import check_outputs
+
+    overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
+    target = out or default_out(image)
+    if image.is_dir():
+        check_outputs([image], folders=[target, preview, steps])
+        _mesh_folder(image, target, preview, steps, preset.value, overrides)
+    else:
+        check_outputs([image], files=[target, preview, steps])
+        _mesh_file(image, target, preview, steps, preset.value, overrides)
+
+
+def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Optional[Path], preset: str,
+                 overrides: dict) -> None:
+    """``mesh`` on a folder: every image below it, one line per image that fails, a summary line;
+    exit status 3 when some failed, 2 when all did."""
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import OutputGuard, check_outputs
+    from ..fsutil import OutputGuard
+    from ..images import IMAGE_EXTENSIONS
 
-    overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
-    if image.is_dir():
-        check_outputs([image], folders=[out or default_out(image), preview, steps])
-    else:
-        check_outputs([image], files=[out or default_out(image), preview, steps])
-    if image.is_dir():
-        from ..images import IMAGE_EXTENSIONS
+    files = sorted(p for p in image.rglob("*") if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS)
+    if not files:
+        raise SpineMeshError("no image files in this folder", image)
+    rows = []
+    failed = 0
+    with progress_bar("meshing") as bar:
+        task = bar.add_task("", total=len(files))
+        for f in files:
+            rel = f.relative_to(image).with_suffix("")
+            bar.update(task, description=str(rel))
+            try:
+                # Each file too: a symlink planted inside an output folder is not written through.
+                m = _one(f, preset, overrides,
+                         OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),
+                         OutputGuard([image], preview).check(preview / rel.with_suffix(".png")) if preview else None,
+                         OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None)
+                rows.append((str(rel), m))
+            except SpineMeshError as e:
+                failed += 1
+                err_console.print("[yellow]skipped:[/] " + escape(str(e)), highlight=False)
+            bar.advance(task)
+    verts = sorted(len(m.vertices) for _, m in rows)
+    console.print(f"{len(rows)} meshes written to {out_dir}"
+                  + (f", median {verts[len(verts) // 2]} vertices" if verts else "")
+                  + (f"; {failed} image(s) failed" if failed else ""), highlight=False)
+    if failed:
+        raise typer.Exit(3 if rows else 2)
 
-        files = sorted(p for p in image.rglob("*") if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS)
-        if not files:
-            raise SpineMeshError("no image files in this folder", image)
-        out_dir = out or default_out(image)
-        rows = []
-        failed = 0
-        with progress_bar("meshing") as bar:
-            task = bar.add_task("", total=len(files))
-            for f in files:
-                rel = f.relative_to(image).with_suffix("")
-                bar.update(task, description=str(rel))
-                try:
-                    # Each file too: a symlink planted inside an output folder is not written through.
-                    m = _one(f, preset.value, overrides,
-                             OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),
-                             OutputGuard([image], preview).check(preview / rel.with_suffix(".png")) if preview else None,
-                             OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None)
-                    rows.append((str(rel), m))
-                except SpineMeshError as e:
-                    failed += 1
-                    err_console.print("[yellow]skipped:[/] " + escape(str(e)), highlight=False)
-                bar.advance(task)
-        verts = sorted(len(m.vertices) for _, m in rows)
-        console.print(f"{len(rows)} meshes written to {out_dir}"
-                      + (f", median {verts[len(verts) // 2]} vertices" if verts else "")
-                      + (f"; {failed} image(s) failed" if failed else ""), highlight=False)
-        if failed:
-            raise typer.Exit(3 if rows else 2)
-        return
+
+def _mesh_file(image: Path, target: Path, preview: Optional[Path], steps: Optional[Path], preset: str,
+               overrides: dict) -> None:
+    """``mesh`` on one image: the mesh written to ``target`` and its counts as a table."""
+    from rich.markup import escape
     from rich.table import Table
 
-    target = out or default_out(image)
-    m = _one(image, preset.value, overrides, target, preview, steps)
-    t = Table(title=escape(image.name) + f" ({m.width}x{m.height}, preset {preset.value})")
+    m = _one(image, preset, overrides, target, preview, steps)
+    t = Table(title=escape(image.name) + f" ({m.width}x{m.height}, preset {preset})")
     for col in ("vertices", "hull", "interior", "triangles", "constrained edges"):
         t.add_column(col, justify="right")
     t.add_row(str(len(m.vertices)), str(m.hull), str(int(m.is_interior.sum())), str(len(m.triangles)), str(len(m.edges)))

@@ -87,18 +87,12 @@ def segment_eval(
     Example: spinemesh segment-eval --data ds/ --json scores.json --worst worst.png
     """
     from ..fsutil import atomic_write_json, atomic_write_png, check_outputs
-    from ..segment import DEFAULT_MODEL, model_card
-    from ..segment.composite import BACKGROUNDS
     from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
     from ..segment.samples import load_sprites
 
     check_outputs([*data, model], files=[json_out, worst])  # never into a data set, never onto the model
 
-    kinds = [b.strip() for b in backgrounds.split(",") if b.strip()]
-    unknown = [k for k in kinds if k not in BACKGROUNDS]
-    if unknown or not kinds:
-        raise typer.BadParameter(f"unknown kind(s) {unknown}; expected some of {', '.join(BACKGROUNDS)}",
-                                 param_hint="--backgrounds")
+    kinds = _background_kinds(backgrounds)
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)
     if not sprites:
         err_console.print(f"no held-out sprites in {', '.join(map(str, data))}", markup=False)
@@ -109,19 +103,8 @@ def segment_eval(
     with progress_bar("segment-eval", transient=True) as bar:
         task = bar.add_task("", total=len(sprites) * len(kinds))
         scores, per_image = evaluate_methods(sprites, methods, kinds, progress=lambda: bar.advance(task))
-    from rich.table import Table
-
     games = sorted({s.game for s in sprites})
-    table = Table(title=f"{len(sprites)} held-out sprites from {len({s.project for s in sprites})} projects "
-                        f"of {len(games)} games ({', '.join(games)}) per background")
-    for col in ("background", "method", "IoU mean", "IoU median", "Dice mean", "Dice median", "pixel acc",
-                "failed", "ms/image"):
-        table.add_column(col, justify="left" if col in ("background", "method") else "right")
-    for kind, per in scores.items():
-        for name, s in per.items():
-            table.add_row(kind, name, f"{s['iou']:.3f}", f"{s['iou_median']:.3f}", f"{s['dice']:.3f}",
-                          f"{s['dice_median']:.3f}", f"{s['acc']:.3f}", str(s["failed"]), f"{s['ms']:.1f}")
-    console.print(table)
+    console.print(_scores_table(sprites, games, scores))
     if worst:
         atomic_write_png(worst, worst_cases_picture(sprites, per_image, methods["network"]))
         console.print(f"worst cases: {worst}")
@@ -132,11 +115,47 @@ def segment_eval(
     if json_out:
         atomic_write_json(json_out, result)
     if card:
-        path = Path(model or DEFAULT_MODEL).with_suffix(".json")
-        c = model_card(model)
-        command = "spinemesh segment-eval --data DS" + (f" --per-project {per_project}" if per_project else "")
-        c["evaluation"] = {"command": command, **{k: v for k, v in result.items() if k != "data"}}
-        atomic_write_json(path, c, indent=1)
+        _record_in_card(model, per_project, result)
+
+
+def _background_kinds(backgrounds: str) -> list[str]:
+    """The kinds ``--backgrounds`` names (comma-separated); a bad option when one is unknown or none is."""
+    from ..segment.composite import BACKGROUNDS
+
+    kinds = [b.strip() for b in backgrounds.split(",") if b.strip()]
+    unknown = [k for k in kinds if k not in BACKGROUNDS]
+    if unknown or not kinds:
+        raise typer.BadParameter(f"unknown kind(s) {unknown}; expected some of {', '.join(BACKGROUNDS)}",
+                                 param_hint="--backgrounds")
+    return kinds
+
+
+def _scores_table(sprites: list, games: list[str], scores: dict):
+    """``segment-eval``'s table: a row per background kind and method (``scores[kind][method]``)."""
+    from rich.table import Table
+
+    table = Table(title=f"{len(sprites)} held-out sprites from {len({s.project for s in sprites})} projects "
+                        f"of {len(games)} games ({', '.join(games)}) per background")
+    for col in ("background", "method", "IoU mean", "IoU median", "Dice mean", "Dice median", "pixel acc",
+                "failed", "ms/image"):
+        table.add_column(col, justify="left" if col in ("background", "method") else "right")
+    for kind, per in scores.items():
+        for name, s in per.items():
+            table.add_row(kind, name, f"{s['iou']:.3f}", f"{s['iou_median']:.3f}", f"{s['dice']:.3f}",
+                          f"{s['dice_median']:.3f}", f"{s['acc']:.3f}", str(s["failed"]), f"{s['ms']:.1f}")
+    return table
+
+
+def _record_in_card(model: Optional[Path], per_project: int, result: dict) -> None:
+    """``--card``: the scores (less the data folders) and the command that made them, in the model's card."""
+    from ..fsutil import atomic_write_json
+    from ..segment import DEFAULT_MODEL, model_card
+
+    path = Path(model or DEFAULT_MODEL).with_suffix(".json")
+    c = model_card(model)
+    command = "spinemesh segment-eval --data DS" + (f" --per-project {per_project}" if per_project else "")
+    c["evaluation"] = {"command": command, **{k: v for k, v in result.items() if k != "data"}}
+    atomic_write_json(path, c, indent=1)
 
 
 @app.command()

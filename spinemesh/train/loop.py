@@ -268,43 +268,21 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
         The best epoch's record.
     """
     torch.manual_seed(cfg.seed)
-    cuda = cfg.device.startswith("cuda")
-    if cfg.device == "cpu":
-        torch.set_flush_denormal(True)  # denormals make CPU training up to 5x slower
-        if cfg.threads:
-            torch.set_num_threads(cfg.threads)
-            # OpenCV's own thread pool (compositing, resizing) would otherwise spin on every core.
-            cv2.setNumThreads(cfg.threads)
-    if cuda:
-        torch.backends.cudnn.benchmark = True
+    _set_up_device(cfg)
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     sprites = sprites if sprites is not None else load_sprites(cfg, max(1, cfg.workers))
-    train_s, val_s = sprites["train"], sprites["val"]
-    if not train_s or not val_s:
-        raise ValueError(f"no training or no held-out sprites in {cfg.data} (the data sets' game split "
-                         f"gives {len(train_s)} and {len(val_s)})")
-    (out / "split.json").write_text(json.dumps({
-        "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
-        "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1))
-
-    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained and not cfg.init,
-                              bn_momentum=cfg.bn_momentum or None)
-    if cfg.init:
-        init_weights(model, cfg.init)
-    model = model.to(cfg.device)
-    if cuda:
-        model = model.to(memory_format=torch.channels_last)
+    train_s, val_s = _write_split(sprites, cfg.data, out)
+    model = _build_model(cfg)
     opt = torch.optim.AdamW(model.param_groups(cfg.lr_decoder, cfg.lr_encoder, cfg.weight_decay))
     base_lrs = [g["lr"] for g in opt.param_groups]
     loader = iter(DataLoader(AugmentedSprites(train_s, cfg.image_size, cfg.seed), batch_size=cfg.batch_size,
-                             num_workers=cfg.workers, pin_memory=cuda, persistent_workers=cfg.workers > 0,
-                             prefetch_factor=4 if cfg.workers else None))
+                             num_workers=cfg.workers, pin_memory=cfg.device.startswith("cuda"),
+                             persistent_workers=cfg.workers > 0, prefetch_factor=4 if cfg.workers else None))
     vx, vy = fixed_validation(val_s, cfg.image_size)
     val_loader = list(zip(vx.split(cfg.batch_size), vy.split(cfg.batch_size)))
     per_epoch = cfg.epoch_samples or len(train_s)
     steps_per_epoch = max(1, per_epoch // cfg.batch_size)
-    total_steps = steps_per_epoch * cfg.epochs
     meta = {"parameters": count_parameters(model), "encoder_parameters": count_parameters(model.encoder),
             "train_sprites": len(train_s), "val_sprites": len(val_s),
             "train_games": len(set(sprites.get("train_games", []))), "val_games": len(set(sprites.get("val_games", [])))}
@@ -312,46 +290,123 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
 
     log: list[dict] = []
     best: dict = {}
-    start = time.monotonic()
-    step = 0
-    limit_s = cfg.time_limit_min * 60
+    run = _RunClock(time.monotonic(), steps_per_epoch * cfg.epochs, cfg.time_limit_min * 60)
     for epoch in range(1, cfg.epochs + 1):
         t0 = time.monotonic()
-        losses = []
-        wait = 0.0
-        stop = False
-        for _ in range(steps_per_epoch):
-            tw = time.monotonic()
-            x, y = prepare(*next(loader), cfg.device)
-            wait += time.monotonic() - tw
-            elapsed = time.monotonic() - start
-            prog = max(step / total_steps, elapsed / limit_s if limit_s else 0.0)
-            warm = min(1.0, (step + 1) / cfg.warmup_steps) if cfg.warmup_steps else 1.0
-            for g, lr in zip(opt.param_groups, base_lrs):
-                g["lr"] = lr * warm * cosine_factor(prog)
-            losses.append(train_step(model, opt, x, y, cfg.device)[0])
-            step += 1
-            if limit_s and time.monotonic() - start >= limit_s:
-                stop = True
-                break
+        losses, wait, stop = _train_epoch(model, opt, base_lrs, loader, run, steps_per_epoch, cfg)
         val = evaluate(model, val_loader, cfg.device)
-        rec = {"epoch": epoch, "step": step, "train_loss": float(np.mean(losses)), "val": val,
+        rec = {"epoch": epoch, "step": run.step, "train_loss": float(np.mean(losses)), "val": val,
                "lr_decoder": opt.param_groups[1]["lr"], "epoch_s": time.monotonic() - t0,
-               "data_wait_s": wait, "elapsed_s": time.monotonic() - start,
-               "samples_seen": step * cfg.batch_size}
-        log.append(rec)
-        with open(out / "log.jsonl", "a", encoding="utf-8") as f:
-            f.write(json.dumps(rec) + "\n")
-        plot_curves(log, out / "curves.png")
-        ckpt = {"config": model.config, "model": half_state(model), "metrics": rec, "meta": meta}
-        torch.save(ckpt, out / "last.pt")
-        if not best or val["iou"] > best["val"]["iou"]:
-            best = rec
-            torch.save(ckpt, out / "best.pt")
+               "data_wait_s": wait, "elapsed_s": run.elapsed(),
+               "samples_seen": run.step * cfg.batch_size}
+        best = _save_epoch(out, model, rec, meta, log, best)
         if progress:
             progress(f"epoch {epoch}: train loss {rec['train_loss']:.4f}, val loss {val['loss']:.4f}, "
                      f"val IoU {val['iou']:.4f}, Dice {val['dice']:.4f}, acc {val['acc']:.4f} "
                      f"({rec['epoch_s']:.0f} s, {wait:.0f} s waiting for data)")
         if stop:
             break
+    return best
+
+
+def _set_up_device(cfg: TrainConfig) -> None:
+    """Process-wide settings for the device: CPU threads and denormals, or cuDNN's autotuner."""
+    if cfg.device == "cpu":
+        torch.set_flush_denormal(True)  # denormals make CPU training up to 5x slower
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
+            # OpenCV's own thread pool (compositing, resizing) would otherwise spin on every core.
+            cv2.setNumThreads(cfg.threads)
+    if cfg.device.startswith("cuda"):
+        torch.backends.cudnn.benchmark = True
+
+
+def _write_split(sprites: dict, data: list, out: Path) -> tuple[list, list]:
+    """The training and held-out sprites, with ``split.json`` (games and counts per side) written
+    into ``out``; a ValueError when either side is empty."""
+    train_s, val_s = sprites["train"], sprites["val"]
+    if not train_s or not val_s:
+        raise ValueError(f"no training or no held-out sprites in {data} (the data sets' game split "
+                         f"gives {len(train_s)} and {len(val_s)})")
+    (out / "split.json").write_text(json.dumps({
+        "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
+        "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1))
+    return train_s, val_s
+
+
+def _build_model(cfg: TrainConfig) -> SegmentationModel:
+    """The model to train, on ``cfg.device``: pretrained, from ``cfg.init``'s weights, or from scratch."""
+    model = SegmentationModel(cfg.encoder, cfg.image_size, cfg.pretrained and not cfg.init,
+                              bn_momentum=cfg.bn_momentum or None)
+    if cfg.init:
+        init_weights(model, cfg.init)
+    model = model.to(cfg.device)
+    if cfg.device.startswith("cuda"):
+        model = model.to(memory_format=torch.channels_last)
+    return model
+
+
+@dataclass
+class _RunClock:
+    """Where a run stands: when it started, the steps taken, and its step and time budgets
+    (``limit_s`` 0: no time limit). The learning rate schedule and the time budget read it."""
+
+    start: float
+    total_steps: int
+    limit_s: float
+    step: int = 0
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.start
+
+    def progress(self) -> float:
+        """How far along the run is (0..1): steps or wall time, whichever is further."""
+        return max(self.step / self.total_steps, self.elapsed() / self.limit_s if self.limit_s else 0.0)
+
+    def out_of_time(self) -> bool:
+        return bool(self.limit_s) and self.elapsed() >= self.limit_s
+
+
+def _train_epoch(model: SegmentationModel, opt: torch.optim.Optimizer, base_lrs: list[float], loader,
+                 run: _RunClock, steps: int, cfg: TrainConfig) -> tuple[list[float], float, bool]:
+    """Up to ``steps`` training steps, each at its warm-up and cosine learning rate.
+
+    Returns
+    -------
+    losses : list of float
+        One per step taken.
+    wait : float
+        Seconds spent waiting for batches.
+    stop : bool
+        Whether the run's time budget ran out (the epoch then ends early).
+    """
+    losses = []
+    wait = 0.0
+    for _ in range(steps):
+        tw = time.monotonic()
+        x, y = prepare(*next(loader), cfg.device)
+        wait += time.monotonic() - tw
+        prog = run.progress()
+        warm = min(1.0, (run.step + 1) / cfg.warmup_steps) if cfg.warmup_steps else 1.0
+        for g, lr in zip(opt.param_groups, base_lrs):
+            g["lr"] = lr * warm * cosine_factor(prog)
+        losses.append(train_step(model, opt, x, y, cfg.device)[0])
+        run.step += 1
+        if run.out_of_time():
+            return losses, wait, True
+    return losses, wait, False
+
+
+def _save_epoch(out: Path, model: SegmentationModel, rec: dict, meta: dict, log: list[dict], best: dict) -> dict:
+    """An epoch's record appended to ``log`` and ``log.jsonl``, the curves redrawn, ``last.pt``
+    written, and ``best.pt`` when its validation IoU is the best yet; returns the best record."""
+    log.append(rec)
+    with open(out / "log.jsonl", "a", encoding="utf-8") as f:
+        f.write(json.dumps(rec) + "\n")
+    plot_curves(log, out / "curves.png")
+    ckpt = {"config": model.config, "model": half_state(model), "metrics": rec, "meta": meta}
+    torch.save(ckpt, out / "last.pt")
+    if not best or rec["val"]["iou"] > best["val"]["iou"]:
+        best = rec
+        torch.save(ckpt, out / "best.pt")
     return best
