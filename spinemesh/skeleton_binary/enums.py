@@ -8,6 +8,15 @@ a table (see ``SPACING_MODE`` in :mod:`.v4`); those that keep it import it from 
 #: data, the string table); see the module docstrings of :mod:`.v3` and :mod:`.v4`.
 EXTRA = "_skel"
 
+
+def extra_to_write(writer, doc: dict) -> dict:
+    """What a document to be written keeps under :data:`EXTRA` (empty when it is not an
+    object); ``writer.fail`` when the document itself is not one."""
+    if not isinstance(doc, dict):
+        raise writer.fail(f"a skeleton document (a JSON object), got {type(doc).__name__}")
+    extra = doc.get(EXTRA, {})
+    return extra if isinstance(extra, dict) else {}
+
 ATTACHMENT_TYPES = ("region", "boundingbox", "mesh", "linkedmesh", "path", "point", "clipping")
 #: A bone's transform mode (3.x) or inherit mode (4.x): the same five names in both.
 INHERIT = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")

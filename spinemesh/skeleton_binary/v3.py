@@ -50,7 +50,7 @@ import struct
 from .stream import RecordedRefs, SkelReader, SkelWriter
 from .symmetric import boolean, color, first_use_table, fld, put, text
 
-from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE  # noqa: F401
+from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 
 SPACING_MODE = ("length", "fixed", "percent")
@@ -1074,11 +1074,7 @@ def read(reader: SkelReader) -> dict:
 
 def write(writer, doc: dict) -> None:
     """Encode a document (read from ``.skel`` or loaded from JSON) as 3.x ``.skel`` bytes."""
-    if not isinstance(doc, dict):
-        raise writer.fail(f"a skeleton document (a JSON object), got {type(doc).__name__}")
-    extra = doc.get(EXTRA, {})
-    if not isinstance(extra, dict):
-        extra = {}
+    extra = extra_to_write(writer, doc)
     head = SkelWriter(writer.path)
     rest = _TableWriter(writer.path, extra.get("strings"), extra.get("refs"))
     try:

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import struct
 
-from ..enums import EXTRA
+from ..enums import EXTRA, extra_to_write
 from ..stream import SkelReader
 from ..symmetric import first_use_table
 from .animation import animation
@@ -258,11 +258,7 @@ def read(reader: SkelReader) -> dict:
 
 def write(writer, doc: dict) -> None:
     """Encode a document (read from ``.skel`` or loaded from JSON) as 4.x ``.skel`` bytes."""
-    if not isinstance(doc, dict):
-        raise writer.fail(f"a skeleton document (a JSON object), got {type(doc).__name__}")
-    extra = doc.get(EXTRA, {})
-    if not isinstance(extra, dict):
-        extra = {}
+    extra = extra_to_write(writer, doc)
     w = _RefWriter(writer.path, extra.get("refs") if extra.get("strings") is not None else None)
     try:
         skeleton(w, doc)

@@ -8,13 +8,12 @@ animation, stored by index after every animation has been read.
 
 from __future__ import annotations
 
-import math
 import struct
 
 from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import fld, put as _put
 from .bones import _bone_list
-from .constraints import _PHYSICS_GLOBALS, _mix_field, _mode_byte
+from .constraints import _ik_mix_bits, _ik_mix_softness, _mix_field, _mode_byte, _physics_mass_to_mix
 from .fields import _flag_byte, _same, _to_end, enum, flag, fld_u8, index, opt
 from .layout import PROPERTIES, SCALE_Y_MODE, SPACING_MODE, Context
 
@@ -36,22 +35,15 @@ def ik(s, node: dict, c: Context) -> None:
     index(s, node, "target", *c.bones, "bone")
     value_flags = 0
     if not s.reading:
-        mix = node.get("mix", 1)
         value_flags = (2 if "scaleY" in node else 0) | (0 if node.get("bendPositive", True) else 4) \
-            | (32 if not _same(mix, 0.0) else 0) | (64 if not _same(mix, 1.0) else 0) \
-            | (128 if flag(node, "softness", 0) else 0)
+            | _ik_mix_bits(node)
     flags = _flag_byte(s, node, ((1, "skin", False), (8, "compress", False), (16, "stretch", False)),
                        value_flags)
     if s.reading:
         _put(node, "bendPositive", not flags & 4, True)
     if flags & 2:
         enum(s, node, "scaleY", SCALE_Y_MODE, None, as_byte=True)
-    if flags & 32:
-        if flags & 64:
-            fld(s, node, "mix", 1)
-    elif s.reading:
-        node["mix"] = 0
-    opt(s, node, "softness", flags & 128)
+    _ik_mix_softness(s, node, flags)
     if s.reading:
         _target_first(node, "target")
 
@@ -214,20 +206,7 @@ def physics(s, node: dict, c: Context) -> None:
     fld(s, node, "inertia", 0.5)
     fld(s, node, "strength", 100)
     fld(s, node, "damping", _DAMPING)
-    if flags & 128:
-        # The binary keeps the inverse of the mass that the JSON holds.
-        if s.reading:
-            inv = s.f32()
-            mass = 1 / inv if inv else math.inf
-            s.float_sum += mass  # infinite for a zero inverse, refused like a stored one
-            _put(node, "mass", mass, 1)
-        else:
-            s.f32(1 / node.get("mass", 1))
-    fld(s, node, "wind", 0)
-    fld(s, node, "gravity", 0)
-    value_flags = 0 if s.reading else (128 if flag(node, "mix", 1, 1.0) else 0)
-    flags = _flag_byte(s, node, _PHYSICS_GLOBALS, value_flags)
-    opt(s, node, "mix", flags & 128, 1)
+    _physics_mass_to_mix(s, node, bool(flags & 128))
 
 
 def slider(s, node: dict, c: Context) -> None:

@@ -35,22 +35,31 @@ def ik(s, node: dict, c: Context) -> None:
         boolean(s, node, "stretch")
         boolean(s, node, "uniform")
         return
-    value_flags = 0
-    if not s.reading:
-        mix = node.get("mix", 1)
-        # The editor sets "mix is not 1" even when "mix is not 0" is clear (mix 0).
-        value_flags = (32 if not _same(mix, 0.0) else 0) | (64 if not _same(mix, 1.0) else 0) \
-            | (128 if flag(node, "softness", 0) else 0)
+    value_flags = 0 if s.reading else _ik_mix_bits(node)
     flags = _flag_byte(s, node, ((1, "skin", False), (2, "bendPositive", True), (4, "compress", False),
                                  (8, "stretch", False), (16, "uniform", False)), value_flags)
+    _ik_mix_softness(s, node, flags)
+    if s.reading:
+        _skin_after_order(node)
+
+
+def _ik_mix_bits(node: dict) -> int:
+    """The bits of an IK constraint's flag byte (4.2 on) that say which of mix and softness
+    follow: 32 mix is not 0, 64 mix is not 1, 128 softness is not 0."""
+    mix = node.get("mix", 1)
+    # The editor sets "mix is not 1" even when "mix is not 0" is clear (mix 0).
+    return (32 if not _same(mix, 0.0) else 0) | (64 if not _same(mix, 1.0) else 0) \
+        | (128 if flag(node, "softness", 0) else 0)
+
+
+def _ik_mix_softness(s, node: dict, flags: int) -> None:
+    """An IK constraint's mix and softness, as its flag byte (4.2 on) says they are stored."""
     if flags & 32:
         if flags & 64:
             fld(s, node, "mix", 1)
     elif s.reading:
         node["mix"] = 0
     opt(s, node, "softness", flags & 128)
-    if s.reading:
-        _skin_after_order(node)
 
 
 def _skin_after_order(node: dict) -> None:
@@ -178,7 +187,13 @@ def physics(s, node: dict, c: Context) -> None:
     fld(s, node, "inertia", 1)
     fld(s, node, "strength", 100)
     fld(s, node, "damping", 1)
-    if flags & 128:
+    _physics_mass_to_mix(s, node, bool(flags & 128))
+
+
+def _physics_mass_to_mix(s, node: dict, has_mass: bool) -> None:
+    """The end of a physics constraint, the same in 4.2 and 4.3: the mass (when its flag bit is
+    set), wind, gravity, then the flag byte of the globals and the mix."""
+    if has_mass:
         # The binary keeps the inverse of the mass that the JSON holds.
         if s.reading:
             inv = s.f32()

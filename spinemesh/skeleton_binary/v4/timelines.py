@@ -243,23 +243,46 @@ _PATH_NAMES = [t[0] for t in PATH_TIMELINES]
 _PHYSICS_NAMES = [PHYSICS_TIMELINES.get(i) for i in range(9)]
 
 
+def _frames_without_curves(s, frames: list | None, value) -> list:
+    """A timeline whose frames do not curve: the frame count, then each frame's time and
+    ``value(s, frame)`` (None: a time alone). Reading, ``frames`` is None and the frames read
+    are returned; writing, ``frames`` are written and returned."""
+    if s.reading:
+        frames = []
+        for _ in range(s.count(what="frame count")):
+            f = {}
+            _time(s, f)
+            if value is not None:
+                value(s, f)
+            frames.append(f)
+        return frames
+    s.count(len(frames))
+    for f in frames:
+        _time(s, f)
+        if value is not None:
+            value(s, f)
+    return frames
+
+
+def _attachment_name(s, frame: dict) -> None:
+    """An attachment key's name: a string reference; null (no attachment) is kept as None."""
+    if s.reading:
+        frame["name"] = s.string_ref()
+    else:
+        s.string_ref(frame.get("name"))
+
+
+def _inherit_mode(s, frame: dict) -> None:
+    """An inherit key's mode, as its byte code."""
+    enum(s, frame, "inherit", INHERIT, "normal", as_byte=True)
+
+
 def _slot_body(s, timelines, kind):
     t = _type_byte(s, kind, _SLOT_NAMES, "slot")
     name, values, channels = SLOT_TIMELINES[t]
     frames = None if s.reading else timelines[kind]
     if name == "attachment":
-        if s.reading:
-            frames = []
-            for _ in range(s.count(what="frame count")):
-                f = {}
-                _time(s, f)
-                f["name"] = s.string_ref()
-                frames.append(f)
-        else:
-            s.count(len(frames))
-            for f in frames:
-                _time(s, f)
-                s.string_ref(f.get("name"))
+        frames = _frames_without_curves(s, frames, _attachment_name)
     else:
         frames = curve_timeline(s, frames, values, channels)
     if s.reading:
@@ -271,18 +294,7 @@ def _bone_body(s, timelines, kind):
     name, values, channels = BONE_TIMELINES[t]
     frames = None if s.reading else timelines[kind]
     if name == "inherit":
-        if s.reading:
-            frames = []
-            for _ in range(s.count(what="frame count")):
-                f = {}
-                _time(s, f)
-                enum(s, f, "inherit", INHERIT, "normal", as_byte=True)
-                frames.append(f)
-        else:
-            s.count(len(frames))
-            for f in frames:
-                _time(s, f)
-                enum(s, f, "inherit", INHERIT, "normal", as_byte=True)
+        frames = _frames_without_curves(s, frames, _inherit_mode)
     else:
         frames = curve_timeline(s, frames, values, channels)
     if s.reading:
@@ -303,18 +315,9 @@ def _physics_body(s, timelines, kind, mix_values=None):
     t = _type_byte(s, kind, _PHYSICS_NAMES, "physics")
     name = PHYSICS_TIMELINES[t]
     if name == "reset":
+        frames = _frames_without_curves(s, None if s.reading else timelines[kind], None)
         if s.reading:
-            frames = []
-            for _ in range(s.count(what="frame count")):
-                f = {}
-                _time(s, f)
-                frames.append(f)
             timelines[name] = frames
-        else:
-            frames = timelines[kind]
-            s.count(len(frames))
-            for f in frames:
-                _time(s, f)
         return
     values = mix_values if name == "mix" and mix_values is not None else _V0
     frames = curve_timeline(s, None if s.reading else timelines[kind], values, 1)
