@@ -1,0 +1,215 @@
+"""The package's shape: no import cycles, and few long functions, each saying why it is long.
+
+Import cycles
+    Every ``import`` / ``from ... import`` of one ``spinemesh`` module by another is an edge
+    to the module it names (``from a.b import c``: ``a.b.c`` when that is a module, else
+    ``a.b``), wherever the statement stands: a function that imports late to dodge a cycle
+    still depends on what it imports. An import that runs when the module is imported (at
+    the top, or in a class body, ``if`` or ``try`` block, but not under
+    ``if TYPE_CHECKING:``) also runs every package above the module it names, so it is an
+    edge to those packages' ``__init__`` too, except to a package the importing module is
+    itself inside (that one is being imported already). An import inside a function runs
+    when the function is called and is not an edge to the packages above what it names.
+    No cycle may remain.
+
+Long functions
+    A function's length is its ``def`` line to its last line (docstring and nested functions
+    included, decorators not). At most :data:`MAX_LONG` functions in ``spinemesh/`` may be
+    longer than :data:`LONG_LINES` lines, and each must say why on the line right above its
+    first line (its first decorator, or ``def``)::
+
+        # long: follows the runtime's computeWorldPositions line by line
+        def path_positions(...):
+
+Both checks are run on a small package written here first, with a cycle and a long function
+without its comment, so that a checker that finds nothing cannot pass.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import spinemesh
+
+PACKAGE = Path(spinemesh.__file__).resolve().parent
+
+#: Longer than this many lines is long.
+LONG_LINES = 80
+#: How many long functions the package may hold.
+MAX_LONG = 3
+#: The comment that says why a function is long.
+LONG_MARK = "# long:"
+
+
+def _modules(root: Path) -> dict[str, tuple[Path, bool]]:
+    """Dotted module name -> (file, whether it is a package's ``__init__``), for every .py below ``root``."""
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        is_package = parts[-1] == "__init__"
+        if is_package:
+            parts = parts[:-1]
+        out[".".join(parts)] = (path, is_package)
+    return out
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _imports(tree: ast.Module):
+    """``(statement, at_import)`` for every import statement, ``at_import`` True when it runs as
+    the module is imported (not inside a function); those under ``if TYPE_CHECKING:`` never run."""
+    stack = [(node, True) for node in tree.body]
+    while stack:
+        node, at_import = stack.pop()
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node, at_import
+        elif isinstance(node, ast.If) and _is_type_checking(node):
+            stack.extend((child, at_import) for child in node.orelse)
+        else:
+            inner = at_import and not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+            stack.extend((child, inner) for child in ast.iter_child_nodes(node))
+
+
+def _targets(node, module: str, is_package: bool, modules: dict, with_packages: bool) -> set[str]:
+    """The package's modules one import statement names (the nearest known module of each
+    name), and with ``with_packages`` the packages above them."""
+    if isinstance(node, ast.Import):
+        names = [a.name for a in node.names]
+    else:
+        if node.level:
+            base = module.split(".") if is_package else module.split(".")[:-1]
+            base = base[:len(base) - (node.level - 1)]
+            stem = ".".join(base + ([node.module] if node.module else []))
+        else:
+            stem = node.module or ""
+        names = [f"{stem}.{a.name}" if f"{stem}.{a.name}" in modules else stem for a in node.names]
+    out = set()
+    for name in names:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        parts = name.split(".") if name else []
+        for i in range(1 if with_packages else len(parts), len(parts) + 1):  # a.b.c runs a and a.b first
+            target = ".".join(parts[:i])
+            if target in modules and target != module and not module.startswith(target + "."):
+                out.add(target)
+    return out
+
+
+def import_graph(root: Path) -> dict[str, set[str]]:
+    """Module -> the package's modules it depends on by its imports (see the module docstring)."""
+    modules = _modules(root)
+    graph = {}
+    for module, (path, is_package) in modules.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        graph[module] = set()
+        for node, at_import in _imports(tree):
+            graph[module] |= _targets(node, module, is_package, modules, with_packages=at_import)
+    return graph
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), or a module that imports itself."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1 or v in graph.get(v, ()):
+                cycles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def long_functions(root: Path) -> list[tuple[str, int, str, int, str]]:
+    """``(file, line, name, length, reason)`` of every function longer than :data:`LONG_LINES`;
+    ``reason`` is the text after ``# long:`` on the line above it, or "" without one."""
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        for node in ast.walk(ast.parse("\n".join(lines), str(path))):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            length = node.end_lineno - node.lineno + 1
+            if length <= LONG_LINES:
+                continue
+            first = min([node.lineno] + [d.lineno for d in node.decorator_list])
+            above = lines[first - 2].strip() if first >= 2 else ""
+            reason = above[len(LONG_MARK):].strip() if above.startswith(LONG_MARK) else ""
+            out.append((str(path.relative_to(root.parent)), node.lineno, node.name, length, reason))
+    return out
+
+
+def _write_package(root: Path, files: dict[str, str]) -> Path:
+    for name, text in files.items():
+        path = root / "demo" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+    return root / "demo"
+
+
+def test_the_checks_find_what_they_look_for(tmp_path):
+    """Found: a cycle through a package ``__init__``, and one closed by an import inside a
+    function (mask -> seg -> seg.comp -> mask). Not found: an import under TYPE_CHECKING, and
+    a function's import of a module whose package's ``__init__`` imports back (geo, leaf).
+    A long function without its comment has no reason."""
+    body = "\n".join(f"    x{i} = {i}" for i in range(LONG_LINES))
+    demo = _write_package(tmp_path, {
+        "__init__.py": "",
+        "a.py": "from .b import f\n",
+        "b/__init__.py": "from .c import g\n",
+        "b/c.py": "from .. import a\n",
+        "d.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from . import e\n",
+        "e.py": f"from . import d\n\n\ndef long_one():\n{body}\n\n\n# long: kept whole to mirror a reference\n"
+                f"@staticmethod\ndef long_two():\n{body}\n",
+        "mask.py": "def compute():\n    from . import seg\n",
+        "seg/__init__.py": "from .comp import alpha\n",
+        "seg/comp.py": "from ..mask import compute\n",
+        "up/__init__.py": "from .run import go\n",
+        "up/run.py": "from ..rig import bend\n",
+        "up/geo.py": "X = 1\n",
+        "rig.py": "def bend():\n    from .up.geo import X\n",
+    })
+    assert import_cycles(import_graph(demo)) == [["demo.a", "demo.b", "demo.b.c"],
+                                                  ["demo.mask", "demo.seg", "demo.seg.comp"]]
+    found = {name: reason for _, _, name, _, reason in long_functions(demo)}
+    assert found == {"long_one": "", "long_two": "kept whole to mirror a reference"}
+
+
+def test_no_import_cycles():
+    cycles = import_cycles(import_graph(PACKAGE))
+    assert not cycles, f"import cycles: {cycles}"
+
+
+def test_few_long_functions_each_with_its_reason():
+    found = long_functions(PACKAGE)
+    listing = "\n".join(f"{f}:{line} {name} ({n} lines) {reason or 'NO # long: COMMENT'}"
+                        for f, line, name, n, reason in found)
+    assert len(found) <= MAX_LONG, f"{len(found)} functions over {LONG_LINES} lines (at most {MAX_LONG}):\n{listing}"
+    assert all(reason for *_, reason in found), f"a long function must say why above its def:\n{listing}"
