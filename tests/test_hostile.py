@@ -606,7 +606,7 @@ def test_workers_end_with_their_parent(tmp_path):
         "w = ProcessWorkers(2)\n"
         "futures = [w.submit(time.sleep, 60) for _ in range(2)]\n"
         "time.sleep(1.5)\n"
-        "print(' '.join(str(p.pid) for p in w._pool._pool), flush=True)\n"
+        "print(' '.join(map(str, w.pids)), flush=True)\n"
         "time.sleep(60)\n")
     parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, cwd=REPO)
     pids = [int(p) for p in parent.stdout.readline().split()]
@@ -660,7 +660,13 @@ def test_sigterm_during_upgrade_cleans_up(tmp_path, demo):
     proc = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", "p", "--out", "o", "--jobs", "2",
                              "--density", "4"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    time.sleep(2.5)
+    # Signalled only once the run holds its output folder, so its handler is set: a signal
+    # that came during Python's start-up would end it as SIGTERM's default does (exit -15).
+    deadline = time.monotonic() + TIME_LIMIT
+    while not (tmp_path / "o" / ".spinemesh-output").exists() and proc.poll() is None:
+        assert time.monotonic() < deadline, "the run never started"
+        time.sleep(0.05)
+    time.sleep(0.5)
     proc.send_signal(signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=TIME_LIMIT)
     check_run(subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr), before, tmp_path, ["o"],

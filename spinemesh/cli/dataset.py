@@ -96,6 +96,8 @@ def _print_problems(summary, out: Path) -> None:
             err_console.print(f"  {e}", markup=False, highlight=False)
         if len(summary.errors) > 40:
             err_console.print(f"  ... and {len(summary.errors) - 40} more (see {out}/projects.jsonl)")
+    if summary.lost:  # a worker died on them twice: the data set lacks them until --retry-failed
+        raise typer.Exit(3)
 
 
 @app.command("dataset-stats")

@@ -6,8 +6,13 @@ output does not depend on where (or in which order) tasks ran: the callers put r
 back in a fixed order.
 
 - ``jobs == 1``: tasks run in this process, at submission.
-- ``jobs > 1``: a pool of worker processes, started once (forked where the platform
-  allows, so they share the parent's imported modules) and fed one small task at a time.
+- ``jobs > 1``: worker processes, started once (forked where the platform allows, so they
+  share the parent's imported modules) and fed one small task at a time.
+
+A worker that dies (killed, out of memory) is noticed at once; its task runs once more in a
+fresh worker, and if that worker dies too the task's future raises :class:`WorkerLost`
+naming the reason: the caller reports that one task as failed and goes on. The same holds
+on Dask (a lost worker's task is retried once by the scheduler, then fails).
 - ``dask="local"`` or a scheduler address (``tcp://host:8786``) or a scheduler file
   (``dask scheduler --scheduler-file FILE``): tasks run on a Dask cluster through
   ``dask.distributed``. Dask is an optional dependency (``pip install 'spinemesh[cluster]'``).
@@ -17,7 +22,11 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
+import threading
+from collections import deque
 from concurrent.futures import Future, as_completed
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
@@ -88,8 +97,79 @@ class Workers:
         self.close(finished=exc_type is None)
 
 
+class WorkerLost(SpineMeshError):
+    """A task whose worker process died under it twice (killed, out of memory, crashed).
+
+    Raised by the task's future: the task was run again once in a fresh worker first.
+    """
+
+
+def _death_reason(exitcode: int | None) -> str:
+    """Words for how a worker process ended (``Process.exitcode``)."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        hint = " (out of memory?)" if -exitcode == signal.SIGKILL else ""
+        return f"worker process was killed by {name}{hint}"
+    return f"worker process exited with status {exitcode}"
+
+
+def _worker_main(conn, max_tasks: int | None) -> None:
+    """A worker process: run ``(fn, arg)`` tasks from ``conn``, send back ``(ok, value)``.
+
+    Ends quietly when the parent is gone (a closed pipe is no reason for a traceback), when
+    told to (``None``), or after ``max_tasks`` tasks (the parent starts a fresh one).
+    """
+    die_with_parent()
+    done = 0
+    try:
+        while max_tasks is None or done < max_tasks:
+            message = conn.recv()
+            if message is None:
+                break
+            fn, arg = message
+            try:
+                answer = (True, fn(arg))
+            except Exception as e:  # raised again by the future's .result(), as a pool would
+                answer = (False, e)
+            try:
+                conn.send(answer)
+            except (OSError, EOFError):
+                raise
+            except Exception as e:  # an answer that does not pickle
+                conn.send((False, SpineMeshError(f"worker could not send its answer back: {e}")))
+            done += 1
+    except (OSError, EOFError, KeyboardInterrupt, SystemExit):
+        pass  # the parent ended or stopped the run: nothing to say
+    finally:
+        conn.close()
+        os._exit(0)  # no atexit handlers or flushes inherited from the parent
+
+
+@dataclass
+class _Task:
+    future: Future
+    fn: Callable[[Any], Any]
+    arg: Any
+    lost: list[str] = field(default_factory=list)  # why each earlier attempt died
+
+
+@dataclass
+class _Worker:
+    process: Any
+    conn: Any
+    task: _Task | None = None
+
+
 class ProcessWorkers(Workers):
-    """A pool of ``jobs`` worker processes, started once for the whole run.
+    """``jobs`` worker processes, each fed one task at a time by a dispatcher thread.
+
+    The dispatcher knows which task each worker holds, so a worker that dies (killed, out of
+    memory, crashed in native code) is noticed at once by its process sentinel: its task is
+    run once more in a fresh worker, and if that one dies too, the task's future raises
+    :class:`WorkerLost` saying why. Every other task goes on.
 
     Parameters
     ----------
@@ -99,29 +179,149 @@ class ProcessWorkers(Workers):
         Replace a worker after this many tasks (bounds memory of long runs).
     """
 
+    #: How many times a task whose worker died is run again (in a fresh worker).
+    RETRIES = 1
+
     def __init__(self, jobs: int, max_tasks_per_child: int | None = None):
         methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        self._context = multiprocessing.get_context("fork" if "fork" in methods else None)
         self.kind = f"{jobs} local processes"
         self.slots = jobs
+        self._max_tasks = max_tasks_per_child
         self._opencv_threads = _one_opencv_thread()
-        self._pool = context.Pool(jobs, initializer=_start_worker, maxtasksperchild=max_tasks_per_child)
+        self._queue: deque[_Task] = deque()
+        self._workers: list[_Worker] = []
+        self._lock = threading.Lock()
+        self._closing = False
+        self._wake_read, self._wake_write = self._context.Pipe(duplex=False)
+        self._dispatcher = threading.Thread(target=self._dispatch, name="spinemesh-workers", daemon=True)
+        self._dispatcher.start()
+
+    @property
+    def pids(self) -> list[int]:
+        """Process ids of the workers now running."""
+        with self._lock:
+            return [w.process.pid for w in self._workers]
 
     def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
         future: Future = Future()
-        # The pool's result thread completes the future the moment the worker answers.
-        self._pool.apply_async(fn, (arg,), callback=future.set_result, error_callback=future.set_exception)
+        with self._lock:
+            if self._closing:
+                raise RuntimeError("workers are closed")
+            self._queue.append(_Task(future, fn, arg))
+        self._wake()
         return future
 
+    def _wake(self) -> None:
+        try:
+            self._wake_write.send_bytes(b"")
+        except OSError:
+            pass
+
+    def _start_worker(self) -> _Worker:
+        parent_end, child_end = self._context.Pipe()
+        process = self._context.Process(target=_worker_main, args=(child_end, self._max_tasks), daemon=True)
+        process.start()
+        child_end.close()
+        return _Worker(process, parent_end)
+
+    def _hand_out(self) -> None:
+        """Give queued tasks to idle workers, starting workers (up to ``jobs``) as needed."""
+        with self._lock:
+            while self._queue:
+                idle = next((w for w in self._workers if w.task is None), None)
+                if idle is None:
+                    if len(self._workers) >= self.slots:
+                        return
+                    idle = self._start_worker()
+                    self._workers.append(idle)
+                task = self._queue.popleft()
+                if not task.lost and not task.future.set_running_or_notify_cancel():
+                    continue  # cancelled while queued (a retried task is running already)
+                try:
+                    idle.conn.send((task.fn, task.arg))
+                except (OSError, EOFError):  # died before it got it: noticed by its sentinel
+                    idle.task = task
+                    continue
+                except Exception as e:  # a task that does not pickle
+                    task.future.set_exception(e)
+                    continue
+                idle.task = task
+
+    def _answer(self, worker: _Worker) -> bool:
+        """Take the worker's answer if it sent one; False when the pipe is closed."""
+        try:
+            ok, value = worker.conn.recv()
+        except (OSError, EOFError):
+            return False
+        except Exception as e:  # an answer that does not unpickle
+            ok, value = False, SpineMeshError(f"worker answer could not be read: {e}")
+        task, worker.task = worker.task, None
+        if task is not None:
+            (task.future.set_result if ok else task.future.set_exception)(value)
+        return True
+
+    def _bury(self, worker: _Worker) -> None:
+        """A worker process ended: put its task back once, or fail it."""
+        while worker.conn.poll():  # it answered before it ended (max_tasks_per_child)
+            if not self._answer(worker):
+                break
+        worker.process.join()
+        worker.conn.close()
+        with self._lock:
+            self._workers.remove(worker)
+            task, worker.task = worker.task, None
+            if task is None:
+                return
+            task.lost.append(_death_reason(worker.process.exitcode))
+            if len(task.lost) <= self.RETRIES and not self._closing:
+                self._queue.appendleft(task)  # the next worker started is a fresh one
+                return
+        task.future.set_exception(WorkerLost(
+            f"{task.lost[-1]} while running this task, {len(task.lost)} times; not run again"))
+
+    def _dispatch(self) -> None:
+        from multiprocessing.connection import wait
+
+        while True:
+            self._hand_out()
+            with self._lock:
+                workers = list(self._workers)
+                if self._closing and not workers:
+                    return
+            ready = set(wait([self._wake_read] + [w.conn for w in workers if w.task is not None]
+                             + [w.process.sentinel for w in workers], timeout=1.0))
+            if self._wake_read in ready:
+                while self._wake_read.poll():
+                    self._wake_read.recv_bytes()
+            for w in workers:
+                if w.conn in ready and w.task is not None:
+                    self._answer(w)
+                if w.process.sentinel in ready or (w.conn in ready and w.task is not None):
+                    if not w.process.is_alive():
+                        self._bury(w)
+
     def close(self, finished: bool = True) -> None:
-        # After a run that finished, each worker takes its end-of-queue marker and exits on
-        # its own: no signal. Terminating a pool whose workers are still starting (a library
-        # with no project) once left a worker blocked on the queue's lock for ever.
-        if finished:
-            self._pool.close()
-        else:
-            self._pool.terminate()
-        self._pool.join()
+        """End the workers: after their current task when ``finished``, at once otherwise."""
+        with self._lock:
+            self._closing = True
+            dropped = list(self._queue)
+            self._queue.clear()
+            workers = list(self._workers)
+        for task in dropped:
+            task.future.cancel()
+        for w in workers:
+            if finished:
+                try:
+                    w.conn.send(None)
+                except (OSError, EOFError):
+                    pass
+            else:
+                w.process.terminate()
+        self._wake()
+        self._dispatcher.join()
+        self._wake_read.close()
+        self._wake_write.close()
         import cv2
 
         cv2.setNumThreads(self._opencv_threads)
@@ -146,6 +346,11 @@ class DaskWorkers(Workers):
             raise SpineMeshError("--dask needs Dask: pip install 'spinemesh[cluster]'") from None
         self._cluster = None
         if address == "local":
+            import dask
+
+            # A task whose worker dies is run once more, then fails (KilledWorker), as with
+            # local processes; Dask's default would try it three times.
+            dask.config.set({"distributed.scheduler.allowed-failures": ProcessWorkers.RETRIES})
             self._cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
                                          dashboard_address=None)
             self._client = Client(self._cluster)
@@ -160,19 +365,28 @@ class DaskWorkers(Workers):
         self.kind = f"Dask at {self._client.scheduler.address}"
         self.slots = max(1, sum(self._client.nthreads().values()))
 
-    def submit(self, fn: Callable[[Any], Any], arg: Any):
+    def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
         # pure=False: Dask would otherwise hash every argument to name the task.
-        return self._client.submit(fn, arg, pure=False)
-
-    def as_completed(self, futures: Iterable) -> Iterator:
-        from dask.distributed import as_completed as dask_as_completed
-
-        return iter(dask_as_completed(list(futures)))
+        task = self._client.submit(fn, arg, pure=False)
+        future: Future = Future()
+        future.set_running_or_notify_cancel()
+        task.add_done_callback(lambda done: _settle(future, done))
+        return future
 
     def close(self, finished: bool = True) -> None:
         self._client.close()
         if self._cluster is not None:
             self._cluster.close()
+
+
+def _settle(future: Future, done) -> None:
+    """Copy a finished Dask future's outcome into ``future``; a lost worker becomes :class:`WorkerLost`."""
+    try:
+        future.set_result(done.result())
+    except Exception as e:
+        if type(e).__name__ in ("KilledWorker", "CancelledError", "FutureCancelledError"):
+            e = WorkerLost(f"Dask lost the worker running this task ({e}); not run again")
+        future.set_exception(e)
 
 
 def open_workers(jobs: int = 1, dask: str | None = None, max_tasks_per_child: int | None = None) -> Workers:
@@ -184,4 +398,4 @@ def open_workers(jobs: int = 1, dask: str | None = None, max_tasks_per_child: in
     return Workers()
 
 
-__all__ = ["Workers", "ProcessWorkers", "DaskWorkers", "open_workers", "available_cores"]
+__all__ = ["Workers", "ProcessWorkers", "WorkerLost", "DaskWorkers", "open_workers", "available_cores"]

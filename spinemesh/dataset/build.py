@@ -25,10 +25,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..cluster import open_workers
+from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
 from ..fsutil import atomic_write_json
-from .extract import ProjectResult, extract_project, find_projects
+from .extract import ProjectResult, extract_project, find_projects, game_of
 from .format import (FORMAT, FORMAT_VERSION, INDEX, MASK_ALPHA_THRESHOLD, META, PROJECTS, SHARDS,
                      VAL_FRACTION, append_jsonl, read_jsonl, repair_tail, write_shard)
 
@@ -87,6 +87,8 @@ class Summary:
     errors: list[str] = field(default_factory=list)
     total_samples: int = 0
     seconds: float = 0.0
+    #: projects not read because their worker process died twice (exit status 3)
+    lost: int = 0
 
 
 def _slug(name: str) -> str:
@@ -252,7 +254,16 @@ def _run(out: Path, projects, jobs: int, retry_failed: bool, on_project, t0: flo
         i = 0
         while pending:
             task, future = pending.popleft()
-            _write(out, future.result(), known, summary)
+            try:
+                result = future.result()
+            except WorkerLost as e:  # listed with its error: --retry-failed reads it again
+                try:
+                    game = game_of(Path(task[0]))
+                except SpineMeshError:
+                    game = Path(task[0]).name
+                result = ProjectResult(task[1], game, errors=[f"{task[0]}: not read: {e}"])
+                summary.lost += 1
+            _write(out, result, known, summary)
             i += 1
             if on_project:
                 on_project(task[1], i, total)

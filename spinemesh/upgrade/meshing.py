@@ -13,12 +13,12 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
 
-from ..cluster import Workers, open_workers
+from ..cluster import WorkerLost, Workers, open_workers
 from ..errors import SpineMeshError
 from ..mesher.worth import MAX_HULL_TOLERANCE
 from .geometry import spine_triangles
@@ -140,6 +140,8 @@ class Meshing:
 
     known: dict[str, MeshResult]
     futures: list
+    #: the image key of each future, to name the task when its worker died (WorkerLost)
+    keys: dict = field(default_factory=dict)
 
 
 def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | None = None,
@@ -153,18 +155,21 @@ def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | No
     """
     known: dict[str, MeshResult] = {}
     futures = []
+    keys = {}
     for t in sorted(tasks.values(), key=lambda t: (-t.rgba.shape[0] * t.rgba.shape[1], t.key)):
         key = (t.key, t.settings)
         if cache is not None and key in cache:
             known[t.key] = cache[key]
         elif inflight is not None and key in inflight:
             futures.append(inflight[key])
+            keys[inflight[key]] = t.key
         else:
             future = workers.submit(mesh_one, t)
             futures.append(future)
+            keys[future] = t.key
             if inflight is not None:
                 inflight[key] = future
-    return Meshing(known, futures)
+    return Meshing(known, futures, keys)
 
 
 def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Workers,
@@ -175,7 +180,10 @@ def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Worker
     if progress and results:
         progress(len(results))
     for future in workers.as_completed(meshing.futures):
-        res = future.result()
+        try:
+            res = future.result()
+        except WorkerLost as e:  # the others go on; this image's attachments stay regions
+            res = MeshResult(meshing.keys[future], error=str(e))
         results[res.key] = res
         key = (res.key, tasks[res.key].settings)
         if cache is not None:
