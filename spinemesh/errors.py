@@ -6,7 +6,31 @@ CLI can print one clear sentence instead of a traceback.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+
+#: Characters that could split or forge a printed line, or drive the terminal: C0 and C1
+#: controls, DEL, and the Unicode line and paragraph separators.
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+def _escape_one(match: re.Match) -> str:
+    return repr(match.group())[1:-1]
+
+
+def escaped(text: str) -> str:
+    """``text`` with control characters written as Python escapes (``\\n``, ``\\x1b``).
+
+    Every message that names a file or a name from a project goes through this before it is
+    printed: a file name holding a newline cannot split one error line into two (the second
+    reading like a forged ``error:`` line), nor an escape sequence drive the terminal.
+
+    Examples
+    --------
+    >>> print(escaped("a\\nerror: b"))
+    a\\nerror: b
+    """
+    return _UNPRINTABLE.sub(_escape_one, text)
 
 
 class SpineMeshError(Exception):
@@ -38,7 +62,7 @@ class SpineMeshError(Exception):
             where += f":{self.line}"
         if self.offset is not None:
             where += f" (byte {self.offset})"
-        return f"{where}: {self.message}" if where else self.message
+        return escaped(f"{where}: {self.message}" if where else self.message)
 
 
 class AtlasError(SpineMeshError):

@@ -285,3 +285,94 @@ def atomic_write_png(path: str | Path, image) -> None:
     buf = io.BytesIO()
     Image.fromarray(image).save(buf, format="PNG")
     atomic_write_bytes(path, buf.getvalue())
+
+
+def walk_folder(root: str | Path, problems: list[str] | None = None, hidden: bool = False):
+    """Walk ``root`` top-down: yield ``(folder, subfolders, files)``, each list sorted.
+
+    The one folder walk of every command (projects, libraries, data sets, ``mesh DIR``, images
+    folders), so that each keeps the same rules:
+
+    - symlinked folders are never entered (their real folder, when it lies inside ``root``, is
+      walked under its own name anyway), so a walk cannot leave ``root`` or loop (``ln -s .``);
+      no real folder is entered twice;
+    - ``files`` are regular files only (no FIFO, socket or device, which would block or never
+      end when read); a symlinked file is kept only when its real path lies inside ``root``;
+    - names starting with ``.`` are left out unless ``hidden``.
+
+    Like ``os.walk``, the caller may prune the walk by removing names from ``subfolders``.
+
+    Parameters
+    ----------
+    root : path
+        The folder walked.
+    problems : list of str, optional
+        Gets one line per symlink left out because it leads outside ``root``.
+    hidden : bool
+        Whether hidden files and folders are walked too.
+    """
+    root = Path(root)
+    top = real(root)
+    seen: set[Path] = set()
+    for here, dirs, names in os.walk(root, followlinks=False):
+        here_path = Path(here)
+        here_real = real(here_path)
+        if here_real in seen or not (here_real == top or top in here_real.parents):
+            dirs[:] = []
+            continue
+        seen.add(here_real)
+        subfolders = []
+        for d in sorted(dirs):
+            p = here_path / d
+            if d.startswith(".") and not hidden:
+                continue
+            if p.is_symlink():
+                if problems is not None and not is_within(p, root):
+                    problems.append(f"{p}: symlink to a folder outside the project; skipped")
+                continue
+            subfolders.append(p)
+        files = []
+        for name in sorted(names):
+            p = here_path / name
+            if name.startswith(".") and not hidden:
+                continue
+            if p.is_symlink() and not is_within(p, root):
+                if problems is not None:
+                    problems.append(f"{p}: symlink to a file outside the project; skipped")
+                continue
+            if p.is_file():  # follows a symlink inside the root: a regular file only
+                files.append(p)
+        yield here_path, subfolders, files
+        dirs[:] = [p.name for p in subfolders]
+
+
+def walk_files(root: str | Path, problems: list[str] | None = None) -> list[Path]:
+    """Every regular, non-hidden file under ``root``, sorted, by the rules of :func:`walk_folder`."""
+    return sorted(p for _, _, files in walk_folder(root, problems) for p in files)
+
+
+def regular_file(path: str | Path, what: str = "file") -> Path:
+    """``path`` if it names a regular file (through symlinks); refused otherwise.
+
+    A FIFO or device given as an input would block for ever or never end when read.
+
+    Raises
+    ------
+    SpineMeshError
+        Naming the file and what it is instead.
+    """
+    import stat
+
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise SpineMeshError(f"no such {what}", path) from None
+    except OSError as e:
+        raise SpineMeshError(f"cannot read {what}: {e.strerror}", path) from None
+    if stat.S_ISDIR(mode):
+        raise SpineMeshError(f"{what} is a folder", path)
+    if not stat.S_ISREG(mode):
+        kind = "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise SpineMeshError(f"{what} is {kind}, not a regular file; only regular files are read", path)
+    return path

@@ -135,6 +135,10 @@ def load_rgba(path: str | Path) -> np.ndarray:
     LimitError
         Image larger than the limits.
     """
+    from .fsutil import regular_file
+
+    if Path(path).exists():  # a FIFO or device would block or never end: regular files only
+        regular_file(path, "image")
     try:
         with warnings.catch_warnings():
             # Pillow's bomb warning becomes our error (the size check below comes first).
@@ -366,9 +370,11 @@ class FolderImages:
         return self.path_of(name) is not None
 
     def names(self) -> list[str]:
+        from .fsutil import walk_files
+
         out = []
-        for p in sorted(self.folder.rglob("*")):
-            if p.suffix.lower() in IMAGE_EXTENSIONS and p.is_file():
+        for p in walk_files(self.folder):
+            if p.suffix.lower() in IMAGE_EXTENSIONS:
                 out.append(p.relative_to(self.folder).with_suffix("").as_posix())
         return out
 

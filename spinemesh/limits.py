@@ -53,9 +53,13 @@ MAX_DOCUMENT_BYTES = 256 * 1024 * 1024
 
 
 def check_file_size(path, what: str) -> None:
-    """Refuse a ``what`` file (skeleton, atlas) larger than :data:`MAX_DOCUMENT_BYTES`."""
+    """Refuse a ``what`` file (skeleton, atlas) that is not a regular file or is larger than
+    :data:`MAX_DOCUMENT_BYTES` (a FIFO would block for ever when read)."""
     import os
 
+    from .fsutil import regular_file
+
+    regular_file(path, what)
     size = os.stat(path).st_size
     if size > MAX_DOCUMENT_BYTES:
         raise LimitError(f"{what} of {size:,} bytes exceeds the limit of {MAX_DOCUMENT_BYTES:,} bytes", path)

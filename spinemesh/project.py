@@ -8,8 +8,9 @@ atlases that hold the skeleton's images.
 
 Safety rules, in one place for every command:
 
-- only files whose real path lies inside the project are taken; a symlink leading outside
-  is skipped with a note in ``Project.problems``, and symlinked folders are not entered;
+- only regular files whose real path lies inside the project are taken; a symlink leading
+  outside is skipped with a note in ``Project.problems``, and symlinked folders are not
+  entered (:func:`~spinemesh.fsutil.walk_folder`, the one walk of every command);
 - :func:`project_atlases` is the one way atlases are read: a broken atlas is reported in
   ``Project.problems`` and left out, and the rest of the project goes on;
 - image folders (the ``skeleton.images`` hint, ``images/`` folders) are used only when their
@@ -25,7 +26,7 @@ from pathlib import Path
 
 from .atlas import Atlas, read_atlas
 from .errors import SpineMeshError, UnsafePathError
-from .fsutil import is_within, real, resolve_inside
+from .fsutil import is_within, real, resolve_inside, walk_folder
 from .images import AtlasImages, FolderImages
 from .skeleton import image_paths, iter_attachments
 
@@ -83,31 +84,11 @@ class Project:
 
 
 def _walk(root: Path, problems: list[str]) -> tuple[list[Path], list[Path]]:
-    """Non-hidden files and folders under ``root``, sorted, without following symlinked folders.
-
-    A symlinked file is kept only when its real path lies inside ``root``.
-    """
+    """Non-hidden regular files and folders under ``root``, sorted (:func:`~spinemesh.fsutil.walk_folder`)."""
     files, folders = [], []
-    for here, dirs, names in os.walk(root, followlinks=False):
-        here_path = Path(here)
-        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
-        for d in list(dirs):
-            p = here_path / d
-            if p.is_symlink():
-                dirs.remove(d)
-                if not is_within(p, root):
-                    problems.append(f"{p}: symlink to a folder outside the project; skipped")
-                continue
-            folders.append(p)
-        for name in sorted(names):
-            p = here_path / name
-            if name.startswith("."):
-                continue
-            if p.is_symlink() and not is_within(p, root):
-                problems.append(f"{p}: symlink to a file outside the project; skipped")
-                continue
-            if p.is_file():
-                files.append(p)
+    for _, subfolders, found in walk_folder(root, problems):
+        folders += subfolders
+        files += found
     return sorted(files), sorted(folders)
 
 
@@ -279,18 +260,12 @@ def find_projects(folder: str | Path) -> list[Path]:
     if not folder.is_dir():
         raise SpineMeshError("folder not found", folder)
     out: list[Path] = []
-
-    def walk(here: Path) -> None:
-        entries = sorted(here.iterdir())
-        files = [p for p in entries if p.is_file()]
+    # walk_folder: symlinked folders are not entered (a link to outside, or ``ln -s . loop``)
+    for here, subfolders, files in walk_folder(folder, hidden=True):  # SOURCE_FILE is hidden
+        subfolders[:] = [p for p in subfolders if not p.name.startswith(".")]
         if any(p.name == SOURCE_FILE or _has_suffix(p, ATLAS_SUFFIXES) or is_skeleton_file(p) for p in files):
             out.append(here)
-            return
-        for p in entries:
-            if p.is_dir() and not p.name.startswith("."):
-                walk(p)
-
-    walk(folder)
+            subfolders[:] = []
     return out
 
 

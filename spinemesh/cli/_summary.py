@@ -3,13 +3,16 @@
 Both keep one row per attachment (``skeleton``, ``skin``, ``slot``, ``name``, ``status``,
 ``reason``): a table per skeleton, one line per attachment that failed (on stderr), a count
 per reason for those left alone on purpose, and the run's errors. Names and reasons come
-from the project: they are never read as rich markup. rich is imported on first use.
+from the project: they are never read as rich markup, and their control characters are printed
+as escapes (:func:`~spinemesh.errors.escaped`: a newline in a name cannot forge a line). rich
+is imported on first use.
 """
 
 from __future__ import annotations
 
 from typing import Callable, Sequence
 
+from ..errors import escaped
 from ._app import console, err_console
 
 
@@ -25,7 +28,7 @@ def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Ca
     for row in rows:
         by_skel.setdefault(row.skeleton, []).append(row)
     for name, group in by_skel.items():
-        table.add_row(escape(name), *cells(group))
+        table.add_row(escape(escaped(name)), *cells(group))
     return table
 
 
@@ -42,10 +45,10 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
         if row.status == skipped:
             reasons[reason(row)] = reasons.get(reason(row), 0) + 1
         elif row.status == "failed":
-            err_console.print(f"[yellow]{failed_label}:[/] " + escape(f"{row.skeleton} skin {row.skin!r} slot "
-                                                                     f"{row.slot!r} attachment {row.name!r}: "
-                                                                     f"{row.reason}"), highlight=False)
+            err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
+                f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}: {row.reason}")),
+                highlight=False)
     for why, n in sorted(reasons.items()):
         console.print(f"{skipped_label}: {n} ({why})", highlight=False, markup=False)
     for e in errors:
-        err_console.print(f"[red]error:[/] {escape(e)}", highlight=False)
+        err_console.print(f"[red]error:[/] {escape(escaped(e))}", highlight=False)

@@ -31,6 +31,7 @@ def dataset(
     """
     from ..cluster import available_cores
     from ..dataset import build_dataset
+    from ..errors import escaped
     from ..fsutil import check_outputs
 
     check_outputs(corpus, folders=[out])
@@ -93,7 +94,7 @@ def _print_problems(summary, out: Path) -> None:
         err_console.print(f"[yellow]{len(summary.errors)} problem(s) in {summary.projects_with_errors} "
                           f"project(s); their other files were used:[/]")
         for e in summary.errors[:40]:
-            err_console.print(f"  {e}", markup=False, highlight=False)
+            err_console.print(f"  {escaped(e)}", markup=False, highlight=False)
         if len(summary.errors) > 40:
             err_console.print(f"  ... and {len(summary.errors) - 40} more (see {out}/projects.jsonl)")
     if summary.lost:  # a worker died on them twice: the data set lacks them until --retry-failed

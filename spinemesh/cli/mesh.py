@@ -104,10 +104,11 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import OutputGuard
+    from ..fsutil import OutputGuard, walk_files
     from ..images import IMAGE_EXTENSIONS
 
-    files = sorted(p for p in image.rglob("*") if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS)
+    # regular files inside the folder by real path: no symlink out, no FIFO, no loop
+    files = [p for p in walk_files(image) if p.suffix.lower() in IMAGE_EXTENSIONS]
     if not files:
         raise SpineMeshError("no image files in this folder", image)
     rows = []
