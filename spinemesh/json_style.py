@@ -425,6 +425,11 @@ def splice(text: str, new, style: JsonStyle | None = None) -> str:
         return dumps(new, style) + style.newline
     edits: list = []
     _changes(text, offset, old, new, style, edits)
-    for start, end, replacement in sorted(edits, reverse=True):
-        text = text[:start] + replacement + text[end:]
-    return text
+    # One pass over the text: unchanged stretches and replacements joined once (rebuilding the
+    # whole text per edit was quadratic: 109 s for 20,000 changed attachments in a 1.1 MB file).
+    pieces, pos = [], 0
+    for start, end, replacement in sorted(edits):
+        pieces += (text[pos:start], replacement)
+        pos = end
+    pieces.append(text[pos:])
+    return "".join(pieces)

@@ -27,6 +27,31 @@ MAX_SEQUENCE_DIGITS = 9
 MAX_JSON_DEPTH = 100
 
 
+#: Smallest atlas page ``scale:``. A page exported at scale ``s`` stands for original images
+#: ``1 / s`` times its size: the editor images written back (``upgrade --images``) and the
+#: sizes the mesher works in grow with ``1 / s`` (a 76 x 72 region at ``scale: 0.002`` would
+#: ask for a 38000 x 36000 image). The editor's export dialog offers scales down to 0.01.
+MIN_ATLAS_SCALE = 0.001
+
+#: Largest atlas page ``scale:`` (pages are exported at most a few times up, for high-DPI art).
+MAX_ATLAS_SCALE = 1000.0
+
+#: Most regions in one atlas. Each region costs about a kilobyte once parsed: the limit bounds
+#: an atlas's memory to about 100 MB, whatever its file size.
+MAX_ATLAS_REGIONS = 100_000
+
+#: Most attachments in one skeleton. Each is planned, possibly meshed and written: memory and
+#: time grow with the count (about 2 KB and 50 microseconds of writing each).
+MAX_ATTACHMENTS = 200_000
+
+#: Largest magnitude of a number the program computes with (coordinates, sizes, scales,
+#: rotations, mixes, mesh vertices). Products of up to four such values (a vertex: position +
+#: size x scale x cosine, then a bone's transform) stay far inside the float32 range of the
+#: binary format (3.4e38), so no value can overflow to infinity; an integer of hundreds of
+#: digits or ``1e300`` is refused where it is read.
+MAX_SKELETON_NUMBER = 1e9
+
+
 def check_image_size(width: int, height: int, what: str, source=None, line: int | None = None) -> None:
     """Refuse an image, page or region whose size exceeds the limits above.
 

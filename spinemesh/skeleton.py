@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from .errors import LimitError, SkeletonError, SpineMeshError
 from .fsutil import atomic_write_text
 from .limits import MAX_JSON_DEPTH, MAX_SEQUENCE_DIGITS, MAX_SEQUENCE_FRAMES, check_file_size
+from .skeleton_check import check_document
 
 #: Attachment types that draw an image from the atlas.
 IMAGE_TYPES = ("region", "mesh", "linkedmesh")
@@ -46,10 +47,14 @@ def load_skeleton(path: str | Path) -> dict:
     JSON keeps key order and every field, known or not, so that :func:`save_skeleton`
     writes back an equal document.
 
+    The document's shape is checked once here (:func:`spinemesh.skeleton_check.check_document`):
+    code that reads it may trust the types of bones, slots, constraints and skins.
+
     Raises
     ------
     SkeletonError
-        With the file and line, for unreadable or non-skeleton JSON.
+        With the file and line, for unreadable or non-skeleton JSON; with the file and the JSON
+        path for a field of the wrong shape (``slots[3].bone: expected a name, found a list``).
     SkelFormatError
         With the byte offset, for a broken ``.skel``.
     """
@@ -66,6 +71,7 @@ def load_skeleton(path: str | Path) -> dict:
         if where is not None:
             raise SkeletonError(f"holds a non-finite number (NaN or infinity) at {where}; refused, "
                                 "since it could not be written back as valid JSON or meshed", path)
+        check_document(doc, path)
         return doc
     try:
         text = path.read_bytes().decode("utf-8-sig")
@@ -76,6 +82,7 @@ def load_skeleton(path: str | Path) -> dict:
     doc = parse_skeleton_json(text, path)
     if not isinstance(doc, dict) or not isinstance(doc.get("bones", []), list):
         raise SkeletonError("not a Spine skeleton (no top-level object with 'bones')", path)
+    check_document(doc, path)
     return doc
 
 
@@ -250,28 +257,52 @@ def spine_version(doc: dict) -> str:
     return str(skel.get("spine", "")) if isinstance(skel, dict) else ""
 
 
-def iter_skins(doc: dict) -> Iterator[tuple[str, dict]]:
-    """``(skin name, {slot: {attachment name: attachment}})`` for both skin layouts."""
+def _skins(doc: dict) -> Iterator[tuple[str, dict, tuple]]:
+    """``(skin name, {slot: {name: attachment}}, JSON path of that mapping)`` for both layouts."""
     skins = doc.get("skins")
     if isinstance(skins, dict):  # 3.6 / 3.7
         for name, slots in skins.items():
             if isinstance(slots, dict):
-                yield name, slots
+                yield name, slots, ("skins", name)
     elif isinstance(skins, list):  # 3.8+
-        for skin in skins:
+        for i, skin in enumerate(skins):
             if isinstance(skin, dict) and isinstance(skin.get("attachments", {}), dict):
-                yield str(skin.get("name", "")), skin.get("attachments", {})
+                yield str(skin.get("name", "")), skin.get("attachments", {}), ("skins", i, "attachments")
 
 
-def iter_attachments(doc: dict) -> Iterator[AttachmentRef]:
-    """Every attachment of every skin, in document order."""
-    for skin, slots in iter_skins(doc):
+def iter_skins(doc: dict) -> Iterator[tuple[str, dict]]:
+    """``(skin name, {slot: {attachment name: attachment}})`` for both skin layouts."""
+    for name, slots, _ in _skins(doc):
+        yield name, slots
+
+
+def checked_attachments(doc: dict) -> Iterator[tuple[AttachmentRef, str]]:
+    """Every attachment of every skin, in document order, with why it cannot be used (or ``""``).
+
+    The reason names the attachment's JSON path and the field
+    (``skins[0].attachments.head.head.x: expected a finite number ..., found ...``); see
+    :func:`spinemesh.skeleton_check.attachment_problem`.
+    """
+    from .skeleton_check import attachment_problem
+
+    for skin, slots, where in _skins(doc):
         for slot, attachments in slots.items():
             if not isinstance(attachments, dict):
                 continue
             for name, att in attachments.items():
                 if isinstance(att, dict):
-                    yield AttachmentRef(skin, slot, name, att)
+                    yield AttachmentRef(skin, slot, name, att), attachment_problem(att, (*where, slot, name))
+
+
+def iter_attachments(doc: dict) -> Iterator[AttachmentRef]:
+    """Every usable attachment of every skin, in document order.
+
+    An attachment whose fields have the wrong type or an unusable number is passed over (left
+    as it is in the document); :func:`checked_attachments` says why.
+    """
+    for ref, problem in checked_attachments(doc):
+        if not problem:
+            yield ref
 
 
 def attachment_path(ref: AttachmentRef) -> str:

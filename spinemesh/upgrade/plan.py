@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..images import FAINT_TEXEL, RegionImage, content_id
 from ..project import Project, image_source_for
-from ..skeleton import image_paths, iter_attachments, load_skeleton
+from ..skeleton import checked_attachments, image_paths, iter_attachments, load_skeleton
 from .geometry import frames_on_one_grid
 from .options import Options, skip_reason
 from .output import write_editor_image
@@ -196,8 +196,11 @@ class Planner:
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
-        for ref in iter_attachments(doc):
-            if ref.type != "region":
+        for ref, problem in checked_attachments(doc):
+            if ref.type != "region" and isinstance(ref.type, str):
+                continue
+            if problem:  # a field of the wrong type or an unusable number: this one stays as it is
+                targets.append(Target(skeleton, ref.skin, ref.slot, ref.name, [], "failed", problem))
                 continue
             try:
                 paths = image_paths(ref)

@@ -77,6 +77,9 @@ def write_skeletons(plan: ProjectPlan, out: Path, result: Result) -> None:
             write_skeleton(sk.doc, sk.path, out / sk.rel)
         except SpineMeshError as e:
             result.errors.append(f"{sk.path}: not written: {e}")
+            for t in sk.targets:  # not counted as meshed: the output does not hold them
+                if t.status == "meshed":
+                    t.status, t.reason = "failed", "its skeleton was not written"
             continue
         result.written.append(sk.rel)
 
@@ -92,7 +95,7 @@ def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
 
         atomic_write_bytes(dest, write_skel(doc, dest))
     else:
-        original = path.read_bytes().decode("utf-8-sig")
+        original = path.read_bytes().decode("utf-8")  # a byte-order mark stays (splice keeps it)
         atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))
 
 

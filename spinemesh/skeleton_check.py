@@ -1,0 +1,243 @@
+"""One check of a skeleton document's shape, made once at load, for every field the program reads.
+
+A skeleton JSON can hold anything: a slot's ``bone`` given as a list, a bone ``x`` of 400
+digits, ``width: 1e300``. Code that reads the document trusts what this module checked, so
+wrong types and huge numbers end as one line naming the file and the JSON path
+(``slots[3].bone: expected a name, found a list``), never as a traceback deep inside.
+
+- :func:`check_document` checks the skeleton-wide parts (bones, slots, constraints, the
+  skins' layout, the number of attachments): a problem there refuses the skeleton
+  (:class:`~spinemesh.errors.SkeletonError`), since bones and slots are what every attachment
+  hangs on.
+- :func:`attachment_problem` checks one attachment: a bad one is passed over with its reason
+  (:func:`spinemesh.skeleton.checked_attachments`), never its skeleton.
+
+Lenient where the official runtimes are lenient: fields the program does not read are not
+looked at; optional fields may be absent or ``null`` (the runtimes' defaults apply); a name
+may be a number (the runtimes read it as text); a number may be numeric text (the runtimes
+parse it). Numbers must be finite and at most :data:`~spinemesh.limits.MAX_SKELETON_NUMBER`
+in size, so that nothing computed from them overflows.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+from .errors import LimitError, SkeletonError
+from .limits import MAX_ATTACHMENTS, MAX_SKELETON_NUMBER
+
+# -- what a value is -------------------------------------------------------------------------------
+
+
+def found(value) -> str:
+    """Words for what ``value`` is, for an error line (``"a list"``, ``"an integer of 401 digits"``)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int):
+        digits = len(str(abs(value))) if abs(value) < 10**4000 else "thousands of"
+        return f"an integer of {digits} digits" if abs(value) > MAX_SKELETON_NUMBER else f"the number {value}"
+    if isinstance(value, float):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        return "text" if len(value) > 40 else f"the text {value!r}"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "an object"
+    return type(value).__name__
+
+
+def _number_ok(value) -> bool:
+    if isinstance(value, str):  # the runtimes parse numeric text
+        try:
+            value = float(value)
+        except ValueError:
+            return False
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    # abs() of an int is exact: a 400-digit integer compares without overflow
+    return abs(value) <= MAX_SKELETON_NUMBER if isinstance(value, int) else (
+        math.isfinite(value) and abs(value) <= MAX_SKELETON_NUMBER)
+
+
+def _numbers_ok(values) -> bool:
+    """A list of numbers, each within the limit (checked in C for long vertex lists)."""
+    if not isinstance(values, list):
+        return False
+    try:
+        return max(map(abs, values), default=0) <= MAX_SKELETON_NUMBER and not any(
+            isinstance(v, (bool, str)) for v in values)
+    except TypeError:  # a string, list or object among them
+        return False
+
+
+def _name_ok(value) -> bool:
+    # text, or a scalar the runtimes read as text; never a list or object (unhashable)
+    return isinstance(value, (str, int, float)) and not (isinstance(value, float) and not math.isfinite(value))
+
+
+def _names_ok(values) -> bool:
+    return isinstance(values, list) and all(_name_ok(v) for v in values)
+
+
+#: Kinds of field: (test, what is expected). ``None`` passes every optional field.
+NAME = (_name_ok, "a name")
+NAMES = (_names_ok, "a list of names")
+NUMBER = (_number_ok, f"a finite number of at most {MAX_SKELETON_NUMBER:g} in size")
+NUMBERS = (_numbers_ok, f"a list of finite numbers of at most {MAX_SKELETON_NUMBER:g} in size")
+OBJECT = (lambda v: isinstance(v, dict), "an object")
+LIST = (lambda v: isinstance(v, list), "a list")
+
+
+def _fields(kind, *names: str) -> dict:
+    return dict.fromkeys(names, kind)
+
+
+BONE = {"name": NAME, "parent": NAME, "inherit": NAME, "transform": NAME,
+        **_fields(NUMBER, "length", "x", "y", "rotation", "scaleX", "scaleY", "shearX", "shearY")}
+SLOT = {"name": NAME, "bone": NAME, "attachment": NAME, "blend": NAME, "color": NAME, "dark": NAME}
+_CONSTRAINT = {"name": NAME, "bones": NAMES, "bone": NAME, "target": NAME, "source": NAME, "slot": NAME,
+               "type": NAME, "order": NUMBER}
+IK = {**_CONSTRAINT, **_fields(NUMBER, "mix", "softness")}
+TRANSFORM = {**_CONSTRAINT, **_fields(NUMBER, "rotation", "x", "y", "scaleX", "scaleY", "shearY", "mixRotate",
+                                      "mixX", "mixY", "mixScaleX", "mixScaleY", "mixShearY", "rotateMix",
+                                      "translateMix", "scaleMix", "shearMix")}
+PATH = {**_CONSTRAINT, "positionMode": NAME, "spacingMode": NAME, "rotateMode": NAME,
+        **_fields(NUMBER, "position", "spacing", "rotation", "mixRotate", "mixX", "mixY", "rotateMix",
+                  "translateMix")}
+PHYSICS = {**_CONSTRAINT, **_fields(NUMBER, "x", "y", "rotate", "scaleX", "shearX", "limit", "fps", "inertia",
+                                    "strength", "damping", "mass", "wind", "gravity", "mix")}
+CONSTRAINTS = {"ik": IK, "transform": TRANSFORM, "path": PATH, "physics": PHYSICS, "slider": _CONSTRAINT}
+
+#: The fields of an attachment that the program reads (meshing, weighting, writing .skel).
+ATTACHMENT = {"type": NAME, "name": NAME, "path": NAME, "parent": NAME, "source": NAME, "skin": NAME,
+              "slot": NAME, "color": NAME, "sequence": OBJECT,
+              **_fields(NUMBER, "x", "y", "width", "height", "rotation", "scaleX", "scaleY", "hull", "vertexCount"),
+              **_fields(NUMBERS, "vertices", "uvs", "triangles", "edges", "lengths")}
+
+#: Top-level fields and what they hold.
+TOP = {"skeleton": OBJECT, "bones": LIST, "slots": LIST, "constraints": LIST, "animations": OBJECT,
+       **_fields(LIST, *CONSTRAINTS)}
+
+# -- JSON paths ------------------------------------------------------------------------------------
+
+_PLAIN_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
+
+
+def json_path(*parts) -> str:
+    """``slots[3].bone`` from ``("slots", 3, "bone")``; odd keys quoted (``attachments["a b"]``)."""
+    out = ""
+    for part in parts:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif _PLAIN_KEY.match(part):
+            out += f".{part}" if out else part
+        else:
+            out += f"[{json.dumps(part, ensure_ascii=False)}]"
+    return out
+
+
+def _field_problem(node: dict, spec: dict, *where) -> str:
+    """The first field of ``node`` that is not what ``spec`` expects, as an error line, or ``""``."""
+    for key, value in node.items():
+        kind = spec.get(key)
+        if kind is None or value is None:  # not read by the program / absent in the runtimes' eyes
+            continue
+        test, expected = kind
+        if not test(value):
+            return f"{json_path(*where, key)}: expected {expected}, found {found(value)}"
+    return ""
+
+
+def _list_of_objects(doc: dict, key: str, spec: dict) -> str:
+    for i, node in enumerate(doc.get(key) or []):
+        if not isinstance(node, dict):
+            return f"{json_path(key, i)}: expected an object, found {found(node)}"
+        problem = _field_problem(node, spec, key, i)
+        if problem:
+            return problem
+    return ""
+
+
+def _skins_problem(skins) -> tuple[str, int]:
+    """The skins' layout (3.8+: a list of objects; before: an object of skins) and its attachment count."""
+    count = 0
+    if isinstance(skins, list):
+        items = []
+        for i, skin in enumerate(skins):
+            if not isinstance(skin, dict):
+                return f"{json_path('skins', i)}: expected an object, found {found(skin)}", 0
+            problem = _field_problem(skin, {"name": NAME, "attachments": OBJECT, "bones": NAMES, "ik": NAMES,
+                                            "transform": NAMES, "path": NAMES, "physics": NAMES}, "skins", i)
+            if problem:
+                return problem, 0
+            items.append((("skins", i, "attachments"), skin.get("attachments") or {}))
+    elif isinstance(skins, dict):
+        items = [(("skins", name), slots) for name, slots in skins.items()]
+    elif skins is None:
+        return "", 0
+    else:
+        return f"skins: expected a list or an object, found {found(skins)}", 0
+    for where, slots in items:
+        if not isinstance(slots, dict):
+            return f"{json_path(*where)}: expected an object, found {found(slots)}", 0
+        for slot, attachments in slots.items():
+            if not isinstance(attachments, dict):
+                return f"{json_path(*where, slot)}: expected an object, found {found(attachments)}", 0
+            count += len(attachments)
+    return "", count
+
+
+def document_problem(doc) -> str:
+    """The first problem of a skeleton document's shape outside its attachments, or ``""``."""
+    if not isinstance(doc, dict):
+        return f"the top level: expected an object, found {found(doc)}"
+    problem = _field_problem(doc, TOP)
+    if problem:
+        return problem
+    if isinstance(doc.get("skeleton"), dict):
+        problem = _field_problem(doc["skeleton"], {"spine": NAME}, "skeleton")
+    problem = problem or _list_of_objects(doc, "bones", BONE) or _list_of_objects(doc, "slots", SLOT)
+    for kind, spec in CONSTRAINTS.items():
+        problem = problem or _list_of_objects(doc, kind, spec)
+    return problem or _list_of_objects(doc, "constraints", {**IK, **TRANSFORM, **PATH, **PHYSICS})
+
+
+def check_document(doc, source: str | Path | None = None) -> None:
+    """Refuse a skeleton document whose bones, slots, constraints or skins have the wrong shape.
+
+    Attachments are checked one by one where they are read (:func:`attachment_problem`).
+
+    Raises
+    ------
+    SkeletonError
+        ``FILE: slots[3].bone: expected a name, found a list``.
+    LimitError
+        More than :data:`~spinemesh.limits.MAX_ATTACHMENTS` attachments.
+    """
+    problem = document_problem(doc)
+    if problem:
+        raise SkeletonError(problem, source)
+    problem, count = _skins_problem(doc.get("skins"))
+    if problem:
+        raise SkeletonError(problem, source)
+    if count > MAX_ATTACHMENTS:
+        raise LimitError(f"{count:,} attachments exceed the limit of {MAX_ATTACHMENTS:,} per skeleton", source)
+
+
+def attachment_problem(attachment, where: tuple = ()) -> str:
+    """Why one attachment cannot be used (``"x: expected a finite number ..., found ..."``), or ``""``.
+
+    ``where`` is the attachment's JSON path, put before the field in the answer.
+    """
+    if not isinstance(attachment, dict):
+        return f"{json_path(*where) or 'attachment'}: expected an object, found {found(attachment)}"
+    return _field_problem(attachment, ATTACHMENT, *where)
+
+
+__all__ = ["check_document", "attachment_problem", "document_problem", "json_path", "found"]
