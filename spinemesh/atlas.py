@@ -24,15 +24,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import math
+import sys
 
-from .errors import AtlasError, SpineMeshError
-from .limits import check_file_size, check_image_size
+from .errors import AtlasError, LimitError, SpineMeshError
+from .limits import (MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_file_size,
+                     check_image_size)
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
 _V4_KEYS = {"bounds", "offsets", "pma", "scale"}
 
 
-@dataclass
+@dataclass(slots=True)
 class Entry:
     """One ``key: v1, v2, ...`` line, with the formatting needed to write it back."""
 
@@ -73,6 +75,8 @@ class RegionGeometry:
 class _Fields:
     """Lookup of a page's or region's ``key: values`` entries (the first entry of a key wins)."""
 
+    __slots__ = ()
+
     entries: list[Entry]
 
     def get(self, key: str) -> list[str] | None:
@@ -82,7 +86,7 @@ class _Fields:
         return None
 
 
-@dataclass
+@dataclass(slots=True)
 class AtlasRegion(_Fields):
     """A named region of a page. ``entries`` hold every field in file order."""
 
@@ -184,6 +188,10 @@ class AtlasPage(_Fields):
         if not math.isfinite(scale) or scale <= 0:
             raise AtlasError(f"page {self.name!r}: scale must be a number above 0, found {v[0]!r}",
                              source, line=self.line)
+        if not MIN_ATLAS_SCALE <= scale <= MAX_ATLAS_SCALE:
+            # the page stands for images 1/scale times its size (see limits.MIN_ATLAS_SCALE)
+            raise LimitError(f"page {self.name!r}: scale {v[0]} is outside the limits {MIN_ATLAS_SCALE:g} to "
+                             f"{MAX_ATLAS_SCALE:g}", source, line=self.line)
 
 
 @dataclass
@@ -266,7 +274,12 @@ def _entry(raw: str) -> Entry | None:
     values = [v.strip() for v in rest.split(",")] if rest else []
     sep = ", " if ", " in rest else ","
     indent = raw[: len(raw) - len(raw.lstrip())]
-    return Entry(key, values, indent, sep, colon_text)
+    # the same few keys and spacings on every line: one string each, not one per line
+    return Entry(_shared(key), values, _shared(indent), sep, _shared(colon_text))
+
+
+def _shared(text: str) -> str:
+    return sys.intern(text) if len(text) < 32 else text
 
 
 def parse_atlas(text: str, source: str | Path | None = None, strict: bool = True) -> Atlas:
@@ -289,6 +302,12 @@ def parse_atlas(text: str, source: str | Path | None = None, strict: bool = True
         With the line number, for an entry before any name, a file with no pages, a page
         scale that is not a number above 0, or (``strict``) a malformed region.
     """
+    # A region takes at most about ten lines (name, bounds or xy and size, orig, offset(s),
+    # rotate, index, split, pad): refused by its line count before anything is parsed.
+    line_count = text.count("\n") + text.count("\r") - text.count("\r\n")
+    if line_count > 10 * MAX_ATLAS_REGIONS:
+        raise LimitError(f"{line_count:,} lines: more than the {MAX_ATLAS_REGIONS:,} regions an atlas may hold",
+                         source)
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     if text.startswith("\ufeff"):
         lines[0] = lines[0][1:]
@@ -320,6 +339,9 @@ def parse_atlas(text: str, source: str | Path | None = None, strict: bool = True
             atlas.pages.append(page)
             current = page
         else:
+            if len(atlas.regions) >= MAX_ATLAS_REGIONS:
+                raise LimitError(f"more than {MAX_ATLAS_REGIONS:,} regions, the limit of one atlas", source,
+                                 line=n + 1)
             region = AtlasRegion(name=name, page=len(atlas.pages) - 1, line=n + 1)
             atlas.regions.append(region)
             current = region

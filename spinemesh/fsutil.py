@@ -34,6 +34,30 @@ def is_within(path: str | Path, folder: str | Path) -> bool:
     return p == f or f in p.parents
 
 
+#: Longest file or folder name (bytes) and whole path most file systems hold (Linux's NAME_MAX and
+#: PATH_MAX); a longer one makes every call on it fail with "File name too long".
+NAME_MAX = 255
+PATH_MAX = 4096
+
+
+def check_name_lengths(path: str | Path, source: str | Path | None = None, what: str = "path") -> None:
+    """Refuse a path that no file system can hold: a name over 255 bytes or a path over 4096.
+
+    Raises
+    ------
+    UnsafePathError
+        Naming the path (escaped, shortened) and ``source``, the file that named it.
+    """
+    text = os.fsencode(os.fspath(path))
+    longest = max((len(part) for part in text.split(b"/")), default=0)
+    if longest > NAME_MAX or len(text) > PATH_MAX:
+        shown = os.fspath(path)
+        shown = shown if len(shown) <= 80 else shown[:60] + "..." + shown[-16:]
+        raise UnsafePathError(f"{what} {shown!r} is longer than a file system allows ({longest} bytes in one "
+                              f"name, at most {NAME_MAX}; {len(text)} in all, at most {PATH_MAX})",
+                              source or None)
+
+
 def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None,
                    what: str = "project folder") -> Path:
     """Join ``relative`` to ``root`` and refuse any result outside ``root``.
@@ -60,6 +84,7 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
         raise UnsafePathError(f"path {relative!r} holds a NUL character", source or root)
     if os.path.isabs(rel) or (len(rel) > 1 and rel[1] == ":"):
         raise UnsafePathError(f"absolute path {relative!r} is not allowed", source or root)
+    check_name_lengths(root / rel, source or root)
     candidate = real(root / rel)
     if candidate != root and root not in candidate.parents:
         raise UnsafePathError(f"path {relative!r} leads outside the {what}", source or root)
@@ -96,6 +121,7 @@ class OutputGuard:
         folder that may be emptied as a whole, like ``upgrade --overwrite`` does).
         """
         folder = Path(folder)
+        check_name_lengths(folder, what=what)
         if folder.is_symlink():
             raise OutputError(f"{what} is a symlink; give the real folder", folder)
         if folder.exists() and not folder.is_dir():
@@ -111,6 +137,7 @@ class OutputGuard:
     def check(self, path: str | Path, what: str = "output file") -> Path:
         """Return ``path`` if it may be written; raise :class:`OutputError` otherwise."""
         path = Path(path)
+        check_name_lengths(path, what=what)
         if path.is_symlink():
             raise OutputError(f"{what} is a symlink; refusing to write through it", path)
         if path.is_dir():

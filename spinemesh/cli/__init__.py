@@ -60,10 +60,13 @@ def main() -> None:
             except KeyboardInterrupt:
                 sys.exit("Aborted!")  # what click prints for Ctrl-C, with its exit status 1
         _load_app()()
-    except SpineMeshError as e:
+    except (SpineMeshError, OSError) as e:
         from rich.markup import escape
 
+        from ..errors import escaped
         from ._app import err_console
 
-        err_console.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
+        if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
+            e = SpineMeshError(e.strerror or str(e), e.filename)
+        err_console.print(f"[bold red]error:[/] {escape(escaped(str(e)))}", highlight=False, soft_wrap=True)
         sys.exit(2)

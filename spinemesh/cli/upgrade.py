@@ -127,6 +127,7 @@ def upgrade(
 
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
+    _refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
                  if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
@@ -138,6 +139,11 @@ def upgrade(
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
     result = _run(project, out, options, library)
     if report is not None:
+        from ..errors import OutputError
+        from ..fsutil import is_within
+
+        if not dry_run and is_within(report, out) and report.exists():  # OUT was empty when the run began
+            raise OutputError("--report would replace a file this run wrote; name it apart", report)
         write_report(result, report)
     _print_result(result, dry_run)
     nothing = _nothing_to_do(result, project, only or exclude)
@@ -147,6 +153,18 @@ def upgrade(
         page = write_preview(result, project, out, preview, images_in=images_in)
         console.print(f"preview: {page}", highlight=False, markup=False)
     _exit(result, nothing)
+
+
+def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
+    """Refuse an output folder given as OUT, inside OUT or holding OUT: a file of one would
+    silently replace a file of the other (an editor image named like a page)."""
+    from ..errors import OutputError
+    from ..fsutil import is_within
+
+    for option, path in others.items():
+        if path is not None and (is_within(path, out) or is_within(out, path)):
+            raise OutputError(f"{option} {path} overlaps the output folder {out}; give a folder or file "
+                              "beside it", path)
 
 
 def _run(project: Path, out: Path, options, library: bool):

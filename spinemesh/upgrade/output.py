@@ -77,7 +77,11 @@ def write_editor_image(frame: RegionImage, folder: Path) -> None:
     if frame.scale != 1:
         import cv2
 
+        from ..limits import check_image_size
+
         h, w = rgba.shape[:2]
         size = (max(1, round(w / frame.scale)), max(1, round(h / frame.scale)))
+        # the size the page's scale implies, checked before it is allocated
+        check_image_size(*size, f"editor image {frame.name!r} at atlas scale {frame.scale:g}", frame.source)
         rgba = cv2.resize(rgba, size, interpolation=cv2.INTER_CUBIC)
     atomic_write_png(resolve_inside(folder, frame.name + ".png", folder, "--images folder"), rgba)
