@@ -30,6 +30,7 @@ import time
 import zlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import EXAMPLES, REPO, unavailable
@@ -716,3 +717,396 @@ def test_training_commands_never_write_into_a_data_set(tmp_path, args):
     r = run_cli(*args, cwd=tmp_path)
     check_run(r, before, tmp_path, [])
     assert r.returncode == 2 and "lies inside the input" in r.stderr
+
+
+# --- third round: dead workers, symlinked folders, wrong types, huge numbers, limits, names -----
+
+def _children(pid: int) -> list[int]:
+    """Process ids of the children of ``pid`` (its worker processes)."""
+    out = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            out += [int(x) for x in (task / "children").read_text().split()]
+        except (FileNotFoundError, ProcessLookupError):
+            pass
+    return out
+
+
+def _library_of_demos(tmp: Path, demo: Path, count: int) -> Path:
+    """``L/d0 ... L/dN``: copies of the demo project whose page colours differ, so that no image is shared."""
+    from PIL import Image
+
+    _json_only(demo)
+    library = tmp / "L"
+    for i in range(count):
+        dest = library / f"d{i}"
+        shutil.copytree(demo, dest)
+        page = np.array(Image.open(dest / "demo.png").convert("RGBA"))
+        page[..., :3] = (page[..., :3].astype(int) + 7 * (i + 1)) % 256
+        Image.fromarray(page).save(dest / "demo.png")
+    return library
+
+
+def _kill_a_worker_while_running(args: list, cwd: Path, started: Path) -> subprocess.CompletedProcess:
+    """Run ``python -m spinemesh ARGS``; once ``started`` exists and workers run, SIGKILL one of them."""
+    env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_limits(MEMORY_LIMIT, None))
+    killed = None
+    deadline = time.monotonic() + TIME_LIMIT
+    while proc.poll() is None and time.monotonic() < deadline and killed is None:
+        workers = _children(proc.pid)
+        if started.exists() and workers:
+            time.sleep(0.3)  # inside a task
+            killed = workers[0]
+            os.kill(killed, signal.SIGKILL)
+        time.sleep(0.05)
+    stdout, stderr = proc.communicate(timeout=TIME_LIMIT)
+    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+
+
+def test_a_killed_worker_does_not_hang_or_lose_the_library(tmp_path, demo):
+    """``kill -9`` of one worker mid-run: its task runs again in a fresh worker; every project is written."""
+    library = _library_of_demos(tmp_path, demo, 4)
+    before = snapshot(tmp_path)
+    t0 = time.monotonic()
+    r = _kill_a_worker_while_running(["upgrade", "L", "--out", "o", "--jobs", "2", "--report", "r.json"],
+                                     tmp_path, tmp_path / "o" / ".spinemesh-output")
+    check_run(r, before, tmp_path, ["o", "r.json"], codes=(0, 3))
+    assert time.monotonic() - t0 < TIME_LIMIT
+    for i in range(4):
+        written_skeleton(tmp_path / "o" / f"d{i}" / "demo.json")
+    assert library.is_dir()
+
+
+def test_a_killed_worker_does_not_hang_a_data_set(tmp_path, demo):
+    _library_of_demos(tmp_path, demo, 4)
+    before = snapshot(tmp_path)
+    r = _kill_a_worker_while_running(["dataset", "L", "--out", "ds", "--jobs", "2"], tmp_path,
+                                     tmp_path / "ds" / "meta.json")
+    check_run(r, before, tmp_path, ["ds"], codes=(0, 3))
+    projects = [json.loads(line) for line in (tmp_path / "ds" / "projects.jsonl").read_text().splitlines()]
+    assert sorted(p["project"] for p in projects) == [f"L/d{i}" for i in range(4)]
+
+
+def test_a_task_that_kills_its_worker_twice_fails_alone():
+    """Local processes: the task is run once more in a fresh worker, then fails with the reason."""
+    from spinemesh.cluster import ProcessWorkers, WorkerLost
+
+    with ProcessWorkers(2) as w:
+        doomed = w.submit(os._exit, 7)
+        fine = [w.submit(abs, -i) for i in range(10)]
+        assert sorted(f.result(timeout=60) for f in fine) == list(range(10))
+        with pytest.raises(WorkerLost, match="exited with status 7.*2 times"):
+            doomed.result(timeout=60)
+        assert w.submit(abs, -5).result(timeout=60) == 5  # the workers go on
+
+
+def test_a_task_that_kills_its_dask_worker_twice_fails_alone():
+    pytest.importorskip("distributed")
+    from spinemesh.cluster import DaskWorkers, WorkerLost
+
+    with DaskWorkers("local", 1) as w:
+        doomed = w.submit(os._exit, 7)
+        with pytest.raises(WorkerLost, match="Dask lost the worker"):
+            doomed.result(timeout=120)
+        assert w.submit(abs, -5).result(timeout=120) == 5
+
+
+#: The image key whose worker dies, and the real worker function (set by the test below; a
+#: forked worker sees them too).
+_DOOMED: dict = {}
+
+
+def _die_on_one_image(task):
+    """A worker that dies (as an out-of-memory kill would) on one chosen image, every time."""
+    if task.key == _DOOMED["key"]:
+        os._exit(9)
+    return _DOOMED["mesh_one"](task)
+
+
+def test_an_image_whose_worker_dies_twice_fails_alone(tmp_path, demo, monkeypatch):
+    """In a real upgrade: the image's attachments stay regions with the reason; the rest is written."""
+    from spinemesh.cluster import ProcessWorkers
+    from spinemesh.project import find_project
+    from spinemesh.upgrade import Options, run, upgrade_project
+
+    _json_only(demo)
+    plan = run.plan_project(find_project(demo), Options(), run.Result())
+    monkeypatch.setitem(_DOOMED, "key", sorted(plan.tasks)[0])
+    monkeypatch.setitem(_DOOMED, "mesh_one", run.mesh_one)
+    monkeypatch.setattr(run, "mesh_one", _die_on_one_image)
+    with ProcessWorkers(2) as workers:
+        result = upgrade_project(demo, tmp_path / "o", Options(jobs=2), workers=workers)
+    failed = [t for t in result.targets if t.key == _DOOMED["key"]]
+    assert failed and all(t.status == "failed" and "exited with status 9" in t.reason for t in failed)
+    assert any(t.status == "meshed" for t in result.targets) and result.partial
+    assert result.written == ["demo.json"]
+
+
+@pytest.mark.parametrize("command", [["upgrade", "L", "--out", "o"], ["upgrade", "L", "--out", "o", "--dry-run"],
+                                     ["dataset", "L", "--out", "o"]], ids=["upgrade", "dry run", "dataset"])
+def test_library_walk_does_not_follow_symlinked_folders(tmp_path, demo, command):
+    """A link to a folder outside, and links that loop (``ln -s .``), are never entered."""
+    _json_only(demo)
+    library = tmp_path / "L"
+    library.mkdir()
+    shutil.copytree(demo, library / "real")
+    shutil.copytree(demo, tmp_path / "outside")
+    (library / "evil").symlink_to("../outside", target_is_directory=True)
+    for name in ("l1", "l2", "loop"):
+        (library / name).symlink_to(".", target_is_directory=True)
+    (library / "real" / "loop").symlink_to("..", target_is_directory=True)
+    before = snapshot(tmp_path)
+    t0 = time.monotonic()
+    r = run_cli(*command, "--report", "r.json", cwd=tmp_path, memory=1024**3, timeout=60) \
+        if command[0] == "upgrade" else run_cli(*command, cwd=tmp_path, memory=1024**3, timeout=60)
+    check_run(r, before, tmp_path, ["o", "r.json"])
+    assert time.monotonic() - t0 < 60
+    written = [p.relative_to(tmp_path / "o").as_posix() for p in (tmp_path / "o").rglob("*")] \
+        if (tmp_path / "o").is_dir() else []
+    assert not any(w.startswith(("evil", "l1", "l2", "loop")) or "/loop" in w for w in written), written
+    if command[0] == "upgrade":
+        rows = json.loads((tmp_path / "r.json").read_text())["attachments"]
+        assert {row["skeleton"] for row in rows} == {"real/demo.json"}  # once, not once per loop
+
+
+def test_mesh_folder_does_not_follow_a_symlink_out(tmp_path, demo):
+    (tmp_path / "imgs").mkdir()
+    shutil.copy(demo / "images" / "demo-head.png", tmp_path / "imgs" / "a.png")
+    (tmp_path / "secret").mkdir()
+    shutil.copy(demo / "images" / "demo-head.png", tmp_path / "secret" / "b.png")
+    (tmp_path / "imgs" / "b.png").symlink_to("../secret/b.png")
+    (tmp_path / "imgs" / "up").symlink_to("../secret", target_is_directory=True)
+    os.mkfifo(tmp_path / "imgs" / "pipe.png")
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "imgs", "--out", "m", cwd=tmp_path, timeout=60)
+    check_run(r, before, tmp_path, ["m"])
+    names = {p.name for p in (tmp_path / "m").rglob("*") if p.is_file()}
+    assert not any(n.startswith(("b", "pipe", "up")) for n in names), names
+
+
+@pytest.mark.parametrize("scale", ["0.002", "1e-300", "1e300", "0.0005"])
+def test_tiny_atlas_scale_is_refused_before_any_huge_image(tmp_path, demo, scale):
+    _json_only(demo)
+    _atlas(demo, "filter: Linear, Linear", f"filter: Linear, Linear\n\tscale: {scale}")
+    t0 = time.monotonic()
+    r = _upgrade(tmp_path, demo, "--images", "o-images", outputs=("o", "o-images"), memory=1024**3, timeout=60)
+    assert time.monotonic() - t0 < 60
+    assert r.returncode == 3, r.stderr
+    assert "scale" in r.stderr
+
+
+def _many_regions_skeleton(p: Path, count: int) -> None:
+    doc = _demo_json(p)
+    head = dict(_attachment(doc, "head", "demo-head"))
+    doc["skins"][0]["attachments"]["head"] = {f"h{i}": {**head, "path": "demo-head"} for i in range(count)}
+    _write_json(p / "demo.json", doc)
+
+
+def test_twenty_thousand_edits_are_written_in_linear_time(tmp_path, demo):
+    """20,000 region attachments drawing one image: one mesh, 20,000 splices in one pass."""
+    _json_only(demo)
+    _many_regions_skeleton(demo, 20_000)
+    t0 = time.monotonic()
+    r = _upgrade(tmp_path, demo, "--report", "r.json", outputs=("o", "r.json"), timeout=120)
+    assert time.monotonic() - t0 < 120
+    assert r.returncode == 0, r.stderr
+    counts = json.loads((tmp_path / "r.json").read_text())["counts"]
+    assert counts.get("meshed", 0) >= 20_000
+    doc = written_skeleton(tmp_path / "o" / "demo.json")
+    assert doc["skins"][0]["attachments"]["head"]["h19999"]["type"] == "mesh"
+
+
+def test_too_many_attachments_are_refused_quickly(tmp_path, demo):
+    from spinemesh.limits import MAX_ATTACHMENTS
+
+    _json_only(demo)
+    _many_regions_skeleton(demo, MAX_ATTACHMENTS + 1)
+    t0 = time.monotonic()
+    r = _upgrade(tmp_path, demo, memory=1536 * 1024**2, timeout=90)
+    assert time.monotonic() - t0 < 90
+    assert r.returncode == 3 and f"{MAX_ATTACHMENTS:,} per skeleton" in r.stderr
+
+
+def test_a_million_region_atlas_is_refused_in_little_memory(tmp_path, demo):
+    from spinemesh.limits import MAX_ATLAS_REGIONS
+
+    _json_only(demo)
+    with open(demo / "big.atlas", "w") as f:
+        f.write("big.png\nsize: 64, 64\n")
+        for i in range(1_000_000):
+            f.write(f"r{i}\n  bounds: 0, 0, 4, 4\n")
+    shutil.copy(demo / "demo.png", demo / "big.png")
+    t0 = time.monotonic()
+    r = _upgrade(tmp_path, demo, memory=1024**3, timeout=60)
+    assert time.monotonic() - t0 < 60
+    assert r.returncode == 3 and f"{MAX_ATLAS_REGIONS:,} regions" in r.stderr
+
+
+HUGE = "9" * 401
+
+TYPE_CASES = {
+    # (mutation of demo.json, JSON path expected in the one error line, or None: the skeleton is written)
+    "slot name a list": (lambda d: d["slots"][0].update(name=["a"]), "slots[0].name: expected a name, found a list"),
+    "slot bone a list": (lambda d: d["slots"][3].update(bone=["root"]), "slots[3].bone: expected a name, found a list"),
+    "bone parent a list": (lambda d: d["bones"][1].update(parent=["root"]), "bones[1].parent: expected a name"),
+    "bone name an object": (lambda d: d["bones"][1].update(name={"a": 1}), "bones[1].name: expected a name"),
+    "ik target a list": (lambda d: d.update(ik=[{"name": "k", "bones": [d["bones"][1]["name"]], "target": ["x"]}]),
+                         "ik[0].target: expected a name, found a list"),
+    "ik bones a name": (lambda d: d.update(ik=[{"name": "k", "bones": "root", "target": "root"}]),
+                        "ik[0].bones: expected a list of names"),
+    "bone x of 401 digits": (lambda d: d["bones"][0].update(x=HUGE), "bones[0].x: expected a finite number"),
+    "bone y 1e300": (lambda d: d["bones"][0].update(y=1e300), "bones[0].y: expected a finite number"),
+    "attachments of a slot a list": (lambda d: d["skins"][0]["attachments"].update(head=[1]),
+                                     "skins[0].attachments.head: expected an object"),
+    "width of 401 digits": (lambda d: _attachment(d, "head", "demo-head").update(width=HUGE), None),
+    "x of 401 digits": (lambda d: _attachment(d, "head", "demo-head").update(x=HUGE), None),
+    "x 1e300": (lambda d: _attachment(d, "head", "demo-head").update(x=1e300), None),
+    "path a list": (lambda d: _attachment(d, "head", "demo-head").update(path=["a"]), None),
+    "vertices of text": (lambda d: _attachment(d, "head", "demo-head").update(vertices=["a"]), None),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TYPE_CASES))
+@pytest.mark.parametrize("weights", ["none", "auto"])
+def test_wrong_types_and_huge_numbers(tmp_path, demo, case, weights):
+    """One line with the file and JSON path for the skeleton's parts; one attachment alone otherwise."""
+    _json_only(demo)
+    change, expected = TYPE_CASES[case]
+    doc = _demo_json(demo)
+    change(doc)
+    # json.dumps writes a huge int as its digits: the 401-digit string becomes a number
+    (demo / "demo.json").write_text(json.dumps(doc).replace(f'"{HUGE}"', HUGE))
+    r = _upgrade(tmp_path, demo, "--weights", weights, "--report", "r.json", outputs=("o", "r.json"))
+    assert r.returncode == 3, r.stderr
+    report = json.loads((tmp_path / "r.json").read_text())
+    if expected is not None:
+        line = next(e for e in report["errors"] if "demo.json" in e)
+        assert expected in line, line
+        assert report["skeletons_written"] == []
+    else:
+        assert report["skeletons_written"] == ["demo.json"]
+        head = next(row for row in report["attachments"] if row["name"] == "demo-head")
+        assert head["status"] == "failed" and "skins[0].attachments.head.demo-head." in head["reason"]
+        assert any(row["status"] == "meshed" for row in report["attachments"])
+        written = (tmp_path / "o" / "demo.json").read_text()
+        assert "demo-head" in written
+
+
+def test_convert_refuses_a_huge_number_naming_its_path(tmp_path, demo):
+    _json_only(demo)
+    doc = _demo_json(demo)
+    doc["bones"][0]["x"] = 123456789
+    (demo / "demo.json").write_text(json.dumps(doc).replace('"x": 123456789', '"x": ' + HUGE, 1))
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "p/demo.json", "out.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out.skel"])
+    assert r.returncode == 2 and "bones[0].x" in r.stderr
+
+
+NAME_CASES = {
+    "page name": lambda p: _atlas(p, "demo.png\n", "x" * 300 + ".png\n"),
+    "attachment path in an images folder": lambda p: (
+        (p / "demo.atlas").unlink(), (p / "demo.png").unlink(), _set(p, "head", "demo-head", path="y" * 300)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NAME_CASES))
+def test_names_the_file_system_cannot_hold(tmp_path, demo, case):
+    _json_only(demo)
+    NAME_CASES[case](demo)
+    r = _upgrade(tmp_path, demo, "--images", "o-images", outputs=("o", "o-images"))
+    assert r.returncode in (2, 3) and "longer than a file system allows" in r.stderr
+
+
+def test_report_name_too_long(tmp_path, demo):
+    _json_only(demo)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--report", "r" * 300 + ".json", cwd=tmp_path)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2 and "longer than a file system allows" in r.stderr
+
+
+@pytest.mark.parametrize("args", [["convert", "f.json", "out.json"], ["mesh", "g.png"], ["info", "f.json"],
+                                  ["upgrade", "f.json", "--out", "o"]], ids=lambda a: a[0])
+def test_fifo_as_the_file_argument(tmp_path, args):
+    os.mkfifo(tmp_path / "f.json")
+    os.mkfifo(tmp_path / "g.png")
+    before = snapshot(tmp_path)
+    r = run_cli(*args, cwd=tmp_path, timeout=30)
+    check_run(r, before, tmp_path, [])
+    assert r.returncode == 2
+
+
+@pytest.mark.parametrize("option", ["--images", "--preview"])
+def test_output_options_overlapping_out_are_refused(tmp_path, demo, option):
+    _json_only(demo)
+    for target in ("o", "o/sub"):
+        before = snapshot(tmp_path)
+        r = run_cli("upgrade", "p", "--out", "o", option, target, cwd=tmp_path)
+        check_run(r, before, tmp_path, [])
+        assert r.returncode == 2 and "overlaps the output folder" in r.stderr
+
+
+def test_report_never_replaces_a_written_file(tmp_path, demo):
+    _json_only(demo)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--report", "o/demo.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o"])
+    assert r.returncode == 2
+    written_skeleton(tmp_path / "o" / "demo.json")
+
+
+def test_newline_in_a_file_name_cannot_forge_an_error_line(tmp_path, demo):
+    _json_only(demo)
+    (demo / "x\nerror: forged.json").write_text('{"skeleton": {"spine": "4.2"}, "bones": 7}')
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode == 3
+    assert not any(line.startswith("error: forged") for line in r.stderr.splitlines()), r.stderr
+    assert "x\\nerror: forged.json" in r.stderr
+
+
+def test_a_skeleton_not_written_is_not_counted_as_meshed(tmp_path, demo):
+    """The skeleton's write fails (a file-size limit, as a full disk would): its rows say failed."""
+    _json_only(demo)
+    doc = _demo_json(demo)
+    doc["padding"] = "x" * 200_000  # the skeleton is far larger than the report
+    _write_json(demo / "demo.json", doc)
+    r = _upgrade(tmp_path, demo, "--report", "r.json", outputs=("o", "r.json"), file_size=150_000)
+    assert r.returncode == 3
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["skeletons_written"] == [] and "meshed" not in report["counts"]
+
+
+def test_byte_order_mark_is_kept(tmp_path, demo):
+    _json_only(demo)
+    data = (demo / "demo.json").read_bytes()
+    (demo / "demo.json").write_bytes(b"\xef\xbb\xbf" + data)
+    r = _upgrade(tmp_path, demo)
+    assert r.returncode == 0, r.stderr
+    out = (tmp_path / "o" / "demo.json").read_bytes()
+    assert out.startswith(b"\xef\xbb\xbf") and not out.startswith(b"\xef\xbb\xbf" * 2)
+
+
+def test_no_worker_traceback_when_the_parent_is_killed(tmp_path, demo):
+    """SIGKILL of the parent mid-run: its workers end quietly (no BrokenPipeError traceback)."""
+    _library_of_demos(tmp_path, demo, 3)
+    env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", "L", "--out", "o", "--jobs", "2"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + TIME_LIMIT
+    while not _children(proc.pid) and proc.poll() is None:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    workers = _children(proc.pid)
+    time.sleep(1.0)
+    proc.kill()
+    # stderr stays open while a worker holds it: read until every worker has ended
+    _, stderr = proc.communicate(timeout=30)
+    assert "Traceback" not in stderr, stderr
+    deadline = time.monotonic() + 10
+    while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not any(_alive(p) for p in workers)
