@@ -348,29 +348,23 @@ def walk_folder(root: str | Path, problems: list[str] | None = None, hidden: boo
             dirs[:] = []
             continue
         seen.add(here_real)
-        subfolders = []
-        for d in sorted(dirs):
-            p = here_path / d
-            if d.startswith(".") and not hidden:
-                continue
-            if p.is_symlink():
-                if problems is not None and not is_within(p, root):
-                    problems.append(f"{p}: symlink to a folder outside the project; skipped")
-                continue
-            subfolders.append(p)
-        files = []
-        for name in sorted(names):
-            p = here_path / name
-            if name.startswith(".") and not hidden:
-                continue
-            if p.is_symlink() and not is_within(p, root):
-                if problems is not None:
-                    problems.append(f"{p}: symlink to a file outside the project; skipped")
-                continue
-            if p.is_file():  # follows a symlink inside the root: a regular file only
-                files.append(p)
+        # a symlinked folder is never entered (noted when it leads out); a symlinked file
+        # counts only when it stays inside, and only regular files count (is_file)
+        subfolders = [here_path / d for d in sorted(dirs) if hidden or not d.startswith(".")]
+        subfolders = [p for p in subfolders if not _noted_link(p, root, problems, "folder") and not p.is_symlink()]
+        files = [here_path / n for n in sorted(names) if hidden or not n.startswith(".")]
+        files = [p for p in files if not _noted_link(p, root, problems, "file") and p.is_file()]
         yield here_path, subfolders, files
         dirs[:] = [p.name for p in subfolders]
+
+
+def _noted_link(path: Path, root: Path, problems: list[str] | None, kind: str) -> bool:
+    """Whether ``path`` is a symlink leading outside ``root``; noted in ``problems`` if so."""
+    if not path.is_symlink() or is_within(path, root):
+        return False
+    if problems is not None:
+        problems.append(f"{path}: symlink to a {kind} outside the project; skipped")
+    return True
 
 
 def walk_files(root: str | Path, problems: list[str] | None = None) -> list[Path]:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .atlas import Atlas, read_atlas
 from .errors import SpineMeshError, UnsafePathError
-from .fsutil import is_within, real, resolve_inside, walk_folder
+from .fsutil import is_within, real, regular_file, resolve_inside, walk_folder
 from .images import AtlasImages, FolderImages
 from .skeleton import image_paths, iter_attachments
 
@@ -101,6 +101,8 @@ def find_project(path: str | Path) -> Project:
     path = Path(path)
     if not path.exists():
         raise SpineMeshError("no such file or folder", path)
+    if not path.is_dir():
+        regular_file(path, "skeleton")  # a FIFO or device would block or never end
     root = path.parent if path.is_file() else path
     project = Project(root=root)
     files, folders = _walk(root, project.problems)

@@ -96,7 +96,7 @@ def check_run(r: subprocess.CompletedProcess, before: dict, tmp: Path, outputs: 
         name = rel.rsplit("/", 1)[-1]
         assert not name.endswith(".tmp"), f"temporary file {rel} left behind"
         if name.endswith(".json") and after[rel] not in copies:  # what we wrote, not a copied input
-            _strict((tmp / rel).read_text("utf-8"), rel)
+            _strict((tmp / rel).read_text("utf-8-sig"), rel)  # a byte-order mark is kept from the input
     if r.returncode == 2:
         # ours ("error: FILE: why"), the option parser's ("Error: Invalid value for '--x': ..."),
         # "warning: no Spine skeleton found in FOLDER ..." with its hint, or, for a folder of
