@@ -830,13 +830,14 @@ def test_an_image_whose_worker_dies_twice_fails_alone(tmp_path, demo, monkeypatc
     """In a real upgrade: the image's attachments stay regions with the reason; the rest is written."""
     from spinemesh.cluster import ProcessWorkers
     from spinemesh.project import find_project
-    from spinemesh.upgrade import Options, run, upgrade_project
+    from spinemesh.upgrade import Options, Result, meshing, upgrade_project
+    from spinemesh.upgrade.plan import plan_project
 
     _json_only(demo)
-    plan = run.plan_project(find_project(demo), Options(), run.Result())
+    plan = plan_project(find_project(demo), Options(), Result())
     monkeypatch.setitem(_DOOMED, "key", sorted(plan.tasks)[0])
-    monkeypatch.setitem(_DOOMED, "mesh_one", run.mesh_one)
-    monkeypatch.setattr(run, "mesh_one", _die_on_one_image)
+    monkeypatch.setitem(_DOOMED, "mesh_one", meshing.mesh_one)
+    monkeypatch.setattr(meshing, "mesh_one", _die_on_one_image)
     with ProcessWorkers(2) as workers:
         result = upgrade_project(demo, tmp_path / "o", Options(jobs=2), workers=workers)
     failed = [t for t in result.targets if t.key == _DOOMED["key"]]

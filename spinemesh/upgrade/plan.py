@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..images import FAINT_TEXEL, RegionImage, content_id
 from ..project import Project, image_source_for
-from ..skeleton import checked_attachments, image_paths, iter_attachments, load_skeleton
+from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .geometry import frames_on_one_grid
 from .options import Options, skip_reason
 from .output import write_editor_image
