@@ -1,7 +1,11 @@
 """Resource limits on input, so that a small hostile file cannot exhaust memory or time.
 
-Each limit is far above what real Spine projects use and is checked where the value is read,
-raising :class:`~spinemesh.errors.LimitError` that names the file.
+Each limit is set by what the value makes the program do (memory, time, the size of what it
+implies), lies far above what real Spine projects use and is checked where the value is read,
+raising :class:`~spinemesh.errors.LimitError` that names the file. ``scripts/measure_limits.py``
+prints the largest values of the official examples and the game corpus beside the limits
+(largest found: 606 regions in one atlas, 1,042 attachments in one skeleton, page scale 0.2,
+numbers of 10,420 in attachments and 5,448 in bones).
 """
 
 from __future__ import annotations
