@@ -31,7 +31,6 @@ def dataset(
     """
     from ..cluster import available_cores
     from ..dataset import build_dataset
-    from ..errors import escaped
     from ..fsutil import check_outputs
 
     check_outputs(corpus, folders=[out])
@@ -65,6 +64,8 @@ def dataset(
     if summary.skipped:
         console.print(_count_table("skipped images", "why", "count", summary.skipped.most_common()))
     _print_problems(summary, out)
+    if summary.lost:  # a worker died on them twice: the data set lacks them until --retry-failed
+        raise typer.Exit(3)
 
 
 def _count_table(title: str, what: str, counted: str, rows):
@@ -90,6 +91,8 @@ def _warn_empty_sides(whole: dict, out: Path) -> None:
 
 def _print_problems(summary, out: Path) -> None:
     """The run's problems, the first 40 of them by name (the rest are in ``projects.jsonl``)."""
+    from ..errors import escaped  # names from the corpus: a newline in one cannot forge a line
+
     if summary.errors:
         err_console.print(f"[yellow]{len(summary.errors)} problem(s) in {summary.projects_with_errors} "
                           f"project(s); their other files were used:[/]")
@@ -97,8 +100,6 @@ def _print_problems(summary, out: Path) -> None:
             err_console.print(f"  {escaped(e)}", markup=False, highlight=False)
         if len(summary.errors) > 40:
             err_console.print(f"  ... and {len(summary.errors) - 40} more (see {out}/projects.jsonl)")
-    if summary.lost:  # a worker died on them twice: the data set lacks them until --retry-failed
-        raise typer.Exit(3)
 
 
 @app.command("dataset-stats")
