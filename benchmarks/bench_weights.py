@@ -4,15 +4,19 @@
         [--anims 4] [--times 4] [--tool DIR] [--json OUT]
 
 For every artist-weighted mesh attachment not keyed by deform timelines, the weights are
-recomputed with ``--replace --bones keep`` (the artist's vertices and bones) and with
-``--replace --bones auto``; the artist's animations are played in the official runtime
+recomputed with ``--replace --bones keep`` (the artist's vertices and bones), with
+``--replace --bones rule`` and with ``--replace --bones learned``; the learned choice of each
+project is made by the model fitted without that project's fold
+(:mod:`spinemesh.rig.train_choice`; ``--dataset``, built by ``scripts/train_bone_choice.py``;
+needs scikit-learn), so every figure is project-held-out. The artist's animations are played in the official runtime
 (``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
 ``--times`` evenly spaced samples of each) and every vertex's world position is compared with
 the artist's version. Per attachment: the mean distance in world units (pixels at scale 1)
 over its vertices and sampled frames. Baseline: every vertex follows its heaviest artist
 bone rigidly (same setup pose). Printed per project and overall: the median error, the
 median ratio to the baseline (attachments whose baseline is within ``RIGID_FLOOR`` are left out of the
-ratio), for keep and auto, and the share of triangles that flip (signed area changes sign
+ratio), for keep, rule and learned, the share of meshes bound to exactly the artist's
+bones and the bones per mesh (95th percentile) against the artists', and the share of triangles that flip (signed area changes sign
 against the setup pose) in the sampled frames, ours and the artists'. Setup-pose drift
 (largest vertex distance in the setup pose, ours against the artists') is printed too.
 
@@ -123,8 +127,15 @@ def signed_areas(v: np.ndarray, tris: np.ndarray) -> np.ndarray:
     return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
-def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, times: int) -> list[dict]:
-    """One row per artist-weighted mesh compared: errors of keep, auto and baseline, flips."""
+#: The bone choices replayed, beside the rigid baseline.
+MODES = ("keep", "rule", "learned")
+
+
+def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, times: int,
+           model=None) -> list[dict]:
+    """One row per artist-weighted mesh compared: errors of each mode and of the baseline, flips,
+    bones chosen. ``model``: the learned choice's model (default: the package's)."""
+    from spinemesh.rig import learned
     doc = load_skeleton(skeleton)
     proj = find_project(skeleton.parent)
     source = image_source_for(doc, skeleton, proj)
@@ -134,15 +145,18 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
     rig = build_rig(doc)
     variants = {"artist": doc}
     outcomes = {}
-    for mode in ("keep", "auto"):
-        d = copy.deepcopy(doc)
-        outcomes[mode] = {(o.skin, o.slot, o.name): o for o in weight_document(
-            d, skeleton.name, WeightOptions(bones=mode, replace=True, method=method), rig)}
-        variants[mode] = d
+    learned.use_model(model)
+    try:
+        for mode in MODES:
+            d = copy.deepcopy(doc)
+            outcomes[mode] = {(o.skin, o.slot, o.name): o for o in weight_document(
+                d, skeleton.name, WeightOptions(bones=mode, replace=True, method=method), rig)}
+            variants[mode] = d
+    finally:
+        learned.use_model(None)
     artist_weighted = {(r.skin, r.slot, r.name) for r in iter_attachments(doc) if r.type == "mesh"
                        and len(r.attachment.get("vertices", [])) != len(r.attachment.get("uvs", []))}
-    places = {k for k in artist_weighted
-              if outcomes["keep"][k].status == "weighted" and outcomes["auto"][k].status == "weighted"}
+    places = {k for k in artist_weighted if all(outcomes[m][k].status == "weighted" for m in MODES)}
     if not places:
         return []
     base = copy.deepcopy(doc)
@@ -157,11 +171,12 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
             dumps[name] = dump(tool, atlas, path, pose_list, Path(tmp) / f"{name}.dump.json")
     rows = []
     by_slot = {(k[1], k[2]) for k in places}
+    chosen = {(k[1], k[2]): {m: sorted(outcomes[m][k].bones) for m in MODES} for k in places}
     tri_of = {(r.slot, r.name): np.asarray(r.attachment["triangles"], int).reshape(-1, 3)
               for r in iter_attachments(doc) if (r.skin, r.slot, r.name) in places}
     for slot_att in sorted(by_slot):
-        err = {m: [] for m in ("keep", "auto", "rigid")}
-        flips = {m: [0, 0] for m in ("keep", "auto", "artist")}
+        err = {m: [] for m in (*MODES, "rigid")}
+        flips = {m: [0, 0] for m in (*MODES, "artist")}
         setup_drift = 0.0
         tris = tri_of[slot_att]
         ref_setup = dumps["artist"]["setup"].get(slot_att)
@@ -174,7 +189,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
                 # the artist's own rig draws NaN here (a bone scaled to 0, say): nothing to compare,
                 # and one NaN would make every median of the table meaningless
                 continue
-            for m in ("keep", "auto", "rigid"):
+            for m in (*MODES, "rigid"):
                 b = dumps[m][pose].get(slot_att)
                 if b is None:
                     continue
@@ -197,10 +212,12 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
             continue
         row = {"project": label, "skeleton": skeleton.name, "slot": slot_att[0], "attachment": slot_att[1],
                "setup_drift": setup_drift}
-        for m in ("keep", "auto", "rigid"):
+        for m in (*MODES, "rigid"):
             row[m] = float(np.mean(err[m])) if err[m] else None
-        for m in ("keep", "auto", "artist"):
+        for m in (*MODES, "artist"):
             row[f"flips_{m}"] = flips[m]
+        for m in MODES:
+            row[f"bones_{m}"] = chosen[slot_att][m]
         rows.append(row)
     return rows
 
@@ -218,10 +235,15 @@ def summary(rows: list[dict]) -> dict:
         n = sum(r[f"flips_{m}"][1] for r in rows)
         return f / n if n else float("nan")
 
-    return {"meshes": len(rows), "keep": med([r["keep"] for r in rows]), "keep_ratio": ratio("keep"),
-            "auto": med([r["auto"] for r in rows]), "auto_ratio": ratio("auto"),
-            "rigid": med([r["rigid"] for r in rows]), "flips_keep": share("keep"), "flips_auto": share("auto"),
-            "flips_artist": share("artist"), "setup_drift": max((r["setup_drift"] for r in rows), default=0.0)}
+    out = {"meshes": len(rows), "rigid": med([r["rigid"] for r in rows]), "flips_artist": share("artist"),
+           "setup_drift": max((r["setup_drift"] for r in rows), default=0.0),
+           "artist_p95": float(np.percentile([len(r["bones_keep"]) for r in rows], 95)) if rows else float("nan")}
+    for m in MODES:
+        counts = [len(r[f"bones_{m}"]) for r in rows]
+        out.update({m: med([r[m] for r in rows]), f"{m}_ratio": ratio(m), f"flips_{m}": share(m),
+                    f"{m}_exact": float(np.mean([r[f"bones_{m}"] == r["bones_keep"] for r in rows])) if rows else 0.0,
+                    f"{m}_p95": float(np.percentile(counts, 95)) if counts else float("nan")})
+    return out
 
 
 def main() -> None:
@@ -234,32 +256,45 @@ def main() -> None:
     ap.add_argument("--tool", type=Path, required=True, help="installed copy of tools/spine-runtime")
     ap.add_argument("--only", default="", help="substring of project labels to run")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--every", type=int, default=1, help="replay every K-th skeleton (faster)")
+    ap.add_argument("--dataset", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"),
+                    help="the bone-choice dataset (scripts/train_bone_choice.py --cache): the learned "
+                         "choice's fold models are fitted on it")
     args = ap.parse_args()
+    from spinemesh.rig import train_choice
+
+    data = train_choice.build_dataset([], args.dataset)
+    if not len(data["group"]):
+        raise SystemExit(f"{args.dataset}: no dataset; build it with scripts/train_bone_choice.py --cache ...")
+    models = train_choice.held_out_probabilities(data, log=lambda s: None)[1]
     rows = []
-    for label, skel in skeletons(args.examples, args.corpus):
+    for label, skel in skeletons(args.examples, args.corpus)[::args.every]:
         if args.only and args.only not in label:
             continue
         try:
-            got = replay(label, skel, args.tool, args.method, args.anims, args.times)
+            got = replay(label, skel, args.tool, args.method, args.anims, args.times,
+                         models[train_choice.fold_of(label)])
         except (RuntimeError, subprocess.TimeoutExpired) as e:
             print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
             continue
         rows += got
         if got:
             s = summary(got)
-            print(f"{label:34s} {skel.name:28s} n={s['meshes']:3d} keep {s['keep']:7.2f} ({s['keep_ratio']:.2f}x) "
-                  f"auto {s['auto']:7.2f} ({s['auto_ratio']:.2f}x) rigid {s['rigid']:7.2f} "
-                  f"flips {s['flips_keep']:.3f}/{s['flips_auto']:.3f}/{s['flips_artist']:.3f} "
-                  f"setup {s['setup_drift']:.3f}", flush=True)
+            print(f"{label:34s} {skel.name:28s} n={s['meshes']:3d} "
+                  + " ".join(f"{m} {s[m]:7.2f} ({s[m + '_ratio']:.2f}x)" for m in MODES)
+                  + f" rigid {s['rigid']:7.2f} setup {s['setup_drift']:.3f}", flush=True)
     by_project: dict[str, list] = {}
     for r in rows:
         by_project.setdefault(r["project"], []).append(r)
-    print("\n| project | meshes | keep px | keep / rigid | auto px | auto / rigid | rigid px | flips keep / auto / artist |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("\n| project | meshes | keep px | keep / rigid | rule px | rule / rigid | learned px | learned / rigid "
+          "| rigid px | exact set rule / learned | bones p95 rule / learned / artists | flips keep / rule / learned / artist |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, rs in sorted(by_project.items()) + [("**all**", rows)]:
         s = summary(rs)
-        print(f"| {name} | {s['meshes']} | {s['keep']:.2f} | {s['keep_ratio']:.2f} | {s['auto']:.2f} | "
-              f"{s['auto_ratio']:.2f} | {s['rigid']:.2f} | {s['flips_keep']:.3f} / {s['flips_auto']:.3f} / "
+        print(f"| {name} | {s['meshes']} | {s['keep']:.2f} | {s['keep_ratio']:.2f} | {s['rule']:.2f} | "
+              f"{s['rule_ratio']:.2f} | {s['learned']:.2f} | {s['learned_ratio']:.2f} | {s['rigid']:.2f} | "
+              f"{s['rule_exact']:.0%} / {s['learned_exact']:.0%} | {s['rule_p95']:.0f} / {s['learned_p95']:.0f} / "
+              f"{s['artist_p95']:.0f} | {s['flips_keep']:.3f} / {s['flips_rule']:.3f} / {s['flips_learned']:.3f} / "
               f"{s['flips_artist']:.3f} |")
     s = summary(rows)
     print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {args.method}")

@@ -27,8 +27,15 @@ seconds the weights took. Variants:
 - ``bbw-point-handles``: one handle per bone, at its segment's middle;
 - ``bbw-smoothed``: the default, then one step of averaging with mesh neighbours;
 - ``bbw-segments-first``: zero-length bones weighted only when no bone of the mesh has a length;
-- ``auto``, ``auto-near``: the ``--bones auto`` choice (segments over the art), and the same
-  with bones within 5% of the art's size also chosen (the rule before this script).
+- ``auto``, ``auto-near``: the ``--bones rule`` choice (segments over the art; ``rule`` is the
+  same row), and the same with bones within 5% of the art's size also chosen (the rule before
+  this script);
+- ``learned``: the ``--bones learned`` choice, project-held-out: each mesh's bones are chosen by
+  the model fitted without its project's fold (:mod:`spinemesh.rig.train_choice`), on the
+  dataset ``--dataset`` (built by ``scripts/train_bone_choice.py``; needs scikit-learn).
+
+Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
+set and the bones per mesh (median and 95th percentile; the artists': the last line).
 
 ``--bounds`` adds rows that use the artist's answer, to show how far any tuning of these
 weights could go: per mesh, the bbw weights sharpened or softened (``w ** p``, renormalised)
@@ -224,6 +231,29 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
+def learned(dataset: Path):
+    """The learned choice with fold models fitted on ``dataset`` without each case's project fold."""
+    from spinemesh.rig import train_choice
+    from spinemesh.rig.learned import choose_learned
+
+    models: dict[int, object] = {}
+
+    def variant(case):
+        if not models:
+            data = train_choice.build_dataset([], dataset)
+            if not len(data["group"]):
+                raise SystemExit(f"{dataset}: no dataset; build it with scripts/train_bone_choice.py --cache {dataset}")
+            models.update(train_choice.held_out_probabilities(data, log=lambda s: None)[1])
+        rig = case["rig"]
+        chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                rig.skin_bones.get(case["skin"], set()), rig.constrained,
+                                models[train_choice.fold_of(case["label"])]).bones
+        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
+        slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
+        return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
+    return variant
+
+
 def auto(near: float | None = None):
     def variant(case):
         import spinemesh.rig.choice as choice
@@ -255,14 +285,22 @@ VARIANTS = {
     "bbw-smoothed": keep(smooth=1),
     "bbw-segments-first": segments_first(),
     "auto": auto(),
+    "rule": auto(),
     "auto-near": auto(NEAR),
 }
 
 
-def judge(cases: list[dict], results: dict[int, float]) -> dict:
+def judge(cases: list[dict], results: dict[int, float], chosen: dict[int, list[int]] | None = None) -> dict:
+    """Median error and ratios to rigid; with the bones ``chosen`` per case, the exact-set share and
+    bones per mesh (median, 95th percentile)."""
     ratios = [results[i] / cases[i]["rigid"] for i in results if cases[i]["rigid"] > bench_weights.RIGID_FLOOR]
-    return {"meshes": len(results), "error": statistics.median(results.values()),
-            "ratio": statistics.median(ratios), "geomean": float(np.exp(np.mean(np.log(np.maximum(ratios, 1e-3)))))}
+    out = {"meshes": len(results), "error": statistics.median(results.values()),
+           "ratio": statistics.median(ratios), "geomean": float(np.exp(np.mean(np.log(np.maximum(ratios, 1e-3)))))}
+    if chosen:
+        counts = [len(chosen[i]) for i in results]
+        out.update(exact=float(np.mean([set(chosen[i]) == set(cases[i]["bones"]) for i in results])),
+                   bones=f"{np.median(counts):.0f} / {np.percentile(counts, 95):.0f}")
+    return out
 
 
 #: Exponents tried by the sharpness bound: below 1 softens the blend, above 1 sharpens it.
@@ -361,7 +399,10 @@ def main() -> None:
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
     ap.add_argument("--bounds", action="store_true", help="add the bounds that use the artist's answer")
     ap.add_argument("--learned", action="store_true")
+    ap.add_argument("--dataset", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"),
+                    help="the bone-choice dataset (scripts/train_bone_choice.py --cache) for the learned variant")
     args = ap.parse_args()
+    VARIANTS["learned"] = learned(args.dataset)
     cases = []
     for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus):
         cases += cases_of(label, skel, dump)
@@ -369,34 +410,39 @@ def main() -> None:
     for c in cases:
         c["rigid"] = rigid_error(c)
     print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)
-    print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | seconds |")
-    print("|---|---|---|---|---|---|")
+    print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | exact bone set "
+          "| bones / mesh median / p95 | seconds |")
+    print("|---|---|---|---|---|---|---|---|")
     names = [n for n in args.variants.split(",") if n]
     per_variant: dict[str, dict[int, float]] = {}
 
-    def row(name: str, results: dict[int, float], start: float) -> None:
-        s = judge(cases, results)
+    def row(name: str, results: dict[int, float], start: float, chosen: dict | None = None) -> None:
+        s = judge(cases, results, chosen)
+        exact = f"{s['exact']:.1%}" if chosen else ""
         print(f"| {name} | {s['meshes']} | {s['error']:.3f} | {s['ratio']:.3f} | {s['geomean']:.3f} | "
-              f"{time.perf_counter() - start:.0f} |", flush=True)
+              f"{exact} | {s.get('bones', '')} | {time.perf_counter() - start:.0f} |", flush=True)
 
     bbw = {}  # the default's weights, kept for the bounds built on them
     for name in names:
         start = time.perf_counter()
-        results = {}
+        results, chosen = {}, {}
         for i, c in enumerate(cases):
             bones, w = VARIANTS[name](c)
             if name == "bbw" and args.bounds:
                 bbw[i] = bones, w
             results[i] = replay(c, sparsify(w, 4, 0.01), bones)
+            chosen[i] = bones
         per_variant[name] = results
-        row(name, results, start)
+        row(name, results, start, chosen)
     if args.bounds:
         start = time.perf_counter()
         for name, results in oracle_bounds(cases, per_variant, bbw).items():
             row(name, results, start)
     if args.learned:
         start = time.perf_counter()
-        row("learned (project-held-out upper bound)", learned_bound(cases), start)
+        row("learned weights (project-held-out upper bound)", learned_bound(cases), start)
+    counts = [len(c["bones"]) for c in cases]
+    print(f"\nartists' bones per mesh: median {np.median(counts):.0f}, p95 {np.percentile(counts, 95):.0f}")
 
 
 if __name__ == "__main__":

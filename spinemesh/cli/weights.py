@@ -16,6 +16,8 @@ class BoneChoice(str, Enum):
 
     keep = "keep"
     auto = "auto"
+    rule = "rule"
+    learned = "learned"
 
 
 class Weights(str, Enum):
@@ -41,8 +43,10 @@ def weights(
     replace: Annotated[bool, typer.Option("--replace", help="Also recompute meshes that are already "
                                           "weighted.")] = False,
     bones: Annotated[BoneChoice, typer.Option(
-        "--bones", help="keep: the bones a mesh is bound to now (its slot's bone when unweighted); auto: the "
-                        "slot's bone and the bones whose segments pass over or near the art.")] = BoneChoice.auto,
+        "--bones", help="keep: the bones a mesh is bound to now (its slot's bone when unweighted); rule: the "
+                        "slot's bone and the bones whose segments pass over the art, joined to it through the "
+                        "bone tree; learned: the bones a model fitted to artists' bindings finds likely; auto: "
+                        "the one of the two that measures closer to artists' bindings (today: rule).")] = BoneChoice.auto,
     max_bones: Annotated[int, typer.Option("--max-bones", min=1, max=16, help="Most bones per vertex.")] = 4,
     method: Annotated[WeightMethod, typer.Option(
         "--method", help="bbw: bounded biharmonic weights (Jacobson et al. 2011); harmonic: heat-diffusion-"
@@ -68,6 +72,7 @@ def weights(
     \b
     Example: spinemesh weights project/ --out weighted/ --report weighted/report.json
     Example: spinemesh weights hero.skel --out weighted/ --replace --bones keep --preview previews/
+    Example: spinemesh weights hero.skel --out weighted/ --replace --bones learned --report report.json
     """
     from ..fsutil import OutputGuard
     from ..rig.document import WeightOptions

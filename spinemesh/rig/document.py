@@ -21,16 +21,25 @@ from ..skeleton import AttachmentRef, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_auto
+from .learned import choose_learned, constrained_bones
 from .weights import solve_weights, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
+
+#: ``--bones`` choices: ``keep`` (the mesh's bones now), ``rule`` (:func:`.choice.choose_auto`),
+#: ``learned`` (:func:`.learned.choose_learned`), and ``auto``, which is :data:`AUTO_BONES`.
+BONE_CHOICES = ("keep", "auto", "rule", "learned")
+
+#: What ``auto`` means: the choice that measures closer to the artists' bindings on projects
+#: held out of the learned model's fit (see the bone-choice guide for the figures).
+AUTO_BONES = "rule"
 
 
 @dataclass
 class WeightOptions:
     """What to weight and how (see ``spinemesh weights --help``)."""
 
-    bones: str = "auto"               # keep | auto
+    bones: str = "auto"               # keep | auto | rule | learned (see BONE_CHOICES)
     max_bones: int = 4
     min_weight: float = 0.01
     replace: bool = False
@@ -66,6 +75,7 @@ class Rig:
     slot_bone: dict[str, int]
     skin_bones: dict[str, set[int]]
     keyed: dict[tuple[str, str, str], str]
+    constrained: dict[int, str] = field(default_factory=dict)  # bones constraints move -> kind
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -116,7 +126,7 @@ def build_rig(doc: dict) -> Rig:
             parent_skin = str(ref.attachment.get("skin") or "default")
             keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
                              keyed[(ref.skin, ref.slot, ref.name)])
-    return Rig(bones, slot_bone, skin_bones, keyed)
+    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc))
 
 
 def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
@@ -126,7 +136,8 @@ def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
 
 def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.ndarray,
            mode: str) -> Choice:
-    """The bones for one mesh: its current ones (``keep``) or the ``auto`` rule."""
+    """The bones for one mesh: its current ones (``keep``), the ``rule`` or the ``learned`` choice
+    (``auto``: :data:`AUTO_BONES`)."""
     slot_bone = rig.slot_bone[ref.slot]
     if mode == "keep":
         current = mesh.bones() if mesh.weighted else [slot_bone]
@@ -134,6 +145,9 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         left = {b: rig.bones[b].why for b in current if not rig.bones[b].exact}
         keep = [b for b in current if rig.bones[b].exact]
         return Choice(keep, {b: why[b] for b in keep}, left)
+    if (AUTO_BONES if mode == "auto" else mode) == "learned":
+        return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
+                              rig.constrained)
     return choose_auto(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

@@ -1,0 +1,83 @@
+"""Fit the ``learned`` bone choice to the artists' bindings, judge it project-held-out, ship it.
+
+    .venv/bin/python scripts/train_bone_choice.py [--examples DIR] [--corpus DIR]
+        [--cache FILE.npz] [--project-power P] [--threshold T] [--write]
+
+Builds the dataset (:mod:`spinemesh.rig.train_choice`: every artist-weighted mesh of each
+example in its newest version and of every corpus project, each bone near its art a row),
+cached in ``--cache`` (extraction takes minutes; delete the file to rebuild). Then fits one
+model per project-held-out fold and prints, for the ``rule`` and the ``learned`` choice on the
+same meshes, the share of meshes given exactly the artist's bone set and the bones per mesh
+against the artists'. ``--write`` fits on every project and writes
+``spinemesh/models/bone_choice.json``. Needs scikit-learn (the ``train`` extra).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from spinemesh.rig import train_choice as tc  # noqa: E402
+from spinemesh.rig.learned import FEATURES, MODEL_PATH  # noqa: E402
+
+
+def table(rows: list[tuple[str, dict]]) -> None:
+    print("| choice | meshes | projects | exact bone set | bones / mesh median | p95 | artists' median | p95 "
+          "| more than the artist | fewer |")
+    print("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
+    for name, s in rows:
+        print(f"| {name} | {s['meshes']} | {s['projects']} | {s['exact']:.1%} | {s['bones_median']:.0f} | "
+              f"{s['bones_p95']:.0f} | {s['artist_median']:.0f} | {s['artist_p95']:.0f} | {s['too_many']:.1%} | "
+              f"{s['too_few']:.1%} |")
+
+
+def main() -> None:
+    shared = REPO.parent / "shared"
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--examples", type=Path, default=shared / "spine-examples")
+    ap.add_argument("--corpus", type=Path, default=shared / "spine-corpus")
+    ap.add_argument("--cache", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"))
+    ap.add_argument("--project-power", type=float, default=0.5, help="a project of M meshes weighs M**P")
+    ap.add_argument("--threshold", type=float, default=0.5, help="probability at which a bone is chosen")
+    ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
+    args = ap.parse_args()
+
+    start = time.perf_counter()
+    data = tc.build_dataset(tc.training_skeletons(args.examples, args.corpus), args.cache,
+                            log=lambda s: print(s, file=sys.stderr, flush=True))
+    meshes = len(data["group"])
+    print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
+          f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
+          f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
+    p, _ = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True))
+    rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]
+    for t in sorted({0.3, 0.4, args.threshold, 0.6}):
+        rows.append((f"learned, threshold {t:.1f} (project-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))
+    table(rows)
+    kinds = {"examples": np.char.startswith(data["group"].astype(str), "examples/")}
+    kinds["corpus"] = ~kinds["examples"]
+    for kind, mask in kinds.items():
+        ids = np.flatnonzero(mask)
+        print(f"\n{kind}:")
+        table([("rule", tc.judge(data, data["rule"].astype(bool), ids)),
+               (f"learned, threshold {args.threshold:.1f}", tc.judge(data, tc.choose_rows(data, p, args.threshold), ids))])
+    if args.write:
+        model = tc.fit(data["X"], data["y"], tc.mesh_weights(data, args.project_power), args.threshold)
+        model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
+                      "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
+                      "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"}
+        MODEL_PATH.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
+        print(f"\nwrote {MODEL_PATH.relative_to(REPO)} ({MODEL_PATH.stat().st_size / 1024:.0f} KB, "
+              f"{len(model.trees)} trees, {len(FEATURES)} features)")
+
+
+if __name__ == "__main__":
+    main()

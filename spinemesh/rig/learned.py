@@ -1,0 +1,367 @@
+"""The ``learned`` bone choice: a small tree ensemble fitted to how artists bind their meshes.
+
+Every bone near a mesh's art is a *candidate* (within ``REACH`` of the art's bounding-box
+diagonal, plus the slot's bone). Each candidate is described by what the rig and the art show
+in the setup pose (:data:`FEATURES`): how much of its segment lies over the art and how far it
+is from it, its length against the art's size, where it sits in the bone tree relative to the
+slot's bone, which neighbours in the tree are on the art, its constraint roles, and whether the
+``rule`` choice (:func:`.choice.choose_auto`) takes it. A gradient-boosted tree ensemble, fitted
+on the artist-weighted meshes of the Spine examples and a corpus of game projects
+(:mod:`.train_choice`), gives the probability that an artist binds the bone; the bones at or
+above the model's threshold are chosen.
+
+The model ships as JSON (``spinemesh/models/bone_choice.json``: each tree's split features,
+thresholds, children and leaf values) and is evaluated with numpy: no pickle, no training
+library at run time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .bones import constraints_of
+from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto, distance_to_art
+
+#: Bones whose segment comes within this share of the art's bounding-box diagonal are
+#: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
+#: artists' bones (the rest lie farther out: handles on effects, whole-body bones).
+REACH = 0.25
+
+#: Sample points along each segment for its distances to the art (the rule samples 65; the
+#: features need less: a share of a bone over the art to 1/32).
+SEGMENT_SAMPLES = 33
+
+#: Feature names, in the order of the columns the model reads.
+FEATURES = (
+    "is_slot_bone", "is_root", "is_point", "is_control", "is_constrained", "not_exact", "skin_inactive",
+    "share_over_art", "over_art_per_diag", "share_near_art", "distance_per_diag", "length_per_diag",
+    "is_ancestor", "is_descendant", "is_sibling", "tree_distance", "depth_difference",
+    "children_on_art", "parent_on_art", "child_count", "rank_over_art", "rule_chose",
+    "origin_on_art", "tip_on_art", "nearest_vertex_share", "length_vs_slot_bone",
+    "log_art_diag", "slot_bone_on_art", "bones_on_art", "rule_bone_count", "candidate_count",
+)
+
+#: The model shipped in the package.
+MODEL_PATH = Path(__file__).resolve().parents[1] / "models" / "bone_choice.json"
+
+#: Format tag of the model file.
+MODEL_FORMAT = "spinemesh-bone-choice/1"
+
+
+@dataclass
+class Candidates:
+    """The candidate bones of one mesh and their features.
+
+    Attributes
+    ----------
+    bones : list of int
+        Candidate bone indices, ascending.
+    features : ndarray, shape (C, len(FEATURES))
+    rule : Choice
+        The ``rule`` choice for the same mesh (one of the features).
+    over : dict of int to float
+        Each candidate's length over the art (world units; absent when it misses the art).
+    """
+
+    bones: list[int]
+    features: np.ndarray
+    rule: Choice
+    over: dict[int, float]
+
+
+def constrained_bones(doc: dict) -> dict[int, str]:
+    """Bones that IK, transform, path or physics constraints move, with the first constraint's kind."""
+    names = [b.get("name") for b in doc.get("bones", []) or [] if isinstance(b, dict)]
+    index = {str(n): i for i, n in enumerate(names)}
+    out: dict[int, str] = {}
+    for kind in ("ik", "transform", "path", "physics"):
+        for c in constraints_of(doc, kind):
+            moved = c.get("bones") if kind != "physics" else [c.get("bone")]
+            for name in moved if isinstance(moved, list) else []:
+                if isinstance(name, str) and name in index:
+                    out.setdefault(index[name], kind)
+    return out
+
+
+def _chain(bones, i: int) -> list[int]:
+    """``i`` and its ancestors up to the root, nearest first."""
+    out = []
+    while i is not None:
+        out.append(i)
+        i = bones[i].parent
+    return out
+
+
+def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach: float,
+                     samples: int = SEGMENT_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """Distances to the art of evenly spaced points along every bone segment that may come within ``reach``.
+
+    Returns
+    -------
+    ids : ndarray of int, shape (B,)
+        The bones whose segment's bounding box, grown by ``reach``, meets the art's.
+    distance : ndarray, shape (B, samples)
+        World units, 0 on the art; the first column is the bone's origin, the last its tip.
+    """
+    lo, hi = world.min(axis=0) - reach, world.max(axis=0) + reach
+    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    ids = np.flatnonzero(~((segs.max(axis=1) < lo).any(axis=1) | (segs.min(axis=1) > hi).any(axis=1)))
+    t = np.linspace(0, 1, samples)[None, :, None]
+    a, b = segs[ids, :1], segs[ids, 1:]
+    points = (a + t * (b - a)).reshape(-1, 2)
+    return ids, distances_to_art(points, world, triangles).reshape(len(ids), samples)
+
+
+def distances_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """:func:`.choice.distance_to_art` through a spatial index of the triangles (shapely's STRtree):
+    the same distances (0 inside any triangle), for thousands of points against thousands of
+    triangles without the all-pairs arrays."""
+    import shapely
+
+    if not len(points):
+        return np.zeros(0)
+    tri = world[np.asarray(triangles, int).reshape(-1, 3)]
+    polys = shapely.polygons(np.concatenate([tri, tri[:, :1]], axis=1))
+    tree = shapely.STRtree(polys)
+    (index, _), dist = tree.query_nearest(shapely.points(points), return_distance=True, all_matches=False)
+    out = np.full(len(points), np.inf)
+    np.minimum.at(out, index, dist)
+    return out
+
+
+def _span(bone) -> float:
+    """The length of a bone's segment in world space (its length times its world scale)."""
+    seg = bone.segment()
+    return float(np.linalg.norm(seg[1] - seg[0]))
+
+
+def _on_art(bones, ids: np.ndarray, distance: np.ndarray, near: float) -> dict[int, float]:
+    """Each bone's length within ``near`` of the art (as :func:`.choice.lengths_on_art`: a point
+    bone on the art has 0; a bone missing it is absent)."""
+    close = distance <= near
+    out = {}
+    for i, row in zip(ids, close):
+        if bones[i].length == 0:
+            if row[0]:
+                out[int(i)] = 0.0
+        elif row.any():
+            out[int(i)] = _span(bones[i]) * float(row.mean())
+    return out
+
+
+def _nearest_shares(bones, ids: list[int], world: np.ndarray) -> np.ndarray:
+    """Share of the art's vertices whose nearest candidate segment is each candidate's."""
+    from .weights import _segment_distance
+
+    d = np.stack([_segment_distance(world, bones[i].segment()) for i in ids], axis=1)  # (N, C)
+    return np.bincount(d.argmin(axis=1), minlength=len(ids)) / max(len(world), 1)
+
+
+def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
+               constrained: dict[int, str] | None = None) -> Candidates:
+    """The candidate bones of one mesh and their features (:data:`FEATURES`).
+
+    Parameters
+    ----------
+    bones : list of Bone
+        The skeleton's bones (:func:`.bones.skeleton_bones`).
+    slot_bone : int
+        The bone of the mesh's slot.
+    world : ndarray, shape (N, 2)
+        The mesh's vertices in the setup pose, world units.
+    triangles : ndarray, shape (T, 3)
+    skin_bones : set of int
+        Bones the mesh's skin activates.
+    constrained : dict of int to str, optional
+        Bones constraints move (:func:`constrained_bones`).
+    """
+    constrained = constrained or {}
+    diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
+    sampled, dist = sample_distances(bones, world, triangles, REACH * diag)
+    over = _on_art(bones, sampled, dist, 0.0)
+    near = _on_art(bones, sampled, dist, NEAR * diag)
+    closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
+    ends = dict(zip(sampled.tolist(), (dist[:, [0, -1]] <= 0).tolist()))
+    ids = sorted({i for i, d in closest.items() if d <= REACH * diag} | {slot_bone})
+    rule = choose_auto(bones, slot_bone, world, triangles, skin_bones)
+    nearest = _nearest_shares(bones, ids, world)
+
+    slot_chain = _chain(bones, slot_bone)
+    slot_depth = len(slot_chain) - 1
+    on_art = [i for i in over if bones[i].parent is not None]
+    ranked = sorted(on_art, key=lambda i: -over[i])
+    rank = {i: r for r, i in enumerate(ranked)}
+    slot_length = _span(bones[slot_bone])
+    rows = []
+    for k, i in enumerate(ids):
+        b = bones[i]
+        chain = _chain(bones, i)
+        common = next(j for j in chain if j in slot_chain)
+        up, down = chain.index(common), slot_chain.index(common)
+        length = _span(b)
+        rows.append([
+            i == slot_bone, b.parent is None, b.length == 0, bool(b.target_of), i in constrained, not b.exact,
+            b.skin_required and i not in skin_bones,
+            (over.get(i, 0.0) / length if length > 0 else float(i in over)),
+            over.get(i, 0.0) / diag,
+            (near.get(i, 0.0) / length if length > 0 else float(i in near)),
+            closest.get(i, REACH * diag) / diag, min(length / diag, 10.0),
+            i != slot_bone and i in slot_chain, i != slot_bone and slot_bone in chain,
+            i != slot_bone and b.parent is not None and b.parent == bones[slot_bone].parent,
+            up + down, (len(chain) - 1) - slot_depth,
+            sum(c in over for c in b.children), b.parent in over if b.parent is not None else False,
+            len(b.children), min(rank.get(i, 20), 20), i in rule.bones,
+            *ends.get(i, (False, False)), nearest[k],
+            math.log((length + 1.0) / (slot_length + 1.0)),
+            math.log(diag), slot_bone in over, len(on_art), len(rule.bones), len(ids),
+        ])
+    features = np.asarray(rows, float).reshape(len(ids), len(FEATURES))
+    return Candidates(ids, features, rule, over)
+
+
+@dataclass
+class TreeEnsemble:
+    """A binary classifier: the sigmoid of a base value plus the sum of regression trees' leaves.
+
+    Each tree is arrays over its nodes: ``feature`` (column read; -1 at a leaf), ``threshold``
+    (go left when the value is at most it), ``left``/``right`` (child nodes), ``value`` (the
+    leaf's contribution, learning rate included).
+    """
+
+    features: tuple[str, ...]
+    base: float
+    trees: list[dict[str, np.ndarray]]
+    threshold: float
+    meta: dict
+
+    @classmethod
+    def from_json(cls, data: dict) -> "TreeEnsemble":
+        """A model from its JSON form (:meth:`to_json`); raises ValueError when it is not one."""
+        if data.get("format") != MODEL_FORMAT:
+            raise ValueError(f"not a bone-choice model (format {data.get('format')!r}, expected {MODEL_FORMAT!r})")
+        features = tuple(data["features"])
+        if features != FEATURES:
+            raise ValueError("the model reads other features than this version computes")
+        trees = []
+        for t in data["trees"]:
+            tree = {"feature": np.asarray(t["feature"], np.int64), "threshold": np.asarray(t["threshold"], float),
+                    "left": np.asarray(t["left"], np.int64), "right": np.asarray(t["right"], np.int64),
+                    "value": np.asarray(t["value"], float)}
+            n = len(tree["feature"])
+            if any(len(a) != n for a in tree.values()) or not np.isfinite(tree["value"]).all():
+                raise ValueError("a tree of the model is malformed")
+            inner = tree["feature"] >= 0
+            if (tree["feature"][inner] >= len(features)).any() or (tree["left"][inner] <= np.flatnonzero(inner)).any() \
+                    or (tree["right"][inner] >= n).any() or (tree["left"][inner] >= n).any():
+                raise ValueError("a tree of the model is malformed")
+            trees.append(tree)
+        return cls(features, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})))
+
+    def to_json(self) -> dict:
+        return {"format": MODEL_FORMAT, "features": list(self.features), "base": self.base,
+                "threshold": self.threshold, "meta": self.meta,
+                "trees": [{k: v.tolist() for k, v in t.items()} for t in self.trees]}
+
+    def raw(self, x: np.ndarray) -> np.ndarray:
+        """The ensemble's log-odds for each row of ``x`` (R, F)."""
+        x = np.asarray(x, float)
+        out = np.full(len(x), self.base)
+        rows = np.arange(len(x))
+        for t in self.trees:
+            node = np.zeros(len(x), np.int64)
+            while True:
+                f = t["feature"][node]
+                inner = f >= 0
+                if not inner.any():
+                    break
+                go_left = x[rows[inner], f[inner]] <= t["threshold"][node[inner]]
+                node[inner] = np.where(go_left, t["left"][node[inner]], t["right"][node[inner]])
+            out += t["value"][node]
+        return out
+
+    def probability(self, x: np.ndarray) -> np.ndarray:
+        """Probability (R,) that an artist binds each candidate."""
+        return 1.0 / (1.0 + np.exp(-self.raw(x)))
+
+
+_SHIPPED: list[TreeEnsemble] = []
+
+
+def shipped_model() -> TreeEnsemble:
+    """The model :func:`choose_learned` uses by default: the package's (read once), unless
+    :func:`use_model` replaced it."""
+    if not _SHIPPED:
+        _SHIPPED.append(TreeEnsemble.from_json(json.loads(MODEL_PATH.read_text())))
+    return _SHIPPED[0]
+
+
+def use_model(model: TreeEnsemble | None) -> None:
+    """Make ``model`` the default of :func:`choose_learned` (None: the package's again).
+
+    For judging models fitted without some projects on those projects (the benchmarks).
+    """
+    _SHIPPED.clear()
+    if model is not None:
+        _SHIPPED.append(model)
+
+
+def _describe(bones, i: int, slot_bone: int, over: dict[int, float]) -> str:
+    """Where a candidate sits: its tree relation to the slot's bone and its length over the art."""
+    if i == slot_bone:
+        where = "slot bone"
+    elif bones[i].parent == slot_bone:
+        where = "child of the slot bone"
+    elif i in _chain(bones, slot_bone):
+        where = "ancestor of the slot bone"
+    elif slot_bone in _chain(bones, i):
+        where = "below the slot bone"
+    else:
+        where = "elsewhere in the tree"
+    on = f"{over[i]:.1f} units over the art" if i in over else "beside the art"
+    return f"{where}, {on}"
+
+
+def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
+                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None) -> Choice:
+    """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
+
+    Bones nothing can be bound to (setup transform not exact, only active in other skins) are
+    never chosen. When no candidate reaches the threshold, the most likely one is taken (the
+    slot's bone when none can be bound); at most ``MAX_AUTO_BONES``, the most likely first.
+    """
+    model = model or shipped_model()
+    cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
+    p = model.probability(cand.features)
+    why: dict[int, str] = {}
+    left_out: dict[int, str] = {}
+    allowed = []
+    for k, i in enumerate(cand.bones):
+        b = bones[i]
+        if not b.exact:
+            left_out[i] = b.why
+        elif b.skin_required and i not in skin_bones:
+            left_out[i] = "only active in other skins"
+        else:
+            allowed.append(k)
+    order = sorted(allowed, key=lambda k: -p[k])
+    take = [k for k in order if p[k] >= model.threshold][:MAX_AUTO_BONES]
+    if not take and order:
+        take = order[:1]
+    for k in allowed:
+        i = cand.bones[k]
+        text = _describe(bones, i, slot_bone, cand.over)
+        if k in take:
+            top = " (the most likely; none reached it)" if p[k] < model.threshold else ""
+            why[i] = f"learned: {p[k]:.2f} likely an artist's bone, threshold {model.threshold:.2f}{top}; {text}"
+        elif p[k] >= model.threshold:
+            left_out[i] = f"learned: {p[k]:.2f}, but more than {MAX_AUTO_BONES} bones qualify; {text}"
+        else:
+            left_out[i] = f"learned: {p[k]:.2f}, below the threshold {model.threshold:.2f}; {text}"
+    if not why and bones[slot_bone].exact:
+        why[slot_bone] = "slot bone (no candidate can be bound)"
+    return Choice(sorted(why), why, left_out)

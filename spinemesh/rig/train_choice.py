@@ -1,0 +1,244 @@
+"""Fitting the ``learned`` bone choice (:mod:`.learned`) to artists' bindings, and judging it.
+
+The dataset: every artist-weighted mesh attachment of a set of projects (its artist's bones
+all with an exact setup transform, its slot with a bone), each bone near its art a row of
+:data:`.learned.FEATURES`, labelled by whether the artist bound it. Judged per mesh, on
+projects held out of the fit (:func:`fold_of`): the share of meshes whose chosen bone set is
+exactly the artist's, and bones per mesh against the artists'.
+
+Needs scikit-learn (the ``train`` extra); the package itself reads the fitted model without it.
+Used by ``scripts/train_bone_choice.py`` and the weights benchmarks.
+"""
+
+from __future__ import annotations
+
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..skeleton import iter_attachments, load_skeleton
+from .binding import parse_vertices, setup_world
+from .document import build_rig
+from .learned import FEATURES, TreeEnsemble, candidates
+
+#: Project-held-out folds.
+FOLDS = 5
+
+#: Boosting settings (kept small: the model ships in the package).
+TREES, LEAVES, LEARNING_RATE, MIN_LEAF = 120, 15, 0.1, 40
+
+
+def fold_of(group: str, folds: int = FOLDS) -> int:
+    """The held-out fold of a project (stable across runs and machines)."""
+    return zlib.crc32(group.encode()) % folds
+
+
+def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple[str, Path]]:
+    """``(project, skeleton)`` pairs: each example in its newest version, every corpus project.
+
+    A project is ``examples/NAME`` or ``corpus/NAME`` (the benchmarks' labels). A ``.skel``
+    beside a ``.json`` of the same name is the same skeleton and is left out.
+    """
+    roots: list[tuple[str, Path]] = []
+    if examples is not None:
+        newest: dict[str, Path] = {}
+        for version in sorted((p for p in examples.iterdir() if p.is_dir()), key=lambda p: [int(x) for x in
+                                                                                               p.name.split(".") if x.isdigit()]):
+            for proj in version.iterdir():
+                if proj.is_dir():
+                    newest[proj.name] = proj
+        roots += [(f"examples/{name}", p) for name, p in sorted(newest.items())]
+    if corpus is not None:
+        roots += [(f"corpus/{p.name}", p) for p in sorted(corpus.iterdir()) if p.is_dir()]
+    out = []
+    for group, proj in roots:
+        files = sorted(proj.rglob("*.json")) + sorted(proj.rglob("*.skel"))
+        jsons = {f.with_suffix("") for f in files if f.suffix == ".json"}
+        out += [(group, f) for f in files if not (f.suffix == ".skel" and f.with_suffix("") in jsons)]
+    return out
+
+
+def mesh_rows(doc: dict) -> list[dict]:
+    """Every artist-weighted mesh of a skeleton document with its candidates and labels.
+
+    Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``features``
+    (C, F), ``label`` (C,) bool, ``rule`` (the rule's bones), ``artist`` (the artist's bones).
+    """
+    from .learned import constrained_bones
+
+    rig = build_rig(doc)
+    constrained = constrained_bones(doc)
+    out = []
+    for ref in iter_attachments(doc):
+        att = ref.attachment
+        if ref.type != "mesh" or ref.slot not in rig.slot_bone:
+            continue
+        try:
+            mesh = parse_vertices(att, len(rig.bones))
+        except SpineMeshError:
+            continue
+        if not mesh.weighted:
+            continue
+        artist = mesh.bones()
+        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+        if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
+                or tris.max() >= mesh.count or tris.min() < 0:
+            continue
+        slot_bone = rig.slot_bone[ref.slot]
+        world = setup_world(mesh, rig.worlds, slot_bone)
+        if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
+            continue
+        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained)
+        out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
+                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist))
+    return out
+
+
+def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=print) -> dict[str, np.ndarray]:
+    """The dataset of :func:`mesh_rows` over skeletons, as flat arrays; cached as ``.npz`` when ``cache``.
+
+    Returns
+    -------
+    dict
+        ``X`` (R, F) features, ``y`` (R,) labels, ``mesh`` (R,) mesh number, ``bone`` (R,) bone
+        index, ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
+        ``skeleton`` (file), ``attachment`` (``skin/slot/name``), ``artist_count`` (artist's bones),
+        ``missed`` (artist's bones not among the candidates), ``rule_count``, ``rule_exact``.
+    """
+    if cache is not None and cache.exists():
+        with np.load(cache, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    X, y, mesh, bone, rule = [], [], [], [], []
+    per_mesh: dict[str, list] = {k: [] for k in ("group", "skeleton", "attachment", "artist_count", "missed",
+                                                 "rule_count", "rule_exact")}
+    for n, (group, path) in enumerate(pairs):
+        try:
+            doc = load_skeleton(path)
+        except SpineMeshError:
+            continue
+        if not isinstance(doc, dict) or not isinstance(doc.get("bones"), list):
+            continue
+        try:
+            rows = mesh_rows(doc)
+        except (SpineMeshError, ValueError, np.linalg.LinAlgError) as e:
+            log(f"{path}: left out: {e}")
+            continue
+        for r in rows:
+            m = len(per_mesh["group"])
+            X.append(r["features"])
+            y.append(r["label"])
+            mesh.append(np.full(len(r["bones"]), m))
+            bone.append(np.asarray(r["bones"]))
+            rule.append(np.array([b in r["rule"] for b in r["bones"]]))
+            per_mesh["group"].append(group)
+            per_mesh["skeleton"].append(str(path))
+            per_mesh["attachment"].append(f"{r['skin']}/{r['slot']}/{r['name']}")
+            per_mesh["artist_count"].append(len(r["artist"]))
+            per_mesh["missed"].append(len(set(r["artist"]) - set(r["bones"])))
+            per_mesh["rule_count"].append(len(r["rule"]))
+            per_mesh["rule_exact"].append(set(r["rule"]) == set(r["artist"]))
+        log(f"[{n + 1}/{len(pairs)}] {group} {path.name}: {len(rows)} weighted meshes")
+    data = {"X": np.concatenate(X) if X else np.zeros((0, len(FEATURES))),
+            "y": np.concatenate(y) if y else np.zeros(0, bool),
+            "mesh": np.concatenate(mesh) if mesh else np.zeros(0, int),
+            "bone": np.concatenate(bone) if bone else np.zeros(0, int),
+            "rule": np.concatenate(rule) if rule else np.zeros(0, bool),
+            **{k: np.asarray(v) for k, v in per_mesh.items()}}
+    if cache is not None:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(cache, **data)
+    return data
+
+
+def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
+    """Row weights: each mesh weighs the same over its candidates; big projects weigh less per mesh.
+
+    A project of M meshes weighs ``M ** project_power`` in all (0: every project alike, 1:
+    every mesh alike).
+    """
+    mesh = data["mesh"]
+    per_mesh_rows = np.bincount(mesh)
+    groups, project = np.unique(data["group"], return_inverse=True)
+    meshes_in_project = np.bincount(project)
+    w_mesh = meshes_in_project[project] ** (project_power - 1.0)
+    w = w_mesh[mesh] / per_mesh_rows[mesh]
+    return w / w.mean()
+
+
+def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: float = 0.5,
+        seed: int = 0) -> TreeEnsemble:
+    """A gradient-boosted tree ensemble (scikit-learn's ``HistGradientBoostingClassifier``) as a
+    :class:`.learned.TreeEnsemble`."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    clf = HistGradientBoostingClassifier(max_iter=TREES, max_leaf_nodes=LEAVES, learning_rate=LEARNING_RATE,
+                                         min_samples_leaf=MIN_LEAF, early_stopping=False, random_state=seed)
+    clf.fit(X, y.astype(int), sample_weight=w)
+    trees = []
+    for (predictor,) in clf._predictors:
+        nodes = predictor.nodes
+        leaf = nodes["is_leaf"].astype(bool)
+        trees.append({"feature": np.where(leaf, -1, nodes["feature_idx"]).astype(np.int64),
+                      "threshold": np.where(leaf, 0.0, nodes["num_threshold"]).astype(float),
+                      "left": np.where(leaf, 0, nodes["left"]).astype(np.int64),
+                      "right": np.where(leaf, 0, nodes["right"]).astype(np.int64),
+                      "value": np.where(leaf, nodes["value"], 0.0).astype(float)})
+    base = float(np.ravel(clf._baseline_prediction)[0])
+    check = X[np.linspace(0, len(X) - 1, min(len(X), 2000)).astype(int)]
+    expected = clf.decision_function(check)
+    # a few rows with scikit-learn's log-odds, for the package's tests to check the numpy evaluation
+    few = np.linspace(0, len(check) - 1, min(len(check), 24)).astype(int)
+    model = TreeEnsemble(FEATURES, base, trees, threshold,
+                         {"check": {"x": check[few].tolist(), "raw": expected[few].tolist()}})
+    if not np.allclose(model.raw(check), expected, atol=1e-6):
+        raise RuntimeError("the exported trees do not reproduce scikit-learn's predictions")
+    return model
+
+
+def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> np.ndarray:
+    """Which rows are chosen per mesh: probability at least ``threshold`` (at most ``most`` per
+    mesh, the likeliest), else the likeliest row; bones not exact / inactive never (as
+    :func:`.learned.choose_learned`)."""
+    col = {f: i for i, f in enumerate(FEATURES)}
+    allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
+    chosen = np.zeros(len(p), bool)
+    order = np.lexsort((-p, data["mesh"]))
+    starts = np.flatnonzero(np.r_[True, np.diff(data["mesh"][order]) != 0])
+    ends = np.r_[starts[1:], len(order)]
+    for s, e in zip(starts, ends):
+        rows = [r for r in order[s:e] if allowed[r]]
+        take = [r for r in rows if p[r] >= threshold][:most] or rows[:1]
+        chosen[take] = True
+    return chosen
+
+
+def judge(data: dict, chosen: np.ndarray, meshes: np.ndarray | None = None) -> dict:
+    """Per-mesh figures of a choice (rows ``chosen``): exact-set share, bones per mesh against artists'."""
+    n = len(data["group"])
+    meshes = np.arange(n) if meshes is None else meshes
+    wrong = np.bincount(data["mesh"], weights=(chosen != data["y"]).astype(float), minlength=n)
+    count = np.bincount(data["mesh"], weights=chosen.astype(float), minlength=n)
+    exact = (wrong == 0) & (data["missed"] == 0)
+    artists = data["artist_count"]
+    return {"meshes": len(meshes), "projects": len(np.unique(data["group"][meshes])),
+            "exact": float(exact[meshes].mean()), "bones_median": float(np.median(count[meshes])),
+            "bones_p95": float(np.percentile(count[meshes], 95)), "artist_median": float(np.median(artists[meshes])),
+            "artist_p95": float(np.percentile(artists[meshes], 95)), "too_many": float((count > artists)[meshes].mean()),
+            "too_few": float((count < artists)[meshes].mean())}
+
+
+def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS,
+                           log=print) -> tuple[np.ndarray, dict[int, TreeEnsemble]]:
+    """Each row's probability from the model fitted without its project's fold, and the fold models."""
+    fold = np.array([fold_of(g, folds) for g in data["group"]])[data["mesh"]]
+    w = mesh_weights(data, project_power)
+    p = np.zeros(len(data["y"]))
+    models = {}
+    for k in range(folds):
+        train, test = fold != k, fold == k
+        models[k] = fit(data["X"][train], data["y"][train], w[train])
+        p[test] = models[k].probability(data["X"][test])
+        log(f"fold {k}: {int(train.sum())} rows fitted, {int(test.sum())} judged")
+    return p, models

@@ -1,0 +1,200 @@
+"""The ``learned`` bone choice: candidate features, the shipped model, and ``--bones rule``."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spinemesh.rig import document
+from spinemesh.rig.binding import parse_vertices, setup_world
+from spinemesh.rig.choice import choose_auto
+from spinemesh.rig.document import build_rig, choose
+from spinemesh.rig.learned import (FEATURES, MODEL_FORMAT, MODEL_PATH, TreeEnsemble, candidates, choose_learned,
+                                   constrained_bones, shipped_model)
+from spinemesh.skeleton import iter_attachments, load_skeleton
+
+from rig_project import worm_skeleton
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+COL = {f: i for i, f in enumerate(FEATURES)}
+
+
+def _worm_mesh_doc() -> dict:
+    """The worm (root -> seg1 -> seg2 -> seg3 along x, -120..120) as a strip mesh on seg1, plus a
+    bone far from the art and a bone beside it."""
+    doc = worm_skeleton()
+    doc["bones"] += [{"name": "far", "parent": "root", "x": 1000, "length": 50},
+                     {"name": "beside", "parent": "root", "x": -60, "y": 40, "length": 30}]
+    xs = np.linspace(0, 240, 9)
+    local = [(x, y) for x in xs for y in (-20.0, 20.0)]              # in seg1's space (origin x=-120)
+    tris = []
+    for i in range(8):
+        a, b, c, d = 2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3
+        tris += [a, c, b, b, c, d]
+    uvs = [v for x, y in local for v in (x / 240, (y + 20) / 40)]
+    doc["skins"][0]["attachments"]["worm"]["worm"] = {
+        "type": "mesh", "uvs": uvs, "vertices": [v for p in local for v in p], "triangles": tris,
+        "hull": 4, "width": 240, "height": 40}
+    return doc
+
+
+def _mesh_of(doc):
+    rig = build_rig(doc)
+    ref = next(r for r in iter_attachments(doc) if r.type == "mesh")
+    mesh = parse_vertices(ref.attachment, len(rig.bones))
+    world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
+    tris = np.asarray(ref.attachment["triangles"]).reshape(-1, 3)
+    return rig, ref, mesh, world, tris
+
+
+def test_candidate_features_describe_the_rig_and_the_art():
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    names = [b.name for b in rig.bones]
+    cand = candidates(rig.bones, rig.slot_bone["worm"], world, tris, set(), {})
+    got = {names[i]: dict(zip(FEATURES, row)) for i, row in zip(cand.bones, cand.features)}
+    assert set(got) == {"root", "seg1", "seg2", "seg3", "beside"}  # "far" is beyond reach
+    assert got["seg1"]["is_slot_bone"] == 1 and got["seg1"]["share_over_art"] == pytest.approx(1)
+    seg2, seg3 = got["seg2"], got["seg3"]
+    assert seg2["is_descendant"] == 1 and seg2["tree_distance"] == 1 and seg2["depth_difference"] == 1
+    assert seg3["tree_distance"] == 2 and seg3["depth_difference"] == 2 and seg3["child_count"] == 0
+    assert seg2["children_on_art"] == 1 and seg2["parent_on_art"] == 1 and seg3["parent_on_art"] == 1
+    assert seg2["length_per_diag"] == pytest.approx(80 / np.hypot(240, 40))
+    assert seg2["rule_chose"] == 1 and seg3["rule_chose"] == 1 and got["beside"]["rule_chose"] == 0
+    assert got["root"]["is_root"] == 1 and got["root"]["is_point"] == 1 and got["root"]["is_ancestor"] == 1
+    beside = got["beside"]
+    assert beside["is_sibling"] == 1 and beside["share_over_art"] == 0
+    assert beside["distance_per_diag"] == pytest.approx(20 / np.hypot(240, 40), rel=1e-6)
+    assert beside["share_near_art"] == 0   # 20 units off, beyond 5% of the diagonal (12.2)
+    shares = [got[n]["nearest_vertex_share"] for n in got]
+    assert sum(shares) == pytest.approx(1)
+    assert {row[COL["candidate_count"]] for row in cand.features} == {5}
+    assert {row[COL["rule_bone_count"]] for row in cand.features} == {3}
+
+
+def test_constraint_roles_are_read_from_every_kind():
+    doc = {"bones": [{"name": "a"}, {"name": "b"}, {"name": "c"}, {"name": "t"}],
+           "ik": [{"name": "leg", "bones": ["b", "c"], "target": "t"}],
+           "physics": [{"name": "hair", "bone": "a"}],
+           "transform": [{"name": "bad", "bones": "not a list", "target": "t"}]}
+    assert constrained_bones(doc) == {1: "ik", 2: "ik", 0: "physics"}
+
+
+def _tree_model(feature: str, cut: float, threshold: float = 0.5) -> dict:
+    """One split on ``feature``: log-odds -3 at or below ``cut``, +3 above."""
+    return {"format": MODEL_FORMAT, "features": list(FEATURES), "base": 0.0, "threshold": threshold, "meta": {},
+            "trees": [{"feature": [COL[feature], -1, -1], "threshold": [cut, 0, 0], "left": [1, 0, 0],
+                       "right": [2, 0, 0], "value": [0, -3.0, 3.0]}]}
+
+
+def test_learned_choice_follows_its_model_and_explains_every_candidate():
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    names = [b.name for b in rig.bones]
+    model = TreeEnsemble.from_json(_tree_model("nearest_vertex_share", 0.2))
+    choice = choose_learned(rig.bones, rig.slot_bone["worm"], world, tris, set(), {}, model)
+    cand = candidates(rig.bones, rig.slot_bone["worm"], world, tris, set(), {})
+    expected = {names[i] for i, row in zip(cand.bones, cand.features) if row[COL["nearest_vertex_share"]] > 0.2}
+    assert {names[b] for b in choice.bones} == expected and expected  # the worm's chain
+    assert set(choice.why) | set(choice.left_out) == set(cand.bones)
+    assert all(w.startswith("learned: 0.95") for w in choice.why.values())
+    assert all("below the threshold" in w for w in choice.left_out.values())
+    # a model that takes nothing still binds the likeliest bone
+    none = TreeEnsemble.from_json(_tree_model("is_slot_bone", 5.0))
+    only = choose_learned(rig.bones, rig.slot_bone["worm"], world, tris, set(), {}, none)
+    assert len(only.bones) == 1 and "none reached it" in only.why[only.bones[0]]
+
+
+@pytest.mark.parametrize("damage", ["format", "features", "child", "nan", "length"])
+def test_malformed_models_are_refused(damage):
+    data = _tree_model("share_over_art", 0.5)
+    tree = data["trees"][0]
+    if damage == "format":
+        data["format"] = "other/1"
+    elif damage == "features":
+        data["features"] = data["features"][:-1]
+    elif damage == "child":
+        tree["right"][0] = 7
+    elif damage == "nan":
+        tree["value"][2] = float("nan")
+    else:
+        tree["value"] = tree["value"][:2]
+    with pytest.raises(ValueError):
+        TreeEnsemble.from_json(data)
+
+
+def test_shipped_model_loads_small_and_reproduces_its_training_predictions():
+    assert MODEL_PATH.stat().st_size < 400_000
+    model = shipped_model()
+    assert model.features == FEATURES and 0 < model.threshold < 1 and model.trees
+    check = model.meta["check"]
+    # log-odds scikit-learn gave these rows when the model was fitted: the numpy evaluation agrees
+    assert np.allclose(model.raw(np.asarray(check["x"])), check["raw"], atol=1e-6)
+    assert len(set(np.round(check["raw"], 6))) > 1
+    assert json.loads(MODEL_PATH.read_text())["format"] == MODEL_FORMAT
+
+
+def test_bones_rule_is_todays_rule_on_the_worm():
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    choice = choose(rig, ref, mesh, world, tris, "rule")
+    names = {b: rig.bones[b].name for b in range(len(rig.bones))}
+    assert {names[b]: w for b, w in choice.why.items()} == {
+        "seg1": "slot bone", "seg2": "segment over the art (80.0 units)", "seg3": "segment over the art (80.0 units)"}
+    assert {names[b] for b in choice.left_out} == {"root"}
+
+
+def test_auto_is_the_choice_that_measured_better(monkeypatch):
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    for mode in ("rule", "learned"):
+        monkeypatch.setattr(document, "AUTO_BONES", mode)
+        assert choose(rig, ref, mesh, world, tris, "auto") == choose(rig, ref, mesh, world, tris, mode)
+    assert document.BONE_CHOICES == ("keep", "auto", "rule", "learned")
+
+
+def test_cli_bone_choices_match_the_library():
+    from spinemesh.cli.weights import BoneChoice
+
+    assert tuple(c.value for c in BoneChoice) == document.BONE_CHOICES
+
+
+@pytest.mark.skipif(not (SHARED / "spine-examples" / "4.2").is_dir(), reason="needs the Spine examples")
+@pytest.mark.parametrize("project", ["raptor", "spineboy", "stretchyman"])
+def test_bones_rule_gives_the_rules_choices_on_artist_meshes(project):
+    path = next((SHARED / "spine-examples" / "4.2" / project).glob("*-pro.json"))
+    doc = load_skeleton(path)
+    rig = build_rig(doc)
+    seen = 0
+    for ref in iter_attachments(doc):
+        if ref.type != "mesh" or ref.slot not in rig.slot_bone:
+            continue
+        mesh = parse_vertices(ref.attachment, len(rig.bones))
+        world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
+        tris = np.asarray(ref.attachment["triangles"]).reshape(-1, 3)
+        rule = choose(rig, ref, mesh, world, tris, "rule")
+        assert rule == choose_auto(rig.bones, rig.slot_bone[ref.slot], world, tris,
+                                   rig.skin_bones.get(ref.skin, set()))
+        learned = choose(rig, ref, mesh, world, tris, "learned")
+        assert learned.bones and all(rig.bones[b].exact for b in learned.bones)
+        assert all(w.startswith(("learned:", "slot bone")) for w in learned.why.values())
+        seen += 1
+    assert seen
+
+
+def test_cli_weights_with_learned_bones_reports_why(tmp_path):
+    from typer.testing import CliRunner
+
+    from spinemesh.cli import app
+
+    doc = _worm_mesh_doc()
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "worm.json").write_text(json.dumps(doc))
+    before = copy.deepcopy(doc)
+    r = CliRunner().invoke(app, ["weights", str(tmp_path / "p" / "worm.json"), "--out", str(tmp_path / "w"),
+                                 "--bones", "learned", "--method", "harmonic", "--report", str(tmp_path / "r.json")])
+    assert r.exit_code == 0, r.output
+    row = json.loads((tmp_path / "r.json").read_text())["attachments"][0]
+    assert row["status"] == "weighted" and row["bones"]
+    assert all(w.startswith("learned:") for w in row["bones"].values())
+    assert json.loads((tmp_path / "p" / "worm.json").read_text()) == before
