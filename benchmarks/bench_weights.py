@@ -7,8 +7,8 @@ For every artist-weighted mesh attachment not keyed by deform timelines, the wei
 recomputed with ``--replace --bones keep`` (the artist's vertices and bones), with
 ``--replace --bones rule`` and with ``--replace --bones learned``; the learned choice of each
 project is made by the model fitted without that project's fold
-(:mod:`spinemesh.rig.train_choice`; ``--dataset``, built by ``scripts/train_bone_choice.py``;
-needs scikit-learn), so every figure is project-held-out. The artist's animations are played in the official runtime
+(``--fold-models``, written by ``scripts/train_bone_choice.py --fold-models``), so every
+figure is project-held-out. The artist's animations are played in the official runtime
 (``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
 ``--times`` evenly spaced samples of each) and every vertex's world position is compared with
 the artist's version. Per attachment: the mean distance in world units (pixels at scale 1)
@@ -257,16 +257,12 @@ def main() -> None:
     ap.add_argument("--only", default="", help="substring of project labels to run")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--every", type=int, default=1, help="replay every K-th skeleton (faster)")
-    ap.add_argument("--dataset", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"),
-                    help="the bone-choice dataset (scripts/train_bone_choice.py --cache): the learned "
-                         "choice's fold models are fitted on it")
+    ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
+                    help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
     from spinemesh.rig import train_choice
 
-    data = train_choice.build_dataset([], args.dataset)
-    if not len(data["group"]):
-        raise SystemExit(f"{args.dataset}: no dataset; build it with scripts/train_bone_choice.py --cache ...")
-    models = train_choice.held_out_probabilities(data, log=lambda s: None)[1]
+    models = train_choice.load_fold_models(args.fold_models)
     rows = []
     for label, skel in skeletons(args.examples, args.corpus)[::args.every]:
         if args.only and args.only not in label:

@@ -31,8 +31,8 @@ seconds the weights took. Variants:
   same row), and the same with bones within 5% of the art's size also chosen (the rule before
   this script);
 - ``learned``: the ``--bones learned`` choice, project-held-out: each mesh's bones are chosen by
-  the model fitted without its project's fold (:mod:`spinemesh.rig.train_choice`), on the
-  dataset ``--dataset`` (built by ``scripts/train_bone_choice.py``; needs scikit-learn).
+  the model fitted without its project's fold (``--fold-models``, written by
+  ``scripts/train_bone_choice.py --fold-models``).
 
 Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
 set and the bones per mesh (median and 95th percentile; the artists': the last line).
@@ -231,8 +231,8 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
-def learned(dataset: Path):
-    """The learned choice with fold models fitted on ``dataset`` without each case's project fold."""
+def learned(fold_models: Path):
+    """The learned choice, each case's bones chosen by the fold model fitted without its project."""
     from spinemesh.rig import train_choice
     from spinemesh.rig.learned import choose_learned
 
@@ -240,10 +240,7 @@ def learned(dataset: Path):
 
     def variant(case):
         if not models:
-            data = train_choice.build_dataset([], dataset)
-            if not len(data["group"]):
-                raise SystemExit(f"{dataset}: no dataset; build it with scripts/train_bone_choice.py --cache {dataset}")
-            models.update(train_choice.held_out_probabilities(data, log=lambda s: None)[1])
+            models.update(train_choice.load_fold_models(fold_models))
         rig = case["rig"]
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                 rig.skin_bones.get(case["skin"], set()), rig.constrained,
@@ -399,10 +396,10 @@ def main() -> None:
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
     ap.add_argument("--bounds", action="store_true", help="add the bounds that use the artist's answer")
     ap.add_argument("--learned", action="store_true")
-    ap.add_argument("--dataset", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"),
-                    help="the bone-choice dataset (scripts/train_bone_choice.py --cache) for the learned variant")
+    ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
+                    help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
-    VARIANTS["learned"] = learned(args.dataset)
+    VARIANTS["learned"] = learned(args.fold_models)
     cases = []
     for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus):
         cases += cases_of(label, skel, dump)

@@ -1,14 +1,15 @@
 """Fit the ``learned`` bone choice to the artists' bindings, judge it project-held-out, ship it.
 
     .venv/bin/python scripts/train_bone_choice.py [--examples DIR] [--corpus DIR]
-        [--cache FILE.npz] [--project-power P] [--threshold T] [--write]
+        [--cache FILE.npz] [--project-power P] [--threshold T] [--fold-models DIR] [--write]
 
 Builds the dataset (:mod:`spinemesh.rig.train_choice`: every artist-weighted mesh of each
 example in its newest version and of every corpus project, each bone near its art a row),
 cached in ``--cache`` (extraction takes minutes; delete the file to rebuild). Then fits one
 model per project-held-out fold and prints, for the ``rule`` and the ``learned`` choice on the
 same meshes, the share of meshes given exactly the artist's bone set and the bones per mesh
-against the artists'. ``--write`` fits on every project and writes
+against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
+(their ``learned`` rows, project-held-out). ``--write`` fits on every project and writes
 ``spinemesh/models/bone_choice.json``. Needs scikit-learn (the ``train`` extra).
 """
 
@@ -47,6 +48,7 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/spinemesh-bone-choice.npz"))
     ap.add_argument("--project-power", type=float, default=0.5, help="a project of M meshes weighs M**P")
     ap.add_argument("--threshold", type=float, default=0.5, help="probability at which a bone is chosen")
+    ap.add_argument("--fold-models", type=Path, help="write the fold models here (for the weights benchmarks)")
     ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
     args = ap.parse_args()
 
@@ -57,7 +59,9 @@ def main() -> None:
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
-    p, _ = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True))
+    p, models = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True))
+    if args.fold_models:
+        tc.save_fold_models(models, args.fold_models)
     rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]
     for t in sorted({0.3, 0.4, args.threshold, 0.6}):
         rows.append((f"learned, threshold {t:.1f} (project-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))

@@ -229,6 +229,26 @@ def judge(data: dict, chosen: np.ndarray, meshes: np.ndarray | None = None) -> d
             "too_few": float((count < artists)[meshes].mean())}
 
 
+def save_fold_models(models: dict[int, TreeEnsemble], folder: Path) -> None:
+    """Write each fold's model as ``fold-K.json`` (the benchmarks read them back)."""
+    import json
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for k, m in models.items():
+        (folder / f"fold-{k}.json").write_text(json.dumps(m.to_json(), separators=(",", ":")))
+
+
+def load_fold_models(folder: Path, folds: int = FOLDS) -> dict[int, TreeEnsemble]:
+    """The fold models :func:`save_fold_models` wrote; raises SystemExit naming what is missing."""
+    import json
+
+    missing = [k for k in range(folds) if not (folder / f"fold-{k}.json").is_file()]
+    if missing:
+        raise SystemExit(f"{folder}: no fold models {missing}; write them with "
+                         f"scripts/train_bone_choice.py --fold-models {folder}")
+    return {k: TreeEnsemble.from_json(json.loads((folder / f"fold-{k}.json").read_text())) for k in range(folds)}
+
+
 def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS,
                            log=print) -> tuple[np.ndarray, dict[int, TreeEnsemble]]:
     """Each row's probability from the model fitted without its project's fold, and the fold models."""
