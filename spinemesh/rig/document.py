@@ -32,7 +32,7 @@ BONE_CHOICES = ("keep", "auto", "rule", "learned")
 
 #: What ``auto`` means: the choice that measures closer to the artists' bindings on projects
 #: held out of the learned model's fit (see the bone-choice guide for the figures).
-AUTO_BONES = "rule"
+AUTO_BONES = "learned"
 
 
 @dataclass

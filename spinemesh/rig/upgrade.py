@@ -1,6 +1,8 @@
 """``spinemesh upgrade --weights auto``: upgraded meshes bound and weighted in the same run.
 
-Each mesh the upgrade just made gets the ``auto`` bones (:mod:`.choice`), the rig-aware
+Each mesh the upgrade just made gets the ``rule`` bones (:mod:`.choice`; the rule also decides
+which regions bend, below, and the learned choice was measured on meshes artists weighted, not
+on regions), the rig-aware
 vertices for them (:mod:`.topology`, within the vertex budget), then weights and an exact
 setup-pose binding (:mod:`.document`). A mesh that cannot be weighted (its slot's bone is
 moved by a constraint in the setup pose, say) stays the unweighted mesh the upgrade made,
@@ -131,7 +133,7 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
     if not by_place:
         return
     rig = rig or build_rig(doc)
-    options = WeightOptions(bones="auto")
+    options = WeightOptions(bones="rule")  # the rule decided it bends: the same rule binds it
     for ref in iter_attachments(doc):
         t = by_place.get((ref.skin, ref.slot, ref.name))
         if t is None or ref.type != "mesh":
@@ -145,7 +147,7 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
                 mesh = parse_vertices(ref.attachment, len(rig.bones))
                 world = setup_world(mesh, rig.worlds, slot_bone)
                 tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-                choice = choose(rig, ref, mesh, world, tris, "auto")
+                choice = choose(rig, ref, mesh, world, tris, "rule")
                 if t.overruled and len(choice.bones) < 2:
                     # meshed only to bend, but its art misses the other bones: no weights to solve
                     outcome.status, outcome.reason = "skipped", "its art lies over one bone only"
