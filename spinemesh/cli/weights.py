@@ -46,7 +46,7 @@ def weights(
         "--bones", help="keep: the bones a mesh is bound to now (its slot's bone when unweighted); rule: the "
                         "slot's bone and the bones whose segments pass over the art, joined to it through the "
                         "bone tree; learned: the bones a model fitted to artists' bindings finds likely; auto: "
-                        "the one of the two that measures closer to artists' bindings (today: rule).")] = BoneChoice.auto,
+                        "the one of the two that measures closer to artists' bindings (today: learned).")] = BoneChoice.auto,
     max_bones: Annotated[int, typer.Option("--max-bones", min=1, max=16, help="Most bones per vertex.")] = 4,
     method: Annotated[WeightMethod, typer.Option(
         "--method", help="bbw: bounded biharmonic weights (Jacobson et al. 2011); harmonic: heat-diffusion-"
