@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bones import constraints_of
+from .constraints import constraints_of
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto, distance_to_art
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
