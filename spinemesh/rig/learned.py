@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .constraints import constraints_of
-from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto, distance_to_art
+from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
 #: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
