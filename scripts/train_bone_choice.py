@@ -49,6 +49,8 @@ def main() -> None:
     ap.add_argument("--project-power", type=float, default=0.5, help="a project of M meshes weighs M**P")
     ap.add_argument("--threshold", type=float, default=0.5, help="probability at which a bone is chosen")
     ap.add_argument("--fold-models", type=Path, help="write the fold models here (for the weights benchmarks)")
+    ap.add_argument("--reuse-folds", action="store_true", help="judge with the fold models already in "
+                    "--fold-models (fitted on the same dataset) instead of fitting them again")
     ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
     args = ap.parse_args()
 
@@ -59,7 +61,9 @@ def main() -> None:
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
-    p, models = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True))
+    before = tc.load_fold_models(args.fold_models) if args.reuse_folds and args.fold_models else None
+    p, models = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True),
+                                          models=before)
     if args.fold_models:
         tc.save_fold_models(models, args.fold_models)
     rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]

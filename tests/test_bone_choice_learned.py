@@ -101,10 +101,11 @@ def test_learned_choice_follows_its_model_and_explains_every_candidate():
     assert set(choice.why) | set(choice.left_out) == set(cand.bones)
     assert all(w.startswith("learned: 0.95") for w in choice.why.values())
     assert all("below the threshold" in w for w in choice.left_out.values())
-    # a model that takes nothing still binds the likeliest bone
-    none = TreeEnsemble.from_json(_tree_model("is_slot_bone", 5.0))
+    # a model that takes nothing binds the slot's bone, even where another bone is likelier
+    none = TreeEnsemble.from_json(_tree_model("is_descendant", 0.5, threshold=0.99))  # seg2, seg3 0.95, slot 0.05
     only = choose_learned(rig.bones, rig.slot_bone["worm"], world, tris, set(), {}, none)
-    assert len(only.bones) == 1 and "none reached it" in only.why[only.bones[0]]
+    assert only.bones == [rig.slot_bone["worm"]] and "none reached the threshold" in only.why[only.bones[0]]
+    assert only.why[only.bones[0]].startswith("learned: 0.05")
 
 
 @pytest.mark.parametrize("damage", ["format", "features", "child", "nan", "length"])

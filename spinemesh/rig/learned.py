@@ -331,8 +331,9 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
-    never chosen. When no candidate reaches the threshold, the most likely one is taken (the
-    slot's bone when none can be bound); at most ``MAX_AUTO_BONES``, the most likely first.
+    never chosen. When no candidate reaches the threshold, the slot's bone is taken (the most
+    likely candidate when the slot's bone cannot be bound); at most ``MAX_AUTO_BONES``, the most
+    likely first.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
@@ -351,12 +352,15 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     order = sorted(allowed, key=lambda k: -p[k])
     take = [k for k in order if p[k] >= model.threshold][:MAX_AUTO_BONES]
     if not take and order:
-        take = order[:1]
+        # None likely: the slot's bone, as the mesh follows now (the likeliest other bone, a
+        # child beside the art say, can move it far away: measured 123 px off on one corpus mesh)
+        slot = [k for k in order if cand.bones[k] == slot_bone]
+        take = slot or order[:1]
     for k in allowed:
         i = cand.bones[k]
         text = _describe(bones, i, slot_bone, cand.over)
         if k in take:
-            top = " (the most likely; none reached it)" if p[k] < model.threshold else ""
+            top = " (none reached the threshold)" if p[k] < model.threshold else ""
             why[i] = f"learned: {p[k]:.2f} likely an artist's bone, threshold {model.threshold:.2f}{top}; {text}"
         elif p[k] >= model.threshold:
             left_out[i] = f"learned: {p[k]:.2f}, but more than {MAX_AUTO_BONES} bones qualify; {text}"

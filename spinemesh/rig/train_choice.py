@@ -199,17 +199,18 @@ def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: fl
 
 def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> np.ndarray:
     """Which rows are chosen per mesh: probability at least ``threshold`` (at most ``most`` per
-    mesh, the likeliest), else the likeliest row; bones not exact / inactive never (as
-    :func:`.learned.choose_learned`)."""
+    mesh, the likeliest), else the slot's bone (else the likeliest row); bones not exact /
+    inactive never (as :func:`.learned.choose_learned`)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
+    slot = data["X"][:, col["is_slot_bone"]] == 1
     chosen = np.zeros(len(p), bool)
     order = np.lexsort((-p, data["mesh"]))
     starts = np.flatnonzero(np.r_[True, np.diff(data["mesh"][order]) != 0])
     ends = np.r_[starts[1:], len(order)]
     for s, e in zip(starts, ends):
         rows = [r for r in order[s:e] if allowed[r]]
-        take = [r for r in rows if p[r] >= threshold][:most] or rows[:1]
+        take = [r for r in rows if p[r] >= threshold][:most] or [r for r in rows if slot[r]] or rows[:1]
         chosen[take] = True
     return chosen
 
@@ -249,16 +250,18 @@ def load_fold_models(folder: Path, folds: int = FOLDS) -> dict[int, TreeEnsemble
     return {k: TreeEnsemble.from_json(json.loads((folder / f"fold-{k}.json").read_text())) for k in range(folds)}
 
 
-def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS,
-                           log=print) -> tuple[np.ndarray, dict[int, TreeEnsemble]]:
-    """Each row's probability from the model fitted without its project's fold, and the fold models."""
+def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS, log=print,
+                           models: dict[int, TreeEnsemble] | None = None) -> tuple[np.ndarray, dict[int, TreeEnsemble]]:
+    """Each row's probability from the model fitted without its project's fold, and the fold models
+    (``models``: fold models fitted before, on the same dataset, reused)."""
     fold = np.array([fold_of(g, folds) for g in data["group"]])[data["mesh"]]
     w = mesh_weights(data, project_power)
     p = np.zeros(len(data["y"]))
-    models = {}
+    models = dict(models or {})
     for k in range(folds):
         train, test = fold != k, fold == k
-        models[k] = fit(data["X"][train], data["y"][train], w[train])
+        if k not in models:
+            models[k] = fit(data["X"][train], data["y"][train], w[train])
         p[test] = models[k].probability(data["X"][test])
         log(f"fold {k}: {int(train.sum())} rows fitted, {int(test.sum())} judged")
     return p, models
