@@ -199,3 +199,39 @@ def test_cli_weights_with_learned_bones_reports_why(tmp_path):
     assert row["status"] == "weighted" and row["bones"]
     assert all(w.startswith("learned:") for w in row["bones"].values())
     assert json.loads((tmp_path / "p" / "worm.json").read_text()) == before
+
+
+def _toy_dataset() -> dict:
+    """Two meshes of three candidates: mesh 0 (artist: bones 0, 1), mesh 1 (artist: bone 3)."""
+    X = np.zeros((6, len(FEATURES)))
+    X[[0, 3], COL["is_slot_bone"]] = 1
+    return {"X": X, "y": np.array([1, 1, 0, 1, 0, 0], bool), "mesh": np.array([0, 0, 0, 1, 1, 1]),
+            "group": np.array(["corpus/a", "corpus/b"]), "missed": np.array([0, 0]),
+            "artist_count": np.array([2, 1])}
+
+
+def test_held_out_judgement_counts_exact_sets_and_falls_back_to_the_slot_bone():
+    from spinemesh.rig import train_choice as tc
+
+    data = _toy_dataset()
+    chosen = tc.choose_rows(data, np.array([0.9, 0.6, 0.2, 0.1, 0.3, 0.4]), 0.5)
+    assert chosen.tolist() == [True, True, False, True, False, False]   # mesh 1: none likely -> slot bone
+    s = tc.judge(data, chosen)
+    assert s["exact"] == 1.0 and s["bones_p95"] == pytest.approx(1.95) and s["too_many"] == 0
+    s = tc.judge(data, np.array([True, False, False, True, True, False]))
+    assert s["exact"] == 0.0 and s["too_many"] == 0.5 and s["too_few"] == 0.5
+    assert {tc.fold_of(f"corpus/p{i}") for i in range(40)} == set(range(tc.FOLDS))
+    assert tc.fold_of("corpus/a") == tc.fold_of("corpus/a")
+
+
+def test_fitted_trees_export_to_the_shipped_format():
+    pytest.importorskip("sklearn")
+    from spinemesh.rig import train_choice as tc
+
+    rng = np.random.default_rng(0)
+    X = rng.random((600, len(FEATURES)))
+    y = (X[:, COL["share_over_art"]] + 0.2 * rng.random(600)) > 0.6
+    model = tc.fit(X, y)            # raises when the exported trees disagree with scikit-learn
+    again = TreeEnsemble.from_json(json.loads(json.dumps(model.to_json())))
+    assert np.array_equal(again.raw(X), model.raw(X))
+    assert ((again.probability(X) >= 0.5) == y).mean() > 0.9

@@ -260,8 +260,10 @@ def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = 
     models = dict(models or {})
     for k in range(folds):
         train, test = fold != k, fold == k
-        if k not in models:
+        given = k in models
+        if not given:
             models[k] = fit(data["X"][train], data["y"][train], w[train])
         p[test] = models[k].probability(data["X"][test])
-        log(f"fold {k}: {int(train.sum())} rows fitted, {int(test.sum())} judged")
+        log(f"fold {k}: model {'given' if given else 'fitted'} on {int(train.sum())} rows, "
+            f"{int(test.sum())} judged")
     return p, models
