@@ -331,8 +331,9 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
-    never chosen. When no candidate reaches the threshold, the likeliest bone over the art is
-    taken, else the slot's bone, else the likeliest; at most ``MAX_AUTO_BONES``, the likeliest first.
+    never chosen. When no candidate reaches the threshold, the slot's bone is taken (the most
+    likely candidate when the slot's bone cannot be bound); at most ``MAX_AUTO_BONES``, the most
+    likely first.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
@@ -351,11 +352,10 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     order = sorted(allowed, key=lambda k: -p[k])
     take = [k for k in order if p[k] >= model.threshold][:MAX_AUTO_BONES]
     if not take and order:
-        # None likely: the likeliest bone over the art, else the slot's bone (the likeliest
-        # bone beside the art, a child there say, moved one corpus mesh 123 px away)
-        on_art = [k for k in order if cand.bones[k] in cand.over]
+        # None likely: the slot's bone, as the mesh follows now (the likeliest other bone, a
+        # child beside the art say, can move it far away: measured 123 px off on one corpus mesh)
         slot = [k for k in order if cand.bones[k] == slot_bone]
-        take = on_art[:1] or slot or order[:1]
+        take = slot or order[:1]
     for k in allowed:
         i = cand.bones[k]
         text = _describe(bones, i, slot_bone, cand.over)

@@ -199,20 +199,18 @@ def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: fl
 
 def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> np.ndarray:
     """Which rows are chosen per mesh: probability at least ``threshold`` (at most ``most`` per
-    mesh, the likeliest), else the likeliest over the art, else the slot's bone, else the
-    likeliest; bones not exact / inactive never (as :func:`.learned.choose_learned`)."""
+    mesh, the likeliest), else the slot's bone (else the likeliest row); bones not exact /
+    inactive never (as :func:`.learned.choose_learned`)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
     slot = data["X"][:, col["is_slot_bone"]] == 1
-    over = data["X"][:, col["share_over_art"]] > 0
     chosen = np.zeros(len(p), bool)
     order = np.lexsort((-p, data["mesh"]))
     starts = np.flatnonzero(np.r_[True, np.diff(data["mesh"][order]) != 0])
     ends = np.r_[starts[1:], len(order)]
     for s, e in zip(starts, ends):
         rows = [r for r in order[s:e] if allowed[r]]
-        take = ([r for r in rows if p[r] >= threshold][:most] or [r for r in rows if over[r]][:1]
-                or [r for r in rows if slot[r]] or rows[:1])
+        take = [r for r in rows if p[r] >= threshold][:most] or [r for r in rows if slot[r]] or rows[:1]
         chosen[take] = True
     return chosen
 
