@@ -1,0 +1,7 @@
+"""``spinemesh pack``: atlas pages packed anew by the outlines of the meshes that draw each region.
+
+:mod:`.uses` finds how every skeleton draws each region; :mod:`.outlines` turns that into the
+texels each region must keep (its footprint); :mod:`.place` places footprints on pages;
+:mod:`.atlas_pack` packs one atlas and rewrites its regions; :mod:`.run` packs whole projects
+and libraries into an output folder, with a report.
+"""

@@ -1,0 +1,376 @@
+"""One atlas packed anew: footprints placed on pages, texels copied under them, regions rewritten.
+
+:func:`pack_atlas` is pure: parsed atlas, page texels and the regions' uses in, new atlas text
+model and page images out, or :class:`PackRefused` with the reason (the caller then keeps the
+original atlas). Rules:
+
+- pages keep their fields (format, filter, repeat, pma, scale); only ``size`` changes. Regions
+  of pages whose fields differ are packed apart, onto pages of their own fields;
+- no page is larger than the largest original page; sides are powers of two when every
+  original page's were;
+- footprints stay apart by the padding: at least the original pages' (measured), at least
+  :data:`MIN_PADDING`, and :data:`MIPMAP_PADDING` under a ``MipMap*`` filter;
+- a region may be turned by 90 degrees where it was stored upright or turned by 90 (every
+  runtime reads ``rotate``), and the stored rectangle is cropped to the footprint where every
+  mesh's runtime maps UVs over the original image (offsets rewritten to match);
+- the result is kept only when it stores fewer page texels than the original.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
+from .outlines import Footprint, content_box, footprint, stored_index, window_texels
+from .place import fill_pages
+from .uses import RegionUses
+
+#: Fewest texels between what two regions draw (stored rectangles, or texels meshes touch), as
+#: packers' default padding: each footprint holds the one-texel ring bilinear sampling reads
+#: around what it draws, so footprints themselves may then touch.
+MIN_PADDING = 2
+
+#: Padding under a ``MipMap*`` filter: keeps the first mipmap levels from mixing neighbours.
+MIPMAP_PADDING = 4
+
+#: Texels of the padding that the footprints' own rings already hold (one on each side).
+RING_TEXELS = 2
+
+#: Region fields that say where and how it is stored; rewritten here.
+GEOMETRY_KEYS = {"bounds", "offsets", "xy", "size", "orig", "offset", "rotate"}
+
+
+class PackRefused(Exception):
+    """The atlas keeps its original pages; the message says why."""
+
+
+@dataclass
+class RegionOutcome:
+    """How one region was packed."""
+
+    name: str
+    by_outline: bool
+    reason: str = ""
+
+
+@dataclass
+class PackedAtlas:
+    """The packed atlas: its model, its page images (by page name) and what happened to each region."""
+
+    atlas: Atlas
+    pages: dict[str, np.ndarray]
+    regions: list[RegionOutcome]
+    padding: int
+    texels_before: int
+    texels_after: int
+    pages_before: int
+    seconds: float = 0.0
+    rotated: int = 0
+    groups: list[str] = field(default_factory=list)
+
+
+def is_power_of_two(n: int) -> bool:
+    return n > 0 and n & (n - 1) == 0
+
+
+def measured_padding(geometries: list[RegionGeometry]) -> int:
+    """The fewest texels between two stored rectangles of one page that do not overlap (0 if none).
+
+    Two rectangles count when they face each other (their spans overlap on one axis); the
+    gap is measured on the other. Rectangles that overlap (polygon-packed pages) are passed
+    over.
+    """
+    if len(geometries) < 2:
+        return 0
+    b = np.array([(g.x, g.y, g.x + g.page_width, g.y + g.page_height) for g in geometries], np.int64)
+    b = np.unique(b, axis=0)
+    if len(b) < 2:
+        return 0
+    x0, y0, x1, y1 = (b[:, i] for i in range(4))
+    gap_x = np.maximum(x0[None, :] - x1[:, None], x0[:, None] - x1[None, :])
+    gap_y = np.maximum(y0[None, :] - y1[:, None], y0[:, None] - y1[None, :])
+    facing_x = (gap_y < 0) & (gap_x >= 0)  # side by side
+    facing_y = (gap_x < 0) & (gap_y >= 0)  # one above the other
+    gaps = np.concatenate([gap_x[facing_x], gap_y[facing_y]])
+    return int(gaps.min()) if gaps.size else 0
+
+
+def page_settings(page: AtlasPage) -> tuple:
+    """What a page's regions share besides its size: its fields, ``size`` left out."""
+    return tuple((e.key, tuple(v.strip().lower() for v in e.values)) for e in page.entries if e.key != "size")
+
+
+def page_size(page: AtlasPage, pixels: np.ndarray) -> tuple[int, int]:
+    return int(pixels.shape[1]), int(pixels.shape[0])
+
+
+def uses_mipmaps(page: AtlasPage) -> bool:
+    v = page.get("filter")
+    return bool(v) and any("mipmap" in f.lower() for f in v)
+
+
+def orientations(degrees: int, rotate: bool) -> list[int]:
+    """Quarter turns a region may be stored at: its own first, then the other of 0 and 90 degrees."""
+    k = degrees // 90
+    if rotate and k in (0, 1):
+        return [k, 1 - k]
+    return [k]
+
+
+def candidate_widths(areas: int, widest: int, max_w: int, pot: bool) -> list[int]:
+    """Page widths worth a try: the largest allowed and a few near the square the area needs."""
+    side = math.sqrt(max(1, areas) * 1.15)
+    if pot:
+        widths = {max_w}
+        w = 1 << max(0, math.ceil(math.log2(max(side, widest))))
+        for candidate in (w, w * 2):
+            if widest <= candidate <= max_w:
+                widths.add(candidate)
+    else:
+        widths = {max_w} | {int(min(max_w, max(widest, side * f))) for f in (1.0, 1.3)}
+    return sorted(widths, reverse=True)
+
+
+def round_page(used: int, limit: int, pot: bool) -> int:
+    if not pot:
+        return max(1, used)
+    return min(limit, 1 << max(0, math.ceil(math.log2(max(1, used)))))
+
+
+@dataclass
+class _Item:
+    region: AtlasRegion
+    geometry: RegionGeometry
+    foot: Footprint
+    texels: np.ndarray            # upright window texels, (h, w, 4)
+    turns: list[int]              # quarter turns it may be stored at
+    masks: list[np.ndarray] = field(default_factory=list)
+
+
+def _item_masks(item: _Item) -> list[np.ndarray]:
+    """The footprint's window as stored at each allowed turn: the core, with the window's bounding box kept."""
+    return [np.ascontiguousarray(np.rot90(item.foot.core, k)) for k in item.turns]
+
+
+def _stored_geometry(item: _Item, k: int, x: int, y: int) -> RegionGeometry:
+    """The region's new geometry once its window is stored turned ``k`` times with its top-left at ``(x, y)``."""
+    wx0, wy0, wx1, wy1 = item.foot.window
+    cx0, cy0, cx1, cy1 = item.foot.content
+    ww, wh = wx1 - wx0, wy1 - wy0
+    corners = [stored_index(i - wx0, j - wy0, ww, wh, k) for i in (cx0, cx1 - 1) for j in (cy0, cy1 - 1)]
+    row = min(r for r, _ in corners)
+    col = min(c for _, c in corners)
+    g = item.geometry
+    w, h = cx1 - cx0, cy1 - cy0
+    return RegionGeometry(x + col, y + row, w, h, cx0, g.original_height - cy1, g.original_width,
+                          g.original_height, 90 * k)
+
+
+def geometry_entries(region: AtlasRegion, g: RegionGeometry, syntax: str, style: Entry) -> list[Entry]:
+    """``region``'s entries with its geometry replaced by ``g``; other fields keep their order after it.
+
+    ``style``: an entry of the atlas whose indent, colon and separator the new entries copy.
+    """
+
+    def entry(key: str, values: list[str]) -> Entry:
+        return Entry(key, values, style.indent, style.sep, style.colon)
+
+    whole = g.offset_x == 0 and g.offset_y == 0 and g.original_width == g.width and g.original_height == g.height
+    if syntax == "4":
+        geometry = [entry("bounds", [str(g.x), str(g.y), str(g.width), str(g.height)])]
+        if not whole:
+            geometry.append(entry("offsets", [str(g.offset_x), str(g.offset_y), str(g.original_width),
+                                              str(g.original_height)]))
+        if g.degrees:
+            geometry.append(entry("rotate", [str(g.degrees)]))
+    else:
+        rotate = "true" if g.degrees == 90 else str(g.degrees) if g.degrees else "false"
+        geometry = [entry("rotate", [rotate]), entry("xy", [str(g.x), str(g.y)]),
+                    entry("size", [str(g.width), str(g.height)]),
+                    entry("orig", [str(g.original_width), str(g.original_height)]),
+                    entry("offset", [str(g.offset_x), str(g.offset_y)])]
+    return geometry + [e for e in region.entries if e.key not in GEOMETRY_KEYS]
+
+
+def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
+                max_pages: int):
+    """Best packing of one group over a few page widths: ``(placements, page sizes)`` with fewest texels.
+
+    Never more pages than the group had (each page is a texture switch, often a draw call).
+    """
+    candidates = [it.masks for it in items]
+
+    def widths_for(members: list[int], limit: int) -> list[int]:
+        widest = max(min(m.shape[1] for m in candidates[i]) for i in members)
+        area = sum(int(candidates[i][0].sum()) + padding * sum(candidates[i][0].shape) for i in members)
+        return candidate_widths(area, widest, limit, pot)
+
+    def texels(used: list[tuple[int, int]]) -> int:
+        return sum(round_page(w, max_w, pot) * round_page(h, max_h, pot) for w, h in used)
+
+    best = None
+    for width in widths_for(list(range(len(items))), max_w):
+        placements, used = fill_pages(candidates, width, max_h, padding)
+        if any(p is None for p in placements) or len(used) > max_pages:
+            continue
+        if len(used) > 1:  # the last page holds the rest: it may do with a narrower page
+            last = [i for i, p in enumerate(placements) if p.page == len(used) - 1]
+            for narrower in widths_for(last, width):
+                if narrower >= width:
+                    continue
+                again, used_again = fill_pages([candidates[i] for i in last], narrower, max_h, padding)
+                if len(used_again) == 1 and all(again) and texels(used_again) < texels(used[-1:]):
+                    for i, p in zip(last, again):
+                        placements[i] = dataclasses.replace(p, page=len(used) - 1)
+                    used[-1] = used_again[0]
+        sizes = [(round_page(w, max_w, pot), round_page(h, max_h, pot)) for w, h in used]
+        if any(w * h > max_area for w, h in sizes):
+            continue
+        total = sum(w * h for w, h in sizes)
+        if best is None or total < best[0]:
+            best = (total, placements, sizes)
+    if best is None:
+        raise PackRefused(f"its footprints do not fit on {max_pages} page(s) of the largest original size")
+    return best[1], best[2]
+
+
+def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
+               pinned: str = "", rotate: bool = True, padding: int | None = None,
+               page_names=None) -> PackedAtlas:
+    """Pack ``atlas`` anew by its regions' footprints.
+
+    Parameters
+    ----------
+    atlas : Atlas
+        Parsed atlas; not changed.
+    pixels : list of ndarray
+        Per page, its texels as stored, (H, W, 4) uint8.
+    uses : dict
+        Region name -> :class:`RegionUses` (:func:`spinemesh.pack.uses.collect_uses`).
+    pinned : str
+        When set, every region keeps its rectangle for this reason.
+    rotate : bool
+        Let regions be turned by 90 degrees.
+    padding : int, optional
+        Texels between footprints; default: see the module notes.
+    page_names : callable, optional
+        ``page_names(group_index, page_index_in_group, template_page)`` -> the new page's file name;
+        default: the original pages' names in order, then ``<name>-<n>.<ext>``.
+
+    Raises
+    ------
+    PackRefused
+        When the atlas cannot be packed, or packing would store no fewer texels.
+    """
+    t0 = time.perf_counter()
+    if atlas.problems:
+        raise PackRefused(f"the atlas has regions that cannot be read ({atlas.problems[0]})")
+    sizes = [page_size(p, px) for p, px in zip(atlas.pages, pixels)]
+    # "no larger than the largest original page": no side longer than its longest side, no
+    # page of more texels than it has (a page may turn from wide to tall)
+    max_w = max_h = max(max(s) for s in sizes)
+    max_area = max(w * h for w, h in sizes)
+    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
+    texels_before = sum(w * h for w, h in sizes)
+    geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
+    measured = max((measured_padding([g for r, g in zip(atlas.regions, geometries) if r.page == i])
+                    for i in range(len(atlas.pages))), default=0)
+    mip = any(uses_mipmaps(p) for p in atlas.pages)
+    pad = padding if padding is not None else max(measured, MIPMAP_PADDING if mip else MIN_PADDING)
+    between_footprints = max(0, pad - RING_TEXELS)
+
+    first_of_name: dict[str, AtlasRegion] = {}
+    for r in atlas.regions:
+        first_of_name.setdefault(r.name, r)
+    items: list[_Item] = []
+    for r, g in zip(atlas.regions, geometries):
+        if g.page_width and g.page_height:
+            px = pixels[r.page]
+            if g.x < 0 or g.y < 0 or g.x + g.page_width > px.shape[1] or g.y + g.page_height > px.shape[0]:
+                raise PackRefused(f"region {r.name!r} lies outside its page")
+        if pinned:
+            foot = footprint(g, RegionUses(pinned=pinned))
+        elif first_of_name[r.name] is not r:
+            foot = footprint(g, RegionUses(pinned="another region of the same name comes first, which runtimes use"))
+        elif r.get("split") is not None or r.get("pad") is not None:
+            foot = footprint(g, RegionUses(pinned="nine-patch region (split/pad)"))
+        else:
+            foot = footprint(g, uses.get(r.name))
+        texels = window_texels(pixels[r.page], g, foot.window)
+        item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
+        item.masks = _item_masks(item)
+        items.append(item)
+
+    out = copy.deepcopy(atlas)
+    out.pages = []
+    style = next((e for r in atlas.regions for e in r.entries if len(e.values) > 1),
+                 Entry("", [], "  " if atlas.syntax == "3" else "", ", ", ": "))
+    groups: dict[tuple, list[int]] = {}
+    for i, p in enumerate(atlas.pages):
+        groups.setdefault(page_settings(p), []).append(i)
+    new_pages: dict[str, np.ndarray] = {}
+    region_page: dict[int, tuple[int, RegionGeometry]] = {}
+    taken_names = set()
+    for gi, (settings, page_indices) in enumerate(groups.items()):
+        members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
+        template = atlas.pages[page_indices[0]]
+        if not members:
+            continue
+        placements, page_sizes = _pack_group([items[n] for n in members], max_w, max_h, max_area, pot,
+                                              between_footprints, len(page_indices))
+        first = len(out.pages)
+        for pi, (w, h) in enumerate(page_sizes):
+            name = (page_names(gi, pi, template) if page_names else
+                    _page_name(atlas, page_indices, pi, taken_names))
+            taken_names.add(name)
+            entries = [Entry(e.key, [str(w), str(h)] if e.key == "size" else list(e.values), e.indent, e.sep, e.colon)
+                       for e in template.entries]
+            out.pages.append(AtlasPage(name, entries))
+            new_pages[name] = np.zeros((h, w, 4), np.uint8)
+        for n, place in zip(members, placements):
+            item = items[n]
+            k = item.turns[place.orientation]
+            mask = item.masks[place.orientation]
+            texels = np.rot90(item.texels, k)
+            page = new_pages[out.pages[first + place.page].name]
+            h, w = mask.shape
+            view = page[place.y:place.y + h, place.x:place.x + w]
+            # only under the footprint: rectangles may overlap where footprints do not
+            view[mask] = texels[mask]
+            region_page[n] = (first + place.page, _stored_geometry(item, k, place.x, place.y))
+    texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
+    if texels_after >= texels_before:
+        raise PackRefused(f"packing would store {texels_after:,} page texels, not fewer than "
+                          f"the {texels_before:,} it has")
+    rotated = 0
+    for n, r in enumerate(out.regions):
+        page_index, g = region_page[n]
+        r.page = page_index
+        r.entries = geometry_entries(r, g, out.syntax, style)
+        rotated += g.degrees != geometries[n].degrees
+    # the regions are written page by page (Atlas.dumps): order them so
+    out.regions = sorted(out.regions, key=lambda r: r.page)
+    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
+    return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
+                       time.perf_counter() - t0, rotated)
+
+
+def _page_name(atlas: Atlas, page_indices: list[int], index: int, taken: set[str]) -> str:
+    """The original page names of the group in order; beyond them ``<first page>-<n>.<ext>``."""
+    if index < len(page_indices):
+        return atlas.pages[page_indices[index]].name
+    base = atlas.pages[page_indices[0]].name
+    stem, dot, ext = base.rpartition(".")
+    if not dot:
+        stem, ext = base, "png"
+    n = index + 1
+    names = {p.name for p in atlas.pages} | taken
+    while f"{stem}-{n}.{ext}" in names:
+        n += 1
+    return f"{stem}-{n}.{ext}"

@@ -1,0 +1,230 @@
+"""Footprints: the texels of a page that drawing a region can read, in the region's upright frame.
+
+Everything here works in *upright* texel coordinates: the region's original image, unrotated,
+``(0, 0)`` at its top-left, ``original_width x original_height`` texels (the stored part is
+the *content box*; the rest was stripped whitespace). A footprint is a window of that frame
+(it may reach beyond the image) with a mask of the texels that must travel with the region:
+
+- a region drawn by meshes only: every texel whose square a triangle of any of its meshes
+  touches, grown by one texel, which is all that bilinear sampling reads around a point;
+- any other region: its stored rectangle grown by one texel (the quad's edge samples the
+  texels just outside it).
+
+The texels under the mask are copied from the original page, whatever they are (stripped
+whitespace, padding, a neighbour's edge): the copy then samples exactly as the original did.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..atlas import RegionGeometry
+from .uses import MeshUse, RegionUses
+
+#: Largest supersampled raster of one region's meshes (texels x supersampling squared).
+MAX_RASTER = 16_000_000
+
+#: How far (in UV units) a mesh vertex may lie outside its image before the region keeps its rectangle.
+UV_SLACK = 0.01
+
+
+@dataclass
+class Footprint:
+    """One region's footprint.
+
+    Attributes
+    ----------
+    window : (int, int, int, int)
+        ``(x0, y0, x1, y1)`` in upright texels; may start below 0 or end past the image.
+    core : ndarray, shape (y1 - y0, x1 - x0), bool
+        Texels to copy and to keep clear of other footprints.
+    content : (int, int, int, int)
+        The stored part after packing, ``(x0, y0, x1, y1)`` in upright texels, inside ``window``.
+    by_outline : bool
+        Packed by its meshes' outline (False: by its stored rectangle).
+    reason : str
+        Why it keeps its rectangle ("" when by outline).
+    """
+
+    window: tuple[int, int, int, int]
+    core: np.ndarray
+    content: tuple[int, int, int, int]
+    by_outline: bool
+    reason: str = ""
+
+
+def content_box(g: RegionGeometry) -> tuple[int, int, int, int]:
+    """The stored part of the original image, ``(x0, y0, x1, y1)`` in upright texels (y down)."""
+    top = g.original_height - g.offset_y - g.height
+    return g.offset_x, top, g.offset_x + g.width, top + g.height
+
+
+def mesh_points(uvs: np.ndarray, g: RegionGeometry, honours_offsets: bool) -> np.ndarray:
+    """Mesh UVs as upright texel coordinates, shape (N, 2), as the runtime of the version maps them.
+
+    3.7 and later map UVs over the original image; 3.6 over the stored rectangle (see
+    :func:`spinemesh.pack.uses.honours_offsets`).
+    """
+    if honours_offsets:
+        return uvs * (g.original_width, g.original_height)
+    x0, y0, _, _ = content_box(g)
+    return uvs * (g.width, g.height) + (x0, y0)
+
+
+def raster_triangles(points: np.ndarray, triangles: np.ndarray, origin: tuple[int, int],
+                     shape: tuple[int, int]) -> np.ndarray:
+    """Texels whose square any triangle touches (conservative), shape ``shape``, bool.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+        Vertices in texel coordinates (a texel ``(i, j)`` is the square ``[i, i+1] x [j, j+1]``).
+    triangles : ndarray, shape (T, 3)
+    origin : (int, int)
+        The texel coordinates of the raster's top-left texel.
+    shape : (int, int)
+        ``(height, width)`` of the raster.
+
+    Drawn on a grid ``s`` times finer (``s`` = 4 unless the raster would exceed
+    :data:`MAX_RASTER`), grown by one fine cell, and reduced to texels: a texel is set when any
+    of its fine cells is, so every texel a triangle touches by more than a fine cell's width
+    is set, and the growth covers the rest.
+    """
+    import cv2
+
+    h, w = shape
+    s = 4
+    while s > 1 and h * w * s * s > MAX_RASTER:
+        s //= 2
+    fine = np.zeros((h * s, w * s), np.uint8)
+    shift = 4  # sub-cell precision of the vertex coordinates (cv2 fixed point)
+    pts = np.round((points - origin) * s * (1 << shift)).astype(np.int64)
+    limit = np.iinfo(np.int32).max // 2
+    pts = np.clip(pts, -limit, limit).astype(np.int32)
+    for tri in triangles:
+        cv2.fillConvexPoly(fine, pts[tri], 1, lineType=cv2.LINE_8, shift=shift)
+    fine = cv2.dilate(fine, np.ones((3, 3), np.uint8))
+    coarse = fine.reshape(h, s, w, s).max(axis=(1, 3))
+    return coarse.astype(bool)
+
+
+def grow_one(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one texel on every side, same shape (what bilinear sampling reads)."""
+    import cv2
+
+    return cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def rectangle_footprint(g: RegionGeometry, reason: str) -> Footprint:
+    """The stored rectangle and the one-texel ring its quad's edge samples."""
+    x0, y0, x1, y1 = content_box(g)
+    core = np.ones((y1 - y0 + 2, x1 - x0 + 2), bool)
+    return Footprint((x0 - 1, y0 - 1, x1 + 1, y1 + 1), core, (x0, y0, x1, y1), False, reason)
+
+
+def _unique_meshes(meshes: list[MeshUse]) -> list[MeshUse]:
+    seen, out = set(), []
+    for m in meshes:
+        key = (m.uvs.tobytes(), m.triangles.tobytes(), m.honours_offsets)
+        if key not in seen:
+            seen.add(key)
+            out.append(m)
+    return out
+
+
+def mesh_footprint(g: RegionGeometry, meshes: list[MeshUse]) -> Footprint | str:
+    """The union of the meshes' triangles, grown by what bilinear sampling reads, or why it cannot be used.
+
+    The stored rectangle is cropped to the footprint only when every mesh's runtime maps UVs
+    over the original image (3.7 and later): the offsets then move with the crop and the UVs
+    stay valid. For 3.6 meshes the rectangle stays whole (their UVs span it).
+    """
+    box = content_box(g)
+    placed: list[np.ndarray] = []
+    tris: list[np.ndarray] = []
+    crop = True
+    for m in _unique_meshes(meshes):
+        lo, hi = m.uvs.min(axis=0), m.uvs.max(axis=0)
+        if (lo < -UV_SLACK).any() or (hi > 1 + UV_SLACK).any():
+            return "a mesh's UVs reach outside its image"
+        for honours in ((True, False) if m.honours_offsets is None else (m.honours_offsets,)):
+            placed.append(mesh_points(m.uvs, g, honours))
+            tris.append(m.triangles)
+            crop = crop and honours
+    allpts = np.concatenate(placed)
+    lo = np.floor(allpts.min(axis=0)).astype(int) - 2
+    hi = np.ceil(allpts.max(axis=0)).astype(int) + 2
+    shape = (int(hi[1] - lo[1]), int(hi[0] - lo[0]))
+    touched = np.zeros(shape, bool)
+    for pts, tri in zip(placed, tris):
+        touched |= raster_triangles(pts, tri, (int(lo[0]), int(lo[1])), shape)
+    core = grow_one(touched)
+    ys, xs = np.nonzero(core)
+    if ys.size == 0:
+        return "its meshes cover no texel"
+    fx0, fy0, fx1, fy1 = lo[0] + xs.min(), lo[1] + ys.min(), lo[0] + xs.max() + 1, lo[1] + ys.max() + 1
+    if crop:
+        content = (max(box[0], fx0), max(box[1], fy0), min(box[2], fx1), min(box[3], fy1))
+        if content[2] <= content[0] or content[3] <= content[1]:
+            return "its meshes draw none of its stored texels"
+    else:
+        content = box
+    wx0, wy0 = min(fx0, content[0]), min(fy0, content[1])
+    wx1, wy1 = max(fx1, content[2]), max(fy1, content[3])
+    window_core = np.zeros((wy1 - wy0, wx1 - wx0), bool)
+    # the core's texels inside the window (the window holds the footprint's bounding box)
+    sy0, sx0 = wy0 - lo[1], wx0 - lo[0]
+    src = core[max(0, sy0):sy0 + (wy1 - wy0), max(0, sx0):sx0 + (wx1 - wx0)]
+    window_core[max(0, -sy0):max(0, -sy0) + src.shape[0], max(0, -sx0):max(0, -sx0) + src.shape[1]] = src
+    return Footprint((int(wx0), int(wy0), int(wx1), int(wy1)), window_core,
+                     tuple(int(v) for v in content), True)
+
+
+def footprint(g: RegionGeometry, uses: RegionUses | None) -> Footprint:
+    """The footprint of a region from how it is drawn (by outline when only meshes draw it)."""
+    if uses is None or (not uses.meshes and not uses.pinned):
+        return rectangle_footprint(g, "not drawn by any skeleton")
+    if uses.pinned:
+        return rectangle_footprint(g, uses.pinned)
+    found = mesh_footprint(g, uses.meshes)
+    if isinstance(found, str):
+        return rectangle_footprint(g, found)
+    return found
+
+
+def stored_index(i, j, width: int, height: int, k: int):
+    """Where texel ``(i, j)`` of an upright ``width x height`` image lies once stored turned by ``k`` x 90 degrees.
+
+    The atlas convention (:func:`spinemesh.images.upright_at_original_size`): a region stored
+    with ``rotate: 90`` holds its upright image turned counter-clockwise. Returns ``(row,
+    column)`` in the stored array; works for indices outside the image too (linear).
+    """
+    if k == 0:
+        return j, i
+    if k == 1:
+        return width - 1 - i, j
+    if k == 2:
+        return height - 1 - j, width - 1 - i
+    return i, height - 1 - j
+
+
+def window_texels(page: np.ndarray, g: RegionGeometry, window: tuple[int, int, int, int]) -> np.ndarray:
+    """The page's texels under an upright window of a region, turned upright, shape (h, w, 4).
+
+    Texels beyond the page's edge repeat the edge (what a clamped texture samples there).
+    """
+    x0, y0, x1, y1 = content_box(g)
+    k = g.degrees // 90
+    cw, ch = x1 - x0, y1 - y0
+    wx0, wy0, wx1, wy1 = window
+    corners = [stored_index(i - x0, j - y0, cw, ch, k) for i in (wx0, wx1 - 1) for j in (wy0, wy1 - 1)]
+    rows = [r for r, _ in corners]
+    cols = [c for _, c in corners]
+    r0, r1 = g.y + min(rows), g.y + max(rows) + 1
+    c0, c1 = g.x + min(cols), g.x + max(cols) + 1
+    ph, pw = page.shape[:2]
+    # clamped indices: texels beyond the page repeat its edge, as a clamped texture samples them
+    stored = page[np.ix_(np.clip(np.arange(r0, r1), 0, ph - 1), np.clip(np.arange(c0, c1), 0, pw - 1))]
+    return np.rot90(stored, -k)

@@ -1,0 +1,209 @@
+"""Placing footprints (binary masks of any shape) on pages: raster first fit, largest first.
+
+Rectangle packers cannot use the space a mesh leaves free inside its rectangle; this one
+works on the texels themselves. Each page keeps an occupancy bitmap: every placed footprint
+grown by the padding. A new footprint goes where none of its texels meets that bitmap, so
+rectangles may overlap wherever footprints do not.
+
+Finding the first free place is one correlation of the occupancy with the footprint
+(``cv2.matchTemplate``) on a coarse grid of cells (a cell is taken when any texel in it is,
+which keeps the search conservative), then the footprint slides up and left texel by texel
+into the gaps the coarse grid could not see. Every place is checked at texel level before it
+is taken.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Longest side of the coarse grid the first-fit search runs on, in cells.
+COARSE_SIDE = 512
+
+#: Texel steps a placed footprint may slide up or left into a gap, per pass.
+SLIDE_STEPS = 16
+
+
+@dataclass
+class Placement:
+    """Where one footprint went: page index, orientation index (into its candidate masks), top-left texel."""
+
+    page: int
+    orientation: int
+    x: int
+    y: int
+
+
+def _grow(mask: np.ndarray, padding: int) -> np.ndarray:
+    """``mask`` grown by ``padding`` texels on every side (square neighbourhood), shape + 2*padding."""
+    import cv2
+
+    if padding <= 0:
+        return mask.copy()
+    padded = np.pad(mask, padding).astype(np.uint8)
+    return cv2.dilate(padded, np.ones((2 * padding + 1, 2 * padding + 1), np.uint8)).astype(bool)
+
+
+def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
+    """Cells of side ``cell`` that hold any set texel (the mask's top-left texel starts a cell)."""
+    h, w = mask.shape
+    hc, wc = -(-h // cell), -(-w // cell)
+    padded = np.zeros((hc * cell, wc * cell), bool)
+    padded[:h, :w] = mask
+    return padded.reshape(hc, cell, wc, cell).any(axis=(1, 3))
+
+
+class Page:
+    """One page being filled: occupancy at texel level and on the coarse grid."""
+
+    def __init__(self, width: int, height: int, padding: int):
+        self.width, self.height, self.padding = width, height, padding
+        self.cell = max(1, -(-max(width, height) // COARSE_SIDE))
+        self.taken = np.zeros((height, width), bool)
+        self.coarse = np.zeros((-(-height // self.cell), -(-width // self.cell)), np.float32)
+        self.used_w = self.used_h = 0
+        self.free = width * height
+
+    def fits(self, mask: np.ndarray, x: int, y: int) -> bool:
+        """Whether ``mask`` at ``(x, y)`` stays on the page and meets no taken texel."""
+        h, w = mask.shape
+        if x < 0 or y < 0 or x + w > self.width or y + h > self.height:
+            return False
+        return not (self.taken[y:y + h, x:x + w] & mask).any()
+
+    def first_fit(self, mask: np.ndarray) -> tuple[int, int] | None:
+        """The first free place of ``mask`` (top rows first, then left), or None."""
+        import cv2
+
+        h, w = mask.shape
+        if w > self.width or h > self.height or self.free < int(mask.sum()):
+            return None
+        cell = self.cell
+        template = _coarse(mask, cell).astype(np.float32)
+        hc, wc = template.shape
+        # A cell-aligned place of the template must also keep the texels on the page.
+        max_cx, max_cy = (self.width - w) // cell, (self.height - h) // cell
+        if self.coarse.shape[0] < hc or self.coarse.shape[1] < wc:
+            return self._texel_scan(mask)
+        if not self.coarse.any():
+            scores = np.zeros((self.coarse.shape[0] - hc + 1, self.coarse.shape[1] - wc + 1), np.float32)
+        else:
+            scores = cv2.matchTemplate(self.coarse, template, cv2.TM_CCORR)
+        scores = scores[:max_cy + 1, :max_cx + 1]
+        free = np.flatnonzero(scores.ravel() < 0.5)
+        for index in free[:64]:  # conservative, so the first normally fits; checked all the same
+            cy, cx = divmod(int(index), scores.shape[1])
+            x, y = cx * cell, cy * cell
+            if self.fits(mask, x, y):
+                return self._slide(mask, x, y)
+        return None
+
+    def _texel_scan(self, mask: np.ndarray) -> tuple[int, int] | None:
+        """Exact search at texel level (pages too small for the coarse grid to help)."""
+        import cv2
+
+        h, w = mask.shape
+        if w > self.width or h > self.height:
+            return None
+        scores = cv2.matchTemplate(self.taken.astype(np.float32), mask.astype(np.float32), cv2.TM_CCORR)
+        for index in np.flatnonzero(scores.ravel() < 0.5)[:64]:
+            y, x = divmod(int(index), scores.shape[1])
+            if self.fits(mask, x, y):
+                return x, y
+        return None
+
+    def _slide(self, mask: np.ndarray, x: int, y: int) -> tuple[int, int]:
+        """Move a fitting place up, then left, while it still fits (the coarse grid rounds places down)."""
+        for _ in range(2):
+            moved = False
+            for _ in range(SLIDE_STEPS):
+                if y > 0 and self.fits(mask, x, y - 1):
+                    y -= 1
+                    moved = True
+                else:
+                    break
+            for _ in range(SLIDE_STEPS):
+                if x > 0 and self.fits(mask, x - 1, y):
+                    x -= 1
+                    moved = True
+                else:
+                    break
+            if not moved:
+                break
+        return x, y
+
+    def take(self, mask: np.ndarray, x: int, y: int, extent: tuple[int, int]) -> None:
+        """Mark ``mask`` at ``(x, y)``, grown by the padding, as taken; ``extent`` (w, h) counts as used."""
+        p = self.padding
+        grown = _grow(mask, p)
+        h, w = grown.shape
+        x0, y0 = x - p, y - p
+        cx0, cy0 = max(0, x0), max(0, y0)
+        cx1, cy1 = min(self.width, x0 + w), min(self.height, y0 + h)
+        self.taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+        self.free -= int(mask.sum())
+        c = self.cell
+        gy0, gx0, gy1, gx1 = cy0 // c, cx0 // c, -(-cy1 // c), -(-cx1 // c)
+        self.coarse[gy0:gy1, gx0:gx1] = _coarse(self.taken[gy0 * c:gy1 * c, gx0 * c:gx1 * c], c)[
+            :gy1 - gy0, :gx1 - gx0]
+        self.used_w = max(self.used_w, x + extent[0])
+        self.used_h = max(self.used_h, y + extent[1])
+
+
+def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
+               order: list[int] | None = None) -> tuple[list[Placement | None], list[tuple[int, int]]]:
+    """Place every footprint on as few pages of ``width x height`` as the greedy first fit gives.
+
+    Parameters
+    ----------
+    candidates : list of list of ndarray
+        Per footprint, its masks (bool, shape (h, w)) in each orientation it may take; the
+        first is its present orientation. A place keeps the whole mask's rectangle on the page.
+    width, height : int
+        Page size, in texels.
+    padding : int
+        Texels left free between any two footprints.
+    order : list of int, optional
+        The order to place them in; default largest mask area first.
+
+    Returns
+    -------
+    placements : list of Placement or None
+        Per footprint (in the order given); None for one larger than a page.
+    used : list of (int, int)
+        Per page, the width and height its footprints reach.
+    """
+    if order is None:
+        order = sorted(range(len(candidates)),
+                       key=lambda i: (-candidates[i][0].size, -candidates[i][0].shape[0], i))
+    placements: list[Placement | None] = [None] * len(candidates)
+    pages: list[Page] = []
+    left = [i for i in order if any(m.shape[1] <= width and m.shape[0] <= height for m in candidates[i])]
+    while left:
+        page = Page(width, height, padding)
+        pages.append(page)
+        still = []
+        for i in left:
+            best = None
+            for k, mask in enumerate(candidates[i]):
+                place = page.first_fit(mask)
+                if place is None:
+                    continue
+                x, y = place
+                # the lowest bottom edge keeps the page short, then the leftmost place
+                score = (max(page.used_h, y + mask.shape[0]), y, x)
+                if best is None or score < best[0]:
+                    best = (score, k, x, y)
+            if best is None:
+                still.append(i)
+                continue
+            _, k, x, y = best
+            mask = candidates[i][k]
+            page.take(mask, x, y, (mask.shape[1], mask.shape[0]))
+            placements[i] = Placement(len(pages) - 1, k, x, y)
+        if len(still) == len(left):  # nothing fitted on an empty page: cannot happen (sizes checked)
+            pages.pop()
+            break
+        left = still
+    return placements, [(p.used_w, p.used_h) for p in pages]

@@ -1,0 +1,237 @@
+"""Packing whole projects (and folders of projects) into an output folder, with a report.
+
+The rules are ``upgrade``'s: the input is never written; the output folder is refused when it
+is not empty unless ``overwrite`` (and then only a folder spinemesh wrote); every file is
+written atomically; one atlas that cannot be packed keeps its original pages and the others
+go on; skeletons are copied byte for byte (packing changes only atlases and pages).
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_write_text
+from ..images import AtlasImages, load_rgba
+from ..project import Project, find_project, find_projects, project_atlases
+from ..runs import RunSummary
+from .atlas_pack import PackedAtlas, PackRefused, pack_atlas
+from .uses import ProjectUses, collect_uses
+
+#: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
+#: packed page must hold the very texels the original held.
+PAGE_FORMATS = {
+    ".png": ("PNG", {}),
+    ".webp": ("WEBP", {"lossless": True, "quality": 100, "method": 4, "exact": True}),
+    ".avif": ("AVIF", {"lossless": True, "quality": 100}),
+}
+
+
+@dataclass
+class PackOptions:
+    """What the user asked for (see ``spinemesh pack --help``)."""
+
+    overwrite: bool = False
+    rotate: bool = True
+    padding: int | None = None  # None: the original pages' measured padding (at least 2)
+
+
+@dataclass
+class AtlasRow:
+    """One atlas of the report: what it was, what it became, and why regions kept their rectangles."""
+
+    atlas: str
+    status: str  # packed | kept | failed
+    reason: str = ""
+    pages_before: int = 0
+    pages_after: int = 0
+    texels_before: int = 0
+    texels_after: int = 0
+    bytes_before: int = 0
+    bytes_after: int = 0
+    padding: int | None = None
+    by_outline: int = 0
+    by_rectangle: int = 0
+    rotated: int = 0
+    rectangle_reasons: dict = field(default_factory=dict)
+    regions_by_rectangle: list = field(default_factory=list)
+    seconds: float = 0.0
+
+    def row(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class PackResult(RunSummary):
+    """Every atlas with what became of it, the files written and the problems met."""
+
+    atlases: list[AtlasRow] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+    #: (atlas path, before pages, after pages) for previews: page images by name
+    previews: list = field(default_factory=list, repr=False)
+
+    def _items(self):
+        return self.atlases
+
+    def totals(self) -> dict:
+        keys = ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
+                "by_outline", "by_rectangle")
+        return {k: sum(getattr(a, k) for a in self.atlases) for k in keys}
+
+
+def encode_page(rgba: np.ndarray, name: str) -> bytes:
+    """A page image in the file format its name says, losslessly.
+
+    Raises
+    ------
+    PackRefused
+        For a format that cannot be written losslessly (JPEG has no alpha and loses texels).
+    """
+    from PIL import Image, features
+
+    ext = Path(name).suffix.lower()
+    if ext not in PAGE_FORMATS:
+        raise PackRefused(f"page {name!r}: {ext or 'no extension'} pages are kept (only PNG, WebP and AVIF "
+                          "can be written without losing texels)")
+    fmt, options = PAGE_FORMATS[ext]
+    if fmt == "AVIF" and not features.check("avif"):
+        raise PackRefused(f"page {name!r}: this Pillow cannot write AVIF")
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format=fmt, **options)
+    return buf.getvalue()
+
+
+def _page_files(atlas, root: Path) -> list[Path]:
+    return [AtlasImages.page_path(atlas, p.name, root) for p in atlas.pages]
+
+
+def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int) -> AtlasRow:
+    rect = [r for r in packed.regions if not r.by_outline]
+    reasons = Counter(r.reason.split(" (")[0] for r in rect)
+    return AtlasRow(rel, "packed", "", packed.pages_before, len(packed.pages), packed.texels_before,
+                    packed.texels_after, bytes_before, bytes_after, packed.padding,
+                    len(packed.regions) - len(rect), len(rect), packed.rotated, dict(reasons.most_common()),
+                    [{"region": r.name, "reason": r.reason} for r in rect], round(packed.seconds, 3))
+
+
+def pack_project_into(proj: Project, out: Path, options: PackOptions, result: PackResult,
+                      prefix: str = "", uses: ProjectUses | None = None, keep_previews: bool = False) -> None:
+    """Pack every atlas of ``proj`` and write the whole project to ``out`` (same layout)."""
+    atlases = project_atlases(proj)
+    uses = uses or collect_uses(proj)
+    result.errors += [f"{p}" for p in proj.problems]
+    result.errors += uses.problems
+    # a page image named by two atlases (twin exports) would be rewritten under the other's feet
+    by_page = Counter(f.resolve() for a in atlases.values() for f in set(_page_files(a, proj.root)))
+    skip: set[Path] = set()
+    for path, atlas in atlases.items():
+        rel = prefix + path.relative_to(proj.root).as_posix()
+        t0 = time.perf_counter()
+        files = _page_files(atlas, proj.root)
+        bytes_before = sum(f.stat().st_size for f in set(files)) + path.stat().st_size
+        texels = []
+        try:
+            if any(by_page[f.resolve()] > 1 for f in files):
+                raise PackRefused("its page images are shared with another atlas")
+            for f, page in zip(files, atlas.pages):
+                if Path(page.name).suffix.lower() not in PAGE_FORMATS:
+                    raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
+                                      "texel for texel (JPEG pages have no alpha and lose texels when written)")
+            texels = [load_rgba(f) for f in files]
+            packed = pack_atlas(atlas, texels, uses.regions.get(path, {}), uses.everything_pinned,
+                                rotate=options.rotate, padding=options.padding)
+            encoded = {name: encode_page(rgba, name) for name, rgba in packed.pages.items()}
+        except PackRefused as e:
+            sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
+            texel_count = sum(w * h for w, h in sizes)
+            result.atlases.append(AtlasRow(rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count,
+                                           texel_count, bytes_before, bytes_before,
+                                           seconds=round(time.perf_counter() - t0, 3)))
+            continue
+        except SpineMeshError as e:
+            result.atlases.append(AtlasRow(rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
+                                           bytes_before=bytes_before, bytes_after=bytes_before,
+                                           seconds=round(time.perf_counter() - t0, 3)))
+            continue
+        dest = out / path.relative_to(proj.root)
+        text = packed.atlas.dumps()
+        try:
+            for name, data in encoded.items():
+                atomic_write_bytes(dest.parent / name, data)
+            atomic_write_text(dest, text)
+        except SpineMeshError as e:
+            result.atlases.append(AtlasRow(rel, "failed", f"not written: {e}", len(atlas.pages), len(atlas.pages),
+                                           bytes_before=bytes_before, bytes_after=bytes_before))
+            continue
+        skip.add(path.resolve())
+        skip.update(f.resolve() for f in files)
+        # an original page whose name the packed atlas reuses was replaced; the others are dropped
+        bytes_after = sum(len(d) for d in encoded.values()) + len(text.encode("utf-8"))
+        row = _row_from(packed, rel, bytes_before, bytes_after)
+        row.seconds = round(time.perf_counter() - t0, 3)
+        result.atlases.append(row)
+        if keep_previews:
+            result.previews.append((rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages))
+    for f in proj.files:  # only files inside the project by real path (see find_project)
+        if f.resolve() in skip:
+            continue
+        try:
+            target = out / f.relative_to(proj.root)
+            if not target.exists():
+                atomic_copy(f, target)
+        except SpineMeshError as e:
+            result.errors.append(f"not copied: {e}")
+
+
+def pack_project(project: str | Path, out: str | Path, options: PackOptions | None = None,
+                 keep_previews: bool = False) -> PackResult:
+    """Pack every atlas of a project (a folder, or the folder of one skeleton file) into ``out``.
+
+    A skeleton file stands for its folder: an atlas is packed for every skeleton that loads
+    it, so all of them are read.
+    """
+    from ..upgrade.run import check_output_folder, output_folder
+
+    options = options or PackOptions()
+    project, out = Path(project), Path(out)
+    folder = project.parent if project.is_file() else project
+    proj = find_project(folder)
+    check_output_folder(proj.root, out)
+    result = PackResult()
+    with output_folder(out, options.overwrite):
+        pack_project_into(proj, out, options, result, keep_previews=keep_previews)
+    return result
+
+
+def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
+                 on_project=None) -> PackResult:
+    """Pack every project under ``library`` into the same place under ``out``; one result."""
+    from ..upgrade.run import check_output_folder, output_folder
+
+    options = options or PackOptions()
+    library, out = Path(library), Path(out)
+    check_output_folder(library, out)
+    result = PackResult()
+    with output_folder(out, options.overwrite):
+        for folder in find_projects(library):
+            rel = folder.relative_to(library).as_posix()
+            if on_project:
+                on_project(rel)
+            prefix = "" if rel == "." else rel + "/"
+            try:
+                pack_project_into(find_project(folder), out / rel, options, result, prefix)
+            except SpineMeshError as e:
+                result.errors.append(str(e))
+    return result
+
+
+def write_report(result: PackResult, path: str | Path) -> None:
+    """The ``--report`` JSON: totals, then one row per atlas."""
+    atomic_write_json(path, {"totals": result.totals(), "errors": result.errors,
+                             "atlases": [a.row() for a in result.atlases]})

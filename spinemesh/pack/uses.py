@@ -1,0 +1,169 @@
+"""How every skeleton of a project draws each atlas region: by a mesh (whose outline) or otherwise.
+
+A region may be packed by its meshes' outline only when every use of it, in every skin of
+every skeleton that loads its atlas, is a mesh: a mesh attachment, a linked mesh (drawn
+with its source mesh's UVs) or a frame of a mesh's sequence. Anything else (a region
+attachment, a malformed mesh, a skeleton that cannot be read) pins the region to its stored
+rectangle; :class:`RegionUses` keeps the first reason.
+
+The atlas a skeleton loads is found as every command finds it
+(:func:`spinemesh.project.image_source_for`); a region name is looked up as the runtimes'
+``findRegion`` does: the first region of that name in the first atlas that has one.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..project import Project, image_source_for, project_atlases
+from ..skeleton import (
+    AttachmentRef, attachment_path, image_paths, iter_attachments, iter_skins, linked_source, load_skeleton,
+    spine_version,
+)
+
+
+@dataclass
+class MeshUse:
+    """One mesh drawing a region.
+
+    Attributes
+    ----------
+    uvs : ndarray, shape (N, 2), float64
+        The mesh's region UVs as the skeleton stores them (0..1).
+    triangles : ndarray, shape (T, 3), int64
+    honours_offsets : bool or None
+        Whether the runtime of the skeleton's version maps UVs over the original image,
+        stripped whitespace included (3.7 and later), or over the stored rectangle only
+        (3.6); None when the version is unknown (both are assumed).
+    """
+
+    uvs: np.ndarray
+    triangles: np.ndarray
+    honours_offsets: bool | None
+
+
+@dataclass
+class RegionUses:
+    """Everything known about how one region is drawn."""
+
+    meshes: list[MeshUse] = field(default_factory=list)
+    #: why the region keeps its stored rectangle ("" while only meshes use it)
+    pinned: str = ""
+
+    def pin(self, reason: str) -> None:
+        if not self.pinned:
+            self.pinned = reason
+
+
+@dataclass
+class ProjectUses:
+    """Per atlas path, per region name, its uses; and why whole atlases keep their rectangles."""
+
+    regions: dict[Path, dict[str, RegionUses]] = field(default_factory=dict)
+    #: a reason that pins every region of every atlas (a skeleton that cannot be read)
+    everything_pinned: str = ""
+    problems: list[str] = field(default_factory=list)
+
+    def of(self, atlas: Path, name: str) -> RegionUses:
+        return self.regions.setdefault(atlas, {}).setdefault(name, RegionUses())
+
+
+def honours_offsets(version: str) -> bool | None:
+    """Whether meshes of this editor version map UVs over the original image (3.7 and later).
+
+    The official runtimes of 3.6 compute mesh UVs over the stored rectangle (``region.u`` to
+    ``u2``); from 3.7 on every runtime subtracts the stripped whitespace (``offsetX``,
+    ``originalWidth``), so a stored rectangle may be cropped without changing the UVs.
+    """
+    m = re.match(r"\s*(\d+)\.(\d+)", version or "")
+    if not m:
+        return None
+    return (int(m.group(1)), int(m.group(2))) >= (3, 7)
+
+
+def mesh_arrays(att: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(uvs (N, 2) float64, triangles (T, 3) int64)`` of a mesh attachment dict, or None when malformed."""
+    uvs, tris = att.get("uvs"), att.get("triangles")
+    if not isinstance(uvs, list) or not isinstance(tris, list) or len(uvs) < 6 or len(uvs) % 2 or len(tris) % 3:
+        return None
+    try:
+        uv = np.asarray(uvs, np.float64).reshape(-1, 2)
+        tri = np.asarray(tris, np.int64).reshape(-1, 3)
+    except (TypeError, ValueError):
+        return None
+    if not np.isfinite(uv).all() or tri.size == 0 or tri.min() < 0 or tri.max() >= len(uv):
+        return None
+    return uv, tri
+
+
+def _find_attachment(doc: dict, skin: str, slot: str, name: str) -> dict | None:
+    for skin_name, slots in iter_skins(doc):
+        if skin_name == skin:
+            found = slots.get(slot, {}) if isinstance(slots.get(slot), dict) else {}
+            att = found.get(name)
+            return att if isinstance(att, dict) else None
+    return None
+
+
+def _mesh_of(doc: dict, ref: AttachmentRef) -> tuple[dict | None, str]:
+    """The attachment dict whose UVs draw ``ref`` (itself, or a linked mesh's source), or why none."""
+    if ref.type == "mesh":
+        return ref.attachment, ""
+    skin, slot, name = linked_source(ref)
+    source = _find_attachment(doc, skin, slot, name)
+    if source is None or source.get("type", "region") != "mesh":
+        return None, f"linked mesh whose source mesh {name!r} is not found"
+    return source, ""
+
+
+def collect_uses(project: Project) -> ProjectUses:
+    """Read every skeleton of ``project`` and record how it draws each atlas region.
+
+    Every skeleton counts, ``.json`` and ``.skel`` twins alike: a game may load either.
+    """
+    uses = ProjectUses()
+    atlases = project_atlases(project)
+    for path in project.skeletons:
+        rel = path.relative_to(project.root).as_posix()
+        try:
+            doc = load_skeleton(path)
+            source = image_source_for(doc, path, project)
+        except SpineMeshError as e:
+            uses.problems.append(str(e))
+            if not uses.everything_pinned:
+                uses.everything_pinned = f"skeleton {rel} cannot be read, so what it draws is unknown"
+            continue
+        chosen = getattr(source, "atlases", None) or []
+        if not chosen:
+            continue
+        honours = honours_offsets(spine_version(doc))
+        for ref in iter_attachments(doc):
+            try:
+                paths = image_paths(ref)
+            except SpineMeshError as e:  # a malformed sequence: its path is pinned in every atlas
+                for atlas in chosen:
+                    uses.of(atlas.path, attachment_path(ref)).pin(f"{rel}: {e}")
+                continue
+            if not paths:
+                continue
+            mesh, why = (None, "") if ref.type == "region" else _mesh_of(doc, ref)
+            arrays = mesh_arrays(mesh) if mesh is not None else None
+            for name in paths:
+                atlas = next((a for a in chosen if a.find(name) is not None), None)
+                if atlas is None:
+                    continue
+                region = uses.of(atlas.path, name)
+                if ref.type == "region":
+                    region.pin(f"drawn as a region attachment ({rel}, slot {ref.slot!r})")
+                elif arrays is None:
+                    region.pin(f"{why or 'mesh with malformed uvs or triangles'} ({rel}, slot {ref.slot!r})")
+                else:
+                    region.meshes.append(MeshUse(arrays[0], arrays[1], honours))
+    for atlas in atlases.values():
+        uses.regions.setdefault(atlas.path, {})
+    return uses
