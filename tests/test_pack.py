@@ -1,0 +1,244 @@
+"""``spinemesh pack``: pages packed by mesh outlines sample exactly what the original pages did.
+
+The projects are made by our own code: the demo (:mod:`spinemesh.demo`: stripped whitespace, a
+rotated region, a sequence) upgraded to meshes, so that most regions are drawn by meshes only.
+The check that matters is independent of the packer: every mesh is sampled at points inside
+its triangles through the runtimes' own UV formula (``MeshAttachment.updateUVs`` of spine-ts
+3.7-4.2, written out again here) on the original page and on the packed one, and the
+bilinear samples must be equal.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from spinemesh.atlas import read_atlas
+from spinemesh.cli import app
+from spinemesh.demo import make_demo_project
+from spinemesh.images import AtlasImages, cut_region, load_rgba
+from spinemesh.pack.atlas_pack import measured_padding
+from spinemesh.pack.place import fill_pages
+from spinemesh.pack.run import pack_project
+from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
+from spinemesh.upgrade import Options, upgrade_project
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def meshed(tmp_path_factory) -> Path:
+    """The demo project upgraded: its regions are meshes now (every region kept a mesh)."""
+    base = tmp_path_factory.mktemp("pack")
+    demo = make_demo_project(base / "demo", with_images_folder=False)
+    out = base / "meshed"
+    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
+    return out
+
+
+def _digest(folder: Path) -> dict:
+    return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def runtime_uvs(uvs: np.ndarray, region, page_w: int, page_h: int) -> np.ndarray:
+    """Page coordinates (texels) of mesh UVs, as spine-ts 3.8-4.2 ``updateUVs`` computes them."""
+    g = region.geometry()
+    u, v = g.x / page_w, g.y / page_h
+    ox, oy, w, h, ow, oh = g.offset_x, g.offset_y, g.width, g.height, g.original_width, g.original_height
+    U, V = uvs[:, 0], uvs[:, 1]
+    if g.degrees == 90:
+        u -= (oh - oy - h) / page_w
+        v -= (ow - ox - w) / page_h
+        out = np.stack([u + V * oh / page_w, v + (1 - U) * ow / page_h], axis=1)
+    elif g.degrees == 180:
+        u -= (ow - ox - w) / page_w
+        v -= oy / page_h
+        out = np.stack([u + (1 - U) * ow / page_w, v + (1 - V) * oh / page_h], axis=1)
+    elif g.degrees == 270:
+        u -= oy / page_w
+        v -= ox / page_h
+        out = np.stack([u + (1 - V) * oh / page_w, v + U * ow / page_h], axis=1)
+    else:
+        u -= ox / page_w
+        v -= (oh - oy - h) / page_h
+        out = np.stack([u + U * ow / page_w, v + V * oh / page_h], axis=1)
+    return out * (page_w, page_h)
+
+
+def bilinear(page: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Bilinear samples (clamped to the edge) of ``page`` at texel coordinates, shape (N, 4) float."""
+    h, w = page.shape[:2]
+    x, y = points[:, 0] - 0.5, points[:, 1] - 0.5
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+
+    def at(yy, xx):
+        return page[np.clip(yy, 0, h - 1), np.clip(xx, 0, w - 1)].astype(float)
+
+    return ((at(y0, x0) * (1 - fx) + at(y0, x0 + 1) * fx) * (1 - fy)
+            + (at(y0 + 1, x0) * (1 - fx) + at(y0 + 1, x0 + 1) * fx) * fy)
+
+
+def points_in_triangles(uvs: np.ndarray, triangles: np.ndarray, per_triangle: int, rng) -> np.ndarray:
+    """Random UV points inside every triangle, vertices and edges included."""
+    r = rng.random((len(triangles), per_triangle, 2))
+    flip = r.sum(axis=-1) > 1
+    r[flip] = 1 - r[flip]
+    a, b, c = (uvs[triangles[:, i]][:, None, :] for i in range(3))
+    inside = a + r[..., :1] * (b - a) + r[..., 1:] * (c - a)
+    return np.concatenate([inside.reshape(-1, 2), uvs])
+
+
+def _pages(atlas, root: Path) -> list[np.ndarray]:
+    return [load_rgba(AtlasImages.page_path(atlas, p.name, root)) for p in atlas.pages]
+
+
+def test_meshes_sample_the_same_texels(meshed, tmp_path):
+    out = tmp_path / "packed"
+    result = pack_project(meshed, out)
+    (row,) = result.atlases
+    assert row.status == "packed", row.reason
+    assert row.texels_after < row.texels_before and row.by_outline > 0
+    before, after = read_atlas(meshed / "demo.atlas"), read_atlas(out / "demo.atlas")
+    pages_a, pages_b = _pages(before, meshed), _pages(after, out)
+    doc = load_skeleton(meshed / "demo.json")
+    rng = np.random.default_rng(7)
+    checked = 0
+    for ref in iter_attachments(doc):
+        if ref.type != "mesh":
+            continue
+        uvs = np.asarray(ref.attachment["uvs"], float).reshape(-1, 2)
+        tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
+        pts = points_in_triangles(uvs, tris, 40, rng)
+        for name in image_paths(ref):  # a sequence's frames all draw with the mesh's UVs
+            ra, rb = before.find(name), after.find(name)
+            pa, pb = pages_a[ra.page], pages_b[rb.page]
+            sa = bilinear(pa, runtime_uvs(pts, ra, pa.shape[1], pa.shape[0]))
+            sb = bilinear(pb, runtime_uvs(pts, rb, pb.shape[1], pb.shape[0]))
+            np.testing.assert_allclose(sb, sa, atol=1e-6, err_msg=name)
+            checked += 1
+    assert checked >= 3
+    # a region kept by its rectangle keeps its texels exactly (cut the same, ring included)
+    for outcome in (r for r in result.atlases[0].regions_by_rectangle):
+        ra, rb = before.find(outcome["region"]), after.find(outcome["region"])
+        np.testing.assert_array_equal(cut_region(pages_b[rb.page], rb), cut_region(pages_a[ra.page], ra))
+    # skeletons are the same bytes; the input is untouched
+    assert (out / "demo.json").read_bytes() == (meshed / "demo.json").read_bytes()
+
+
+def test_input_untouched_output_refused_and_report(meshed, tmp_path):
+    digest = _digest(meshed)
+    out, report = tmp_path / "packed", tmp_path / "report.json"
+    r = runner.invoke(app, ["pack", str(meshed), "--out", str(out), "--report", str(report)])
+    assert r.exit_code == 0, r.output
+    assert _digest(meshed) == digest
+    data = json.loads(report.read_text())
+    (row,) = data["atlases"]
+    assert row["status"] == "packed" and row["texels_after"] < row["texels_before"]
+    assert row["by_outline"] + row["by_rectangle"] == len(read_atlas(meshed / "demo.atlas").regions)
+    assert row["bytes_before"] > 0 and row["bytes_after"] > 0
+    again = _cli("pack", str(meshed), "--out", str(out))
+    assert again.returncode != 0 and "not empty" in again.stderr and "Traceback" not in again.stderr
+    assert runner.invoke(app, ["pack", str(meshed), "--out", str(out), "--overwrite"]).exit_code == 0
+    inside = _cli("pack", str(meshed), "--out", str(meshed / "x"))
+    assert inside.returncode != 0 and "Traceback" not in inside.stderr and len(inside.stderr.strip().splitlines()) == 1
+    assert _digest(meshed) == digest
+
+
+def _cli(*args: str):
+    import os
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], capture_output=True, text=True,
+                          env=dict(os.environ, COLUMNS="200"))
+
+
+def test_regions_keep_rectangles_and_say_why(tmp_path):
+    """The demo as exported (region attachments): every region is drawn as a region."""
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    result = pack_project(demo, tmp_path / "packed")
+    (row,) = result.atlases
+    assert row.by_outline == 0
+    assert all("region attachment" in r["reason"] or "not drawn" in r["reason"] for r in row.regions_by_rectangle) \
+        or row.status == "kept"
+
+
+def test_jpeg_pages_are_kept(meshed, tmp_path):
+    from PIL import Image
+
+    project = tmp_path / "jpeg"
+    project.mkdir()
+    for f in meshed.iterdir():
+        if f.is_file() and f.suffix != ".png" and not f.name.startswith("."):
+            (project / f.name).write_bytes(f.read_bytes())
+    Image.open(meshed / "demo.png").convert("RGB").save(project / "demo.jpg")
+    text = (meshed / "demo.atlas").read_text().replace("demo.png", "demo.jpg")
+    (project / "demo.atlas").write_text(text)
+    result = pack_project(project, tmp_path / "out")
+    (row,) = result.atlases
+    assert row.status == "kept" and "JPEG" in row.reason
+    assert (tmp_path / "out" / "demo.jpg").read_bytes() == (project / "demo.jpg").read_bytes()
+
+
+def test_broken_skeleton_pins_every_region(meshed, tmp_path):
+    project = tmp_path / "broken"
+    project.mkdir()
+    for f in meshed.iterdir():
+        if f.is_file() and not f.name.startswith("."):
+            (project / f.name).write_bytes(f.read_bytes())
+    (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')
+    result = pack_project(project, tmp_path / "out")
+    (row,) = result.atlases
+    assert row.by_outline == 0
+    assert any("cannot be read" in e or "invalid JSON" in e for e in result.errors)
+
+
+def test_footprints_never_meet_and_keep_the_padding():
+    import cv2
+
+    rng = np.random.default_rng(3)
+    masks = []
+    for _ in range(60):
+        w, h = (int(v) for v in rng.integers(5, 60, 2))
+        m = np.zeros((h, w), np.uint8)
+        cv2.ellipse(m, (w // 2, h // 2), (max(1, w // 2 - 1), max(1, h // 2 - 1)), 0, 0, 360, 1, -1)
+        masks.append([m.astype(bool), np.rot90(m.astype(bool))])
+    placements, used = fill_pages(masks, 256, 256, 2)
+    assert all(p is not None for p in placements)
+    for page in range(len(used)):
+        grown = np.zeros((260, 260), np.int32)
+        for cand, p in zip(masks, placements):
+            if p.page != page:
+                continue
+            m = cand[p.orientation]
+            # each footprint grown by one texel on every side: two of them may touch (gap 2 = padding) but not meet
+            g = cv2.dilate(m.astype(np.uint8), np.ones((3, 3), np.uint8))
+            grown[p.y + 1:p.y + 1 + m.shape[0], p.x + 1:p.x + 1 + m.shape[1]] += g
+        assert grown.max() == 1
+
+
+def test_interlocking_shapes_share_rectangles():
+    """Two L shapes whose rectangles must overlap to fit a page their rectangles could not share."""
+    ell = np.zeros((20, 20), bool)
+    ell[:, :6] = True
+    ell[14:, :] = True
+    flipped = ell[::-1, ::-1]
+    placements, used = fill_pages([[ell], [flipped]], 26, 20, 0)
+    assert all(p is not None for p in placements) and len(used) == 1
+
+
+def test_measured_padding():
+    from spinemesh.atlas import RegionGeometry
+
+    def g(x, y, w, h):
+        return RegionGeometry(x, y, w, h, 0, 0, w, h, 0)
+
+    assert measured_padding([g(0, 0, 10, 10), g(13, 0, 10, 10), g(0, 12, 10, 10)]) == 2
+    assert measured_padding([g(0, 0, 10, 10), g(5, 5, 10, 10)]) == 0  # overlapping: not counted
