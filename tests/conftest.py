@@ -89,7 +89,7 @@ def skel_json_pairs(version: str | None = None) -> list[tuple[Path, Path]]:
 #: Test files whose cases are spread one by one over pytest-xdist workers: they hold the
 #: slow runtime proofs and build nothing per module. Every other file stays on one worker,
 #: so that its module and session fixtures are built once.
-SPREAD = {"test_upgrade_runtime", "test_weights_runtime"}
+SPREAD = {"test_upgrade_runtime", "test_weights_runtime", "test_pack_runtime"}
 
 
 def pytest_collection_modifyitems(config, items):
