@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..atlas import RegionGeometry
+from .place import block_any
 from .uses import MeshUse, RegionUses
 
 #: Largest supersampled raster of one region's meshes (texels x supersampling squared).
@@ -105,9 +106,7 @@ def raster_triangles(points: np.ndarray, triangles: np.ndarray, origin: tuple[in
     pts = np.clip(pts, -limit, limit).astype(np.int32)
     for tri in triangles:
         cv2.fillConvexPoly(fine, pts[tri], 1, lineType=cv2.LINE_8, shift=shift)
-    fine = cv2.dilate(fine, np.ones((3, 3), np.uint8))
-    coarse = fine.reshape(h, s, w, s).max(axis=(1, 3))
-    return coarse.astype(bool)
+    return block_any(fine, s, grow=1)[:h, :w]
 
 
 def grow_one(mask: np.ndarray) -> np.ndarray:

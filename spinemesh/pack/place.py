@@ -45,13 +45,31 @@ def _grow(mask: np.ndarray, padding: int) -> np.ndarray:
     return cv2.dilate(padded, np.ones((2 * padding + 1, 2 * padding + 1), np.uint8)).astype(bool)
 
 
-def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
-    """Cells of side ``cell`` that hold any set texel (the mask's top-left texel starts a cell)."""
+def block_any(mask: np.ndarray, cell: int, grow: int = 0) -> np.ndarray:
+    """Cells of ``cell x cell`` texels that hold a set texel (of ``mask`` grown by ``grow`` texels), bool.
+
+    The mask's top-left texel starts the first cell; a partial last row or column of cells
+    counts. One ``cv2.dilate`` (a max filter) sampled every ``cell`` texels: far faster than a
+    reduction over reshaped axes.
+    """
+    import cv2
+
     h, w = mask.shape
     hc, wc = -(-h // cell), -(-w // cell)
-    padded = np.zeros((hc * cell, wc * cell), bool)
-    padded[:h, :w] = mask
-    return padded.reshape(hc, cell, wc, cell).any(axis=(1, 3))
+    src = np.zeros((hc * cell, wc * cell), np.uint8)
+    src[:h, :w] = mask
+    if cell == 1 and grow == 0:
+        return src.astype(bool)
+    size = cell + 2 * grow
+    # window of texel rows [i*cell - grow, i*cell + cell + grow) for cell i
+    out = cv2.dilate(src, np.ones((size, size), np.uint8), anchor=(grow, grow),
+                     borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return out[::cell, ::cell].astype(bool)
+
+
+def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
+    """Cells of side ``cell`` that hold any set texel (the mask's top-left texel starts a cell)."""
+    return block_any(mask, cell)
 
 
 class Page:

@@ -1,0 +1,262 @@
+"""Page texels, pages and bytes that ``spinemesh pack`` saves, against a rectangle-only repack.
+
+For every atlas of the given projects (default: the 3.8-4.2 examples and the corpus beside the
+repository, ``../shared``), side by side:
+
+- *before*: the atlas as exported;
+- *(a) pack*: ``spinemesh pack`` on the project as it is (the artists' own meshes);
+- *(b) upgrade + pack*: ``spinemesh upgrade`` (default options), then ``pack`` of its output,
+  which is what ``upgrade --pack`` runs;
+- *(c) rectangles*: the same regions' stored rectangles repacked by ``rectpack`` (MaxRects,
+  best short side fit, 90-degree rotation allowed), with the same padding and page rules as
+  ``pack`` (no side over the longest original side, no page over the largest original page's
+  texels, powers of two where the originals had them, no more pages than before, the
+  original kept when it is not beaten).
+
+Page texels are what a GPU holds; bytes are the atlas and page files on disk (PNG as
+``pack`` writes them). Time is ``pack``'s CPU time per atlas (one core) (reading pages, placing,
+compositing, encoding).
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_pack.py [PROJECT ...] [--no-upgrade] [--json rows.json]
+
+Without projects it runs over the examples and the whole corpus; upgrading the corpus takes a
+while, so run that in the background (``nice``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from spinemesh.atlas import read_atlas  # noqa: E402
+from spinemesh.errors import SpineMeshError  # noqa: E402
+from spinemesh.images import AtlasImages  # noqa: E402
+from spinemesh.pack.atlas_pack import (  # noqa: E402
+    MIN_PADDING, MIPMAP_PADDING, candidate_widths, is_power_of_two, measured_padding, round_page, uses_mipmaps,
+)
+from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
+from spinemesh.project import find_project, project_atlases  # noqa: E402
+
+SHARED = REPO.parent / "shared"
+VERSIONS = ("3.8", "4.0", "4.1", "4.2")
+
+
+@dataclass
+class Row:
+    project: str
+    atlas: str
+    regions: int = 0
+    pages: int = 0
+    texels: int = 0
+    bytes: int = 0
+    a_texels: int = 0
+    a_pages: int = 0
+    a_bytes: int = 0
+    a_outline: int = 0
+    a_seconds: float = 0.0
+    b_texels: int | None = None
+    b_pages: int | None = None
+    b_bytes: int | None = None
+    b_outline: int | None = None
+    b_seconds: float | None = None
+    c_texels: int = 0
+    c_pages: int = 0
+
+
+def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, int]:
+    """Page texels and pages of the stored rectangles repacked by rectpack under pack's page rules."""
+    import rectpack
+
+    geometries = [r.geometry() for r in atlas.regions]
+    pad = max(max((measured_padding([g for r, g in zip(atlas.regions, geometries) if r.page == i])
+                   for i in range(len(atlas.pages))), default=0),
+              MIPMAP_PADDING if any(uses_mipmaps(p) for p in atlas.pages) else MIN_PADDING)
+    side = max(max(s) for s in sizes_before)
+    max_area = max(w * h for w, h in sizes_before)
+    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes_before)
+    before = sum(w * h for w, h in sizes_before)
+    rects = [(g.page_width + pad, g.page_height + pad) for g in geometries]
+    area = sum(w * h for w, h in rects)
+    widest = max(min(w, h) for w, h in rects)
+    best = (before, len(sizes_before))
+    for width in candidate_widths(area, widest, side, pot):
+        packer = rectpack.newPacker(mode=rectpack.PackingMode.Offline, pack_algo=rectpack.MaxRectsBssf,
+                                    sort_algo=rectpack.SORT_AREA, rotation=True)
+        for i, (w, h) in enumerate(rects):
+            packer.add_rect(w, h, rid=i)
+        packer.add_bin(width, side, count=len(sizes_before))
+        packer.pack()
+        placed = packer.rect_list()
+        if len(placed) < len(rects):
+            continue
+        used: dict[int, list[int]] = {}
+        for b, x, y, w, h, _ in placed:
+            u = used.setdefault(b, [0, 0])
+            u[0], u[1] = max(u[0], x + w - pad), max(u[1], y + h - pad)
+        pages = [(round_page(w, side, pot), round_page(h, side, pot)) for w, h in used.values()]
+        if any(w * h > max_area for w, h in pages):
+            continue
+        texels = sum(w * h for w, h in pages)
+        if texels < best[0]:
+            best = (texels, len(pages))
+    return best
+
+
+def pack_rows(project: Path, scratch: Path) -> dict[str, dict]:
+    """``pack`` of one project into ``scratch``: per atlas (relative path), its report row."""
+    out = scratch / "packed"
+    shutil.rmtree(out, ignore_errors=True)
+    result = PackResult()
+    pack_project_into(find_project(project), out, PackOptions(), result)
+    return {a.atlas: a for a in result.atlases}
+
+
+def bench_project(project: Path, scratch: Path, upgrade: bool) -> list[Row]:
+    proj = find_project(project)
+    rows: dict[str, Row] = {}
+    for path, atlas in project_atlases(proj).items():
+        rel = path.relative_to(project).as_posix()
+        files = [AtlasImages.page_path(atlas, p.name, project) for p in atlas.pages]
+        from PIL import Image
+
+        sizes = []
+        for f in files:
+            with Image.open(f) as im:
+                sizes.append(im.size)
+        row = Row(project.name, rel, len(atlas.regions), len(atlas.pages), sum(w * h for w, h in sizes),
+                  sum(f.stat().st_size for f in set(files)) + path.stat().st_size)
+        try:
+            row.c_texels, row.c_pages = rectangle_repack(read_atlas(path), sizes)
+        except SpineMeshError:
+            row.c_texels, row.c_pages = row.texels, row.pages
+        rows[rel] = row
+    for rel, a in pack_rows(project, scratch / "a").items():
+        if rel in rows:
+            r = rows[rel]
+            r.a_texels, r.a_pages, r.a_bytes, r.a_outline, r.a_seconds = (
+                a.texels_after, a.pages_after, a.bytes_after, a.by_outline, a.cpu_seconds)
+    if upgrade:
+        from spinemesh.upgrade import Options, upgrade_project
+
+        up = scratch / "upgraded"
+        shutil.rmtree(up, ignore_errors=True)
+        try:
+            upgrade_project(project, up, Options(jobs=1))
+        except SpineMeshError as e:
+            print(f"{project.name}: upgrade refused: {e}", file=sys.stderr)
+        else:
+            for rel, b in pack_rows(up, scratch / "b").items():
+                if rel in rows:
+                    r = rows[rel]
+                    r.b_texels, r.b_pages, r.b_bytes, r.b_outline, r.b_seconds = (
+                        b.texels_after, b.pages_after, b.bytes_after, b.by_outline, b.cpu_seconds)
+    return list(rows.values())
+
+
+def _pct(before: int, after: int | None) -> str:
+    return "-" if after is None or not before else f"{after / before - 1:+.1%}"
+
+
+def table(rows: list[Row]) -> str:
+    lines = ["| project | atlas | regions | pages | page texels | (a) pack | (b) upgrade+pack | (c) rectangles | "
+             "bytes | (a) bytes | (b) bytes | (a) CPU s | (b) CPU s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r.project} | {r.atlas} | {r.regions} | {r.pages} | {r.texels:,} | {_pct(r.texels, r.a_texels)} | "
+                     f"{_pct(r.texels, r.b_texels)} | {_pct(r.texels, r.c_texels)} | {r.bytes:,} | "
+                     f"{_pct(r.bytes, r.a_bytes)} | {_pct(r.bytes, r.b_bytes)} | {r.a_seconds:.2f} | "
+                     f"{'-' if r.b_seconds is None else f'{r.b_seconds:.2f}'} |")
+    return "\n".join(lines)
+
+
+def summary(rows: list[Row]) -> str:
+    def total(key: str) -> int:
+        return sum(getattr(r, key) or 0 for r in rows)
+
+    def saving(key: str, of: str = "texels", only=None) -> tuple[float, float, int]:
+        use = [r for r in rows if getattr(r, key) is not None and (only is None or only(r))]
+        before = sum(getattr(r, of) for r in use)
+        after = sum(getattr(r, key) for r in use)
+        per = [1 - getattr(r, key) / getattr(r, of) for r in use if getattr(r, of)]
+        return (1 - after / before if before else 0.0), (statistics.median(per) if per else 0.0), \
+            sum(1 for r in use if getattr(r, key) > getattr(r, of))
+
+    has_b = [r for r in rows if r.b_texels is not None]
+    lines = ["| | page texels saved (total) | median atlas | atlases larger | pages before -> after | bytes saved |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for label, key, pages, byte_key, only in (
+            ("(a) pack as exported", "a_texels", "a_pages", "a_bytes", None),
+            ("(b) upgrade + pack", "b_texels", "b_pages", "b_bytes", lambda r: r.b_texels is not None),
+            ("(c) rectangles only (rectpack)", "c_texels", "c_pages", None, None),
+            ("(c) on the atlases of (b)", "c_texels", "c_pages", None, lambda r: r.b_texels is not None)):
+        tot, med, larger = saving(key, only=only)
+        use = [r for r in rows if only is None or only(r)]
+        byte = f"{saving(byte_key, 'bytes', only)[0]:.1%}" if byte_key else "-"
+        lines.append(f"| {label} | {tot:.1%} | {med:.1%} | {larger} | {sum(r.pages for r in use)} -> "
+                     f"{sum(getattr(r, pages) or 0 for r in use)} | {byte} |")
+    saved_a = total("texels") - total("a_texels")
+    saved_c = total("texels") - total("c_texels")
+    b_rows_before = sum(r.texels for r in has_b)
+    saved_b = b_rows_before - sum(r.b_texels for r in has_b)
+    saved_cb = b_rows_before - sum(r.c_texels for r in has_b)
+    lines.append("")
+    lines.append(f"outline over rectangle saving: (a) {saved_a / saved_c if saved_c else math.inf:.2f}x, "
+                 f"(b) {saved_b / saved_cb if saved_cb else math.inf:.2f}x")
+    times = [r.a_seconds for r in rows] + [r.b_seconds for r in has_b]
+    big = [r for r in rows if r.regions >= 200]
+    lines.append(f"pack CPU time per atlas: median {statistics.median(times):.2f} s, max {max(times):.2f} s"
+                 + (f"; atlases of 200+ regions: max {max(max(r.a_seconds, r.b_seconds or 0) for r in big):.2f} s"
+                    if big else ""))
+    return "\n".join(lines)
+
+
+def default_projects() -> list[Path]:
+    examples = [p for v in VERSIONS for p in sorted((SHARED / "spine-examples" / v).iterdir()) if p.is_dir()]
+    corpus = sorted(p for p in (SHARED / "spine-corpus").iterdir() if p.is_dir())
+    return examples + corpus
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("projects", nargs="*", type=Path)
+    ap.add_argument("--no-upgrade", action="store_true", help="leave out (b), which upgrades every project first")
+    ap.add_argument("--json", type=Path, help="write the rows here (after each project)")
+    args = ap.parse_args(argv)
+    projects = [p.resolve() for p in args.projects] or default_projects()
+    scratch = Path(tempfile.mkdtemp(prefix="bench-pack-"))
+    rows: list[Row] = []
+    try:
+        for project in projects:
+            t0 = time.perf_counter()
+            try:
+                rows += bench_project(project, scratch / project.name, not args.no_upgrade)
+            except SpineMeshError as e:
+                print(f"{project.name}: {e}", file=sys.stderr)
+            shutil.rmtree(scratch / project.name, ignore_errors=True)
+            print(f"  {project.parent.name}/{project.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr,
+                  flush=True)
+            if args.json:
+                args.json.write_text(json.dumps([asdict(r) for r in rows], indent=1))
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    print(table(rows))
+    print()
+    print(summary(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
