@@ -234,7 +234,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path)
     ap.add_argument("--no-upgrade", action="store_true", help="leave out (b), which upgrades every project first")
     ap.add_argument("--json", type=Path, help="write the rows here (after each project)")
+    ap.add_argument("--tables-from", type=Path, metavar="JSON", help="print the tables of rows saved by --json")
     args = ap.parse_args(argv)
+    if args.tables_from:
+        rows = [Row(**r) for r in json.loads(args.tables_from.read_text())]
+        print(table(rows))
+        print()
+        print(summary(rows))
+        return 0
     projects = [p.resolve() for p in args.projects] or default_projects()
     scratch = Path(tempfile.mkdtemp(prefix="bench-pack-"))
     rows: list[Row] = []

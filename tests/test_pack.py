@@ -242,3 +242,10 @@ def test_measured_padding():
 
     assert measured_padding([g(0, 0, 10, 10), g(13, 0, 10, 10), g(0, 12, 10, 10)]) == 2
     assert measured_padding([g(0, 0, 10, 10), g(5, 5, 10, 10)]) == 0  # overlapping: not counted
+
+
+def test_preview_shows_pages_before_and_after(meshed, tmp_path):
+    r = runner.invoke(app, ["pack", str(meshed), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "pv")])
+    assert r.exit_code == 0, r.output
+    page = (tmp_path / "pv" / "index.html").read_text()
+    assert page.count("<img") == 2 and "before" in page and "after" in page and "demo.png" in page

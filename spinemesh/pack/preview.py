@@ -1,0 +1,77 @@
+"""``pack --preview DIR``: one self-contained HTML page with every packed page before and after.
+
+Per atlas: its pages as exported and as packed, side by side at one scale (so sizes compare
+at a glance), on a checkerboard (transparent texels show as such), with their sizes and
+texel counts; then the regions that kept their rectangles and why. Images are inlined as
+PNG data URIs; no script.
+"""
+
+from __future__ import annotations
+
+import html
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from ..fsutil import atomic_write_text
+from ..upgrade.preview import _fit, _png_uri
+
+#: Largest side, in pixels, of the largest page of an atlas in the picture.
+PAGE_SIZE = 640
+
+_CSS = """
+body{font:14px/1.4 system-ui,sans-serif;margin:24px;color:#222}
+.pages{display:flex;gap:24px;flex-wrap:wrap;align-items:flex-start}
+figure{margin:0}
+figcaption{font-size:12px;color:#555}
+img{background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px;border:1px solid #999;
+image-rendering:pixelated}
+table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
+"""
+
+
+def _figure(name: str, rgba: np.ndarray, scale: float) -> str:
+    h, w = rgba.shape[:2]
+    shown = _fit(rgba, max(1, round(max(h, w) * scale)))
+    return (f'<figure><img src="{_png_uri(shown)}" width="{shown.shape[1]}" height="{shown.shape[0]}" '
+            f'alt="{html.escape(name)}"><figcaption>{html.escape(name)}: {w} x {h} = {w * h:,} texels'
+            f'</figcaption></figure>')
+
+
+def atlas_section(rel: str, before: dict[str, np.ndarray], after: dict[str, np.ndarray], row) -> str:
+    """HTML of one atlas: its pages before and after at one scale, and its rectangle reasons."""
+    largest = max(max(p.shape[:2]) for p in list(before.values()) + list(after.values()))
+    scale = min(1.0, PAGE_SIZE / largest)
+    reasons = Counter(r["reason"].split(" (")[0] for r in row.regions_by_rectangle)
+    rows = "".join(f"<tr><td style=\"text-align:left\">{html.escape(k)}</td><td>{v}</td></tr>"
+                   for k, v in reasons.most_common())
+    return (f"<h2>{html.escape(rel)}</h2>"
+            f"<p>page texels {row.texels_before:,} → {row.texels_after:,} "
+            f"({row.texels_after / row.texels_before - 1:+.1%}), bytes {row.bytes_before:,} → {row.bytes_after:,}; "
+            f"{row.by_outline} regions by outline, {row.by_rectangle} by rectangle, padding {row.padding}</p>"
+            f"<h3>before</h3><div class=\"pages\">{''.join(_figure(n, p, scale) for n, p in before.items())}</div>"
+            f"<h3>after</h3><div class=\"pages\">{''.join(_figure(n, p, scale) for n, p in after.items())}</div>"
+            + (f"<h3>kept by rectangle</h3><table><tr><th>reason</th><th>regions</th></tr>{rows}</table>"
+               if rows else ""))
+
+
+def write_preview(result, folder: str | Path) -> Path:
+    """Write ``folder/index.html`` for a pack run (one made with ``keep_previews``); return its path."""
+    folder = Path(folder)
+    rows = {a.atlas: a for a in result.atlases}
+    sections = [atlas_section(rel, before, after, rows[rel]) for rel, before, after in result.previews]
+    kept = [a for a in result.atlases if a.status != "packed"]
+    if kept:
+        sections.append("<h2>atlases kept as they were</h2><table><tr><th>atlas</th><th>why</th></tr>" + "".join(
+            f"<tr><td style=\"text-align:left\">{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
+            f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
+    t = result.totals()
+    summary = (f"<p>{len(result.atlases)} atlases; page texels {t['texels_before']:,} → {t['texels_after']:,}; "
+               f"pages {t['pages_before']} → {t['pages_after']}; bytes {t['bytes_before']:,} → "
+               f"{t['bytes_after']:,}</p>")
+    page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh pack</title>"
+            f"<style>{_CSS}</style></head><body><h1>spinemesh pack</h1>{summary}{''.join(sections)}</body></html>\n")
+    path = folder / "index.html"
+    atomic_write_text(path, page)
+    return path
