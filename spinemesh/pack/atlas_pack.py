@@ -355,7 +355,15 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
         r.entries = geometry_entries(r, g, out.syntax, style)
         rotated += g.degrees != geometries[n].degrees
     # the regions are written page by page (Atlas.dumps): order them so
+    first_before = {}
+    for r in out.regions:
+        first_before.setdefault(r.name, r)
     out.regions = sorted(out.regions, key=lambda r: r.page)
+    first_after = {}
+    for r in out.regions:
+        first_after.setdefault(r.name, r)
+    if any(first_after[name] is not r for name, r in first_before.items()):
+        raise PackRefused("regions of the same name would change order, and runtimes use the first")
     outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
     return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
                        time.process_time() - t0, rotated)

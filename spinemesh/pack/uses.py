@@ -6,9 +6,10 @@ with its source mesh's UVs) or a frame of a mesh's sequence. Anything else (a re
 attachment, a malformed mesh, a skeleton that cannot be read) pins the region to its stored
 rectangle; :class:`RegionUses` keeps the first reason.
 
-The atlas a skeleton loads is found as every command finds it
-(:func:`spinemesh.project.image_source_for`); a region name is looked up as the runtimes'
-``findRegion`` does: the first region of that name in the first atlas that has one.
+No file says which atlas a game loads with a skeleton (a project often holds the same regions
+in a straight and a premultiplied atlas), so a use counts for the region of that name in
+*every* atlas of the project that has one, as the runtimes' ``findRegion`` finds it (the first
+region of the name). That can only keep more rectangles, never draw a texel wrongly.
 """
 
 from __future__ import annotations
@@ -138,32 +139,33 @@ def collect_uses(project: Project) -> ProjectUses:
             if not uses.everything_pinned:
                 uses.everything_pinned = f"skeleton {rel} cannot be read, so what it draws is unknown"
             continue
-        chosen = getattr(source, "atlases", None) or []
-        if not chosen:
-            continue
+        if not getattr(source, "atlases", None):
+            continue  # drawn from an images folder: no atlas region is involved
         honours = honours_offsets(spine_version(doc))
         for ref in iter_attachments(doc):
             try:
                 paths = image_paths(ref)
             except SpineMeshError as e:  # a malformed sequence: its path is pinned in every atlas
-                for atlas in chosen:
-                    uses.of(atlas.path, attachment_path(ref)).pin(f"{rel}: {e}")
+                for atlas in atlases.values():
+                    if atlas.find(attachment_path(ref)) is not None:
+                        uses.of(atlas.path, attachment_path(ref)).pin(f"{rel}: {e}")
                 continue
             if not paths:
                 continue
             mesh, why = (None, "") if ref.type == "region" else _mesh_of(doc, ref)
             arrays = mesh_arrays(mesh) if mesh is not None else None
+            use = None if arrays is None else MeshUse(arrays[0], arrays[1], honours)
             for name in paths:
-                atlas = next((a for a in chosen if a.find(name) is not None), None)
-                if atlas is None:
-                    continue
-                region = uses.of(atlas.path, name)
-                if ref.type == "region":
-                    region.pin(f"drawn as a region attachment ({rel}, slot {ref.slot!r})")
-                elif arrays is None:
-                    region.pin(f"{why or 'mesh with malformed uvs or triangles'} ({rel}, slot {ref.slot!r})")
-                else:
-                    region.meshes.append(MeshUse(arrays[0], arrays[1], honours))
+                for atlas in atlases.values():
+                    if atlas.find(name) is None:
+                        continue
+                    region = uses.of(atlas.path, name)
+                    if ref.type == "region":
+                        region.pin(f"drawn as a region attachment ({rel}, slot {ref.slot!r})")
+                    elif use is None:
+                        region.pin(f"{why or 'mesh with malformed uvs or triangles'} ({rel}, slot {ref.slot!r})")
+                    elif not region.pinned:
+                        region.meshes.append(use)
     for atlas in atlases.values():
         uses.regions.setdefault(atlas.path, {})
     return uses
