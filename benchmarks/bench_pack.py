@@ -234,15 +234,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path)
     ap.add_argument("--no-upgrade", action="store_true", help="leave out (b), which upgrades every project first")
     ap.add_argument("--json", type=Path, help="write the rows here (after each project)")
-    ap.add_argument("--tables-from", type=Path, metavar="JSON", help="print the tables of rows saved by --json")
+    ap.add_argument("--shard", default="0/1", help="I/N: every N-th project from the I-th (parallel runs)")
+    ap.add_argument("--corpus-only", action="store_true", help="default projects: the corpus, not the examples")
+    ap.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON", help="print the tables of rows saved by --json")
     args = ap.parse_args(argv)
     if args.tables_from:
-        rows = [Row(**r) for r in json.loads(args.tables_from.read_text())]
+        rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]
         print(table(rows))
         print()
         print(summary(rows))
         return 0
     projects = [p.resolve() for p in args.projects] or default_projects()
+    if args.corpus_only and not args.projects:
+        projects = [p for p in projects if p.parent.name == "spine-corpus"]
+    shard, shards = (int(v) for v in args.shard.split("/"))
+    projects = projects[shard::shards]
     scratch = Path(tempfile.mkdtemp(prefix="bench-pack-"))
     rows: list[Row] = []
     try:
