@@ -137,6 +137,15 @@ def candidate_widths(areas: int, widest: int, max_w: int, pot: bool) -> list[int
     return sorted(widths, reverse=True)
 
 
+#: Page sizes tried, smallest first, when pages must have power-of-two sides.
+POT_TRIES = 6
+
+
+def _powers(limit: int) -> list[int]:
+    """Powers of two up to ``limit``, from 16."""
+    return [1 << k for k in range(4, max(4, limit.bit_length()) + 1) if 1 << k <= limit]
+
+
 def round_page(used: int, limit: int, pot: bool) -> int:
     if not pot:
         return max(1, used)
@@ -235,6 +244,22 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
         total = sum(w * h for w, h in sizes)
         if best is None or total < best[0]:
             best = (total, placements, sizes)
+    if pot:
+        # powers of two round a used height up to the next one: try whole page sizes instead,
+        # smallest first, from the least area that could hold the footprints
+        needed = sum(int(c[0].sum()) for c in candidates) / max_pages
+        sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
+                        if needed <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
+                       key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
+        for w, h in sizes[:POT_TRIES]:
+            placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages)
+            if any(p is None for p in placements):
+                continue
+            found = [(round_page(uw, w, True), round_page(uh, h, True)) for uw, uh in used]
+            total = sum(a * b for a, b in found)
+            if best is None or total < best[0]:
+                best = (total, placements, found)
+            break
     if best is None:
         raise PackRefused(f"its footprints do not fit on {max_pages} page(s) of the largest original size")
     return best[1], best[2]

@@ -170,7 +170,8 @@ class Page:
 
 
 def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
-               order: list[int] | None = None) -> tuple[list[Placement | None], list[tuple[int, int]]]:
+               order: list[int] | None = None, max_pages: int | None = None
+               ) -> tuple[list[Placement | None], list[tuple[int, int]]]:
     """Place every footprint on as few pages of ``width x height`` as the greedy first fit gives.
 
     Parameters
@@ -184,6 +185,9 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
         Texels left free between any two footprints.
     order : list of int, optional
         The order to place them in; default largest mask area first.
+    max_pages : int, optional
+        Stop once this many pages are full (what is left stays None): a size that cannot
+        hold everything fails fast.
 
     Returns
     -------
@@ -198,7 +202,7 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     placements: list[Placement | None] = [None] * len(candidates)
     pages: list[Page] = []
     left = [i for i in order if any(m.shape[1] <= width and m.shape[0] <= height for m in candidates[i])]
-    while left:
+    while left and (max_pages is None or len(pages) < max_pages):
         page = Page(width, height, padding)
         pages.append(page)
         still = []
