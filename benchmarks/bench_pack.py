@@ -223,6 +223,31 @@ def summary(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
+def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
+    """CPU seconds to place ``count`` footprints (ellipses, both turns allowed) on ``side`` pages."""
+    import cv2
+    import numpy as np
+
+    from spinemesh.pack.place import fill_pages
+
+    lines = [f"| seed | footprints | page | pages used | fill of the used area | CPU s |", "|---:|---:|---|---:|---:|---:|"]
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        masks = []
+        for _ in range(count):
+            w, h = (int(v) for v in rng.integers(40, 200, 2))
+            m = np.zeros((h, w), np.uint8)
+            cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
+            masks.append([m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))])
+        t0 = time.process_time()
+        placements, used = fill_pages(masks, side, side, 0)
+        seconds = time.process_time() - t0
+        area = sum(int(c[0].sum()) for c in masks)
+        lines.append(f"| {seed} | {count} | {side}x{side} | {len(used)} | "
+                     f"{area / sum(w * h for w, h in used):.1%} | {seconds:.2f} |")
+    return "\n".join(lines)
+
+
 def default_projects() -> list[Path]:
     examples = [p for v in VERSIONS for p in sorted((SHARED / "spine-examples" / v).iterdir()) if p.is_dir()]
     corpus = sorted(p for p in (SHARED / "spine-corpus").iterdir() if p.is_dir())
@@ -237,7 +262,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shard", default="0/1", help="I/N: every N-th project from the I-th (parallel runs)")
     ap.add_argument("--corpus-only", action="store_true", help="default projects: the corpus, not the examples")
     ap.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON", help="print the tables of rows saved by --json")
+    ap.add_argument("--placement", action="store_true", help="only time the placement of 300 footprints "
+                                                             "on 2048x2048 pages")
     args = ap.parse_args(argv)
+    if args.placement:
+        print(placement_timing())
+        return 0
     if args.tables_from:
         rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]
         print(table(rows))

@@ -122,7 +122,13 @@ def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int
 
 def pack_project_into(proj: Project, out: Path, options: PackOptions, result: PackResult,
                       prefix: str = "", uses: ProjectUses | None = None, keep_previews: bool = False) -> None:
-    """Pack every atlas of ``proj`` and write the whole project to ``out`` (same layout)."""
+    """Pack every atlas of ``proj`` and write the whole project to ``out`` (same layout).
+
+    ``out`` may be the project folder itself when it is an output of ours (``upgrade --pack``
+    packs what it has just written): atlases and pages are then replaced in place, pages the
+    packed atlas no longer names are removed, and nothing is copied.
+    """
+    in_place = out.resolve() == proj.root.resolve()
     atlases = project_atlases(proj)
     uses = uses or collect_uses(proj)
     result.errors += [f"{p}" for p in proj.problems]
@@ -171,6 +177,11 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
             continue
         skip.add(path.resolve())
         skip.update(f.resolve() for f in files)
+        if in_place:  # pages the packed atlas no longer names were dropped
+            kept = {(dest.parent / n).resolve() for n in encoded}
+            for f in set(files):
+                if f.resolve() not in kept:
+                    f.unlink(missing_ok=True)
         # an original page whose name the packed atlas reuses was replaced; the others are dropped
         bytes_after = sum(len(d) for d in encoded.values()) + len(text.encode("utf-8"))
         row = _row_from(packed, rel, bytes_before, bytes_after)
@@ -178,7 +189,7 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         result.atlases.append(row)
         if keep_previews:
             result.previews.append((rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages))
-    for f in proj.files:  # only files inside the project by real path (see find_project)
+    for f in [] if in_place else proj.files:  # only files inside the project by real path (find_project)
         if f.resolve() in skip:
             continue
         try:
