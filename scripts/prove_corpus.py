@@ -337,6 +337,29 @@ def summary(rows: list[Row]) -> str:
             f"regions meshed")
 
 
+def prove_each(projects: list[Path], base: Path, prove, json_path: Path | None, clean: bool, rows: list) -> list:
+    """Prove project after project (``prove(project, work)`` gives its rows) in ``base/<name>``.
+
+    Prints each row's status and each project's time as it goes, saves every row so far to
+    ``json_path`` after each project, and removes each project's scratch folder when ``clean``.
+    """
+    for project in projects:
+        t0 = time.perf_counter()
+        work = base / project.name
+        shutil.rmtree(work, ignore_errors=True)
+        new = prove(project, work)
+        rows += new
+        for r in new:
+            print(f"{r.project}/{r.skeleton}: {r.status} {r.cause} {r.details[:3]}", file=sys.stderr, flush=True)
+        print(f"  {project.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+        if json_path:
+            json_path.parent.mkdir(parents=True, exist_ok=True)
+            json_path.write_text(json.dumps([asdict(r) for r in rows], indent=1))
+        if clean:
+            shutil.rmtree(work, ignore_errors=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("projects", nargs="*", type=Path, help="project folders (default: every corpus project)")
@@ -369,20 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         rows = [Row(**r) for r in json.loads(args.json.read_text())]
         done = {r.project for r in rows}
         projects = [p for p in projects if p.name not in done]
-    for project in projects:
-        t0 = time.perf_counter()
-        work = base / project.name
-        shutil.rmtree(work, ignore_errors=True)
-        new = prove_project(tool, project, work, cache, args.animations, Options(repack=args.repack, **({"min_saving": None} if args.mesh_all else {})))
-        rows += new
-        for r in new:
-            print(f"{r.project}/{r.skeleton}: {r.status} {r.cause} {r.details[:3]}", file=sys.stderr, flush=True)
-        print(f"  {project.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
-        if args.json:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            args.json.write_text(json.dumps([asdict(r) for r in rows], indent=1))
-        if args.keep is None:
-            shutil.rmtree(work, ignore_errors=True)
+    options = Options(repack=args.repack, **({"min_saving": None} if args.mesh_all else {}))
+    rows = prove_each(projects, base, lambda project, work: prove_project(tool, project, work, cache, args.animations,
+                                                                          options), args.json, args.keep is None, rows)
     print(table(rows))
     print()
     print(summary(rows))

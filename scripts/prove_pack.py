@@ -23,12 +23,10 @@ from __future__ import annotations
 
 import argparse
 import fnmatch
-import json
 import shutil
 import sys
 import tempfile
-import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -36,7 +34,7 @@ sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "scripts"))
 
 from prove_corpus import (CORPUS, RENDERABLE, TOLERANCE, atlas_for, harness_atlas, harness_copy,  # noqa: E402
-                          pose_list, skins_to_render)
+                          pose_list, prove_each, skins_to_render)
 from runtime_tool import install, render, render_difference  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
@@ -186,21 +184,8 @@ def main(argv: list[str] | None = None) -> int:
         projects = [p for p in projects if any(fnmatch.fnmatchcase(p.name, g) for g in args.only)]
     base = Path(tempfile.mkdtemp(prefix="prove-pack-")) if args.keep is None else args.keep
     tool = install(base / "tool")
-    rows: list[Row] = []
-    for project in projects:
-        t0 = time.perf_counter()
-        work = base / "work" / f"{project.parent.name}-{project.name}"
-        shutil.rmtree(work, ignore_errors=True)
-        new = prove_project(tool, project, work, args.animations, args.upgrade)
-        rows += new
-        for r in new:
-            print(f"{r.project}/{r.skeleton}: {r.status} {r.cause} {r.details[:3]}", file=sys.stderr, flush=True)
-        print(f"  {project.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
-        if args.json:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            args.json.write_text(json.dumps([asdict(r) for r in rows], indent=1))
-        if args.keep is None:
-            shutil.rmtree(work, ignore_errors=True)
+    rows = prove_each(projects, base, lambda project, work: prove_project(tool, project, work, args.animations,
+                                                                          args.upgrade), args.json, args.keep is None, [])
     print(table(rows))
     print()
     print(summary(rows))
