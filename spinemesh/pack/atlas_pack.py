@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
-from .outlines import Footprint, content_box, footprint, stored_index, window_texels
+from .outlines import Footprint, footprint, stored_index, window_texels
 from .place import fill_pages
 from .uses import RegionUses
 
