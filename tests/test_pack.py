@@ -249,3 +249,46 @@ def test_preview_shows_pages_before_and_after(meshed, tmp_path):
     assert r.exit_code == 0, r.output
     page = (tmp_path / "pv" / "index.html").read_text()
     assert page.count("<img") == 2 and "before" in page and "after" in page and "demo.png" in page
+
+
+def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "demo.atlas") -> int:
+    """Every mesh of ``a``'s skeleton samples the same on ``b``'s pages as on ``a``'s; how many regions checked."""
+    before, after = read_atlas(a / atlas), read_atlas(b / atlas)
+    pages_a, pages_b = _pages(before, a), _pages(after, b)
+    rng = np.random.default_rng(11)
+    checked = 0
+    for ref in iter_attachments(load_skeleton(a / skeleton)):
+        if ref.type != "mesh":
+            continue
+        uvs = np.asarray(ref.attachment["uvs"], float).reshape(-1, 2)
+        tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
+        pts = points_in_triangles(uvs, tris, 40, rng)
+        for name in image_paths(ref):
+            ra, rb = before.find(name), after.find(name)
+            pa, pb = pages_a[ra.page], pages_b[rb.page]
+            np.testing.assert_allclose(bilinear(pb, runtime_uvs(pts, rb, pb.shape[1], pb.shape[0])),
+                                       bilinear(pa, runtime_uvs(pts, ra, pa.shape[1], pa.shape[0])), atol=1e-6,
+                                       err_msg=name)
+            checked += 1
+    return checked
+
+
+def test_upgrade_pack_is_upgrade_then_pack(tmp_path):
+    """--pack packs what the upgrade wrote (with --repack, which it implies), skeletons unchanged."""
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    plain, packed = tmp_path / "plain", tmp_path / "packed"
+    upgrade_project(demo, plain, Options(min_saving=None, jobs=1, repack=True))
+    result = upgrade_project(demo, packed, Options(min_saving=None, jobs=1, repack=True, pack=True))
+    assert not result.partial, result.errors
+    (row,) = result.atlases
+    assert row.status == "packed" and row.texels_after < row.texels_before
+    assert (packed / "demo.json").read_bytes() == (plain / "demo.json").read_bytes()
+    assert _sampled_alike(plain, packed) >= 3
+    # pages the packed atlas does not name are gone; every page it names is there
+    named = {p.name for p in read_atlas(packed / "demo.atlas").pages}
+    assert {p.name for p in packed.glob("*.png")} == named
+    report = tmp_path / "r.json"
+    r = runner.invoke(app, ["upgrade", str(demo), "--out", str(tmp_path / "cli"), "--pack", "--min-saving", "0",
+                            "--report", str(report), "--jobs", "1"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(report.read_text())["atlases"][0]["status"] == "packed"

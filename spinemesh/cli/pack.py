@@ -66,7 +66,7 @@ def pack(
         from ..pack.preview import write_preview
 
         write_preview(result, preview)
-    _print_summary(result)
+    print_pack_table(result.atlases, result.errors)
     if not result.atlases:
         console.print("no atlas found")
         raise typer.Exit(EXIT_BAD_INPUT)
@@ -74,7 +74,9 @@ def pack(
         raise typer.Exit(EXIT_PARTIAL)
 
 
-def _print_summary(result) -> None:
+def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
+    """One row per atlas (pages, page texels and bytes before and after, regions by outline and
+    by rectangle, why it was kept), then the errors."""
     from rich.markup import escape  # names and reasons come from the project: never markup
     from rich.table import Table
 
@@ -85,11 +87,11 @@ def _print_summary(result) -> None:
     def change(before: int, after: int) -> str:
         return f"{before:,} -> {after:,} ({after / before - 1:+.0%})" if before else "-"
 
-    for a in result.atlases:
+    for a in atlases:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
                       change(a.bytes_before, a.bytes_after), str(a.by_outline), str(a.by_rectangle),
                       escape(a.reason if a.status != "packed" else ""))
-    if result.atlases:
+    if atlases:
         console.print(table)
-    for e in result.errors:
+    for e in errors:
         console.print(f"[yellow]{escape(e)}[/yellow]")

@@ -69,6 +69,10 @@ _Repack = Annotated[bool, typer.Option(
                                  "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
                                  "is untouched; a frame's art on its trimmed border then also draws its "
                                  "half-texel fringe). Default: such sequences stay regions.")]
+_Pack = Annotated[bool, typer.Option(
+    "--pack", help="Then pack the atlas pages anew by the upgraded meshes' outlines, as 'spinemesh pack' "
+                   "does (skeletons unchanged; each atlas only when it gets smaller). Implies --repack: "
+                   "pages are rewritten anyway.")]
 _Weights = Annotated[Weights, typer.Option(
     "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                       "to the bones crossing the art, with vertices at the joints and automatic "
@@ -96,6 +100,7 @@ def upgrade(
     images: _Images = None,
     images_in: _ImagesIn = None,
     repack: _Repack = False,
+    pack: _Pack = False,
     weights: _Weights = Weights.none,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
@@ -120,6 +125,7 @@ def upgrade(
     Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
     Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
     Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
+    Example: spinemesh upgrade project/ --out meshed-packed/ --pack
     """
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder
@@ -132,7 +138,7 @@ def upgrade(
                  if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
-                      images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, weights=weights.value,
+                      images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack or pack, pack=pack, weights=weights.value,
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     if library and preview is not None:
@@ -200,7 +206,12 @@ def _print_result(result, dry_run: bool) -> None:
         console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""),
                                      ("meshed", "kept as region", "failed", "median vertices"), result.targets, cells))
     s = result.seconds
-    console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s")
+    console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s"
+                  + (f", pack {s['pack']:.1f} s" if "pack" in s else ""))
+    if result.atlases:
+        from .pack import print_pack_table
+
+        print_pack_table(result.atlases)
     print_left_alone(result.targets, result.errors, "kept", "kept as region", "left a region")
 
 

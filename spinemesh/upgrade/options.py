@@ -31,6 +31,7 @@ class Options:
     overrides: dict = field(default_factory=dict)
     overwrite: bool = False
     repack: bool = False  # store sequence frames whole where one mesh cannot fit them trimmed
+    pack: bool = False  # pack the written atlases anew by the upgraded meshes' outlines (spinemesh.pack)
     # keep a region when its mesh would save less than this share of drawn pixels (or needs
     # too many vertices): spinemesh.mesher.worth; None meshes every region
     min_saving: float | None = DEFAULT_MIN_SAVING

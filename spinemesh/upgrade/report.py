@@ -53,6 +53,8 @@ class Result(RunSummary):
     written: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "write": 0.0})
+    #: ``--pack``: one :class:`spinemesh.pack.run.AtlasRow` per atlas written
+    atlases: list = field(default_factory=list)
 
     def _items(self):
         return self.targets
@@ -72,8 +74,11 @@ def merge(into: Result, part: Result, prefix: str) -> None:
     into.targets += part.targets
     into.written += [prefix + w for w in part.written]
     into.errors += part.errors  # they name their files already
+    for row in part.atlases:
+        row.atlas = prefix + row.atlas
+    into.atlases += part.atlases
     for k, v in part.seconds.items():
-        into.seconds[k] += v
+        into.seconds[k] = into.seconds.get(k, 0.0) + v
 
 
 def write_report(result: Result, path: str | Path) -> None:
@@ -84,4 +89,5 @@ def write_report(result: Result, path: str | Path) -> None:
         "errors": result.errors,
         "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
         "attachments": [t.row() for t in result.targets],
+        **({"atlases": [a.row() for a in result.atlases]} if result.atlases else {}),
     })

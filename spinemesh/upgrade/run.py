@@ -11,6 +11,8 @@ The stages, in the order they run, each a module of its own, with the data they 
    ``--weights auto``); the documents now hold the mesh attachments;
 4. write (:mod:`.write`): the documents written in the format and version they came in,
    every other file copied, re-packed atlases written;
+4b. pack (:mod:`.pack`, with ``--pack``): the written atlases packed anew by the meshes'
+   outlines, in place;
 5. report (:mod:`.report`): the targets, as rows of :func:`~.report.write_report`.
 
 A stage that works on the meshed documents before they are written (packing atlas pages)
@@ -33,6 +35,7 @@ from ..project import find_project
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
 from .output import check_output_folder, output_folder
+from .pack import pack_written
 from .plan import ProjectPlan, plan_project
 from .report import Result, mark_would_mesh
 from .write import apply_project, copying_other_files, write_repacked_atlases, write_skeletons
@@ -103,9 +106,13 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
     t0 = time.perf_counter()
     with copying_other_files(plan, out, result):  # atlases, pages, other files: on threads meanwhile
         apply_project(plan, meshes)
-        # A stage that changes the meshed documents before they are written (packing atlas
-        # pages: new regions, UVs and pages) goes here; it sees every skeleton of the project.
-        # Files it replaces are left out of the copies (write.files_to_copy), started above.
+        # A stage that changes the meshed documents before they are written goes here; it
+        # sees every skeleton of the project. Files it replaces are left out of the copies
+        # (write.files_to_copy), started above.
         write_skeletons(plan, out, result)
     write_repacked_atlases(plan, out, result)
+    if plan.options is not None and plan.options.pack:
+        # --pack changes no document: it packs the atlases by the skeleton files written
+        # (a game loads those), --repack's untrimmed pages included, so it runs last, in place
+        pack_written(out, result)
     result.seconds["write"] += time.perf_counter() - t0
