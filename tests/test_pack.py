@@ -292,3 +292,20 @@ def test_upgrade_pack_is_upgrade_then_pack(tmp_path):
                             "--report", str(report), "--jobs", "1"])
     assert r.exit_code == 0, r.output
     assert json.loads(report.read_text())["atlases"][0]["status"] == "packed"
+
+
+def test_palette_pages_stay_palette_pages(meshed, tmp_path):
+    """A page a quantiser wrote as a palette PNG is written back as one, texel for texel."""
+    from PIL import Image
+
+    project = tmp_path / "palette"
+    project.mkdir()
+    for f in meshed.iterdir():
+        if f.is_file() and not f.name.startswith("."):
+            (project / f.name).write_bytes(f.read_bytes())
+    Image.open(meshed / "demo.png").quantize(colors=64, method=Image.Quantize.FASTOCTREE).save(project / "demo.png")
+    assert Image.open(project / "demo.png").mode == "P"
+    result = pack_project(project, tmp_path / "out")
+    assert result.atlases[0].status == "packed"
+    assert Image.open(tmp_path / "out" / "demo.png").mode == "P"
+    assert _sampled_alike(project, tmp_path / "out") >= 3

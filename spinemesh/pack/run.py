@@ -85,8 +85,56 @@ class PackResult(RunSummary):
         return {k: sum(getattr(a, k) for a in self.atlases) for k in keys}
 
 
-def encode_page(rgba: np.ndarray, name: str) -> bytes:
+def page_mode(path: Path):
+    """How the original page stores colours: its palette, shape (n, 4) uint8 RGBA, for a
+    palette PNG; ``"RGB"`` for a PNG without alpha; else None (RGBA)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        if im.format == "PNG" and im.mode == "P":
+            palette = im.getpalette() or []
+            index = Image.new("P", (max(1, len(palette) // 3), 1))
+            index.putdata(list(range(index.width)))
+            index.putpalette(palette)
+            if "transparency" in im.info:  # tRNS: alpha per entry, or one transparent entry
+                index.info["transparency"] = im.info["transparency"]
+            return np.asarray(index.convert("RGBA"))[0]
+        return "RGB" if im.format == "PNG" and im.mode == "RGB" else None
+
+
+def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> bytes | None:
+    """``rgba`` as a palette PNG with the palette ``lut`` (n, 4), or None when a texel's colour is not in it.
+
+    Packed texels are copies of the original page's, so a page a quantiser wrote as a palette
+    PNG comes back as one (about a quarter of the bytes of RGBA). The empty background takes a
+    transparent entry (black transparent if the palette has it; it is never sampled).
+    """
+    from PIL import Image
+
+    keys = np.ascontiguousarray(lut).view(np.uint32).ravel()
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    texels = np.ascontiguousarray(rgba).view(np.uint32)[..., 0]
+    if not (sorted_keys == 0).any():
+        clear = np.flatnonzero(lut[:, 3] == 0)
+        if clear.size == 0:
+            return None
+        texels = np.where(texels == 0, keys[clear[0]], texels)
+    at = np.clip(np.searchsorted(sorted_keys, texels), 0, len(keys) - 1)
+    if not (sorted_keys[at] == texels).all():
+        return None
+    image = Image.fromarray(order[at].astype(np.uint8), "P")
+    image.putpalette(lut[:, :3].tobytes())
+    buf = io.BytesIO()
+    image.save(buf, format="PNG", transparency=lut[:, 3].tobytes())
+    return buf.getvalue()
+
+
+def encode_page(rgba: np.ndarray, name: str, like=None) -> bytes:
     """A page image in the file format its name says, losslessly.
+
+    ``like`` (:func:`page_mode` of the original page): a palette PNG is written with its
+    palette when every texel's colour is in it, a page without alpha as RGB.
 
     Raises
     ------
@@ -100,6 +148,12 @@ def encode_page(rgba: np.ndarray, name: str) -> bytes:
         raise PackRefused(f"page {name!r}: {ext or 'no extension'} pages are kept (only PNG, WebP and AVIF "
                           "can be written without losing texels)")
     fmt, options = PAGE_FORMATS[ext]
+    if fmt == "PNG" and isinstance(like, np.ndarray):
+        data = _as_palette(rgba, like)
+        if data is not None:
+            return data
+    if fmt == "PNG" and isinstance(like, str) and like == "RGB":
+        rgba = rgba[..., :3]  # the original had no alpha: every texel drawn is opaque
     if fmt == "AVIF" and not features.check("avif"):
         raise PackRefused(f"page {name!r}: this Pillow cannot write AVIF")
     buf = io.BytesIO()
@@ -150,9 +204,10 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
                     raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
                                       "texel for texel (JPEG pages have no alpha and lose texels when written)")
             texels = [load_rgba(f) for f in files]
+            modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
             packed = pack_atlas(atlas, texels, uses.regions.get(path, {}), uses.everything_pinned,
                                 rotate=options.rotate, padding=options.padding)
-            encoded = {name: encode_page(rgba, name) for name, rgba in packed.pages.items()}
+            encoded = {name: encode_page(rgba, name, modes.get(name)) for name, rgba in packed.pages.items()}
         except PackRefused as e:
             sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
             texel_count = sum(w * h for w, h in sizes)
