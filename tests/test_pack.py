@@ -30,6 +30,9 @@ from spinemesh.upgrade import Options, upgrade_project
 
 runner = CliRunner()
 
+#: Random sample points per triangle (besides the vertices).
+POINTS = 60
+
 
 @pytest.fixture(scope="module")
 def meshed(tmp_path_factory) -> Path:
@@ -115,7 +118,7 @@ def test_meshes_sample_the_same_texels(meshed, tmp_path):
             continue
         uvs = np.asarray(ref.attachment["uvs"], float).reshape(-1, 2)
         tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-        pts = points_in_triangles(uvs, tris, 40, rng)
+        pts = points_in_triangles(uvs, tris, POINTS, rng)
         for name in image_paths(ref):  # a sequence's frames all draw with the mesh's UVs
             ra, rb = before.find(name), after.find(name)
             pa, pb = pages_a[ra.page], pages_b[rb.page]
@@ -262,7 +265,7 @@ def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "
             continue
         uvs = np.asarray(ref.attachment["uvs"], float).reshape(-1, 2)
         tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-        pts = points_in_triangles(uvs, tris, 40, rng)
+        pts = points_in_triangles(uvs, tris, POINTS, rng)
         for name in image_paths(ref):
             ra, rb = before.find(name), after.find(name)
             pa, pb = pages_a[ra.page], pages_b[rb.page]
@@ -309,3 +312,21 @@ def test_palette_pages_stay_palette_pages(meshed, tmp_path):
     assert result.atlases[0].status == "packed"
     assert Image.open(tmp_path / "out" / "demo.png").mode == "P"
     assert _sampled_alike(project, tmp_path / "out") >= 3
+
+
+def test_the_sampling_check_catches_a_footprint_one_texel_short(meshed, tmp_path, monkeypatch):
+    """Negative control: footprints eroded by one texel must make the sampling check fail."""
+    import cv2
+
+    from spinemesh.pack import outlines
+
+    real = outlines.sampled_texels
+
+    def short(*args):
+        return cv2.erode(real(*args).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+
+    monkeypatch.setattr(outlines, "sampled_texels", short)
+    result = pack_project(meshed, tmp_path / "out")
+    assert result.atlases[0].status == "packed"
+    with pytest.raises(AssertionError):
+        _sampled_alike(meshed, tmp_path / "out")

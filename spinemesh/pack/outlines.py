@@ -5,8 +5,8 @@ Everything here works in *upright* texel coordinates: the region's original imag
 the *content box*; the rest was stripped whitespace). A footprint is a window of that frame
 (it may reach beyond the image) with a mask of the texels that must travel with the region:
 
-- a region drawn by meshes only: every texel whose square a triangle of any of its meshes
-  touches, grown by one texel, which is all that bilinear sampling reads around a point;
+- a region drawn by meshes only: every texel that bilinear sampling may read while any of its
+  meshes' triangles is drawn (centres less than a texel from the triangle on both axes);
 - any other region: its stored rectangle grown by one texel (the quad's edge samples the
   texels just outside it).
 
@@ -74,24 +74,27 @@ def mesh_points(uvs: np.ndarray, g: RegionGeometry, honours_offsets: bool) -> np
     return uvs * (g.width, g.height) + (x0, y0)
 
 
-def raster_triangles(points: np.ndarray, triangles: np.ndarray, origin: tuple[int, int],
-                     shape: tuple[int, int]) -> np.ndarray:
-    """Texels whose square any triangle touches (conservative), shape ``shape``, bool.
+def sampled_texels(points: np.ndarray, triangles: np.ndarray, origin: tuple[int, int],
+                   shape: tuple[int, int]) -> np.ndarray:
+    """Texels that bilinear sampling may read while the triangles are drawn, shape ``shape``, bool.
 
     Parameters
     ----------
     points : ndarray, shape (N, 2)
-        Vertices in texel coordinates (a texel ``(i, j)`` is the square ``[i, i+1] x [j, j+1]``).
+        Vertices in texel coordinates (a texel ``(i, j)`` is the square ``[i, i+1] x [j, j+1]``,
+        its centre at ``(i + 0.5, j + 0.5)``).
     triangles : ndarray, shape (T, 3)
     origin : (int, int)
         The texel coordinates of the raster's top-left texel.
     shape : (int, int)
         ``(height, width)`` of the raster.
 
-    Drawn on a grid ``s`` times finer (``s`` = 4 unless the raster would exceed
-    :data:`MAX_RASTER`), grown by one fine cell, and reduced to texels: a texel is set when any
-    of its fine cells is, so every texel a triangle touches by more than a fine cell's width
-    is set, and the growth covers the rest.
+    A sample at ``p`` reads the texels whose centres lie less than one texel from ``p`` on
+    both axes. The triangles are drawn on a grid ``s`` times finer (``s`` = 4 unless the
+    raster would exceed :data:`MAX_RASTER`) and grown by one fine cell, so that every point of
+    a triangle lies in a set cell; a texel is then kept when a set cell lies within one texel
+    (plus half a cell) of its centre, which is every cell from ``s/2`` cells before its own to
+    ``s/2`` cells after.
     """
     import cv2
 
@@ -106,14 +109,8 @@ def raster_triangles(points: np.ndarray, triangles: np.ndarray, origin: tuple[in
     pts = np.clip(pts, -limit, limit).astype(np.int32)
     for tri in triangles:
         cv2.fillConvexPoly(fine, pts[tri], 1, lineType=cv2.LINE_8, shift=shift)
-    return block_any(fine, s, grow=1)[:h, :w]
-
-
-def grow_one(mask: np.ndarray) -> np.ndarray:
-    """``mask`` grown by one texel on every side, same shape (what bilinear sampling reads)."""
-    import cv2
-
-    return cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    fine = cv2.dilate(fine, np.ones((3, 3), np.uint8))
+    return block_any(fine, s, grow=-(-s // 2))[:h, :w]
 
 
 def rectangle_footprint(g: RegionGeometry, reason: str) -> Footprint:
@@ -156,10 +153,9 @@ def mesh_footprint(g: RegionGeometry, meshes: list[MeshUse]) -> Footprint | str:
     lo = np.floor(allpts.min(axis=0)).astype(int) - 2
     hi = np.ceil(allpts.max(axis=0)).astype(int) + 2
     shape = (int(hi[1] - lo[1]), int(hi[0] - lo[0]))
-    touched = np.zeros(shape, bool)
+    core = np.zeros(shape, bool)
     for pts, tri in zip(placed, tris):
-        touched |= raster_triangles(pts, tri, (int(lo[0]), int(lo[1])), shape)
-    core = grow_one(touched)
+        core |= sampled_texels(pts, tri, (int(lo[0]), int(lo[1])), shape)
     ys, xs = np.nonzero(core)
     if ys.size == 0:
         return "its meshes cover no texel"
