@@ -68,7 +68,7 @@ _Repack = Annotated[bool, typer.Option(
     "--repack/--no-repack", help="Mesh sequences whose frames were trimmed differently: their frames are "
                                  "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
                                  "is untouched; a frame's art on its trimmed border then also draws its "
-                                 "half-texel fringe). Default: such sequences stay regions.")]
+                                 "half-texel fringe). Default: such sequences stay regions; --pack implies it.")]
 _Pack = Annotated[bool, typer.Option(
     "--pack", help="Then pack the atlas pages anew by the upgraded meshes' outlines, as 'spinemesh pack' "
                    "does (skeletons unchanged; each atlas only when it gets smaller). Implies --repack: "
