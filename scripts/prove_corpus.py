@@ -187,17 +187,25 @@ def atlas_for(doc: dict, skeleton: Path, project_root: Path) -> tuple[Path | Non
     return atlases[0].path, ""
 
 
-def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
-                   animations: int = ANIMATIONS) -> Row:
-    """Render and dump ``skeleton`` and its upgrade in ``out``; fill in ``row``."""
+def renderable(skeleton: Path, project: Path, row) -> tuple[dict, Path | None]:
+    """``(document, atlas the harness loads)`` of ``skeleton``; without an atlas, ``row`` says why
+    it is not rendered. Fills ``row.version``."""
     doc = load_skeleton(skeleton)
     row.version = spine_version(doc)
     if row.version[:3] not in RENDERABLE:
         row.status, row.cause = "not rendered", f"Spine {row.version or '?'}: the harness has no runtime for it"
-        return row
+        return doc, None
     atlas, why = atlas_for(doc, skeleton, project)
     if atlas is None:
         row.status, row.cause = "not rendered", why
+    return doc, atlas
+
+
+def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
+                   animations: int = ANIMATIONS) -> Row:
+    """Render and dump ``skeleton`` and its upgrade in ``out``; fill in ``row``."""
+    doc, atlas = renderable(skeleton, project, row)
+    if atlas is None:
         return row
     ours = out / skeleton.relative_to(project)
     if not ours.is_file():

@@ -33,14 +33,14 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "scripts"))
 
-from prove_corpus import (CORPUS, RENDERABLE, TOLERANCE, atlas_for, harness_atlas, harness_copy,  # noqa: E402
-                          pose_list, prove_each, skins_to_render)
+from prove_corpus import (CORPUS, RENDERABLE, TOLERANCE, harness_atlas, harness_copy, pose_list,  # noqa: E402
+                          prove_each, renderable, skins_to_render)
 from runtime_tool import install, render, render_difference  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
 from spinemesh.project import find_project  # noqa: E402
-from spinemesh.skeleton import is_binary_skeleton, load_skeleton, spine_version  # noqa: E402
+from spinemesh.skeleton import is_binary_skeleton  # noqa: E402
 
 EXAMPLES = REPO.parent / "shared" / "spine-examples"
 
@@ -73,14 +73,8 @@ class Row:
 def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
                    packed_atlases: set[str], animations: int = ANIMATIONS) -> Row:
     """Render ``skeleton`` with its original atlas and with the packed one in ``out``; fill in ``row``."""
-    doc = load_skeleton(skeleton)
-    row.version = spine_version(doc)
-    if row.version[:3] not in RENDERABLE:
-        row.status, row.cause = "not rendered", f"Spine {row.version or '?'}: the harness has no runtime for it"
-        return row
-    atlas, why = atlas_for(doc, skeleton, project)
+    doc, atlas = renderable(skeleton, project, row)
     if atlas is None:
-        row.status, row.cause = "not rendered", why
         return row
     row.atlas = atlas.relative_to(project).as_posix()
     row.packed = row.atlas in packed_atlases
