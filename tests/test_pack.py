@@ -330,3 +330,17 @@ def test_the_sampling_check_catches_a_footprint_one_texel_short(meshed, tmp_path
     assert result.atlases[0].status == "packed"
     with pytest.raises(AssertionError):
         _sampled_alike(meshed, tmp_path / "out")
+
+
+def test_a_library_is_packed_project_by_project(meshed, tmp_path):
+    import shutil
+
+    from spinemesh.pack.run import pack_library
+
+    library = tmp_path / "library"
+    for name in ("a", "b/c"):
+        shutil.copytree(meshed, library / name, ignore=shutil.ignore_patterns(".*"))
+    result = pack_library(library, tmp_path / "out")
+    assert sorted(a.atlas for a in result.atlases) == ["a/demo.atlas", "b/c/demo.atlas"]
+    assert all(a.status == "packed" for a in result.atlases)
+    assert _sampled_alike(library / "b" / "c", tmp_path / "out" / "b" / "c") >= 3
