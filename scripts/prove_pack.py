@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import fnmatch
+import json
 import shutil
 import sys
 import tempfile
@@ -35,7 +36,7 @@ sys.path.insert(0, str(REPO / "scripts"))
 
 from prove_corpus import (CORPUS, RENDERABLE, TOLERANCE, harness_atlas, harness_copy, pose_list,  # noqa: E402
                           prove_each, renderable, skins_to_render)
-from runtime_tool import install, render, render_difference  # noqa: E402
+from runtime_tool import dump, install, render, render_difference  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
@@ -70,6 +71,25 @@ class Row:
     details: list = field(default_factory=list)
 
 
+def setup_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path, skin: str | None) -> Path | None:
+    """A frame file around what the setup pose draws (plus 25%), for a skeleton whose file has no
+    bounds (the harness frames by them); None when the file has them."""
+    bounds = doc.get("skeleton") or {}
+    if all(isinstance(bounds.get(k), (int, float)) for k in ("x", "y", "width", "height")):
+        return None
+    out = prefix.with_suffix(".dump.json")
+    dump(tool, atlas, skeleton, None, "", out, skin=skin)
+    points = [v for a in json.loads(out.read_text())["poses"][0]["attachments"] for v in a["vertices"]]
+    if not points:
+        return None
+    xs, ys = points[0::2], points[1::2]
+    w, h = max(xs) - min(xs), max(ys) - min(ys)
+    frame = {"x": min(xs) - w / 8, "y": min(ys) - h / 8, "width": w * 1.25, "height": h * 1.25}
+    path = prefix.with_suffix(".frame.json")
+    path.write_text(json.dumps({"frame": frame}))
+    return path
+
+
 def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
                    packed_atlases: set[str], animations: int = ANIMATIONS) -> Row:
     """Render ``skeleton`` with its original atlas and with the packed one in ``out``; fill in ``row``."""
@@ -89,7 +109,13 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
     problems = []
     for k, skin in enumerate(skins_to_render(doc)):
         these = (poses if k == 0 else poses.split(",")[0]) or None
-        a = render(tool, a_atlas, skel, None, "", work / f"a{k}", poses=these, skin=skin)
+        frame = setup_frame(tool, a_atlas, skel, doc, work / f"f{k}", skin)
+        a = render(tool, a_atlas, skel, None, "", work / f"a{k}", frame_from=frame, poses=these, skin=skin)
+        if frame is None:
+            shown = json.loads((work / f"a{k}.frame.json").read_text())["frame"]
+            if any(v is None for v in shown.values()):
+                row.status, row.cause = "not rendered", "the setup pose draws nothing and the file has no bounds"
+                return row
         b = render(tool, b_atlas, skel, None, "", work / f"b{k}", frame_from=work / f"a{k}.frame.json",
                    poses=these, skin=skin)
         if [p.name[2:] for p in a] != [p.name[2:] for p in b]:
