@@ -224,8 +224,17 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
         return sum(round_page(w, max_w, pot) * round_page(h, max_h, pot) for w, h in used)
 
     best = None
+    needed = sum(int(c[0].sum()) for c in candidates)
     for width in widths_for(list(range(len(items))), max_w):
-        placements, used = fill_pages(candidates, width, max_h, padding)
+        height = max_h
+        if best is not None and max_pages == 1:
+            # only a page of fewer texels than the best so far is worth finishing: cap its height
+            height = min(max_h, (best[0] - 1) // width)
+            if pot:
+                height = 1 << max(0, height.bit_length() - 1)
+            if width * height < needed:
+                continue
+        placements, used = fill_pages(candidates, width, height, padding, max_pages=max_pages)
         if any(p is None for p in placements) or len(used) > max_pages:
             continue
         if len(used) > 1:  # the last page holds the rest: it may do with a narrower page
@@ -247,9 +256,8 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     if pot:
         # powers of two round a used height up to the next one: try whole page sizes instead,
         # smallest first, from the least area that could hold the footprints
-        needed = sum(int(c[0].sum()) for c in candidates) / max_pages
         sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
-                        if needed <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
+                        if needed / max_pages <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
                        key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
         for w, h in sizes[:POT_TRIES]:
             placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages)
