@@ -195,7 +195,7 @@ def summary(rows: list[Row]) -> str:
             sum(1 for r in use if getattr(r, key) > getattr(r, of))
 
     has_b = [r for r in rows if r.b_texels is not None]
-    lines = ["| | page texels saved (total) | median atlas | atlases larger | pages before -> after | bytes saved |",
+    lines = ["| | page texels saved (total) | median atlas | atlases larger | pages before -> after | bytes on disk |",
              "|---|---:|---:|---:|---:|---:|"]
     for label, key, pages, byte_key, only in (
             ("(a) pack as exported", "a_texels", "a_pages", "a_bytes", None),
@@ -204,7 +204,7 @@ def summary(rows: list[Row]) -> str:
             ("(c) on the atlases of (b)", "c_texels", "c_pages", None, lambda r: r.b_texels is not None)):
         tot, med, larger = saving(key, only=only)
         use = [r for r in rows if only is None or only(r)]
-        byte = f"{saving(byte_key, 'bytes', only)[0]:.1%}" if byte_key else "-"
+        byte = f"{-saving(byte_key, 'bytes', only)[0]:+.1%}" if byte_key else "-"
         lines.append(f"| {label} | {tot:.1%} | {med:.1%} | {larger} | {sum(r.pages for r in use)} -> "
                      f"{sum(getattr(r, pages) or 0 for r in use)} | {byte} |")
     saved_a = total("texels") - total("a_texels")

