@@ -45,7 +45,7 @@ from spinemesh.atlas import read_atlas  # noqa: E402
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.images import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
-    MIN_PADDING, MIPMAP_PADDING, candidate_widths, is_power_of_two, measured_padding, round_page, uses_mipmaps,
+    candidate_widths, default_padding, is_power_of_two, round_page,
 )
 from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
 from spinemesh.project import find_project, project_atlases  # noqa: E402
@@ -81,9 +81,7 @@ def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, i
     import rectpack
 
     geometries = [r.geometry() for r in atlas.regions]
-    pad = max(max((measured_padding([g for r, g in zip(atlas.regions, geometries) if r.page == i])
-                   for i in range(len(atlas.pages))), default=0),
-              MIPMAP_PADDING if any(uses_mipmaps(p) for p in atlas.pages) else MIN_PADDING)
+    pad = default_padding(atlas, geometries)
     side = max(max(s) for s in sizes_before)
     max_area = max(w * h for w, h in sizes_before)
     pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes_before)

@@ -305,19 +305,32 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     if atlas.problems:
         raise PackRefused(f"the atlas has regions that cannot be read ({atlas.problems[0]})")
     sizes = [page_size(p, px) for p, px in zip(atlas.pages, pixels)]
-    # "no larger than the largest original page": no side longer than its longest side, no
-    # page of more texels than it has (a page may turn from wide to tall)
-    max_w = max_h = max(max(s) for s in sizes)
-    max_area = max(w * h for w, h in sizes)
-    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
     texels_before = sum(w * h for w, h in sizes)
     geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
+    pad = padding if padding is not None else default_padding(atlas, geometries)
+    items = _items(atlas, geometries, pixels, uses, pinned, rotate)
+    out, new_pages, region_page = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names)
+    texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
+    if texels_after >= texels_before:
+        raise PackRefused(f"packing would store {texels_after:,} page texels, not fewer than "
+                          f"the {texels_before:,} it has")
+    rotated = _rewrite_regions(out, region_page, geometries, atlas)
+    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
+    return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
+                       time.process_time() - t0, rotated)
+
+
+def default_padding(atlas: Atlas, geometries: list[RegionGeometry]) -> int:
+    """The original pages' measured padding, at least :data:`MIN_PADDING` (:data:`MIPMAP_PADDING` with mipmaps)."""
     measured = max((measured_padding([g for r, g in zip(atlas.regions, geometries) if r.page == i])
                     for i in range(len(atlas.pages))), default=0)
     mip = any(uses_mipmaps(p) for p in atlas.pages)
-    pad = padding if padding is not None else max(measured, MIPMAP_PADDING if mip else MIN_PADDING)
-    between_footprints = max(0, pad - RING_TEXELS)
+    return max(measured, MIPMAP_PADDING if mip else MIN_PADDING)
 
+
+def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarray], uses: dict[str, RegionUses],
+           pinned: str, rotate: bool) -> list[_Item]:
+    """Every region's footprint, its texels and the turns it may take, in atlas order."""
     first_of_name: dict[str, AtlasRegion] = {}
     for r in atlas.regions:
         first_of_name.setdefault(r.name, r)
@@ -339,24 +352,35 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
         item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
         item.masks = _item_masks(item)
         items.append(item)
+    return items
 
+
+def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], between: int, page_names):
+    """Place every group of pages' footprints and composite their texels.
+
+    Returns the new atlas (pages rewritten, regions not yet), its page images by name, and per
+    region index its new page index and geometry.
+    """
+    # "no larger than the largest original page": no side longer than its longest side, no
+    # page of more texels than it has (a page may turn from wide to tall)
+    max_side = max(max(s) for s in sizes)
+    max_area = max(w * h for w, h in sizes)
+    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
     out = copy.deepcopy(atlas)
     out.pages = []
-    style = next((e for r in atlas.regions for e in r.entries if len(e.values) > 1),
-                 Entry("", [], "  " if atlas.syntax == "3" else "", ", ", ": "))
     groups: dict[tuple, list[int]] = {}
     for i, p in enumerate(atlas.pages):
         groups.setdefault(page_settings(p), []).append(i)
     new_pages: dict[str, np.ndarray] = {}
     region_page: dict[int, tuple[int, RegionGeometry]] = {}
-    taken_names = set()
-    for gi, (settings, page_indices) in enumerate(groups.items()):
+    taken_names: set[str] = set()
+    for gi, page_indices in enumerate(groups.values()):
         members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
         template = atlas.pages[page_indices[0]]
         if not members:
             continue
-        placements, page_sizes = _pack_group([items[n] for n in members], max_w, max_h, max_area, pot,
-                                              between_footprints, len(page_indices))
+        placements, page_sizes = _pack_group([items[n] for n in members], max_side, max_side, max_area, pot,
+                                              between, len(page_indices))
         first = len(out.pages)
         for pi, (w, h) in enumerate(page_sizes):
             name = (page_names(gi, pi, template) if page_names else
@@ -371,16 +395,18 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
             k = item.turns[place.orientation]
             mask = item.masks[place.orientation]
             texels = np.rot90(item.texels, k)
-            page = new_pages[out.pages[first + place.page].name]
             h, w = mask.shape
-            view = page[place.y:place.y + h, place.x:place.x + w]
+            view = new_pages[out.pages[first + place.page].name][place.y:place.y + h, place.x:place.x + w]
             # only under the footprint: rectangles may overlap where footprints do not
             view[mask] = texels[mask]
             region_page[n] = (first + place.page, _stored_geometry(item, k, place.x, place.y))
-    texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
-    if texels_after >= texels_before:
-        raise PackRefused(f"packing would store {texels_after:,} page texels, not fewer than "
-                          f"the {texels_before:,} it has")
+    return out, new_pages, region_page
+
+
+def _rewrite_regions(out: Atlas, region_page: dict, geometries: list[RegionGeometry], atlas: Atlas) -> int:
+    """Give ``out``'s regions their new pages and geometry, in page order; how many were turned."""
+    style = next((e for r in atlas.regions for e in r.entries if len(e.values) > 1),
+                 Entry("", [], "  " if atlas.syntax == "3" else "", ", ", ": "))
     rotated = 0
     for n, r in enumerate(out.regions):
         page_index, g = region_page[n]
@@ -388,18 +414,16 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
         r.entries = geometry_entries(r, g, out.syntax, style)
         rotated += g.degrees != geometries[n].degrees
     # the regions are written page by page (Atlas.dumps): order them so
-    first_before = {}
+    first_before: dict[str, AtlasRegion] = {}
     for r in out.regions:
         first_before.setdefault(r.name, r)
     out.regions = sorted(out.regions, key=lambda r: r.page)
-    first_after = {}
+    first_after: dict[str, AtlasRegion] = {}
     for r in out.regions:
         first_after.setdefault(r.name, r)
     if any(first_after[name] is not r for name, r in first_before.items()):
         raise PackRefused("regions of the same name would change order, and runtimes use the first")
-    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
-    return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
-                       time.process_time() - t0, rotated)
+    return rotated
 
 
 def _page_name(atlas: Atlas, page_indices: list[int], index: int, taken: set[str]) -> str:
