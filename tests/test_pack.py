@@ -44,6 +44,15 @@ def meshed(tmp_path_factory) -> Path:
     return out
 
 
+def _copy(project: Path, dest: Path, skip: tuple[str, ...] = ()) -> Path:
+    """The project's files (not hidden ones, nor names ending in ``skip``) copied to ``dest``."""
+    dest.mkdir()
+    for f in project.iterdir():
+        if f.is_file() and not f.name.startswith(".") and not f.name.endswith(skip):
+            (dest / f.name).write_bytes(f.read_bytes())
+    return dest
+
+
 def _digest(folder: Path) -> dict:
     return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(folder.rglob("*")) if p.is_file()}
@@ -176,11 +185,7 @@ def test_regions_keep_rectangles_and_say_why(tmp_path):
 def test_jpeg_pages_are_kept(meshed, tmp_path):
     from PIL import Image
 
-    project = tmp_path / "jpeg"
-    project.mkdir()
-    for f in meshed.iterdir():
-        if f.is_file() and f.suffix != ".png" and not f.name.startswith("."):
-            (project / f.name).write_bytes(f.read_bytes())
+    project = _copy(meshed, tmp_path / "jpeg", skip=(".png",))
     Image.open(meshed / "demo.png").convert("RGB").save(project / "demo.jpg")
     text = (meshed / "demo.atlas").read_text().replace("demo.png", "demo.jpg")
     (project / "demo.atlas").write_text(text)
@@ -191,11 +196,7 @@ def test_jpeg_pages_are_kept(meshed, tmp_path):
 
 
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
-    project = tmp_path / "broken"
-    project.mkdir()
-    for f in meshed.iterdir():
-        if f.is_file() and not f.name.startswith("."):
-            (project / f.name).write_bytes(f.read_bytes())
+    project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')
     result = pack_project(project, tmp_path / "out")
     (row,) = result.atlases
@@ -301,11 +302,7 @@ def test_palette_pages_stay_palette_pages(meshed, tmp_path):
     """A page a quantiser wrote as a palette PNG is written back as one, texel for texel."""
     from PIL import Image
 
-    project = tmp_path / "palette"
-    project.mkdir()
-    for f in meshed.iterdir():
-        if f.is_file() and not f.name.startswith("."):
-            (project / f.name).write_bytes(f.read_bytes())
+    project = _copy(meshed, tmp_path / "palette")
     Image.open(meshed / "demo.png").quantize(colors=64, method=Image.Quantize.FASTOCTREE).save(project / "demo.png")
     assert Image.open(project / "demo.png").mode == "P"
     result = pack_project(project, tmp_path / "out")
