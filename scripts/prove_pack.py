@@ -10,7 +10,8 @@ renders (3.8, 4.0, 4.1, 4.2):
    frame: the setup pose, then two frames (0.3 s and 0.7 s) of up to three animations; with
    named skins, the first one too;
 3. compare the renders premultiplied: a render passes when no pixel differs by more than
-   2/255 (the upgrade proof's tolerance), apart from at most ``MAX_OFF_SHARE`` of its pixels.
+   2/255 (the upgrade proof's tolerance), apart from at most ``MAX_OFF_SHARE`` of its pixels
+   (1e-5: float32 UVs over a new page size, see there).
 
 The skeleton files are the very same bytes on both sides (packing changes atlases and pages
 only), so any difference comes from the pages.
@@ -45,9 +46,12 @@ from spinemesh.skeleton import is_binary_skeleton  # noqa: E402
 
 EXAMPLES = REPO.parent / "shared" / "spine-examples"
 
-#: A render passes with at most this share of its pixels over the tolerance: packing moves
-#: texels, never changes them, so renders are expected to be equal.
-MAX_OFF_SHARE = 0.0
+#: A render passes with at most this share of its pixels over the tolerance. Packing moves
+#: texels and never changes them, but the runtime computes UVs in float32 over the page size
+#: (``u = x / width``), so a new page size moves a sample by a tiny fraction of a texel, which
+#: can tip a pixel on a triangle's edge: measured on every third corpus project, one pixel of
+#: one render (jt-mia, 3/255, a share of 3.9e-7).
+MAX_OFF_SHARE = 1e-5
 
 #: Animations sampled per skeleton.
 ANIMATIONS = 3
