@@ -4,8 +4,8 @@ A representative share, to keep CI short: one project per harness runtime (3.8, 
 from the corpus, packed as they are (artists' meshes), and our own demo upgraded and then
 packed (4.2, stripped whitespace, a rotated region, a sequence). Each skeleton renders its
 setup pose and two frames of its first animation with the original and the packed atlas;
-every pixel must agree within 2/255 (but a share of 1e-5, see ``prove_pack.MAX_OFF_SHARE``). ``scripts/prove_pack.py`` proves every example and
-corpus project the same way.
+every pixel must agree within 2/255 (but a share of 1e-5, see ``prove_pack.MAX_OFF_SHARE``).
+``scripts/prove_pack.py`` proves every example and corpus project the same way.
 """
 
 from __future__ import annotations
