@@ -92,3 +92,8 @@ def check_file_size(path, what: str) -> None:
     size = os.stat(path).st_size
     if size > MAX_DOCUMENT_BYTES:
         raise LimitError(f"{what} of {size:,} bytes exceeds the limit of {MAX_DOCUMENT_BYTES:,} bytes", path)
+
+
+#: Decoded atlas pages a project keeps in memory at once (bytes of texels): each page is then
+#: decoded once however many skeletons share it, up to 64 pages of 2048x2048.
+MAX_PAGE_STORE_BYTES = 1 << 30

@@ -27,7 +27,7 @@ from pathlib import Path
 from .atlas import Atlas, read_atlas
 from .errors import SpineMeshError, UnsafePathError
 from .fsutil import is_within, real, regular_file, resolve_inside, walk_folder
-from .images import AtlasImages, FolderImages
+from .images import AtlasImages, FolderImages, PageStore
 from .skeleton import image_paths, iter_attachments
 
 #: Skeleton file names: the editor's, Unity's (``.json.txt``, ``.skel.bytes``) and Godot's
@@ -81,6 +81,7 @@ class Project:
     files: list[Path] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
     parsed_atlases: dict[Path, Atlas] | None = field(default=None, repr=False)
+    page_store: PageStore | None = field(default=None, repr=False)
 
 
 def _walk(root: Path, problems: list[str]) -> tuple[list[Path], list[Path]]:
@@ -183,6 +184,18 @@ def needed_images(doc: dict) -> set[str]:
     return needed
 
 
+def project_pages(project: Project) -> PageStore:
+    """The project's one store of decoded atlas pages, shared by every skeleton's image source.
+
+    Every :class:`~spinemesh.images.AtlasImages` that :func:`image_source_for` makes for the
+    project decodes through it, so a page that several skeletons, skins or sequences use is
+    decoded once. Call ``project_pages(project).release()`` once the regions are cut.
+    """
+    if project.page_store is None:
+        project.page_store = PageStore()
+    return project.page_store
+
+
 def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path | None = None):
     """The image source that serves a skeleton best.
 
@@ -215,7 +228,7 @@ def image_source_for(doc: dict, skeleton: Path, project: Project, images: Path |
         candidates.remove(best)
         missing = {n for n in missing if not best.find(n)}
     if chosen:
-        return AtlasImages(chosen, root=project.root)
+        return AtlasImages(chosen, root=project.root, pages=project_pages(project))
     folder = images_folder_for(doc, skeleton, project)
     return FolderImages(folder) if folder is not None else None
 

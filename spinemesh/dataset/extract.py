@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
-from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
+from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for, project_pages,  # noqa: F401 (re-exported)
                        images_folder_for, needed_images, project_atlases, skeletons_to_read)
 from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
                         iter_skins, linked_source, load_skeleton, spine_version)
@@ -212,8 +212,9 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
     source, source_at = None, None
     for w in ordered:
         if source_at != (w.kind, w.where):
-            # One source at a time, so only its page cache (two pages) is in memory.
-            source = (AtlasImages([atlases[w.where]], root=project.root) if w.kind == "atlas"
+            # one source per atlas, decoding through the project's pages (each decoded once)
+            source = (AtlasImages([atlases[w.where]], root=project.root, pages=project_pages(project))
+                      if w.kind == "atlas"
                       else FolderImages(w.where))
             source_at = (w.kind, w.where)
         try:

@@ -36,8 +36,7 @@ def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -
     if source == "auto":
         # A blank image (every pixel the same) holds no art for the network to find either:
         # its alpha is the answer (an empty mask for a fully transparent one).
-        blank = bool((image == image[:1, :1]).all())
-        if blank or (has_alpha and _segment().has_meaningful_alpha(image)):
+        if is_blank(image) or (has_alpha and _segment().has_meaningful_alpha(image)):
             source = "alpha"
         else:
             source = "model"
@@ -45,6 +44,30 @@ def compute_mask(image: np.ndarray, source: str = "alpha", threshold: int = 8) -
         return foreground(image, threshold)
     mask = _segment().predict_mask(np.ascontiguousarray(image[:, :, :3]))
     return np.asarray(mask, dtype=bool)
+
+
+#: Rows compared at a time by :func:`is_blank`: a few MB per step, so that art, which
+#: differs from its first pixel within a few rows, stops the scan at once.
+BLANK_ROWS = 64
+
+
+def is_blank(image: np.ndarray) -> bool:
+    """Whether every pixel of ``image`` equals its first one (every channel).
+
+    Compared a band of :data:`BLANK_ROWS` rows at a time, stopping at the first band that
+    differs: linear in the pixels for a blank image, a few rows' work for a sprite (whole-image
+    ``(image == image[0, 0]).all()`` built a full boolean copy of a 6000x6000 image first).
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, C)
+
+    Returns
+    -------
+    bool
+    """
+    first = image[:1, :1]
+    return all(bool((image[y:y + BLANK_ROWS] == first).all()) for y in range(0, image.shape[0], BLANK_ROWS))
 
 
 def _segment():

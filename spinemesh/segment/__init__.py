@@ -196,7 +196,7 @@ def has_meaningful_alpha(rgba: np.ndarray, threshold: int = ALPHA_THRESHOLD, min
     """
     if rgba.ndim != 3 or rgba.shape[2] < 4 or rgba.size == 0:
         return False
-    fg = float(alpha_mask(rgba, threshold).mean())
+    fg = np.count_nonzero(alpha_mask(rgba, threshold)) / (rgba.shape[0] * rgba.shape[1])  # = mean, without a float pass
     return min_fraction <= fg <= 1.0 - min_fraction
 
 

@@ -1,0 +1,311 @@
+"""Where users wait: a library upgrade by phase, one large sprite, and ``dataset``, before and after.
+
+    git worktree add --detach /tmp/main-before main      # the code to compare against
+    nice -n 10 .venv/bin/python benchmarks/bench_speed.py --before /tmp/main-before
+    nice -n 10 .venv/bin/python benchmarks/bench_speed.py --before /tmp/main-before --only sprite
+
+Every measurement runs in a fresh process, once with the code of ``--before`` on
+``PYTHONPATH`` and once with this checkout's, one after the other, and the table puts the two
+side by side with their ratio (before / after: above 1 is faster now).
+
+``upgrade``: ``upgrade_library`` of a folder of corpus projects (``--projects``, default a
+fixed list of 30 that holds the projects where most skeletons share one atlas, the 60-page
+and 11-page atlases, WebP pages and premultiplied pages) with ``--jobs`` workers. Columns:
+the run's own phase timings (read/plan, mesh, write; wall seconds as the run reports them),
+wall and CPU seconds of the whole process (parent and workers), the atlas pages decoded, and
+the image encodes: Pillow ``tobytes`` and ``save`` calls and OpenCV ``imencode`` calls made in
+the planning process. The outputs of the two runs are compared byte for byte.
+
+``sprite``: ``spinemesh mesh`` on two 6000x6000 sprites written by this script (a textured
+one, :func:`bench_mesher.textured_sprite`, and a corpus page scaled 1.5x and tiled), start-up
+excluded: CPU seconds of loading, mask and meshing, as the command runs them; the
+``mesh.json`` files are compared byte for byte. Then the decoders side by side on the same
+files (CPU seconds, best of three, texels checked equal).
+
+``dataset``: ``build_dataset`` of the same projects with ``--jobs`` workers: samples, wall,
+samples/s, CPU seconds (parent and workers) and samples per CPU-second (x cores = the rate on
+an idle machine); the data sets are compared byte for byte (their ``index`` rows included).
+
+The machine may be shared: the load average is printed, CPU seconds are the fairer figure,
+and both runs of a row are made back to back so that they meet the same load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+CORPUS = REPO.parent / "shared" / "spine-corpus"
+
+#: 30 corpus projects: the ten with several skeletons on one atlas, the largest atlases (60, 17
+#: and 11 pages), premultiplied and WebP pages, and others of every Spine version.
+PROJECTS = (
+    "stake-symbols", "kraken-symbols", "gtl-symbols", "nf-symbols", "cm-symbols", "dq-symbols", "wg-symbols",
+    "dm-symbols", "jt-jungle", "degamex-degamers", "vsp-man", "dq-ui", "color-nature", "jt-people",
+    "pail-crowd-w1", "dm-ui", "ajpet-griffin", "wine-carriage", "coh-robot1", "gm-21454", "bmyq-bigwin",
+    "cafe-waiter", "hieu-char", "isk-bats", "js-bird", "sakura-girl", "tga-hero", "verse-neko", "wg-ui",
+    "zse-cabin",
+)
+
+#: Counters patched into the child process: page decodes and image encodes.
+COUNTERS = r"""
+import cv2, PIL.Image, spinemesh.images as _im
+COUNTS = {"decodes": 0, "encodes": 0}
+def _counting(f, key):
+    def wrapped(*a, **k):
+        COUNTS[key] += 1
+        return f(*a, **k)
+    return wrapped
+_im.load_rgba = _counting(_im.load_rgba, "decodes")
+PIL.Image.Image.tobytes = _counting(PIL.Image.Image.tobytes, "encodes")
+PIL.Image.Image.save = _counting(PIL.Image.Image.save, "encodes")
+cv2.imencode = _counting(cv2.imencode, "encodes")
+"""
+
+UPGRADE = COUNTERS + r"""
+import json, resource, sys, time
+from spinemesh.upgrade import Options, upgrade_library
+library, out, jobs = sys.argv[1], sys.argv[2], int(sys.argv[3])
+t = time.perf_counter()
+r = upgrade_library(library, out, Options(jobs=jobs))
+wall = time.perf_counter() - t
+me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS}))
+"""
+
+SPRITE = r"""
+import json, sys, time
+from pathlib import Path
+from spinemesh.cli.mesh import _one
+from spinemesh.images import load_rgba
+from spinemesh.mesher import compute_mask, mesh_image, resolve_params
+image, out = Path(sys.argv[1]), Path(sys.argv[2])
+params = resolve_params("default", mask_source="auto")
+_one(image, "default", {"mask_source": "auto"}, out, None, None)  # what the command does, start-up excluded
+t0 = time.process_time(); w0 = time.perf_counter()
+_one(image, "default", {"mask_source": "auto"}, out, None, None)
+total, wall = time.process_time() - t0, time.perf_counter() - w0
+t0 = time.process_time(); rgba = load_rgba(image)
+t1 = time.process_time(); mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
+t2 = time.process_time(); mesh_image(rgba, params, mask=mask)
+t3 = time.process_time()
+print(json.dumps({"total": total, "wall": wall, "load": t1 - t0, "mask": t2 - t1, "mesh": t3 - t2}))
+"""
+
+DATASET = r"""
+import json, resource, sys, time
+from spinemesh.dataset import build_dataset
+library, out, jobs = sys.argv[1], sys.argv[2], int(sys.argv[3])
+t = time.perf_counter()
+s = build_dataset([library], out, jobs=jobs)
+wall = time.perf_counter() - t
+me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"wall": wall, "cpu": me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime,
+                  "samples": s.total_samples}))
+"""
+
+
+def tree_digest(folder: Path) -> str:
+    """One hash of every file's path and bytes under ``folder``."""
+    h = hashlib.sha256()
+    for p in sorted(folder.rglob("*")):
+        if p.is_file():
+            h.update(p.relative_to(folder).as_posix().encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def child(code: str, pythonpath: Path, *args) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(pythonpath)}
+    r = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, env=env)
+    if r.returncode != 0:
+        sys.exit(f"run with {pythonpath} failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def library_of(projects: list[str], folder: Path) -> Path:
+    """A folder of symlinks to the corpus projects (the projects themselves are only read)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in projects:
+        (folder / name).symlink_to(CORPUS / name, target_is_directory=True)
+    return folder
+
+
+def ratio(before: float, after: float) -> str:
+    return f"{before / after:6.2f}x" if after > 0 else "     -"
+
+
+def bench_upgrade(before: Path, library: Path, tmp: Path, jobs: int) -> bool:
+    rows = {}
+    for label, code in (("before", before), ("after", REPO)):
+        out = tmp / f"upgrade-{label}"
+        rows[label] = child(UPGRADE, code, library, out, jobs)
+        rows[label]["digest"] = tree_digest(out)
+        print(f"  upgrade {label}: {rows[label]['wall']:.1f} s", file=sys.stderr)
+    b, a = rows["before"], rows["after"]
+    print(f"\n## upgrade_library, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
+    print(f"{'':14} {'before':>9} {'after':>9} {'ratio':>7}")
+    for key, fmt in (("read", ".1f"), ("mesh", ".1f"), ("write", ".1f"), ("wall", ".1f"), ("cpu", ".1f"),
+                     ("decodes", "d"), ("encodes", "d"), ("meshed", "d")):
+        name = {"read": "read/plan s", "mesh": "mesh s", "write": "write s", "wall": "wall s", "cpu": "CPU s",
+                "decodes": "page decodes", "encodes": "image encodes", "meshed": "meshed"}[key]
+        print(f"{name:14} {b[key]:>9{fmt}} {a[key]:>9{fmt}} {ratio(b[key], a[key]) if key != 'meshed' else '':>7}")
+    share = a["read"] / max(a["read"] + a["mesh"] + a["write"], 1e-9)
+    print(f"{'read share':14} {b['read'] / max(b['read'] + b['mesh'] + b['write'], 1e-9):>9.0%} {share:>9.0%}")
+    same = b["digest"] == a["digest"]
+    print(f"same output bytes: {'yes' if same else 'NO'}")
+    return same
+
+
+def sprites(folder: Path) -> list[Path]:
+    """The two 6000x6000 sprites, written once into ``folder``."""
+    import cv2
+    import numpy as np
+    from PIL import Image
+
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from bench_mesher import textured_sprite
+
+    textured, tiled = folder / "textured-6000.png", folder / "tiled-6000.png"
+    if not textured.is_file():
+        Image.fromarray(textured_sprite(6000)).save(textured)
+    if not tiled.is_file():
+        with Image.open(CORPUS / "jt-jungle" / "jungle.png") as im:
+            page = np.array(im.convert("RGBA"))
+        page = cv2.resize(page, None, fx=1.5, fy=1.5, interpolation=cv2.INTER_CUBIC)
+        img = np.zeros((6000, 6000, 4), np.uint8)
+        h, w = page.shape[:2]
+        for y in range(0, 6000, h):
+            for x in range(0, 6000, w):
+                part = page[:6000 - y, :6000 - x]
+                img[y:y + part.shape[0], x:x + part.shape[1]] = part
+        img[:40], img[-40:], img[:, :40], img[:, -40:] = 0, 0, 0, 0  # a transparent border: a sprite
+        Image.fromarray(img).save(tiled)
+    return [textured, tiled]
+
+
+def bench_sprite(before: Path, images: list[Path], tmp: Path) -> bool:
+    same = True
+    print("\n## spinemesh mesh on a 6000x6000 sprite (CPU s, start-up excluded)\n")
+    print(f"{'sprite':18} {'step':8} {'before':>8} {'after':>8} {'ratio':>7}")
+    for image in images:
+        rows = {label: child(SPRITE, code, image, tmp / f"{image.stem}-{label}.mesh.json")
+                for label, code in (("before", before), ("after", REPO))}
+        for step in ("load", "mask", "mesh", "total", "wall"):
+            b, a = rows["before"][step], rows["after"][step]
+            name = "wall s" if step == "wall" else step
+            print(f"{image.stem:18} {name:8} {b:8.2f} {a:8.2f} {ratio(b, a):>7}")
+        same &= (tmp / f"{image.stem}-before.mesh.json").read_bytes() == (tmp / f"{image.stem}-after.mesh.json").read_bytes()
+    print(f"same mesh.json bytes: {'yes' if same else 'NO'}")
+    bench_decoders(images)
+    return same
+
+
+def bench_decoders(images: list[Path]) -> None:
+    """Pillow and OpenCV decodes of the same files, best CPU of three, texels checked equal."""
+    import time
+
+    import cv2
+    import numpy as np
+    from PIL import Image
+
+    def pil_array(p):
+        with Image.open(p) as im:
+            return np.array(im.convert("RGBA"))
+
+    def pil_asarray(p):
+        with Image.open(p) as im:
+            im.load()
+            return np.asarray(im if im.mode == "RGBA" else im.convert("RGBA"))
+
+    def cv2_imread(p):
+        a = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+        return cv2.cvtColor(a, cv2.COLOR_BGRA2RGBA, dst=a)
+
+    def cv2_imdecode(p):
+        a = cv2.imdecode(np.fromfile(p, np.uint8), cv2.IMREAD_UNCHANGED)
+        return cv2.cvtColor(a, cv2.COLOR_BGRA2RGBA, dst=a)
+
+    decoders = {"Pillow np.array (before)": pil_array, "Pillow np.asarray (after)": pil_asarray,
+                "cv2.imread + swap": cv2_imread, "cv2.imdecode + swap": cv2_imdecode}
+    print("\ndecoders (CPU s, best of 3):\n")
+    print(f"{'decoder':28} " + " ".join(f"{p.stem:>15}" for p in images))
+    best = {name: [float("inf")] * len(images) for name in decoders}
+    for i, p in enumerate(images):
+        ref = None
+        for _ in range(3):
+            for name, f in decoders.items():
+                t = time.process_time()
+                a = f(p)
+                best[name][i] = min(best[name][i], time.process_time() - t)
+                ref = a if ref is None else ref
+                assert np.array_equal(ref, a), f"{name} gives other texels for {p}"
+                del a
+    for name in decoders:
+        print(f"{name:28} " + " ".join(f"{s:15.2f}" for s in best[name]))
+    print("same texels: yes")
+
+
+def bench_dataset(before: Path, library: Path, tmp: Path, jobs: int) -> bool:
+    rows = {}
+    for label, code in (("before", before), ("after", REPO)):
+        out = tmp / f"dataset-{label}"
+        rows[label] = child(DATASET, code, library, out, jobs)
+        rows[label]["digest"] = tree_digest(out)
+        print(f"  dataset {label}: {rows[label]['wall']:.1f} s", file=sys.stderr)
+    b, a = rows["before"], rows["after"]
+    print(f"\n## dataset, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
+    print(f"{'':18} {'before':>9} {'after':>9} {'ratio':>7}")
+    print(f"{'samples':18} {b['samples']:>9d} {a['samples']:>9d}")
+    print(f"{'wall s':18} {b['wall']:>9.1f} {a['wall']:>9.1f} {ratio(b['wall'], a['wall']):>7}")
+    print(f"{'samples/s (wall)':18} {b['samples'] / b['wall']:>9.0f} {a['samples'] / a['wall']:>9.0f} "
+          f"{ratio(a['wall'], b['wall']):>7}")
+    print(f"{'CPU s':18} {b['cpu']:>9.1f} {a['cpu']:>9.1f} {ratio(b['cpu'], a['cpu']):>7}")
+    print(f"{'samples/CPU-s':18} {b['samples'] / b['cpu']:>9.0f} {a['samples'] / a['cpu']:>9.0f} "
+          f"{ratio(a['cpu'], b['cpu']):>7}")
+    same = b["digest"] == a["digest"]
+    print(f"same data set bytes: {'yes' if same else 'NO'}")
+    return same
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--before", type=Path, required=True, help="a checkout of the code to compare against")
+    ap.add_argument("--projects", nargs="+", default=list(PROJECTS), help="corpus project folders to upgrade")
+    ap.add_argument("--jobs", type=int, default=2, help="workers of the upgrade and dataset runs (default 2)")
+    ap.add_argument("--only", choices=("upgrade", "sprite", "dataset"), nargs="+",
+                    default=["upgrade", "sprite", "dataset"], help="which measurements (default all)")
+    ap.add_argument("--sprites", type=Path, default=Path(tempfile.gettempdir()) / "spinemesh-bench-sprites",
+                    help="where the 6000x6000 sprites are written once (default: the temporary folder)")
+    args = ap.parse_args()
+    if not (args.before / "spinemesh").is_dir():
+        sys.exit(f"{args.before} holds no spinemesh package")
+    missing = [p for p in args.projects if not (CORPUS / p).is_dir()]
+    if missing:
+        sys.exit(f"not in {CORPUS}: {', '.join(missing)}")
+    print(f"cores available: {len(os.sched_getaffinity(0))}, load average {os.getloadavg()[0]:.1f}, "
+          f"before: {args.before}")
+    same = True
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        library = library_of(args.projects, tmp / "library")
+        if "upgrade" in args.only:
+            same &= bench_upgrade(args.before, library, tmp, args.jobs)
+        if "sprite" in args.only:
+            args.sprites.mkdir(parents=True, exist_ok=True)
+            same &= bench_sprite(args.before, sprites(args.sprites), tmp)
+        if "dataset" in args.only:
+            same &= bench_dataset(args.before, library, tmp, args.jobs)
+    if not same:
+        sys.exit("outputs differ between before and after")
+
+
+if __name__ == "__main__":
+    main()
