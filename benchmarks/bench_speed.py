@@ -142,9 +142,9 @@ def ratio(before: float, after: float) -> str:
     return f"{before / after:6.2f}x" if after > 0 else "     -"
 
 
-def bench_upgrade(before: Path, library: Path, tmp: Path, jobs: int) -> bool:
+def bench_upgrade(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
     rows = {}
-    for label, code in (("before", before), ("after", REPO)):
+    for label, code in (("before", before), ("after", after)):
         out = tmp / f"upgrade-{label}"
         rows[label] = child(UPGRADE, code, library, out, jobs)
         rows[label]["digest"] = tree_digest(out)
@@ -191,13 +191,13 @@ def sprites(folder: Path) -> list[Path]:
     return [textured, tiled]
 
 
-def bench_sprite(before: Path, images: list[Path], tmp: Path) -> bool:
+def bench_sprite(before: Path, after: Path, images: list[Path], tmp: Path) -> bool:
     same = True
     print("\n## spinemesh mesh on a 6000x6000 sprite (CPU s, start-up excluded)\n")
     print(f"{'sprite':18} {'step':8} {'before':>8} {'after':>8} {'ratio':>7}")
     for image in images:
         rows = {label: child(SPRITE, code, image, tmp / f"{image.stem}-{label}.mesh.json")
-                for label, code in (("before", before), ("after", REPO))}
+                for label, code in (("before", before), ("after", after))}
         for step in ("load", "mask", "mesh", "total", "wall"):
             b, a = rows["before"][step], rows["after"][step]
             name = "wall s" if step == "wall" else step
@@ -253,9 +253,9 @@ def bench_decoders(images: list[Path]) -> None:
     print("same texels: yes")
 
 
-def bench_dataset(before: Path, library: Path, tmp: Path, jobs: int) -> bool:
+def bench_dataset(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
     rows = {}
-    for label, code in (("before", before), ("after", REPO)):
+    for label, code in (("before", before), ("after", after)):
         out = tmp / f"dataset-{label}"
         rows[label] = child(DATASET, code, library, out, jobs)
         rows[label]["digest"] = tree_digest(out)
@@ -278,6 +278,7 @@ def bench_dataset(before: Path, library: Path, tmp: Path, jobs: int) -> bool:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--before", type=Path, required=True, help="a checkout of the code to compare against")
+    ap.add_argument("--after", type=Path, default=REPO, help="the code measured (default: this checkout)")
     ap.add_argument("--projects", nargs="+", default=list(PROJECTS), help="corpus project folders to upgrade")
     ap.add_argument("--jobs", type=int, default=2, help="workers of the upgrade and dataset runs (default 2)")
     ap.add_argument("--only", choices=("upgrade", "sprite", "dataset"), nargs="+",
@@ -285,24 +286,25 @@ def main() -> None:
     ap.add_argument("--sprites", type=Path, default=Path(tempfile.gettempdir()) / "spinemesh-bench-sprites",
                     help="where the 6000x6000 sprites are written once (default: the temporary folder)")
     args = ap.parse_args()
-    if not (args.before / "spinemesh").is_dir():
-        sys.exit(f"{args.before} holds no spinemesh package")
+    for code in (args.before, args.after):
+        if not (code / "spinemesh").is_dir():
+            sys.exit(f"{code} holds no spinemesh package")
     missing = [p for p in args.projects if not (CORPUS / p).is_dir()]
     if missing:
         sys.exit(f"not in {CORPUS}: {', '.join(missing)}")
     print(f"cores available: {len(os.sched_getaffinity(0))}, load average {os.getloadavg()[0]:.1f}, "
-          f"before: {args.before}")
+          f"before: {args.before}, after: {args.after}")
     same = True
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         library = library_of(args.projects, tmp / "library")
         if "upgrade" in args.only:
-            same &= bench_upgrade(args.before, library, tmp, args.jobs)
+            same &= bench_upgrade(args.before, args.after, library, tmp, args.jobs)
         if "sprite" in args.only:
             args.sprites.mkdir(parents=True, exist_ok=True)
-            same &= bench_sprite(args.before, sprites(args.sprites), tmp)
+            same &= bench_sprite(args.before, args.after, sprites(args.sprites), tmp)
         if "dataset" in args.only:
-            same &= bench_dataset(args.before, library, tmp, args.jobs)
+            same &= bench_dataset(args.before, args.after, library, tmp, args.jobs)
     if not same:
         sys.exit("outputs differ between before and after")
 

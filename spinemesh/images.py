@@ -411,8 +411,13 @@ class AtlasImages:
             found = self._page_files[key] = self.page_path(atlas, atlas.pages[page_index].name, self.root)
         return found
 
-    def get(self, name: str) -> RegionImage:
-        """The original-size image of region ``name``. Raises :class:`ImageError` if absent."""
+    def get(self, name: str, coverage: bool = True) -> RegionImage:
+        """The original-size image of region ``name``. Raises :class:`ImageError` if absent.
+
+        ``coverage=False`` (a data set, which stores texels only) leaves out what the page
+        adds to :attr:`RegionImage.drawn` and :attr:`RegionImage.shown` (premultiplied
+        light, the bleed-in border): they are then the alpha defaults, as from an images folder.
+        """
         found = self._index.get(name)
         if found is None:
             raise ImageError(f"no atlas region named {name!r}", self.atlases[0].path if self.atlases else None)
@@ -426,6 +431,8 @@ class AtlasImages:
         g = region.geometry(str(atlas.path))
         top = g.original_height - g.offset_y - g.height
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
+        if not coverage:
+            return RegionImage(rgba, page.scale, name, str(page_path), content)
         drawn = channel_max(stored) > 0 if page.pma else rgba[..., 3] > 0
         shown = shown_texels(stored, page.pma)
         bleed = bleeding_in(pixels, region, page.pma, str(atlas.path))
@@ -461,7 +468,8 @@ class FolderImages:
                 out.append(p.relative_to(self.folder).with_suffix("").as_posix())
         return out
 
-    def get(self, name: str) -> RegionImage:
+    def get(self, name: str, coverage: bool = True) -> RegionImage:
+        """The image ``name`` at its size; ``coverage`` is for :meth:`AtlasImages.get`'s sake (same here)."""
         p = self.path_of(name)
         if p is None:
             raise ImageError(f"no image {name!r} (looked for {', '.join(name + e for e in IMAGE_EXTENSIONS)})",

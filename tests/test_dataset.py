@@ -265,3 +265,18 @@ def test_a_game_with_only_a_3_8_binary_skeleton(corpus, tmp_path):
     for r in meshes:
         v = ds.load_mesh(r)["vertices"]
         assert (v >= -1).all() and (v <= (r["width"] + 1, r["height"] + 1)).all()
+
+
+def test_shard_offsets_are_where_a_tar_reader_finds_each_member(tmp_path):
+    import tarfile
+
+    from spinemesh.dataset.format import write_shard
+
+    members = [(f"{i:032x}.png", bytes(range(256)) * i + b"x" * (i % 7)) for i in range(6)]
+    offsets = write_shard(tmp_path / "s.tar", members)
+    with tarfile.open(tmp_path / "s.tar") as tar:
+        assert offsets == {m.name: (m.offset_data, m.size) for m in tar.getmembers()}
+    data = (tmp_path / "s.tar").read_bytes()
+    for name, payload in members:
+        start, size = offsets[name]
+        assert data[start:start + size] == payload

@@ -8,7 +8,8 @@ from PIL import Image
 
 from spinemesh.atlas import parse_atlas, read_atlas
 from spinemesh.errors import AtlasError, ImageError, UnsafePathError
-from spinemesh.images import AtlasImages, FolderImages, cut_region, premultiply, unpremultiply
+from spinemesh.images import (AtlasImages, FolderImages, PageStore, channel_max, cut_region, load_rgba, premultiply,
+                              unpremultiply)
 
 from conftest import example_projects
 
@@ -172,3 +173,74 @@ def test_page_formats(tmp_path, fmt, suffix, exact):
     assert got.shape == (2, 4, 4)
     diff = np.abs(got.astype(int) - pixels[2:4, 1:5].astype(int)).max()
     assert diff == 0 if exact else diff <= 16
+
+
+def _unpremultiply_by_division(rgba):
+    """The division unpremultiply used to make, texel by texel: the table must give the same."""
+    a = rgba[..., 3:4].astype(np.uint32)
+    safe = np.maximum(a, 1)
+    straight = np.where(a > 0, np.minimum((rgba[..., :3].astype(np.uint32) * 255 + safe // 2) // safe, 255), 0)
+    return np.concatenate([straight.astype(np.uint8), rgba[..., 3:4]], axis=-1)
+
+
+def test_unpremultiply_table_gives_the_division_for_every_alpha_and_colour():
+    every = np.zeros((256, 256, 4), np.uint8)
+    every[..., 3] = np.arange(256)[:, None]
+    every[..., 0] = np.arange(256)[None, :]
+    every[..., 1] = 255 - every[..., 0]
+    every[..., 2] = every[..., 0] // 2
+    assert np.array_equal(unpremultiply(every), _unpremultiply_by_division(every))
+
+
+def test_channel_max_is_the_largest_channel_also_of_a_view():
+    rng = np.random.default_rng(2)
+    page = rng.integers(0, 256, (40, 50, 4), dtype=np.uint8)
+    view = page[3:30, 7:41]
+    assert np.array_equal(channel_max(view), view.max(axis=-1))
+
+
+def test_loaded_pixels_are_the_files_texels_and_read_only(tmp_path):
+    rng = np.random.default_rng(3)
+    rgba = rng.integers(0, 256, (17, 23, 4), dtype=np.uint8)
+    Image.fromarray(rgba).save(tmp_path / "a.png")
+    Image.fromarray(rgba[..., :3]).save(tmp_path / "b.png")
+    got = load_rgba(tmp_path / "a.png")
+    assert np.array_equal(got, rgba) and got.dtype == np.uint8
+    with pytest.raises(ValueError):
+        got[0, 0, 0] = 1  # shared by the regions cut from it
+    rgb = load_rgba(tmp_path / "b.png")
+    assert np.array_equal(rgb[..., :3], rgba[..., :3]) and (rgb[..., 3] == 255).all()
+
+
+def test_a_page_store_decodes_each_page_once_and_keeps_within_its_budget(tmp_path):
+    for name in ("p1.png", "p2.png", "p3.png"):
+        Image.new("RGBA", (8, 8), (10, 20, 30, 255)).save(tmp_path / name)
+    atlas_text = "".join(f"p{i}.png\n\tsize: 8, 8\nr{i}\n\tbounds: 0, 0, 4, 4\n" for i in (1, 2, 3))
+    (tmp_path / "a.atlas").write_text(atlas_text)
+    (tmp_path / "b.atlas").write_text(atlas_text.replace("\nr", "\ns"))
+    store = PageStore()
+    a = AtlasImages([read_atlas(tmp_path / "a.atlas")], pages=store)
+    b = AtlasImages([read_atlas(tmp_path / "b.atlas")], pages=store)
+    for _ in range(3):
+        for i in (1, 2, 3):
+            assert a.get(f"r{i}").rgba.shape == (4, 4, 4)
+            assert b.get(f"s{i}").rgba.shape == (4, 4, 4)
+    assert store.decodes == 3  # two atlases naming the same three files: three decodes in all
+    small = PageStore(max_bytes=8 * 8 * 4)  # room for one page
+    c = AtlasImages([read_atlas(tmp_path / "a.atlas")], pages=small)
+    for i in (1, 2, 1):
+        c.get(f"r{i}")
+    assert small.decodes == 3
+    store.release()
+    a.get("r1")
+    assert store.decodes == 4
+
+
+def test_an_untrimmed_region_is_a_view_of_its_page_and_a_trimmed_one_a_copy():
+    page = np.arange(6 * 6 * 4, dtype=np.uint8).reshape(6, 6, 4)
+    whole = parse_atlas("p.png\n\tsize: 6, 6\nr\n\tbounds: 1, 1, 3, 2\n").regions[0]
+    trimmed = parse_atlas("p.png\n\tsize: 6, 6\nr\n\tbounds: 1, 1, 3, 2\n\toffsets: 0, 0, 4, 2\n").regions[0]
+    assert np.shares_memory(cut_region(page, whole), page)
+    out = cut_region(page, trimmed)
+    assert not np.shares_memory(out, page) and out.shape == (2, 4, 4)
+    assert np.array_equal(out[:, :3], cut_region(page, whole))

@@ -262,3 +262,14 @@ def test_dense_real_sprite_has_no_slits(examples):
     mesh = mesh_image(img, density=4.0)
     assert_valid(mesh, img)
     assert mesh.is_interior.sum() > 100
+
+
+def test_a_blank_image_is_found_blank_band_by_band():
+    from spinemesh.mesher.mask import BLANK_ROWS, is_blank
+
+    image = np.zeros((BLANK_ROWS * 3 + 5, 7, 4), np.uint8)
+    image[...] = (1, 2, 3, 4)
+    assert is_blank(image)
+    image[-1, -1, 2] = 9  # one texel in the last, short band
+    assert not is_blank(image)
+    assert is_blank(np.zeros((0, 3, 4), np.uint8))

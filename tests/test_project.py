@@ -131,3 +131,16 @@ def test_images_hint_is_contained_by_real_path(tmp_path):
     proj = find_project(p)
     source = image_source_for(doc, p / "demo.json", proj)
     assert isinstance(source, FolderImages) and source.folder.name == "images" and not proj.problems
+
+
+def test_skeletons_sharing_an_atlas_decode_each_page_once(corpus, tmp_path, monkeypatch):
+    """Nine skeletons on one atlas page: one decode for the whole plan, not one per skeleton."""
+    import spinemesh.images as images
+    from spinemesh.upgrade import Options, upgrade_project
+
+    decoded = []
+    load = images.load_rgba
+    monkeypatch.setattr(images, "load_rgba", lambda path: decoded.append(path) or load(path))
+    result = upgrade_project(corpus / "stake-symbols", tmp_path / "out", Options(dry_run=True))
+    assert result.counts().get("would mesh", 0) > 50
+    assert len(decoded) == len(set(decoded)) == 1

@@ -218,7 +218,7 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
                       else FolderImages(w.where))
             source_at = (w.kind, w.where)
         try:
-            image = source.get(w.name)
+            image = source.get(w.name, coverage=False)  # texels are what a sample stores
         except SpineMeshError as e:
             result.skip("image unreadable")
             result.error(str(e))

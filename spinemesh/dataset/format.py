@@ -52,6 +52,7 @@ from PIL import Image
 
 from ..errors import SpineMeshError
 from ..foreground import ALPHA_THRESHOLD, alpha_mask
+from ..images import channel_max
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -76,8 +77,8 @@ def tight_box(rgba: np.ndarray) -> tuple[int, int, int, int]:
 
     At least 1x1, so that an empty image still has something to store.
     """
-    nonzero = np.ascontiguousarray(rgba).view(np.uint32)[..., 0] != 0
-    x, y, w, h = cv2.boundingRect(nonzero.astype(np.uint8))
+    nonzero = channel_max(rgba) != 0  # also for a view of a page, without copying it first
+    x, y, w, h = cv2.boundingRect(nonzero.view(np.uint8))
     return int(x), int(y), max(int(w), 1), max(int(h), 1)
 
 
@@ -169,17 +170,20 @@ def append_jsonl(path: Path, rows: list[dict]) -> None:
 def write_shard(path: Path, members: list[tuple[str, bytes]]) -> dict[str, tuple[int, int]]:
     """Write a tar shard atomically and return ``{member name: (data offset, size)}``.
 
-    The offsets are read back from the finished tar, so they are what a reader will find.
+    The offsets are those of the data as written (each member's data follows its header and
+    is padded to whole 512-byte blocks), which is where a reader finds it.
     """
     tmp = path.with_name(f".{path.name}.tmp")
+    offsets = {}
     with tarfile.open(tmp, "w", format=tarfile.USTAR_FORMAT) as tar:
         for name, data in members:
             info = tarfile.TarInfo(name)
             info.size = len(data)
             info.mode = 0o644
             tar.addfile(info, io.BytesIO(data))
-    with tarfile.open(tmp, "r") as tar:
-        offsets = {m.name: (m.offset_data, m.size) for m in tar.getmembers()}
+            # the data ends the member, padded to whole blocks: where it starts, as a reader finds it
+            padded = -(-len(data) // tarfile.BLOCKSIZE) * tarfile.BLOCKSIZE
+            offsets[name] = (tar.offset - padded, len(data))
     with open(tmp, "rb+") as f:
         os.fsync(f.fileno())
     os.replace(tmp, path)
