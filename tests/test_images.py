@@ -215,7 +215,7 @@ def test_loaded_pixels_are_the_files_texels_and_read_only(tmp_path):
 def test_a_page_store_decodes_each_page_once_and_keeps_within_its_budget(tmp_path):
     for name in ("p1.png", "p2.png", "p3.png"):
         Image.new("RGBA", (8, 8), (10, 20, 30, 255)).save(tmp_path / name)
-    atlas_text = "".join(f"p{i}.png\n\tsize: 8, 8\nr{i}\n\tbounds: 0, 0, 4, 4\n" for i in (1, 2, 3))
+    atlas_text = "\n".join(f"p{i}.png\n\tsize: 8, 8\nr{i}\n\tbounds: 0, 0, 4, 4\n" for i in (1, 2, 3))
     (tmp_path / "a.atlas").write_text(atlas_text)
     (tmp_path / "b.atlas").write_text(atlas_text.replace("\nr", "\ns"))
     store = PageStore()

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..images import FAINT_TEXEL, RegionImage, content_id
-from ..project import Project, image_source_for
+from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .geometry import frames_on_one_grid
 from .options import Options, skip_reason
@@ -308,6 +308,9 @@ def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan
         result.targets += targets
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
     result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
+    # every skeleton decoded its pages through this one store (each page once); the tasks hold
+    # the crops they mesh, so the pages need not outlive the planning
+    project_pages(proj).release()
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectPlan(proj, skeletons, planner.tasks, untrimmed=planner.untrimmed, options=options)
 
