@@ -80,7 +80,8 @@ r = upgrade_library(library, out, Options(jobs=jobs))
 wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
-print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS}))
+print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS,
+                  "code": _im.__file__}))
 """
 
 SPRITE = r"""
@@ -131,8 +132,11 @@ def tree_digest(folder: Path) -> str:
 
 
 def child(code: str, pythonpath: Path, *args) -> dict:
+    """Run ``code`` in a fresh interpreter that imports ``spinemesh`` from ``pythonpath``; its last line as JSON."""
     env = {**os.environ, "PYTHONPATH": str(pythonpath)}
-    r = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, env=env)
+    # -P: the current folder (this checkout) must not come before PYTHONPATH on sys.path
+    r = subprocess.run([sys.executable, "-P", "-c", code, *map(str, args)], capture_output=True, text=True, env=env,
+                       cwd=tempfile.gettempdir())
     if r.returncode != 0:
         sys.exit(f"run with {pythonpath} failed:\n{r.stderr[-3000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -156,7 +160,7 @@ def bench_upgrade(before: Path, after: Path, library: Path, tmp: Path, jobs: int
         out = tmp / f"upgrade-{label}"
         rows[label] = child(UPGRADE, code, library, out, jobs)
         rows[label]["digest"] = tree_digest(out)
-        print(f"  upgrade {label}: {rows[label]['wall']:.1f} s", file=sys.stderr)
+        print(f"  upgrade {label}: {rows[label]['wall']:.1f} s, spinemesh from {rows[label]['code']}", file=sys.stderr)
     b, a = rows["before"], rows["after"]
     print(f"\n## upgrade_library, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
     print(f"{'':14} {'before':>9} {'after':>9} {'ratio':>7}")
