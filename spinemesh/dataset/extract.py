@@ -21,8 +21,8 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
-from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for, project_pages,  # noqa: F401 (re-exported)
-                       images_folder_for, needed_images, project_atlases, skeletons_to_read)
+from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
+                       images_folder_for, needed_images, project_atlases, project_pages, skeletons_to_read)
 from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
                         iter_skins, linked_source, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
