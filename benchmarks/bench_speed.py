@@ -17,6 +17,10 @@ wall and CPU seconds of the whole process (parent and workers), the atlas pages 
 the image encodes: Pillow ``tobytes`` and ``save`` calls and OpenCV ``imencode`` calls made in
 the planning process. The outputs of the two runs are compared byte for byte.
 
+``read``: reading and planning alone (``upgrade_project`` with ``dry_run``) of every corpus
+project, one after the other in one process: CPU seconds and page decodes, in all and for the
+eight projects that took longest before.
+
 ``sprite``: ``spinemesh mesh`` on two 6000x6000 sprites written by this script (a textured
 one, :func:`bench_mesher.textured_sprite`, and a corpus page scaled 1.5x and tiled), start-up
 excluded: CPU seconds of the command's work and of its loading, mask and meshing, best of
@@ -107,6 +111,21 @@ for _ in range(repeat):  # best of: a shared machine only ever adds time
         best[k] = min(best[k], v)
     del rgba, mask
 print(json.dumps(best))
+"""
+
+READ = COUNTERS + r"""
+import json, sys, tempfile, time
+from pathlib import Path
+from spinemesh.upgrade import Options, upgrade_project
+rows = {}
+for folder in sys.argv[1:]:
+    before, t = COUNTS["decodes"], time.process_time()
+    try:
+        upgrade_project(folder, Path(tempfile.mkdtemp()) / "out", Options(dry_run=True))
+    except Exception:  # a project the reader refuses counts as nothing here
+        continue
+    rows[Path(folder).name] = (time.process_time() - t, COUNTS["decodes"] - before)
+print(json.dumps(rows))
 """
 
 DATASET = r"""
@@ -265,6 +284,22 @@ def bench_decoders(images: list[Path]) -> None:
     print("same texels: yes")
 
 
+def bench_read(before: Path, after: Path, projects: list[Path]) -> None:
+    """Reading and planning alone: a dry run of each project, one process, CPU seconds and page decodes."""
+    rows = {label: child(READ, code, *projects) for label, code in (("before", before), ("after", after))}
+    b, a = rows["before"], rows["after"]
+    print(f"\n## reading and planning (dry run), {len(a)} projects, one process\n")
+    print(f"{'project':22} {'CPU before':>10} {'CPU after':>10} {'ratio':>7} {'decodes before':>14} {'after':>6}")
+    worst = sorted(a, key=lambda k: -b.get(k, (0, 0))[0])[:8]
+    for name in ["all"] + worst:
+        if name == "all":
+            cb, db = sum(v[0] for v in b.values()), sum(v[1] for v in b.values())
+            ca, da = sum(v[0] for v in a.values()), sum(v[1] for v in a.values())
+        else:
+            (cb, db), (ca, da) = b[name], a[name]
+        print(f"{name:22} {cb:10.2f} {ca:10.2f} {ratio(cb, ca):>7} {db:14d} {da:6d}")
+
+
 def bench_dataset(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
     rows = {}
     for label, code in (("before", before), ("after", after)):
@@ -293,8 +328,8 @@ def main() -> None:
     ap.add_argument("--after", type=Path, default=REPO, help="the code measured (default: this checkout)")
     ap.add_argument("--projects", nargs="+", default=list(PROJECTS), help="corpus project folders to upgrade")
     ap.add_argument("--jobs", type=int, default=2, help="workers of the upgrade and dataset runs (default 2)")
-    ap.add_argument("--only", choices=("upgrade", "sprite", "dataset"), nargs="+",
-                    default=["upgrade", "sprite", "dataset"], help="which measurements (default all)")
+    ap.add_argument("--only", choices=("upgrade", "read", "sprite", "dataset"), nargs="+",
+                    default=["upgrade", "read", "sprite", "dataset"], help="which measurements (default all)")
     ap.add_argument("--repeat", type=int, default=3, help="sprite runs per side, the best kept (default 3)")
     ap.add_argument("--sprites", type=Path, default=Path(tempfile.gettempdir()) / "spinemesh-bench-sprites",
                     help="where the 6000x6000 sprites are written once (default: the temporary folder)")
@@ -313,6 +348,8 @@ def main() -> None:
         library = library_of(args.projects, tmp / "library")
         if "upgrade" in args.only:
             same &= bench_upgrade(args.before, args.after, library, tmp, args.jobs)
+        if "read" in args.only:  # every corpus project: reading is where pages are decoded
+            bench_read(args.before, args.after, sorted(p for p in CORPUS.iterdir() if p.is_dir()))
         if "sprite" in args.only:
             args.sprites.mkdir(parents=True, exist_ok=True)
             same &= bench_sprite(args.before, args.after, sprites(args.sprites), tmp, args.repeat)
