@@ -9,7 +9,7 @@ Every measurement runs in a fresh process, once with the code of ``--before`` on
 side by side with their ratio (above 1 is faster now: before / after for times, after / before
 for rates).
 
-``upgrade``: ``upgrade_library`` of a folder of corpus projects (``--projects``, default a
+``upgrade``: ``upgrade_library`` of a folder of copied corpus projects (``--projects``, default a
 fixed list of 30 that holds the projects where most skeletons share one atlas, the 60-page
 and 11-page atlases, WebP pages and premultiplied pages) with ``--jobs`` workers. Columns:
 the run's own phase timings (read/plan, mesh, write; wall seconds as the run reports them),
@@ -39,7 +39,6 @@ and both runs of a row are made back to back so that they meet the same load.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import subprocess
@@ -48,6 +47,9 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "benchmarks"))
+from bench_upgrade import tree_digest  # noqa: E402  (one hash of a folder's files for the benchmarks)
+
 CORPUS = REPO.parent / "shared" / "spine-corpus"
 
 #: 30 corpus projects: the ten with several skeletons on one atlas, the largest atlases (60, 17
@@ -84,8 +86,7 @@ r = upgrade_library(library, out, Options(jobs=jobs))
 wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
-print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS,
-                  "code": _im.__file__}))
+print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS}))
 """
 
 SPRITE = r"""
@@ -141,15 +142,6 @@ print(json.dumps({"wall": wall, "cpu": me.ru_utime + me.ru_stime + kids.ru_utime
 """
 
 
-def tree_digest(folder: Path) -> str:
-    """One hash of every file's path and bytes under ``folder``."""
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.relative_to(folder).as_posix().encode() + b"\0" + p.read_bytes())
-    return h.hexdigest()[:16]
-
-
 def child(code: str, pythonpath: Path, *args) -> dict:
     """Run ``code`` in a fresh interpreter that imports ``spinemesh`` from ``pythonpath``; its last line as JSON."""
     env = {**os.environ, "PYTHONPATH": str(pythonpath)}
@@ -161,11 +153,21 @@ def child(code: str, pythonpath: Path, *args) -> dict:
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
+def run_into(code: str, pythonpath: Path, label: str, library: Path, out: Path, jobs: int) -> dict:
+    """One side's run of ``code`` over ``library`` into ``out``: its figures and a digest of what it wrote."""
+    row = child(code, pythonpath, library, out, jobs)
+    row["digest"] = tree_digest(out)
+    print(f"  {label}: {row['wall']:.1f} s, spinemesh from {pythonpath}", file=sys.stderr)
+    return row
+
+
 def library_of(projects: list[str], folder: Path) -> Path:
-    """A folder of symlinks to the corpus projects (the projects themselves are only read)."""
+    """A folder holding copies of the corpus projects (``upgrade`` does not follow symlinked projects)."""
+    import shutil
+
     folder.mkdir(parents=True, exist_ok=True)
     for name in projects:
-        (folder / name).symlink_to(CORPUS / name, target_is_directory=True)
+        shutil.copytree(CORPUS / name, folder / name)
     return folder
 
 
@@ -174,13 +176,8 @@ def ratio(before: float, after: float) -> str:
 
 
 def bench_upgrade(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
-    rows = {}
-    for label, code in (("before", before), ("after", after)):
-        out = tmp / f"upgrade-{label}"
-        rows[label] = child(UPGRADE, code, library, out, jobs)
-        rows[label]["digest"] = tree_digest(out)
-        print(f"  upgrade {label}: {rows[label]['wall']:.1f} s, spinemesh from {rows[label]['code']}", file=sys.stderr)
-    b, a = rows["before"], rows["after"]
+    b, a = (run_into(UPGRADE, code, label, library, tmp / f"upgrade-{label}", jobs)
+            for label, code in (("before", before), ("after", after)))
     print(f"\n## upgrade_library, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
     print(f"{'':14} {'before':>9} {'after':>9} {'ratio':>7}")
     for key, fmt in (("read", ".1f"), ("mesh", ".1f"), ("write", ".1f"), ("wall", ".1f"), ("cpu", ".1f"),
@@ -201,7 +198,6 @@ def sprites(folder: Path) -> list[Path]:
     import numpy as np
     from PIL import Image
 
-    sys.path.insert(0, str(REPO / "benchmarks"))
     from bench_mesher import textured_sprite
 
     textured, tiled = folder / "textured-6000.png", folder / "tiled-6000.png"
@@ -301,13 +297,8 @@ def bench_read(before: Path, after: Path, projects: list[Path]) -> None:
 
 
 def bench_dataset(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
-    rows = {}
-    for label, code in (("before", before), ("after", after)):
-        out = tmp / f"dataset-{label}"
-        rows[label] = child(DATASET, code, library, out, jobs)
-        rows[label]["digest"] = tree_digest(out)
-        print(f"  dataset {label}: {rows[label]['wall']:.1f} s", file=sys.stderr)
-    b, a = rows["before"], rows["after"]
+    b, a = (run_into(DATASET, code, label, library, tmp / f"dataset-{label}", jobs)
+            for label, code in (("before", before), ("after", after)))
     print(f"\n## dataset, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
     print(f"{'':18} {'before':>9} {'after':>9} {'ratio':>7}")
     print(f"{'samples':18} {b['samples']:>9d} {a['samples']:>9d}")
