@@ -497,3 +497,41 @@ def content_id(rgba: np.ndarray, box: tuple[int, int, int, int]) -> str:
     digest.update(np.asarray(tuple(rgba.shape) + tuple(box), np.int64).tobytes())
     digest.update(np.ascontiguousarray(rgba[y:y + h, x:x + w]))
     return digest.hexdigest()[:32]
+
+
+def png_data_uri(rgba: np.ndarray) -> str:
+    """``rgba`` as a ``data:image/png;base64,...`` URI, for the HTML pages the commands write.
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (H, W, 4) or (H, W, 3), uint8
+
+    Examples
+    --------
+    >>> png_data_uri(np.zeros((2, 2, 4), np.uint8)).startswith("data:image/png;base64,")
+    True
+    """
+    import base64
+    import io
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=3)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def fit_within(rgba: np.ndarray, size: int) -> np.ndarray:
+    """``rgba`` shrunk (area averaging) so that its longer side is at most ``size`` pixels;
+    returned as it is when it already fits.
+
+    Examples
+    --------
+    >>> fit_within(np.zeros((40, 10, 4), np.uint8), 20).shape
+    (20, 5, 4)
+    """
+    import cv2
+
+    h, w = rgba.shape[:2]
+    k = size / max(h, w)
+    if k >= 1:
+        return rgba
+    return cv2.resize(rgba, (max(1, round(w * k)), max(1, round(h * k))), interpolation=cv2.INTER_AREA)

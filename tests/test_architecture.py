@@ -213,3 +213,37 @@ def test_few_long_functions_each_with_its_reason():
                         for f, line, name, n, reason in found)
     assert len(found) <= MAX_LONG, f"{len(found)} functions over {LONG_LINES} lines (at most {MAX_LONG}):\n{listing}"
     assert all(reason for *_, reason in found), f"a long function must say why above its def:\n{listing}"
+
+
+def package_graph(graph: dict[str, set[str]], root_name: str = "spinemesh") -> dict[str, set[str]]:
+    """The module graph folded onto the package's layers: each module counts as the subpackage
+    (or top-level module) of ``root_name`` it lies in, every import an edge between them,
+    wherever the import stands (a function's late import still makes its package depend on
+    the other)."""
+    def layer(module: str) -> str:
+        parts = module.split(".")
+        return ".".join(parts[:2]) if len(parts) > 1 else module
+
+    out: dict[str, set[str]] = {}
+    for module, targets in graph.items():
+        here = layer(module)
+        out.setdefault(here, set())
+        out[here] |= {layer(t) for t in targets if layer(t) != here and layer(t) != root_name}
+    return out
+
+
+def test_packages_are_layered():
+    """No two packages use each other, not even through imports inside functions: what two
+    commands share (the output folder, the mesh attachment geometry) sits below both."""
+    cycles = import_cycles(package_graph(import_graph(PACKAGE)))
+    assert not cycles, f"packages that import each other: {cycles}"
+
+
+def test_package_layering_check_finds_a_late_import(tmp_path):
+    demo = _write_package(tmp_path, {
+        "__init__.py": "",
+        "up/__init__.py": "",
+        "up/run.py": "from ..rig import bend\n",
+        "rig/__init__.py": "def bend():\n    from ..up.run import X\n",
+    })
+    assert import_cycles(package_graph(import_graph(demo), "demo")) == [["demo.rig", "demo.up"]]

@@ -12,7 +12,7 @@ import pytest
 
 from spinemesh.json_style import EDITOR_STYLE, JsonStyle, _items, _skip, detect_style, dumps, splice
 from spinemesh.skeleton import dumps_skeleton, is_binary_skeleton, iter_attachments
-from spinemesh.upgrade.geometry import mesh_attachment
+from spinemesh.attachment_geometry import mesh_attachment
 
 from conftest import CORPUS, EXAMPLES
 

@@ -134,7 +134,7 @@ def test_repacked_project_renders_like_the_original(trimmed_project, tmp_path):
 
 
 def test_cover_resample_covers_every_texel_in_relative_coordinates():
-    from spinemesh.upgrade.geometry import cover_resample
+    from spinemesh.attachment_geometry import cover_resample
 
     rng = np.random.default_rng(0)
     for _ in range(100):

@@ -16,7 +16,7 @@ from spinemesh.demo import make_demo_project
 from spinemesh.errors import SpineMeshError
 from spinemesh.skeleton import iter_attachments, load_skeleton
 from spinemesh.upgrade import Options, mesh_attachment, region_quad_transform, upgrade_project
-from spinemesh.upgrade.geometry import spine_triangles
+from spinemesh.attachment_geometry import spine_triangles
 
 
 @pytest.fixture()

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..fsutil import atomic_write_text
-from ..upgrade.preview import _fit, _png_uri
+from ..images import fit_within, png_data_uri
 
 #: Largest side, in pixels, of the largest page of an atlas in the picture.
 PAGE_SIZE = 640
@@ -33,8 +33,8 @@ table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-
 
 def _figure(name: str, rgba: np.ndarray, scale: float) -> str:
     h, w = rgba.shape[:2]
-    shown = _fit(rgba, max(1, round(max(h, w) * scale)))
-    return (f'<figure><img src="{_png_uri(shown)}" width="{shown.shape[1]}" height="{shown.shape[0]}" '
+    shown = fit_within(rgba, max(1, round(max(h, w) * scale)))
+    return (f'<figure><img src="{png_data_uri(shown)}" width="{shown.shape[1]}" height="{shown.shape[0]}" '
             f'alt="{html.escape(name)}"><figcaption>{html.escape(name)}: {w} x {h} = {w * h:,} texels'
             f'</figcaption></figure>')
 

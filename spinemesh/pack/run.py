@@ -263,7 +263,7 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     A skeleton file stands for its folder: an atlas is packed for every skeleton that loads
     it, so all of them are read.
     """
-    from ..upgrade.output import check_output_folder, output_folder
+    from ..output import check_output_folder, output_folder
 
     options = options or PackOptions()
     project, out = Path(project), Path(out)
@@ -279,7 +279,7 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
                  on_project=None) -> PackResult:
     """Pack every project under ``library`` into the same place under ``out``; one result."""
-    from ..upgrade.output import check_output_folder, output_folder
+    from ..output import check_output_folder, output_folder
 
     options = options or PackOptions()
     library, out = Path(library), Path(out)

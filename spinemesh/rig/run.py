@@ -20,7 +20,6 @@ from ..skeleton import load_skeleton
 from .document import Outcome, WeightOptions, build_rig, weight_document
 
 
-
 @dataclass
 class WeightResult(RunSummary):
     """Every mesh attachment's outcome, the skeletons written and the problems met."""
@@ -52,8 +51,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     -------
     WeightResult
     """
-    from ..upgrade.output import check_output_folder
-    from ..upgrade.write import copy_other_files, write_skeleton
+    from ..output import check_output_folder, copy_other_files, write_skeleton
 
     options = options or WeightOptions()
     out = Path(out)

@@ -12,7 +12,7 @@ Given the bone segments that cross the art, this adds, inside the hull:
    a bone.
 
 Then the mesh is triangulated again with the constrained Delaunay triangulation the
-upgrade uses (:func:`spinemesh.upgrade.geometry.spine_triangles`): the hull and the
+upgrade uses (:func:`spinemesh.attachment_geometry.spine_triangles`): the hull and the
 constrained edges stay as they are, and the new vertices are interior. New vertices get
 their UVs from the triangle of the old mesh they fall in (exact for an upgraded region,
 whose UVs are an affine map of its positions). The vertex budget holds: no more vertices
@@ -172,7 +172,7 @@ def add_rig_vertices(att: dict, segments_local: np.ndarray, parents: list[int | 
     int
         How many vertices were added (0 leaves ``att`` unchanged).
     """
-    from ..upgrade.geometry import spine_triangles
+    from ..attachment_geometry import spine_triangles
 
     uvs = np.asarray(att["uvs"], float).reshape(-1, 2)
     local = np.asarray(att["vertices"], float).reshape(-1, 2)

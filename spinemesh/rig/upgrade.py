@@ -75,7 +75,7 @@ class BendingRegions:
         SpineMeshError
             When the region's placement (``x``, ``y``, ``rotation``, ``scaleX`` ...) is not numbers.
         """
-        from ..upgrade.geometry import region_quad_transform
+        from ..attachment_geometry import region_quad_transform
 
         slot_bone = self.rig.slot_bone.get(ref.slot)
         if slot_bone is None or not self.rig.bones[slot_bone].exact:

@@ -9,8 +9,8 @@ rule that places a mesh where the region's quad was, :mod:`.repack` the atlases 
 sequences stored whole, :mod:`.preview` the HTML page.
 """
 
+from ..attachment_geometry import mesh_attachment, region_quad_transform, uvs_of
 from ..runs import EXIT_PARTIAL
-from .geometry import mesh_attachment, region_quad_transform, uvs_of
 from .library import is_library, upgrade_library
 from .options import Options
 from .report import Result, write_report

@@ -18,10 +18,10 @@ from typing import Callable
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
+from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
-from .output import check_output_folder, output_folder
 from .plan import ProjectPlan, plan_project
 from .report import Result, mark_would_mesh, merge
 from .run import finish_project

@@ -18,10 +18,10 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from ..attachment_geometry import spine_triangles
 from ..cluster import WorkerLost, Workers, open_workers
 from ..errors import SpineMeshError
 from ..mesher.worth import MAX_HULL_TOLERANCE
-from .geometry import spine_triangles
 from .options import Options
 from .plan import MeshTask
 

@@ -19,13 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..attachment_geometry import frames_on_one_grid
 from ..errors import SpineMeshError
 from ..images import FAINT_TEXEL, RegionImage, content_id
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
-from .geometry import frames_on_one_grid
+from .editor_images import write_editor_image
 from .options import Options, skip_reason
-from .output import write_editor_image
 from .report import Result, Target
 
 

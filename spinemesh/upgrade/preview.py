@@ -19,18 +19,17 @@ quarter of the texels); each upgraded attachment counts once.
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..attachment_geometry import region_quad_transform
 from ..fsutil import atomic_write_text
+from ..images import fit_within, png_data_uri
 from ..project import find_project, image_source_for
 from ..skeleton import AttachmentRef, image_paths, iter_skins, load_skeleton
-from .geometry import region_quad_transform
 
 #: Largest side of the setup-pose picture and of a sprite picture, pixels.
 POSE_SIZE = 900
@@ -95,24 +94,6 @@ def fill_rate(rgba: np.ndarray, box: tuple[int, int, int, int], uvs: np.ndarray,
     mesh = mesh_raster(uvs, triangles, w, h) & quad  # the mesh never draws outside what is stored
     clear = rgba[..., 3] == 0
     return FillRate(int(quad.sum()), int(mesh.sum()), int((quad & clear).sum()), int((mesh & clear).sum()))
-
-
-def _png_uri(rgba: np.ndarray) -> str:
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=3)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
-
-
-def _fit(rgba: np.ndarray, size: int) -> np.ndarray:
-    import cv2
-
-    h, w = rgba.shape[:2]
-    k = size / max(h, w)
-    if k >= 1:
-        return rgba
-    return cv2.resize(rgba, (max(1, round(w * k)), max(1, round(h * k))), interpolation=cv2.INTER_AREA)
 
 
 def _find(doc: dict, skin: str, slot: str, name: str) -> dict | None:
@@ -282,7 +263,7 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
                 corners = box @ (dst[1] - dst[0], dst[3] - dst[0]) + dst[0]
             points = " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
             wires.append(f'<polygon points="{points}" class="quad" stroke-width="1.2"/>')
-    png = _png_uri((canvas * 255).round().astype(np.uint8))
+    png = png_data_uri((canvas * 255).round().astype(np.uint8))
     caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
     return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
             f'alt="setup pose"><svg viewBox="0 0 {W} {H}" width="{W}" height="{H}">{"".join(wires)}</svg></div>')
@@ -320,7 +301,7 @@ def _pct(part: int, whole: int) -> str:
 def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) -> str:
     uvs, tris, hull = _mesh_arrays(att)
     h, w = rgba.shape[:2]
-    pic = _fit(rgba, CARD_SIZE - 20)
+    pic = fit_within(rgba, CARD_SIZE - 20)
     k = min((CARD_SIZE - 20) / max(w, h), 4.0)  # small sprites are shown up to 4x, texels kept square
     pw, ph = max(1, round(w * k)), max(1, round(h * k))
     x0, y0, x1, y1 = box
@@ -337,7 +318,7 @@ def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) ->
     who = html.escape(", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else ""))
     return (f'<div class="card"><div class="name">{html.escape(att.get("path") or names[0].rsplit("/", 1)[-1])}</div>'
             f'<div class="who">{who}</div>'
-            f'<div class="pic" style="width:{pw}px;height:{ph}px"><img src="{_png_uri(pic)}" width="{pw}" '
+            f'<div class="pic" style="width:{pw}px;height:{ph}px"><img src="{png_data_uri(pic)}" width="{pw}" '
             f'height="{ph}" alt="">{svg}</div>{table}'
             f'<div>transparent area no longer drawn: <b>{saved:,}</b> texels '
             f'({_pct(saved, rate.transparent_before)} of it)</div></div>')

@@ -31,10 +31,10 @@ from pathlib import Path
 from typing import Callable
 
 from ..cluster import Workers
+from ..output import check_output_folder, output_folder
 from ..project import find_project
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
-from .output import check_output_folder, output_folder
 from .pack import pack_written
 from .plan import ProjectPlan, plan_project
 from .report import Result, mark_would_mesh

@@ -3,7 +3,8 @@
 :func:`apply_project` puts each :class:`~.meshing.MeshResult` into the documents of a
 :class:`~.plan.ProjectPlan` (and, with ``--weights auto``, binds and weights the new
 meshes); :func:`write_skeletons` writes each document in the format and version it came in;
-:func:`copying_other_files` copies atlases, pages and everything else on threads meanwhile;
+:func:`copying_other_files` copies atlases, pages and everything else on threads meanwhile
+(what is copied: :func:`spinemesh.output.files_to_copy`);
 :func:`write_repacked_atlases` rewrites the atlases whose sequences ``--repack`` stores
 whole. Each problem is one line in the :class:`~.report.Result`, never an abort.
 """
@@ -15,11 +16,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterator
 
+from ..attachment_geometry import mesh_attachment
 from ..errors import SpineMeshError
-from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_text
-from ..project import Project
-from ..skeleton import dumps_skeleton, is_binary_skeleton, iter_attachments
-from .geometry import mesh_attachment
+from ..fsutil import atomic_copy
+from ..output import files_needed, files_to_copy, write_skeleton
+from ..skeleton import iter_attachments
 from .meshing import MeshResult
 from .plan import MeshTask, ProjectPlan
 from .repack import write_repacked_atlas
@@ -83,66 +84,6 @@ def write_skeletons(plan: ProjectPlan, out: Path, result: Result) -> None:
             continue
         result.written.append(sk.rel)
 
-
-def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
-    """Write ``doc`` to ``dest`` in the format ``path`` came in (binary ``.skel`` or JSON).
-
-    JSON keeps the text of ``path`` wherever ``doc`` did not change, in its formatting, so
-    that a version-control diff shows only the upgraded attachments.
-    """
-    if is_binary_skeleton(path):
-        from ..skeleton_binary import write_skel
-
-        atomic_write_bytes(dest, write_skel(doc, dest))
-    else:
-        original = path.read_bytes().decode("utf-8")  # a byte-order mark stays (splice keeps it)
-        atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))
-
-
-def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
-    """Copy every file of the project that is not a skeleton (atlases, pages, anything else)."""
-    for source, dest in files_to_copy(proj, out, written, needed):
-        atomic_copy(source, dest)
-
-
-def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None
-                  ) -> list[tuple[Path, Path]]:
-    """``(source, destination)`` of every file of the project that is copied as it is.
-
-    Every file but the skeletons (atlases, pages, anything else).
-
-    With ``needed`` (real paths), skeletons, atlases and images are copied only if listed: one
-    skeleton asked for does not bring its twins (``hero.json`` beside ``hero.skel``) or other
-    skeletons' atlases along; other files (a licence, audio) still come.
-    """
-    from ..images import IMAGE_EXTENSIONS
-    from ..project import ATLAS_SUFFIXES, is_skeleton_file
-
-    pairs = []
-    for f in proj.files:  # only files inside the project by real path (see find_project)
-        if f.resolve() in written:
-            continue
-        if f in proj.skeletons:
-            continue  # a skeleton that could not be upgraded is not copied as if it had been
-        if needed is not None and f.resolve() not in needed and (
-                f.suffix.lower() in IMAGE_EXTENSIONS or f.name.lower().endswith(ATLAS_SUFFIXES)
-                or is_skeleton_file(f)):
-            continue
-        pairs.append((f, out / f.relative_to(proj.root)))
-    return pairs
-
-
-def files_needed(doc: dict, source) -> set[Path]:
-    """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
-    from ..images import AtlasImages, FolderImages
-    from ..project import needed_images
-
-    if isinstance(source, AtlasImages):
-        return {Path(a.path).resolve() for a in source.atlases} | {
-            source.page_file(a, i).resolve() for a in source.atlases for i in range(len(a.pages))}
-    if isinstance(source, FolderImages):
-        return {p.resolve() for p in map(source.path_of, sorted(needed_images(doc))) if p is not None}
-    return set()
 
 
 #: Threads copying a project's other files (atlases, pages) while its skeletons are written.

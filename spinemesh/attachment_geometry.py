@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from ..skeleton import number
+from .skeleton import number
 
 #: JSON key order of a mesh attachment in the editor's export.
 MESH_KEY_ORDER = ("name", "type", "path", "color", "uvs", "triangles", "vertices", "hull",
@@ -261,7 +261,7 @@ def frames_on_one_grid(frames: list) -> list:
     """
     import cv2
 
-    from ..images import RegionImage
+    from .images import RegionImage
 
     if len({f.rgba.shape[:2] for f in frames}) <= 1:
         return frames
