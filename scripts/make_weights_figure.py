@@ -37,7 +37,7 @@ def main() -> None:
         image = np.asarray(Image.open(next((tmp / "preview").glob("*.png"))))
         rows = np.flatnonzero((image != image[0, 0]).any(axis=(1, 2)))
         image = image[max(rows[0] - 8, 0): rows[-1] + 8]  # crop the empty band above and below
-        out = REPO / "docs" / "weights-preview.png"
+        out = REPO / "docs" / "images" / "weights-preview.png"
         out.parent.mkdir(exist_ok=True)
         Image.fromarray(image).save(out, optimize=True)
         print(out, image.shape)

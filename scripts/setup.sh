@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Creates .venv and installs spinemesh with every extra the tests use (training, plots,
-# Dask cluster, test tools), then the system programs the tests drive: Node and npm for the
+# Dask cluster, the documentation site, test tools), then the system programs the tests drive: Node and npm for the
 # official Spine runtime, Chromium for the diff page. Safe to run again: it only installs
 # what is missing. Anything it cannot install stops it with the reason (no silent skips).
 set -euo pipefail
@@ -9,7 +9,7 @@ if [ ! -x .venv/bin/python ]; then
     python3 -m venv .venv
     .venv/bin/python -m pip install -q --upgrade pip
 fi
-.venv/bin/python -m pip install -q -e ".[train,stats,cluster,dev]"
+.venv/bin/python -m pip install -q -e ".[train,stats,cluster,docs,dev]"
 
 missing=()
 command -v node >/dev/null && command -v npm >/dev/null || missing+=(nodejs npm)

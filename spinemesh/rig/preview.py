@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..fsutil import atomic_write_png
-from ..skeleton import attachment_path, iter_attachments
+from ..skeleton import image_paths, iter_attachments
 from .binding import parse_vertices, setup_world
 from .bones import skeleton_bones
 
@@ -120,6 +120,14 @@ def picture(sprite: np.ndarray, uvs: np.ndarray, triangles: np.ndarray, mesh, we
     return np.concatenate([left, right], axis=1)
 
 
+def setup_image(ref) -> str:
+    """The image an attachment draws in the setup pose: its path, or its sequence's setup frame."""
+    frames = image_paths(ref)
+    sequence = ref.attachment.get("sequence")
+    setup = sequence.get("setup", 0) if isinstance(sequence, dict) else 0
+    return frames[setup if isinstance(setup, int) and 0 <= setup < len(frames) else 0]
+
+
 def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path) -> list[str]:
     """One PNG per weighted attachment in ``folder``; returns problems (one line each)."""
     from ..project import image_source_for
@@ -139,7 +147,7 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
         if (ref.skin, ref.slot, ref.name) not in done:
             continue
         try:
-            sprite = source.get(attachment_path(ref)).rgba
+            sprite = source.get(setup_image(ref)).rgba
         except SpineMeshError as e:
             problems.append(f"{skeleton.name} {ref.slot}/{ref.name}: no preview: {e}")
             continue
