@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -415,3 +416,22 @@ def _check_finite_or_explained(doc):
     assert len(bones) == len(doc["bones"])
     for b in bones:
         assert (b.exact and np.isfinite(b.world).all()) or (not b.exact and b.why), (b.name, b.why, b.world)
+
+
+def test_weights_preview_draws_a_sequence_mesh_from_its_setup_frame(tmp_path):
+    """A mesh drawing a sequence (the demo's spark) is previewed from its setup frame, not
+    looked up under the sequence's base name (which no atlas region has)."""
+    from spinemesh.rig.document import WeightOptions
+    from spinemesh.rig.run import weight_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = Path(__file__).resolve().parents[1] / "examples" / "demo"
+    upgrade_project(demo / "demo.json", tmp_path / "up", Options(min_saving=0))
+    doc = json.loads((tmp_path / "up" / "demo.json").read_text())
+    spark = [r for r in iter_attachments(doc) if r.attachment.get("sequence")]
+    assert spark and all(r.type == "mesh" for r in spark)
+    result = weight_project(tmp_path / "up", tmp_path / "w", WeightOptions(bones="auto"),
+                            preview=tmp_path / "prev")
+    assert result.errors == []
+    names = sorted(p.name for p in (tmp_path / "prev").glob("*.png"))
+    assert any("spark" in n for n in names), names
