@@ -104,3 +104,21 @@ def test_preview_legend_and_hole_loops_drawn_distinctly():
     assert pic.shape[0] > 400 and pic.shape[1] == 400  # a legend band below the picture
     # the hole loop is drawn in its own colour
     assert (np.abs(pic[:400].astype(int) - MAGENTA).sum(axis=2) < 30).sum() > 50
+
+
+def test_reasons_print_a_saving_below_the_limit_they_name():
+    """A saving of 4.8% against --min-saving 5% must not read "only 5% fewer (--min-saving 5%)"."""
+    from spinemesh.mesher.worth import art_share_reason, percents_below
+
+    assert percents_below(0.048, 0.05) == ("4.8%", "95.2%")
+    assert percents_below(0.0499, 0.05) == ("4.99%", "95.01%")
+    assert percents_below(0.04999, 0.05) == ("under 5%", "over 95%")
+    assert percents_below(0.02, 0.05) == ("2%", "98%")
+    square = np.array([[0, 0], [100, 0], [100, 100], [0, 100]], float)
+    reason = hull_reason(square, 100 / 0.952 ** 0.5, 100 / 0.952 ** 0.5, 0.05)  # saves 4.8%
+    assert "only 4.8% fewer pixels" in reason and "(--min-saving 5%)" in reason
+    mask = np.ones((100, 100), bool)
+    mask[:48, :10] = False  # 4.8% free
+    reason = art_share_reason(mask, 0.05)
+    assert "fills 95.2% of the region" in reason and "at most 4.8% fewer" in reason
+    assert "(--min-saving 12.5%)" in art_share_reason(mask, 0.125)

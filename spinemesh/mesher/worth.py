@@ -54,12 +54,37 @@ class NotWorthMeshing(ImageError):
     """The image is better drawn as a region; the message says why (it starts "not worth meshing")."""
 
 
+def percent(share: float) -> str:
+    """``share`` (0..1) as a percentage with the digits it needs, at most two: 0.05 -> "5%"."""
+    return f"{round(100 * share, 2):g}%"
+
+
+def percents_below(share: float, limit: float) -> tuple[str, str]:
+    """``share`` and ``1 - share`` as percentages, ``share`` reading as below ``limit``.
+
+    Rounding to whole percents would print a saving of 4.8% against a limit of 5% as "5%", which
+    reads as a contradiction; this uses the fewest decimals (0 to 2) that keep the printed share
+    below the printed limit, or "under" the limit when even two decimals do not.
+
+    Returns
+    -------
+    tuple of str
+        ``share`` (for example ``"4.8%"``) and its complement with the same decimals (``"95.2%"``).
+    """
+    share = min(max(share, 0.0), 1.0)
+    for digits in (0, 1, 2):
+        if round(100 * share, digits) < round(100 * limit, 2):
+            return f"{100 * share:.{digits}f}%", f"{100 * (1 - share):.{digits}f}%"
+    return f"under {percent(limit)}", f"over {percent(1 - limit)}"
+
+
 def art_share_reason(mask: np.ndarray, min_saving: float) -> str:
     """Rule 1: ``""``, or why no mesh of ``mask`` can save ``min_saving`` of the region."""
     share = float(np.count_nonzero(mask)) / max(mask.size, 1)
     if min_saving > 0 and 1.0 - share < min_saving:
-        return (f"not worth meshing: the art fills {share:.0%} of the region, so a mesh would draw "
-                f"at most {1 - share:.0%} fewer pixels (--min-saving {min_saving:.0%})")
+        free, filled = percents_below(1.0 - share, min_saving)
+        return (f"not worth meshing: the art fills {filled} of the region, so a mesh would draw "
+                f"at most {free} fewer pixels (--min-saving {percent(min_saving)})")
     return ""
 
 
@@ -88,8 +113,8 @@ def hull_reason(hull: np.ndarray, width: float, height: float, min_saving: float
     area = abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
     saving = 1.0 - area / max(float(width) * float(height), 1e-12)
     if min_saving > 0 and saving < min_saving:
-        return (f"not worth meshing: a mesh would draw only {max(saving, 0.0):.0%} fewer pixels than the "
-                f"region (--min-saving {min_saving:.0%})")
+        return (f"not worth meshing: a mesh would draw only {percents_below(saving, min_saving)[0]} fewer "
+                f"pixels than the region (--min-saving {percent(min_saving)})")
     saved = saving * float(width) * float(height)
     if len(hull) > max_vertices and saved < min_per_vertex * len(hull):
         return (f"not worth meshing: its outline needs {len(hull)} vertices (more than {max_vertices}) to save "
