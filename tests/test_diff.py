@@ -104,6 +104,21 @@ def test_report_json_has_no_nan_or_infinity():
     json.dumps(doc, allow_nan=False)
 
 
+def test_report_md_says_why_a_method_failed():
+    """report.md names each failure with its reason, not only "failed"."""
+    from spinemesh.diff.report import to_markdown
+    from spinemesh.diff.run import DiffResult, DiffRow
+
+    ok = {"vertices": 8, "triangles": 6, "coverage": 1.0, "waste": 0.1, "adherence": 0.5,
+          "angle_ratio": 0.4, "hull_iou": 0.9, "chamfer": 1.5}
+    row = DiffRow("hero", "hero.json", "default", "arm", "arm", "arm", 10, 12, np.zeros((12, 10, 4), np.uint8),
+                  metrics={"artist": ok, "default": ok, "paper": {"error": "no pixel above alpha 128"}})
+    text = to_markdown(DiffResult([row], ("default", "paper"), []))
+    failed = text[text.index("## Failed"):]
+    assert "hero/hero.json arm/arm" in failed and "no pixel above alpha 128" in failed
+    assert "failed (see Failed)" in text
+
+
 # --------------------------------------------------------------------------- baselines
 def _disc_sprite(size=240, radius=100) -> np.ndarray:
     """An opaque disc with a 4x4 black-and-white checker inside (corners for Shi-Tomasi)."""

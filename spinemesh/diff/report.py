@@ -94,10 +94,18 @@ def rows_markdown(result: DiffResult) -> str:
         cells = []
         for m in methods:
             x = r.metrics[m]
-            cells.append("failed" if "error" in x else f"{x['vertices']} / {x['chamfer']:.1f} / {x['hull_iou']:.2f}")
+            cells.append("failed (see Failed)" if "error" in x else f"{x['vertices']} / {x['chamfer']:.1f} / {x['hull_iou']:.2f}")
         lines.append(f"| {r.project} | {r.skeleton} | {r.slot} | {r.attachment} | {r.width}x{r.height} | "
                      f"{a['vertices']}/{a['triangles']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def failures_markdown(result: DiffResult) -> str:
+    """Every method that failed on an attachment, with the reason (``""`` when none failed)."""
+    lines = [f"- {r.project}/{r.skeleton} {r.slot}/{r.attachment}, {METHOD_LABELS.get(m, m)}: "
+             f"{r.metrics[m]['error']}" for r in result.rows for m in result.methods
+             if "error" in r.metrics.get(m, {})]
+    return "".join(line + "\n" for line in lines)
 
 
 def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
@@ -114,6 +122,9 @@ def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
         "\n## Per attachment\n",
         rows_markdown(result),
     ]
+    failures = failures_markdown(result)
+    if failures:
+        parts += ["\n## Failed\n", failures]
     if result.skipped:
         parts.append("\n## Skipped\n")
         parts += [f"- {s['project']}/{s['skeleton']} {s['slot']}/{s['attachment']}: {s['reason']}\n"
@@ -266,7 +277,7 @@ _JS = """
       c.querySelector('p').textContent = x && !('error' in x) ?
         'artist ' + r.metrics.artist.vertices + ' vertices, ' + m + ' ' + x.vertices + ' vertices; hull IoU ' +
         fmt(x.hull_iou, 'hull_iou') + ', Chamfer ' + fmt(x.chamfer, 'chamfer') + ' px, coverage ' + fmt(x.coverage, 'coverage')
-        : m + ' failed';
+        : m + ' failed: ' + ((x && x.error) || 'no mesh');
     });
     render();
   }
