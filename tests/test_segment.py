@@ -6,6 +6,8 @@ without ../shared.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -334,3 +336,29 @@ def test_onnx_matches_torch(encoder, tmp_path, one_thread):
     q = quantize_int8(fp32, tmp_path / "m.int8.onnx", inputs)
     assert q.stat().st_size < fp32.stat().st_size / 2.5
     assert parity(model, q, inputs)["mask_pixels_differing"] < 0.05
+
+
+def test_segment_eval_table_headers_are_whole_at_80_columns(tmp_path):
+    """Every column name of the score table is printed in full in an 80-column terminal."""
+    from typer.testing import CliRunner
+
+    from spinemesh.cli import app
+    from spinemesh.dataset import build_dataset
+
+    import shutil
+
+    from spinemesh.dataset import split_of
+
+    assert split_of("project") == "val"  # the split hashes the game name: this one is held out
+    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "demo", tmp_path / "in" / "project")
+    build_dataset([tmp_path / "in"], tmp_path / "ds", jobs=1)
+    res = CliRunner().invoke(app, ["segment-eval", "--data", str(tmp_path / "ds"), "--per-project", "2",
+                                   "--backgrounds", "solid,gradient", "--baselines", "floodfill"],
+                             env={"COLUMNS": "80"})
+    assert res.exit_code == 0, res.output
+    header = next(line for line in res.output.splitlines() if "background" in line and "method" in line)
+    assert len(header.rstrip()) <= 80
+    for name in ("background", "method", "IoU", "IoU med", "Dice", "Dice med", "acc", "failed", "ms/image"):
+        assert name in header, (name, header)
+    assert "…" not in res.output
+    assert "gradient" in res.output and "floodfill" in res.output

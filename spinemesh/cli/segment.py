@@ -132,13 +132,17 @@ def _background_kinds(backgrounds: str) -> list[str]:
 
 def _scores_table(sprites: list, games: list[str], scores: dict):
     """``segment-eval``'s table: a row per background kind and method (``scores[kind][method]``)."""
+    from rich import box
     from rich.table import Table
 
+    # Headers short enough for 80 columns, and never cut: each column at least as wide as its name.
     table = Table(title=f"{len(sprites)} held-out sprites from {len({s.project for s in sprites})} projects "
-                        f"of {len(games)} games ({', '.join(games)}) per background")
-    for col in ("background", "method", "IoU mean", "IoU median", "Dice mean", "Dice median", "pixel acc",
-                "failed", "ms/image"):
-        table.add_column(col, justify="left" if col in ("background", "method") else "right")
+                        f"of {len(games)} games ({', '.join(games)}) per background",
+                  box=box.SIMPLE_HEAD, pad_edge=False, show_edge=False, collapse_padding=True,
+                  caption="IoU and Dice: mean and median; acc: pixel accuracy")
+    for col in ("background", "method", "IoU", "IoU med", "Dice", "Dice med", "acc", "failed", "ms/image"):
+        table.add_column(col, justify="left" if col in ("background", "method") else "right",
+                         no_wrap=True, min_width=len(col))
     for kind, per in scores.items():
         for name, s in per.items():
             table.add_row(kind, name, f"{s['iou']:.3f}", f"{s['iou_median']:.3f}", f"{s['dice']:.3f}",
