@@ -16,19 +16,33 @@ from ..errors import escaped
 from ._app import console, err_console
 
 
-def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Callable[[list], Sequence[str]]):
-    """A rich table with a line per skeleton: its name, then ``cells(its rows)`` under ``columns``."""
+def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Callable[[list], Sequence[str]],
+                   skeletons: Sequence[str] = (), width: int | None = None):
+    """A rich table with a line per skeleton: its name, then ``cells(its rows)`` under ``columns``.
+
+    ``skeletons`` are listed too when no row names them (``cells([])``). Names are shortened
+    (:func:`spinemesh.runs.short_names`) so that the table fits ``width`` columns (default:
+    the console's) and every line still names its own skeleton.
+    """
     from rich.markup import escape
     from rich.table import Table
 
-    table = Table(title=title)
-    for col in ("skeleton", *columns):
-        table.add_column(col, justify="right" if col != "skeleton" else "left")
+    from ..runs import short_names
+
     by_skel: dict[str, list] = {}
     for row in rows:
         by_skel.setdefault(row.skeleton, []).append(row)
+    for name in skeletons:
+        by_skel.setdefault(name, [])
+    # a cell is its text plus a space each side and a border: 3 characters more
+    room = (width or console.width) - sum(len(col) + 3 for col in columns) - 4
+    shown = short_names(list(by_skel), max(room, len("skeleton")))
+    table = Table(title=title)
+    table.add_column("skeleton", justify="left", no_wrap=True)
+    for col in columns:
+        table.add_column(col, justify="right", no_wrap=True)
     for name, group in by_skel.items():
-        table.add_row(escape(escaped(name)), *cells(group))
+        table.add_row(escape(escaped(shown[name])), *cells(group))
     return table
 
 
@@ -40,15 +54,53 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
     """
     from rich.markup import escape
 
-    reasons: dict[str, int] = {}
+    from ..runs import reason_groups
+
     for row in rows:
-        if row.status == skipped:
-            reasons[reason(row)] = reasons.get(reason(row), 0) + 1
-        elif row.status == "failed":
+        if row.status == "failed":
             err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
                 f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}: {row.reason}")),
                 highlight=False)
-    for why, n in sorted(reasons.items()):
-        console.print(f"{skipped_label}: {n} ({why})", highlight=False, markup=False)
+    for why, n, variants in reason_groups([reason(row) for row in rows if row.status == skipped]):
+        more = f"; {variants - 1} more like it with other figures" if variants > 1 else ""
+        console.print(f"{skipped_label}: {n} ({escaped(why)}{more})", highlight=False, markup=False)
     for e in errors:
         err_console.print(f"[red]error:[/] {escape(escaped(e))}", highlight=False)
+
+
+def weights_lines(targets: Sequence) -> list[str]:
+    """What ``upgrade --weights auto`` did, in a few lines (none when weights were not asked for).
+
+    Counts the new meshes bound to bones, how many bones they follow (those over two or more
+    bend), the regions meshed only because they bend, those put back as regions because their
+    mesh got one bone, and the meshes left unweighted, by reason.
+    """
+    import statistics
+
+    from ..runs import reason_groups
+
+    asked = [t for t in targets if t.weights is not None]
+    if not asked:
+        return []
+    meshed = [t for t in asked if t.status == "meshed"]
+    weighted = [t for t in meshed if t.weights.get("status") == "weighted"]
+    bones = [len(t.weights.get("bones") or {}) for t in weighted]
+    bending = [n for n in bones if n > 1]
+    line = f"bones: {len(weighted)} of {len(meshed)} new meshes weighted"
+    if bending:
+        spread = f"{min(bending)}-{max(bending)}" if min(bending) < max(bending) else f"{min(bending)}"
+        line += (f": {len(bending)} bend over {spread} bones"
+                 f" (median {statistics.median(bending):g}), {len(bones) - len(bending)} follow one bone")
+    elif weighted:
+        line += ", each to one bone (no bone crosses their art)"
+    to_bend = sum(bool(t.weights.get("meshed_to_bend")) for t in meshed)
+    back = sum(t.status == "kept" and t.weights.get("meshed_to_bend") is False for t in asked)
+    if to_bend:
+        line += f"; {to_bend} of them meshed only to bend (the keep rule would have kept them)"
+    lines = [line]
+    if back:
+        lines.append(f"bones: {back} regions that might bend stayed regions (their mesh follows one bone)")
+    done = {id(t) for t in weighted}
+    unweighted = [t.weights.get("reason") or t.weights.get("status", "") for t in meshed if id(t) not in done]
+    lines += [f"bones: {n} meshes not weighted ({why})" for why, n, _ in reason_groups(unweighted)]
+    return lines

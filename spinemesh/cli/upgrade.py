@@ -14,7 +14,7 @@ import typer
 
 from .weights import Weights
 from ._app import (
-    Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite, progress_bar,
+    Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
 )
 
 
@@ -156,7 +156,10 @@ def upgrade(
     if preview is not None and not dry_run and result.written:
         from ..upgrade.preview import write_preview
 
-        page = write_preview(result, project, out, preview, images_in=images_in)
+        with phase_bars() as bars:
+            task = bars.add_task("preview", total=len(result.written), project="")
+            page = write_preview(result, project, out, preview, images_in=images_in,
+                                 on_skeleton=lambda: bars.advance(task))
         console.print(f"preview: {page}", highlight=False, markup=False)
     _exit(result, nothing)
 
@@ -173,28 +176,64 @@ def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
                               "beside it", path)
 
 
+def phase_bars():
+    """A rich progress display on stderr with one bar per phase: its name, the bar, steps done of
+    those known, elapsed time and time left, and (library runs) the project being written."""
+    from rich.progress import (
+        BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
+    )
+
+    return Progress(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=24), MofNCompleteColumn(),
+                    TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(),
+                    TextColumn("{task.fields[project]}"), console=err_console.real, transient=True)
+
+
+def _phase_progress(bars):
+    """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (one task per phase)."""
+    from ..upgrade.progress import Progress
+
+    class Bars(Progress):
+        def __init__(self) -> None:
+            self.tasks: dict[str, int] = {}
+            self.current = ""
+
+        def add(self, phase: str, steps: int) -> None:
+            if phase not in self.tasks:
+                self.tasks[phase] = bars.add_task(phase, total=0, project=self.current)
+            task = self.tasks[phase]
+            bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+
+        def advance(self, phase: str, steps: int = 1) -> None:
+            if phase in self.tasks:
+                bars.advance(self.tasks[phase], steps)
+
+        def project(self, name: str) -> None:
+            self.current = name
+            for task in self.tasks.values():
+                bars.update(task, project=name)
+
+    return Bars()
+
+
 def _run(project: Path, out: Path, options, library: bool):
-    """Upgrade ``project`` (a library when ``library``) with a progress bar of the unique images meshed."""
+    """Upgrade ``project`` (a library when ``library``) with a bar per phase (read, mesh, weights, write)."""
     from ..upgrade import upgrade_library, upgrade_project
 
-    with progress_bar("meshing", transient=True) as bar:
-        task = bar.add_task("unique images", total=None)
+    with phase_bars() as bars:
+        progress = _phase_progress(bars)
         if library:
-            def next_project(name: str) -> None:
-                bar.reset(task, total=None, description=f"unique images of {name}")
-
-            return upgrade_library(project, out, options, on_start=lambda n: bar.update(task, total=n),
-                                   on_progress=lambda n: bar.advance(task, n), on_project=next_project)
-        return upgrade_project(project, out, options,
-                               on_start=lambda n: bar.update(task, total=n),
-                               on_progress=lambda n: bar.advance(task, n))
+            return upgrade_library(project, out, options, progress)
+        return upgrade_project(project, out, options, progress)
 
 
 def _print_result(result, dry_run: bool) -> None:
-    """A table per skeleton, the timings, why regions were kept, what failed and the errors."""
+    """A table per skeleton, the timings, what the weights did, the skeletons not read, why regions
+    were kept, what failed and the other errors."""
     import statistics
 
-    from ._summary import print_left_alone, skeleton_table
+    from rich.markup import escape
+
+    from ._summary import print_left_alone, skeleton_table, weights_lines
 
     def cells(targets: list) -> list[str]:
         verts = [t.vertices for t in targets if t.status == "meshed"]
@@ -202,17 +241,24 @@ def _print_result(result, dry_run: bool) -> None:
                 str(sum(t.status == "kept" for t in targets)), str(sum(t.status == "failed" for t in targets)),
                 f"{statistics.median(verts):g}" if verts else "-"]
 
-    if result.targets:
+    if result.targets or result.written:
         console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""),
-                                     ("meshed", "kept as region", "failed", "median vertices"), result.targets, cells))
+                                     ("meshed", "kept", "failed", "median vertices"), result.targets, cells,
+                                     skeletons=result.written))
     s = result.seconds
-    console.print(f"read {s['read']:.1f} s, mesh {s['mesh']:.1f} s, write {s['write']:.1f} s"
-                  + (f", pack {s['pack']:.1f} s" if "pack" in s else ""))
+    console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in s.items() if phase != "weights"
+                            or seconds), highlight=False)
     if result.atlases:
         from .pack import print_pack_table
 
         print_pack_table(result.atlases)
-    print_left_alone(result.targets, result.errors, "kept", "kept as region", "left a region")
+    for line in weights_lines(result.targets):
+        console.print(line, highlight=False, markup=False)
+    for error in result.not_read.values():  # each names its file and says why
+        err_console.print(f"[red]not read:[/] {escape(error)}", highlight=False)
+    unread = set(result.not_read.values())
+    print_left_alone(result.targets, [e for e in result.errors if e not in unread],
+                     "kept", "kept as region", "left a region")
 
 
 def _exit(result, nothing: str) -> None:

@@ -128,6 +128,27 @@ def setup_image(ref) -> str:
     return frames[setup if isinstance(setup, int) and 0 <= setup < len(frames) else 0]
 
 
+def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarray:
+    """:func:`picture` of one weighted mesh attachment ``att`` of ``doc``: its vertices coloured
+    by bone in the setup pose, its bones, and the mesh with its bones turned by :data:`BEND`.
+
+    ``rig`` is :func:`.document.build_rig` of ``doc``; ``sprite`` the image it draws, RGBA.
+    """
+    mesh = parse_vertices(att, len(rig.bones))
+    ids = mesh.bones()
+    col = {b: i for i, b in enumerate(ids)}
+    wb = np.zeros((mesh.count, len(ids)))
+    for v, entry in enumerate(mesh.influences):
+        for b, _, _, wt in entry:
+            wb[v, col[b]] += wt
+    setup = skinned(mesh, rig.worlds)
+    bent = skinned(mesh, bent_worlds(doc, ids))
+    uvs = np.asarray(att["uvs"], float).reshape(-1, 2)
+    tris = np.asarray(att["triangles"], int).reshape(-1, 3)
+    segs = np.stack([rig.bones[b].segment() for b in ids])
+    return picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
+
+
 def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path) -> list[str]:
     """One PNG per weighted attachment in ``folder``; returns problems (one line each)."""
     from ..project import image_source_for
@@ -142,7 +163,6 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
         return [f"{skeleton.name}: no previews: {e}"]
     if source is None:
         return [f"{skeleton.name}: no previews: no atlas or images folder holds its images"]
-    names = [b.name for b in rig.bones]
     for ref in iter_attachments(doc):
         if (ref.skin, ref.slot, ref.name) not in done:
             continue
@@ -151,19 +171,7 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
         except SpineMeshError as e:
             problems.append(f"{skeleton.name} {ref.slot}/{ref.name}: no preview: {e}")
             continue
-        mesh = parse_vertices(ref.attachment, len(names))
-        ids = mesh.bones()
-        col = {b: i for i, b in enumerate(ids)}
-        wb = np.zeros((mesh.count, len(ids)))
-        for v, entry in enumerate(mesh.influences):
-            for b, _, _, wt in entry:
-                wb[v, col[b]] += wt
-        setup = skinned(mesh, rig.worlds)
-        bent = skinned(mesh, bent_worlds(doc, ids))
-        uvs = np.asarray(ref.attachment["uvs"], float).reshape(-1, 2)
-        tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-        segs = np.stack([rig.bones[b].segment() for b in ids])
-        image = picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
+        image = weighted_picture(doc, ref.attachment, rig, sprite)
         safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}")
         atomic_write_png(folder / f"{safe}.png", image)
     return problems

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -120,14 +121,16 @@ def _local_segments(rig, bone_ids: list[int], slot_bone: int) -> np.ndarray:
     return (segs - m[:, 2]) @ inv.T
 
 
-def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Rig | None = None) -> None:
+def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Rig | None = None,
+                    on_mesh: Callable[[], None] | None = None) -> None:
     """Bind and weight every mesh the upgrade made in ``doc`` (targets with status ``meshed``).
 
     Sets each target's ``weights`` (a report entry: status, reason, bones and why, bones left
     out) and, when vertices were added, its ``vertices`` and ``triangles`` counts. A target
     meshed only because it bends (its ``overruled`` holds the keep rule's reason) that is not
     weighted to more than one bone is put back as its region (``region``), kept with that reason.
-    ``rig`` is :func:`.document.build_rig` of ``doc`` when the caller has it already.
+    ``rig`` is :func:`.document.build_rig` of ``doc`` when the caller has it already;
+    ``on_mesh`` is called once per mesh treated (for progress bars).
     """
     by_place = {(t.skin, t.slot, t.name): t for t in targets if t.status == "meshed"}
     if not by_place:
@@ -138,6 +141,8 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
         t = by_place.get((ref.skin, ref.slot, ref.name))
         if t is None or ref.type != "mesh":
             continue
+        if on_mesh is not None:
+            on_mesh()
         before = copy.deepcopy(ref.attachment)
         outcome = Outcome(t.skeleton, ref.skin, ref.slot, ref.name)
         added = 0

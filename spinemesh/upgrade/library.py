@@ -14,7 +14,6 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
@@ -23,6 +22,7 @@ from ..project import find_project, find_projects
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
 from .plan import ProjectPlan, plan_project
+from .progress import SILENT, Progress
 from .report import Result, mark_would_mesh, merge
 from .run import finish_project
 
@@ -34,15 +34,14 @@ def is_library(folder: str | Path) -> bool:
 
 
 def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
-                    on_start: Callable[[int], None] | None = None,
-                    on_progress: Callable[[int], None] | None = None,
-                    on_project: Callable[[str], None] | None = None) -> Result:
+                    progress: Progress = SILENT) -> Result:
     """Upgrade every project under ``library`` into the same place under ``out``; one result.
 
     Projects are found as :func:`spinemesh.project.find_projects` finds them; each is
     upgraded as :func:`.run.upgrade_project` would, to ``out/<its path under library>``, on one
     set of workers started once. Files outside every project are not copied. In the
-    result, skeletons (and errors) are named by their path under ``library``.
+    result, skeletons (and errors) are named by their path under ``library``. ``progress``
+    is told each phase's work as projects are planned, meshed and written (:mod:`.progress`).
     """
     options = options or Options()
     library, out = Path(library), Path(out)
@@ -53,10 +52,10 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     with contextlib.ExitStack() as held:
         if not options.dry_run:
             held.enter_context(output_folder(out, options.overwrite))
-        return _upgrade_library(library, out, options, on_start, on_progress, on_project)
+        return _upgrade_library(library, out, options, progress)
 
 
-def _upgrade_library(library: Path, out: Path, options: Options, on_start, on_progress, on_project) -> Result:
+def _upgrade_library(library: Path, out: Path, options: Options, progress: Progress) -> Result:
     result = Result()
     from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
 
@@ -67,13 +66,11 @@ def _upgrade_library(library: Path, out: Path, options: Options, on_start, on_pr
     with open_workers(options.jobs, options.dask) as workers:
         ahead: deque[_LibraryProject] = deque()
         for folder in find_projects(library):
-            ahead.append(_start_library_project(library, folder, options, workers, cache, inflight))
+            ahead.append(_start_library_project(library, folder, options, workers, cache, inflight, progress))
             while ahead and sum(p.pixels for p in ahead) > AHEAD_PIXELS:
-                _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
-                                        on_start, on_progress, on_project)
+                _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
         while ahead:
-            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result,
-                                    on_start, on_progress, on_project)
+            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
     return result
 
 
@@ -99,37 +96,36 @@ class _LibraryProject:
 
 
 def _start_library_project(library: Path, folder: Path, options: Options, workers: Workers,
-                           cache: dict, inflight: dict) -> _LibraryProject:
+                           cache: dict, inflight: dict, progress: Progress) -> _LibraryProject:
     rel = folder.relative_to(library).as_posix()
     sub = dataclasses.replace(options, images_out=None if options.images_out is None
                               else Path(options.images_out) / rel)
     p = _LibraryProject(rel, sub, Result())
     try:
-        p.plan = plan_project(find_project(folder), sub, p.result)
+        p.plan = plan_project(find_project(folder), sub, p.result, progress)
     except SpineMeshError as e:
         p.result.errors.append(str(e))
         return p
     if not sub.dry_run:
         t0 = time.perf_counter()  # with workers, sending only; in this process, the meshing itself
         p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight)
+        progress.add("mesh", len(p.plan.tasks))
         p.result.seconds["mesh"] += time.perf_counter() - t0
     return p
 
 
 def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cache: dict, inflight: dict,
-                            result: Result, on_start, on_progress, on_project) -> None:
-    if on_project:
-        on_project(p.rel)
+                            result: Result, progress: Progress) -> None:
+    progress.project(p.rel)
     if p.plan is not None and p.options.dry_run:
         mark_would_mesh(p.result)
     elif p.plan is not None:
         t0 = time.perf_counter()
-        if on_start:
-            on_start(len(p.plan.tasks))
-        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, on_progress, cache, inflight)
+        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, lambda n: progress.advance("mesh", n),
+                                cache, inflight)
         p.result.seconds["mesh"] += time.perf_counter() - t0
         try:
-            finish_project(p.plan, meshes, out / p.rel, p.result)
+            finish_project(p.plan, meshes, out / p.rel, p.result, progress)
         except SpineMeshError as e:
             p.result.errors.append(str(e))
     merge(result, p.result, "" if p.rel == "." else p.rel + "/")

@@ -26,6 +26,7 @@ from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .editor_images import write_editor_image
 from .options import Options, skip_reason
+from .progress import SILENT, Progress
 from .report import Result, Target
 
 
@@ -290,18 +291,25 @@ class ProjectPlan:
     options: Options | None = None
 
 
-def plan_project(proj: Project, options: Options, result: Result) -> ProjectPlan:
-    """Read every skeleton of ``proj`` and plan its regions; unreadable skeletons go to ``result.errors``."""
+def plan_project(proj: Project, options: Options, result: Result, progress: Progress = SILENT) -> ProjectPlan:
+    """Read every skeleton of ``proj`` and plan its regions.
+
+    Unreadable skeletons go to ``result.errors`` and ``result.not_read``; the others are
+    planned all the same. ``progress`` is told each skeleton read (phase ``read``).
+    """
     t0 = time.perf_counter()
     planner = Planner(options)
     skeletons = []
+    progress.add("read", len(proj.skeletons))
     for path in proj.skeletons:
+        progress.advance("read")
         rel = path.relative_to(proj.root).as_posix()
         try:
             doc = load_skeleton(path)
             source = image_source_for(doc, path, proj, images=options.images_in)
         except SpineMeshError as e:
             result.errors.append(str(e))
+            result.not_read[rel] = str(e)
             continue
         bending = bending_regions(doc) if options.weights == "auto" else None
         targets = planner.plan_skeleton(doc, rel, source, bending)

@@ -193,7 +193,7 @@ def pose_skins(doc: dict) -> list[str]:
     return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
 
 
-def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
+def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]], draw_bones: bool = False) -> str:
     """HTML (a PNG under an SVG) of a skeleton's setup pose, with the wireframes of ``upgraded``.
 
     Parameters
@@ -204,6 +204,9 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
         Where the images come from (see :func:`spinemesh.project.image_source_for`).
     upgraded : set of (skin, slot, attachment name)
         Attachments whose wireframe is drawn.
+    draw_bones : bool
+        Also draw every bone with a length (a green line from its origin, a dot at the origin),
+        as ``--weights auto`` binds meshes to them.
     """
     from ..errors import SpineMeshError
     from ..rig.bones import skeleton_bones
@@ -263,6 +266,12 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]]) -> str:
                 corners = box @ (dst[1] - dst[0], dst[3] - dst[0]) + dst[0]
             points = " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
             wires.append(f'<polygon points="{points}" class="quad" stroke-width="1.2"/>')
+    if draw_bones:
+        for bone in bones:
+            if bone.length > 0 and np.isfinite(bone.world).all():
+                (x0, y0), (x1, y1) = to_canvas(bone.segment())
+                wires.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" class="bone"/>'
+                             f'<circle cx="{x0:.1f}" cy="{y0:.1f}" r="2.5" class="joint"/>')
     png = png_data_uri((canvas * 255).round().astype(np.uint8))
     caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
     return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
@@ -286,6 +295,8 @@ table.sum td:first-child,table.sum th:first-child{text-align:left}
 .card td{padding:1px 6px}.card td:nth-child(2),.card td:nth-child(3){text-align:right}
 svg .tri{fill:none;stroke:#e0582b;stroke-opacity:.9}svg .hull{fill:none;stroke:#1f5fd1}
 svg .quad{fill:none;stroke:#c00;stroke-dasharray:5 4}
+svg .bone{stroke:#0a7d3b;stroke-width:2.5;stroke-linecap:round;opacity:.85}svg .joint{fill:#0a7d3b}
+.note{color:#555;font-size:12px;margin-top:4px}.bent img{max-width:100%;margin-top:6px}
 .legend span{display:inline-block;margin-right:18px}.legend i{display:inline-block;width:22px;height:0;vertical-align:middle;margin-right:6px}
 """
 
@@ -298,7 +309,19 @@ def _pct(part: int, whole: int) -> str:
     return f"{100 * part / whole:.1f}%" if whole else "-"
 
 
-def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) -> str:
+def _less(part: int, whole: int) -> str:
+    """``part`` fewer out of ``whole`` as a change ("−20.1%"), or "-" when there is no whole."""
+    return f"−{_pct(part, whole)}" if whole else "-"
+
+
+def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate, frames: int = 1,
+          bent: np.ndarray | None = None) -> str:
+    """One upgraded image: the sprite with the old quad and the new mesh, its counts and saving.
+
+    ``frames`` > 1: the image is the first frame of a sequence whose one mesh covers every
+    frame's art (said under the picture, as the hull can be far larger than this frame's art);
+    ``bent``: the weights picture of the mesh (setup pose coloured by bone, one bent pose).
+    """
     uvs, tris, hull = _mesh_arrays(att)
     h, w = rgba.shape[:2]
     pic = fit_within(rgba, CARD_SIZE - 20)
@@ -321,26 +344,32 @@ def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate) ->
             f'<div class="pic" style="width:{pw}px;height:{ph}px"><img src="{png_data_uri(pic)}" width="{pw}" '
             f'height="{ph}" alt="">{svg}</div>{table}'
             f'<div>transparent area no longer drawn: <b>{saved:,}</b> texels '
-            f'({_pct(saved, rate.transparent_before)} of it)</div></div>')
+            f'({_pct(saved, rate.transparent_before)} of it)</div>'
+            + (f'<div class="note">One mesh for the {frames} frames of this sequence: it covers the art of '
+               'every frame, so it reaches beyond the art of the frame shown.</div>' if frames > 1 else "")
+            + (f'<div class="note bent">Bound to its bones (--weights auto): vertices coloured by bone, and '
+               f'the mesh with its bones turned:<img src="{png_data_uri(bent)}" alt="bent pose"></div>'
+               if bent is not None else "")
+            + '</div>')
 
 
 def _reasons_table(result) -> str:
     """Why attachments were kept as regions or failed, with counts, most frequent first.
 
-    Reasons are grouped by their words before the first colon ("not worth meshing: the art
-    fills 98% ..." and "... 92% ..." are one row), with one full reason as an example.
+    Reasons worded alike are one row whatever their figures ("the art fills 98% ..." and
+    "... 92% ..."), with the most frequent as the example (:func:`spinemesh.runs.reason_groups`);
+    reasons worded differently are never folded together.
     """
-    groups: dict[tuple[str, str], list[str]] = {}
-    for t in result.targets:
-        if t.status in ("kept", "failed"):
-            groups.setdefault((t.status, t.reason.split(":", 1)[0]), []).append(t.reason)
-    if not groups:
-        return ""
+    from ..runs import reason_groups
+
     rows = "".join(
-        f"<tr><td>{html.escape(status)}</td><td style=\"text-align:left\">{html.escape(reasons[0])}"
-        + (f" <i>(and {len(set(reasons)) - 1} similar)</i>" if len(set(reasons)) > 1 else "")
-        + f"</td><td>{len(reasons):,}</td></tr>"
-        for (status, _), reasons in sorted(groups.items(), key=lambda kv: (-len(kv[1]), kv[0])))
+        f"<tr><td>{html.escape(status)}</td><td style=\"text-align:left\">{html.escape(example)}"
+        + (f" <i>({variants - 1} more like it with other figures)</i>" if variants > 1 else "")
+        + f"</td><td>{n:,}</td></tr>"
+        for status in ("kept", "failed")
+        for example, n, variants in reason_groups([t.reason for t in result.targets if t.status == status]))
+    if not rows:
+        return ""
     return ('<table class="sum"><tr><th>left a region</th><th style="text-align:left">why (an example)</th>'
             f"<th>attachments</th></tr>{rows}</table>")
 
@@ -375,6 +404,8 @@ def _skeleton_section(rel: str, targets: list, doc: dict, source) -> tuple[str, 
     for t in targets:
         seen.setdefault(t.key, []).append(t)
     skeleton_rate = FillRate(0, 0, 0, 0)
+    weighted = any(t.weights is not None for t in targets)
+    rig = None
     for key, group in seen.items():
         t = group[0]
         att = _find(doc, t.skin, t.slot, t.name)
@@ -385,8 +416,16 @@ def _skeleton_section(rel: str, targets: list, doc: dict, source) -> tuple[str, 
         rate = fill_rate(image.rgba, image.content, uvs, tris)
         for _ in group:  # every attachment drawing this image saves as much
             skeleton_rate = skeleton_rate + rate
+        bent = None
+        if weighted and len((t.weights or {}).get("bones") or {}) > 1 and t.weights.get("status") == "weighted":
+            from ..rig.document import build_rig
+            from ..rig.preview import weighted_picture
+
+            rig = rig or build_rig(doc)
+            bent = weighted_picture(doc, att, rig, image.rgba)
         cards.append((rate.transparent_before - rate.transparent_after,
-                      _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate)))
+                      _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate,
+                            frames=len(t.paths), bent=bent)))
     cards.sort(key=lambda c: -c[0])
     more = len(cards) - CARD_LIMIT
     cards = cards[:CARD_LIMIT] + ([(0, f"<p>… and {more} more images with smaller savings (counted in the "
@@ -395,16 +434,44 @@ def _skeleton_section(rel: str, targets: list, doc: dict, source) -> tuple[str, 
     return (
         f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
         f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
-        f"(−{_pct(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
+        f"({_less(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
         f" Setup pose, drawn from the upgraded skeleton: wireframes of the new meshes, regions left as they "
         f"are dashed:</p>"
-        + setup_pose(doc, source, upgraded)
+        + setup_pose(doc, source, upgraded, draw_bones=weighted)
         + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
         + "".join(c for _, c in cards) + "</div>", skeleton_rate)
 
 
+def _headline(result, total: FillRate) -> str:
+    """The page's headline: the saving, or, when nothing was measured, what happened instead."""
+    if total.transparent_before:
+        return f"{_pct(total.transparent_before - total.transparent_after, total.transparent_before)} fewer " \
+               "transparent texels drawn"
+    counts = result.counts()
+    if result.not_read and not counts.get("meshed"):
+        n = len(result.not_read)
+        return f"Nothing meshed: {n} skeleton{'s' if n > 1 else ''} could not be read (see below)"
+    if counts.get("failed") and not counts.get("meshed"):
+        return f"Nothing meshed: {counts['failed']} attachments failed (see why below)"
+    if not result.targets:
+        return "Nothing to upgrade: no region attachment (every attachment is already a mesh or of another type)"
+    if counts.get("meshed"):
+        return f"{counts['meshed']} attachments meshed (their images could not be measured)"
+    return "Nothing meshed: every region was kept as it is (see why below)"
+
+
+def _problems(result) -> str:
+    """The skeletons that could not be read and the other errors, one line each (or nothing)."""
+    if not result.errors:
+        return ""
+    unread = set(result.not_read.values())
+    items = [f"<li><b>not read:</b> {html.escape(e)}</li>" for e in result.not_read.values()]
+    items += [f"<li>{html.escape(e)}</li>" for e in result.errors if e not in unread]
+    return f"<h3>Problems</h3><ul>{''.join(items)}</ul>"
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
-                  images_in: str | Path | None = None) -> Path:
+                  images_in: str | Path | None = None, on_skeleton=None) -> Path:
     """Write ``folder/index.html`` for an upgrade run and return its path.
 
     Parameters
@@ -417,6 +484,8 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         The output folder the upgraded skeletons were written to.
     images_in : path, optional
         The ``--from-images`` folder, if the run used one.
+    on_skeleton : callable, optional
+        Called with no argument after each skeleton's part of the page (for progress bars).
     """
     from ..errors import SpineMeshError
 
@@ -425,6 +494,8 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
     total = FillRate(0, 0, 0, 0)
     sections = []
     for rel in result.written:
+        if on_skeleton is not None and sections:
+            on_skeleton()  # the previous skeleton's part is done
         targets = [t for t in result.targets if t.skeleton == rel and t.status == "meshed"]
         try:
             doc = load_skeleton(out / rel)
@@ -436,19 +507,21 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         section, skeleton_rate = _skeleton_section(rel, targets, doc, source)
         total = total + skeleton_rate
         sections.append(section)
+    if on_skeleton is not None and sections:
+        on_skeleton()
     counts = result.counts()
     saved = total.transparent_before - total.transparent_after
     summary = (
-        f'<p class="big">{_pct(saved, total.transparent_before)} fewer transparent texels drawn</p>'
+        f'<p class="big">{html.escape(_headline(result, total))}</p>'
         '<table class="sum"><tr><th></th><th>regions (before)</th><th>meshes (after)</th><th>change</th></tr>'
         f"<tr><td>texels drawn</td><td>{total.before:,}</td><td>{total.after:,}</td>"
-        f"<td>−{_pct(total.before - total.after, total.before)}</td></tr>"
+        f"<td>{_less(total.before - total.after, total.before)}</td></tr>"
         f"<tr><td>of them fully transparent</td><td>{total.transparent_before:,}</td>"
-        f"<td>{total.transparent_after:,}</td><td>−{_pct(saved, total.transparent_before)}</td></tr></table>"
+        f"<td>{total.transparent_after:,}</td><td>{_less(saved, total.transparent_before)}</td></tr></table>"
         f"<p>Attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
         f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
         "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>"
-        + _reasons_table(result))
+        + _reasons_table(result) + _problems(result))
     page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh upgrade: "
             f"{html.escape(proj.root.name)}</title><style>{_CSS}</style></head><body>"
             f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>"

@@ -52,7 +52,10 @@ class Result(RunSummary):
     targets: list[Target] = field(default_factory=list)
     written: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
-    seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "write": 0.0})
+    #: skeletons that could not be read (their path in the project or library -> the error,
+    #: which is in ``errors`` too); the project's other skeletons are upgraded all the same
+    not_read: dict[str, str] = field(default_factory=dict)
+    seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "weights": 0.0, "write": 0.0})
     #: ``--pack``: one :class:`spinemesh.pack.run.AtlasRow` per atlas written
     atlases: list = field(default_factory=list)
 
@@ -74,6 +77,7 @@ def merge(into: Result, part: Result, prefix: str) -> None:
     into.targets += part.targets
     into.written += [prefix + w for w in part.written]
     into.errors += part.errors  # they name their files already
+    into.not_read.update({prefix + name: error for name, error in part.not_read.items()})
     for row in part.atlases:
         row.atlas = prefix + row.atlas
     into.atlases += part.atlases
@@ -87,6 +91,7 @@ def write_report(result: Result, path: str | Path) -> None:
         "counts": result.counts(),
         "skeletons_written": result.written,
         "errors": result.errors,
+        "skeletons_not_read": result.not_read,
         "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
         "attachments": [t.row() for t in result.targets],
         **({"atlases": [a.row() for a in result.atlases]} if result.atlases else {}),

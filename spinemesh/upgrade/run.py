@@ -28,7 +28,6 @@ from __future__ import annotations
 import contextlib
 import time
 from pathlib import Path
-from typing import Callable
 
 from ..cluster import Workers
 from ..output import check_output_folder, output_folder
@@ -37,14 +36,14 @@ from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
 from .pack import pack_written
 from .plan import ProjectPlan, plan_project
+from .progress import SILENT, Progress
 from .report import Result, mark_would_mesh
 from .write import apply_project, copying_other_files, write_repacked_atlases, write_skeletons
 
 
 def upgrade_project(project: str | Path, out: str | Path, options: Options | None = None,
-                    on_start: Callable[[int], None] | None = None,
-                    on_progress: Callable[[int], None] | None = None,
-                    mesh_cache: dict | None = None, workers: Workers | None = None) -> Result:
+                    progress: Progress = SILENT, mesh_cache: dict | None = None,
+                    workers: Workers | None = None) -> Result:
     """Upgrade every skeleton of a project into ``out``.
 
     Parameters
@@ -54,8 +53,8 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     out : path
         Output folder; refused if it is the project folder or inside it.
     options : Options
-    on_start, on_progress : callable, optional
-        Told the number of unique images to mesh, then the number meshed as they finish.
+    progress : Progress, optional
+        Told each phase's work and steps as the run goes (:mod:`.progress`); default: nobody.
     mesh_cache : dict, optional
         Meshes kept across calls (see :func:`~.meshing.mesh_tasks`); None meshes afresh.
     workers : Workers, optional
@@ -78,41 +77,41 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
         if not options.dry_run:
             held.enter_context(output_folder(out, options.overwrite))
         result = Result()
-        plan = plan_project(proj, options, result)                    # 1. read and plan
+        plan = plan_project(proj, options, result, progress)          # 1. read and plan
         plan.only_needed = Path(project).is_file()
         if options.dry_run:
             mark_would_mesh(result)
             return result
-        meshes = mesh_project(plan, options, result, workers, on_start, on_progress, mesh_cache)  # 2. mesh
-        finish_project(plan, meshes, out, result)                     # 3.-4. apply, write
+        meshes = mesh_project(plan, options, result, workers, progress, mesh_cache)  # 2. mesh
+        finish_project(plan, meshes, out, result, progress)           # 3.-4. apply, write
         return result                                                 # 5. the report's rows
 
 
 def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: Workers | None,
-                 on_start: Callable[[int], None] | None, on_progress: Callable[[int], None] | None,
-                 mesh_cache: dict | None) -> dict[str, MeshResult]:
+                 progress: Progress, mesh_cache: dict | None) -> dict[str, MeshResult]:
     """Stage 2 for one project: mesh its unique images on ``workers`` (or ones opened for it)."""
     t0 = time.perf_counter()
-    if on_start:
-        on_start(len(plan.tasks))
+    progress.add("mesh", len(plan.tasks))
     with meshing_workers(options, workers, len(plan.tasks)) as w:
-        meshes = mesh_tasks(plan.tasks, w, on_progress, mesh_cache)
+        meshes = mesh_tasks(plan.tasks, w, lambda n: progress.advance("mesh", n), mesh_cache)
     result.seconds["mesh"] += time.perf_counter() - t0
     return meshes
 
 
-def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result) -> None:
+def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result,
+                   progress: Progress = SILENT) -> None:
     """Stages 3 and 4 for one project: the meshes into its documents, then everything written to ``out``."""
     t0 = time.perf_counter()
+    weights_before = result.seconds["weights"]
     with copying_other_files(plan, out, result):  # atlases, pages, other files: on threads meanwhile
-        apply_project(plan, meshes)
+        apply_project(plan, meshes, result, progress)
         # A stage that changes the meshed documents before they are written goes here; it
         # sees every skeleton of the project. Files it replaces are left out of the copies
         # (write.files_to_copy), started above.
-        write_skeletons(plan, out, result)
+        write_skeletons(plan, out, result, progress)
     write_repacked_atlases(plan, out, result)
     if plan.options is not None and plan.options.pack:
         # --pack changes no document: it packs the atlases by the skeleton files written
         # (a game loads those), --repack's untrimmed pages included, so it runs last, in place
         pack_written(out, result)
-    result.seconds["write"] += time.perf_counter() - t0
+    result.seconds["write"] += time.perf_counter() - t0 - (result.seconds["weights"] - weights_before)

@@ -12,6 +12,7 @@ whole. Each problem is one line in the :class:`~.report.Result`, never an abort.
 from __future__ import annotations
 
 import contextlib
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterator
@@ -23,6 +24,7 @@ from ..output import files_needed, files_to_copy, write_skeleton
 from ..skeleton import iter_attachments
 from .meshing import MeshResult
 from .plan import MeshTask, ProjectPlan
+from .progress import SILENT, Progress
 from .repack import write_repacked_atlas
 from .report import Result, Target
 
@@ -61,19 +63,32 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
         t.waste = None if res.waste is None else round(res.waste, 6)
 
 
-def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult]) -> None:
-    """Put the meshes into every document of ``plan``, in place; ``--weights auto`` also weights them."""
+def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Result | None = None,
+                  progress: Progress = SILENT) -> None:
+    """Put the meshes into every document of ``plan``, in place; ``--weights auto`` also weights them.
+
+    The weights' time goes to ``result.seconds["weights"]``, each mesh weighted to ``progress``.
+    """
     for sk in plan.skeletons:
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
-        if plan.options is not None and plan.options.weights == "auto":
-            from ..rig.upgrade import weight_upgraded
+    if plan.options is None or plan.options.weights != "auto":
+        return
+    from ..rig.upgrade import weight_upgraded
 
-            weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"), sk.rig)
-
-
-def write_skeletons(plan: ProjectPlan, out: Path, result: Result) -> None:
-    """Write every document of ``plan`` under ``out``; those written go to ``result.written``."""
+    t0 = time.perf_counter()
+    progress.add("weights", sum(t.status == "meshed" for sk in plan.skeletons for t in sk.targets))
     for sk in plan.skeletons:
+        weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"), sk.rig,
+                        on_mesh=lambda: progress.advance("weights"))
+    if result is not None:
+        result.seconds["weights"] += time.perf_counter() - t0
+
+
+def write_skeletons(plan: ProjectPlan, out: Path, result: Result, progress: Progress = SILENT) -> None:
+    """Write every document of ``plan`` under ``out``; those written go to ``result.written``."""
+    progress.add("write", len(plan.skeletons))
+    for sk in plan.skeletons:
+        progress.advance("write")
         try:
             write_skeleton(sk.doc, sk.path, out / sk.rel)
         except SpineMeshError as e:

@@ -1,0 +1,30 @@
+"""What an upgrade tells while it runs: each phase's work as it becomes known, then its steps.
+
+The phases, in the order a project goes through them: ``read`` (skeletons read and planned),
+``mesh`` (unique images meshed), ``weights`` (new meshes bound to bones, ``--weights auto``)
+and ``write`` (skeletons written). A library run goes through them project by project, and
+plans the next projects while the workers mesh, so several phases may be under way at once;
+their totals grow as projects are planned. The command line shows one bar per phase
+(:mod:`spinemesh.cli.upgrade`); the default tells nothing.
+"""
+
+from __future__ import annotations
+
+PHASES = ("read", "mesh", "weights", "write")
+
+
+class Progress:
+    """Receives a run's progress; this base class ignores it (the Python API's default)."""
+
+    def add(self, phase: str, steps: int) -> None:
+        """``steps`` more steps of ``phase`` (one of :data:`PHASES`) are known."""
+
+    def advance(self, phase: str, steps: int = 1) -> None:
+        """``steps`` steps of ``phase`` are done."""
+
+    def project(self, name: str) -> None:
+        """A library run now writes the project ``name`` (its path under the library)."""
+
+
+#: The progress of a run that tells nobody.
+SILENT = Progress()

@@ -1,0 +1,184 @@
+"""What ``spinemesh upgrade`` tells while and after it runs, and what its preview page says.
+
+On projects our own code draws (the demo, the worm, the bar of ``test_upgrade_weights``):
+the ``--weights auto`` summary, rows that stay distinct at 80 columns in a library, a bar per
+phase, a skeleton that cannot be read listed with its reason, reasons grouped by wording, and
+the preview's headline, bones, bent poses and sequence note.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from rig_project import make_worm_project
+from spinemesh.cli import app
+from spinemesh.runs import reason_groups, short_names
+from spinemesh.upgrade import Options, upgrade_library, upgrade_project
+from spinemesh.upgrade.progress import Progress
+from test_upgrade_weights import make_bar_project
+
+DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
+
+
+def run(*args: str, columns: int = 80):
+    return CliRunner().invoke(app, ["upgrade", *args], env={"COLUMNS": str(columns)})
+
+
+# --------------------------------------------------------------------------- names and reasons
+def test_short_names_stay_distinct_and_fit():
+    names = [f"raeleus-dec2021/spine/characters/hero{i}/export-{v}/hero.json" for i in range(12) for v in "ab"]
+    names += ["raeleus-dec2021/spine/x.json", "a/b.json"]
+    for width in (33, 20):
+        shown = short_names(names, width)
+        assert len(set(shown.values())) == len(names), width
+        assert max(map(len, shown.values())) <= width
+    shown = short_names(names, 33)
+    assert shown["a/b.json"] == "a/b.json"
+    assert shown[names[0]] == "…/hero0/export-a/hero.json"  # the parts that tell them apart
+
+
+def test_reasons_worded_differently_are_never_folded():
+    reasons = ["not worth meshing: the art fills 99% of the region (--min-saving 5%)"] * 3 + [
+        "not worth meshing: the art fills 97% of the region (--min-saving 5%)",
+        "not worth meshing: a mesh would draw only 3% fewer pixels than the region (--min-saving 5%)",
+        "--only matched nothing"]
+    groups = reason_groups(reasons)
+    assert groups[0] == ("not worth meshing: the art fills 99% of the region (--min-saving 5%)", 4, 2)
+    assert len(groups) == 3 and sum(n for _, n, _ in groups) == len(reasons)
+
+
+# --------------------------------------------------------------------------- the console
+def test_weights_auto_summary_counts_weighted_bending_and_meshed_only_to_bend(tmp_path):
+    make_bar_project(tmp_path / "bar")
+    res = run(str(tmp_path / "bar"), "--out", str(tmp_path / "out"), "--weights", "auto")
+    assert res.exit_code == 0, res.output
+    assert "bones: 1 of 1 new meshes weighted: 1 bend over 2 bones (median 2), 0 follow one bone; " \
+           "1 of them meshed only to bend" in res.output
+    assert re.search(r"weights \d+\.\d s", res.output)
+    plain = run(str(tmp_path / "bar"), "--out", str(tmp_path / "plain"))
+    assert "bones:" not in plain.output and "weights" not in plain.output.split("median vertices")[1]
+
+
+def test_weights_auto_summary_on_meshes_that_follow_one_bone(tmp_path):
+    res = run(str(DEMO), "--out", str(tmp_path / "out"), "--weights", "auto")
+    assert res.exit_code == 0, res.output
+    assert "bones: 10 of 10 new meshes weighted, each to one bone" in res.output
+
+
+def test_library_rows_are_told_apart_at_80_columns(tmp_path):
+    library = tmp_path / "lib"
+    for hero in ("hero1", "hero2"):
+        for export in ("export-a", "export-b"):
+            shutil.copytree(DEMO, library / "studio-december-2021" / "spine" / "characters" / hero / export)
+    res = run(str(library), "--out", str(tmp_path / "out"))
+    assert res.exit_code == 0, res.output
+    rows = [line for line in res.output.splitlines() if line.startswith("│")]
+    names = [row.split("│")[1].strip() for row in rows]
+    assert len(rows) == 8 and len(set(names)) == 8, names
+    assert [line for line in res.output.splitlines() if line[:1] in "┏┃┡│└" and len(line) > 80] == []
+    assert "…/hero1/export-a/demo.json" in names
+
+
+def test_a_skeleton_that_cannot_be_read_is_listed_while_the_others_are_upgraded(tmp_path):
+    project = tmp_path / "p"
+    shutil.copytree(DEMO, project)
+    (project / "demo-binary.skel").write_bytes(b"\x00" * 40)  # no Spine version in its header
+    res = run(str(project), "--out", str(tmp_path / "out"), "--report", str(tmp_path / "r.json"))
+    assert res.exit_code == 3
+    assert re.search(r"not read: \S*demo-binary\.skel", res.output)
+    assert re.search(r"│ demo\.json +│ +5 │", res.output)
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert list(report["skeletons_not_read"]) == ["demo-binary.skel"]
+    assert (tmp_path / "out" / "demo.json").is_file()
+
+
+class Recorder(Progress):
+    def __init__(self):
+        self.added, self.done, self.projects = {}, {}, []
+
+    def add(self, phase, steps):
+        self.added[phase] = self.added.get(phase, 0) + steps
+
+    def advance(self, phase, steps=1):
+        self.done[phase] = self.done.get(phase, 0) + steps
+
+    def project(self, name):
+        self.projects.append(name)
+
+
+def test_every_phase_reports_its_work_and_finishes_it(tmp_path):
+    seen = Recorder()
+    result = upgrade_project(DEMO, tmp_path / "out", Options(weights="auto", jobs=1), seen)
+    meshed = sum(t.status == "meshed" for t in result.targets)
+    assert seen.added == seen.done
+    assert seen.added["read"] == 2 and seen.added["write"] == 2 and seen.added["weights"] == meshed
+    assert seen.added["mesh"] >= 5
+    lib = tmp_path / "lib"
+    shutil.copytree(DEMO, lib / "a")
+    shutil.copytree(DEMO, lib / "b")
+    seen = Recorder()
+    upgrade_library(lib, tmp_path / "lib-out", Options(jobs=1), seen)
+    assert seen.projects == ["a", "b"] and seen.added == seen.done and seen.added["read"] == 4
+    assert "weights" not in seen.added
+
+
+# --------------------------------------------------------------------------- the preview
+def page_text(page: Path) -> str:
+    text = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "DATA", page.read_text(encoding="utf-8"))
+    return text
+
+
+def test_preview_states_what_failed_instead_of_an_empty_headline(tmp_path):
+    meshed = tmp_path / "meshed"
+    upgrade_project(DEMO, meshed, Options(min_saving=0, jobs=1))  # every region already a mesh now
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".spinemesh*"))
+    (project / "demo-binary.skel").write_bytes(b"\x00" * 40)
+    res = run(str(project), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "prev"))
+    assert res.exit_code == 3, res.output
+    text = page_text(tmp_path / "prev" / "index.html")
+    assert "Nothing meshed: 1 skeleton could not be read" in text
+    assert "not read:</b>" in text and "demo-binary.skel" in text
+    assert "−-" not in text and "- fewer" not in text
+
+
+def test_preview_draws_bones_and_each_bending_mesh_in_a_bent_pose(tmp_path):
+    make_bar_project(tmp_path / "bar")
+    res = run(str(tmp_path / "bar"), "--out", str(tmp_path / "out"), "--weights", "auto",
+              "--preview", str(tmp_path / "prev"))
+    assert res.exit_code == 0, res.output
+    text = page_text(tmp_path / "prev" / "index.html")
+    assert text.count('class="bone"') == 3  # upper, lower, lone: every bone with a length
+    assert text.count('alt="bent pose"') == 1  # the bar bends; nothing else was meshed
+    plain = run(str(tmp_path / "bar"), "--out", str(tmp_path / "o2"), "--preview", str(tmp_path / "p2"),
+                "--min-saving", "0")
+    assert 'class="bone"' not in page_text(tmp_path / "p2" / "index.html")
+
+
+def test_preview_says_why_a_sequence_mesh_is_larger_than_its_frame(tmp_path):
+    res = run(str(DEMO), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "prev"))
+    assert res.exit_code == 0, res.output
+    text = page_text(tmp_path / "prev" / "index.html")
+    assert "One mesh for the 3 frames of this sequence" in text
+    assert text.count("One mesh for the") == 2  # the spark, in each of the two skeletons
+
+
+def test_preview_reasons_table_keeps_different_reasons_apart(tmp_path):
+    from spinemesh.upgrade.preview import _reasons_table
+    from spinemesh.upgrade.report import Result, Target
+
+    result = Result()
+    for i, reason in enumerate(["not worth meshing: the art fills 99% of the region",
+                                "not worth meshing: the art fills 97% of the region",
+                                "not worth meshing: 40 separate islands of art need 120+ outline vertices",
+                                "excluded by --exclude"]):
+        result.targets.append(Target("s.json", "default", "slot", f"a{i}", ["a"], status="kept", reason=reason))
+    table = _reasons_table(result)
+    assert table.count("<tr>") == 4  # the header and three groups
+    assert "1 more like it with other figures" in table and "similar" not in table
