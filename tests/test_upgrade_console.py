@@ -182,3 +182,23 @@ def test_preview_reasons_table_keeps_different_reasons_apart(tmp_path):
     table = _reasons_table(result)
     assert table.count("<tr>") == 4  # the header and three groups
     assert "1 more like it with other figures" in table and "similar" not in table
+
+
+def test_phase_bars_keep_their_counts_and_times_at_80_columns():
+    from rich.console import Console
+
+    from spinemesh.cli._app import progress_bar
+    from spinemesh.cli.upgrade import _phase_progress
+
+    bars = progress_bar("upgrade", phases=True)
+    progress = _phase_progress(bars)
+    progress.project("studio-december-2021/spine/characters/hero3/export-b")
+    for phase, total in (("read", 120), ("mesh", 3456), ("weights", 2345), ("write", 120)):
+        progress.add(phase, total)
+        progress.advance(phase, total // 3)
+    console = Console(width=80, record=True, force_terminal=False)
+    console.print(bars.make_tasks_table(bars.tasks))
+    lines = console.export_text().splitlines()
+    assert [line.split()[0] for line in lines] == ["read", "mesh", "weights", "write"]
+    assert "1152/3456" in lines[1] and "ETA" in lines[1] and "…/hero3/export-b" in lines[1]
+    assert all(len(line) <= 80 and "…/…" not in line for line in lines)

@@ -71,12 +71,21 @@ console = _LazyConsole(stderr=False)
 err_console = _LazyConsole(stderr=True)
 
 
-def progress_bar(label: str, transient: bool = False):
-    """A rich progress bar on stderr: label, bar, done/total, elapsed, time remaining, current item."""
+def progress_bar(label: str, transient: bool = False, phases: bool = False):
+    """A rich progress bar on stderr: label, bar, done/total, elapsed, time remaining, current item.
+
+    With ``phases``, one bar per task, each named by its description (a phase: ``read``,
+    ``mesh``, ...) instead of ``label``, and ended by its ``project`` field (the project a
+    library run is on).
+    """
     from rich.progress import (
         BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
     )
 
+    if phases:
+        return Progress(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), MofNCompleteColumn(),
+                        TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                        TextColumn("{task.fields[project]}"), console=err_console.real, transient=transient)
     return Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                     TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"),
                     console=err_console.real, transient=transient)

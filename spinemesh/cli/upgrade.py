@@ -15,6 +15,7 @@ import typer
 from .weights import Weights
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
+    progress_bar,
 )
 
 
@@ -156,7 +157,7 @@ def upgrade(
     if preview is not None and not dry_run and result.written:
         from ..upgrade.preview import write_preview
 
-        with phase_bars() as bars:
+        with progress_bar("preview", transient=True, phases=True) as bars:
             task = bars.add_task("preview", total=len(result.written), project="")
             page = write_preview(result, project, out, preview, images_in=images_in,
                                  on_skeleton=lambda: bars.advance(task))
@@ -174,18 +175,6 @@ def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
         if path is not None and (is_within(path, out) or is_within(out, path)):
             raise OutputError(f"{option} {path} overlaps the output folder {out}; give a folder or file "
                               "beside it", path)
-
-
-def phase_bars():
-    """A rich progress display on stderr with one bar per phase: its name, the bar, steps done of
-    those known, elapsed time and time left, and (library runs) the project being written."""
-    from rich.progress import (
-        BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
-    )
-
-    return Progress(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=24), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(),
-                    TextColumn("{task.fields[project]}"), console=err_console.real, transient=True)
 
 
 def _phase_progress(bars):
@@ -208,9 +197,11 @@ def _phase_progress(bars):
                 bars.advance(self.tasks[phase], steps)
 
         def project(self, name: str) -> None:
-            self.current = name
+            from ..runs import short_names
+
+            self.current = short_names([name], 20)[name]  # the bars keep their room at 80 columns
             for task in self.tasks.values():
-                bars.update(task, project=name)
+                bars.update(task, project=self.current)
 
     return Bars()
 
@@ -219,7 +210,7 @@ def _run(project: Path, out: Path, options, library: bool):
     """Upgrade ``project`` (a library when ``library``) with a bar per phase (read, mesh, weights, write)."""
     from ..upgrade import upgrade_library, upgrade_project
 
-    with phase_bars() as bars:
+    with progress_bar("upgrade", transient=True, phases=True) as bars:
         progress = _phase_progress(bars)
         if library:
             return upgrade_library(project, out, options, progress)

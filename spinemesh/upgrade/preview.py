@@ -455,8 +455,10 @@ def _headline(result, total: FillRate) -> str:
         return f"Nothing meshed: {counts['failed']} attachments failed (see why below)"
     if not result.targets:
         return "Nothing to upgrade: no region attachment (every attachment is already a mesh or of another type)"
+    if counts.get("meshed") and total.before:
+        return f"{counts['meshed']} attachments meshed; their images hold no transparent texel to leave out"
     if counts.get("meshed"):
-        return f"{counts['meshed']} attachments meshed (their images could not be measured)"
+        return f"{counts['meshed']} attachments meshed (their images could not be read for this page)"
     return "Nothing meshed: every region was kept as it is (see why below)"
 
 
