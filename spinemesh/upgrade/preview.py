@@ -193,6 +193,20 @@ def pose_skins(doc: dict) -> list[str]:
     return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
 
 
+def _bone_lines(bones, to_canvas) -> list[str]:
+    """SVG for every bone with a length: a line from its origin along its length, a dot at the origin.
+
+    ``to_canvas`` maps world points, shape (n, 2), to the picture's pixels.
+    """
+    lines = []
+    for bone in bones:
+        if bone.length > 0 and np.isfinite(bone.world).all():
+            (x0, y0), (x1, y1) = to_canvas(bone.segment())
+            lines.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" class="bone"/>'
+                         f'<circle cx="{x0:.1f}" cy="{y0:.1f}" r="2.5" class="joint"/>')
+    return lines
+
+
 def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]], draw_bones: bool = False) -> str:
     """HTML (a PNG under an SVG) of a skeleton's setup pose, with the wireframes of ``upgraded``.
 
@@ -267,11 +281,7 @@ def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]], draw_bone
             points = " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
             wires.append(f'<polygon points="{points}" class="quad" stroke-width="1.2"/>')
     if draw_bones:
-        for bone in bones:
-            if bone.length > 0 and np.isfinite(bone.world).all():
-                (x0, y0), (x1, y1) = to_canvas(bone.segment())
-                wires.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" class="bone"/>'
-                             f'<circle cx="{x0:.1f}" cy="{y0:.1f}" r="2.5" class="joint"/>')
+        wires += _bone_lines(bones, to_canvas)
     png = png_data_uri((canvas * 255).round().astype(np.uint8))
     caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
     return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
