@@ -224,6 +224,7 @@ def _print_result(result, dry_run: bool) -> None:
 
     from rich.markup import escape
 
+    from ..errors import escaped
     from ._summary import print_left_alone, skeleton_table, weights_lines
 
     def cells(targets: list) -> list[str]:
@@ -244,9 +245,9 @@ def _print_result(result, dry_run: bool) -> None:
 
         print_pack_table(result.atlases)
     for line in weights_lines(result.targets):
-        console.print(line, highlight=False, markup=False)
+        console.print(escaped(line), highlight=False, markup=False)
     for error in result.not_read.values():  # each names its file and says why
-        err_console.print(f"[red]not read:[/] {escape(error)}", highlight=False)
+        err_console.print(f"[red]not read:[/] {escape(escaped(error))}", highlight=False)
     unread = set(result.not_read.values())
     print_left_alone(result.targets, [e for e in result.errors if e not in unread],
                      "kept", "kept as region", "left a region")
