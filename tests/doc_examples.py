@@ -15,8 +15,10 @@ added later included):
   holds the placeholder inputs of :func:`make_workspace`: ``project/`` and ``examples/demo/``
   (copies of the demo project), ``library/`` (two copies of it), ``sprite.png`` and
   ``sprites/`` (demo images), ``flat-sprite.jpg`` (a demo image flattened on a blue background,
-  no alpha). Outputs land in that folder, so a later example on a page reads what an earlier
-  one wrote. So a page's examples use these names, or outputs its own earlier examples made.
+  no alpha). An argument named in :data:`ALIASES` (``hero.skel``) stands for a file there (the
+  demo's binary skeleton, already upgraded to meshes, in ``heroes/``). Outputs land in that
+  folder, so a later example on a page reads what an earlier one wrote. So a page's examples
+  use these names, or outputs its own earlier examples made.
 """
 
 from __future__ import annotations
@@ -43,6 +45,10 @@ NOT_RUN: tuple[tuple[str, str, str], ...] = (
     ("*", r"--dask (?!local\b)", "needs a running Dask scheduler"),
 )
 
+#: Arguments that stand for a file of the workspace (a skeleton on its own cannot lie at the
+#: workspace's root: its folder would be the project, and every output inside it refused).
+ALIASES = {"hero.skel": "heroes/hero.skel"}
+
 _FENCE = re.compile(r"^(?P<indent> *)(?P<fence>```+|~~~+)\s*(?P<info>[^\n`]*)$")
 
 
@@ -56,8 +62,8 @@ class Example:
 
     @property
     def args(self) -> list[str]:
-        """The command's arguments after ``spinemesh`` (commands only)."""
-        return shlex.split(self.text, comments=True)[1:]
+        """The command's arguments after ``spinemesh`` (commands only), :data:`ALIASES` resolved."""
+        return [ALIASES.get(arg, arg) for arg in shlex.split(self.text, comments=True)[1:]]
 
 
 def examples_of(markdown: str) -> list[Example]:
@@ -162,6 +168,10 @@ def make_workspace(folder: Path) -> Path:
     alpha = rgba[..., 3:] / 255.0
     flat = rgba[..., :3] * alpha + np.array([40.0, 90.0, 200.0]) * (1 - alpha)
     Image.fromarray(flat.round().astype(np.uint8)).save(folder / "flat-sprite.jpg", quality=92)
+    from spinemesh.upgrade import Options, upgrade_project
+
+    upgrade_project(DEMO / "demo-binary.skel", folder / "heroes", Options(jobs=1))
+    (folder / "heroes" / "demo-binary.skel").rename(folder / "heroes" / "hero.skel")
     return folder
 
 

@@ -4,7 +4,7 @@ Which examples run, where, and on what is the convention of :mod:`doc_examples` 
 under ``docs/``, pages added later included): command lines starting with ``spinemesh `` in
 fenced blocks are checked against the application and run on copies of the demo project
 (``project/``, ``examples/demo/``, ``library/``, ``sprite.png``, ``sprites/``,
-``flat-sprite.jpg``), ```` ```python ```` blocks are executed, page by page in document order.
+``flat-sprite.jpg``, ``hero.skel``), ```` ```python ```` blocks are executed, page by page in document order.
 The README's examples are run by ``tests/test_readme.py`` with the same rules.
 """
 
@@ -98,6 +98,8 @@ def test_convention_catches_what_it_should():
     assert option_errors(commands[0]) == ["upgrade: unknown option --no-such-option"]
     assert option_errors(commands[1]) == ["unknown command ['nope']"]
     assert [e.kind for e in examples_of(text)] == ["command", "python", "command"]
+    assert Example("command", "spinemesh weights hero.skel --out w/", 1).args == ["weights", "heroes/hero.skel",
+                                                                                  "--out", "w/"]
     assert why_not_run("docs/guide/x.md", Example("command", "spinemesh train --data DS", 1))
     assert why_not_run("docs/guide/x.md", Example("command", "spinemesh upgrade p --out o --dask local", 1)) is None
     assert why_not_run("docs/benchmarks/speed.md", Example("command", "spinemesh upgrade p --out o", 1))
