@@ -155,14 +155,19 @@ def upgrade(
     _print_result(result, dry_run)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
-        from ..upgrade.preview import write_preview
-
-        with progress_bar("preview", transient=True, phases=True) as bars:
-            task = bars.add_task("preview", total=len(result.written), project="")
-            page = write_preview(result, project, out, preview, images_in=images_in,
-                                 on_skeleton=lambda: bars.advance(task))
-        console.print(f"preview: {page}", highlight=False, markup=False)
+        _write_preview(result, project, out, preview, images_in)
     _exit(result, nothing)
+
+
+def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -> None:
+    """``--preview``: the page, with a bar of the skeletons drawn, then where it is."""
+    from ..upgrade.preview import write_preview
+
+    with progress_bar("preview", transient=True, phases=True) as bars:
+        task = bars.add_task("preview", total=len(result.written), project="")
+        page = write_preview(result, project, out, preview, images_in=images_in,
+                             on_skeleton=lambda: bars.advance(task))
+    console.print(f"preview: {page}", highlight=False, markup=False)
 
 
 def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
