@@ -759,8 +759,11 @@ def _kill_a_worker_while_running(args: list, cwd: Path, started: Path) -> subpro
         workers = _children(proc.pid)
         if started.exists() and workers:
             time.sleep(0.3)  # inside a task
-            killed = workers[0]
-            os.kill(killed, signal.SIGKILL)
+            try:
+                os.kill(workers[0], signal.SIGKILL)
+                killed = workers[0]
+            except ProcessLookupError:  # that worker ended meanwhile (its last task done): pick another
+                pass
         time.sleep(0.05)
     stdout, stderr = proc.communicate(timeout=TIME_LIMIT)
     return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
