@@ -278,7 +278,7 @@ def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "
 
 
 def test_upgrade_pack_is_upgrade_then_pack(tmp_path):
-    """--pack packs what the upgrade wrote (with --repack, which it implies), skeletons unchanged."""
+    """--pack packs what the upgrade wrote (here with --repack too), skeletons unchanged."""
     demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
     plain, packed = tmp_path / "plain", tmp_path / "packed"
     upgrade_project(demo, plain, Options(min_saving=None, jobs=1, repack=True))

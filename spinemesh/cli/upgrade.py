@@ -69,11 +69,12 @@ _Repack = Annotated[bool, typer.Option(
     "--repack/--no-repack", help="Mesh sequences whose frames were trimmed differently: their frames are "
                                  "stored whole on new atlas pages (the atlas is rewritten in OUT; the input "
                                  "is untouched; a frame's art on its trimmed border then also draws its "
-                                 "half-texel fringe). Default: such sequences stay regions; --pack implies it.")]
+                                 "half-texel fringe). Default: such sequences stay regions. With --pack their "
+                                 "new pages are packed too, but may store more than the export.")]
 _Pack = Annotated[bool, typer.Option(
     "--pack", help="Then pack the atlas pages anew by the upgraded meshes' outlines, as 'spinemesh pack' "
-                   "does (skeletons unchanged; each atlas only when it gets smaller). Implies --repack: "
-                   "pages are rewritten anyway.")]
+                   "does (skeletons unchanged; each atlas only when it gets smaller than exported). "
+                   "Add --repack to also mesh sequences trimmed differently.")]
 _Weights = Annotated[Weights, typer.Option(
     "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                       "to the bones crossing the art, with vertices at the joints and automatic "
@@ -139,7 +140,7 @@ def upgrade(
                  if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
-                      images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack or pack, pack=pack, weights=weights.value,
+                      images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     if library and preview is not None:
