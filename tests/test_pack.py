@@ -195,6 +195,31 @@ def test_jpeg_pages_are_kept(meshed, tmp_path):
     assert (tmp_path / "out" / "demo.jpg").read_bytes() == (project / "demo.jpg").read_bytes()
 
 
+def _webp_project(meshed: Path, dest: Path, lossless: bool) -> Path:
+    from PIL import Image
+
+    project = _copy(meshed, dest, skip=(".png",))
+    Image.open(meshed / "demo.png").save(project / "demo.webp", lossless=lossless, quality=40)
+    (project / "demo.atlas").write_text((meshed / "demo.atlas").read_text().replace("demo.png", "demo.webp"))
+    return project
+
+
+def test_lossy_webp_pages_are_kept_when_lossless_pages_would_be_larger(meshed, tmp_path):
+    """A lossy page written back losslessly grows on disk: the atlas keeps its pages, saying why."""
+    from spinemesh.pack.run import is_lossy_webp
+
+    lossy = _webp_project(meshed, tmp_path / "lossy", lossless=False)
+    assert is_lossy_webp(lossy / "demo.webp")
+    (row,) = pack_project(lossy, tmp_path / "out").atlases
+    assert row.status == "kept" and "lossy WebP" in row.reason, row.reason
+    assert (tmp_path / "out" / "demo.webp").read_bytes() == (lossy / "demo.webp").read_bytes()
+
+    lossless = _webp_project(meshed, tmp_path / "lossless", lossless=True)
+    assert not is_lossy_webp(lossless / "demo.webp")
+    (row,) = pack_project(lossless, tmp_path / "out2").atlases
+    assert row.status == "packed", row.reason
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')
