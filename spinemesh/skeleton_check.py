@@ -154,11 +154,16 @@ def _field_problem(node: dict, spec: dict, *where) -> str:
     return ""
 
 
-def _list_of_objects(doc: dict, key: str, spec: dict) -> str:
+def _list_of_objects(doc: dict, key: str, spec: dict | None) -> str:
+    """The first problem of the objects listed under ``key``; ``spec`` None: each entry's fields
+    by its ``type`` (4.3's one ``constraints`` list, where a field name means different things in
+    different kinds: an IK constraint's ``scaleY`` is a mode name, a transform's a number)."""
     for i, node in enumerate(doc.get(key) or []):
         if not isinstance(node, dict):
             return f"{json_path(key, i)}: expected an object, found {found(node)}"
-        problem = _field_problem(node, spec, key, i)
+        kind = node.get("type")
+        fields = spec if spec is not None else CONSTRAINTS.get(kind if isinstance(kind, str) else "", _CONSTRAINT)
+        problem = _field_problem(node, fields, key, i)
         if problem:
             return problem
     return ""
@@ -205,7 +210,7 @@ def document_problem(doc) -> str:
     problem = problem or _list_of_objects(doc, "bones", BONE) or _list_of_objects(doc, "slots", SLOT)
     for kind, spec in CONSTRAINTS.items():
         problem = problem or _list_of_objects(doc, kind, spec)
-    return problem or _list_of_objects(doc, "constraints", {**IK, **TRANSFORM, **PATH, **PHYSICS})
+    return problem or _list_of_objects(doc, "constraints", None)
 
 
 def check_document(doc, source: str | Path | None = None) -> None:

@@ -1114,3 +1114,16 @@ def test_no_worker_traceback_when_the_parent_is_killed(tmp_path, demo):
     while any(_alive(p) for p in workers) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not any(_alive(p) for p in workers)
+
+
+def test_the_shape_check_reads_43_constraints_by_their_kind():
+    """4.3 lists every constraint in one ``constraints`` list, where a field means different
+    things by kind: an IK constraint's ``scaleY`` names a mode, a transform constraint's is a
+    number. Each entry is checked by its ``type``."""
+    from spinemesh.skeleton_check import document_problem
+
+    ik = {"type": "ik", "name": "k", "bones": ["b"], "target": "t", "scaleY": "uniform"}
+    physics = {"type": "physics", "name": "p", "bone": "b", "scaleY": "uniform"}
+    assert document_problem({"constraints": [ik, physics]}) == ""
+    transform = {"type": "transform", "name": "t", "bones": ["b"], "source": "s", "scaleY": [1]}
+    assert document_problem({"constraints": [ik, transform]}).startswith("constraints[1].scaleY:")
