@@ -249,8 +249,7 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
                                 rotate=options.rotate, padding=options.padding)
             encoded = {name: encode_page(rgba, name, modes.get(name)) for name, rgba in packed.pages.items()}
             text = packed.atlas.dumps()
-            check_lossy_pages_shrink(files, bytes_before,
-                                     sum(len(d) for d in encoded.values()) + len(text.encode("utf-8")))
+            check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
         except PackRefused as e:
             sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
             texel_count = sum(w * h for w, h in sizes)
