@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import pickle
 import signal
 import threading
 from collections import deque
@@ -32,6 +33,10 @@ from typing import Any, Callable, Iterable, Iterator
 
 from ..errors import SpineMeshError
 from ..processes import die_with_parent
+
+#: What pickle raises for an object it cannot write (a lambda, a lock) or read back (a class
+#: the other side cannot import): such a task or answer fails alone, the worker goes on.
+PICKLE_ERRORS = (pickle.PicklingError, pickle.UnpicklingError, TypeError, AttributeError, ImportError)
 
 
 def available_cores() -> int:
@@ -136,9 +141,7 @@ def _worker_main(conn, max_tasks: int | None) -> None:
                 answer = (False, e)
             try:
                 conn.send(answer)
-            except (OSError, EOFError):
-                raise
-            except Exception as e:  # an answer that does not pickle
+            except PICKLE_ERRORS as e:  # an answer that does not pickle
                 conn.send((False, SpineMeshError(f"worker could not send its answer back: {e}")))
             done += 1
     except (OSError, EOFError, KeyboardInterrupt, SystemExit):
@@ -243,7 +246,7 @@ class ProcessWorkers(Workers):
                 except (OSError, EOFError):  # died before it got it: noticed by its sentinel
                     idle.task = task
                     continue
-                except Exception as e:  # a task that does not pickle
+                except PICKLE_ERRORS as e:  # a task that does not pickle
                     task.future.set_exception(e)
                     continue
                 idle.task = task
@@ -254,7 +257,7 @@ class ProcessWorkers(Workers):
             ok, value = worker.conn.recv()
         except (OSError, EOFError):
             return False
-        except Exception as e:  # an answer that does not unpickle
+        except PICKLE_ERRORS as e:  # an answer that does not unpickle
             ok, value = False, SpineMeshError(f"worker answer could not be read: {e}")
         task, worker.task = worker.task, None
         if task is not None:
