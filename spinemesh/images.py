@@ -126,15 +126,19 @@ def load_rgba(path: str | Path) -> np.ndarray:
 
     The size is read from the header and checked against :mod:`spinemesh.limits` before
     any pixel is decoded, so a small file that claims a huge image (a decompression bomb,
-    or a large, mostly empty sprite) is refused without allocating it.
+    or a large, mostly empty sprite) is refused without allocating it. The one place the
+    package decodes image files.
 
     Returns
     -------
     ndarray, shape (H, W, 4), uint8, read-only
-        Pillow's decode as it hands it over: ``np.array(im)`` copied it once more (1.2x to
-        1.3x the CPU time on 6000x6000 sprites); OpenCV's decoders measured within the noise
-        of this one (``benchmarks/bench_speed.py``), and one decoder gives the same texels
-        for every format. Copy it to change it.
+        8-bit PNG and still WebP files are decoded by imagecodecs (libpng, libwebp) straight
+        into the array (:func:`_codec_rgba`): 1.3x to 2x less CPU than Pillow on atlas pages
+        and 6000x6000 sprites (``benchmarks/bench_speed.py``), the same texels. Other files
+        (JPEG, AVIF, 16-bit or interlaced PNG, animated WebP), and any file imagecodecs
+        refuses, go through Pillow as before, whose bytes the array wraps without a copy.
+        Read-only either way (pages are shared by the regions cut from them): copy it to
+        change it.
 
     Raises
     ------
@@ -153,6 +157,10 @@ def load_rgba(path: str | Path) -> np.ndarray:
             warnings.simplefilter("error", Image.DecompressionBombWarning)
             with Image.open(path, formats=_decodable_formats()) as im:
                 check_image_size(im.width, im.height, "image", path)
+                fast = _codec_rgba(im)
+                if fast is not None:
+                    fast.flags.writeable = False
+                    return fast
                 im.load()
                 if im.mode != "RGBA":
                     im = im.convert("RGBA")
@@ -166,6 +174,89 @@ def load_rgba(path: str | Path) -> np.ndarray:
         raise ImageError(f"image exceeds the limit of {MAX_IMAGE_PIXELS:,} pixels", path) from None
     except (OSError, ValueError, SyntaxError, EOFError) as e:
         raise ImageError(f"cannot decode image: {e}", path) from None
+
+
+#: PNG colour types imagecodecs' libpng decoder turns into the texels Pillow gives (grey,
+#: RGB, palette, grey + alpha, RGBA; tRNS becomes alpha), checked on every page of the corpus.
+_PNG_COLOUR_TYPES = (0, 2, 3, 4, 6)
+
+
+def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
+    """The texels of an opened (not yet loaded) image through imagecodecs, or None for Pillow to decode.
+
+    Only where imagecodecs gives exactly Pillow's texels: 8-bit, non-interlaced PNG (16-bit
+    PNG, which Pillow cuts to its high bytes, and interlaced PNG stay with Pillow) and still
+    WebP (Pillow shows an animated WebP's first frame; imagecodecs would decode every frame).
+    A file imagecodecs refuses (a bad checksum Pillow does not check, say) is left to Pillow,
+    which decodes it as before or raises its error. The size was checked before this call.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 4), uint8, or None
+    """
+    if im.format == "PNG":
+        im.fp.seek(0)
+        head = im.fp.read(33)
+        # IHDR comes first (Pillow checked): bit depth at 24, colour type at 25, interlace at 28
+        if len(head) < 33 or head[12:16] != b"IHDR" or head[24] != 8 or head[25] not in _PNG_COLOUR_TYPES \
+                or head[28] != 0:
+            return None
+        decode = "png_decode"
+    elif im.format == "WEBP" and getattr(im, "n_frames", 1) == 1:
+        decode = "webp_decode"
+    else:
+        return None
+    codecs = _imagecodecs()
+    im.fp.seek(0)
+    data = im.fp.read()
+    try:
+        samples = getattr(codecs, decode)(data)
+    except (RuntimeError, ValueError, MemoryError):  # libpng's or libwebp's refusal: Pillow decides
+        return None
+    if samples.shape[:2] != (im.height, im.width) or samples.dtype != np.uint8:
+        return None
+    return rgba_from_samples(samples)
+
+
+@functools.lru_cache(maxsize=1)
+def _imagecodecs():
+    """imagecodecs, imported on first use (start-up does not pay for it); its warnings
+    (libpng's "iCCP: extra compressed data") are not printed unless the application logs them."""
+    import logging
+
+    import imagecodecs
+
+    logging.getLogger("imagecodecs").addHandler(logging.NullHandler())
+    return imagecodecs
+
+
+def rgba_from_samples(samples: np.ndarray) -> np.ndarray:
+    """RGBA from grey, grey + alpha, RGB or RGBA texels, as Pillow's ``convert("RGBA")`` makes it.
+
+    Parameters
+    ----------
+    samples : ndarray, shape (H, W) or (H, W, C) with C in 1 to 4, uint8
+
+    Returns
+    -------
+    ndarray, shape (H, W, 4), uint8
+        ``samples`` itself when it already is RGBA; else a new array, opaque where there was
+        no alpha.
+
+    Examples
+    --------
+    >>> rgba_from_samples(np.array([[[7, 9]]], np.uint8)).tolist()
+    [[[7, 7, 7, 9]]]
+    """
+    if samples.ndim == 2:
+        samples = samples[..., None]
+    channels = samples.shape[2]
+    if channels == 4:
+        return samples
+    out = np.empty(samples.shape[:2] + (4,), np.uint8)
+    out[..., :3] = samples[..., :3] if channels == 3 else samples[..., :1]
+    out[..., 3] = samples[..., 1] if channels == 2 else 255
+    return out
 
 
 def unpremultiply(rgba: np.ndarray) -> np.ndarray:

@@ -244,3 +244,122 @@ def test_an_untrimmed_region_is_a_view_of_its_page_and_a_trimmed_one_a_copy():
     out = cut_region(page, trimmed)
     assert not np.shares_memory(out, page) and out.shape == (2, 4, 4)
     assert np.array_equal(out[:, :3], cut_region(page, whole))
+
+
+# --- decoders: imagecodecs where it gives Pillow's texels, Pillow elsewhere -------------------
+
+def _pillow_rgba(path) -> np.ndarray:
+    """The texels Pillow gives (what ``load_rgba`` returned before imagecodecs decoded PNG and WebP)."""
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGBA"))
+
+
+def _png_chunks(path, width: int, height: int, depth: int, colour: int, rows: bytes, interlace: int = 0,
+                extra: bytes = b"", idat_crc_delta: int = 0) -> None:
+    """A PNG from its parts (for kinds Pillow does not write: 16-bit RGBA, interlaced, a bad checksum)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes, delta: int = 0) -> bytes:
+        crc = (zlib.crc32(kind + data) + delta) & 0xFFFFFFFF
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    ihdr = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, interlace)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + extra
+                     + chunk(b"IDAT", zlib.compress(rows), idat_crc_delta) + chunk(b"IEND", b""))
+
+
+def _png_kinds(tmp_path) -> dict:
+    """name -> (file, whether imagecodecs decodes it): every colour type and depth atlases may hold."""
+    rng = np.random.default_rng(5)
+    rgba = rng.integers(0, 256, (13, 21, 4), dtype=np.uint8)
+    rgba[2:5, 3:9, 3] = 0
+    kinds = {}
+
+    def save(name, image, fast, **options):
+        path = tmp_path / f"{name}.png"
+        image.save(path, **options)
+        kinds[name] = (path, fast)
+
+    save("rgba", Image.fromarray(rgba), True)
+    save("rgb", Image.fromarray(rgba[..., :3]), True)
+    save("rgb-trns", Image.fromarray(rgba[..., :3]), True, transparency=tuple(int(v) for v in rgba[0, 0, :3]))
+    palette = Image.fromarray(rgba).quantize(37)
+    save("palette", palette, True)
+    alphas = bytes(range(0, 250, 10))  # tRNS shorter than the palette: the rest opaque
+    save("palette-trns", palette, True, transparency=alphas)
+    save("grey", Image.fromarray(rgba[..., 0]), True)
+    save("grey-trns", Image.fromarray(rgba[..., 0]), True, transparency=int(rgba[0, 0, 0]))
+    save("grey-alpha", Image.fromarray(rgba[..., [0, 3]], "LA"), True)
+    save("grey-1bit", Image.fromarray(rgba[..., 0] > 128), False)
+    save("grey-4bit", Image.fromarray(rgba[..., 0] // 17 * 17), False, bits=4)
+    save("grey-16bit", Image.fromarray(rgba[..., 0].astype(np.uint16) * 257), False)
+    rows16 = b"".join(b"\0" + row.astype(">u2").tobytes() for row in rgba.astype(np.uint16) * 251)
+    _png_chunks(tmp_path / "rgba-16bit.png", 21, 13, 16, 6, rows16)
+    kinds["rgba-16bit"] = (tmp_path / "rgba-16bit.png", False)
+    # one pixel interlaced: Adam7's first pass holds it, the other six are empty
+    _png_chunks(tmp_path / "interlaced.png", 1, 1, 8, 6, b"\0" + bytes(rgba[0, 0]), interlace=1)
+    kinds["interlaced"] = (tmp_path / "interlaced.png", False)
+    return kinds
+
+
+def test_every_png_kind_decodes_to_pillows_texels(tmp_path):
+    """8-bit PNG of every colour type goes through imagecodecs; 1- to 4-bit, 16-bit and interlaced
+    PNG through Pillow; the texels are Pillow's either way (palettes and tRNS included)."""
+    from spinemesh.images import _codec_rgba
+
+    for name, (path, fast) in _png_kinds(tmp_path).items():
+        with Image.open(path) as im:
+            assert (_codec_rgba(im) is not None) == fast, name
+        got = load_rgba(path)
+        assert got.shape[2] == 4 and not got.flags.writeable, name
+        assert np.array_equal(got, _pillow_rgba(path)), name
+
+
+def test_a_png_imagecodecs_refuses_is_decoded_by_pillow_as_before(tmp_path):
+    """libpng checks the IDAT checksum, Pillow does not: such a file gives Pillow's texels, not an error."""
+    rgba = np.arange(4 * 3 * 4, dtype=np.uint8).reshape(4, 3, 4)
+    rows = b"".join(b"\0" + row.tobytes() for row in rgba)
+    _png_chunks(tmp_path / "bad-crc.png", 3, 4, 8, 6, rows, idat_crc_delta=1)
+    assert np.array_equal(load_rgba(tmp_path / "bad-crc.png"), _pillow_rgba(tmp_path / "bad-crc.png"))
+    _png_chunks(tmp_path / "short.png", 3, 4, 8, 6, rows[:20])  # too few rows: an error either way
+    with pytest.raises(ImageError, match="short.png"):
+        load_rgba(tmp_path / "short.png")
+
+
+def test_webp_still_through_imagecodecs_animated_through_pillow(tmp_path):
+    """Lossless and lossy still WebP decode to Pillow's texels; an animated one to its first frame."""
+    from spinemesh.images import _codec_rgba
+
+    yy, xx = np.mgrid[0:24, 0:32]
+    rgba = np.stack([xx * 8, yy * 10, (xx + yy) * 4, np.where(xx > 4, 255, 0)], -1).astype(np.uint8)
+    frames = [Image.fromarray(rgba), Image.fromarray(rgba[::-1].copy())]
+    frames[0].save(tmp_path / "lossless.webp", lossless=True)
+    frames[0].save(tmp_path / "lossy.webp", quality=80)
+    Image.fromarray(rgba[..., :3]).save(tmp_path / "opaque.webp", quality=80)
+    frames[0].save(tmp_path / "animated.webp", save_all=True, append_images=frames[1:], lossless=True)
+    for name, fast in (("lossless", True), ("lossy", True), ("opaque", True), ("animated", False)):
+        path = tmp_path / f"{name}.webp"
+        with Image.open(path) as im:
+            assert (_codec_rgba(im) is not None) == fast, name
+        assert np.array_equal(load_rgba(path), _pillow_rgba(path)), name
+
+
+def _kinds_of_real_images(roots, per_kind: int = 4) -> list:
+    """A few files of each kind among the real images: format, and for PNG its bit depth, colour
+    type and whether it holds tRNS (``benchmarks/bench_speed.py --only decode`` checks them all)."""
+    kinds: dict = {}
+    for path in sorted(p for root in roots for p in root.rglob("*")
+                       if p.suffix.lower() in (".png", ".webp", ".jpg", ".jpeg") and p.is_file()):
+        head = path.read_bytes()[:4096]
+        kind = (path.suffix.lower(), head[24:26], b"tRNS" in head) if head[12:16] == b"IHDR" else path.suffix
+        kinds.setdefault(kind, []).append(path)
+    return [p for paths in kinds.values() for p in paths[:per_kind]]
+
+
+def test_real_page_images_of_every_kind_decode_to_pillows_texels(examples, corpus):
+    """RGBA, RGB and palette PNG (with tRNS), WebP and JPEG of the examples and the corpus."""
+    files = _kinds_of_real_images((examples, corpus))
+    assert len(files) >= 12
+    differ = [str(p) for p in files if not np.array_equal(load_rgba(p), _pillow_rgba(p))]
+    assert not differ, differ
