@@ -26,7 +26,13 @@ one, :func:`bench_mesher.textured_sprite`, and a corpus page scaled 1.5x and til
 excluded: CPU seconds of the command's work and of its loading, mask and meshing, best of
 ``--repeat`` runs in one process; the
 ``mesh.json`` files are compared byte for byte. Then the decoders side by side on the same
-files (CPU seconds, best of three, texels checked equal).
+files (Pillow, OpenCV, imagecodecs' libspng and libpng, and ``load_rgba`` of this checkout; CPU
+seconds, best of three, texels checked equal), and the floor under any PNG decoder: inflating
+the file's compressed stream alone (zlib, zlib-ng, libdeflate), before a row is unfiltered.
+
+``decode``: every PNG, WebP and JPEG of the examples and the corpus, decoded as ``load_rgba``
+did before (Pillow) and by ``load_rgba`` of this checkout, in this process: CPU seconds by
+format, texels compared.
 
 ``dataset``: ``build_dataset`` of the same projects with ``--jobs`` workers: samples, wall,
 samples/s, CPU seconds (parent and workers) and samples per CPU-second (x cores = the rate on
@@ -236,12 +242,16 @@ def bench_sprite(before: Path, after: Path, images: list[Path], tmp: Path, repea
 
 
 def bench_decoders(images: list[Path]) -> None:
-    """Pillow and OpenCV decodes of the same files, best CPU of three, texels checked equal."""
+    """Pillow, OpenCV and imagecodecs decodes of the same files, best CPU of three, texels checked
+    equal; then the floor: inflating the PNG's compressed stream alone, without unfiltering a row."""
     import time
 
     import cv2
+    import imagecodecs
     import numpy as np
     from PIL import Image
+
+    from spinemesh.images import load_rgba
 
     def pil_array(p):
         with Image.open(p) as im:
@@ -252,21 +262,24 @@ def bench_decoders(images: list[Path]) -> None:
             im.load()
             return np.asarray(im if im.mode == "RGBA" else im.convert("RGBA"))
 
-    def cv2_imread(p):
-        a = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-        return cv2.cvtColor(a, cv2.COLOR_BGRA2RGBA, dst=a)
-
     def cv2_imdecode(p):
         a = cv2.imdecode(np.fromfile(p, np.uint8), cv2.IMREAD_UNCHANGED)
         return cv2.cvtColor(a, cv2.COLOR_BGRA2RGBA, dst=a)
 
-    decoders = {"Pillow np.array (before)": pil_array, "Pillow np.asarray (after)": pil_asarray,
-                "cv2.imread + swap": cv2_imread, "cv2.imdecode + swap": cv2_imdecode}
+    decoders = {"Pillow np.array": pil_array, "Pillow np.asarray (before)": pil_asarray,
+                "cv2.imdecode + swap": cv2_imdecode,
+                "imagecodecs spng_decode": lambda p: imagecodecs.spng_decode(p.read_bytes()),
+                "imagecodecs png_decode": lambda p: imagecodecs.png_decode(p.read_bytes()),
+                "load_rgba (this checkout)": load_rgba}
+    inflaters = {"inflate only: zlib": lambda z, n: imagecodecs.zlib_decode(z, out=n),
+                 "inflate only: zlib-ng": lambda z, n: imagecodecs.zlibng_decode(z, out=n),
+                 "inflate only: libdeflate": lambda z, n: imagecodecs.deflate_decode(z, out=n)}
     print("\ndecoders (CPU s, best of 3):\n")
     print(f"{'decoder':28} " + " ".join(f"{p.stem:>15}" for p in images))
-    best = {name: [float("inf")] * len(images) for name in decoders}
+    best = {name: [float("inf")] * len(images) for name in (*decoders, *inflaters)}
     for i, p in enumerate(images):
         ref = None
+        stream, raw_size = idat_stream(p)
         for _ in range(3):
             for name, f in decoders.items():
                 t = time.process_time()
@@ -275,9 +288,65 @@ def bench_decoders(images: list[Path]) -> None:
                 ref = a if ref is None else ref
                 assert np.array_equal(ref, a), f"{name} gives other texels for {p}"
                 del a
-    for name in decoders:
+            for name, f in inflaters.items():
+                t = time.process_time()
+                assert len(f(stream, raw_size)) == raw_size
+                best[name][i] = min(best[name][i], time.process_time() - t)
+    for name in best:
         print(f"{name:28} " + " ".join(f"{s:15.2f}" for s in best[name]))
     print("same texels: yes")
+
+
+def idat_stream(path: Path) -> tuple[bytes, int]:
+    """A PNG's compressed image stream (its IDAT chunks joined) and the size of the filtered rows it inflates to."""
+    import struct
+
+    data = path.read_bytes()
+    width, height, depth, colour = struct.unpack(">IIBB", data[16:26])
+    channels = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}[colour]
+    parts, at = [], 8
+    while at < len(data):
+        size, kind = struct.unpack(">I4s", data[at:at + 8])
+        if kind == b"IDAT":
+            parts.append(data[at + 8:at + 8 + size])
+        at += 12 + size
+    return b"".join(parts), height * (1 + (width * channels * depth + 7) // 8)
+
+
+def bench_decode_corpus(roots: list[Path]) -> bool:
+    """Every PNG, WebP and JPEG of the examples and the corpus: Pillow (as ``load_rgba`` decoded
+    before) against ``load_rgba`` of this checkout, CPU seconds by format and texels compared."""
+    import time
+
+    import numpy as np
+    from PIL import Image
+
+    from spinemesh.images import load_rgba
+
+    files = sorted(p for root in roots for p in root.rglob("*")
+                   if p.suffix.lower() in (".png", ".webp", ".jpg", ".jpeg") and p.is_file())
+    rows: dict[str, list] = {}
+    differ = []
+    for p in files:
+        t = time.process_time()
+        with Image.open(p) as im:
+            im.load()
+            before = np.asarray(im if im.mode == "RGBA" else im.convert("RGBA"))
+        t1 = time.process_time()
+        after = load_rgba(p)
+        t2 = time.process_time()
+        row = rows.setdefault(p.suffix.lower().replace(".jpeg", ".jpg"), [0, 0.0, 0.0])
+        row[0] += 1
+        row[1] += t1 - t
+        row[2] += t2 - t1
+        if not np.array_equal(before, after):
+            differ.append(p)
+    print(f"\n## decoding every image of {', '.join(r.name for r in roots)} (CPU s)\n")
+    print(f"{'format':8} {'files':>6} {'Pillow':>8} {'load_rgba':>9} {'ratio':>7}")
+    for name, (n, b, a) in sorted(rows.items()):
+        print(f"{name:8} {n:>6d} {b:8.2f} {a:9.2f} {ratio(b, a):>7}")
+    print(f"same texels: {'yes' if not differ else 'NO: ' + ', '.join(map(str, differ[:5]))}")
+    return not differ
 
 
 def bench_read(before: Path, after: Path, projects: list[Path]) -> None:
@@ -319,8 +388,8 @@ def main() -> None:
     ap.add_argument("--after", type=Path, default=REPO, help="the code measured (default: this checkout)")
     ap.add_argument("--projects", nargs="+", default=list(PROJECTS), help="corpus project folders to upgrade")
     ap.add_argument("--jobs", type=int, default=2, help="workers of the upgrade and dataset runs (default 2)")
-    ap.add_argument("--only", choices=("upgrade", "read", "sprite", "dataset"), nargs="+",
-                    default=["upgrade", "read", "sprite", "dataset"], help="which measurements (default all)")
+    ap.add_argument("--only", choices=("upgrade", "read", "sprite", "decode", "dataset"), nargs="+",
+                    default=["upgrade", "read", "sprite", "decode", "dataset"], help="which measurements (default all)")
     ap.add_argument("--repeat", type=int, default=3, help="sprite runs per side, the best kept (default 3)")
     ap.add_argument("--sprites", type=Path, default=Path(tempfile.gettempdir()) / "spinemesh-bench-sprites",
                     help="where the 6000x6000 sprites are written once (default: the temporary folder)")
@@ -344,6 +413,8 @@ def main() -> None:
         if "sprite" in args.only:
             args.sprites.mkdir(parents=True, exist_ok=True)
             same &= bench_sprite(args.before, args.after, sprites(args.sprites), tmp, args.repeat)
+        if "decode" in args.only:
+            same &= bench_decode_corpus([CORPUS.parent / "spine-examples", CORPUS])
         if "dataset" in args.only:
             same &= bench_dataset(args.before, args.after, library, tmp, args.jobs)
     if not same:

@@ -14,7 +14,6 @@ from __future__ import annotations
 import functools
 import warnings
 from collections import OrderedDict
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +38,6 @@ def _decodable_formats() -> tuple[str, ...]:
     return tuple(f for f in IMAGE_FORMATS if f in Image.OPEN)
 
 
-@dataclass
 class RegionImage:
     """An attachment image at its original size.
 
@@ -68,24 +66,29 @@ class RegionImage:
         The part of ``drawn`` that can change a pixel by more than :data:`FAINT_TEXEL`/255
         when drawn with normal blending (:func:`shown_texels`); the bleed-in border texels
         always. Default: ``alpha > FAINT_TEXEL``.
+
+    ``drawn`` and ``shown`` are computed on first use when not given: a data set, which
+    stores texels only, never pays for them.
     """
 
-    rgba: np.ndarray
-    scale: float
-    name: str
-    source: str
-    content: tuple[int, int, int, int] | None = None
-    drawn: np.ndarray | None = None
-    shown: np.ndarray | None = None
+    def __init__(self, rgba: np.ndarray, scale: float, name: str, source: str,
+                 content: tuple[int, int, int, int] | None = None, drawn: np.ndarray | None = None,
+                 shown: np.ndarray | None = None):
+        self.rgba, self.scale, self.name, self.source = rgba, scale, name, source
+        self.content = (0, 0, rgba.shape[1], rgba.shape[0]) if content is None else content
+        self._drawn, self._shown = drawn, shown
 
-    def __post_init__(self):
-        if self.content is None:
-            h, w = self.rgba.shape[:2]
-            self.content = (0, 0, w, h)
-        if self.drawn is None:
-            self.drawn = self.rgba[..., 3] > 0
-        if self.shown is None:
-            self.shown = self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
+    @property
+    def drawn(self) -> np.ndarray:
+        if self._drawn is None:
+            self._drawn = self.rgba[..., 3] > 0
+        return self._drawn
+
+    @property
+    def shown(self) -> np.ndarray:
+        if self._shown is None:
+            self._shown = self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
+        return self._shown
 
 
 #: A texel none of whose premultiplied channels exceeds this (/255) changes no pixel by more
@@ -260,25 +263,19 @@ def rgba_from_samples(samples: np.ndarray) -> np.ndarray:
 
 
 def unpremultiply(rgba: np.ndarray) -> np.ndarray:
-    """Straight-alpha RGBA from premultiplied RGBA (uint8 in, uint8 out).
+    """Straight-alpha RGBA from premultiplied RGBA (uint8 in, uint8 out, a new array).
 
-    Colour channels are divided by alpha with rounding; fully transparent pixels become
-    black. At low alpha the division cannot be exact in 8 bits; premultiplying the result
-    again gives back the input within 1 per channel. One look-up per channel in a 256x256
-    table of those divisions (:func:`_unpremultiply_table`): about 6x faster than dividing.
+    Colour channels are divided by alpha with rounding, ``min(255, (c * 255 + a // 2) // a)``;
+    fully transparent pixels become black. At low alpha the division cannot be exact in 8
+    bits; premultiplying the result again gives back the input within 1 per channel.
+    OpenCV's ``COLOR_mRGBA2RGBA`` computes exactly that (checked for every alpha and colour
+    by the tests), about 10x faster than a look-up table in numpy.
     """
-    out = rgba.copy()
-    out[..., :3] = _unpremultiply_table()[rgba[..., 3:4], rgba[..., :3]]
-    return out
+    import cv2
 
-
-@functools.lru_cache(maxsize=1)
-def _unpremultiply_table() -> np.ndarray:
-    """``table[alpha, colour]``: the straight colour, ``round(colour * 255 / alpha)`` capped at 255, 0 where alpha is 0."""
-    a = np.arange(256, dtype=np.uint32)[:, None]
-    c = np.arange(256, dtype=np.uint32)[None, :]
-    safe = np.maximum(a, 1)
-    return np.where(a > 0, np.minimum((c * 255 + safe // 2) // safe, 255), 0).astype(np.uint8)
+    if rgba.strides[1:] != (4, 1):  # OpenCV takes rows of contiguous texels (a turned view is not)
+        rgba = np.ascontiguousarray(rgba)
+    return cv2.cvtColor(rgba, cv2.COLOR_mRGBA2RGBA)
 
 
 def channel_max(rgba: np.ndarray) -> np.ndarray:
@@ -288,6 +285,19 @@ def channel_max(rgba: np.ndarray) -> np.ndarray:
     maxima over whole planes give the same values about 3x faster.
     """
     return np.maximum(np.maximum(rgba[..., 0], rgba[..., 1]), np.maximum(rgba[..., 2], rgba[..., 3]))
+
+
+def texels_as_words(rgba: np.ndarray) -> np.ndarray:
+    """Each RGBA texel as one 32-bit word: shape (H, W), uint32.
+
+    A texel is all zeros exactly when its word is 0: one comparison per texel where
+    :func:`channel_max` makes three passes over four planes (about 4x faster). A view of
+    ``rgba`` when its texels lie four bytes apart (a page, or a rectangle of one); else
+    (a turned view) of a contiguous copy.
+    """
+    if rgba.strides[-2:] != (4, 1):
+        rgba = np.ascontiguousarray(rgba)
+    return rgba.view(np.uint32)[..., 0]
 
 
 def premultiply(rgba: np.ndarray) -> np.ndarray:
@@ -374,7 +384,7 @@ def bleeding_in(page: np.ndarray, region: AtlasRegion, pma: bool = False, source
     x0, y0, x1, y1 = g.x - 1, g.y - 1, g.x + g.page_width + 1, g.y + g.page_height + 1
     ring = np.zeros((y1 - y0, x1 - x0), np.uint8)
     near = page[max(0, y0):min(ph, y1), max(0, x0):min(pw, x1)]
-    shown = channel_max(near) > 0 if pma else near[..., 3] > 0
+    shown = texels_as_words(near) != 0 if pma else near[..., 3] > 0
     ring[max(0, y0) - y0:max(0, y0) - y0 + shown.shape[0], max(0, x0) - x0:max(0, x0) - x0 + shown.shape[1]] = shown
     ring[1:-1, 1:-1] = 0  # only what lies outside the rectangle
     border = cv2.dilate(ring, np.ones((3, 3), np.uint8))[1:-1, 1:-1].astype(bool)
@@ -524,7 +534,7 @@ class AtlasImages:
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
         if not coverage:
             return RegionImage(rgba, page.scale, name, str(page_path), content)
-        drawn = channel_max(stored) > 0 if page.pma else rgba[..., 3] > 0
+        drawn = texels_as_words(stored) != 0 if page.pma else rgba[..., 3] > 0
         shown = shown_texels(stored, page.pma)
         bleed = bleeding_in(pixels, region, page.pma, str(atlas.path))
         return RegionImage(rgba, page.scale, name, str(page_path), content, drawn | bleed, shown | bleed)

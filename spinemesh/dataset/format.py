@@ -52,7 +52,7 @@ from PIL import Image
 
 from ..errors import SpineMeshError
 from ..foreground import ALPHA_THRESHOLD, alpha_mask
-from ..images import channel_max
+from ..images import texels_as_words
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -77,7 +77,7 @@ def tight_box(rgba: np.ndarray) -> tuple[int, int, int, int]:
 
     At least 1x1, so that an empty image still has something to store.
     """
-    nonzero = channel_max(rgba) != 0  # also for a view of a page, without copying it first
+    nonzero = texels_as_words(rgba) != 0  # also for a view of a page, without copying it first
     x, y, w, h = cv2.boundingRect(nonzero.view(np.uint8))
     return int(x), int(y), max(int(w), 1), max(int(h), 1)
 
