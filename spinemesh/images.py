@@ -154,11 +154,35 @@ def load_rgba(path: str | Path) -> np.ndarray:
 
     if Path(path).exists():  # a FIFO or device would block or never end: regular files only
         regular_file(path, "image")
+    return _decode(path, path)
+
+
+def decode_rgba(data: bytes, source: str | Path | None = None) -> np.ndarray:
+    """:func:`load_rgba` of a file's bytes already in memory (a data set's members).
+
+    Parameters
+    ----------
+    data : bytes
+        A PNG, WebP, AVIF or JPEG file.
+    source : path, optional
+        What errors name.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 4), uint8, read-only
+    """
+    import io
+
+    return _decode(io.BytesIO(data), source)
+
+
+def _decode(file, path) -> np.ndarray:
+    """The decode of :func:`load_rgba`: ``file`` a path or a binary stream, ``path`` what errors name."""
     try:
         with warnings.catch_warnings():
             # Pillow's bomb warning becomes our error (the size check below comes first).
             warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(path, formats=_decodable_formats()) as im:
+            with Image.open(file, formats=_decodable_formats()) as im:
                 check_image_size(im.width, im.height, "image", path)
                 fast = _codec_rgba(im)
                 if fast is not None:

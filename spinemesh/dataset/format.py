@@ -52,7 +52,7 @@ from PIL import Image
 
 from ..errors import SpineMeshError
 from ..foreground import ALPHA_THRESHOLD, alpha_mask
-from ..images import texels_as_words
+from ..images import decode_rgba, texels_as_words
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -244,8 +244,7 @@ class Dataset:
 
     def load_image(self, row: dict) -> np.ndarray:
         """The sample's RGBA image, (H, W, 4) uint8, straight alpha."""
-        with Image.open(io.BytesIO(self._read(row, "image"))) as im:
-            part = np.asarray(im.convert("RGBA"))
+        part = decode_rgba(self._read(row, "image"), self.root / row["shard"])
         return uncrop(part, row["box"], row["width"], row["height"])
 
     def load_mask(self, row: dict) -> np.ndarray:

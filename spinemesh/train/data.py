@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
+from ..images import decode_rgba
 from ..segment.composite import coarse_noise_background, make_background
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD, resize
 from ..segment.samples import dataset_rows, shrink, useful
@@ -64,8 +65,7 @@ def encode_sprite(rgba: np.ndarray) -> bytes:
 
 def decode_sprite(data: bytes) -> np.ndarray:
     """(H, W, 4) uint8 straight-alpha sprite from :func:`encode_sprite`'s bytes."""
-    with Image.open(io.BytesIO(data)) as im:
-        return np.asarray(im.convert("RGBA")).copy()
+    return decode_rgba(data).copy()
 
 
 def write_pack(datasets: list[str | Path], out: str | Path, max_side: int = PACK_MAX_SIDE) -> dict:
