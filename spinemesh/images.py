@@ -136,8 +136,9 @@ def load_rgba(path: str | Path) -> np.ndarray:
     -------
     ndarray, shape (H, W, 4), uint8, read-only
         8-bit PNG and still WebP files are decoded by imagecodecs (libpng, libwebp) straight
-        into the array (:func:`_codec_rgba`): 1.3x to 2x less CPU than Pillow on atlas pages
-        and 6000x6000 sprites (``benchmarks/bench_speed.py``), the same texels. Other files
+        into the array (:func:`_codec_rgba`), the same texels with less CPU than Pillow: 1.2x
+        to 1.3x over the corpus's pages, 1.5x to 2x on 6000x6000 sprites
+        (``benchmarks/bench_speed.py``). Other files
         (JPEG, AVIF, 16-bit or interlaced PNG, animated WebP), and any file imagecodecs
         refuses, go through Pillow as before, whose bytes the array wraps without a copy.
         Read-only either way (pages are shared by the regions cut from them): copy it to

@@ -161,7 +161,7 @@ def test_broken_page_image_is_a_clear_error(tmp_path):
 
 @pytest.mark.parametrize("fmt, suffix, exact", [("PNG", "png", True), ("WEBP", "webp", True), ("AVIF", "avif", False)])
 def test_page_formats(tmp_path, fmt, suffix, exact):
-    """Pages in PNG, WebP and AVIF decode through Pillow; a 4x2 region comes back in place."""
+    """Pages in PNG, WebP and AVIF decode; a 4x2 region comes back in place."""
     # A smooth gradient: lossy AVIF keeps it close, where random noise would not survive.
     yy, xx = np.mgrid[0:8, 0:8]
     pixels = np.stack([xx * 30, yy * 30, (xx + yy) * 15, np.full_like(xx, 255)], -1).astype(np.uint8)
