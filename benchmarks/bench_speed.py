@@ -37,6 +37,9 @@ format, texels compared.
 ``dataset``: ``build_dataset`` of the same projects with ``--jobs`` workers: samples, wall,
 samples/s, CPU seconds (parent and workers) and samples per CPU-second (x cores = the rate on
 an idle machine); the data sets are compared byte for byte (their ``index`` rows included).
+Then each project's extraction alone, one after the other in one process (OpenCV on one thread,
+as in a worker), and the span of ``--jobs`` workers taking them in order: samples / span is the
+rate that many idle cores would give, the parent's writing left out.
 
 The machine may be shared: the load average is printed, CPU seconds are the fairer figure,
 and both runs of a row are made back to back so that they meet the same load.
@@ -145,6 +148,27 @@ wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 print(json.dumps({"wall": wall, "cpu": me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime,
                   "samples": s.total_samples}))
+"""
+
+#: Each project's extraction alone (one process, OpenCV on one thread as in a worker), then the
+#: time two workers taking the projects in order need: the rate two idle cores would give.
+DATASET_SPREAD = r"""
+import heapq, json, sys, time
+from pathlib import Path
+import cv2
+from spinemesh.dataset.build import _project_names
+from spinemesh.dataset.extract import extract_project
+cv2.setNumThreads(1)
+library, jobs = Path(sys.argv[1]), int(sys.argv[2])
+costs = []
+for folder, name in _project_names([library]):
+    t = time.process_time()
+    extract_project(folder, name)
+    costs.append(time.process_time() - t)
+free = [0.0] * jobs
+for c in costs:
+    heapq.heappush(free, heapq.heappop(free) + c)
+print(json.dumps({"cpu": sum(costs), "largest": max(costs), "makespan": max(free)}))
 """
 
 
@@ -379,6 +403,16 @@ def bench_dataset(before: Path, after: Path, library: Path, tmp: Path, jobs: int
           f"{ratio(b['cpu'], a['cpu']):>7}")
     same = b["digest"] == a["digest"]
     print(f"same data set bytes: {'yes' if same else 'NO'}")
+    spread = {label: child(DATASET_SPREAD, code, library, jobs) for label, code in (("before", before), ("after", after))}
+    print(f"\nprojects one by one (one process), and {jobs} workers taking them in order:\n")
+    print(f"{'':28} {'before':>9} {'after':>9} {'ratio':>7}")
+    for key, name in (("cpu", "extraction CPU s"), ("largest", "largest project CPU s"),
+                      ("makespan", f"{jobs} workers' span s")):
+        print(f"{name:28} {spread['before'][key]:>9.1f} {spread['after'][key]:>9.1f} "
+              f"{ratio(spread['before'][key], spread['after'][key]):>7}")
+    b_rate, a_rate = (a["samples"] / spread[k]["makespan"] for k in ("before", "after"))
+    print(f"{'samples/s on idle cores':28} {b_rate:>9.0f} {a_rate:>9.0f} {a_rate / b_rate:>6.2f}x"
+          "  (the parent's writing left out)")
     return same
 
 
