@@ -140,6 +140,10 @@ def candidate_widths(areas: int, widest: int, max_w: int, pot: bool) -> list[int
 #: Page sizes tried, smallest first, when pages must have power-of-two sides.
 POT_TRIES = 6
 
+#: Most of a page's texels that footprints' own texels ever fill once placed (irregular shapes
+#: leave gaps; 300 ellipses fill about 81%): smaller whole pages are not tried.
+FILL_CEILING = 0.9
+
 
 def _powers(limit: int) -> list[int]:
     """Powers of two up to ``limit``, from 16."""
@@ -207,13 +211,16 @@ def geometry_entries(region: AtlasRegion, g: RegionGeometry, syntax: str, style:
     return geometry + [e for e in region.entries if e.key not in GEOMETRY_KEYS]
 
 
-def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
-                max_pages: int):
-    """Best packing of one group over a few page widths: ``(placements, page sizes)`` with fewest texels.
+def _page_sizes(used: list[tuple[int, int]], max_w: int, max_h: int, pot: bool) -> list[tuple[int, int]]:
+    return [(round_page(w, max_w, pot), round_page(h, max_h, pot)) for w, h in used]
 
-    Never more pages than the group had (each page is a texture switch, often a draw call).
+
+def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
+               best=None):
+    """First fit on pages of a few widths (the last page narrower where it can be).
+
+    Returns the best ``(texels, placements, sizes)``, ``best`` (the best so far) when none beats it.
     """
-    candidates = [it.masks for it in items]
 
     def widths_for(members: list[int], limit: int) -> list[int]:
         widest = max(min(m.shape[1] for m in candidates[i]) for i in members)
@@ -221,11 +228,10 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
         return candidate_widths(area, widest, limit, pot)
 
     def texels(used: list[tuple[int, int]]) -> int:
-        return sum(round_page(w, max_w, pot) * round_page(h, max_h, pot) for w, h in used)
+        return sum(w * h for w, h in _page_sizes(used, max_w, max_h, pot))
 
-    best = None
     needed = sum(int(c[0].sum()) for c in candidates)
-    for width in widths_for(list(range(len(items))), max_w):
+    for width in widths_for(list(range(len(candidates))), max_w):
         height = max_h
         if best is not None and max_pages == 1:
             # only a page of fewer texels than the best so far is worth finishing: cap its height
@@ -234,7 +240,8 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
                 height = 1 << max(0, height.bit_length() - 1)
             if width * height < needed:
                 continue
-        placements, used = fill_pages(candidates, width, height, padding, max_pages=max_pages)
+        placements, used = fill_pages(candidates, width, height, padding, max_pages=max_pages,
+                                      budget=None if best is None else best[0])
         if any(p is None for p in placements) or len(used) > max_pages:
             continue
         if len(used) > 1:  # the last page holds the rest: it may do with a narrower page
@@ -247,27 +254,69 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
                     for i, p in zip(last, again):
                         placements[i] = dataclasses.replace(p, page=len(used) - 1)
                     used[-1] = used_again[0]
-        sizes = [(round_page(w, max_w, pot), round_page(h, max_h, pot)) for w, h in used]
+        sizes = _page_sizes(used, max_w, max_h, pot)
         if any(w * h > max_area for w, h in sizes):
             continue
         total = sum(w * h for w, h in sizes)
         if best is None or total < best[0]:
             best = (total, placements, sizes)
-    if pot:
-        # powers of two round a used height up to the next one: try whole page sizes instead,
-        # smallest first, from the least area that could hold the footprints
-        sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
-                        if needed / max_pages <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
-                       key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
-        for w, h in sizes[:POT_TRIES]:
-            placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages)
+    return best
+
+
+def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int):
+    """Every footprint where it grows its page's used area least (see :func:`fill_pages`): ``(texels, placements, sizes)``.
+
+    Pages take whatever shape packs best, up to the longest side and the largest page's texels;
+    each page after the first starts small again, so a last page holding the rest stays small.
+    """
+    placements, used = fill_pages(candidates, max_w, max_h, padding, max_pages=max_pages, tight=True,
+                                  max_area=max_area, pot=pot)
+    if any(p is None for p in placements):
+        return None
+    sizes = _page_sizes(used, max_w, max_h, pot)
+    if any(w * h > max_area for w, h in sizes):
+        return None
+    return sum(w * h for w, h in sizes), placements, sizes
+
+
+def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best):
+    """Power-of-two page sizes tried whole, smallest first, from the least area that could hold the footprints.
+
+    Powers of two round a used height up to the next one; a page of exactly the size may
+    still hold everything. Each size is tried with both placements; the first that holds
+    everything is kept when it beats ``best`` (``(texels, placements, sizes)`` or None).
+    """
+    needed = sum(int(c[0].sum()) for c in candidates)
+    sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
+                    if needed / (max_pages * FILL_CEILING) <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
+                   key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
+    for w, h in sizes[:POT_TRIES]:
+        for tight in (False, True):
+            placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages, tight=tight, pot=True,
+                                          budget=None if best is None else best[0])
             if any(p is None for p in placements):
                 continue
-            found = [(round_page(uw, w, True), round_page(uh, h, True)) for uw, uh in used]
+            found = _page_sizes(used, w, h, True)
             total = sum(a * b for a, b in found)
             if best is None or total < best[0]:
-                best = (total, placements, found)
-            break
+                return total, placements, found
+            return best
+    return best
+
+
+def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
+                max_pages: int):
+    """Best packing of one group: ``(placements, page sizes)`` with fewest texels.
+
+    Tries first fit on pages of a few widths, the tightest fit on pages of any shape, and
+    (for powers of two) whole page sizes from the smallest; keeps the fewest texels. Never
+    more pages than the group had (each page is a texture switch, often a draw call).
+    """
+    candidates = [it.masks for it in items]
+    best = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages)
+    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best)
+    if pot:
+        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best)
     if best is None:
         raise PackRefused(f"its footprints do not fit on {max_pages} page(s) of the largest original size")
     return best[1], best[2]

@@ -67,6 +67,12 @@ def block_any(mask: np.ndarray, cell: int, grow: int = 0) -> np.ndarray:
     return out[::cell, ::cell].astype(bool)
 
 
+def _pot(n: np.ndarray) -> np.ndarray:
+    """The least power of two at or above each of ``n`` (>= 1), int64."""
+    n = np.maximum(1, np.asarray(n, np.int64))
+    return np.left_shift(1, np.ceil(np.log2(n)).astype(np.int64))
+
+
 def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
     """Cells of side ``cell`` that hold any set texel (the mask's top-left texel starts a cell)."""
     return block_any(mask, cell)
@@ -90,46 +96,88 @@ class Page:
             return False
         return not (self.taken[y:y + h, x:x + w] & mask).any()
 
-    def first_fit(self, mask: np.ndarray) -> tuple[int, int] | None:
-        """The first free place of ``mask`` (top rows first, then left), or None."""
+    def _search_limit(self, w: int, h: int) -> tuple[int, int]:
+        """The last top-left texel ``(x, y)`` worth a search for a ``w x h`` mask.
+
+        Nothing lies right of the used width or below the used height (but padding), so a place
+        further right or down is free whenever the place at that edge is, and only grows the
+        page: the search stops one cell past the edge, which keeps the correlation small.
+        """
+        reach = self.padding + self.cell
+        return min(self.width - w, self.used_w + reach), min(self.height - h, self.used_h + reach)
+
+    def free_places(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Top-left texels ``(xs, ys)`` where ``mask`` may go, row by row (top first, then left).
+
+        Places are cell-aligned and conservative (every one fits at texel level), within
+        :meth:`_search_limit`; empty when the mask cannot go on this page.
+        """
         import cv2
 
+        none = np.zeros(0, np.int64), np.zeros(0, np.int64)
         h, w = mask.shape
         if w > self.width or h > self.height or self.free < int(mask.sum()):
-            return None
+            return none
         cell = self.cell
         template = _coarse(mask, cell).astype(np.float32)
         hc, wc = template.shape
-        # A cell-aligned place of the template must also keep the texels on the page.
-        max_cx, max_cy = (self.width - w) // cell, (self.height - h) // cell
-        if self.coarse.shape[0] < hc or self.coarse.shape[1] < wc:
+        last_x, last_y = self._search_limit(w, h)
+        # a cell-aligned place of the template must also keep the texels on the page
+        max_cx, max_cy = last_x // cell, last_y // cell
+        region = self.coarse[:max_cy + hc, :max_cx + wc]
+        if region.shape[0] < hc or region.shape[1] < wc:
             return self._texel_scan(mask)
-        if not self.coarse.any():
-            scores = np.zeros((self.coarse.shape[0] - hc + 1, self.coarse.shape[1] - wc + 1), np.float32)
+        if self.used_w == 0 and self.used_h == 0:
+            scores = np.zeros((region.shape[0] - hc + 1, region.shape[1] - wc + 1), np.float32)
         else:
-            scores = cv2.matchTemplate(self.coarse, template, cv2.TM_CCORR)
-        scores = scores[:max_cy + 1, :max_cx + 1]
-        free = np.flatnonzero(scores.ravel() < 0.5)
-        for index in free[:64]:  # conservative, so the first normally fits; checked all the same
-            cy, cx = divmod(int(index), scores.shape[1])
-            x, y = cx * cell, cy * cell
+            scores = cv2.matchTemplate(region, template, cv2.TM_CCORR)
+        cy, cx = np.nonzero(scores[:max_cy + 1, :max_cx + 1] < 0.5)
+        return cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
+
+    def first_fit(self, mask: np.ndarray) -> tuple[int, int] | None:
+        """The first free place of ``mask`` (top rows first, then left), or None."""
+        xs, ys = self.free_places(mask)
+        for x, y in zip(xs[:64].tolist(), ys[:64].tolist()):  # conservative: the first fits; checked all the same
             if self.fits(mask, x, y):
                 return self._slide(mask, x, y)
         return None
 
-    def _texel_scan(self, mask: np.ndarray) -> tuple[int, int] | None:
-        """Exact search at texel level (pages too small for the coarse grid to help)."""
+    def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool) -> tuple[tuple, int, int] | None:
+        """The free place that grows the used area least: ``(cost, x, y)``, or None.
+
+        The cost is the used area's rounded page (powers of two when ``pot``), then the used
+        area itself, then top rows first, then left; places whose rounded page would exceed
+        ``max_area`` texels are passed over.
+        """
+        xs, ys = self.free_places(mask)
+        if xs.size == 0:
+            return None
+        h, w = mask.shape
+        new_w = np.maximum(self.used_w, xs + w)
+        new_h = np.maximum(self.used_h, ys + h)
+        page = (_pot(new_w) * _pot(new_h)) if pot else new_w * new_h
+        area = new_w * new_h
+        ok = np.flatnonzero(page <= max_area)
+        if ok.size == 0:
+            return None
+        ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], page[ok]))]
+        for i in ranked[:64].tolist():
+            x, y = int(xs[i]), int(ys[i])
+            if self.fits(mask, x, y):
+                x, y = self._slide(mask, x, y)
+                nw, nh = max(self.used_w, x + w), max(self.used_h, y + h)
+                rounded = (int(_pot(nw)) * int(_pot(nh))) if pot else nw * nh
+                return (rounded, nw * nh, y, x), x, y
+        return None
+
+    def _texel_scan(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact search at texel level (pages too small for the coarse grid to help): ``(xs, ys)``."""
         import cv2
 
         h, w = mask.shape
-        if w > self.width or h > self.height:
-            return None
         scores = cv2.matchTemplate(self.taken.astype(np.float32), mask.astype(np.float32), cv2.TM_CCORR)
-        for index in np.flatnonzero(scores.ravel() < 0.5)[:64]:
-            y, x = divmod(int(index), scores.shape[1])
-            if self.fits(mask, x, y):
-                return x, y
-        return None
+        ys, xs = np.nonzero(scores < 0.5)
+        return xs.astype(np.int64), ys.astype(np.int64)
 
     def _slide(self, mask: np.ndarray, x: int, y: int) -> tuple[int, int]:
         """Move a fitting place up, then left, while it still fits (the coarse grid rounds places down)."""
@@ -170,9 +218,10 @@ class Page:
 
 
 def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
-               order: list[int] | None = None, max_pages: int | None = None
+               order: list[int] | None = None, max_pages: int | None = None, tight: bool = False,
+               max_area: int | None = None, pot: bool = False, budget: int | None = None
                ) -> tuple[list[Placement | None], list[tuple[int, int]]]:
-    """Place every footprint on as few pages of ``width x height`` as the greedy first fit gives.
+    """Place every footprint on as few pages of ``width x height`` as the greedy fill gives.
 
     Parameters
     ----------
@@ -188,6 +237,19 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     max_pages : int, optional
         Stop once this many pages are full (what is left stays None): a size that cannot
         hold everything fails fast.
+    tight : bool
+        Where each footprint goes. False (default): the first free place, top rows first,
+        the orientation whose bottom edge is lowest (the page fills downwards, for a page of
+        this width). True: the place and orientation that grow the used area (rounded to
+        powers of two when ``pot``) least, so that the page takes the shape its footprints
+        pack best in, within ``max_area`` texels.
+    max_area : int, optional
+        With ``tight``, the most texels a page's used area (rounded) may take; default the page's.
+    pot : bool
+        With ``tight``, pages are rounded to powers of two.
+    budget : int, optional
+        Give up (placements None from there on) once the pages' used areas add up to this
+        many texels: a fill that cannot beat an earlier one stops early.
 
     Returns
     -------
@@ -199,6 +261,7 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     if order is None:
         order = sorted(range(len(candidates)),
                        key=lambda i: (-candidates[i][0].size, -candidates[i][0].shape[0], i))
+    limit = max_area or width * height
     placements: list[Placement | None] = [None] * len(candidates)
     pages: list[Page] = []
     left = [i for i in order if any(m.shape[1] <= width and m.shape[0] <= height for m in candidates[i])]
@@ -207,25 +270,40 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
         pages.append(page)
         still = []
         for i in left:
-            best = None
-            for k, mask in enumerate(candidates[i]):
-                place = page.first_fit(mask)
-                if place is None:
-                    continue
-                x, y = place
-                # the lowest bottom edge keeps the page short, then the leftmost place
-                score = (max(page.used_h, y + mask.shape[0]), y, x)
-                if best is None or score < best[0]:
-                    best = (score, k, x, y)
+            best = _best_place(page, candidates[i], tight, limit, pot)
             if best is None:
                 still.append(i)
                 continue
-            _, k, x, y = best
+            k, x, y = best
             mask = candidates[i][k]
             page.take(mask, x, y, (mask.shape[1], mask.shape[0]))
             placements[i] = Placement(len(pages) - 1, k, x, y)
+            if budget is not None and sum(p.used_w * p.used_h for p in pages) >= budget:
+                return [None] * len(candidates), [(p.used_w, p.used_h) for p in pages]
         if len(still) == len(left):  # nothing fitted on an empty page: cannot happen (sizes checked)
             pages.pop()
             break
         left = still
     return placements, [(p.used_w, p.used_h) for p in pages]
+
+
+def _best_place(page: Page, masks: list[np.ndarray], tight: bool, max_area: int, pot: bool
+                ) -> tuple[int, int, int] | None:
+    """``(orientation, x, y)`` of the best place of one footprint on ``page`` (see :func:`fill_pages`), or None."""
+    best = None
+    for k, mask in enumerate(masks):
+        if tight:
+            found = page.tightest_fit(mask, max_area, pot)
+            if found is None:
+                continue
+            score, x, y = found
+        else:
+            place = page.first_fit(mask)
+            if place is None:
+                continue
+            x, y = place
+            # the lowest bottom edge keeps the page short, then the leftmost place
+            score = (max(page.used_h, y + mask.shape[0]), y, x)
+        if best is None or score < best[0]:
+            best = (score, k, x, y)
+    return None if best is None else best[1:]
