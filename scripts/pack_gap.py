@@ -63,6 +63,7 @@ class GapRow:
     bound: int
     reached: int
     status: str
+    kept_cropped: int = 0
 
 
 def min_page_set(need: int, pages: int, max_area: int, pot: bool, smallest: int = 256) -> int:
@@ -92,6 +93,15 @@ def drawn_area(texels: np.ndarray, grow: int) -> int:
     return int(_grow(drawn, grow).sum()) if drawn.any() else 0
 
 
+def cropped_area(texels: np.ndarray, half: int) -> int:
+    """A stored rectangle cropped to its texels not fully zero, grown by 2 (a transparent ring and
+    the sampled ring) and ``half`` on every side."""
+    ys, xs = np.nonzero(texels.any(axis=2))
+    if ys.size == 0:
+        return 0
+    return (int(xs.max() - xs.min()) + 1 + 4 + 2 * half) * (int(ys.max() - ys.min()) + 1 + 4 + 2 * half)
+
+
 def share(mask: np.ndarray, half: int) -> int:
     """A footprint's area with its share of the padding: grown by ``half`` texels on every side."""
     return int(_grow(mask, half).sum()) if half else int(mask.sum())
@@ -105,7 +115,7 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
     items = _items(atlas, geometries, pixels, uses, "", True)
     sizes = [(int(p.shape[1]), int(p.shape[0])) for p in pixels]
     before = sum(w * h for w, h in sizes)
-    art = art_kept = kept = outline = 0
+    art = art_kept = kept = outline = kept_cropped = 0
     for it in items:
         x0, y0, x1, y1 = content_box(it.geometry)
         wx0, wy0 = it.foot.window[:2]
@@ -119,6 +129,7 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
         else:
             kept += f
             art_kept += a
+            kept_cropped += cropped_area(stored, int(round(half))) if "region attachment" in it.foot.reason else f
     max_area = max(w * h for w, h in sizes)
     pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
     # groups of pages with different settings are packed apart: bound each
@@ -137,7 +148,7 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
     except PackRefused as e:
         reached, status = before, "kept: " + str(e)[:60]
     return GapRow(project_name, rel, len(items), sum(it.foot.by_outline for it in items), len(pixels), before,
-                  art, art_kept, kept, outline, min(bound, before), reached, status)
+                  art, art_kept, kept, outline, min(bound, before), reached, status, kept_cropped)
 
 
 def project_gaps(project: Path) -> list[GapRow]:
@@ -181,6 +192,7 @@ def summary(rows: list[GapRow]) -> str:
     parts = [("art (ideal footprints)", lambda r: r.art),
              ("kept rectangles' art", lambda r: r.art_kept),
              ("kept rectangles", lambda r: r.kept),
+             ("kept region attachments cropped to what they draw", lambda r: r.kept_cropped),
              ("outline footprints' art", lambda r: r.art - r.art_kept),
              ("outline footprints", lambda r: r.outline),
              ("need = kept + outline", lambda r: r.kept + r.outline),

@@ -229,7 +229,8 @@ def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     assert any("cannot be read" in e or "invalid JSON" in e for e in result.errors)
 
 
-def test_footprints_never_meet_and_keep_the_padding():
+@pytest.mark.parametrize("tight", [False, True])
+def test_footprints_never_meet_and_keep_the_padding(tight):
     import cv2
 
     rng = np.random.default_rng(3)
@@ -239,7 +240,7 @@ def test_footprints_never_meet_and_keep_the_padding():
         m = np.zeros((h, w), np.uint8)
         cv2.ellipse(m, (w // 2, h // 2), (max(1, w // 2 - 1), max(1, h // 2 - 1)), 0, 0, 360, 1, -1)
         masks.append([m.astype(bool), np.rot90(m.astype(bool))])
-    placements, used = fill_pages(masks, 256, 256, 2)
+    placements, used = fill_pages(masks, 256, 256, 2, tight=tight)
     assert all(p is not None for p in placements)
     for page in range(len(used)):
         grown = np.zeros((260, 260), np.int32)
@@ -261,6 +262,22 @@ def test_interlocking_shapes_share_rectangles():
     flipped = ell[::-1, ::-1]
     placements, used = fill_pages([[ell], [flipped]], 26, 20, 0)
     assert all(p is not None for p in placements) and len(used) == 1
+
+
+def test_tightest_fit_keeps_the_used_area_small_and_within_the_limit():
+    """Squares that tile a 40x40 square: the tightest fit finds it on a wide page; never over max_area."""
+    squares = [[np.ones((20, 20), bool)] for _ in range(4)]
+    placements, used = fill_pages(squares, 200, 200, 0, tight=True)
+    assert all(p is not None for p in placements) and used == [(40, 40)]
+    placements, used = fill_pages(squares, 200, 200, 0, tight=True, max_area=40 * 40 - 1)
+    assert all(p is not None for p in placements) and all(w * h < 40 * 40 for w, h in used)
+    assert len(used) >= 2
+
+
+def test_a_fill_that_cannot_beat_the_budget_gives_up():
+    squares = [[np.ones((20, 20), bool)] for _ in range(4)]
+    placements, _ = fill_pages(squares, 200, 200, 0, tight=True, budget=40 * 40 - 1)
+    assert any(p is None for p in placements)
 
 
 def test_measured_padding():

@@ -145,8 +145,9 @@ class Page:
     def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool) -> tuple[tuple, int, int] | None:
         """The free place that grows the used area least: ``(cost, x, y)``, or None.
 
-        The cost is the used area's rounded page (powers of two when ``pot``), then the used
-        area itself, then top rows first, then left; places whose rounded page would exceed
+        The cost is the used area's page rounded to powers of two (when ``pot``), then its
+        longer side (square pages: a strip of least area now leaves no room for what comes
+        later), then the used area itself, then top rows first, then left; places whose rounded page would exceed
         ``max_area`` texels are passed over.
         """
         xs, ys = self.free_places(mask)
@@ -157,17 +158,19 @@ class Page:
         new_h = np.maximum(self.used_h, ys + h)
         page = (_pot(new_w) * _pot(new_h)) if pot else new_w * new_h
         area = new_w * new_h
+        side = np.maximum(new_w, new_h)
         ok = np.flatnonzero(page <= max_area)
         if ok.size == 0:
             return None
-        ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], page[ok]))]
+        first = page if pot else side  # without powers of two the page is the used area itself
+        ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], side[ok], first[ok]))]
         for i in ranked[:64].tolist():
             x, y = int(xs[i]), int(ys[i])
             if self.fits(mask, x, y):
                 x, y = self._slide(mask, x, y)
                 nw, nh = max(self.used_w, x + w), max(self.used_h, y + h)
-                rounded = (int(_pot(nw)) * int(_pot(nh))) if pot else nw * nh
-                return (rounded, nw * nh, y, x), x, y
+                first = int(_pot(nw)) * int(_pot(nh)) if pot else max(nw, nh)
+                return (first, max(nw, nh), nw * nh, y, x), x, y
         return None
 
     def _texel_scan(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
