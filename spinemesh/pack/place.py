@@ -106,11 +106,12 @@ class Page:
         reach = self.padding + self.cell
         return min(self.width - w, self.used_w + reach), min(self.height - h, self.used_h + reach)
 
-    def free_places(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def free_places(self, mask: np.ndarray, first: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Top-left texels ``(xs, ys)`` where ``mask`` may go, row by row (top first, then left).
 
         Places are cell-aligned and conservative (every one fits at texel level), within
-        :meth:`_search_limit`; empty when the mask cannot go on this page.
+        :meth:`_search_limit`; empty when the mask cannot go on this page. ``first``: only
+        the first so many places (found without listing them all).
         """
         import cv2
 
@@ -131,13 +132,20 @@ class Page:
             scores = np.zeros((region.shape[0] - hc + 1, region.shape[1] - wc + 1), np.float32)
         else:
             scores = cv2.matchTemplate(region, template, cv2.TM_CCORR)
-        cy, cx = np.nonzero(scores[:max_cy + 1, :max_cx + 1] < 0.5)
+        free = scores[:max_cy + 1, :max_cx + 1] < 0.5
+        if first is not None:
+            start = int(np.argmax(free))  # the first free place, found without a full listing
+            flat = free.ravel()[start:start + 4 * first]
+            index = start + np.flatnonzero(flat)[:first] if flat.size and flat[0] else np.zeros(0, np.int64)
+            cy, cx = np.divmod(index, free.shape[1])
+        else:
+            cy, cx = np.nonzero(free)
         return cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
 
     def first_fit(self, mask: np.ndarray) -> tuple[int, int] | None:
         """The first free place of ``mask`` (top rows first, then left), or None."""
-        xs, ys = self.free_places(mask)
-        for x, y in zip(xs[:64].tolist(), ys[:64].tolist()):  # conservative: the first fits; checked all the same
+        xs, ys = self.free_places(mask, first=64)
+        for x, y in zip(xs.tolist(), ys.tolist()):  # conservative: the first fits; checked all the same
             if self.fits(mask, x, y):
                 return self._slide(mask, x, y)
         return None
