@@ -153,9 +153,9 @@ class Page:
     def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool) -> tuple[tuple, int, int] | None:
         """The free place that grows the used area least: ``(cost, x, y)``, or None.
 
-        The cost is the used area's page rounded to powers of two (when ``pot``), then its
-        longer side (square pages: a strip of least area now leaves no room for what comes
-        later), then the used area itself, then top rows first, then left; places whose rounded page would exceed
+        The cost is the used area's page rounded to powers of two when ``pot``, else its longer
+        side (square pages: a strip of least area now leaves no room for what comes later),
+        then the used area itself, then top rows first, then left; places whose rounded page would exceed
         ``max_area`` texels are passed over.
         """
         xs, ys = self.free_places(mask)
@@ -171,14 +171,14 @@ class Page:
         if ok.size == 0:
             return None
         first = page if pot else side  # without powers of two the page is the used area itself
-        ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], side[ok], first[ok]))]
+        ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], first[ok]))]
         for i in ranked[:64].tolist():
             x, y = int(xs[i]), int(ys[i])
             if self.fits(mask, x, y):
                 x, y = self._slide(mask, x, y)
                 nw, nh = max(self.used_w, x + w), max(self.used_h, y + h)
                 first = int(_pot(nw)) * int(_pot(nh)) if pot else max(nw, nh)
-                return (first, max(nw, nh), nw * nh, y, x), x, y
+                return (first, nw * nh, y, x), x, y
         return None
 
     def _texel_scan(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
