@@ -246,6 +246,43 @@ def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
     return "\n".join(lines)
 
 
+def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
+    """CPU seconds of every fill ``pack`` tries for one atlas of ``count`` footprints on one ``side`` page.
+
+    Ellipses 40-170 texels across (both turns allowed) fill about 60% of the page, as a full
+    atlas page does; the original page is ``side x side``, so the packed one is at most that,
+    powers of two or not.
+    """
+    import cv2
+    import numpy as np
+
+    from spinemesh.pack.atlas_pack import _pack_group
+
+    class Item:  # what _pack_group reads of an item: its masks
+        def __init__(self, masks):
+            self.masks = masks
+
+    lines = ["| seed | footprints | original page | powers of two | packed page | fill | CPU s |",
+             "|---:|---:|---|---|---|---:|---:|"]
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        items = []
+        for _ in range(count):
+            w, h = (int(v) for v in rng.integers(40, 170, 2))
+            m = np.zeros((h, w), np.uint8)
+            cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
+            items.append(Item([m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))]))
+        area = sum(int(it.masks[0].sum()) for it in items)
+        for pot in (True, False):
+            t0 = time.process_time()
+            _, sizes = _pack_group(items, side, side, side * side, pot, 0, 1)
+            seconds = time.process_time() - t0
+            lines.append(f"| {seed} | {count} | {side}x{side} | {'yes' if pot else 'no'} | "
+                         f"{' + '.join(f'{w}x{h}' for w, h in sizes)} | {area / sum(w * h for w, h in sizes):.1%} | "
+                         f"{seconds:.2f} |")
+    return "\n".join(lines)
+
+
 def default_projects() -> list[Path]:
     examples = [p for v in VERSIONS for p in sorted((SHARED / "spine-examples" / v).iterdir()) if p.is_dir()]
     corpus = sorted(p for p in (SHARED / "spine-corpus").iterdir() if p.is_dir())
@@ -262,7 +299,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON", help="print the tables of rows saved by --json")
     ap.add_argument("--placement", action="store_true", help="only time the placement of 300 footprints "
                                                              "on 2048x2048 pages")
+    ap.add_argument("--whole-placement", action="store_true", help="only time every fill pack tries for one "
+                                                                   "atlas of 300 footprints on a 2048x2048 page")
     args = ap.parse_args(argv)
+    if args.whole_placement:
+        print(whole_placement_timing())
+        return 0
     if args.placement:
         print(placement_timing())
         return 0
