@@ -221,22 +221,28 @@ def summary(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
-def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
-    """CPU seconds to place ``count`` footprints (ellipses, both turns allowed) on ``side`` pages."""
+def ellipse_masks(seed: int, count: int, low: int, high: int) -> list:
+    """``count`` filled ellipses ``low`` to ``high`` texels across, each as ``[mask, mask turned 90 degrees]``."""
     import cv2
     import numpy as np
 
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        w, h = (int(v) for v in rng.integers(low, high, 2))
+        m = np.zeros((h, w), np.uint8)
+        cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
+        out.append([m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))])
+    return out
+
+
+def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
+    """CPU seconds to place ``count`` footprints (ellipses, both turns allowed) on ``side`` pages."""
     from spinemesh.pack.place import fill_pages
 
     lines = [f"| seed | footprints | page | pages used | fill of the used area | CPU s |", "|---:|---:|---|---:|---:|---:|"]
     for seed in range(seeds):
-        rng = np.random.default_rng(seed)
-        masks = []
-        for _ in range(count):
-            w, h = (int(v) for v in rng.integers(40, 200, 2))
-            m = np.zeros((h, w), np.uint8)
-            cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
-            masks.append([m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))])
+        masks = ellipse_masks(seed, count, 40, 200)
         t0 = time.process_time()
         placements, used = fill_pages(masks, side, side, 0)
         seconds = time.process_time() - t0
@@ -253,9 +259,6 @@ def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -
     atlas page does; the original page is ``side x side``, so the packed one is at most that,
     powers of two or not.
     """
-    import cv2
-    import numpy as np
-
     from spinemesh.pack.atlas_pack import _pack_group
 
     class Item:  # what _pack_group reads of an item: its masks
@@ -265,13 +268,7 @@ def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -
     lines = ["| seed | footprints | original page | powers of two | packed page | fill | CPU s |",
              "|---:|---:|---|---|---|---:|---:|"]
     for seed in range(seeds):
-        rng = np.random.default_rng(seed)
-        items = []
-        for _ in range(count):
-            w, h = (int(v) for v in rng.integers(40, 170, 2))
-            m = np.zeros((h, w), np.uint8)
-            cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
-            items.append(Item([m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))]))
+        items = [Item(masks) for masks in ellipse_masks(seed, count, 40, 170)]
         area = sum(int(it.masks[0].sum()) for it in items)
         for pot in (True, False):
             t0 = time.process_time()
