@@ -140,11 +140,6 @@ def candidate_widths(areas: int, widest: int, max_w: int, pot: bool) -> list[int
 #: Page sizes tried, smallest first, when pages must have power-of-two sides.
 POT_TRIES = 6
 
-#: Most of a page's texels that footprints' own texels ever fill once placed (irregular shapes
-#: leave gaps; 300 ellipses fill about 81%): smaller whole pages are not tried.
-FILL_CEILING = 0.9
-
-
 def _powers(limit: int) -> list[int]:
     """Powers of two up to ``limit``, from 16."""
     return [1 << k for k in range(4, max(4, limit.bit_length()) + 1) if 1 << k <= limit]
@@ -288,7 +283,7 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
     """
     needed = sum(int(c[0].sum()) for c in candidates)
     sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
-                    if needed / (max_pages * FILL_CEILING) <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
+                    if needed / max_pages <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
                    key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
     for w, h in sizes[:POT_TRIES]:
         for tight in (False, True):
