@@ -258,14 +258,15 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
     return best
 
 
-def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int):
+def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
+              budget: int | None = None):
     """Every footprint where it grows its page's used area least (see :func:`fill_pages`): ``(texels, placements, sizes)``.
 
     Pages take whatever shape packs best, up to the longest side and the largest page's texels;
     each page after the first starts small again, so a last page holding the rest stays small.
     """
     placements, used = fill_pages(candidates, max_w, max_h, padding, max_pages=max_pages, tight=True,
-                                  max_area=max_area, pot=pot)
+                                  max_area=max_area, pot=pot, budget=budget)
     if any(p is None for p in placements):
         return None
     sizes = _page_sizes(used, max_w, max_h, pot)
@@ -300,20 +301,26 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
 
 
 def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
-                max_pages: int):
+                max_pages: int, ceiling: int | None = None):
     """Best packing of one group: ``(placements, page sizes)`` with fewest texels.
 
-    Tries first fit on pages of a few widths, the tightest fit on pages of any shape, and
-    (for powers of two) whole page sizes from the smallest; keeps the fewest texels. Never
-    more pages than the group had (each page is a texture switch, often a draw call).
+    Tries the tightest fit on pages of any shape, first fit on pages of a few widths, and (for
+    powers of two) whole page sizes from the smallest; keeps the fewest texels. Never more
+    pages than the group had (each page is a texture switch, often a draw call). ``ceiling``:
+    page texels a packing must stay under to be of use (the atlas's own): fills that reach it
+    stop early.
     """
     candidates = [it.masks for it in items]
-    best = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages)
+    best = None if ceiling is None else (ceiling, None, None)
+    found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling)
+    if found is not None and (best is None or found[0] < best[0]):
+        best = found
     best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best)
     if pot:
         best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best)
-    if best is None:
-        raise PackRefused(f"its footprints do not fit on {max_pages} page(s) of the largest original size")
+    if best is None or best[1] is None:
+        raise PackRefused(f"no packing of its footprints on at most {max_pages} page(s) of the largest original "
+                          f"size stores fewer page texels than the atlas has")
     return best[1], best[2]
 
 
@@ -424,7 +431,7 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
         if not members:
             continue
         placements, page_sizes = _pack_group([items[n] for n in members], max_side, max_side, max_area, pot,
-                                              between, len(page_indices))
+                                             between, len(page_indices), sum(w * h for w, h in sizes))
         first = len(out.pages)
         for pi, (w, h) in enumerate(page_sizes):
             name = (page_names(gi, pi, template) if page_names else
