@@ -26,6 +26,7 @@ import numpy as np
 
 from .constraints import constraints_of
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
+from .signs import RigSigns, name_overlap, side_conflict
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
 #: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
@@ -44,6 +45,9 @@ FEATURES = (
     "children_on_art", "parent_on_art", "child_count", "rank_over_art", "rule_chose",
     "origin_on_art", "tip_on_art", "nearest_vertex_share", "length_vs_slot_bone",
     "log_art_diag", "slot_bone_on_art", "bones_on_art", "rule_bone_count", "candidate_count",
+    "name_overlap", "name_best", "side_conflict", "slot_name_overlap",
+    "motion_rotate", "motion_translate_per_diag", "motion_scale", "keyed_share",
+    "slot_keyed_share", "moving_candidates",
 )
 
 #: The model shipped in the package.
@@ -163,7 +167,8 @@ def _nearest_shares(bones, ids: list[int], world: np.ndarray) -> np.ndarray:
 
 
 def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-               constrained: dict[int, str] | None = None) -> Candidates:
+               constrained: dict[int, str] | None = None, signs: RigSigns | None = None,
+               art_names: frozenset[str] = frozenset(), reach: float = REACH) -> Candidates:
     """The candidate bones of one mesh and their features (:data:`FEATURES`).
 
     Parameters
@@ -179,15 +184,22 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
         Bones the mesh's skin activates.
     constrained : dict of int to str, optional
         Bones constraints move (:func:`constrained_bones`).
+    signs : RigSigns, optional
+        What the bones' names and animations say (:func:`.signs.rig_signs`); without it those
+        features read as for unnamed bones no animation moves.
+    art_names : frozenset of str
+        Name tokens of the mesh's slot, attachment and images (:func:`art_name_tokens`).
+    reach : float
+        Bones within this share of the art's diagonal are candidates (default :data:`REACH`).
     """
     constrained = constrained or {}
     diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
-    sampled, dist = sample_distances(bones, world, triangles, REACH * diag)
+    sampled, dist = sample_distances(bones, world, triangles, reach * diag)
     over = _on_art(bones, sampled, dist, 0.0)
     near = _on_art(bones, sampled, dist, NEAR * diag)
     closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
     ends = dict(zip(sampled.tolist(), (dist[:, [0, -1]] <= 0).tolist()))
-    ids = sorted({i for i, d in closest.items() if d <= REACH * diag} | {slot_bone})
+    ids = sorted({i for i, d in closest.items() if d <= reach * diag} | {slot_bone})
     rule = choose_auto(bones, slot_bone, world, triangles, skin_bones)
     nearest = _nearest_shares(bones, ids, world)
 
@@ -210,7 +222,7 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
             (over.get(i, 0.0) / length if length > 0 else float(i in over)),
             over.get(i, 0.0) / diag,
             (near.get(i, 0.0) / length if length > 0 else float(i in near)),
-            closest.get(i, REACH * diag) / diag, min(length / diag, 10.0),
+            closest.get(i, reach * diag) / diag, min(length / diag, 10.0),
             i != slot_bone and i in slot_chain, i != slot_bone and slot_bone in chain,
             i != slot_bone and b.parent is not None and b.parent == bones[slot_bone].parent,
             up + down, (len(chain) - 1) - slot_depth,
@@ -220,8 +232,41 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
             math.log((length + 1.0) / (slot_length + 1.0)),
             math.log(diag), slot_bone in over, len(on_art), len(rule.bones), len(ids),
         ])
-    features = np.asarray(rows, float).reshape(len(ids), len(FEATURES))
+    features = np.hstack([np.asarray(rows, float).reshape(len(ids), -1),
+                          sign_features(bones, ids, slot_bone, diag, signs, art_names)])
     return Candidates(ids, features, rule, over)
+
+
+def art_name_tokens(ref) -> frozenset[str]:
+    """Name tokens of a mesh attachment's slot, name and images (an :class:`~spinemesh.skeleton.AttachmentRef`)."""
+    from ..skeleton import image_paths
+    from .signs import name_tokens
+
+    out: set[str] = set()
+    for name in (ref.slot, ref.name, *image_paths(ref)[:1]):
+        out |= name_tokens(name)
+    return frozenset(out)
+
+
+def sign_features(bones, ids: list[int], slot_bone: int, diag: float, signs: RigSigns | None,
+                  art_names: frozenset[str]) -> np.ndarray:
+    """The name and motion columns of :data:`FEATURES` for candidates ``ids`` (C, 10).
+
+    Motion in world units is measured against the art's diagonal ``diag``: a bone that swings
+    its own length matters for a small prop, not for a whole-body frame.
+    """
+    if signs is None:
+        signs = RigSigns([frozenset() for _ in bones], np.zeros((len(bones), 4)))
+    overlap = np.array([name_overlap(signs.tokens[i], art_names) for i in ids])
+    best = (overlap > 0) & (overlap == overlap.max(initial=0.0))
+    motion = signs.motion[ids]
+    moving = float((motion[:, :3].max(axis=1) > 0).sum())
+    slot_overlap = name_overlap(signs.tokens[slot_bone], art_names)
+    return np.column_stack([
+        overlap, best, [side_conflict(signs.tokens[i], art_names) for i in ids], np.full(len(ids), slot_overlap),
+        motion[:, 0] / 360.0, np.minimum(motion[:, 1] / diag, 10.0), np.minimum(motion[:, 2], 10.0), motion[:, 3],
+        np.full(len(ids), signs.motion[slot_bone, 3]), np.full(len(ids), moving),
+    ]).reshape(len(ids), 10)
 
 
 @dataclass
@@ -327,7 +372,8 @@ def _describe(bones, i: int, slot_bone: int, over: dict[int, float]) -> str:
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None) -> Choice:
+                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
+                   signs: RigSigns | None = None, art_names: frozenset[str] = frozenset()) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -336,7 +382,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     likely first.
     """
     model = model or shipped_model()
-    cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
+    cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained, signs, art_names)
     p = model.probability(cand.features)
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}

@@ -21,7 +21,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments, load_skeleton
 from .binding import parse_vertices, setup_world
 from .document import build_rig
-from .learned import FEATURES, TreeEnsemble, candidates
+from .learned import FEATURES, REACH, TreeEnsemble, art_name_tokens, candidates
 
 #: Project-held-out folds.
 FOLDS = 5
@@ -60,7 +60,7 @@ def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple
     return out
 
 
-def mesh_rows(doc: dict) -> list[dict]:
+def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels.
 
     Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``features``
@@ -90,14 +90,18 @@ def mesh_rows(doc: dict) -> list[dict]:
         world = setup_world(mesh, rig.worlds, slot_bone)
         if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
             continue
-        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained)
+        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
+                          rig.signs, art_name_tokens(ref), reach)
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
                         label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist))
     return out
 
 
-def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=print) -> dict[str, np.ndarray]:
+def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=print,
+                  reach: float = REACH) -> dict[str, np.ndarray]:
     """The dataset of :func:`mesh_rows` over skeletons, as flat arrays; cached as ``.npz`` when ``cache``.
+
+    ``reach``: the candidates' reach (:func:`.learned.candidates`).
 
     Returns
     -------
@@ -121,7 +125,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
         if not isinstance(doc, dict) or not isinstance(doc.get("bones"), list):
             continue
         try:
-            rows = mesh_rows(doc)
+            rows = mesh_rows(doc, reach)
         except (SpineMeshError, ValueError, np.linalg.LinAlgError) as e:
             log(f"{path}: left out: {e}")
             continue
