@@ -76,7 +76,6 @@ from spinemesh.rig import weights as rig_weights  # noqa: E402
 from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.choice import NEAR, choose_auto  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
-from spinemesh.rig.learned import art_name_tokens  # noqa: E402
 from spinemesh.rig.weights import _segment_distance, solve_weights, sparsify  # noqa: E402
 from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton  # noqa: E402
 
@@ -149,8 +148,7 @@ def cases_of(label: str, skel: Path, dump_file: Path) -> list[dict]:
                 artist[i, bones.index(b)] += w
         world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
         out.append(dict(
-            label=label, skin=ref.skin, slot=ref.slot, name=ref.name, art_names=art_name_tokens(ref), rig=rig,
-            world=world, tris=tris,
+            label=label, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
             bones=bones, artist=artist, slot_bone=rig.slot_bone[ref.slot],
             setup_matrices=np.stack(rig.worlds), frame_matrices=np.stack([every_frame[k] for k in seen]),
             frame_vertices=np.stack([np.asarray(drawn[k + 1][key]["vertices"], float).reshape(-1, 2) for k in seen])))
@@ -246,7 +244,7 @@ def learned(fold_models: Path):
         rig = case["rig"]
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                 rig.skin_bones.get(case["skin"], set()), rig.constrained,
-                                models[train_choice.fold_of(case["label"])], rig.signs, case["art_names"]).bones
+                                models[train_choice.fold_of(case["label"])]).bones
         reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
         return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)

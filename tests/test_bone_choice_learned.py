@@ -75,6 +75,15 @@ def test_candidate_features_describe_the_rig_and_the_art():
     assert {row[COL["rule_bone_count"]] for row in cand.features} == {3}
 
 
+def test_candidates_reach_is_a_share_of_the_art_diagonal():
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    names = [b.name for b in rig.bones]
+    near = candidates(rig.bones, rig.slot_bone["worm"], world, tris, set(), {}, reach=0.05)
+    # "beside" is 20 units off, 0.082 of the diagonal: out at 0.05, in at the default 0.25
+    assert {names[i] for i in near.bones} == {"root", "seg1", "seg2", "seg3"}
+    assert {row[COL["candidate_count"]] for row in near.features} == {4}
+
+
 def test_constraint_roles_are_read_from_every_kind():
     doc = {"bones": [{"name": "a"}, {"name": "b"}, {"name": "c"}, {"name": "t"}],
            "ik": [{"name": "leg", "bones": ["b", "c"], "target": "t"}],

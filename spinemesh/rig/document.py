@@ -21,8 +21,7 @@ from ..skeleton import AttachmentRef, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_auto
-from .learned import art_name_tokens, choose_learned, constrained_bones
-from .signs import RigSigns, rig_signs
+from .learned import choose_learned, constrained_bones
 from .weights import solve_weights, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
@@ -77,7 +76,6 @@ class Rig:
     skin_bones: dict[str, set[int]]
     keyed: dict[tuple[str, str, str], str]
     constrained: dict[int, str] = field(default_factory=dict)  # bones constraints move -> kind
-    signs: RigSigns | None = None     # what names and animations say of each bone
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -128,7 +126,7 @@ def build_rig(doc: dict) -> Rig:
             parent_skin = str(ref.attachment.get("skin") or "default")
             keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
                              keyed[(ref.skin, ref.slot, ref.name)])
-    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), rig_signs(doc, [b.name for b in bones]))
+    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc))
 
 
 def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
@@ -149,7 +147,7 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         return Choice(keep, {b: why[b] for b in keep}, left)
     if (AUTO_BONES if mode == "auto" else mode) == "learned":
         return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
-                              rig.constrained, signs=rig.signs, art_names=art_name_tokens(ref))
+                              rig.constrained)
     return choose_auto(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

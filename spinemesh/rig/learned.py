@@ -26,7 +26,6 @@ import numpy as np
 
 from .constraints import constraints_of
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
-from .signs import RigSigns, name_overlap, side_conflict
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
 #: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
@@ -45,9 +44,6 @@ FEATURES = (
     "children_on_art", "parent_on_art", "child_count", "rank_over_art", "rule_chose",
     "origin_on_art", "tip_on_art", "nearest_vertex_share", "length_vs_slot_bone",
     "log_art_diag", "slot_bone_on_art", "bones_on_art", "rule_bone_count", "candidate_count",
-    "name_overlap", "name_best", "side_conflict", "slot_name_overlap",
-    "motion_rotate", "motion_translate_per_diag", "motion_scale", "keyed_share",
-    "slot_keyed_share", "moving_candidates",
 )
 
 #: The model shipped in the package.
@@ -167,8 +163,7 @@ def _nearest_shares(bones, ids: list[int], world: np.ndarray) -> np.ndarray:
 
 
 def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-               constrained: dict[int, str] | None = None, signs: RigSigns | None = None,
-               art_names: frozenset[str] = frozenset(), reach: float = REACH) -> Candidates:
+               constrained: dict[int, str] | None = None, reach: float = REACH) -> Candidates:
     """The candidate bones of one mesh and their features (:data:`FEATURES`).
 
     Parameters
@@ -184,13 +179,9 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
         Bones the mesh's skin activates.
     constrained : dict of int to str, optional
         Bones constraints move (:func:`constrained_bones`).
-    signs : RigSigns, optional
-        What the bones' names and animations say (:func:`.signs.rig_signs`); without it those
-        features read as for unnamed bones no animation moves.
-    art_names : frozenset of str
-        Name tokens of the mesh's slot, attachment and images (:func:`art_name_tokens`).
     reach : float
-        Bones within this share of the art's diagonal are candidates (default :data:`REACH`).
+        Bones within this share of the art's diagonal are candidates (default :data:`REACH`;
+        the shipped model was fitted with it).
     """
     constrained = constrained or {}
     diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
@@ -232,41 +223,8 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
             math.log((length + 1.0) / (slot_length + 1.0)),
             math.log(diag), slot_bone in over, len(on_art), len(rule.bones), len(ids),
         ])
-    features = np.hstack([np.asarray(rows, float).reshape(len(ids), -1),
-                          sign_features(bones, ids, slot_bone, diag, signs, art_names)])
+    features = np.asarray(rows, float).reshape(len(ids), len(FEATURES))
     return Candidates(ids, features, rule, over)
-
-
-def art_name_tokens(ref) -> frozenset[str]:
-    """Name tokens of a mesh attachment's slot, name and images (an :class:`~spinemesh.skeleton.AttachmentRef`)."""
-    from ..skeleton import image_paths
-    from .signs import name_tokens
-
-    out: set[str] = set()
-    for name in (ref.slot, ref.name, *image_paths(ref)[:1]):
-        out |= name_tokens(name)
-    return frozenset(out)
-
-
-def sign_features(bones, ids: list[int], slot_bone: int, diag: float, signs: RigSigns | None,
-                  art_names: frozenset[str]) -> np.ndarray:
-    """The name and motion columns of :data:`FEATURES` for candidates ``ids`` (C, 10).
-
-    Motion in world units is measured against the art's diagonal ``diag``: a bone that swings
-    its own length matters for a small prop, not for a whole-body frame.
-    """
-    if signs is None:
-        signs = RigSigns([frozenset() for _ in bones], np.zeros((len(bones), 4)))
-    overlap = np.array([name_overlap(signs.tokens[i], art_names) for i in ids])
-    best = (overlap > 0) & (overlap == overlap.max(initial=0.0))
-    motion = signs.motion[ids]
-    moving = float((motion[:, :3].max(axis=1) > 0).sum())
-    slot_overlap = name_overlap(signs.tokens[slot_bone], art_names)
-    return np.column_stack([
-        overlap, best, [side_conflict(signs.tokens[i], art_names) for i in ids], np.full(len(ids), slot_overlap),
-        motion[:, 0] / 360.0, np.minimum(motion[:, 1] / diag, 10.0), np.minimum(motion[:, 2], 10.0), motion[:, 3],
-        np.full(len(ids), signs.motion[slot_bone, 3]), np.full(len(ids), moving),
-    ]).reshape(len(ids), 10)
 
 
 @dataclass
@@ -372,8 +330,7 @@ def _describe(bones, i: int, slot_bone: int, over: dict[int, float]) -> str:
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
-                   signs: RigSigns | None = None, art_names: frozenset[str] = frozenset()) -> Choice:
+                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -382,7 +339,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     likely first.
     """
     model = model or shipped_model()
-    cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained, signs, art_names)
+    cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
     p = model.probability(cand.features)
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}

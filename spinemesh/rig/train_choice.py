@@ -21,7 +21,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments, load_skeleton
 from .binding import parse_vertices, setup_world
 from .document import build_rig
-from .learned import FEATURES, REACH, TreeEnsemble, art_name_tokens, candidates
+from .learned import FEATURES, REACH, TreeEnsemble, candidates
 
 #: Project-held-out folds.
 FOLDS = 5
@@ -91,7 +91,7 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
         if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
             continue
         cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
-                          rig.signs, art_name_tokens(ref), reach)
+                          reach=reach)
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
                         label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist))
     return out
