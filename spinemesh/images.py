@@ -350,13 +350,25 @@ def cut_region(page: np.ndarray, region: AtlasRegion, pma: bool = False,
     -------
     ndarray, shape (original_height, original_width, 4), uint8
     """
+    crop = stored_rectangle(page, region, source)
+    return upright_at_original_size(unpremultiply(crop) if pma else crop, region, source)
+
+
+def stored_rectangle(page: np.ndarray, region: AtlasRegion, source: str | None = None) -> np.ndarray:
+    """The region's rectangle as it lies on the page (a view), refused where it leaves the page.
+
+    Returns
+    -------
+    ndarray, shape (page_height, page_width, 4), uint8
+        Texels as the page stores them (a rotated region lies turned), without the stripped
+        whitespace; :func:`upright_at_original_size` places per-texel values upright.
+    """
     g = region.geometry(source)
     ph, pw = page.shape[:2]
     if g.x < 0 or g.y < 0 or g.x + g.page_width > pw or g.y + g.page_height > ph:
         raise AtlasError(f"region {region.name!r} ({g.x}, {g.y}, {g.page_width}x{g.page_height}) "
                          f"lies outside its {pw}x{ph} page", source, line=region.line)
-    crop = page[g.y:g.y + g.page_height, g.x:g.x + g.page_width]
-    return upright_at_original_size(unpremultiply(crop) if pma else crop, region, source)
+    return page[g.y:g.y + g.page_height, g.x:g.x + g.page_width]
 
 
 def upright_at_original_size(stored: np.ndarray, region: AtlasRegion, source: str | None = None) -> np.ndarray:
@@ -551,16 +563,20 @@ class AtlasImages:
         page_path = self.page_file(atlas, region.page)
         page = atlas.pages[region.page]
         pixels = self.pages.page(page_path)
-        # the texels as stored, upright at the original size; straight alpha from them
-        stored = cut_region(pixels, region, False, str(atlas.path))
-        rgba = unpremultiply(stored) if page.pma else stored
-        g = region.geometry(str(atlas.path))
+        # Everything per texel is worked out on the stored rectangle, then placed upright at
+        # the original size: stripped whitespace is zero either way, and an original size
+        # may be many times the rectangle (a 1999x3553 shadow stored as 1987x202).
+        source = str(atlas.path)
+        stored = stored_rectangle(pixels, region, source)
+        rgba = upright_at_original_size(unpremultiply(stored) if page.pma else stored, region, source)
+        g = region.geometry(source)
         top = g.original_height - g.offset_y - g.height
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
         if not coverage:
             return RegionImage(rgba, page.scale, name, str(page_path), content)
-        drawn = texels_as_words(stored) != 0 if page.pma else rgba[..., 3] > 0
-        shown = shown_texels(stored, page.pma)
+        drawn = upright_at_original_size(texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0,
+                                         region, source)
+        shown = upright_at_original_size(shown_texels(stored, page.pma), region, source)
         bleed = bleeding_in(pixels, region, page.pma, str(atlas.path))
         return RegionImage(rgba, page.scale, name, str(page_path), content, drawn | bleed, shown | bleed)
 
