@@ -70,8 +70,11 @@ class MeshTask:
 def composite_image(images: list[np.ndarray]) -> np.ndarray:
     """One image whose alpha covers every frame of a sequence (max over frames).
 
-    Colours come from the first frame, which is what interior boundaries are found on.
+    Colours come from the first frame, which is what interior boundaries are found on. One
+    frame is its own composite (returned as it is, not copied).
     """
+    if len(images) == 1:
+        return images[0]
     out = images[0].copy()
     for im in images[1:]:
         out[..., 3] = np.maximum(out[..., 3], im[..., 3])
@@ -87,7 +90,12 @@ def stored_box(boxes: list[tuple[int, int, int, int]]) -> tuple[int, int, int, i
 
 def _inside(visible: np.ndarray, box: tuple[int, int, int, int]) -> bool:
     x0, y0, x1, y1 = box
-    return int(visible.sum()) == int(visible[y0:y1, x0:x1].sum())
+    return np.count_nonzero(visible) == np.count_nonzero(visible[y0:y1, x0:x1])
+
+
+def _any_frame(masks: list[np.ndarray]) -> np.ndarray:
+    """Per texel, whether any frame's mask holds it (one frame's mask as it is)."""
+    return masks[0] if len(masks) == 1 else np.logical_or.reduce(masks)
 
 
 def source_identity(source) -> tuple:
@@ -109,9 +117,9 @@ def task_for_frames(frames: list[RegionImage], options: Options,
     # Frames of different sizes are compared where the runtime draws them: relative to their size.
     frames = frames_on_one_grid(frames)
     rgba = composite_image([f.rgba for f in frames])
-    if options.mask != "model" and not np.logical_or.reduce([f.drawn for f in frames]).any():
+    if options.mask != "model" and not _any_frame([f.drawn for f in frames]).any():
         return None, "kept", "image is fully transparent"
-    drawn = np.logical_or.reduce(texels_to_cover(frames, blend))
+    drawn = _any_frame(texels_to_cover(frames, blend))
     if options.mask != "model" and not drawn.any():
         return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
     box = stored_box([f.content for f in frames])
