@@ -84,7 +84,7 @@ def points_in_loops(points: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
     return inside
 
 
-def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
+def segments_cross(s: np.ndarray, t: np.ndarray, ignore: np.ndarray | None = None) -> np.ndarray:
     """Which pairs of segments meet, other than at a shared end point.
 
     Two segments that share an end point and lie on one line, overlapping, also meet.
@@ -93,6 +93,9 @@ def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
     ----------
     s : ndarray, shape (n, 2, 2)
     t : ndarray, shape (m, 2, 2)
+    ignore : ndarray, shape (n, m), bool, optional
+        Pairs not to test (False in the result): neighbours in a loop, which always share
+        an end point.
 
     Returns
     -------
@@ -103,7 +106,7 @@ def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
     out = np.zeros((len(s), len(t)), dtype=bool)
     if len(s) == 0 or len(t) == 0:
         return out
-    i, j, ls, lt = _intersecting_pairs(s, t)
+    i, j, ls, lt = _intersecting_pairs(s, t, ignore)
     if len(i) == 0:
         return out
     # a meeting at a common end point is not a crossing, unless the segments overlap there
@@ -121,8 +124,10 @@ def segments_cross(s: np.ndarray, t: np.ndarray) -> np.ndarray:
 DIRECT_PAIRS = 65536
 
 
-def _intersecting_pairs(s: np.ndarray, t: np.ndarray):
+def _intersecting_pairs(s: np.ndarray, t: np.ndarray, ignore: np.ndarray | None = None):
     """Index pairs ``(i, j)`` of segments ``s[i]`` and ``t[j]`` that intersect, and their linestrings.
+
+    Pairs where ``ignore`` (n, m) is True are left out.
 
     Few pairs (a loop's changed edges against the loop): their bounding boxes are compared
     directly and only the pairs whose boxes meet are made into geometries, which is
@@ -133,9 +138,14 @@ def _intersecting_pairs(s: np.ndarray, t: np.ndarray):
     if len(s) * len(t) > DIRECT_PAIRS:
         ls, lt = shapely.linestrings(s), shapely.linestrings(t)
         i, j = shapely.STRtree(lt).query(ls, predicate="intersects")
+        if ignore is not None:
+            keep = ~ignore[i, j]
+            i, j = i[keep], j[keep]
         return i, j, ls[i], lt[j]
     lo_s, hi_s, lo_t, hi_t = s.min(axis=1), s.max(axis=1), t.min(axis=1), t.max(axis=1)
     boxes_meet = ((lo_s[:, None] <= hi_t[None]) & (lo_t[None] <= hi_s[:, None])).all(axis=-1)
+    if ignore is not None:
+        boxes_meet &= ~ignore
     i, j = np.nonzero(boxes_meet)
     ls, lt = shapely.linestrings(s[i]), shapely.linestrings(t[j])
     hit = shapely.intersects(ls, lt)
@@ -165,12 +175,10 @@ def loop_is_simple(loop: np.ndarray, edges: np.ndarray | None = None) -> bool:
         return bool(shapely.is_simple(shapely.linearrings(loop))) and _no_repeat(loop)
     seg = np.stack([loop, following], axis=1)
     rows = np.unique(np.asarray(edges, dtype=np.int64) % n)
-    x = segments_cross(seg[rows], seg)
     r = np.arange(len(rows))
-    x[r, rows] = False
-    x[r, (rows + 1) % n] = False
-    x[r, (rows - 1) % n] = False
-    return not x.any() and _no_repeat(loop)
+    neighbours = np.zeros((len(rows), n), dtype=bool)  # an edge and the two it shares a vertex with
+    neighbours[r, rows] = neighbours[r, (rows + 1) % n] = neighbours[r, (rows - 1) % n] = True
+    return not segments_cross(seg[rows], seg, neighbours).any() and _no_repeat(loop)
 
 
 def _no_repeat(loop: np.ndarray) -> bool:
