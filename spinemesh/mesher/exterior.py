@@ -31,6 +31,8 @@ vertices).
 
 from __future__ import annotations
 
+from typing import Iterator
+
 import cv2
 import numpy as np
 
@@ -502,36 +504,35 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
 
 
 def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: tuple[int, int],
-                       min_distance: float) -> list[tuple[np.ndarray | None, np.ndarray | None]]:
+                       min_distance: float) -> Iterator[tuple[np.ndarray | None, np.ndarray | None]]:
     """Loops without the short edge ``j -> k``, each with the indices of the edges it changed.
 
     In order: drop either end, merge both into the midpoint, stretch the edge to
     ``min_distance`` along its own line (on the image border this only adds area, where the
     art touches the border at a single spot), drop both, snap either end onto the border.
     Edge ``i`` runs from vertex ``i`` to ``i + 1``. An end not near the border gives
-    ``(None, None)`` in place of its snap: the spreading stops there.
+    ``(None, None)`` in place of its snap: the spreading stops there. Made one at a time, as
+    they are tried (the first that fits ends the search).
     """
     n = len(loop)
-    out = []
     for drop in (j, k):  # the edge joining the neighbours of the dropped vertex is new
-        out.append((np.delete(loop, drop, axis=0), np.array([(drop - 1) % (n - 1)])))
+        yield np.delete(loop, drop, axis=0), np.array([(drop - 1) % (n - 1)])
     mid = np.delete(loop, k, axis=0)
     jj = j if k > j else j - 1
     mid[jj] = 0.5 * (loop[j] + loop[k])
-    out.append((mid, np.array([(jj - 1) % (n - 1), jj])))
+    yield mid, np.array([(jj - 1) % (n - 1), jj])
     u = (loop[j] - loop[k]) / max(length, 1e-12)
     grow = 0.5 * (min_distance - length) + 1e-6
     apart = loop.copy()
     apart[j] = _clamp(apart[j:j + 1] + u * grow, shape)[0]
     apart[k] = _clamp(apart[k:k + 1] - u * grow, shape)[0]
-    out.append((apart, np.array([(j - 1) % n, j, k])))
+    yield apart, np.array([(j - 1) % n, j, k])
     both = np.delete(loop, [j, k], axis=0)
     first = min(j, k) if k > j else k  # both removed: the neighbours' new edge starts before them
-    out.append((both, np.array([(first - 1) % max(n - 2, 1)])))
+    yield both, np.array([(first - 1) % max(n - 2, 1)])
     for i in (j, k):
         snapped = _snap_to_border(loop, i, shape, min_distance)
-        out.append((snapped, np.array([(i - 1) % n, i])) if not np.array_equal(snapped, loop) else (None, None))
-    return out
+        yield (snapped, np.array([(i - 1) % n, i])) if not np.array_equal(snapped, loop) else (None, None)
 
 
 def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
