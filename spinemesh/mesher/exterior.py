@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from .raster import centres_inside, crossed_pixels, loop_segments, touched_pixels
-from .geometry import clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
+from .geometry import clamp, clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 
 # --------------------------------------------------------------------------- paper
@@ -442,7 +442,7 @@ def _shortest_edge(loop: np.ndarray) -> float:
 
 
 def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    return np.stack([np.clip(loop[:, 0], 0, shape[1]), np.clip(loop[:, 1], 0, shape[0])], axis=1)
+    return np.stack([clamp(loop[:, 0], 0, shape[1]), clamp(loop[:, 1], 0, shape[0])], axis=1)
 
 
 #: Most candidate loops :func:`_spread` checks for one hull (keeps huge speckled hulls fast).

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import clamp
+
 
 def boundary_segments(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Segments of the mesh outline: edges used by exactly one triangle, in triangle direction.
@@ -60,20 +62,21 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     x0, x1 = s[:, 0, 0], s[:, 1, 0]
     lo, hi = np.minimum(y0, y1), np.maximum(y0, y1)
     # rows r whose centre r+0.5 is in [lo, hi): half-open, so shared vertices count once
-    r_start = np.clip(np.ceil(lo - 0.5), 0, h).astype(np.int64)
-    r_stop = np.clip(np.ceil(hi - 0.5), 0, h).astype(np.int64)
+    r_start = clamp(np.ceil(lo - 0.5), 0, h).astype(np.int64)
+    r_stop = clamp(np.ceil(hi - 0.5), 0, h).astype(np.int64)
     n = np.maximum(r_stop - r_start, 0)
     total = int(n.sum())
     if not total:
         return np.zeros((h, w), dtype=bool)
     idx = np.repeat(np.arange(len(s)), n)
-    rows = np.repeat(r_start, n) + (np.arange(total) - np.repeat(np.cumsum(n) - n, n))
+    # the k-th row of segment i is r_start[i] + k
+    rows = np.arange(total) - np.repeat(np.cumsum(n) - n - r_start, n)
     yc = rows + 0.5
-    t = (yc - y0[idx]) / (y1[idx] - y0[idx])
-    xc = x0[idx] + t * (x1[idx] - x0[idx])
+    t = (yc - y0[idx]) / (y1 - y0)[idx]
+    xc = x0[idx] + t * (x1 - x0)[idx]
     # pixels whose centre lies right of the crossing are toggled (counted by bincount, which
     # is many times faster than np.add.at)
-    col = np.clip(np.floor(xc - 0.5).astype(np.int64) + 1, 0, w)
+    col = clamp(np.floor(xc - 0.5).astype(np.int64) + 1, 0, w)
     toggles = np.bincount(rows * (w + 1) + col, minlength=h * (w + 1)).reshape(h, w + 1)
     return (np.cumsum(toggles, axis=1)[:, :w] & 1).astype(bool)
 
