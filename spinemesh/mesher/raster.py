@@ -19,6 +19,8 @@ The mesher uses it to check that its hull covers the art; :mod:`spinemesh.metric
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .geometry import clamp
@@ -58,6 +60,12 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """
     h, w = shape
     s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
+        toggles = _row_crossings(s.tolist(), h, w)
+        if toggles is not None:
+            rows, cols = (np.asarray(v, np.int64) for v in toggles)
+            counts = np.bincount(rows * (w + 1) + cols, minlength=h * (w + 1))
+            return (np.cumsum(counts.reshape(h, w + 1), axis=1)[:, :w] & 1).astype(bool)
     y0, y1 = s[:, 0, 1], s[:, 1, 1]
     x0, x1 = s[:, 0, 0], s[:, 1, 0]
     lo, hi = np.minimum(y0, y1), np.maximum(y0, y1)
@@ -79,6 +87,63 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     col = clamp(np.floor(xc - 0.5).astype(np.int64) + 1, 0, w)
     toggles = np.bincount(rows * (w + 1) + col, minlength=h * (w + 1)).reshape(h, w + 1)
     return (np.cumsum(toggles, axis=1)[:, :w] & 1).astype(bool)
+
+
+#: Segments up to which :func:`centres_inside` and :func:`crossed_pixels` walk the grid in
+#: plain Python: the mesher asks about a few segments in a small box thousands of times per
+#: image, where the array version's fixed cost is ten times the work.
+FEW_SEGMENTS = 32
+#: Grid crossings up to which the plain-Python walk is taken (else the array version).
+FEW_CROSSINGS = 2048
+
+
+def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
+    """:func:`centres_inside`'s toggles ``(rows, cols)`` computed point by point, or None when many.
+
+    The same arithmetic on the same float64 values as the array version, one value at a
+    time (Python floats are IEEE doubles), so the toggles are the same.
+    """
+    rows, cols = [], []
+    for (x0, y0), (x1, y1) in segments:
+        lo, hi = min(y0, y1), max(y0, y1)
+        r_start = min(max(math.ceil(lo - 0.5), 0), h)
+        r_stop = min(max(math.ceil(hi - 0.5), 0), h)
+        if r_stop - r_start + len(rows) > FEW_CROSSINGS:
+            return None
+        for r in range(r_start, r_stop):
+            t = (r + 0.5 - y0) / (y1 - y0)
+            xc = x0 + t * (x1 - x0)
+            rows.append(r)
+            cols.append(min(max(math.floor(xc - 0.5) + 1, 0), w))
+    return rows, cols
+
+
+def _open_squares_crossed(segments: list, h: int, w: int) -> tuple[list, list] | None:
+    """:func:`crossed_pixels` as ``(rows, cols)`` lists computed point by point, or None when many.
+
+    The same arithmetic as the array version, one value at a time: each segment cut at the
+    grid lines it crosses (parameters ``t`` sorted), each piece's midpoint.
+    """
+    rows, cols, work = [], [], 0
+    for (x0, y0), (x1, y1) in segments:
+        ts = [0.0, 1.0]
+        for a0, a1 in ((x0, x1), (y0, y1)):
+            if a0 == a1:  # along a grid line or not, it crosses none of this axis's lines
+                continue
+            k0, k1 = math.ceil(min(a0, a1)), math.floor(max(a0, a1))
+            work += max(k1 - k0 + 1, 0)
+            if work > FEW_CROSSINGS:
+                return None
+            ts += [(k - a0) / (a1 - a0) for k in range(k0, k1 + 1)]
+        ts.sort()
+        for t0, t1 in zip(ts, ts[1:]):
+            tm = 0.5 * (t1 + t0)
+            px, py = x0 + tm * (x1 - x0), y0 + tm * (y1 - y0)
+            c, r = math.floor(px), math.floor(py)
+            if px != c and py != r and 0 <= r < h and 0 <= c < w:
+                rows.append(r)
+                cols.append(c)
+    return rows, cols
 
 
 def touched_pixels(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -140,6 +205,11 @@ def crossed_pixels(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
     if len(s) == 0:
         return out
+    if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
+        crossed = _open_squares_crossed(s.tolist(), h, w)
+        if crossed is not None:
+            out[np.asarray(crossed[0], np.int64), np.asarray(crossed[1], np.int64)] = True
+            return out
     ts, ids = [np.zeros(len(s)), np.ones(len(s))], [np.arange(len(s))] * 2
     for ax in (0, 1):
         a0, a1 = s[:, 0, ax], s[:, 1, ax]
