@@ -94,7 +94,7 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 #: image, where the array version's fixed cost is ten times the work.
 FEW_SEGMENTS = 32
 #: Grid crossings up to which the plain-Python walk is taken (else the array version).
-FEW_CROSSINGS = 2048
+FEW_CROSSINGS = 512
 
 
 def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
