@@ -12,7 +12,8 @@ import numpy as np
 from .mesher.interior import edge_map, long_contours
 from .foreground import foreground
 from .mesher.params import PAPER
-from .mesher.raster import boundary_index_edges, boundary_segments, mesh_coverage_mask
+from .mesher.raster import (boundary_index_edges, boundary_segments, centres_inside, crossed_pixels,
+                             mesh_coverage_mask)
 
 #: Alpha at or above which a pixel is art that must never be clipped.
 OPAQUE_ALPHA = 8
@@ -68,6 +69,18 @@ def waste(vertices, triangles, art: np.ndarray) -> float:
         return 0.0
     centre = mesh_coverage_mask(vertices, triangles, art.shape, "centre")
     return float(max(0.0, 1.0 - (centre & art).sum() / area))
+
+
+def coverage_and_waste(vertices, triangles, art: np.ndarray) -> tuple[float, float]:
+    """:func:`coverage` and :func:`waste` of one mesh, its outline rasterised once (the same values)."""
+    art = np.asarray(art, dtype=bool)
+    segments = boundary_segments(vertices, triangles)
+    centre = centres_inside(segments, art.shape)
+    n = int(art.sum())
+    cov = 1.0 if n == 0 else float((centre & ~crossed_pixels(segments, art.shape) & art).sum()) / n
+    area = mesh_area(vertices, triangles)
+    wst = 0.0 if area <= 0 else float(max(0.0, 1.0 - (centre & art).sum() / area))
+    return cov, wst
 
 
 def angle_ratios(vertices, triangles) -> np.ndarray:

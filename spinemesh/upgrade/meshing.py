@@ -94,7 +94,7 @@ def mesh_one(task: MeshTask) -> MeshResult:
     answer. Problems of the image (:class:`SpineMeshError`) become the result's ``error``.
     """
     from ..mesher import NotWorthMeshing, mesh_image, resolve_params
-    from ..metrics import coverage, opaque_mask, waste
+    from ..metrics import coverage_and_waste, opaque_mask
 
     preset, mask_source, overrides = task.settings
     start = time.perf_counter()
@@ -118,9 +118,7 @@ def mesh_one(task: MeshTask) -> MeshResult:
     except SpineMeshError as e:
         return MeshResult(task.key, error=str(e), seconds=time.perf_counter() - start)
     seconds = time.perf_counter() - start
-    art = opaque_mask(task.rgba)
-    cov = coverage(mesh.vertices, mesh.triangles, art) if art.any() else 1.0
-    wst = waste(mesh.vertices, mesh.triangles, art)
+    cov, wst = coverage_and_waste(mesh.vertices, mesh.triangles, opaque_mask(task.rgba))
     vertices = np.asarray(mesh.vertices, np.float64) + task.origin
     edges = np.asarray(mesh.edges, np.int64).reshape(-1, 2)
     # the mesher's own triangles with its holes filled; a fresh triangulation only for meshes
