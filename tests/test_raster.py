@@ -1,0 +1,53 @@
+"""The exact rasteriser's two walks (plain Python for a few segments, arrays otherwise) agree."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spinemesh.mesher import raster
+from spinemesh.mesher.geometry import loop_is_simple
+
+
+def _random_segments(rng: np.random.Generator, kind: int) -> np.ndarray:
+    k = int(rng.integers(1, 12))
+    if kind == 0:  # anywhere, partly outside the box
+        return rng.uniform(-5, 45, (k, 2, 2))
+    if kind == 1:  # on grid lines and corners
+        return rng.integers(-3, 43, (k, 2, 2)).astype(float)
+    if kind == 2:  # through pixel centres
+        return np.round(rng.uniform(-5, 45, (k, 2, 2)) * 2) / 2
+    loop = rng.uniform(-3, 43, (k + 2, 2))  # a loop with some zero-length segments
+    s = np.stack([loop, np.roll(loop, -1, axis=0)], axis=1)
+    zero = rng.random(len(s)) < 0.2
+    s[zero, 1] = s[zero, 0]
+    return s
+
+
+@pytest.mark.parametrize("walk", [raster.centres_inside, raster.crossed_pixels])
+def test_few_segment_walk_equals_array_walk(walk, monkeypatch):
+    rng = np.random.default_rng(27)
+    cases = []
+    for trial in range(2000):
+        h, w = (int(v) for v in rng.integers(1, 40, 2))
+        cases.append((_random_segments(rng, trial % 4), (h, w)))
+    few = [walk(s, shape) for s, shape in cases]
+    monkeypatch.setattr(raster, "FEW_SEGMENTS", -1)  # the array walk for every case
+    for (s, shape), got in zip(cases, few):
+        assert np.array_equal(got, walk(s, shape)), (s.tolist(), shape)
+
+
+def test_changed_edges_check_equals_whole_loop_check():
+    """A simple loop with one vertex moved: testing only its two edges answers as the whole test."""
+    rng = np.random.default_rng(3)
+    compared = 0
+    for _ in range(3000):
+        loop = rng.integers(0, 12, (int(rng.integers(4, 9)), 2)).astype(float)
+        if not loop_is_simple(loop):
+            continue
+        i = int(rng.integers(len(loop)))
+        moved = loop.copy()
+        moved[i] = rng.integers(0, 12, 2)
+        assert loop_is_simple(moved, np.array([(i - 1) % len(loop), i])) == loop_is_simple(moved)
+        compared += 1
+    assert compared > 100
