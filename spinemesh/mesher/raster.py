@@ -19,6 +19,7 @@ The mesher uses it to check that its hull covers the art; :mod:`spinemesh.metric
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -136,7 +137,7 @@ def _open_squares_crossed(segments: list, h: int, w: int) -> tuple[list, list] |
                 return None
             ts += [(k - a0) / (a1 - a0) for k in range(k0, k1 + 1)]
         ts.sort()
-        for t0, t1 in zip(ts, ts[1:]):
+        for t0, t1 in itertools.pairwise(ts):
             tm = 0.5 * (t1 + t0)
             px, py = x0 + tm * (x1 - x0), y0 + tm * (y1 - y0)
             c, r = math.floor(px), math.floor(py)
