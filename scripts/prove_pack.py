@@ -31,6 +31,8 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "scripts"))
@@ -56,6 +58,17 @@ MAX_OFF_SHARE = 1e-5
 #: Animations sampled per skeleton.
 ANIMATIONS = 3
 
+#: Mipmap levels checked: level ``L`` averages blocks of ``2**L`` texels (2 to 16).
+MIP_LEVELS = 4
+
+#: Mipmap levels every region of a packed MipMap page must read clean of other regions: the
+#: packer's mipmap padding (4 texels between what two regions draw) guarantees level 1 (blocks of
+#: 2); deeper levels depend on where blocks fall, as on the exporter's own pages.
+MIP_REQUIRED = 1
+
+#: The min filter ``--mipmaps`` gives every page (the mag filter stays linear).
+MIPMAP_FILTER = ["MipMapLinearLinear", "Linear"]
+
 
 @dataclass
 class Row:
@@ -73,6 +86,12 @@ class Row:
     status: str = ""                # pass | FAIL | not rendered
     cause: str = ""
     details: list = field(default_factory=list)
+    #: pages with MipMap filters only: the deepest level at which no region reads another's texels,
+    #: before and after packing (the worst region's), and regions that packing made bleed sooner
+    #: (at a level deeper than MIP_REQUIRED: reported, not a failure)
+    mip_before: int | None = None
+    mip_after: int | None = None
+    mip_worse: list = field(default_factory=list)
 
 
 def setup_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path, skin: str | None) -> Path | None:
@@ -137,17 +156,188 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
     return row
 
 
+def with_mipmaps(project: Path, dest: Path) -> Path:
+    """A copy of ``project`` in ``dest`` whose every atlas page samples through mipmaps
+    (:data:`MIPMAP_FILTER`); page images and skeletons are hard links where the file system allows.
+
+    The atlases are rewritten in the copy only: each is unlinked first, so no input file changes.
+    """
+    import os
+
+    from spinemesh.atlas import Entry, read_atlas
+    from spinemesh.project import project_atlases
+
+    def link(src, dst):
+        try:
+            os.link(src, dst)
+        except OSError:
+            shutil.copy2(src, dst)
+
+    shutil.copytree(project, dest, copy_function=link, symlinks=False)
+    for path in project_atlases(find_project(dest)):
+        atlas = read_atlas(path)
+        for page in atlas.pages:
+            entry = next((e for e in page.entries if e.key == "filter"), None)
+            if entry is None:
+                like = page.entries[0] if page.entries else Entry("", [])
+                page.entries.append(Entry("filter", list(MIPMAP_FILTER), like.indent, like.sep, like.colon))
+            else:
+                entry.values = list(MIPMAP_FILTER)
+        text = atlas.dumps()
+        path.unlink()
+        path.write_text(text, encoding="utf-8")
+    return dest
+
+
+def core_on_page(g, fp) -> tuple[int, int, np.ndarray]:
+    """Where a region's footprint core lies on its page: ``(row, column, mask as stored)``.
+
+    The inverse of :func:`spinemesh.pack.outlines.window_texels`: the upright core turned as
+    the region is stored; row and column of its top-left may be negative (the ring past the edge).
+    """
+    from spinemesh.pack.outlines import content_box, stored_index
+
+    x0, y0, x1, y1 = content_box(g)
+    k = g.degrees // 90
+    wx0, wy0, wx1, wy1 = fp.window
+    corners = [stored_index(i - x0, j - y0, x1 - x0, y1 - y0, k) for i in (wx0, wx1 - 1) for j in (wy0, wy1 - 1)]
+    return g.y + min(r for r, _ in corners), g.x + min(c for _, c in corners), np.rot90(fp.core, k)
+
+
+def blocks_read(drawn: np.ndarray, s: int) -> np.ndarray:
+    """Blocks of ``s x s`` texels whose mipmap texel bilinear sampling reads while ``drawn`` is drawn, bool.
+
+    A sample in texel ``i`` (block ``i // s``) reads the two level texels whose centres lie less
+    than ``s`` from it: its own block and the one before when ``i`` lies in the first half of
+    its block, the one after otherwise; that is blocks ``k - 1`` and ``k`` of the texel
+    shifted by ``s / 2``, on both axes. Shape: the blocks of ``drawn`` (partial ones count).
+    """
+    h, w = drawn.shape
+    nh, nw = -(-h // s), -(-w // s)
+    shifted = np.zeros(((nh + 1) * s, (nw + 1) * s), bool)
+    shifted[s // 2:s // 2 + h, s // 2:s // 2 + w] = drawn
+    hit = shifted.reshape(nh + 1, s, nw + 1, s).any(axis=(1, 3))
+    return hit[:nh, :nw] | hit[1:, :nw] | hit[:nh, 1:] | hit[1:, 1:]
+
+
+def mip_clean_level(alpha: np.ndarray, own: np.ndarray, core: np.ndarray, levels: int = MIP_LEVELS,
+                    tol: int = TOLERANCE) -> int:
+    """The deepest mipmap level (0 to ``levels``) at which a region reads nothing of other regions.
+
+    Parameters
+    ----------
+    alpha : ndarray, shape (H, W), uint8
+        The page's alpha (a window of it whose corner is a corner of ``2**levels`` blocks).
+    own : ndarray, shape (H, W), bool
+        Texels that are the region's own (never foreign).
+    core : ndarray, shape (H, W), bool
+        Its footprint core: the texels it samples at level 0 (what it draws, grown by the one
+        texel bilinear sampling reads; shrunk back by that texel here).
+    levels : int
+        Deepest level checked.
+    tol : int
+        Largest foreign alpha (/255) a read level texel may average.
+
+    A level-``L`` texel averages a ``2**L`` block of the page (aligned to its corner, as
+    mipmaps are built); the region is clean at ``L`` when no block it reads there
+    (:func:`blocks_read`) averages more than ``tol``/255 of alpha from texels not its own.
+    """
+    import cv2
+
+    drawn = cv2.erode(core.astype(np.uint8), np.ones((3, 3), np.uint8), borderValue=0).astype(bool)
+    foreign = np.where(own, 0, alpha).astype(np.float64)
+    clean = 0
+    for level in range(1, levels + 1):
+        s = 1 << level
+        h, w = -(-alpha.shape[0] // s) * s, -(-alpha.shape[1] // s) * s
+        f = np.zeros((h, w))
+        f[:alpha.shape[0], :alpha.shape[1]] = foreign
+        mean = f.reshape(h // s, s, w // s, s).mean(axis=(1, 3))
+        if mean[blocks_read(drawn, s)].max(initial=0) > tol:
+            break
+        clean = level
+    return clean
+
+
+def mip_levels(atlas, region_uses: dict, pinned: str, own_rectangles: bool) -> dict:
+    """Per region ``(name, index)``: its clean mipmap level (:func:`mip_clean_level`) on ``atlas``'s pages.
+
+    ``own_rectangles``: a region's whole stored rectangle is its own (true of exported atlases,
+    whose rectangles never overlap; packed rectangles may overlap where outlines do not).
+    """
+    from spinemesh.images import load_rgba
+    from spinemesh.pack.outlines import footprint
+    from spinemesh.pack.uses import RegionUses
+
+    margin = 2 << MIP_LEVELS
+    out = {}
+    pages = [load_rgba(atlas.path.parent / p.name)[..., 3] for p in atlas.pages]
+    for region in atlas.regions:
+        g = region.geometry(str(atlas.path))
+        uses = RegionUses(pinned=pinned) if pinned else region_uses.get(region.name)
+        r0, c0, core = core_on_page(g, footprint(g, uses))
+        alpha = pages[region.page]
+        H, W = alpha.shape
+        # a window of whole top-level blocks around the core, clipped to the page
+        step = 1 << MIP_LEVELS
+        wr0, wc0 = max(0, (r0 - margin) // step * step), max(0, (c0 - margin) // step * step)
+        wr1, wc1 = min(H, r0 + core.shape[0] + margin), min(W, c0 + core.shape[1] + margin)
+        sampled = np.zeros((wr1 - wr0, wc1 - wc0), bool)
+        rr0, cc0 = max(r0, wr0), max(c0, wc0)
+        rr1, cc1 = min(r0 + core.shape[0], wr1), min(c0 + core.shape[1], wc1)
+        sampled[rr0 - wr0:rr1 - wr0, cc0 - wc0:cc1 - wc0] = core[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
+        own = sampled.copy()
+        if own_rectangles:
+            h, w = (g.width, g.height) if g.degrees in (90, 270) else (g.height, g.width)
+            own[max(0, g.y - wr0):max(0, g.y + h - wr0), max(0, g.x - wc0):max(0, g.x + w - wc0)] = True
+        key = (region.name, region.get("index")[0] if region.get("index") else "-1")
+        out[key] = mip_clean_level(alpha[wr0:wr1, wc0:wc1], own, sampled)
+    return out
+
+
+def prove_mipmaps(source: Path, out: Path, atlas_rel: str, uses) -> tuple[int, int, list[str]]:
+    """Mipmap bleeding before and after packing one atlas whose pages use MipMap filters.
+
+    Returns the worst region's clean level before and after, and the regions whose clean level
+    packing lowered below what they had (at most :data:`MIP_LEVELS`).
+    """
+    from spinemesh.atlas import read_atlas
+
+    original = read_atlas(source / atlas_rel)
+    packed = read_atlas(out / atlas_rel)
+    table_uses = next((v for k, v in uses.regions.items() if k.resolve() == (source / atlas_rel).resolve()), {})
+    before = mip_levels(original, table_uses, uses.everything_pinned, True)
+    after = mip_levels(packed, table_uses, uses.everything_pinned, False)
+    worse = [f"{name}: level {before[(name, i)]} -> {level}" for (name, i), level in after.items()
+             if (name, i) in before and level < before[(name, i)]]
+    return min(before.values(), default=MIP_LEVELS), min(after.values(), default=MIP_LEVELS), worse
+
+
+def mipmap_results(source: Path, out: Path, packed: set[str]) -> dict:
+    """:func:`prove_mipmaps` of every packed atlas of ``source`` (written to ``out``) whose pages use MipMap filters."""
+    from spinemesh.atlas import read_atlas
+    from spinemesh.pack.atlas_pack import uses_mipmaps
+    from spinemesh.pack.uses import collect_uses
+
+    mip = [rel for rel in sorted(packed) if any(uses_mipmaps(p) for p in read_atlas(source / rel).pages)]
+    if not mip:
+        return {}
+    uses = collect_uses(find_project(source))
+    return {rel: prove_mipmaps(source, out, rel, uses) for rel in mip}
+
+
 def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMATIONS,
-                  upgrade: bool = False) -> list[Row]:
-    """Pack ``project`` (optionally its upgrade) into ``work`` and prove each skeleton."""
-    name = project.name
-    source = project
+                  upgrade: bool = False, mipmaps: bool = False) -> list[Row]:
+    """Pack ``project`` (optionally its upgrade; with ``mipmaps``, a copy whose pages use
+    mipmaps) into ``work`` and prove each skeleton."""
+    name = project_label(project)
+    source = with_mipmaps(project, work / "mipmapped") if mipmaps else project
     if upgrade:
         from spinemesh.upgrade import Options, upgrade_project
 
         source = work / "upgraded"
         try:
-            upgrade_project(project, source, Options())
+            upgrade_project(project if not mipmaps else work / "mipmapped", source, Options())
         except SpineMeshError as e:
             return [Row(name, "-", status="FAIL", cause=f"upgrade refused the project: {e}")]
     out = work / "out"
@@ -158,6 +348,7 @@ def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMA
     except SpineMeshError as e:
         return [Row(name, "-", status="FAIL", cause=f"pack refused the project: {e}")]
     packed = {a.atlas for a in result.atlases if a.status == "packed"}
+    mips = mipmap_results(source, out, packed)
     rows = []
     for skeleton in find_project(source).skeletons:
         rel = skeleton.relative_to(source).as_posix()
@@ -168,23 +359,55 @@ def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMA
             prove_skeleton(tool, source, out, skeleton, scratch, row, packed, animations)
         except (AssertionError, SpineMeshError) as e:  # the harness failed to load or render
             row.status, row.cause = "FAIL", f"harness: {str(e).strip().splitlines()[-1][:300]}"
+        if row.atlas in mips:
+            row.mip_before, row.mip_after, row.mip_worse = mips[row.atlas]
+            if row.mip_after < MIP_REQUIRED:
+                row.status = "FAIL"
+                row.details.append(f"a region reads another's texels at mipmap level {row.mip_after + 1}")
         rows.append(row)
     return rows
 
 
+def project_label(project: Path) -> str:
+    """``examples/4.2/spineboy`` or ``corpus/jt-mia`` for the development data, else the folder's name
+    (example projects of different versions share names)."""
+    for root, label in ((EXAMPLES, "examples"), (CORPUS, "corpus")):
+        if project.is_relative_to(root.resolve()):
+            return f"{label}/{project.relative_to(root.resolve()).as_posix()}"
+    return project.name
+
+
 def table(rows: list[Row]) -> str:
-    head = ("| project | skeleton | version | atlas | packed | renders | worst /255 | px > 2/255 | status | cause |\n"
-            "|---|---|---|---|---|---:|---:|---:|---|---|")
+    mip = any(r.mip_after is not None for r in rows)
+    head = ("| project | skeleton | version | atlas | packed | renders | worst /255 | px > 2/255 |"
+            + (" mipmap levels clean before -> after |" if mip else "") + " status | cause |\n"
+            "|---|---|---|---|---|---:|---:|---:|" + ("---:|" if mip else "") + "---|---|")
+
+    def levels(r: Row) -> str:
+        if r.mip_after is None:
+            return " - |"
+        return f" {r.mip_before} -> {r.mip_after}" + (f" ({len(r.mip_worse)} lower)" if r.mip_worse else "") + " |"
+
     return "\n".join([head] + [f"| {r.project} | {r.skeleton} | {r.version} | {r.atlas} | {'yes' if r.packed else 'no'} | "
-                               f"{r.renders} | {r.worst} | {r.off} | {r.status} | {r.cause} |" for r in rows])
+                               f"{r.renders} | {r.worst} | {r.off} |" + (levels(r) if mip else "")
+                               + f" {r.status} | {r.cause} |" for r in rows])
 
 
 def summary(rows: list[Row]) -> str:
     rendered = [r for r in rows if r.status != "not rendered" and r.packed]
     passed = [r for r in rendered if r.status == "pass"]
-    return (f"{len(passed)}/{len(rendered)} skeletons on packed atlases pass, {sum(r.renders for r in rendered)} renders "
+    projects = {r.project for r in rendered}
+    text = (f"{len(passed)}/{len(rendered)} skeletons on packed atlases pass ({len(projects)} projects), "
+            f"{sum(r.renders for r in rendered)} renders "
             f"({sum(1 for r in rows if r.status == 'not rendered')} not renderable, "
             f"{sum(1 for r in rows if not r.packed and r.status == 'pass')} on atlases kept as they were)")
+    mip = {(r.project, r.atlas): r for r in rows if r.mip_after is not None}
+    if mip:
+        text += (f"; mipmaps: {len(mip)} packed atlases, every region clean to level >= "
+                 f"{min(r.mip_after for r in mip.values())} after packing (worst before: "
+                 f"{min(r.mip_before for r in mip.values())}), {sum(len(r.mip_worse) for r in mip.values())} "
+                 "regions clean to a lower level than before")
+    return text
 
 
 def default_projects() -> list[Path]:
@@ -199,17 +422,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path, help="project folders (default: 3.8-4.2 examples and corpus)")
     ap.add_argument("--only", action="append", default=[], help="glob on project names; repeatable")
     ap.add_argument("--upgrade", action="store_true", help="prove upgrade --pack: pack each project's upgrade")
+    ap.add_argument("--mipmaps", action="store_true",
+                    help="give every page a MipMap filter first (in a copy), and check mipmap bleeding too")
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
     ap.add_argument("--animations", type=int, default=ANIMATIONS, help="animations sampled per skeleton")
+    ap.add_argument("--every", type=int, default=1, metavar="N",
+                    help="prove every N-th project (in the order given; default: all)")
+    ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
     ap.add_argument("--keep", type=Path, help="keep packs and renders here (default: a temporary folder)")
     args = ap.parse_args(argv)
     projects = [p.resolve() for p in args.projects] or default_projects()
     if args.only:
         projects = [p for p in projects if any(fnmatch.fnmatchcase(p.name, g) for g in args.only)]
+    projects = projects[::max(1, args.every)]
+    rows = []
+    if args.resume and args.json and args.json.is_file():
+        rows = [Row(**r) for r in json.loads(args.json.read_text())]
+        done = {r.project for r in rows}
+        projects = [p for p in projects if project_label(p) not in done]
     base = Path(tempfile.mkdtemp(prefix="prove-pack-")) if args.keep is None else args.keep
     tool = install(base / "tool")
     rows = prove_each(projects, base, lambda project, work: prove_project(tool, project, work, args.animations,
-                                                                          args.upgrade), args.json, args.keep is None, [])
+                                                                          args.upgrade, args.mipmaps), args.json, args.keep is None, rows)
     print(table(rows))
     print()
     print(summary(rows))
