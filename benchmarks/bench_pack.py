@@ -15,7 +15,8 @@ repository, ``../shared``), side by side:
 
 Page texels are what a GPU holds; bytes are the atlas and page files on disk (PNG as
 ``pack`` writes them). Time is ``pack``'s CPU time per atlas (one core) (reading pages, placing,
-compositing, encoding).
+compositing, encoding); (c)'s is rectpack's, for comparison. The summaries are printed for the
+examples and the corpus apart, then for both.
 
 Usage::
 
@@ -74,6 +75,7 @@ class Row:
     b_seconds: float | None = None
     c_texels: int = 0
     c_pages: int = 0
+    c_seconds: float = 0.0
 
 
 def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, int]:
@@ -134,12 +136,14 @@ def bench_project(project: Path, scratch: Path, upgrade: bool) -> list[Row]:
         for f in files:
             with Image.open(f) as im:
                 sizes.append(im.size)
-        row = Row(project.name, rel, len(atlas.regions), len(atlas.pages), sum(w * h for w, h in sizes),
+        row = Row(project_label(project), rel, len(atlas.regions), len(atlas.pages), sum(w * h for w, h in sizes),
                   sum(f.stat().st_size for f in set(files)) + path.stat().st_size)
+        t0 = time.process_time()
         try:
             row.c_texels, row.c_pages = rectangle_repack(read_atlas(path), sizes)
         except SpineMeshError:
             row.c_texels, row.c_pages = row.texels, row.pages
+        row.c_seconds = round(time.process_time() - t0, 3)
         rows[rel] = row
     for rel, a in pack_rows(project, scratch / "a").items():
         if rel in rows:
@@ -170,13 +174,13 @@ def _pct(before: int, after: int | None) -> str:
 
 def table(rows: list[Row]) -> str:
     lines = ["| project | atlas | regions | pages | page texels | (a) pack | (b) upgrade+pack | (c) rectangles | "
-             "bytes | (a) bytes | (b) bytes | (a) CPU s | (b) CPU s |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "bytes | (a) bytes | (b) bytes | (a) CPU s | (b) CPU s | (c) CPU s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r.project} | {r.atlas} | {r.regions} | {r.pages} | {r.texels:,} | {_pct(r.texels, r.a_texels)} | "
                      f"{_pct(r.texels, r.b_texels)} | {_pct(r.texels, r.c_texels)} | {r.bytes:,} | "
                      f"{_pct(r.bytes, r.a_bytes)} | {_pct(r.bytes, r.b_bytes)} | {r.a_seconds:.2f} | "
-                     f"{'-' if r.b_seconds is None else f'{r.b_seconds:.2f}'} |")
+                     f"{'-' if r.b_seconds is None else f'{r.b_seconds:.2f}'} | {r.c_seconds:.2f} |")
     return "\n".join(lines)
 
 
@@ -218,7 +222,24 @@ def summary(rows: list[Row]) -> str:
     lines.append(f"pack CPU time per atlas: median {statistics.median(times):.2f} s, max {max(times):.2f} s"
                  + (f"; atlases of 200+ regions: max {max(max(r.a_seconds, r.b_seconds or 0) for r in big):.2f} s"
                     if big else ""))
+    rect_times = [r.c_seconds for r in rows]
+    lines.append(f"rectpack CPU time per atlas: median {statistics.median(rect_times):.2f} s, "
+                 f"max {max(rect_times):.2f} s")
     return "\n".join(lines)
+
+
+def summaries(rows: list[Row]) -> str:
+    """:func:`summary` of the examples, of the corpus and of any other projects, one after another."""
+    groups: dict[str, list[Row]] = {}
+    for r in rows:
+        head = r.project.split("/")[0]
+        label = {"examples": "Examples (3.8-4.2)", "corpus": "Corpus"}.get(head, "Other projects")
+        groups.setdefault(label, []).append(r)
+    parts = [f"### {label}: {len({r.project for r in group})} projects, {len(group)} atlases\n\n{summary(group)}"
+             for label, group in groups.items()]
+    if len(groups) > 1:
+        parts.append(f"### All: {len({r.project for r in rows})} projects, {len(rows)} atlases\n\n{summary(rows)}")
+    return "\n\n".join(parts)
 
 
 def ellipse_masks(seed: int, count: int, low: int, high: int) -> list:
@@ -280,6 +301,15 @@ def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -
     return "\n".join(lines)
 
 
+def project_label(project: Path) -> str:
+    """``examples/4.2/spineboy`` or ``corpus/jt-mia`` for the development data (example projects of
+    different versions share names), else the folder's name."""
+    for root, label in ((SHARED / "spine-examples", "examples"), (SHARED / "spine-corpus", "corpus")):
+        if project.is_relative_to(root.resolve()):
+            return f"{label}/{project.relative_to(root.resolve()).as_posix()}"
+    return project.name
+
+
 def default_projects() -> list[Path]:
     examples = [p for v in VERSIONS for p in sorted((SHARED / "spine-examples" / v).iterdir()) if p.is_dir()]
     corpus = sorted(p for p in (SHARED / "spine-corpus").iterdir() if p.is_dir())
@@ -309,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
         rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]
         print(table(rows))
         print()
-        print(summary(rows))
+        print(summaries(rows))
         return 0
     projects = [p.resolve() for p in args.projects] or default_projects()
     if args.corpus_only and not args.projects:
@@ -334,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
         shutil.rmtree(scratch, ignore_errors=True)
     print(table(rows))
     print()
-    print(summary(rows))
+    print(summaries(rows))
     return 0
 
 
