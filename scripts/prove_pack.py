@@ -326,32 +326,51 @@ def mipmap_results(source: Path, out: Path, packed: set[str]) -> dict:
     return {rel: prove_mipmaps(source, out, rel, uses) for rel in mip}
 
 
+def pack_as_the_cli_does(source: Path, out: Path, upgraded: bool) -> list:
+    """Pack ``source`` into ``out`` as ``spinemesh pack`` does, or, for an upgrade (``upgraded``),
+    as ``upgrade --pack`` does: in place, on a copy of the upgrade. Returns the atlas rows."""
+    if upgraded:
+        from spinemesh.upgrade.pack import pack_written
+        from spinemesh.upgrade.report import Result
+
+        shutil.copytree(source, out)
+        done = Result()
+        pack_written(out, done)
+        return done.atlases
+    out.mkdir(parents=True, exist_ok=True)
+    result = PackResult()
+    pack_project_into(find_project(source), out, PackOptions(), result)
+    return result.atlases
+
+
 def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMATIONS,
-                  upgrade: bool = False, mipmaps: bool = False) -> list[Row]:
+                  upgrade: bool = False, mipmaps: bool = False, skeletons: str = "*") -> list[Row]:
     """Pack ``project`` (optionally its upgrade; with ``mipmaps``, a copy whose pages use
-    mipmaps) into ``work`` and prove each skeleton."""
+    mipmaps) into ``work`` and prove each skeleton whose path in it matches the glob ``skeletons``."""
     name = project_label(project)
     source = with_mipmaps(project, work / "mipmapped") if mipmaps else project
     if upgrade:
         from spinemesh.upgrade import Options, upgrade_project
 
-        source = work / "upgraded"
+        upgraded = work / "upgraded"
         try:
-            upgrade_project(project if not mipmaps else work / "mipmapped", source, Options())
+            upgrade_project(source, upgraded, Options())
         except SpineMeshError as e:
             return [Row(name, "-", status="FAIL", cause=f"upgrade refused the project: {e}")]
+        source = upgraded
     out = work / "out"
-    out.mkdir(parents=True, exist_ok=True)
-    result = PackResult()
     try:
-        pack_project_into(find_project(source), out, PackOptions(), result)
+        atlases = pack_as_the_cli_does(source, out, upgrade)
     except SpineMeshError as e:
         return [Row(name, "-", status="FAIL", cause=f"pack refused the project: {e}")]
-    packed = {a.atlas for a in result.atlases if a.status == "packed"}
+    packed = {a.atlas for a in atlases if a.status == "packed"}
+    packed = {a.atlas for a in atlases if a.status == "packed"}
     mips = mipmap_results(source, out, packed)
     rows = []
     for skeleton in find_project(source).skeletons:
         rel = skeleton.relative_to(source).as_posix()
+        if not fnmatch.fnmatchcase(rel, skeletons):
+            continue
         row = Row(name, rel)
         scratch = work / "render" / rel.replace("/", "~")
         scratch.mkdir(parents=True, exist_ok=True)
