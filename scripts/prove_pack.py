@@ -5,7 +5,8 @@ and every skeleton in it whose Spine version the harness ``../shared/tools/spine
 renders (3.8, 4.0, 4.1, 4.2):
 
 1. ``spinemesh pack`` the project into a scratch folder (default options; with ``--upgrade``,
-   ``spinemesh upgrade`` it first and pack the upgrade, then compare against the upgrade);
+   ``spinemesh upgrade`` it first and pack a copy of the upgrade in place, as ``upgrade --pack``
+   does, then compare against the upgrade);
 2. render the same skeleton file with the original atlas and with the packed one, in the same
    frame: the setup pose, then two frames (0.3 s and 0.7 s) of up to three animations; with
    named skins, the first one too;
@@ -16,8 +17,18 @@ renders (3.8, 4.0, 4.1, 4.2):
 The skeleton files are the very same bytes on both sides (packing changes atlases and pages
 only), so any difference comes from the pages.
 
+The harness draws without mipmaps. ``--mipmaps`` proves a copy of each project whose pages all
+have a ``MipMap`` min filter (so packing pads for mipmaps), and checks mipmap bleeding texel by
+texel: per region, the deepest level at which what it draws reads no texel of another region
+(:func:`mip_clean_level`), on the original and the packed pages. Every region must be clean at
+``MIP_REQUIRED``; regions clean to a lower level than before are counted, not failed. Atlases
+whose own pages use ``MipMap`` filters get the same check without ``--mipmaps``.
+
     .venv/bin/python scripts/prove_pack.py                                # examples + corpus (slow: nice)
     .venv/bin/python scripts/prove_pack.py ../shared/spine-examples/4.2/spineboy --json build/pack-proof.json
+    .venv/bin/python scripts/prove_pack.py --upgrade --every 3 --json build/upgrade-pack-proof.json
+    .venv/bin/python scripts/prove_pack.py --mipmaps --only 'jt-*'           # pages given a MipMap filter
+    .venv/bin/python scripts/prove_pack.py --tables-from build/*.json        # tables of saved runs
 """
 
 from __future__ import annotations
@@ -449,7 +460,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="prove every N-th project (in the order given; default: all)")
     ap.add_argument("--resume", action="store_true", help="keep the rows already in --json, prove the rest")
     ap.add_argument("--keep", type=Path, help="keep packs and renders here (default: a temporary folder)")
+    ap.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON",
+                    help="print the table and summary of rows saved by --json (runs merged, one row per skeleton)")
     args = ap.parse_args(argv)
+    if args.tables_from:
+        merged = {(r["project"], r["skeleton"]): Row(**r) for f in args.tables_from for r in json.loads(f.read_text())}
+        rows = list(merged.values())
+        print(table(rows))
+        print()
+        print(summary(rows))
+        return 0 if all(r.status != "FAIL" for r in rows) else 1
     projects = [p.resolve() for p in args.projects] or default_projects()
     if args.only:
         projects = [p for p in projects if any(fnmatch.fnmatchcase(p.name, g) for g in args.only)]
