@@ -105,15 +105,18 @@ class Row:
     mip_worse: list = field(default_factory=list)
 
 
-def setup_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path, skin: str | None) -> Path | None:
-    """A frame file around what the setup pose draws (plus 25%), for a skeleton whose file has no
-    bounds (the harness frames by them); None when the file has them."""
+def pose_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path, skin: str | None,
+               poses: str | None) -> Path | None:
+    """A frame file around what the setup pose and the sampled ``poses`` draw (plus 25%), for a
+    skeleton whose file has no bounds, or empty ones (the harness frames by them); None when the
+    file has them or nothing is drawn."""
     bounds = doc.get("skeleton") or {}
-    if all(isinstance(bounds.get(k), (int, float)) for k in ("x", "y", "width", "height")):
+    if all(isinstance(bounds.get(k), (int, float)) for k in ("x", "y", "width", "height")) \
+            and bounds["width"] > 0 and bounds["height"] > 0:
         return None
     out = prefix.with_suffix(".dump.json")
-    dump(tool, atlas, skeleton, None, "", out, skin=skin)
-    points = [v for a in json.loads(out.read_text())["poses"][0]["attachments"] for v in a["vertices"]]
+    dump(tool, atlas, skeleton, None, "", out, poses=poses, skin=skin)
+    points = [v for pose in json.loads(out.read_text())["poses"] for a in pose["attachments"] for v in a["vertices"]]
     if not points:
         return None
     xs, ys = points[0::2], points[1::2]
@@ -143,12 +146,12 @@ def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: P
     problems = []
     for k, skin in enumerate(skins_to_render(doc)):
         these = (poses if k == 0 else poses.split(",")[0]) or None
-        frame = setup_frame(tool, a_atlas, skel, doc, work / f"f{k}", skin)
+        frame = pose_frame(tool, a_atlas, skel, doc, work / f"f{k}", skin, these)
         a = render(tool, a_atlas, skel, None, "", work / f"a{k}", frame_from=frame, poses=these, skin=skin)
         if frame is None:
             shown = json.loads((work / f"a{k}.frame.json").read_text())["frame"]
             if any(v is None for v in shown.values()):
-                row.status, row.cause = "not rendered", "the setup pose draws nothing and the file has no bounds"
+                row.status, row.cause = "not rendered", "no pose draws anything and the file has no bounds"
                 return row
         b = render(tool, b_atlas, skel, None, "", work / f"b{k}", frame_from=work / f"a{k}.frame.json",
                    poses=these, skin=skin)
