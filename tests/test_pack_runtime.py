@@ -31,10 +31,8 @@ from spinemesh.demo import make_demo_project
 sys.path.insert(0, str(REPO / "scripts"))
 
 #: Corpus projects, each with an atlas of PNG pages that packing shrinks (an atlas of lossy WebP
-#: pages, as most 4.1 corpus projects have, is kept as it was): name -> (version, MipMap pages,
-#: upgraded first). jt-mia draws only regions, which keep their stored turn, so only its
-#: upgraded meshes leave room to pack.
-SHARE = {"bom-tiger": ("4.0", False, False), "jt-mia": ("4.1", True, True)}
+#: pages, as most 4.1 corpus projects have, is kept as it was): name -> (version, MipMap pages).
+SHARE = {"bom-tiger": ("4.0", False), "jt-mia": ("4.1", True)}
 
 #: Official examples, one per harness runtime: (version, project, upgraded first, skeleton file).
 #: Packed as exported, most examples keep their tight atlases; these are packed.
@@ -69,8 +67,8 @@ def test_packed_example_renders_alike(version, name, upgrade, skeleton, examples
 
 @pytest.mark.parametrize("name", sorted(SHARE))
 def test_packed_corpus_project_renders_alike(name, corpus, spine_runtime, tmp_path):
-    version, mipmaps, upgrade = SHARE[name]
-    proved = _prove(spine_runtime, corpus / name, tmp_path, mipmaps=mipmaps, upgrade=upgrade)
+    version, mipmaps = SHARE[name]
+    proved = _prove(spine_runtime, corpus / name, tmp_path, mipmaps=mipmaps)
     assert all(r.version.startswith(version) for r in proved)
     if mipmaps:
         from prove_pack import MIP_REQUIRED

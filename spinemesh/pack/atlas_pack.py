@@ -400,11 +400,7 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
         else:
             foot = footprint(g, uses.get(r.name))
         texels = window_texels(pixels[r.page], g, foot.window)
-        # A region drawn as a region keeps the turn it was stored at: runtimes draw those through
-        # their own sprite code, and pixi-spine 3.8 places a trimmed region stored turned a few
-        # texels away from the same region stored upright (pail-dragqueen's godmother: 68/255 off
-        # once turned upright). Meshes are drawn through their UVs, which every runtime maps alike.
-        item = _Item(r, g, foot, texels, orientations(g.degrees, rotate and foot.by_outline))
+        item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
         item.masks = _item_masks(item)
         items.append(item)
     return items
