@@ -126,13 +126,14 @@ print(json.dumps(best))
 READ = COUNTERS + r"""
 import json, sys, tempfile, time
 from pathlib import Path
+from spinemesh.errors import SpineMeshError
 from spinemesh.upgrade import Options, upgrade_project
 rows = {}
 for folder in sys.argv[1:]:
     before, t = COUNTS["decodes"], time.process_time()
     try:
         upgrade_project(folder, Path(tempfile.mkdtemp()) / "out", Options(dry_run=True))
-    except Exception:  # a project the reader refuses counts as nothing here
+    except SpineMeshError:  # a project the reader refuses counts as nothing here
         continue
     rows[Path(folder).name] = (time.process_time() - t, COUNTS["decodes"] - before)
 print(json.dumps(rows))

@@ -239,7 +239,7 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     data = im.fp.read()
     try:
         samples = getattr(codecs, decode)(data)
-    except (RuntimeError, ValueError, MemoryError):  # libpng's or libwebp's refusal: Pillow decides
+    except (codecs.PngError, codecs.WebpError):  # libpng's or libwebp's refusal: Pillow decides
         return None
     if samples.shape[:2] != (im.height, im.width) or samples.dtype != np.uint8:
         return None
