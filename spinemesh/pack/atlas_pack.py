@@ -140,6 +140,7 @@ def candidate_widths(areas: int, widest: int, max_w: int, pot: bool) -> list[int
 #: Page sizes tried, smallest first, when pages must have power-of-two sides.
 POT_TRIES = 6
 
+
 def _powers(limit: int) -> list[int]:
     """Powers of two up to ``limit``, from 16."""
     return [1 << k for k in range(4, max(4, limit.bit_length()) + 1) if 1 << k <= limit]
