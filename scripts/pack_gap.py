@@ -11,7 +11,11 @@ of the page texels before:
 - ``need = kept + outline``: the least area any placement of these footprints takes;
 - ``bound``: the smallest page set the page rules allow whose area holds ``need`` (no more
   pages than before, powers of two where the originals were, no page over the largest one);
-- ``reached``: what ``pack_atlas`` stores.
+- ``reached``: what ``pack_atlas`` stores;
+- ``next``: with powers of two, the largest page set the rules allow below ``reached`` that
+  could still hold ``need``, and the fill (``need`` over it) a placement would have to reach
+  to store it; without powers of two any smaller page is allowed, so the fill reached
+  (``need`` over ``reached``) is given and every point of fill gained saves texels.
 
 So the loss before ``reached`` splits into: (a) kept regions (``kept`` over their art), (b)
 footprint size (``outline`` over its art), (c) placement (``reached`` over ``bound``) and (d)
@@ -64,6 +68,8 @@ class GapRow:
     reached: int
     status: str
     kept_cropped: int = 0
+    pot: bool = False
+    next_set: int = 0
 
 
 def min_page_set(need: int, pages: int, max_area: int, pot: bool, smallest: int = 256) -> int:
@@ -85,6 +91,29 @@ def min_page_set(need: int, pages: int, max_area: int, pot: bool, smallest: int 
 
     found = best(need, pages)
     return found if found < 1 << 62 else -1
+
+
+def largest_set_below(limit: int, need: int, pages: int, max_area: int, smallest: int = 256) -> int:
+    """The largest total area below ``limit`` of at most ``pages`` power-of-two pages (each from
+    ``smallest`` to ``max_area`` texels) that still holds ``need``; 0 if none.
+
+    A sum of powers of two is largest under a bound when it keeps the bound's highest bits: so
+    take as many whole pages of ``max_area`` as fit, then the top bits of the rest, one a page.
+    """
+    best = 0
+    top = limit - 1
+    for whole in range(min(pages, top // max_area), -1, -1):
+        rest = top - whole * max_area
+        total = whole * max_area
+        for _ in range(pages - whole):
+            if rest < smallest:
+                break
+            bit = 1 << (rest.bit_length() - 1)
+            bit = min(bit, max_area)
+            total += bit
+            rest -= bit
+        best = max(best, total)
+    return best if best >= need else 0
 
 
 def drawn_area(texels: np.ndarray, grow: int) -> int:
@@ -147,8 +176,9 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
         reached, status = packed.texels_after, "packed"
     except PackRefused as e:
         reached, status = before, "kept: " + str(e)[:60]
+    next_set = largest_set_below(reached, kept + outline, len(pixels), max_area) if pot and len(groups) == 1 else 0
     return GapRow(project_name, rel, len(items), sum(it.foot.by_outline for it in items), len(pixels), before,
-                  art, art_kept, kept, outline, min(bound, before), reached, status, kept_cropped)
+                  art, art_kept, kept, outline, min(bound, before), reached, status, kept_cropped, pot, next_set)
 
 
 def project_gaps(project: Path) -> list[GapRow]:
@@ -169,14 +199,42 @@ def _p(part: int, whole: int) -> str:
     return f"{part / whole:.0%}" if whole else "-"
 
 
+def next_step(r: GapRow) -> tuple[str, str]:
+    """The ``next`` columns: the next smaller allowed page set (share of before) and the fill it needs."""
+    need = r.kept + r.outline
+    if not r.pot:
+        return "any", _p(need, r.reached)
+    if not r.next_set:
+        return "none", "-"
+    return _p(r.next_set, r.before), _p(need, r.next_set)
+
+
 def table(rows: list[GapRow]) -> str:
     lines = ["| project | atlas | regions | by outline | pages | page texels | art | kept | outline | need | "
-             "bound | reached |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "bound | reached | next | fill for next |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         need = r.kept + r.outline
+        nxt, fill = next_step(r)
         lines.append(f"| {r.project} | {r.atlas} | {r.regions} | {r.by_outline} | {r.pages} | {r.before:,} | "
                      f"{_p(r.art, r.before)} | {_p(r.kept, r.before)} | {_p(r.outline, r.before)} | "
-                     f"{_p(need, r.before)} | {_p(r.bound, r.before)} | {_p(r.reached, r.before)} |")
+                     f"{_p(need, r.before)} | {_p(r.bound, r.before)} | {_p(r.reached, r.before)} | "
+                     f"{nxt} | {fill} |")
+    return "\n".join(lines)
+
+
+def reach_summary(rows: list[GapRow]) -> str:
+    """How many atlases a better placement could shrink, by the fill it would have to reach."""
+    before = sum(r.before for r in rows)
+    pot = [r for r in rows if r.pot and r.next_set]
+    npot = [r for r in rows if not r.pot]
+    lines = ["| fill a placement must reach | power-of-two atlases with a smaller allowed page set "
+             "(texels it saves) | other atlases already at or above it (texels) |", "|---|---:|---:|"]
+    for limit in (0.75, 0.80, 0.85, 0.90, 0.95):
+        near = [r for r in pot if (r.kept + r.outline) <= limit * r.next_set]
+        done = [r for r in npot if (r.kept + r.outline) >= limit * r.reached]
+        lines.append(f"| {limit:.0%} | {len(near)} ({sum(r.reached - r.next_set for r in near) / before:.1%}) | "
+                     f"{len(done)} of {len(npot)} ({sum(r.before for r in done) / before:.1%}) |")
     return "\n".join(lines)
 
 
@@ -230,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
     print(table(rows))
     print()
     print(summary(rows))
+    print()
+    print(reach_summary(rows))
     return 0
 
 

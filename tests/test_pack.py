@@ -280,6 +280,46 @@ def test_a_fill_that_cannot_beat_the_budget_gives_up():
     assert any(p is None for p in placements)
 
 
+def _shapes(seed: int, count: int, low: int, high: int) -> list:
+    """``count`` footprints ``low`` to ``high`` texels across, half ellipses, half rectangles, as items."""
+    import cv2
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(seed)
+    items = []
+    for _ in range(count):
+        w, h = (int(v) for v in rng.integers(low, high, 2))
+        m = np.zeros((h, w), np.uint8)
+        if rng.random() < 0.5:
+            cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
+        else:
+            m[:] = 1
+        items.append(SimpleNamespace(masks=[m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))]))
+    return items
+
+
+def test_other_orders_shrink_the_last_power_of_two_page(monkeypatch):
+    """Several power-of-two pages: filled largest box first, these footprints leave a third page;
+    filled by drawn texels or longest side, two pages hold them all."""
+    from spinemesh.pack import atlas_pack
+
+    items = _shapes(334, 12, 8, 120)
+    _, with_orders = atlas_pack._pack_group(items, 128, 128, 128 * 128, True, 1, 3, 3 * 128 * 128)
+    monkeypatch.setattr(atlas_pack, "other_orders", lambda candidates: [])
+    _, default_only = atlas_pack._pack_group(items, 128, 128, 128 * 128, True, 1, 3, 3 * 128 * 128)
+    assert len(default_only) == 3 and with_orders == [(128, 128), (128, 128)]
+
+
+def test_footprints_larger_than_the_atlas_are_refused_before_any_fill():
+    from spinemesh.pack.atlas_pack import PackRefused, _pack_group
+
+    items = _shapes(0, 4, 20, 40)
+    texels = sum(int(it.masks[0].sum()) for it in items)
+    with pytest.raises(PackRefused, match="footprints alone"):
+        _pack_group(items, 256, 256, 256 * 256, False, 0, 1, texels)
+    _pack_group(items, 256, 256, 256 * 256, False, 0, 1, 256 * 256)  # room enough: packed
+
+
 def test_measured_padding():
     from spinemesh.atlas import RegionGeometry
 

@@ -212,8 +212,9 @@ def _page_sizes(used: list[tuple[int, int]], max_w: int, max_h: int, pot: bool) 
 
 
 def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
-               best=None):
-    """First fit on pages of a few widths (the last page narrower where it can be).
+               best=None, order: list[int] | None = None):
+    """First fit on pages of a few widths (the last page narrower where it can be), footprints in ``order``
+    (default: :func:`~spinemesh.pack.place.fill_pages`'s).
 
     Returns the best ``(texels, placements, sizes)``, ``best`` (the best so far) when none beats it.
     """
@@ -236,7 +237,7 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
                 height = 1 << max(0, height.bit_length() - 1)
             if width * height < needed:
                 continue
-        placements, used = fill_pages(candidates, width, height, padding, max_pages=max_pages,
+        placements, used = fill_pages(candidates, width, height, padding, order=order, max_pages=max_pages,
                                       budget=None if best is None else best[0])
         if any(p is None for p in placements) or len(used) > max_pages:
             continue
@@ -276,12 +277,14 @@ def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padd
     return sum(w * h for w, h in sizes), placements, sizes
 
 
-def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best):
+def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best,
+                     order: list[int] | None = None):
     """Power-of-two page sizes tried whole, smallest first, from the least area that could hold the footprints.
 
     Powers of two round a used height up to the next one; a page of exactly the size may
-    still hold everything. Each size is tried with both placements; the first that holds
-    everything is kept when it beats ``best`` (``(texels, placements, sizes)`` or None).
+    still hold everything. Each size is tried with both placements (footprints in ``order``);
+    the first that holds everything is kept when it beats ``best`` (``(texels, placements,
+    sizes)`` or None).
     """
     needed = sum(int(c[0].sum()) for c in candidates)
     sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
@@ -289,8 +292,8 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
                    key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
     for w, h in sizes[:POT_TRIES]:
         for tight in (False, True):
-            placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages, tight=tight, pot=True,
-                                          budget=None if best is None else best[0])
+            placements, used = fill_pages(candidates, w, h, padding, order=order, max_pages=max_pages, tight=tight,
+                                          pot=True, budget=None if best is None else best[0])
             if any(p is None for p in placements):
                 continue
             found = _page_sizes(used, w, h, True)
@@ -301,24 +304,44 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
     return best
 
 
+def other_orders(candidates) -> list[list[int]]:
+    """Orders besides the largest box first that a group of several pages is filled in: most texels
+    first, then longest side first.
+
+    With several pages the order decides what is left for the last page, which often takes
+    the whole of a smaller page: one large footprint left over can double it.
+    """
+    n = range(len(candidates))
+    by_texels = sorted(n, key=lambda i: (-int(candidates[i][0].sum()), i))
+    by_side = sorted(n, key=lambda i: (-max(candidates[i][0].shape), -candidates[i][0].size, i))
+    return [by_texels, by_side]
+
+
 def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
                 max_pages: int, ceiling: int | None = None):
     """Best packing of one group: ``(placements, page sizes)`` with fewest texels.
 
     Tries the tightest fit on pages of any shape, first fit on pages of a few widths, and (for
-    powers of two) whole page sizes from the smallest; keeps the fewest texels. Never more
-    pages than the group had (each page is a texture switch, often a draw call). ``ceiling``:
-    page texels a packing must stay under to be of use (the atlas's own): fills that reach it
-    stop early.
+    powers of two) whole page sizes from the smallest; keeps the fewest texels. A group of
+    several power-of-two pages tries the last two again in :func:`other_orders` (on pages of
+    any size the last page shrinks to what it holds: other orders saved nothing there, as
+    measured). Never more pages than the group had (each page is a texture switch, often a
+    draw call). ``ceiling``: page texels a packing must stay under to be of use (the atlas's
+    own): fills that reach it stop early.
     """
     candidates = [it.masks for it in items]
+    needed = sum(int(c[0].sum()) for c in candidates)
+    if ceiling is not None and needed >= ceiling:  # no placement can beat it: spare every fill
+        raise PackRefused(f"its footprints alone take {needed:,} texels, no fewer than the {ceiling:,} "
+                          f"page texels the atlas has")
     best = None if ceiling is None else (ceiling, None, None)
     found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling)
     if found is not None and (best is None or found[0] < best[0]):
         best = found
-    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best)
-    if pot:
-        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best)
+    for order in [None] + (other_orders(candidates) if pot and max_pages > 1 else []):
+        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order)
+        if pot:
+            best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, order)
     if best is None or best[1] is None:
         raise PackRefused(f"no packing of its footprints on at most {max_pages} page(s) of the largest original "
                           f"size stores fewer page texels than the atlas has")
