@@ -277,14 +277,12 @@ def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padd
     return sum(w * h for w, h in sizes), placements, sizes
 
 
-def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best,
-                     order: list[int] | None = None):
+def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best):
     """Power-of-two page sizes tried whole, smallest first, from the least area that could hold the footprints.
 
     Powers of two round a used height up to the next one; a page of exactly the size may
-    still hold everything. Each size is tried with both placements (footprints in ``order``);
-    the first that holds everything is kept when it beats ``best`` (``(texels, placements,
-    sizes)`` or None).
+    still hold everything. Each size is tried with both placements; the first that holds
+    everything is kept when it beats ``best`` (``(texels, placements, sizes)`` or None).
     """
     needed = sum(int(c[0].sum()) for c in candidates)
     sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
@@ -292,8 +290,8 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
                    key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
     for w, h in sizes[:POT_TRIES]:
         for tight in (False, True):
-            placements, used = fill_pages(candidates, w, h, padding, order=order, max_pages=max_pages, tight=tight,
-                                          pot=True, budget=None if best is None else best[0])
+            placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages, tight=tight, pot=True,
+                                          budget=None if best is None else best[0])
             if any(p is None for p in placements):
                 continue
             found = _page_sizes(used, w, h, True)
@@ -323,11 +321,12 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
 
     Tries the tightest fit on pages of any shape, first fit on pages of a few widths, and (for
     powers of two) whole page sizes from the smallest; keeps the fewest texels. A group of
-    several power-of-two pages tries the last two again in :func:`other_orders` (on pages of
-    any size the last page shrinks to what it holds: other orders saved nothing there, as
-    measured). Never more pages than the group had (each page is a texture switch, often a
-    draw call). ``ceiling``: page texels a packing must stay under to be of use (the atlas's
-    own): fills that reach it stop early.
+    several power-of-two pages tries first fit on a few widths again in :func:`other_orders`
+    (on pages of any size the last page shrinks to what it holds: other orders saved nothing
+    there, as measured; whole page sizes in other orders saved nothing either, at twice the
+    time on the dragon example). Never more pages than the group had (each page is a texture
+    switch, often a draw call). ``ceiling``: page texels a packing must stay under to be of use
+    (the atlas's own): fills that reach it stop early.
     """
     candidates = [it.masks for it in items]
     needed = sum(int(c[0].sum()) for c in candidates)
@@ -338,10 +337,11 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling)
     if found is not None and (best is None or found[0] < best[0]):
         best = found
-    for order in [None] + (other_orders(candidates) if pot and max_pages > 1 else []):
+    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best)
+    if pot:
+        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best)
+    for order in other_orders(candidates) if pot and max_pages > 1 else []:
         best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order)
-        if pot:
-            best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, order)
     if best is None or best[1] is None:
         raise PackRefused(f"no packing of its footprints on at most {max_pages} page(s) of the largest original "
                           f"size stores fewer page texels than the atlas has")
