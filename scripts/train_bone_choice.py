@@ -6,9 +6,12 @@
 Builds the dataset (:mod:`spinemesh.rig.train_choice`: every artist-weighted mesh of each
 example in its newest version and of every corpus project, each bone near its art a row),
 cached in ``--cache`` (extraction takes minutes; delete the file to rebuild). Then fits one
-model per project-held-out fold and prints, for the ``rule`` and the ``learned`` choice on the
-same meshes, the share of meshes given exactly the artist's bone set and the bones per mesh
-against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
+per-bone model per project-held-out fold, and per fold a set-level model
+(:mod:`spinemesh.rig.bone_sets`) on the other folds' candidate sets, their per-bone
+probabilities each from a model fitted without their own fold; prints, for the ``rule``, the
+per-bone choice at a few thresholds and the ``learned`` choice (per bone, then set level) on
+the same meshes, the share of meshes given exactly the artist's bone set and the bones per
+mesh against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
 (their ``learned`` rows, project-held-out). ``--write`` fits on every project and writes
 ``spinemesh/models/bone_choice.json``. Needs scikit-learn (the ``train`` extra).
 """
@@ -62,14 +65,23 @@ def main() -> None:
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
+    log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     before = tc.load_fold_models(args.fold_models) if args.reuse_folds and args.fold_models else None
-    p, models = tc.held_out_probabilities(data, args.project_power, log=lambda s: print(s, file=sys.stderr, flush=True),
-                                          models=before)
+    p, models = tc.held_out_probabilities(data, args.project_power, log=log, models=before)
+    if before and all(m.sets is not None for m in before.values()):
+        mesh_fold = np.array([tc.fold_of(g) for g in data["group"]])
+        by_sets = np.zeros(len(p), bool)
+        for k, m in models.items():
+            by_sets |= tc.choose_sets(data, tc.set_rows(data, p, np.flatnonzero(mesh_fold == k), m.threshold), m.sets)
+    else:
+        inner = tc.inner_probabilities(data, args.project_power, log=log)
+        by_sets = tc.held_out_sets(data, p, models, inner, args.project_power, log=log)
     if args.fold_models:
         tc.save_fold_models(models, args.fold_models)
     rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]
     for t in sorted({0.3, 0.4, args.threshold, 0.6}):
-        rows.append((f"learned, threshold {t:.1f} (project-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))
+        rows.append((f"per bone, threshold {t:.1f} (project-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))
+    rows.append(("learned: per bone, then set level (project-held-out)", tc.judge(data, by_sets)))
     table(rows)
     kinds = {"examples": np.char.startswith(data["group"].astype(str), "examples/")}
     kinds["corpus"] = ~kinds["examples"]
@@ -77,15 +89,20 @@ def main() -> None:
         ids = np.flatnonzero(mask)
         print(f"\n{kind}:")
         table([("rule", tc.judge(data, data["rule"].astype(bool), ids)),
-               (f"learned, threshold {args.threshold:.1f}", tc.judge(data, tc.choose_rows(data, p, args.threshold), ids))])
+               (f"per bone, threshold {args.threshold:.1f}", tc.judge(data, tc.choose_rows(data, p, args.threshold), ids)),
+               ("learned: per bone, then set level", tc.judge(data, by_sets, ids))])
     if args.write:
         model = tc.fit(data["X"], data["y"], tc.mesh_weights(data, args.project_power), args.threshold)
+        # the set stage learns from held-out per-bone probabilities, as the shipped model gives new projects
+        model.sets = tc.fit_sets(data, tc.set_rows(data, p, np.arange(meshes), args.threshold), args.project_power)
+        model.sets.meta = {**model.sets.meta, "trained_on": "the candidate sets of the same meshes, from held-out "
+                           "per-bone probabilities"}
         model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
                       "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
                       "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"}
         MODEL_PATH.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
         print(f"\nwrote {MODEL_PATH.relative_to(REPO)} ({MODEL_PATH.stat().st_size / 1024:.0f} KB, "
-              f"{len(model.trees)} trees, {len(FEATURES)} features)")
+              f"{len(model.trees)} + {len(model.sets.trees)} trees, {len(FEATURES)} + {len(model.sets.features)} features)")
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import bone_sets
 from .constraints import constraints_of
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
 
@@ -227,13 +228,32 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     return Candidates(ids, features, rule, over)
 
 
+def _tree_from_json(t: dict, features: int) -> dict[str, np.ndarray]:
+    """One tree's arrays from its JSON form, checked (children ahead of their node and inside
+    the tree, features read exist, finite leaves); raises ValueError when malformed."""
+    tree = {"feature": np.asarray(t["feature"], np.int64), "threshold": np.asarray(t["threshold"], float),
+            "left": np.asarray(t["left"], np.int64), "right": np.asarray(t["right"], np.int64),
+            "value": np.asarray(t["value"], float)}
+    n = len(tree["feature"])
+    if any(len(a) != n for a in tree.values()) or not np.isfinite(tree["value"]).all():
+        raise ValueError("a tree of the model is malformed")
+    inner = tree["feature"] >= 0
+    ahead = np.flatnonzero(inner)
+    if (tree["feature"][inner] >= features).any() or (tree["left"][inner] <= ahead).any() \
+            or (tree["right"][inner] <= ahead).any() or (tree["right"][inner] >= n).any() \
+            or (tree["left"][inner] >= n).any():
+        raise ValueError("a tree of the model is malformed")
+    return tree
+
+
 @dataclass
 class TreeEnsemble:
     """A binary classifier: the sigmoid of a base value plus the sum of regression trees' leaves.
 
     Each tree is arrays over its nodes: ``feature`` (column read; -1 at a leaf), ``threshold``
     (go left when the value is at most it), ``left``/``right`` (child nodes), ``value`` (the
-    leaf's contribution, learning rate included).
+    leaf's contribution, learning rate included). ``sets``: the set-level stage
+    (:mod:`.bone_sets`, reading :data:`.bone_sets.SET_FEATURES`), absent in models without it.
     """
 
     features: tuple[str, ...]
@@ -241,34 +261,35 @@ class TreeEnsemble:
     trees: list[dict[str, np.ndarray]]
     threshold: float
     meta: dict
+    sets: "TreeEnsemble | None" = None
 
     @classmethod
-    def from_json(cls, data: dict) -> "TreeEnsemble":
-        """A model from its JSON form (:meth:`to_json`); raises ValueError when it is not one."""
-        if data.get("format") != MODEL_FORMAT:
-            raise ValueError(f"not a bone-choice model (format {data.get('format')!r}, expected {MODEL_FORMAT!r})")
-        features = tuple(data["features"])
-        if features != FEATURES:
-            raise ValueError("the model reads other features than this version computes")
-        trees = []
-        for t in data["trees"]:
-            tree = {"feature": np.asarray(t["feature"], np.int64), "threshold": np.asarray(t["threshold"], float),
-                    "left": np.asarray(t["left"], np.int64), "right": np.asarray(t["right"], np.int64),
-                    "value": np.asarray(t["value"], float)}
-            n = len(tree["feature"])
-            if any(len(a) != n for a in tree.values()) or not np.isfinite(tree["value"]).all():
-                raise ValueError("a tree of the model is malformed")
-            inner = tree["feature"] >= 0
-            if (tree["feature"][inner] >= len(features)).any() or (tree["left"][inner] <= np.flatnonzero(inner)).any() \
-                    or (tree["right"][inner] >= n).any() or (tree["left"][inner] >= n).any():
-                raise ValueError("a tree of the model is malformed")
-            trees.append(tree)
-        return cls(features, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})))
+    def from_json(cls, data: dict, features: tuple[str, ...] = FEATURES, form: str = MODEL_FORMAT) -> "TreeEnsemble":
+        """A model from its JSON form (:meth:`to_json`); raises ValueError when it is not one.
 
-    def to_json(self) -> dict:
-        return {"format": MODEL_FORMAT, "features": list(self.features), "base": self.base,
-                "threshold": self.threshold, "meta": self.meta,
-                "trees": [{k: v.tolist() for k, v in t.items()} for t in self.trees]}
+        ``features`` and ``form``: the feature names and format tag it must have (the
+        per-bone model's by default).
+        """
+        from .bone_sets import SET_FEATURES, SET_MODEL_FORMAT
+
+        if data.get("format") != form:
+            raise ValueError(f"not a bone-choice model (format {data.get('format')!r}, expected {form!r})")
+        if tuple(data["features"]) != features:
+            raise ValueError("the model reads other features than this version computes")
+        trees = [_tree_from_json(t, len(features)) for t in data["trees"]]
+        sets = data.get("sets")
+        return cls(features, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})),
+                   cls.from_json(sets, SET_FEATURES, SET_MODEL_FORMAT) if sets is not None else None)
+
+    def to_json(self, form: str = MODEL_FORMAT) -> dict:
+        """The JSON form :meth:`from_json` reads (``form``: its format tag)."""
+        from .bone_sets import SET_MODEL_FORMAT
+
+        out = {"format": form, "features": list(self.features), "base": self.base, "threshold": self.threshold,
+               "meta": self.meta, "trees": [{k: v.tolist() for k, v in t.items()} for t in self.trees]}
+        if self.sets is not None:
+            out["sets"] = self.sets.to_json(SET_MODEL_FORMAT)
+        return out
 
     def raw(self, x: np.ndarray) -> np.ndarray:
         """The ensemble's log-odds for each row of ``x`` (R, F)."""
@@ -329,21 +350,49 @@ def _describe(bones, i: int, slot_bone: int, over: dict[int, float]) -> str:
     return f"{where}, {on}"
 
 
+def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: float) -> list[int]:
+    """The per-bone choice: candidates at or above ``threshold`` (at most ``MAX_AUTO_BONES``, the
+    likeliest first), else the slot's bone (``slot``: its index among the candidates), else the
+    likeliest one. ``order``: the allowed candidates, likeliest first."""
+    take = [k for k in order if p[k] >= threshold][:MAX_AUTO_BONES]
+    if not take and order:
+        # None likely: the slot's bone, as the mesh follows now (the likeliest other bone, a
+        # child beside the art say, can move it far away: measured 123 px off on one corpus mesh)
+        take = [slot] if slot is not None else order[:1]
+    return take
+
+
+def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
+             model: TreeEnsemble) -> tuple[list[int], float, int]:
+    """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
+    to be the artist's exact set; with its probability and how many sets were weighed."""
+    parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
+    ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
+    rule = cand.features[:, FEATURES.index("rule_chose")] == 1
+    sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule)
+    if not sets:
+        return [], 0.0, 0
+    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
+                                                          ancestors, parents_at, model.threshold))
+    best = int(np.argmax(score))
+    return list(sets[best][0]), float(score[best]), len(sets)
+
+
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
                    constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
-    never chosen. When no candidate reaches the threshold, the slot's bone is taken (the most
-    likely candidate when the slot's bone cannot be bound); at most ``MAX_AUTO_BONES``, the most
-    likely first.
+    never chosen. With a set-level stage (``model.sets``) the candidate set it scores likeliest
+    to be the artist's is taken. Without one, the bones at or above the model's threshold; when
+    none reaches it, the slot's bone (the most likely candidate when the slot's bone cannot be
+    bound); at most ``MAX_AUTO_BONES``, the most likely first.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
     p = model.probability(cand.features)
-    why: dict[int, str] = {}
     left_out: dict[int, str] = {}
-    allowed = []
+    allowed = np.zeros(len(cand.bones), bool)
     for k, i in enumerate(cand.bones):
         b = bones[i]
         if not b.exact:
@@ -351,24 +400,40 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
         elif b.skin_required and i not in skin_bones:
             left_out[i] = "only active in other skins"
         else:
-            allowed.append(k)
-    order = sorted(allowed, key=lambda k: -p[k])
-    take = [k for k in order if p[k] >= model.threshold][:MAX_AUTO_BONES]
-    if not take and order:
-        # None likely: the slot's bone, as the mesh follows now (the likeliest other bone, a
-        # child beside the art say, can move it far away: measured 123 px off on one corpus mesh)
-        slot = [k for k in order if cand.bones[k] == slot_bone]
-        take = slot or order[:1]
-    for k in allowed:
-        i = cand.bones[k]
-        text = _describe(bones, i, slot_bone, cand.over)
-        if k in take:
-            top = " (none reached the threshold)" if p[k] < model.threshold else ""
-            why[i] = f"learned: {p[k]:.2f} likely an artist's bone, threshold {model.threshold:.2f}{top}; {text}"
-        elif p[k] >= model.threshold:
-            left_out[i] = f"learned: {p[k]:.2f}, but more than {MAX_AUTO_BONES} bones qualify; {text}"
-        else:
-            left_out[i] = f"learned: {p[k]:.2f}, below the threshold {model.threshold:.2f}; {text}"
+            allowed[k] = True
+    order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
+    slot = next((k for k in order if cand.bones[k] == slot_bone), None)
+    take, score, weighed = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], 0.0, 0)
+    why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
+                   model.threshold, (score, weighed) if take else None, left_out)
     if not why and bones[slot_bone].exact:
         why[slot_bone] = "slot bone (no candidate can be bound)"
     return Choice(sorted(why), why, left_out)
+
+
+def _explain(bones, cand: Candidates, p: np.ndarray, order: list[int], take: list[int], slot_bone: int,
+             threshold: float, chosen_set: tuple[float, int] | None, left_out: dict[int, str]) -> dict[int, str]:
+    """Why each allowed candidate was taken (returned) or left out (added to ``left_out``).
+
+    ``chosen_set``: the set model's probability of the taken set and how many sets it weighed
+    (None: the per-bone choice).
+    """
+    why: dict[int, str] = {}
+    for k in order:
+        i = cand.bones[k]
+        text = _describe(bones, i, slot_bone, cand.over)
+        alone = f"learned: {p[k]:.2f} likely an artist's bone"
+        if chosen_set is not None:
+            of = f"the set of bones likeliest to be the artist's ({chosen_set[0]:.2f}, of {chosen_set[1]} sets weighed)"
+            if k in take:
+                why[i] = f"{alone}, in {of}; {text}"
+            else:
+                left_out[i] = f"{alone}, not in {of}; {text}"
+        elif k in take:
+            top = " (none reached the threshold)" if p[k] < threshold else ""
+            why[i] = f"{alone}, threshold {threshold:.2f}{top}; {text}"
+        elif p[k] >= threshold:
+            left_out[i] = f"learned: {p[k]:.2f}, but more than {MAX_AUTO_BONES} bones qualify; {text}"
+        else:
+            left_out[i] = f"learned: {p[k]:.2f}, below the threshold {threshold:.2f}; {text}"
+    return why

@@ -21,6 +21,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments, load_skeleton
 from .binding import parse_vertices, setup_world
 from .document import build_rig
+from . import bone_sets
 from .learned import FEATURES, REACH, TreeEnsemble, candidates
 
 #: Project-held-out folds.
@@ -63,8 +64,9 @@ def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple
 def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels.
 
-    Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``features``
-    (C, F), ``label`` (C,) bool, ``rule`` (the rule's bones), ``artist`` (the artist's bones).
+    Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
+    (each candidate's parent bone, -1 for the root), ``features`` (C, F), ``label`` (C,) bool,
+    ``rule`` (the rule's bones), ``artist`` (the artist's bones).
     """
     from .learned import constrained_bones
 
@@ -92,8 +94,10 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
             continue
         cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
                           reach=reach)
+        parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
-                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist))
+                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
+                        parents=parents))
     return out
 
 
@@ -107,14 +111,15 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
     -------
     dict
         ``X`` (R, F) features, ``y`` (R,) labels, ``mesh`` (R,) mesh number, ``bone`` (R,) bone
-        index, ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
+        index, ``parent`` (R,) its parent bone (-1: the root), ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
         ``skeleton`` (file), ``attachment`` (``skin/slot/name``), ``artist_count`` (artist's bones),
         ``missed`` (artist's bones not among the candidates), ``rule_count``, ``rule_exact``.
     """
     if cache is not None and cache.exists():
         with np.load(cache, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    X, y, mesh, bone, rule = [], [], [], [], []
+            if "parent" in data.files:  # else written by an older version: built again
+                return {k: data[k] for k in data.files}
+    X, y, mesh, bone, parent, rule = [], [], [], [], [], []
     per_mesh: dict[str, list] = {k: [] for k in ("group", "skeleton", "attachment", "artist_count", "missed",
                                                  "rule_count", "rule_exact")}
     for n, (group, path) in enumerate(pairs):
@@ -135,6 +140,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             y.append(r["label"])
             mesh.append(np.full(len(r["bones"]), m))
             bone.append(np.asarray(r["bones"]))
+            parent.append(np.asarray(r["parents"]))
             rule.append(np.array([b in r["rule"] for b in r["bones"]]))
             per_mesh["group"].append(group)
             per_mesh["skeleton"].append(str(path))
@@ -148,6 +154,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             "y": np.concatenate(y) if y else np.zeros(0, bool),
             "mesh": np.concatenate(mesh) if mesh else np.zeros(0, int),
             "bone": np.concatenate(bone) if bone else np.zeros(0, int),
+            "parent": np.concatenate(parent) if parent else np.zeros(0, int),
             "rule": np.concatenate(rule) if rule else np.zeros(0, bool),
             **{k: np.asarray(v) for k, v in per_mesh.items()}}
     if cache is not None:
@@ -172,9 +179,9 @@ def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
 
 
 def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: float = 0.5,
-        seed: int = 0) -> TreeEnsemble:
+        seed: int = 0, features: tuple[str, ...] = FEATURES) -> TreeEnsemble:
     """A gradient-boosted tree ensemble (scikit-learn's ``HistGradientBoostingClassifier``) as a
-    :class:`.learned.TreeEnsemble`."""
+    :class:`.learned.TreeEnsemble` reading columns ``features``."""
     from sklearn.ensemble import HistGradientBoostingClassifier
 
     clf = HistGradientBoostingClassifier(max_iter=TREES, max_leaf_nodes=LEAVES, learning_rate=LEARNING_RATE,
@@ -194,7 +201,7 @@ def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: fl
     expected = clf.decision_function(check)
     # a few rows with scikit-learn's log-odds, for the package's tests to check the numpy evaluation
     few = np.linspace(0, len(check) - 1, min(len(check), 24)).astype(int)
-    model = TreeEnsemble(FEATURES, base, trees, threshold,
+    model = TreeEnsemble(features, base, trees, threshold,
                          {"check": {"x": check[few].tolist(), "raw": expected[few].tolist()}})
     if not np.allclose(model.raw(check), expected, atol=1e-6):
         raise RuntimeError("the exported trees do not reproduce scikit-learn's predictions")
@@ -271,3 +278,104 @@ def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = 
         log(f"fold {k}: model {'given' if given else 'fitted'} on {int(train.sum())} rows, "
             f"{int(test.sum())} judged")
     return p, models
+
+
+def _fold_of_rows(data: dict, folds: int = FOLDS) -> np.ndarray:
+    """Each row's held-out fold (its mesh's project's)."""
+    return np.array([fold_of(g, folds) for g in data["group"]])[data["mesh"]]
+
+
+def inner_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS, log=print) -> np.ndarray:
+    """For each held-out fold ``k``, every other row's probability from a per-bone model fitted
+    without fold ``k`` and without the row's own fold (NaN on fold ``k``), shape (folds, R).
+
+    The set model judged on fold ``k`` learns from these: probabilities the per-bone model
+    gives meshes it was not fitted on, as it will on fold ``k``.
+    """
+    fold = _fold_of_rows(data, folds)
+    w = mesh_weights(data, project_power)
+    out = np.full((folds, len(data["y"])), np.nan)
+    for k in range(folds):
+        for j in range(folds):
+            if j != k:
+                train, test = (fold != k) & (fold != j), fold == j
+                out[k, test] = fit(data["X"][train], data["y"][train], w[train]).probability(data["X"][test])
+        log(f"fold {k}: per-bone probabilities of the other folds, each from a model without it")
+    return out
+
+
+def _mesh_rows(data: dict) -> np.ndarray:
+    """Row where each mesh's candidates start (rows are grouped by mesh, in order), and the end."""
+    starts = np.searchsorted(data["mesh"], np.arange(len(data["group"]) + 1))
+    if (np.diff(data["mesh"]) < 0).any():
+        raise ValueError("the dataset's rows are not grouped by mesh")
+    return starts
+
+
+def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0.5) -> dict:
+    """The candidate sets (:func:`.bone_sets.candidate_sets`) of ``meshes`` from per-bone
+    probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES)), ``mesh`` (S,), ``exact`` (S,)
+    whether the set is the artist's whole set, ``members`` (rows of ``data``, per set)."""
+    col = {f: i for i, f in enumerate(FEATURES)}
+    starts = _mesh_rows(data)
+    Z, owner, exact, members = [], [], [], []
+    for m in meshes:
+        s, e = starts[m], starts[m + 1]
+        f, pm = data["X"][s:e], p[s:e]
+        allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
+        slot = next((int(k) for k in np.flatnonzero(f[:, col["is_slot_bone"]] == 1) if allowed[k]), None)
+        ancestors, parents_at = bone_sets.mesh_inputs(data["bone"][s:e], data["parent"][s:e])
+        sets = bone_sets.candidate_sets(pm, allowed, slot, ancestors, parents_at, threshold, f[:, col["rule_chose"]] == 1)
+        if not sets:
+            continue
+        Z.append(bone_sets.set_features(sets, pm, allowed, f, FEATURES, slot, ancestors, parents_at, threshold))
+        truth = tuple(np.flatnonzero(data["y"][s:e]).tolist()) if data["missed"][m] == 0 else None
+        for chosen, _ in sets:
+            owner.append(m)
+            exact.append(chosen == truth)
+            members.append(s + np.asarray(chosen, int))
+    return {"Z": np.concatenate(Z) if Z else np.zeros((0, len(bone_sets.SET_FEATURES))),
+            "mesh": np.asarray(owner, int), "exact": np.asarray(exact, bool), "members": members}
+
+
+def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble:
+    """The set model: fitted on the sets (:func:`set_rows`) of the meshes whose artist's bones
+    are all candidates (on the others no set is exact); each mesh weighs the same over its
+    sets, a project of M meshes ``M ** project_power``."""
+    groups, project = np.unique(data["group"], return_inverse=True)
+    per_project = np.bincount(project)
+    per_mesh = np.bincount(sets["mesh"], minlength=len(data["group"]))
+    w = per_project[project[sets["mesh"]]] ** (project_power - 1.0) / per_mesh[sets["mesh"]]
+    keep = data["missed"][sets["mesh"]] == 0
+    return fit(sets["Z"][keep], sets["exact"][keep], w[keep] / w[keep].mean(), features=bone_sets.SET_FEATURES)
+
+
+def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
+    """Rows chosen when each mesh of ``sets`` takes the set ``model`` scores highest (as
+    :func:`.learned.choose_learned` with a set stage)."""
+    score = model.probability(sets["Z"])
+    chosen = np.zeros(len(data["y"]), bool)
+    best: dict[int, int] = {}
+    for i, m in enumerate(sets["mesh"].tolist()):
+        if m not in best or score[i] > score[best[m]]:
+            best[m] = i
+    for i in best.values():
+        chosen[sets["members"][i]] = True
+    return chosen
+
+
+def held_out_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], inner: np.ndarray,
+                  project_power: float = 0.5, folds: int = FOLDS, log=print) -> np.ndarray:
+    """Rows chosen with a set stage, project-held-out: fold ``k``'s set model is fitted on the
+    other folds' sets from ``inner[k]`` (:func:`inner_probabilities`) and attached to
+    ``models[k]``; fold ``k``'s meshes take their sets from ``p`` (held-out per-bone probabilities)."""
+    mesh_fold = np.array([fold_of(g, folds) for g in data["group"]])
+    chosen = np.zeros(len(data["y"]), bool)
+    for k in range(folds):
+        train = set_rows(data, inner[k], np.flatnonzero(mesh_fold != k), models[k].threshold)
+        test = set_rows(data, p, np.flatnonzero(mesh_fold == k), models[k].threshold)
+        models[k].sets = fit_sets(data, train, project_power)
+        chosen |= choose_sets(data, test, models[k].sets)
+        log(f"fold {k}: set model fitted on {len(train['mesh'])} sets, {len(test['mesh'])} judged; the artist's "
+            f"set among them on {len(np.unique(test['mesh'][test['exact']]))} of {int((mesh_fold == k).sum())} meshes")
+    return chosen

@@ -1,0 +1,225 @@
+"""The set-level stage of the ``learned`` bone choice: which whole set of candidate bones to bind.
+
+The per-bone model (:mod:`.learned`) gives each candidate bone the probability that an artist
+binds it, one bone at a time. Artists choose sets: a chain across the joints the art spans,
+the slot's bone with the next one down, as many bones as parts of that size usually take.
+This stage proposes a few sets built from the per-bone probabilities (:func:`candidate_sets`:
+the likeliest 1..8 bones, those with or without the slot's bone, with the gaps along a chain
+filled, with the next bone in the tree added, ...), describes each set as a whole
+(:data:`SET_FEATURES`: its size against the bones likely one at a time, how likely it is if
+each bone were independent, how much of the art its bones are nearest to, whether it is
+connected in the bone tree, ...), and a second tree ensemble scores how likely each set is
+exactly the artist's. The best-scoring set is bound.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+
+from .choice import MAX_AUTO_BONES
+
+#: Set features, in the order of the columns the set model reads.
+SET_FEATURES = (
+    "size", "likely_count", "size_minus_likely", "size_minus_expected", "log_likelihood", "likelihood_gap",
+    "min_in", "max_out", "margin", "mean_in", "slot_in", "slot_probability",
+    "components", "gaps", "edges", "nearest_share_in", "over_art_in", "over_art_out_max",
+    "points_in", "controls_in", "constrained_in", "ancestors_in", "descendants_in", "siblings_in",
+    "rule_in", "rule_out", "tree_distance_max", "distance_max", "length_min", "length_max",
+    "log_art_diag", "candidate_count", "bones_on_art", "rule_bone_count", "allowed_count",
+    "is_prefix", "is_threshold_choice",
+)
+
+#: Format tag of the set model inside the bone-choice model file.
+SET_MODEL_FORMAT = "spinemesh-bone-sets/1"
+
+#: The likeliest sets with independent bones among the candidate sets (:func:`likeliest_sets`).
+LIKELIEST = 20
+
+#: Probabilities are clipped to [EPS, 1 - EPS] in the log-likelihood of a set.
+EPS = 1e-4
+
+
+def candidate_ancestors(bones: np.ndarray, parents: np.ndarray) -> list[set[int]]:
+    """For each candidate, the candidates (indices into ``bones``) above it in the bone tree.
+
+    Only chains through candidates are followed: a bone outside the candidates ends the walk
+    (its own parent is not known here).
+    """
+    at = {int(b): k for k, b in enumerate(bones)}
+    out = []
+    for k in range(len(bones)):
+        seen: set[int] = set()
+        j = at.get(int(parents[k]))
+        while j is not None and j not in seen and j != k:
+            seen.add(j)
+            j = at.get(int(parents[j]))
+        out.append(seen)
+    return out
+
+
+def likeliest_sets(p: np.ndarray, allowed: np.ndarray, count: int, most: int = MAX_AUTO_BONES) -> list[tuple[int, ...]]:
+    """The ``count`` likeliest sets of allowed candidates if each bone were bound independently
+    with its probability ``p`` (C,), likeliest first; empty sets and sets over ``most`` skipped.
+
+    The likeliest set takes every bone over 1/2; each other set flips some of those decisions,
+    at a cost of ``|log(p / (1 - p))|`` each: the sets come in increasing total cost, from
+    the classic enumeration of subset sums in order (each subset of flips, its largest flip
+    ``i``, leads to the subsets with ``i`` moved to ``i + 1`` or ``i + 1`` added).
+    """
+    ok = np.flatnonzero(allowed)
+    if not len(ok) or count <= 0:
+        return []
+    q = np.clip(p[ok], EPS, 1 - EPS)
+    gain = np.log(q) - np.log1p(-q)
+    order = np.argsort(np.abs(gain), kind="stable")
+    cost, bone = np.abs(gain)[order], ok[order]
+    base = set(ok[gain > 0].tolist())
+    out: list[tuple[int, ...]] = []
+    heap: list[tuple[float, tuple[int, ...]]] = [(0.0, ())]
+    popped = 0
+    while heap and len(out) < count and popped < 50 * count:
+        total, flips = heapq.heappop(heap)
+        popped += 1
+        members = base.symmetric_difference(bone[list(flips)].tolist())
+        if 0 < len(members) <= most:
+            out.append(tuple(sorted(members)))
+        last = flips[-1] if flips else -1
+        if last + 1 < len(cost):
+            heapq.heappush(heap, (total + cost[last + 1], flips + (last + 1,)))
+            if flips:
+                heapq.heappush(heap, (total - cost[last] + cost[last + 1], flips[:-1] + (last + 1,)))
+    return out
+
+
+def candidate_sets(p: np.ndarray, allowed: np.ndarray, slot: int | None, ancestors: list[set[int]],
+                   parents_at: np.ndarray, threshold: float, rule: np.ndarray, likely: int = LIKELIEST,
+                   most: int = MAX_AUTO_BONES) -> list[tuple[tuple[int, ...], bool]]:
+    """The sets of candidates the set model chooses from, each with whether it is a likeliest-k prefix.
+
+    Parameters
+    ----------
+    p : ndarray, shape (C,)
+        Each candidate's probability (the per-bone model).
+    allowed : ndarray of bool, shape (C,)
+        Candidates that can be bound.
+    slot : int or None
+        The slot bone's index among the candidates (None when it cannot be bound).
+    ancestors : list of set of int
+        :func:`candidate_ancestors`.
+    parents_at : ndarray of int, shape (C,)
+        Each candidate's parent's index among the candidates, -1 when not a candidate.
+    threshold : float
+        The per-bone model's threshold: the set of the bones at or above it (the per-bone
+        choice) is always among the sets.
+    rule : ndarray of bool, shape (C,)
+        The ``rule`` choice's bones.
+    likely : int
+        The sets also hold the ``likely`` likeliest sets with independent bones (:func:`likeliest_sets`).
+
+    Returns
+    -------
+    list of (tuple of int, bool)
+        Distinct non-empty sets of at most ``most`` allowed candidates (sorted indices), the
+        first the per-bone choice.
+    """
+    order = [int(k) for k in np.argsort(-p, kind="stable") if allowed[k]]
+    if not order:
+        return []
+    n = min(len(order), most)
+    sets: dict[tuple[int, ...], bool] = {}
+
+    def add(members, prefix=False):
+        key = tuple(sorted(set(members)))
+        if key and len(key) <= most:
+            sets[key] = sets.get(key, False) or prefix
+
+    above = [k for k in order if p[k] >= threshold][:most]
+    add(above or ([slot] if slot is not None else order[:1]))
+    for k in range(1, n + 1):
+        prefix = order[:k]
+        add(prefix, True)
+        if k < len(order):
+            add(order[:k - 1] + [order[k]])                      # the k-th likeliest skipped
+        if slot is not None and slot not in prefix:
+            add(prefix + [slot])
+        if slot is not None and slot in prefix and k > 1:
+            add([j for j in prefix if j != slot])
+        inside = set(prefix)
+        gaps = [j for j in order if j not in inside and ancestors[j] & inside
+                and any(j in ancestors[m] for m in inside)]
+        if gaps:
+            add(prefix + gaps)                                   # a chain's gaps filled
+        near = [j for j in order if j not in inside and (parents_at[j] in inside or
+                                                          any(parents_at[m] == j for m in inside))]
+        if near:
+            add(prefix + near[:1])                               # the likeliest tree neighbour added
+    if slot is not None:
+        add([slot])
+    add([k for k in order if rule[k]])
+    for members in likeliest_sets(p, allowed, likely, most):
+        add(members)
+    return list(sets.items())
+
+
+def _tree_shape(members: tuple[int, ...], ancestors: list[set[int]], parents_at: np.ndarray,
+                candidates: list[int]) -> tuple[int, int, int]:
+    """Connected components and parent-child edges of a set in the bone tree, and its gaps:
+    candidates outside it that lie on a chain between two of its members."""
+    inside = set(members)
+    edges = sum(int(parents_at[m]) in inside for m in members)
+    gaps = sum(1 for j in candidates if j not in inside and ancestors[j] & inside
+               and any(j in ancestors[m] for m in inside))
+    return len(members) - edges, edges, gaps
+
+
+def set_features(sets: list[tuple[tuple[int, ...], bool]], p: np.ndarray, allowed: np.ndarray,
+                 features: np.ndarray, names: tuple[str, ...], slot: int | None, ancestors: list[set[int]],
+                 parents_at: np.ndarray, threshold: float) -> np.ndarray:
+    """Each set's :data:`SET_FEATURES` (S, len(SET_FEATURES)).
+
+    ``features``: the candidates' per-bone features (C, F), columns named by ``names``
+    (:data:`.learned.FEATURES`); the other parameters as :func:`candidate_sets`.
+    """
+    col = {f: i for i, f in enumerate(names)}
+    pa = np.clip(p, EPS, 1 - EPS)
+    ok = np.flatnonzero(allowed)
+    likely = int((p[ok] >= threshold).sum())
+    expected = float(p[ok].sum())
+    base = float(np.log1p(-pa[ok]).sum())
+    gain = np.log(pa) - np.log1p(-pa)
+    best = base + float(np.clip(gain[ok], 0, None).sum())
+    mesh = features[0] if len(features) else np.zeros(len(names))
+    rows = []
+    first = sets[0][0] if sets else ()
+    for members, prefix in sets:
+        m = np.asarray(members, int)
+        out = np.setdiff1d(ok, m)
+        f = features[m]
+        loglik = base + float(gain[m].sum())
+        components, edges, gaps = _tree_shape(members, ancestors, parents_at, ok.tolist())
+        rows.append([
+            len(m), likely, len(m) - likely, len(m) - expected, loglik, best - loglik,
+            float(p[m].min()), float(p[out].max()) if len(out) else 0.0,
+            float(p[m].min()) - (float(p[out].max()) if len(out) else 0.0), float(p[m].mean()),
+            slot is not None and slot in members, float(p[slot]) if slot is not None else 0.0,
+            components, gaps, edges,
+            float(f[:, col["nearest_vertex_share"]].sum()), float(f[:, col["over_art_per_diag"]].sum()),
+            float(features[out, col["over_art_per_diag"]].max()) if len(out) else 0.0,
+            *(float(f[:, col[c]].sum()) for c in ("is_point", "is_control", "is_constrained", "is_ancestor",
+                                                   "is_descendant", "is_sibling", "rule_chose")),
+            float(features[out, col["rule_chose"]].sum()) if len(out) else 0.0,
+            float(f[:, col["tree_distance"]].max()), float(f[:, col["distance_per_diag"]].max()),
+            float(f[:, col["length_per_diag"]].min()), float(f[:, col["length_per_diag"]].max()),
+            *(float(mesh[col[c]]) for c in ("log_art_diag", "candidate_count", "bones_on_art", "rule_bone_count")),
+            len(ok), prefix, members == first,
+        ])
+    return np.asarray(rows, float).reshape(len(sets), len(SET_FEATURES))
+
+
+def mesh_inputs(bones: np.ndarray, parents: np.ndarray) -> tuple[list[set[int]], np.ndarray]:
+    """The tree relations among one mesh's candidates: :func:`candidate_ancestors` and each
+    candidate's parent's index among them (-1 when its parent is not a candidate)."""
+    at = {int(b): k for k, b in enumerate(bones)}
+    return candidate_ancestors(bones, parents), np.array([at.get(int(q), -1) for q in parents], int)
