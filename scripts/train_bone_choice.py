@@ -96,7 +96,7 @@ def main() -> None:
         # the set stage learns from held-out per-bone probabilities, as the shipped model gives new projects
         model.sets = tc.fit_sets(data, tc.set_rows(data, p, np.arange(meshes), args.threshold), args.project_power)
         model.sets.meta = {**model.sets.meta, "trained_on": "the candidate sets of the same meshes, from held-out "
-                           "per-bone probabilities"}
+                           "per-bone probabilities", "trees": tc.SET_TREES, "leaves": tc.SET_LEAVES}
         model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
                       "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
                       "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"}

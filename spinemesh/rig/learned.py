@@ -7,12 +7,14 @@ is from it, its length against the art's size, where it sits in the bone tree re
 slot's bone, which neighbours in the tree are on the art, its constraint roles, and whether the
 ``rule`` choice (:func:`.choice.choose_auto`) takes it. A gradient-boosted tree ensemble, fitted
 on the artist-weighted meshes of the Spine examples and a corpus of game projects
-(:mod:`.train_choice`), gives the probability that an artist binds the bone; the bones at or
-above the model's threshold are chosen.
+(:mod:`.train_choice`), gives the probability that an artist binds the bone. A second,
+set-level ensemble (:mod:`.bone_sets`) then weighs a few whole sets built from those
+probabilities and the likeliest set to be the artist's exact one is chosen (a model without
+that stage chooses the bones at or above its threshold).
 
 The model ships as JSON (``spinemesh/models/bone_choice.json``: each tree's split features,
-thresholds, children and leaf values) and is evaluated with numpy: no pickle, no training
-library at run time.
+thresholds, children and leaf values, the set stage's under ``sets``) and is evaluated with
+numpy: no pickle, no training library at run time.
 """
 
 from __future__ import annotations
