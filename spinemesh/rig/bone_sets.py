@@ -9,7 +9,8 @@ filled, with the next bone in the tree added, ...), describes each set as a whol
 (:data:`SET_FEATURES`: its size against the bones likely one at a time, how likely it is if
 each bone were independent, how much of the art its bones are nearest to, whether it is
 connected in the bone tree, ...), and a second tree ensemble scores how likely each set is
-exactly the artist's. The best-scoring set is bound.
+exactly the artist's. The best-scoring set is bound when it scores clearly above the per-bone
+choice's set (:func:`pick`); else the per-bone choice stays.
 """
 
 from __future__ import annotations
@@ -36,6 +37,12 @@ SET_MODEL_FORMAT = "spinemesh-bone-sets/1"
 
 #: The likeliest sets with independent bones among the candidate sets (:func:`likeliest_sets`).
 LIKELIEST = 20
+
+#: A set replaces the per-bone choice only when the set model finds it this much likelier (in
+#: probability of being the artist's exact set) than the per-bone choice's set. Measured held
+#: out: exact bone sets 31.8% at 0 and at 0.1 (29.6% at 0.5, 29.0% never replacing); the
+#: replay error to the artists' animations grows at 0 (median ratio 1.29 -> 1.43).
+SET_MARGIN = 0.1
 
 #: Probabilities are clipped to [EPS, 1 - EPS] in the log-likelihood of a set.
 EPS = 1e-4
@@ -223,3 +230,11 @@ def mesh_inputs(bones: np.ndarray, parents: np.ndarray) -> tuple[list[set[int]],
     candidate's parent's index among them (-1 when its parent is not a candidate)."""
     at = {int(b): k for k, b in enumerate(bones)}
     return candidate_ancestors(bones, parents), np.array([at.get(int(q), -1) for q in parents], int)
+
+
+def pick(score: np.ndarray, margin: float = SET_MARGIN) -> int:
+    """The set taken, given each candidate set's score (S,), the per-bone choice's first
+    (:func:`candidate_sets`): the best-scoring set when it scores more than ``margin`` above
+    the first, else the first."""
+    best = int(np.argmax(score))
+    return best if score[best] - score[0] > margin else 0

@@ -254,8 +254,10 @@ class TreeEnsemble:
 
     Each tree is arrays over its nodes: ``feature`` (column read; -1 at a leaf), ``threshold``
     (go left when the value is at most it), ``left``/``right`` (child nodes), ``value`` (the
-    leaf's contribution, learning rate included). ``sets``: the set-level stage
-    (:mod:`.bone_sets`, reading :data:`.bone_sets.SET_FEATURES`), absent in models without it.
+    leaf's contribution, learning rate included). ``threshold``: the probability at which a
+    bone is chosen (in a set model: the margin of :func:`.bone_sets.pick`). ``sets``: the
+    set-level stage (:mod:`.bone_sets`, reading :data:`.bone_sets.SET_FEATURES`), absent in
+    models without it.
     """
 
     features: tuple[str, ...]
@@ -365,19 +367,23 @@ def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: 
 
 
 def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
-             model: TreeEnsemble) -> tuple[list[int], float, int]:
+             model: TreeEnsemble) -> tuple[list[int], str]:
     """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
-    to be the artist's exact set; with its probability and how many sets were weighed."""
+    to be the artist's exact set, when clearly likelier than the per-bone choice's set
+    (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
+    choice for the report."""
     parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
     ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
     rule = cand.features[:, FEATURES.index("rule_chose")] == 1
     sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule)
     if not sets:
-        return [], 0.0, 0
+        return [], ""
     score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
                                                           ancestors, parents_at, model.threshold))
-    best = int(np.argmax(score))
-    return list(sets[best][0]), float(score[best]), len(sets)
+    best = bone_sets.pick(score, model.sets.threshold)
+    how = (f"best of {len(sets)} sets weighed" if best else
+           f"the bones at or over {model.threshold:.2f}: no other of {len(sets)} sets clearly likelier")
+    return list(sets[best][0]), f"the chosen set ({score[best]:.2f} likely the artist's exact set, {how})"
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
@@ -405,32 +411,30 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
             allowed[k] = True
     order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
     slot = next((k for k in order if cand.bones[k] == slot_bone), None)
-    take, score, weighed = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], 0.0, 0)
+    take, note = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], "")
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
-                   model.threshold, (score, weighed) if take else None, left_out)
+                   model.threshold, note if take else "", left_out)
     if not why and bones[slot_bone].exact:
         why[slot_bone] = "slot bone (no candidate can be bound)"
     return Choice(sorted(why), why, left_out)
 
 
 def _explain(bones, cand: Candidates, p: np.ndarray, order: list[int], take: list[int], slot_bone: int,
-             threshold: float, chosen_set: tuple[float, int] | None, left_out: dict[int, str]) -> dict[int, str]:
+             threshold: float, chosen_set: str, left_out: dict[int, str]) -> dict[int, str]:
     """Why each allowed candidate was taken (returned) or left out (added to ``left_out``).
 
-    ``chosen_set``: the set model's probability of the taken set and how many sets it weighed
-    (None: the per-bone choice).
+    ``chosen_set``: the set stage's note on the set taken (empty: the per-bone choice).
     """
     why: dict[int, str] = {}
     for k in order:
         i = cand.bones[k]
         text = _describe(bones, i, slot_bone, cand.over)
         alone = f"learned: {p[k]:.2f} likely an artist's bone"
-        if chosen_set is not None:
-            of = f"the set of bones likeliest to be the artist's ({chosen_set[0]:.2f}, of {chosen_set[1]} sets weighed)"
+        if chosen_set:
             if k in take:
-                why[i] = f"{alone}, in {of}; {text}"
+                why[i] = f"{alone}; in {chosen_set}; {text}"
             else:
-                left_out[i] = f"{alone}, not in {of}; {text}"
+                left_out[i] = f"{alone}; not in {chosen_set}; {text}"
         elif k in take:
             top = " (none reached the threshold)" if p[k] < threshold else ""
             why[i] = f"{alone}, threshold {threshold:.2f}{top}; {text}"

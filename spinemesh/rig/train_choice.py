@@ -69,7 +69,8 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels.
 
     Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
-    (each candidate's parent bone, -1 for the root), ``features`` (C, F), ``label`` (C,) bool,
+    (each candidate's parent bone, -1 for the root), ``mass`` (each candidate's share of the
+    artist's weights over the vertices), ``features`` (C, F), ``label`` (C,) bool,
     ``rule`` (the rule's bones), ``artist`` (the artist's bones).
     """
     from .learned import constrained_bones
@@ -99,9 +100,13 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
         cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
                           reach=reach)
         parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
+        mass = np.zeros(len(rig.bones))
+        for inf in mesh.influences:
+            for b, *_, w in inf:
+                mass[b] += max(float(w), 0.0)
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
                         label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
-                        parents=parents))
+                        parents=parents, mass=mass[cand.bones] / max(mass.sum(), 1e-12)))
     return out
 
 
@@ -115,15 +120,16 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
     -------
     dict
         ``X`` (R, F) features, ``y`` (R,) labels, ``mesh`` (R,) mesh number, ``bone`` (R,) bone
-        index, ``parent`` (R,) its parent bone (-1: the root), ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
+        index, ``parent`` (R,) its parent bone (-1: the root), ``mass`` (R,) its share of the
+        artist's weights, ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
         ``skeleton`` (file), ``attachment`` (``skin/slot/name``), ``artist_count`` (artist's bones),
         ``missed`` (artist's bones not among the candidates), ``rule_count``, ``rule_exact``.
     """
     if cache is not None and cache.exists():
         with np.load(cache, allow_pickle=False) as data:
-            if "parent" in data.files:  # else written by an older version: built again
+            if "mass" in data.files:  # else written by an older version: built again
                 return {k: data[k] for k in data.files}
-    X, y, mesh, bone, parent, rule = [], [], [], [], [], []
+    X, y, mesh, bone, parent, mass, rule = [], [], [], [], [], [], []
     per_mesh: dict[str, list] = {k: [] for k in ("group", "skeleton", "attachment", "artist_count", "missed",
                                                  "rule_count", "rule_exact")}
     for n, (group, path) in enumerate(pairs):
@@ -145,6 +151,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             mesh.append(np.full(len(r["bones"]), m))
             bone.append(np.asarray(r["bones"]))
             parent.append(np.asarray(r["parents"]))
+            mass.append(r["mass"])
             rule.append(np.array([b in r["rule"] for b in r["bones"]]))
             per_mesh["group"].append(group)
             per_mesh["skeleton"].append(str(path))
@@ -159,6 +166,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             "mesh": np.concatenate(mesh) if mesh else np.zeros(0, int),
             "bone": np.concatenate(bone) if bone else np.zeros(0, int),
             "parent": np.concatenate(parent) if parent else np.zeros(0, int),
+            "mass": np.concatenate(mass) if mass else np.zeros(0),
             "rule": np.concatenate(rule) if rule else np.zeros(0, bool),
             **{k: np.asarray(v) for k, v in per_mesh.items()}}
     if cache is not None:
@@ -352,21 +360,18 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
     per_mesh = np.bincount(sets["mesh"], minlength=len(data["group"]))
     w = per_project[project[sets["mesh"]]] ** (project_power - 1.0) / per_mesh[sets["mesh"]]
     keep = data["missed"][sets["mesh"]] == 0
-    return fit(sets["Z"][keep], sets["exact"][keep], w[keep] / w[keep].mean(), features=bone_sets.SET_FEATURES,
-               trees=SET_TREES, leaves=SET_LEAVES)
+    return fit(sets["Z"][keep], sets["exact"][keep], w[keep] / w[keep].mean(), bone_sets.SET_MARGIN,
+               features=bone_sets.SET_FEATURES, trees=SET_TREES, leaves=SET_LEAVES)
 
 
 def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
-    """Rows chosen when each mesh of ``sets`` takes the set ``model`` scores highest (as
-    :func:`.learned.choose_learned` with a set stage)."""
+    """Rows chosen when each mesh of ``sets`` takes the set ``model`` picks (:func:`.bone_sets.pick`,
+    the model's threshold the margin; as :func:`.learned.choose_learned` with a set stage)."""
     score = model.probability(sets["Z"])
     chosen = np.zeros(len(data["y"]), bool)
-    best: dict[int, int] = {}
-    for i, m in enumerate(sets["mesh"].tolist()):
-        if m not in best or score[i] > score[best[m]]:
-            best[m] = i
-    for i in best.values():
-        chosen[sets["members"][i]] = True
+    starts = np.flatnonzero(np.r_[True, np.diff(sets["mesh"]) != 0])
+    for s, e in zip(starts, np.r_[starts[1:], len(score)]):
+        chosen[sets["members"][s + bone_sets.pick(score[s:e], model.threshold)]] = True
     return chosen
 
 
