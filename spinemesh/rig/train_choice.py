@@ -69,8 +69,7 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels.
 
     Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
-    (each candidate's parent bone, -1 for the root), ``mass`` (each candidate's share of the
-    artist's weights over the vertices), ``features`` (C, F), ``label`` (C,) bool,
+    (each candidate's parent bone, -1 for the root), ``features`` (C, F), ``label`` (C,) bool,
     ``rule`` (the rule's bones), ``artist`` (the artist's bones).
     """
     from .learned import constrained_bones
@@ -100,13 +99,9 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
         cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
                           reach=reach)
         parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
-        mass = np.zeros(len(rig.bones))
-        for inf in mesh.influences:
-            for b, *_, w in inf:
-                mass[b] += max(float(w), 0.0)
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
                         label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
-                        parents=parents, mass=mass[cand.bones] / max(mass.sum(), 1e-12)))
+                        parents=parents))
     return out
 
 
@@ -120,16 +115,15 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
     -------
     dict
         ``X`` (R, F) features, ``y`` (R,) labels, ``mesh`` (R,) mesh number, ``bone`` (R,) bone
-        index, ``parent`` (R,) its parent bone (-1: the root), ``mass`` (R,) its share of the
-        artist's weights, ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
+        index, ``parent`` (R,) its parent bone (-1: the root), ``rule`` (R,) whether the rule takes it; per mesh: ``group`` (project),
         ``skeleton`` (file), ``attachment`` (``skin/slot/name``), ``artist_count`` (artist's bones),
         ``missed`` (artist's bones not among the candidates), ``rule_count``, ``rule_exact``.
     """
     if cache is not None and cache.exists():
         with np.load(cache, allow_pickle=False) as data:
-            if "mass" in data.files:  # else written by an older version: built again
+            if "parent" in data.files:  # else written by an older version: built again
                 return {k: data[k] for k in data.files}
-    X, y, mesh, bone, parent, mass, rule = [], [], [], [], [], [], []
+    X, y, mesh, bone, parent, rule = [], [], [], [], [], []
     per_mesh: dict[str, list] = {k: [] for k in ("group", "skeleton", "attachment", "artist_count", "missed",
                                                  "rule_count", "rule_exact")}
     for n, (group, path) in enumerate(pairs):
@@ -151,7 +145,6 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             mesh.append(np.full(len(r["bones"]), m))
             bone.append(np.asarray(r["bones"]))
             parent.append(np.asarray(r["parents"]))
-            mass.append(r["mass"])
             rule.append(np.array([b in r["rule"] for b in r["bones"]]))
             per_mesh["group"].append(group)
             per_mesh["skeleton"].append(str(path))
@@ -166,7 +159,6 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             "mesh": np.concatenate(mesh) if mesh else np.zeros(0, int),
             "bone": np.concatenate(bone) if bone else np.zeros(0, int),
             "parent": np.concatenate(parent) if parent else np.zeros(0, int),
-            "mass": np.concatenate(mass) if mass else np.zeros(0),
             "rule": np.concatenate(rule) if rule else np.zeros(0, bool),
             **{k: np.asarray(v) for k, v in per_mesh.items()}}
     if cache is not None:
