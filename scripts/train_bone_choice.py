@@ -65,7 +65,9 @@ def main() -> None:
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
-    log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
     before = tc.load_fold_models(args.fold_models) if args.reuse_folds and args.fold_models else None
     p, models = tc.held_out_probabilities(data, args.project_power, log=log, models=before)
     if before and all(m.sets is not None for m in before.values()):

@@ -91,7 +91,7 @@ def _set_model(feature: str, cut: float) -> dict:
 
 
 def test_the_set_stage_takes_its_likeliest_set_and_says_why_for_every_candidate():
-    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    rig, _, _, world, tris = _mesh_of(_worm_mesh_doc())
     names = [b.name for b in rig.bones]
     data = _tree_model("nearest_vertex_share", 0.2)          # seg1..seg3 0.95, the others 0.05
     data["sets"] = _set_model("size", 2.5)                   # any set of 3 bones or more

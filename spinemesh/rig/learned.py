@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from . import bone_sets
-from .constraints import constraints_of
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
+from .constraints import constraints_of
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
 #: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
@@ -265,10 +265,10 @@ class TreeEnsemble:
     trees: list[dict[str, np.ndarray]]
     threshold: float
     meta: dict
-    sets: "TreeEnsemble | None" = None
+    sets: TreeEnsemble | None = None
 
     @classmethod
-    def from_json(cls, data: dict, features: tuple[str, ...] = FEATURES, form: str = MODEL_FORMAT) -> "TreeEnsemble":
+    def from_json(cls, data: dict, features: tuple[str, ...] = FEATURES, form: str = MODEL_FORMAT) -> TreeEnsemble:
         """A model from its JSON form (:meth:`to_json`); raises ValueError when it is not one.
 
         ``features`` and ``form``: the feature names and format tag it must have (the

@@ -19,9 +19,9 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..skeleton import iter_attachments, load_skeleton
+from . import bone_sets
 from .binding import parse_vertices, setup_world
 from .document import build_rig
-from . import bone_sets
 from .learned import FEATURES, REACH, TreeEnsemble, candidates
 
 #: Project-held-out folds.
@@ -347,7 +347,7 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
     """The set model: fitted on the sets (:func:`set_rows`) of the meshes whose artist's bones
     are all candidates (on the others no set is exact); each mesh weighs the same over its
     sets, a project of M meshes ``M ** project_power``."""
-    groups, project = np.unique(data["group"], return_inverse=True)
+    _, project = np.unique(data["group"], return_inverse=True)
     per_project = np.bincount(project)
     per_mesh = np.bincount(sets["mesh"], minlength=len(data["group"]))
     w = per_project[project[sets["mesh"]]] ** (project_power - 1.0) / per_mesh[sets["mesh"]]
