@@ -273,3 +273,32 @@ def test_a_blank_image_is_found_blank_band_by_band():
     image[-1, -1, 2] = 9  # one texel in the last, short band
     assert not is_blank(image)
     assert is_blank(np.zeros((0, 3, 4), np.uint8))
+
+
+def test_spread_checks_a_candidate_on_its_changed_edges_as_on_the_whole_box():
+    """A covering hull's spread candidates: the local coverage check answers as the box raster does."""
+    from spinemesh.mesher.exterior import _covers_in_box, _spread_candidates, _still_covers, _uncovered, covering_hull
+
+    rng = np.random.default_rng(7)
+    answers = {True: 0, False: 0}
+    for _ in range(12):
+        art = np.zeros((90, 110), np.uint8)
+        for _ in range(int(rng.integers(2, 6))):
+            centre = tuple(int(v) for v in rng.integers(5, 85, 2))
+            axes = tuple(int(v) for v in rng.integers(3, 30, 2))
+            cv2.ellipse(art, centre, axes, float(rng.uniform(0, 180)), 0, 360, 1, -1)
+        cover = art.astype(bool)
+        loop, _ = covering_hull(cover, eps=float(rng.uniform(0.5, 4)))
+        assert len(_uncovered(loop, cover)) == 0
+        n = len(loop)
+        for j in range(n):
+            k = (j + 1) % n
+            window = loop[[(j - 1) % n, j, k, (k + 1) % n]]
+            length = float(np.hypot(*(loop[k] - loop[j])))
+            for cand, changed in _spread_candidates(loop, j, k, length, cover.shape, 2 * length + 3):
+                if cand is None or len(cand) < 3:
+                    continue
+                local = _still_covers(window, cand, changed, cover)
+                assert local == _covers_in_box(window, cand, changed, cover)
+                answers[local] += 1
+    assert answers[True] > 50 and answers[False] > 50  # both answers were put to the test

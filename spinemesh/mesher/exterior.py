@@ -356,12 +356,13 @@ def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tup
         loop = _dedupe_loop(loop)
         if not loop_is_simple(loop):
             continue
-        loop = _repair(loop, cover)
-        if loop is None:
+        repaired = _repair(loop, cover)
+        if repaired is None:
             continue
-        loop = clip_loop_to_rect(loop, cover.shape[1], cover.shape[0])
+        loop = clip_loop_to_rect(repaired, cover.shape[1], cover.shape[0])
         if len(loop) >= 3 and loop_is_simple(loop):
-            loop = _spread(loop, cover, min_distance)
+            # the repair made it cover; a clip that changed nothing keeps it so
+            loop = _spread(loop, cover, min_distance, covers=np.array_equal(loop, repaired))
             if _shortest_edge(loop) >= min_distance:
                 return loop
             # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
@@ -449,7 +450,7 @@ def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 MAX_SPREAD_TRIES = 1500
 
 
-def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndarray:
+def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float, covers: bool = False) -> np.ndarray:
     """Drop a vertex of each too-short edge when the loop still covers and stays simple.
 
     Short edges are taken shortest first; spreading ends at the first short edge that can be
@@ -461,12 +462,19 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
     and to be simple, so only those edges are checked: against the other edges for
     crossings, and the pixels in their bounding box for coverage. A short edge whose
     candidates all failed is not tried again until one of the four vertices around it moves.
+
+    ``covers``: the loop is known to cover every square of ``cover`` (else it is checked
+    here). A covering loop lets each candidate be checked on its changed edges alone
+    (:func:`_still_covers`); one that does not (never seen) is checked as it was before
+    (:func:`_covers_in_box`), which gives the same answers where the art is covered.
     """
     if min_distance <= 0:
         return loop
     tries = 0
     if not loop_is_simple(loop):
         return loop
+    covers = covers or len(_uncovered(loop, cover)) == 0
+    still_covers = _still_covers if covers else _covers_in_box
     failed: set[tuple] = set()
     for _ in range(len(loop)):
         d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
@@ -492,7 +500,7 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float) -> np.ndar
                     return loop
                 # both are pure tests; coverage first: it rejects about two candidates in
                 # three on corpus art, the simplicity test about one in twenty
-                if _still_covers(window, cand, changed, cover) and loop_is_simple(cand, changed):
+                if still_covers(window, cand, changed, cover) and loop_is_simple(cand, changed):
                     loop, done = cand, True
                     break
             if done:
@@ -535,22 +543,66 @@ def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: t
         yield (snapped, np.array([(i - 1) % n, i])) if not np.array_equal(snapped, loop) else (None, None)
 
 
-def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
-    """Whether ``new`` covers ``cover``, given that the old loop does and differs only locally.
-
-    ``window`` holds the old vertices of every edge that changed, ``changed`` the indices of
-    the new loop's edges that changed. The two loops enclose different regions only inside
-    the bounding box of those edges, so only the pixels there are rasterised (exactly, as
-    :func:`_uncovered` does).
-    """
+def _change_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray,
+                shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """Pixels ``(x0, y0, x1, y1)`` around the old and new vertices of the changed edges (one
+    pixel more on each side), within the image; None when empty."""
     n = len(new)
     ends = np.concatenate([window, new[changed % n], new[(changed + 1) % n]])
-    h, w = cover.shape
+    h, w = shape
     x0, y0 = np.floor(ends.min(0)).astype(int) - 1
     x1, y1 = np.ceil(ends.max(0)).astype(int) + 1
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
-    if x1 <= x0 or y1 <= y0:
+    return None if x1 <= x0 or y1 <= y0 else (x0, y0, x1, y1)
+
+
+def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
+    """Whether ``new`` covers ``cover``, given that the old loop does and differs only locally.
+
+    ``window`` holds four consecutive old vertices around every edge that changed,
+    ``changed`` the indices (in order along the loop) of the new loop's edges that changed.
+    The two loops enclose different regions only inside the bounding box of those edges
+    (:func:`_change_box`), and only by the polygon between the old path and the new one:
+    a pixel centre's even-odd count against ``new`` is its count against the old loop plus
+    its counts against the two paths, each segment toggling the same centres wherever it
+    is counted. Every art centre counts odd against the old loop and no old edge crosses an
+    art square, so ``new`` covers the art exactly when no art centre counts odd against the
+    two paths and no new edge crosses an art square: the answer of
+    :func:`_covers_in_box` from a handful of segments instead of every one across the box.
+    """
+    box = _change_box(window, new, changed, cover.shape)
+    if box is None:
         return True
+    x0, y0, x1, y1 = box
+    art = cover[y0:y1, x0:x1]
+    if not art.any():
+        return True
+    n = len(new)
+    path = new[np.append(changed, changed[-1] + 1) % n]  # starts and ends on unchanged vertices
+    first = np.flatnonzero((window == path[0]).all(axis=1))
+    last = np.flatnonzero((window == path[-1]).all(axis=1))
+    if len(first) != 1 or len(last) != 1 or first[0] >= last[0]:
+        return _covers_in_box(window, new, changed, cover)
+    old = window[first[0]:last[0] + 1] - [x0, y0]
+    path = path - [x0, y0]
+    new_segs = np.stack([path[:-1], path[1:]], axis=1)
+    segs = np.concatenate([np.stack([old[:-1], old[1:]], axis=1), new_segs])
+    shape = (y1 - y0, x1 - x0)
+    if (art & centres_inside(segs, shape)).any():
+        return False
+    return not (art & crossed_pixels(new_segs, shape)).any()
+
+
+def _covers_in_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
+    """:func:`_still_covers` from every segment of ``new`` across the change's box.
+
+    The rasterising of :func:`_uncovered` restricted to :func:`_change_box`: the answer
+    wherever the old loop covers the art, and the only one where it does not.
+    """
+    box = _change_box(window, new, changed, cover.shape)
+    if box is None:
+        return True
+    x0, y0, x1, y1 = box
     art = cover[y0:y1, x0:x1]
     if not art.any():
         return True
@@ -561,13 +613,13 @@ def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cove
     # rows: only segments spanning the box's rows toggle its centres (those left of it too,
     # none lying right of it); crossings: only segments meeting the box
     rows = (hi[:, 1] >= 0) & (lo[:, 1] <= h) & (lo[:, 0] < w)
-    box = rows & (hi[:, 0] >= 0)
+    meets = rows & (hi[:, 0] >= 0)
     segs = np.stack([start, end], axis=1)
     # a square lies inside when its centre does and no segment crosses it; an art pixel whose
     # centre lies outside answers already (the cheaper half, and most rejections)
     if (art & ~centres_inside(segs[rows], (h, w))).any():
         return False
-    return not (art & crossed_pixels(segs[box], (h, w))).any()
+    return not (art & crossed_pixels(segs[meets], (h, w))).any()
 
 
 def _dedupe_loop(loop: np.ndarray, tol: float = 1e-3) -> np.ndarray:
