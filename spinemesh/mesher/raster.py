@@ -65,8 +65,7 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
         toggles = _row_crossings(s.tolist(), h, w)
         if toggles is not None:
             rows, cols = (np.asarray(v, np.int64) for v in toggles)
-            counts = np.bincount(rows * (w + 1) + cols, minlength=h * (w + 1))
-            return (np.cumsum(counts.reshape(h, w + 1), axis=1)[:, :w] & 1).astype(bool)
+            return _odd_from_left(np.bincount(rows * (w + 1) + cols, minlength=h * (w + 1)), h, w)
     y0, y1 = s[:, 0, 1], s[:, 1, 1]
     x0, x1 = s[:, 0, 0], s[:, 1, 0]
     lo, hi = np.minimum(y0, y1), np.maximum(y0, y1)
@@ -86,8 +85,17 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     # pixels whose centre lies right of the crossing are toggled (counted by bincount, which
     # is many times faster than np.add.at)
     col = clamp(np.floor(xc - 0.5).astype(np.int64) + 1, 0, w)
-    toggles = np.bincount(rows * (w + 1) + col, minlength=h * (w + 1)).reshape(h, w + 1)
-    return (np.cumsum(toggles, axis=1)[:, :w] & 1).astype(bool)
+    return _odd_from_left(np.bincount(rows * (w + 1) + col, minlength=h * (w + 1)), h, w)
+
+
+def _odd_from_left(toggles: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Per pixel, whether the toggles (h * (w + 1) counts, row by row) up to its column are odd.
+
+    Counted in bytes: the sum wraps at 256, which keeps its parity, and moves an eighth of
+    the memory of 64-bit counts (about three times faster on a 240x240 box).
+    """
+    counts = toggles.astype(np.uint8).reshape(h, w + 1)
+    return (np.cumsum(counts, axis=1, dtype=np.uint8)[:, :w] & 1).view(bool)
 
 
 #: Segments up to which :func:`centres_inside` and :func:`crossed_pixels` walk the grid in
