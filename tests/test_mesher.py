@@ -302,3 +302,29 @@ def test_spread_checks_a_candidate_on_its_changed_edges_as_on_the_whole_box():
                 assert local == _covers_in_box(window, cand, changed, cover)
                 answers[local] += 1
     assert answers[True] > 50 and answers[False] > 50  # both answers were put to the test
+
+
+def test_edges_found_around_the_mask_are_those_of_the_whole_image():
+    """edge_map filters only the mask's box: the same edges as the whole image, wherever the art lies."""
+    from spinemesh.mesher import resolve_params
+    from spinemesh.mesher.interior import _edge_box, _edge_map, edge_map
+
+    rng = np.random.default_rng(3)
+    # no erosion: edges at the silhouette count too, where a box too tight would change them
+    p = resolve_params("default", erode_kernel=1)
+    cropped = 0
+    for h, w, y0, x0, ah, aw in ((300, 301, 40, 97, 120, 90), (257, 333, 0, 250, 200, 83), (120, 517, 60, 3, 60, 500),
+                                 (200, 199, 150, 150, 50, 49), (90, 90, 0, 0, 90, 90)):
+        img = np.zeros((h, w, 4), np.uint8)
+        art = np.full((ah, aw, 4), 255, np.uint8)
+        for _ in range(12):  # colour regions with edges between them
+            colour = tuple(int(c) for c in rng.integers(0, 256, 3)) + (255,)
+            cv2.circle(art, tuple(int(v) for v in rng.integers(0, (aw, ah))), int(rng.integers(4, 40)), colour, -1)
+        img[y0:y0 + ah, x0:x0 + aw] = art
+        img[..., :3] |= rng.integers(0, 256, (h, w, 3), dtype=np.uint8) & ~img[..., 3:]  # colour under alpha 0
+        mask = img[..., 3] > 0
+        cropped += _edge_box(mask, p) is not None
+        full = _edge_map(img, mask, p)
+        assert full.any()
+        assert np.array_equal(edge_map(img, mask, p), full)
+    assert cropped == 4

@@ -15,6 +15,50 @@ from .params import MesherParams
 
 
 def edge_map(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> np.ndarray:
+    """Interior edge pixels: paper sec. 3.3 steps 1 to 3 (:func:`_edge_map`), worked out around the mask only.
+
+    On RGBA art every texel outside the mask is blacked out, so nothing can make an edge
+    there: the filters run on the mask's bounding box grown by :func:`_edge_margin`, which
+    gives the very same edges as the whole image at a fraction of the cost where the art
+    leaves space around it (a third of the filtered pixels on the corpus).
+    """
+    box = _edge_box(mask, p) if image.shape[2] == 4 else None
+    if box is None:
+        return _edge_map(image, mask, p)
+    x0, y0, x1, y1 = box
+    edges = np.zeros(mask.shape, np.uint8)
+    edges[y0:y1, x0:x1] = _edge_map(image[y0:y1, x0:x1], mask[y0:y1, x0:x1], p)
+    return edges
+
+
+#: Texels a vectorised row loop of OpenCV may take at once, at most: a box starts on a
+#: multiple of it and ends at least this far past the art (or at the image's edge), so that
+#: every texel near the art is worked out by the same code path as in the whole image.
+SIMD_TEXELS = 64
+
+
+def _edge_margin(p: MesherParams) -> int:
+    """How far (px) past the mask an edge can depend on anything: the bilateral filter's
+    reach (``bilateral_d / 2``), Canny's gradient and suppression (2), the closing
+    (``close_kernel / 2``), with room to spare; Canny's linking never leaves the texels of
+    non-zero gradient, which lie within that reach."""
+    return p.bilateral_d + p.close_kernel + 4
+
+
+def _edge_box(mask: np.ndarray, p: MesherParams) -> tuple[int, int, int, int] | None:
+    """``(x0, y0, x1, y1)`` of the texels :func:`edge_map` works on, or None for the whole image."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not len(rows):
+        return None
+    h, w = mask.shape
+    m = _edge_margin(p)
+    x0 = max(0, int(cols[0]) - m) // SIMD_TEXELS * SIMD_TEXELS
+    x1 = min(w, int(cols[-1]) + 1 + m + SIMD_TEXELS)
+    y0, y1 = max(0, int(rows[0]) - m), min(h, int(rows[-1]) + 1 + m)
+    return None if (x0, y0, x1, y1) == (0, 0, w, h) else (x0, y0, x1, y1)
+
+
+def _edge_map(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> np.ndarray:
     """Interior edge pixels: paper sec. 3.3 steps 1 to 3.
 
     Bilateral filter (``bilateral_d``, ``bilateral_sigma_color``, ``bilateral_sigma_space``),
