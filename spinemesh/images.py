@@ -632,12 +632,20 @@ def content_id(rgba: np.ndarray, box: tuple[int, int, int, int]) -> str:
     SHA-256, truncated, because CPUs hash it in hardware. The one image hash of the
     package: ``upgrade`` meshes each id once, ``dataset`` stores each id once.
     """
+    x, y, w, h = box
+    return part_content_id(rgba.shape, box, rgba[y:y + h, x:x + w])
+
+
+def part_content_id(shape: tuple[int, ...], box: tuple[int, int, int, int], part: np.ndarray) -> str:
+    """:func:`content_id` of an image of ``shape`` whose pixels inside ``box`` are ``part``.
+
+    For callers that hold that part already: hashed as it is when contiguous (no copy).
+    """
     import hashlib
 
-    x, y, w, h = box
     digest = hashlib.sha256()
-    digest.update(np.asarray(tuple(rgba.shape) + tuple(box), np.int64).tobytes())
-    digest.update(np.ascontiguousarray(rgba[y:y + h, x:x + w]))
+    digest.update(np.asarray(tuple(shape) + tuple(box), np.int64).tobytes())
+    digest.update(part if part.flags.c_contiguous else np.ascontiguousarray(part))
     return digest.hexdigest()[:32]
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..attachment_geometry import frames_on_one_grid
 from ..errors import SpineMeshError
-from ..images import FAINT_TEXEL, RegionImage, content_id
+from ..images import FAINT_TEXEL, RegionImage, content_id, part_content_id
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .editor_images import write_editor_image
@@ -133,10 +133,10 @@ def task_for_frames(frames: list[RegionImage], options: Options,
     # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
     crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
     drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
-    key = content_id(rgba, (x0, y0, x1 - x0, y1 - y0))
+    key = part_content_id(rgba.shape, (x0, y0, x1 - x0, y1 - y0), crop)
     if not np.array_equal(drawn, crop[..., 3] > 0):
         # Premultiplied light (alpha 0, colour > 0) is not in the straight pixels: key it too.
-        key += "-" + content_id(np.repeat(drawn[..., None], 4, axis=-1).astype(np.uint8), (0, 0, x1 - x0, y1 - y0))[:16]
+        key += "-" + content_id(np.repeat(drawn.view(np.uint8)[..., None], 4, axis=-1), (0, 0, x1 - x0, y1 - y0))[:16]
     size = (rgba.shape[1], rgba.shape[0])
     return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
 
