@@ -328,3 +328,38 @@ def test_edges_found_around_the_mask_are_those_of_the_whole_image():
         assert full.any()
         assert np.array_equal(edge_map(img, mask, p), full)
     assert cropped == 4
+
+
+def test_a_changed_hull_is_checked_on_its_changed_edges_as_on_the_whole_image():
+    """_clip_keeps_cover: a covering hull with vertices moved, dropped or clipped away covers
+    the art exactly when the whole-image raster says so."""
+    from spinemesh.mesher.exterior import _clip_keeps_cover, _uncovered, covering_hull
+    from spinemesh.mesher.geometry import clip_loop_to_rect
+
+    rng = np.random.default_rng(11)
+    answers = {True: 0, False: 0}
+    for _ in range(10):
+        art = np.zeros((80, 100), np.uint8)
+        for _ in range(int(rng.integers(2, 5))):
+            centre = tuple(int(v) for v in rng.integers(0, (100, 80)))  # often touching the border
+            axes = tuple(int(v) for v in rng.integers(3, 30, 2))
+            cv2.ellipse(art, centre, axes, float(rng.uniform(0, 180)), 0, 360, 1, -1)
+        cover = art.astype(bool)
+        hull, _ = covering_hull(cover, eps=float(rng.uniform(0.5, 3)))
+        grown = hull.copy()  # out of the image where the hull lies on its border
+        for axis, size in ((0, 100), (1, 80)):
+            grown[hull[:, axis] == 0, axis] -= 3.25
+            grown[hull[:, axis] == size, axis] += 3.25
+        if len(_uncovered(grown, cover)):
+            continue
+        changes = [clip_loop_to_rect(grown, 100, 80)]
+        for _ in range(25):
+            moved = grown.copy()
+            i = int(rng.integers(len(moved)))
+            moved[i] += rng.normal(0, 4, 2)
+            changes += [moved, np.delete(grown, i, axis=0)]
+        for changed in changes:
+            same = _clip_keeps_cover(grown, changed, cover)
+            assert same == (len(_uncovered(changed, cover)) == 0)
+            answers[same] += 1
+    assert answers[True] > 20 and answers[False] > 20

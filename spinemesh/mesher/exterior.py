@@ -361,8 +361,8 @@ def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tup
             continue
         loop = clip_loop_to_rect(repaired, cover.shape[1], cover.shape[0])
         if len(loop) >= 3 and loop_is_simple(loop):
-            # the repair made it cover; a clip that changed nothing keeps it so
-            loop = _spread(loop, cover, min_distance, covers=np.array_equal(loop, repaired))
+            # the repair made it cover; the clip may have changed that only along its new edges
+            loop = _spread(loop, cover, min_distance, covers=_clip_keeps_cover(repaired, loop, cover))
             if _shortest_edge(loop) >= min_distance:
                 return loop
             # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
@@ -573,24 +573,73 @@ def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cove
     box = _change_box(window, new, changed, cover.shape)
     if box is None:
         return True
-    x0, y0, x1, y1 = box
-    art = cover[y0:y1, x0:x1]
-    if not art.any():
-        return True
     n = len(new)
     path = new[np.append(changed, changed[-1] + 1) % n]  # starts and ends on unchanged vertices
     first = np.flatnonzero((window == path[0]).all(axis=1))
     last = np.flatnonzero((window == path[-1]).all(axis=1))
     if len(first) != 1 or len(last) != 1 or first[0] >= last[0]:
         return _covers_in_box(window, new, changed, cover)
-    old = window[first[0]:last[0] + 1] - [x0, y0]
-    path = path - [x0, y0]
-    new_segs = np.stack([path[:-1], path[1:]], axis=1)
-    segs = np.concatenate([np.stack([old[:-1], old[1:]], axis=1), new_segs])
+    old = window[first[0]:last[0] + 1]
+    return _swap_keeps_cover(np.stack([old[:-1], old[1:]], axis=1), np.stack([path[:-1], path[1:]], axis=1),
+                             cover, box)
+
+
+def _swap_keeps_cover(removed: np.ndarray, added: np.ndarray, cover: np.ndarray,
+                      box: tuple[int, int, int, int]) -> bool:
+    """Whether a loop covering every square of ``cover`` still does once its segments
+    ``removed`` (k, 2, 2) are replaced by ``added`` (m, 2, 2), all of them inside ``box``
+    ``(x0, y0, x1, y1)`` with a pixel to spare (the art elsewhere keeps its counts).
+
+    A centre's even-odd count changes by its counts against both sets (each segment
+    toggles the same centres wherever it is counted); art centres count odd against the
+    covering loop, whose segments cross no art square. See :func:`_still_covers`.
+    """
+    x0, y0, x1, y1 = box
+    art = cover[y0:y1, x0:x1]
+    if not art.any():
+        return True
+    origin = [x0, y0]
+    added = added - origin
     shape = (y1 - y0, x1 - x0)
-    if (art & centres_inside(segs, shape)).any():
+    if (art & centres_inside(np.concatenate([removed - origin, added]), shape)).any():
         return False
-    return not (art & crossed_pixels(new_segs, shape)).any()
+    return not (art & crossed_pixels(added, shape)).any()
+
+
+def _edges_in(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """Per edge ``i -> i + 1`` of the loop ``points`` (n, 2), whether the loop ``other`` has it too.
+
+    Vertices are looked up as complex numbers in ``other`` sorted; a vertex ``other`` holds
+    twice may make an edge it has look absent, never one it lacks look present.
+    """
+    mine = np.ascontiguousarray(points, np.float64).view(np.complex128).ravel()
+    theirs = np.ascontiguousarray(other, np.float64).view(np.complex128).ravel()
+    order = np.argsort(theirs, kind="stable")
+    at = np.minimum(np.searchsorted(theirs[order], mine), len(theirs) - 1)
+    found = theirs[order][at] == mine
+    where = np.where(found, order[at], -1)
+    return found & np.roll(found, -1) & (np.roll(where, -1) == (where + 1) % len(theirs))
+
+
+def _clip_keeps_cover(loop: np.ndarray, clipped: np.ndarray, cover: np.ndarray) -> bool:
+    """Whether ``clipped`` (:func:`clip_loop_to_rect` of ``loop``, which covers ``cover``) covers it too.
+
+    Checked on the edges the clip took away and those it made (:func:`_swap_keeps_cover`):
+    the clip keeps the others as they were.
+    """
+    def segments(points: np.ndarray, kept: np.ndarray) -> np.ndarray:
+        return np.stack([points, np.roll(points, -1, axis=0)], axis=1)[~kept]
+
+    removed = segments(loop, _edges_in(loop, clipped))
+    added = segments(clipped, _edges_in(clipped, loop))
+    ends = np.concatenate([removed, added]).reshape(-1, 2)
+    if not len(ends):
+        return True
+    h, w = cover.shape
+    x0, y0 = np.floor(ends.min(0)).astype(int) - 1
+    x1, y1 = np.ceil(ends.max(0)).astype(int) + 1
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+    return x1 <= x0 or y1 <= y0 or _swap_keeps_cover(removed, added, cover, (x0, y0, x1, y1))
 
 
 def _covers_in_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
