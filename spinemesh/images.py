@@ -414,18 +414,40 @@ def bleeding_in(page: np.ndarray, region: AtlasRegion, pma: bool = False, source
     -------
     ndarray, shape (original_height, original_width), bool
     """
+    return upright_at_original_size(bleeding_border(page, region, pma, source), region, source)
+
+
+def bleeding_border(page: np.ndarray, region: AtlasRegion, pma: bool = False,
+                    source: str | None = None) -> np.ndarray:
+    """:func:`bleeding_in` as the rectangle lies on the page: shape (page_height, page_width), bool.
+
+    Only the rectangle's outermost rows and columns can touch a texel outside it, so only
+    the page's one-texel frame around the rectangle is read and each side's three-texel
+    strip dilated (the same texels as a dilation of the whole rectangle, which read it all).
+    """
     import cv2
 
     g = region.geometry(source)
     ph, pw = page.shape[:2]
     x0, y0, x1, y1 = g.x - 1, g.y - 1, g.x + g.page_width + 1, g.y + g.page_height + 1
-    ring = np.zeros((y1 - y0, x1 - x0), np.uint8)
-    near = page[max(0, y0):min(ph, y1), max(0, x0):min(pw, x1)]
-    shown = texels_as_words(near) != 0 if pma else near[..., 3] > 0
-    ring[max(0, y0) - y0:max(0, y0) - y0 + shown.shape[0], max(0, x0) - x0:max(0, x0) - x0 + shown.shape[1]] = shown
-    ring[1:-1, 1:-1] = 0  # only what lies outside the rectangle
-    border = cv2.dilate(ring, np.ones((3, 3), np.uint8))[1:-1, 1:-1].astype(bool)
-    return upright_at_original_size(border, region, source)
+    ring = np.zeros((y1 - y0, x1 - x0), np.uint8)  # the frame only; the inside stays 0
+    for rows, cols in ((slice(0, 1), slice(None)), (slice(-1, None), slice(None)),
+                       (slice(1, -1), slice(0, 1)), (slice(1, -1), slice(-1, None))):
+        r0, r1, _ = rows.indices(ring.shape[0])
+        c0, c1, _ = cols.indices(ring.shape[1])
+        ya, yb, xa, xb = max(0, y0 + r0), min(ph, y0 + r1), max(0, x0 + c0), min(pw, x0 + c1)
+        if yb > ya and xb > xa:
+            near = page[ya:yb, xa:xb]
+            ring[ya - y0:yb - y0, xa - x0:xb - x0] = texels_as_words(near) != 0 if pma else near[..., 3] > 0
+    border = np.zeros((g.page_height, g.page_width), bool)
+    if not ring.any():
+        return border
+    k = np.ones((3, 3), np.uint8)
+    border[0] = cv2.dilate(ring[:3], k)[1, 1:-1]  # each texel of the border from the 3x3 around it
+    border[-1] |= cv2.dilate(ring[-3:], k)[1, 1:-1].astype(bool)
+    border[:, 0] |= cv2.dilate(ring[:, :3], k)[1:-1, 1].astype(bool)
+    border[:, -1] |= cv2.dilate(ring[:, -3:], k)[1:-1, 1].astype(bool)
+    return border
 
 
 class PageStore:
@@ -574,11 +596,11 @@ class AtlasImages:
         content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
         if not coverage:
             return RegionImage(rgba, page.scale, name, str(page_path), content)
-        drawn = upright_at_original_size(texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0,
+        bleed = bleeding_border(pixels, region, page.pma, source)
+        drawn = upright_at_original_size((texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0) | bleed,
                                          region, source)
-        shown = upright_at_original_size(shown_texels(stored, page.pma), region, source)
-        bleed = bleeding_in(pixels, region, page.pma, str(atlas.path))
-        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn | bleed, shown | bleed)
+        shown = upright_at_original_size(shown_texels(stored, page.pma) | bleed, region, source)
+        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn, shown)
 
 
 class FolderImages:

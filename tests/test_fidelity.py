@@ -194,3 +194,39 @@ def test_the_hull_keeps_half_a_texel_around_every_drawn_texel_after_its_inset():
         assert all(hull.contains(r) for r in reach)
         inset_somewhere |= hull.area < shapely.Polygon(np.asarray(plain.vertices)[: plain.hull]).area - 1
     assert inset_somewhere
+
+
+def test_bleeding_border_is_the_dilation_of_the_whole_frame():
+    """bleeding_border reads only the frame's strips: the same texels as dilating the whole
+    rectangle with its frame (rotated, offset and page-edge regions, straight and premultiplied)."""
+    import cv2
+
+    from spinemesh.atlas import parse_atlas
+    from spinemesh.images import bleeding_border, texels_as_words
+
+    rng = np.random.default_rng(0)
+    checked = 0
+    for _ in range(400):
+        ph, pw = (int(v) for v in rng.integers(3, 30, 2))
+        page = np.zeros((ph, pw, 4), np.uint8)
+        page[..., 3] = (rng.random((ph, pw)) < 0.3) * rng.integers(1, 256, (ph, pw))
+        page[..., 0] = (rng.random((ph, pw)) < 0.2) * 7  # premultiplied light: colour without alpha
+        w, h = int(rng.integers(1, pw + 1)), int(rng.integers(1, ph + 1))
+        rotate = bool(rng.random() < 0.3)
+        sw, sh = (h, w) if rotate else (w, h)
+        if sw > pw or sh > ph:
+            continue
+        x, y = int(rng.integers(0, pw - sw + 1)), int(rng.integers(0, ph - sh + 1))
+        region = parse_atlas(f"p.png\nsize: {pw}, {ph}\na\n  rotate: {str(rotate).lower()}\n  xy: {x}, {y}\n"
+                             f"  size: {w}, {h}\n  orig: {w + 2}, {h + 1}\n  offset: 1, 0\n").find("a")
+        for pma in (False, True):
+            ring = np.zeros((sh + 2, sw + 2), np.uint8)
+            y0, x0 = y - 1, x - 1
+            near = page[max(0, y0):y + sh + 1, max(0, x0):x + sw + 1]
+            ring[max(0, y0) - y0:max(0, y0) - y0 + near.shape[0], max(0, x0) - x0:max(0, x0) - x0 + near.shape[1]] = \
+                texels_as_words(near) != 0 if pma else near[..., 3] > 0
+            ring[1:-1, 1:-1] = 0
+            expected = cv2.dilate(ring, np.ones((3, 3), np.uint8))[1:-1, 1:-1].astype(bool)
+            assert np.array_equal(bleeding_border(page, region, pma), expected)
+            checked += expected.any()
+    assert checked > 100
