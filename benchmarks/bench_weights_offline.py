@@ -74,7 +74,7 @@ from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project, image_source_for  # noqa: E402
 from spinemesh.rig import weights as rig_weights  # noqa: E402
 from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
-from spinemesh.rig.choice import NEAR, choose_auto  # noqa: E402
+from spinemesh.rig.choice import NEAR, choose_by_rule  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
 from spinemesh.rig.weights import _segment_distance, solve_weights, sparsify  # noqa: E402
 from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton  # noqa: E402
@@ -259,7 +259,7 @@ def auto(near: float | None = None):
         if near is not None:
             choice.OVER_ART = near
         try:
-            chosen = choose_auto(rig.bones, case["slot_bone"], case["world"], case["tris"],
+            chosen = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                  rig.skin_bones.get(case["skin"], set())).bones
         finally:
             choice.OVER_ART = old

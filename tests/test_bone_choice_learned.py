@@ -11,7 +11,7 @@ import pytest
 
 from spinemesh.rig import document
 from spinemesh.rig.binding import parse_vertices, setup_world
-from spinemesh.rig.choice import choose_auto
+from spinemesh.rig.choice import choose_by_rule
 from spinemesh.rig.document import build_rig, choose
 from spinemesh.rig.learned import (FEATURES, MODEL_FORMAT, MODEL_PATH, TreeEnsemble, candidates, choose_learned,
                                    constrained_bones, shipped_model)
@@ -183,7 +183,7 @@ def test_bones_rule_gives_the_rules_choices_on_artist_meshes(project):
         world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
         tris = np.asarray(ref.attachment["triangles"]).reshape(-1, 3)
         rule = choose(rig, ref, mesh, world, tris, "rule")
-        assert rule == choose_auto(rig.bones, rig.slot_bone[ref.slot], world, tris,
+        assert rule == choose_by_rule(rig.bones, rig.slot_bone[ref.slot], world, tris,
                                    rig.skin_bones.get(ref.skin, set()))
         learned = choose(rig, ref, mesh, world, tris, "learned")
         assert learned.bones and all(rig.bones[b].exact for b in learned.bones)

@@ -78,7 +78,8 @@ _Pack = Annotated[bool, typer.Option(
 _Weights = Annotated[Weights, typer.Option(
     "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                       "to the bones crossing the art, with vertices at the joints and automatic "
-                      "weights (as 'spinemesh weights --bones auto').")]
+                      "weights (as 'spinemesh weights --bones rule': the rule that also picks the "
+                      "regions that bend).")]
 
 
 @app.command()

@@ -2,9 +2,10 @@
 
 ``keep``: the bones it is bound to now (its slot's bone for an unweighted mesh).
 
-``auto``, from the setup pose: the slot's bone, plus every bone whose segment (origin to
-origin + length along the bone's x axis) passes over the art, where the art is the mesh's
-triangles in world space (within ``OVER_ART`` of them, a share of their size).
+``rule`` (``--bones rule``; it was ``auto`` until a learned choice measured better), from the
+setup pose: the slot's bone, plus every bone whose segment (origin to origin + length along
+the bone's x axis) passes over the art, where the art is the mesh's triangles in world space
+(within ``OVER_ART`` of them, a share of their size).
 Typically these are the parent and the children across the joints the art spans. Not
 chosen automatically: the root bone (it moves the whole skeleton, never a part);
 zero-length bones (points: effects and controls more often than parts); control bones that constraints aim at (animators'
@@ -127,9 +128,9 @@ def _largest_group(bones, slot_bone: int, over: dict[int, float], touching: set[
     return best
 
 
-def choose_auto(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
-                skin_bones: set[int]) -> Choice:
-    """The ``auto`` rule (module docstring) for a mesh with setup world vertices ``world`` (N, 2)."""
+def choose_by_rule(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
+                   skin_bones: set[int]) -> Choice:
+    """The rule (module docstring, ``--bones rule``) for a mesh with setup world vertices ``world`` (N, 2)."""
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}
     near = OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))

@@ -20,13 +20,13 @@ from ..errors import SpineMeshError
 from ..skeleton import AttachmentRef, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
-from .choice import NEAR, Choice, choose_auto
+from .choice import NEAR, Choice, choose_by_rule
 from .learned import choose_learned, constrained_bones
 from .weights import solve_weights, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
 
-#: ``--bones`` choices: ``keep`` (the mesh's bones now), ``rule`` (:func:`.choice.choose_auto`),
+#: ``--bones`` choices: ``keep`` (the mesh's bones now), ``rule`` (:func:`.choice.choose_by_rule`),
 #: ``learned`` (:func:`.learned.choose_learned`), and ``auto``, which is :data:`AUTO_BONES`.
 BONE_CHOICES = ("keep", "auto", "rule", "learned")
 
@@ -148,7 +148,7 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
     if (AUTO_BONES if mode == "auto" else mode) == "learned":
         return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
                               rig.constrained)
-    return choose_auto(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
+    return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 
 def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome) -> None:

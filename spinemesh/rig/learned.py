@@ -5,7 +5,7 @@ diagonal, plus the slot's bone). Each candidate is described by what the rig and
 in the setup pose (:data:`FEATURES`): how much of its segment lies over the art and how far it
 is from it, its length against the art's size, where it sits in the bone tree relative to the
 slot's bone, which neighbours in the tree are on the art, its constraint roles, and whether the
-``rule`` choice (:func:`.choice.choose_auto`) takes it. A gradient-boosted tree ensemble, fitted
+``rule`` choice (:func:`.choice.choose_by_rule`) takes it. A gradient-boosted tree ensemble, fitted
 on the artist-weighted meshes of the Spine examples and a corpus of game projects
 (:mod:`.train_choice`), gives the probability that an artist binds the bone. A second,
 set-level ensemble (:mod:`.bone_sets`) then weighs a few whole sets built from those
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from . import bone_sets
-from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_auto
+from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
 from .constraints import constraints_of
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
@@ -194,7 +194,7 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
     ends = dict(zip(sampled.tolist(), (dist[:, [0, -1]] <= 0).tolist()))
     ids = sorted({i for i, d in closest.items() if d <= reach * diag} | {slot_bone})
-    rule = choose_auto(bones, slot_bone, world, triangles, skin_bones)
+    rule = choose_by_rule(bones, slot_bone, world, triangles, skin_bones)
     nearest = _nearest_shares(bones, ids, world)
 
     slot_chain = _chain(bones, slot_bone)

@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import AttachmentRef, iter_attachments
 from .binding import parse_vertices, setup_world
-from .choice import Choice, choose_auto
+from .choice import Choice, choose_by_rule
 from .document import Outcome, Rig, WeightOptions, build_rig, choose, weight_mesh
 from .topology import add_rig_vertices
 
@@ -41,7 +41,7 @@ QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
 class BendingRegions:
     """Which region attachments of one skeleton may bend, from its setup pose.
 
-    A region *may bend* when the ``auto`` bone choice (:func:`.choice.choose_auto`) for its
+    A region *may bend* when the rule's bone choice (:func:`.choice.choose_by_rule`) for its
     quad, placed where the region draws it in the setup pose, gives more than one bone. Only
     regions whose slot bone's setup transform is exact are considered (nothing is bound
     otherwise). The quad, not the art: the art is known only once meshed, and the bone choice
@@ -100,9 +100,10 @@ class BendingRegions:
         lo, hi = world.min(axis=0), world.max(axis=0)
         meets = ~((self.boxes[:, 1] < lo).any(axis=1) | (self.boxes[:, 0] > hi).any(axis=1))
         meets[slot_bone] = False
-        if not meets.any():  # choose_auto would reject every other bone by the same box test
+        if not meets.any():  # choose_by_rule would reject every other bone by the same box test
             return None
-        return choose_auto(self.rig.bones, slot_bone, world, triangles, self.rig.skin_bones.get(ref.skin, set()))
+        return choose_by_rule(self.rig.bones, slot_bone, world, triangles,
+                              self.rig.skin_bones.get(ref.skin, set()))
 
     def bends(self, ref: AttachmentRef, uv: np.ndarray = QUAD_UV, triangles: np.ndarray = QUAD_TRIANGLES) -> bool:
         """Whether the art (default: the whole quad) gets more than one ``auto`` bone."""
