@@ -12,8 +12,8 @@ import numpy as np
 from .mesher.interior import edge_map, long_contours
 from .foreground import foreground
 from .mesher.params import PAPER
-from .mesher.raster import (boundary_index_edges, boundary_segments, centres_inside, crossed_pixels,
-                             mesh_coverage_mask)
+from .mesher.raster import (boundary_index_edges, boundary_segments, crossed_pixels, mesh_coverage_mask,
+                             polygon_coverage_mask)
 
 #: Alpha at or above which a pixel is art that must never be clipped.
 OPAQUE_ALPHA = 8
@@ -31,11 +31,15 @@ def coverage(vertices, triangles, art: np.ndarray) -> float:
     ``art`` is an (H, W) bool mask, e.g. :func:`opaque_mask`.
     """
     art = np.asarray(art, dtype=bool)
-    n = int(art.sum())
-    if n == 0:
+    if not art.any():
         return 1.0
-    inside = mesh_coverage_mask(vertices, triangles, art.shape, "inside")
-    return float((inside & art).sum()) / n
+    return _covered_share(mesh_coverage_mask(vertices, triangles, art.shape, "inside"), art)
+
+
+def _covered_share(inside: np.ndarray, art: np.ndarray) -> float:
+    """Share of the ``art`` pixels that ``inside`` holds (1.0 without art); both (H, W) bool."""
+    n = int(art.sum())
+    return 1.0 if n == 0 else float((inside & art).sum()) / n
 
 
 def uncovered_pixels(vertices, triangles, art: np.ndarray) -> np.ndarray:
@@ -67,7 +71,11 @@ def waste(vertices, triangles, art: np.ndarray) -> float:
     area = mesh_area(vertices, triangles)
     if area <= 0:
         return 0.0
-    centre = mesh_coverage_mask(vertices, triangles, art.shape, "centre")
+    return _transparent_share(mesh_coverage_mask(vertices, triangles, art.shape, "centre"), art, area)
+
+
+def _transparent_share(centre: np.ndarray, art: np.ndarray, area: float) -> float:
+    """:func:`waste` from the pixels ``centre`` (H, W) centred in a mesh of ``area`` px^2 (> 0)."""
     return float(max(0.0, 1.0 - (centre & art).sum() / area))
 
 
@@ -75,12 +83,11 @@ def coverage_and_waste(vertices, triangles, art: np.ndarray) -> tuple[float, flo
     """:func:`coverage` and :func:`waste` of one mesh, its outline rasterised once (the same values)."""
     art = np.asarray(art, dtype=bool)
     segments = boundary_segments(vertices, triangles)
-    centre = centres_inside(segments, art.shape)
-    n = int(art.sum())
-    cov = 1.0 if n == 0 else float((centre & ~crossed_pixels(segments, art.shape) & art).sum()) / n
+    centre = polygon_coverage_mask(segments, art.shape, "centre")
+    # "inside" (polygon_coverage_mask) is "centre" less the squares an outline segment crosses
+    cov = _covered_share(centre & ~crossed_pixels(segments, art.shape), art) if art.any() else 1.0
     area = mesh_area(vertices, triangles)
-    wst = 0.0 if area <= 0 else float(max(0.0, 1.0 - (centre & art).sum() / area))
-    return cov, wst
+    return cov, 0.0 if area <= 0 else _transparent_share(centre, art, area)
 
 
 def angle_ratios(vertices, triangles) -> np.ndarray:
@@ -225,9 +232,10 @@ def mesh_metrics(mesh, image: np.ndarray, art_alpha: int = OPAQUE_ALPHA, edge_pi
     v, t = mesh.vertices, mesh.triangles
     if edge_pixels is None:
         edge_pixels = significant_edges(image)
+    cov, wst = coverage_and_waste(v, t, art)
     return {
-        "coverage": coverage(v, t, art),
-        "waste": waste(v, t, art),
+        "coverage": cov,
+        "waste": wst,
         "boundary_adherence": boundary_adherence(v, edge_pixels),
         "angle_ratio": angle_ratio(v, t),
         "vertices": int(len(v)),

@@ -548,10 +548,15 @@ def _change_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray,
     """Pixels ``(x0, y0, x1, y1)`` around the old and new vertices of the changed edges (one
     pixel more on each side), within the image; None when empty."""
     n = len(new)
-    ends = np.concatenate([window, new[changed % n], new[(changed + 1) % n]])
+    return _pixel_box(np.concatenate([window, new[changed % n], new[(changed + 1) % n]]), shape)
+
+
+def _pixel_box(points: np.ndarray, shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """Pixels ``(x0, y0, x1, y1)`` around ``points`` (k, 2), one pixel more on each side, within
+    an image of ``shape``; None when empty."""
     h, w = shape
-    x0, y0 = np.floor(ends.min(0)).astype(int) - 1
-    x1, y1 = np.ceil(ends.max(0)).astype(int) + 1
+    x0, y0 = np.floor(points.min(0)).astype(int) - 1
+    x1, y1 = np.ceil(points.max(0)).astype(int) + 1
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
     return None if x1 <= x0 or y1 <= y0 else (x0, y0, x1, y1)
 
@@ -633,13 +638,8 @@ def _clip_keeps_cover(loop: np.ndarray, clipped: np.ndarray, cover: np.ndarray) 
     removed = segments(loop, _edges_in(loop, clipped))
     added = segments(clipped, _edges_in(clipped, loop))
     ends = np.concatenate([removed, added]).reshape(-1, 2)
-    if not len(ends):
-        return True
-    h, w = cover.shape
-    x0, y0 = np.floor(ends.min(0)).astype(int) - 1
-    x1, y1 = np.ceil(ends.max(0)).astype(int) + 1
-    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
-    return x1 <= x0 or y1 <= y0 or _swap_keeps_cover(removed, added, cover, (x0, y0, x1, y1))
+    box = _pixel_box(ends, cover.shape) if len(ends) else None
+    return box is None or _swap_keeps_cover(removed, added, cover, box)
 
 
 def _covers_in_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cover: np.ndarray) -> bool:
