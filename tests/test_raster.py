@@ -51,3 +51,23 @@ def test_changed_edges_check_equals_whole_loop_check():
         assert loop_is_simple(moved, np.array([(i - 1) % len(loop), i])) == loop_is_simple(moved)
         compared += 1
     assert compared > 100
+
+
+def test_art_hit_tests_equal_masked_rasters(monkeypatch):
+    """any_centre_inside and any_crossed answer as the rasters ANDed with the art, either walk."""
+    rng = np.random.default_rng(28)
+    cases = []
+    for trial in range(2000):
+        h, w = (int(v) for v in rng.integers(1, 40, 2))
+        cases.append((_random_segments(rng, trial % 4), rng.random((h, w)) < rng.choice([0.01, 0.2, 0.9])))
+    hits = 0
+    for few in (True, False):
+        if not few:
+            monkeypatch.setattr(raster, "FEW_SEGMENTS", -1)
+        for s, art in cases:
+            centre = bool((art & raster.centres_inside(s, art.shape)).any())
+            crossed = bool((art & raster.crossed_pixels(s, art.shape)).any())
+            assert raster.any_centre_inside(s, art) == centre, (s.tolist(), art.shape)
+            assert raster.any_crossed(s, art) == crossed, (s.tolist(), art.shape)
+            hits += centre + crossed
+    assert 0 < hits < 8000

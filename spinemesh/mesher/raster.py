@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -112,47 +113,122 @@ def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
     The same arithmetic on the same float64 values as the array version, one value at a
     time (Python floats are IEEE doubles), so the toggles are the same.
     """
-    rows, cols = [], []
+    floor = math.floor
+    rows: list = []
+    cols: list = []
     for (x0, y0), (x1, y1) in segments:
         lo, hi = min(y0, y1), max(y0, y1)
         r_start = min(max(math.ceil(lo - 0.5), 0), h)
         r_stop = min(max(math.ceil(hi - 0.5), 0), h)
+        if r_stop <= r_start:
+            continue
         if r_stop - r_start + len(rows) > FEW_CROSSINGS:
             return None
-        for r in range(r_start, r_stop):
-            t = (r + 0.5 - y0) / (y1 - y0)
-            xc = x0 + t * (x1 - x0)
-            rows.append(r)
-            cols.append(min(max(math.floor(xc - 0.5) + 1, 0), w))
+        dy, dx = y1 - y0, x1 - x0
+        # t = (r + 0.5 - y0) / dy, crossing at x0 + t * dx: the array version's operations in its order
+        found = [floor(x0 + (r + 0.5 - y0) / dy * dx - 0.5) + 1 for r in range(r_start, r_stop)]
+        if min(found) < 0 or max(found) > w:
+            found = [min(max(c, 0), w) for c in found]
+        rows += range(r_start, r_stop)
+        cols += found
     return rows, cols
 
 
-def _open_squares_crossed(segments: list, h: int, w: int) -> tuple[list, list] | None:
-    """:func:`crossed_pixels` as ``(rows, cols)`` lists computed point by point, or None when many.
+def _open_squares_walk(segments: list, h: int, w: int) -> Iterator[tuple[int, int] | None]:
+    """:func:`crossed_pixels`'s squares ``(row, col)`` computed point by point, one at a time;
+    ``None`` once the walk would take more than :data:`FEW_CROSSINGS` (the caller then takes
+    the array version).
 
     The same arithmetic as the array version, one value at a time: each segment cut at the
-    grid lines it crosses (parameters ``t`` sorted), each piece's midpoint.
+    grid lines it crosses (parameters ``t`` sorted), each piece's midpoint. Yielded as found,
+    so that a caller asking whether any square is art can stop at the first.
     """
-    rows, cols, work = [], [], 0
+    floor, ceil = math.floor, math.ceil
+    work = 0
     for (x0, y0), (x1, y1) in segments:
         ts = [0.0, 1.0]
         for a0, a1 in ((x0, x1), (y0, y1)):
             if a0 == a1:  # along a grid line or not, it crosses none of this axis's lines
                 continue
-            k0, k1 = math.ceil(min(a0, a1)), math.floor(max(a0, a1))
+            k0, k1 = ceil(min(a0, a1)), floor(max(a0, a1))
             work += max(k1 - k0 + 1, 0)
             if work > FEW_CROSSINGS:
-                return None
-            ts += [(k - a0) / (a1 - a0) for k in range(k0, k1 + 1)]
+                yield None
+                return
+            da = a1 - a0
+            ts += [(k - a0) / da for k in range(k0, k1 + 1)]
         ts.sort()
+        dx, dy = x1 - x0, y1 - y0
         for t0, t1 in itertools.pairwise(ts):
             tm = 0.5 * (t1 + t0)
-            px, py = x0 + tm * (x1 - x0), y0 + tm * (y1 - y0)
-            c, r = math.floor(px), math.floor(py)
+            px, py = x0 + tm * dx, y0 + tm * dy
+            c, r = floor(px), floor(py)
             if px != c and py != r and 0 <= r < h and 0 <= c < w:
-                rows.append(r)
-                cols.append(c)
+                yield r, c
+
+
+def _open_squares_crossed(segments: list, h: int, w: int) -> tuple[list, list] | None:
+    """:func:`crossed_pixels` as ``(rows, cols)`` lists computed point by point (:func:`_open_squares_walk`),
+    or None when many."""
+    rows, cols = [], []
+    for square in _open_squares_walk(segments, h, w):
+        if square is None:
+            return None
+        rows.append(square[0])
+        cols.append(square[1])
     return rows, cols
+
+
+def any_centre_inside(segments: np.ndarray, art: np.ndarray) -> bool:
+    """``(art & centres_inside(segments, art.shape)).any()``, without rasterising the box.
+
+    For few segments (the mesher's local checks, thousands per image) the toggles of
+    :func:`_row_crossings` are sorted per row: a pixel's count is odd between the first and
+    second toggle of its row, the third and fourth, and so on (the last run reaching the
+    row's end when the count is odd), so each run is looked up in the art's bytes. The
+    same toggles, so the same answer; many segments take :func:`centres_inside`.
+
+    Parameters
+    ----------
+    segments : ndarray, shape (E, 2, 2)
+    art : ndarray, shape (H, W), bool
+    """
+    h, w = art.shape
+    s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    toggles = _row_crossings(s.tolist(), h, w) if len(s) <= FEW_SEGMENTS and np.isfinite(s).all() else None
+    if toggles is None:
+        return bool((art & centres_inside(s, (h, w))).any())
+    runs: dict[int, list] = {}
+    for r, c in zip(*toggles):
+        runs.setdefault(r, []).append(c)
+    flat = art.tobytes()  # one byte per pixel, row by row: 1 where art
+    for r, cols in runs.items():
+        if len(cols) % 2:
+            cols.append(w)
+        cols.sort()
+        base = r * w
+        for a, b in zip(cols[::2], cols[1::2]):
+            if a < b and flat.find(1, base + a, base + b) >= 0:
+                return True
+    return False
+
+
+def any_crossed(segments: np.ndarray, art: np.ndarray) -> bool:
+    """``(art & crossed_pixels(segments, art.shape)).any()``: for few segments each open square
+    crossed is looked up in ``art`` (H, W) bool as it is found (:func:`_open_squares_walk`),
+    the first art square answering; for many, the array version."""
+    h, w = art.shape
+    s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
+        flat = art.tobytes()  # one byte per pixel, row by row: 1 where art
+        for square in _open_squares_walk(s.tolist(), h, w):
+            if square is None:
+                break
+            if flat[square[0] * w + square[1]]:
+                return True
+        else:
+            return False
+    return bool((art & crossed_pixels(s, (h, w))).any())
 
 
 def touched_pixels(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
