@@ -263,10 +263,10 @@ def frames_on_one_grid(frames: list) -> list:
 
     from .images import RegionImage
 
-    if len({f.rgba.shape[:2] for f in frames}) <= 1:
+    if len({f.shape[:2] for f in frames}) <= 1:
         return frames
-    height = max(f.rgba.shape[0] for f in frames)
-    width = max(f.rgba.shape[1] for f in frames)
+    height = max(f.shape[0] for f in frames)
+    width = max(f.shape[1] for f in frames)
     out = []
     for f in frames:
         h, w = f.rgba.shape[:2]

@@ -74,21 +74,65 @@ class RegionImage:
     def __init__(self, rgba: np.ndarray, scale: float, name: str, source: str,
                  content: tuple[int, int, int, int] | None = None, drawn: np.ndarray | None = None,
                  shown: np.ndarray | None = None):
-        self.rgba, self.scale, self.name, self.source = rgba, scale, name, source
+        self._rgba, self.scale, self.name, self.source = rgba, scale, name, source
+        self.shape = rgba.shape
         self.content = (0, 0, rgba.shape[1], rgba.shape[0]) if content is None else content
         self._drawn, self._shown = drawn, shown
+        #: ``(rgba, drawn, shown)`` of the stored part alone (:meth:`from_stored`), else None
+        self.stored: tuple | None = None
+
+    @classmethod
+    def from_stored(cls, rgba: np.ndarray, shape: tuple[int, ...], content: tuple[int, int, int, int], scale: float,
+                    name: str, source: str, drawn: np.ndarray | None = None,
+                    shown: np.ndarray | None = None) -> "RegionImage":
+        """An image of ``shape`` (H, W, 4) that is zero outside ``content``, given by its part
+        inside it: ``rgba`` (h, w, 4), ``drawn`` and ``shown`` (h, w) bool, the stored part
+        of each. The whole-size arrays are made when first asked for (:meth:`place`): the
+        planning of an upgrade meshes the stored part alone and never needs them.
+        """
+        image = cls(rgba, scale, name, source, content)
+        image._rgba, image.shape = None, tuple(shape)
+        image.stored = (rgba, drawn, shown)
+        return image
+
+    def place(self, part: np.ndarray) -> np.ndarray:
+        """``part`` (the stored part's values, (h, w, ...)) at the original size, zero elsewhere;
+        ``part`` itself when the stored part is the whole image."""
+        if part.shape[:2] == self.shape[:2]:
+            return part
+        x0, y0, x1, y1 = self.content
+        out = np.zeros(self.shape[:2] + part.shape[2:], part.dtype)
+        out[y0:y1, x0:x1] = part
+        return out
+
+    @property
+    def rgba(self) -> np.ndarray:
+        if self._rgba is None:
+            self._rgba = self.place(self.stored[0])
+        return self._rgba
 
     @property
     def drawn(self) -> np.ndarray:
         if self._drawn is None:
-            self._drawn = self.rgba[..., 3] > 0
+            self._drawn = self.place(self.stored_masks()[0]) if self.stored else self.rgba[..., 3] > 0
         return self._drawn
 
     @property
     def shown(self) -> np.ndarray:
         if self._shown is None:
-            self._shown = self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
+            self._shown = self.place(self.stored_masks()[1]) if self.stored \
+                else self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
         return self._shown
+
+    def stored_masks(self) -> tuple[np.ndarray, np.ndarray]:
+        """``drawn`` and ``shown`` of the stored part alone, (h, w) bool each (:meth:`from_stored`
+        images only), with the same defaults as the whole image's."""
+        rgba, drawn, shown = self.stored
+        if drawn is None:
+            drawn = rgba[..., 3] > 0
+        if shown is None:
+            shown = drawn & (rgba[..., 3] > FAINT_TEXEL)
+        return drawn, shown
 
 
 #: A texel none of whose premultiplied channels exceeds this (/255) changes no pixel by more
@@ -385,21 +429,36 @@ def upright_at_original_size(stored: np.ndarray, region: AtlasRegion, source: st
         Zero where whitespace was stripped; ``stored`` itself (a view of the page, turned if
         the region is rotated) when nothing was.
     """
+    part, (height, width), content = upright_part(stored, region, source)
+    if part.shape[:2] == (height, width):
+        return part  # nothing was stripped: the page's texels themselves (a view)
+    x0, y0, x1, y1 = content
+    out = np.zeros((height, width) + part.shape[2:], part.dtype)
+    out[y0:y1, x0:x1] = part
+    return out
+
+
+def upright_part(stored: np.ndarray, region: AtlasRegion,
+                 source: str | None = None) -> tuple[np.ndarray, tuple[int, int], tuple[int, int, int, int]]:
+    """:func:`upright_at_original_size` before the placing: ``stored`` turned upright (a view),
+    the original ``(height, width)``, and where the part lies in it, ``(x0, y0, x1, y1)``.
+
+    Raises
+    ------
+    AtlasError
+        The offsets place the part outside the original size, or do not fit its size.
+    """
     g = region.geometry(source)
     if g.degrees:
         # Packers store the image turned counter-clockwise; turning it clockwise undoes that.
         stored = np.rot90(stored, -(g.degrees // 90))
     top = g.original_height - g.offset_y - g.height
     left = g.offset_x
-    if top < 0 or left < 0 or left + g.width > g.original_width or top + g.height > g.original_height:
+    if top < 0 or left < 0 or left + g.width > g.original_width or top + g.height > g.original_height \
+            or stored.shape[:2] != (g.height, g.width):
         raise AtlasError(f"region {region.name!r}: offsets place the image outside its original "
                          f"{g.original_width}x{g.original_height} size", source, line=region.line)
-    if (top, left, g.width, g.height) == (0, 0, g.original_width, g.original_height) \
-            and stored.shape[:2] == (g.height, g.width):
-        return stored  # nothing was stripped: the page's texels themselves (a view)
-    out = np.zeros((g.original_height, g.original_width) + stored.shape[2:], stored.dtype)
-    out[top:top + g.height, left:left + g.width] = stored
-    return out
+    return stored, (g.original_height, g.original_width), (left, top, left + g.width, top + g.height)
 
 
 def bleeding_in(page: np.ndarray, region: AtlasRegion, pma: bool = False, source: str | None = None) -> np.ndarray:
@@ -588,19 +647,19 @@ class AtlasImages:
         # Everything per texel is worked out on the stored rectangle, then placed upright at
         # the original size: stripped whitespace is zero either way, and an original size
         # may be many times the rectangle (a 1999x3553 shadow stored as 1987x202).
+        # Placing it at the original size waits until something asks for the whole image
+        # (RegionImage.from_stored): the planning of an upgrade needs the stored part alone.
         source = str(atlas.path)
         stored = stored_rectangle(pixels, region, source)
-        rgba = upright_at_original_size(unpremultiply(stored) if page.pma else stored, region, source)
-        g = region.geometry(source)
-        top = g.original_height - g.offset_y - g.height
-        content = (g.offset_x, top, g.offset_x + g.width, top + g.height)
+        rgba, (height, width), content = upright_part(unpremultiply(stored) if page.pma else stored, region, source)
+        shape = (height, width, 4)
         if not coverage:
-            return RegionImage(rgba, page.scale, name, str(page_path), content)
+            return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path))
         bleed = bleeding_border(pixels, region, page.pma, source)
-        drawn = upright_at_original_size((texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0) | bleed,
-                                         region, source)
-        shown = upright_at_original_size(shown_texels(stored, page.pma) | bleed, region, source)
-        return RegionImage(rgba, page.scale, name, str(page_path), content, drawn, shown)
+        drawn = upright_part((texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0) | bleed,
+                             region, source)[0]
+        shown = upright_part(shown_texels(stored, page.pma) | bleed, region, source)[0]
+        return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path), drawn, shown)
 
 
 class FolderImages:

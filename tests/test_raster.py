@@ -1,4 +1,4 @@
-"""The exact rasteriser's walks (plain Python for a few segments, arrays otherwise) agree; so do the two Douglas-Peucker walks."""
+"""The exact rasteriser's walks (plain Python for a few segments, arrays otherwise) agree."""
 
 from __future__ import annotations
 
@@ -72,19 +72,3 @@ def test_art_hit_tests_equal_masked_rasters(monkeypatch):
             hits += centre + crossed
     assert 0 < hits < 8000
 
-
-def test_douglas_peucker_by_level_keeps_what_one_stretch_at_a_time_keeps(monkeypatch):
-    """Contour-like points (whole-pixel steps): the level-at-a-time walk keeps exactly what the
-    stretch-by-stretch walk keeps, closed and open, on pixel indices and pixel centres."""
-    from spinemesh.mesher import geometry
-
-    rng = np.random.default_rng(29)
-    cases = []
-    for i in range(1500):
-        steps = rng.integers(-1, 2, (int(rng.integers(3, 300)), 2))
-        points = np.cumsum(steps, axis=0) + rng.integers(0, 500, 2) + (0.5 if i % 2 else 0.0)
-        cases.append((points, float(rng.choice([0.5, 1.0, 1.7, 3.0, 8.0])), bool(i % 3)))
-    by_level = [geometry.dp_indices(p, eps, closed) for p, eps, closed in cases]
-    monkeypatch.setattr(geometry, "_whole_steps", lambda points: False)
-    for (p, eps, closed), kept in zip(cases, by_level):
-        assert np.array_equal(kept, geometry.dp_indices(p, eps, closed)), (p.tolist(), eps, closed)

@@ -52,8 +52,6 @@ def dp_indices(points: np.ndarray, eps: float, closed: bool = True) -> np.ndarra
 
 
 def _dp(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
-    if _whole_steps(points[i0:i1 + 1]):
-        return _dp_by_level(points, i0, i1, eps)
     keep = [i0, i1]
     stack = [(i0, i1)]
     while stack:
@@ -68,60 +66,6 @@ def _dp(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
             keep.append(m)
             stack.append((a, m))
             stack.append((m, b))
-    return np.array(sorted(set(keep)))
-
-
-#: Largest coordinate difference (px) for which :func:`_dp_by_level` is taken: products of two
-#: such differences and their sums are whole numbers below 2**53, exact in float64.
-EXACT_STEP = 2.0 ** 24
-
-
-def _whole_steps(points: np.ndarray) -> bool:
-    """Whether every point (n, 2) lies a whole number of pixels from the first, less than
-    :data:`EXACT_STEP` in each axis: pixel indices, or pixel centres, as on every contour."""
-    d = points - points[0]
-    return bool(np.isfinite(d).all() and (np.abs(d) < EXACT_STEP).all() and (d == np.floor(d)).all())
-
-
-def _dp_by_level(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
-    """:func:`_dp` for points a whole number of pixels apart (:func:`_whole_steps`), every
-    pending stretch of one level of the recursion at once.
-
-    Each stretch's farthest point and whether it is kept depend on that stretch alone, so
-    the order the stretches are taken in does not change the kept points. The distances are
-    :func:`_point_segment_distance`'s, value for value: its dot products of whole numbers
-    are exact however they are summed (a matrix product's fused multiply-adds included),
-    and the rest is the same elementwise arithmetic in the same order.
-    """
-    keep = [i0, i1]
-    pending = [(i0, i1)] if i1 - i0 >= 2 else []
-    while pending:
-        a = np.array([s for s, _ in pending])
-        b = np.array([e for _, e in pending])
-        n = b - a - 1  # points strictly inside each stretch, at least one
-        seg = np.repeat(np.arange(len(pending)), n)
-        starts = np.cumsum(n) - n  # where each stretch's points start in the flat arrays
-        idx = np.arange(int(n.sum())) + np.repeat(a + 1 - starts, n)
-        p, pa = points[idx], points[np.repeat(a, n)]
-        ab = points[np.repeat(b, n)] - pa
-        pd = p - pa
-        l2 = ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1]
-        degenerate = l2 == 0
-        if degenerate.any():  # a stretch that closes on itself: distances to its end point
-            l2[degenerate] = 1.0
-        t = clamp((pd[:, 0] * ab[:, 0] + pd[:, 1] * ab[:, 1]) / l2, 0, 1)
-        q = pa + t[:, None] * ab
-        d = np.hypot(*(p - q).T)
-        if degenerate.any():
-            d[degenerate] = np.hypot(*pd[degenerate].T)
-        far = np.maximum.reduceat(d, starts)
-        hits = np.flatnonzero(d == far[seg])
-        first = hits[np.searchsorted(hits, starts)]  # the first farthest point, as argmax takes
-        pending = []
-        for s, e, m, dm in zip(a.tolist(), b.tolist(), idx[first].tolist(), far.tolist()):
-            if dm > eps:
-                keep.append(m)
-                pending += [x for x in ((s, m), (m, e)) if x[1] - x[0] >= 2]
     return np.array(sorted(set(keep)))
 
 

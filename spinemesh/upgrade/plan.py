@@ -116,28 +116,43 @@ def task_for_frames(frames: list[RegionImage], options: Options,
     """
     # Frames of different sizes are compared where the runtime draws them: relative to their size.
     frames = frames_on_one_grid(frames)
-    rgba = composite_image([f.rgba for f in frames])
-    if options.mask != "model" and not _any_frame([f.drawn for f in frames]).any():
-        return None, "kept", "image is fully transparent"
-    drawn = _any_frame(texels_to_cover(frames, blend))
-    if options.mask != "model" and not drawn.any():
-        return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
-    box = stored_box([f.content for f in frames])
-    if box is None or not _inside(drawn, box):
-        if not options.repack:
-            return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
-                                  "would sample neighbouring regions; --repack stores them whole")
-        # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
-        box = (0, 0, rgba.shape[1], rgba.shape[0])
-    x0, y0, x1, y1 = box
-    # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
-    crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
-    drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
-    key = part_content_id(rgba.shape, (x0, y0, x1 - x0, y1 - y0), crop)
+    one = frames[0] if len(frames) == 1 and frames[0].stored is not None else None
+    if one is not None and stored_box([one.content]) is not None:
+        # One frame given by its stored part (RegionImage.from_stored): zero outside that part,
+        # so every test below answers the same on the part alone, and the crop is the part.
+        shape, (x0, y0, x1, y1) = one.shape, one.content
+        part = one.stored[0]
+        drawn_part, shown_part = one.stored_masks()
+        if options.mask != "model" and not drawn_part.any():
+            return None, "kept", "image is fully transparent"
+        drawn = _to_cover(drawn_part, shown_part, blend)
+        if options.mask != "model" and not drawn.any():
+            return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+        crop, drawn = np.ascontiguousarray(part), np.ascontiguousarray(drawn)
+    else:
+        rgba = composite_image([f.rgba for f in frames])
+        shape = rgba.shape
+        if options.mask != "model" and not _any_frame([f.drawn for f in frames]).any():
+            return None, "kept", "image is fully transparent"
+        drawn = _any_frame(texels_to_cover(frames, blend))
+        if options.mask != "model" and not drawn.any():
+            return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+        box = stored_box([f.content for f in frames])
+        if box is None or not _inside(drawn, box):
+            if not options.repack:
+                return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
+                                      "would sample neighbouring regions; --repack stores them whole")
+            # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
+            box = (0, 0, rgba.shape[1], rgba.shape[0])
+        x0, y0, x1, y1 = box
+        # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
+        crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
+        drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
+    key = part_content_id(shape, (x0, y0, x1 - x0, y1 - y0), crop)
     if not np.array_equal(drawn, crop[..., 3] > 0):
         # Premultiplied light (alpha 0, colour > 0) is not in the straight pixels: key it too.
         key += "-" + content_id(np.repeat(drawn.view(np.uint8)[..., None], 4, axis=-1), (0, 0, x1 - x0, y1 - y0))[:16]
-    size = (rgba.shape[1], rgba.shape[0])
+    size = (shape[1], shape[0])
     return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
 
 
@@ -152,7 +167,12 @@ def texels_to_cover(frames: list[RegionImage], blend: str) -> list[np.ndarray]:
     of at most 2/255 out in additive slots too, one corpus skeleton of eight stacked additive
     particle layers lost 44,509 visible pixels (worst 16/255).
     """
-    return [f.shown if blend == "normal" else f.drawn for f in frames]
+    return [_to_cover(f.drawn, f.shown, blend) for f in frames]
+
+
+def _to_cover(drawn: np.ndarray, shown: np.ndarray, blend: str) -> np.ndarray:
+    """:func:`texels_to_cover` of one frame's ``drawn`` and ``shown`` masks."""
+    return shown if blend == "normal" else drawn
 
 
 #: Key prefix of a :class:`MeshTask` meshed because its art bends: the same image keyed apart,
@@ -174,7 +194,7 @@ def bending_task(task: MeshTask) -> MeshTask:
 def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
     """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
     return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
-        tuple(f.content) != (0, 0, f.rgba.shape[1], f.rgba.shape[0]) for f in frames)
+        tuple(f.content) != (0, 0, f.shape[1], f.shape[0]) for f in frames)
 
 
 @dataclass
