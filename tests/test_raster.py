@@ -71,4 +71,3 @@ def test_art_hit_tests_equal_masked_rasters(monkeypatch):
             assert raster.any_crossed(s, art) == crossed, (s.tolist(), art.shape)
             hits += centre + crossed
     assert 0 < hits < 8000
-
