@@ -42,6 +42,17 @@ def test_available_cores_follows_the_affinity_mask():
     assert available_cores() == len(os.sched_getaffinity(0))
 
 
+def test_local_workers_shorten_the_thread_switch_interval_while_they_run():
+    """The dispatcher thread waits for the GIL at most DISPATCH_SWITCH_INTERVAL; restored after."""
+    from spinemesh.cluster import DISPATCH_SWITCH_INTERVAL
+
+    before = sys.getswitchinterval()
+    with open_workers(2) as workers:
+        assert sys.getswitchinterval() == pytest.approx(min(before, DISPATCH_SWITCH_INTERVAL))
+        assert workers.submit(abs, -3).result() == 3
+    assert sys.getswitchinterval() == before
+
+
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_local_workers_stream_results_and_raise_task_errors(jobs):
     with open_workers(jobs) as w:
