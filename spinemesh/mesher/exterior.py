@@ -31,6 +31,7 @@ vertices).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import cv2
@@ -548,13 +549,25 @@ def _change_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray,
     """Pixels ``(x0, y0, x1, y1)`` around the old and new vertices of the changed edges (one
     pixel more on each side), within the image; None when empty."""
     n = len(new)
-    return _pixel_box(np.concatenate([window, new[changed % n], new[(changed + 1) % n]]), shape)
+    return _pixel_box(window.tolist() + new[np.concatenate([changed % n, (changed + 1) % n])].tolist(), shape)
 
 
-def _pixel_box(points: np.ndarray, shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
-    """Pixels ``(x0, y0, x1, y1)`` around ``points`` (k, 2), one pixel more on each side, within
-    an image of ``shape``; None when empty."""
+def _pixel_box(points, shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """Pixels ``(x0, y0, x1, y1)`` around ``points`` ((k, 2) array, or a list of ``[x, y]``),
+    one pixel more on each side, within an image of ``shape``; None when empty.
+
+    A short list (the mesher's local checks, thousands per image) is bounded in plain
+    Python: the same floors and ceilings of the same values.
+    """
     h, w = shape
+    if isinstance(points, list):
+        xs, ys = [p[0] for p in points], [p[1] for p in points]
+        if all(map(math.isfinite, xs + ys)):
+            x0, y0 = math.floor(min(xs)) - 1, math.floor(min(ys)) - 1
+            x1, y1 = math.ceil(max(xs)) + 1, math.ceil(max(ys)) + 1
+            x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+            return None if x1 <= x0 or y1 <= y0 else (x0, y0, x1, y1)
+        points = np.asarray(points, np.float64).reshape(-1, 2)
     x0, y0 = np.floor(points.min(0)).astype(int) - 1
     x1, y1 = np.ceil(points.max(0)).astype(int) + 1
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
@@ -574,26 +587,27 @@ def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cove
     art square, so ``new`` covers the art exactly when no art centre counts odd against the
     two paths and no new edge crosses an art square: the answer of
     :func:`_covers_in_box` from a handful of segments instead of every one across the box.
+    The few points are handled as Python lists (the same values).
     """
     box = _change_box(window, new, changed, cover.shape)
     if box is None:
         return True
     n = len(new)
-    path = new[np.append(changed, changed[-1] + 1) % n]  # starts and ends on unchanged vertices
-    first = np.flatnonzero((window == path[0]).all(axis=1))
-    last = np.flatnonzero((window == path[-1]).all(axis=1))
+    path = new[np.append(changed, changed[-1] + 1) % n].tolist()  # starts and ends on unchanged vertices
+    old = window.tolist()
+    first = [i for i, p in enumerate(old) if p == path[0]]
+    last = [i for i, p in enumerate(old) if p == path[-1]]
     if len(first) != 1 or len(last) != 1 or first[0] >= last[0]:
         return _covers_in_box(window, new, changed, cover)
-    old = window[first[0]:last[0] + 1]
-    return _swap_keeps_cover(np.stack([old[:-1], old[1:]], axis=1), np.stack([path[:-1], path[1:]], axis=1),
-                             cover, box)
+    old = old[first[0]:last[0] + 1]
+    return _swap_keeps_cover(list(zip(old[:-1], old[1:])), list(zip(path[:-1], path[1:])), cover, box)
 
 
-def _swap_keeps_cover(removed: np.ndarray, added: np.ndarray, cover: np.ndarray,
-                      box: tuple[int, int, int, int]) -> bool:
+def _swap_keeps_cover(removed, added, cover: np.ndarray, box: tuple[int, int, int, int]) -> bool:
     """Whether a loop covering every square of ``cover`` still does once its segments
-    ``removed`` (k, 2, 2) are replaced by ``added`` (m, 2, 2), all of them inside ``box``
-    ``(x0, y0, x1, y1)`` with a pixel to spare (the art elsewhere keeps its counts).
+    ``removed`` are replaced by ``added`` ((k, 2, 2) arrays, or lists of ``(start, end)``
+    points), all of them inside ``box`` ``(x0, y0, x1, y1)`` with a pixel to spare (the art
+    elsewhere keeps its counts).
 
     A centre's even-odd count changes by its counts against both sets (each segment
     toggles the same centres wherever it is counted); art centres count odd against the
@@ -603,13 +617,14 @@ def _swap_keeps_cover(removed: np.ndarray, added: np.ndarray, cover: np.ndarray,
     art = cover[y0:y1, x0:x1]
     if not art.any():
         return True
-    origin = [x0, y0]
-    added = added - origin
+    # in the box's pixels: the same subtraction, float minus whole number, as on arrays
+    removed, added = ([((a - x0, b - y0), (c - x0, d - y0)) for (a, b), (c, d) in
+                       (s if isinstance(s, list) else s.tolist())] for s in (removed, added))
     # the crossing test first: it alone rejects most candidates that fail (all that fail, on
     # corpus art), and stops at the first art square; both are pure, so the answer is the same
     if any_crossed(added, art):
         return False
-    return not any_centre_inside(np.concatenate([removed - origin, added]), art)
+    return not any_centre_inside(removed + added, art)
 
 
 def _edges_in(points: np.ndarray, other: np.ndarray) -> np.ndarray:

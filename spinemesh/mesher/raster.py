@@ -194,10 +194,10 @@ def any_centre_inside(segments: np.ndarray, art: np.ndarray) -> bool:
     art : ndarray, shape (H, W), bool
     """
     h, w = art.shape
-    s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-    toggles = _row_crossings(s.tolist(), h, w) if len(s) <= FEW_SEGMENTS and np.isfinite(s).all() else None
+    few = _few_finite(segments)
+    toggles = _row_crossings(few, h, w) if few is not None else None
     if toggles is None:
-        return bool((art & centres_inside(s, (h, w))).any())
+        return bool((art & centres_inside(np.asarray(segments, np.float64).reshape(-1, 2, 2), (h, w))).any())
     runs: dict[int, list] = {}
     for r, c in zip(*toggles):
         runs.setdefault(r, []).append(c)
@@ -218,17 +218,29 @@ def any_crossed(segments: np.ndarray, art: np.ndarray) -> bool:
     crossed is looked up in ``art`` (H, W) bool as it is found (:func:`_open_squares_walk`),
     the first art square answering; for many, the array version."""
     h, w = art.shape
-    s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-    if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
+    few = _few_finite(segments)
+    if few is not None:
         flat = art.tobytes()  # one byte per pixel, row by row: 1 where art
-        for square in _open_squares_walk(s.tolist(), h, w):
+        for square in _open_squares_walk(few, h, w):
             if square is None:
                 break
             if flat[square[0] * w + square[1]]:
                 return True
         else:
             return False
-    return bool((art & crossed_pixels(s, (h, w))).any())
+    return bool((art & crossed_pixels(np.asarray(segments, np.float64).reshape(-1, 2, 2), (h, w))).any())
+
+
+def _few_finite(segments) -> list | None:
+    """``segments`` ((E, 2, 2) array, or a list of ``(start, end)`` points) as nested Python
+    lists of floats when there are at most :data:`FEW_SEGMENTS`, all finite; else None."""
+    if not isinstance(segments, list):
+        s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+        return s.tolist() if len(s) <= FEW_SEGMENTS and np.isfinite(s).all() else None
+    if len(segments) > FEW_SEGMENTS:
+        return None
+    values = [v for seg in segments for point in seg for v in point]
+    return segments if all(map(math.isfinite, values)) else None
 
 
 def touched_pixels(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
