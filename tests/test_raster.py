@@ -1,4 +1,4 @@
-"""The exact rasteriser's walks (plain Python for a few segments, arrays otherwise) agree."""
+"""The exact rasteriser's two walks agree, and so do the two ways Douglas-Peucker finds its farthest point."""
 
 from __future__ import annotations
 
@@ -71,3 +71,24 @@ def test_art_hit_tests_equal_masked_rasters(monkeypatch):
             assert raster.any_crossed(s, art) == crossed, (s.tolist(), art.shape)
             hits += centre + crossed
     assert 0 < hits < 8000
+
+
+def test_douglas_peucker_keeps_the_same_points_with_hypot_taken_only_near_the_farthest(monkeypatch):
+    """Long stretches find their farthest point from squared lengths first (_farthest): the
+    same kept points as np.hypot over every point, on contour-like and arbitrary points."""
+    from spinemesh.mesher import geometry
+
+    rng = np.random.default_rng(29)
+    cases = []
+    for i in range(1500):
+        n = int(rng.integers(3, 300))
+        if i % 4 == 3:
+            points = rng.uniform(0, 400, (n, 2))
+        else:
+            points = np.cumsum(rng.integers(-1, 2, (n, 2)), axis=0) + rng.integers(0, 500, 2) + 0.5 * (i % 2)
+        cases.append((points, float(rng.choice([0.0, 0.5, 1.0, 2 ** 0.5, 3.0, 8.0])), bool(i % 3)))
+    monkeypatch.setattr(geometry, "LONG_STRETCH", 4)
+    squared_first = [geometry.dp_indices(p, eps, closed) for p, eps, closed in cases]
+    monkeypatch.setattr(geometry, "LONG_STRETCH", 10 ** 9)
+    for (p, eps, closed), kept in zip(cases, squared_first):
+        assert np.array_equal(kept, geometry.dp_indices(p, eps, closed)), (p.tolist(), eps, closed)

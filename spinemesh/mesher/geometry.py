@@ -59,9 +59,13 @@ def _dp(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
         if b - a < 2:
             continue
         seg = points[a + 1:b]
-        d = _point_segment_distance(seg, points[a], points[b])
-        k = int(np.argmax(d))
-        if d[k] > eps:
+        if b - a > LONG_STRETCH:
+            k, far = _farthest(_point_segment_offsets(seg, points[a], points[b]))
+        else:
+            d = _point_segment_distance(seg, points[a], points[b])
+            k = int(np.argmax(d))
+            far = d[k]
+        if far > eps:
             m = a + 1 + k
             keep.append(m)
             stack.append((a, m))
@@ -70,13 +74,42 @@ def _dp(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.hypot(*_point_segment_offsets(p, a, b).T)
+
+
+def _point_segment_offsets(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """From the nearest point of segment ``a``-``b`` to each point of ``p`` (n, 2): (n, 2)."""
     ab = b - a
     L2 = float(ab @ ab)
     if L2 == 0:
-        return np.hypot(*(p - a).T)
+        return p - a
     t = clamp(((p - a) @ ab) / L2, 0, 1)
     q = a + t[:, None] * ab
-    return np.hypot(*(p - q).T)
+    return p - q
+
+
+#: Stretches of more points than this find their farthest point with :func:`_farthest`.
+LONG_STRETCH = 128
+#: Margin between a squared length (rounded) and the square of ``np.hypot`` of the same
+#: offset: both lie within a few units in the last place (about 1e-15) of the true value.
+SQUARED_MARGIN = 1e-9
+
+
+def _farthest(offsets: np.ndarray) -> tuple[int, float]:
+    """``(k, d[k])`` for ``d = np.hypot(*offsets.T)`` and ``k = np.argmax(d)``, the same values,
+    with ``np.hypot`` (about twenty times a multiplication) taken only for the offsets whose
+    squared length lies within :data:`SQUARED_MARGIN` of the largest: no other can be the
+    largest, and the first of equal lengths wins as with ``argmax``."""
+    squared = offsets[:, 0] * offsets[:, 0] + offsets[:, 1] * offsets[:, 1]
+    top = squared.max()
+    if not np.isfinite(top):  # an overflow or NaN: the plain way
+        d = np.hypot(*offsets.T)
+        k = int(np.argmax(d))
+        return k, d[k]
+    near = np.flatnonzero(squared >= top * (1 - SQUARED_MARGIN))
+    d = np.hypot(*offsets[near].T)
+    i = int(np.argmax(d))
+    return int(near[i]), d[i]
 
 
 def points_in_loops(points: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
