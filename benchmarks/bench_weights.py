@@ -246,6 +246,52 @@ def summary(rows: list[dict]) -> dict:
     return out
 
 
+def by_project(rows: list[dict]) -> dict[str, list[dict]]:
+    """The rows of each project."""
+    out: dict[str, list] = {}
+    for r in rows:
+        out.setdefault(r["project"], []).append(r)
+    return out
+
+
+def spread(rows: list[dict]) -> dict:
+    """How much the overall ratios hang on single projects: per mode, the median over projects of
+    each project's median ratio, and the overall median ratio without the project of most meshes
+    (``largest``, its share of the meshes ``largest_share``)."""
+    projects = by_project(rows)
+    largest = max(projects, key=lambda k: len(projects[k])) if projects else ""
+    rest = [r for r in rows if r["project"] != largest]
+    out = {"projects": len(projects), "largest": largest,
+           "largest_share": len(projects.get(largest, [])) / max(len(rows), 1)}
+    for m in MODES:
+        per = [summary(rs)[f"{m}_ratio"] for rs in projects.values()]
+        per = [x for x in per if x == x]  # projects whose every mesh moves rigidly have no ratio
+        out[f"{m}_project_median"] = statistics.median(per) if per else float("nan")
+        out[f"{m}_without_largest"] = summary(rest)[f"{m}_ratio"] if rest else float("nan")
+    return out
+
+
+def report(rows: list[dict], method: str) -> None:
+    """The per-project table, the overall row, the spread over projects and the setup drift."""
+    print("\n| project | meshes | keep px | keep / rigid | rule px | rule / rigid | learned px | learned / rigid "
+          "| rigid px | exact set rule / learned | bones p95 rule / learned / artists | flips keep / rule / learned / artist |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for name, rs in sorted(by_project(rows).items()) + [("**all**", rows)]:
+        s = summary(rs)
+        print(f"| {name} | {s['meshes']} | {s['keep']:.2f} | {s['keep_ratio']:.2f} | {s['rule']:.2f} | "
+              f"{s['rule_ratio']:.2f} | {s['learned']:.2f} | {s['learned_ratio']:.2f} | {s['rigid']:.2f} | "
+              f"{s['rule_exact']:.0%} / {s['learned_exact']:.0%} | {s['rule_p95']:.0f} / {s['learned_p95']:.0f} / "
+              f"{s['artist_p95']:.0f} | {s['flips_keep']:.3f} / {s['flips_rule']:.3f} / {s['flips_learned']:.3f} / "
+              f"{s['flips_artist']:.3f} |")
+    sp = spread(rows)
+    print(f"\n{sp['projects']} projects; median over projects of their median ratio: "
+          + ", ".join(f"{m} {sp[m + '_project_median']:.2f}" for m in MODES)
+          + f"\nwithout {sp['largest']} ({sp['largest_share']:.0%} of the meshes): "
+          + ", ".join(f"{m} {sp[m + '_without_largest']:.2f}" for m in MODES))
+    s = summary(rows)
+    print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {method}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--examples", default="4.2", help="example version to replay ('' for none)")
@@ -253,18 +299,31 @@ def main() -> None:
     ap.add_argument("--method", default="bbw", choices=("bbw", "harmonic", "biharmonic"))
     ap.add_argument("--anims", type=int, default=4)
     ap.add_argument("--times", type=int, default=4)
-    ap.add_argument("--tool", type=Path, required=True, help="installed copy of tools/spine-runtime")
+    ap.add_argument("--tool", type=Path, help="installed copy of tools/spine-runtime")
     ap.add_argument("--only", default="", help="substring of project labels to run")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--every", type=int, default=1, help="replay every K-th skeleton (faster)")
+    ap.add_argument("--start", type=int, default=0, help="with --every K: begin at this skeleton (0 to K-1; "
+                    "runs with each start together replay every skeleton)")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
+    ap.add_argument("--merge", type=Path, nargs="+", help="print the tables of earlier runs' --json files "
+                    "together (runs with --every K and each --start), replaying nothing")
     args = ap.parse_args()
     from spinemesh.rig import train_choice
 
+    if args.merge:
+        rows = [r for f in args.merge for r in json.loads(f.read_text())["rows"]]
+        report(rows, args.method)
+        if args.json:
+            args.json.write_text(json.dumps({"rows": rows, "overall": summary(rows)}, indent=1))
+        return
+    if args.tool is None:
+        ap.error("--tool is needed to replay (or --merge earlier runs)")
+
     models = train_choice.load_fold_models(args.fold_models)
     rows = []
-    for label, skel in skeletons(args.examples, args.corpus)[::args.every]:
+    for label, skel in skeletons(args.examples, args.corpus)[args.start::args.every]:
         if args.only and args.only not in label:
             continue
         try:
@@ -279,21 +338,7 @@ def main() -> None:
             print(f"{label:34s} {skel.name:28s} n={s['meshes']:3d} "
                   + " ".join(f"{m} {s[m]:7.2f} ({s[m + '_ratio']:.2f}x)" for m in MODES)
                   + f" rigid {s['rigid']:7.2f} setup {s['setup_drift']:.3f}", flush=True)
-    by_project: dict[str, list] = {}
-    for r in rows:
-        by_project.setdefault(r["project"], []).append(r)
-    print("\n| project | meshes | keep px | keep / rigid | rule px | rule / rigid | learned px | learned / rigid "
-          "| rigid px | exact set rule / learned | bones p95 rule / learned / artists | flips keep / rule / learned / artist |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for name, rs in sorted(by_project.items()) + [("**all**", rows)]:
-        s = summary(rs)
-        print(f"| {name} | {s['meshes']} | {s['keep']:.2f} | {s['keep_ratio']:.2f} | {s['rule']:.2f} | "
-              f"{s['rule_ratio']:.2f} | {s['learned']:.2f} | {s['learned_ratio']:.2f} | {s['rigid']:.2f} | "
-              f"{s['rule_exact']:.0%} / {s['learned_exact']:.0%} | {s['rule_p95']:.0f} / {s['learned_p95']:.0f} / "
-              f"{s['artist_p95']:.0f} | {s['flips_keep']:.3f} / {s['flips_rule']:.3f} / {s['flips_learned']:.3f} / "
-              f"{s['flips_artist']:.3f} |")
-    s = summary(rows)
-    print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {args.method}")
+    report(rows, args.method)
     if args.json:
         args.json.write_text(json.dumps({"rows": rows, "overall": s}, indent=1))
 
