@@ -30,7 +30,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from spinemesh.rig import train_choice as tc  # noqa: E402
-from spinemesh.rig.learned import FEATURES, MODEL_PATH, REACH  # noqa: E402
+from spinemesh.rig.learned import CHAIN_REACH, FEATURES, MODEL_PATH, REACH  # noqa: E402
 
 
 def table(rows: list[tuple[str, dict]]) -> None:
@@ -55,12 +55,15 @@ def main() -> None:
     ap.add_argument("--reuse-folds", action="store_true", help="judge with the fold models already in "
                     "--fold-models (fitted on the same dataset) instead of fitting them again")
     ap.add_argument("--reach", type=float, default=REACH, help="candidates' reach, share of the art's diagonal")
+    ap.add_argument("--chain-reach", type=float, default=CHAIN_REACH,
+                    help="candidates' reach along the slot bone's chain, share of the art's diagonal")
     ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
     args = ap.parse_args()
 
     start = time.perf_counter()
     data = tc.build_dataset(tc.training_skeletons(args.examples, args.corpus), args.cache,
-                            log=lambda s: print(s, file=sys.stderr, flush=True), reach=args.reach)
+                            log=lambda s: print(s, file=sys.stderr, flush=True), reach=args.reach,
+                            chain_reach=args.chain_reach)
     meshes = len(data["group"])
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "

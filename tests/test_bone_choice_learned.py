@@ -84,6 +84,23 @@ def test_candidates_reach_is_a_share_of_the_art_diagonal():
     assert {row[COL["candidate_count"]] for row in near.features} == {4}
 
 
+def test_candidates_reach_farther_along_the_slot_bones_chain_only_when_asked():
+    doc = _worm_mesh_doc()
+    # 100 units past the art's end (0.41 of its diagonal): one below the slot bone, one beside the chain
+    doc["bones"] += [{"name": "tail", "parent": "seg3", "x": 180, "length": 30},
+                     {"name": "loose", "parent": "root", "x": 220, "length": 30}]
+    rig, ref, mesh, world, tris = _mesh_of(doc)
+    names = [b.name for b in rig.bones]
+    slot = rig.slot_bone["worm"]
+    default = candidates(rig.bones, slot, world, tris, set(), {})
+    assert {names[i] for i in default.bones} == {"root", "seg1", "seg2", "seg3", "beside"}
+    along = candidates(rig.bones, slot, world, tris, set(), {}, chain_reach=0.5)
+    assert {names[i] for i in along.bones} == {"root", "seg1", "seg2", "seg3", "beside", "tail"}
+    tail = dict(zip(FEATURES, along.features[along.bones.index(names.index("tail"))]))
+    assert tail["is_descendant"] == 1 and tail["tree_distance"] == 3 and tail["share_over_art"] == 0
+    assert tail["distance_per_diag"] == pytest.approx(100 / np.hypot(240, 40), rel=1e-6)
+
+
 def test_constraint_roles_are_read_from_every_kind():
     doc = {"bones": [{"name": "a"}, {"name": "b"}, {"name": "c"}, {"name": "t"}],
            "ik": [{"name": "leg", "bones": ["b", "c"], "target": "t"}],

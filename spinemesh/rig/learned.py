@@ -35,6 +35,13 @@ from .constraints import constraints_of
 #: artists' bones (the rest lie farther out: handles on effects, whole-body bones).
 REACH = 0.25
 
+#: Bones along the slot bone's chain (its ancestors and the bones below it) are candidates
+#: within this share of the art's diagonal (at most ``REACH``: none beyond it). Two thirds of
+#: the artists' bones beyond ``REACH`` lie along that chain, but measured held out, 1.0 (the
+#: artist's bones among the candidates on 90% of the meshes instead of 83%) chose the artist's
+#: exact set no more often (29.9% against 29.8%): kept at ``REACH`` for measuring.
+CHAIN_REACH = REACH
+
 #: Sample points along each segment for its distances to the art (the rule samples 65; the
 #: features need less: a share of a bone over the art to 1/32).
 SEGMENT_SAMPLES = 33
@@ -166,7 +173,8 @@ def _nearest_shares(bones, ids: list[int], world: np.ndarray) -> np.ndarray:
 
 
 def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-               constrained: dict[int, str] | None = None, reach: float = REACH) -> Candidates:
+               constrained: dict[int, str] | None = None, reach: float = REACH,
+               chain_reach: float = CHAIN_REACH) -> Candidates:
     """The candidate bones of one mesh and their features (:data:`FEATURES`).
 
     Parameters
@@ -185,19 +193,24 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     reach : float
         Bones within this share of the art's diagonal are candidates (default :data:`REACH`;
         the shipped model was fitted with it).
+    chain_reach : float
+        Bones along the slot bone's chain (ancestors and descendants) are candidates within
+        this share (default :data:`CHAIN_REACH`; at most ``reach`` adds none).
     """
     constrained = constrained or {}
     diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
-    sampled, dist = sample_distances(bones, world, triangles, reach * diag)
+    sampled, dist = sample_distances(bones, world, triangles, max(reach, chain_reach) * diag)
     over = _on_art(bones, sampled, dist, 0.0)
     near = _on_art(bones, sampled, dist, NEAR * diag)
     closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
     ends = dict(zip(sampled.tolist(), (dist[:, [0, -1]] <= 0).tolist()))
-    ids = sorted({i for i, d in closest.items() if d <= reach * diag} | {slot_bone})
+    slot_chain = _chain(bones, slot_bone)
+    along = {i for i, d in closest.items() if reach * diag < d <= chain_reach * diag
+             and (i in slot_chain or slot_bone in _chain(bones, i))}
+    ids = sorted({i for i, d in closest.items() if d <= reach * diag} | along | {slot_bone})
     rule = choose_by_rule(bones, slot_bone, world, triangles, skin_bones)
     nearest = _nearest_shares(bones, ids, world)
 
-    slot_chain = _chain(bones, slot_bone)
     slot_depth = len(slot_chain) - 1
     on_art = [i for i in over if bones[i].parent is not None]
     ranked = sorted(on_art, key=lambda i: -over[i])

@@ -22,7 +22,7 @@ from ..skeleton import iter_attachments, load_skeleton
 from . import bone_sets
 from .binding import parse_vertices, setup_world
 from .document import build_rig
-from .learned import FEATURES, REACH, TreeEnsemble, candidates
+from .learned import CHAIN_REACH, FEATURES, REACH, TreeEnsemble, candidates
 
 #: Project-held-out folds.
 FOLDS = 5
@@ -65,7 +65,7 @@ def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple
     return out
 
 
-def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
+def mesh_rows(doc: dict, reach: float = REACH, chain_reach: float = CHAIN_REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels.
 
     Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
@@ -97,7 +97,7 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
         if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
             continue
         cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
-                          reach=reach)
+                          reach=reach, chain_reach=chain_reach)
         parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
         out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
                         label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
@@ -106,10 +106,10 @@ def mesh_rows(doc: dict, reach: float = REACH) -> list[dict]:
 
 
 def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=print,
-                  reach: float = REACH) -> dict[str, np.ndarray]:
+                  reach: float = REACH, chain_reach: float = CHAIN_REACH) -> dict[str, np.ndarray]:
     """The dataset of :func:`mesh_rows` over skeletons, as flat arrays; cached as ``.npz`` when ``cache``.
 
-    ``reach``: the candidates' reach (:func:`.learned.candidates`).
+    ``reach``, ``chain_reach``: the candidates' reach (:func:`.learned.candidates`).
 
     Returns
     -------
@@ -134,7 +134,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
         if not isinstance(doc, dict) or not isinstance(doc.get("bones"), list):
             continue
         try:
-            rows = mesh_rows(doc, reach)
+            rows = mesh_rows(doc, reach, chain_reach)
         except (SpineMeshError, ValueError, np.linalg.LinAlgError) as e:
             log(f"{path}: left out: {e}")
             continue
