@@ -254,11 +254,25 @@ def by_project(rows: list[dict]) -> dict[str, list[dict]]:
     return out
 
 
-def spread(rows: list[dict]) -> dict:
+#: Resamples of the projects for the interval of the median ratio (:func:`spread`).
+RESAMPLES = 1000
+
+
+def _ratios(rows: list[dict], mode: str) -> np.ndarray:
+    """Each row's ratio to the rigid baseline (NaN where the baseline is within ``RIGID_FLOOR``)."""
+    return np.array([r[mode] / r["rigid"] if r[mode] is not None and r["rigid"] and r["rigid"] > RIGID_FLOOR
+                     else np.nan for r in rows])
+
+
+def spread(rows: list[dict], seed: int = 0) -> dict:
     """How much the overall ratios hang on single projects: per mode, the median over projects of
-    each project's median ratio, and the overall median ratio without the project of most meshes
-    (``largest``, its share of the meshes ``largest_share``)."""
+    each project's median ratio, the overall median ratio without the project of most meshes
+    (``largest``, its share of the meshes ``largest_share``), and the 5th and 95th percentiles of
+    the median ratio over ``RESAMPLES`` draws of as many projects, with replacement."""
     projects = by_project(rows)
+    names = sorted(projects)
+    rng = np.random.default_rng(seed)
+    draws = [rng.integers(0, len(names), len(names)) for _ in range(RESAMPLES)] if names else []
     largest = max(projects, key=lambda k: len(projects[k])) if projects else ""
     rest = [r for r in rows if r["project"] != largest]
     out = {"projects": len(projects), "largest": largest,
@@ -268,6 +282,10 @@ def spread(rows: list[dict]) -> dict:
         per = [x for x in per if x == x]  # projects whose every mesh moves rigidly have no ratio
         out[f"{m}_project_median"] = statistics.median(per) if per else float("nan")
         out[f"{m}_without_largest"] = summary(rest)[f"{m}_ratio"] if rest else float("nan")
+        each = [_ratios(projects[k], m) for k in names]
+        medians = [np.nanmedian(np.concatenate([each[i] for i in d])) for d in draws
+                   if not np.isnan(np.concatenate([each[i] for i in d])).all()]
+        out[f"{m}_interval"] = tuple(np.percentile(medians, [5, 95])) if medians else (float("nan"),) * 2
     return out
 
 
@@ -287,7 +305,9 @@ def report(rows: list[dict], method: str) -> None:
     print(f"\n{sp['projects']} projects; median over projects of their median ratio: "
           + ", ".join(f"{m} {sp[m + '_project_median']:.2f}" for m in MODES)
           + f"\nwithout {sp['largest']} ({sp['largest_share']:.0%} of the meshes): "
-          + ", ".join(f"{m} {sp[m + '_without_largest']:.2f}" for m in MODES))
+          + ", ".join(f"{m} {sp[m + '_without_largest']:.2f}" for m in MODES)
+          + f"\nmedian ratio over {RESAMPLES} draws of the projects, 5th-95th percentile: "
+          + ", ".join(f"{m} {sp[m + '_interval'][0]:.2f}-{sp[m + '_interval'][1]:.2f}" for m in MODES))
     s = summary(rows)
     print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {method}")
 
