@@ -1,7 +1,8 @@
 """Rig replay: our automatic weights against the artists', played in the official runtime.
 
     .venv/bin/python benchmarks/bench_weights.py [--examples 4.2] [--corpus N] [--method bbw]
-        [--anims 4] [--times 4] [--tool DIR] [--json OUT]
+        [--anims 4] [--times 4] [--tool DIR] [--every K] [--start S] [--json OUT]
+    .venv/bin/python benchmarks/bench_weights.py --merge OUT1 OUT2 ...
 
 For every artist-weighted mesh attachment not keyed by deform timelines, the weights are
 recomputed with ``--replace --bones keep`` (the artist's vertices and bones), with
@@ -18,7 +19,12 @@ median ratio to the baseline (attachments whose baseline is within ``RIGID_FLOOR
 ratio), for keep, rule and learned, the share of meshes bound to exactly the artist's
 bones and the bones per mesh (95th percentile) against the artists', and the share of triangles that flip (signed area changes sign
 against the setup pose) in the sampled frames, ours and the artists'. Setup-pose drift
-(largest vertex distance in the setup pose, ours against the artists') is printed too.
+(largest vertex distance in the setup pose, ours against the artists') is printed too, and how
+much the overall ratios hang on single projects: the median over projects of their median
+ratios, the ratios without the project of most meshes, and the 5th-95th percentile of the median
+ratio over draws of the projects with replacement. ``--every K --start S`` replays every K-th
+skeleton from the S-th; ``--merge`` judges the ``--json`` files of such runs together (the K
+runs, one per start: every skeleton).
 
 Needs Node and ``npm ci`` in the tool folder (``--tool`` names an installed copy).
 """
