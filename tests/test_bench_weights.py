@@ -1,0 +1,57 @@
+"""benchmarks/bench_weights.py: how the replay's ratios are summed up, and runs judged together."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import bench_weights  # noqa: E402
+
+
+def _row(project: str, keep: float, rule: float, learned: float, rigid: float = 1.0) -> dict:
+    """One replayed mesh: errors per mode against a rigid error, two bones each, the artist's kept."""
+    return {"project": project, "skeleton": "s.json", "slot": "s", "attachment": "a", "setup_drift": 0.0,
+            "keep": keep, "rule": rule, "learned": learned, "rigid": rigid,
+            **{f"flips_{m}": [0, 1] for m in (*bench_weights.MODES, "artist")},
+            "bones_keep": [1, 2], "bones_rule": [1, 2, 3], "bones_learned": [1, 2]}
+
+
+def _rows() -> list[dict]:
+    # a project of three meshes replaying at the rigid error and one of a single mesh at 3x it
+    return [_row("big", 1.0, 2.0, 1.0) for _ in range(3)] + [_row("small", 1.0, 2.0, 3.0)]
+
+
+def test_spread_weighs_projects_alike_and_leaves_out_the_largest():
+    sp = bench_weights.spread(_rows())
+    assert sp["projects"] == 2 and sp["largest"] == "big" and sp["largest_share"] == pytest.approx(0.75)
+    assert bench_weights.summary(_rows())["learned_ratio"] == pytest.approx(1.0)   # 3 meshes of 4 at 1x
+    assert sp["learned_project_median"] == pytest.approx(2.0)                       # median of 1x and 3x
+    assert sp["learned_without_largest"] == pytest.approx(3.0)
+    low, high = sp["learned_interval"]
+    assert 1.0 <= low <= high <= 3.0 and high == pytest.approx(3.0)   # some draws hold only "small"
+    assert sp["rule_interval"] == pytest.approx((2.0, 2.0))
+
+
+def test_ratios_leave_out_meshes_the_rigid_baseline_already_places():
+    rows = _rows() + [_row("still", 0.01, 0.01, 5.0, rigid=bench_weights.RIGID_FLOOR / 2)]
+    ratios = bench_weights._ratios(rows, "learned")
+    assert ratios[:4].tolist() == [1.0, 1.0, 1.0, 3.0] and ratios[4] != ratios[4]   # NaN
+    assert bench_weights.summary(rows)["learned_ratio"] == pytest.approx(1.0)
+
+
+def test_merge_judges_earlier_runs_together(tmp_path, monkeypatch, capsys):
+    rows = _rows()
+    for k, part in enumerate((rows[:2], rows[2:])):
+        (tmp_path / f"run-{k}.json").write_text(json.dumps({"rows": part}))
+    monkeypatch.setattr(sys, "argv", ["bench_weights.py", "--merge", str(tmp_path / "run-0.json"),
+                                      str(tmp_path / "run-1.json"), "--json", str(tmp_path / "all.json")])
+    bench_weights.main()
+    out = capsys.readouterr().out
+    assert "| **all** | 4 |" in out and "2 projects" in out and "without big (75% of the meshes)" in out
+    assert json.loads((tmp_path / "all.json").read_text())["overall"]["meshes"] == 4
