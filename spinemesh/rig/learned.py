@@ -36,7 +36,7 @@ from .constraints import constraints_of
 REACH = 0.25
 
 #: Bones along the slot bone's chain (its ancestors and the bones below it) are candidates
-#: within this share of the art's diagonal (at most ``REACH``: none beyond it). Two thirds of
+#: within this share of the art's diagonal (at most ``REACH``: none beyond it). Nearly two thirds of
 #: the artists' bones beyond ``REACH`` lie along that chain, but measured held out, 1.0 (the
 #: artist's bones among the candidates on 90% of the meshes instead of 83%) chose the artist's
 #: exact set no more often (29.9% against 29.8%) and replayed worse (offline median ratio to
