@@ -55,3 +55,17 @@ def test_merge_judges_earlier_runs_together(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "| **all** | 4 |" in out and "2 projects" in out and "without big (75% of the meshes)" in out
     assert json.loads((tmp_path / "all.json").read_text())["overall"]["meshes"] == 4
+
+
+def test_offline_replay_counts_a_mesh_drawn_nowhere_as_the_worst():
+    import numpy as np
+
+    import bench_weights_offline as offline
+
+    # one vertex bound to one bone, replayed over one frame where that bone is scaled to nothing (NaN)
+    case = {"world": np.array([[1.0, 0.0]]), "setup_matrices": np.array([[[1.0, 0, 0], [0, 1.0, 0]]]),
+            "frame_matrices": np.full((1, 1, 2, 3), np.nan), "frame_vertices": np.array([[[1.0, 0.0]]])}
+    assert offline.replay(case, np.ones((1, 1)), [0]) == float("inf")
+    cases = [{"rigid": 1.0, "bones": [0]}, {"rigid": 1.0, "bones": [0]}, {"rigid": 1.0, "bones": [0]}]
+    judged = offline.judge(cases, {0: 1.0, 1: 2.0, 2: float("inf")}, {0: [0], 1: [0], 2: [1]})
+    assert judged["ratio"] == 2.0 and np.isfinite(judged["geomean"]) and judged["exact"] == 2 / 3
