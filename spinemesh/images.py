@@ -98,12 +98,7 @@ class RegionImage:
     def place(self, part: np.ndarray) -> np.ndarray:
         """``part`` (the stored part's values, (h, w, ...)) at the original size, zero elsewhere;
         ``part`` itself when the stored part is the whole image."""
-        if part.shape[:2] == self.shape[:2]:
-            return part
-        x0, y0, x1, y1 = self.content
-        out = np.zeros(self.shape[:2] + part.shape[2:], part.dtype)
-        out[y0:y1, x0:x1] = part
-        return out
+        return placed(part, self.shape[:2], self.content)
 
     @property
     def rgba(self) -> np.ndarray:
@@ -429,11 +424,17 @@ def upright_at_original_size(stored: np.ndarray, region: AtlasRegion, source: st
         Zero where whitespace was stripped; ``stored`` itself (a view of the page, turned if
         the region is rotated) when nothing was.
     """
-    part, (height, width), content = upright_part(stored, region, source)
-    if part.shape[:2] == (height, width):
-        return part  # nothing was stripped: the page's texels themselves (a view)
+    part, size, content = upright_part(stored, region, source)
+    return placed(part, size, content)
+
+
+def placed(part: np.ndarray, size: tuple[int, int], content: tuple[int, int, int, int]) -> np.ndarray:
+    """``part`` (h, w, ...) at ``(x0, y0, x1, y1) = content`` in an image of ``size`` (height,
+    width), zero elsewhere; ``part`` itself (a view stays a view) when it fills that size."""
+    if part.shape[:2] == tuple(size):
+        return part
     x0, y0, x1, y1 = content
-    out = np.zeros((height, width) + part.shape[2:], part.dtype)
+    out = np.zeros(tuple(size) + part.shape[2:], part.dtype)
     out[y0:y1, x0:x1] = part
     return out
 

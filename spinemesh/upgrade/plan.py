@@ -123,20 +123,16 @@ def task_for_frames(frames: list[RegionImage], options: Options,
         shape, (x0, y0, x1, y1) = one.shape, one.content
         part = one.stored[0]
         drawn_part, shown_part = one.stored_masks()
-        if options.mask != "model" and not drawn_part.any():
-            return None, "kept", "image is fully transparent"
         drawn = _to_cover(drawn_part, shown_part, blend)
-        if options.mask != "model" and not drawn.any():
-            return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+        if reason := _nothing_to_mesh(options, drawn_part.any(), drawn):
+            return None, "kept", reason
         crop, drawn = np.ascontiguousarray(part), np.ascontiguousarray(drawn)
     else:
         rgba = composite_image([f.rgba for f in frames])
         shape = rgba.shape
-        if options.mask != "model" and not _any_frame([f.drawn for f in frames]).any():
-            return None, "kept", "image is fully transparent"
         drawn = _any_frame(texels_to_cover(frames, blend))
-        if options.mask != "model" and not drawn.any():
-            return None, "kept", f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+        if reason := _nothing_to_mesh(options, _any_frame([f.drawn for f in frames]).any(), drawn):
+            return None, "kept", reason
         box = stored_box([f.content for f in frames])
         if box is None or not _inside(drawn, box):
             if not options.repack:
@@ -168,6 +164,18 @@ def texels_to_cover(frames: list[RegionImage], blend: str) -> list[np.ndarray]:
     particle layers lost 44,509 visible pixels (worst 16/255).
     """
     return [_to_cover(f.drawn, f.shown, blend) for f in frames]
+
+
+def _nothing_to_mesh(options: Options, anything_drawn: bool, to_cover: np.ndarray) -> str:
+    """Why an image with the alpha mask stays a region before meshing: ``""``, or nothing drawn
+    at all, or only texels too faint to cover (``to_cover``, from :func:`texels_to_cover`)."""
+    if options.mask == "model":
+        return ""
+    if not anything_drawn:
+        return "image is fully transparent"
+    if not to_cover.any():
+        return f"only faint texels (none above {FAINT_TEXEL}/255), drawn with normal blending"
+    return ""
 
 
 def _to_cover(drawn: np.ndarray, shown: np.ndarray, blend: str) -> np.ndarray:
