@@ -289,8 +289,8 @@ def spread(rows: list[dict], seed: int = 0) -> dict:
         out[f"{m}_project_median"] = statistics.median(per) if per else float("nan")
         out[f"{m}_without_largest"] = summary(rest)[f"{m}_ratio"] if rest else float("nan")
         each = [_ratios(projects[k], m) for k in names]
-        medians = [np.nanmedian(np.concatenate([each[i] for i in d])) for d in draws
-                   if not np.isnan(np.concatenate([each[i] for i in d])).all()]
+        drawn = (np.concatenate([each[i] for i in d]) for d in draws)
+        medians = [np.nanmedian(x) for x in drawn if not np.isnan(x).all()]
         out[f"{m}_interval"] = tuple(np.percentile(medians, [5, 95])) if medians else (float("nan"),) * 2
     return out
 
@@ -336,16 +336,20 @@ def main() -> None:
     ap.add_argument("--merge", type=Path, nargs="+", help="print the tables of earlier runs' --json files "
                     "together (runs with --every K and each --start), replaying nothing")
     args = ap.parse_args()
-    from spinemesh.rig import train_choice
-
     if args.merge:
         rows = [r for f in args.merge for r in json.loads(f.read_text())["rows"]]
-        report(rows, args.method)
-        if args.json:
-            args.json.write_text(json.dumps({"rows": rows, "overall": summary(rows)}, indent=1))
-        return
-    if args.tool is None:
+    elif args.tool is None:
         ap.error("--tool is needed to replay (or --merge earlier runs)")
+    else:
+        rows = replay_all(args)
+    report(rows, args.method)
+    if args.json:
+        args.json.write_text(json.dumps({"rows": rows, "overall": summary(rows)}, indent=1))
+
+
+def replay_all(args: argparse.Namespace) -> list[dict]:
+    """Replay every ``--every``-th skeleton from ``--start``, printing a line per skeleton; the rows."""
+    from spinemesh.rig import train_choice
 
     models = train_choice.load_fold_models(args.fold_models)
     rows = []
@@ -364,9 +368,7 @@ def main() -> None:
             print(f"{label:34s} {skel.name:28s} n={s['meshes']:3d} "
                   + " ".join(f"{m} {s[m]:7.2f} ({s[m + '_ratio']:.2f}x)" for m in MODES)
                   + f" rigid {s['rigid']:7.2f} setup {s['setup_drift']:.3f}", flush=True)
-    report(rows, args.method)
-    if args.json:
-        args.json.write_text(json.dumps({"rows": rows, "overall": s}, indent=1))
+    return rows
 
 
 if __name__ == "__main__":
