@@ -123,12 +123,20 @@ def _arc_subdivide(c: np.ndarray, keys: np.ndarray, l_max: float) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- default
-def bridge_islands(mask: np.ndarray, width: int = 3) -> np.ndarray:
+def pieces(mask: np.ndarray) -> tuple[int, np.ndarray]:
+    """The 8-connected pieces of ``mask`` (H, W) bool: ``(n, labels)``, ``n`` counting the
+    background as one label and ``labels`` (H, W) int32, as ``cv2.connectedComponents``
+    gives them."""
+    return cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)
+
+
+def bridge_islands(mask: np.ndarray, width: int = 3, labels: tuple[int, np.ndarray] | None = None) -> np.ndarray:
     """Join all 8-connected pieces of ``mask`` with the shortest bridges (a spanning tree).
 
-    Returns a mask with the bridges drawn in (a superset of ``mask``, one piece).
+    ``labels``: :func:`pieces` of ``mask`` when the caller has them already. Returns a mask
+    with the bridges drawn in (a superset of ``mask``, one piece).
     """
-    n, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+    n, labels = pieces(mask) if labels is None else labels
     if n <= 2:
         return mask
     out = mask.astype(np.uint8).copy()
@@ -344,11 +352,13 @@ def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tup
     (``min_distance``); the first that gives a simple loop.
     """
     contour = outer_contour(region)
+    points = contour.astype(np.float64)
     orient = 1.0
-    c_orient = np.sign(signed_area(contour.astype(np.float64))) or 1.0
+    c_orient = np.sign(signed_area(points)) or 1.0
     first = None
+    splits: dict = {}  # each finer tolerance refines the coarser one's splits (dp_indices)
     for e in tolerances:
-        keys = dp_indices(contour.astype(np.float64), e)
+        keys = dp_indices(points, e, splits=splits)
         if len(keys) < 3:
             continue
         loop = _push_out(contour, keys, c_orient)
@@ -371,8 +381,8 @@ def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tup
     return first
 
 
-def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
-                  min_distance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5, min_distance: float = 0.0,
+                  labels: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One simple loop containing every pixel square of ``cover``, with few vertices.
 
     Parameters
@@ -388,6 +398,8 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
     min_distance : float
         Vertices closer than this (px) to their successor are dropped where the loop still
         covers the art without them.
+    labels : (int, ndarray), optional
+        :func:`pieces` of ``cover``, when the caller has them already.
 
     The loop is clipped to the image rectangle ``[0, W] x [0, H]``: UVs outside the image
     would sample neighbouring regions of the atlas page.
@@ -399,7 +411,7 @@ def covering_hull(cover: np.ndarray, eps: float, close_kernel: int = 5,
     region : ndarray, shape (H, W), bool
         The bridged, closed mask the loop wraps (its holes are candidate mesh holes).
     """
-    bridged = bridge_islands(cover)
+    bridged = bridge_islands(cover, labels=labels)
     region = _closed(bridged, close_kernel)
     tolerances = (eps, eps / 2, eps / 4, 0.5)
     loop = _simple_covering_loop(region, cover, tolerances, min_distance)

@@ -21,7 +21,7 @@ def signed_area(loop: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
-def dp_indices(points: np.ndarray, eps: float, closed: bool = True) -> np.ndarray:
+def dp_indices(points: np.ndarray, eps: float, closed: bool = True, splits: dict | None = None) -> np.ndarray:
     """Douglas-Peucker simplification, returning the indices of the kept points (sorted).
 
     Our own few lines rather than ``cv2.approxPolyDP`` because the exterior step needs to know
@@ -35,42 +35,60 @@ def dp_indices(points: np.ndarray, eps: float, closed: bool = True) -> np.ndarra
     closed : bool
         Treat ``points`` as a loop (the first point is always kept, and the farthest point
         from it splits the loop in two chains).
+    splits : dict, optional
+        The farthest point of each stretch, kept between calls on the same ``points`` and
+        ``closed``: where a stretch splits does not depend on ``eps`` (only whether it does),
+        so a finer tolerance after a coarser one computes only the stretches the coarser
+        one did not split. Filled by the call; the caller gives an empty dict for new points.
     """
     n = len(points)
     if n <= 2:
         return np.arange(n)
+    splits = {} if splits is None else splits
     if closed:
-        far = int(np.argmax(np.hypot(*(points - points[0]).T)))
+        if "far" not in splits:
+            splits["far"] = int(np.argmax(np.hypot(*(points - points[0]).T)))
+        far = splits["far"]
         if far == 0:
             return np.array([0])
         ext = np.vstack([points, points[:1]])
-        a = _dp(ext, 0, far, eps)
-        b = _dp(ext, far, n, eps)
+        a = _dp(ext, 0, far, eps, splits)
+        b = _dp(ext, far, n, eps, splits)
         idx = np.unique(np.concatenate([a, b])) % n
         return np.unique(idx)
-    return _dp(points, 0, n - 1, eps)
+    return _dp(points, 0, n - 1, eps, splits)
 
 
-def _dp(points: np.ndarray, i0: int, i1: int, eps: float) -> np.ndarray:
+def _dp(points: np.ndarray, i0: int, i1: int, eps: float, splits: dict) -> np.ndarray:
+    """The kept indices between ``i0`` and ``i1``; each stretch's farthest point ``(k, distance)``
+    is looked up in (or added to) ``splits``."""
     keep = [i0, i1]
     stack = [(i0, i1)]
     while stack:
         a, b = stack.pop()
         if b - a < 2:
             continue
-        seg = points[a + 1:b]
-        if b - a > LONG_STRETCH:
-            k, far = _farthest(_point_segment_offsets(seg, points[a], points[b]))
-        else:
-            d = _point_segment_distance(seg, points[a], points[b])
-            k = int(np.argmax(d))
-            far = d[k]
+        found = splits.get((a, b))
+        if found is None:
+            found = splits[(a, b)] = _farthest_of_stretch(points, a, b)
+        k, far = found
         if far > eps:
             m = a + 1 + k
             keep.append(m)
             stack.append((a, m))
             stack.append((m, b))
     return np.array(sorted(set(keep)))
+
+
+def _farthest_of_stretch(points: np.ndarray, a: int, b: int) -> tuple[int, float]:
+    """``(k, d)``: the point ``a + 1 + k`` of ``points[a + 1:b]`` farthest from the segment
+    ``points[a]``-``points[b]``, and its distance (the first of equal ones)."""
+    seg = points[a + 1:b]
+    if b - a > LONG_STRETCH:
+        return _farthest(_point_segment_offsets(seg, points[a], points[b]))
+    d = _point_segment_distance(seg, points[a], points[b])
+    k = int(np.argmax(d))
+    return k, d[k]
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

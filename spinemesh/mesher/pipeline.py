@@ -125,15 +125,19 @@ def _default(image: np.ndarray, mask: np.ndarray, p: MesherParams) -> Mesh:
     # low-res squares covers the full-res ones exactly once scaled by s.
     s = max(1, int(np.ceil(max(h, w) / max(p.analysis_max_side, 16))))
     cover = _maxpool(mask, s)
+    labels = None  # the pieces of cover: counted by rule 2, then bridged by the hull
     if p.min_saving is not None:  # keep-region rules 1 and 2, before any geometry
-        reason = art_share_reason(mask, p.min_saving) or islands_reason(cover, pixel_area=s * s)
+        reason = art_share_reason(mask, p.min_saving)
+        if not reason:
+            labels = exterior.pieces(cover)
+            reason = islands_reason(cover, pixel_area=s * s, labels=labels)
         if reason:
             raise NotWorthMeshing(reason)
     density = max(p.density, 1e-6)
     eps = max(0.5, p.hull_tolerance * np.sqrt(float(cover.sum())) / density)
     if p.max_hull_tolerance > 0:  # large art: a few more hull vertices save many pixels
         eps = max(0.5, min(eps, p.max_hull_tolerance / s))
-    loops = _hull_and_holes(cover, eps, p, s)
+    loops = _hull_and_holes(cover, eps, p, s, labels)
     if s > 1:
         # the analysis grid may overhang the image by < s px: clip exactly at full size
         loops = [clip_loop_to_rect(loops[0] * s, w, h)] + [l * s for l in loops[1:]]
@@ -169,14 +173,16 @@ def _inset_hull(loops: list[np.ndarray], distance: float, w: int, h: int) -> np.
     return inset
 
 
-def _hull_and_holes(cover: np.ndarray, eps: float, p: MesherParams, s: int) -> list[np.ndarray]:
+def _hull_and_holes(cover: np.ndarray, eps: float, p: MesherParams, s: int,
+                    labels: tuple[int, np.ndarray] | None = None) -> list[np.ndarray]:
     """The covering hull and the hole loops, in analysis pixels, within ``max_vertices``.
 
     Over the budget, holes are given up first (last first), then the hull is simplified
-    further (``eps`` x 1.5 per try) until the loops fit or cannot shrink.
+    further (``eps`` x 1.5 per try) until the loops fit or cannot shrink. ``labels``:
+    :func:`~.exterior.pieces` of ``cover``, when known.
     """
     budget = p.max_vertices
-    hull, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
+    hull, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s, labels=labels)
     holes = exterior.hole_loops(region, cover, p.min_hole_area / (s * s), eps)
     while budget is not None and len(hull) + sum(map(len, holes)) > budget:
         if holes:
@@ -185,7 +191,7 @@ def _hull_and_holes(cover: np.ndarray, eps: float, p: MesherParams, s: int) -> l
         if len(hull) <= 3:
             break
         eps *= 1.5
-        new, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s)
+        new, region = exterior.covering_hull(cover, eps, min_distance=p.min_vertex_distance / s, labels=labels)
         if len(new) >= len(hull) and eps > 4 * max(cover.shape):
             break
         hull = new if len(new) < len(hull) else hull

@@ -146,6 +146,11 @@ def _open_squares_walk(segments: list, h: int, w: int) -> Iterator[tuple[int, in
     floor, ceil = math.floor, math.ceil
     work = 0
     for (x0, y0), (x1, y1) in segments:
+        if (x0 == x1 and x0 == floor(x0)) or (y0 == y1 and y0 == floor(y0)):
+            # along a grid line (the image border, where a hull is clipped): every piece's
+            # midpoint keeps that whole coordinate (``x0 + tm * 0.0`` is ``x0``), so no open
+            # square is crossed; not walked, and not counted towards FEW_CROSSINGS
+            continue
         ts = [0.0, 1.0]
         for a0, a1 in ((x0, x1), (y0, y1)):
             if a0 == a1:  # along a grid line or not, it crosses none of this axis's lines

@@ -89,14 +89,18 @@ def art_share_reason(mask: np.ndarray, min_saving: float) -> str:
 
 
 def islands_reason(mask: np.ndarray, pixel_area: float = 1.0, max_vertices: int = MAX_HULL_VERTICES,
-                   min_per_vertex: float = MIN_PIXELS_PER_VERTEX) -> str:
+                   min_per_vertex: float = MIN_PIXELS_PER_VERTEX, labels: tuple[int, np.ndarray] | None = None) -> str:
     """Rule 2: ``""``, or why the separate pieces of ``mask`` cost more vertices than they save.
 
     ``mask`` may be a block-maximum downscale of the art (what the hull is built on); then
     its pieces are counted at that scale and each of its pixels stands for ``pixel_area``
-    full-size pixels.
+    full-size pixels. ``labels``: ``mask``'s 8-connected pieces as
+    :func:`~.exterior.pieces` gives them, when the caller has them already (the hull
+    bridges the same pieces).
     """
-    need = VERTICES_PER_ISLAND * (cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)[0] - 1)
+    if labels is None:
+        labels = cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)
+    need = VERTICES_PER_ISLAND * (labels[0] - 1)
     if need <= max_vertices:
         return ""
     best = pixel_area * float(mask.size - np.count_nonzero(mask)) / need  # pixels saved per vertex, at best
