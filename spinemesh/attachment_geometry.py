@@ -105,7 +105,18 @@ def float32_exact(value: float) -> float:
     Runtimes store vertices as float32: written this way, a JSON number loads as exactly the
     float32 a binary skeleton would hold, and no digit is spent beyond that.
     """
-    return float(np.format_float_positional(np.float32(value), unique=True, trim="-"))
+    return float32_exact_all(np.float64(value))[0]
+
+
+def float32_exact_all(values: np.ndarray) -> list[float]:
+    """:func:`float32_exact` of every value of ``values`` (any shape), flattened in order.
+
+    A float32's ``str`` is its shortest round-tripping digits (Dragon4, as
+    ``np.format_float_positional(..., unique=True)`` gives them, in scientific form for
+    very small or large values, which reads back as the same number); one conversion of
+    the array instead of one per value.
+    """
+    return [float(str(v)) for v in np.asarray(values, np.float64).astype(np.float32).ravel()]
 
 
 def uvs_of(vertices: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -149,7 +160,7 @@ def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray
         "color": region.get("color"),
         "uvs": [round(float(c), 6) for c in uv.ravel()],
         "triangles": [int(i) for i in np.asarray(triangles).ravel()],
-        "vertices": [float32_exact(c) for c in pos.ravel()],
+        "vertices": float32_exact_all(pos),
         "hull": int(hull),
         "sequence": region.get("sequence"),
         "edges": [int(i) * 2 for i in np.asarray(edges).ravel()],

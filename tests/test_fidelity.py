@@ -230,3 +230,20 @@ def test_bleeding_border_is_the_dilation_of_the_whole_frame():
             assert np.array_equal(bleeding_border(page, region, pma), expected)
             checked += expected.any()
     assert checked > 100
+
+
+def test_float32_exact_of_an_array_is_that_of_each_value():
+    """float32_exact_all gives, value by value, the float of np.format_float_positional(unique=True)
+    of the float32: small, large, negative zero and overflowing values included."""
+    from spinemesh.attachment_geometry import float32_exact_all
+
+    rng = np.random.default_rng(5)
+    values = np.concatenate([rng.normal(0, 1, 20000) * 10.0 ** rng.integers(-40, 39, 20000),
+                             rng.uniform(-2000, 2000, 20000), np.round(rng.uniform(-2000, 2000, 5000), 2),
+                             [0.0, -0.0, 1e-45, -1e-45, 3.4e38, 1e39, 0.1, 1 / 3, 1e7, 1e16]]).reshape(-1, 5)
+    with np.errstate(over="ignore"):
+        expected = [float(np.format_float_positional(np.float32(v), unique=True, trim="-")) for v in values.ravel()]
+        got = float32_exact_all(values)
+    assert len(got) == values.size
+    assert all(a == b and np.copysign(1, a) == np.copysign(1, b) for a, b in zip(got, expected))
+    assert float32_exact(0.1) == 0.1 and float32_exact(1 / 3) == 0.33333334

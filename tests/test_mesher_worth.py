@@ -122,3 +122,17 @@ def test_reasons_print_a_saving_below_the_limit_they_name():
     reason = art_share_reason(mask, 0.05)
     assert "fills 95.2% of the region" in reason and "at most 4.8% fewer" in reason
     assert "(--min-saving 12.5%)" in art_share_reason(mask, 0.125)
+
+
+def test_pieces_labelled_once_give_the_same_reason_and_bridges():
+    """The pieces the keep rule counts, given to the bridges, give what each finds alone."""
+    from spinemesh.mesher import exterior
+    from spinemesh.mesher.worth import islands_reason
+
+    rng = np.random.default_rng(7)
+    for density in (0.002, 0.01, 0.05, 0.3):
+        mask = rng.random((60, 80)) < density
+        labels = exterior.pieces(mask)
+        assert islands_reason(mask, labels=labels) == islands_reason(mask)
+        assert islands_reason(mask, max_vertices=4, labels=labels) == islands_reason(mask, max_vertices=4)
+        assert np.array_equal(exterior.bridge_islands(mask, labels=labels), exterior.bridge_islands(mask))

@@ -92,3 +92,45 @@ def test_douglas_peucker_keeps_the_same_points_with_hypot_taken_only_near_the_fa
     monkeypatch.setattr(geometry, "LONG_STRETCH", 10 ** 9)
     for (p, eps, closed), kept in zip(cases, squared_first):
         assert np.array_equal(kept, geometry.dp_indices(p, eps, closed)), (p.tolist(), eps, closed)
+
+
+def test_segments_along_grid_lines_are_skipped_by_the_walk_as_the_array_walk_finds_nothing(monkeypatch):
+    """A segment lying on a grid line (the image border of a clipped hull) crosses no open square:
+    the walk leaves it out, with the same squares and answers as the array version."""
+    rng = np.random.default_rng(30)
+    cases = []
+    for trial in range(1500):
+        h, w = (int(v) for v in rng.integers(1, 40, 2))
+        s = _random_segments(rng, trial % 4)
+        on_line = rng.random(len(s)) < 0.5
+        axis = rng.integers(0, 2, len(s))
+        for i in np.flatnonzero(on_line):  # both ends on one whole x (or y), some on the border
+            value = float(rng.choice([0, w, h, int(rng.integers(-3, 43))]))
+            s[i, :, axis[i]] = value
+        cases.append((s, rng.random((h, w)) < rng.choice([0.2, 0.9])))
+    few = [(raster.crossed_pixels(s, art.shape), raster.any_crossed(s, art)) for s, art in cases]
+    monkeypatch.setattr(raster, "FEW_SEGMENTS", -1)  # the array walk for every case
+    skipped = 0
+    for (s, art), (crossed, hit) in zip(cases, few):
+        assert np.array_equal(crossed, raster.crossed_pixels(s, art.shape)), (s.tolist(), art.shape)
+        assert hit == bool((art & crossed).any())
+        skipped += int(((s[:, 0, 0] == s[:, 1, 0]) & (s[:, 0, 0] % 1 == 0)).sum())
+    assert skipped > 1000
+
+
+def test_douglas_peucker_with_splits_kept_across_tolerances_keeps_the_same_points():
+    """dp_indices given the splits of earlier calls on the same points (coarse to fine, as the
+    hull tries its tolerances, or in any order) keeps the same points as a fresh call."""
+    from spinemesh.mesher import geometry
+
+    rng = np.random.default_rng(31)
+    for i in range(400):
+        n = int(rng.integers(3, 400))
+        points = np.cumsum(rng.integers(-1, 2, (n, 2)), axis=0).astype(np.float64)
+        closed = bool(i % 3)
+        tolerances = [8.0, 4.0, 2.0, 0.5] if i % 2 else list(rng.choice([0.5, 1.0, 3.0, 8.0], 4))
+        splits: dict = {}
+        for eps in tolerances:
+            kept = geometry.dp_indices(points, float(eps), closed, splits=splits)
+            assert np.array_equal(kept, geometry.dp_indices(points, float(eps), closed)), (points.tolist(), eps)
+        assert splits or n <= 2

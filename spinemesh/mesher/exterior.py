@@ -143,15 +143,15 @@ def bridge_islands(mask: np.ndarray, width: int = 3, labels: tuple[int, np.ndarr
     # boundary points of each piece, thinned to at most ~200 per piece
     # RETR_LIST: pieces lying inside another piece's hole have no external contour of their own
     contours, _ = cv2.findContours(out, cv2.RETR_LIST, cv2.CHAIN_APPROX_SIMPLE)
-    pieces: dict[int, list] = {}
+    by_label: dict[int, list] = {}
     for c in contours:
         c = c.reshape(-1, 2)
         lab = int(labels[c[0, 1], c[0, 0]])
-        pieces.setdefault(lab, []).append(c)
-    labs = sorted(pieces)
+        by_label.setdefault(lab, []).append(c)
+    labs = sorted(by_label)
     pts, owner = [], []
     for i, lab in enumerate(labs):
-        p = np.concatenate(pieces[lab])
+        p = np.concatenate(by_label[lab])
         step = max(1, len(p) // 200)
         pts.append(p[::step].astype(np.float64))
         owner.append(np.full(len(pts[-1]), i))
@@ -243,31 +243,36 @@ def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarra
     k = len(keys)
     centre = contour.astype(np.float64) + 0.5
     kp = centre[keys]
-    normals = np.zeros((k, 2))
+    # every edge's direction, length and outward normal at once: the same element-wise
+    # operations as one edge at a time; for a positive (clockwise on screen) loop the normal
+    # is (dy, -dx)
+    d = np.roll(kp, -1, axis=0) - kp
+    length = np.hypot(d[:, 0], d[:, 1])
+    normals = np.stack([d[:, 1], -d[:, 0]], axis=1) / length[:, None] * orient
+    reach = 0.5 * (np.abs(normals[:, 0]) + np.abs(normals[:, 1]))
     offsets = np.zeros(k)
+    starts, ends = keys.tolist(), np.roll(keys, -1).tolist()
     for j in range(k):
-        a, b = keys[j], keys[(j + 1) % k]
-        d = kp[(j + 1) % k] - kp[j]
-        L = np.hypot(*d)
-        # outward normal: for a positive (clockwise on screen) loop it is (dy, -dx)
-        nrm = np.array([d[1], -d[0]]) / L * orient
-        idx = np.arange(a, b + 1) if b > a else np.concatenate([np.arange(a, n), np.arange(0, b + 1)])
-        pts = centre[idx]
-        # farthest corner of each pixel square along the normal: centre + 0.5 (|nx| + |ny|)
-        ext = (pts - kp[j]) @ nrm + 0.5 * (abs(nrm[0]) + abs(nrm[1]))
-        normals[j] = nrm
-        offsets[j] = max(0.0, float(ext.max())) + 1e-6
+        a, b = starts[j], ends[j]
+        pts = centre[a:b + 1] if b > a else np.concatenate([centre[a:], centre[:b + 1]])
+        # farthest corner of each pixel square along the normal: centre + 0.5 (|nx| + |ny|);
+        # the product as before (one matrix-vector product per edge: batching them would
+        # round differently), the reach added to its largest value only (rounding is monotone)
+        offsets[j] = max(0.0, float(((pts - kp[j]) @ normals[j]).max() + reach[j])) + 1e-6
+    # each edge's line n . p = c, as before from the vector products
+    lines = [float(normals[j] @ kp[j] + offsets[j]) for j in range(k)]
+    nx, ny = normals[:, 0].tolist(), normals[:, 1].tolist()
     out = []
     for j in range(k):
         i = j - 1
-        n1, c1 = normals[i], normals[i] @ kp[i] + offsets[i]
-        n2, c2 = normals[j], normals[j] @ kp[j] + offsets[j]
-        det = n1[0] * n2[1] - n1[1] * n2[0]
+        n1, c1 = normals[i], lines[i]
+        n2, c2 = normals[j], lines[j]
+        det = nx[i] * ny[j] - ny[i] * nx[j]
         corner = kp[j]
         p1 = corner + (c1 - n1 @ corner) * n1  # corner pushed onto each line
         p2 = corner + (c2 - n2 @ corner) * n2
         if abs(det) > 0.15:
-            x = np.array([(c1 * n2[1] - c2 * n1[1]) / det, (n1[0] * c2 - n2[0] * c1) / det])
+            x = np.array([(c1 * ny[j] - c2 * ny[i]) / det, (nx[i] * c2 - nx[j] * c1) / det])
             limit = 2.0 * max(offsets[i], offsets[j]) + 2.0
             if np.hypot(*(x - corner)) <= limit:
                 out.append(x)
