@@ -134,3 +134,21 @@ def test_douglas_peucker_with_splits_kept_across_tolerances_keeps_the_same_point
             kept = geometry.dp_indices(points, float(eps), closed, splits=splits)
             assert np.array_equal(kept, geometry.dp_indices(points, float(eps), closed)), (points.tolist(), eps)
         assert splits or n <= 2
+
+
+def test_pair_keys_find_the_rows_np_unique_finds():
+    """np.unique of pair_keys: the same rows, order, inverse and counts as np.unique(axis=0);
+    the boundary edges of random triangle sets as with the row-wise unique."""
+    rng = np.random.default_rng(32)
+    for k in (1, 2, 5, 40, 300):
+        pairs = rng.integers(0, int(rng.integers(1, 60)), (k, 2))
+        rows, inv, counts = np.unique(pairs, axis=0, return_inverse=True, return_counts=True)
+        keys, kinv, kcounts = np.unique(raster.pair_keys(pairs), return_inverse=True, return_counts=True)
+        m = int(pairs[:, 1].max()) + 1
+        assert np.array_equal(np.stack([keys // m, keys % m], axis=1), rows)
+        assert np.array_equal(kinv, inv.reshape(-1)) and np.array_equal(kcounts, counts)
+        t = rng.integers(0, 30, (k, 3))
+        e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+        _, inv, counts = np.unique(np.sort(e, axis=1), axis=0, return_inverse=True, return_counts=True)
+        assert np.array_equal(raster.boundary_index_edges(t), e[counts[inv.reshape(-1)] == 1])
+    assert raster.boundary_index_edges(np.zeros((0, 3), np.int64)).shape == (0, 2)

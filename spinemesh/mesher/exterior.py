@@ -37,7 +37,8 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 
-from .raster import any_centre_inside, any_crossed, centres_inside, crossed_pixels, loop_segments, touched_pixels
+from .raster import (any_centre_inside, any_crossed, centres_inside, crossed_pixels, loop_segments, pair_keys,
+                     touched_pixels)
 from .geometry import clamp, clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
 
 
@@ -212,8 +213,10 @@ def _delaunay_edges(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     except QhullError:  # all points on one line, or too few: every pair (they are few then)
         i, j = np.triu_indices(n, 1)
         e = np.stack([i, j], axis=1)
-    e = np.unique(np.sort(e, axis=1), axis=0)
-    return e[:, 0], e[:, 1]
+    e = np.sort(e, axis=1).astype(np.int64)
+    keys = np.unique(pair_keys(e))  # the rows of np.unique(e, axis=0), in its order
+    m = int(e[:, 1].max()) + 1 if len(e) else 1
+    return keys // m, keys % m
 
 
 def outer_contour(mask: np.ndarray) -> np.ndarray:

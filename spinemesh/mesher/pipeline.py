@@ -12,6 +12,7 @@ from .geometry import clip_loop_to_rect, inset_loop, segments_cross, signed_area
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
+from .raster import boundary_index_edges
 from .worth import NotWorthMeshing, art_share_reason, hull_reason, islands_reason
 
 
@@ -409,10 +410,7 @@ def _outer_loop(tris: np.ndarray, verts: np.ndarray) -> np.ndarray:
     """
     if len(tris) == 0:
         return np.zeros(0, np.int64)
-    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
-    key = np.sort(e, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    b = e[counts[inv.reshape(-1)] == 1]
+    b = boundary_index_edges(tris)
     nxt: dict[int, list[int]] = {}
     for i, j in sorted(b.tolist()):
         nxt.setdefault(i, []).append(j)

@@ -375,8 +375,21 @@ def mesh_coverage_mask(vertices: np.ndarray, triangles: np.ndarray, shape: tuple
 
 
 def boundary_index_edges(t: np.ndarray) -> np.ndarray:
-    """Directed edges ``(i, j)`` used by exactly one triangle (either direction)."""
+    """Directed edges ``(i, j)`` used by exactly one triangle (either direction), in the
+    triangles' order (T, 3) non-negative vertex indices."""
     e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-    key = np.sort(e, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return e[counts[inv.reshape(-1)] == 1]
+    if not len(e):
+        return e
+    _, inv, counts = np.unique(pair_keys(np.sort(e, axis=1)), return_inverse=True, return_counts=True)
+    return e[counts[inv] == 1]
+
+
+def pair_keys(pairs: np.ndarray) -> np.ndarray:
+    """One int64 per row of ``pairs`` (K, 2) non-negative integers, ordered as the rows are
+    lexicographically: ``a * m + b`` with ``m`` above every ``b``. ``np.unique`` of the keys
+    finds the same rows as ``np.unique(pairs, axis=0)``, several times faster (no row-wise
+    comparison of a structured view)."""
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    if not len(pairs):
+        return np.zeros(0, np.int64)
+    return pairs[:, 0] * (int(pairs[:, 1].max()) + 1) + pairs[:, 1]
