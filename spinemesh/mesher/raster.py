@@ -63,7 +63,7 @@ def centres_inside(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     h, w = shape
     s = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
     if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
-        toggles = _row_crossings(s.tolist(), h, w)
+        toggles = _row_crossings(s.tolist(), h, w, RASTER_FEW_CROSSINGS)
         if toggles is not None:
             rows, cols = (np.asarray(v, np.int64) for v in toggles)
             return _odd_from_left(np.bincount(rows * (w + 1) + cols, minlength=h * (w + 1)), h, w)
@@ -103,11 +103,16 @@ def _odd_from_left(toggles: np.ndarray, h: int, w: int) -> np.ndarray:
 #: plain Python: the mesher asks about a few segments in a small box thousands of times per
 #: image, where the array version's fixed cost is ten times the work.
 FEW_SEGMENTS = 32
-#: Grid crossings up to which the plain-Python walk is taken (else the array version).
+#: Grid crossings up to which :func:`any_centre_inside` and :func:`any_crossed` walk in
+#: plain Python (else the array version): they stop at the first art square.
 FEW_CROSSINGS = 512
+#: The same for :func:`centres_inside` and :func:`crossed_pixels`, which rasterise every
+#: crossing (a hull against its whole image): past this many the array version is faster
+#: (on the hull's repair checks over the library, crossed squares in about 0.7 of the time).
+RASTER_FEW_CROSSINGS = 64
 
 
-def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
+def _row_crossings(segments: list, h: int, w: int, limit: int = FEW_CROSSINGS) -> tuple[list, list] | None:
     """:func:`centres_inside`'s toggles ``(rows, cols)`` computed point by point, or None when many.
 
     The same arithmetic on the same float64 values as the array version, one value at a
@@ -122,7 +127,7 @@ def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
         r_stop = min(max(math.ceil(hi - 0.5), 0), h)
         if r_stop <= r_start:
             continue
-        if r_stop - r_start + len(rows) > FEW_CROSSINGS:
+        if r_stop - r_start + len(rows) > limit:
             return None
         dy, dx = y1 - y0, x1 - x0
         # t = (r + 0.5 - y0) / dy, crossing at x0 + t * dx: the array version's operations in its order
@@ -134,7 +139,7 @@ def _row_crossings(segments: list, h: int, w: int) -> tuple[list, list] | None:
     return rows, cols
 
 
-def _open_squares_walk(segments: list, h: int, w: int) -> Iterator[tuple[int, int] | None]:
+def _open_squares_walk(segments: list, h: int, w: int, limit: int = FEW_CROSSINGS) -> Iterator[tuple[int, int] | None]:
     """:func:`crossed_pixels`'s squares ``(row, col)`` computed point by point, one at a time;
     ``None`` once the walk would take more than :data:`FEW_CROSSINGS` (the caller then takes
     the array version).
@@ -157,7 +162,7 @@ def _open_squares_walk(segments: list, h: int, w: int) -> Iterator[tuple[int, in
                 continue
             k0, k1 = ceil(min(a0, a1)), floor(max(a0, a1))
             work += max(k1 - k0 + 1, 0)
-            if work > FEW_CROSSINGS:
+            if work > limit:
                 yield None
                 return
             da = a1 - a0
@@ -172,11 +177,11 @@ def _open_squares_walk(segments: list, h: int, w: int) -> Iterator[tuple[int, in
                 yield r, c
 
 
-def _open_squares_crossed(segments: list, h: int, w: int) -> tuple[list, list] | None:
+def _open_squares_crossed(segments: list, h: int, w: int, limit: int) -> tuple[list, list] | None:
     """:func:`crossed_pixels` as ``(rows, cols)`` lists computed point by point (:func:`_open_squares_walk`),
     or None when many."""
     rows, cols = [], []
-    for square in _open_squares_walk(segments, h, w):
+    for square in _open_squares_walk(segments, h, w, limit):
         if square is None:
             return None
         rows.append(square[0])
@@ -308,7 +313,7 @@ def crossed_pixels(segments: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     if len(s) == 0:
         return out
     if len(s) <= FEW_SEGMENTS and np.isfinite(s).all():
-        crossed = _open_squares_crossed(s.tolist(), h, w)
+        crossed = _open_squares_crossed(s.tolist(), h, w, RASTER_FEW_CROSSINGS)
         if crossed is not None:
             out[np.asarray(crossed[0], np.int64), np.asarray(crossed[1], np.int64)] = True
             return out
