@@ -545,8 +545,8 @@ def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: t
     """
     n = len(loop)
     for drop in (j, k):  # the edge joining the neighbours of the dropped vertex is new
-        yield np.delete(loop, drop, axis=0), np.array([(drop - 1) % (n - 1)])
-    mid = np.delete(loop, k, axis=0)
+        yield _without(loop, drop), np.array([(drop - 1) % (n - 1)])
+    mid = _without(loop, k)
     jj = j if k > j else j - 1
     mid[jj] = 0.5 * (loop[j] + loop[k])
     yield mid, np.array([(jj - 1) % (n - 1), jj])
@@ -556,7 +556,7 @@ def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: t
     apart[j] = _clamp(apart[j:j + 1] + u * grow, shape)[0]
     apart[k] = _clamp(apart[k:k + 1] - u * grow, shape)[0]
     yield apart, np.array([(j - 1) % n, j, k])
-    both = np.delete(loop, [j, k], axis=0)
+    both = _without(_without(loop, max(j, k)), min(j, k))
     first = min(j, k) if k > j else k  # both removed: the neighbours' new edge starts before them
     yield both, np.array([(first - 1) % max(n - 2, 1)])
     for i in (j, k):
@@ -564,12 +564,24 @@ def _spread_candidates(loop: np.ndarray, j: int, k: int, length: float, shape: t
         yield (snapped, np.array([(i - 1) % n, i])) if not np.array_equal(snapped, loop) else (None, None)
 
 
+def _without(loop: np.ndarray, i: int) -> np.ndarray:
+    """``np.delete(loop, i, axis=0)`` for one row ``0 <= i < len(loop)`` of a loop (n, 2), without its Python layers."""
+    return np.concatenate([loop[:i], loop[i + 1:]])
+
+
 def _change_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray,
                 shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
     """Pixels ``(x0, y0, x1, y1)`` around the old and new vertices of the changed edges (one
     pixel more on each side), within the image; None when empty."""
+    return _pixel_box(window.tolist() + _changed_ends(new, changed), shape)
+
+
+def _changed_ends(new: np.ndarray, changed: np.ndarray) -> list:
+    """The start and the end points of the edges ``changed`` of the loop ``new``, as lists
+    ``[x, y]``: starts in order, then ends."""
     n = len(new)
-    return _pixel_box(window.tolist() + new[np.concatenate([changed % n, (changed + 1) % n])].tolist(), shape)
+    ends = changed.tolist()
+    return new[[i % n for i in ends] + [(i + 1) % n for i in ends]].tolist()
 
 
 def _pixel_box(points, shape: tuple[int, int]) -> tuple[int, int, int, int] | None:
@@ -609,12 +621,12 @@ def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cove
     :func:`_covers_in_box` from a handful of segments instead of every one across the box.
     The few points are handled as Python lists (the same values).
     """
-    box = _change_box(window, new, changed, cover.shape)
+    old = window.tolist()
+    ends = _changed_ends(new, changed)
+    box = _pixel_box(old + ends, cover.shape)  # _change_box
     if box is None:
         return True
-    n = len(new)
-    path = new[np.append(changed, changed[-1] + 1) % n].tolist()  # starts and ends on unchanged vertices
-    old = window.tolist()
+    path = ends[:len(changed)] + ends[-1:]  # starts and ends on unchanged vertices
     first = [i for i, p in enumerate(old) if p == path[0]]
     last = [i for i, p in enumerate(old) if p == path[-1]]
     if len(first) != 1 or len(last) != 1 or first[0] >= last[0]:
