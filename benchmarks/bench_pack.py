@@ -257,15 +257,29 @@ def ellipse_masks(seed: int, count: int, low: int, high: int) -> list:
     return out
 
 
-def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
-    """CPU seconds to place ``count`` footprints (ellipses, both turns allowed) on ``side`` pages."""
+def hard_parts(candidates: list, soft: int) -> list | None:
+    """Per footprint and turn, its mask shrunk by ``soft`` texels: the rest is a soft ring (None when 0)."""
+    import cv2
+    import numpy as np
+
+    if soft <= 0:
+        return None
+    kernel = np.ones((2 * soft + 1, 2 * soft + 1), np.uint8)
+    return [[cv2.erode(m.astype(np.uint8), kernel, borderValue=0).astype(bool) for m in masks]
+            for masks in candidates]
+
+
+def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3, soft: int = 0) -> str:
+    """CPU seconds to place ``count`` footprints (ellipses, both turns allowed) on ``side`` pages; each
+    with a soft ring ``soft`` texels wide (see :func:`hard_parts`)."""
     from spinemesh.pack.place import fill_pages
 
     lines = [f"| seed | footprints | page | pages used | fill of the used area | CPU s |", "|---:|---:|---|---:|---:|---:|"]
     for seed in range(seeds):
         masks = ellipse_masks(seed, count, 40, 200)
+        hard = hard_parts(masks, soft)
         t0 = time.process_time()
-        placements, used = fill_pages(masks, side, side, 0)
+        placements, used = fill_pages(masks, side, side, 0, hard=hard)
         seconds = time.process_time() - t0
         area = sum(int(c[0].sum()) for c in masks)
         lines.append(f"| {seed} | {count} | {side}x{side} | {len(used)} | "
@@ -273,23 +287,25 @@ def placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
     return "\n".join(lines)
 
 
-def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3) -> str:
+def whole_placement_timing(count: int = 300, side: int = 2048, seeds: int = 3, soft: int = 0) -> str:
     """CPU seconds of every fill ``pack`` tries for one atlas of ``count`` footprints on one ``side`` page.
 
     Ellipses 40-170 texels across (both turns allowed) fill about 60% of the page, as a full
     atlas page does; the original page is ``side x side``, so the packed one is at most that,
-    powers of two or not.
+    powers of two or not. ``soft``: each with a soft ring that wide (see :func:`hard_parts`).
     """
     from spinemesh.pack.atlas_pack import _pack_group
 
-    class Item:  # what _pack_group reads of an item: its masks
-        def __init__(self, masks):
-            self.masks = masks
+    class Item:  # what _pack_group reads of an item: its masks and their hard parts
+        def __init__(self, masks, hard):
+            self.masks, self.hard_masks = masks, hard or masks
 
     lines = ["| seed | footprints | original page | powers of two | packed page | fill | CPU s |",
              "|---:|---:|---|---|---|---:|---:|"]
     for seed in range(seeds):
-        items = [Item(masks) for masks in ellipse_masks(seed, count, 40, 170)]
+        candidates = ellipse_masks(seed, count, 40, 170)
+        hard = hard_parts(candidates, soft) or [None] * count
+        items = [Item(masks, h) for masks, h in zip(candidates, hard)]
         area = sum(int(it.masks[0].sum()) for it in items)
         for pot in (True, False):
             t0 = time.process_time()
@@ -328,12 +344,14 @@ def main(argv: list[str] | None = None) -> int:
                                                              "on 2048x2048 pages")
     ap.add_argument("--whole-placement", action="store_true", help="only time every fill pack tries for one "
                                                                    "atlas of 300 footprints on a 2048x2048 page")
+    ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
+                    "every footprint's outer N texels are soft (may overlap other soft texels)")
     args = ap.parse_args(argv)
     if args.whole_placement:
-        print(whole_placement_timing())
+        print(whole_placement_timing(soft=args.soft))
         return 0
     if args.placement:
-        print(placement_timing())
+        print(placement_timing(soft=args.soft))
         return 0
     if args.tables_from:
         rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]

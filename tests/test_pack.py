@@ -294,7 +294,8 @@ def _shapes(seed: int, count: int, low: int, high: int) -> list:
             cv2.ellipse(m, (w // 2, h // 2), (w // 2 - 1, h // 2 - 1), 0, 0, 360, 1, -1)
         else:
             m[:] = 1
-        items.append(SimpleNamespace(masks=[m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))]))
+        masks = [m.astype(bool), np.ascontiguousarray(np.rot90(m.astype(bool)))]
+        items.append(SimpleNamespace(masks=masks, hard_masks=masks))
     return items
 
 

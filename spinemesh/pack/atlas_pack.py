@@ -9,7 +9,9 @@ original atlas). Rules:
 - no page is larger than the largest original page; sides are powers of two when every
   original page's were;
 - footprints stay apart by the padding: at least the original pages' (measured), at least
-  :data:`MIN_PADDING`, and :data:`MIPMAP_PADDING` under a ``MipMap*`` filter;
+  :data:`MIN_PADDING`, and :data:`MIPMAP_PADDING` under a ``MipMap*`` filter; only their soft
+  texels (all zero, away from anything visible: :func:`~spinemesh.pack.outlines.hard_texels`)
+  may meet, and overlap, other footprints' soft texels;
 - a region may be turned by 90 degrees where it was stored upright or turned by 90 (every
   runtime reads ``rotate``), and the stored rectangle is cropped to the footprint where every
   mesh's runtime maps UVs over the original image (offsets rewritten to match);
@@ -27,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
-from .outlines import Footprint, footprint, stored_index, window_texels
+from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
 from .place import fill_pages
 from .uses import RegionUses
 
@@ -160,11 +162,18 @@ class _Item:
     texels: np.ndarray            # upright window texels, (h, w, 4)
     turns: list[int]              # quarter turns it may be stored at
     masks: list[np.ndarray] = field(default_factory=list)
+    hard_masks: list[np.ndarray] = field(default_factory=list)  # the masks themselves where all is hard
 
 
-def _item_masks(item: _Item) -> list[np.ndarray]:
-    """The footprint's window as stored at each allowed turn: the core, with the window's bounding box kept."""
-    return [np.ascontiguousarray(np.rot90(item.foot.core, k)) for k in item.turns]
+def _item_masks(item: _Item, core: np.ndarray) -> list[np.ndarray]:
+    """``core`` (a mask over the footprint's window) as stored at each allowed turn, the window's bounding box kept."""
+    return [np.ascontiguousarray(np.rot90(core, k)) for k in item.turns]
+
+
+def _item_hard(item: _Item) -> np.ndarray:
+    """The footprint's hard texels (upright): every texel of a region that keeps its rectangle (a quad
+    reads all of it; kept simple), else those near a texel not all zero (:func:`hard_texels`)."""
+    return hard_texels(item.foot.core, item.texels) if item.foot.by_outline else item.foot.core
 
 
 def _stored_geometry(item: _Item, k: int, x: int, y: int) -> RegionGeometry:
@@ -212,9 +221,9 @@ def _page_sizes(used: list[tuple[int, int]], max_w: int, max_h: int, pot: bool) 
 
 
 def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
-               best=None, order: list[int] | None = None):
+               best=None, order: list[int] | None = None, hard=None):
     """First fit on pages of a few widths (the last page narrower where it can be), footprints in ``order``
-    (default: :func:`~spinemesh.pack.place.fill_pages`'s).
+    (default: :func:`~spinemesh.pack.place.fill_pages`'s), hard parts ``hard`` (default: all hard).
 
     Returns the best ``(texels, placements, sizes)``, ``best`` (the best so far) when none beats it.
     """
@@ -227,7 +236,7 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
     def texels(used: list[tuple[int, int]]) -> int:
         return sum(w * h for w, h in _page_sizes(used, max_w, max_h, pot))
 
-    needed = sum(int(c[0].sum()) for c in candidates)
+    needed = sum(int(c[0].sum()) for c in (hard or candidates))
     for width in widths_for(list(range(len(candidates))), max_w):
         height = max_h
         if best is not None and max_pages == 1:
@@ -238,7 +247,7 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
             if width * height < needed:
                 continue
         placements, used = fill_pages(candidates, width, height, padding, order=order, max_pages=max_pages,
-                                      budget=None if best is None else best[0])
+                                      budget=None if best is None else best[0], hard=hard)
         if any(p is None for p in placements) or len(used) > max_pages:
             continue
         if len(used) > 1:  # the last page holds the rest: it may do with a narrower page
@@ -246,7 +255,8 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
             for narrower in widths_for(last, width):
                 if narrower >= width:
                     continue
-                again, used_again = fill_pages([candidates[i] for i in last], narrower, max_h, padding)
+                again, used_again = fill_pages([candidates[i] for i in last], narrower, max_h, padding,
+                                               hard=None if hard is None else [hard[i] for i in last])
                 if len(used_again) == 1 and all(again) and texels(used_again) < texels(used[-1:]):
                     for i, p in zip(last, again):
                         placements[i] = dataclasses.replace(p, page=len(used) - 1)
@@ -261,14 +271,14 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
 
 
 def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
-              budget: int | None = None):
+              budget: int | None = None, hard=None):
     """Every footprint where it grows its page's used area least (see :func:`fill_pages`): ``(texels, placements, sizes)``.
 
     Pages take whatever shape packs best, up to the longest side and the largest page's texels;
     each page after the first starts small again, so a last page holding the rest stays small.
     """
     placements, used = fill_pages(candidates, max_w, max_h, padding, max_pages=max_pages, tight=True,
-                                  max_area=max_area, pot=pot, budget=budget)
+                                  max_area=max_area, pot=pot, budget=budget, hard=hard)
     if any(p is None for p in placements):
         return None
     sizes = _page_sizes(used, max_w, max_h, pot)
@@ -277,21 +287,23 @@ def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padd
     return sum(w * h for w, h in sizes), placements, sizes
 
 
-def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best):
+def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding: int, max_pages: int, best,
+                     hard=None):
     """Power-of-two page sizes tried whole, smallest first, from the least area that could hold the footprints.
 
     Powers of two round a used height up to the next one; a page of exactly the size may
     still hold everything. Each size is tried with both placements; the first that holds
-    everything is kept when it beats ``best`` (``(texels, placements, sizes)`` or None).
+    everything is kept when it beats ``best`` (``(texels, placements, sizes)`` or None). ``hard``: the
+    footprints' hard parts (see :func:`~spinemesh.pack.place.fill_pages`).
     """
-    needed = sum(int(c[0].sum()) for c in candidates)
+    needed = sum(int(c[0].sum()) for c in (hard or candidates))
     sizes = sorted(((w, h) for w in _powers(max_w) for h in _powers(max_h)
                     if needed / max_pages <= w * h <= max_area and (best is None or w * h * max_pages < best[0])),
                    key=lambda s: (s[0] * s[1], abs(s[0] - s[1])))
     for w, h in sizes[:POT_TRIES]:
         for tight in (False, True):
             placements, used = fill_pages(candidates, w, h, padding, max_pages=max_pages, tight=tight, pot=True,
-                                          budget=None if best is None else best[0])
+                                          budget=None if best is None else best[0], hard=hard)
             if any(p is None for p in placements):
                 continue
             found = _page_sizes(used, w, h, True)
@@ -329,19 +341,20 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     (the atlas's own): fills that reach it stop early.
     """
     candidates = [it.masks for it in items]
-    needed = sum(int(c[0].sum()) for c in candidates)
+    hard = [it.hard_masks for it in items]
+    needed = sum(int(c[0].sum()) for c in hard)  # soft texels may all overlap: the hard ones are the least
     if ceiling is not None and needed >= ceiling:  # no placement can beat it: spare every fill
         raise PackRefused(f"its footprints alone take {needed:,} texels, no fewer than the {ceiling:,} "
                           f"page texels the atlas has")
     best = None if ceiling is None else (ceiling, None, None)
-    found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling)
+    found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling, hard)
     if found is not None and (best is None or found[0] < best[0]):
         best = found
-    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best)
+    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, hard=hard)
     if pot:
-        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best)
+        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, hard)
     for order in other_orders(candidates) if pot and max_pages > 1 else []:
-        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order)
+        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order, hard)
     if best is None or best[1] is None:
         raise PackRefused(f"no packing of its footprints on at most {max_pages} page(s) of the largest original "
                           f"size stores fewer page texels than the atlas has")
@@ -425,7 +438,9 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
             foot = footprint(g, uses.get(r.name))
         texels = window_texels(pixels[r.page], g, foot.window)
         item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
-        item.masks = _item_masks(item)
+        item.masks = _item_masks(item, foot.core)
+        hard = _item_hard(item)
+        item.hard_masks = item.masks if hard.sum() == foot.core.sum() else _item_masks(item, hard)
         items.append(item)
     return items
 
@@ -468,12 +483,13 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
         for n, place in zip(members, placements):
             item = items[n]
             k = item.turns[place.orientation]
-            mask = item.masks[place.orientation]
+            hard = item.hard_masks[place.orientation]
             texels = np.rot90(item.texels, k)
-            h, w = mask.shape
+            h, w = hard.shape
             view = new_pages[out.pages[first + place.page].name][place.y:place.y + h, place.x:place.x + w]
-            # only under the footprint: rectangles may overlap where footprints do not
-            view[mask] = texels[mask]
+            # only the hard texels: rectangles may overlap where footprints do not, footprints where both
+            # are soft, and soft texels are zero on the original page as on the new one
+            view[hard] = texels[hard]
             region_page[n] = (first + place.page, _stored_geometry(item, k, place.x, place.y))
     return out, new_pages, region_page
 

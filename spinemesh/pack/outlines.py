@@ -12,6 +12,12 @@ the *content box*; the rest was stripped whitespace). A footprint is a window of
 
 The texels under the mask are copied from the original page, whatever they are (stripped
 whitespace, padding, a neighbour's edge): the copy then samples exactly as the original did.
+
+A footprint's *hard* texels (:func:`hard_texels`) are those within one texel of a texel of the
+original page that is not all zero; the rest are *soft*: all zero (R = G = B = A = 0), and no
+bilinear read of anything visible includes them. A soft texel only has to stay all zero, so two
+footprints may share their soft texels (:mod:`spinemesh.pack.place`): all-zero texels draw
+nothing in every blend mode, premultiplied or not, and a read of all-zero texels gives zero.
 """
 
 from __future__ import annotations
@@ -111,6 +117,34 @@ def sampled_texels(points: np.ndarray, triangles: np.ndarray, origin: tuple[int,
         cv2.fillConvexPoly(fine, pts[tri], 1, lineType=cv2.LINE_8, shift=shift)
     fine = cv2.dilate(fine, np.ones((3, 3), np.uint8))
     return block_any(fine, s, grow=-(-s // 2))[:h, :w]
+
+
+#: How far (texels, square neighbourhood) a hard texel may lie from a texel that is not all zero:
+#: the reach of a bilinear read, so that no read touching visible art includes a soft texel.
+HARD_REACH = 1
+
+
+def hard_texels(core: np.ndarray, texels: np.ndarray) -> np.ndarray:
+    """The footprint's texels within :data:`HARD_REACH` of a footprint texel that is not all zero, bool.
+
+    Parameters
+    ----------
+    core : ndarray, shape (h, w), bool
+        The footprint's mask (:attr:`Footprint.core`).
+    texels : ndarray, shape (h, w, 4), uint8
+        The original page's texels under its window (:func:`window_texels`).
+
+    Returns
+    -------
+    ndarray, shape (h, w), bool
+        Within ``core``; ``core`` minus it is the footprint's soft part (all-zero texels away from
+        anything visible).
+    """
+    import cv2
+
+    drawn = (core & texels.any(axis=2)).astype(np.uint8)
+    size = 2 * HARD_REACH + 1
+    return core & cv2.dilate(drawn, np.ones((size, size), np.uint8), borderValue=0).astype(bool)
 
 
 def rectangle_footprint(g: RegionGeometry, reason: str) -> Footprint:

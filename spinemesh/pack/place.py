@@ -1,15 +1,22 @@
 """Placing footprints (binary masks of any shape) on pages: raster first fit, largest first.
 
 Rectangle packers cannot use the space a mesh leaves free inside its rectangle; this one
-works on the texels themselves. Each page keeps an occupancy bitmap: every placed footprint
-grown by the padding. A new footprint goes where none of its texels meets that bitmap, so
-rectangles may overlap wherever footprints do not.
+works on the texels themselves. A footprint may also have *soft* texels: texels that only have
+to stay all zero for it (see :func:`spinemesh.pack.outlines.hard_texels`); the rest are *hard*.
+Each page keeps two occupancy bitmaps: every placed footprint grown by the padding, and their
+hard texels grown by the padding. A new footprint goes where its hard texels meet neither
+bitmap and its soft texels meet no hard one: footprints may overlap where both are soft (the
+page holds zeros there), hard texels keep the padding from anything of another footprint, and
+rectangles may overlap wherever footprints may.
 
 Finding the first free place is one correlation of the occupancy with the footprint
 (``cv2.matchTemplate``) on a coarse grid of cells (a cell is taken when any texel in it is,
-which keeps the search conservative), then the footprint slides up and left texel by texel
-into the gaps the coarse grid could not see. Every place is checked at texel level before it
-is taken.
+which keeps the search conservative), two where both the page and the footprint have soft
+texels; then the footprint slides up and left texel by texel into the gaps the coarse grid
+could not see. Every place is checked at texel level before it is taken.
+
+Throughout, a footprint's hard mask is passed as ``hard``; ``None`` or the mask itself means
+every texel is hard (the common case, which costs one bitmap and one correlation).
 """
 
 from __future__ import annotations
@@ -23,6 +30,11 @@ COARSE_SIDE = 512
 
 #: Texel steps a placed footprint may slide up or left into a gap, per pass.
 SLIDE_STEPS = 16
+
+#: Places whose soft cells are checked cell by cell at once, and the most cells so checked per
+#: search before one correlation checks the rest (about what one correlation costs).
+KEEP_CLEAR_BATCH = 256
+KEEP_CLEAR_CELLS = 40_000
 
 
 @dataclass
@@ -79,22 +91,40 @@ def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
 
 
 class Page:
-    """One page being filled: occupancy at texel level and on the coarse grid."""
+    """One page being filled: occupancy at texel level and on the coarse grid.
+
+    ``taken``: every placed footprint grown by the padding; ``taken_hard``: their hard texels
+    grown by the padding, None while every placed texel is hard (then it equals ``taken``).
+    """
 
     def __init__(self, width: int, height: int, padding: int):
         self.width, self.height, self.padding = width, height, padding
         self.cell = max(1, -(-max(width, height) // COARSE_SIDE))
         self.taken = np.zeros((height, width), bool)
         self.coarse = np.zeros((-(-height // self.cell), -(-width // self.cell)), np.float32)
+        self.taken_hard: np.ndarray | None = None
+        self.coarse_hard: np.ndarray | None = None
         self.used_w = self.used_h = 0
-        self.free = width * height
+        self.free = width * height  # texels under no placed hard texel
 
-    def fits(self, mask: np.ndarray, x: int, y: int) -> bool:
-        """Whether ``mask`` at ``(x, y)`` stays on the page and meets no taken texel."""
+    def _both(self, mask: np.ndarray, hard: np.ndarray | None) -> bool:
+        """Whether ``mask`` (hard part ``hard``) must be checked against both bitmaps.
+
+        Not when every texel of the footprint is hard (its texels must miss ``taken``, which
+        holds ``taken_hard``), nor while every texel of the page is (the two bitmaps are one).
+        """
+        return hard is not None and hard is not mask and self.taken_hard is not None
+
+    def fits(self, mask: np.ndarray, x: int, y: int, hard: np.ndarray | None = None) -> bool:
+        """Whether ``mask`` at ``(x, y)`` stays on the page, its hard texels (``hard``, default all)
+        meet no taken texel and the rest no taken hard texel."""
         h, w = mask.shape
         if x < 0 or y < 0 or x + w > self.width or y + h > self.height:
             return False
-        return not (self.taken[y:y + h, x:x + w] & mask).any()
+        if not self._both(mask, hard):
+            return not (self.taken[y:y + h, x:x + w] & mask).any()
+        return not ((self.taken[y:y + h, x:x + w] & hard).any()
+                    or (self.taken_hard[y:y + h, x:x + w] & mask).any())
 
     def _search_limit(self, w: int, h: int) -> tuple[int, int]:
         """The last top-left texel ``(x, y)`` worth a search for a ``w x h`` mask.
@@ -106,18 +136,37 @@ class Page:
         reach = self.padding + self.cell
         return min(self.width - w, self.used_w + reach), min(self.height - h, self.used_h + reach)
 
-    def free_places(self, mask: np.ndarray, first: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Top-left texels ``(xs, ys)`` where ``mask`` may go, row by row (top first, then left).
+    def free_places(self, mask: np.ndarray, first: int | None = None, hard: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Top-left texels ``(xs, ys)`` where ``mask`` (hard part ``hard``) may go, row by row (top first, then left).
 
         Places are cell-aligned and conservative (every one fits at texel level), within
         :meth:`_search_limit`; empty when the mask cannot go on this page. ``first``: only
         the first so many places (found without listing them all).
         """
+        xs, ys, soft = self._places(mask, hard, first)
+        if soft is None:
+            return xs, ys
+        keep = self._keep_clear(xs, ys, soft)
+        return xs[keep], ys[keep]
+
+    def _places(self, mask: np.ndarray, hard: np.ndarray | None, first: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+        """Places where the footprint's hard cells meet no taken cell: ``(xs, ys, soft)``.
+
+        ``soft`` is None when these places are all free (see :meth:`free_places`); else its
+        soft cells (those without a hard texel) must still miss taken hard cells
+        (:meth:`_keep_clear`): ``(rows, columns, template)``, the cells' offsets and the
+        footprint's coarse template. Finding hard cells first and checking the soft ones only
+        at the places a fill looks at costs one correlation where two would list them all.
+        ``first``: only the first so many places (found without listing them all), all free
+        (``soft`` None).
+        """
         import cv2
 
-        none = np.zeros(0, np.int64), np.zeros(0, np.int64)
+        none = np.zeros(0, np.int64), np.zeros(0, np.int64), None
         h, w = mask.shape
-        if w > self.width or h > self.height or self.free < int(mask.sum()):
+        if w > self.width or h > self.height or self.free < int((mask if hard is None else hard).sum()):
             return none
         cell = self.cell
         template = _coarse(mask, cell).astype(np.float32)
@@ -127,30 +176,67 @@ class Page:
         max_cx, max_cy = last_x // cell, last_y // cell
         region = self.coarse[:max_cy + hc, :max_cx + wc]
         if region.shape[0] < hc or region.shape[1] < wc:
-            return self._texel_scan(mask)
+            return (*self._texel_scan(mask, hard), None)
+        soft = None
         if self.used_w == 0 and self.used_h == 0:
             scores = np.zeros((region.shape[0] - hc + 1, region.shape[1] - wc + 1), np.float32)
         else:
-            scores = cv2.matchTemplate(region, template, cv2.TM_CCORR)
+            hard_template = _coarse(hard, cell).astype(np.float32) if self._both(mask, hard) else template
+            scores = cv2.matchTemplate(region, hard_template, cv2.TM_CCORR)
+            if hard_template is not template:
+                rows, cols = np.nonzero(template > hard_template)
+                soft = (rows, cols, template) if rows.size else None
         free = scores[:max_cy + 1, :max_cx + 1] < 0.5
-        if first is not None:
-            start = int(np.argmax(free))  # the first free place, found without a full listing
-            flat = free.ravel()[start:start + 4 * first]
-            index = start + np.flatnonzero(flat)[:first] if flat.size and flat[0] else np.zeros(0, np.int64)
-            cy, cx = np.divmod(index, free.shape[1])
-        else:
+        if first is None:
             cy, cx = np.nonzero(free)
-        return cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
+            return cx.astype(np.int64) * cell, cy.astype(np.int64) * cell, soft
+        start = int(np.argmax(free))  # the first free place, found without a full listing
+        flat = free.ravel()
+        if not flat[start]:
+            return none
+        # soft cells may rule out many places: then every place from the first on is a candidate
+        index = start + np.flatnonzero(flat[start:start + 4 * first if soft is None else flat.size])
+        cy, cx = np.divmod(index, free.shape[1])
+        xs, ys = cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
+        keep = np.arange(min(first, xs.size)) if soft is None else self._keep_clear(xs, ys, soft, first)
+        return xs[keep], ys[keep], None
 
-    def first_fit(self, mask: np.ndarray) -> tuple[int, int] | None:
+    def _keep_clear(self, xs: np.ndarray, ys: np.ndarray, soft: tuple, first: int | None = None) -> np.ndarray:
+        """Indices of the places ``(xs, ys)`` (from :meth:`_places`) whose soft cells miss every taken hard
+        cell, in order; ``first``: only the first so many.
+
+        Checked cell by cell in batches while that is cheap, then by one correlation for the rest.
+        """
+        import cv2
+
+        rows, cols, template = soft
+        cy, cx = ys // self.cell, xs // self.cell
+        kept, done = [], 0
+        size = max(1, min(KEEP_CLEAR_BATCH, KEEP_CLEAR_CELLS // (2 * rows.size)))
+        while done < cy.size and (first is None or sum(k.size for k in kept) < first):
+            if (done + size) * rows.size > KEEP_CLEAR_CELLS:
+                hc, wc = template.shape
+                scores = cv2.matchTemplate(self.coarse_hard[:cy.max() + hc, :cx.max() + wc], template, cv2.TM_CCORR)
+                rest = np.arange(done, cy.size)
+                kept.append(rest[scores[cy[rest], cx[rest]] < 0.5])
+                break
+            batch = np.arange(done, min(cy.size, done + size))
+            hit = self.coarse_hard[cy[batch, None] + rows, cx[batch, None] + cols].any(axis=1)
+            kept.append(batch[~hit])
+            done = batch[-1] + 1
+        kept = np.concatenate(kept) if kept else np.zeros(0, np.int64)
+        return kept if first is None else kept[:first]
+
+    def first_fit(self, mask: np.ndarray, hard: np.ndarray | None = None) -> tuple[int, int] | None:
         """The first free place of ``mask`` (top rows first, then left), or None."""
-        xs, ys = self.free_places(mask, first=64)
+        xs, ys = self.free_places(mask, first=64, hard=hard)
         for x, y in zip(xs.tolist(), ys.tolist()):  # conservative: the first fits; checked all the same
-            if self.fits(mask, x, y):
-                return self._slide(mask, x, y)
+            if self.fits(mask, x, y, hard):
+                return self._slide(mask, x, y, hard)
         return None
 
-    def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool) -> tuple[tuple, int, int] | None:
+    def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool, hard: np.ndarray | None = None
+                     ) -> tuple[tuple, int, int] | None:
         """The free place that grows the used area least: ``(cost, x, y)``, or None.
 
         The cost is the used area's page rounded to powers of two when ``pot``, else its longer
@@ -158,7 +244,7 @@ class Page:
         then the used area itself, then top rows first, then left; places whose rounded page would exceed
         ``max_area`` texels are passed over.
         """
-        xs, ys = self.free_places(mask)
+        xs, ys, soft = self._places(mask, hard)
         if xs.size == 0:
             return None
         h, w = mask.shape
@@ -172,36 +258,43 @@ class Page:
             return None
         first = page if pot else side  # without powers of two the page is the used area itself
         ranked = ok[np.lexsort((xs[ok], ys[ok], area[ok], first[ok]))]
+        if soft is not None:  # the best places first: most are passed over unchecked
+            ranked = ranked[self._keep_clear(xs[ranked], ys[ranked], soft, 64)]
         for i in ranked[:64].tolist():
             x, y = int(xs[i]), int(ys[i])
-            if self.fits(mask, x, y):
-                x, y = self._slide(mask, x, y)
+            if self.fits(mask, x, y, hard):
+                x, y = self._slide(mask, x, y, hard)
                 nw, nh = max(self.used_w, x + w), max(self.used_h, y + h)
                 first = int(_pot(nw)) * int(_pot(nh)) if pot else max(nw, nh)
                 return (first, nw * nh, y, x), x, y
         return None
 
-    def _texel_scan(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _texel_scan(self, mask: np.ndarray, hard: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Exact search at texel level (pages too small for the coarse grid to help): ``(xs, ys)``."""
         import cv2
 
-        h, w = mask.shape
-        scores = cv2.matchTemplate(self.taken.astype(np.float32), mask.astype(np.float32), cv2.TM_CCORR)
+        taken = self.taken.astype(np.float32)
+        if not self._both(mask, hard):
+            scores = cv2.matchTemplate(taken, mask.astype(np.float32), cv2.TM_CCORR)
+        else:
+            scores = (cv2.matchTemplate(taken, hard.astype(np.float32), cv2.TM_CCORR)
+                      + cv2.matchTemplate(self.taken_hard.astype(np.float32), mask.astype(np.float32),
+                                          cv2.TM_CCORR))
         ys, xs = np.nonzero(scores < 0.5)
         return xs.astype(np.int64), ys.astype(np.int64)
 
-    def _slide(self, mask: np.ndarray, x: int, y: int) -> tuple[int, int]:
+    def _slide(self, mask: np.ndarray, x: int, y: int, hard: np.ndarray | None = None) -> tuple[int, int]:
         """Move a fitting place up, then left, while it still fits (the coarse grid rounds places down)."""
         for _ in range(2):
             moved = False
             for _ in range(SLIDE_STEPS):
-                if y > 0 and self.fits(mask, x, y - 1):
+                if y > 0 and self.fits(mask, x, y - 1, hard):
                     y -= 1
                     moved = True
                 else:
                     break
             for _ in range(SLIDE_STEPS):
-                if x > 0 and self.fits(mask, x - 1, y):
+                if x > 0 and self.fits(mask, x - 1, y, hard):
                     x -= 1
                     moved = True
                 else:
@@ -210,27 +303,38 @@ class Page:
                 break
         return x, y
 
-    def take(self, mask: np.ndarray, x: int, y: int, extent: tuple[int, int]) -> None:
-        """Mark ``mask`` at ``(x, y)``, grown by the padding, as taken; ``extent`` (w, h) counts as used."""
+    def take(self, mask: np.ndarray, x: int, y: int, extent: tuple[int, int], hard: np.ndarray | None = None
+             ) -> None:
+        """Mark ``mask`` (hard part ``hard``) at ``(x, y)``, grown by the padding, as taken; ``extent`` (w, h)
+        counts as used."""
+        hard = mask if hard is None else hard
+        if hard is not mask and self.taken_hard is None:  # the first soft texel: the bitmaps part
+            self.taken_hard, self.coarse_hard = self.taken.copy(), self.coarse.copy()
+        self._mark(self.taken, self.coarse, mask, x, y)
+        if self.taken_hard is not None:
+            self._mark(self.taken_hard, self.coarse_hard, hard, x, y)
+        self.free -= int(hard.sum())
+        self.used_w = max(self.used_w, x + extent[0])
+        self.used_h = max(self.used_h, y + extent[1])
+
+    def _mark(self, taken: np.ndarray, coarse: np.ndarray, mask: np.ndarray, x: int, y: int) -> None:
+        """Set ``mask`` at ``(x, y)``, grown by the padding, in ``taken`` and its cells in ``coarse``."""
         p = self.padding
         grown = _grow(mask, p)
         h, w = grown.shape
         x0, y0 = x - p, y - p
         cx0, cy0 = max(0, x0), max(0, y0)
         cx1, cy1 = min(self.width, x0 + w), min(self.height, y0 + h)
-        self.taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
-        self.free -= int(mask.sum())
+        taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
         c = self.cell
         gy0, gx0, gy1, gx1 = cy0 // c, cx0 // c, -(-cy1 // c), -(-cx1 // c)
-        self.coarse[gy0:gy1, gx0:gx1] = _coarse(self.taken[gy0 * c:gy1 * c, gx0 * c:gx1 * c], c)[
-            :gy1 - gy0, :gx1 - gx0]
-        self.used_w = max(self.used_w, x + extent[0])
-        self.used_h = max(self.used_h, y + extent[1])
+        coarse[gy0:gy1, gx0:gx1] = _coarse(taken[gy0 * c:gy1 * c, gx0 * c:gx1 * c], c)[:gy1 - gy0, :gx1 - gx0]
 
 
 def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
                order: list[int] | None = None, max_pages: int | None = None, tight: bool = False,
-               max_area: int | None = None, pot: bool = False, budget: int | None = None
+               max_area: int | None = None, pot: bool = False, budget: int | None = None,
+               hard: list[list[np.ndarray]] | None = None
                ) -> tuple[list[Placement | None], list[tuple[int, int]]]:
     """Place every footprint on as few pages of ``width x height`` as the greedy fill gives.
 
@@ -242,7 +346,7 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     width, height : int
         Page size, in texels.
     padding : int
-        Texels left free between any two footprints.
+        Texels left free between the hard texels of one footprint and anything of another.
     order : list of int, optional
         The order to place them in; default largest mask area first.
     max_pages : int, optional
@@ -261,6 +365,10 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     budget : int, optional
         Give up (placements None from there on) once the pages' used areas add up to this
         many texels: a fill that cannot beat an earlier one stops early.
+    hard : list of list of ndarray, optional
+        Per footprint and orientation, its hard texels (bool, the mask's shape, within the
+        mask); the rest of the mask is soft and may overlap other footprints' soft texels.
+        Default: every texel is hard. Pass the mask itself where all of it is hard (faster).
 
     Returns
     -------
@@ -281,13 +389,14 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
         pages.append(page)
         still = []
         for i in left:
-            best = _best_place(page, candidates[i], tight, limit, pot)
+            hards = candidates[i] if hard is None else hard[i]
+            best = _best_place(page, candidates[i], hards, tight, limit, pot)
             if best is None:
                 still.append(i)
                 continue
             k, x, y = best
             mask = candidates[i][k]
-            page.take(mask, x, y, (mask.shape[1], mask.shape[0]))
+            page.take(mask, x, y, (mask.shape[1], mask.shape[0]), hards[k])
             placements[i] = Placement(len(pages) - 1, k, x, y)
             if budget is not None and sum(p.used_w * p.used_h for p in pages) >= budget:
                 return [None] * len(candidates), [(p.used_w, p.used_h) for p in pages]
@@ -298,18 +407,19 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     return placements, [(p.used_w, p.used_h) for p in pages]
 
 
-def _best_place(page: Page, masks: list[np.ndarray], tight: bool, max_area: int, pot: bool
-                ) -> tuple[int, int, int] | None:
-    """``(orientation, x, y)`` of the best place of one footprint on ``page`` (see :func:`fill_pages`), or None."""
+def _best_place(page: Page, masks: list[np.ndarray], hards: list[np.ndarray], tight: bool, max_area: int,
+                pot: bool) -> tuple[int, int, int] | None:
+    """``(orientation, x, y)`` of the best place of one footprint (``masks``, hard parts ``hards``) on
+    ``page`` (see :func:`fill_pages`), or None."""
     best = None
-    for k, mask in enumerate(masks):
+    for k, (mask, hard) in enumerate(zip(masks, hards)):
         if tight:
-            found = page.tightest_fit(mask, max_area, pot)
+            found = page.tightest_fit(mask, max_area, pot, hard)
             if found is None:
                 continue
             score, x, y = found
         else:
-            place = page.first_fit(mask)
+            place = page.first_fit(mask, hard)
             if place is None:
                 continue
             x, y = place
