@@ -424,3 +424,104 @@ def test_a_library_is_packed_project_by_project(meshed, tmp_path):
     assert sorted(a.atlas for a in result.atlases) == ["a/demo.atlas", "b/c/demo.atlas"]
     assert all(a.status == "packed" for a in result.atlases)
     assert _sampled_alike(library / "b" / "c", tmp_path / "out" / "b" / "c") >= 3
+
+
+def test_hard_texels_are_those_near_art_in_the_footprint():
+    """Hard: within one texel (8-neighbourhood) of a footprint texel that is not all zero; art outside
+    the footprint does not count; a texel of alpha 0 but colour (straight alpha) is art."""
+    from spinemesh.pack.outlines import hard_texels
+
+    core = np.zeros((12, 12), bool)
+    core[1:11, 1:11] = True
+    texels = np.zeros((12, 12, 4), np.uint8)
+    texels[5, 5] = (10, 20, 30, 255)
+    texels[8, 2] = (7, 0, 0, 0)       # colour under alpha 0: not all zero
+    texels[0, 0] = (255, 255, 255, 255)  # outside the footprint
+    hard = hard_texels(core, texels)
+    expected = np.zeros((12, 12), bool)
+    expected[4:7, 4:7] = True
+    expected[7:10, 1:4] = True
+    expected &= core
+    assert (hard == expected).all()
+    assert not (hard & ~core).any()
+
+
+def _ring_footprints(count: int, side: int, art: int) -> tuple[list, list]:
+    """``count`` square footprints ``side`` texels across whose centre ``art`` texels (plus the one-texel
+    reach) are hard and the ring around it soft: ``(candidates, hard)`` for :func:`fill_pages`."""
+    masks, hards = [], []
+    for _ in range(count):
+        m = np.ones((side, side), bool)
+        h = np.zeros_like(m)
+        lo = (side - art) // 2 - 1
+        h[lo:lo + art + 2, lo:lo + art + 2] = True
+        masks.append([m])
+        hards.append([h])
+    return masks, hards
+
+
+@pytest.mark.parametrize("tight", [False, True])
+def test_soft_texels_overlap_and_hard_ones_never_meet(tight):
+    """Footprints whose soft rings overlap fit a page their whole masks could not share; hard texels
+    keep the padding from anything of another footprint."""
+    import cv2
+
+    masks, hards = _ring_footprints(4, 20, 6)
+    # all hard, two 20x20 footprints and the padding of 2 between them take 42 texels: one a page
+    placements, used = fill_pages(masks, 40, 40, 2, tight=tight)
+    assert len(used) == 4
+    # 6 soft texels a side: 16 texels apart (the hard centre 2 from the other's edge), 2x2 on a page
+    placements, used = fill_pages(masks, 40, 40, 2, tight=tight, hard=hards)
+    assert all(p is not None for p in placements) and len(used) == 1
+    full = np.zeros((40, 40), np.int32)
+    for cand, p in zip(masks, placements):
+        full[p.y:p.y + 20, p.x:p.x + 20] += cand[p.orientation]
+    assert full.max() > 1  # they do overlap
+    for i, (hard, p) in enumerate(zip(hards, placements)):
+        grown = np.zeros((44, 44), np.uint8)
+        grown[p.y:p.y + 24, p.x:p.x + 24] = cv2.dilate(np.pad(hard[0], 2).astype(np.uint8), np.ones((5, 5), np.uint8))
+        for j, (cand, q) in enumerate(zip(masks, placements)):
+            if j != i:
+                assert not grown[q.y + 2:q.y + 22, q.x + 2:q.x + 22][cand[0]].any()
+
+
+def test_packed_soft_footprints_overlap_and_sample_the_original_texels():
+    """Two meshed regions of art in the middle of transparent images: packed, their footprints
+    overlap where both are soft, and the new page holds, under each footprint, the texels the
+    original page held there."""
+    from spinemesh.atlas import parse_atlas
+    from spinemesh.pack.atlas_pack import pack_atlas
+    from spinemesh.pack.outlines import content_box, footprint, window_texels
+    from spinemesh.pack.uses import MeshUse, RegionUses
+
+    text = ("page.png\nsize: 80,40\nformat: RGBA8888\nfilter: Linear,Linear\nrepeat: none\n"
+            "a\n  rotate: false\n  xy: 2, 2\n  size: 36, 36\n  orig: 36, 36\n  offset: 0, 0\n  index: -1\n"
+            "b\n  rotate: false\n  xy: 40, 2\n  size: 36, 36\n  orig: 36, 36\n  offset: 0, 0\n  index: -1\n")
+    atlas = parse_atlas(text, "test.atlas")
+    page = np.zeros((40, 80, 4), np.uint8)
+    rng = np.random.default_rng(5)
+    for x in (2, 40):  # art in the middle 12x12 of each 36x36 image, nothing around it
+        page[14:26, x + 12:x + 24] = rng.integers(1, 256, (12, 12, 4), dtype=np.uint8)
+    quad = MeshUse(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float), np.array([[0, 1, 2], [0, 2, 3]]), True)
+    uses = {"a": RegionUses(meshes=[quad]), "b": RegionUses(meshes=[quad])}
+    packed = pack_atlas(atlas, [page], uses, rotate=False)
+    (new_page,) = packed.pages.values()
+    # two 38x38 footprints (36x36 images and the ring) side by side take 76 texels; padding 2 is the
+    # two rings, so their hard centres may come within a texel of the other footprint
+    assert packed.padding == 2 and new_page.shape[1] < 2 * 38
+    placed = []
+    for before, after in zip(atlas.regions, packed.atlas.regions):
+        g0, g1 = before.geometry(), after.geometry()
+        fp0, fp1 = footprint(g0, uses[before.name]), footprint(g1, uses[after.name])
+        assert fp0.core.shape == fp1.core.shape and (fp0.core == fp1.core).all()
+        old, new = window_texels(page, g0, fp0.window), window_texels(new_page, g1, fp1.window)
+        assert (old[fp0.core] == new[fp1.core]).all()
+        cx0, cy0, _, _ = content_box(g1)  # stored upright: page texel = (x, y) + window texel - content corner
+        placed.append((g1.x + fp1.window[0] - cx0, g1.y + fp1.window[1] - cy0, fp1.core))
+    (ax, ay, a), (bx, by, b) = placed
+    on_a = np.zeros(new_page.shape[:2], bool)
+    on_a[ay:ay + a.shape[0], ax:ax + a.shape[1]] = a
+    on_b = np.zeros_like(on_a)
+    on_b[by:by + b.shape[0], bx:bx + b.shape[1]] = b
+    assert (on_a & on_b).any()  # the footprints overlap ...
+    assert not new_page[on_a & on_b].any()  # ... where the page holds zeros

@@ -194,11 +194,16 @@ class Page:
         flat = free.ravel()
         if not flat[start]:
             return none
-        # soft cells may rule out many places: then every place from the first on is a candidate
-        index = start + np.flatnonzero(flat[start:start + 4 * first if soft is None else flat.size])
-        cy, cx = np.divmod(index, free.shape[1])
-        xs, ys = cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
-        keep = np.arange(min(first, xs.size)) if soft is None else self._keep_clear(xs, ys, soft, first)
+        # soft cells may rule out many places: then look further, and at every place if need be
+        spans = [(start, start + 4 * first)] if soft is None else [(start, start + 64 * first),
+                                                                   (start + 64 * first, flat.size)]
+        for lo, hi in spans:
+            index = lo + np.flatnonzero(flat[lo:hi])
+            cy, cx = np.divmod(index, free.shape[1])
+            xs, ys = cx.astype(np.int64) * cell, cy.astype(np.int64) * cell
+            keep = np.arange(min(first, xs.size)) if soft is None else self._keep_clear(xs, ys, soft, first)
+            if keep.size:
+                break
         return xs[keep], ys[keep], None
 
     def _keep_clear(self, xs: np.ndarray, ys: np.ndarray, soft: tuple, first: int | None = None) -> np.ndarray:
@@ -310,17 +315,17 @@ class Page:
         hard = mask if hard is None else hard
         if hard is not mask and self.taken_hard is None:  # the first soft texel: the bitmaps part
             self.taken_hard, self.coarse_hard = self.taken.copy(), self.coarse.copy()
-        self._mark(self.taken, self.coarse, mask, x, y)
+        grown = _grow(mask, self.padding)
+        self._mark(self.taken, self.coarse, grown, x, y)
         if self.taken_hard is not None:
-            self._mark(self.taken_hard, self.coarse_hard, hard, x, y)
+            self._mark(self.taken_hard, self.coarse_hard, grown if hard is mask else _grow(hard, self.padding), x, y)
         self.free -= int(hard.sum())
         self.used_w = max(self.used_w, x + extent[0])
         self.used_h = max(self.used_h, y + extent[1])
 
-    def _mark(self, taken: np.ndarray, coarse: np.ndarray, mask: np.ndarray, x: int, y: int) -> None:
-        """Set ``mask`` at ``(x, y)``, grown by the padding, in ``taken`` and its cells in ``coarse``."""
+    def _mark(self, taken: np.ndarray, coarse: np.ndarray, grown: np.ndarray, x: int, y: int) -> None:
+        """Set ``grown`` (a mask at ``(x, y)`` grown by the padding) in ``taken``, and its cells in ``coarse``."""
         p = self.padding
-        grown = _grow(mask, p)
         h, w = grown.shape
         x0, y0 = x - p, y - p
         cx0, cy0 = max(0, x0), max(0, y0)
