@@ -343,6 +343,8 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     candidates = [it.masks for it in items]
     hard = [it.hard_masks for it in items]
     needed = sum(int(c[0].sum()) for c in hard)  # soft texels may all overlap: the hard ones are the least
+    if all(h is m for it in items for h, m in zip(it.hard_masks, it.masks)):
+        hard = None  # every texel hard: footprints may not overlap at all
     if ceiling is not None and needed >= ceiling:  # no placement can beat it: spare every fill
         raise PackRefused(f"its footprints alone take {needed:,} texels, no fewer than the {ceiling:,} "
                           f"page texels the atlas has")
@@ -350,9 +352,12 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling, hard)
     if found is not None and (best is None or found[0] < best[0]):
         best = found
-    best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, hard=hard)
-    if pot:
-        best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, hard)
+    # powers of two: first fills again with every texel hard. The greedy fill takes other places when
+    # footprints may overlap, and a footprint it then no longer fits doubles a page (4.2 stretchyman)
+    for variant in (hard, None) if pot and hard is not None else (hard,):
+        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, hard=variant)
+        if pot:
+            best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, variant)
     for order in other_orders(candidates) if pot and max_pages > 1 else []:
         best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order, hard)
     if best is None or best[1] is None:
