@@ -129,11 +129,18 @@ def pose_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path,
 
 
 def prove_skeleton(tool: Path, project: Path, out: Path, skeleton: Path, work: Path, row: Row,
-                   packed_atlases: set[str], animations: int = ANIMATIONS) -> Row:
-    """Render ``skeleton`` with its original atlas and with the packed one in ``out``; fill in ``row``."""
+                   packed_atlases: set[str], animations: int = ANIMATIONS, pma: bool = False) -> Row:
+    """Render ``skeleton`` with its original atlas and with the packed one in ``out``; fill in ``row``.
+
+    ``pma``: with the premultiplied twin of its atlas (``NAME-pma.atlas`` beside ``NAME.atlas``)
+    where there is one, as the examples ship both.
+    """
     doc, atlas = renderable(skeleton, project, row)
     if atlas is None:
         return row
+    twin = atlas.with_name(f"{atlas.stem}-pma{atlas.suffix}")
+    if pma and twin.is_file():
+        atlas = twin
     row.atlas = atlas.relative_to(project).as_posix()
     row.packed = row.atlas in packed_atlases
     if not row.packed:
@@ -359,7 +366,7 @@ def pack_as_the_cli_does(source: Path, out: Path, upgraded: bool) -> list:
 
 
 def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMATIONS,
-                  upgrade: bool = False, mipmaps: bool = False, skeletons: str = "*") -> list[Row]:
+                  upgrade: bool = False, mipmaps: bool = False, skeletons: str = "*", pma: bool = False) -> list[Row]:
     """Pack ``project`` (optionally its upgrade; with ``mipmaps``, a copy whose pages use
     mipmaps) into ``work`` and prove each skeleton whose path in it matches the glob ``skeletons``."""
     name = project_label(project)
@@ -390,7 +397,7 @@ def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMA
         scratch = work / "render" / rel.replace("/", "~")
         scratch.mkdir(parents=True, exist_ok=True)
         try:
-            prove_skeleton(tool, source, out, skeleton, scratch, row, packed, animations)
+            prove_skeleton(tool, source, out, skeleton, scratch, row, packed, animations, pma)
         except (AssertionError, SpineMeshError) as e:  # the harness failed to load or render
             row.status, row.cause = "FAIL", f"harness: {str(e).strip().splitlines()[-1][:300]}"
         except subprocess.TimeoutExpired as e:  # a slow render (a busy machine): prove it again alone
@@ -458,6 +465,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path, help="project folders (default: 3.8-4.2 examples and corpus)")
     ap.add_argument("--only", action="append", default=[], help="glob on project names; repeatable")
     ap.add_argument("--upgrade", action="store_true", help="prove upgrade --pack: pack each project's upgrade")
+    ap.add_argument("--pma", action="store_true",
+                    help="render each skeleton with the premultiplied twin of its atlas (NAME-pma.atlas) where there is one")
     ap.add_argument("--mipmaps", action="store_true",
                     help="give every page a MipMap filter first (in a copy), and check mipmap bleeding too")
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
@@ -488,7 +497,8 @@ def main(argv: list[str] | None = None) -> int:
     base = Path(tempfile.mkdtemp(prefix="prove-pack-")) if args.keep is None else args.keep
     tool = install(base / "tool")
     rows = prove_each(projects, base, lambda project, work: prove_project(tool, project, work, args.animations,
-                                                                          args.upgrade, args.mipmaps), args.json, args.keep is None, rows)
+                                                                          args.upgrade, args.mipmaps, pma=args.pma),
+                      args.json, args.keep is None, rows)
     print(table(rows))
     print()
     print(summary(rows))

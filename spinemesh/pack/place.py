@@ -217,7 +217,8 @@ class Page:
         rows, cols, template = soft
         cy, cx = ys // self.cell, xs // self.cell
         kept, done = [], 0
-        size = max(1, min(KEEP_CLEAR_BATCH, KEEP_CLEAR_CELLS // (2 * rows.size)))
+        most = max(1, min(KEEP_CLEAR_BATCH, KEEP_CLEAR_CELLS // (2 * rows.size)))
+        size = min(most, 16)  # the first places often pass: a small batch first, then larger ones
         while done < cy.size and (first is None or sum(k.size for k in kept) < first):
             if (done + size) * rows.size > KEEP_CLEAR_CELLS:
                 hc, wc = template.shape
@@ -229,6 +230,7 @@ class Page:
             hit = self.coarse_hard[cy[batch, None] + rows, cx[batch, None] + cols].any(axis=1)
             kept.append(batch[~hit])
             done = batch[-1] + 1
+            size = min(most, 4 * size)
         kept = np.concatenate(kept) if kept else np.zeros(0, np.int64)
         return kept if first is None else kept[:first]
 
