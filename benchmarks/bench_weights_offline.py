@@ -234,20 +234,28 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
-def learned(fold_models: Path):
-    """The learned choice, each case's bones chosen by the fold model fitted without its project."""
+def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
+    """The learned choice, each case's bones chosen by the fold model fitted without its project;
+    a model that reads the project's habits gets them from the artist-weighted meshes of the
+    project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does."""
     from spinemesh.rig import train_choice
-    from spinemesh.rig.learned import choose_learned
+    from spinemesh.rig.habits import keys_of
+    from spinemesh.rig.learned import choose_learned, project_habits
 
     models: dict[int, object] = {}
+    habits: dict[str, object] = {}
 
     def variant(case):
         if not models:
             models.update(train_choice.load_fold_models(fold_models))
+        model = models[train_choice.fold_of(case["label"])]
+        if model.reads_habits and case["label"] not in habits:
+            docs = [load_skeleton(s) for s in skeletons[case["label"]]]
+            habits[case["label"]] = project_habits([(d, build_rig(d)) for d in docs])
+        others = habits[case["label"]].others(keys_of(case["slot"], case["name"])) if model.reads_habits else None
         rig = case["rig"]
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                                rig.skin_bones.get(case["skin"], set()), rig.constrained,
-                                models[train_choice.fold_of(case["label"])]).bones
+                                rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others).bones
         reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
         return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
@@ -403,10 +411,11 @@ def main() -> None:
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
-    VARIANTS["learned"] = learned(args.fold_models)
-    cases = []
+    cases, skeletons = [], {}
     for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus):
         cases += cases_of(label, skel, dump)
+        skeletons.setdefault(label, []).append(skel)
+    VARIANTS["learned"] = learned(args.fold_models, skeletons)
     cases = cases[::args.every]
     for c in cases:
         c["rigid"] = rigid_error(c)

@@ -29,6 +29,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from spinemesh.rig import habits as hb  # noqa: E402
 from spinemesh.rig import train_choice as tc  # noqa: E402
 from spinemesh.rig.learned import CHAIN_REACH, FEATURES, MODEL_PATH, REACH  # noqa: E402
 
@@ -57,6 +58,9 @@ def main() -> None:
     ap.add_argument("--reach", type=float, default=REACH, help="candidates' reach, share of the art's diagonal")
     ap.add_argument("--chain-reach", type=float, default=CHAIN_REACH,
                     help="candidates' reach along the slot bone's chain, share of the art's diagonal")
+    ap.add_argument("--habits", choices=("none", "strict", "loose"), default="none",
+                    help="add the project's habits (the other weighted meshes of its project; strict: also "
+                    "without those of the same slot or attachment name)")
     ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
     args = ap.parse_args()
 
@@ -68,6 +72,11 @@ def main() -> None:
     print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
+    habits = tc.with_habits(data, args.habits != "loose")
+    # meshes whose project has no other weighted mesh (of another slot and attachment name)
+    alone = np.flatnonzero(hb.meshes_in(habits["habit_others"]) == 0)
+    if args.habits != "none":
+        data = habits
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
@@ -81,6 +90,9 @@ def main() -> None:
     else:
         inner = tc.inner_probabilities(data, args.project_power, log=log)
         by_sets = tc.held_out_sets(data, p, models, inner, args.project_power, log=log)
+    if args.habits != "none":
+        for m in models.values():
+            m.meta = {**m.meta, "habit_prior": data["habit_prior"].tolist()}
     if args.fold_models:
         tc.save_fold_models(models, args.fold_models)
     rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]
@@ -90,6 +102,7 @@ def main() -> None:
     table(rows)
     kinds = {"examples": np.char.startswith(data["group"].astype(str), "examples/")}
     kinds["corpus"] = ~kinds["examples"]
+    kinds["no other weighted mesh in the project"] = np.isin(np.arange(meshes), alone)
     for kind, mask in kinds.items():
         ids = np.flatnonzero(mask)
         print(f"\n{kind}:")
@@ -97,14 +110,18 @@ def main() -> None:
                (f"per bone, threshold {args.threshold:.1f}", tc.judge(data, tc.choose_rows(data, p, args.threshold), ids)),
                ("learned: per bone, then set level", tc.judge(data, by_sets, ids))])
     if args.write:
-        model = tc.fit(data["X"], data["y"], tc.mesh_weights(data, args.project_power), args.threshold)
+        model = tc.fit(data["X"], data["y"], tc.mesh_weights(data, args.project_power), args.threshold,
+                       features=tc.feature_names(data))
         # the set stage learns from held-out per-bone probabilities, as the shipped model gives new projects
         model.sets = tc.fit_sets(data, tc.set_rows(data, p, np.arange(meshes), args.threshold), args.project_power)
         model.sets.meta = {**model.sets.meta, "trained_on": "the candidate sets of the same meshes, from held-out "
                            "per-bone probabilities", "trees": tc.SET_TREES, "leaves": tc.SET_LEAVES}
         model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
                       "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
-                      "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"}
+                      "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"
+                      + (f" --habits {args.habits}" if args.habits != "none" else "")}
+        if args.habits != "none":
+            model.meta["habit_prior"] = data["habit_prior"].tolist()
         MODEL_PATH.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
         print(f"\nwrote {MODEL_PATH.relative_to(REPO)} ({MODEL_PATH.stat().st_size / 1024:.0f} KB, "
               f"{len(model.trees)} + {len(model.sets.trees)} trees, {len(FEATURES)} + {len(model.sets.features)} features)")

@@ -21,6 +21,7 @@ from ..skeleton import AttachmentRef, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
+from .habits import ProjectHabits, keys_of
 from .learned import choose_learned, constrained_bones
 from .weights import solve_weights, sparsify
 
@@ -76,6 +77,8 @@ class Rig:
     skin_bones: dict[str, set[int]]
     keyed: dict[tuple[str, str, str], str]
     constrained: dict[int, str] = field(default_factory=dict)  # bones constraints move -> kind
+    # the artists' habits over the project's weighted meshes, for the learned choice (None: the prior)
+    habits: ProjectHabits | None = None
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -134,10 +137,15 @@ def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
     return any(fnmatch.fnmatchcase(n, p) for p in patterns for n in names)
 
 
+def uses_learned(options: WeightOptions) -> bool:
+    """Whether ``options`` bind with the learned choice (``learned``, or ``auto`` while it is :data:`AUTO_BONES`)."""
+    return (AUTO_BONES if options.bones == "auto" else options.bones) == "learned"
+
+
 def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.ndarray,
            mode: str) -> Choice:
     """The bones for one mesh: its current ones (``keep``), the ``rule`` or the ``learned`` choice
-    (``auto``: :data:`AUTO_BONES`)."""
+    (``auto``: :data:`AUTO_BONES`; with the project's habits when ``rig.habits`` holds them)."""
     slot_bone = rig.slot_bone[ref.slot]
     if mode == "keep":
         current = mesh.bones() if mesh.weighted else [slot_bone]
@@ -145,9 +153,10 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         left = {b: rig.bones[b].why for b in current if not rig.bones[b].exact}
         keep = [b for b in current if rig.bones[b].exact]
         return Choice(keep, {b: why[b] for b in keep}, left)
-    if (AUTO_BONES if mode == "auto" else mode) == "learned":
+    if uses_learned(WeightOptions(bones=mode)):
+        others = rig.habits.others(keys_of(ref.slot, ref.name)) if rig.habits is not None else None
         return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
-                              rig.constrained)
+                              rig.constrained, habits=others)
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

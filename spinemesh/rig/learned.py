@@ -28,7 +28,12 @@ import numpy as np
 
 from . import bone_sets
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
+from ..errors import SpineMeshError
+from ..skeleton import iter_attachments
+from .binding import parse_vertices, setup_world
 from .constraints import constraints_of
+from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, tally)
+from .habits import reason as habit_reason
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
 #: candidates. Measured on the training meshes: 0.25 holds all but a few percent of the
@@ -244,6 +249,64 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     return Candidates(ids, features, rule, over)
 
 
+def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = CHAIN_REACH) -> list[dict]:
+    """Every artist-weighted mesh of a skeleton document with its candidates and the artist's bones.
+
+    Meshes whose artist's bones include one with a setup transform not reproduced, or whose
+    triangles or setup vertices are unusable, are passed over. ``rig``: the document's
+    (:func:`.document.build_rig`); ``reach``, ``chain_reach``: as :func:`candidates`.
+
+    Returns
+    -------
+    list of dict
+        Each: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
+        (each candidate's parent bone, -1 for the root), ``features`` (C, len(FEATURES)),
+        ``label`` (C,) bool (the artist bound it), ``rule`` (the rule's bones), ``artist``
+        (the artist's bones).
+    """
+    out = []
+    for ref in iter_attachments(doc):
+        att = ref.attachment
+        if ref.type != "mesh" or ref.slot not in rig.slot_bone:
+            continue
+        try:
+            mesh = parse_vertices(att, len(rig.bones))
+        except SpineMeshError:
+            continue
+        if not mesh.weighted:
+            continue
+        artist = mesh.bones()
+        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+        if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
+                or tris.max() >= mesh.count or tris.min() < 0:
+            continue
+        slot_bone = rig.slot_bone[ref.slot]
+        world = setup_world(mesh, rig.worlds, slot_bone)
+        if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
+            continue
+        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), rig.constrained,
+                          reach=reach, chain_reach=chain_reach)
+        parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
+        out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
+                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
+                        parents=parents))
+    return out
+
+
+def project_habits(documents) -> ProjectHabits:
+    """The habits (:mod:`.habits`) of the artist-weighted meshes of a project's skeletons.
+
+    ``documents``: ``(doc, rig)`` pairs, read before any of them is weighted (the habits are
+    the artists', not ours).
+    """
+    tallies, keys = [], []
+    for doc, rig in documents:
+        for m in weighted_meshes(doc, rig):
+            tallies.append(tally(m["features"], m["label"], len(m["artist"]), FEATURES))
+            keys.append(keys_of(m["slot"], m["name"]))
+    return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys)
+
+
 def _tree_from_json(t: dict, features: int) -> dict[str, np.ndarray]:
     """One tree's arrays from its JSON form, checked (children ahead of their node and inside
     the tree, features read exist, finite leaves); raises ValueError when malformed."""
@@ -292,11 +355,14 @@ class TreeEnsemble:
 
         if data.get("format") != form:
             raise ValueError(f"not a bone-choice model (format {data.get('format')!r}, expected {form!r})")
-        if tuple(data["features"]) != features:
+        names = tuple(data["features"])
+        if names not in (features, features + (HABIT_FEATURES if features == FEATURES else ())):
             raise ValueError("the model reads other features than this version computes")
-        trees = [_tree_from_json(t, len(features)) for t in data["trees"]]
+        if len(names) > len(features) and len(data.get("meta", {}).get("habit_prior", ())) != TALLY_SIZE:
+            raise ValueError("the model reads the project's habits but holds no prior for them")
+        trees = [_tree_from_json(t, len(names)) for t in data["trees"]]
         sets = data.get("sets")
-        return cls(features, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})),
+        return cls(names, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})),
                    cls.from_json(sets, SET_FEATURES, SET_MODEL_FORMAT) if sets is not None else None)
 
     def to_json(self, form: str = MODEL_FORMAT) -> dict:
@@ -308,6 +374,21 @@ class TreeEnsemble:
         if self.sets is not None:
             out["sets"] = self.sets.to_json(SET_MODEL_FORMAT)
         return out
+
+    @property
+    def reads_habits(self) -> bool:
+        """Whether the model reads :data:`.habits.HABIT_FEATURES` after :data:`FEATURES`."""
+        return len(self.features) > len(FEATURES) and self.features[len(FEATURES)] == HABIT_FEATURES[0]
+
+    def with_habits(self, features: np.ndarray, others: np.ndarray | None) -> np.ndarray:
+        """``features`` (C, len(FEATURES)) with the habit columns appended when the model reads
+        them (:func:`.habits.habit_features`, from ``others``, the tally of the project's other
+        weighted meshes; None or zeros: the prior alone)."""
+        if not self.reads_habits:
+            return features
+        base = np.asarray(self.meta["habit_prior"], float)
+        others = np.zeros(TALLY_SIZE) if others is None else np.asarray(others, float)
+        return np.hstack([features, habit_features(features, FEATURES, others, base)])
 
     def raw(self, x: np.ndarray) -> np.ndarray:
         """The ensemble's log-odds for each row of ``x`` (R, F)."""
@@ -381,18 +462,18 @@ def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: 
 
 
 def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
-             model: TreeEnsemble) -> tuple[list[int], str]:
+             model: TreeEnsemble, features: np.ndarray) -> tuple[list[int], str]:
     """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
     to be the artist's exact set, when clearly likelier than the per-bone choice's set
     (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
-    choice for the report."""
+    choice for the report. ``features``: the columns the per-bone model read (C, F)."""
     parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
     ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
     rule = cand.features[:, FEATURES.index("rule_chose")] == 1
     sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule)
     if not sets:
         return [], ""
-    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
+    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, features, FEATURES, slot,
                                                           ancestors, parents_at, model.threshold))
     best = bone_sets.pick(score, model.sets.threshold)
     how = (f"best of {len(sets)} sets weighed" if best else
@@ -401,7 +482,8 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
-                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None) -> Choice:
+                   constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
+                   habits: np.ndarray | None = None) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -409,10 +491,17 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     to be the artist's is taken. Without one, the bones at or above the model's threshold; when
     none reaches it, the slot's bone (the most likely candidate when the slot's bone cannot be
     bound); at most ``MAX_AUTO_BONES``, the most likely first.
+
+    ``habits``: the tally (:data:`.habits.TALLY_SIZE`) of the other artist-weighted meshes of
+    the project (:meth:`.habits.ProjectHabits.others`), for a model that reads the project's
+    habits (None: the prior, as for a project without weighted meshes). A bone whose
+    probability they move by :data:`HABIT_MATTERS` or more says so in its reason.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
-    p = model.probability(cand.features)
+    x = model.with_habits(cand.features, habits)
+    p = model.probability(x)
+    notes = _habit_notes(cand, model, p, habits)
     left_out: dict[int, str] = {}
     allowed = np.zeros(len(cand.bones), bool)
     for k, i in enumerate(cand.bones):
@@ -425,24 +514,44 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
             allowed[k] = True
     order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
     slot = next((k for k in order if cand.bones[k] == slot_bone), None)
-    take, note = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], "")
+    take, note = _by_sets(bones, cand, p, allowed, slot, model, x) if model.sets is not None else ([], "")
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
-                   model.threshold, note if take else "", left_out)
+                   model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:
         why[slot_bone] = "slot bone (no candidate can be bound)"
     return Choice(sorted(why), why, left_out)
 
 
+#: A bone's reason mentions the project's habits when they move its probability this much.
+HABIT_MATTERS = 0.1
+
+
+def _habit_notes(cand: Candidates, model: TreeEnsemble, p: np.ndarray,
+                 habits: np.ndarray | None) -> dict[int, str]:
+    """For the candidates (indices into ``cand.bones``) whose probability ``p`` the project's
+    habits moved by :data:`HABIT_MATTERS` or more from the prior's, a note for the report."""
+    if not model.reads_habits or habits is None or meshes_in(habits) == 0:
+        return {}
+    alone = model.probability(model.with_habits(cand.features, None))
+    return {k: f"{habit_reason(cand.features, FEATURES, habits, k)} "
+               f"({alone[k]:.2f} likely without the project's habits)"
+            for k in np.flatnonzero(np.abs(p - alone) >= HABIT_MATTERS).tolist()}
+
+
 def _explain(bones, cand: Candidates, p: np.ndarray, order: list[int], take: list[int], slot_bone: int,
-             threshold: float, chosen_set: str, left_out: dict[int, str]) -> dict[int, str]:
+             threshold: float, chosen_set: str, left_out: dict[int, str],
+             notes: dict[int, str] | None = None) -> dict[int, str]:
     """Why each allowed candidate was taken (returned) or left out (added to ``left_out``).
 
-    ``chosen_set``: the set stage's note on the set taken (empty: the per-bone choice).
+    ``chosen_set``: the set stage's note on the set taken (empty: the per-bone choice);
+    ``notes``: the project's habits' notes (:func:`_habit_notes`), by candidate.
     """
     why: dict[int, str] = {}
     for k in order:
         i = cand.bones[k]
         text = _describe(bones, i, slot_bone, cand.over)
+        if notes and k in notes:
+            text = f"{text}; {notes[k]}"
         alone = f"learned: {p[k]:.2f} likely an artist's bone"
         if chosen_set:
             if k in take:

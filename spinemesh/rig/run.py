@@ -1,7 +1,8 @@
 """``spinemesh weights``: bind and weight the mesh attachments of whole projects.
 
 Every skeleton of the project is read (``.json`` or ``.skel``, any version the package
-reads), its mesh attachments are weighted (:func:`.document.weight_document`), and it is
+reads), its mesh attachments are weighted (:func:`.document.weight_document`; the learned
+bone choice with the habits of the artist-weighted meshes of all of them), and it is
 written to the output folder in the format and version it came in; every other file is
 copied. The input is never modified and the output folder may not be inside it.
 """
@@ -17,7 +18,8 @@ from ..fsutil import atomic_write_json
 from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
-from .document import Outcome, WeightOptions, build_rig, weight_document
+from .document import Outcome, WeightOptions, build_rig, uses_learned, weight_document
+from .learned import project_habits
 
 
 @dataclass
@@ -62,14 +64,19 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     result = WeightResult()
     start = time.perf_counter()
     written = set()
+    read = []
     for path in proj.skeletons:
-        rel = path.relative_to(proj.root).as_posix()
         try:
             doc = load_skeleton(path)
         except SpineMeshError as e:
             result.errors.append(str(e))
             continue
-        rig = build_rig(doc)
+        read.append((path, doc, build_rig(doc)))
+    # the learned choice reads the artists' habits over every skeleton of the project, before any is weighted
+    habits = project_habits([(doc, rig) for _, doc, rig in read]) if uses_learned(options) else None
+    for path, doc, rig in read:
+        rel = path.relative_to(proj.root).as_posix()
+        rig.habits = habits
         outcomes = weight_document(doc, rel, options, rig)
         result.outcomes += outcomes
         try:

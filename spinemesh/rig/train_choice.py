@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..skeleton import iter_attachments, load_skeleton
-from . import bone_sets
-from .binding import parse_vertices, setup_world
+from ..skeleton import load_skeleton
+from . import bone_sets, habits
+from .habits import HABIT_FEATURES
 from .document import build_rig
-from .learned import CHAIN_REACH, FEATURES, REACH, TreeEnsemble, candidates
+from .learned import CHAIN_REACH, FEATURES, REACH, TreeEnsemble, weighted_meshes
 
 #: Project-held-out folds.
 FOLDS = 5
@@ -66,43 +66,9 @@ def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple
 
 
 def mesh_rows(doc: dict, reach: float = REACH, chain_reach: float = CHAIN_REACH) -> list[dict]:
-    """Every artist-weighted mesh of a skeleton document with its candidates and labels.
-
-    Each entry: ``skin``, ``slot``, ``name``, ``bones`` (candidate bone indices), ``parents``
-    (each candidate's parent bone, -1 for the root), ``features`` (C, F), ``label`` (C,) bool,
-    ``rule`` (the rule's bones), ``artist`` (the artist's bones).
-    """
-    from .learned import constrained_bones
-
-    rig = build_rig(doc)
-    constrained = constrained_bones(doc)
-    out = []
-    for ref in iter_attachments(doc):
-        att = ref.attachment
-        if ref.type != "mesh" or ref.slot not in rig.slot_bone:
-            continue
-        try:
-            mesh = parse_vertices(att, len(rig.bones))
-        except SpineMeshError:
-            continue
-        if not mesh.weighted:
-            continue
-        artist = mesh.bones()
-        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
-        if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
-                or tris.max() >= mesh.count or tris.min() < 0:
-            continue
-        slot_bone = rig.slot_bone[ref.slot]
-        world = setup_world(mesh, rig.worlds, slot_bone)
-        if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
-            continue
-        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), constrained,
-                          reach=reach, chain_reach=chain_reach)
-        parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
-        out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
-                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
-                        parents=parents))
-    return out
+    """Every artist-weighted mesh of a skeleton document with its candidates and labels
+    (:func:`.learned.weighted_meshes`)."""
+    return weighted_meshes(doc, build_rig(doc), reach, chain_reach)
 
 
 def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=print,
@@ -165,6 +131,32 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
         cache.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(cache, **data)
     return data
+
+
+def feature_names(data: dict) -> tuple[str, ...]:
+    """The names of the columns of ``data["X"]``: :data:`.learned.FEATURES`, then
+    :data:`.habits.HABIT_FEATURES` when :func:`with_habits` added them."""
+    return FEATURES + (HABIT_FEATURES if data["X"].shape[1] > len(FEATURES) else ())
+
+
+def mesh_keys(data: dict) -> list[set[str]]:
+    """Each mesh's names (its slot's and its attachment's), for :func:`.habits.others_of`."""
+    return [habits.keys_of(*str(a).split("/", 2)[1:]) for a in data["attachment"]]
+
+
+def with_habits(data: dict, strict: bool = True) -> dict:
+    """``data`` with the :data:`.habits.HABIT_FEATURES` of each row appended to ``X``, from the
+    other artist-weighted meshes of its mesh's project (``strict``: also without those of the
+    same slot or attachment name), and ``habit_prior`` (the rates over every mesh) and
+    ``habit_others`` (each mesh's others' tally, (M, TALLY_SIZE)) added."""
+    starts = _mesh_rows(data)
+    tallies = np.stack([habits.tally(data["X"][s:e], data["y"][s:e], n, FEATURES)
+                        for s, e, n in zip(starts[:-1], starts[1:], data["artist_count"])])
+    others = habits.others_of(tallies, data["group"], mesh_keys(data) if strict else None)
+    base = habits.prior(tallies)
+    H = np.concatenate([habits.habit_features(data["X"][s:e], FEATURES, others[m], base)
+                        for m, (s, e) in enumerate(zip(starts[:-1], starts[1:]))])
+    return {**data, "X": np.hstack([data["X"], H]), "habit_prior": base, "habit_others": others}
 
 
 def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
@@ -278,7 +270,7 @@ def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = 
         train, test = fold != k, fold == k
         given = k in models
         if not given:
-            models[k] = fit(data["X"][train], data["y"][train], w[train])
+            models[k] = fit(data["X"][train], data["y"][train], w[train], features=feature_names(data))
         p[test] = models[k].probability(data["X"][test])
         log(f"fold {k}: model {'given' if given else 'fitted'} on {int(train.sum())} rows, "
             f"{int(test.sum())} judged")
@@ -304,7 +296,8 @@ def inner_probabilities(data: dict, project_power: float = 0.5, folds: int = FOL
         for j in range(folds):
             if j != k:
                 train, test = (fold != k) & (fold != j), fold == j
-                out[k, test] = fit(data["X"][train], data["y"][train], w[train]).probability(data["X"][test])
+                out[k, test] = fit(data["X"][train], data["y"][train], w[train],
+                                   features=feature_names(data)).probability(data["X"][test])
         log(f"fold {k}: per-bone probabilities of the other folds, each from a model without it")
     return out
 

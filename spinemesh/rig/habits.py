@@ -1,0 +1,250 @@
+"""A project's binding habits, from its artist-weighted meshes: features for the ``learned`` bone choice.
+
+Which bones an artist binds depends on the studio's habits as much as on the rig: some bind
+the slot's bone to every mesh, some never bind a point, some bind a chain down to its last
+bone, some one bone per part. A project being upgraded often already holds meshes its artists
+weighted, and those show the habits. This module tallies them (:func:`tally`, one vector per
+weighted mesh, from the same candidate features the per-bone model reads,
+:data:`.learned.FEATURES`) and turns the tally of a project's *other* weighted meshes into
+:data:`HABIT_FEATURES` for each candidate of a mesh being bound (:func:`habit_features`):
+
+- per kind of candidate (its place in the tree relative to the slot's bone, and whether it is
+  a point, over the art or beside it; its place alone; its
+  constraint role; whether the ``rule`` takes it), the share of such candidates the project's
+  artists bound;
+- whether they bind the slot's bone, how many bones a mesh gets, how many against the bones
+  over its art;
+- how many weighted meshes the habits come from.
+
+Each share is smoothed toward the rate over every training project (the *prior*, shipped in
+the model) with :data:`PSEUDO_COUNT` made-up candidates or meshes: a project with no weighted
+mesh gets the prior itself, one with many its own rates.
+
+A tally is a flat vector (:data:`TALLY_SIZE`): tallies of several meshes add up, and leaving a
+mesh out is a subtraction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Habit features, in the order of the columns appended to the per-bone features.
+HABIT_FEATURES = (
+    "habit_kind", "habit_relation", "habit_role", "habit_rule", "habit_slot_bound", "habit_bones",
+    "habit_bones_per_on_art", "habit_meshes",
+)
+
+#: Made-up candidates (for a share of candidates) or meshes (for a mesh-level habit) at the
+#: prior's rate added to a project's own: with fewer real ones, the prior weighs more.
+PSEUDO_COUNT = 5.0
+
+#: The groupings of candidates whose bound share is a habit, each with its number of kinds
+#: (:func:`candidate_kinds`).
+GROUPINGS = (("kind", 18), ("relation", 5), ("role", 3), ("rule", 2))
+
+#: Where each grouping's kinds start in a tally (each kind: candidates seen, candidates bound).
+_OFFSETS = np.cumsum([0] + [2 * n for _, n in GROUPINGS])
+
+#: Mesh-level entries after the candidate kinds: meshes, meshes whose slot bone could be
+#: bound, of those the meshes binding it, the artist's bones, bones per bone over the art.
+_MESHES, _SLOT_SEEN, _SLOT_BOUND, _BONES, _PER_ON_ART = range(int(_OFFSETS[-1]), int(_OFFSETS[-1]) + 5)
+
+#: Length of a tally vector.
+TALLY_SIZE = _PER_ON_ART + 1
+
+#: Places in the tree and states of the ``kind`` kinds: the relations, with the slot bone's
+#: children apart from the bones farther below (artists differ most there).
+PLACES = ("slot bone", "ancestor of the slot bone", "child of the slot bone", "farther below the slot bone",
+          "sibling of the slot bone", "elsewhere in the tree")
+STATES = ("a point", "over the art", "beside the art")
+
+#: Relations to the slot's bone, in the order of the ``relation`` kinds.
+RELATIONS = ("slot bone", "ancestor of the slot bone", "below the slot bone", "sibling of the slot bone",
+             "elsewhere in the tree")
+
+
+def _columns(names: tuple[str, ...]) -> dict[str, int]:
+    return {f: i for i, f in enumerate(names)}
+
+
+def candidate_kinds(features: np.ndarray, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Each candidate's kind in every grouping of :data:`GROUPINGS`.
+
+    Parameters
+    ----------
+    features : ndarray, shape (C, F)
+        Candidates' per-bone features, columns named by ``names`` (:data:`.learned.FEATURES`).
+
+    Returns
+    -------
+    dict of str to ndarray of int, shape (C,)
+        ``relation`` (0 slot bone, 1 ancestor, 2 below it, 3 sibling, 4 elsewhere: :data:`RELATIONS`),
+        ``kind`` (:data:`PLACES` times three, plus 0 for a point, 1 for a bone over the art, 2
+        for one beside it: :data:`STATES`), ``role`` (0 none, 1 moved by a
+        constraint, 2 a constraint's target), ``rule`` (1 when the ``rule`` takes it).
+    """
+    col = _columns(names)
+    f = np.asarray(features, float).reshape(-1, len(names))
+    relation = np.select([f[:, col["is_slot_bone"]] == 1, f[:, col["is_ancestor"]] == 1,
+                          f[:, col["is_descendant"]] == 1, f[:, col["is_sibling"]] == 1], [0, 1, 2, 3], 4)
+    role = np.where(f[:, col["is_control"]] == 1, 2, np.where(f[:, col["is_constrained"]] == 1, 1, 0))
+    # below the slot bone: its children apart from the bones farther down (artists differ most there)
+    place = np.where(relation == 2, np.where(f[:, col["tree_distance"]] <= 1, 2, 3),
+                     np.where(relation > 2, relation + 1, relation))
+    state = np.where(f[:, col["is_point"]] == 1, 0, np.where(f[:, col["over_art_per_diag"]] > 0, 1, 2))
+    return {"kind": 3 * place + state, "relation": relation, "role": role,
+            "rule": (f[:, col["rule_chose"]] == 1).astype(int)}
+
+
+def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tuple[str, ...]) -> np.ndarray:
+    """The habits one artist-weighted mesh shows, as a vector of counts (:data:`TALLY_SIZE`).
+
+    Parameters
+    ----------
+    features : ndarray, shape (C, F)
+        Its candidates' per-bone features (columns ``names``).
+    bound : ndarray of bool, shape (C,)
+        Which candidates the artist bound.
+    artist_count : int
+        How many bones the artist bound (candidates or not).
+    """
+    col = _columns(names)
+    f = np.asarray(features, float).reshape(-1, len(names))
+    bound = np.asarray(bound, bool)
+    out = np.zeros(TALLY_SIZE)
+    for (name, n), start in zip(GROUPINGS, _OFFSETS):
+        kinds = candidate_kinds(f, names)[name]
+        out[start:start + 2 * n:2] = np.bincount(kinds, minlength=n)
+        out[start + 1:start + 2 * n:2] = np.bincount(kinds, weights=bound.astype(float), minlength=n)
+    slot = (f[:, col["is_slot_bone"]] == 1) & (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
+    on_art = float(f[0, col["bones_on_art"]]) if len(f) else 0.0
+    out[_MESHES] = 1
+    out[_SLOT_SEEN] = float(slot.any())
+    out[_SLOT_BOUND] = float((slot & bound).any())
+    out[_BONES] = artist_count
+    out[_PER_ON_ART] = artist_count / max(on_art, 1.0)
+    return out
+
+
+def meshes_in(tallies: np.ndarray) -> np.ndarray:
+    """How many weighted meshes each tally (..., TALLY_SIZE) sums."""
+    return np.asarray(tallies)[..., _MESHES]
+
+
+def prior(tallies: np.ndarray) -> np.ndarray:
+    """The habits over every mesh of ``tallies`` (M, TALLY_SIZE): their sum, scaled to one mesh
+    (the rates :func:`habit_features` smooths a project's toward)."""
+    total = np.asarray(tallies, float).sum(axis=0)
+    return total / max(total[_MESHES], 1.0)
+
+
+def _share(seen: np.ndarray, hits: np.ndarray, base_seen: np.ndarray, base_hits: np.ndarray) -> np.ndarray:
+    """Smoothed share: ``hits`` of ``seen`` plus :data:`PSEUDO_COUNT` at the prior's rate."""
+    rate = base_hits / np.maximum(base_seen, 1e-9)
+    return (hits + PSEUDO_COUNT * rate) / (seen + PSEUDO_COUNT)
+
+
+def habit_features(features: np.ndarray, names: tuple[str, ...], others: np.ndarray,
+                   base: np.ndarray) -> np.ndarray:
+    """:data:`HABIT_FEATURES` (C, len(HABIT_FEATURES)) for the candidates of one mesh.
+
+    Parameters
+    ----------
+    features : ndarray, shape (C, F)
+        The mesh's candidates' per-bone features (columns ``names``).
+    others : ndarray, shape (TALLY_SIZE,)
+        The tally of the project's other artist-weighted meshes (zeros when none).
+    base : ndarray, shape (TALLY_SIZE,)
+        The prior (:func:`prior`).
+    """
+    f = np.asarray(features, float).reshape(-1, len(names))
+    kinds = candidate_kinds(f, names)
+    out = np.zeros((len(f), len(HABIT_FEATURES)))
+    for k, ((name, n), start) in enumerate(zip(GROUPINGS, _OFFSETS)):
+        share = _share(others[start:start + 2 * n:2], others[start + 1:start + 2 * n:2],
+                       base[start:start + 2 * n:2], base[start + 1:start + 2 * n:2])
+        out[:, k] = share[kinds[name]]
+    k = len(GROUPINGS)
+    out[:, k] = _share(others[_SLOT_SEEN], others[_SLOT_BOUND], base[_SLOT_SEEN], base[_SLOT_BOUND])
+    for j, entry in enumerate((_BONES, _PER_ON_ART), start=k + 1):
+        out[:, j] = (others[entry] + PSEUDO_COUNT * base[entry]) / (others[_MESHES] + PSEUDO_COUNT)
+    out[:, k + 3] = math.log1p(others[_MESHES])
+    return out
+
+
+def keys_of(slot: str, name: str) -> set[str]:
+    """A mesh's names for :func:`others_of`: its slot's and its attachment's."""
+    return {f"slot:{slot}", f"name:{name}"}
+
+
+@dataclass
+class ProjectHabits:
+    """The habits of a project's artist-weighted meshes, one tally each, with their names.
+
+    Attributes
+    ----------
+    tallies : ndarray, shape (M, TALLY_SIZE)
+        Each weighted mesh's :func:`tally`.
+    keys : list of set of str
+        Each one's names (:func:`keys_of`).
+    """
+
+    tallies: np.ndarray
+    keys: list[set[str]]
+
+    def others(self, keys: set[str]) -> np.ndarray:
+        """The tally (TALLY_SIZE,) of the meshes that share no name with ``keys``: a mesh being
+        bound leaves out itself and its near-duplicates across skins and skeletons (same slot
+        or attachment name), which would show its own answer."""
+        keep = [not (k & keys) for k in self.keys]
+        return np.asarray(self.tallies, float).reshape(-1, TALLY_SIZE)[keep].sum(axis=0)
+
+
+def others_of(tallies: np.ndarray, pools: np.ndarray, keys: list[set[str]] | None = None) -> np.ndarray:
+    """For each mesh, the tally of the other meshes of its pool (its project), leaving out itself
+    and, with ``keys``, every mesh of the pool sharing a key with it (:meth:`ProjectHabits.others`).
+
+    Parameters
+    ----------
+    tallies : ndarray, shape (M, TALLY_SIZE)
+    pools : ndarray, shape (M,)
+        Each mesh's project (any labels).
+    keys : list of set of str, optional
+        Each mesh's names (:func:`keys_of`); without them only the mesh itself is left out.
+
+    Returns
+    -------
+    ndarray, shape (M, TALLY_SIZE)
+    """
+    tallies = np.asarray(tallies, float)
+    keys = keys if keys is not None else [set() for _ in range(len(tallies))]
+    keys = [k | {f"#{m}"} for m, k in enumerate(keys)]
+    pools = np.asarray(pools)
+    out = np.zeros_like(tallies)
+    for pool in np.unique(pools):
+        members = np.flatnonzero(pools == pool)
+        project = ProjectHabits(tallies[members], [keys[m] for m in members])
+        for m in members:
+            out[m] = project.others(keys[m])
+    return out
+
+
+def reason(features: np.ndarray, names: tuple[str, ...], others: np.ndarray, k: int) -> str:
+    """A report's words on candidate ``k``'s habit: how many candidates of its kind (same place
+    in the tree, point, over or beside the art) the project's artists bound, in how many
+    weighted meshes.
+
+    ``features``: the mesh's per-bone features (C, F), columns ``names``; ``others``: the
+    tally of the project's other weighted meshes (:data:`TALLY_SIZE`).
+    """
+    row = np.asarray(features, float)[k:k + 1]
+    kinds = candidate_kinds(row, names)
+    kind = int(kinds["kind"][0])
+    seen, hits = others[int(_OFFSETS[0]) + 2 * kind:][:2]
+    kind = f"{PLACES[kind // 3]}, {STATES[kind % 3]}"
+    meshes = int(others[_MESHES])
+    return (f"the project's habits: its artists bound {int(hits)} of {int(seen)} such bones ({kind}) "
+            f"in {meshes} weighted mesh{'es' if meshes != 1 else ''}")
