@@ -31,7 +31,7 @@ sys.path.insert(0, str(REPO))
 
 from spinemesh.rig import habits as hb  # noqa: E402
 from spinemesh.rig import train_choice as tc  # noqa: E402
-from spinemesh.rig.learned import CHAIN_REACH, FEATURES, MODEL_PATH, REACH  # noqa: E402
+from spinemesh.rig.learned import CHAIN_REACH, MODEL_PATH, REACH  # noqa: E402
 
 
 def table(rows: list[tuple[str, dict]]) -> None:
@@ -124,7 +124,7 @@ def main() -> None:
             model.meta["habit_prior"] = data["habit_prior"].tolist()
         MODEL_PATH.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
         print(f"\nwrote {MODEL_PATH.relative_to(REPO)} ({MODEL_PATH.stat().st_size / 1024:.0f} KB, "
-              f"{len(model.trees)} + {len(model.sets.trees)} trees, {len(FEATURES)} + {len(model.sets.features)} features)")
+              f"{len(model.trees)} + {len(model.sets.trees)} trees, {len(model.features)} + {len(model.sets.features)} features)")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from spinemesh.rig import document
 from spinemesh.rig.binding import parse_vertices, setup_world
 from spinemesh.rig.choice import choose_by_rule
 from spinemesh.rig.document import build_rig, choose
+from spinemesh.rig.habits import HABIT_FEATURES, TALLY_SIZE
 from spinemesh.rig.learned import (FEATURES, MODEL_FORMAT, MODEL_PATH, TreeEnsemble, candidates, choose_learned,
                                    constrained_bones, shipped_model)
 from spinemesh.skeleton import iter_attachments, load_skeleton
@@ -155,7 +156,9 @@ def test_malformed_models_are_refused(damage):
 def test_shipped_model_loads_small_and_reproduces_its_training_predictions():
     assert MODEL_PATH.stat().st_size < 400_000
     model = shipped_model()
-    assert model.features == FEATURES and 0 < model.threshold < 1 and model.trees
+    # it reads the project's habits, with the prior a project without weighted meshes gets
+    assert model.features == FEATURES + HABIT_FEATURES and model.reads_habits and 0 < model.threshold < 1
+    assert model.trees and len(model.meta["habit_prior"]) == TALLY_SIZE and model.meta["habit_prior"][0] > 0
     check = model.meta["check"]
     # log-odds scikit-learn gave these rows when the model was fitted: the numpy evaluation agrees
     assert np.allclose(model.raw(np.asarray(check["x"])), check["raw"], atol=1e-6)
