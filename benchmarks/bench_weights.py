@@ -9,7 +9,9 @@ recomputed with ``--replace --bones keep`` (the artist's vertices and bones), wi
 ``--replace --bones rule`` and with ``--replace --bones learned``; the learned choice of each
 project is made by the model fitted without that project's fold
 (``--fold-models``, written by ``scripts/train_bone_choice.py --fold-models``), so every
-figure is project-held-out. The artist's animations are played in the official runtime
+figure is project-held-out; a model that reads the project's habits gets them from the
+artist-weighted meshes of all the project's replayed skeletons, as ``spinemesh weights`` reads
+them from a project folder. The artist's animations are played in the official runtime
 (``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
 ``--times`` evenly spaced samples of each) and every vertex's world position is compared with
 the artist's version. Per attachment: the mean distance in world units (pixels at scale 1)
@@ -137,10 +139,20 @@ def signed_areas(v: np.ndarray, tris: np.ndarray) -> np.ndarray:
 MODES = ("keep", "rule", "learned")
 
 
+def project_habits_of(paths: list[Path]):
+    """The artists' habits (:func:`spinemesh.rig.learned.project_habits`) over a project's
+    skeletons, as ``spinemesh weights`` reads them from a project folder."""
+    from spinemesh.rig.learned import project_habits
+
+    docs = [load_skeleton(p) for p in paths]
+    return project_habits([(d, build_rig(d)) for d in docs])
+
+
 def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, times: int,
-           model=None) -> list[dict]:
+           model=None, habits=None) -> list[dict]:
     """One row per artist-weighted mesh compared: errors of each mode and of the baseline, flips,
-    bones chosen. ``model``: the learned choice's model (default: the package's)."""
+    bones chosen. ``model``: the learned choice's model (default: the package's); ``habits``:
+    the project's (:func:`project_habits_of`; None: the prior)."""
     from spinemesh.rig import learned
     doc = load_skeleton(skeleton)
     proj = find_project(skeleton.parent)
@@ -149,6 +161,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
         return []
     atlas = source.atlases[0].path
     rig = build_rig(doc)
+    rig.habits = habits
     variants = {"artist": doc}
     outcomes = {}
     learned.use_model(model)
@@ -353,12 +366,15 @@ def replay_all(args: argparse.Namespace) -> list[dict]:
 
     models = train_choice.load_fold_models(args.fold_models)
     rows = []
-    for label, skel in skeletons(args.examples, args.corpus)[args.start::args.every]:
+    every = skeletons(args.examples, args.corpus)
+    for label, skel in every[args.start::args.every]:
         if args.only and args.only not in label:
             continue
+        model = models[train_choice.fold_of(label)]
+        # a model reading the project's habits gets them from all the project's replayed skeletons
+        habits = project_habits_of([s for g, s in every if g == label]) if model.reads_habits else None
         try:
-            got = replay(label, skel, args.tool, args.method, args.anims, args.times,
-                         models[train_choice.fold_of(label)])
+            got = replay(label, skel, args.tool, args.method, args.anims, args.times, model, habits)
         except (RuntimeError, subprocess.TimeoutExpired) as e:
             print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
             continue

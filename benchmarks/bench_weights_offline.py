@@ -32,7 +32,8 @@ seconds the weights took. Variants:
   this script);
 - ``learned``: the ``--bones learned`` choice, project-held-out: each mesh's bones are chosen by
   the model fitted without its project's fold (``--fold-models``, written by
-  ``scripts/train_bone_choice.py --fold-models``).
+  ``scripts/train_bone_choice.py --fold-models``), with the habits of the artist-weighted meshes
+  of the project's replayed skeletons when the model reads them.
 
 Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
 set and the bones per mesh (median and 95th percentile; the artists': the last line).
@@ -240,7 +241,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does."""
     from spinemesh.rig import train_choice
     from spinemesh.rig.habits import keys_of
-    from spinemesh.rig.learned import choose_learned, project_habits
+    from spinemesh.rig.learned import choose_learned
 
     models: dict[int, object] = {}
     habits: dict[str, object] = {}
@@ -250,8 +251,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
             models.update(train_choice.load_fold_models(fold_models))
         model = models[train_choice.fold_of(case["label"])]
         if model.reads_habits and case["label"] not in habits:
-            docs = [load_skeleton(s) for s in skeletons[case["label"]]]
-            habits[case["label"]] = project_habits([(d, build_rig(d)) for d in docs])
+            habits[case["label"]] = bench_weights.project_habits_of(skeletons[case["label"]])
         others = habits[case["label"]].others(keys_of(case["slot"], case["name"])) if model.reads_habits else None
         rig = case["rig"]
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
