@@ -10,7 +10,8 @@ on the artist-weighted meshes of the Spine examples and a corpus of game project
 (:mod:`.train_choice`), gives the probability that an artist binds the bone. A second,
 set-level ensemble (:mod:`.bone_sets`) then weighs a few whole sets built from those
 probabilities and the likeliest set to be the artist's exact one is chosen (a model without
-that stage chooses the bones at or above its threshold).
+that stage chooses the bones at or above its threshold). A model may also read the project's
+habits (:mod:`.habits`): how its artists bound such bones in its other weighted meshes.
 
 The model ships as JSON (``spinemesh/models/bone_choice.json``: each tree's split features,
 thresholds, children and leaf values, the set stage's under ``sets``) and is evaluated with
@@ -26,13 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bone_sets
-from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
 from ..errors import SpineMeshError
 from ..skeleton import iter_attachments
+from . import bone_sets
 from .binding import parse_vertices, setup_world
+from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
 from .constraints import constraints_of
-from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, tally)
+from .habits import HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, tally
 from .habits import reason as habit_reason
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
@@ -462,18 +463,18 @@ def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: 
 
 
 def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
-             model: TreeEnsemble, features: np.ndarray) -> tuple[list[int], str]:
+             model: TreeEnsemble) -> tuple[list[int], str]:
     """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
     to be the artist's exact set, when clearly likelier than the per-bone choice's set
     (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
-    choice for the report. ``features``: the columns the per-bone model read (C, F)."""
+    choice for the report."""
     parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
     ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
     rule = cand.features[:, FEATURES.index("rule_chose")] == 1
     sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule)
     if not sets:
         return [], ""
-    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, features, FEATURES, slot,
+    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
                                                           ancestors, parents_at, model.threshold))
     best = bone_sets.pick(score, model.sets.threshold)
     how = (f"best of {len(sets)} sets weighed" if best else
@@ -514,7 +515,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
             allowed[k] = True
     order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
     slot = next((k for k in order if cand.bones[k] == slot_bone), None)
-    take, note = _by_sets(bones, cand, p, allowed, slot, model, x) if model.sets is not None else ([], "")
+    take, note = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], "")
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
                    model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:
