@@ -45,7 +45,8 @@ def weights(
     bones: Annotated[BoneChoice, typer.Option(
         "--bones", help="keep: the bones a mesh is bound to now (its slot's bone when unweighted); rule: the "
                         "slot's bone and the bones whose segments pass over the art, joined to it through the "
-                        "bone tree; learned: the bones a model fitted to artists' bindings finds likely; auto: "
+                        "bone tree; learned: the bones a model fitted to artists' bindings finds likely, given how "
+                        "the project's artists bound its other weighted meshes; auto: "
                         "the one of the two that measures closer to artists' bindings (today: learned).")] = BoneChoice.auto,
     max_bones: Annotated[int, typer.Option("--max-bones", min=1, max=16, help="Most bones per vertex.")] = 4,
     method: Annotated[WeightMethod, typer.Option(
