@@ -367,12 +367,15 @@ def replay_all(args: argparse.Namespace) -> list[dict]:
     models = train_choice.load_fold_models(args.fold_models)
     rows = []
     every = skeletons(args.examples, args.corpus)
+    habits_of: dict[str, object] = {}
     for label, skel in every[args.start::args.every]:
         if args.only and args.only not in label:
             continue
         model = models[train_choice.fold_of(label)]
         # a model reading the project's habits gets them from all the project's replayed skeletons
-        habits = project_habits_of([s for g, s in every if g == label]) if model.reads_habits else None
+        if model.reads_habits and label not in habits_of:
+            habits_of[label] = project_habits_of([s for g, s in every if g == label])
+        habits = habits_of.get(label)
         try:
             got = replay(label, skel, args.tool, args.method, args.anims, args.times, model, habits)
         except (RuntimeError, subprocess.TimeoutExpired) as e:
