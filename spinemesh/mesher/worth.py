@@ -31,10 +31,10 @@ limits were chosen from an upgrade of a corpus of real game projects
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from ..errors import ImageError
+from .exterior import pieces
 
 #: ``upgrade``'s default: keep the region when a mesh would draw less than this share fewer pixels.
 DEFAULT_MIN_SAVING = 0.05
@@ -99,7 +99,7 @@ def islands_reason(mask: np.ndarray, pixel_area: float = 1.0, max_vertices: int 
     bridges the same pieces).
     """
     if labels is None:
-        labels = cv2.connectedComponents(np.asarray(mask, dtype=np.uint8), connectivity=8)
+        labels = pieces(mask)
     need = VERTICES_PER_ISLAND * (labels[0] - 1)
     if need <= max_vertices:
         return ""
