@@ -21,7 +21,7 @@ import numpy as np
 
 from ..attachment_geometry import frames_on_one_grid
 from ..errors import SpineMeshError
-from ..images import FAINT_TEXEL, RegionImage, content_id, part_content_id
+from ..images import FAINT_TEXEL, RegionImage, part_content_id
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .editor_images import write_editor_image
@@ -37,7 +37,8 @@ class MeshTask:
     Attributes
     ----------
     key : str
-        Content key of the image (:func:`spinemesh.images.content_id` of the stored part).
+        Content key of the image: :func:`spinemesh.images.part_content_id` of the stored part
+        and of ``drawn``.
     rgba : ndarray, shape (h, w, 4), uint8
         The part of the original image that the atlas stores (straight alpha).
     origin : (int, int)
@@ -144,10 +145,9 @@ def task_for_frames(frames: list[RegionImage], options: Options,
         # Meshing the stored part only keeps every vertex where the atlas has this image's texels.
         crop = np.ascontiguousarray(rgba[y0:y1, x0:x1])
         drawn = np.ascontiguousarray(drawn[y0:y1, x0:x1])
-    key = part_content_id(shape, (x0, y0, x1 - x0, y1 - y0), crop)
-    if not np.array_equal(drawn, crop[..., 3] > 0):
-        # Premultiplied light (alpha 0, colour > 0) is not in the straight pixels: key it too.
-        key += "-" + content_id(np.repeat(drawn.view(np.uint8)[..., None], 4, axis=-1), (0, 0, x1 - x0, y1 - y0))[:16]
+    # The texels to cover are part of the identity: premultiplied light (alpha 0, colour > 0)
+    # is not in the straight pixels, faint texels are covered or not by the slot's blending.
+    key = part_content_id(shape, (x0, y0, x1 - x0, y1 - y0), crop, drawn)
     size = (shape[1], shape[0])
     return MeshTask(key, crop, (x0, y0), size, options.mesh_settings(), drawn), "planned", ""
 
