@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from .atlas import Atlas, AtlasRegion, read_atlas
+from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
 from .fsutil import resolve_inside
 from .limits import MAX_IMAGE_PIXELS, check_image_size
@@ -393,8 +393,12 @@ def cut_region(page: np.ndarray, region: AtlasRegion, pma: bool = False,
     return upright_at_original_size(unpremultiply(crop) if pma else crop, region, source)
 
 
-def stored_rectangle(page: np.ndarray, region: AtlasRegion, source: str | None = None) -> np.ndarray:
+def stored_rectangle(page: np.ndarray, region: AtlasRegion, source: str | None = None,
+                     geometry: RegionGeometry | None = None) -> np.ndarray:
     """The region's rectangle as it lies on the page (a view), refused where it leaves the page.
+
+    ``geometry`` is ``region.geometry(source)`` where the caller has it already (here and in
+    :func:`upright_part` and :func:`bleeding_border`): parsed once per region, not once a step.
 
     Returns
     -------
@@ -402,7 +406,7 @@ def stored_rectangle(page: np.ndarray, region: AtlasRegion, source: str | None =
         Texels as the page stores them (a rotated region lies turned), without the stripped
         whitespace; :func:`upright_at_original_size` places per-texel values upright.
     """
-    g = region.geometry(source)
+    g = region.geometry(source) if geometry is None else geometry
     ph, pw = page.shape[:2]
     if g.x < 0 or g.y < 0 or g.x + g.page_width > pw or g.y + g.page_height > ph:
         raise AtlasError(f"region {region.name!r} ({g.x}, {g.y}, {g.page_width}x{g.page_height}) "
@@ -439,8 +443,9 @@ def placed(part: np.ndarray, size: tuple[int, int], content: tuple[int, int, int
     return out
 
 
-def upright_part(stored: np.ndarray, region: AtlasRegion,
-                 source: str | None = None) -> tuple[np.ndarray, tuple[int, int], tuple[int, int, int, int]]:
+def upright_part(stored: np.ndarray, region: AtlasRegion, source: str | None = None,
+                 geometry: RegionGeometry | None = None
+                 ) -> tuple[np.ndarray, tuple[int, int], tuple[int, int, int, int]]:
     """:func:`upright_at_original_size` before the placing: ``stored`` turned upright (a view of
     it when not turned, else a contiguous copy: :func:`turned_clockwise`),
     the original ``(height, width)``, and where the part lies in it, ``(x0, y0, x1, y1)``.
@@ -450,7 +455,7 @@ def upright_part(stored: np.ndarray, region: AtlasRegion,
     AtlasError
         The offsets place the part outside the original size, or do not fit its size.
     """
-    g = region.geometry(source)
+    g = region.geometry(source) if geometry is None else geometry
     if g.degrees:
         # Packers store the image turned counter-clockwise; turning it clockwise undoes that.
         stored = turned_clockwise(stored, g.degrees // 90)
@@ -526,18 +531,41 @@ def bleeding_in(page: np.ndarray, region: AtlasRegion, pma: bool = False, source
 
 
 def bleeding_border(page: np.ndarray, region: AtlasRegion, pma: bool = False,
-                    source: str | None = None) -> np.ndarray:
+                    source: str | None = None, geometry: RegionGeometry | None = None) -> np.ndarray:
     """:func:`bleeding_in` as the rectangle lies on the page: shape (page_height, page_width), bool.
 
     Only the rectangle's outermost rows and columns can touch a texel outside it, so only
     the page's one-texel frame around the rectangle is read and each side's three-texel
     strip dilated (the same texels as a dilation of the whole rectangle, which read it all).
     """
+    g = region.geometry(source) if geometry is None else geometry
+    border = _bleeding_border(page, g, pma)
+    return np.zeros((g.page_height, g.page_width), bool) if border is None else border
+
+
+def _frame_drawn(page: np.ndarray, x0: int, y0: int, x1: int, y1: int, pma: bool) -> bool:
+    """Whether any texel of the page's one-texel frame just inside ``(x0, y0, x1, y1)`` is drawn
+    (alpha > 0; any channel > 0 on a premultiplied page). The frame may leave the page."""
+    ph, pw = page.shape[:2]
+    for ya, yb, xa, xb in ((y0, y0 + 1, x0, x1), (y1 - 1, y1, x0, x1),
+                           (y0 + 1, y1 - 1, x0, x0 + 1), (y0 + 1, y1 - 1, x1 - 1, x1)):
+        ya, yb, xa, xb = max(0, ya), min(ph, yb), max(0, xa), min(pw, xb)
+        if yb > ya and xb > xa:
+            side = page[ya:yb, xa:xb]
+            if side.any() if pma else side[..., 3].any():
+                return True
+    return False
+
+
+def _bleeding_border(page: np.ndarray, g: RegionGeometry, pma: bool) -> np.ndarray | None:
+    """:func:`bleeding_border` of a region of geometry ``g``, or None where no texel of the frame
+    around it is drawn (most regions: packers leave padding), which then costs four strips."""
     import cv2
 
-    g = region.geometry(source)
     ph, pw = page.shape[:2]
     x0, y0, x1, y1 = g.x - 1, g.y - 1, g.x + g.page_width + 1, g.y + g.page_height + 1
+    if not _frame_drawn(page, x0, y0, x1, y1, pma):
+        return None
     ring = np.zeros((y1 - y0, x1 - x0), np.uint8)  # the frame only; the inside stays 0
     for rows, cols in ((slice(0, 1), slice(None)), (slice(-1, None), slice(None)),
                        (slice(1, -1), slice(0, 1)), (slice(1, -1), slice(-1, None))):
@@ -548,8 +576,6 @@ def bleeding_border(page: np.ndarray, region: AtlasRegion, pma: bool = False,
             near = page[ya:yb, xa:xb]
             ring[ya - y0:yb - y0, xa - x0:xb - x0] = texels_as_words(near) != 0 if pma else near[..., 3] > 0
     border = np.zeros((g.page_height, g.page_width), bool)
-    if not ring.any():
-        return border
     k = np.ones((3, 3), np.uint8)
     border[0] = cv2.dilate(ring[:3], k)[1, 1:-1]  # each texel of the border from the 3x3 around it
     border[-1] |= cv2.dilate(ring[-3:], k)[1, 1:-1].astype(bool)
@@ -699,19 +725,21 @@ class AtlasImages:
         # Placing it at the original size waits until something asks for the whole image
         # (RegionImage.from_stored): the planning of an upgrade needs the stored part alone.
         source = str(atlas.path)
-        stored = stored_rectangle(pixels, region, source)
-        rgba, (height, width), content = upright_part(unpremultiply(stored) if page.pma else stored, region, source)
+        g = region.geometry(source)
+        stored = stored_rectangle(pixels, region, source, g)
+        rgba, (height, width), content = upright_part(unpremultiply(stored) if page.pma else stored, region,
+                                                      source, g)
         shape = (height, width, 4)
         if not coverage:
             return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path))
-        bleed = bleeding_border(pixels, region, page.pma, source)
         drawn = texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0
         shown = shown_texels(stored, page.pma)
-        if bleed.any():  # most regions have none: no pass over either mask then
+        bleed = _bleeding_border(pixels, g, page.pma)
+        if bleed is not None:  # most regions have none: no pass over either mask then
             drawn |= bleed
             shown |= bleed
-        drawn = upright_part(drawn, region, source)[0]
-        shown = upright_part(shown, region, source)[0]
+        drawn = upright_part(drawn, region, source, g)[0]
+        shown = upright_part(shown, region, source, g)[0]
         return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path), drawn, shown)
 
 
