@@ -122,12 +122,26 @@ class RegionImage:
     def stored_masks(self) -> tuple[np.ndarray, np.ndarray]:
         """``drawn`` and ``shown`` of the stored part alone, (h, w) bool each (:meth:`from_stored`
         images only), with the same defaults as the whole image's."""
-        rgba, drawn, shown = self.stored
-        if drawn is None:
-            drawn = rgba[..., 3] > 0
-        if shown is None:
-            shown = drawn & (rgba[..., 3] > FAINT_TEXEL)
-        return drawn, shown
+        return self.stored_mask(shown=False), self.stored_mask(shown=True)
+
+    def stored_mask(self, shown: bool) -> np.ndarray:
+        """``shown`` (True) or ``drawn`` (False) of the stored part alone (:meth:`stored_masks`).
+
+        A default is worked out when first asked for, then kept: a caller that needs one of
+        the two masks (meshing for one blend mode) does not pay for the other.
+        """
+        rgba, drawn, shown_mask = self.stored
+        if not shown:
+            if drawn is None:
+                drawn = rgba[..., 3] > 0
+                self.stored = (rgba, drawn, shown_mask)
+            return drawn
+        if shown_mask is None:
+            # drawn & (alpha > FAINT_TEXEL); the default drawn (alpha > 0) holds every such texel
+            faint = rgba[..., 3] > FAINT_TEXEL
+            shown_mask = faint if drawn is None else drawn & faint
+            self.stored = (rgba, drawn, shown_mask)
+        return shown_mask
 
 
 #: A texel none of whose premultiplied channels exceeds this (/255) changes no pixel by more
@@ -732,9 +746,13 @@ class AtlasImages:
         shape = (height, width, 4)
         if not coverage:
             return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path))
+        bleed = _bleeding_border(pixels, g, page.pma)
+        if bleed is None and not page.pma:
+            # The defaults of from_stored are these masks exactly (alpha > 0, alpha > FAINT_TEXEL
+            # of the straight texels): worked out only if asked for, on the upright part.
+            return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path))
         drawn = texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0
         shown = shown_texels(stored, page.pma)
-        bleed = _bleeding_border(pixels, g, page.pma)
         if bleed is not None:  # most regions have none: no pass over either mask then
             drawn |= bleed
             shown |= bleed

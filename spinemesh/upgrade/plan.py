@@ -123,9 +123,10 @@ def task_for_frames(frames: list[RegionImage], options: Options,
         # so every test below answers the same on the part alone, and the crop is the part.
         shape, (x0, y0, x1, y1) = one.shape, one.content
         part = one.stored[0]
-        drawn_part, shown_part = one.stored_masks()
-        drawn = _to_cover(drawn_part, shown_part, blend)
-        if reason := _nothing_to_mesh(options, drawn_part.any(), drawn):
+        drawn = one.stored_mask(shown=blend == "normal")  # as _to_cover picks it
+        # shown is part of drawn: where it holds a texel, something is drawn (drawn not made)
+        anything_drawn = bool(drawn.any()) or (blend == "normal" and bool(one.stored_mask(shown=False).any()))
+        if reason := _nothing_to_mesh(options, anything_drawn, drawn):
             return None, "kept", reason
         crop, drawn = np.ascontiguousarray(part), np.ascontiguousarray(drawn)
     else:
