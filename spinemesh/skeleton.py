@@ -121,6 +121,23 @@ def _finite_float(text: str) -> float:
     return value
 
 
+#: Digits to 0 and ``E`` to ``e``, for :func:`_may_overflow`'s search.
+_NUMBER_SHAPES = str.maketrans("123456789E", "000000000e")
+
+
+def _may_overflow(text: str) -> bool:
+    """Whether JSON ``text`` may hold a number beyond float range (``1e999``, ``-2E+308``, or
+    three hundred digits): False means none can overflow, so floats parse without a hook.
+
+    A JSON number overflows only with an exponent of three digits or more, or, with one of
+    at most two (below 10^100), an integer part of over 200 digits: digits mapped to ``0``,
+    either shows as ``0e000``, ``0e+000`` or a run of 210 zeros. Names and hex colours
+    (``"10e323ff"``) can match too; they only send the text through the checking parse.
+    """
+    shapes = text.translate(_NUMBER_SHAPES)
+    return "0e000" in shapes or "0e+000" in shapes or "0" * 210 in shapes
+
+
 def _bracket_depth(text: str) -> int:
     """Deepest running count of ``[{`` minus ``]}`` in ``text``."""
     # numpy is imported here, not at the top: `spinemesh convert` of a .skel never needs it.
@@ -182,6 +199,8 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
         raise SkeletonError("JSON holds an escaped lone UTF-16 surrogate (\\ud800-\\udfff), "
                             "which is not text", source)
     try:
+        if not _may_overflow(text):  # no number can be beyond float range: no hook per float
+            return json.loads(text, parse_constant=_refuse_constant)
         return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
     except json.JSONDecodeError as e:
         raise SkeletonError(f"invalid JSON: {e.msg} (column {e.colno})", source, line=e.lineno) from None

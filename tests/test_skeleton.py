@@ -103,3 +103,43 @@ def test_corpus_skeleton_json_round_trips(corpus):
         assert json.loads(dumps_skeleton(doc)) == doc
         checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize("number", ["1e999", "-1E+999", "1e0999", "2.5e+308", "-9" + "9" * 400 + ".5",
+                                    "1" + "0" * 250 + "e99"])
+def test_numbers_beyond_float_range_are_refused(number):
+    """Floats parse without a per-number hook where no number can overflow (_may_overflow):
+    every overflowing shape is still found and refused, as NaN and Infinity are."""
+    from spinemesh.skeleton import _may_overflow, parse_skeleton_json
+
+    text = '{"bones": [{"name": "root", "x": %s}]}' % number
+    assert _may_overflow(text)
+    with pytest.raises(SkeletonError, match="beyond the range"):
+        parse_skeleton_json(text, "s.json")
+
+
+@pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
+def test_nan_and_infinity_are_refused(constant):
+    from spinemesh.skeleton import _may_overflow, parse_skeleton_json
+
+    text = '{"bones": [{"name": "root", "x": %s}]}' % constant
+    assert not _may_overflow(text)  # refused by the parse itself, hook or not
+    with pytest.raises(SkeletonError, match="not a number JSON allows"):
+        parse_skeleton_json(text, "s.json")
+
+
+def test_numbers_within_range_parse_the_same_either_way():
+    """The largest and smallest floats, underflow to 0, exponents of two digits and hex colours
+    parse to the values the checking parse gives; a colour like 10e323ff only costs the check."""
+    from spinemesh.skeleton import _finite_float, _may_overflow, _refuse_constant, parse_skeleton_json
+
+    text = ('{"bones": [{"name": "root", "x": 1.7976931348623157e308, "y": -4.9e-324, "rotation": 1e-999,'
+            ' "scaleX": 12345678901234567890.5e99, "length": -1E+99, "shearX": 0.1, "shearY": -0}],'
+            ' "slots": [{"name": "a", "color": "abe323ff"}]}')
+    assert not _may_overflow(text.replace("1.7976931348623157e308", "1").replace("1e-999", "1"))
+    assert _may_overflow('{"color": "10e323ff"}')
+    checked = json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+    assert json.dumps(parse_skeleton_json(text, "s.json")) == json.dumps(checked)
+    plain = text.replace("1.7976931348623157e308", "1.5e30").replace("1e-999", "2e-9")
+    assert not _may_overflow(plain)
+    assert json.dumps(parse_skeleton_json(plain, "s.json")) == json.dumps(json.loads(plain))
