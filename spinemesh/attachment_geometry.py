@@ -237,6 +237,8 @@ def cover_resample(mask: np.ndarray, width: int, height: int) -> np.ndarray:
     """
     mask = np.asarray(mask, bool)
     h, w = mask.shape
+    if (h, w) == (height, width):  # each cell is one texel: the mask itself (a copy)
+        return mask.copy()
 
     def spans(n_out: int, n_in: int) -> tuple[np.ndarray, np.ndarray]:
         i = np.arange(n_out)
@@ -244,9 +246,12 @@ def cover_resample(mask: np.ndarray, width: int, height: int) -> np.ndarray:
 
     x0, x1 = spans(width, w)
     y0, y1 = spans(height, h)
-    along_x = np.concatenate([np.zeros((h, 1), np.int64), np.cumsum(mask, axis=1)], axis=1)
+    # running counts of set texels; int32 holds any count of a row or column the limits allow
+    along_x = np.zeros((h, w + 1), np.int32)
+    np.cumsum(mask, axis=1, dtype=np.int32, out=along_x[:, 1:])
     cols = (along_x[:, x1] - along_x[:, x0]) > 0
-    along_y = np.concatenate([np.zeros((1, width), np.int64), np.cumsum(cols, axis=0)], axis=0)
+    along_y = np.zeros((h + 1, width), np.int32)
+    np.cumsum(cols, axis=0, dtype=np.int32, out=along_y[1:])
     return (along_y[y1] - along_y[y0]) > 0
 
 
