@@ -173,6 +173,13 @@ def shown_texels(stored: np.ndarray, pma: bool) -> np.ndarray:
     -------
     ndarray, shape (H, W), bool
     """
+    if pma and stored.ndim == 3 and stored.strides[1:] == (4, 1) and stored.size:
+        import cv2
+
+        # Each byte over FAINT_TEXEL set to 255 (OpenCV, rows of texels at once), then a texel
+        # is shown where its word is not 0: the same as channel_max(stored) > FAINT_TEXEL,
+        # without three passes over strided planes.
+        return texels_as_words(cv2.threshold(stored, FAINT_TEXEL, 255, cv2.THRESH_BINARY)[1]) != 0
     strength = channel_max(stored) if pma else stored[..., 3]
     return strength > FAINT_TEXEL
 
