@@ -363,3 +363,80 @@ def test_real_page_images_of_every_kind_decode_to_pillows_texels(examples, corpu
     assert len(files) >= 12
     differ = [str(p) for p in files if not np.array_equal(load_rgba(p), _pillow_rgba(p))]
     assert not differ, differ
+
+
+def test_turned_clockwise_is_numpys_turn_copied():
+    """OpenCV turns bytes and booleans of up to four channels, numpy anything else: the values
+    of np.rot90(values, -quarters) either way, contiguous, from views whose rows lie apart."""
+    from spinemesh.images import turned_clockwise
+
+    rng = np.random.default_rng(0)
+    for shape in [(5, 7), (5, 7, 1), (5, 7, 2), (5, 7, 4), (5, 7, 5), (1, 1, 4), (0, 3, 4)]:
+        for dtype in (np.uint8, bool, np.int32):
+            page = rng.integers(0, 2 if dtype is bool else 200, (shape[0] + 3, shape[1] + 4) + shape[2:]).astype(dtype)
+            for values in (page[1:1 + shape[0], 2:2 + shape[1]], page[::-1], page[:, ::2]):
+                for quarters in range(-1, 6):
+                    turned = turned_clockwise(values, quarters)
+                    expected = np.rot90(values, -quarters)
+                    assert turned.dtype == expected.dtype and turned.flags.c_contiguous
+                    assert np.array_equal(turned, expected)
+
+
+def test_part_content_id_is_equal_exactly_for_equal_texels_and_masks():
+    """The key of a part (and of its mask) depends on the values only: a view of a page whose rows
+    lie apart, a turned copy and a contiguous copy of the same texels agree; one texel or one
+    mask bit apart, or the same texels elsewhere, they differ."""
+    from spinemesh.images import content_id, part_content_id
+
+    rng = np.random.default_rng(1)
+    page = rng.integers(0, 256, (40, 50, 4)).astype(np.uint8)
+    view = page[5:25, 10:40]
+    copy = view.copy()
+    mask = rng.random((20, 30)) < 0.5
+    box = (3, 4, 30, 20)
+    assert part_content_id((60, 70, 4), box, view) == part_content_id((60, 70, 4), box, copy)
+    assert part_content_id((60, 70, 4), box, view) == content_id(
+        np.pad(copy, ((4, 36), (3, 37), (0, 0))), box)  # without a mask: content_id's key
+    turned = np.rot90(page, -1)[5:25, 10:40]
+    assert part_content_id((60, 70, 4), box, turned) == part_content_id((60, 70, 4), box, turned.copy())
+    with_mask = part_content_id((60, 70, 4), box, copy, mask)
+    assert with_mask == part_content_id((60, 70, 4), box, view, mask[:, ::-1][:, ::-1])
+    assert with_mask != part_content_id((60, 70, 4), box, copy)
+    flipped = mask.copy()
+    flipped[19, 29] = not flipped[19, 29]  # the last bit: packed bits end there
+    assert with_mask != part_content_id((60, 70, 4), box, copy, flipped)
+    changed = copy.copy()
+    changed[0, 0, 2] ^= 1
+    assert part_content_id((60, 70, 4), box, changed) != part_content_id((60, 70, 4), box, copy)
+    assert part_content_id((60, 70, 4), (4, 4, 30, 20), copy) != part_content_id((60, 70, 4), box, copy)
+    # a mask of other shape whose packed bits are the same bytes
+    assert part_content_id((60, 70, 4), box, copy, np.zeros((8, 1), bool)) != \
+        part_content_id((60, 70, 4), box, copy, np.zeros((1, 8), bool))
+
+
+def test_lazy_masks_are_the_eager_defaults():
+    """A straight page's region without bleed leaves its masks to from_stored's defaults: the
+    same masks as alpha > 0 and alpha > FAINT_TEXEL, made when asked for, each on its own."""
+    from spinemesh.images import FAINT_TEXEL, RegionImage
+
+    rng = np.random.default_rng(2)
+    rgba = rng.integers(0, 5, (6, 9, 4)).astype(np.uint8)
+    image = RegionImage.from_stored(rgba, (10, 12, 4), (1, 2, 10, 8), 1.0, "a", "p.png")
+    shown = image.stored_mask(shown=True)
+    assert np.array_equal(shown, rgba[..., 3] > FAINT_TEXEL) and image.stored[1] is None  # drawn not made
+    drawn, shown_again = image.stored_masks()
+    assert np.array_equal(drawn, rgba[..., 3] > 0) and shown_again is shown
+    assert not (shown & ~drawn).any()
+    assert np.array_equal(image.shown[2:8, 1:10], shown) and not image.shown[:2].any()
+
+
+def test_shown_texels_of_premultiplied_rectangles_is_the_channel_maximum():
+    """On a premultiplied page a texel shows where any channel exceeds FAINT_TEXEL: OpenCV's
+    threshold on rectangles of a page (rows apart) gives what the channel maximum gives."""
+    from spinemesh.images import FAINT_TEXEL, shown_texels
+
+    rng = np.random.default_rng(3)
+    for high in (6, 256):
+        page = rng.integers(0, high, (30, 40, 4)).astype(np.uint8)
+        for stored in (page, page[3:20, 5:31], np.rot90(page[3:20, 5:31]), page[:0]):
+            assert np.array_equal(shown_texels(stored, True), channel_max(stored) > FAINT_TEXEL)

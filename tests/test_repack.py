@@ -173,3 +173,14 @@ def test_sequence_frames_of_different_sizes_share_one_mesh(tmp_path, repack):
         drawn = images[name][..., 3] > 0
         h, w = drawn.shape
         assert not uncovered_pixels(uv * (w, h), triangles, drawn).any()
+
+
+def test_cover_resample_to_its_own_size_is_the_mask():
+    from spinemesh.attachment_geometry import cover_resample
+
+    mask = np.random.default_rng(4).random((7, 11)) < 0.3
+    same = cover_resample(mask, 11, 7)
+    assert np.array_equal(same, mask) and same is not mask
+    # one column wider: every texel still covered, by the general path
+    wider = cover_resample(mask, 12, 7)
+    assert wider.shape == (7, 12) and wider[:, :11][mask].all()
