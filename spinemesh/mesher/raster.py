@@ -25,7 +25,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from .geometry import clamp
+from .geometry import clamp, successors
 
 
 def boundary_segments(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -43,7 +43,7 @@ def boundary_segments(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray
 
 def loop_segments(loops) -> np.ndarray:
     """Segments of closed polygons given as a list of (n, 2) point arrays."""
-    segs = [np.stack([p, np.roll(p, -1, axis=0)], axis=1) for p in loops if len(p) >= 2]
+    segs = [np.stack([p, successors(p)], axis=1) for p in loops if len(p) >= 2]
     return np.concatenate(segs) if segs else np.zeros((0, 2, 2))
 
 
