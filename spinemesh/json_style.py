@@ -97,11 +97,7 @@ _NUMBER_TYPES = frozenset((int, float))
 
 def _scalar(value, java_exponents: bool = False) -> str:
     """A string, number, boolean or null as JSON; integral floats as integers, like the editor."""
-    if isinstance(value, str):
-        return _quote(value)
-    if value is None or isinstance(value, bool):
-        return _LITERALS[value]
-    if isinstance(value, float):
+    if isinstance(value, float):  # first: a new mesh's every coordinate (the kinds do not overlap)
         if not math.isfinite(value):
             raise ValueError(f"{value!r} cannot be written as JSON")
         if value.is_integer() and abs(value) < 1e15:
@@ -109,6 +105,10 @@ def _scalar(value, java_exponents: bool = False) -> str:
         if java_exponents and not 1e-3 <= abs(value) < 1e7:
             return _java_double(value)
         return repr(value)
+    if isinstance(value, str):
+        return _quote(value)
+    if value is None or isinstance(value, bool):
+        return _LITERALS[value]
     if isinstance(value, int):
         return str(value)
     raise TypeError(f"{type(value).__name__} is not a JSON value")

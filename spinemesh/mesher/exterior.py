@@ -465,7 +465,8 @@ def _shortest_edge(loop: np.ndarray) -> float:
 
 
 def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    return np.stack([clamp(loop[:, 0], 0, shape[1]), clamp(loop[:, 1], 0, shape[0])], axis=1)
+    """``loop`` (n, 2) moved into the image ``[0, W] x [0, H]``, both columns in one call."""
+    return clamp(loop, 0, (shape[1], shape[0]))
 
 
 #: Most candidate loops :func:`_spread` checks for one hull (keeps huge speckled hulls fast).
