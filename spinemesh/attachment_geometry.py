@@ -158,12 +158,13 @@ def mesh_attachment(region: dict, vertices_px: np.ndarray, triangles: np.ndarray
         "type": "mesh",
         "path": region.get("path"),
         "color": region.get("color"),
-        "uvs": [round(float(c), 6) for c in uv.ravel()],
-        "triangles": [int(i) for i in np.asarray(triangles).ravel()],
+        # Python numbers through tolist (one conversion of the array, not one per value)
+        "uvs": [round(c, 6) for c in uv.ravel().tolist()],
+        "triangles": np.asarray(triangles, np.int64).ravel().tolist(),
         "vertices": float32_exact_all(pos),
         "hull": int(hull),
         "sequence": region.get("sequence"),
-        "edges": [int(i) * 2 for i in np.asarray(edges).ravel()],
+        "edges": [i * 2 for i in np.asarray(edges, np.int64).ravel().tolist()],
         "width": region.get("width", 32),
         "height": region.get("height", 32),
     }

@@ -97,11 +97,7 @@ _NUMBER_TYPES = frozenset((int, float))
 
 def _scalar(value, java_exponents: bool = False) -> str:
     """A string, number, boolean or null as JSON; integral floats as integers, like the editor."""
-    if isinstance(value, str):
-        return _quote(value)
-    if value is None or isinstance(value, bool):
-        return _LITERALS[value]
-    if isinstance(value, float):
+    if isinstance(value, float):  # first: a new mesh's every coordinate (the kinds do not overlap)
         if not math.isfinite(value):
             raise ValueError(f"{value!r} cannot be written as JSON")
         if value.is_integer() and abs(value) < 1e15:
@@ -109,6 +105,10 @@ def _scalar(value, java_exponents: bool = False) -> str:
         if java_exponents and not 1e-3 <= abs(value) < 1e7:
             return _java_double(value)
         return repr(value)
+    if isinstance(value, str):
+        return _quote(value)
+    if value is None or isinstance(value, bool):
+        return _LITERALS[value]
     if isinstance(value, int):
         return str(value)
     raise TypeError(f"{type(value).__name__} is not a JSON value")
@@ -301,26 +301,42 @@ def detect_style(text: str) -> JsonStyle:
     if "\n" not in body:
         return _MINIFIED
     newline = "\r\n" if "\r\n" in body else "\n"
-    indents = [m.group(1) for m in re.finditer(r"\n([ \t]+)[\"{\[]", body)]
+    indents = re.findall(r"\n([ \t]+)[\"{\[]", body)
     unit = min(indents, key=len) if indents else "\t"
     if unit.startswith(" "):
         unit = " " * min(len(i) for i in indents if i.startswith(" "))
     second_line = body.split("\n", 2)[1] if body.count("\n") >= 1 else ""
     top_indented = second_line[:1] in (" ", "\t")
-    pad = " " if len(re.findall(r"[{\[] ", body)) >= len(re.findall(r"[{\[][^\s\]}]", body)) else ""
+    # "{ " and "[ " as counted one by one: two characters, the second no bracket, never overlap
+    pad = " " if body.count("{ ") + body.count("[ ") >= len(re.findall(r"[{\[][^\s\]}]", body)) else ""
     colon = ": " if body.count('": ') >= body.count('":') - body.count('": ') else ":"
-    objects = [m.group(1) for m in _INLINE_OBJECT.finditer(body)]
-    objects = [o for o in objects if o not in ("{}",)]
-    arrays = [len(m.group(1)) for m in _INLINE_ARRAY.finditer(body) if m.group(1) != "[]"]
+    objects = [o for o in _INLINE_OBJECT.findall(body) if o != "{}"]
     object_columns = max(map(len, objects)) if objects else -1
-    object_items = max(len(_KEY.findall(o)) for o in objects) if objects else EDITOR_STYLE.object_items
-    array_columns = (math.inf if not _BROKEN_ARRAY.search(body)
-                     else max(arrays) if arrays else -1)
+    object_items = _most_keys(objects) if objects else EDITOR_STYLE.object_items
+    if _BROKEN_ARRAY.search(body):  # never in the editor's exports: one-line arrays need not be scanned
+        arrays = [len(a) for a in _INLINE_ARRAY.findall(body) if a != "[]"]
+        array_columns = max(arrays) if arrays else -1
+    else:
+        array_columns = math.inf
     python_exponents = re.search(r"\de-\d", body) is not None
     java_exponents = re.search(r"\d\.\dE-?\d", body) is not None or not python_exponents
     return JsonStyle(indent=unit, top_level_indented=top_indented, object_columns=object_columns,
                      object_items=object_items, java_exponents=java_exponents,
                      array_columns=array_columns, pad=pad, colon=colon, newline=newline)
+
+
+def _most_keys(objects: list[str]) -> int:
+    """The most keys (:data:`_KEY`) any of ``objects`` (one-line object texts) holds.
+
+    Each key ends in a colon, so an object holds at most as many keys as colons: only
+    objects with more colons than the most keys counted so far are counted (a large
+    skeleton holds tens of thousands of one-line objects, nearly all alike).
+    """
+    most = 0
+    for o in objects:
+        if o.count(":") > most:
+            most = max(most, len(_KEY.findall(o)))
+    return most
 
 
 # -- writing a changed document into its original text ------------------------------------------
@@ -393,15 +409,17 @@ def _items(text: str, pos: int, is_object: bool):
         return pos + 1
 
 
-def _changes(text: str, pos: int, old, new, style: JsonStyle, out: list, known: set) -> int:
+def _changes(text: str, pos: int, old, new, style: JsonStyle, out: list, known: set,
+             known_end: int | None = None) -> int:
     """Collect (start, end, replacement) for the smallest values of ``old`` that differ in
     ``new``; ``pos`` is where ``old`` starts in ``text``. Returns where it ends.
 
     Unchanged values are stepped over by the C decoder; only the path down to each change
-    is walked here. ``known``: see :func:`_same`.
+    is walked here. ``known``: see :func:`_same`. ``known_end``: where ``old`` ends, when the
+    caller knows it (then it is not read again).
     """
     if _same(old, new, known):
-        return _skip(text, pos)
+        return _skip(text, pos) if known_end is None else known_end
     same_keys = isinstance(old, dict) and isinstance(new, dict) and list(old) == list(new)
     same_length = isinstance(old, list) and isinstance(new, list) and len(old) == len(new)
     if same_keys or same_length:
@@ -420,9 +438,53 @@ def _changes(text: str, pos: int, old, new, style: JsonStyle, out: list, known: 
             if next(keys, None) is None:
                 out += found
                 return stop.value
-    end = _skip(text, pos)
+    end = _skip(text, pos) if known_end is None else known_end
     out.append((pos, end, dumps(new, style, _line_indent(text, pos))))
     return end
+
+
+def _top_level(text: str, pos: int) -> tuple[dict, list[tuple[str, int, int]], int] | None:
+    """The object whose text starts at ``pos``, read value by value: ``(object, items, end)``
+    with each item's ``(key, start, end)`` in ``text``; None when ``text`` is anything else
+    (not an object, a key written twice, not JSON, more than the object): then the caller
+    reads it whole.
+
+    Each value is read by the C decoder as ``json.loads`` reads it, so the object is the
+    same; knowing where each value ends spares :func:`_changes` reading the unchanged ones
+    (a skeleton's animations, most of its text) a second time to find their ends.
+    """
+    if not text.startswith("{", pos):
+        return None
+    obj: dict = {}
+    items = []
+    pos = _WS.match(text, pos + 1).end()
+    try:
+        if text.startswith("}", pos):
+            pos += 1
+        else:
+            while True:
+                if not text.startswith('"', pos):
+                    return None
+                key, pos = scanstring(text, pos + 1)
+                pos = _WS.match(text, pos).end()
+                if not text.startswith(":", pos) or key in obj:
+                    return None
+                start = _WS.match(text, pos + 1).end()
+                obj[key], pos = _DECODER.raw_decode(text, start)
+                items.append((key, start, pos))
+                pos = _WS.match(text, pos).end()
+                if text.startswith(",", pos):
+                    pos = _WS.match(text, pos + 1).end()
+                    continue
+                if not text.startswith("}", pos):
+                    return None
+                pos += 1
+                break
+    except ValueError:  # not JSON: the caller's json.loads says so
+        return None
+    if _WS.match(text, pos).end() != len(text):
+        return None
+    return obj, items, pos
 
 
 def splice(text: str, new, style: JsonStyle | None = None) -> str:
@@ -446,12 +508,23 @@ def splice(text: str, new, style: JsonStyle | None = None) -> str:
     """
     style = style or detect_style(text)
     offset = _WS.match(text, 1 if text.startswith("\ufeff") else 0).end()
-    try:
-        old = json.loads(text[offset:])
-    except ValueError:
-        return dumps(new, style) + style.newline
     edits: list = []
-    _changes(text, offset, old, new, style, edits, set())
+    top = _top_level(text, offset)
+    if top is not None and isinstance(new, dict) and list(top[0]) == list(new):
+        # as _changes walks an object of the same keys, each value's end known already
+        old, items, _ = top
+        known: set = set()
+        for key, start, end in items:
+            _changes(text, start, old[key], new[key], style, edits, known, end)
+    else:
+        if top is not None:
+            old = top[0]
+        else:
+            try:
+                old = json.loads(text[offset:])
+            except ValueError:
+                return dumps(new, style) + style.newline
+        _changes(text, offset, old, new, style, edits, set(), None if top is None else top[2])
     # One pass over the text: unchanged stretches and replacements joined once (rebuilding the
     # whole text per edit was quadratic: 109 s for 20,000 changed attachments in a 1.1 MB file).
     pieces, pos = [], 0

@@ -38,8 +38,8 @@ def coverage(vertices, triangles, art: np.ndarray) -> float:
 
 def _covered_share(inside: np.ndarray, art: np.ndarray) -> float:
     """Share of the ``art`` pixels that ``inside`` holds (1.0 without art); both (H, W) bool."""
-    n = int(art.sum())
-    return 1.0 if n == 0 else float((inside & art).sum()) / n
+    n = int(np.count_nonzero(art))  # the integers of .sum(), counted without widening each to int64
+    return 1.0 if n == 0 else float(np.count_nonzero(inside & art)) / n
 
 
 def uncovered_pixels(vertices, triangles, art: np.ndarray) -> np.ndarray:
@@ -76,7 +76,7 @@ def waste(vertices, triangles, art: np.ndarray) -> float:
 
 def _transparent_share(centre: np.ndarray, art: np.ndarray, area: float) -> float:
     """:func:`waste` from the pixels ``centre`` (H, W) centred in a mesh of ``area`` px^2 (> 0)."""
-    return float(max(0.0, 1.0 - (centre & art).sum() / area))
+    return float(max(0.0, 1.0 - int(np.count_nonzero(centre & art)) / area))
 
 
 def coverage_and_waste(vertices, triangles, art: np.ndarray) -> tuple[float, float]:

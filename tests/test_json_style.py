@@ -157,3 +157,33 @@ def test_a_changed_value_deep_inside_rewrites_only_its_line():
 def test_unreadable_original_falls_back_to_a_full_rewrite():
     doc = {"skeleton": {"spine": "4.2.22"}}
     assert json.loads(splice("{ not json", doc)) == doc
+
+
+def test_top_level_values_are_read_with_their_ends():
+    """The top-level object read value by value is ``json.loads``'s, each value's span its text."""
+    from spinemesh.json_style import _top_level
+
+    text = '{\n"a": { "x": 1.5 },\n"b" : [ 1, 2 ] ,\n"c": "s"\n}\n'
+    obj, items, end = _top_level(text, 0)
+    assert obj == json.loads(text) and list(obj) == ["a", "b", "c"]
+    assert [text[s:e] for _, s, e in items] == ['{ "x": 1.5 }', "[ 1, 2 ]", '"s"']
+    assert text[:end] == text.rstrip()
+    assert _top_level("{}", 0) == ({}, [], 2)
+    # anything but one object read whole by the caller: a key twice, not JSON, more after it, a list
+    for other in ('{"a": 1, "a": 2}', '{"a": 1,}', '{"a" 1}', '{"a": 1} 2', '[1]', '{"a": nope}'):
+        assert _top_level(other, 0) is None, other
+
+
+def test_a_top_level_key_written_twice_rewrites_the_whole_object():
+    """The later value is the one read: a change is written as one object, without the other."""
+    text = '{\n"a": 1,\n"b": 2,\n"a": 3\n}\n'
+    doc = json.loads(text)
+    doc["a"] = 4
+    assert json.loads(splice(text, doc)) == {"a": 4, "b": 2}
+
+
+def test_one_line_objects_count_their_most_keys():
+    from spinemesh.json_style import _most_keys
+
+    assert _most_keys(['{ "a": 1 }', '{ "a": 1, "b": "x:y", "c": 2 }', '{ "t": ":::::" }']) == 3
+    assert _most_keys(["{ }"]) == 0

@@ -363,3 +363,12 @@ def test_a_changed_hull_is_checked_on_its_changed_edges_as_on_the_whole_image():
             assert same == (len(_uncovered(changed, cover)) == 0)
             answers[same] += 1
     assert answers[True] > 20 and answers[False] > 20
+
+
+def test_successors_and_predecessors_are_np_roll():
+    from spinemesh.mesher.geometry import predecessors, successors
+
+    for a in (np.arange(10.0).reshape(5, 2), np.arange(7), np.zeros((0, 2)), np.array([[1.5, 2.5]]),
+              np.arange(12.0).reshape(6, 2)[:, 1], np.array([True, False, False])):
+        assert np.array_equal(successors(a), np.roll(a, -1, axis=0)) and successors(a).dtype == a.dtype
+        assert np.array_equal(predecessors(a), np.roll(a, 1, axis=0))

@@ -154,3 +154,15 @@ def test_pair_keys_find_the_rows_np_unique_finds():
         _, inv, counts = np.unique(np.sort(e, axis=1), axis=0, return_inverse=True, return_counts=True)
         assert np.array_equal(raster.boundary_index_edges(t), e[counts[inv.reshape(-1)] == 1])
     assert raster.boundary_index_edges(np.zeros((0, 3), np.int64)).shape == (0, 2)
+
+
+def test_toggle_parity_is_the_parity_of_the_counts():
+    """The parities of the cells named, as the counts' parities, and the same rows of odd pixels."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        h, w = (int(v) for v in rng.integers(1, 40, 2))
+        cells = rng.integers(0, h * (w + 1), int(rng.integers(0, 300)))
+        counts = np.bincount(cells, minlength=h * (w + 1))
+        parity = raster._toggle_parity(cells, h * (w + 1))
+        assert parity.dtype == np.uint8 and (parity == counts % 2).all()
+        assert (raster._odd_from_left(parity, h, w) == raster._odd_from_left(counts, h, w)).all()

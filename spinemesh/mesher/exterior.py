@@ -39,7 +39,8 @@ import numpy as np
 
 from .raster import (any_centre_inside, any_crossed, centres_inside, crossed_pixels, loop_segments, pair_keys,
                      touched_pixels)
-from .geometry import clamp, clip_loop_to_rect, dp_indices, loop_is_simple, signed_area
+from .geometry import (clamp, clip_loop_to_rect, dp_indices, loop_is_simple, predecessors, signed_area,
+                       successors)
 
 
 # --------------------------------------------------------------------------- paper
@@ -85,7 +86,7 @@ def paper_loops(mask: np.ndarray, blur_sigma: float = 1.0, min_area: float = 100
 
 
 def _perimeter(c: np.ndarray) -> float:
-    return float(np.hypot(*(np.roll(c, -1, axis=0) - c).T).sum())
+    return float(np.hypot(*(successors(c) - c).T).sum())
 
 
 def _arc_subdivide(c: np.ndarray, keys: np.ndarray, l_max: float) -> np.ndarray:
@@ -100,10 +101,10 @@ def _arc_subdivide(c: np.ndarray, keys: np.ndarray, l_max: float) -> np.ndarray:
     k = len(keys)
     if k < 3:
         return c[keys]
-    seg_len = np.hypot(*(np.roll(c, -1, axis=0) - c).T)
+    seg_len = np.hypot(*(successors(c) - c).T)
     cum = np.concatenate([[0.0], np.cumsum(seg_len)])
     kp = c[keys]
-    prev, nxt = np.roll(kp, 1, axis=0), np.roll(kp, -1, axis=0)
+    prev, nxt = predecessors(kp), successors(kp)
     u, w = prev - kp, nxt - kp
     cosang = (u * w).sum(1) / np.maximum(np.hypot(*u.T) * np.hypot(*w.T), 1e-12)
     obtuse = cosang < 0
@@ -249,12 +250,12 @@ def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarra
     # every edge's direction, length and outward normal at once: the same element-wise
     # operations as one edge at a time; for a positive (clockwise on screen) loop the normal
     # is (dy, -dx)
-    d = np.roll(kp, -1, axis=0) - kp
+    d = successors(kp) - kp
     length = np.hypot(d[:, 0], d[:, 1])
     normals = np.stack([d[:, 1], -d[:, 0]], axis=1) / length[:, None] * orient
     reach = 0.5 * (np.abs(normals[:, 0]) + np.abs(normals[:, 1]))
     offsets = np.zeros(k)
-    starts, ends = keys.tolist(), np.roll(keys, -1).tolist()
+    starts, ends = keys.tolist(), successors(keys).tolist()
     for j in range(k):
         a, b = starts[j], ends[j]
         pts = centre[a:b + 1] if b > a else np.concatenate([centre[a:], centre[:b + 1]])
@@ -304,7 +305,7 @@ def _repair(loop: np.ndarray, cover: np.ndarray, max_rounds: int = 30) -> np.nda
             return loop
         corners = np.concatenate([bad[:, ::-1] + off for off in ([0, 0], [1, 0], [0, 1], [1, 1])]).astype(np.float64)
         a = loop
-        b = np.roll(loop, -1, axis=0)
+        b = successors(loop)
         ab = b - a
         L = np.maximum(np.hypot(*ab.T), 1e-12)
         nrm = np.stack([ab[:, 1], -ab[:, 0]], axis=1) / L[:, None] * orient
@@ -460,11 +461,12 @@ def _snap_to_border(loop: np.ndarray, i: int, shape: tuple[int, int], reach: flo
 
 
 def _shortest_edge(loop: np.ndarray) -> float:
-    return float(np.hypot(*(np.roll(loop, -1, axis=0) - loop).T).min())
+    return float(np.hypot(*(successors(loop) - loop).T).min())
 
 
 def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    return np.stack([clamp(loop[:, 0], 0, shape[1]), clamp(loop[:, 1], 0, shape[0])], axis=1)
+    """``loop`` (n, 2) moved into the image ``[0, W] x [0, H]``, both columns in one call."""
+    return clamp(loop, 0, (shape[1], shape[0]))
 
 
 #: Most candidate loops :func:`_spread` checks for one hull (keeps huge speckled hulls fast).
@@ -498,7 +500,7 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float, covers: bo
     still_covers = _still_covers if covers else _covers_in_box
     failed: set[tuple] = set()
     for _ in range(len(loop)):
-        d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+        d = np.hypot(*(successors(loop) - loop).T)
         short = np.flatnonzero(d < min_distance)
         short = short[np.argsort(d[short], kind="stable")]  # shortest first
         if len(short) == 0 or len(loop) <= 3:
@@ -671,7 +673,7 @@ def _edges_in(points: np.ndarray, other: np.ndarray) -> np.ndarray:
     at = np.minimum(np.searchsorted(theirs[order], mine), len(theirs) - 1)
     found = theirs[order][at] == mine
     where = np.where(found, order[at], -1)
-    return found & np.roll(found, -1) & (np.roll(where, -1) == (where + 1) % len(theirs))
+    return found & successors(found) & (successors(where) == (where + 1) % len(theirs))
 
 
 def _clip_keeps_cover(loop: np.ndarray, clipped: np.ndarray, cover: np.ndarray) -> bool:
@@ -681,7 +683,7 @@ def _clip_keeps_cover(loop: np.ndarray, clipped: np.ndarray, cover: np.ndarray) 
     the clip keeps the others as they were.
     """
     def segments(points: np.ndarray, kept: np.ndarray) -> np.ndarray:
-        return np.stack([points, np.roll(points, -1, axis=0)], axis=1)[~kept]
+        return np.stack([points, successors(points)], axis=1)[~kept]
 
     removed = segments(loop, _edges_in(loop, clipped))
     added = segments(clipped, _edges_in(clipped, loop))
@@ -722,7 +724,7 @@ def _covers_in_box(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cov
 def _dedupe_loop(loop: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     # near-duplicates come from pushing two almost parallel edges; the repair step that
     # follows wins back any sliver this costs
-    d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+    d = np.hypot(*(successors(loop) - loop).T)
     return loop[d > tol]
 
 

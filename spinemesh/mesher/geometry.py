@@ -15,10 +15,23 @@ def clamp(values: np.ndarray, low, high) -> np.ndarray:
     return np.minimum(np.maximum(values, low), high)
 
 
+def successors(a: np.ndarray) -> np.ndarray:
+    """``np.roll(a, -1, axis=0)``: each row's next one, the first after the last (a loop's
+    next vertices), the same values without ``np.roll``'s Python layers (the mesher rolls
+    small loops about a hundred thousand times per library run, at several times the cost
+    of the copy)."""
+    return np.concatenate((a[1:], a[:1]))
+
+
+def predecessors(a: np.ndarray) -> np.ndarray:
+    """``np.roll(a, 1, axis=0)``: each row's previous one, the last before the first."""
+    return np.concatenate((a[-1:], a[:-1]))
+
+
 def signed_area(loop: np.ndarray) -> float:
     """Shoelace area of a closed polygon (n, 2); positive = the mesh winding (clockwise on screen)."""
     x, y = loop[:, 0], loop[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    return 0.5 * float(np.dot(x, successors(y)) - np.dot(successors(x), y))
 
 
 def dp_indices(points: np.ndarray, eps: float, closed: bool = True, splits: dict | None = None) -> np.ndarray:
@@ -283,12 +296,12 @@ def drop_redundant(loop: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     changed = True
     while changed and len(loop) > 3:
         changed = False
-        d = np.hypot(*(np.roll(loop, -1, axis=0) - loop).T)
+        d = np.hypot(*(successors(loop) - loop).T)
         if (d <= tol).any():
             loop = loop[d > tol]
             changed = True
             continue
-        prev, nxt = np.roll(loop, 1, axis=0), np.roll(loop, -1, axis=0)
+        prev, nxt = predecessors(loop), successors(loop)
         u, w = loop - prev, nxt - loop
         cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
         straight = (np.abs(cross) <= tol * np.maximum(1.0, np.hypot(*u.T) * np.hypot(*w.T))) & ((u * w).sum(1) > 0)
@@ -323,7 +336,7 @@ def inset_loop(loop: np.ndarray, distance: float, width: float, height: float) -
     """
     loop = np.asarray(loop, np.float64)
     n = len(loop)
-    a, b = loop, np.roll(loop, -1, axis=0)
+    a, b = loop, successors(loop)
     d = b - a
     length = np.hypot(d[:, 0], d[:, 1])
     if n < 3 or (length <= 0).any():
@@ -335,8 +348,8 @@ def inset_loop(loop: np.ndarray, distance: float, width: float, height: float) -
                  | ((a[:, 1] == 0) & (b[:, 1] == 0)) | ((a[:, 1] == height) & (b[:, 1] == height)))
     shift = np.where(on_border, 0.0, distance)
     # vertex i joins edge i-1 (into it) and edge i (out of it)
-    n0, n1 = np.roll(normal, 1, axis=0), normal
-    s0, s1 = np.roll(shift, 1), shift
+    n0, n1 = predecessors(normal), normal
+    s0, s1 = predecessors(shift), shift
     # solve p . n0 = a_i . n0 + s0 and p . n1 = a_i . n1 + s1 for the moved vertex p = a_i + q
     det = n0[:, 0] * n1[:, 1] - n0[:, 1] * n1[:, 0]
     nearly_straight = np.abs(det) < 1e-6
@@ -347,7 +360,7 @@ def inset_loop(loop: np.ndarray, distance: float, width: float, height: float) -
     # would cut into it): the vertex goes onto that arc, on the bisector, and its edges run
     # outside the erosion. A vertex between a border edge and a moved one stays (its moved
     # edge then runs between the old and the moved line).
-    d_in = np.roll(d, 1, axis=0)
+    d_in = predecessors(d)
     reflex = (sign * (d_in[:, 0] * d[:, 1] - d_in[:, 1] * d[:, 0]) < 0) & ~nearly_straight
     bisector = n0 + n1
     bisector /= np.maximum(np.hypot(bisector[:, 0], bisector[:, 1]), 1e-12)[:, None]
@@ -356,7 +369,7 @@ def inset_loop(loop: np.ndarray, distance: float, width: float, height: float) -
     out = loop + q
     if (out < 0).any() or (out[:, 0] > width).any() or (out[:, 1] > height).any():
         return None  # a reflex corner's mitre would leave the image
-    moved = np.roll(out, -1, axis=0) - out
+    moved = successors(out) - out
     if ((moved * d).sum(axis=1) <= 0).any() or not loop_is_simple(out):
         return None
     return out

@@ -8,7 +8,7 @@ import shapely
 
 from ..errors import ImageError
 from . import exterior, interior, triangulate
-from .geometry import clip_loop_to_rect, inset_loop, segments_cross, signed_area
+from .geometry import clip_loop_to_rect, inset_loop, segments_cross, signed_area, successors
 from .mask import compute_mask
 from .mesh import Mesh
 from .params import PRESETS, MesherParams
@@ -322,7 +322,7 @@ def _drop_crossing(chains: list[np.ndarray], loops: list[np.ndarray]) -> list[np
     """
     if not chains:
         return []
-    walls = np.concatenate([np.stack([l, np.roll(l, -1, axis=0)], axis=1) for l in loops])
+    walls = np.concatenate([np.stack([l, successors(l)], axis=1) for l in loops])
     pieces = [np.stack([c[:-1], c[1:]], axis=1) for c in chains]
     segs = np.concatenate(pieces) if any(len(x) for x in pieces) else np.zeros((0, 2, 2))
     hits_loop = segments_cross(segs, walls).any(axis=1)

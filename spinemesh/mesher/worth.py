@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import ImageError
 from .exterior import pieces
+from .geometry import signed_area
 
 #: ``upgrade``'s default: keep the region when a mesh would draw less than this share fewer pixels.
 DEFAULT_MIN_SAVING = 0.05
@@ -113,8 +114,7 @@ def islands_reason(mask: np.ndarray, pixel_area: float = 1.0, max_vertices: int 
 def hull_reason(hull: np.ndarray, width: float, height: float, min_saving: float,
                 max_vertices: int = MAX_HULL_VERTICES, min_per_vertex: float = MIN_PIXELS_PER_VERTEX) -> str:
     """Rule 3: ``""``, or why a mesh with this covering ``hull`` (n, 2) px would not pay."""
-    x, y = hull[:, 0], hull[:, 1]
-    area = abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
+    area = abs(signed_area(hull))
     saving = 1.0 - area / max(float(width) * float(height), 1e-12)
     if min_saving > 0 and saving < min_saving:
         return (f"not worth meshing: a mesh would draw only {percents_below(saving, min_saving)[0]} fewer "
