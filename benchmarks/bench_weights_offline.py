@@ -241,7 +241,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does."""
     from spinemesh.rig import train_choice
     from spinemesh.rig.habits import keys_of
-    from spinemesh.rig.learned import choose_learned
+    from spinemesh.rig.learned import choose_learned, neighbour_sets
 
     models: dict[int, object] = {}
     habits: dict[str, object] = {}
@@ -252,10 +252,12 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
         model = models[train_choice.fold_of(case["label"])]
         if model.reads_habits and case["label"] not in habits:
             habits[case["label"]] = bench_weights.project_habits_of(skeletons[case["label"]])
-        others = habits[case["label"]].others(keys_of(case["slot"], case["name"])) if model.reads_habits else None
+        keys = keys_of(case["slot"], case["name"])
+        others = habits[case["label"]].others(keys) if model.reads_habits else None
         rig = case["rig"]
+        nearby = neighbour_sets(habits.get(case["label"]), rig.bones, case["slot_bone"], keys)
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                                rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others).bones
+                                rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby).bones
         reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
         return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)

@@ -142,3 +142,104 @@ def test_weights_reads_the_projects_habits_before_weighting(tmp_path):
     rows = {r["slot"]: r for r in json.loads((tmp_path / "r.json").read_text())["attachments"]}
     assert rows["fresh"]["status"] == "weighted" and rows["fresh"]["bones"]
     assert all(w.startswith("learned:") for w in rows["fresh"]["bones"].values())
+
+
+def test_a_weighted_mesh_tallies_the_shape_of_its_whole_set():
+    doc = _weighted_worms()
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    m = weighted_meshes(doc, rig)[0]
+    whole = np.flatnonzero(m["label"])
+    shown = dict(zip(hb.SET_PATTERNS, hb.set_patterns(whole, m["features"], FEATURES)))
+    assert shown["three bones"] == 1 and shown["one bone"] == shown["two bones"] == 0
+    assert shown["a bone below the slot bone"] == 1 and shown["an ancestor of the slot bone"] == 0
+    assert shown["the rule's set"] == 1 and shown["the slot bone alone"] == 0    # weighted by the rule
+    slot = [m["bones"].index(names.index("seg1"))]
+    alone = dict(zip(hb.SET_PATTERNS, hb.set_patterns(slot, m["features"], FEATURES)))
+    assert alone["the slot bone alone"] == alone["one bone"] == 1 and alone["a bone below the slot bone"] == 0
+    t = hb.tally(m["features"], m["label"], len(m["artist"]), FEATURES)
+    shares = hb.pattern_shares(t, np.zeros(hb.TALLY_SIZE))
+    # one set seen, a prior of zero rates: each pattern it shows 1 / (1 + 5), the others 0
+    assert shares == pytest.approx(np.where(list(shown.values()), 1 / (1 + hb.PSEUDO_COUNT), 0))
+    # an artist's bone beyond the candidates: the set's shape is not known, nothing tallied
+    beyond = hb.tally(m["features"], m["label"], len(m["artist"]) + 1, FEATURES)
+    assert hb.pattern_shares(beyond, np.zeros(hb.TALLY_SIZE)).tolist() == [0] * len(hb.SET_PATTERNS)
+
+
+def test_the_sets_bound_on_the_same_slot_bone_are_neighbours():
+    from spinemesh.rig.learned import neighbour_sets
+
+    doc = _weighted_worms()
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    habits = project_habits([(doc, rig)])
+    key = hb.rig_key(names)
+    assert habits.neighbours(hb.keys_of("fresh", "fresh"), key, "seg1") == {frozenset({"seg1", "seg2", "seg3"}): 2}
+    assert habits.neighbours(hb.keys_of("worm", "worm"), key, "seg1") == {frozenset({"seg1", "seg2", "seg3"}): 1}
+    assert habits.neighbours(hb.keys_of("fresh", "fresh"), key, "seg2") == {}          # another slot bone
+    assert habits.neighbours(hb.keys_of("fresh", "fresh"), hb.rig_key(names[:-1]), "seg1") == {}  # another rig
+    got = neighbour_sets(habits, rig.bones, names.index("seg1"), hb.keys_of("fresh", "fresh"))
+    assert got == {tuple(sorted(names.index(n) for n in ("seg1", "seg2", "seg3"))): 2}
+    assert neighbour_sets(None, rig.bones, names.index("seg1"), set()) == {}
+
+
+def test_known_sets_are_weighed_only_when_every_bone_can_be_bound():
+    from spinemesh.rig import bone_sets
+
+    p = np.array([0.9, 0.3, 0.2, 0.15, 0.1, 0.05])
+    allowed = np.array([True] * 5 + [False])
+    ancestors, parents_at = bone_sets.mesh_inputs(np.arange(6), np.arange(-1, 5))
+    rule = np.zeros(6, bool)
+    plain = [s for s, _ in bone_sets.candidate_sets(p, allowed, 0, ancestors, parents_at, 0.5, rule, 0)]
+    known = {(0, 2, 4): 3, (0, 5): 1}
+    sets = [s for s, _ in bone_sets.candidate_sets(p, allowed, 0, ancestors, parents_at, 0.5, rule, 0, known=known)]
+    assert (0, 2, 4) not in plain and (0, 2, 4) in sets and (0, 5) not in sets
+    f = bone_sets.habit_set_features(sets, np.zeros((6, len(FEATURES))), FEATURES,
+                                     np.full(len(hb.SET_PATTERNS), 0.5), known)
+    row = dict(zip(bone_sets.SET_HABIT_FEATURES, f[sets.index((0, 2, 4))]))
+    assert row["neighbour_sets"] == 4 and row["neighbour_share"] == 0.75 and row["neighbour_most"] == 1
+    assert dict(zip(bone_sets.SET_HABIT_FEATURES, f[sets.index((0,))]))["neighbour_share"] == 0
+
+
+def _set_habit_model() -> dict:
+    """A per-bone model finding no bone likely (the slot bone alone), with a set stage that takes
+    the set most bound on the same slot bone: log-odds +3 when ``neighbour_share`` is over 0.5."""
+    from spinemesh.rig import bone_sets
+
+    data = _habit_model()
+    data["trees"] = [{"feature": [-1], "threshold": [0], "left": [0], "right": [0], "value": [-3.0]}]
+    names = bone_sets.SET_FEATURES + bone_sets.SET_HABIT_FEATURES
+    k = names.index("neighbour_share")
+    data["sets"] = {"format": bone_sets.SET_MODEL_FORMAT, "features": list(names), "base": 0.0, "threshold": 0.1,
+                    "meta": {}, "trees": [{"feature": [k, -1, -1], "threshold": [0.5, 0, 0], "left": [1, 0, 0],
+                                           "right": [2, 0, 0], "value": [0, -3.0, 3.0]}]}
+    return data
+
+
+def test_the_set_stage_binds_the_set_the_artists_bound_on_the_same_slot_bone():
+    from spinemesh.rig.learned import neighbour_sets
+
+    model = TreeEnsemble.from_json(_set_habit_model())
+    doc = _weighted_worms()
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    habits = project_habits([(doc, rig)])
+    fresh = doc["skins"][0]["attachments"]["fresh"]["fresh"]
+    world = np.asarray(fresh["vertices"], float).reshape(-1, 2) + [-120, 0]
+    tris = np.asarray(fresh["triangles"]).reshape(-1, 3)
+    slot = rig.slot_bone["fresh"]
+    keys = hb.keys_of("fresh", "fresh")
+    alone = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits.others(keys))
+    assert [names[b] for b in alone.bones] == ["seg1"]
+    near = neighbour_sets(habits, rig.bones, slot, keys)
+    chosen = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits.others(keys), near)
+    assert sorted(names[b] for b in chosen.bones) == ["seg1", "seg2", "seg3"]
+    assert "the artists bound this set on 2 of the project's 2 other weighted meshes on the same slot bone" \
+        in chosen.why[names.index("seg2")]
+    assert "not in the chosen set" in chosen.left_out[names.index("beside")]
+    # a set stage reading the habits inside a model without their prior is refused
+    data = _set_habit_model()
+    data["features"] = list(FEATURES)
+    data["trees"] = [{"feature": [-1], "threshold": [0], "left": [0], "right": [0], "value": [-3.0]}]
+    with pytest.raises(ValueError):
+        TreeEnsemble.from_json(data)

@@ -22,7 +22,7 @@ from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
-from .learned import choose_learned, constrained_bones
+from .learned import choose_learned, constrained_bones, neighbour_sets
 from .weights import solve_weights, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
@@ -154,9 +154,11 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         keep = [b for b in current if rig.bones[b].exact]
         return Choice(keep, {b: why[b] for b in keep}, left)
     if uses_learned(WeightOptions(bones=mode)):
-        others = rig.habits.others(keys_of(ref.slot, ref.name)) if rig.habits is not None else None
+        keys = keys_of(ref.slot, ref.name)
+        others = rig.habits.others(keys) if rig.habits is not None else None
         return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
-                              rig.constrained, habits=others)
+                              rig.constrained, habits=others,
+                              neighbours=neighbour_sets(rig.habits, rig.bones, slot_bone, keys))
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

@@ -14,7 +14,11 @@ weighted mesh, from the same candidate features the per-bone model reads,
   artists bound;
 - whether they bind the slot's bone, how many bones a mesh gets, how many against the bones
   over its art;
-- how many weighted meshes the habits come from.
+- how many weighted meshes the habits come from;
+- for the set stage (:mod:`.bone_sets`), the shapes of the artists' whole sets
+  (:data:`SET_PATTERNS`: how many bones, the slot's bone alone, every bone over the art, the
+  ``rule``'s set, with a point, an ancestor or a bone below the slot's bone, ...), and the sets
+  bound by the meshes on the same slot bone of the same skeleton (:meth:`ProjectHabits.neighbours`).
 
 Each share is smoothed toward the rate over every training project (the *prior*, shipped in
 the model) with :data:`PSEUDO_COUNT` made-up candidates or meshes: a project with no weighted
@@ -27,7 +31,8 @@ mesh out is a subtraction.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -49,11 +54,24 @@ GROUPINGS = (("kind", 18), ("relation", 5), ("role", 3), ("rule", 2))
 _OFFSETS = np.cumsum([0] + [2 * n for _, n in GROUPINGS])
 
 #: Mesh-level entries after the candidate kinds: meshes, meshes whose slot bone could be
-#: bound, of those the meshes binding it, the artist's bones, bones per bone over the art.
-_MESHES, _SLOT_SEEN, _SLOT_BOUND, _BONES, _PER_ON_ART = range(int(_OFFSETS[-1]), int(_OFFSETS[-1]) + 5)
+#: bound, of those the meshes binding it, the artist's bones, bones per bone over the art,
+#: meshes whose artist's bones are all candidates (their set's :data:`SET_PATTERNS` follow).
+_MESHES, _SLOT_SEEN, _SLOT_BOUND, _BONES, _PER_ON_ART, _SETS_SEEN = range(int(_OFFSETS[-1]), int(_OFFSETS[-1]) + 6)
+
+#: The shapes of a whole bone set the set stage compares with the project's artists' sets
+#: (:func:`set_patterns`). Measured held out (set stage with and without them, the same
+#: per-bone probabilities): exact bone sets 32.3% -> 34.1%.
+SET_PATTERNS = (
+    "one bone", "two bones", "three bones", "four or five bones", "six bones or more", "the slot bone alone",
+    "every bone over the art", "only bones over the art and the slot bone", "the rule's set", "a point",
+    "an ancestor of the slot bone", "a bone below the slot bone",
+)
+
+#: Where the patterns' counts start in a tally.
+_PATTERNS = _SETS_SEEN + 1
 
 #: Length of a tally vector.
-TALLY_SIZE = _PER_ON_ART + 1
+TALLY_SIZE = _PATTERNS + len(SET_PATTERNS)
 
 #: Places in the tree and states of the ``kind`` kinds: the relations, with the slot bone's
 #: children apart from the bones farther below (artists differ most there).
@@ -126,7 +144,45 @@ def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tup
     out[_SLOT_BOUND] = float((slot & bound).any())
     out[_BONES] = artist_count
     out[_PER_ON_ART] = artist_count / max(on_art, 1.0)
+    if bound.any() and int(bound.sum()) == artist_count:   # the artist's whole set is among the candidates
+        out[_SETS_SEEN] = 1
+        out[_PATTERNS:] = set_patterns(np.flatnonzero(bound), f, names)
     return out
+
+
+def set_patterns(members, features: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+    """Which :data:`SET_PATTERNS` a set of candidates shows, as 0/1 (len(SET_PATTERNS),).
+
+    Parameters
+    ----------
+    members : sequence of int
+        The set, indices into the candidates (non-empty).
+    features : ndarray, shape (C, F)
+        The mesh's candidates' per-bone features (the first columns named ``names``).
+    """
+    col = _columns(names)
+    f = np.atleast_2d(np.asarray(features, float))   # columns past ``names`` (the habits) are not read
+    allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
+    slot = set(np.flatnonzero(allowed & (f[:, col["is_slot_bone"]] == 1)).tolist())
+    over = set(np.flatnonzero(allowed & (f[:, col["over_art_per_diag"]] > 0) & (f[:, col["is_point"]] == 0)).tolist())
+    rule = set(np.flatnonzero(allowed & (f[:, col["rule_chose"]] == 1)).tolist())
+    chosen = {int(k) for k in members}
+    size = (0, 0, 1, 2, 3, 3)[len(chosen)] if len(chosen) < 6 else 4
+    row = f[sorted(chosen)]
+    out = np.zeros(len(SET_PATTERNS))
+    out[size] = 1
+    out[5:] = [bool(slot) and chosen == slot, bool(over) and chosen == over, chosen <= over | slot,
+               bool(rule) and chosen == rule, (row[:, col["is_point"]] == 1).any(),
+               (row[:, col["is_ancestor"]] == 1).any(), (row[:, col["is_descendant"]] == 1).any()]
+    return out
+
+
+def pattern_shares(others: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """The share (len(SET_PATTERNS),) of the project's artists' whole sets showing each of
+    :data:`SET_PATTERNS`, from the tally of its other weighted meshes ``others`` smoothed toward
+    the prior ``base`` (both :data:`TALLY_SIZE`) as :func:`habit_features` does."""
+    return _share(np.full(len(SET_PATTERNS), others[_SETS_SEEN]), others[_PATTERNS:],
+                  np.full(len(SET_PATTERNS), base[_SETS_SEEN]), base[_PATTERNS:])
 
 
 def meshes_in(tallies: np.ndarray) -> np.ndarray:
@@ -190,10 +246,20 @@ class ProjectHabits:
         Each weighted mesh's :func:`tally`.
     keys : list of set of str
         Each one's names (:func:`keys_of`).
+    bound : list of (str, str, frozenset of str)
+        Each one's skeleton (:func:`rig_key`), slot bone and the bones its artist bound, by
+        name; the set empty when some of them are not among its candidates.
     """
 
     tallies: np.ndarray
     keys: list[set[str]]
+    bound: list[tuple[str, str, frozenset]] = field(default_factory=list)
+
+    def neighbours(self, keys: set[str], rig: str, slot_bone: str) -> dict[frozenset, int]:
+        """The sets of bones (names) the artists bound on the meshes of skeleton ``rig`` on the
+        same slot bone, each with how many meshes bound it, leaving out the meshes that share a
+        name with ``keys`` (as :meth:`others`)."""
+        return neighbour_counts(self.bound, self.keys, keys, rig, slot_bone)
 
     def others(self, keys: set[str]) -> np.ndarray:
         """The tally (TALLY_SIZE,) of the meshes that share no name with ``keys``: a mesh being
@@ -201,6 +267,20 @@ class ProjectHabits:
         or attachment name), which would show its own answer."""
         keep = [not (k & keys) for k in self.keys]
         return np.asarray(self.tallies, float).reshape(-1, TALLY_SIZE)[keep].sum(axis=0)
+
+
+def neighbour_counts(bound: list[tuple], keys: list[set[str]], own: set[str], rig, slot_bone) -> dict[frozenset, int]:
+    """:meth:`ProjectHabits.neighbours` over any labels: ``bound`` (skeleton, slot bone, set)
+    and ``keys`` per mesh; the sets of the meshes of ``rig`` and ``slot_bone`` sharing no key
+    with ``own``, counted (empty sets left out)."""
+    return dict(Counter(chosen for (r, b, chosen), k in zip(bound, keys)
+                        if chosen and r == rig and b == slot_bone and not (k & own)))
+
+
+def rig_key(bone_names) -> str:
+    """A skeleton's identity for :meth:`ProjectHabits.neighbours`: its bones' names, in order
+    (skeletons of a project exported from the same rig share it)."""
+    return "\n".join(str(n) for n in bone_names)
 
 
 def others_of(tallies: np.ndarray, pools: np.ndarray, keys: list[set[str]] | None = None) -> np.ndarray:

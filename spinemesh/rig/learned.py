@@ -11,7 +11,9 @@ on the artist-weighted meshes of the Spine examples and a corpus of game project
 set-level ensemble (:mod:`.bone_sets`) then weighs a few whole sets built from those
 probabilities and the likeliest set to be the artist's exact one is chosen (a model without
 that stage chooses the bones at or above its threshold). A model may also read the project's
-habits (:mod:`.habits`): how its artists bound such bones in its other weighted meshes.
+habits (:mod:`.habits`): how its artists bound such bones in its other weighted meshes, the
+shapes of their whole sets, and the sets they bound on the other meshes on the same slot bone
+(:func:`neighbour_sets`), which the set stage also weighs.
 
 The model ships as JSON (``spinemesh/models/bone_choice.json``: each tree's split features,
 thresholds, children and leaf values, the set stage's under ``sets``) and is evaluated with
@@ -33,7 +35,8 @@ from . import bone_sets
 from .binding import parse_vertices, setup_world
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
 from .constraints import constraints_of
-from .habits import HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, tally
+from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, pattern_shares,
+                     rig_key, tally)
 from .habits import reason as habit_reason
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
@@ -300,12 +303,30 @@ def project_habits(documents) -> ProjectHabits:
     ``documents``: ``(doc, rig)`` pairs, read before any of them is weighted (the habits are
     the artists', not ours).
     """
-    tallies, keys = [], []
+    tallies, keys, bound = [], [], []
     for doc, rig in documents:
+        names = [b.name for b in rig.bones]
         for m in weighted_meshes(doc, rig):
             tallies.append(tally(m["features"], m["label"], len(m["artist"]), FEATURES))
             keys.append(keys_of(m["slot"], m["name"]))
-    return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys)
+            whole = set(m["artist"]) <= set(m["bones"])
+            bound.append((rig_key(names), names[rig.slot_bone[m["slot"]]],
+                          frozenset(names[b] for b in m["artist"]) if whole else frozenset()))
+    return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys, bound)
+
+
+def neighbour_sets(habits: ProjectHabits | None, bones, slot_bone: int, keys: set[str]) -> dict[tuple[int, ...], int]:
+    """The bone sets (indices into ``bones``, sorted) the project's artists bound on the other
+    meshes on the slot bone ``slot_bone`` of a skeleton with these ``bones``, each with how
+    many meshes bound it (:meth:`.habits.ProjectHabits.neighbours`; the meshes sharing a name
+    with ``keys`` left out). Empty without habits."""
+    if habits is None:
+        return {}
+    names = [b.name for b in bones]
+    index = {n: i for i, n in enumerate(names)}
+    found = habits.neighbours(keys, rig_key(names), names[slot_bone])
+    return {tuple(sorted(index[n] for n in chosen)): count for chosen, count in found.items()
+            if all(n in index for n in chosen)}
 
 
 def _tree_from_json(t: dict, features: int) -> dict[str, np.ndarray]:
@@ -352,19 +373,23 @@ class TreeEnsemble:
         ``features`` and ``form``: the feature names and format tag it must have (the
         per-bone model's by default).
         """
-        from .bone_sets import SET_FEATURES, SET_MODEL_FORMAT
+        from .bone_sets import SET_FEATURES, SET_HABIT_FEATURES, SET_MODEL_FORMAT
 
         if data.get("format") != form:
             raise ValueError(f"not a bone-choice model (format {data.get('format')!r}, expected {form!r})")
         names = tuple(data["features"])
-        if names not in (features, features + (HABIT_FEATURES if features == FEATURES else ())):
+        more = {FEATURES: HABIT_FEATURES, SET_FEATURES: SET_HABIT_FEATURES}.get(features, ())
+        if names not in (features, features + more):
             raise ValueError("the model reads other features than this version computes")
-        if len(names) > len(features) and len(data.get("meta", {}).get("habit_prior", ())) != TALLY_SIZE:
+        if features == FEATURES and len(names) > len(features) \
+                and len(data.get("meta", {}).get("habit_prior", ())) != TALLY_SIZE:
             raise ValueError("the model reads the project's habits but holds no prior for them")
         trees = [_tree_from_json(t, len(names)) for t in data["trees"]]
         sets = data.get("sets")
-        return cls(names, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})),
-                   cls.from_json(sets, SET_FEATURES, SET_MODEL_FORMAT) if sets is not None else None)
+        sets = cls.from_json(sets, SET_FEATURES, SET_MODEL_FORMAT) if sets is not None else None
+        if sets is not None and len(sets.features) > len(SET_FEATURES) and len(names) == len(features):
+            raise ValueError("the model's set stage reads the project's habits but the model holds no prior for them")
+        return cls(names, float(data["base"]), trees, float(data["threshold"]), dict(data.get("meta", {})), sets)
 
     def to_json(self, form: str = MODEL_FORMAT) -> dict:
         """The JSON form :meth:`from_json` reads (``form``: its format tag)."""
@@ -463,28 +488,42 @@ def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: 
 
 
 def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
-             model: TreeEnsemble) -> tuple[list[int], str]:
+             model: TreeEnsemble, habits: np.ndarray | None = None,
+             neighbours: dict[tuple[int, ...], int] | None = None) -> tuple[list[int], str]:
     """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
     to be the artist's exact set, when clearly likelier than the per-bone choice's set
     (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
-    choice for the report."""
+    choice for the report. A set model reading the project's habits gets their pattern shares
+    (from ``habits``, the others' tally) and the ``neighbours``' sets (bone indices), which it
+    also weighs."""
     parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
     ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
     rule = cand.features[:, FEATURES.index("rule_chose")] == 1
-    sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule)
+    known, mesh_habits = {}, None
+    if len(model.sets.features) > len(bone_sets.SET_FEATURES):
+        at = {b: k for k, b in enumerate(cand.bones)}
+        known = {tuple(sorted(at[b] for b in chosen)): n for chosen, n in (neighbours or {}).items()
+                 if all(b in at for b in chosen)}
+        others = np.zeros(TALLY_SIZE) if habits is None else np.asarray(habits, float)
+        mesh_habits = (pattern_shares(others, np.asarray(model.meta["habit_prior"], float)), known)
+    sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule, known=known)
     if not sets:
         return [], ""
     score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
-                                                          ancestors, parents_at, model.threshold))
+                                                          ancestors, parents_at, model.threshold, mesh_habits))
     best = bone_sets.pick(score, model.sets.threshold)
     how = (f"best of {len(sets)} sets weighed" if best else
            f"the bones at or over {model.threshold:.2f}: no other of {len(sets)} sets clearly likelier")
+    count = known.get(sets[best][0], 0)
+    if count:
+        how += (f"; the artists bound this set on {count} of the project's {sum(known.values())} other "
+                f"weighted meshes on the same slot bone")
     return list(sets[best][0]), f"the chosen set ({score[best]:.2f} likely the artist's exact set, {how})"
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
                    constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
-                   habits: np.ndarray | None = None) -> Choice:
+                   habits: np.ndarray | None = None, neighbours: dict[tuple[int, ...], int] | None = None) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -497,6 +536,8 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     the project (:meth:`.habits.ProjectHabits.others`), for a model that reads the project's
     habits (None: the prior, as for a project without weighted meshes). A bone whose
     probability they move by :data:`HABIT_MATTERS` or more says so in its reason.
+    ``neighbours``: the bone sets the project's artists bound on its other meshes on the same
+    slot bone (:func:`neighbour_sets`), for a set stage reading the habits.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
@@ -515,7 +556,8 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
             allowed[k] = True
     order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
     slot = next((k for k in order if cand.bones[k] == slot_bone), None)
-    take, note = _by_sets(bones, cand, p, allowed, slot, model) if model.sets is not None else ([], "")
+    take, note = (_by_sets(bones, cand, p, allowed, slot, model, habits, neighbours) if model.sets is not None
+                  else ([], ""))
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
                    model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:

@@ -148,7 +148,8 @@ def with_habits(data: dict, strict: bool = True) -> dict:
     """``data`` with the :data:`.habits.HABIT_FEATURES` of each row appended to ``X``, from the
     other artist-weighted meshes of its mesh's project (``strict``: also without those of the
     same slot or attachment name), and ``habit_prior`` (the rates over every mesh) and
-    ``habit_others`` (each mesh's others' tally, (M, TALLY_SIZE)) added."""
+    ``habit_others`` (each mesh's others' tally, (M, TALLY_SIZE)) and ``habit_neighbours``
+    (:func:`neighbour_sets`, a list) added."""
     starts = _mesh_rows(data)
     tallies = np.stack([habits.tally(data["X"][s:e], data["y"][s:e], n, FEATURES)
                         for s, e, n in zip(starts[:-1], starts[1:], data["artist_count"])])
@@ -156,7 +157,34 @@ def with_habits(data: dict, strict: bool = True) -> dict:
     base = habits.prior(tallies)
     H = np.concatenate([habits.habit_features(data["X"][s:e], FEATURES, others[m], base)
                         for m, (s, e) in enumerate(zip(starts[:-1], starts[1:]))])
-    return {**data, "X": np.hstack([data["X"], H]), "habit_prior": base, "habit_others": others}
+    return {**data, "X": np.hstack([data["X"], H]), "habit_prior": base, "habit_others": others,
+            "habit_neighbours": neighbour_sets(data, strict)}
+
+
+def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...], int]]:
+    """For each mesh, the bone sets (bone indices, sorted) the artists bound on the other meshes
+    of its skeleton on the same slot bone, each with how many bound it
+    (:meth:`.habits.ProjectHabits.neighbours`; ``strict``: leaving out those sharing a slot or
+    attachment name with it, else only itself). Meshes with artist's bones beyond their
+    candidates show no set. A skeleton is its file here (the package matches skeletons by
+    their bones' names, :func:`.habits.rig_key`)."""
+    starts = _mesh_rows(data)
+    col = FEATURES.index("is_slot_bone")
+    bound, keys = [], mesh_keys(data) if strict else [set() for _ in data["group"]]
+    keys = [k | {f"#{m}"} for m, k in enumerate(keys)]
+    for m, (s, e) in enumerate(zip(starts[:-1], starts[1:])):
+        slot = data["bone"][s:e][data["X"][s:e, col] == 1]
+        chosen = frozenset(data["bone"][s:e][data["y"][s:e]].tolist()) if data["missed"][m] == 0 else frozenset()
+        bound.append((str(data["skeleton"][m]), int(slot[0]) if len(slot) else -1, chosen))
+    by_pool: dict[tuple, list[int]] = {}
+    for m, (rig, slot, _) in enumerate(bound):
+        by_pool.setdefault((rig, slot), []).append(m)
+    out = []
+    for m, (rig, slot, _) in enumerate(bound):
+        pool = by_pool[(rig, slot)]
+        counts = habits.neighbour_counts([bound[q] for q in pool], [keys[q] for q in pool], keys[m], rig, slot)
+        out.append({tuple(sorted(c)): n for c, n in counts.items()})
+    return out
 
 
 def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
@@ -312,10 +340,12 @@ def _mesh_rows(data: dict) -> np.ndarray:
 
 def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0.5) -> dict:
     """The candidate sets (:func:`.bone_sets.candidate_sets`) of ``meshes`` from per-bone
-    probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES)), ``mesh`` (S,), ``exact`` (S,)
+    probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES), with the :data:`.bone_sets.SET_HABIT_FEATURES`
+    when ``data`` holds the habits, :func:`with_habits`), ``mesh`` (S,), ``exact`` (S,)
     whether the set is the artist's whole set, ``members`` (rows of ``data``, per set)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     starts = _mesh_rows(data)
+    with_set_habits = "habit_neighbours" in data and feature_names(data) != FEATURES
     Z, owner, exact, members = [], [], [], []
     for m in meshes:
         s, e = starts[m], starts[m + 1]
@@ -323,16 +353,25 @@ def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0
         allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
         slot = next((int(k) for k in np.flatnonzero(f[:, col["is_slot_bone"]] == 1) if allowed[k]), None)
         ancestors, parents_at = bone_sets.mesh_inputs(data["bone"][s:e], data["parent"][s:e])
-        sets = bone_sets.candidate_sets(pm, allowed, slot, ancestors, parents_at, threshold, f[:, col["rule_chose"]] == 1)
+        known, mesh_habits = {}, None
+        if with_set_habits:
+            at = {int(b): k for k, b in enumerate(data["bone"][s:e])}
+            known = {tuple(sorted(at[b] for b in chosen)): n for chosen, n in data["habit_neighbours"][m].items()
+                     if all(b in at for b in chosen)}
+            mesh_habits = (habits.pattern_shares(data["habit_others"][m], data["habit_prior"]), known)
+        sets = bone_sets.candidate_sets(pm, allowed, slot, ancestors, parents_at, threshold, f[:, col["rule_chose"]] == 1,
+                                        known=known)
         if not sets:
             continue
-        Z.append(bone_sets.set_features(sets, pm, allowed, f, FEATURES, slot, ancestors, parents_at, threshold))
+        Z.append(bone_sets.set_features(sets, pm, allowed, f, FEATURES, slot, ancestors, parents_at, threshold,
+                                        mesh_habits))
         truth = tuple(np.flatnonzero(data["y"][s:e]).tolist()) if data["missed"][m] == 0 else None
         for chosen, _ in sets:
             owner.append(m)
             exact.append(chosen == truth)
             members.append(s + np.asarray(chosen, int))
-    return {"Z": np.concatenate(Z) if Z else np.zeros((0, len(bone_sets.SET_FEATURES))),
+    width = len(bone_sets.SET_FEATURES) + (len(bone_sets.SET_HABIT_FEATURES) if with_set_habits else 0)
+    return {"Z": np.concatenate(Z) if Z else np.zeros((0, width)),
             "mesh": np.asarray(owner, int), "exact": np.asarray(exact, bool), "members": members}
 
 
@@ -345,8 +384,11 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
     per_mesh = np.bincount(sets["mesh"], minlength=len(data["group"]))
     w = per_project[project[sets["mesh"]]] ** (project_power - 1.0) / per_mesh[sets["mesh"]]
     keep = data["missed"][sets["mesh"]] == 0
+    names = bone_sets.SET_FEATURES
+    if sets["Z"].shape[1] > len(names):
+        names += bone_sets.SET_HABIT_FEATURES
     return fit(sets["Z"][keep], sets["exact"][keep], w[keep] / w[keep].mean(), bone_sets.SET_MARGIN,
-               features=bone_sets.SET_FEATURES, trees=SET_TREES, leaves=SET_LEAVES)
+               features=names, trees=SET_TREES, leaves=SET_LEAVES)
 
 
 def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
