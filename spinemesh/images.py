@@ -21,8 +21,9 @@ from PIL import Image
 
 from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
+from .foreground import alpha_above, texels_as_words
 from .fsutil import resolve_inside
-from .limits import MAX_IMAGE_PIXELS, check_image_size
+from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
 
 #: Image file extensions looked for in an images folder, in order of preference.
 IMAGE_EXTENSIONS = (".png", ".webp", ".avif", ".jpg", ".jpeg")
@@ -109,14 +110,14 @@ class RegionImage:
     @property
     def drawn(self) -> np.ndarray:
         if self._drawn is None:
-            self._drawn = self.place(self.stored_masks()[0]) if self.stored else self.rgba[..., 3] > 0
+            self._drawn = self.place(self.stored_masks()[0]) if self.stored else alpha_above(self.rgba, 0)
         return self._drawn
 
     @property
     def shown(self) -> np.ndarray:
         if self._shown is None:
             self._shown = self.place(self.stored_masks()[1]) if self.stored \
-                else self.drawn & (self.rgba[..., 3] > FAINT_TEXEL)
+                else self.drawn & alpha_above(self.rgba, FAINT_TEXEL)
         return self._shown
 
     def stored_masks(self) -> tuple[np.ndarray, np.ndarray]:
@@ -133,12 +134,12 @@ class RegionImage:
         rgba, drawn, shown_mask = self.stored
         if not shown:
             if drawn is None:
-                drawn = rgba[..., 3] > 0
+                drawn = alpha_above(rgba, 0)
                 self.stored = (rgba, drawn, shown_mask)
             return drawn
         if shown_mask is None:
             # drawn & (alpha > FAINT_TEXEL); the default drawn (alpha > 0) holds every such texel
-            faint = rgba[..., 3] > FAINT_TEXEL
+            faint = alpha_above(rgba, FAINT_TEXEL)
             shown_mask = faint if drawn is None else drawn & faint
             self.stored = (rgba, drawn, shown_mask)
         return shown_mask
@@ -180,8 +181,7 @@ def shown_texels(stored: np.ndarray, pma: bool) -> np.ndarray:
         # is shown where its word is not 0: the same as channel_max(stored) > FAINT_TEXEL,
         # without three passes over strided planes.
         return texels_as_words(cv2.threshold(stored, FAINT_TEXEL, 255, cv2.THRESH_BINARY)[1]) != 0
-    strength = channel_max(stored) if pma else stored[..., 3]
-    return strength > FAINT_TEXEL
+    return channel_max(stored) > FAINT_TEXEL if pma else alpha_above(stored, FAINT_TEXEL)
 
 
 def load_rgba(path: str | Path) -> np.ndarray:
@@ -297,13 +297,138 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     codecs = _imagecodecs()
     im.fp.seek(0)
     data = im.fp.read()
-    try:
-        samples = getattr(codecs, decode)(data)
-    except (codecs.PngError, codecs.WebpError):  # libpng's or libwebp's refusal: Pillow decides
-        return None
+    samples = None
+    if decode == "png_decode":
+        stored = png_with_stored_rows(data)
+        if stored is not None:
+            try:
+                samples = codecs.png_decode(stored)
+            except codecs.PngError:  # not expected (the stream checked out): the file as it is decides
+                samples = None
+            del stored
+    if samples is None:
+        try:
+            samples = getattr(codecs, decode)(data)
+        except (codecs.PngError, codecs.WebpError):  # libpng's or libwebp's refusal: Pillow decides
+            return None
     if samples.shape[:2] != (im.height, im.width) or samples.dtype != np.uint8:
         return None
     return rgba_from_samples(samples)
+
+
+#: Samples per pixel of each PNG colour type (grey, RGB, palette, grey + alpha, RGBA), and the
+#: bit depths the format allows for it.
+_PNG_SAMPLES = {0: (1, (1, 2, 4, 8, 16)), 2: (3, (8, 16)), 3: (1, (1, 2, 4, 8)), 4: (2, (8, 16)), 6: (4, (8, 16))}
+
+#: Most bytes one stored deflate block holds (its length is 16 bits).
+_STORED_BLOCK = 65_535
+
+#: Most chunks :func:`png_with_stored_rows` reads before leaving a file to libpng as it is (a
+#: 16 MB page written in libpng's 8 KiB IDAT chunks has about 2,000).
+_MAX_PNG_CHUNKS = 100_000
+
+
+def png_with_stored_rows(data: bytes) -> bytearray | None:
+    """The same PNG with its image data stored uncompressed, inflated by libdeflate; or None.
+
+    libpng spends most of a page's decode in zlib's inflate. libdeflate inflates the same
+    stream in about half the time; handed the rows back in stored deflate blocks (level 0),
+    libpng only copies them before unfiltering, and gives the texels it gives for the file.
+    Every chunk but the image data is kept byte for byte, so libpng reads the same palette,
+    transparency and colour information.
+
+    Parameters
+    ----------
+    data : bytes
+        A PNG file.
+
+    Returns
+    -------
+    bytearray or None
+        The PNG with one IDAT chunk of stored blocks, a valid Adler-32 and CRC. None (decode
+        the file as it is) unless the file is well formed as far as this reads: IHDR first,
+        a size within :mod:`spinemesh.limits` and a valid depth and colour type, not
+        interlaced, the IDAT chunks one after another, every chunk's CRC right up to IEND,
+        a zlib header with a window of at most 32 KiB and no preset dictionary, and a stream
+        that libdeflate inflates, its Adler-32 checked, to exactly the filtered rows the
+        header implies. Nothing is allocated before the header's size is checked.
+
+    Examples
+    --------
+    >>> import io
+    >>> from PIL import Image
+    >>> out = io.BytesIO()
+    >>> Image.new("RGBA", (3, 2), (1, 2, 3, 4)).save(out, "PNG")
+    >>> stored = png_with_stored_rows(out.getvalue())
+    >>> Image.open(io.BytesIO(stored)).getpixel((2, 1))
+    (1, 2, 3, 4)
+    >>> png_with_stored_rows(out.getvalue()[:-1]) is None  # IEND cut short
+    True
+    """
+    import struct
+
+    codecs = _imagecodecs()
+    if not codecs.DEFLATE.available or data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" \
+            or data[8:12] != b"\0\0\0\x0d" or len(data) < 33:
+        return None
+    width, height, depth, colour, compression, filtering, interlace = struct.unpack(">IIBBBBB", data[16:29])
+    channels, depths = _PNG_SAMPLES.get(colour, (0, ()))
+    if depth not in depths or compression or filtering or interlace or not (0 < width <= MAX_IMAGE_SIDE) \
+            or not (0 < height <= MAX_IMAGE_SIDE) or width * height > MAX_IMAGE_PIXELS:
+        return None  # interlaced rows come in seven passes: left to libpng as they are
+    size = height * (1 + (width * channels * depth + 7) // 8)  # a filter byte, then the row
+    view = memoryview(data)
+    idat: list[tuple[int, int]] = []  # (start, end) of each IDAT chunk's data
+    at = 8
+    for _ in range(_MAX_PNG_CHUNKS):
+        if at + 12 > len(data):
+            return None  # cut short before IEND
+        length, kind = struct.unpack(">I4s", data[at:at + 8])
+        end = at + 8 + length
+        if length > 0x7FFFFFFF or end + 4 > len(data) \
+                or codecs.deflate_crc32(view[at + 4:end]) != struct.unpack(">I", data[end:end + 4])[0]:
+            return None
+        if kind == b"IDAT":
+            if idat and idat[-1][1] + 4 != at:
+                return None  # image data in two runs: libpng's call
+            idat.append((at + 8, end))
+        elif kind == b"IEND":
+            break
+        at = end + 4
+    else:
+        return None
+    if not idat:
+        return None
+    stream = view[idat[0][0]:idat[0][1]] if len(idat) == 1 else b"".join(view[a:b] for a, b in idat)
+    if len(stream) < 6:
+        return None
+    cmf, flags = stream[0], stream[1]
+    if cmf & 0x0F != 8 or cmf >> 4 > 7 or (cmf << 8 | flags) % 31 or flags & 0x20:
+        return None
+    try:
+        rows = codecs.deflate_decode(stream, out=size)  # a zlib stream: libdeflate checks its Adler-32
+    except codecs.DeflateError:
+        return None
+    if len(rows) != size:
+        return None
+    blocks = -(-size // _STORED_BLOCK)
+    packed = 2 + 5 * blocks + size + 4  # zlib header, each block's header, the rows, Adler-32
+    start = idat[0][0] - 8
+    tail = view[idat[-1][1] + 4:]
+    out = bytearray(start + 8 + packed + 4 + len(tail))
+    out[:start] = view[:start]
+    out[start:start + 10] = struct.pack(">I4s", packed, b"IDAT") + b"\x78\x01"  # 32 KiB window, level 0
+    at, rows_view = start + 10, memoryview(rows)
+    for first in range(0, size, _STORED_BLOCK):
+        n = min(_STORED_BLOCK, size - first)
+        out[at:at + 5] = struct.pack("<BHH", first + n == size, n, n ^ 0xFFFF)
+        out[at + 5:at + 5 + n] = rows_view[first:first + n]
+        at += 5 + n
+    out[at:at + 4] = struct.pack(">I", codecs.deflate_adler32(rows))
+    at += 4
+    out[at:at + 4] = struct.pack(">I", codecs.deflate_crc32(memoryview(out)[start + 4:at]))
+    out[at + 4:] = tail
+    return out
 
 
 @functools.lru_cache(maxsize=1)
@@ -370,19 +495,6 @@ def channel_max(rgba: np.ndarray) -> np.ndarray:
     maxima over whole planes give the same values about 3x faster.
     """
     return np.maximum(np.maximum(rgba[..., 0], rgba[..., 1]), np.maximum(rgba[..., 2], rgba[..., 3]))
-
-
-def texels_as_words(rgba: np.ndarray) -> np.ndarray:
-    """Each RGBA texel as one 32-bit word: shape (H, W), uint32.
-
-    A texel is all zeros exactly when its word is 0: one comparison per texel where
-    :func:`channel_max` makes three passes over four planes (about 4x faster). A view of
-    ``rgba`` when its texels lie four bytes apart (a page, or a rectangle of one); else
-    (a turned view) of a contiguous copy.
-    """
-    if rgba.strides[-2:] != (4, 1):
-        rgba = np.ascontiguousarray(rgba)
-    return rgba.view(np.uint32)[..., 0]
 
 
 def premultiply(rgba: np.ndarray) -> np.ndarray:
@@ -573,7 +685,7 @@ def _frame_drawn(page: np.ndarray, x0: int, y0: int, x1: int, y1: int, pma: bool
         ya, yb, xa, xb = max(0, ya), min(ph, yb), max(0, xa), min(pw, xb)
         if yb > ya and xb > xa:
             side = page[ya:yb, xa:xb]
-            if side.any() if pma else side[..., 3].any():
+            if side.any() if pma else alpha_above(side, 0).any():
                 return True
     return False
 
@@ -595,7 +707,7 @@ def _bleeding_border(page: np.ndarray, g: RegionGeometry, pma: bool) -> np.ndarr
         ya, yb, xa, xb = max(0, y0 + r0), min(ph, y0 + r1), max(0, x0 + c0), min(pw, x0 + c1)
         if yb > ya and xb > xa:
             near = page[ya:yb, xa:xb]
-            ring[ya - y0:yb - y0, xa - x0:xb - x0] = texels_as_words(near) != 0 if pma else near[..., 3] > 0
+            ring[ya - y0:yb - y0, xa - x0:xb - x0] = texels_as_words(near) != 0 if pma else alpha_above(near, 0)
     border = np.zeros((g.page_height, g.page_width), bool)
     k = np.ones((3, 3), np.uint8)
     border[0] = cv2.dilate(ring[:3], k)[1, 1:-1]  # each texel of the border from the 3x3 around it
@@ -758,7 +870,7 @@ class AtlasImages:
             # The defaults of from_stored are these masks exactly (alpha > 0, alpha > FAINT_TEXEL
             # of the straight texels): worked out only if asked for, on the upright part.
             return RegionImage.from_stored(rgba, shape, content, page.scale, name, str(page_path))
-        drawn = texels_as_words(stored) != 0 if page.pma else stored[..., 3] > 0
+        drawn = texels_as_words(stored) != 0 if page.pma else alpha_above(stored, 0)
         shown = shown_texels(stored, page.pma)
         if bleed is not None:  # most regions have none: no pass over either mask then
             drawn |= bleed

@@ -254,19 +254,26 @@ def _pillow_rgba(path) -> np.ndarray:
         return np.asarray(im.convert("RGBA"))
 
 
-def _png_chunks(path, width: int, height: int, depth: int, colour: int, rows: bytes, interlace: int = 0,
-                extra: bytes = b"", idat_crc_delta: int = 0) -> None:
-    """A PNG from its parts (for kinds Pillow does not write: 16-bit RGBA, interlaced, a bad checksum)."""
+def _chunk(kind: bytes, data: bytes, crc_delta: int = 0) -> bytes:
+    """One PNG chunk, its CRC off by ``crc_delta``."""
     import struct
     import zlib
 
-    def chunk(kind: bytes, data: bytes, delta: int = 0) -> bytes:
-        crc = (zlib.crc32(kind + data) + delta) & 0xFFFFFFFF
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+    crc = (zlib.crc32(kind + data) + crc_delta) & 0xFFFFFFFF
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+
+def _png_chunks(path, width: int, height: int, depth: int, colour: int, rows: bytes, interlace: int = 0,
+                extra: bytes = b"", idat_crc_delta: int = 0, idat: bytes | None = None) -> None:
+    """A PNG from its parts (for kinds Pillow does not write: 16-bit RGBA, interlaced, a bad checksum);
+    ``idat``: the image data chunks as they are, instead of one of ``rows`` compressed."""
+    import struct
+    import zlib
 
     ihdr = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, interlace)
-    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + extra
-                     + chunk(b"IDAT", zlib.compress(rows), idat_crc_delta) + chunk(b"IEND", b""))
+    if idat is None:
+        idat = _chunk(b"IDAT", zlib.compress(rows), idat_crc_delta)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", ihdr) + extra + idat + _chunk(b"IEND", b""))
 
 
 def _png_kinds(tmp_path) -> dict:
@@ -440,3 +447,100 @@ def test_shown_texels_of_premultiplied_rectangles_is_the_channel_maximum():
         page = rng.integers(0, high, (30, 40, 4)).astype(np.uint8)
         for stored in (page, page[3:20, 5:31], np.rot90(page[3:20, 5:31]), page[:0]):
             assert np.array_equal(shown_texels(stored, True), channel_max(stored) > FAINT_TEXEL)
+
+
+def test_alpha_above_compares_words_as_the_alpha_plane_does():
+    """Every threshold, on a page, a rectangle of it (rows apart), a turned view and other dtypes;
+    foreground (alpha >= t) agrees with it for whole and fractional thresholds."""
+    from spinemesh.foreground import alpha_above, foreground
+
+    rng = np.random.default_rng(4)
+    page = rng.integers(0, 256, (17, 23, 4)).astype(np.uint8)
+    page[0, :, 3] = np.arange(23) * 11 + 1  # alphas next to each threshold as well
+    for texels in (page, page[2:15, 3:20], np.rot90(page), page[:0], page.astype(np.float32)):
+        for threshold in (-1, 0, 1, 2, 127, 128, 254, 255, 256, np.uint8(8)):
+            assert np.array_equal(alpha_above(texels, threshold), texels[..., 3] > threshold), threshold
+        for threshold in (0, 1, 8, 8.5, 129, 255, 256):
+            assert np.array_equal(foreground(texels, threshold), texels[..., 3] >= threshold), threshold
+
+
+def _decoded_as_before(path):
+    """What ``load_rgba`` gave for an 8-bit PNG before the stored rows: libpng's texels for the file
+    as it is, else Pillow's, else the error's kind."""
+    from spinemesh.images import _imagecodecs, rgba_from_samples
+
+    codecs = _imagecodecs()
+    try:
+        return rgba_from_samples(codecs.png_decode(path.read_bytes()))
+    except codecs.PngError:
+        try:
+            return _pillow_rgba(path)
+        except (OSError, ValueError, SyntaxError, EOFError):
+            return ImageError
+    except ValueError:  # imagecodecs failing to word libpng's error (no image data at all)
+        return ImageError
+
+
+def _loaded(path):
+    try:
+        return load_rgba(path)
+    except ImageError:
+        return ImageError
+
+
+def test_png_rows_inflated_by_libdeflate_give_libpngs_texels(tmp_path):
+    """Pillow's and OpenCV's PNGs of every 8-bit kind, in one or many IDAT chunks and many stored
+    blocks, give libpng's texels for the file; a broken CRC, Adler-32, zlib header, a second run
+    of image data, too little or too much data leave the file to libpng and Pillow as before."""
+    import zlib
+
+    import cv2
+
+    from spinemesh.images import _imagecodecs, png_with_stored_rows
+
+    png_decode = _imagecodecs().png_decode
+    kinds = _png_kinds(tmp_path)
+    yy, xx = np.mgrid[0:230, 0:310]  # 285 KB of RGBA rows: five stored blocks
+    large = np.stack([xx % 256, yy, (xx * yy) % 253, np.where((xx - 150) ** 2 + (yy - 110) ** 2 < 9000, 255, xx % 7)],
+                     -1).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "opencv.png"), cv2.cvtColor(large, cv2.COLOR_RGBA2BGRA))  # 8 KiB IDAT chunks
+    kinds["opencv"] = (tmp_path / "opencv.png", True)
+    Image.fromarray(large).save(tmp_path / "pillow-large.png")
+    kinds["pillow-large"] = (tmp_path / "pillow-large.png", True)
+    assert (tmp_path / "opencv.png").read_bytes().count(b"IDAT") > 3
+    for name, (path, fast) in kinds.items():
+        data = path.read_bytes()
+        stored = png_with_stored_rows(data)
+        assert (stored is None) == (name == "interlaced"), name  # every depth but interlaced rows
+        if stored is not None:
+            at = stored.index(b"IDAT") + 4
+            assert stored.count(b"IDAT") == 1 and stored[at:at + 2] == b"\x78\x01", name  # stored blocks
+            assert np.array_equal(png_decode(stored), png_decode(data)), name
+        assert np.array_equal(load_rgba(path), _pillow_rgba(path)), name
+
+    rows = b"".join(b"\0" + row.tobytes() for row in large)
+    stream = zlib.compress(rows, 6)
+    parts = [stream[i:i + 5000] for i in range(0, len(stream), 5000)]
+    broken = {
+        # several IDAT chunks, one of them empty, and bytes after the zlib stream (libpng ignores them)
+        "split": (True, b"".join(_chunk(b"IDAT", p) for p in parts[:2] + [b""] + parts[2:])),
+        "trailing": (True, _chunk(b"IDAT", stream + b"\0\0")),
+        "crc": (False, _chunk(b"IDAT", stream, 1)),
+        "adler": (False, _chunk(b"IDAT", stream[:-1] + bytes([stream[-1] ^ 1]))),
+        "window": (False, _chunk(b"IDAT", bytes([0x88, 0x1C]) + stream[2:])),  # a 64 KiB window
+        "dictionary": (False, _chunk(b"IDAT", bytes([0x78, 0xBB]) + stream[2:])),
+        "two-runs": (False, _chunk(b"IDAT", parts[0]) + _chunk(b"tEXt", b"a\0b")
+                     + b"".join(_chunk(b"IDAT", p) for p in parts[1:])),
+        "too-little": (False, _chunk(b"IDAT", zlib.compress(rows[:-310 * 4 - 1]))),
+        "too-much": (False, _chunk(b"IDAT", zlib.compress(rows + b"\0" * 9))),
+        "cut": (False, _chunk(b"IDAT", stream[:len(stream) // 2])),
+        "missing": (False, b""),
+    }
+    for name, (fast, idat) in broken.items():
+        path = tmp_path / f"{name}.png"
+        _png_chunks(path, 310, 230, 8, 6, b"", idat=idat)
+        assert (png_with_stored_rows(path.read_bytes()) is not None) == fast, name
+        before, got = _decoded_as_before(path), _loaded(path)
+        assert got is before if before is ImageError else np.array_equal(got, before), name
+        if fast:
+            assert np.array_equal(got, large), name

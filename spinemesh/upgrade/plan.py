@@ -21,6 +21,7 @@ import numpy as np
 
 from ..attachment_geometry import frames_on_one_grid
 from ..errors import SpineMeshError
+from ..foreground import alpha_above
 from ..images import FAINT_TEXEL, RegionImage, part_content_id
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
@@ -65,7 +66,7 @@ class MeshTask:
 
     def __post_init__(self):
         if self.drawn is None:
-            self.drawn = self.rgba[..., 3] > 0
+            self.drawn = alpha_above(self.rgba, 0)
 
 
 def composite_image(images: list[np.ndarray]) -> np.ndarray:
