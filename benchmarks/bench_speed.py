@@ -32,8 +32,10 @@ seconds, best of three, texels checked equal), and the floor under any PNG decod
 the file's compressed stream alone (zlib, zlib-ng, libdeflate), before a row is unfiltered.
 
 ``decode``: every PNG, WebP and JPEG of the examples and the corpus, decoded as ``load_rgba``
-did before (Pillow) and by ``load_rgba`` of this checkout, in this process: CPU seconds by
-format, texels compared.
+did before imagecodecs (Pillow), by imagecodecs on the file as it is (libpng, libwebp,
+libjpeg-turbo: what ``load_rgba`` did before PNG rows were inflated by libdeflate) and by
+``load_rgba`` of this checkout, in this process: CPU seconds by format, Pillow's and
+``load_rgba``'s texels compared.
 
 ``dataset``: ``build_dataset`` of the same projects with ``--jobs`` workers: samples, wall,
 samples/s, CPU seconds (parent and workers) and samples per CPU-second (x cores = the rate on
@@ -341,13 +343,17 @@ def idat_stream(path: Path) -> tuple[bytes, int]:
 
 def bench_decode_corpus(roots: list[Path]) -> bool:
     """Every PNG, WebP and JPEG of the examples and the corpus: Pillow (as ``load_rgba`` decoded
-    before) against ``load_rgba`` of this checkout, CPU seconds by format and texels compared."""
+    before imagecodecs), imagecodecs on the file as it is, and ``load_rgba`` of this checkout;
+    CPU seconds by format, Pillow's and ``load_rgba``'s texels compared."""
     import time
 
+    import imagecodecs
     import numpy as np
     from PIL import Image
 
     from spinemesh.images import load_rgba
+
+    codec_of = {".png": imagecodecs.png_decode, ".webp": imagecodecs.webp_decode, ".jpg": imagecodecs.jpeg8_decode}
 
     files = sorted(p for root in roots for p in root.rglob("*")
                    if p.suffix.lower() in (".png", ".webp", ".jpg", ".jpeg") and p.is_file())
@@ -361,16 +367,21 @@ def bench_decode_corpus(roots: list[Path]) -> bool:
         t1 = time.process_time()
         after = load_rgba(p)
         t2 = time.process_time()
-        row = rows.setdefault(p.suffix.lower().replace(".jpeg", ".jpg"), [0, 0.0, 0.0])
+        kind = p.suffix.lower().replace(".jpeg", ".jpg")
+        codec_of[kind](p.read_bytes())  # texels as the codec gives them (RGB, palette expanded): timed only
+        t3 = time.process_time()
+        row = rows.setdefault(kind, [0, 0.0, 0.0, 0.0])
         row[0] += 1
         row[1] += t1 - t
         row[2] += t2 - t1
+        row[3] += t3 - t2
         if not np.array_equal(before, after):
             differ.append(p)
     print(f"\n## decoding every image of {', '.join(r.name for r in roots)} (CPU s)\n")
-    print(f"{'format':8} {'files':>6} {'Pillow':>8} {'load_rgba':>9} {'ratio':>7}")
-    for name, (n, b, a) in sorted(rows.items()):
-        print(f"{name:8} {n:>6d} {b:8.2f} {a:9.2f} {ratio(b, a):>7}")
+    print(f"{'format':8} {'files':>6} {'Pillow':>8} {'imagecodecs':>11} {'load_rgba':>9} {'Pillow/load':>11} "
+          f"{'codecs/load':>11}")
+    for name, (n, b, c, a) in sorted((k, (v[0], v[1], v[3], v[2])) for k, v in rows.items()):
+        print(f"{name:8} {n:>6d} {b:8.2f} {c:11.2f} {a:9.2f} {ratio(b, a):>11} {ratio(c, a):>11}")
     print(f"same texels: {'yes' if not differ else 'NO: ' + ', '.join(map(str, differ[:5]))}")
     return not differ
 
@@ -447,6 +458,9 @@ def main() -> None:
         sys.exit(f"not in {CORPUS}: {', '.join(missing)}")
     print(f"cores available: {len(os.sched_getaffinity(0))}, load average {os.getloadavg()[0]:.1f}, "
           f"before: {args.before}, after: {args.after}")
+    # What this process measures itself (the decoders) is the code of --after, not whichever
+    # spinemesh the interpreter would find first (an installed one, say).
+    sys.path.insert(0, str(args.after))
     same = True
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)

@@ -198,7 +198,8 @@ def load_rgba(path: str | Path) -> np.ndarray:
         8-bit PNG and still WebP files are decoded by imagecodecs (libpng, libwebp) straight
         into the array (:func:`_codec_rgba`), the same texels with less CPU than Pillow: 1.2x
         to 1.3x over the corpus's pages, 1.5x to 2x on 6000x6000 sprites
-        (``benchmarks/bench_speed.py``). Other files
+        (``benchmarks/bench_speed.py``); a well-formed PNG's rows are inflated by libdeflate
+        first (:func:`png_with_stored_rows`), which leaves libpng only their unfiltering. Other files
         (JPEG, AVIF, 16-bit or interlaced PNG, animated WebP), and any file imagecodecs
         refuses, go through Pillow as before, whose bytes the array wraps without a copy.
         Read-only either way (pages are shared by the regions cut from them): copy it to
@@ -275,8 +276,10 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     Only where imagecodecs gives exactly Pillow's texels: 8-bit, non-interlaced PNG (16-bit
     PNG, which Pillow cuts to its high bytes, and interlaced PNG stay with Pillow) and still
     WebP (Pillow shows an animated WebP's first frame; imagecodecs would decode every frame).
-    A file imagecodecs refuses (a bad checksum Pillow does not check, say) is left to Pillow,
-    which decodes it as before or raises its error. The size was checked before this call.
+    A PNG whose image data checks out reaches libpng with its rows already inflated by
+    libdeflate (:func:`png_with_stored_rows`), any other as it is. A file imagecodecs refuses
+    (a bad checksum Pillow does not check, say) is left to Pillow, which decodes it as before
+    or raises its error. The size was checked before this call.
 
     Returns
     -------
@@ -303,7 +306,7 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
         if stored is not None:
             try:
                 samples = codecs.png_decode(stored)
-            except codecs.PngError:  # not expected (the stream checked out): the file as it is decides
+            except (codecs.PngError, ValueError):  # not expected (the stream checked out): the file decides
                 samples = None
             del stored
     if samples is None:
