@@ -298,8 +298,7 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     else:
         return None
     codecs = _imagecodecs()
-    im.fp.seek(0)
-    data = im.fp.read()
+    data = _file_bytes(im.fp)
     samples = None
     if decode == "png_decode":
         stored = png_with_stored_rows(data)
@@ -319,6 +318,17 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     return rgba_from_samples(samples)
 
 
+def _file_bytes(fp) -> memoryview:
+    """The whole of a binary file or stream, in a NumPy buffer: a large one is handed huge memory
+    pages (a bytes object of a 50 MB file is 12,000 page faults, each a kernel call)."""
+    import io
+
+    size = fp.seek(0, io.SEEK_END)
+    fp.seek(0)
+    buffer = np.empty(size, np.uint8)
+    return memoryview(buffer)[:fp.readinto(buffer)]
+
+
 #: Samples per pixel of each PNG colour type (grey, RGB, palette, grey + alpha, RGBA), and the
 #: bit depths the format allows for it.
 _PNG_SAMPLES = {0: (1, (1, 2, 4, 8, 16)), 2: (3, (8, 16)), 3: (1, (1, 2, 4, 8)), 4: (2, (8, 16)), 6: (4, (8, 16))}
@@ -331,7 +341,7 @@ _STORED_BLOCK = 65_535
 _MAX_PNG_CHUNKS = 100_000
 
 
-def png_with_stored_rows(data: bytes) -> np.ndarray | None:
+def png_with_stored_rows(data: bytes | memoryview) -> np.ndarray | None:
     """The same PNG with its image data stored uncompressed, inflated by libdeflate; or None.
 
     libpng spends most of a page's decode in zlib's inflate. libdeflate inflates the same
@@ -342,7 +352,7 @@ def png_with_stored_rows(data: bytes) -> np.ndarray | None:
 
     Parameters
     ----------
-    data : bytes
+    data : bytes or memoryview
         A PNG file.
 
     Returns
@@ -375,10 +385,10 @@ def png_with_stored_rows(data: bytes) -> np.ndarray | None:
         return None
     size, idat = found
     view = memoryview(data)
-    stream = view[idat[0][0]:idat[0][1]] if len(idat) == 1 else b"".join(view[a:b] for a, b in idat)
+    stream = view[idat[0][0]:idat[0][1]] if len(idat) == 1 else _joined(view, idat)
     if len(stream) < 6:
         return None
-    cmf, flags = stream[0], stream[1]
+    cmf, flags = int(stream[0]), int(stream[1])
     if cmf & 0x0F != 8 or cmf >> 4 > 7 or (cmf << 8 | flags) % 31 or flags & 0x20:
         return None
     blocks = -(-size // _STORED_BLOCK)
@@ -404,7 +414,18 @@ def png_with_stored_rows(data: bytes) -> np.ndarray | None:
     return out
 
 
-def _png_image_data(data: bytes) -> tuple[int, list[tuple[int, int]]] | None:
+def _joined(view: memoryview, spans: list[tuple[int, int]]) -> np.ndarray:
+    """The bytes of ``view`` at each ``(start, end)`` of ``spans``, one after another (the zlib
+    stream of a PNG's IDAT chunks), in a NumPy buffer (huge pages, as :func:`_file_bytes`)."""
+    out = np.empty(sum(end - start for start, end in spans), np.uint8)
+    at = 0
+    for start, end in spans:
+        out[at:at + end - start] = np.frombuffer(view[start:end], np.uint8)
+        at += end - start
+    return out
+
+
+def _png_image_data(data: bytes | memoryview) -> tuple[int, list[tuple[int, int]]] | None:
     """The filtered rows' size a PNG's header implies and where its IDAT chunks' data lie, or None.
 
     None unless IHDR comes first with a size within :mod:`spinemesh.limits`, a depth its colour
