@@ -545,3 +545,9 @@ def test_png_rows_inflated_by_libdeflate_give_libpngs_texels(tmp_path):
         assert got is before if before is ImageError else np.array_equal(got, before), name
         if fast:
             assert np.array_equal(got, large), name
+    # a header claiming 4000x4000 over a few rows' stream: too short to inflate to them, nothing allocated
+    _png_chunks(tmp_path / "bomb.png", 4000, 4000, 8, 6, b"\0" * 16001 * 3)
+    assert png_with_stored_rows((tmp_path / "bomb.png").read_bytes()) is None
+    before = _decoded_as_before(tmp_path / "bomb.png")
+    assert _loaded(tmp_path / "bomb.png") is before if before is ImageError \
+        else np.array_equal(load_rgba(tmp_path / "bomb.png"), before)
