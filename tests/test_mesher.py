@@ -420,3 +420,19 @@ def test_maxpool_is_any_per_block_whether_or_not_the_blocks_fill_the_mask():
         assert wider.shape == (6, 8) and np.array_equal(wider[:5, :7], got)
         assert not wider[5].any() and not wider[:, 7].any()
         assert np.array_equal(_maxpool(whole[:, ::-1], s), expected[:, ::-1])  # a strided view
+
+
+def test_foreground_by_words_is_alpha_at_least_the_threshold():
+    """The word-wise compare answers ``alpha >= threshold`` for every alpha and threshold; views
+    that are not contiguous and other thresholds take the plain way, with the same answer."""
+    from spinemesh.foreground import foreground
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (16, 20, 4), dtype=np.uint8)
+    image[0, :, 3] = np.arange(20) * 13 % 256
+    image[1, :16, 3] = (0, 1, 7, 8, 9, 127, 128, 129, 254, 255, 255, 0, 8, 7, 128, 129)
+    for threshold in (0, 1, 7, 8, 9, 128, 129, 255, 256, np.uint8(8), 8.5):
+        expected = image[:, :, 3] >= threshold
+        assert np.array_equal(foreground(image, threshold), expected), threshold
+        assert np.array_equal(foreground(image[:, ::2], threshold), expected[:, ::2])
+    assert foreground(image, 8).dtype == bool and foreground(image, 8).shape == (16, 20)
