@@ -273,15 +273,16 @@ def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarra
         n2, c2 = normals[j], lines[j]
         det = nx[i] * ny[j] - ny[i] * nx[j]
         corner = kp[j]
-        p1 = corner + (c1 - n1 @ corner) * n1  # corner pushed onto each line
-        p2 = corner + (c2 - n2 @ corner) * n2
         if abs(det) > 0.15:
             x = np.array([(c1 * ny[j] - c2 * ny[i]) / det, (nx[i] * c2 - nx[j] * c1) / det])
             limit = 2.0 * max(offsets[i], offsets[j]) + 2.0
             if np.hypot(*(x - corner)) <= limit:
                 out.append(x)
                 continue
-        # nearly parallel edges or a sharp spike: a short bevel instead of a far miter
+        # nearly parallel edges or a sharp spike: a short bevel instead of a far miter, between
+        # the corner pushed onto each line (made only here: most corners take the miter)
+        p1 = corner + (c1 - n1 @ corner) * n1
+        p2 = corner + (c2 - n2 @ corner) * n2
         if np.hypot(*(p1 - p2)) < 1e-6:
             out.append(p1)
         else:
