@@ -372,3 +372,67 @@ def test_successors_and_predecessors_are_np_roll():
               np.arange(12.0).reshape(6, 2)[:, 1], np.array([True, False, False])):
         assert np.array_equal(successors(a), np.roll(a, -1, axis=0)) and successors(a).dtype == a.dtype
         assert np.array_equal(predecessors(a), np.roll(a, 1, axis=0))
+
+
+def test_closing_by_kernel_rows_is_opencvs_closing():
+    """The packed row-by-row closing gives OpenCV's pixels: every kernel size (even ones too),
+    sparse and dense masks, art on the image border, images narrower than a word or the kernel."""
+    from spinemesh.mesher.exterior import ROW_CLOSING_KERNEL, _closed, _closing_by_rows, _kernel_rows
+
+    def opencv(region, kernel):
+        k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel, kernel))
+        padded = np.pad(region, kernel).astype(np.uint8)
+        return cv2.morphologyEx(padded, cv2.MORPH_CLOSE, k)[kernel:-kernel, kernel:-kernel].astype(bool)
+
+    rng = np.random.default_rng(27)
+    sizes = [*range(2, 40), 64, 65, 66, 129]
+    filled = 0
+    for i, kernel in enumerate(sizes * 3):
+        h, w = (int(v) for v in rng.integers(1, 2 * kernel + 80, 2))
+        region = rng.random((h, w)) < rng.choice([0.002, 0.02, 0.2])
+        region[:, 0] |= rng.random(h) < 0.3  # art on the borders, where the padding matters
+        region[-1] |= rng.random(w) < 0.3
+        expected = opencv(region, kernel)
+        rows = _kernel_rows(cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel, kernel)))
+        got = _closing_by_rows(region, rows)
+        assert np.array_equal(got, expected), (h, w, kernel)
+        assert np.array_equal(_closed(region, kernel), region | expected)
+        filled += int((expected & ~region).sum())
+    assert filled > 1000  # the closings did close gaps
+    assert ROW_CLOSING_KERNEL in sizes
+
+
+def test_maxpool_is_any_per_block_whether_or_not_the_blocks_fill_the_mask():
+    """Whole blocks (no padded copy) and partial ones (padded) give the same values: any per block."""
+    from spinemesh.mesher.pipeline import _maxpool
+
+    rng = np.random.default_rng(4)
+    for s in (2, 3, 15, 16, 21):
+        whole = rng.random((5 * s, 7 * s)) < 0.7 / (s * s)  # about half the blocks hold art
+        got = _maxpool(whole, s)
+        expected = whole.reshape(5, s, 7, s).any(axis=(1, 3))
+        assert got.dtype == bool and np.array_equal(got, expected)
+        assert expected.any() and not expected.all()
+        # one more row and column of background: the padded path, the same blocks plus empty ones
+        padded = np.zeros((5 * s + 1, 7 * s + 1), bool)
+        padded[:5 * s, :7 * s] = whole
+        wider = _maxpool(padded, s)
+        assert wider.shape == (6, 8) and np.array_equal(wider[:5, :7], got)
+        assert not wider[5].any() and not wider[:, 7].any()
+        assert np.array_equal(_maxpool(whole[:, ::-1], s), expected[:, ::-1])  # a strided view
+
+
+def test_foreground_by_words_is_alpha_at_least_the_threshold():
+    """The word-wise compare answers ``alpha >= threshold`` for every alpha and threshold; views
+    that are not contiguous and other thresholds take the plain way, with the same answer."""
+    from spinemesh.foreground import foreground
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (16, 20, 4), dtype=np.uint8)
+    image[0, :, 3] = np.arange(20) * 13 % 256
+    image[1, :16, 3] = (0, 1, 7, 8, 9, 127, 128, 129, 254, 255, 255, 0, 8, 7, 128, 129)
+    for threshold in (0, 1, 7, 8, 9, 128, 129, 255, 256, np.uint8(8), 8.5):
+        expected = image[:, :, 3] >= threshold
+        assert np.array_equal(foreground(image, threshold), expected), threshold
+        assert np.array_equal(foreground(image[:, ::2], threshold), expected[:, ::2])
+    assert foreground(image, 8).dtype == bool and foreground(image, 8).shape == (16, 20)

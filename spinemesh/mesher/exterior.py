@@ -273,15 +273,16 @@ def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarra
         n2, c2 = normals[j], lines[j]
         det = nx[i] * ny[j] - ny[i] * nx[j]
         corner = kp[j]
-        p1 = corner + (c1 - n1 @ corner) * n1  # corner pushed onto each line
-        p2 = corner + (c2 - n2 @ corner) * n2
         if abs(det) > 0.15:
             x = np.array([(c1 * ny[j] - c2 * ny[i]) / det, (nx[i] * c2 - nx[j] * c1) / det])
             limit = 2.0 * max(offsets[i], offsets[j]) + 2.0
             if np.hypot(*(x - corner)) <= limit:
                 out.append(x)
                 continue
-        # nearly parallel edges or a sharp spike: a short bevel instead of a far miter
+        # nearly parallel edges or a sharp spike: a short bevel instead of a far miter, between
+        # the corner pushed onto each line (made only here: most corners take the miter)
+        p1 = corner + (c1 - n1 @ corner) * n1
+        p2 = corner + (c2 - n2 @ corner) * n2
         if np.hypot(*(p1 - p2)) < 1e-6:
             out.append(p1)
         else:
@@ -343,13 +344,117 @@ def convex_cover(cover: np.ndarray, orient: float = 1.0) -> np.ndarray:
 MAX_CLOSE_KERNEL = 129
 
 
+#: Narrowest closing (px) made row by row on packed bits (:func:`_closing_by_rows`); OpenCV's
+#: morphology, whose cost grows with the kernel's area, is as fast below it.
+ROW_CLOSING_KERNEL = 17
+
+
 def _closed(region: np.ndarray, kernel: int) -> np.ndarray:
-    """``region`` with gaps narrower than ``kernel`` px closed (morphological closing, elliptic)."""
+    """``region`` with gaps narrower than ``kernel`` px closed (morphological closing, elliptic).
+
+    The closing of ``region`` on an unbounded empty plane (OpenCV's closing of the region padded
+    by ``kernel`` px), cut back to the image; wide kernels by :func:`_closing_by_rows`, the same
+    pixels.
+    """
     if kernel <= 1:
         return region
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel, kernel))
+    if kernel >= ROW_CLOSING_KERNEL:
+        return region | _closing_by_rows(region, _kernel_rows(k))
     closed = cv2.morphologyEx(np.pad(region, kernel).astype(np.uint8), cv2.MORPH_CLOSE, k)[kernel:-kernel, kernel:-kernel]
     return region | closed.astype(bool)
+
+
+def _kernel_rows(kernel: np.ndarray) -> list[tuple[int, int, int]]:
+    """The rows of a structuring element (k, k) whose set cells are one run: ``(dy, lo, hi)``,
+    offsets from its centre (OpenCV's anchor, ``k // 2``): row ``dy`` spans columns ``lo..hi``."""
+    a = kernel.shape[0] // 2
+    rows = []
+    for i, row in enumerate(kernel):
+        on = np.flatnonzero(row)
+        if len(on):
+            if on[-1] - on[0] + 1 != len(on):
+                raise ValueError("a row of the kernel is not one run")
+            rows.append((i - a, int(on[0]) - a, int(on[-1]) - a))
+    return rows
+
+
+def _closing_by_rows(region: np.ndarray, rows: list[tuple[int, int, int]]) -> np.ndarray:
+    """The closing (dilation, then erosion) of ``region`` (H, W) bool by a kernel given as its
+    :func:`_kernel_rows`, on an unbounded empty plane, cut back to ``region``'s shape.
+
+    OpenCV takes a non-rectangular kernel cell by cell (a 129 px ellipse has 13,000 of them);
+    here each row of the kernel is one run: a pixel's dilation is the "any" of its kernel
+    rows, each the "any" of a run of pixels in the row at that offset. Rows are packed 64
+    pixels to a word, runs come from a table of runs of 1, 2, 4, ... pixels (any run is two
+    overlapping ones), and the erosion is the complement of the dilation of the complement
+    (OpenCV uses the same offsets for both). The padding (the kernel's reach above and below,
+    twice that on the left and right, where the runs of the table start) holds everything
+    either step reaches from the image.
+    """
+    reach = max(max(abs(dy), -lo, hi) for dy, lo, hi in rows)
+    h, w = region.shape
+    words = -(-(w + 4 * reach) // 64)
+    pad = np.zeros((h + 2 * reach, 64 * words), np.uint8)
+    pad[reach:reach + h, 2 * reach:2 * reach + w] = region
+    bits = np.packbits(pad, axis=1, bitorder="little").view("<u8")
+    eroded = ~_dilate_bits(~_dilate_bits(bits, rows), rows)
+    out = np.unpackbits(eroded.view(np.uint8), axis=1, bitorder="little")
+    return out[reach:reach + h, 2 * reach:2 * reach + w].astype(bool)
+
+
+def _dilate_bits(bits: np.ndarray, rows: list[tuple[int, int, int]]) -> np.ndarray:
+    """Dilation of packed rows ``bits`` (H, n) little-endian uint64, 64 pixels to a word (bit
+    ``b`` of word ``j`` is pixel ``64 j + b``), by a kernel of :func:`_kernel_rows`:
+    ``out[y, x]`` is the "any" of ``bits[y + dy, x + lo .. x + hi]`` over its rows. Nothing is
+    read beyond the edges (pixels there count as empty)."""
+    runs = {1: bits}  # runs[p][y, x]: any of bits[y, x .. x + p - 1]
+    longest = max(hi - lo + 1 for _, lo, hi in rows)
+    p = 1
+    while 2 * p <= longest:
+        runs[2 * p] = runs[p] | _shift_bits(runs[p], p)
+        p *= 2
+    spans = {}
+    for _, lo, hi in rows:
+        if (lo, hi) not in spans:
+            p = 1 << ((hi - lo + 1).bit_length() - 1)
+            spans[(lo, hi)] = _shift_bits(runs[p], lo) | _shift_bits(runs[p], hi - p + 1)
+    h = bits.shape[0]
+    out = np.zeros_like(bits)
+    for dy, lo, hi in rows:
+        span = spans[(lo, hi)]
+        if dy >= 0:
+            out[:h - dy] |= span[dy:]
+        else:
+            out[-dy:] |= span[:h + dy]
+    return out
+
+
+def _shift_bits(bits: np.ndarray, s: int) -> np.ndarray:
+    """Packed rows (see :func:`_dilate_bits`) whose pixel ``x`` is pixel ``x + s`` of ``bits``
+    (empty beyond the edges)."""
+    if s == 0:
+        return bits
+    n = bits.shape[1]
+    q, r = divmod(abs(s), 64)
+    out = np.zeros_like(bits)
+    if q >= n:
+        return out
+    if s > 0:
+        src = bits[:, q:]
+        if r == 0:
+            out[:, :n - q] = src
+        else:
+            out[:, :n - q] = src >> np.uint64(r)
+            out[:, :n - q - 1] |= src[:, 1:] << np.uint64(64 - r)
+    else:
+        src = bits[:, :n - q]
+        if r == 0:
+            out[:, q:] = src
+        else:
+            out[:, q:] = src << np.uint64(r)
+            out[:, q + 1:] |= src[:, :-1] >> np.uint64(64 - r)
+    return out
 
 
 def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tuple[float, ...],
@@ -382,7 +487,7 @@ def _simple_covering_loop(region: np.ndarray, cover: np.ndarray, tolerances: tup
         loop = clip_loop_to_rect(repaired, cover.shape[1], cover.shape[0])
         if len(loop) >= 3 and loop_is_simple(loop):
             # the repair made it cover; the clip may have changed that only along its new edges
-            loop = _spread(loop, cover, min_distance, covers=_clip_keeps_cover(repaired, loop, cover))
+            loop = _spread(loop, cover, min_distance, covers=_clip_keeps_cover(repaired, loop, cover), simple=True)
             if _shortest_edge(loop) >= min_distance:
                 return loop
             # a too-short edge that cannot be removed: try a finer tolerance, keep this as fallback
@@ -473,7 +578,8 @@ def _clamp(loop: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 MAX_SPREAD_TRIES = 1500
 
 
-def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float, covers: bool = False) -> np.ndarray:
+def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float, covers: bool = False,
+            simple: bool = False) -> np.ndarray:
     """Drop a vertex of each too-short edge when the loop still covers and stays simple.
 
     Short edges are taken shortest first; spreading ends at the first short edge that can be
@@ -490,11 +596,13 @@ def _spread(loop: np.ndarray, cover: np.ndarray, min_distance: float, covers: bo
     here). A covering loop lets each candidate be checked on its changed edges alone
     (:func:`_still_covers`); one that does not (never seen) is checked as it was before
     (:func:`_covers_in_box`), which gives the same answers where the art is covered.
+    ``simple``: the loop is known to be simple (else it is checked here, and one that is not
+    is returned as it is).
     """
     if min_distance <= 0:
         return loop
     tries = 0
-    if not loop_is_simple(loop):
+    if not simple and not loop_is_simple(loop):
         return loop
     covers = covers or len(_uncovered(loop, cover)) == 0
     still_covers = _still_covers if covers else _covers_in_box

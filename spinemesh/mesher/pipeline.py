@@ -298,13 +298,17 @@ def _steiner_budget(p: MesherParams, n_points: int, density: float) -> int:
 
 
 def _maxpool(mask: np.ndarray, s: int) -> np.ndarray:
-    """Block-wise "any" over ``s x s`` blocks (the last blocks padded with background)."""
+    """Block-wise "any" over ``s x s`` blocks of ``mask`` (H, W) bool (the last blocks padded
+    with background; no padded copy when the blocks fill the mask)."""
     if s == 1:
         return mask
     h, w = mask.shape
     H, W = -(-h // s), -(-w // s)
-    pad = np.zeros((H * s, W * s), np.uint8)
-    pad[:h, :w] = mask
+    if H * s == h and W * s == w:
+        pad = np.asarray(mask, bool).view(np.uint8)  # the same 0 and 1 bytes
+    else:
+        pad = np.zeros((H * s, W * s), np.uint8)
+        pad[:h, :w] = mask
     if s <= 15:
         # OpenCV's area resize at an integer factor is the exact block mean; one art pixel in
         # a block of 255s gives at least 255 / 225 >= 1, so "> 0" is "any" (and ~10x faster)
