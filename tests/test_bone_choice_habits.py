@@ -243,3 +243,36 @@ def test_the_set_stage_binds_the_set_the_artists_bound_on_the_same_slot_bone():
     data["trees"] = [{"feature": [-1], "threshold": [0], "left": [0], "right": [0], "value": [-3.0]}]
     with pytest.raises(ValueError):
         TreeEnsemble.from_json(data)
+
+
+def test_the_set_the_meshes_on_the_same_slot_bone_agree_on_is_taken_whatever_the_set_model_scores():
+    from spinemesh.rig import bone_sets
+    from spinemesh.rig.learned import neighbour_sets
+
+    data = _set_habit_model()
+    data["sets"]["trees"][0]["value"] = [0, 3.0, -3.0]      # the set model now finds the neighbours' set unlikely
+    model = TreeEnsemble.from_json(data)
+    doc = _worm_mesh_doc()
+    mesh = doc["skins"][0]["attachments"]["worm"]["worm"]
+    for slot in ("worm2", "worm3", "fresh"):
+        doc["slots"].append({"name": slot, "bone": "seg1", "attachment": slot})
+        doc["skins"][0]["attachments"][slot] = {slot: copy.deepcopy(mesh)}
+    fresh = doc["skins"][0]["attachments"]["fresh"]["fresh"]
+    world = np.asarray(fresh["vertices"], float).reshape(-1, 2) + [-120, 0]
+    tris = np.asarray(fresh["triangles"]).reshape(-1, 3)
+    keys = hb.keys_of("fresh", "fresh")
+    chosen = {}
+    for weighted in (["worm", "worm2"], ["worm", "worm2", "worm3"]):
+        weight_document(doc, "worm.json", WeightOptions(bones="rule", method="harmonic", only=weighted, replace=True))
+        rig = build_rig(doc)
+        habits = project_habits([(doc, rig)])
+        slot = rig.slot_bone["fresh"]
+        near = neighbour_sets(habits, rig.bones, slot, keys)
+        assert sum(near.values()) == len(weighted)
+        chosen[len(weighted)] = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits.others(keys), near)
+    names = [b.name for b in rig.bones]
+    assert bone_sets.AGREED_MESHES == 3
+    assert [names[b] for b in chosen[2].bones] == ["seg1"]          # two meshes do not make an agreement
+    assert sorted(names[b] for b in chosen[3].bones) == ["seg1", "seg2", "seg3"]
+    assert "in the set taken as agreed: the artists bound it on 3 of the project's 3 other weighted meshes on " \
+           "the same slot bone" in chosen[3].why[names.index("seg2")]

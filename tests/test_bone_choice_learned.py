@@ -264,3 +264,20 @@ def test_fitted_trees_export_to_the_shipped_format():
     again = TreeEnsemble.from_json(json.loads(json.dumps(model.to_json())))
     assert np.array_equal(again.raw(X), model.raw(X))
     assert ((again.probability(X) >= 0.5) == y).mean() > 0.9
+
+
+def test_the_set_model_learns_only_from_meshes_whose_artists_set_is_weighed(monkeypatch):
+    from spinemesh.rig import bone_sets
+    from spinemesh.rig import train_choice as tc
+
+    data = {"group": np.array(["corpus/a", "corpus/a", "corpus/b"]), "missed": np.array([0, 0, 1])}
+    # mesh 0: its artist's set among its three sets; mesh 1: every bone a candidate, its set not
+    # weighed; mesh 2: a bone beyond the candidates
+    sets = {"Z": np.arange(8 * len(bone_sets.SET_FEATURES), dtype=float).reshape(8, -1),
+            "mesh": np.array([0, 0, 0, 1, 1, 2, 2, 2]),
+            "exact": np.array([False, True, False, False, False, False, False, False])}
+    seen = {}
+    monkeypatch.setattr(tc, "fit", lambda Z, y, w, *a, **k: seen.update(Z=Z, y=y, w=w))
+    tc.fit_sets(data, sets)
+    assert seen["Z"].tolist() == sets["Z"][:3].tolist() and seen["y"].tolist() == [False, True, False]
+    assert np.allclose(seen["w"], 1.0)

@@ -132,3 +132,15 @@ def test_a_set_replaces_the_per_bone_choice_only_when_clearly_likelier():
     assert bs.pick(np.array([0.30, 0.38, 0.10]), margin=0.1) == 0
     assert bs.pick(np.array([0.30, 0.45, 0.10]), margin=0.1) == 1
     assert bs.pick(np.array([0.30, 0.30]), margin=0.0) == 0
+
+
+def test_the_set_the_neighbours_agree_on_is_found_among_the_sets():
+    sets = [((0,), False), ((0, 1), True), ((0, 1, 2), False)]
+    at = {10: 0, 11: 1, 12: 2}                       # bone index -> candidate index
+    assert bs.agreed_set(sets, {(10, 11): 3}, at) == 1
+    assert bs.agreed_set(sets, {(10, 11): 2}, at) is None                # too few meshes to agree
+    assert bs.agreed_set(sets, {(10, 11): 7, (10,): 3}, at) == 1         # 70% of them
+    assert bs.agreed_set(sets, {(10, 11): 6, (10,): 3}, at) is None      # 67%
+    assert bs.agreed_set(sets, {(10, 13): 4}, at) is None                # a bone that is not a candidate
+    assert bs.agreed_set(sets, {(11, 12): 4}, at) is None                # not among the sets weighed
+    assert bs.agreed_set(sets, {}, at) is None

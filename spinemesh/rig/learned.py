@@ -495,13 +495,14 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
     (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
     choice for the report. A set model reading the project's habits gets their pattern shares
     (from ``habits``, the others' tally) and the ``neighbours``' sets (bone indices), which it
-    also weighs."""
+    also weighs; the set the neighbours agree on (:func:`.bone_sets.agreed_set`) is taken
+    whatever the set model scores."""
     parents = np.array([-1 if bones[i].parent is None else bones[i].parent for i in cand.bones], int)
     ancestors, parents_at = bone_sets.mesh_inputs(np.asarray(cand.bones), parents)
     rule = cand.features[:, FEATURES.index("rule_chose")] == 1
-    known, mesh_habits = {}, None
-    if len(model.sets.features) > len(bone_sets.SET_FEATURES):
-        at = {b: k for k, b in enumerate(cand.bones)}
+    known, mesh_habits, at = {}, None, {b: k for k, b in enumerate(cand.bones)}
+    reads_habits = len(model.sets.features) > len(bone_sets.SET_FEATURES)
+    if reads_habits:
         known = {tuple(sorted(at[b] for b in chosen)): n for chosen, n in (neighbours or {}).items()
                  if all(b in at for b in chosen)}
         others = np.zeros(TALLY_SIZE) if habits is None else np.asarray(habits, float)
@@ -509,6 +510,11 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
     sets = bone_sets.candidate_sets(p, allowed, slot, ancestors, parents_at, model.threshold, rule, known=known)
     if not sets:
         return [], ""
+    agreed = bone_sets.agreed_set(sets, neighbours or {}, at) if reads_habits else None
+    if agreed is not None:
+        total = sum(neighbours.values())
+        return list(sets[agreed][0]), (f"the set taken as agreed: the artists bound it on {known[sets[agreed][0]]} "
+                                       f"of the project's {total} other weighted meshes on the same slot bone")
     score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
                                                           ancestors, parents_at, model.threshold, mesh_habits))
     best = bone_sets.pick(score, model.sets.threshold)

@@ -342,20 +342,21 @@ def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0
     """The candidate sets (:func:`.bone_sets.candidate_sets`) of ``meshes`` from per-bone
     probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES), with the :data:`.bone_sets.SET_HABIT_FEATURES`
     when ``data`` holds the habits, :func:`with_habits`), ``mesh`` (S,), ``exact`` (S,)
-    whether the set is the artist's whole set, ``members`` (rows of ``data``, per set)."""
+    whether the set is the artist's whole set, ``agreed`` (S,) whether the set is the one the
+    meshes on the same slot bone agree on (:func:`.bone_sets.agreed_set`; with the habits),
+    ``members`` (rows of ``data``, per set)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     starts = _mesh_rows(data)
     with_set_habits = "habit_neighbours" in data and feature_names(data) != FEATURES
-    Z, owner, exact, members = [], [], [], []
+    Z, owner, exact, agreed, members = [], [], [], [], []
     for m in meshes:
         s, e = starts[m], starts[m + 1]
         f, pm = data["X"][s:e], p[s:e]
         allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
         slot = next((int(k) for k in np.flatnonzero(f[:, col["is_slot_bone"]] == 1) if allowed[k]), None)
         ancestors, parents_at = bone_sets.mesh_inputs(data["bone"][s:e], data["parent"][s:e])
-        known, mesh_habits = {}, None
+        known, mesh_habits, at = {}, None, {int(b): k for k, b in enumerate(data["bone"][s:e])}
         if with_set_habits:
-            at = {int(b): k for k, b in enumerate(data["bone"][s:e])}
             known = {tuple(sorted(at[b] for b in chosen)): n for chosen, n in data["habit_neighbours"][m].items()
                      if all(b in at for b in chosen)}
             mesh_habits = (habits.pattern_shares(data["habit_others"][m], data["habit_prior"]), known)
@@ -363,6 +364,8 @@ def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0
                                         known=known)
         if not sets:
             continue
+        taken = bone_sets.agreed_set(sets, data["habit_neighbours"][m], at) if with_set_habits else None
+        agreed += [k == taken for k in range(len(sets))]
         Z.append(bone_sets.set_features(sets, pm, allowed, f, FEATURES, slot, ancestors, parents_at, threshold,
                                         mesh_habits))
         truth = tuple(np.flatnonzero(data["y"][s:e]).tolist()) if data["missed"][m] == 0 else None
@@ -372,18 +375,22 @@ def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0
             members.append(s + np.asarray(chosen, int))
     width = len(bone_sets.SET_FEATURES) + (len(bone_sets.SET_HABIT_FEATURES) if with_set_habits else 0)
     return {"Z": np.concatenate(Z) if Z else np.zeros((0, width)),
-            "mesh": np.asarray(owner, int), "exact": np.asarray(exact, bool), "members": members}
+            "mesh": np.asarray(owner, int), "exact": np.asarray(exact, bool), "agreed": np.asarray(agreed, bool),
+            "members": members}
 
 
 def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble:
-    """The set model: fitted on the sets (:func:`set_rows`) of the meshes whose artist's bones
-    are all candidates (on the others no set is exact); each mesh weighs the same over its
-    sets, a project of M meshes ``M ** project_power``."""
+    """The set model: fitted on the sets (:func:`set_rows`) of the meshes whose artist's set is
+    among the sets weighed (on the others no set is exact: they would only teach that the sets
+    weighed are all wrong); each mesh weighs the same over its sets, a project of M meshes
+    ``M ** project_power``."""
     _, project = np.unique(data["group"], return_inverse=True)
     per_project = np.bincount(project)
     per_mesh = np.bincount(sets["mesh"], minlength=len(data["group"]))
     w = per_project[project[sets["mesh"]]] ** (project_power - 1.0) / per_mesh[sets["mesh"]]
-    keep = data["missed"][sets["mesh"]] == 0
+    weighed = np.zeros(len(data["group"]), bool)
+    weighed[sets["mesh"][sets["exact"]]] = True
+    keep = weighed[sets["mesh"]]
     names = bone_sets.SET_FEATURES
     if sets["Z"].shape[1] > len(names):
         names += bone_sets.SET_HABIT_FEATURES
@@ -392,13 +399,16 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
 
 
 def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
-    """Rows chosen when each mesh of ``sets`` takes the set ``model`` picks (:func:`.bone_sets.pick`,
-    the model's threshold the margin; as :func:`.learned.choose_learned` with a set stage)."""
+    """Rows chosen when each mesh of ``sets`` takes the set its neighbours agree on, else the
+    set ``model`` picks (:func:`.bone_sets.pick`, the model's threshold the margin; as
+    :func:`.learned.choose_learned` with a set stage)."""
     score = model.probability(sets["Z"])
     chosen = np.zeros(len(data["y"]), bool)
     starts = np.flatnonzero(np.r_[True, np.diff(sets["mesh"]) != 0])
     for s, e in zip(starts, np.r_[starts[1:], len(score)]):
-        chosen[sets["members"][s + bone_sets.pick(score[s:e], model.threshold)]] = True
+        agreed = np.flatnonzero(sets["agreed"][s:e])
+        best = int(agreed[0]) if len(agreed) else bone_sets.pick(score[s:e], model.threshold)
+        chosen[sets["members"][s + best]] = True
     return chosen
 
 
@@ -415,5 +425,6 @@ def held_out_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], in
         models[k].sets = fit_sets(data, train, project_power)
         chosen |= choose_sets(data, test, models[k].sets)
         log(f"fold {k}: set model fitted on {len(train['mesh'])} sets, {len(test['mesh'])} judged; the artist's "
-            f"set among them on {len(np.unique(test['mesh'][test['exact']]))} of {int((mesh_fold == k).sum())} meshes")
+            f"set among them on {len(np.unique(test['mesh'][test['exact']]))} of {int((mesh_fold == k).sum())} meshes; "
+            f"taken as agreed on {int(test['agreed'].sum())}, the artist's on {int((test['agreed'] & test['exact']).sum())}")
     return chosen
