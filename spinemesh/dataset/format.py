@@ -51,8 +51,8 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..foreground import ALPHA_THRESHOLD, alpha_mask
-from ..images import decode_rgba, texels_as_words
+from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
+from ..images import decode_rgba
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
