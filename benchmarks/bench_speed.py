@@ -75,15 +75,24 @@ PROJECTS = (
     "zse-cabin",
 )
 
-#: Counters patched into the child process: page decodes and image encodes.
+#: Counters patched into the child process: page decodes and image encodes. Decodes are counted
+#: in shared memory, so that those of forked worker processes (pages decoded ahead of the
+#: planning) count as the planning process's own do; encodes are the planning process's.
 COUNTERS = r"""
-import cv2, PIL.Image, spinemesh.images as _im
-COUNTS = {"decodes": 0, "encodes": 0}
+import multiprocessing, cv2, PIL.Image, spinemesh.images as _im
+DECODES = multiprocessing.Value("q", 0)
+ENCODES = [0]
 def _counting(f, key):
     def wrapped(*a, **k):
-        COUNTS[key] += 1
+        if key == "decodes":
+            with DECODES.get_lock():
+                DECODES.value += 1
+        else:
+            ENCODES[0] += 1
         return f(*a, **k)
     return wrapped
+def counts():
+    return {"decodes": DECODES.value, "encodes": ENCODES[0]}
 _im.load_rgba = _counting(_im.load_rgba, "decodes")
 PIL.Image.Image.tobytes = _counting(PIL.Image.Image.tobytes, "encodes")
 PIL.Image.Image.save = _counting(PIL.Image.Image.save, "encodes")
@@ -99,7 +108,7 @@ r = upgrade_library(library, out, Options(jobs=jobs))
 wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
-print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **COUNTS}))
+print(json.dumps({"wall": wall, "cpu": cpu, **r.seconds, "meshed": r.counts().get("meshed", 0), **counts()}))
 """
 
 SPRITE = r"""
@@ -141,13 +150,13 @@ from spinemesh.errors import SpineMeshError
 from spinemesh.upgrade import Options, upgrade_project
 rows = {}
 for folder in sys.argv[1:]:
-    before, t, u = COUNTS["decodes"], time.process_time(), resource.getrusage(resource.RUSAGE_SELF).ru_utime
+    before, t, u = counts()["decodes"], time.process_time(), resource.getrusage(resource.RUSAGE_SELF).ru_utime
     try:
         upgrade_project(folder, Path(tempfile.mkdtemp()) / "out", Options(dry_run=True))
     except SpineMeshError:  # a project the reader refuses counts as nothing here
         continue
     user = resource.getrusage(resource.RUSAGE_SELF).ru_utime - u
-    rows[Path(folder).name] = (time.process_time() - t, COUNTS["decodes"] - before, user)
+    rows[Path(folder).name] = (time.process_time() - t, counts()["decodes"] - before, user)
 print(json.dumps(rows))
 """
 

@@ -802,19 +802,41 @@ class PageStore:
         self.max_bytes = MAX_PAGE_STORE_BYTES if max_bytes is None else max_bytes
         self.max_pages = max_pages
         self.decodes = 0
+        #: Decodes pages ahead on worker processes (:meth:`decode_ahead`); None: none ahead.
+        self.prefetch: PagePrefetch | None = None
         self._pages: OrderedDict[Path, np.ndarray] = OrderedDict()
+        self._ahead: set[Path] = set()  # asked of self.prefetch and not taken yet
+
+    def decode_ahead(self, paths) -> None:
+        """Have ``self.prefetch`` decode these pages (real, checked paths) before :meth:`page` asks.
+
+        Nothing without a prefetch; pages held already or asked for already are not asked again.
+        """
+        if self.prefetch is None:
+            return
+        new = [p for p in dict.fromkeys(paths) if p not in self._pages and p not in self._ahead]
+        self._ahead.update(new)
+        self.prefetch.want(new)
 
     def page(self, path: Path) -> np.ndarray:
         """The page image at ``path``: (H, W, 4) uint8, read-only.
 
         ``path`` is the page's real path, checked to lie inside its project
-        (:meth:`AtlasImages.page_path`): one key per file however it was named.
+        (:meth:`AtlasImages.page_path`): one key per file however it was named. A page
+        decoded ahead (:meth:`decode_ahead`) is taken as the worker decoded it; one whose decode
+        ahead failed or never ran is decoded here, so that its texels, or its error, are this
+        process's own.
         """
         pixels = self._pages.get(path)
         if pixels is not None:
             self._pages.move_to_end(path)
             return pixels
-        pixels = load_rgba(path)
+        pixels = None
+        if path in self._ahead:
+            self._ahead.discard(path)
+            pixels = self.prefetch.take(path)
+        if pixels is None:
+            pixels = load_rgba(path)
         self.decodes += 1
         pixels.flags.writeable = False  # shared by every region cut from it
         self._pages[path] = pixels
@@ -824,8 +846,89 @@ class PageStore:
         return pixels
 
     def release(self) -> None:
-        """Drop every decoded page (a project is planned: its regions are cut)."""
+        """Drop every decoded page (a project is planned: its regions are cut), and any decode ahead
+        this store asked for and did not take."""
         self._pages.clear()
+        if self._ahead:
+            self.prefetch.forget(self._ahead)
+            self._ahead.clear()
+
+
+#: Pages a :class:`PagePrefetch` has decoding or decoded and not yet taken, per worker: enough
+#: that the workers are a few pages ahead of the planning, few enough to bound the memory
+#: (pages are 16 MB at 2048x2048).
+PREFETCH_PAGES_PER_WORKER = 4
+
+
+def load_rgba_shared(path: Path):
+    """:func:`load_rgba` in a worker process, answered as shared memory
+    (:func:`spinemesh.cluster.shared_array`): what :class:`PagePrefetch` runs."""
+    from .cluster import shared_array
+
+    return shared_array(load_rgba(path))
+
+
+class PagePrefetch:
+    """Atlas pages decoded by local worker processes ahead of the planning that cuts them.
+
+    Decoding pages is most of what the parent process of a library run spends reading and
+    planning. :meth:`PageStore.decode_ahead` queues a project's pages here, in the order the
+    planning will take them; they are submitted to the workers ahead of the queued meshes
+    (``submit(..., first=True)``), at most ``window`` not yet taken at once, and handed back
+    as shared memory (:func:`load_rgba_shared`). :meth:`take` gives a page's texels, or None
+    when its decode failed, its worker was lost or it was not submitted yet: the store then
+    decodes it itself, as without workers, so texels and errors are the same either way.
+
+    Parameters
+    ----------
+    submit : callable
+        ``submit(fn, arg, first=True) -> Future``: :meth:`spinemesh.cluster.ProcessWorkers.submit`.
+    window : int
+        Pages submitted and not yet taken, at most.
+    """
+
+    def __init__(self, submit, window: int):
+        self._submit = submit
+        self.window = window
+        self._wanted: OrderedDict[Path, None] = OrderedDict()  # not submitted yet, in order
+        self._submitted: dict[Path, object] = {}  # path -> Future
+
+    def want(self, paths) -> None:
+        """Queue these pages (real paths checked inside their project) for decoding ahead."""
+        for path in paths:
+            if path not in self._submitted:
+                self._wanted[path] = None
+        self._top_up()
+
+    def _top_up(self) -> None:
+        while self._wanted and len(self._submitted) < self.window:
+            path, _ = self._wanted.popitem(last=False)
+            try:
+                self._submitted[path] = self._submit(load_rgba_shared, path, first=True)
+            except RuntimeError:  # the workers are closing: the store decodes what is left
+                self._wanted.clear()
+
+    def take(self, path: Path) -> np.ndarray | None:
+        """The page decoded ahead, read-only; None if the caller must decode it (see the class)."""
+        from concurrent.futures import CancelledError
+
+        self._wanted.pop(path, None)  # still waiting for a turn: decoded by the caller, now
+        future = self._submitted.pop(path, None)
+        try:
+            return future.result() if future is not None else None
+        except (Exception, CancelledError):  # failed or lost: the caller's own decode says why
+            return None
+        finally:
+            self._top_up()
+
+    def forget(self, paths) -> None:
+        """Drop these pages: not decoded if still waiting, their texels freed if decoded."""
+        for path in paths:
+            self._wanted.pop(path, None)
+            future = self._submitted.pop(path, None)
+            if future is not None:
+                future.cancel()
+        self._top_up()
 
 
 class AtlasImages:
@@ -883,6 +986,22 @@ class AtlasImages:
         except ValueError:
             raise UnsafePathError("atlas lies outside the project folder", atlas.path) from None
         return resolve_inside(root, f"{rel_dir.as_posix()}/{page_name}", atlas.path)
+
+    def page_files(self, names) -> list[Path]:
+        """The page files the regions ``names`` lie on, each once, in the order first named.
+
+        Names no atlas holds and pages whose path is refused are left out: :meth:`get` reports
+        those when asked.
+        """
+        out: dict[Path, None] = {}
+        for name in names:
+            found = self._index.get(name)
+            if found is not None and 0 <= found[1].page < len(found[0].pages):
+                try:
+                    out[self.page_file(found[0], found[1].page)] = None
+                except UnsafePathError:
+                    continue
+        return list(out)
 
     def page_file(self, atlas: Atlas, page_index: int) -> Path:
         """The page image path, refusing names that leave the project (``../``).

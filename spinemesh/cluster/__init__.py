@@ -20,6 +20,7 @@ on Dask (a lost worker's task is retried once by the scheduler, then fails).
 
 from __future__ import annotations
 
+import mmap
 import multiprocessing
 import os
 import pickle
@@ -92,7 +93,8 @@ class Workers:
     #: How many tasks run at once (callers keep about twice this many in flight).
     slots = 1
 
-    def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
+    def submit(self, fn: Callable[[Any], Any], arg: Any, first: bool = False) -> Future:
+        """Run ``fn(arg)``; ``first``: ahead of the tasks already waiting (where tasks wait)."""
         future: Future = Future()
         try:
             future.set_result(fn(arg))
@@ -154,12 +156,93 @@ def _worker_main(conn, max_tasks: int | None) -> None:
                 conn.send(answer)
             except PICKLE_ERRORS as e:  # an answer that does not pickle
                 conn.send((False, SpineMeshError(f"worker could not send its answer back: {e}")))
+            else:
+                if isinstance(answer[1], SharedArray):
+                    answer[1].send_memory(conn)
             done += 1
     except (OSError, EOFError, KeyboardInterrupt, SystemExit):
         pass  # the parent ended or stopped the run: nothing to say
     finally:
         conn.close()
         os._exit(0)  # no atexit handlers or flushes inherited from the parent
+
+
+class SharedArray:
+    """A worker's answer array handed to the parent as shared memory, not through the pipe.
+
+    Made in the worker by :func:`shared_array`: the texels are written once into an anonymous
+    memory file (Linux ``memfd_create``), whose descriptor follows the pickled answer over the
+    worker's socket. The parent maps it read-only and closes the descriptor at once, so the
+    memory has no name anywhere (nothing in ``/dev/shm``, nothing for a resource tracker to
+    clean up): it is freed when the last array over it is dropped, and by the kernel if either
+    process dies first. The parent's future gets the plain ``ndarray``.
+
+    A 16 MB page read through the pipe costs the parent a read of every byte and a pickle copy
+    (its dispatcher thread, holding the GIL the planning needs); mapped, it costs two system
+    calls and the page faults of what the parent reads (``docs/benchmarks/speed.md``).
+    """
+
+    def __init__(self, array):
+        import numpy as np
+
+        array = np.ascontiguousarray(array)
+        self.shape, self.dtype = array.shape, array.dtype.str
+        self._fd: int | None = os.memfd_create("spinemesh-array", os.MFD_CLOEXEC)
+        try:
+            view = memoryview(array).cast("B")
+            while view:  # os.write may write less than asked
+                view = view[os.write(self._fd, view):]
+        except BaseException:
+            self.close()
+            raise
+
+    def __getstate__(self):  # the descriptor travels beside the pickle (send_memory)
+        return {"shape": self.shape, "dtype": self.dtype, "_fd": None}
+
+    def send_memory(self, conn) -> None:
+        """Worker side, after the pickled answer: pass the memory's descriptor, then close ours."""
+        from multiprocessing.reduction import send_handle
+
+        try:
+            send_handle(conn, self._fd, None)
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    def receive(self, conn):
+        """Parent side: the array over the memory whose descriptor comes next on ``conn`` (read-only)."""
+        import numpy as np
+        from multiprocessing.reduction import recv_handle
+
+        try:
+            fd = recv_handle(conn)  # OSError, EOFError: the connection is gone (the caller's to judge)
+        except RuntimeError as e:  # no descriptor in the message (this process has too many open)
+            raise SpineMeshError(f"worker answer could not be read: {e}") from None
+        try:
+            nbytes = int(np.prod(self.shape, dtype=np.int64)) * np.dtype(self.dtype).itemsize
+            memory = mmap.mmap(fd, nbytes, prot=mmap.PROT_READ)
+        except (OSError, ValueError) as e:
+            raise SpineMeshError(f"worker answer could not be mapped: {e}") from None
+        finally:
+            os.close(fd)
+        if hasattr(mmap, "MADV_DONTFORK"):
+            memory.madvise(mmap.MADV_DONTFORK)  # a worker forked later need not keep it mapped
+        return np.frombuffer(memory, self.dtype).reshape(self.shape)
+
+
+def shared_array(array):
+    """``array`` as a worker answers it best: a :class:`SharedArray` where the system has
+    anonymous memory files (Linux), else the array itself (pickled through the pipe).
+
+    For local :class:`ProcessWorkers` only; large arrays only (a small one gains nothing).
+    """
+    if hasattr(os, "memfd_create") and array.nbytes > 0:
+        return SharedArray(array)
+    return array
 
 
 @dataclass
@@ -206,6 +289,7 @@ class ProcessWorkers(Workers):
         self._switch_interval = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch_interval, DISPATCH_SWITCH_INTERVAL))
         self._queue: deque[_Task] = deque()
+        self._first: deque[_Task] = deque()  # submitted with first=True: handed out before _queue
         self._workers: list[_Worker] = []
         self._lock = threading.Lock()
         self._closing = False
@@ -219,12 +303,14 @@ class ProcessWorkers(Workers):
         with self._lock:
             return [w.process.pid for w in self._workers]
 
-    def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
+    def submit(self, fn: Callable[[Any], Any], arg: Any, first: bool = False) -> Future:
+        """Queue ``fn(arg)``; with ``first``, behind other such tasks but ahead of the rest
+        (a page the planning will wait for goes before meshes nobody waits for yet)."""
         future: Future = Future()
         with self._lock:
             if self._closing:
                 raise RuntimeError("workers are closed")
-            self._queue.append(_Task(future, fn, arg))
+            (self._first if first else self._queue).append(_Task(future, fn, arg))
         self._wake()
         return future
 
@@ -244,14 +330,14 @@ class ProcessWorkers(Workers):
     def _hand_out(self) -> None:
         """Give queued tasks to idle workers, starting workers (up to ``jobs``) as needed."""
         with self._lock:
-            while self._queue:
+            while self._first or self._queue:
                 idle = next((w for w in self._workers if w.task is None), None)
                 if idle is None:
                     if len(self._workers) >= self.slots:
                         return
                     idle = self._start_worker()
                     self._workers.append(idle)
-                task = self._queue.popleft()
+                task = (self._first or self._queue).popleft()
                 if not task.lost and not task.future.set_running_or_notify_cancel():
                     continue  # cancelled while queued (a retried task is running already)
                 try:
@@ -272,6 +358,13 @@ class ProcessWorkers(Workers):
             return False
         except PICKLE_ERRORS as e:  # an answer that does not unpickle
             ok, value = False, SpineMeshError(f"worker answer could not be read: {e}")
+        if isinstance(value, SharedArray):
+            try:
+                value = value.receive(worker.conn)
+            except (OSError, EOFError):  # the worker died before its memory came: a lost task
+                return False
+            except SpineMeshError as e:  # this answer alone failed; the worker goes on
+                ok, value = False, e
         task, worker.task = worker.task, None
         if task is not None:
             (task.future.set_result if ok else task.future.set_exception)(value)
@@ -321,7 +414,8 @@ class ProcessWorkers(Workers):
         """End the workers: after their current task when ``finished``, at once otherwise."""
         with self._lock:
             self._closing = True
-            dropped = list(self._queue)
+            dropped = list(self._first) + list(self._queue)
+            self._first.clear()
             self._queue.clear()
             workers = list(self._workers)
         for task in dropped:
@@ -382,7 +476,7 @@ class DaskWorkers(Workers):
         self.kind = f"Dask at {self._client.scheduler.address}"
         self.slots = max(1, sum(self._client.nthreads().values()))
 
-    def submit(self, fn: Callable[[Any], Any], arg: Any) -> Future:
+    def submit(self, fn: Callable[[Any], Any], arg: Any, first: bool = False) -> Future:
         # pure=False: Dask would otherwise hash every argument to name the task.
         task = self._client.submit(fn, arg, pure=False)
         future: Future = Future()
@@ -415,4 +509,5 @@ def open_workers(jobs: int = 1, dask: str | None = None, max_tasks_per_child: in
     return Workers()
 
 
-__all__ = ["Workers", "ProcessWorkers", "WorkerLost", "DaskWorkers", "open_workers", "available_cores"]
+__all__ = ["Workers", "ProcessWorkers", "WorkerLost", "DaskWorkers", "open_workers", "available_cores",
+           "SharedArray", "shared_array"]

@@ -225,13 +225,37 @@ class Planner:
     editor_images: set[str] = field(default_factory=set)
     #: ``--repack``: atlas path -> names of the regions to store untrimmed.
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)
+    #: Targets read but not decided yet (:meth:`read_skeleton`), with what deciding needs:
+    #: ``(target, source, paths, blend, bends)``, in the order read.
+    undecided: list[tuple] = field(default_factory=list)
 
     def plan_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
-        """A :class:`Target` for every region attachment of ``doc``, in document order.
+        """A :class:`Target` for every region attachment of ``doc``, in document order, decided.
 
         ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
         ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
         """
+        targets = self.read_skeleton(doc, skeleton, source, bending)
+        self.decide()
+        return targets
+
+    def pages_to_decode(self) -> list[Path]:
+        """The atlas page files :meth:`decide` will cut from, in the order it will first cut them."""
+        pages: dict[Path, None] = {}
+        for _, source, paths, _, _ in self.undecided:
+            if hasattr(source, "page_files"):  # AtlasImages; an images folder has no pages
+                pages.update(dict.fromkeys(source.page_files(paths)))
+        return list(pages)
+
+    def decide(self) -> None:
+        """Decide every target read and not decided yet, in the order read (images cut here)."""
+        undecided, self.undecided = self.undecided, []
+        for t, source, paths, blend, bends in undecided:
+            t.status, t.reason, t.key = self._decide(source, paths, blend, bends)
+
+    def read_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
+        """:meth:`plan_skeleton` but for the images: the targets that need one are left to
+        :meth:`decide` (:attr:`undecided`), so that their pages can be decoded meanwhile."""
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
@@ -260,7 +284,7 @@ class Planner:
             else:
                 # only with a keep rule on saving (min_saving > 0): without it every region is meshed
                 bends = bending is not None and bool(self.options.min_saving) and bending.bends(ref)
-                t.status, t.reason, t.key = self._decide(source, paths, blends.get(ref.slot, "normal"), bends)
+                self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends))
         return targets
 
     def _decide(self, source, paths: list[str], blend: str = "normal",
@@ -329,11 +353,35 @@ class ProjectPlan:
     options: Options | None = None
 
 
+@dataclass
+class ProjectReading:
+    """A project's skeletons read, their regions not yet decided (:func:`read_project`)."""
+
+    project: Project
+    options: Options
+    result: Result
+    planner: Planner
+    skeletons: list[SkeletonPlan]
+
+    def pages_to_decode(self) -> list[Path]:
+        """The atlas pages :func:`plan_read_project` will cut from, in the order it will cut them."""
+        return self.planner.pages_to_decode()
+
+
 def plan_project(proj: Project, options: Options, result: Result, progress: Progress = SILENT) -> ProjectPlan:
     """Read every skeleton of ``proj`` and plan its regions.
 
     Unreadable skeletons go to ``result.errors`` and ``result.not_read``; the others are
     planned all the same. ``progress`` is told each skeleton read (phase ``read``).
+    """
+    return plan_read_project(read_project(proj, options, result, progress))
+
+
+def read_project(proj: Project, options: Options, result: Result, progress: Progress = SILENT) -> ProjectReading:
+    """The first half of :func:`plan_project`: every skeleton read and its targets listed, no image cut.
+
+    Between the halves, the pages the second will cut from (:meth:`ProjectReading.pages_to_decode`)
+    can be decoded elsewhere (:meth:`spinemesh.images.PageStore.decode_ahead`).
     """
     t0 = time.perf_counter()
     planner = Planner(options)
@@ -350,15 +398,25 @@ def plan_project(proj: Project, options: Options, result: Result, progress: Prog
             result.not_read[rel] = str(e)
             continue
         bending = bending_regions(doc) if options.weights == "auto" else None
-        targets = planner.plan_skeleton(doc, rel, source, bending)
+        targets = planner.read_skeleton(doc, rel, source, bending)
         result.targets += targets
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
+    result.seconds["read"] += time.perf_counter() - t0
+    return ProjectReading(proj, options, result, planner, skeletons)
+
+
+def plan_read_project(reading: ProjectReading) -> ProjectPlan:
+    """The second half of :func:`plan_project`: every target decided (images cut), in the order read."""
+    t0 = time.perf_counter()
+    proj, result, planner = reading.project, reading.result, reading.planner
+    planner.decide()
     result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
     # every skeleton decoded its pages through this one store (each page once); the tasks hold
     # the crops they mesh, so the pages need not outlive the planning
     project_pages(proj).release()
     result.seconds["read"] += time.perf_counter() - t0
-    return ProjectPlan(proj, skeletons, planner.tasks, untrimmed=planner.untrimmed, options=options)
+    return ProjectPlan(proj, reading.skeletons, planner.tasks, untrimmed=planner.untrimmed,
+                       options=reading.options)
 
 
 def bending_regions(doc: dict):
