@@ -26,6 +26,7 @@ from ..cluster import ProcessWorkers, Workers, open_workers
 from ..errors import SpineMeshError
 from ..images import PREFETCH_PAGES_PER_WORKER, PagePrefetch
 from ..output import check_output_folder, output_folder
+from ..processes import keep_buffers_on_heap
 from ..project import find_project, find_projects, project_pages
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
@@ -74,8 +75,10 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
     with open_workers(options.jobs, options.dask) as workers:
         # Pages are decoded ahead only where the workers share this machine's memory; on Dask
         # they would travel through the network, and one process has no one to decode ahead.
-        prefetch = (PagePrefetch(workers.submit, PREFETCH_PAGES_PER_WORKER * workers.slots)
-                    if isinstance(workers, ProcessWorkers) else None)
+        prefetch = None
+        if isinstance(workers, ProcessWorkers):
+            prefetch = PagePrefetch(workers.submit, PREFETCH_PAGES_PER_WORKER * workers.slots)
+            keep_buffers_on_heap()  # as if this process still decoded pages (see there)
         ahead: deque[_LibraryProject] = deque()
         read: _LibraryProject | None = None  # read, its pages decoding, not planned yet
         for folder in [*find_projects(library), None]:
