@@ -181,3 +181,63 @@ def test_dataset_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, examples
     files = tree_bytes(local)
     assert files == tree_bytes(cluster)
     assert any(name.startswith("shards/") for name in files) and "index.jsonl" in files
+
+
+def _page_like(n):
+    import numpy as np
+
+    from spinemesh.cluster import shared_array
+
+    return shared_array(np.full((512, 256, 4), n, np.uint8))
+
+
+def memory_files_left() -> list[str]:
+    """This process's mappings and open descriptors of anonymous memory files, after a collection."""
+    import gc
+
+    gc.collect()
+    maps = [line for line in Path("/proc/self/maps").read_text().splitlines() if "memfd:" in line]
+    fds = []
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            fds += [link for link in [os.readlink(f"/proc/self/fd/{fd}")] if "memfd:" in link]
+        except OSError:  # the descriptor listdir itself held
+            pass
+    return maps + fds
+
+
+def test_a_local_worker_hands_a_large_array_back_through_memory_that_is_freed_at_once():
+    """The parent gets the worker's texels, read-only, out of an anonymous memory file (not
+    through the pipe); nothing of it is left: no mapping, no descriptor, nothing in /dev/shm."""
+    import numpy as np
+
+    from spinemesh.cluster import SharedArray
+
+    if not hasattr(os, "memfd_create"):
+        unavailable("this system has no anonymous memory files (memfd_create): arrays go through the pipe")
+    answer = _page_like(3)
+    assert isinstance(answer, SharedArray)  # what a worker answers with
+    answer.close()
+    shm = set(os.listdir("/dev/shm"))
+    with open_workers(2) as w:
+        arrays = [f.result() for f in [w.submit(_page_like, i) for i in range(6)]]
+        for i, a in enumerate(arrays):
+            assert type(a) is np.ndarray and a.shape == (512, 256, 4) and a.dtype == np.uint8 and (a == i).all()
+            assert not a.flags.writeable
+            with pytest.raises(ValueError):
+                a.flags.writeable = True  # the worker's texels, shared by whoever cuts from them
+        left = memory_files_left()
+        assert len(left) == 6 and all(" r" in m for m in left)  # one mapping each, no descriptor kept
+        del arrays, a
+        assert memory_files_left() == []
+    assert set(os.listdir("/dev/shm")) == shm
+
+
+def test_tasks_submitted_first_run_before_those_already_waiting():
+    with open_workers(2) as w:
+        started = [w.submit(_square, i) for i in range(40)]
+        first = w.submit(_square, 7, first=True)
+        assert first.result() == 49
+        # at most the two tasks running when it came in, and the two taken with it, finished before it
+        assert sum(f.done() for f in started) <= 8
+        assert [f.result() for f in started] == [i * i for i in range(40)]

@@ -20,7 +20,7 @@ on Dask (a lost worker's task is retried once by the scheduler, then fails).
 
 from __future__ import annotations
 
-import mmap
+import functools
 import multiprocessing
 import os
 import pickle
@@ -168,18 +168,19 @@ def _worker_main(conn, max_tasks: int | None) -> None:
 
 
 class SharedArray:
-    """A worker's answer array handed to the parent as shared memory, not through the pipe.
+    """A worker's answer array handed to the parent through shared memory, not through the pipe.
 
     Made in the worker by :func:`shared_array`: the texels are written once into an anonymous
     memory file (Linux ``memfd_create``), whose descriptor follows the pickled answer over the
-    worker's socket. The parent maps it read-only and closes the descriptor at once, so the
-    memory has no name anywhere (nothing in ``/dev/shm``, nothing for a resource tracker to
-    clean up): it is freed when the last array over it is dropped, and by the kernel if either
-    process dies first. The parent's future gets the plain ``ndarray``.
+    worker's socket. The parent maps that memory (:class:`_Mapping`) and closes the descriptor
+    at once, so the memory has no name anywhere (nothing in ``/dev/shm``, nothing for a
+    resource tracker to clean up): it is freed when the last array over it is dropped, and by
+    the kernel whichever way either process ends. The parent's future gets a read-only ``ndarray``.
 
-    A 16 MB page read through the pipe costs the parent a read of every byte and a pickle copy
-    (its dispatcher thread, holding the GIL the planning needs); mapped, it costs two system
-    calls and the page faults of what the parent reads (``docs/benchmarks/speed.md``).
+    Through the pipe, a 16 MB page cost the parent about 17 ms of CPU (every byte read from the
+    socket in chunks, joined, then copied again by unpickling, in the dispatcher thread, which
+    holds the GIL the planning needs); mapped, about 1 to 3 ms, page faults included
+    (``docs/benchmarks/speed.md``). Reading it into the parent's own memory instead cost 28 ms.
     """
 
     def __init__(self, array):
@@ -214,24 +215,70 @@ class SharedArray:
             self._fd = None
 
     def receive(self, conn):
-        """Parent side: the array over the memory whose descriptor comes next on ``conn`` (read-only)."""
+        """Parent side: the array in the memory whose descriptor comes next on ``conn`` (read-only).
+
+        Raises
+        ------
+        OSError, EOFError
+            The connection is gone.
+        SpineMeshError
+            This answer alone could not be read.
+        """
         import numpy as np
         from multiprocessing.reduction import recv_handle
 
         try:
-            fd = recv_handle(conn)  # OSError, EOFError: the connection is gone (the caller's to judge)
+            fd = recv_handle(conn)
         except RuntimeError as e:  # no descriptor in the message (this process has too many open)
             raise SpineMeshError(f"worker answer could not be read: {e}") from None
         try:
             nbytes = int(np.prod(self.shape, dtype=np.int64)) * np.dtype(self.dtype).itemsize
-            memory = mmap.mmap(fd, nbytes, prot=mmap.PROT_READ)
-        except (OSError, ValueError) as e:
+            memory = _Mapping(fd, nbytes)
+        except OSError as e:
             raise SpineMeshError(f"worker answer could not be mapped: {e}") from None
         finally:
             os.close(fd)
-        if hasattr(mmap, "MADV_DONTFORK"):
-            memory.madvise(mmap.MADV_DONTFORK)  # a worker forked later need not keep it mapped
-        return np.frombuffer(memory, self.dtype).reshape(self.shape)
+        array = np.asarray(memory).view(self.dtype).reshape(self.shape)
+        assert not array.flags.writeable
+        return array
+
+
+class _Mapping:
+    """Memory of a descriptor mapped into this process, unmapped when the last array over it goes.
+
+    Not Python's ``mmap``: that keeps a descriptor of its own open per mapping, and a project of
+    hundreds of small pages would run this process out of descriptors. Mapped copy-on-write
+    and offered to NumPy read-only, so that even a write forced through would change only this
+    process's copy, never crash it.
+    """
+
+    def __init__(self, fd: int, nbytes: int):
+        import ctypes
+        import mmap
+
+        libc = _libc()
+        address = libc.mmap(None, nbytes, mmap.PROT_READ | mmap.PROT_WRITE, mmap.MAP_PRIVATE, fd, 0)
+        if address is None or address == ctypes.c_void_p(-1).value:
+            errno = ctypes.get_errno()
+            raise OSError(errno, os.strerror(errno))
+        self._unmap = libc.munmap
+        self._address, self._nbytes = address, nbytes
+        self.__array_interface__ = {"shape": (nbytes,), "typestr": "|u1", "data": (address, True), "version": 3}
+
+    def __del__(self):
+        self._unmap(self._address, self._nbytes)
+
+
+@functools.lru_cache(maxsize=None)
+def _libc():
+    """The C library's ``mmap`` and ``munmap``, typed for ctypes."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.mmap.restype = ctypes.c_void_p
+    libc.mmap.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_long)
+    libc.munmap.argtypes = (ctypes.c_void_p, ctypes.c_size_t)
+    return libc
 
 
 def shared_array(array):
