@@ -99,3 +99,21 @@ def pytest_collection_modifyitems(config, items):
         module = item.module.__name__ if item.module is not None else ""
         if module not in SPREAD:
             item.add_marker(pytest.mark.xdist_group(module or item.nodeid.split("::")[0]))
+
+
+def memory_files_left() -> list[str]:
+    """This process's mappings and open descriptors of anonymous memory files (Linux ``memfd``),
+    after a garbage collection: what pages decoded by workers leave behind (nothing, once dropped)."""
+    import gc
+
+    gc.collect()
+    maps = [line for line in Path("/proc/self/maps").read_text().splitlines() if "memfd:" in line]
+    fds = []
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            link = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:  # the descriptor listdir itself held
+            continue
+        if "memfd:" in link:
+            fds.append(link)
+    return maps + fds

@@ -19,7 +19,7 @@ import pytest
 
 from spinemesh.cluster import Workers, available_cores, open_workers
 
-from conftest import EXAMPLES, unavailable
+from conftest import EXAMPLES, memory_files_left, unavailable
 
 DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
 
@@ -189,21 +189,6 @@ def _page_like(n):
     from spinemesh.cluster import shared_array
 
     return shared_array(np.full((512, 256, 4), n, np.uint8))
-
-
-def memory_files_left() -> list[str]:
-    """This process's mappings and open descriptors of anonymous memory files, after a collection."""
-    import gc
-
-    gc.collect()
-    maps = [line for line in Path("/proc/self/maps").read_text().splitlines() if "memfd:" in line]
-    fds = []
-    for fd in os.listdir("/proc/self/fd"):
-        try:
-            fds += [link for link in [os.readlink(f"/proc/self/fd/{fd}")] if "memfd:" in link]
-        except OSError:  # the descriptor listdir itself held
-            pass
-    return maps + fds
 
 
 def test_a_local_worker_hands_a_large_array_back_through_memory_that_is_freed_at_once():

@@ -11,7 +11,7 @@ from spinemesh.errors import AtlasError, ImageError, UnsafePathError
 from spinemesh.images import (AtlasImages, FolderImages, PageStore, channel_max, cut_region, load_rgba, premultiply,
                               unpremultiply)
 
-from conftest import example_projects
+from conftest import example_projects, memory_files_left
 
 
 def _cases():
@@ -234,6 +234,82 @@ def test_a_page_store_decodes_each_page_once_and_keeps_within_its_budget(tmp_pat
     store.release()
     a.get("r1")
     assert store.decodes == 4
+
+
+def _page_files(folder):
+    """Three page files of different kinds (RGBA and RGB PNG, WebP) and one that is not an image."""
+    rng = np.random.default_rng(7)
+    files = []
+    for name, mode in (("p1.png", "RGBA"), ("p2.png", "RGB"), ("p3.webp", "RGBA")):
+        texels = rng.integers(0, 256, (24, 40, 4), dtype=np.uint8)
+        Image.fromarray(texels).convert(mode).save(folder / name, **({"lossless": True} if name.endswith("webp") else {}))
+        files.append((folder / name).resolve())
+    bad = folder / "bad.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n not a page")
+    return files, bad.resolve()
+
+
+def _lose_the_worker(path):
+    import os
+    import signal
+
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_path, monkeypatch):
+    """Same texels, read-only, each page counted once, and none decoded by this process."""
+    from spinemesh import images
+    from spinemesh.cluster import open_workers
+
+    pages, _ = _page_files(tmp_path)
+    expected = [load_rgba(p) for p in pages]
+    with open_workers(2) as workers:
+        workers.submit(abs, -1).result()  # the workers are forked before this process's decoder is watched
+        decoded_here = []
+        real = images.load_rgba
+        monkeypatch.setattr(images, "load_rgba", lambda path: decoded_here.append(path) or real(path))
+        store = PageStore()
+        store.prefetch = images.PagePrefetch(workers.submit, window=2)  # the third waits for a turn
+        store.decode_ahead(pages + pages[:1])
+        for path, want in zip(pages, expected):
+            got = store.page(path)
+            assert np.array_equal(got, want) and got.dtype == np.uint8 and not got.flags.writeable
+        assert store.page(pages[0]) is store.page(pages[0])
+        assert decoded_here == [] and store.decodes == 3
+        store.release()
+        assert store.page(pages[1]) is not None and decoded_here == [pages[1]]  # released: decoded here again
+        store.release()
+        del got
+    assert memory_files_left() == []
+
+
+def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_result(tmp_path):
+    """A worker lost under a page (twice), or one that cannot decode it: this process decodes the
+    page itself, so its texels, or its error, are what they are without workers."""
+    from spinemesh import images
+    from spinemesh.cluster import open_workers
+
+    pages, bad = _page_files(tmp_path)
+    with pytest.raises(ImageError) as alone:
+        load_rgba(bad)
+    with open_workers(2) as workers:
+        lost = []
+        store = PageStore()
+        store.prefetch = images.PagePrefetch(
+            lambda fn, path, first: lost.append(path) or workers.submit(_lose_the_worker, path, first=first), window=4)
+        store.decode_ahead(pages[:1])
+        assert np.array_equal(store.page(pages[0]), load_rgba(pages[0])) and lost == pages[:1]
+        store = PageStore()
+        store.prefetch = images.PagePrefetch(workers.submit, window=4)
+        store.decode_ahead([bad, pages[1]])
+        with pytest.raises(ImageError) as ahead:
+            store.page(bad)
+        assert str(ahead.value) == str(alone.value)
+        assert np.array_equal(store.page(pages[1]), load_rgba(pages[1]))
+        assert store.decodes == 1  # the page that failed was not stored
+        store.decode_ahead([pages[2]])
+        store.release()  # asked for, never taken: dropped
+    assert memory_files_left() == []
 
 
 def test_an_untrimmed_region_is_a_view_of_its_page_and_a_trimmed_one_a_copy():

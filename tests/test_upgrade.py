@@ -222,3 +222,43 @@ def test_a_folder_of_projects_is_mirrored_with_one_report(tmp_path):
     write_report(result, tmp_path / "report.json")
     rows = json.loads((tmp_path / "report.json").read_text())["attachments"]
     assert {r["skeleton"].rsplit("/", 1)[0] for r in rows} == {"heroes/knight", "props"}
+
+
+def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(tmp_path, monkeypatch):
+    """With local workers the pages are decoded by them (this process decodes none but a page
+    that fails there, to report its own error), the output is that of one process, and no
+    memory of theirs is left, after a run or after one stopped by Ctrl-C."""
+    from conftest import memory_files_left
+    from spinemesh import images
+    from spinemesh.upgrade import upgrade_library
+    from spinemesh.upgrade.progress import Progress
+
+    library = tmp_path / "library"
+    for name in ("a", "b", "c"):
+        make_demo_project(library / name)
+    (library / "c" / "demo.png").write_bytes(b"\x89PNG\r\n\x1a\n not a page")
+    shm = set(os.listdir("/dev/shm"))
+    here, parent, real = [], os.getpid(), images.load_rgba
+    monkeypatch.setattr(images, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
+    alone = upgrade_library(library, tmp_path / "alone", Options())
+    decoded_alone, here[:] = list(here), []
+    result = upgrade_library(library, tmp_path / "workers", Options(jobs=2))
+    assert _tree_digest(tmp_path / "workers") == _tree_digest(tmp_path / "alone")
+    assert result.errors == alone.errors and [t.reason for t in result.targets] == [t.reason for t in alone.targets]
+    assert any("cannot decode image" in t.reason for t in result.targets)
+    # the bad page is tried once per region drawn from it, with workers or not; the others never here
+    assert here == [p for p in decoded_alone if p.parent.name == "c"] and len(decoded_alone) > len(here) > 0
+    assert memory_files_left() == [] and set(os.listdir("/dev/shm")) == shm
+
+    class CtrlC(Progress):
+        """Ctrl-C as the second project is read: the first one's pages are decoding or decoded."""
+        reads = 0
+
+        def add(self, phase, steps):
+            self.reads += phase == "read"
+            if self.reads == 2:
+                raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        upgrade_library(library, tmp_path / "stopped", Options(jobs=2), progress=CtrlC())
+    assert memory_files_left() == [] and set(os.listdir("/dev/shm")) == shm
