@@ -860,29 +860,21 @@ class PageStore:
 PREFETCH_PAGES_PER_WORKER = 4
 
 
-def load_rgba_shared(path: Path):
-    """:func:`load_rgba` in a worker process, answered as shared memory
-    (:func:`spinemesh.cluster.shared_array`): what :class:`PagePrefetch` runs."""
-    from .cluster import shared_array
-
-    return shared_array(load_rgba(path))
-
-
 class PagePrefetch:
     """Atlas pages decoded by local worker processes ahead of the planning that cuts them.
 
     Decoding pages is most of what the parent process of a library run spends reading and
     planning. :meth:`PageStore.decode_ahead` queues a project's pages here, in the order the
-    planning will take them; they are submitted to the workers ahead of the queued meshes
-    (``submit(..., first=True)``), at most ``window`` not yet taken at once, and handed back
-    as shared memory (:func:`load_rgba_shared`). :meth:`take` gives a page's texels, or None
-    when its decode failed, its worker was lost or it was not submitted yet: the store then
-    decodes it itself, as without workers, so texels and errors are the same either way.
+    planning will take them; they are submitted to the workers (ahead of their queued meshes,
+    :func:`spinemesh.upgrade.library.decode_page_shared`), at most ``window`` not yet taken at
+    once. :meth:`take` gives a page's texels, or None when its decode failed, its worker was
+    lost or it was not submitted yet: the store then decodes it itself, as without workers, so
+    texels and errors are the same either way.
 
     Parameters
     ----------
     submit : callable
-        ``submit(fn, arg, first=True) -> Future``: :meth:`spinemesh.cluster.ProcessWorkers.submit`.
+        ``submit(path) -> Future`` of the page's :func:`load_rgba` texels, decoded elsewhere.
     window : int
         Pages submitted and not yet taken, at most.
     """
@@ -904,7 +896,7 @@ class PagePrefetch:
         while self._wanted and len(self._submitted) < self.window:
             path, _ = self._wanted.popitem(last=False)
             try:
-                self._submitted[path] = self._submit(load_rgba_shared, path, first=True)
+                self._submitted[path] = self._submit(path)
             except RuntimeError:  # the workers are closing: the store decodes what is left
                 self._wanted.clear()
 

@@ -260,6 +260,7 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
     """Same texels, read-only, each page counted once, and none decoded by this process."""
     from spinemesh import images
     from spinemesh.cluster import open_workers
+    from spinemesh.upgrade.library import decode_page_shared
 
     pages, _ = _page_files(tmp_path)
     expected = [load_rgba(p) for p in pages]
@@ -269,7 +270,8 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
         real = images.load_rgba
         monkeypatch.setattr(images, "load_rgba", lambda path: decoded_here.append(path) or real(path))
         store = PageStore()
-        store.prefetch = images.PagePrefetch(workers.submit, window=2)  # the third waits for a turn
+        store.prefetch = images.PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
+                                             window=2)  # the third waits for a turn
         store.decode_ahead(pages + pages[:1])
         for path, want in zip(pages, expected):
             got = store.page(path)
@@ -288,6 +290,7 @@ def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_r
     page itself, so its texels, or its error, are what they are without workers."""
     from spinemesh import images
     from spinemesh.cluster import open_workers
+    from spinemesh.upgrade.library import decode_page_shared
 
     pages, bad = _page_files(tmp_path)
     with pytest.raises(ImageError) as alone:
@@ -296,11 +299,11 @@ def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_r
         lost = []
         store = PageStore()
         store.prefetch = images.PagePrefetch(
-            lambda fn, path, first: lost.append(path) or workers.submit(_lose_the_worker, path, first=first), window=4)
+            lambda path: lost.append(path) or workers.submit(_lose_the_worker, path, first=True), window=4)
         store.decode_ahead(pages[:1])
         assert np.array_equal(store.page(pages[0]), load_rgba(pages[0])) and lost == pages[:1]
         store = PageStore()
-        store.prefetch = images.PagePrefetch(workers.submit, window=4)
+        store.prefetch = images.PagePrefetch(lambda path: workers.submit(decode_page_shared, path), window=4)
         store.decode_ahead([bad, pages[1]])
         with pytest.raises(ImageError) as ahead:
             store.page(bad)

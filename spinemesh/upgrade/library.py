@@ -22,8 +22,9 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..cluster import ProcessWorkers, Workers, open_workers
+from ..cluster import ProcessWorkers, Workers, open_workers, shared_array
 from ..errors import SpineMeshError
+from .. import images
 from ..images import PREFETCH_PAGES_PER_WORKER, PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..processes import keep_buffers_on_heap
@@ -77,7 +78,8 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
         # they would travel through the network, and one process has no one to decode ahead.
         prefetch = None
         if isinstance(workers, ProcessWorkers):
-            prefetch = PagePrefetch(workers.submit, PREFETCH_PAGES_PER_WORKER * workers.slots)
+            prefetch = PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
+                                    PREFETCH_PAGES_PER_WORKER * workers.slots)
             keep_buffers_on_heap()  # as if this process still decoded pages (see there)
         ahead: deque[_LibraryProject] = deque()
         read: _LibraryProject | None = None  # read, its pages decoding, not planned yet
@@ -91,6 +93,18 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
         while ahead:
             _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
     return result
+
+
+def decode_page_shared(path: Path):
+    """:func:`~spinemesh.images.load_rgba` on a local worker, answered as shared memory
+    (:func:`~spinemesh.cluster.shared_array`): a page decoded ahead of the planning.
+
+    ``path`` is a page's real path, checked to lie inside its project by the planning process
+    (:meth:`~spinemesh.images.AtlasImages.page_file`); the size limits are ``load_rgba``'s.
+    """
+    # looked up on its module at each call, as PageStore.page does: whoever wraps it (a
+    # benchmark counting decodes) sees the decodes of both processes
+    return shared_array(images.load_rgba(path))
 
 
 #: Image pixels a library run sends to its workers ahead of writing: enough that workers
