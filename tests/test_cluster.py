@@ -218,11 +218,16 @@ def test_a_local_worker_hands_a_large_array_back_through_memory_that_is_freed_at
     assert set(os.listdir("/dev/shm")) == shm
 
 
+def _nap(x):
+    time.sleep(0.05)
+    return x
+
+
 def test_tasks_submitted_first_run_before_those_already_waiting():
     with open_workers(2) as w:
-        started = [w.submit(_square, i) for i in range(40)]
-        first = w.submit(_square, 7, first=True)
-        assert first.result() == 49
-        # at most the two tasks running when it came in, and the two taken with it, finished before it
-        assert sum(f.done() for f in started) <= 8
-        assert [f.result() for f in started] == [i * i for i in range(40)]
+        waiting = [w.submit(_nap, i) for i in range(20)]  # 0.5 s of work for two workers
+        first = w.submit(_nap, -1, first=True)
+        assert first.result() == -1
+        # before it, at most the tasks the two workers held when it came (and none waiting)
+        assert sum(f.done() for f in waiting) <= 4
+        assert [f.result() for f in waiting] == list(range(20))
