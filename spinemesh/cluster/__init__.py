@@ -210,9 +210,12 @@ class SharedArray:
             self.close()
 
     def close(self) -> None:
+        """Close the memory's descriptor here (the memory lives on while the other side holds it)."""
         if self._fd is not None:
             os.close(self._fd)
             self._fd = None
+
+    __del__ = close  # an answer that was never sent leaves no descriptor open
 
     def receive(self, conn):
         """Parent side: the array in the memory whose descriptor comes next on ``conn`` (read-only).
@@ -238,9 +241,7 @@ class SharedArray:
             raise SpineMeshError(f"worker answer could not be mapped: {e}") from None
         finally:
             os.close(fd)
-        array = np.asarray(memory).view(self.dtype).reshape(self.shape)
-        assert not array.flags.writeable
-        return array
+        return np.asarray(memory).view(self.dtype).reshape(self.shape)  # read-only (_Mapping says so)
 
 
 class _Mapping:
@@ -256,6 +257,7 @@ class _Mapping:
         import ctypes
         import mmap
 
+        self._address = None
         libc = _libc()
         address = libc.mmap(None, nbytes, mmap.PROT_READ | mmap.PROT_WRITE, mmap.MAP_PRIVATE, fd, 0)
         if address is None or address == ctypes.c_void_p(-1).value:
@@ -266,7 +268,8 @@ class _Mapping:
         self.__array_interface__ = {"shape": (nbytes,), "typestr": "|u1", "data": (address, True), "version": 3}
 
     def __del__(self):
-        self._unmap(self._address, self._nbytes)
+        if self._address is not None:
+            self._unmap(self._address, self._nbytes)
 
 
 @functools.lru_cache(maxsize=None)

@@ -22,9 +22,9 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import images
 from ..cluster import ProcessWorkers, Workers, open_workers, shared_array
 from ..errors import SpineMeshError
-from .. import images
 from ..images import PREFETCH_PAGES_PER_WORKER, PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..processes import keep_buffers_on_heap

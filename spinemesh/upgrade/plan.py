@@ -229,16 +229,6 @@ class Planner:
     #: ``(target, source, paths, blend, bends)``, in the order read.
     undecided: list[tuple] = field(default_factory=list)
 
-    def plan_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
-        """A :class:`Target` for every region attachment of ``doc``, in document order, decided.
-
-        ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
-        ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
-        """
-        targets = self.read_skeleton(doc, skeleton, source, bending)
-        self.decide()
-        return targets
-
     def pages_to_decode(self) -> list[Path]:
         """The atlas page files :meth:`decide` will cut from, in the order it will first cut them."""
         pages: dict[Path, None] = {}
@@ -254,8 +244,13 @@ class Planner:
             t.status, t.reason, t.key = self._decide(source, paths, blend, bends)
 
     def read_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
-        """:meth:`plan_skeleton` but for the images: the targets that need one are left to
-        :meth:`decide` (:attr:`undecided`), so that their pages can be decoded meanwhile."""
+        """A :class:`Target` for every region attachment of ``doc``, in document order.
+
+        Those that need their image are left to :meth:`decide` (:attr:`undecided`), so that
+        the pages they are cut from can be decoded meanwhile (:meth:`pages_to_decode`).
+        ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
+        ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
+        """
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
