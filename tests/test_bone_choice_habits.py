@@ -234,8 +234,8 @@ def test_the_set_stage_binds_the_set_the_artists_bound_on_the_same_slot_bone():
     near = neighbour_sets(habits, rig.bones, slot, keys)
     chosen = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits.others(keys), near)
     assert sorted(names[b] for b in chosen.bones) == ["seg1", "seg2", "seg3"]
-    assert "the artists bound this set on 2 of the project's 2 other weighted meshes on the same slot bone" \
-        in chosen.why[names.index("seg2")]
+    assert ("the artists bound this set on 2 of the project's 2 other weighted meshes on the same slot bone or its "
+            "mirror image") in chosen.why[names.index("seg2")]
     assert "not in the chosen set" in chosen.left_out[names.index("beside")]
     # a set stage reading the habits inside a model without their prior is refused
     data = _set_habit_model()
@@ -275,4 +275,50 @@ def test_the_set_the_meshes_on_the_same_slot_bone_agree_on_is_taken_whatever_the
     assert [names[b] for b in chosen[2].bones] == ["seg1"]          # two meshes do not make an agreement
     assert sorted(names[b] for b in chosen[3].bones) == ["seg1", "seg2", "seg3"]
     assert "in the set taken as agreed: the artists bound it on 3 of the project's 3 other weighted meshes on " \
-           "the same slot bone" in chosen[3].why[names.index("seg2")]
+           "the same slot bone or its mirror image" in chosen[3].why[names.index("seg2")]
+
+
+def test_mirror_images_differ_only_in_their_side_markers_and_sets_move_across_by_tree_place():
+    names = ["root", "body", "arm_L", "forearm_L", "hand_L", "arm_R", "forearm_R", "Left ear", "right ear", "l-leg2",
+             "r-leg2", "armLower"]
+    parents = [-1, 0, 1, 2, 3, 1, 5, 1, 1, 1, 1, 1]
+    assert hb.mirror_bones(names, names.index("arm_L")) == [names.index("arm_R")]
+    assert hb.mirror_bones(names, names.index("Left ear")) == [names.index("right ear")]
+    assert hb.mirror_bones(names, names.index("r-leg2")) == [names.index("l-leg2")]
+    assert hb.mirror_bones(names, names.index("body")) == [] and hb.mirror_bones(names, names.index("armLower")) == []
+    at = {n: i for i, n in enumerate(names)}
+    # the slot bone, the bone below it and the body they share move across
+    moved = hb.mirror_set(parents, at["arm_L"], at["arm_R"], [at["arm_L"], at["forearm_L"], at["body"]])
+    assert moved == tuple(sorted((at["arm_R"], at["forearm_R"], at["body"])))
+    # the right arm has no hand: a set with the hand has no counterpart
+    assert hb.mirror_set(parents, at["arm_L"], at["arm_R"], [at["arm_L"], at["hand_L"]]) is None
+    got = hb.mirror_counts(parents, names, at["arm_R"], lambda bone: {(at["arm_L"], at["forearm_L"]): 2}
+                           if bone == at["arm_L"] else {})
+    assert got == {(at["arm_R"], at["forearm_R"]): 2}
+
+
+def test_the_sets_bound_on_the_mirror_image_of_the_slot_bone_are_neighbours():
+    from spinemesh.rig.learned import neighbour_sets
+
+    doc = _weighted_worms()
+    side = {f"seg{k}": f"seg{k}_l" for k in (1, 2, 3)}
+    for bone in doc["bones"]:
+        bone["name"] = side.get(bone["name"], bone["name"])
+        if "parent" in bone:
+            bone["parent"] = side.get(bone["parent"], bone["parent"])
+    for slot in doc["slots"]:
+        slot["bone"] = side.get(slot["bone"], slot["bone"])
+    doc["animations"]["wiggle"]["bones"] = {side[b]: v for b, v in doc["animations"]["wiggle"]["bones"].items()}
+    # the other side, appended (the weighted vertices' bone indices stay)
+    doc["bones"] += [{"name": "seg1_r", "parent": "root", "length": 80, "x": -120, "y": 200},
+                     {"name": "seg2_r", "parent": "seg1_r", "length": 80, "x": 80},
+                     {"name": "seg3_r", "parent": "seg2_r", "length": 80, "x": 80}]
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    habits = project_habits([(doc, rig)])
+    keys = hb.keys_of("fresh", "fresh")
+    right = tuple(sorted(names.index(n) for n in ("seg1_r", "seg2_r", "seg3_r")))
+    assert neighbour_sets(habits, rig.bones, names.index("seg1_r"), keys) == {right: 2}
+    left = tuple(sorted(names.index(n) for n in ("seg1_l", "seg2_l", "seg3_l")))
+    assert neighbour_sets(habits, rig.bones, names.index("seg1_l"), keys) == {left: 2}
+    assert neighbour_sets(habits, rig.bones, names.index("seg2_r"), keys) == {}   # no mesh on seg2_l

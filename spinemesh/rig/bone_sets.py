@@ -6,7 +6,7 @@ the slot's bone with the next one down, as many bones as parts of that size usua
 This stage proposes a few sets built from the per-bone probabilities (:func:`candidate_sets`:
 the likeliest 1..8 bones, those with or without the slot's bone, with the gaps along a chain
 filled, with the next bone in the tree added, those the project's artists bound on its other
-meshes on the same slot bone, ...), describes each set as a whole
+meshes on the same slot bone or its mirror image, ...), describes each set as a whole
 (:data:`SET_FEATURES`: its size against the bones likely one at a time, how likely it is if
 each bone were independent, how much of the art its bones are nearest to, whether it is
 connected in the bone tree, with the project's habits how many of its artists' sets share its

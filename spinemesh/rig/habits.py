@@ -18,7 +18,9 @@ weighted mesh, from the same candidate features the per-bone model reads,
 - for the set stage (:mod:`.bone_sets`), the shapes of the artists' whole sets
   (:data:`SET_PATTERNS`: how many bones, the slot's bone alone, every bone over the art, the
   ``rule``'s set, with a point, an ancestor or a bone below the slot's bone, ...), and the sets
-  bound by the meshes on the same slot bone of the same skeleton (:meth:`ProjectHabits.neighbours`).
+  bound by the meshes on the same slot bone of the same skeleton (:meth:`ProjectHabits.neighbours`),
+  or on its mirror image (:func:`mirror_bones`: the same name on the other side), their sets
+  moved across by their places in the bone tree (:func:`mirror_set`).
 
 Each share is smoothed toward the rate over every training project (the *prior*, shipped in
 the model) with :data:`PSEUDO_COUNT` made-up candidates or meshes: a project with no weighted
@@ -31,6 +33,7 @@ mesh out is a subtraction.
 from __future__ import annotations
 
 import math
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -281,6 +284,95 @@ def rig_key(bone_names) -> str:
     """A skeleton's identity for :meth:`ProjectHabits.neighbours`: its bones' names, in order
     (skeletons of a project exported from the same rig share it)."""
     return "\n".join(str(n) for n in bone_names)
+
+
+#: Side markers in bone names: the words left and right, and an l or r not followed by a letter
+#: (``arm_L``, ``L_arm``, ``armR``, ``r-leg2``), in any case. Two bones whose names differ only
+#: there are each other's mirror image (:func:`mirror_bones`).
+SIDE_MARKER = re.compile(r"left|right|[lr](?![a-z])", re.IGNORECASE)
+
+
+def mirror_bones(names: list[str], bone: int) -> list[int]:
+    """The bones (indices into ``names``) whose names differ from bone ``bone``'s only in their
+    side markers (:data:`SIDE_MARKER`): its mirror images, such as ``arm_R`` for ``arm_L``.
+
+    Artists bind the two sides of a symmetric character alike: the sets bound on a mirror image
+    of a mesh's slot bone, moved across (:func:`mirror_set`), are its neighbours' too. Measured
+    held out (the same per-bone probabilities): exact bone sets 40.2% -> 41.0%; counting names
+    that differ only in their numbers as well (``hair_3`` for ``hair_4``): 41.2%, but fewer on
+    the examples (30.4% -> 29.9%).
+    """
+    stem = SIDE_MARKER.sub("<side>", names[bone])
+    if stem == names[bone]:
+        return []
+    return [i for i, name in enumerate(names) if i != bone and SIDE_MARKER.sub("<side>", name) == stem]
+
+
+def mirror_set(parents: list[int], source: int, target: int, members) -> tuple[int, ...] | None:
+    """A set of bones bound on a mesh on slot bone ``source``, moved to slot bone ``target`` by
+    each bone's place in the tree relative to the slot bone.
+
+    Each bone is reached from ``source`` by going up to the first ancestor of ``source`` it hangs
+    from, then down through the children in their order; the same path from ``target`` gives
+    its counterpart (an ancestor both share, such as the body, is itself).
+
+    Parameters
+    ----------
+    parents : list of int
+        Each bone's parent (-1: none); children are in the order of the bones.
+    source, target : int
+        The slot bones.
+    members : iterable of int
+        The bones bound.
+
+    Returns
+    -------
+    tuple of int or None
+        The counterparts, sorted, or None when some bone has none (the trees differ there).
+    """
+    children: dict[int, list[int]] = {}
+    for i, q in enumerate(parents):
+        children.setdefault(q, []).append(i)
+
+    def up(b):
+        out = [b]
+        while parents[out[-1]] >= 0 and len(out) <= len(parents):
+            out.append(parents[out[-1]])
+        return out
+
+    above, there = up(source), up(target)
+    mapped = set()
+    for b in members:
+        path, at = [], b
+        while at not in above:
+            if parents[at] < 0:
+                return None
+            path.append(children[parents[at]].index(at))
+            at = parents[at]
+        steps = above.index(at)
+        if steps >= len(there):
+            return None
+        at = there[steps]
+        for i in reversed(path):
+            kids = children.get(at, [])
+            if i >= len(kids):
+                return None
+            at = kids[i]
+        mapped.add(at)
+    return tuple(sorted(mapped))
+
+
+def mirror_counts(parents: list[int], names: list[str], slot_bone: int, bound_on) -> Counter:
+    """The sets bound on the mirror images of ``slot_bone`` (:func:`mirror_bones`), moved to it
+    (:func:`mirror_set`), each with how many meshes bound it; ``bound_on(bone)``: the sets
+    (bone indices) bound on the meshes on slot bone ``bone``, to how many bound each."""
+    out: Counter = Counter()
+    for other in mirror_bones(names, slot_bone):
+        for chosen, count in bound_on(other).items():
+            mapped = mirror_set(parents, other, slot_bone, chosen)
+            if mapped:
+                out[mapped] += count
+    return out
 
 
 def others_of(tallies: np.ndarray, pools: np.ndarray, keys: list[set[str]] | None = None) -> np.ndarray:

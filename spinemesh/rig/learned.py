@@ -13,7 +13,7 @@ probabilities and the likeliest set to be the artist's exact one is chosen (a mo
 that stage chooses the bones at or above its threshold). A model may also read the project's
 habits (:mod:`.habits`): how its artists bound such bones in its other weighted meshes, the
 shapes of their whole sets, and the sets they bound on the other meshes on the same slot bone
-(:func:`neighbour_sets`), which the set stage also weighs.
+or its mirror image (:func:`neighbour_sets`), which the set stage also weighs.
 
 The model ships as JSON (``spinemesh/models/bone_choice.json``: each tree's split features,
 thresholds, children and leaf values, the set stage's under ``sets``) and is evaluated with
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,8 +36,8 @@ from . import bone_sets
 from .binding import parse_vertices, setup_world
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule
 from .constraints import constraints_of
-from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, pattern_shares,
-                     rig_key, tally)
+from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
+                     pattern_shares, rig_key, tally)
 from .habits import reason as habit_reason
 
 #: Bones whose segment comes within this share of the art's bounding-box diagonal are
@@ -317,16 +318,23 @@ def project_habits(documents) -> ProjectHabits:
 
 def neighbour_sets(habits: ProjectHabits | None, bones, slot_bone: int, keys: set[str]) -> dict[tuple[int, ...], int]:
     """The bone sets (indices into ``bones``, sorted) the project's artists bound on the other
-    meshes on the slot bone ``slot_bone`` of a skeleton with these ``bones``, each with how
-    many meshes bound it (:meth:`.habits.ProjectHabits.neighbours`; the meshes sharing a name
-    with ``keys`` left out). Empty without habits."""
+    meshes on the slot bone ``slot_bone`` of a skeleton with these ``bones``, or on its mirror
+    image (:func:`.habits.mirror_counts`, the sets moved across), each with how many meshes
+    bound it (:meth:`.habits.ProjectHabits.neighbours`; the meshes sharing a name with ``keys``
+    left out). Empty without habits."""
     if habits is None:
         return {}
     names = [b.name for b in bones]
     index = {n: i for i, n in enumerate(names)}
-    found = habits.neighbours(keys, rig_key(names), names[slot_bone])
-    return {tuple(sorted(index[n] for n in chosen)): count for chosen, count in found.items()
-            if all(n in index for n in chosen)}
+    rig = rig_key(names)
+
+    def bound_on(bone: int) -> dict[tuple[int, ...], int]:
+        found = habits.neighbours(keys, rig, names[bone])
+        return {tuple(sorted(index[n] for n in chosen)): count for chosen, count in found.items()
+                if all(n in index for n in chosen)}
+
+    parents = [-1 if b.parent is None else b.parent for b in bones]
+    return dict(Counter(bound_on(slot_bone)) + mirror_counts(parents, names, slot_bone, bound_on))
 
 
 def _tree_from_json(t: dict, features: int) -> dict[str, np.ndarray]:
@@ -514,7 +522,8 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
     if agreed is not None:
         total = sum(neighbours.values())
         return list(sets[agreed][0]), (f"the set taken as agreed: the artists bound it on {known[sets[agreed][0]]} "
-                                       f"of the project's {total} other weighted meshes on the same slot bone")
+                                       f"of the project's {total} other weighted meshes on the same slot bone or "
+                                       f"its mirror image")
     score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
                                                           ancestors, parents_at, model.threshold, mesh_habits))
     best = bone_sets.pick(score, model.sets.threshold)
@@ -523,7 +532,7 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
     count = known.get(sets[best][0], 0)
     if count:
         how += (f"; the artists bound this set on {count} of the project's {sum(known.values())} other "
-                f"weighted meshes on the same slot bone")
+                f"weighted meshes on the same slot bone or its mirror image")
     return list(sets[best][0]), f"the chosen set ({score[best]:.2f} likely the artist's exact set, {how})"
 
 

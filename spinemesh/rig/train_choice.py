@@ -13,6 +13,7 @@ Used by ``scripts/train_bone_choice.py`` and the weights benchmarks.
 from __future__ import annotations
 
 import zlib
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -165,8 +166,9 @@ def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...]
     """For each mesh, the bone sets (bone indices, sorted) the artists bound on the other meshes
     of its skeleton on the same slot bone, each with how many bound it
     (:meth:`.habits.ProjectHabits.neighbours`; ``strict``: leaving out those sharing a slot or
-    attachment name with it, else only itself). Meshes with artist's bones beyond their
-    candidates show no set. A skeleton is its file here (the package matches skeletons by
+    attachment name with it, else only itself), and on its mirror images
+    (:func:`.habits.mirror_counts`). Meshes with artist's bones beyond their candidates show no
+    set. A skeleton is its file here (the package matches skeletons by
     their bones' names, :func:`.habits.rig_key`)."""
     starts = _mesh_rows(data)
     col = FEATURES.index("is_slot_bone")
@@ -179,11 +181,28 @@ def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...]
     by_pool: dict[tuple, list[int]] = {}
     for m, (rig, slot, _) in enumerate(bound):
         by_pool.setdefault((rig, slot), []).append(m)
+    trees = skeleton_trees(sorted({rig for rig, _, _ in bound}))
     out = []
     for m, (rig, slot, _) in enumerate(bound):
-        pool = by_pool[(rig, slot)]
-        counts = habits.neighbour_counts([bound[q] for q in pool], [keys[q] for q in pool], keys[m], rig, slot)
-        out.append({tuple(sorted(c)): n for c, n in counts.items()})
+        def bound_on(bone: int) -> dict[tuple[int, ...], int]:
+            pool = by_pool.get((rig, bone), [])
+            counts = habits.neighbour_counts([bound[q] for q in pool], [keys[q] for q in pool], keys[m], rig, bone)
+            return {tuple(sorted(c)): n for c, n in counts.items()}
+
+        names, parents = trees[rig]
+        mirrored = habits.mirror_counts(parents, names, slot, bound_on) if slot >= 0 else {}
+        out.append(dict(Counter(bound_on(slot)) + mirrored))
+    return out
+
+
+def skeleton_trees(paths: list[str]) -> dict[str, tuple[list[str], list[int]]]:
+    """Each skeleton file's bone names and parents (-1: none), in the order of its bones, for
+    :func:`.habits.mirror_counts` (the dataset holds only its meshes' candidates)."""
+    out = {}
+    for path in paths:
+        bones = load_skeleton(Path(path))["bones"]
+        at = {b["name"]: i for i, b in enumerate(bones)}
+        out[path] = ([b["name"] for b in bones], [at.get(b.get("parent"), -1) for b in bones])
     return out
 
 
