@@ -17,6 +17,9 @@ wall and CPU seconds of the whole process (parent and workers), the atlas pages 
 the image encodes: Pillow ``tobytes`` and ``save`` calls and OpenCV ``imencode`` calls made in
 the planning process. The outputs of the two runs are compared byte for byte.
 
+``project``: the same columns for ``upgrade_project`` of one corpus project (``--project``,
+default the one whose atlas has 60 pages): the command most users run.
+
 ``read``: reading and planning alone (``upgrade_project`` with ``dry_run``) of every corpus
 project, one after the other in one process: CPU seconds and page decodes, in all and for the
 eight projects that took longest before, and the user CPU alone in all (the system time, mostly
@@ -101,10 +104,11 @@ cv2.imencode = _counting(cv2.imencode, "encodes")
 
 UPGRADE = COUNTERS + r"""
 import json, resource, sys, time
-from spinemesh.upgrade import Options, upgrade_library
+from spinemesh.upgrade import Options, upgrade_library, upgrade_project
+from spinemesh.upgrade.library import is_library
 library, out, jobs = sys.argv[1], sys.argv[2], int(sys.argv[3])
 t = time.perf_counter()
-r = upgrade_library(library, out, Options(jobs=jobs))
+r = (upgrade_library if is_library(library) else upgrade_project)(library, out, Options(jobs=jobs))
 wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
@@ -227,10 +231,11 @@ def ratio(before: float, after: float) -> str:
     return f"{before / after:6.2f}x" if after > 0 else "     -"
 
 
-def bench_upgrade(before: Path, after: Path, library: Path, tmp: Path, jobs: int) -> bool:
+def bench_upgrade(before: Path, after: Path, library: Path, tmp: Path, jobs: int, title: str) -> bool:
+    """``upgrade`` of ``library`` (a folder of projects, or one project) by both sides, phase by phase."""
     b, a = (run_into(UPGRADE, code, label, library, tmp / f"upgrade-{label}", jobs)
             for label, code in (("before", before), ("after", after)))
-    print(f"\n## upgrade_library, {len(list(library.iterdir()))} corpus projects, --jobs {jobs}\n")
+    print(f"\n## {title}, --jobs {jobs}\n")
     print(f"{'':14} {'before':>9} {'after':>9} {'ratio':>7}")
     for key, fmt in (("read", ".1f"), ("mesh", ".1f"), ("write", ".1f"), ("wall", ".1f"), ("cpu", ".1f"),
                      ("decodes", "d"), ("encodes", "d"), ("meshed", "d")):
@@ -466,7 +471,9 @@ def main() -> None:
     ap.add_argument("--after", type=Path, default=REPO, help="the code measured (default: this checkout)")
     ap.add_argument("--projects", nargs="+", default=list(PROJECTS), help="corpus project folders to upgrade")
     ap.add_argument("--jobs", type=int, default=2, help="workers of the upgrade and dataset runs (default 2)")
-    ap.add_argument("--only", choices=("upgrade", "read", "sprite", "decode", "dataset"), nargs="+",
+    ap.add_argument("--project", default="degamex-degamers",
+                    help="corpus project of the one-project run (default: the one with the most pages, 60)")
+    ap.add_argument("--only", choices=("upgrade", "project", "read", "sprite", "decode", "dataset"), nargs="+",
                     default=["upgrade", "read", "sprite", "decode", "dataset"], help="which measurements (default all)")
     ap.add_argument("--repeat", type=int, default=3, help="sprite and read runs per side, the best kept (default 3)")
     ap.add_argument("--sprites", type=Path, default=Path(tempfile.gettempdir()) / "spinemesh-bench-sprites",
@@ -488,7 +495,12 @@ def main() -> None:
         tmp = Path(tmp_name)
         library = library_of(args.projects, tmp / "library")
         if "upgrade" in args.only:
-            same &= bench_upgrade(args.before, args.after, library, tmp, args.jobs)
+            same &= bench_upgrade(args.before, args.after, library, tmp, args.jobs,
+                                  f"upgrade_library, {len(args.projects)} corpus projects")
+        if "project" in args.only:  # the command most users run: one project
+            one = library_of([args.project], tmp / "one") / args.project
+            same &= bench_upgrade(args.before, args.after, one, tmp / "one", args.jobs,
+                                  f"upgrade_project, {args.project}")
         if "read" in args.only:  # every corpus project: reading is where pages are decoded
             bench_read(args.before, args.after, sorted(p for p in CORPUS.iterdir() if p.is_dir()), args.repeat)
         if "sprite" in args.only:

@@ -260,7 +260,7 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
     """Same texels, read-only, each page counted once, and none decoded by this process."""
     from spinemesh import images
     from spinemesh.cluster import open_workers
-    from spinemesh.upgrade.library import decode_page_shared
+    from spinemesh.upgrade.plan import decode_page_shared
 
     pages, _ = _page_files(tmp_path)
     expected = [load_rgba(p) for p in pages]
@@ -290,7 +290,7 @@ def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_r
     page itself, so its texels, or its error, are what they are without workers."""
     from spinemesh import images
     from spinemesh.cluster import open_workers
-    from spinemesh.upgrade.library import decode_page_shared
+    from spinemesh.upgrade.plan import decode_page_shared
 
     pages, bad = _page_files(tmp_path)
     with pytest.raises(ImageError) as alone:

@@ -262,3 +262,30 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
     with pytest.raises(KeyboardInterrupt):
         upgrade_library(library, tmp_path / "stopped", Options(jobs=2), progress=CtrlC())
     assert memory_files_left() == [] and set(os.listdir("/dev/shm")) == shm
+
+
+def test_one_projects_pages_are_decoded_by_the_workers_that_mesh_it(tmp_path, monkeypatch):
+    """``upgrade project/ --jobs 2`` opens its workers before planning, and they decode the
+    pages (two skeletons, each on a page of its own) while this process plans: none is
+    decoded here, and the output is that of one process."""
+    import shutil
+
+    from conftest import memory_files_left
+    from spinemesh import images
+
+    project = tmp_path / "project"
+    make_demo_project(project, with_images_folder=False)
+    shutil.copy(project / "demo.png", project / "demo2.png")
+    shutil.copy(project / "demo.json", project / "demo2.json")
+    (project / "demo2.atlas").write_text((project / "demo.atlas").read_text().replace("demo.png", "demo2.png"))
+    here, parent, real = [], os.getpid(), images.load_rgba
+    monkeypatch.setattr(images, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
+    alone = upgrade_project(project, tmp_path / "alone", Options())
+    assert sorted(p.name for p in set(here)) == ["demo.png", "demo2.png"]  # without workers: here
+    here[:] = []
+    result = upgrade_project(project, tmp_path / "workers", Options(jobs=2))
+    assert here == []
+    assert _tree_digest(tmp_path / "workers") == _tree_digest(tmp_path / "alone")
+    assert [(t.status, t.reason) for t in result.targets] == [(t.status, t.reason) for t in alone.targets]
+    assert sum(t.status == "meshed" for t in result.targets) > 0
+    assert memory_files_left() == []

@@ -22,16 +22,14 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import images
-from ..cluster import ProcessWorkers, Workers, open_workers, shared_array
+from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..images import PREFETCH_PAGES_PER_WORKER, PagePrefetch
+from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
-from ..processes import keep_buffers_on_heap
-from ..project import find_project, find_projects, project_pages
+from ..project import find_project, find_projects
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
-from .plan import ProjectPlan, ProjectReading, plan_read_project, read_project
+from .plan import ProjectPlan, ProjectReading, decode_pages_ahead, page_prefetch, plan_read_project, read_project
 from .progress import SILENT, Progress
 from .report import Result, mark_would_mesh, merge
 from .run import finish_project
@@ -74,13 +72,7 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
     cache: dict = {}
     inflight: dict = {}
     with open_workers(options.jobs, options.dask) as workers:
-        # Pages are decoded ahead only where the workers share this machine's memory; on Dask
-        # they would travel through the network, and one process has no one to decode ahead.
-        prefetch = None
-        if isinstance(workers, ProcessWorkers):
-            prefetch = PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
-                                    PREFETCH_PAGES_PER_WORKER * workers.slots)
-            keep_buffers_on_heap()  # as if this process still decoded pages (see there)
+        prefetch = page_prefetch(workers)
         ahead: deque[_LibraryProject] = deque()
         read: _LibraryProject | None = None  # read, its pages decoding, not planned yet
         for folder in [*find_projects(library), None]:
@@ -93,18 +85,6 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
         while ahead:
             _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
     return result
-
-
-def decode_page_shared(path: Path):
-    """:func:`~spinemesh.images.load_rgba` on a local worker, answered as shared memory
-    (:func:`~spinemesh.cluster.shared_array`): a page decoded ahead of the planning.
-
-    ``path`` is a page's real path, checked to lie inside its project by the planning process
-    (:meth:`~spinemesh.images.AtlasImages.page_file`); the size limits are ``load_rgba``'s.
-    """
-    # looked up on its module at each call, as PageStore.page does: whoever wraps it (a
-    # benchmark counting decodes) sees the decodes of both processes
-    return shared_array(images.load_rgba(path))
 
 
 #: Image pixels a library run sends to its workers ahead of writing: enough that workers
@@ -137,15 +117,11 @@ def _read_library_project(library: Path, folder: Path, options: Options, prefetc
                               else Path(options.images_out) / rel)
     p = _LibraryProject(rel, sub, Result())
     try:
-        project = find_project(folder)
-        project_pages(project).prefetch = prefetch
-        p.reading = read_project(project, sub, p.result, progress)
+        p.reading = read_project(find_project(folder), sub, p.result, progress)
     except SpineMeshError as e:
         p.result.errors.append(str(e))
         return p
-    t0 = time.perf_counter()
-    project_pages(project).decode_ahead(p.reading.pages_to_decode())
-    p.result.seconds["read"] += time.perf_counter() - t0
+    decode_pages_ahead(p.reading, prefetch)
     return p
 
 

@@ -19,10 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import images
 from ..attachment_geometry import frames_on_one_grid
+from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
 from ..foreground import alpha_above
-from ..images import FAINT_TEXEL, RegionImage, part_content_id
+from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
+from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
 from .editor_images import write_editor_image
@@ -398,6 +401,47 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectReading(proj, options, result, planner, skeletons)
+
+
+def decode_page_shared(path: Path):
+    """:func:`~spinemesh.images.load_rgba` on a local worker, answered as shared memory
+    (:func:`~spinemesh.cluster.shared_array`): a page decoded ahead of the planning.
+
+    ``path`` is a page's real path, checked to lie inside its project by the planning process
+    (:meth:`~spinemesh.images.AtlasImages.page_file`); the size limits are ``load_rgba``'s.
+    """
+    # looked up on its module at each call, as PageStore.page does: whoever wraps it (a
+    # benchmark counting decodes) sees the decodes of both processes
+    return shared_array(images.load_rgba(path))
+
+
+def page_prefetch(workers: Workers | None) -> PagePrefetch | None:
+    """Pages decoded ahead of the planning by ``workers``, where they are local processes; else None.
+
+    Only where the workers share this machine's memory: on Dask the texels would travel
+    through the network, and one process has no one to decode ahead. Pages go to the workers
+    before their queued meshes, at most :data:`~spinemesh.images.PREFETCH_PAGES_PER_WORKER`
+    per worker not yet taken.
+    """
+    if not isinstance(workers, ProcessWorkers):
+        return None
+    keep_buffers_on_heap()  # as if this process still decoded pages (see there)
+    return PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
+                        PREFETCH_PAGES_PER_WORKER * workers.slots)
+
+
+def decode_pages_ahead(reading: ProjectReading, prefetch: PagePrefetch | None) -> None:
+    """Have ``prefetch`` decode the pages :func:`plan_read_project` will cut from (nothing without one).
+
+    The time it takes here (listing and handing over the pages) counts as reading.
+    """
+    if prefetch is None:
+        return
+    t0 = time.perf_counter()
+    pages = project_pages(reading.project)
+    pages.prefetch = prefetch
+    pages.decode_ahead(reading.pages_to_decode())
+    reading.result.seconds["read"] += time.perf_counter() - t0
 
 
 def plan_read_project(reading: ProjectReading) -> ProjectPlan:
