@@ -80,7 +80,7 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
         result = Result()
         reading = read_project(proj, options, result, progress)       # 1. read and plan
         pages = reading.pages_to_decode()
-        if workers is None and not options.dry_run and len(pages) > 1:
+        if workers is None and not options.dry_run and options.jobs > 1 and not options.dask and len(pages) > 1:
             # The workers that will mesh are opened before the planning, to decode its pages
             # meanwhile (local processes only, see page_prefetch): with N of them, the pages
             # take about 1/N of the time they take this process alone.
