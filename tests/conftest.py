@@ -117,3 +117,9 @@ def memory_files_left() -> list[str]:
         if "memfd:" in link:
             fds.append(link)
     return maps + fds
+
+
+def shared_memory_segments() -> set[str]:
+    """Named shared memory (``/dev/shm``) but multiprocessing's semaphores (``sem.*``), which the
+    locks of every process make and remove, the other test workers running beside this one too."""
+    return {name for name in os.listdir("/dev/shm") if not name.startswith("sem.")}

@@ -19,7 +19,7 @@ import pytest
 
 from spinemesh.cluster import Workers, available_cores, open_workers
 
-from conftest import EXAMPLES, memory_files_left, unavailable
+from conftest import EXAMPLES, memory_files_left, shared_memory_segments, unavailable
 
 DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
 
@@ -203,7 +203,7 @@ def test_a_local_worker_hands_a_large_array_back_through_memory_that_is_freed_at
     answer = _page_like(3)
     assert isinstance(answer, SharedArray)  # what a worker answers with
     answer.close()
-    shm = set(os.listdir("/dev/shm"))
+    shm = shared_memory_segments()
     with open_workers(2) as w:
         arrays = [f.result() for f in [w.submit(_page_like, i) for i in range(6)]]
         for i, a in enumerate(arrays):
@@ -215,7 +215,7 @@ def test_a_local_worker_hands_a_large_array_back_through_memory_that_is_freed_at
         assert len(left) == 6 and all(" r" in m for m in left)  # one mapping each, no descriptor kept
         del arrays, a
         assert memory_files_left() == []
-    assert set(os.listdir("/dev/shm")) == shm
+    assert shared_memory_segments() == shm
 
 
 def _nap(x):

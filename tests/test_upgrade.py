@@ -228,7 +228,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
     """With local workers the pages are decoded by them (this process decodes none but a page
     that fails there, to report its own error), the output is that of one process, and no
     memory of theirs is left, after a run or after one stopped by Ctrl-C."""
-    from conftest import memory_files_left
+    from conftest import memory_files_left, shared_memory_segments
     from spinemesh import images
     from spinemesh.upgrade import upgrade_library
     from spinemesh.upgrade.progress import Progress
@@ -237,7 +237,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
     for name in ("a", "b", "c"):
         make_demo_project(library / name)
     (library / "c" / "demo.png").write_bytes(b"\x89PNG\r\n\x1a\n not a page")
-    shm = set(os.listdir("/dev/shm"))
+    shm = shared_memory_segments()
     here, parent, real = [], os.getpid(), images.load_rgba
     monkeypatch.setattr(images, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
     alone = upgrade_library(library, tmp_path / "alone", Options())
@@ -248,7 +248,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
     assert any("cannot decode image" in t.reason for t in result.targets)
     # the bad page is tried once per region drawn from it, with workers or not; the others never here
     assert here == [p for p in decoded_alone if p.parent.name == "c"] and len(decoded_alone) > len(here) > 0
-    assert memory_files_left() == [] and set(os.listdir("/dev/shm")) == shm
+    assert memory_files_left() == [] and shared_memory_segments() == shm
 
     class CtrlC(Progress):
         """Ctrl-C as the second project is read: the first one's pages are decoding or decoded."""
@@ -261,7 +261,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
 
     with pytest.raises(KeyboardInterrupt):
         upgrade_library(library, tmp_path / "stopped", Options(jobs=2), progress=CtrlC())
-    assert memory_files_left() == [] and set(os.listdir("/dev/shm")) == shm
+    assert memory_files_left() == [] and shared_memory_segments() == shm
 
 
 def test_one_projects_pages_are_decoded_by_the_workers_that_mesh_it(tmp_path, monkeypatch):
