@@ -866,7 +866,7 @@ class PagePrefetch:
     Decoding pages is most of what the parent process of a library run spends reading and
     planning. :meth:`PageStore.decode_ahead` queues a project's pages here, in the order the
     planning will take them; they are submitted to the workers (ahead of their queued meshes,
-    :func:`spinemesh.upgrade.library.decode_page_shared`), at most ``window`` not yet taken at
+    :func:`spinemesh.upgrade.plan.decode_page_shared`), at most ``window`` not yet taken at
     once. :meth:`take` gives a page's texels, or None when its decode failed, its worker was
     lost or it was not submitted yet: the store then decodes it itself, as without workers, so
     texels and errors are the same either way.
