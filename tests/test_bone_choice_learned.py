@@ -277,7 +277,25 @@ def test_the_set_model_learns_only_from_meshes_whose_artists_set_is_weighed(monk
             "mesh": np.array([0, 0, 0, 1, 1, 2, 2, 2]),
             "exact": np.array([False, True, False, False, False, False, False, False])}
     seen = {}
-    monkeypatch.setattr(tc, "fit", lambda Z, y, w, *a, **k: seen.update(Z=Z, y=y, w=w))
+    monkeypatch.setattr(tc, "fit_ranker", lambda Z, y, q, w, *a, **k: seen.update(Z=Z, y=y, q=q, w=w))
     tc.fit_sets(data, sets)
     assert seen["Z"].tolist() == sets["Z"][:3].tolist() and seen["y"].tolist() == [False, True, False]
-    assert np.allclose(seen["w"], 1.0)
+    assert seen["q"].tolist() == [0, 0, 0] and np.allclose(seen["w"], 1.0)
+
+
+def test_the_set_ranker_is_exported_as_trees_that_rank_as_lightgbm_does():
+    from spinemesh.rig import bone_sets
+    from spinemesh.rig import train_choice as tc
+
+    rng = np.random.default_rng(1)
+    queries = np.repeat(np.arange(300), 6)
+    Z = rng.random((len(queries), len(bone_sets.SET_FEATURES)))
+    # the artist's set of each query: the one with the largest first column
+    first = np.zeros(len(queries), bool)
+    first[np.arange(300) * 6 + Z[:, 0].reshape(300, 6).argmax(axis=1)] = True
+    model = tc.fit_ranker(Z, first, queries, features=bone_sets.SET_FEATURES)   # raises when the trees disagree
+    again = TreeEnsemble.from_json(json.loads(json.dumps(model.to_json(bone_sets.SET_MODEL_FORMAT))),
+                                   bone_sets.SET_FEATURES, bone_sets.SET_MODEL_FORMAT)
+    score = again.raw(Z).reshape(300, 6)
+    assert np.array_equal(score, model.raw(Z).reshape(300, 6))
+    assert (score.argmax(axis=1) == Z[:, 0].reshape(300, 6).argmax(axis=1)).mean() > 0.9

@@ -84,7 +84,7 @@ def test_set_features_describe_size_likelihood_and_shape():
 
 
 def _set_model(feature: str, cut: float) -> dict:
-    """A set model of one split on ``feature``: log-odds -3 at or below ``cut``, +3 above."""
+    """A set model of one split on ``feature``: score -3 at or below ``cut``, +3 above."""
     return {"format": bs.SET_MODEL_FORMAT, "features": list(bs.SET_FEATURES), "base": 0.0, "threshold": 0.1,
             "meta": {}, "trees": [{"feature": [SCOL[feature], -1, -1], "threshold": [cut, 0, 0], "left": [1, 0, 0],
                                    "right": [2, 0, 0], "value": [0, -3.0, 3.0]}]}
@@ -100,15 +100,16 @@ def test_the_set_stage_takes_its_likeliest_set_and_says_why_for_every_candidate(
     cand = candidates(rig.bones, rig.slot_bone["worm"], world, tris, set(), {})
     assert {names[b] for b in choice.bones} == {"seg1", "seg2", "seg3"}   # the first set of 3+: the per-bone one
     assert set(choice.why) | set(choice.left_out) == set(cand.bones)
-    assert all("; in the chosen set (0.95 likely the artist's exact set, the bones at or over 0.50" in w
-               for w in choice.why.values())
+    assert all("; in the chosen set (the bones at or over 0.50, score 3.00: no other of " in w
+               and " sets scored more than 0.10 higher)" in w for w in choice.why.values())
     assert all("; not in the chosen set" in w for b, w in choice.left_out.items() if rig.bones[b].exact)
     # a set model preferring single bones overrides the per-bone threshold
     data["sets"] = _set_model("size", 1.5)
     data["sets"]["trees"][0]["value"] = [0, 3.0, -3.0]
     one = choose_learned(rig.bones, rig.slot_bone["worm"], world, tris, set(), {}, TreeEnsemble.from_json(data))
     assert len(one.bones) == 1 and one.why[one.bones[0]].startswith("learned: 0.95")
-    assert "(0.95 likely the artist's exact set, best of " in one.why[one.bones[0]]
+    assert " in the chosen set (ranked first of " in one.why[one.bones[0]]
+    assert "sets weighed, score 3.00 against -3.00 for the bones at or over 0.50)" in one.why[one.bones[0]]
 
 
 def test_models_round_trip_with_their_set_stage_and_refuse_a_wrong_one():

@@ -357,12 +357,14 @@ def _tree_from_json(t: dict, features: int) -> dict[str, np.ndarray]:
 
 @dataclass
 class TreeEnsemble:
-    """A binary classifier: the sigmoid of a base value plus the sum of regression trees' leaves.
+    """A tree ensemble: a base value plus the sum of regression trees' leaves (:meth:`raw`). The
+    per-bone model is a binary classifier (:meth:`probability`, the sigmoid of it); the set
+    model ranks (its ``raw`` the score).
 
     Each tree is arrays over its nodes: ``feature`` (column read; -1 at a leaf), ``threshold``
     (go left when the value is at most it), ``left``/``right`` (child nodes), ``value`` (the
     leaf's contribution, learning rate included). ``threshold``: the probability at which a
-    bone is chosen (in a set model: the margin of :func:`.bone_sets.pick`). ``sets``: the
+    bone is chosen (in a set model: the margin of :func:`.bone_sets.pick`, in score). ``sets``: the
     set-level stage (:mod:`.bone_sets`, reading :data:`.bone_sets.SET_FEATURES`), absent in
     models without it.
     """
@@ -498,8 +500,8 @@ def _by_threshold(p: np.ndarray, order: list[int], slot: int | None, threshold: 
 def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: int | None,
              model: TreeEnsemble, habits: np.ndarray | None = None,
              neighbours: dict[tuple[int, ...], int] | None = None) -> tuple[list[int], str]:
-    """The set-level choice (:mod:`.bone_sets`): the candidate set the set model finds likeliest
-    to be the artist's exact set, when clearly likelier than the per-bone choice's set
+    """The set-level choice (:mod:`.bone_sets`): the candidate set the set model ranks first as
+    the artist's exact set, when it scores above the per-bone choice's set by the margin
     (:func:`.bone_sets.pick`, the set model's ``threshold`` the margin); with a note on the
     choice for the report. A set model reading the project's habits gets their pattern shares
     (from ``habits``, the others' tally) and the ``neighbours``' sets (bone indices), which it
@@ -524,16 +526,18 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
         return list(sets[agreed][0]), (f"the set taken as agreed: the artists bound it on {known[sets[agreed][0]]} "
                                        f"of the project's {total} other weighted meshes on the same slot bone or "
                                        f"its mirror image")
-    score = model.sets.probability(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
-                                                          ancestors, parents_at, model.threshold, mesh_habits))
+    score = model.sets.raw(bone_sets.set_features(sets, p, allowed, cand.features, FEATURES, slot,
+                                                  ancestors, parents_at, model.threshold, mesh_habits))
     best = bone_sets.pick(score, model.sets.threshold)
-    how = (f"best of {len(sets)} sets weighed" if best else
-           f"the bones at or over {model.threshold:.2f}: no other of {len(sets)} sets clearly likelier")
+    how = (f"ranked first of {len(sets)} sets weighed, score {score[best]:.2f} against {score[0]:.2f} for the "
+           f"bones at or over {model.threshold:.2f}" if best else
+           f"the bones at or over {model.threshold:.2f}, score {score[0]:.2f}: no other of {len(sets)} sets "
+           f"scored more than {model.sets.threshold:.2f} higher")
     count = known.get(sets[best][0], 0)
     if count:
         how += (f"; the artists bound this set on {count} of the project's {sum(known.values())} other "
                 f"weighted meshes on the same slot bone or its mirror image")
-    return list(sets[best][0]), f"the chosen set ({score[best]:.2f} likely the artist's exact set, {how})"
+    return list(sets[best][0]), f"the chosen set ({how})"
 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
