@@ -13,7 +13,7 @@ per-bone choice at a few thresholds and the ``learned`` choice (per bone, then s
 the same meshes, the share of meshes given exactly the artist's bone set and the bones per
 mesh against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
 (their ``learned`` rows, project-held-out). ``--write`` fits on every project and writes
-``spinemesh/models/bone_choice.json``. Needs scikit-learn (the ``train`` extra).
+``spinemesh/models/bone_choice.json``. Needs scikit-learn and LightGBM (the ``train`` extra).
 """
 
 from __future__ import annotations
@@ -115,7 +115,8 @@ def main() -> None:
         # the set stage learns from held-out per-bone probabilities, as the shipped model gives new projects
         model.sets = tc.fit_sets(data, tc.set_rows(data, p, np.arange(meshes), args.threshold), args.project_power)
         model.sets.meta = {**model.sets.meta, "trained_on": "the candidate sets of the same meshes, from held-out "
-                           "per-bone probabilities", "trees": tc.SET_TREES, "leaves": tc.SET_LEAVES}
+                           "per-bone probabilities", "objective": "lambdarank", "trees": tc.SET_TREES,
+                           "leaves": tc.SET_LEAVES, "learning_rate": tc.SET_LEARNING_RATE}
         model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
                       "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
                       "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"
