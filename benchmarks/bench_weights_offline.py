@@ -409,6 +409,8 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=1, help="judge every K-th mesh (faster)")
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
     ap.add_argument("--bounds", action="store_true", help="add the bounds that use the artist's answer")
+    ap.add_argument("--max-bones", default="4", help="most bones per vertex, as `spinemesh weights --max-bones`; "
+                    "a comma-separated list replays each variant with each")
     ap.add_argument("--learned", action="store_true")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
@@ -434,18 +436,21 @@ def main() -> None:
         print(f"| {name} | {s['meshes']} | {s['error']:.3f} | {s['ratio']:.3f} | {s['geomean']:.3f} | "
               f"{exact} | {s.get('bones', '')} | {time.perf_counter() - start:.0f} |", flush=True)
 
+    caps = [int(n) for n in args.max_bones.split(",") if n]
     bbw = {}  # the default's weights, kept for the bounds built on them
     for name in names:
         start = time.perf_counter()
-        results, chosen = {}, {}
+        results, chosen = {cap: {} for cap in caps}, {}
         for i, c in enumerate(cases):
             bones, w = VARIANTS[name](c)
             if name == "bbw" and args.bounds:
                 bbw[i] = bones, w
-            results[i] = replay(c, sparsify(w, 4, 0.01), bones)
+            for cap in caps:
+                results[cap][i] = replay(c, sparsify(w, cap, 0.01), bones)
             chosen[i] = bones
-        per_variant[name] = results
-        row(name, results, start, chosen)
+        per_variant[name] = results[caps[0]]
+        for cap in caps:
+            row(name if caps == [4] else f"{name}, at most {cap} bones per vertex", results[cap], start, chosen)
     if args.bounds:
         start = time.perf_counter()
         for name, results in oracle_bounds(cases, per_variant, bbw).items():
@@ -455,6 +460,9 @@ def main() -> None:
         row("learned weights (project-held-out upper bound)", learned_bound(cases), start)
     counts = [len(c["bones"]) for c in cases]
     print(f"\nartists' bones per mesh: median {np.median(counts):.0f}, p95 {np.percentile(counts, 95):.0f}")
+    per_vertex = np.concatenate([(np.asarray(c["artist"]) > 0).sum(axis=1) for c in cases])
+    shares = ", ".join(f"{n}: {np.mean(np.minimum(per_vertex, 5) == n):.1%}" for n in range(1, 6))
+    print(f"artists' bones per vertex (5: five or more): {shares}")
 
 
 if __name__ == "__main__":
