@@ -275,12 +275,11 @@ def fit_ranker(X: np.ndarray, relevant: np.ndarray, queries: np.ndarray, w: np.n
     """
     import lightgbm
 
-    starts = np.flatnonzero(np.r_[True, np.diff(queries) != 0])
-    sizes = np.diff(np.r_[starts, len(queries)])
+    starts, ends = _runs(queries)
     ranker = lightgbm.LGBMRanker(objective="lambdarank", n_estimators=trees, num_leaves=leaves,
                                  learning_rate=rate, min_child_samples=MIN_LEAF, lambdarank_truncation_level=3,
                                  random_state=seed, n_jobs=1, verbose=-1)
-    ranker.fit(X, relevant.astype(int), group=sizes, sample_weight=w)
+    ranker.fit(X, relevant.astype(int), group=ends - starts, sample_weight=w)
     exported = [_flat_tree(t["tree_structure"]) for t in ranker.booster_.dump_model()["tree_info"]]
     return _checked(TreeEnsemble(features, 0.0, exported, margin, {}), X, ranker.predict, "LightGBM")
 
@@ -310,6 +309,13 @@ def _flat_tree(root: dict) -> dict[str, np.ndarray]:
             "value": np.asarray(cols[4], float)}
 
 
+def _runs(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) of each run of equal values in ``ids`` (the rows of one mesh, or
+    of one query, lie together)."""
+    starts = np.flatnonzero(np.r_[True, np.diff(ids) != 0])
+    return starts, np.r_[starts[1:], len(ids)]
+
+
 def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> np.ndarray:
     """Which rows are chosen per mesh: probability at least ``threshold`` (at most ``most`` per
     mesh, the likeliest), else the slot's bone (else the likeliest row); bones not exact /
@@ -319,9 +325,7 @@ def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> n
     slot = data["X"][:, col["is_slot_bone"]] == 1
     chosen = np.zeros(len(p), bool)
     order = np.lexsort((-p, data["mesh"]))
-    starts = np.flatnonzero(np.r_[True, np.diff(data["mesh"][order]) != 0])
-    ends = np.r_[starts[1:], len(order)]
-    for s, e in zip(starts, ends):
+    for s, e in zip(*_runs(data["mesh"][order])):
         rows = [r for r in order[s:e] if allowed[r]]
         take = [r for r in rows if p[r] >= threshold][:most] or [r for r in rows if slot[r]] or rows[:1]
         chosen[take] = True
@@ -462,17 +466,16 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
     others no set is exact: they would only teach that the sets weighed are all wrong); a
     project of M meshes weighs ``M ** project_power``, each mesh alike."""
     _, project = np.unique(data["group"], return_inverse=True)
-    per_project = np.bincount(project)
-    w = per_project[project[sets["mesh"]]] ** (project_power - 1.0)
+    mesh_weight = np.bincount(project)[project] ** (project_power - 1.0)
     weighed = np.zeros(len(data["group"]), bool)
     weighed[sets["mesh"][sets["exact"]]] = True
     keep = weighed[sets["mesh"]]
     names = bone_sets.SET_FEATURES
     if sets["Z"].shape[1] > len(names):
         names += bone_sets.SET_HABIT_FEATURES
-    mesh_weight = per_project[project[np.unique(sets["mesh"][keep])]] ** (project_power - 1.0)
-    return fit_ranker(sets["Z"][keep], sets["exact"][keep], sets["mesh"][keep], w[keep] / mesh_weight.mean(),
-                      bone_sets.SET_MARGIN, features=names)
+    kept = sets["mesh"][keep]
+    w = mesh_weight[kept] / mesh_weight[np.unique(kept)].mean()  # the meshes fitted on weigh 1 on average
+    return fit_ranker(sets["Z"][keep], sets["exact"][keep], kept, w, bone_sets.SET_MARGIN, features=names)
 
 
 def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
@@ -481,8 +484,7 @@ def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
     :func:`.learned.choose_learned` with a set stage)."""
     score = model.raw(sets["Z"])
     chosen = np.zeros(len(data["y"]), bool)
-    starts = np.flatnonzero(np.r_[True, np.diff(sets["mesh"]) != 0])
-    for s, e in zip(starts, np.r_[starts[1:], len(score)]):
+    for s, e in zip(*_runs(sets["mesh"])):
         agreed = np.flatnonzero(sets["agreed"][s:e])
         best = int(agreed[0]) if len(agreed) else bone_sets.pick(score[s:e], model.threshold)
         chosen[sets["members"][s + best]] = True
