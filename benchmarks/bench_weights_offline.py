@@ -33,7 +33,11 @@ seconds the weights took. Variants:
 - ``learned``: the ``--bones learned`` choice, project-held-out: each mesh's bones are chosen by
   the model fitted without its project's fold (``--fold-models``, written by
   ``scripts/train_bone_choice.py --fold-models``), with the habits of the artist-weighted meshes
-  of the project's replayed skeletons when the model reads them.
+  of the project's replayed skeletons when the model reads them;
+- ``learned-alone``: the same without the habits, as a project with no artist-weighted mesh
+  shows;
+- ``upgrade``, ``upgrade-alone``: the bones ``spinemesh upgrade --weights auto`` binds, with and
+  without the habits: the learned choice where the rule takes more than one bone, else the rule's.
 
 Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
 set and the bones per mesh (median and 95th percentile; the artists': the last line).
@@ -235,10 +239,13 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
-def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
+def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, gate: bool = False):
     """The learned choice, each case's bones chosen by the fold model fitted without its project;
     a model that reads the project's habits gets them from the artist-weighted meshes of the
-    project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does."""
+    project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does.
+    ``alone``: without them, as a project with no weighted mesh shows. ``gate``: only where the
+    rule takes more than one bone, else the rule's bones, as ``upgrade --weights auto`` binds
+    (:func:`spinemesh.rig.upgrade.upgrade_choice`)."""
     from spinemesh.rig import train_choice
     from spinemesh.rig.habits import keys_of
     from spinemesh.rig.learned import choose_learned, neighbour_sets
@@ -250,14 +257,20 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]]):
         if not models:
             models.update(train_choice.load_fold_models(fold_models))
         model = models[train_choice.fold_of(case["label"])]
-        if model.reads_habits and case["label"] not in habits:
+        reads = model.reads_habits and not alone
+        if reads and case["label"] not in habits:
             habits[case["label"]] = bench_weights.project_habits_of(skeletons[case["label"]])
         keys = keys_of(case["slot"], case["name"])
-        others = habits[case["label"]].others(keys) if model.reads_habits else None
+        others = habits[case["label"]].others(keys) if reads else None
         rig = case["rig"]
         nearby = neighbour_sets(habits.get(case["label"]), rig.bones, case["slot_bone"], keys)
-        chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                                rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby).bones
+        rule = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                              rig.skin_bones.get(case["skin"], set())).bones if gate else []
+        if gate and len(rule) < 2:
+            chosen = rule
+        else:
+            chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                    rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby).bones
         reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
         return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
@@ -420,6 +433,9 @@ def main() -> None:
         cases += cases_of(label, skel, dump)
         skeletons.setdefault(label, []).append(skel)
     VARIANTS["learned"] = learned(args.fold_models, skeletons)
+    VARIANTS["learned-alone"] = learned(args.fold_models, skeletons, alone=True)
+    VARIANTS["upgrade"] = learned(args.fold_models, skeletons, gate=True)
+    VARIANTS["upgrade-alone"] = learned(args.fold_models, skeletons, alone=True, gate=True)
     cases = cases[::args.every]
     for c in cases:
         c["rigid"] = rigid_error(c)

@@ -77,9 +77,9 @@ _Pack = Annotated[bool, typer.Option(
                    "Add --repack to also mesh sequences trimmed differently.")]
 _Weights = Annotated[Weights, typer.Option(
     "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
-                      "to the bones crossing the art, with vertices at the joints and automatic "
-                      "weights (as 'spinemesh weights --bones rule': the rule that also picks the "
-                      "regions that bend).")]
+                      "to the bones an artist would bind, with vertices at the joints and automatic "
+                      "weights (as 'spinemesh weights' chooses them, --bones auto; the same choice "
+                      "picks the regions that bend).")]
 
 
 @app.command()

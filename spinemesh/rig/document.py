@@ -162,8 +162,12 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 
-def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome) -> None:
-    """Choose bones, compute weights and bind one mesh attachment, in place; fills ``outcome``."""
+def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome,
+                choice: Choice | None = None) -> None:
+    """Choose bones, compute weights and bind one mesh attachment, in place; fills ``outcome``.
+
+    ``choice``: the bones, when the caller chose them already (``options.bones`` chooses else).
+    """
     att = ref.attachment
     if ref.slot not in rig.slot_bone:
         outcome.status, outcome.reason = "failed", "its slot has no bone"
@@ -190,7 +194,7 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     if len(triangles) == 0 or triangles.max() >= mesh.count or triangles.min() < 0:
         outcome.status, outcome.reason = "failed", "triangles do not index the vertices"
         return
-    choice = choose(rig, ref, mesh, world, triangles, options.bones)
+    choice = choice or choose(rig, ref, mesh, world, triangles, options.bones)
     outcome.left_out = {rig.bones[b].name: w for b, w in choice.left_out.items()}
     if not choice.bones:
         outcome.status, outcome.reason = "skipped", "none of its bones has an exact setup transform"

@@ -281,7 +281,10 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
         if not mesh.weighted:
             continue
         artist = mesh.bones()
-        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+        try:
+            tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+        except (TypeError, ValueError, OverflowError):  # not a flat list of indices: not read
+            continue
         if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
                 or tris.max() >= mesh.count or tris.min() < 0:
             continue
@@ -314,6 +317,14 @@ def project_habits(documents) -> ProjectHabits:
             bound.append((rig_key(names), names[rig.slot_bone[m["slot"]]],
                           frozenset(names[b] for b in m["artist"]) if whole else frozenset()))
     return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys, bound)
+
+
+def share_project_habits(documents) -> None:
+    """Give the rig of each ``(doc, rig)`` pair of a project the :func:`project_habits` of all
+    of them, read before any of its meshes is weighted."""
+    habits = project_habits(documents)
+    for _, rig in documents:
+        rig.habits = habits
 
 
 def neighbour_sets(habits: ProjectHabits | None, bones, slot_bone: int, keys: set[str]) -> dict[tuple[int, ...], int]:

@@ -19,7 +19,7 @@ from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
 from .document import Outcome, WeightOptions, build_rig, uses_learned, weight_document
-from .learned import project_habits
+from .learned import share_project_habits
 
 
 @dataclass
@@ -72,11 +72,10 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
             result.errors.append(str(e))
             continue
         read.append((path, doc, build_rig(doc)))
-    # the learned choice reads the artists' habits over every skeleton of the project, before any is weighted
-    habits = project_habits([(doc, rig) for _, doc, rig in read]) if uses_learned(options) else None
+    if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
+        share_project_habits([(doc, rig) for _, doc, rig in read])
     for path, doc, rig in read:
         rel = path.relative_to(proj.root).as_posix()
-        rig.habits = habits
         outcomes = weight_document(doc, rel, options, rig)
         result.outcomes += outcomes
         try:

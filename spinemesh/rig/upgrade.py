@@ -1,20 +1,20 @@
 """``spinemesh upgrade --weights auto``: upgraded meshes bound and weighted in the same run.
 
-Each mesh the upgrade just made gets the ``rule`` bones (:mod:`.choice`; the rule also decides
-which regions bend, below, and the learned choice was measured on meshes artists weighted, not
-on regions), the rig-aware
-vertices for them (:mod:`.topology`, within the vertex budget), then weights and an exact
-setup-pose binding (:mod:`.document`). A mesh that cannot be weighted (its slot's bone is
-moved by a constraint in the setup pose, say) stays the unweighted mesh the upgrade made,
-without the added vertices, and the report says why.
+Each mesh the upgrade just made gets the bones of :func:`upgrade_choice`: the ``rule``
+(:mod:`.choice`) tells whether its art bends, and the ``auto`` choice of ``spinemesh weights``
+(the learned one, :mod:`.learned`, with the habits of the project's artist-weighted meshes)
+which bones it then bends with. It then gets the rig-aware vertices for them (:mod:`.topology`,
+within the vertex budget), weights and an exact setup-pose binding (:mod:`.document`). A mesh
+that cannot be weighted (its slot's bone is moved by a constraint in the setup pose, say) stays
+the unweighted mesh the upgrade made, without the added vertices, and the report says why.
 
-Before meshing, :class:`BendingRegions` tells which region attachments may bend: their quad,
-in the setup pose, lies over more than one ``auto`` bone. ``upgrade`` meshes those even where
-the keep rule (:mod:`spinemesh.mesher.worth`) would keep them for saving too few pixels: a mesh
-that bends with the skeleton is worth having for that alone. The art decides: a mesh made only
-to bend whose own triangles do not get more than one bone (the art misses the other bones) is
-put back as the region it was, before any weights are solved; so is one whose weights leave
-all but one bone out.
+Before meshing, :class:`BendingRegions` tells which region attachments may bend: the rule
+gives their quad more than one bone. ``upgrade`` meshes those even where the keep rule
+(:mod:`spinemesh.mesher.worth`) would keep them for saving too few pixels: a mesh that bends
+with the skeleton is worth having for that alone. The art decides: a mesh made only to bend
+whose own triangles do not get more than one bone (the art misses the other bones) is put back
+as the region it was, before any weights are solved; so is one whose weights leave all but one
+bone out.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from ..skeleton import AttachmentRef, iter_attachments
 from .binding import parse_vertices, setup_world
 from .choice import Choice, choose_by_rule
 from .document import Outcome, Rig, WeightOptions, build_rig, choose, weight_mesh
+from .learned import share_project_habits
 from .topology import add_rig_vertices
 
 #: A region's image corners (u, v), 0..1 over the original image, and the quad's two triangles.
@@ -114,6 +115,40 @@ class BendingRegions:
         return choice is not None and len(choice.bones) > 1
 
 
+def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: np.ndarray) -> tuple[Choice, bool]:
+    """The bones an upgraded mesh is bound to: the ``auto`` choice of ``spinemesh weights``
+    where the ``rule`` finds that its art bends (more than one bone), else the rule's.
+
+    The learned choice was fitted on meshes that artists weighted, nearly all of them (95%) to
+    several bones; on the attachments artists left rigid it binds several bones three times in
+    four (the rule: one in three). So the rule says whether the art bends, and the learned
+    choice, closer to the artists' sets, which bones. Measured project-held-out on the examples
+    and corpus, as a project without weighted meshes shows it (``docs/guide/bones.md``).
+
+    Parameters
+    ----------
+    rig : Rig
+        The skeleton's rig, with the project's habits (:func:`.learned.share_project_habits`).
+    ref : AttachmentRef
+        The mesh attachment (its slot has a bone).
+    world : ndarray, shape (N, 2)
+        Its setup-pose vertices, world units.
+    triangles : ndarray, shape (T, 3)
+        Its triangles, indices into ``world``.
+
+    Returns
+    -------
+    choice : Choice
+        The bones, each with why it was taken, and those left out.
+    bends : bool
+        Whether the rule finds that the art bends (the learned choice may still take one bone).
+    """
+    rule = choose(rig, ref, None, world, triangles, "rule")
+    if len(rule.bones) < 2:
+        return rule, False
+    return choose(rig, ref, None, world, triangles, "auto"), True
+
+
 def _local_segments(rig, bone_ids: list[int], slot_bone: int) -> np.ndarray:
     """Bone segments in the slot bone's space, shape (B, 2, 2)."""
     m = rig.bones[slot_bone].world
@@ -130,14 +165,17 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
     out) and, when vertices were added, its ``vertices`` and ``triangles`` counts. A target
     meshed only because it bends (its ``overruled`` holds the keep rule's reason) that is not
     weighted to more than one bone is put back as its region (``region``), kept with that reason.
-    ``rig`` is :func:`.document.build_rig` of ``doc`` when the caller has it already;
+    ``rig`` is :func:`.document.build_rig` of ``doc`` when the caller has it already, with the
+    project's habits (:func:`.learned.share_project_habits`; else those of ``doc`` alone);
     ``on_mesh`` is called once per mesh treated (for progress bars).
     """
     by_place = {(t.skin, t.slot, t.name): t for t in targets if t.status == "meshed"}
     if not by_place:
         return
-    rig = rig or build_rig(doc)
-    options = WeightOptions(bones="rule")  # the rule decided it bends: the same rule binds it
+    if rig is None:
+        rig = build_rig(doc)
+        share_project_habits([(doc, rig)])
+    options = WeightOptions(bones="auto")
     for ref in iter_attachments(doc):
         t = by_place.get((ref.skin, ref.slot, ref.name))
         if t is None or ref.type != "mesh":
@@ -146,17 +184,20 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
             on_mesh()
         before = copy.deepcopy(ref.attachment)
         outcome = Outcome(t.skeleton, ref.skin, ref.slot, ref.name)
-        added = 0
+        added, choice = 0, None
         try:
             slot_bone = rig.slot_bone.get(ref.slot)
             if slot_bone is not None and rig.bones[slot_bone].exact:
                 mesh = parse_vertices(ref.attachment, len(rig.bones))
                 world = setup_world(mesh, rig.worlds, slot_bone)
                 tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-                choice = choose(rig, ref, mesh, world, tris, "rule")
+                choice, bends = upgrade_choice(rig, ref, world, tris)
                 if t.overruled and len(choice.bones) < 2:
-                    # meshed only to bend, but its art misses the other bones: no weights to solve
-                    outcome.status, outcome.reason = "skipped", "its art lies over one bone only"
+                    # meshed only to bend, but its art misses the other bones (or an artist would
+                    # bind one of them only): no weights to solve
+                    outcome.status = "skipped"
+                    outcome.reason = ("the bones an artist would bind: one only" if bends
+                                      else "its art lies over one bone only")
                     t.weights = {"status": outcome.status, "reason": outcome.reason, "bones": {},
                                  "left_out": {rig.bones[b].name: w for b, w in choice.left_out.items()},
                                  "added_vertices": 0}
@@ -167,7 +208,8 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
                     parents = [index.get(rig.bones[b].parent) for b in choice.bones]
                     added = add_rig_vertices(ref.attachment, _local_segments(rig, choice.bones, slot_bone),
                                              parents, max_vertices)
-            weight_mesh(rig, ref, options, outcome)
+            # the bones the vertices were added for: the added vertices lie on the same art
+            weight_mesh(rig, ref, options, outcome, choice)
         except SpineMeshError as e:
             outcome.status, outcome.reason = "failed", str(e)
         if outcome.status != "weighted":

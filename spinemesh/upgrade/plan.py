@@ -383,7 +383,7 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
     """
     t0 = time.perf_counter()
     planner = Planner(options)
-    skeletons = []
+    loaded = []
     progress.add("read", len(proj.skeletons))
     for path in proj.skeletons:
         progress.advance("read")
@@ -395,7 +395,14 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
             result.errors.append(str(e))
             result.not_read[rel] = str(e)
             continue
-        bending = bending_regions(doc) if options.weights == "auto" else None
+        loaded.append((path, rel, doc, source, bending_regions(doc) if options.weights == "auto" else None))
+    if options.weights == "auto":
+        # the bone choice reads the habits of the artist-weighted meshes of every skeleton first
+        from ..rig.learned import share_project_habits
+
+        share_project_habits([(doc, bending.rig) for _, _, doc, _, bending in loaded if bending is not None])
+    skeletons = []
+    for path, rel, doc, source, bending in loaded:
         targets = planner.read_skeleton(doc, rel, source, bending)
         result.targets += targets
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
