@@ -322,3 +322,23 @@ def test_the_sets_bound_on_the_mirror_image_of_the_slot_bone_are_neighbours():
     left = tuple(sorted(names.index(n) for n in ("seg1_l", "seg2_l", "seg3_l")))
     assert neighbour_sets(habits, rig.bones, names.index("seg1_l"), keys) == {left: 2}
     assert neighbour_sets(habits, rig.bones, names.index("seg2_r"), keys) == {}   # no mesh on seg2_l
+
+
+def test_upgrade_reads_the_projects_habits_for_every_skeleton(tmp_path):
+    """``upgrade --weights auto`` gives each skeleton's rig the habits of the weighted meshes of
+    all of the project's skeletons, read before planning, as ``spinemesh weights`` does."""
+    from spinemesh.project import find_project
+    from spinemesh.upgrade import Options
+    from spinemesh.upgrade.plan import plan_project
+    from spinemesh.upgrade.report import Result
+
+    from test_upgrade_weights import make_bar_project
+
+    make_bar_project(tmp_path / "p")
+    (tmp_path / "p" / "worm.json").write_text(json.dumps(_weighted_worms()))
+    plans = {w: plan_project(find_project(tmp_path / "p"), Options(weights=w), Result()) for w in ("auto", "none")}
+    rigs = {sk.rel: sk.rig for sk in plans["auto"].skeletons}
+    assert sorted(rigs) == ["bar.json", "worm.json"]
+    assert rigs["bar.json"].habits is rigs["worm.json"].habits
+    assert len(rigs["bar.json"].habits.tallies) == 2  # the two weighted worms, read for the bar too
+    assert all(sk.rig is None for sk in plans["none"].skeletons)

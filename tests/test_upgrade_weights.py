@@ -84,6 +84,8 @@ def test_a_bending_region_is_meshed_and_weighted_with_auto_and_kept_with_none(tm
     assert bar.status == "meshed", bar
     assert bar.weights["status"] == "weighted" and bar.weights["meshed_to_bend"] is True
     assert set(bar.weights["bones"]) == {"upper", "lower"}
+    # the rule finds that it bends, the learned choice (``auto``) binds it and says why
+    assert all(why.startswith("learned:") for why in bar.weights["bones"].values()), bar.weights
     assert bar.reason.startswith("meshed because it bends over 2 bones; the keep rule alone: not worth meshing")
     assert "overruled" not in bar.row() and "region" not in bar.row()
     out = attachments(tmp_path / "auto" / "bar.json")
@@ -122,7 +124,10 @@ def test_none_output_does_not_depend_on_the_bones(tmp_path):
 
 
 def test_a_region_that_moves_away_from_the_joint_is_not_bent(tmp_path):
-    """The same bar with ``lower`` far off its art: not bending, so the keep rule keeps it under auto too."""
+    """The same bar with ``lower`` far off its art: not bending, so the keep rule keeps it under auto too.
+
+    The learned choice alone would bind it to ``upper`` and the root (a point at its middle): the
+    rule, which never takes the root nor a bone off the art, says whether the art bends."""
     project = make_bar_project(tmp_path / "p", lower_x=1000.0)
     auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
     assert auto["bar"].status == "kept" and auto["bar"].reason.startswith("not worth meshing"), auto["bar"]

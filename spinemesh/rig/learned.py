@@ -281,10 +281,7 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
         if not mesh.weighted:
             continue
         artist = mesh.bones()
-        try:
-            tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
-        except (TypeError, ValueError, OverflowError):  # not a flat list of indices: not read
-            continue
+        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
         if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
                 or tris.max() >= mesh.count or tris.min() < 0:
             continue
