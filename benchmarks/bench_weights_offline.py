@@ -37,7 +37,8 @@ seconds the weights took. Variants:
 - ``learned-alone``: the same without the habits, as a project with no artist-weighted mesh
   shows;
 - ``upgrade``, ``upgrade-alone``: the bones ``spinemesh upgrade --weights auto`` binds, with and
-  without the habits: the learned choice where the rule takes more than one bone, else the rule's.
+  without the habits: the learned choice for art no artist chose to weight (more than one bone
+  only where a bone besides the slot's reaches the per-bone threshold).
 
 Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
 set and the bones per mesh (median and 95th percentile; the artists': the last line).
@@ -239,12 +240,12 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
-def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, gate: bool = False):
+def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, unweighted: bool = False):
     """The learned choice, each case's bones chosen by the fold model fitted without its project;
     a model that reads the project's habits gets them from the artist-weighted meshes of the
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does.
-    ``alone``: without them, as a project with no weighted mesh shows. ``gate``: only where the
-    rule takes more than one bone, else the rule's bones, as ``upgrade --weights auto`` binds
+    ``alone``: without them, as a project with no weighted mesh shows. ``unweighted``: as for
+    art no artist chose to weight, as ``upgrade --weights auto`` binds
     (:func:`spinemesh.rig.upgrade.upgrade_choice`)."""
     from spinemesh.rig import train_choice
     from spinemesh.rig.habits import keys_of
@@ -264,13 +265,9 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
         others = habits[case["label"]].others(keys) if reads else None
         rig = case["rig"]
         nearby = neighbour_sets(habits.get(case["label"]), rig.bones, case["slot_bone"], keys)
-        rule = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                              rig.skin_bones.get(case["skin"], set())).bones if gate else []
-        if gate and len(rule) < 2:
-            chosen = rule
-        else:
-            chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                                    rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby).bones
+        chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby,
+                                unweighted).bones
         reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
         return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
@@ -434,8 +431,8 @@ def main() -> None:
         skeletons.setdefault(label, []).append(skel)
     VARIANTS["learned"] = learned(args.fold_models, skeletons)
     VARIANTS["learned-alone"] = learned(args.fold_models, skeletons, alone=True)
-    VARIANTS["upgrade"] = learned(args.fold_models, skeletons, gate=True)
-    VARIANTS["upgrade-alone"] = learned(args.fold_models, skeletons, alone=True, gate=True)
+    VARIANTS["upgrade"] = learned(args.fold_models, skeletons, unweighted=True)
+    VARIANTS["upgrade-alone"] = learned(args.fold_models, skeletons, alone=True, unweighted=True)
     cases = cases[::args.every]
     for c in cases:
         c["rigid"] = rigid_error(c)

@@ -152,7 +152,7 @@ def test_a_mesh_made_to_bend_that_gets_one_bone_is_its_region_again(tmp_path):
     weight_upgraded(doc, targets)
     flag = next(t for t in targets if t.slot == "flag")
     assert flag.status == "kept" and flag.vertices == 0
-    assert flag.reason == "not worth meshing: (the rule's reason) (its region may bend, but its art lies over one bone only)"
+    assert flag.reason == "not worth meshing: (the rule's reason) (its region may bend, but no bone but its slot's is likely for its art)"
     assert flag.weights["meshed_to_bend"] is False and flag.weights["status"] == "skipped"
     assert doc["skins"][0]["attachments"]["flag"]["bar"] == region
     # the other mesh (not meshed to bend) stays a mesh, weighted over both bones

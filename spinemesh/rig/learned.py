@@ -550,7 +550,8 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
                    constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
-                   habits: np.ndarray | None = None, neighbours: dict[tuple[int, ...], int] | None = None) -> Choice:
+                   habits: np.ndarray | None = None, neighbours: dict[tuple[int, ...], int] | None = None,
+                   unweighted: bool = False) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -565,6 +566,13 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     probability they move by :data:`HABIT_MATTERS` or more says so in its reason.
     ``neighbours``: the bone sets the project's artists bound on its other meshes on the same
     slot bone (:func:`neighbour_sets`), for a set stage reading the habits.
+
+    ``unweighted``: the art is not one an artist chose to weight (``upgrade --weights auto``
+    binds regions): bound to more than one bone only when a bone besides the slot's reaches the
+    per-bone threshold, else to the slot's bone alone. Both models were fitted on meshes that
+    artists weighted, 95% of them to several bones, and the set stage learned that: on the
+    attachments artists left rigid it takes several bones three times in four, the per-bone
+    choice one time in four (measured project-held-out: ``docs/guide/bones.md``, *While upgrading*).
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
@@ -583,8 +591,12 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
             allowed[k] = True
     order = sorted(np.flatnonzero(allowed).tolist(), key=lambda k: -p[k])
     slot = next((k for k in order if cand.bones[k] == slot_bone), None)
-    take, note = (_by_sets(bones, cand, p, allowed, slot, model, habits, neighbours) if model.sets is not None
-                  else ([], ""))
+    if unweighted and slot is not None and not any(p[k] >= model.threshold for k in order if k != slot):
+        take, note = [slot], ""  # the per-bone choice: no bone but the slot's is likely
+    elif model.sets is not None:
+        take, note = _by_sets(bones, cand, p, allowed, slot, model, habits, neighbours)
+    else:
+        take, note = [], ""
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
                    model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:

@@ -1,20 +1,19 @@
 """``spinemesh upgrade --weights auto``: upgraded meshes bound and weighted in the same run.
 
-Each mesh the upgrade just made gets the bones of :func:`upgrade_choice`: the ``rule``
-(:mod:`.choice`) tells whether its art bends, and the ``auto`` choice of ``spinemesh weights``
-(the learned one, :mod:`.learned`, with the habits of the project's artist-weighted meshes)
-which bones it then bends with. It then gets the rig-aware vertices for them (:mod:`.topology`,
-within the vertex budget), weights and an exact setup-pose binding (:mod:`.document`). A mesh
-that cannot be weighted (its slot's bone is moved by a constraint in the setup pose, say) stays
-the unweighted mesh the upgrade made, without the added vertices, and the report says why.
+Each mesh the upgrade just made gets the ``auto`` bones of ``spinemesh weights`` (the learned
+choice, :mod:`.learned`, with the habits of the project's artist-weighted meshes), chosen as for
+art no artist chose to weight (:func:`upgrade_choice`: more than one bone only where the model
+finds a bone besides the slot's likely), the rig-aware vertices for them (:mod:`.topology`,
+within the vertex budget), then weights and an exact setup-pose binding (:mod:`.document`). A
+mesh that cannot be weighted (its slot's bone is moved by a constraint in the setup pose, say)
+stays the unweighted mesh the upgrade made, without the added vertices, and the report says why.
 
-Before meshing, :class:`BendingRegions` tells which region attachments may bend: the rule
-gives their quad more than one bone. ``upgrade`` meshes those even where the keep rule
+Before meshing, :class:`BendingRegions` tells which region attachments may bend: the same
+choice gives their quad more than one bone. ``upgrade`` meshes those even where the keep rule
 (:mod:`spinemesh.mesher.worth`) would keep them for saving too few pixels: a mesh that bends
 with the skeleton is worth having for that alone. The art decides: a mesh made only to bend
-whose own triangles do not get more than one bone (the art misses the other bones) is put back
-as the region it was, before any weights are solved; so is one whose weights leave all but one
-bone out.
+whose own triangles do not get more than one bone is put back as the region it was, before any
+weights are solved; so is one whose weights leave all but one bone out.
 """
 
 from __future__ import annotations
@@ -28,9 +27,9 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import AttachmentRef, iter_attachments
 from .binding import parse_vertices, setup_world
-from .choice import Choice, choose_by_rule
+from .choice import Choice
 from .document import Outcome, Rig, WeightOptions, build_rig, choose, weight_mesh
-from .learned import share_project_habits
+from .learned import REACH, share_project_habits
 from .topology import add_rig_vertices
 
 #: A region's image corners (u, v), 0..1 over the original image, and the quad's two triangles.
@@ -42,8 +41,8 @@ QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
 class BendingRegions:
     """Which region attachments of one skeleton may bend, from its setup pose.
 
-    A region *may bend* when the rule's bone choice (:func:`.choice.choose_by_rule`) for its
-    quad, placed where the region draws it in the setup pose, gives more than one bone. Only
+    A region *may bend* when :func:`upgrade_choice` for its quad, placed where the region draws
+    it in the setup pose, gives more than one bone. Only
     regions whose slot bone's setup transform is exact are considered (nothing is bound
     otherwise). The quad, not the art: the art is known only once meshed, and the bone choice
     on the mesh (:func:`weight_upgraded`) settles it then. Testing the art's outline here cost
@@ -55,8 +54,9 @@ class BendingRegions:
     rig : Rig
         The skeleton's rig (:func:`.document.build_rig`), built once and reused to weight.
     boxes : ndarray, shape (B, 2, 2)
-        Each bone segment's bounding box (min, max), world units: a region whose box meets
-        no other bone's cannot bend, and is rejected without the choice.
+        Each bone segment's bounding box (min, max), world units: a region whose box, grown by
+        the candidates' reach (:data:`.learned.REACH` of its diagonal), meets no other bone's
+        cannot bend, and is rejected without the choice.
     """
 
     rig: Rig
@@ -89,25 +89,27 @@ class BendingRegions:
 
     def choice(self, ref: AttachmentRef, uv: np.ndarray = QUAD_UV,
                triangles: np.ndarray = QUAD_TRIANGLES) -> Choice | None:
-        """The ``auto`` bones of the art ``uv``/``triangles`` of a region (default: its whole quad).
+        """The :func:`upgrade_choice` of the art ``uv``/``triangles`` of a region (default: its
+        whole quad).
 
         None when the region cannot be weighted (see :meth:`world`) or no bone but its slot
-        bone comes near its box.
+        bone comes within the candidates' reach of its box.
         """
         world = self.world(ref, uv)
         if world is None or len(triangles) == 0:
             return None
         slot_bone = self.rig.slot_bone[ref.slot]
         lo, hi = world.min(axis=0), world.max(axis=0)
+        grow = REACH * float(np.linalg.norm(hi - lo))
+        lo, hi = lo - grow, hi + grow
         meets = ~((self.boxes[:, 1] < lo).any(axis=1) | (self.boxes[:, 0] > hi).any(axis=1))
         meets[slot_bone] = False
-        if not meets.any():  # choose_by_rule would reject every other bone by the same box test
+        if not meets.any():  # no other bone is a candidate
             return None
-        return choose_by_rule(self.rig.bones, slot_bone, world, triangles,
-                              self.rig.skin_bones.get(ref.skin, set()))
+        return upgrade_choice(self.rig, ref, world, triangles)
 
     def bends(self, ref: AttachmentRef, uv: np.ndarray = QUAD_UV, triangles: np.ndarray = QUAD_TRIANGLES) -> bool:
-        """Whether the art (default: the whole quad) gets more than one ``auto`` bone."""
+        """Whether the art (default: the whole quad) gets more than one bone."""
         try:
             choice = self.choice(ref, uv, triangles)
         except SpineMeshError:
@@ -115,38 +117,29 @@ class BendingRegions:
         return choice is not None and len(choice.bones) > 1
 
 
-def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: np.ndarray) -> tuple[Choice, bool]:
-    """The bones an upgraded mesh is bound to: the ``auto`` choice of ``spinemesh weights``
-    where the ``rule`` finds that its art bends (more than one bone), else the rule's.
+def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: np.ndarray) -> Choice:
+    """The bones an upgraded mesh is bound to: the ``auto`` choice of ``spinemesh weights``, for
+    art no artist chose to weight (``unweighted``, :func:`.learned.choose_learned`).
 
     The learned choice was fitted on meshes that artists weighted, nearly all of them (95%) to
-    several bones; on the attachments artists left rigid it binds several bones three times in
-    four (the rule: one in three). So the rule says whether the art bends, and the learned
-    choice, closer to the artists' sets, which bones. Measured project-held-out on the examples
-    and corpus, as a project without weighted meshes shows it (``docs/guide/bones.md``).
+    several bones, and its set stage learned that: on the attachments artists left rigid it binds
+    several bones three times in four. So an upgraded mesh is bound to more than one bone only
+    where the per-bone model finds a bone besides the slot's likely; measured project-held-out,
+    that bends fewer of the attachments artists left rigid than the rule does and more of the
+    meshes artists bent (``docs/guide/bones.md``, *While upgrading*).
 
     Parameters
     ----------
     rig : Rig
         The skeleton's rig, with the project's habits (:func:`.learned.share_project_habits`).
     ref : AttachmentRef
-        The mesh attachment (its slot has a bone).
+        The attachment (its slot has a bone).
     world : ndarray, shape (N, 2)
         Its setup-pose vertices, world units.
     triangles : ndarray, shape (T, 3)
         Its triangles, indices into ``world``.
-
-    Returns
-    -------
-    choice : Choice
-        The bones, each with why it was taken, and those left out.
-    bends : bool
-        Whether the rule finds that the art bends (the learned choice may still take one bone).
     """
-    rule = choose(rig, ref, None, world, triangles, "rule")
-    if len(rule.bones) < 2:
-        return rule, False
-    return choose(rig, ref, None, world, triangles, "auto"), True
+    return choose(rig, ref, None, world, triangles, "auto", unweighted=True)
 
 
 def _local_segments(rig, bone_ids: list[int], slot_bone: int) -> np.ndarray:
@@ -191,13 +184,10 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
                 mesh = parse_vertices(ref.attachment, len(rig.bones))
                 world = setup_world(mesh, rig.worlds, slot_bone)
                 tris = np.asarray(ref.attachment["triangles"], int).reshape(-1, 3)
-                choice, bends = upgrade_choice(rig, ref, world, tris)
+                choice = upgrade_choice(rig, ref, world, tris)
                 if t.overruled and len(choice.bones) < 2:
-                    # meshed only to bend, but its art misses the other bones (or an artist would
-                    # bind one of them only): no weights to solve
-                    outcome.status = "skipped"
-                    outcome.reason = ("the bones an artist would bind: one only" if bends
-                                      else "its art lies over one bone only")
+                    # meshed only to bend, but no other bone is likely for its art: no weights to solve
+                    outcome.status, outcome.reason = "skipped", "no bone but its slot's is likely for its art"
                     t.weights = {"status": outcome.status, "reason": outcome.reason, "bones": {},
                                  "left_out": {rig.bones[b].name: w for b, w in choice.left_out.items()},
                                  "added_vertices": 0}
