@@ -192,7 +192,7 @@ def test_the_runtime_draws_the_bent_mesh_where_the_region_was_and_bends_it(spine
 
 #: 4.2 example skeletons with regions that only bending gets meshed (from ``benchmarks/
 #: bench_corpus_upgrade.py run --root .../4.2 --weights auto``), JSON and binary.
-BENDING_EXAMPLES = ["windmill-ess.json", "windmill-ess.skel", "cloud-pot.json", "mix-and-match-pro.skel"]
+BENDING_EXAMPLES = ["windmill-ess.json", "windmill-ess.skel", "chibi-stickers.json", "mix-and-match-pro.skel"]
 
 
 @pytest.mark.parametrize("name", BENDING_EXAMPLES)
