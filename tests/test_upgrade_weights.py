@@ -221,3 +221,24 @@ def test_examples_meshed_to_bend_load_in_the_runtime_in_their_setup_pose(name, s
     ok, text = compare_dumps(spine_runtime, a, b)
     assert ok, text
 
+
+
+def test_art_no_artist_weighted_gets_several_bones_only_where_another_is_likely():
+    """The set stage, fitted on meshes artists chose to weight, binds the far-joint bar to its
+    bone and the root (a point at its middle, 0.24 likely): as for art no artist weighted
+    (``upgrade``, and ``weights`` on an unweighted mesh), only the slot's bone, and why."""
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.learned import choose_learned
+    from spinemesh.rig.upgrade import QUAD_TRIANGLES, BendingRegions
+
+    doc = bar_skeleton(lower_x=1000.0)
+    rig = build_rig(doc)
+    ref = next(r for r in iter_attachments(doc) if r.slot == "bar")
+    world = BendingRegions.of(rig).world(ref, np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float))
+    names = [b.name for b in rig.bones]
+    args = (rig.bones, names.index("upper"), world, QUAD_TRIANGLES, set(), rig.constrained)
+    weighted = choose_learned(*args)
+    assert len(weighted.bones) > 1
+    unweighted = choose_learned(*args, unweighted=True)
+    assert [names[b] for b in unweighted.bones] == ["upper"]
+    assert "below the threshold 0.50" in unweighted.left_out[names.index("root")]
