@@ -437,8 +437,9 @@ class TreeEnsemble:
 
     @cached_property
     def stacked(self) -> dict[str, np.ndarray]:
-        """The trees' arrays stacked, (T, most nodes), shorter trees padded with leaves of 0: all
-        trees walk a level at once (one tree at a time cost upgrade a second per hundred meshes)."""
+        """The trees' arrays stacked, (T, most nodes), shorter trees padded with leaves of 0, so
+        that all trees walk a level at once (the 120 per-bone trees on 10 candidates: 0.5 ms,
+        against 6.0 ms one tree at a time)."""
         most = max((len(t["feature"]) for t in self.trees), default=1)
         out = {"feature": np.full((len(self.trees), most), -1, np.int64)}
         for key, dtype in (("threshold", float), ("left", np.int64), ("right", np.int64), ("value", float)):
