@@ -115,9 +115,11 @@ class Recorder(Progress):
 def test_every_phase_reports_its_work_and_finishes_it(tmp_path):
     seen = Recorder()
     result = upgrade_project(DEMO, tmp_path / "out", Options(weights="auto", jobs=1), seen)
-    meshed = sum(t.status == "meshed" for t in result.targets)
+    # every mesh made is bound, those made only to bend and then put back as regions included
+    bound = sum(t.weights is not None for t in result.targets)
+    assert bound >= sum(t.status == "meshed" for t in result.targets) > 0
     assert seen.added == seen.done
-    assert seen.added["read"] == 2 and seen.added["write"] == 2 and seen.added["weights"] == meshed
+    assert seen.added["read"] == 2 and seen.added["write"] == 2 and seen.added["weights"] == bound
     assert seen.added["mesh"] >= 5
     lib = tmp_path / "lib"
     shutil.copytree(DEMO, lib / "a")
