@@ -47,21 +47,8 @@ from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
 SHARED = REPO.parent / "shared"
 
 
-def without_habits(data: dict, full: dict) -> dict:
-    """``data`` with the habit columns of a project without weighted meshes (the prior alone)."""
-    from spinemesh.rig import habits
-
-    starts = tc._mesh_rows(data)
-    zero = np.zeros_like(full["habit_others"])
-    H = np.concatenate([habits.habit_features(data["X"][s:e], FEATURES, zero[m], full["habit_prior"])
-                        for m, (s, e) in enumerate(zip(starts[:-1], starts[1:]))])
-    return {**data, "X": np.hstack([data["X"], H]), "habit_prior": full["habit_prior"], "habit_others": zero,
-            "habit_neighbours": [{} for _ in data["group"]]}
-
-
 def weighted_side(data: dict, models: dict) -> None:
     """The artist-weighted meshes: one table row per choice."""
-    full = tc.with_habits(data, True)
     starts = tc._mesh_rows(data)
     col = {f: i for i, f in enumerate(FEATURES)}
     allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
@@ -83,7 +70,7 @@ def weighted_side(data: dict, models: dict) -> None:
     print("| choice | exact bone set | several, where the artist bound several | one, where the artist bound one |")
     print("|---|--:|--:|--:|")
     row("rule", data["rule"].astype(bool))
-    for label, d in (("without habits", without_habits(data, full)), ("with habits", full)):
+    for label, d in (("without habits", tc.with_habits(data, alone=True)), ("with habits", tc.with_habits(data))):
         p, _ = tc.held_out_probabilities(d, 0.5, log=lambda s: None, models=models)
         learned = np.zeros(len(p), bool)
         for k, m in models.items():

@@ -195,8 +195,8 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     if len(triangles) == 0 or triangles.max() >= mesh.count or triangles.min() < 0:
         outcome.status, outcome.reason = "failed", "triangles do not index the vertices"
         return
-    # a mesh its artist did not weight is bound as upgrade binds new ones (choose_learned's unweighted)
-    choice = choice or choose(rig, ref, mesh, world, triangles, options.bones, unweighted=not mesh.weighted)
+    if choice is None:  # a mesh its artist did not weight is bound as upgrade binds new ones
+        choice = choose(rig, ref, mesh, world, triangles, options.bones, unweighted=not mesh.weighted)
     outcome.left_out = {rig.bones[b].name: w for b, w in choice.left_out.items()}
     if not choice.bones:
         outcome.status, outcome.reason = "skipped", "none of its bones has an exact setup transform"

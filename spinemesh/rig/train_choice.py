@@ -150,21 +150,26 @@ def mesh_keys(data: dict) -> list[set[str]]:
     return [habits.keys_of(*str(a).split("/", 2)[1:]) for a in data["attachment"]]
 
 
-def with_habits(data: dict, strict: bool = True) -> dict:
+def with_habits(data: dict, strict: bool = True, alone: bool = False) -> dict:
     """``data`` with the :data:`.habits.HABIT_FEATURES` of each row appended to ``X``, from the
     other artist-weighted meshes of its mesh's project (``strict``: also without those of the
     same slot or attachment name), and ``habit_prior`` (the rates over every mesh) and
     ``habit_others`` (each mesh's others' tally, (M, TALLY_SIZE)) and ``habit_neighbours``
-    (:func:`neighbour_sets`, a list) added."""
+    (:func:`neighbour_sets`, a list) added. ``alone``: as a project with no other weighted mesh
+    shows each mesh (the prior alone, no neighbours' sets)."""
     starts = _mesh_rows(data)
     tallies = np.stack([habits.tally(data["X"][s:e], data["y"][s:e], n, FEATURES)
                         for s, e, n in zip(starts[:-1], starts[1:], data["artist_count"])])
-    others = habits.others_of(tallies, data["group"], mesh_keys(data) if strict else None)
+    if alone:
+        others, neighbours = np.zeros_like(tallies), [{} for _ in data["group"]]
+    else:
+        others = habits.others_of(tallies, data["group"], mesh_keys(data) if strict else None)
+        neighbours = neighbour_sets(data, strict)
     base = habits.prior(tallies)
     H = np.concatenate([habits.habit_features(data["X"][s:e], FEATURES, others[m], base)
                         for m, (s, e) in enumerate(zip(starts[:-1], starts[1:]))])
     return {**data, "X": np.hstack([data["X"], H]), "habit_prior": base, "habit_others": others,
-            "habit_neighbours": neighbour_sets(data, strict)}
+            "habit_neighbours": neighbours}
 
 
 def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...], int]]:
