@@ -82,7 +82,7 @@ from spinemesh.rig import weights as rig_weights  # noqa: E402
 from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.choice import NEAR, choose_by_rule  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
-from spinemesh.rig.weights import _segment_distance, solve_weights, sparsify  # noqa: E402
+from spinemesh.rig.weights import segment_distances, solve_weights, sparsify  # noqa: E402
 from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton  # noqa: E402
 
 
@@ -375,7 +375,7 @@ def learned_bound(cases: list[dict], seed: int = 0) -> dict[int, float]:
         w = [v(c)[1] for v in layouts]
         segs = segments(c, c["bones"])
         diag = float(np.linalg.norm(np.ptp(c["world"], axis=0))) + 1e-9
-        d = np.stack([_segment_distance(c["world"], s) for s in segs], 1) / diag
+        d = segment_distances(c["world"], segs) / diag
         length = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1) / diag
         t = np.zeros_like(d)
         for j, (a, b) in enumerate(segs):

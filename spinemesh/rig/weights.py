@@ -105,13 +105,24 @@ def subdivision_for(triangles: int) -> int:
     return int(np.clip(k, 1, MAX_SUBDIVISION))
 
 
-def _segment_distance(points: np.ndarray, segment: np.ndarray) -> np.ndarray:
-    """Distance of each point (P, 2) to a segment (2, 2) (a point if it has zero length)."""
-    a, b = segment
-    ab = b - a
-    denom = float(ab @ ab)
-    t = np.zeros(len(points)) if denom == 0 else np.clip((points - a) @ ab / denom, 0.0, 1.0)
-    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
+def segment_distances(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Distance of each point (P, 2) to each segment (S, 2, 2) (to its origin where it has zero
+    length), shape (P, S).
+
+    Examples
+    --------
+    >>> bone, point_bone = [[0.0, 0.0], [2.0, 0.0]], [[3.0, 1.0], [3.0, 1.0]]
+    >>> segment_distances(np.array([[0.0, 1.0], [3.0, 0.0]]), np.array([bone, point_bone]))
+    array([[1., 3.],
+           [1., 1.]])
+    """
+    points = np.asarray(points, float).reshape(-1, 2)
+    segments = np.asarray(segments, float).reshape(-1, 2, 2)
+    a, ab = segments[:, 0], segments[:, 1] - segments[:, 0]                 # (S, 2)
+    denom = np.matmul(ab[:, None, :], ab[:, :, None])[:, 0, 0]               # (S,)
+    along = np.matmul(points[None] - a[:, None], ab[:, :, None])[..., 0]     # (S, P)
+    t = np.where(denom[:, None] == 0, 0.0, np.clip(along / np.where(denom == 0, 1.0, denom)[:, None], 0.0, 1.0))
+    return np.linalg.norm(points[None] - (a[:, None] + t[..., None] * ab[:, None]), axis=2).T
 
 
 def _components(n: int, faces: np.ndarray) -> np.ndarray:
@@ -136,7 +147,7 @@ def handles(points: np.ndarray, faces: np.ndarray, segments: np.ndarray, spacing
     handle on its nearest point), so that every piece has a solution.
     """
     used = np.unique(faces)
-    dist = np.stack([_segment_distance(points[used], s) for s in segments], axis=1)  # (U, B)
+    dist = segment_distances(points[used], segments)  # (U, B)
     near = dist.min(axis=1) <= spacing / 2
     if dist.shape[1] > 1:
         # A point as near to two bones (a joint) is left free: the solve blends it.
@@ -206,7 +217,7 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
     tris = np.asarray(triangles, np.int64).reshape(-1, 3)
     points, faces = refine(vertices, tris, subdivision_for(len(tris)))
     faces = _clean_faces(points, faces)
-    nearest = np.stack([_segment_distance(vertices, s) for s in segments], axis=1).argmin(axis=1)
+    nearest = segment_distances(vertices, segments).argmin(axis=1)
     out = np.eye(nb)[nearest]
     if len(faces) == 0:
         return out
