@@ -45,17 +45,21 @@ def bar_skeleton(lower_x: float = 100.0) -> dict:
     }
 
 
-def make_bar_project(folder: Path, lower_x: float = 100.0) -> Path:
-    """``bar.json``, ``bar.atlas`` and ``bar.png`` in ``folder``; returns the skeleton path."""
+def make_bar_project(folder: Path, lower_x: float = 100.0, art_width: int = WIDTH) -> Path:
+    """``bar.json``, ``bar.atlas`` and ``bar.png`` in ``folder``; returns the skeleton path.
+
+    ``art_width``: the image's art is its left ``art_width`` pixels, all the atlas stores (the
+    rest, transparent, stripped by the packer)."""
     folder.mkdir(parents=True, exist_ok=True)
     page = np.zeros((64, 256, 4), np.uint8)
-    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
-    page[2:2 + HEIGHT, 2:2 + WIDTH, 0] = np.where((x // 25) % 2 == 0, 210, 70)
-    page[2:2 + HEIGHT, 2:2 + WIDTH, 1] = 140
-    page[2:2 + HEIGHT, 2:2 + WIDTH, 3] = 255
+    y, x = np.mgrid[0:HEIGHT, 0:art_width]
+    page[2:2 + HEIGHT, 2:2 + art_width, 0] = np.where((x // 25) % 2 == 0, 210, 70)
+    page[2:2 + HEIGHT, 2:2 + art_width, 1] = 140
+    page[2:2 + HEIGHT, 2:2 + art_width, 3] = 255
     Image.fromarray(page).save(folder / "bar.png")
     (folder / "bar.atlas").write_text(
-        "bar.png\n\tsize: 256, 64\n\tfilter: Linear, Linear\nbar\n\tbounds: 2, 2, 200, 40\n")
+        f"bar.png\n\tsize: 256, 64\n\tfilter: Linear, Linear\nbar\n\tbounds: 2, 2, {art_width}, {HEIGHT}\n"
+        f"\toffsets: 0, 0, {WIDTH}, {HEIGHT}\n")
     path = folder / "bar.json"
     path.write_text(json.dumps(bar_skeleton(lower_x), indent=1))
     return path
@@ -131,6 +135,23 @@ def test_a_region_that_moves_away_from_the_joint_is_not_bent(tmp_path):
     project = make_bar_project(tmp_path / "p", lower_x=1000.0)
     auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
     assert auto["bar"].status == "kept" and auto["bar"].reason.startswith("not worth meshing"), auto["bar"]
+
+
+def test_a_region_whose_art_stops_short_of_the_joint_is_not_meshed_to_bend(tmp_path):
+    """The bar's image spans the joint, its art (the left 70 of 200 pixels) does not: the box of
+    the art, not the whole quad, says whether it may bend. So it is kept by the keep rule (the
+    atlas stores only the art) and never meshed only to be put back."""
+    project = make_bar_project(tmp_path / "p", art_width=70)
+    auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
+    bar = auto["bar"]
+    assert bar.status == "kept" and bar.reason.startswith("not worth meshing") and bar.weights is None, bar
+    # the whole quad would have bent: over both bones
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.upgrade import BendingRegions
+
+    doc = json.loads(project.read_text())
+    ref = next(r for r in iter_attachments(doc) if r.slot == "bar")
+    assert BendingRegions.of(build_rig(doc)).bends(ref)
 
 
 def test_a_mesh_made_to_bend_that_gets_one_bone_is_its_region_again(tmp_path):

@@ -15,7 +15,9 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -204,6 +206,24 @@ def bending_task(task: MeshTask) -> MeshTask:
     return dataclasses.replace(task, key=BENDS_KEY + task.key, bends=True)
 
 
+def art_box(task: MeshTask) -> np.ndarray:
+    """The corners (4, 2) of the box around the texels ``task`` must cover, as image points
+    (u, v), 0..1 over the original image, in the order of a region's quad
+    (:data:`spinemesh.rig.upgrade.QUAD_UV`); the whole quad when it covers none.
+
+    What :class:`spinemesh.rig.upgrade.BendingRegions` tests before meshing: the quad reaches
+    past the art wherever the image has transparent margins, and bones there are not the art's.
+    """
+    ys, xs = np.nonzero(task.drawn)
+    (x0, y0), (width, height) = task.origin, task.size
+    if not len(xs):
+        x_lo, y_lo, x_hi, y_hi = 0, 0, width, height
+    else:
+        x_lo, y_lo, x_hi, y_hi = x0 + xs.min(), y0 + ys.min(), x0 + xs.max() + 1, y0 + ys.max() + 1
+    u0, u1, v0, v1 = x_lo / width, x_hi / width, y_lo / height, y_hi / height
+    return np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]], float)
+
+
 def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
     """Whether ``task`` meshes beyond what some frame stores, so those frames must be re-packed whole."""
     return task.origin == (0, 0) and tuple(task.rgba.shape[1::-1]) == task.size and any(
@@ -252,7 +272,8 @@ class Planner:
         Those that need their image are left to :meth:`decide` (:attr:`undecided`), so that
         the pages they are cut from can be decoded meanwhile (:meth:`pages_to_decode`).
         ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
-        ``--weights auto``) tells which regions would bend: those get :func:`bending_task`.
+        ``--weights auto``) tells which regions would bend, once their image is cut (the box of
+        their art, :func:`art_box`): those get :func:`bending_task`.
         """
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
@@ -281,12 +302,13 @@ class Planner:
                 t.status, t.reason = "failed", "no atlas or images folder holds its image"
             else:
                 # only with a keep rule on saving (min_saving > 0): without it every region is meshed
-                bends = bending is not None and bool(self.options.min_saving) and bending.bends(ref)
+                bends = partial(bending.bends, ref) if bending is not None and self.options.min_saving else None
                 self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends))
         return targets
 
     def _decide(self, source, paths: list[str], blend: str = "normal",
-                bends: bool = False) -> tuple[str, str, str]:
+                bends: Callable[[np.ndarray], bool] | None = None) -> tuple[str, str, str]:
+        """``bends``: whether the attachment's art would bend, given its box (:func:`art_box`)."""
         seen = (source_identity(source), tuple(paths), blend == "normal")
         if seen not in self.decided:
             try:
@@ -311,7 +333,7 @@ class Planner:
         status, reason, key = self.decided[seen]
         if key:
             task = self.found[key]
-            if bends:
+            if bends is not None and bends(art_box(task)):
                 task = bending_task(task)
             self.tasks.setdefault(task.key, task)
             key = task.key
