@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +41,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from bench_bone_choice import SHARED, inputs  # noqa: E402
+from bench_bone_choice import best_cpu, default_projects, inputs  # noqa: E402
 
 from spinemesh.rig.choice import PAIRS_AT_ONCE, distance_to_art  # noqa: E402
 from spinemesh.rig.learned import REACH, segment_samples  # noqa: E402
@@ -78,23 +77,13 @@ def every_edge(points: np.ndarray, world: np.ndarray, triangles: np.ndarray) -> 
     return np.concatenate(out) if out else np.zeros(0)
 
 
-def best_cpu(fn, cases: list[tuple], repeat: int) -> tuple[float, list[np.ndarray]]:
-    best, results = float("inf"), []
-    for _ in range(repeat):
-        t = time.process_time()
-        results = [fn(points, world, tris) for points, world, tris in cases]
-        best = min(best, time.process_time() - t)
-    return best, results
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("projects", nargs="*", type=Path)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--every-edge", action="store_true", help="also time every edge of every triangle (slow)")
     args = ap.parse_args()
-    projects = args.projects or (sorted(p for p in (SHARED / "spine-examples" / "4.2").iterdir() if p.is_dir())
-                                 + sorted(p for p in (SHARED / "spine-corpus").iterdir() if p.is_dir()))
+    projects = args.projects or default_projects()
     ways = {"outline": distance_to_art, "STRtree": strtree} | ({"every edge": every_edge} if args.every_edge else {})
     totals = {k: {"cases": 0, "points": 0, "off the art": 0, **{w: 0.0 for w in ways}}
               for k in ("region quads", "artist meshes")}

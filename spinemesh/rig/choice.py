@@ -64,10 +64,9 @@ def outline_edges(world: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
     edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     opposite = np.concatenate([tri[:, 2], tri[:, 0], tri[:, 1]])     # each edge's third corner
-    key = np.sort(edges, axis=1)
-    _, inverse, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.reshape(-1)
-    a, b, c = world[key[:, 0]], world[key[:, 1]], world[opposite]
+    lo, hi = edges.min(axis=1), edges.max(axis=1)
+    _, inverse, count = np.unique(lo * (int(tri.max()) + 1) + hi, return_inverse=True, return_counts=True)
+    a, b, c = world[lo], world[hi], world[opposite]
     side = np.sign((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
     same_side = np.bincount(inverse, weights=side, minlength=len(count)) != 0
     flat = np.bincount(inverse, weights=side == 0, minlength=len(count)) > 0
