@@ -18,7 +18,7 @@ from PIL import Image
 
 from spinemesh.skeleton import iter_attachments
 from spinemesh.upgrade import Options, upgrade_project
-from spinemesh.upgrade.plan import BENDS_KEY, plan_project
+from spinemesh.upgrade.plan import BENDS_KEY, MeshTask, art_box, plan_project
 from spinemesh.upgrade.report import Result
 from spinemesh.project import find_project
 
@@ -135,6 +135,17 @@ def test_a_region_that_moves_away_from_the_joint_is_not_bent(tmp_path):
     project = make_bar_project(tmp_path / "p", lower_x=1000.0)
     auto = by_slot(upgrade_project(project, tmp_path / "auto", Options(weights="auto")))
     assert auto["bar"].status == "kept" and auto["bar"].reason.startswith("not worth meshing"), auto["bar"]
+
+
+def test_the_art_box_is_the_box_of_the_texels_to_cover_over_the_original_image():
+    # a 40 x 20 part stored at (10, 5) of a 100 x 50 image, its texels to cover in rows 2-5, columns 4-29
+    drawn = np.zeros((20, 40), bool)
+    drawn[2:6, 4:30] = True
+    task = MeshTask("k", np.zeros((20, 40, 4), np.uint8), (10, 5), (100, 50), (), drawn)
+    assert art_box(task).tolist() == [[0.14, 0.14], [0.4, 0.14], [0.4, 0.22], [0.14, 0.22]]
+    # nothing to cover (a mask made by the model, say): the whole quad
+    nothing = MeshTask("k", np.zeros((20, 40, 4), np.uint8), (10, 5), (100, 50), (), np.zeros((20, 40), bool))
+    assert art_box(nothing).tolist() == [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
 
 
 def test_a_region_whose_art_stops_short_of_the_joint_is_not_meshed_to_bend(tmp_path):
