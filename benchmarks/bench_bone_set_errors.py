@@ -22,7 +22,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections import Counter, defaultdict
 from pathlib import Path
@@ -31,6 +30,9 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+from bench_unweighted_bones import dataset_and_models, dataset_arguments  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.rig import train_choice as tc  # noqa: E402
@@ -38,7 +40,6 @@ from spinemesh.rig.binding import parse_vertices  # noqa: E402
 from spinemesh.rig.choice import MAX_AUTO_BONES  # noqa: E402
 from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
 
-SHARED = REPO.parent / "shared"
 
 KINDS = ("exact", "an artist's bone beyond the candidates", f"the artist binds more than {MAX_AUTO_BONES} bones",
          "artist's bones left out only", "bones the artist did not bind only", "both")
@@ -71,14 +72,10 @@ def weight_shares(data: dict) -> dict[int, dict[int, float]]:
 
 def held_out_choices(data: dict, models: dict) -> dict[str, np.ndarray]:
     """The learned choice of every candidate row, held out, without and with the project's habits."""
-    fold = np.array([tc.fold_of(g) for g in data["group"]])
     out = {}
     for label, d in (("without habits", tc.with_habits(data, alone=True)), ("with habits", tc.with_habits(data))):
         p, _ = tc.held_out_probabilities(d, 0.5, log=lambda s: None, models=models)
-        chosen = np.zeros(len(p), bool)
-        for k, m in models.items():
-            chosen |= tc.choose_sets(d, tc.set_rows(d, p, np.flatnonzero(fold == k), m.threshold), m.sets)
-        out[label] = chosen
+        out[label] = tc.fold_sets(d, p, models)
     return out
 
 
@@ -94,15 +91,7 @@ def kind_of(chosen: set[int], artist: set[int], beyond: bool) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cache", type=Path, required=True, help="the training dataset (train_bone_choice.py --cache)")
-    ap.add_argument("--fold-models", type=Path, required=True, help="train_bone_choice.py --habits strict --fold-models")
-    ap.add_argument("--examples", type=Path, default=SHARED / "spine-examples")
-    ap.add_argument("--corpus", type=Path, default=SHARED / "spine-corpus")
-    args = ap.parse_args()
-    pairs = tc.training_skeletons(args.examples, args.corpus)
-    data = tc.build_dataset(pairs, args.cache, log=lambda s: print(s, file=sys.stderr, flush=True))
-    models = tc.load_fold_models(args.fold_models)
+    _, data, models = dataset_and_models(dataset_arguments(__doc__.split("\n\n")[0]).parse_args())
     shares = weight_shares(data)
     starts = tc._mesh_rows(data)
     meshes = len(data["group"])

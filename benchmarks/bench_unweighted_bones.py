@@ -54,7 +54,6 @@ def weighted_side(data: dict, models: dict) -> None:
     allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
     slot = allowed & (data["X"][:, col["is_slot_bone"]] == 1)
     other = allowed & (data["X"][:, col["is_slot_bone"]] == 0)
-    fold = np.array([tc.fold_of(g) for g in data["group"]])
     artist = np.asarray(data["artist_count"])
 
     def per_mesh(rows):
@@ -72,9 +71,7 @@ def weighted_side(data: dict, models: dict) -> None:
     row("rule", data["rule"].astype(bool))
     for label, d in (("without habits", tc.with_habits(data, alone=True)), ("with habits", tc.with_habits(data))):
         p, _ = tc.held_out_probabilities(d, 0.5, log=lambda s: None, models=models)
-        learned = np.zeros(len(p), bool)
-        for k, m in models.items():
-            learned |= tc.choose_sets(d, tc.set_rows(d, p, np.flatnonzero(fold == k), m.threshold), m.sets)
+        learned = tc.fold_sets(d, p, models)
         threshold = next(iter(models.values())).threshold
         likely = np.maximum.reduceat(np.where(other, p, 0.0), starts[:-1]) >= threshold
         rigid = ~likely & (per_mesh(slot) > 0)
@@ -145,17 +142,28 @@ def rigid_side(pairs: list[tuple[str, Path]], models: dict, every: int) -> None:
               f"{np.mean(n[kind == 'mesh'] > 1):.1%} |")
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def dataset_arguments(description: str) -> argparse.ArgumentParser:
+    """The arguments of the benchmarks that judge fold models on the training dataset."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--cache", type=Path, required=True, help="the training dataset (train_bone_choice.py --cache)")
     ap.add_argument("--fold-models", type=Path, required=True, help="train_bone_choice.py --habits strict --fold-models")
     ap.add_argument("--examples", type=Path, default=SHARED / "spine-examples")
     ap.add_argument("--corpus", type=Path, default=SHARED / "spine-corpus")
-    ap.add_argument("--every", type=int, default=3, help="judge every K-th rigid attachment (faster)")
-    args = ap.parse_args()
+    return ap
+
+
+def dataset_and_models(args) -> tuple[list[tuple[str, Path]], dict, dict]:
+    """``(skeletons, dataset, fold models)`` of :func:`dataset_arguments`' parsed ``args``."""
     pairs = tc.training_skeletons(args.examples, args.corpus)
     data = tc.build_dataset(pairs, args.cache, log=lambda s: print(s, file=sys.stderr, flush=True))
-    models = tc.load_fold_models(args.fold_models)
+    return pairs, data, tc.load_fold_models(args.fold_models)
+
+
+def main() -> None:
+    ap = dataset_arguments(__doc__.split("\n\n")[0])
+    ap.add_argument("--every", type=int, default=3, help="judge every K-th rigid attachment (faster)")
+    args = ap.parse_args()
+    pairs, data, models = dataset_and_models(args)
     weighted_side(data, models)
     print()
     rigid_side(pairs, models, args.every)

@@ -83,10 +83,7 @@ def main() -> None:
     before = tc.load_fold_models(args.fold_models) if args.reuse_folds and args.fold_models else None
     p, models = tc.held_out_probabilities(data, args.project_power, log=log, models=before)
     if before and all(m.sets is not None for m in before.values()):
-        mesh_fold = np.array([tc.fold_of(g) for g in data["group"]])
-        by_sets = np.zeros(len(p), bool)
-        for k, m in models.items():
-            by_sets |= tc.choose_sets(data, tc.set_rows(data, p, np.flatnonzero(mesh_fold == k), m.threshold), m.sets)
+        by_sets = tc.fold_sets(data, p, models)
     else:
         inner = tc.inner_probabilities(data, args.project_power, log=log)
         by_sets = tc.held_out_sets(data, p, models, inner, args.project_power, log=log)

@@ -496,6 +496,16 @@ def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
     return chosen
 
 
+def fold_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], folds: int = FOLDS) -> np.ndarray:
+    """Rows chosen by fitted fold models with set stages (:func:`load_fold_models`): each fold's
+    meshes take their sets from ``p`` (held-out per-bone probabilities) through that fold's set model."""
+    mesh_fold = np.array([fold_of(g, folds) for g in data["group"]])
+    chosen = np.zeros(len(p), bool)
+    for k, m in models.items():
+        chosen |= choose_sets(data, set_rows(data, p, np.flatnonzero(mesh_fold == k), m.threshold), m.sets)
+    return chosen
+
+
 def held_out_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], inner: np.ndarray,
                   project_power: float = 0.5, folds: int = FOLDS, log=print) -> np.ndarray:
     """Rows chosen with a set stage, project-held-out: fold ``k``'s set model is fitted on the
