@@ -453,7 +453,7 @@ class TreeEnsemble:
         """The ensemble's log-odds for each row of ``x`` (R, F).
 
         Every (tree, row) pair walks down a level at a time, only those not yet at a leaf (the
-        120 per-bone trees on 741 candidates: 3.4 ms, against 42 ms for all pairs of a level
+        120 per-bone trees on 741 candidates: 6.9 ms, against 20.8 ms for all pairs of a level
         through two-dimensional indexing).
         """
         x = np.asarray(x, float)
