@@ -116,7 +116,8 @@ def main() -> None:
                            "leaves": tc.SET_LEAVES, "learning_rate": tc.SET_LEARNING_RATE}
         model.meta = {**model.meta, "trained_on": f"{meshes} artist-weighted meshes of {len(np.unique(data['group']))} projects",
                       "trees": tc.TREES, "leaves": tc.LEAVES, "learning_rate": tc.LEARNING_RATE,
-                      "project_power": args.project_power, "command": "scripts/train_bone_choice.py --write"
+                      "project_power": args.project_power, "reach": args.reach, "chain_reach": args.chain_reach,
+                      "command": "scripts/train_bone_choice.py --write"
                       + (f" --habits {args.habits}" if args.habits != "none" else "")}
         if args.habits != "none":
             model.meta["habit_prior"] = data["habit_prior"].tolist()

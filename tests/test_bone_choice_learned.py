@@ -14,8 +14,8 @@ from spinemesh.rig.binding import parse_vertices, setup_world
 from spinemesh.rig.choice import choose_by_rule
 from spinemesh.rig.document import build_rig, choose
 from spinemesh.rig.habits import HABIT_FEATURES, TALLY_SIZE
-from spinemesh.rig.learned import (FEATURES, MODEL_FORMAT, MODEL_PATH, TreeEnsemble, candidates, choose_learned,
-                                   constrained_bones, shipped_model)
+from spinemesh.rig.learned import (CHAIN_REACH, FEATURES, MODEL_FORMAT, MODEL_PATH, REACH, TreeEnsemble, candidates,
+                                   choose_learned, constrained_bones, shipped_model)
 from spinemesh.skeleton import iter_attachments, load_skeleton
 
 from rig_project import worm_skeleton
@@ -85,7 +85,7 @@ def test_candidates_reach_is_a_share_of_the_art_diagonal():
     assert {row[COL["candidate_count"]] for row in near.features} == {4}
 
 
-def test_candidates_reach_farther_along_the_slot_bones_chain_only_when_asked():
+def test_candidates_reach_farther_along_the_slot_bones_chain_only():
     doc = _worm_mesh_doc()
     # 100 units past the art's end (0.41 of its diagonal): one below the slot bone, one beside the chain
     doc["bones"] += [{"name": "tail", "parent": "seg3", "x": 180, "length": 30},
@@ -93,9 +93,10 @@ def test_candidates_reach_farther_along_the_slot_bones_chain_only_when_asked():
     rig, ref, mesh, world, tris = _mesh_of(doc)
     names = [b.name for b in rig.bones]
     slot = rig.slot_bone["worm"]
-    default = candidates(rig.bones, slot, world, tris, set(), {})
-    assert {names[i] for i in default.bones} == {"root", "seg1", "seg2", "seg3", "beside"}
-    along = candidates(rig.bones, slot, world, tris, set(), {}, chain_reach=0.5)
+    within = candidates(rig.bones, slot, world, tris, set(), {}, chain_reach=REACH)
+    assert {names[i] for i in within.bones} == {"root", "seg1", "seg2", "seg3", "beside"}
+    assert CHAIN_REACH > 0.41
+    along = candidates(rig.bones, slot, world, tris, set(), {})
     assert {names[i] for i in along.bones} == {"root", "seg1", "seg2", "seg3", "beside", "tail"}
     tail = dict(zip(FEATURES, along.features[along.bones.index(names.index("tail"))]))
     assert tail["is_descendant"] == 1 and tail["tree_distance"] == 3 and tail["share_over_art"] == 0

@@ -224,7 +224,7 @@ def test_the_runtime_draws_the_bent_mesh_where_the_region_was_and_bends_it(spine
 
 #: 4.2 example skeletons with regions that only bending gets meshed (from ``benchmarks/
 #: bench_corpus_upgrade.py run --root .../4.2 --weights auto``), JSON and binary.
-BENDING_EXAMPLES = ["windmill-ess.json", "windmill-ess.skel", "chibi-stickers.json", "mix-and-match-pro.skel"]
+BENDING_EXAMPLES = ["windmill-ess.json", "windmill-ess.skel", "mix-and-match-pro.json", "mix-and-match-pro.skel"]
 
 
 @pytest.mark.parametrize("name", BENDING_EXAMPLES)
@@ -274,3 +274,26 @@ def test_art_no_artist_weighted_gets_several_bones_only_where_another_is_likely(
     unweighted = choose_learned(*args, unweighted=True)
     assert [names[b] for b in unweighted.bones] == ["upper"]
     assert "below the threshold 0.50" in unweighted.left_out[names.index("root")]
+
+
+def test_the_bending_prefilter_reaches_as_far_as_the_candidates_along_the_chain():
+    """A region whose only bone within reach is its slot bone's child, farther out than the
+    candidates' reach off the chain: the box test that skips the choice must not skip it."""
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.learned import CHAIN_REACH, REACH
+    from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
+
+    doc = {"skeleton": {"spine": "4.2.22"},
+           "bones": [{"name": "root"}, {"name": "arm", "parent": "root", "x": 1000, "length": 100},
+                     {"name": "hand", "parent": "arm", "x": 140, "length": 20}],
+           "slots": [{"name": "arm", "bone": "arm", "attachment": "arm"}],
+           "skins": [{"name": "default", "attachments": {"arm": {"arm": {"x": 50, "width": 100, "height": 20}}}}]}
+    gap = 40 / np.hypot(100, 20)  # the hand's distance from the art, share of its diagonal
+    assert REACH < gap < CHAIN_REACH
+    regions = BendingRegions.of(build_rig(doc))
+    ref = next(iter_attachments(doc))
+    choice = regions.choice(ref)
+    assert choice is not None
+    direct = upgrade_choice(regions.rig, ref, regions.world(ref, QUAD_UV), QUAD_TRIANGLES)
+    assert (choice.bones, choice.why, choice.left_out) == (direct.bones, direct.why, direct.left_out)
+    assert "hand" in {regions.rig.bones[i].name for i in {**choice.why, **choice.left_out}}

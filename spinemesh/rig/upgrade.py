@@ -29,7 +29,7 @@ from ..skeleton import AttachmentRef, iter_attachments
 from .binding import parse_vertices, setup_world
 from .choice import Choice
 from .document import Outcome, Rig, WeightOptions, build_rig, choose, weight_mesh
-from .learned import REACH, share_project_habits
+from .learned import boxes_meet, reach_limits, share_project_habits
 from .topology import add_rig_vertices
 
 #: A region's image corners (u, v), 0..1 over the original image, and the quad's two triangles.
@@ -58,8 +58,8 @@ class BendingRegions:
         The skeleton's rig (:func:`.document.build_rig`), built once and reused to weight.
     boxes : ndarray, shape (B, 2, 2)
         Each bone segment's bounding box (min, max), world units: a region whose box, grown by
-        the candidates' reach (:data:`.learned.REACH` of its diagonal), meets no other bone's
-        cannot bend, and is rejected without the choice.
+        the candidates' reach (:func:`.learned.reach_limits`), meets no other bone's cannot
+        bend, and is rejected without the choice.
     """
 
     rig: Rig
@@ -103,9 +103,8 @@ class BendingRegions:
             return None
         slot_bone = self.rig.slot_bone[ref.slot]
         lo, hi = world.min(axis=0), world.max(axis=0)
-        grow = REACH * float(np.linalg.norm(hi - lo))
-        lo, hi = lo - grow, hi + grow
-        meets = ~((self.boxes[:, 1] < lo).any(axis=1) | (self.boxes[:, 0] > hi).any(axis=1))
+        limit = reach_limits(self.rig.bones, slot_bone, float(np.linalg.norm(hi - lo)))
+        meets = boxes_meet(self.boxes[:, 0], self.boxes[:, 1], lo, hi, limit)
         meets[slot_bone] = False
         if not meets.any():  # no other bone is a candidate
             return None
