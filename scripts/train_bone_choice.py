@@ -2,6 +2,7 @@
 
     .venv/bin/python scripts/train_bone_choice.py [--examples DIR] [--corpus DIR]
         [--cache FILE.npz] [--project-power P] [--threshold T] [--fold-models DIR] [--write]
+        [--habits strict] [--train-share S]
 
 Builds the dataset (:mod:`spinemesh.rig.train_choice`: every artist-weighted mesh of each
 example in its newest version and of every corpus project, each bone near its art a row),
@@ -13,7 +14,10 @@ per-bone choice at a few thresholds and the ``learned`` choice (per bone, then s
 the same meshes, the share of meshes given exactly the artist's bone set and the bones per
 mesh against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
 (their ``learned`` rows, project-held-out). ``--write`` fits on every project and writes
-``spinemesh/models/bone_choice.json``. Needs scikit-learn and LightGBM (the ``train`` extra).
+``spinemesh/models/bone_choice.json``. ``--train-share S`` lets the models learn from a share
+``S`` of the projects only (drawn by name; the others weigh 0 in every fit) while every mesh is
+still judged held out: run with a few shares, it draws the learning curve. Needs scikit-learn
+and LightGBM (the ``train`` extra).
 """
 
 from __future__ import annotations
@@ -62,7 +66,14 @@ def main() -> None:
                     help="add the project's habits (the other weighted meshes of its project; strict: also "
                     "without those of the same slot or attachment name)")
     ap.add_argument("--write", action="store_true", help="fit on every project and write the shipped model")
+    ap.add_argument("--train-share", type=float, default=1.0,
+                    help="learn from this share of the projects only (drawn by name), judging every mesh held out "
+                    "as before: a learning curve")
     args = ap.parse_args()
+    if not 0 < args.train_share <= 1:
+        ap.error("--train-share must be in (0, 1]")
+    if args.train_share < 1 and args.write:
+        ap.error("--train-share is for learning curves: the shipped model learns from every project")
 
     start = time.perf_counter()
     data = tc.build_dataset(tc.training_skeletons(args.examples, args.corpus), args.cache,
@@ -77,6 +88,11 @@ def main() -> None:
     alone = np.flatnonzero(hb.meshes_in(habits["habit_others"]) == 0)
     if args.habits != "none":
         data = habits
+    if args.train_share < 1:
+        data = {**data, "learn_from": tc.drawn_projects(data["group"], args.train_share)}
+        drawn = data["learn_from"]
+        print(f"learning from {len(np.unique(data['group'][drawn]))} of {len(np.unique(data['group']))} projects "
+              f"({drawn.mean():.0%} of the meshes); every mesh judged held out\n")
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 

@@ -19,7 +19,8 @@ def _row(project: str, keep: float, rule: float, learned: float, rigid: float = 
     return {"project": project, "skeleton": "s.json", "slot": "s", "attachment": "a", "setup_drift": 0.0,
             "keep": keep, "rule": rule, "learned": learned, "rigid": rigid,
             **{f"flips_{m}": [0, 1] for m in (*bench_weights.MODES, "artist")},
-            "bones_keep": [1, 2], "bones_rule": [1, 2, 3], "bones_learned": [1, 2]}
+            "bones_keep": [1, 2], "bones_rule": [1, 2, 3], "bones_learned": [1, 2], "bones_artist": [1, 2],
+            "written_keep": [1, 2], "written_rule": [1, 2, 3], "written_learned": [1, 2]}
 
 
 def _rows() -> list[dict]:
@@ -36,6 +37,17 @@ def test_spread_weighs_projects_alike_and_leaves_out_the_largest():
     low, high = sp["learned_interval"]
     assert 1.0 <= low <= high <= 3.0 and high == pytest.approx(3.0)   # some draws hold only "small"
     assert sp["rule_interval"] == pytest.approx((2.0, 2.0))
+
+
+def test_exact_sets_compare_the_chosen_bones_with_the_artists_own():
+    # the artist bound bones 1, 2 and 3, but weighted nothing to 3: keep writes 1 and 2 alone
+    row = {**_row("p", 1.0, 2.0, 1.0), "bones_artist": [1, 2, 3], "bones_keep": [1, 2, 3],
+           "written_keep": [1, 2], "bones_rule": [1, 2], "written_rule": [1, 2],
+           "bones_learned": [1, 2, 3], "written_learned": [1, 2]}
+    s = bench_weights.summary([row])
+    assert s["learned_exact"] == 1.0 and s["rule_exact"] == 0.0 and s["keep_exact"] == 1.0
+    assert s["rule_written_exact"] == 1.0 and s["learned_written_exact"] == 1.0   # the written bones hide it
+    assert s["artist_p95"] == 3.0
 
 
 def test_ratios_leave_out_meshes_the_rigid_baseline_already_places():

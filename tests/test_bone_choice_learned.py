@@ -284,6 +284,20 @@ def test_the_set_model_learns_only_from_meshes_whose_artists_set_is_weighed(monk
     assert seen["q"].tolist() == [0, 0, 0] and np.allclose(seen["w"], 1.0)
 
 
+def test_a_learning_curve_learns_from_the_projects_drawn_only():
+    from spinemesh.rig import train_choice as tc
+
+    # three meshes of project a (one row each), one of project b over two rows
+    data = {"group": np.array(["corpus/a", "corpus/a", "corpus/a", "corpus/b"]), "mesh": np.array([0, 1, 2, 3, 3])}
+    every = tc.mesh_weights(data, 0.5)
+    assert every[:3] == pytest.approx(every[3:].sum() / 3 ** 0.5 * np.ones(3))   # a project of M meshes weighs M^0.5
+    drawn = {**data, "learn_from": np.array([False, False, False, True])}
+    assert tc.mesh_weights(drawn, 0.5)[:3].tolist() == [0, 0, 0] and tc.project_weights(drawn)[3] == 1.0
+    groups = np.array([f"corpus/p{i}" for i in range(200)])
+    half, quarter = tc.drawn_projects(groups, 0.5), tc.drawn_projects(groups, 0.25)
+    assert 80 < half.sum() < 120 and (quarter <= half).all() and tc.drawn_projects(groups, 1.0).all()
+
+
 def test_the_set_ranker_is_exported_as_trees_that_rank_as_lightgbm_does():
     from spinemesh.rig import bone_sets
     from spinemesh.rig import train_choice as tc

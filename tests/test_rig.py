@@ -12,7 +12,7 @@ import pytest
 
 from spinemesh.rig.binding import bind, parse_vertices, rounded_weights, setup_world
 from spinemesh.rig.bones import skeleton_bones
-from spinemesh.rig.document import WeightOptions, build_rig, weight_document
+from spinemesh.rig.document import UNWEIGHTED_BONE, Outcome, WeightOptions, build_rig, weight_document
 from spinemesh.rig.topology import add_rig_vertices
 from spinemesh.rig.transform import world_transform
 from spinemesh.rig.weights import bounded_biharmonic, refine, solve_weights, sparsify
@@ -291,6 +291,12 @@ def test_worm_is_weighted_to_its_chain_and_keeps_its_setup_pose():
     doc2["skins"][0]["attachments"]["worm"]["worm"]["vertices"] = (v - (0, 30)).ravel().tolist()
     keep = weight_document(doc2, "w", WeightOptions(bones="keep"))
     assert list(keep[0].bones) == ["seg1"]
+
+
+def test_an_outcome_names_the_bones_chosen_whether_written_or_left_at_zero():
+    out = Outcome("s.json", "default", "slot", "a", bones={"arm": "slot bone"},
+                  left_out={"hand": UNWEIGHTED_BONE, "root": "root bone: moves the whole skeleton"})
+    assert out.chosen() == {"arm", "hand"}
 
 
 def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():

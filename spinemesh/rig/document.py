@@ -49,6 +49,10 @@ class WeightOptions:
     exclude: list[str] = field(default_factory=list)
 
 
+#: Why a chosen bone is not written: the weights left every vertex at 0 for it.
+UNWEIGHTED_BONE = "no vertex weighted to it: its segment is not on or near the art"
+
+
 @dataclass
 class Outcome:
     """What became of one mesh attachment (a report row)."""
@@ -66,6 +70,10 @@ class Outcome:
 
     def row(self) -> dict:
         return dict(self.__dict__)
+
+    def chosen(self) -> set[str]:
+        """The bones chosen for the mesh (their names): those written and those the weights left at 0."""
+        return set(self.bones) | {b for b, why in self.left_out.items() if why == UNWEIGHTED_BONE}
 
 
 @dataclass
@@ -211,7 +219,7 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
         if weights[:, col].any():
             outcome.bones[rig.bones[b].name] = choice.why[b]
         else:
-            outcome.left_out[rig.bones[b].name] = "no vertex weighted to it: its segment is not on or near the art"
+            outcome.left_out[rig.bones[b].name] = UNWEIGHTED_BONE
     outcome.status = "weighted"
 
 

@@ -216,18 +216,35 @@ def skeleton_trees(paths: list[str]) -> dict[str, tuple[list[str], list[int]]]:
     return out
 
 
-def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
-    """Row weights: each mesh weighs the same over its candidates; big projects weigh less per mesh.
+def drawn_projects(groups: np.ndarray, share: float) -> np.ndarray:
+    """Which meshes (their projects ``groups``, (M,)) belong to a ``share`` of the projects,
+    drawn by each project's name (stable across runs, and a larger share holds a smaller's):
+    the models learn from these alone for a learning curve (``learn_from``, :func:`project_weights`).
 
-    A project of M meshes weighs ``M ** project_power`` in all (0: every project alike, 1:
-    every mesh alike).
+    Examples
+    --------
+    >>> groups = np.array([f"corpus/p{i}" for i in range(100)])
+    >>> int(drawn_projects(groups, 0.5).sum()), bool((drawn_projects(groups, 0.25) <= drawn_projects(groups, 0.5)).all())
+    (53, True)
     """
+    draw = np.array([zlib.crc32(f"draw/{g}".encode()) % 1000 / 1000 for g in np.asarray(groups).astype(str)])
+    return draw < share
+
+
+def project_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
+    """Each mesh's weight (M,): a project of M meshes weighs ``M ** project_power`` in all (0:
+    every project alike, 1: every mesh alike); 0 for the meshes outside ``data["learn_from"]``
+    when the dataset names some (:func:`drawn_projects`)."""
+    _, project = np.unique(data["group"], return_inverse=True)
+    w = np.bincount(project)[project] ** (project_power - 1.0)
+    return w * data["learn_from"] if "learn_from" in data else w
+
+
+def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
+    """Row weights: each mesh weighs the same over its candidates; big projects weigh less per
+    mesh (:func:`project_weights`)."""
     mesh = data["mesh"]
-    per_mesh_rows = np.bincount(mesh)
-    groups, project = np.unique(data["group"], return_inverse=True)
-    meshes_in_project = np.bincount(project)
-    w_mesh = meshes_in_project[project] ** (project_power - 1.0)
-    w = w_mesh[mesh] / per_mesh_rows[mesh]
+    w = project_weights(data, project_power)[mesh] / np.bincount(mesh)[mesh]
     return w / w.mean()
 
 
@@ -469,9 +486,8 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
     """The set model (:func:`fit_ranker`): ranks each mesh's sets (:func:`set_rows`), the
     artist's first. Fitted on the meshes whose artist's set is among the sets weighed (on the
     others no set is exact: they would only teach that the sets weighed are all wrong); a
-    project of M meshes weighs ``M ** project_power``, each mesh alike."""
-    _, project = np.unique(data["group"], return_inverse=True)
-    mesh_weight = np.bincount(project)[project] ** (project_power - 1.0)
+    project of M meshes weighs ``M ** project_power``, each mesh alike (:func:`project_weights`)."""
+    mesh_weight = project_weights(data, project_power)
     weighed = np.zeros(len(data["group"]), bool)
     weighed[sets["mesh"][sets["exact"]]] = True
     keep = weighed[sets["mesh"]]
