@@ -44,7 +44,8 @@ sys.path.insert(0, str(REPO))
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.images import AtlasImages, load_rgba  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
-    RING_TEXELS, PackRefused, _items, default_padding, is_power_of_two, pack_atlas, page_settings,
+    RING_TEXELS, PackRefused, _items, default_padding, is_power_of_two, largest_pot_pages_below, pack_atlas,
+    page_settings,
 )
 from spinemesh.pack.outlines import content_box  # noqa: E402
 from spinemesh.pack.place import _grow  # noqa: E402
@@ -95,24 +96,8 @@ def min_page_set(need: int, pages: int, max_area: int, pot: bool, smallest: int 
 
 def largest_set_below(limit: int, need: int, pages: int, max_area: int, smallest: int = 256) -> int:
     """The largest total area below ``limit`` of at most ``pages`` power-of-two pages (each from
-    ``smallest`` to ``max_area`` texels) that still holds ``need``; 0 if none.
-
-    A sum of powers of two is largest under a bound when it keeps the bound's highest bits: so
-    take as many whole pages of ``max_area`` as fit, then the top bits of the rest, one a page.
-    """
-    best = 0
-    top = limit - 1
-    for whole in range(min(pages, top // max_area), -1, -1):
-        rest = top - whole * max_area
-        total = whole * max_area
-        for _ in range(pages - whole):
-            if rest < smallest:
-                break
-            bit = 1 << (rest.bit_length() - 1)
-            bit = min(bit, max_area)
-            total += bit
-            rest -= bit
-        best = max(best, total)
+    ``smallest`` to ``max_area`` texels) that still holds ``need``; 0 if none."""
+    best = largest_pot_pages_below(limit, pages, max_area, smallest)
     return best if best >= need else 0
 
 

@@ -323,6 +323,10 @@ def test_an_upgraded_project_has_nothing_to_do(demo, tmp_path):
     r = run("upgrade", str(tmp_path / "a"), "--out", str(tmp_path / "b"))
     # what the first run upgraded is a mesh now; what it kept (not worth meshing) is kept again
     assert r.returncode == 0 and "nothing to upgrade" in r.stderr, r.stderr
+    # with --pack the same run packs: it says what it packed, not that it did nothing
+    r = run("upgrade", str(tmp_path / "a"), "--out", str(tmp_path / "c"), "--pack")
+    assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
+    assert "nothing meshed (every" in r.stdout and "packed 1 of 1 atlas: 1 pages into 1" in r.stdout, r.stdout
 
 
 def test_a_failure_exits_3(demo, tmp_path):

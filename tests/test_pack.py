@@ -316,9 +316,29 @@ def test_footprints_larger_than_the_atlas_are_refused_before_any_fill():
 
     items = _shapes(0, 4, 20, 40)
     texels = sum(int(it.masks[0].sum()) for it in items)
-    with pytest.raises(PackRefused, match="footprints alone"):
+    with pytest.raises(PackRefused, match=r"the footprints need 1\d\d% of the page texels, so no packing"):
         _pack_group(items, 256, 256, 256 * 256, False, 0, 1, texels)
     _pack_group(items, 256, 256, 256 * 256, False, 0, 1, 256 * 256)  # room enough: packed
+
+
+def test_kept_notes_say_what_the_footprints_need_and_the_next_page_holds():
+    from spinemesh.pack.atlas_pack import kept_note, largest_pot_pages_below
+
+    assert kept_note(61 * 1024 * 512 // 100 + 1, 1024 * 512, 1, 1024 * 1024, True) == \
+        "the footprints need 61% of the page texels; the next smaller power-of-two page holds 50%"
+    assert "pages hold 88%" in kept_note(10, 4 * 1024 * 1024, 4, 1024 * 1024, True)  # three pages and a half
+    assert kept_note(90, 100, 1, 100, False) == \
+        "the footprints need 90% of the page texels, and no fill tried placed them on fewer"
+    assert largest_pot_pages_below(2048 * 2048, 1, 2048 * 2048) == 2048 * 1024
+    assert largest_pot_pages_below(3 * 512 * 512, 2, 512 * 512) == 2 * 512 * 512
+    assert largest_pot_pages_below(256, 1, 2048 * 2048) == 0
+
+
+def test_a_file_that_is_no_skeleton_is_refused_in_one_line(meshed, tmp_path):
+    r = _cli("pack", str(meshed / "demo.png"), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "demo.png" in r.stderr and "not a Spine skeleton" in r.stderr
+    assert not (tmp_path / "o").exists()
 
 
 def test_measured_padding():

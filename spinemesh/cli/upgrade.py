@@ -268,9 +268,23 @@ def _exit(result, nothing: str) -> None:
 
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
+    if nothing.startswith("nothing to upgrade: every") and any(a.status == "packed" for a in result.atlases):
+        # --pack did something: say what, not that the run did nothing
+        console.print(escape(packed_line(result.atlases, nothing.split(": ", 1)[1])), highlight=False)
+        return
     if nothing:
         err_console.print(f"[yellow]warning:[/] {escape(nothing)}", highlight=False)
         raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else EXIT_BAD_INPUT)
+
+
+def packed_line(atlases: list, meshed_nothing: str) -> str:
+    """What a run that meshed nothing packed: ``meshed_nothing`` (why), then atlases, pages and page texels."""
+    packed = [a for a in atlases if a.status == "packed"]
+    before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
+    pages = f"{sum(a.pages_before for a in packed)} pages into {sum(a.pages_after for a in packed)}"
+    return (f"nothing meshed ({meshed_nothing}); packed {len(packed)} of {len(atlases)} atlas"
+            f"{'es' if len(atlases) > 1 else ''}: {pages}, {before - after:,} fewer page texels "
+            f"({1 - after / before:.0%})")
 
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> str:

@@ -314,6 +314,49 @@ def _whole_pot_pages(candidates, max_w: int, max_h: int, max_area: int, padding:
     return best
 
 
+def largest_pot_pages_below(limit: int, pages: int, max_area: int, smallest: int = 256) -> int:
+    """The most texels below ``limit`` that at most ``pages`` power-of-two pages (each of
+    ``smallest`` to ``max_area`` texels) can take; 0 if none.
+
+    A sum of powers of two is largest under a bound when it keeps the bound's highest bits: so
+    take as many whole pages of ``max_area`` as fit, then the top bits of the rest, one a page.
+    """
+    best = 0
+    top = limit - 1
+    for whole in range(min(pages, top // max_area), -1, -1):
+        rest = top - whole * max_area
+        total = whole * max_area
+        for _ in range(pages - whole):
+            if rest < smallest:
+                break
+            bit = min(1 << (rest.bit_length() - 1), max_area)
+            total += bit
+            rest -= bit
+        best = max(best, total)
+    return best
+
+
+def kept_note(needed: int, texels: int | None, pages: int, max_area: int, pot: bool) -> str:
+    """Why an atlas keeps its pages, in plain words: what its footprints need against what it has,
+    and, for power-of-two pages, what the next smaller page set the rules allow holds.
+
+    ``needed``: the footprints' hard texels (the least any placement takes); ``texels``: the
+    atlas's page texels (None: no bound was given, so the footprints did not fit at all).
+    """
+    if texels is None:
+        return f"its footprints do not fit on {pages} page{'s' if pages > 1 else ''} of the largest original size"
+    share = f"the footprints need {needed / texels:.0%} of the page texels"
+    if needed >= texels:
+        return share + ", so no packing stores fewer"
+    if not pot:
+        return share + ", and no fill tried placed them on fewer"
+    below = largest_pot_pages_below(texels, pages, max_area, smallest=16 * 16)
+    if below == 0:
+        return share + "; no smaller power-of-two page exists under the page rules"
+    what = "page holds" if pages == 1 else "pages hold"
+    return share + f"; the next smaller power-of-two {what} {below / texels:.0%}"
+
+
 def other_orders(candidates) -> list[list[int]]:
     """Orders besides the largest box first that a group of several pages is filled in: most texels
     first, then longest side first.
@@ -346,8 +389,7 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     if all(h is m for it in items for h, m in zip(it.hard_masks, it.masks)):
         hard = None  # every texel hard: footprints may not overlap at all
     if ceiling is not None and needed >= ceiling:  # no placement can beat it: spare every fill
-        raise PackRefused(f"its footprints alone take {needed:,} texels, no fewer than the {ceiling:,} "
-                          f"page texels the atlas has")
+        raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
     best = None if ceiling is None else (ceiling, None, None)
     found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling, hard)
     if found is not None and (best is None or found[0] < best[0]):
@@ -361,8 +403,7 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     for order in other_orders(candidates) if pot and max_pages > 1 else []:
         best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order, hard)
     if best is None or best[1] is None:
-        raise PackRefused(f"no packing of its footprints on at most {max_pages} page(s) of the largest original "
-                          f"size stores fewer page texels than the atlas has")
+        raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
     return best[1], best[2]
 
 
@@ -405,8 +446,8 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     out, new_pages, region_page = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names)
     texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
     if texels_after >= texels_before:
-        raise PackRefused(f"packing would store {texels_after:,} page texels, not fewer than "
-                          f"the {texels_before:,} it has")
+        raise PackRefused(f"packed, its pages would take {texels_after:,} texels, no fewer than the "
+                          f"{texels_before:,} they take now")
     rotated = _rewrite_regions(out, region_page, geometries, atlas)
     outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
     return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),

@@ -305,8 +305,13 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     """
     from ..output import check_output_folder, output_folder
 
+    from ..project import is_skeleton_file
+
     options = options or PackOptions()
     project, out = Path(project), Path(out)
+    if project.is_file() and not is_skeleton_file(project):
+        raise SpineMeshError("not a Spine skeleton (.json or .skel) nor a folder: give the project's folder",
+                             project)
     folder = project.parent if project.is_file() else project
     proj = find_project(folder)
     check_output_folder(proj.root, out)
