@@ -299,18 +299,20 @@ def checked_attachments(doc: dict) -> Iterator[tuple[AttachmentRef, str]]:
     """Every attachment of every skin, in document order, with why it cannot be used (or ``""``).
 
     The reason names the attachment's JSON path and the field
-    (``skins[0].attachments.head.head.x: expected a finite number ..., found ...``); see
+    (``skins[0].attachments.head.head.x: expected a finite number ..., found ...``), weighted
+    vertices included (a bone index beyond the skeleton's bones, a list cut short); see
     :func:`spinemesh.skeleton_check.attachment_problem`.
     """
     from .skeleton_check import attachment_problem
 
+    bone_count = len(doc.get("bones") or [])
     for skin, slots, where in _skins(doc):
         for slot, attachments in slots.items():
             if not isinstance(attachments, dict):
                 continue
             for name, att in attachments.items():
                 if isinstance(att, dict):
-                    yield AttachmentRef(skin, slot, name, att), attachment_problem(att, (*where, slot, name))
+                    yield AttachmentRef(skin, slot, name, att), attachment_problem(att, (*where, slot, name), bone_count)
 
 
 def iter_attachments(doc: dict) -> Iterator[AttachmentRef]:

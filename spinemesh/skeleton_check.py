@@ -9,7 +9,12 @@ wrong types and huge numbers end as one line naming the file and the JSON path
   skins' layout, the number of attachments): a problem there refuses the skeleton
   (:class:`~spinemesh.errors.SkeletonError`), since bones and slots are what every attachment
   hangs on.
-- :func:`attachment_problem` checks one attachment: a bad one is passed over with its reason
+- :func:`bone_tree_problem` checks the bone tree as the official runtimes build it: every bone
+  named once, every parent a bone listed before its child (so no bone is its own parent and no
+  parents run in a cycle), every slot on a bone that exists. A skeleton whose tree breaks this
+  is refused whole, as the runtimes refuse to load it.
+- :func:`attachment_problem` checks one attachment, with the weighted ``vertices`` walked
+  against the bone count (:func:`vertices_problem`): a bad one is passed over with its reason
   (:func:`spinemesh.skeleton.checked_attachments`), never its skeleton.
 
 Lenient where the official runtimes are lenient: fields the program does not read are not
@@ -214,8 +219,106 @@ def document_problem(doc) -> str:
     return problem or _list_of_objects(doc, "constraints", None)
 
 
+def _bone_name(bone: dict) -> str:
+    return str(bone.get("name"))
+
+
+def bone_tree_problem(doc: dict) -> str:
+    """The first break of the bone tree (names, parents, slots' bones), or ``""``.
+
+    The runtimes read bones in order and look each parent up among the bones read before it,
+    so a parent listed after its child, a bone that is its own parent and parents in a cycle
+    are all refused there; so is a slot on a bone that does not exist. Code that walks up the
+    tree (weights, bone chains, world transforms) relies on this to end. ``doc`` has passed
+    :func:`document_problem` (bones and slots are lists of objects with names where named).
+    """
+    bones = doc.get("bones") or []
+    index: dict[str, int] = {}
+    for i, bone in enumerate(bones):
+        if bone.get("name") is None:
+            return f"{json_path('bones', i)}: a bone needs a name"
+        name = _bone_name(bone)
+        if name in index:
+            return f"{json_path('bones', i, 'name')}: {name!r} names two bones (bones[{index[name]}] and bones[{i}])"
+        index[name] = i
+    for i, bone in enumerate(bones):
+        parent = bone.get("parent")
+        if parent is None:
+            continue
+        name, parent = _bone_name(bone), str(parent)
+        where = json_path("bones", i, "parent")
+        if parent == name:
+            return f"{where}: bone {name!r} is its own parent"
+        if parent not in index:
+            return f"{where}: bone {name!r} names parent {parent!r}, which is not a bone of this skeleton"
+        if index[parent] > i:
+            # a cycle, or only the order: say which, since the fix differs
+            path, at = [i], index[parent]
+            while at not in path:
+                path.append(at)
+                up = bones[at].get("parent")
+                if up is None or str(up) not in index:
+                    break
+                at = index[str(up)]
+            else:
+                cycle = path[path.index(at):] + [at]
+                return f"{where}: the parents of bones {' -> '.join(repr(_bone_name(bones[k])) for k in cycle)} " \
+                       "run in a cycle"
+            return (f"{where}: parent {parent!r} of bone {name!r} is listed after it (bones[{index[parent]}]); "
+                    "a parent must come before its children")
+    for i, slot in enumerate(doc.get("slots") or []):
+        bone = slot.get("bone")
+        if bone is None or str(bone) not in index:
+            on = "no bone" if bone is None else f"bone {str(bone)!r}, which is not a bone of this skeleton"
+            return f"{json_path('slots', i, 'bone')}: slot {str(slot.get('name'))!r} is on {on}"
+    return ""
+
+
+def vertices_problem(vertices: list, count: int, bone_count: int) -> str:
+    """Why a ``vertices`` list cannot hold ``count`` vertices over ``bone_count`` bones, or ``""``.
+
+    Unweighted: ``2 * count`` numbers. Weighted (any other length): per vertex, its number of
+    bones ``k``, then ``k`` times (bone index, x, y, weight), ending exactly at the list's end;
+    every bone index below ``bone_count``. The numbers themselves were checked (finite, at most
+    :data:`~spinemesh.limits.MAX_SKELETON_NUMBER` in size, no text), so ``int()`` cannot fail.
+    """
+    if len(vertices) == 2 * count:
+        return ""
+    i, n = 0, len(vertices)
+    for v in range(count):
+        if i >= n:
+            return f"the weighted list ends after {v} of {count} vertices"
+        k = vertices[i]
+        if k != int(k) or not 0 <= k <= bone_count:
+            return f"vertex {v} gives {k!r} as its number of bones (the skeleton has {bone_count})"
+        k = int(k)
+        if i + 1 + 4 * k > n:
+            return f"the weighted list ends inside vertex {v} of {count}"
+        for j in range(k):
+            b = vertices[i + 1 + 4 * j]
+            if b != int(b) or not 0 <= b < bone_count:
+                return f"vertex {v} is bound to bone index {b!r}, the skeleton has {bone_count} bones"
+        i += 1 + 4 * k
+    if i != n:
+        return f"{n - i} numbers follow the {count} weighted vertices"
+    return ""
+
+
+def _vertex_count(attachment: dict) -> int | None:
+    """How many vertices an attachment's ``vertices`` hold: half its ``uvs`` for a mesh, else its
+    ``vertexCount``; None when that cannot be told (checked elsewhere, or nothing to check)."""
+    uvs = attachment.get("uvs")
+    if isinstance(uvs, list):
+        return len(uvs) // 2
+    count = attachment.get("vertexCount")
+    if isinstance(count, (int, float)) and not isinstance(count, bool) and count == int(count) and count >= 0:
+        return int(count)
+    return None
+
+
 def check_document(doc, source: str | Path | None = None) -> None:
-    """Refuse a skeleton document whose bones, slots, constraints or skins have the wrong shape.
+    """Refuse a skeleton document whose bones, slots, constraints or skins have the wrong shape,
+    or whose bone tree is broken (:func:`bone_tree_problem`).
 
     Attachments are checked one by one where they are read (:func:`attachment_problem`).
 
@@ -226,7 +329,7 @@ def check_document(doc, source: str | Path | None = None) -> None:
     LimitError
         More than :data:`~spinemesh.limits.MAX_ATTACHMENTS` attachments.
     """
-    problem = document_problem(doc)
+    problem = document_problem(doc) or bone_tree_problem(doc)
     if problem:
         raise SkeletonError(problem, source)
     problem, count = _skins_problem(doc.get("skins"))
@@ -236,14 +339,25 @@ def check_document(doc, source: str | Path | None = None) -> None:
         raise LimitError(f"{count:,} attachments exceed the limit of {MAX_ATTACHMENTS:,} per skeleton", source)
 
 
-def attachment_problem(attachment, where: tuple = ()) -> str:
+def attachment_problem(attachment, where: tuple = (), bone_count: int | None = None) -> str:
     """Why one attachment cannot be used (``"x: expected a finite number ..., found ..."``), or ``""``.
 
-    ``where`` is the attachment's JSON path, put before the field in the answer.
+    ``where`` is the attachment's JSON path, put before the field in the answer. With
+    ``bone_count`` (the skeleton's number of bones), weighted ``vertices`` are walked too
+    (:func:`vertices_problem`).
     """
     if not isinstance(attachment, dict):
         return f"{json_path(*where) or 'attachment'}: expected an object, found {found(attachment)}"
-    return _field_problem(attachment, ATTACHMENT, *where)
+    problem = _field_problem(attachment, ATTACHMENT, *where)
+    vertices = attachment.get("vertices")
+    if problem or bone_count is None or not isinstance(vertices, list):
+        return problem
+    count = _vertex_count(attachment)
+    if count is None:
+        return ""
+    problem = vertices_problem(vertices, count, bone_count)
+    return f"{json_path(*where, 'vertices')}: {problem}" if problem else ""
 
 
-__all__ = ["check_document", "attachment_problem", "document_problem", "json_path", "found"]
+__all__ = ["check_document", "attachment_problem", "document_problem", "bone_tree_problem", "vertices_problem",
+           "json_path", "found"]

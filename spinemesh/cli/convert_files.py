@@ -41,9 +41,17 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
     if is_binary_name(target):
+        from ..errors import SkelFormatError
         from ..skeleton_binary import write_skel
 
-        atomic_write_bytes(target, write_skel(doc, target))
+        try:
+            data = write_skel(doc)
+        except SkelFormatError as e:
+            # what the binary layout cannot hold came from the source: name it, not a target
+            # that is never written
+            raise SpineMeshError("cannot be written as a binary skeleton: "
+                                 + e.message.removeprefix("cannot write: "), source) from None
+        atomic_write_bytes(target, data)
         kind = "binary"
     elif target.suffix.lower() == ".json":
         if not keep_binary_info:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..skeleton_check import vertices_problem
 
 
 @dataclass
@@ -51,23 +52,19 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
     n = len(uvs) // 2
     if len(verts) == 2 * n:
         return MeshVertices(n, local=np.asarray(verts, float).reshape(n, 2))
+    try:  # one walk of the layout for every reader: the one made when the skeleton is read
+        problem = vertices_problem(verts, n, bone_count)
+    except (ValueError, TypeError, OverflowError) as e:  # an attachment not checked at load
+        problem = f"weighted vertices do not parse: {e}"
+    if problem:
+        raise SpineMeshError(problem)
     out = MeshVertices(n)
     i = 0
-    try:
-        for _ in range(n):
-            k = int(verts[i])
-            entry = []
-            for j in range(k):
-                b, x, y, w = verts[i + 1 + 4 * j: i + 5 + 4 * j]
-                if not 0 <= int(b) < bone_count:
-                    raise SpineMeshError(f"weighted vertex names bone {int(b)}, the skeleton has {bone_count}")
-                entry.append((int(b), float(x), float(y), float(w)))
-            out.influences.append(entry)
-            i += 1 + 4 * k
-    except (ValueError, TypeError) as e:
-        raise SpineMeshError(f"weighted vertices do not parse: {e}") from None
-    if i != len(verts) or len(out.influences) != n:
-        raise SpineMeshError("weighted vertices do not match the uv count")
+    for _ in range(n):
+        k = int(verts[i])
+        out.influences.append([(int(verts[i + 1 + 4 * j]), float(verts[i + 2 + 4 * j]),
+                                float(verts[i + 3 + 4 * j]), float(verts[i + 4 + 4 * j])) for j in range(k)])
+        i += 1 + 4 * k
     return out
 
 

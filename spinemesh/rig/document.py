@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..skeleton import AttachmentRef, image_paths, iter_attachments
+from ..skeleton import AttachmentRef, checked_attachments, image_paths, iter_attachments
 from .binding import bind, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
@@ -230,7 +230,11 @@ def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig |
     """
     rig = rig or build_rig(doc)
     outcomes = []
-    for ref in iter_attachments(doc):
+    for ref, problem in checked_attachments(doc):
+        if problem:  # a field of the wrong type, weighted vertices that do not fit: as it was
+            if ref.type in ("mesh", "linkedmesh"):
+                outcomes.append(Outcome(skeleton, ref.skin, ref.slot, ref.name, status="failed", reason=problem))
+            continue
         if ref.type == "linkedmesh":
             # It draws its parent's vertices (same slot): it follows whatever the parent becomes.
             outcomes.append(Outcome(skeleton, ref.skin, ref.slot, ref.name, status="linked",
