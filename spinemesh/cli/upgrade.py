@@ -27,9 +27,10 @@ _Out = Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output f
 _Overwrite = Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder an "
                                           "earlier upgrade wrote), so that no stale file stays.")]
 _Preview = Annotated[Optional[Path], typer.Option(
-    "--preview", metavar="DIR", help="Write a self-contained HTML page (DIR/index.html): each skeleton's setup pose with "
-                      "the new meshes, every attachment's old quad and new mesh, and the transparent "
-                      "area no longer drawn.")]
+    "--preview", metavar="DIR", help="Write HTML pages that open from disk (DIR/index.html): texels drawn "
+                      "before and after, one page per skeleton with the original and upgraded skeleton "
+                      "side by side in a player, every upgraded image's old quad and new mesh; for a "
+                      "folder of projects, one index for all.")]
 _Preset = Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
                                          "paper (the paper's section 3 exactly).")]
 _Mask = Annotated[MaskSource, typer.Option(
@@ -144,8 +145,6 @@ def upgrade(
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
-    if library and preview is not None:
-        raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
     result = _run(project, out, options, library)
     if report is not None:
         from ..errors import OutputError

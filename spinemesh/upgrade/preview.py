@@ -1,17 +1,17 @@
-"""``upgrade --preview DIR``: one self-contained HTML page that shows what an upgrade changed.
+"""``upgrade --preview DIR``: pages that show what an upgrade changed, light at any size.
 
-The page (``DIR/index.html``, images inlined as PNG data URIs, vectors as inline SVG, no
-script) has:
+``DIR/index.html`` has the project's (or library's) **fill rate**, texels drawn before
+(each region draws the rectangle its atlas stores) and after (the mesh) first, how many of
+them were fully transparent second (transparent texels cost the GPU as much as visible ones),
+one row per skeleton linking to its page, and, when the atlases were packed anew, every
+atlas page before and after. ``DIR/s/<skeleton>.html``, one per skeleton: the original and
+upgraded skeleton side by side in the player (:mod:`spinemesh.player`), and per upgraded
+image the sprite with the old quad (dashed) and the new mesh, its counts and the transparent
+area no longer drawn (or, for a mesh made to bend, that it was).
 
-- a summary: attachments meshed, kept and failed, and the project's **fill rate**: texels
-  drawn before (each region draws the rectangle its atlas stores) and after (the mesh), and
-  how many of them were fully transparent. Transparent texels cost the GPU as much as visible
-  ones, which is the saving that matters to game teams;
-- per skeleton, its **setup pose** drawn by our own geometry (bone world transforms from
-  :mod:`spinemesh.rig.bones`, attachments placed as the runtimes place them) with the
-  wireframe of every upgraded attachment that the setup pose shows;
-- per upgraded image, the sprite with the old quad (dashed) and the new mesh, vertex and
-  triangle counts and the transparent area no longer drawn.
+Images are PNG files under ``DIR/img`` (named by content, written once, loaded when scrolled
+to), never inlined; the player's data are scripts under ``DIR/data``. A ``.json`` and its
+``.skel`` twin are one skeleton (:func:`twin_of`): shown and counted once.
 
 Counts are texels of the image as the atlas stores it (a page exported at scale 0.5 has a
 quarter of the texels); each upgraded attachment counts once.
@@ -20,20 +20,20 @@ quarter of the texels); each upgraded attachment counts once.
 from __future__ import annotations
 
 import html
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..attachment_geometry import region_quad_transform
-from ..fsutil import atomic_write_text
-from ..images import fit_within, png_data_uri
+from ..player import PLAYER_CSS, PreviewFolder, safe_name
+from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
-from ..skeleton import AttachmentRef, image_paths, iter_skins, load_skeleton
+from ..skeleton import is_binary_skeleton, iter_skins, load_skeleton
 
-#: Largest side of the setup-pose picture and of a sprite picture, pixels.
-POSE_SIZE = 900
+#: Largest side of a sprite picture and of an atlas page picture, pixels.
 CARD_SIZE = 300
+PAGE_SIZE = 640
 #: Most images shown per skeleton (largest saving first), so that the page stays light.
 CARD_LIMIT = 200
 
@@ -122,172 +122,6 @@ def _mesh_svg(uvs: np.ndarray, tris: np.ndarray, hull: int, to_xy, stroke: float
     return out
 
 
-# --- setup pose ---------------------------------------------------------------------------
-
-def _attachment_geometry(att: dict, slot_bone: int, worlds: list[np.ndarray]
-                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """UVs (N, 2), skeleton-space positions (N, 2) and triangles of a region or mesh attachment.
-
-    ``worlds`` are the bones' setup-pose world transforms (2, 3), ``slot_bone`` the index of
-    the slot's bone; weighted meshes are placed by :func:`spinemesh.rig.binding.setup_world`.
-    """
-    kind = att.get("type", "region")
-    world = worlds[slot_bone]
-    if kind == "region":
-        corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
-        quad = region_quad_transform(att)
-        local = corners @ quad[:, :2].T + quad[:, 2]
-        return corners, local @ world[:, :2].T + world[:, 2], np.array([[0, 1, 2], [0, 2, 3]])
-    if kind != "mesh":
-        return None
-    from ..rig.binding import parse_vertices, setup_world
-
-    uvs, tris, _ = _mesh_arrays(att)
-    return uvs, setup_world(parse_vertices(att, len(worlds)), worlds, slot_bone), tris
-
-
-def _draw(canvas: np.ndarray, rgba: np.ndarray, uvs: np.ndarray, dst: np.ndarray, tris: np.ndarray) -> None:
-    """Composite an image drawn through a triangle mesh onto ``canvas`` (H, W, 3 float, 0..1).
-
-    When one affine map carries every vertex (a region, or a mesh made from one), the image is
-    warped once and masked by the triangles, so no seam shows between them.
-    """
-    import cv2
-
-    h, w = rgba.shape[:2]
-    src = uvs * (w, h)
-    ones = np.c_[src, np.ones(len(src))]
-    affine, *_ = np.linalg.lstsq(ones, dst, rcond=None)
-    pieces = [(affine.T, tris)] if np.abs(ones @ affine - dst).max() < 0.5 else [
-        (cv2.getAffineTransform(src[t].astype(np.float32), dst[t].astype(np.float32)), t[None]) for t in tris]
-    H, W = canvas.shape[:2]
-    for m, part in pieces:
-        x0, y0 = np.floor(dst[part.ravel()].min(axis=0)).astype(int).clip(0, (W, H))
-        x1, y1 = np.ceil(dst[part.ravel()].max(axis=0) + 1).astype(int).clip(0, (W, H))
-        if x1 <= x0 or y1 <= y0:
-            continue
-        m = np.asarray(m, float).copy()
-        m[:, 2] -= (x0, y0)
-        warped = cv2.warpAffine(rgba, m, (int(x1 - x0), int(y1 - y0)), flags=cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0)).astype(np.float32) / 255
-        inside = np.zeros(warped.shape[:2], np.uint8)
-        for t in part:
-            cv2.fillConvexPoly(inside, np.round((dst[t] - (x0, y0)) * 16).astype(np.int32), 1, shift=4)
-        a = warped[..., 3:4] * inside[..., None]
-        roi = canvas[y0:y1, x0:x1]
-        roi[:] = warped[..., :3] * a + roi * (1 - a)
-
-
-def pose_skins(doc: dict) -> list[str]:
-    """The skins the setup pose is drawn with, first match first: the skin that supplies most of
-    the slots' setup attachments (a project whose default skin is empty dresses it in one), then
-    ``default``, as a runtime falls back to the default skin."""
-    skins = dict(iter_skins(doc))
-    wanted = [(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
-              if isinstance(s, dict) and s.get("attachment") is not None]
-
-    def supplies(skin: str) -> int:
-        return sum(isinstance((skins[skin].get(slot) or {}).get(name), dict) for slot, name in wanted)
-
-    best = max((k for k in skins if k != "default"), key=supplies, default=None)
-    return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
-
-
-def _bone_lines(bones, to_canvas) -> list[str]:
-    """SVG for every bone with a length: a line from its origin along its length, a dot at the origin.
-
-    ``to_canvas`` maps world points, shape (n, 2), to the picture's pixels.
-    """
-    lines = []
-    for bone in bones:
-        if bone.length > 0 and np.isfinite(bone.world).all():
-            (x0, y0), (x1, y1) = to_canvas(bone.segment())
-            lines.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" class="bone"/>'
-                         f'<circle cx="{x0:.1f}" cy="{y0:.1f}" r="2.5" class="joint"/>')
-    return lines
-
-
-def setup_pose(doc: dict, source, upgraded: set[tuple[str, str, str]], draw_bones: bool = False) -> str:
-    """HTML (a PNG under an SVG) of a skeleton's setup pose, with the wireframes of ``upgraded``.
-
-    Parameters
-    ----------
-    doc : dict
-        The upgraded skeleton.
-    source : image source or None
-        Where the images come from (see :func:`spinemesh.project.image_source_for`).
-    upgraded : set of (skin, slot, attachment name)
-        Attachments whose wireframe is drawn.
-    draw_bones : bool
-        Also draw every bone with a length (a green line from its origin, a dot at the origin),
-        as ``--weights auto`` binds meshes to them.
-    """
-    from ..errors import SpineMeshError
-    from ..rig.bones import skeleton_bones
-
-    bones = skeleton_bones(doc)
-    by_name = {b.name: b for b in bones}
-    worlds = [b.world for b in bones]
-    skins = dict(iter_skins(doc))
-    order = pose_skins(doc)
-    parts = []
-    for slot in doc.get("slots", []):
-        if not isinstance(slot, dict) or slot.get("attachment") is None or slot.get("bone") not in by_name:
-            continue
-        name = str(slot["attachment"])
-        found = [(k, skins[k][slot.get("name")][name]) for k in order
-                 if isinstance((skins[k].get(slot.get("name")) or {}).get(name), dict)]
-        if not found:
-            continue
-        skin, att = found[0]
-        try:
-            geometry = _attachment_geometry(att, by_name[slot["bone"]].index, worlds)
-        except (SpineMeshError, TypeError, ValueError, IndexError):
-            continue  # malformed numbers or bone indices: the rest of the pose is still drawn
-        if geometry is None:
-            continue
-        paths = image_paths(AttachmentRef(skin, slot.get("name"), name, att))
-        parts.append(((skin, slot.get("name"), name), att, paths, geometry))
-    if not parts:
-        return "<p>The setup pose shows no region or mesh attachment.</p>"
-    everything = np.concatenate([g[1] for *_, g in parts])
-    lo, hi = everything.min(axis=0), everything.max(axis=0)
-    k = (POSE_SIZE - 20) / max(float((hi - lo).max()), 1e-6)
-    W, H = (np.ceil((hi - lo) * k) + 20).astype(int)
-
-    def to_canvas(p: np.ndarray) -> np.ndarray:  # skeleton y is up, pictures' y is down
-        return np.c_[(p[:, 0] - lo[0]) * k + 10, (hi[1] - p[:, 1]) * k + 10]
-
-    canvas = np.full((H, W, 3), 0.93, np.float32)
-    wires = []
-    for place, att, paths, (uvs, pos, tris) in parts:
-        dst = to_canvas(pos)
-        image = None
-        if source is not None and paths:
-            try:
-                image = source.get(paths[0])
-                _draw(canvas, image.rgba, uvs, dst, tris)
-            except SpineMeshError:
-                pass  # a missing image: its wireframe (if upgraded) still shows where it is
-        if place in upgraded and att.get("type") == "mesh":
-            wires.append(_mesh_svg(uvs, tris, int(att.get("hull", 0)), lambda _uv, d=dst: d, 1.0))
-        elif att.get("type", "region") == "region":  # left a region: the rectangle it draws, dashed
-            corners = dst
-            if image is not None:  # the part of the image its atlas stores, as on the cards
-                h, w = image.rgba.shape[:2]
-                x0, y0, x1, y1 = image.content
-                box = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float) / (w, h)
-                corners = box @ (dst[1] - dst[0], dst[3] - dst[0]) + dst[0]
-            points = " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
-            wires.append(f'<polygon points="{points}" class="quad" stroke-width="1.2"/>')
-    if draw_bones:
-        wires += _bone_lines(bones, to_canvas)
-    png = png_data_uri((canvas * 255).round().astype(np.uint8))
-    caption = f"<p>Skins: {html.escape(', '.join(order))}.</p>" if order != ["default"] else ""
-    return caption + (f'<div class="pose" style="width:{W}px;height:{H}px"><img src="{png}" width="{W}" height="{H}" '
-            f'alt="setup pose"><svg viewBox="0 0 {W} {H}" width="{W}" height="{H}">{"".join(wires)}</svg></div>')
-
-
 # --- the page ------------------------------------------------------------------------------
 
 _CSS = """
@@ -295,20 +129,20 @@ body{font:14px/1.4 system-ui,sans-serif;margin:24px;color:#222;background:#fff}
 h1{font-size:22px}h2{font-size:18px;margin-top:32px}
 table.sum{border-collapse:collapse}table.sum td,table.sum th{padding:3px 10px;border-bottom:1px solid #ddd;text-align:right}
 table.sum td:first-child,table.sum th:first-child{text-align:left}
-.big{font-size:20px;font-weight:600;color:#146c2e}
-.pose{position:relative;margin:8px 0;border:1px solid #ccc}
-.pose img,.pose svg,.card .pic img,.card .pic svg{position:absolute;left:0;top:0}
+.big{font-size:20px;font-weight:600;color:#146c2e;margin:4px 0}.second{font-size:16px;color:#333;margin:2px 0 12px}
 .cards{display:flex;flex-wrap:wrap;gap:14px}
 .card{border:1px solid #ccc;border-radius:6px;padding:8px;width:300px}
-.card .pic{position:relative;margin:auto;image-rendering:pixelated;background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px}
+.card .pic{position:relative;margin:auto;image-rendering:pixelated}
+.card .pic img,.card .pic svg{position:absolute;left:0;top:0}
 .card .name{font-weight:600;word-break:break-all}.card .who{color:#666;font-size:12px;word-break:break-all}
 .card td{padding:1px 6px}.card td:nth-child(2),.card td:nth-child(3){text-align:right}
 svg .tri{fill:none;stroke:#e0582b;stroke-opacity:.9}svg .hull{fill:none;stroke:#1f5fd1}
 svg .quad{fill:none;stroke:#c00;stroke-dasharray:5 4}
-svg .bone{stroke:#0a7d3b;stroke-width:2.5;stroke-linecap:round;opacity:.85}svg .joint{fill:#0a7d3b}
 .note{color:#555;font-size:12px;margin-top:4px}.bent img{max-width:100%;margin-top:6px}
 .legend span{display:inline-block;margin-right:18px}.legend i{display:inline-block;width:22px;height:0;vertical-align:middle;margin-right:6px}
-"""
+.pages{display:flex;gap:24px;flex-wrap:wrap;align-items:flex-start}figure{margin:0}
+figcaption{font-size:12px;color:#555}.pages img{border:1px solid #999;image-rendering:pixelated}
+""" + PLAYER_CSS
 
 _LEGEND = ('<p class="legend"><span><i style="border-top:3px dashed #c00"></i>old quad (what the region drew)</span>'
            '<span><i style="border-top:3px solid #1f5fd1"></i>new mesh hull</span>'
@@ -324,17 +158,24 @@ def _less(part: int, whole: int) -> str:
     return f"−{_pct(part, whole)}" if whole else "-"
 
 
-def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate, frames: int = 1,
-          bent: np.ndarray | None = None) -> str:
+def _html_page(title: str, body: str) -> str:
+    return (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
+            f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
+
+
+def _card(folder: PreviewFolder, up: str, rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate,
+          frames: int = 1, bent: np.ndarray | None = None, bends: str = "") -> str:
     """One upgraded image: the sprite with the old quad and the new mesh, its counts and saving.
 
-    ``frames`` > 1: the image is the first frame of a sequence whose one mesh covers every
-    frame's art (said under the picture, as the hull can be far larger than this frame's art);
-    ``bent``: the weights picture of the mesh (setup pose coloured by bone, one bent pose).
+    Images are files beside the pages (``up`` leads from the page to the preview folder),
+    loaded when scrolled to. ``frames`` > 1: the image is the first frame of a sequence whose
+    one mesh covers every frame's art; ``bent``: the weights picture of the mesh (setup pose
+    coloured by bone, one bent pose); ``bends``: the mesh was made to bend over its bones, the
+    keep rule alone would have kept the region (this reason), so its saving is not why it exists.
     """
     uvs, tris, hull = _mesh_arrays(att)
     h, w = rgba.shape[:2]
-    pic = fit_within(rgba, CARD_SIZE - 20)
+    pic = folder.image(rgba, CARD_SIZE - 20)
     k = min((CARD_SIZE - 20) / max(w, h), 4.0)  # small sprites are shown up to 4x, texels kept square
     pw, ph = max(1, round(w * k)), max(1, round(h * k))
     x0, y0, x1, y1 = box
@@ -349,35 +190,38 @@ def _card(rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate, fr
     table = "<table><tr><td></td><td>region</td><td>mesh</td></tr>" + "".join(
         f"<tr><td>{a}</td><td>{b}</td><td>{c}</td></tr>" for a, b, c in rows) + "</table>"
     who = html.escape(", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else ""))
+    why = (f'<div><b>Made to bend</b> over its bones: as a region it would have been kept '
+           f'({html.escape(bends)}); what it draws is not why it exists.</div>' if bends else
+           f'<div>transparent area no longer drawn: <b>{saved:,}</b> texels '
+           f'({_pct(saved, rate.transparent_before)} of it)</div>')
     return (f'<div class="card"><div class="name">{html.escape(att.get("path") or names[0].rsplit("/", 1)[-1])}</div>'
             f'<div class="who">{who}</div>'
-            f'<div class="pic" style="width:{pw}px;height:{ph}px"><img src="{png_data_uri(pic)}" width="{pw}" '
-            f'height="{ph}" alt="">{svg}</div>{table}'
-            f'<div>transparent area no longer drawn: <b>{saved:,}</b> texels '
-            f'({_pct(saved, rate.transparent_before)} of it)</div>'
+            f'<div class="pic checker" style="width:{pw}px;height:{ph}px"><img loading="lazy" src="{up}{pic}" '
+            f'width="{pw}" height="{ph}" alt="">{svg}</div>{table}{why}'
             + (f'<div class="note">One mesh for the {frames} frames of this sequence: it covers the art of '
                'every frame, so it reaches beyond the art of the frame shown.</div>' if frames > 1 else "")
             + (f'<div class="note bent">Bound to its bones (--weights auto): vertices coloured by bone, and '
-               f'the mesh with its bones turned:<img src="{png_data_uri(bent)}" alt="bent pose"></div>'
-               if bent is not None else "")
+               f'the mesh with its bones turned:<img loading="lazy" src="{up}{folder.image(bent, 800)}" '
+               'alt="bent pose"></div>' if bent is not None else "")
             + '</div>')
 
 
-def _reasons_table(result) -> str:
+def _reasons_table(result, targets=None) -> str:
     """Why attachments were kept as regions or failed, with counts, most frequent first.
 
     Reasons worded alike are one row whatever their figures ("the art fills 98% ..." and
     "... 92% ..."), with the most frequent as the example (:func:`spinemesh.runs.reason_groups`);
-    reasons worded differently are never folded together.
+    reasons worded differently are never folded together. ``targets``: these only (default all).
     """
     from ..runs import reason_groups
 
+    targets = result.targets if targets is None else targets
     rows = "".join(
         f"<tr><td>{html.escape(status)}</td><td style=\"text-align:left\">{html.escape(example)}"
         + (f" <i>({variants - 1} more like it with other figures)</i>" if variants > 1 else "")
         + f"</td><td>{n:,}</td></tr>"
         for status in ("kept", "failed")
-        for example, n, variants in reason_groups([t.reason for t in result.targets if t.status == status]))
+        for example, n, variants in reason_groups([t.reason for t in targets if t.status == status]))
     if not rows:
         return ""
     return ('<table class="sum"><tr><th>left a region</th><th style="text-align:left">why (an example)</th>'
@@ -386,8 +230,8 @@ def _reasons_table(result) -> str:
 
 class _ImageCache:
     """An image source that decodes each atlas page once per page (not once per lookup) and
-    keeps each image it was asked for: the pose and the cards ask for the same images, in orders
-    that would make a two-page cache decode pages again and again."""
+    keeps each image it was asked for: the player and the cards ask for the same images, in
+    orders that would make a two-page cache decode pages again and again."""
 
     def __init__(self, source):
         from ..images import AtlasImages
@@ -403,61 +247,206 @@ class _ImageCache:
             self.images[name] = self.source.get(name)
         return self.images[name]
 
+    def rgba_and_content(self, name: str):
+        """``(rgba, content box)`` of an image, or None when it cannot be read."""
+        from ..errors import SpineMeshError
 
-def _skeleton_section(rel: str, targets: list, doc: dict, source) -> tuple[str, FillRate]:
-    """One skeleton's part of the page, and its fill rate over its meshed ``targets``.
+        try:
+            image = self.get(name)
+        except SpineMeshError:
+            return None
+        return image.rgba, image.content
 
-    ``doc`` is the upgraded skeleton; ``source`` the project's images (an :class:`_ImageCache`,
-    or None when the project has none for it).
+
+# --- which skeletons, where -----------------------------------------------------------------
+
+@dataclass
+class _Skeleton:
+    """One written skeleton: its path in the run, the original and upgraded files, its project."""
+
+    rel: str
+    original: Path
+    upgraded: Path
+    project: object
+    twins: list[str] = field(default_factory=list)
+
+
+def _skeletons(result, project: Path, out: Path) -> list[_Skeleton]:
+    """Every written skeleton with its original file and project (a library: each skeleton's own)."""
+    from ..project import find_projects
+
+    roots = ({p.relative_to(project).as_posix(): p for p in find_projects(project)}
+             if project.is_dir() and _is_library(project) else None)
+    single = find_project(project) if roots is None else None
+    cache: dict = {}
+    out_list = []
+    for rel in result.written:
+        if roots is None:
+            proj, original = single, single.root / rel
+        else:
+            root = max((r for r in roots if rel.startswith(r + "/") or r == "."), key=len, default=None)
+            if root is None:
+                continue
+            if root not in cache:
+                cache[root] = find_project(roots[root])
+            proj = cache[root]
+            original = project / rel
+        out_list.append(_Skeleton(rel, original, out / rel, proj))
+    return out_list
+
+
+def _is_library(folder: Path) -> bool:
+    from .library import is_library
+
+    return is_library(folder)
+
+
+_STEM = re.compile(r"(\.json|\.skel|\.json\.txt|\.skel\.bytes|\.spine-json)$", re.I)
+_BINARY = re.compile(r"(\.skel|\.skel\.bytes)$", re.I)
+
+
+def skeleton_signature(doc: dict) -> str:
+    """What makes two skeleton files one skeleton: bone names and parents, slot names and
+    bones, every skin's attachment names, types and image paths, and animation names, as one
+    text (numbers are left out: a JSON export rounds them, a binary one does not)."""
+    bones = [(b.get("name"), b.get("parent")) for b in doc.get("bones", []) if isinstance(b, dict)]
+    slots = [(s.get("name"), s.get("bone")) for s in doc.get("slots", []) if isinstance(s, dict)]
+    atts = sorted((skin, slot, name, str(a.get("type", "region")), str(a.get("path", name)))
+                  for skin, slots_ in iter_skins(doc) for slot, named in slots_.items() if isinstance(named, dict)
+                  for name, a in named.items() if isinstance(a, dict))
+    anims = sorted(doc.get("animations", {}) or {}) if isinstance(doc.get("animations"), dict) else []
+    return repr((bones, slots, atts, anims))
+
+
+def twin_of(rels: list[str], signatures: dict[str, str], binary: dict[str, bool] | None = None) -> dict[str, str]:
+    """For each twin, the skeleton it repeats: ``{rel: first rel}``.
+
+    Two files are twins (a ``.json`` and a ``.skel``, as the editor exports both) when they lie
+    in one folder, one is JSON and the other binary, and they hold the same skeleton
+    (:func:`skeleton_signature`: bones, slots, attachments with their image paths,
+    animations). The first in ``rels`` order is kept; its twin is drawn and counted once,
+    under it. ``binary``: whether each file is binary (default: by its name, ``.skel``).
     """
+    binary = binary or {rel: bool(_BINARY.search(rel)) for rel in rels}
+    first: dict[tuple[str, str], list[str]] = {}
+    out = {}
+    for rel in rels:
+        if rel not in signatures:
+            continue
+        key = (rel.rsplit("/", 1)[0] if "/" in rel else "", signatures[rel])
+        group = first.setdefault(key, [])
+        partner = next((r for r in group if binary[r] != binary[rel] and r not in out.values()), None)
+        if partner is not None:
+            out[rel] = partner
+        else:
+            group.append(rel)
+    return out
+
+
+# --- a skeleton's page ----------------------------------------------------------------------
+
+def _player(folder: PreviewFolder, pid: str, page_rel: str, before: dict, after: dict, source) -> str:
+    """The player of one skeleton: both sides' poses, for now the setup pose of each skin."""
+    from ..player import setup_pose, still, write_player
+    from ..player.frames import pose_skins
+
+    content = None
+    if source is not None:
+        def content(path):
+            got = source.rgba_and_content(path)
+            return None if got is None else (got[1], (got[0].shape[1], got[0].shape[0]))
+    skins = pose_skins(after)
+    animation = still(setup_pose(before, content, pose_skins(before)), setup_pose(after, content, skins),
+                      skin=skins[0] if skins else "default")
+    return write_player(folder, pid, page_rel, [animation],
+                        (lambda p: source.rgba_and_content(p)) if source is not None else (lambda p: None))
+
+
+def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list, all_targets: list,
+                   before: dict, after: dict, source) -> tuple[str, FillRate]:
+    """Write one skeleton's page; return its path under the preview and its fill rate."""
+    page_rel = f"s/{pid}.html"
+    up = "../"
     cards, seen = [], {}
     for t in targets:
         seen.setdefault(t.key, []).append(t)
-    skeleton_rate = FillRate(0, 0, 0, 0)
+    rate_total = FillRate(0, 0, 0, 0)
     weighted = any(t.weights is not None for t in targets)
     rig = None
     for key, group in seen.items():
         t = group[0]
-        att = _find(doc, t.skin, t.slot, t.name)
+        att = _find(after, t.skin, t.slot, t.name)
         if att is None or source is None:
             continue
-        image = source.get(t.paths[0])
+        got = source.rgba_and_content(t.paths[0])
+        if got is None:
+            continue
+        rgba, box = got
         uvs, tris, _ = _mesh_arrays(att)
-        rate = fill_rate(image.rgba, image.content, uvs, tris)
+        rate = fill_rate(rgba, box, uvs, tris)
         for _ in group:  # every attachment drawing this image saves as much
-            skeleton_rate = skeleton_rate + rate
+            rate_total = rate_total + rate
         bent = None
         if weighted and len((t.weights or {}).get("bones") or {}) > 1 and t.weights.get("status") == "weighted":
             from ..rig.document import build_rig
             from ..rig.preview import weighted_picture
 
-            rig = rig or build_rig(doc)
-            bent = weighted_picture(doc, att, rig, image.rgba)
+            rig = rig or build_rig(after)
+            bent = weighted_picture(after, att, rig, rgba)
+        bends = next((g.overruled for g in group if g.overruled), "")
         cards.append((rate.transparent_before - rate.transparent_after,
-                      _card(image.rgba, image.content, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate,
-                            frames=len(t.paths), bent=bent)))
+                      _card(folder, up, rgba, box, att, [f"{g.skin}/{g.slot}/{g.name}" for g in group], rate,
+                            frames=len(t.paths), bent=bent, bends=bends)))
     cards.sort(key=lambda c: -c[0])
     more = len(cards) - CARD_LIMIT
     cards = cards[:CARD_LIMIT] + ([(0, f"<p>… and {more} more images with smaller savings (counted in the "
                                           "totals).</p>")] if more > 0 else [])
-    upgraded = {(t.skin, t.slot, t.name) for t in targets}
-    return (
-        f"<h2>{html.escape(rel)}</h2><p>{len(targets)} attachments meshed; transparent texels drawn "
-        f"{skeleton_rate.transparent_before:,} → {skeleton_rate.transparent_after:,} "
-        f"({_less(skeleton_rate.transparent_before - skeleton_rate.transparent_after, skeleton_rate.transparent_before)})."
-        f" Setup pose, drawn from the upgraded skeleton: wireframes of the new meshes, regions left as they "
-        f"are dashed:</p>"
-        + setup_pose(doc, source, upgraded, draw_bones=weighted)
-        + f"<h3>Upgraded images, largest saving first</h3>{_LEGEND}<div class=\"cards\">"
-        + "".join(c for _, c in cards) + "</div>", skeleton_rate)
+    twins = (f"<p>Also written as {html.escape(', '.join(sk.twins))}: the same skeleton, shown and counted "
+             "once.</p>" if sk.twins else "")
+    body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}</h1>{twins}'
+            + _headline_html(rate_total, len(targets)) + _rate_table(rate_total)
+            + "<h2>Original and upgraded, side by side</h2>"
+            + _player(folder, pid, page_rel, before, after, source)
+            + "<h2>Upgraded images, largest saving first</h2>"
+            + (f'{_LEGEND}<div class="cards">{"".join(c for _, c in cards)}</div>' if cards else
+               "<p>No attachment of this skeleton became a mesh.</p>")
+            + _reasons_table(None, all_targets))
+    folder.write_text(page_rel, _html_page(f"spinemesh upgrade: {sk.rel}", body))
+    return page_rel, rate_total
+
+
+# --- the index ------------------------------------------------------------------------------
+
+def _headline_html(total: FillRate, meshed: int) -> str:
+    """Texels drawn before and after first, then the transparent ones among them."""
+    if not total.before:
+        return ""
+    return (f'<p class="big">Texels drawn: {total.before:,} → {total.after:,} '
+            f'({_less(total.before - total.after, total.before)})</p>'
+            f'<p class="second">of them fully transparent: {total.transparent_before:,} → '
+            f'{total.transparent_after:,} ({_less(total.transparent_before - total.transparent_after, total.transparent_before)})'
+            f' over the {meshed:,} attachments meshed</p>')
+
+
+def _rate_table(total: FillRate) -> str:
+    if not total.before:
+        return ""
+    return ('<table class="sum"><tr><th></th><th>regions (before)</th><th>meshes (after)</th><th>change</th></tr>'
+            f"<tr><td>texels drawn</td><td>{total.before:,}</td><td>{total.after:,}</td>"
+            f"<td>{_less(total.before - total.after, total.before)}</td></tr>"
+            f"<tr><td>of them fully transparent</td><td>{total.transparent_before:,}</td>"
+            f"<td>{total.transparent_after:,}</td>"
+            f"<td>{_less(total.transparent_before - total.transparent_after, total.transparent_before)}</td></tr></table>")
 
 
 def _headline(result, total: FillRate) -> str:
-    """The page's headline: the saving, or, when nothing was measured, what happened instead."""
-    if total.transparent_before:
-        return f"{_pct(total.transparent_before - total.transparent_after, total.transparent_before)} fewer " \
-               "transparent texels drawn"
+    """The index's headline when no texel count leads it: what happened instead."""
     counts = result.counts()
+    packed = [a for a in result.atlases if a.status == "packed"]
+    if packed and not counts.get("meshed"):
+        before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
+        return (f"No attachment meshed; {len(packed)} atlas{'es' if len(packed) > 1 else ''} packed anew: page "
+                f"texels {before:,} → {after:,} ({_less(before - after, before)}), see the pages below")
     if result.not_read and not counts.get("meshed"):
         n = len(result.not_read)
         return f"Nothing meshed: {n} skeleton{'s' if n > 1 else ''} could not be read (see below)"
@@ -465,8 +454,6 @@ def _headline(result, total: FillRate) -> str:
         return f"Nothing meshed: {counts['failed']} attachments failed (see why below)"
     if not result.targets:
         return "Nothing to upgrade: no region attachment (every attachment is already a mesh or of another type)"
-    if counts.get("meshed") and total.before:
-        return f"{counts['meshed']} attachments meshed; their images hold no transparent texel to leave out"
     if counts.get("meshed"):
         return f"{counts['meshed']} attachments meshed (their images could not be read for this page)"
     return "Nothing meshed: every region was kept as it is (see why below)"
@@ -482,62 +469,151 @@ def _problems(result) -> str:
     return f"<h3>Problems</h3><ul>{''.join(items)}</ul>"
 
 
+def _atlas_pages(folder: PreviewFolder, result, project_root: Path, out: Path) -> str:
+    """Every packed atlas's pages before and after (files, loaded when scrolled to)."""
+    from ..atlas import read_atlas
+    from ..errors import SpineMeshError
+    from ..images import AtlasImages, fit_within, load_rgba
+
+    def figures(atlas_path: Path, root: Path) -> str:
+        atlas = read_atlas(atlas_path, strict=False)
+        out_html = []
+        for page in atlas.pages:
+            rgba = load_rgba(AtlasImages.page_path(atlas, page.name, root))
+            h, w = rgba.shape[:2]
+            shown = fit_within(rgba, PAGE_SIZE)
+            rel = folder.image(shown, PAGE_SIZE)
+            out_html.append(f'<figure><img class="checker" loading="lazy" src="{rel}" width="{shown.shape[1]}" '
+                            f'height="{shown.shape[0]}" alt="{html.escape(page.name)}"><figcaption>'
+                            f'{html.escape(page.name)}: {w} x {h} = {w * h:,} texels</figcaption></figure>')
+        return "".join(out_html)
+
+    parts = []
+    for row in result.atlases:
+        if row.status != "packed":
+            continue
+        try:
+            before = figures(project_root / row.atlas, project_root)
+            after = figures(out / row.atlas, out)
+        except SpineMeshError as e:
+            parts.append(f"<h3>{html.escape(row.atlas)}</h3><p>pages not shown: {html.escape(str(e))}</p>")
+            continue
+        parts.append(f"<h3>{html.escape(row.atlas)}</h3><p>page texels {row.texels_before:,} → {row.texels_after:,} "
+                     f"({_less(row.texels_before - row.texels_after, row.texels_before)}), bytes "
+                     f"{row.bytes_before:,} → {row.bytes_after:,}</p><h4>before</h4><div class=\"pages\">{before}</div>"
+                     f"<h4>after</h4><div class=\"pages\">{after}</div>")
+    kept = [a for a in result.atlases if a.status != "packed"]
+    if kept:
+        parts.append("<h3>atlases kept as they were</h3><table class=\"sum\"><tr><th>atlas</th><th>why</th></tr>"
+                     + "".join(f"<tr><td>{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
+                               f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
+    return "<h2>Atlas pages</h2>" + "".join(parts) if parts else ""
+
+
+def _read_pairs(skeletons: list[_Skeleton]) -> tuple[dict, dict, dict]:
+    """Both files of every skeleton (``{rel: (original, upgraded)}``), the problems of those
+    that could not be read (``{rel: error}``), and the twins (:func:`twin_of`), each listed
+    under the skeleton it repeats."""
+    from ..errors import SpineMeshError
+
+    docs: dict[str, tuple[dict, dict]] = {}
+    problems: dict[str, str] = {}
+    for sk in skeletons:
+        try:
+            docs[sk.rel] = (load_skeleton(sk.original), load_skeleton(sk.upgraded))
+        except SpineMeshError as e:
+            problems[sk.rel] = str(e)
+    twins = twin_of([sk.rel for sk in skeletons], {rel: skeleton_signature(d[1]) for rel, d in docs.items()},
+                    {sk.rel: is_binary_skeleton(sk.original) for sk in skeletons})
+    by_rel = {sk.rel: sk for sk in skeletons}
+    for rel, first in twins.items():
+        by_rel[first].twins.append(rel)
+    return docs, problems, twins
+
+
+def _index_row(sk: _Skeleton, link: str | None, rate: FillRate, counts: dict, problem: str | None) -> str:
+    """One skeleton's row of the index: its link, counts and fill rate."""
+    name = html.escape(sk.rel) + (f" <small>(+ {html.escape(', '.join(sk.twins))})</small>" if sk.twins else "")
+    cell = f'<a href="{link}">{name}</a>' if link else name
+    return (f"<tr><td>{cell}" + (f"<br><small>not shown: {html.escape(problem)}</small>" if problem else "")
+            + f"</td><td>{counts['meshed']:,}</td><td>{counts['kept']:,}</td><td>{counts['failed']:,}</td>"
+            f"<td>{rate.before:,} → {rate.after:,}</td><td>{_less(rate.before - rate.after, rate.before)}</td>"
+            f"<td>{rate.transparent_before:,} → {rate.transparent_after:,}</td>"
+            f"<td>{_less(rate.transparent_before - rate.transparent_after, rate.transparent_before)}</td></tr>")
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None, on_skeleton=None) -> Path:
-    """Write ``folder/index.html`` for an upgrade run and return its path.
+    """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
+    and player data) and return the index's path.
 
     Parameters
     ----------
     result : spinemesh.upgrade.report.Result
-        What :func:`~spinemesh.upgrade.upgrade_project` returned.
+        What :func:`~spinemesh.upgrade.upgrade_project` or
+        :func:`~spinemesh.upgrade.upgrade_library` returned.
     project : path
-        The project (folder or skeleton file) that was upgraded: images are read from it.
+        The project (folder or skeleton file) or library that was upgraded: images are read from it.
     out : path
         The output folder the upgraded skeletons were written to.
     images_in : path, optional
         The ``--from-images`` folder, if the run used one.
     on_skeleton : callable, optional
-        Called with no argument after each skeleton's part of the page (for progress bars).
+        Called with no argument after each skeleton (for progress bars).
     """
     from ..errors import SpineMeshError
 
-    proj = find_project(project)
-    out, folder = Path(out), Path(folder)
+    project, out = Path(project), Path(out)
+    files = PreviewFolder(folder)
+    skeletons = _skeletons(result, project, out)
+    docs, problems, twins = _read_pairs(skeletons)
     total = FillRate(0, 0, 0, 0)
-    sections = []
-    for rel in result.written:
-        if on_skeleton is not None and sections:
-            on_skeleton()  # the previous skeleton's part is done
-        targets = [t for t in result.targets if t.skeleton == rel and t.status == "meshed"]
-        try:
-            doc = load_skeleton(out / rel)
-            source = image_source_for(load_skeleton(proj.root / rel), proj.root / rel, proj, images=images_in)
-        except SpineMeshError as e:
-            sections.append(f"<h2>{html.escape(rel)}</h2><p>not shown: {html.escape(str(e))}</p>")
+    rows = []
+    used_ids: set[str] = set()
+    for sk in skeletons:
+        if sk.rel in twins:
+            if on_skeleton is not None:
+                on_skeleton()
             continue
-        source = None if source is None else _ImageCache(source)
-        section, skeleton_rate = _skeleton_section(rel, targets, doc, source)
-        total = total + skeleton_rate
-        sections.append(section)
-    if on_skeleton is not None and sections:
-        on_skeleton()
-    counts = result.counts()
-    saved = total.transparent_before - total.transparent_after
-    summary = (
-        f'<p class="big">{html.escape(_headline(result, total))}</p>'
-        '<table class="sum"><tr><th></th><th>regions (before)</th><th>meshes (after)</th><th>change</th></tr>'
-        f"<tr><td>texels drawn</td><td>{total.before:,}</td><td>{total.after:,}</td>"
-        f"<td>{_less(total.before - total.after, total.before)}</td></tr>"
-        f"<tr><td>of them fully transparent</td><td>{total.transparent_before:,}</td>"
-        f"<td>{total.transparent_after:,}</td><td>{_less(saved, total.transparent_before)}</td></tr></table>"
-        f"<p>Attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
-        f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
-        "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>"
-        + _reasons_table(result) + _problems(result))
-    page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh upgrade: "
-            f"{html.escape(proj.root.name)}</title><style>{_CSS}</style></head><body>"
-            f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>"
-            f"{summary}{''.join(sections)}</body></html>\n")
-    path = folder / "index.html"
-    atomic_write_text(path, page)
-    return path
+        mine = [t for t in result.targets if t.skeleton == sk.rel]
+        meshed = [t for t in mine if t.status == "meshed"]
+        counts = {s: sum(t.status == s for t in mine) for s in ("meshed", "kept", "failed")}
+        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
+        while pid in used_ids:
+            pid += "_"
+        used_ids.add(pid)
+        link, rate = None, FillRate(0, 0, 0, 0)
+        if sk.rel in docs:
+            before, after = docs[sk.rel]
+            try:
+                source = image_source_for(before, sk.original, sk.project, images=images_in)
+            except SpineMeshError as e:
+                problems[sk.rel], source = str(e), None
+            source = None if source is None else _ImageCache(source)
+            link, rate = _skeleton_page(files, sk, pid, meshed, mine, before, after, source)
+        total = total + rate
+        rows.append(_index_row(sk, link, rate, counts, problems.get(sk.rel)))
+        if on_skeleton is not None:
+            on_skeleton()
+    counts = {s: sum(t.status == s and t.skeleton not in twins for t in result.targets)
+              for s in ("meshed", "kept", "failed")}
+    headline = (_headline_html(total, counts.get("meshed", 0)) if total.before else
+                f'<p class="big">{html.escape(_headline(result, total))}</p>')
+    shown = len(skeletons) - len(twins)
+    table = ('<table class="sum"><tr><th>skeleton</th><th>meshed</th><th>kept</th><th>failed</th>'
+             '<th>texels drawn</th><th>change</th><th>transparent texels drawn</th><th>change</th></tr>'
+             + "".join(rows) + "</table>")
+    root = project if project.is_dir() else project.parent
+    body = (f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>{headline}"
+            + _rate_table(total)
+            + f"<p>{shown} skeleton{'s' if shown != 1 else ''}"
+            + (f" ({len(twins)} more file{'s' if len(twins) > 1 else ''} the same skeleton in the other format, "
+               "counted once)" if twins else "")
+            + f"; attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
+            f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
+            "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>"
+            + f"<h2>Skeletons</h2>{table}"
+            + _atlas_pages(files, result, root, out)
+            + _reasons_table(result) + _problems(result))
+    files.write_text("index.html", _html_page(f"spinemesh upgrade: {root.name}", body))
+    return Path(folder) / "index.html"

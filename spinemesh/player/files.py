@@ -1,0 +1,88 @@
+"""The files of a preview folder: pages, images and frame scripts side by side.
+
+A preview is a folder a browser opens from disk (``file://``, no network): HTML pages that
+stay small, and beside them the images (PNG files, named by their content so that an image
+two pages show is written once) and the player's data (``.js`` files loaded with
+``<script src>``: Chromium forbids ``fetch`` of a local file, not a script element).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..fsutil import atomic_write_bytes, atomic_write_text
+
+#: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
+IMAGE_SIZE = 1024
+
+
+def safe_name(text: str, limit: int = 80) -> str:
+    """A file name made of ``text``: letters, digits, ``-_.`` kept, anything else ``_``.
+
+    Examples
+    --------
+    >>> safe_name("hero/walk cycle.json")
+    'hero_walk_cycle.json'
+    """
+    name = re.sub(r"[^A-Za-z0-9._-]", "_", text).strip(".")[:limit]
+    return name or "_"
+
+
+def png_bytes(rgba: np.ndarray) -> bytes:
+    """``rgba`` (H, W, 4 or 3, uint8) encoded as PNG."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, "PNG", optimize=False, compress_level=6)
+    return buf.getvalue()
+
+
+class PreviewFolder:
+    """Writes the files of one preview under ``root`` and keeps their sizes.
+
+    Attributes
+    ----------
+    sizes : dict of str to int
+        Bytes of every file written, by its path relative to ``root``.
+    """
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        self.sizes: dict[str, int] = {}
+        self._images: dict[int, str] = {}
+
+    def write_text(self, rel: str, text: str) -> str:
+        """Write ``text`` (UTF-8) at ``rel``; returns ``rel``."""
+        path = self.root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, text)
+        self.sizes[rel] = len(text.encode("utf-8"))
+        return rel
+
+    def image(self, rgba: np.ndarray, size: int = IMAGE_SIZE) -> str:
+        """Write ``rgba`` shrunk to fit ``size`` as ``img/<content hash>.png`` (once per
+        content) and return that path, relative to ``root``."""
+        from ..images import fit_within
+
+        key = id(rgba)
+        if key in self._images and self._images[key][0] is rgba:
+            return self._images[key][1]
+        data = png_bytes(fit_within(rgba, size))
+        rel = f"img/{hashlib.sha1(data).hexdigest()[:20]}.png"
+        if rel not in self.sizes:
+            path = self.root / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_bytes(path, data)
+            self.sizes[rel] = len(data)
+        self._images[key] = (rgba, rel)  # the array itself is held so that its id stays its own
+        return rel
+
+    def largest_page(self) -> tuple[str, int]:
+        """The largest HTML page written: its path and bytes (``("", 0)`` when none)."""
+        pages = [(n, s) for n, s in self.sizes.items() if n.endswith(".html")]
+        return max(pages, key=lambda p: p[1], default=("", 0))

@@ -1,0 +1,115 @@
+"""The player's part of a skeleton's page, and the scripts it loads.
+
+:func:`write_player` writes, under the preview folder, ``player.js`` (once: the drawing code,
+:file:`player.js` beside this module), ``data/<id>/model.js`` (the images and the attachment
+tables of both sides) and one ``data/<id>/<animation>.<skin>.js`` per animation and skin
+sampled, and returns the HTML that shows the player. Nothing is inlined but that small HTML.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from importlib import resources
+
+from .files import PreviewFolder
+from .frames import Drawn, SideTable, bounds, encode_frames
+
+#: The player's styles, for the pages that show it.
+PLAYER_CSS = """
+.player .controls{display:flex;flex-wrap:wrap;gap:8px;align-items:center;margin:6px 0}
+.player .controls input[type=range]{width:260px}.player .clock{font-variant-numeric:tabular-nums;min-width:110px}
+.player .stage{display:flex;flex-wrap:wrap;gap:16px}.player figure{margin:0}
+.player figcaption{font-size:12px;color:#555;text-align:center}
+.player .status{color:#555;font-size:12px;min-height:1.2em}
+.checker{background:repeating-conic-gradient(#d8d8d8 0 25%,#f4f4f4 0 50%) 0 0/16px 16px;border:1px solid #bbb}
+"""
+
+
+def player_script() -> str:
+    """The player's drawing code (the text of :file:`player.js`)."""
+    return resources.files(__package__).joinpath("player.js").read_text(encoding="utf-8")
+
+
+@dataclass
+class Animation:
+    """One animation of the player: its name and duration (seconds), and per skin the poses
+    of both sides at its sampled times (``{skin: (before poses, after poses)}``)."""
+
+    name: str
+    duration: float
+    by_skin: dict = field(default_factory=dict)
+    note: str = ""
+
+
+def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: list[Animation],
+                 image_of) -> str:
+    """Write the scripts of one skeleton's player and return the HTML that shows it.
+
+    Parameters
+    ----------
+    folder : PreviewFolder
+    pid : str
+        The skeleton's id in the preview (a safe file name).
+    page_rel : str
+        The page's path under the preview folder (script and image paths are made relative
+        to it).
+    animations : list of Animation
+        At least one (the setup pose as a still animation when nothing else).
+    image_of : callable
+        ``image_of(image path) -> (rgba, content box) or None``: the attachment's image as
+        :class:`spinemesh.images.RegionImage` gives it.
+    """
+    up = "../" * page_rel.count("/")
+    if "player.js" not in folder.sizes:
+        folder.write_text("player.js", player_script())
+    images: list[str] = []
+    index: dict[str, int | None] = {}
+    boxes: dict[str, tuple] = {}
+
+    def image_index(path: str) -> int | None:
+        if path not in index:
+            got = image_of(path)
+            if got is None:
+                index[path] = None
+            else:
+                rgba, content = got
+                boxes[path] = (content, (rgba.shape[1], rgba.shape[0]))
+                images.append(up + folder.image(rgba))
+                index[path] = len(images) - 1
+        return index[path]
+
+    def content(path: str):
+        image_index(path)
+        return boxes.get(path)
+
+    tables = {side: SideTable(image_index, content) for side in ("before", "after")}
+    skins = list(dict.fromkeys(s for a in animations for s in a.by_skin))
+    anims = []
+    for i, a in enumerate(animations):
+        src = {}
+        for skin, (before, after) in a.by_skin.items():
+            box = bounds(before + after)
+            pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
+            box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
+            data = {"n": len(before), "dur": a.duration, "box": [round(v, 4) for v in box], "note": a.note,
+                    "before": encode_frames(before, tables["before"], box),
+                    "after": encode_frames(after, tables["after"], box)}
+            rel = f"data/{pid}/{i}.{skins.index(skin)}.js"
+            folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{skin}')},{json.dumps(data, separators=(',', ':'))});\n")
+            src[skin] = up + rel
+        anims.append({"name": a.name, "dur": a.duration, "src": src})
+    model = {"images": images, "skins": skins, "anims": anims,
+             "sides": {k: t.rows for k, t in tables.items()}}
+    folder.write_text(f"data/{pid}/model.js",
+                      f"SM.model({json.dumps(pid)},{json.dumps(model, separators=(',', ':'))});\n")
+    return (f'<div class="player" id="player-{html.escape(pid)}"></div>'
+            f'<script src="{up}player.js"></script><script src="{up}data/{html.escape(pid)}/model.js"></script>')
+
+
+def still(before: list[Drawn], after: list[Drawn], skin: str = "setup", name: str = "setup pose",
+          note: str = "") -> Animation:
+    """The setup pose (or any one pose) as a still animation of the player."""
+    return Animation(name, 0.0, {skin: ([before], [after])}, note)
+

@@ -1,0 +1,340 @@
+/* spinemesh preview player: the original and the upgraded skeleton side by side, one time line.
+ *
+ * Data comes from scripts beside the page (file:// pages may load <script src>, not fetch):
+ * SM.model(id, model) once per skeleton, SM.frames(key, frames) per animation and skin, loaded
+ * when chosen. Each frame lists the attachments drawn (table index, alpha, blend) and their
+ * vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D canvas, each
+ * an affine map of its image clipped to the triangle (one clip and one draw when a whole
+ * attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
+ *
+ * Test hooks (read from the page's #hash): play=A (start animation A playing); test=S (play S
+ * seconds of page time, then write times and canvas checksums to <pre id="sm-test">);
+ * at=A,T[,x,y,w,h,ppu] (animation A paused at T seconds, drawn in that world frame at ppu pixels
+ * per unit; both canvases then written as PNG data to <pre id="sm-test">).
+ */
+(function () {
+  "use strict";
+  var SM = window.SM = window.SM || {};
+  var frames = {}, waiting = {};
+  var BLEND = ["source-over", "lighter", "multiply", "screen"];
+
+  SM.frames = function (key, data) {
+    frames[key] = data;
+    (waiting[key] || []).forEach(function (f) { f(data); });
+    delete waiting[key];
+  };
+
+  function load(key, src, done, fail) {
+    if (frames[key]) { done(frames[key]); return; }
+    if (waiting[key]) { waiting[key].push(done); return; }
+    waiting[key] = [done];
+    var s = document.createElement("script");
+    s.src = src;
+    s.onerror = function () { delete waiting[key]; fail(src); };
+    document.head.appendChild(s);
+  }
+
+  function u16(b64) {
+    var bin = atob(b64), n = bin.length >> 1, out = new Uint16Array(n);
+    for (var i = 0; i < n; i++) out[i] = bin.charCodeAt(2 * i) | (bin.charCodeAt(2 * i + 1) << 8);
+    return out;
+  }
+
+  function el(tag, attrs, parent, text) {
+    var e = document.createElement(tag);
+    for (var k in attrs) e.setAttribute(k, attrs[k]);
+    if (text !== undefined) e.textContent = text;
+    if (parent) parent.appendChild(e);
+    return e;
+  }
+
+  function hashParams() {
+    var out = {};
+    location.hash.replace(/^#/, "").split("&").forEach(function (kv) {
+      var i = kv.indexOf("=");
+      if (i > 0) out[kv.slice(0, i)] = decodeURIComponent(kv.slice(i + 1));
+    });
+    return out;
+  }
+
+  /* One side's frames, decoded: per frame the start of its draw list and of its vertices. */
+  function decodeSide(side, table) {
+    var xy = u16(side.xy), d = side.draws, starts = [], p = 0, v = 0;
+    while (p < d.length) {
+      starts.push([p, v]);
+      var n = d[p++];
+      for (var i = 0; i < n; i++) { v += table[d[p]].uv.length; p += 3; }
+    }
+    return { draws: d, xy: xy, starts: starts };
+  }
+
+  function affine(s, d) { /* s, d: [x0,y0,x1,y1,x2,y2]; returns [a,b,c,e,f,...] as canvas setTransform args */
+    var u1 = s[2] - s[0], v1 = s[3] - s[1], u2 = s[4] - s[0], v2 = s[5] - s[1];
+    var det = u1 * v2 - u2 * v1;
+    if (Math.abs(det) < 1e-9) return null;
+    var x1 = d[2] - d[0], y1 = d[3] - d[1], x2 = d[4] - d[0], y2 = d[5] - d[1];
+    var a = (x1 * v2 - x2 * v1) / det, c = (x2 * u1 - x1 * u2) / det;
+    var b = (y1 * v2 - y2 * v1) / det, dd = (y2 * u1 - y1 * u2) / det;
+    return [a, b, c, dd, d[0] - a * s[0] - c * s[1], d[1] - b * s[0] - dd * s[1]];
+  }
+
+  SM.model = function (id, model) {
+    var root = document.getElementById("player-" + id);
+    if (!root) return;
+    var P = { id: id, model: model, anim: 0, skin: 0, t: 0, playing: false, speed: 1, data: null,
+              images: [], wire: false, bones: false, view: null, last: null };
+    var bar = el("div", { "class": "controls" }, root);
+    var animSel = el("select", { "aria-label": "animation" }, bar);
+    model.anims.forEach(function (a, i) { el("option", { value: i }, animSel, a.name + " (" + a.dur.toFixed(2) + " s)"); });
+    var skinSel = el("select", { "aria-label": "skin" }, bar);
+    model.skins.forEach(function (s, i) { el("option", { value: i }, skinSel, "skin: " + s); });
+    var play = el("button", { type: "button" }, bar, "▶ play");
+    var scrub = el("input", { type: "range", min: 0, max: 1000, value: 0, "aria-label": "time" }, bar);
+    var clock = el("span", { "class": "clock" }, bar, "0.00 s");
+    var speedSel = el("select", { "aria-label": "speed" }, bar);
+    [0.1, 0.25, 0.5, 1, 2].forEach(function (s) {
+      var o = el("option", { value: s }, speedSel, s + "×");
+      if (s === 1) o.selected = true;
+    });
+    var wl = el("label", {}, bar); var wire = el("input", { type: "checkbox" }, wl); wl.appendChild(document.createTextNode(" wireframe"));
+    var bl = el("label", {}, bar); var bones = el("input", { type: "checkbox" }, bl); bl.appendChild(document.createTextNode(" vertices by bone"));
+    var stage = el("div", { "class": "stage" }, root);
+    var sides = ["before", "after"].map(function (name) {
+      var fig = el("figure", {}, stage);
+      var c = el("canvas", { width: 460, height: 460, "class": "checker" }, fig);
+      el("figcaption", {}, fig, name === "before" ? "original" : "upgraded");
+      return { name: name, canvas: c, ctx: c.getContext("2d") };
+    });
+    var status = el("div", { "class": "status" }, root);
+    P.images = model.images.map(function () { return null; });
+
+    function image(i) {
+      if (i === null || i === undefined) return null;
+      if (!P.images[i]) {
+        var im = new Image();
+        im.onload = function () { draw(); };
+        im.src = model.images[i];
+        P.images[i] = im;
+      }
+      return P.images[i].complete && P.images[i].naturalWidth ? P.images[i] : null;
+    }
+
+    function choose() {
+      var a = model.anims[P.anim], skin = model.skins[P.skin];
+      var src = a.src[skin] || a.src[model.skins[0]];
+      var key = id + "/" + P.anim + "/" + (a.src[skin] ? skin : model.skins[0]);
+      status.textContent = "loading " + a.name + " …";
+      load(key, src, function (data) {
+        if (!data.decoded) {
+          data.decoded = {
+            before: decodeSide(data.before, model.sides.before),
+            after: decodeSide(data.after, model.sides.after)
+          };
+        }
+        P.data = data;
+        status.textContent = data.note || "";
+        resize();
+        draw();
+      }, function (s) { status.textContent = "could not load " + s; });
+    }
+
+    function resize() {
+      var b = P.data.box, v = P.view;
+      sides.forEach(function (s) {
+        var w, h;
+        if (v) { w = Math.max(1, Math.round(v[2] * v[4])); h = Math.max(1, Math.round(v[3] * v[4])); }
+        else {
+          var k = Math.min(440 / (b[2] - b[0]), 440 / (b[3] - b[1]));
+          w = Math.max(40, Math.round((b[2] - b[0]) * k) + 20); h = Math.max(40, Math.round((b[3] - b[1]) * k) + 20);
+        }
+        s.canvas.width = w; s.canvas.height = h;
+      });
+    }
+
+    /* world = box0 + q / 65535 * span; canvas = (world - frame origin) * scale, y flipped */
+    function mapping() {
+      var b = P.data.box, sx = (b[2] - b[0]) / 65535, sy = (b[3] - b[1]) / 65535, k, ox, oy;
+      if (P.view) { var v = P.view; k = v[4]; ox = -v[0] * k; oy = (v[1] + v[3]) * k; }
+      else { k = Math.min(440 / (b[2] - b[0]), 440 / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
+      return function (qx, qy) { return [ox + (b[0] + qx * sx) * k, oy - (b[1] + qy * sy) * k]; };
+    }
+
+    function frameIndex() {
+      var n = P.data.n;
+      return Math.min(n - 1, Math.max(0, Math.floor(P.t / P.data.dur * n + 1e-6))) || 0;
+    }
+
+    function drawSide(s, side, table, f, map) {
+      var ctx = s.ctx, d = side.draws, p = side.starts[f][0], v = side.starts[f][1], xy = side.xy;
+      ctx.setTransform(1, 0, 0, 1, 0, 0);
+      ctx.clearRect(0, 0, s.canvas.width, s.canvas.height);
+      var n = d[p++], lines = [], dots = [];
+      for (var i = 0; i < n; i++) {
+        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2];
+        p += 3;
+        var nv = row.uv.length / 2, pts = new Array(2 * nv);
+        for (var j = 0; j < nv; j++) {
+          var c = map(xy[v + 2 * j], xy[v + 2 * j + 1]);
+          pts[2 * j] = c[0]; pts[2 * j + 1] = c[1];
+        }
+        v += 2 * nv;
+        var im = image(row.img);
+        ctx.globalAlpha = alpha;
+        ctx.globalCompositeOperation = BLEND[blend] || "source-over";
+        if (im) drawTextured(ctx, im, row, pts);
+        if (s.name === "after" && P.wire) lines.push([row, pts]);
+        if (s.name === "after" && P.bones) dots.push([row, pts]);
+      }
+      ctx.globalAlpha = 1;
+      ctx.globalCompositeOperation = "source-over";
+      ctx.setTransform(1, 0, 0, 1, 0, 0);
+      lines.forEach(function (lp) {
+        var row = lp[0], q = lp[1], t = row.t;
+        ctx.strokeStyle = row.mesh ? "rgba(224,88,43,.85)" : "rgba(200,0,0,.8)";
+        ctx.lineWidth = 1;
+        ctx.beginPath();
+        for (var k = 0; k < t.length; k += 3) {
+          ctx.moveTo(q[2 * t[k]], q[2 * t[k] + 1]); ctx.lineTo(q[2 * t[k + 1]], q[2 * t[k + 1] + 1]);
+          ctx.lineTo(q[2 * t[k + 2]], q[2 * t[k + 2] + 1]); ctx.closePath();
+        }
+        ctx.stroke();
+      });
+      dots.forEach(function (dp) {
+        var row = dp[0], q = dp[1];
+        for (var k = 0; k < q.length / 2; k++) {
+          ctx.fillStyle = "#" + row.c.substr(6 * k, 6);
+          ctx.beginPath(); ctx.arc(q[2 * k], q[2 * k + 1], 3, 0, 6.2832); ctx.fill();
+          ctx.strokeStyle = "#000"; ctx.lineWidth = 0.7; ctx.stroke();
+        }
+      });
+    }
+
+    function drawTextured(ctx, im, row, pts) {
+      var W = im.naturalWidth, H = im.naturalHeight, uv = row.uv, t = row.t;
+      var src = new Array(uv.length);
+      for (var i = 0; i < uv.length; i += 2) { src[i] = uv[i] * W; src[i + 1] = uv[i + 1] * H; }
+      /* one affine map for the whole attachment? */
+      var m = null;
+      for (var k = 0; k < t.length && !m; k += 3) {
+        m = affine([src[2 * t[k]], src[2 * t[k] + 1], src[2 * t[k + 1]], src[2 * t[k + 1] + 1], src[2 * t[k + 2]], src[2 * t[k + 2] + 1]],
+                   [pts[2 * t[k]], pts[2 * t[k] + 1], pts[2 * t[k + 1]], pts[2 * t[k + 1] + 1], pts[2 * t[k + 2]], pts[2 * t[k + 2] + 1]]);
+      }
+      if (!m) return;
+      var rigid = true;
+      for (i = 0; i < pts.length && rigid; i += 2) {
+        var x = m[0] * src[i] + m[2] * src[i + 1] + m[4], y = m[1] * src[i] + m[3] * src[i + 1] + m[5];
+        rigid = Math.abs(x - pts[i]) < 0.25 && Math.abs(y - pts[i + 1]) < 0.25;
+      }
+      if (rigid) {
+        ctx.save();
+        ctx.setTransform(1, 0, 0, 1, 0, 0);
+        ctx.beginPath();
+        for (k = 0; k < t.length; k += 3) tri(ctx, pts, t[k], t[k + 1], t[k + 2], 0);
+        ctx.clip();
+        ctx.setTransform(m[0], m[1], m[2], m[3], m[4], m[5]);
+        ctx.drawImage(im, 0, 0);
+        ctx.restore();
+        return;
+      }
+      for (k = 0; k < t.length; k += 3) {
+        var a = t[k], b = t[k + 1], c = t[k + 2];
+        var mm = affine([src[2 * a], src[2 * a + 1], src[2 * b], src[2 * b + 1], src[2 * c], src[2 * c + 1]],
+                        [pts[2 * a], pts[2 * a + 1], pts[2 * b], pts[2 * b + 1], pts[2 * c], pts[2 * c + 1]]);
+        if (!mm) continue;
+        ctx.save();
+        ctx.setTransform(1, 0, 0, 1, 0, 0);
+        ctx.beginPath();
+        tri(ctx, pts, a, b, c, 0.4); /* grown a little so that neighbours leave no seam */
+        ctx.clip();
+        ctx.setTransform(mm[0], mm[1], mm[2], mm[3], mm[4], mm[5]);
+        ctx.drawImage(im, 0, 0);
+        ctx.restore();
+      }
+    }
+
+    function tri(ctx, q, a, b, c, grow) {
+      var cx = (q[2 * a] + q[2 * b] + q[2 * c]) / 3, cy = (q[2 * a + 1] + q[2 * b + 1] + q[2 * c + 1]) / 3;
+      [a, b, c].forEach(function (i, j) {
+        var x = q[2 * i], y = q[2 * i + 1], dx = x - cx, dy = y - cy, l = Math.sqrt(dx * dx + dy * dy) || 1;
+        x += grow * dx / l; y += grow * dy / l;
+        if (j === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
+      });
+      ctx.closePath();
+    }
+
+    function draw() {
+      if (!P.data) return;
+      var f = frameIndex(), map = mapping();
+      drawSide(sides[0], P.data.decoded.before, model.sides.before, f, map);
+      drawSide(sides[1], P.data.decoded.after, model.sides.after, f, map);
+      clock.textContent = P.t.toFixed(2) + " / " + P.data.dur.toFixed(2) + " s";
+      scrub.value = P.data.dur > 0 ? Math.round(P.t / P.data.dur * 1000) : 0;
+    }
+
+    function tick(now) {
+      if (!P.playing) { P.last = null; return; }
+      if (P.last !== null && P.data) {
+        P.t += (now - P.last) / 1000 * P.speed;
+        if (P.data.dur > 0) P.t %= P.data.dur; else P.t = 0;
+        draw();
+      }
+      P.last = now;
+      requestAnimationFrame(tick);
+    }
+
+    function setPlaying(on) {
+      P.playing = on;
+      play.textContent = on ? "❚❚ pause" : "▶ play";
+      if (on) requestAnimationFrame(tick);
+    }
+
+    play.onclick = function () { setPlaying(!P.playing); };
+    scrub.oninput = function () { if (P.data) { P.t = scrub.value / 1000 * P.data.dur; draw(); } };
+    speedSel.onchange = function () { P.speed = parseFloat(speedSel.value); };
+    animSel.onchange = function () { P.anim = +animSel.value; P.t = 0; choose(); };
+    skinSel.onchange = function () { P.skin = +skinSel.value; choose(); };
+    wire.onchange = function () { P.wire = wire.checked; draw(); };
+    bones.onchange = function () { P.bones = bones.checked; draw(); };
+    P.draw = draw; P.setPlaying = setPlaying; P.choose = choose;
+    SM.players = SM.players || {};
+    SM.players[id] = P;
+
+    var h = hashParams();
+    if (h.play !== undefined) { P.anim = +h.play || 0; animSel.value = P.anim; }
+    if (h.at !== undefined) {
+      var at = h.at.split(",").map(Number);
+      P.anim = at[0]; animSel.value = P.anim; P.t = at[1];
+      if (at.length >= 7) P.view = at.slice(2, 7);
+    }
+    choose();
+    if (h.play !== undefined || h.test !== undefined) setPlaying(true);
+    if (h.test !== undefined || h.at !== undefined) selftest(P, sides, +(h.test || 0), h.at !== undefined);
+  };
+
+  function checksum(canvas) {
+    var px = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height).data, s = 0;
+    for (var i = 0; i < px.length; i += 7) s = (s * 31 + px[i]) % 1000000007;
+    return s;
+  }
+
+  function selftest(P, sides, seconds, still) {
+    var out = document.getElementById("sm-test") || el("pre", { id: "sm-test" }, document.body);
+    var samples = [], started = performance.now();
+    function sample() {
+      if (!P.data) { setTimeout(sample, 50); return; }
+      if (still) {
+        P.draw();
+        var pending = P.model.images.filter(function (_, i) { return P.images[i] && !(P.images[i].complete); });
+        if (pending.length) { setTimeout(sample, 50); return; }
+        P.draw();
+        out.textContent = JSON.stringify({ t: P.t, frame: Math.floor(P.t / P.data.dur * P.data.n + 1e-6),
+          before: sides[0].canvas.toDataURL("image/png"), after: sides[1].canvas.toDataURL("image/png") });
+        return;
+      }
+      samples.push({ t: P.t, before: checksum(sides[0].canvas), after: checksum(sides[1].canvas) });
+      if (performance.now() - started < seconds * 1000) setTimeout(sample, 100);
+      else out.textContent = JSON.stringify({ anim: P.model.anims[P.anim].name, samples: samples });
+    }
+    sample();
+  }
+})();
