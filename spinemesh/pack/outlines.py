@@ -254,6 +254,8 @@ def window_texels(page: np.ndarray, g: RegionGeometry, window: tuple[int, int, i
     r0, r1 = g.y + min(rows), g.y + max(rows) + 1
     c0, c1 = g.x + min(cols), g.x + max(cols) + 1
     ph, pw = page.shape[:2]
+    if 0 <= r0 and r1 <= ph and 0 <= c0 and c1 <= pw:  # a view: an atlas's windows cover its pages again
+        return np.rot90(page[r0:r1, c0:c1], -k)
     # clamped indices: texels beyond the page repeat its edge, as a clamped texture samples them
     stored = page[np.ix_(np.clip(np.arange(r0, r1), 0, ph - 1), np.clip(np.arange(c0, c1), 0, pw - 1))]
     return np.rot90(stored, -k)

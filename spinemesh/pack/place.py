@@ -391,14 +391,21 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     placements: list[Placement | None] = [None] * len(candidates)
     pages: list[Page] = []
     left = [i for i in order if any(m.shape[1] <= width and m.shape[0] <= height for m in candidates[i])]
+    boxes = {i: _solid_boxes(candidates[i], None if hard is None else hard[i]) for i in left}
     while left and (max_pages is None or len(pages) < max_pages):
         page = Page(width, height, padding)
         pages.append(page)
         still = []
+        failed: list[tuple[int, int]] = []  # solid boxes (h, w) that found no place on this page
         for i in left:
+            if boxes[i] is not None and all(any(fh <= h and fw <= w for fh, fw in failed) for h, w in boxes[i]):
+                still.append(i)  # a solid box no larger found no place: neither does this one
+                continue
             hards = candidates[i] if hard is None else hard[i]
             best = _best_place(page, candidates[i], hards, tight, limit, pot)
             if best is None:
+                if boxes[i] is not None:
+                    failed += boxes[i]
                 still.append(i)
                 continue
             k, x, y = best
@@ -412,6 +419,20 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
             break
         left = still
     return placements, [(p.used_w, p.used_h) for p in pages]
+
+
+def _solid_boxes(masks: list[np.ndarray], hards: list[np.ndarray] | None) -> list[tuple[int, int]] | None:
+    """The shapes ``(h, w)`` of a footprint's masks when every one is a solid box of hard texels, else None.
+
+    Where a solid box finds no place on a page, no solid box at least as high and as wide does,
+    then or later (a place of the larger holds the smaller at its top-left corner, on the
+    coarse grid too, and growing the page as little): the fill passes such boxes over
+    untried. Regions that keep their rectangles are solid boxes, most of an atlas's often.
+    """
+    for k, m in enumerate(masks):
+        if not m.all() or (hards is not None and hards[k] is not m and not hards[k].all()):
+            return None
+    return [m.shape for m in masks]
 
 
 def _best_place(page: Page, masks: list[np.ndarray], hards: list[np.ndarray], tight: bool, max_area: int,
