@@ -6,7 +6,30 @@ from pathlib import Path
 
 import typer
 
-from ._app import Annotated, Optional, app, console
+from enum import Enum
+
+from ._app import Annotated, Optional, app, console, progress_bar
+
+
+class PageSides(str, Enum):
+    """What sides packed pages may have (see the guide: which engines need what)."""
+
+    original = "original"
+    any = "any"
+    power_of_two = "power-of-two"
+
+
+_Pages = Annotated[PageSides, typer.Option(
+    "--pages", help="Sides of the packed pages. original: powers of two where every original page's are, "
+                    "else any; any: any size (WebGL 2, Unity, Godot, any GPU of the last decade); "
+                    "power-of-two: always (WebGL 1 mipmaps and repeats only those).")]
+_MaxPage = Annotated[Optional[int], typer.Option(
+    "--max-page", min=16, max=16384, metavar="SIDE", help="Longest side of a packed page (a page may then take "
+    "SIDE x SIDE texels). Default: the longest original side, and no page of more texels than the "
+    "largest original page.")]
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes packing side by side: "
+                                              "atlases, and the placements tried for one atlas (default: the "
+                                              "CPU cores this process may use).")]
 
 
 @app.command()
@@ -29,6 +52,9 @@ def pack(
     padding: Annotated[Optional[int], typer.Option(
         "--padding", min=0, max=64, help="Texels between what two regions draw. Default: the original pages' "
                                          "padding, at least 2 (4 under MipMap filters).")] = None,
+    pages: _Pages = PageSides.original,
+    max_page: _MaxPage = None,
+    jobs: _Jobs = None,
 ) -> None:
     """Pack atlas pages anew by the outlines of the meshes that draw each region.
 
@@ -44,6 +70,7 @@ def pack(
 
     \b
     Example: spinemesh pack project/ --out packed/ --report pack.json --preview pack-preview/
+    Example: spinemesh pack project/ --out packed/ --pages any --max-page 4096 --jobs 4
     Example: spinemesh upgrade project/ --out meshed/ --pack
     """
     from ..fsutil import check_outputs, project_folder
@@ -51,15 +78,25 @@ def pack(
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..upgrade import is_library
 
+    import time
+
+    from ..cluster import available_cores
+    from ..pack.atlas_pack import PageRules
+
     check_outputs([project_folder(project)], files=[report], folders=[preview])
-    options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding)
+    options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
+                          rules=PageRules(pages.value, max_page), jobs=jobs or available_cores())
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
-    if library:
-        result = pack_library(project, out, options)
-    else:
-        result = pack_project(project, out, options, keep_previews=preview is not None)
+    t0 = time.perf_counter()
+    with progress_bar("pack", transient=True) as bars:
+        progress = atlas_bars(bars)
+        if library:
+            result = pack_library(project, out, options, progress=progress)
+        else:
+            result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
+    seconds = time.perf_counter() - t0
     if report is not None:
         write_report(result, report)
     if preview is not None:
@@ -67,11 +104,49 @@ def pack(
 
         write_preview(result, preview)
     print_pack_table(result.atlases, result.errors)
+    if result.atlases:
+        console.print(f"packed {len(result.atlases)} atlas{'es' if len(result.atlases) > 1 else ''} in "
+                      f"{seconds:.1f} s on {options.jobs} process{'es' if options.jobs > 1 else ''}", highlight=False)
     if not result.atlases:
         console.print("no atlas found")
         raise typer.Exit(EXIT_BAD_INPUT)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
+
+
+def atlas_bars(bars, phase: str = ""):
+    """A :class:`spinemesh.pack.run.PackProgress` that shows one bar per atlas on ``bars`` (a rich
+    progress), its steps the placements tried and the pages written. ``phase``: the bars of a
+    :func:`~spinemesh.cli._app.progress_bar` of phases (``upgrade``) are named by it, the atlas
+    shown at the end."""
+    from rich.markup import escape
+
+    from ..pack.run import PackProgress
+    from ..runs import short_names
+
+    class Bars(PackProgress):
+        def __init__(self) -> None:
+            self.tasks: dict[str, int] = {}
+
+        def atlas(self, name: str, steps: int) -> None:
+            if name not in self.tasks:
+                label = escape(short_names([name], 30)[name])
+                fields = {"project": label} if phase else {}
+                self.tasks[name] = bars.add_task(phase or label, total=steps, **fields)
+            else:
+                task = self.tasks[name]
+                bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+
+        def advance(self, name: str, steps: int = 1) -> None:
+            if name in self.tasks:
+                bars.advance(self.tasks[name], steps)
+
+        def done(self, name: str) -> None:
+            if name in self.tasks:
+                task = self.tasks[name]
+                bars.update(task, completed=bars.tasks[task].total or 1, total=bars.tasks[task].total or 1)
+
+    return Bars()
 
 
 def print_pack_table(atlases: list, errors: list[str] = ()) -> None:

@@ -12,6 +12,7 @@ from typing import List
 
 import typer
 
+from .pack import PageSides, _MaxPage, _Pages
 from .weights import Weights
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
@@ -106,6 +107,8 @@ def upgrade(
     repack: _Repack = False,
     pack: _Pack = False,
     weights: _Weights = Weights.none,
+    pages: _Pages = PageSides.original,
+    max_page: _MaxPage = None,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
 
@@ -130,9 +133,11 @@ def upgrade(
     Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
     Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack
+    Example: spinemesh upgrade project/ --out meshed-packed/ --pack --pages any --max-page 2048
     """
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder
+    from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library, write_report
 
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
@@ -143,6 +148,7 @@ def upgrade(
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
+                      pack_rules=PageRules(pages.value, max_page),
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     result = _run(project, out, options, library)

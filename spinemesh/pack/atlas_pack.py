@@ -81,6 +81,39 @@ def is_power_of_two(n: int) -> bool:
     return n > 0 and n & (n - 1) == 0
 
 
+#: What sides a packed page may have (:class:`PageRules`).
+PAGE_SIDES = ("original", "any", "power-of-two")
+
+
+@dataclass(frozen=True)
+class PageRules:
+    """The pages a packed atlas may have.
+
+    ``sides``: ``original`` (the default): powers of two where every original page's sides are,
+    else any; ``any``: any size (WebGL 2, OpenGL ES 3, Unity, Godot, every desktop GPU of the
+    last decade sample and mipmap such pages); ``power-of-two``: powers of two always (WebGL 1
+    mipmaps and repeats only those). ``max_side``: the longest side a page may have (then a
+    page may take ``max_side`` squared texels); default: the longest original side, and no page
+    of more texels than the largest original page.
+    """
+
+    sides: str = "original"
+    max_side: int | None = None
+
+    def limits(self, sizes: list[tuple[int, int]]) -> tuple[int, int, bool]:
+        """``(longest side, most texels of a page, powers of two)`` for an atlas of pages ``sizes``."""
+        if self.sides not in PAGE_SIDES:
+            raise ValueError(f"page sides {self.sides!r}: one of {', '.join(PAGE_SIDES)}")
+        side = self.max_side or max(max(s) for s in sizes)
+        area = side * side if self.max_side else max(w * h for w, h in sizes)
+        pot = (all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes) if self.sides == "original"
+               else self.sides == "power-of-two")
+        if pot and not is_power_of_two(side):
+            side = 1 << (side.bit_length() - 1)  # the largest power of two within the limit
+            area = min(area, side * side)
+        return side, area, pot
+
+
 def measured_padding(geometries: list[RegionGeometry]) -> int:
     """The fewest texels between two stored rectangles of one page that do not overlap (0 if none).
 
@@ -370,18 +403,54 @@ def other_orders(candidates) -> list[list[int]]:
     return [by_texels, by_side]
 
 
+def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
+    """The fills tried for one group, in order: ``(kind, every texel hard, order index)`` each.
+
+    The tightest fit on pages of any shape; first fit on pages of a few widths; for powers of
+    two, whole page sizes from the smallest, and both again with every texel hard (the greedy
+    fill takes other places when footprints may overlap, and a footprint it then no longer fits
+    doubles a page: 4.2 stretchyman); a group of several power-of-two pages, first fit on a few
+    widths again in :func:`other_orders` (on pages of any size the last page shrinks to what it
+    holds: other orders saved nothing there, as measured; whole page sizes in other orders saved
+    nothing either, at twice the time on the dragon example). ``soft``: some footprint has soft
+    texels.
+    """
+    plan = [("tightest", False, None)]
+    for all_hard in (False, True) if pot and soft else (False,):
+        plan.append(("widths", all_hard, None))
+        if pot:
+            plan.append(("whole", all_hard, None))
+    if pot and max_pages > 1:
+        plan += [("widths", False, k) for k in range(len(other_orders([])))]
+    return plan
+
+
+def run_fill(fill: tuple, candidates, hard, max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
+             max_pages: int, best):
+    """One fill of :func:`fill_plan`: the best of ``best`` (``(texels, placements, sizes)``) and what it finds."""
+    kind, all_hard, order = fill
+    variant = None if all_hard else hard
+    if kind == "tightest":
+        found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages,
+                          None if best is None else best[0], variant)
+        return found if found is not None and (best is None or found[0] < best[0]) else best
+    if kind == "whole":
+        return _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, variant)
+    orders = None if order is None else other_orders(candidates)[order]
+    return _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, orders, variant)
+
+
 def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
-                max_pages: int, ceiling: int | None = None):
+                max_pages: int, ceiling: int | None = None, fills=None, on_fill=None):
     """Best packing of one group: ``(placements, page sizes)`` with fewest texels.
 
-    Tries the tightest fit on pages of any shape, first fit on pages of a few widths, and (for
-    powers of two) whole page sizes from the smallest; keeps the fewest texels. A group of
-    several power-of-two pages tries first fit on a few widths again in :func:`other_orders`
-    (on pages of any size the last page shrinks to what it holds: other orders saved nothing
-    there, as measured; whole page sizes in other orders saved nothing either, at twice the
-    time on the dragon example). Never more pages than the group had (each page is a texture
-    switch, often a draw call). ``ceiling``: page texels a packing must stay under to be of use
-    (the atlas's own): fills that reach it stop early.
+    Tries every fill of :func:`fill_plan` and keeps the fewest texels (the first on a tie).
+    Never more pages than the group had (each page is a texture switch, often a draw call).
+    ``ceiling``: page texels a packing must stay under to be of use (the atlas's own): fills
+    that reach it stop early. ``fills``: runs the fills elsewhere, ``fills(plan, args, best)`` ->
+    each one's result, in order (:class:`~spinemesh.pack.parallel.FillRunner`); default here, one
+    after another, each stopping as soon as it cannot beat the best so far. ``on_fill(done,
+    planned)``: told how many fills there are (``on_fill(0, n)``), then as each ends (``on_fill()``).
     """
     candidates = [it.masks for it in items]
     hard = [it.hard_masks for it in items]
@@ -390,18 +459,25 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
         hard = None  # every texel hard: footprints may not overlap at all
     if ceiling is not None and needed >= ceiling:  # no placement can beat it: spare every fill
         raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
+    for it, masks in zip(items, candidates):
+        if not any(m.shape[0] <= max_h and m.shape[1] <= max_w and m.size <= max_area for m in masks):
+            h, w = masks[0].shape
+            raise PackRefused(f"region {it.region.name!r} takes {w}x{h} texels with its padding, more than "
+                              f"the largest page allowed ({max_w}x{max_h}, {max_area:,} texels)")
     best = None if ceiling is None else (ceiling, None, None)
-    found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages, ceiling, hard)
-    if found is not None and (best is None or found[0] < best[0]):
-        best = found
-    # powers of two: first fills again with every texel hard. The greedy fill takes other places when
-    # footprints may overlap, and a footprint it then no longer fits doubles a page (4.2 stretchyman)
-    for variant in (hard, None) if pot and hard is not None else (hard,):
-        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, hard=variant)
-        if pot:
-            best = _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, variant)
-    for order in other_orders(candidates) if pot and max_pages > 1 else []:
-        best = _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, order, hard)
+    plan = fill_plan(pot, hard is not None, max_pages)
+    args = (candidates, hard, max_w, max_h, max_area, pot, padding, max_pages)
+    if on_fill:
+        on_fill(0, len(plan))
+    if fills is None:
+        for fill in plan:
+            best = run_fill(fill, *args, best)
+            if on_fill:
+                on_fill()
+    else:
+        for found in fills(plan, args, best):
+            if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
+                best = found
     if best is None or best[1] is None:
         raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
     return best[1], best[2]
@@ -409,7 +485,7 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
 
 def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
                pinned: str = "", rotate: bool = True, padding: int | None = None,
-               page_names=None) -> PackedAtlas:
+               page_names=None, rules: PageRules = PageRules(), fills=None, on_fill=None) -> PackedAtlas:
     """Pack ``atlas`` anew by its regions' footprints.
 
     Parameters
@@ -429,6 +505,10 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     page_names : callable, optional
         ``page_names(group_index, page_index_in_group, template_page)`` -> the new page's file name;
         default: the original pages' names in order, then ``<name>-<n>.<ext>``.
+    rules : PageRules
+        The pages it may have; default: as the original's (see the module notes).
+    fills, on_fill : callable, optional
+        Where the fills run, and who is told as each ends (see :func:`_pack_group`).
 
     Raises
     ------
@@ -443,7 +523,8 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
     pad = padding if padding is not None else default_padding(atlas, geometries)
     items = _items(atlas, geometries, pixels, uses, pinned, rotate)
-    out, new_pages, region_page = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names)
+    out, new_pages, region_page = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names, rules,
+                                         fills, on_fill)
     texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
     if texels_after >= texels_before:
         raise PackRefused(f"packed, its pages would take {texels_after:,} texels, no fewer than the "
@@ -491,17 +572,16 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
     return items
 
 
-def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], between: int, page_names):
+def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], between: int, page_names,
+           rules: PageRules = PageRules(), fills=None, on_fill=None):
     """Place every group of pages' footprints and composite their texels.
 
     Returns the new atlas (pages rewritten, regions not yet), its page images by name, and per
     region index its new page index and geometry.
     """
-    # "no larger than the largest original page": no side longer than its longest side, no
-    # page of more texels than it has (a page may turn from wide to tall)
-    max_side = max(max(s) for s in sizes)
-    max_area = max(w * h for w, h in sizes)
-    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
+    # by default "no larger than the largest original page": no side longer than its longest
+    # side, no page of more texels than it has (a page may turn from wide to tall)
+    max_side, max_area, pot = rules.limits(sizes)
     out = copy.deepcopy(atlas)
     out.pages = []
     groups: dict[tuple, list[int]] = {}
@@ -516,7 +596,8 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
         if not members:
             continue
         placements, page_sizes = _pack_group([items[n] for n in members], max_side, max_side, max_area, pot,
-                                             between, len(page_indices), sum(w * h for w, h in sizes))
+                                             between, len(page_indices), sum(w * h for w, h in sizes),
+                                             fills, on_fill)
         first = len(out.pages)
         for pi, (w, h) in enumerate(page_sizes):
             name = (page_names(gi, pi, template) if page_names else

@@ -21,7 +21,7 @@ from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_
 from ..images import AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
-from .atlas_pack import PackedAtlas, PackRefused, pack_atlas
+from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
@@ -41,6 +41,30 @@ class PackOptions:
     overwrite: bool = False
     rotate: bool = True
     padding: int | None = None  # None: the original pages' measured padding (at least 2)
+    rules: PageRules = field(default_factory=PageRules)  # the pages a packed atlas may have
+    jobs: int = 1  # processes packing side by side (atlases, and an atlas's fills)
+    dask: str | None = None  # or a Dask cluster (see spinemesh.cluster)
+
+
+class PackProgress:
+    """Told how packing goes, atlas by atlas; this base class tells nobody (the Python API's default).
+
+    An atlas's steps are its fills (placements tried) and its pages written; they become known
+    as it goes, so :meth:`atlas` may be called again for the same atlas with more steps.
+    """
+
+    def atlas(self, name: str, steps: int) -> None:
+        """``steps`` more steps of the atlas ``name`` are known."""
+
+    def advance(self, name: str, steps: int = 1) -> None:
+        """``steps`` steps of the atlas ``name`` are done."""
+
+    def done(self, name: str) -> None:
+        """The atlas ``name`` is packed, kept or failed."""
+
+
+#: The progress of a run that tells nobody.
+SILENT = PackProgress()
 
 
 @dataclass
@@ -214,14 +238,119 @@ def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int
                     [{"region": r.name, "reason": r.reason} for r in rect], round(packed.seconds, 3))
 
 
+@dataclass
+class AtlasJob:
+    """What packing one atlas needs, as a worker gets it (everything picklable)."""
+
+    path: Path
+    atlas: object  # the parsed Atlas
+    rel: str
+    files: list
+    uses: dict
+    pinned: str
+    options: PackOptions
+    refused: str = ""  # why it is kept before any work (pages shared with another atlas)
+    keep_previews: bool = False
+
+
+@dataclass
+class AtlasOutcome:
+    """One atlas packed (``encoded`` page bytes by name and the atlas ``text``), or its row alone."""
+
+    row: AtlasRow
+    encoded: dict | None = None
+    text: str | None = None
+    previews: tuple | None = None
+
+
+def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
+    """Read one atlas's pages, pack them and encode the new ones; nothing is written.
+
+    ``workers`` (:class:`spinemesh.cluster.Workers` of several slots): the atlas's fills and
+    page encodings run on them side by side; default here, one after another. ``on_step(done,
+    planned)``: told as steps become known (``planned``) and as they end (``done``).
+    """
+    from .parallel import FillRunner
+
+    atlas, files, options = job.atlas, job.files, job.options
+    t0 = time.process_time()
+    on_step = on_step or (lambda done=1, planned=0: None)
+    bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
+    texels = []
+    try:
+        if job.refused:
+            raise PackRefused(job.refused)
+        for f, page in zip(files, atlas.pages):
+            if Path(page.name).suffix.lower() not in PAGE_FORMATS:
+                raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
+                                  "texel for texel (JPEG pages have no alpha and lose texels when written)")
+        texels = [load_rgba(f) for f in files]
+        modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
+        parallel = workers is not None and workers.slots > 1
+        packed = pack_atlas(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
+                            rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
+                            on_fill=on_step)
+        on_step(0, len(packed.pages))
+        if parallel:
+            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name)))
+                       for name, rgba in packed.pages.items()}
+            encoded = {}
+            for name, future in futures.items():
+                encoded[name] = future.result()
+                on_step(1)
+        else:
+            encoded = {}
+            for name, rgba in packed.pages.items():
+                encoded[name] = encode_page(rgba, name, modes.get(name))
+                on_step(1)
+        text = packed.atlas.dumps()
+        check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
+    except PackRefused as e:
+        sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
+        texel_count = sum(w * h for w, h in sizes)
+        return AtlasOutcome(AtlasRow(job.rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count,
+                                     texel_count, bytes_before, bytes_before,
+                                     cpu_seconds=round(time.process_time() - t0, 3)))
+    except SpineMeshError as e:
+        return AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
+                                     bytes_before=bytes_before, bytes_after=bytes_before,
+                                     cpu_seconds=round(time.process_time() - t0, 3)))
+    bytes_after = sum(len(d) for d in encoded.values()) + len(text.encode("utf-8"))
+    row = _row_from(packed, job.rel, bytes_before, bytes_after)
+    row.cpu_seconds = round(time.process_time() - t0, 3)
+    previews = (job.rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages) if job.keep_previews else None
+    return AtlasOutcome(row, encoded, text, previews)
+
+
+def _encode_task(arg: tuple) -> bytes:
+    """A worker's task: :func:`encode_page` of ``(texels, name, like)``."""
+    return encode_page(*arg)
+
+
+def _pack_atlas_task(job: AtlasJob) -> AtlasOutcome:
+    """A worker's task: one whole atlas, its fills one after another (:func:`pack_atlas_files`)."""
+    return pack_atlas_files(job)
+
+
 def pack_project_into(proj: Project, out: Path, options: PackOptions, result: PackResult,
-                      prefix: str = "", uses: ProjectUses | None = None, keep_previews: bool = False) -> None:
+                      prefix: str = "", uses: ProjectUses | None = None, keep_previews: bool = False,
+                      workers=None, progress: PackProgress = SILENT) -> None:
     """Pack every atlas of ``proj`` and write the whole project to ``out`` (same layout).
 
     ``out`` may be the project folder itself when it is an output of ours (``upgrade --pack``
     packs what it has just written): atlases and pages are then replaced in place, pages the
     packed atlas no longer names are removed, and nothing is copied.
+
+    ``workers`` (:class:`spinemesh.cluster.Workers`; default: opened from ``options.jobs`` and
+    ``options.dask``): with several slots, a project of several atlases packs them side by side
+    (each one's fills one after another), a project of one atlas its fills and pages side by
+    side. Results are written in atlas order whatever order they come back in.
     """
+    from ..cluster import open_workers
+
+    if workers is None:
+        with open_workers(options.jobs, options.dask) as opened:
+            return pack_project_into(proj, out, options, result, prefix, uses, keep_previews, opened, progress)
     in_place = out.resolve() == proj.root.resolve()
     atlases = project_atlases(proj)
     uses = uses or collect_uses(proj)
@@ -229,62 +358,16 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     result.errors += uses.problems
     # a page image named by two atlases (twin exports) would be rewritten under the other's feet
     by_page = Counter(f.resolve() for a in atlases.values() for f in set(_page_files(a, proj.root)))
-    skip: set[Path] = set()
+    jobs = []
     for path, atlas in atlases.items():
-        rel = prefix + path.relative_to(proj.root).as_posix()
-        t0 = time.process_time()
         files = _page_files(atlas, proj.root)
-        bytes_before = sum(f.stat().st_size for f in set(files)) + path.stat().st_size
-        texels = []
-        try:
-            if any(by_page[f.resolve()] > 1 for f in files):
-                raise PackRefused("its page images are shared with another atlas")
-            for f, page in zip(files, atlas.pages):
-                if Path(page.name).suffix.lower() not in PAGE_FORMATS:
-                    raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
-                                      "texel for texel (JPEG pages have no alpha and lose texels when written)")
-            texels = [load_rgba(f) for f in files]
-            modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
-            packed = pack_atlas(atlas, texels, uses.regions.get(path, {}), uses.everything_pinned,
-                                rotate=options.rotate, padding=options.padding)
-            encoded = {name: encode_page(rgba, name, modes.get(name)) for name, rgba in packed.pages.items()}
-            text = packed.atlas.dumps()
-            check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
-        except PackRefused as e:
-            sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
-            texel_count = sum(w * h for w, h in sizes)
-            result.atlases.append(AtlasRow(rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count,
-                                           texel_count, bytes_before, bytes_before,
-                                           cpu_seconds=round(time.process_time() - t0, 3)))
-            continue
-        except SpineMeshError as e:
-            result.atlases.append(AtlasRow(rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
-                                           bytes_before=bytes_before, bytes_after=bytes_before,
-                                           cpu_seconds=round(time.process_time() - t0, 3)))
-            continue
-        dest = out / path.relative_to(proj.root)
-        try:
-            for name, data in encoded.items():
-                atomic_write_bytes(dest.parent / name, data)
-            atomic_write_text(dest, text)
-        except SpineMeshError as e:
-            result.atlases.append(AtlasRow(rel, "failed", f"not written: {e}", len(atlas.pages), len(atlas.pages),
-                                           bytes_before=bytes_before, bytes_after=bytes_before))
-            continue
-        skip.add(path.resolve())
-        skip.update(f.resolve() for f in files)
-        if in_place:  # pages the packed atlas no longer names were dropped
-            kept = {(dest.parent / n).resolve() for n in encoded}
-            for f in set(files):
-                if f.resolve() not in kept:
-                    f.unlink(missing_ok=True)
-        # an original page whose name the packed atlas reuses was replaced; the others are dropped
-        bytes_after = sum(len(d) for d in encoded.values()) + len(text.encode("utf-8"))
-        row = _row_from(packed, rel, bytes_before, bytes_after)
-        row.cpu_seconds = round(time.process_time() - t0, 3)
-        result.atlases.append(row)
-        if keep_previews:
-            result.previews.append((rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages))
+        shared = any(by_page[f.resolve()] > 1 for f in files)
+        jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
+                             uses.regions.get(path, {}), uses.everything_pinned, options,
+                             "its page images are shared with another atlas" if shared else "", keep_previews))
+    skip: set[Path] = set()
+    for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
+        _write_outcome(job, outcome, proj, out, in_place, result, skip)
     for f in [] if in_place else proj.files:  # only files inside the project by real path (find_project)
         if f.resolve() in skip:
             continue
@@ -296,8 +379,80 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
             result.errors.append(f"not copied: {e}")
 
 
+def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
+    """Each job's :class:`AtlasOutcome`, in order: atlases side by side on ``workers`` when there are
+    several of both (a few ahead of the one written, so that memory holds a few atlases), else one
+    after another with their fills side by side."""
+    from collections import deque
+
+    from ..cluster import WorkerLost
+
+    if workers.slots > 1 and len(jobs) > 1:
+        ahead: deque = deque()
+        waiting = iter(jobs)
+
+        def submit() -> None:
+            job = next(waiting, None)
+            if job is not None:
+                progress.atlas(job.rel, 1)
+                future = workers.submit(_pack_atlas_task, job)
+                future.add_done_callback(lambda _, rel=job.rel: (progress.advance(rel), progress.done(rel)))
+                ahead.append((job, future))
+
+        for _ in range(2 * workers.slots):
+            submit()
+        while ahead:
+            job, future = ahead.popleft()
+            try:
+                yield future.result()
+            except WorkerLost as e:
+                yield AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(job.atlas.pages), len(job.atlas.pages)))
+            submit()
+        return
+    for job in jobs:
+        def on_step(done: int = 1, planned: int = 0, rel=job.rel) -> None:
+            if planned:
+                progress.atlas(rel, planned)
+            if done:
+                progress.advance(rel, done)
+
+        progress.atlas(job.rel, 0)
+        outcome = pack_atlas_files(job, workers, on_step)
+        progress.done(job.rel)
+        yield outcome
+
+
+def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Path, in_place: bool,
+                   result: PackResult, skip: set) -> None:
+    """Write one packed atlas and its pages (atomically), or note why it was not; its row into ``result``."""
+    row = outcome.row
+    if outcome.encoded is None:
+        result.atlases.append(row)
+        return
+    dest = out / job.path.relative_to(proj.root)
+    try:
+        for name, data in outcome.encoded.items():
+            atomic_write_bytes(dest.parent / name, data)
+        atomic_write_text(dest, outcome.text)
+    except SpineMeshError as e:
+        result.atlases.append(AtlasRow(row.atlas, "failed", f"not written: {e}", row.pages_before, row.pages_before,
+                                       bytes_before=row.bytes_before, bytes_after=row.bytes_before))
+        return
+    skip.add(job.path.resolve())
+    skip.update(f.resolve() for f in job.files)
+    if in_place:  # pages the packed atlas no longer names were dropped
+        kept = {(dest.parent / n).resolve() for n in outcome.encoded}
+        for f in set(job.files):
+            if f.resolve() not in kept:
+                f.unlink(missing_ok=True)
+    # an original page whose name the packed atlas reuses was replaced; the others are dropped
+    result.atlases.append(row)
+    if outcome.previews is not None:
+        result.previews.append(outcome.previews)
+
+
 def pack_project(project: str | Path, out: str | Path, options: PackOptions | None = None,
-                 keep_previews: bool = False) -> PackResult:
+                 keep_previews: bool = False, progress: PackProgress = SILENT) -> PackResult:
     """Pack every atlas of a project (a folder, or the folder of one skeleton file) into ``out``.
 
     A skeleton file stands for its folder: an atlas is packed for every skeleton that loads
@@ -317,12 +472,12 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     check_output_folder(proj.root, out)
     result = PackResult()
     with output_folder(out, options.overwrite):
-        pack_project_into(proj, out, options, result, keep_previews=keep_previews)
+        pack_project_into(proj, out, options, result, keep_previews=keep_previews, progress=progress)
     return result
 
 
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
-                 on_project=None) -> PackResult:
+                 on_project=None, progress: PackProgress = SILENT) -> PackResult:
     """Pack every project under ``library`` into the same place under ``out``; one result."""
     from ..output import check_output_folder, output_folder
 
@@ -330,14 +485,17 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
     library, out = Path(library), Path(out)
     check_output_folder(library, out)
     result = PackResult()
-    with output_folder(out, options.overwrite):
+    from ..cluster import open_workers
+
+    with output_folder(out, options.overwrite), open_workers(options.jobs, options.dask) as workers:
         for folder in find_projects(library):
             rel = folder.relative_to(library).as_posix()
             if on_project:
                 on_project(rel)
             prefix = "" if rel == "." else rel + "/"
             try:
-                pack_project_into(find_project(folder), out / rel, options, result, prefix)
+                pack_project_into(find_project(folder), out / rel, options, result, prefix, workers=workers,
+                                  progress=progress)
             except SpineMeshError as e:
                 result.errors.append(str(e))
     return result

@@ -157,7 +157,7 @@ def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cac
                                 cache, inflight)
         p.result.seconds["mesh"] += time.perf_counter() - t0
         try:
-            finish_project(p.plan, meshes, out / p.rel, p.result, progress)
+            finish_project(p.plan, meshes, out / p.rel, p.result, progress, workers)
         except SpineMeshError as e:
             p.result.errors.append(str(e))
     merge(result, p.result, "" if p.rel == "." else p.rel + "/")

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..mesher.worth import DEFAULT_MIN_SAVING
+from ..pack.atlas_pack import PageRules
 from ..skeleton import AttachmentRef
 
 
@@ -32,6 +33,7 @@ class Options:
     overwrite: bool = False
     repack: bool = False  # store sequence frames whole where one mesh cannot fit them trimmed
     pack: bool = False  # pack the written atlases anew by the upgraded meshes' outlines (spinemesh.pack)
+    pack_rules: PageRules = field(default_factory=PageRules)  # the pages --pack may write
     # keep a region when its mesh would save less than this share of drawn pixels (or needs
     # too many vertices): spinemesh.mesher.worth; None meshes every region
     min_saving: float | None = DEFAULT_MIN_SAVING

@@ -14,20 +14,46 @@ from pathlib import Path
 
 from ..errors import SpineMeshError
 from ..project import find_project
+from .progress import SILENT, Progress
 from .report import Result
 
 
-def pack_written(out: Path, result: Result) -> None:
-    """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``."""
+def pack_written(out: Path, result: Result, options=None, workers=None, progress: Progress = SILENT) -> None:
+    """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``.
+
+    ``options`` (:class:`.options.Options`): its page rules, jobs and Dask cluster; ``workers``:
+    the run's workers, else opened from those; ``progress``: told the packing's steps as the
+    ``pack`` phase.
+    """
     from ..pack.run import PackOptions, PackResult, pack_project_into
 
     t0 = time.perf_counter()
     packed = PackResult()
+    pack_options = PackOptions()
+    if options is not None:
+        pack_options = PackOptions(rules=options.pack_rules, jobs=options.jobs, dask=options.dask)
     try:
-        pack_project_into(find_project(out), out, PackOptions(), packed)
+        pack_project_into(find_project(out), out, pack_options, packed, workers=workers,
+                          progress=PhaseProgress(progress))
     except SpineMeshError as e:
         result.errors.append(f"not packed: {e}")
     result.atlases += packed.atlases
     result.errors += [f"{a.atlas}: not packed: {a.reason}" for a in packed.atlases if a.status == "failed"]
     result.errors += [f"packing: {e}" for e in packed.errors]
     result.seconds["pack"] = result.seconds.get("pack", 0.0) + time.perf_counter() - t0
+
+
+class PhaseProgress:
+    """Packing's progress (:class:`spinemesh.pack.run.PackProgress`) told as the upgrade's ``pack`` phase."""
+
+    def __init__(self, progress: Progress):
+        self.progress = progress
+
+    def atlas(self, name: str, steps: int) -> None:
+        self.progress.add("pack", steps)
+
+    def advance(self, name: str, steps: int = 1) -> None:
+        self.progress.advance("pack", steps)
+
+    def done(self, name: str) -> None:
+        pass

@@ -1,8 +1,9 @@
 """What an upgrade tells while it runs: each phase's work as it becomes known, then its steps.
 
 The phases, in the order a project goes through them: ``read`` (skeletons read and planned),
-``mesh`` (unique images meshed), ``weights`` (new meshes bound to bones, ``--weights auto``)
-and ``write`` (skeletons written). A library run goes through them project by project, and
+``mesh`` (unique images meshed), ``weights`` (new meshes bound to bones, ``--weights auto``),
+``write`` (skeletons written) and ``pack`` (atlases packed, ``--pack``: placements tried
+and pages written). A library run goes through them project by project, and
 plans the next projects while the workers mesh, so several phases may be under way at once;
 their totals grow as projects are planned. The command line shows one bar per phase
 (:mod:`spinemesh.cli.upgrade`); the default tells nothing.
@@ -10,7 +11,7 @@ their totals grow as projects are planned. The command line shows one bar per ph
 
 from __future__ import annotations
 
-PHASES = ("read", "mesh", "weights", "write")
+PHASES = ("read", "mesh", "weights", "write", "pack")
 
 
 class Progress:

@@ -92,7 +92,7 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
             mark_would_mesh(result)
             return result
         meshes = mesh_project(plan, options, result, workers, progress, mesh_cache)  # 2. mesh
-        finish_project(plan, meshes, out, result, progress)           # 3.-4. apply, write
+        finish_project(plan, meshes, out, result, progress, workers)  # 3.-4. apply, write
         return result                                                 # 5. the report's rows
 
 
@@ -108,10 +108,11 @@ def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: W
 
 
 def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result,
-                   progress: Progress = SILENT) -> None:
-    """Stages 3 and 4 for one project: the meshes into its documents, then everything written to ``out``."""
+                   progress: Progress = SILENT, workers: Workers | None = None) -> None:
+    """Stages 3 and 4 for one project: the meshes into its documents, then everything written to ``out``
+    (and packed with ``--pack``, on ``workers`` when given)."""
     t0 = time.perf_counter()
-    weights_before = result.seconds["weights"]
+    weights_before, pack_before = result.seconds["weights"], result.seconds.get("pack", 0.0)
     with copying_other_files(plan, out, result):  # atlases, pages, other files: on threads meanwhile
         apply_project(plan, meshes, result, progress)
         # A stage that changes the meshed documents before they are written goes here; it
@@ -122,5 +123,7 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
     if plan.options is not None and plan.options.pack:
         # --pack changes no document: it packs the atlases by the skeleton files written
         # (a game loads those), --repack's untrimmed pages included, so it runs last, in place
-        pack_written(out, result)
-    result.seconds["write"] += time.perf_counter() - t0 - (result.seconds["weights"] - weights_before)
+        pack_written(out, result, plan.options, workers, progress)
+    # every stage counted once: the weights and the packing have lines of their own
+    others = (result.seconds["weights"] - weights_before) + (result.seconds.get("pack", 0.0) - pack_before)
+    result.seconds["write"] += time.perf_counter() - t0 - others

@@ -1,0 +1,143 @@
+"""Packing at scale: side by side on workers (the same pages as one after another), progress, page
+rules, and the placement's shortcuts giving the same placements as without them."""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spinemesh.atlas import read_atlas
+from spinemesh.demo import make_demo_project
+from spinemesh.pack import place
+from spinemesh.pack.atlas_pack import PageRules, is_power_of_two
+from spinemesh.pack.run import PackOptions, PackProgress, pack_library, pack_project
+from spinemesh.upgrade import Options, upgrade_project
+
+
+@pytest.fixture(scope="module")
+def meshed(tmp_path_factory) -> Path:
+    """The demo project upgraded: its regions are meshes now."""
+    base = tmp_path_factory.mktemp("scale")
+    demo = make_demo_project(base / "demo", with_images_folder=False)
+    out = base / "meshed"
+    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
+    return out
+
+
+def _digest(folder: Path) -> dict:
+    return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file() and not p.name.startswith(".")}
+
+
+class Recorder(PackProgress):
+    def __init__(self) -> None:
+        self.planned: dict[str, int] = {}
+        self.advanced: dict[str, int] = {}
+        self.done_names: list[str] = []
+
+    def atlas(self, name: str, steps: int) -> None:
+        self.planned[name] = self.planned.get(name, 0) + steps
+
+    def advance(self, name: str, steps: int = 1) -> None:
+        self.advanced[name] = self.advanced.get(name, 0) + steps
+
+    def done(self, name: str) -> None:
+        self.done_names.append(name)
+
+
+def test_fills_and_pages_on_workers_write_what_one_process_writes(meshed, tmp_path):
+    one, progress = Recorder(), Recorder()
+    a = pack_project(meshed, tmp_path / "one", PackOptions(jobs=1), progress=one)
+    b = pack_project(meshed, tmp_path / "two", PackOptions(jobs=2), progress=progress)
+    assert a.atlases[0].status == b.atlases[0].status == "packed"
+    assert _digest(tmp_path / "one") == _digest(tmp_path / "two")
+    # one bar per atlas: every fill tried and every page written is a step, and all of them end
+    (name,) = one.planned
+    pages = a.atlases[0].pages_after
+    assert one.planned[name] == one.advanced[name] > pages and one.done_names == [name]
+    assert progress.planned == one.planned and progress.advanced == one.advanced
+
+
+def test_atlases_side_by_side_write_what_one_process_writes(meshed, tmp_path):
+    import shutil
+
+    library = tmp_path / "library"
+    for name in ("a", "b", "c"):  # a project of three atlases (each its own copy of the pages)
+        project = library / name
+        shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    project = tmp_path / "three"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    for n in (2, 3):
+        sub = project / f"copy{n}"
+        sub.mkdir()
+        for f in meshed.iterdir():
+            if f.suffix in (".atlas", ".png"):
+                shutil.copy(f, sub / f.name)
+    progress = Recorder()
+    a = pack_project(project, tmp_path / "one", PackOptions(jobs=1))
+    b = pack_project(project, tmp_path / "two", PackOptions(jobs=2), progress=progress)
+    assert [r.atlas for r in a.atlases] == [r.atlas for r in b.atlases] and len(a.atlases) == 3
+    assert [r.status for r in b.atlases] == ["packed"] * 3
+    assert _digest(tmp_path / "one") == _digest(tmp_path / "two")
+    assert sorted(progress.done_names) == sorted(r.atlas for r in b.atlases)
+    lib = pack_library(library, tmp_path / "lib", PackOptions(jobs=2))
+    assert [r.status for r in lib.atlases] == ["packed"] * 3
+
+
+def _boxes(seed: int, count: int) -> list:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        h, w = (int(v) for v in rng.integers(4, 60, 2))
+        m = np.ones((h, w), bool)
+        out.append([m, np.ascontiguousarray(m.T)])
+    return out
+
+
+@pytest.mark.parametrize("tight", [False, True])
+def test_boxes_passed_over_are_those_that_would_find_no_place(tight, monkeypatch):
+    """The fill passes over a solid box no smaller than one that found no place: the very placements
+    of a fill that tries every box."""
+    boxes = _boxes(7, 160)
+    fast = place.fill_pages(boxes, 256, 256, 2, tight=tight, pot=tight)
+    monkeypatch.setattr(place, "_solid_boxes", lambda masks, hards: None)
+    slow = place.fill_pages(boxes, 256, 256, 2, tight=tight, pot=tight)
+    assert len(fast[1]) > 1 and fast == slow
+
+
+def test_page_rules(meshed, tmp_path):
+    original = pack_project(meshed, tmp_path / "original").atlases[0]
+    free = pack_project(meshed, tmp_path / "any", PackOptions(rules=PageRules("any"))).atlases[0]
+    assert original.status == free.status == "packed"
+    assert free.texels_after <= original.texels_after
+    capped = pack_project(meshed, tmp_path / "cap", PackOptions(rules=PageRules("any", 64)))
+    assert capped.atlases[0].status == "kept" and "more than the largest page allowed (64x64" in \
+        capped.atlases[0].reason
+    pot = pack_project(meshed, tmp_path / "pot", PackOptions(rules=PageRules("power-of-two"))).atlases[0]
+    for folder in ("original", "pot"):
+        for page in read_atlas(tmp_path / folder / "demo.atlas").pages:
+            assert all(is_power_of_two(int(v)) for v in page.get("size"))
+    assert PageRules("power-of-two").limits([(1723, 1719), (500, 300)]) == (1024, 1024 * 1024, True)
+    assert PageRules("any").limits([(1024, 512), (256, 256)]) == (1024, 1024 * 512, False)
+    assert PageRules("original", 4096).limits([(1024, 512)]) == (4096, 4096 * 4096, True)
+    assert pot.status in ("packed", "kept")
+
+
+def test_upgrade_pack_timings_add_up(monkeypatch, tmp_path):
+    """The pack stage has its own timing line, not counted in write's."""
+    from spinemesh.pack import run
+
+    real = run.pack_project_into
+
+    def slow(*args, **kwargs):
+        time.sleep(2.0)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(run, "pack_project_into", slow)
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    result = upgrade_project(demo, tmp_path / "out", Options(min_saving=None, jobs=1, pack=True))
+    assert result.seconds["pack"] >= 2.0 and result.seconds["write"] < 2.0, result.seconds
