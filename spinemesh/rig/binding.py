@@ -68,6 +68,25 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
     return out
 
 
+def deformed(mesh: MeshVertices, deform) -> MeshVertices:
+    """``mesh`` with an animation's deform applied, as the runtimes apply it: unweighted, the
+    deform holds the vertices' local positions (2N numbers); weighted, an offset added to each
+    bone influence's local position (2 numbers per influence, in order)."""
+    d = np.asarray(deform, float).reshape(-1, 2)
+    if not mesh.weighted:
+        return MeshVertices(mesh.count, local=d[:mesh.count])
+    out = MeshVertices(mesh.count)
+    k = 0
+    for entry in mesh.influences:
+        row = []
+        for b, x, y, w in entry:
+            dx, dy = d[k] if k < len(d) else (0.0, 0.0)
+            row.append((b, x + float(dx), y + float(dy), w))
+            k += 1
+        out.influences.append(row)
+    return out
+
+
 def _apply(m: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return xy @ m[:, :2].T + m[:, 2]
 

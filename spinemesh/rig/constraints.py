@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
-from .binding import parse_vertices, setup_world
+from .binding import deformed, parse_vertices, setup_world
 from .transform import INHERIT_MODES, _num, inherit_mode, local_values, world_from_local
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
@@ -557,9 +557,12 @@ _EPSILON = 0.00001
 _NONE, _BEFORE, _AFTER = -1, -2, -3
 
 
-def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone]) -> list[float] | None:
+def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone],
+                        deform: list[float] | None = None) -> list[float] | None:
     """A path attachment's vertices in world space, flat ``[x0, y0, x1, y1, ...]``, or None when
-    its vertices do not parse. Weighted when ``vertices`` is longer than ``2 * vertexCount``."""
+    its vertices do not parse. Weighted when ``vertices`` is longer than ``2 * vertexCount``.
+    ``deform``: an animation's deform of it (the runtime's layout: positions when unweighted,
+    offsets per bone influence when weighted), used instead of the setup values."""
     count = att.get("vertexCount")
     verts = att.get("vertices")
     if not isinstance(count, int) or isinstance(count, bool) or count <= 0 or not isinstance(verts, list):
@@ -568,6 +571,8 @@ def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone]) -
         mesh = parse_vertices({"uvs": [0.0] * (2 * count), "vertices": verts}, len(bones))
     except SpineMeshError:
         return None
+    if deform is not None:
+        mesh = deformed(mesh, deform)
     world = setup_world(mesh, [b.world for b in bones], slot_bone.index)
     return [float(v) for v in world.reshape(-1)]
 
@@ -923,6 +928,7 @@ class _Constraint:
     active: bool = True
     path: dict | None = None  # path: the target slot's setup attachment when it is a path
     reads: list[PoseBone] = field(default_factory=list)  # path: bones its vertices follow, sorted first
+    path_deform: list[float] | None = None  # path: the deform an animation gives its attachment
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
@@ -1085,7 +1091,7 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
     if c.kind == "path":
         if c.path is None:
             return False
-        world = path_world_vertices(c.path, c.target, skeleton)
+        world = path_world_vertices(c.path, c.target, skeleton, c.path_deform)
         if world is None or len(world) < 8:
             raise _Unsolved("its path does not parse")
         return path_apply(d, c.path, world, c.target, c.bones, family)
@@ -1142,8 +1148,37 @@ def setup_pose(doc: dict) -> list[PoseBone]:
     return _solve(doc)[0]
 
 
-def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
-    """:func:`setup_pose`'s bones, and the constraints read (``active`` as in the runtime's cache)."""
+@dataclass(eq=False)
+class Rig:
+    """A skeleton's bones and constraints with the runtime's update cache, sorted once.
+
+    ``family`` is None for versions whose constraints are not solved (bones then follow their
+    parents only). Pose it with :func:`update_world` after setting each bone's ``local`` values
+    (and, for an animation, its ``inherit`` mode and the constraints' ``data``); the cache stays
+    valid for every pose of one skin.
+    """
+
+    family: str | None
+    bones: list[PoseBone]
+    constraints: list[_Constraint]
+    items: list
+    doc: dict = field(repr=False, default_factory=dict)
+
+
+def _skin_entry(doc: dict, skin: str | None) -> dict:
+    """The skin's own JSON object (3.8+: ``bones`` and constraint name lists), or ``{}``."""
+    if skin is None or not isinstance(doc.get("skins"), list):
+        return {}
+    return next((s for s in doc["skins"] if isinstance(s, dict) and s.get("name") == skin), {})
+
+
+def build_rig(doc: dict, skin: str | None = None) -> Rig:
+    """The skeleton's bones (setup local values) and its update cache, as ``Skeleton.updateCache``
+    sorts it with ``skin`` set (None: no skin, as :func:`setup_pose` poses it).
+
+    A bone only some skins need is active when ``skin`` lists it (and so are its parents); a
+    constraint only some skins need, when ``skin`` lists it and its target is active.
+    """
     family = runtime_family(doc)
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
@@ -1162,18 +1197,28 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
             parent.children.append(bone)
         bones.append(bone)
     by_name = {b.name: b for b in bones}
+    entry = _skin_entry(doc, skin)
+    for name in entry.get("bones") or []:
+        bone = by_name.get(str(name))
+        while bone is not None:
+            bone.active = True
+            bone = bone.parent
+    listed = {(kind, str(n)) for kind in ("ik", "transform", "path", "physics") for n in entry.get(kind) or []}
     constraints = _read_constraints(doc, by_name)
     if family is None:
-        return _without_constraints(bones, constraints, doc), constraints
+        return Rig(None, bones, constraints, [], doc)
 
     # Constraints only some skins activate (or aiming at a bone only some skins activate) are
-    # not in the cache of a skeleton without a skin: their bones are marked below.
+    # not in the cache of a skeleton without that skin.
     for c in constraints:
+        needed = c.data.get("skin") is True and (c.kind, c.name) not in listed
         reads = [c.target] if c.target is not None else []
-        c.active = all(b.active for b in reads) and c.data.get("skin") is not True
+        if c.kind == "physics":
+            reads = c.bones[:1]
+        c.active = all(b.active for b in reads) and not needed
         if c.kind == "path":
-            _read_path_target(c, doc, by_name, bones)
-            c.active = c.data.get("skin") is not True and c.target is not None and c.target.active
+            _read_path_target(c, doc, by_name, bones, skin)
+            c.active = not needed and c.target is not None and c.target.active
     for bone in bones:
         bone.sorted = not bone.active
     cache = _Cache(family)
@@ -1187,16 +1232,38 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
                 break
     for bone in bones:
         cache.sort_bone(bone)
+    return Rig(family, bones, constraints, cache.items, doc)
 
-    # updateWorldTransform: applied values start as the local ones, then the cache plays once.
-    for bone in bones:
+
+def update_world(rig: Rig) -> None:
+    """``updateWorldTransform``: every active bone's world transform from its ``local`` values,
+    the constraints in the cache applied (their current ``data``), as the runtime does.
+
+    Bones start exact; a constraint not reproduced marks the bones it moves (see the module's
+    docstring). Versions whose constraints are not solved pose bones from their parents only.
+    """
+    for bone in rig.bones:
         bone.applied = list(bone.local)
-    for item in cache.items:
+        bone.applied_valid = bone.applied_exact = bone.exact = True
+        bone.why = ""
+    if rig.family is None:
+        for bone in rig.bones:
+            bone.update_with(bone.local)
+        return
+    for item in rig.items:
         if isinstance(item, PoseBone):
             item.update()
         else:
-            _run(item, family, bones)
+            _run(item, rig.family, rig.bones)
 
+
+def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
+    """:func:`setup_pose`'s bones, and the constraints read (``active`` as in the runtime's cache)."""
+    rig = build_rig(doc)
+    bones, constraints, family = rig.bones, rig.constraints, rig.family
+    if family is None:
+        return _without_constraints(bones, constraints, doc), constraints
+    update_world(rig)
     active = {id(c) for c in constraints if c.active}
     for bone in bones:
         if not bone.active:  # not posed by a runtime without its skin: from its parent
@@ -1211,7 +1278,8 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
     return bones, constraints
 
 
-def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], bones: list[PoseBone]) -> None:
+def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], bones: list[PoseBone],
+                      skin: str | None = None) -> None:
     """A path constraint's target slot: its bone, its setup attachment when that is a path of
     the default skin (the only skin of a skeleton without one), and the bones that every path
     attachment of the slot in any skin follows (the runtime sorts them before the constraint)."""
@@ -1225,7 +1293,8 @@ def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], b
     default = next((atts for name, atts in skins if name == "default"), {})
     setup = (default.get(slot["name"]) or {}).get(setup_name) if setup_name is not None else None
     c.path = setup if isinstance(setup, dict) and setup.get("type") == "path" else None
-    ordered = [atts.get(slot["name"]) or {} for name, atts in skins if name == "default"]
+    ordered = [atts.get(slot["name"]) or {} for name, atts in skins if skin is not None and name == skin]
+    ordered += [atts.get(slot["name"]) or {} for name, atts in skins if name == "default"]
     ordered += [atts.get(slot["name"]) or {} for _, atts in skins] + [{"": c.path} if c.path else {}]
     for attachments in ordered:
         for att in attachments.values() if isinstance(attachments, dict) else ():

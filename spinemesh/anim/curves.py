@@ -1,0 +1,219 @@
+"""Keyed values and the curves between keys, evaluated as the official runtimes evaluate them.
+
+A timeline holds keys (a time and one or more values each) and, for every key but the last,
+the curve to the next key: linear, stepped or a cubic Bezier. The runtimes do not solve the
+Bezier at each time: when they read a skeleton they sample it at nine points by forward
+differences and interpolate linearly between those; they store keys and samples as float32.
+This module does the same, so that sampled values agree with the runtimes' to float32
+precision rather than to the (larger) difference between a curve and its nine-point outline.
+
+Two layouts:
+
+* 3.x: one curve per key over normalised time and value (``"curve": [c1, c2, c3, c4]``, or
+  3.8's ``"curve": c1, "c2": ..., "c3": ..., "c4": ...``); it turns the elapsed fraction of
+  the segment into a *percent* that every value of the key moves by.
+* 4.x: one curve per value, in the timeline's own time and value units
+  (``"curve": [cx1, cy1, cx2, cy2]`` per value, one after the other).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+LINEAR, STEPPED, BEZIER = 0, 1, 2
+
+
+def f32(values) -> np.ndarray:
+    """``values`` rounded to float32 (as the runtimes store keys), as float64."""
+    return np.asarray(values, np.float64).astype(np.float32).astype(np.float64)
+
+
+def _forward_differences(x1, y1, cx1, cy1, cx2, cy2, x2, y2) -> np.ndarray:
+    """Nine points of a cubic Bezier from ``(x1, y1)`` to ``(x2, y2)``, shape (9, 2), at
+    parameters 0.1 to 0.9, by forward differences in the runtimes' order of operations."""
+    tmpx, tmpy = (x1 - cx1 * 2 + cx2) * 0.03, (y1 - cy1 * 2 + cy2) * 0.03
+    dddx, dddy = ((cx1 - cx2) * 3 - x1 + x2) * 0.006, ((cy1 - cy2) * 3 - y1 + y2) * 0.006
+    ddx, ddy = tmpx * 2 + dddx, tmpy * 2 + dddy
+    dx = (cx1 - x1) * 0.3 + tmpx + dddx * 0.16666667
+    dy = (cy1 - y1) * 0.3 + tmpy + dddy * 0.16666667
+    x, y = x1 + dx, y1 + dy
+    out = np.empty((9, 2))
+    for i in range(9):
+        out[i] = x, y
+        dx += ddx
+        dy += ddy
+        ddx += dddx
+        ddy += dddy
+        x += dx
+        y += dy
+    return f32(out)
+
+
+def bezier_points_3(c1: float, c2: float, c3: float, c4: float) -> np.ndarray:
+    """3.x: the nine points of a key's percent curve (normalised: from (0, 0) to (1, 1))."""
+    return _forward_differences(0.0, 0.0, c1, c2, c3, c4, 1.0, 1.0)
+
+
+def bezier_points_4(time1, value1, cx1, cy1, cx2, cy2, time2, value2) -> np.ndarray:
+    """4.x: the nine points of one value's curve, in time and value units."""
+    return _forward_differences(time1, value1, cx1, cy1, cx2, cy2, time2, value2)
+
+
+def percent_3(points: np.ndarray, percent: float) -> float:
+    """3.x ``getCurvePercent``: the curve's value at ``percent`` of the segment's time."""
+    percent = min(1.0, max(0.0, percent))
+    px, py = 0.0, 0.0
+    for x, y in points:
+        if x >= percent:
+            return py + (y - py) * (percent - px) / (x - px)
+        px, py = x, y
+    return py + (1 - py) * (percent - px) / (1 - px)
+
+
+def value_4(points: np.ndarray, time: float, time1: float, value1: float, time2: float, value2: float) -> float:
+    """4.x ``getBezierValue``: a value's curve at ``time`` (``time1 <= time < time2``)."""
+    px, py = time1, value1
+    for x, y in points:
+        if x >= time:
+            return py + (time - px) / (x - px) * (y - py)
+        px, py = x, y
+    return py + (time - px) / (time2 - px) * (value2 - py)
+
+
+def _wrap_turns(degrees: float) -> float:
+    """3.x rotate keys: the change brought into -180..180 (the shorter way round)."""
+    return degrees - (16384 - int(16384.499999999996 - degrees / 360)) * 360
+
+
+@dataclass
+class Keys:
+    """The keys of one timeline: ``times`` (n,), ``values`` (n, k) and the curve after each key.
+
+    ``kinds`` (n,) holds LINEAR, STEPPED or BEZIER per key (the last key is STEPPED, as the
+    runtimes set it). ``bezier``: 3.x, (n, 9, 2) percent curves; 4.x, (n, k, 9, 2) per value.
+    ``angle``: a 3.x rotate timeline, whose keys turn the shorter way round.
+    """
+
+    times: np.ndarray
+    values: np.ndarray
+    kinds: np.ndarray
+    bezier: np.ndarray | None
+    four: bool
+    angle: bool = False
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1]) if len(self.times) else 0.0
+
+    def index(self, time: float) -> int:
+        """The last key at or before ``time`` (-1 before the first key)."""
+        return int(np.searchsorted(self.times, time, side="right")) - 1
+
+    def at(self, time: float) -> np.ndarray | None:
+        """The values (k,) at ``time``; None before the first key (the setup values apply)."""
+        i = self.index(time)
+        if i < 0:
+            return None
+        kind = self.kinds[i]
+        if kind == STEPPED or i == len(self.times) - 1:
+            return self.values[i]
+        t1, t2 = float(self.times[i]), float(self.times[i + 1])
+        a, b = self.values[i], self.values[i + 1]
+        if self.four:
+            if kind == LINEAR:
+                return a + (time - t1) / (t2 - t1) * (b - a)
+            return np.array([value_4(self.bezier[i, c], time, t1, float(a[c]), t2, float(b[c]))
+                             for c in range(len(a))])
+        p = (time - t1) / (t2 - t1)
+        if kind == BEZIER:
+            p = percent_3(self.bezier[i], p)
+        else:
+            p = min(1.0, max(0.0, p))
+        change = b - a
+        if self.angle:
+            change = np.array([_wrap_turns(float(v)) for v in change])
+        return a + change * p
+
+    def percent(self, time: float) -> tuple[int, float]:
+        """For deform timelines: the key at or before ``time`` and how far (0..1) the value has
+        moved towards the next key; ``(-1, 0)`` before the first key."""
+        i = self.index(time)
+        if i < 0:
+            return -1, 0.0
+        kind = self.kinds[i]
+        if kind == STEPPED or i == len(self.times) - 1:
+            return i, 0.0
+        t1, t2 = float(self.times[i]), float(self.times[i + 1])
+        if self.four:
+            if kind == LINEAR:
+                return i, (time - t1) / (t2 - t1)
+            return i, value_4(self.bezier[i, 0], time, t1, 0.0, t2, 1.0)
+        p = (time - t1) / (t2 - t1)
+        return i, percent_3(self.bezier[i], p) if kind == BEZIER else min(1.0, max(0.0, p))
+
+
+def _number(value, default: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return float(default)
+    return float(value)
+
+
+def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bool = False) -> Keys | None:
+    """Keys from a timeline's JSON frames.
+
+    Parameters
+    ----------
+    frames : list of dict
+        The timeline's keys (``time``, values, ``curve``...), as the JSON (or the binary reader) has them.
+    values : callable
+        ``values(frame) -> list of float``: the key's values, defaults filled in.
+    four : bool
+        4.x curves (per value, absolute) rather than 3.x (per key, normalised).
+    angle : bool
+        A 3.x rotate timeline.
+    percent : bool
+        A 4.x deform timeline: one curve from 0 to 1 (the values are not read here).
+
+    Returns
+    -------
+    Keys or None
+        None for a timeline without keys.
+    """
+    frames = [f for f in frames if isinstance(f, dict)] if isinstance(frames, list) else []
+    if not frames:
+        return None
+    n = len(frames)
+    times = f32([_number(f.get("time", 0), 0) for f in frames])
+    vals = f32([[0.0] if percent else values(f) for f in frames]).reshape(n, -1)
+    k = vals.shape[1]
+    kinds = np.full(n, LINEAR, np.int8)
+    kinds[-1] = STEPPED
+    bezier = np.zeros((n, k, 9, 2) if four else (n, 9, 2))
+    for i, f in enumerate(frames[:-1]):
+        curve = f.get("curve")
+        if curve == "stepped":
+            kinds[i] = STEPPED
+            continue
+        if four:
+            if not isinstance(curve, list) or len(curve) < 4 * k:
+                continue
+            kinds[i] = BEZIER
+            t1, t2 = float(times[i]), float(times[i + 1])
+            for c in range(k):
+                cx1, cy1, cx2, cy2 = (_number(v, 0) for v in curve[4 * c:4 * c + 4])
+                v1, v2 = (0.0, 1.0) if percent else (float(vals[i, c]), float(vals[i + 1, c]))
+                bezier[i, c] = bezier_points_4(t1, v1, cx1, cy1, cx2, cy2, t2, v2)
+            continue
+        if isinstance(curve, list) and len(curve) >= 4:
+            c1, c2, c3, c4 = (_number(v, d) for v, d in zip(curve[:4], (0, 0, 1, 1)))
+        elif isinstance(curve, (int, float)) and not isinstance(curve, bool):
+            c1, c2, c3, c4 = (_number(curve, 0), _number(f.get("c2", 0), 0), _number(f.get("c3", 1), 1),
+                              _number(f.get("c4", 1), 1))
+        else:
+            continue
+        kinds[i] = BEZIER
+        bezier[i] = bezier_points_3(c1, c2, c3, c4)
+    return Keys(times, vals, kinds, bezier, four, angle)

@@ -1,0 +1,112 @@
+"""Poses in the layout of the official-runtime harness's dump, and how far two dumps differ.
+
+The layout (``poses``: ``label``, ``anim``, ``time``, ``bones``, ``attachments``) is the one
+the project's runtime harness writes, so a pose written by ``spinemesh pose`` can be compared
+with the official runtime's number by number (:func:`pose_errors`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .pose import Sampler
+
+
+def js_number(value: float) -> str:
+    """A number as JavaScript writes it (``1`` not ``1.0``): the harness's pose labels."""
+    v = float(value)
+    return str(int(v)) if v.is_integer() and abs(v) < 1e21 else repr(v)
+
+
+def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_file: str = "",
+         fps: float = 60.0) -> dict:
+    """The setup pose, then ``animation`` at each of ``times``, in the harness's dump layout.
+
+    Returns
+    -------
+    dict
+        ``input`` (skeleton, skin, fps), ``skeleton`` (bones, slots, skins, animations with
+        durations) and ``poses``, each with ``label``, ``anim``, ``time``, ``bones``
+        (name -> ``[a, b, c, d, worldX, worldY]``), ``attachments`` (drawn slots in draw order)
+        and, beyond the harness's layout, ``inexact`` (bone -> why its transform is not the
+        runtime's; empty when every bone is reproduced).
+    """
+    poses = [("setup", None, 0.0)]
+    seen = {"setup"}
+    for t in times if animation is not None else ():
+        label = f"{animation}@{js_number(t)}"
+        if label not in seen:
+            seen.add(label)
+            poses.append((label, animation, float(t)))
+    out = []
+    for label, anim, t in poses:
+        pose = sampler.pose(anim, t, fps=fps)
+        entry = {"label": label, "anim": anim, "time": t, **pose.to_dump()}
+        entry["inexact"] = dict(pose.why)
+        out.append(entry)
+    return {
+        "input": {"skeleton": skeleton_file, "skin": sampler.skin, "fps": fps},
+        "skeleton": {
+            "fileVersion": str((sampler.doc.get("skeleton") or {}).get("spine", "")),
+            "bones": len(sampler.bone_names), "slots": len(sampler.slot_names),
+            "skins": list(sampler.skins),
+            "animations": [{"name": n, "duration": round(sampler.duration(n), 6)}
+                           for n in sampler.animation_names()],
+        },
+        "poses": out,
+    }
+
+
+def pose_errors(ours: dict, theirs: dict, skip_bones: set[str] = frozenset()) -> dict:
+    """How far one of our poses is from the runtime's (both in the dump layout).
+
+    Parameters
+    ----------
+    ours, theirs : dict
+        One entry of ``poses`` each.
+    skip_bones : set of str
+        Bones not compared, nor the attachments they draw: those our pose flags not exact
+        (``inexact``), for example a physics constraint's. Attachments our pose flags not
+        exact (``"exact": false``: weighted to such a bone) are not compared either.
+
+    Returns
+    -------
+    dict
+        ``bone``: the largest difference of any of a bone's ``a, b, c, d, worldX, worldY``;
+        ``vertex``: the largest difference of an attachment's world vertex (world units);
+        ``worst_bone``, ``worst_slot``: where; ``problems``: differences that are not numbers
+        (a slot drawn by one side only, another attachment, another draw order).
+    """
+    bone_err, worst_bone = 0.0, None
+    for name, m in theirs["bones"].items():
+        if name in skip_bones or name not in ours["bones"]:
+            continue
+        a, b = np.asarray(m, float), np.asarray(ours["bones"][name], float)
+        e = float(np.max(np.abs(a - b))) if len(a) == len(b) else math.inf
+        if e > bone_err:
+            bone_err, worst_bone = e, name
+    problems: list[str] = []
+    mine = {a["slot"]: a for a in ours["attachments"]}
+    order_ours = [a["slot"] for a in ours["attachments"] if a["bone"] not in skip_bones]
+    order_theirs = [a["slot"] for a in theirs["attachments"] if a["bone"] not in skip_bones]
+    if order_ours != order_theirs:
+        only = sorted(set(order_ours) ^ set(order_theirs))
+        problems.append(f"drawn slots differ: {only[:5]}" if only else "draw order differs")
+    vertex_err, worst_slot = 0.0, None
+    for a in theirs["attachments"]:
+        b = mine.get(a["slot"])
+        if a["bone"] in skip_bones or b is None or b.get("exact") is False:
+            continue
+        if b["attachment"] != a["attachment"] or len(b["vertices"]) != len(a["vertices"]):
+            problems.append(f"slot {a['slot']!r}: {b['attachment']!r} drawn, the runtime draws {a['attachment']!r}")
+            continue
+        e = float(np.max(np.abs(np.asarray(a["vertices"], float) - np.asarray(b["vertices"], float)), initial=0))
+        if e > vertex_err:
+            vertex_err, worst_slot = e, a["slot"]
+        c = float(np.max(np.abs(np.asarray(a["color"], float) - np.asarray(b["color"], float))))
+        if c > 2e-3:
+            problems.append(f"slot {a['slot']!r}: colour {b['color']} here, {a['color']} in the runtime")
+    return {"bone": bone_err, "vertex": vertex_err, "worst_bone": worst_bone, "worst_slot": worst_slot,
+            "problems": problems}

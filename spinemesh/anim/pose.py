@@ -1,0 +1,524 @@
+"""Sampling an animation: the skeleton's pose and every drawn attachment at a time.
+
+A game plays an animation with an ``AnimationState``: each frame it advances the track time,
+applies every timeline of the animation at ``track time % duration`` (looping), then calls
+``updateWorldTransform``. On track 0 with nothing to mix from, every timeline *replaces* what
+it drives (``MixBlend.first`` at alpha 1): before its first key the setup value, else the
+keyed value (rotate, translate and shear added to the setup value, scale multiplied by it).
+What no timeline drives keeps its setup value. This module does the same, from the setup
+pose each time (so a pose does not depend on the poses sampled before it), then poses the
+bones with the runtime's update cache (:mod:`spinemesh.rig.constraints`) and places every
+drawn attachment (:mod:`.attachments`).
+
+Not reproduced: physics constraints (4.2) are not simulated, so the bones they move (and
+those below them) keep their pose without physics and are flagged not exact; 3.8 local
+transform constraints that write shear into the bone's own local shear, which then carries
+over from frame to frame in the runtime, are applied as in the setup pose.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SpineMeshError
+from ..rig.constraints import Rig, build_rig, update_world
+from ..skeleton import iter_skins, spine_version
+from .attachments import Prepared, RegionGeometry, prepare
+from .timelines import Animation, color_channels, read_animation, search
+
+#: The runtimes' blend mode names, as the harness's dump writes them.
+BLEND_MODES = ("normal", "additive", "multiply", "screen")
+
+
+@dataclass
+class DrawnSlot:
+    """One drawn attachment of a pose.
+
+    Attributes
+    ----------
+    slot, bone : str
+        The slot and its bone.
+    attachment : str
+        The runtime's attachment name (its ``name`` field, else its key in the skin).
+    key, skin : str
+        Its key in the skin and the skin it was found in (the skeleton's skin, else ``default``).
+    path : str
+        The image it draws (a sequence: the frame shown).
+    type : str
+        ``"region"`` or ``"mesh"`` (linked meshes are meshes).
+    blend : str
+        The slot's blend mode.
+    color : ndarray, shape (4,)
+        RGBA 0..1: skeleton colour times slot colour times attachment colour.
+    vertices : ndarray, shape (N, 2)
+        World positions (Spine world units, y up); a region's corners are bottom-left,
+        top-left, top-right, bottom-right.
+    uvs : ndarray, shape (N, 2)
+        The same vertices in the attachment's original image (u right, v down, 0..1): map
+        them through the atlas region (offsets, rotation) to sample the page.
+    triangles : ndarray, shape (3T,)
+        Vertex indices.
+    hull : int or None
+        Mesh: the number of hull vertices (``hull`` field).
+    clip : ndarray, shape (M, 2), or None
+        The world polygon of the clipping attachment that clips this slot, if any.
+    exact : bool
+        False when a bone it follows is not reproduced exactly (see :attr:`Pose.exact`).
+    """
+
+    slot: str
+    bone: str
+    attachment: str
+    key: str
+    skin: str
+    path: str
+    type: str
+    blend: str
+    color: np.ndarray
+    vertices: np.ndarray
+    uvs: np.ndarray
+    triangles: np.ndarray
+    hull: int | None = None
+    clip: np.ndarray | None = None
+    exact: bool = True
+
+
+@dataclass
+class Pose:
+    """A sampled pose.
+
+    Attributes
+    ----------
+    time : float
+        The track time asked for (seconds); ``animation_time`` the time within the animation.
+    bones : list of str
+        Bone names in skeleton order.
+    world : ndarray, shape (B, 2, 3)
+        Each bone's world transform ``[[a, b, worldX], [c, d, worldY]]``.
+    slots : list of DrawnSlot
+        Drawn region and mesh attachments in draw order.
+    exact : ndarray, shape (B,), bool
+        False for bones whose transform is not the runtime's (``why`` says why by name).
+    active : ndarray, shape (B,), bool
+        False for bones the skin does not use (the runtime does not pose them; here they
+        follow their parent).
+    """
+
+    time: float
+    animation_time: float
+    bones: list[str]
+    world: np.ndarray
+    slots: list[DrawnSlot]
+    exact: np.ndarray
+    active: np.ndarray
+    why: dict[str, str] = field(default_factory=dict)
+
+    def bone(self, name: str) -> np.ndarray:
+        """The world transform (2, 3) of the bone called ``name`` (KeyError if none)."""
+        try:
+            return self.world[self.bones.index(name)]
+        except ValueError:
+            raise KeyError(name) from None
+
+    def to_dump(self, digits: int = 6) -> dict:
+        """This pose in the layout of the official-runtime harness's dump (one entry of
+        ``poses``, without label): ``bones`` name -> ``[a, b, c, d, worldX, worldY]``, and
+        ``attachments``, one dict per drawn slot (``slot``, ``bone``, ``attachment``, ``path``,
+        ``type``, ``blend``, ``color``, ``vertices`` flat, ``uvs`` flat (original image),
+        ``triangles``, ``hull``, ``clip``). Numbers rounded to ``digits`` decimals."""
+        def r(values) -> list[float]:
+            return [_clean(round(float(v), digits)) for v in np.asarray(values, float).reshape(-1)]
+        bones = {name: r(m[[0, 0, 1, 1, 0, 1], [0, 1, 0, 1, 2, 2]]) for name, m in zip(self.bones, self.world)}
+        # The runtime's (a, b, c, d) are M[0,0], M[0,1], M[1,0], M[1,1].
+        attachments = [{
+            "slot": s.slot, "bone": s.bone, "attachment": s.attachment, "path": s.path, "type": s.type,
+            "blend": s.blend, "color": r(s.color), "vertices": r(s.vertices), "uvs": r(s.uvs),
+            "triangles": [int(i) for i in s.triangles], "hull": s.hull,
+            "clip": None if s.clip is None else r(s.clip), "exact": s.exact} for s in self.slots]
+        return {"bones": bones, "attachments": attachments}
+
+
+def _clean(v: float) -> float:
+    return 0.0 if v == 0 else v  # no "-0.0"
+
+
+def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool = True) -> float:
+    """The time within the animation that a game reaches at track time ``time``.
+
+    The harness (and a game loop at ``fps``) advances the track in ``round(time * fps)``
+    equal steps, adding each step to the track time; a looping track then applies the
+    animation at ``track time % duration`` (the remainder carries the steps' rounding,
+    which decides which side of a loop boundary a time on it falls).
+    """
+    if not math.isfinite(time) or time <= 0:
+        return 0.0
+    steps = math.floor(time * fps + 0.5) if fps > 0 else 0
+    track = 0.0
+    if steps:
+        dt = time / steps
+        for _ in range(steps):
+            track += dt
+    else:
+        track = 0.0
+    if not loop:
+        return track
+    return math.fmod(track, duration) if duration > 0 else 0.0
+
+
+class Sampler:
+    """A skeleton document prepared once for sampling: bones, update cache, slots, attachments.
+
+    Parameters
+    ----------
+    doc : dict
+        A skeleton document (:func:`spinemesh.skeleton.load_skeleton`; ``.json`` or ``.skel``).
+    skin : str, optional
+        The skin to show (default: none, the default skin only), as ``Skeleton.setSkin``.
+    regions : callable, optional
+        ``regions(path) -> RegionGeometry | None``: the atlas region a region attachment draws
+        (its stored size and offsets decide the quad). See :func:`atlas_regions`. Without it
+        every image is taken as stored whole.
+    """
+
+    def __init__(self, doc: dict, skin: str | None = None, regions=None):
+        self.doc = doc
+        version = spine_version(doc)
+        m = re.match(r"(\d+)", version)
+        self.four = bool(m) and int(m[1]) >= 4 if m else True
+        self.skin = skin
+        self.rig: Rig = build_rig(doc, skin)
+        self.bone_names = [b.name for b in self.rig.bones]
+        self.setup_local = [tuple(b.local) for b in self.rig.bones]
+        self.setup_inherit = [b.inherit for b in self.rig.bones]
+        self.setup_data = {id(c): c.data for c in self.rig.constraints}
+        self.constraints = {(c.kind, c.name): c for c in self.rig.constraints}
+        slots = [s for s in doc.get("slots", []) if isinstance(s, dict)]
+        bone_index = {n: i for i, n in enumerate(self.bone_names)}
+        self.slot_names = [str(s.get("name")) for s in slots]
+        self.slot_bones = [bone_index.get(str(s.get("bone")), 0) for s in slots]
+        self.slot_setup = [s.get("attachment") for s in slots]
+        self.slot_color = [np.array(color_channels(s.get("color", "ffffffff"), 4)) for s in slots]
+        self.slot_blend = [s.get("blend", "normal") if s.get("blend", "normal") in BLEND_MODES else "normal"
+                           for s in slots]
+        self.skins = {name: atts for name, atts in iter_skins(doc)}
+        self._regions = regions or (lambda path: None)
+        self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
+        self.physics_bones = self._physics_bones()
+        self._animations: dict[str, tuple[Animation, dict]] = {}
+
+    # -- attachments ---------------------------------------------------------------------
+    def prepared(self, skin: str, slot: int, key: str) -> Prepared | None:
+        """The attachment ``key`` of ``slot`` in ``skin`` (that skin only), prepared once."""
+        k = (skin, slot, key)
+        if k not in self._prepared:
+            att = ((self.skins.get(skin) or {}).get(self.slot_names[slot]) or {}).get(key)
+            self._prepared[k] = None if not isinstance(att, dict) else prepare(
+                self.skins, skin, slot, self.slot_names[slot], key, att, len(self.bone_names), self._regions)
+        return self._prepared[k]
+
+    def attachment(self, slot: int, key: str | None) -> Prepared | None:
+        """``Skeleton.getAttachment``: the skeleton's skin first, then the default skin."""
+        if key is None:
+            return None
+        if self.skin is not None and self.skin != "default":
+            found = self.prepared(self.skin, slot, key)
+            if found is not None:
+                return found
+        return self.prepared("default", slot, key)
+
+    # -- animations ----------------------------------------------------------------------
+    def animation_names(self) -> list[str]:
+        """The skeleton's animations, in document order."""
+        return [str(n) for n in (self.doc.get("animations") or {})]
+
+    def duration(self, animation: str) -> float:
+        """The animation's duration in seconds, as the runtimes compute it (its last key)."""
+        return self.animation(animation)[0].duration
+
+    def animation(self, name: str) -> tuple[Animation, dict]:
+        """The animation's timelines and its deforms in the runtimes' layout, read once."""
+        if name not in self._animations:
+            if name not in (self.doc.get("animations") or {}):
+                raise KeyError(name)
+            anim = read_animation(self.doc, name, self.four)
+            deforms = {}
+            for d in anim.deforms:
+                att = self.prepared(d.skin, d.slot, d.attachment)
+                if att is None or att.geometry is None:
+                    continue
+                setup = att.geometry.setup
+                frames = np.zeros((len(d.raw), len(setup)))
+                for i, (offset, verts) in enumerate(d.raw):
+                    if isinstance(verts, list) and verts:
+                        v = np.asarray([x if isinstance(x, (int, float)) else 0.0 for x in verts], float)
+                        end = min(len(setup), offset + len(v))
+                        if 0 <= offset < end:
+                            frames[i, offset:end] = v[:end - offset]
+                    if not att.geometry.weighted:
+                        frames[i] += setup
+                deforms[(d.skin, d.slot, d.attachment)] = (d.keys, frames.astype(np.float32).astype(np.float64))
+            self._animations[name] = (anim, deforms)
+        return self._animations[name]
+
+    def _physics_bones(self) -> dict[int, str]:
+        """Bones that active physics constraints move, with the constraint's name."""
+        out: dict[int, str] = {}
+        for c in self.rig.constraints:
+            if c.kind == "physics" and c.active and self.rig.family is not None:
+                for b in c.bones:
+                    out.setdefault(b.index, c.name)
+        return out
+
+    # -- sampling ------------------------------------------------------------------------
+    def pose(self, animation: str | None, time: float = 0.0, fps: float = 60.0, loop: bool = True) -> Pose:
+        """The pose of ``animation`` at track time ``time`` (seconds); the setup pose when
+        ``animation`` is None. See :func:`animation_time` for ``fps`` and ``loop``."""
+        n_bones, n_slots = len(self.bone_names), len(self.slot_names)
+        local = [list(v) for v in self.setup_local]
+        inherit = list(self.setup_inherit)
+        data = dict(self.setup_data)
+        names = list(self.slot_setup)
+        colors = [c.copy() for c in self.slot_color]
+        order = list(range(n_slots))
+        sequence = [-1] * n_slots
+        deforms: dict[tuple[str, int, str], tuple] = {}
+        t = 0.0
+        active = [b.active for b in self.rig.bones]
+        if animation is not None:
+            anim, deforms = self.animation(animation)
+            t = animation_time(time, anim.duration, fps, loop)
+            self._apply_bones(anim, t, local, inherit, active)
+            self._apply_constraints(anim, t, data)
+            self._apply_slots(anim, t, names, colors, active)
+            if anim.draw_order is not None:
+                i = search(anim.draw_order.times, t)
+                if i >= 0 and anim.draw_order.orders[i] is not None:
+                    order = list(anim.draw_order.orders[i])
+            shown = [self.attachment(s, names[s]) for s in range(n_slots)]
+            for sq in anim.sequences:
+                self._apply_sequence(sq, t, shown, sequence)
+        shown = [self.attachment(s, names[s]) for s in range(n_slots)]
+        deform_now = {}
+        for s, att in enumerate(shown):
+            if att is not None and att.timeline_key in deforms:
+                keys, frames = deforms[att.timeline_key]
+                i, p = keys.percent(t)
+                if i >= 0:
+                    v = frames[i] if p == 0 or i == len(frames) - 1 else frames[i] + (frames[i + 1] - frames[i]) * p
+                    deform_now[s] = v
+        world, exact, why = self._pose_bones(local, inherit, data, shown, deform_now)
+        slots = self._draw(world, order, shown, colors, deform_now, sequence, active)
+        if not exact.all():
+            for drawn, s in zip(slots, (self.slot_names.index(d.slot) for d in slots)):
+                att = shown[s]
+                used = att.geometry.bone if att.geometry is not None and att.geometry.weighted else [self.slot_bones[s]]
+                drawn.exact = bool(exact[used].all())
+        return Pose(float(time), t, list(self.bone_names), world, slots, exact, np.array(active), why)
+
+    def _apply_bones(self, anim: Animation, t: float, local: list, inherit: list, active: list) -> None:
+        for tl in anim.bones:
+            if not active[tl.bone]:
+                continue
+            v = tl.keys.at(t)
+            setup = self.setup_local[tl.bone]
+            row = local[tl.bone]
+            p = tl.property
+            if p == "rotate":
+                row[2] = setup[2] + (float(v[0]) if v is not None else 0.0)
+            elif p in ("translate", "translatex", "translatey"):
+                _set_pair(row, setup, v, p, 0, lambda s, k: s + k, 0.0)
+            elif p in ("scale", "scalex", "scaley"):
+                _set_pair(row, setup, v, p, 3, lambda s, k: s * k, 1.0)
+            elif p in ("shear", "shearx", "sheary"):
+                _set_pair(row, setup, v, p, 5, lambda s, k: s + k, 0.0)
+        for tl in anim.inherits:
+            i = search(tl.times, t)
+            mode = tl.modes[i] if i >= 0 else self.setup_inherit[tl.bone]
+            if active[tl.bone]:
+                inherit[tl.bone] = mode if mode in ("normal", "onlyTranslation", "noRotationOrReflection",
+                                                    "noScale", "noScaleOrReflection") else "normal"
+
+    def _apply_constraints(self, anim: Animation, t: float, data: dict) -> None:
+        for tl in anim.constraints:
+            c = self.constraints.get((tl.kind, tl.name))
+            if c is None:
+                continue
+            i = tl.keys.index(t)
+            if i < 0:
+                continue  # the setup values
+            v = tl.keys.at(t)
+            d = dict(data[id(c)])
+            for key, value in zip(tl.fields, v):
+                d[key] = float(value)
+            if tl.flags:
+                d.update(tl.flags[i])
+            data[id(c)] = d
+
+    def _apply_slots(self, anim: Animation, t: float, names: list, colors: list, active: list) -> None:
+        for tl in anim.attachments:
+            if not active[self.slot_bones[tl.slot]]:
+                continue
+            i = search(tl.times, t)
+            names[tl.slot] = tl.names[i] if i >= 0 else self.slot_setup[tl.slot]
+        for tl in anim.slots:
+            v = tl.keys.at(t)
+            setup = self.slot_color[tl.slot]
+            c = colors[tl.slot]
+            if tl.property in ("rgba", "rgba2"):
+                c[:] = setup if v is None else v[:4]
+            elif tl.property in ("rgb", "rgb2"):
+                c[:3] = setup[:3] if v is None else v[:3]
+            elif tl.property == "alpha":
+                c[3] = setup[3] if v is None else float(v[0])
+
+    def _apply_sequence(self, sq, t: float, shown: list, sequence: list) -> None:
+        att = shown[sq.slot]
+        target = self.prepared(sq.skin, sq.slot, sq.attachment)
+        if att is None or target is None or not target.sequence_count:
+            return
+        if att is not target and att.timeline_key != target.timeline_key:
+            return
+        i = search(sq.times, t)
+        if i < 0:
+            sequence[sq.slot] = -1
+            return
+        sequence[sq.slot] = _sequence_index(sq.frames, i, float(sq.times[i]), t, target.sequence_count)
+
+    def _pose_bones(self, local, inherit, data, shown, deform_now):
+        rig = self.rig
+        for b, values, mode in zip(rig.bones, local, inherit):
+            b.local = tuple(float(v) for v in values)
+            b.inherit = mode
+        slot_index = {n: i for i, n in enumerate(self.slot_names)}
+        for c in rig.constraints:
+            c.data = data[id(c)]
+            if c.kind == "path":
+                s = slot_index.get(str(self.setup_data[id(c)].get("target")))
+                att = shown[s] if s is not None else None
+                ok = att is not None and att.type == "path"
+                c.path = self._path_json(att) if ok else None
+                c.path_deform = list(deform_now[s]) if ok and s in deform_now else None
+        update_world(rig)
+        for b in rig.bones:
+            if not b.active:  # not posed by the runtime without its skin: from its parent
+                b.update_with(b.local)
+        world = np.stack([b.world for b in rig.bones]) if rig.bones else np.zeros((0, 2, 3))
+        exact = np.array([b.exact for b in rig.bones], bool)
+        why = {b.name: b.why for b in rig.bones if not b.exact}
+        for b in rig.bones:
+            name = self.physics_bones.get(b.index)
+            parent_flag = b.parent is not None and not exact[b.parent.index]
+            if name is not None or (parent_flag and exact[b.index]):
+                exact[b.index] = False
+                why.setdefault(b.name, f"moved by the physics constraint {name!r}, which is not simulated"
+                               if name is not None else f"below {b.parent.name!r}: {why.get(b.parent.name, '')}")
+        return world, exact, why
+
+    def _path_json(self, att: Prepared) -> dict | None:
+        a = ((self.skins.get(att.skin) or {}).get(self.slot_names[att.slot]) or {}).get(att.key)
+        return a if isinstance(a, dict) else None
+
+    def _draw(self, world, order, shown, colors, deform_now, sequence, active) -> list[DrawnSlot]:
+        out: list[DrawnSlot] = []
+        clip = None     # (polygon, end slot name)
+        for s in order:
+            att = shown[s]
+            bone = self.slot_bones[s]
+            if att is not None and active[bone]:
+                if att.type == "clipping":
+                    if clip is None:
+                        poly = att.geometry.world(world, bone, deform_now.get(s))
+                        clip = (poly, att.end_slot)
+                    continue
+                if att.type in ("region", "mesh"):
+                    f = att.frame(sequence[s])
+                    if att.type == "region":
+                        offsets = att.offsets[f]
+                        m = world[bone]
+                        verts = offsets @ m[:, :2].T + m[:, 2]
+                        uvs = att.uvs[f]
+                    else:
+                        verts = att.geometry.world(world, bone, deform_now.get(s))
+                        uvs = att.uvs
+                    path = att.frame_paths[f] if att.frame_paths else att.path
+                    out.append(DrawnSlot(self.slot_names[s], self.bone_names[bone], att.name, att.key, att.skin, path,
+                                         att.type, self.slot_blend[s], colors[s] * np.array(att.color), verts, uvs,
+                                         att.triangles, att.hull, None if clip is None else clip[0]))
+            if clip is not None and clip[1] == self.slot_names[s]:
+                clip = None
+        return out
+
+
+def _set_pair(row: list, setup: tuple, v, prop: str, at: int, combine, neutral: float) -> None:
+    """Set x and/or y of a translate/scale/shear pair starting at ``row[at]``."""
+    if prop.endswith("x"):
+        row[at] = combine(setup[at], float(v[0]) if v is not None else neutral)
+    elif prop.endswith("y"):
+        row[at + 1] = combine(setup[at + 1], float(v[0]) if v is not None else neutral)
+    else:
+        row[at] = combine(setup[at], float(v[0]) if v is not None else neutral)
+        row[at + 1] = combine(setup[at + 1], float(v[1]) if v is not None else neutral)
+
+
+_SEQUENCE_MODES = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
+
+
+def _sequence_index(frames: list[dict], i: int, before: float, t: float, count: int) -> int:
+    """4.1+ ``SequenceTimeline``: the frame shown ``t - before`` seconds after key ``i``."""
+    delay = 0.0
+    for f in frames[:i + 1]:  # a key without delay keeps the one before
+        d = f.get("delay")
+        if isinstance(d, (int, float)) and not isinstance(d, bool):
+            delay = float(d)
+    key = frames[i]
+    index = key.get("index", 0)
+    index = int(index) if isinstance(index, (int, float)) and not isinstance(index, bool) else 0
+    mode = key.get("mode", "hold")
+    mode = mode if mode in _SEQUENCE_MODES else "hold"
+    if mode == "hold":
+        return index
+    if delay > 0:
+        index += int((t - before) / delay + 0.00001)
+    if mode == "once":
+        return min(count - 1, index)
+    if mode == "loop":
+        return index % count
+    if mode == "pingpong":
+        n = (count << 1) - 2
+        index = 0 if n == 0 else index % n
+        return n - index if index >= count else index
+    if mode == "onceReverse":
+        return max(count - 1 - index, 0)
+    if mode == "loopReverse":
+        return count - 1 - (index % count)
+    n = (count << 1) - 2
+    index = 0 if n == 0 else (index + count - 1) % n
+    return n - index if index >= count else index
+
+
+def atlas_regions(atlases) -> callable:
+    """``regions(path)`` for :class:`Sampler` from parsed atlases (:class:`spinemesh.atlas.Atlas`,
+    one or a list): the first atlas holding the region wins, as an attachment loader finds it."""
+    atlases = [atlases] if not isinstance(atlases, (list, tuple)) else list(atlases)
+    cache: dict[str, RegionGeometry | None] = {}
+
+    def regions(path: str) -> RegionGeometry | None:
+        if path not in cache:
+            cache[path] = None
+            for atlas in atlases:
+                r = atlas.find(path)
+                if r is None:
+                    continue
+                try:
+                    g = r.geometry()
+                except SpineMeshError:  # a malformed region: drawn as if stored whole
+                    break
+                cache[path] = RegionGeometry(g.width, g.height, g.offset_x, g.offset_y, g.original_width,
+                                             g.original_height)
+                break
+        return cache[path]
+    return regions

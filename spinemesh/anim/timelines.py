@@ -1,0 +1,349 @@
+"""An animation's timelines read from a skeleton document, once per animation.
+
+Both layouts the document can hold (the binary reader gives the JSON layout): 3.x names
+(``rotate`` keys with ``angle``, ``color``, ``twoColor``, ``rotateMix``..., ``deform``) and 4.x
+names (``rotate`` with ``value``, split ``translatex``/``translatey``/``scalex``/... timelines,
+``rgba``/``rgb``/``alpha``/``rgba2``/``rgb2``, ``mixRotate``..., ``deform`` under 4.0 and
+``attachments``/``deform`` from 4.1 on, 4.2's ``inherit``). Each timeline becomes a
+:class:`~.curves.Keys` and the name of what it drives; :mod:`.pose` applies them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .curves import Keys, _number, f32, read_keys
+
+
+def color_channels(text, count: int) -> list[float]:
+    """``count`` channels (0..1) of a hex colour ``rrggbb[aa]``; white where unreadable."""
+    if not isinstance(text, str) or len(text) < 2 * count:
+        return [1.0] * count
+    try:
+        return [int(text[2 * i:2 * i + 2], 16) / 255 for i in range(count)]
+    except ValueError:
+        return [1.0] * count
+
+
+@dataclass
+class BoneTimeline:
+    """``property``: rotate, translate, translatex, translatey, scale, scalex, scaley, shear,
+    shearx, sheary."""
+
+    bone: int
+    property: str
+    keys: Keys
+
+
+@dataclass
+class InheritTimeline:
+    """4.2: the bone's inherit mode from each key on."""
+
+    bone: int
+    times: np.ndarray
+    modes: list[str]
+
+
+@dataclass
+class SlotTimeline:
+    """``property``: rgba, rgb, alpha (3.x ``color`` reads as rgba, ``twoColor`` as rgba2), rgba2, rgb2."""
+
+    slot: int
+    property: str
+    keys: Keys
+
+
+@dataclass
+class AttachmentTimeline:
+    slot: int
+    times: np.ndarray
+    names: list[str | None]
+
+
+@dataclass
+class ConstraintTimeline:
+    """``kind``: ik, transform, path; ``fields``: the constraint's JSON keys each value sets
+    (the keys its data uses in that version); ``flags``: IK's discrete keys per key."""
+
+    kind: str
+    name: str
+    fields: tuple[str, ...]
+    keys: Keys
+    flags: list[dict] = field(default_factory=list)
+
+
+@dataclass
+class DeformTimeline:
+    """A vertex attachment's deform: per key ``(offset, vertices)`` as stored (offsets from
+    the setup vertices, per bone influence when weighted, starting at number ``offset``);
+    ``keys`` holds the times and curves."""
+
+    skin: str
+    slot: int
+    attachment: str
+    keys: Keys
+    raw: list[tuple[int, list | None]]
+
+
+@dataclass
+class DrawOrderTimeline:
+    times: np.ndarray
+    orders: list[list[int] | None]   # slot indices in draw order; None: the setup order
+
+
+@dataclass
+class SequenceTimeline:
+    """4.1+: which image of a sequence an attachment shows (``mode`` and ``index``/``delay`` per key)."""
+
+    skin: str
+    slot: int
+    attachment: str
+    times: np.ndarray
+    frames: list[dict]
+
+
+@dataclass
+class Animation:
+    """Every timeline of one animation, grouped by what it drives."""
+
+    name: str
+    duration: float
+    bones: list[BoneTimeline] = field(default_factory=list)
+    inherits: list[InheritTimeline] = field(default_factory=list)
+    slots: list[SlotTimeline] = field(default_factory=list)
+    attachments: list[AttachmentTimeline] = field(default_factory=list)
+    constraints: list[ConstraintTimeline] = field(default_factory=list)
+    deforms: list[DeformTimeline] = field(default_factory=list)
+    draw_order: DrawOrderTimeline | None = None
+    sequences: list[SequenceTimeline] = field(default_factory=list)
+    physics: list[str] = field(default_factory=list)   # physics constraints it keys (not applied)
+
+
+def _times(frames: list) -> np.ndarray:
+    return f32([_number(f.get("time", 0), 0) for f in frames if isinstance(f, dict)])
+
+
+def _dicts(value) -> list[dict]:
+    return [f for f in value if isinstance(f, dict)] if isinstance(value, list) else []
+
+
+def _getter(*pairs):
+    """``frame -> [values]`` for ``(key, default)`` pairs; a default that is a key name takes
+    that key's value (4.x ``mixY`` defaults to the key's ``mixX``)."""
+    def values(f: dict) -> list[float]:
+        out: list[float] = []
+        got: dict[str, float] = {}
+        for key, default in pairs:
+            d = got[default] if isinstance(default, str) else default
+            got[key] = _number(f.get(key, d), d)
+            out.append(got[key])
+        return out
+    return values
+
+
+#: 4.x bone timelines: JSON name -> value keys with defaults.
+_BONE_4 = {
+    "rotate": (("value", 0),), "translate": (("x", 0), ("y", 0)), "translatex": (("value", 0),),
+    "translatey": (("value", 0),), "scale": (("x", 1), ("y", 1)), "scalex": (("value", 1),),
+    "scaley": (("value", 1),), "shear": (("x", 0), ("y", 0)), "shearx": (("value", 0),),
+    "sheary": (("value", 0),),
+}
+_BONE_3 = {"rotate": (("angle", 0),), "translate": (("x", 0), ("y", 0)), "scale": (("x", 1), ("y", 1)),
+           "shear": (("x", 0), ("y", 0))}
+
+#: Constraint timelines: (4.x fields, 3.x fields) of the mixes, as the constraint data names them.
+_TRANSFORM_4 = (("mixRotate", 1), ("mixX", 1), ("mixY", "mixX"), ("mixScaleX", 1), ("mixScaleY", "mixScaleX"),
+                ("mixShearY", 1))
+_TRANSFORM_3 = (("rotateMix", 1), ("translateMix", 1), ("scaleMix", 1), ("shearMix", 1))
+
+
+class _Reader:
+    """Reads one animation's timelines, noting every timeline's last key for the duration."""
+
+    def __init__(self, doc: dict, four: bool, out: Animation):
+        self.four, self.out = four, out
+        self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
+        self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
+        self.ends: list[float] = []
+
+    def keys(self, frames, getter, **kw) -> Keys | None:
+        k = read_keys(frames, getter, self.four, **kw)
+        if k is not None:
+            self.ends.append(k.duration)
+        return k
+
+    def discrete(self, frames) -> tuple[list[dict], np.ndarray]:
+        fr = _dicts(frames)
+        times = _times(fr)
+        if len(times):
+            self.ends.append(float(times[-1]))
+        return fr, times
+
+    def bones(self, timelines: dict) -> None:
+        for bone, tls in timelines.items():
+            if bone not in self.bone_index or not isinstance(tls, dict):
+                continue
+            b = self.bone_index[bone]
+            for prop, frames in tls.items():
+                if prop == "inherit" and self.four:
+                    fr, times = self.discrete(frames)
+                    if fr:
+                        self.out.inherits.append(InheritTimeline(b, times, [str(f.get("inherit", "normal"))
+                                                                            for f in fr]))
+                    continue
+                spec = (_BONE_4 if self.four else _BONE_3).get(prop)
+                k = self.keys(frames, _getter(*spec), angle=(prop == "rotate" and not self.four)) if spec else None
+                if k is not None:
+                    self.out.bones.append(BoneTimeline(b, prop, k))
+
+    def slots(self, timelines: dict) -> None:
+        for slot, tls in timelines.items():
+            if slot not in self.slot_index or not isinstance(tls, dict):
+                continue
+            s = self.slot_index[slot]
+            for prop, frames in tls.items():
+                if prop == "attachment":
+                    fr, times = self.discrete(frames)
+                    if fr:
+                        names = [None if f.get("name") is None else str(f.get("name")) for f in fr]
+                        self.out.attachments.append(AttachmentTimeline(s, times, names))
+                    continue
+                kind = _COLOR_KINDS.get(prop)
+                k = self.keys(frames, _COLOR_GETTERS[kind]) if kind else None
+                if k is not None:
+                    self.out.slots.append(SlotTimeline(s, kind, k))
+
+    def constraints(self, anim: dict) -> None:
+        for cname, frames in (anim.get("ik") or {}).items():
+            k = self.keys(frames, _getter(("mix", 1), ("softness", 0)))
+            if k is not None:
+                flags = [{"bendPositive": f.get("bendPositive", True) is not False,
+                          "compress": f.get("compress") is True, "stretch": f.get("stretch") is True}
+                         for f in _dicts(frames)]
+                self.out.constraints.append(ConstraintTimeline("ik", str(cname), ("mix", "softness"), k, flags))
+        for cname, frames in (anim.get("transform") or {}).items():
+            spec = _TRANSFORM_4 if self.four else _TRANSFORM_3
+            k = self.keys(frames, _getter(*spec))
+            if k is not None:
+                self.out.constraints.append(ConstraintTimeline("transform", str(cname), tuple(p[0] for p in spec), k))
+        for cname, tls in (anim.get("path") or anim.get("paths") or {}).items():
+            for prop, frames in tls.items() if isinstance(tls, dict) else ():
+                if prop in ("position", "spacing"):
+                    spec, fields = (("value" if self.four else prop, 0),), (prop,)
+                elif prop == "mix":
+                    spec = _PATH_MIX_4 if self.four else _PATH_MIX_3
+                    fields = tuple(p[0] for p in spec)
+                else:
+                    continue
+                k = self.keys(frames, _getter(*spec))
+                if k is not None:
+                    self.out.constraints.append(ConstraintTimeline("path", str(cname), fields, k))
+
+
+_COLOR_KINDS = {"rgba": "rgba", "color": "rgba", "rgb": "rgb", "alpha": "alpha", "rgba2": "rgba2",
+                "twoColor": "rgba2", "rgb2": "rgb2"}
+_COLOR_GETTERS = {
+    "rgba": lambda f: color_channels(f.get("color"), 4),
+    "rgb": lambda f: color_channels(f.get("color"), 3),
+    "alpha": _getter(("value", 0)),
+    "rgba2": lambda f: color_channels(f.get("light"), 4) + color_channels(f.get("dark"), 3),
+    "rgb2": lambda f: color_channels(f.get("light"), 3) + color_channels(f.get("dark"), 3),
+}
+_PATH_MIX_4 = (("mixRotate", 1), ("mixX", 1), ("mixY", "mixX"))
+_PATH_MIX_3 = (("rotateMix", 1), ("translateMix", 1))
+
+
+def read_animation(doc: dict, name: str, four: bool) -> Animation:
+    """The animation ``name`` of ``doc`` (KeyError when it has none), its timelines read.
+
+    Timelines that name a bone, slot or constraint the skeleton lacks are left out (a runtime
+    refuses such a skeleton; the document reader reports them). The duration is the last key
+    of any timeline, events and draw order included, as the runtimes compute it.
+    """
+    anim = (doc.get("animations") or {})[name]
+    if not isinstance(anim, dict):
+        anim = {}
+    out = Animation(name, 0.0)
+    r = _Reader(doc, four, out)
+    r.bones(anim.get("bones") or {})
+    r.slots(anim.get("slots") or {})
+    r.constraints(anim)
+    _read_deforms(anim, r.slot_index, four, out, r.ends)
+    fr, times = r.discrete(anim.get("drawOrder", anim.get("draworder")))
+    if fr:
+        out.draw_order = DrawOrderTimeline(times, [_draw_order(f.get("offsets"), r.slot_index) for f in fr])
+    r.discrete(anim.get("events"))
+    physics = anim.get("physics") if isinstance(anim.get("physics"), dict) else {}
+    out.physics = [str(n) for n in physics]
+    for tls in physics.values():
+        for frames in tls.values() if isinstance(tls, dict) else ():
+            r.discrete(frames)
+    out.duration = max(r.ends, default=0.0)
+    return out
+
+
+def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends: list) -> None:
+    """Deform (and 4.1+ sequence) timelines; the offsets are filled by :mod:`.pose`, which
+    knows each attachment's vertices."""
+    groups = []
+    if isinstance(anim.get("attachments"), dict):   # 4.1+
+        for skin, slots in anim["attachments"].items():
+            for slot, atts in (slots or {}).items() if isinstance(slots, dict) else ():
+                for att, tls in (atts or {}).items() if isinstance(atts, dict) else ():
+                    if isinstance(tls, dict):
+                        groups.append((skin, slot, att, tls.get("deform"), tls.get("sequence")))
+    for key in ("deform", "ffd"):
+        if isinstance(anim.get(key), dict):
+            for skin, slots in anim[key].items():
+                for slot, atts in (slots or {}).items() if isinstance(slots, dict) else ():
+                    for att, frames in (atts or {}).items() if isinstance(atts, dict) else ():
+                        groups.append((skin, slot, att, frames, None))
+    for skin, slot, att, frames, seq in groups:
+        if slot not in slot_index:
+            continue
+        fr = _dicts(frames)
+        if fr:
+            k = read_keys(fr, None, four, percent=True) if four else read_keys(fr, lambda f: [0.0], four)
+            ends.append(k.duration)
+            raw = [(int(_number(f.get("offset", 0), 0)), f.get("vertices")) for f in fr]
+            out.deforms.append(DeformTimeline(str(skin), slot_index[slot], str(att), k, raw))
+        sq = _dicts(seq)
+        if sq:
+            out.sequences.append(SequenceTimeline(str(skin), slot_index[slot], str(att), _times(sq), sq))
+            ends.append(float(_times(sq)[-1]))
+
+
+def _draw_order(offsets, slot_index: dict) -> list[int] | None:
+    """The runtimes' draw order from a key's ``offsets`` (each slot moved by its offset, the
+    others keeping their order in the gaps); None for a key without offsets (setup order)."""
+    if not isinstance(offsets, list):
+        return None
+    count = len(slot_index)
+    order = [-1] * count
+    unchanged: list[int] = []
+    original = 0
+    for o in offsets:
+        if not isinstance(o, dict) or str(o.get("slot")) not in slot_index:
+            continue
+        s = slot_index[str(o.get("slot"))]
+        while original != s and original < count:
+            unchanged.append(original)
+            original += 1
+        at = original + int(_number(o.get("offset", 0), 0))
+        if 0 <= at < count:
+            order[at] = original
+        original += 1
+    while original < count:
+        unchanged.append(original)
+        original += 1
+    for i in range(count - 1, -1, -1):
+        if order[i] == -1:
+            order[i] = unchanged.pop() if unchanged else i
+    return order
+
+
+def search(times: np.ndarray, time: float) -> int:
+    """The last key at or before ``time``; -1 before the first."""
+    return int(np.searchsorted(times, time, side="right")) - 1
