@@ -124,3 +124,36 @@ def test_setup_pose_dresses_an_empty_default_skin():
     assert pose_skins(doc) == ["both", "default"]
     doc["skins"] = doc["skins"][:1]
     assert pose_skins(doc) == ["default"]
+
+
+def test_a_packed_project_without_meshes_still_shows_its_pages(tmp_path):
+    demo = make_demo_project(tmp_path / "demo")
+    result = upgrade_project(demo, tmp_path / "out", Options(pack=True, min_saving=1.0))
+    assert not result.counts().get("meshed") and result.atlases[0].status == "packed"
+    index = write_preview(result, demo, tmp_path / "out", tmp_path / "preview")
+    text = index.read_text(encoding="utf-8")
+    assert "No attachment meshed; 1 atlas packed anew: page texels" in text
+    before, after = text.split("<h4>before</h4>")[1].split("<h4>after</h4>")
+    for part in (before, after):
+        srcs = re.findall(r'<img class="checker" loading="lazy" src="([^"]+)"', part)
+        assert len(srcs) == 1 and (index.parent / srcs[0]).is_file()
+    assert re.search(r"demo\.png: 512 x 256 = 131,072 texels.*demo\.png: \d+ x \d+ = 65,536 texels", text, re.S)
+
+
+def test_a_library_gets_one_index(tmp_path):
+    import shutil
+
+    from spinemesh.upgrade import upgrade_library
+
+    demo = make_demo_project(tmp_path / "demo")
+    for name in ("a", "b"):
+        shutil.copytree(demo, tmp_path / "lib" / name)
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
+    index = write_preview(result, tmp_path / "lib", tmp_path / "out", tmp_path / "preview")
+    text = index.read_text(encoding="utf-8")
+    links = re.findall(r'href="(s/[^"]+\.html)"', text)
+    assert len(links) == 2 and all((index.parent / link).is_file() for link in links)  # a/ and b/, twins once each
+    assert "a/demo" in text and "b/demo" in text
+    for link in links:  # each page draws its project's images
+        page = (index.parent / link).read_text(encoding="utf-8")
+        assert page.count('class="card"') == 5

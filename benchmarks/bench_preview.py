@@ -1,0 +1,131 @@
+"""Weight of ``upgrade --preview`` and the time headless Chromium needs to open it, against an
+older spinemesh.
+
+The projects given (default: six corpus projects, 46 skeletons on 24 atlas pages) are copied
+into one project in a temporary folder (a ``.source.json`` at its root makes it one project, as
+a game repository holds them), upgraded once (``--weights`` as given), and the preview written
+by this tree and, with ``--compare-with DIR``, by the spinemesh in ``DIR`` (a checkout, for
+example ``git worktree add /tmp/old <commit>``), each into its own folder from the same
+upgrade. Printed side by side: the largest HTML page, all HTML, every file of the preview, the
+seconds to write it, and the seconds headless Chromium needs to open the index beyond a blank
+page (``--dump-dom`` wall time, median of ``--repeat`` runs, minus that of ``about:blank``).
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_preview.py [PROJECT ...] [--compare-with DIR] [--weights auto] [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+CORPUS = REPO.parent / "shared" / "spine-corpus"
+DEFAULT = ["stake-symbols", "kraken-symbols", "gtl-symbols", "dm-symbols", "wg-symbols", "bubble-fx"]
+
+_WRITE = """
+import json, pickle, sys, time
+from spinemesh.upgrade.preview import write_preview
+result = pickle.load(open(sys.argv[1], "rb"))
+t0 = time.perf_counter()
+write_preview(result, sys.argv[2], sys.argv[3], sys.argv[4])
+print(json.dumps({"seconds": time.perf_counter() - t0}))
+"""
+
+
+def build_project(projects: list[Path], where: Path) -> Path:
+    """The projects copied side by side into one project folder under ``where``."""
+    root = where / "project"
+    for p in projects:
+        shutil.copytree(p, root / p.name, ignore=shutil.ignore_patterns(".source.json"))
+    (root / ".source.json").write_text("{}\n")
+    return root
+
+
+def write_with(tree: Path, result_file: Path, project: Path, out: Path, folder: Path) -> float:
+    """Write the preview with the spinemesh of ``tree``; its seconds."""
+    r = subprocess.run([sys.executable, "-c", _WRITE, str(result_file), str(project), str(out), str(folder)],
+                       capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(tree)}, timeout=3600,
+                       cwd=folder.parent)  # not this tree's folder, which python -c would import first
+    if r.returncode:
+        sys.exit(f"the preview of {tree} failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])["seconds"]
+
+
+def open_seconds(url: str, where: Path, repeat: int) -> float:
+    """Median wall seconds of ``chromium --dump-dom url``."""
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        sys.exit("chromium is not installed (scripts/setup.sh installs it)")
+    times = []
+    for i in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                        "--disable-background-networking", f"--user-data-dir={where / f'profile{i}'}",
+                        "--dump-dom", url], capture_output=True, timeout=300, env={**os.environ, "HOME": str(where)})
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def weigh(folder: Path) -> dict:
+    files = [p for p in folder.rglob("*") if p.is_file()]
+    pages = [p for p in files if p.suffix == ".html"]
+    return {"largest page": max(p.stat().st_size for p in pages), "all HTML": sum(p.stat().st_size for p in pages),
+            "pages": len(pages), "all files": sum(p.stat().st_size for p in files), "files": len(files)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("projects", nargs="*", type=Path)
+    ap.add_argument("--compare-with", type=Path, metavar="DIR", help="a spinemesh checkout to compare with")
+    ap.add_argument("--weights", default="none", choices=["none", "auto"])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    projects = args.projects or [CORPUS / name for name in DEFAULT]
+    sys.path.insert(0, str(REPO))
+    import pickle
+
+    from spinemesh.project import find_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        project = build_project(projects, tmp)
+        skeletons = len(find_project(project).skeletons)
+        print(f"{len(projects)} projects, {skeletons} skeleton files, upgraded with --weights {args.weights} ...",
+              flush=True)
+        t0 = time.perf_counter()
+        result = upgrade_project(project, tmp / "out", Options(weights=args.weights, jobs=1))
+        print(f"upgrade: {time.perf_counter() - t0:.0f} s, {result.counts()}", flush=True)
+        result_file = tmp / "result.pickle"
+        result_file.write_bytes(pickle.dumps(result))
+        trees = {"this tree": REPO} | ({"compared": args.compare_with.resolve()} if args.compare_with else {})
+        rows = {}
+        blank = open_seconds("about:blank", tmp / "blank", args.repeat)
+        for name, tree in trees.items():
+            folder = tmp / f"preview-{name.replace(' ', '-')}"
+            seconds = write_with(tree, result_file, project, tmp / "out", folder)
+            rows[name] = {**weigh(folder), "write s": seconds,
+                          "open s": open_seconds((folder / "index.html").as_uri(), tmp / name.replace(" ", "-"),
+                                                 args.repeat) - blank}
+    names = list(rows)
+    print(f"\n{'':<14}" + "".join(f"{n:>16}" for n in names) + ("   ratio" if len(names) == 2 else ""))
+    for key in rows[names[0]]:
+        vals = [rows[n][key] for n in names]
+        fmt = (lambda v: f"{v:>16.2f}") if key.endswith(" s") else (lambda v: f"{v:>16,}")
+        ratio = f"   {vals[0] / vals[1]:.3f}" if len(vals) == 2 and vals[1] else ""
+        print(f"{key:<14}" + "".join(fmt(v) for v in vals) + ratio)
+    print(f"(open s: beyond a blank page, {blank:.2f} s; median of {args.repeat})")
+
+
+if __name__ == "__main__":
+    main()
