@@ -1,7 +1,9 @@
 """Process hygiene: interruptions that clean up, and workers that end with their parent.
 
-- :func:`exit_on_terminate` turns SIGTERM (and SIGHUP) into ``SystemExit``, so the cleanup of
-  :mod:`spinemesh.fsutil` (temporary files removed) runs as it does for Ctrl-C.
+- :func:`exit_on_terminate` makes Ctrl-C, SIGTERM and SIGHUP end the run once, cleanly: SIGTERM
+  and SIGHUP become ``SystemExit``, so the cleanup of :mod:`spinemesh.fsutil` (temporary
+  files removed) runs as it does for Ctrl-C; a second signal during that cleanup is not raised
+  into it; one that Python swallowed in a finalizer is raised again (:func:`interrupted`).
 - :func:`die_with_parent` is the initializer of every worker process: a watchdog thread ends
   the worker within a second of its re-parenting. A killed run leaves no workers behind.
 - :func:`keep_buffers_on_heap` keeps a process that hands large work to others from paying a
@@ -10,21 +12,72 @@
 
 from __future__ import annotations
 
+import _thread
 import os
 import signal
+import sys
 import threading
 import time
 
-def _terminate(signum, frame):
+#: The signal ending this run (SIGINT, SIGTERM, SIGHUP), 0 while none came; and when it came.
+_ending = {"signal": 0, "at": 0.0, "hook": False}
+#: Seconds after a signal during which another is not raised: the run is cleaning up (workers
+#: get :data:`spinemesh.cluster.STOP_GRACE` to end), and an exception raised into that
+#: cleanup would only cut it short with a traceback. A signal after this is raised again.
+CLEANUP_SECONDS = 10.0
+_default_unraisable = sys.unraisablehook
+
+
+def _end_run(signum, frame):
+    now = time.monotonic()
+    if _ending["hook"]:  # inside the hook below, which would drop it too: a moment later
+        _raise_later(signum)
+        return
+    if _ending["signal"] and now - _ending["at"] < CLEANUP_SECONDS:
+        return
+    _ending.update(signal=signum, at=now)
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
     raise SystemExit(128 + signum)
 
 
+def _raise_later(signum: int) -> None:
+    """Have the main thread take ``signum`` again in a moment, from another thread (in the main
+    thread, ``interrupt_main`` would run the handler at once, where it would be dropped again)."""
+    timer = threading.Timer(0.005, _thread.interrupt_main, (signum,))
+    timer.daemon = True
+    timer.start()
+
+
+def _unraisable(hook):
+    """An interruption raised while Python ran a finalizer (``__del__``, a weakref callback) is
+    printed as "Exception ignored" and dropped there, and the run would go on to end as if
+    nothing came: it is raised again in the main thread, once the finalizer is over, instead."""
+    if _ending["signal"] and isinstance(hook.exc_value, (KeyboardInterrupt, SystemExit)):
+        _ending["hook"] = True
+        try:
+            signum = _ending["signal"]
+            _ending.update(signal=0, at=0.0)
+            _raise_later(signum)
+        finally:
+            _ending["hook"] = False
+        return
+    _default_unraisable(hook)
+
+
+def interrupted() -> int:
+    """The signal that is ending this run (``signal.SIGINT``, ``SIGTERM``, ``SIGHUP``), or 0."""
+    return _ending["signal"]
+
+
 def exit_on_terminate() -> None:
-    """Make SIGTERM and SIGHUP raise ``SystemExit(128 + signal)`` in the main thread."""
-    for name in ("SIGTERM", "SIGHUP"):
+    """Make Ctrl-C raise ``KeyboardInterrupt`` and SIGTERM and SIGHUP ``SystemExit(128 + signal)``
+    in the main thread, once per run (see :data:`CLEANUP_SECONDS`), never lost in a finalizer."""
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         sig = getattr(signal, name, None)
-        if sig is not None and signal.getsignal(sig) in (signal.SIG_DFL, None):
-            signal.signal(sig, _terminate)
+        if sig is not None and signal.getsignal(sig) in (signal.SIG_DFL, None, signal.default_int_handler):
+            signal.signal(sig, _end_run)
+    sys.unraisablehook = _unraisable
 
 
 def _watch_parent(parent: int) -> None:

@@ -7,10 +7,16 @@ one line naming the file, no traceback, inputs unchanged, nothing written outsid
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
-from test_hostile import _demo_json, _json_only, _write_json, check_run, demo, run_cli, snapshot  # noqa: F401 (demo: fixture)
+from test_hostile import (MEMORY_LIMIT, TIME_LIMIT, _alive, _children, _demo_json, _json_only, _library_of_demos,
+                          _limits, _write_json, check_run, demo, run_cli, snapshot)  # noqa: F401 (demo: fixture)
 
 # --- the bone tree ------------------------------------------------------------------------------
 # demo.json's bones: root, body (root), head (body), arm (body), props (root); slots on them.
@@ -140,3 +146,105 @@ def test_the_tree_check_is_one_rule_for_json_and_binary(tmp_path):
     assert vertices_problem([0, 0, 1, 1], 2, 0) == ""  # unweighted
     assert vertices_problem([1, 0, 0, 0, 1], 2, 1) == "the weighted list ends after 1 of 2 vertices"
     assert vertices_problem([1, 0, 0, 0, 1, 0, 7, 8], 2, 1) == "2 numbers follow the 2 weighted vertices"
+
+
+# --- signals --------------------------------------------------------------------------------------
+#: Seconds a run may take to end after Ctrl-C or SIGTERM, whatever its workers do.
+END_WITHIN = 10
+
+
+def _signal_mid_run(tmp, args, started, sig, worker_fault=None, signal_after=0.3):
+    """Run ``python -m spinemesh ARGS`` in ``tmp``; once ``started`` exists and workers run, do
+    ``worker_fault(pids)`` to them, then send ``sig`` to the run. Returns the finished run, the
+    seconds it took to end after the signal, and the workers still alive after it ended."""
+    env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=tmp, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_limits(MEMORY_LIMIT, None))
+    seen: set[int] = set()
+    try:
+        deadline = time.monotonic() + TIME_LIMIT
+        while not (started.exists() and _children(proc.pid)):
+            assert proc.poll() is None, "the run ended before its workers started"
+            assert time.monotonic() < deadline, "the run never started its workers"
+            time.sleep(0.02)
+        time.sleep(signal_after)
+        workers = _children(proc.pid)
+        seen.update(workers)
+        if worker_fault is not None:
+            worker_fault(workers)
+        proc.send_signal(sig)
+        t0 = time.monotonic()
+        try:
+            stdout, stderr = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            stdout = stderr = ""
+        took = time.monotonic() - t0
+    finally:
+        for pid in [proc.pid, *seen]:  # never leave this test's processes behind, whatever failed
+            if _alive(pid):
+                os.kill(pid, signal.SIGKILL)
+                os.kill(pid, signal.SIGCONT)
+        proc.wait()
+    time.sleep(0.5)  # a worker told to end may take a moment after its parent
+    alive = [p for p in seen if _alive(p)]
+    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr), took, alive
+
+
+def _stop(pids):
+    os.kill(pids[0], signal.SIGSTOP)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["Ctrl-C", "SIGTERM"])
+@pytest.mark.parametrize("fault", ["a stopped worker", "workers at work"])
+def test_a_signal_ends_the_run_within_seconds(tmp_path, demo, sig, fault):
+    """Ctrl-C or SIGTERM ends the run within seconds even while a worker is stopped (SIGSTOP,
+    where a SIGTERM stays pending): it is killed after a bounded wait, no process stays, the
+    run does not claim success, no traceback, no temporary file, inputs unchanged."""
+    _library_of_demos(tmp_path, demo, 6)
+    before = snapshot(tmp_path)
+    r, took, alive = _signal_mid_run(tmp_path, ["upgrade", "L", "--out", "o", "--jobs", "2", "--density", "4"],
+                                     tmp_path / "o" / ".spinemesh-output", sig,
+                                     _stop if fault == "a stopped worker" else None)
+    assert took < END_WITHIN, f"still running {took:.0f} s after {sig.name}"
+    assert not alive, f"workers {alive} outlived the run"
+    check_run(r, before, tmp_path, ["o"], codes=(1, 128 + sig))
+    assert "KeyboardInterrupt" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr
+
+
+_SIGNAL_IN_A_FINALIZER = """
+import os, signal, sys, time
+from spinemesh.processes import exit_on_terminate
+from spinemesh.cluster import ProcessWorkers, _Mapping, shared_array
+import numpy as np
+
+exit_on_terminate()
+SIG = signal.{sig}
+unmap = _Mapping.__del__
+
+def unmap_as_the_signal_comes(self):
+    os.kill(os.getpid(), SIG)  # delivered at the finalizer's next instruction
+    unmap(self)
+
+_Mapping.__del__ = unmap_as_the_signal_comes
+with ProcessWorkers(1) as workers:
+    page = workers.submit(shared_array, np.ones((64, 64, 4), np.uint8)).result()  # a page handed back
+    del page  # its mapping's finalizer runs here
+    for _ in range(50):
+        time.sleep(0.01)
+    print("went on as if nothing came", flush=True)
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_during_a_page_handed_back_is_not_lost(tmp_path, sig):
+    """A signal that comes while the shared mapping of a page handed back by a worker is
+    unmapped (a finalizer, where Python drops exceptions as "Exception ignored") still ends the
+    run: raised again at once, never a run that goes on to exit 0."""
+    r = subprocess.run([sys.executable, "-c", _SIGNAL_IN_A_FINALIZER.format(sig=sig)], capture_output=True,
+                       text=True, timeout=60, cwd=tmp_path)
+    assert "Exception ignored" not in r.stderr and "went on" not in r.stdout, r.stdout + r.stderr
+    if sig == "SIGTERM":
+        assert r.returncode == 128 + signal.SIGTERM and "Traceback" not in r.stderr, r.stderr
+    else:  # the command line turns the KeyboardInterrupt into "Aborted!"; here Python ends on it
+        assert r.returncode == -signal.SIGINT and r.stderr.rstrip().endswith("KeyboardInterrupt"), r.stderr

@@ -46,7 +46,7 @@ def main() -> None:
     SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out.
     """
     from ..errors import SpineMeshError
-    from ..processes import exit_on_terminate
+    from ..processes import exit_on_terminate, interrupted
 
     exit_on_terminate()
     try:
@@ -54,12 +54,16 @@ def main() -> None:
         if args[:1] == ["convert"]:
             from .convert_files import run_plain_convert
 
-            try:
-                if run_plain_convert(args[1:]):
-                    return
-            except KeyboardInterrupt:
-                sys.exit("Aborted!")  # what click prints for Ctrl-C, with its exit status 1
+            if run_plain_convert(args[1:]):
+                return
         _load_app()()
+    except KeyboardInterrupt:  # where click does not catch it (start-up, the plain convert)
+        sys.exit("Aborted!")  # what click prints for Ctrl-C, with its exit status 1
+    except SystemExit as e:
+        # a signal came: whatever ended the command, the run was not a success
+        if interrupted() and e.code in (0, None):
+            sys.exit(128 + interrupted())
+        raise
     except (SpineMeshError, OSError) as e:
         from rich.markup import escape
 

@@ -461,7 +461,14 @@ class ProcessWorkers(Workers):
                         self._bury(w)
 
     def close(self, finished: bool = True) -> None:
-        """End the workers: after their current task when ``finished``, at once otherwise."""
+        """End the workers: after their current task when ``finished``, at once otherwise.
+
+        Bounded either way: a worker that has not ended :data:`STOP_GRACE` seconds after it
+        was told to (:data:`FINISH_GRACE` when ``finished``) is killed with SIGKILL, which
+        also ends a stopped process (``kill -STOP``: a SIGTERM stays pending on it) or one
+        hung in native code. An interruption while closing (a second Ctrl-C) still kills every
+        worker before it goes on: no process outlives the run.
+        """
         with self._lock:
             self._closing = True
             dropped = list(self._first) + list(self._queue)
@@ -470,22 +477,50 @@ class ProcessWorkers(Workers):
             workers = list(self._workers)
         for task in dropped:
             task.future.cancel()
-        for w in workers:
-            if finished:
-                try:
-                    w.conn.send(None)
-                except (OSError, EOFError):
-                    pass
-            else:
-                w.process.terminate()
-        self._wake()
-        self._dispatcher.join()
-        self._wake_read.close()
-        self._wake_write.close()
-        import cv2
+        try:
+            for w in workers:
+                if finished:
+                    try:
+                        w.conn.send(None)
+                    except (OSError, EOFError):
+                        pass
+                else:
+                    w.process.terminate()
+            self._wake()
+            _end_within(workers, FINISH_GRACE if finished else STOP_GRACE)
+        finally:
+            for w in workers:
+                w.process.kill()  # nothing where it has ended already
+            self._wake()
+            self._dispatcher.join()  # ends once it has buried every worker (a second at most)
+            self._wake_read.close()
+            self._wake_write.close()
+            import cv2
 
-        cv2.setNumThreads(self._opencv_threads)
-        sys.setswitchinterval(self._switch_interval)
+            cv2.setNumThreads(self._opencv_threads)
+            sys.setswitchinterval(self._switch_interval)
+
+
+#: Seconds a worker has to end when a run stops (Ctrl-C, SIGTERM, an error) before SIGKILL.
+STOP_GRACE = 2.0
+#: Seconds a worker has to finish its task and end when a run is done, before SIGKILL.
+FINISH_GRACE = 30.0
+
+
+def _end_within(workers: list[_Worker], seconds: float) -> None:
+    """Wait until every worker process has ended, at most ``seconds``; kill those still there.
+
+    Waits on the processes' sentinels, never ``join``: the dispatcher thread reaps them."""
+    import time
+    from multiprocessing.connection import wait
+
+    deadline = time.monotonic() + seconds
+    waiting = {w.process.sentinel: w for w in workers}
+    while waiting and (left := deadline - time.monotonic()) > 0:
+        for sentinel in wait(list(waiting), timeout=left):
+            waiting.pop(sentinel)
+    for w in waiting.values():
+        w.process.kill()
 
 
 class DaskWorkers(Workers):
