@@ -162,3 +162,45 @@ def test_poses_match_the_official_runtime(skeleton, examples, spine_runtime, tmp
             e = pose_errors(a, b)
             assert not e["problems"], (animation, a["label"], e["problems"])
             assert e["bone"] <= 0.01 and e["vertex"] <= 0.01, (animation, a["label"], e)
+
+
+def _cli(*args):
+    import os
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "spinemesh", "pose", *map(str, args)], capture_output=True,
+                          text=True, env=dict(os.environ, COLUMNS="200"))
+
+
+def test_pose_command_writes_the_dump_layout(tmp_path):
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "arm.json").write_text(json.dumps(_doc()))
+    out = tmp_path / "pose.json"
+    r = _cli(project / "arm.json", "--animation", "turn", "--times", "0.25,0.8", "--out", out)
+    assert r.returncode == 0, r.stderr
+    written = json.loads(out.read_text())
+    assert [p["label"] for p in written["poses"]] == ["setup", "turn@0.25", "turn@0.8"]
+    assert written["poses"][1] == json.loads(json.dumps(dump(Sampler(_doc()), "turn", [0.25])["poses"][1]))
+    assert written["poses"][2]["attachments"][-1]["attachment"] == "b"
+    # Bad input: one line naming the file, no traceback; nothing written inside the project.
+    for args, words in (((project / "arm.json", "-a", "walk"), "no animation 'walk'"),
+                        ((project / "arm.json", "--skin", "red"), "no skin 'red'"),
+                        ((project / "arm.json", "--out", project / "p.json"), "inside the input")):
+        r = _cli(*args)
+        assert r.returncode == 2 and words in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+    assert sorted(p.name for p in project.iterdir()) == ["arm.json"]
+
+
+def test_pose_command_reads_binary_skeletons(examples, tmp_path):
+    """The command on a .skel writes what the sampler gives for it with the atlas beside it
+    (the sampler itself is proved on .skel files against the runtime above)."""
+    skel = EXAMPLES / "4.2/spineboy/spineboy-pro.skel"
+    r = _cli(skel, "-a", "run", "--times", "0.4", "--out", tmp_path / "p.json")
+    assert r.returncode == 0, r.stderr
+    written = json.loads((tmp_path / "p.json").read_text())["poses"][1]
+    sampler = Sampler(load_skeleton(skel), None, atlas_regions(read_atlas(skel.parent / "spineboy.atlas")))
+    expected = json.loads(json.dumps(dump(sampler, "run", [0.4])["poses"][1]))
+    assert written == expected

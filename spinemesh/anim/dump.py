@@ -21,8 +21,11 @@ def js_number(value: float) -> str:
 
 
 def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_file: str = "",
-         fps: float = 60.0) -> dict:
+         fps: float = 60.0, step=None) -> dict:
     """The setup pose, then ``animation`` at each of ``times``, in the harness's dump layout.
+
+    ``step()``, when given, is called after each pose (a progress bar). A number that is not
+    finite (a degenerate pose) is written as null.
 
     Returns
     -------
@@ -31,7 +34,8 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
         durations) and ``poses``, each with ``label``, ``anim``, ``time``, ``bones``
         (name -> ``[a, b, c, d, worldX, worldY]``), ``attachments`` (drawn slots in draw order)
         and, beyond the harness's layout, ``inexact`` (bone -> why its transform is not the
-        runtime's; empty when every bone is reproduced).
+        runtime's; empty when every bone is reproduced) and ``inactive`` (bones the skin does
+        not use, which the runtime leaves unposed; here they follow their parents).
     """
     poses = [("setup", None, 0.0)]
     seen = {"setup"}
@@ -45,7 +49,10 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
         pose = sampler.pose(anim, t, fps=fps)
         entry = {"label": label, "anim": anim, "time": t, **pose.to_dump()}
         entry["inexact"] = dict(pose.why)
+        entry["inactive"] = [n for n, a in zip(pose.bones, pose.active) if not a]
         out.append(entry)
+        if step is not None:
+            step()
     return {
         "input": {"skeleton": skeleton_file, "skin": sampler.skin, "fps": fps},
         "skeleton": {

@@ -129,7 +129,8 @@ class Pose:
         ``poses``, without label): ``bones`` name -> ``[a, b, c, d, worldX, worldY]``, and
         ``attachments``, one dict per drawn slot (``slot``, ``bone``, ``attachment``, ``path``,
         ``type``, ``blend``, ``color``, ``vertices`` flat, ``uvs`` flat (original image),
-        ``triangles``, ``hull``, ``clip``). Numbers rounded to ``digits`` decimals."""
+        ``triangles``, ``hull``, ``clip``, and ``exact``). Numbers rounded to ``digits`` decimals;
+        one that is not finite (a degenerate pose) becomes None."""
         def r(values) -> list[float]:
             return [_clean(round(float(v), digits)) for v in np.asarray(values, float).reshape(-1)]
         bones = {name: r(m[[0, 0, 1, 1, 0, 1], [0, 1, 0, 1, 2, 2]]) for name, m in zip(self.bones, self.world)}
@@ -142,7 +143,9 @@ class Pose:
         return {"bones": bones, "attachments": attachments}
 
 
-def _clean(v: float) -> float:
+def _clean(v: float) -> float | None:
+    if not math.isfinite(v):
+        return None  # a degenerate pose: strict JSON has no NaN
     return 0.0 if v == 0 else v  # no "-0.0"
 
 

@@ -13,7 +13,7 @@ import sys
 
 #: The modules that register the commands, in the order of `spinemesh --help`: a new command's
 #: module goes here.
-_COMMAND_MODULES = ("info", "convert", "segment", "dataset", "mesh", "diff", "upgrade", "pack", "weights")
+_COMMAND_MODULES = ("info", "convert", "segment", "dataset", "mesh", "diff", "upgrade", "pack", "weights", "pose")
 
 
 def _load_app():
