@@ -260,7 +260,7 @@ def _with_version(data: bytes, version: str) -> bytes:
     return data[:n] + bytes([len(raw) + 1]) + raw + data[n + v:]
 
 
-@pytest.mark.parametrize("version", ["3.5.51", "3.9.0", "3.x"])
+@pytest.mark.parametrize("version", ["3.4.02", "3.3.07", "3.9.0", "3.x"])
 def test_unsupported_version(spineboy3, version):
     with pytest.raises(SkelFormatError, match="expected") as e:
         read_skel(_with_version(spineboy3, version))
@@ -276,8 +276,8 @@ def test_writer_rejects_broken_documents(examples):
     with pytest.raises(SkelFormatError, match="no-such-bone"):
         write_skel(doc)
     doc = editor()
-    doc["skeleton"]["spine"] = "3.5.0"
-    with pytest.raises(SkelFormatError, match="3.5.0"):
+    doc["skeleton"]["spine"] = "3.4.0"
+    with pytest.raises(SkelFormatError, match="3.4.0"):
         write_skel(doc)
     doc = editor()
     doc["bones"][1]["x"] = "left"
@@ -292,9 +292,9 @@ def test_writer_rejects_broken_documents(examples):
 
 # -- real game exports ---------------------------------------------------------------------
 
-#: The 3.x versions the binary codec reads and writes; other 3.x exports in the corpus (3.5)
-#: are skipped by this rule, and counted.
-READ_3X = ("3.6", "3.7", "3.8")
+#: The 3.x versions the binary codec reads and writes; other 3.x exports in the corpus (none
+#: at present) are skipped by this rule, and counted.
+READ_3X = ("3.5", "3.6", "3.7", "3.8")
 
 
 def _read_by_rule(version: str) -> bool:
@@ -352,8 +352,8 @@ def _corpus_json(root: Path) -> tuple[list[tuple[Path, dict]], list[Path]]:
 
 
 def test_corpus_json_writes_skel_that_reads_back(corpus):
-    """Every 3.6-3.8 JSON of the game projects, editor downgrades such as ``3.8-from-4.0.64``
-    included, writes a .skel that reads back to the same document; 3.5 is skipped by rule."""
+    """Every 3.5-3.8 JSON of the game projects, editor downgrades such as ``3.8-from-4.0.64``
+    included, writes a .skel that reads back to the same document."""
     docs, skipped = _corpus_json(corpus)
     assert len(docs) >= 40
     print(f"{len(docs)} corpus 3.x JSON skeletons written as .skel, {len(skipped)} skipped "

@@ -1,4 +1,4 @@
-"""Spine's binary skeleton format (``.skel``), versions 3.6 to 4.3, read and written.
+"""Spine's binary skeleton format (``.skel``), versions 3.5 to 4.3, read and written.
 
 :func:`read_skel` turns a ``.skel`` into the same document that the Spine editor's JSON
 export of that version holds; :func:`write_skel` turns such a document back into bytes.
@@ -56,7 +56,7 @@ def _codec(version: str, path: str | Path | None = None):
     elif major == "4":
         from . import v4 as codec
     else:
-        raise SkelFormatError(f"expected Spine 3.6 to 4.3, found version {version!r}", path, offset=0)
+        raise SkelFormatError(f"expected Spine 3.5 to 4.3, found version {version!r}", path, offset=0)
     return codec
 
 

@@ -76,6 +76,9 @@ _PHYSICS = {"order": 0, "skin": False, "x": 0, "y": 0, "rotate": 0, "scaleX": 0,
             "wind": 0, "gravity": 0, "mix": 1, "inertiaGlobal": False, "strengthGlobal": False,
             "dampingGlobal": False, "massGlobal": False, "windGlobal": False,
             "gravityGlobal": False, "mixGlobal": False}
+#: 3.x skins, a name-keyed object: a default skin without attachments is no skin at all to the
+#: runtimes (their binary loaders return none for a skin of no slots, so a .skel cannot hold it).
+_SKINS = {"default": {}}
 _SKIN = {"bones": [], "ik": [], "transform": [], "path": [], "physics": [], "slider": [], "attachments": {},
          "color": "fe9e4fff"}
 
@@ -171,6 +174,8 @@ def _context(path: tuple) -> tuple[str, str | None]:
     if n == 2 and top == "events":
         return "event", None
     if top == "skins":
+        if n == 1:
+            return "skins", None
         if n == 2 and isinstance(path[1], int):
             return "skin", None
         # 4.x: skins[i]/attachments/slot/name ; 3.x: skins/skin/slot/name
@@ -206,7 +211,7 @@ def _context(path: tuple) -> tuple[str, str | None]:
 
 
 _TABLES = {"skeleton": _SKELETON, "bones": _BONE, "slots": _SLOT, "ik": _IK,
-           "transform": _TRANSFORM, "path": _PATH, "physics": _PHYSICS, "skin": _SKIN,
+           "transform": _TRANSFORM, "path": _PATH, "physics": _PHYSICS, "skins": _SKINS, "skin": _SKIN,
            "event": _EVENT, "sequence": _SEQUENCE}
 
 

@@ -1,4 +1,4 @@
-"""The ``.skel`` layout of Spine 3.6, 3.7 and 3.8, declared once for reading and writing.
+"""The ``.skel`` layout of Spine 3.5, 3.6, 3.7 and 3.8, declared once for reading and writing.
 
 Every declaration below takes a stream ``s`` (a :class:`~.stream.SkelReader` or
 :class:`~.stream.SkelWriter`) and the document node it fills (reading) or encodes
@@ -7,20 +7,28 @@ holds: same keys, same nesting, values equal to their defaults left out.
 
 What changed between the three versions is read as data from a :class:`Layout`:
 
-======================  =====  =====  =====
-                        3.6    3.7    3.8
-======================  =====  =====  =====
-skeleton ``x``, ``y``   -      -      yes
-audio paths             -      yes    yes
-IK compress/stretch     -      yes    yes
-IK softness             -      -      yes
-string table (refs)     -      -      yes
-skin bones/constraints  -      -      yes
-JSON skins              dict   dict   list
-JSON bezier curve       list   list   c1..c4
-JSON path timelines     paths  paths  path
-JSON keys' time 0       kept   kept   left out
-======================  =====  =====  =====
+======================  =====  =====  =====  =====
+                        3.5    3.6    3.7    3.8
+======================  =====  =====  =====  =====
+slot dark colour        -      yes    yes    yes
+two-colour timelines    -      yes    yes    yes
+transform local/rel.    -      yes    yes    yes
+point, clipping         -      yes    yes    yes
+skeleton ``x``, ``y``   -      -      -      yes
+audio paths             -      -      yes    yes
+IK compress/stretch     -      -      yes    yes
+IK softness             -      -      -      yes
+string table (refs)     -      -      -      yes
+skin bones/constraints  -      -      -      yes
+JSON skins              dict   dict   dict   list
+JSON bezier curve       list   list   list   c1..c4
+JSON path timelines     paths  paths  paths  path
+JSON keys' time 0       kept   kept   kept   left out
+======================  =====  =====  =====  =====
+
+3.5 is 3.6 without the four features of the first rows: the same header (hash and
+version strings, no ``x``, ``y``), the same bones, constraints, skins, events and
+timelines otherwise.
 
 Binary-only information
 -----------------------
@@ -38,7 +46,7 @@ A document loaded from JSON has no ``"_skel"``: the writer then writes nonessent
 and numbers strings in first-use order.
 
 Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` and
-``SkeletonJson`` loaders (spine-libgdx, branches 3.6 to 3.8); no code was taken from them.
+``SkeletonJson`` loaders (spine-libgdx, branches 3.5 to 3.8); no code was taken from them.
 """
 
 from __future__ import annotations
@@ -70,6 +78,10 @@ class Layout:
     def __init__(self, version: str):
         self.version = version
         self.minor = int(re.match(r"3\.(\d)", version).group(1))
+        self.two_color = self.minor >= 6          # slot dark colour, two-colour timelines
+        self.local_relative = self.minor >= 6     # transform constraint local, relative flags
+        # Attachment type bytes: 3.6 added point and clipping after the five of 3.5.
+        self.attachment_types = ATTACHMENT_TYPES if self.minor >= 6 else ATTACHMENT_TYPES[:5]
         self.bounds_xy = self.minor >= 8          # skeleton x, y before width, height
         self.audio = self.minor >= 7              # skeleton and event audio paths
         self.ik_flags = self.minor >= 7           # IK compress, stretch (uniform on constraints)
@@ -91,12 +103,17 @@ class Layout:
             out += [("compress", "bool", False), ("stretch", "bool", False)]
         return tuple(out)
 
+    def slot_timelines(self) -> tuple:
+        """The slot timeline types, in the order of their type byte (see :data:`SLOT_TIMELINES`)."""
+        return SLOT_TIMELINES if self.two_color else SLOT_TIMELINES[:2]
+
 
 def layout_of(s, version: str) -> Layout:
-    """The layout of ``version``: ``3.6.x``, ``3.7.x``, ``3.8.x``, or the editor's
-    downgraded exports such as ``3.8-from-4.0.64`` (a 3.8 file)."""
-    if not re.match(r"3\.[678](?!\d)", version):
-        raise s.fail(f"Spine 3.6, 3.7 or 3.8, found version {version!r}", 0)
+    """The layout of ``version``: ``3.5.x`` to ``3.8.x``, or the editor's downgraded
+    exports such as ``3.8-from-4.0.64`` (a 3.8 file). 3.4 and older files have another
+    layout (no transform modes, other constraint fields) and are refused."""
+    if not re.match(r"3\.[5678](?!\d)", version):
+        raise s.fail(f"Spine 3.5, 3.6, 3.7 or 3.8, found version {version!r}", 0)
     return Layout(version)
 
 
@@ -360,7 +377,8 @@ def slot(s, node: dict, c: Context) -> None:
     text(s, node, "name")
     index(s, node, "bone", c.bones, "bone")
     color(s, node, "color", "ffffffff")
-    dark(s, node, "dark")
+    if c.L.two_color:
+        dark(s, node, "dark")
     name(s, c, node, "attachment")
     enum(s, node, "blend", BLEND, "normal")
 
@@ -413,8 +431,9 @@ def transform(s, node: dict, c: Context) -> None:
     """One transform constraint: target, local/relative flags, offsets, mixes."""
     _constraint_head(s, node, c)
     index(s, node, "target", c.bones, "bone")
-    boolean(s, node, "local")
-    boolean(s, node, "relative")
+    if c.L.local_relative:
+        boolean(s, node, "local")
+        boolean(s, node, "relative")
     for key, d in _TRANSFORM_FIELDS:
         fld(s, node, key, d)
 
@@ -574,19 +593,20 @@ def attachment(s, node: dict, c: Context) -> dict:
     """One attachment: name (null when it is the key), type byte, then its type's fields.
     Returns the node (reading: a new one in the editor's key order)."""
     name(s, c, node, "name")
+    types = c.L.attachment_types
     if s.reading:
         at = s.pos
         t = s.u8(what="attachment type")
-        if t >= len(ATTACHMENT_TYPES):
-            raise s.fail(f"an attachment type below {len(ATTACHMENT_TYPES)}, found {t}", at)
-        kind = ATTACHMENT_TYPES[t]
+        if t >= len(types):
+            raise s.fail(f"an attachment type below {len(types)}, found {t}", at)
+        kind = types[t]
         if kind != "region":
             node["type"] = kind
     else:
         kind = node.get("type", "region")
-        if kind not in ATTACHMENT_TYPES:
-            raise s.fail(f"an attachment type of {ATTACHMENT_TYPES}, got {kind!r}")
-        s.u8(ATTACHMENT_TYPES.index(kind))
+        if kind not in types:
+            raise s.fail(f"an attachment type of Spine {c.L.version} {types}, got {kind!r}")
+        s.u8(types.index(kind))
     ATTACHMENTS[kind](s, node, c)
     if s.reading:
         node = _ordered(node, ATTACHMENT_ORDER[kind])
@@ -946,7 +966,7 @@ def animation(s, anim: dict, c: Context) -> None:
     """One animation's timelines, group by group in the binary's order."""
     L = c.L
     keyed(s, anim, "slots", c.slots, "slot",
-          lambda s, tl: typed_timelines(s, tl, c, SLOT_TIMELINES, "slot"))
+          lambda s, tl: typed_timelines(s, tl, c, L.slot_timelines(), "slot"))
     keyed(s, anim, "bones", c.bones, "bone",
           lambda s, tl: typed_timelines(s, tl, c, BONE_TIMELINES["3.8" if L.minor >= 8 else "3.6"], "bone"))
     keyed(s, anim, "ik", c.ik, "IK constraint", lambda s, fs: frames(s, fs, c, L.ik_frame()))
