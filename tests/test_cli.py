@@ -140,7 +140,11 @@ def test_float32_text_is_numpys_shortest_decimal_as_the_editor_writes_it():
     for v in np.concatenate([values[np.isfinite(values)], in_range, human, powers]):
         x = float(v)
         expected = str(int(x)) if x > 0 and x.is_integer() else _scalar(float(str(v)), java_exponents=True)
+        if x == 0 and math.copysign(1.0, x) < 0:
+            expected = "-0.0"  # the sign kept: -0.0 packs to other float32 bytes than 0
         assert text[x] == expected, repr(v)
+    # Zeros are not remembered as keys, where 0 and -0.0 are the same one.
+    assert [text[v] for v in (0.0, -0.0, 0, -0.0, 0.0)] == ["0", "-0.0", "0", "-0.0", "0"]
     # Beyond float32 (a physics mass read as 1 / a tiny float32) is written as it is; NaN and
     # infinities are refused with the writer's ValueError.
     assert text[-1e40] == "-1.0E40" and float(text[1e40]) == 1e40

@@ -221,6 +221,17 @@ def test_convert_keeps_bytes_with_binary_info(examples, tmp_path):
     assert (tmp_path / "m.skel").read_bytes() == src.read_bytes()
 
 
+@pytest.mark.parametrize("name", ["4.2/raptor/raptor-pro.skel", "3.6/hero/hero-pro.skel"])
+def test_convert_keeps_negative_zeros(examples, tmp_path, name):
+    """A .skel may hold -0.0 (these two do, and the editor's JSON never writes one): convert
+    writes it so, and the JSON (with the string table kept) converts back to the same bytes."""
+    src = examples / name
+    assert _cli(str(src), str(tmp_path / "a.json"), "--keep-binary-info").returncode == 0
+    assert "-0.0" in (tmp_path / "a.json").read_text(encoding="utf-8")
+    assert _cli(str(tmp_path / "a.json"), str(tmp_path / "a.skel")).returncode == 0
+    assert (tmp_path / "a.skel").read_bytes() == src.read_bytes()
+
+
 def test_convert_editor_json_to_skel(examples, tmp_path):
     src = examples / "4.0/raptor/raptor-pro.json"
     r = _cli(str(src), str(tmp_path / "r.skel"))
