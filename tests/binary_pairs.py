@@ -20,6 +20,29 @@ def editor_json(js: Path) -> dict:
     return json.loads(js.read_text(encoding="utf-8-sig"))
 
 
+_NOT_VALUES = {"time", "curve", "c2", "c3", "c4"}
+
+
+def frames_at(doc: dict, path: str) -> tuple[dict, dict] | None:
+    """The key at ``path`` (``.../<i>/curve``) and the one after it, from ``doc``."""
+    parts = path.split("/")[:-1]
+    node = doc
+    for p in parts[:-1]:
+        node = node[int(p)] if isinstance(node, list) else node[p]
+    i = int(parts[-1])
+    return (node[i], node[i + 1]) if i + 1 < len(node) else None
+
+
+def no_motion(doc: dict, path: str) -> bool:
+    """The key and the next hold the same values, so a stepped and a linear curve
+    between them give the same motion."""
+    pair = frames_at(doc, path)
+    if pair is None:
+        return False
+    a, b = ({k: v for k, v in f.items() if k not in _NOT_VALUES} for f in pair)
+    return a == b
+
+
 def is_known(known: list, version: str, name: str, doc: dict, path: str) -> bool:
     """Whether the difference at ``path`` is one of ``known``."""
     for v, f, pattern, condition, _reason in known:

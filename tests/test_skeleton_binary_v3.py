@@ -24,40 +24,17 @@ from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
 from binary_pairs import (check_document_equals_editor_json, check_json_writes_a_skel_that_reads_back,
-                          check_round_trip, check_survives_json_text, editor_json)
+                          check_round_trip, check_survives_json_text, editor_json, no_motion)
 from conftest import EXAMPLES, skel_json_pairs
 from runtime_tool import max_difference, pose_dump
 
 PAIRS = [p for v in ("3.6", "3.7", "3.8") for p in skel_json_pairs(v)]
 IDS = [f"{s.parts[-3]}/{s.name}" for s, _ in PAIRS]
 
-_NOT_VALUES = {"time", "curve", "c2", "c3", "c4"}
-
-
-def _frames(doc: dict, path: str) -> tuple[dict, dict] | None:
-    """The key at ``path`` (``.../<i>/curve``) and the one after it, from ``doc``."""
-    parts = path.split("/")[:-1]
-    node = doc
-    for p in parts[:-1]:
-        node = node[int(p)] if isinstance(node, list) else node[p]
-    i = int(parts[-1])
-    return (node[i], node[i + 1]) if i + 1 < len(node) else None
-
-
-def _no_motion(doc: dict, path: str) -> bool:
-    """The key and the next hold the same values, so a stepped and a linear curve
-    between them give the same motion."""
-    pair = _frames(doc, path)
-    if pair is None:
-        return False
-    a, b = ({k: v for k, v in f.items() if k not in _NOT_VALUES} for f in pair)
-    return a == b
-
-
 #: Differences that remain because the two exports hold different information:
 #: (version, file, path pattern, condition on the .skel document, reason).
 KNOWN = [
-    ("3.*", "*", "animations/*/curve", _no_motion,
+    ("3.*", "*", "animations/*/curve", no_motion,
      "Between two keys of equal values the JSON has a stepped curve where the binary has a "
      "linear one: the same motion, written two ways."),
     ("3.*", "powerup-*.skel", "animations/bounce/bones/star[689]/*/1/curve", None,
