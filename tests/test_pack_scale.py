@@ -141,3 +141,17 @@ def test_upgrade_pack_timings_add_up(monkeypatch, tmp_path):
     demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
     result = upgrade_project(demo, tmp_path / "out", Options(min_saving=None, jobs=1, pack=True))
     assert result.seconds["pack"] >= 2.0 and result.seconds["write"] < 2.0, result.seconds
+
+
+def test_measured_padding_block_by_block_is_every_pair(monkeypatch):
+    from spinemesh.atlas import RegionGeometry
+    from spinemesh.pack import atlas_pack
+
+    rng = np.random.default_rng(3)
+    geometries = [RegionGeometry(int(x), int(y), int(w), int(h), 0, 0, int(w), int(h), 0)
+                  for x, y, w, h in zip(*(rng.integers(0, 400, 50), rng.integers(0, 400, 50),
+                                          rng.integers(3, 30, 50), rng.integers(3, 30, 50)))]
+    whole = atlas_pack.measured_padding(geometries)
+    monkeypatch.setattr(atlas_pack, "PADDING_BLOCK", 3)
+    assert atlas_pack.measured_padding(geometries) == whole
+    assert atlas_pack.measured_padding(geometries[:2] + [RegionGeometry(500, 0, 10, 10, 0, 0, 10, 10, 0)]) >= 0
