@@ -21,6 +21,7 @@ examples and the corpus apart, then for both.
 Usage::
 
     .venv/bin/python benchmarks/bench_pack.py [PROJECT ...] [--no-upgrade] [--json rows.json]
+        [--pages original any] [--upgraded DIR]
 
 Without projects it runs over the examples and the whole corpus; upgrading the corpus takes a
 while, so run that in the background (``nice``).
@@ -46,7 +47,7 @@ from spinemesh.atlas import read_atlas  # noqa: E402
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.images import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
-    candidate_widths, default_padding, is_power_of_two, round_page,
+    PageRules, candidate_widths, default_padding, is_power_of_two, round_page,
 )
 from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
 from spinemesh.project import find_project, project_atlases  # noqa: E402
@@ -76,6 +77,10 @@ class Row:
     c_texels: int = 0
     c_pages: int = 0
     c_seconds: float = 0.0
+    a_footprints: int = 0  # packed: the footprints' texels with their share of the padding (0 when kept)
+    b_footprints: int | None = None
+    #: other page rules (``--pages``): name -> {"a"/"b": [texels, pages, bytes, footprints]}
+    rules: dict | None = None
 
 
 def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, int]:
@@ -115,16 +120,32 @@ def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, i
     return best
 
 
-def pack_rows(project: Path, scratch: Path) -> dict[str, dict]:
-    """``pack`` of one project into ``scratch``: per atlas (relative path), its report row."""
+def pack_rows(project: Path, scratch: Path, sides: str = "original") -> dict[str, dict]:
+    """``pack`` of one project into ``scratch`` under the page rules ``sides`` (one process): per atlas
+    (relative path), its report row."""
     out = scratch / "packed"
     shutil.rmtree(out, ignore_errors=True)
     result = PackResult()
-    pack_project_into(find_project(project), out, PackOptions(), result)
+    pack_project_into(find_project(project), out, PackOptions(rules=PageRules(sides)), result)
     return {a.atlas: a for a in result.atlases}
 
 
-def bench_project(project: Path, scratch: Path, upgrade: bool) -> list[Row]:
+def _other_rules(rows: dict[str, Row], project: Path, scratch: Path, key: str, sides: list[str]) -> None:
+    """Pack ``project`` again under each page rule of ``sides`` but the original: into ``rows[..].rules``."""
+    for name in sides:
+        if name == "original":
+            continue
+        for rel, a in pack_rows(project, scratch / f"{key}-{name}", name).items():
+            if rel in rows:
+                r = rows[rel]
+                r.rules = r.rules or {}
+                r.rules.setdefault(name, {})[key] = [a.texels_after, a.pages_after, a.bytes_after,
+                                                      a.footprint_texels if a.status == "packed" else 0]
+
+
+def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] = ("original",),
+                  upgraded: Path | None = None) -> list[Row]:
+    """One project's rows; ``upgraded``: a folder keeping ``upgrade``'s output of each project, reused when there."""
     proj = find_project(project)
     rows: dict[str, Row] = {}
     for path, atlas in project_atlases(proj).items():
@@ -150,13 +171,18 @@ def bench_project(project: Path, scratch: Path, upgrade: bool) -> list[Row]:
             r = rows[rel]
             r.a_texels, r.a_pages, r.a_bytes, r.a_outline, r.a_seconds = (
                 a.texels_after, a.pages_after, a.bytes_after, a.by_outline, a.cpu_seconds)
+            r.a_footprints = a.footprint_texels if a.status == "packed" else 0
+    _other_rules(rows, project, scratch, "a", sides)
     if upgrade:
         from spinemesh.upgrade import Options, upgrade_project
 
-        up = scratch / "upgraded"
-        shutil.rmtree(up, ignore_errors=True)
+        up = scratch / "upgraded" if upgraded is None else upgraded / project.name
         try:
-            upgrade_project(project, up, Options(jobs=1))
+            if upgraded is None or not (up / ".upgraded").exists():
+                shutil.rmtree(up, ignore_errors=True)
+                upgrade_project(project, up, Options(jobs=1))
+                if upgraded is not None:
+                    (up / ".upgraded").write_text("")  # whole: reused by later runs
         except SpineMeshError as e:
             print(f"{project.name}: upgrade refused: {e}", file=sys.stderr)
         else:
@@ -165,6 +191,8 @@ def bench_project(project: Path, scratch: Path, upgrade: bool) -> list[Row]:
                     r = rows[rel]
                     r.b_texels, r.b_pages, r.b_bytes, r.b_outline, r.b_seconds = (
                         b.texels_after, b.pages_after, b.bytes_after, b.by_outline, b.cpu_seconds)
+                    r.b_footprints = b.footprint_texels if b.status == "packed" else 0
+            _other_rules(rows, up, scratch, "b", sides)
     return list(rows.values())
 
 
@@ -209,6 +237,21 @@ def summary(rows: list[Row]) -> str:
         byte = f"{-saving(byte_key, 'bytes', only)[0]:+.1%}" if byte_key else "-"
         lines.append(f"| {label} | {tot:.1%} | {med:.1%} | {larger} | {sum(r.pages for r in use)} -> "
                      f"{sum(getattr(r, pages) or 0 for r in use)} | {byte} |")
+    for name in sorted({n for r in rows for n in (r.rules or {})}):
+        for key, label in (("a", "pack as exported"), ("b", "upgrade + pack")):
+            use = [r for r in rows if (r.rules or {}).get(name, {}).get(key)]
+            if not use:
+                continue
+            before = sum(r.texels for r in use)
+            after = sum(r.rules[name][key][0] for r in use)
+            per = [1 - r.rules[name][key][0] / r.texels for r in use if r.texels]
+            nbytes = sum(r.bytes for r in use)
+            lines.append(f"| ({key}) {label}, --pages {name} | {1 - after / before:.1%} | "
+                         f"{statistics.median(per):.1%} | {sum(r.rules[name][key][0] > r.texels for r in use)} | "
+                         f"{sum(r.pages for r in use)} -> {sum(r.rules[name][key][1] for r in use)} | "
+                         f"{sum(r.rules[name][key][2] for r in use) / nbytes - 1:+.1%} |")
+    lines.append("")
+    lines += fill_lines(rows)
     saved_a = total("texels") - total("a_texels")
     saved_c = total("texels") - total("c_texels")
     b_rows_before = sum(r.texels for r in has_b)
@@ -226,6 +269,25 @@ def summary(rows: list[Row]) -> str:
     lines.append(f"rectpack CPU time per atlas: median {statistics.median(rect_times):.2f} s, "
                  f"max {max(rect_times):.2f} s")
     return "\n".join(lines)
+
+
+def fill_lines(rows: list[Row]) -> list[str]:
+    """How full the pages ``pack`` writes are: footprints (with their share of the padding) over the
+    page texels of the atlases it packed, in total and on the median packed atlas, per page rule."""
+    lines = ["| fill of the pages written | atlases packed | total | median atlas |", "|---|---:|---:|---:|"]
+    sets = [("(a) pack as exported", lambda r: (r.a_texels, r.a_footprints)),
+            ("(b) upgrade + pack", lambda r: (r.b_texels, r.b_footprints or 0))]
+    for name in sorted({n for r in rows for n in (r.rules or {})}):
+        for key, label in (("a", "(a) pack as exported"), ("b", "(b) upgrade + pack")):
+            sets.append((f"{label}, --pages {name}",
+                         lambda r, n=name, k=key: ((r.rules or {}).get(n, {}).get(k) or [0, 0, 0, 0])[0::3]))
+    for label, get in sets:
+        packed = [get(r) for r in rows if get(r)[1]]
+        if packed:
+            fills = [f / t for t, f in packed]
+            lines.append(f"| {label} | {len(packed)} | {sum(f for _, f in packed) / sum(t for t, _ in packed):.1%} | "
+                         f"{statistics.median(fills):.1%} |")
+    return lines
 
 
 def summaries(rows: list[Row]) -> str:
@@ -344,6 +406,10 @@ def main(argv: list[str] | None = None) -> int:
                                                              "on 2048x2048 pages")
     ap.add_argument("--whole-placement", action="store_true", help="only time every fill pack tries for one "
                                                                    "atlas of 300 footprints on a 2048x2048 page")
+    ap.add_argument("--upgraded", type=Path, metavar="DIR", help="keep upgrade's output of each project here "
+                    "and reuse it in later runs (the upgrade takes most of the time)")
+    ap.add_argument("--pages", nargs="+", default=["original"], choices=("original", "any", "power-of-two"),
+                    help="page rules to pack under, each reported apart (default: original)")
     ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
                     "every footprint's outer N texels are soft (may overlap other soft texels)")
     args = ap.parse_args(argv)
@@ -370,7 +436,8 @@ def main(argv: list[str] | None = None) -> int:
         for project in projects:
             t0 = time.perf_counter()
             try:
-                rows += bench_project(project, scratch / project.name, not args.no_upgrade)
+                rows += bench_project(project, scratch / project.name, not args.no_upgrade, args.pages,
+                                      args.upgraded)
             except SpineMeshError as e:
                 print(f"{project.name}: {e}", file=sys.stderr)
             shutil.rmtree(scratch / project.name, ignore_errors=True)

@@ -44,8 +44,8 @@ sys.path.insert(0, str(REPO))
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.images import AtlasImages, load_rgba  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
-    RING_TEXELS, PackRefused, _items, default_padding, is_power_of_two, largest_pot_pages_below, pack_atlas,
-    page_settings,
+    RING_TEXELS, PackRefused, _items, default_padding, footprint_share, is_power_of_two, largest_pot_pages_below,
+    pack_atlas, page_settings,
 )
 from spinemesh.pack.outlines import content_box  # noqa: E402
 from spinemesh.pack.place import _grow  # noqa: E402
@@ -118,7 +118,7 @@ def cropped_area(texels: np.ndarray, half: int) -> int:
 
 def share(mask: np.ndarray, half: int) -> int:
     """A footprint's area with its share of the padding: grown by ``half`` texels on every side."""
-    return int(_grow(mask, half).sum()) if half else int(mask.sum())
+    return footprint_share(mask, half)
 
 
 def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:

@@ -75,6 +75,9 @@ class PackedAtlas:
     seconds: float = 0.0
     rotated: int = 0
     groups: list[str] = field(default_factory=list)
+    #: the footprints' texels, each with its share of the padding (:func:`footprint_share`): over
+    #: ``texels_after``, how full the packed pages are
+    footprint_texels: int = 0
 
 
 def is_power_of_two(n: int) -> bool:
@@ -541,8 +544,17 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
                           f"{texels_before:,} they take now")
     rotated = _rewrite_regions(out, region_page, geometries, atlas)
     outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
+    half = int(round(max(0, pad - RING_TEXELS) / 2))
     return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
-                       time.process_time() - t0, rotated)
+                       time.process_time() - t0, rotated,
+                       footprint_texels=sum(footprint_share(it.foot.core, half) for it in items))
+
+
+def footprint_share(mask: np.ndarray, half: int) -> int:
+    """A footprint's texels with its share of the padding: ``mask`` grown by ``half`` texels on every side."""
+    from .place import _grow
+
+    return int(_grow(mask, half).sum()) if half else int(mask.sum())
 
 
 def default_padding(atlas: Atlas, geometries: list[RegionGeometry]) -> int:

@@ -87,6 +87,7 @@ class AtlasRow:
     rectangle_reasons: dict = field(default_factory=dict)
     regions_by_rectangle: list = field(default_factory=list)
     cpu_seconds: float = 0.0  # this process's CPU time packing it (reading, placing, encoding)
+    footprint_texels: int = 0  # packed: its footprints' texels with their share of the padding
 
     def row(self) -> dict:
         return dict(self.__dict__)
@@ -235,7 +236,8 @@ def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int
     return AtlasRow(rel, "packed", "", packed.pages_before, len(packed.pages), packed.texels_before,
                     packed.texels_after, bytes_before, bytes_after, packed.padding,
                     len(packed.regions) - len(rect), len(rect), packed.rotated, dict(reasons.most_common()),
-                    [{"region": r.name, "reason": r.reason} for r in rect], round(packed.seconds, 3))
+                    [{"region": r.name, "reason": r.reason} for r in rect], round(packed.seconds, 3),
+                    packed.footprint_texels)
 
 
 @dataclass
