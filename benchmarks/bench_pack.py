@@ -408,7 +408,7 @@ def main(argv: list[str] | None = None) -> int:
                                                                    "atlas of 300 footprints on a 2048x2048 page")
     ap.add_argument("--upgraded", type=Path, metavar="DIR", help="keep upgrade's output of each project here "
                     "and reuse it in later runs (the upgrade takes most of the time)")
-    ap.add_argument("--pages", nargs="+", default=["original"], choices=("original", "any", "power-of-two"),
+    ap.add_argument("--pages", nargs="+", default=["original"], choices=("original", "any", "power-of-two", "multiple-of-4"),
                     help="page rules to pack under, each reported apart (default: original)")
     ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
                     "every footprint's outer N texels are soft (may overlap other soft texels)")

@@ -125,6 +125,11 @@ def test_page_rules(meshed, tmp_path):
     assert PageRules("any").limits([(1024, 512), (256, 256)]) == (1024, 1024 * 512, False)
     assert PageRules("original", 4096).limits([(1024, 512)]) == (4096, 4096 * 4096, True)
     assert pot.status in ("packed", "kept")
+    four = pack_project(meshed, tmp_path / "four", PackOptions(rules=PageRules("multiple-of-4"))).atlases[0]
+    assert four.status == "packed" and free.texels_after <= four.texels_after
+    for page in read_atlas(tmp_path / "four" / "demo.atlas").pages:
+        assert all(int(v) % 4 == 0 for v in page.get("size"))
+    assert PageRules("multiple-of-4").limits([(1723, 1719)]) == (1720, 1723 * 1719, False)
 
 
 def test_upgrade_pack_timings_add_up(monkeypatch, tmp_path):

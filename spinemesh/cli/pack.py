@@ -17,12 +17,14 @@ class PageSides(str, Enum):
     original = "original"
     any = "any"
     power_of_two = "power-of-two"
+    multiple_of_4 = "multiple-of-4"
 
 
 _Pages = Annotated[PageSides, typer.Option(
     "--pages", help="Sides of the packed pages. original: powers of two where every original page's are, "
                     "else any; any: any size (WebGL 2, Unity, Godot, any GPU of the last decade); "
-                    "power-of-two: always (WebGL 1 mipmaps and repeats only those).")]
+                    "power-of-two: always (WebGL 1 mipmaps and repeats only those); multiple-of-4: any multiple of 4 "
+                    "(for block-compressed GPU formats).")]
 _MaxPage = Annotated[Optional[int], typer.Option(
     "--max-page", min=16, max=16384, metavar="SIDE", help="Longest side of a packed page (a page may then take "
     "SIDE x SIDE texels). Default: the longest original side, and no page of more texels than the "

@@ -85,7 +85,7 @@ def is_power_of_two(n: int) -> bool:
 
 
 #: What sides a packed page may have (:class:`PageRules`).
-PAGE_SIDES = ("original", "any", "power-of-two")
+PAGE_SIDES = ("original", "any", "power-of-two", "multiple-of-4")
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,8 @@ class PageRules:
     ``sides``: ``original`` (the default): powers of two where every original page's sides are,
     else any; ``any``: any size (WebGL 2, OpenGL ES 3, Unity, Godot, every desktop GPU of the
     last decade sample and mipmap such pages); ``power-of-two``: powers of two always (WebGL 1
-    mipmaps and repeats only those). ``max_side``: the longest side a page may have (then a
+    mipmaps and repeats only those); ``multiple-of-4``: any multiple of 4 (block-compressed
+    GPU formats, BC/DXT, ETC and ASTC 4x4, store blocks of 4x4 texels). ``max_side``: the longest side a page may have (then a
     page may take ``max_side`` squared texels); default: the longest original side, and no page
     of more texels than the largest original page.
     """
@@ -114,7 +115,14 @@ class PageRules:
         if pot and not is_power_of_two(side):
             side = 1 << (side.bit_length() - 1)  # the largest power of two within the limit
             area = min(area, side * side)
+        if self.step > 1:
+            side -= side % self.step  # a used side rounded up to a multiple stays within it
         return side, area, pot
+
+    @property
+    def step(self) -> int:
+        """What every side is a multiple of (besides powers of two)."""
+        return 4 if self.sides == "multiple-of-4" else 1
 
 
 #: Rectangles compared with every other at once by :func:`measured_padding`.
@@ -620,6 +628,8 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
         placements, page_sizes = _pack_group([items[n] for n in members], max_side, max_side, max_area, pot,
                                              between, len(page_indices), sum(w * h for w, h in sizes),
                                              fills, on_fill)
+        step = rules.step
+        page_sizes = [(w + -w % step, h + -h % step) for w, h in page_sizes]
         first = len(out.pages)
         for pi, (w, h) in enumerate(page_sizes):
             name = (page_names(gi, pi, template) if page_names else
