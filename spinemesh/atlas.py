@@ -194,6 +194,78 @@ class AtlasPage(_Fields):
                              f"{MAX_ATLAS_SCALE:g}", source, line=self.line)
 
 
+@dataclass(frozen=True)
+class PageMismatch:
+    """A page whose fields disagree with its image or with another page of the atlas.
+
+    Attributes
+    ----------
+    page : str
+        The page's name (its image file, relative to the atlas).
+    line : int
+        The page's line in the atlas.
+    message : str
+        One line naming the page and saying what disagrees.
+    runtimes_disagree : bool
+        Whether runtimes draw the atlas differently from one another because of it (worth a
+        warning wherever the atlas is used); False: harmless to draw, but no page of it may be
+        rewritten.
+    """
+
+    page: str
+    line: int
+    message: str
+    runtimes_disagree: bool
+
+
+def page_mismatches(atlas: "Atlas", image_sizes: list[tuple[int, int] | None]) -> list[PageMismatch]:
+    """What disagrees between the atlas's pages and their images: the one rule of every command.
+
+    - a ``size:`` line other than the image's size (the image twice or half the size, padded
+      larger, or another image): spine-c and the runtimes built on it (cocos2d-x, SFML, Unreal)
+      scale UVs by the size line, libGDX and spine-ts 3.x by the texture, so the atlas draws
+      differently from one engine to the next;
+    - one image named by two pages: each runtime loads it as one texture or as two, so two pages
+      of other fields (filter, wrap, format) draw it one way or the other; with the same fields it
+      draws alike everywhere, but no page of it can be rewritten on its own.
+
+    Parameters
+    ----------
+    atlas : Atlas
+    image_sizes : list of (int, int) or None
+        Per page, its image's ``(width, height)``; None where unknown (not checked).
+
+    Returns
+    -------
+    list of PageMismatch
+        In page order; empty when everything agrees.
+    """
+    found: list[PageMismatch] = []
+    first: dict[str, AtlasPage] = {}
+    for page, size in zip(atlas.pages, image_sizes):
+        key = page.name.replace("\\", "/")
+        other = first.setdefault(key, page)
+        if other is not page:
+            same = [e for e in other.entries if e.key != "size"] == [e for e in page.entries if e.key != "size"]
+            found.append(PageMismatch(page.name, page.line, (
+                f"page {page.name!r} (line {page.line}) names the image of the page at line {other.line} again"
+                + ("" if same else ", with other fields: runtimes that load one texture per image draw both "
+                   "pages with one page's fields, the others each with its own")), not same))
+        stated = page.get("size")
+        if size is None or stated is None:
+            continue
+        try:
+            w, h = (int(v) for v in stated[:2])
+        except ValueError:
+            w = h = -1
+        if len(stated) < 2 or (w, h) != tuple(size):
+            found.append(PageMismatch(page.name, page.line, (
+                f"page {page.name!r} (line {page.line}): its size line says {', '.join(stated)}, its image is "
+                f"{size[0]}x{size[1]}: runtimes that scale UVs by the size line (spine-c and those built on it) "
+                "and those that scale them by the texture (libGDX) draw it differently"), True))
+    return found
+
+
 @dataclass
 class Atlas:
     """A parsed atlas. ``syntax`` is ``"3"`` or ``"4"``; ``path`` is where it was read from."""
@@ -206,6 +278,9 @@ class Atlas:
     leading_blank: bool = False
     #: Regions that cannot be used, one line each (only filled by a lenient parse).
     problems: list[str] = field(default_factory=list)
+    #: Pages that disagree with their images or with each other (:func:`page_mismatches`), once
+    #: the images were looked at (:func:`spinemesh.project.project_atlases`).
+    mismatches: list[PageMismatch] = field(default_factory=list)
 
     def find(self, name: str) -> AtlasRegion | None:
         """The first region called ``name``, as the runtimes' ``findRegion`` returns it."""

@@ -219,6 +219,16 @@ def load_rgba(path: str | Path) -> np.ndarray:
     return _decode(path, path)
 
 
+def image_size(path: str | Path) -> tuple[int, int] | None:
+    """An image file's ``(width, height)`` from its header alone, or None when it cannot be read
+    (whoever decodes it then reports why)."""
+    try:
+        with Image.open(path, formats=_decodable_formats()) as im:
+            return int(im.width), int(im.height)
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return None
+
+
 def decode_rgba(data: bytes, source: str | Path | None = None) -> np.ndarray:
     """:func:`load_rgba` of a file's bytes already in memory (a data set's members).
 

@@ -24,10 +24,10 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .atlas import Atlas, read_atlas
+from .atlas import Atlas, page_mismatches, read_atlas
 from .errors import SpineMeshError, UnsafePathError
 from .fsutil import is_within, real, regular_file, resolve_inside, walk_folder
-from .images import AtlasImages, FolderImages, PageStore
+from .images import AtlasImages, FolderImages, PageStore, image_size
 from .skeleton import image_paths, iter_attachments
 
 #: Skeleton file names: the editor's, Unity's (``.json.txt``, ``.skel.bytes``) and Godot's
@@ -72,6 +72,8 @@ class Project:
         (what ``upgrade`` copies).
     problems : list of str
         One line per thing left out: symlinks leading outside, broken atlases, missing pages.
+    warnings : list of str
+        One line per atlas page that runtimes draw differently (used all the same).
     """
 
     root: Path
@@ -80,6 +82,9 @@ class Project:
     image_folders: list[Path] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
+    #: One line per atlas page that runtimes draw differently from one another (its size line
+    #: against its image, see :func:`spinemesh.atlas.page_mismatches`): used all the same.
+    warnings: list[str] = field(default_factory=list)
     parsed_atlases: dict[Path, Atlas] | None = field(default=None, repr=False)
     page_store: PageStore | None = field(default=None, repr=False)
 
@@ -145,6 +150,9 @@ def project_atlases(project: Project) -> dict[Path, Atlas]:
         except SpineMeshError as e:
             project.problems.append(f"{e}; atlas not used")
             continue
+        atlas.mismatches = page_mismatches(atlas, [image_size(AtlasImages.page_path(atlas, page.name, project.root))
+                                                   for page in atlas.pages])
+        project.warnings += [f"{p}: {m.message}" for m in atlas.mismatches if m.runtimes_disagree]
         for problem in atlas.problems:
             project.problems.append(f"{problem}; attachments drawing this region are left as they are")
         usable[p] = atlas

@@ -31,7 +31,7 @@ import numpy as np
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
 from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
 from .place import fill_pages
-from .uses import RegionUses
+from .uses import RegionUses, rectangle_reason
 
 #: Fewest texels between what two regions draw (stored rectangles, or texels meshes touch), as
 #: packers' default padding: each footprint holds the one-texel ring bilinear sampling reads
@@ -585,14 +585,8 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
             px = pixels[r.page]
             if g.x < 0 or g.y < 0 or g.x + g.page_width > px.shape[1] or g.y + g.page_height > px.shape[0]:
                 raise PackRefused(f"region {r.name!r} lies outside its page")
-        if pinned:
-            foot = footprint(g, RegionUses(pinned=pinned))
-        elif first_of_name[r.name] is not r:
-            foot = footprint(g, RegionUses(pinned="another region of the same name comes first, which runtimes use"))
-        elif r.get("split") is not None or r.get("pad") is not None:
-            foot = footprint(g, RegionUses(pinned="nine-patch region (split/pad)"))
-        else:
-            foot = footprint(g, uses.get(r.name))
+        reason = rectangle_reason(r, first_of_name[r.name] is r, uses.get(r.name), pinned)
+        foot = footprint(g, RegionUses(pinned=reason) if reason else uses.get(r.name))
         texels = window_texels(pixels[r.page], g, foot.window)
         item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
         item.masks = _item_masks(item, foot.core)

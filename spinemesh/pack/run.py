@@ -25,12 +25,15 @@ from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
-#: packed page must hold the very texels the original held.
+#: packed page must hold the very texels the original held, and every page written is decoded
+#: back first (:func:`encode_page`).
 PAGE_FORMATS = {
     ".png": ("PNG", {}),
     # lossless effort 50 of 100: within 0.2% of the smallest file at half the time of 100
     ".webp": ("WEBP", {"lossless": True, "quality": 50, "method": 4, "exact": True}),
-    ".avif": ("AVIF", {"lossless": True, "quality": 100}),
+    # Pillow has no lossless AVIF (it ignores lossless=True and converts to YUV): the closest it
+    # writes still changes texels by a step or two, so the decode-back check keeps such atlases
+    ".avif": ("AVIF", {"quality": 100, "subsampling": "4:4:4"}),
 }
 
 
@@ -128,8 +131,9 @@ def page_mode(path: Path):
         return "RGB" if im.format == "PNG" and im.mode == "RGB" else None
 
 
-def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> bytes | None:
-    """``rgba`` as a palette PNG with the palette ``lut`` (n, 4), or None when a texel's colour is not in it.
+def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> tuple[bytes, np.ndarray] | None:
+    """``rgba`` as a palette PNG with the palette ``lut`` (n, 4), and the texels it holds; None when a
+    texel's colour is not in the palette.
 
     Packed texels are copies of the original page's, so a page a quantiser wrote as a palette
     PNG comes back as one (about a quarter of the bytes of RGBA). The empty background takes a
@@ -153,7 +157,7 @@ def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> bytes | None:
     image.putpalette(lut[:, :3].tobytes())
     buf = io.BytesIO()
     image.save(buf, format="PNG", transparency=lut[:, 3].tobytes())
-    return buf.getvalue()
+    return buf.getvalue(), texels[..., None].view(np.uint8)
 
 
 def is_lossy_webp(path: Path) -> bool:
@@ -195,35 +199,97 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
                           f"{bytes_after:,} bytes on disk against {bytes_before:,}")
 
 
-def encode_page(rgba: np.ndarray, name: str, like=None) -> bytes:
-    """A page image in the file format its name says, losslessly.
+@dataclass
+class EncodedPage:
+    """A page image ready to be written: its file's bytes and the texels they decode to."""
+
+    data: bytes
+    texels: np.ndarray  # (H, W, 4) uint8, decoded back from ``data``
+
+
+def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
+    """A page image in the file format its name says, proven lossless by decoding it back.
 
     ``like`` (:func:`page_mode` of the original page): a palette PNG is written with its
-    palette when every texel's colour is in it, a page without alpha as RGB.
+    palette when every texel's colour is in it, a page without alpha as RGB. Either way every
+    texel comes back as it was, except all-zero ones (the empty background, never sampled),
+    which come back as the palette's transparent entry or as opaque black.
 
     Raises
     ------
     PackRefused
-        For a format that cannot be written losslessly (JPEG has no alpha and loses texels).
+        For a format that cannot be written losslessly (JPEG has no alpha and loses texels), and
+        for bytes that do not decode to the texels meant (Pillow's AVIF writer is never lossless:
+        it converts to YUV whatever it is asked).
     """
     from PIL import Image, features
+
+    from ..images import decode_rgba
 
     ext = Path(name).suffix.lower()
     if ext not in PAGE_FORMATS:
         raise PackRefused(f"page {name!r}: {ext or 'no extension'} pages are kept (only PNG, WebP and AVIF "
                           "can be written without losing texels)")
     fmt, options = PAGE_FORMATS[ext]
-    if fmt == "PNG" and isinstance(like, np.ndarray):
-        data = _as_palette(rgba, like)
-        if data is not None:
-            return data
-    if fmt == "PNG" and isinstance(like, str) and like == "RGB":
-        rgba = rgba[..., :3]  # the original had no alpha: every texel drawn is opaque
     if fmt == "AVIF" and not features.check("avif"):
         raise PackRefused(f"page {name!r}: this Pillow cannot write AVIF")
-    buf = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format=fmt, **options)
-    return buf.getvalue()
+    data = None
+    expected = rgba
+    if fmt == "PNG" and isinstance(like, np.ndarray):
+        found = _as_palette(rgba, like)
+        if found is not None:
+            data, expected = found
+    if data is None:
+        image = rgba
+        if fmt == "PNG" and isinstance(like, str) and like == "RGB":
+            image = rgba[..., :3]  # the original had no alpha: every texel drawn is opaque
+            expected = rgba.copy()
+            expected[~rgba.any(axis=2), 3] = 255  # the empty background comes back opaque black
+        buf = io.BytesIO()
+        Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options)
+        data = buf.getvalue()
+    try:
+        back = decode_rgba(data, name)
+    except SpineMeshError as e:
+        raise PackRefused(f"page {name!r}: the {fmt} written does not decode ({e})") from None
+    if back.shape != expected.shape:
+        raise PackRefused(f"page {name!r}: the {fmt} written decodes to another size")
+    differ = int(np.count_nonzero(np.ascontiguousarray(back).view(np.uint32)
+                                  != np.ascontiguousarray(expected).view(np.uint32)))
+    if differ:
+        raise PackRefused(f"page {name!r}: {fmt} as this Pillow writes it does not come back texel for texel "
+                          f"({differ:,} of {back.shape[0] * back.shape[1]:,} texels differ), so its pages are kept")
+    return EncodedPage(data, back)
+
+
+def check_page_sizes(atlas, texels: list[np.ndarray]) -> None:
+    """Refuse an atlas whose decoded pages disagree with its pages' fields (:func:`page_mismatches`).
+
+    :func:`spinemesh.project.project_atlases` checked the images' headers already; this is the
+    same rule on the texels the atlas is packed from.
+    """
+    from ..atlas import page_mismatches
+
+    for m in page_mismatches(atlas, [(int(t.shape[1]), int(t.shape[0])) for t in texels]):
+        raise PackRefused(m.message)
+
+
+def prove_written(atlas, texels: list[np.ndarray], text: str, encoded: dict[str, EncodedPage], uses: dict,
+                  pinned: str) -> int:
+    """Prove the packed atlas as it will be written (:func:`spinemesh.pack.proof.prove_packed`): its
+    text parsed back, its pages as their bytes decode. Texels compared; :class:`PackRefused` when not.
+    """
+    from ..atlas import parse_atlas
+    from .proof import ProofFailed, prove_packed
+
+    try:
+        after = parse_atlas(text, atlas.path)
+        if any(p.name not in encoded for p in after.pages):
+            raise ProofFailed("a page the packed atlas names is not written")
+        return prove_packed(atlas, texels, after, [encoded[p.name].texels for p in after.pages], uses, pinned)
+    except (ProofFailed, SpineMeshError) as e:
+        raise PackRefused(f"the packed pages failed the proof that they draw as the original ({e}); its "
+                          "pages are kept") from None
 
 
 def _page_files(atlas, root: Path) -> list[Path]:
@@ -287,6 +353,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
                                   "texel for texel (JPEG pages have no alpha and lose texels when written)")
         texels = [load_rgba(f) for f in files]
+        check_page_sizes(atlas, texels)
         modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
         parallel = workers is not None and workers.slots > 1
         packed = pack_atlas(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
@@ -306,6 +373,8 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 encoded[name] = encode_page(rgba, name, modes.get(name))
                 on_step(1)
         text = packed.atlas.dumps()
+        prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
+        encoded = {name: page.data for name, page in encoded.items()}
         check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
     except PackRefused as e:
         sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
@@ -324,7 +393,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     return AtlasOutcome(row, encoded, text, previews)
 
 
-def _encode_task(arg: tuple) -> bytes:
+def _encode_task(arg: tuple) -> EncodedPage:
     """A worker's task: :func:`encode_page` of ``(texels, name, like)``."""
     return encode_page(*arg)
 
@@ -364,9 +433,11 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     for path, atlas in atlases.items():
         files = _page_files(atlas, proj.root)
         shared = any(by_page[f.resolve()] > 1 for f in files)
+        # pages that disagree with their images or with each other (page_mismatches) are kept as they are
+        refused = ("its page images are shared with another atlas" if shared
+                   else atlas.mismatches[0].message if atlas.mismatches else "")
         jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
-                             uses.regions.get(path, {}), uses.everything_pinned, options,
-                             "its page images are shared with another atlas" if shared else "", keep_previews))
+                             uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews))
     skip: set[Path] = set()
     for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
         _write_outcome(job, outcome, proj, out, in_place, result, skip)

@@ -74,6 +74,30 @@ class ProjectUses:
         return self.regions.setdefault(atlas, {}).setdefault(name, RegionUses())
 
 
+def rectangle_reason(region, first: bool, uses: RegionUses | None, pinned: str = "") -> str:
+    """Why drawing ``region`` may read its whole stored rectangle; "" when only meshes draw it.
+
+    Parameters
+    ----------
+    region : AtlasRegion
+    first : bool
+        Whether it is the first region of its name in its atlas (the one runtimes find).
+    uses : RegionUses or None
+        How the skeletons draw it (None: no skeleton does).
+    pinned : str
+        A reason that holds for every region (a skeleton that cannot be read).
+    """
+    if pinned:
+        return pinned
+    if not first:
+        return "another region of the same name comes first, which runtimes use"
+    if region.get("split") is not None or region.get("pad") is not None:
+        return "nine-patch region (split/pad)"
+    if uses is None or not uses.meshes and not uses.pinned:
+        return "not drawn by any skeleton"
+    return uses.pinned
+
+
 def honours_offsets(version: str) -> bool | None:
     """Whether meshes of this editor version map UVs over the original image (3.7 and later).
 
