@@ -249,8 +249,8 @@ def page_mismatches(atlas: "Atlas", image_sizes: list[tuple[int, int] | None]) -
             same = [e for e in other.entries if e.key != "size"] == [e for e in page.entries if e.key != "size"]
             found.append(PageMismatch(page.name, page.line, (
                 f"page {page.name!r} (line {page.line}) names the image of the page at line {other.line} again"
-                + ("" if same else ", with other fields: runtimes that load one texture per image draw both "
-                   "pages with one page's fields, the others each with its own")), not same))
+                + ("" if same else ", with other fields (runtimes that share one texture per image draw both "
+                   "with one page's)")), not same))
         stated = page.get("size")
         if size is None or stated is None:
             continue
@@ -260,9 +260,9 @@ def page_mismatches(atlas: "Atlas", image_sizes: list[tuple[int, int] | None]) -
             w = h = -1
         if len(stated) < 2 or (w, h) != tuple(size):
             found.append(PageMismatch(page.name, page.line, (
-                f"page {page.name!r} (line {page.line}): its size line says {', '.join(stated)}, its image is "
-                f"{size[0]}x{size[1]}: runtimes that scale UVs by the size line (spine-c and those built on it) "
-                "and those that scale them by the texture (libGDX) draw it differently"), True))
+                f"page {page.name!r} (line {page.line}): its size line says {', '.join(stated)} but its image is "
+                f"{size[0]}x{size[1]}; spine-c scales UVs by the size line, libGDX by the image, so they draw "
+                "it differently"), True))
     return found
 
 

@@ -415,10 +415,11 @@ def test_palette_pages_stay_palette_pages(meshed, tmp_path):
 
 
 def test_the_sampling_check_catches_a_footprint_one_texel_short(meshed, tmp_path, monkeypatch):
-    """Negative control: footprints eroded by one texel must make the sampling check fail."""
+    """Negative control: footprints eroded by one texel fail pack's own proof (the atlas is kept),
+    and, written without the proof, this file's sampling check."""
     import cv2
 
-    from spinemesh.pack import outlines
+    from spinemesh.pack import outlines, run
 
     real = outlines.sampled_texels
 
@@ -426,6 +427,10 @@ def test_the_sampling_check_catches_a_footprint_one_texel_short(meshed, tmp_path
         return cv2.erode(real(*args).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
 
     monkeypatch.setattr(outlines, "sampled_texels", short)
+    result = pack_project(meshed, tmp_path / "proven")
+    assert result.atlases[0].status == "kept" and "failed the proof" in result.atlases[0].reason
+    assert (tmp_path / "proven" / "demo.png").read_bytes() == (meshed / "demo.png").read_bytes()
+    monkeypatch.setattr(run, "prove_written", lambda *args: 0)
     result = pack_project(meshed, tmp_path / "out")
     assert result.atlases[0].status == "packed"
     with pytest.raises(AssertionError):

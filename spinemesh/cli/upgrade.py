@@ -258,6 +258,8 @@ def _print_result(result, dry_run: bool) -> None:
         print_pack_table(result.atlases)
     for line in weights_lines(result.targets):
         console.print(escaped(line), highlight=False, markup=False)
+    for warning in result.warnings:  # each names its atlas and page
+        err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
     for error in result.not_read.values():  # each names its file and says why
         err_console.print(f"[red]not read:[/] {escape(escaped(error))}", highlight=False)
     unread = set(result.not_read.values())

@@ -479,6 +479,7 @@ def plan_read_project(reading: ProjectReading) -> ProjectPlan:
     proj, result, planner = reading.project, reading.result, reading.planner
     planner.decide()
     result.errors += proj.problems  # files left out: symlinks leading outside, broken atlases
+    result.warnings += [w for w in proj.warnings if w not in result.warnings]  # pages runtimes draw apart
     # every skeleton decoded its pages through this one store (each page once); the tasks hold
     # the crops they mesh, so the pages need not outlive the planning
     project_pages(proj).release()

@@ -99,7 +99,7 @@ def untrimmed_entries(region: AtlasRegion, syntax: str, x: int, y: int, width: i
     return geometry + [e for e in region.entries if e.key not in _GEOMETRY_KEYS]
 
 
-def repack_atlas(atlas: Atlas, names: set[str], page_pixels) -> tuple[Atlas, list[NewPage]]:
+def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = frozenset()) -> tuple[Atlas, list[NewPage]]:
     """A copy of ``atlas`` in which the regions called ``names`` are stored untrimmed on new pages.
 
     Parameters
@@ -110,6 +110,9 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels) -> tuple[Atlas, lis
         Regions to re-pack; names the atlas lacks are ignored.
     page_pixels : callable
         ``page_pixels(page_index)`` -> (H, W, 4) uint8, the page's texels as stored.
+    taken : set of str, optional
+        File names the new pages may not take, lower case (files beside the atlas, in the
+        project and in the output folder: another atlas of the same stem writes its pages there).
 
     Returns
     -------
@@ -123,7 +126,7 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels) -> tuple[Atlas, lis
     if not moved:
         return out, []
     stem = PurePosixPath(atlas.path.name if atlas.path else "atlas").name.split(".")[0]
-    taken = {p.name for p in out.pages}
+    taken = {p.name.lower() for p in out.pages} | set(taken)
     indent = next((e.indent for r in out.regions for e in r.entries), "  " if out.syntax == "3" else "\t")
     new_pages: list[NewPage] = []
     for old_index in sorted({r.page for r in moved}):
@@ -135,10 +138,10 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels) -> tuple[Atlas, lis
         for k, (w, h) in enumerate(sizes):
             n = len(new_pages) + 1
             name = f"{stem}-untrimmed-{n}.png"
-            while name in taken:
+            while name.lower() in taken:
                 n += 1
                 name = f"{stem}-untrimmed-{n}.png"
-            taken.add(name)
+            taken.add(name.lower())
             template: AtlasPage = out.pages[old_index]
             entries = [Entry(e.key, [str(w), str(h)] if e.key == "size" else list(e.values), e.indent, e.sep, e.colon)
                        for e in template.entries]
@@ -176,9 +179,13 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
     from ..images import AtlasImages, load_rgba
 
     atlas = read_atlas(atlas_path)
-    repacked, pages = repack_atlas(
-        atlas, names, lambda i: load_rgba(AtlasImages.page_path(atlas, atlas.pages[i].name, project_root)))
     rel = atlas_path.relative_to(project_root)
+    # two atlases of one stem (x.atlas, x.2.atlas) would name their new pages alike: the names of
+    # every file beside the atlas, in the project and in the output (pages re-packed before), are taken
+    taken = {f.name.lower() for folder in (atlas_path.parent, out / rel.parent) if folder.is_dir()
+             for f in folder.iterdir()}
+    repacked, pages = repack_atlas(
+        atlas, names, lambda i: load_rgba(AtlasImages.page_path(atlas, atlas.pages[i].name, project_root)), taken)
     written = []
     for page in pages:
         atomic_write_png(out / rel.parent / page.name, page.rgba)

@@ -52,6 +52,9 @@ class Result(RunSummary):
     targets: list[Target] = field(default_factory=list)
     written: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    #: what was used all the same but draws differently from one runtime to another (an atlas
+    #: page whose size line disagrees with its image); the run's exit status does not change
+    warnings: list[str] = field(default_factory=list)
     #: skeletons that could not be read (their path in the project or library -> the error,
     #: which is in ``errors`` too); the project's other skeletons are upgraded all the same
     not_read: dict[str, str] = field(default_factory=dict)
@@ -77,6 +80,7 @@ def merge(into: Result, part: Result, prefix: str) -> None:
     into.targets += part.targets
     into.written += [prefix + w for w in part.written]
     into.errors += part.errors  # they name their files already
+    into.warnings += part.warnings
     into.not_read.update({prefix + name: error for name, error in part.not_read.items()})
     for row in part.atlases:
         row.atlas = prefix + row.atlas
@@ -91,6 +95,7 @@ def write_report(result: Result, path: str | Path) -> None:
         "counts": result.counts(),
         "skeletons_written": result.written,
         "errors": result.errors,
+        "warnings": result.warnings,
         "skeletons_not_read": result.not_read,
         "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
         "attachments": [t.row() for t in result.targets],
