@@ -27,7 +27,7 @@ It prints one row per file and a summary, and exits 1 when any check fails. No o
 runtime can load the output here (the runtime harness starts at 3.8): the reading order is
 proven against the runtime's by the fixtures of ``tests/test_skeleton_binary_v35.py``.
 
-    git -C <spine-runtimes> archive ab226ab68 examples | tar -x -C /tmp/ex35   # 3.5.03-beta exports
+    git -C <spine-runtimes> archive 3.5.51 examples | tar -x -C /tmp/ex35   # the 3.5.03 beta exports
     .venv/bin/python scripts/prove_skel35.py /tmp/ex35 --json build/skel35.json
 """
 

@@ -25,7 +25,7 @@ def convert(
         help="Keep the binary-only data (string table order) in the JSON, so that converting it back "
              "gives the original .skel byte for byte.")] = False,
 ) -> None:
-    """Convert a skeleton between binary .skel and .json, keeping its Spine version (3.6 to 4.3).
+    """Convert a skeleton between binary .skel and .json, keeping its Spine version (3.5 to 4.3).
 
     The JSON has the layout of the Spine editor's own export of that version.
 

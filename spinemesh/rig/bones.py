@@ -1,7 +1,7 @@
 """Bones of a skeleton document and their world transforms in the setup pose.
 
 A bone's world transform (:mod:`.transform`) is computed the way the official runtimes
-compute it for every version this package reads (3.6 to 4.3).
+compute it for every version this package reads (3.5 to 4.3; 3.5 computes it as 3.6 does).
 
 IK, transform and path constraints move their bones after this computation, even in the
 setup pose (unless all their mixes are 0): :mod:`.constraints` applies them as the runtimes

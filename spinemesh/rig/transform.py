@@ -3,7 +3,7 @@
 The world transform of a bone is the affine map from its local space to the skeleton's:
 ``world = M[:, :2] @ local + M[:, 2]``, with ``M = [[a, b, worldX], [c, d, worldY]]`` as the
 runtimes name them. It is computed the way the official runtimes compute it for every
-version this package reads (3.6 to 4.3): local rotation, scale and shear, then the parent's
+version this package reads (3.5 to 4.3): local rotation, scale and shear, then the parent's
 transform, filtered by the bone's inherit mode (called transform mode before 4.2). The
 skeleton itself sits at the origin with scale 1, as it does when a game loads it.
 
