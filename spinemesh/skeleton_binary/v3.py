@@ -5,7 +5,7 @@ Every declaration below takes a stream ``s`` (a :class:`~.stream.SkelReader` or
 (writing). The document is the one the Spine editor's JSON export of the same version
 holds: same keys, same nesting, values equal to their defaults left out.
 
-What changed between the three versions is read as data from a :class:`Layout`:
+What changed between the four versions is read as data from a :class:`Layout`:
 
 ======================  =====  =====  =====  =====
                         3.5    3.6    3.7    3.8
@@ -111,7 +111,8 @@ class Layout:
 def layout_of(s, version: str) -> Layout:
     """The layout of ``version``: ``3.5.x`` to ``3.8.x``, or the editor's downgraded
     exports such as ``3.8-from-4.0.64`` (a 3.8 file). 3.4 and older files have another
-    layout (no transform modes, other constraint fields) and are refused."""
+    layout (inherit flags for a bone's transform mode, no fps, no constraint order) and are
+    refused."""
     if not re.match(r"3\.[5678](?!\d)", version):
         raise s.fail(f"Spine 3.5, 3.6, 3.7 or 3.8, found version {version!r}", 0)
     return Layout(version)
