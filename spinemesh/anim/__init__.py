@@ -11,7 +11,9 @@ not, linked meshes, skins) gets its world vertices.
 
 Works on documents from :func:`spinemesh.skeleton.load_skeleton` (``.json`` and ``.skel``,
 3.8 to 4.2 reproduced; other versions pose bones without constraints). Physics constraints
-(4.2) are not simulated: the bones they move are flagged in :attr:`Pose.exact`.
+(4.2) are stepped as the runtime steps them, replaying the game loop from time 0 (a pose
+then costs one bone update per 1/60 s); ``pose(..., physics=False)`` skips that and flags
+the bones physics moves in :attr:`Pose.exact`.
 
 Sampling many times of one animation is cheap: :class:`Sampler` prepares the skeleton once
 and each animation's timelines once.

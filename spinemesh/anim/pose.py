@@ -10,10 +10,11 @@ pose each time (so a pose does not depend on the poses sampled before it), then 
 bones with the runtime's update cache (:mod:`spinemesh.rig.constraints`) and places every
 drawn attachment (:mod:`.attachments`).
 
-Not reproduced: physics constraints (4.2) are not simulated, so the bones they move (and
-those below them) keep their pose without physics and are flagged not exact; 3.8 local
-transform constraints that write shear into the bone's own local shear, which then carries
-over from frame to frame in the runtime, are applied as in the setup pose.
+Physics constraints (4.2) keep state from frame to frame: a pose of a skeleton with physics
+replays the game loop from time 0 in the harness's steps (:mod:`spinemesh.rig.physics`), as
+the runtime plays it, reset keys included. Not reproduced: 3.8 local transform constraints
+that write shear into the bone's own local shear, which then carries over from frame to
+frame in the runtime, are applied as in the setup pose.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..rig.constraints import Rig, build_rig, update_world
+from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
 from .timelines import Animation, color_channels, read_animation, search
@@ -143,6 +145,22 @@ class Pose:
         return {"bones": bones, "attachments": attachments}
 
 
+@dataclass
+class _Frame:
+    """The animated values of one frame, before the bones are posed."""
+
+    time: float
+    local: list                      # per bone: x, y, rotation, scaleX, scaleY, shearX, shearY
+    inherit: list[str]
+    data: dict                       # constraint id -> its current JSON values
+    names: list                      # per slot: attachment key or None
+    colors: list
+    order: list[int]
+    sequence: list[int]
+    shown: list = field(default_factory=list)
+    deform: dict = field(default_factory=dict)
+
+
 def _clean(v: float) -> float | None:
     if not math.isfinite(v):
         return None  # a degenerate pose: strict JSON has no NaN
@@ -211,6 +229,11 @@ class Sampler:
         self._regions = regions or (lambda path: None)
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self.physics_bones = self._physics_bones()
+        self.physics: list[PhysicsState] = []
+        for c in self.rig.constraints:
+            if c.kind == "physics" and c.active and self.rig.family == "4.2":
+                c.physics = PhysicsState(PhysicsSettings.from_json(c.data, doc.get("skeleton") or {}))
+                self.physics.append(c.physics)
         self._animations: dict[str, tuple[Animation, dict]] = {}
 
     # -- attachments ---------------------------------------------------------------------
@@ -277,50 +300,103 @@ class Sampler:
         return out
 
     # -- sampling ------------------------------------------------------------------------
-    def pose(self, animation: str | None, time: float = 0.0, fps: float = 60.0, loop: bool = True) -> Pose:
+    def pose(self, animation: str | None, time: float = 0.0, fps: float = 60.0, loop: bool = True,
+             physics: bool = True) -> Pose:
         """The pose of ``animation`` at track time ``time`` (seconds); the setup pose when
-        ``animation`` is None. See :func:`animation_time` for ``fps`` and ``loop``."""
-        n_bones, n_slots = len(self.bone_names), len(self.slot_names)
-        local = [list(v) for v in self.setup_local]
-        inherit = list(self.setup_inherit)
-        data = dict(self.setup_data)
-        names = list(self.slot_setup)
-        colors = [c.copy() for c in self.slot_color]
-        order = list(range(n_slots))
-        sequence = [-1] * n_slots
-        deforms: dict[tuple[str, int, str], tuple] = {}
-        t = 0.0
+        ``animation`` is None. See :func:`animation_time` for ``fps`` and ``loop``.
+
+        With 4.2 physics constraints (and ``physics``), the game loop is replayed from time 0
+        in steps of ``1 / fps`` s, as physics needs every frame before the pose: a pose then
+        costs one bone update per step. Without ``physics`` the bones physics moves keep the
+        animation's pose and are flagged not exact.
+        """
+        if animation is None:
+            for state in self.physics:
+                state.mode = RESET
+            frame = self._frame(None, 0.0, -1.0)
+            world, exact, why = self._pose_bones(frame, simulated=True)
+        elif physics and self.physics:
+            frame, world, exact, why = self._simulate(animation, time, fps, loop)
+        else:
+            anim = self.animation(animation)[0]
+            for state in self.physics:
+                state.mode = RESET
+            frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
+            world, exact, why = self._pose_bones(frame, simulated=False)
+        active = [b.active for b in self.rig.bones]
+        slots = self._draw(world, frame, active)
+        if not exact.all():
+            for drawn, s in zip(slots, (self.slot_names.index(d.slot) for d in slots)):
+                att = frame.shown[s]
+                used = att.geometry.bone if att.geometry is not None and att.geometry.weighted else [self.slot_bones[s]]
+                drawn.exact = bool(exact[used].all())
+        return Pose(float(time), frame.time, list(self.bone_names), world, slots, exact, np.array(active), why)
+
+    def _simulate(self, animation: str, time: float, fps: float, loop: bool):
+        """The harness's game loop: the setup pose with physics reset, the animation applied
+        at track time 0, then ``round(time * fps)`` equal steps, physics updated at each."""
+        anim = self.animation(animation)[0]
+        clock = 0.0
+        for state in self.physics:
+            state.clock, state.mode = clock, RESET
+        self._pose_bones(self._frame(None, 0.0, -1.0), simulated=True)
+        for state in self.physics:
+            state.mode = UPDATE
+        steps = math.floor(time * fps + 0.5) if fps > 0 and math.isfinite(time) and time > 0 else 0
+        dt = time / steps if steps else 0.0
+        track, last = 0.0, -1.0
+        for i in range(steps + 1):
+            if i:
+                track += dt
+                clock += dt
+                for state in self.physics:
+                    state.clock = clock
+            t = (math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track
+            frame = self._frame(animation, t, last)
+            result = self._pose_bones(frame, simulated=True)
+            last = t
+        return (frame, *result)
+
+    def _frame(self, animation: str | None, t: float, last: float) -> _Frame:
+        """Every timeline of ``animation`` applied at animation time ``t`` over the setup
+        values (``last``: the time applied the frame before, for physics resets)."""
+        n_slots = len(self.slot_names)
+        frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
+                       list(self.slot_setup), [c.copy() for c in self.slot_color], list(range(n_slots)),
+                       [-1] * n_slots)
+        deforms: dict = {}
         active = [b.active for b in self.rig.bones]
         if animation is not None:
             anim, deforms = self.animation(animation)
-            t = animation_time(time, anim.duration, fps, loop)
-            self._apply_bones(anim, t, local, inherit, active)
-            self._apply_constraints(anim, t, data)
-            self._apply_slots(anim, t, names, colors, active)
+            self._apply_bones(anim, t, frame.local, frame.inherit, active)
+            self._apply_constraints(anim, t, frame.data)
+            self._apply_slots(anim, t, frame.names, frame.colors, active)
+            self._physics_resets(anim, last, t)
             if anim.draw_order is not None:
                 i = search(anim.draw_order.times, t)
                 if i >= 0 and anim.draw_order.orders[i] is not None:
-                    order = list(anim.draw_order.orders[i])
-            shown = [self.attachment(s, names[s]) for s in range(n_slots)]
+                    frame.order = list(anim.draw_order.orders[i])
+            shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
             for sq in anim.sequences:
-                self._apply_sequence(sq, t, shown, sequence)
-        shown = [self.attachment(s, names[s]) for s in range(n_slots)]
-        deform_now = {}
-        for s, att in enumerate(shown):
+                self._apply_sequence(sq, t, shown, frame.sequence)
+        frame.shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
+        for s, att in enumerate(frame.shown):
             if att is not None and att.timeline_key in deforms:
-                keys, frames = deforms[att.timeline_key]
+                keys, values = deforms[att.timeline_key]
                 i, p = keys.percent(t)
                 if i >= 0:
-                    v = frames[i] if p == 0 or i == len(frames) - 1 else frames[i] + (frames[i + 1] - frames[i]) * p
-                    deform_now[s] = v
-        world, exact, why = self._pose_bones(local, inherit, data, shown, deform_now)
-        slots = self._draw(world, order, shown, colors, deform_now, sequence, active)
-        if not exact.all():
-            for drawn, s in zip(slots, (self.slot_names.index(d.slot) for d in slots)):
-                att = shown[s]
-                used = att.geometry.bone if att.geometry is not None and att.geometry.weighted else [self.slot_bones[s]]
-                drawn.exact = bool(exact[used].all())
-        return Pose(float(time), t, list(self.bone_names), world, slots, exact, np.array(active), why)
+                    last_key = p == 0 or i == len(values) - 1
+                    frame.deform[s] = values[i] if last_key else values[i] + (values[i + 1] - values[i]) * p
+        return frame
+
+    def _physics_resets(self, anim: Animation, last: float, t: float) -> None:
+        """4.2 reset keys passed since the last frame reset their constraints (all for "")."""
+        for name, times in anim.physics_resets:
+            if not _reset_fires(times, last, t):
+                continue
+            for c in self.rig.constraints:
+                if c.kind == "physics" and c.physics is not None and c.active and name in ("", c.name):
+                    c.physics.reset()
 
     def _apply_bones(self, anim: Animation, t: float, local: list, inherit: list, active: list) -> None:
         for tl in anim.bones:
@@ -347,19 +423,26 @@ class Sampler:
 
     def _apply_constraints(self, anim: Animation, t: float, data: dict) -> None:
         for tl in anim.constraints:
-            c = self.constraints.get((tl.kind, tl.name))
-            if c is None:
-                continue
             i = tl.keys.index(t)
             if i < 0:
                 continue  # the setup values
             v = tl.keys.at(t)
-            d = dict(data[id(c)])
-            for key, value in zip(tl.fields, v):
-                d[key] = float(value)
-            if tl.flags:
-                d.update(tl.flags[i])
-            data[id(c)] = d
+            for c in self._keyed(tl):
+                d = dict(data[id(c)])
+                for key, value in zip(tl.fields, v):
+                    d[key] = float(value)
+                if tl.flags:
+                    d.update(tl.flags[i])
+                data[id(c)] = d
+
+    def _keyed(self, tl) -> list:
+        """The constraints a constraint timeline drives: the one it names; a 4.2 physics
+        timeline without a name, every physics constraint whose ``<value>Global`` is set."""
+        if tl.kind == "physics" and tl.name == "":
+            return [c for c in self.rig.constraints
+                    if c.kind == "physics" and c.data.get(f"{tl.fields[0]}Global") is True]
+        c = self.constraints.get((tl.kind, tl.name))
+        return [] if c is None else [c]
 
     def _apply_slots(self, anim: Animation, t: float, names: list, colors: list, active: list) -> None:
         for tl in anim.attachments:
@@ -391,9 +474,11 @@ class Sampler:
             return
         sequence[sq.slot] = _sequence_index(sq.frames, i, float(sq.times[i]), t, target.sequence_count)
 
-    def _pose_bones(self, local, inherit, data, shown, deform_now):
+    def _pose_bones(self, frame: _Frame, simulated: bool):
+        """World transforms (B, 2, 3) of the frame's bones, which are exact and why not."""
         rig = self.rig
-        for b, values, mode in zip(rig.bones, local, inherit):
+        data, shown, deform_now = frame.data, frame.shown, frame.deform
+        for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
             b.local = tuple(float(v) for v in values)
             b.inherit = mode
         slot_index = {n: i for i, n in enumerate(self.slot_names)}
@@ -413,7 +498,7 @@ class Sampler:
         exact = np.array([b.exact for b in rig.bones], bool)
         why = {b.name: b.why for b in rig.bones if not b.exact}
         for b in rig.bones:
-            name = self.physics_bones.get(b.index)
+            name = None if simulated else self.physics_bones.get(b.index)
             parent_flag = b.parent is not None and not exact[b.parent.index]
             if name is not None or (parent_flag and exact[b.index]):
                 exact[b.index] = False
@@ -425,7 +510,9 @@ class Sampler:
         a = ((self.skins.get(att.skin) or {}).get(self.slot_names[att.slot]) or {}).get(att.key)
         return a if isinstance(a, dict) else None
 
-    def _draw(self, world, order, shown, colors, deform_now, sequence, active) -> list[DrawnSlot]:
+    def _draw(self, world, frame: _Frame, active: list) -> list[DrawnSlot]:
+        shown, colors, deform_now, sequence = frame.shown, frame.colors, frame.deform, frame.sequence
+        order = frame.order
         out: list[DrawnSlot] = []
         clip = None     # (polygon, end slot name)
         for s in order:
@@ -454,6 +541,23 @@ class Sampler:
             if clip is not None and clip[1] == self.slot_names[s]:
                 clip = None
         return out
+
+
+def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:
+    """Whether a reset key lies in (``last``, ``t``], across the loop when ``last > t``
+    (``PhysicsConstraintResetTimeline``)."""
+    if last > t:
+        if _reset_fires(times, last, math.inf):
+            return True
+        last = -1.0
+    elif last >= times[-1]:
+        return False
+    if t < times[0]:
+        return False
+    if last < times[0]:
+        return True
+    i = search(times, last)
+    return i + 1 < len(times) and t >= times[i + 1]
 
 
 def _set_pair(row: list, setup: tuple, v, prop: str, at: int, combine, neutral: float) -> None:

@@ -118,7 +118,7 @@ class Animation:
     deforms: list[DeformTimeline] = field(default_factory=list)
     draw_order: DrawOrderTimeline | None = None
     sequences: list[SequenceTimeline] = field(default_factory=list)
-    physics: list[str] = field(default_factory=list)   # physics constraints it keys (not applied)
+    physics_resets: list[tuple[str, np.ndarray]] = field(default_factory=list)  # (constraint or "", key times)
 
 
 def _times(frames: list) -> np.ndarray:
@@ -241,6 +241,23 @@ class _Reader:
                 if k is not None:
                     self.out.constraints.append(ConstraintTimeline("path", str(cname), fields, k))
 
+    def physics(self, timelines: dict) -> None:
+        """4.2: physics values (a constraint's name, or "" for every constraint whose
+        ``<value>Global`` is set) and resets."""
+        for cname, tls in timelines.items():
+            for prop, frames in tls.items() if isinstance(tls, dict) else ():
+                if prop == "reset":
+                    _, times = self.discrete(frames)
+                    if len(times):
+                        self.out.physics_resets.append((str(cname), times))
+                elif prop in _PHYSICS_VALUES:
+                    k = self.keys(frames, _getter(("value", _PHYSICS_VALUES[prop])))
+                    if k is not None:
+                        self.out.constraints.append(ConstraintTimeline("physics", str(cname), (prop,), k))
+
+
+#: 4.2 physics timelines and the JSON default of their values.
+_PHYSICS_VALUES = {"inertia": 0, "strength": 0, "damping": 0, "mass": 0, "wind": 0, "gravity": 0, "mix": 0}
 
 _COLOR_KINDS = {"rgba": "rgba", "color": "rgba", "rgb": "rgb", "alpha": "alpha", "rgba2": "rgba2",
                 "twoColor": "rgba2", "rgb2": "rgb2"}
@@ -275,11 +292,7 @@ def read_animation(doc: dict, name: str, four: bool) -> Animation:
     if fr:
         out.draw_order = DrawOrderTimeline(times, [_draw_order(f.get("offsets"), r.slot_index) for f in fr])
     r.discrete(anim.get("events"))
-    physics = anim.get("physics") if isinstance(anim.get("physics"), dict) else {}
-    out.physics = [str(n) for n in physics]
-    for tls in physics.values():
-        for frames in tls.values() if isinstance(tls, dict) else ():
-            r.discrete(frames)
+    r.physics(anim.get("physics") if isinstance(anim.get("physics"), dict) else {})
     out.duration = max(r.ends, default=0.0)
     return out
 

@@ -929,6 +929,7 @@ class _Constraint:
     path: dict | None = None  # path: the target slot's setup attachment when it is a path
     reads: list[PoseBone] = field(default_factory=list)  # path: bones its vertices follow, sorted first
     path_deform: list[float] | None = None  # path: the deform an animation gives its attachment
+    physics: object | None = None  # physics: its state between frames (rig.physics.PhysicsState)
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
@@ -1050,7 +1051,11 @@ def _mark(bones: list[PoseBone], why: str) -> None:
 def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
     """One constraint's update in the cache (``skeleton``: every bone, by index)."""
     if c.kind == "physics":
-        return  # the setup pose resets physics: it leaves its bone's transform as it is
+        # The setup pose resets physics, which leaves the bone as it is; an animation steps it
+        # (``c.physics``, set by spinemesh.anim) frame after frame.
+        if c.physics is not None:
+            c.physics.update(c.bones[0], c.data)
+        return
     if _chain_path_38(c, family):
         # The 3.8 runtime checked against (a port) turns chain-mode bones unlike the official one.
         _mark(c.bones, f"moved in the setup pose by the {c.label()} (3.8 chain paths are not solved)")

@@ -1,0 +1,221 @@
+"""4.2 physics constraints, stepped as the official runtime steps them.
+
+A physics constraint keeps state from frame to frame: how far its bone lags behind where the
+animation puts it (x, y, rotation, scale offsets) and how fast those offsets change. Each
+``updateWorldTransform`` with physics on, the skeleton's clock has advanced; the constraint
+adds the bone's movement since the last frame (times ``inertia``, at most ``limit`` per
+second) to the offsets, then integrates springs pulling them back (``strength``), slowed by
+``damping``, pushed by ``wind`` and ``gravity``, in fixed steps of ``1 / fps`` seconds (time
+left over carries to the next frame), and moves the bone by the offsets times ``mix``.
+
+:mod:`spinemesh.anim` replays a game loop from time 0 to reproduce a pose: a pose with
+physics depends on every frame before it. The math follows the public runtime source
+(spine-ts 4.2 ``PhysicsConstraint``); the implementation is ours.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .transform import _num
+
+RESET, UPDATE, POSE = "reset", "update", "pose"
+
+
+@dataclass
+class PhysicsSettings:
+    """The constraint's fixed data: which properties it moves, by how much, and its stepping."""
+
+    x: float
+    y: float
+    rotate: float
+    scale_x: float
+    shear_x: float
+    limit: float
+    step: float
+    reference_scale: float
+
+    @classmethod
+    def from_json(cls, c: dict, skeleton: dict) -> PhysicsSettings:
+        fps = _num(c, "fps", 60)
+        return cls(_num(c, "x", 0), _num(c, "y", 0), _num(c, "rotate", 0), _num(c, "scaleX", 0),
+                   _num(c, "shearX", 0), _num(c, "limit", 5000), 1 / fps if fps > 0 else 1 / 60,
+                   _num(skeleton, "referenceScale", 100))
+
+
+class _Values:
+    """The constraint's current values (setup or animated), as the runtime holds them."""
+
+    def __init__(self, data: dict):
+        self.mix = _num(data, "mix", 1)
+        self.inertia, self.strength = _num(data, "inertia", 1), _num(data, "strength", 100)
+        self.damping = _num(data, "damping", 1)
+        mass = _num(data, "mass", 1)
+        self.mass_inverse = 1 / mass if mass != 0 else 0.0
+        self.wind, self.gravity = _num(data, "wind", 0), _num(data, "gravity", 0)
+
+
+class PhysicsState:
+    """One physics constraint's state between frames, and its update.
+
+    The sampler sets ``clock`` (the skeleton's time, seconds) and ``mode`` (``"reset"``,
+    ``"update"`` or ``"pose"``) before each ``updateWorldTransform``; :func:`update` is what the
+    update cache runs for the constraint, with its current values (``inertia``, ``strength``,
+    ``damping``, ``mass``, ``wind``, ``gravity``, ``mix``: setup or animated) in ``data``.
+    """
+
+    def __init__(self, settings: PhysicsSettings):
+        self.s = settings
+        self.clock = 0.0
+        self.mode = RESET
+        self.ux = self.uy = self.cx = self.cy = self.tx = self.ty = 0.0
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the motion: the next update starts from where the bone is."""
+        self.remaining = 0.0
+        self.last_time = self.clock
+        self.fresh = True
+        self.x_offset = self.x_velocity = self.y_offset = self.y_velocity = 0.0
+        self.rotate_offset = self.rotate_velocity = self.scale_offset = self.scale_velocity = 0.0
+
+    def update(self, bone, data: dict) -> None:
+        """Move ``bone`` (a :class:`~.constraints.PoseBone`) by the constraint, as ``update(physics)``."""
+        s = self.s
+        v = _Values(data)
+        if v.mix == 0:
+            return
+        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        if self.mode == RESET:
+            self.reset()
+        if self.mode in (RESET, UPDATE):
+            delta = max(self.clock - self.last_time, 0.0)
+            self.remaining += delta
+            self.last_time = self.clock
+            if self.fresh:
+                self.fresh = False
+                self.ux, self.uy = wx, wy
+            else:
+                limit = s.limit * delta
+                left, wx, wy, damped = self._translate(wx, wy, limit, v)
+                if s.rotate > 0 or s.shear_x > 0 or s.scale_x > 0:
+                    left = self._rotate(a, c, wx, wy, limit, bone.length, v, damped)
+                self.remaining = left
+            self.cx, self.cy = wx, wy
+        else:  # pose: the offsets as they are
+            if s.x > 0:
+                wx += self.x_offset * v.mix * s.x
+            if s.y > 0:
+                wy += self.y_offset * v.mix * s.y
+        a, b, c, d = self._turn_and_scale(a, b, c, d, v.mix)
+        if self.mode != POSE:
+            self.tx, self.ty = bone.length * a, bone.length * c
+        bone.world[:] = [[a, b, wx], [c, d, wy]]
+        bone.update_applied()
+
+    def _translate(self, bx: float, by: float, limit: float, v: _Values) -> tuple[float, float, float, float]:
+        """The bone's movement since the last frame added to the x/y offsets, the springs
+        stepped; returns the time left over, the bone's moved position and the damping used
+        (-1 when not computed)."""
+        s = self.s
+        a, t, damped = self.remaining, s.step, -1.0
+        move_x, move_y = s.x > 0, s.y > 0
+        if not (move_x or move_y):
+            return a, bx, by, damped
+        if move_x:
+            u = (self.ux - bx) * v.inertia
+            self.x_offset += limit if u > limit else -limit if u < -limit else u
+            self.ux = bx
+        if move_y:
+            u = (self.uy - by) * v.inertia
+            self.y_offset += limit if u > limit else -limit if u < -limit else u
+            self.uy = by
+        if a >= t:
+            damped = v.damping ** (60 * t)
+            m, w, g = v.mass_inverse * t, v.wind * s.reference_scale, v.gravity * s.reference_scale
+            while True:
+                if move_x:
+                    self.x_velocity += (w - self.x_offset * v.strength) * m
+                    self.x_offset += self.x_velocity * t
+                    self.x_velocity *= damped
+                if move_y:
+                    self.y_velocity -= (g + self.y_offset * v.strength) * m
+                    self.y_offset += self.y_velocity * t
+                    self.y_velocity *= damped
+                a -= t
+                if a < t:
+                    break
+        if move_x:
+            bx += self.x_offset * v.mix * s.x
+        if move_y:
+            by += self.y_offset * v.mix * s.y
+        return a, bx, by, damped
+
+    def _rotate(self, a_: float, c_: float, wx: float, wy: float, limit: float, length: float, v: _Values,
+                damped: float) -> float:
+        """The bone's turn since the last frame added to the rotation and scale offsets, the
+        springs stepped; returns the time left over."""
+        s = self.s
+        turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0
+        ca = math.atan2(c_, a_)
+        mr = 0.0
+        dx = min(max(self.cx - wx, -limit), limit)
+        dy = min(max(self.cy - wy, -limit), limit)
+        if turn:
+            mr = (s.rotate + s.shear_x) * v.mix
+            r = math.atan2(dy + self.ty, dx + self.tx) - ca - self.rotate_offset * mr
+            self.rotate_offset += (r - math.ceil(r / (2 * math.pi) - 0.5) * 2 * math.pi) * v.inertia
+            r = self.rotate_offset * mr + ca
+        else:
+            r = ca
+        c, sn = math.cos(r), math.sin(r)
+        if scale:
+            r = length * math.hypot(a_, c_)
+            if r > 0:
+                self.scale_offset += (dx * c + dy * sn) * v.inertia / r
+        a, t = self.remaining, s.step
+        if a >= t:
+            if damped == -1:
+                damped = v.damping ** (60 * t)
+            m, h = v.mass_inverse * t, length / s.reference_scale
+            while True:
+                a -= t
+                if scale:
+                    self.scale_velocity += (v.wind * c - v.gravity * sn - self.scale_offset * v.strength) * m
+                    self.scale_offset += self.scale_velocity * t
+                    self.scale_velocity *= damped
+                if turn:
+                    self.rotate_velocity -= ((v.wind * sn + v.gravity * c) * h + self.rotate_offset * v.strength) * m
+                    self.rotate_offset += self.rotate_velocity * t
+                    self.rotate_velocity *= damped
+                    if a < t:
+                        break
+                    r = self.rotate_offset * mr + ca
+                    c, sn = math.cos(r), math.sin(r)
+                elif a < t:
+                    break
+        return a
+
+    def _turn_and_scale(self, a, b, c, d, mix):
+        s = self.s
+        if s.rotate > 0 or s.shear_x > 0:
+            o = self.rotate_offset * mix
+            if s.shear_x > 0:
+                r = 0.0
+                if s.rotate > 0:
+                    r = o * s.rotate
+                    sn, cs = math.sin(r), math.cos(r)
+                    b, d = cs * b - sn * d, sn * b + cs * d
+                r += o * s.shear_x
+                sn, cs = math.sin(r), math.cos(r)
+                a, c = cs * a - sn * c, sn * a + cs * c
+            else:
+                o *= s.rotate
+                sn, cs = math.sin(o), math.cos(o)
+                a, c = cs * a - sn * c, sn * a + cs * c
+                b, d = cs * b - sn * d, sn * b + cs * d
+        if s.scale_x > 0:
+            k = 1 + self.scale_offset * mix * s.scale_x
+            a, c = a * k, c * k
+        return a, b, c, d
