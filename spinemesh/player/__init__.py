@@ -1,7 +1,7 @@
 """The preview's animation player: original and upgraded skeletons side by side, one time line.
 
-Python samples the poses (:mod:`.frames`: every drawn attachment's world vertices, frame by
-frame, quantised) and writes them as small scripts beside the pages (:mod:`.page`,
+Python samples the poses with :mod:`spinemesh.anim` (:mod:`.frames`: every drawn
+attachment's world vertices, frame by frame, quantised) and writes them as small scripts beside the pages (:mod:`.page`,
 :mod:`.files`); the page's player (:file:`player.js`) draws textured triangles from the page's
 images on a 2D canvas. Chosen over pre-rendered frames (pictures weigh far more than
 vertices, and wireframes and bone colours would double them) and over WebGL (absent in
@@ -9,7 +9,7 @@ headless browsers without a GPU); it works from a ``file://`` URL with no networ
 """
 
 from .files import PreviewFolder, safe_name
-from .frames import Drawn, setup_pose
-from .page import PLAYER_CSS, Animation, still, write_player
+from .frames import Animation, Drawn, animations
+from .page import PLAYER_CSS, write_player
 
-__all__ = ["PLAYER_CSS", "Animation", "Drawn", "PreviewFolder", "safe_name", "setup_pose", "still", "write_player"]
+__all__ = ["PLAYER_CSS", "Animation", "Drawn", "PreviewFolder", "animations", "safe_name", "write_player"]

@@ -18,21 +18,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..attachment_geometry import region_quad_transform
-from ..skeleton import AttachmentRef, image_paths, iter_skins
-
-#: Bone colours (RGB) of the "vertices coloured by bone" view, one per bone, repeated.
-from ..rig.preview import PALETTE
+from ..rig.preview import PALETTE  # the bones' colours of the weights pictures, here by vertex
+from ..skeleton import iter_skins
 
 #: Blend modes by the number the player uses (the runtimes' names; 3.x "additive" too).
 BLENDS = {"normal": 0, "additive": 1, "multiply": 2, "screen": 3}
 
-#: Animations longer than this are sampled more sparsely so that each keeps at most
-#: :data:`MAX_FRAMES` frames, and each animation script holds at most :data:`MAX_VALUES`
-#: vertex coordinates (2 bytes each before base64): a stated budget per animation.
+#: The budget of the player's data: animations are sampled at :data:`FPS` frames a second,
+#: more sparsely where an animation would pass :data:`MAX_FRAMES` frames or its script
+#: :data:`MAX_VALUES` vertex coordinates (2 bytes each before base64, so at most 4 MB of
+#: script, loaded only when that animation is chosen); a skeleton's animations are sampled in
+#: at most :data:`MAX_SKINS` skins (its setup pose's first), and at most :data:`MAX_POSES`
+#: poses per skeleton and side in all, fewer frames a second where needed (the time it takes
+#: to write: about 3 ms a pose).
 FPS = 30
 MAX_FRAMES = 300
 MAX_VALUES = 1_500_000
+MAX_SKINS = 4
+MAX_POSES = 4000
 
 
 @dataclass
@@ -41,48 +44,39 @@ class Drawn:
 
     Attributes
     ----------
-    key : (skin, slot, attachment name)
-    attachment : dict
-        The region or mesh attachment.
+    key : (skin, slot, attachment key)
     image : str or None
-        The image path it draws (a sequence: its setup frame).
+        The image path it draws (a sequence: the frame shown).
     world : ndarray, shape (N, 2)
-        Vertex positions in world units (y up); a region's 4 corners of the part its atlas
-        stores, in UV order (0,0) (1,0) (1,1) (0,1) of that part.
+        Vertex positions in world units (y up).
+    uvs : ndarray, shape (N, 2)
+        The same vertices in the attachment's original image (u right, v down, 0..1).
+    triangles : ndarray, shape (3T,)
+    mesh : bool
+        A mesh (else a region).
     alpha : float
-        0..1, the slot's and the attachment's alpha multiplied.
+        0..1: the skeleton's, the slot's and the attachment's alpha multiplied.
+    tint : (float, float, float)
+        0..1: their colours multiplied, the same way (what the image's colour is multiplied by).
     blend : str
         The slot's blend mode.
     bones : ndarray, shape (N, 3), optional
         Colour (RGB 0..255) of each vertex by its bones: the bones' colours mixed by weight.
+    clipped : bool
+        A clipping attachment clips it (the player does not clip).
     """
 
     key: tuple[str, str, str]
-    attachment: dict
     image: str | None
     world: np.ndarray
+    uvs: np.ndarray
+    triangles: np.ndarray
+    mesh: bool = False
     alpha: float = 1.0
+    tint: tuple = (1.0, 1.0, 1.0)
     blend: str = "normal"
     bones: np.ndarray | None = None
-
-
-def region_uvs(content: tuple[int, int, int, int] | None, width: int, height: int) -> np.ndarray:
-    """UV corners (4, 2) of the part of an image a region draws: its stored ``content`` box
-    ``(x0, y0, x1, y1)`` in pixels of a ``width`` x ``height`` image (the whole image when None)."""
-    if content is None:
-        return np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
-    x0, y0, x1, y1 = content
-    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float) / (width, height)
-
-
-def texture(att: dict, content=None, size=None) -> tuple[np.ndarray, np.ndarray]:
-    """UVs (N, 2) and triangles (M, 3) an attachment is drawn with; ``content`` and ``size``
-    ((width, height)) of its image for a region (:func:`region_uvs`)."""
-    if att.get("type", "region") == "region":
-        w, h = size or (1, 1)
-        return region_uvs(content, w, h), np.array([[0, 1, 2], [0, 2, 3]])
-    uvs = np.asarray(att.get("uvs", []), float).reshape(-1, 2)
-    return uvs, np.asarray(att.get("triangles", []), int).reshape(-1, 3)
+    clipped: bool = False
 
 
 def pose_skins(doc: dict) -> list[str]:
@@ -100,90 +94,70 @@ def pose_skins(doc: dict) -> list[str]:
     return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
 
 
-def _colour_alpha(value, default: float = 1.0) -> float:
-    """Alpha of an ``RRGGBBAA`` colour (or ``default``)."""
-    if isinstance(value, str) and len(value) == 8:
-        try:
-            return int(value[6:], 16) / 255
-        except ValueError:
-            return default
-    return default
-
-
-def bone_colours(att: dict, bone_count: int, slot_bone: int) -> np.ndarray:
-    """Per-vertex RGB (N, 3) of an attachment: its bones' :data:`PALETTE` colours mixed by
-    weight (a region or an unweighted mesh: its slot bone's colour)."""
+def bone_colours(att: dict | None, count: int, bone_count: int, slot_bone: int) -> np.ndarray:
+    """Per-vertex RGB (count, 3) of an attachment: its bones' :data:`PALETTE` colours mixed by
+    weight (a region, an unweighted or a linked mesh: its slot bone's colour)."""
+    from ..errors import SpineMeshError
     from ..rig.binding import parse_vertices
 
-    palette = PALETTE
-    if att.get("type", "region") != "mesh":
-        return np.tile(palette[slot_bone % len(palette)], (4, 1))
-    mesh = parse_vertices(att, bone_count)
-    if not mesh.weighted:
-        return np.tile(palette[slot_bone % len(palette)], (mesh.count, 1))
-    out = np.zeros((mesh.count, 3))
+    own = np.tile(PALETTE[slot_bone % len(PALETTE)], (count, 1))
+    if not isinstance(att, dict) or att.get("type") != "mesh":
+        return own
+    try:
+        mesh = parse_vertices(att, bone_count)
+    except (SpineMeshError, TypeError, ValueError, IndexError):
+        return own
+    if not mesh.weighted or mesh.count != count:
+        return own
+    out = np.zeros((count, 3))
     for v, entry in enumerate(mesh.influences):
         for b, _, _, w in entry:
-            out[v] += w * palette[b % len(palette)]
+            out[v] += w * PALETTE[b % len(PALETTE)]
     return out.clip(0, 255)
 
 
-def setup_pose(doc: dict, content=None, skins: list[str] | None = None) -> list[Drawn]:
-    """The attachments a skeleton's setup pose draws, in draw order.
+class PoseSampler:
+    """Poses of one skeleton as the player draws them, through :class:`spinemesh.anim.Sampler`.
 
     Parameters
     ----------
     doc : dict
         The skeleton.
-    content : callable, optional
-        ``content(image path) -> ((x0, y0, x1, y1), (width, height))`` or None: the part of an
-        image its atlas stores, for regions (default: the whole image).
-    skins : list of str, optional
-        Skins looked in, first match first (default :func:`pose_skins`).
-
-    Malformed attachments (bad numbers, bone indices) are left out; the rest is drawn.
+    skin : str or None
+        The skin shown (None: the default skin only).
+    regions : callable, optional
+        ``regions(path)``, the atlas regions (:func:`spinemesh.anim.atlas_regions`): a region
+        quad follows its region's trimming.
     """
-    from ..errors import SpineMeshError
-    from ..rig.binding import parse_vertices, setup_world
-    from ..rig.bones import skeleton_bones
 
-    bones = skeleton_bones(doc)
-    by_name = {b.name: b for b in bones}
-    worlds = [b.world for b in bones]
-    all_skins = dict(iter_skins(doc))
-    order = pose_skins(doc) if skins is None else [s for s in skins if s in all_skins]
-    out = []
-    for slot in doc.get("slots", []):
-        if not isinstance(slot, dict) or slot.get("attachment") is None or slot.get("bone") not in by_name:
-            continue
-        name = str(slot["attachment"])
-        found = [(k, all_skins[k][slot.get("name")][name]) for k in order
-                 if isinstance((all_skins[k].get(slot.get("name")) or {}).get(name), dict)]
-        if not found:
-            continue
-        skin, att = found[0]
-        kind = att.get("type", "region")
-        bone = by_name[slot["bone"]]
-        paths = image_paths(AttachmentRef(skin, slot.get("name"), name, att)) if kind in ("region", "mesh") else []
-        try:
-            if kind == "region":
-                box = content(paths[0]) if content is not None and paths else None
-                uvs = region_uvs(box[0], *box[1]) if box else region_uvs(None, 1, 1)
-                quad = region_quad_transform(att)
-                world = (uvs @ quad[:, :2].T + quad[:, 2]) @ bone.world[:, :2].T + bone.world[:, 2]
-            elif kind == "mesh":
-                world = setup_world(parse_vertices(att, len(worlds)), worlds, bone.index)
-            else:
+    def __init__(self, doc: dict, skin: str | None, regions=None):
+        from ..anim import Sampler
+
+        self.doc = doc
+        self.sampler = Sampler(doc, skin, regions)
+        self.skins = dict(iter_skins(doc))
+        self.bone_index = {n: i for i, n in enumerate(self.sampler.bone_names)}
+        self._colours: dict = {}
+
+    def pose(self, animation: str | None, time: float) -> tuple[list[Drawn], dict[str, str]]:
+        """The attachments drawn at ``time`` of ``animation`` (None: the setup pose), in draw
+        order, and the bones not posed as a runtime poses them (name -> why)."""
+        pose = self.sampler.pose(animation, time)
+        out = []
+        for s in pose.slots:
+            world = np.asarray(s.vertices, float)
+            if not len(world) or not np.isfinite(world).all():
                 continue
-            colours = bone_colours(att, len(worlds), bone.index)
-        except (SpineMeshError, TypeError, ValueError, IndexError, KeyError):
-            continue
-        if not np.isfinite(world).all():
-            continue
-        alpha = _colour_alpha(slot.get("color")) * _colour_alpha(att.get("color"))
-        out.append(Drawn((skin, slot.get("name"), name), att, paths[0] if paths else None, world, alpha,
-                         str(slot.get("blend", "normal")), colours))
-    return out
+            key = (s.skin, s.slot, s.key)
+            if (key, len(world)) not in self._colours:
+                att = ((self.skins.get(s.skin) or {}).get(s.slot) or {}).get(s.key)
+                self._colours[key, len(world)] = bone_colours(att, len(world), len(self.bone_index),
+                                                              self.bone_index.get(s.bone, 0))
+            out.append(Drawn(key, s.path or None, world, np.asarray(s.uvs, float).reshape(-1, 2),
+                             np.asarray(s.triangles, int).ravel(), s.type == "mesh", float(s.color[3]),
+                             tuple(float(c) for c in s.color[:3]), s.blend,
+                             self._colours[key, len(world)], s.clip is not None))
+        return out, dict(pose.why)
 
 
 @dataclass
@@ -191,12 +165,10 @@ class SideTable:
     """The attachments one side of the player draws, each given an index once.
 
     ``image_index(path) -> int or None`` gives the page's index of an image (None: not
-    available, the attachment is drawn as its outline); ``content(path)`` as in
-    :func:`setup_pose`.
+    available; the attachment is then left out of the picture but kept in the wireframe).
     """
 
     image_index: object
-    content: object = None
     keys: dict = field(default_factory=dict)
     rows: list = field(default_factory=list)
 
@@ -204,17 +176,14 @@ class SideTable:
         """The table index of ``d``'s attachment, added on first sight."""
         key = (d.key, d.image, len(d.world))
         if key not in self.keys:
-            box = self.content(d.image) if self.content is not None and d.image else None
-            uvs, tris = texture(d.attachment, *(box if box else (None, None)))
             self.keys[key] = len(self.rows)
-            colours = d.bones if d.bones is not None and len(d.bones) == len(uvs) else np.full((len(uvs), 3), 128)
+            colours = d.bones if d.bones is not None and len(d.bones) == len(d.uvs) else np.full((len(d.uvs), 3), 128)
             self.rows.append({
                 "name": "/".join(map(str, d.key)),
                 "img": self.image_index(d.image) if d.image else None,
-                "uv": [round(float(v), 5) for v in uvs.ravel()],
-                "t": [int(v) for v in tris.ravel()],
-                "hull": int(d.attachment.get("hull", len(uvs))) if d.attachment.get("type") == "mesh" else 4,
-                "mesh": d.attachment.get("type") == "mesh",
+                "uv": [round(float(v), 5) for v in d.uvs.ravel()],
+                "t": [int(v) for v in d.triangles],
+                "mesh": d.mesh,
                 "c": "".join(f"{int(r):02x}{int(g):02x}{int(b):02x}" for r, g, b in np.round(colours)),
             })
         return self.keys[key]
@@ -233,7 +202,7 @@ def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
 
 def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
     """One side of an animation: ``draws`` (per frame: count, then per attachment its table
-    index, alpha 0..255 and blend) and ``xy`` (every vertex, frame after frame, quantised to
+    index, alpha 0..255, blend and tint as one 24-bit RGB number) and ``xy`` (every vertex, frame after frame, quantised to
     0..65535 over ``box``, little-endian uint16, base64)."""
     x0, y0, x1, y1 = box
     span = np.array([x1 - x0, y1 - y0])
@@ -242,19 +211,105 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
     for pose in poses:
         draws.append(len(pose))
         for d in pose:
-            draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0)]
+            r, g, b = (int(round(255 * min(max(c, 0.0), 1.0))) for c in d.tint)
+            draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0),
+                      (r << 16) | (g << 8) | b]
             xy.append(d.world)
     q = np.concatenate(xy) if xy else np.zeros((0, 2))
     q = np.round((q - (x0, y0)) / span * 65535).clip(0, 65535).astype("<u2")
     return {"draws": draws, "xy": base64.b64encode(q.tobytes()).decode("ascii")}
 
 
-def frame_times(duration: float, vertices_per_frame: int, fps: float = FPS) -> np.ndarray:
-    """Times (seconds) an animation of ``duration`` is sampled at: ``fps`` per second, fewer
-    when the animation would pass :data:`MAX_FRAMES` frames or :data:`MAX_VALUES` coordinates
-    (``vertices_per_frame`` the most a frame draws); one frame (t = 0) for a still pose."""
+def frame_rate(duration: float, vertices_per_frame: int, fps: float = FPS) -> float:
+    """Frames a second an animation of ``duration`` is sampled at: ``fps``, fewer when it would
+    pass :data:`MAX_FRAMES` frames or :data:`MAX_VALUES` coordinates (``vertices_per_frame``
+    the most a frame draws). Frame ``i`` is the pose at ``i / rate`` seconds, for every such
+    time before ``duration`` (one frame, t = 0, for a still pose)."""
     if duration <= 0:
-        return np.zeros(1)
+        return float(fps)
     budget = max(1, min(MAX_FRAMES, MAX_VALUES // max(1, 2 * vertices_per_frame)))
-    n = int(min(budget, max(1, np.ceil(duration * fps))))
-    return np.arange(n) * (duration / n)
+    return float(min(fps, budget / duration))
+
+
+def frame_times(duration: float, rate: float) -> np.ndarray:
+    """The times (seconds) of the frames: ``i / rate`` for every one before ``duration``."""
+    n = max(1, int(np.ceil(duration * rate - 1e-9))) if duration > 0 else 1
+    return np.arange(n) / rate
+
+
+@dataclass
+class Animation:
+    """One animation of the player: its name and duration (seconds), per skin the poses of both
+    sides at its sampled times (``{skin: (before poses, after poses)}``), and a note shown
+    with it (what the page could not reproduce)."""
+
+    name: str
+    duration: float
+    by_skin: dict = field(default_factory=dict)
+    note: str = ""
+    rate: float = FPS  # frames a second: frame i is the pose at i / rate seconds
+
+
+def sampled_skins(doc: dict) -> list[str]:
+    """The skins the player offers, at most :data:`MAX_SKINS`: the setup pose's first."""
+    order = pose_skins(doc)
+    rest = [k for k, _ in iter_skins(doc) if k not in order]
+    return (order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
+
+
+def _note(why: dict[str, str], clipped: bool) -> str:
+    parts = []
+    if why:
+        names = sorted(why)
+        parts.append(f"Not as a game shows it: {', '.join(names[:5])}{' and more' if len(names) > 5 else ''} "
+                     f"({next(iter(why.values()))}).")
+    if clipped:
+        parts.append("Clipping attachments are not applied here.")
+    return " ".join(parts)
+
+
+def animations(before: dict, after: dict, regions=None, problems: list | None = None) -> list[Animation]:
+    """The setup pose and every animation of a skeleton, original (``before``) and upgraded
+    (``after``), sampled for the player within the stated budget (:data:`MAX_POSES`).
+
+    An animation that cannot be sampled is left out with one line in ``problems``.
+    """
+    from ..errors import SpineMeshError
+
+    skins = sampled_skins(after)
+    sides = {skin: (PoseSampler(before, None if skin == "default" else skin, regions),
+                    PoseSampler(after, None if skin == "default" else skin, regions)) for skin in skins}
+    first = sides[skins[0]][1]
+    setup = {skin: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for skin, (b, a) in sides.items()}
+    out = [Animation("setup pose", 0.0, setup)]
+    names = first.sampler.animation_names()
+    durations = {}
+    for name in names:
+        try:
+            durations[name] = max(0.0, float(first.sampler.duration(name)))
+        except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:
+            (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
+    vertices = max((sum(len(d.world) for d in pose) for b, a in setup.values() for pose in b + a), default=1)
+    per_second = min(float(FPS), MAX_POSES / max(1e-6, len(skins) * sum(durations.values())))
+    for name, duration in durations.items():
+        rate = frame_rate(duration, vertices, max(per_second, 1.0))
+        times = frame_times(duration, rate)
+        anim = Animation(name, duration, rate=rate)
+        why: dict[str, str] = {}
+        clipped = False
+        try:
+            for skin, (b, a) in sides.items():
+                poses = [], []
+                for t in times:
+                    for side, sampler in zip(poses, (b, a)):
+                        drawn, not_exact = sampler.pose(name, float(t))
+                        side.append(drawn)
+                        why.update(not_exact)
+                        clipped = clipped or any(d.clipped for d in drawn)
+                anim.by_skin[skin] = poses
+        except (SpineMeshError, KeyError, ValueError, TypeError, IndexError, ZeroDivisionError) as e:
+            (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
+            continue
+        anim.note = _note(why, clipped)
+        out.append(anim)
+    return out

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import html
 import json
-from dataclasses import dataclass, field
 from importlib import resources
 
 from .files import PreviewFolder
-from .frames import Drawn, SideTable, bounds, encode_frames
+from .frames import Animation, SideTable, bounds, encode_frames
 
 #: The player's styles, for the pages that show it.
 PLAYER_CSS = """
@@ -32,17 +31,6 @@ def player_script() -> str:
     return resources.files(__package__).joinpath("player.js").read_text(encoding="utf-8")
 
 
-@dataclass
-class Animation:
-    """One animation of the player: its name and duration (seconds), and per skin the poses
-    of both sides at its sampled times (``{skin: (before poses, after poses)}``)."""
-
-    name: str
-    duration: float
-    by_skin: dict = field(default_factory=dict)
-    note: str = ""
-
-
 def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: list[Animation],
                  image_of) -> str:
     """Write the scripts of one skeleton's player and return the HTML that shows it.
@@ -58,33 +46,24 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
     animations : list of Animation
         At least one (the setup pose as a still animation when nothing else).
     image_of : callable
-        ``image_of(image path) -> (rgba, content box) or None``: the attachment's image as
-        :class:`spinemesh.images.RegionImage` gives it.
+        ``image_of(image path) -> rgba or None``: the attachment's original image (what
+        :class:`spinemesh.images.RegionImage` gives), RGBA (H, W, 4) uint8.
     """
     up = "../" * page_rel.count("/")
     if "player.js" not in folder.sizes:
         folder.write_text("player.js", player_script())
     images: list[str] = []
     index: dict[str, int | None] = {}
-    boxes: dict[str, tuple] = {}
 
     def image_index(path: str) -> int | None:
         if path not in index:
-            got = image_of(path)
-            if got is None:
-                index[path] = None
-            else:
-                rgba, content = got
-                boxes[path] = (content, (rgba.shape[1], rgba.shape[0]))
+            rgba = image_of(path)
+            index[path] = None if rgba is None else len(images)
+            if rgba is not None:
                 images.append(up + folder.image(rgba))
-                index[path] = len(images) - 1
         return index[path]
 
-    def content(path: str):
-        image_index(path)
-        return boxes.get(path)
-
-    tables = {side: SideTable(image_index, content) for side in ("before", "after")}
+    tables = {side: SideTable(image_index) for side in ("before", "after")}
     skins = list(dict.fromkeys(s for a in animations for s in a.by_skin))
     anims = []
     for i, a in enumerate(animations):
@@ -93,7 +72,7 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
             box = bounds(before + after)
             pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
             box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
-            data = {"n": len(before), "dur": a.duration, "box": [round(v, 4) for v in box], "note": a.note,
+            data = {"n": len(before), "fps": a.rate, "dur": a.duration, "box": [round(v, 4) for v in box], "note": a.note,
                     "before": encode_frames(before, tables["before"], box),
                     "after": encode_frames(after, tables["after"], box)}
             rel = f"data/{pid}/{i}.{skins.index(skin)}.js"
@@ -106,10 +85,4 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
                       f"SM.model({json.dumps(pid)},{json.dumps(model, separators=(',', ':'))});\n")
     return (f'<div class="player" id="player-{html.escape(pid)}"></div>'
             f'<script src="{up}player.js"></script><script src="{up}data/{html.escape(pid)}/model.js"></script>')
-
-
-def still(before: list[Drawn], after: list[Drawn], skin: str = "setup", name: str = "setup pose",
-          note: str = "") -> Animation:
-    """The setup pose (or any one pose) as a still animation of the player."""
-    return Animation(name, 0.0, {skin: ([before], [after])}, note)
 

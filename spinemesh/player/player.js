@@ -2,12 +2,13 @@
  *
  * Data comes from scripts beside the page (file:// pages may load <script src>, not fetch):
  * SM.model(id, model) once per skeleton, SM.frames(key, frames) per animation and skin, loaded
- * when chosen. Each frame lists the attachments drawn (table index, alpha, blend) and their
+ * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint) and their
  * vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D canvas, each
  * an affine map of its image clipped to the triangle (one clip and one draw when a whole
  * attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
  *
- * Test hooks (read from the page's #hash): play=A (start animation A playing); test=S (play S
+ * Page options in its #hash: play=A (start animation A playing); wire=1, bones=1 (the toggles
+ * on). Test hooks: test=S (play S
  * seconds of page time, then write times and canvas checksums to <pre id="sm-test">);
  * at=A,T[,x,y,w,h,ppu] (animation A paused at T seconds, drawn in that world frame at ppu pixels
  * per unit; both canvases then written as PNG data to <pre id="sm-test">).
@@ -63,7 +64,7 @@
     while (p < d.length) {
       starts.push([p, v]);
       var n = d[p++];
-      for (var i = 0; i < n; i++) { v += table[d[p]].uv.length; p += 3; }
+      for (var i = 0; i < n; i++) { v += table[d[p]].uv.length; p += 4; }
     }
     return { draws: d, xy: xy, starts: starts };
   }
@@ -119,6 +120,27 @@
       return P.images[i].complete && P.images[i].naturalWidth ? P.images[i] : null;
     }
 
+    /* The image multiplied by a tint (24-bit RGB), its alpha kept: kept for reuse, a few hundred at most. */
+    var tints = {}, tintCount = 0;
+    function tinted(i, rgb) {
+      var im = image(i);
+      if (!im || rgb === 0xffffff) return im;
+      var key = i + ":" + rgb;
+      if (!tints[key]) {
+        if (++tintCount > 300) { tints = {}; tintCount = 1; }
+        var c = document.createElement("canvas"), x = c.getContext("2d");
+        c.width = im.naturalWidth; c.height = im.naturalHeight;
+        x.drawImage(im, 0, 0);
+        x.globalCompositeOperation = "multiply";
+        x.fillStyle = "#" + (0x1000000 + rgb).toString(16).slice(1);
+        x.fillRect(0, 0, c.width, c.height);
+        x.globalCompositeOperation = "destination-in";
+        x.drawImage(im, 0, 0);
+        tints[key] = c;
+      }
+      return tints[key];
+    }
+
     function choose() {
       var a = model.anims[P.anim], skin = model.skins[P.skin];
       var src = a.src[skin] || a.src[model.skins[0]];
@@ -144,7 +166,7 @@
         var w, h;
         if (v) { w = Math.max(1, Math.round(v[2] * v[4])); h = Math.max(1, Math.round(v[3] * v[4])); }
         else {
-          var k = Math.min(440 / (b[2] - b[0]), 440 / (b[3] - b[1]));
+          var k = Math.min(400 / (b[2] - b[0]), 400 / (b[3] - b[1]));
           w = Math.max(40, Math.round((b[2] - b[0]) * k) + 20); h = Math.max(40, Math.round((b[3] - b[1]) * k) + 20);
         }
         s.canvas.width = w; s.canvas.height = h;
@@ -155,13 +177,13 @@
     function mapping() {
       var b = P.data.box, sx = (b[2] - b[0]) / 65535, sy = (b[3] - b[1]) / 65535, k, ox, oy;
       if (P.view) { var v = P.view; k = v[4]; ox = -v[0] * k; oy = (v[1] + v[3]) * k; }
-      else { k = Math.min(440 / (b[2] - b[0]), 440 / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
+      else { k = Math.min(400 / (b[2] - b[0]), 400 / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
       return function (qx, qy) { return [ox + (b[0] + qx * sx) * k, oy - (b[1] + qy * sy) * k]; };
     }
 
     function frameIndex() {
-      var n = P.data.n;
-      return Math.min(n - 1, Math.max(0, Math.floor(P.t / P.data.dur * n + 1e-6))) || 0;
+      var n = P.data.n; /* frame i is the pose at i / fps seconds */
+      return Math.min(n - 1, Math.max(0, Math.floor(P.t * P.data.fps + 1e-6))) || 0;
     }
 
     function drawSide(s, side, table, f, map) {
@@ -170,15 +192,15 @@
       ctx.clearRect(0, 0, s.canvas.width, s.canvas.height);
       var n = d[p++], lines = [], dots = [];
       for (var i = 0; i < n; i++) {
-        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2];
-        p += 3;
+        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3];
+        p += 4;
         var nv = row.uv.length / 2, pts = new Array(2 * nv);
         for (var j = 0; j < nv; j++) {
           var c = map(xy[v + 2 * j], xy[v + 2 * j + 1]);
           pts[2 * j] = c[0]; pts[2 * j + 1] = c[1];
         }
         v += 2 * nv;
-        var im = image(row.img);
+        var im = tinted(row.img, tint);
         ctx.globalAlpha = alpha;
         ctx.globalCompositeOperation = BLEND[blend] || "source-over";
         if (im) drawTextured(ctx, im, row, pts);
@@ -210,7 +232,7 @@
     }
 
     function drawTextured(ctx, im, row, pts) {
-      var W = im.naturalWidth, H = im.naturalHeight, uv = row.uv, t = row.t;
+      var W = im.naturalWidth || im.width, H = im.naturalHeight || im.height, uv = row.uv, t = row.t;
       var src = new Array(uv.length);
       for (var i = 0; i < uv.length; i += 2) { src[i] = uv[i] * W; src[i + 1] = uv[i + 1] * H; }
       /* one affine map for the whole attachment? */
@@ -300,6 +322,8 @@
     SM.players[id] = P;
 
     var h = hashParams();
+    if (h.wire) { wire.checked = P.wire = true; }
+    if (h.bones) { bones.checked = P.bones = true; }
     if (h.play !== undefined) { P.anim = +h.play || 0; animSel.value = P.anim; }
     if (h.at !== undefined) {
       var at = h.at.split(",").map(Number);
@@ -310,6 +334,8 @@
     if (h.play !== undefined || h.test !== undefined) setPlaying(true);
     if (h.test !== undefined || h.at !== undefined) selftest(P, sides, +(h.test || 0), h.at !== undefined);
   };
+
+  function frameOf(P) { return Math.min(P.data.n - 1, Math.floor(P.t * P.data.fps + 1e-6)); }
 
   function checksum(canvas) {
     var px = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height).data, s = 0;
@@ -327,7 +353,7 @@
         var pending = P.model.images.filter(function (_, i) { return P.images[i] && !(P.images[i].complete); });
         if (pending.length) { setTimeout(sample, 50); return; }
         P.draw();
-        out.textContent = JSON.stringify({ t: P.t, frame: Math.floor(P.t / P.data.dur * P.data.n + 1e-6),
+        out.textContent = JSON.stringify({ t: P.t, frame: frameOf(P),
           before: sides[0].canvas.toDataURL("image/png"), after: sides[1].canvas.toDataURL("image/png") });
         return;
       }

@@ -345,21 +345,22 @@ def twin_of(rels: list[str], signatures: dict[str, str], binary: dict[str, bool]
 
 # --- a skeleton's page ----------------------------------------------------------------------
 
-def _player(folder: PreviewFolder, pid: str, page_rel: str, before: dict, after: dict, source) -> str:
-    """The player of one skeleton: both sides' poses, for now the setup pose of each skin."""
-    from ..player import setup_pose, still, write_player
-    from ..player.frames import pose_skins
+def _player(folder: PreviewFolder, pid: str, page_rel: str, before: dict, after: dict, source,
+            problems: list[str]) -> str:
+    """The player of one skeleton: its setup pose and every animation, both sides."""
+    from ..anim import atlas_regions
+    from ..images import AtlasImages
+    from ..player import animations, write_player
 
-    content = None
-    if source is not None:
-        def content(path):
-            got = source.rgba_and_content(path)
-            return None if got is None else (got[1], (got[0].shape[1], got[0].shape[0]))
-    skins = pose_skins(after)
-    animation = still(setup_pose(before, content, pose_skins(before)), setup_pose(after, content, skins),
-                      skin=skins[0] if skins else "default")
-    return write_player(folder, pid, page_rel, [animation],
-                        (lambda p: source.rgba_and_content(p)) if source is not None else (lambda p: None))
+    regions = None
+    if source is not None and isinstance(source.source, AtlasImages):
+        regions = atlas_regions(source.source.atlases)
+
+    def image_of(path: str):
+        got = source.rgba_and_content(path) if source is not None else None
+        return None if got is None else got[0]
+
+    return write_player(folder, pid, page_rel, animations(before, after, regions, problems), image_of)
 
 
 def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list, all_targets: list,
@@ -403,10 +404,12 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
                                           "totals).</p>")] if more > 0 else [])
     twins = (f"<p>Also written as {html.escape(', '.join(sk.twins))}: the same skeleton, shown and counted "
              "once.</p>" if sk.twins else "")
+    problems: list[str] = []
+    player = _player(folder, pid, page_rel, before, after, source, problems)
     body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}</h1>{twins}'
             + _headline_html(rate_total, len(targets)) + _rate_table(rate_total)
             + "<h2>Original and upgraded, side by side</h2>"
-            + _player(folder, pid, page_rel, before, after, source)
+            + player + ("<ul>" + "".join(f"<li>{html.escape(p)}</li>" for p in problems) + "</ul>" if problems else "")
             + "<h2>Upgraded images, largest saving first</h2>"
             + (f'{_LEGEND}<div class="cards">{"".join(c for _, c in cards)}</div>' if cards else
                "<p>No attachment of this skeleton became a mesh.</p>")
