@@ -37,7 +37,7 @@ sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "scripts"))
 
 from spinemesh.anim import Sampler, atlas_regions  # noqa: E402
-from spinemesh.anim.dump import js_number, pose_errors  # noqa: E402
+from spinemesh.anim.dump import advance_clock, js_number, pose_errors  # noqa: E402
 from spinemesh.atlas import read_atlas  # noqa: E402
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project  # noqa: E402
@@ -135,8 +135,11 @@ def prove_skeleton(tool: Path, source: str, project: Path, skeleton: Path, work:
 
 def compare(sampler: Sampler, theirs: list[dict], row: Row) -> None:
     """Fill ``row`` from the harness's poses and ours at the same times."""
+    clock = 0.0   # the harness plays every pose on one skeleton, whose clock runs on
     for pose in theirs:
-        mine = sampler.pose(pose["anim"], pose["time"])
+        mine = sampler.pose(pose["anim"], pose["time"], clock=clock)
+        if pose["anim"] is not None:
+            clock = advance_clock(clock, pose["time"])
         ours = mine.to_dump()
         skip = set(mine.why)
         # Bones the skin does not use: the runtime leaves them unposed (nothing draws with them).

@@ -145,7 +145,7 @@ CASES = {
     "4.1/stretchyman/stretchyman-pro.json": "IK stretch, transform constraints",
     "4.0/tank/tank-pro.json": "path constraint, region sequences of treads",
     "4.1/vine/vine-pro.json": "path constraint on a weighted path",
-    "4.2/celestial-circus/celestial-circus-pro.json": "4.2 physics constraints stepped from time 0",
+    "4.2/cloud-pot/cloud-pot.json": "4.2 physics stepped frame by frame (under a parent with physics), reset keys",
 }
 
 

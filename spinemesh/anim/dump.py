@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .pose import Sampler
+from .pose import Sampler, steps_of
 
 
 def js_number(value: float) -> str:
@@ -25,7 +25,8 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
     """The setup pose, then ``animation`` at each of ``times``, in the harness's dump layout.
 
     ``step()``, when given, is called after each pose (a progress bar). A number that is not
-    finite (a degenerate pose) is written as null.
+    finite (a degenerate pose) is written as null. As the harness does, one skeleton plays
+    every pose: its clock (which 4.2 physics steps by) runs on from pose to pose.
 
     Returns
     -------
@@ -45,8 +46,11 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
             seen.add(label)
             poses.append((label, animation, float(t)))
     out = []
+    clock = 0.0
     for label, anim, t in poses:
-        pose = sampler.pose(anim, t, fps=fps)
+        pose = sampler.pose(anim, t, fps=fps, clock=clock)
+        if anim is not None:
+            clock = advance_clock(clock, t, fps)
         entry = {"label": label, "anim": anim, "time": t, **pose.to_dump()}
         entry["inexact"] = dict(pose.why)
         entry["inactive"] = [n for n, a in zip(pose.bones, pose.active) if not a]
@@ -64,6 +68,15 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
         },
         "poses": out,
     }
+
+
+def advance_clock(clock: float, time: float, fps: float = 60.0) -> float:
+    """The skeleton's clock after a pose at ``time`` played from ``clock`` (step by step, as
+    ``Skeleton.update`` adds each step)."""
+    steps, dt = steps_of(time, fps)
+    for _ in range(steps):
+        clock += dt
+    return clock
 
 
 def pose_errors(ours: dict, theirs: dict, skip_bones: set[str] = frozenset()) -> dict:

@@ -167,6 +167,15 @@ def _clean(v: float) -> float | None:
     return 0.0 if v == 0 else v  # no "-0.0"
 
 
+def steps_of(time: float, fps: float) -> tuple[int, float]:
+    """The harness's game-loop steps to reach ``time``: their count, ``round(time * fps)``, and
+    their length (0 and 0.0 for a time of 0)."""
+    if not math.isfinite(time) or time <= 0 or fps <= 0:
+        return 0, 0.0
+    steps = math.floor(time * fps + 0.5)
+    return steps, (time / steps if steps else 0.0)
+
+
 def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool = True) -> float:
     """The time within the animation that a game reaches at track time ``time``.
 
@@ -175,16 +184,10 @@ def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool =
     animation at ``track time % duration`` (the remainder carries the steps' rounding,
     which decides which side of a loop boundary a time on it falls).
     """
-    if not math.isfinite(time) or time <= 0:
-        return 0.0
-    steps = math.floor(time * fps + 0.5) if fps > 0 else 0
+    steps, dt = steps_of(time, fps)
     track = 0.0
-    if steps:
-        dt = time / steps
-        for _ in range(steps):
-            track += dt
-    else:
-        track = 0.0
+    for _ in range(steps):
+        track += dt
     if not loop:
         return track
     return math.fmod(track, duration) if duration > 0 else 0.0
@@ -301,14 +304,18 @@ class Sampler:
 
     # -- sampling ------------------------------------------------------------------------
     def pose(self, animation: str | None, time: float = 0.0, fps: float = 60.0, loop: bool = True,
-             physics: bool = True) -> Pose:
+             physics: bool = True, clock: float = 0.0) -> Pose:
         """The pose of ``animation`` at track time ``time`` (seconds); the setup pose when
         ``animation`` is None. See :func:`animation_time` for ``fps`` and ``loop``.
 
         With 4.2 physics constraints (and ``physics``), the game loop is replayed from time 0
         in steps of ``1 / fps`` s, as physics needs every frame before the pose: a pose then
         costs one bone update per step. Without ``physics`` the bones physics moves keep the
-        animation's pose and are flagged not exact.
+        animation's pose and are flagged not exact. ``clock`` is the skeleton's time when the
+        replay starts: physics steps by differences of it, and their rounding (a step taken a
+        frame later when the clock's sum falls just short of 1/60 s) depends on where it starts;
+        a game starts at 0, the harness carries it from one pose to the next
+        (:func:`spinemesh.anim.dump.dump` does too).
         """
         if animation is None:
             for state in self.physics:
@@ -316,7 +323,7 @@ class Sampler:
             frame = self._frame(None, 0.0, -1.0)
             world, exact, why = self._pose_bones(frame, simulated=True)
         elif physics and self.physics:
-            frame, world, exact, why = self._simulate(animation, time, fps, loop)
+            frame, world, exact, why = self._simulate(animation, time, fps, loop, clock)
         else:
             anim = self.animation(animation)[0]
             for state in self.physics:
@@ -332,18 +339,16 @@ class Sampler:
                 drawn.exact = bool(exact[used].all())
         return Pose(float(time), frame.time, list(self.bone_names), world, slots, exact, np.array(active), why)
 
-    def _simulate(self, animation: str, time: float, fps: float, loop: bool):
+    def _simulate(self, animation: str, time: float, fps: float, loop: bool, clock: float):
         """The harness's game loop: the setup pose with physics reset, the animation applied
         at track time 0, then ``round(time * fps)`` equal steps, physics updated at each."""
         anim = self.animation(animation)[0]
-        clock = 0.0
         for state in self.physics:
             state.clock, state.mode = clock, RESET
         self._pose_bones(self._frame(None, 0.0, -1.0), simulated=True)
         for state in self.physics:
             state.mode = UPDATE
-        steps = math.floor(time * fps + 0.5) if fps > 0 and math.isfinite(time) and time > 0 else 0
-        dt = time / steps if steps else 0.0
+        steps, dt = steps_of(time, fps)
         track, last = 0.0, -1.0
         for i in range(steps + 1):
             if i:
