@@ -97,3 +97,7 @@ def check_file_size(path, what: str) -> None:
 #: Decoded atlas pages a project keeps in memory at once (bytes of texels): each page is then
 #: decoded once however many skeletons share it, up to 64 pages of 2048x2048.
 MAX_PAGE_STORE_BYTES = 1 << 30
+
+#: Most game-loop steps (time times steps per second) ``spinemesh pose`` takes to reach one
+#: time: a pose with 4.2 physics replays every step from 0, a few milliseconds each.
+MAX_POSE_STEPS = 100_000

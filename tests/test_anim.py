@@ -188,10 +188,11 @@ def test_pose_command_writes_the_dump_layout(tmp_path):
     # Bad input: one line naming the file, no traceback; nothing written inside the project.
     for args, words in (((project / "arm.json", "-a", "walk"), "no animation 'walk'"),
                         ((project / "arm.json", "--skin", "red"), "no skin 'red'"),
-                        ((project / "arm.json", "--out", project / "p.json"), "inside the input")):
+                        ((project / "arm.json", "--out", project / "p.json"), "inside the input"),
+                        ((project / "arm.json", "-a", "turn", "--times", "1e9"), "game-loop steps")):
         r = _cli(*args)
         assert r.returncode == 2 and words in r.stderr and "Traceback" not in r.stderr, r.stderr
-        assert len(r.stderr.strip().splitlines()) == 1
+        assert len([line for line in r.stderr.splitlines() if words in line]) == 1
     assert sorted(p.name for p in project.iterdir()) == ["arm.json"]
 
 
@@ -205,3 +206,20 @@ def test_pose_command_reads_binary_skeletons(examples, tmp_path):
     sampler = Sampler(load_skeleton(skel), None, atlas_regions(read_atlas(skel.parent / "spineboy.atlas")))
     expected = json.loads(json.dumps(dump(sampler, "run", [0.4])["poses"][1]))
     assert written == expected
+
+
+def test_physics_is_stepped_and_play_follows_one_game_loop():
+    doc = {"skeleton": {"spine": "4.2.00"}, "bones": [{"name": "root"}, {"name": "drop", "parent": "root"}],
+           "slots": [], "physics": [{"name": "p", "bone": "drop", "y": 1, "strength": 0, "gravity": 70}],
+           "animations": {"idle": {"bones": {"root": {"rotate": [{"time": 2, "value": 0}]}}}}}
+    sampler = Sampler(doc)
+    ys = [sampler.pose("idle", t).bone("drop")[1, 2] for t in (0.0, 0.25, 0.5)]
+    assert ys[0] == 0 and 0 > ys[1] > ys[2]                 # gravity pulls it down, faster and faster
+    assert sampler.pose("idle", 0.5).exact.all()
+    unsimulated = sampler.pose("idle", 0.5, physics=False)
+    assert unsimulated.bone("drop")[1, 2] == 0 and not unsimulated.exact[1]
+    times = [0.0, 0.25, 0.5]
+    played = [p.bone("drop")[1, 2] for p in sampler.play("idle", times)]
+    assert np.allclose(played, ys, atol=1e-6)
+    with pytest.raises(ValueError):
+        list(sampler.play("idle", [0.5, 0.25]))

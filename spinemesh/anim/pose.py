@@ -321,15 +321,42 @@ class Sampler:
             for state in self.physics:
                 state.mode = RESET
             frame = self._frame(None, 0.0, -1.0)
-            world, exact, why = self._pose_bones(frame, simulated=True)
-        elif physics and self.physics:
-            frame, world, exact, why = self._simulate(animation, time, fps, loop, clock)
-        else:
-            anim = self.animation(animation)[0]
-            for state in self.physics:
-                state.mode = RESET
-            frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
-            world, exact, why = self._pose_bones(frame, simulated=False)
+            return self._finish(time, frame, *self._pose_bones(frame, simulated=True))
+        if physics and self.physics:
+            steps, dt = steps_of(time, fps)
+            return self._finish(time, *next(self._replay(animation, [steps], dt, loop, clock)))
+        anim = self.animation(animation)[0]
+        for state in self.physics:
+            state.mode = RESET
+        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
+        return self._finish(time, frame, *self._pose_bones(frame, simulated=False))
+
+    def play(self, animation: str, times, fps: float = 60.0, loop: bool = True, physics: bool = True):
+        """Poses of ``animation`` at each of ``times`` (seconds, ascending) along one game loop.
+
+        The loop advances in steps of exactly ``1 / fps`` s from 0, and a time is shown at the
+        step nearest to it, as a game or a player shows it: with physics, every time costs only
+        the steps since the one before (:meth:`pose` replays from 0 for each), so playing a
+        whole animation at 30 frames per second costs one pass. Poses without physics are
+        :meth:`pose`'s.
+
+        Yields
+        ------
+        Pose
+        """
+        times = [float(t) for t in times]
+        if any(b < a for a, b in zip(times, times[1:])):
+            raise ValueError("times must be ascending")
+        if not (physics and self.physics):
+            for t in times:
+                yield self.pose(animation, t, fps, loop, physics)
+            return
+        targets = [max(0, math.floor(t * fps + 0.5)) if math.isfinite(t) else 0 for t in times]
+        for t, result in zip(times, self._replay(animation, targets, 1 / fps, loop, 0.0)):
+            yield self._finish(t, *result)
+
+    def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict) -> Pose:
+        """The pose of a frame whose bones are posed: its drawn attachments."""
         active = [b.active for b in self.rig.bones]
         slots = self._draw(world, frame, active)
         if not exact.all():
@@ -339,18 +366,19 @@ class Sampler:
                 drawn.exact = bool(exact[used].all())
         return Pose(float(time), frame.time, list(self.bone_names), world, slots, exact, np.array(active), why)
 
-    def _simulate(self, animation: str, time: float, fps: float, loop: bool, clock: float):
+    def _replay(self, animation: str, targets: list[int], dt: float, loop: bool, clock: float):
         """The harness's game loop: the setup pose with physics reset, the animation applied
-        at track time 0, then ``round(time * fps)`` equal steps, physics updated at each."""
+        at track time 0, then steps of ``dt`` s, physics updated at each; yields
+        ``(frame, world, exact, why)`` at each step count of ``targets`` (ascending)."""
         anim = self.animation(animation)[0]
         for state in self.physics:
             state.clock, state.mode = clock, RESET
         self._pose_bones(self._frame(None, 0.0, -1.0), simulated=True)
         for state in self.physics:
             state.mode = UPDATE
-        steps, dt = steps_of(time, fps)
         track, last = 0.0, -1.0
-        for i in range(steps + 1):
+        pending = list(targets)
+        for i in range((pending[-1] if pending else 0) + 1):
             if i:
                 track += dt
                 clock += dt
@@ -360,7 +388,9 @@ class Sampler:
             frame = self._frame(animation, t, last)
             result = self._pose_bones(frame, simulated=True)
             last = t
-        return (frame, *result)
+            while pending and pending[0] == i:
+                pending.pop(0)
+                yield (frame, *result)
 
     def _frame(self, animation: str | None, t: float, last: float) -> _Frame:
         """Every timeline of ``animation`` applied at animation time ``t`` over the setup

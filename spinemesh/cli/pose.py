@@ -68,7 +68,12 @@ def pose(
     from ..skeleton import load_skeleton
     from ._app import progress_bar
 
+    from ..limits import MAX_POSE_STEPS
+
     seconds = _times(times)
+    if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
+        raise typer.BadParameter(f"{max(seconds):g} s at {fps:g} steps per second is over {MAX_POSE_STEPS:,} "
+                                 "game-loop steps; give times within the animation's loop", param_hint="--times")
     project = find_project(skeleton)
     check_outputs([project_folder(skeleton)], files=[out])
     doc = load_skeleton(skeleton)

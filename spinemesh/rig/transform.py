@@ -73,8 +73,7 @@ def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | 
     la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
     if parent is None:
         return np.array([[la, lb, x], [lc, ld, y]])
-    pa, pb, wx = (float(v) for v in parent[0])
-    pc, pd, wy = (float(v) for v in parent[1])
+    (pa, pb, wx), (pc, pd, wy) = parent.tolist()  # plain floats: faster than numpy scalars here
     world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
     if mode == "normal":
         m = (pa * la + pb * lc, pa * lb + pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
