@@ -297,3 +297,78 @@ def test_the_bending_prefilter_reaches_as_far_as_the_candidates_along_the_chain(
     direct = upgrade_choice(regions.rig, ref, regions.world(ref, QUAD_UV), QUAD_TRIANGLES)
     assert (choice.bones, choice.why, choice.left_out) == (direct.bones, direct.why, direct.left_out)
     assert "hand" in {regions.rig.bones[i].name for i in {**choice.why, **choice.left_out}}
+
+
+def _folder_bytes(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _rows(result) -> list[dict]:
+    return [{k: v for k, v in t.row().items() if k != "seconds"} for t in result.targets]
+
+
+def test_meshes_weighted_on_the_workers_give_the_output_of_this_process_byte_for_byte(tmp_path, monkeypatch):
+    """--weights auto with worker processes weights the meshes on them, a few per job: the
+    output and the report are those of one process, byte for byte (a mesh weighted on a worker
+    comes back to its own place in its document)."""
+    import spinemesh.rig.upgrade as rig_upgrade
+    from conftest import example_projects
+
+    project = next((p for p in example_projects("4.2") if p.name == "mix-and-match"), None)
+    if project is None:
+        from conftest import unavailable
+
+        unavailable("4.2 example mix-and-match absent")
+    monkeypatch.setattr(rig_upgrade, "MESHES_PER_JOB", 3)  # many jobs, out of order
+    calls = []
+    monkeypatch.setattr(rig_upgrade, "weighing_jobs",
+                        lambda *a, f=rig_upgrade.weighing_jobs: calls.append(1) or f(*a))
+    skeleton = project / "mix-and-match-pro.json"
+    here = upgrade_project(skeleton, tmp_path / "here", Options(weights="auto", jobs=1))
+    apart = upgrade_project(skeleton, tmp_path / "apart", Options(weights="auto", jobs=2))
+    assert not calls[1:], "one skeleton: its jobs made once, on the run with workers only"
+    assert calls, "the run with workers did not weigh on them"
+    weighted = [t for t in apart.targets if t.weights and t.weights["status"] == "weighted"]
+    assert len(weighted) > rig_upgrade.MESHES_PER_JOB, "too few meshes weighted to need several jobs"
+    assert _rows(here) == _rows(apart)
+    assert _folder_bytes(tmp_path / "here") == _folder_bytes(tmp_path / "apart")
+
+
+def test_a_weighing_job_whose_worker_is_lost_is_weighted_here_the_same_way(tmp_path):
+    """A lost worker costs time, not the output: its job's meshes are weighted in this process."""
+    from concurrent.futures import Future
+
+    from spinemesh.cluster import WorkerLost, Workers
+    from spinemesh.upgrade.meshing import mesh_tasks
+    from spinemesh.upgrade.write import apply_project
+
+    class LosingWorkers(Workers):
+        """Runs each job through pickling, as a process would, but loses the first."""
+
+        lost = 0
+
+        def submit(self, fn, arg, first=False):
+            import pickle
+
+            future = Future()
+            if not self.lost:
+                self.lost += 1
+                future.set_exception(WorkerLost("worker died"))
+            else:
+                future.set_result(fn(pickle.loads(pickle.dumps(arg))))
+            return future
+
+    project = find_project(make_bar_project(tmp_path / "p"))
+    plans = []
+    for workers in (None, LosingWorkers()):
+        plan = plan_project(project, Options(weights="auto"), Result())
+        apply_project(plan, mesh_tasks(plan.tasks, Workers()), workers=workers)
+        plans.append(plan)
+        assert workers is None or workers.lost == 1
+    (a,), (b,) = [[json.dumps(sk.doc) for sk in p.skeletons] for p in plans]
+    assert a == b and '"type": "mesh"' in a
+    assert _rows_of(plans[0]) == _rows_of(plans[1])
+
+
+def _rows_of(plan) -> list[dict]:
+    return [{k: v for k, v in t.row().items() if k != "seconds"} for sk in plan.skeletons for t in sk.targets]

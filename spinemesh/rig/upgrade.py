@@ -217,6 +217,50 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
             _settle_bending(ref, t, outcome)
 
 
+#: Most meshes one job of :func:`weight_apart` weighs: several jobs per skeleton keep every
+#: worker busy when one skeleton holds most of a project's meshes; each job carries its
+#: skeleton's rig and attachments, so not much fewer.
+MESHES_PER_JOB = 24
+
+
+def weighing_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> list[tuple]:
+    """The jobs of :func:`weight_apart` that together do what :func:`weight_upgraded` does to
+    ``doc`` and ``targets``, at most :data:`MESHES_PER_JOB` meshes each.
+
+    A job holds the document without its animations (the rig already read what the weighting
+    needs of them), the targets it weighs, ``max_vertices`` and the rig.
+    """
+    meshed = [t for t in targets if t.status == "meshed"]
+    light = {k: v for k, v in doc.items() if k != "animations"}
+    return [(light, meshed[s:s + MESHES_PER_JOB], max_vertices, rig) for s in range(0, len(meshed), MESHES_PER_JOB)]
+
+
+def weight_apart(job: tuple) -> list[tuple[dict, dict]]:
+    """:func:`weight_upgraded` of one job of :func:`weighing_jobs`, on a worker process: for each
+    of its targets, in order, the attachment as it ends (weighted, left unweighted or put back
+    as its region) and the target's fields (:func:`put_back_weighed` puts both in place)."""
+    doc, targets, max_vertices, rig = job
+    weight_upgraded(doc, targets, max_vertices, rig)
+    places = {(t.skin, t.slot, t.name) for t in targets}
+    attachments = {(ref.skin, ref.slot, ref.name): ref.attachment for ref in iter_attachments(doc)
+                   if (ref.skin, ref.slot, ref.name) in places}
+    return [(attachments[(t.skin, t.slot, t.name)], dict(t.__dict__)) for t in targets]
+
+
+def put_back_weighed(doc: dict, targets, weighed: list[tuple[dict, dict]]) -> None:
+    """Put what :func:`weight_apart` returned for ``targets`` (the job's, in its order) into
+    ``doc`` and the targets, in place: each attachment's own dict keeps its place among its siblings."""
+    by_place = {(t.skin, t.slot, t.name): (t, w) for t, w in zip(targets, weighed)}
+    for ref in iter_attachments(doc):
+        found = by_place.get((ref.skin, ref.slot, ref.name))
+        if found is None:
+            continue
+        t, (attachment, fields) = found
+        ref.attachment.clear()
+        ref.attachment.update(attachment)
+        t.__dict__.update(fields)
+
+
 def _settle_bending(ref: AttachmentRef, t, outcome: Outcome) -> None:
     """A target meshed only because it would bend: kept meshed when it bends, else its region again."""
     bends = outcome.status == "weighted" and len(outcome.bones) > 1

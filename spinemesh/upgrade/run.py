@@ -91,6 +91,9 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
         if options.dry_run:
             mark_would_mesh(result)
             return result
+        if workers is None and options.weights == "auto":
+            # opened here, not for the meshing alone: the new meshes are weighted on them too
+            workers = held.enter_context(meshing_workers(options, None, 2 * len(plan.tasks)))
         meshes = mesh_project(plan, options, result, workers, progress, mesh_cache)  # 2. mesh
         finish_project(plan, meshes, out, result, progress, workers)  # 3.-4. apply, write
         return result                                                 # 5. the report's rows
@@ -109,12 +112,13 @@ def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: W
 
 def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result,
                    progress: Progress = SILENT, workers: Workers | None = None) -> None:
-    """Stages 3 and 4 for one project: the meshes into its documents, then everything written to ``out``
+    """Stages 3 and 4 for one project: the meshes into its documents (weighted on ``workers``
+    with ``--weights auto``, :func:`.write.apply_project`), then everything written to ``out``
     (and packed with ``--pack``, on ``workers`` when given)."""
     t0 = time.perf_counter()
     weights_before, pack_before = result.seconds["weights"], result.seconds.get("pack", 0.0)
     with copying_other_files(plan, out, result):  # atlases, pages, other files: on threads meanwhile
-        apply_project(plan, meshes, result, progress)
+        apply_project(plan, meshes, result, progress, workers)
         # A stage that changes the meshed documents before they are written goes here; it
         # sees every skeleton of the project. Files it replaces are left out of the copies
         # (write.files_to_copy), started above.

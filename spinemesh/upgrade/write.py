@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ..attachment_geometry import mesh_attachment
+from ..cluster import Workers, WorkerLost
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy
 from ..output import files_needed, files_to_copy, write_skeleton
@@ -64,10 +65,11 @@ def apply_meshes(doc: dict, targets: list[Target], meshes: dict[str, MeshResult]
 
 
 def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Result | None = None,
-                  progress: Progress = SILENT) -> None:
+                  progress: Progress = SILENT, workers: Workers | None = None) -> None:
     """Put the meshes into every document of ``plan``, in place; ``--weights auto`` also weights them.
 
     The weights' time goes to ``result.seconds["weights"]``, each mesh weighted to ``progress``.
+    With ``workers`` that are not this process, the meshes are weighted on them (:func:`weigh_on`).
     """
     for sk in plan.skeletons:
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
@@ -77,11 +79,40 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
 
     t0 = time.perf_counter()
     progress.add("weights", sum(t.status == "meshed" for sk in plan.skeletons for t in sk.targets))
-    for sk in plan.skeletons:
-        weight_upgraded(sk.doc, sk.targets, plan.options.overrides.get("max_vertices"), sk.rig,
-                        on_mesh=lambda: progress.advance("weights"))
+    max_vertices = plan.options.overrides.get("max_vertices")
+    here = [(sk, sk.targets) for sk in plan.skeletons]
+    if workers is not None and type(workers) is not Workers:
+        here = weigh_on(workers, plan.skeletons, max_vertices, progress)
+    for sk, targets in here:
+        weight_upgraded(sk.doc, targets, max_vertices, sk.rig, on_mesh=lambda: progress.advance("weights"))
     if result is not None:
         result.seconds["weights"] += time.perf_counter() - t0
+
+
+def weigh_on(workers: Workers, skeletons: list, max_vertices: int | None,
+             progress: Progress = SILENT) -> list[tuple]:
+    """Weight the upgraded meshes of ``skeletons`` on ``workers``, in jobs of a few meshes
+    (:func:`spinemesh.rig.upgrade.weighing_jobs`); the weighting is the same wherever it runs,
+    and each job's result is put back by place, never by arrival order, so the output is the
+    same byte for byte. Returns ``(skeleton, targets)`` left to weight here: the skeletons without
+    a rig (their weighting reports why per mesh) and the targets of jobs whose worker was lost.
+    """
+    from ..rig.upgrade import put_back_weighed, weight_apart, weighing_jobs
+
+    here, jobs = [(sk, sk.targets) for sk in skeletons if sk.rig is None], {}
+    for sk in skeletons:
+        if sk.rig is not None:
+            for job in weighing_jobs(sk.doc, sk.targets, max_vertices, sk.rig):
+                jobs[workers.submit(weight_apart, job)] = (sk, job[1])
+    for future in workers.as_completed(list(jobs)):
+        sk, targets = jobs[future]
+        try:
+            put_back_weighed(sk.doc, targets, future.result())
+        except WorkerLost:  # weighted here instead, the same way
+            here.append((sk, targets))
+            continue
+        progress.advance("weights", len(targets))
+    return here
 
 
 def write_skeletons(plan: ProjectPlan, out: Path, result: Result, progress: Progress = SILENT) -> None:
