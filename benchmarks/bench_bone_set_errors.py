@@ -1,7 +1,7 @@
-"""Where the learned bone choice misses the artists' exact bone sets, project-held-out.
+"""Where the learned bone choice misses the artists' exact bone sets, repository-held-out.
 
 Each artist-weighted mesh of the training dataset (``--cache``) is bound by the fold models
-fitted without its project (``--fold-models``, ``scripts/train_bone_choice.py --habits strict``),
+fitted without its repository (``--fold-models``, ``scripts/train_bone_choice.py --habits strict``),
 with and without the project's habits, as :mod:`bench_unweighted_bones` binds them; each mesh
 whose chosen set is not the artist's is counted under the first of:
 
@@ -35,7 +35,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from bench_unweighted_bones import dataset_and_models, dataset_arguments  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.rig import train_choice as tc  # noqa: E402
+from spinemesh.train import bone_choice as tc  # noqa: E402
 from spinemesh.rig.binding import parse_vertices  # noqa: E402
 from spinemesh.rig.choice import MAX_AUTO_BONES  # noqa: E402
 from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402

@@ -2,8 +2,8 @@
 
 ``upgrade --weights auto`` (and ``spinemesh weights`` on a mesh its artist left unweighted)
 binds art no artist chose to weight. The learned choice was fitted on meshes artists weighted,
-95% of them to several bones, so it is judged here on both sides, project-held-out (each
-project's bones chosen by the fold models fitted without it, ``scripts/train_bone_choice.py
+95% of them to several bones, so it is judged here on both sides, repository-held-out (each
+project's bones chosen by the fold models fitted without its repository, ``scripts/train_bone_choice.py
 --fold-models``), with and without the project's habits:
 
 - *artist-weighted meshes* (the training dataset, ``--cache``): the share bound to exactly the
@@ -35,7 +35,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.rig import train_choice as tc  # noqa: E402
+from spinemesh.train import bone_choice as tc  # noqa: E402
 from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.choice import choose_by_rule  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
@@ -87,7 +87,7 @@ def rigid_side(pairs: list[tuple[str, Path]], models: dict, every: int) -> None:
     counts = defaultdict(list)
     seen = 0
     for group, paths in by_project.items():
-        model = models[tc.fold_of(group)]
+        model = tc.model_for(models, tc.repository_of(group, SHARED / "spine-corpus"))
         docs = []
         for path in paths:
             try:
@@ -155,7 +155,8 @@ def dataset_arguments(description: str) -> argparse.ArgumentParser:
 def dataset_and_models(args) -> tuple[list[tuple[str, Path]], dict, dict]:
     """``(skeletons, dataset, fold models)`` of :func:`dataset_arguments`' parsed ``args``."""
     pairs = tc.training_skeletons(args.examples, args.corpus)
-    data = tc.build_dataset(pairs, args.cache, log=lambda s: print(s, file=sys.stderr, flush=True))
+    data = tc.with_folds(tc.build_dataset(pairs, args.cache, log=lambda s: print(s, file=sys.stderr, flush=True)),
+                         args.corpus)
     return pairs, data, tc.load_fold_models(args.fold_models)
 
 

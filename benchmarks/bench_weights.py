@@ -9,7 +9,7 @@ recomputed with ``--replace --bones keep`` (the artist's vertices and bones), wi
 ``--replace --bones rule`` and with ``--replace --bones learned``; the learned choice of each
 project is made by the model fitted without that project's fold
 (``--fold-models``, written by ``scripts/train_bone_choice.py --fold-models``), so every
-figure is project-held-out; a model that reads the project's habits gets them from the
+figure is repository-held-out; a model that reads the project's habits gets them from the
 artist-weighted meshes of all the project's replayed skeletons, as ``spinemesh weights`` reads
 them from a project folder. The artist's animations are played in the official runtime
 (``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
@@ -374,7 +374,7 @@ def main() -> None:
 
 def replay_all(args: argparse.Namespace) -> list[dict]:
     """Replay every ``--every``-th skeleton from ``--start``, printing a line per skeleton; the rows."""
-    from spinemesh.rig import train_choice
+    from spinemesh.train import bone_choice as train_choice
 
     models = train_choice.load_fold_models(args.fold_models)
     rows = []
@@ -383,7 +383,7 @@ def replay_all(args: argparse.Namespace) -> list[dict]:
     for label, skel in every[args.start::args.every]:
         if args.only and args.only not in label:
             continue
-        model = models[train_choice.fold_of(label)]
+        model = train_choice.model_for(models, train_choice.repository_of(label, SHARED / "spine-corpus"))
         # a model reading the project's habits gets them from all the project's replayed skeletons
         if model.reads_habits and label not in habits_of:
             habits_of[label] = project_habits_of([s for g, s in every if g == label])

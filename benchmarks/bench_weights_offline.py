@@ -17,7 +17,8 @@ median ratio to the rigid heaviest-artist-bone baseline (attachments the baselin
 within 0.05 left out, as in ``bench_weights.py``), the geometric mean of the ratios, and the
 seconds the weights took. Variants:
 
-- ``bbw``: the default (bounded biharmonic weights, handles on the bone segments);
+- ``bbw``: the default (bounded biharmonic weights, handles on the bone segments), on the
+  artist's own bones; ``keep`` is the same row (what ``--bones keep`` binds);
 - ``bbw-fine``: the same on a refinement of up to 2,000 points (the default is 1,600);
   ``bbw-600``, ``bbw-1200``: on up to 600 (the size before PIQP) or 1,200 points;
 - ``bbw-libigl-600``, ``bbw-libigl-fine``: the same problem solved by libigl's active-set
@@ -30,8 +31,8 @@ seconds the weights took. Variants:
 - ``auto``, ``auto-near``: the ``--bones rule`` choice (segments over the art; ``rule`` is the
   same row), and the same with bones within 5% of the art's size also chosen (the rule before
   this script);
-- ``learned``: the ``--bones learned`` choice, project-held-out: each mesh's bones are chosen by
-  the model fitted without its project's fold (``--fold-models``, written by
+- ``learned``: the ``--bones learned`` choice, repository-held-out: each mesh's bones are chosen by
+  the model fitted without its repository's fold (``--fold-models``, written by
   ``scripts/train_bone_choice.py --fold-models``), with the habits of the artist-weighted meshes
   of the project's replayed skeletons when the model reads them;
 - ``learned-alone``: the same without the habits, as a project with no artist-weighted mesh
@@ -39,6 +40,13 @@ seconds the weights took. Variants:
 - ``upgrade``, ``upgrade-alone``: the bones ``spinemesh upgrade --weights auto`` binds, with and
   without the habits: the learned choice for art no artist chose to weight (more than one bone
   only where a bone besides the slot's reaches the per-bone threshold).
+
+Each skeleton is played over all its animations (``--animations``), ``--times`` frames each.
+Then the variants run side by side on the same meshes, with every aggregate against two
+baselines: each vertex rigid on its heaviest artist bone (the artist's rig without blending),
+and the whole mesh rigid on its slot's bone (what an upgraded region does without
+``--weights auto``): median and geometric mean of the ratios, sum of errors over the baseline's,
+and the share of meshes better than the baseline.
 
 Besides the errors, each row prints the share of meshes bound to exactly the artist's bone
 set and the bones per mesh (median and 95th percentile; the artists': the last line).
@@ -92,8 +100,10 @@ def matrix(m: list[float]) -> np.ndarray:
     return np.array([[a, b, x], [c, d, y]], float)
 
 
-def collect(tool: Path, cache: Path, examples: str, corpus: int) -> list[tuple[str, Path, Path]]:
-    """One runtime dump of each artist skeleton (setup pose and sampled frames), cached."""
+def collect(tool: Path, cache: Path, examples: str, corpus: int, animations: int | None = None,
+            times: int = 4) -> list[tuple[str, Path, Path]]:
+    """One runtime dump of each artist skeleton (setup pose and ``times`` frames of each of its
+    first ``animations`` animations; None: all of them), cached."""
     cache.mkdir(parents=True, exist_ok=True)
     out = []
     for i, (label, skel) in enumerate(bench_weights.skeletons(examples, corpus)):
@@ -101,7 +111,8 @@ def collect(tool: Path, cache: Path, examples: str, corpus: int) -> list[tuple[s
         source = image_source_for(doc, skel, find_project(skel.parent))
         if source is None or not hasattr(source, "atlases"):
             continue
-        dump = cache / f"{i:04d}-{skel.stem}.json"
+        played_poses = "all" if animations is None else animations
+        dump = cache / f"{i:04d}-{skel.stem}-{played_poses}x{times}.json"
         if not dump.exists():
             try:
                 # played from our JSON of it, as bench_weights.py plays its variants: the harness
@@ -109,7 +120,7 @@ def collect(tool: Path, cache: Path, examples: str, corpus: int) -> list[tuple[s
                 with tempfile.TemporaryDirectory() as tmp:
                     played = Path(tmp) / f"{skel.stem}.json"
                     played.write_text(dumps_skeleton(doc))
-                    bench_weights.dump(tool, source.atlases[0].path, played, bench_weights.poses(doc, 4, 4), dump)
+                    bench_weights.dump(tool, source.atlases[0].path, played, bench_weights.poses(doc, animations, times), dump)
             except RuntimeError as e:
                 print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
                 continue
@@ -179,8 +190,15 @@ def replay(case: dict, weights: np.ndarray, bones: list[int]) -> float:
 
 
 def rigid_error(case: dict) -> float:
+    """The baseline of the artist's rig: each vertex rigid on its heaviest artist bone."""
     a = case["artist"]
     return replay(case, np.eye(a.shape[1])[a.argmax(1)], case["bones"])
+
+
+def slot_error(case: dict) -> float:
+    """The baseline of a user without weights: the whole mesh rigid on its slot's bone (what an
+    upgraded region does without ``--weights auto``)."""
+    return replay(case, np.ones((len(case["world"]), 1)), [case["slot_bone"]])
 
 
 def segments(case: dict, bones: list[int], middle: tuple[float, float] = (0.0, 1.0)) -> np.ndarray:
@@ -241,13 +259,13 @@ def fine(variant, points: int = 2000, most: int = 16):
 
 
 def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, unweighted: bool = False):
-    """The learned choice, each case's bones chosen by the fold model fitted without its project;
+    """The learned choice, each case's bones chosen by the fold model fitted without its repository;
     a model that reads the project's habits gets them from the artist-weighted meshes of the
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does.
     ``alone``: without them, as a project with no weighted mesh shows. ``unweighted``: as for
     art no artist chose to weight, as ``upgrade --weights auto`` binds
     (:func:`spinemesh.rig.upgrade.upgrade_choice`)."""
-    from spinemesh.rig import train_choice
+    from spinemesh.train import bone_choice as train_choice
     from spinemesh.rig.habits import keys_of
     from spinemesh.rig.learned import choose_learned, neighbour_sets
 
@@ -257,7 +275,8 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
     def variant(case):
         if not models:
             models.update(train_choice.load_fold_models(fold_models))
-        model = models[train_choice.fold_of(case["label"])]
+        model = train_choice.model_for(models, train_choice.repository_of(case["label"], bench_weights.SHARED
+                                                                          / "spine-corpus"))
         reads = model.reads_habits and not alone
         if reads and case["label"] not in habits:
             habits[case["label"]] = bench_weights.project_habits_of(skeletons[case["label"]])
@@ -293,6 +312,7 @@ def auto(near: float | None = None):
 
 
 VARIANTS = {
+    "keep": keep(),
     "bbw": keep(),
     "bbw-fine": fine(keep()),
     "bbw-600": fine(keep(), 600, 8),
@@ -322,6 +342,42 @@ def judge(cases: list[dict], results: dict[int, float], chosen: dict[int, list[i
         out.update(exact=float(np.mean([set(chosen[i]) == set(cases[i]["bones"]) for i in results])),
                    bones=f"{np.median(counts):.0f} / {np.percentile(counts, 95):.0f}")
     return out
+
+
+def against(cases: list[dict], results: dict[int, float], baseline: str) -> dict:
+    """A variant's errors against a baseline's (``rigid``: the artist's heaviest bone; ``slot``:
+    the slot's bone), on the meshes the baseline moves (more than ``RIGID_FLOOR``, finite):
+    median and geometric mean of the ratios, the sum of errors over the sum of the baseline's
+    (the meshes that move most weigh most), and the share of meshes better than the baseline."""
+    ids = [i for i in results if bench_weights.RIGID_FLOOR < cases[i][baseline] < float("inf")]
+    if not ids:
+        return {"meshes": 0, "median": float("nan"), "geomean": float("nan"), "sum": float("nan"), "better": float("nan")}
+    ours = np.array([results[i] for i in ids])
+    theirs = np.array([cases[i][baseline] for i in ids])
+    ratio = ours / theirs
+    finite = np.isfinite(ours)
+    return {"meshes": len(ids), "median": float(np.median(ratio)),
+            "geomean": float(np.exp(np.mean(np.log(np.clip(ratio, 1e-3, 1e3))))),
+            "sum": float(ours[finite].sum() / theirs[finite].sum()) if finite.any() else float("inf"),
+            "better": float(np.mean(ratio < 1))}
+
+
+def aggregates_table(cases: list[dict], per_variant: dict[str, dict[int, float]]) -> str:
+    """The variants side by side (columns) on the same meshes, every aggregate of :func:`against`
+    against both baselines (rows)."""
+    names = list(per_variant)
+    common = set.intersection(*(set(r) for r in per_variant.values())) if names else set()
+    stats = {n: {b: against(cases, {i: per_variant[n][i] for i in common}, b) for b in ("rigid", "slot")}
+             for n in names}
+    lines = ["| against | " + " | ".join(names) + " |", "|---|" + "--:|" * len(names)]
+    for base, label in (("rigid", "rigid on each vertex's heaviest artist bone"),
+                        ("slot", "rigid on the slot's bone (no weights)")):
+        moved = stats[names[0]][base]["meshes"] if names else 0
+        for key, what in (("median", "median ratio"), ("geomean", "geometric mean"),
+                          ("sum", "sum of errors / sum of baseline's"), ("better", "meshes better")):
+            cells = [f"{stats[n][base][key]:.1%}" if key == "better" else f"{stats[n][base][key]:.3f}" for n in names]
+            lines.append(f"| {label}: {what} ({moved} meshes) | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 #: Exponents tried by the sharpness bound: below 1 softens the blend, above 1 sharpens it.
@@ -417,6 +473,8 @@ def main() -> None:
     ap.add_argument("--corpus", type=int, default=200)
     ap.add_argument("--cache", type=Path, default=Path("weights-replay-cache"), help="folder for the dumps")
     ap.add_argument("--every", type=int, default=1, help="judge every K-th mesh (faster)")
+    ap.add_argument("--animations", type=int, default=0, help="replay each skeleton's first N animations (0: all)")
+    ap.add_argument("--times", type=int, default=4, help="frames replayed per animation, evenly spaced")
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
     ap.add_argument("--bounds", action="store_true", help="add the bounds that use the artist's answer")
     ap.add_argument("--max-bones", default="4", help="most bones per vertex, as `spinemesh weights --max-bones`; "
@@ -426,7 +484,8 @@ def main() -> None:
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
     cases, skeletons = [], {}
-    for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus):
+    for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus,
+                                     args.animations or None, args.times):
         cases += cases_of(label, skel, dump)
         skeletons.setdefault(label, []).append(skel)
     VARIANTS["learned"] = learned(args.fold_models, skeletons)
@@ -435,7 +494,7 @@ def main() -> None:
     VARIANTS["upgrade-alone"] = learned(args.fold_models, skeletons, alone=True, unweighted=True)
     cases = cases[::args.every]
     for c in cases:
-        c["rigid"] = rigid_error(c)
+        c["rigid"], c["slot"] = rigid_error(c), slot_error(c)
     print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)
     print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | exact bone set "
           "| bones / mesh median / p95 | seconds |")
@@ -471,6 +530,7 @@ def main() -> None:
     if args.learned:
         start = time.perf_counter()
         row("learned weights (project-held-out upper bound)", learned_bound(cases), start)
+    print(f"\nthe same meshes, every aggregate against both baselines:\n\n{aggregates_table(cases, per_variant)}")
     counts = [len(c["bones"]) for c in cases]
     print(f"\nartists' bones per mesh: median {np.median(counts):.0f}, p95 {np.percentile(counts, 95):.0f}")
     per_vertex = np.concatenate([(np.asarray(c["artist"]) > 0).sum(axis=1) for c in cases])

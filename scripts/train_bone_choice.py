@@ -1,19 +1,19 @@
-"""Fit the ``learned`` bone choice to the artists' bindings, judge it project-held-out, ship it.
+"""Fit the ``learned`` bone choice to the artists' bindings, judge it repository-held-out, ship it.
 
     .venv/bin/python scripts/train_bone_choice.py [--examples DIR] [--corpus DIR]
         [--cache FILE.npz] [--project-power P] [--threshold T] [--fold-models DIR] [--write]
         [--habits strict] [--train-share S]
 
-Builds the dataset (:mod:`spinemesh.rig.train_choice`: every artist-weighted mesh of each
+Builds the dataset (:mod:`spinemesh.train.bone_choice`: every artist-weighted mesh of each
 example in its newest version and of every corpus project, each bone near its art a row),
 cached in ``--cache`` (extraction takes minutes; delete the file to rebuild). Then fits one
-per-bone model per project-held-out fold, and per fold a set-level model
+per-bone model per repository-held-out fold, and per fold a set-level model
 (:mod:`spinemesh.rig.bone_sets`) on the other folds' candidate sets, their per-bone
 probabilities each from a model fitted without their own fold; prints, for the ``rule``, the
 per-bone choice at a few thresholds and the ``learned`` choice (per bone, then set level) on
 the same meshes, the share of meshes given exactly the artist's bone set and the bones per
 mesh against the artists'. ``--fold-models DIR`` keeps the fold models for the weights benchmarks
-(their ``learned`` rows, project-held-out). ``--write`` fits on every project and writes
+(their ``learned`` rows, repository-held-out). ``--write`` fits on every project and writes
 ``spinemesh/models/bone_choice.json``. ``--train-share S`` lets the models learn from a share
 ``S`` of the projects only (drawn by name; the others weigh 0 in every fit) while every mesh is
 still judged held out: run with a few shares, it draws the learning curve. Needs scikit-learn
@@ -34,7 +34,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from spinemesh.rig import habits as hb  # noqa: E402
-from spinemesh.rig import train_choice as tc  # noqa: E402
+from spinemesh.train import bone_choice as tc  # noqa: E402
 from spinemesh.rig.learned import CHAIN_REACH, MODEL_PATH, REACH  # noqa: E402
 
 
@@ -79,8 +79,10 @@ def main() -> None:
     data = tc.build_dataset(tc.training_skeletons(args.examples, args.corpus), args.cache,
                             log=lambda s: print(s, file=sys.stderr, flush=True), reach=args.reach,
                             chain_reach=args.chain_reach)
+    data = tc.with_folds(data, args.corpus)
     meshes = len(data["group"])
-    print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects, {len(data['y'])} candidate "
+    print(f"{meshes} artist-weighted meshes, {len(np.unique(data['group']))} projects of "
+          f"{len(np.unique(data['repository']))} repositories, {len(data['y'])} candidate "
           f"bones ({data['y'].mean():.1%} bound by the artist); artist's bones beyond the candidates on "
           f"{(data['missed'] > 0).mean():.1%} of meshes ({time.perf_counter() - start:.0f} s)\n")
     habits = tc.with_habits(data, args.habits != "loose")
@@ -110,8 +112,8 @@ def main() -> None:
         tc.save_fold_models(models, args.fold_models)
     rows = [("rule", tc.judge(data, data["rule"].astype(bool)))]
     for t in sorted({0.3, 0.4, args.threshold, 0.6}):
-        rows.append((f"per bone, threshold {t:.1f} (project-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))
-    rows.append(("learned: per bone, then set level (project-held-out)", tc.judge(data, by_sets)))
+        rows.append((f"per bone, threshold {t:.1f} (repository-held-out)", tc.judge(data, tc.choose_rows(data, p, t))))
+    rows.append(("learned: per bone, then set level (repository-held-out)", tc.judge(data, by_sets)))
     table(rows)
     kinds = {"examples": np.char.startswith(data["group"].astype(str), "examples/")}
     kinds["corpus"] = ~kinds["examples"]

@@ -241,7 +241,7 @@ def _toy_dataset() -> dict:
 
 
 def test_held_out_judgement_counts_exact_sets_and_falls_back_to_the_slot_bone():
-    from spinemesh.rig import train_choice as tc
+    from spinemesh.train import bone_choice as tc
 
     data = _toy_dataset()
     chosen = tc.choose_rows(data, np.array([0.9, 0.6, 0.2, 0.1, 0.3, 0.4]), 0.5)
@@ -250,13 +250,36 @@ def test_held_out_judgement_counts_exact_sets_and_falls_back_to_the_slot_bone():
     assert s["exact"] == 1.0 and s["bones_p95"] == pytest.approx(1.95) and s["too_many"] == 0
     s = tc.judge(data, np.array([True, False, False, True, True, False]))
     assert s["exact"] == 0.0 and s["too_many"] == 0.5 and s["too_few"] == 0.5
-    assert {tc.fold_of(f"corpus/p{i}") for i in range(40)} == set(range(tc.FOLDS))
-    assert tc.fold_of("corpus/a") == tc.fold_of("corpus/a")
+
+
+def test_folds_hold_out_whole_repositories(tmp_path):
+    """Projects of one repository (a game's characters: one rig, one artist) share a fold; the
+    examples are all one repository; each fold model names the repositories it held out."""
+    pytest.importorskip("sklearn")
+    from spinemesh.train import bone_choice as tc
+
+    for name, repo in (("a1", "studio/game"), ("a2", "studio/game"), ("b", "other/b")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / ".source.json").write_text(json.dumps({"repo": repo}))
+    (tmp_path / "bare").mkdir()
+    assert tc.repository_of("corpus/a2", tmp_path) == "studio/game"
+    assert tc.repository_of("examples/spineboy", tmp_path) == tc.EXAMPLES_REPOSITORY
+    assert tc.repository_of("corpus/bare", tmp_path) == "corpus/bare"
+    groups = ["corpus/a1", "corpus/a2", "corpus/b", "corpus/bare", "examples/x", "examples/y"] * 3
+    data = tc.with_folds({"group": np.array(groups)}, tmp_path, folds=3)
+    fold_of = {}
+    for g, r, k in zip(data["group"], data["repository"], data["fold"]):
+        assert fold_of.setdefault(r, k) == k, f"{r} in two folds"
+    assert set(fold_of.values()) == {0, 1, 2}
+    models = {k: TreeEnsemble(FEATURES, 0.0, [], 0.5, {"held_out": sorted(r for r, f in fold_of.items() if f == k)})
+              for k in range(3)}
+    assert tc.model_for(models, "studio/game") is models[fold_of["studio/game"]]
+    assert tc.model_for(models, "never/seen") is models[0]
 
 
 def test_fitted_trees_export_to_the_shipped_format():
     pytest.importorskip("sklearn")
-    from spinemesh.rig import train_choice as tc
+    from spinemesh.train import bone_choice as tc
 
     rng = np.random.default_rng(0)
     X = rng.random((600, len(FEATURES)))
@@ -269,7 +292,7 @@ def test_fitted_trees_export_to_the_shipped_format():
 
 def test_the_set_model_learns_only_from_meshes_whose_artists_set_is_weighed(monkeypatch):
     from spinemesh.rig import bone_sets
-    from spinemesh.rig import train_choice as tc
+    from spinemesh.train import bone_choice as tc
 
     data = {"group": np.array(["corpus/a", "corpus/a", "corpus/b"]), "missed": np.array([0, 0, 1])}
     # mesh 0: its artist's set among its three sets; mesh 1: every bone a candidate, its set not
@@ -285,7 +308,7 @@ def test_the_set_model_learns_only_from_meshes_whose_artists_set_is_weighed(monk
 
 
 def test_a_learning_curve_learns_from_the_projects_drawn_only():
-    from spinemesh.rig import train_choice as tc
+    from spinemesh.train import bone_choice as tc
 
     # three meshes of project a (one row each), one of project b over two rows
     data = {"group": np.array(["corpus/a", "corpus/a", "corpus/a", "corpus/b"]), "mesh": np.array([0, 1, 2, 3, 3])}
@@ -300,7 +323,7 @@ def test_a_learning_curve_learns_from_the_projects_drawn_only():
 
 def test_the_set_ranker_is_exported_as_trees_that_rank_as_lightgbm_does():
     from spinemesh.rig import bone_sets
-    from spinemesh.rig import train_choice as tc
+    from spinemesh.train import bone_choice as tc
 
     rng = np.random.default_rng(1)
     queries = np.repeat(np.arange(300), 6)

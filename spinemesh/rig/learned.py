@@ -7,7 +7,7 @@ is from it, its length against the art's size, where it sits in the bone tree re
 slot's bone, which neighbours in the tree are on the art, its constraint roles, and whether the
 ``rule`` choice (:func:`.choice.choose_by_rule`) takes it. A gradient-boosted tree ensemble, fitted
 on the artist-weighted meshes of the Spine examples and a corpus of game projects
-(:mod:`.train_choice`), gives the probability that an artist binds the bone. A second,
+(:mod:`spinemesh.train.bone_choice`), gives the probability that an artist binds the bone. A second,
 set-level ensemble (:mod:`.bone_sets`) then weighs a few whole sets built from those
 probabilities and the likeliest set to be the artist's exact one is chosen (a model without
 that stage chooses the bones at or above its threshold). A model may also read the project's

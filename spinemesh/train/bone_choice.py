@@ -1,9 +1,9 @@
-"""Fitting the ``learned`` bone choice (:mod:`.learned`) to artists' bindings, and judging it.
+"""Fitting the ``learned`` bone choice (:mod:`spinemesh.rig.learned`) to artists' bindings, and judging it.
 
 The dataset: every artist-weighted mesh attachment of a set of projects (its artist's bones
 all with an exact setup transform, its slot with a bone), each bone near its art a row of
-:data:`.learned.FEATURES`, labelled by whether the artist bound it. Judged per mesh, on
-projects held out of the fit (:func:`fold_of`): the share of meshes whose chosen bone set is
+:data:`spinemesh.rig.learned.FEATURES`, labelled by whether the artist bound it. Judged per mesh, on
+repositories held out of the fit (:func:`with_folds`): the share of meshes whose chosen bone set is
 exactly the artist's, and bones per mesh against the artists'.
 
 Needs scikit-learn and LightGBM (the ``train`` extra); the package itself reads the fitted model without it.
@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..rig import bone_sets, habits
+from ..rig.document import build_rig
+from ..rig.habits import HABIT_FEATURES
+from ..rig.learned import CHAIN_REACH, FEATURES, REACH, TreeEnsemble, weighted_meshes
 from ..skeleton import load_skeleton
-from . import bone_sets, habits
-from .habits import HABIT_FEATURES
-from .document import build_rig
-from .learned import CHAIN_REACH, FEATURES, REACH, TreeEnsemble, weighted_meshes
 
-#: Project-held-out folds.
+#: Repository-held-out folds (:func:`with_folds`).
 FOLDS = 5
 
 #: Boosting settings (kept small: the model ships in the package).
@@ -41,9 +41,52 @@ TREES, LEAVES, LEARNING_RATE, MIN_LEAF = 120, 15, 0.1, 40
 SET_TREES, SET_LEAVES, SET_LEARNING_RATE = 120, 7, 0.05
 
 
-def fold_of(group: str, folds: int = FOLDS) -> int:
-    """The held-out fold of a project (stable across runs and machines)."""
-    return zlib.crc32(group.encode()) % folds
+#: The repository every example project comes from (Esoteric Software's): one fold holds them all.
+EXAMPLES_REPOSITORY = "EsotericSoftware/spine-runtimes"
+
+
+def repository_of(group: str, corpus: Path | None) -> str:
+    """The repository a project comes from: ``examples/NAME`` all from :data:`EXAMPLES_REPOSITORY`,
+    ``corpus/NAME`` from the ``repo`` its ``.source.json`` names (under ``corpus``); a project
+    that names none is a repository of its own.
+
+    Characters of one game share a rig, bone names and an artist's habits, and a game's
+    projects its repository: folds hold out whole repositories, so that a held-out figure is
+    what a studio the fit never saw would get.
+    """
+    kind, _, name = group.partition("/")
+    if kind == "examples":
+        return EXAMPLES_REPOSITORY
+    source = corpus / name / ".source.json" if corpus is not None and name else None
+    if source is not None and source.is_file():
+        import json
+
+        repo = json.loads(source.read_text()).get("repo")
+        if isinstance(repo, str) and repo:
+            return repo
+    return group
+
+
+def with_folds(data: dict, corpus: Path | None, folds: int = FOLDS) -> dict:
+    """``data`` with each mesh's ``repository`` (:func:`repository_of`) and held-out ``fold``
+    (M,): scikit-learn's ``GroupKFold`` on the repositories (each fold about as many meshes,
+    no repository in two folds)."""
+    from sklearn.model_selection import GroupKFold
+
+    repos = np.array([repository_of(str(g), corpus) for g in data["group"]])
+    fold = np.zeros(len(repos), int)
+    for k, (_, test) in enumerate(GroupKFold(folds).split(np.zeros(len(repos)), groups=repos)):
+        fold[test] = k
+    return {**data, "repository": repos, "fold": fold}
+
+
+def model_for(models: dict[int, TreeEnsemble], repository: str) -> TreeEnsemble:
+    """The fold model fitted without ``repository`` (each lists those it held out, meta
+    ``held_out``); a repository none held out was in no fit: the first model."""
+    for k in sorted(models):
+        if repository in models[k].meta.get("held_out", ()):
+            return models[k]
+    return models[min(models)]
 
 
 def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple[str, Path]]:
@@ -73,7 +116,7 @@ def training_skeletons(examples: Path | None, corpus: Path | None) -> list[tuple
 
 def mesh_rows(doc: dict, reach: float = REACH, chain_reach: float = CHAIN_REACH) -> list[dict]:
     """Every artist-weighted mesh of a skeleton document with its candidates and labels
-    (:func:`.learned.weighted_meshes`)."""
+    (:func:`spinemesh.rig.learned.weighted_meshes`)."""
     return weighted_meshes(doc, build_rig(doc), reach, chain_reach)
 
 
@@ -81,7 +124,7 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
                   reach: float = REACH, chain_reach: float = CHAIN_REACH) -> dict[str, np.ndarray]:
     """The dataset of :func:`mesh_rows` over skeletons, as flat arrays; cached as ``.npz`` when ``cache``.
 
-    ``reach``, ``chain_reach``: the candidates' reach (:func:`.learned.candidates`).
+    ``reach``, ``chain_reach``: the candidates' reach (:func:`spinemesh.rig.learned.candidates`).
 
     Returns
     -------
@@ -140,18 +183,18 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
 
 
 def feature_names(data: dict) -> tuple[str, ...]:
-    """The names of the columns of ``data["X"]``: :data:`.learned.FEATURES`, then
-    :data:`.habits.HABIT_FEATURES` when :func:`with_habits` added them."""
+    """The names of the columns of ``data["X"]``: :data:`spinemesh.rig.learned.FEATURES`, then
+    :data:`spinemesh.rig.habits.HABIT_FEATURES` when :func:`with_habits` added them."""
     return FEATURES + (HABIT_FEATURES if data["X"].shape[1] > len(FEATURES) else ())
 
 
 def mesh_keys(data: dict) -> list[set[str]]:
-    """Each mesh's names (its slot's and its attachment's), for :func:`.habits.others_of`."""
+    """Each mesh's names (its slot's and its attachment's), for :func:`spinemesh.rig.habits.others_of`."""
     return [habits.keys_of(*str(a).split("/", 2)[1:]) for a in data["attachment"]]
 
 
 def with_habits(data: dict, strict: bool = True, alone: bool = False) -> dict:
-    """``data`` with the :data:`.habits.HABIT_FEATURES` of each row appended to ``X``, from the
+    """``data`` with the :data:`spinemesh.rig.habits.HABIT_FEATURES` of each row appended to ``X``, from the
     other artist-weighted meshes of its mesh's project (``strict``: also without those of the
     same slot or attachment name), and ``habit_prior`` (the rates over every mesh) and
     ``habit_others`` (each mesh's others' tally, (M, TALLY_SIZE)) and ``habit_neighbours``
@@ -175,11 +218,11 @@ def with_habits(data: dict, strict: bool = True, alone: bool = False) -> dict:
 def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...], int]]:
     """For each mesh, the bone sets (bone indices, sorted) the artists bound on the other meshes
     of its skeleton on the same slot bone, each with how many bound it
-    (:meth:`.habits.ProjectHabits.neighbours`; ``strict``: leaving out those sharing a slot or
+    (:meth:`spinemesh.rig.habits.ProjectHabits.neighbours`; ``strict``: leaving out those sharing a slot or
     attachment name with it, else only itself), and on its mirror images
-    (:func:`.habits.mirror_counts`). Meshes with artist's bones beyond their candidates show no
+    (:func:`spinemesh.rig.habits.mirror_counts`). Meshes with artist's bones beyond their candidates show no
     set. A skeleton is its file here (the package matches skeletons by
-    their bones' names, :func:`.habits.rig_key`)."""
+    their bones' names, :func:`spinemesh.rig.habits.rig_key`)."""
     starts = _mesh_rows(data)
     col = FEATURES.index("is_slot_bone")
     bound, keys = [], mesh_keys(data) if strict else [set() for _ in data["group"]]
@@ -207,7 +250,7 @@ def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...]
 
 def skeleton_trees(paths: list[str]) -> dict[str, tuple[list[str], list[int]]]:
     """Each skeleton file's bone names and parents (-1: none), in the order of its bones, for
-    :func:`.habits.mirror_counts` (the dataset holds only its meshes' candidates)."""
+    :func:`spinemesh.rig.habits.mirror_counts` (the dataset holds only its meshes' candidates)."""
     out = {}
     for path in paths:
         bones = load_skeleton(Path(path))["bones"]
@@ -251,7 +294,7 @@ def mesh_weights(data: dict, project_power: float = 0.5) -> np.ndarray:
 def fit(X: np.ndarray, y: np.ndarray, w: np.ndarray | None = None, threshold: float = 0.5,
         seed: int = 0, features: tuple[str, ...] = FEATURES, trees: int = TREES, leaves: int = LEAVES) -> TreeEnsemble:
     """A gradient-boosted tree ensemble (scikit-learn's ``HistGradientBoostingClassifier``) of
-    ``trees`` trees of at most ``leaves`` leaves as a :class:`.learned.TreeEnsemble` reading
+    ``trees`` trees of at most ``leaves`` leaves as a :class:`spinemesh.rig.learned.TreeEnsemble` reading
     columns ``features``."""
     from sklearn.ensemble import HistGradientBoostingClassifier
 
@@ -288,12 +331,12 @@ def fit_ranker(X: np.ndarray, relevant: np.ndarray, queries: np.ndarray, w: np.n
                margin: float = 0.0, seed: int = 0, features: tuple[str, ...] = FEATURES, trees: int = SET_TREES,
                leaves: int = SET_LEAVES, rate: float = SET_LEARNING_RATE) -> TreeEnsemble:
     """A LambdaRank tree ensemble (LightGBM's ``LGBMRanker``, MIT) ranking the rows of each
-    query, as a :class:`.learned.TreeEnsemble` reading columns ``features``; its ``raw`` is the
+    query, as a :class:`spinemesh.rig.learned.TreeEnsemble` reading columns ``features``; its ``raw`` is the
     ranking score.
 
     ``relevant`` (R,): the rows to rank first; ``queries`` (R,): each row's query, rows of a
     query together; ``w`` (R,): each row's weight, alike within a query (LightGBM weighs a
-    query by it); ``margin``: the model's threshold (:func:`.bone_sets.pick`).
+    query by it); ``margin``: the model's threshold (:func:`spinemesh.rig.bone_sets.pick`).
     """
     import lightgbm
 
@@ -307,7 +350,7 @@ def fit_ranker(X: np.ndarray, relevant: np.ndarray, queries: np.ndarray, w: np.n
 
 
 def _flat_tree(root: dict) -> dict[str, np.ndarray]:
-    """A LightGBM tree (``dump_model``'s nested nodes) as :class:`.learned.TreeEnsemble` arrays,
+    """A LightGBM tree (``dump_model``'s nested nodes) as :class:`spinemesh.rig.learned.TreeEnsemble` arrays,
     each node ahead of its children. Its splits send a value at most the threshold left, as
     the ensemble does; the features hold no missing values."""
     nodes: list[list] = []
@@ -341,7 +384,7 @@ def _runs(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def choose_rows(data: dict, p: np.ndarray, threshold: float, most: int = 8) -> np.ndarray:
     """Which rows are chosen per mesh: probability at least ``threshold`` (at most ``most`` per
     mesh, the likeliest), else the slot's bone (else the likeliest row); bones not exact /
-    inactive never (as :func:`.learned.choose_learned`)."""
+    inactive never (as :func:`spinemesh.rig.learned.choose_learned`)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     allowed = (data["X"][:, col["not_exact"]] == 0) & (data["X"][:, col["skin_inactive"]] == 0)
     slot = data["X"][:, col["is_slot_bone"]] == 1
@@ -391,9 +434,10 @@ def load_fold_models(folder: Path, folds: int = FOLDS) -> dict[int, TreeEnsemble
 
 def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS, log=print,
                            models: dict[int, TreeEnsemble] | None = None) -> tuple[np.ndarray, dict[int, TreeEnsemble]]:
-    """Each row's probability from the model fitted without its project's fold, and the fold models
-    (``models``: fold models fitted before, on the same dataset, reused)."""
-    fold = np.array([fold_of(g, folds) for g in data["group"]])[data["mesh"]]
+    """Each row's probability from the model fitted without its repository's fold
+    (:func:`with_folds`), and the fold models, each naming the repositories it held out (meta
+    ``held_out``; ``models``: fold models fitted before, on the same dataset, reused)."""
+    fold = _fold_of_rows(data)
     w = mesh_weights(data, project_power)
     p = np.zeros(len(data["y"]))
     models = dict(models or {})
@@ -402,15 +446,17 @@ def held_out_probabilities(data: dict, project_power: float = 0.5, folds: int = 
         given = k in models
         if not given:
             models[k] = fit(data["X"][train], data["y"][train], w[train], features=feature_names(data))
+            models[k].meta = {**models[k].meta,
+                              "held_out": sorted(set(data["repository"][data["fold"] == k].tolist()))}
         p[test] = models[k].probability(data["X"][test])
         log(f"fold {k}: model {'given' if given else 'fitted'} on {int(train.sum())} rows, "
             f"{int(test.sum())} judged")
     return p, models
 
 
-def _fold_of_rows(data: dict, folds: int = FOLDS) -> np.ndarray:
-    """Each row's held-out fold (its mesh's project's)."""
-    return np.array([fold_of(g, folds) for g in data["group"]])[data["mesh"]]
+def _fold_of_rows(data: dict) -> np.ndarray:
+    """Each row's held-out fold (its mesh's repository's, :func:`with_folds`)."""
+    return data["fold"][data["mesh"]]
 
 
 def inner_probabilities(data: dict, project_power: float = 0.5, folds: int = FOLDS, log=print) -> np.ndarray:
@@ -420,7 +466,7 @@ def inner_probabilities(data: dict, project_power: float = 0.5, folds: int = FOL
     The set model judged on fold ``k`` learns from these: probabilities the per-bone model
     gives meshes it was not fitted on, as it will on fold ``k``.
     """
-    fold = _fold_of_rows(data, folds)
+    fold = _fold_of_rows(data)
     w = mesh_weights(data, project_power)
     out = np.full((folds, len(data["y"])), np.nan)
     for k in range(folds):
@@ -442,11 +488,11 @@ def _mesh_rows(data: dict) -> np.ndarray:
 
 
 def set_rows(data: dict, p: np.ndarray, meshes: np.ndarray, threshold: float = 0.5) -> dict:
-    """The candidate sets (:func:`.bone_sets.candidate_sets`) of ``meshes`` from per-bone
-    probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES), with the :data:`.bone_sets.SET_HABIT_FEATURES`
+    """The candidate sets (:func:`spinemesh.rig.bone_sets.candidate_sets`) of ``meshes`` from per-bone
+    probabilities ``p`` (R,): ``Z`` (S, len(SET_FEATURES), with the :data:`spinemesh.rig.bone_sets.SET_HABIT_FEATURES`
     when ``data`` holds the habits, :func:`with_habits`), ``mesh`` (S,), ``exact`` (S,)
     whether the set is the artist's whole set, ``agreed`` (S,) whether the set is the one the
-    meshes on the same slot bone agree on (:func:`.bone_sets.agreed_set`; with the habits),
+    meshes on the same slot bone agree on (:func:`spinemesh.rig.bone_sets.agreed_set`; with the habits),
     ``members`` (rows of ``data``, per set)."""
     col = {f: i for i, f in enumerate(FEATURES)}
     starts = _mesh_rows(data)
@@ -501,8 +547,8 @@ def fit_sets(data: dict, sets: dict, project_power: float = 0.5) -> TreeEnsemble
 
 def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
     """Rows chosen when each mesh of ``sets`` takes the set its neighbours agree on, else the
-    set ``model`` picks (:func:`.bone_sets.pick`, the model's threshold the margin; as
-    :func:`.learned.choose_learned` with a set stage)."""
+    set ``model`` picks (:func:`spinemesh.rig.bone_sets.pick`, the model's threshold the margin; as
+    :func:`spinemesh.rig.learned.choose_learned` with a set stage)."""
     score = model.raw(sets["Z"])
     chosen = np.zeros(len(data["y"]), bool)
     for s, e in zip(*_runs(sets["mesh"])):
@@ -515,7 +561,7 @@ def choose_sets(data: dict, sets: dict, model: TreeEnsemble) -> np.ndarray:
 def fold_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], folds: int = FOLDS) -> np.ndarray:
     """Rows chosen by fitted fold models with set stages (:func:`load_fold_models`): each fold's
     meshes take their sets from ``p`` (held-out per-bone probabilities) through that fold's set model."""
-    mesh_fold = np.array([fold_of(g, folds) for g in data["group"]])
+    mesh_fold = data["fold"]
     chosen = np.zeros(len(p), bool)
     for k, m in models.items():
         chosen |= choose_sets(data, set_rows(data, p, np.flatnonzero(mesh_fold == k), m.threshold), m.sets)
@@ -524,10 +570,10 @@ def fold_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], folds:
 
 def held_out_sets(data: dict, p: np.ndarray, models: dict[int, TreeEnsemble], inner: np.ndarray,
                   project_power: float = 0.5, folds: int = FOLDS, log=print) -> np.ndarray:
-    """Rows chosen with a set stage, project-held-out: fold ``k``'s set model is fitted on the
+    """Rows chosen with a set stage, repository-held-out: fold ``k``'s set model is fitted on the
     other folds' sets from ``inner[k]`` (:func:`inner_probabilities`) and attached to
     ``models[k]``; fold ``k``'s meshes take their sets from ``p`` (held-out per-bone probabilities)."""
-    mesh_fold = np.array([fold_of(g, folds) for g in data["group"]])
+    mesh_fold = data["fold"]
     chosen = np.zeros(len(data["y"]), bool)
     for k in range(folds):
         train = set_rows(data, inner[k], np.flatnonzero(mesh_fold != k), models[k].threshold)
