@@ -37,6 +37,8 @@ seconds the weights took. Variants:
   of the project's replayed skeletons when the model reads them;
 - ``learned-alone``: the same without the habits, as a project with no artist-weighted mesh
   shows;
+- ``confident``, ``upgrade-confident``: ``learned`` and ``upgrade`` where the model is confident
+  (no candidate between 0.2 and 0.8 likely), the ``rule`` elsewhere;
 - ``upgrade``, ``upgrade-alone``: the bones ``spinemesh upgrade --weights auto`` binds, with and
   without the habits: the learned choice for art no artist chose to weight (more than one bone
   only where a bone besides the slot's reaches the per-bone threshold).
@@ -207,12 +209,22 @@ def segments(case: dict, bones: list[int], middle: tuple[float, float] = (0.0, 1
     return np.concatenate([a + middle[0] * (b - a), a + middle[1] * (b - a)], axis=1)
 
 
+def solved(case: dict, bones: list[int], method: str = "bbw", middle=(0.0, 1.0)) -> np.ndarray:
+    """The weights of ``case`` on ``bones`` (as ``spinemesh weights`` solves them), once per case,
+    bones, method, handles and refinement: variants that choose the same bones share them."""
+    key = (tuple(bones), method, middle, rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION)
+    memo = case.setdefault("solved", {})
+    if key not in memo:
+        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
+        slot = bones.index(case["slot_bone"]) if case["slot_bone"] in bones else None
+        memo[key] = solve_weights(case["world"], case["tris"], segments(case, bones, middle), method, reach, slot)
+    return memo[key]
+
+
 def keep(method: str = "bbw", middle=(0.0, 1.0), smooth: int = 0):
     def variant(case):
         bones = case["bones"]
-        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
-        slot = bones.index(case["slot_bone"]) if case["slot_bone"] in bones else None
-        w = solve_weights(case["world"], case["tris"], segments(case, bones, middle), method, reach, slot)
+        w = solved(case, bones, method, middle)
         for _ in range(smooth):
             w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
         return bones, w
@@ -258,16 +270,19 @@ def fine(variant, points: int = 2000, most: int = 16):
     return run
 
 
-def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, unweighted: bool = False):
+def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = False, unweighted: bool = False,
+            unsure: tuple[float, float] | None = None):
     """The learned choice, each case's bones chosen by the fold model fitted without its repository;
     a model that reads the project's habits gets them from the artist-weighted meshes of the
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does.
     ``alone``: without them, as a project with no weighted mesh shows. ``unweighted``: as for
     art no artist chose to weight, as ``upgrade --weights auto`` binds
-    (:func:`spinemesh.rig.upgrade.upgrade_choice`)."""
+    (:func:`spinemesh.rig.upgrade.upgrade_choice`). ``unsure``: the model only where it is
+    confident, the rule elsewhere: where a candidate's per-bone probability lies inside this
+    band, the rule's bones."""
     from spinemesh.train import bone_choice as train_choice
     from spinemesh.rig.habits import keys_of
-    from spinemesh.rig.learned import choose_learned, neighbour_sets
+    from spinemesh.rig.learned import candidates, choose_learned, neighbour_sets
 
     models: dict[int, object] = {}
     habits: dict[str, object] = {}
@@ -287,9 +302,14 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                 rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby,
                                 unweighted).bones
-        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
-        slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
-        return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
+        if unsure is not None:
+            cand = candidates(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                              rig.skin_bones.get(case["skin"], set()), rig.constrained)
+            p = model.probability(model.with_habits(cand.features, others))
+            if ((p > unsure[0]) & (p < unsure[1])).any():
+                chosen = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                        rig.skin_bones.get(case["skin"], set())).bones
+        return chosen, solved(case, chosen)
     return variant
 
 
@@ -305,9 +325,7 @@ def auto(near: float | None = None):
                                  rig.skin_bones.get(case["skin"], set())).bones
         finally:
             choice.OVER_ART = old
-        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
-        slot = chosen.index(case["slot_bone"]) if case["slot_bone"] in chosen else None
-        return chosen, solve_weights(case["world"], case["tris"], segments(case, chosen), "bbw", reach, slot)
+        return chosen, solved(case, chosen)
     return variant
 
 
@@ -466,6 +484,36 @@ def learned_bound(cases: list[dict], seed: int = 0) -> dict[int, float]:
     return out
 
 
+def replay_cases(tool: Path, cache: Path, examples: str, corpus: int, every: int, animations: int | None,
+                 times: int, fold_models: Path) -> list[dict]:
+    """Every ``every``-th artist-weighted mesh of the replayed skeletons (:func:`collect`,
+    :func:`cases_of`) with both baselines' errors (``rigid``, ``slot``), and the learned
+    variants registered in :data:`VARIANTS` with the fold models ``fold_models``."""
+    cases, skeletons = [], {}
+    for label, skel, dump in collect(tool, cache, examples, corpus, animations, times):
+        cases += cases_of(label, skel, dump)
+        skeletons.setdefault(label, []).append(skel)
+    VARIANTS["learned"] = learned(fold_models, skeletons)
+    VARIANTS["learned-alone"] = learned(fold_models, skeletons, alone=True)
+    VARIANTS["upgrade"] = learned(fold_models, skeletons, unweighted=True)
+    VARIANTS["upgrade-alone"] = learned(fold_models, skeletons, alone=True, unweighted=True)
+    VARIANTS["confident"] = learned(fold_models, skeletons, unsure=(0.2, 0.8))
+    VARIANTS["upgrade-confident"] = learned(fold_models, skeletons, unweighted=True, unsure=(0.2, 0.8))
+    cases = cases[::every]
+    for c in cases:
+        c["rigid"], c["slot"] = rigid_error(c), slot_error(c)
+    return cases
+
+
+def errors_of(cases: list[dict], name: str, cap: int = 4) -> dict[int, float]:
+    """Each case's replay error under the variant ``name``, at most ``cap`` bones per vertex."""
+    out = {}
+    for i, c in enumerate(cases):
+        bones, w = VARIANTS[name](c)
+        out[i] = replay(c, sparsify(w, cap, 0.01), bones)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--tool", type=Path, required=True, help="installed copy of tools/spine-runtime")
@@ -483,18 +531,8 @@ def main() -> None:
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
-    cases, skeletons = [], {}
-    for label, skel, dump in collect(args.tool, args.cache, args.examples, args.corpus,
-                                     args.animations or None, args.times):
-        cases += cases_of(label, skel, dump)
-        skeletons.setdefault(label, []).append(skel)
-    VARIANTS["learned"] = learned(args.fold_models, skeletons)
-    VARIANTS["learned-alone"] = learned(args.fold_models, skeletons, alone=True)
-    VARIANTS["upgrade"] = learned(args.fold_models, skeletons, unweighted=True)
-    VARIANTS["upgrade-alone"] = learned(args.fold_models, skeletons, alone=True, unweighted=True)
-    cases = cases[::args.every]
-    for c in cases:
-        c["rigid"], c["slot"] = rigid_error(c), slot_error(c)
+    cases = replay_cases(args.tool, args.cache, args.examples, args.corpus, args.every, args.animations or None,
+                         args.times, args.fold_models)
     print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)
     print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | exact bone set "
           "| bones / mesh median / p95 | seconds |")

@@ -69,7 +69,15 @@ def main() -> None:
     ap.add_argument("--train-share", type=float, default=1.0,
                     help="learn from this share of the projects only (drawn by name), judging every mesh held out "
                     "as before: a learning curve")
+    ap.add_argument("--replay", type=Path, metavar="TOOL", help="then replay keep, rule and the learned "
+                    "choice of the fold models in the artists' animations (benchmarks/bench_weights_offline.py, "
+                    "an installed copy of tools/spine-runtime; needs --fold-models): every aggregate against both "
+                    "baselines")
+    ap.add_argument("--replay-cache", type=Path, default=Path("weights-replay-cache"), help="the replay's dumps")
+    ap.add_argument("--replay-every", type=int, default=1, help="replay every K-th mesh (faster)")
     args = ap.parse_args()
+    if args.replay and not args.fold_models:
+        ap.error("--replay judges the fold models: give --fold-models")
     if not 0 < args.train_share <= 1:
         ap.error("--train-share must be in (0, 1]")
     if args.train_share < 1 and args.write:
@@ -124,6 +132,15 @@ def main() -> None:
         table([("rule", tc.judge(data, data["rule"].astype(bool), ids)),
                (f"per bone, threshold {args.threshold:.1f}", tc.judge(data, tc.choose_rows(data, p, args.threshold), ids)),
                ("learned: per bone, then set level", tc.judge(data, by_sets, ids))])
+    if args.replay:
+        sys.path.insert(0, str(REPO / "benchmarks"))
+        import bench_weights_offline as offline
+
+        cases = offline.replay_cases(args.replay, args.replay_cache, "4.2", 200, args.replay_every, None, 4,
+                                     args.fold_models)
+        names = ("keep", "rule", "learned", "upgrade")
+        print(f"\nreplayed in the artists' animations, repository-held-out ({len(cases)} meshes):\n")
+        print(offline.aggregates_table(cases, {n: offline.errors_of(cases, n) for n in names}))
     if args.write:
         model = tc.fit(data["X"], data["y"], tc.mesh_weights(data, args.project_power), args.threshold,
                        features=tc.feature_names(data))
