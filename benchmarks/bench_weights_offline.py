@@ -167,7 +167,7 @@ def cases_of(label: str, skel: Path, dump_file: Path) -> list[dict]:
                 artist[i, bones.index(b)] += w
         world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
         out.append(dict(
-            label=label, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
+            label=label, skeleton=skel.name, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
             bones=bones, artist=artist, slot_bone=rig.slot_bone[ref.slot],
             setup_matrices=np.stack(rig.worlds), frame_matrices=np.stack([every_frame[k] for k in seen]),
             frame_vertices=np.stack([np.asarray(drawn[k + 1][key]["vertices"], float).reshape(-1, 2) for k in seen])))
@@ -505,13 +505,38 @@ def replay_cases(tool: Path, cache: Path, examples: str, corpus: int, every: int
     return cases
 
 
-def errors_of(cases: list[dict], name: str, cap: int = 4) -> dict[int, float]:
-    """Each case's replay error under the variant ``name``, at most ``cap`` bones per vertex."""
+def case_key(case: dict) -> str:
+    """A case's name across runs: its project, skeleton and attachment."""
+    return f"{case['label']}|{case['skeleton']}|{case['skin']}|{case['slot']}|{case['name']}"
+
+
+def errors_of(cases: list[dict], name: str, cap: int = 4, saved: Path | None = None,
+              fold_models: Path | None = None) -> dict[int, float]:
+    """Each case's replay error under the variant ``name``, at most ``cap`` bones per vertex.
+
+    ``saved``: a JSON file of the errors of earlier runs, read and written back: a case's error
+    under the same variant, cap (and, for the variants that read them, fold models) is not
+    computed again, so runs over a few variants at a time add up to one table.
+    """
+    import json as _json
+
+    known = _json.loads(saved.read_text()) if saved is not None and saved.is_file() else {}
+    models = str(fold_models) if name in LEARNED_VARIANTS else ""
+    column = known.setdefault(f"{name}|{cap}|{models}", {})
     out = {}
     for i, c in enumerate(cases):
-        bones, w = VARIANTS[name](c)
-        out[i] = replay(c, sparsify(w, cap, 0.01), bones)
+        key = case_key(c)
+        if key not in column:
+            bones, w = VARIANTS[name](c)
+            column[key] = replay(c, sparsify(w, cap, 0.01), bones)
+        out[i] = column[key]
+    if saved is not None:
+        saved.write_text(_json.dumps(known))
     return out
+
+
+#: The variants that read the fold models (:func:`learned`).
+LEARNED_VARIANTS = ("learned", "learned-alone", "upgrade", "upgrade-alone", "confident", "upgrade-confident")
 
 
 def main() -> None:
@@ -528,6 +553,8 @@ def main() -> None:
     ap.add_argument("--max-bones", default="4", help="most bones per vertex, as `spinemesh weights --max-bones`; "
                     "a comma-separated list replays each variant with each")
     ap.add_argument("--learned", action="store_true")
+    ap.add_argument("--errors", type=Path, help="JSON file of the errors of earlier runs: reused and added to "
+                    "(a variant run before is not run again; the table covers every variant named)")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     args = ap.parse_args()
@@ -550,6 +577,10 @@ def main() -> None:
     bbw = {}  # the default's weights, kept for the bounds built on them
     for name in names:
         start = time.perf_counter()
+        if args.errors is not None and caps == [4] and not args.bounds:  # errors only, kept across runs
+            per_variant[name] = errors_of(cases, name, 4, args.errors, args.fold_models)
+            row(name, per_variant[name], start)
+            continue
         results, chosen = {cap: {} for cap in caps}, {}
         for i, c in enumerate(cases):
             bones, w = VARIANTS[name](c)

@@ -81,3 +81,39 @@ def test_offline_replay_counts_a_mesh_drawn_nowhere_as_the_worst():
     cases = [{"rigid": 1.0, "bones": [0]}, {"rigid": 1.0, "bones": [0]}, {"rigid": 1.0, "bones": [0]}]
     judged = offline.judge(cases, {0: 1.0, 1: 2.0, 2: float("inf")}, {0: [0], 1: [0], 2: [1]})
     assert judged["ratio"] == 2.0 and np.isfinite(judged["geomean"]) and judged["exact"] == 2 / 3
+
+
+def test_offline_replay_judges_each_choice_against_both_baselines():
+    import numpy as np
+
+    import bench_weights_offline as offline
+
+    # rigid: the artist's heaviest bone; slot: the slot's bone alone. Mesh 3 the baseline leaves
+    # in place (below the floor): out of that baseline's figures
+    cases = [{"rigid": 1.0, "slot": 4.0}, {"rigid": 2.0, "slot": 2.0}, {"rigid": 1.0, "slot": 10.0},
+             {"rigid": 0.01, "slot": 1.0}]
+    errors = {0: 2.0, 1: 1.0, 2: 4.0, 3: 0.5}
+    rigid = offline.against(cases, errors, "rigid")
+    assert rigid["meshes"] == 3 and rigid["median"] == 2.0 and rigid["sum"] == 7.0 / 4.0
+    assert rigid["better"] == 1 / 3 and rigid["geomean"] == np.exp(np.log([2.0, 0.5, 4.0]).mean())
+    slot = offline.against(cases, errors, "slot")
+    assert slot["meshes"] == 4 and slot["median"] == 0.5 and slot["sum"] == 7.5 / 17.0 and slot["better"] == 1.0
+    table = offline.aggregates_table(cases, {"keep": {i: 1.0 for i in range(4)}, "rule": errors})
+    assert "| against | keep | rule |" in table
+    assert "slot's bone (no weights): sum of errors / sum of baseline's (4 meshes) | 0.235 | 0.441 |" in table
+
+
+def test_offline_replay_keeps_each_variants_errors_across_runs(tmp_path, monkeypatch):
+    import bench_weights_offline as offline
+
+    solved = []
+    monkeypatch.setitem(offline.VARIANTS, "rule", lambda case: solved.append(case["name"]) or ([0], None))
+    monkeypatch.setattr(offline, "replay", lambda case, w, bones: case["error"])
+    monkeypatch.setattr(offline, "sparsify", lambda w, cap, floor: w)
+    cases = [{"label": "corpus/p", "skeleton": "s.json", "skin": "default", "slot": "s", "name": n, "error": e}
+             for n, e in (("a", 1.0), ("b", 2.0))]
+    saved = tmp_path / "errors.json"
+    assert offline.errors_of(cases, "rule", saved=saved) == {0: 1.0, 1: 2.0} and solved == ["a", "b"]
+    cases.append({**cases[0], "name": "c", "error": 3.0})
+    assert offline.errors_of(cases, "rule", saved=saved) == {0: 1.0, 1: 2.0, 2: 3.0}
+    assert solved == ["a", "b", "c"], "the cases of the earlier run were replayed again"
