@@ -168,6 +168,8 @@ def test_preview_colours_vertices_by_bone_and_draws_each_bending_mesh_bent(tmp_p
     assert res.exit_code == 0, res.output
     text = page_text(tmp_path / "prev" / "index.html")
     assert text.count('alt="bent pose"') == 1  # the bar bends; nothing else was meshed
+    # its art fills its region: it was meshed to bend, which its card says instead of a saving
+    assert text.count("<b>Made to bend</b> over its bones") == 1 and "transparent area no longer drawn" not in text
     # the bar's vertices mix the colours of its two bones: more than the two pure colours
     assert len(_vertex_colours(tmp_path / "prev")) > 3
     plain = run(str(tmp_path / "bar"), "--out", str(tmp_path / "o2"), "--preview", str(tmp_path / "p2"),

@@ -42,6 +42,16 @@ def skinned(mesh, worlds: list[np.ndarray]) -> np.ndarray:
     return setup_world(mesh, worlds, 0)
 
 
+def checkerboard(height: int, width: int, cell: int = 8) -> np.ndarray:
+    """A neutral light-grey checkerboard (RGB uint8, (height, width, 3)) to draw art on, as
+    image editors show transparency: art of any colour stands out from one of its squares."""
+    y, x = np.mgrid[:height, :width]
+    light = ((y // cell + x // cell) % 2).astype(bool)
+    out = np.full((height, width, 3), 204, np.uint8)
+    out[light] = 236
+    return out
+
+
 def _fit(points: np.ndarray, size: int, pad: int = 16) -> tuple[float, np.ndarray]:
     lo, hi = points.min(axis=0), points.max(axis=0)
     scale = (size - 2 * pad) / max(float((hi - lo).max()), 1e-6)
@@ -90,7 +100,7 @@ def picture(sprite: np.ndarray, uvs: np.ndarray, triangles: np.ndarray, mesh, we
     """
     import cv2
 
-    left = np.full((size, size, 3), 40, np.uint8)
+    left = checkerboard(size, size)  # dark art and light art both show on it
     right = left.copy()
     h, w = sprite.shape[:2]
     both = np.concatenate([setup, bent, segments.reshape(-1, 2)])
@@ -107,7 +117,7 @@ def picture(sprite: np.ndarray, uvs: np.ndarray, triangles: np.ndarray, mesh, we
     for panel, where in ((left, setup), (right, bent)):
         pts = np.round(to_canvas(where)).astype(np.int32)
         for t in triangles:
-            cv2.polylines(panel, [pts[t]], True, (200, 200, 200), 1, cv2.LINE_AA)
+            cv2.polylines(panel, [pts[t]], True, (90, 90, 90), 1, cv2.LINE_AA)
     pts = np.round(to_canvas(setup)).astype(np.int32)
     for i, seg in enumerate(segments):
         a, b = np.round(to_canvas(seg)).astype(np.int32)

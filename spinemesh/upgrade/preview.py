@@ -366,6 +366,8 @@ def _player(folder: PreviewFolder, pid: str, page_rel: str, before: dict, after:
 def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list, all_targets: list,
                    before: dict, after: dict, source) -> tuple[str, FillRate]:
     """Write one skeleton's page; return its path under the preview and its fill rate."""
+    from ..errors import SpineMeshError
+
     page_rel = f"s/{pid}.html"
     up = "../"
     cards, seen = [], {}
@@ -405,7 +407,10 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
     twins = (f"<p>Also written as {html.escape(', '.join(sk.twins))}: the same skeleton, shown and counted "
              "once.</p>" if sk.twins else "")
     problems: list[str] = []
-    player = _player(folder, pid, page_rel, before, after, source, problems)
+    try:
+        player = _player(folder, pid, page_rel, before, after, source, problems)
+    except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:  # the rest of the page still helps
+        player, problems = "", [f"the player could not pose this skeleton: {e}"]
     body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}</h1>{twins}'
             + _headline_html(rate_total, len(targets)) + _rate_table(rate_total)
             + "<h2>Original and upgraded, side by side</h2>"
