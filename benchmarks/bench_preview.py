@@ -6,8 +6,9 @@ into one project in a temporary folder (a ``.source.json`` at its root makes it 
 a game repository holds them), upgraded once (``--weights`` as given), and the preview written
 by this tree and, with ``--compare-with DIR``, by the spinemesh in ``DIR`` (a checkout, for
 example ``git worktree add /tmp/old <commit>``), each into its own folder from the same
-upgrade. Printed side by side: the largest HTML page, all HTML, every file of the preview, the
-seconds to write it, and the seconds headless Chromium needs to open the index beyond a blank
+upgrade. Printed side by side: the largest HTML page, all HTML, the largest script (the
+player's data for one animation, loaded when chosen), every file of the preview, the seconds
+to write it, and the seconds headless Chromium needs to open the index beyond a blank
 page (``--dump-dom`` wall time, median of ``--repeat`` runs, minus that of ``about:blank``).
 
 Usage::
@@ -79,8 +80,10 @@ def open_seconds(url: str, where: Path, repeat: int) -> float:
 def weigh(folder: Path) -> dict:
     files = [p for p in folder.rglob("*") if p.is_file()]
     pages = [p for p in files if p.suffix == ".html"]
+    scripts = [p.stat().st_size for p in files if p.suffix == ".js"]
     return {"largest page": max(p.stat().st_size for p in pages), "all HTML": sum(p.stat().st_size for p in pages),
-            "pages": len(pages), "all files": sum(p.stat().st_size for p in files), "files": len(files)}
+            "pages": len(pages), "largest script": max(scripts, default=0), "all files": sum(p.stat().st_size for p in files),
+            "files": len(files)}
 
 
 def main() -> None:
