@@ -57,7 +57,7 @@ def pose(
 
     \b
     Example: spinemesh pose hero.json --animation run --times 0.2,0.5 --out pose.json
-    Example: spinemesh pose hero.skel -a walk --times 0,0.1,0.2 --skin red
+    Example: spinemesh pose hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump
