@@ -160,3 +160,19 @@ def test_measured_padding_block_by_block_is_every_pair(monkeypatch):
     monkeypatch.setattr(atlas_pack, "PADDING_BLOCK", 3)
     assert atlas_pack.measured_padding(geometries) == whole
     assert atlas_pack.measured_padding(geometries[:2] + [RegionGeometry(500, 0, 10, 10, 0, 0, 10, 10, 0)]) >= 0
+
+
+def test_fill_counts_the_texels_under_footprints_once(meshed, tmp_path):
+    from spinemesh.images import AtlasImages, load_rgba
+    from spinemesh.pack.atlas_pack import pack_atlas
+    from spinemesh.pack.uses import collect_uses
+    from spinemesh.project import find_project, project_atlases
+
+    proj = find_project(meshed)
+    uses = collect_uses(proj)
+    (path, atlas), = project_atlases(proj).items()
+    pixels = [load_rgba(AtlasImages.page_path(atlas, p.name, proj.root)) for p in atlas.pages]
+    packed = pack_atlas(atlas, pixels, uses.regions.get(path, {}))
+    drawn = sum(int(p.any(axis=2).sum()) for p in packed.pages.values())
+    # every texel written lies under a footprint; footprints hold more (their ring), never the whole page
+    assert drawn <= packed.footprint_texels < packed.texels_after

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
 from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
-from .place import fill_pages
+from .place import _grow, fill_pages
 from .uses import RegionUses, rectangle_reason
 
 #: Fewest texels between what two regions draw (stored rectangles, or texels meshes touch), as
@@ -75,8 +75,9 @@ class PackedAtlas:
     seconds: float = 0.0
     rotated: int = 0
     groups: list[str] = field(default_factory=list)
-    #: the footprints' texels, each with its share of the padding (:func:`footprint_share`): over
-    #: ``texels_after``, how full the packed pages are
+    #: texels of the packed pages under a footprint grown by half the padding between footprints
+    #: (:func:`footprint_share`; texels two footprints share count once): over ``texels_after``,
+    #: how full the packed pages are
     footprint_texels: int = 0
 
 
@@ -544,24 +545,20 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
     pad = padding if padding is not None else default_padding(atlas, geometries)
     items = _items(atlas, geometries, pixels, uses, pinned, rotate)
-    out, new_pages, region_page = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names, rules,
-                                         fills, on_fill)
+    out, new_pages, region_page, covered = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names,
+                                                  rules, fills, on_fill)
     texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
     if texels_after >= texels_before:
         raise PackRefused(f"packed, its pages would take {texels_after:,} texels, no fewer than the "
                           f"{texels_before:,} they take now")
     rotated = _rewrite_regions(out, region_page, geometries, atlas)
     outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
-    half = int(round(max(0, pad - RING_TEXELS) / 2))
     return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
-                       time.process_time() - t0, rotated,
-                       footprint_texels=sum(footprint_share(it.foot.core, half) for it in items))
+                       time.process_time() - t0, rotated, footprint_texels=covered)
 
 
 def footprint_share(mask: np.ndarray, half: int) -> int:
     """A footprint's texels with its share of the padding: ``mask`` grown by ``half`` texels on every side."""
-    from .place import _grow
-
     return int(_grow(mask, half).sum()) if half else int(mask.sum())
 
 
@@ -600,8 +597,9 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
            rules: PageRules = PageRules(), fills=None, on_fill=None):
     """Place every group of pages' footprints and composite their texels.
 
-    Returns the new atlas (pages rewritten, regions not yet), its page images by name, and per
-    region index its new page index and geometry.
+    Returns the new atlas (pages rewritten, regions not yet), its page images by name, per
+    region index its new page index and geometry, and the texels of the new pages under a
+    footprint grown by half the padding.
     """
     # by default "no larger than the largest original page": no side longer than its longest
     # side, no page of more texels than it has (a page may turn from wide to tall)
@@ -612,6 +610,8 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
     for i, p in enumerate(atlas.pages):
         groups.setdefault(page_settings(p), []).append(i)
     new_pages: dict[str, np.ndarray] = {}
+    taken: list[np.ndarray] = []  # per new page, its texels under a footprint grown by half the padding
+    half = int(round(between / 2))
     region_page: dict[int, tuple[int, RegionGeometry]] = {}
     taken_names: set[str] = set()
     for gi, page_indices in enumerate(groups.values()):
@@ -633,6 +633,7 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
                        for e in template.entries]
             out.pages.append(AtlasPage(name, entries))
             new_pages[name] = np.zeros((h, w, 4), np.uint8)
+            taken.append(np.zeros((h, w), bool))
         for n, place in zip(members, placements):
             item = items[n]
             k = item.turns[place.orientation]
@@ -647,7 +648,13 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
             else:
                 view[hard] = texels[hard]
             region_page[n] = (first + place.page, _stored_geometry(item, k, place.x, place.y))
-    return out, new_pages, region_page
+            grown = _grow(item.masks[place.orientation], half)
+            page_taken = taken[first + place.page]
+            x0, y0 = place.x - half, place.y - half
+            cx0, cy0 = max(0, x0), max(0, y0)
+            cx1, cy1 = min(page_taken.shape[1], x0 + grown.shape[1]), min(page_taken.shape[0], y0 + grown.shape[0])
+            page_taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+    return out, new_pages, region_page, sum(int(t.sum()) for t in taken)
 
 
 def _rewrite_regions(out: Atlas, region_page: dict, geometries: list[RegionGeometry], atlas: Atlas) -> int:
