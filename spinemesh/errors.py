@@ -84,6 +84,11 @@ class ImageError(SpineMeshError):
     """A page or region image that is missing or cannot be decoded."""
 
 
+class ImageMemoryError(ImageError):
+    """An image whose work needs more memory than this process can get: that image fails, alone
+    (:func:`spinemesh.memory.image_memory`)."""
+
+
 class UnsafePathError(SpineMeshError):
     """A path in a project file that would reach outside the project folder."""
 

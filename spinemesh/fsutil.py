@@ -167,9 +167,22 @@ class OutputGuard:
 
 def project_folder(path: str | Path) -> Path:
     """The folder an input stands for: itself for a folder, its folder for a file (a skeleton's
-    project is the folder it lies in)."""
+    project is the folder it lies in).
+
+    Raises
+    ------
+    SpineMeshError
+        ``PATH: no such file or folder``: a missing project is said as such before its outputs
+        are checked against it (its folder would be the one it was named from).
+    """
     path = Path(path)
-    return path if path.is_dir() else path.parent
+    if path.is_dir():
+        return path
+    if not path.exists():
+        from .errors import SpineMeshError
+
+        raise SpineMeshError("no such file or folder", path)
+    return path.parent
 
 
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),

@@ -24,6 +24,7 @@ from .errors import AtlasError, ImageError, UnsafePathError
 from .foreground import alpha_above, texels_as_words
 from .fsutil import resolve_inside
 from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
+from .memory import image_memory
 
 #: Image file extensions looked for in an images folder, in order of preference.
 IMAGE_EXTENSIONS = (".png", ".webp", ".avif", ".jpg", ".jpeg")
@@ -254,7 +255,8 @@ def _decode(file, path) -> np.ndarray:
         with warnings.catch_warnings():
             # Pillow's bomb warning becomes our error (the size check below comes first).
             warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(file, formats=_decodable_formats()) as im:
+            with Image.open(file, formats=_decodable_formats()) as im, \
+                    image_memory("decode", path, im.width, im.height):
                 check_image_size(im.width, im.height, "image", path)
                 fast = _codec_rgba(im)
                 if fast is not None:
@@ -795,8 +797,10 @@ class PageStore:
     Parameters
     ----------
     max_bytes : int
-        Decoded texels kept at most (default :data:`spinemesh.limits.MAX_PAGE_STORE_BYTES`).
-        A project whose pages exceed it together may have a page decoded again.
+        Decoded texels kept at most (default :data:`spinemesh.limits.MAX_PAGE_STORE_BYTES`),
+        pages decoded ahead and not taken yet (:attr:`PagePrefetch.bytes_ahead`) included; the
+        page in use is kept whatever its size. A project whose pages exceed it together may
+        have a page decoded again.
     max_pages : int, optional
         Pages kept at most (default: no limit besides ``max_bytes``).
 
@@ -850,7 +854,9 @@ class PageStore:
         self.decodes += 1
         pixels.flags.writeable = False  # shared by every region cut from it
         self._pages[path] = pixels
-        while len(self._pages) > 1 and (sum(p.nbytes for p in self._pages.values()) > self.max_bytes
+        # pages decoded ahead and not taken yet are this process's memory too: one budget for both
+        ahead = self.prefetch.bytes_ahead if self.prefetch is not None else 0
+        while len(self._pages) > 1 and (sum(p.nbytes for p in self._pages.values()) + ahead > self.max_bytes
                                         or (self.max_pages is not None and len(self._pages) > self.max_pages)):
             self._pages.popitem(last=False)
         return pixels
@@ -865,9 +871,25 @@ class PageStore:
 
 
 #: Pages a :class:`PagePrefetch` has decoding or decoded and not yet taken, per worker: enough
-#: that the workers are a few pages ahead of the planning, few enough to bound the memory
-#: (pages are 16 MB at 2048x2048).
+#: that the workers are a few pages ahead of the planning (pages are 16 MB at 2048x2048).
 PREFETCH_PAGES_PER_WORKER = 4
+#: Bytes of texels a :class:`PagePrefetch` has decoding or decoded and not yet taken, at most,
+#: whatever the number of workers: half of :data:`~spinemesh.limits.MAX_PAGE_STORE_BYTES`, the
+#: budget of every decoded page a process holds (:class:`PageStore` counts these in). Sixteen
+#: 2048x2048 pages fit; of 9400x9400 pages (353 MB), one.
+PREFETCH_BYTES = 512 << 20
+
+
+def texel_bytes(path: Path) -> int:
+    """Bytes of the RGBA texels that :func:`load_rgba` makes of the image at ``path``, from its
+    header alone (nothing decoded); 0 when the header cannot be read (the decode will say why)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path, formats=_decodable_formats()) as im:
+                return 4 * im.width * im.height
+    except (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError):
+        return 0
 
 
 class PagePrefetch:
@@ -881,19 +903,32 @@ class PagePrefetch:
     lost or it was not submitted yet: the store then decodes it itself, as without workers, so
     texels and errors are the same either way.
 
+    Memory is bounded by bytes as well as pages: a page is submitted only while the texels of
+    those submitted and not taken stay within ``max_bytes`` (sizes read from the headers,
+    :func:`texel_bytes`); a page larger than ``max_bytes`` alone is not decoded ahead at all
+    (the store decodes it when it is needed). What the workers hold while they decode is
+    within the same bound, so decoded pages of a run with workers take at most
+    :data:`~spinemesh.limits.MAX_PAGE_STORE_BYTES` in this process (the store counts these in)
+    plus ``max_bytes`` in flight, whatever ``--jobs`` is.
+
     Parameters
     ----------
     submit : callable
         ``submit(path) -> Future`` of the page's :func:`load_rgba` texels, decoded elsewhere.
     window : int
         Pages submitted and not yet taken, at most.
+    max_bytes : int
+        Texels of the pages submitted and not yet taken, at most (default :data:`PREFETCH_BYTES`).
     """
 
-    def __init__(self, submit, window: int):
+    def __init__(self, submit, window: int, max_bytes: int = PREFETCH_BYTES):
         self._submit = submit
         self.window = window
+        self.max_bytes = max_bytes
+        #: Bytes of texels of the pages submitted and not taken yet.
+        self.bytes_ahead = 0
         self._wanted: OrderedDict[Path, None] = OrderedDict()  # not submitted yet, in order
-        self._submitted: dict[Path, object] = {}  # path -> Future
+        self._submitted: dict[Path, tuple[object, int]] = {}  # path -> (Future, bytes of texels)
 
     def want(self, paths) -> None:
         """Queue these pages (real paths checked inside their project) for decoding ahead."""
@@ -904,18 +939,33 @@ class PagePrefetch:
 
     def _top_up(self) -> None:
         while self._wanted and len(self._submitted) < self.window:
-            path, _ = self._wanted.popitem(last=False)
+            path = next(iter(self._wanted))
+            nbytes = texel_bytes(path)
+            if nbytes > self.max_bytes:  # never ahead: the store decodes it when it comes to it
+                del self._wanted[path]
+                continue
+            if self.bytes_ahead + nbytes > self.max_bytes:
+                return  # its turn comes when a page is taken
+            del self._wanted[path]
             try:
-                self._submitted[path] = self._submit(path)
+                self._submitted[path] = (self._submit(path), nbytes)
             except RuntimeError:  # the workers are closing: the store decodes what is left
                 self._wanted.clear()
+                return
+            self.bytes_ahead += nbytes
+
+    def _pop(self, path: Path):
+        """The future of a submitted page, no longer counted ahead; None if not submitted."""
+        future, nbytes = self._submitted.pop(path, (None, 0))
+        self.bytes_ahead -= nbytes
+        return future
 
     def take(self, path: Path) -> np.ndarray | None:
         """The page decoded ahead, read-only; None if the caller must decode it (see the class)."""
         from concurrent.futures import CancelledError
 
         self._wanted.pop(path, None)  # still waiting for a turn: decoded by the caller, now
-        future = self._submitted.pop(path, None)
+        future = self._pop(path)
         try:
             return future.result() if future is not None else None
         except (Exception, CancelledError):  # failed or lost: the caller's own decode says why
@@ -927,7 +977,7 @@ class PagePrefetch:
         """Drop these pages: not decoded if still waiting, their texels freed if decoded."""
         for path in paths:
             self._wanted.pop(path, None)
-            future = self._submitted.pop(path, None)
+            future = self._pop(path)
             if future is not None:
                 future.cancel()
         self._top_up()

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -248,3 +250,154 @@ def test_a_signal_during_a_page_handed_back_is_not_lost(tmp_path, sig):
         assert r.returncode == 128 + signal.SIGTERM and "Traceback" not in r.stderr, r.stderr
     else:  # the command line turns the KeyboardInterrupt into "Aborted!"; here Python ends on it
         assert r.returncode == -signal.SIGINT and r.stderr.rstrip().endswith("KeyboardInterrupt"), r.stderr
+
+
+# --- memory that runs out -------------------------------------------------------------------------
+#: Address-space limits under which a 9000x9000 image cannot be decoded (tight) or meshed
+#: (loose) while the interpreter, numpy and OpenCV still start and small images go on.
+TIGHT_MEMORY = 900 * 1024**2
+LOOSE_MEMORY = 1200 * 1024**2
+
+
+def _big_sprite(path: Path, side: int = 9000) -> None:
+    """A ``side`` x ``side`` RGBA sprite: a filled disc (small as a file, 324 MB decoded)."""
+    import cv2
+    import numpy as np
+
+    rgba = np.zeros((side, side, 4), np.uint8)
+    cv2.circle(rgba, (side // 2, side // 2), side * 4 // 9, (40, 80, 200, 255), -1)
+    cv2.imwrite(str(path), rgba)
+
+
+def _big_region_project(demo: Path) -> None:
+    """The demo project with its head drawn from a page of its own, 9000x9000."""
+    _json_only(demo)
+    shutil.rmtree(demo / "images")
+    _big_sprite(demo / "big.png")
+    (demo / "big.atlas").write_text("big.png\n\tsize: 9000, 9000\n\tfilter: Linear, Linear\n"
+                                    "demo-head\n\tbounds: 0, 0, 9000, 9000\n")
+    atlas = demo / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("demo-head\n\tbounds: 105, 2, 81, 81\n\toffsets: 5, 4, 90, 90\n", ""))
+
+
+@pytest.mark.parametrize("memory", [TIGHT_MEMORY, LOOSE_MEMORY], ids=["cannot decode", "cannot mesh"])
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_region_that_cannot_be_allocated_fails_alone(tmp_path, demo, memory, jobs):
+    """``upgrade`` with a 9000x9000 region under a memory limit: that attachment stays a region,
+    its line names it, the image's size and what it needs; the others are meshed (exit 3)."""
+    _big_region_project(demo)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", jobs, "--report", "r.json", cwd=tmp_path, memory=memory,
+                timeout=240)
+    check_run(r, before, tmp_path, ["o", "r.json"], codes=(3,))
+    line = next(x for x in (r.stdout + r.stderr).splitlines() if "not enough memory" in x)
+    assert "demo-head" in line and "9000x9000 image" in line and "MB needed" in line, line
+    rows = {row["name"]: row for row in json.loads((tmp_path / "r.json").read_text())["attachments"]}
+    assert rows["demo-head"]["status"] == "failed"
+    assert rows["demo-body"]["status"] == "meshed"
+
+
+def test_mesh_and_segment_of_an_image_that_cannot_be_allocated(tmp_path, demo):
+    """``mesh DIR``: the big image is skipped with its line, the others are written (exit 3);
+    ``mesh`` and ``segment`` of that image alone: one line naming it (exit 2)."""
+    art = tmp_path / "art"
+    shutil.copytree(demo / "images", art)
+    _big_sprite(art / "big.png")
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art", "--out", "meshes", cwd=tmp_path, memory=TIGHT_MEMORY, timeout=240)
+    check_run(r, before, tmp_path, ["meshes"], codes=(3,))
+    assert "big.png: 9000x9000 image: not enough memory" in r.stderr, r.stderr
+    assert (tmp_path / "meshes" / "demo-head.json").is_file()
+    for args in (["mesh", "art/big.png", "--out", "big.mesh.json"], ["segment", "art/big.png", "--out", "big.png"]):
+        r = run_cli(*args, cwd=tmp_path, memory=TIGHT_MEMORY, timeout=240)
+        check_run(r, before, tmp_path, ["meshes"], codes=(2,))
+        assert r.stderr.startswith("error: art/big.png: 9000x9000 image: not enough memory to "), r.stderr
+
+
+def test_pages_decoded_ahead_stay_within_their_budget(tmp_path):
+    """The pages a prefetch has submitted and not handed over never hold more texels than its
+    budget (sizes from the headers); a page larger than the budget alone is never decoded ahead,
+    and the page store counts the pages ahead against its own budget."""
+    from concurrent.futures import Future
+
+    import numpy as np
+    from PIL import Image
+
+    from spinemesh import images
+
+    paths = []
+    for i, side in enumerate([100, 100, 100, 200, 100]):  # 40,000 bytes of texels, one of 160,000
+        paths.append(tmp_path / f"p{i}.png")
+        Image.fromarray(np.full((side, side, 4), i, np.uint8)).save(paths[-1])
+    submitted, most = [], [0]
+
+    def submit(path):
+        future = Future()
+        future.set_result(images.load_rgba(path))
+        submitted.append(path)
+        return future
+
+    prefetch = images.PagePrefetch(submit, window=10, max_bytes=100_000)
+    store = images.PageStore(max_bytes=120_000)
+    store.prefetch = prefetch
+    store.decode_ahead(paths)
+    for path in paths:
+        most[0] = max(most[0], prefetch.bytes_ahead)
+        assert prefetch.bytes_ahead <= 100_000
+        assert sum(p.nbytes for p in store._pages.values()) + prefetch.bytes_ahead <= 120_000 + 160_000
+        assert store.page(path)[0, 0, 0] == paths.index(path)
+    assert most[0] == 80_000  # two pages ahead at once, not five
+    assert paths[3] not in submitted  # larger than the budget: decoded by the store itself
+    assert prefetch.bytes_ahead == 0
+
+
+# --- data sets ------------------------------------------------------------------------------------
+
+def test_dataset_resumed_over_broken_metadata_says_so(tmp_path, demo):
+    """A data set whose ``meta.json`` was cut short, or whose project list holds a broken row in
+    its middle, is refused with one line naming the file (exit 2), never a JSONDecodeError."""
+    _json_only(demo)
+    r = run_cli("dataset", "p", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    meta = tmp_path / "ds" / "meta.json"
+    whole = meta.read_bytes()
+    meta.write_bytes(whole[:40])
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "p", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["ds"], codes=(2,))
+    assert r.stderr.startswith("error: ds/meta.json: unreadable data set metadata"), r.stderr
+    meta.write_bytes(whole)
+    rows = tmp_path / "ds" / "projects.jsonl"
+    rows.write_bytes(b'{"project": "x", "err\n' + rows.read_bytes())
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "p", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["ds"], codes=(2,))
+    assert r.stderr.startswith("error: ds/projects.jsonl:1: unreadable row"), r.stderr
+
+
+def test_dataset_of_an_empty_folder_is_nothing_to_do(tmp_path):
+    (tmp_path / "empty").mkdir()
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "empty", "--out", "ds", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert r.stderr.startswith("error: empty: no Spine skeleton found"), r.stderr
+    assert not (tmp_path / "ds").exists()
+
+
+# --- tried as a new user --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("command", ["upgrade", "pack"])
+def test_a_missing_project_is_said_missing_whatever_the_outputs(tmp_path, command):
+    """The getting-started command from the wrong folder: the project is missing, and that is
+    what the one line says (not that a relative --preview lies inside ``.``)."""
+    r = run_cli(command, "demo", "--out", "m1", "--preview", "m1-preview", cwd=tmp_path)
+    check_run(r, {}, tmp_path, [], codes=(2,))
+    assert r.stderr == "error: demo: no such file or folder\n", r.stderr
+
+
+def test_error_lines_start_the_output(tmp_path, demo):
+    """No blank line before an error: a progress display drew nothing on a pipe, so it leaves nothing."""
+    r = run_cli("upgrade", "p", "--out", "p/inside", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("error: "), repr(r.stderr[:80])
+    r = run_cli("upgrade", "nothing-here", "--out", "o", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("error: "), repr(r.stderr[:80])

@@ -82,13 +82,23 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
         BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
     )
 
+    class Bars(Progress):
+        def stop(self) -> None:
+            # rich ends a display on a console that is no terminal (a pipe, a log) with a blank
+            # line; a transient one drew nothing there, so that line would only stand before
+            # what comes next (an error line)
+            if self.live.transient and not self.console.is_interactive and not self.disable:
+                self.live.stop()
+                return
+            super().stop()
+
     if phases:
-        return Progress(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), MofNCompleteColumn(),
-                        TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                        TextColumn("{task.fields[project]}"), console=err_console.real, transient=transient)
-    return Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"),
-                    console=err_console.real, transient=transient)
+        return Bars(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), MofNCompleteColumn(),
+                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                    TextColumn("{task.fields[project]}"), console=err_console.real, transient=transient)
+    return Bars(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"),
+                console=err_console.real, transient=transient)
 
 
 def finite(value: Optional[float]) -> Optional[float]:

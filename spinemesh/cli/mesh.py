@@ -32,20 +32,22 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
     from ..mesher import compute_mask, mesh_image, resolve_params
     from ..mesher.preview import preview as draw_preview
     from ..mesher.preview import steps_figure
+    from ..memory import image_memory
 
     rgba = load_rgba(image_path)
-    params = resolve_params(preset, **overrides)
-    mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
-    mesh = mesh_image(rgba, params, mask=mask)
-    mesh.info["preset"] = preset
-    mesh.info["image"] = image_path.name
-    doc = mesh.to_json()
-    doc["info"].pop("ms", None)  # timing would make the file differ from run to run
-    atomic_write_json(out, doc, indent=None)
-    if preview is not None:
-        atomic_write_png(preview, draw_preview(rgba, mesh))
-    if steps is not None:
-        atomic_write_png(steps, steps_figure(rgba, mask, mesh))
+    with image_memory("mesh", image_path, rgba.shape[1], rgba.shape[0]):  # fails as this image
+        params = resolve_params(preset, **overrides)
+        mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
+        mesh = mesh_image(rgba, params, mask=mask)
+        mesh.info["preset"] = preset
+        mesh.info["image"] = image_path.name
+        doc = mesh.to_json()
+        doc["info"].pop("ms", None)  # timing would make the file differ from run to run
+        atomic_write_json(out, doc, indent=None)
+        if preview is not None:
+            atomic_write_png(preview, draw_preview(rgba, mesh))
+        if steps is not None:
+            atomic_write_png(steps, steps_figure(rgba, mask, mesh))
     return mesh
 
 

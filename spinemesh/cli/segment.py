@@ -40,13 +40,16 @@ def segment(
 
     from ..fsutil import atomic_write_png, check_outputs
     from ..images import load_rgba
+    from ..memory import image_memory
     from ..segment import looks_empty, mask_for
 
     check_outputs([image, model], files=[out])  # never onto the image, never through a symlink
     rgba = load_rgba(image)
-    m, used = mask_for(rgba, mask.value, model)
-    atomic_write_png(out, np.where(m, 255, 0).astype(np.uint8))
-    if looks_empty(m, rgba):
+    with image_memory("mask", image, rgba.shape[1], rgba.shape[0]):  # one line naming the image
+        m, used = mask_for(rgba, mask.value, model)
+        atomic_write_png(out, m.astype(np.uint8) * np.uint8(255))  # 1 byte a texel, not np.where's 8
+        empty = looks_empty(m, rgba)
+    if empty:
         err_console.print(f"warning: {image}: the {used} mask is empty although the image is not uniform; "
                           f"check it, or try --mask {'model' if used == 'alpha' else 'alpha'}",
                           markup=False, highlight=False)

@@ -144,7 +144,12 @@ def _worker_main(conn, max_tasks: int | None) -> None:
     done = 0
     try:
         while max_tasks is None or done < max_tasks:
-            message = conn.recv()
+            try:
+                message = conn.recv()
+            except MemoryError as e:  # no memory to read the task: it fails as out of memory
+                conn.send((False, e))
+                done += 1
+                continue
             if message is None:
                 break
             fn, arg = message
@@ -156,6 +161,9 @@ def _worker_main(conn, max_tasks: int | None) -> None:
                 conn.send(answer)
             except PICKLE_ERRORS as e:  # an answer that does not pickle
                 conn.send((False, SpineMeshError(f"worker could not send its answer back: {e}")))
+            except MemoryError as e:  # no memory to pickle it: said as such (spinemesh.memory)
+                answer = None
+                conn.send((False, e))
             else:
                 if isinstance(answer[1], SharedArray):
                     answer[1].send_memory(conn)
@@ -395,8 +403,8 @@ class ProcessWorkers(Workers):
                 except (OSError, EOFError):  # died before it got it: noticed by its sentinel
                     idle.task = task
                     continue
-                except PICKLE_ERRORS as e:  # a task that does not pickle
-                    task.future.set_exception(e)
+                except PICKLE_ERRORS + (MemoryError,) as e:  # a task that does not pickle, or no memory to
+                    task.future.set_exception(e)                 # pickle it: that task fails, alone
                     continue
                 idle.task = task
 
@@ -408,6 +416,8 @@ class ProcessWorkers(Workers):
             return False
         except PICKLE_ERRORS as e:  # an answer that does not unpickle
             ok, value = False, SpineMeshError(f"worker answer could not be read: {e}")
+        except MemoryError as e:  # no memory to read it: the task fails as out of memory
+            ok, value = False, e
         if isinstance(value, SharedArray):
             try:
                 value = value.receive(worker.conn)

@@ -119,8 +119,12 @@ def _open_output(out: Path) -> None:
             "split": "by game: val when blake2b-64(game) / 2^64 < val_fraction"}
     path = out / META
     if path.is_file():
-        old = json.loads(path.read_text("utf-8"))
-        if old.get("format") != FORMAT or old.get("version") != FORMAT_VERSION:
+        try:
+            old = json.loads(path.read_text("utf-8"))
+        except (OSError, ValueError) as e:  # cut short by a full disk, edited by hand: not resumed
+            raise SpineMeshError(f"unreadable data set metadata ({e}); give a new --out folder, or remove "
+                                 "this folder to start over", path) from None
+        if not isinstance(old, dict) or old.get("format") != FORMAT or old.get("version") != FORMAT_VERSION:
             raise SpineMeshError("folder holds something else than a spinemesh data set of this version", path)
     else:
         atomic_write_json(path, meta)
@@ -211,6 +215,9 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
     t0 = time.perf_counter()
     out = Path(out)
     projects = _project_names([Path(c) for c in corpora])
+    if not projects:  # nothing to do is refused, as everywhere (exit status 2), before OUT is made
+        raise SpineMeshError("no Spine skeleton found in this folder (a .skel file, or a .json with a "
+                             "\"skeleton\" object), at any depth", corpora[0] if len(corpora) == 1 else None)
     out.mkdir(parents=True, exist_ok=True)
     lock = open(out / ".lock", "w")
     try:

@@ -125,10 +125,13 @@ def read_jsonl(path: Path) -> Iterator[dict]:
     if not path.is_file():
         return
     with open(path, "rb") as f:
-        for line in f:
+        for number, line in enumerate(f, 1):
             if not line.endswith(b"\n"):
                 break
-            yield json.loads(line)
+            try:
+                yield json.loads(line)
+            except ValueError as e:  # a line broken in the middle of the file: not a torn tail
+                raise SpineMeshError(f"unreadable row ({e})", path, line=number) from None
 
 
 def repair_tail(path: Path) -> None:

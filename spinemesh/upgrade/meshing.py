@@ -20,7 +20,8 @@ import numpy as np
 
 from ..attachment_geometry import spine_triangles
 from ..cluster import WorkerLost, Workers, open_workers
-from ..errors import SpineMeshError
+from ..errors import ImageMemoryError, SpineMeshError
+from ..memory import image_memory, memory_message, out_of_memory
 from ..mesher.worth import MAX_HULL_TOLERANCE
 from .options import Options
 from .plan import MeshTask
@@ -91,8 +92,17 @@ def mesh_one(task: MeshTask) -> MeshResult:
     """Worker: mesh one image and triangulate its whole hull, as Spine needs.
 
     A pure function of the task, so that any worker (local or on a cluster) gives the same
-    answer. Problems of the image (:class:`SpineMeshError`) become the result's ``error``.
+    answer. Problems of the image (:class:`SpineMeshError`), memory that cannot be had for it
+    included (:func:`~spinemesh.memory.image_memory`), become the result's ``error``.
     """
+    try:
+        with image_memory("mesh", None, task.rgba.shape[1], task.rgba.shape[0]):
+            return _mesh_one(task)
+    except ImageMemoryError as e:
+        return MeshResult(task.key, error=str(e))
+
+
+def _mesh_one(task: MeshTask) -> MeshResult:
     from ..mesher import NotWorthMeshing, mesh_image, resolve_params
     from ..metrics import coverage_and_waste, opaque_mask
 
@@ -182,6 +192,12 @@ def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Worker
             res = future.result()
         except WorkerLost as e:  # the others go on; this image's attachments stay regions
             res = MeshResult(meshing.keys[future], error=str(e))
+        except Exception as e:
+            if not out_of_memory(e):  # no memory to hand the task over or its answer back
+                raise
+            key = meshing.keys[future]
+            shape = tasks[key].rgba.shape
+            res = MeshResult(key, error=memory_message("mesh", shape[1], shape[0]))
         results[res.key] = res
         key = (res.key, tasks[res.key].settings)
         if cache is not None:
