@@ -91,7 +91,8 @@ def test_two_bone_ik_reaches_the_target_on_the_bend_side(bend):
     doc["ik"] = [{"name": "leg", "bones": ["seg2", "seg3"], "target": "target", "bendPositive": bend}]
     bones = _posed(doc)
     assert bones["seg2"].exact and bones["seg3"].exact
-    assert np.allclose(_tip(bones["seg3"]), bones["target"].world[:, 2], atol=1e-6)
+    # The runtimes' pi (3.1415927) leaves the tip about 1e-6 off, as in the runtime itself.
+    assert np.allclose(_tip(bones["seg3"]), bones["target"].world[:, 2], atol=1e-5)
     knee, hip, foot = bones["seg3"].world[:, 2], bones["seg2"].world[:, 2], _tip(bones["seg3"])
     (fx, fy), (kx, ky) = foot - hip, knee - hip
     side = fx * ky - fy * kx

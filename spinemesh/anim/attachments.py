@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..rig.binding import parse_vertices
+from ..rig.transform import DEG_RAD
 from ..skeleton import sequence_paths
 from .curves import _number
 from .timelines import color_channels
@@ -57,7 +58,7 @@ def region_corners(att: dict, region: RegionGeometry | None) -> tuple[np.ndarray
     lx = -width / 2 * scale_x + region.offset_x * rsx
     ly = -height / 2 * scale_y + region.offset_y * rsy
     lx2, ly2 = lx + region.width * rsx, ly + region.height * rsy
-    r = rotation * math.pi / 180
+    r = rotation * DEG_RAD
     cos, sin = math.cos(r), math.sin(r)
     xc, xs, yc, ys = lx * cos + x, lx * sin, ly * cos + y, ly * sin
     x2c, x2s, y2c, y2s = lx2 * cos + x, lx2 * sin, ly2 * cos + y, ly2 * sin

@@ -490,7 +490,9 @@ class Sampler:
             setup = self.slot_color[tl.slot]
             c = colors[tl.slot]
             if tl.property in ("rgba", "rgba2"):
-                c[:] = setup if v is None else v[:4]
+                # Color.set clamps to 0..1 (a Bezier can overshoot); the rgb and alpha timelines
+                # assign their channels as they are.
+                c[:] = setup if v is None else np.clip(v[:4], 0.0, 1.0)
             elif tl.property in ("rgb", "rgb2"):
                 c[:3] = setup[:3] if v is None else v[:3]
             elif tl.property == "alpha":

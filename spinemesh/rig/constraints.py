@@ -33,12 +33,12 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
-from .transform import INHERIT_MODES, _num, inherit_mode, local_values, world_from_local
+from .transform import DEG_RAD, INHERIT_MODES, PI, PI2, RAD_DEG, _num, inherit_mode, local_values, world_from_local
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
 FAMILIES = ("3.8", "4.0", "4.1", "4.2")
 
-RAD = math.pi / 180
+RAD = DEG_RAD
 
 
 def runtime_family(doc: dict) -> str | None:
@@ -123,8 +123,8 @@ class PoseBone:
         self.applied_valid = True
         (a, b, wx), (c, d, wy) = self.world.tolist()
         if self.parent is None:
-            self.applied = [wx, wy, math.degrees(math.atan2(c, a)), math.hypot(a, c), math.hypot(b, d), 0.0,
-                            math.degrees(math.atan2(a * b + c * d, a * d - b * c))]
+            self.applied = [wx, wy, math.atan2(c, a) * RAD_DEG, math.hypot(a, c), math.hypot(b, d), 0.0,
+                            math.atan2(a * b + c * d, a * d - b * c) * RAD_DEG]
             return
         (pa, pb, pwx), (pc, pd, pwy) = self.parent.world.tolist()
         pid = 1 / (pa * pd - pb * pc)
@@ -149,7 +149,7 @@ class PoseBone:
                 s = math.hypot(pa, pc)
                 if self.inherit == "noScale" and pid < 0:
                     s = -s
-                r = math.pi / 2 + math.atan2(pc, pa)
+                r = PI / 2 + math.atan2(pc, pa)
                 pb, pd = math.cos(r) * s, math.sin(r) * s
                 pid = 1 / (pa * pd - pb * pc)
                 ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
@@ -160,11 +160,11 @@ class PoseBone:
             det = ra * rd - rb * rc
             scale_y = det / scale_x
             # 4.2 fixed the sign of the recovered shear; 3.8-4.1 return it negated.
-            shear_y = math.degrees(math.atan2(ra * rb + rc * rd, det)) * (-1 if self.family == "4.2" else 1)
-            rotation = math.degrees(math.atan2(rc, ra))
+            shear_y = math.atan2(ra * rb + rc * rd, det) * RAD_DEG * (-1 if self.family == "4.2" else 1)
+            rotation = math.atan2(rc, ra) * RAD_DEG
         else:
             scale_x, scale_y, shear_y = 0.0, math.hypot(rb, rd), 0.0
-            rotation = 90 - math.degrees(math.atan2(rd, rb))
+            rotation = 90 - math.atan2(rd, rb) * RAD_DEG
         self.applied = [ax, ay, rotation, scale_x, scale_y, 0.0, shear_y]
 
 
@@ -177,10 +177,10 @@ def _wrap180(degrees: float) -> float:
 
 
 def _wrap_pi(r: float) -> float:
-    if r > math.pi:
-        return r - 2 * math.pi
-    if r < -math.pi:
-        return r + 2 * math.pi
+    if r > PI:
+        return r - PI2
+    if r < -PI:
+        return r + PI2
     return r
 
 
@@ -209,14 +209,14 @@ def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, str
                 den = max(0.0001, den)
             s = abs(pa * pd - pb * pc) / den
             pb, pd = -pc * s, pa * s
-            rotation_ik += math.degrees(math.atan2(pc, pa))
+            rotation_ik += math.atan2(pc, pa) * RAD_DEG
         x, y = tx_world - pwx, ty_world - pwy
         d = pa * pd - pb * pc
         if family in ("4.1", "4.2") and abs(d) <= 0.0001:
             tx = ty = 0.0
         else:
             tx, ty = (x * pd - y * pb) / d - ax, (y * pa - x * pc) / d - ay
-    rotation_ik += math.degrees(math.atan2(ty, tx))
+    rotation_ik += math.atan2(ty, tx) * RAD_DEG
     if asx < 0:
         rotation_ik += 180
     rotation_ik = _wrap180(rotation_ik)
@@ -283,11 +283,11 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     else:
         a1, a2 = _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family)
     os = math.atan2(cy, cx) * s2
-    a1 = _wrap180(math.degrees(a1 - os) + os1 - prot)
+    a1 = _wrap180((a1 - os) * RAD_DEG + os1 - prot)
     parent.update_with((px, py, prot + a1 * alpha, sx, sy if family != "3.8" else parent.applied[4], 0.0, 0.0))
     ca = child.applied
     crot = ca[2]
-    a2 = _wrap180((math.degrees(a2 + os) - ca[5]) * s2 + os2 - crot)
+    a2 = _wrap180(((a2 + os) * RAD_DEG - ca[5]) * s2 + os2 - crot)
     child.update_with((cx, cy, crot + a2 * alpha, ca[3], ca[4], ca[5], ca[6]))
 
 
@@ -369,7 +369,7 @@ def _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family) -> tuple[floa
         if dd - r * r >= 0:
             y = math.sqrt(dd - r * r) * bend
             return ta - math.atan2(y, r), math.atan2(y / psy, (r - l1) / psx)
-    min_angle, min_x, min_y = math.pi, l1 - a, 0.0
+    min_angle, min_x, min_y = PI, l1 - a, 0.0
     max_angle, max_x, max_y = 0.0, l1 + a, 0.0
     min_dist, max_dist = min_x * min_x, max_x * max_x
     c = -a * l1 / (aa - bb)
@@ -482,7 +482,7 @@ def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
         if mix.shear_y > 0:
             if mix.relative:
                 r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta))
-                r = math.atan2(d, b) + (r - math.pi / 2 + off_shear) * mix.shear_y
+                r = math.atan2(d, b) + (r - PI / 2 + off_shear) * mix.shear_y
             else:
                 by = math.atan2(d, b)
                 r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta) - (by - math.atan2(c, a)))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .transform import _num
+from .transform import PI2, _num
 
 RESET, UPDATE, POSE = "reset", "update", "pose"
 
@@ -165,7 +165,7 @@ class PhysicsState:
         if turn:
             mr = (s.rotate + s.shear_x) * v.mix
             r = math.atan2(dy + self.ty, dx + self.tx) - ca - self.rotate_offset * mr
-            self.rotate_offset += (r - math.ceil(r / (2 * math.pi) - 0.5) * 2 * math.pi) * v.inertia
+            self.rotate_offset += (r - math.ceil(r * (1 / PI2) - 0.5) * PI2) * v.inertia
             r = self.rotate_offset * mr + ca
         else:
             r = ca

@@ -17,6 +17,15 @@ import math
 
 import numpy as np
 
+#: The runtimes' pi (spine-ts, spine-csharp, ... define it as 3.1415927) and the degree
+#: conversions made with it. A bone at 90 degrees then has ``cos = -2.3e-8``, not ``6e-17``:
+#: tiny, but a fully stretched two-bone IK (``acos`` near 1) turns it into 0.01 degrees.
+#: The runtimes use the exact pi in a few places; those keep ``math.pi``.
+PI = 3.1415927
+PI2 = PI * 2
+DEG_RAD = PI / 180
+RAD_DEG = 180 / PI
+
 #: Inherit modes (4.2: ``inherit``; 3.x-4.1: ``transform``): the same five names everywhere.
 INHERIT_MODES = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale", "noScaleOrReflection")
 
@@ -30,7 +39,7 @@ def _num(node: dict, key: str, default: float) -> float:
 
 
 def _cos_sin(degrees: float) -> tuple[float, float]:
-    r = math.radians(degrees)
+    r = degrees * DEG_RAD
     return math.cos(r), math.sin(r)
 
 
@@ -84,10 +93,10 @@ def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | 
         if s > 0.0001:
             s = abs(pa * pd - pb * pc) / s
             pb, pd = pc * s, pa * s
-            prx = math.degrees(math.atan2(pc, pa))
+            prx = math.atan2(pc, pa) * RAD_DEG
         else:
             pa = pc = 0.0
-            prx = 90 - math.degrees(math.atan2(pd, pb))
+            prx = 90 - math.atan2(pd, pb) * RAD_DEG
         cx, snx = _cos_sin(rot + shear_x - prx)
         cy, sny = _cos_sin(rot + shear_y - prx + 90)
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
