@@ -223,3 +223,16 @@ def test_physics_is_stepped_and_play_follows_one_game_loop():
     assert np.allclose(played, ys, atol=1e-6)
     with pytest.raises(ValueError):
         list(sampler.play("idle", [0.5, 0.25]))
+
+
+def test_malformed_timelines_are_passed_over():
+    """Groups and keys of the wrong shape (a document not checked by the loader) pose as if absent."""
+    doc = _doc()
+    doc["animations"]["bad"] = {
+        "bones": 3, "slots": {"s": {"rgba": [{"color": "zz"}, "x"], "attachment": [{"time": "a", "name": 5}]}},
+        "ik": "x", "transform": {"t": [{"mixRotate": "a", "curve": [1, "b"]}]}, "drawOrder": [{"offsets": [{"slot": 3}]}],
+        "attachments": {"default": {"m": {"mesh": {"deform": [{"offset": -7, "vertices": ["a", 1]}]}}}},
+    }
+    pose = Sampler(doc).pose("bad", 0.5)
+    assert [d.slot for d in pose.slots] == ["m", "w"]     # "5": an attachment the skin lacks, none drawn
+    json.dumps(pose.to_dump(), allow_nan=False)

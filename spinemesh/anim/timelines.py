@@ -125,6 +125,11 @@ def _times(frames: list) -> np.ndarray:
     return f32([_number(f.get("time", 0), 0) for f in frames if isinstance(f, dict)])
 
 
+def _mapping(value) -> dict:
+    """``value`` when it is a JSON object, else empty (a malformed group is passed over)."""
+    return value if isinstance(value, dict) else {}
+
+
 def _dicts(value) -> list[dict]:
     return [f for f in value if isinstance(f, dict)] if isinstance(value, list) else []
 
@@ -216,19 +221,19 @@ class _Reader:
                     self.out.slots.append(SlotTimeline(s, kind, k))
 
     def constraints(self, anim: dict) -> None:
-        for cname, frames in (anim.get("ik") or {}).items():
+        for cname, frames in _mapping(anim.get("ik")).items():
             k = self.keys(frames, _getter(("mix", 1), ("softness", 0)))
             if k is not None:
                 flags = [{"bendPositive": f.get("bendPositive", True) is not False,
                           "compress": f.get("compress") is True, "stretch": f.get("stretch") is True}
                          for f in _dicts(frames)]
                 self.out.constraints.append(ConstraintTimeline("ik", str(cname), ("mix", "softness"), k, flags))
-        for cname, frames in (anim.get("transform") or {}).items():
+        for cname, frames in _mapping(anim.get("transform")).items():
             spec = _TRANSFORM_4 if self.four else _TRANSFORM_3
             k = self.keys(frames, _getter(*spec))
             if k is not None:
                 self.out.constraints.append(ConstraintTimeline("transform", str(cname), tuple(p[0] for p in spec), k))
-        for cname, tls in (anim.get("path") or anim.get("paths") or {}).items():
+        for cname, tls in _mapping(anim.get("path") or anim.get("paths")).items():
             for prop, frames in tls.items() if isinstance(tls, dict) else ():
                 if prop in ("position", "spacing"):
                     spec, fields = (("value" if self.four else prop, 0),), (prop,)
@@ -284,15 +289,15 @@ def read_animation(doc: dict, name: str, four: bool) -> Animation:
         anim = {}
     out = Animation(name, 0.0)
     r = _Reader(doc, four, out)
-    r.bones(anim.get("bones") or {})
-    r.slots(anim.get("slots") or {})
+    r.bones(_mapping(anim.get("bones")))
+    r.slots(_mapping(anim.get("slots")))
     r.constraints(anim)
     _read_deforms(anim, r.slot_index, four, out, r.ends)
     fr, times = r.discrete(anim.get("drawOrder", anim.get("draworder")))
     if fr:
         out.draw_order = DrawOrderTimeline(times, [_draw_order(f.get("offsets"), r.slot_index) for f in fr])
     r.discrete(anim.get("events"))
-    r.physics(anim.get("physics") if isinstance(anim.get("physics"), dict) else {})
+    r.physics(_mapping(anim.get("physics")))
     out.duration = max(r.ends, default=0.0)
     return out
 
