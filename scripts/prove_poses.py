@@ -2,7 +2,9 @@
 
 For every skeleton (``.json`` and ``.skel``) of the official examples 3.8 to 4.2 and of the
 corpus whose Spine version the harness ``../shared/tools/spine-runtime`` plays (3.8, 4.0,
-4.1, 4.2), with the default skin and the first named skin, every animation is sampled at
+4.1, 4.2), and every 4.3 corpus skeleton (official spine-core 4.3 through
+``tests/runtime43/pose.mjs``, which plays poses the same way), with the default skin and the
+first named skin, every animation is sampled at
 ``--times`` by the harness (a looping AnimationState stepped in 1/60 s from 0) and by
 :class:`spinemesh.anim.Sampler`, and the two dumps are compared: the largest difference of
 any bone's world transform (``a, b, c, d, worldX, worldY``) and of any drawn attachment's
@@ -45,10 +47,10 @@ from spinemesh.skeleton import is_binary_skeleton, load_skeleton, spine_version 
 
 from conftest import CORPUS, EXAMPLES  # noqa: E402
 from prove_corpus import atlas_for, harness_atlas, harness_copy, skins_to_render  # noqa: E402
-from runtime_tool import dump, install  # noqa: E402
+from runtime_tool import dump, install, install43, node  # noqa: E402
 
-#: Versions the harness plays.
-PLAYED = ("3.8", "4.0", "4.1", "4.2")
+#: Versions the harness plays; 4.3 plays through tests/runtime43.
+PLAYED = ("3.8", "4.0", "4.1", "4.2", "4.3")
 TIMES = (0.1, 0.37, 0.8, 1.53)
 GOAL = 0.01
 
@@ -92,7 +94,13 @@ def _playable(name: str) -> bool:
     return not any(c in name for c in ",@")   # the harness's --poses cannot name these
 
 
-def prove_skeleton(tool: Path, source: str, project: Path, skeleton: Path, work: Path, times) -> list[Row]:
+def _dump43(tool43: Path, atlas: Path, skeleton: Path, out: Path, poses: str, skin: str | None) -> None:
+    r = node(tool43, "pose.mjs", atlas, skeleton, out, poses, *([skin] if skin else []))
+    assert r.returncode == 0, f"4.3 pose dump of {skeleton} failed: {r.stderr[-2000:]}"
+
+
+def prove_skeleton(tool: Path, source: str, project: Path, skeleton: Path, work: Path, times,
+                   tool43: Path | None = None) -> list[Row]:
     """Rows (one per skin) for one skeleton file."""
     rel = skeleton.relative_to(project.parent if source == "corpus" else project.parent.parent).as_posix()
     row = Row(source, rel)
@@ -122,7 +130,10 @@ def prove_skeleton(tool: Path, source: str, project: Path, skeleton: Path, work:
         r = Row(source, rel, skin or "", row.version, len(anims))
         out = work / f"dump-{len(rows)}.json"
         try:
-            dump(tool, harness_atlas_path, harness_skeleton, None, "", out, poses=poses, skin=skin)
+            if row.version.startswith("4.3"):
+                _dump43(tool43, harness_atlas_path, harness_skeleton, out, poses, skin)
+            else:
+                dump(tool, harness_atlas_path, harness_skeleton, None, "", out, poses=poses, skin=skin)
         except AssertionError as e:
             r.status, r.cause = "not played", f"harness: {str(e).strip().splitlines()[-1][:200]}"
             rows.append(r)
@@ -196,12 +207,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--times", default=",".join(map(str, TIMES)), help="sample times in seconds")
     ap.add_argument("--json", type=Path, help="write the rows here as JSON")
     ap.add_argument("--tool", type=Path, help="an installed copy of the harness (default: install one)")
+    ap.add_argument("--tool43", type=Path, help="an installed copy of tests/runtime43 (default: install one)")
     args = ap.parse_args(argv)
     times = [float(t) for t in args.times.split(",")]
     sources = [("examples", EXAMPLES)] if args.examples else [("corpus", CORPUS)] if args.corpus else \
         [("examples", EXAMPLES), ("corpus", CORPUS)]
     base = Path(tempfile.mkdtemp(prefix="prove-poses-"))
     tool = args.tool.resolve() if args.tool else install(base / "tool")
+    tool43 = args.tool43.resolve() if args.tool43 else install43(base / "tool43")
     rows: list[Row] = []
     for source, root in sources:
         for project, skeleton in skeleton_files(root):
@@ -210,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             work = base / "work" / f"{len(rows)}"
             work.mkdir(parents=True, exist_ok=True)
-            new = prove_skeleton(tool, source, project, skeleton, work, times)
+            new = prove_skeleton(tool, source, project, skeleton, work, times, tool43)
             rows += new
             for r in new:
                 print(f"{r.skeleton} [{r.skin}]: {r.status} bone {r.bone:.5f} vertex {r.vertex:.5f} {r.cause} "

@@ -55,6 +55,25 @@ def install(dest: Path) -> Path:
     return dest
 
 
+def install43(dest: Path) -> Path:
+    """``tests/runtime43`` (the official spine-core 4.3) copied to ``dest`` and ``npm ci``-ed, once.
+
+    Raises :class:`ToolUnavailable` with the cause."""
+    if (dest / "node_modules").is_dir():
+        return dest
+    for program in ("node", "npm"):
+        if not shutil.which(program):
+            raise ToolUnavailable(f"{program} is not installed (the official Spine runtime runs on Node)")
+    shutil.rmtree(dest, ignore_errors=True)
+    shutil.copytree(Path(__file__).parent / "runtime43", dest, ignore=shutil.ignore_patterns("node_modules"))
+    r = subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=dest, capture_output=True, text=True,
+                       timeout=NPM_CI_TIMEOUT_S)
+    if r.returncode:
+        shutil.rmtree(dest / "node_modules", ignore_errors=True)
+        raise ToolUnavailable(f"npm ci in {dest} failed ({r.returncode}):\n{(r.stdout + r.stderr)[-3000:]}")
+    return dest
+
+
 def node(tool: Path, *args) -> subprocess.CompletedProcess:
     return subprocess.run(["node", *map(str, args)], cwd=tool, capture_output=True, text=True, timeout=300)
 

@@ -23,6 +23,7 @@ from spinemesh.skeleton import load_skeleton
 
 from conftest import EXAMPLES
 from runtime_tool import pose_dump
+from test_skeleton_binary_v43 import _corpus_json, runtime43  # noqa: F401  (fixture)
 
 
 def _cubic(p0, p1, p2, p3, s):
@@ -236,3 +237,27 @@ def test_malformed_timelines_are_passed_over():
     pose = Sampler(doc).pose("bad", 0.5)
     assert [d.slot for d in pose.slots] == ["m", "w"]     # "5": an attachment the skin lacks, none drawn
     json.dumps(pose.to_dump(), allow_nan=False)
+
+
+@pytest.mark.parametrize("name", ["tmd-ar15"])
+def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
+    """4.3 through the official spine-core 4.3 (tests/runtime43/pose.mjs): bones no constraint
+    moves, and the attachments they draw, within the goal; the others are flagged, not compared
+    (4.3 constraints are not solved here)."""
+    from runtime_tool import node
+
+    skeleton = _corpus_json(name)
+    atlas = skeleton.with_suffix(".atlas")
+    doc = load_skeleton(skeleton)
+    poses = ",".join(f"{a}@{t}" for a in list(doc["animations"])[:2] for t in (0.3, 1.1))
+    r = node(runtime43, "pose.mjs", atlas, skeleton, tmp_path / "d.json", poses)
+    assert r.returncode == 0, r.stderr[-2000:]
+    theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
+    ours = dump(Sampler(doc, None, atlas_regions(read_atlas(atlas))), None, [])["poses"]
+    sampler = Sampler(doc, None, atlas_regions(read_atlas(atlas)))
+    for pose in theirs:
+        mine = sampler.pose(pose["anim"], pose["time"])
+        assert 0 < len(mine.why) < len(mine.bones)
+        e = pose_errors(mine.to_dump(), pose, set(mine.why))
+        assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (pose["label"], e)
+    assert ours[0]["inexact"]

@@ -294,10 +294,11 @@ class Sampler:
         return self._animations[name]
 
     def _physics_bones(self) -> dict[int, str]:
-        """Bones that active physics constraints move, with the constraint's name."""
+        """Bones that active physics constraints move, with the constraint's name (every
+        physics constraint of a version whose constraints are not solved)."""
         out: dict[int, str] = {}
         for c in self.rig.constraints:
-            if c.kind == "physics" and c.active and self.rig.family is not None:
+            if c.kind == "physics" and c.active:
                 for b in c.bones:
                     out.setdefault(b.index, c.name)
         return out

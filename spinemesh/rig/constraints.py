@@ -78,6 +78,7 @@ class PoseBone:
     applied: list[float] = field(default_factory=list)
     world: np.ndarray = field(default_factory=lambda: np.array([[1.0, 0, 0], [0, 1.0, 0]]))
     applied_valid: bool = True        # 3.8 recomputes applied values from the world lazily
+    flat: float = 0.0001              # world_from_local's threshold (4.3: 1e-10)
     applied_exact: bool = True
     exact: bool = True
     why: str = ""
@@ -91,7 +92,7 @@ class PoseBone:
         self.applied = [float(v) for v in values]
         self.applied_valid = True
         self.world = world_from_local(tuple(self.applied), self.inherit,
-                                      None if self.parent is None else self.parent.world)
+                                      None if self.parent is None else self.parent.world, self.flat)
 
     def update(self) -> None:
         """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones."""
@@ -944,7 +945,8 @@ def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constrai
             names = c.get("bones") if kind != "physics" else [c.get("bone")]
             names = names if isinstance(names, list) else []
             bones = [by_name.get(str(n)) for n in names]
-            target = by_name.get(str(c.get("target"))) if kind in ("ik", "transform") else None
+            # 4.3 names a transform constraint's target bone "source" (what it reads).
+            target = by_name.get(str(c.get("target", c.get("source")))) if kind in ("ik", "transform") else None
             if any(b is None for b in bones) or not bones or (kind in ("ik", "transform") and target is None):
                 continue
             order = c.get("order", 0)
@@ -1185,6 +1187,7 @@ def build_rig(doc: dict, skin: str | None = None) -> Rig:
     constraint only some skins need, when ``skin`` lists it and its target is active.
     """
     family = runtime_family(doc)
+    four_three = re.match(r"4\.3\b", str((doc.get("skeleton") or {}).get("spine") or "")) is not None
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
     bones: list[PoseBone] = []
@@ -1198,6 +1201,8 @@ def build_rig(doc: dict, skin: str | None = None) -> Rig:
                         _num(node, "length", 0), local_values(node), family or "4.2")
         bone.active = node.get("skin") is not True
         bone.applied = list(bone.local)
+        if four_three:
+            bone.flat = 1e-10
         if parent is not None:
             parent.children.append(bone)
         bones.append(bone)
@@ -1252,8 +1257,7 @@ def update_world(rig: Rig) -> None:
         bone.applied_valid = bone.applied_exact = bone.exact = True
         bone.why = ""
     if rig.family is None:
-        for bone in rig.bones:
-            bone.update_with(bone.local)
+        _without_constraints(rig.bones, rig.constraints, rig.doc)
         return
     for item in rig.items:
         if isinstance(item, PoseBone):
