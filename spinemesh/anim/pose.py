@@ -214,7 +214,7 @@ class Sampler:
         m = re.match(r"(\d+)", version)
         self.four = bool(m) and int(m[1]) >= 4 if m else True
         self.skin = skin
-        self.rig: Rig = build_rig(doc, skin)
+        self.rig: Rig = build_rig(doc, skin, _family_43(doc))
         self.bone_names = [b.name for b in self.rig.bones]
         self.setup_local = [tuple(b.local) for b in self.rig.bones]
         self.setup_inherit = [b.inherit for b in self.rig.bones]
@@ -234,7 +234,8 @@ class Sampler:
         self.physics_bones = self._physics_bones()
         self.physics: list[PhysicsState] = []
         for c in self.rig.constraints:
-            if c.kind == "physics" and c.active and self.rig.family == "4.2":
+            # 4.3 physics interpolates between its steps (not reproduced): flagged, not stepped.
+            if c.kind == "physics" and c.active and self.rig.family == "4.2" and not _family_43(doc):
                 c.physics = PhysicsState(PhysicsSettings.from_json(c.data, doc.get("skeleton") or {}))
                 self.physics.append(c.physics)
         self._animations: dict[str, tuple[Animation, dict]] = {}
@@ -579,6 +580,17 @@ class Sampler:
             if clip is not None and clip[1] == self.slot_names[s]:
                 clip = None
         return out
+
+
+def _family_43(doc: dict) -> str | None:
+    """4.3 skeletons whose constraints are all IK and physics pose IK as 4.2 does (the same
+    math, checked against spine-core 4.3; physics is not stepped for them); None otherwise
+    (the document's own family: constraints not solved)."""
+    if not re.match(r"4\.3\b", spine_version(doc)):
+        return None
+    items = doc.get("constraints")
+    kinds = {c.get("type") for c in items if isinstance(c, dict)} if isinstance(items, list) else set()
+    return "4.2" if kinds <= {"ik", "physics"} else None
 
 
 def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:

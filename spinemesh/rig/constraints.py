@@ -951,6 +951,8 @@ def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constrai
                 continue
             order = c.get("order", 0)
             order = order if isinstance(order, int) and not isinstance(order, bool) else 0
+            if isinstance(doc.get("constraints"), list):  # 4.3: one list, in update order
+                order = next(i for i, x in enumerate(doc["constraints"]) if x is c)
             out.append(_Constraint(kind, str(c.get("name")), order, c, bones, target))
     return out
 
@@ -1179,14 +1181,15 @@ def _skin_entry(doc: dict, skin: str | None) -> dict:
     return next((s for s in doc["skins"] if isinstance(s, dict) and s.get("name") == skin), {})
 
 
-def build_rig(doc: dict, skin: str | None = None) -> Rig:
+def build_rig(doc: dict, skin: str | None = None, family: str | None = None) -> Rig:
     """The skeleton's bones (setup local values) and its update cache, as ``Skeleton.updateCache``
     sorts it with ``skin`` set (None: no skin, as :func:`setup_pose` poses it).
 
     A bone only some skins need is active when ``skin`` lists it (and so are its parents); a
     constraint only some skins need, when ``skin`` lists it and its target is active.
+    ``family`` overrides the runtime family read from the document.
     """
-    family = runtime_family(doc)
+    family = family or runtime_family(doc)
     four_three = re.match(r"4\.3\b", str((doc.get("skeleton") or {}).get("spine") or "")) is not None
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
