@@ -241,9 +241,9 @@ def test_malformed_timelines_are_passed_over():
 
 @pytest.mark.parametrize("name", ["tmd-ar15"])
 def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
-    """4.3 through the official spine-core 4.3 (tests/runtime43/pose.mjs): bones no constraint
-    moves, and the attachments they draw, within the goal; the others are flagged, not compared
-    (4.3 constraints are not solved here)."""
+    """4.3 through the official spine-core 4.3 (tests/runtime43/pose.mjs): every bone but those
+    physics moves (4.3 physics is not stepped here: flagged, not compared) within the goal, IK
+    included, and the attachments they draw."""
     from runtime_tool import node
 
     skeleton = _corpus_json(name)
@@ -253,11 +253,11 @@ def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     r = node(runtime43, "pose.mjs", atlas, skeleton, tmp_path / "d.json", poses)
     assert r.returncode == 0, r.stderr[-2000:]
     theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
-    ours = dump(Sampler(doc, None, atlas_regions(read_atlas(atlas))), None, [])["poses"]
     sampler = Sampler(doc, None, atlas_regions(read_atlas(atlas)))
+    flagged = set()
     for pose in theirs:
         mine = sampler.pose(pose["anim"], pose["time"])
-        assert 0 < len(mine.why) < len(mine.bones)
+        flagged |= set(mine.why)
         e = pose_errors(mine.to_dump(), pose, set(mine.why))
         assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (pose["label"], e)
-    assert ours[0]["inexact"]
+    assert flagged and all(n.startswith("hair") for n in flagged), flagged
