@@ -95,7 +95,8 @@ def pose_errors(ours: dict, theirs: dict, skip_bones: set[str] = frozenset()) ->
     -------
     dict
         ``bone``: the largest difference of any of a bone's ``a, b, c, d, worldX, worldY``;
-        ``vertex``: the largest difference of an attachment's world vertex (world units);
+        ``vertex``: the largest difference of an attachment's world vertex, or of the clipping
+        polygon that applies to it (world units);
         ``worst_bone``, ``worst_slot``: where; ``problems``: differences that are not numbers
         (a slot drawn by one side only, another attachment, another draw order).
     """
@@ -126,6 +127,12 @@ def pose_errors(ours: dict, theirs: dict, skip_bones: set[str] = frozenset()) ->
             problems.append(f"slot {a['slot']!r}: {b['attachment']!r} drawn, the runtime draws {a['attachment']!r}")
             continue
         e = float(np.max(np.abs(np.asarray(a["vertices"], float) - np.asarray(b["vertices"], float)), initial=0))
+        if "clip" in a and "clip" in b:  # the clipping polygon that applies, world vertices too
+            ca, cb = a["clip"] or [], b["clip"] or []
+            if len(ca) != len(cb):
+                problems.append(f"slot {a['slot']!r}: clipped {'here' if cb else 'in the runtime'} only")
+            elif ca:
+                e = max(e, float(np.max(np.abs(np.asarray(ca, float) - np.asarray(cb, float)))))
         if e > vertex_err:
             vertex_err, worst_slot = e, a["slot"]
         if "color" not in a:
