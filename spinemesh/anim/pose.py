@@ -317,7 +317,8 @@ class Sampler:
         replay starts: physics steps by differences of it, and their rounding (a step taken a
         frame later when the clock's sum falls just short of 1/60 s) depends on where it starts;
         a game starts at 0, the harness carries it from one pose to the next
-        (:func:`spinemesh.anim.dump.dump` does too).
+        (:func:`spinemesh.anim.dump.dump` does too). For many times of one animation with
+        physics (a player's frames), :meth:`play` costs one replay instead of one per time.
         """
         if animation is None:
             for state in self.physics:
