@@ -215,6 +215,7 @@ class Sampler:
         self.four = bool(m) and int(m[1]) >= 4 if m else True
         self.skin = skin
         self.rig: Rig = build_rig(doc, skin, _family_43(doc))
+        self.rig.where = "in this pose"
         self.bone_names = [b.name for b in self.rig.bones]
         self.setup_local = [tuple(b.local) for b in self.rig.bones]
         self.setup_inherit = [b.inherit for b in self.rig.bones]

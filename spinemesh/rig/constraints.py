@@ -1033,7 +1033,7 @@ class _Cache:
             bone.sorted = True
 
 
-def _inputs_exact(c: _Constraint) -> tuple[bool, str]:
+def _inputs_exact(c: _Constraint, where: str = "in the setup pose") -> tuple[bool, str]:
     """Whether every bone the constraint reads is exact, else the reason."""
     read = ([c.target] if c.target is not None else []) + c.reads
     for bone in c.bones:
@@ -1042,7 +1042,7 @@ def _inputs_exact(c: _Constraint) -> tuple[bool, str]:
         read.append(c.bones[0].parent.parent)  # two-bone IK works in the grandparent's space
     for bone in read:
         if bone is not None and not bone.exact:
-            return False, f"moved in the setup pose by the {c.label()}, which reads {bone.name!r}: {bone.why}"
+            return False, f"moved {where} by the {c.label()}, which reads {bone.name!r}: {bone.why}"
     return True, ""
 
 
@@ -1052,7 +1052,7 @@ def _mark(bones: list[PoseBone], why: str) -> None:
         bone.why = why
 
 
-def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
+def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in the setup pose") -> None:
     """One constraint's update in the cache (``skeleton``: every bone, by index)."""
     if c.kind == "physics":
         # The setup pose resets physics, which leaves the bone as it is; an animation steps it
@@ -1062,19 +1062,19 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone]) -> None:
         return
     if _chain_path_38(c, family):
         # The 3.8 runtime checked against (a port) turns chain-mode bones unlike the official one.
-        _mark(c.bones, f"moved in the setup pose by the {c.label()} (3.8 chain paths are not solved)")
+        _mark(c.bones, f"moved {where} by the {c.label()} (3.8 chain paths are not solved)")
         return
-    ok, why = _inputs_exact(c)
+    ok, why = _inputs_exact(c, where)
     try:
         if not _apply(c, family, skeleton):
             return
     except (ZeroDivisionError, ValueError, OverflowError, IndexError):
         # A degenerate pose (a zero scale, a zero-length path) where the runtime divides by zero.
-        ok, why = False, f"moved in the setup pose by the {c.label()}, degenerate there"
+        ok, why = False, f"moved {where} by the {c.label()}, degenerate there"
     except _Unsolved as e:
-        ok, why = False, f"moved in the setup pose by the {c.label()} ({e})"
+        ok, why = False, f"moved {where} by the {c.label()} ({e})"
     if ok and not all(b.finite() for b in c.bones):
-        ok, why = False, f"moved in the setup pose by the {c.label()}, not finite there"
+        ok, why = False, f"moved {where} by the {c.label()}, not finite there"
     if not ok:
         _mark(c.bones, why)
     else:
@@ -1172,6 +1172,7 @@ class Rig:
     constraints: list[_Constraint]
     items: list
     doc: dict = field(repr=False, default_factory=dict)
+    where: str = "in the setup pose"   # how bones' reasons name the pose (an animation sets its own)
 
 
 def _skin_entry(doc: dict, skin: str | None) -> dict:
@@ -1260,13 +1261,13 @@ def update_world(rig: Rig) -> None:
         bone.applied_valid = bone.applied_exact = bone.exact = True
         bone.why = ""
     if rig.family is None:
-        _without_constraints(rig.bones, rig.constraints, rig.doc)
+        _without_constraints(rig.bones, rig.constraints, rig.doc, rig.where)
         return
     for item in rig.items:
         if isinstance(item, PoseBone):
             item.update()
         else:
-            _run(item, rig.family, rig.bones)
+            _run(item, rig.family, rig.bones, rig.where)
 
 
 def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
@@ -1331,7 +1332,8 @@ def _propagate(bones: list[PoseBone]) -> None:
             bone.exact, bone.why = False, f"below {bone.parent.name!r}: {bone.parent.why}"
 
 
-def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], doc: dict) -> list[PoseBone]:
+def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], doc: dict,
+                         where: str = "in the setup pose") -> list[PoseBone]:
     """Versions whose runtime is not reproduced: bones from their parents, and every bone a
     constraint moves in the setup pose (and those below it) not exact."""
     version = (doc.get("skeleton") or {}).get("spine")
@@ -1344,13 +1346,13 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
             for bone in c.bones:
                 if bone.exact:
                     bone.exact = False
-                    bone.why = (f"moved in the setup pose by the {c.label()} (constraints are solved "
+                    bone.why = (f"moved {where} by the {c.label()} (constraints are solved "
                                 f"for 3.8-4.2 skeletons; this one is {version or 'of an unknown version'})")
     for c in constraints_of(doc, "slider"):  # 4.3: an animation drives bones through it
         for n in (c.get("bones") or [c.get("bone")]) if isinstance(c.get("bones") or [c.get("bone")], list) else []:
             b = next((x for x in bones if x.name == n), None)
             if b is not None and b.exact:
-                b.exact, b.why = False, f"moved in the setup pose by the slider constraint {c.get('name')!r}"
+                b.exact, b.why = False, f"moved {where} by the slider constraint {c.get('name')!r}"
     _propagate(bones)
     return bones
 
