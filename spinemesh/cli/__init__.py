@@ -57,8 +57,8 @@ def main() -> None:
             if run_plain_convert(args[1:]):
                 return
         _load_app()()
-    except KeyboardInterrupt:  # where click does not catch it (start-up, the plain convert)
-        sys.exit("Aborted!")  # what click prints for Ctrl-C, with its exit status 1
+    except KeyboardInterrupt:  # where typer does not catch it (start-up, the plain convert)
+        sys.exit(130)  # what typer ends Ctrl-C with: 128 + SIGINT, nothing printed
     except SystemExit as e:
         # a signal came: whatever ended the command, the run was not a success
         if interrupted() and e.code in (0, None):
