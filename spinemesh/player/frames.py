@@ -142,7 +142,14 @@ class PoseSampler:
     def pose(self, animation: str | None, time: float) -> tuple[list[Drawn], dict[str, str]]:
         """The attachments drawn at ``time`` of ``animation`` (None: the setup pose), in draw
         order, and the bones not posed as a runtime poses them (name -> why)."""
-        pose = self.sampler.pose(animation, time)
+        return self._drawn(self.sampler.pose(animation, time))
+
+    def play(self, animation: str, times) -> list[tuple[list[Drawn], dict[str, str]]]:
+        """:meth:`pose` at each of ``times`` (ascending), along one game loop: physics is
+        stepped once through the animation, not replayed from 0 for each time."""
+        return [self._drawn(p) for p in self.sampler.play(animation, [float(t) for t in times])]
+
+    def _drawn(self, pose) -> tuple[list[Drawn], dict[str, str]]:
         out = []
         for s in pose.slots:
             world = np.asarray(s.vertices, float)
@@ -300,9 +307,8 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
         try:
             for skin, (b, a) in sides.items():
                 poses = [], []
-                for t in times:
-                    for side, sampler in zip(poses, (b, a)):
-                        drawn, not_exact = sampler.pose(name, float(t))
+                for side, sampler in zip(poses, (b, a)):
+                    for drawn, not_exact in sampler.play(name, times):
                         side.append(drawn)
                         why.update(not_exact)
                         clipped = clipped or any(d.clipped for d in drawn)
