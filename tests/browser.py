@@ -45,3 +45,39 @@ def player_result(url: str, tmp: Path, budget_ms: int = 5000) -> dict:
     found = re.search(r'<pre id="sm-test">(.*?)</pre>', dom, re.S)
     assert found and found.group(1), f"the player wrote no test result:\n{dom[-1500:]}"
     return json.loads(found.group(1).replace("&amp;", "&").replace("&lt;", "<").replace("&gt;", ">"))
+
+
+def canvases(got: dict) -> list:
+    """The player's two canvases (original, upgraded) its test hook wrote, RGBA arrays."""
+    import base64
+
+    from spinemesh.images import decode_rgba
+
+    return [decode_rgba(base64.b64decode(got[k].split(",", 1)[1])) for k in ("before", "after")]
+
+
+def against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_index: int, anim: str,
+                        original: tuple[Path, Path], upgraded: tuple[Path, Path], time: float = 0.5) -> list[dict]:
+    """Render ``anim`` at ``time`` with the official runtime (``original`` and ``upgraded``:
+    (atlas, skeleton), the second in the first's frame) and with our player (the preview's
+    ``s/<page>``, its animation ``anim_index``) in that frame; the differences
+    (:func:`runtime_tool.render_difference`, 32/255), original then upgraded."""
+    from PIL import Image
+
+    from runtime_tool import render, render_difference
+
+    def at(pngs: list[Path]) -> Path:  # the render also writes the setup pose
+        return next(p for p in pngs if p.name.endswith(f"{anim}@{time:g}.png"))
+
+    theirs = [at(render(tool, *original, anim, f"{time:g}", tmp / "a"))]
+    theirs.append(at(render(tool, *upgraded, anim, f"{time:g}", tmp / "b", frame_from=tmp / "a.frame.json")))
+    frame = json.loads((tmp / "a.frame.json").read_text())
+    f = frame["frame"]
+    view = f"{f['x']},{f['y']},{f['width']},{f['height']},{frame['ppu']}"
+    got = player_result((preview / "s" / page).resolve().as_uri() + f"#at={anim_index},{time:g},{view}",
+                        tmp / "chromium")
+    out = []
+    for i, ours in enumerate(canvases(got)):
+        Image.fromarray(ours).save(tmp / f"ours{i}.png")
+        out.append(render_difference(theirs[i], tmp / f"ours{i}.png", tol=32))
+    return out

@@ -92,22 +92,13 @@ def test_twins_are_the_same_skeleton_in_the_other_format():
     assert twin_of(["p/a.json", "p/b.json"], sig, {"p/a.json": False, "p/b.json": True}) == {"p/b.json": "p/a.json"}
 
 
-def _canvases(got: dict) -> list[np.ndarray]:
-    """The player's two canvases (original, upgraded) its test hook wrote, RGBA."""
-    import base64
-
-    from spinemesh.images import decode_rgba
-
-    return [decode_rgba(base64.b64decode(got[k].split(",", 1)[1])) for k in ("before", "after")]
-
-
 def test_player_draws_both_sides_in_headless_chromium(page, tmp_path):
-    from browser import player_result, run
+    from browser import canvases, player_result, run
 
     path, _ = page
     skeleton = next(path.parent.glob("s/*.html"))
     got = player_result(skeleton.resolve().as_uri() + "#at=0,0", tmp_path)
-    sides = _canvases(got)
+    sides = canvases(got)
     assert sides[0].shape == sides[1].shape
     # the demo's blue body drawn on both sides, alike (the meshes draw what the regions drew)
     blue = [(np.abs(s[..., :3].astype(int) - (70, 110, 200)).sum(axis=2) < 60).sum() for s in sides]
@@ -190,38 +181,13 @@ def test_player_plays_every_animation_on_one_time_line(page, tmp_path):
 RENDER_TOLERANCE = 0.005
 
 
-def _against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_index: int, anim: str,
-                         original: tuple[Path, Path], upgraded: tuple[Path, Path]) -> list[dict]:
-    """Render ``anim`` at 0.5 s with the official runtime (original, then upgraded in the same
-    frame) and with our player in that frame; the differences, original then upgraded."""
-    import json
-
-    from PIL import Image
-
-    from browser import player_result
-    from runtime_tool import render, render_difference
-
-    def at_half(pngs: list[Path]) -> Path:  # the render also writes the setup pose
-        return next(p for p in pngs if p.name.endswith(f"{anim}@0.5.png"))
-
-    theirs = [at_half(render(tool, *original, anim, "0.5", tmp / "a"))]
-    theirs.append(at_half(render(tool, *upgraded, anim, "0.5", tmp / "b", frame_from=tmp / "a.frame.json")))
-    frame = json.loads((tmp / "a.frame.json").read_text())
-    f = frame["frame"]
-    view = f"{f['x']},{f['y']},{f['width']},{f['height']},{frame['ppu']}"
-    got = player_result((preview / "s" / page).resolve().as_uri() + f"#at={anim_index},0.5,{view}", tmp / "chromium")
-    out = []
-    for i, ours in enumerate(_canvases(got)):
-        Image.fromarray(ours).save(tmp / f"ours{i}.png")
-        out.append(render_difference(theirs[i], tmp / f"ours{i}.png", tol=32))
-    return out
-
-
 def test_a_frame_of_the_player_matches_the_official_runtime(page, spine_runtime, tmp_path):
+    from browser import against_the_runtime
+
     path, result = page
     demo, out = path.parent.parent / "demo", path.parent.parent / "out"
     rel = "demo.json"
-    diffs = _against_the_runtime(spine_runtime, tmp_path, path.parent, next(path.parent.glob("s/*.html")).name, 1, "wave",
+    diffs = against_the_runtime(spine_runtime, tmp_path, path.parent, next(path.parent.glob("s/*.html")).name, 1, "wave",
                                  (demo / "demo.atlas", demo / rel), (out / "demo.atlas", out / rel))
     for d in diffs:
         assert d["off_share"] <= RENDER_TOLERANCE, d
@@ -230,6 +196,8 @@ def test_a_frame_of_the_player_matches_the_official_runtime(page, spine_runtime,
 
 def test_spineboy_runs_in_the_player_as_in_the_official_runtime(examples, spine_runtime, tmp_path):
     import shutil
+
+    from browser import against_the_runtime
 
     project = tmp_path / "spineboy"
     project.mkdir()
@@ -240,7 +208,7 @@ def test_spineboy_runs_in_the_player_as_in_the_official_runtime(examples, spine_
     model = (index.parent / "data" / "spineboy-pro" / "model.js").read_text(encoding="utf-8")
     names = re.findall(r'"name":"([^"]+)","dur"', model)
     assert names[0] == "setup pose" and len(names) == 12  # and every animation of spineboy-pro
-    diffs = _against_the_runtime(spine_runtime, tmp_path, index.parent, "spineboy-pro.html", names.index("run"),
+    diffs = against_the_runtime(spine_runtime, tmp_path, index.parent, "spineboy-pro.html", names.index("run"),
                                  "run", (project / "spineboy.atlas", project / "spineboy-pro.json"),
                                  (tmp_path / "out" / "spineboy.atlas", tmp_path / "out" / "spineboy-pro.json"))
     for d in diffs:
