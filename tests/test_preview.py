@@ -213,3 +213,30 @@ def test_spineboy_runs_in_the_player_as_in_the_official_runtime(examples, spine_
                                  (tmp_path / "out" / "spineboy.atlas", tmp_path / "out" / "spineboy-pro.json"))
     for d in diffs:
         assert d["off_share"] <= RENDER_TOLERANCE and d["lost"] < 0.001 * d["visible"], d
+
+
+def test_the_player_offers_the_skins_and_draws_the_one_chosen(tmp_path):
+    """A skin that dresses the body slot in the ring's image: offered first (it dresses the setup
+    pose, which the default skin leaves without a body), then the default skin; each drawn when
+    chosen (the page's #skin=), on both sides."""
+    import json
+
+    from browser import canvases, player_result
+
+    demo = make_demo_project(tmp_path / "demo")
+    (demo / "demo-binary.skel").unlink()
+    doc = json.loads((demo / "demo.json").read_text(encoding="utf-8"))
+    ring = dict(doc["skins"][0]["attachments"]["ring"]["demo-ring"], x=0.0, y=0.0, path="demo-ring")
+    doc["skins"].append({"name": "ringed", "attachments": {"body": {"demo-body": ring}}})
+    del doc["skins"][0]["attachments"]["body"]  # the body is drawn by the skin chosen only
+    (demo / "demo.json").write_text(json.dumps(doc), encoding="utf-8")
+    result = upgrade_project(demo, tmp_path / "out", Options())
+    index = write_preview(result, demo, tmp_path / "out", tmp_path / "preview")
+    model = (index.parent / "data" / "demo" / "model.js").read_text(encoding="utf-8")
+    assert '"skins":["ringed","default"]' in model
+    url = (index.parent / "s" / "demo.html").resolve().as_uri()
+    ringed = canvases(player_result(url + "#at=0,0&skin=0", tmp_path / "a"))
+    plain = canvases(player_result(url + "#at=0,0&skin=1", tmp_path / "b"))
+    red = lambda rgba: int((np.abs(rgba[..., :3].astype(int) - (200, 60, 60)).sum(axis=2) < 80).sum())  # noqa: E731
+    for side in (0, 1):
+        assert red(ringed[side]) > 1.5 * red(plain[side]), "the chosen skin's ring is not drawn"

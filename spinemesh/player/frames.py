@@ -258,9 +258,11 @@ class Animation:
 
 
 def sampled_skins(doc: dict) -> list[str]:
-    """The skins the player offers, at most :data:`MAX_SKINS`: the setup pose's first."""
+    """The skins the player offers, at most :data:`MAX_SKINS`: the setup pose's first, then
+    those with the most attachments (whole outfits before single accessories)."""
     order = pose_skins(doc)
-    rest = [k for k, _ in iter_skins(doc) if k not in order]
+    sizes = {k: sum(len(v) for v in slots.values() if isinstance(v, dict)) for k, slots in iter_skins(doc)}
+    rest = sorted((k for k in sizes if k not in order), key=lambda k: -sizes[k])
     return (order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from importlib import resources
 
 from .files import PreviewFolder
@@ -72,17 +73,19 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
             box = bounds(before + after)
             pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
             box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
-            data = {"n": len(before), "fps": a.rate, "dur": a.duration, "box": [round(v, 4) for v in box], "note": a.note,
+            dur = a.duration if math.isfinite(a.duration) else 0.0  # nothing that is not a number is written
+            data = {"n": len(before), "fps": a.rate, "dur": dur, "box": [round(v, 4) for v in box], "note": a.note,
                     "before": encode_frames(before, tables["before"], box),
                     "after": encode_frames(after, tables["after"], box)}
             rel = f"data/{pid}/{i}.{skins.index(skin)}.js"
-            folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{skin}')},{json.dumps(data, separators=(',', ':'))});\n")
+            text = json.dumps(data, separators=(",", ":"), allow_nan=False)
+            folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{skin}')},{text});\n")
             src[skin] = up + rel
-        anims.append({"name": a.name, "dur": a.duration, "src": src})
+        anims.append({"name": a.name, "dur": a.duration if math.isfinite(a.duration) else 0.0, "src": src})
     model = {"images": images, "skins": skins, "anims": anims,
              "sides": {k: t.rows for k, t in tables.items()}}
     folder.write_text(f"data/{pid}/model.js",
-                      f"SM.model({json.dumps(pid)},{json.dumps(model, separators=(',', ':'))});\n")
+                      f"SM.model({json.dumps(pid)},{json.dumps(model, separators=(',', ':'), allow_nan=False)});\n")
     return (f'<div class="player" id="player-{html.escape(pid)}"></div>'
             f'<script src="{up}player.js"></script><script src="{up}data/{html.escape(pid)}/model.js"></script>')
 

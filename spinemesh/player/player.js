@@ -7,8 +7,8 @@
  * an affine map of its image clipped to the triangle (one clip and one draw when a whole
  * attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
  *
- * Page options in its #hash: play=A (start animation A playing); wire=1, bones=1 (the toggles
- * on). Test hooks: test=S (play S
+ * Page options in its #hash: play=A (start animation A playing); skin=S (the skin S offered);
+ * wire=1, bones=1 (the toggles on). Test hooks: test=S (play S
  * seconds of page time, then write times and canvas checksums to <pre id="sm-test">);
  * at=A,T[,x,y,w,h,ppu] (animation A paused at T seconds, drawn in that world frame at ppu pixels
  * per unit; both canvases then written as PNG data to <pre id="sm-test">).
@@ -322,6 +322,7 @@
     SM.players[id] = P;
 
     var h = hashParams();
+    if (h.skin !== undefined) { P.skin = Math.min(+h.skin || 0, model.skins.length - 1); skinSel.value = P.skin; }
     if (h.wire) { wire.checked = P.wire = true; }
     if (h.bones) { bones.checked = P.bones = true; }
     if (h.play !== undefined) { P.anim = +h.play || 0; animSel.value = P.anim; }
