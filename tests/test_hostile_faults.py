@@ -115,6 +115,7 @@ def test_broken_weighted_vertices_fail_their_mesh_alone(tmp_path, demo, case):
     assert "attachment 'demo-head'" in r.stdout + r.stderr and why in r.stdout + r.stderr
     r = run_cli("upgrade", "p", "--out", "u", "--weights", "auto", cwd=tmp_path)
     check_run(r, before, tmp_path, ["o", "u"])
+    assert f"warning: demo.json: skins[0].attachments.head.demo-head.{why}" in r.stderr, r.stderr
     assert json.loads((tmp_path / "u" / "demo.json").read_text())["skins"][0]["attachments"]["head"][
         "demo-head"]["vertices"] == BROKEN_WEIGHTS[case][0]  # left as it was
     r = run_cli("convert", "p/demo.json", "c.skel", cwd=tmp_path)

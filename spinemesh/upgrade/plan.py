@@ -427,6 +427,11 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
     for path, rel, doc, source, bending in loaded:
         targets = planner.read_skeleton(doc, rel, source, bending)
         result.targets += targets
+        # an attachment that is not upgraded (a mesh, a path) and that a runtime would refuse
+        # (weighted vertices cut short, a bone beyond the skeleton's) is copied as it is: said so
+        result.warnings += [f"{rel}: {problem}; copied as the input holds it"
+                            for ref, problem in checked_attachments(doc)
+                            if problem and ref.type != "region" and isinstance(ref.type, str)]
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectReading(proj, options, result, planner, skeletons)
