@@ -240,3 +240,16 @@ def test_the_player_offers_the_skins_and_draws_the_one_chosen(tmp_path):
     red = lambda rgba: int((np.abs(rgba[..., :3].astype(int) - (200, 60, 60)).sum(axis=2) < 80).sum())  # noqa: E731
     for side in (0, 1):
         assert red(ringed[side]) > 1.5 * red(plain[side]), "the chosen skin's ring is not drawn"
+
+
+def test_frames_fall_on_the_players_clock_within_the_budget():
+    from spinemesh.player.frames import FPS, MAX_FRAMES, MAX_VALUES, frame_rate, frame_times
+
+    # a 1 s animation at 30 frames a second: frame i is the pose at i / 30 s, the last before 1 s
+    rate = frame_rate(1.0, 100)
+    assert rate == FPS and np.allclose(frame_times(1.0, rate), np.arange(30) / 30)
+    assert len(frame_times(0.0, rate)) == 1  # a still pose
+    # a long animation keeps at most MAX_FRAMES frames, a heavy one at most MAX_VALUES coordinates
+    assert len(frame_times(60.0, frame_rate(60.0, 100))) <= MAX_FRAMES
+    heavy = frame_rate(10.0, 20_000)
+    assert len(frame_times(10.0, heavy)) * 2 * 20_000 <= MAX_VALUES

@@ -5,8 +5,8 @@ vertices in world units, with the texture coordinates and triangles it is drawn 
 of the player (the original skeleton, or the upgraded one) keeps a table of the attachments
 its poses draw (:class:`SideTable`: image, UVs, triangles, colours by bone, written once in the
 page's model script); an animation is stored as, per frame, which attachments are drawn with
-which alpha and blend mode, and every vertex position quantised to 16 bits over the
-animation's bounds (:func:`encode_animation`), base64 in a ``.js`` file the page loads when
+which alpha, tint and blend mode, and every vertex position quantised to 16 bits over the
+animation's bounds (:func:`encode_frames`), base64 in a ``.js`` file the page loads when
 that animation is chosen. Quantisation error is the bounds' larger side / 65,535 (0.015 world
 units for a 1,000-unit skeleton), below a pixel at any size the page shows.
 """
@@ -28,14 +28,16 @@ BLENDS = {"normal": 0, "additive": 1, "multiply": 2, "screen": 3}
 #: more sparsely where an animation would pass :data:`MAX_FRAMES` frames or its script
 #: :data:`MAX_VALUES` vertex coordinates (2 bytes each before base64, so at most 4 MB of
 #: script, loaded only when that animation is chosen); a skeleton's animations are sampled in
-#: at most :data:`MAX_SKINS` skins (its setup pose's first), and at most :data:`MAX_POSES`
-#: poses per skeleton and side in all, fewer frames a second where needed (the time it takes
-#: to write: about 3 ms a pose).
+#: at most :data:`MAX_SKINS` skins (its setup pose's first), and in about :data:`MAX_POSES`
+#: poses per skeleton and side in all: where they would pass it, in its setup pose's skin
+#: alone, then fewer frames a second, down to :data:`MIN_FPS` (the time it takes to write:
+#: about 3 ms a pose).
 FPS = 30
 MAX_FRAMES = 300
 MAX_VALUES = 1_500_000
 MAX_SKINS = 4
 MAX_POSES = 4000
+MIN_FPS = 2.0
 
 
 @dataclass
@@ -291,17 +293,19 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     first = sides[skins[0]][1]
     setup = {skin: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for skin, (b, a) in sides.items()}
     out = [Animation("setup pose", 0.0, setup)]
-    names = first.sampler.animation_names()
     durations = {}
-    for name in names:
+    for name in first.sampler.animation_names():
         try:
             durations[name] = max(0.0, float(first.sampler.duration(name)))
         except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:
             (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
+    seconds = max(1e-6, sum(d for d in durations.values() if np.isfinite(d)))
+    if len(sides) > 1 and MAX_POSES / (len(sides) * seconds) < FPS:  # over budget: one skin first
+        sides = {skins[0]: sides[skins[0]]}
+    per_second = min(float(FPS), max(MIN_FPS, MAX_POSES / (len(sides) * seconds)))
     vertices = max((sum(len(d.world) for d in pose) for b, a in setup.values() for pose in b + a), default=1)
-    per_second = min(float(FPS), MAX_POSES / max(1e-6, len(skins) * sum(durations.values())))
     for name, duration in durations.items():
-        rate = frame_rate(duration, vertices, max(per_second, 1.0))
+        rate = frame_rate(duration, vertices, per_second)
         times = frame_times(duration, rate)
         anim = Animation(name, duration, rate=rate)
         why: dict[str, str] = {}

@@ -154,7 +154,8 @@
           };
         }
         P.data = data;
-        status.textContent = data.note || "";
+        status.textContent = (a.src[skin] ? "" : "This animation is shown in the skin " + model.skins[0] +
+                              " only (the preview's budget). ") + (data.note || "");
         resize();
         draw();
       }, function (s) { status.textContent = "could not load " + s; });
