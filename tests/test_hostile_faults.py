@@ -298,6 +298,19 @@ def test_a_region_that_cannot_be_allocated_fails_alone(tmp_path, demo, memory, j
     assert rows["demo-body"]["status"] == "meshed"
 
 
+def test_a_data_set_image_that_cannot_be_allocated_fails_alone(tmp_path, demo):
+    """``dataset`` of the project with a 9000x9000 region under a memory limit: that image is
+    listed with its size and what it needs; the project's other images are stored."""
+    _big_region_project(demo)
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "p", "--out", "ds", "--jobs", "1", cwd=tmp_path, memory=LOOSE_MEMORY, timeout=240)
+    check_run(r, before, tmp_path, ["ds"], codes=(0, 3))
+    text = r.stdout + r.stderr
+    assert "image 'demo-head': 9000x9000 image: not enough memory" in text, text
+    rows = (tmp_path / "ds" / "index.jsonl").read_text().splitlines()
+    assert {json.loads(row)["name"] for row in rows} >= {"demo-body", "demo-arm"}
+
+
 def test_mesh_and_segment_of_an_image_that_cannot_be_allocated(tmp_path, demo):
     """``mesh DIR``: the big image is skipped with its line, the others are written (exit 3);
     ``mesh`` and ``segment`` of that image alone: one line naming it (exit 2)."""

@@ -18,9 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SpineMeshError
+from ..errors import ImageMemoryError, SpineMeshError
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
+from ..memory import image_memory
 from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
                        images_folder_for, needed_images, project_atlases, project_pages, skeletons_to_read)
 from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
@@ -223,20 +224,30 @@ def _extract(folder: Path, result: ProjectResult, min_side: int) -> None:
             result.skip("image unreadable")
             result.error(str(e))
             continue
-        rgba = image.rgba
-        if rgba.shape[0] < min_side or rgba.shape[1] < min_side:
-            result.skip("empty image")
-            continue
-        box = tight_box(rgba)
-        cid = content_id(rgba, box)
-        if cid in seen:
-            result.skip("same image in this project")
-            # The same pixels drawn by a region and by a mesh: keep the mesh, it says more.
-            if w.mesh is not None and result.samples[seen[cid]].mesh is None:
-                result.samples[seen[cid]] = _sample(w, rgba, float(image.scale), box, cid, result, folder)
-            continue
-        seen[cid] = len(result.samples)
-        result.samples.append(_sample(w, rgba, float(image.scale), box, cid, result, folder))
+        try:  # an image there is no memory for fails alone, as an unreadable one
+            with image_memory("sample", f"{w.skeleton}: image {w.name!r}", image.shape[1], image.shape[0]):
+                _add_sample(w, image, seen, result, folder, min_side)
+        except ImageMemoryError as e:
+            result.skip("image unreadable")
+            result.error(str(e))
+
+
+def _add_sample(w: _Want, image, seen: dict[str, int], result: ProjectResult, folder: Path, min_side: int) -> None:
+    """Add the sample of one image to ``result`` (or count why not), once per content."""
+    rgba = image.rgba
+    if rgba.shape[0] < min_side or rgba.shape[1] < min_side:
+        result.skip("empty image")
+        return
+    box = tight_box(rgba)
+    cid = content_id(rgba, box)
+    if cid in seen:
+        result.skip("same image in this project")
+        # The same pixels drawn by a region and by a mesh: keep the mesh, it says more.
+        if w.mesh is not None and result.samples[seen[cid]].mesh is None:
+            result.samples[seen[cid]] = _sample(w, rgba, float(image.scale), box, cid, result, folder)
+        return
+    seen[cid] = len(result.samples)
+    result.samples.append(_sample(w, rgba, float(image.scale), box, cid, result, folder))
 
 
 def _sample(w: _Want, rgba: np.ndarray, scale: float, box: tuple, cid: str, result: ProjectResult,
