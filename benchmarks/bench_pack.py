@@ -212,6 +212,23 @@ def table(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
+def bytes_lines(rows: list[Row]) -> list[str]:
+    """Bytes on disk (atlas and page files) before and after (a) and (b): in total, and how many
+    atlases took more or fewer bytes than before."""
+    lines = ["| bytes on disk | before | after | change | atlases with more bytes | with fewer | largest growth |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for label, key in (("(a) pack as exported", "a_bytes"), ("(b) upgrade + pack", "b_bytes")):
+        use = [r for r in rows if getattr(r, key) is not None and r.bytes]
+        if not use:
+            continue
+        before, after = sum(r.bytes for r in use), sum(getattr(r, key) for r in use)
+        growth = max((getattr(r, key) / r.bytes - 1 for r in use), default=0.0)
+        lines.append(f"| {label} | {before:,} | {after:,} | {after / before - 1:+.1%} | "
+                     f"{sum(getattr(r, key) > r.bytes for r in use)} | {sum(getattr(r, key) < r.bytes for r in use)} | "
+                     f"{growth:+.1%} |")
+    return lines
+
+
 def summary(rows: list[Row]) -> str:
     def total(key: str) -> int:
         return sum(getattr(r, key) or 0 for r in rows)
@@ -250,6 +267,8 @@ def summary(rows: list[Row]) -> str:
                          f"{statistics.median(per):.1%} | {sum(r.rules[name][key][0] > r.texels for r in use)} | "
                          f"{sum(r.pages for r in use)} -> {sum(r.rules[name][key][1] for r in use)} | "
                          f"{sum(r.rules[name][key][2] for r in use) / nbytes - 1:+.1%} |")
+    lines.append("")
+    lines += bytes_lines(rows)
     lines.append("")
     lines += fill_lines(rows)
     saved_a = total("texels") - total("a_texels")

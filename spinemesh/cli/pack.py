@@ -57,6 +57,9 @@ def pack(
     pages: _Pages = PageSides.original,
     max_page: _MaxPage = None,
     jobs: _Jobs = None,
+    larger_files: Annotated[bool, typer.Option(
+        "--larger-files", help="Write a packed atlas even where its files take more bytes than the original's "
+                               "(fewer page texels, a larger download). Default: such an atlas is kept.")] = False,
 ) -> None:
     """Pack atlas pages anew by the outlines of the meshes that draw each region.
 
@@ -65,7 +68,8 @@ def pack(
     outlines, grown by what bilinear sampling reads; any other region keeps its stored
     rectangle. Rectangles may overlap where outlines do not. Skeletons are copied byte for
     byte; atlases and page images are rewritten, page fields kept. An atlas that cannot be
-    packed, or would not get smaller, is copied as it is, with the reason in the report.
+    packed, or would not get smaller in page texels or in bytes, is copied as it is, with the reason
+    in the report. Pages are written as small as oxipng makes them (PNG), proven lossless.
 
     Exit status: 0 when every atlas was packed or kept on purpose; 3 when something failed
     (it is copied as it was; the report says why); 2 when the project has no atlas.
@@ -87,7 +91,8 @@ def pack(
 
     check_outputs([project_folder(project)], files=[report], folders=[preview])
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
-                          rules=PageRules(pages.value, max_page), jobs=jobs or available_cores())
+                          rules=PageRules(pages.value, max_page), jobs=jobs or available_cores(),
+                          larger_files=larger_files)
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
@@ -168,6 +173,15 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
                       change(a.bytes_before, a.bytes_after), str(a.by_outline), str(a.by_rectangle),
                       escape(a.reason if a.status != "packed" else ""))
+    if len(atlases) > 1:
+        table.add_section()
+        total = {k: sum(getattr(a, k) for a in atlases) for k in
+                 ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
+                  "by_outline", "by_rectangle")}
+        table.add_row("total", f"{total['pages_before']} -> {total['pages_after']}",
+                      change(total["texels_before"], total["texels_after"]),
+                      change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),
+                      str(total["by_rectangle"]), "")
     if atlases:
         console.print(table)
     for e in errors:

@@ -22,6 +22,7 @@ from ..images import AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas
+from .png import optimized_png
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
@@ -46,6 +47,7 @@ class PackOptions:
     padding: int | None = None  # None: the original pages' measured padding (at least 2)
     rules: PageRules = field(default_factory=PageRules)  # the pages a packed atlas may have
     jobs: int = 1  # processes packing side by side (atlases, and an atlas's fills)
+    larger_files: bool = False  # write a packed atlas whose files take more bytes than before (fewer texels)
     dask: str | None = None  # or a Dask cluster (see spinemesh.cluster)
 
 
@@ -181,6 +183,25 @@ def is_lossy_webp(path: Path) -> bool:
     return False
 
 
+def check_bytes_shrink(bytes_before: int, bytes_after: int, texels_before: int, texels_after: int) -> None:
+    """Refuse a packed atlas whose files would take more bytes on disk than the original's.
+
+    Fewer page texels is less texture memory, but a download grows with the bytes: an atlas
+    whose original pages were optimised PNGs can take more bytes packed, even through oxipng
+    (:mod:`spinemesh.pack.png`). By default such an atlas keeps its pages; ``larger_files``
+    (``--larger-files``) writes it for its texels.
+
+    Raises
+    ------
+    PackRefused
+        When ``bytes_after`` exceeds ``bytes_before``.
+    """
+    if bytes_after > bytes_before:
+        raise PackRefused(f"packed, its files would take {bytes_after:,} bytes against {bytes_before:,} "
+                          f"(+{bytes_after / bytes_before - 1:.1%}) for {1 - texels_after / texels_before:.0%} fewer "
+                          "page texels; --larger-files writes it all the same")
+
+
 def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: int) -> None:
     """Refuse a packed atlas whose lossy WebP pages, written losslessly, take more bytes on disk.
 
@@ -197,6 +218,14 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
     if bytes_after > bytes_before and any(is_lossy_webp(f) for f in set(files)):
         raise PackRefused(f"its pages are lossy WebP: written losslessly, as packing must, they would take "
                           f"{bytes_after:,} bytes on disk against {bytes_before:,}")
+
+
+def _optimized(image, name: str) -> bytes:
+    """:func:`spinemesh.pack.png.optimized_png`, its failure (a third party's) the page's reason to stay."""
+    try:
+        return optimized_png(image)
+    except Exception as e:  # noqa: BLE001 - whatever oxipng raises keeps the atlas, with the reason
+        raise PackRefused(f"page {name!r}: the PNG optimiser failed ({type(e).__name__}: {e})") from None
 
 
 @dataclass
@@ -239,15 +268,20 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
         found = _as_palette(rgba, like)
         if found is not None:
             data, expected = found
-    if data is None:
+    if data is not None:
+        data = _optimized(data, name)
+    else:
         image = rgba
         if fmt == "PNG" and isinstance(like, str) and like == "RGB":
             image = rgba[..., :3]  # the original had no alpha: every texel drawn is opaque
             expected = rgba.copy()
             expected[~rgba.any(axis=2), 3] = 255  # the empty background comes back opaque black
-        buf = io.BytesIO()
-        Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options)
-        data = buf.getvalue()
+        if fmt == "PNG":
+            data = _optimized(np.ascontiguousarray(image), name)
+        else:
+            buf = io.BytesIO()
+            Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options)
+            data = buf.getvalue()
     try:
         back = decode_rgba(data, name)
     except SpineMeshError as e:
@@ -376,6 +410,9 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
         encoded = {name: page.data for name, page in encoded.items()}
         check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
+        if not options.larger_files:
+            check_bytes_shrink(bytes_before, sum(map(len, encoded.values())) + len(text.encode()),
+                               packed.texels_before, packed.texels_after)
     except PackRefused as e:
         sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
         texel_count = sum(w * h for w, h in sizes)
