@@ -172,7 +172,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     for a in atlases:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
                       change(a.bytes_before, a.bytes_after), str(a.by_outline), str(a.by_rectangle),
-                      escape(a.reason if a.status != "packed" else ""))
+                      escape(a.reason))
     if len(atlases) > 1:
         table.add_section()
         total = {k: sum(getattr(a, k) for a in atlases) for k in

@@ -411,8 +411,14 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         encoded = {name: page.data for name, page in encoded.items()}
         check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
         if not options.larger_files:
-            check_bytes_shrink(bytes_before, sum(map(len, encoded.values())) + len(text.encode()),
-                               packed.texels_before, packed.texels_after)
+            try:
+                check_bytes_shrink(bytes_before, sum(map(len, encoded.values())) + len(text.encode()),
+                                   packed.texels_before, packed.texels_after)
+            except PackRefused as grows:
+                cleared = rectangles_only_outcome(job, texels, modes, bytes_before, str(grows), t0)
+                if cleared is None:
+                    raise
+                return cleared
     except PackRefused as e:
         sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
         texel_count = sum(w * h for w, h in sizes)
@@ -428,6 +434,47 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     row.cpu_seconds = round(time.process_time() - t0, 3)
     previews = (job.rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages) if job.keep_previews else None
     return AtlasOutcome(row, encoded, text, previews)
+
+
+def rectangles_only(atlas, texels: list[np.ndarray]) -> list[np.ndarray]:
+    """The atlas's pages with only the texels a region's quad can read: its stored rectangle and the
+    one-texel ring around it; every other texel all zero (what packers leave between regions, and
+    what compresses best). Regions drawn by meshes are proven apart (:func:`prove_written`)."""
+    cleared = []
+    for i, page in enumerate(texels):
+        keep = np.zeros(page.shape[:2], bool)
+        for r in atlas.regions:
+            if r.page == i:
+                g = r.geometry()
+                keep[max(0, g.y - 1):g.y + g.page_height + 1, max(0, g.x - 1):g.x + g.page_width + 1] = True
+        cleared.append(np.where(keep[..., None], page, 0).astype(np.uint8))
+    return cleared
+
+
+def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict, bytes_before: int, why: str,
+                            t0: float) -> AtlasOutcome | None:
+    """The atlas as it is, its pages written with the rectangles' texels only (:func:`rectangles_only`),
+    when that takes fewer bytes than its files do and draws alike (proven); else None.
+
+    The packed atlas was refused for its bytes (``why``): this keeps the atlas's layout and page
+    texels, and saves what clearing the texels no region reads, and oxipng, save.
+    """
+    atlas = job.atlas
+    try:
+        text = job.path.read_bytes().decode("utf-8")
+        pages = {page.name: encode_page(cleared, page.name, modes.get(page.name))
+                 for page, cleared in zip(atlas.pages, rectangles_only(atlas, texels))}
+        bytes_after = sum(len(p.data) for p in pages.values()) + len(text.encode("utf-8"))
+        if bytes_after >= bytes_before:
+            return None
+        prove_written(atlas, texels, text, pages, job.uses, job.pinned)
+    except (PackRefused, SpineMeshError, OSError, UnicodeDecodeError):
+        return None
+    texel_count = sum(int(t.shape[0]) * int(t.shape[1]) for t in texels)
+    row = AtlasRow(job.rel, "packed", f"{why}; written as it was, with the rectangles' texels only",
+                   len(atlas.pages), len(atlas.pages), texel_count, texel_count, bytes_before, bytes_after,
+                   cpu_seconds=round(time.process_time() - t0, 3))
+    return AtlasOutcome(row, {name: p.data for name, p in pages.items()}, text)
 
 
 def _encode_task(arg: tuple) -> EncodedPage:
