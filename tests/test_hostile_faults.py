@@ -156,14 +156,15 @@ def test_the_tree_check_is_one_rule_for_json_and_binary(tmp_path):
 END_WITHIN = 10
 
 
-def _signal_mid_run(tmp, args, started, sig, worker_fault=None, signal_after=0.3):
+def _signal_mid_run(tmp, args, started, sig, worker_fault=None, signal_after=0.3, group=False):
     """Run ``python -m spinemesh ARGS`` in ``tmp``; once ``started`` exists and workers run, do
-    ``worker_fault(pids)`` to them, then send ``sig`` to the run. Returns the finished run, the
-    seconds it took to end after the signal, and the workers still alive after it ended."""
+    ``worker_fault(pids)`` to them, then send ``sig`` to the run (``group``: to its whole process
+    group, workers included, as a terminal's Ctrl-C does). Returns the finished run, the seconds
+    it took to end after the signal, and the workers still alive after it ended."""
     env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=tmp, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_limits(MEMORY_LIMIT, None))
+                            preexec_fn=_limits(MEMORY_LIMIT, None), start_new_session=group)
     seen: set[int] = set()
     try:
         deadline = time.monotonic() + TIME_LIMIT
@@ -176,7 +177,10 @@ def _signal_mid_run(tmp, args, started, sig, worker_fault=None, signal_after=0.3
         seen.update(workers)
         if worker_fault is not None:
             worker_fault(workers)
-        proc.send_signal(sig)
+        if group:
+            os.killpg(proc.pid, sig)
+        else:
+            proc.send_signal(sig)
         t0 = time.monotonic()
         try:
             stdout, stderr = proc.communicate(timeout=60)
@@ -199,7 +203,7 @@ def _stop(pids):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["Ctrl-C", "SIGTERM"])
-@pytest.mark.parametrize("fault", ["a stopped worker", "workers at work"])
+@pytest.mark.parametrize("fault", ["a stopped worker", "workers at work", "to the whole group"])
 def test_a_signal_ends_the_run_within_seconds(tmp_path, demo, sig, fault):
     """Ctrl-C or SIGTERM ends the run within seconds even while a worker is stopped (SIGSTOP,
     where a SIGTERM stays pending): it is killed after a bounded wait, no process stays, the
@@ -208,7 +212,8 @@ def test_a_signal_ends_the_run_within_seconds(tmp_path, demo, sig, fault):
     before = snapshot(tmp_path)
     r, took, alive = _signal_mid_run(tmp_path, ["upgrade", "L", "--out", "o", "--jobs", "2", "--density", "4"],
                                      tmp_path / "o" / ".spinemesh-output", sig,
-                                     _stop if fault == "a stopped worker" else None)
+                                     _stop if fault == "a stopped worker" else None,
+                                     group=fault == "to the whole group")
     assert took < END_WITHIN, f"still running {took:.0f} s after {sig.name}"
     assert not alive, f"workers {alive} outlived the run"
     check_run(r, before, tmp_path, ["o"], codes=(128 + sig,))

@@ -122,6 +122,16 @@ class WorkerLost(SpineMeshError):
     """
 
 
+#: The signals that end a run (spinemesh.processes.exit_on_terminate), where the system has them.
+RUN_SIGNALS = {getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)}
+
+
+def _mask_run_signals(how) -> None:
+    """Block or unblock :data:`RUN_SIGNALS` in this thread (nothing where threads have no masks)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(how, RUN_SIGNALS)
+
+
 def _death_reason(exitcode: int | None) -> str:
     """Words for how a worker process ended (``Process.exitcode``)."""
     if exitcode is not None and exitcode < 0:
@@ -141,6 +151,7 @@ def _worker_main(conn, max_tasks: int | None) -> None:
     told to (``None``), or after ``max_tasks`` tasks (the parent starts a fresh one).
     """
     die_with_parent()
+    _mask_run_signals(getattr(signal, "SIG_UNBLOCK", None))  # blocked by the thread that forked it
     done = 0
     try:
         while max_tasks is None or done < max_tasks:
@@ -451,6 +462,12 @@ class ProcessWorkers(Workers):
 
     def _dispatch(self) -> None:
         from multiprocessing.connection import wait
+
+        # Workers are forked from this thread: with the run's signals blocked here, a worker
+        # forked as Ctrl-C comes starts with them blocked, until it has set its own handlers
+        # (_worker_main), instead of raising KeyboardInterrupt, with a traceback, in its start-up.
+        # The main thread takes the signals.
+        _mask_run_signals(getattr(signal, "SIG_BLOCK", None))
 
         while True:
             self._hand_out()
