@@ -121,6 +121,16 @@ def test_upgrade_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, tmp_path
     assert any(name.endswith(".skel") for name in tree_bytes(cluster))
 
 
+def test_upgrade_pack_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, tmp_path):
+    """--pack runs its fills and pages on the cluster too: the same atlas and pages as one process."""
+    local, cluster = tmp_path / "local", tmp_path / "cluster"
+    r = _spinemesh("upgrade", DEMO, "--out", local, "--jobs", "1", "--pack", "--pages", "any")
+    assert r.returncode == 0, r.stderr
+    r = _spinemesh("upgrade", DEMO, "--out", cluster, "--dask", scheduler_file, "--pack", "--pages", "any")
+    assert r.returncode == 0, r.stderr
+    assert tree_bytes(local) == tree_bytes(cluster)
+
+
 def test_library_upgrade_on_a_dask_cluster_gives_the_same_bytes(scheduler_file, examples, tmp_path):
     """Two real projects in a folder tree, upgraded as one library, local and on the cluster."""
     import shutil
