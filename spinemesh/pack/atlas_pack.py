@@ -643,17 +643,21 @@ def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], betwe
             view = new_pages[out.pages[first + place.page].name][place.y:place.y + h, place.x:place.x + w]
             # only the hard texels: rectangles may overlap where footprints do not, footprints where both
             # are soft, and soft texels are zero on the original page as on the new one
-            if hard is item.masks[place.orientation] and hard.all():
+            solid = hard is item.masks[place.orientation] and hard.all()
+            if solid:
                 view[...] = texels  # a solid box (a kept rectangle): copied whole, far faster
             else:
                 view[hard] = texels[hard]
             region_page[n] = (first + place.page, _stored_geometry(item, k, place.x, place.y))
-            grown = _grow(item.masks[place.orientation], half)
             page_taken = taken[first + place.page]
             x0, y0 = place.x - half, place.y - half
             cx0, cy0 = max(0, x0), max(0, y0)
-            cx1, cy1 = min(page_taken.shape[1], x0 + grown.shape[1]), min(page_taken.shape[0], y0 + grown.shape[0])
-            page_taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+            cx1, cy1 = min(page_taken.shape[1], x0 + w + 2 * half), min(page_taken.shape[0], y0 + h + 2 * half)
+            if solid:  # a box grown is a box
+                page_taken[cy0:cy1, cx0:cx1] = True
+            else:
+                grown = _grow(item.masks[place.orientation], half)
+                page_taken[cy0:cy1, cx0:cx1] |= grown[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
     return out, new_pages, region_page, sum(int(t.sum()) for t in taken)
 
 
