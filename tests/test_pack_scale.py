@@ -176,3 +176,15 @@ def test_fill_counts_the_texels_under_footprints_once(meshed, tmp_path):
     drawn = sum(int(p.any(axis=2).sum()) for p in packed.pages.values())
     # every texel written lies under a footprint; footprints hold more (their ring), never the whole page
     assert drawn <= packed.footprint_texels < packed.texels_after
+
+
+@pytest.mark.parametrize("option", [["--pages", "round"], ["--max-page", "8"], ["--max-page", "x"], ["--jobs", "0"]])
+def test_bad_page_rules_are_refused_in_one_line(meshed, tmp_path, option):
+    import os
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pack", str(meshed), "--out", str(tmp_path / "o"), *option],
+                       capture_output=True, text=True, env=dict(os.environ, COLUMNS="200"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and option[0] in r.stderr, r.stderr
+    assert not (tmp_path / "o").exists()

@@ -29,7 +29,7 @@ _MaxPage = Annotated[Optional[int], typer.Option(
     "--max-page", min=16, max=16384, metavar="SIDE", help="Longest side of a packed page (a page may then take "
     "SIDE x SIDE texels). Default: the longest original side, and no page of more texels than the "
     "largest original page.")]
-_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes packing side by side: "
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, metavar="N", help="Processes packing side by side: "
                                               "atlases, and the placements tried for one atlas (default: the "
                                               "CPU cores this process may use).")]
 
