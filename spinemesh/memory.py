@@ -21,12 +21,14 @@ from .errors import ImageMemoryError
 #: Peak memory of each kind of work per texel of the image, in bytes, decoded texels included,
 #: measured on a 9000x9000 sprite (``/usr/bin/time -f %M``, less the 50 MB of the interpreter
 #: and its modules): ``spinemesh mesh`` 8 (645 MB), ``spinemesh segment`` with the alpha mask
-#: 14 (1,112 MB), ``spinemesh dataset`` of a project with that one image 12 (958 MB); decoding
-#: alone is the texels, 4. Used only to say what a failed image needed.
-BYTES_PER_TEXEL = {"decode": 4, "mesh": 8, "mask": 14, "sample": 12}
+#: 14 (1,112 MB), ``spinemesh dataset`` of a project with that one image 12 (958 MB), ``mesh``
+#: with ``--preview`` and ``--steps`` no more than without (the pictures: 8); decoding alone is
+#: the texels, 4. Used only to say what a failed image needed.
+BYTES_PER_TEXEL = {"decode": 4, "mesh": 8, "mask": 14, "sample": 12, "draw": 8}
 
 #: What the verb is for each kind of work, in the error line.
-_DOING = {"decode": "decode", "mesh": "mesh", "mask": "find the sprite mask of", "sample": "store"}
+_DOING = {"decode": "decode", "mesh": "mesh", "mask": "find the sprite mask of", "sample": "store",
+          "draw": "draw the pictures of"}
 
 _OPENCV_OUT_OF_MEMORY = ("Insufficient memory", "Failed to allocate")
 _LIBRARY_OUT_OF_MEMORY = ("failed to map segment", "Cannot allocate memory")

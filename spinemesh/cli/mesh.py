@@ -44,6 +44,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
         doc = mesh.to_json()
         doc["info"].pop("ms", None)  # timing would make the file differ from run to run
         atomic_write_json(out, doc, indent=None)
+    with image_memory("draw", image_path, rgba.shape[1], rgba.shape[0]):  # the mesh is written already
         if preview is not None:
             atomic_write_png(preview, draw_preview(rgba, mesh))
         if steps is not None:
