@@ -63,7 +63,8 @@ class FillRunner:
     def __call__(self, plan: list[tuple], args: tuple, best) -> list:
         candidates, hard, *limits = args
         packed = pack_masks(candidates, hard)
-        futures = [self.workers.submit(fill_task, (fill, packed, tuple(limits), best)) for fill in plan]
+        # first: this process waits for them, ahead of work queued meanwhile (a library's meshing)
+        futures = [self.workers.submit(fill_task, (fill, packed, tuple(limits), best), first=True) for fill in plan]
         if self.on_fill:
             for _ in self.workers.as_completed(futures):
                 self.on_fill()

@@ -395,7 +395,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                             on_fill=on_step)
         on_step(0, len(packed.pages))
         if parallel:
-            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name)))
+            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name)), first=True)
                        for name, rgba in packed.pages.items()}
             encoded = {}
             for name, future in futures.items():
