@@ -77,7 +77,7 @@ def skeleton_files(root: Path, versions=PLAYED) -> list[tuple[Path, Path]]:
     """``(project folder, skeleton file)`` for every skeleton under ``root``'s projects."""
     out = []
     if root == EXAMPLES:
-        projects = [p for v in versions for p in sorted((root / v).iterdir()) if p.is_dir()] \
+        projects = [p for v in versions if (root / v).is_dir() for p in sorted((root / v).iterdir()) if p.is_dir()] \
             if root.is_dir() else []
     else:
         projects = sorted(p for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
