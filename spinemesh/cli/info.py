@@ -79,6 +79,8 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
             console.print("every attachment image was found")
     for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
         err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
+    for warning in proj.warnings:  # pages runtimes draw differently (spinemesh.atlas.page_mismatches)
+        err_console.print(f"warning: {warning}", markup=False, highlight=False, soft_wrap=True)
     if proj.problems:
         raise typer.Exit(EXIT_PARTIAL)
 
