@@ -240,6 +240,20 @@ def test_the_proof_catches_a_texel_or_a_region_gone_wrong(meshed, tmp_path, monk
     assert (tmp_path / "wrong" / "demo.png").read_bytes() == (meshed / "demo.png").read_bytes()
 
 
+def test_uvs_far_outside_their_image_are_not_proven_nor_allocated(meshed, tmp_path):
+    """A mesh whose UVs reach 100,000 images away: the atlas is kept, in a second, without a traceback."""
+    project = _copy(meshed, tmp_path / "far")
+    doc = json.loads((project / "demo.json").read_text())
+    (project / "demo-binary.skel").unlink()
+    meshes = [att for slots in doc["skins"][0]["attachments"].values() for att in slots.values()
+              if att.get("type") == "mesh"]
+    meshes[0]["uvs"] = [v * 100_000 for v in meshes[0]["uvs"]]
+    (project / "demo.json").write_text(json.dumps(doc))
+    result = pack_project(project, tmp_path / "out")
+    (row,) = result.atlases
+    assert row.status == "kept" and "beyond the limits of an image" in row.reason, row.reason
+
+
 # --- --repack: new pages never share a name ---------------------------------------------------------
 
 def test_atlases_of_one_stem_repack_onto_pages_of_their_own(tmp_path):

@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, RegionGeometry, page_mismatches
+from ..limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
 from .outlines import content_box, mesh_points
 from .uses import RegionUses, rectangle_reason
 
@@ -81,11 +82,19 @@ def triangle_reads(points: np.ndarray, triangles: np.ndarray) -> tuple[tuple[int
         Texel ``(x, y)`` of the mask's top-left.
     mask : ndarray, shape (h, w), bool
         Texels whose centre lies less than one texel, on both axes, from a point of a triangle.
+
+    Raises
+    ------
+    ProofFailed
+        When the triangles span more texels than an image may have (UVs far outside their image).
     """
     tri = points[triangles]  # (T, 3, 2)
     lo = np.floor(points.min(axis=0)).astype(np.int64) - 2
     hi = np.ceil(points.max(axis=0)).astype(np.int64) + 2
     width, height = int(hi[0] - lo[0]), int(hi[1] - lo[1])
+    if width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE or width * height > MAX_IMAGE_PIXELS:
+        # UVs far outside the image (the packer keeps such a region's rectangle): not proven, never allocated
+        raise ProofFailed(f"a mesh reaches {width}x{height} texels, beyond the limits of an image")
     tri = tri - lo  # small coordinates: exact enough in float64
     ys = tri[..., 1]
     # rows j whose band (j - 0.5, j + 1.5) meets the triangle: j > ymin - 1.5 and j < ymax + 0.5
@@ -102,9 +111,10 @@ def triangle_reads(points: np.ndarray, triangles: np.ndarray) -> tuple[tuple[int
         rows = (np.arange(idx.size) - np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop], counts[start:stop])
                 + first[idx])
         a, b = _x_range(tri[idx], rows - 0.5, rows + 1.5)
-        i0 = np.floor(a - 1.5).astype(np.int64) + 1  # centres i + 0.5 in (a - 1, b + 1)
-        i1 = np.ceil(b + 0.5).astype(np.int64) - 1
-        keep = (i1 >= i0) & (rows >= 0) & (rows < height)
+        with np.errstate(invalid="ignore"):  # a band no part of the triangle lies in: left out below
+            i0 = np.floor(a - 1.5).astype(np.int64) + 1  # centres i + 0.5 in (a - 1, b + 1)
+            i1 = np.ceil(b + 0.5).astype(np.int64) - 1
+        keep = np.isfinite(a) & np.isfinite(b) & (i1 >= i0) & (rows >= 0) & (rows < height)
         rows, i0, i1 = rows[keep], np.clip(i0[keep], 0, width), np.clip(i1[keep] + 1, 0, width)
         np.add.at(diff, (rows, i0), 1)
         np.add.at(diff, (rows, i1), -1)
@@ -126,7 +136,7 @@ def _x_range(tri: np.ndarray, y0: np.ndarray, y1: np.ndarray) -> tuple[np.ndarra
             t = np.divide(line - ya, dy, out=np.zeros_like(dy), where=dy != 0)
             cands.append(np.where(crosses, xa + t * (xb - xa), np.nan)[:, None])
     allx = np.concatenate(cands, axis=1)
-    return np.nanmin(allx, axis=1), np.nanmax(allx, axis=1)
+    return np.fmin.reduce(allx, axis=1), np.fmax.reduce(allx, axis=1)  # NaN (no candidate) left out
 
 
 def _uv_frame(g: RegionGeometry, honours: bool | None) -> tuple:
