@@ -400,11 +400,13 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
             encoded = {}
             for name, future in futures.items():
                 encoded[name] = future.result()
+                packed.pages[name] = encoded[name].texels  # what the file holds: one copy of each page
                 on_step(1)
         else:
             encoded = {}
-            for name, rgba in packed.pages.items():
+            for name, rgba in list(packed.pages.items()):
                 encoded[name] = encode_page(rgba, name, modes.get(name))
+                packed.pages[name] = encoded[name].texels  # what the file holds: one copy of each page
                 on_step(1)
         text = packed.atlas.dumps()
         prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
