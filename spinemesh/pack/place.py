@@ -338,6 +338,11 @@ class Page:
         coarse[gy0:gy1, gx0:gx1] = _coarse(taken[gy0 * c:gy1 * c, gx0 * c:gx1 * c], c)[:gy1 - gy0, :gx1 - gx0]
 
 
+def largest_first(candidates: list[list[np.ndarray]]) -> list[int]:
+    """Footprint indices by present mask area, then height, largest first (ties by index)."""
+    return sorted(range(len(candidates)), key=lambda i: (-candidates[i][0].size, -candidates[i][0].shape[0], i))
+
+
 def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
                order: list[int] | None = None, max_pages: int | None = None, tight: bool = False,
                max_area: int | None = None, pot: bool = False, budget: int | None = None,
@@ -384,9 +389,7 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     used : list of (int, int)
         Per page, the width and height its footprints reach.
     """
-    if order is None:
-        order = sorted(range(len(candidates)),
-                       key=lambda i: (-candidates[i][0].size, -candidates[i][0].shape[0], i))
+    order = largest_first(candidates) if order is None else order
     limit = max_area or width * height
     placements: list[Placement | None] = [None] * len(candidates)
     pages: list[Page] = []
