@@ -228,7 +228,8 @@ def bone_tree_problem(doc: dict) -> str:
 
     The runtimes read bones in order and look each parent up among the bones read before it,
     so a parent listed after its child, a bone that is its own parent and parents in a cycle
-    are all refused there; so is a slot on a bone that does not exist. Code that walks up the
+    are all refused there; so are a slot on a bone that does not exist and a constraint or skin
+    naming a bone or slot that does not exist (:data:`REFERENCES`). Code that walks up the
     tree (weights, bone chains, world transforms) relies on this to end. ``doc`` has passed
     :func:`document_problem` (bones and slots are lists of objects with names where named).
     """
@@ -271,6 +272,33 @@ def bone_tree_problem(doc: dict) -> str:
         if bone is None or str(bone) not in index:
             on = "no bone" if bone is None else f"bone {str(bone)!r}, which is not a bone of this skeleton"
             return f"{json_path('slots', i, 'bone')}: slot {str(slot.get('name'))!r} is on {on}"
+    return _references_problem(doc, {"bone": index, "slot": {str(s.get("name")) for s in doc.get("slots") or []}})
+
+
+#: What the names in a constraint's fields stand for, per kind (3.x to 4.2 field names, and 4.3's
+#: ``source`` and ``slot``); fields left out are not names of bones or slots.
+REFERENCES = {"ik": {"bones": "bone", "target": "bone"},
+              "transform": {"bones": "bone", "target": "bone", "source": "bone"},
+              "path": {"bones": "bone", "target": "slot", "slot": "slot"},
+              "physics": {"bone": "bone"}}
+
+
+def _references_problem(doc: dict, known: dict) -> str:
+    """The first constraint or skin naming a bone or slot the skeleton lacks (which the runtimes
+    refuse to load), or ``""``. ``known``: names of the bones and of the slots."""
+    lists = [((kind, i), kind, node) for kind in REFERENCES for i, node in enumerate(doc.get(kind) or [])]
+    lists += [(("constraints", i), node.get("type"), node) for i, node in enumerate(doc.get("constraints") or [])]
+    skins = doc.get("skins")
+    if isinstance(skins, list):
+        lists += [(("skins", i), "skin", skin) for i, skin in enumerate(skins) if isinstance(skin, dict)]
+    for where, kind, node in lists:
+        fields = {"bones": "bone"} if kind == "skin" else REFERENCES.get(kind if isinstance(kind, str) else "", {})
+        for key, what in fields.items():
+            value = node.get(key)
+            for name in value if isinstance(value, list) else [] if value is None else [value]:
+                if str(name) not in known[what]:
+                    return (f"{json_path(*where, key)}: {str(node.get('name', kind))!r} names {what} {str(name)!r}, "
+                            f"which is not a {what} of this skeleton")
     return ""
 
 

@@ -51,6 +51,12 @@ BONE_TREES = {
                                  "bones[2].parent: bone 'head' names parent 'nope', which is not a bone"),
     "a slot on no bone": (lambda d: (d["slots"][0].update(bone="nope"), d)[1],
                           "slots[0].bone: slot 'arm' is on bone 'nope', which is not a bone"),
+    "an IK constraint on no bone": (lambda d: {**d, "ik": [{"name": "k", "bones": ["arm", "nope"], "target": "head"}]},
+                                    "ik[0].bones: 'k' names bone 'nope', which is not a bone"),
+    "a path constraint on no slot": (lambda d: {**d, "path": [{"name": "p", "bones": ["arm"], "target": "nope"}]},
+                                     "path[0].target: 'p' names slot 'nope', which is not a slot"),
+    "a skin naming no bone": (lambda d: (d["skins"][0].update(bones=["nope"]), d)[1],
+                              "skins[0].bones: 'default' names bone 'nope', which is not a bone"),
 }
 
 #: The commands that read a bone tree, with their outputs.
