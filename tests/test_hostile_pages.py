@@ -147,6 +147,7 @@ def test_upgrade_warns_of_a_page_runtimes_draw_differently(meshed, tmp_path):
     data = json.loads(report.read_text())
     assert any("demo.atlas" in w and "size line" in w for w in data["warnings"])
     assert data["atlases"][0]["status"] == "kept"
+    assert data["atlas_totals"]["bytes_after"] == data["atlases"][0]["bytes_after"] == data["atlases"][0]["bytes_before"]
     r = _cli("info", project, cwd=tmp_path)  # the same rule in every command
     assert r.returncode == 0 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
     assert any(line.startswith("warning:") and "'demo.png'" in line for line in r.stderr.splitlines()), r.stderr

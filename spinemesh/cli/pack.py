@@ -175,9 +175,9 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
                       escape(a.reason))
     if len(atlases) > 1:
         table.add_section()
-        total = {k: sum(getattr(a, k) for a in atlases) for k in
-                 ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
-                  "by_outline", "by_rectangle")}
+        from ..pack.run import atlas_totals
+
+        total = atlas_totals(atlases)
         table.add_row("total", f"{total['pages_before']} -> {total['pages_after']}",
                       change(total["texels_before"], total["texels_after"]),
                       change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),

@@ -111,9 +111,15 @@ class PackResult(RunSummary):
         return self.atlases
 
     def totals(self) -> dict:
-        keys = ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
-                "by_outline", "by_rectangle")
-        return {k: sum(getattr(a, k) for a in self.atlases) for k in keys}
+        return atlas_totals(self.atlases)
+
+
+def atlas_totals(rows: list[AtlasRow]) -> dict:
+    """Pages, page texels and bytes before and after, and regions by outline and by rectangle, summed
+    over ``rows`` (the report's ``totals``; ``upgrade --pack``'s ``atlas_totals``)."""
+    keys = ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
+            "by_outline", "by_rectangle")
+    return {k: sum(getattr(a, k) for a in rows) for k in keys}
 
 
 def page_mode(path: Path):

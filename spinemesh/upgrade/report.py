@@ -99,5 +99,12 @@ def write_report(result: Result, path: str | Path) -> None:
         "skeletons_not_read": result.not_read,
         "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
         "attachments": [t.row() for t in result.targets],
-        **({"atlases": [a.row() for a in result.atlases]} if result.atlases else {}),
+        **({"atlases": [a.row() for a in result.atlases], "atlas_totals": _atlas_totals(result.atlases)}
+           if result.atlases else {}),
     })
+
+
+def _atlas_totals(rows: list) -> dict:
+    from ..pack.run import atlas_totals  # pack is loaded only by runs that packed
+
+    return atlas_totals(rows)
