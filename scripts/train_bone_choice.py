@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/train_bone_choice.py [--examples DIR] [--corpus DIR]
         [--cache FILE.npz] [--project-power P] [--threshold T] [--fold-models DIR] [--write]
-        [--habits strict] [--train-share S]
+        [--habits strict] [--train-share S] [--replay TOOL --replay-cache DIR --replay-every K]
 
 Builds the dataset (:mod:`spinemesh.train.bone_choice`: every artist-weighted mesh of each
 example in its newest version and of every corpus project, each bone near its art a row),
@@ -16,8 +16,11 @@ mesh against the artists'. ``--fold-models DIR`` keeps the fold models for the w
 (their ``learned`` rows, repository-held-out). ``--write`` fits on every project and writes
 ``spinemesh/models/bone_choice.json``. ``--train-share S`` lets the models learn from a share
 ``S`` of the projects only (drawn by name; the others weigh 0 in every fit) while every mesh is
-still judged held out: run with a few shares, it draws the learning curve. Needs scikit-learn
-and LightGBM (the ``train`` extra).
+still judged held out: run with a few shares, it draws the learning curve. ``--replay TOOL``
+then plays keep, rule, the learned choice and the upgrade's choice of the fold models in the
+artists' animations (``benchmarks/bench_weights_offline.py``) and prints every aggregate against
+both baselines. The folds hold out whole repositories (:func:`spinemesh.train.bone_choice.with_folds`).
+Needs scikit-learn and LightGBM (the ``train`` extra); set ``OMP_NUM_THREADS=1`` on a busy machine.
 """
 
 from __future__ import annotations
