@@ -80,8 +80,7 @@ def pack(
     Example: spinemesh upgrade project/ --out meshed/ --pack
     """
     from ..fsutil import check_outputs, project_folder
-    from ..pack.run import PackOptions, pack_library, pack_project, write_report
-    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+    from ..pack.run import PackOptions, pack_library, pack_project
     from ..upgrade import is_library
 
     import time
@@ -103,7 +102,14 @@ def pack(
             result = pack_library(project, out, options, progress=progress)
         else:
             result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
-    seconds = time.perf_counter() - t0
+    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview)
+
+
+def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path]) -> None:
+    """Write what a pack run was asked for (report, preview), print its table and exit as it ended."""
+    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+    from ..pack.run import write_report
+
     if report is not None:
         write_report(result, report)
     if preview is not None:
@@ -113,7 +119,7 @@ def pack(
     print_pack_table(result.atlases, result.errors)
     if result.atlases:
         console.print(f"packed {len(result.atlases)} atlas{'es' if len(result.atlases) > 1 else ''} in "
-                      f"{seconds:.1f} s on {options.jobs} process{'es' if options.jobs > 1 else ''}", highlight=False)
+                      f"{seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}", highlight=False)
     if not result.atlases:
         console.print("no atlas found")
         raise typer.Exit(EXIT_BAD_INPUT)
