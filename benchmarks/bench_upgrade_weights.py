@@ -8,7 +8,7 @@ skeletons, two of them nine and eight skeletons on one shared atlas page) copied
 temporary folder, as a team's library of characters would sit beside each other. Each run is
 ``spinemesh upgrade LIBRARY --out ... --jobs J`` in a fresh process, plain (``--weights none``)
 and with ``--weights auto``, the two taking turns ``--repeat`` times; the best of each is
-kept. Printed per run: wall seconds, CPU seconds of the process and its workers, the weights
+kept (``--as-project``: the folder upgraded as one project of 45 skeletons). Printed per run: wall seconds, CPU seconds of the process and its workers, the weights
 phase as the report gives it (its wall seconds), meshes weighted, and the ratio to the plain
 run. ``--before DIR`` adds the ``--weights auto`` run of another checkout (say, main before
 the weights moved to the workers): its output is compared byte for byte with this one's.
@@ -39,9 +39,10 @@ RUN = """
 import json, resource, sys, time
 from spinemesh.upgrade import Options, upgrade_library, upgrade_project
 from spinemesh.upgrade.library import is_library
-library, out, weights, jobs = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+library, out, weights, jobs, whole = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5] == "1"
 t = time.perf_counter()
-r = (upgrade_library if is_library(library) else upgrade_project)(library, out, Options(jobs=jobs, weights=weights))
+run = upgrade_project if whole or not is_library(library) else upgrade_library
+r = run(library, out, Options(jobs=jobs, weights=weights))
 wall = time.perf_counter() - t
 me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 weighted = sum(1 for x in r.targets if (x.weights or {}).get("status") == "weighted")
@@ -59,10 +60,11 @@ def library(projects: list[str], into: Path) -> tuple[int, Path]:
     return len(skeletons), root
 
 
-def run(code: Path, root: Path, out: Path, weights: str, jobs: int) -> dict:
-    """One upgrade in a fresh process with ``code`` first on the path: its times and meshes weighted."""
+def run(code: Path, root: Path, out: Path, weights: str, jobs: int, whole: bool = False) -> dict:
+    """One upgrade in a fresh process with ``code`` first on the path: its times and meshes
+    weighted; ``whole``: the folder upgraded as one project (``upgrade_project``)."""
     shutil.rmtree(out, ignore_errors=True)
-    r = subprocess.run([sys.executable, "-c", RUN, str(root), str(out), weights, str(jobs)],
+    r = subprocess.run([sys.executable, "-c", RUN, str(root), str(out), weights, str(jobs), "1" if whole else "0"],
                        env={**os.environ, "PYTHONPATH": str(code)}, capture_output=True, text=True)
     if r.returncode:
         raise SystemExit(f"upgrade failed ({r.returncode}): {r.stderr[-2000:]}")
@@ -83,11 +85,14 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=2, help="runs of each kind, taking turns; the best kept")
     ap.add_argument("--before", type=Path, help="another checkout whose --weights auto run is added")
+    ap.add_argument("--as-project", action="store_true", help="upgrade the folder as one project of 45 "
+                    "skeletons (upgrade_project), not as a library of projects")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         count, root = library(args.projects.split(","), tmp)
-        print(f"library: {count} skeletons in {len(args.projects.split(','))} projects; --jobs {args.jobs}; "
+        print(f"library: {count} skeletons in {len(args.projects.split(','))} projects"
+              f"{', upgraded as one project' if args.as_project else ''}; --jobs {args.jobs}; "
               f"load average {os.getloadavg()[0]:.1f}\n")
         kinds = [("plain (--weights none)", REPO, "none"), ("--weights auto", REPO, "auto")]
         if args.before:
@@ -95,7 +100,7 @@ def main() -> None:
         best: dict[str, dict] = {}
         for _ in range(args.repeat):
             for k, (name, code, weights) in enumerate(kinds):
-                r = run(code, root, tmp / f"out{k}", weights, args.jobs)
+                r = run(code, root, tmp / f"out{k}", weights, args.jobs, args.as_project)
                 if name not in best or r["wall"] < best[name]["wall"]:
                     best[name] = r
         plain = best[kinds[0][0]]
