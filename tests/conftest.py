@@ -123,3 +123,17 @@ def shared_memory_segments() -> set[str]:
     """Named shared memory (``/dev/shm``) but multiprocessing's semaphores (``sem.*``), which the
     locks of every process make and remove, the other test workers running beside this one too."""
     return {name for name in os.listdir("/dev/shm") if not name.startswith("sem.")}
+
+
+@pytest.fixture(scope="module")
+def meshed(tmp_path_factory) -> Path:
+    """The demo project upgraded with every region kept a mesh (``min_saving=None``), one per
+    test module: what the packing tests pack, move and crop."""
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    base = tmp_path_factory.mktemp("meshed")
+    demo = make_demo_project(base / "demo", with_images_folder=False)
+    out = base / "meshed"
+    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
+    return out

@@ -23,23 +23,11 @@ import numpy as np
 import pytest
 
 from spinemesh.atlas import read_atlas
-from spinemesh.demo import make_demo_project
 from spinemesh.images import load_rgba
 from spinemesh.pack.atlas_pack import PackRefused
 from spinemesh.pack.run import encode_page, pack_library, pack_project
-from spinemesh.upgrade import Options, upgrade_project
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def meshed(tmp_path_factory) -> Path:
-    """The demo project upgraded: its regions are meshes now, so pack moves and crops them."""
-    base = tmp_path_factory.mktemp("pages")
-    demo = make_demo_project(base / "demo", with_images_folder=False)
-    out = base / "meshed"
-    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
-    return out
 
 
 def _copy(meshed: Path, dest: Path) -> Path:

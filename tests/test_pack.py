@@ -34,16 +34,6 @@ runner = CliRunner()
 POINTS = 60
 
 
-@pytest.fixture(scope="module")
-def meshed(tmp_path_factory) -> Path:
-    """The demo project upgraded: its regions are meshes now (every region kept a mesh)."""
-    base = tmp_path_factory.mktemp("pack")
-    demo = make_demo_project(base / "demo", with_images_folder=False)
-    out = base / "meshed"
-    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
-    return out
-
-
 def _copy(project: Path, dest: Path, skip: tuple[str, ...] = ()) -> Path:
     """The project's files (not hidden ones, nor names ending in ``skip``) copied to ``dest``."""
     dest.mkdir()

@@ -19,22 +19,11 @@ import numpy as np
 import pytest
 
 from spinemesh.atlas import read_atlas
-from spinemesh.demo import make_demo_project
 from spinemesh.images import cut_region, load_rgba
 from spinemesh.pack import run
 from spinemesh.pack.run import PackOptions, pack_project
-from spinemesh.upgrade import Options, upgrade_project
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def meshed(tmp_path_factory) -> Path:
-    base = tmp_path_factory.mktemp("bytes")
-    demo = make_demo_project(base / "demo", with_images_folder=False)
-    out = base / "meshed"
-    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
-    return out
 
 
 def _pillow_png(rgba: np.ndarray) -> bytes:

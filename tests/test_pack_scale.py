@@ -18,16 +18,6 @@ from spinemesh.pack.run import PackOptions, PackProgress, pack_library, pack_pro
 from spinemesh.upgrade import Options, upgrade_project
 
 
-@pytest.fixture(scope="module")
-def meshed(tmp_path_factory) -> Path:
-    """The demo project upgraded: its regions are meshes now."""
-    base = tmp_path_factory.mktemp("scale")
-    demo = make_demo_project(base / "demo", with_images_folder=False)
-    out = base / "meshed"
-    upgrade_project(demo, out, Options(min_saving=None, jobs=1))
-    return out
-
-
 def _digest(folder: Path) -> dict:
     return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(folder.rglob("*")) if p.is_file() and not p.name.startswith(".")}
