@@ -232,6 +232,17 @@ def test_bounded_biharmonic_matches_libigl(bones):
     assert np.allclose(w.sum(1), 1, atol=1e-4)  # handles one-hot, Q 1 = 0: the optimum is a partition
 
 
+def test_one_bone_with_handles_weighs_1_everywhere_as_the_qp_optimum():
+    import igl
+
+    p, f, b, bc = _strip_problem(2)
+    one = np.c_[np.ones(len(b)), np.zeros(len(b))]  # every handle on the first bone, none on the second
+    w = bounded_biharmonic(p, f, b, one)
+    assert (w[:, 0] == 1.0).all() and (w[:, 1] == 0.0).all()
+    ref = igl.bbw(p, f, b, one, partition_unity=False, max_iter=200)  # the QP solved, not skipped
+    assert np.abs(ref[:, 0] - 1.0).max() < 1e-6
+
+
 def test_bone_without_handle_gets_zero_and_a_failed_solve_falls_back_to_harmonic(monkeypatch):
     from spinemesh.rig import weights as rig_weights
 

@@ -281,10 +281,13 @@ def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarr
     per bone (median 20 on artists' meshes), where libigl's active set refactorises once per
     step and, capped at 50 steps, ends outside [0, 1] on 15% of 2,000-point refinements.
 
-    Two facts of the problem save solves exactly: a bone with no handle has weight 0
-    everywhere (0 is feasible with energy 0), and when exactly two bones have handles the
-    second bone's weights are one minus the first's (``Q 1 = 0`` since ``L 1 = 0``, and
-    ``1 - w`` keeps the bounds and handles, so it has the same energy as ``w``).
+    Three facts of the problem save solves exactly: a bone with no handle has weight 0
+    everywhere (0 is feasible with energy 0); when one bone alone has handles its weight is 1
+    everywhere (``Q 1 = 0`` since ``L 1 = 0``: 1 keeps the bounds and handles at energy 0, and
+    every connected piece has a handle, so nothing else has it; the solver's answer, a hair
+    under 1, normalised per vertex by :func:`solve_weights`, was exactly that 1 already); and
+    when exactly two bones have handles the second bone's weights are one minus the first's
+    (``1 - w`` keeps the bounds and handles, and has the same energy as ``w``).
 
     Parameters
     ----------
@@ -319,6 +322,9 @@ def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarr
     w[b] = bc
     bones = [j for j in range(nb) if bc[:, j].any()]
     if not len(free) or not bones:
+        return w
+    if len(bones) == 1:  # the art reached by one bone's handles alone follows it (docstring)
+        w[free, bones[0]] = 1.0
         return w
     q_free = q[free][:, free].tocsc()
     linear = np.asarray(q[free][:, b] @ bc)
