@@ -22,7 +22,7 @@ import heapq
 import numpy as np
 
 from .choice import MAX_AUTO_BONES
-from .habits import set_patterns
+from .habits import pattern_sets, set_patterns
 
 #: Set features, in the order of the columns the set model reads.
 SET_FEATURES = (
@@ -231,16 +231,19 @@ def set_features(sets: list[tuple[tuple[int, ...], bool]], p: np.ndarray, allowe
     mesh = features[0] if len(features) else np.zeros(len(names))
     rows = []
     first = sets[0][0] if sets else ()
+    allowed_list = ok.tolist()
     for members, prefix in sets:
         m = np.asarray(members, int)
-        out = np.setdiff1d(ok, m)
+        rest = np.asarray(allowed, bool).copy()
+        rest[m] = False
+        out = np.flatnonzero(rest)  # the allowed candidates outside the set, ascending
         f = features[m]
         loglik = base + float(gain[m].sum())
-        components, edges, gaps = _tree_shape(members, ancestors, parents_at, ok.tolist())
+        components, edges, gaps = _tree_shape(members, ancestors, parents_at, allowed_list)
+        p_in, p_out = float(p[m].min()), (float(p[out].max()) if len(out) else 0.0)
         rows.append([
             len(m), likely, len(m) - likely, len(m) - expected, loglik, best - loglik,
-            float(p[m].min()), float(p[out].max()) if len(out) else 0.0,
-            float(p[m].min()) - (float(p[out].max()) if len(out) else 0.0), float(p[m].mean()),
+            p_in, p_out, p_in - p_out, float(p[m].mean()),
             slot is not None and slot in members, float(p[slot]) if slot is not None else 0.0,
             components, gaps, edges,
             float(f[:, col["nearest_vertex_share"]].sum()), float(f[:, col["over_art_per_diag"]].sum()),
@@ -269,8 +272,9 @@ def habit_set_features(sets: list[tuple[int, ...]], features: np.ndarray, names:
     total = sum(neighbours.values())
     most = max(neighbours.values()) if neighbours else 0
     rows = []
+    mesh = pattern_sets(features, names)
     for members in sets:
-        shown = set_patterns(members, features, names)
+        shown = set_patterns(members, features, names, mesh)
         agree = np.where(shown == 1, shares, 1 - shares)
         count = neighbours.get(tuple(members), 0)
         rows.append([float(agree[:5][shown[:5] == 1].sum()), *agree[5:],

@@ -153,7 +153,23 @@ def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tup
     return out
 
 
-def set_patterns(members, features: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+def pattern_sets(features: np.ndarray, names: tuple[str, ...]) -> tuple[set[int], set[int], set[int]]:
+    """The candidates (indices) that :func:`set_patterns` compares a set with: the slot's bone,
+    the bones over the art (points left out) and the ``rule``'s bones, each where it can be bound.
+
+    The same for every set of one mesh: :func:`.bone_sets.habit_set_features` finds them once.
+    """
+    col = _columns(names)
+    f = np.atleast_2d(np.asarray(features, float))   # columns past ``names`` (the habits) are not read
+    allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
+    slot = set(np.flatnonzero(allowed & (f[:, col["is_slot_bone"]] == 1)).tolist())
+    over = set(np.flatnonzero(allowed & (f[:, col["over_art_per_diag"]] > 0) & (f[:, col["is_point"]] == 0)).tolist())
+    rule = set(np.flatnonzero(allowed & (f[:, col["rule_chose"]] == 1)).tolist())
+    return slot, over, rule
+
+
+def set_patterns(members, features: np.ndarray, names: tuple[str, ...],
+                 mesh: tuple[set[int], set[int], set[int]] | None = None) -> np.ndarray:
     """Which :data:`SET_PATTERNS` a set of candidates shows, as 0/1 (len(SET_PATTERNS),).
 
     Parameters
@@ -162,13 +178,12 @@ def set_patterns(members, features: np.ndarray, names: tuple[str, ...]) -> np.nd
         The set, indices into the candidates (non-empty).
     features : ndarray, shape (C, F)
         The mesh's candidates' per-bone features (the first columns named ``names``).
+    mesh : tuple of set, optional
+        :func:`pattern_sets` of ``features``, when the caller has it (found here otherwise).
     """
     col = _columns(names)
-    f = np.atleast_2d(np.asarray(features, float))   # columns past ``names`` (the habits) are not read
-    allowed = (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
-    slot = set(np.flatnonzero(allowed & (f[:, col["is_slot_bone"]] == 1)).tolist())
-    over = set(np.flatnonzero(allowed & (f[:, col["over_art_per_diag"]] > 0) & (f[:, col["is_point"]] == 0)).tolist())
-    rule = set(np.flatnonzero(allowed & (f[:, col["rule_chose"]] == 1)).tolist())
+    f = np.atleast_2d(np.asarray(features, float))
+    slot, over, rule = pattern_sets(f, names) if mesh is None else mesh
     chosen = {int(k) for k in members}
     size = (0, 0, 1, 2, 3, 3)[len(chosen)] if len(chosen) < 6 else 4
     row = f[sorted(chosen)]
