@@ -274,6 +274,10 @@ def test_art_no_artist_weighted_gets_several_bones_only_where_another_is_likely(
     unweighted = choose_learned(*args, unweighted=True)
     assert [names[b] for b in unweighted.bones] == ["upper"]
     assert "below the threshold 0.50" in unweighted.left_out[names.index("root")]
+    # counted without reasons (the bending test before meshing): the same bones, either way
+    for kind in ({}, {"unweighted": True}):
+        bare = choose_learned(*args, **kind, explain=False)
+        assert bare.bones == choose_learned(*args, **kind).bones and not bare.why and not bare.left_out
 
 
 def test_the_bending_prefilter_reaches_as_far_as_the_candidates_along_the_chain():

@@ -151,10 +151,11 @@ def uses_learned(options: WeightOptions) -> bool:
 
 
 def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.ndarray,
-           mode: str, unweighted: bool = False) -> Choice:
+           mode: str, unweighted: bool = False, explain: bool = True) -> Choice:
     """The bones for one mesh: its current ones (``keep``), the ``rule`` or the ``learned`` choice
     (``auto``: :data:`AUTO_BONES`; with the project's habits when ``rig.habits`` holds them;
-    ``unweighted``: for art no artist chose to weight, :func:`.learned.choose_learned`)."""
+    ``unweighted``: for art no artist chose to weight; ``explain=False``: the learned choice's
+    bones without their reasons, :func:`.learned.choose_learned`)."""
     slot_bone = rig.slot_bone[ref.slot]
     if mode == "keep":
         current = mesh.bones() if mesh.weighted else [slot_bone]
@@ -167,7 +168,8 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         others = rig.habits.others(keys) if rig.habits is not None else None
         return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
                               rig.constrained, habits=others,
-                              neighbours=neighbour_sets(rig.habits, rig.bones, slot_bone, keys), unweighted=unweighted)
+                              neighbours=neighbour_sets(rig.habits, rig.bones, slot_bone, keys), unweighted=unweighted,
+                              explain=explain)
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

@@ -608,7 +608,7 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
                    constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
                    habits: np.ndarray | None = None, neighbours: dict[tuple[int, ...], int] | None = None,
-                   unweighted: bool = False) -> Choice:
+                   unweighted: bool = False, explain: bool = True) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -630,12 +630,15 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     artists weighted, 95% of them to several bones, and the set stage learned that: on the
     attachments artists left rigid it takes several bones three times in four, the per-bone
     choice one time in four (measured project-held-out: ``docs/guide/bones.md``, *While upgrading*).
+
+    ``explain=False``: the same bones, without the reasons (``why`` and ``left_out`` empty), for
+    a caller that only counts them (:meth:`.upgrade.BendingRegions.bends`): the habits' notes
+    evaluate the model a second time.
     """
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
     x = model.with_habits(cand.features, habits)
     p = model.probability(x)
-    notes = _habit_notes(cand, model, p, habits)
     left_out: dict[int, str] = {}
     allowed = np.zeros(len(cand.bones), bool)
     for k, i in enumerate(cand.bones):
@@ -654,6 +657,10 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
         take, note = _by_sets(bones, cand, p, allowed, slot, model, habits, neighbours)
     else:
         take, note = [], ""
+    if not explain:  # the bones _explain gives reasons for: those taken (all of them allowed)
+        chosen = sorted(cand.bones[k] for k in (take or _by_threshold(p, order, slot, model.threshold)))
+        return Choice(chosen or ([slot_bone] if bones[slot_bone].exact else []), {}, {})
+    notes = _habit_notes(cand, model, p, habits)
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
                    model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:

@@ -91,9 +91,9 @@ class BendingRegions:
         return local @ m[:, :2].T + m[:, 2]
 
     def choice(self, ref: AttachmentRef, uv: np.ndarray = QUAD_UV,
-               triangles: np.ndarray = QUAD_TRIANGLES) -> Choice | None:
+               triangles: np.ndarray = QUAD_TRIANGLES, explain: bool = True) -> Choice | None:
         """The :func:`upgrade_choice` of the art ``uv``/``triangles`` of a region (default: its
-        whole quad).
+        whole quad; ``explain=False``: its bones without their reasons).
 
         None when the region cannot be weighted (see :meth:`world`) or no bone but its slot
         bone comes within the candidates' reach of its box.
@@ -108,18 +108,19 @@ class BendingRegions:
         meets[slot_bone] = False
         if not meets.any():  # no other bone is a candidate
             return None
-        return upgrade_choice(self.rig, ref, world, triangles)
+        return upgrade_choice(self.rig, ref, world, triangles, explain)
 
     def bends(self, ref: AttachmentRef, uv: np.ndarray = QUAD_UV, triangles: np.ndarray = QUAD_TRIANGLES) -> bool:
         """Whether the art (default: the whole quad) gets more than one bone."""
         try:
-            choice = self.choice(ref, uv, triangles)
+            choice = self.choice(ref, uv, triangles, explain=False)  # counted, not explained
         except SpineMeshError:
             return False  # a region placed by non-numbers is not weighted either
         return choice is not None and len(choice.bones) > 1
 
 
-def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: np.ndarray) -> Choice:
+def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: np.ndarray,
+                   explain: bool = True) -> Choice:
     """The bones an upgraded mesh is bound to: the ``auto`` choice of ``spinemesh weights``, for
     art no artist chose to weight (``unweighted``, :func:`.learned.choose_learned`).
 
@@ -140,8 +141,10 @@ def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: n
         Its setup-pose vertices, world units.
     triangles : ndarray, shape (T, 3)
         Its triangles, indices into ``world``.
+    explain : bool
+        False: the bones alone, without the reasons for them and for the bones left out.
     """
-    return choose(rig, ref, None, world, triangles, "auto", unweighted=True)
+    return choose(rig, ref, None, world, triangles, "auto", unweighted=True, explain=explain)
 
 
 def _local_segments(rig, bone_ids: list[int], slot_bone: int) -> np.ndarray:
