@@ -280,6 +280,34 @@ def test_art_no_artist_weighted_gets_several_bones_only_where_another_is_likely(
         assert bare.bones == choose_learned(*args, **kind).bones and not bare.why and not bare.left_out
 
 
+def test_a_rig_makes_each_learned_choice_once_and_afresh_for_another_model(monkeypatch):
+    """The same art on the same slot bone (a region in two skins, say) is chosen for once per
+    rig, the same bones and reasons each time, each a copy; other art, or another model swapped
+    in, is chosen afresh."""
+    from spinemesh.rig import document, learned
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
+
+    made = []
+    monkeypatch.setattr(document, "choose_learned", lambda *a, **k: made.append(1) or learned.choose_learned(*a, **k))
+    doc = bar_skeleton()
+    rig = build_rig(doc)
+    ref = next(r for r in iter_attachments(doc) if r.slot == "bar")
+    world = BendingRegions.of(rig).world(ref, QUAD_UV)
+    first = upgrade_choice(rig, ref, world, QUAD_TRIANGLES)
+    first.why.clear()  # a caller's changes stay its own
+    again = upgrade_choice(rig, ref, world.copy(), QUAD_TRIANGLES)
+    assert len(made) == 1 and again.why and again.bones == first.bones
+    fresh = build_rig(doc)  # no choice remembered: the same answer made anew
+    assert upgrade_choice(fresh, ref, world, QUAD_TRIANGLES).why == again.why and len(made) == 2
+    upgrade_choice(rig, ref, world + 1.0, QUAD_TRIANGLES)
+    upgrade_choice(rig, ref, world, QUAD_TRIANGLES, explain=False)
+    assert len(made) == 4
+    monkeypatch.setattr(learned, "_SHIPPED", [learned.TreeEnsemble.from_json(learned.shipped_model().to_json())])
+    upgrade_choice(rig, ref, world, QUAD_TRIANGLES)
+    assert len(made) == 5
+
+
 def test_the_bending_prefilter_reaches_as_far_as_the_candidates_along_the_chain():
     """A region whose only bone within reach is its slot bone's child, farther out than the
     candidates' reach off the chain: the box test that skips the choice must not skip it."""

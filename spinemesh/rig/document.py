@@ -87,6 +87,8 @@ class Rig:
     constrained: dict[int, str] = field(default_factory=dict)  # bones constraints move -> kind
     # the artists' habits over the project's weighted meshes, for the learned choice (None: the prior)
     habits: ProjectHabits | None = None
+    # learned choices made on this rig, by everything they depend on (:func:`choose`)
+    choices: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -166,11 +168,33 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
     if uses_learned(WeightOptions(bones=mode)):
         keys = keys_of(ref.slot, ref.name)
         others = rig.habits.others(keys) if rig.habits is not None else None
-        return choose_learned(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()),
-                              rig.constrained, habits=others,
-                              neighbours=neighbour_sets(rig.habits, rig.bones, slot_bone, keys), unweighted=unweighted,
-                              explain=explain)
+        neighbours = neighbour_sets(rig.habits, rig.bones, slot_bone, keys)
+        skin_bones = rig.skin_bones.get(ref.skin, set())
+        return _remembered(rig, (slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain))
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
+
+
+def _remembered(rig: Rig, inputs: tuple) -> Choice:
+    """:func:`.learned.choose_learned` with the shipped model on ``rig``, of ``inputs`` (slot bone,
+    world vertices, triangles, skin bones, habits, neighbour sets, unweighted, explain), made
+    once per rig: the same art on the same slot bone recurs (one region in several skins, a
+    mesh weighted after its region was tested for bending), and the choice is a function of
+    these alone. A copy each time (callers keep its dicts)."""
+    from .learned import shipped_model
+
+    slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain = inputs
+    art, tris = np.asarray(world, float), np.asarray(triangles, np.int64)
+    key = (slot_bone, art.shape, art.tobytes(), tris.shape, tris.tobytes(), frozenset(skin_bones),
+           None if others is None else np.asarray(others, float).tobytes(), tuple(sorted(neighbours.items())),
+           unweighted, explain)
+    model = shipped_model()
+    made = rig.choices.get(key)
+    if made is None or made[0] is not model:  # a model swapped in (benchmarks) chooses afresh
+        made = rig.choices[key] = (model, choose_learned(rig.bones, slot_bone, world, triangles, skin_bones,
+                                                         rig.constrained, habits=others, neighbours=neighbours,
+                                                         unweighted=unweighted, explain=explain))
+    c = made[1]
+    return Choice(list(c.bones), dict(c.why), dict(c.left_out))
 
 
 def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome,

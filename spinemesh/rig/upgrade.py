@@ -19,6 +19,7 @@ weights are solved; so is one whose weights leave all but one bone out.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
@@ -235,6 +236,7 @@ def weighing_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> lis
     """
     meshed = [t for t in targets if t.status == "meshed"]
     light = {k: v for k, v in doc.items() if k != "animations"}
+    rig = dataclasses.replace(rig, choices={})  # the choices made before meshing stay here: not the meshes'
     return [(light, meshed[s:s + MESHES_PER_JOB], max_vertices, rig) for s in range(0, len(meshed), MESHES_PER_JOB)]
 
 
