@@ -57,9 +57,11 @@ def canvases(got: dict) -> list:
 
 
 def against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_index: int, anim: str,
-                        original: tuple[Path, Path], upgraded: tuple[Path, Path], time: float = 0.5) -> list[dict]:
+                        original: tuple[Path, Path], upgraded: tuple[Path, Path], time: float = 0.5,
+                        frame: tuple[float, float, float, float] | None = None) -> list[dict]:
     """Render ``anim`` at ``time`` with the official runtime (``original`` and ``upgraded``:
-    (atlas, skeleton), the second in the first's frame) and with our player (the preview's
+    (atlas, skeleton), the second in the first's frame; the first in ``frame``, world x, y,
+    width, height, when given, else in its file's bounds) and with our player (the preview's
     ``s/<page>``, its animation ``anim_index``) in that frame; the differences
     (:func:`runtime_tool.render_difference`, 32/255), original then upgraded."""
     from PIL import Image
@@ -69,7 +71,7 @@ def against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_in
     def at(pngs: list[Path]) -> Path:  # the render also writes the setup pose
         return next(p for p in pngs if p.name.endswith(f"{anim}@{time:g}.png"))
 
-    theirs = [at(render(tool, *original, anim, f"{time:g}", tmp / "a"))]
+    theirs = [at(render(tool, *original, anim, f"{time:g}", tmp / "a", frame=frame))]
     theirs.append(at(render(tool, *upgraded, anim, f"{time:g}", tmp / "b", frame_from=tmp / "a.frame.json")))
     frame = json.loads((tmp / "a.frame.json").read_text())
     f = frame["frame"]

@@ -91,10 +91,15 @@ def _pose_args(anim: str | None, times: str, poses: str | None, skin: str | None
 
 
 def render(tool: Path, atlas: Path, skeleton: Path, anim: str | None, times: str, prefix: Path,
-           frame_from: Path | None = None, poses: str | None = None, skin: str | None = None) -> list[Path]:
+           frame_from: Path | None = None, poses: str | None = None, skin: str | None = None,
+           frame: tuple[float, float, float, float] | None = None) -> list[Path]:
+    """Render ``anim`` at ``times``; the frame is the file's bounds, ``frame_from``'s frame, or
+    ``frame`` (x, y, width, height in world units)."""
     args = ["render.mjs", atlas, skeleton, "--out", prefix, *_pose_args(anim, times, poses, skin)]
     if frame_from:
         args += ["--frame-from", frame_from]
+    elif frame:
+        args += ["--frame", ",".join(f"{v:g}" for v in frame)]
     r = node(tool, *args)
     assert r.returncode == 0, f"render of {skeleton} failed: {r.stderr[-2000:]}"
     return sorted(prefix.parent.glob(prefix.name + ".*.png"))

@@ -5,7 +5,7 @@ vertices in world units, with the texture coordinates and triangles it is drawn 
 of the player (the original skeleton, or the upgraded one) keeps a table of the attachments
 its poses draw (:class:`SideTable`: image, UVs, triangles, colours by bone, written once in the
 page's model script); an animation is stored as, per frame, which attachments are drawn with
-which alpha, tint and blend mode, and every vertex position quantised to 16 bits over the
+which alpha, tint, blend mode and clipping polygon, and every vertex position quantised to 16 bits over the
 animation's bounds (:func:`encode_frames`), base64 in a ``.js`` file the page loads when
 that animation is chosen. Quantisation error is the bounds' larger side / 65,535 (0.015 world
 units for a 1,000-unit skeleton), below a pixel at any size the page shows.
@@ -64,8 +64,9 @@ class Drawn:
         The slot's blend mode.
     bones : ndarray, shape (N, 3), optional
         Colour (RGB 0..255) of each vertex by its bones: the bones' colours mixed by weight.
-    clipped : bool
-        A clipping attachment clips it (the player does not clip).
+    clip : ndarray, shape (M, 2), or None
+        The world polygon of the clipping attachment that clips it (one array object shared by
+        every attachment that polygon clips in a pose), if any.
     """
 
     key: tuple[str, str, str]
@@ -78,7 +79,7 @@ class Drawn:
     tint: tuple = (1.0, 1.0, 1.0)
     blend: str = "normal"
     bones: np.ndarray | None = None
-    clipped: bool = False
+    clip: np.ndarray | None = None
 
 
 def pose_skins(doc: dict) -> list[str]:
@@ -165,8 +166,17 @@ class PoseSampler:
             out.append(Drawn(key, s.path or None, world, np.asarray(s.uvs, float).reshape(-1, 2),
                              np.asarray(s.triangles, int).ravel(), s.type == "mesh", float(s.color[3]),
                              tuple(float(c) for c in s.color[:3]), s.blend,
-                             self._colours[key, len(world)], s.clip is not None))
+                             self._colours[key, len(world)], _clip_polygon(s.clip)))
         return out, dict(pose.why)
+
+
+def _clip_polygon(clip) -> np.ndarray | None:
+    """A pose's clipping polygon as the player draws it: None when it is missing, has fewer
+    than 3 vertices or a coordinate that is not a number (the runtime then clips nothing)."""
+    if clip is None:
+        return None
+    poly = np.asarray(clip, float).reshape(-1, 2)
+    return poly if len(poly) >= 3 and np.isfinite(poly).all() else None
 
 
 @dataclass
@@ -199,8 +209,10 @@ class SideTable:
 
 
 def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
-    """``(x0, y0, x1, y1)`` around every vertex of ``poses`` (a unit square when empty)."""
+    """``(x0, y0, x1, y1)`` around every vertex of ``poses`` and the clipping polygons they
+    are drawn with (a unit square when empty)."""
     pts = [d.world for pose in poses for d in pose if len(d.world)]
+    pts += [d.clip for pose in poses for d in pose if d.clip is not None]
     if not pts:
         return (0.0, 0.0, 1.0, 1.0)
     allp = np.concatenate(pts)
@@ -211,18 +223,29 @@ def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
 
 def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
     """One side of an animation: ``draws`` (per frame: count, then per attachment its table
-    index, alpha 0..255, blend and tint as one 24-bit RGB number) and ``xy`` (every vertex, frame after frame, quantised to
-    0..65535 over ``box``, little-endian uint16, base64)."""
+    index, alpha 0..255, blend, tint as one 24-bit RGB number and its clipping: 0 none, -1 the
+    previous attachment's polygon, M > 0 a new polygon of M vertices) and ``xy`` (every vertex,
+    frame after frame, each new clipping polygon's before the vertices of the attachment it
+    first clips, quantised to 0..65535 over ``box``, little-endian uint16, base64)."""
     x0, y0, x1, y1 = box
     span = np.array([x1 - x0, y1 - y0])
     draws: list[int] = []
     xy = []
     for pose in poses:
         draws.append(len(pose))
+        previous = None
         for d in pose:
             r, g, b = (int(round(255 * min(max(c, 0.0), 1.0))) for c in d.tint)
+            if d.clip is None:
+                clip = 0
+            elif previous is not None and (d.clip is previous or np.array_equal(d.clip, previous)):
+                clip = -1
+            else:
+                clip = len(d.clip)
+                xy.append(d.clip)
+            previous = d.clip
             draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0),
-                      (r << 16) | (g << 8) | b]
+                      (r << 16) | (g << 8) | b, clip]
             xy.append(d.world)
     q = np.concatenate(xy) if xy else np.zeros((0, 2))
     q = np.round((q - (x0, y0)) / span * 65535).clip(0, 65535).astype("<u2")
@@ -268,14 +291,12 @@ def sampled_skins(doc: dict) -> list[str]:
     return (order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
 
 
-def _note(why: dict[str, str], clipped: bool) -> str:
+def _note(why: dict[str, str]) -> str:
     parts = []
     if why:
         names = sorted(why)
         parts.append(f"Not as a game shows it: {', '.join(names[:5])}{' and more' if len(names) > 5 else ''} "
                      f"({next(iter(why.values()))}).")
-    if clipped:
-        parts.append("Clipping attachments are not applied here.")
     return " ".join(parts)
 
 
@@ -309,7 +330,6 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
         times = frame_times(duration, rate)
         anim = Animation(name, duration, rate=rate)
         why: dict[str, str] = {}
-        clipped = False
         try:
             for skin, (b, a) in sides.items():
                 poses = [], []
@@ -317,11 +337,10 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
                     for drawn, not_exact in sampler.play(name, times):
                         side.append(drawn)
                         why.update(not_exact)
-                        clipped = clipped or any(d.clipped for d in drawn)
                 anim.by_skin[skin] = poses
         except (SpineMeshError, KeyError, ValueError, TypeError, IndexError, ZeroDivisionError) as e:
             (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
             continue
-        anim.note = _note(why, clipped)
+        anim.note = _note(why)
         out.append(anim)
     return out

@@ -2,10 +2,12 @@
  *
  * Data comes from scripts beside the page (file:// pages may load <script src>, not fetch):
  * SM.model(id, model) once per skeleton, SM.frames(key, frames) per animation and skin, loaded
- * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint) and their
- * vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D canvas, each
- * an affine map of its image clipped to the triangle (one clip and one draw when a whole
- * attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
+ * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint, clipping)
+ * and their vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D
+ * canvas, each an affine map of its image clipped to the triangle (one clip and one draw when a
+ * whole attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
+ * An attachment a clipping attachment clips is drawn inside that polygon (a canvas clip path:
+ * the area the runtimes keep when they cut its triangles by the polygon).
  *
  * Page options in its #hash: play=A (start animation A playing); skin=S (the skin S offered);
  * wire=1, bones=1 (the toggles on). Test hooks: test=S (play S
@@ -64,7 +66,7 @@
     while (p < d.length) {
       starts.push([p, v]);
       var n = d[p++];
-      for (var i = 0; i < n; i++) { v += table[d[p]].uv.length; p += 4; }
+      for (var i = 0; i < n; i++) { v += table[d[p]].uv.length + (d[p + 4] > 0 ? 2 * d[p + 4] : 0); p += 5; }
     }
     return { draws: d, xy: xy, starts: starts };
   }
@@ -191,10 +193,19 @@
       var ctx = s.ctx, d = side.draws, p = side.starts[f][0], v = side.starts[f][1], xy = side.xy;
       ctx.setTransform(1, 0, 0, 1, 0, 0);
       ctx.clearRect(0, 0, s.canvas.width, s.canvas.height);
-      var n = d[p++], lines = [], dots = [];
+      var n = d[p++], lines = [], dots = [], clip = null;
       for (var i = 0; i < n; i++) {
-        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3];
-        p += 4;
+        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3], cl = d[p + 4];
+        p += 5;
+        if (cl === 0) clip = null;
+        else if (cl > 0) { /* a new clipping polygon: its vertices come first */
+          clip = new Array(2 * cl);
+          for (var j = 0; j < cl; j++) {
+            var cp = map(xy[v + 2 * j], xy[v + 2 * j + 1]);
+            clip[2 * j] = cp[0]; clip[2 * j + 1] = cp[1];
+          }
+          v += 2 * cl;
+        }
         var nv = row.uv.length / 2, pts = new Array(2 * nv);
         for (var j = 0; j < nv; j++) {
           var c = map(xy[v + 2 * j], xy[v + 2 * j + 1]);
@@ -204,7 +215,17 @@
         var im = tinted(row.img, tint);
         ctx.globalAlpha = alpha;
         ctx.globalCompositeOperation = BLEND[blend] || "source-over";
-        if (im) drawTextured(ctx, im, row, pts);
+        if (im && clip) {
+          ctx.save();
+          ctx.setTransform(1, 0, 0, 1, 0, 0);
+          ctx.beginPath();
+          ctx.moveTo(clip[0], clip[1]);
+          for (j = 2; j < clip.length; j += 2) ctx.lineTo(clip[j], clip[j + 1]);
+          ctx.closePath();
+          ctx.clip();
+          drawTextured(ctx, im, row, pts);
+          ctx.restore();
+        } else if (im) drawTextured(ctx, im, row, pts);
         if (s.name === "after" && P.wire) lines.push([row, pts]);
         if (s.name === "after" && P.bones) dots.push([row, pts]);
       }
