@@ -229,30 +229,48 @@ def set_features(sets: list[tuple[tuple[int, ...], bool]], p: np.ndarray, allowe
     gain = np.log(pa) - np.log1p(-pa)
     best = base + float(np.clip(gain[ok], 0, None).sum())
     mesh = features[0] if len(features) else np.zeros(len(names))
-    rows = []
     first = sets[0][0] if sets else ()
     allowed_list = ok.tolist()
-    for members, prefix in sets:
+    # Minima, maxima and counts of 0/1 columns come out the same in any order: taken over every
+    # set at once through its members' mask; the sums of fractions stay one set at a time, in
+    # the members' order, to the last bit.
+    inside = np.zeros((len(sets), len(p)), bool)
+    for k, (members, _) in enumerate(sets):
+        inside[k, list(members)] = True
+    outside = np.asarray(allowed, bool) & ~inside
+    any_out = outside.any(axis=1)
+
+    def lowest(mask, values):
+        return np.where(mask, values, np.inf).min(axis=1)
+
+    def highest(mask, values):
+        return np.where(mask, values, -np.inf).max(axis=1)
+
+    p_in = lowest(inside, p)
+    p_out = np.where(any_out, highest(outside, p), 0.0)
+    over = features[:, col["over_art_per_diag"]]
+    counted = ("is_point", "is_control", "is_constrained", "is_ancestor", "is_descendant", "is_sibling", "rule_chose")
+    counts = inside.astype(float) @ features[:, [col[c] for c in counted]]  # (S, 7) whole numbers
+    rule_out = np.where(any_out, outside.astype(float) @ features[:, col["rule_chose"]], 0.0)
+    length = features[:, col["length_per_diag"]]
+    per_set = np.column_stack([
+        p_in, p_out, p_in - p_out, np.where(any_out, highest(outside, over), 0.0), counts, rule_out,
+        highest(inside, features[:, col["tree_distance"]]), highest(inside, features[:, col["distance_per_diag"]]),
+        lowest(inside, length), highest(inside, length),
+    ]).reshape(len(sets), 16)
+    rows = []
+    for (members, prefix), (p_min, p_max, margin, over_out, *rest) in zip(sets, per_set.tolist()):
         m = np.asarray(members, int)
-        rest = np.asarray(allowed, bool).copy()
-        rest[m] = False
-        out = np.flatnonzero(rest)  # the allowed candidates outside the set, ascending
         f = features[m]
         loglik = base + float(gain[m].sum())
         components, edges, gaps = _tree_shape(members, ancestors, parents_at, allowed_list)
-        p_in, p_out = float(p[m].min()), (float(p[out].max()) if len(out) else 0.0)
         rows.append([
             len(m), likely, len(m) - likely, len(m) - expected, loglik, best - loglik,
-            p_in, p_out, p_in - p_out, float(p[m].mean()),
+            p_min, p_max, margin, float(p[m].mean()),
             slot is not None and slot in members, float(p[slot]) if slot is not None else 0.0,
             components, gaps, edges,
-            float(f[:, col["nearest_vertex_share"]].sum()), float(f[:, col["over_art_per_diag"]].sum()),
-            float(features[out, col["over_art_per_diag"]].max()) if len(out) else 0.0,
-            *(float(f[:, col[c]].sum()) for c in ("is_point", "is_control", "is_constrained", "is_ancestor",
-                                                   "is_descendant", "is_sibling", "rule_chose")),
-            float(features[out, col["rule_chose"]].sum()) if len(out) else 0.0,
-            float(f[:, col["tree_distance"]].max()), float(f[:, col["distance_per_diag"]].max()),
-            float(f[:, col["length_per_diag"]].min()), float(f[:, col["length_per_diag"]].max()),
+            float(f[:, col["nearest_vertex_share"]].sum()), float(f[:, col["over_art_per_diag"]].sum()), over_out,
+            *rest,
             *(float(mesh[col[c]]) for c in ("log_art_diag", "candidate_count", "bones_on_art", "rule_bone_count")),
             len(ok), prefix, members == first,
         ])
