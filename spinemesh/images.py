@@ -1188,26 +1188,6 @@ def part_content_id(shape: tuple[int, ...], box: tuple[int, int, int, int], part
     return digest.hexdigest()[:32]
 
 
-def png_data_uri(rgba: np.ndarray) -> str:
-    """``rgba`` as a ``data:image/png;base64,...`` URI, for the HTML pages the commands write.
-
-    Parameters
-    ----------
-    rgba : ndarray, shape (H, W, 4) or (H, W, 3), uint8
-
-    Examples
-    --------
-    >>> png_data_uri(np.zeros((2, 2, 4), np.uint8)).startswith("data:image/png;base64,")
-    True
-    """
-    import base64
-    import io
-
-    buf = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(rgba)).save(buf, format="PNG", optimize=False, compress_level=3)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
-
-
 def fit_within(rgba: np.ndarray, size: int) -> np.ndarray:
     """``rgba`` shrunk (area averaging) so that its longer side is at most ``size`` pixels;
     returned as it is when it already fits.

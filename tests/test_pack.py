@@ -343,10 +343,32 @@ def test_measured_padding():
 
 
 def test_preview_shows_pages_before_and_after(meshed, tmp_path):
+    import re
+
     r = runner.invoke(app, ["pack", str(meshed), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "pv")])
     assert r.exit_code == 0, r.output
     page = (tmp_path / "pv" / "index.html").read_text()
     assert page.count("<img") == 2 and "before" in page and "after" in page and "demo.png" in page
+    # the pictures are files beside the page, named by their content, loaded when scrolled to
+    assert "data:" not in page and len(page) < 10_000
+    sources = re.findall(r'<img loading="lazy" src="(img/[0-9a-f]{20}\.png)"', page)
+    assert len(sources) == 2, page
+    for src in sources:
+        assert load_rgba(tmp_path / "pv" / src)[..., 3].any()
+
+
+def test_preview_opens_in_headless_chromium_with_its_pictures(meshed, tmp_path):
+    from browser import run
+
+    r = runner.invoke(app, ["pack", str(meshed), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "pv")])
+    assert r.exit_code == 0, r.output
+    shot = tmp_path / "shot.png"
+    # the screenshot must show the pages' art (a picture that did not load leaves 70 such pixels)
+    run((tmp_path / "pv" / "index.html").resolve().as_uri(), tmp_path / "chromium", f"--screenshot={shot}",
+        "--window-size=1400,1800")
+    rgb = load_rgba(shot)[..., :3].astype(int)
+    coloured = (rgb.max(axis=2) - rgb.min(axis=2)) > 60  # the page itself is grey: art only
+    assert coloured.sum() > 2000, coloured.sum()
 
 
 def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "demo.atlas") -> int:

@@ -47,8 +47,8 @@ def pack(
                                                    "pages, texels and bytes before and after, regions packed by "
                                                    "outline and by rectangle, and why.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
-        "--preview", metavar="DIR", help="Write a self-contained HTML page (DIR/index.html) with every page before "
-                                         "and after.")] = None,
+        "--preview", metavar="DIR", help="Write an HTML page (DIR/index.html) with every page before and after, "
+                                         "its pictures as files beside it (DIR/img/).")] = None,
     rotate: Annotated[bool, typer.Option("--rotate/--no-rotate", help="Let regions be stored turned by 90 "
                                          "degrees (every runtime reads it).")] = True,
     padding: Annotated[Optional[int], typer.Option(

@@ -1,9 +1,11 @@
-"""``pack --preview DIR``: one self-contained HTML page with every packed page before and after.
+"""``pack --preview DIR``: one HTML page with every packed page before and after.
 
 Per atlas: its pages as exported and as packed, side by side at one scale (so sizes compare
 at a glance), on a checkerboard (transparent texels show as such), with their sizes and
-texel counts; then the regions that kept their rectangles and why. Images are inlined as
-PNG data URIs; no script.
+texel counts; then the regions that kept their rectangles and why. The pictures are PNG files
+beside the page (``DIR/img/<content hash>.png``, as the upgrade's preview writes them:
+:class:`spinemesh.player.PreviewFolder`), loaded when scrolled to, so that the page stays
+small however many pages a project has; no script.
 """
 
 from __future__ import annotations
@@ -14,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_write_text
-from ..images import fit_within, png_data_uri
+from ..images import fit_within
+from ..player import PreviewFolder
 
 #: Largest side, in pixels, of the largest page of an atlas in the picture.
 PAGE_SIZE = 640
@@ -31,16 +33,19 @@ table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-
 """
 
 
-def _figure(name: str, rgba: np.ndarray, scale: float) -> str:
+def _figure(folder: PreviewFolder, name: str, rgba: np.ndarray, scale: float) -> str:
     h, w = rgba.shape[:2]
     shown = fit_within(rgba, max(1, round(max(h, w) * scale)))
-    return (f'<figure><img src="{png_data_uri(shown)}" width="{shown.shape[1]}" height="{shown.shape[0]}" '
+    src = html.escape(folder.image(shown, max(shown.shape[:2])))
+    return (f'<figure><img loading="lazy" src="{src}" width="{shown.shape[1]}" height="{shown.shape[0]}" '
             f'alt="{html.escape(name)}"><figcaption>{html.escape(name)}: {w} x {h} = {w * h:,} texels'
             f'</figcaption></figure>')
 
 
-def atlas_section(rel: str, before: dict[str, np.ndarray], after: dict[str, np.ndarray], row) -> str:
-    """HTML of one atlas: its pages before and after at one scale, and its rectangle reasons."""
+def atlas_section(folder: PreviewFolder, rel: str, before: dict[str, np.ndarray], after: dict[str, np.ndarray],
+                  row) -> str:
+    """HTML of one atlas: its pages before and after at one scale (written under ``folder``),
+    and its rectangle reasons."""
     largest = max(max(p.shape[:2]) for p in list(before.values()) + list(after.values()))
     scale = min(1.0, PAGE_SIZE / largest)
     reasons = Counter(r["reason"].split(" (")[0] for r in row.regions_by_rectangle)
@@ -50,17 +55,18 @@ def atlas_section(rel: str, before: dict[str, np.ndarray], after: dict[str, np.n
             f"<p>page texels {row.texels_before:,} → {row.texels_after:,} "
             f"({row.texels_after / row.texels_before - 1:+.1%}), bytes {row.bytes_before:,} → {row.bytes_after:,}; "
             f"{row.by_outline} regions by outline, {row.by_rectangle} by rectangle, padding {row.padding}</p>"
-            f"<h3>before</h3><div class=\"pages\">{''.join(_figure(n, p, scale) for n, p in before.items())}</div>"
-            f"<h3>after</h3><div class=\"pages\">{''.join(_figure(n, p, scale) for n, p in after.items())}</div>"
+            f"<h3>before</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in before.items())}</div>"
+            f"<h3>after</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in after.items())}</div>"
             + (f"<h3>kept by rectangle</h3><table><tr><th>reason</th><th>regions</th></tr>{rows}</table>"
                if rows else ""))
 
 
 def write_preview(result, folder: str | Path) -> Path:
-    """Write ``folder/index.html`` for a pack run (one made with ``keep_previews``); return its path."""
-    folder = Path(folder)
+    """Write ``folder/index.html`` and its pictures (``folder/img/``) for a pack run (one made
+    with ``keep_previews``); return the page's path."""
+    files = PreviewFolder(folder)
     rows = {a.atlas: a for a in result.atlases}
-    sections = [atlas_section(rel, before, after, rows[rel]) for rel, before, after in result.previews]
+    sections = [atlas_section(files, rel, before, after, rows[rel]) for rel, before, after in result.previews]
     kept = [a for a in result.atlases if a.status != "packed"]
     if kept:
         sections.append("<h2>atlases kept as they were</h2><table><tr><th>atlas</th><th>why</th></tr>" + "".join(
@@ -72,6 +78,4 @@ def write_preview(result, folder: str | Path) -> Path:
                f"{t['bytes_after']:,}</p>")
     page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh pack</title>"
             f"<style>{_CSS}</style></head><body><h1>spinemesh pack</h1>{summary}{''.join(sections)}</body></html>\n")
-    path = folder / "index.html"
-    atomic_write_text(path, page)
-    return path
+    return files.root / files.write_text("index.html", page)
