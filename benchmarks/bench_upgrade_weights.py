@@ -7,10 +7,11 @@ The library: the corpus projects ``--projects`` (default five slot-game symbol p
 skeletons, two of them nine and eight skeletons on one shared atlas page) copied into a
 temporary folder, as a team's library of characters would sit beside each other. Each run is
 ``spinemesh upgrade LIBRARY --out ... --jobs J`` in a fresh process, plain (``--weights none``)
-and with ``--weights auto``, the two taking turns ``--repeat`` times; the best of each is
-kept (``--as-project``: the folder upgraded as one project of 45 skeletons). Printed per run: wall seconds, CPU seconds of the process and its workers, the weights
-phase as the report gives it (its wall seconds), meshes weighted, and the ratio to the plain
-run. ``--before DIR`` adds the ``--weights auto`` run of another checkout (say, main before
+and with ``--weights auto``, the two taking turns ``--repeat`` times (with ``--before``, its
+run and this code's swap places every other turn); the best of each is kept
+(``--as-project``: the folder upgraded as one project of 45 skeletons). Printed per run: wall
+seconds, CPU seconds of the process and its workers, the weights phase as the report gives it
+(its wall seconds), meshes weighted, and the ratio to the plain run. ``--before DIR`` adds the ``--weights auto`` run of another checkout (say, main before
 the weights moved to the workers): its output is compared byte for byte with this one's.
 
 The machine may be shared: the load average is printed, and CPU seconds are the fairer figure
@@ -98,8 +99,13 @@ def main() -> None:
         if args.before:
             kinds.append((f"--weights auto, {args.before}", args.before, "auto"))
         best: dict[str, dict] = {}
-        for _ in range(args.repeat):
-            for k, (name, code, weights) in enumerate(kinds):
+        for turn in range(args.repeat):
+            # the two --weights auto runs swap places every other turn: the run right after the
+            # plain one measured several seconds slower on a loaded machine, whichever code it was
+            order = list(enumerate(kinds))
+            if turn % 2:
+                order = order[:1] + order[:0:-1]
+            for k, (name, code, weights) in order:
                 r = run(code, root, tmp / f"out{k}", weights, args.jobs, args.as_project)
                 if name not in best or r["wall"] < best[name]["wall"]:
                     best[name] = r
