@@ -16,7 +16,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from spinemesh.atlas import read_atlas
 from spinemesh.images import cut_region, load_rgba
