@@ -70,7 +70,7 @@ def test_the_optimiser_works_in_a_process_forked_after_it_ran():
     assert r.returncode == 0, r.stderr
 
 
-def _bloated(image) -> bytes:
+def _bloated(image, keep_format=False) -> bytes:
     """A PNG without compression: every packed page takes more bytes than the original."""
     from PIL import Image
 
@@ -140,3 +140,192 @@ def test_bytes_before_and_after_per_atlas_and_in_total(meshed, tmp_path):
         assert data["totals"][key] == sum(a[key] for a in rows)
     total = next(line for line in r.stdout.splitlines() if "total" in line)
     assert f"{data['totals']['bytes_before']:,} -> {data['totals']['bytes_after']:,}" in total
+
+
+# --- atlases kept as exported: their PNG pages re-encoded losslessly where smaller ---------------
+
+def _chunk(kind: bytes, body: bytes) -> bytes:
+    import struct
+    import zlib
+
+    return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+
+def _with_chunks(png: bytes, extra: list[bytes]) -> bytes:
+    """``png`` with ``extra`` chunks inserted right after IHDR (gamma and profile come before the data)."""
+    return png[:33] + b"".join(extra) + png[33:]
+
+
+def _full_page(side: int = 64) -> np.ndarray:
+    """Four regions' art that fills the page: smooth gradients (they compress well), every texel opaque."""
+    y, x = np.mgrid[0:side, 0:side]
+    return np.dstack([(x * 3) % 256, (y * 5) % 256, ((x + y) * 2) % 256, np.full_like(x, 255)]).astype(np.uint8)
+
+
+def _kept_project(folder: Path, pages: dict[str, bytes], side: int = 64) -> Path:
+    """An atlas whose regions fill every page (no packing stores fewer texels: it is kept), one
+    page per entry of ``pages`` (file name -> bytes), four regions of ``side / 2`` on each."""
+    folder.mkdir(parents=True)
+    half = side // 2
+    lines = []
+    for k, (name, data) in enumerate(pages.items()):
+        (folder / name).write_bytes(data)
+        lines += [name, f"size: {side},{side}", "filter: Linear,Linear"]
+        for i in range(4):
+            lines += [f"p{k}r{i}", f"bounds: {(i % 2) * half},{(i // 2) * half},{half},{half}"]
+        lines.append("")
+    (folder / "full.atlas").write_text("\n".join(lines))
+    return folder
+
+
+def _pillow(image, **options) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    (image if isinstance(image, Image.Image) else Image.fromarray(image)).save(buf, format="PNG", **options)
+    return buf.getvalue()
+
+
+def _loose_png(rgba: np.ndarray) -> bytes:
+    """A PNG as a careless exporter writes it: hardly compressed, with gamma, a colour profile and a text."""
+    import struct
+    import zlib
+
+    from PIL import ImageCms
+
+    profile = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+    return _with_chunks(_pillow(rgba, compress_level=1), [
+        _chunk(b"gAMA", struct.pack(">I", 45455)),
+        _chunk(b"iCCP", b"sRGB\0\0" + zlib.compress(profile, 1)),
+        _chunk(b"tEXt", b"Software\0an exporter"),
+    ])
+
+
+def _non_image_chunks(data: bytes) -> list:
+    from spinemesh.pack.png import _meaning, png_chunks
+
+    return [(k, _meaning(k, v)) for k, v in png_chunks(data) if k != b"IDAT"]
+
+
+def test_a_kept_png_atlas_is_reencoded_losslessly_and_keeps_its_metadata(tmp_path):
+    original = _loose_png(_full_page())
+    project = _kept_project(tmp_path / "full", {"full.png": original})
+    result = pack_project(project, tmp_path / "out")
+    (row,) = result.atlases
+    assert row.status == "kept" and row.pages_reencoded == 1, row.reason
+    assert "kept its layout, its page re-encoded losslessly" in row.reason, row.reason
+    written = (tmp_path / "out" / "full.png").read_bytes()
+    assert len(written) < len(original) and row.bytes_after == row.bytes_before - len(original) + len(written)
+    assert (tmp_path / "out" / "full.atlas").read_bytes() == (project / "full.atlas").read_bytes()
+    np.testing.assert_array_equal(load_rgba(tmp_path / "out" / "full.png"), load_rgba(project / "full.png"))
+    # gamma, colour profile and text as they were, in the same order; the same header (RGBA, 8 bits)
+    assert _non_image_chunks(written) == _non_image_chunks(original)
+    assert [k for k, _ in _non_image_chunks(written)][:4] == [b"IHDR", b"gAMA", b"iCCP", b"tEXt"]
+    # asked for files as exported: byte for byte
+    result = pack_project(project, tmp_path / "as-exported", PackOptions(keep_files_as_exported=True))
+    (row,) = result.atlases
+    assert row.status == "kept" and row.pages_reencoded == 0 and row.bytes_after == row.bytes_before
+    assert (tmp_path / "as-exported" / "full.png").read_bytes() == original
+
+
+def test_a_palette_page_stays_a_palette_page(tmp_path):
+    from PIL import Image
+
+    from spinemesh.pack.png import IHDR, png_chunks
+
+    page = Image.fromarray(_full_page()).convert("RGB").quantize(64)
+    original = _pillow(page, compress_level=1, transparency=0)
+    project = _kept_project(tmp_path / "full", {"full.png": original})
+    (row,) = pack_project(project, tmp_path / "out").atlases
+    assert row.pages_reencoded == 1, row.reason
+    written = (tmp_path / "out" / "full.png").read_bytes()
+    assert len(written) < len(original)
+    chunks, before = dict(png_chunks(written)), dict(png_chunks(original))
+    assert IHDR.unpack(chunks[b"IHDR"])[2:4] == (8, 3)  # 8-bit palette, as exported
+    assert chunks[b"PLTE"] == before[b"PLTE"] and chunks[b"tRNS"] == before[b"tRNS"]  # the same palette, in order
+    np.testing.assert_array_equal(load_rgba(tmp_path / "out" / "full.png"), load_rgba(project / "full.png"))
+
+
+def test_a_page_that_would_not_shrink_is_copied_byte_for_byte(tmp_path):
+    from spinemesh.pack.png import optimized_png
+
+    noise = np.random.default_rng(3).integers(0, 256, (64, 64, 4), dtype=np.uint8)
+    original = optimized_png(_pillow(noise), keep_format=True)  # already as small as oxipng makes it
+    project = _kept_project(tmp_path / "full", {"full.png": original})
+    (row,) = pack_project(project, tmp_path / "out").atlases
+    assert row.status == "kept" and row.pages_reencoded == 0 and row.bytes_after == row.bytes_before, row.reason
+    assert "re-encoded" not in row.reason
+    assert (tmp_path / "out" / "full.png").read_bytes() == original
+
+
+def test_lossy_webp_and_jpeg_pages_are_never_reencoded(tmp_path):
+    from PIL import Image
+
+    lossy = io.BytesIO()
+    Image.fromarray(_full_page()).save(lossy, format="WEBP", quality=80)
+    project = _kept_project(tmp_path / "mixed", {"a.png": _loose_png(_full_page()), "b.webp": lossy.getvalue()})
+    assert run.is_lossy_webp(project / "b.webp")
+    (row,) = pack_project(project, tmp_path / "out").atlases
+    assert row.status == "kept" and row.pages_reencoded == 1 and "1 of its 2 pages" in row.reason, row.reason
+    assert (tmp_path / "out" / "b.webp").read_bytes() == lossy.getvalue()
+    assert (tmp_path / "out" / "a.png").stat().st_size < (project / "a.png").stat().st_size
+    jpeg = io.BytesIO()
+    Image.fromarray(_full_page()[..., :3]).save(jpeg, format="JPEG", quality=90)
+    project = _kept_project(tmp_path / "jpeg", {"a.png": _loose_png(_full_page()), "b.jpg": jpeg.getvalue()})
+    (row,) = pack_project(project, tmp_path / "out-jpeg").atlases
+    assert row.status == "kept" and row.pages_reencoded == 0 and "JPEG" in row.reason, row.reason
+    for name in ("a.png", "b.jpg"):
+        assert (tmp_path / "out-jpeg" / name).read_bytes() == (project / name).read_bytes()
+
+
+def test_a_tampered_reencode_is_caught_and_the_page_copied(tmp_path, monkeypatch):
+    """Negative controls: an optimiser that changes one texel, or drops the gamma chunk, is caught."""
+    from spinemesh.pack.png import optimized_png
+
+    original = _loose_png(_full_page())
+    project = _kept_project(tmp_path / "full", {"full.png": original})
+
+    def one_texel_off(image, keep_format=False):
+        rgba = np.array(load_rgba_bytes(bytes(image)))
+        rgba[10, 20, 0] ^= 1
+        return optimized_png(_with_chunks(_pillow(rgba), [c for c in original_chunks(b"gAMA", b"iCCP", b"tEXt")]),
+                             keep_format=True)
+
+    def no_gamma(image, keep_format=False):
+        data = optimized_png(image, keep_format=keep_format)
+        return b"".join([data[:8]] + [_chunk(k, v) for k, v in run.png_chunks(data) if k != b"gAMA"])
+
+    def original_chunks(*kinds):
+        return [_chunk(k, v) for k, v in run.png_chunks(original) if k in kinds]
+
+    for tamper, why in ((one_texel_off, "texel for texel"), (no_gamma, "gAMA")):
+        monkeypatch.setattr(run, "optimized_png", tamper)
+        data = tamper(original)
+        assert len(data) < len(original)  # it would have been written, were it not checked
+        try:
+            run.reencoded_page(original, load_rgba(project / "full.png"), "full.png")
+            raise AssertionError("not caught")
+        except run.PackRefused as e:
+            assert why in str(e), e
+        out = tmp_path / f"out-{why[:4]}"
+        (row,) = pack_project(project, out).atlases
+        assert row.status == "kept" and row.pages_reencoded == 0, row.reason
+        assert (out / "full.png").read_bytes() == original
+
+
+def test_upgrade_pack_reencodes_kept_pages_in_place_unless_asked(tmp_path):
+    """``upgrade --pack`` packs what it wrote in place through the same code: kept pages re-encoded,
+    or left byte for byte with ``--keep-files-as-exported``."""
+    from spinemesh.upgrade import Options
+    from spinemesh.upgrade.pack import pack_written
+    from spinemesh.upgrade.report import Result
+
+    original = _loose_png(_full_page())
+    for keep, expect in ((False, 1), (True, 0)):
+        out = _kept_project(tmp_path / f"written-{keep}", {"full.png": original})
+        result = Result()
+        pack_written(out, result, Options(jobs=1, pack=True, pack_keep_files=keep))
+        (row,) = result.atlases
+        assert row.status == "kept" and row.pages_reencoded == expect, row.reason
+        assert ((out / "full.png").read_bytes() == original) == keep
+        np.testing.assert_array_equal(load_rgba(out / "full.png"), load_rgba_bytes(original))

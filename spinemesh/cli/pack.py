@@ -29,6 +29,10 @@ _MaxPage = Annotated[Optional[int], typer.Option(
     "--max-page", min=16, max=16384, metavar="SIDE", help="Longest side of a packed page (a page may then take "
     "SIDE x SIDE texels). Default: the longest original side, and no page of more texels than the "
     "largest original page.")]
+_KeepFiles = Annotated[bool, typer.Option(
+    "--keep-files-as-exported", help="Copy an atlas that is not packed byte for byte. Default: its PNG pages are "
+    "written anew by oxipng where that is smaller, losslessly (same texels, colour type, palette, gamma and "
+    "colour profile; checked), its atlas file as it was.")]
 _Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, metavar="N", help="Processes packing side by side: "
                                               "atlases, and the placements tried for one atlas (default: the "
                                               "CPU cores this process may use).")]
@@ -60,6 +64,7 @@ def pack(
     larger_files: Annotated[bool, typer.Option(
         "--larger-files", help="Write a packed atlas even where its files take more bytes than the original's "
                                "(fewer page texels, a larger download). Default: such an atlas is kept.")] = False,
+    keep_files_as_exported: _KeepFiles = False,
 ) -> None:
     """Pack atlas pages anew by the outlines of the meshes that draw each region.
 
@@ -68,8 +73,9 @@ def pack(
     outlines, grown by what bilinear sampling reads; any other region keeps its stored
     rectangle. Rectangles may overlap where outlines do not. Skeletons are copied byte for
     byte; atlases and page images are rewritten, page fields kept. An atlas that cannot be
-    packed, or would not get smaller in page texels or in bytes, is copied as it is, with the reason
-    in the report. Pages are written as small as oxipng makes them (PNG), proven lossless.
+    packed, or would not get smaller in page texels or in bytes, keeps its layout, with the reason
+    in the report; its PNG pages are re-encoded where smaller (--keep-files-as-exported: copied
+    as they are). Pages are written as small as oxipng makes them (PNG), proven lossless.
 
     Exit status: 0 when every atlas was packed or kept on purpose; 3 when something failed
     (it is copied as it was; the report says why); 2 when the project has no atlas.
@@ -91,7 +97,7 @@ def pack(
     check_outputs([project_folder(project)], files=[report], folders=[preview])
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
                           rules=PageRules(pages.value, max_page), jobs=jobs or available_cores(),
-                          larger_files=larger_files)
+                          larger_files=larger_files, keep_files_as_exported=keep_files_as_exported)
     library = is_library(project)
     if library and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")

@@ -12,7 +12,7 @@ from typing import List
 
 import typer
 
-from .pack import PageSides, _MaxPage, _Pages
+from .pack import PageSides, _KeepFiles, _MaxPage, _Pages
 from .weights import Weights
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
@@ -109,6 +109,7 @@ def upgrade(
     weights: _Weights = Weights.none,
     pages: _Pages = PageSides.original,
     max_page: _MaxPage = None,
+    keep_files_as_exported: _KeepFiles = False,
 ) -> None:
     """Upgrade every region attachment of a project to a mesh attachment.
 
@@ -148,7 +149,7 @@ def upgrade(
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
                       dry_run=dry_run, jobs=jobs or available_cores(), dask=dask, images_out=images,
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
-                      pack_rules=PageRules(pages.value, max_page),
+                      pack_rules=PageRules(pages.value, max_page), pack_keep_files=keep_files_as_exported,
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     result = _run(project, out, options, library)

@@ -22,7 +22,7 @@ from ..images import AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas
-from .png import optimized_png
+from .png import IHDR, optimized_png, png_chunks, png_differences
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
@@ -48,6 +48,8 @@ class PackOptions:
     rules: PageRules = field(default_factory=PageRules)  # the pages a packed atlas may have
     jobs: int = 1  # processes packing side by side (atlases, and an atlas's fills)
     larger_files: bool = False  # write a packed atlas whose files take more bytes than before (fewer texels)
+    #: copy a kept atlas's pages byte for byte instead of re-encoding its PNG pages losslessly where smaller
+    keep_files_as_exported: bool = False
     dask: str | None = None  # or a Dask cluster (see spinemesh.cluster)
 
 
@@ -92,6 +94,7 @@ class AtlasRow:
     rectangle_reasons: dict = field(default_factory=dict)
     regions_by_rectangle: list = field(default_factory=list)
     cpu_seconds: float = 0.0  # this process's CPU time packing it (reading, placing, encoding)
+    pages_reencoded: int = 0  # kept: its PNG pages written smaller, losslessly, the atlas as it was
     footprint_texels: int = 0  # packed: its footprints' texels with their share of the padding
 
     def row(self) -> dict:
@@ -226,10 +229,10 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
                           f"{bytes_after:,} bytes on disk against {bytes_before:,}")
 
 
-def _optimized(image, name: str) -> bytes:
+def _optimized(image, name: str, keep_format: bool = False) -> bytes:
     """:func:`spinemesh.pack.png.optimized_png`, its failure (a third party's) the page's reason to stay."""
     try:
-        return optimized_png(image)
+        return optimized_png(image, keep_format=keep_format)
     except Exception as e:  # noqa: BLE001 - whatever oxipng raises keeps the atlas, with the reason
         raise PackRefused(f"page {name!r}: the PNG optimiser failed ({type(e).__name__}: {e})") from None
 
@@ -259,8 +262,6 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
     """
     from PIL import Image, features
 
-    from ..images import decode_rgba
-
     ext = Path(name).suffix.lower()
     if ext not in PAGE_FORMATS:
         raise PackRefused(f"page {name!r}: {ext or 'no extension'} pages are kept (only PNG, WebP and AVIF "
@@ -288,6 +289,34 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
             buf = io.BytesIO()
             Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options)
             data = buf.getvalue()
+    return EncodedPage(data, decoded_as(data, expected, name, fmt))
+
+
+def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str) -> np.ndarray:
+    """The texels the file ``data`` decodes to, when they are ``expected`` texel for texel.
+
+    The one check every page written passes (packed pages, and kept pages re-encoded).
+
+    Parameters
+    ----------
+    data : bytes
+        The file to be written.
+    expected : ndarray, shape (H, W, 4), uint8
+        The texels it must hold.
+    name, fmt
+        The page (what errors name) and its format (``PNG``, ``WEBP``, ...).
+
+    Returns
+    -------
+    ndarray, shape (H, W, 4), uint8, read-only
+
+    Raises
+    ------
+    PackRefused
+        When it does not decode, decodes to another size, or any texel differs.
+    """
+    from ..images import decode_rgba
+
     try:
         back = decode_rgba(data, name)
     except SpineMeshError as e:
@@ -297,9 +326,9 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
     differ = int(np.count_nonzero(np.ascontiguousarray(back).view(np.uint32)
                                   != np.ascontiguousarray(expected).view(np.uint32)))
     if differ:
-        raise PackRefused(f"page {name!r}: {fmt} as this Pillow writes it does not come back texel for texel "
+        raise PackRefused(f"page {name!r}: {fmt} as written here does not come back texel for texel "
                           f"({differ:,} of {back.shape[0] * back.shape[1]:,} texels differ), so its pages are kept")
-    return EncodedPage(data, back)
+    return back
 
 
 def check_page_sizes(atlas, texels: list[np.ndarray]) -> None:
@@ -363,7 +392,8 @@ class AtlasJob:
 
 @dataclass
 class AtlasOutcome:
-    """One atlas packed (``encoded`` page bytes by name and the atlas ``text``), or its row alone."""
+    """One atlas packed (``encoded`` page bytes by name and the atlas ``text``), or its row alone; or
+    kept with some pages re-encoded (``encoded`` those, ``text`` None: the atlas file is copied)."""
 
     row: AtlasRow
     encoded: dict | None = None
@@ -385,6 +415,10 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     on_step = on_step or (lambda done=1, planned=0: None)
     bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
     texels = []
+    parallel = workers is not None and workers.slots > 1
+    # kept for what packing saves (no fewer texels, more bytes), not for a fault: its PNG pages may
+    # be re-encoded (kept_pages_reencoded); kept for anything else, its files are copied as they are
+    reencode_kept = False
     try:
         if job.refused:
             raise PackRefused(job.refused)
@@ -394,12 +428,13 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                                   "texel for texel (JPEG pages have no alpha and lose texels when written)")
         texels = [load_rgba(f) for f in files]
         check_page_sizes(atlas, texels)
+        reencode_kept = True
         modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
-        parallel = workers is not None and workers.slots > 1
         packed = pack_atlas(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
                             rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
                             on_fill=on_step)
         on_step(0, len(packed.pages))
+        reencode_kept = False  # a page that does not come back, a packing that fails its proof
         if parallel:
             futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name)), first=True)
                        for name, rgba in packed.pages.items()}
@@ -416,6 +451,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 on_step(1)
         text = packed.atlas.dumps()
         prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
+        reencode_kept = True
         encoded = {name: page.data for name, page in encoded.items()}
         check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
         if not options.larger_files:
@@ -430,9 +466,13 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     except PackRefused as e:
         sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
         texel_count = sum(w * h for w, h in sizes)
-        return AtlasOutcome(AtlasRow(job.rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count,
-                                     texel_count, bytes_before, bytes_before,
-                                     cpu_seconds=round(time.process_time() - t0, 3)))
+        row = AtlasRow(job.rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count, texel_count,
+                       bytes_before, bytes_before)
+        outcome = AtlasOutcome(row)
+        if reencode_kept and not options.keep_files_as_exported:
+            outcome = kept_pages_reencoded(job, texels, row, workers if parallel else None, on_step)
+        row.cpu_seconds = round(time.process_time() - t0, 3)
+        return outcome
     except SpineMeshError as e:
         return AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
                                      bytes_before=bytes_before, bytes_after=bytes_before,
@@ -483,6 +523,106 @@ def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict
                    len(atlas.pages), len(atlas.pages), texel_count, texel_count, bytes_before, bytes_after,
                    cpu_seconds=round(time.process_time() - t0, 3))
     return AtlasOutcome(row, {name: p.data for name, p in pages.items()}, text)
+
+
+def reencoded_page(original: bytes, texels: np.ndarray, name: str) -> bytes:
+    """A kept page's PNG file written anew by oxipng, losslessly, when that is strictly smaller.
+
+    The file stores its texels as before (same colour type, bit depth and palette: a palette
+    PNG stays one) and keeps every other chunk (gamma, colour profile, text): only the rows'
+    filters and their compression change (:func:`spinemesh.pack.png.optimized_png`,
+    ``keep_format``), and that is checked on the bytes (:func:`~spinemesh.pack.png.png_differences`)
+    before they are decoded back and compared with ``texels``, texel for texel (:func:`decoded_as`).
+
+    Parameters
+    ----------
+    original : bytes
+        The page's file as exported.
+    texels : ndarray, shape (H, W, 4), uint8
+        What it decodes to (:func:`spinemesh.images.load_rgba`).
+    name : str
+        The page's name in its atlas.
+
+    Returns
+    -------
+    bytes
+        The smaller file.
+
+    Raises
+    ------
+    PackRefused
+        Why the page is copied as it is: not a PNG file, 16 bits a channel (texels are compared at
+        8), not smaller, another format or other chunks, or other texels.
+    """
+    chunks = png_chunks(original) if Path(name).suffix.lower() == ".png" else None
+    if not chunks or chunks[0][0] != b"IHDR" or len(chunks[0][1]) != IHDR.size:
+        raise PackRefused(f"page {name!r} is not a PNG file")
+    if IHDR.unpack(chunks[0][1])[2] > 8:
+        raise PackRefused(f"page {name!r} has 16 bits a channel")
+    data = _optimized(original, name, keep_format=True)
+    if len(data) >= len(original):
+        raise PackRefused(f"page {name!r} would not get smaller")
+    changed = png_differences(original, data)
+    if changed:
+        raise PackRefused(f"page {name!r}: {changed}")
+    decoded_as(data, texels, name, "PNG")
+    return data
+
+
+def megabytes(n: int) -> str:
+    """A byte count for people: ``1.2 MB``, ``340 kB``, ``512 bytes`` (powers of 1000, as file browsers)."""
+    return f"{n / 1e6:.1f} MB" if n >= 1e6 else f"{n / 1e3:.0f} kB" if n >= 1e3 else f"{n} bytes"
+
+
+def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], row: AtlasRow, workers=None,
+                         on_step=None) -> AtlasOutcome:
+    """A kept atlas (``row``) with its PNG pages written smaller by :func:`reencoded_page` where
+    that holds, its atlas text and every other page as exported.
+
+    ``workers`` (several slots): the pages are re-encoded side by side. Returns ``row``'s outcome
+    as it is when no page gets smaller; else ``row`` says so and counts the bytes written.
+    """
+    atlas = job.atlas
+    pages = [(page.name, f) for page, f in zip(atlas.pages, job.files)
+             if Path(page.name).suffix.lower() == ".png"]
+    if not pages:
+        return AtlasOutcome(row)
+    by_name = {page.name: t for page, t in zip(atlas.pages, texels)}
+    on_step = on_step or (lambda done=1, planned=0: None)
+    on_step(0, len(pages))
+    args = [(f, by_name[name], name) for name, f in pages]
+    if workers is not None:
+        futures = [workers.submit(_reencode_task, arg, first=True) for arg in args]
+        results = []
+        for future in futures:
+            results.append(future.result())
+            on_step(1)
+    else:
+        results = []
+        for arg in args:
+            results.append(_reencode_task(arg))
+            on_step(1)
+    written = {name: data for (name, _), data in zip(pages, results) if data is not None}
+    if not written:
+        return AtlasOutcome(row)
+    before = sum(f.stat().st_size for name, f in pages if name in written)
+    after = sum(map(len, written.values()))
+    which = (f"{len(written)} of its {len(atlas.pages)} pages" if len(written) < len(atlas.pages)
+             else "its page" if len(written) == 1 else "its pages")
+    row.reason = f"{row.reason}; kept its layout, {which} re-encoded losslessly, {megabytes(before)} -> " \
+                 f"{megabytes(after)}"
+    row.bytes_after = row.bytes_before - before + after
+    row.pages_reencoded = len(written)
+    return AtlasOutcome(row, written, None)
+
+
+def _reencode_task(arg: tuple) -> bytes | None:
+    """A worker's task: :func:`reencoded_page` of ``(file, texels, name)``, or None where the page stays."""
+    path, texels, name = arg
+    try:
+        return reencoded_page(Path(path).read_bytes(), texels, name)
+    except (PackRefused, OSError):
+        return None
 
 
 def _encode_task(arg: tuple) -> EncodedPage:
@@ -598,10 +738,16 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
     try:
         for name, data in outcome.encoded.items():
             atomic_write_bytes(dest.parent / name, data)
-        atomic_write_text(dest, outcome.text)
+        if outcome.text is not None:
+            atomic_write_text(dest, outcome.text)
     except SpineMeshError as e:
         result.atlases.append(AtlasRow(row.atlas, "failed", f"not written: {e}", row.pages_before, row.pages_before,
                                        bytes_before=row.bytes_before, bytes_after=row.bytes_before))
+        return
+    if outcome.text is None:  # kept, some pages re-encoded: the atlas and its other pages are copied as they are
+        files = dict(zip((p.name for p in job.atlas.pages), job.files))
+        skip.update(files[name].resolve() for name in outcome.encoded)
+        result.atlases.append(row)
         return
     skip.add(job.path.resolve())
     skip.update(f.resolve() for f in job.files)

@@ -34,6 +34,7 @@ class Options:
     repack: bool = False  # store sequence frames whole where one mesh cannot fit them trimmed
     pack: bool = False  # pack the written atlases anew by the upgraded meshes' outlines (spinemesh.pack)
     pack_rules: PageRules = field(default_factory=PageRules)  # the pages --pack may write
+    pack_keep_files: bool = False  # --pack copies the atlases it keeps byte for byte (no lossless re-encode)
     # keep a region when its mesh would save less than this share of drawn pixels (or needs
     # too many vertices): spinemesh.mesher.worth; None meshes every region
     min_saving: float | None = DEFAULT_MIN_SAVING

@@ -31,7 +31,8 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
     packed = PackResult()
     pack_options = PackOptions()
     if options is not None:
-        pack_options = PackOptions(rules=options.pack_rules, jobs=options.jobs, dask=options.dask)
+        pack_options = PackOptions(rules=options.pack_rules, jobs=options.jobs, dask=options.dask,
+                                   keep_files_as_exported=options.pack_keep_files)
     try:
         pack_project_into(find_project(out), out, pack_options, packed, workers=workers,
                           progress=PhaseProgress(progress))
