@@ -9,12 +9,19 @@ workers, peak resident memory of the largest of them):
   ratio of each wall time to the first row's;
 - ``--many N``: one atlas of ``N`` regions on one ``--side`` page, made here (random texels in
   rectangles of random sizes, drawn by no skeleton, so every region keeps its rectangle), packed by
-  :func:`spinemesh.pack.atlas_pack.pack_atlas` alone: CPU seconds and peak memory.
+  :func:`spinemesh.pack.atlas_pack.pack_atlas` alone: CPU seconds and peak memory;
+- ``--made PAGES REGIONS``: one atlas of ``REGIONS`` regions on ``PAGES`` pages, made here
+  (:func:`make_atlas_project`: pages of 2048x2048, 2048x1024 and 1024x1024 in turn, each region a
+  shape with an alpha outline drawn by a skeleton it also writes), upgraded by ``spinemesh
+  upgrade`` (so its regions are drawn by meshes and packed by outline), then ``spinemesh pack``
+  of the upgraded project timed for every ``--jobs`` as above, with where one process's time goes
+  (``--phases``: the pack with ``--jobs 1`` again under cProfile).
 
 Usage::
 
     .venv/bin/python benchmarks/bench_pack_scale.py CORPUS/degamex-degamers --jobs 1 2 --code /tmp/old
     .venv/bin/python benchmarks/bench_pack_scale.py --many 10000 --side 4096 --code /tmp/old
+    .venv/bin/python benchmarks/bench_pack_scale.py --made 18 236 --jobs 1 2 --phases
 """
 
 from __future__ import annotations
@@ -40,12 +47,22 @@ if mode == "pack":
     args = ["pack", project, "--out", out, "--report", out + ".json"]
     if jobs != "-":
         args += ["--jobs", jobs]
+    profile = sys.argv[5] if len(sys.argv) > 5 else ""
+    if profile:
+        import cProfile
+        profiler = cProfile.Profile(time.process_time)  # CPU seconds of this process (oxipng's threads too)
+        profiler.enable()
     try:
         app(args, standalone_mode=False)
     except SystemExit:
         pass
+    if profile:
+        profiler.disable()
+        profiler.dump_stats(profile)
     rows = json.load(open(out + ".json"))["totals"]
-    extra = {"pages": rows["pages_after"], "texels": rows["texels_after"]}
+    extra = {"pages": rows["pages_after"], "texels": rows["texels_after"], "by_outline": rows["by_outline"],
+             "by_rectangle": rows["by_rectangle"], "bytes_before": rows["bytes_before"],
+             "bytes_after": rows["bytes_after"]}
 else:
     import numpy as np
     from spinemesh.atlas import parse_atlas
@@ -85,6 +102,87 @@ def measure(code: Path, mode: str, *args: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0) -> Path:
+    """Write a project of one atlas of ``regions`` regions on ``pages`` pages, drawn by one 4.2 skeleton.
+
+    Pages are 2048x2048, 2048x1024 and 1024x1024 in turn (PNG, as Pillow writes them); each holds
+    an equal share of the regions on a grid of cells, one region a cell, its size 55-95% of the
+    cell's on each axis. A region is a shape with an alpha outline (a polygon of 7 to 12 corners at
+    random distances from its centre, cropped to its box, as packers strip whitespace), coloured
+    by a gradient with a little noise, as painted art compresses. The skeleton has one slot and one
+    region attachment per region, so ``upgrade`` meshes them and ``pack`` packs them by outline.
+    """
+    import math
+
+    import numpy as np
+    from PIL import Image, ImageDraw
+
+    rng = np.random.default_rng(seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    sides = [(2048, 2048), (2048, 1024), (1024, 1024)]
+    counts = [regions // pages + (k < regions % pages) for k in range(pages)]
+    lines, slots, skin = [], [], {}
+    index = 0
+    for k, count in enumerate(counts):
+        width, height = sides[k % len(sides)]
+        columns = math.ceil(math.sqrt(count * width / height))
+        rows = math.ceil(count / columns)
+        cell_w, cell_h = width // columns, height // rows
+        page = Image.new("RGBA", (width, height), (0, 0, 0, 0))
+        name = f"made{k + 1}.png" if k else "made.png"
+        lines += [name, f"size: {width}, {height}", "filter: Linear, Linear"]
+        for c in range(count):
+            w, h = (int(cell * f) for cell, f in zip((cell_w, cell_h), rng.uniform(0.55, 0.95, 2)))
+            corners = int(rng.integers(7, 13))
+            angles = np.sort(rng.uniform(0, 2 * np.pi, corners))
+            radii = rng.uniform(0.45, 1.0, corners)
+            shape = Image.new("L", (w, h), 0)
+            ImageDraw.Draw(shape).polygon([(w / 2 + w / 2 * r * np.cos(a), h / 2 + h / 2 * r * np.sin(a))
+                                           for a, r in zip(angles, radii)], fill=255)
+            alpha = np.asarray(shape)
+            ys, xs = np.nonzero(alpha)
+            alpha = alpha[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
+            h, w = alpha.shape
+            yy, xx = np.mgrid[0:h, 0:w]
+            base = rng.integers(40, 215, 3)
+            colour = np.stack([base[i] + 40 * (xx / w if i % 2 else yy / h) for i in range(3)], axis=-1)
+            colour += rng.normal(0, 3, colour.shape)
+            art = np.dstack([np.clip(colour, 0, 255), alpha]).astype(np.uint8)
+            art[alpha == 0] = 0
+            x, y = (c % columns) * cell_w + 2, (c // columns) * cell_h + 2
+            page.paste(Image.fromarray(art), (x, y))
+            region = f"part{index:03d}"
+            lines += [region, f"bounds: {x}, {y}, {w}, {h}"]
+            slots.append({"name": region, "bone": "root", "attachment": region})
+            skin[region] = {region: {"x": float(index % 20 * 50), "y": float(index // 20 * 50), "width": w,
+                                     "height": h}}
+            index += 1
+        page.save(folder / name)
+        lines.append("")  # a blank line before the next page
+    (folder / "made.atlas").write_text("\n".join(lines) + "\n")
+    skeleton = {"skeleton": {"spine": "4.2.40", "images": "./images/"}, "bones": [{"name": "root"}],
+                "slots": slots, "skins": [{"name": "default", "attachments": skin}], "animations": {}}
+    (folder / "made.json").write_text(json.dumps(skeleton))
+    return folder
+
+
+def phases(stats_file: str, top: int = 12) -> str:
+    """Where one process's CPU time went: functions by their own CPU time, the largest first."""
+    import pstats
+
+    stats = pstats.Stats(stats_file).stats
+    own: dict[str, float] = {}
+    for (path, _, name), (_, _, tottime, _, _) in stats.items():
+        where = "spinemesh." + Path(path).stem if "spinemesh" in path else Path(path).name or "built-in"
+        key = f"{where}:{name}"
+        own[key] = own.get(key, 0.0) + tottime
+    total = sum(own.values())
+    lines = ["| function (own time) | s | share |", "|---|---:|---:|"]
+    for key, seconds in sorted(own.items(), key=lambda kv: -kv[1])[:top]:
+        lines.append(f"| {key} | {seconds:.2f} | {seconds / total:.0%} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("projects", nargs="*", type=Path)
@@ -93,6 +191,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="other checkouts to compare with (their root, holding spinemesh/)")
     ap.add_argument("--many", type=int, metavar="N", help="instead: N regions on one page")
     ap.add_argument("--side", type=int, default=4096, help="with --many: the page's side (default 4096)")
+    ap.add_argument("--made", type=int, nargs=2, metavar=("PAGES", "REGIONS"), help="instead: an atlas of REGIONS "
+                    "regions on PAGES pages made here, upgraded, then packed")
+    ap.add_argument("--keep", type=Path, metavar="DIR", help="with --made: make and upgrade it here once, and reuse")
+    ap.add_argument("--phases", action="store_true", help="with --made: where the CPU time of --jobs 1 goes")
     args = ap.parse_args(argv)
     codes = [("this checkout", REPO)] + [(str(c), c.resolve()) for c in args.code]
     if args.many:
@@ -103,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| {label} | {args.many:,} | {args.side}x{args.side} | {m['cpu']:.1f} | {m['peak_mb']:.0f} | "
                   f"{outcome} |", flush=True)
         return 0
+    if args.made:
+        return made(args, codes)
     print("| project | code | --jobs | wall s | wall against the first row | CPU s | peak memory MB | pages | "
           "page texels |\n|---|---|---:|---:|---:|---:|---:|---:|---:|")
     for project in args.projects:
@@ -120,6 +224,45 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"| {project.name} | {label} | {jobs if has_jobs else '-'} | {m['wall']:.1f} | "
                       f"{m['wall'] / first:.2f} | {m['cpu']:.1f} | {m['peak_mb']:.0f} | {m['pages']} | "
                       f"{m['texels']:,} |", flush=True)
+    return 0
+
+
+def made(args, codes: list) -> int:
+    """``--made``: make the atlas, upgrade it, then time ``pack`` of it for every ``--jobs`` and code."""
+    import time
+
+    pages, regions = args.made
+    folder = args.keep or Path(tempfile.mkdtemp(prefix="bench-pack-made-"))
+    project, meshed = folder / "made", folder / "meshed"
+    if not (meshed / ".upgraded").exists():
+        sys.path.insert(0, str(REPO))
+        from spinemesh.upgrade import Options, upgrade_project
+
+        make_atlas_project(project, pages, regions)
+        t0 = time.perf_counter()
+        upgrade_project(project, meshed, Options(jobs=int(args.jobs[-1]), overwrite=True))
+        (meshed / ".upgraded").write_text("")
+        print(f"made {pages} pages, {regions} regions in {project}; upgraded in {time.perf_counter() - t0:.1f} s "
+              f"to {meshed}", flush=True)
+    print(f"load average before: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
+    print("| code | --jobs | wall s | wall against the first row | CPU s | peak memory MB | pages | page texels "
+          "| by outline | by rectangle | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    first = None
+    for label, code in codes:
+        for jobs in args.jobs:
+            with tempfile.TemporaryDirectory(prefix="bench-pack-scale-") as scratch:
+                m = measure(code, "pack", str(meshed.resolve()), str(Path(scratch) / "out"), jobs)
+            first = first or m["wall"]
+            print(f"| {label} | {jobs} | {m['wall']:.1f} | {m['wall'] / first:.2f} | {m['cpu']:.1f} | "
+                  f"{m['peak_mb']:.0f} | {pages} -> {m['pages']} | {m['texels']:,} | {m['by_outline']} | "
+                  f"{m['by_rectangle']} | {m['bytes_before']:,} -> {m['bytes_after']:,} |", flush=True)
+    print(f"load average after: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
+    if args.phases:
+        with tempfile.TemporaryDirectory(prefix="bench-pack-scale-") as scratch:
+            stats = str(Path(scratch) / "pack.prof")
+            m = measure(REPO, "pack", str(meshed.resolve()), str(Path(scratch) / "out"), "1", stats)
+            print(f"\n--jobs 1 under cProfile: wall {m['wall']:.1f} s, CPU {m['cpu']:.1f} s")
+            print(phases(stats))
     return 0
 
 
