@@ -94,8 +94,8 @@ class AtlasRow:
     rectangle_reasons: dict = field(default_factory=dict)
     regions_by_rectangle: list = field(default_factory=list)
     cpu_seconds: float = 0.0  # this process's CPU time packing it (reading, placing, encoding)
-    pages_reencoded: int = 0  # kept: its PNG pages written smaller, losslessly, the atlas as it was
     footprint_texels: int = 0  # packed: its footprints' texels with their share of the padding
+    pages_reencoded: int = 0  # kept: its PNG pages written smaller, losslessly, the atlas as it was
 
     def row(self) -> dict:
         return dict(self.__dict__)
