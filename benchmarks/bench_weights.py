@@ -1,7 +1,7 @@
 """Rig replay: our automatic weights against the artists', played in the official runtime.
 
     .venv/bin/python benchmarks/bench_weights.py [--examples 4.2] [--corpus N] [--method bbw]
-        [--anims 4] [--times 4] [--tool DIR] [--every K] [--start S] [--json OUT]
+        [--anims N] [--times 4] [--tool DIR] [--every K] [--start S] [--json OUT]
     .venv/bin/python benchmarks/bench_weights.py --merge OUT1 OUT2 ...
 
 For every artist-weighted mesh attachment not keyed by deform timelines, the weights are
@@ -12,11 +12,16 @@ project is made by the model fitted without that project's fold
 figure is repository-held-out; a model that reads the project's habits gets them from the
 artist-weighted meshes of all the project's replayed skeletons, as ``spinemesh weights`` reads
 them from a project folder. The artist's animations are played in the official runtime
-(``../shared/tools/spine-runtime``, ``dump.mjs``: ``--anims`` animations per skeleton,
-``--times`` evenly spaced samples of each) and every vertex's world position is compared with
-the artist's version. Per attachment: the mean distance in world units (pixels at scale 1)
-over its vertices and sampled frames. Baseline: every vertex follows its heaviest artist
-bone rigidly (same setup pose). Printed per project and overall: the median error, the
+(``../shared/tools/spine-runtime``, ``dump.mjs``: every animation of each skeleton, or its first
+``--anims``, ``--times`` evenly spaced samples of each) and every vertex's world position is
+compared with the artist's version. Per attachment: the mean distance in world units (pixels at
+scale 1) over its vertices and sampled frames. Two baselines are played too: every vertex
+following its heaviest artist bone rigidly (the artist's rig without blending), and the whole
+mesh following its slot's bone (what a user gets without ``--weights auto``), both in the same
+setup pose. Keep, rule and learned are then judged on the same meshes against each baseline with
+the aggregates ``bench_weights_offline.py`` prints (:func:`aggregates_table`: median and
+geometric mean of the ratios, sum of errors over the baseline's, share of meshes better).
+Printed per project and overall: the median error, the
 median ratio to the baseline (attachments whose baseline is within ``RIGID_FLOOR`` are left out of the
 ratio), for keep, rule and learned, the share of meshes whose chosen bones are exactly the
 artist's (and the share whose written bones are those ``keep`` writes: a bone the weights leave
@@ -97,7 +102,9 @@ def anim_length(node) -> float:
     return 0.0
 
 
-def poses(doc: dict, anims: int, times: int) -> list[str]:
+def poses(doc: dict, anims: int | None, times: int) -> list[str]:
+    """``times`` evenly spaced frames (``name@seconds``) of each of the first ``anims``
+    animations of ``doc`` (None: all of them) that last longer than an instant."""
     out = []
     for name, anim in list((doc.get("animations") or {}).items())[:anims]:
         length = anim_length(anim)
@@ -121,6 +128,17 @@ def rigid_baseline(doc: dict, rig, places: set) -> None:
         ref.attachment["vertices"] = bind(world, w, ids, rig.worlds)
 
 
+def slot_baseline(doc: dict, rig, places: set) -> None:
+    """Every chosen mesh bound wholly to its slot's bone, setup unchanged: what the attachment
+    does without ``--weights auto`` (an upgraded region follows its slot's bone alone)."""
+    for ref in iter_attachments(doc):
+        if (ref.skin, ref.slot, ref.name) not in places:
+            continue
+        mesh = parse_vertices(ref.attachment, len(rig.bones))
+        world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
+        ref.attachment["vertices"] = bind(world, np.ones((mesh.count, 1)), [rig.slot_bone[ref.slot]], rig.worlds)
+
+
 def dump(tool: Path, atlas: Path, skeleton: Path, pose_list: list[str], out: Path) -> dict:
     args = ["node", "dump.mjs", str(atlas), str(skeleton), "--out", str(out)]
     if pose_list:
@@ -137,8 +155,59 @@ def signed_areas(v: np.ndarray, tris: np.ndarray) -> np.ndarray:
     return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
-#: The bone choices replayed, beside the rigid baseline.
+#: The bone choices replayed, beside the two baselines.
 MODES = ("keep", "rule", "learned")
+
+#: The baselines every choice is judged against (:func:`against`): each vertex rigid on its
+#: heaviest artist bone (the artist's rig without blending), and the whole mesh rigid on its
+#: slot's bone (what an upgraded region does without ``--weights auto``).
+BASELINES = {"rigid": "rigid on each vertex's heaviest artist bone",
+             "on_slot_bone": "rigid on the slot's bone (no weights)"}
+
+
+def against(cases: list[dict], results: dict[int, float], baseline: str) -> dict:
+    """A variant's errors against a baseline's (``rigid``: the artist's heaviest bone;
+    ``on_slot_bone``: the slot's bone), on the meshes the baseline moves (more than ``RIGID_FLOOR``, finite):
+    median and geometric mean of the ratios, the sum of errors over the sum of the baseline's
+    (the meshes that move most weigh most), and the share of meshes better than the baseline.
+
+    ``cases``: per mesh, a dict with each baseline's error (None: not replayed); ``results``:
+    the variant's error per index of ``cases``.
+    """
+    ids = [i for i in results if RIGID_FLOOR < (cases[i].get(baseline) or 0.0) < float("inf")]
+    if not ids:
+        return {"meshes": 0, "median": float("nan"), "geomean": float("nan"), "sum": float("nan"), "better": float("nan")}
+    ours = np.array([results[i] for i in ids])
+    theirs = np.array([cases[i][baseline] for i in ids])
+    ratio = ours / theirs
+    finite = np.isfinite(ours)
+    return {"meshes": len(ids), "median": float(np.median(ratio)),
+            "geomean": float(np.exp(np.mean(np.log(np.clip(ratio, 1e-3, 1e3))))),
+            "sum": float(ours[finite].sum() / theirs[finite].sum()) if finite.any() else float("inf"),
+            "better": float(np.mean(ratio < 1))}
+
+
+def aggregates_table(cases: list[dict], per_variant: dict[str, dict[int, float]]) -> str:
+    """The variants side by side (columns) on the same meshes (those every variant has), every
+    aggregate of :func:`against` against both baselines (rows), as a Markdown table."""
+    names = list(per_variant)
+    common = set.intersection(*(set(r) for r in per_variant.values())) if names else set()
+    stats = {n: {b: against(cases, {i: per_variant[n][i] for i in common}, b) for b in BASELINES} for n in names}
+    lines = ["| against | " + " | ".join(names) + " |", "|---|" + "--:|" * len(names)]
+    for base, label in BASELINES.items():
+        moved = stats[names[0]][base]["meshes"] if names else 0
+        for key, what in (("median", "median ratio"), ("geomean", "geometric mean"),
+                          ("sum", "sum of errors / sum of baseline's"), ("better", "meshes better")):
+            cells = [f"{stats[n][base][key]:.1%}" if key == "better" else f"{stats[n][base][key]:.3f}" for n in names]
+            lines.append(f"| {label}: {what} ({moved} meshes) | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def rows_table(rows: list[dict]) -> str:
+    """:func:`aggregates_table` of the replayed rows: keep, rule and learned on the meshes each
+    of them was replayed for."""
+    per_mode = {m: {i: r[m] for i, r in enumerate(rows) if all(r.get(k) is not None for k in MODES)} for m in MODES}
+    return aggregates_table(rows, per_mode)
 
 
 def project_habits_of(paths: list[Path]):
@@ -150,7 +219,7 @@ def project_habits_of(paths: list[Path]):
     return project_habits([(d, build_rig(d)) for d in docs])
 
 
-def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, times: int,
+def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int | None, times: int,
            model=None, habits=None) -> list[dict]:
     """One row per artist-weighted mesh compared: errors of each mode and of the baseline, flips,
     bones chosen. ``model``: the learned choice's model (default: the package's); ``habits``:
@@ -183,6 +252,9 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
     base = copy.deepcopy(doc)
     rigid_baseline(base, rig, places)
     variants["rigid"] = base
+    alone = copy.deepcopy(doc)
+    slot_baseline(alone, rig, places)
+    variants["on_slot_bone"] = alone
     pose_list = poses(doc, anims, times)
     dumps = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -200,7 +272,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
     tri_of = {(r.slot, r.name): np.asarray(r.attachment["triangles"], int).reshape(-1, 3)
               for r in iter_attachments(doc) if (r.skin, r.slot, r.name) in places}
     for slot_att in sorted(by_slot):
-        err = {m: [] for m in (*MODES, "rigid")}
+        err = {m: [] for m in (*MODES, *BASELINES)}
         flips = {m: [0, 0] for m in (*MODES, "artist")}
         setup_drift = 0.0
         tris = tri_of[slot_att]
@@ -214,7 +286,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
                 # the artist's own rig draws NaN here (a bone scaled to 0, say): nothing to compare,
                 # and one NaN would make every median of the table meaningless
                 continue
-            for m in (*MODES, "rigid"):
+            for m in (*MODES, *BASELINES):
                 b = dumps[m][pose].get(slot_att)
                 if b is None:
                     continue
@@ -224,7 +296,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
                     setup_drift = max(setup_drift, float(np.linalg.norm(va - vb, axis=1).max()))
                     continue
                 err[m].append(d)
-                if m != "rigid" and ref_setup is not None:
+                if m in MODES and ref_setup is not None:
                     s0 = np.sign(signed_areas(np.asarray(ref_setup["vertices"], float).reshape(-1, 2), tris))
                     s1 = np.sign(signed_areas(vb, tris))
                     flips[m][0] += int(((s0 * s1) < 0).sum())
@@ -237,7 +309,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int, time
             continue
         row = {"project": label, "skeleton": skeleton.name, "slot": slot_att[0], "attachment": slot_att[1],
                "setup_drift": setup_drift}
-        for m in (*MODES, "rigid"):
+        for m in (*MODES, *BASELINES):
             row[m] = float(np.mean(err[m])) if err[m] else None
         for m in (*MODES, "artist"):
             row[f"flips_{m}"] = flips[m]
@@ -339,6 +411,7 @@ def report(rows: list[dict], method: str) -> None:
           + ", ".join(f"{m} {sp[m + '_without_largest']:.2f}" for m in MODES)
           + f"\nmedian ratio over {RESAMPLES} draws of the projects, 5th-95th percentile: "
           + ", ".join(f"{m} {sp[m + '_interval'][0]:.2f}-{sp[m + '_interval'][1]:.2f}" for m in MODES))
+    print(f"\nkeep, rule and learned on the same meshes, every aggregate against both baselines:\n\n{rows_table(rows)}")
     s = summary(rows)
     print(f"\nsetup pose: largest vertex drift {s['setup_drift']:.4f} world units; method {method}")
 
@@ -348,7 +421,7 @@ def main() -> None:
     ap.add_argument("--examples", default="4.2", help="example version to replay ('' for none)")
     ap.add_argument("--corpus", type=int, default=0, help="first N corpus projects")
     ap.add_argument("--method", default="bbw", choices=("bbw", "harmonic", "biharmonic"))
-    ap.add_argument("--anims", type=int, default=4)
+    ap.add_argument("--anims", type=int, default=0, help="replay each skeleton's first N animations (0: all)")
     ap.add_argument("--times", type=int, default=4)
     ap.add_argument("--tool", type=Path, help="installed copy of tools/spine-runtime")
     ap.add_argument("--only", default="", help="substring of project labels to run")
@@ -389,7 +462,7 @@ def replay_all(args: argparse.Namespace) -> list[dict]:
             habits_of[label] = project_habits_of([s for g, s in every if g == label])
         habits = habits_of.get(label)
         try:
-            got = replay(label, skel, args.tool, args.method, args.anims, args.times, model, habits)
+            got = replay(label, skel, args.tool, args.method, args.anims or None, args.times, model, habits)
         except (RuntimeError, subprocess.TimeoutExpired) as e:
             print(f"{label}/{skel.name}: runtime failed: {str(e)[:200]}", file=sys.stderr)
             continue

@@ -86,6 +86,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 import bench_weights  # noqa: E402
+from bench_weights import against, aggregates_table  # noqa: E402,F401  (one definition, both replays)
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project, image_source_for  # noqa: E402
 from spinemesh.rig import weights as rig_weights  # noqa: E402
@@ -362,40 +363,49 @@ def judge(cases: list[dict], results: dict[int, float], chosen: dict[int, list[i
     return out
 
 
-def against(cases: list[dict], results: dict[int, float], baseline: str) -> dict:
-    """A variant's errors against a baseline's (``rigid``: the artist's heaviest bone; ``slot``:
-    the slot's bone), on the meshes the baseline moves (more than ``RIGID_FLOOR``, finite):
-    median and geometric mean of the ratios, the sum of errors over the sum of the baseline's
-    (the meshes that move most weigh most), and the share of meshes better than the baseline."""
-    ids = [i for i in results if bench_weights.RIGID_FLOOR < cases[i][baseline] < float("inf")]
-    if not ids:
-        return {"meshes": 0, "median": float("nan"), "geomean": float("nan"), "sum": float("nan"), "better": float("nan")}
-    ours = np.array([results[i] for i in ids])
-    theirs = np.array([cases[i][baseline] for i in ids])
-    ratio = ours / theirs
-    finite = np.isfinite(ours)
-    return {"meshes": len(ids), "median": float(np.median(ratio)),
-            "geomean": float(np.exp(np.mean(np.log(np.clip(ratio, 1e-3, 1e3))))),
-            "sum": float(ours[finite].sum() / theirs[finite].sum()) if finite.any() else float("inf"),
-            "better": float(np.mean(ratio < 1))}
+def variant_of(name: str):
+    """The variant ``name`` of :data:`VARIANTS`, any post-processing after a ``:`` aside
+    (:func:`finished` applies it)."""
+    return VARIANTS[name.partition(":")[0]]
 
 
-def aggregates_table(cases: list[dict], per_variant: dict[str, dict[int, float]]) -> str:
-    """The variants side by side (columns) on the same meshes, every aggregate of :func:`against`
-    against both baselines (rows)."""
-    names = list(per_variant)
-    common = set.intersection(*(set(r) for r in per_variant.values())) if names else set()
-    stats = {n: {b: against(cases, {i: per_variant[n][i] for i in common}, b) for b in ("rigid", "slot")}
-             for n in names}
-    lines = ["| against | " + " | ".join(names) + " |", "|---|" + "--:|" * len(names)]
-    for base, label in (("rigid", "rigid on each vertex's heaviest artist bone"),
-                        ("slot", "rigid on the slot's bone (no weights)")):
-        moved = stats[names[0]][base]["meshes"] if names else 0
-        for key, what in (("median", "median ratio"), ("geomean", "geometric mean"),
-                          ("sum", "sum of errors / sum of baseline's"), ("better", "meshes better")):
-            cells = [f"{stats[n][base][key]:.1%}" if key == "better" else f"{stats[n][base][key]:.3f}" for n in names]
-            lines.append(f"| {label}: {what} ({moved} meshes) | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -> np.ndarray:
+    """The solved weights ``w`` of ``case`` as the runtime gets them under the variant ``name``:
+    its post-processing after a ``:`` (comma-separated, in order: ``sharpen=P``, each weight
+    to the power ``P``, renormalised; ``band=D``, each vertex eased to its heaviest bone as its
+    nearest other weighted bone's segment lies farther than its heaviest's, wholly from ``D``
+    times the art's diagonal on; ``floor=F``, weights below ``F`` dropped; ``cap=K``, at most
+    ``K`` bones per vertex), then at most ``cap`` bones per vertex, none below 0.01."""
+    floor = 0.01
+    for step in filter(None, name.partition(":")[2].split(",")):
+        what, _, value = step.partition("=")
+        if what == "sharpen":
+            w = sharpened(w, float(value))
+        elif what == "band":
+            w = banded(w, case["world"], segments(case, bones), float(value))
+        elif what == "floor":
+            floor = float(value)
+        elif what == "cap":
+            cap = min(cap, int(value))
+        else:
+            raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")
+    return sparsify(w, cap, floor)
+
+
+def banded(w: np.ndarray, points: np.ndarray, segs: np.ndarray, band: float) -> np.ndarray:
+    """``w`` eased towards each vertex's heaviest bone alone, linearly in how much farther the
+    nearest other weighted bone's segment lies than the heaviest's: unchanged where they lie
+    as near, its heaviest bone alone from ``band`` times the art's diagonal on."""
+    w = np.asarray(w, float)
+    if w.shape[1] < 2:
+        return w
+    diag = max(float(np.linalg.norm(np.ptp(points, axis=0))), 1e-9)
+    d = segment_distances(points, segs) / diag                               # (N, B)
+    rows = np.arange(len(w))
+    top = w.argmax(1)
+    other = np.where((w > 0) & (np.arange(w.shape[1]) != top[:, None]), d, np.inf).min(1)
+    t = np.clip((other - d[rows, top]) / band, 0.0, 1.0)[:, None]
+    return (1 - t) * w + t * np.eye(w.shape[1])[top]
 
 
 #: Exponents tried by the sharpness bound: below 1 softens the blend, above 1 sharpens it.
@@ -501,7 +511,8 @@ def replay_cases(tool: Path, cache: Path, examples: str, corpus: int, every: int
     VARIANTS["upgrade-confident"] = learned(fold_models, skeletons, unweighted=True, unsure=(0.2, 0.8))
     cases = cases[::every]
     for c in cases:
-        c["rigid"], c["slot"] = rigid_error(c), slot_error(c)
+        # not "slot": that is the slot's name, which the learned choice's habits read
+        c["rigid"], c["on_slot_bone"] = rigid_error(c), slot_error(c)
     return cases
 
 
@@ -521,14 +532,14 @@ def errors_of(cases: list[dict], name: str, cap: int = 4, saved: Path | None = N
     import json as _json
 
     known = _json.loads(saved.read_text()) if saved is not None and saved.is_file() else {}
-    models = str(fold_models) if name in LEARNED_VARIANTS else ""
+    models = str(fold_models) if name.partition(":")[0] in LEARNED_VARIANTS else ""
     column = known.setdefault(f"{name}|{cap}|{models}", {})
     out = {}
     for i, c in enumerate(cases):
         key = case_key(c)
         if key not in column:
-            bones, w = VARIANTS[name](c)
-            column[key] = replay(c, sparsify(w, cap, 0.01), bones)
+            bones, w = variant_of(name)(c)
+            column[key] = replay(c, finished(c, name, w, bones, cap), bones)
         out[i] = column[key]
     if saved is not None:
         saved.write_text(_json.dumps(known))
@@ -583,11 +594,11 @@ def main() -> None:
             continue
         results, chosen = {cap: {} for cap in caps}, {}
         for i, c in enumerate(cases):
-            bones, w = VARIANTS[name](c)
+            bones, w = variant_of(name)(c)
             if name == "bbw" and args.bounds:
                 bbw[i] = bones, w
             for cap in caps:
-                results[cap][i] = replay(c, sparsify(w, cap, 0.01), bones)
+                results[cap][i] = replay(c, finished(c, name, w, bones, cap), bones)
             chosen[i] = bones
         per_variant[name] = results[caps[0]]
         for cap in caps:

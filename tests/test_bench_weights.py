@@ -90,13 +90,13 @@ def test_offline_replay_judges_each_choice_against_both_baselines():
 
     # rigid: the artist's heaviest bone; slot: the slot's bone alone. Mesh 3 the baseline leaves
     # in place (below the floor): out of that baseline's figures
-    cases = [{"rigid": 1.0, "slot": 4.0}, {"rigid": 2.0, "slot": 2.0}, {"rigid": 1.0, "slot": 10.0},
-             {"rigid": 0.01, "slot": 1.0}]
+    cases = [{"rigid": 1.0, "on_slot_bone": 4.0}, {"rigid": 2.0, "on_slot_bone": 2.0},
+             {"rigid": 1.0, "on_slot_bone": 10.0}, {"rigid": 0.01, "on_slot_bone": 1.0}]
     errors = {0: 2.0, 1: 1.0, 2: 4.0, 3: 0.5}
     rigid = offline.against(cases, errors, "rigid")
     assert rigid["meshes"] == 3 and rigid["median"] == 2.0 and rigid["sum"] == 7.0 / 4.0
     assert rigid["better"] == 1 / 3 and rigid["geomean"] == np.exp(np.log([2.0, 0.5, 4.0]).mean())
-    slot = offline.against(cases, errors, "slot")
+    slot = offline.against(cases, errors, "on_slot_bone")
     assert slot["meshes"] == 4 and slot["median"] == 0.5 and slot["sum"] == 7.5 / 17.0 and slot["better"] == 1.0
     table = offline.aggregates_table(cases, {"keep": {i: 1.0 for i in range(4)}, "rule": errors})
     assert "| against | keep | rule |" in table
@@ -117,3 +117,31 @@ def test_offline_replay_keeps_each_variants_errors_across_runs(tmp_path, monkeyp
     cases.append({**cases[0], "name": "c", "error": 3.0})
     assert offline.errors_of(cases, "rule", saved=saved) == {0: 1.0, 1: 2.0, 2: 3.0}
     assert solved == ["a", "b", "c"], "the cases of the earlier run were replayed again"
+
+
+def test_offline_cases_keep_their_slot_name_beside_the_slot_bone_baseline(monkeypatch):
+    from pathlib import Path
+
+    import bench_weights_offline as offline
+
+    # the learned choice's habits leave out the meshes sharing the judged mesh's slot name: the
+    # baseline's error must not take that name's place
+    case = {"label": "corpus/p", "skeleton": "s.json", "skin": "default", "slot": "arm", "name": "sleeve"}
+    monkeypatch.setattr(offline, "collect", lambda *a: [("corpus/p", Path("s.json"), Path("d.json"))])
+    monkeypatch.setattr(offline, "cases_of", lambda *a: [dict(case)])
+    monkeypatch.setattr(offline, "rigid_error", lambda c: 1.0)
+    monkeypatch.setattr(offline, "slot_error", lambda c: 2.0)
+    monkeypatch.setattr(offline, "VARIANTS", dict(offline.VARIANTS))
+    [got] = offline.replay_cases(Path("tool"), Path("cache"), "4.2", 0, 1, None, 4, Path("folds"))
+    assert got["slot"] == "arm" and got["rigid"] == 1.0 and got["on_slot_bone"] == 2.0
+    assert offline.case_key(got) == "corpus/p|s.json|default|arm|sleeve"
+
+
+def test_runtime_replay_tables_every_choice_against_both_baselines():
+    rows = [{**_row("p", 1.0, 2.0, 0.5), "on_slot_bone": 4.0}, {**_row("p", 3.0, 1.0, 1.0), "on_slot_bone": 2.0}]
+    table = bench_weights.rows_table(rows)
+    assert "| against | keep | rule | learned |" in table
+    # against the slot's bone: keep 1/4 and 3/2, rule 2/4 and 1/2, learned 0.5/4 and 1/2
+    assert "slot's bone (no weights): sum of errors / sum of baseline's (2 meshes) | 0.667 | 0.500 | 0.250 |" in table
+    assert "slot's bone (no weights): meshes better (2 meshes) | 50.0% | 100.0% | 100.0% |" in table
+    assert "heaviest artist bone: median ratio (2 meshes) | 2.000 | 1.500 | 0.750 |" in table
