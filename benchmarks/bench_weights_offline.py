@@ -43,6 +43,15 @@ seconds the weights took. Variants:
   without the habits: the learned choice for art no artist chose to weight (more than one bone
   only where a bone besides the slot's reaches the per-bone threshold).
 
+Any variant name may end in ``:`` and comma-separated steps that change its weights:
+``sharpen=P`` (each weight to the power ``P``, rows renormalised: above 1 more local, below
+softer), ``band=D`` (each vertex eased to its heaviest bone alone as its nearest other weighted
+bone's segment lies farther than its heaviest's, wholly from ``D`` times the art's diagonal on),
+``smooth=N`` (``N`` steps of averaging with mesh neighbours), ``floor=F`` (weights below ``F``
+dropped instead of below 0.01), ``cap=K`` (at most ``K`` bones per vertex), ``reach=R`` (bones
+missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by default),
+``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method): ``learned:sharpen=2``.
+
 Each skeleton is played over all its animations (``--animations``), ``--times`` frames each.
 Then the variants run side by side on the same meshes, with every aggregate against two
 baselines: each vertex rigid on its heaviest artist bone (the artist's rig without blending),
@@ -213,10 +222,12 @@ def segments(case: dict, bones: list[int], middle: tuple[float, float] = (0.0, 1
 def solved(case: dict, bones: list[int], method: str = "bbw", middle=(0.0, 1.0)) -> np.ndarray:
     """The weights of ``case`` on ``bones`` (as ``spinemesh weights`` solves them), once per case,
     bones, method, handles and refinement: variants that choose the same bones share them."""
-    key = (tuple(bones), method, middle, rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION)
+    method = SOLVE.get("method") or method
+    near = SOLVE.get("reach", NEAR)
+    key = (tuple(bones), method, middle, near, rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION)
     memo = case.setdefault("solved", {})
     if key not in memo:
-        reach = NEAR * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
+        reach = near * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
         slot = bones.index(case["slot_bone"]) if case["slot_bone"] in bones else None
         memo[key] = solve_weights(case["world"], case["tris"], segments(case, bones, middle), method, reach, slot)
     return memo[key]
@@ -363,10 +374,33 @@ def judge(cases: list[dict], results: dict[int, float], chosen: dict[int, list[i
     return out
 
 
+#: What a variant's name after a ``:`` changes in the solve (:func:`variant_of`): ``reach=R``,
+#: bones whose segment misses the art by at most ``R`` times its diagonal get a handle (default
+#: ``NEAR``); ``method=M``, the method of :func:`solve_weights`.
+SOLVE: dict = {}
+
+
 def variant_of(name: str):
-    """The variant ``name`` of :data:`VARIANTS`, any post-processing after a ``:`` aside
-    (:func:`finished` applies it)."""
-    return VARIANTS[name.partition(":")[0]]
+    """The variant ``name`` of :data:`VARIANTS`, its solve changed by the ``reach`` and
+    ``method`` steps after a ``:`` (:data:`SOLVE`); the other steps are post-processing
+    (:func:`finished`)."""
+    base = VARIANTS[name.partition(":")[0]]
+    options = {}
+    for step in filter(None, name.partition(":")[2].split(",")):
+        what, _, value = step.partition("=")
+        if what == "reach":
+            options["reach"] = float(value)
+        elif what == "method":
+            options["method"] = value
+
+    def run(case):
+        SOLVE.clear()
+        SOLVE.update(options)
+        try:
+            return base(case)
+        finally:
+            SOLVE.clear()
+    return run
 
 
 def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -> np.ndarray:
@@ -387,6 +421,11 @@ def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -
             floor = float(value)
         elif what == "cap":
             cap = min(cap, int(value))
+        elif what == "smooth":
+            for _ in range(int(value)):
+                w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
+        elif what in ("reach", "method"):
+            pass  # the solve's (variant_of)
         else:
             raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")
     return sparsify(w, cap, floor)
@@ -607,6 +646,7 @@ def main() -> None:
         start = time.perf_counter()
         for name, results in oracle_bounds(cases, per_variant, bbw).items():
             row(name, results, start)
+            per_variant[name] = results
     if args.learned:
         start = time.perf_counter()
         row("learned weights (project-held-out upper bound)", learned_bound(cases), start)

@@ -145,3 +145,30 @@ def test_runtime_replay_tables_every_choice_against_both_baselines():
     assert "slot's bone (no weights): sum of errors / sum of baseline's (2 meshes) | 0.667 | 0.500 | 0.250 |" in table
     assert "slot's bone (no weights): meshes better (2 meshes) | 50.0% | 100.0% | 100.0% |" in table
     assert "heaviest artist bone: median ratio (2 meshes) | 2.000 | 1.500 | 0.750 |" in table
+
+
+def test_offline_post_processing_variants_make_a_two_bone_strip_more_local(monkeypatch):
+    import numpy as np
+
+    import bench_weights_offline as offline
+
+    # a strip along x from 0 to 10, bone 0 from 0 to 5, bone 1 from 5 to 10; smooth weights
+    # blending linearly over the whole strip
+    x = np.linspace(0.0, 10.0, 11)
+    points = np.stack([x, np.zeros_like(x)], axis=1)
+    w = np.stack([1 - x / 10, x / 10], axis=1)
+    segs = np.array([[[0.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [10.0, 0.0]]])
+    case = {"world": points, "tris": np.zeros((0, 3), int), "rig": None}
+    monkeypatch.setattr(offline, "segments", lambda c, bones: segs)
+    for name in ("keep:sharpen=2", "keep:band=0.2", "keep:floor=0.3", "keep:sharpen=3,cap=1"):
+        got = offline.finished(case, name, w, [0, 1], 4)
+        assert np.allclose(got.sum(axis=1), 1.0) and (got >= 0).all() and (got <= 1).all(), name
+        assert (np.abs(got - 0.5) >= np.abs(w - 0.5) - 1e-12).all(), f"{name} blends more somewhere"
+        assert (got.argmax(1) == w.argmax(1))[x != 5].all(), name
+        assert (np.abs(got - 0.5) > np.abs(w - 0.5) + 1e-6).any(), f"{name} changed nothing"
+    # the band: unchanged at the joint, one bone alone from a fifth of the strip's length on
+    banded = offline.banded(w, points, segs, 0.2)
+    assert np.allclose(banded[5], w[5]) and np.allclose(banded[[0, 1, 9, 10]], np.eye(2)[[0, 0, 1, 1]])
+    assert offline.variant_of("keep:sharpen=2,reach=0") is not offline.VARIANTS["keep"]
+    with pytest.raises(ValueError, match="unknown post-processing"):
+        offline.finished(case, "keep:blur=1", w, [0, 1], 4)
