@@ -404,3 +404,29 @@ def test_a_weighing_job_whose_worker_is_lost_is_weighted_here_the_same_way(tmp_p
 
 def _rows_of(plan) -> list[dict]:
     return [{k: v for k, v in t.row().items() if k != "seconds"} for sk in plan.skeletons for t in sk.targets]
+
+
+def test_the_same_solve_twice_is_solved_once_and_the_output_is_that_of_solving_each(tmp_path, monkeypatch):
+    """One region in two skins is the same art on the same bones: its weights are solved once
+    (solve_weights_once), and the output is the same byte for byte as when every mesh is solved
+    on its own (nothing remembered)."""
+    from spinemesh.rig import weights as rig_weights
+
+    path = make_bar_project(tmp_path / "p")
+    doc = json.loads(path.read_text())
+    doc["skins"].append({"name": "other", "attachments": {"bar": copy.deepcopy(doc["skins"][0]["attachments"]["bar"])}})
+    path.write_text(json.dumps(doc, indent=1))
+    solved = []
+    monkeypatch.setattr(rig_weights, "solve_weights", lambda *a, f=rig_weights.solve_weights: solved.append(1) or f(*a))
+    outputs = {}
+    for remembered in (rig_weights.REMEMBERED_SOLVES, 0):
+        monkeypatch.setattr(rig_weights, "REMEMBERED_SOLVES", remembered)
+        rig_weights._remembered.clear()
+        solved.clear()
+        result = upgrade_project(path, tmp_path / f"out{remembered}", Options(weights="auto", jobs=1))
+        bent = [t for t in result.targets if t.slot == "bar"]
+        assert [t.weights["status"] for t in bent] == ["weighted", "weighted"]
+        assert len(bent[0].weights["bones"]) == 2
+        outputs[remembered] = (_folder_bytes(tmp_path / f"out{remembered}"), _rows(result), len(solved))
+    (once, rows_once, solves_once), (each, rows_each, solves_each) = outputs.values()
+    assert solves_once < solves_each and once == each and rows_once == rows_each

@@ -23,7 +23,7 @@ from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
 from .learned import choose_learned, constrained_bones, neighbour_sets
-from .weights import solve_weights, sparsify
+from .weights import solve_weights_once, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
 
@@ -238,7 +238,7 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     segments = np.stack([rig.bones[b].segment() for b in choice.bones])
     reach = NEAR * float(np.linalg.norm(np.ptp(world, axis=0)))
     prefer = choice.bones.index(slot_bone) if slot_bone in choice.bones else None
-    weights = solve_weights(world, triangles, segments, options.method, reach, prefer)
+    weights = solve_weights_once(world, triangles, segments, options.method, reach, prefer)
     weights = sparsify(weights, options.max_bones, options.min_weight)
     att["vertices"] = bind(world, weights, choice.bones, rig.worlds)
     for col, b in enumerate(choice.bones):
