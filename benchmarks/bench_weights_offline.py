@@ -43,14 +43,16 @@ seconds the weights took. Variants:
   without the habits: the learned choice for art no artist chose to weight (more than one bone
   only where a bone besides the slot's reaches the per-bone threshold).
 
-Any variant name may end in ``:`` and comma-separated steps that change its weights:
+Any variant name may end in ``:`` and steps joined by ``+`` that change its weights:
 ``sharpen=P`` (each weight to the power ``P``, rows renormalised: above 1 more local, below
 softer), ``band=D`` (each vertex eased to its heaviest bone alone as its nearest other weighted
 bone's segment lies farther than its heaviest's, wholly from ``D`` times the art's diagonal on),
 ``smooth=N`` (``N`` steps of averaging with mesh neighbours), ``floor=F`` (weights below ``F``
 dropped instead of below 0.01), ``cap=K`` (at most ``K`` bones per vertex), ``reach=R`` (bones
 missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by default),
-``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method): ``learned:sharpen=2``.
+``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method), ``slot=A`` (the slot
+bone's weights alone to the power ``A``, rows renormalised: below 1 it leads more of the
+vertices it shares): ``learned:sharpen=2``.
 
 Each skeleton is played over all its animations (``--animations``), ``--times`` frames each.
 Then the variants run side by side on the same meshes, with every aggregate against two
@@ -386,7 +388,7 @@ def variant_of(name: str):
     (:func:`finished`)."""
     base = VARIANTS[name.partition(":")[0]]
     options = {}
-    for step in filter(None, name.partition(":")[2].split(",")):
+    for step in filter(None, name.partition(":")[2].split("+")):
         what, _, value = step.partition("=")
         if what == "reach":
             options["reach"] = float(value)
@@ -405,16 +407,23 @@ def variant_of(name: str):
 
 def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -> np.ndarray:
     """The solved weights ``w`` of ``case`` as the runtime gets them under the variant ``name``:
-    its post-processing after a ``:`` (comma-separated, in order: ``sharpen=P``, each weight
+    its post-processing after a ``:`` (joined by ``+``, in order: ``sharpen=P``, each weight
     to the power ``P``, renormalised; ``band=D``, each vertex eased to its heaviest bone as its
     nearest other weighted bone's segment lies farther than its heaviest's, wholly from ``D``
     times the art's diagonal on; ``floor=F``, weights below ``F`` dropped; ``cap=K``, at most
     ``K`` bones per vertex), then at most ``cap`` bones per vertex, none below 0.01."""
     floor = 0.01
-    for step in filter(None, name.partition(":")[2].split(",")):
+    for step in filter(None, name.partition(":")[2].split("+")):
         what, _, value = step.partition("=")
         if what == "sharpen":
             w = sharpened(w, float(value))
+        elif what == "slot" and case["slot_bone"] in bones:
+            w = np.asarray(w, float).copy()
+            col = bones.index(case["slot_bone"])
+            w[:, col] **= float(value)
+            w /= w.sum(axis=1, keepdims=True)
+        elif what == "slot":
+            pass  # the slot's bone is not bound: nothing to favour
         elif what == "band":
             w = banded(w, case["world"], segments(case, bones), float(value))
         elif what == "floor":

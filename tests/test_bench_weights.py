@@ -160,7 +160,7 @@ def test_offline_post_processing_variants_make_a_two_bone_strip_more_local(monke
     segs = np.array([[[0.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [10.0, 0.0]]])
     case = {"world": points, "tris": np.zeros((0, 3), int), "rig": None}
     monkeypatch.setattr(offline, "segments", lambda c, bones: segs)
-    for name in ("keep:sharpen=2", "keep:band=0.2", "keep:floor=0.3", "keep:sharpen=3,cap=1"):
+    for name in ("keep:sharpen=2", "keep:band=0.2", "keep:floor=0.3", "keep:sharpen=3+cap=1"):
         got = offline.finished(case, name, w, [0, 1], 4)
         assert np.allclose(got.sum(axis=1), 1.0) and (got >= 0).all() and (got <= 1).all(), name
         assert (np.abs(got - 0.5) >= np.abs(w - 0.5) - 1e-12).all(), f"{name} blends more somewhere"
@@ -169,6 +169,10 @@ def test_offline_post_processing_variants_make_a_two_bone_strip_more_local(monke
     # the band: unchanged at the joint, one bone alone from a fifth of the strip's length on
     banded = offline.banded(w, points, segs, 0.2)
     assert np.allclose(banded[5], w[5]) and np.allclose(banded[[0, 1, 9, 10]], np.eye(2)[[0, 0, 1, 1]])
-    assert offline.variant_of("keep:sharpen=2,reach=0") is not offline.VARIANTS["keep"]
+    # the slot's bone favoured: it leads more of the strip, the ends stay on one bone each
+    favoured = offline.finished({**case, "slot_bone": 0}, "keep:slot=0.5", w, [0, 1], 4)
+    assert (favoured[:, 0] >= w[:, 0] - 1e-12).all() and favoured[5, 0] > 0.5
+    assert np.allclose(favoured[[0, 10]], np.eye(2)) and np.allclose(favoured.sum(axis=1), 1.0)
+    assert offline.variant_of("keep:sharpen=2+reach=0") is not offline.VARIANTS["keep"]
     with pytest.raises(ValueError, match="unknown post-processing"):
         offline.finished(case, "keep:blur=1", w, [0, 1], 4)
