@@ -302,6 +302,50 @@ def test_other_orders_shrink_the_last_power_of_two_page(monkeypatch):
     assert len(default_only) == 3 and with_orders == [(128, 128), (128, 128)]
 
 
+def _without_page_shapes(monkeypatch):
+    """The fills as before the tightest fit ranked pages by other shapes (square pages, largest box first)."""
+    from spinemesh.pack import atlas_pack
+
+    plan = atlas_pack.fill_plan
+    monkeypatch.setattr(atlas_pack, "fill_plan", lambda *args: [f for f in plan(*args)
+                                                                if not (f[0] == "tightest" and f[2] is not None)])
+
+
+@pytest.mark.parametrize("shape, used", [("square", [(60, 60)]), ("perimeter", [(80, 40)]), ("area", [(80, 40)])])
+def test_the_tightest_fit_ranks_pages_by_the_shape_asked(shape, used):
+    """Eight squares on a page at most 80 wide: by the longer side the page stays square (60x60, room for
+    a ninth); by width + height or by area it takes two rows of four (80x40, fewer texels)."""
+    squares = [[np.ones((20, 20), bool)] for _ in range(8)]
+    placements, got = fill_pages(squares, 80, 80, 0, tight=True, shape=shape)
+    assert all(p is not None for p in placements) and got == used
+    with pytest.raises(ValueError, match="page shape 'round'"):
+        fill_pages(squares, 80, 80, 0, tight=True, shape="round")
+
+
+def test_pages_ranked_by_other_shapes_pack_smaller_and_never_larger(monkeypatch):
+    """Without powers of two the tightest fit runs again with pages ranked by width + height, by area,
+    and by width + height with the footprints of most texels first, after every other fill: a group
+    packs on fewer texels where one of them does better (seed 145: 110x316 against 239x150), and
+    never on more."""
+    from spinemesh.pack import atlas_pack
+
+    texels = {}
+    for seed in (145, 121, 0, 1, 2, 3):
+        items = _shapes(seed, 8, 20, 120)
+        for label in ("new", "old"):
+            if label == "old":
+                _without_page_shapes(monkeypatch)
+            placements, sizes = atlas_pack._pack_group(items, 512, 512, 512 * 512, False, 1, 1)
+            assert all(p is not None for p in placements)
+            texels[seed, label] = sum(w * h for w, h in sizes)
+            monkeypatch.undo()
+        assert texels[seed, "new"] <= texels[seed, "old"]
+    assert texels[145, "new"] == 110 * 316 < texels[145, "old"] == 239 * 150
+    assert texels[121, "new"] < texels[121, "old"]
+    # powers of two: the rounded page ranks places first, and the plan is as before
+    assert all(f[2] is None or f[0] == "widths" for f in atlas_pack.fill_plan(True, True, 3))
+
+
 def test_footprints_larger_than_the_atlas_are_refused_before_any_fill():
     from spinemesh.pack.atlas_pack import PackRefused, _pack_group
 

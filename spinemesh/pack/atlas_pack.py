@@ -30,7 +30,7 @@ import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
 from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
-from .place import _grow, fill_pages
+from .place import PAGE_SHAPES, _grow, fill_pages
 from .uses import RegionUses, rectangle_reason
 
 #: Fewest texels between what two regions draw (stored rectangles, or texels meshes touch), as
@@ -326,14 +326,16 @@ def _by_widths(candidates, max_w: int, max_h: int, max_area: int, pot: bool, pad
 
 
 def _tightest(candidates, max_w: int, max_h: int, max_area: int, pot: bool, padding: int, max_pages: int,
-              budget: int | None = None, hard=None):
+              budget: int | None = None, hard=None, shape: str = "square", order: list[int] | None = None):
     """Every footprint where it grows its page's used area least (see :func:`fill_pages`): ``(texels, placements, sizes)``.
 
     Pages take whatever shape packs best, up to the longest side and the largest page's texels;
     each page after the first starts small again, so a last page holding the rest stays small.
+    ``shape``: how places rank the pages they leave without powers of two
+    (:data:`~spinemesh.pack.place.PAGE_SHAPES`); ``order``: the footprints' (default largest box first).
     """
-    placements, used = fill_pages(candidates, max_w, max_h, padding, max_pages=max_pages, tight=True,
-                                  max_area=max_area, pot=pot, budget=budget, hard=hard)
+    placements, used = fill_pages(candidates, max_w, max_h, padding, order=order, max_pages=max_pages, tight=True,
+                                  max_area=max_area, pot=pot, budget=budget, hard=hard, shape=shape)
     if any(p is None for p in placements):
         return None
     sizes = _page_sizes(used, max_w, max_h, pot)
@@ -426,7 +428,10 @@ def other_orders(candidates) -> list[list[int]]:
 
 
 def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
-    """The fills tried for one group, in order: ``(kind, every texel hard, order index)`` each.
+    """The fills tried for one group, in order: ``(kind, every texel hard, how)`` each.
+
+    ``how``: for ``widths``, the index of an order of :func:`other_orders` (None: largest box
+    first); for ``tightest``, None or ``(page shape, order index or None)``.
 
     The tightest fit on pages of any shape; first fit on pages of a few widths; for powers of
     two, whole page sizes from the smallest, and both again with every texel hard (the greedy
@@ -434,8 +439,12 @@ def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
     doubles a page: 4.2 stretchyman); a group of several power-of-two pages, first fit on a few
     widths again in :func:`other_orders` (on pages of any size the last page shrinks to what it
     holds: other orders saved nothing there, as measured; whole page sizes in other orders saved
-    nothing either, at twice the time on the dragon example). ``soft``: some footprint has soft
-    texels.
+    nothing either, at twice the time on the dragon example); without powers of two, last, the
+    tightest fit again with places ranked by the page's width + height and by its area
+    (:data:`~spinemesh.pack.place.PAGE_SHAPES`), and by width + height with the footprints of
+    most texels first: each packs some atlases best, as measured (with powers of two the
+    rounded page ranks places first, and these saved nothing).
+    ``soft``: some footprint has soft texels.
     """
     plan = [("tightest", False, None)]
     for all_hard in (False, True) if pot and soft else (False,):
@@ -444,6 +453,9 @@ def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
             plan.append(("whole", all_hard, None))
     if pot and max_pages > 1:
         plan += [("widths", False, k) for k in range(len(other_orders([])))]
+    if not pot:  # last: the fills before them find what they found before, these only improve on it
+        plan += [("tightest", False, (shape, None)) for shape in PAGE_SHAPES[1:]]
+        plan.append(("tightest", False, ("perimeter", 0)))
     return plan
 
 
@@ -453,8 +465,10 @@ def run_fill(fill: tuple, candidates, hard, max_w: int, max_h: int, max_area: in
     kind, all_hard, order = fill
     variant = None if all_hard else hard
     if kind == "tightest":
+        shape, index = order or (PAGE_SHAPES[0], None)
         found = _tightest(candidates, max_w, max_h, max_area, pot, padding, max_pages,
-                          None if best is None else best[0], variant)
+                          None if best is None else best[0], variant, shape,
+                          None if index is None else other_orders(candidates)[index])
         return found if found is not None and (best is None or found[0] < best[0]) else best
     if kind == "whole":
         return _whole_pot_pages(candidates, max_w, max_h, max_area, padding, max_pages, best, variant)

@@ -31,6 +31,11 @@ COARSE_SIDE = 512
 #: Texel steps a placed footprint may slide up or left into a gap, per pass.
 SLIDE_STEPS = 16
 
+#: How the tightest fit ranks the pages a place would leave, without powers of two (see
+#: :meth:`Page.tightest_fit`): by the longer side (pages near the square), by half the perimeter
+#: (width + height), or by the area alone. Each packs some atlases best: a fill tries each.
+PAGE_SHAPES = ("square", "perimeter", "area")
+
 #: Places whose soft cells are checked cell by cell at once, and the most cells so checked per
 #: search before one correlation checks the rest (about what one correlation costs).
 KEEP_CLEAR_BATCH = 256
@@ -88,6 +93,17 @@ def _pot(n: np.ndarray) -> np.ndarray:
 def _coarse(mask: np.ndarray, cell: int) -> np.ndarray:
     """Cells of side ``cell`` that hold any set texel (the mask's top-left texel starts a cell)."""
     return block_any(mask, cell)
+
+
+def _shape_cost(w, h, shape: str):
+    """What the tightest fit ranks a used area of ``w x h`` texels by, without powers of two (:data:`PAGE_SHAPES`)."""
+    if shape == "square":
+        return np.maximum(w, h)
+    if shape == "perimeter":
+        return w + h
+    if shape == "area":
+        return w * h
+    raise ValueError(f"page shape {shape!r}: one of {', '.join(PAGE_SHAPES)}")
 
 
 class Page:
@@ -242,14 +258,16 @@ class Page:
                 return self._slide(mask, x, y, hard)
         return None
 
-    def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool, hard: np.ndarray | None = None
-                     ) -> tuple[tuple, int, int] | None:
+    def tightest_fit(self, mask: np.ndarray, max_area: int, pot: bool, hard: np.ndarray | None = None,
+                     shape: str = "square") -> tuple[tuple, int, int] | None:
         """The free place that grows the used area least: ``(cost, x, y)``, or None.
 
-        The cost is the used area's page rounded to powers of two when ``pot``, else its longer
-        side (square pages: a strip of least area now leaves no room for what comes later),
-        then the used area itself, then top rows first, then left; places whose rounded page would exceed
-        ``max_area`` texels are passed over.
+        The cost is the used area's page rounded to powers of two when ``pot``, else by
+        ``shape`` (:data:`PAGE_SHAPES`): its longer side (``square``, the default: a strip of
+        least area now leaves no room for what comes later), its width + height
+        (``perimeter``) or its area (``area``); then the used area itself, then top rows
+        first, then left. Places whose rounded page would exceed ``max_area`` texels are
+        passed over.
         """
         xs, ys, soft = self._places(mask, hard)
         if xs.size == 0:
@@ -259,7 +277,7 @@ class Page:
         new_h = np.maximum(self.used_h, ys + h)
         page = (_pot(new_w) * _pot(new_h)) if pot else new_w * new_h
         area = new_w * new_h
-        side = np.maximum(new_w, new_h)
+        side = _shape_cost(new_w, new_h, shape)
         ok = np.flatnonzero(page <= max_area)
         if ok.size == 0:
             return None
@@ -272,7 +290,7 @@ class Page:
             if self.fits(mask, x, y, hard):
                 x, y = self._slide(mask, x, y, hard)
                 nw, nh = max(self.used_w, x + w), max(self.used_h, y + h)
-                first = int(_pot(nw)) * int(_pot(nh)) if pot else max(nw, nh)
+                first = int(_pot(nw)) * int(_pot(nh)) if pot else int(_shape_cost(nw, nh, shape))
                 return (first, nw * nh, y, x), x, y
         return None
 
@@ -346,7 +364,7 @@ def largest_first(candidates: list[list[np.ndarray]]) -> list[int]:
 def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padding: int,
                order: list[int] | None = None, max_pages: int | None = None, tight: bool = False,
                max_area: int | None = None, pot: bool = False, budget: int | None = None,
-               hard: list[list[np.ndarray]] | None = None
+               hard: list[list[np.ndarray]] | None = None, shape: str = "square"
                ) -> tuple[list[Placement | None], list[tuple[int, int]]]:
     """Place every footprint on as few pages of ``width x height`` as the greedy fill gives.
 
@@ -381,6 +399,9 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
         Per footprint and orientation, its hard texels (bool, the mask's shape, within the
         mask); the rest of the mask is soft and may overlap other footprints' soft texels.
         Default: every texel is hard. Pass the mask itself where all of it is hard (faster).
+    shape : str
+        With ``tight`` and without ``pot``, how places rank the page they would leave
+        (:data:`PAGE_SHAPES`; default ``square``, by its longer side).
 
     Returns
     -------
@@ -405,7 +426,7 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
                 still.append(i)  # a solid box no larger found no place: neither does this one
                 continue
             hards = candidates[i] if hard is None else hard[i]
-            best = _best_place(page, candidates[i], hards, tight, limit, pot)
+            best = _best_place(page, candidates[i], hards, tight, limit, pot, shape)
             if best is None:
                 if boxes[i] is not None:
                     failed += boxes[i]
@@ -439,13 +460,13 @@ def _solid_boxes(masks: list[np.ndarray], hards: list[np.ndarray] | None) -> lis
 
 
 def _best_place(page: Page, masks: list[np.ndarray], hards: list[np.ndarray], tight: bool, max_area: int,
-                pot: bool) -> tuple[int, int, int] | None:
+                pot: bool, shape: str = "square") -> tuple[int, int, int] | None:
     """``(orientation, x, y)`` of the best place of one footprint (``masks``, hard parts ``hards``) on
     ``page`` (see :func:`fill_pages`), or None."""
     best = None
     for k, (mask, hard) in enumerate(zip(masks, hards)):
         if tight:
-            found = page.tightest_fit(mask, max_area, pot, hard)
+            found = page.tightest_fit(mask, max_area, pot, hard, shape)
             if found is None:
                 continue
             score, x, y = found
