@@ -79,8 +79,10 @@ class Row:
     c_seconds: float = 0.0
     a_footprints: int = 0  # packed: the footprints' texels with their share of the padding (0 when kept)
     b_footprints: int | None = None
-    #: other page rules (``--pages``): name -> {"a"/"b": [texels, pages, bytes, footprints]}
+    #: other page rules (``--pages``): name -> {"a"/"b": [texels, pages, bytes, footprints, why kept]}
     rules: dict | None = None
+    a_reason: str = ""  # the report's reason for (a): why it was kept, or written otherwise ("" when packed)
+    b_reason: str | None = None
 
 
 def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, int]:
@@ -120,32 +122,37 @@ def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, i
     return best
 
 
-def pack_rows(project: Path, scratch: Path, sides: str = "original") -> dict[str, dict]:
+def pack_rows(project: Path, scratch: Path, sides: str = "original", larger_files: bool = False) -> dict[str, dict]:
     """``pack`` of one project into ``scratch`` under the page rules ``sides`` (one process): per atlas
-    (relative path), its report row."""
+    (relative path), its report row. ``larger_files``: as ``--larger-files`` (an atlas whose files
+    would take more bytes is written all the same)."""
     out = scratch / "packed"
     shutil.rmtree(out, ignore_errors=True)
     result = PackResult()
-    pack_project_into(find_project(project), out, PackOptions(rules=PageRules(sides)), result)
+    pack_project_into(find_project(project), out, PackOptions(rules=PageRules(sides), larger_files=larger_files),
+                      result)
     return {a.atlas: a for a in result.atlases}
 
 
-def _other_rules(rows: dict[str, Row], project: Path, scratch: Path, key: str, sides: list[str]) -> None:
+def _other_rules(rows: dict[str, Row], project: Path, scratch: Path, key: str, sides: list[str],
+                 larger_files: bool = False) -> None:
     """Pack ``project`` again under each page rule of ``sides`` but the original: into ``rows[..].rules``."""
     for name in sides:
         if name == "original":
             continue
-        for rel, a in pack_rows(project, scratch / f"{key}-{name}", name).items():
+        for rel, a in pack_rows(project, scratch / f"{key}-{name}", name, larger_files).items():
             if rel in rows:
                 r = rows[rel]
                 r.rules = r.rules or {}
                 r.rules.setdefault(name, {})[key] = [a.texels_after, a.pages_after, a.bytes_after,
-                                                      a.footprint_texels if a.status == "packed" else 0]
+                                                      a.footprint_texels if a.status == "packed" else 0,
+                                                      a.reason]
 
 
 def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] = ("original",),
-                  upgraded: Path | None = None) -> list[Row]:
-    """One project's rows; ``upgraded``: a folder keeping ``upgrade``'s output of each project, reused when there."""
+                  upgraded: Path | None = None, larger_files: bool = False) -> list[Row]:
+    """One project's rows; ``upgraded``: a folder keeping ``upgrade``'s output of each project, reused when
+    there; ``larger_files``: pack as ``--larger-files`` does."""
     proj = find_project(project)
     rows: dict[str, Row] = {}
     for path, atlas in project_atlases(proj).items():
@@ -166,13 +173,14 @@ def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] 
             row.c_texels, row.c_pages = row.texels, row.pages
         row.c_seconds = round(time.process_time() - t0, 3)
         rows[rel] = row
-    for rel, a in pack_rows(project, scratch / "a").items():
+    for rel, a in pack_rows(project, scratch / "a", larger_files=larger_files).items():
         if rel in rows:
             r = rows[rel]
             r.a_texels, r.a_pages, r.a_bytes, r.a_outline, r.a_seconds = (
                 a.texels_after, a.pages_after, a.bytes_after, a.by_outline, a.cpu_seconds)
             r.a_footprints = a.footprint_texels if a.status == "packed" else 0
-    _other_rules(rows, project, scratch, "a", sides)
+            r.a_reason = a.reason
+    _other_rules(rows, project, scratch, "a", sides, larger_files)
     if upgrade:
         from spinemesh.upgrade import Options, upgrade_project
 
@@ -186,13 +194,14 @@ def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] 
         except SpineMeshError as e:
             print(f"{project.name}: upgrade refused: {e}", file=sys.stderr)
         else:
-            for rel, b in pack_rows(up, scratch / "b").items():
+            for rel, b in pack_rows(up, scratch / "b", larger_files=larger_files).items():
                 if rel in rows:
                     r = rows[rel]
                     r.b_texels, r.b_pages, r.b_bytes, r.b_outline, r.b_seconds = (
                         b.texels_after, b.pages_after, b.bytes_after, b.by_outline, b.cpu_seconds)
                     r.b_footprints = b.footprint_texels if b.status == "packed" else 0
-            _other_rules(rows, up, scratch, "b", sides)
+                    r.b_reason = b.reason
+            _other_rules(rows, up, scratch, "b", sides, larger_files)
     return list(rows.values())
 
 
@@ -287,6 +296,55 @@ def summary(rows: list[Row]) -> str:
     rect_times = [r.c_seconds for r in rows]
     lines.append(f"rectpack CPU time per atlas: median {statistics.median(rect_times):.2f} s, "
                  f"max {max(rect_times):.2f} s")
+    return "\n".join(lines)
+
+
+def limit_of(reason: str, fill: float) -> str:
+    """What decides an atlas's page texels, in a few words, from the report's ``reason``: the bytes
+    rules, the footprints' need, the power-of-two page sizes, or the placement (with the ``fill`` a
+    packed atlas reached)."""
+    if "rectangles' texels only" in reason:
+        return "bytes: written as it was, with the rectangles' texels only"
+    if not reason:
+        return f"placement: packed, {fill:.0%} full"
+    if "lossy WebP" in reason:
+        return "bytes: lossy WebP pages would grow written losslessly"
+    if "--larger-files" in reason:
+        return "bytes: the files would grow"
+    if "footprints need" in reason:
+        need = reason.split("need ")[1].split(" of")[0] + " of the page texels"
+        if "no packing" in reason:
+            return f"need: the footprints need {need}"
+        if "power-of-two" in reason:
+            return f"page rule: the footprints need {need};{reason.split(';', 1)[1]}"
+        return f"placement: the footprints need {need}, no fill placed them on fewer"
+    if "no fewer than" in reason:
+        return "placement: packed, no fewer page texels"
+    return reason[:60]
+
+
+def limits_table(rows: list[Row], rule: str) -> str:
+    """Per atlas, what ``upgrade --pack`` (b) saved under the page rule ``rule`` and what limits it
+    (:func:`limit_of`), with a count per limit."""
+
+    def outcome(r: Row) -> tuple[int, int, str] | None:
+        if rule == "original":
+            return (r.b_texels, r.b_footprints or 0, r.b_reason or "") if r.b_texels is not None else None
+        got = (r.rules or {}).get(rule, {}).get("b")
+        return (got[0], got[3], got[4] if len(got) > 4 else "") if got else None
+
+    lines = [f"| project | atlas | page texels | (b) saved, --pages {rule} | what limits it |", "|---|---|---:|---:|---|"]
+    counts: dict[str, int] = {}
+    for r in rows:
+        got = outcome(r)
+        if got is None:
+            continue
+        texels, footprints, reason = got
+        why = limit_of(reason, footprints / texels if texels else 0.0)
+        counts[why.split(":")[0]] = counts.get(why.split(":")[0], 0) + 1
+        lines.append(f"| {r.project.split('/')[-1]} | {r.atlas} | {r.texels:,} | {1 - texels / r.texels:.1%} | {why} |")
+    lines.append("")
+    lines.append("atlases by what limits them: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     return "\n".join(lines)
 
 
@@ -468,6 +526,10 @@ def main(argv: list[str] | None = None) -> int:
                     "and reuse it in later runs (the upgrade takes most of the time)")
     ap.add_argument("--pages", nargs="+", default=["original"], choices=("original", "any", "power-of-two", "multiple-of-4"),
                     help="page rules to pack under, each reported apart (default: original)")
+    ap.add_argument("--larger-files", action="store_true", help="pack as --larger-files does: an atlas whose "
+                    "files would take more bytes is written all the same (lossy WebP pages are still kept)")
+    ap.add_argument("--limits", metavar="RULE", choices=("original", "any", "power-of-two", "multiple-of-4"),
+                    help="with --tables-from: per atlas, what (b) saved under this page rule and what limits it")
     ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
                     "every footprint's outer N texels are soft (may overlap other soft texels)")
     ap.add_argument("--png", type=Path, nargs="+", metavar="PAGE", help="only compare the PNG encoders on these "
@@ -484,6 +546,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.tables_from:
         rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]
+        if args.limits:
+            print(limits_table(rows, args.limits))
+            return 0
         print(table(rows))
         print()
         print(summaries(rows))
@@ -500,7 +565,7 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             try:
                 rows += bench_project(project, scratch / project.name, not args.no_upgrade, args.pages,
-                                      args.upgraded)
+                                      args.upgraded, args.larger_files)
             except SpineMeshError as e:
                 print(f"{project.name}: {e}", file=sys.stderr)
             shutil.rmtree(scratch / project.name, ignore_errors=True)
