@@ -23,7 +23,7 @@ page quantisation (``bound`` over ``need``).
 
 Usage::
 
-    .venv/bin/python scripts/pack_gap.py PROJECT [PROJECT ...] [--json rows.json]
+    .venv/bin/python scripts/pack_gap.py PROJECT [PROJECT ...] [--pages any] [--json rows.json]
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ sys.path.insert(0, str(REPO))
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.images import AtlasImages, load_rgba  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
-    RING_TEXELS, PackRefused, _items, default_padding, footprint_share, is_power_of_two, largest_pot_pages_below,
+    RING_TEXELS, PackRefused, PageRules, _items, default_padding, footprint_share, largest_pot_pages_below,
     pack_atlas, page_settings,
 )
 from spinemesh.pack.outlines import content_box  # noqa: E402
@@ -121,7 +121,7 @@ def share(mask: np.ndarray, half: int) -> int:
     return footprint_share(mask, half)
 
 
-def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
+def atlas_gap(project_name: str, rel: str, atlas, pixels, uses, rules: PageRules | None = None) -> GapRow:
     geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
     pad = default_padding(atlas, geometries)
     between = max(0, pad - RING_TEXELS)
@@ -144,8 +144,8 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
             kept += f
             art_kept += a
             kept_cropped += cropped_area(stored, int(round(half))) if "region attachment" in it.foot.reason else f
-    max_area = max(w * h for w, h in sizes)
-    pot = all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes)
+    rules = rules or PageRules()
+    _, max_area, pot = rules.limits(sizes)
     # groups of pages with different settings are packed apart: bound each
     groups: dict[tuple, list[int]] = {}
     for i, p in enumerate(atlas.pages):
@@ -157,7 +157,7 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
         b = min_page_set(need, len(page_indices), max_area, pot) if need else 0
         bound += b if b >= 0 else sum(sizes[i][0] * sizes[i][1] for i in page_indices)
     try:
-        packed = pack_atlas(atlas, pixels, uses)
+        packed = pack_atlas(atlas, pixels, uses, rules=rules)
         reached, status = packed.texels_after, "packed"
     except PackRefused as e:
         reached, status = before, "kept: " + str(e)[:60]
@@ -166,7 +166,7 @@ def atlas_gap(project_name: str, rel: str, atlas, pixels, uses) -> GapRow:
                   art, art_kept, kept, outline, min(bound, before), reached, status, kept_cropped, pot, next_set)
 
 
-def project_gaps(project: Path) -> list[GapRow]:
+def project_gaps(project: Path, rules: PageRules | None = None) -> list[GapRow]:
     proj = find_project(project)
     uses = collect_uses(proj)
     rows = []
@@ -174,7 +174,7 @@ def project_gaps(project: Path) -> list[GapRow]:
         rel = path.relative_to(proj.root).as_posix()
         try:
             pixels = [load_rgba(AtlasImages.page_path(atlas, p.name, proj.root)) for p in atlas.pages]
-            rows.append(atlas_gap(project.name, rel, atlas, pixels, uses.regions.get(path, {})))
+            rows.append(atlas_gap(project.name, rel, atlas, pixels, uses.regions.get(path, {}), rules))
         except (SpineMeshError, PackRefused) as e:
             print(f"{project.name}/{rel}: {e}", file=sys.stderr)
     return rows
@@ -261,12 +261,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("projects", nargs="*", type=Path)
     ap.add_argument("--json", type=Path, help="write the rows here (after each project)")
     ap.add_argument("--tables-from", type=Path, nargs="+", metavar="JSON", help="print the tables of saved rows")
+    ap.add_argument("--pages", default="original", choices=("original", "any", "power-of-two", "multiple-of-4"),
+                    help="the page rules packed under (default: original); the bytes rules of a written "
+                         "atlas (lossy WebP pages, files that would grow) do not apply here")
     args = ap.parse_args(argv)
     rows: list[GapRow] = []
     if args.tables_from:
         rows = [GapRow(**r) for f in args.tables_from for r in json.loads(f.read_text())]
     for project in args.projects:
-        rows += project_gaps(project.resolve())
+        rows += project_gaps(project.resolve(), PageRules(args.pages))
         print(f"  {project.name}", file=sys.stderr, flush=True)
         if args.json:
             args.json.write_text(json.dumps([asdict(r) for r in rows], indent=1))
