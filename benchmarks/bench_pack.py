@@ -83,6 +83,7 @@ class Row:
     rules: dict | None = None
     a_reason: str = ""  # the report's reason for (a): why it was kept, or written otherwise ("" when packed)
     b_reason: str | None = None
+    pot: bool | None = None  # every original page's sides are powers of two (None: not recorded)
 
 
 def rectangle_repack(atlas, sizes_before: list[tuple[int, int]]) -> tuple[int, int]:
@@ -165,7 +166,8 @@ def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] 
             with Image.open(f) as im:
                 sizes.append(im.size)
         row = Row(project_label(project), rel, len(atlas.regions), len(atlas.pages), sum(w * h for w, h in sizes),
-                  sum(f.stat().st_size for f in set(files)) + path.stat().st_size)
+                  sum(f.stat().st_size for f in set(files)) + path.stat().st_size,
+                  pot=all(is_power_of_two(w) and is_power_of_two(h) for w, h in sizes))
         t0 = time.process_time()
         try:
             row.c_texels, row.c_pages = rectangle_repack(read_atlas(path), sizes)
@@ -359,11 +361,13 @@ def fill_lines(rows: list[Row]) -> list[str]:
             sets.append((f"{label}, --pages {name}",
                          lambda r, n=name, k=key: ((r.rules or {}).get(n, {}).get(k) or [0, 0, 0, 0])[0::3]))
     for label, get in sets:
-        packed = [get(r) for r in rows if get(r)[1]]
-        if packed:
-            fills = [f / t for t, f in packed]
-            lines.append(f"| {label} | {len(packed)} | {sum(f for _, f in packed) / sum(t for t, _ in packed):.1%} | "
-                         f"{statistics.median(fills):.1%} |")
+        # and apart for the atlases of power-of-two pages (under the original rules a page rounds up) and the others
+        for part, only in (("", None), (", power-of-two atlases", True), (", other atlases", False)):
+            packed = [get(r) for r in rows if get(r)[1] and (only is None or r.pot is only)]
+            if packed:
+                fills = [f / t for t, f in packed]
+                lines.append(f"| {label}{part} | {len(packed)} | "
+                             f"{sum(f for _, f in packed) / sum(t for t, _ in packed):.1%} | {statistics.median(fills):.1%} |")
     return lines
 
 
