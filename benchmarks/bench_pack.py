@@ -325,9 +325,12 @@ def limit_of(reason: str, fill: float) -> str:
     return reason[:60]
 
 
-def limits_table(rows: list[Row], rule: str) -> str:
+def limits_table(rows: list[Row], rule: str, gaps: list[dict] | None = None) -> str:
     """Per atlas, what ``upgrade --pack`` (b) saved under the page rule ``rule`` and what limits it
-    (:func:`limit_of`), with a count per limit."""
+    (:func:`limit_of`), with a count per limit. ``gaps``: rows of ``scripts/pack_gap.py --json`` of the
+    upgraded projects under the same rule: the footprints' need and what placement alone reaches
+    (no bytes rule) join the table."""
+    gap = {(g["project"], g["atlas"]): g for g in gaps or []}
 
     def outcome(r: Row) -> tuple[int, int, str] | None:
         if rule == "original":
@@ -335,7 +338,9 @@ def limits_table(rows: list[Row], rule: str) -> str:
         got = (r.rules or {}).get(rule, {}).get("b")
         return (got[0], got[3], got[4] if len(got) > 4 else "") if got else None
 
-    lines = [f"| project | atlas | page texels | (b) saved, --pages {rule} | what limits it |", "|---|---|---:|---:|---|"]
+    extra = " footprints with their padding | placement alone saves |" if gap else ""
+    lines = [f"| project | atlas | page texels | (b) saved, --pages {rule} |{extra} what limits it |",
+             "|---|---|---:|---:|" + ("---:|---:|" if gap else "") + "---|"]
     counts: dict[str, int] = {}
     for r in rows:
         got = outcome(r)
@@ -344,7 +349,10 @@ def limits_table(rows: list[Row], rule: str) -> str:
         texels, footprints, reason = got
         why = limit_of(reason, footprints / texels if texels else 0.0)
         counts[why.split(":")[0]] = counts.get(why.split(":")[0], 0) + 1
-        lines.append(f"| {r.project.split('/')[-1]} | {r.atlas} | {r.texels:,} | {1 - texels / r.texels:.1%} | {why} |")
+        g = gap.get((r.project.split("/")[-1], r.atlas))
+        cells = (f" {(g['kept'] + g['outline']) / g['before']:.0%} | {1 - g['reached'] / g['before']:.1%} |"
+                 if g else " - | - |") if gap else ""
+        lines.append(f"| {r.project.split('/')[-1]} | {r.atlas} | {r.texels:,} | {1 - texels / r.texels:.1%} |{cells} {why} |")
     lines.append("")
     lines.append("atlases by what limits them: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     return "\n".join(lines)
@@ -534,6 +542,8 @@ def main(argv: list[str] | None = None) -> int:
                     "files would take more bytes is written all the same (lossy WebP pages are still kept)")
     ap.add_argument("--limits", metavar="RULE", choices=("original", "any", "power-of-two", "multiple-of-4"),
                     help="with --tables-from: per atlas, what (b) saved under this page rule and what limits it")
+    ap.add_argument("--gap", type=Path, metavar="JSON", help="with --limits: rows of scripts/pack_gap.py --json "
+                    "(the upgraded projects, the same --pages) for the footprints' need and placement alone")
     ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
                     "every footprint's outer N texels are soft (may overlap other soft texels)")
     ap.add_argument("--png", type=Path, nargs="+", metavar="PAGE", help="only compare the PNG encoders on these "
@@ -551,7 +561,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.tables_from:
         rows = [Row(**r) for f in args.tables_from for r in json.loads(f.read_text())]
         if args.limits:
-            print(limits_table(rows, args.limits))
+            print(limits_table(rows, args.limits, json.loads(args.gap.read_text()) if args.gap else None))
             return 0
         print(table(rows))
         print()

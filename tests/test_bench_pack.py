@@ -1,0 +1,58 @@
+"""benchmarks/bench_pack.py: what limits an atlas, read from the reasons ``pack`` gives."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import REPO
+from spinemesh.pack.atlas_pack import PackRefused, kept_note
+from spinemesh.pack.run import check_bytes_shrink, check_lossy_pages_shrink
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import bench_pack  # noqa: E402
+
+
+def _refusal(check, *args) -> str:
+    with pytest.raises(PackRefused) as refused:
+        check(*args)
+    return str(refused.value)
+
+
+def test_limits_are_read_from_the_reasons_pack_gives(tmp_path):
+    page = tmp_path / "page.webp"
+    Image.fromarray(np.random.default_rng(0).integers(0, 255, (64, 64, 4), np.uint8)).save(page, quality=50)
+    lossy = _refusal(check_lossy_pages_shrink, [page], 100, 200)
+    grows = _refusal(check_bytes_shrink, 100, 200, 1000, 800)
+    cases = {
+        "": "placement: packed, 81% full",
+        lossy: "bytes: lossy WebP pages would grow written losslessly",
+        grows: "bytes: the files would grow",
+        grows + "; written as it was, with the rectangles' texels only":
+            "bytes: written as it was, with the rectangles' texels only",
+        kept_note(120, 100, 1, 100, False): "need: the footprints need 120% of the page texels",
+        kept_note(90, 100, 1, 100, False):
+            "placement: the footprints need 90% of the page texels, no fill placed them on fewer",
+        kept_note(61 * 1024 * 512 // 100 + 1, 1024 * 512, 1, 1024 * 1024, True):
+            "page rule: the footprints need 61% of the page texels; the next smaller power-of-two page holds 50%",
+    }
+    for reason, limit in cases.items():
+        assert bench_pack.limit_of(reason, 0.81) == limit, reason
+
+
+def test_the_limits_table_counts_atlases_by_what_limits_them():
+    rows = [bench_pack.Row("corpus/p", "a.atlas", texels=1000, b_texels=800, b_footprints=640, b_reason=""),
+            bench_pack.Row("corpus/p", "b.atlas", texels=1000, b_texels=1000, b_footprints=0,
+                           b_reason=kept_note(990, 1000, 1, 1000, False)),
+            bench_pack.Row("corpus/q", "c.atlas", texels=400,
+                           rules={"any": {"b": [300, 1, 10, 270, ""]}})]
+    table = bench_pack.limits_table(rows, "original")
+    assert "| p | a.atlas | 1,000 | 20.0% | placement: packed, 80% full |" in table
+    assert table.endswith("atlases by what limits them: placement 2")
+    gap = [{"project": "q", "atlas": "c.atlas", "before": 400, "kept": 100, "outline": 160, "reached": 280}]
+    table = bench_pack.limits_table(rows, "any", gap)
+    assert "| q | c.atlas | 400 | 25.0% | 65% | 30.0% | placement: packed, 90% full |" in table
