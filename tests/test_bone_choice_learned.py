@@ -76,6 +76,28 @@ def test_candidate_features_describe_the_rig_and_the_art():
     assert {row[COL["rule_bone_count"]] for row in cand.features} == {3}
 
 
+def test_the_candidates_take_the_rules_distances_for_the_bones_both_measure():
+    """The rule's 65 samples to a segment hold the candidates' 33: taken from the rule, they are
+    the distances measured afresh, to the bit, point bones (the root) and zero-length bones too,
+    and the rule's lengths are those it measures itself."""
+    from spinemesh.rig.choice import lengths_on_art, rule_near, rule_samples
+    from spinemesh.rig.learned import reach_limits, sample_distances
+
+    doc = _worm_mesh_doc()
+    doc["bones"].append({"name": "pin", "parent": "seg1", "x": 30})  # a zero-length bone on the art
+    rig, ref, mesh, world, tris = _mesh_of(doc)
+    slot = rig.slot_bone["worm"]
+    limit = reach_limits(rig.bones, slot, float(np.linalg.norm(np.ptp(world, axis=0))))
+    measured = rule_samples(rig.bones, world, tris, rule_near(world))
+    ids, point, _ = measured
+    assert point.any() and (~point).sum() >= 3
+    fresh = sample_distances(rig.bones, world, tris, limit)
+    taken = sample_distances(rig.bones, world, tris, limit, known=measured)
+    assert np.array_equal(fresh[0], taken[0]) and len(fresh[0]) > len(ids)  # "beside": measured here only
+    assert fresh[1].tobytes() == taken[1].tobytes()
+    assert lengths_on_art(rig.bones, world, tris, 0.0, measured=measured) == lengths_on_art(rig.bones, world, tris, 0.0)
+
+
 def test_candidates_reach_is_a_share_of_the_art_diagonal():
     rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
     names = [b.name for b in rig.bones]

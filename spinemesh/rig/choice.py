@@ -128,19 +128,20 @@ def distance_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray
     return out
 
 
-def lengths_on_art(bones, world: np.ndarray, triangles: np.ndarray, near: float,
-                   samples: int = 65) -> dict[int, float]:
-    """Each bone's length over the art, for the bones that reach the art; a bone missing it is absent.
+def rule_samples(bones, world: np.ndarray, triangles: np.ndarray, near: float,
+                 samples: int = 65) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distances to the art that :func:`lengths_on_art` measures its bones by.
 
-    The length over the art is the segment's length times the share of ``samples`` evenly
-    spaced points of it within ``near`` of the art; a zero-length bone on the art has 0.
-
-    All bones are measured in one pass over their sample points (a rig of hundreds of bones
-    near the art would otherwise take one distance computation per bone). A bone whose
-    segment's bounding box misses the art's (grown by ``near``) is rejected without measuring.
+    Returns
+    -------
+    ids : ndarray of int, shape (B,)
+        The bones whose segment's bounding box meets the art's grown by ``near``, in order.
+    point : ndarray of bool, shape (B,)
+        Zero-length bones (points): measured at their origin only.
+    distance : ndarray, shape (B, samples)
+        World units, 0 on the art: ``samples`` evenly spaced points from origin to tip (a
+        point bone's row is its origin's distance throughout).
     """
-    if not len(bones):
-        return {}
     lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
     segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
     meets = ~((segs.max(axis=1) < lo).any(axis=1) | (segs.min(axis=1) > hi).any(axis=1))
@@ -151,15 +152,43 @@ def lengths_on_art(bones, world: np.ndarray, triangles: np.ndarray, near: float,
     a, b = segs[idx, 0], segs[idx, 1]
     t = np.linspace(0, 1, samples)[None, :, None]
     sampled = (a[~point][:, None] + t * (b - a)[~point][:, None]).reshape(-1, 2)
-    flat = np.concatenate([sampled, a[point]])
-    close = distance_to_art(flat, world, triangles) <= near
-    on_segment = close[:len(sampled)].reshape(-1, samples)
+    d = distance_to_art(np.concatenate([sampled, a[point]]), world, triangles)
+    distance = np.empty((len(idx), samples))
+    distance[~point] = d[:len(sampled)].reshape(-1, samples)
+    distance[point] = d[len(sampled):, None]
+    return idx, point, distance
+
+
+def lengths_on_art(bones, world: np.ndarray, triangles: np.ndarray, near: float,
+                   samples: int = 65, measured: tuple | None = None) -> dict[int, float]:
+    """Each bone's length over the art, for the bones that reach the art; a bone missing it is absent.
+
+    The length over the art is the segment's length times the share of ``samples`` evenly
+    spaced points of it within ``near`` of the art; a zero-length bone on the art has 0.
+
+    All bones are measured in one pass over their sample points (a rig of hundreds of bones
+    near the art would otherwise take one distance computation per bone). A bone whose
+    segment's bounding box misses the art's (grown by ``near``) is rejected without measuring.
+    ``measured``: :func:`rule_samples` of these arguments, when the caller has them already.
+    """
+    if not len(bones):
+        return {}
+    idx, point, distance = measured if measured is not None else rule_samples(bones, world, triangles, near, samples)
+    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)[idx]
+    a, b = segs[:, 0], segs[:, 1]
+    on_segment = distance[~point] <= near
     span = np.linalg.norm((b - a)[~point], axis=1)
     # a bone scaled to nothing is a point: on the art it counts as ``near``
     length = np.where(span > 0, span * on_segment.mean(axis=1), np.where(on_segment[:, 0], near, 0.0))
     out = {int(i): float(x) for i, x in zip(idx[~point], length) if x > 0}
-    out.update({int(i): 0.0 for i, c in zip(idx[point], close[len(sampled):]) if c})
+    out.update({int(i): 0.0 for i, c in zip(idx[point], distance[point, 0] <= near) if c})
     return out
+
+
+def rule_near(world: np.ndarray) -> float:
+    """How near the art (world units) a bone's segment passes to count as over it: :data:`OVER_ART`
+    of the diagonal of the art's box (``world``, (N, 2))."""
+    return OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))
 
 
 def _largest_group(bones, slot_bone: int, over: dict[int, float], touching: set[int]) -> int | None:
@@ -191,12 +220,14 @@ def _largest_group(bones, slot_bone: int, over: dict[int, float], touching: set[
 
 
 def choose_by_rule(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray,
-                   skin_bones: set[int]) -> Choice:
-    """The rule (module docstring, ``--bones rule``) for a mesh with setup world vertices ``world`` (N, 2)."""
+                   skin_bones: set[int], measured: tuple | None = None) -> Choice:
+    """The rule (module docstring, ``--bones rule``) for a mesh with setup world vertices ``world`` (N, 2).
+
+    ``measured``: :func:`rule_samples` at :func:`rule_near`, when the caller has them already.
+    """
     why: dict[int, str] = {}
     left_out: dict[int, str] = {}
-    near = OVER_ART * float(np.linalg.norm(np.ptp(world, axis=0)))
-    on_art = lengths_on_art(bones, world, triangles, near)
+    on_art = lengths_on_art(bones, world, triangles, rule_near(world), measured=measured)
 
     scored = []
     touching = set()  # every bone on the art, chosen or not: the tree is walked through them

@@ -35,7 +35,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments
 from . import bone_sets
 from .binding import parse_vertices, setup_world
-from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule, distance_to_art
+from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule, distance_to_art, rule_near, rule_samples
 from .constraints import constraints_of
 from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
                      pattern_shares, rig_key, tally)
@@ -176,8 +176,12 @@ def segment_samples(bones, world: np.ndarray, reach, samples: int = SEGMENT_SAMP
 
 
 def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach,
-                     samples: int = SEGMENT_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+                     samples: int = SEGMENT_SAMPLES, known: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Distances to the art of the :func:`segment_samples` of the bones that may come within ``reach``.
+
+    ``known``: the rule's distances (:func:`.choice.rule_samples`), whose every other sample
+    (65 to a segment, these 33: the same points) is taken for the bones it measured, not
+    measured again; a point bone's row there is its origin's distance, as here.
 
     Returns
     -------
@@ -186,7 +190,18 @@ def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach,
         World units, 0 on the art; the first column is the bone's origin, the last its tip.
     """
     ids, points = segment_samples(bones, world, reach, samples)
-    return ids, distance_to_art(points, world, triangles).reshape(len(ids), samples)
+    rows = np.ones(len(ids), bool)
+    out = np.empty((len(ids), samples))
+    if known is not None:
+        known_ids, _, distance = known
+        step = (distance.shape[1] - 1) // (samples - 1)
+        if step * (samples - 1) == distance.shape[1] - 1 and len(known_ids):
+            at = np.searchsorted(known_ids, ids).clip(0, len(known_ids) - 1)
+            rows = known_ids[at] != ids
+            out[~rows] = distance[at[~rows], ::step]
+    points = points.reshape(len(ids), samples, 2)[rows].reshape(-1, 2)
+    out[rows] = distance_to_art(points, world, triangles).reshape(-1, samples)
+    return ids, out
 
 
 def _on_art(bones, ids: np.ndarray, distance: np.ndarray, near: float) -> dict[int, float]:
@@ -239,14 +254,16 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     constrained = constrained or {}
     diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
     limit = reach_limits(bones, slot_bone, diag, reach, chain_reach)
-    sampled, dist = sample_distances(bones, world, triangles, limit)
+    # the rule's distances (65 samples to a segment) give these (33) for the bones both measure
+    measured = rule_samples(bones, world, triangles, rule_near(world))
+    sampled, dist = sample_distances(bones, world, triangles, limit, known=measured)
     over = _on_art(bones, sampled, dist, 0.0)
     near = _on_art(bones, sampled, dist, NEAR * diag)
     closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
     ends = dict(zip(sampled.tolist(), (dist[:, [0, -1]] <= 0).tolist()))
     slot_chain = _chain(bones, slot_bone)
     ids = sorted({i for i, d in closest.items() if d <= limit[i]} | {slot_bone})
-    rule = choose_by_rule(bones, slot_bone, world, triangles, skin_bones)
+    rule = choose_by_rule(bones, slot_bone, world, triangles, skin_bones, measured)
     nearest = _nearest_shares(bones, ids, world)
 
     slot_depth = len(slot_chain) - 1
