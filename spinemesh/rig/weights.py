@@ -32,6 +32,9 @@ import numpy as np
 #: Upper bound on the vertices of the refinement the weights are solved on (speed).
 REFINED_VERTEX_BUDGET = 1600
 
+#: PIQP's absolute and relative tolerance (:func:`bounded_biharmonic`, on the mesh scaled to unit size).
+SOLVER_TOLERANCE = 1e-7
+
 #: Most triangles per original triangle side (``k``).
 MAX_SUBDIVISION = 16
 
@@ -361,7 +364,7 @@ def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarr
     linear = np.asarray(q[free][:, b] @ bc)
     solver = piqp.SparseSolver()
     solver.settings.verbose = False
-    solver.settings.eps_abs = solver.settings.eps_rel = 1e-7
+    solver.settings.eps_abs = solver.settings.eps_rel = SOLVER_TOLERANCE
     solved = bones[:1] if len(bones) == 2 else bones
     zeros, ones = np.zeros(len(free)), np.ones(len(free))
     for i, j in enumerate(solved):
