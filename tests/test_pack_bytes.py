@@ -329,3 +329,15 @@ def test_upgrade_pack_reencodes_kept_pages_in_place_unless_asked(tmp_path):
         assert row.status == "kept" and row.pages_reencoded == expect, row.reason
         assert ((out / "full.png").read_bytes() == original) == keep
         np.testing.assert_array_equal(load_rgba(out / "full.png"), load_rgba_bytes(original))
+
+
+def test_kept_pages_reencoded_on_workers_are_the_same_files(tmp_path):
+    """With --jobs 2 the pages of one kept atlas are re-encoded side by side: the same bytes as one
+    process writes (oxipng may have run in this process before the workers were forked)."""
+    pages = {f"p{k}.png": _loose_png(np.roll(_full_page(), 7 * k, axis=1)) for k in range(3)}
+    project = _kept_project(tmp_path / "full", pages)
+    one = pack_project(project, tmp_path / "one", PackOptions(jobs=1)).atlases[0]
+    two = pack_project(project, tmp_path / "two", PackOptions(jobs=2)).atlases[0]
+    assert one.pages_reencoded == two.pages_reencoded == 3 and one.bytes_after == two.bytes_after, two.reason
+    for name in pages:
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes()
