@@ -6,15 +6,15 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import REPO
 from PIL import Image
 
-from conftest import REPO
 from spinemesh.pack.atlas_pack import PackRefused, kept_note
 from spinemesh.pack.run import check_bytes_shrink, check_lossy_pages_shrink
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-import bench_pack  # noqa: E402
+import bench_pack
 
 
 def _refusal(check, *args) -> str:

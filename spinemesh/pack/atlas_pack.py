@@ -427,7 +427,14 @@ def other_orders(candidates) -> list[list[int]]:
     return [by_texels, by_side]
 
 
-def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
+#: Most footprints of a group for which the tightest fit also ranks pages by other shapes
+#: (:func:`fill_plan`): each such fill costs about as much as the first, and every atlas of the
+#: corpus they packed smaller has 80 regions or fewer, so larger groups are spared them (a page of
+#: 300 footprints stays within 5 CPU s).
+SHAPE_FILLS_UP_TO = 100
+
+
+def fill_plan(pot: bool, soft: bool, max_pages: int, footprints: int = 0) -> list[tuple]:
     """The fills tried for one group, in order: ``(kind, every texel hard, how)`` each.
 
     ``how``: for ``widths``, the index of an order of :func:`other_orders` (None: largest box
@@ -443,8 +450,9 @@ def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
     tightest fit again with places ranked by the page's width + height and by its area
     (:data:`~spinemesh.pack.place.PAGE_SHAPES`), and by width + height with the footprints of
     most texels first: each packs some atlases best, as measured (with powers of two the
-    rounded page ranks places first, and these saved nothing).
-    ``soft``: some footprint has soft texels.
+    rounded page ranks places first, and these saved nothing), for groups of at most
+    :data:`SHAPE_FILLS_UP_TO` footprints. ``soft``: some footprint has soft texels;
+    ``footprints``: how many the group has.
     """
     plan = [("tightest", False, None)]
     for all_hard in (False, True) if pot and soft else (False,):
@@ -453,7 +461,7 @@ def fill_plan(pot: bool, soft: bool, max_pages: int) -> list[tuple]:
             plan.append(("whole", all_hard, None))
     if pot and max_pages > 1:
         plan += [("widths", False, k) for k in range(len(other_orders([])))]
-    if not pot:  # last: the fills before them find what they found before, these only improve on it
+    if not pot and footprints <= SHAPE_FILLS_UP_TO:  # last: the fills before find what they found, these improve on it
         plan += [("tightest", False, (shape, None)) for shape in PAGE_SHAPES[1:]]
         plan.append(("tightest", False, ("perimeter", 0)))
     return plan
@@ -501,7 +509,7 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
             raise PackRefused(f"region {it.region.name!r} takes {w}x{h} texels with its padding, more than "
                               f"the largest page allowed ({max_w}x{max_h}, {max_area:,} texels)")
     best = None if ceiling is None else (ceiling, None, None)
-    plan = fill_plan(pot, hard is not None, max_pages)
+    plan = fill_plan(pot, hard is not None, max_pages, len(candidates))
     args = (candidates, hard, max_w, max_h, max_area, pot, padding, max_pages)
     if on_fill:
         on_fill(0, len(plan))
