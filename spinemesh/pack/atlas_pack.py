@@ -416,7 +416,8 @@ def kept_note(needed: int, texels: int | None, pages: int, max_area: int, pot: b
 
 def other_orders(candidates) -> list[list[int]]:
     """Orders besides the largest box first that a group of several pages is filled in: most texels
-    first, then longest side first.
+    first, then longest side first (the first also for the tightest fit by width + height, see
+    :func:`fill_plan`).
 
     With several pages the order decides what is left for the last page, which often takes
     the whole of a smaller page: one large footprint left over can double it.
