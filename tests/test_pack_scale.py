@@ -178,3 +178,76 @@ def test_bad_page_rules_are_refused_in_one_line(meshed, tmp_path, option):
                        capture_output=True, text=True, env=dict(os.environ, COLUMNS="200"))
     assert r.returncode == 2 and "Traceback" not in r.stderr and option[0] in r.stderr, r.stderr
     assert not (tmp_path / "o").exists()
+
+
+def _shapes(seed: int, count: int, soft: bool) -> tuple[list, list]:
+    """Footprints made here: polygons of 7 to 12 corners in boxes of 12-70 texels, each in its two
+    quarter turns; with ``soft``, every other one has a soft outer ring (its hard part eroded)."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    masks, hards = [], []
+    for n in range(count):
+        h, w = (int(v) for v in rng.integers(12, 70, 2))
+        corners = int(rng.integers(7, 13))
+        angles = np.sort(rng.uniform(0, 2 * np.pi, corners))
+        radii = rng.uniform(0.5, 1.0, corners)
+        pts = np.stack([(w - 1) / 2 * (1 + radii * np.cos(angles)), (h - 1) / 2 * (1 + radii * np.sin(angles))], 1)
+        m = np.zeros((h, w), np.uint8)
+        cv2.fillPoly(m, [np.round(pts).astype(np.int32)], 1)
+        m = m.astype(bool)
+        hard = cv2.erode(m.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) if soft and n % 2 else m
+        if not hard.any():
+            hard = m
+        masks.append([m, np.ascontiguousarray(np.rot90(m))])
+        hards.append([hard, np.ascontiguousarray(np.rot90(hard))] if hard is not m else masks[-1])
+    return masks, hards
+
+
+def test_least_share_is_a_lower_bound_exact_for_boxes():
+    """A footprint's hard texels grown by half the padding take at least :func:`place.least_share`
+    texels, in every quarter turn; a box takes exactly that."""
+    masks, hards = _shapes(3, 40, soft=True)
+    for reach in (0, 1, 5, 17):
+        for hs in hards:
+            for h in hs:
+                grown = int(place._grow(h, reach).sum())
+                assert place.least_share(h, reach) <= grown
+                assert place.least_share(h, reach) == place.least_share(np.rot90(h), reach)
+        box = np.ones((9, 23), bool)
+        assert place.least_share(box, reach) == int(place._grow(box, reach).sum())
+
+
+@pytest.mark.parametrize("soft", [False, True])
+def test_fills_stopped_by_the_pages_left_find_what_full_fills_find(soft, monkeypatch):
+    """A fill that stops once the footprints left cannot go on the pages left (however placed) keeps
+    the very placements of one that fills page after page: every page size, both placements, and
+    the plan's fills of a group of several pages; and it does stop some fills early."""
+    from spinemesh.pack.atlas_pack import fill_plan, run_fill
+
+    masks, hards = _shapes(11, 90, soft)
+    hard = hards if soft else None
+    padding, max_pages = 12, 6
+    sizes = [(w, h) for w in (128, 256, 512) for h in (128, 256, 512)]
+    pages_opened = []
+
+    def fills(bounded: bool):
+        if not bounded:
+            monkeypatch.setattr(place, "least_share", lambda h, reach: 0)
+        out = []
+        for w, h in sizes:
+            for tight in (False, True):
+                placements, used = place.fill_pages(masks, w, h, padding, max_pages=max_pages, tight=tight,
+                                                    pot=True, hard=hard)
+                pages_opened.append((bounded, len(used)))
+                out.append(placements if all(placements) else None)  # a fill that fails: its pages are of no use
+        limits = (512, 512, 512 * 512, True, padding, max_pages)
+        out += [run_fill(fill, masks, hard, *limits, None) for fill in fill_plan(True, soft, max_pages)]
+        monkeypatch.undo()
+        return out
+
+    bounded, full = fills(True), fills(False)
+    assert bounded == full
+    assert any(p is not None for p in bounded) and any(p is None for p in bounded)  # some fit, some do not
+    opened = {b: sum(n for bb, n in pages_opened if bb == b) for b in (True, False)}
+    assert opened[True] < opened[False]  # the bound spared pages

@@ -381,7 +381,8 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
         The order to place them in; default largest mask area first.
     max_pages : int, optional
         Stop once this many pages are full (what is left stays None): a size that cannot
-        hold everything fails fast.
+        hold everything fails fast. Also stop as soon as the footprints left cannot go on the
+        pages left however placed (:func:`least_share`): such a fill would fail anyway.
     tight : bool
         Where each footprint goes. False (default): the first free place, top rows first,
         the orientation whose bottom edge is lowest (the page fills downwards, for a page of
@@ -416,7 +417,13 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     pages: list[Page] = []
     left = [i for i in order if any(m.shape[1] <= width and m.shape[0] <= height for m in candidates[i])]
     boxes = {i: _solid_boxes(candidates[i], None if hard is None else hard[i]) for i in left}
+    reach = padding // 2
+    room = (width + 2 * reach) * (height + 2 * reach)
+    shares = {} if max_pages is None else {i: least_share((candidates if hard is None else hard)[i][0], reach)
+                                           for i in left}
     while left and (max_pages is None or len(pages) < max_pages):
+        if shares and sum(shares[i] for i in left) > (max_pages - len(pages)) * room:
+            break  # the pages left cannot take what is left, however placed (see least_share): fail now
         page = Page(width, height, padding)
         pages.append(page)
         still = []
@@ -443,6 +450,25 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
             break
         left = still
     return placements, [(p.used_w, p.used_h) for p in pages]
+
+
+def least_share(hard: np.ndarray, reach: int) -> int:
+    """The fewest texels a footprint's hard texels ``hard`` (bool, (h, w)) take grown by ``reach``
+    texels on every side (square neighbourhood), without growing them: a lower bound, exact for a box.
+
+    With ``reach`` half the padding (rounded down), two footprints' hard texels so grown never
+    share a texel (hard texels keep the padding from anything of another footprint), and they
+    stay within the page grown by ``reach``: footprints whose shares add up to more than the
+    pages' so grown texels cannot all go on them, however placed. Growing each row adds at
+    least ``reach`` texels at each end of it, then growing each column of that at least
+    ``reach`` at each end; the grown rows span ``2 * reach`` columns more than the mask's.
+    The same for every quarter turn of the mask.
+    """
+    rows = int(np.count_nonzero(hard.any(axis=1)))
+    if rows == 0:
+        return 0
+    columns = int(np.count_nonzero(hard.any(axis=0)))
+    return int(np.count_nonzero(hard)) + 2 * reach * rows + 2 * reach * (columns + 2 * reach)
 
 
 def _solid_boxes(masks: list[np.ndarray], hards: list[np.ndarray] | None) -> list[tuple[int, int]] | None:
