@@ -453,3 +453,19 @@ def test_weights_preview_draws_a_sequence_mesh_from_its_setup_frame(tmp_path):
     assert result.errors == []
     names = sorted(p.name for p in (tmp_path / "prev").glob("*.png"))
     assert any("spark" in n for n in names), names
+
+
+def test_a_row_across_a_joint_stops_where_every_step_tested_says_the_art_ends(monkeypatch):
+    """The steps from a joint towards the outline are tested a few at a time and stop at the first
+    outside: the rows are those of testing every step at once, whatever the art's width."""
+    from spinemesh.rig import topology
+
+    loop = np.array([[0.0, 0.0], [300.0, 0.0], [300.0, 40.0], [150.0, 90.0], [0.0, 40.0]])
+    rows = {}
+    for at_once in (topology.STEPS_AT_ONCE, 10_000):
+        monkeypatch.setattr(topology, "STEPS_AT_ONCE", at_once)
+        rows[at_once] = [np.asarray(topology._row(loop, np.array([x, 20.0]), np.array([0.0, s]), 12.0, 4.0))
+                         for x in (5.0, 100.0, 150.0, 290.0) for s in (1.0, -1.0)]
+    few, every = rows.values()
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(few, every))
+    assert max(len(r) for r in few) >= 5 and min(len(r) for r in few) >= 1  # 70 units up at the peak, 20 down
