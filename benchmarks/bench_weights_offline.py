@@ -1,7 +1,7 @@
 """Rig replay without the runtime in the loop: many weighting variants against the artists' own.
 
     .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
-        [--every K] [--variants NAME,...] [--bounds] [--learned]
+        [--every K] [--variants NAME,...] [--bounds] [--learned] [--points P] [--tolerance T]
 
 ``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
 about 15 minutes for one variant pair). Linear blend skinning is linear in the weights, so one
@@ -53,6 +53,9 @@ missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by de
 ``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method), ``slot=A`` (the slot
 bone's weights alone to the power ``A``, rows renormalised: below 1 it leads more of the
 vertices it shares): ``learned:sharpen=2``.
+
+``--points`` and ``--tolerance`` weigh every variant on another refinement (most points) or
+with another solver tolerance than ``spinemesh``'s own.
 
 Each skeleton is played over all its animations (``--animations``), ``--times`` frames each.
 Then the variants run side by side on the same meshes, with every aggregate against two
@@ -581,7 +584,10 @@ def errors_of(cases: list[dict], name: str, cap: int = 4, saved: Path | None = N
 
     known = _json.loads(saved.read_text()) if saved is not None and saved.is_file() else {}
     models = str(fold_models) if name.partition(":")[0] in LEARNED_VARIANTS else ""
-    column = known.setdefault(f"{name}|{cap}|{models}", {})
+    solver = (rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANCE)
+    # errors under other --points or --tolerance are kept apart (the defaults keep the old keys)
+    apart = "" if solver == SHIPPED_SOLVER else f"|{solver[0]}|{solver[1]:g}"
+    column = known.setdefault(f"{name}|{cap}|{models}{apart}", {})
     out = {}
     for i, c in enumerate(cases):
         key = case_key(c)
@@ -592,6 +598,11 @@ def errors_of(cases: list[dict], name: str, cap: int = 4, saved: Path | None = N
     if saved is not None:
         saved.write_text(_json.dumps(known))
     return out
+
+
+#: The refinement's most points and PIQP's tolerance that ``spinemesh`` weighs with (``--points``,
+#: ``--tolerance`` replay others).
+SHIPPED_SOLVER = (rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANCE)
 
 
 #: The variants that read the fold models (:func:`learned`).
@@ -616,7 +627,13 @@ def main() -> None:
                     "(a variant run before is not run again; the table covers every variant named)")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
+    ap.add_argument("--points", type=int, default=rig_weights.REFINED_VERTEX_BUDGET,
+                    help="most points of the refinement every variant solves its weights on")
+    ap.add_argument("--tolerance", type=float, default=rig_weights.SOLVER_TOLERANCE,
+                    help="PIQP's absolute and relative tolerance for the bounded biharmonic weights")
     args = ap.parse_args()
+    # every variant's weights with these (the rows named after a point count set their own)
+    rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANCE = args.points, args.tolerance
     cases = replay_cases(args.tool, args.cache, args.examples, args.corpus, args.every, args.animations or None,
                          args.times, args.fold_models)
     print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)

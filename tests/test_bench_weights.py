@@ -117,6 +117,9 @@ def test_offline_replay_keeps_each_variants_errors_across_runs(tmp_path, monkeyp
     cases.append({**cases[0], "name": "c", "error": 3.0})
     assert offline.errors_of(cases, "rule", saved=saved) == {0: 1.0, 1: 2.0, 2: 3.0}
     assert solved == ["a", "b", "c"], "the cases of the earlier run were replayed again"
+    monkeypatch.setattr(offline.rig_weights, "REFINED_VERTEX_BUDGET", 1000)  # --points 1000
+    assert offline.errors_of(cases, "rule", saved=saved) == {0: 1.0, 1: 2.0, 2: 3.0}
+    assert solved == ["a", "b", "c"] * 2, "errors of another refinement were taken for these"
 
 
 def test_offline_cases_keep_their_slot_name_beside_the_slot_bone_baseline(monkeypatch):
