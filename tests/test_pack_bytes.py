@@ -70,15 +70,17 @@ def test_the_optimiser_works_in_a_process_forked_after_it_ran():
     assert r.returncode == 0, r.stderr
 
 
-def _bloated(image, keep_format=False) -> bytes:
+def _bloated(image, keep_format=False, colour=None) -> bytes:
     """A PNG without compression: every packed page takes more bytes than the original."""
     from PIL import Image
+
+    from spinemesh.pack.png import with_colour_chunks
 
     if isinstance(image, (bytes, bytearray)):
         image = np.asarray(Image.open(io.BytesIO(image)).convert("RGBA"))
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(image)).save(buf, format="PNG", compress_level=0)
-    return buf.getvalue()
+    return buf.getvalue() if colour is None else with_colour_chunks(buf.getvalue(), colour)
 
 
 def test_an_atlas_whose_files_would_grow_is_kept_unless_asked(meshed, tmp_path, monkeypatch):
@@ -202,9 +204,9 @@ def _loose_png(rgba: np.ndarray) -> bytes:
 
 
 def _non_image_chunks(data: bytes) -> list:
-    from spinemesh.pack.png import _meaning, png_chunks
+    from spinemesh.pack.png import chunk_meaning, png_chunks
 
-    return [(k, _meaning(k, v)) for k, v in png_chunks(data) if k != b"IDAT"]
+    return [(k, chunk_meaning(k, v)) for k, v in png_chunks(data) if k != b"IDAT"]
 
 
 def test_a_kept_png_atlas_is_reencoded_losslessly_and_keeps_its_metadata(tmp_path):

@@ -102,7 +102,8 @@ def _in_helper(data: bytes, shape, keep_format: bool) -> bytes:
     return answer
 
 
-def optimized_png(image: np.ndarray | bytes, keep_format: bool = False) -> bytes:
+def optimized_png(image: np.ndarray | bytes, keep_format: bool = False,
+                  colour: tuple[tuple[bytes, bytes], ...] | None = None) -> bytes:
     """A PNG file of ``image``, as small as oxipng makes it at :data:`LEVEL`, losslessly.
 
     Parameters
@@ -114,6 +115,10 @@ def optimized_png(image: np.ndarray | bytes, keep_format: bool = False) -> bytes
         With a PNG file: store its texels as the file does (same colour type, bit depth, palette
         in the same order), only the rows' filters and compression chosen anew. Its other
         chunks (gamma, colour profile, text) are kept either way.
+    colour : tuple of (bytes, bytes), optional
+        Colour chunks to carry, ``(type, data)`` (:func:`colour_chunks` of the page the texels
+        come from): the file returned has these and no other (:func:`with_colour_chunks`).
+        Default: texels get none, a PNG file keeps its own.
 
     Returns
     -------
@@ -130,8 +135,10 @@ def optimized_png(image: np.ndarray | bytes, keep_format: bool = False) -> bytes
         data, shape = bytes(image), None
     if not _inherited:
         _used_here = True
-        return _compress(data, shape, keep_format)
-    return _in_helper(data, shape, keep_format)
+        out = _compress(data, shape, keep_format)
+    else:
+        out = _in_helper(data, shape, keep_format)
+    return out if colour is None else with_colour_chunks(out, colour)
 
 
 #: The PNG file signature, then each chunk: its data's length and its type, the data, a CRC.
@@ -165,7 +172,7 @@ def png_chunks(data: bytes) -> list[tuple[bytes, bytes]] | None:
     return None
 
 
-def _meaning(kind: bytes, body: bytes) -> bytes:
+def chunk_meaning(kind: bytes, body: bytes) -> bytes:
     """What a chunk says, whatever its compression: a compressed chunk's inflated data, after its
     name for a text (a colour profile's name is a label, which oxipng renames ``icc``)."""
     if kind in _COMPRESSED:
@@ -193,9 +200,63 @@ def png_differences(before: bytes, after: bytes) -> str:
         return "not a whole PNG file"
     if a[0][0] != b"IHDR" or b[0][0] != b"IHDR" or a[0][1] != b[0][1]:
         return "its header (size, bit depth, colour type or interlacing) would change"
-    rest_a = [(k, _meaning(k, v)) for k, v in a if k != b"IDAT"]
-    rest_b = [(k, _meaning(k, v)) for k, v in b if k != b"IDAT"]
-    if rest_a != rest_b:
-        changed = sorted({k.decode("latin-1") for k in {x[0] for x in set(rest_a) ^ set(rest_b)}}) or ["order"]
+    changed = chunk_differences([(k, v) for k, v in a if k != b"IDAT"], [(k, v) for k, v in b if k != b"IDAT"])
+    if changed:
         return f"its chunks besides the image data would change ({', '.join(changed)})"
     return ""
+
+
+def chunk_differences(before, after) -> list[str]:
+    """The types of the chunks that say otherwise in ``after`` than in ``before`` (lists of
+    ``(type, data)``), each compared by what it holds (a colour profile by its data, not its
+    name); ``["order"]`` when only their order differs; empty when they say the same.
+
+    The one chunk comparison: of a page re-encoded as it is (:func:`png_differences`) and of
+    the colour chunks a page written anew carries (:func:`spinemesh.pack.run.decoded_as`).
+    """
+    a = [(k, chunk_meaning(k, v)) for k, v in before]
+    b = [(k, chunk_meaning(k, v)) for k, v in after]
+    if a == b:
+        return []
+    return sorted({k.decode("latin-1") for k in {x[0] for x in set(a) ^ set(b)}}) or ["order"]
+
+
+#: Chunks that say what colours a PNG file's texels stand for: colour profile, sRGB rendering
+#: intent, gamma, chromaticities, coding-independent code points, mastering display and light
+#: levels. A browser or an engine that manages colour reads them, so a page written from other
+#: pages' texels carries theirs. In the order written, all before the palette and image data, as
+#: the PNG specification asks. (tRNS is part of how texels are stored: the palette path writes it,
+#: an RGB page with one is written as RGBA; pHYs, text and times say nothing of colours.)
+COLOUR_CHUNKS = (b"iCCP", b"sRGB", b"gAMA", b"cHRM", b"cICP", b"mDCv", b"cLLi")
+
+
+def colour_chunks(data: bytes) -> tuple[tuple[bytes, bytes], ...] | None:
+    """A PNG file's colour chunks (:data:`COLOUR_CHUNKS`), ``(type, data)``, in that order (several of
+    one type, which no valid file has, in the file's order); None when ``data`` is not a PNG file."""
+    chunks = png_chunks(data)
+    if chunks is None:
+        return None
+    return tuple(c for kind in COLOUR_CHUNKS for c in chunks if c[0] == kind)
+
+
+def png_chunk(kind: bytes, body: bytes) -> bytes:
+    """One chunk as a file stores it: length, type, data, CRC of type and data."""
+    return CHUNK_HEAD.pack(len(body), kind) + body + struct.pack(">I", zlib.crc32(body, zlib.crc32(kind)))
+
+
+def with_colour_chunks(data: bytes, colour: tuple[tuple[bytes, bytes], ...]) -> bytes:
+    """The PNG file ``data`` with ``colour`` (``(type, data)`` chunks) as its colour chunks, right
+    after its header, in place of any it had; everything else byte for byte.
+
+    Raises
+    ------
+    ValueError
+        When ``data`` is not a whole PNG file starting with its header.
+    """
+    chunks = png_chunks(data)
+    if not chunks or chunks[0][0] != b"IHDR":
+        raise ValueError("not a whole PNG file")
+    out = [PNG_SIGNATURE, png_chunk(*chunks[0])]
+    out += [png_chunk(kind, body) for kind, body in colour]
+    out += [png_chunk(kind, body) for kind, body in chunks[1:] if kind not in COLOUR_CHUNKS]
+    return b"".join(out)

@@ -21,8 +21,16 @@ from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_
 from ..images import AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
-from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas
-from .png import IHDR, optimized_png, png_chunks, png_differences
+from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas, page_settings
+from .png import (
+    IHDR,
+    chunk_differences,
+    chunk_meaning,
+    colour_chunks,
+    optimized_png,
+    png_chunks,
+    png_differences,
+)
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
@@ -127,7 +135,8 @@ def atlas_totals(rows: list[AtlasRow]) -> dict:
 
 def page_mode(path: Path):
     """How the original page stores colours: its palette, shape (n, 4) uint8 RGBA, for a
-    palette PNG; ``"RGB"`` for a PNG without alpha; else None (RGBA)."""
+    palette PNG; ``"RGB"`` for a PNG without alpha (and without a transparent colour: one with a
+    tRNS chunk has texels that are not opaque, written as RGBA); else None (RGBA)."""
     from PIL import Image
 
     with Image.open(path) as im:
@@ -139,7 +148,78 @@ def page_mode(path: Path):
             if "transparency" in im.info:  # tRNS: alpha per entry, or one transparent entry
                 index.info["transparency"] = im.info["transparency"]
             return np.asarray(index.convert("RGBA"))[0]
-        return "RGB" if im.format == "PNG" and im.mode == "RGB" else None
+        return "RGB" if im.format == "PNG" and im.mode == "RGB" and "transparency" not in im.info else None
+
+
+#: What each colour chunk says, in words (the reason an atlas whose pages disagree is kept).
+_COLOUR_WORDS = {b"iCCP": "a colour profile", b"sRGB": "sRGB", b"gAMA": "a gamma", b"cHRM": "chromaticities",
+                 b"cICP": "colour code points", b"mDCv": "a mastering display", b"cLLi": "light levels"}
+#: Which colour chunks each format written can carry (WebP and AVIF: a colour profile, as Pillow writes it).
+_CARRIED = {"PNG": set(_COLOUR_WORDS), "WEBP": {b"iCCP"}, "AVIF": {b"iCCP"}}
+
+
+def page_colour(data: bytes) -> tuple[tuple[bytes, bytes], ...]:
+    """What a page file says of the colours its texels stand for: its colour chunks, ``(type,
+    data)`` as a PNG file stores them (:func:`spinemesh.pack.png.colour_chunks`); for another
+    format its colour profile as a PNG ``iCCP`` chunk would hold it, or nothing.
+
+    Read from the original pages (packed pages carry them) and from every page written (which
+    must say the same, :func:`decoded_as`). A file Pillow cannot open says nothing (it fails
+    its decode elsewhere).
+    """
+    import zlib
+
+    from PIL import Image
+
+    found = colour_chunks(data)
+    if found is not None:
+        return found
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            profile = im.info.get("icc_profile")
+    except Exception:  # noqa: BLE001 - not an image Pillow reads: its decode says why
+        return ()
+    return ((b"iCCP", b"icc\0\0" + zlib.compress(profile)),) if profile else ()
+
+
+def colour_words(colour: tuple[tuple[bytes, bytes], ...]) -> str:
+    """:func:`page_colour` in words: ``sRGB and a gamma``, ``no colour information``."""
+    words = list(dict.fromkeys(_COLOUR_WORDS.get(k, k.decode("latin-1")) for k, _ in colour))
+    return " and ".join(words) if words else "no colour information"
+
+
+def colours_by_settings(atlas, colours: list) -> dict[tuple, tuple]:
+    """The colour chunks of the pages packed from each group of ``atlas``'s pages, by the group's
+    settings (:func:`spinemesh.pack.atlas_pack.page_settings`: pages of the same settings share
+    packed pages).
+
+    Parameters
+    ----------
+    atlas : Atlas
+    colours : list of tuple
+        :func:`page_colour` of each page, in page order.
+
+    Raises
+    ------
+    PackRefused
+        When two pages whose regions would share packed pages say different things of their
+        colours (one sRGB, one a colour profile; one a gamma, one none): one page cannot say both.
+    """
+    found: dict[tuple, tuple[str, tuple]] = {}
+    for page, colour in zip(atlas.pages, colours):
+        key = page_settings(page)
+        if key not in found:
+            found[key] = (page.name, colour)
+            continue
+        first, seen = found[key]
+        if chunk_differences(seen, colour):
+            a, b = colour_words(seen), colour_words(colour)
+            if a == b:
+                a, b = f"{a}, one", f"{b}, another"
+            raise PackRefused(f"its pages are in different colour spaces (page {first!r} says {a}, page "
+                              f"{page.name!r} {b}): packed, their regions would share pages, which can say "
+                              "only one")
+    return {key: colour for key, (_, colour) in found.items()}
 
 
 def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> tuple[bytes, np.ndarray] | None:
@@ -229,10 +309,12 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
                           f"{bytes_after:,} bytes on disk against {bytes_before:,}")
 
 
-def _optimized(image, name: str, keep_format: bool = False) -> bytes:
+def _optimized(image, name: str, keep_format: bool = False, colour: tuple | None = None) -> bytes:
     """:func:`spinemesh.pack.png.optimized_png`, its failure (a third party's) the page's reason to stay."""
     try:
-        return optimized_png(image, keep_format=keep_format)
+        if colour is None:
+            return optimized_png(image, keep_format=keep_format)
+        return optimized_png(image, keep_format=keep_format, colour=colour)
     except Exception as e:  # noqa: BLE001 - whatever oxipng raises keeps the atlas, with the reason
         raise PackRefused(f"page {name!r}: the PNG optimiser failed ({type(e).__name__}: {e})") from None
 
@@ -245,13 +327,16 @@ class EncodedPage:
     texels: np.ndarray  # (H, W, 4) uint8, decoded back from ``data``
 
 
-def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
+def encode_page(rgba: np.ndarray, name: str, like=None, colour: tuple = ()) -> EncodedPage:
     """A page image in the file format its name says, proven lossless by decoding it back.
 
     ``like`` (:func:`page_mode` of the original page): a palette PNG is written with its
     palette when every texel's colour is in it, a page without alpha as RGB. Either way every
     texel comes back as it was, except all-zero ones (the empty background, never sampled),
     which come back as the palette's transparent entry or as opaque black.
+
+    ``colour`` (:func:`page_colour` of the original pages, default none): the colour chunks the
+    file carries (a WebP page its colour profile), checked on the bytes with the texels.
 
     Raises
     ------
@@ -269,6 +354,10 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
     fmt, options = PAGE_FORMATS[ext]
     if fmt == "AVIF" and not features.check("avif"):
         raise PackRefused(f"page {name!r}: this Pillow cannot write AVIF")
+    lost = [k for k, _ in colour if k not in _CARRIED[fmt]]
+    if lost:
+        raise PackRefused(f"page {name!r}: {fmt} cannot say what its original pages say of their colours "
+                          f"({colour_words(tuple((k, b'') for k in lost))})")
     data = None
     expected = rgba
     if fmt == "PNG" and isinstance(like, np.ndarray):
@@ -276,7 +365,7 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
         if found is not None:
             data, expected = found
     if data is not None:
-        data = _optimized(data, name)
+        data = _optimized(data, name, colour=colour)
     else:
         image = rgba
         if fmt == "PNG" and isinstance(like, str) and like == "RGB":
@@ -284,16 +373,19 @@ def encode_page(rgba: np.ndarray, name: str, like=None) -> EncodedPage:
             expected = rgba.copy()
             expected[~rgba.any(axis=2), 3] = 255  # the empty background comes back opaque black
         if fmt == "PNG":
-            data = _optimized(np.ascontiguousarray(image), name)
+            data = _optimized(np.ascontiguousarray(image), name, colour=colour)
         else:
+            profiles = [chunk_meaning(kind, body) for kind, body in colour if kind == b"iCCP"]
+            profile = {"icc_profile": profiles[0]} if profiles else {}
             buf = io.BytesIO()
-            Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options)
+            Image.fromarray(np.ascontiguousarray(image)).save(buf, format=fmt, **options, **profile)
             data = buf.getvalue()
-    return EncodedPage(data, decoded_as(data, expected, name, fmt))
+    return EncodedPage(data, decoded_as(data, expected, name, fmt, colour))
 
 
-def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str) -> np.ndarray:
-    """The texels the file ``data`` decodes to, when they are ``expected`` texel for texel.
+def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str, colour: tuple | None = None) -> np.ndarray:
+    """The texels the file ``data`` decodes to, when they are ``expected`` texel for texel, and
+    it says what ``colour`` says of their colours.
 
     The one check every page written passes (packed pages, and kept pages re-encoded).
 
@@ -305,6 +397,10 @@ def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str) -> np.nda
         The texels it must hold.
     name, fmt
         The page (what errors name) and its format (``PNG``, ``WEBP``, ...).
+    colour : tuple of (bytes, bytes), optional
+        The colour chunks it must carry (:func:`page_colour`), compared by what they hold
+        (:func:`spinemesh.pack.png.chunk_differences`). Default: not compared (a kept page
+        re-encoded had all its chunks compared already, :func:`reencoded_page`).
 
     Returns
     -------
@@ -313,9 +409,16 @@ def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str) -> np.nda
     Raises
     ------
     PackRefused
-        When it does not decode, decodes to another size, or any texel differs.
+        When it does not decode, decodes to another size, any texel differs, or its colour
+        chunks say otherwise.
     """
     from ..images import decode_rgba
+
+    if colour is not None:
+        lost = chunk_differences(colour, page_colour(data))
+        if lost:
+            raise PackRefused(f"page {name!r}: the {fmt} written does not say what its original pages say of "
+                              f"their colours ({', '.join(lost)} differ), so its pages are kept")
 
     try:
         back = decode_rgba(data, name)
@@ -430,13 +533,16 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         check_page_sizes(atlas, texels)
         reencode_kept = True
         modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
+        colours = [page_colour(f.read_bytes()) for f in files]
+        group_colour = colours_by_settings(atlas, colours)
         packed = pack_atlas(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
                             rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
                             on_fill=on_step)
         on_step(0, len(packed.pages))
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
+        colour_of = {page.name: group_colour[page_settings(page)] for page in packed.atlas.pages}
         if parallel:
-            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name)), first=True)
+            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name), colour_of[name]), first=True)
                        for name, rgba in packed.pages.items()}
             encoded = {}
             for name, future in futures.items():
@@ -446,7 +552,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         else:
             encoded = {}
             for name, rgba in list(packed.pages.items()):
-                encoded[name] = encode_page(rgba, name, modes.get(name))
+                encoded[name] = encode_page(rgba, name, modes.get(name), colour_of[name])
                 packed.pages[name] = encoded[name].texels  # what the file holds: one copy of each page
                 on_step(1)
         text = packed.atlas.dumps()
@@ -459,7 +565,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 check_bytes_shrink(bytes_before, sum(map(len, encoded.values())) + len(text.encode()),
                                    packed.texels_before, packed.texels_after)
             except PackRefused as grows:
-                cleared = rectangles_only_outcome(job, texels, modes, bytes_before, str(grows), t0)
+                cleared = rectangles_only_outcome(job, texels, modes, colours, bytes_before, str(grows), t0)
                 if cleared is None:
                     raise
                 return cleared
@@ -499,19 +605,20 @@ def rectangles_only(atlas, texels: list[np.ndarray]) -> list[np.ndarray]:
     return cleared
 
 
-def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict, bytes_before: int, why: str,
-                            t0: float) -> AtlasOutcome | None:
+def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict, colours: list, bytes_before: int,
+                            why: str, t0: float) -> AtlasOutcome | None:
     """The atlas as it is, its pages written with the rectangles' texels only (:func:`rectangles_only`),
     when that takes fewer bytes than its files do and draws alike (proven); else None.
 
     The packed atlas was refused for its bytes (``why``): this keeps the atlas's layout and page
-    texels, and saves what clearing the texels no region reads, and oxipng, save.
+    texels, and saves what clearing the texels no region reads, and oxipng, save. Each page
+    carries its own colour chunks (``colours``, :func:`page_colour` in page order).
     """
     atlas = job.atlas
     try:
         text = job.path.read_bytes().decode("utf-8")
-        pages = {page.name: encode_page(cleared, page.name, modes.get(page.name))
-                 for page, cleared in zip(atlas.pages, rectangles_only(atlas, texels))}
+        pages = {page.name: encode_page(cleared, page.name, modes.get(page.name), colour)
+                 for page, cleared, colour in zip(atlas.pages, rectangles_only(atlas, texels), colours)}
         bytes_after = sum(len(p.data) for p in pages.values()) + len(text.encode("utf-8"))
         if bytes_after >= bytes_before:
             return None
@@ -626,7 +733,7 @@ def _reencode_task(arg: tuple) -> bytes | None:
 
 
 def _encode_task(arg: tuple) -> EncodedPage:
-    """A worker's task: :func:`encode_page` of ``(texels, name, like)``."""
+    """A worker's task: :func:`encode_page` of ``(texels, name, like, colour)``."""
     return encode_page(*arg)
 
 
