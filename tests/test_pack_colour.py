@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CORPUS, unavailable
 
 from spinemesh.images import load_rgba
 from spinemesh.pack import run
@@ -24,8 +25,6 @@ from spinemesh.pack.png import (
     with_colour_chunks,
 )
 from spinemesh.pack.run import PackOptions, pack_project
-
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "spine-corpus"
 
 
 def _profile() -> bytes:
@@ -124,11 +123,13 @@ def test_palette_and_rgb_pages_carry_them_too(meshed, tmp_path):
         assert chunk_differences(((b"sRGB", b"\x00"), GAMMA), _said(page)) == []
 
 
-def test_every_page_of_an_atlas_whose_pages_agree_carries_them(meshed, tmp_path):
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_every_page_of_an_atlas_whose_pages_agree_carries_them(meshed, tmp_path, jobs):
+    """Also with --jobs 2, where the pages are encoded on workers."""
     project = _two_pages(meshed, tmp_path / "in")
     for name in ("demo.png", "demo2.png"):
         _say(project / name, [_iccp(), GAMMA])
-    (row,) = pack_project(project, tmp_path / "out", PackOptions(larger_files=True)).atlases
+    (row,) = pack_project(project, tmp_path / "out", PackOptions(larger_files=True, jobs=jobs)).atlases
     assert row.status == "packed" and row.pages_before == 2, row.reason
     pages = _written_pages(tmp_path / "out")
     assert pages and all(chunk_differences(_said(project / "demo.png"), _said(p)) == [] for p in pages)
@@ -248,8 +249,6 @@ def _corpus_atlases_with_colour(most_bytes: int = 1_000_000) -> list[tuple[Path,
 def test_corpus_pages_with_colour_chunks_keep_them(tmp_path):
     """Every corpus atlas whose pages say something of their colours (a handful): packed pages say
     the same; pages that disagree keep the atlas."""
-    from conftest import unavailable
-
     from spinemesh.atlas import parse_atlas
     from spinemesh.pack.atlas_pack import page_settings
 
