@@ -182,7 +182,7 @@ def cases_of(label: str, skel: Path, dump_file: Path) -> list[dict]:
                 artist[i, bones.index(b)] += w
         world = setup_world(mesh, rig.worlds, rig.slot_bone[ref.slot])
         out.append(dict(
-            label=label, skeleton=skel.name, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
+            label=label, skeleton=skel.name, path=skel, skin=ref.skin, slot=ref.slot, name=ref.name, rig=rig, world=world, tris=tris,
             bones=bones, artist=artist, slot_bone=rig.slot_bone[ref.slot],
             setup_matrices=np.stack(rig.worlds), frame_matrices=np.stack([every_frame[k] for k in seen]),
             frame_vertices=np.stack([np.asarray(drawn[k + 1][key]["vertices"], float).reshape(-1, 2) for k in seen])))
@@ -326,8 +326,35 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
             if ((p > unsure[0]) & (p < unsure[1])).any():
                 chosen = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                         rig.skin_bones.get(case["skin"], set())).bones
+        if SOLVE.get("drift") is not None:
+            chosen = guarded_bones(case, chosen, SOLVE["drift"], SOLVE.get("add_slot", False))
         return chosen, solved(case, chosen)
     return variant
+
+
+#: Each skeleton's sampled bone transforms (:func:`spinemesh.rig.motion.sampled_bone_worlds`), by path.
+SAMPLED: dict[Path, np.ndarray] = {}
+
+
+def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = False) -> list[int]:
+    """``chosen`` without the bones that would carry the art more than ``limit`` art diagonals
+    from where its slot's bone carries it over the skeleton's animations sampled by our own
+    sampler (:func:`spinemesh.rig.motion.guarded`, the ``drift=D`` step)."""
+    from spinemesh.rig.choice import Choice
+    from spinemesh.rig.motion import SLOT_NEAR, drifts, follows_slot, guarded, sampled_bone_worlds
+
+    if case["path"] not in SAMPLED:
+        SAMPLED[case["path"]] = sampled_bone_worlds(load_skeleton(case["path"]))
+    drift = case.setdefault("drift", {})
+    missing = [b for b in chosen if b not in drift]
+    if missing:
+        drift.update(drifts(case["world"], case["setup_matrices"], SAMPLED[case["path"]], case["slot_bone"], missing))
+    rig = case["rig"]
+    if SOLVE.get("slot_near", 0.0) >= 0 and not follows_slot(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                                             SOLVE.get("slot_near", SLOT_NEAR)):
+        return chosen
+    exact = rig.bones[case["slot_bone"]].exact
+    return guarded(Choice(list(chosen), {}, {}), drift, case["slot_bone"], limit, add_slot, exact).bones
 
 
 def auto(near: float | None = None):
@@ -397,6 +424,10 @@ def variant_of(name: str):
             options["reach"] = float(value)
         elif what == "method":
             options["method"] = value
+        elif what in ("drift", "driftslot"):
+            options["drift"], options["add_slot"] = float(value), what == "driftslot"
+        elif what == "near":
+            options["slot_near"] = float(value)
 
     def run(case):
         SOLVE.clear()
@@ -436,7 +467,7 @@ def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -
         elif what == "smooth":
             for _ in range(int(value)):
                 w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
-        elif what in ("reach", "method"):
+        elif what in ("reach", "method", "drift", "driftslot", "near"):
             pass  # the solve's (variant_of)
         else:
             raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")

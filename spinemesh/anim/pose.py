@@ -359,6 +359,16 @@ class Sampler:
         for t, result in zip(times, self._replay(animation, targets, 1 / fps, loop, 0.0)):
             yield self._finish(t, *result)
 
+    def bone_worlds(self, animation: str, time: float, fps: float = 60.0, loop: bool = True) -> np.ndarray:
+        """The bones' world transforms (B, 2, 3) of ``animation`` at track time ``time``, without
+        physics (its bones keep the animation's pose) and without drawing any attachment: the
+        cheap part of :meth:`pose`, for callers that only need where the bones go."""
+        anim = self.animation(animation)[0]
+        for state in self.physics:
+            state.mode = RESET
+        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
+        return self._pose_bones(frame, simulated=False)[0]
+
     def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict) -> Pose:
         """The pose of a frame whose bones are posed: its drawn attachments."""
         active = [b.active for b in self.rig.bones]

@@ -1,0 +1,182 @@
+"""How far each bone would carry a mesh's art from where its slot's bone carries it.
+
+A bone bound to a mesh moves its art the way the bone moves. Over the skeleton's own
+animations, a bone of the same part (a forearm under an upper arm) carries the art near where
+the slot's bone carries it, bending it; a bone that flips, folds or belongs to another part (a
+paper-fold's other leaves, a weapon, an effect) carries it far away. :func:`drifts` measures
+that for each bone: the art made rigid on the bone against the art rigid on the slot's bone, a
+few frames of every animation, in units of the art's size. The animations are known when a
+project is weighted, so this is no peeking at an answer: it is what the game will play.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Frames sampled per animation, evenly spaced inside it (1/6, 1/2 and 5/6 of its duration).
+FRAMES_PER_ANIMATION = 3
+
+#: The slot's bone tells where the art goes only when its segment lies within this share of the
+#: art's diagonal of it (the learned choice's reach, :data:`.learned.REACH`): a weighted mesh's
+#: slot often hangs on the root or on a bone elsewhere, which its vertices do not follow.
+SLOT_NEAR = 0.25
+
+#: Most animations sampled per skeleton (evenly spread over them): the cost stays bounded on a
+#: skeleton with hundreds of animations.
+MOST_ANIMATIONS = 40
+
+
+def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
+                        most: int = MOST_ANIMATIONS) -> np.ndarray:
+    """Every bone's world transform in ``frames`` frames of each animation of ``doc``.
+
+    Posed with :class:`spinemesh.anim.Sampler` (constraints applied, physics not stepped: the
+    bones it moves keep the animation's pose), default skin. An animation that cannot be read
+    or posed, or a frame with a non-finite transform, is left out.
+
+    Parameters
+    ----------
+    doc : dict
+        A skeleton document (:func:`spinemesh.skeleton.load_skeleton`).
+    frames : int
+        Frames per animation, at ``(k + 0.5) / frames`` of its duration.
+    most : int
+        Most animations sampled, evenly spread over the skeleton's.
+
+    Returns
+    -------
+    ndarray, shape (F, B, 2, 3)
+        ``[[a, b, worldX], [c, d, worldY]]`` per frame and bone; F may be 0.
+    """
+    from ..anim import Sampler  # the sampler builds rigs: imported here, not at module level
+    from ..errors import SpineMeshError
+
+    try:
+        sampler = Sampler(doc)
+    except (SpineMeshError, ValueError, KeyError, TypeError):
+        return np.zeros((0, 0, 2, 3))
+    names = sampler.animation_names()
+    if len(names) > most:
+        names = [names[int(k)] for k in np.linspace(0, len(names) - 1, most).round()]
+    out = []
+    for name in names:
+        try:
+            duration = sampler.duration(name)
+            poses = [sampler.bone_worlds(name, duration * (k + 0.5) / frames) for k in range(frames)]
+        except (SpineMeshError, ValueError, KeyError, TypeError, ZeroDivisionError):
+            continue
+        out += [w for w in poses if np.isfinite(w).all()]
+    bones = len(sampler.bone_names)
+    return np.stack(out) if out else np.zeros((0, bones, 2, 3))
+
+
+def follows_slot(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, near: float = SLOT_NEAR) -> bool:
+    """Whether the slot's bone can stand for where the art goes: not the root (it moves the
+    whole skeleton) and its segment within ``near`` times the art's diagonal of the art.
+
+    ``bones``: the rig's bones (:func:`.bones.skeleton_bones`); ``world`` (N, 2) and
+    ``triangles`` (T, 3): the art's setup-pose vertices and triangles.
+    """
+    from .choice import distance_to_art
+
+    bone = bones[slot_bone]
+    if bone.parent is None:
+        return False
+    a, b = np.asarray(bone.segment(), float).reshape(2, 2)
+    points = a + np.linspace(0.0, 1.0, 17)[:, None] * (b - a)
+    diag = float(np.linalg.norm(np.ptp(world, axis=0)))
+    return bool(distance_to_art(points, world, triangles).min() <= near * diag)
+
+
+def _rigid(points: np.ndarray, setup: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """``points`` (N, 2) rigid on a bone with setup transform ``setup`` (2, 3), in each of its
+    ``frames`` (F, 2, 3): shape (F, N, 2)."""
+    inv = np.linalg.inv(np.vstack([setup, [0.0, 0.0, 1.0]]))[:2]
+    local = points @ inv[:, :2].T + inv[:, 2]
+    return np.einsum("fij,nj->fni", frames[..., :2], local) + frames[:, None, :, 2]
+
+
+def drifts(world: np.ndarray, setup: np.ndarray, frames: np.ndarray, slot_bone: int,
+           bones) -> dict[int, float]:
+    """How far each of ``bones`` would carry the art from where the slot's bone carries it.
+
+    For each frame, the mean distance between the art's vertices rigid on the bone and rigid on
+    the slot's bone; then the largest over the frames, divided by the art's bounding-box
+    diagonal. 0 for the slot's bone and for a bone moving with it.
+
+    Parameters
+    ----------
+    world : ndarray, shape (N, 2)
+        The art's setup-pose vertices, world units.
+    setup : ndarray, shape (B, 2, 3)
+        Every bone's setup world transform.
+    frames : ndarray, shape (F, B, 2, 3)
+        Every bone's world transform in the sampled frames (:func:`sampled_bone_worlds`).
+    slot_bone : int
+        The slot's bone.
+    bones : iterable of int
+        The bones measured.
+
+    Returns
+    -------
+    dict of int to float
+        Per bone, the largest mean drift over the frames in art diagonals; 0 for all when no
+        frame was sampled; a bone whose setup transform cannot be inverted (scaled to nothing)
+        is infinitely far.
+
+    Examples
+    --------
+    >>> setup = np.array([[[1.0, 0, 0], [0, 1, 0]], [[1.0, 0, 10], [0, 1, 0]]])
+    >>> turned = np.array([[[1.0, 0, 0], [0, 1, 0]], [[-1.0, 0, 10], [0, -1, 0]]])  # bone 1 flips
+    >>> art = np.array([[9.0, -1], [11, -1], [11, 1], [9, 1]])            # centred on bone 1
+    >>> drifts(art, setup, turned[None], 0, [0, 1])
+    {0: 0.0, 1: 1.0}
+    """
+    world = np.asarray(world, float)
+    frames = np.asarray(frames, float)
+    out = {}
+    if not len(frames) or not len(world):
+        return {int(b): 0.0 for b in bones}
+    diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
+    try:
+        on_slot = _rigid(world, setup[slot_bone], frames[:, slot_bone])
+    except np.linalg.LinAlgError:
+        return {int(b): 0.0 for b in bones}  # nothing to measure against
+    for b in bones:
+        b = int(b)
+        if b == slot_bone:
+            out[b] = 0.0
+            continue
+        try:
+            moved = _rigid(world, setup[b], frames[:, b])
+        except np.linalg.LinAlgError:
+            out[b] = float("inf")
+            continue
+        out[b] = float(np.linalg.norm(moved - on_slot, axis=2).mean(axis=1).max() / diag)
+    return out
+
+
+def guarded(choice, drift: dict[int, float], slot_bone: int, limit: float, add_slot: bool = False,
+            slot_bindable: bool = True):
+    """``choice`` (a :class:`.choice.Choice`) without the bones that would carry the art more
+    than ``limit`` art diagonals from where the slot's bone carries it (``drift``, from
+    :func:`drifts`); each left out says so.
+
+    When every bone chosen is left out, or (``add_slot``) when any is, the slot's bone is bound
+    (where it can be: ``slot_bindable``): it is where the art is drawn without weights.
+    """
+    from .choice import Choice
+
+    far = {b for b in choice.bones if b != slot_bone and drift.get(b, 0.0) > limit}
+    if not far:
+        return choice
+    left_out = dict(choice.left_out)
+    for b in far:
+        left_out[b] = (f"would carry the art {drift[b]:.2f} of its size away from where the slot's bone "
+                       f"carries it in the animations (more than {limit:g})")
+    why = {b: w for b, w in choice.why.items() if b not in far}
+    bones = [b for b in choice.bones if b not in far]
+    if slot_bindable and slot_bone not in bones and (add_slot or not bones):
+        why[slot_bone] = "slot bone (the bones chosen would carry the art away from it)"
+        bones = sorted(bones + [slot_bone])
+    return Choice(bones, why, left_out)

@@ -1,0 +1,61 @@
+"""The motion guard of the bone choice: bones that would carry the art away from its slot's bone."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spinemesh.rig.choice import Choice
+from spinemesh.rig.document import build_rig
+from spinemesh.rig.motion import DRIFT_LIMIT, drifts, guarded, sampled_bone_worlds
+
+from rig_project import worm_skeleton
+
+
+def _worm_with_flap() -> dict:
+    """The worm (root -> seg1 -> seg2 -> seg3 along x, -120..120; ``wiggle`` bends seg2 and seg3 by
+    35 and 40 degrees, a forearm's bend) plus ``flap``, a bone lying over the art that ``wiggle``
+    turns over and throws 300 units up: a paper-fold leaf or another part's bone."""
+    doc = worm_skeleton()
+    doc["bones"].append({"name": "flap", "parent": "root", "x": -40, "length": 80})
+    doc["animations"]["wiggle"]["bones"]["flap"] = {
+        "rotate": [{"value": 0}, {"time": 0.5, "value": 180}, {"time": 1, "value": 0}],
+        "translate": [{"x": 0, "y": 0}, {"time": 0.5, "x": 0, "y": 300}, {"time": 1, "x": 0, "y": 0}]}
+    return doc
+
+
+ART = np.array([[x, y] for x in np.linspace(-120, 120, 7) for y in (-30.0, 30.0)])  # the worm's region
+
+
+def _drift_of(doc) -> dict[str, float]:
+    rig = build_rig(doc)
+    names = [b.name for b in rig.bones]
+    frames = sampled_bone_worlds(doc)
+    assert frames.shape == (3, len(names), 2, 3)                   # one animation, three frames
+    got = drifts(ART, np.stack(rig.worlds), frames, names.index("seg1"), range(len(names)))
+    return {names[i]: d for i, d in got.items()}
+
+
+def test_a_bone_that_turns_the_art_over_drifts_far_a_bending_one_stays_near():
+    drift = _drift_of(_worm_with_flap())
+    assert drift["seg1"] == 0.0 and drift["root"] > 0.0           # the slot's bone; root stays, seg1 is posed still
+    assert drift["seg2"] < drift["seg3"] < DRIFT_LIMIT              # the forearm and the hand bend the art
+    assert drift["flap"] > 2 * DRIFT_LIMIT                          # turned over and thrown away
+
+
+def test_the_guard_leaves_the_flipping_bone_out_and_keeps_the_forearm():
+    doc = _worm_with_flap()
+    rig = build_rig(doc)
+    idx = {b.name: b.index for b in rig.bones}
+    drift = {idx[n]: d for n, d in _drift_of(doc).items()}
+    chosen = Choice([idx["seg1"], idx["seg2"], idx["flap"]], {i: "chosen" for i in (1, 2, 4)}, {})
+    out = guarded(chosen, drift, idx["seg1"], DRIFT_LIMIT)
+    assert out.bones == [idx["seg1"], idx["seg2"]]
+    assert "carry the art" in out.left_out[idx["flap"]] and idx["seg2"] in out.why
+    # every chosen bone would carry it away: the slot's bone, where the region was drawn
+    alone = guarded(Choice([idx["flap"]], {idx["flap"]: "chosen"}, {}), drift, idx["seg1"], DRIFT_LIMIT)
+    assert alone.bones == [idx["seg1"]] and idx["flap"] in alone.left_out
+    # without animations nothing is measured, and nothing left out
+    still = worm_skeleton()
+    still["animations"] = {}
+    assert sampled_bone_worlds(still).shape[0] == 0
+    assert drifts(ART, np.stack(rig.worlds), np.zeros((0, len(rig.bones), 2, 3)), 1, [4]) == {4: 0.0}
