@@ -23,6 +23,7 @@ from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
 from .learned import choose_learned, constrained_bones, neighbour_sets
+from .motion import Motion, guard
 from .weights import solve_weights_once, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic")
@@ -89,6 +90,8 @@ class Rig:
     habits: ProjectHabits | None = None
     # learned choices made on this rig, by everything they depend on (:func:`choose`)
     choices: dict = field(default_factory=dict, repr=False, compare=False)
+    # the skeleton's animations, sampled when a learned choice is first guarded (:func:`.motion.guard`)
+    motion: Motion | None = field(default=None, repr=False, compare=False)
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -139,7 +142,7 @@ def build_rig(doc: dict) -> Rig:
             parent_skin = str(ref.attachment.get("skin") or "default")
             keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
                              keyed[(ref.skin, ref.slot, ref.name)])
-    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc))
+    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), motion=Motion(doc))
 
 
 def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
@@ -170,7 +173,9 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         others = rig.habits.others(keys) if rig.habits is not None else None
         neighbours = neighbour_sets(rig.habits, rig.bones, slot_bone, keys)
         skin_bones = rig.skin_bones.get(ref.skin, set())
-        return _remembered(rig, (slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain))
+        made = _remembered(rig, (slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain))
+        # a bone that would carry the art far from where its slot's bone does is a wrong choice
+        return guard(made, rig.bones, slot_bone, world, triangles, rig.motion)
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 
