@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
         [--every K] [--variants NAME,...] [--bounds] [--learned] [--points P] [--tolerance T]
+        [--drift-folds D,...]
 
 ``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
 about 15 minutes for one variant pair). Linear blend skinning is linear in the weights, so one
@@ -50,7 +51,12 @@ bone's segment lies farther than its heaviest's, wholly from ``D`` times the art
 ``smooth=N`` (``N`` steps of averaging with mesh neighbours), ``floor=F`` (weights below ``F``
 dropped instead of below 0.01), ``cap=K`` (at most ``K`` bones per vertex), ``reach=R`` (bones
 missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by default),
-``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method), ``slot=A`` (the slot
+``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method), ``driftslot=D`` (the
+motion guard of the product, :func:`spinemesh.rig.motion.guard`, at limit ``D``: bones that would
+carry the art more than ``D`` art diagonals from its slot's bone in the skeleton's animations,
+sampled by our own sampler, left out and the slot's bone bound; ``drift=D`` the same without
+binding the slot's bone unless nothing is left; ``near=R`` the slot's bone taken as where the art
+goes within ``R`` diagonals of it, -1: always), ``slot=A`` (the slot
 bone's weights alone to the power ``A``, rows renormalised: below 1 it leads more of the
 vertices it shares): ``learned:sharpen=2``.
 
@@ -636,6 +642,28 @@ def errors_of(cases: list[dict], name: str, cap: int = 4, saved: Path | None = N
 SHIPPED_SOLVER = (rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANCE)
 
 
+def drift_chosen_by_fold(cases: list[dict], limits: list[float], saved: Path | None, fold_models: Path) -> dict[int, float]:
+    """``learned`` with the motion guard (``driftslot=D``) at a limit chosen without the judged
+    repository: for the meshes of each repository fold, the limit of ``limits`` with the lowest
+    slot-bone sum ratio on the meshes of the other folds. Prints each fold's pick.
+
+    The folds are the fold models' (each lists the repositories it held out)."""
+    from spinemesh.train import bone_choice as train_choice
+
+    models = train_choice.load_fold_models(fold_models)
+    repos = {c["label"]: train_choice.repository_of(c["label"], bench_weights.SHARED / "spine-corpus") for c in cases}
+    fold = [next((k for k in sorted(models) if repos[c["label"]] in models[k].meta.get("held_out", ())), min(models))
+            for c in cases]
+    errors = {d: errors_of(cases, f"learned:driftslot={d:g}", 4, saved, fold_models) for d in limits}
+    out = {}
+    for k in sorted(set(fold)):
+        others = {i: None for i in range(len(cases)) if fold[i] != k}
+        best = min(limits, key=lambda d: against(cases, {i: errors[d][i] for i in others}, "on_slot_bone")["sum"])
+        print(f"fold {k}: drift limit {best:g} (chosen on the other folds' {len(others)} meshes)")
+        out.update({i: errors[best][i] for i in range(len(cases)) if fold[i] == k})
+    return out
+
+
 #: The variants that read the fold models (:func:`learned`).
 LEARNED_VARIANTS = ("learned", "learned-alone", "upgrade", "upgrade-alone", "confident", "upgrade-confident")
 
@@ -656,6 +684,8 @@ def main() -> None:
     ap.add_argument("--learned", action="store_true")
     ap.add_argument("--errors", type=Path, help="JSON file of the errors of earlier runs: reused and added to "
                     "(a variant run before is not run again; the table covers every variant named)")
+    ap.add_argument("--drift-folds", default="", help="comma-separated limits of the motion guard (driftslot=D): "
+                    "adds learned with each repository fold's limit chosen on the other folds")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     ap.add_argument("--points", type=int, default=rig_weights.REFINED_VERTEX_BUDGET,
@@ -704,6 +734,12 @@ def main() -> None:
         for name, results in oracle_bounds(cases, per_variant, bbw).items():
             row(name, results, start)
             per_variant[name] = results
+    if args.drift_folds:
+        start = time.perf_counter()
+        name = "learned, drift limit chosen on the other folds"
+        per_variant[name] = drift_chosen_by_fold(cases, [float(d) for d in args.drift_folds.split(",")], args.errors,
+                                                 args.fold_models)
+        row(name, per_variant[name], start)
     if args.learned:
         start = time.perf_counter()
         row("learned weights (project-held-out upper bound)", learned_bound(cases), start)
