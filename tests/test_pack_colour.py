@@ -271,3 +271,28 @@ def test_corpus_pages_with_colour_chunks_keep_them(tmp_path):
             for page in parse_atlas(written.read_text(), written).pages:
                 assert chunk_differences(said[page_settings(page)], _said(written.parent / page.name)) == [], page.name
     assert "packed" in statuses and "disagree" in statuses, statuses
+
+
+def test_upgrade_repack_pages_carry_the_colour_chunks_of_their_page(tmp_path):
+    """``upgrade --repack`` writes new pages too (sequence frames stored untrimmed): they say what
+    the page their regions come from says."""
+    import json
+
+    from spinemesh.demo import demo_images, demo_skeleton
+    from spinemesh.demo import pack_atlas as demo_atlas
+    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+    from spinemesh.upgrade import Options, upgrade_project
+
+    images = demo_images()
+    text, page = demo_atlas(images, "demo.png", rotate={"demo-arm", "demo-spark/frame2"})
+    folder = tmp_path / "project"
+    atomic_write_text(folder / "demo.atlas", text)
+    atomic_write_png(folder / "demo.png", page)
+    atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
+    _say(folder / "demo.png", [_iccp(), GAMMA])
+    result = upgrade_project(folder, tmp_path / "out", Options(repack=True))
+    assert not result.errors
+    new = tmp_path / "out" / "demo-untrimmed-1.png"
+    assert new.is_file()
+    assert chunk_differences(_said(folder / "demo.png"), _said(new)) == []
+    assert [k for k, _ in _said(new)] == [b"iCCP", b"gAMA"]

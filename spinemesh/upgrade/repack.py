@@ -36,10 +36,12 @@ _GEOMETRY_KEYS = {"bounds", "offsets", "xy", "size", "orig", "offset", "rotate"}
 
 @dataclass
 class NewPage:
-    """A page added by re-packing: its file name (next to the atlas) and its texels, (H, W, 4) uint8."""
+    """A page added by re-packing: its file name (next to the atlas), its texels, (H, W, 4) uint8,
+    and the index of the atlas page its regions come from (one page each)."""
 
     name: str
     rgba: np.ndarray
+    source: int = -1
 
 
 def shelf_pack(sizes: list[tuple[int, int]], padding: int = PADDING,
@@ -148,13 +150,30 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
             if not any(e.key == "size" for e in entries):
                 entries.insert(0, Entry("size", [str(w), str(h)], template.entries[0].indent if template.entries else ""))
             out.pages.append(AtlasPage(name, entries))
-            new_pages.append(NewPage(name, np.zeros((h, w, 4), np.uint8)))
+            new_pages.append(NewPage(name, np.zeros((h, w, 4), np.uint8), old_index))
         for region, image, (page, x, y) in zip(group, images, places):
             h, w = image.shape[:2]
             new_pages[first_new - len(atlas.pages) + page].rgba[y:y + h, x:x + w] = image
             region.page = first_new + page
             region.entries = untrimmed_entries(region, out.syntax, x, y, w, h, indent)
     return out, new_pages
+
+
+def page_png(rgba: np.ndarray, source: Path) -> bytes:
+    """A new page's PNG file: ``rgba`` with the colour chunks of the page ``source`` its regions come
+    from (gamma, sRGB, colour profile: :func:`spinemesh.pack.run.page_colour`), so that an engine
+    that manages colour draws them in the colours it drew them in."""
+    import io
+
+    from PIL import Image
+
+    from ..pack.png import with_colour_chunks
+    from ..pack.run import page_colour
+
+    buf = io.BytesIO()
+    Image.fromarray(rgba).save(buf, format="PNG")
+    colour = page_colour(source.read_bytes())
+    return with_colour_chunks(buf.getvalue(), colour) if colour else buf.getvalue()
 
 
 def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, out: Path) -> list[str]:
@@ -175,7 +194,7 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
         The new page files written, relative to ``out``.
     """
     from ..atlas import read_atlas
-    from ..fsutil import atomic_write_png, atomic_write_text
+    from ..fsutil import atomic_write_bytes, atomic_write_text
     from ..images import AtlasImages, load_rgba
 
     atlas = read_atlas(atlas_path)
@@ -188,7 +207,8 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
         atlas, names, lambda i: load_rgba(AtlasImages.page_path(atlas, atlas.pages[i].name, project_root)), taken)
     written = []
     for page in pages:
-        atomic_write_png(out / rel.parent / page.name, page.rgba)
+        source = AtlasImages.page_path(atlas, atlas.pages[page.source].name, project_root)
+        atomic_write_bytes(out / rel.parent / page.name, page_png(page.rgba, source))
         written.append((rel.parent / page.name).as_posix())
     atomic_write_text(out / rel, repacked.dumps())
     return written
