@@ -296,3 +296,17 @@ def test_upgrade_repack_pages_carry_the_colour_chunks_of_their_page(tmp_path):
     assert new.is_file()
     assert chunk_differences(_said(folder / "demo.png"), _said(new)) == []
     assert [k for k, _ in _said(new)] == [b"iCCP", b"gAMA"]
+
+
+def test_a_packed_page_of_unknown_settings_takes_the_colours_all_pages_share():
+    from types import SimpleNamespace
+
+    from spinemesh.pack.atlas_pack import PackRefused, page_settings
+
+    page = SimpleNamespace(name="new.png", entries=[])
+    other = (("filter", ("nearest",)),)
+    assert page_settings(page) != other
+    atlas = SimpleNamespace(pages=[page])
+    assert run.packed_page_colours(atlas, {other: (GAMMA,)}) == {"new.png": (GAMMA,)}
+    with pytest.raises(PackRefused, match="cannot be told"):
+        run.packed_page_colours(atlas, {other: (GAMMA,), (("wrap", ("x",)),): (SRGB,)})

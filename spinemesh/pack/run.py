@@ -222,6 +222,30 @@ def colours_by_settings(atlas, colours: list) -> dict[tuple, tuple]:
     return {key: colour for key, (_, colour) in found.items()}
 
 
+def packed_page_colours(packed_atlas, group_colour: dict[tuple, tuple]) -> dict[str, tuple]:
+    """The colour chunks each page of ``packed_atlas`` carries, by page name: those of the original
+    pages of its settings (:func:`colours_by_settings`).
+
+    Raises
+    ------
+    PackRefused
+        For a packed page whose settings no original page has, unless every original page says
+        the same (a page whose origin cannot be told cannot say whose colours it holds).
+    """
+    said = list(group_colour.values())
+    colours = {}
+    for page in packed_atlas.pages:
+        key = page_settings(page)
+        if key in group_colour:
+            colours[page.name] = group_colour[key]
+        elif said and all(not chunk_differences(said[0], c) for c in said):
+            colours[page.name] = said[0]
+        else:
+            raise PackRefused(f"packed page {page.name!r} has settings no original page has, so its "
+                              "colour information cannot be told")
+    return colours
+
+
 def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> tuple[bytes, np.ndarray] | None:
     """``rgba`` as a palette PNG with the palette ``lut`` (n, 4), and the texels it holds; None when a
     texel's colour is not in the palette.
@@ -540,7 +564,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                             on_fill=on_step)
         on_step(0, len(packed.pages))
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
-        colour_of = {page.name: group_colour[page_settings(page)] for page in packed.atlas.pages}
+        colour_of = packed_page_colours(packed.atlas, group_colour)
         if parallel:
             futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name), colour_of[name]), first=True)
                        for name, rgba in packed.pages.items()}
