@@ -207,7 +207,7 @@ def _shapes(seed: int, count: int, soft: bool) -> tuple[list, list]:
 def test_least_share_is_a_lower_bound_exact_for_boxes():
     """A footprint's hard texels grown by half the padding take at least :func:`place.least_share`
     texels, in every quarter turn; a box takes exactly that."""
-    masks, hards = _shapes(3, 40, soft=True)
+    _, hards = _shapes(3, 40, soft=True)
     for reach in (0, 1, 5, 17):
         for hs in hards:
             for h in hs:
@@ -228,7 +228,7 @@ def test_fills_stopped_by_the_pages_left_find_what_full_fills_find(soft, monkeyp
     masks, hards = _shapes(11, 90, soft)
     hard = hards if soft else None
     padding, max_pages = 12, 6
-    sizes = [(w, h) for w in (128, 256, 512) for h in (128, 256, 512)]
+    sizes = [(128, 128), (256, 128), (128, 256), (256, 256), (512, 256), (512, 512)]
     pages_opened = []
 
     def fills(bounded: bool):
@@ -251,3 +251,55 @@ def test_fills_stopped_by_the_pages_left_find_what_full_fills_find(soft, monkeyp
     assert any(p is not None for p in bounded) and any(p is None for p in bounded)  # some fit, some do not
     opened = {b: sum(n for bb, n in pages_opened if bb == b) for b in (True, False)}
     assert opened[True] < opened[False]  # the bound spared pages
+
+
+@pytest.mark.parametrize("padding", [12, 20])
+def test_surely_taken_only_where_no_texel_finds_room(padding):
+    """Wherever the full-cell grid proves a footprint finds no place on a page, no top-left texel
+    (searched texel by texel) keeps its hard texels off the taken ones; and it proves some."""
+    import cv2
+
+    masks, hards = _shapes(5, 160, soft=True)  # placed by the masks, tried by their hard parts
+    proved = 0
+    for width, height in ((512, 512), (1024, 256)):
+        page = place.Page(width, height, padding)
+        for ms, hs in zip(masks, hards):  # fill the page as the first fit does
+            at = page.first_fit(ms[0], hs[0])
+            if at is not None:
+                page.take(ms[0], *at, (ms[0].shape[1], ms[0].shape[0]), hs[0])
+        taken = page.taken.astype(np.float32)
+        for hs in hards:
+            for h in hs:
+                last_x, last_y = page.width - h.shape[1], page.height - h.shape[0]
+                if not page._surely_taken(h, last_x, last_y):
+                    continue
+                proved += 1
+                scores = cv2.matchTemplate(taken, h.astype(np.float32), cv2.TM_CCORR)
+                assert (scores >= 0.5).all()
+    assert proved > 20
+
+
+@pytest.mark.parametrize("soft", [False, True])
+def test_fills_with_places_proved_taken_find_what_full_searches_find(soft, monkeypatch):
+    """Every fill of the plan, with footprints passed over where the full-cell grid proves them no
+    place, keeps the very placements of fills that search every page in full."""
+    from spinemesh.pack.atlas_pack import fill_plan, run_fill
+
+    masks, hards = _shapes(13, 80, soft)
+    hard = hards if soft else None
+    proved = []
+    real = place.Page._surely_taken
+
+    def counted(self, *args):
+        found = real(self, *args)
+        proved.append(found)
+        return found
+
+    results = {}
+    for on in (True, False):
+        monkeypatch.setattr(place.Page, "_surely_taken", counted if on else lambda self, *args: False)
+        for pot in (True, False):
+            limits = (512, 512, 512 * 512, pot, 6, 4)
+            results[on, pot] = [run_fill(fill, masks, hard, *limits, None) for fill in fill_plan(pot, soft, 4)]
+    assert results[True, True] == results[False, True] and results[True, False] == results[False, False]
+    assert sum(proved) > 20

@@ -36,6 +36,9 @@ SLIDE_STEPS = 16
 #: (width + height), or by the area alone. Each packs some atlases best: a fill tries each.
 PAGE_SHAPES = ("square", "perimeter", "area")
 
+#: Side of the cells of the full-cell grid (:meth:`Page._surely_taken`), in cells of the coarse grid.
+FULL_CELLS = 2
+
 #: Places whose soft cells are checked cell by cell at once, and the most cells so checked per
 #: search before one correlation checks the rest (about what one correlation costs).
 KEEP_CLEAR_BATCH = 256
@@ -122,6 +125,10 @@ class Page:
         self.coarse_hard: np.ndarray | None = None
         self.used_w = self.used_h = 0
         self.free = width * height  # texels under no placed hard texel
+        # cells of FULL_CELLS coarse cells whose every texel is taken (texels off the page count as taken)
+        self.full_side = self.cell * FULL_CELLS
+        self.full = np.zeros((-(-height // self.full_side), -(-width // self.full_side)), np.float32)
+        self.found_none = False  # whether the last search found no place
 
     def _both(self, mask: np.ndarray, hard: np.ndarray | None) -> bool:
         """Whether ``mask`` (hard part ``hard``) must be checked against both bitmaps.
@@ -178,12 +185,25 @@ class Page:
         ``first``: only the first so many places (found without listing them all), all free
         (``soft`` None).
         """
-        import cv2
-
         none = np.zeros(0, np.int64), np.zeros(0, np.int64), None
         h, w = mask.shape
         if w > self.width or h > self.height or self.free < int((mask if hard is None else hard).sum()):
             return none
+        # once a footprint found no place, the page is often full: most that follow find none either,
+        # and proving it costs little; while footprints find places, the proof is seldom made
+        if self.found_none and self._surely_taken(mask if hard is None else hard, *self._search_limit(w, h)):
+            return none
+        xs, ys, soft = self._search(mask, hard, first)
+        self.found_none = xs.size == 0
+        return xs, ys, soft
+
+    def _search(self, mask: np.ndarray, hard: np.ndarray | None, first: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+        """The search of :meth:`_places` on the coarse grid (or texel by texel on a small page)."""
+        import cv2
+
+        none = np.zeros(0, np.int64), np.zeros(0, np.int64), None
+        h, w = mask.shape
         cell = self.cell
         template = _coarse(mask, cell).astype(np.float32)
         hc, wc = template.shape
@@ -221,6 +241,40 @@ class Page:
             if keep.size:
                 break
         return xs[keep], ys[keep], None
+
+    def _surely_taken(self, hard: np.ndarray, last_x: int, last_y: int) -> bool:
+        """Whether every place of a footprint whose hard texels are ``hard``, top-left texel up to
+        ``(last_x, last_y)``, puts a hard texel on a taken one: proved on the full-cell grid.
+
+        A full cell (:attr:`full`, side ``F`` texels) is taken in every texel. The places whose
+        top-left texel lies in one cell ``(X, Y)`` of that grid put the footprint over full cell
+        ``(X + i, Y + j)`` whole, wherever in the cell they start, when ``hard`` holds the
+        ``(2F - 1)``-texel box at ``(iF - F + 1, jF - F + 1)``: so one correlation of the full cells
+        with those boxes on a grid ``F`` times coarser than the page's texels proves, for most
+        footprints that find no place on a full page, that none exists, at a small part of the
+        cost of the search. False where it proves nothing (some place may be free).
+        """
+        import cv2
+
+        side = self.full_side
+        h, w = hard.shape
+        rows, cols = (h - side) // side, (w - side) // side  # the last i, j whose box lies within the mask
+        last_cx, last_cy = last_x // side, last_y // side
+        if rows < 1 or cols < 1:
+            return False
+        box = 2 * side - 1
+        inner = cv2.erode(hard.astype(np.uint8), np.ones((box, box), np.uint8), anchor=(0, 0),
+                          borderType=cv2.BORDER_CONSTANT, borderValue=0)
+        template = np.zeros((rows + 1, cols + 1), np.float32)
+        template[1:, 1:] = inner[1::side, 1::side][:rows, :cols]  # box i at (i - 1) * F + 1
+        if not template.any():
+            return False
+        need_h, need_w = last_cy + rows + 1, last_cx + cols + 1
+        full = self.full[:need_h, :need_w]
+        if full.shape != (need_h, need_w):  # past the page's last cell: nothing taken (proves nothing there)
+            full = np.pad(full, ((0, need_h - full.shape[0]), (0, need_w - full.shape[1])))
+        scores = cv2.matchTemplate(full, template, cv2.TM_CCORR)
+        return bool((scores[:last_cy + 1, :last_cx + 1] >= 0.5).all())
 
     def _keep_clear(self, xs: np.ndarray, ys: np.ndarray, soft: tuple, first: int | None = None) -> np.ndarray:
         """Indices of the places ``(xs, ys)`` (from :meth:`_places`) whose soft cells miss every taken hard
@@ -354,6 +408,13 @@ class Page:
         c = self.cell
         gy0, gx0, gy1, gx1 = cy0 // c, cx0 // c, -(-cy1 // c), -(-cx1 // c)
         coarse[gy0:gy1, gx0:gx1] = _coarse(taken[gy0 * c:gy1 * c, gx0 * c:gx1 * c], c)[:gy1 - gy0, :gx1 - gx0]
+        if taken is self.taken:
+            f = self.full_side
+            fy0, fx0, fy1, fx1 = cy0 // f, cx0 // f, -(-cy1 // f), -(-cx1 // f)
+            block = np.ones(((fy1 - fy0) * f, (fx1 - fx0) * f), bool)  # off the page: taken
+            part = taken[fy0 * f:fy1 * f, fx0 * f:fx1 * f]
+            block[:part.shape[0], :part.shape[1]] = part
+            self.full[fy0:fy1, fx0:fx1] = block.reshape(fy1 - fy0, f, fx1 - fx0, f).all(axis=(1, 3))
 
 
 def largest_first(candidates: list[list[np.ndarray]]) -> list[int]:
