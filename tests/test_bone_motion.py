@@ -81,10 +81,9 @@ def test_the_auto_choice_is_guarded_where_the_slot_bone_carries_the_art():
     fresh = Motion(doc)
     assert guard(Choice([idx["seg1"]], {}, {}), rig.bones, idx["seg1"], ART, tris, fresh).bones == [idx["seg1"]]
     assert fresh._frames is None
-    # sent to a worker, the motion carries the sampled frames, not the document
+    # sent to another process, the motion carries the sampled frames, not the document
     sent = pickle.loads(pickle.dumps(Motion(doc)))
-    assert sent._doc is None and sent.frames.shape == (3, len(rig.bones), 2, 3)
-    assert np.array_equal(sent.frames, rig.motion.frames)
+    assert sent._doc is None and np.array_equal(sent.frames, rig.motion.frames)
 
 
 def _with_a_bone_far(doc: dict) -> dict:

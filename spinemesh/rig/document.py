@@ -156,11 +156,12 @@ def uses_learned(options: WeightOptions) -> bool:
 
 
 def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.ndarray,
-           mode: str, unweighted: bool = False, explain: bool = True) -> Choice:
+           mode: str, unweighted: bool = False, explain: bool = True, guarded: bool = True) -> Choice:
     """The bones for one mesh: its current ones (``keep``), the ``rule`` or the ``learned`` choice
     (``auto``: :data:`AUTO_BONES`; with the project's habits when ``rig.habits`` holds them;
     ``unweighted``: for art no artist chose to weight; ``explain=False``: the learned choice's
-    bones without their reasons, :func:`.learned.choose_learned`)."""
+    bones without their reasons, :func:`.learned.choose_learned`; ``guarded=False``: without
+    leaving out the bones that would carry the art away, :func:`.motion.guard`)."""
     slot_bone = rig.slot_bone[ref.slot]
     if mode == "keep":
         current = mesh.bones() if mesh.weighted else [slot_bone]
@@ -175,7 +176,7 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         skin_bones = rig.skin_bones.get(ref.skin, set())
         made = _remembered(rig, (slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain))
         # a bone that would carry the art far from where its slot's bone does is a wrong choice
-        return guard(made, rig.bones, slot_bone, world, triangles, rig.motion)
+        return guard(made, rig.bones, slot_bone, world, triangles, rig.motion) if guarded else made
     return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
 
 

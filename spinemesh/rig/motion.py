@@ -193,8 +193,8 @@ class Motion:
     """A skeleton's sampled animations (:func:`sampled_bone_worlds`), sampled when first asked for.
 
     Kept on the rig (:class:`.document.Rig`). Sent to another process it carries the sampled
-    transforms, not the document: sampled before it goes, so that a worker guards exactly as
-    the process that sent it would.
+    transforms, not the document: sampled before it goes, so that the receiver guards exactly as
+    the sender would (``upgrade``'s workers get a rig without it: its choice is not guarded).
     """
 
     def __init__(self, doc: dict | None):
