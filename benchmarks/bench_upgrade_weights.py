@@ -65,8 +65,10 @@ def run(code: Path, root: Path, out: Path, weights: str, jobs: int, whole: bool 
     """One upgrade in a fresh process with ``code`` first on the path: its times and meshes
     weighted; ``whole``: the folder upgraded as one project (``upgrade_project``)."""
     shutil.rmtree(out, ignore_errors=True)
+    # ``-c`` puts the working folder first on the path, before PYTHONPATH: run inside ``code``, or
+    # a run from another checkout measures that checkout's code
     r = subprocess.run([sys.executable, "-c", RUN, str(root), str(out), weights, str(jobs), "1" if whole else "0"],
-                       env={**os.environ, "PYTHONPATH": str(code)}, capture_output=True, text=True)
+                       env={**os.environ, "PYTHONPATH": str(code)}, capture_output=True, text=True, cwd=str(code))
     if r.returncode:
         raise SystemExit(f"upgrade failed ({r.returncode}): {r.stderr[-2000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])

@@ -146,7 +146,7 @@ def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: n
         False: the bones alone, without the reasons for them and for the bones left out.
     """
     # not guarded (.motion.guard): sampling the animations cost about 2 s of CPU on a library
-    # of 45 skeletons, where it changed no choice (docs/guide/bones.md)
+    # of 45 skeletons (docs/guide/bones.md, "Bones that would carry the art away")
     return choose(rig, ref, None, world, triangles, "auto", unweighted=True, explain=explain, guarded=False)
 
 
