@@ -58,6 +58,7 @@ SHARED = REPO.parent / "shared"
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project, image_source_for  # noqa: E402
 from spinemesh.rig.binding import bind, parse_vertices, setup_world  # noqa: E402
+from spinemesh.anim.motion import sampled_bone_worlds  # noqa: E402
 from spinemesh.rig.document import WeightOptions, build_rig, weight_document  # noqa: E402
 from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton, spine_version  # noqa: E402
 
@@ -231,7 +232,7 @@ def replay(label: str, skeleton: Path, tool: Path, method: str, anims: int | Non
     if source is None or not hasattr(source, "atlases"):
         return []
     atlas = source.atlases[0].path
-    rig = build_rig(doc)
+    rig = build_rig(doc, sampled_bone_worlds)  # guarded as `spinemesh weights` guards
     rig.habits = habits
     variants = {"artist": doc}
     outcomes = {}

@@ -338,7 +338,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
     return variant
 
 
-#: Each skeleton's sampled bone transforms (:func:`spinemesh.rig.motion.sampled_bone_worlds`), by path.
+#: Each skeleton's sampled bone transforms (:func:`spinemesh.anim.motion.sampled_bone_worlds`), by path.
 SAMPLED: dict[Path, np.ndarray] = {}
 
 
@@ -347,7 +347,8 @@ def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = 
     from where its slot's bone carries it over the skeleton's animations sampled by our own
     sampler (:func:`spinemesh.rig.motion.guarded`, the ``drift=D`` step)."""
     from spinemesh.rig.choice import Choice
-    from spinemesh.rig.motion import SLOT_NEAR, drifts, follows_slot, guarded, sampled_bone_worlds
+    from spinemesh.anim.motion import sampled_bone_worlds
+    from spinemesh.rig.motion import SLOT_NEAR, drifts, follows_slot, guarded
 
     if case["path"] not in SAMPLED:
         SAMPLED[case["path"]] = sampled_bone_worlds(load_skeleton(case["path"]))

@@ -6,7 +6,8 @@ import numpy as np
 
 from spinemesh.rig.choice import Choice
 from spinemesh.rig.document import build_rig
-from spinemesh.rig.motion import DRIFT_LIMIT, drifts, guarded, sampled_bone_worlds
+from spinemesh.anim.motion import sampled_bone_worlds
+from spinemesh.rig.motion import DRIFT_LIMIT, drifts, guarded
 
 from rig_project import worm_skeleton
 
@@ -27,7 +28,7 @@ ART = np.array([[x, y] for x in np.linspace(-120, 120, 7) for y in (-30.0, 30.0)
 
 
 def _drift_of(doc) -> dict[str, float]:
-    rig = build_rig(doc)
+    rig = build_rig(doc, sampled_bone_worlds)
     names = [b.name for b in rig.bones]
     frames = sampled_bone_worlds(doc)
     assert frames.shape == (3, len(names), 2, 3)                   # one animation, three frames
@@ -44,7 +45,7 @@ def test_a_bone_that_turns_the_art_over_drifts_far_a_bending_one_stays_near():
 
 def test_the_guard_leaves_the_flipping_bone_out_and_keeps_the_forearm():
     doc = _worm_with_flap()
-    rig = build_rig(doc)
+    rig = build_rig(doc, sampled_bone_worlds)
     idx = {b.name: b.index for b in rig.bones}
     drift = {idx[n]: d for n, d in _drift_of(doc).items()}
     chosen = Choice([idx["seg1"], idx["seg2"], idx["flap"]], {i: "chosen" for i in (1, 2, 4)}, {})
@@ -67,7 +68,7 @@ def test_the_auto_choice_is_guarded_where_the_slot_bone_carries_the_art():
     from spinemesh.rig.motion import Motion, guard
 
     doc = _worm_with_flap()
-    rig = build_rig(doc)
+    rig = build_rig(doc, sampled_bone_worlds)
     idx = {b.name: b.index for b in rig.bones}
     tris = np.array([[2 * i + a for a in t] for i in range(6) for t in ((0, 2, 1), (1, 2, 3))])  # strips of ART
     chosen = Choice([idx["seg1"], idx["seg2"], idx["seg3"], idx["flap"]], {}, {})
@@ -75,15 +76,17 @@ def test_the_auto_choice_is_guarded_where_the_slot_bone_carries_the_art():
     # a slot on the root (or far from the art) does not say where the art goes: nothing is left out
     assert guard(chosen, rig.bones, idx["root"], ART, tris, rig.motion).bones == chosen.bones
     far = _with_a_bone_far(doc)
-    rig_far = build_rig(far)
+    rig_far = build_rig(far, sampled_bone_worlds)
     assert guard(chosen, rig_far.bones, len(rig_far.bones) - 1, ART, tris, rig_far.motion).bones == chosen.bones
     # one bone chosen: no animation is sampled
-    fresh = Motion(doc)
+    fresh = Motion(doc, sampled_bone_worlds)
     assert guard(Choice([idx["seg1"]], {}, {}), rig.bones, idx["seg1"], ART, tris, fresh).bones == [idx["seg1"]]
     assert fresh._frames is None
     # sent to another process, the motion carries the sampled frames, not the document
-    sent = pickle.loads(pickle.dumps(Motion(doc)))
+    sent = pickle.loads(pickle.dumps(Motion(doc, sampled_bone_worlds)))
     assert sent._doc is None and np.array_equal(sent.frames, rig.motion.frames)
+    # without a sampler handed down (the Python API's default) there is nothing to guard by
+    assert guard(chosen, rig.bones, idx["seg1"], ART, tris, build_rig(doc).motion).bones == chosen.bones
 
 
 def _with_a_bone_far(doc: dict) -> dict:

@@ -75,6 +75,7 @@ def weights(
     Example: spinemesh weights hero.skel --out weighted/ --replace --bones keep --preview previews/
     Example: spinemesh weights hero.skel --out weighted/ --replace --bones learned --report report.json
     """
+    from ..anim.motion import sampled_bone_worlds
     from ..fsutil import OutputGuard
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
@@ -87,7 +88,7 @@ def weights(
     if preview is not None:
         guard.check_folder(preview, "preview folder")
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
-                            only=only, exclude=exclude)
+                            only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     result = weight_project(project, out, options, preview=preview)
     if report is not None:
         write_report(result, report)

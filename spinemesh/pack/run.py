@@ -528,6 +528,24 @@ class AtlasOutcome:
     previews: tuple | None = None
 
 
+def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: dict, workers, on_step) -> dict:
+    """Each packed page encoded (:func:`encode_page`): ``{name: EncodedPage}``, on ``workers`` when
+    given, else here. ``pages`` then holds what each file decodes to (one copy of each page)."""
+    if workers is not None:
+        futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name), colour_of[name]), first=True)
+                   for name, rgba in pages.items()}
+        results = ((name, future.result()) for name, future in futures.items())
+    else:
+        results = ((name, encode_page(rgba, name, modes.get(name), colour_of[name]))
+                   for name, rgba in list(pages.items()))
+    encoded = {}
+    for name, page in results:
+        encoded[name] = page
+        pages[name] = page.texels
+        on_step(1)
+    return encoded
+
+
 def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     """Read one atlas's pages, pack them and encode the new ones; nothing is written.
 
@@ -565,20 +583,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         on_step(0, len(packed.pages))
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
         colour_of = packed_page_colours(packed.atlas, group_colour)
-        if parallel:
-            futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name), colour_of[name]), first=True)
-                       for name, rgba in packed.pages.items()}
-            encoded = {}
-            for name, future in futures.items():
-                encoded[name] = future.result()
-                packed.pages[name] = encoded[name].texels  # what the file holds: one copy of each page
-                on_step(1)
-        else:
-            encoded = {}
-            for name, rgba in list(packed.pages.items()):
-                encoded[name] = encode_page(rgba, name, modes.get(name), colour_of[name])
-                packed.pages[name] = encoded[name].texels  # what the file holds: one copy of each page
-                on_step(1)
+        encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers if parallel else None, on_step)
         text = packed.atlas.dumps()
         prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
         reencode_kept = True

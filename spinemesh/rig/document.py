@@ -48,6 +48,10 @@ class WeightOptions:
     method: str = "bbw"
     only: list[str] = field(default_factory=list)
     exclude: list[str] = field(default_factory=list)
+    # how the skeleton's animations are sampled for the motion guard of the learned choice
+    # (:class:`.motion.Motion`; ``spinemesh weights`` passes spinemesh.anim.motion.sampled_bone_worlds);
+    # None: the choice is not guarded
+    sample_motion: object = None
 
 
 #: Why a chosen bone is not written: the weights left every vertex at 0 for it.
@@ -121,8 +125,9 @@ def _deform_keys(doc: dict) -> dict[tuple[str, str, str], str]:
     return out
 
 
-def build_rig(doc: dict) -> Rig:
-    """Bones with setup world transforms, slot bones, skin bones and deform-keyed attachments."""
+def build_rig(doc: dict, sample_motion=None) -> Rig:
+    """Bones with setup world transforms, slot bones, skin bones and deform-keyed attachments;
+    ``sample_motion``: how its animations are sampled for the motion guard (:attr:`WeightOptions.sample_motion`)."""
     bones = skeleton_bones(doc)
     index = {b.name: b.index for b in bones}
     slot_bone = {}
@@ -142,7 +147,7 @@ def build_rig(doc: dict) -> Rig:
             parent_skin = str(ref.attachment.get("skin") or "default")
             keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
                              keyed[(ref.skin, ref.slot, ref.name)])
-    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), motion=Motion(doc))
+    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), motion=Motion(doc, sample_motion))
 
 
 def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
@@ -260,7 +265,7 @@ def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig |
 
     One bad attachment never stops the others: it is left as it was and reported failed.
     """
-    rig = rig or build_rig(doc)
+    rig = rig or build_rig(doc, options.sample_motion)
     outcomes = []
     for ref, problem in checked_attachments(doc):
         if problem:  # a field of the wrong type, weighted vertices that do not fit: as it was

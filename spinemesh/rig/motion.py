@@ -13,62 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Frames sampled per animation, evenly spaced inside it (1/6, 1/2 and 5/6 of its duration).
-FRAMES_PER_ANIMATION = 3
-
 #: The slot's bone tells where the art goes only when its segment lies within this share of the
 #: art's diagonal of it (the learned choice's reach, :data:`.learned.REACH`): a weighted mesh's
 #: slot often hangs on the root or on a bone elsewhere, which its vertices do not follow.
 SLOT_NEAR = 0.25
-
-#: Most animations sampled per skeleton (evenly spread over them): the cost stays bounded on a
-#: skeleton with hundreds of animations.
-MOST_ANIMATIONS = 40
-
-
-def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
-                        most: int = MOST_ANIMATIONS) -> np.ndarray:
-    """Every bone's world transform in ``frames`` frames of each animation of ``doc``.
-
-    Posed with :class:`spinemesh.anim.Sampler` (constraints applied, physics not stepped: the
-    bones it moves keep the animation's pose), default skin. An animation that cannot be read
-    or posed, or a frame with a non-finite transform, is left out.
-
-    Parameters
-    ----------
-    doc : dict
-        A skeleton document (:func:`spinemesh.skeleton.load_skeleton`).
-    frames : int
-        Frames per animation, at ``(k + 0.5) / frames`` of its duration.
-    most : int
-        Most animations sampled, evenly spread over the skeleton's.
-
-    Returns
-    -------
-    ndarray, shape (F, B, 2, 3)
-        ``[[a, b, worldX], [c, d, worldY]]`` per frame and bone; F may be 0.
-    """
-    from ..anim import Sampler  # the sampler builds rigs: imported here, not at module level
-    from ..errors import SpineMeshError
-
-    try:
-        sampler = Sampler(doc)
-    except (SpineMeshError, ValueError, KeyError, TypeError):
-        return np.zeros((0, 0, 2, 3))
-    names = sampler.animation_names()
-    if len(names) > most:
-        names = [names[int(k)] for k in np.linspace(0, len(names) - 1, most).round()]
-    out = []
-    for name in names:
-        try:
-            duration = sampler.duration(name)
-            poses = [sampler.bone_worlds(name, duration * (k + 0.5) / frames) for k in range(frames)]
-        except (SpineMeshError, ValueError, KeyError, TypeError, ZeroDivisionError):
-            continue
-        out += [w for w in poses if np.isfinite(w).all()]
-    bones = len(sampler.bone_names)
-    return np.stack(out) if out else np.zeros((0, bones, 2, 3))
-
 
 def follows_slot(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, near: float = SLOT_NEAR) -> bool:
     """Whether the slot's bone can stand for where the art goes: not the root (it moves the
@@ -111,7 +59,7 @@ def drifts(world: np.ndarray, setup: np.ndarray, frames: np.ndarray, slot_bone: 
     setup : ndarray, shape (B, 2, 3)
         Every bone's setup world transform.
     frames : ndarray, shape (F, B, 2, 3)
-        Every bone's world transform in the sampled frames (:func:`sampled_bone_worlds`).
+        Every bone's world transform in the sampled frames (:func:`spinemesh.anim.motion.sampled_bone_worlds`).
     slot_bone : int
         The slot's bone.
     bones : iterable of int
@@ -190,27 +138,30 @@ DRIFT_LIMIT = 0.75
 
 
 class Motion:
-    """A skeleton's sampled animations (:func:`sampled_bone_worlds`), sampled when first asked for.
+    """A skeleton's sampled animations, sampled when first asked for by ``sample(doc)`` (the
+    weights command passes :func:`spinemesh.anim.motion.sampled_bone_worlds`: the sampler sits
+    above the rig, so it is handed down); without ``sample`` there is nothing to guard by.
 
     Kept on the rig (:class:`.document.Rig`). Sent to another process it carries the sampled
     transforms, not the document: sampled before it goes, so that the receiver guards exactly as
     the sender would (``upgrade``'s workers get a rig without it: its choice is not guarded).
     """
 
-    def __init__(self, doc: dict | None):
-        self._doc = doc
+    def __init__(self, doc: dict | None, sample=None):
+        self._doc = doc if sample is not None else None
+        self._sample = sample
         self._frames: np.ndarray | None = None
 
     @property
     def frames(self) -> np.ndarray:
         """Every bone's world transform in each sampled frame, shape (F, B, 2, 3)."""
         if self._frames is None:
-            self._frames = sampled_bone_worlds(self._doc) if self._doc is not None else np.zeros((0, 0, 2, 3))
-            self._doc = None
+            self._frames = self._sample(self._doc) if self._doc is not None else np.zeros((0, 0, 2, 3))
+            self._doc = self._sample = None
         return self._frames
 
     def __getstate__(self):
-        return {"_doc": None, "_frames": self.frames}
+        return {"_doc": None, "_sample": None, "_frames": self.frames}
 
 
 def guard(choice, bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, motion: Motion | None,

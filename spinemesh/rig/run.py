@@ -71,7 +71,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         except SpineMeshError as e:
             result.errors.append(str(e))
             continue
-        read.append((path, doc, build_rig(doc)))
+        read.append((path, doc, build_rig(doc, options.sample_motion)))
     if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
         share_project_habits([(doc, rig) for _, doc, rig in read])
     for path, doc, rig in read:
