@@ -102,12 +102,15 @@ def measure(code: Path, mode: str, *args: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0) -> Path:
+def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0, gap: int | None = None) -> Path:
     """Write a project of one atlas of ``regions`` regions on ``pages`` pages, drawn by one 4.2 skeleton.
 
     Pages are 2048x2048, 2048x1024 and 1024x1024 in turn (PNG, as Pillow writes them); each holds
-    an equal share of the regions on a grid of cells, one region a cell, its size 55-95% of the
-    cell's on each axis. A region is a shape with an alpha outline (a polygon of 7 to 12 corners at
+    an equal share of the regions, each sized 55-95% of a grid cell on each axis. ``gap``: the
+    regions laid row by row from the top left with ``gap`` texels between them, as a packer with
+    that padding leaves them (Spine's packs with 2 by default); None: one region at the corner of
+    each cell (then the padding ``pack`` measures between them is the least gap of the grid,
+    about 150 texels). A region is a shape with an alpha outline (a polygon of 7 to 12 corners at
     random distances from its centre, cropped to its box, as packers strip whitespace), coloured
     by a gradient with a little noise, as painted art compresses. The skeleton has one slot and one
     region attachment per region, so ``upgrade`` meshes them and ``pack`` packs them by outline.
@@ -131,6 +134,7 @@ def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0) ->
         page = Image.new("RGBA", (width, height), (0, 0, 0, 0))
         name = f"made{k + 1}.png" if k else "made.png"
         lines += [name, f"size: {width}, {height}", "filter: Linear, Linear"]
+        row_x = row_y = row_h = 0
         for c in range(count):
             w, h = (int(cell * f) for cell, f in zip((cell_w, cell_h), rng.uniform(0.55, 0.95, 2)))
             corners = int(rng.integers(7, 13))
@@ -149,7 +153,13 @@ def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0) ->
             colour += rng.normal(0, 3, colour.shape)
             art = np.dstack([np.clip(colour, 0, 255), alpha]).astype(np.uint8)
             art[alpha == 0] = 0
-            x, y = (c % columns) * cell_w + 2, (c // columns) * cell_h + 2
+            if gap is None:
+                x, y = (c % columns) * cell_w + 2, (c // columns) * cell_h + 2
+            else:
+                if row_x + w > width:  # the next row
+                    row_x, row_y, row_h = 0, row_y + row_h + gap, 0
+                x, y = row_x, row_y
+                row_x, row_h = row_x + w + gap, max(row_h, h)
             page.paste(Image.fromarray(art), (x, y))
             region = f"part{index:03d}"
             lines += [region, f"bounds: {x}, {y}, {w}, {h}"]
@@ -193,6 +203,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--side", type=int, default=4096, help="with --many: the page's side (default 4096)")
     ap.add_argument("--made", type=int, nargs=2, metavar=("PAGES", "REGIONS"), help="instead: an atlas of REGIONS "
                     "regions on PAGES pages made here, upgraded, then packed")
+    ap.add_argument("--gap", type=int, default=2, help="with --made: texels between the regions, laid row by row "
+                    "(default 2, as Spine's packer leaves them); -1: one region a grid cell, far apart")
     ap.add_argument("--keep", type=Path, metavar="DIR", help="with --made: make and upgrade it here once, and reuse")
     ap.add_argument("--phases", action="store_true", help="with --made: where the CPU time of --jobs 1 goes")
     args = ap.parse_args(argv)
@@ -238,7 +250,7 @@ def made(args, codes: list) -> int:
         sys.path.insert(0, str(REPO))
         from spinemesh.upgrade import Options, upgrade_project
 
-        make_atlas_project(project, pages, regions)
+        make_atlas_project(project, pages, regions, gap=None if args.gap < 0 else args.gap)
         t0 = time.perf_counter()
         upgrade_project(project, meshed, Options(jobs=int(args.jobs[-1]), overwrite=True))
         (meshed / ".upgraded").write_text("")

@@ -137,3 +137,21 @@ def meshed(tmp_path_factory) -> Path:
     out = base / "meshed"
     upgrade_project(demo, out, Options(min_saving=None, jobs=1))
     return out
+
+
+@pytest.fixture()
+def trimmed_project(tmp_path):
+    """The demo sprites packed with every frame of the spark sequence trimmed to its own art
+    (frames of growing size, one rotated), drawn by the demo skeleton: a project for ``--repack``."""
+    import json
+
+    from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
+    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+
+    images = demo_images()
+    text, page = pack_atlas(images, "demo.png", rotate={"demo-arm", "demo-spark/frame2"})
+    folder = tmp_path / "project"
+    atomic_write_text(folder / "demo.atlas", text)
+    atomic_write_png(folder / "demo.png", page)
+    atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
+    return folder

@@ -273,22 +273,12 @@ def test_corpus_pages_with_colour_chunks_keep_them(tmp_path):
     assert "packed" in statuses and "disagree" in statuses, statuses
 
 
-def test_upgrade_repack_pages_carry_the_colour_chunks_of_their_page(tmp_path):
+def test_upgrade_repack_pages_carry_the_colour_chunks_of_their_page(trimmed_project, tmp_path):
     """``upgrade --repack`` writes new pages too (sequence frames stored untrimmed): they say what
     the page their regions come from says."""
-    import json
-
-    from spinemesh.demo import demo_images, demo_skeleton
-    from spinemesh.demo import pack_atlas as demo_atlas
-    from spinemesh.fsutil import atomic_write_png, atomic_write_text
     from spinemesh.upgrade import Options, upgrade_project
 
-    images = demo_images()
-    text, page = demo_atlas(images, "demo.png", rotate={"demo-arm", "demo-spark/frame2"})
-    folder = tmp_path / "project"
-    atomic_write_text(folder / "demo.atlas", text)
-    atomic_write_png(folder / "demo.png", page)
-    atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
+    folder = trimmed_project
     _say(folder / "demo.png", [_iccp(), GAMMA])
     result = upgrade_project(folder, tmp_path / "out", Options(repack=True))
     assert not result.errors

@@ -25,16 +25,6 @@ from spinemesh.upgrade.repack import shelf_pack
 SPARK = [f"demo-spark/frame{i}" for i in (1, 2, 3)]
 
 
-@pytest.fixture()
-def trimmed_project(tmp_path):
-    images = demo_images()
-    text, page = pack_atlas(images, "demo.png", rotate={"demo-arm", "demo-spark/frame2"})
-    folder = tmp_path / "project"
-    atomic_write_text(folder / "demo.atlas", text)
-    atomic_write_png(folder / "demo.png", page)
-    atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
-    return folder
-
 
 def _digest(folder):
     return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
