@@ -485,32 +485,44 @@ def fill_pages(candidates: list[list[np.ndarray]], width: int, height: int, padd
     while left and (max_pages is None or len(pages) < max_pages):
         if shares and sum(shares[i] for i in left) > (max_pages - len(pages)) * room:
             break  # the pages left cannot take what is left, however placed (see least_share): fail now
-        page = Page(width, height, padding)
-        pages.append(page)
-        still = []
-        failed: list[tuple[int, int]] = []  # solid boxes (h, w) that found no place on this page
-        for i in left:
-            if boxes[i] is not None and all(any(fh <= h and fw <= w for fh, fw in failed) for h, w in boxes[i]):
-                still.append(i)  # a solid box no larger found no place: neither does this one
-                continue
-            hards = candidates[i] if hard is None else hard[i]
-            best = _best_place(page, candidates[i], hards, tight, limit, pot, shape)
-            if best is None:
-                if boxes[i] is not None:
-                    failed += boxes[i]
-                still.append(i)
-                continue
-            k, x, y = best
-            mask = candidates[i][k]
-            page.take(mask, x, y, (mask.shape[1], mask.shape[0]), hards[k])
-            placements[i] = Placement(len(pages) - 1, k, x, y)
-            if budget is not None and sum(p.used_w * p.used_h for p in pages) >= budget:
-                return [None] * len(candidates), [(p.used_w, p.used_h) for p in pages]
+        pages.append(Page(width, height, padding))
+        still = _fill_page(pages, left, candidates, hard, boxes, placements, (tight, limit, pot, shape), budget)
+        if still is None:  # over the budget
+            return [None] * len(candidates), [(p.used_w, p.used_h) for p in pages]
         if len(still) == len(left):  # nothing fitted on an empty page: cannot happen (sizes checked)
             pages.pop()
             break
         left = still
     return placements, [(p.used_w, p.used_h) for p in pages]
+
+
+def _fill_page(pages: list[Page], left: list[int], candidates, hard, boxes: dict, placements: list,
+               how: tuple, budget: int | None) -> list[int] | None:
+    """One page of :func:`fill_pages` (the last of ``pages``) filled with what it can take of
+    ``left``, in order; ``placements`` set for those. Returns the footprints still left, or None
+    once the pages' used areas reach ``budget``. ``how``: ``(tight, limit, pot, shape)``."""
+    tight, limit, pot, shape = how
+    page = pages[-1]
+    still = []
+    failed: list[tuple[int, int]] = []  # solid boxes (h, w) that found no place on this page
+    for i in left:
+        if boxes[i] is not None and all(any(fh <= h and fw <= w for fh, fw in failed) for h, w in boxes[i]):
+            still.append(i)  # a solid box no larger found no place: neither does this one
+            continue
+        hards = candidates[i] if hard is None else hard[i]
+        best = _best_place(page, candidates[i], hards, tight, limit, pot, shape)
+        if best is None:
+            if boxes[i] is not None:
+                failed += boxes[i]
+            still.append(i)
+            continue
+        k, x, y = best
+        mask = candidates[i][k]
+        page.take(mask, x, y, (mask.shape[1], mask.shape[0]), hards[k])
+        placements[i] = Placement(len(pages) - 1, k, x, y)
+        if budget is not None and sum(p.used_w * p.used_h for p in pages) >= budget:
+            return None
+    return still
 
 
 def least_share(hard: np.ndarray, reach: int) -> int:
