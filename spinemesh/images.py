@@ -26,6 +26,9 @@ from .fsutil import resolve_inside
 from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
 from .memory import image_memory
 
+#: What opening an image that Pillow cannot read raises (a header cut short, broken or too large).
+UNREADABLE_IMAGE = (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError)
+
 #: Image file extensions looked for in an images folder, in order of preference.
 IMAGE_EXTENSIONS = (".png", ".webp", ".avif", ".jpg", ".jpeg")
 
@@ -888,7 +891,7 @@ def texel_bytes(path: Path) -> int:
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(path, formats=_decodable_formats()) as im:
                 return 4 * im.width * im.height
-    except (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError):
+    except UNREADABLE_IMAGE:
         return 0
 
 

@@ -287,13 +287,13 @@ def test_a_tampered_reencode_is_caught_and_the_page_copied(tmp_path, monkeypatch
     original = _loose_png(_full_page())
     project = _kept_project(tmp_path / "full", {"full.png": original})
 
-    def one_texel_off(image, keep_format=False):
+    def one_texel_off(image, keep_format=False, colour=None):
         rgba = np.array(load_rgba_bytes(bytes(image)))
         rgba[10, 20, 0] ^= 1
         return optimized_png(_with_chunks(_pillow(rgba), [c for c in original_chunks(b"gAMA", b"iCCP", b"tEXt")]),
                              keep_format=True)
 
-    def no_gamma(image, keep_format=False):
+    def no_gamma(image, keep_format=False, colour=None):
         data = optimized_png(image, keep_format=keep_format)
         return b"".join([data[:8]] + [_chunk(k, v) for k, v in run.png_chunks(data) if k != b"gAMA"])
 

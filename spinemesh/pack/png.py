@@ -43,16 +43,26 @@ if hasattr(os, "register_at_fork"):
 _FORMAT_REDUCTIONS = ("bit_depth_reduction", "color_type_reduction", "palette_reduction", "grayscale_reduction")
 
 
+class OptimiserFailed(Exception):
+    """oxipng could not optimise an image (its error, named), or its helper process ended."""
+
+
 def _compress(image, shape, keep_format: bool = False) -> bytes:
-    """oxipng of a PNG file's bytes (``shape`` None) or of raw RGBA / RGB texels of ``shape`` (h, w, channels)."""
+    """oxipng of a PNG file's bytes (``shape`` None) or of raw RGBA / RGB texels of ``shape`` (h, w, channels).
+
+    Raises :class:`OptimiserFailed` for what oxipng refuses (a file it cannot read, texels that
+    do not fit the shape) or has no memory for."""
     import oxipng
 
-    if shape is None:
-        kept = dict.fromkeys(_FORMAT_REDUCTIONS, False) if keep_format else {}
-        return oxipng.optimize_from_memory(bytes(image), level=LEVEL, **kept)
-    h, w, channels = shape
-    color = oxipng.ColorType.rgba() if channels == 4 else oxipng.ColorType.rgb(None)
-    return oxipng.RawImage(image, w, h, color_type=color).create_optimized_png(level=LEVEL)
+    try:
+        if shape is None:
+            kept = dict.fromkeys(_FORMAT_REDUCTIONS, False) if keep_format else {}
+            return oxipng.optimize_from_memory(bytes(image), level=LEVEL, **kept)
+        h, w, channels = shape
+        color = oxipng.ColorType.rgba() if channels == 4 else oxipng.ColorType.rgb(None)
+        return oxipng.RawImage(image, w, h, color_type=color).create_optimized_png(level=LEVEL)
+    except (oxipng.PngError, MemoryError) as e:
+        raise OptimiserFailed(f"{type(e).__name__}: {e}") from None
 
 
 #: A request to the helper: its data's length, the texels' shape (-1s for a PNG file's bytes), keep_format.
@@ -76,8 +86,8 @@ def serve() -> None:
         try:
             out = _compress(data, None if h < 0 else (h, w, channels), bool(keep_format))
             stdout.write(_ANSWER.pack(len(out)) + out)
-        except Exception as e:  # noqa: BLE001 - handed back to the caller, which raises it
-            message = f"{type(e).__name__}: {e}".encode()
+        except OptimiserFailed as e:  # handed back to the caller, which raises it
+            message = str(e).encode()
             stdout.write(_ANSWER.pack(-len(message)) + message)
         stdout.flush()
 
@@ -95,10 +105,13 @@ def _in_helper(data: bytes, shape, keep_format: bool) -> bytes:
     h, w, channels = shape if shape is not None else (-1, -1, -1)
     _helper.stdin.write(_REQUEST.pack(len(data), h, w, channels, int(keep_format)) + data)
     _helper.stdin.flush()
-    (size,) = _ANSWER.unpack(_helper.stdout.read(_ANSWER.size))
+    head = _helper.stdout.read(_ANSWER.size)
+    if len(head) < _ANSWER.size:
+        raise OptimiserFailed(f"its process ended (exit status {_helper.wait()})")
+    (size,) = _ANSWER.unpack(head)
     answer = _helper.stdout.read(abs(size))
     if size < 0:
-        raise RuntimeError(f"oxipng: {answer.decode(errors='replace')}")
+        raise OptimiserFailed(answer.decode(errors="replace"))
     return answer
 
 

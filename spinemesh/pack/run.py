@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_write_text
-from ..images import AtlasImages, load_rgba
+from ..images import UNREADABLE_IMAGE, AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas, page_settings
@@ -27,6 +27,7 @@ from .png import (
     chunk_differences,
     chunk_meaning,
     colour_chunks,
+    OptimiserFailed,
     optimized_png,
     png_chunks,
     png_differences,
@@ -177,7 +178,7 @@ def page_colour(data: bytes) -> tuple[tuple[bytes, bytes], ...]:
     try:
         with Image.open(io.BytesIO(data)) as im:
             profile = im.info.get("icc_profile")
-    except Exception:  # noqa: BLE001 - not an image Pillow reads: its decode says why
+    except UNREADABLE_IMAGE:  # its decode says why
         return ()
     return ((b"iCCP", b"icc\0\0" + zlib.compress(profile)),) if profile else ()
 
@@ -336,11 +337,9 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
 def _optimized(image, name: str, keep_format: bool = False, colour: tuple | None = None) -> bytes:
     """:func:`spinemesh.pack.png.optimized_png`, its failure (a third party's) the page's reason to stay."""
     try:
-        if colour is None:
-            return optimized_png(image, keep_format=keep_format)
         return optimized_png(image, keep_format=keep_format, colour=colour)
-    except Exception as e:  # noqa: BLE001 - whatever oxipng raises keeps the atlas, with the reason
-        raise PackRefused(f"page {name!r}: the PNG optimiser failed ({type(e).__name__}: {e})") from None
+    except OptimiserFailed as e:
+        raise PackRefused(f"page {name!r}: the PNG optimiser failed ({e})") from None
 
 
 @dataclass
