@@ -527,21 +527,28 @@ class AtlasOutcome:
     previews: tuple | None = None
 
 
+def _page_by_page(task, args: list[tuple], workers, on_step) -> list:
+    """``task(arg)`` for each of ``args``, in order: on ``workers`` side by side when given (all
+    submitted first), else here one after another; ``on_step(1)`` as each ends."""
+    if workers is not None:
+        futures = [workers.submit(task, arg, first=True) for arg in args]
+        answers = (future.result() for future in futures)
+    else:
+        answers = (task(arg) for arg in args)
+    results = []
+    for answer in answers:
+        results.append(answer)
+        on_step(1)
+    return results
+
+
 def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: dict, workers, on_step) -> dict:
     """Each packed page encoded (:func:`encode_page`): ``{name: EncodedPage}``, on ``workers`` when
     given, else here. ``pages`` then holds what each file decodes to (one copy of each page)."""
-    if workers is not None:
-        futures = {name: workers.submit(_encode_task, (rgba, name, modes.get(name), colour_of[name]), first=True)
-                   for name, rgba in pages.items()}
-        results = ((name, future.result()) for name, future in futures.items())
-    else:
-        results = ((name, encode_page(rgba, name, modes.get(name), colour_of[name]))
-                   for name, rgba in list(pages.items()))
-    encoded = {}
-    for name, page in results:
-        encoded[name] = page
+    args = [(rgba, name, modes.get(name), colour_of[name]) for name, rgba in pages.items()]
+    encoded = dict(zip(pages, _page_by_page(_encode_task, args, workers, on_step)))
+    for name, page in encoded.items():
         pages[name] = page.texels
-        on_step(1)
     return encoded
 
 
@@ -725,18 +732,7 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], row: AtlasRow,
     by_name = {page.name: t for page, t in zip(atlas.pages, texels)}
     on_step = on_step or (lambda done=1, planned=0: None)
     on_step(0, len(pages))
-    args = [(f, by_name[name], name) for name, f in pages]
-    if workers is not None:
-        futures = [workers.submit(_reencode_task, arg, first=True) for arg in args]
-        results = []
-        for future in futures:
-            results.append(future.result())
-            on_step(1)
-    else:
-        results = []
-        for arg in args:
-            results.append(_reencode_task(arg))
-            on_step(1)
+    results = _page_by_page(_reencode_task, [(f, by_name[name], name) for name, f in pages], workers, on_step)
     written = {name: data for (name, _), data in zip(pages, results) if data is not None}
     if not written:
         return AtlasOutcome(row)
