@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pose import Sampler
+from .pose import POSE_ERRORS, Sampler
 
 #: Frames sampled per animation, evenly spaced inside it (1/6, 1/2 and 5/6 of its duration).
 FRAMES_PER_ANIMATION = 3
@@ -40,11 +40,9 @@ def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
     ndarray, shape (F, B, 2, 3)
         ``[[a, b, worldX], [c, d, worldY]]`` per frame and bone; F may be 0.
     """
-    from ..errors import SpineMeshError
-
     try:
         sampler = Sampler(doc)
-    except (SpineMeshError, ValueError, KeyError, TypeError):
+    except POSE_ERRORS:
         return np.zeros((0, 0, 2, 3))
     names = sampler.animation_names()
     if len(names) > most:
@@ -54,7 +52,7 @@ def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
         try:
             duration = sampler.duration(name)
             poses = [sampler.bone_worlds(name, duration * (k + 0.5) / frames) for k in range(frames)]
-        except (SpineMeshError, ValueError, KeyError, TypeError, ZeroDivisionError):
+        except POSE_ERRORS:
             continue
         out += [w for w in poses if np.isfinite(w).all()]
     bones = len(sampler.bone_names)

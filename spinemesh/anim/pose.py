@@ -32,6 +32,11 @@ from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
 from .timelines import Animation, color_channels, read_animation, search
 
+#: What reading or playing an animation raises where a document the loader let through holds
+#: what the sampler cannot play (a field of the wrong type, a key or index that is not there, a
+#: zero span): the animation is then left out by whoever samples it, never the whole skeleton.
+POSE_ERRORS = (SpineMeshError, KeyError, ValueError, TypeError, IndexError, ZeroDivisionError)
+
 #: The runtimes' blend mode names, as the harness's dump writes them.
 BLEND_MODES = ("normal", "additive", "multiply", "screen")
 

@@ -306,7 +306,7 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
 
     An animation that cannot be sampled is left out with one line in ``problems``.
     """
-    from ..errors import SpineMeshError
+    from ..anim import POSE_ERRORS
 
     skins = sampled_skins(after)
     sides = {skin: (PoseSampler(before, None if skin == "default" else skin, regions),
@@ -318,7 +318,7 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     for name in first.sampler.animation_names():
         try:
             durations[name] = max(0.0, float(first.sampler.duration(name)))
-        except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:
+        except POSE_ERRORS as e:
             (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
     seconds = max(1e-6, sum(d for d in durations.values() if np.isfinite(d)))
     if len(sides) > 1 and MAX_POSES / (len(sides) * seconds) < FPS:  # over budget: one skin first
@@ -338,7 +338,7 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
                         side.append(drawn)
                         why.update(not_exact)
                 anim.by_skin[skin] = poses
-        except (SpineMeshError, KeyError, ValueError, TypeError, IndexError, ZeroDivisionError) as e:
+        except POSE_ERRORS as e:
             (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
             continue
         anim.note = _note(why)
