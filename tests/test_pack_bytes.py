@@ -20,6 +20,7 @@ import numpy as np
 from spinemesh.atlas import read_atlas
 from spinemesh.images import cut_region, load_rgba
 from spinemesh.pack import run
+from spinemesh.pack.atlas_pack import PageRules
 from spinemesh.pack.run import PackOptions, pack_project
 
 REPO = Path(__file__).resolve().parents[1]
@@ -343,3 +344,64 @@ def test_kept_pages_reencoded_on_workers_are_the_same_files(tmp_path):
     assert one.pages_reencoded == two.pages_reencoded == 3 and one.bytes_after == two.bytes_after, two.reason
     for name in pages:
         assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes()
+
+
+def _demo_layouts(meshed: Path, rules):
+    """Every layout the fills keep for the meshed demo atlas under ``rules``, composited: (packed atlases,
+    each one's bytes as oxipng writes it, the atlas's bytes as exported)."""
+    from spinemesh.pack.atlas_pack import compose, plan_layouts
+    from spinemesh.pack.png import optimized_png
+    from spinemesh.pack.uses import collect_uses
+    from spinemesh.project import find_project, project_atlases
+
+    proj = find_project(meshed)
+    ((path, atlas),) = project_atlases(proj).items()
+    layouts = plan_layouts(atlas, [load_rgba(meshed / "demo.png")], collect_uses(proj).regions.get(path, {}),
+                           rules=rules)
+    packed = [compose(layouts, rank) for rank in range(layouts.count)]
+    sizes = [sum(len(optimized_png(np.ascontiguousarray(p))) for p in a.pages.values()) + len(a.atlas.dumps().encode())
+             for a in packed]
+    return packed, sizes, path.stat().st_size + (meshed / "demo.png").stat().st_size
+
+
+def _bloating(packed: list, ranks: set[int]):
+    """An encoder that writes the pages of the layouts ``ranks`` of ``packed`` uncompressed (more bytes
+    than the atlas as exported), the others as oxipng does."""
+    sizes = {(p.shape[1], p.shape[0]) for rank in ranks for p in packed[rank].pages.values()}
+    real = run.optimized_png
+
+    def encode(image, keep_format=False, colour=None):
+        if not isinstance(image, (bytes, bytearray)) and (image.shape[1], image.shape[0]) in sizes:
+            return _bloated(image, keep_format, colour)
+        return real(image, keep_format=keep_format, colour=colour)
+
+    return encode
+
+
+def test_when_the_best_layout_grows_in_bytes_the_next_layout_of_fewest_bytes_is_written(meshed, tmp_path,
+                                                                                       monkeypatch):
+    """The layouts the fills found besides the best are tried in turn; of those that take fewer bytes
+    than exported, the one of fewest bytes is written, proven; none larger than exported, ever."""
+    rules = PageRules("any")
+    packed, sizes, before = _demo_layouts(meshed, rules)
+    assert len(packed) >= 3 and [p.texels_after for p in packed] == sorted({p.texels_after for p in packed})
+    assert len({tuple(p.shape for p in a.pages.values()) for a in packed}) == len(packed)  # told apart by size
+    assert all(p.texels_after < p.texels_before for p in packed) and max(sizes) < before
+    others = range(1, len(packed))
+    fewest = min(others, key=lambda r: (sizes[r], r))
+    for bloated, expected in (({0}, fewest), ({0, fewest}, min(set(others) - {fewest}, key=lambda r: (sizes[r], r)))):
+        monkeypatch.setattr(run, "optimized_png", _bloating(packed, bloated))
+        out = tmp_path / f"out-{len(bloated)}"
+        result = pack_project(meshed, out, PackOptions(rules=rules))
+        (row,) = result.atlases
+        assert row.status == "packed" and "another layout" in row.reason, row.reason
+        assert row.texels_after == packed[expected].texels_after and row.bytes_after == sizes[expected]
+        assert row.bytes_after < row.bytes_before == before and row.texels_after < row.texels_before
+        assert (out / "demo.atlas").read_text() == packed[expected].atlas.dumps()
+        np.testing.assert_array_equal(load_rgba(out / "demo.png"), packed[expected].pages["demo.png"])
+    # every layout larger than exported: none of them is written (the rectangles-only rewrite or the atlas kept)
+    monkeypatch.setattr(run, "optimized_png", _bloating(packed, set(range(len(packed)))))
+    result = pack_project(meshed, tmp_path / "none", PackOptions(rules=rules))
+    (row,) = result.atlases
+    assert "another layout" not in row.reason and row.bytes_after <= row.bytes_before, row.reason
+    assert row.texels_after == row.texels_before

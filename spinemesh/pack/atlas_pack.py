@@ -485,17 +485,33 @@ def run_fill(fill: tuple, candidates, hard, max_w: int, max_h: int, max_area: in
     return _by_widths(candidates, max_w, max_h, max_area, pot, padding, max_pages, best, orders, variant)
 
 
-def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
-                max_pages: int, ceiling: int | None = None, fills=None, on_fill=None):
-    """Best packing of one group: ``(placements, page sizes)`` with fewest texels.
+#: Layouts besides the one of fewest page texels that a group keeps (:func:`group_layouts`): when
+#: the best layout's files would take more bytes than the atlas as exported, the next ones are
+#: encoded in turn (``spinemesh.pack.run``), each costing an encode and a proof.
+NEXT_LAYOUTS = 3
 
-    Tries every fill of :func:`fill_plan` and keeps the fewest texels (the first on a tie).
-    Never more pages than the group had (each page is a texture switch, often a draw call).
-    ``ceiling``: page texels a packing must stay under to be of use (the atlas's own): fills
-    that reach it stop early. ``fills``: runs the fills elsewhere, ``fills(plan, args, best)`` ->
-    each one's result, in order (:class:`~spinemesh.pack.parallel.FillRunner`); default here, one
-    after another, each stopping as soon as it cannot beat the best so far. ``on_fill(done,
-    planned)``: told how many fills there are (``on_fill(0, n)``), then as each ends (``on_fill()``).
+
+def group_layouts(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
+                  max_pages: int, ceiling: int | None = None, fills=None, on_fill=None,
+                  keep: int = 1 + NEXT_LAYOUTS) -> list[tuple[list, list[tuple[int, int]]]]:
+    """The layouts of one group worth writing, fewest page texels first: ``[(placements, page sizes)]``.
+
+    Tries every fill of :func:`fill_plan` in order; each layout kept is a *record*, one that
+    stores fewer texels than every fill before it (the first on a tie), so the first is the
+    packing of fewest texels and the others are what the fills before it reached (at most
+    ``keep`` in all). Never more pages than the group had (each page is a texture switch, often
+    a draw call). ``ceiling``: page texels a packing must stay under to be of use (the atlas's
+    own): fills that reach it stop early. ``fills``: runs the fills elsewhere, ``fills(plan,
+    args, best)`` -> each one's result, in order (:class:`~spinemesh.pack.parallel.FillRunner`:
+    each fill stops at the best of those before it that ended, so the records are the same);
+    default here, one after another, each stopping as soon as it cannot beat the best so far.
+    ``on_fill(done, planned)``: told how many fills there are (``on_fill(0, n)``), then as each
+    ends (``on_fill()``).
+
+    Raises
+    ------
+    PackRefused
+        When no fill beats ``ceiling`` (or none holds every footprint).
     """
     candidates = [it.masks for it in items]
     hard = [it.hard_masks for it in items]
@@ -512,33 +528,68 @@ def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: 
     best = None if ceiling is None else (ceiling, None, None)
     plan = fill_plan(pot, hard is not None, max_pages, len(candidates))
     args = (candidates, hard, max_w, max_h, max_area, pot, padding, max_pages)
+    records = []
     if on_fill:
         on_fill(0, len(plan))
     if fills is None:
         for fill in plan:
-            best = run_fill(fill, *args, best)
+            found = run_fill(fill, *args, best)
+            if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
+                best = found
+                records.append(found)
             if on_fill:
                 on_fill()
     else:
         for found in fills(plan, args, best):
             if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
                 best = found
-    if best is None or best[1] is None:
+                records.append(found)
+    if not records:
         raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
-    return best[1], best[2]
+    return [(placements, sizes) for _, placements, sizes in reversed(records[-keep:])]
 
 
-def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
-               pinned: str = "", rotate: bool = True, padding: int | None = None,
-               page_names=None, rules: PageRules = PageRules(), fills=None, on_fill=None) -> PackedAtlas:
-    """Pack ``atlas`` anew by its regions' footprints.
+def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,
+                max_pages: int, ceiling: int | None = None, fills=None, on_fill=None):
+    """Best packing of one group: ``(placements, page sizes)`` with fewest texels (:func:`group_layouts`)."""
+    return group_layouts(items, max_w, max_h, max_area, pot, padding, max_pages, ceiling, fills, on_fill, keep=1)[0]
+
+
+@dataclass
+class AtlasLayouts:
+    """An atlas's footprints placed, not yet composited: per group of pages (pages of the same
+    fields, :func:`page_settings`) its layouts worth writing, fewest page texels first
+    (:func:`group_layouts`). :func:`compose` makes a :class:`PackedAtlas` of any of them."""
+
+    atlas: Atlas
+    items: list[_Item]
+    geometries: list[RegionGeometry]
+    padding: int
+    rules: PageRules
+    page_names: object
+    #: per group: (its index, its original page indices, its regions' indices, its layouts)
+    groups: list[tuple[int, list[int], list[int], list]]
+    texels_before: int
+    seconds: float
+
+    @property
+    def count(self) -> int:
+        """How many layouts :func:`compose` can make: the most any group has."""
+        return max((len(layouts) for *_, layouts in self.groups), default=1)
+
+
+def plan_layouts(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
+                 pinned: str = "", rotate: bool = True, padding: int | None = None,
+                 page_names=None, rules: PageRules = PageRules(), fills=None, on_fill=None,
+                 keep: int = 1 + NEXT_LAYOUTS) -> AtlasLayouts:
+    """Place ``atlas``'s footprints anew: the layouts :func:`compose` makes packed atlases of.
 
     Parameters
     ----------
     atlas : Atlas
         Parsed atlas; not changed.
     pixels : list of ndarray
-        Per page, its texels as stored, (H, W, 4) uint8.
+        Per page, its texels as stored, (H, W, 4) uint8; kept (not copied) for :func:`compose`.
     uses : dict
         Region name -> :class:`RegionUses` (:func:`spinemesh.pack.uses.collect_uses`).
     pinned : str
@@ -553,12 +604,14 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     rules : PageRules
         The pages it may have; default: as the original's (see the module notes).
     fills, on_fill : callable, optional
-        Where the fills run, and who is told as each ends (see :func:`_pack_group`).
+        Where the fills run, and who is told as each ends (see :func:`group_layouts`).
+    keep : int
+        Layouts kept per group, the one of fewest texels first (default: it and :data:`NEXT_LAYOUTS`).
 
     Raises
     ------
     PackRefused
-        When the atlas cannot be packed, or packing would store no fewer texels.
+        When the atlas cannot be packed, or no fill stores fewer texels.
     """
     t0 = time.process_time()
     if atlas.problems:
@@ -568,16 +621,60 @@ def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUse
     geometries = [r.geometry(str(atlas.path)) for r in atlas.regions]
     pad = padding if padding is not None else default_padding(atlas, geometries)
     items = _items(atlas, geometries, pixels, uses, pinned, rotate)
-    out, new_pages, region_page, covered = _place(atlas, items, sizes, max(0, pad - RING_TEXELS), page_names,
-                                                  rules, fills, on_fill)
+    # by default "no larger than the largest original page": no side longer than its longest
+    # side, no page of more texels than it has (a page may turn from wide to tall)
+    max_side, max_area, pot = rules.limits(sizes)
+    by_settings: dict[tuple, list[int]] = {}
+    for i, p in enumerate(atlas.pages):
+        by_settings.setdefault(page_settings(p), []).append(i)
+    groups = []
+    for gi, page_indices in enumerate(by_settings.values()):
+        members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
+        if not members:
+            continue
+        layouts = group_layouts([items[n] for n in members], max_side, max_side, max_area, pot,
+                                max(0, pad - RING_TEXELS), len(page_indices), texels_before, fills, on_fill, keep)
+        groups.append((gi, page_indices, members, layouts))
+    return AtlasLayouts(atlas, items, geometries, pad, rules, page_names, groups, texels_before,
+                        time.process_time() - t0)
+
+
+def compose(layouts: AtlasLayouts, rank: int = 0) -> PackedAtlas:
+    """The packed atlas of ``layouts``: each group's layout of that ``rank`` (0: fewest page texels;
+    a group of fewer layouts its last), its texels copied onto new pages, its regions rewritten.
+
+    Raises
+    ------
+    PackRefused
+        When it would store no fewer page texels than the atlas has.
+    """
+    t0 = time.process_time()
+    atlas = layouts.atlas
+    out, new_pages, region_page, covered = _composite(layouts, rank)
     texels_after = sum(int(p.shape[0]) * int(p.shape[1]) for p in new_pages.values())
-    if texels_after >= texels_before:
+    if texels_after >= layouts.texels_before:
         raise PackRefused(f"packed, its pages would take {texels_after:,} texels, no fewer than the "
-                          f"{texels_before:,} they take now")
-    rotated = _rewrite_regions(out, region_page, geometries, atlas)
-    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in items]
-    return PackedAtlas(out, new_pages, outcomes, pad, texels_before, texels_after, len(atlas.pages),
-                       time.process_time() - t0, rotated, footprint_texels=covered)
+                          f"{layouts.texels_before:,} they take now")
+    rotated = _rewrite_regions(out, region_page, layouts.geometries, atlas)
+    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in layouts.items]
+    return PackedAtlas(out, new_pages, outcomes, layouts.padding, layouts.texels_before, texels_after,
+                       len(atlas.pages), layouts.seconds + time.process_time() - t0, rotated,
+                       footprint_texels=covered)
+
+
+def pack_atlas(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
+               pinned: str = "", rotate: bool = True, padding: int | None = None,
+               page_names=None, rules: PageRules = PageRules(), fills=None, on_fill=None) -> PackedAtlas:
+    """Pack ``atlas`` anew by its regions' footprints: the layout of fewest page texels
+    (:func:`plan_layouts`, then :func:`compose`; the parameters are :func:`plan_layouts`'s).
+
+    Raises
+    ------
+    PackRefused
+        When the atlas cannot be packed, or packing would store no fewer texels.
+    """
+    return compose(plan_layouts(atlas, pixels, uses, pinned, rotate, padding, page_names, rules, fills, on_fill,
+                                keep=1))
 
 
 def footprint_share(mask: np.ndarray, half: int) -> int:
@@ -616,40 +713,29 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
     return items
 
 
-def _place(atlas: Atlas, items: list[_Item], sizes: list[tuple[int, int]], between: int, page_names,
-           rules: PageRules = PageRules(), fills=None, on_fill=None):
-    """Place every group of pages' footprints and composite their texels.
+def _composite(layouts: AtlasLayouts, rank: int):
+    """Composite the texels of each group's layout of ``rank`` (:func:`compose`) onto new pages.
 
     Returns the new atlas (pages rewritten, regions not yet), its page images by name, per
     region index its new page index and geometry, and the texels of the new pages under a
     footprint grown by half the padding.
     """
-    # by default "no larger than the largest original page": no side longer than its longest
-    # side, no page of more texels than it has (a page may turn from wide to tall)
-    max_side, max_area, pot = rules.limits(sizes)
+    atlas, items = layouts.atlas, layouts.items
     out = copy.deepcopy(atlas)
     out.pages = []
-    groups: dict[tuple, list[int]] = {}
-    for i, p in enumerate(atlas.pages):
-        groups.setdefault(page_settings(p), []).append(i)
     new_pages: dict[str, np.ndarray] = {}
     taken: list[np.ndarray] = []  # per new page, its texels under a footprint grown by half the padding
-    half = int(round(between / 2))
+    half = int(round(max(0, layouts.padding - RING_TEXELS) / 2))
     region_page: dict[int, tuple[int, RegionGeometry]] = {}
     taken_names: set[str] = set()
-    for gi, page_indices in enumerate(groups.values()):
-        members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
+    step = layouts.rules.step
+    for gi, page_indices, members, group in layouts.groups:
         template = atlas.pages[page_indices[0]]
-        if not members:
-            continue
-        placements, page_sizes = _pack_group([items[n] for n in members], max_side, max_side, max_area, pot,
-                                             between, len(page_indices), sum(w * h for w, h in sizes),
-                                             fills, on_fill)
-        step = rules.step
+        placements, page_sizes = group[min(rank, len(group) - 1)]
         page_sizes = [(w + -w % step, h + -h % step) for w, h in page_sizes]
         first = len(out.pages)
         for pi, (w, h) in enumerate(page_sizes):
-            name = (page_names(gi, pi, template) if page_names else
+            name = (layouts.page_names(gi, pi, template) if layouts.page_names else
                     _page_name(atlas, page_indices, pi, taken_names))
             taken_names.add(name)
             entries = [Entry(e.key, [str(w), str(h)] if e.key == "size" else list(e.values), e.indent, e.sep, e.colon)

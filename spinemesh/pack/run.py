@@ -21,7 +21,7 @@ from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_
 from ..images import UNREADABLE_IMAGE, AtlasImages, load_rgba
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
-from .atlas_pack import PackedAtlas, PackRefused, PageRules, pack_atlas, page_settings
+from .atlas_pack import AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_settings, plan_layouts
 from .png import (
     IHDR,
     chunk_differences,
@@ -583,27 +583,27 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
         colours = [page_colour(f.read_bytes()) for f in files]
         group_colour = colours_by_settings(atlas, colours)
-        packed = pack_atlas(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
-                            rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
-                            on_fill=on_step)
-        on_step(0, len(packed.pages))
+        layouts = plan_layouts(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
+                               rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
+                               on_fill=on_step)
+        packed = compose(layouts)
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
-        colour_of = packed_page_colours(packed.atlas, group_colour)
-        encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers if parallel else None, on_step)
-        text = packed.atlas.dumps()
-        prove_written(atlas, texels, text, encoded, job.uses, job.pinned)
+        encoded, text = _written(packed, texels, modes, group_colour, job, workers if parallel else None, on_step)
         reencode_kept = True
-        encoded = {name: page.data for name, page in encoded.items()}
-        check_lossy_pages_shrink(files, bytes_before, sum(map(len, encoded.values())) + len(text.encode()))
+        bytes_after = sum(map(len, encoded.values())) + len(text.encode("utf-8"))
+        check_lossy_pages_shrink(files, bytes_before, bytes_after)
         if not options.larger_files:
             try:
-                check_bytes_shrink(bytes_before, sum(map(len, encoded.values())) + len(text.encode()),
-                                   packed.texels_before, packed.texels_after)
+                check_bytes_shrink(bytes_before, bytes_after, packed.texels_before, packed.texels_after)
             except PackRefused as grows:
-                cleared = rectangles_only_outcome(job, texels, modes, colours, bytes_before, str(grows), t0)
-                if cleared is None:
+                other = next_layout_outcome(job, layouts, texels, modes, group_colour, bytes_before,
+                                            (packed.texels_after, bytes_after), workers if parallel else None, on_step)
+                if other is None:
+                    other = rectangles_only_outcome(job, texels, modes, colours, bytes_before, str(grows), t0)
+                if other is None:
                     raise
-                return cleared
+                other.row.cpu_seconds = round(time.process_time() - t0, 3)
+                return other
     except PackRefused as e:
         sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
         texel_count = sum(w * h for w, h in sizes)
@@ -618,11 +618,69 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         return AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
                                      bytes_before=bytes_before, bytes_after=bytes_before,
                                      cpu_seconds=round(time.process_time() - t0, 3)))
-    bytes_after = sum(len(d) for d in encoded.values()) + len(text.encode("utf-8"))
     row = _row_from(packed, job.rel, bytes_before, bytes_after)
     row.cpu_seconds = round(time.process_time() - t0, 3)
-    previews = (job.rel, dict(zip((p.name for p in atlas.pages), texels)), packed.pages) if job.keep_previews else None
-    return AtlasOutcome(row, encoded, text, previews)
+    return AtlasOutcome(row, encoded, text, _previews(job, texels, packed))
+
+
+def _previews(job: AtlasJob, texels: list[np.ndarray], packed: PackedAtlas) -> tuple | None:
+    """What ``--preview`` shows of a packed atlas: its pages before and after, by name (when asked)."""
+    if not job.keep_previews:
+        return None
+    return job.rel, dict(zip((p.name for p in job.atlas.pages), texels)), packed.pages
+
+
+def _written(packed: PackedAtlas, texels: list[np.ndarray], modes: dict, group_colour: dict, job: AtlasJob,
+             workers, on_step) -> tuple[dict[str, bytes], str]:
+    """A packed atlas as it would be written, proven: its pages' bytes by name (:func:`encode_page`, on
+    ``workers`` when given) and its text, once :func:`prove_written` holds of them.
+
+    Raises
+    ------
+    PackRefused
+        A page that cannot be written losslessly or does not come back, or a failed proof.
+    """
+    on_step(0, len(packed.pages))
+    colour_of = packed_page_colours(packed.atlas, group_colour)
+    encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers, on_step)
+    text = packed.atlas.dumps()
+    prove_written(job.atlas, texels, text, encoded, job.uses, job.pinned)
+    return {name: page.data for name, page in encoded.items()}, text
+
+
+def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.ndarray], modes: dict,
+                        group_colour: dict, bytes_before: int, first: tuple[int, int], workers=None,
+                        on_step=None) -> AtlasOutcome | None:
+    """The atlas in the next layouts its fills found, when the one of fewest page texels takes more
+    bytes than the atlas as exported (``first``: its page texels and bytes): of those that take
+    fewer bytes than the atlas as exported, the one of fewest bytes (the first, of fewer texels,
+    on a tie); None when none does.
+
+    Every layout :func:`~spinemesh.pack.atlas_pack.plan_layouts` kept stores fewer page texels
+    than the atlas as exported, so the one written beats it on both. Each is encoded and proven
+    (:func:`_written`): at most :data:`~spinemesh.pack.atlas_pack.NEXT_LAYOUTS` more encodes.
+    A page's bytes depend on what lies next to what, not only on how many texels there are:
+    a layout of a few more texels can take fewer bytes (verse-rabby's).
+    """
+    on_step = on_step or (lambda done=1, planned=0: None)
+    best = None
+    for rank in range(1, layouts.count):
+        try:
+            packed = compose(layouts, rank)
+            encoded, text = _written(packed, texels, modes, group_colour, job, workers, on_step)
+        except (PackRefused, SpineMeshError):
+            continue
+        size = sum(map(len, encoded.values())) + len(text.encode("utf-8"))
+        if size < bytes_before and (best is None or size < best[0]):
+            best = (size, packed, encoded, text)
+    if best is None:
+        return None
+    size, packed, encoded, text = best
+    row = _row_from(packed, job.rel, bytes_before, size)
+    row.reason = (f"packed to the fewest page texels ({first[0]:,}), its files would take {first[1]:,} bytes "
+                  f"against {bytes_before:,}; written in another layout the fills found, {packed.texels_after:,} "
+                  f"page texels in {size:,} bytes (--larger-files writes the first)")
+    return AtlasOutcome(row, encoded, text, _previews(job, texels, packed))
 
 
 def rectangles_only(atlas, texels: list[np.ndarray]) -> list[np.ndarray]:
