@@ -223,6 +223,31 @@ def load_rgba(path: str | Path) -> np.ndarray:
     return _decode(path, path)
 
 
+def image_file_bytes(path: str | Path) -> bytes:
+    """An image file's bytes, for a caller that needs more of it than its texels (its palette, its
+    colour chunks, the file itself to write again): read once, then decoded by :func:`decode_rgba`.
+
+    Raises
+    ------
+    ImageError
+        Missing, a folder, or unreadable.
+    SpineMeshError
+        Not a regular file (a FIFO or a device).
+    """
+    from .fsutil import regular_file
+
+    if Path(path).exists():  # a FIFO or device would block or never end: regular files only
+        regular_file(path, "image")
+    try:
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        raise ImageError("image file not found", path) from None
+    except IsADirectoryError:
+        raise ImageError("is a folder, not an image", path) from None
+    except OSError as e:
+        raise ImageError(f"cannot read image: {e.strerror or e}", path) from None
+
+
 def image_size(path: str | Path) -> tuple[int, int] | None:
     """An image file's ``(width, height)`` from its header alone, or None when it cannot be read
     (whoever decodes it then reports why)."""

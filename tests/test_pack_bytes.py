@@ -405,3 +405,58 @@ def test_when_the_best_layout_grows_in_bytes_the_next_layout_of_fewest_bytes_is_
     (row,) = result.atlases
     assert "another layout" not in row.reason and row.bytes_after <= row.bytes_before, row.reason
     assert row.texels_after == row.texels_before
+
+
+def _opens_while_packing(monkeypatch, pages: list[Path]):
+    """How many times each file of ``pages`` is opened while ``pack_atlas_files`` runs (a Counter by
+    name): every ``open`` of Python and of Pillow goes through ``builtins.open`` or ``io.open``."""
+    import builtins
+    from collections import Counter
+
+    watched = {p.resolve() for p in pages}
+    counted: Counter = Counter()
+    packing = [False]
+
+    def counting(real):
+        def opened(file, *args, **kwargs):
+            if packing[0] and isinstance(file, (str, os.PathLike)) and Path(file).resolve() in watched:
+                counted[Path(file).name] += 1
+            return real(file, *args, **kwargs)
+        return opened
+
+    monkeypatch.setattr(builtins, "open", counting(builtins.open))
+    monkeypatch.setattr(io, "open", counting(io.open))
+    real = run.pack_atlas_files
+
+    def pack_atlas_files(*args, **kwargs):
+        packing[0] = True
+        try:
+            return real(*args, **kwargs)
+        finally:
+            packing[0] = False
+
+    monkeypatch.setattr(run, "pack_atlas_files", pack_atlas_files)
+    return counted
+
+
+def test_each_page_is_read_once_while_its_atlas_is_packed(meshed, tmp_path, monkeypatch):
+    """Texels, palette, colour chunks and the file to re-encode all come from one read of each page,
+    whether the atlas is packed, kept with its pages re-encoded, or kept for its bytes."""
+    from PIL import Image
+
+    palette = _pillow(Image.fromarray(_full_page()).convert("RGB").quantize(64), compress_level=1, transparency=0)
+    kept = _kept_project(tmp_path / "kept", {"a.png": _loose_png(_full_page()), "b.png": palette})
+    for project, expected in ((meshed, "packed"), (kept, "kept")):
+        pages = sorted(project.glob("*.png"))
+        opens = _opens_while_packing(monkeypatch, pages)
+        result = pack_project(project, tmp_path / f"out-{project.name}")
+        (row,) = result.atlases
+        assert row.status == expected and (expected == "packed" or row.pages_reencoded == 2), row.reason
+        assert opens == {p.name: 1 for p in pages}, opens
+        monkeypatch.undo()
+    # the files would grow: the other layouts, the rectangles-only rewrite and the kept pages read nothing more
+    opens = _opens_while_packing(monkeypatch, [meshed / "demo.png"])
+    monkeypatch.setattr(run, "optimized_png", _bloated)
+    (row,) = pack_project(meshed, tmp_path / "grows", PackOptions(rules=PageRules("any"))).atlases
+    assert row.status == "kept" and "bytes against" in row.reason, row.reason
+    assert opens == {"demo.png": 1}, opens

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_write_text
-from ..images import UNREADABLE_IMAGE, AtlasImages, load_rgba
+from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_settings, plan_layouts
@@ -134,13 +134,14 @@ def atlas_totals(rows: list[AtlasRow]) -> dict:
     return {k: sum(getattr(a, k) for a in rows) for k in keys}
 
 
-def page_mode(path: Path):
-    """How the original page stores colours: its palette, shape (n, 4) uint8 RGBA, for a
-    palette PNG; ``"RGB"`` for a PNG without alpha (and without a transparent colour: one with a
-    tRNS chunk has texels that are not opaque, written as RGBA); else None (RGBA)."""
+def page_mode(page: bytes | Path):
+    """How the original page (its file's bytes, or its path) stores colours: its palette, shape
+    (n, 4) uint8 RGBA, for a palette PNG; ``"RGB"`` for a PNG without alpha (and without a
+    transparent colour: one with a tRNS chunk has texels that are not opaque, written as RGBA);
+    else None (RGBA)."""
     from PIL import Image
 
-    with Image.open(path) as im:
+    with Image.open(io.BytesIO(page) if isinstance(page, bytes) else page) as im:
         if im.format == "PNG" and im.mode == "P":
             palette = im.getpalette() or []
             index = Image.new("P", (max(1, len(palette) // 3), 1))
@@ -276,13 +277,14 @@ def _as_palette(rgba: np.ndarray, lut: np.ndarray) -> tuple[bytes, np.ndarray] |
     return buf.getvalue(), texels[..., None].view(np.uint8)
 
 
-def is_lossy_webp(path: Path) -> bool:
-    """Whether ``path`` is a WebP image stored lossy (a ``VP8 `` bitstream, not ``VP8L``).
+def is_lossy_webp(page: bytes | Path) -> bool:
+    """Whether ``page`` (a file's bytes, or its path) is a WebP image stored lossy (a ``VP8 ``
+    bitstream, not ``VP8L``).
 
     Reads the RIFF chunk headers only: the simple format starts with the bitstream chunk, the
     extended one (``VP8X``) lists its chunks (alpha, animation) before it.
     """
-    with open(path, "rb") as f:
+    with io.BytesIO(page) if isinstance(page, bytes) else open(page, "rb") as f:
         head = f.read(12)
         if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WEBP":
             return False
@@ -316,7 +318,7 @@ def check_bytes_shrink(bytes_before: int, bytes_after: int, texels_before: int, 
                           "page texels; --larger-files writes it all the same")
 
 
-def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: int) -> None:
+def check_lossy_pages_shrink(files: list, bytes_before: int, bytes_after: int) -> None:
     """Refuse a packed atlas whose lossy WebP pages, written losslessly, take more bytes on disk.
 
     Packed pages are written losslessly so that every texel a mesh samples stays as it was (a
@@ -327,9 +329,10 @@ def check_lossy_pages_shrink(files: list[Path], bytes_before: int, bytes_after: 
     Raises
     ------
     PackRefused
-        When a page in ``files`` is lossy WebP and ``bytes_after`` exceeds ``bytes_before``.
+        When a page in ``files`` (paths, or the files' bytes) is lossy WebP and ``bytes_after``
+        exceeds ``bytes_before``.
     """
-    if bytes_after > bytes_before and any(is_lossy_webp(f) for f in set(files)):
+    if bytes_after > bytes_before and any(is_lossy_webp(f) for f in files):
         raise PackRefused(f"its pages are lossy WebP: written losslessly, as packing must, they would take "
                           f"{bytes_after:,} bytes on disk against {bytes_before:,}")
 
@@ -565,7 +568,8 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     t0 = time.process_time()
     on_step = on_step or (lambda done=1, planned=0: None)
     bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
-    texels = []
+    texels: list[np.ndarray] = []
+    data: list[bytes] = []
     parallel = workers is not None and workers.slots > 1
     # kept for what packing saves (no fewer texels, more bytes), not for a fault: its PNG pages may
     # be re-encoded (kept_pages_reencoded); kept for anything else, its files are copied as they are
@@ -577,11 +581,14 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
             if Path(page.name).suffix.lower() not in PAGE_FORMATS:
                 raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
                                   "texel for texel (JPEG pages have no alpha and lose texels when written)")
-        texels = [load_rgba(f) for f in files]
+        # each page file read once, for everything packing needs of it: texels, palette, colour
+        # chunks, lossy or not, and the file itself where a kept page is re-encoded
+        data = [image_file_bytes(f) for f in files]
+        texels = [decode_rgba(d, f) for d, f in zip(data, files)]
         check_page_sizes(atlas, texels)
         reencode_kept = True
-        modes = {page.name: page_mode(f) for f, page in zip(files, atlas.pages)}
-        colours = [page_colour(f.read_bytes()) for f in files]
+        modes = {page.name: page_mode(d) for d, page in zip(data, atlas.pages)}
+        colours = [page_colour(d) for d in data]
         group_colour = colours_by_settings(atlas, colours)
         layouts = plan_layouts(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
                                rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
@@ -591,7 +598,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         encoded, text = _written(packed, texels, modes, group_colour, job, workers if parallel else None, on_step)
         reencode_kept = True
         bytes_after = sum(map(len, encoded.values())) + len(text.encode("utf-8"))
-        check_lossy_pages_shrink(files, bytes_before, bytes_after)
+        check_lossy_pages_shrink(data, bytes_before, bytes_after)
         if not options.larger_files:
             try:
                 check_bytes_shrink(bytes_before, bytes_after, packed.texels_before, packed.texels_after)
@@ -611,7 +618,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                        bytes_before, bytes_before)
         outcome = AtlasOutcome(row)
         if reencode_kept and not options.keep_files_as_exported:
-            outcome = kept_pages_reencoded(job, texels, row, workers if parallel else None, on_step)
+            outcome = kept_pages_reencoded(job, texels, data, row, workers if parallel else None, on_step)
         row.cpu_seconds = round(time.process_time() - t0, 3)
         return outcome
     except SpineMeshError as e:
@@ -774,27 +781,27 @@ def megabytes(n: int) -> str:
     return f"{n / 1e6:.1f} MB" if n >= 1e6 else f"{n / 1e3:.0f} kB" if n >= 1e3 else f"{n} bytes"
 
 
-def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], row: AtlasRow, workers=None,
-                         on_step=None) -> AtlasOutcome:
+def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[bytes], row: AtlasRow,
+                         workers=None, on_step=None) -> AtlasOutcome:
     """A kept atlas (``row``) with its PNG pages written smaller by :func:`reencoded_page` where
-    that holds, its atlas text and every other page as exported.
+    that holds, its atlas text and every other page as exported. ``texels`` and ``files``: each
+    page's texels and its file's bytes, in page order.
 
     ``workers`` (several slots): the pages are re-encoded side by side. Returns ``row``'s outcome
     as it is when no page gets smaller; else ``row`` says so and counts the bytes written.
     """
     atlas = job.atlas
-    pages = [(page.name, f) for page, f in zip(atlas.pages, job.files)
+    pages = [(page.name, f, t) for page, f, t in zip(atlas.pages, files, texels)
              if Path(page.name).suffix.lower() == ".png"]
     if not pages:
         return AtlasOutcome(row)
-    by_name = {page.name: t for page, t in zip(atlas.pages, texels)}
     on_step = on_step or (lambda done=1, planned=0: None)
     on_step(0, len(pages))
-    results = _page_by_page(_reencode_task, [(f, by_name[name], name) for name, f in pages], workers, on_step)
-    written = {name: data for (name, _), data in zip(pages, results) if data is not None}
+    results = _page_by_page(_reencode_task, pages, workers, on_step)
+    written = {name: data for (name, _, _), data in zip(pages, results) if data is not None}
     if not written:
         return AtlasOutcome(row)
-    before = sum(f.stat().st_size for name, f in pages if name in written)
+    before = sum(len(f) for name, f, _ in pages if name in written)
     after = sum(map(len, written.values()))
     which = (f"{len(written)} of its {len(atlas.pages)} pages" if len(written) < len(atlas.pages)
              else "its page" if len(written) == 1 else "its pages")
@@ -806,11 +813,11 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], row: AtlasRow,
 
 
 def _reencode_task(arg: tuple) -> bytes | None:
-    """A worker's task: :func:`reencoded_page` of ``(file, texels, name)``, or None where the page stays."""
-    path, texels, name = arg
+    """A worker's task: :func:`reencoded_page` of ``(name, file's bytes, texels)``, or None where the page stays."""
+    name, original, texels = arg
     try:
-        return reencoded_page(Path(path).read_bytes(), texels, name)
-    except (PackRefused, OSError):
+        return reencoded_page(original, texels, name)
+    except PackRefused:
         return None
 
 
