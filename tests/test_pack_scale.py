@@ -303,3 +303,48 @@ def test_fills_with_places_proved_taken_find_what_full_searches_find(soft, monke
             results[on, pot] = [run_fill(fill, masks, hard, *limits, None) for fill in fill_plan(pot, soft, 4)]
     assert results[True, True] == results[False, True] and results[True, False] == results[False, False]
     assert sum(proved) > 20
+
+
+class _ThreadWorkers:
+    """Two threads standing for two worker processes, noting the bound each fill is handed."""
+
+    slots = 2
+
+    def __init__(self) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.pool = ThreadPoolExecutor(2)
+        self.bounds: list = []
+
+    def submit(self, fn, arg, first=False):
+        self.bounds.append(arg[3])
+        return self.pool.submit(fn, arg)
+
+    def as_completed(self, futures):
+        from concurrent.futures import as_completed
+
+        return as_completed(futures)
+
+
+@pytest.mark.parametrize("soft, pot, pages", [(False, False, 1), (True, False, 2), (True, True, 3)])
+def test_fills_side_by_side_bounded_by_those_before_keep_the_same_layouts(soft, pot, pages):
+    """Fills run two at a time, each bounded by the best of the fills before it that ended, keep the
+    very layouts (the best and those kept besides it) that the fills one after another keep; and
+    fills are bounded below the atlas's own texels (by what an earlier fill found)."""
+    from types import SimpleNamespace
+
+    from spinemesh.pack.atlas_pack import group_layouts
+    from spinemesh.pack.parallel import FillRunner
+
+    masks, hards = _shapes(17, 30, soft)
+    items = [SimpleNamespace(masks=m, hard_masks=h) for m, h in zip(masks, hards)]
+    ceiling = pages * 256 * 256
+    limits = (256, 256, 256 * 256, pot, 6, pages, ceiling)
+    one = group_layouts(items, *limits)
+    workers = _ThreadWorkers()
+    ends = []
+    two = group_layouts(items, *limits, fills=FillRunner(workers, lambda: ends.append(1)))
+    assert two == one and len(one) > 1
+    assert len(ends) == len(workers.bounds) > 2
+    assert workers.bounds[:2] == [(ceiling, None, None)] * 2  # the first two start side by side
+    assert min(b[0] for b in workers.bounds) < ceiling
