@@ -103,7 +103,12 @@ def test_a_bending_region_is_meshed_and_weighted_with_auto_and_kept_with_none(tm
 
 
 def test_one_image_gets_both_results_by_its_two_keys(tmp_path):
-    """The shared image is planned twice under --weights auto (plain and bending), once under none."""
+    """The shared image is planned once (plain) under both; under --weights auto, once its plain
+    mesh is kept, the bending region is tested and meshed again by the bending key."""
+    from spinemesh.cluster import Workers
+    from spinemesh.upgrade.bending import settle_bending
+    from spinemesh.upgrade.meshing import mesh_tasks
+
     project = find_project(make_bar_project(tmp_path / "p"))
     keys = {}
     for weights in ("none", "auto"):
@@ -111,8 +116,79 @@ def test_one_image_gets_both_results_by_its_two_keys(tmp_path):
         keys[weights] = sorted(plan.tasks)
         targets = {t.slot: t for sk in plan.skeletons for t in sk.targets}
         assert targets["flag"].key in plan.tasks and targets["bar"].key in plan.tasks
+        assert [t.slot for t, _ in plan.may_bend] == ([] if weights == "none" else ["bar", "flag"])
+        meshes = mesh_tasks(plan.tasks, Workers())
+        assert meshes[targets["bar"].key].kept  # the keep rule keeps the plain mesh
+        settle_bending(plan, meshes, None)
+        assert not plan.may_bend
+        if weights == "auto":
+            assert targets["bar"].key == BENDS_KEY + keys["none"][0] and targets["flag"].key == keys["none"][0]
+            assert sorted(plan.tasks) == sorted(meshes) == [keys["none"][0], BENDS_KEY + keys["none"][0]]
+            assert meshes[targets["bar"].key].vertices is not None and meshes[targets["bar"].key].overruled
     assert len(keys["none"]) == 1 and not keys["none"][0].startswith(BENDS_KEY)
-    assert keys["auto"] == sorted([keys["none"][0], BENDS_KEY + keys["none"][0]])
+    assert keys["auto"] == keys["none"]
+
+
+def _bar_and_half_project(folder: Path) -> Path:
+    """The bar project with a second image, ``half``: an ellipse over the middle 100 of 200
+    pixels (the atlas stores those), on a slot of ``upper`` across the joint like ``bar``: it
+    bends, and the keep rule meshes it anyway (the ellipse's corners are transparent)."""
+    path = make_bar_project(folder)
+    page = np.zeros((128, 256, 4), np.uint8)
+    page[:64] = np.asarray(Image.open(folder / "bar.png"))
+    y, x = np.mgrid[0:HEIGHT, 0:100]
+    inside = ((x - 49.5) / 50) ** 2 + ((y - 19.5) / 20) ** 2 <= 1
+    page[66:66 + HEIGHT, 2:102][inside] = (90, 200, 60, 255)
+    Image.fromarray(page).save(folder / "bar.png")
+    atlas = (folder / "bar.atlas").read_text().replace("size: 256, 64", "size: 256, 128")
+    (folder / "bar.atlas").write_text(atlas + f"half\n\tbounds: 2, 66, 100, {HEIGHT}\n\toffsets: 50, 0, {WIDTH}, {HEIGHT}\n")
+    doc = json.loads(path.read_text())
+    doc["slots"].append({"name": "half", "bone": "upper", "attachment": "half"})
+    doc["skins"][0]["attachments"]["half"] = {"half": {"x": 100, "width": WIDTH, "height": HEIGHT}}
+    path.write_text(json.dumps(doc, indent=1))
+    return path
+
+
+def test_testing_only_the_regions_kept_for_bending_gives_what_testing_all_before_meshing_gave(tmp_path, monkeypatch):
+    """--weights auto tests a region for bending only once its plain mesh is kept: the documents
+    and the report are those of testing every region before meshing (and meshing those that bend
+    as bending tasks), with fewer tests."""
+    from spinemesh.cluster import Workers
+    from spinemesh.rig.upgrade import BendingRegions
+    from spinemesh.upgrade.bending import gather_habits
+    from spinemesh.upgrade.meshing import mesh_tasks
+    from spinemesh.upgrade.plan import bending_task
+    from spinemesh.upgrade.write import apply_project
+
+    tested = []
+    monkeypatch.setattr(BendingRegions, "bends", lambda self, ref, *a, f=BendingRegions.bends:
+                        tested.append(ref.slot) or f(self, ref, *a))
+    project = find_project(_bar_and_half_project(tmp_path / "p"))
+    plans, tests = [], []
+    for every in (True, False):
+        tested.clear()
+        plan = plan_project(project, Options(weights="auto"), Result())
+        if every:  # as before: every region that may bend tested first, its bending task meshed
+            gather_habits(plan)
+            for t, bends in plan.may_bend:
+                if bends(art_box(plan.tasks[t.key])):
+                    task = bending_task(plan.tasks[t.key])
+                    plan.tasks.setdefault(task.key, task)
+                    t.key = task.key
+            plan.may_bend = []
+            plan.tasks = {k: v for k, v in plan.tasks.items() if any(
+                t.key == k for sk in plan.skeletons for t in sk.targets)}
+        apply_project(plan, mesh_tasks(plan.tasks, Workers()))
+        plans.append(plan)
+        tests.append(sorted(tested))
+    assert tests == [["bar", "flag", "half"], ["bar", "flag"]]
+    (a,), (b,) = [[json.dumps(sk.doc) for sk in p.skeletons] for p in plans]
+    assert a == b
+    assert _rows_of(plans[0]) == _rows_of(plans[1])
+    rows = {t.slot: t for t in plans[1].skeletons[0].targets}
+    assert rows["half"].status == "meshed" and not rows["half"].overruled and len(rows["half"].weights["bones"]) == 2
+    assert rows["bar"].status == "meshed" and rows["bar"].overruled and rows["bar"].weights["meshed_to_bend"]
+    assert rows["flag"].status == "kept"
 
 
 def test_none_output_does_not_depend_on_the_bones(tmp_path):
@@ -371,6 +447,7 @@ def test_a_weighing_job_whose_worker_is_lost_is_weighted_here_the_same_way(tmp_p
     from concurrent.futures import Future
 
     from spinemesh.cluster import WorkerLost, Workers
+    from spinemesh.upgrade.bending import settle_bending
     from spinemesh.upgrade.meshing import mesh_tasks
     from spinemesh.upgrade.write import apply_project
 
@@ -394,7 +471,9 @@ def test_a_weighing_job_whose_worker_is_lost_is_weighted_here_the_same_way(tmp_p
     plans = []
     for workers in (None, LosingWorkers()):
         plan = plan_project(project, Options(weights="auto"), Result())
-        apply_project(plan, mesh_tasks(plan.tasks, Workers()), workers=workers)
+        meshes = mesh_tasks(plan.tasks, Workers())
+        settle_bending(plan, meshes, Workers())  # the bending region meshed here: the weighing job is lost
+        apply_project(plan, meshes, workers=workers)
         plans.append(plan)
         assert workers is None or workers.lost == 1
     (a,), (b,) = [[json.dumps(sk.doc) for sk in p.skeletons] for p in plans]
@@ -430,3 +509,74 @@ def test_the_same_solve_twice_is_solved_once_and_the_output_is_that_of_solving_e
         outputs[remembered] = (_folder_bytes(tmp_path / f"out{remembered}"), _rows(result), len(solved))
     (once, rows_once, solves_once), (each, rows_each, solves_each) = outputs.values()
     assert solves_once < solves_each and once == each and rows_once == rows_each
+
+
+def _weighted_worm_and_bar(folder: Path, tmp_path: Path) -> Path:
+    """A project of two skeletons: the worm of ``rig_project`` as ``--weights auto`` left it (a
+    mesh weighted over its chain, whose habits the learned choice reads) and the bar project."""
+    import shutil
+
+    from rig_project import make_worm_project
+
+    upgrade_project(make_worm_project(tmp_path / "worm"), tmp_path / "worm-out", Options(weights="auto", jobs=1))
+    shutil.copytree(tmp_path / "worm-out", folder)
+    make_bar_project(tmp_path / "bar")
+    for name in ("bar.json", "bar.atlas", "bar.png"):
+        shutil.copy(tmp_path / "bar" / name, folder / name)
+    return folder
+
+
+def test_the_habits_read_on_worker_processes_are_those_read_here(tmp_path):
+    """start_habits hands each skeleton's part of the project's habits to the workers: put
+    together they are the habits this process reads, and a part whose worker was lost is read here."""
+    from concurrent.futures import Future
+    from types import SimpleNamespace
+
+    from spinemesh.cluster import WorkerLost, Workers, open_workers
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.learned import project_habits
+    from spinemesh.upgrade.bending import gather_habits, start_habits
+
+    class LosingWorkers(Workers):
+        def submit(self, fn, arg, first=False):
+            future = Future()
+            future.set_exception(WorkerLost("worker died"))
+            return future
+
+    folder = _weighted_worm_and_bar(tmp_path / "p", tmp_path)
+    docs = [json.loads((folder / name).read_text()) for name in ("worm.json", "bar.json", "worm.json")]
+    expected = project_habits([(doc, build_rig(doc)) for doc in docs])
+    assert len(expected.keys) == 2  # the worm's mesh, twice
+    with open_workers(2) as processes:
+        for workers in (None, Workers(), processes, LosingWorkers()):
+            skeletons = [SimpleNamespace(doc=doc, rig=build_rig(doc)) for doc in docs]
+            plan = SimpleNamespace(habits=start_habits(skeletons, workers), skeletons=skeletons)
+            gather_habits(plan)
+            habits = plan.habits
+            assert all(sk.rig.habits is habits for sk in skeletons)
+            assert np.array_equal(habits.tallies, expected.tallies) and habits.tallies.dtype == expected.tallies.dtype
+            assert (habits.keys, habits.bound) == (expected.keys, expected.bound)
+
+
+def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_library(tmp_path):
+    """The habits read and the regions tested for bending on worker processes (a project, and a
+    library of projects planned ahead while others mesh): the output and the report of one
+    process, byte for byte."""
+    import shutil
+
+    from spinemesh.upgrade import upgrade_library
+
+    library = tmp_path / "lib"
+    _weighted_worm_and_bar(library / "both", tmp_path)
+    _bar_and_half_project(library / "half")
+    shutil.copytree(library / "half", library / "half-again")
+    outputs = {}
+    for jobs in (1, 2):
+        project = upgrade_project(library / "both", tmp_path / f"project{jobs}", Options(weights="auto", jobs=jobs))
+        whole = upgrade_library(library, tmp_path / f"library{jobs}", Options(weights="auto", jobs=jobs))
+        outputs[jobs] = (_folder_bytes(tmp_path / f"project{jobs}"), _rows(project),
+                         _folder_bytes(tmp_path / f"library{jobs}"), _rows(whole))
+    assert outputs[1] == outputs[2]
+    rows = {(t.skeleton, t.slot): t for t in upgrade_library(library, tmp_path / "again", Options(weights="auto")).targets}
+    assert rows[("both/bar.json", "bar")].weights["meshed_to_bend"]
+    assert rows[("half/bar.json", "half")].status == "meshed" and len(rows[("half/bar.json", "half")].weights["bones"]) == 2

@@ -344,22 +344,47 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
     return out
 
 
+def document_habits(doc: dict, rig) -> tuple[list[np.ndarray], list[set[str]], list[tuple]]:
+    """What :func:`project_habits` reads of one skeleton ``doc`` (its ``rig``): the tally, the
+    names and the bound set of each of its artist-weighted meshes, in document order.
+
+    A function of the document's artist-weighted meshes alone, so it runs anywhere (a worker,
+    :func:`document_habits_job`) and the project's habits are these put together
+    (:func:`habits_of`).
+    """
+    tallies, keys, bound = [], [], []
+    names = [b.name for b in rig.bones]
+    for m in weighted_meshes(doc, rig):
+        tallies.append(tally(m["features"], m["label"], len(m["artist"]), FEATURES))
+        keys.append(keys_of(m["slot"], m["name"]))
+        whole = set(m["artist"]) <= set(m["bones"])
+        bound.append((rig_key(names), names[rig.slot_bone[m["slot"]]],
+                      frozenset(names[b] for b in m["artist"]) if whole else frozenset()))
+    return tallies, keys, bound
+
+
+def document_habits_job(job: tuple) -> tuple[list[np.ndarray], list[set[str]], list[tuple]]:
+    """:func:`document_habits` of ``job``, a ``(doc, rig)`` pair, on a worker process."""
+    return document_habits(*job)
+
+
+def habits_of(parts) -> ProjectHabits:
+    """The project's habits from the :func:`document_habits` of each of its skeletons, in order."""
+    tallies, keys, bound = [], [], []
+    for t, k, b in parts:
+        tallies += t
+        keys += k
+        bound += b
+    return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys, bound)
+
+
 def project_habits(documents) -> ProjectHabits:
     """The habits (:mod:`.habits`) of the artist-weighted meshes of a project's skeletons.
 
     ``documents``: ``(doc, rig)`` pairs, read before any of them is weighted (the habits are
     the artists', not ours).
     """
-    tallies, keys, bound = [], [], []
-    for doc, rig in documents:
-        names = [b.name for b in rig.bones]
-        for m in weighted_meshes(doc, rig):
-            tallies.append(tally(m["features"], m["label"], len(m["artist"]), FEATURES))
-            keys.append(keys_of(m["slot"], m["name"]))
-            whole = set(m["artist"]) <= set(m["bones"])
-            bound.append((rig_key(names), names[rig.slot_bone[m["slot"]]],
-                          frozenset(names[b] for b in m["artist"]) if whole else frozenset()))
-    return ProjectHabits(np.asarray(tallies, float).reshape(-1, TALLY_SIZE), keys, bound)
+    return habits_of(document_habits(doc, rig) for doc, rig in documents)
 
 
 def share_project_habits(documents) -> None:

@@ -8,10 +8,11 @@ within the vertex budget), then weights and an exact setup-pose binding (:mod:`.
 mesh that cannot be weighted (its slot's bone is moved by a constraint in the setup pose, say)
 stays the unweighted mesh the upgrade made, without the added vertices, and the report says why.
 
-Before meshing, :class:`BendingRegions` tells which region attachments may bend: the same
-choice gives the box of their art more than one bone. ``upgrade`` meshes those even where the keep rule
+:class:`BendingRegions` tells which region attachments may bend: the same choice gives the box
+of their art more than one bone. ``upgrade`` meshes those even where the keep rule
 (:mod:`spinemesh.mesher.worth`) would keep them for saving too few pixels: a mesh that bends
-with the skeleton is worth having for that alone. The art decides: a mesh made only to bend
+with the skeleton is worth having for that alone (asked only of the regions the rule kept,
+:mod:`spinemesh.upgrade.bending`). The art decides: a mesh made only to bend
 whose own triangles do not get more than one bone is put back as the region it was, before any
 weights are solved; so is one whose weights leave all but one bone out.
 """

@@ -27,6 +27,7 @@ from ..errors import SpineMeshError
 from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
+from .bending import HabitsReading, start_habits
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
 from .plan import ProjectPlan, ProjectReading, decode_pages_ahead, page_prefetch, plan_read_project, read_project
@@ -76,7 +77,7 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
         ahead: deque[_LibraryProject] = deque()
         read: _LibraryProject | None = None  # read, its pages decoding, not planned yet
         for folder in [*find_projects(library), None]:
-            following = _read_library_project(library, folder, options, prefetch, progress) if folder else None
+            following = _read_library_project(library, folder, options, workers, prefetch, progress) if folder else None
             if read is not None:
                 ahead.append(_plan_library_project(read, workers, cache, inflight, progress))
                 while ahead and sum(p.pixels for p in ahead) > AHEAD_PIXELS:
@@ -100,6 +101,7 @@ class _LibraryProject:
     options: Options
     result: Result
     reading: ProjectReading | None = None
+    habits: HabitsReading | None = None  # --weights auto: the project's habits being read
     plan: ProjectPlan | None = None
     meshing: Meshing | None = None
 
@@ -109,9 +111,10 @@ class _LibraryProject:
         return sum(t.rgba.shape[0] * t.rgba.shape[1] for t in self.plan.tasks.values()) if self.plan else 0
 
 
-def _read_library_project(library: Path, folder: Path, options: Options, prefetch: PagePrefetch | None,
-                          progress: Progress) -> _LibraryProject:
-    """A project's skeletons read (:func:`.plan.read_project`), and its pages handed to ``prefetch``."""
+def _read_library_project(library: Path, folder: Path, options: Options, workers: Workers,
+                          prefetch: PagePrefetch | None, progress: Progress) -> _LibraryProject:
+    """A project's skeletons read (:func:`.plan.read_project`), its pages handed to ``prefetch``
+    and, with ``--weights auto``, its habits to ``workers`` (:func:`.bending.start_habits`)."""
     rel = folder.relative_to(library).as_posix()
     sub = dataclasses.replace(options, images_out=None if options.images_out is None
                               else Path(options.images_out) / rel)
@@ -122,6 +125,10 @@ def _read_library_project(library: Path, folder: Path, options: Options, prefetc
         p.result.errors.append(str(e))
         return p
     decode_pages_ahead(p.reading, prefetch)
+    if sub.weights == "auto" and not sub.dry_run:
+        t0 = time.perf_counter()
+        p.habits = start_habits([sk for sk in p.reading.skeletons if sk.rig is not None], workers)
+        p.result.seconds["read"] += time.perf_counter() - t0
     return p
 
 
@@ -137,6 +144,7 @@ def _plan_library_project(p: _LibraryProject, workers: Workers, cache: dict, inf
         return p
     finally:
         p.reading = None
+    p.plan.habits, p.habits = p.habits, None
     sub = p.options
     if not sub.dry_run:
         t0 = time.perf_counter()  # with workers, sending only; in this process, the meshing itself

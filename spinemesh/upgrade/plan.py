@@ -5,9 +5,10 @@ per skeleton a :class:`SkeletonPlan` (its document, its :class:`~.report.Target`
 its image source), and the :class:`MeshTask` of every unique image, each holding only the
 part the atlas stores (a small crop, not a page). Per attachment, the :class:`Planner`
 decides which image(s) it needs and which texels a mesh must cover
-(:func:`texels_to_cover`), or why it is left alone; with ``--weights auto`` regions whose
-art would bend get a :func:`bending_task`. Nothing is meshed or written here but the
-editor images (``--images``), written as they are met.
+(:func:`texels_to_cover`), or why it is left alone; with ``--weights auto`` the regions whose
+art may bend are listed, to be tested once their plain mesh is known (:mod:`.bending`).
+Nothing is meshed or written here but the editor images (``--images``), written as they are
+met.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import time
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -211,7 +211,7 @@ def art_box(task: MeshTask) -> np.ndarray:
     (u, v), 0..1 over the original image, in the order of a region's quad
     (:data:`spinemesh.rig.upgrade.QUAD_UV`); the whole quad when it covers none.
 
-    What :class:`spinemesh.rig.upgrade.BendingRegions` tests before meshing: the quad reaches
+    What :class:`spinemesh.rig.upgrade.BendingRegions` tests (:mod:`.bending`): the quad reaches
     past the art wherever the image has transparent margins, and bones there are not the art's.
     """
     ys, xs = np.nonzero(task.drawn)
@@ -251,6 +251,9 @@ class Planner:
     #: Targets read but not decided yet (:meth:`read_skeleton`), with what deciding needs:
     #: ``(target, source, paths, blend, bends)``, in the order read.
     undecided: list[tuple] = field(default_factory=list)
+    #: ``--weights auto``: targets decided to be meshed whose art may bend, each with its test
+    #: (``bends(art_box)``), in the order read: tested once meshed (:mod:`.bending`)
+    may_bend: list[tuple] = field(default_factory=list)
 
     def pages_to_decode(self) -> list[Path]:
         """The atlas page files :meth:`decide` will cut from, in the order it will first cut them."""
@@ -264,7 +267,9 @@ class Planner:
         """Decide every target read and not decided yet, in the order read (images cut here)."""
         undecided, self.undecided = self.undecided, []
         for t, source, paths, blend, bends in undecided:
-            t.status, t.reason, t.key = self._decide(source, paths, blend, bends)
+            t.status, t.reason, t.key = self._decide(source, paths, blend)
+            if bends is not None and t.key:
+                self.may_bend.append((t, bends))
 
     def read_skeleton(self, doc: dict, skeleton: str, source, bending=None) -> list[Target]:
         """A :class:`Target` for every region attachment of ``doc``, in document order.
@@ -272,8 +277,8 @@ class Planner:
         Those that need their image are left to :meth:`decide` (:attr:`undecided`), so that
         the pages they are cut from can be decoded meanwhile (:meth:`pages_to_decode`).
         ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
-        ``--weights auto``) tells which regions would bend, once their image is cut (the box of
-        their art, :func:`art_box`): those get :func:`bending_task`.
+        ``--weights auto``) tells which regions would bend, given the box of their art
+        (:func:`art_box`): those the keep rule keeps are tested once meshed (:attr:`may_bend`).
         """
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
@@ -306,9 +311,7 @@ class Planner:
                 self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends))
         return targets
 
-    def _decide(self, source, paths: list[str], blend: str = "normal",
-                bends: Callable[[np.ndarray], bool] | None = None) -> tuple[str, str, str]:
-        """``bends``: whether the attachment's art would bend, given its box (:func:`art_box`)."""
+    def _decide(self, source, paths: list[str], blend: str = "normal") -> tuple[str, str, str]:
         seen = (source_identity(source), tuple(paths), blend == "normal")
         if seen not in self.decided:
             try:
@@ -332,11 +335,7 @@ class Planner:
                 self.decided[seen] = (status, reason, task.key if task else "")
         status, reason, key = self.decided[seen]
         if key:
-            task = self.found[key]
-            if bends is not None and bends(art_box(task)):
-                task = bending_task(task)
-            self.tasks.setdefault(task.key, task)
-            key = task.key
+            self.tasks.setdefault(key, self.found[key])
         return status, reason, key
 
     def _write_editor_images(self, frames: list[RegionImage]) -> None:
@@ -371,6 +370,11 @@ class ProjectPlan:
     only_needed: bool = False  # one skeleton file was asked for: copy only the files it uses
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)  # --repack: atlas -> regions
     options: Options | None = None
+    #: --weights auto: targets that may bend, with their test (:attr:`Planner.may_bend`)
+    may_bend: list[tuple] = field(default_factory=list)
+    #: --weights auto: the project's habits being read (:func:`.bending.start_habits`), until
+    #: :func:`.bending.gather_habits` gives them to the rigs
+    habits: object = None
 
 
 @dataclass
@@ -418,11 +422,6 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
             result.not_read[rel] = str(e)
             continue
         loaded.append((path, rel, doc, source, bending_regions(doc) if options.weights == "auto" else None))
-    if options.weights == "auto":
-        # the bone choice reads the habits of the artist-weighted meshes of every skeleton first
-        from ..rig.learned import share_project_habits
-
-        share_project_habits([(doc, bending.rig) for _, _, doc, _, bending in loaded if bending is not None])
     skeletons = []
     for path, rel, doc, source, bending in loaded:
         targets = planner.read_skeleton(doc, rel, source, bending)
@@ -490,7 +489,7 @@ def plan_read_project(reading: ProjectReading) -> ProjectPlan:
     project_pages(proj).release()
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectPlan(proj, reading.skeletons, planner.tasks, untrimmed=planner.untrimmed,
-                       options=reading.options)
+                       options=reading.options, may_bend=planner.may_bend)
 
 
 def bending_regions(doc: dict):

@@ -5,11 +5,13 @@ The stages, in the order they run, each a module of its own, with the data they 
 1. read and plan (:mod:`.plan`): the skeletons are read and each region attachment is
    planned -> a :class:`~.plan.ProjectPlan` (documents, a :class:`~.report.Target` per
    region, one :class:`~.plan.MeshTask` per unique image); with local worker processes,
-   the atlas pages the planning cuts from are decoded by them meanwhile;
+   the atlas pages the planning cuts from are decoded by them meanwhile, and with
+   ``--weights auto`` the project's habits read (:mod:`.bending`);
 2. mesh (:mod:`.meshing`): every task meshed once, on this process, local processes or a
    Dask cluster -> a :class:`~.meshing.MeshResult` per image key;
 3. apply (:mod:`.write`): the meshes put into the documents (and weighted, with
-   ``--weights auto``); the documents now hold the mesh attachments;
+   ``--weights auto``, once the regions the keep rule kept are tested for bending and meshed
+   again where they bend, :mod:`.bending`); the documents now hold the mesh attachments;
 4. write (:mod:`.write`): the documents written in the format and version they came in,
    every other file copied, re-packed atlases written;
 4b. pack (:mod:`.pack`, with ``--pack``): the written atlases packed anew by the meshes'
@@ -33,6 +35,7 @@ from pathlib import Path
 from ..cluster import Workers
 from ..output import check_output_folder, output_folder
 from ..project import find_project
+from .bending import start_habits
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
 from .pack import pack_written
@@ -80,13 +83,20 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
         result = Result()
         reading = read_project(proj, options, result, progress)       # 1. read and plan
         pages = reading.pages_to_decode()
-        if workers is None and not options.dry_run and options.jobs > 1 and not options.dask and len(pages) > 1:
+        habits = [sk for sk in reading.skeletons if sk.rig is not None] if not options.dry_run else []
+        if workers is None and not options.dry_run and options.jobs > 1 and not options.dask \
+                and len(pages) + len(habits) > 1:
             # The workers that will mesh are opened before the planning, to decode its pages
-            # meanwhile (local processes only, see page_prefetch): with N of them, the pages
-            # take about 1/N of the time they take this process alone.
-            workers = held.enter_context(meshing_workers(options, None, tasks=len(pages)))
+            # and read the project's habits (--weights auto) meanwhile (local processes only,
+            # see page_prefetch): with N of them, that takes about 1/N of this process's time.
+            workers = held.enter_context(meshing_workers(options, None, tasks=len(pages) + len(habits)))
         decode_pages_ahead(reading, page_prefetch(workers))
+        # read before any document changes: on the workers while this process cuts the images
+        t0 = time.perf_counter()
+        reading_habits = start_habits(habits, workers) if habits else None
+        result.seconds["read"] += time.perf_counter() - t0
         plan = plan_read_project(reading)
+        plan.habits = reading_habits
         plan.only_needed = Path(project).is_file()
         if options.dry_run:
             mark_would_mesh(result)
@@ -117,6 +127,7 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
     (and packed with ``--pack``, on ``workers`` when given)."""
     t0 = time.perf_counter()
     weights_before, pack_before = result.seconds["weights"], result.seconds.get("pack", 0.0)
+    mesh_before = result.seconds["mesh"]  # regions meshed again because they bend (.bending)
     with copying_other_files(plan, out, result):  # atlases, pages, other files: on threads meanwhile
         apply_project(plan, meshes, result, progress, workers)
         # A stage that changes the meshed documents before they are written goes here; it
@@ -128,6 +139,7 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
         # --pack changes no document: it packs the atlases by the skeleton files written
         # (a game loads those), --repack's untrimmed pages included, so it runs last, in place
         pack_written(out, result, plan.options, workers, progress)
-    # every stage counted once: the weights and the packing have lines of their own
-    others = (result.seconds["weights"] - weights_before) + (result.seconds.get("pack", 0.0) - pack_before)
+    # every stage counted once: the meshing, the weights and the packing have lines of their own
+    others = (result.seconds["weights"] - weights_before) + (result.seconds.get("pack", 0.0) - pack_before) \
+        + (result.seconds["mesh"] - mesh_before)
     result.seconds["write"] += time.perf_counter() - t0 - others

@@ -23,6 +23,7 @@ from ..errors import SpineMeshError
 from ..fsutil import atomic_copy
 from ..output import files_needed, files_to_copy, write_skeleton
 from ..skeleton import iter_attachments
+from .bending import settle_bending
 from .meshing import MeshResult
 from .plan import MeshTask, ProjectPlan
 from .progress import SILENT, Progress
@@ -70,7 +71,10 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
 
     The weights' time goes to ``result.seconds["weights"]``, each mesh weighted to ``progress``.
     With ``workers`` that are not this process, the meshes are weighted on them (:func:`weigh_on`).
+    Before anything goes in, the regions that may bend are settled (:func:`.bending.settle_bending`:
+    ``meshes`` and ``plan.tasks`` get the bending tasks' meshes).
     """
+    settle_bending(plan, meshes, workers, result, progress)
     for sk in plan.skeletons:
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
     if plan.options is None or plan.options.weights != "auto":
