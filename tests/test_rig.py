@@ -469,3 +469,32 @@ def test_a_row_across_a_joint_stops_where_every_step_tested_says_the_art_ends(mo
     few, every = rows.values()
     assert all(a.tobytes() == b.tobytes() for a, b in zip(few, every))
     assert max(len(r) for r in few) >= 5 and min(len(r) for r in few) >= 1  # 70 units up at the peak, 20 down
+
+
+def test_box_qps_answer_is_the_optimum_with_bounds_active():
+    """PIQP's answer meets the box QP's optimality conditions on a made mesh whose bounds bind."""
+    from spinemesh.rig.weights import biharmonic_qp, solve_box_qps
+
+    p, f, b, bc = _strip_problem(3)
+    free = np.setdiff1d(np.arange(len(p)), b)
+    q, fixed = biharmonic_qp(p, f, free, b)
+    c = np.asarray(fixed @ bc)
+    x = solve_box_qps(q, c)
+    assert x.shape == c.shape and x.min() >= 0.0 and x.max() <= 1.0
+    g = q @ x + c  # the gradient: 0 where free, >= 0 at 0, <= 0 at 1
+    scale = np.abs(c).max()
+    low, high = x < 1e-6, x > 1 - 1e-6
+    assert low.any()  # the unconstrained minimiser leaves [0, 1]: the bounds are active
+    assert (g[low] > -1e-3 * scale).all() and (g[high] < 1e-3 * scale).all()
+    assert np.abs(g[~low & ~high]).max() < 1e-4 * scale
+    from scipy.sparse.linalg import spsolve
+    assert spsolve(q, -c).min() < -1e-3
+
+
+def test_one_bone_with_handles_builds_no_operator(monkeypatch):
+    from spinemesh.rig import weights as rig_weights
+
+    p, f, b, bc = _strip_problem(2)
+    monkeypatch.setattr(rig_weights, "biharmonic_qp", lambda *a: pytest.fail("operator built"))
+    w = rig_weights.bounded_biharmonic(p, f, b, np.c_[np.ones(len(b)), np.zeros(len(b))])
+    assert (w[:, 0] == 1.0).all() and (w[:, 1] == 0.0).all()

@@ -338,19 +338,7 @@ def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarr
     ndarray, shape (P, B), or None
         None when the solver reports no solution for some bone (or the operator is not finite).
     """
-    import igl
-    import piqp
-    from scipy import sparse
-
     n, nb = len(v), bc.shape[1]
-    # Q scales as 1 / size^2 (L is scale-free in 2-D, M is an area): solve at unit size so
-    # the solver's absolute tolerances mean the same on every mesh.
-    v = (v - v.mean(axis=0)) / max(float(np.ptp(v, axis=0).max()), 1e-12)
-    lap = igl.cotmatrix(v, f).tocsc()
-    mass = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
-    if not (np.all(np.isfinite(lap.data)) and np.all(mass > 0)):
-        return None
-    q = (lap @ sparse.diags(1.0 / mass) @ lap).tocsr()
     free = np.setdiff1d(np.arange(n), b)
     w = np.zeros((n, nb))
     w[b] = bc
@@ -360,25 +348,92 @@ def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarr
     if len(bones) == 1:  # the art reached by one bone's handles alone follows it (docstring)
         w[free, bones[0]] = 1.0
         return w
-    q_free = q[free][:, free].tocsc()
-    linear = np.asarray(q[free][:, b] @ bc)
+    qp = biharmonic_qp(v, f, free, b)
+    if qp is None:
+        return None
+    q_free, q_fixed = qp
+    solved = bones[:1] if len(bones) == 2 else bones
+    x = solve_box_qps(q_free, np.asarray(q_fixed @ bc[:, solved]))
+    if x is None:
+        return None
+    w[np.ix_(free, solved)] = x
+    if len(bones) == 2:
+        w[free, bones[1]] = 1.0 - w[free, bones[0]]
+    return w
+
+
+def biharmonic_qp(v: np.ndarray, f: np.ndarray, free: np.ndarray, b: np.ndarray):
+    """The quadratic form of :func:`bounded_biharmonic` split between free and fixed points.
+
+    Parameters
+    ----------
+    v : ndarray, shape (P, 2)
+        Points, each in some face of ``f``.
+    f : ndarray, shape (F, 3)
+    free, b : ndarray of int, shapes (P - H,) and (H,)
+        The free points and the handles, together every point once.
+
+    Returns
+    -------
+    tuple of sparse matrices, or None
+        ``Q[free][:, free]`` (CSC, shape (P - H, P - H)) and ``Q[free][:, b]`` (CSR, shape
+        (P - H, H)) of ``Q = L M^-1 L`` on the points scaled to unit size; None when the
+        operator is not finite (a degenerate face).
+    """
+    import igl
+    from scipy import sparse
+
+    # Q scales as 1 / size^2 (L is scale-free in 2-D, M is an area): solve at unit size so
+    # the solver's absolute tolerances mean the same on every mesh.
+    v = (v - v.mean(axis=0)) / max(float(np.ptp(v, axis=0).max()), 1e-12)
+    lap = igl.cotmatrix(v, f).tocsc()
+    mass = igl.massmatrix(v, f, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    if not (np.all(np.isfinite(lap.data)) and np.all(mass > 0)):
+        return None
+    rows = (lap @ sparse.diags(1.0 / mass) @ lap).tocsr()[free]
+    return rows[:, free].tocsc(), rows[:, b]
+
+
+def solve_box_qps(q: "scipy.sparse.csc_matrix", linear: np.ndarray, tolerance: float | None = None,
+                  **settings) -> np.ndarray | None:
+    """Minimise ``x^T q x / 2 + c^T x`` subject to ``0 <= x <= 1`` for each column ``c`` of ``linear``.
+
+    PIQP's sparse interior-point solver, set up once (``q`` is shared) and updated per column.
+
+    Parameters
+    ----------
+    q : sparse matrix, shape (F, F)
+        Symmetric positive definite.
+    linear : ndarray, shape (F, K)
+    tolerance : float, optional
+        PIQP's absolute and relative tolerance; default ``SOLVER_TOLERANCE``.
+    **settings
+        Further PIQP settings by name (benchmarks compare them).
+
+    Returns
+    -------
+    ndarray, shape (F, K), or None
+        None when PIQP reports no solution for some column.
+    """
+    import piqp
+    from scipy import sparse
+
     solver = piqp.SparseSolver()
     solver.settings.verbose = False
-    solver.settings.eps_abs = solver.settings.eps_rel = SOLVER_TOLERANCE
-    solved = bones[:1] if len(bones) == 2 else bones
-    zeros, ones = np.zeros(len(free)), np.ones(len(free))
-    for i, j in enumerate(solved):
-        c = np.ascontiguousarray(linear[:, j])
+    solver.settings.eps_abs = solver.settings.eps_rel = SOLVER_TOLERANCE if tolerance is None else tolerance
+    for name, value in settings.items():
+        setattr(solver.settings, name, value)
+    out = np.zeros(linear.shape)
+    for i in range(linear.shape[1]):
+        c = np.ascontiguousarray(linear[:, i])
         if i == 0:
-            solver.setup(sparse.triu(q_free, format="csc"), c, x_l=zeros, x_u=ones)
+            solver.setup(sparse.triu(q, format="csc"), c, x_l=np.zeros(len(c)), x_u=np.ones(len(c)))
         else:
             solver.update(c=c)
         if solver.solve() != piqp.PIQP_SOLVED:
             return None
-        w[free, j] = solver.result.x
-    if len(bones) == 2:
-        w[free, bones[1]] = 1.0 - w[free, bones[0]]
-    return w
+        out[:, i] = solver.result.x
+    return out
 
 
 def sparsify(weights: np.ndarray, max_bones: int = 4, min_weight: float = 0.01) -> np.ndarray:

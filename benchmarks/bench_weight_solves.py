@@ -1,0 +1,193 @@
+"""The bounded biharmonic weights' QPs of real upgrades, solved by PIQP and by exact alternatives.
+
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_weight_solves.py [--projects A,B,...]
+        [--corpus DIR] [--record FILE]
+
+Each corpus project of ``--projects`` (default dq-symbols and kraken-symbols) is upgraded with
+``--weights auto`` (``--jobs 1``, into a temporary folder) and the input of every call of
+:func:`spinemesh.rig.weights.bounded_biharmonic` is recorded (``--record FILE`` keeps them, and
+reads them back instead of upgrading when the file exists). Each call with handles on two bones
+or more is one QP per solved bone: ``min x^T Q x / 2 + c^T x`` subject to ``0 <= x <= 1``, the
+same ``Q`` (shape (F, F), F free points of the refinement) for every bone of a mesh. Solved by:
+
+- PIQP as shipped (tolerance ``SOLVER_TOLERANCE``), and with tolerances of 1e-10 (duality gap
+  1e-12): the *reference*, the optimum every other answer is compared with;
+- PIQP with 3 rounds of Ruiz equilibration instead of its 10 (the same tolerance);
+- the unconstrained minimiser (one sparse LU of ``Q`` for all bones of a mesh): the optimum
+  itself wherever it lies inside [0, 1];
+- a primal-dual active set (exact: the answer is the optimum when the sets settle, within 50
+  steps; one sparse LU of the free points' ``Q`` per step), started from the unconstrained
+  minimiser's sets, and from the sets PIQP's own answer makes active.
+
+Printed: QPs solved, CPU seconds (one thread), factorisations, and the largest and the 99th
+percentile of ``|x - reference|`` over the QPs each method solved.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from spinemesh.rig import weights as rig_weights  # noqa: E402
+
+CORPUS = REPO.parent / "shared" / "spine-corpus"
+
+#: Most steps of the active-set method before it counts as unsettled.
+ACTIVE_SET_STEPS = 50
+
+
+def record(projects: list[Path]) -> list[tuple]:
+    """``(v, f, b, bc)`` of every :func:`bounded_biharmonic` call of ``upgrade --weights auto``."""
+    from spinemesh.upgrade import Options, upgrade_project
+
+    calls, solve = [], rig_weights.bounded_biharmonic
+
+    def kept(v, f, b, bc):
+        calls.append((v.copy(), f.copy(), b.copy(), bc.copy()))
+        return solve(v, f, b, bc)
+
+    rig_weights.bounded_biharmonic = kept
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            for project in projects:
+                upgrade_project(project, Path(tmp) / project.name, Options(jobs=1, weights="auto"))
+    finally:
+        rig_weights.bounded_biharmonic = solve
+    return calls
+
+
+def qps(calls: list[tuple]) -> list[tuple]:
+    """``(Q_free, C)`` per call with two or more bones' handles: C's columns the bones solved."""
+    out = []
+    for v, f, b, bc in calls:
+        bones = [j for j in range(bc.shape[1]) if bc[:, j].any()]
+        free = np.setdiff1d(np.arange(len(v)), b)
+        if len(bones) < 2 or not len(free):
+            continue
+        qp = rig_weights.biharmonic_qp(v, f, free, b)
+        if qp is not None:
+            solved = bones[:1] if len(bones) == 2 else bones  # as bounded_biharmonic: 1 - w for two
+            out.append((qp[0], np.asarray(qp[1] @ bc[:, solved])))
+    return out
+
+
+def lu(q):
+    """Sparse LU of a symmetric positive definite matrix (symmetric ordering, no pivoting)."""
+    from scipy.sparse.linalg import splu
+
+    return splu(q.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+
+
+def active_set(q, c: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray | None, int]:
+    """Primal-dual active set for ``min x^T q x / 2 + c^T x``, ``0 <= x <= 1`` from the sets
+    ``low`` (x = 0) and ``high`` (x = 1): the optimum and the factorisations made, or None where
+    the sets do not settle within ``ACTIVE_SET_STEPS`` or come back to earlier ones."""
+    seen, tol_x, tol_g = set(), 1e-9, 1e-8 * max(float(np.abs(c).max()), 1e-300)
+    for step in range(1, ACTIVE_SET_STEPS + 1):
+        free = np.flatnonzero(~(low | high))
+        x = high.astype(float)
+        if len(free):
+            x[free] = lu(q[free][:, free]).solve(-c[free] - q[free][:, high] @ np.ones(int(high.sum())))
+        g = q @ x + c
+        inside = ~(low | high)
+        new_low = (low & (g > -tol_g)) | (inside & (x < -tol_x))
+        new_high = (high & (g < tol_g)) | (inside & (x > 1 + tol_x))
+        if (new_low == low).all() and (new_high == high).all():
+            return np.clip(x, 0.0, 1.0), step
+        key = (new_low.tobytes(), new_high.tobytes())
+        if key in seen:
+            break
+        seen.add(key)
+        low, high = new_low, new_high
+    return None, step
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--projects", default="dq-symbols,kraken-symbols")
+    ap.add_argument("--corpus", type=Path, default=CORPUS)
+    ap.add_argument("--record", type=Path, help="file of recorded calls: read if it exists, else written")
+    args = ap.parse_args()
+    if args.record and args.record.exists():
+        calls = pickle.loads(args.record.read_bytes())
+    else:
+        calls = record([args.corpus / p for p in args.projects.split(",")])
+        if args.record:
+            args.record.write_bytes(pickle.dumps(calls))
+    problems = qps(calls)
+    count = sum(c.shape[1] for _, c in problems)
+    print(f"{len(calls)} calls of bounded_biharmonic, {len(problems)} with two bones or more: {count} QPs "
+          f"(median {int(np.median([q.shape[0] for q, _ in problems]))} free points)\n")
+
+    rows: dict[str, tuple] = {}
+
+    def piqp(name: str, **settings) -> list:
+        import piqp as solver_module
+
+        answers, t, iterations = [], time.process_time(), 0
+        real = solver_module.SparseSolver.solve
+
+        def counted(self):
+            nonlocal iterations
+            status = real(self)
+            iterations += self.result.info.iter
+            return status
+
+        solver_module.SparseSolver.solve = counted
+        try:
+            for q, c in problems:
+                x = rig_weights.solve_box_qps(q, c, **settings)
+                answers += [None] * c.shape[1] if x is None else list(x.T)
+        finally:
+            solver_module.SparseSolver.solve = real
+        rows[name] = (answers, time.process_time() - t, iterations)
+        return answers
+
+    piqp(f"PIQP, tolerance {rig_weights.SOLVER_TOLERANCE:g} (shipped)")
+    reference = piqp("PIQP, tolerance 1e-10, duality gap 1e-12 (reference)", tolerance=1e-10,
+                     eps_duality_gap_abs=1e-12, eps_duality_gap_rel=1e-12)
+    piqp("PIQP, 3 rounds of equilibration", preconditioner_iter=3)
+
+    t, inside = time.process_time(), []
+    for q, c in problems:
+        x = lu(q).solve(-c)
+        inside += [x[:, k] if (x[:, k] >= -1e-9).all() and (x[:, k] <= 1 + 1e-9).all() else None
+                   for k in range(c.shape[1])]
+    rows["unconstrained minimiser, where inside [0, 1]"] = (inside, time.process_time() - t, len(problems))
+
+    for name, start in (("from the unconstrained minimiser", None), ("from PIQP's answer", 0)):
+        t, answers, factorisations, k = time.process_time(), [], 0, 0
+        for q, c in problems:
+            unconstrained = lu(q).solve(-c) if start is None else None
+            factorisations += start is None
+            for j in range(c.shape[1]):
+                if start is None:
+                    low, high = unconstrained[:, j] < 0, unconstrained[:, j] > 1
+                else:
+                    low, high = rows[next(iter(rows))][0][k] < 1e-6, rows[next(iter(rows))][0][k] > 1 - 1e-6
+                x, steps = active_set(q, c[:, j], low, high)
+                answers.append(x)
+                factorisations += steps
+                k += 1
+        rows[f"primal-dual active set {name}"] = (answers, time.process_time() - t, factorisations)
+
+    print("| method | QPs solved | CPU s | per QP ms | factorisations (PIQP: iterations) | max abs diff to reference | 99th pct |")
+    print("|---|--:|--:|--:|--:|--:|--:|")
+    for name, (answers, cpu, work) in rows.items():
+        diff = [np.abs(x - r).max() for x, r in zip(answers, reference) if x is not None and r is not None]
+        solved = sum(x is not None for x in answers)
+        print(f"| {name} | {solved} of {count} | {cpu:.2f} | {1000 * cpu / count:.1f} | {work} | "
+              f"{max(diff, default=0):.1e} | {np.quantile(diff, 0.99) if diff else 0:.1e} |")
+
+
+if __name__ == "__main__":
+    main()
