@@ -87,3 +87,50 @@ def test_segment_distances_match_point_by_point():
             t = 0.0 if not ab.any() else min(max(float((p - a) @ ab / (ab @ ab)), 0.0), 1.0)
             want[i, j] = np.hypot(*(p - (a + t * ab)))
     assert np.allclose(segment_distances(points, segments), want, rtol=1e-12, atol=1e-9)
+
+
+def _every_point_against_the_outline_then_every_triangle(points, world, tris):
+    """distance_to_art as it was measured before: every point against the outline edges, then
+    0 for those within the art's box at more than 0 that lie in any triangle (all at once)."""
+    from spinemesh.rig.choice import distance_to_outline
+
+    out = distance_to_outline(points, world, tris)
+    corner = world[tris]
+    lo, hi = corner.reshape(-1, 2).min(axis=0), corner.reshape(-1, 2).max(axis=0)
+    test = np.flatnonzero((points >= lo).all(axis=1) & (points <= hi).all(axis=1) & (out > 0))
+    cx, cy = corner[..., 0].T[..., None], corner[..., 1].T[..., None]
+    ex, ey = cx[[1, 2, 0]] - cx, cy[[1, 2, 0]] - cy
+    px, py = points[test, 0], points[test, 1]
+    u, v = ex * (py - cy), ey * (px - cx)
+    cross = u - v
+    slack = 1e-13 * (np.abs(u) + np.abs(v))
+    out[test[((cross >= -slack).all(axis=0) | (cross <= slack).all(axis=0)).any(axis=0)]] = 0.0
+    return out
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_triangles_tested_first_give_the_distances_to_the_last_bit(seed, monkeypatch):
+    """Points found in a triangle are measured against no edge and no further triangle: the
+    distances are those of measuring every point against every edge and triangle, bit for bit,
+    degenerate triangles, folds and points on corners and edges included."""
+    from spinemesh.rig import choice
+
+    rng = np.random.default_rng(seed)
+    world, tris = _grid(int(rng.integers(1, 9)), float(rng.uniform(5, 500)))
+    world = world + rng.normal(size=world.shape) * rng.uniform(0, 2)
+    tris = tris[rng.permutation(len(tris))][: max(1, int(len(tris) * rng.uniform(0.5, 1)))]
+    flat = np.array([[0, 1, 2]])
+    world = np.concatenate([world, [[-40.0, 3.0], [-20.0, 3.0], [-30.0, 3.0]]])  # a triangle of no area
+    tris = np.concatenate([tris, flat + len(world) - 3, tris[:1, [0, 2, 1]]])   # and one folded back
+    span = np.ptp(world, axis=0).max()
+    points = np.concatenate([
+        world.mean(axis=0) + rng.normal(size=(3000, 2)) * span / 2,
+        world[tris[:, 0]], (world[tris[:, 0]] + world[tris[:, 1]]) / 2,
+        np.column_stack([np.linspace(-60, 10, 50), np.full(50, 3.0)]),           # along the flat one
+    ])
+    want = _every_point_against_the_outline_then_every_triangle(points, world, tris)
+    for at_once in (1, 3, choice.TRIANGLES_AT_ONCE, 1000):
+        monkeypatch.setattr(choice, "TRIANGLES_AT_ONCE", at_once)
+        got = distance_to_art(points, world, tris)
+        assert got.tobytes() == want.tobytes()
+    assert (want == 0).sum() > len(tris) and np.isfinite(want).all() and (want > 0).sum() > 100

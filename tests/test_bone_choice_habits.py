@@ -326,9 +326,11 @@ def test_the_sets_bound_on_the_mirror_image_of_the_slot_bone_are_neighbours():
 
 def test_upgrade_reads_the_projects_habits_for_every_skeleton(tmp_path):
     """``upgrade --weights auto`` gives each skeleton's rig the habits of the weighted meshes of
-    all of the project's skeletons, read before planning, as ``spinemesh weights`` does."""
+    all of the project's skeletons, as ``spinemesh weights`` does: read from the documents as
+    planned, before anything is tested for bending or weighted (:func:`.bending.gather_habits`)."""
     from spinemesh.project import find_project
     from spinemesh.upgrade import Options
+    from spinemesh.upgrade.bending import gather_habits
     from spinemesh.upgrade.plan import plan_project
     from spinemesh.upgrade.report import Result
 
@@ -337,8 +339,34 @@ def test_upgrade_reads_the_projects_habits_for_every_skeleton(tmp_path):
     make_bar_project(tmp_path / "p")
     (tmp_path / "p" / "worm.json").write_text(json.dumps(_weighted_worms()))
     plans = {w: plan_project(find_project(tmp_path / "p"), Options(weights=w), Result()) for w in ("auto", "none")}
+    gather_habits(plans["auto"])
     rigs = {sk.rel: sk.rig for sk in plans["auto"].skeletons}
     assert sorted(rigs) == ["bar.json", "worm.json"]
     assert rigs["bar.json"].habits is rigs["worm.json"].habits
     assert len(rigs["bar.json"].habits.tallies) == 2  # the two weighted worms, read for the bar too
     assert all(sk.rig is None for sk in plans["none"].skeletons)
+
+
+def test_the_same_weighted_art_on_the_same_bones_is_measured_once(monkeypatch):
+    """weighted_meshes measures the candidates of one art on one slot bone once (``worm`` and
+    ``worm2`` are the same mesh on ``seg1``): every mesh's entry is what measuring it alone gives,
+    and its own (changing one changes no other)."""
+    from spinemesh.rig import learned
+    from spinemesh.rig.binding import parse_vertices, setup_world
+
+    doc = _weighted_worms()
+    rig = build_rig(doc)
+    measured = []
+    monkeypatch.setattr(learned, "candidates", lambda *a, f=learned.candidates, **k: measured.append(1) or f(*a, **k))
+    meshes = weighted_meshes(doc, rig)
+    assert len(meshes) == 2 and len(measured) == 1
+    for m in meshes:
+        att = doc["skins"][0]["attachments"][m["slot"]][m["slot"]]
+        world = setup_world(parse_vertices(att, len(rig.bones)), rig.worlds, rig.slot_bone[m["slot"]])
+        alone = candidates(rig.bones, rig.slot_bone[m["slot"]], world, np.asarray(att["triangles"]).reshape(-1, 3),
+                           rig.skin_bones.get("default", set()), rig.constrained)
+        assert m["bones"] == alone.bones and m["rule"] == alone.rule.bones
+        assert m["features"].tobytes() == alone.features.tobytes()
+    meshes[0]["features"][:] = -1
+    meshes[0]["bones"].append(-1)
+    assert (meshes[1]["features"] != -1).any() and -1 not in meshes[1]["bones"]

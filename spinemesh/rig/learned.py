@@ -316,6 +316,8 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
         (the artist's bones).
     """
     out = []
+    # one mesh in several skins is the same art on the same bones: its candidates measured once
+    measured: dict[tuple, Candidates] = {}
     for ref in iter_attachments(doc):
         att = ref.attachment
         if ref.type != "mesh" or ref.slot not in rig.slot_bone:
@@ -335,11 +337,16 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
         world = setup_world(mesh, rig.worlds, slot_bone)
         if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
             continue
-        cand = candidates(rig.bones, slot_bone, world, tris, rig.skin_bones.get(ref.skin, set()), rig.constrained,
-                          reach=reach, chain_reach=chain_reach)
+        skin_bones = rig.skin_bones.get(ref.skin, set())
+        key = (slot_bone, world.shape, world.tobytes(), tris.shape, tris.tobytes(), frozenset(skin_bones))
+        if key not in measured:
+            measured[key] = candidates(rig.bones, slot_bone, world, tris, skin_bones, rig.constrained,
+                                       reach=reach, chain_reach=chain_reach)
+        cand = measured[key]
         parents = [-1 if rig.bones[b].parent is None else rig.bones[b].parent for b in cand.bones]
-        out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=cand.bones, features=cand.features,
-                        label=np.array([b in artist for b in cand.bones]), rule=cand.rule.bones, artist=artist,
+        out.append(dict(skin=ref.skin, slot=ref.slot, name=ref.name, bones=list(cand.bones),
+                        features=cand.features.copy(),
+                        label=np.array([b in artist for b in cand.bones]), rule=list(cand.rule.bones), artist=artist,
                         parents=parents))
     return out
 
