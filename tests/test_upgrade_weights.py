@@ -558,18 +558,28 @@ def test_the_habits_read_on_worker_processes_are_those_read_here(tmp_path):
             assert (habits.keys, habits.bound) == (expected.keys, expected.bound)
 
 
-def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_library(tmp_path):
+def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_library(tmp_path, monkeypatch):
     """The habits read and the regions tested for bending on worker processes (a project, and a
     library of projects planned ahead while others mesh): the output and the report of one
-    process, byte for byte."""
+    process, byte for byte. The regions are tested as their meshes arrive: none is left for
+    settle_bending to test, and the bending tasks are already sent."""
     import shutil
 
-    from spinemesh.upgrade import upgrade_library
+    from spinemesh.upgrade import upgrade_library, write
 
+    settled = []
+
+    def settle(plan, *a, f=write.settle_bending, **k):
+        if plan.bending is not None:
+            settled.append((len(plan.bending.waiting), len(plan.bending.tasks)))
+        return f(plan, *a, **k)
+
+    monkeypatch.setattr(write, "settle_bending", settle)
     library = tmp_path / "lib"
     _weighted_worm_and_bar(library / "both", tmp_path)
     _bar_and_half_project(library / "half")
     shutil.copytree(library / "half", library / "half-again")
+    settled.clear()  # the worm's own upgrade
     outputs = {}
     for jobs in (1, 2):
         project = upgrade_project(library / "both", tmp_path / f"project{jobs}", Options(weights="auto", jobs=jobs))
@@ -577,6 +587,8 @@ def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_li
         outputs[jobs] = (_folder_bytes(tmp_path / f"project{jobs}"), _rows(project),
                          _folder_bytes(tmp_path / f"library{jobs}"), _rows(whole))
     assert outputs[1] == outputs[2]
+    # per run: the project (bar bends), then the library's three projects (both, half, half-again)
+    assert settled == [(0, 1), (0, 1), (0, 1), (0, 1)] * 2
     rows = {(t.skeleton, t.slot): t for t in upgrade_library(library, tmp_path / "again", Options(weights="auto")).targets}
     assert rows[("both/bar.json", "bar")].weights["meshed_to_bend"]
     assert rows[("half/bar.json", "half")].status == "meshed" and len(rows[("half/bar.json", "half")].weights["bones"]) == 2

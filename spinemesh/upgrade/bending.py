@@ -12,16 +12,18 @@ A region whose art bends with the skeleton is meshed even where the keep rule
 :func:`~.plan.bending_task`). That task's mesh differs from the plain one only where the plain
 one is kept: so every image is meshed plain first, and only the regions whose plain mesh the
 rule kept are tested for bending (:meth:`spinemesh.rig.upgrade.BendingRegions.bends`, on the
-box of their art) and meshed again as bending tasks (:func:`mesh_bending`). Testing every
-region before meshing gave the same meshes for about five times the tests (1,243 against
-about 225 on the 45 skeletons of ``benchmarks/bench_upgrade_weights.py``), all in this process.
+box of their art), as each plain mesh arrives (:class:`BendingTests`, while the workers mesh
+the others), and meshed again as bending tasks; :func:`settle_bending` collects them before the
+meshes go into the documents. Testing every region before meshing gave the same meshes for
+about five times the tests (1,243 against 225 on the 45 skeletons of
+``benchmarks/bench_upgrade_weights.py``), all in this process while the workers waited.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..cluster import WorkerLost, Workers
 from .plan import ProjectPlan, art_box, bending_task
@@ -77,34 +79,81 @@ def gather_habits(plan: ProjectPlan) -> None:
         rig.habits = plan.habits
 
 
+@dataclass
+class BendingTests:
+    """The regions of a plan that may bend (:attr:`~.plan.ProjectPlan.may_bend`), tested as
+    their plain meshes arrive (:meth:`arrived`, while the workers mesh the others), those that
+    bend sent to the workers at once as bending tasks; :func:`settle_bending` collects them."""
+
+    plan: ProjectPlan
+    workers: Workers
+    #: image key -> the targets drawing it that may bend, each with its test, not tested yet
+    waiting: dict[str, list[tuple]] = field(default_factory=dict)
+    #: the bending tasks sent, by key, and their meshing (:func:`.meshing.start_meshing`)
+    tasks: dict = field(default_factory=dict)
+    sent: list = field(default_factory=list)
+
+    @classmethod
+    def of(cls, plan: ProjectPlan, workers: Workers) -> BendingTests:
+        tests = cls(plan, workers)
+        for t, bends in plan.may_bend:
+            tests.waiting.setdefault(t.key, []).append((t, bends))
+        return tests
+
+    def arrived(self, res) -> None:
+        """Test the targets drawing the image of ``res`` (a :class:`~.meshing.MeshResult` of a
+        plain task) when the keep rule kept it; send the bending task of those that bend."""
+        from .meshing import start_meshing
+
+        waiting = self.waiting.pop(res.key, [])
+        if not waiting or not res.kept:
+            return  # meshed (or failed) plain: its bending task gives the same
+        gather_habits(self.plan)  # the test reads them
+        task = self.plan.tasks[res.key]
+        box = art_box(task)
+        for t, bends in waiting:
+            if bends(box):
+                variant = bending_task(task)
+                if variant.key not in self.tasks:
+                    self.tasks[variant.key] = variant
+                    self.sent.append(start_meshing({variant.key: variant}, self.workers))
+                t.key = variant.key
+
+
+def bending_tests(plan: ProjectPlan, workers: Workers) -> BendingTests | None:
+    """With ``--weights auto``, the :class:`BendingTests` of ``plan`` on ``workers``, kept on the
+    plan for :func:`settle_bending` (give :meth:`BendingTests.arrived` each plain mesh as it
+    arrives); else None."""
+    if plan.options is None or plan.options.weights != "auto":
+        return None
+    plan.bending = BendingTests.of(plan, workers)
+    return plan.bending
+
+
 def settle_bending(plan: ProjectPlan, meshes: dict, workers: Workers | None, result=None,
                    progress: Progress = SILENT) -> None:
     """With ``--weights auto``, before the meshes go into the documents: the project's habits
-    given to its rigs (:func:`gather_habits`), then the regions of ``plan`` that may bend
+    given to its rigs (:func:`gather_habits`), every region of ``plan`` that may bend
     (:attr:`~.plan.ProjectPlan.may_bend`) whose plain mesh the keep rule kept tested for
-    bending, and those that bend meshed again as bending tasks on ``workers`` (this process
-    without), into ``meshes`` and ``plan.tasks``, their targets' ``key`` set to it. Once: a
-    second call does nothing. Its time counts as meshing (``result.seconds["mesh"]``).
+    bending (those not tested as their meshes arrived, :func:`bending_tests`), and the bending
+    tasks of those that bend meshed on ``workers`` (this process without), into ``meshes`` and
+    ``plan.tasks``, their targets' ``key`` set to it. Once: a second call does nothing. Its time
+    counts as meshing (``result.seconds["mesh"]``).
     """
-    from .meshing import mesh_tasks
+    from .meshing import finish_meshing
 
     if plan.options is None or plan.options.weights != "auto":
         return
     t0 = time.perf_counter()
     gather_habits(plan)
-    again = {}
-    for t, bends in plan.may_bend:
-        if not meshes[t.key].kept:
-            continue  # meshed (or failed) plain: its bending task gives the same
-        task = plan.tasks[t.key]
-        if bends(art_box(task)):
-            variant = bending_task(task)
-            again.setdefault(variant.key, variant)
-            t.key = variant.key
-    plan.may_bend = []
-    if again:
-        progress.add("mesh", len(again))
-        plan.tasks.update((key, task) for key, task in again.items() if key not in plan.tasks)
-        meshes.update(mesh_tasks(again, workers or Workers(), lambda n: progress.advance("mesh", n)))
+    tests = plan.bending if plan.bending is not None else BendingTests.of(plan, workers or Workers())
+    for key in list(tests.waiting):  # not tested as they arrived: tested now
+        tests.arrived(meshes[key])
+    plan.may_bend, plan.bending = [], None
+    if tests.tasks:
+        progress.add("mesh", len(tests.tasks))
+        for meshing in tests.sent:
+            meshes.update(finish_meshing(meshing, tests.tasks, tests.workers, lambda n: progress.advance("mesh", n)))
+        plan.tasks.update((key, task) for key, task in tests.tasks.items() if key not in plan.tasks)
     if result is not None:
         result.seconds["mesh"] += time.perf_counter() - t0

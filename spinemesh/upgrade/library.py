@@ -27,7 +27,7 @@ from ..errors import SpineMeshError
 from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
-from .bending import HabitsReading, start_habits
+from .bending import HabitsReading, bending_tests, start_habits
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
 from .plan import ProjectPlan, ProjectReading, decode_pages_ahead, page_prefetch, plan_read_project, read_project
@@ -161,8 +161,9 @@ def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cac
         mark_would_mesh(p.result)
     elif p.plan is not None:
         t0 = time.perf_counter()
+        tests = bending_tests(p.plan, workers)  # --weights auto: tested as their meshes arrive
         meshes = finish_meshing(p.meshing, p.plan.tasks, workers, lambda n: progress.advance("mesh", n),
-                                cache, inflight)
+                                cache, inflight, arrived=tests.arrived if tests is not None else None)
         p.result.seconds["mesh"] += time.perf_counter() - t0
         try:
             finish_project(p.plan, meshes, out / p.rel, p.result, progress, workers)

@@ -182,11 +182,15 @@ def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | No
 
 def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Workers,
                    progress: Callable[[int], None] | None = None, cache: dict | None = None,
-                   inflight: dict | None = None) -> dict[str, MeshResult]:
-    """Collect the meshes as they arrive; ``progress(n)`` is told how many came."""
+                   inflight: dict | None = None,
+                   arrived: Callable[[MeshResult], None] | None = None) -> dict[str, MeshResult]:
+    """Collect the meshes as they arrive; ``progress(n)`` is told how many came, ``arrived``
+    each mesh (those known first)."""
     results = dict(meshing.known)
     if progress and results:
         progress(len(results))
+    for res in results.values() if arrived else ():
+        arrived(res)
     for future in workers.as_completed(meshing.futures):
         try:
             res = future.result()
@@ -206,19 +210,21 @@ def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Worker
             inflight.pop(key, None)
         if progress:
             progress(1)
+        if arrived:
+            arrived(res)
     return results
 
 
 def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
                progress: Callable[[int], None] | None = None,
-               cache: dict | None = None) -> dict[str, MeshResult]:
+               cache: dict | None = None, arrived: Callable[[MeshResult], None] | None = None) -> dict[str, MeshResult]:
     """Mesh every unique image once (:func:`start_meshing`, then :func:`finish_meshing`).
 
     ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
     that runs over projects sharing images (the same art exported for several Spine
-    versions) mesh each image only once.
+    versions) mesh each image only once. ``arrived`` is told each mesh as it arrives.
     """
-    return finish_meshing(start_meshing(tasks, workers, cache), tasks, workers, progress, cache)
+    return finish_meshing(start_meshing(tasks, workers, cache), tasks, workers, progress, cache, arrived=arrived)
 
 
 @contextlib.contextmanager

@@ -375,6 +375,9 @@ class ProjectPlan:
     #: --weights auto: the project's habits being read (:func:`.bending.start_habits`), until
     #: :func:`.bending.gather_habits` gives them to the rigs
     habits: object = None
+    #: --weights auto: the regions that may bend being tested as their meshes arrive
+    #: (:func:`.bending.bending_tests`), until :func:`.bending.settle_bending`
+    bending: object = None
 
 
 @dataclass

@@ -35,7 +35,7 @@ from pathlib import Path
 from ..cluster import Workers
 from ..output import check_output_folder, output_folder
 from ..project import find_project
-from .bending import start_habits
+from .bending import bending_tests, start_habits
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
 from .pack import pack_written
@@ -115,7 +115,11 @@ def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: W
     t0 = time.perf_counter()
     progress.add("mesh", len(plan.tasks))
     with meshing_workers(options, workers, len(plan.tasks)) as w:
-        meshes = mesh_tasks(plan.tasks, w, lambda n: progress.advance("mesh", n), mesh_cache)
+        # --weights auto: the regions that may bend tested as their meshes arrive, their bending
+        # tasks sent meanwhile, on the caller's workers (they outlive this stage)
+        tests = bending_tests(plan, workers) if workers is not None else None
+        meshes = mesh_tasks(plan.tasks, w, lambda n: progress.advance("mesh", n), mesh_cache,
+                            arrived=tests.arrived if tests is not None else None)
     result.seconds["mesh"] += time.perf_counter() - t0
     return meshes
 
