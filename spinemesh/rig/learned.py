@@ -687,7 +687,13 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
     x = model.with_habits(cand.features, habits)
-    p = model.probability(x)
+    if explain and _habits_move(model, habits):
+        # the probabilities without the habits too, for the notes: one walk of the trees for both
+        # (each row's is its own: the same numbers as two walks)
+        both = model.probability(np.vstack([x, model.with_habits(cand.features, None)]))
+        p, alone = both[:len(x)], both[len(x):]
+    else:
+        p, alone = model.probability(x), None
     left_out: dict[int, str] = {}
     allowed = np.zeros(len(cand.bones), bool)
     for k, i in enumerate(cand.bones):
@@ -709,7 +715,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     if not explain:  # the bones _explain gives reasons for: those taken (all of them allowed)
         chosen = sorted(cand.bones[k] for k in (take or _by_threshold(p, order, slot, model.threshold)))
         return Choice(chosen or ([slot_bone] if bones[slot_bone].exact else []), {}, {})
-    notes = _habit_notes(cand, model, p, habits)
+    notes = _habit_notes(cand, model, p, habits, alone)
     why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
                    model.threshold, note if take else "", left_out, notes)
     if not why and bones[slot_bone].exact:
@@ -721,13 +727,21 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
 HABIT_MATTERS = 0.1
 
 
+def _habits_move(model: TreeEnsemble, habits: np.ndarray | None) -> bool:
+    """Whether the project's ``habits`` may move the ``model``'s probabilities (it reads them,
+    and they hold some mesh)."""
+    return model.reads_habits and habits is not None and meshes_in(habits) != 0
+
+
 def _habit_notes(cand: Candidates, model: TreeEnsemble, p: np.ndarray,
-                 habits: np.ndarray | None) -> dict[int, str]:
+                 habits: np.ndarray | None, alone: np.ndarray | None = None) -> dict[int, str]:
     """For the candidates (indices into ``cand.bones``) whose probability ``p`` the project's
-    habits moved by :data:`HABIT_MATTERS` or more from the prior's, a note for the report."""
-    if not model.reads_habits or habits is None or meshes_in(habits) == 0:
+    habits moved by :data:`HABIT_MATTERS` or more from the prior's (``alone``, computed here
+    when not given), a note for the report."""
+    if not _habits_move(model, habits):
         return {}
-    alone = model.probability(model.with_habits(cand.features, None))
+    if alone is None:
+        alone = model.probability(model.with_habits(cand.features, None))
     return {k: f"{habit_reason(cand.features, FEATURES, habits, k)} "
                f"({alone[k]:.2f} likely without the project's habits)"
             for k in np.flatnonzero(np.abs(p - alone) >= HABIT_MATTERS).tolist()}
