@@ -562,7 +562,7 @@ class AtlasLayouts:
     (:func:`group_layouts`). :func:`compose` makes a :class:`PackedAtlas` of any of them."""
 
     atlas: Atlas
-    items: list[_Item]
+    items: list[_Item] | None  # None once released (:meth:`release`)
     geometries: list[RegionGeometry]
     padding: int
     rules: PageRules
@@ -571,11 +571,24 @@ class AtlasLayouts:
     groups: list[tuple[int, list[int], list[int], list]]
     texels_before: int
     seconds: float
+    #: what made ``items`` (pages' texels, uses, pinned, rotate): made again after :meth:`release`
+    made_from: tuple = ()
 
     @property
     def count(self) -> int:
         """How many layouts :func:`compose` can make: the most any group has."""
         return max((len(layouts) for *_, layouts in self.groups), default=1)
+
+    def release(self) -> None:
+        """Let the footprints' masks go (a few hundred MB for an atlas of 60 large pages) while the
+        packed pages are encoded and proven; :func:`compose` makes them again if it needs them."""
+        self.items = None
+
+    def footprints(self) -> list[_Item]:
+        """The regions' footprints, made again (the same, :func:`_items`) when released."""
+        if self.items is None:
+            self.items = _items(self.atlas, self.geometries, *self.made_from)
+        return self.items
 
 
 def plan_layouts(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
@@ -636,7 +649,7 @@ def plan_layouts(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionU
                                 max(0, pad - RING_TEXELS), len(page_indices), texels_before, fills, on_fill, keep)
         groups.append((gi, page_indices, members, layouts))
     return AtlasLayouts(atlas, items, geometries, pad, rules, page_names, groups, texels_before,
-                        time.process_time() - t0)
+                        time.process_time() - t0, (pixels, uses, pinned, rotate))
 
 
 def compose(layouts: AtlasLayouts, rank: int = 0) -> PackedAtlas:
@@ -656,7 +669,7 @@ def compose(layouts: AtlasLayouts, rank: int = 0) -> PackedAtlas:
         raise PackRefused(f"packed, its pages would take {texels_after:,} texels, no fewer than the "
                           f"{layouts.texels_before:,} they take now")
     rotated = _rewrite_regions(out, region_page, layouts.geometries, atlas)
-    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in layouts.items]
+    outcomes = [RegionOutcome(it.region.name, it.foot.by_outline, it.foot.reason) for it in layouts.footprints()]
     return PackedAtlas(out, new_pages, outcomes, layouts.padding, layouts.texels_before, texels_after,
                        len(atlas.pages), layouts.seconds + time.process_time() - t0, rotated,
                        footprint_texels=covered)
@@ -720,7 +733,7 @@ def _composite(layouts: AtlasLayouts, rank: int):
     region index its new page index and geometry, and the texels of the new pages under a
     footprint grown by half the padding.
     """
-    atlas, items = layouts.atlas, layouts.items
+    atlas, items = layouts.atlas, layouts.footprints()
     out = copy.deepcopy(atlas)
     out.pages = []
     new_pages: dict[str, np.ndarray] = {}

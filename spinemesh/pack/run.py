@@ -594,6 +594,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                                rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
                                on_fill=on_step)
         packed = compose(layouts)
+        layouts.release()  # made again only if another layout is tried
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
         encoded, text = _written(packed, texels, modes, group_colour, job, workers if parallel else None, on_step)
         reencode_kept = True
