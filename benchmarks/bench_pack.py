@@ -307,6 +307,8 @@ def limit_of(reason: str, fill: float) -> str:
     packed atlas reached)."""
     if "rectangles' texels only" in reason:
         return "bytes: written as it was, with the rectangles' texels only"
+    if "another layout" in reason:
+        return f"bytes: packed in the next layout of fewer bytes, {fill:.0%} full"
     if not reason:
         return f"placement: packed, {fill:.0%} full"
     if "lossy WebP" in reason:

@@ -274,11 +274,12 @@ def decode_rgba(data: bytes, source: str | Path | None = None) -> np.ndarray:
     """
     import io
 
-    return _decode(io.BytesIO(data), source)
+    return _decode(io.BytesIO(data), source, data)
 
 
-def _decode(file, path) -> np.ndarray:
-    """The decode of :func:`load_rgba`: ``file`` a path or a binary stream, ``path`` what errors name."""
+def _decode(file, path, data: bytes | None = None) -> np.ndarray:
+    """The decode of :func:`load_rgba`: ``file`` a path or a binary stream, ``path`` what errors name,
+    ``data`` the stream's bytes when they are in memory already (not copied again)."""
     try:
         with warnings.catch_warnings():
             # Pillow's bomb warning becomes our error (the size check below comes first).
@@ -286,7 +287,7 @@ def _decode(file, path) -> np.ndarray:
             with Image.open(file, formats=_decodable_formats()) as im, \
                     image_memory("decode", path, im.width, im.height):
                 check_image_size(im.width, im.height, "image", path)
-                fast = _codec_rgba(im)
+                fast = _codec_rgba(im, data)
                 if fast is not None:
                     fast.flags.writeable = False
                     return fast
@@ -310,7 +311,7 @@ def _decode(file, path) -> np.ndarray:
 _PNG_COLOUR_TYPES = (0, 2, 3, 4, 6)
 
 
-def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
+def _codec_rgba(im: "Image.Image", data: bytes | None = None) -> np.ndarray | None:
     """The texels of an opened (not yet loaded) image through imagecodecs, or None for Pillow to decode.
 
     Only where imagecodecs gives exactly Pillow's texels: 8-bit, non-interlaced PNG (16-bit
@@ -338,7 +339,8 @@ def _codec_rgba(im: "Image.Image") -> np.ndarray | None:
     else:
         return None
     codecs = _imagecodecs()
-    data = _file_bytes(im.fp)
+    if data is None:  # the file's bytes (in memory already for decode_rgba)
+        data = _file_bytes(im.fp)
     samples = None
     if decode == "png_decode":
         stored = png_with_stored_rows(data)

@@ -10,7 +10,7 @@ from conftest import REPO
 from PIL import Image
 
 from spinemesh.pack.atlas_pack import PackRefused, kept_note
-from spinemesh.pack.run import check_bytes_shrink, check_lossy_pages_shrink
+from spinemesh.pack.run import check_bytes_shrink, check_lossy_pages_shrink, next_layout_reason
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 
@@ -34,6 +34,7 @@ def test_limits_are_read_from_the_reasons_pack_gives(tmp_path):
         grows: "bytes: the files would grow",
         grows + "; written as it was, with the rectangles' texels only":
             "bytes: written as it was, with the rectangles' texels only",
+        next_layout_reason((800, 210), 200, (850, 190)): "bytes: packed in the next layout of fewer bytes, 81% full",
         kept_note(120, 100, 1, 100, False): "need: the footprints need 120% of the page texels",
         kept_note(90, 100, 1, 100, False):
             "placement: the footprints need 90% of the page texels, no fill placed them on fewer",

@@ -685,10 +685,16 @@ def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.nd
         return None
     size, packed, encoded, text = best
     row = _row_from(packed, job.rel, bytes_before, size)
-    row.reason = (f"packed to the fewest page texels ({first[0]:,}), its files would take {first[1]:,} bytes "
-                  f"against {bytes_before:,}; written in another layout the fills found, {packed.texels_after:,} "
-                  f"page texels in {size:,} bytes (--larger-files writes the first)")
+    row.reason = next_layout_reason(first, bytes_before, (packed.texels_after, size))
     return AtlasOutcome(row, encoded, text, _previews(job, texels, packed))
+
+
+def next_layout_reason(first: tuple[int, int], bytes_before: int, written: tuple[int, int]) -> str:
+    """Why an atlas was written in another layout than that of fewest page texels (:func:`next_layout_outcome`):
+    ``first`` and ``written`` are ``(page texels, bytes)`` of that layout and of the one written."""
+    return (f"packed to the fewest page texels ({first[0]:,}), its files would take {first[1]:,} bytes against "
+            f"{bytes_before:,}; written in another layout the fills found, {written[0]:,} page texels in "
+            f"{written[1]:,} bytes (--larger-files writes the first)")
 
 
 def rectangles_only(atlas, texels: list[np.ndarray]) -> list[np.ndarray]:
