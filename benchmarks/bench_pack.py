@@ -485,6 +485,52 @@ def default_projects() -> list[Path]:
     return examples + corpus
 
 
+def layouts_table(projects: list[Path], sides: str = "any") -> str:
+    """Every layout the fills keep for each atlas of ``projects`` under the page rule ``sides``
+    (:func:`spinemesh.pack.atlas_pack.plan_layouts`: the one of fewest page texels, then the
+    next ones), each composited and encoded as ``pack`` writes it: its page texels and bytes
+    against the atlas as exported, and the CPU seconds of making and encoding it. When the first
+    takes more bytes than exported, ``pack`` writes the one of fewest bytes of the others that
+    take fewer (``spinemesh.pack.run.next_layout_outcome``)."""
+    from spinemesh.images import load_rgba
+    from spinemesh.pack.atlas_pack import PackRefused, compose, plan_layouts
+    from spinemesh.pack.run import colours_by_settings, encode_page, packed_page_colours, page_colour, page_mode
+    from spinemesh.pack.uses import collect_uses
+
+    lines = ["| project | atlas | as exported: page texels | bytes | layout | page texels | bytes | against "
+             "exported | CPU s |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for project in projects:
+        proj = find_project(project)
+        uses = collect_uses(proj)
+        for path, atlas in project_atlases(proj).items():
+            files = [AtlasImages.page_path(atlas, p.name, project) for p in atlas.pages]
+            texels = [load_rgba(f) for f in files]
+            before = sum(f.stat().st_size for f in set(files)) + path.stat().st_size
+            head = f"| {project.name} | {path.relative_to(project).as_posix()} | " \
+                   f"{sum(t.shape[0] * t.shape[1] for t in texels):,} | {before:,} |"
+            try:
+                modes = {p.name: page_mode(f) for p, f in zip(atlas.pages, files)}
+                group_colour = colours_by_settings(atlas, [page_colour(f.read_bytes()) for f in files])
+                layouts = plan_layouts(atlas, texels, uses.regions.get(path, {}), rules=PageRules(sides))
+            except PackRefused as e:
+                lines.append(f"{head} kept: {e} | | | | |")
+                continue
+            for rank in range(layouts.count):
+                t0 = time.process_time()
+                try:
+                    packed = compose(layouts, rank)
+                    colour = packed_page_colours(packed.atlas, group_colour)
+                    size = len(packed.atlas.dumps().encode()) + sum(
+                        len(encode_page(page, name, modes.get(name), colour[name]).data)
+                        for name, page in packed.pages.items())
+                except PackRefused as e:
+                    lines.append(f"{head} {rank + 1} | not written: {e} | | | |")
+                    continue
+                lines.append(f"{head} {rank + 1} | {packed.texels_after:,} | {size:,} | {size / before - 1:+.1%} | "
+                             f"{time.process_time() - t0:.2f} |")
+    return "\n".join(lines)
+
+
 def png_encoders(pages: list[Path], levels=(1, 2, 3)) -> str:
     """Bytes and CPU seconds of PNG pages written by Pillow's default and by oxipng at ``levels``,
     every result decoded back and compared texel for texel."""
@@ -548,11 +594,17 @@ def main(argv: list[str] | None = None) -> int:
                     "(the upgraded projects, the same --pages) for the footprints' need and placement alone")
     ap.add_argument("--soft", type=int, default=0, metavar="N", help="with --placement or --whole-placement: "
                     "every footprint's outer N texels are soft (may overlap other soft texels)")
+    ap.add_argument("--layouts", metavar="RULE", choices=("original", "any", "power-of-two", "multiple-of-4"),
+                    help="only list every layout the fills keep for each atlas of the projects under this page "
+                         "rule, with its page texels and bytes as pack writes it")
     ap.add_argument("--png", type=Path, nargs="+", metavar="PAGE", help="only compare the PNG encoders on these "
                     "page images: Pillow's default and oxipng at levels 1-3 (bytes, CPU seconds, ratios)")
     args = ap.parse_args(argv)
     if args.png:
         print(png_encoders(args.png))
+        return 0
+    if args.layouts:
+        print(layouts_table([p.resolve() for p in args.projects], args.layouts))
         return 0
     if args.whole_placement:
         print(whole_placement_timing(soft=args.soft))
