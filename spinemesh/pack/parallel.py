@@ -64,7 +64,7 @@ class FillRunner:
     bounded by the best result of the fills before it that have ended (see the module notes):
     with all of them started at once, every fill ran until the atlas's own page texels, and two
     processes spent more CPU time than one (the 18-page atlas of ``bench_pack_scale.py --made``,
-    20.4 CPU s against 16.5).
+    19.9 CPU s against 15.3; now 16.8).
     """
 
     def __init__(self, workers, on_fill=None):
