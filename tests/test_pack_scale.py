@@ -348,3 +348,31 @@ def test_fills_side_by_side_bounded_by_those_before_keep_the_same_layouts(soft, 
     assert len(ends) == len(workers.bounds) > 2
     assert workers.bounds[:2] == [(ceiling, None, None)] * 2  # the first two start side by side
     assert min(b[0] for b in workers.bounds) < ceiling
+
+
+@pytest.mark.parametrize("seed, count, soft, pages", [(1, 25, False, 2), (0, 40, True, 4)])
+def test_fills_all_at_once_keep_the_layouts_of_fills_one_after_another(seed, count, soft, pages):
+    """With as many workers as fills, every fill starts bounded by the atlas's own texels only: the
+    fills whose result depends on their bound (whole power-of-two sizes chosen below it) are run
+    again with the bound the fills before them give, so the layouts are those of one process (on
+    these footprints, the loosely bounded results alone keep other layouts)."""
+    from types import SimpleNamespace
+
+    from spinemesh.pack.atlas_pack import group_layouts, run_fill
+    from spinemesh.pack.parallel import FillRunner
+
+    masks, hards = _shapes(seed, count, soft)
+    items = [SimpleNamespace(masks=m, hard_masks=h) for m, h in zip(masks, hards)]
+    ceiling = pages * 256 * 256
+    limits = (256, 256, 256 * 256, True, 6, pages, ceiling)
+    one = group_layouts(items, *limits)
+    workers = _ThreadWorkers()
+    workers.slots = 64
+    everywhere = group_layouts(items, *limits, fills=FillRunner(workers))
+    assert everywhere == one
+    assert set(workers.bounds) == {(ceiling, None, None)}  # all started at once
+
+    def loose(plan, args, best):  # the same fills, none run again
+        return [run_fill(fill, *args, best) for fill in plan]
+
+    assert group_layouts(items, *limits, fills=loose) != one

@@ -5,15 +5,22 @@ after another, each stops early once it cannot beat the best so far. Run side by
 at a time as there are workers, in the plan's order, each is given the best of the fills
 before it in the plan that have ended (the atlas's own page texels when none has): a fill that
 stopped early could not have beaten those, and one that ends keeps its packing whatever bound
-it was given, so the fills that beat every fill before them (the packing kept, and the layouts
-kept besides it) are the very ones the run one after another finds. Only the fills running at
-the same time as an earlier one cannot stop at its result. Footprints travel to the workers
-compactly: a solid box as its shape, any other mask as bits (:func:`pack_masks`).
+it was given. A fill's result can still depend on its bound beyond stopping early (whole
+power-of-two page sizes are chosen below it, a single page's height is capped by it), so a fill
+that ran with a looser bound than the run one after another would have given it, and beats that
+bound, is run again here with it (:func:`rerun_loosely_bounded`): the fills that beat every fill
+before them (the packing kept, and the layouts kept besides it) are then the very ones the run one
+after another finds, whatever the workers' timing, and the output never depends on ``--jobs``.
+Only the fills running at the same time as an earlier one cannot stop at its result. Footprints
+travel to the workers compactly: a solid box as its shape, any other mask as bits
+(:func:`pack_masks`).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .atlas_pack import run_fill
 
 
 def _pack_mask(mask: np.ndarray) -> tuple:
@@ -48,8 +55,6 @@ def unpack_masks(packed: tuple) -> tuple[list[list[np.ndarray]], list[list[np.nd
 def fill_task(arg: tuple):
     """A worker's task: one fill of a group, ``(fill, packed masks, page limits, best)`` ->
     ``(texels, placements, sizes)`` or the ``best`` given."""
-    from .atlas_pack import run_fill
-
     fill, packed, limits, best = arg
     candidates, hard = unpack_masks(packed)
     return run_fill(fill, candidates, hard, *limits, best)
@@ -74,6 +79,7 @@ class FillRunner:
         candidates, hard, *limits = args
         packed = pack_masks(candidates, hard)
         results: list = [None] * len(plan)
+        bounds: list = [None] * len(plan)
         running: dict = {}
         waiting = iter(range(len(plan)))
         while True:
@@ -81,16 +87,35 @@ class FillRunner:
                 k = next(waiting, None)
                 if k is None:
                     break
-                bound = _best_before(results[:k], best)
+                bound = bounds[k] = _best_before(results[:k], best)
                 # first: this process waits for them, ahead of work queued meanwhile (a library's meshing)
                 future = self.workers.submit(fill_task, (plan[k], packed, tuple(limits), bound), first=True)
                 running[future] = k
             if not running:
-                return results
+                return rerun_loosely_bounded(plan, results, bounds, best,
+                                             lambda k, exact: run_fill(plan[k], *args, exact))
             done = next(iter(self.workers.as_completed(list(running))))
             results[running.pop(done)] = done.result()
             if self.on_fill:
                 self.on_fill()
+
+
+def rerun_loosely_bounded(plan: list, results: list, bounds: list, best, rerun) -> list:
+    """``results`` of ``plan``'s fills, each fill that ran with a looser bound than the fills before
+    it give, one after another, and beats that bound, replaced by ``rerun(k, exact bound)``.
+
+    ``bounds``: the bound each fill was given (``(texels, None, None)``, or None for no bound);
+    ``best``: the bound of the first fill. Only a fill that beats every fill before it is kept
+    (:func:`~spinemesh.pack.atlas_pack.group_layouts`), so one that does not beat the exact bound
+    needs no second run whatever it found.
+    """
+    results = list(results)
+    for k, found in enumerate(results):
+        exact = _best_before(results[:k], best)
+        looser = exact is not None and (bounds[k] is None or bounds[k][0] > exact[0])
+        if looser and found is not None and found[1] is not None and found[0] < exact[0]:
+            results[k] = rerun(k, exact)
+    return results
 
 
 def _best_before(results: list, best):
