@@ -51,7 +51,8 @@ bone's segment lies farther than its heaviest's, wholly from ``D`` times the art
 ``smooth=N`` (``N`` steps of averaging with mesh neighbours), ``floor=F`` (weights below ``F``
 dropped instead of below 0.01), ``cap=K`` (at most ``K`` bones per vertex), ``reach=R`` (bones
 missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by default),
-``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method), ``driftslot=D`` (the
+``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method; ``falloff=P`` the exponent of
+``method=geodesic``), ``driftslot=D`` (the
 motion guard of the product, :func:`spinemesh.rig.motion.guard`, at limit ``D``: bones that would
 carry the art more than ``D`` art diagonals from its slot's bone in the skeleton's animations,
 sampled by our own sampler, left out and the slot's bone bound; ``drift=D`` the same without
@@ -235,7 +236,8 @@ def solved(case: dict, bones: list[int], method: str = "bbw", middle=(0.0, 1.0))
     bones, method, handles and refinement: variants that choose the same bones share them."""
     method = SOLVE.get("method") or method
     near = SOLVE.get("reach", NEAR)
-    key = (tuple(bones), method, middle, near, rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION)
+    key = (tuple(bones), method, middle, near, rig_weights.REFINED_VERTEX_BUDGET, rig_weights.MAX_SUBDIVISION,
+           rig_weights.GEODESIC_FALLOFF)
     memo = case.setdefault("solved", {})
     if key not in memo:
         reach = near * float(np.linalg.norm(np.ptp(case["world"], axis=0)))
@@ -431,6 +433,8 @@ def variant_of(name: str):
             options["reach"] = float(value)
         elif what == "method":
             options["method"] = value
+        elif what == "falloff":
+            options["falloff"] = float(value)
         elif what in ("drift", "driftslot"):
             options["drift"], options["add_slot"] = float(value), what == "driftslot"
         elif what == "near":
@@ -439,10 +443,13 @@ def variant_of(name: str):
     def run(case):
         SOLVE.clear()
         SOLVE.update(options)
+        falloff = rig_weights.GEODESIC_FALLOFF
+        rig_weights.GEODESIC_FALLOFF = options.get("falloff", falloff)
         try:
             return base(case)
         finally:
             SOLVE.clear()
+            rig_weights.GEODESIC_FALLOFF = falloff
     return run
 
 
@@ -474,7 +481,7 @@ def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -
         elif what == "smooth":
             for _ in range(int(value)):
                 w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
-        elif what in ("reach", "method", "drift", "driftslot", "near"):
+        elif what in ("reach", "method", "falloff", "drift", "driftslot", "near"):
             pass  # the solve's (variant_of)
         else:
             raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")

@@ -15,7 +15,7 @@ from spinemesh.rig.bones import skeleton_bones
 from spinemesh.rig.document import UNWEIGHTED_BONE, Outcome, WeightOptions, build_rig, weight_document
 from spinemesh.rig.topology import add_rig_vertices
 from spinemesh.rig.transform import world_transform
-from spinemesh.rig.weights import bounded_biharmonic, refine, solve_weights, sparsify
+from spinemesh.rig.weights import bounded_biharmonic, geodesic_weights, refine, segment_distances, solve_weights, sparsify
 from spinemesh.skeleton import iter_attachments
 
 from rig_project import make_worm_project, worm_skeleton
@@ -197,7 +197,7 @@ def _strip(n=9, length=300.0, width=40.0):
     return v, np.array(tris)
 
 
-@pytest.mark.parametrize("method", ["bbw", "bbw-libigl", "harmonic", "biharmonic"])
+@pytest.mark.parametrize("method", ["bbw", "bbw-libigl", "harmonic", "biharmonic", "geodesic"])
 def test_weights_follow_the_bones(method):
     v, t = _strip()
     segs = np.array([[[0, 20], [150, 20]], [[150, 20], [300, 20]]], float)
@@ -241,6 +241,60 @@ def test_one_bone_with_handles_weighs_1_everywhere_as_the_qp_optimum():
     assert (w[:, 0] == 1.0).all() and (w[:, 1] == 0.0).all()
     ref = igl.bbw(p, f, b, one, partition_unity=False, max_iter=200)  # the QP solved, not skipped
     assert np.abs(ref[:, 0] - 1.0).max() < 1e-6
+
+
+def _c_shape(cell=20.0):
+    """A ``]``-shaped grid mesh: two bars (y 0-40 and 60-100, x 0-200) joined only at their right
+    end (x 160-200); the gap between them (y 40-60, x < 160) is not art."""
+    xs, ys = np.arange(0, 201, cell), np.arange(0, 101, cell)
+    at = {(x, y): i for i, (x, y) in enumerate((x, y) for y in ys for x in xs)}
+    v = np.array(list(at), float)
+    tris = []
+    for x in xs[:-1]:
+        for y in ys[:-1]:
+            if 40 <= y < 60 and x < 160:
+                continue
+            a, b, c, d = at[x, y], at[x + cell, y], at[x + cell, y + cell], at[x, y + cell]
+            tris += [(a, b, c), (a, c, d)]
+    return v, np.array(tris), at
+
+
+def test_geodesic_weights_follow_the_art_not_the_straight_line():
+    v, t, at = _c_shape()
+    # bone 0 along the top bar's left end, bone 1 down the joining end
+    segs = np.array([[[0, 80], [40, 80]], [[180, 0], [180, 100]]], float)
+    w = solve_weights(v, t, segs, "geodesic")
+    assert w.shape == (len(v), 2) and (w >= 0).all() and (w <= 1).all() and np.allclose(w.sum(1), 1)
+    for x in (0, 20, 40):  # on bone 0's segment: its handles
+        assert w[at[x, 80], 0] == 1.0
+    for y in (0, 20, 40, 60, 80, 100):  # on bone 1's segment
+        assert w[at[180, y], 1] == 1.0
+    # Both 60 from bone 0 in a straight line: across the gap (under the bone) and along the bar.
+    across, along = at[20, 20], at[100, 80]
+    straight = segment_distances(v[[across, along]], segs)
+    assert np.allclose(straight[:, 0], 60.0) and straight[0, 1] > straight[1, 1]
+    # Falling off with straight-line distance, the point across the gap would weigh more on bone 0
+    # (it lies farther from bone 1); along the art the path around the gap is long, so it weighs less.
+    inverse = straight ** -2.0 / (straight ** -2.0).sum(axis=1, keepdims=True)
+    assert inverse[0, 0] > inverse[1, 0]
+    assert w[across, 0] < 0.5 * w[along, 0] and w[across, 1] > 0.75
+    # and the weight on a bone falls as the path to it grows, along the top bar
+    top = w[[at[x, 80] for x in range(40, 181, 20)], 0]
+    assert (np.diff(top) < 0).all()
+
+
+def test_geodesic_weights_on_the_refinement_directly():
+    v, t, at = _c_shape()
+    fixed = {at[0, 80]: 0, at[20, 80]: 0, at[180, 0]: 2}  # bone 1 has no handle
+    w = geodesic_weights(v, t, fixed, 3)
+    assert (w[:, 1] == 0).all() and np.allclose(w.sum(1), 1) and (w >= 0).all() and (w <= 1).all()
+    assert w[at[0, 80], 0] == 1.0 and w[at[180, 0], 2] == 1.0
+    # the exponent sharpens: a point nearer bone 2 leans more on it with a larger falloff
+    p = at[140, 0]
+    assert geodesic_weights(v, t, fixed, 3, falloff=4.0)[p, 2] > w[p, 2] > 0.5
+    # a point in no face weighs nothing (the caller binds it to its nearest bone)
+    v2 = np.vstack([v, [[500.0, 500.0]]])
+    assert (geodesic_weights(v2, t, fixed, 3)[-1] == 0).all()
 
 
 def test_bone_without_handle_gets_zero_and_a_failed_solve_falls_back_to_harmonic(monkeypatch):

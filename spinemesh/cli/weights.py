@@ -33,6 +33,7 @@ class WeightMethod(str, Enum):
     bbw = "bbw"
     harmonic = "harmonic"
     biharmonic = "biharmonic"
+    geodesic = "geodesic"
 
 
 @app.command()
@@ -51,7 +52,8 @@ def weights(
     max_bones: Annotated[int, typer.Option("--max-bones", min=1, max=16, help="Most bones per vertex.")] = 4,
     method: Annotated[WeightMethod, typer.Option(
         "--method", help="bbw: bounded biharmonic weights (Jacobson et al. 2011); harmonic: heat-diffusion-"
-                         "like weights, faster; biharmonic: unbounded, clipped.")] = WeightMethod.bbw,
+                         "like weights, faster; biharmonic: unbounded, clipped; geodesic: falling off with the "
+                         "distance along the art to each bone (Dionne and de Lasa 2013), fastest.")] = WeightMethod.bbw,
     only: Annotated[List[str], typer.Option("--only", help="Glob on slot, attachment name or image path; "
                                             "repeatable.")] = [],
     exclude: Annotated[List[str], typer.Option("--exclude", help="Glob on slot, attachment name or image "

@@ -26,7 +26,7 @@ from .learned import choose_learned, constrained_bones, neighbour_sets
 from .motion import Motion, guard
 from .weights import solve_weights_once, sparsify
 
-METHODS = ("bbw", "harmonic", "biharmonic")
+METHODS = ("bbw", "harmonic", "biharmonic", "geodesic")
 
 #: ``--bones`` choices: ``keep`` (the mesh's bones now), ``rule`` (:func:`.choice.choose_by_rule`),
 #: ``learned`` (:func:`.learned.choose_learned`), and ``auto``, which is :data:`AUTO_BONES`.

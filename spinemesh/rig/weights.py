@@ -38,6 +38,10 @@ SOLVER_TOLERANCE = 1e-7
 #: Most triangles per original triangle side (``k``).
 MAX_SUBDIVISION = 16
 
+#: Falloff of ``method="geodesic"`` (:func:`geodesic_weights`): each bone weighs ``d ** -GEODESIC_FALLOFF``
+#: for the point's graph distance ``d`` along the art to the bone's handles, rows normalised.
+GEODESIC_FALLOFF = 2.0
+
 
 def refine(vertices: np.ndarray, triangles: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Cut every triangle into ``k * k`` similar triangles, sharing points along shared edges.
@@ -200,11 +204,12 @@ def solve_weights(vertices: np.ndarray, triangles: np.ndarray, segments: np.ndar
         (see :func:`handles`); world units.
     prefer : int, optional
         Column of the bone that art reached by no bone follows (the slot's bone).
-    method : {"bbw", "bbw-libigl", "harmonic", "biharmonic"}
+    method : {"bbw", "bbw-libigl", "harmonic", "biharmonic", "geodesic"}
         Bounded biharmonic weights (:func:`bounded_biharmonic`; harmonic weights where its
         solver fails); the same problem solved by libigl's active-set ``bbw`` (slower, stops
         after 50 active-set steps); harmonic weights (a linear solve, like heat diffusion);
-        or unbounded biharmonic weights clipped to [0, 1].
+        unbounded biharmonic weights clipped to [0, 1]; or weights falling off with the
+        distance along the art to each bone's handles (:func:`geodesic_weights`, no solve).
 
     Returns
     -------
@@ -273,6 +278,8 @@ def solve_weights_once(vertices: np.ndarray, triangles: np.ndarray, segments: np
 
 def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int, method: str) -> np.ndarray:
     """The chosen method on the refinement; rows of points in no face are left at 0."""
+    if method == "geodesic":
+        return geodesic_weights(points, faces, fixed, nb)
     import igl
 
     # libigl wants every point in some face: solve on the used points only.
@@ -303,6 +310,77 @@ def _solve(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int
     out = np.zeros((len(points), nb))
     out[used] = w
     return out
+
+
+def geodesic_weights(points: np.ndarray, faces: np.ndarray, fixed: dict[int, int], nb: int,
+                     falloff: float | None = None) -> np.ndarray:
+    """Weights falling off with the distance along the art to each bone's handles.
+
+    In the spirit of geodesic voxel binding (Dionne and de Lasa, "Geodesic Voxel Binding for
+    Production Character Meshes", SCA 2013), on the refinement instead of voxels: the shortest
+    path along the refinement's edges (Euclidean lengths, Dijkstra from all of a bone's handles
+    at once) from every point to each bone, then ``w_j = d_j ** -falloff``, rows normalised.
+    A path never crosses a gap in the art, so a point across a gap from a bone's handles weighs
+    less on it than one at the same straight-line distance along the art. No solve: one
+    Dijkstra per bone.
+
+    Parameters
+    ----------
+    points : ndarray, shape (P, 2)
+    faces : ndarray, shape (F, 3)
+        Triangles of usable area (:func:`_clean_faces`).
+    fixed : dict of int to int
+        ``{point: bone column}`` (:func:`handles`); a handle weighs 1 on its bone.
+    nb : int
+        Bones (columns).
+    falloff : float, optional
+        The exponent; :data:`GEODESIC_FALLOFF` by default.
+
+    Returns
+    -------
+    ndarray, shape (P, nb)
+        Rows of points in some face in [0, 1] summing to 1 (a point no handle reaches follows
+        nothing: 0); a bone with no handle has a zero column; rows of points in no face are 0.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    p = float(GEODESIC_FALLOFF if falloff is None else falloff)
+    n = len(points)
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    e = np.unique(e[:, 0] * n + e[:, 1])
+    a, b = e // n, e % n
+    length = np.linalg.norm(points[a] - points[b], axis=1)
+    keep = length > 0  # a zero-length edge would read as no edge: its ends are one place
+    # One source node per bone (numbered after the points) with an edge to each of its handles,
+    # far shorter than any of the art's: one Dijkstra call gives every bone's distances. Those
+    # edges lead out of the source only, or a path would hop between two handles of a bone.
+    tiny = 1e-9 * float(length[keep].min()) if keep.any() else 1.0
+    ends = np.array(sorted(fixed), np.int64)
+    bone = np.array([fixed[i] for i in ends], np.int64)
+    rows = np.concatenate([a[keep], b[keep], n + bone])
+    cols = np.concatenate([b[keep], a[keep], ends])
+    lengths = np.concatenate([length[keep], length[keep], np.full(len(ends), tiny)])
+    graph = coo_matrix((lengths, (rows, cols)), shape=(n + nb, n + nb)).tocsr()
+    dist = np.full((n, nb), np.inf)
+    have = np.unique(bone)
+    if len(have):
+        dist[:, have] = dijkstra(graph, directed=True, indices=n + have)[:, :n].T - tiny
+    dist[ends, bone] = 0.0
+    # Distances relative to the nearest bone's keep the powers finite; a handle (distance 0)
+    # weighs 1 on its own bone alone.
+    nearest = dist.min(axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(np.isfinite(dist), (nearest / dist) ** p, 0.0)
+    at = np.flatnonzero(nearest[:, 0] == 0)
+    w[at] = 0.0
+    w[at, dist[at].argmin(axis=1)] = 1.0
+    total = w.sum(axis=1, keepdims=True)
+    w = np.divide(w, total, out=np.zeros_like(w), where=total > 0)
+    used = np.zeros(n, bool)
+    used[np.unique(faces)] = True
+    w[~used] = 0.0
+    return w
 
 
 def bounded_biharmonic(v: np.ndarray, f: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray | None:
