@@ -1,7 +1,7 @@
 """The bounded biharmonic weights' QPs of real upgrades, solved by PIQP and by exact alternatives.
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_weight_solves.py [--projects A,B,...]
-        [--corpus DIR] [--record FILE]
+        [--corpus DIR] [--record FILE] [--per-mesh]
 
 Each corpus project of ``--projects`` (default dq-symbols and kraken-symbols) is upgraded with
 ``--weights auto`` (``--jobs 1``, into a temporary folder) and the input of every call of
@@ -23,6 +23,10 @@ same ``Q`` (shape (F, F), F free points of the refinement) for every bone of a m
 
 Printed: QPs solved, CPU seconds (one thread), factorisations, and the largest and the 99th
 percentile of ``|x - reference|`` over the QPs each method solved.
+
+``--per-mesh`` prints instead the CPU per mesh (all its bones) of the weights that need no QP
+beside PIQP's: harmonic weights (one sparse solve, libigl) and geodesic weights (one Dijkstra,
+:func:`spinemesh.rig.weights.geodesic_weights`), on the same recorded meshes.
 """
 
 from __future__ import annotations
@@ -147,11 +151,39 @@ def projected_newton(q, c: np.ndarray, x: np.ndarray, steps: int = 30) -> tuple[
     return None, steps
 
 
+def per_mesh(calls: list[tuple]) -> str:
+    """A table of the CPU seconds (one thread) that PIQP's bounded biharmonic weights, harmonic
+    weights and geodesic weights take on the recorded meshes with handles on two bones or more."""
+    import igl
+
+    meshes = [(v, f, b, bc) for v, f, b, bc in calls if np.count_nonzero(bc.any(axis=0)) >= 2]
+    methods = {
+        "bounded biharmonic (PIQP, shipped)": lambda v, f, b, bc: rig_weights.bounded_biharmonic(v, f, b, bc),
+        "harmonic (one sparse solve)": lambda v, f, b, bc: igl.harmonic(v, f, b, bc, 1),
+        f"geodesic (falloff {rig_weights.GEODESIC_FALLOFF:g})": lambda v, f, b, bc: rig_weights.geodesic_weights(
+            v, f, {int(i): int(j) for i, j in zip(b, bc.argmax(axis=1))}, bc.shape[1]),
+    }
+    cpu = {}
+    for name, solve in methods.items():
+        solve(*meshes[0])  # imports and first-call costs left out
+        t = time.process_time()
+        for mesh in meshes:
+            solve(*mesh)
+        cpu[name] = time.process_time() - t
+    base = next(iter(cpu.values()))
+    lines = [f"{len(meshes)} meshes with handles on two bones or more (median "
+             f"{int(np.median([len(m[0]) for m in meshes]))} points)\n",
+             "| weights | CPU s | per mesh ms | / PIQP |", "|---|--:|--:|--:|"]
+    lines += [f"| {name} | {t:.2f} | {1000 * t / len(meshes):.1f} | {t / base:.3f} |" for name, t in cpu.items()]
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--projects", default="dq-symbols,kraken-symbols")
     ap.add_argument("--corpus", type=Path, default=CORPUS)
     ap.add_argument("--record", type=Path, help="file of recorded calls: read if it exists, else written")
+    ap.add_argument("--per-mesh", action="store_true", help="CPU per mesh of PIQP, harmonic and geodesic weights")
     args = ap.parse_args()
     if args.record and args.record.exists():
         calls = pickle.loads(args.record.read_bytes())
@@ -159,6 +191,9 @@ def main() -> None:
         calls = record([args.corpus / p for p in args.projects.split(",")])
         if args.record:
             args.record.write_bytes(pickle.dumps(calls))
+    if args.per_mesh:
+        print(per_mesh(calls))
+        return
     problems = qps(calls)
     count = sum(c.shape[1] for _, c in problems)
     print(f"{len(calls)} calls of bounded_biharmonic, {len(problems)} with two bones or more: {count} QPs "

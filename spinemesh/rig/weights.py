@@ -40,7 +40,7 @@ MAX_SUBDIVISION = 16
 
 #: Falloff of ``method="geodesic"`` (:func:`geodesic_weights`): each bone weighs ``d ** -GEODESIC_FALLOFF``
 #: for the point's graph distance ``d`` along the art to the bone's handles, rows normalised.
-GEODESIC_FALLOFF = 2.0
+GEODESIC_FALLOFF = 8.0
 
 
 def refine(vertices: np.ndarray, triangles: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
