@@ -454,6 +454,21 @@ def test_cli_weights_a_project_without_touching_it(tmp_path):
     assert r.exit_code == 2 and "no Spine skeleton found" in r.output
 
 
+def test_cli_weights_geodesic(tmp_path):
+    from typer.testing import CliRunner
+
+    from spinemesh.cli import app
+
+    project = make_worm_project(tmp_path / "p").parent
+    upgraded = tmp_path / "up"
+    assert CliRunner().invoke(app, ["upgrade", str(project), "--out", str(upgraded), "--weights", "none"]).exit_code == 0
+    r = CliRunner().invoke(app, ["weights", str(upgraded), "--out", str(tmp_path / "w"), "--report",
+                                 str(tmp_path / "r.json"), "--method", "geodesic"])
+    assert r.exit_code == 0, r.output
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["counts"] == {"weighted": 1}
+    assert set(report["attachments"][0]["bones"]) == {"seg1", "seg2", "seg3"}
+
 @pytest.mark.parametrize("version", ["3.8.99", "4.1.24", "4.2.22"])
 def test_malformed_or_degenerate_constraints_never_raise(version):
     """Constraints that name missing bones, chains the runtimes cannot solve, zero scales and
