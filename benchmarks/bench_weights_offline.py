@@ -308,6 +308,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
     from spinemesh.train import bone_choice as train_choice
     from spinemesh.rig.habits import keys_of
     from spinemesh.rig.learned import candidates, choose_learned, neighbour_sets
+    from spinemesh.rig.motion import follows_slot
 
     models: dict[int, object] = {}
     habits: dict[str, object] = {}
@@ -334,8 +335,24 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
             if ((p > unsure[0]) & (p < unsure[1])).any():
                 chosen = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                         rig.skin_bones.get(case["skin"], set())).bones
-        if SOLVE.get("drift") is not None:
-            chosen = guarded_bones(case, chosen, SOLVE["drift"], SOLVE.get("add_slot", False))
+        if SOLVE.get("drift") is not None or SOLVE.get("spread") is not None or SOLVE.get("minp") is not None:
+            likeliest = None
+            if SOLVE.get("ref") in ("likely", "habit") or SOLVE.get("spread") is not None or "minp" in SOLVE:
+                cand = candidates(rig.bones, case["slot_bone"], case["world"], case["tris"],
+                                  rig.skin_bones.get(case["skin"], set()), rig.constrained)
+                p = dict(zip(cand.bones, model.probability(model.with_habits(cand.features, others))))
+                likeliest = max(chosen, key=lambda b: p.get(b, 0.0))
+                if SOLVE.get("ref") == "habit":  # the chosen bone the project's artists bound most on this slot bone
+                    bound = {b: sum(n for members, n in nearby.items() if b in members) for b in chosen}
+                    likeliest = max(chosen, key=lambda b: (bound[b], p.get(b, 0.0)))
+            if "minp" in SOLVE and (SOLVE.get("minpwhere") != "off" or not follows_slot(
+                    rig.bones, case["slot_bone"], case["world"], case["tris"])):
+                # chosen bones the per-bone model finds unlikely (the set stage took them) left
+                # out; the slot's bone where none is left
+                kept = [b for b in chosen if p.get(b, 0.0) >= SOLVE["minp"] or b == case["slot_bone"]]
+                chosen = kept or [likeliest if SOLVE.get("minpelse") == "likely" else case["slot_bone"]]
+            chosen = guarded_bones(case, chosen, SOLVE.get("drift", float("inf")), SOLVE.get("add_slot", False),
+                                   likeliest)
         return chosen, solved(case, chosen)
     return variant
 
@@ -344,26 +361,86 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
 SAMPLED: dict[Path, np.ndarray] = {}
 
 
-def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = False) -> list[int]:
+def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = False,
+                  likeliest: int | None = None) -> list[int]:
     """``chosen`` without the bones that would carry the art more than ``limit`` art diagonals
     from where its slot's bone carries it over the skeleton's animations sampled by our own
-    sampler (:func:`spinemesh.rig.motion.guarded`, the ``drift=D`` step)."""
+    sampler (:func:`spinemesh.rig.motion.guarded`, the ``drift=D`` step).
+
+    Where the slot's bone does not stand for where the art goes (the root, or off the art:
+    :func:`spinemesh.rig.motion.follows_slot`), the ``ref=R`` step measures against another
+    bone instead, at the limit ``refdrift=D`` (default ``limit``): ``art``, the bone on the art
+    nearest the art's centre (:func:`art_bone`); ``likely``, the chosen bone the model finds
+    likeliest (``likeliest``); ``habit``, the chosen bone the project's artists bound most on
+    the mesh's slot bone (:func:`spinemesh.rig.learned.neighbour_sets`; the likeliest of a tie:
+    ``likeliest`` then). ``spread=S``: a choice whose bones would carry the art more than
+    ``S`` art diagonals apart (the largest drift between two of them) is bound to
+    ``likeliest`` alone (``spreadwhere=off``: only where the slot's bone does not stand for the
+    art)."""
     from spinemesh.rig.choice import Choice
+    from spinemesh.rig.motion import SLOT_NEAR, follows_slot, guarded
+
+    rig = case["rig"]
+    follows = SOLVE.get("slot_near", 0.0) < 0 or follows_slot(rig.bones, case["slot_bone"], case["world"],
+                                                               case["tris"], SOLVE.get("slot_near", SLOT_NEAR))
+    spread = SOLVE.get("spread")
+    if spread is not None and len(chosen) > 1 and (not follows or SOLVE.get("spreadwhere") != "off"):
+        if max(drift_between(case, a, [b])[b] for a in chosen for b in chosen if a < b) > spread:
+            return [likeliest]
+    if limit == float("inf"):
+        return chosen
+    reference = case["slot_bone"]
+    if not follows:
+        ref = SOLVE.get("ref")
+        reference = art_bone(case) if ref == "art" else likeliest if ref in ("likely", "habit") else None
+        if reference is None:
+            return chosen
+        limit = SOLVE.get("refdrift", limit)
+    drift = drift_between(case, reference, chosen)
+    exact = rig.bones[reference].exact
+    return guarded(Choice(list(chosen), {}, {}), drift, reference, limit, add_slot, exact).bones
+
+
+def drift_between(case: dict, reference: int, bones: list[int]) -> dict[int, float]:
+    """How far each of ``bones`` would carry the art from where ``reference`` carries it
+    (:func:`spinemesh.rig.motion.drifts`), over the skeleton's animations sampled by our own
+    sampler; kept on the case."""
     from spinemesh.anim.motion import sampled_bone_worlds
-    from spinemesh.rig.motion import SLOT_NEAR, drifts, follows_slot, guarded
+    from spinemesh.rig.motion import drifts
 
     if case["path"] not in SAMPLED:
         SAMPLED[case["path"]] = sampled_bone_worlds(load_skeleton(case["path"]))
-    drift = case.setdefault("drift", {})
-    missing = [b for b in chosen if b not in drift]
+    known = case.setdefault("drifts", {}).setdefault(reference, {})
+    missing = [b for b in bones if b not in known]
     if missing:
-        drift.update(drifts(case["world"], case["setup_matrices"], SAMPLED[case["path"]], case["slot_bone"], missing))
-    rig = case["rig"]
-    if SOLVE.get("slot_near", 0.0) >= 0 and not follows_slot(rig.bones, case["slot_bone"], case["world"], case["tris"],
-                                                             SOLVE.get("slot_near", SLOT_NEAR)):
-        return chosen
-    exact = rig.bones[case["slot_bone"]].exact
-    return guarded(Choice(list(chosen), {}, {}), drift, case["slot_bone"], limit, add_slot, exact).bones
+        known.update(drifts(case["world"], case["setup_matrices"], SAMPLED[case["path"]], reference, missing))
+    return known
+
+
+def art_bone(case: dict) -> int | None:
+    """The bone whose segment passes nearest the centre of the art's bounding box among the
+    bones that lie on the art (within :data:`spinemesh.rig.motion.SLOT_NEAR` of its diagonal),
+    not the root, setup transform exact; None when there is none."""
+    from spinemesh.rig.choice import distance_to_art
+    from spinemesh.rig.motion import SLOT_NEAR
+
+    if "art_bone" not in case:
+        rig, world = case["rig"], case["world"]
+        diag = float(np.linalg.norm(np.ptp(world, axis=0)))
+        centre = (world.min(axis=0) + world.max(axis=0)) / 2
+        best, nearest = None, float("inf")
+        for i, b in enumerate(rig.bones):
+            if b.parent is None or not b.exact:
+                continue
+            a, e = np.asarray(b.segment(), float).reshape(2, 2)
+            points = a + np.linspace(0.0, 1.0, 17)[:, None] * (e - a)
+            if distance_to_art(points, world, case["tris"]).min() > SLOT_NEAR * diag:
+                continue
+            d = float(segment_distances(centre[None], np.stack([a, e])[None])[0, 0])
+            if d < nearest:
+                best, nearest = i, d
+        case["art_bone"] = best
+    return case["art_bone"]
 
 
 def auto(near: float | None = None):
@@ -439,6 +516,10 @@ def variant_of(name: str):
             options["drift"], options["add_slot"] = float(value), what == "driftslot"
         elif what == "near":
             options["slot_near"] = float(value)
+        elif what in ("refdrift", "spread", "minp"):
+            options[what] = float(value)
+        elif what in ("ref", "spreadwhere", "minpwhere", "minpelse"):
+            options[what] = value
 
     def run(case):
         SOLVE.clear()
@@ -481,7 +562,8 @@ def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -
         elif what == "smooth":
             for _ in range(int(value)):
                 w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
-        elif what in ("reach", "method", "falloff", "drift", "driftslot", "near"):
+        elif what in ("reach", "method", "falloff", "drift", "driftslot", "near", "ref", "refdrift", "spread",
+                      "spreadwhere", "minp", "minpwhere", "minpelse"):
             pass  # the solve's (variant_of)
         else:
             raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")
@@ -652,8 +734,14 @@ SHIPPED_SOLVER = (rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANC
 
 def drift_chosen_by_fold(cases: list[dict], limits: list[float], saved: Path | None, fold_models: Path) -> dict[int, float]:
     """``learned`` with the motion guard (``driftslot=D``) at a limit chosen without the judged
-    repository: for the meshes of each repository fold, the limit of ``limits`` with the lowest
-    slot-bone sum ratio on the meshes of the other folds. Prints each fold's pick.
+    repository (:func:`chosen_by_fold` among ``learned:driftslot=D`` for each of ``limits``)."""
+    return chosen_by_fold(cases, [f"learned:driftslot={d:g}" for d in limits], saved, fold_models)
+
+
+def chosen_by_fold(cases: list[dict], names: list[str], saved: Path | None, fold_models: Path) -> dict[int, float]:
+    """Each case's error under the variant of ``names`` chosen without its repository: for the
+    meshes of each repository fold, the variant with the lowest slot-bone sum ratio on the
+    meshes of the other folds. Prints each fold's pick.
 
     The folds are the fold models' (each lists the repositories it held out)."""
     from spinemesh.train import bone_choice as train_choice
@@ -662,12 +750,12 @@ def drift_chosen_by_fold(cases: list[dict], limits: list[float], saved: Path | N
     repos = {c["label"]: train_choice.repository_of(c["label"], bench_weights.SHARED / "spine-corpus") for c in cases}
     fold = [next((k for k in sorted(models) if repos[c["label"]] in models[k].meta.get("held_out", ())), min(models))
             for c in cases]
-    errors = {d: errors_of(cases, f"learned:driftslot={d:g}", 4, saved, fold_models) for d in limits}
+    errors = {name: errors_of(cases, name, 4, saved, fold_models) for name in names}
     out = {}
     for k in sorted(set(fold)):
-        others = {i: None for i in range(len(cases)) if fold[i] != k}
-        best = min(limits, key=lambda d: against(cases, {i: errors[d][i] for i in others}, "on_slot_bone")["sum"])
-        print(f"fold {k}: drift limit {best:g} (chosen on the other folds' {len(others)} meshes)")
+        others = [i for i in range(len(cases)) if fold[i] != k]
+        best = min(names, key=lambda n: against(cases, {i: errors[n][i] for i in others}, "on_slot_bone")["sum"])
+        print(f"fold {k}: {best} (chosen on the other folds' {len(others)} meshes)")
         out.update({i: errors[best][i] for i in range(len(cases)) if fold[i] == k})
     return out
 
@@ -694,6 +782,8 @@ def main() -> None:
                     "(a variant run before is not run again; the table covers every variant named)")
     ap.add_argument("--drift-folds", default="", help="comma-separated limits of the motion guard (driftslot=D): "
                     "adds learned with each repository fold's limit chosen on the other folds")
+    ap.add_argument("--pick-folds", default="", help="comma-separated variants: adds the one each repository fold "
+                    "picks on the other folds (lowest slot-bone sum ratio), judged on its own meshes")
     ap.add_argument("--fold-models", type=Path, default=Path("/tmp/spinemesh-bone-choice-folds"),
                     help="the learned choice's fold models (scripts/train_bone_choice.py --fold-models)")
     ap.add_argument("--points", type=int, default=rig_weights.REFINED_VERTEX_BUDGET,
@@ -747,6 +837,12 @@ def main() -> None:
         name = "learned, drift limit chosen on the other folds"
         per_variant[name] = drift_chosen_by_fold(cases, [float(d) for d in args.drift_folds.split(",")], args.errors,
                                                  args.fold_models)
+        row(name, per_variant[name], start)
+    if args.pick_folds:
+        start = time.perf_counter()
+        name = "variant chosen on the other folds"
+        per_variant[name] = chosen_by_fold(cases, [n for n in args.pick_folds.split(",") if n], args.errors,
+                                           args.fold_models)
         row(name, per_variant[name], start)
     if args.learned:
         start = time.perf_counter()
