@@ -325,9 +325,12 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
         others = habits[case["label"]].others(keys) if reads else None
         rig = case["rig"]
         nearby = neighbour_sets(habits.get(case["label"]), rig.bones, case["slot_bone"], keys)
+        # minp=P: the product's least likely bone taken (LEAST_LIKELY) at P; with minpwhere or
+        # minpelse, this replay's own variant of it below
+        own = "minpwhere" in SOLVE or "minpelse" in SOLVE
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                 rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby,
-                                unweighted).bones
+                                unweighted, least_likely=0.0 if own else SOLVE.get("minp")).bones
         if unsure is not None:
             cand = candidates(rig.bones, case["slot_bone"], case["world"], case["tris"],
                               rig.skin_bones.get(case["skin"], set()), rig.constrained)
@@ -335,9 +338,9 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
             if ((p > unsure[0]) & (p < unsure[1])).any():
                 chosen = choose_by_rule(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                         rig.skin_bones.get(case["skin"], set())).bones
-        if SOLVE.get("drift") is not None or SOLVE.get("spread") is not None or SOLVE.get("minp") is not None:
+        if SOLVE.get("drift") is not None or SOLVE.get("spread") is not None or own:
             likeliest = None
-            if SOLVE.get("ref") in ("likely", "habit") or SOLVE.get("spread") is not None or "minp" in SOLVE:
+            if SOLVE.get("ref") in ("likely", "habit") or SOLVE.get("spread") is not None or own:
                 cand = candidates(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                   rig.skin_bones.get(case["skin"], set()), rig.constrained)
                 p = dict(zip(cand.bones, model.probability(model.with_habits(cand.features, others))))
@@ -345,10 +348,10 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
                 if SOLVE.get("ref") == "habit":  # the chosen bone the project's artists bound most on this slot bone
                     bound = {b: sum(n for members, n in nearby.items() if b in members) for b in chosen}
                     likeliest = max(chosen, key=lambda b: (bound[b], p.get(b, 0.0)))
-            if "minp" in SOLVE and (SOLVE.get("minpwhere") != "off" or not follows_slot(
+            if own and (SOLVE.get("minpwhere") != "off" or not follows_slot(
                     rig.bones, case["slot_bone"], case["world"], case["tris"])):
-                # chosen bones the per-bone model finds unlikely (the set stage took them) left
-                # out; the slot's bone where none is left
+                # chosen bones the per-bone model finds unlikely left out where the slot's bone
+                # is off the art (minpwhere=off), the likeliest bound where none is left (minpelse=likely)
                 kept = [b for b in chosen if p.get(b, 0.0) >= SOLVE["minp"] or b == case["slot_bone"]]
                 chosen = kept or [likeliest if SOLVE.get("minpelse") == "likely" else case["slot_bone"]]
             chosen = guarded_bones(case, chosen, SOLVE.get("drift", float("inf")), SOLVE.get("add_slot", False),

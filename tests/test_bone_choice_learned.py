@@ -376,3 +376,37 @@ def test_rows_walked_together_score_as_walked_apart():
             a = rng.normal(size=(rows, len(ensemble.features))) * rng.choice([0.1, 1, 10], size=len(ensemble.features))
             b = np.where(rng.random(a.shape) < 0.5, a, a + rng.normal(size=a.shape))
             assert score(np.vstack([a, b])).tobytes() == np.concatenate([score(a), score(b)]).tobytes()
+
+
+def test_bones_the_model_finds_unlikely_are_left_out_of_the_set_taken(monkeypatch):
+    """The set stage may take a bone the per-bone model finds under LEAST_LIKELY (the project's
+    other meshes bound it): with the project's habits ``weights`` leaves it out, binding the
+    slot's bone where nothing is left; without them, and for the upgrade's unweighted art, the
+    set is kept."""
+    import spinemesh.rig.learned as learned
+
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    names = [b.name for b in rig.bones]
+    slot = rig.slot_bone["worm"]
+    model = TreeEnsemble.from_json(_tree_model("is_descendant", 0.5))   # seg2, seg3: 0.95; the others 0.05
+    model.sets = object()                                               # a set stage, whose pick is given below
+    cand = candidates(rig.bones, slot, world, tris, set(), {})
+    at = {names[i]: k for k, i in enumerate(cand.bones)}
+    assert learned.LEAST_LIKELY == 0.05 and {"seg2", "beside"} <= set(at)
+    picked = {}
+    monkeypatch.setattr(learned, "_by_sets", lambda *a, **k: (picked["set"], "the chosen set (given)"))
+
+    habits = np.ones(TALLY_SIZE)                                        # the project's other weighted meshes
+    picked["set"] = [at["seg2"], at["beside"]]
+    choice = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits)
+    assert [names[b] for b in choice.bones] == ["seg2"]
+    assert "under 0.05" in choice.left_out[names.index("beside")]
+    assert choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits, explain=False).bones == choice.bones
+    for kept in (choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits, least_likely=0.0),
+                 choose_learned(rig.bones, slot, world, tris, set(), {}, model),               # no habits
+                 choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits, unweighted=True)):
+        assert {names[b] for b in kept.bones} == {"seg2", "beside"}
+
+    picked["set"] = [at["beside"]]                                      # nothing likely left: the slot's bone
+    alone = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits)
+    assert alone.bones == [slot] and "every other bone taken was under 0.05" in alone.why[slot]

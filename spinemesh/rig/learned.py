@@ -657,7 +657,7 @@ def _by_sets(bones, cand: Candidates, p: np.ndarray, allowed: np.ndarray, slot: 
 def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, skin_bones: set[int],
                    constrained: dict[int, str] | None = None, model: TreeEnsemble | None = None,
                    habits: np.ndarray | None = None, neighbours: dict[tuple[int, ...], int] | None = None,
-                   unweighted: bool = False, explain: bool = True) -> Choice:
+                   unweighted: bool = False, explain: bool = True, least_likely: float | None = None) -> Choice:
     """The ``learned`` choice (module docstring) for a mesh with setup world vertices ``world`` (N, 2).
 
     Bones nothing can be bound to (setup transform not exact, only active in other skins) are
@@ -683,7 +683,13 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     ``explain=False``: the same bones, without the reasons (``why`` and ``left_out`` empty), for
     a caller that only counts them (:meth:`.upgrade.BendingRegions.bends`): the habits' notes
     evaluate the model a second time.
+
+    ``least_likely``: with the project's habits, bones the per-bone model finds less likely than
+    this are left out of the bones taken, the slot's bone bound where none is left (default
+    :data:`LEAST_LIKELY`; 0: none left out). Not for ``unweighted`` art: it takes more than one
+    bone only where one is likely.
     """
+    least_likely = LEAST_LIKELY if least_likely is None else least_likely
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
     x = model.with_habits(cand.features, habits)
@@ -712,15 +718,37 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
         take, note = _by_sets(bones, cand, p, allowed, slot, model, habits, neighbours)
     else:
         take, note = [], ""
+    taken = take or _by_threshold(p, order, slot, model.threshold)
+    # a bone the per-bone model finds this unlikely lies beside the art, where the set stage took
+    # it from the project's other meshes: it carried the art off where the slot's bone did not
+    # (without the habits, leaving such bones out measured a little worse)
+    from_habits = habits is not None and bool(np.any(habits)) and not unweighted
+    unlikely = [k for k in taken if k != slot and p[k] < least_likely] if from_habits else []
+    if unlikely and (len(unlikely) < len(taken) or slot is not None):
+        taken = [k for k in taken if k not in unlikely] or [slot]
+    else:
+        unlikely = []
     if not explain:  # the bones _explain gives reasons for: those taken (all of them allowed)
-        chosen = sorted(cand.bones[k] for k in (take or _by_threshold(p, order, slot, model.threshold)))
+        chosen = sorted(cand.bones[k] for k in taken)
         return Choice(chosen or ([slot_bone] if bones[slot_bone].exact else []), {}, {})
     notes = _habit_notes(cand, model, p, habits, alone)
-    why = _explain(bones, cand, p, order, take or _by_threshold(p, order, slot, model.threshold), slot_bone,
-                   model.threshold, note if take else "", left_out, notes)
+    why = _explain(bones, cand, p, order, taken, slot_bone, model.threshold, note if take else "", left_out, notes)
+    for k in unlikely:
+        left_out[cand.bones[k]] = (f"learned: {p[k]:.2f} likely an artist's bone, under {least_likely:g}: "
+                                   f"left out of {note or 'the bones taken'}")
+    if unlikely and taken == [slot]:
+        why[slot_bone] = f"slot bone (every other bone taken was under {least_likely:g} likely)"
     if not why and bones[slot_bone].exact:
         why[slot_bone] = "slot bone (no candidate can be bound)"
     return Choice(sorted(why), why, left_out)
+
+
+#: A bone the per-bone model finds less likely than this is left out of the bones taken (the set
+#: stage takes such bones where the project's other meshes bound them: a slot symbol's bones
+#: beside the art); the slot's bone is bound where none is left. Chosen on repository folds of
+#: the offline replay among 0.02, 0.05, 0.1 and 0.2: every fold picked 0.05
+#: (``docs/guide/bones.md``, *Bones the model finds unlikely*).
+LEAST_LIKELY = 0.05
 
 
 #: A bone's reason mentions the project's habits when they move its probability this much.
