@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
         [--every K] [--variants NAME,...] [--bounds] [--learned] [--points P] [--tolerance T]
-        [--drift-folds D,...]
+        [--drift-folds D,...] [--pick-folds VARIANT,...]
 
 ``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
 about 15 minutes for one variant pair). Linear blend skinning is linear in the weights, so one
@@ -57,7 +57,15 @@ motion guard of the product, :func:`spinemesh.rig.motion.guard`, at limit ``D``:
 carry the art more than ``D`` art diagonals from its slot's bone in the skeleton's animations,
 sampled by our own sampler, left out and the slot's bone bound; ``drift=D`` the same without
 binding the slot's bone unless nothing is left; ``near=R`` the slot's bone taken as where the art
-goes within ``R`` diagonals of it, -1: always), ``slot=A`` (the slot
+goes within ``R`` diagonals of it, -1: always; ``ref=R`` where it is not, the guard measures
+against another bone, at the limit ``refdrift=D``: ``likely``, the chosen bone the model finds
+likeliest, ``habit``, the one the project's artists bound most on the slot's bone, ``art``, the
+bone on the art nearest its centre; ``spread=S`` a choice whose bones would carry the art more
+than ``S`` diagonals apart bound to the likeliest alone, ``spreadwhere=off`` only where the slot's
+bone is not where the art goes), ``minp=P`` (the learned choice's least likely bone taken,
+:data:`spinemesh.rig.learned.LEAST_LIKELY`, at ``P``; with ``minpwhere=off`` only where the
+slot's bone is not where the art goes, ``minpelse=likely`` the likeliest bound where none is
+left), ``slot=A`` (the slot
 bone's weights alone to the power ``A``, rows renormalised: below 1 it leads more of the
 vertices it shares): ``learned:sharpen=2``.
 
