@@ -179,3 +179,26 @@ def test_offline_post_processing_variants_make_a_two_bone_strip_more_local(monke
     assert offline.variant_of("keep:sharpen=2+reach=0") is not offline.VARIANTS["keep"]
     with pytest.raises(ValueError, match="unknown post-processing"):
         offline.finished(case, "keep:blur=1", w, [0, 1], 4)
+
+
+def test_each_repository_fold_is_judged_at_the_variant_the_other_folds_pick(monkeypatch, capsys):
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    import bench_weights_offline as offline
+    from spinemesh.train import bone_choice as train_choice
+
+    # two folds of one repository each: "a" gains from the variant "x", "b" loses from it
+    models = {0: SimpleNamespace(meta={"held_out": ["a"]}), 1: SimpleNamespace(meta={"held_out": ["b"]})}
+    monkeypatch.setattr(train_choice, "load_fold_models", lambda folder: models)
+    monkeypatch.setattr(train_choice, "repository_of", lambda label, corpus: label)
+    cases = [{"label": r, "rigid": 1.0, "on_slot_bone": 10.0} for r in ("a", "a", "b", "b")]
+    errors = {"none": {0: 5.0, 1: 5.0, 2: 5.0, 3: 5.0}, "x": {0: 1.0, 1: 1.0, 2: 9.0, 3: 9.0}}
+    monkeypatch.setattr(offline, "errors_of", lambda cases, name, *a: errors[name])
+    got = offline.chosen_by_fold(cases, ["none", "x"], None, "folds")
+    # fold "a" judged at the pick of fold "b" (none), fold "b" at the pick of fold "a" (x)
+    assert got == {0: 5.0, 1: 5.0, 2: 9.0, 3: 9.0}
+    assert "fold 0: none" in capsys.readouterr().out
+    steps = "learned:driftslot=0.75+ref=likely+refdrift=0.5+spread=1+spreadwhere=off+minp=0.05"
+    assert offline.finished({}, steps, np.eye(2), [0, 1], 4).shape == (2, 2)  # the choice's steps
