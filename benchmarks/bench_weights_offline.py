@@ -1,7 +1,7 @@
 """Rig replay without the runtime in the loop: many weighting variants against the artists' own.
 
     .venv/bin/python benchmarks/bench_weights_offline.py --tool DIR [--corpus 200] [--cache DIR]
-        [--every K] [--variants NAME,...] [--bounds] [--learned] [--points P] [--tolerance T]
+        [--every K] [--start N] [--variants NAME,...] [--bounds] [--learned] [--points P] [--tolerance T]
         [--drift-folds D,...] [--pick-folds VARIANT,...]
 
 ``bench_weights.py`` plays every variant in the official runtime (four dumps per skeleton,
@@ -684,8 +684,8 @@ def learned_bound(cases: list[dict], seed: int = 0) -> dict[int, float]:
 
 
 def replay_cases(tool: Path, cache: Path, examples: str, corpus: int, every: int, animations: int | None,
-                 times: int, fold_models: Path) -> list[dict]:
-    """Every ``every``-th artist-weighted mesh of the replayed skeletons (:func:`collect`,
+                 times: int, fold_models: Path, start: int = 0) -> list[dict]:
+    """Every ``every``-th artist-weighted mesh from the ``start``-th of the replayed skeletons (:func:`collect`,
     :func:`cases_of`) with both baselines' errors (``rigid``, ``slot``), and the learned
     variants registered in :data:`VARIANTS` with the fold models ``fold_models``."""
     cases, skeletons = [], {}
@@ -698,7 +698,7 @@ def replay_cases(tool: Path, cache: Path, examples: str, corpus: int, every: int
     VARIANTS["upgrade-alone"] = learned(fold_models, skeletons, alone=True, unweighted=True)
     VARIANTS["confident"] = learned(fold_models, skeletons, unsure=(0.2, 0.8))
     VARIANTS["upgrade-confident"] = learned(fold_models, skeletons, unweighted=True, unsure=(0.2, 0.8))
-    cases = cases[::every]
+    cases = cases[start::every]
     for c in cases:
         # not "slot": that is the slot's name, which the learned choice's habits read
         c["rigid"], c["on_slot_bone"] = rigid_error(c), slot_error(c)
@@ -782,6 +782,7 @@ def main() -> None:
     ap.add_argument("--corpus", type=int, default=200)
     ap.add_argument("--cache", type=Path, default=Path("weights-replay-cache"), help="folder for the dumps")
     ap.add_argument("--every", type=int, default=1, help="judge every K-th mesh (faster)")
+    ap.add_argument("--start", type=int, default=0, help="with --every K, start at the N-th mesh (0 to K-1)")
     ap.add_argument("--animations", type=int, default=0, help="replay each skeleton's first N animations (0: all)")
     ap.add_argument("--times", type=int, default=4, help="frames replayed per animation, evenly spaced")
     ap.add_argument("--variants", default="bbw,harmonic,bbw-mid-handles,bbw-point-handles,bbw-smoothed,auto,auto-near")
@@ -805,7 +806,7 @@ def main() -> None:
     # every variant's weights with these (the rows named after a point count set their own)
     rig_weights.REFINED_VERTEX_BUDGET, rig_weights.SOLVER_TOLERANCE = args.points, args.tolerance
     cases = replay_cases(args.tool, args.cache, args.examples, args.corpus, args.every, args.animations or None,
-                         args.times, args.fold_models)
+                         args.times, args.fold_models, args.start)
     print(f"{len(cases)} artist-weighted meshes, {len({c['label'] for c in cases})} projects\n", flush=True)
     print("| variant | meshes | median error | median ratio to rigid | geometric mean ratio | exact bone set "
           "| bones / mesh median / p95 | seconds |")
