@@ -426,3 +426,25 @@ def test_error_lines_start_the_output(tmp_path, demo):
     assert r.returncode == 2 and r.stderr.startswith("error: "), repr(r.stderr[:80])
     r = run_cli("upgrade", "nothing-here", "--out", "o", cwd=tmp_path)
     assert r.returncode == 2 and r.stderr.startswith("error: "), repr(r.stderr[:80])
+
+
+@pytest.mark.parametrize("triangles", [[0, 1, 2, 0], [0, 1, 2.5], [0, 1, 3]], ids=["not whole", "not an index", "past"])
+def test_an_artist_weighted_mesh_with_broken_triangles_is_passed_over(tmp_path, demo, triangles):
+    """The habits ``--weights auto`` reads (on the workers with --jobs 2) pass over a weighted mesh
+    whose triangles are not whole triangles of its vertices; ``weights --replace`` fails it alone."""
+    _json_only(demo)
+    doc = _weighted_head(WEIGHTED)(_demo_json(demo))
+    doc["skins"][0]["attachments"]["head"]["demo-head"]["triangles"] = triangles
+    _write_json(demo / "demo.json", doc)
+    before = snapshot(tmp_path)
+    outputs = []
+    for jobs in (1, 2):
+        r = run_cli("upgrade", "p", "--out", f"u{jobs}", "--weights", "auto", "--jobs", jobs, cwd=tmp_path)
+        check_run(r, before, tmp_path, [f"u{j}" for j in range(1, jobs + 1)], codes=(0,))
+        out = json.loads((tmp_path / f"u{jobs}" / "demo.json").read_text())
+        assert out["skins"][0]["attachments"]["head"]["demo-head"]["triangles"] == triangles  # left as it was
+        outputs.append(out)
+    assert outputs[0] == outputs[1]
+    r = run_cli("weights", "p", "--out", "w", "--replace", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["u1", "u2", "w"], codes=(3,))
+    assert "attachment 'demo-head'" in r.stdout + r.stderr and "triangles do not index the vertices" in r.stdout + r.stderr

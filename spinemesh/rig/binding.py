@@ -68,6 +68,26 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
     return out
 
 
+def mesh_triangles(att: dict, count: int) -> np.ndarray:
+    """A mesh attachment's ``triangles`` as (T, 3) vertex indices, each below ``count``.
+
+    Raises
+    ------
+    SpineMeshError
+        When the list is empty, not whole triangles (a length that is not a multiple of 3), or
+        holds an index that is not one of the ``count`` vertices: files from other tools hold such
+        lists, and the runtimes read them as they come.
+    """
+    try:
+        flat = np.asarray(att.get("triangles", []), float).ravel()
+    except (ValueError, TypeError) as e:
+        raise SpineMeshError(f"triangles do not parse: {e}") from None
+    if not len(flat) or len(flat) % 3 or not np.isfinite(flat).all() or (flat != np.round(flat)).any() \
+            or flat.min() < 0 or flat.max() >= count:
+        raise SpineMeshError("triangles do not index the vertices")
+    return flat.astype(np.int64).reshape(-1, 3)
+
+
 def deformed(mesh: MeshVertices, deform) -> MeshVertices:
     """``mesh`` with an animation's deform applied, as the runtimes apply it: unweighted, the
     deform holds the vertices' local positions (2N numbers); weighted, an offset added to each

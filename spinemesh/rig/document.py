@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..skeleton import AttachmentRef, checked_attachments, image_paths, iter_attachments
-from .binding import bind, parse_vertices, setup_world
+from .binding import bind, mesh_triangles, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
@@ -236,9 +236,10 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
         outcome.reason = f"setup position depends on bone {inexact[0].name!r}, {inexact[0].why}"
         return
     world = setup_world(mesh, rig.worlds, slot_bone)
-    triangles = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
-    if len(triangles) == 0 or triangles.max() >= mesh.count or triangles.min() < 0:
-        outcome.status, outcome.reason = "failed", "triangles do not index the vertices"
+    try:
+        triangles = mesh_triangles(att, mesh.count)
+    except SpineMeshError as e:
+        outcome.status, outcome.reason = "failed", str(e)
         return
     if choice is None:  # a mesh its artist did not weight is bound as upgrade binds new ones
         choice = choose(rig, ref, mesh, world, triangles, options.bones, unweighted=not mesh.weighted)

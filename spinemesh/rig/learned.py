@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_attachments
 from . import bone_sets
-from .binding import parse_vertices, setup_world
+from .binding import mesh_triangles, parse_vertices, setup_world
 from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule, distance_to_art, rule_near, rule_samples
 from .constraints import constraints_of
 from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
@@ -324,14 +324,13 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
             continue
         try:
             mesh = parse_vertices(att, len(rig.bones))
+            if not mesh.weighted:
+                continue
+            tris = mesh_triangles(att, mesh.count)
         except SpineMeshError:
             continue
-        if not mesh.weighted:
-            continue
         artist = mesh.bones()
-        tris = np.asarray(att.get("triangles", []), int).reshape(-1, 3)
-        if not artist or any(not rig.bones[b].exact for b in artist) or not len(tris) \
-                or tris.max() >= mesh.count or tris.min() < 0:
+        if not artist or any(not rig.bones[b].exact for b in artist):
             continue
         slot_bone = rig.slot_bone[ref.slot]
         world = setup_world(mesh, rig.worlds, slot_bone)
