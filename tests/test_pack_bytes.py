@@ -460,3 +460,33 @@ def test_each_page_is_read_once_while_its_atlas_is_packed(meshed, tmp_path, monk
     (row,) = pack_project(meshed, tmp_path / "grows", PackOptions(rules=PageRules("any"))).atlases
     assert row.status == "kept" and "bytes against" in row.reason, row.reason
     assert opens == {"demo.png": 1}, opens
+
+
+def test_a_next_layout_whose_pages_do_not_come_back_is_never_written(meshed, tmp_path, monkeypatch):
+    """Negative control of the next layouts' proof: the layout of fewest bytes besides the best is
+    encoded one texel off (and smaller, so it would win): it is refused, and the next of fewest
+    bytes that comes back is written, texel for texel."""
+    rules = PageRules("any")
+    packed, sizes, before = _demo_layouts(meshed, rules)
+    others = range(1, len(packed))
+    fewest = min(others, key=lambda r: (sizes[r], r))
+    expected = min(set(others) - {fewest}, key=lambda r: (sizes[r], r))
+    off = {(p.shape[1], p.shape[0]) for p in packed[fewest].pages.values()}
+    bloating = _bloating(packed, {0})
+    from spinemesh.pack.png import optimized_png
+
+    def encode(image, keep_format=False, colour=None):
+        if not isinstance(image, (bytes, bytearray)) and (image.shape[1], image.shape[0]) in off:
+            rgba = np.array(image)
+            ys, xs = np.nonzero(rgba[..., 3])
+            rgba[ys[0], xs[0], 0] ^= 1  # a drawn texel
+            return optimized_png(rgba)
+        return bloating(image, keep_format, colour)
+
+    monkeypatch.setattr(run, "optimized_png", encode)
+    out = tmp_path / "out"
+    (row,) = pack_project(meshed, out, PackOptions(rules=rules)).atlases
+    assert row.status == "packed" and "another layout" in row.reason, row.reason
+    assert row.texels_after == packed[expected].texels_after and row.bytes_after == sizes[expected]
+    assert (out / "demo.atlas").read_text() == packed[expected].atlas.dumps()
+    np.testing.assert_array_equal(load_rgba(out / "demo.png"), packed[expected].pages["demo.png"])
