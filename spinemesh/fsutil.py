@@ -240,8 +240,14 @@ def make_folder(folder: str | Path) -> Path:
     return folder
 
 
-def _atomic(path: Path, fill) -> None:
-    """Create a unique temporary file beside ``path``, let ``fill(file)`` write it, then rename."""
+def _staged(path: Path, fill) -> str:
+    """A unique temporary file beside ``path``, written by ``fill(file)`` and flushed to disk: its name.
+
+    Raises
+    ------
+    OutputError
+        When the file system refuses; no temporary file stays.
+    """
     make_folder(path.parent)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -253,16 +259,55 @@ def _atomic(path: Path, fill) -> None:
             fill(f)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
     except BaseException as e:
         # Also on KeyboardInterrupt and the SystemExit that SIGTERM becomes: no temporary file stays.
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        Path(tmp).unlink(missing_ok=True)
         if isinstance(e, OSError):
             raise _write_error(e, path) from None
         raise
+    return tmp
+
+
+def _atomic(path: Path, fill) -> None:
+    """Create a unique temporary file beside ``path``, let ``fill(file)`` write it, then rename."""
+    _renamed([(_staged(path, fill), path)])
+
+
+def _renamed(staged: list[tuple[str, Path]]) -> None:
+    """Rename each staged temporary file onto its path, in order; those not renamed are removed
+    (also on KeyboardInterrupt and SystemExit)."""
+    try:
+        while staged:
+            tmp, path = staged[0]
+            try:
+                os.replace(tmp, path)
+            except OSError as e:
+                raise _write_error(e, path) from None
+            staged.pop(0)
+    finally:
+        for tmp, _ in staged:
+            Path(tmp).unlink(missing_ok=True)
+
+
+def atomic_write_files(files: dict[Path, bytes]) -> None:
+    """Write several files that only make sense together (an atlas and its pages): each one staged
+    beside its path first, then all renamed, so that when one cannot be written (disk full,
+    read-only) none is, and every path keeps what it held.
+
+    Raises
+    ------
+    OutputError
+        When the file system refuses one of them.
+    """
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, data in files.items():
+            staged.append((_staged(Path(path), lambda f, d=data: f.write(d)), Path(path)))
+    except BaseException:
+        for tmp, _ in staged:
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    _renamed(staged)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
@@ -290,11 +335,21 @@ def atomic_copy(source: str | Path, path: str | Path) -> None:
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Atomic :func:`atomic_write_bytes` for UTF-8 text."""
+    atomic_write_bytes(path, utf8(text, path))
+
+
+def utf8(text: str, path: str | Path) -> bytes:
+    """``text`` as the UTF-8 bytes of the file ``path``.
+
+    Raises
+    ------
+    SpineMeshError
+        When ``text`` holds a character UTF-8 cannot store (a lone surrogate), naming ``path``.
+    """
     try:
-        data = text.encode("utf-8")
+        return text.encode("utf-8")
     except UnicodeEncodeError as e:
         raise SpineMeshError(f"not written: text holds an invalid character at {e.start}", path) from None
-    atomic_write_bytes(path, data)
 
 
 def strict_json(obj, indent=None, path: str | Path | None = None) -> str:

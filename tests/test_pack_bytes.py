@@ -490,3 +490,36 @@ def test_a_next_layout_whose_pages_do_not_come_back_is_never_written(meshed, tmp
     assert row.texels_after == packed[expected].texels_after and row.bytes_after == sizes[expected]
     assert (out / "demo.atlas").read_text() == packed[expected].atlas.dumps()
     np.testing.assert_array_equal(load_rgba(out / "demo.png"), packed[expected].pages["demo.png"])
+
+
+def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, tmp_path, monkeypatch):
+    """The packed atlas cannot be written (disk full) after its pages could: none of its files is,
+    so the atlas and the pages in the output are the originals that go together (copied into OUT,
+    or left as they were where ``upgrade --pack`` packs in place); no temporary file stays."""
+    import errno
+    import tempfile
+
+    from spinemesh.pack.run import PackResult, pack_project_into
+    from spinemesh.project import find_project
+
+    real, refused = tempfile.mkstemp, []
+
+    def disk_full_once(*args, prefix="", **kwargs):
+        if prefix.startswith(".demo.atlas.") and not refused:
+            refused.append(prefix)
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(*args, prefix=prefix, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkstemp", disk_full_once)
+    in_place = tmp_path / "in-place"
+    shutil.copytree(meshed, in_place)
+    result = PackResult()
+    pack_project_into(find_project(in_place), in_place, PackOptions(), result)
+    (row,) = result.atlases
+    refused.clear()
+    (copied,) = pack_project(meshed, tmp_path / "out").atlases
+    for row, out in ((row, in_place), (copied, tmp_path / "out")):
+        assert row.status == "failed" and "disk full" in row.reason, row.reason
+        for name in ("demo.atlas", "demo.png"):
+            assert (out / name).read_bytes() == (meshed / name).read_bytes(), name
+        assert not [p for p in out.rglob("*.tmp")]

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_json, atomic_write_text
+from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_files, atomic_write_json, atomic_write_text, utf8
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
@@ -938,11 +938,12 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
         result.atlases.append(row)
         return
     dest = out / job.path.relative_to(proj.root)
+    files = {dest.parent / name: data for name, data in outcome.encoded.items()}
     try:
-        for name, data in outcome.encoded.items():
-            atomic_write_bytes(dest.parent / name, data)
         if outcome.text is not None:
-            atomic_write_text(dest, outcome.text)
+            files[dest] = utf8(outcome.text, dest)
+        # as one: a page written beside an atlas that is not (disk full) would draw other texels
+        atomic_write_files(files)
     except SpineMeshError as e:
         result.atlases.append(AtlasRow(row.atlas, "failed", f"not written: {e}", row.pages_before, row.pages_before,
                                        bytes_before=row.bytes_before, bytes_after=row.bytes_before))
