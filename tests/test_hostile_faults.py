@@ -448,3 +448,57 @@ def test_an_artist_weighted_mesh_with_broken_triangles_is_passed_over(tmp_path, 
     r = run_cli("weights", "p", "--out", "w", "--replace", cwd=tmp_path)
     check_run(r, before, tmp_path, ["u1", "u2", "w"], codes=(3,))
     assert "attachment 'demo-head'" in r.stdout + r.stderr and "triangles do not index the vertices" in r.stdout + r.stderr
+
+
+def _die_on_a_fill(arg):
+    """A packing worker that dies (as an out-of-memory kill would) on every fill it is given."""
+    os._exit(9)
+
+
+def test_an_atlas_whose_fills_kill_their_workers_is_kept_as_it_was(tmp_path, meshed, monkeypatch):
+    """``pack --jobs 2`` of one atlas runs its fills on the workers: where they die on every try,
+    the atlas is copied as it was with the reason, and nothing packed is written."""
+    from spinemesh.cluster import ProcessWorkers
+    from spinemesh.pack import parallel
+    from spinemesh.pack.run import PackOptions, PackResult, pack_project_into
+    from spinemesh.project import find_project
+
+    monkeypatch.setattr(parallel, "fill_task", _die_on_a_fill)
+    result = PackResult()
+    with ProcessWorkers(2) as workers:
+        pack_project_into(find_project(meshed), tmp_path / "o", PackOptions(jobs=2), result, workers=workers)
+    (row,) = result.atlases
+    assert row.status == "failed" and "exited with status 9" in row.reason, row.reason
+    for name in ("demo.atlas", "demo.png", "demo.json"):
+        assert (tmp_path / "o" / name).read_bytes() == (meshed / name).read_bytes(), name
+
+
+_REAL_MESH_ONE: dict = {}
+
+
+def _die_on_bending_tasks(task):
+    """A meshing worker that dies (as an out-of-memory kill would) on every bending task."""
+    from spinemesh.upgrade.plan import BENDS_KEY
+
+    if task.key.startswith(BENDS_KEY):
+        os._exit(9)
+    return _REAL_MESH_ONE["mesh_one"](task)
+
+
+def test_a_region_whose_bending_task_kills_its_worker_stays_as_it_was(tmp_path, monkeypatch):
+    """``upgrade --weights auto --jobs 2``: the bending task sent as the plain mesh arrived dies on
+    every try; that region fails alone with the reason and is written as the region it was."""
+    from test_upgrade_weights import attachments, make_bar_project
+
+    from spinemesh.cluster import ProcessWorkers
+    from spinemesh.upgrade import Options, meshing, upgrade_project
+
+    project = make_bar_project(tmp_path / "p")
+    monkeypatch.setitem(_REAL_MESH_ONE, "mesh_one", meshing.mesh_one)
+    monkeypatch.setattr(meshing, "mesh_one", _die_on_bending_tasks)
+    with ProcessWorkers(2) as workers:
+        result = upgrade_project(project, tmp_path / "o", Options(weights="auto", jobs=2), workers=workers)
+    rows = {t.slot: t for t in result.targets}
+    assert rows["bar"].status == "failed" and "exited with status 9" in rows["bar"].reason, rows["bar"]
+    assert rows["flag"].status == "kept" and result.written == ["bar.json"]
+    assert attachments(tmp_path / "o" / "bar.json") == attachments(project)
