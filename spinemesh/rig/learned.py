@@ -691,14 +691,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     least_likely = LEAST_LIKELY if least_likely is None else least_likely
     model = model or shipped_model()
     cand = candidates(bones, slot_bone, world, triangles, skin_bones, constrained)
-    x = model.with_habits(cand.features, habits)
-    if explain and _habits_move(model, habits):
-        # the probabilities without the habits too, for the notes: one walk of the trees for both
-        # (each row's is its own: the same numbers as two walks)
-        both = model.probability(np.vstack([x, model.with_habits(cand.features, None)]))
-        p, alone = both[:len(x)], both[len(x):]
-    else:
-        p, alone = model.probability(x), None
+    p, alone = _probabilities(model, cand.features, habits, explain)
     left_out: dict[int, str] = {}
     allowed = np.zeros(len(cand.bones), bool)
     for k, i in enumerate(cand.bones):
@@ -722,11 +715,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     # it from the project's other meshes: it carried the art off where the slot's bone did not
     # (without the habits, leaving such bones out measured a little worse)
     from_habits = habits is not None and bool(np.any(habits)) and not unweighted
-    unlikely = [k for k in taken if k != slot and p[k] < least_likely] if from_habits else []
-    if unlikely and (len(unlikely) < len(taken) or slot is not None):
-        taken = [k for k in taken if k not in unlikely] or [slot]
-    else:
-        unlikely = []
+    taken, unlikely = _without_unlikely(taken, p, slot, least_likely) if from_habits else (taken, [])
     if not explain:  # the bones _explain gives reasons for: those taken (all of them allowed)
         chosen = sorted(cand.bones[k] for k in taken)
         return Choice(chosen or ([slot_bone] if bones[slot_bone].exact else []), {}, {})
@@ -740,6 +729,29 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     if not why and bones[slot_bone].exact:
         why[slot_bone] = "slot bone (no candidate can be bound)"
     return Choice(sorted(why), why, left_out)
+
+
+def _probabilities(model: TreeEnsemble, features: np.ndarray, habits: np.ndarray | None,
+                   explain: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Each candidate's probability (C,) with the project's ``habits``, and, when ``explain`` and
+    the habits move them, without (for the notes, :func:`_habit_notes`; else None)."""
+    x = model.with_habits(features, habits)
+    if not (explain and _habits_move(model, habits)):
+        return model.probability(x), None
+    # one walk of the trees for both (each row's is its own: the same numbers as two walks)
+    both = model.probability(np.vstack([x, model.with_habits(features, None)]))
+    return both[:len(x)], both[len(x):]
+
+
+def _without_unlikely(taken: list[int], p: np.ndarray, slot: int | None,
+                      least_likely: float) -> tuple[list[int], list[int]]:
+    """``taken`` (candidate indices) without those but the slot's bone (``slot``) whose probability
+    ``p`` is under ``least_likely``, the slot's bone where none is left; and those left out. As it
+    was where all would be left out and the slot's bone is not a candidate."""
+    unlikely = [k for k in taken if k != slot and p[k] < least_likely]
+    if unlikely and (len(unlikely) < len(taken) or slot is not None):
+        return [k for k in taken if k not in unlikely] or [slot], unlikely
+    return taken, []
 
 
 #: A bone the per-bone model finds less likely than this is left out of the bones taken (the set
