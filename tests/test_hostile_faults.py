@@ -502,3 +502,28 @@ def test_a_region_whose_bending_task_kills_its_worker_stays_as_it_was(tmp_path, 
     assert rows["bar"].status == "failed" and "exited with status 9" in rows["bar"].reason, rows["bar"]
     assert rows["flag"].status == "kept" and result.written == ["bar.json"]
     assert attachments(tmp_path / "o" / "bar.json") == attachments(project)
+
+
+def _no_memory_for_a_fill(arg):
+    """A packing fill that cannot have the memory it asks for, on a worker or here."""
+    raise MemoryError
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_an_atlas_whose_fills_run_out_of_memory_fails_alone(tmp_path, meshed, monkeypatch, jobs):
+    """Memory refused to a fill (``pack`` with ``--jobs 2``: on a worker) fails that atlas with one
+    line, its files copied as they were, and the run goes on: never a traceback."""
+    from spinemesh.cluster import ProcessWorkers
+    from spinemesh.pack import atlas_pack, parallel
+    from spinemesh.pack.run import NO_MEMORY, PackOptions, PackResult, pack_project_into
+    from spinemesh.project import find_project
+
+    monkeypatch.setattr(parallel, "fill_task", _no_memory_for_a_fill)
+    monkeypatch.setattr(atlas_pack, "run_fill", lambda *a: _no_memory_for_a_fill(a))
+    result = PackResult()
+    with ProcessWorkers(jobs) as workers:
+        pack_project_into(find_project(meshed), tmp_path / "o", PackOptions(jobs=jobs), result, workers=workers)
+    (row,) = result.atlases
+    assert row.status == "failed" and row.reason == NO_MEMORY, row.reason
+    for name in ("demo.atlas", "demo.png", "demo.json"):
+        assert (tmp_path / "o" / name).read_bytes() == (meshed / name).read_bytes(), name

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_files, atomic_write_json, atomic_write_text, utf8
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
+from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_settings, plan_layouts
@@ -555,6 +556,10 @@ def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: d
     return encoded
 
 
+#: Why an atlas failed when memory ran out while it was packed (its files are copied as they are).
+NO_MEMORY = "not enough memory to pack it (the footprints, fills and pages take memory by their texels)"
+
+
 def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     """Read one atlas's pages, pack them and encode the new ones; nothing is written.
 
@@ -624,6 +629,12 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         return outcome
     except SpineMeshError as e:
         return AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
+                                     bytes_before=bytes_before, bytes_after=bytes_before,
+                                     cpu_seconds=round(time.process_time() - t0, 3)))
+    except Exception as e:  # memory refused here or on a worker (MemoryError, OpenCV's, a library's): this atlas alone
+        if not out_of_memory(e):
+            raise
+        return AtlasOutcome(AtlasRow(job.rel, "failed", NO_MEMORY, len(atlas.pages), len(atlas.pages),
                                      bytes_before=bytes_before, bytes_after=bytes_before,
                                      cpu_seconds=round(time.process_time() - t0, 3)))
     row = _row_from(packed, job.rel, bytes_before, bytes_after)
@@ -915,6 +926,10 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
                 yield future.result()
             except WorkerLost as e:
                 yield AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(job.atlas.pages), len(job.atlas.pages)))
+            except Exception as e:  # no memory to hand the atlas over or its outcome back: this atlas alone
+                if not out_of_memory(e):
+                    raise
+                yield AtlasOutcome(AtlasRow(job.rel, "failed", NO_MEMORY, len(job.atlas.pages), len(job.atlas.pages)))
             submit()
         return
     for job in jobs:
