@@ -527,3 +527,31 @@ def test_an_atlas_whose_fills_run_out_of_memory_fails_alone(tmp_path, meshed, mo
     assert row.status == "failed" and row.reason == NO_MEMORY, row.reason
     for name in ("demo.atlas", "demo.png", "demo.json"):
         assert (tmp_path / "o" / name).read_bytes() == (meshed / name).read_bytes(), name
+
+
+def test_habits_whose_worker_had_no_memory_for_them_are_read_here(tmp_path):
+    """A skeleton's habits job that fails for memory on its worker (the job or its answer too large to
+    hand over) is read in this process, as one whose worker was lost: the same habits."""
+    from concurrent.futures import Future
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from spinemesh.cluster import Workers
+    from spinemesh.rig.document import build_rig
+    from spinemesh.rig.learned import project_habits
+    from spinemesh.upgrade.bending import gather_habits, start_habits
+
+    class NoMemoryWorkers(Workers):
+        def submit(self, fn, arg, first=False):
+            future = Future()
+            future.set_exception(MemoryError())
+            return future
+
+    doc = _weighted_head(WEIGHTED)(json.loads((Path(__file__).parents[1] / "examples" / "demo" / "demo.json").read_text()))
+    expected = project_habits([(doc, build_rig(doc))])
+    assert len(expected.keys) == 1  # the weighted head
+    skeletons = [SimpleNamespace(doc=doc, rig=build_rig(doc))]
+    plan = SimpleNamespace(habits=start_habits(skeletons, NoMemoryWorkers()), skeletons=skeletons)
+    gather_habits(plan)
+    assert np.array_equal(plan.habits.tallies, expected.tallies) and plan.habits.keys == expected.keys

@@ -26,6 +26,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..cluster import WorkerLost, Workers
+from ..memory import out_of_memory
 from .plan import ProjectPlan, art_box, bending_task
 from .progress import SILENT, Progress
 
@@ -73,6 +74,10 @@ def gather_habits(plan: ProjectPlan) -> None:
         try:
             parts.append(future.result())
         except WorkerLost:  # read here instead, the same way
+            parts.append(document_habits(doc, rig))
+        except Exception as e:  # no memory to hand the job over or its answer back: read here instead
+            if not out_of_memory(e):
+                raise
             parts.append(document_habits(doc, rig))
     plan.habits = habits_of(parts)
     for _, rig in reading.documents:
