@@ -214,7 +214,7 @@ def test_the_proof_catches_a_texel_or_a_region_gone_wrong(meshed, tmp_path, monk
     with pytest.raises(ProofFailed, match="demo-head"):
         prove_packed(before, pages_a, moved, pages_b, uses)
     # a texel under a mesh changed by the packer: pack keeps the atlas
-    real = atlas_pack.pack_atlas
+    real = atlas_pack.compose
 
     def one_texel_off(*args, **kwargs):
         packed = real(*args, **kwargs)
@@ -223,7 +223,7 @@ def test_the_proof_catches_a_texel_or_a_region_gone_wrong(meshed, tmp_path, monk
         page[y, x, 0] ^= 1
         return packed
 
-    monkeypatch.setattr(run, "pack_atlas", one_texel_off)
+    monkeypatch.setattr(run, "compose", one_texel_off)
     result = pack_project(meshed, tmp_path / "wrong")
     assert result.atlases[0].status == "kept" and "failed the proof" in result.atlases[0].reason
     assert (tmp_path / "wrong" / "demo.png").read_bytes() == (meshed / "demo.png").read_bytes()
