@@ -467,7 +467,7 @@ def test_a_next_layout_whose_pages_do_not_come_back_is_never_written(meshed, tmp
     encoded one texel off (and smaller, so it would win): it is refused, and the next of fewest
     bytes that comes back is written, texel for texel."""
     rules = PageRules("any")
-    packed, sizes, before = _demo_layouts(meshed, rules)
+    packed, sizes, _ = _demo_layouts(meshed, rules)
     others = range(1, len(packed))
     fewest = min(others, key=lambda r: (sizes[r], r))
     expected = min(set(others) - {fewest}, key=lambda r: (sizes[r], r))
@@ -515,10 +515,10 @@ def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, t
     shutil.copytree(meshed, in_place)
     result = PackResult()
     pack_project_into(find_project(in_place), in_place, PackOptions(), result)
-    (row,) = result.atlases
+    (kept_in_place,) = result.atlases
     refused.clear()
     (copied,) = pack_project(meshed, tmp_path / "out").atlases
-    for row, out in ((row, in_place), (copied, tmp_path / "out")):
+    for row, out in ((kept_in_place, in_place), (copied, tmp_path / "out")):
         assert row.status == "failed" and "disk full" in row.reason, row.reason
         for name in ("demo.atlas", "demo.png"):
             assert (out / name).read_bytes() == (meshed / name).read_bytes(), name

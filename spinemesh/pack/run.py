@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_copy, atomic_write_bytes, atomic_write_files, atomic_write_json, atomic_write_text, utf8
+from ..fsutil import atomic_copy, atomic_write_files, atomic_write_json, utf8
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
 from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
