@@ -13,10 +13,8 @@ import re
 import shutil
 from pathlib import Path
 
-import pytest
 from typer.testing import CliRunner
 
-from rig_project import make_worm_project
 from spinemesh.cli import app
 from spinemesh.runs import reason_groups, short_names
 from spinemesh.upgrade import Options, upgrade_library, upgrade_project

@@ -243,7 +243,6 @@ def _push_out(contour: np.ndarray, keys: np.ndarray, orient: float) -> np.ndarra
     -------
     ndarray, shape (m, 2): the pushed polygon (bevels may add vertices).
     """
-    n = len(contour)
     k = len(keys)
     centre = contour.astype(np.float64) + 0.5
     kp = centre[keys]
