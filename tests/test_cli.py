@@ -339,3 +339,16 @@ def test_a_failure_exits_3(demo, tmp_path):
     (demo / "demo.json").write_text(json.dumps(doc))
     r = run("upgrade", str(demo), "--out", str(tmp_path / "o"))
     assert r.returncode == 3 and "ghost" in r.stderr
+
+
+def test_memory_refused_past_every_stage_ends_in_one_line():
+    """A MemoryError no stage caught: one line and exit code 2, no traceback."""
+    code = ("import sys; sys.argv = ['spinemesh', 'info', '.']\n"
+            "import spinemesh.cli as cli\n"
+            "def app():\n    raise MemoryError()\n"
+            "cli._load_app = lambda: app\n"
+            "cli.main()")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr[-2000:]
+    assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0, r.stderr
+    assert r.stderr.startswith("error: not enough memory to finish")

@@ -74,3 +74,12 @@ def main() -> None:
             e = SpineMeshError(e.strerror or str(e), e.filename)
         err_console.print(f"[bold red]error:[/] {escape(escaped(str(e)))}", highlight=False, soft_wrap=True)
         sys.exit(2)
+    except MemoryError:
+        # the last net for memory: each stage refuses what it cannot hold with its own line naming
+        # the file; what got past them still ends in one line, every file written being whole
+        from ._app import err_console
+
+        err_console.print("[bold red]error:[/] not enough memory to finish: the files written so far are whole, "
+                          "the others were not written (try fewer --jobs, or one project at a time)",
+                          highlight=False, soft_wrap=True)
+        sys.exit(2)
