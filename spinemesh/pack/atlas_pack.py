@@ -531,22 +531,31 @@ def group_layouts(items: list[_Item], max_w: int, max_h: int, max_area: int, pot
     records = []
     if on_fill:
         on_fill(0, len(plan))
-    if fills is None:
-        for fill in plan:
-            found = run_fill(fill, *args, best)
-            if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
-                best = found
-                records.append(found)
-            if on_fill:
-                on_fill()
-    else:
-        for found in fills(plan, args, best):
-            if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
-                best = found
-                records.append(found)
+    results = _one_after_another(plan, args, best, on_fill) if fills is None else fills(plan, args, best)
+    for found in results:
+        if beats(found, best):
+            best = found
+            records.append(found)
     if not records:
         raise PackRefused(kept_note(needed, ceiling, max_pages, max_area, pot))
     return [(placements, sizes) for _, placements, sizes in reversed(records[-keep:])]
+
+
+def beats(found, best) -> bool:
+    """Whether a fill's result ``found`` (``(texels, placements, sizes)``, or a bound handed back:
+    placements None) is a packing of fewer page texels than ``best`` (None: no bound)."""
+    return found is not None and found[1] is not None and (best is None or found[0] < best[0])
+
+
+def _one_after_another(plan: list[tuple], args: tuple, best, on_fill=None):
+    """Each fill of ``plan`` here, in order, each bounded by the best before it: their results."""
+    for fill in plan:
+        found = run_fill(fill, *args, best)
+        if beats(found, best):
+            best = found
+        yield found
+        if on_fill:
+            on_fill()
 
 
 def _pack_group(items: list[_Item], max_w: int, max_h: int, max_area: int, pot: bool, padding: int,

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .atlas_pack import run_fill
+from .atlas_pack import beats, run_fill
 
 
 def _pack_mask(mask: np.ndarray) -> tuple:
@@ -92,7 +92,7 @@ class FillRunner:
                 future = self.workers.submit(fill_task, (plan[k], packed, tuple(limits), bound), first=True)
                 running[future] = k
             if not running:
-                return rerun_loosely_bounded(plan, results, bounds, best,
+                return rerun_loosely_bounded(results, bounds, best,
                                              lambda k, exact: run_fill(plan[k], *args, exact))
             done = next(iter(self.workers.as_completed(list(running))))
             results[running.pop(done)] = done.result()
@@ -100,8 +100,8 @@ class FillRunner:
                 self.on_fill()
 
 
-def rerun_loosely_bounded(plan: list, results: list, bounds: list, best, rerun) -> list:
-    """``results`` of ``plan``'s fills, each fill that ran with a looser bound than the fills before
+def rerun_loosely_bounded(results: list, bounds: list, best, rerun) -> list:
+    """``results`` of a plan's fills, each fill that ran with a looser bound than the fills before
     it give, one after another, and beats that bound, replaced by ``rerun(k, exact bound)``.
 
     ``bounds``: the bound each fill was given (``(texels, None, None)``, or None for no bound);
@@ -113,7 +113,7 @@ def rerun_loosely_bounded(plan: list, results: list, bounds: list, best, rerun) 
     for k, found in enumerate(results):
         exact = _best_before(results[:k], best)
         looser = exact is not None and (bounds[k] is None or bounds[k][0] > exact[0])
-        if looser and found is not None and found[1] is not None and found[0] < exact[0]:
+        if looser and beats(found, exact):
             results[k] = rerun(k, exact)
     return results
 
@@ -122,6 +122,6 @@ def _best_before(results: list, best):
     """The bound a fill is given: the fewest texels of ``results`` (the fills before it that have
     ended, None for the others) and ``best``, as ``(texels, None, None)`` (its placements stay here)."""
     for found in results:
-        if found is not None and found[1] is not None and (best is None or found[0] < best[0]):
+        if beats(found, best):
             best = found
     return best if best is None else (best[0], None, None)

@@ -73,12 +73,10 @@ def gather_habits(plan: ProjectPlan) -> None:
     for (doc, rig), future in zip(reading.documents, reading.futures):
         try:
             parts.append(future.result())
-        except WorkerLost:  # read here instead, the same way
-            parts.append(document_habits(doc, rig))
-        except Exception as e:  # no memory to hand the job over or its answer back: read here instead
-            if not out_of_memory(e):
+        except Exception as e:  # its worker lost, or no memory to hand the job over or its answer back
+            if not (isinstance(e, WorkerLost) or out_of_memory(e)):
                 raise
-            parts.append(document_habits(doc, rig))
+            parts.append(document_habits(doc, rig))  # read here instead, the same way
     plan.habits = habits_of(parts)
     for _, rig in reading.documents:
         rig.habits = plan.habits
