@@ -719,7 +719,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     if not explain:  # the bones _explain gives reasons for: those taken (all of them allowed)
         chosen = sorted(cand.bones[k] for k in taken)
         return Choice(chosen or ([slot_bone] if bones[slot_bone].exact else []), {}, {})
-    notes = _habit_notes(cand, model, p, habits, alone)
+    notes = _habit_notes(cand, p, habits, alone)
     why = _explain(bones, cand, p, order, taken, slot_bone, model.threshold, note if take else "", left_out, notes)
     for k in unlikely:
         left_out[cand.bones[k]] = (f"learned: {p[k]:.2f} likely an artist's bone, under {least_likely:g}: "
@@ -772,15 +772,13 @@ def _habits_move(model: TreeEnsemble, habits: np.ndarray | None) -> bool:
     return model.reads_habits and habits is not None and meshes_in(habits) != 0
 
 
-def _habit_notes(cand: Candidates, model: TreeEnsemble, p: np.ndarray,
-                 habits: np.ndarray | None, alone: np.ndarray | None = None) -> dict[int, str]:
+def _habit_notes(cand: Candidates, p: np.ndarray, habits: np.ndarray | None,
+                 alone: np.ndarray | None) -> dict[int, str]:
     """For the candidates (indices into ``cand.bones``) whose probability ``p`` the project's
-    habits moved by :data:`HABIT_MATTERS` or more from the prior's (``alone``, computed here
-    when not given), a note for the report."""
-    if not _habits_move(model, habits):
-        return {}
+    habits moved by :data:`HABIT_MATTERS` or more from the prior's (``alone``: without the
+    habits, None where they move nothing, :func:`_probabilities`), a note for the report."""
     if alone is None:
-        alone = model.probability(model.with_habits(cand.features, None))
+        return {}
     return {k: f"{habit_reason(cand.features, FEATURES, habits, k)} "
                f"({alone[k]:.2f} likely without the project's habits)"
             for k in np.flatnonzero(np.abs(p - alone) >= HABIT_MATTERS).tolist()}
