@@ -14,6 +14,7 @@ heaviest taking the remainder so that each vertex's weights still sum to 1).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -122,10 +123,12 @@ def setup_world(mesh: MeshVertices, worlds: list[np.ndarray], slot_bone: int) ->
     return out
 
 
-def rounded_weights(row: np.ndarray) -> list[float]:
-    """Weights rounded to 1e-4 that still sum to 1: the heaviest takes the remainder."""
-    w = [round(float(x), 4) for x in row]
-    top = int(np.argmax(row))
+def rounded_weights(row) -> list[float]:
+    """Weights (a row: ndarray or list of floats) rounded to 1e-4 that still sum to 1: the
+    heaviest (the first of equals) takes the remainder."""
+    row = [float(x) for x in row]
+    w = [round(x, 4) for x in row]
+    top = max(range(len(row)), key=row.__getitem__)
     w[top] = round(1.0 - sum(x for i, x in enumerate(w) if i != top), 4)
     return w
 
@@ -149,21 +152,21 @@ def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: li
     list
         Per vertex: bone count, then (bone index, local x, local y, weight) per bone.
     """
-    inverse = {}
+    local = []
     for b in bone_ids:
         m = worlds[b]
         inv2 = np.linalg.inv(m[:, :2])
-        inverse[b] = np.c_[inv2, -inv2 @ m[:, 2]]
+        # every vertex as a (1, 2) row times the bone's matrix: the same product, to the bit, as
+        # one vertex at a time (one (N, 2) matrix product rounds some positions differently)
+        local.append(_apply(np.c_[inv2, -inv2 @ m[:, 2]], world[:, None, :])[:, 0].tolist())
     out: list = []
-    for v in range(len(world)):
-        cols = np.flatnonzero(weights[v] > 0)
-        ws = rounded_weights(weights[v, cols])
-        keep = [(c, w) for c, w in zip(cols, ws) if w > 0]
+    for v, row in enumerate(np.asarray(weights, float).tolist()):
+        cols = [c for c, x in enumerate(row) if x > 0]
+        keep = [(c, w) for c, w in zip(cols, rounded_weights([row[c] for c in cols])) if w > 0]
         out.append(len(keep))
         for c, w in keep:
-            b = bone_ids[c]
-            x, y = _apply(inverse[b], world[v])
-            out += [int(b), round(float(x), 4), round(float(y), 4), w]
-    if not all(np.isfinite(float(x)) for x in out):
+            x, y = local[c][v]
+            out += [int(bone_ids[c]), round(x, 4), round(y, 4), w]
+    if not all(math.isfinite(x) for x in out):
         raise SpineMeshError("binding produced a non-finite number")
     return out

@@ -38,8 +38,10 @@ def _inside(loop: np.ndarray, points: np.ndarray, margin: float) -> np.ndarray:
     import cv2
 
     contour = np.asarray(loop, np.float32).reshape(-1, 1, 2)
-    return np.array([cv2.pointPolygonTest(contour, (float(x), float(y)), True) >= margin for x, y in points],
-                    bool).reshape(-1)
+    test = cv2.pointPolygonTest
+    # one OpenCV call per point: the points as Python pairs, not numpy rows (half the time around it)
+    pairs = np.asarray(points, float).reshape(-1, 2).tolist()
+    return np.fromiter((test(contour, p, True) for p in pairs), float, len(pairs)) >= margin
 
 
 def _far_from(points: np.ndarray, others: np.ndarray, distance: float) -> np.ndarray:
@@ -129,12 +131,12 @@ def rig_points(vertices: np.ndarray, hull: int, segments: np.ndarray, parents: l
     if len(cands) == 0:
         return cands
     cands = cands[_inside(loop, cands, margin)]
+    cands = cands[_far_from(cands, vertices, spacing / 2)]
     out: list[np.ndarray] = []
     for c in cands:
         if len(out) >= budget:
             break
-        if _far_from(c[None], vertices, spacing / 2)[0] and _far_from(c[None], np.array(out).reshape(-1, 2),
-                                                                        spacing / 2)[0]:
+        if _far_from(c[None], np.array(out).reshape(-1, 2), spacing / 2)[0]:
             out.append(c)
     return np.array(out, float).reshape(-1, 2)
 

@@ -19,7 +19,6 @@ weights are solved; so is one whose weights leave all but one bone out.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from dataclasses import dataclass
 from typing import Callable
@@ -184,7 +183,9 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
             continue
         if on_mesh is not None:
             on_mesh()
-        before = copy.deepcopy(ref.attachment)
+        # a shallow copy: the weighting replaces the attachment's lists (``vertices``, ``uvs``,
+        # ``triangles``), never changes one in place
+        before = dict(ref.attachment)
         outcome = Outcome(t.skeleton, ref.skin, ref.slot, ref.name)
         added, choice = 0, None
         try:
