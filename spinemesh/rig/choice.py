@@ -20,6 +20,7 @@ bone in the tree are kept, then those with the longest segment over the art.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -87,7 +88,8 @@ def distance_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray
     the art's bounding box); for the others, the distance to the nearest of the
     :func:`outline_edges` (:func:`distance_to_outline`). Most of the points the bone choices
     measure lie on the art (bones over it): they are not measured against the edges. No
-    triangles: every distance is infinite.
+    triangles: every distance is infinite. :class:`ArtDistance` measures several sets of
+    points against one art.
 
     Examples
     --------
@@ -96,21 +98,47 @@ def distance_to_art(points: np.ndarray, world: np.ndarray, triangles: np.ndarray
     >>> distance_to_art(points, square, np.array([[0, 1, 2], [0, 2, 3]]))
     array([0., 0., 3., 1.])
     """
-    points = np.asarray(points, float).reshape(-1, 2)
-    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
-    out = np.full(len(points), np.inf)
-    if not len(points) or not len(tri):
+    return ArtDistance(world, triangles)(points)
+
+
+class ArtDistance:
+    """:func:`distance_to_art` of one mesh's art (``world`` (N, 2), ``triangles`` (T, 3)), for
+    several sets of points: what depends on the art alone (its triangles' corners and box, their
+    order by area, the :func:`outline_edges`) is prepared once, on the first set that needs it
+    (the learned bone choice measures each mesh's art twice: the rule's samples, then its own).
+    Each point's distance is the same, to the bit, whatever other points are measured with it.
+    """
+
+    def __init__(self, world: np.ndarray, triangles: np.ndarray):
+        self.world = world
+        self.tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+        self.corner = world[self.tri]                                       # (T, 3, 2)
+        if len(self.tri):
+            self.lo, self.hi = self.corner.reshape(-1, 2).min(axis=0), self.corner.reshape(-1, 2).max(axis=0)
+
+    @cached_property
+    def _largest_first(self) -> tuple:
+        return _largest_first(self.corner)
+
+    @cached_property
+    def _outline(self) -> tuple:
+        return _outline_arrays(self.world, self.tri)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Distance (P,) of each point (P, 2) to the art, world units (:func:`distance_to_art`)."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        out = np.full(len(points), np.inf)
+        if not len(points) or not len(self.tri):
+            return out
+        test = np.flatnonzero((points >= self.lo).all(axis=1) & (points <= self.hi).all(axis=1))
+        inside = np.zeros(len(points), bool)
+        if len(test):
+            inside[test[_inside_largest_first(points[test], self._largest_first)]] = True
+        out[inside] = 0.0
+        rest = np.flatnonzero(~inside)
+        if len(rest):
+            out[rest] = _outline_distance(points[rest], self._outline)
         return out
-    corner = world[tri]                                                 # (T, 3, 2)
-    lo, hi = corner.reshape(-1, 2).min(axis=0), corner.reshape(-1, 2).max(axis=0)
-    test = np.flatnonzero((points >= lo).all(axis=1) & (points <= hi).all(axis=1))
-    inside = np.zeros(len(points), bool)
-    inside[test[inside_triangles(points[test], corner)]] = True
-    out[inside] = 0.0
-    rest = np.flatnonzero(~inside)
-    if len(rest):
-        out[rest] = distance_to_outline(points[rest], world, tri)
-    return out
 
 
 def distance_to_outline(points: np.ndarray, world: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -121,13 +149,23 @@ def distance_to_outline(points: np.ndarray, world: np.ndarray, triangles: np.nda
     bit. Edges run down the temporaries and points across them (a minimum over a few rows is
     fast), at most :data:`PAIRS_AT_ONCE` pairs at a time.
     """
-    out = np.empty(len(points))
+    return _outline_distance(points, _outline_arrays(world, triangles))
+
+
+def _outline_arrays(world: np.ndarray, triangles: np.ndarray) -> tuple:
+    """The :func:`outline_edges`' ends and spans as columns (E, 1), for :func:`_outline_distance`."""
     e = outline_edges(world, triangles)
     ax, ay = world[e[:, 0], :1], world[e[:, 0], 1:]                   # (E, 1)
     bx, by = world[e[:, 1], :1], world[e[:, 1], 1:]
     abx, aby = bx - ax, by - ay
-    length2 = abx * abx + aby * aby
-    step = max(1, PAIRS_AT_ONCE // len(e))
+    return ax, ay, bx, by, abx, aby, abx * abx + aby * aby
+
+
+def _outline_distance(points: np.ndarray, outline: tuple) -> np.ndarray:
+    """:func:`distance_to_outline` of the points (P, 2), the outline's :func:`_outline_arrays` given."""
+    ax, ay, bx, by, abx, aby, length2 = outline
+    out = np.empty(len(points))
+    step = max(1, PAIRS_AT_ONCE // len(ax))
     for s in range(0, len(points), step):
         px, py = points[s:s + step, 0], points[s:s + step, 1]
         dx, dy = px - ax, py - ay                                       # (E, P)
@@ -149,17 +187,30 @@ def inside_triangles(points: np.ndarray, corner: np.ndarray) -> np.ndarray:
     found in one is not tested against the others: whether it lies in any of them does not
     depend on which ones it was tested against after the first it lies in.
     """
+    return _inside_largest_first(points, _largest_first(corner))
+
+
+def _largest_first(corner: np.ndarray) -> tuple:
+    """The triangles ``corner`` (T, 3, 2), largest first, as :func:`_inside_largest_first` reads
+    them: corners and edges, x and y apart, (3, T, 1) each."""
     cx, cy = corner[..., 0], corner[..., 1]                             # (T, 3)
     area = np.abs((cx[:, 1] - cx[:, 0]) * (cy[:, 2] - cy[:, 0]) - (cy[:, 1] - cy[:, 0]) * (cx[:, 2] - cx[:, 0]))
     order = np.argsort(-area, kind="stable")
     cx, cy = cx[order].T[..., None], cy[order].T[..., None]             # (3, T, 1)
     ex, ey = cx[[1, 2, 0]] - cx, cy[[1, 2, 0]] - cy                     # each triangle's edges in turn
+    return cx, cy, ex, ey
+
+
+def _inside_largest_first(points: np.ndarray, triangles: tuple) -> np.ndarray:
+    """:func:`inside_triangles` of the points (P, 2), the triangles' :func:`_largest_first` given."""
+    cx, cy, ex, ey = triangles
+    count = cx.shape[1]
     found = np.zeros(len(points), bool)
-    block = min(len(order), TRIANGLES_AT_ONCE)
+    block = min(count, TRIANGLES_AT_ONCE)
     step = max(1, PAIRS_AT_ONCE // block)
     for s in range(0, len(points), step):
         idx = np.arange(s, min(s + step, len(points)))
-        for b in range(0, len(order), block):
+        for b in range(0, count, block):
             px, py = points[idx, 0], points[idx, 1]
             at = slice(b, b + block)
             u, v = ex[:, at] * (py - cy[:, at]), ey[:, at] * (px - cx[:, at])   # (3, block, P)
@@ -176,8 +227,9 @@ def inside_triangles(points: np.ndarray, corner: np.ndarray) -> np.ndarray:
 
 
 def rule_samples(bones, world: np.ndarray, triangles: np.ndarray, near: float,
-                 samples: int = 65) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The distances to the art that :func:`lengths_on_art` measures its bones by.
+                 samples: int = 65, art: ArtDistance | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distances to the art that :func:`lengths_on_art` measures its bones by (``art``: the
+    :class:`ArtDistance` of ``world`` and ``triangles``, when the caller has it already).
 
     Returns
     -------
@@ -199,7 +251,8 @@ def rule_samples(bones, world: np.ndarray, triangles: np.ndarray, near: float,
     a, b = segs[idx, 0], segs[idx, 1]
     t = np.linspace(0, 1, samples)[None, :, None]
     sampled = (a[~point][:, None] + t * (b - a)[~point][:, None]).reshape(-1, 2)
-    d = distance_to_art(np.concatenate([sampled, a[point]]), world, triangles)
+    art = art if art is not None else ArtDistance(world, triangles)
+    d = art(np.concatenate([sampled, a[point]]))
     distance = np.empty((len(idx), samples))
     distance[~point] = d[:len(sampled)].reshape(-1, samples)
     distance[point] = d[len(sampled):, None]

@@ -35,7 +35,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments
 from . import bone_sets
 from .binding import mesh_triangles, parse_vertices, setup_world
-from .choice import MAX_AUTO_BONES, NEAR, Choice, choose_by_rule, distance_to_art, rule_near, rule_samples
+from .choice import MAX_AUTO_BONES, NEAR, ArtDistance, Choice, choose_by_rule, rule_near, rule_samples
 from .constraints import constraints_of
 from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
                      pattern_shares, rig_key, tally)
@@ -175,9 +175,10 @@ def segment_samples(bones, world: np.ndarray, reach, samples: int = SEGMENT_SAMP
     return ids, (a + t * (b - a)).reshape(-1, 2)
 
 
-def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach,
-                     samples: int = SEGMENT_SAMPLES, known: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Distances to the art of the :func:`segment_samples` of the bones that may come within ``reach``.
+def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach, samples: int = SEGMENT_SAMPLES,
+                     known: tuple | None = None, art: ArtDistance | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Distances to the art of the :func:`segment_samples` of the bones that may come within ``reach``
+    (``art``: the :class:`.choice.ArtDistance` of ``world`` and ``triangles``, when the caller has it).
 
     ``known``: the rule's distances (:func:`.choice.rule_samples`), whose every other sample
     (65 to a segment, these 33: the same points) is taken for the bones it measured, not
@@ -200,7 +201,8 @@ def sample_distances(bones, world: np.ndarray, triangles: np.ndarray, reach,
             rows = known_ids[at] != ids
             out[~rows] = distance[at[~rows], ::step]
     points = points.reshape(len(ids), samples, 2)[rows].reshape(-1, 2)
-    out[rows] = distance_to_art(points, world, triangles).reshape(-1, samples)
+    art = art if art is not None else ArtDistance(world, triangles)
+    out[rows] = art(points).reshape(-1, samples)
     return ids, out
 
 
@@ -208,13 +210,15 @@ def _on_art(bones, ids: np.ndarray, distance: np.ndarray, near: float) -> dict[i
     """Each bone's length within ``near`` of the art (as :func:`.choice.lengths_on_art`: a point
     bone on the art has 0; a bone missing it is absent)."""
     close = distance <= near
+    # each row's share at once (sums of ones: exact, whatever the order), then Python numbers
+    first, some, share = close[:, 0].tolist(), close.any(axis=1).tolist(), close.mean(axis=1).tolist()
     out = {}
-    for i, row in zip(ids, close):
+    for k, i in enumerate(np.asarray(ids).tolist()):
         if bones[i].length == 0:
-            if row[0]:
-                out[int(i)] = 0.0
-        elif row.any():
-            out[int(i)] = bones[i].span() * float(row.mean())
+            if first[k]:
+                out[i] = 0.0
+        elif some[k]:
+            out[i] = bones[i].span() * share[k]
     return out
 
 
@@ -255,8 +259,9 @@ def candidates(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, 
     diag = max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-9)
     limit = reach_limits(bones, slot_bone, diag, reach, chain_reach)
     # the rule's distances (65 samples to a segment) give these (33) for the bones both measure
-    measured = rule_samples(bones, world, triangles, rule_near(world))
-    sampled, dist = sample_distances(bones, world, triangles, limit, known=measured)
+    art = ArtDistance(world, triangles)                                 # prepared once for both
+    measured = rule_samples(bones, world, triangles, rule_near(world), art=art)
+    sampled, dist = sample_distances(bones, world, triangles, limit, known=measured, art=art)
     over = _on_art(bones, sampled, dist, 0.0)
     near = _on_art(bones, sampled, dist, NEAR * diag)
     closest = dict(zip(sampled.tolist(), dist.min(axis=1).tolist()))
