@@ -36,6 +36,7 @@ import math
 import re
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -136,8 +137,9 @@ def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tup
     f = np.asarray(features, float).reshape(-1, len(names))
     bound = np.asarray(bound, bool)
     out = np.zeros(TALLY_SIZE)
+    every = candidate_kinds(f, names)
     for (name, n), start in zip(GROUPINGS, _OFFSETS):
-        kinds = candidate_kinds(f, names)[name]
+        kinds = every[name]
         out[start:start + 2 * n:2] = np.bincount(kinds, minlength=n)
         out[start + 1:start + 2 * n:2] = np.bincount(kinds, weights=bound.astype(float), minlength=n)
     slot = (f[:, col["is_slot_bone"]] == 1) & (f[:, col["not_exact"]] == 0) & (f[:, col["skin_inactive"]] == 0)
@@ -277,14 +279,31 @@ class ProjectHabits:
         """The sets of bones (names) the artists bound on the meshes of skeleton ``rig`` on the
         same slot bone, each with how many meshes bound it, leaving out the meshes that share a
         name with ``keys`` (as :meth:`others`)."""
-        return neighbour_counts(self.bound, self.keys, keys, rig, slot_bone)
+        at = self._index[1].get((rig, slot_bone), [])
+        return neighbour_counts([self.bound[m] for m in at], [self.keys[m] for m in at], keys, rig, slot_bone)
 
     def others(self, keys: set[str]) -> np.ndarray:
         """The tally (TALLY_SIZE,) of the meshes that share no name with ``keys``: a mesh being
         bound leaves out itself and its near-duplicates across skins and skeletons (same slot
         or attachment name), which would show its own answer."""
-        keep = [not (k & keys) for k in self.keys]
+        keep = np.ones(len(self.keys), bool)
+        for key in keys:
+            keep[self._index[0].get(key, [])] = False
         return np.asarray(self.tallies, float).reshape(-1, TALLY_SIZE)[keep].sum(axis=0)
+
+    @cached_property
+    def _index(self) -> tuple[dict[str, list[int]], dict[tuple, list[int]]]:
+        """The meshes (their order) by name, and by skeleton and slot bone: every mesh being bound
+        asks :meth:`others` and :meth:`neighbours`: a walk over all of them for each grows with
+        the square of the project's weighted meshes."""
+        by_name: dict[str, list[int]] = {}
+        by_place: dict[tuple, list[int]] = {}
+        for m, names in enumerate(self.keys):
+            for name in names:
+                by_name.setdefault(name, []).append(m)
+        for m, (rig, slot_bone, _) in enumerate(self.bound):
+            by_place.setdefault((rig, slot_bone), []).append(m)
+        return by_name, by_place
 
 
 def neighbour_counts(bound: list[tuple], keys: list[set[str]], own: set[str], rig, slot_bone) -> dict[frozenset, int]:
