@@ -65,7 +65,9 @@ than ``S`` diagonals apart bound to the likeliest alone, ``spreadwhere=off`` onl
 bone is not where the art goes), ``minp=P`` (the learned choice's least likely bone taken,
 :data:`spinemesh.rig.learned.LEAST_LIKELY`, at ``P``; with ``minpwhere=off`` only where the
 slot's bone is not where the art goes, ``minpelse=likely`` the likeliest bound where none is
-left), ``slot=A`` (the slot
+left; ``habitkeep=1`` but for the bones the project's artists bound on the other meshes on the
+same slot bone or its mirror image, ``habitkeep=slot`` so only where the slot's bone is where
+the art goes, ``habitkeep=most`` only the bones at least half of them bound), ``slot=A`` (the slot
 bone's weights alone to the power ``A``, rows renormalised: below 1 it leads more of the
 vertices it shares): ``learned:sharpen=2``.
 
@@ -336,9 +338,12 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
         # minp=P: the product's least likely bone taken (LEAST_LIKELY) at P; with minpwhere or
         # minpelse, this replay's own variant of it below
         own = "minpwhere" in SOLVE or "minpelse" in SOLVE
+        keep_bound = SOLVE.get("habitkeep") in ("1", "slot", "most")
         chosen = choose_learned(rig.bones, case["slot_bone"], case["world"], case["tris"],
                                 rig.skin_bones.get(case["skin"], set()), rig.constrained, model, others, nearby,
-                                unweighted, least_likely=0.0 if own else SOLVE.get("minp")).bones
+                                unweighted, least_likely=0.0 if own or keep_bound else SOLVE.get("minp")).bones
+        if keep_bound:
+            chosen = without_unlikely_but_bound(case, model, others, nearby, chosen, unweighted)
         if unsure is not None:
             cand = candidates(rig.bones, case["slot_bone"], case["world"], case["tris"],
                               rig.skin_bones.get(case["skin"], set()), rig.constrained)
@@ -366,6 +371,38 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
                                    likeliest)
         return chosen, solved(case, chosen)
     return variant
+
+
+def without_unlikely_but_bound(case: dict, model, others, nearby: dict, chosen: list[int], unweighted: bool) -> list[int]:
+    """The ``habitkeep=1`` step: the product's unlikely-bone limit
+    (:func:`spinemesh.rig.learned._without_unlikely` at ``minp=P``, default
+    :data:`spinemesh.rig.learned.LEAST_LIKELY`, under the same conditions) on the ``chosen`` bones,
+    but for the bones the project's artists bound on the other meshes on the same slot bone or its
+    mirror image (``nearby``: :func:`spinemesh.rig.learned.neighbour_sets`), kept whatever the
+    per-bone model finds (``habitkeep=slot``: only where the slot's bone stands for where the art
+    goes, :func:`spinemesh.rig.motion.follows_slot`; ``habitkeep=most``: only the bones at least
+    half of those meshes bound)."""
+    from spinemesh.rig.learned import LEAST_LIKELY, _without_unlikely, candidates
+    from spinemesh.rig.motion import follows_slot
+
+    rig, slot_bone = case["rig"], case["slot_bone"]
+    if others is None or not np.any(others) or unweighted:
+        return chosen
+    if SOLVE.get("habitkeep") == "slot" and not follows_slot(rig.bones, slot_bone, case["world"], case["tris"]):
+        nearby = {}  # where the slot's bone is not where the art goes, the product's limit as it is
+    skin = rig.skin_bones.get(case["skin"], set())
+    cand = candidates(rig.bones, slot_bone, case["world"], case["tris"], skin, rig.constrained)
+    p = model.probability(model.with_habits(cand.features, others))
+    total = sum(nearby.values())
+    least = total / 2 if SOLVE.get("habitkeep") == "most" else 1
+    bound = {b for members in nearby for b in members
+             if sum(n for other, n in nearby.items() if b in other) >= least}
+    p[[k for k, b in enumerate(cand.bones) if b in bound]] = 1.0  # never under the limit
+    at = {b: k for k, b in enumerate(cand.bones)}
+    bone = rig.bones[slot_bone]
+    slot = at[slot_bone] if bone.exact and not (bone.skin_required and slot_bone not in skin) else None
+    taken, _ = _without_unlikely([at[b] for b in chosen], p, slot, SOLVE.get("minp", LEAST_LIKELY))
+    return sorted(cand.bones[k] for k in taken)
 
 
 #: Each skeleton's sampled bone transforms (:func:`spinemesh.anim.motion.sampled_bone_worlds`), by path.
@@ -529,7 +566,7 @@ def variant_of(name: str):
             options["slot_near"] = float(value)
         elif what in ("refdrift", "spread", "minp"):
             options[what] = float(value)
-        elif what in ("ref", "spreadwhere", "minpwhere", "minpelse"):
+        elif what in ("ref", "spreadwhere", "minpwhere", "minpelse", "habitkeep"):
             options[what] = value
 
     def run(case):
@@ -574,7 +611,7 @@ def finished(case: dict, name: str, w: np.ndarray, bones: list[int], cap: int) -
             for _ in range(int(value)):
                 w = 0.5 * w + 0.5 * neighbour_mean(w, case["tris"])
         elif what in ("reach", "method", "falloff", "drift", "driftslot", "near", "ref", "refdrift", "spread",
-                      "spreadwhere", "minp", "minpwhere", "minpelse"):
+                      "spreadwhere", "minp", "minpwhere", "minpelse", "habitkeep"):
             pass  # the solve's (variant_of)
         else:
             raise ValueError(f"unknown post-processing {step!r} in variant {name!r}")

@@ -202,3 +202,37 @@ def test_each_repository_fold_is_judged_at_the_variant_the_other_folds_pick(monk
     assert "fold 0: none" in capsys.readouterr().out
     steps = "learned:driftslot=0.75+ref=likely+refdrift=0.5+spread=1+spreadwhere=off+minp=0.05"
     assert offline.finished({}, steps, np.eye(2), [0, 1], 4).shape == (2, 2)  # the choice's steps
+
+
+def test_offline_habitkeep_keeps_the_unlikely_bones_the_projects_artists_bound_on_the_slot_bone(monkeypatch):
+    """``habitkeep``: the product's unlikely-bone limit, but for the bones the project's artists
+    bound on the other meshes on the same slot bone; nothing changes without the habits, for the
+    upgrade's art, or (``habitkeep=slot``) where the slot's bone is not where the art goes."""
+    import numpy as np
+
+    import bench_weights_offline as offline
+    from spinemesh.rig import motion
+    from spinemesh.rig.habits import TALLY_SIZE
+    from spinemesh.rig.learned import TreeEnsemble
+    from test_bone_choice_learned import _mesh_of, _tree_model, _worm_mesh_doc
+
+    rig, ref, mesh, world, tris = _mesh_of(_worm_mesh_doc())
+    at = {b.name: i for i, b in enumerate(rig.bones)}
+    case = {"rig": rig, "slot_bone": rig.slot_bone["worm"], "world": world, "tris": tris, "skin": ref.skin}
+    model = TreeEnsemble.from_json(_tree_model("is_descendant", 0.5))  # seg2, seg3: 0.95; "beside": 0.05
+    chosen, others = sorted([at["seg2"], at["beside"]]), np.ones(TALLY_SIZE)
+    bound = {(at["seg1"], at["beside"]): 1}                             # another mesh on seg1 bound "beside"
+
+    def keep(value, nearby, habits=others, unweighted=False):
+        monkeypatch.setattr(offline, "SOLVE", {"habitkeep": value})
+        return offline.without_unlikely_but_bound(case, model, habits, nearby, chosen, unweighted)
+
+    assert keep("1", {}) == [at["seg2"]]                                # the product's limit: under 0.05
+    assert keep("1", bound) == chosen and keep("slot", bound) == chosen  # bound on the slot bone: kept
+    assert keep("1", {}, habits=None) == chosen and keep("1", {}, unweighted=True) == chosen
+    split = {**bound, (at["seg1"], at["seg2"]): 2}                       # bound on 1 of 3: not by most
+    assert keep("1", split) == chosen and keep("most", split) == [at["seg2"]] and keep("most", bound) == chosen
+    monkeypatch.setattr(motion, "follows_slot", lambda *a, **k: False)  # slot's bone off the art
+    assert keep("slot", bound) == [at["seg2"]] and keep("1", bound) == chosen
+    steps = "learned:driftslot=0.75+habitkeep=slot"
+    assert offline.finished({}, steps, np.eye(2), [0, 1], 4).shape == (2, 2)  # a choice step
