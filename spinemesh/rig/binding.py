@@ -117,9 +117,14 @@ def setup_world(mesh: MeshVertices, worlds: list[np.ndarray], slot_bone: int) ->
     if not mesh.weighted:
         return _apply(worlds[slot_bone], mesh.local)
     out = np.zeros((mesh.count, 2))
-    for v, entry in enumerate(mesh.influences):
-        for b, x, y, w in entry:
-            out[v] += w * _apply(worlds[b], np.array([x, y]))
+    # the j-th influence of every vertex at once, j after j: each vertex's terms are added in
+    # its own order, and each position is a (1, 2) row times its bone's matrix, as one at a time
+    for j in range(max(map(len, mesh.influences), default=0)):
+        at = [v for v, entry in enumerate(mesh.influences) if len(entry) > j]
+        bone, x, y, w = zip(*(mesh.influences[v][j] for v in at))
+        m = np.array([worlds[b] for b in bone], float).reshape(-1, 2, 3)
+        xy = np.column_stack([x, y])[:, None, :]
+        out[at] += np.array(w)[:, None] * (np.matmul(xy, m[:, :, :2].transpose(0, 2, 1))[:, 0] + m[:, :, 2])
     return out
 
 

@@ -63,6 +63,24 @@ class Bone:
         return abs(float(np.linalg.det(self.world[:, :2]))) > 1e-9
 
 
+#: The last list of bones :func:`bone_segments` stacked, its length and its segments.
+_STACKED: list = []
+
+
+def bone_segments(bones) -> np.ndarray:
+    """Every bone's :meth:`Bone.segment`, stacked: shape (len(bones), 2, 2), read-only.
+
+    The bone choices ask for them three times for each mesh: the last list's are kept. The list
+    itself is held, so a new list at the old one's address is not taken for it.
+    """
+    if _STACKED and _STACKED[0] is bones and _STACKED[1] == len(bones):
+        return _STACKED[2]
+    out = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    out.flags.writeable = False
+    _STACKED[:] = [bones, len(bones), out]
+    return out
+
+
 def _constraint_targets(doc: dict, index: dict[str, int]) -> dict[int, str]:
     """Bones that IK, transform or path constraints aim at, with the constraint's name."""
     out: dict[int, str] = {}

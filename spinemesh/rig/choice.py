@@ -24,6 +24,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .bones import bone_segments
+
 #: A bone counts as near the art within this share of the art's bounding-box diagonal (the
 #: weights give such a bone a handle on the art; see :func:`.weights.handles`).
 NEAR = 0.05
@@ -242,7 +244,7 @@ def rule_samples(bones, world: np.ndarray, triangles: np.ndarray, near: float,
         point bone's row is its origin's distance throughout).
     """
     lo, hi = world.min(axis=0) - near, world.max(axis=0) + near
-    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    segs = bone_segments(bones)
     meets = ~((segs.max(axis=1) < lo).any(axis=1) | (segs.min(axis=1) > hi).any(axis=1))
     idx = np.flatnonzero(meets)
     # a zero-length bone is measured at one point, not ``samples``: sampled like the others
@@ -274,7 +276,7 @@ def lengths_on_art(bones, world: np.ndarray, triangles: np.ndarray, near: float,
     if not len(bones):
         return {}
     idx, point, distance = measured if measured is not None else rule_samples(bones, world, triangles, near, samples)
-    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)[idx]
+    segs = bone_segments(bones)[idx]
     a, b = segs[:, 0], segs[:, 1]
     on_segment = distance[~point] <= near
     span = np.linalg.norm((b - a)[~point], axis=1)

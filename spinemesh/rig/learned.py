@@ -35,6 +35,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_attachments
 from . import bone_sets
 from .binding import mesh_triangles, parse_vertices, setup_world
+from .bones import bone_segments
 from .choice import MAX_AUTO_BONES, NEAR, ArtDistance, Choice, choose_by_rule, rule_near, rule_samples
 from .constraints import constraints_of
 from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
@@ -168,7 +169,7 @@ def segment_samples(bones, world: np.ndarray, reach, samples: int = SEGMENT_SAMP
     points : ndarray, shape (B * samples, 2)
         Bone after bone, from its origin to its tip.
     """
-    segs = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    segs = bone_segments(bones)
     ids = np.flatnonzero(boxes_meet(segs.min(axis=1), segs.max(axis=1), world.min(axis=0), world.max(axis=0), reach))
     t = np.linspace(0, 1, samples)[None, :, None]
     a, b = segs[ids, :1], segs[ids, 1:]
