@@ -20,6 +20,18 @@ projects or mesh more sequences are then compared on the same set).
 
 ``gap A.json B.json`` says where B draws more pixels than A: by slot blend mode, meshed or kept.
 
+``sweep`` runs ``spinemesh upgrade P --out O --pack`` and ``spinemesh pack P --out O2`` on
+every project as a user does (the CLI, one job, a process each with a time limit) and checks
+what they wrote: exit status, tracebacks, error and warning lines, files of the project
+missing from the output, NaN/Infinity in written JSON, written skeletons our reader cannot read
+back, page bytes of every atlas before and after, and the official runtime loading every written
+skeleton of Spine 3.8-4.3 (3.8-4.2 dumped at animation times by the harness, 4.3 posed by
+spine-core 4.3). ``sweep-table`` prints defects by kind, the slowest
+runs and the bytes:
+
+    nice -n 10 .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep --out build/sweep.json
+    .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep-table build/sweep.json
+
 ``run --set NAME=NUMBER`` passes a mesher parameter to the upgrade (to measure its effect).
 
 ``run --weights auto`` upgrades with ``--weights auto``: rows then carry the bones each mesh
@@ -392,6 +404,277 @@ def table(files: list[Path], per_project: bool) -> None:
             print(f"{name[:28]:28}" + "".join(cells))
 
 
+# --- the commands as a user runs them, every output checked -------------------------------------
+
+#: Exit statuses the commands document: done, bad input (one line), partly done.
+DOCUMENTED_EXITS = (0, 2, 3)
+
+#: The two runs of ``sweep`` per project: the command's arguments after ``spinemesh``.
+SWEEP_COMMANDS = {"upgrade --pack": ["upgrade", "{project}", "--out", "{out}", "--pack"],
+                  "pack": ["pack", "{project}", "--out", "{out}"]}
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} in the JSON")
+
+
+def json_constants(path: Path) -> str:
+    """``""`` when ``path`` is JSON without NaN/Infinity (or not JSON at all), else why."""
+    try:
+        json.loads(path.read_text(encoding="utf-8-sig"), parse_constant=_no_constant)
+    except ValueError as e:
+        return str(e) if "in the JSON" in str(e) else ""
+    except UnicodeDecodeError:
+        return ""
+    return ""
+
+
+def atlas_page_bytes(atlas: Path) -> int:
+    """Bytes of the page images an atlas file names (0 for a page that is absent)."""
+    from spinemesh.atlas import read_atlas
+
+    pages = [atlas.parent / p.name for p in read_atlas(atlas).pages]
+    return sum(p.stat().st_size for p in pages if p.is_file())
+
+
+def runtime_dump(tools: dict, project: Path, out: Path, skeleton: Path, work: Path) -> str:
+    """Load the written ``out`` copy of ``skeleton`` in the official runtime of its version with
+    the written copy of its atlas: 3.8-4.2 dumped by the harness (setup pose, two times of up to
+    three animations), 4.3 posed by ``tests/runtime43`` (setup pose, every attachment's world
+    vertices and UVs). ``tools``: ``{"harness": folder, "4.3": folder}``, each installed.
+    Returns ``"ok"``, why it is not loaded (``"-: ..."``), or the runtime's error."""
+    sys.path[:0] = [p for p in (str(REPO / "tests"), str(REPO / "scripts")) if p not in sys.path]
+    from prove_corpus import (
+        RENDERABLE,
+        atlas_for,
+        harness_atlas,
+        harness_copy,
+        pose_list,
+    )
+    from runtime_tool import dump, node
+
+    from spinemesh.skeleton import is_binary_skeleton, load_skeleton, spine_version
+
+    doc = load_skeleton(skeleton)
+    version = spine_version(doc)[:3]
+    if version not in RENDERABLE and version != "4.3":
+        return f"-: Spine {spine_version(doc) or '?'} (no runtime in the harness)"
+    atlas, why = atlas_for(doc, skeleton, project)
+    if atlas is None:
+        return f"-: {why}"
+    ours = out / skeleton.relative_to(project)
+    work.mkdir(parents=True, exist_ok=True)
+    ours_atlas = out / atlas.relative_to(project)
+    if version == "4.3":
+        r = node(tools["4.3"], "world.mjs", ours_atlas, ours, work / "world.json")
+        return "ok" if r.returncode == 0 else node_error(r.stderr)
+    try:
+        dump(tools["harness"], harness_atlas(ours_atlas, work / "atlas"),
+             harness_copy(ours, is_binary_skeleton(ours), work), None, "", work / "dump.json",
+             poses=pose_list(doc) or None)
+    except AssertionError as e:
+        return node_error(str(e))
+    return "ok"
+
+
+def node_error(stderr: str) -> str:
+    """The line of Node's output that says what went wrong (``Error: Region not found ...``)."""
+    lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
+    said = [ln for ln in lines if ln.split(":")[0].endswith("Error")]  # not the source line it quotes
+    return (said or lines or ["failed, saying nothing"])[0][:300]
+
+
+def check_output(project: Path, out: Path, tools: dict | None, work: Path) -> dict:
+    """What a user would find wrong in ``out``, written from ``project``.
+
+    Returns ``{"missing": [...], "nan": [...], "unreadable": [...], "atlases": {atlas:
+    [bytes before, bytes after]}, "runtime": {skeleton: result}}``: files of the project absent from
+    ``out`` (and pages an atlas of ``out`` names but ``out`` lacks; exported pages that no
+    written atlas names any more are ``"pages_dropped"``, checked below), written JSON holding
+    NaN/Infinity where the input's did not, written skeletons our reader cannot read back, the
+    page bytes of every atlas, and the official runtime's load of every written skeleton of
+    Spine 3.8-4.3 (``tools``: see :func:`runtime_dump`; None skips it).
+    """
+    from spinemesh.atlas import read_atlas
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.project import find_project, skeletons_to_read
+    from spinemesh.skeleton import load_skeleton
+
+    src = find_project(project)
+    res: dict = {"missing": [], "nan": [], "unreadable": [], "atlases": {}, "runtime": {}, "pages_dropped": []}
+    pages = set()  # pages of the exported atlases: a packed atlas may need fewer
+    for atlas in src.atlases:
+        try:
+            pages |= {(atlas.parent / p.name).resolve() for p in read_atlas(atlas).pages}
+        except SpineMeshError:
+            pass
+    for f in src.files:
+        rel = f.relative_to(project)
+        if not (out / rel).is_file():
+            res["pages_dropped" if f.resolve() in pages else "missing"].append(rel.as_posix())
+        elif f.name.lower().endswith(".json") and not json_constants(f):
+            why = json_constants(out / rel)
+            if why:
+                res["nan"].append(f"{rel.as_posix()}: {why}")
+    for atlas in src.atlases:
+        rel = atlas.relative_to(project)
+        if not (out / rel).is_file():
+            continue
+        try:
+            named = [out / rel.parent / p.name for p in read_atlas(out / rel).pages]
+        except SpineMeshError as e:
+            res["unreadable"].append(f"{rel.as_posix()}: {e}")
+            continue
+        res["missing"] += [p.relative_to(out).as_posix() for p in named if not p.is_file()]
+        try:
+            res["atlases"][rel.as_posix()] = [atlas_page_bytes(atlas), atlas_page_bytes(out / rel)]
+        except SpineMeshError:
+            pass  # a broken atlas of the export: left out by the commands too
+    for skeleton in skeletons_to_read(src.skeletons):
+        rel = skeleton.relative_to(project).as_posix()
+        try:
+            load_skeleton(skeleton)
+        except SpineMeshError:
+            continue  # unreadable as exported: refused by the commands, not ours to prove
+        try:
+            load_skeleton(out / rel)
+        except (SpineMeshError, OSError) as e:
+            res["unreadable"].append(f"{rel}: {e}")
+            continue
+        if tools is not None:
+            res["runtime"][rel] = runtime_dump(tools, project, out, skeleton, work / rel.replace("/", "~"))
+    return res
+
+
+def sweep_one(project: Path, command: str, timeout: float, tools: dict | None, scratch: Path) -> dict:
+    """Run one of :data:`SWEEP_COMMANDS` on ``project`` (one job, its own process) and check its output."""
+    out = scratch / "out"
+    report = scratch / "report.json"
+    args = [a.format(project=project, out=out) for a in SWEEP_COMMANDS[command]]
+    cmd = [sys.executable, "-m", "spinemesh", *args, "--jobs", "1", "--report", str(report)]
+    t0 = time.perf_counter()
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    try:
+        r = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout, cwd=scratch,
+                           env={**__import__("os").environ, "COLUMNS": "200"})
+        rc, stderr, stdout = r.returncode, r.stderr, r.stdout
+    except subprocess.TimeoutExpired as e:
+        rc, stderr, stdout = None, (e.stderr or b"").decode(errors="replace") if isinstance(e.stderr, bytes) \
+            else (e.stderr or ""), ""
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    text = stdout + "\n" + stderr
+    entry = {"rc": rc, "wall": time.perf_counter() - t0,
+             "cpu": c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime,
+             "traceback": "Traceback (most recent call last)" in text,
+             "errors": [ln.strip() for ln in text.splitlines() if ln.strip().startswith("error:")],
+             "warnings": [ln.strip() for ln in text.splitlines() if ln.strip().startswith("warning:")],
+             "tail": [ln for ln in stderr.strip().splitlines()[-4:]]}
+    if report.is_file():
+        try:
+            doc = json.loads(report.read_text())
+            entry["report_atlas_totals"] = doc.get("atlas_totals") or doc.get("totals")
+            entry["report_errors"] = doc.get("errors", [])[:20]
+        except ValueError as e:
+            entry["report_unreadable"] = str(e)
+    if out.is_dir() and rc in (0, 3):
+        entry.update(check_output(project, out, tools, scratch / "work"))
+    return entry
+
+
+def sweep_defects(entry: dict) -> list[str]:
+    """The defects a user would meet in one :func:`sweep_one` entry, one kind each (empty: none)."""
+    out = []
+    if entry["rc"] is None:
+        out.append("timed out")
+    elif entry["rc"] not in DOCUMENTED_EXITS:
+        out.append(f"exit {entry['rc']}")
+    if entry["traceback"]:
+        out.append("traceback")
+    if entry["rc"] == 2:
+        out.append("refused the project")
+    if entry.get("missing"):
+        out.append("files missing")
+    if entry.get("nan"):
+        out.append("NaN/Infinity written")
+    if entry.get("unreadable"):
+        out.append("unreadable output")
+    if any(after > before for before, after in entry.get("atlases", {}).values()):
+        out.append("atlas more bytes")
+    if any(not (v == "ok" or v.startswith("-:")) for v in entry.get("runtime", {}).values()):
+        out.append("runtime cannot load")
+    return out
+
+
+def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool) -> None:
+    """Both :data:`SWEEP_COMMANDS` on every project folder of ``root``; a row each, written after each."""
+    tools = None
+    if runtime:
+        sys.path.insert(0, str(REPO / "tests"))
+        from runtime_tool import ToolUnavailable, install, install43
+        try:
+            tools = {"harness": install(Path(tempfile.gettempdir()) / "spine-tool"),
+                     "4.3": install43(Path(tempfile.gettempdir()) / "spine-runtime43")}
+        except ToolUnavailable as e:
+            sys.exit(f"the official runtime is unavailable: {e} (--no-runtime to sweep without it)")
+    projects = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    if only:
+        projects = [p for p in projects if p.name in only]
+    result: dict = {"projects": {}}
+    if out.is_file():  # go on where a stopped sweep ended
+        result = json.loads(out.read_text())
+    for i, p in enumerate(projects):
+        for command in SWEEP_COMMANDS:
+            if command in result["projects"].get(p.name, {}):
+                continue
+            with tempfile.TemporaryDirectory() as scratch:
+                entry = sweep_one(p, command, timeout, tools, Path(scratch))
+            result["projects"].setdefault(p.name, {})[command] = entry
+            out.write_text(json.dumps(result))
+            bad = sweep_defects(entry)
+            print(f"[{i + 1}/{len(projects)}] {p.name} {command}: exit {entry['rc']}, {entry['wall']:.1f} s"
+                  + (f"  DEFECT {', '.join(bad)}" if bad else ""), file=sys.stderr, flush=True)
+
+
+def sweep_table(files: list[Path], slowest: int = 5) -> None:
+    """Per command: projects, exits, defects by kind (with the projects), the slowest runs, and the
+    page bytes of every atlas before and after, of one or more sweep row files."""
+    data: dict = {"projects": {}}
+    for f in files:
+        data["projects"].update(json.loads(f.read_text())["projects"])
+    for command in SWEEP_COMMANDS:
+        entries = {name: e[command] for name, e in sorted(data["projects"].items()) if command in e}
+        if not entries:
+            continue
+        print(f"spinemesh {command} (--jobs 1): {len(entries)} projects")
+        exits: dict = {}
+        for e in entries.values():
+            exits[e["rc"]] = exits.get(e["rc"], 0) + 1
+        print("  exit status      " + ", ".join(f"{'timeout' if k is None else k}: {v}"
+                                                 for k, v in sorted(exits.items(), key=lambda kv: str(kv[0]))))
+        kinds: dict = {}
+        for name, e in entries.items():
+            for kind in sweep_defects(e):
+                kinds.setdefault(kind, []).append(name)
+        if not kinds:
+            print("  defects          none")
+        for kind, names in sorted(kinds.items()):
+            print(f"  {kind:17}{len(names):4}  " + ", ".join(names[:8]) + (" ..." if len(names) > 8 else ""))
+        warned = sum(bool(e["warnings"]) for e in entries.values())
+        print(f"  {'with warnings':17}{warned:4}")
+        runtime = [v for e in entries.values() for v in e.get("runtime", {}).values()]
+        print(f"  {'runtime loads':17}{sum(v == 'ok' for v in runtime):4} skeletons loaded (and dumped), "
+              f"{sum(v.startswith('-:') for v in runtime)} not loaded (no runtime for the version, no one atlas), "
+              f"{sum(not (v == 'ok' or v.startswith('-:')) for v in runtime)} failed")
+        walls = sorted(((e["wall"], name) for name, e in entries.items()), reverse=True)
+        print(f"  {'wall s, total':17}{sum(w for w, _ in walls):6.0f}   slowest: "
+              + ", ".join(f"{name} {w:.0f}" for w, name in walls[:slowest]))
+        atlases = [ba for e in entries.values() for ba in e.get("atlases", {}).values()]
+        before, after = sum(b for b, _ in atlases), sum(a for _, a in atlases)
+        print(f"  {'page bytes':17}{before / 1e6:9.1f} MB -> {after / 1e6:.1f} MB ({after / before - 1:+.1%}) "
+              f"over {len(atlases)} atlases; {sum(a < b for b, a in atlases)} smaller, "
+              f"{sum(a > b for b, a in atlases)} larger" if before else "  page bytes        -")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -411,6 +694,14 @@ def main() -> None:
     g = sub.add_parser("gap")
     g.add_argument("base", type=Path)
     g.add_argument("other", type=Path)
+    s = sub.add_parser("sweep", help="upgrade --pack and pack every project as a user runs them; check the output")
+    s.add_argument("--out", type=Path, required=True, help="row file (a sweep stopped goes on from it)")
+    s.add_argument("--timeout", type=float, default=300.0, help="seconds per command and project")
+    s.add_argument("--only", nargs="*", default=[], help="project folder names")
+    s.add_argument("--root", type=Path, default=CORPUS, help="folder of project folders (default: the corpus)")
+    s.add_argument("--no-runtime", action="store_true", help="skip the official runtime's load and dump")
+    st = sub.add_parser("sweep-table")
+    st.add_argument("files", type=Path, nargs="+")
     c = sub.add_parser("child")
     c.add_argument("project", type=Path)
     c.add_argument("--min-saving", default="")
@@ -423,6 +714,12 @@ def main() -> None:
         if not args.root.is_dir():
             sys.exit(f"{args.root} is absent: the benchmark needs the game corpus (or the --root given)")
         run(args.out, args.timeout, args.only, args.min_saving, args.set, args.weights, args.root)
+    elif args.cmd == "sweep":
+        if not args.root.is_dir():
+            sys.exit(f"{args.root} is absent: the sweep needs the game corpus (or the --root given)")
+        sweep(args.out, args.timeout, args.only, args.root, not args.no_runtime)
+    elif args.cmd == "sweep-table":
+        sweep_table(args.files)
     elif args.cmd == "gap":
         gap(args.base, args.other)
     else:
