@@ -271,3 +271,37 @@ def test_atlases_of_one_stem_repack_onto_pages_of_their_own(tmp_path):
             pa = load_rgba(AtlasImages.page_path(a, a.pages[ra.page].name, project))
             pb = load_rgba(AtlasImages.page_path(b, b.pages[rb.page].name, out))
             np.testing.assert_array_equal(cut_region(pb, rb), cut_region(pa, ra), err_msg=f"{stem}: {name}")
+
+
+# --- nothing to pack ----------------------------------------------------------------------------
+
+def test_a_project_without_a_usable_atlas_is_refused_in_one_line_before_anything_is_written(meshed, tmp_path):
+    """Pages not shipped (an export whose images were left out), or no atlas at all: ``pack``
+    exits 2 with one line naming the project and the page, and writes no OUT."""
+    project = _copy(meshed, tmp_path / "no-page")
+    (project / "demo.png").unlink()
+    r = _cli("pack", project, "--out", tmp_path / "out", cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert line.startswith(f"error: {project}: no atlas to pack: ") and "demo.atlas" in line and "'demo.png'" in line
+    assert not (tmp_path / "out").exists()
+    (project / "demo.atlas").unlink()
+    r = _cli("pack", project, "--out", tmp_path / "out", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.strip() == f"error: {project}: no atlas to pack", r.stdout + r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_pack_prints_its_errors_as_error_lines_on_stderr(meshed, tmp_path):
+    """A library whose second project ships no page: the first is packed, the second is named on
+    stderr with ``error:`` (as upgrade prints them); a library with no atlas at all exits 2 naming it."""
+    library = tmp_path / "library"
+    _copy(meshed, library / "good")
+    (_copy(meshed, library / "no-page") / "demo.png").unlink()
+    r = _cli("pack", library, "--out", tmp_path / "out", cwd=tmp_path)
+    assert r.returncode == 3 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert line.startswith("error: ") and "no-page" in line and "'demo.png'" in line, r.stderr
+    (library / "good" / "demo.png").unlink()
+    r = _cli("pack", library, "--out", tmp_path / "out2", cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
+    assert r.stderr.strip().splitlines()[-1] == f"error: {library}: no atlas to pack in any of its projects"

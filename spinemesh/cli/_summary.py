@@ -1,4 +1,4 @@
-"""What the project commands (``upgrade``, ``weights``) print once a run is done.
+"""What the project commands (``upgrade``, ``weights``, ``pack``) print once a run is done.
 
 Both keep one row per attachment (``skeleton``, ``skin``, ``slot``, ``name``, ``status``,
 ``reason``): a table per skeleton, one line per attachment that failed (on stderr), a count
@@ -64,8 +64,15 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
     for why, n, variants in reason_groups([reason(row) for row in rows if row.status == skipped]):
         more = f"; {variants - 1} more like it with other figures" if variants > 1 else ""
         console.print(f"{skipped_label}: {n} ({escaped(why)}{more})", highlight=False, markup=False)
+    print_errors(errors)
+
+
+def print_errors(errors: Sequence[str]) -> None:
+    """Each of a run's errors on stderr as one line, ``error: ...`` (each names its file)."""
+    from rich.markup import escape
+
     for e in errors:
-        err_console.print(f"[red]error:[/] {escape(escaped(e))}", highlight=False)
+        err_console.print(f"[red]error:[/] {escape(escaped(e))}", highlight=False, soft_wrap=True)
 
 
 def weights_lines(targets: Sequence) -> list[str]:

@@ -108,12 +108,15 @@ def pack(
             result = pack_library(project, out, options, progress=progress)
         else:
             result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
-    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview)
+    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project)
 
 
-def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path]) -> None:
-    """Write what a pack run was asked for (report, preview), print its table and exit as it ended."""
-    from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path],
+                project: Path) -> None:
+    """Write what a pack run was asked for (report, preview), print its table and exit as it ended:
+    a folder of projects none of which has an atlas is refused with one line naming it (exit 2)."""
+    from ..errors import SpineMeshError
+    from ..runs import EXIT_PARTIAL
     from ..pack.run import write_report
 
     if report is not None:
@@ -127,8 +130,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
         console.print(f"packed {len(result.atlases)} atlas{'es' if len(result.atlases) > 1 else ''} in "
                       f"{seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}", highlight=False)
     if not result.atlases:
-        console.print("no atlas found")
-        raise typer.Exit(EXIT_BAD_INPUT)
+        raise SpineMeshError("no atlas to pack in any of its projects", project)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
 
@@ -174,6 +176,8 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     from rich.markup import escape  # names and reasons come from the project: never markup
     from rich.table import Table
 
+    from ._summary import print_errors
+
     table = Table(title="spinemesh pack")
     for col in ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle", "note"):
         table.add_column(col, justify="left" if col in ("atlas", "note") else "right")
@@ -196,5 +200,4 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
                       str(total["by_rectangle"]), "")
     if atlases:
         console.print(table)
-    for e in errors:
-        console.print(f"[yellow]{escape(e)}[/yellow]")
+    print_errors(errors)

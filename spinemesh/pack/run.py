@@ -999,11 +999,25 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
                              project)
     folder = project.parent if project.is_file() else project
     proj = find_project(folder)
+    if not project_atlases(proj):
+        raise nothing_to_pack(proj)
     check_output_folder(proj.root, out)
     result = PackResult()
     with output_folder(out, options.overwrite):
         pack_project_into(proj, out, options, result, keep_previews=keep_previews, progress=progress)
     return result
+
+
+def nothing_to_pack(proj: Project) -> SpineMeshError:
+    """The one line refusing a project without a usable atlas, before anything is written: its
+    folder, and why the first atlas left out was (:func:`~spinemesh.project.project_atlases`: a
+    page image not found, an unreadable file)."""
+    left_out = [p for p in proj.problems if p.endswith("; atlas not used")]
+    why = "no atlas to pack"
+    if left_out:
+        more = len(left_out) - 1
+        why += f": {left_out[0]}" + (f" (and {more} more atlas{'es' if more > 1 else ''} left out)" if more else "")
+    return SpineMeshError(why, proj.root)
 
 
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
