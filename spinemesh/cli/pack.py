@@ -116,8 +116,8 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     """Write what a pack run was asked for (report, preview), print its table and exit as it ended:
     a folder of projects none of which has an atlas is refused with one line naming it (exit 2)."""
     from ..errors import SpineMeshError
-    from ..runs import EXIT_PARTIAL
     from ..pack.run import write_report
+    from ..runs import EXIT_PARTIAL
 
     if report is not None:
         write_report(result, report)
