@@ -88,6 +88,15 @@ def candidate_ancestors(bones: np.ndarray, parents: np.ndarray) -> list[set[int]
     return out
 
 
+def candidate_descendants(ancestors: list[set[int]]) -> list[set[int]]:
+    """For each candidate, the candidates below it: those whose :func:`candidate_ancestors` hold it."""
+    out: list[set[int]] = [set() for _ in ancestors]
+    for m, above in enumerate(ancestors):
+        for j in above:
+            out[j].add(m)
+    return out
+
+
 def likeliest_sets(p: np.ndarray, allowed: np.ndarray, count: int, most: int = MAX_AUTO_BONES) -> list[tuple[int, ...]]:
     """The ``count`` likeliest sets of allowed candidates if each bone were bound independently
     with its probability ``p`` (C,), likeliest first; empty sets and sets over ``most`` skipped.
@@ -169,6 +178,7 @@ def candidate_sets(p: np.ndarray, allowed: np.ndarray, slot: int | None, ancesto
         if key and len(key) <= most:
             sets[key] = sets.get(key, False) or prefix
 
+    below = candidate_descendants(ancestors)
     above = [k for k in order if p[k] >= threshold][:most]
     add(above or ([slot] if slot is not None else order[:1]))
     for k in range(1, n + 1):
@@ -181,8 +191,8 @@ def candidate_sets(p: np.ndarray, allowed: np.ndarray, slot: int | None, ancesto
         if slot is not None and slot in prefix and k > 1:
             add([j for j in prefix if j != slot])
         inside = set(prefix)
-        gaps = [j for j in order if j not in inside and ancestors[j] & inside
-                and any(j in ancestors[m] for m in inside)]
+        gaps = [j for j in order if j not in inside and not ancestors[j].isdisjoint(inside)
+                and not below[j].isdisjoint(inside)]
         if gaps:
             add(prefix + gaps)                                   # a chain's gaps filled
         near = [j for j in order if j not in inside and (parents_at[j] in inside or
@@ -200,14 +210,15 @@ def candidate_sets(p: np.ndarray, allowed: np.ndarray, slot: int | None, ancesto
     return list(sets.items())
 
 
-def _tree_shape(members: tuple[int, ...], ancestors: list[set[int]], parents_at: np.ndarray,
+def _tree_shape(members: tuple[int, ...], ancestors: list[set[int]], below: list[set[int]], parents_at: list[int],
                 candidates: list[int]) -> tuple[int, int, int]:
     """Connected components and parent-child edges of a set in the bone tree, and its gaps:
-    candidates outside it that lie on a chain between two of its members."""
+    candidates outside it that lie on a chain between two of its members (one of them above it,
+    :func:`candidate_ancestors`, one below, :func:`candidate_descendants`)."""
     inside = set(members)
-    edges = sum(int(parents_at[m]) in inside for m in members)
-    gaps = sum(1 for j in candidates if j not in inside and ancestors[j] & inside
-               and any(j in ancestors[m] for m in inside))
+    edges = sum(parents_at[m] in inside for m in members)
+    gaps = sum(1 for j in candidates if j not in inside and not ancestors[j].isdisjoint(inside)
+               and not below[j].isdisjoint(inside))
     return len(members) - edges, edges, gaps
 
 
@@ -233,6 +244,7 @@ def set_features(sets: list[tuple[tuple[int, ...], bool]], p: np.ndarray, allowe
     mesh = features[0] if len(features) else np.zeros(len(names))
     first = sets[0][0] if sets else ()
     allowed_list = ok.tolist()
+    below, parent_list = candidate_descendants(ancestors), np.asarray(parents_at).tolist()
     # Minima, maxima and counts of 0/1 columns come out the same in any order: taken over every
     # set at once through its members' mask; the sums of fractions stay one set at a time, in
     # the members' order, to the last bit.
@@ -265,7 +277,7 @@ def set_features(sets: list[tuple[tuple[int, ...], bool]], p: np.ndarray, allowe
         m = np.asarray(members, int)
         f = features[m]
         loglik = base + float(gain[m].sum())
-        components, edges, gaps = _tree_shape(members, ancestors, parents_at, allowed_list)
+        components, edges, gaps = _tree_shape(members, ancestors, below, parent_list, allowed_list)
         rows.append([
             len(m), likely, len(m) - likely, len(m) - expected, loglik, best - loglik,
             p_min, p_max, margin, float(p[m].mean()),
