@@ -108,8 +108,11 @@ def candidate_kinds(features: np.ndarray, names: tuple[str, ...]) -> dict[str, n
         for one beside it: :data:`STATES`), ``role`` (0 none, 1 moved by a
         constraint, 2 a constraint's target), ``rule`` (1 when the ``rule`` takes it).
     """
-    col = _columns(names)
     f = np.asarray(features, float).reshape(-1, len(names))
+    key = (tuple(names), f.shape, f.tobytes())
+    if _KINDS and _KINDS[0] == key:
+        return _KINDS[1]
+    col = _columns(names)
     relation = np.select([f[:, col["is_slot_bone"]] == 1, f[:, col["is_ancestor"]] == 1,
                           f[:, col["is_descendant"]] == 1, f[:, col["is_sibling"]] == 1], [0, 1, 2, 3], 4)
     role = np.where(f[:, col["is_control"]] == 1, 2, np.where(f[:, col["is_constrained"]] == 1, 1, 0))
@@ -117,8 +120,17 @@ def candidate_kinds(features: np.ndarray, names: tuple[str, ...]) -> dict[str, n
     place = np.where(relation == 2, np.where(f[:, col["tree_distance"]] <= 1, 2, 3),
                      np.where(relation > 2, relation + 1, relation))
     state = np.where(f[:, col["is_point"]] == 1, 0, np.where(f[:, col["over_art_per_diag"]] > 0, 1, 2))
-    return {"kind": 3 * place + state, "relation": relation, "role": role,
-            "rule": (f[:, col["rule_chose"]] == 1).astype(int)}
+    out = {"kind": 3 * place + state, "relation": relation, "role": role,
+           "rule": (f[:, col["rule_chose"]] == 1).astype(int)}
+    for kinds in out.values():
+        kinds.flags.writeable = False
+    _KINDS[:] = [key, out]
+    return out
+
+
+#: The last features :func:`candidate_kinds` read (names, shape, bytes) and their kinds: one
+#: mesh's choice asks for them with and without the project's habits and for each habit note.
+_KINDS: list = []
 
 
 def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tuple[str, ...]) -> np.ndarray:
@@ -446,9 +458,7 @@ def reason(features: np.ndarray, names: tuple[str, ...], others: np.ndarray, k: 
     ``features``: the mesh's per-bone features (C, F), columns ``names``; ``others``: the
     tally of the project's other weighted meshes (:data:`TALLY_SIZE`).
     """
-    row = np.asarray(features, float)[k:k + 1]
-    kinds = candidate_kinds(row, names)
-    kind = int(kinds["kind"][0])
+    kind = int(candidate_kinds(features, names)["kind"][k])   # each row's kinds are its own
     seen, hits = others[int(_OFFSETS[0]) + 2 * kind:][:2]
     kind = f"{PLACES[kind // 3]}, {STATES[kind % 3]}"
     meshes = int(others[_MESHES])
