@@ -116,20 +116,25 @@ def likeliest_sets(p: np.ndarray, allowed: np.ndarray, count: int, most: int = M
     # cost per scalar (the loop was a tenth of the learned choice)
     cost, bone = np.abs(gain)[order].tolist(), ok[order].tolist()
     base = set(ok[gain > 0].tolist())
+    # a flip takes a bone out of the set (-1) or puts one in (+1): each entry carries its set's
+    # size, and only a set of a size taken is built (most of the sets met on meshes of many
+    # likely bones are too large). Entries never tie on (total, flips): each subset of flips
+    # is reached once.
+    step = [-1 if b in base else 1 for b in bone]
     out: list[tuple[int, ...]] = []
-    heap: list[tuple[float, tuple[int, ...]]] = [(0.0, ())]
+    heap: list[tuple[float, tuple[int, ...], int]] = [(0.0, (), len(base))]
     popped = 0
     while heap and len(out) < count and popped < 50 * count:
-        total, flips = heapq.heappop(heap)
+        total, flips, size = heapq.heappop(heap)
         popped += 1
-        members = base.symmetric_difference([bone[i] for i in flips])
-        if 0 < len(members) <= most:
-            out.append(tuple(sorted(members)))
+        if 0 < size <= most:
+            out.append(tuple(sorted(base.symmetric_difference([bone[i] for i in flips]))))
         last = flips[-1] if flips else -1
         if last + 1 < len(cost):
-            heapq.heappush(heap, (total + cost[last + 1], flips + (last + 1,)))
+            heapq.heappush(heap, (total + cost[last + 1], flips + (last + 1,), size + step[last + 1]))
             if flips:
-                heapq.heappush(heap, (total - cost[last] + cost[last + 1], flips[:-1] + (last + 1,)))
+                heapq.heappush(heap, (total - cost[last] + cost[last + 1], flips[:-1] + (last + 1,),
+                                      size - step[last] + step[last + 1]))
     return out
 
 
