@@ -167,9 +167,10 @@ def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tup
     return out
 
 
-def pattern_sets(features: np.ndarray, names: tuple[str, ...]) -> tuple[set[int], set[int], set[int]]:
+def pattern_sets(features: np.ndarray, names: tuple[str, ...]) -> tuple[set[int], ...]:
     """The candidates (indices) that :func:`set_patterns` compares a set with: the slot's bone,
-    the bones over the art (points left out) and the ``rule``'s bones, each where it can be bound.
+    the bones over the art (points left out) and the ``rule``'s bones, each where it can be bound;
+    then the points, the ancestors of the slot's bone and the bones below it.
 
     The same for every set of one mesh: :func:`.bone_sets.habit_set_features` finds them once.
     """
@@ -179,11 +180,12 @@ def pattern_sets(features: np.ndarray, names: tuple[str, ...]) -> tuple[set[int]
     slot = set(np.flatnonzero(allowed & (f[:, col["is_slot_bone"]] == 1)).tolist())
     over = set(np.flatnonzero(allowed & (f[:, col["over_art_per_diag"]] > 0) & (f[:, col["is_point"]] == 0)).tolist())
     rule = set(np.flatnonzero(allowed & (f[:, col["rule_chose"]] == 1)).tolist())
-    return slot, over, rule
+    marked = (set(np.flatnonzero(f[:, col[c]] == 1).tolist()) for c in ("is_point", "is_ancestor", "is_descendant"))
+    return (slot, over, rule, *marked)
 
 
 def set_patterns(members, features: np.ndarray, names: tuple[str, ...],
-                 mesh: tuple[set[int], set[int], set[int]] | None = None) -> np.ndarray:
+                 mesh: tuple[set[int], ...] | None = None) -> np.ndarray:
     """Which :data:`SET_PATTERNS` a set of candidates shows, as 0/1 (len(SET_PATTERNS),).
 
     Parameters
@@ -195,17 +197,14 @@ def set_patterns(members, features: np.ndarray, names: tuple[str, ...],
     mesh : tuple of set, optional
         :func:`pattern_sets` of ``features``, when the caller has it (found here otherwise).
     """
-    col = _columns(names)
-    f = np.atleast_2d(np.asarray(features, float))
-    slot, over, rule = pattern_sets(f, names) if mesh is None else mesh
+    slot, over, rule, points, ancestors, below = pattern_sets(features, names) if mesh is None else mesh
     chosen = {int(k) for k in members}
     size = (0, 0, 1, 2, 3, 3)[len(chosen)] if len(chosen) < 6 else 4
-    row = f[sorted(chosen)]
     out = np.zeros(len(SET_PATTERNS))
     out[size] = 1
     out[5:] = [bool(slot) and chosen == slot, bool(over) and chosen == over, chosen <= over | slot,
-               bool(rule) and chosen == rule, (row[:, col["is_point"]] == 1).any(),
-               (row[:, col["is_ancestor"]] == 1).any(), (row[:, col["is_descendant"]] == 1).any()]
+               bool(rule) and chosen == rule, not points.isdisjoint(chosen),
+               not ancestors.isdisjoint(chosen), not below.isdisjoint(chosen)]
     return out
 
 
