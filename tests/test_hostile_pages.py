@@ -305,3 +305,19 @@ def test_pack_prints_its_errors_as_error_lines_on_stderr(meshed, tmp_path):
     r = _cli("pack", library, "--out", tmp_path / "out2", cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
     assert r.stderr.strip().splitlines()[-1] == f"error: {library}: no atlas to pack in any of its projects"
+
+
+def test_upgrade_pack_says_a_page_the_export_lacks_once(tmp_path):
+    """The atlas whose page is not shipped is left out by the upgrade and then, copied to OUT, by
+    its packing: one error line naming the project's atlas, none naming the copy in OUT."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "demo")
+    (project / "demo.png").unlink()
+    report = tmp_path / "report.json"
+    r = _cli("upgrade", project, "--out", tmp_path / "out", "--pack", "--jobs", "1", "--report", report,
+             cwd=tmp_path)
+    assert r.returncode in (0, 3) and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
+    said = [line for line in r.stderr.splitlines() if "'demo.png' not found" in line]
+    assert said == [f"error: {project / 'demo.atlas'}:1: page image 'demo.png' not found; atlas not used"], r.stderr
+    assert [e for e in json.loads(report.read_text())["errors"] if "demo.png" in e] == [said[0][len("error: "):]]

@@ -18,12 +18,15 @@ from .progress import SILENT, Progress
 from .report import Result
 
 
-def pack_written(out: Path, result: Result, options=None, workers=None, progress: Progress = SILENT) -> None:
+def pack_written(out: Path, result: Result, options=None, workers=None, progress: Progress = SILENT,
+                 source: Path | None = None) -> None:
     """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``.
 
     ``options`` (:class:`.options.Options`): its page rules, jobs and Dask cluster; ``workers``:
     the run's workers, else opened from those; ``progress``: told the packing's steps as the
-    ``pack`` phase.
+    ``pack`` phase; ``source``: the project's folder, whose problems ``result.errors`` already
+    has: the same problem of a copy in ``out`` (an atlas whose page the export lacks) is not
+    said again.
     """
     from ..pack.run import PackOptions, PackResult, pack_project_into
 
@@ -40,7 +43,9 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
         result.errors.append(f"not packed: {e}")
     result.atlases += packed.atlases
     result.errors += [f"{a.atlas}: not packed: {a.reason}" for a in packed.atlases if a.status == "failed"]
-    result.errors += [f"packing: {e}" for e in packed.errors]
+    said = set(result.errors)
+    result.errors += [f"packing: {e}" for e in packed.errors
+                      if source is None or not e.startswith(str(out)) or str(source) + e[len(str(out)):] not in said]
     result.seconds["pack"] = result.seconds.get("pack", 0.0) + time.perf_counter() - t0
 
 
