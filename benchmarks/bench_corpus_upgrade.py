@@ -488,9 +488,9 @@ def check_output(project: Path, out: Path, tools: dict | None, work: Path) -> di
     """What a user would find wrong in ``out``, written from ``project``.
 
     Returns ``{"missing": [...], "nan": [...], "unreadable": [...], "atlases": {atlas:
-    [bytes before, bytes after]}, "runtime": {skeleton: result}}``: files of the project absent from
-    ``out`` (and pages an atlas of ``out`` names but ``out`` lacks; exported pages that no
-    written atlas names any more are ``"pages_dropped"``, checked below), written JSON holding
+    [bytes before, bytes after]}, "runtime": {skeleton: result}}``: files of the project absent
+    from ``out`` (and pages an atlas of ``out`` names that the project ships but ``out`` lacks;
+    exported pages that no written atlas names any more are ``"pages_dropped"``), written JSON holding
     NaN/Infinity where the input's did not, written skeletons our reader cannot read back, the
     page bytes of every atlas, and the official runtime's load of every written skeleton of
     Spine 3.8-4.3 (``tools``: see :func:`runtime_dump`; None skips it).
@@ -525,7 +525,8 @@ def check_output(project: Path, out: Path, tools: dict | None, work: Path) -> di
         except SpineMeshError as e:
             res["unreadable"].append(f"{rel.as_posix()}: {e}")
             continue
-        res["missing"] += [p.relative_to(out).as_posix() for p in named if not p.is_file()]
+        res["missing"] += [p.relative_to(out).as_posix() for p in named
+                           if not p.is_file() and (project / p.relative_to(out)).is_file()]  # shipped
         try:
             res["atlases"][rel.as_posix()] = [atlas_page_bytes(atlas), atlas_page_bytes(out / rel)]
         except SpineMeshError:
@@ -591,7 +592,7 @@ def sweep_defects(entry: dict) -> list[str]:
     if entry["traceback"]:
         out.append("traceback")
     if entry["rc"] == 2:
-        out.append("refused the project")
+        out.append("refused (exit 2)")
     if entry.get("missing"):
         out.append("files missing")
     if entry.get("nan"):
