@@ -640,8 +640,9 @@ def sweep_table(files: list[Path], slowest: int = 5) -> None:
     """Per command: projects, exits, defects by kind (with the projects), the slowest runs, and the
     page bytes of every atlas before and after, of one or more sweep row files."""
     data: dict = {"projects": {}}
-    for f in files:
-        data["projects"].update(json.loads(f.read_text())["projects"])
+    for f in files:  # several files (one per --root): projects named by file, as names repeat
+        data["projects"].update({(f"{f.stem}/{name}" if len(files) > 1 else name): e
+                                 for name, e in json.loads(f.read_text())["projects"].items()})
     for command in SWEEP_COMMANDS:
         entries = {name: e[command] for name, e in sorted(data["projects"].items()) if command in e}
         if not entries:

@@ -78,7 +78,8 @@ def pack(
     as they are). Pages are written as small as oxipng makes them (PNG), proven lossless.
 
     Exit status: 0 when every atlas was packed or kept on purpose; 3 when something failed
-    (it is copied as it was; the report says why); 2 when the project has no atlas.
+    (it is copied as it was; the report says why); 2 when the project has no usable atlas
+    (nothing is written).
 
     \b
     Example: spinemesh pack project/ --out packed/ --report pack.json --preview pack-preview/
