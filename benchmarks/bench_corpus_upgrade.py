@@ -547,12 +547,14 @@ def check_output(project: Path, out: Path, tools: dict | None, work: Path) -> di
     return res
 
 
-def sweep_one(project: Path, command: str, timeout: float, tools: dict | None, scratch: Path) -> dict:
-    """Run one of :data:`SWEEP_COMMANDS` on ``project`` (one job, its own process) and check its output."""
+def sweep_one(project: Path, command: str, timeout: float, tools: dict | None, scratch: Path,
+              options: tuple[str, ...] = ()) -> dict:
+    """Run one of :data:`SWEEP_COMMANDS` on ``project`` (one job, its own process, ``options``
+    added: ``("--pages", "any")``) and check its output."""
     out = scratch / "out"
     report = scratch / "report.json"
     args = [a.format(project=project, out=out) for a in SWEEP_COMMANDS[command]]
-    cmd = [sys.executable, "-m", "spinemesh", *args, "--jobs", "1", "--report", str(report)]
+    cmd = [sys.executable, "-m", "spinemesh", *args, *options, "--jobs", "1", "--report", str(report)]
     t0 = time.perf_counter()
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
@@ -606,8 +608,9 @@ def sweep_defects(entry: dict) -> list[str]:
     return out
 
 
-def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool) -> None:
-    """Both :data:`SWEEP_COMMANDS` on every project folder of ``root``; a row each, written after each."""
+def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool, options: tuple[str, ...] = ()) -> None:
+    """Both :data:`SWEEP_COMMANDS` on every project folder of ``root`` with ``options`` added (both
+    commands take them: ``--pages any``); a row each, written after each."""
     tools = None
     if runtime:
         sys.path.insert(0, str(REPO / "tests"))
@@ -628,7 +631,7 @@ def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool)
             if command in result["projects"].get(p.name, {}):
                 continue
             with tempfile.TemporaryDirectory() as scratch:
-                entry = sweep_one(p, command, timeout, tools, Path(scratch))
+                entry = sweep_one(p, command, timeout, tools, Path(scratch), options)
             result["projects"].setdefault(p.name, {})[command] = entry
             out.write_text(json.dumps(result))
             bad = sweep_defects(entry)
@@ -702,6 +705,8 @@ def main() -> None:
     s.add_argument("--only", nargs="*", default=[], help="project folder names")
     s.add_argument("--root", type=Path, default=CORPUS, help="folder of project folders (default: the corpus)")
     s.add_argument("--no-runtime", action="store_true", help="skip the official runtime's load and dump")
+    s.add_argument("--option", action="append", default=[], metavar="ARG",
+                   help="an argument added to both commands (repeatable): --option=--pages --option=any")
     st = sub.add_parser("sweep-table")
     st.add_argument("files", type=Path, nargs="+")
     c = sub.add_parser("child")
@@ -719,7 +724,7 @@ def main() -> None:
     elif args.cmd == "sweep":
         if not args.root.is_dir():
             sys.exit(f"{args.root} is absent: the sweep needs the game corpus (or the --root given)")
-        sweep(args.out, args.timeout, args.only, args.root, not args.no_runtime)
+        sweep(args.out, args.timeout, args.only, args.root, not args.no_runtime, tuple(args.option))
     elif args.cmd == "sweep-table":
         sweep_table(args.files)
     elif args.cmd == "gap":

@@ -92,3 +92,16 @@ def test_the_runtime_loads_a_good_output_and_names_what_it_cannot_load(swept, sp
     (out / "demo.atlas").write_text(atlas.dumps())
     for said in bench.check_output(project, out, tools, tmp_path / "b")["runtime"].values():
         assert said.startswith("Error") and gone in said, said
+
+
+def test_options_reach_both_commands(swept, tmp_path):
+    """``--option``: an unknown option is refused by the command (exit 2), so it was passed."""
+    project, _, _ = swept
+    for command in bench.SWEEP_COMMANDS:
+        scratch = tmp_path / command.replace(" ", "")
+        scratch.mkdir()
+        entry = bench.sweep_one(project, command, 120, None, scratch, ("--pages", "any"))
+        assert entry["rc"] == 0 and bench.sweep_defects(entry) == [], entry["tail"]
+        scratch = tmp_path / (command.replace(" ", "") + "-bad")
+        scratch.mkdir()
+        assert bench.sweep_one(project, command, 120, None, scratch, ("--pages", "round"))["rc"] == 2
