@@ -610,3 +610,24 @@ def test_packed_soft_footprints_overlap_and_sample_the_original_texels():
     on_b[by:by + b.shape[0], bx:bx + b.shape[1]] = b
     assert (on_a & on_b).any()  # the footprints overlap ...
     assert not new_page[on_a & on_b].any()  # ... where the page holds zeros
+
+
+def test_upgrade_of_one_skeleton_file_packs_for_the_other_skeletons_of_its_folder(tmp_path):
+    """``upgrade demo.json --pack`` writes demo.json and the atlas it shares with demo-binary.skel,
+    which a game still loads with it, drawing regions: those keep their rectangles (packing by
+    demo.json's new meshes alone would crop them under demo-binary.skel's region attachments)."""
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    out = tmp_path / "out"
+    result = upgrade_project(demo / "demo.json", out, Options(min_saving=None, jobs=1, pack=True))
+    assert not (out / "demo-binary.skel").exists()
+    (row,) = result.atlases
+    drawn = {p for ref in iter_attachments(load_skeleton(demo / "demo-binary.skel")) if ref.type == "region"
+             for p in image_paths(ref)}
+    assert drawn and row.by_outline == 0, row.regions_by_rectangle
+    alone = tmp_path / "alone"  # without the other skeleton, the same upgrade packs by outline
+    alone.mkdir()
+    for name in ("demo.json", "demo.atlas", "demo.png"):
+        (alone / name).write_bytes((demo / name).read_bytes())
+    (row,) = upgrade_project(alone / "demo.json", tmp_path / "out-alone", Options(min_saving=None, jobs=1,
+                                                                                 pack=True)).atlases
+    assert row.by_outline > 0

@@ -146,17 +146,21 @@ def _mesh_of(doc: dict, ref: AttachmentRef) -> tuple[dict | None, str]:
     return source, ""
 
 
-def collect_uses(project: Project) -> ProjectUses:
+def collect_uses(project: Project, elsewhere: dict[Path, Path] | None = None) -> ProjectUses:
     """Read every skeleton of ``project`` and record how it draws each atlas region.
 
     Every skeleton counts, ``.json`` and ``.skel`` twins alike: a game may load either.
+    ``elsewhere``: skeletons that load the project's atlases but are not in its folder, by the
+    path each would have there (it finds its atlases as from that place) to the file to read:
+    the other skeletons of the folder that ``upgrade`` was given one skeleton file of.
     """
     uses = ProjectUses()
     atlases = project_atlases(project)
-    for path in project.skeletons:
+    elsewhere = elsewhere or {}
+    for path in [*project.skeletons, *elsewhere]:
         rel = path.relative_to(project.root).as_posix()
         try:
-            doc = load_skeleton(path)
+            doc = load_skeleton(elsewhere.get(path, path))
             source = image_source_for(doc, path, project)
         except SpineMeshError as e:
             uses.problems.append(str(e))

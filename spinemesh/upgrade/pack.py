@@ -13,22 +13,25 @@ import time
 from pathlib import Path
 
 from ..errors import SpineMeshError
-from ..project import find_project
+from ..project import Project, find_project, is_skeleton_file
 from .progress import SILENT, Progress
 from .report import Result
 
 
 def pack_written(out: Path, result: Result, options=None, workers=None, progress: Progress = SILENT,
-                 source: Path | None = None) -> None:
+                 source: Project | None = None) -> None:
     """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``.
 
     ``options`` (:class:`.options.Options`): its page rules, jobs and Dask cluster; ``workers``:
     the run's workers, else opened from those; ``progress``: told the packing's steps as the
-    ``pack`` phase; ``source``: the project's folder, whose problems ``result.errors`` already
-    has: the same problem of a copy in ``out`` (an atlas whose page the export lacks) is not
-    said again.
+    ``pack`` phase; ``source``: the project upgraded. Its skeletons that were not written to
+    ``out`` (the others of the folder, when one skeleton file was upgraded) still load its
+    atlases in the game, so what they draw counts in the packing as it is. Its problems are in
+    ``result.errors`` already: the same problem of a copy in ``out`` (an atlas whose page the
+    export lacks) is not said again.
     """
     from ..pack.run import PackOptions, PackResult, pack_project_into
+    from ..pack.uses import collect_uses
 
     t0 = time.perf_counter()
     packed = PackResult()
@@ -37,7 +40,11 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
         pack_options = PackOptions(rules=options.pack_rules, jobs=options.jobs, dask=options.dask,
                                    keep_files_as_exported=options.pack_keep_files)
     try:
-        pack_project_into(find_project(out), out, pack_options, packed, workers=workers,
+        written = find_project(out)
+        others = {} if source is None else {  # every skeleton file of its folder, not those given alone
+            out / rel: path for path in source.files
+            if is_skeleton_file(path) and not (out / (rel := path.relative_to(source.root))).is_file()}
+        pack_project_into(written, out, pack_options, packed, uses=collect_uses(written, others), workers=workers,
                           progress=PhaseProgress(progress))
     except SpineMeshError as e:
         result.errors.append(f"not packed: {e}")
@@ -45,7 +52,7 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
     result.errors += [f"{a.atlas}: not packed: {a.reason}" for a in packed.atlases if a.status == "failed"]
     said = set(result.errors)
     result.errors += [f"packing: {e}" for e in packed.errors
-                      if source is None or not e.startswith(str(out)) or str(source) + e[len(str(out)):] not in said]
+                      if source is None or not e.startswith(str(out)) or str(source.root) + e[len(str(out)):] not in said]
     result.seconds["pack"] = result.seconds.get("pack", 0.0) + time.perf_counter() - t0
 
 
