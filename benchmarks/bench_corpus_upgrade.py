@@ -26,10 +26,14 @@ what they wrote: exit status, tracebacks, error and warning lines, files of the 
 missing from the output, NaN/Infinity in written JSON, written skeletons our reader cannot read
 back, page bytes of every atlas before and after, and the official runtime loading every written
 skeleton of Spine 3.8-4.3 (3.8-4.2 dumped at animation times by the harness, 4.3 posed by
-spine-core 4.3). ``sweep-table`` prints defects by kind, the slowest
-runs and the bytes:
+spine-core 4.3). ``sweep-table`` prints defects by kind, the slowest runs and the bytes.
+``--option ARG`` adds an argument to the commands, ``--command`` runs one of them; a sweep
+stopped goes on from its row file:
 
     nice -n 10 .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep --out build/sweep.json
+    nice -n 10 .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep --option=--pages --option=any --out any.json
+    nice -n 10 .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep --command 'upgrade --pack' \
+        --option=--weights --option=auto --out weights.json
     .venv/bin/python benchmarks/bench_corpus_upgrade.py sweep-table build/sweep.json
 
 ``run --set NAME=NUMBER`` passes a mesher parameter to the upgrade (to measure its effect).
@@ -608,9 +612,11 @@ def sweep_defects(entry: dict) -> list[str]:
     return out
 
 
-def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool, options: tuple[str, ...] = ()) -> None:
-    """Both :data:`SWEEP_COMMANDS` on every project folder of ``root`` with ``options`` added (both
-    commands take them: ``--pages any``); a row each, written after each."""
+def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool, options: tuple[str, ...] = (),
+          commands: tuple[str, ...] = tuple(SWEEP_COMMANDS)) -> None:
+    """``commands`` (of :data:`SWEEP_COMMANDS`) on every project folder of ``root`` with ``options``
+    added (``--pages any``, or ``--weights auto`` for ``upgrade --pack`` alone); a row each,
+    written after each."""
     tools = None
     if runtime:
         sys.path.insert(0, str(REPO / "tests"))
@@ -627,7 +633,7 @@ def sweep(out: Path, timeout: float, only: list[str], root: Path, runtime: bool,
     if out.is_file():  # go on where a stopped sweep ended
         result = json.loads(out.read_text())
     for i, p in enumerate(projects):
-        for command in SWEEP_COMMANDS:
+        for command in commands:
             if command in result["projects"].get(p.name, {}):
                 continue
             with tempfile.TemporaryDirectory() as scratch:
@@ -706,7 +712,9 @@ def main() -> None:
     s.add_argument("--root", type=Path, default=CORPUS, help="folder of project folders (default: the corpus)")
     s.add_argument("--no-runtime", action="store_true", help="skip the official runtime's load and dump")
     s.add_argument("--option", action="append", default=[], metavar="ARG",
-                   help="an argument added to both commands (repeatable): --option=--pages --option=any")
+                   help="an argument added to the commands (repeatable): --option=--pages --option=any")
+    s.add_argument("--command", action="append", choices=list(SWEEP_COMMANDS),
+                   help="run only this command (repeatable; default: both)")
     st = sub.add_parser("sweep-table")
     st.add_argument("files", type=Path, nargs="+")
     c = sub.add_parser("child")
@@ -724,7 +732,8 @@ def main() -> None:
     elif args.cmd == "sweep":
         if not args.root.is_dir():
             sys.exit(f"{args.root} is absent: the sweep needs the game corpus (or the --root given)")
-        sweep(args.out, args.timeout, args.only, args.root, not args.no_runtime, tuple(args.option))
+        sweep(args.out, args.timeout, args.only, args.root, not args.no_runtime, tuple(args.option),
+              tuple(args.command or SWEEP_COMMANDS))
     elif args.cmd == "sweep-table":
         sweep_table(args.files)
     elif args.cmd == "gap":
