@@ -63,8 +63,9 @@ class Bone:
         return abs(float(np.linalg.det(self.world[:, :2]))) > 1e-9
 
 
-#: The last list of bones :func:`bone_segments` stacked, its length and its segments.
-_STACKED: list = []
+#: The last list of bones :func:`bone_segments` stacked, its length and its segments, as one
+#: tuple replaced whole (threads of one worker read it: a reader sees one list's or another's).
+_STACKED: list = [(None, -1, None)]
 
 
 def bone_segments(bones) -> np.ndarray:
@@ -73,11 +74,12 @@ def bone_segments(bones) -> np.ndarray:
     The bone choices ask for them three times for each mesh: the last list's are kept. The list
     itself is held, so a new list at the old one's address is not taken for it.
     """
-    if _STACKED and _STACKED[0] is bones and _STACKED[1] == len(bones):
-        return _STACKED[2]
+    last, count, out = _STACKED[0]
+    if last is bones and count == len(bones):
+        return out
     out = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
     out.flags.writeable = False
-    _STACKED[:] = [bones, len(bones), out]
+    _STACKED[0] = (bones, len(bones), out)
     return out
 
 

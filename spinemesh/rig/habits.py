@@ -110,8 +110,9 @@ def candidate_kinds(features: np.ndarray, names: tuple[str, ...]) -> dict[str, n
     """
     f = np.asarray(features, float).reshape(-1, len(names))
     key = (tuple(names), f.shape, f.tobytes())
-    if _KINDS and _KINDS[0] == key:
-        return _KINDS[1]
+    last, kinds = _KINDS[0]
+    if last == key:
+        return kinds
     col = _columns(names)
     relation = np.select([f[:, col["is_slot_bone"]] == 1, f[:, col["is_ancestor"]] == 1,
                           f[:, col["is_descendant"]] == 1, f[:, col["is_sibling"]] == 1], [0, 1, 2, 3], 4)
@@ -124,13 +125,14 @@ def candidate_kinds(features: np.ndarray, names: tuple[str, ...]) -> dict[str, n
            "rule": (f[:, col["rule_chose"]] == 1).astype(int)}
     for kinds in out.values():
         kinds.flags.writeable = False
-    _KINDS[:] = [key, out]
+    _KINDS[0] = (key, out)
     return out
 
 
 #: The last features :func:`candidate_kinds` read (names, shape, bytes) and their kinds: one
 #: mesh's choice asks for them with and without the project's habits and for each habit note.
-_KINDS: list = []
+#: One tuple replaced whole (threads of one worker read it: a reader sees one mesh's or another's).
+_KINDS: list = [(None, None)]
 
 
 def tally(features: np.ndarray, bound: np.ndarray, artist_count: int, names: tuple[str, ...]) -> np.ndarray:
