@@ -592,3 +592,32 @@ def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_li
     rows = {(t.skeleton, t.slot): t for t in upgrade_library(library, tmp_path / "again", Options(weights="auto")).targets}
     assert rows[("both/bar.json", "bar")].weights["meshed_to_bend"]
     assert rows[("half/bar.json", "half")].status == "meshed" and len(rows[("half/bar.json", "half")].weights["bones"]) == 2
+
+
+def test_a_mesh_whose_weighting_fails_after_vertices_were_added_is_as_it_was(tmp_path, monkeypatch):
+    """The weighting keeps a shallow copy of each attachment to put back: vertices added for its
+    bones, then a failure, leave the attachment and every list of the document as they were
+    (the lists are replaced, never changed in place)."""
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.rig import upgrade as rig_upgrade
+
+    project = make_bar_project(tmp_path / "p")
+    result = upgrade_project(project, tmp_path / "meshed", Options(weights="none", min_saving=None))
+    doc = json.loads((tmp_path / "meshed" / "bar.json").read_text())
+    lists = {id(v): (v, copy.deepcopy(v)) for ref in iter_attachments(doc) for v in ref.attachment.values()
+             if isinstance(v, (list, dict))}
+    before = copy.deepcopy(doc)
+    grown = []
+
+    def failing(rig, ref, options, outcome, choice=None):
+        grown.append(len(ref.attachment["uvs"]) > len(next(
+            r.attachment for r in iter_attachments(before) if (r.slot, r.name) == (ref.slot, ref.name))["uvs"]))
+        raise SpineMeshError("a failure after the vertices were added")
+
+    monkeypatch.setattr(rig_upgrade, "weight_mesh", failing)
+    targets = [t for t in result.targets if t.status == "meshed"]
+    rig_upgrade.weight_upgraded(doc, targets)
+    assert any(grown), "no vertices were added: the test proves nothing"
+    assert all(t.weights["status"] == "failed" and t.weights["added_vertices"] == 0 for t in targets)
+    assert doc == before
+    assert all(value == kept for value, kept in lists.values())
