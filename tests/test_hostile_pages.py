@@ -293,7 +293,8 @@ def test_a_project_without_a_usable_atlas_is_refused_in_one_line_before_anything
 
 def test_pack_prints_its_errors_as_error_lines_on_stderr(meshed, tmp_path):
     """A library whose second project ships no page: the first is packed, the second is named on
-    stderr with ``error:`` (as upgrade prints them); a library with no atlas at all exits 2 naming it."""
+    stderr with ``error:`` (as upgrade prints them); a library with no usable atlas at all exits 2
+    with one line naming it and the first atlas left out, and writes no OUT (as for one project)."""
     library = tmp_path / "library"
     _copy(meshed, library / "good")
     (_copy(meshed, library / "no-page") / "demo.png").unlink()
@@ -304,7 +305,10 @@ def test_pack_prints_its_errors_as_error_lines_on_stderr(meshed, tmp_path):
     (library / "good" / "demo.png").unlink()
     r = _cli("pack", library, "--out", tmp_path / "out2", cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
-    assert r.stderr.strip().splitlines()[-1] == f"error: {library}: no atlas to pack in any of its projects"
+    (line,) = r.stderr.strip().splitlines()
+    assert line.startswith(f"error: {library}: no atlas to pack in any of its projects: ") and "'demo.png'" in line
+    assert line.endswith("(and 1 more atlas left out)"), line
+    assert not (tmp_path / "out2").exists()
 
 
 def test_upgrade_pack_says_a_page_the_export_lacks_once(tmp_path):

@@ -78,8 +78,8 @@ def pack(
     as they are). Pages are written as small as oxipng makes them (PNG), proven lossless.
 
     Exit status: 0 when every atlas was packed or kept on purpose; 3 when something failed
-    (it is copied as it was; the report says why); 2 when the project has no usable atlas
-    (nothing is written).
+    (it is copied as it was; the report says why); 2 when the project (for a folder of projects:
+    every one of them) has no usable atlas (nothing is written).
 
     \b
     Example: spinemesh pack project/ --out packed/ --report pack.json --preview pack-preview/
@@ -115,7 +115,8 @@ def pack(
 def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path],
                 project: Path) -> None:
     """Write what a pack run was asked for (report, preview), print its table and exit as it ended:
-    a folder of projects none of which has an atlas is refused with one line naming it (exit 2)."""
+    a run that packed no atlas at all (all of them failed to load) ends with one line naming
+    ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL

@@ -1000,7 +1000,7 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     folder = project.parent if project.is_file() else project
     proj = find_project(folder)
     if not project_atlases(proj):
-        raise nothing_to_pack(proj)
+        raise nothing_to_pack(proj.root, proj.problems)
     check_output_folder(proj.root, out)
     result = PackResult()
     with output_folder(out, options.overwrite):
@@ -1008,16 +1008,16 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     return result
 
 
-def nothing_to_pack(proj: Project) -> SpineMeshError:
-    """The one line refusing a project without a usable atlas, before anything is written: its
-    folder, and why the first atlas left out was (:func:`~spinemesh.project.project_atlases`: a
-    page image not found, an unreadable file)."""
-    left_out = [p for p in proj.problems if p.endswith("; atlas not used")]
-    why = "no atlas to pack"
+def nothing_to_pack(root: Path, problems: list[str], why: str = "no atlas to pack") -> SpineMeshError:
+    """The one line refusing a project (or a folder of them) without a usable atlas, before
+    anything is written: ``root``, ``why`` and why the first atlas left out was (of ``problems``,
+    those :func:`~spinemesh.project.project_atlases` noted: a page image not found, an unreadable
+    file)."""
+    left_out = [p for p in problems if p.endswith("; atlas not used")]
     if left_out:
         more = len(left_out) - 1
         why += f": {left_out[0]}" + (f" (and {more} more atlas{'es' if more > 1 else ''} left out)" if more else "")
-    return SpineMeshError(why, proj.root)
+    return SpineMeshError(why, root)
 
 
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
@@ -1031,15 +1031,27 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
     result = PackResult()
     from ..cluster import open_workers
 
+    # each project found and its atlases read once, before OUT: a folder none of whose projects
+    # has a usable atlas is refused as one project is, nothing written
+    projects: list[tuple[Path, Project | SpineMeshError]] = []
+    for folder in find_projects(library):
+        try:
+            projects.append((folder, find_project(folder)))
+        except SpineMeshError as e:
+            projects.append((folder, e))
+    found = [p for _, p in projects if isinstance(p, Project)]
+    if not any([project_atlases(p) for p in found]):
+        raise nothing_to_pack(library, [q for p in found for q in p.problems], "no atlas to pack in any of its projects")
     with output_folder(out, options.overwrite), open_workers(options.jobs, options.dask) as workers:
-        for folder in find_projects(library):
+        for folder, proj in projects:
             rel = folder.relative_to(library).as_posix()
             if on_project:
                 on_project(rel)
             prefix = "" if rel == "." else rel + "/"
             try:
-                pack_project_into(find_project(folder), out / rel, options, result, prefix, workers=workers,
-                                  progress=progress)
+                if isinstance(proj, SpineMeshError):
+                    raise proj
+                pack_project_into(proj, out / rel, options, result, prefix, workers=workers, progress=progress)
             except SpineMeshError as e:
                 result.errors.append(str(e))
     return result
