@@ -325,3 +325,18 @@ def test_upgrade_pack_says_a_page_the_export_lacks_once(tmp_path):
     said = [line for line in r.stderr.splitlines() if "'demo.png' not found" in line]
     assert said == [f"error: {project / 'demo.atlas'}:1: page image 'demo.png' not found; atlas not used"], r.stderr
     assert [e for e in json.loads(report.read_text())["errors"] if "demo.png" in e] == [said[0][len("error: "):]]
+
+
+def test_upgrade_pack_says_a_skeleton_it_cannot_read_once(tmp_path):
+    """A skeleton of the project that cannot be read is said not read by the upgrade, and not
+    again by its packing (which reads the skeletons written, and those of the folder not given)."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "demo")
+    (project / "broken.json").write_text('{"skeleton": {"spine": "4.1.00"}, "bones": [ broken')
+    report = tmp_path / "report.json"
+    r = _cli("upgrade", project, "--out", tmp_path / "out", "--pack", "--jobs", "1", "--report", report,
+             cwd=tmp_path)
+    assert r.returncode == 3 and "Traceback" not in r.stdout + r.stderr, r.stdout + r.stderr
+    assert [e for e in json.loads(report.read_text())["errors"] if "broken.json" in e] == [
+        f"{project / 'broken.json'}:1: invalid JSON: Expecting value (column 46)"]

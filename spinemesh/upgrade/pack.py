@@ -41,9 +41,13 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
                                    keep_files_as_exported=options.pack_keep_files)
     try:
         written = find_project(out)
-        others = {} if source is None else {  # every skeleton file of its folder, not those given alone
+        # the skeleton files of its folder that were not given (the upgrade read those, and said
+        # why one it could not read is not in OUT: not said again here)
+        given = set() if source is None else set(source.skeletons)
+        others = {} if source is None else {
             out / rel: path for path in source.files
-            if is_skeleton_file(path) and not (out / (rel := path.relative_to(source.root))).is_file()}
+            if path not in given and is_skeleton_file(path)
+            and not (out / (rel := path.relative_to(source.root))).is_file()}
         pack_project_into(written, out, pack_options, packed, uses=collect_uses(written, others), workers=workers,
                           progress=PhaseProgress(progress))
     except SpineMeshError as e:
