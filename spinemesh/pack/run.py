@@ -1032,7 +1032,8 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
     from ..cluster import open_workers
 
     # each project found and its atlases read once, before OUT: a folder none of whose projects
-    # has a usable atlas is refused as one project is, nothing written
+    # has a usable atlas is refused as one project is, nothing written (one that could not be
+    # read is said on its own line: finish_pack refuses the run after)
     projects: list[tuple[Path, Project | SpineMeshError]] = []
     for folder in find_projects(library):
         try:
@@ -1040,7 +1041,7 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
         except SpineMeshError as e:
             projects.append((folder, e))
     found = [p for _, p in projects if isinstance(p, Project)]
-    if not any([project_atlases(p) for p in found]):
+    if len(found) == len(projects) and not any([project_atlases(p) for p in found]):
         raise nothing_to_pack(library, [q for p in found for q in p.problems], "no atlas to pack in any of its projects")
     with output_folder(out, options.overwrite), open_workers(options.jobs, options.dask) as workers:
         for folder, proj in projects:
