@@ -334,6 +334,14 @@ def test_binding_keeps_setup_positions():
     assert np.abs(setup_world(mesh, worlds, 0) - world).max() < 1e-3
 
 
+def test_binding_refuses_a_vertex_without_a_bone():
+    from spinemesh.errors import SpineMeshError
+
+    worlds = [np.c_[np.eye(2), [0.0, 0.0]], np.c_[np.eye(2), [5.0, 0.0]]]
+    with pytest.raises(SpineMeshError, match="vertex 1 has no positive bone weight"):
+        bind(np.zeros((2, 2)), np.array([[1.0, 0.0], [np.nan, np.nan]]), [0, 1], worlds)
+
+
 def test_worm_is_weighted_to_its_chain_and_keeps_its_setup_pose():
     doc = worm_skeleton()
     att = doc["skins"][0]["attachments"]["worm"]["worm"]

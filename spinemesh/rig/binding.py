@@ -167,6 +167,8 @@ def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: li
     out: list = []
     for v, row in enumerate(np.asarray(weights, float).tolist()):
         cols = [c for c, x in enumerate(row) if x > 0]
+        if not cols:  # no bone to follow (a NaN row): this mesh alone fails, with a reason
+            raise SpineMeshError(f"vertex {v} has no positive bone weight")
         keep = [(c, w) for c, w in zip(cols, rounded_weights([row[c] for c in cols])) if w > 0]
         out.append(len(keep))
         for c, w in keep:
