@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from spinemesh.demo import make_demo_project
@@ -331,6 +332,30 @@ def test_an_upgraded_project_has_nothing_to_do(demo, tmp_path):
     r = run("upgrade", str(tmp_path / "a"), "--out", str(tmp_path / "c"), "--pack")
     assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
     assert "nothing meshed (every" in r.stdout and "packed 1 of 1 atlas: 1 pages into 1" in r.stdout, r.stdout
+
+
+def test_a_run_that_only_rewrites_pages_says_so(tmp_path):
+    """A project whose one region fills its page: nothing is meshed (an opaque rectangle gains
+    nothing), no smaller page holds it, and its page, stored without compression, is written
+    smaller losslessly: the run says that, not that it did nothing."""
+    from PIL import Image
+
+    project = tmp_path / "p"
+    project.mkdir()
+    y, x = np.mgrid[0:64, 0:64]
+    page = np.dstack([x * 4, y * 4, (x + y) * 2, np.full_like(x, 255)]).astype(np.uint8)
+    Image.fromarray(page).save(project / "tile.png", compress_level=0)
+    (project / "tile.atlas").write_text("tile.png\n\tsize: 64, 64\n\tfilter: Linear, Linear\n"
+                                        "tile\n\tbounds: 0, 0, 64, 64\n", encoding="utf-8")
+    doc = {"skeleton": {"spine": "4.2.40"}, "bones": [{"name": "root"}],
+           "slots": [{"name": "tile", "bone": "root", "attachment": "tile"}],
+           "skins": [{"name": "default", "attachments": {"tile": {"tile": {"width": 64, "height": 64}}}}]}
+    (project / "tile.json").write_text(json.dumps(doc), encoding="utf-8")
+    r = run("upgrade", str(project), "--out", str(tmp_path / "o"), "--pack")
+    assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
+    line = next(t for t in r.stdout.splitlines() if t.startswith("nothing meshed"))
+    assert "packed none of 1 atlas; 1 page of kept atlases re-encoded losslessly; atlas files" in line, line
+    assert (tmp_path / "o" / "tile.png").stat().st_size < (project / "tile.png").stat().st_size
 
 
 def test_a_failure_exits_3(demo, tmp_path):

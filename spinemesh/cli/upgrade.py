@@ -276,8 +276,10 @@ def _exit(result, nothing: str) -> None:
 
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
-    if nothing.startswith("nothing to upgrade: every") and any(a.status == "packed" for a in result.atlases):
-        # --pack did something: say what, not that the run did nothing
+    if nothing.startswith("nothing to upgrade: every") and any(a.status == "packed" or a.pages_reencoded
+                                                                for a in result.atlases):
+        # --pack did something (packed, or wrote a kept atlas's pages smaller): say what, not that
+        # the run did nothing
         console.print(escape(packed_line(result.atlases, nothing.split(": ", 1)[1])), highlight=False)
         return
     if nothing:
@@ -286,13 +288,25 @@ def _exit(result, nothing: str) -> None:
 
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:
-    """What a run that meshed nothing packed: ``meshed_nothing`` (why), then atlases, pages and page texels."""
+    """What a run that meshed nothing packed: ``meshed_nothing`` (why), then the atlases packed
+    (pages and page texels), the pages of kept atlases written smaller, and the atlases' bytes
+    (texts and pages)."""
     packed = [a for a in atlases if a.status == "packed"]
-    before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
-    pages = f"{sum(a.pages_before for a in packed)} pages into {sum(a.pages_after for a in packed)}"
-    return (f"nothing meshed ({meshed_nothing}); packed {len(packed)} of {len(atlases)} atlas"
-            f"{'es' if len(atlases) > 1 else ''}: {pages}, {before - after:,} fewer page texels "
-            f"({1 - after / before:.0%})")
+    plural = "es" if len(atlases) > 1 else ""
+    if packed:
+        before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
+        pages = f"{sum(a.pages_before for a in packed)} pages into {sum(a.pages_after for a in packed)}"
+        did = [f"packed {len(packed)} of {len(atlases)} atlas{plural}: {pages}, {before - after:,} fewer page "
+               f"texels ({1 - after / before:.0%})"]
+    else:
+        did = [f"packed none of {len(atlases)} atlas{plural}"]
+    reencoded = sum(a.pages_reencoded for a in atlases if a.status == "kept")
+    if reencoded:
+        did.append(f"{reencoded} page{'s' if reencoded > 1 else ''} of kept atlases re-encoded losslessly")
+    before, after = sum(a.bytes_before for a in atlases), sum(a.bytes_after for a in atlases)
+    if before:
+        did.append(f"atlas files {before:,} -> {after:,} bytes ({after / before - 1:+.0%})")
+    return f"nothing meshed ({meshed_nothing}); " + "; ".join(did)
 
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> str:
