@@ -315,7 +315,7 @@ def limit_of(reason: str, fill: float) -> str:
         return "bytes: lossy WebP pages would grow written losslessly"
     if "--larger-files" in reason:
         return "bytes: the files would grow"
-    if "footprints need" in reason:
+    if "regions need" in reason:
         need = reason.split("need ")[1].split(" of")[0] + " of the page texels"
         if "no packing" in reason:
             return f"need: the footprints need {need}"

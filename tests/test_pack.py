@@ -211,6 +211,23 @@ def test_lossy_webp_pages_are_kept_when_lossless_pages_would_be_larger(meshed, t
     assert row.status == "packed", row.reason
 
 
+def test_the_last_line_counts_atlases_packed_and_kept_and_a_kept_row_counts_no_regions(meshed, tmp_path):
+    """A run that keeps an atlas does not say it packed it: the line counts each outcome, and a
+    kept atlas's row shows no regions packed by outline or by rectangle (they stay where they were)."""
+    library = tmp_path / "library"
+    library.mkdir()
+    _copy(meshed, library / "meshed")
+    _webp_project(meshed, library / "lossy", lossless=False)  # kept: lossless pages would grow
+    r = _cli("pack", str(library), "--out", str(tmp_path / "out"), "--jobs", "1", "--larger-files")
+    assert r.returncode == 0, r.stdout + r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[-1].startswith("packed 1 of 2 atlases, 1 kept in its layout (the note says why); "), lines[-1]
+    kept = next(line for line in lines if line.startswith("│ lossy"))
+    packed = next(line for line in lines if line.startswith("│ meshed"))
+    assert [c.strip() for c in kept.split("│")[5:7]] == ["-", "-"], kept
+    assert [c.strip() for c in packed.split("│")[5:7]] != ["-", "-"], packed
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')
@@ -354,7 +371,7 @@ def test_footprints_larger_than_the_atlas_are_refused_before_any_fill():
 
     items = _shapes(0, 4, 20, 40)
     texels = sum(int(it.masks[0].sum()) for it in items)
-    with pytest.raises(PackRefused, match=r"the footprints need 1\d\d% of the page texels, so no packing"):
+    with pytest.raises(PackRefused, match=r"its regions need 1\d\d% of the page texels, so no packing"):
         _pack_group(items, 256, 256, 256 * 256, False, 0, 1, texels)
     _pack_group(items, 256, 256, 256 * 256, False, 0, 1, 256 * 256)  # room enough: packed
 
@@ -363,10 +380,10 @@ def test_kept_notes_say_what_the_footprints_need_and_the_next_page_holds():
     from spinemesh.pack.atlas_pack import kept_note, largest_pot_pages_below
 
     assert kept_note(61 * 1024 * 512 // 100 + 1, 1024 * 512, 1, 1024 * 1024, True) == \
-        "the footprints need 61% of the page texels; the next smaller power-of-two page holds 50%"
+        "its regions need 61% of the page texels; the next smaller power-of-two page holds 50%"
     assert "pages hold 88%" in kept_note(10, 4 * 1024 * 1024, 4, 1024 * 1024, True)  # three pages and a half
     assert kept_note(90, 100, 1, 100, False) == \
-        "the footprints need 90% of the page texels, and no fill tried placed them on fewer"
+        "its regions need 90% of the page texels, and no fill tried placed them on fewer"
     assert largest_pot_pages_below(2048 * 2048, 1, 2048 * 2048) == 2048 * 1024
     assert largest_pot_pages_below(3 * 512 * 512, 2, 512 * 512) == 2 * 512 * 512
     assert largest_pot_pages_below(256, 1, 2048 * 2048) == 0

@@ -129,12 +129,27 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
         write_preview(result, preview)
     print_pack_table(result.atlases, result.errors)
     if result.atlases:
-        console.print(f"packed {len(result.atlases)} atlas{'es' if len(result.atlases) > 1 else ''} in "
-                      f"{seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}", highlight=False)
+        console.print(f"{outcome_line(result.atlases)}; {seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}",
+                      highlight=False)
     if not result.atlases:
         raise SpineMeshError("no atlas to pack in any of its projects", project)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
+
+
+def outcome_line(atlases: list) -> str:
+    """What a pack run did to its atlases, counted by outcome, e.g. ``"packed 1 of 3 atlases, 2 kept
+    in their layout (the note says why)"``: an atlas counts as packed only where its layout was
+    written anew, not where its pages were only re-encoded."""
+    packed = sum(a.status == "packed" for a in atlases)
+    kept = sum(a.status == "kept" for a in atlases)
+    failed = len(atlases) - packed - kept
+    line = f"packed {packed} of {len(atlases)} atlas{'es' if len(atlases) > 1 else ''}"
+    if kept:
+        line += f", {kept} kept in {'its' if kept == 1 else 'their'} layout (the note says why)"
+    if failed:
+        line += f", {failed} failed"
+    return line
 
 
 def atlas_bars(bars, phase: str = ""):
@@ -187,10 +202,13 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     def change(before: int, after: int) -> str:
         return f"{before:,} -> {after:,} ({after / before - 1:+.0%})" if before else "-"
 
+    def regions(a) -> tuple[str, str]:
+        # a kept atlas's regions stay where they were: counting them as packed by rectangle would say otherwise
+        return (str(a.by_outline), str(a.by_rectangle)) if a.status == "packed" else ("-", "-")
+
     for a in atlases:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
-                      change(a.bytes_before, a.bytes_after), str(a.by_outline), str(a.by_rectangle),
-                      escape(a.reason))
+                      change(a.bytes_before, a.bytes_after), *regions(a), escape(a.reason))
     if len(atlases) > 1:
         table.add_section()
         from ..pack.run import atlas_totals

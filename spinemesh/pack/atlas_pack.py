@@ -394,15 +394,18 @@ def largest_pot_pages_below(limit: int, pages: int, max_area: int, smallest: int
 
 
 def kept_note(needed: int, texels: int | None, pages: int, max_area: int, pot: bool) -> str:
-    """Why an atlas keeps its pages, in plain words: what its footprints need against what it has,
+    """Why an atlas keeps its pages, in plain words: what its regions need against what it has,
     and, for power-of-two pages, what the next smaller page set the rules allow holds.
+
+    The note speaks to a user: "regions" (what they see in the atlas), not footprints (this
+    module's word for what a region takes on a page).
 
     ``needed``: the footprints' hard texels (the least any placement takes); ``texels``: the
     atlas's page texels (None: no bound was given, so the footprints did not fit at all).
     """
     if texels is None:
-        return f"its footprints do not fit on {pages} page{'s' if pages > 1 else ''} of the largest original size"
-    share = f"the footprints need {needed / texels:.0%} of the page texels"
+        return f"its regions do not fit on {pages} page{'s' if pages > 1 else ''} of the largest original size"
+    share = f"its regions need {needed / texels:.0%} of the page texels"
     if needed >= texels:
         return share + ", so no packing stores fewer"
     if not pot:

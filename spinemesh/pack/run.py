@@ -557,7 +557,7 @@ def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: d
 
 
 #: Why an atlas failed when memory ran out while it was packed (its files are copied as they are).
-NO_MEMORY = "not enough memory to pack it (the footprints, fills and pages take memory by their texels)"
+NO_MEMORY = "not enough memory to pack it (the regions' shapes, the placements tried and the pages take memory by their texels)"
 
 
 def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
