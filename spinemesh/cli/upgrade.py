@@ -168,14 +168,19 @@ def upgrade(
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -> None:
-    """``--preview``: the page, with a bar of the skeletons drawn, then where it is."""
+    """``--preview``: the page, with a bar of the skeletons drawn, then where it is and the seconds
+    it took (written after the run's timing line, so not in it: rendering every skeleton may take
+    longer than the upgrade)."""
+    import time
+
     from ..upgrade.preview import write_preview
 
+    t0 = time.perf_counter()
     with progress_bar("preview", transient=True, phases=True) as bars:
         task = bars.add_task("preview", total=len(result.written), project="")
         page = write_preview(result, project, out, preview, images_in=images_in,
                              on_skeleton=lambda: bars.advance(task))
-    console.print(f"preview: {page}", highlight=False, markup=False)
+    console.print(f"preview: {page} ({time.perf_counter() - t0:.1f} s)", highlight=False, markup=False)
 
 
 def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
@@ -295,7 +300,8 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
     plural = "es" if len(atlases) > 1 else ""
     if packed:
         before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
-        pages = f"{sum(a.pages_before for a in packed)} pages into {sum(a.pages_after for a in packed)}"
+        pages_before = sum(a.pages_before for a in packed)
+        pages = f"{pages_before} page{'s' if pages_before > 1 else ''} into {sum(a.pages_after for a in packed)}"
         did = [f"packed {len(packed)} of {len(atlases)} atlas{plural}: {pages}, {before - after:,} fewer page "
                f"texels ({1 - after / before:.0%})"]
     else:
