@@ -257,6 +257,19 @@ def test_mesh_of_a_jpeg_follows_the_art_not_its_rectangle(tmp_path):
 
 # --- output folder --------------------------------------------------------------------------
 
+@pytest.mark.parametrize("options", [["--pages", "any"], ["--max-page", "512", "--keep-files-as-exported"]])
+def test_packing_options_without_pack_are_refused_in_one_line(demo, tmp_path, options):
+    """Without --pack nothing is packed: a --pages any that was silently ignored would ship the
+    export's pages to a user who believes them packed."""
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), *options)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert "add --pack" in line and options[0] in line, line
+    assert not (tmp_path / "out").exists()
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), *options, "--pack", "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+
+
 def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
     out = tmp_path / "out"
     r = run("upgrade", str(demo), "--out", str(out), "--preview", str(tmp_path / "preview"))

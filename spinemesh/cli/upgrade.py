@@ -123,7 +123,8 @@ def upgrade(
     "kept" with the reason in the report. Exit status: 0 when everything asked was done;
     3 when some attachment or skeleton failed (it stays as it was; the report says why);
     2 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing
-    (as for an invalid option).
+    (as for an invalid option). A project with nothing to mesh (already meshes, or every region
+    kept) exits 0 with a warning, or, with --pack, with what was packed.
 
     A folder holding several projects (any depth: a project is the first folder holding a
     skeleton or an atlas) is upgraded project by project into the same tree under OUT, on one
@@ -141,6 +142,7 @@ def upgrade(
     from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library, write_report
 
+    _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
     _refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
@@ -181,6 +183,18 @@ def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -
         page = write_preview(result, project, out, preview, images_in=images_in,
                              on_skeleton=lambda: bars.advance(task))
     console.print(f"preview: {page} ({time.perf_counter() - t0:.1f} s)", highlight=False, markup=False)
+
+
+def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: bool) -> None:
+    """Refuse the packing options without ``--pack``: the run would pack nothing and say nothing,
+    and a user who asked for pages of any size would ship the export's pages unknowingly."""
+    from ..errors import SpineMeshError
+
+    given = [name for name, value in (("--pages", pages is not PageSides.original), ("--max-page", max_page is not None),
+                                      ("--keep-files-as-exported", keep_files)) if value]
+    if given and not pack:
+        raise SpineMeshError(f"{' and '.join(given)} {'applies' if len(given) == 1 else 'apply'} to packing only: "
+                             "add --pack (without it, every atlas is copied as exported)")
 
 
 def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
