@@ -90,7 +90,8 @@ def test_a_bending_region_is_meshed_and_weighted_with_auto_and_kept_with_none(tm
     assert set(bar.weights["bones"]) == {"upper", "lower"}
     # the rule finds that it bends, the learned choice (``auto``) binds it and says why
     assert all(why.startswith("learned:") for why in bar.weights["bones"].values()), bar.weights
-    assert bar.reason.startswith("meshed because it bends over 2 bones; the keep rule alone: not worth meshing")
+    assert bar.reason.startswith("meshed because it bends over 2 bones; without --weights auto it would stay a "
+                                 "region: not worth meshing")
     assert "overruled" not in bar.row() and "region" not in bar.row()
     out = attachments(tmp_path / "auto" / "bar.json")
     mesh = out[("bar", "bar")]

@@ -103,7 +103,8 @@ def weights_lines(targets: Sequence) -> list[str]:
     to_bend = sum(bool(t.weights.get("meshed_to_bend")) for t in meshed)
     back = sum(t.status == "kept" and t.weights.get("meshed_to_bend") is False for t in asked)
     if to_bend:
-        line += f"; {to_bend} of them meshed only to bend (the keep rule would have kept them)"
+        line += (f"; {to_bend} of those that bend meshed only to bend (without --weights auto they would "
+                 "stay regions, not worth meshing)")
     lines = [line]
     if back:
         lines.append(f"bones: {back} regions that might bend stayed regions (their mesh follows one bone)")

@@ -277,7 +277,8 @@ def _settle_bending(ref: AttachmentRef, t, outcome: Outcome) -> None:
     bends = outcome.status == "weighted" and len(outcome.bones) > 1
     t.weights["meshed_to_bend"] = bends
     if bends:
-        t.reason = f"meshed because it bends over {len(outcome.bones)} bones; the keep rule alone: {t.overruled}"
+        t.reason = (f"meshed because it bends over {len(outcome.bones)} bones; without --weights auto it would "
+                    f"stay a region: {t.overruled}")
         return
     why = (f"its mesh was weighted to {len(outcome.bones)} bone" if outcome.status == "weighted"
            else outcome.reason if outcome.status == "skipped" else f"its mesh was not weighted: {outcome.reason}")
