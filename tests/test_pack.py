@@ -228,6 +228,18 @@ def test_the_last_line_counts_atlases_packed_and_kept_and_a_kept_row_counts_no_r
     assert [c.strip() for c in packed.split("│")[5:7]] != ["-", "-"], packed
 
 
+def test_a_preview_inside_or_around_out_is_refused_in_one_line(meshed, tmp_path):
+    """Its pictures would ship with the packed project (or OUT would hold the preview): refused
+    before any work, as ``upgrade`` refuses it."""
+    out = tmp_path / "out"
+    for preview in (out / "preview", out, tmp_path):
+        r = _cli("pack", str(meshed), "--out", str(out), "--preview", str(preview))
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        (line,) = r.stderr.strip().splitlines()
+        assert "--preview" in line and "overlaps the output folder" in line, line
+        assert not out.exists()
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')

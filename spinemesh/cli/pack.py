@@ -52,7 +52,8 @@ def pack(
                                                    "outline and by rectangle, and why.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", metavar="DIR", help="Write an HTML page (DIR/index.html) with every page before and after, "
-                                         "its pictures as files beside it (DIR/img/).")] = None,
+                                         "its pictures as files beside it (DIR/img/); a folder beside OUT, "
+                                         "not inside it.")] = None,
     rotate: Annotated[bool, typer.Option("--rotate/--no-rotate", help="Let regions be stored turned by 90 "
                                          "degrees (every runtime reads it).")] = True,
     padding: Annotated[Optional[int], typer.Option(
@@ -96,6 +97,10 @@ def pack(
     from ..pack.atlas_pack import PageRules
 
     check_outputs([project_folder(project)], files=[report], folders=[preview])
+    from .upgrade import refuse_overlapping_outputs  # here: upgrade's options come from this module
+
+    # as upgrade does: pictures of the preview inside OUT would ship with the packed project
+    refuse_overlapping_outputs(out, {"--preview": preview})
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
                           rules=PageRules(pages.value, max_page), jobs=jobs or available_cores(),
                           larger_files=larger_files, keep_files_as_exported=keep_files_as_exported)

@@ -145,7 +145,7 @@ def upgrade(
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
-    _refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
+    refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
                  if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
@@ -197,7 +197,7 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
                              "add --pack (without it, every atlas is copied as exported)")
 
 
-def _refuse_overlapping_outputs(out: Path, others: dict) -> None:
+def refuse_overlapping_outputs(out: Path, others: dict) -> None:
     """Refuse an output folder given as OUT, inside OUT or holding OUT: a file of one would
     silently replace a file of the other (an editor image named like a page)."""
     from ..errors import OutputError
