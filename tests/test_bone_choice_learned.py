@@ -410,3 +410,34 @@ def test_bones_the_model_finds_unlikely_are_left_out_of_the_set_taken(monkeypatc
     picked["set"] = [at["beside"]]                                      # nothing likely left: the slot's bone
     alone = choose_learned(rig.bones, slot, world, tris, set(), {}, model, habits)
     assert alone.bones == [slot] and "every other bone taken was under 0.05" in alone.why[slot]
+
+
+def _raw_one_at_a_time(model: TreeEnsemble, x: np.ndarray) -> np.ndarray:
+    """The ensemble's definition: each row down each tree alone, the leaves added tree by tree."""
+    out = np.full(len(x), model.base)
+    for tree in model.trees:
+        leaves = []
+        for row in x:
+            n = 0
+            while tree["feature"][n] >= 0:
+                n = tree["left"][n] if row[tree["feature"][n]] <= tree["threshold"][n] else tree["right"][n]
+            leaves.append(tree["value"][n])
+        out += np.array(leaves)
+    return out
+
+
+def test_the_trees_walk_gives_each_rows_log_odds_to_the_bit():
+    model = shipped_model()
+    rng = np.random.default_rng(3)
+    # a tree that is one leaf, a missing value (goes right) and infinities among the rows
+    stump = {"feature": np.array([-1]), "threshold": np.array([0.0]), "left": np.array([0]),
+             "right": np.array([0]), "value": np.array([0.25])}
+    for ensemble in (model, model.sets, TreeEnsemble(model.features, -0.5, model.trees[:3] + [stump], 0.5, {})):
+        x = rng.normal(size=(300, len(ensemble.features))) * 2
+        x[rng.random(x.shape) < 0.05] = np.nan
+        x[rng.random(x.shape) < 0.02] = np.inf
+        x[rng.random(x.shape) < 0.02] = -np.inf
+        assert ensemble.raw(x).tobytes() == _raw_one_at_a_time(ensemble, x).tobytes()
+        assert ensemble.raw(x[:1]).tobytes() == _raw_one_at_a_time(ensemble, x[:1]).tobytes()
+        assert ensemble.raw(x[:0]).shape == (0,)
+    assert TreeEnsemble(model.features, 0.5, [], 0.5, {}).raw(np.zeros((2, len(model.features)))).tolist() == [0.5, 0.5]

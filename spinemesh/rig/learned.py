@@ -519,47 +519,64 @@ class TreeEnsemble:
 
     @cached_property
     def stacked(self) -> dict[str, np.ndarray]:
-        """All trees' nodes in flat arrays, tree after tree (each padded to the most nodes with
-        leaves of 0), children as flat indices: one walk serves every (tree, row) pair."""
-        most = max((len(t["feature"]) for t in self.trees), default=1)
-        shape = (len(self.trees), most)
-        out = {"feature": np.full(shape, -1, np.int64), "threshold": np.zeros(shape),
-               "left": np.zeros(shape, np.int64), "right": np.zeros(shape, np.int64), "value": np.zeros(shape)}
-        for i, t in enumerate(self.trees):
-            for key in out:
-                out[key][i, :len(t[key])] = t[key]
-        first = np.arange(len(self.trees))[:, None] * most
-        out["left"] += first
-        out["right"] += first
-        out = {key: v.ravel() for key, v in out.items()}
-        out["first"] = first.ravel()
-        return out
+        """All trees' nodes in flat arrays, tree after tree, for :meth:`raw`'s walk: one walk
+        serves every (tree, row) pair.
+
+        A node ``n`` of the flat numbering is read at the steps ``2n`` and ``2n + 1``:
+        ``feature`` and ``threshold`` (twice each), ``child`` (``2n``: the right child's step,
+        ``2n + 1``: the left's), so that a step plus whether the value is at most the
+        threshold is the next step, one look-up instead of two and a choice. A leaf leads to
+        itself (feature 0, threshold infinite) and is marked in ``leaf``; ``value`` is by node,
+        ``first`` each tree's root's step.
+        """
+        sizes = [len(t["feature"]) for t in self.trees]
+        first = np.cumsum([0] + sizes, dtype=np.int64)[:-1]
+        feature = np.concatenate([t["feature"] for t in self.trees]) if self.trees else np.zeros(0, np.int64)
+        leaf = feature < 0
+        node = np.arange(len(feature))
+        offset = np.repeat(first, sizes)
+
+        def child(key):
+            return np.where(leaf, node, np.concatenate([t[key] for t in self.trees]) + offset) if self.trees else node
+
+        threshold = np.concatenate([t["threshold"] for t in self.trees]) if self.trees else np.zeros(0)
+        steps = np.empty(2 * len(feature), np.int64)
+        steps[0::2], steps[1::2] = 2 * child("right"), 2 * child("left")
+        return {"feature": np.repeat(np.where(leaf, 0, feature), 2),
+                "threshold": np.repeat(np.where(leaf, np.inf, threshold), 2),
+                "child": steps, "leaf": np.repeat(leaf, 2), "first": 2 * first,
+                "value": np.concatenate([t["value"] for t in self.trees]) if self.trees else np.zeros(0)}
 
     def raw(self, x: np.ndarray) -> np.ndarray:
         """The ensemble's log-odds for each row of ``x`` (R, F).
 
         Every (tree, row) pair walks down a level at a time, only those not yet at a leaf (the
         120 per-bone trees on 741 candidates: 6.9 ms, against 20.8 ms for all pairs of a level
-        through two-dimensional indexing).
+        through two-dimensional indexing); a step is the next node's look-up by
+        :attr:`stacked`'s ``child`` (the 1,352 calls of a run of 45 skeletons: 0.54 -> 0.38 s
+        against a step's two look-ups and choice). The base and the trees' leaves are added
+        in one accumulation down the trees, tree by tree as the training library adds them.
         """
         x = np.asarray(x, float)
         s = self.stacked
         rows, width = x.shape
-        node = np.repeat(s["first"], rows)                   # the (tree, row) pairs, tree after tree
-        column = np.tile(np.arange(rows) * width, len(s["first"]))
+        trees = len(s["first"])
+        done = np.repeat(s["first"], rows)                   # the (tree, row) pairs, tree after tree
+        column = np.tile(np.arange(rows) * width, trees)
         cells = x.ravel()
-        walking = np.arange(len(node))
-        while len(walking):  # children come after their node (checked on reading): every walk ends
-            at = node[walking]
-            feature = s["feature"][at]
-            inner = feature >= 0
-            walking, at = walking[inner], at[inner]
-            go_left = cells[column[walking] + feature[inner]] <= s["threshold"][at]
-            node[walking] = np.where(go_left, s["left"][at], s["right"][at])
-        out = np.full(rows, self.base)
-        for leaf in s["value"][node].reshape(len(s["first"]), rows):  # tree by tree, as the training library adds them
-            out += leaf
-        return out
+        walking, at = np.arange(len(done)), done
+        # children come after their node (checked on reading): every walk ends
+        while len(walking):
+            at = s["child"][at + (cells[column + s["feature"][at]] <= s["threshold"][at])]
+            done[walking] = at
+            inner = ~s["leaf"][at]
+            walking, at, column = walking[inner], at[inner], column[inner]
+        # an accumulation adds in order, one term after the other (a reduction may add in pairs,
+        # as it does over one row): the same doubles as adding each tree's leaves in turn
+        terms = np.empty((trees + 1, rows))
+        terms[0] = self.base
+        terms[1:] = s["value"][done >> 1].reshape(trees, rows)
+        return np.add.accumulate(terms, axis=0)[-1]
 
     def probability(self, x: np.ndarray) -> np.ndarray:
         """Probability (R,) that an artist binds each candidate."""
