@@ -240,6 +240,20 @@ def test_a_preview_inside_or_around_out_is_refused_in_one_line(meshed, tmp_path)
         assert not out.exists()
 
 
+def test_a_report_that_would_replace_a_packed_file_is_refused(meshed, tmp_path):
+    """``--report OUT/demo.atlas`` replaced the packed atlas with JSON: refused in one line, the
+    atlas kept; a report of its own name inside OUT is written."""
+    out = tmp_path / "out"
+    r = _cli("pack", str(meshed), "--out", str(out), "--report", str(out / "demo.atlas"), "--jobs", "1")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert "--report would replace a file this run wrote" in line and "demo.atlas" in line, line
+    assert (out / "demo.atlas").read_text().lstrip()[:1] != "{"
+    r = _cli("pack", str(meshed), "--out", str(tmp_path / "out2"), "--report", str(tmp_path / "out2" / "r.json"),
+             "--jobs", "1")
+    assert r.returncode == 0 and (tmp_path / "out2" / "r.json").read_text().startswith("{"), r.stderr
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')

@@ -114,11 +114,11 @@ def pack(
             result = pack_library(project, out, options, progress=progress)
         else:
             result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
-    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project)
+    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project, out)
 
 
 def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path],
-                project: Path) -> None:
+                project: Path, out: Path) -> None:
     """Write what a pack run was asked for (report, preview), print its table and exit as it ended:
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
@@ -127,6 +127,9 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     from ..runs import EXIT_PARTIAL
 
     if report is not None:
+        from .upgrade import refuse_report_over_output
+
+        refuse_report_over_output(report, out)  # a report named like a packed atlas would replace it
         write_report(result, report)
     if preview is not None:
         from ..pack.preview import write_preview

@@ -156,11 +156,8 @@ def upgrade(
     library = is_library(project)
     result = _run(project, out, options, library)
     if report is not None:
-        from ..errors import OutputError
-        from ..fsutil import is_within
-
-        if not dry_run and is_within(report, out) and report.exists():  # OUT was empty when the run began
-            raise OutputError("--report would replace a file this run wrote; name it apart", report)
+        if not dry_run:
+            refuse_report_over_output(report, out)
         write_report(result, report)
     _print_result(result, dry_run)
     nothing = _nothing_to_do(result, project, only or exclude)
@@ -195,6 +192,16 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
     if given and not pack:
         raise SpineMeshError(f"{' and '.join(given)} {'applies' if len(given) == 1 else 'apply'} to packing only: "
                              "add --pack (without it, every atlas is copied as exported)")
+
+
+def refuse_report_over_output(report: Path, out: Path) -> None:
+    """Refuse a ``--report`` that would replace a file the run wrote in OUT (an atlas, a skeleton):
+    OUT was empty when the run began, so any file there at the end is the run's."""
+    from ..errors import OutputError
+    from ..fsutil import is_within
+
+    if is_within(report, out) and report.exists():
+        raise OutputError("--report would replace a file this run wrote; name it apart", report)
 
 
 def refuse_overlapping_outputs(out: Path, others: dict) -> None:
