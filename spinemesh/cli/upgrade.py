@@ -81,7 +81,9 @@ _Weights = Annotated[Weights, typer.Option(
     "--weights", help="none: meshes bound to their slot's bone, as the regions were; auto: also bound "
                       "to the bones an artist would bind, with vertices at the joints and automatic "
                       "weights (as 'spinemesh weights' chooses them, --bones auto; the same choice "
-                      "picks the regions that bend).")]
+                      "picks the regions that bend). A mesh bends only where a bone besides its slot's "
+                      "is likely for its art (a sleeve over an elbow); the others follow their slot's "
+                      "bone, and the console counts both.")]
 
 
 @app.command()
