@@ -69,7 +69,7 @@ def write_preview(result, folder: str | Path) -> Path:
     sections = [atlas_section(files, rel, before, after, rows[rel]) for rel, before, after in result.previews]
     kept = [a for a in result.atlases if a.status != "packed"]
     if kept:
-        sections.append("<h2>atlases kept as they were</h2><table><tr><th>atlas</th><th>why</th></tr>" + "".join(
+        sections.append("<h2>atlases that kept their layout</h2><table><tr><th>atlas</th><th>why</th></tr>" + "".join(
             f"<tr><td style=\"text-align:left\">{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
             f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
     t = result.totals()

@@ -512,7 +512,7 @@ def _atlas_pages(folder: PreviewFolder, result, project_root: Path, out: Path) -
                      f"<h4>after</h4><div class=\"pages\">{after}</div>")
     kept = [a for a in result.atlases if a.status != "packed"]
     if kept:
-        parts.append("<h3>atlases kept as they were</h3><table class=\"sum\"><tr><th>atlas</th><th>why</th></tr>"
+        parts.append("<h3>atlases that kept their layout</h3><table class=\"sum\"><tr><th>atlas</th><th>why</th></tr>"
                      + "".join(f"<tr><td>{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
                                f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
     return "<h2>Atlas pages</h2>" + "".join(parts) if parts else ""
