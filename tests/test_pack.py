@@ -254,6 +254,33 @@ def test_a_report_that_would_replace_a_packed_file_is_refused(meshed, tmp_path):
     assert r.returncode == 0 and (tmp_path / "out2" / "r.json").read_text().startswith("{"), r.stderr
 
 
+def test_progress_is_told_every_atlas_of_the_run_before_the_first(meshed, tmp_path):
+    """The run's bar (atlases done of all, with the time left) needs the count up front: a library
+    knows all its atlases before it packs one."""
+    from spinemesh.pack.run import PackProgress, pack_library
+
+    class Told(PackProgress):
+        def __init__(self) -> None:
+            self.said: list = []
+
+        def atlases(self, count: int) -> None:
+            self.said.append(("atlases", count))
+
+        def done(self, name: str) -> None:
+            self.said.append(("done", name))
+
+    library = tmp_path / "library"
+    library.mkdir()
+    _copy(meshed, library / "a")
+    _copy(meshed, library / "b")
+    told = Told()
+    pack_library(library, tmp_path / "out", PackOptions(jobs=1), progress=told)
+    assert told.said == [("atlases", 2), ("done", "a/demo.atlas"), ("done", "b/demo.atlas")], told.said
+    told = Told()
+    pack_project(library / "a", tmp_path / "out-a", PackOptions(jobs=1), progress=told)
+    assert told.said == [("atlases", 1), ("done", "demo.atlas")], told.said
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')

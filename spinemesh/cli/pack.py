@@ -173,6 +173,11 @@ def atlas_bars(bars, phase: str = ""):
     class Bars(PackProgress):
         def __init__(self) -> None:
             self.tasks: dict[str, int] = {}
+            self.whole: int | None = None  # the run's atlases done, with the time left for them all
+
+        def atlases(self, count: int) -> None:
+            if count > 1 and not phase:  # one atlas: its own bar says it all
+                self.whole = bars.add_task("atlases", total=count)
 
         def atlas(self, name: str, steps: int) -> None:
             if name not in self.tasks:
@@ -191,6 +196,8 @@ def atlas_bars(bars, phase: str = ""):
             if name in self.tasks:
                 task = self.tasks[name]
                 bars.update(task, completed=bars.tasks[task].total or 1, total=bars.tasks[task].total or 1)
+            if self.whole is not None:
+                bars.advance(self.whole)
 
     return Bars()
 

@@ -70,6 +70,10 @@ class PackProgress:
     as it goes, so :meth:`atlas` may be called again for the same atlas with more steps.
     """
 
+    def atlases(self, count: int) -> None:
+        """The run packs ``count`` atlases in all (told once, before the first; :func:`pack_project`
+        and :func:`pack_library` know them all before they start)."""
+
     def atlas(self, name: str, steps: int) -> None:
         """``steps`` more steps of the atlas ``name`` are known."""
 
@@ -1003,6 +1007,7 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
         raise nothing_to_pack(proj.root, proj.problems)
     check_output_folder(proj.root, out)
     result = PackResult()
+    progress.atlases(len(project_atlases(proj)))
     with output_folder(out, options.overwrite):
         pack_project_into(proj, out, options, result, keep_previews=keep_previews, progress=progress)
     return result
@@ -1043,6 +1048,7 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
     found = [p for _, p in projects if isinstance(p, Project)]
     if len(found) == len(projects) and not any([project_atlases(p) for p in found]):
         raise nothing_to_pack(library, [q for p in found for q in p.problems], "no atlas to pack in any of its projects")
+    progress.atlases(sum(len(project_atlases(p)) for p in found))
     with output_folder(out, options.overwrite), open_workers(options.jobs, options.dask) as workers:
         for folder, proj in projects:
             rel = folder.relative_to(library).as_posix()
