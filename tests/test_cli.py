@@ -346,7 +346,7 @@ def test_an_upgraded_project_has_nothing_to_do(demo, tmp_path):
     # with --pack the same run packs: it says what it packed, not that it did nothing
     r = run("upgrade", str(tmp_path / "a"), "--out", str(tmp_path / "c"), "--pack")
     assert r.returncode == 0 and "warning" not in r.stderr, r.stderr
-    assert "nothing meshed (every" in r.stdout and "packed 1 of 1 atlas: 1 page into 1" in r.stdout, r.stdout
+    assert "nothing meshed: every" in r.stdout and "packed 1 of 1 atlas: 1 page into 1" in r.stdout, r.stdout
 
 
 def test_a_run_that_only_rewrites_pages_says_so(tmp_path):

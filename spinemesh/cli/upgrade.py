@@ -335,7 +335,7 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
     before, after = sum(a.bytes_before for a in atlases), sum(a.bytes_after for a in atlases)
     if before:
         did.append(f"atlas files {before:,} -> {after:,} bytes ({after / before - 1:+.0%})")
-    return f"nothing meshed ({meshed_nothing}); " + "; ".join(did)
+    return f"nothing meshed: {meshed_nothing}; " + "; ".join(did)
 
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> str:
