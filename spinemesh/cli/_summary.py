@@ -99,7 +99,8 @@ def weights_lines(targets: Sequence) -> list[str]:
         line += (f": {len(bending)} bend over {spread} bones"
                  f" (median {statistics.median(bending):g}), {len(bones) - len(bending)} follow one bone")
     elif weighted:
-        line += ", each to one bone (no bone crosses their art)"
+        # not "no bone crosses their art": bones over the art are left out too when unlikely (another part)
+        line += ", each to one bone (no other bone is likely to bend their art)"
     to_bend = sum(bool(t.weights.get("meshed_to_bend")) for t in meshed)
     back = sum(t.status == "kept" and t.weights.get("meshed_to_bend") is False for t in asked)
     if to_bend:
