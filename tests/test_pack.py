@@ -281,6 +281,16 @@ def test_progress_is_told_every_atlas_of_the_run_before_the_first(meshed, tmp_pa
     assert told.said == [("atlases", 1), ("done", "demo.atlas")], told.said
 
 
+def test_changes_read_as_shares_never_minus_zero():
+    from spinemesh.cli.pack import share_change
+
+    assert share_change(131_072, 65_536) == "-50%"
+    assert share_change(100, 100) == "same"
+    assert share_change(1_779_602, 1_778_912) == "-0.04%"  # whole percents said "-0%"
+    assert share_change(77_933, 77_976) == "+0.1%"
+    assert share_change(1000, 1004) == "+0.4%"
+
+
 def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     project = _copy(meshed, tmp_path / "broken")
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')

@@ -145,6 +145,20 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
         raise typer.Exit(EXIT_PARTIAL)
 
 
+def share_change(before: int, after: int) -> str:
+    """``after`` against ``before`` (> 0) as a signed share: ``-50%``; ``same`` when equal, and
+    with the first digit that is not zero when whole percents would round a change to ``-0%``."""
+    ratio = after / before - 1
+    if after == before:
+        return "same"
+    if abs(ratio) >= 0.005:
+        return f"{ratio:+.0%}"
+    digits = 1
+    while abs(round(ratio * 100, digits)) == 0:
+        digits += 1
+    return f"{ratio:+.{digits}%}"
+
+
 def outcome_line(atlases: list) -> str:
     """What a pack run did to its atlases, counted by outcome, e.g. ``"packed 1 of 3 atlases, 2 kept
     in their layout (the note says why)"``: an atlas counts as packed only where its layout was
@@ -215,7 +229,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         table.add_column(col, justify="left" if col in ("atlas", "note") else "right")
 
     def change(before: int, after: int) -> str:
-        return f"{before:,} -> {after:,} ({after / before - 1:+.0%})" if before else "-"
+        return f"{before:,} -> {after:,} ({share_change(before, after)})" if before else "-"
 
     def regions(a) -> tuple[str, str]:
         # a kept atlas's regions stay where they were: counting them as packed by rectangle would say otherwise
