@@ -270,6 +270,15 @@ def test_packing_options_without_pack_are_refused_in_one_line(demo, tmp_path, op
     assert r.returncode == 0, r.stderr
 
 
+def test_a_dry_run_with_pack_says_it_packed_nothing(demo, tmp_path):
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), "--pack", "--dry-run", "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    assert "dry run: nothing packed" in r.stdout and "spinemesh pack" not in r.stdout, r.stdout
+    assert not (tmp_path / "out").exists()
+    r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), "--dry-run", "--jobs", "1")
+    assert "nothing packed" not in r.stdout, r.stdout
+
+
 def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
     out = tmp_path / "out"
     r = run("upgrade", str(demo), "--out", str(out), "--preview", str(tmp_path / "preview"))

@@ -162,6 +162,9 @@ def upgrade(
             refuse_report_over_output(report, out)
         write_report(result, report)
     _print_result(result, dry_run)
+    if dry_run and pack:  # packing reads the meshes written: a dry run writes none
+        console.print("dry run: nothing packed (--pack packs the meshes a run writes; the counts above are "
+                      "planned, before the test of what is worth meshing)", highlight=False, markup=False)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in)
