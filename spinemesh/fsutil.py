@@ -185,6 +185,22 @@ def project_folder(path: str | Path) -> Path:
     return path.parent
 
 
+def refuse_report_over_output(report: Path, out: Path) -> None:
+    """Refuse a ``--report`` that would replace a file the run wrote in OUT (an atlas, a skeleton):
+    OUT was empty when the run began, so any file there at the end is the run's."""
+    if is_within(report, out) and report.exists():
+        raise OutputError("--report would replace a file this run wrote; name it apart", report)
+
+
+def refuse_overlapping_outputs(out: Path, others: dict) -> None:
+    """Refuse an output folder given as OUT, inside OUT or holding OUT: a file of one would
+    silently replace a file of the other (an editor image named like a page)."""
+    for option, path in others.items():
+        if path is not None and (is_within(path, out) or is_within(out, path)):
+            raise OutputError(f"{option} {path} overlaps the output folder {out}; give a folder or file "
+                              "beside it", path)
+
+
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
                   folders: Iterable[str | Path | None] = ()) -> None:
     """Check, before any work, every output a command was given (``None`` entries are ignored).

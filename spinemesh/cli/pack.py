@@ -87,18 +87,15 @@ def pack(
     Example: spinemesh pack project/ --out packed/ --pages any --max-page 4096 --jobs 4
     Example: spinemesh upgrade project/ --out meshed/ --pack
     """
-    from ..fsutil import check_outputs, project_folder
-    from ..pack.run import PackOptions, pack_library, pack_project
-    from ..upgrade import is_library
-
     import time
 
     from ..cluster import available_cores
+    from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
     from ..pack.atlas_pack import PageRules
+    from ..pack.run import PackOptions, pack_library, pack_project
+    from ..upgrade import is_library
 
     check_outputs([project_folder(project)], files=[report], folders=[preview])
-    from .upgrade import refuse_overlapping_outputs  # here: upgrade's options come from this module
-
     # as upgrade does: pictures of the preview inside OUT would ship with the packed project
     refuse_overlapping_outputs(out, {"--preview": preview})
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
@@ -123,12 +120,11 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
+    from ..fsutil import refuse_report_over_output
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL
 
     if report is not None:
-        from .upgrade import refuse_report_over_output
-
         refuse_report_over_output(report, out)  # a report named like a packed atlas would replace it
         write_report(result, report)
     if preview is not None:

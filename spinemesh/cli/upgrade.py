@@ -140,9 +140,9 @@ def upgrade(
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack --pages any --max-page 2048
     """
     from ..cluster import available_cores
-    from ..fsutil import check_outputs, project_folder
+    from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
     from ..pack.atlas_pack import PageRules
-    from ..upgrade import Options, is_library, write_report
+    from ..upgrade import Options, is_library
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
@@ -157,10 +157,7 @@ def upgrade(
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     result = _run(project, out, options, library)
-    if report is not None:
-        if not dry_run:
-            refuse_report_over_output(report, out)
-        write_report(result, report)
+    _write_report(result, report, out, dry_run)
     _print_result(result, dry_run)
     if dry_run and pack:  # packing reads the meshes written: a dry run writes none
         console.print("dry run: nothing packed (--pack packs the meshes a run writes; the counts above are "
@@ -169,6 +166,17 @@ def upgrade(
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in)
     _exit(result, nothing)
+
+
+def _write_report(result, report: Path | None, out: Path, dry_run: bool) -> None:
+    """``--report``: the run's report as JSON, never over a file the run wrote in OUT."""
+    from ..fsutil import refuse_report_over_output
+    from ..upgrade import write_report
+
+    if report is not None:
+        if not dry_run:
+            refuse_report_over_output(report, out)
+        write_report(result, report)
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -> None:
@@ -197,28 +205,6 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
     if given and not pack:
         raise SpineMeshError(f"{' and '.join(given)} {'applies' if len(given) == 1 else 'apply'} to packing only: "
                              "add --pack (without it, every atlas is copied as exported)")
-
-
-def refuse_report_over_output(report: Path, out: Path) -> None:
-    """Refuse a ``--report`` that would replace a file the run wrote in OUT (an atlas, a skeleton):
-    OUT was empty when the run began, so any file there at the end is the run's."""
-    from ..errors import OutputError
-    from ..fsutil import is_within
-
-    if is_within(report, out) and report.exists():
-        raise OutputError("--report would replace a file this run wrote; name it apart", report)
-
-
-def refuse_overlapping_outputs(out: Path, others: dict) -> None:
-    """Refuse an output folder given as OUT, inside OUT or holding OUT: a file of one would
-    silently replace a file of the other (an editor image named like a page)."""
-    from ..errors import OutputError
-    from ..fsutil import is_within
-
-    for option, path in others.items():
-        if path is not None and (is_within(path, out) or is_within(out, path)):
-            raise OutputError(f"{option} {path} overlaps the output folder {out}; give a folder or file "
-                              "beside it", path)
 
 
 def _phase_progress(bars):
