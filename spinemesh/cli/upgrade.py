@@ -12,7 +12,7 @@ from typing import List
 
 import typer
 
-from .pack import PageSides, _KeepFiles, _MaxPage, _Pages
+from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
 from .weights import Weights
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
@@ -323,7 +323,7 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
         did.append(f"{reencoded} page{'s' if reencoded > 1 else ''} of kept atlases re-encoded losslessly")
     before, after = sum(a.bytes_before for a in atlases), sum(a.bytes_after for a in atlases)
     if before:
-        did.append(f"atlas files {before:,} -> {after:,} bytes ({after / before - 1:+.0%})")
+        did.append(f"atlas files {before:,} -> {after:,} bytes ({share_change(before, after)})")
     return f"nothing meshed: {meshed_nothing}; " + "; ".join(did)
 
 
