@@ -18,7 +18,6 @@ Two layouts:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -155,10 +154,21 @@ class Keys:
         return i, percent_3(self.bezier[i], p) if kind == BEZIER else min(1.0, max(0.0, p))
 
 
+#: The largest magnitude a float32 holds: the runtimes store keys as float32, so a key beyond
+#: it (``1e300``, an integer of 400 digits) is not a number they can hold.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 def _number(value, default: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    """``value`` as a float; ``default`` for what is not a number a float32 holds (text, a
+    boolean, ``1e300``, an integer too large for a float)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         return float(default)
-    return float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        return float(default)
+    return v if abs(v) <= FLOAT32_MAX else float(default)
 
 
 def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bool = False) -> Keys | None:

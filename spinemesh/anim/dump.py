@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .pose import Sampler, steps_of
+from .pose import POSE_ERRORS, Sampler, _clean, steps_of
 
 
 def js_number(value: float) -> str:
@@ -63,11 +63,19 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
             "fileVersion": str((sampler.doc.get("skeleton") or {}).get("spine", "")),
             "bones": len(sampler.bone_names), "slots": len(sampler.slot_names),
             "skins": list(sampler.skins),
-            "animations": [{"name": n, "duration": round(sampler.duration(n), 6)}
-                           for n in sampler.animation_names()],
+            "animations": [{"name": n, "duration": _duration(sampler, n)} for n in sampler.animation_names()],
         },
         "poses": out,
     }
+
+
+def _duration(sampler: Sampler, name: str) -> float | None:
+    """An animation's duration as the dump lists it; None for one that cannot be read (that
+    animation alone is refused when it is posed, never the others)."""
+    try:
+        return _clean(round(sampler.duration(name), 6))
+    except POSE_ERRORS:
+        return None
 
 
 def advance_clock(clock: float, time: float, fps: float = 60.0) -> float:

@@ -26,10 +26,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..limits import MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
+from .curves import _number
 from .timelines import Animation, color_channels, read_animation, search
 
 #: What reading or playing an animation raises where a document the loader let through holds
@@ -187,12 +189,17 @@ def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool =
     The harness (and a game loop at ``fps``) advances the track in ``round(time * fps)``
     equal steps, adding each step to the track time; a looping track then applies the
     animation at ``track time % duration`` (the remainder carries the steps' rounding,
-    which decides which side of a loop boundary a time on it falls).
+    which decides which side of a loop boundary a time on it falls). Beyond
+    :data:`~spinemesh.limits.MAX_POSE_STEPS` steps (an animation hours long) the track time is
+    their product, so that a key at ``1e30`` s costs no more than one at 1 s.
     """
     steps, dt = steps_of(time, fps)
     track = 0.0
-    for _ in range(steps):
-        track += dt
+    if steps > MAX_POSE_STEPS:  # summed step by step only where a game could reach it: time stays bounded
+        track = steps * dt
+    else:
+        for _ in range(steps):
+            track += dt
     if not loop:
         return track
     return math.fmod(track, duration) if duration > 0 else 0.0
@@ -290,7 +297,7 @@ class Sampler:
                 frames = np.zeros((len(d.raw), len(setup)))
                 for i, (offset, verts) in enumerate(d.raw):
                     if isinstance(verts, list) and verts:
-                        v = np.asarray([x if isinstance(x, (int, float)) else 0.0 for x in verts], float)
+                        v = np.asarray([_number(x, 0.0) for x in verts], float)
                         end = min(len(setup), offset + len(v))
                         if 0 <= offset < end:
                             frames[i, offset:end] = v[:end - offset]
@@ -390,6 +397,9 @@ class Sampler:
         at track time 0, then steps of ``dt`` s, physics updated at each; yields
         ``(frame, world, exact, why)`` at each step count of ``targets`` (ascending)."""
         anim = self.animation(animation)[0]
+        if targets and targets[-1] > MAX_POSE_STEPS:  # each step is replayed: refused, not hours of work
+            raise SpineMeshError(f"animation {animation!r}: {targets[-1] * dt:g} s is over {MAX_POSE_STEPS:,} "
+                                 "game-loop steps of its physics")
         for state in self.physics:
             state.clock, state.mode = clock, RESET
         self._pose_bones(self._frame(None, 0.0, -1.0), simulated=True)
@@ -645,12 +655,10 @@ def _sequence_index(frames: list[dict], i: int, before: float, t: float, count: 
     """4.1+ ``SequenceTimeline``: the frame shown ``t - before`` seconds after key ``i``."""
     delay = 0.0
     for f in frames[:i + 1]:  # a key without delay keeps the one before
-        d = f.get("delay")
-        if isinstance(d, (int, float)) and not isinstance(d, bool):
-            delay = float(d)
+        if "delay" in f:
+            delay = _number(f["delay"], delay)
     key = frames[i]
-    index = key.get("index", 0)
-    index = int(index) if isinstance(index, (int, float)) and not isinstance(index, bool) else 0
+    index = int(_number(key.get("index", 0), 0))
     mode = key.get("mode", "hold")
     mode = mode if mode in _SEQUENCE_MODES else "hold"
     if mode == "hold":

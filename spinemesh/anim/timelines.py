@@ -335,7 +335,12 @@ def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends
 
 def _draw_order(offsets, slot_index: dict) -> list[int] | None:
     """The runtimes' draw order from a key's ``offsets`` (each slot moved by its offset, the
-    others keeping their order in the gaps); None for a key without offsets (setup order)."""
+    others keeping their order in the gaps); None for a key without offsets (setup order).
+
+    What the runtimes cannot read (they fail on it) is passed over, so that the order holds
+    every slot once: an offset naming a slot before the one the last offset named (out of slot
+    order, or named twice), and one moving its slot out of the list or onto a place another
+    offset took (that slot keeps its order in the gaps)."""
     if not isinstance(offsets, list):
         return None
     count = len(slot_index)
@@ -346,19 +351,23 @@ def _draw_order(offsets, slot_index: dict) -> list[int] | None:
         if not isinstance(o, dict) or str(o.get("slot")) not in slot_index:
             continue
         s = slot_index[str(o.get("slot"))]
-        while original != s and original < count:
+        if s < original:
+            continue
+        while original != s:
             unchanged.append(original)
             original += 1
         at = original + int(_number(o.get("offset", 0), 0))
-        if 0 <= at < count:
+        if 0 <= at < count and order[at] == -1:
             order[at] = original
+        else:
+            unchanged.append(original)
         original += 1
     while original < count:
         unchanged.append(original)
         original += 1
     for i in range(count - 1, -1, -1):
         if order[i] == -1:
-            order[i] = unchanged.pop() if unchanged else i
+            order[i] = unchanged.pop()
     return order
 
 

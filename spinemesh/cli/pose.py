@@ -59,7 +59,7 @@ def pose(
     Example: spinemesh pose hero.json --animation run --times 0.2,0.5 --out pose.json
     Example: spinemesh pose hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
-    from ..anim import Sampler, atlas_regions
+    from ..anim import POSE_ERRORS, Sampler, atlas_regions
     from ..anim.dump import dump
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
@@ -95,8 +95,11 @@ def pose(
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
-        result = dump(sampler, animation, seconds if animation else [], str(skeleton), fps,
-                      step=lambda: bar.advance(task))
+        try:
+            result = dump(sampler, animation, seconds if animation else [], str(skeleton), fps,
+                          step=lambda: bar.advance(task))
+        except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot play
+            raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
     if out is None:
         typer.echo(strict_json(result, None, skeleton))
     else:

@@ -1,0 +1,240 @@
+"""Hostile input, fifth round: the surfaces of wave 4 (``pose`` and its sampler, the preview
+player, ``pack``'s page formats and extremes, Spine 3.5 binaries).
+
+Every project is made here by our own code (small skeletons written as JSON, the demo project
+drawn by ``spinemesh.demo``); nothing is copied from real data. What each case checks is what
+docs/safety.md promises: no traceback, one line naming the file, nothing non-finite written,
+one bad animation never stopping the others, time and memory bounded whatever a file says.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import signal
+from contextlib import contextmanager
+
+import numpy as np
+import pytest
+from test_anim import _doc
+from test_hostile import check_run, run_cli, snapshot
+
+from spinemesh.anim import Sampler
+from spinemesh.anim.dump import dump
+from spinemesh.anim.timelines import _draw_order
+from spinemesh.skeleton import load_skeleton
+from spinemesh.skeleton_binary import SkelFormatError, read_skel, write_skel
+
+
+@contextmanager
+def within(seconds: int):
+    """Fail (instead of hanging) when the block takes longer than ``seconds``."""
+    def expire(*_):
+        raise TimeoutError(f"took longer than {seconds} s")
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+# --- pose and the sampler -------------------------------------------------------------------
+
+#: An integer JSON parses (under Python's 4300 digits) that no float holds.
+BIG = int("1" + "0" * 400)
+
+#: Animations a document may hold that no runtime would play sensibly: each must pose (or be
+#: refused alone, in one line), write nothing non-finite and change no other animation.
+HOSTILE_ANIMATIONS = {
+    "a key at 1e30 s": {"bones": {"arm": {"rotate": [{"time": 1e30, "value": 5}]}}},
+    "a key at 1e300 s (beyond float32)": {"bones": {"arm": {"rotate": [{"time": 1e300, "value": 5}]}}},
+    "an event at 1e300 s": {"events": [{"time": 1e300, "name": "x"}]},
+    "negative times": {"bones": {"arm": {"rotate": [{"time": -5, "value": 5}, {"time": -1, "value": 50}]}}},
+    "a value of 1e300": {"bones": {"arm": {"rotate": [{"time": 0, "value": 1e300}]}}},
+    "a translation of 1e38": {"bones": {"arm": {"translate": [{"time": 0, "x": 1e38, "y": 1e38}]}}},
+    "bezier handles of 1e30": {"bones": {"arm": {"rotate": [
+        {"time": 0, "value": 0, "curve": [1e30, -1e30, -1e30, 1e30]}, {"time": 1, "value": 90}]}}},
+    "a bezier over no time": {"bones": {"arm": {"rotate": [
+        {"time": 0.5, "value": 0, "curve": [0.5, 1, 0.5, 2]}, {"time": 0.5, "value": 90}]}}},
+    "a 3.8 curve in a 4.2 file": {"bones": {"arm": {"rotate": [
+        {"time": 0, "value": 0, "curve": 0.25, "c2": 9, "c3": 0.5}, {"time": 1, "value": 90}]}}},
+    "keys out of order": {"bones": {"arm": {"rotate": [
+        {"time": 1, "value": 0}, {"time": 0.2, "value": 90}, {"time": 0.5, "value": 9}]}}},
+    "zero duration": {"bones": {"arm": {"rotate": [{"time": 0, "value": 30}]}}},
+    "empty": {},
+    "timelines of what does not exist": {
+        "bones": {"nobone": {"rotate": [{"time": 1}]}}, "slots": {"noslot": {"rgba": [{"time": 1}]}},
+        "ik": {"noik": [{"time": 1, "mix": 0}]}, "transform": {"no": [{"time": 1}]},
+        "path": {"no": {"mix": [{"time": 1}]}}, "physics": {"nop": {"reset": [{"time": 1}]}},
+        "attachments": {"noskin": {"s": {"a": {"deform": [{"time": 1, "vertices": [1, 2]}]}}}}},
+    "a deform of 500 numbers on 3 vertices, offset a billion": {"attachments": {"default": {"m": {"mesh": {
+        "deform": [{"time": 0, "vertices": [1] * 500, "offset": 3}, {"time": 1, "offset": 10**9, "vertices": [1]}]}}}}},
+    "a weighted deform cut short, negative offset": {"attachments": {"default": {"w": {"weighted": {
+        "deform": [{"time": 0, "vertices": [1e30] * 100}, {"time": 1, "offset": -5, "vertices": [3]}]}}}}},
+    "a deform of a region": {"attachments": {"default": {"s": {"a": {"deform": [{"time": 0, "vertices": [1, 2, 3]}]}}}}},
+    "draw order offsets of a billion": {"drawOrder": [{"time": 0.1, "offsets": [
+        {"slot": "s", "offset": 1e9}, {"slot": "s", "offset": -3}, {"slot": "m", "offset": 1.5}]}]},
+    "draw order offsets out of slot order": {"drawOrder": [{"time": 0, "offsets": [
+        {"slot": "w", "offset": -2}, {"slot": "m", "offset": -1}]}]},
+    "draw order offsets onto one place": {"drawOrder": [{"time": 0, "offsets": [
+        {"slot": "m", "offset": 1}, {"slot": "w", "offset": 0}]}]},
+    "attachment keys at one time": {"slots": {"s": {"attachment": [
+        {"time": 0.5, "name": "b"}, {"time": 0.5, "name": None}, {"time": 0.2, "name": "zz"}]}}},
+    "colour curves of a billion": {"slots": {"s": {"rgba": [
+        {"time": 0, "color": "ffffff", "curve": [0, 1e9, 1, -1e9] * 4}, {"time": 1, "color": "00000000"}],
+        "alpha": [{"time": 0, "value": 1e20}]}}},
+    "IK mix 1e30, softness -1e30": {"ik": {"x": [{"time": 0, "mix": 1e30, "softness": -1e30}]}},
+    "an unknown inherit mode": {"bones": {"arm": {"inherit": [{"time": 0, "inherit": "bogus"}, {"time": "x"}]}}},
+    "a sequence index of 1e20, delay 1e-30": {"attachments": {"default": {"s": {"a": {"sequence": [
+        {"time": 0, "mode": "loop", "delay": 1e-30, "index": 1e20}]}}}}},
+    # integers of 400 digits: Python's JSON reads them, no float holds them
+    "a key time of 400 digits": {"bones": {"arm": {"rotate": [{"time": BIG, "value": 5}]}}},
+    "a value of 400 digits": {"bones": {"arm": {"rotate": [{"time": 0, "value": BIG}]}}},
+    "a curve handle of 400 digits": {"bones": {"arm": {"rotate": [
+        {"time": 0, "value": 0, "curve": [BIG, 1, 1, 1]}, {"time": 1, "value": 90}]}}},
+    "deform vertices of 400 digits": {"attachments": {"default": {"m": {"mesh": {
+        "deform": [{"time": 0, "vertices": [BIG]}]}}}}},
+    "a deform offset of 400 digits": {"attachments": {"default": {"m": {"mesh": {
+        "deform": [{"time": 0, "offset": BIG, "vertices": [1]}]}}}}},
+    "a draw order offset of 400 digits": {"drawOrder": [{"time": 0, "offsets": [{"slot": "s", "offset": BIG}]}]},
+    "a sequence delay of 400 digits": {"attachments": {"default": {"s": {"a": {"sequence": [
+        {"time": 0, "mode": "loop", "delay": BIG, "index": BIG}]}}}}},
+}
+
+TIMES = [0.0, 0.3, 0.5, 1.0, 2.7]
+
+
+def _hostile_doc(version: str = "4.2.00") -> dict:
+    doc = _doc()
+    doc["skeleton"]["spine"] = version
+    doc["ik"] = [{"name": "x", "bones": ["arm"], "target": "root"}]
+    doc["events"] = {"x": {}}
+    doc["animations"].update(copy.deepcopy(HOSTILE_ANIMATIONS))
+    return doc
+
+
+def _strict(obj) -> dict:
+    return json.loads(json.dumps(obj, allow_nan=False))
+
+
+def test_every_hostile_animation_poses_finite_and_leaves_the_others_alone():
+    alone = _hostile_doc()
+    alone["animations"] = {"turn": alone["animations"]["turn"]}
+    clean = _strict(dump(Sampler(alone), "turn", TIMES))
+    sampler = Sampler(_hostile_doc())
+    with within(60):
+        for name in HOSTILE_ANIMATIONS:
+            out = _strict(dump(sampler, name, TIMES))      # allow_nan=False: nothing non-finite
+            assert [p["label"] for p in out["poses"]][1:] == [f"{name}@{t:g}" for t in TIMES]
+            durations = {a["name"]: a["duration"] for a in out["skeleton"]["animations"]}
+            assert all(d is None or abs(d) < 1e39 for d in durations.values())
+        turn = _strict(dump(sampler, "turn", TIMES))
+    assert turn["poses"] == clean["poses"]
+
+
+def test_draw_order_keys_the_runtimes_cannot_read_still_draw_every_slot_once():
+    slots = {"a": 0, "b": 1, "c": 2, "d": 3}
+    for offsets in ([{"slot": "d", "offset": -3}, {"slot": "b", "offset": 1}],   # out of slot order
+                    [{"slot": "b", "offset": 1}, {"slot": "c", "offset": 0}],    # onto one place
+                    [{"slot": "a", "offset": 10**9}, {"slot": "a", "offset": -1}],
+                    [{"slot": "a", "offset": 3}, {"slot": "b", "offset": 2}, {"slot": "c", "offset": -2}]):
+        assert sorted(_draw_order(offsets, slots)) == [0, 1, 2, 3], offsets
+    # what the runtimes read is unchanged: d to the front, the others in the gaps
+    assert _draw_order([{"slot": "d", "offset": -3}], slots) == [3, 0, 1, 2]
+
+
+@pytest.mark.parametrize("version", ["4.2.00", "3.8.99"])
+def test_hostile_animations_of_binary_skeletons_pose_finite(version):
+    """The same animations written as a .skel by our writer (where the format holds them: a
+    float32 file cannot hold 400 digits, a 3.8 file no 4.x timeline) and read back."""
+    doc = _hostile_doc(version)
+    if version.startswith("3"):
+        doc["skins"] = {"default": doc["skins"][0]["attachments"]}
+        del doc["animations"]["turn"]["attachments"]
+    written = 0
+    for name, anim in HOSTILE_ANIMATIONS.items():
+        one = {**doc, "animations": {name: anim}}
+        try:
+            data = write_skel(one)
+        except SkelFormatError:
+            continue  # refused in one line: nothing to pose
+        written += 1
+        with within(30):
+            _strict(dump(Sampler(read_skel(data)), name, TIMES))
+    assert written >= 15
+
+
+def _pose_cli(tmp_path, skeleton, *args, out="pose.json"):
+    before = snapshot(tmp_path)
+    r = run_cli("pose", skeleton, *args, "--out", out, cwd=tmp_path)
+    check_run(r, before, tmp_path, [out])
+    return r
+
+
+def test_pose_command_on_a_skeleton_full_of_hostile_animations(tmp_path):
+    """One line or a finite pose, never a traceback; the good animation poses as it would alone."""
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "arm.json").write_text(json.dumps(_hostile_doc()))
+    for i, name in enumerate(("a key time of 400 digits", "draw order offsets out of slot order",
+                              "an event at 1e300 s")):
+        r = _pose_cli(tmp_path, "p/arm.json", "-a", name, "--times", "0,0.3,1", out=f"{i}.json")
+        assert r.returncode == 0, r.stderr
+    r = _pose_cli(tmp_path, "p/arm.json", "-a", "turn", "--times", "0.25,0.8")
+    assert r.returncode == 0, r.stderr
+    written = json.loads((tmp_path / "pose.json").read_text())
+    alone = _hostile_doc()
+    alone["animations"] = {"turn": alone["animations"]["turn"]}
+    assert written["poses"] == _strict(dump(Sampler(alone), "turn", [0.25, 0.8]))["poses"]
+
+
+def test_motion_sampling_of_an_animation_hours_long_is_bounded():
+    """``weights``' motion guard samples every animation at thirds of its length: a key at
+    1e30 s once summed 6e31 game-loop steps."""
+    from spinemesh.anim.motion import sampled_bone_worlds
+
+    doc = _doc()
+    doc["events"] = {"x": {}}
+    doc["animations"]["far"] = {"events": [{"time": 1e30, "name": "x"}],
+                                "bones": {"arm": {"rotate": [{"time": 0, "value": 0}, {"time": 1e30, "value": 9}]}}}
+    with within(20):
+        frames = sampled_bone_worlds(doc)
+    assert frames.shape == (6, 2, 2, 3) and np.isfinite(frames).all()
+
+
+def _physics_doc() -> dict:
+    doc = _doc()
+    doc["bones"].append({"name": "drop", "parent": "arm"})
+    doc["physics"] = [{"name": "p", "bone": "drop", "y": 1, "strength": 0, "gravity": 70}]
+    doc["events"] = {"x": {}}
+    doc["animations"]["far"] = {"events": [{"time": 1e6, "name": "x"}]}
+    return doc
+
+
+def test_the_player_leaves_out_an_animation_whose_physics_would_replay_for_hours():
+    from spinemesh.player.frames import animations
+
+    problems: list[str] = []
+    with within(60):
+        shown = animations(_physics_doc(), _physics_doc(), problems=problems)
+    assert [a.name for a in shown] == ["setup pose", "turn"]
+    assert len(problems) == 1 and "'far'" in problems[0] and "game-loop steps" in problems[0]
+
+
+def test_upgrade_preview_of_a_skeleton_with_an_event_at_1e30_s_ends(tmp_path):
+    """It once sampled 1e30 s of game loop, step by step, for the player (a hang)."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p")
+    doc = json.loads((project / "demo.json").read_text())
+    doc.setdefault("events", {})["x"] = {}
+    doc["animations"]["far"] = {"events": [{"time": 1e30, "name": "x"}]}
+    (project / "demo.json").write_text(json.dumps(doc))
+    (project / "demo-binary.skel").unlink()
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", cwd=tmp_path, timeout=90)
+    check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
+    assert (tmp_path / "v" / "index.html").is_file()
+    assert load_skeleton(tmp_path / "o" / "demo.json")["animations"]["far"]["events"][0]["time"] == 1e30
