@@ -238,3 +238,93 @@ def test_upgrade_preview_of_a_skeleton_with_an_event_at_1e30_s_ends(tmp_path):
     check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
     assert (tmp_path / "v" / "index.html").is_file()
     assert load_skeleton(tmp_path / "o" / "demo.json")["animations"]["far"]["events"][0]["time"] == 1e30
+
+
+# --- the preview pages and the player -------------------------------------------------------
+
+#: Names that run code wherever a page pastes them unescaped (HTML text, an attribute, an inline
+#: script, a JavaScript string): each, if it ran, would set the page's title to ``PWNED``, a
+#: word none of them holds whole.
+PAYLOADS = [
+    "</script><script>document.title='PW'+'NED'</script>",
+    "<img src=q onerror=\"document.title='PW'+'NED'\">",
+    "'\"><svg onload=document.title='PW'+'NED'>",
+    "');document.title='PW'+'NED';//\u2028\u2029",
+]
+
+
+def _hostile_names_project(folder):
+    """The demo project with its skeleton, atlas, animations, a skin and an event named by
+    :data:`PAYLOADS`."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(folder)
+    (project / "demo-binary.skel").unlink()
+    doc = json.loads((project / "demo.json").read_text())
+    wave = doc["animations"].pop("wave")
+    doc["events"] = {PAYLOADS[1]: {"string": PAYLOADS[0]}}
+    for name in PAYLOADS:
+        doc["animations"][name] = {**copy.deepcopy(wave), "events": [{"time": 0.1, "name": PAYLOADS[1]}]}
+    doc["skins"].append({"name": PAYLOADS[2], "attachments": copy.deepcopy(doc["skins"][0]["attachments"])})
+    (project / "demo.json").unlink()
+    (project / f"{PAYLOADS[1][:40]}.json").write_text(json.dumps(doc))
+    return project
+
+
+def test_names_holding_html_and_script_run_nothing_in_the_preview(tmp_path):
+    from browser import player_result, run
+
+    project = _hostile_names_project(tmp_path / "p")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
+    pages = [tmp_path / "v" / "index.html", *sorted((tmp_path / "v" / "s").glob("*.html"))]
+    assert len(pages) == 2
+    for page in pages:
+        dom = run(page.resolve().as_uri(), tmp_path / "chromium", "--dump-dom").stdout
+        assert "PWNED" not in dom and "<title>" in dom
+    # the player offers every name as it is, and plays the one chosen
+    got = player_result(pages[1].resolve().as_uri() + "#play=2&test=1", tmp_path / "chromium", budget_ms=6000)
+    assert got["anim"] == PAYLOADS[1]
+    for path in (tmp_path / "v").rglob("*"):
+        if path.is_file() and path.suffix in (".html", ".js"):
+            assert "PWNED" not in path.read_text(encoding="utf-8")
+    assert project.is_dir()
+
+
+def test_atlas_names_holding_html_run_nothing_in_the_pack_preview(tmp_path):
+    from browser import run
+
+    project = _hostile_names_project(tmp_path / "p")
+    r = run_cli("upgrade", "p", "--out", "m", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    for f in ("demo.atlas", "demo.png"):
+        (tmp_path / "m" / f).rename(tmp_path / "m" / f.replace("demo", PAYLOADS[2][:20]))
+    atlas = tmp_path / "m" / f"{PAYLOADS[2][:20]}.atlas"
+    atlas.write_text(atlas.read_text().replace("demo.png", f"{PAYLOADS[2][:20]}.png"))
+    before = snapshot(tmp_path)
+    r = run_cli("pack", "m", "--out", "k", "--preview", "kv", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["k", "kv"], codes=(0,))
+    dom = run((tmp_path / "kv" / "index.html").resolve().as_uri(), tmp_path / "chromium", "--dump-dom").stdout
+    assert "PWNED" not in dom and "spinemesh pack" in dom
+
+
+def test_a_skeleton_of_thousands_of_animations_gets_a_light_preview(tmp_path):
+    """A skeleton file can list millions of empty animations (20,000 took 18 s and 81 MB of
+    preview in 20,003 files): the player shows the first MAX_ANIMATIONS and says so."""
+    from spinemesh.demo import make_demo_project
+    from spinemesh.player.frames import MAX_ANIMATIONS
+
+    project = make_demo_project(tmp_path / "p")
+    (project / "demo-binary.skel").unlink()
+    doc = json.loads((project / "demo.json").read_text())
+    doc["animations"].update({f"a{i}": {} for i in range(MAX_ANIMATIONS + 500)})
+    (project / "demo.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
+    scripts = list((tmp_path / "v" / "data").rglob("*.js"))
+    assert len(scripts) == MAX_ANIMATIONS + 2                  # the setup pose, the first 1,000 animations, model.js
+    page = next((tmp_path / "v" / "s").glob("*.html")).read_text(encoding="utf-8")
+    assert "501 animations not shown: the player shows the first 1,000" in page
+    assert sum(p.stat().st_size for p in scripts) < 8 * 1024**2

@@ -39,6 +39,11 @@ MAX_SKINS = 4
 MAX_POSES = 4000
 MIN_FPS = 2.0
 
+#: Most animations of one skeleton the player shows (the first, in the skeleton's order): each
+#: costs a script file and at least a pose per side, and a skeleton file can list millions of
+#: empty ones (real projects have at most about 200).
+MAX_ANIMATIONS = 1000
+
 
 @dataclass
 class Drawn:
@@ -304,7 +309,8 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     """The setup pose and every animation of a skeleton, original (``before``) and upgraded
     (``after``), sampled for the player within the stated budget (:data:`MAX_POSES`).
 
-    An animation that cannot be sampled is left out with one line in ``problems``.
+    An animation that cannot be sampled is left out with one line in ``problems``, as are
+    the animations beyond the first :data:`MAX_ANIMATIONS`.
     """
     from ..anim import POSE_ERRORS
 
@@ -315,7 +321,11 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     setup = {skin: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for skin, (b, a) in sides.items()}
     out = [Animation("setup pose", 0.0, setup)]
     durations = {}
-    for name in first.sampler.animation_names():
+    names = first.sampler.animation_names()
+    if len(names) > MAX_ANIMATIONS:
+        (problems if problems is not None else []).append(
+            f"{len(names) - MAX_ANIMATIONS:,} animations not shown: the player shows the first {MAX_ANIMATIONS:,}")
+    for name in names[:MAX_ANIMATIONS]:
         try:
             durations[name] = max(0.0, float(first.sampler.duration(name)))
         except POSE_ERRORS as e:
