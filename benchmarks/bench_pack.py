@@ -146,7 +146,7 @@ def _other_rules(rows: dict[str, Row], project: Path, scratch: Path, key: str, s
                 r = rows[rel]
                 r.rules = r.rules or {}
                 r.rules.setdefault(name, {})[key] = [a.texels_after, a.pages_after, a.bytes_after,
-                                                      a.footprint_texels if a.status == "packed" else 0,
+                                                      a.texels_used or 0,
                                                       a.reason]
 
 
@@ -180,7 +180,7 @@ def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] 
             r = rows[rel]
             r.a_texels, r.a_pages, r.a_bytes, r.a_outline, r.a_seconds = (
                 a.texels_after, a.pages_after, a.bytes_after, a.by_outline, a.cpu_seconds)
-            r.a_footprints = a.footprint_texels if a.status == "packed" else 0
+            r.a_footprints = a.texels_used or 0
             r.a_reason = a.reason
     _other_rules(rows, project, scratch, "a", sides, larger_files)
     if upgrade:
@@ -201,7 +201,7 @@ def bench_project(project: Path, scratch: Path, upgrade: bool, sides: list[str] 
                     r = rows[rel]
                     r.b_texels, r.b_pages, r.b_bytes, r.b_outline, r.b_seconds = (
                         b.texels_after, b.pages_after, b.bytes_after, b.by_outline, b.cpu_seconds)
-                    r.b_footprints = b.footprint_texels if b.status == "packed" else 0
+                    r.b_footprints = b.texels_used or 0
                     r.b_reason = b.reason
             _other_rules(rows, up, scratch, "b", sides, larger_files)
     return list(rows.values())

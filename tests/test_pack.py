@@ -167,7 +167,7 @@ def test_regions_keep_rectangles_and_say_why(tmp_path):
     demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
     result = pack_project(demo, tmp_path / "packed")
     (row,) = result.atlases
-    assert row.by_outline == 0
+    assert not row.by_outline  # none by outline: 0, or None where the atlas kept its layout
     assert all("region attachment" in r["reason"] or "not drawn" in r["reason"] for r in row.regions_by_rectangle) \
         or row.status == "kept"
 
@@ -213,12 +213,16 @@ def test_lossy_webp_pages_are_kept_when_lossless_pages_would_be_larger(meshed, t
 
 def test_the_last_line_counts_atlases_packed_and_kept_and_a_kept_row_counts_no_regions(meshed, tmp_path):
     """A run that keeps an atlas does not say it packed it: the line counts each outcome, and a
-    kept atlas's row shows no regions packed by outline or by rectangle (they stay where they were)."""
+    kept atlas's row shows no regions packed by outline or by rectangle (they stay where they were),
+    in the table (``-``) and in the report (null, where a packed atlas has counts and the page
+    texels its regions take)."""
     library = tmp_path / "library"
     library.mkdir()
     _copy(meshed, library / "meshed")
     _webp_project(meshed, library / "lossy", lossless=False)  # kept: lossless pages would grow
-    r = _cli("pack", str(library), "--out", str(tmp_path / "out"), "--jobs", "1", "--larger-files")
+    report = tmp_path / "report.json"
+    r = _cli("pack", str(library), "--out", str(tmp_path / "out"), "--jobs", "1", "--larger-files",
+             "--report", str(report))
     assert r.returncode == 0, r.stdout + r.stderr
     lines = r.stdout.splitlines()
     assert lines[-1].startswith("packed 1 of 2 atlases, 1 kept in its layout (the note says why); "), lines[-1]
@@ -226,6 +230,12 @@ def test_the_last_line_counts_atlases_packed_and_kept_and_a_kept_row_counts_no_r
     packed = next(line for line in lines if line.startswith("│ meshed"))
     assert [c.strip() for c in kept.split("│")[5:7]] == ["-", "-"], kept
     assert [c.strip() for c in packed.split("│")[5:7]] != ["-", "-"], packed
+    rows = {row["atlas"].split("/")[0]: row for row in json.loads(report.read_text())["atlases"]}
+    counts = ("by_outline", "by_rectangle", "rotated", "texels_used")
+    assert rows["lossy"]["status"] == "kept" and [rows["lossy"][k] for k in counts] == [None] * 4, rows["lossy"]
+    assert rows["meshed"]["status"] == "packed" and rows["meshed"]["by_outline"] > 0, rows["meshed"]
+    assert 0 < rows["meshed"]["texels_used"] <= rows["meshed"]["texels_after"]
+    assert "footprint_texels" not in rows["meshed"]
 
 
 def test_a_preview_inside_or_around_out_is_refused_in_one_line(meshed, tmp_path):
@@ -296,7 +306,7 @@ def test_broken_skeleton_pins_every_region(meshed, tmp_path):
     (project / "other.json").write_text('{"skeleton": {"spine": "4.2.0"}, "bones": [')
     result = pack_project(project, tmp_path / "out")
     (row,) = result.atlases
-    assert row.by_outline == 0
+    assert not row.by_outline  # none by outline: 0, or None where the atlas kept its layout
     assert any("cannot be read" in e or "invalid JSON" in e for e in result.errors)
 
 
@@ -703,7 +713,7 @@ def test_upgrade_of_one_skeleton_file_packs_for_the_other_skeletons_of_its_folde
     (row,) = result.atlases
     drawn = {p for ref in iter_attachments(load_skeleton(demo / "demo-binary.skel")) if ref.type == "region"
              for p in image_paths(ref)}
-    assert drawn and row.by_outline == 0, row.regions_by_rectangle
+    assert drawn and not row.by_outline, row.regions_by_rectangle
     alone = tmp_path / "alone"  # without the other skeleton, the same upgrade packs by outline
     alone.mkdir()
     for name in ("demo.json", "demo.atlas", "demo.png"):

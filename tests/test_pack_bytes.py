@@ -44,7 +44,7 @@ def test_png_pages_are_written_through_oxipng(meshed, tmp_path):
     np.testing.assert_array_equal(load_rgba_bytes(data), rgba)
     result = pack_project(meshed, tmp_path / "out")
     (row,) = result.atlases
-    assert row.status == "packed" and row.pages_reencoded == 0 and 0 < row.footprint_texels <= row.texels_after
+    assert row.status == "packed" and row.pages_reencoded == 0 and 0 < row.texels_used <= row.texels_after
     page = load_rgba(tmp_path / "out" / "demo.png")
     assert (tmp_path / "out" / "demo.png").stat().st_size < len(_pillow_png(np.ascontiguousarray(page)))
 

@@ -228,8 +228,8 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         return f"{before:,} -> {after:,} ({share_change(before, after)})" if before else "-"
 
     def regions(a) -> tuple[str, str]:
-        # a kept atlas's regions stay where they were: counting them as packed by rectangle would say otherwise
-        return (str(a.by_outline), str(a.by_rectangle)) if a.status == "packed" else ("-", "-")
+        # None: its layout was kept (its regions stay where they were), see AtlasRow
+        return ("-", "-") if a.by_outline is None else (str(a.by_outline), str(a.by_rectangle))
 
     for a in atlases:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),

@@ -102,13 +102,19 @@ class AtlasRow:
     bytes_before: int = 0
     bytes_after: int = 0
     padding: int | None = None
-    by_outline: int = 0
-    by_rectangle: int = 0
-    rotated: int = 0
+    # the regions' counts, and the texels they take, of an atlas whose layout was written anew;
+    # None for one that kept its layout (its regions stay where they were: counting them as
+    # packed by rectangle would say otherwise)
+    by_outline: int | None = None
+    by_rectangle: int | None = None
+    rotated: int | None = None
     rectangle_reasons: dict = field(default_factory=dict)
     regions_by_rectangle: list = field(default_factory=list)
     cpu_seconds: float = 0.0  # this process's CPU time packing it (reading, placing, encoding)
-    footprint_texels: int = 0  # packed: its footprints' texels with their share of the padding
+    #: the packed pages' texels its regions take (what each draws, grown by what bilinear sampling
+    #: reads and half the padding; texels two regions share count once): over ``texels_after``,
+    #: how full its pages are
+    texels_used: int | None = None
     pages_reencoded: int = 0  # kept: its PNG pages written smaller, losslessly, the atlas as it was
 
     def row(self) -> dict:
@@ -132,11 +138,12 @@ class PackResult(RunSummary):
 
 
 def atlas_totals(rows: list[AtlasRow]) -> dict:
-    """Pages, page texels and bytes before and after, and regions by outline and by rectangle, summed
-    over ``rows`` (the report's ``totals``; ``upgrade --pack``'s ``atlas_totals``)."""
+    """Pages, page texels and bytes before and after, summed over ``rows``, and regions by outline and
+    by rectangle over those whose layout was written anew (the report's ``totals``; ``upgrade
+    --pack``'s ``atlas_totals``)."""
     keys = ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
             "by_outline", "by_rectangle")
-    return {k: sum(getattr(a, k) for a in rows) for k in keys}
+    return {k: sum(getattr(a, k) or 0 for a in rows) for k in keys}  # None: a kept atlas's regions
 
 
 def page_mode(page: bytes | Path):
