@@ -287,8 +287,17 @@ def test_a_project_without_a_usable_atlas_is_refused_in_one_line_before_anything
     assert not (tmp_path / "out").exists()
     (project / "demo.atlas").unlink()
     r = _cli("pack", project, "--out", tmp_path / "out", cwd=tmp_path)
-    assert r.returncode == 2 and r.stderr.strip() == f"error: {project}: no atlas to pack", r.stdout + r.stderr
+    no_atlas_file = "no atlas to pack: no atlas file (.atlas) in it nor in a folder below it"
+    assert r.returncode == 2 and r.stderr.strip() == f"error: {project}: {no_atlas_file}", r.stdout + r.stderr
     assert not (tmp_path / "out").exists()
+    # an empty folder, or one of empty folders, is one project without an atlas, not a folder of
+    # projects none of which has one
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty-folders" / "a" / "b").mkdir(parents=True)
+    for empty in (tmp_path / "empty", tmp_path / "empty-folders"):
+        r = _cli("pack", empty, "--out", tmp_path / "out", cwd=tmp_path)
+        assert r.returncode == 2 and r.stderr.strip() == f"error: {empty}: {no_atlas_file}", r.stdout + r.stderr
+        assert not (tmp_path / "out").exists()
 
 
 def test_pack_prints_its_errors_as_error_lines_on_stderr(meshed, tmp_path):

@@ -1011,7 +1011,8 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     folder = project.parent if project.is_file() else project
     proj = find_project(folder)
     if not project_atlases(proj):
-        raise nothing_to_pack(proj.root, proj.problems)
+        raise nothing_to_pack(proj.root, proj.problems, "no atlas to pack" if proj.atlases else
+                              "no atlas to pack: no atlas file (.atlas) in it nor in a folder below it")
     check_output_folder(proj.root, out)
     result = PackResult()
     progress.atlases(len(project_atlases(proj)))

@@ -37,9 +37,13 @@ from .run import finish_project
 
 
 def is_library(folder: str | Path) -> bool:
-    """Whether ``folder`` holds several projects (or one below it) rather than being one project."""
+    """Whether ``folder`` holds several projects (or one below it) rather than being one project.
+
+    A folder holding none (empty, or no skeleton nor atlas in it or below it) is one project, to
+    be refused as one: it is no folder of projects, whatever was meant.
+    """
     folder = Path(folder)
-    return folder.is_dir() and find_projects(folder) != [folder]
+    return folder.is_dir() and find_projects(folder) not in ([folder], [])
 
 
 def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
