@@ -271,12 +271,19 @@ def test_packing_options_without_pack_are_refused_in_one_line(demo, tmp_path, op
 
 
 def test_a_dry_run_with_pack_says_it_packed_nothing(demo, tmp_path):
+    """A dry run plans: its counts say "would mesh", its timing line names only the reading (it
+    meshed and wrote nothing), and with --pack it says that nothing was packed either."""
     r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), "--pack", "--dry-run", "--jobs", "1")
     assert r.returncode == 0, r.stderr
-    assert "dry run: nothing packed" in r.stdout and "spinemesh pack" not in r.stdout, r.stdout
+    assert "dry run: nothing meshed or written nor packed" in r.stdout and "spinemesh pack" not in r.stdout, r.stdout
     assert not (tmp_path / "out").exists()
     r = run("upgrade", str(demo), "--out", str(tmp_path / "out"), "--dry-run", "--jobs", "1")
-    assert "nothing packed" not in r.stdout, r.stdout
+    assert "nothing packed" not in r.stdout and "dry run: nothing meshed or written;" in r.stdout, r.stdout
+    header = next(line for line in r.stdout.splitlines() if "skeleton" in line)
+    assert "would mesh" in header and "meshed" not in header and "vertices" not in header, header
+    timing = next(line for line in r.stdout.splitlines() if line.startswith("read "))
+    assert "mesh" not in timing and "write" not in timing, timing
+    assert not (tmp_path / "out").exists()
 
 
 def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):

@@ -159,9 +159,10 @@ def upgrade(
     result = _run(project, out, options, library)
     _write_report(result, report, out, dry_run)
     _print_result(result, dry_run)
-    if dry_run and pack:  # packing reads the meshes written: a dry run writes none
-        console.print("dry run: nothing packed (--pack packs the meshes a run writes; the counts above are "
-                      "planned, before the test of what is worth meshing)", highlight=False, markup=False)
+    if dry_run:  # packing reads the meshes written: a dry run writes none
+        packed = " nor packed (--pack packs the meshes a run writes)" if pack else ""
+        console.print(f"dry run: nothing meshed or written{packed}; \"would mesh\" counts the regions planned, "
+                      "before the test of what is worth meshing", highlight=False, markup=False)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in)
@@ -259,17 +260,19 @@ def _print_result(result, dry_run: bool) -> None:
 
     def cells(targets: list) -> list[str]:
         verts = [t.vertices for t in targets if t.status == "meshed"]
-        return [str(sum(t.status in ("meshed", "would mesh") for t in targets)),
-                str(sum(t.status == "kept" for t in targets)), str(sum(t.status == "failed" for t in targets)),
-                f"{statistics.median(verts):g}" if verts else "-"]
+        counts = [str(sum(t.status in ("meshed", "would mesh") for t in targets)),
+                  str(sum(t.status == "kept" for t in targets)), str(sum(t.status == "failed" for t in targets))]
+        # a dry run plans: no mesh, so no vertices to count
+        return counts if dry_run else [*counts, f"{statistics.median(verts):g}" if verts else "-"]
 
     if result.targets or result.written:
-        console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""),
-                                     ("meshed", "kept", "failed", "median vertices"), result.targets, cells,
-                                     skeletons=result.written))
-    s = result.seconds
-    console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in s.items() if phase != "weights"
-                            or seconds), highlight=False)
+        columns = ("would mesh", "kept", "failed") if dry_run else ("meshed", "kept", "failed", "median vertices")
+        console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""), columns,
+                                     result.targets, cells, skeletons=result.written))
+    # the phases that ran: a dry run only reads and plans
+    ran = {phase: seconds for phase, seconds in result.seconds.items()
+           if (phase != "weights" or seconds) and (phase == "read" or not dry_run)}
+    console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in ran.items()), highlight=False)
     if result.atlases:
         from .pack import print_pack_table
 
