@@ -254,7 +254,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
         """Ctrl-C as the second project is read: the first one's pages are decoding or decoded."""
         reads = 0
 
-        def add(self, phase, steps):
+        def add(self, phase, steps, project=None):
             self.reads += phase == "read"
             if self.reads == 2:
                 raise KeyboardInterrupt

@@ -99,10 +99,12 @@ def test_a_skeleton_that_cannot_be_read_is_listed_while_the_others_are_upgraded(
 
 class Recorder(Progress):
     def __init__(self):
-        self.added, self.done, self.projects = {}, {}, []
+        self.added, self.done, self.projects, self.ahead = {}, {}, [], []
 
-    def add(self, phase, steps):
+    def add(self, phase, steps, project=None):
         self.added[phase] = self.added.get(phase, 0) + steps
+        if project is not None:
+            self.ahead.append((phase, project))
 
     def advance(self, phase, steps=1):
         self.done[phase] = self.done.get(phase, 0) + steps
@@ -127,6 +129,62 @@ def test_every_phase_reports_its_work_and_finishes_it(tmp_path):
     upgrade_library(lib, tmp_path / "lib-out", Options(jobs=1), seen)
     assert seen.projects == ["a", "b"] and seen.added == seen.done and seen.added["read"] == 4
     assert "weights" not in seen.added
+    # on workers, with weights: each project's meshing is added under its own name (it runs
+    # ahead of the project written), and every step is told by the end
+    seen = Recorder()
+    upgrade_library(lib, tmp_path / "lib-weights", Options(jobs=2, weights="auto"), seen)
+    assert seen.projects == ["a", "b"] and seen.added == seen.done and seen.added["weights"] > 0
+    assert [p for phase, p in seen.ahead if phase == "mesh"] == ["a", "b"], seen.ahead
+
+
+def test_meshes_are_told_as_their_workers_end_them_not_when_collected():
+    """A library run meshes projects ahead while this process weights and writes an earlier one:
+    the meshing's progress is told as each mesh arrives, before anything collects it, and
+    collecting it later tells nothing again."""
+    import concurrent.futures
+    import time
+
+    from spinemesh.cluster import open_workers
+    from spinemesh.project import find_project
+    from spinemesh.upgrade.meshing import finish_meshing, start_meshing
+    from spinemesh.upgrade.plan import plan_project
+    from spinemesh.upgrade.report import Result
+
+    tasks = plan_project(find_project(DEMO), Options(jobs=2), Result()).tasks
+    told = []
+    with open_workers(2, None) as workers:
+        meshing = start_meshing(tasks, workers, progress=told.append)
+        assert len(meshing.futures) == len(tasks) > 1
+        concurrent.futures.wait(meshing.futures)
+        # a future's waiters wake just before its callbacks run
+        deadline = time.monotonic() + 10
+        while sum(told) < len(tasks) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert sum(told) == len(tasks), told
+        meshes = finish_meshing(meshing, tasks, workers, progress=told.append)
+    assert sum(told) == len(tasks) and set(meshes) == set(tasks)
+
+
+def test_a_projects_weights_go_ahead_of_the_meshing_queued_for_later_projects(tmp_path):
+    """The weighting jobs are sent first (ahead of the tasks waiting): else, in a library run,
+    a project's weights waited for the meshing of every project planned after it, its bar still."""
+    from spinemesh.cluster import Workers
+
+    class Recording(Workers):
+        kind, slots = "recording", 2  # not this process's own Workers: the weights go to the workers
+
+        def __init__(self):
+            self.sent = []
+
+        def submit(self, fn, arg, first=False):
+            self.sent.append((fn.__name__, first))
+            return super().submit(fn, arg, first)
+
+    workers = Recording()
+    upgrade_project(make_bar_project(tmp_path / "bar"), tmp_path / "out", Options(weights="auto", jobs=2),
+                    workers=workers)
+    weights = [first for name, first in workers.sent if name == "weight_apart"]
+    assert weights and all(weights), workers.sent
 
 
 # --------------------------------------------------------------------------- the preview

@@ -212,27 +212,35 @@ def _phase_progress(bars):
     """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (one task per phase)."""
     from ..upgrade.progress import Progress
 
+    from ..runs import short_names
+
+    def shown(name: str) -> str:
+        return short_names([name], 20)[name]  # the bars keep their room at 80 columns
+
     class Bars(Progress):
         def __init__(self) -> None:
             self.tasks: dict[str, int] = {}
             self.current = ""
+            self.ahead: set[str] = set()  # phases that name their own project (a library's meshing ahead)
 
-        def add(self, phase: str, steps: int) -> None:
+        def add(self, phase: str, steps: int, project: str | None = None) -> None:
             if phase not in self.tasks:
                 self.tasks[phase] = bars.add_task(phase, total=0, project=self.current)
             task = self.tasks[phase]
             bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+            if project is not None:
+                self.ahead.add(phase)
+                bars.update(task, project=shown(project))
 
         def advance(self, phase: str, steps: int = 1) -> None:
             if phase in self.tasks:
                 bars.advance(self.tasks[phase], steps)
 
         def project(self, name: str) -> None:
-            from ..runs import short_names
-
-            self.current = short_names([name], 20)[name]  # the bars keep their room at 80 columns
-            for task in self.tasks.values():
-                bars.update(task, project=self.current)
+            self.current = shown(name)
+            for phase, task in self.tasks.items():
+                if phase not in self.ahead:
+                    bars.update(task, project=self.current)
 
     return Bars()
 

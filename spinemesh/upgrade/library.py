@@ -152,8 +152,9 @@ def _plan_library_project(p: _LibraryProject, workers: Workers, cache: dict, inf
     sub = p.options
     if not sub.dry_run:
         t0 = time.perf_counter()  # with workers, sending only; in this process, the meshing itself
-        p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight)
-        progress.add("mesh", len(p.plan.tasks))
+        # told as each mesh arrives: the workers mesh this project while earlier ones are weighted and written
+        progress.add("mesh", len(p.plan.tasks), p.rel)
+        p.meshing = start_meshing(p.plan.tasks, workers, cache, inflight, lambda n: progress.advance("mesh", n))
         p.result.seconds["mesh"] += time.perf_counter() - t0
     return p
 
@@ -166,8 +167,8 @@ def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cac
     elif p.plan is not None:
         t0 = time.perf_counter()
         tests = bending_tests(p.plan, workers)  # --weights auto: tested as their meshes arrive
-        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, lambda n: progress.advance("mesh", n),
-                                cache, inflight, arrived=tests.arrived if tests is not None else None)
+        meshes = finish_meshing(p.meshing, p.plan.tasks, workers, cache=cache, inflight=inflight,
+                                arrived=tests.arrived if tests is not None else None)
         p.result.seconds["mesh"] += time.perf_counter() - t0
         try:
             finish_project(p.plan, meshes, out / p.rel, p.result, progress, workers)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
@@ -142,6 +143,23 @@ def _mesh_one(task: MeshTask) -> MeshResult:
                       seconds=seconds, coverage=cov, waste=wst, overruled=overruled)
 
 
+class ArrivalCount:
+    """Tells ``progress(1)`` once per future: when its worker ends it (a done callback, on the
+    workers' thread) or when this process collects it, whichever comes first. A future's waiters
+    wake before its callbacks run, so a run that counted on the callbacks alone could end with
+    a mesh not yet told."""
+
+    def __init__(self, progress: Callable[[int], None]):
+        self.progress, self.told, self.lock = progress, set(), threading.Lock()
+
+    def __call__(self, future) -> None:
+        with self.lock:
+            if future in self.told:
+                return
+            self.told.add(future)
+        self.progress(1)
+
+
 @dataclass
 class Meshing:
     """Meshes on their way: those known already, and the futures of those being made."""
@@ -150,16 +168,21 @@ class Meshing:
     futures: list
     #: the image key of each future, to name the task when its worker died (WorkerLost)
     keys: dict = field(default_factory=dict)
+    #: told as each mesh arrives (:func:`start_meshing`); None: the progress is told as they are collected
+    arrivals: ArrivalCount | None = None
 
 
 def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | None = None,
-                  inflight: dict | None = None) -> Meshing:
+                  inflight: dict | None = None, progress: Callable[[int], None] | None = None) -> Meshing:
     """Send every task whose mesh is not known yet to the workers, largest first.
 
     Largest first, so that no big image starts last and keeps one worker busy while the
     others idle. ``cache`` (results by image key and mesher settings) and ``inflight``
     (futures by the same key) let runs over many projects mesh each image only once, even
-    while an earlier project's copy of it is still being meshed.
+    while an earlier project's copy of it is still being meshed. ``progress(n)``, when given,
+    is told the meshes known at once, then each as its worker ends it (on a thread of the
+    workers' own): a library run meshes projects ahead while this process weights and writes
+    an earlier one, and the meshing's bar moves meanwhile, not only once they are collected.
     """
     known: dict[str, MeshResult] = {}
     futures = []
@@ -177,15 +200,25 @@ def start_meshing(tasks: dict[str, MeshTask], workers: Workers, cache: dict | No
             keys[future] = t.key
             if inflight is not None:
                 inflight[key] = future
-    return Meshing(known, futures, keys)
+    arrivals = None
+    if progress is not None:
+        if known:
+            progress(len(known))
+        arrivals = ArrivalCount(progress)
+        for future in futures:
+            future.add_done_callback(arrivals)
+    return Meshing(known, futures, keys, arrivals)
 
 
 def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Workers,
                    progress: Callable[[int], None] | None = None, cache: dict | None = None,
                    inflight: dict | None = None,
                    arrived: Callable[[MeshResult], None] | None = None) -> dict[str, MeshResult]:
-    """Collect the meshes as they arrive; ``progress(n)`` is told how many came, ``arrived``
-    each mesh (those known first)."""
+    """Collect the meshes as they arrive; ``progress(n)`` is told how many came (unless
+    :func:`start_meshing` was given one: it was told as they arrived), ``arrived`` each mesh
+    (those known first)."""
+    if meshing.arrivals is not None:
+        progress = None
     results = dict(meshing.known)
     if progress and results:
         progress(len(results))
@@ -208,7 +241,9 @@ def finish_meshing(meshing: Meshing, tasks: dict[str, MeshTask], workers: Worker
             cache[key] = res
         if inflight is not None:
             inflight.pop(key, None)
-        if progress:
+        if meshing.arrivals is not None:
+            meshing.arrivals(future)
+        elif progress:
             progress(1)
         if arrived:
             arrived(res)
@@ -224,7 +259,8 @@ def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
     that runs over projects sharing images (the same art exported for several Spine
     versions) mesh each image only once. ``arrived`` is told each mesh as it arrives.
     """
-    return finish_meshing(start_meshing(tasks, workers, cache), tasks, workers, progress, cache, arrived=arrived)
+    return finish_meshing(start_meshing(tasks, workers, cache, progress=progress), tasks, workers, cache=cache,
+                          arrived=arrived)
 
 
 @contextlib.contextmanager

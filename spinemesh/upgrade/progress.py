@@ -17,14 +17,17 @@ PHASES = ("read", "mesh", "weights", "write", "pack")
 class Progress:
     """Receives a run's progress; this base class ignores it (the Python API's default)."""
 
-    def add(self, phase: str, steps: int) -> None:
-        """``steps`` more steps of ``phase`` (one of :data:`PHASES`) are known."""
+    def add(self, phase: str, steps: int, project: str | None = None) -> None:
+        """``steps`` more steps of ``phase`` (one of :data:`PHASES`) are known; ``project``: the
+        project they belong to, where a library run works on it ahead of the one it writes (the
+        meshing of the projects planned ahead), else None: the project written (:meth:`project`)."""
 
     def advance(self, phase: str, steps: int = 1) -> None:
         """``steps`` steps of ``phase`` are done."""
 
     def project(self, name: str) -> None:
-        """A library run now writes the project ``name`` (its path under the library)."""
+        """A library run now writes the project ``name`` (its path under the library): the steps of
+        the phases not added for another project are its own."""
 
 
 #: The progress of a run that tells nobody.

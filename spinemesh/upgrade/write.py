@@ -107,7 +107,9 @@ def weigh_on(workers: Workers, skeletons: list, max_vertices: int | None,
     for sk in skeletons:
         if sk.rig is not None:
             for job in weighing_jobs(sk.doc, sk.targets, max_vertices, sk.rig):
-                jobs[workers.submit(weight_apart, job)] = (sk, job[1])
+                # first: ahead of the meshing of the projects a library run planned ahead, which
+                # would otherwise hold up this project's weights (and its bar) until they are meshed
+                jobs[workers.submit(weight_apart, job, first=True)] = (sk, job[1])
     for future in workers.as_completed(list(jobs)):
         sk, targets = jobs[future]
         try:
