@@ -22,7 +22,7 @@ from spinemesh.atlas import read_atlas
 from spinemesh.cli import app
 from spinemesh.demo import make_demo_project
 from spinemesh.images import AtlasImages, cut_region, load_rgba
-from spinemesh.pack.atlas_pack import measured_padding
+from spinemesh.pack.atlas_pack import PageRules, measured_padding
 from spinemesh.pack.place import fill_pages
 from spinemesh.pack.run import PackOptions, pack_project
 from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
@@ -289,6 +289,35 @@ def test_progress_is_told_every_atlas_of_the_run_before_the_first(meshed, tmp_pa
     told = Told()
     pack_project(library / "a", tmp_path / "out-a", PackOptions(jobs=1), progress=told)
     assert told.said == [("atlases", 1), ("done", "demo.atlas")], told.said
+
+
+def test_a_kept_atlas_says_it_re_encodes_its_pages(meshed, tmp_path):
+    """An atlas kept for what packing saves has its PNG pages re-encoded where smaller: its bar
+    says so after the placements, with the atlas named on the bar (the command's console)."""
+    from spinemesh.cli.pack import atlas_bars
+    from spinemesh.cli._app import progress_bar
+    from spinemesh.pack.run import PackProgress
+
+    class Steps(PackProgress):
+        def __init__(self) -> None:
+            self.said: list = []
+
+        def step(self, name: str, what: str) -> None:
+            self.said.append(what)
+
+    steps = Steps()  # no region fits a page of 16x16 texels: kept
+    (row,) = pack_project(meshed, tmp_path / "out", PackOptions(jobs=1, rules=PageRules("any", 16)),
+                          progress=steps).atlases
+    assert row.status == "kept", row.reason
+    assert steps.said[0] == "reading pages" and steps.said[-1] == "re-encoding its pages", steps.said
+    with progress_bar("pack") as bars:
+        shown = atlas_bars(bars)
+        shown.atlas("a/[b].atlas", 2)  # names are the project's: never markup
+        shown.step("a/[b].atlas", "writing pages")
+        (task,) = bars.tasks
+        assert task.description == r"a/\[b].atlas: writing pages", task.description
+        shown.done("a/[b].atlas")
+        assert task.description.endswith(": done") and task.completed == task.total
 
 
 def test_changes_read_as_shares_never_minus_zero():

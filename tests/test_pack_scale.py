@@ -28,6 +28,10 @@ class Recorder(PackProgress):
         self.planned: dict[str, int] = {}
         self.advanced: dict[str, int] = {}
         self.done_names: list[str] = []
+        self.steps: dict[str, list[str]] = {}
+
+    def step(self, name: str, what: str) -> None:
+        self.steps.setdefault(name, []).append(what)
 
     def atlas(self, name: str, steps: int) -> None:
         self.planned[name] = self.planned.get(name, 0) + steps
@@ -50,6 +54,14 @@ def test_fills_and_pages_on_workers_write_what_one_process_writes(meshed, tmp_pa
     pages = a.atlases[0].pages_after
     assert one.planned[name] == one.advanced[name] > pages and one.done_names == [name]
     assert progress.planned == one.planned and progress.advanced == one.advanced
+    # each bar says what its atlas is doing, in order: the demo's page is a power of two, so
+    # whole page sizes are tried with the placements
+    assert one.steps[name] == ["reading pages", "placing regions, trying page sizes", "writing pages",
+                               "proving"], one.steps
+    assert progress.steps == one.steps
+    free = Recorder()
+    pack_project(meshed, tmp_path / "any", PackOptions(jobs=1, rules=PageRules("any")), progress=free)
+    assert free.steps[name][1] == "placing regions", free.steps
 
 
 def test_atlases_side_by_side_write_what_one_process_writes(meshed, tmp_path):
@@ -74,6 +86,8 @@ def test_atlases_side_by_side_write_what_one_process_writes(meshed, tmp_path):
     assert [r.status for r in b.atlases] == ["packed"] * 3
     assert _digest(tmp_path / "one") == _digest(tmp_path / "two")
     assert sorted(progress.done_names) == sorted(r.atlas for r in b.atlases)
+    # a whole atlas packed on a worker tells nothing on the way: its bar says so
+    assert progress.steps == {r.atlas: ["packing on a worker"] for r in b.atlases}, progress.steps
     lib = pack_library(library, tmp_path / "lib", PackOptions(jobs=2))
     assert [r.status for r in lib.atlases] == ["packed"] * 3
 

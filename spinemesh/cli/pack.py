@@ -172,7 +172,8 @@ def outcome_line(atlases: list) -> str:
 
 def atlas_bars(bars, phase: str = ""):
     """A :class:`spinemesh.pack.run.PackProgress` that shows one bar per atlas on ``bars`` (a rich
-    progress), its steps the placements tried and the pages written. ``phase``: the bars of a
+    progress), its steps the placements tried and the pages written, each bar named by its atlas
+    and what that atlas is doing (reading pages, placing regions, ...). ``phase``: the bars of a
     :func:`~spinemesh.cli._app.progress_bar` of phases (``upgrade``) are named by it, the atlas
     shown at the end."""
     from rich.markup import escape
@@ -183,6 +184,7 @@ def atlas_bars(bars, phase: str = ""):
     class Bars(PackProgress):
         def __init__(self) -> None:
             self.tasks: dict[str, int] = {}
+            self.labels: dict[str, str] = {}
             self.whole: int | None = None  # the run's atlases done, with the time left for them all
 
         def atlases(self, count: int) -> None:
@@ -191,12 +193,21 @@ def atlas_bars(bars, phase: str = ""):
 
         def atlas(self, name: str, steps: int) -> None:
             if name not in self.tasks:
-                label = escape(short_names([name], 30)[name])
+                label = self.labels[name] = escape(short_names([name], 30)[name])
                 fields = {"project": label} if phase else {}
                 self.tasks[name] = bars.add_task(phase or label, total=steps, **fields)
             else:
                 task = self.tasks[name]
                 bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+
+        def step(self, name: str, what: str) -> None:
+            self._say(name, what)
+
+        def _say(self, name: str, what: str) -> None:
+            # the atlas, then what it does: its steps are of several kinds (placements, pages)
+            if name in self.tasks:
+                said = f"{self.labels[name]}: {escape(what)}"
+                bars.update(self.tasks[name], **({"project": said} if phase else {"description": said}))
 
         def advance(self, name: str, steps: int = 1) -> None:
             if name in self.tasks:
@@ -206,6 +217,7 @@ def atlas_bars(bars, phase: str = ""):
             if name in self.tasks:
                 task = self.tasks[name]
                 bars.update(task, completed=bars.tasks[task].total or 1, total=bars.tasks[task].total or 1)
+                self._say(name, "done")
             if self.whole is not None:
                 bars.advance(self.whole)
 

@@ -212,10 +212,12 @@ def _phase_progress(bars):
     """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (one task per phase)."""
     from ..upgrade.progress import Progress
 
+    from rich.markup import escape
+
     from ..runs import short_names
 
     def shown(name: str) -> str:
-        return short_names([name], 20)[name]  # the bars keep their room at 80 columns
+        return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns
 
     class Bars(Progress):
         def __init__(self) -> None:
@@ -235,6 +237,11 @@ def _phase_progress(bars):
         def advance(self, phase: str, steps: int = 1) -> None:
             if phase in self.tasks:
                 bars.advance(self.tasks[phase], steps)
+
+        def step(self, phase: str, what: str) -> None:
+            if phase in self.tasks:  # after the project's name (a library run), until the next project
+                bars.update(self.tasks[phase], project=f"{self.current}: {escape(what)}" if self.current
+                            else escape(what))
 
         def project(self, name: str) -> None:
             self.current = shown(name)

@@ -67,7 +67,8 @@ class PackProgress:
     """Told how packing goes, atlas by atlas; this base class tells nobody (the Python API's default).
 
     An atlas's steps are its fills (placements tried) and its pages written; they become known
-    as it goes, so :meth:`atlas` may be called again for the same atlas with more steps.
+    as it goes, so :meth:`atlas` may be called again for the same atlas with more steps, and
+    :meth:`step` says in words what the atlas is doing (:data:`STEPS`).
     """
 
     def atlases(self, count: int) -> None:
@@ -80,12 +81,29 @@ class PackProgress:
     def advance(self, name: str, steps: int = 1) -> None:
         """``steps`` steps of the atlas ``name`` are done."""
 
+    def step(self, name: str, what: str) -> None:
+        """The atlas ``name`` now does ``what`` (one of :data:`STEPS`, or the next layout's words)."""
+
     def done(self, name: str) -> None:
         """The atlas ``name`` is packed, kept or failed."""
 
 
 #: The progress of a run that tells nobody.
 SILENT = PackProgress()
+
+#: What an atlas is doing, in the words its progress bar shows (:meth:`PackProgress.step`), in
+#: the order they come: its pages read and decoded; its fills tried (with power-of-two pages,
+#: whole page sizes too); its packed pages encoded (oxipng, for PNG) and decoded back; the
+#: packed atlas proven to draw as the original; a kept atlas's PNG pages re-encoded where smaller;
+#: an atlas whose whole packing runs on a worker (several atlases side by side).
+STEPS = {"read": "reading pages", "place": "placing regions", "sizes": "placing regions, trying page sizes",
+         "write": "writing pages", "prove": "proving", "reencode": "re-encoding its pages",
+         "rectangles": "writing its rectangles' texels only", "worker": "packing on a worker"}
+
+
+def _silent_step(done: int = 1, planned: int = 0, step: str = "") -> None:
+    """The ``on_step`` of a caller that wants no progress: ``done`` steps ended, ``planned`` more
+    known, ``step`` the words for what comes now (see :func:`pack_atlas_files`)."""
 
 
 @dataclass
@@ -576,13 +594,14 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
 
     ``workers`` (:class:`spinemesh.cluster.Workers` of several slots): the atlas's fills and
     page encodings run on them side by side; default here, one after another. ``on_step(done,
-    planned)``: told as steps become known (``planned``) and as they end (``done``).
+    planned, step)``: told as steps become known (``planned``) and as they end (``done``), and
+    what the atlas does from now on (``step``, words of :data:`STEPS`; empty: no change).
     """
     from .parallel import FillRunner
 
     atlas, files, options = job.atlas, job.files, job.options
     t0 = time.process_time()
-    on_step = on_step or (lambda done=1, planned=0: None)
+    on_step = on_step or _silent_step
     bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
     texels: list[np.ndarray] = []
     data: list[bytes] = []
@@ -599,6 +618,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                                   "texel for texel (JPEG pages have no alpha and lose texels when written)")
         # each page file read once, for everything packing needs of it: texels, palette, colour
         # chunks, lossy or not, and the file itself where a kept page is re-encoded
+        on_step(0, 0, STEPS["read"])
         data = [image_file_bytes(f) for f in files]
         texels = [decode_rgba(d, f) for d, f in zip(data, files)]
         check_page_sizes(atlas, texels)
@@ -606,6 +626,8 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
         modes = {page.name: page_mode(d) for d, page in zip(data, atlas.pages)}
         colours = [page_colour(d) for d in data]
         group_colour = colours_by_settings(atlas, colours)
+        pot = options.rules.limits([(int(t.shape[1]), int(t.shape[0])) for t in texels])[2]
+        on_step(0, 0, STEPS["sizes" if pot else "place"])  # whole page sizes are tried for powers of two
         layouts = plan_layouts(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
                                rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
                                on_fill=on_step)
@@ -623,6 +645,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 other = next_layout_outcome(job, layouts, texels, modes, group_colour, bytes_before,
                                             (packed.texels_after, bytes_after), workers if parallel else None, on_step)
                 if other is None:
+                    on_step(0, 0, STEPS["rectangles"])
                     other = rectangles_only_outcome(job, texels, modes, colours, bytes_before, str(grows), t0)
                 if other is None:
                     raise
@@ -661,7 +684,7 @@ def _previews(job: AtlasJob, texels: list[np.ndarray], packed: PackedAtlas) -> t
 
 
 def _written(packed: PackedAtlas, texels: list[np.ndarray], modes: dict, group_colour: dict, job: AtlasJob,
-             workers, on_step) -> tuple[dict[str, bytes], str]:
+             workers, on_step, layout: str = "") -> tuple[dict[str, bytes], str]:
     """A packed atlas as it would be written, proven: its pages' bytes by name (:func:`encode_page`, on
     ``workers`` when given) and its text, once :func:`prove_written` holds of them.
 
@@ -669,11 +692,14 @@ def _written(packed: PackedAtlas, texels: list[np.ndarray], modes: dict, group_c
     ------
     PackRefused
         A page that cannot be written losslessly or does not come back, or a failed proof.
+
+    ``layout``: words that name the layout in the steps told (``on_step``), for one after the first.
     """
-    on_step(0, len(packed.pages))
+    on_step(0, len(packed.pages), layout + STEPS["write"])
     colour_of = packed_page_colours(packed.atlas, group_colour)
     encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers, on_step)
     text = packed.atlas.dumps()
+    on_step(0, 0, layout + STEPS["prove"])
     prove_written(job.atlas, texels, text, encoded, job.uses, job.pinned)
     return {name: page.data for name, page in encoded.items()}, text
 
@@ -692,12 +718,13 @@ def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.nd
     A page's bytes depend on what lies next to what, not only on how many texels there are:
     a layout of a few more texels can take fewer bytes (verse-rabby's).
     """
-    on_step = on_step or (lambda done=1, planned=0: None)
+    on_step = on_step or _silent_step
     best = None
     for rank in range(1, layouts.count):
         try:
             packed = compose(layouts, rank)
-            encoded, text = _written(packed, texels, modes, group_colour, job, workers, on_step)
+            encoded, text = _written(packed, texels, modes, group_colour, job, workers, on_step,
+                                     f"layout {rank + 1} of {layouts.count}: ")
         except (PackRefused, SpineMeshError):
             continue
         size = sum(map(len, encoded.values())) + len(text.encode("utf-8"))
@@ -824,8 +851,8 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[by
              if Path(page.name).suffix.lower() == ".png"]
     if not pages:
         return AtlasOutcome(row)
-    on_step = on_step or (lambda done=1, planned=0: None)
-    on_step(0, len(pages))
+    on_step = on_step or _silent_step
+    on_step(0, len(pages), STEPS["reencode"])
     results = _page_by_page(_reencode_task, pages, workers, on_step)
     written = {name: data for (name, _, _), data in zip(pages, results) if data is not None}
     if not written:
@@ -925,6 +952,7 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
             job = next(waiting, None)
             if job is not None:
                 progress.atlas(job.rel, 1)
+                progress.step(job.rel, STEPS["worker"])
                 future = workers.submit(_pack_atlas_task, job)
                 future.add_done_callback(lambda _, rel=job.rel: (progress.advance(rel), progress.done(rel)))
                 ahead.append((job, future))
@@ -944,9 +972,11 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
             submit()
         return
     for job in jobs:
-        def on_step(done: int = 1, planned: int = 0, rel=job.rel) -> None:
+        def on_step(done: int = 1, planned: int = 0, step: str = "", rel=job.rel) -> None:
             if planned:
                 progress.atlas(rel, planned)
+            if step:
+                progress.step(rel, step)
             if done:
                 progress.advance(rel, done)
 

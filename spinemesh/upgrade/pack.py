@@ -72,5 +72,10 @@ class PhaseProgress:
     def advance(self, name: str, steps: int = 1) -> None:
         self.progress.advance("pack", steps)
 
+    def step(self, name: str, what: str) -> None:
+        from ..runs import short_names
+
+        self.progress.step("pack", f"{short_names([name], 20)[name]}: {what}")
+
     def done(self, name: str) -> None:
         pass
