@@ -589,6 +589,25 @@ def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: d
 NO_MEMORY = "not enough memory to pack it (the regions' shapes, the placements tried and the pages take memory by their texels)"
 
 
+def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
+    """Each page file of ``job``'s atlas read once, for everything packing needs of it (texels,
+    palette, colour chunks, lossy or not, and the file itself where a kept page is re-encoded),
+    and its texels: ``(files' bytes, texels)`` in page order.
+
+    Raises
+    ------
+    PackRefused
+        For a page in a format that cannot be written back texel for texel (JPEG), before any is read.
+    """
+    for page in job.atlas.pages:
+        if Path(page.name).suffix.lower() not in PAGE_FORMATS:
+            raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
+                              "texel for texel (JPEG pages have no alpha and lose texels when written)")
+    on_step(0, 0, STEPS["read"])
+    data = [image_file_bytes(f) for f in job.files]
+    return data, [decode_rgba(d, f) for d, f in zip(data, job.files)]
+
+
 def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     """Read one atlas's pages, pack them and encode the new ones; nothing is written.
 
@@ -612,15 +631,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     try:
         if job.refused:
             raise PackRefused(job.refused)
-        for f, page in zip(files, atlas.pages):
-            if Path(page.name).suffix.lower() not in PAGE_FORMATS:
-                raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
-                                  "texel for texel (JPEG pages have no alpha and lose texels when written)")
-        # each page file read once, for everything packing needs of it: texels, palette, colour
-        # chunks, lossy or not, and the file itself where a kept page is re-encoded
-        on_step(0, 0, STEPS["read"])
-        data = [image_file_bytes(f) for f in files]
-        texels = [decode_rgba(d, f) for d, f in zip(data, files)]
+        data, texels = _read_pages(job, on_step)
         check_page_sizes(atlas, texels)
         reencode_kept = True
         modes = {page.name: page_mode(d) for d, page in zip(data, atlas.pages)}
