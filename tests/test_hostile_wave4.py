@@ -328,3 +328,125 @@ def test_a_skeleton_of_thousands_of_animations_gets_a_light_preview(tmp_path):
     page = next((tmp_path / "v" / "s").glob("*.html")).read_text(encoding="utf-8")
     assert "501 animations not shown: the player shows the first 1,000" in page
     assert sum(p.stat().st_size for p in scripts) < 8 * 1024**2
+
+
+# --- pack: are pages ever written lossy, or with other texels? -----------------------------------
+
+def _pillow_rgba(path):
+    from PIL import Image
+
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGBA"))
+
+
+def _upright(page: np.ndarray, g) -> np.ndarray:
+    """A region's texels upright at its original size, cut by hand from the atlas's numbers
+    (not by spinemesh.images, which the packer uses)."""
+    crop = page[g.y:g.y + g.page_height, g.x:g.x + g.page_width]
+    if g.degrees:
+        crop = np.rot90(crop, -(g.degrees // 90))
+    out = np.zeros((g.original_height, g.original_width, 4), np.uint8)
+    top = g.original_height - g.offset_y - g.height
+    out[top:top + g.height, g.offset_x:g.offset_x + g.width] = crop
+    return out
+
+
+def _drawn_masks(skeleton, regions) -> dict:
+    """Per region drawn by meshes, the texels (upright, original size) whose centres lie at least
+    a texel inside one of its meshes' triangles: what drawing it samples, for sure."""
+    import cv2
+
+    from spinemesh.skeleton import iter_skins
+
+    out = {}
+    for _, slots in iter_skins(load_skeleton(skeleton)):
+        for atts in slots.values():
+            for key, a in atts.items():
+                if a.get("type") != "mesh":
+                    continue
+                path = a.get("path") or key
+                names = [r.name for r in regions if r.name == path or (
+                    a.get("sequence") and r.name.startswith(path) and r.name[len(path):].isdigit())]
+                uv = np.asarray(a["uvs"], float).reshape(-1, 2)
+                for name in names:
+                    g = next(r for r in regions if r.name == name).geometry()
+                    mask = out.setdefault(name, np.zeros((g.original_height, g.original_width), np.uint8))
+                    pts = np.round(uv * (g.original_width, g.original_height) * 16).astype(np.int32)
+                    for tri in np.asarray(a["triangles"]).reshape(-1, 3):
+                        cv2.fillPoly(mask, [pts[tri]], 1, shift=4)
+    return {k: cv2.erode(m, np.ones((3, 3), np.uint8)).astype(bool) for k, m in out.items()}
+
+
+def _same_texels_drawn(project, out) -> int:
+    """Compare every region of the atlas written in ``out`` with ``project``'s, by Pillow's
+    decoding of both pages: inside its meshes for a region meshes draw, its whole rectangle
+    for any other. Returns the texels compared."""
+    from spinemesh.atlas import read_atlas
+
+    before, after = read_atlas(project / "demo.atlas"), read_atlas(out / "demo.atlas")
+    pages_before = [_pillow_rgba(project / p.name) for p in before.pages]
+    pages_after = [_pillow_rgba(out / p.name) for p in after.pages]
+    masks = _drawn_masks(project / "demo.json", before.regions)
+    by_name = {r.name: r for r in before.regions}
+    assert [r.name for r in after.regions] == [r.name for r in before.regions]
+    compared = 0
+    for r in after.regions:
+        o = _upright(pages_after[r.page], r.geometry())
+        s = _upright(pages_before[by_name[r.name].page], by_name[r.name].geometry())
+        inside = masks.get(r.name, np.ones(s.shape[:2], bool))
+        differ = (o != s).any(axis=2) & inside
+        assert not differ.any(), f"{r.name}: {int(differ.sum())} texels drawn differ"
+        compared += int(inside.sum())
+    return compared
+
+
+def _page_as(meshed, dest, how):
+    """A copy of the meshed demo whose page is stored ``how``; returns the project."""
+    import shutil
+
+    import cv2
+    from PIL import Image
+
+    shutil.copytree(meshed, dest, ignore=shutil.ignore_patterns(".*"))
+    page = dest / "demo.png"
+    im = Image.open(page).convert("RGBA")
+    name = {"webp lossless": "demo.webp", "webp lossy": "demo.webp", "jpeg": "demo.jpg"}.get(how, "demo.png")
+    if how == "16-bit":
+        wide = np.asarray(im).astype(np.uint16) * 257
+        noise = np.random.default_rng(1).integers(0, 200, wide.shape).astype(np.uint16)
+        wide = np.where(wide[..., 3:4] > 0, np.minimum(wide + noise, 65535), wide).astype(np.uint16)
+        cv2.imwrite(str(page), cv2.cvtColor(wide, cv2.COLOR_RGBA2BGRA))
+    elif how == "palette with tRNS":
+        im.quantize(64, method=Image.Quantize.FASTOCTREE).save(page)
+    elif how == "grey and alpha":
+        im.convert("LA").save(page)
+    elif how == "RGB":
+        im.convert("RGB").save(page)
+    elif how.startswith("webp"):
+        im.save(dest / name, "WEBP", **({"lossless": True} if how == "webp lossless" else {"quality": 80}))
+    elif how == "jpeg":
+        im.convert("RGB").save(dest / name, "JPEG", quality=90)
+    if name != "demo.png":
+        page.unlink()
+        (dest / "demo.atlas").write_text((dest / "demo.atlas").read_text().replace("demo.png", name))
+    return dest, name
+
+
+#: How each page format must come out of ``pack``: packed with the very texels drawn, or kept
+#: byte for byte (16 bits a channel once came out packed at 8, its low bits gone, exit 0).
+PAGE_FORMATS = {"8-bit RGBA": "packed", "palette with tRNS": "packed", "grey and alpha": "packed",
+                "RGB": "packed", "webp lossless": "packed", "16-bit": "kept", "webp lossy": "kept", "jpeg": "kept"}
+
+
+@pytest.mark.parametrize("how", sorted(PAGE_FORMATS))
+def test_packed_pages_draw_the_original_texels_in_every_page_format(meshed, tmp_path, how):
+    from spinemesh.pack.run import PackOptions, pack_project
+
+    project, name = _page_as(meshed, tmp_path / "p", how)
+    result = pack_project(project, tmp_path / "out", PackOptions(larger_files=True))
+    (row,) = result.atlases
+    assert row.status == PAGE_FORMATS[how], row.reason
+    if row.status == "kept":
+        assert (tmp_path / "out" / name).read_bytes() == (project / name).read_bytes(), row.reason
+        assert (tmp_path / "out" / "demo.atlas").read_bytes() == (project / "demo.atlas").read_bytes()
+    assert _same_texels_drawn(project, tmp_path / "out") > 20_000

@@ -165,6 +165,17 @@ MAX_CHUNKS = 100_000
 #: optimiser may compress it anew, so they are compared by what they hold.
 _COMPRESSED = (b"iCCP", b"zTXt")
 
+def png_bit_depth(data: bytes) -> int | None:
+    """Bits a channel (a palette index's bits for a palette PNG) of a PNG file, from its
+    header; None when ``data`` is not a PNG file that starts with one."""
+    if not data.startswith(PNG_SIGNATURE) or len(data) < len(PNG_SIGNATURE) + CHUNK_HEAD.size + IHDR.size:
+        return None
+    length, kind = CHUNK_HEAD.unpack_from(data, len(PNG_SIGNATURE))
+    if kind != b"IHDR" or length != IHDR.size:
+        return None
+    return IHDR.unpack_from(data, len(PNG_SIGNATURE) + CHUNK_HEAD.size)[2]
+
+
 def png_chunks(data: bytes) -> list[tuple[bytes, bytes]] | None:
     """A PNG file's chunks in order, ``(type, data)``, up to IEND; None when ``data`` is not one
     (no signature, cut short, more than :data:`MAX_CHUNKS`). CRCs are not checked (the decoder does)."""

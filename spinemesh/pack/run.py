@@ -30,6 +30,7 @@ from .png import (
     colour_chunks,
     OptimiserFailed,
     optimized_png,
+    png_bit_depth,
     png_chunks,
     png_differences,
 )
@@ -597,7 +598,8 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
     Raises
     ------
     PackRefused
-        For a page in a format that cannot be written back texel for texel (JPEG), before any is read.
+        For a page in a format that cannot be written back texel for texel (JPEG), before any is
+        read, and for a PNG page of 16 bits a channel (:func:`check_eight_bits`).
     """
     for page in job.atlas.pages:
         if Path(page.name).suffix.lower() not in PAGE_FORMATS:
@@ -605,6 +607,8 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
                               "texel for texel (JPEG pages have no alpha and lose texels when written)")
     on_step(0, 0, STEPS["read"])
     data = [image_file_bytes(f) for f in job.files]
+    for d, page in zip(data, job.atlas.pages):
+        check_eight_bits(d, page.name)
     return data, [decode_rgba(d, f) for d, f in zip(data, job.files)]
 
 
@@ -799,6 +803,21 @@ def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict
     return AtlasOutcome(row, {name: p.data for name, p in pages.items()}, text)
 
 
+def check_eight_bits(data: bytes, name: str) -> None:
+    """Refuse a PNG page of 16 bits a channel: texels are decoded, compared and written at 8,
+    so a page written from it would lose the low bits of every texel unseen.
+
+    Raises
+    ------
+    PackRefused
+        Naming the page.
+    """
+    depth = png_bit_depth(data)
+    if depth is not None and depth > 8:
+        raise PackRefused(f"page {name!r} has 16 bits a channel, and packed pages are written at 8 "
+                          "(its texels would lose their low bits)")
+
+
 def reencoded_page(original: bytes, texels: np.ndarray, name: str) -> bytes:
     """A kept page's PNG file written anew by oxipng, losslessly, when that is strictly smaller.
 
@@ -831,8 +850,7 @@ def reencoded_page(original: bytes, texels: np.ndarray, name: str) -> bytes:
     chunks = png_chunks(original) if Path(name).suffix.lower() == ".png" else None
     if not chunks or chunks[0][0] != b"IHDR" or len(chunks[0][1]) != IHDR.size:
         raise PackRefused(f"page {name!r} is not a PNG file")
-    if IHDR.unpack(chunks[0][1])[2] > 8:
-        raise PackRefused(f"page {name!r} has 16 bits a channel")
+    check_eight_bits(original, name)
     data = _optimized(original, name, keep_format=True)
     if len(data) >= len(original):
         raise PackRefused(f"page {name!r} would not get smaller")
