@@ -387,13 +387,15 @@ def _same_texels_drawn(project, out) -> int:
     pages_before = [_pillow_rgba(project / p.name) for p in before.pages]
     pages_after = [_pillow_rgba(out / p.name) for p in after.pages]
     masks = _drawn_masks(project / "demo.json", before.regions)
-    by_name = {r.name: r for r in before.regions}
     assert [r.name for r in after.regions] == [r.name for r in before.regions]
     compared = 0
-    for r in after.regions:
+    for r, was in zip(after.regions, before.regions):
         o = _upright(pages_after[r.page], r.geometry())
-        s = _upright(pages_before[by_name[r.name].page], by_name[r.name].geometry())
+        s = _upright(pages_before[was.page], was.geometry())
+        assert o.shape == s.shape, r.name
         inside = masks.get(r.name, np.ones(s.shape[:2], bool))
+        if inside.shape != s.shape[:2]:  # a name twice, of two sizes: the whole rectangle
+            inside = np.ones(s.shape[:2], bool)
         differ = (o != s).any(axis=2) & inside
         assert not differ.any(), f"{r.name}: {int(differ.sum())} texels drawn differ"
         compared += int(inside.sum())
@@ -450,3 +452,45 @@ def test_packed_pages_draw_the_original_texels_in_every_page_format(meshed, tmp_
         assert (tmp_path / "out" / name).read_bytes() == (project / name).read_bytes(), row.reason
         assert (tmp_path / "out" / "demo.atlas").read_bytes() == (project / "demo.atlas").read_bytes()
     assert _same_texels_drawn(project, tmp_path / "out") > 20_000
+
+
+_HEAD = "demo-head\n\tbounds: 105, 2, 81, 81\n\toffsets: 5, 4, 90, 90\n"
+
+#: Atlases a hand or an old exporter writes: (what the atlas becomes, packed or kept).
+ATLAS_CASES = {
+    "a region name on two pages": (lambda a: a + "\ndemo2.png\n\tsize: 512, 256\n\tfilter: Linear, Linear\n" + _HEAD,
+                                   "packed"),
+    "one name twice with index fields": (lambda a: a.replace(_HEAD, _HEAD + "\tindex: 0\n" + _HEAD + "\tindex: 1\n"),
+                                         "packed"),
+    "an index field": (lambda a: a.replace("demo-body\n", "demo-body\n\tindex: 7\n"), "packed"),
+    "rotate: 270": (lambda a: a.replace("demo-ring\n", "demo-ring\n\trotate: 270\n"), "packed"),
+    "rotate: 180": (lambda a: a.replace("demo-ring\n", "demo-ring\n\trotate: 180\n"), "packed"),
+    "rotated, odd sides": (lambda a: a.replace("demo-blobs\n", "demo-blobs\n\trotate: true\n"), "packed"),
+    "a region past its page's edge": (lambda a: a.replace("bounds: 105, 2, 81, 81", "bounds: 500, 2, 81, 81"), "kept"),
+    "a region at x = -5": (lambda a: a.replace("bounds: 105, 2, 81, 81", "bounds: -5, 2, 81, 81"), "kept"),
+    "a region of no size": (lambda a: a.replace("bounds: 105, 2, 81, 81", "bounds: 105, 2, 0, 0"), "kept"),
+    "an original size of 16000": (lambda a: a.replace("offsets: 5, 4, 90, 90", "offsets: 5, 4, 16000, 16000"), "kept"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(ATLAS_CASES))
+def test_hand_made_atlases_pack_to_the_same_texels_or_are_kept(meshed, tmp_path, case):
+    import shutil
+
+    change, expected = ATLAS_CASES[case]
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    shutil.copy(project / "demo.png", project / "demo2.png")
+    atlas = project / "demo.atlas"
+    text = atlas.read_text()
+    assert _HEAD in text
+    atlas.write_text(change(text))
+    before = snapshot(tmp_path)
+    r = run_cli("pack", "p", "--out", "o", "--report", "r.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "r.json"])
+    (row,) = json.loads((tmp_path / "r.json").read_text())["atlases"]
+    assert row["status"] == expected, row["reason"]
+    if expected == "packed":
+        assert _same_texels_drawn(project, tmp_path / "o") > 20_000
+    else:
+        assert (tmp_path / "o" / "demo.atlas").read_bytes() == atlas.read_bytes()
