@@ -295,7 +295,7 @@ def test_names_holding_html_and_script_run_nothing_in_the_preview(tmp_path):
 def test_atlas_names_holding_html_run_nothing_in_the_pack_preview(tmp_path):
     from browser import run
 
-    project = _hostile_names_project(tmp_path / "p")
+    _hostile_names_project(tmp_path / "p")
     r = run_cli("upgrade", "p", "--out", "m", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     for f in ("demo.atlas", "demo.png"):
@@ -494,3 +494,92 @@ def test_hand_made_atlases_pack_to_the_same_texels_or_are_kept(meshed, tmp_path,
         assert _same_texels_drawn(project, tmp_path / "o") > 20_000
     else:
         assert (tmp_path / "o" / "demo.atlas").read_bytes() == atlas.read_bytes()
+
+
+# --- Spine 3.5 binaries ---------------------------------------------------------------------
+
+def _read_or_refuse(data: bytes, name: str = "x.skel"):
+    """The document, or None where the reader refused it with a SkelFormatError naming an
+    offset inside the data; anything else fails the test."""
+    try:
+        with within(10):
+            return read_skel(data, name)
+    except SkelFormatError as e:
+        assert e.offset is not None and 0 <= e.offset <= len(data), e
+        assert e.path == name
+        return None
+
+
+def _round_trips(doc: dict) -> None:
+    """What was read is written and read back as the same document (the bytes may differ only
+    where the file was not the writer's own)."""
+    try:
+        data = write_skel(doc)
+    except SkelFormatError:
+        return  # a document the reader let through but no 3.5 file can hold: refused in one line
+    assert json.dumps(read_skel(data)) == json.dumps(doc)  # as text: a NaN read equals the NaN written
+
+
+def test_every_cut_of_a_35_binary_is_refused_at_its_end():
+    from test_skeleton_binary_v35 import encode_35
+
+    data = encode_35(True)
+    for cut in range(len(data)):
+        with pytest.raises(SkelFormatError) as e:
+            read_skel(data[:cut], "cut.skel")
+        assert e.value.offset is not None and e.value.offset <= cut
+
+
+def test_huge_counts_and_string_lengths_anywhere_in_a_35_binary():
+    """The largest varint (2^32 - 1), and 2^22 + 1 (one over the count limit), spliced over
+    every byte in turn: a count or a string length of billions is refused without allocating
+    it; whatever still reads writes back to the same document."""
+    from test_skeleton_binary_v35 import encode_35
+
+    data = encode_35(True)
+    read = 0
+    for big in (b"\xff\xff\xff\xff\x0f", b"\x81\x80\x80\x02"):
+        for at in range(len(data)):
+            doc = _read_or_refuse(data[:at] + big + data[at + 1:])
+            if doc is not None:
+                read += 1
+                _round_trips(doc)
+    assert read < len(data)   # most are refused
+
+
+def test_random_damage_to_a_35_binary_reads_or_is_refused():
+    import random
+
+    from test_skel_fuzz import mutate
+    from test_skeleton_binary_v35 import encode_35
+
+    rng = random.Random("spinemesh-hostile-3.5")
+    seeds = [encode_35(True), encode_35(False)]
+    refused = 0
+    for _ in range(600):
+        _, bad = mutate(rng.choice(seeds), rng)
+        doc = _read_or_refuse(bad)
+        if doc is None:
+            refused += 1
+        else:
+            _round_trips(doc)
+    assert refused > 150
+
+
+@pytest.mark.parametrize("version", ["3.6.53", "3.7.94", "3.8.99", "4.0.64", "4.1.24", "4.2.43", "3.5.99", "35"])
+def test_a_35_binary_claiming_another_version(version, tmp_path):
+    """Read by that version's layout: refused with an offset, or a document that converts in
+    one line or writes back as the same document; ``convert`` never ends in a traceback."""
+    from test_skeleton_binary_v35 import encode_35
+
+    data = encode_35(True).replace(b"\x073.5.51", bytes([len(version) + 1]) + version.encode(), 1)
+    doc = _read_or_refuse(data)
+    if doc is not None:
+        _round_trips(doc)
+    (tmp_path / "x.skel").write_bytes(data)
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "x.skel", "x.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["x.json"])
+    assert (r.returncode == 0) == (doc is not None), r.stderr
+    if r.returncode == 2:
+        assert "x.skel" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
