@@ -101,3 +101,8 @@ MAX_PAGE_STORE_BYTES = 1 << 30
 #: Most game-loop steps (time times steps per second) ``spinemesh pose`` takes to reach one
 #: time: a pose with 4.2 physics replays every step from 0, a few milliseconds each.
 MAX_POSE_STEPS = 100_000
+
+#: Largest JSON ``spinemesh pose`` writes, estimated before sampling as the setup pose's size
+#: times the poses asked for: all poses are held in memory (about ten times their text) before
+#: the file is written, so a long ``--times`` list on a large skeleton is refused up front.
+MAX_POSE_OUTPUT_BYTES = 256 * 1024 * 1024

@@ -583,3 +583,30 @@ def test_a_35_binary_claiming_another_version(version, tmp_path):
     assert (r.returncode == 0) == (doc is not None), r.stderr
     if r.returncode == 2:
         assert "x.skel" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_pose_bounds_what_a_long_times_list_costs(tmp_path):
+    """10,000 times are allowed, but with physics each replays the game loop from 0 (10,000
+    times of 1,666 s once meant 14 hours of a tiny skeleton), and every pose is held in memory
+    before it is written: both are refused up front, in one line; what is within the limits
+    poses as the sampler does."""
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "phys.json").write_text(json.dumps(_physics_doc()))
+    many = _doc()
+    many["slots"] += [{"name": f"s{i}", "bone": "arm", "attachment": "a"} for i in range(300)]
+    many["skins"][0]["attachments"].update({f"s{i}": {"a": {"width": 10, "height": 4}} for i in range(300)})
+    (project / "many.json").write_text(json.dumps(many))
+    long_list = ",".join(f"{i / 100:g}" for i in range(10_000))
+    for skeleton, times, words in (("p/phys.json", ",".join(f"{1666 - i}" for i in range(10)), "game-loop steps"),
+                                   ("p/many.json", long_list, "MB of JSON")):
+        before = snapshot(tmp_path)
+        with within(60):
+            r = run_cli("pose", skeleton, "-a", "turn", "--times", times, "--out", "o.json", cwd=tmp_path)
+        check_run(r, before, tmp_path, [], codes=(2,))
+        (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+        assert words in line and skeleton in line, r.stderr
+    r = _pose_cli(tmp_path, "p/phys.json", "-a", "turn", "--times", "0.25,0.5")
+    assert r.returncode == 0, r.stderr
+    written = json.loads((tmp_path / "pose.json").read_text())
+    assert written["poses"] == _strict(dump(Sampler(_physics_doc()), "turn", [0.25, 0.5]))["poses"]

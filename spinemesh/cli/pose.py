@@ -61,6 +61,7 @@ def pose(
     """
     from ..anim import POSE_ERRORS, Sampler, atlas_regions
     from ..anim.dump import dump
+    from ..anim.pose import steps_of
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
     from ..fsutil import atomic_write_json, check_outputs, project_folder, strict_json
@@ -68,7 +69,7 @@ def pose(
     from ..skeleton import load_skeleton
     from ._app import progress_bar
 
-    from ..limits import MAX_POSE_STEPS
+    from ..limits import MAX_POSE_OUTPUT_BYTES, MAX_POSE_STEPS
 
     seconds = _times(times)
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
@@ -93,6 +94,21 @@ def pose(
             err_console.print("[yellow]warning:[/] no atlas found beside the skeleton: region quads are drawn "
                               "over their whole images (as if no whitespace was stripped)", highlight=False)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
+    if animation is not None and sampler.physics:
+        # each time replays the game loop from 0 (physics keeps state): the steps of all of them are bounded
+        replayed = sum(steps_of(t, fps)[0] for t in set(seconds))
+        if replayed > MAX_POSE_STEPS:
+            raise SpineMeshError(f"--times: {len(set(seconds)):,} times replay {replayed:,} game-loop steps of "
+                                 f"this skeleton's physics in all, over {MAX_POSE_STEPS:,}; give fewer or earlier times",
+                                 skeleton)
+    poses = 1 + (len(set(seconds)) if animation is not None else 0)
+    try:
+        size = poses * len(strict_json(sampler.pose(None).to_dump(), None, skeleton)) if poses > 1 else 0
+    except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot pose
+        raise SpineMeshError(f"the setup pose cannot be posed: {e}", skeleton) from None
+    if size > MAX_POSE_OUTPUT_BYTES:
+        raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 1e6:,.0f} MB of "
+                             f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 1e6:,.0f} MB; give fewer times", skeleton)
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
         try:
