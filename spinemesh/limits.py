@@ -102,6 +102,11 @@ MAX_PAGE_STORE_BYTES = 1 << 30
 #: time: a pose with 4.2 physics replays every step from 0, a few milliseconds each.
 MAX_POSE_STEPS = 100_000
 
+#: Most steps a second a 4.2 physics constraint is stepped at (its ``fps``; 60 by default, 24 to
+#: 60 in real projects): each 1/60 s frame costs ``fps / 60`` steps, so an ``fps`` of 1e9 would
+#: make one frame millions of steps. Finer constraints are not stepped; their bones are flagged.
+MAX_PHYSICS_FPS = 1000
+
 #: Largest JSON ``spinemesh pose`` writes, estimated before sampling as the setup pose's size
 #: times the poses asked for: all poses are held in memory (about ten times their text) before
 #: the file is written, so a long ``--times`` list on a large skeleton is refused up front.

@@ -610,3 +610,57 @@ def test_pose_bounds_what_a_long_times_list_costs(tmp_path):
     assert r.returncode == 0, r.stderr
     written = json.loads((tmp_path / "pose.json").read_text())
     assert written["poses"] == _strict(dump(Sampler(_physics_doc()), "turn", [0.25, 0.5]))["poses"]
+
+
+def _constrained_doc() -> dict:
+    doc = _doc()
+    doc["bones"] += [{"name": "b1", "parent": "root", "length": 0}, {"name": "b2", "parent": "b1", "length": 0},
+                     {"name": "tgt", "parent": "root"}, {"name": "phys", "parent": "b2"}]
+    doc["slots"].append({"name": "path", "bone": "root", "attachment": "p"})
+    doc["skins"][0]["attachments"]["path"] = {"p": {"type": "path", "closed": False, "constantSpeed": True,
+                                                     "lengths": [0, 0], "vertexCount": 6, "vertices": [0] * 12}}
+    return doc
+
+
+#: Constraints at the extremes the document's check lets through (numbers up to 1e9 in size).
+CONSTRAINT_CASES = {
+    "IK of bones of no length, the target on them": {"ik": [{"name": "i", "bones": ["b1", "b2"], "target": "tgt",
+                                                             "stretch": True, "compress": True, "uniform": True}]},
+    "IK mix and softness 1e9": {"ik": [{"name": "i", "bones": ["b1", "b2"], "target": "tgt", "mix": 1e9,
+                                        "softness": 1e9, "stretch": True}]},
+    "IK mix -1e9": {"ik": [{"name": "i", "bones": ["b1"], "target": "tgt", "mix": -1e9}]},
+    "transform mixes and offsets of 1e9": {"transform": [{
+        "name": "t", "bones": ["b1"], "target": "tgt", "mixRotate": 1e9, "mixX": -1e9, "mixScaleX": 1e9,
+        "mixShearY": 1e9, "rotation": 1e9, "scaleX": 1e9, "x": 1e9}]},
+    "local relative transform, scale -1e9": {"transform": [{
+        "name": "t", "bones": ["b1"], "target": "tgt", "local": True, "relative": True, "mixRotate": 1e9,
+        "mixScaleX": 1e9, "scaleX": -1e9}]},
+    "path of no length, percent spacing 1e9": {"path": [{
+        "name": "pa", "bones": ["b1", "b2"], "target": "path", "spacingMode": "percent", "rotateMode": "chainScale",
+        "position": 1e9, "spacing": 1e9, "mixRotate": 1e9}]},
+    "proportional path at -1e9": {"path": [{"name": "pa", "bones": ["b1", "b2"], "target": "path",
+                                            "spacingMode": "proportional", "rotateMode": "chain",
+                                            "positionMode": "percent", "position": -1e9}]},
+    "physics of zeros": {"physics": [{"name": "ph", "bone": "phys", "x": 1, "y": 1, "rotate": 1, "scaleX": 1,
+                                      "shearX": 1, "mass": 0, "strength": 0, "damping": 0, "inertia": 0,
+                                      "limit": 0, "fps": 0}]},
+    # an fps of 1e9 made each 1/60 s frame 16 million steps: a pose never ended
+    "physics of 1e9, fps 1e9": {"physics": [{"name": "ph", "bone": "phys", "x": 1, "y": 1, "rotate": 1,
+                                             "scaleX": 1, "shearX": 1, "mass": 1e9, "strength": 1e9,
+                                             "damping": 1e9, "inertia": 1e9, "limit": 1e9, "gravity": 1e9,
+                                             "wind": -1e9, "mix": 1e9, "fps": 1e9}]},
+    "physics fps 1e-9, mass 1e-9": {"physics": [{"name": "ph", "bone": "phys", "x": 1, "fps": 1e-9, "mass": 1e-9}]},
+}
+
+
+@pytest.mark.parametrize("case", sorted(CONSTRAINT_CASES))
+def test_constraints_at_the_extremes_pose_finite_in_bounded_time(case):
+    from spinemesh.skeleton_check import check_document
+
+    doc = _constrained_doc()
+    doc.update(copy.deepcopy(CONSTRAINT_CASES[case]))
+    check_document(doc, "x.json")   # what the loader lets through
+    with within(20):
+        out = _strict(dump(Sampler(doc), "turn", [0.0, 0.3, 1.0, 2.5]))
+    if "fps 1e9" in case:
+        assert "phys" in out["poses"][-1]["inexact"]   # not stepped: said, not silently wrong

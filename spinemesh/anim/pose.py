@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..limits import MAX_POSE_STEPS
+from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
@@ -249,8 +249,15 @@ class Sampler:
         for c in self.rig.constraints:
             # 4.3 physics interpolates between its steps (not reproduced): flagged, not stepped.
             if c.kind == "physics" and c.active and self.rig.family == "4.2" and not _family_43(doc):
-                c.physics = PhysicsState(PhysicsSettings.from_json(c.data, doc.get("skeleton") or {}))
+                settings = PhysicsSettings.from_json(c.data, doc.get("skeleton") or {})
+                if settings.step * MAX_PHYSICS_FPS < 1:  # a step per frame for each of millions: flagged
+                    continue
+                c.physics = PhysicsState(settings)
                 self.physics.append(c.physics)
+        #: Bones of active physics constraints that are not stepped even when physics is (too fine).
+        self.unstepped_bones = {b: n for b, n in self.physics_bones.items()
+                                if not any(c.physics is not None for c in self.rig.constraints
+                                           if c.kind == "physics" and c.name == n)}
         self._animations: dict[str, tuple[Animation, dict]] = {}
 
     # -- attachments ---------------------------------------------------------------------
@@ -564,7 +571,7 @@ class Sampler:
         exact = np.array([b.exact for b in rig.bones], bool)
         why = {b.name: b.why for b in rig.bones if not b.exact}
         for b in rig.bones:
-            name = None if simulated else self.physics_bones.get(b.index)
+            name = (self.unstepped_bones if simulated else self.physics_bones).get(b.index)
             parent_flag = b.parent is not None and not exact[b.parent.index]
             if name is not None or (parent_flag and exact[b.index]):
                 exact[b.index] = False
