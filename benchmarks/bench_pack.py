@@ -570,6 +570,123 @@ def png_encoders(pages: list[Path], levels=(1, 2, 3)) -> str:
     return "\n".join(lines)
 
 
+def png_level_pages(projects: list[Path]) -> list[Path]:
+    """The PNG atlas pages of ``projects`` (each once), in order: what ``pack`` encodes or
+    re-encodes of them. A folder ``pack`` wrote is a project too: its pages are packed pages."""
+    pages: list[Path] = []
+    for project in projects:
+        proj = find_project(project)
+        for atlas in project_atlases(proj).values():
+            for page in atlas.pages:
+                f = AtlasImages.page_path(atlas, page.name, proj.root)
+                if f.suffix.lower() == ".png" and f not in pages:
+                    pages.append(f)
+    return pages
+
+
+def png_level_child(pages: list[str], level: int) -> list[dict]:
+    """In a fresh process (its own oxipng thread pool, sized by ``RAYON_NUM_THREADS``): each page
+    through both of ``pack``'s uses of oxipng at ``level``, timed on oxipng's calls alone (wall and
+    CPU seconds, its threads' included): written from its texels as a packed page is
+    (:func:`spinemesh.pack.run.encode_page`: palette, RGB or RGBA as the page was, colour chunks),
+    and re-encoded as a kept atlas's page is (:func:`~spinemesh.pack.run.reencoded_page`: the
+    export's bytes when that is not smaller). ``pack``'s oxipng is as it was on return."""
+    from spinemesh.pack import png
+
+    compress, spent = png._compress, [0.0, 0.0]
+
+    def timed(*args, **kwargs):
+        w0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return compress(*args, **kwargs)
+        finally:
+            spent[0] += time.perf_counter() - w0
+            spent[1] += time.process_time() - c0
+
+    level_before, png._compress, png.LEVEL = png.LEVEL, timed, level
+    try:
+        return [_png_level_row(Path(page), spent) for page in pages]
+    finally:
+        png._compress, png.LEVEL = compress, level_before
+
+
+def _png_level_row(path: Path, spent: list) -> dict:
+    """One page of :func:`png_level_child`: its texels, export bytes, and per use ``[bytes, wall s,
+    CPU s]`` (``spent``: oxipng's seconds, counted by the caller's wrapper)."""
+    from spinemesh.images import decode_rgba
+    from spinemesh.pack.atlas_pack import PackRefused
+    from spinemesh.pack.run import encode_page, page_colour, page_mode, reencoded_page
+
+    data = path.read_bytes()
+    rgba = decode_rgba(data, path)
+    row = {"page": str(path), "texels": int(rgba.shape[0] * rgba.shape[1]), "export": len(data)}
+    for use in ("packed", "kept"):
+        spent[:] = [0.0, 0.0]
+        if use == "packed":
+            size = len(encode_page(rgba, path.name, page_mode(data), page_colour(data)).data)
+        else:
+            try:
+                size = len(reencoded_page(data, rgba, path.name))
+            except PackRefused:  # not smaller, or not re-encoded: copied as it is
+                size = len(data)
+        row[use] = [size, round(spent[0], 3), round(spent[1], 3)]
+    return row
+
+
+def png_levels(projects: list[Path], variants: list[tuple[int, int]]) -> str:
+    """oxipng's effort (``level``) and its own threads against what ``pack`` writes today (level 2,
+    oxipng's default threads: one per core), on the PNG pages of ``projects``: bytes, wall and CPU
+    seconds of oxipng alone, each variant in a fresh process, side by side with its ratio to today's.
+
+    ``variants``: ``(level, threads)``, threads 0 for oxipng's default. Bytes do not depend on the
+    threads (the same file either way); time does, and with ``--jobs N`` each of N worker processes
+    runs its own oxipng threads.
+    """
+    import os
+    import subprocess
+
+    pages = [str(p) for p in png_level_pages(projects)]
+    results = {}
+    for level, threads in variants:
+        env = dict(os.environ)
+        env.pop("RAYON_NUM_THREADS", None)
+        if threads:
+            env["RAYON_NUM_THREADS"] = str(threads)
+        code = (f"import json, sys; sys.path.insert(0, {str(REPO)!r}); sys.path.insert(0, {str(REPO / 'benchmarks')!r}); "
+                f"from bench_pack import png_level_child; "
+                f"print(json.dumps(png_level_child(json.loads(sys.stdin.read()), {level})))")
+        done = subprocess.run([sys.executable, "-c", code], input=json.dumps(pages), capture_output=True, text=True,
+                              env=env, check=True)
+        results[(level, threads)] = json.loads(done.stdout)
+        print(f"  level {level}, threads {threads or 'default'}: done", file=sys.stderr, flush=True)
+    base = results[variants[0]]
+    texels = sum(r["texels"] for r in base)
+    export = sum(r["export"] for r in base)
+    lines = [f"{len(pages)} PNG pages, {texels / 1e6:.1f} M texels, {export:,} bytes as exported; oxipng alone, "
+             f"ratios to the first row",
+             "", "| oxipng | packed page: bytes | wall s | CPU s | kept page re-encoded: bytes | wall s | CPU s |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    first = None
+    for (level, threads), rows in results.items():
+        sums = {use: [sum(r[use][k] for r in rows) for k in range(3)] for use in ("packed", "kept")}
+        first = first or sums
+        cells = []
+        for use in ("packed", "kept"):
+            (b, w, c), (b0, w0, c0) = sums[use], first[use]
+            cells += [f"{b:,} ({b / b0 - 1:+.2%})", f"{w:.1f} ({w / w0:.2f}x)", f"{c:.1f} ({c / c0:.2f}x)"]
+        lines.append(f"| level {level}, {f'{threads} thread' + ('s' if threads > 1 else '') if threads else 'threads: default'} | "
+                     + " | ".join(cells) + " |")
+    # a page whose bytes a level changes the most, either way (a packed atlas is kept when its
+    # bytes grow past the export's: the level moves that line)
+    by_level = {level: rows for (level, threads), rows in results.items() if not threads}
+    if len(by_level) > 1:
+        (la, ra), (lb, rb) = list(by_level.items())[:2]
+        worst = max(zip(ra, rb), key=lambda pair: abs(pair[1]["packed"][0] / pair[0]["packed"][0] - 1))
+        lines += ["", f"page whose packed bytes move most from level {la} to {lb}: {Path(worst[0]['page']).name} "
+                  f"{worst[0]['packed'][0]:,} -> {worst[1]['packed'][0]:,} ({worst[1]['packed'][0] / worst[0]['packed'][0] - 1:+.1%})"]
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("projects", nargs="*", type=Path)
@@ -599,7 +716,17 @@ def main(argv: list[str] | None = None) -> int:
                          "rule, with its page texels and bytes as pack writes it")
     ap.add_argument("--png", type=Path, nargs="+", metavar="PAGE", help="only compare the PNG encoders on these "
                     "page images: Pillow's default and oxipng at levels 1-3 (bytes, CPU seconds, ratios)")
+    ap.add_argument("--png-levels", type=Path, nargs="+", metavar="PROJECT", help="only compare oxipng's levels "
+                    "and threads on the PNG pages of these projects (a folder pack wrote: its packed pages), as "
+                    "pack encodes them: bytes, wall and CPU seconds side by side (see --variants)")
+    ap.add_argument("--variants", nargs="+", default=["2:0", "1:0"], metavar="LEVEL:THREADS",
+                    help="with --png-levels: oxipng level and threads (0: its default, one per core); the first "
+                         "is the baseline (default: 2:0 1:0)")
     args = ap.parse_args(argv)
+    if args.png_levels:
+        variants = [tuple(int(v) for v in spec.split(":")) for spec in args.variants]
+        print(png_levels([p.resolve() for p in args.png_levels], variants))
+        return 0
     if args.png:
         print(png_encoders(args.png))
         return 0

@@ -22,6 +22,7 @@ Usage::
     .venv/bin/python benchmarks/bench_pack_scale.py CORPUS/degamex-degamers --jobs 1 2 --code /tmp/old
     .venv/bin/python benchmarks/bench_pack_scale.py --many 10000 --side 4096 --code /tmp/old
     .venv/bin/python benchmarks/bench_pack_scale.py --made 18 236 --jobs 1 2 --phases
+    .venv/bin/python benchmarks/bench_pack_scale.py CORPUS/degamex-degamers --jobs 1 2 --oxipng-threads 0 1
 """
 
 from __future__ import annotations
@@ -38,11 +39,23 @@ REPO = Path(__file__).resolve().parents[1]
 
 #: Runs one measure in a fresh interpreter and prints it as JSON (argv: mode, arguments).
 _CHILD = r'''
-import json, resource, sys, time
+import json, os, resource, sys, time
 mode = sys.argv[1]
 t0, c0 = time.perf_counter(), time.process_time()
 if mode == "pack":
     from spinemesh.cli import app
+    calls = os.environ.get("BENCH_OXIPNG_CALLS")
+    if calls:  # every oxipng call's process, start and end (workers are forked: they inherit this)
+        from spinemesh.pack import png
+        compress = png._compress
+        def timed(*args, **kwargs):
+            start = time.time()
+            try:
+                return compress(*args, **kwargs)
+            finally:
+                with open(calls, "a") as f:
+                    f.write(f"{os.getpid()} {start} {time.time()}\n")
+        png._compress = timed
     project, out, jobs = sys.argv[2:5]
     args = ["pack", project, "--out", out, "--report", out + ".json"]
     if jobs != "-":
@@ -92,14 +105,56 @@ print(json.dumps({"wall": time.perf_counter() - t0,
 '''
 
 
-def measure(code: Path, mode: str, *args: str) -> dict:
-    """One measure of :data:`_CHILD` with the package at ``code`` first on the path."""
-    env = dict(os.environ, PYTHONPATH=str(code), COLUMNS="120")
+def measure(code: Path, mode: str, *args: str, env: dict | None = None) -> dict:
+    """One measure of :data:`_CHILD` with the package at ``code`` first on the path; ``env``: more
+    variables for it."""
+    env = dict(os.environ, PYTHONPATH=str(code), COLUMNS="120", **(env or {}))
     done = subprocess.run([sys.executable, "-c", _CHILD, mode, *args], capture_output=True, text=True, env=env,
                           cwd=tempfile.gettempdir())
     if done.returncode != 0:
         raise SystemExit(f"{code}: {done.stderr.strip().splitlines()[-1] if done.stderr.strip() else done.returncode}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def oxipng_calls(path: Path) -> dict:
+    """What the oxipng calls logged by a ``pack`` measure (``BENCH_OXIPNG_CALLS``) took: their
+    seconds summed (``sum``), the wall seconds while at least one ran (``wall``), the most running
+    at once (``at_once``) and in how many processes (``processes``)."""
+    calls = [line.split() for line in path.read_text().splitlines()] if path.exists() else []
+    spans = sorted((float(a), float(b)) for _, a, b in calls)
+    wall, end = 0.0, float("-inf")
+    for a, b in spans:
+        wall += max(0.0, b - max(a, end))
+        end = max(end, b)
+    edges = sorted([(a, 1) for a, _ in spans] + [(b, -1) for _, b in spans])
+    running = at_once = 0
+    for _, step in edges:
+        running += step
+        at_once = max(at_once, running)
+    return {"calls": len(spans), "sum": sum(b - a for a, b in spans), "wall": wall, "at_once": at_once,
+            "processes": len({pid for pid, _, _ in calls})}
+
+
+def oxipng_table(projects: list[Path], jobs: list[str], threads: list[int]) -> str:
+    """``pack`` of each project for every ``--jobs`` and oxipng thread count (``RAYON_NUM_THREADS``;
+    0: oxipng's default, one per core), with where its oxipng calls ran: are pages optimised side
+    by side over ``--jobs``, and what do oxipng's own threads add or cost there."""
+    lines = ["| project | --jobs | oxipng threads | wall s | CPU s | oxipng calls | their seconds summed | wall "
+             "s with one running | most at once | in processes | share of the wall |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for project in projects:
+        for n in jobs:
+            for t in threads:
+                with tempfile.TemporaryDirectory(prefix="bench-pack-scale-") as scratch:
+                    log = Path(scratch) / "oxipng.calls"
+                    env = {"BENCH_OXIPNG_CALLS": str(log), **({"RAYON_NUM_THREADS": str(t)} if t else {})}
+                    m = measure(REPO, "pack", str(project.resolve()), str(Path(scratch) / "out"), n, env=env)
+                    o = oxipng_calls(log)
+                lines.append(f"| {project.name} | {n} | {t or 'default'} | {m['wall']:.1f} | {m['cpu']:.1f} | "
+                             f"{o['calls']} | {o['sum']:.1f} | {o['wall']:.1f} | {o['at_once']} | {o['processes']} | "
+                             f"{o['wall'] / m['wall']:.0%} |")
+                print(lines[-1], file=sys.stderr, flush=True)
+    return "\n".join(lines)
 
 
 def make_atlas_project(folder: Path, pages: int, regions: int, seed: int = 0, gap: int | None = None) -> Path:
@@ -207,7 +262,15 @@ def main(argv: list[str] | None = None) -> int:
                     "(default 2, as Spine's packer leaves them); -1: one region a grid cell, far apart")
     ap.add_argument("--keep", type=Path, metavar="DIR", help="with --made: make and upgrade it here once, and reuse")
     ap.add_argument("--phases", action="store_true", help="with --made: where the CPU time of --jobs 1 goes")
+    ap.add_argument("--oxipng-threads", type=int, nargs="+", metavar="N", help="instead: pack each PROJECT for "
+                    "every --jobs with oxipng on N threads each (0: its default, one per core), and say where its "
+                    "oxipng calls ran (summed, side by side, in how many processes)")
     args = ap.parse_args(argv)
+    if args.oxipng_threads:
+        print(f"load average before: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
+        print(oxipng_table(args.projects, args.jobs, args.oxipng_threads))
+        print(f"load average after: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
+        return 0
     codes = [("this checkout", REPO)] + [(str(c), c.resolve()) for c in args.code]
     if args.many:
         print("| code | regions | page | CPU s | peak memory MB | outcome |\n|---|---:|---|---:|---:|---|")

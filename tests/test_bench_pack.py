@@ -57,3 +57,27 @@ def test_the_limits_table_counts_atlases_by_what_limits_them():
     gap = [{"project": "q", "atlas": "c.atlas", "before": 400, "kept": 100, "outline": 160, "reached": 280}]
     table = bench_pack.limits_table(rows, "any", gap)
     assert "| q | c.atlas | 400 | 25.0% | 65% | 30.0% | placement: packed, 90% full |" in table
+
+
+def test_oxipng_levels_and_calls_are_measured_as_pack_encodes(tmp_path):
+    """``bench_pack.py --png-levels`` runs the very encodes ``pack`` runs (a page written from its
+    texels, a kept page re-encoded), at the level asked; ``bench_pack_scale.py --oxipng-threads``
+    reads its log of oxipng calls into seconds summed, wall seconds covered and calls at once."""
+    import bench_pack_scale
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.pack import png
+
+    project = make_demo_project(tmp_path / "demo")
+    pages = bench_pack.png_level_pages([project])
+    assert [p.name for p in pages] == ["demo.png"]
+    level, compress = png.LEVEL, png._compress
+    rows = {n: bench_pack.png_level_child([str(p) for p in pages], n) for n in (1, 2)}
+    assert png.LEVEL == level and png._compress is compress  # pack's own encoder as it was
+    for n, (row,) in rows.items():
+        assert row["texels"] == 512 * 256 and row["kept"][0] <= row["export"], (n, row)
+        assert row["packed"][2] > 0, (n, row)  # oxipng ran, and was timed
+    log = tmp_path / "calls"
+    log.write_text("10 0 2\n10 5 6\n11 1 3\n")
+    assert bench_pack_scale.oxipng_calls(log) == {"calls": 3, "sum": 5.0, "wall": 4.0, "at_once": 2, "processes": 2}
+    assert bench_pack_scale.oxipng_calls(tmp_path / "none")["calls"] == 0
