@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 import signal
 from contextlib import contextmanager
 
@@ -664,3 +665,27 @@ def test_constraints_at_the_extremes_pose_finite_in_bounded_time(case):
         out = _strict(dump(Sampler(doc), "turn", [0.0, 0.3, 1.0, 2.5]))
     if "fps 1e9" in case:
         assert "phys" in out["poses"][-1]["inexact"]   # not stepped: said, not silently wrong
+
+
+def test_the_player_writes_a_skeleton_scaled_to_1e308(tmp_path):
+    """Bones scaled by 1e38 each (float32 keys hold it), eight deep: the vertices, finite, lie at
+    about ±1e308, so the box around them once spanned infinity and the player's script could not
+    be written (a traceback from ``upgrade --preview``)."""
+    from spinemesh.player.files import PreviewFolder
+    from spinemesh.player.frames import animations
+    from spinemesh.player.page import write_player
+
+    doc = {"skeleton": {"spine": "4.2.00"},
+           "bones": [{"name": "b0"}] + [{"name": f"b{i}", "parent": f"b{i - 1}"} for i in range(1, 9)],
+           "slots": [{"name": "s", "bone": "b8", "attachment": "a"}],
+           "skins": [{"name": "default", "attachments": {"s": {"a": {"width": 20000, "height": 10}}}}],
+           "animations": {"blow": {"bones": {f"b{i}": {"scale": [{"x": 1e38, "y": 1}]} for i in range(1, 9)}}}}
+    problems: list[str] = []
+    shown = animations(doc, doc, problems=problems)
+    xs = np.concatenate([d.world[:, 0] for d in shown[1].by_skin["default"][0][0]])
+    assert np.isfinite(xs).all() and float(xs.max()) - float(xs.min()) == math.inf  # a span beyond float range
+    html = write_player(PreviewFolder(tmp_path), "blow", "s/blow.html", shown, lambda path: None)
+    assert "player-blow" in html and not problems
+    for script in tmp_path.rglob("*.js"):
+        if script.name != "player.js":
+            assert "Infinity" not in script.read_text() and "NaN" not in script.read_text()

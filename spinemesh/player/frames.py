@@ -213,6 +213,11 @@ class SideTable:
         return self.keys[key]
 
 
+#: Largest coordinate, in world units, the player's bounds reach (a skeleton scaled beyond it is
+#: drawn flattened against the box's edge: no page shows it anyway).
+MAX_WORLD = 1e300
+
+
 def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
     """``(x0, y0, x1, y1)`` around every vertex of ``poses`` and the clipping polygons they
     are drawn with (a unit square when empty)."""
@@ -220,7 +225,8 @@ def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
     pts += [d.clip for pose in poses for d in pose if d.clip is not None]
     if not pts:
         return (0.0, 0.0, 1.0, 1.0)
-    allp = np.concatenate(pts)
+    # finite vertices of 1e308 on both sides would make the box's span, and its padding, infinite
+    allp = np.concatenate(pts).clip(-MAX_WORLD, MAX_WORLD)
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     hi = np.maximum(hi, lo + 1e-3)
     return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
