@@ -686,6 +686,37 @@ def test_the_player_writes_a_skeleton_scaled_to_1e308(tmp_path):
     assert np.isfinite(xs).all() and float(xs.max()) - float(xs.min()) == math.inf  # a span beyond float range
     html = write_player(PreviewFolder(tmp_path), "blow", "s/blow.html", shown, lambda path: None)
     assert "player-blow" in html and not problems
-    for script in tmp_path.rglob("*.js"):
-        if script.name != "player.js":
-            assert "Infinity" not in script.read_text() and "NaN" not in script.read_text()
+    _scripts_are_strict_json(tmp_path)
+
+
+def test_the_player_shows_every_hostile_animation_and_extreme_constraint(tmp_path):
+    """What ``pose`` survives, the player survives too: every animation and constraint case above
+    sampled for the page and written, nothing that is not a number in its scripts."""
+    from spinemesh.player.files import PreviewFolder
+    from spinemesh.player.frames import animations
+    from spinemesh.player.page import write_player
+
+    docs = [_hostile_doc()]
+    for extra in CONSTRAINT_CASES.values():
+        docs.append(_constrained_doc())
+        docs[-1].update(copy.deepcopy(extra))
+    with within(60):
+        for i, doc in enumerate(docs):
+            problems: list[str] = []
+            shown = animations(doc, doc, problems=problems)
+            assert len(shown) == 1 + len(doc["animations"]) and not problems
+            write_player(PreviewFolder(tmp_path / str(i)), "x", "s/x.html", shown, lambda path: None)
+    _scripts_are_strict_json(tmp_path)
+
+
+def _scripts_are_strict_json(folder) -> None:
+    """Every data script of a player (``SM.model(id, {...});``, ``SM.frames(key, {...});``)
+    passes a JSON object that a strict parser reads: no NaN, no Infinity."""
+    import re
+
+    scripts = [p for p in folder.rglob("*.js") if p.name != "player.js"]
+    assert scripts
+    for script in scripts:
+        found = re.fullmatch(r'SM\.(?:model|frames)\(("(?:[^"\\]|\\.)*"),(.*)\);\s*', script.read_text(), re.S)
+        assert found, script
+        json.loads(found.group(2), parse_constant=lambda name: pytest.fail(f"{script} holds {name}"))
