@@ -717,6 +717,28 @@ def _scripts_are_strict_json(folder) -> None:
     scripts = [p for p in folder.rglob("*.js") if p.name != "player.js"]
     assert scripts
     for script in scripts:
-        found = re.fullmatch(r'SM\.(?:model|frames)\(("(?:[^"\\]|\\.)*"),(.*)\);\s*', script.read_text(), re.S)
+        found = re.fullmatch(r'SM\.(?:model|frames)\(("(?:[^"\\]|\\.)*"),(.*)\);\s*', script.read_text(), re.DOTALL)
         assert found, script
         json.loads(found.group(2), parse_constant=lambda name: pytest.fail(f"{script} holds {name}"))
+
+
+@pytest.mark.parametrize("args,code", [
+    (("--max-page", "0"), 2), (("--max-page", "-5"), 2), (("--max-page", "99999"), 2), (("--max-page", "abc"), 2),
+    (("--pages", "7"), 2), (("--padding", "-1"), 2), (("--jobs", "0"), 2),
+    (("--max-page", "16"), 0), (("--pages", "power-of-two", "--max-page", "17"), 0),
+    (("--pages", "multiple-of-4", "--max-page", "16384"), 0), (("--padding", "64", "--max-page", "64"), 0),
+])
+def test_pack_option_extremes(meshed, tmp_path, args, code):
+    """Values out of range are refused before anything is written; a page too small for a
+    region keeps the atlas; what is packed draws the original texels."""
+    import shutil
+
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    before = snapshot(tmp_path)
+    r = run_cli("pack", "p", "--out", "o", *args, cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o"], codes=(code,))
+    if code == 2:
+        assert not (tmp_path / "o").exists()
+    else:
+        _same_texels_drawn(project, tmp_path / "o")
