@@ -719,7 +719,7 @@ def _scripts_are_strict_json(folder) -> None:
     for script in scripts:
         found = re.fullmatch(r'SM\.(?:model|frames)\(("(?:[^"\\]|\\.)*"),(.*)\);\s*', script.read_text(), re.DOTALL)
         assert found, script
-        json.loads(found.group(2), parse_constant=lambda name: pytest.fail(f"{script} holds {name}"))
+        json.loads(found.group(2), parse_constant=lambda name, where=script: pytest.fail(f"{where} holds {name}"))
 
 
 @pytest.mark.parametrize("args,code", [
