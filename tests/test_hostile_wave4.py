@@ -742,3 +742,24 @@ def test_pack_option_extremes(meshed, tmp_path, args, code):
         assert not (tmp_path / "o").exists()
     else:
         _same_texels_drawn(project, tmp_path / "o")
+
+
+def test_a_deform_of_many_empty_keys_on_a_large_mesh_costs_what_it_draws(tmp_path):
+    """100,000 empty deform keys (``{}``, 1.5 MB of JSON) on a mesh of 2,500 vertices: every
+    key's vertices were made up front, 4 GB (over this run's 3 GB limit); now each key is made
+    when a pose needs it."""
+    n = 2500
+    doc = _doc()
+    doc["skins"][0]["attachments"]["m"]["mesh"] = {"type": "mesh", "uvs": [0.5] * (2 * n), "triangles": [0, 1, 2],
+                                                   "vertices": [float(i % 97) for i in range(2 * n)], "hull": 3}
+    doc["animations"]["fat"] = {"attachments": {"default": {"m": {"mesh": {"deform": [
+        {"time": 0, "offset": 2, "vertices": [7, 7]}] + [{"time": i * 1e-3} for i in range(1, 100_001)]}}}}}
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "fat.json").write_text(json.dumps(doc))
+    r = _pose_cli(tmp_path, "p/fat.json", "-a", "fat", "--times", "0,50")
+    assert r.returncode == 0, r.stderr
+    poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    first, later = (next(a for a in p["attachments"] if a["slot"] == "m") for p in poses[1:])
+    assert first["vertices"][:4] == [0, 1, 9, 10]   # the first key: 7 added to the second vertex's x, y
+    assert later["vertices"][:4] == [0, 1, 2, 3]

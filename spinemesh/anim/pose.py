@@ -205,6 +205,47 @@ def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool =
     return math.fmod(track, duration) if duration > 0 else 0.0
 
 
+class DeformKeys:
+    """A deform timeline's vertices at each key, in the runtimes' layout (float32; the setup
+    vertices added for an unweighted mesh), made when a key is first needed.
+
+    Not all at once: a timeline of 100,000 empty keys (``{}``, three bytes each) on a mesh of
+    10,000 numbers would otherwise ask for 8 GB. The last :data:`KEPT` keys made are kept.
+
+    Parameters
+    ----------
+    raw : list of (int, list or None)
+        Per key, its ``offset`` and ``vertices`` as stored.
+    setup : ndarray, shape (N,)
+        The attachment's vertices as its deform keys count them.
+    weighted : bool
+        Whether the offsets are added to the setup vertices (unweighted) or are the values.
+    """
+
+    KEPT = 64
+
+    def __init__(self, raw: list, setup: np.ndarray, weighted: bool):
+        self.raw, self.setup, self.weighted = raw, setup, weighted
+        self._made: dict[int, np.ndarray] = {}
+
+    def __len__(self) -> int:
+        return len(self.raw)
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        if i not in self._made:
+            if len(self._made) >= self.KEPT:
+                self._made.clear()
+            offset, verts = self.raw[i]
+            values = np.zeros(len(self.setup))
+            if isinstance(verts, list) and 0 <= offset < len(self.setup):
+                v = np.asarray([_number(x, 0.0) for x in verts[:len(self.setup) - offset]], float)
+                values[offset:offset + len(v)] = v
+            if not self.weighted:
+                values += self.setup
+            self._made[i] = values.astype(np.float32).astype(np.float64)
+        return self._made[i]
+
+
 class Sampler:
     """A skeleton document prepared once for sampling: bones, update cache, slots, attachments.
 
@@ -300,17 +341,8 @@ class Sampler:
                 att = self.prepared(d.skin, d.slot, d.attachment)
                 if att is None or att.geometry is None:
                     continue
-                setup = att.geometry.setup
-                frames = np.zeros((len(d.raw), len(setup)))
-                for i, (offset, verts) in enumerate(d.raw):
-                    if isinstance(verts, list) and verts:
-                        v = np.asarray([_number(x, 0.0) for x in verts], float)
-                        end = min(len(setup), offset + len(v))
-                        if 0 <= offset < end:
-                            frames[i, offset:end] = v[:end - offset]
-                    if not att.geometry.weighted:
-                        frames[i] += setup
-                deforms[(d.skin, d.slot, d.attachment)] = (d.keys, frames.astype(np.float32).astype(np.float64))
+                deforms[(d.skin, d.slot, d.attachment)] = (d.keys, DeformKeys(d.raw, att.geometry.setup,
+                                                                               att.geometry.weighted))
             self._animations[name] = (anim, deforms)
         return self._animations[name]
 
