@@ -61,15 +61,13 @@ def pose(
     """
     from ..anim import POSE_ERRORS, Sampler, atlas_regions
     from ..anim.dump import dump
-    from ..anim.pose import steps_of
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
     from ..fsutil import atomic_write_json, check_outputs, project_folder, strict_json
     from ..project import find_project, image_source_for
     from ..skeleton import load_skeleton
     from ._app import progress_bar
-
-    from ..limits import MAX_POSE_OUTPUT_BYTES, MAX_POSE_STEPS
+    from ..limits import MAX_POSE_STEPS
 
     seconds = _times(times)
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
@@ -94,6 +92,30 @@ def pose(
             err_console.print("[yellow]warning:[/] no atlas found beside the skeleton: region quads are drawn "
                               "over their whole images (as if no whitespace was stripped)", highlight=False)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
+    _check_pose_bounds(sampler, animation, seconds, fps, skeleton)
+    with progress_bar("pose", transient=True) as bar:
+        task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
+        try:
+            result = dump(sampler, animation, seconds if animation else [], str(skeleton), fps,
+                          step=lambda: bar.advance(task))
+        except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot play
+            raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
+    if out is None:
+        typer.echo(strict_json(result, None, skeleton))
+    else:
+        atomic_write_json(out, result, indent=None)
+        err_console.print(f"{out}: {len(result['poses'])} poses", highlight=False, markup=False)
+
+
+def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps: float, skeleton: Path) -> None:
+    """Refuse, naming the skeleton, a pose run whose physics replay or JSON would be over the limits
+    (each time replays the game loop from 0 when physics keeps state)."""
+    from ..anim import POSE_ERRORS
+    from ..anim.pose import steps_of
+    from ..errors import SpineMeshError
+    from ..fsutil import strict_json
+    from ..limits import MAX_POSE_OUTPUT_BYTES, MAX_POSE_STEPS
+
     if animation is not None and sampler.physics:
         # each time replays the game loop from 0 (physics keeps state): the steps of all of them are bounded
         replayed = sum(steps_of(t, fps)[0] for t in set(seconds))
@@ -109,18 +131,6 @@ def pose(
     if size > MAX_POSE_OUTPUT_BYTES:
         raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 1e6:,.0f} MB of "
                              f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 1e6:,.0f} MB; give fewer times", skeleton)
-    with progress_bar("pose", transient=True) as bar:
-        task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
-        try:
-            result = dump(sampler, animation, seconds if animation else [], str(skeleton), fps,
-                          step=lambda: bar.advance(task))
-        except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot play
-            raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
-    if out is None:
-        typer.echo(strict_json(result, None, skeleton))
-    else:
-        atomic_write_json(out, result, indent=None)
-        err_console.print(f"{out}: {len(result['poses'])} poses", highlight=False, markup=False)
 
 
 def _skin_names(doc: dict) -> list[str]:
