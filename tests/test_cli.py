@@ -350,6 +350,12 @@ def test_empty_folder_warns_with_a_hint(tmp_path):
     (tmp_path / "empty").mkdir()
     r = run("upgrade", str(tmp_path / "empty"), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "no Spine skeleton found" in r.stderr
+    assert not (tmp_path / "o").exists()  # refused: nothing written (it wrote an empty OUT)
+    assert r.stdout == "", r.stdout  # no timing line of phases that never ran
+    (tmp_path / "atlas-only").mkdir()  # an atlas without a skeleton: nothing to upgrade either
+    (tmp_path / "atlas-only" / "a.atlas").write_text("a.png\nsize: 4,4\n")
+    r = run("upgrade", str(tmp_path / "atlas-only"), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "no Spine skeleton found" in r.stderr and not (tmp_path / "o").exists()
     r = run("info", str(tmp_path / "empty"))
     assert r.returncode == 2 and "no Spine skeleton" in r.stderr
 

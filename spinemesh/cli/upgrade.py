@@ -284,10 +284,11 @@ def _print_result(result, dry_run: bool) -> None:
         columns = ("would mesh", "kept", "failed") if dry_run else ("meshed", "kept", "failed", "median vertices")
         console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""), columns,
                                      result.targets, cells, skeletons=result.written))
-    # the phases that ran: a dry run only reads and plans
+    # the phases that ran: a dry run only reads and plans; a run that found no skeleton, none
     ran = {phase: seconds for phase, seconds in result.seconds.items()
            if (phase != "weights" or seconds) and (phase == "read" or not dry_run)}
-    console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in ran.items()), highlight=False)
+    if result.targets or result.written or result.not_read or result.errors:
+        console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in ran.items()), highlight=False)
     if result.atlases:
         from .pack import print_pack_table
 

@@ -77,6 +77,8 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     check_output_folder(proj.root, out, options.images_in)
     if options.images_out is not None:
         check_output_folder(proj.root, Path(options.images_out), options.images_in)
+    if not proj.skeletons:  # nothing to upgrade (the caller says so): no output folder of copies alone
+        return Result()
     with contextlib.ExitStack() as held:
         if not options.dry_run:
             held.enter_context(output_folder(out, options.overwrite))
