@@ -763,3 +763,20 @@ def test_a_deform_of_many_empty_keys_on_a_large_mesh_costs_what_it_draws(tmp_pat
     first, later = (next(a for a in p["attachments"] if a["slot"] == "m") for p in poses[1:])
     assert first["vertices"][:4] == [0, 1, 9, 10]   # the first key: 7 added to the second vertex's x, y
     assert later["vertices"][:4] == [0, 1, 2, 3]
+
+
+def test_a_draw_order_of_many_keys_on_many_slots_costs_what_it_draws(tmp_path):
+    """300,000 draw order keys of ``"offsets": []`` (5 MB of JSON) on 500 slots: every key's
+    order was made up front, 150 million slot indices (3.6 GB, over this run's 3 GB limit)."""
+    doc = _doc()
+    doc["slots"] += [{"name": f"z{i}", "bone": "root"} for i in range(500)]
+    doc["animations"]["busy"] = {"drawOrder": [{"time": 0, "offsets": [{"slot": "s", "offset": 2}]}] + [
+        {"time": i * 1e-4, "offsets": []} for i in range(1, 300_000)]}
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "busy.json").write_text(json.dumps(doc))
+    r = _pose_cli(tmp_path, "p/busy.json", "-a", "busy", "--times", "0,20")
+    assert r.returncode == 0, r.stderr
+    poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    assert [a["slot"] for a in poses[1]["attachments"]] == ["m", "w", "s"]   # the first key: s moved after w
+    assert [a["slot"] for a in poses[2]["attachments"]] == ["s", "m", "w"]

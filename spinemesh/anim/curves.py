@@ -92,14 +92,15 @@ class Keys:
     """The keys of one timeline: ``times`` (n,), ``values`` (n, k) and the curve after each key.
 
     ``kinds`` (n,) holds LINEAR, STEPPED or BEZIER per key (the last key is STEPPED, as the
-    runtimes set it). ``bezier``: 3.x, (n, 9, 2) percent curves; 4.x, (n, k, 9, 2) per value.
+    runtimes set it). ``bezier``: per BEZIER key's index, its curve: 3.x, (9, 2) percent points;
+    4.x, (k, 9, 2) per value (only those keys: a million linear keys hold no curve).
     ``angle``: a 3.x rotate timeline, whose keys turn the shorter way round.
     """
 
     times: np.ndarray
     values: np.ndarray
     kinds: np.ndarray
-    bezier: np.ndarray | None
+    bezier: dict
     four: bool
     angle: bool = False
 
@@ -124,7 +125,7 @@ class Keys:
         if self.four:
             if kind == LINEAR:
                 return a + (time - t1) / (t2 - t1) * (b - a)
-            return np.array([value_4(self.bezier[i, c], time, t1, float(a[c]), t2, float(b[c]))
+            return np.array([value_4(self.bezier[i][c], time, t1, float(a[c]), t2, float(b[c]))
                              for c in range(len(a))])
         p = (time - t1) / (t2 - t1)
         if kind == BEZIER:
@@ -149,7 +150,7 @@ class Keys:
         if self.four:
             if kind == LINEAR:
                 return i, (time - t1) / (t2 - t1)
-            return i, value_4(self.bezier[i, 0], time, t1, 0.0, t2, 1.0)
+            return i, value_4(self.bezier[i][0], time, t1, 0.0, t2, 1.0)
         p = (time - t1) / (t2 - t1)
         return i, percent_3(self.bezier[i], p) if kind == BEZIER else min(1.0, max(0.0, p))
 
@@ -201,7 +202,7 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     k = vals.shape[1]
     kinds = np.full(n, LINEAR, np.int8)
     kinds[-1] = STEPPED
-    bezier = np.zeros((n, k, 9, 2) if four else (n, 9, 2))
+    bezier: dict[int, np.ndarray] = {}
     for i, f in enumerate(frames[:-1]):
         curve = f.get("curve")
         if curve == "stepped":
@@ -212,10 +213,11 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
                 continue
             kinds[i] = BEZIER
             t1, t2 = float(times[i]), float(times[i + 1])
+            bezier[i] = np.zeros((k, 9, 2))
             for c in range(k):
                 cx1, cy1, cx2, cy2 = (_number(v, 0) for v in curve[4 * c:4 * c + 4])
                 v1, v2 = (0.0, 1.0) if percent else (float(vals[i, c]), float(vals[i + 1, c]))
-                bezier[i, c] = bezier_points_4(t1, v1, cx1, cy1, cx2, cy2, t2, v2)
+                bezier[i][c] = bezier_points_4(t1, v1, cx1, cy1, cx2, cy2, t2, v2)
             continue
         if isinstance(curve, list) and len(curve) >= 4:
             c1, c2, c3, c4 = (_number(v, d) for v, d in zip(curve[:4], (0, 0, 1, 1)))

@@ -477,8 +477,9 @@ class Sampler:
             self._physics_resets(anim, last, t)
             if anim.draw_order is not None:
                 i = search(anim.draw_order.times, t)
-                if i >= 0 and anim.draw_order.orders[i] is not None:
-                    frame.order = list(anim.draw_order.orders[i])
+                order = anim.draw_order.order(i) if i >= 0 else None
+                if order is not None:
+                    frame.order = list(order)
             shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
             for sq in anim.sequences:
                 self._apply_sequence(sq, t, shown, frame.sequence)

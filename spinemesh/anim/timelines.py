@@ -89,8 +89,21 @@ class DeformTimeline:
 
 @dataclass
 class DrawOrderTimeline:
+    """Per key, its ``offsets`` as stored; :meth:`order` makes a key's draw order when a pose
+    needs it (made up front, 200,000 keys of ``"offsets": []`` on 500 slots took 2.4 GB)."""
+
     times: np.ndarray
-    orders: list[list[int] | None]   # slot indices in draw order; None: the setup order
+    offsets: list
+    slot_index: dict
+    _made: dict = field(default_factory=dict)
+
+    def order(self, i: int) -> list[int] | None:
+        """Slot indices in draw order at key ``i``; None: the setup order."""
+        if i not in self._made:
+            if len(self._made) >= 64:
+                self._made.clear()
+            self._made[i] = _draw_order(self.offsets[i], self.slot_index)
+        return self._made[i]
 
 
 @dataclass
@@ -295,7 +308,7 @@ def read_animation(doc: dict, name: str, four: bool) -> Animation:
     _read_deforms(anim, r.slot_index, four, out, r.ends)
     fr, times = r.discrete(anim.get("drawOrder", anim.get("draworder")))
     if fr:
-        out.draw_order = DrawOrderTimeline(times, [_draw_order(f.get("offsets"), r.slot_index) for f in fr])
+        out.draw_order = DrawOrderTimeline(times, [f.get("offsets") for f in fr], r.slot_index)
     r.discrete(anim.get("events"))
     r.physics(_mapping(anim.get("physics")))
     out.duration = max(r.ends, default=0.0)
