@@ -318,6 +318,14 @@ def test_a_kept_atlas_says_it_re_encodes_its_pages(meshed, tmp_path):
         assert task.description == r"a/\[b].atlas: writing pages", task.description
         shown.done("a/[b].atlas")
         assert task.description.endswith(": done") and task.completed == task.total
+    with progress_bar("pack") as bars:  # several atlases: one bar counts them, each goes once done
+        shown = atlas_bars(bars)
+        shown.atlases(2)
+        shown.atlas("a.atlas", 1)
+        shown.atlas("b.atlas", 1)
+        shown.done("a.atlas")
+        assert [t.description for t in bars.tasks] == ["atlases", "b.atlas"]
+        assert bars.tasks[0].completed == 1
 
 
 def test_changes_read_as_shares_never_minus_zero():

@@ -173,13 +173,18 @@ def outcome_line(atlases: list) -> str:
 def atlas_bars(bars, phase: str = ""):
     """A :class:`spinemesh.pack.run.PackProgress` that shows one bar per atlas on ``bars`` (a rich
     progress), its steps the placements tried and the pages written, each bar named by its atlas
-    and what that atlas is doing (reading pages, placing regions, ...). ``phase``: the bars of a
+    and what that atlas is doing (reading pages, placing regions, ...); with several atlases, a bar
+    counts those done and each atlas's own bar goes once it is done. ``phase``: the bars of a
     :func:`~spinemesh.cli._app.progress_bar` of phases (``upgrade``) are named by it, the atlas
     shown at the end."""
     from rich.markup import escape
 
     from ..pack.run import PackProgress
     from ..runs import short_names
+
+    def total(task: int) -> float:
+        # by id, not by place: tasks done are removed, and rich's list then shifts
+        return next(t.total for t in bars.tasks if t.id == task) or 0
 
     class Bars(PackProgress):
         def __init__(self) -> None:
@@ -198,7 +203,7 @@ def atlas_bars(bars, phase: str = ""):
                 self.tasks[name] = bars.add_task(phase or label, total=steps, **fields)
             else:
                 task = self.tasks[name]
-                bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+                bars.update(task, total=total(task) + steps)
 
         def step(self, name: str, what: str) -> None:
             self._say(name, what)
@@ -216,8 +221,11 @@ def atlas_bars(bars, phase: str = ""):
         def done(self, name: str) -> None:
             if name in self.tasks:
                 task = self.tasks[name]
-                bars.update(task, completed=bars.tasks[task].total or 1, total=bars.tasks[task].total or 1)
-                self._say(name, "done")
+                if self.whole is not None:  # counted there: a library of many atlases keeps a few lines
+                    bars.remove_task(self.tasks.pop(name))
+                else:
+                    bars.update(task, completed=total(task) or 1, total=total(task) or 1)
+                    self._say(name, "done")
             if self.whole is not None:
                 bars.advance(self.whole)
 
