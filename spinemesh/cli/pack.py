@@ -170,13 +170,12 @@ def outcome_line(atlases: list) -> str:
     return line
 
 
-def atlas_bars(bars, phase: str = ""):
+def atlas_bars(bars):
     """A :class:`spinemesh.pack.run.PackProgress` that shows one bar per atlas on ``bars`` (a rich
     progress), its steps the placements tried and the pages written, each bar named by its atlas
     and what that atlas is doing (reading pages, placing regions, ...); with several atlases, a bar
-    counts those done and each atlas's own bar goes once it is done. ``phase``: the bars of a
-    :func:`~spinemesh.cli._app.progress_bar` of phases (``upgrade``) are named by it, the atlas
-    shown at the end."""
+    counts those done and each atlas's own bar goes once it is done. (``upgrade --pack`` shows its
+    packing on its ``pack`` phase's bar instead: :class:`spinemesh.upgrade.pack.PhaseProgress`.)"""
     from rich.markup import escape
 
     from ..pack.run import PackProgress
@@ -193,14 +192,13 @@ def atlas_bars(bars, phase: str = ""):
             self.whole: int | None = None  # the run's atlases done, with the time left for them all
 
         def atlases(self, count: int) -> None:
-            if count > 1 and not phase:  # one atlas: its own bar says it all
+            if count > 1:  # one atlas: its own bar says it all
                 self.whole = bars.add_task("atlases", total=count)
 
         def atlas(self, name: str, steps: int) -> None:
             if name not in self.tasks:
                 label = self.labels[name] = escape(short_names([name], 30)[name])
-                fields = {"project": label} if phase else {}
-                self.tasks[name] = bars.add_task(phase or label, total=steps, **fields)
+                self.tasks[name] = bars.add_task(label, total=steps)
             else:
                 task = self.tasks[name]
                 bars.update(task, total=total(task) + steps)
@@ -211,8 +209,7 @@ def atlas_bars(bars, phase: str = ""):
         def _say(self, name: str, what: str) -> None:
             # the atlas, then what it does: its steps are of several kinds (placements, pages)
             if name in self.tasks:
-                said = f"{self.labels[name]}: {escape(what)}"
-                bars.update(self.tasks[name], **({"project": said} if phase else {"description": said}))
+                bars.update(self.tasks[name], description=f"{self.labels[name]}: {escape(what)}")
 
         def advance(self, name: str, steps: int = 1) -> None:
             if name in self.tasks:
