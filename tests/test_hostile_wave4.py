@@ -780,3 +780,24 @@ def test_a_draw_order_of_many_keys_on_many_slots_costs_what_it_draws(tmp_path):
     poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
     assert [a["slot"] for a in poses[1]["attachments"]] == ["m", "w", "s"]   # the first key: s moved after w
     assert [a["slot"] for a in poses[2]["attachments"]] == ["s", "m", "w"]
+
+
+def test_the_game_loop_sum_is_the_loops_own_rounding():
+    """The track time and the clock are summed at C speed (10,000 times of 1,666 s took 67 s of
+    Python additions, now 28 s in all) with the very rounding of one addition after another."""
+    import random
+
+    from spinemesh.anim.pose import summed
+    from spinemesh.limits import MAX_POSE_STEPS
+
+    rng = random.Random(7)
+    for _ in range(500):
+        start, step, count = rng.choice([0.0, rng.random() * 100]), rng.random() / rng.choice([1, 7, 60]), \
+            rng.randrange(0, 3000)
+        looped = start
+        for _ in range(count):
+            looped += step
+        assert summed(start, step, count) == looped
+    with within(5):
+        assert summed(0.0, 1 / 60, 6 * 10**31) == pytest.approx(1e30)   # beyond the limit: the product
+    assert summed(1.0, 0.5, MAX_POSE_STEPS + 1) == 1.0 + 0.5 * (MAX_POSE_STEPS + 1)

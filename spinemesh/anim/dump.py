@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .pose import POSE_ERRORS, Sampler, _clean, steps_of
+from .pose import POSE_ERRORS, Sampler, _clean, steps_of, summed
 
 
 def js_number(value: float) -> str:
@@ -82,9 +82,7 @@ def advance_clock(clock: float, time: float, fps: float = 60.0) -> float:
     """The skeleton's clock after a pose at ``time`` played from ``clock`` (step by step, as
     ``Skeleton.update`` adds each step)."""
     steps, dt = steps_of(time, fps)
-    for _ in range(steps):
-        clock += dt
-    return clock
+    return summed(clock, dt, steps)
 
 
 def pose_errors(ours: dict, theirs: dict, skip_bones: set[str] = frozenset()) -> dict:
