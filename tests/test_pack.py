@@ -315,9 +315,9 @@ def test_a_kept_atlas_says_it_re_encodes_its_pages(meshed, tmp_path):
         shown.atlas("a/[b].atlas", 2)  # names are the project's: never markup
         shown.step("a/[b].atlas", "writing pages")
         (task,) = bars.tasks
-        assert task.description == r"a/\[b].atlas: writing pages", task.description
+        assert task.description == r"writing pages: a/\[b].atlas", task.description
         shown.done("a/[b].atlas")
-        assert task.description.endswith(": done") and task.completed == task.total
+        assert task.description.startswith("done: ") and task.completed == task.total
     with progress_bar("pack") as bars:  # several atlases: one bar counts them, each goes once done
         shown = atlas_bars(bars)
         shown.atlases(2)

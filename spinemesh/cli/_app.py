@@ -81,6 +81,7 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
     from rich.progress import (
         BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
     )
+    from rich.table import Column
 
     class Bars(Progress):
         def stop(self) -> None:
@@ -92,12 +93,16 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
                 return
             super().stop()
 
+    # the words end the line and take the room the label, bar, counts and times leave them (about
+    # 56 columns), cut short with an ellipsis: else rich cuts the times short instead
+    words = Column(no_wrap=True, overflow="ellipsis", max_width=max(12, err_console.real.width - 56))
     if phases:
         return Bars(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), MofNCompleteColumn(),
                     TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                    TextColumn("{task.fields[project]}"), console=err_console.real, transient=transient)
+                    TextColumn("{task.fields[project]}", table_column=words), console=err_console.real,
+                    transient=transient)
     return Bars(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"),
+                TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}", table_column=words),
                 console=err_console.real, transient=transient)
 
 

@@ -207,9 +207,10 @@ def atlas_bars(bars):
             self._say(name, what)
 
         def _say(self, name: str, what: str) -> None:
-            # the atlas, then what it does: its steps are of several kinds (placements, pages)
+            # what the atlas does (its steps are of several kinds: placements, pages), then the atlas:
+            # a narrow terminal cuts the end
             if name in self.tasks:
-                bars.update(self.tasks[name], description=f"{self.labels[name]}: {escape(what)}")
+                bars.update(self.tasks[name], description=f"{escape(what)}: {self.labels[name]}")
 
         def advance(self, name: str, steps: int = 1) -> None:
             if name in self.tasks:

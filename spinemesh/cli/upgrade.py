@@ -238,10 +238,13 @@ def _phase_progress(bars):
             if phase in self.tasks:
                 bars.advance(self.tasks[phase], steps)
 
-        def step(self, phase: str, what: str) -> None:
-            if phase in self.tasks:  # after the project's name (a library run), until the next project
-                bars.update(self.tasks[phase], project=f"{self.current}: {escape(what)}" if self.current
-                            else escape(what))
+        def step(self, phase: str, what: str, item: str = "") -> None:
+            # the words first (a narrow terminal cuts the end), then the item, under its project
+            # (a library run), until the next project
+            if phase in self.tasks:
+                where = escape(short_names([item], 30)[item]) if item else ""
+                where = f"{self.current}/{where}" if self.current and where else where or self.current
+                bars.update(self.tasks[phase], project=f"{escape(what)}: {where}" if where else escape(what))
 
         def project(self, name: str) -> None:
             self.current = shown(name)

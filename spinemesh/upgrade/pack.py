@@ -73,9 +73,7 @@ class PhaseProgress:
         self.progress.advance("pack", steps)
 
     def step(self, name: str, what: str) -> None:
-        from ..runs import short_names
-
-        self.progress.step("pack", f"{short_names([name], 20)[name]}: {what}")
+        self.progress.step("pack", what, name)
 
     def done(self, name: str) -> None:
         pass

@@ -25,8 +25,9 @@ class Progress:
     def advance(self, phase: str, steps: int = 1) -> None:
         """``steps`` steps of ``phase`` are done."""
 
-    def step(self, phase: str, what: str) -> None:
-        """What ``phase`` does now, in words (packing: the atlas and its step)."""
+    def step(self, phase: str, what: str, item: str = "") -> None:
+        """What ``phase`` does now, in words, to ``item`` (packing: its step, to an atlas of the
+        project written)."""
 
     def project(self, name: str) -> None:
         """A library run now writes the project ``name`` (its path under the library): the steps of
