@@ -276,3 +276,25 @@ def test_phase_bars_keep_their_counts_and_times_at_80_columns():
     assert [line.split()[0] for line in lines] == ["read", "mesh", "weights", "write"]
     assert "1152/3456" in lines[1] and "ETA" in lines[1] and "…/hero3/export-b" in lines[1]
     assert all(len(line) <= 80 and "…/…" not in line for line in lines)
+
+
+def test_a_bar_cuts_its_words_short_never_its_counts_and_times(monkeypatch):
+    """At 80 columns a bar whose words are long (a step, an atlas deep in a library) ends them with
+    an ellipsis: its label, count, elapsed time and time left stay whole."""
+    import io
+
+    from rich.console import Console
+
+    from spinemesh.cli._app import err_console, progress_bar
+
+    monkeypatch.setattr(err_console.real, "width", 80)
+    for phases, fields in ((True, {"project": "placing regions, trying page sizes: " + "deep/" * 20}),
+                           (False, {})):
+        bars = progress_bar("pack", phases=phases)
+        bars.add_task("pack" if phases else "placing regions: " + "deep/" * 20, total=1000, completed=999,
+                      **fields)
+        shown = Console(width=80, file=io.StringIO(), record=True, color_system=None)
+        shown.print(bars.make_tasks_table(bars.tasks))
+        (line,) = shown.export_text().strip().splitlines()
+        assert len(line) <= 80 and line.rstrip().endswith("…"), line
+        assert "999/1000 0:00:00 ETA " in line and "placing regions" in line, line
