@@ -801,3 +801,33 @@ def test_the_game_loop_sum_is_the_loops_own_rounding():
     with within(5):
         assert summed(0.0, 1 / 60, 6 * 10**31) == pytest.approx(1e30)   # beyond the limit: the product
     assert summed(1.0, 0.5, MAX_POSE_STEPS + 1) == 1.0 + 0.5 * (MAX_POSE_STEPS + 1)
+
+
+@pytest.mark.parametrize("wide", [False, True])
+def test_repack_never_writes_frames_of_a_16_bit_page_at_8_bits(tmp_path, wide):
+    """``upgrade --repack`` stores differently trimmed sequence frames whole on a new page,
+    written at 8 bits a channel: frames of a 16-bit page once lost their low bits there (exit
+    0); such a sequence now stays a region, with the reason."""
+    import cv2
+
+    from spinemesh.demo import demo_images, make_demo_project, pack_atlas
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    text, page = pack_atlas(demo_images(), "demo.png", rotate={"demo-arm"})   # the spark's frames trimmed
+    (project / "demo.atlas").write_text(text)
+    if wide:
+        deep = page.astype(np.uint16) * 257
+        noise = np.random.default_rng(3).integers(0, 200, deep.shape).astype(np.uint16)
+        deep = np.where(deep[..., 3:4] > 0, np.minimum(deep + noise, 65535), deep).astype(np.uint16)
+        cv2.imwrite(str(project / "demo.png"), cv2.cvtColor(deep, cv2.COLOR_RGBA2BGRA))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--repack", "--min-saving", "0", "--report", "r.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "r.json"], codes=(0,))
+    new_pages = sorted(p.name for p in (tmp_path / "o").glob("*untrimmed*"))
+    report = (tmp_path / "r.json").read_text()
+    if wide:
+        assert not new_pages and "'demo.png' has 16 bits a channel" in report
+        assert (tmp_path / "o" / "demo.atlas").read_text() == text
+    else:
+        assert new_pages == ["demo-untrimmed-1.png"]

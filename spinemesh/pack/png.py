@@ -176,6 +176,16 @@ def png_bit_depth(data: bytes) -> int | None:
     return IHDR.unpack_from(data, len(PNG_SIGNATURE) + CHUNK_HEAD.size)[2]
 
 
+def png_file_bit_depth(path) -> int | None:
+    """:func:`png_bit_depth` of the file at ``path``, from its first bytes only; None when it
+    cannot be read or is not a PNG file."""
+    try:
+        with open(path, "rb") as f:
+            return png_bit_depth(f.read(len(PNG_SIGNATURE) + CHUNK_HEAD.size + IHDR.size))
+    except OSError:
+        return None
+
+
 def png_chunks(data: bytes) -> list[tuple[bytes, bytes]] | None:
     """A PNG file's chunks in order, ``(type, data)``, up to IEND; None when ``data`` is not one
     (no signature, cut short, more than :data:`MAX_CHUNKS`). CRCs are not checked (the decoder does)."""

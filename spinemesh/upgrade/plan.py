@@ -113,6 +113,17 @@ def source_identity(source) -> tuple:
     return ("folder", str(getattr(source, "folder", id(source))))
 
 
+def _sixteen_bit_page(frames: list[RegionImage]) -> str:
+    """Why ``--repack`` cannot store ``frames`` on a new page (written at 8 bits a channel): the
+    page of 16 bits a channel one of them comes from; empty when none does."""
+    from ..pack.png import png_file_bit_depth
+
+    for f in frames:
+        if (png_file_bit_depth(f.source) or 0) > 8:
+            return f"their page {Path(f.source).name!r} has 16 bits a channel, and new pages are written at 8"
+    return ""
+
+
 def task_for_frames(frames: list[RegionImage], options: Options,
                     blend: str = "normal") -> tuple[MeshTask | None, str, str]:
     """The mesh task of an attachment's frame image(s), or ``(None, status, reason)``.
@@ -143,9 +154,13 @@ def task_for_frames(frames: list[RegionImage], options: Options,
             return None, "kept", reason
         box = stored_box([f.content for f in frames])
         if box is None or not _inside(drawn, box):
+            why = ("sequence frames were trimmed differently on the atlas page, so one mesh would sample "
+                   "neighbouring regions")
             if not options.repack:
-                return None, "kept", ("sequence frames were trimmed differently on the atlas page, so one mesh "
-                                      "would sample neighbouring regions; --repack stores them whole")
+                return None, "kept", f"{why}; --repack stores them whole"
+            if wide := _sixteen_bit_page(frames):
+                # the new pages are written at 8 bits: the frames would lose the low bits of every texel
+                return None, "kept", f"{why}, and --repack cannot store them whole: {wide}"
             # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
             box = (0, 0, rgba.shape[1], rgba.shape[0])
         x0, y0, x1, y1 = box
