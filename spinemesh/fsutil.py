@@ -142,6 +142,10 @@ class OutputGuard:
             raise OutputError(f"{what} is a symlink; refusing to write through it", path)
         if path.is_dir():
             raise OutputError(f"{what} is a folder", path)
+        if path.exists() and not path.is_file():
+            # written whole and renamed into place, an output replaces what is there: as root, /dev/null itself
+            raise OutputError(f"{what} is {special_kind(os.stat(path).st_mode)}, not a regular file; an output "
+                              "replaces its file whole, so name a regular file", path)
         if self.root is not None:
             lexical = Path(os.path.abspath(path))
             root = Path(os.path.abspath(self.root))
@@ -478,6 +482,12 @@ def regular_file(path: str | Path, what: str = "file") -> Path:
     if stat.S_ISDIR(mode):
         raise SpineMeshError(f"{what} is a folder", path)
     if not stat.S_ISREG(mode):
-        kind = "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
-        raise SpineMeshError(f"{what} is {kind}, not a regular file; only regular files are read", path)
+        raise SpineMeshError(f"{what} is {special_kind(mode)}, not a regular file; only regular files are read", path)
     return path
+
+
+def special_kind(mode: int) -> str:
+    """What a file that is neither a regular file nor a folder is, in words, by its ``st_mode``."""
+    import stat
+
+    return "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"

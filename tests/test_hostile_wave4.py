@@ -832,3 +832,25 @@ def test_repack_never_writes_frames_of_a_16_bit_page_at_8_bits(tmp_path, wide):
         assert (tmp_path / "o" / "demo.atlas").read_text() == text
     else:
         assert new_pages == ["demo-untrimmed-1.png"]
+
+
+@pytest.mark.parametrize("args", [
+    ("pose", "p/demo.json", "-a", "wave", "--out", "F"), ("upgrade", "p", "--out", "o", "--report", "F"),
+    ("pack", "p", "--out", "o", "--report", "F"), ("convert", "p/demo.json", "F"),
+    ("mesh", "p/images/demo-head.png", "--out", "F"), ("weights", "p", "--out", "o", "--report", "F"),
+])
+def test_an_output_that_is_a_fifo_or_device_is_refused_not_replaced(tmp_path, args):
+    """Outputs are written whole and renamed into place: ``pose --out /dev/null`` run as root
+    replaced /dev/null itself with a regular file. A FIFO stands for the device here."""
+    import os
+    import stat
+
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p")
+    os.mkfifo(tmp_path / "F")
+    before = snapshot(tmp_path)
+    r = run_cli(*args, cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "F: " in r.stderr and "a FIFO, not a regular file" in r.stderr, r.stderr
+    assert stat.S_ISFIFO(os.lstat(tmp_path / "F").st_mode)
