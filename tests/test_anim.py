@@ -255,9 +255,31 @@ def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
     sampler = Sampler(doc, None, atlas_regions(read_atlas(atlas)))
     flagged = set()
+    assert theirs[0]["anim"] is None   # the setup pose, physics reset: it moves no bone, so none is flagged
     for pose in theirs:
         mine = sampler.pose(pose["anim"], pose["time"])
         flagged |= set(mine.why)
         e = pose_errors(mine.to_dump(), pose, set(mine.why))
         assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (pose["label"], e)
+        assert pose["anim"] is not None or (not mine.why and all(d["exact"] for d in mine.to_dump()["attachments"]))
     assert flagged and all(n.startswith("hair") for n in flagged), flagged
+
+
+@pytest.mark.parametrize("version, fps", [("4.2.00", 1e9), ("4.3.23", 60)])
+def test_the_setup_pose_is_exact_where_physics_is_not_stepped(version, fps):
+    """Physics reset moves no bone in the runtimes, so the setup pose of a constraint not
+    stepped here (4.3, or 4.2 finer than MAX_PHYSICS_FPS) is exact; an animation's pose flags its bones."""
+    doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}, {"name": "hair", "parent": "root", "y": 5}],
+           "slots": [{"name": "s", "bone": "hair", "attachment": "a"}],
+           "skins": [{"name": "default", "attachments": {"s": {"a": {"width": 4, "height": 4}}}}],
+           "animations": {"idle": {"bones": {"root": {"rotate": [{"time": 1, "value": 30}]}}}}}
+    if version.startswith("4.3"):
+        doc["constraints"] = [{"type": "physics", "name": "p", "bone": "hair", "x": 1, "fps": fps}]
+    else:
+        doc["physics"] = [{"name": "p", "bone": "hair", "x": 1, "fps": fps}]
+    sampler = Sampler(doc)
+    assert not sampler.physics and sampler.physics_bones                   # active, not stepped
+    setup = sampler.pose(None)
+    assert setup.exact.all() and not setup.why and all(d.exact for d in setup.slots)
+    moved = sampler.pose("idle", 0.5)
+    assert "hair" in moved.why and not moved.slots[0].exact

@@ -388,7 +388,8 @@ class Sampler:
             for state in self.physics:
                 state.mode = RESET
             frame = self._frame(None, 0.0, -1.0)
-            return self._finish(time, frame, *self._pose_bones(frame, simulated=True))
+            # physics reset moves no bone (4.2 and 4.3 alike): the setup pose is exact, stepped or not
+            return self._finish(time, frame, *self._pose_bones(frame, flagged={}))
         if physics and self.physics:
             steps, dt = steps_of(time, fps)
             return self._finish(time, *next(self._replay(animation, [steps], dt, loop, clock)))
@@ -396,7 +397,7 @@ class Sampler:
         for state in self.physics:
             state.mode = RESET
         frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
-        return self._finish(time, frame, *self._pose_bones(frame, simulated=False))
+        return self._finish(time, frame, *self._pose_bones(frame, flagged=self.physics_bones))
 
     def play(self, animation: str, times, fps: float = 60.0, loop: bool = True, physics: bool = True):
         """Poses of ``animation`` at each of ``times`` (seconds, ascending) along one game loop.
@@ -430,7 +431,7 @@ class Sampler:
         for state in self.physics:
             state.mode = RESET
         frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
-        return self._pose_bones(frame, simulated=False)[0]
+        return self._pose_bones(frame, flagged=self.physics_bones)[0]
 
     def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict) -> Pose:
         """The pose of a frame whose bones are posed: its drawn attachments."""
@@ -453,7 +454,7 @@ class Sampler:
                                  "game-loop steps of its physics")
         for state in self.physics:
             state.clock, state.mode = clock, RESET
-        self._pose_bones(self._frame(None, 0.0, -1.0), simulated=True)
+        self._pose_bones(self._frame(None, 0.0, -1.0), flagged={})
         for state in self.physics:
             state.mode = UPDATE
         track, last = 0.0, -1.0
@@ -466,7 +467,7 @@ class Sampler:
                     state.clock = clock
             t = (math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track
             frame = self._frame(animation, t, last)
-            result = self._pose_bones(frame, simulated=True)
+            result = self._pose_bones(frame, flagged=self.unstepped_bones)
             last = t
             while pending and pending[0] == i:
                 pending.pop(0)
@@ -592,8 +593,11 @@ class Sampler:
             return
         sequence[sq.slot] = _sequence_index(sq.frames, i, float(sq.times[i]), t, target.sequence_count)
 
-    def _pose_bones(self, frame: _Frame, simulated: bool):
-        """World transforms (B, 2, 3) of the frame's bones, which are exact and why not."""
+    def _pose_bones(self, frame: _Frame, flagged: dict[int, str]):
+        """World transforms (B, 2, 3) of the frame's bones, which are exact and why not.
+
+        ``flagged``: bone index to the name of the physics constraint that moves it and is not
+        stepped here (those bones and the bones below them are not exact)."""
         rig = self.rig
         data, shown, deform_now = frame.data, frame.shown, frame.deform
         for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
@@ -616,7 +620,7 @@ class Sampler:
         exact = np.array([b.exact for b in rig.bones], bool)
         why = {b.name: b.why for b in rig.bones if not b.exact}
         for b in rig.bones:
-            name = (self.unstepped_bones if simulated else self.physics_bones).get(b.index)
+            name = flagged.get(b.index)
             parent_flag = b.parent is not None and not exact[b.parent.index]
             if name is not None or (parent_flag and exact[b.index]):
                 exact[b.index] = False
