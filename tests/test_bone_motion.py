@@ -96,3 +96,28 @@ def _with_a_bone_far(doc: dict) -> dict:
     out = copy.deepcopy(doc)
     out["bones"].append({"name": "elsewhere", "parent": "root", "x": 1000, "length": 40})
     return out
+
+
+def test_upgrade_leaves_out_a_bone_that_would_throw_the_art_away(tmp_path):
+    """``upgrade --weights auto`` guards its choice, on the workers too: a worm whose last bone
+    turns over and flies 300 units up in its animation (a slash effect beside a kicking shoe's
+    bone) keeps its art on the bones that bend it."""
+    import json
+
+    from rig_project import make_worm_project
+
+    from spinemesh.upgrade import Options, upgrade_project
+
+    doc = worm_skeleton()
+    doc["animations"]["wiggle"]["bones"]["seg3"] = {
+        "rotate": [{"value": 0}, {"time": 0.5, "value": 180}, {"time": 1, "value": 0}],
+        "translate": [{"x": 0, "y": 0}, {"time": 0.5, "x": 0, "y": 300}, {"time": 1, "x": 0, "y": 0}]}
+    path = make_worm_project(tmp_path / "in")
+    path.write_text(json.dumps(doc))
+    for jobs in (1, 2):  # weighted in this process, then on worker processes
+        out = tmp_path / f"out{jobs}"
+        (target,) = upgrade_project(tmp_path / "in", out, Options(weights="auto", jobs=jobs)).targets
+        assert target.status == "meshed" and sorted(target.weights["bones"]) == ["seg1", "seg2"]
+        assert "would carry the art" in target.weights["left_out"]["seg3"]
+        mesh = json.loads((out / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+        assert mesh["type"] == "mesh" and len(mesh["vertices"]) > 2 * len(mesh["uvs"])  # weighted

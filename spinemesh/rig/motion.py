@@ -144,7 +144,7 @@ class Motion:
 
     Kept on the rig (:class:`.document.Rig`). Sent to another process it carries the sampled
     transforms, not the document: sampled before it goes, so that the receiver guards exactly as
-    the sender would (``upgrade``'s workers get a rig without it: its choice is not guarded).
+    the sender would (``upgrade``'s workers guard as its main process does).
     """
 
     def __init__(self, doc: dict | None, sample=None):

@@ -145,9 +145,10 @@ def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: n
     explain : bool
         False: the bones alone, without the reasons for them and for the bones left out.
     """
-    # not guarded (.motion.guard): sampling the animations cost about 2 s of CPU on a library
-    # of 45 skeletons (docs/guide/bones.md, "Bones that would carry the art away")
-    return choose(rig, ref, None, world, triangles, "auto", unweighted=True, explain=explain, guarded=False)
+    # guarded (.motion.guard) where the rig can sample the animations: unguarded, a slash effect
+    # was bound to a shoe's bone and dragged across the body as she kicked (docs/guide/bones.md,
+    # "Bones that would carry the art away")
+    return choose(rig, ref, None, world, triangles, "auto", unweighted=True, explain=explain)
 
 
 def _local_segments(rig, bone_ids: list[int], slot_bone: int) -> np.ndarray:
@@ -240,9 +241,9 @@ def weighing_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> lis
     """
     meshed = [t for t in targets if t.status == "meshed"]
     light = {k: v for k, v in doc.items() if k != "animations"}
-    # the choices made before meshing stay here: not the meshes'; the upgrade's choice is not
-    # guarded, so the animations it would sample stay here too
-    rig = dataclasses.replace(rig, choices={}, motion=None)
+    # the choices made before meshing stay here: not the meshes'; the motion goes as its sampled
+    # frames (.motion.Motion), so that the workers guard as this process would
+    rig = dataclasses.replace(rig, choices={})
     return [(light, meshed[s:s + MESHES_PER_JOB], max_vertices, rig) for s in range(0, len(meshed), MESHES_PER_JOB)]
 
 

@@ -511,11 +511,15 @@ def plan_read_project(reading: ProjectReading) -> ProjectPlan:
 
 
 def bending_regions(doc: dict):
-    """:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, or None when its rig cannot be built."""
+    """:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, or None when its rig cannot be built.
+
+    The rig samples the skeleton's animations when a choice first needs them (the motion guard
+    of :func:`spinemesh.rig.upgrade.upgrade_choice`)."""
+    from ..anim.motion import sampled_bone_worlds
     from ..rig.document import build_rig
     from ..rig.upgrade import BendingRegions
 
     try:
-        return BendingRegions.of(build_rig(doc))
+        return BendingRegions.of(build_rig(doc, sample_motion=sampled_bone_worlds))
     except SpineMeshError:
         return None  # the weighting reports it, per mesh
