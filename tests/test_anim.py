@@ -283,3 +283,24 @@ def test_the_setup_pose_is_exact_where_physics_is_not_stepped(version, fps):
     assert setup.exact.all() and not setup.why and all(d.exact for d in setup.slots)
     moved = sampler.pose("idle", 0.5)
     assert "hair" in moved.why and not moved.slots[0].exact
+
+
+def test_skins_combined_draw_each_ones_attachments_and_pose_their_bones():
+    """A tuple of skins is a combined skin, as a game dresses a mix-and-match character: each
+    slot's attachment from the first skin that has it, then the default skin; the bones and
+    constraints of every skin active."""
+    doc = {"skeleton": {"spine": "4.2.22"},
+           "bones": [{"name": "root"}, {"name": "hip", "parent": "root", "x": 5, "skin": True},
+                     {"name": "brim", "parent": "root", "y": 7, "skin": True}],
+           "slots": [{"name": "body", "bone": "hip", "attachment": "b"}, {"name": "hat", "bone": "brim", "attachment": "h"}],
+           "skins": [{"name": "default", "attachments": {}},
+                     {"name": "naked", "bones": ["hip"], "attachments": {"body": {"b": {"width": 4, "height": 2}}}},
+                     {"name": "cap", "bones": ["brim"], "attachments": {"hat": {"h": {"width": 6, "height": 2}},
+                                                                      "body": {"b": {"width": 8, "height": 2}}}}]}
+    alone = Sampler(doc, "naked").pose(None)
+    assert [d.slot for d in alone.slots] == ["body"] and not alone.active[2]
+    both = Sampler(doc, ("naked", "cap")).pose(None)
+    assert [(d.slot, d.skin) for d in both.slots] == [("body", "naked"), ("hat", "cap")]
+    assert both.active.all() and np.allclose(both.bone("brim")[:, 2], [0, 7], atol=1e-5)
+    assert np.ptp(np.asarray(both.slots[0].vertices)[:, 0]) == pytest.approx(4)   # the first skin's body
+    assert Sampler(doc, ("cap", "naked")).pose(None).slots[0].skin == "cap"

@@ -296,3 +296,46 @@ def test_frames_fall_on_the_players_clock_within_the_budget():
     assert len(frame_times(60.0, frame_rate(60.0, 100))) <= MAX_FRAMES
     heavy = frame_rate(10.0, 20_000)
     assert len(frame_times(10.0, heavy)) * 2 * 20_000 <= MAX_VALUES
+
+
+def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_path):
+    """A character whose default skin is empty and whose setup pose two skins dress (a body, its
+    clothes): the player offers them combined first, and draws every frame of the animation
+    as the same character kept in one skin, on both sides; one skin alone draws a part."""
+    import json
+
+    from browser import canvases, player_result
+
+    pages = {}
+    for name, split in (("whole", False), ("parts", True)):
+        demo = make_demo_project(tmp_path / name)
+        (demo / "demo-binary.skel").unlink()
+        if split:
+            doc = json.loads((demo / "demo.json").read_text(encoding="utf-8"))
+            atts = doc["skins"][0]["attachments"]
+            body = {k: atts.pop(k) for k in ("arm", "body", "head")}
+            doc["skins"] += [{"name": "body", "attachments": body}, {"name": "clothes", "attachments": dict(atts)}]
+            atts.clear()
+            keyed = doc["animations"]["wave"]["attachments"]  # the spark's sequence, keyed by its skin
+            keyed["clothes"] = keyed.pop("default")
+            (demo / "demo.json").write_text(json.dumps(doc), encoding="utf-8")
+        result = upgrade_project(demo, tmp_path / f"{name}-out", Options())
+        index = write_preview(result, demo, tmp_path / f"{name}-out", tmp_path / f"{name}-preview")
+        pages[name] = (index.parent / "s" / "demo.html").resolve().as_uri()
+        model = (index.parent / "data" / "demo" / "model.js").read_text(encoding="utf-8")
+        if split:
+            assert '"skins":["body + clothes","body","clothes"' in model or '"skins":["clothes + body"' in model
+        if not split:  # one world frame for every picture: the whole character's bounds
+            data = (index.parent / "data" / "demo" / "1.0.js").read_text(encoding="utf-8")
+            x0, y0, x1, y1 = json.loads(re.search(r'"box":(\[[^]]*\])', data).group(1))
+            view = f"{x0},{y0},{x1 - x0},{y1 - y0},{400 / max(x1 - x0, y1 - y0)}"
+    for t in (0.0, 0.5):
+        whole = canvases(player_result(pages["whole"] + f"#at=1,{t},{view}", tmp_path / f"w{t}"))
+        parts = canvases(player_result(pages["parts"] + f"#at=1,{t},{view}&skin=0", tmp_path / f"p{t}"))
+        part = canvases(player_result(pages["parts"] + f"#at=1,{t},{view}&skin=1", tmp_path / f"q{t}"))
+        for side in (0, 1):
+            assert whole[side].shape == parts[side].shape
+            drawn = whole[side][..., 3] > 128
+            assert drawn.sum() > 2000
+            assert ((parts[side][..., 3] > 128) ^ drawn).sum() < 0.01 * drawn.sum(), (t, side)
+            assert (part[side][..., 3] > 128).sum() < 0.9 * drawn.sum(), (t, side)

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
-from ..rig.constraints import Rig, build_rig, update_world
+from ..rig.constraints import Rig, build_rig, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
@@ -265,8 +265,11 @@ class Sampler:
     ----------
     doc : dict
         A skeleton document (:func:`spinemesh.skeleton.load_skeleton`; ``.json`` or ``.skel``).
-    skin : str, optional
-        The skin to show (default: none, the default skin only), as ``Skeleton.setSkin``.
+    skin : str or tuple of str, optional
+        The skin to show (default: none, the default skin only), as ``Skeleton.setSkin``; a
+        tuple: those skins combined, as a game dresses a mix-and-match character (each
+        attachment looked up in them in order, then in the default skin; their bones and
+        constraints all active; :func:`spinemesh.rig.constraints.skin_names`).
     regions : callable, optional
         ``regions(path) -> RegionGeometry | None``: the atlas region a region attachment draws
         (its stored size and offsets decide the quad). See :func:`atlas_regions`. Without it
@@ -279,6 +282,8 @@ class Sampler:
         m = re.match(r"(\d+)", version)
         self.four = bool(m) and int(m[1]) >= 4 if m else True
         self.skin = skin
+        #: the skins an attachment is looked up in before the default skin, first first
+        self.looked_in = [n for n in skin_names(skin) if n != "default"]
         self.rig: Rig = build_rig(doc, skin, _family_43(doc))
         self.rig.where = "in this pose"
         self.bone_names = [b.name for b in self.rig.bones]
@@ -327,8 +332,8 @@ class Sampler:
         """``Skeleton.getAttachment``: the skeleton's skin first, then the default skin."""
         if key is None:
             return None
-        if self.skin is not None and self.skin != "default":
-            found = self.prepared(self.skin, slot, key)
+        for skin in self.looked_in:
+            found = self.prepared(skin, slot, key)
             if found is not None:
                 return found
         return self.prepared("default", slot, key)

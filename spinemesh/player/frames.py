@@ -131,8 +131,8 @@ class PoseSampler:
     ----------
     doc : dict
         The skeleton.
-    skin : str or None
-        The skin shown (None: the default skin only).
+    skin : str, tuple of str, or None
+        The skin shown (None: the default skin only; a tuple: those skins combined, :func:`outfit`).
     regions : callable, optional
         ``regions(path)``, the atlas regions (:func:`spinemesh.anim.atlas_regions`): a region
         quad follows its region's trimming.
@@ -293,13 +293,58 @@ class Animation:
     rate: float = FPS  # frames a second: frame i is the pose at i / rate seconds
 
 
-def sampled_skins(doc: dict) -> list[str]:
-    """The skins the player offers, at most :data:`MAX_SKINS`: the setup pose's first, then
-    those with the most attachments (whole outfits before single accessories)."""
+def outfit(doc: dict) -> tuple[str, ...]:
+    """The skins that together dress the setup pose when no one skin does (a mix-and-match
+    character: a body skin, a clothes skin, ...), most slots first; ``()`` when one skin, or the
+    default skin, dresses every slot the others can.
+
+    Chosen one by one: the skin that supplies the most setup attachments still missing (the
+    default skin's are never missing), until none supplies another.
+
+    Examples
+    --------
+    >>> doc = {"slots": [{"name": "body", "attachment": "b"}, {"name": "hat", "attachment": "h"}],
+    ...        "skins": [{"name": "default", "attachments": {}},
+    ...                  {"name": "naked", "attachments": {"body": {"b": {}}}},
+    ...                  {"name": "cap", "attachments": {"hat": {"h": {}}}}]}
+    >>> outfit(doc)
+    ('naked', 'cap')
+    """
+    skins = dict(iter_skins(doc))
+    default = skins.get("default") or {}
+    missing = {(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
+               if isinstance(s, dict) and s.get("attachment") is not None}
+    missing = {(slot, name) for slot, name in missing if not isinstance((default.get(slot) or {}).get(name), dict)}
+
+    def supplied(skin: str) -> set:
+        return {(slot, name) for slot, name in missing if isinstance((skins[skin].get(slot) or {}).get(name), dict)}
+
+    chosen: list[str] = []
+    while missing:
+        best = max((k for k in skins if k != "default" and k not in chosen), key=lambda k: len(supplied(k)), default=None)
+        if best is None or not supplied(best):
+            break
+        chosen.append(best)
+        missing -= supplied(best)
+    return tuple(chosen) if len(chosen) > 1 else ()
+
+
+def skin_label(skins: tuple[str, ...]) -> str:
+    """What the player calls skins combined (:func:`outfit`): ``"body + clothes"``, the first
+    three named when there are more."""
+    shown = " + ".join(skins[:3])
+    return shown + (f" + {len(skins) - 3} more" if len(skins) > 3 else "")
+
+
+def sampled_skins(doc: dict) -> list[str | tuple[str, ...]]:
+    """The skins the player offers, at most :data:`MAX_SKINS`: where several skins together dress
+    the setup pose (:func:`outfit`), them combined first; then the setup pose's, then those with
+    the most attachments (whole outfits before single accessories)."""
     order = pose_skins(doc)
     sizes = {k: sum(len(v) for v in slots.values() if isinstance(v, dict)) for k, slots in iter_skins(doc)}
     rest = sorted((k for k in sizes if k not in order), key=lambda k: -sizes[k])
-    return (order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
+    combined = outfit(doc)
+    return (([combined] if combined else []) + order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
 
 
 def _note(why: dict[str, str]) -> str:
@@ -320,9 +365,11 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     """
     from ..anim import POSE_ERRORS
 
-    skins = sampled_skins(after)
-    sides = {skin: (PoseSampler(before, None if skin == "default" else skin, regions),
-                    PoseSampler(after, None if skin == "default" else skin, regions)) for skin in skins}
+    chosen = sampled_skins(after)
+    skins = [s if isinstance(s, str) else skin_label(s) for s in chosen]
+    sides = {label: (PoseSampler(before, None if skin == "default" else skin, regions),
+                     PoseSampler(after, None if skin == "default" else skin, regions))
+             for label, skin in zip(skins, chosen)}
     first = sides[skins[0]][1]
     setup = {skin: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for skin, (b, a) in sides.items()}
     out = [Animation("setup pose", 0.0, setup)]

@@ -1175,16 +1175,32 @@ class Rig:
     where: str = "in the setup pose"   # how bones' reasons name the pose (an animation sets its own)
 
 
-def _skin_entry(doc: dict, skin: str | None) -> dict:
-    """The skin's own JSON object (3.8+: ``bones`` and constraint name lists), or ``{}``."""
+def skin_names(skin: str | tuple[str, ...] | None) -> list[str]:
+    """The skins ``skin`` stands for, the first looked in first: none, one, or several combined
+    (a tuple: as a game combines them with ``Skin.addSkin``, the first listed added last, so that
+    its attachments win)."""
+    if skin is None:
+        return []
+    return [skin] if isinstance(skin, str) else [str(s) for s in skin]
+
+
+def _skin_entry(doc: dict, skin: str | tuple[str, ...] | None) -> dict:
+    """The skin's own JSON object (3.8+: ``bones`` and constraint name lists), or ``{}``; for
+    several skins (:func:`skin_names`) their lists joined, as a combined skin holds them."""
     if skin is None or not isinstance(doc.get("skins"), list):
         return {}
-    return next((s for s in doc["skins"] if isinstance(s, dict) and s.get("name") == skin), {})
+    entries = [next((s for s in doc["skins"] if isinstance(s, dict) and s.get("name") == name), {})
+               for name in skin_names(skin)]
+    if len(entries) == 1:
+        return entries[0]
+    return {kind: [n for e in entries for n in (e.get(kind) if isinstance(e.get(kind), list) else [])]
+            for kind in ("bones", "ik", "transform", "path", "physics")}
 
 
-def build_rig(doc: dict, skin: str | None = None, family: str | None = None) -> Rig:
+def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str | None = None) -> Rig:
     """The skeleton's bones (setup local values) and its update cache, as ``Skeleton.updateCache``
-    sorts it with ``skin`` set (None: no skin, as :func:`setup_pose` poses it).
+    sorts it with ``skin`` set (None: no skin, as :func:`setup_pose` poses it; a tuple: those
+    skins combined, :func:`skin_names`).
 
     A bone only some skins need is active when ``skin`` lists it (and so are its parents); a
     constraint only some skins need, when ``skin`` lists it and its target is active.
@@ -1292,7 +1308,7 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
 
 
 def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], bones: list[PoseBone],
-                      skin: str | None = None) -> None:
+                      skin: str | tuple[str, ...] | None = None) -> None:
     """A path constraint's target slot: its bone, its setup attachment when that is a path of
     the default skin (the only skin of a skeleton without one), and the bones that every path
     attachment of the slot in any skin follows (the runtime sorts them before the constraint)."""
@@ -1306,7 +1322,7 @@ def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], b
     default = next((atts for name, atts in skins if name == "default"), {})
     setup = (default.get(slot["name"]) or {}).get(setup_name) if setup_name is not None else None
     c.path = setup if isinstance(setup, dict) and setup.get("type") == "path" else None
-    ordered = [atts.get(slot["name"]) or {} for name, atts in skins if skin is not None and name == skin]
+    ordered = [atts.get(slot["name"]) or {} for wanted in skin_names(skin) for name, atts in skins if name == wanted]
     ordered += [atts.get(slot["name"]) or {} for name, atts in skins if name == "default"]
     ordered += [atts.get(slot["name"]) or {} for _, atts in skins] + [{"": c.path} if c.path else {}]
     for attachments in ordered:
