@@ -339,3 +339,24 @@ def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_p
             assert drawn.sum() > 2000
             assert ((parts[side][..., 3] > 128) ^ drawn).sum() < 0.01 * drawn.sum(), (t, side)
             assert (part[side][..., 3] > 128).sum() < 0.9 * drawn.sum(), (t, side)
+
+
+def test_a_bent_mesh_is_drawn_without_seams_between_its_triangles(tmp_path):
+    """A mesh that bends is drawn triangle by triangle, each clipped with anti-aliased edges: the
+    light lattice of half-covered pixels along every shared edge (5% of the worm's inside when
+    the triangles were grown by 0.4 pixel from their centroids) must not show a user a torn mesh."""
+    from scipy import ndimage
+
+    from browser import canvases, player_result
+    from rig_project import make_worm_project
+
+    make_worm_project(tmp_path / "in")
+    result = upgrade_project(tmp_path / "in", tmp_path / "out", Options(weights="auto"))
+    index = write_preview(result, tmp_path / "in", tmp_path / "out", tmp_path / "preview")
+    url = (index.parent / "s" / "worm.html").resolve().as_uri()
+    for t in (0.25, 0.5):  # the worm bent by its wiggle
+        before, after = canvases(player_result(url + f"#at=1,{t}", tmp_path / f"c{t}"))
+        inside = [ndimage.binary_erosion(side[..., 3] > 128, iterations=2) for side in (before, after)]
+        assert abs(int(inside[1].sum()) - int(inside[0].sum())) < 0.15 * inside[0].sum()  # nothing cut away
+        seams = (after[..., 3] < 250) & inside[1]
+        assert seams.sum() < 0.001 * inside[1].sum(), (t, int(seams.sum()))

@@ -288,7 +288,7 @@
         ctx.save();
         ctx.setTransform(1, 0, 0, 1, 0, 0);
         ctx.beginPath();
-        tri(ctx, pts, a, b, c, 0.4); /* grown a little so that neighbours leave no seam */
+        tri(ctx, pts, a, b, c, 0.5); /* grown a little so that neighbours leave no seam */
         ctx.clip();
         ctx.setTransform(mm[0], mm[1], mm[2], mm[3], mm[4], mm[5]);
         ctx.drawImage(im, 0, 0);
@@ -296,13 +296,27 @@
       }
     }
 
+    /* The triangle a, b, c of the points q, each edge moved out by grow pixels (its corners cut
+     * square: a bevel, so that a sliver's sharp corner does not spike out). Neighbours then
+     * overlap where both are drawn, so the canvas's anti-aliased clip edges, each leaving a
+     * half-covered pixel, leave no light seam between them. */
     function tri(ctx, q, a, b, c, grow) {
-      var cx = (q[2 * a] + q[2 * b] + q[2 * c]) / 3, cy = (q[2 * a + 1] + q[2 * b + 1] + q[2 * c + 1]) / 3;
-      [a, b, c].forEach(function (i, j) {
-        var x = q[2 * i], y = q[2 * i + 1], dx = x - cx, dy = y - cy, l = Math.sqrt(dx * dx + dy * dy) || 1;
-        x += grow * dx / l; y += grow * dy / l;
-        if (j === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
-      });
+      var p = [q[2 * a], q[2 * a + 1], q[2 * b], q[2 * b + 1], q[2 * c], q[2 * c + 1]];
+      var turn = (p[2] - p[0]) * (p[5] - p[1]) - (p[4] - p[0]) * (p[3] - p[1]);
+      if (!(grow > 0) || turn === 0) {
+        ctx.moveTo(p[0], p[1]); ctx.lineTo(p[2], p[3]); ctx.lineTo(p[4], p[5]); ctx.closePath();
+        return;
+      }
+      var side = turn > 0 ? 1 : -1, out = []; /* the outward normal of edge i -> i+1, grow long */
+      for (var e = 0; e < 3; e++) {
+        var dx = p[(2 * e + 2) % 6] - p[2 * e], dy = p[(2 * e + 3) % 6] - p[2 * e + 1], l = Math.hypot(dx, dy) || 1;
+        out.push([side * dy / l * grow, -side * dx / l * grow]);
+      }
+      for (var v = 0; v < 3; v++) { /* corner v: moved out along the edge before it, then the one after */
+        var x = p[2 * v], y = p[2 * v + 1], before = out[(v + 2) % 3], after = out[v];
+        if (v === 0) ctx.moveTo(x + before[0], y + before[1]); else ctx.lineTo(x + before[0], y + before[1]);
+        ctx.lineTo(x + after[0], y + after[1]);
+      }
       ctx.closePath();
     }
 
