@@ -160,6 +160,7 @@ def main() -> None:
     print(f"{'quantity':32} {'largest found':>14} {'limit':>14} {'limit/largest':>14}  where")
     for key, limit in LIMITS.items():
         value, where = most.get(key, (0.0, "-"))
+        where = where if value else "-"   # none found anywhere
         ratio = "-" if not (value and limit) else f"{limit / value:,.0f}x" if limit / value < 1e6 else f"{limit / value:.1e}x"
         shown = "none" if limit is None else f"{limit:,.4g}"
         print(f"{key:32} {value:>14,.4g} {shown:>14} {ratio:>14}  {where}")
