@@ -298,7 +298,7 @@ def test_frames_fall_on_the_players_clock_within_the_budget():
     assert len(frame_times(10.0, heavy)) * 2 * 20_000 <= MAX_VALUES
 
 
-def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_path):
+def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_path, monkeypatch):
     """A character whose default skin is empty and whose setup pose two skins dress (a body, its
     clothes): the player offers them combined first, and draws every frame of the animation
     as the same character kept in one skin, on both sides; one skin alone draws a part."""
@@ -339,6 +339,20 @@ def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_p
             assert drawn.sum() > 2000
             assert ((parts[side][..., 3] > 128) ^ drawn).sum() < 0.01 * drawn.sum(), (t, side)
             assert (part[side][..., 3] > 128).sum() < 0.9 * drawn.sum(), (t, side)
+    # over the poses' budget the animations are sampled in the first skin alone: the page says
+    # which skin it draws instead of the one chosen, and why, in words a user knows
+    from browser import run
+
+    from spinemesh.player import frames
+
+    monkeypatch.setattr(frames, "MAX_POSES", 40)
+    index = write_preview(result, demo, tmp_path / "parts-out", tmp_path / "budget-preview")
+    dom = run((index.parent / "s" / "demo.html").resolve().as_uri() + "#at=1,0.5&skin=1", tmp_path / "budget",
+              "--dump-dom").stdout
+    status = re.search(r'<div class="status">([^<]*)</div>', dom).group(1)
+    assert status.startswith("Drawn in the skin body + clothes: to keep the preview small") or \
+        status.startswith("Drawn in the skin clothes + body: to keep the preview small"), status
+    assert "budget" not in status
 
 
 def test_a_bent_mesh_is_drawn_without_seams_between_its_triangles(tmp_path):

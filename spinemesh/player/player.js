@@ -156,8 +156,9 @@
           };
         }
         P.data = data;
-        status.textContent = (a.src[skin] ? "" : "This animation is shown in the skin " + model.skins[0] +
-                              " only (the preview's budget). ") + (data.note || "");
+        status.textContent = (a.src[skin] ? "" : "Drawn in the skin " + model.skins[0] + ": to keep the preview " +
+                              "small, this animation was sampled in that skin only (the setup pose shows every skin). ") +
+                             (data.note || "");
         resize();
         draw();
       }, function (s) { status.textContent = "could not load " + s; });
