@@ -374,3 +374,22 @@ def test_a_bent_mesh_is_drawn_without_seams_between_its_triangles(tmp_path):
         assert abs(int(inside[1].sum()) - int(inside[0].sum())) < 0.15 * inside[0].sum()  # nothing cut away
         seams = (after[..., 3] < 250) & inside[1]
         assert seams.sum() < 0.001 * inside[1].sum(), (t, int(seams.sum()))
+
+
+def test_the_player_fills_the_window_at_laptop_and_desktop_sizes(page, tmp_path):
+    """At 1280x720 and 1920x1080 the two canvases stand side by side within the window's width,
+    each at most 80% of its height, and a larger window shows the skeleton larger (it was 400
+    pixels at any size: a thumbnail on a desktop screen)."""
+    from browser import run
+
+    path, _ = page
+    url = next(path.parent.glob("s/*.html")).resolve().as_uri() + "#at=1,0.5"
+    sizes = {}
+    for w, h in ((1280, 720), (1920, 1080)):
+        dom = run(url, tmp_path / f"{w}", "--dump-dom", f"--window-size={w},{h}").stdout
+        canvases = [(int(a), int(b)) for a, b in re.findall(r'<canvas width="(\d+)" height="(\d+)"', dom)]
+        assert len(canvases) == 2 and canvases[0] == canvases[1], canvases
+        cw, ch = canvases[0]
+        assert 2 * cw + 16 + 48 <= w and ch <= 0.8 * h + 20, (w, h, canvases)
+        sizes[w] = max(cw, ch)
+    assert sizes[1920] > 1.3 * sizes[1280] and sizes[1280] > 440  # the window less its bars

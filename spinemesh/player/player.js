@@ -164,13 +164,21 @@
       }, function (s) { status.textContent = "could not load " + s; });
     }
 
+    /* The pixels the skeleton's larger side takes on each canvas: the two side by side fill the
+     * window's width, and one is at most 80% of its height (240 to 900: readable on a laptop,
+     * not a wall on a large screen). */
+    function fit() {
+      var w = (window.innerWidth || 800) - 80, h = (window.innerHeight || 600) * 0.8;
+      return Math.round(Math.max(240, Math.min(900, w / 2 - 36, h)));
+    }
+
     function resize() {
       var b = P.data.box, v = P.view;
       sides.forEach(function (s) {
         var w, h;
         if (v) { w = Math.max(1, Math.round(v[2] * v[4])); h = Math.max(1, Math.round(v[3] * v[4])); }
         else {
-          var k = Math.min(400 / (b[2] - b[0]), 400 / (b[3] - b[1]));
+          var k = Math.min(fit() / (b[2] - b[0]), fit() / (b[3] - b[1]));
           w = Math.max(40, Math.round((b[2] - b[0]) * k) + 20); h = Math.max(40, Math.round((b[3] - b[1]) * k) + 20);
         }
         s.canvas.width = w; s.canvas.height = h;
@@ -181,7 +189,7 @@
     function mapping() {
       var b = P.data.box, sx = (b[2] - b[0]) / 65535, sy = (b[3] - b[1]) / 65535, k, ox, oy;
       if (P.view) { var v = P.view; k = v[4]; ox = -v[0] * k; oy = (v[1] + v[3]) * k; }
-      else { k = Math.min(400 / (b[2] - b[0]), 400 / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
+      else { k = Math.min(fit() / (b[2] - b[0]), fit() / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
       return function (qx, qy) { return [ox + (b[0] + qx * sx) * k, oy - (b[1] + qy * sy) * k]; };
     }
 
@@ -354,6 +362,7 @@
     skinSel.onchange = function () { P.skin = +skinSel.value; choose(); };
     wire.onchange = function () { P.wire = wire.checked; draw(); };
     bones.onchange = function () { P.bones = bones.checked; draw(); };
+    window.addEventListener("resize", function () { if (P.data && !P.view) { resize(); draw(); } });
     P.draw = draw; P.setPlaying = setPlaying; P.choose = choose;
     SM.players = SM.players || {};
     SM.players[id] = P;
