@@ -350,8 +350,8 @@ def test_a_mix_and_match_character_is_played_dressed_in_its_skins_combined(tmp_p
     dom = run((index.parent / "s" / "demo.html").resolve().as_uri() + "#at=1,0.5&skin=1", tmp_path / "budget",
               "--dump-dom").stdout
     status = re.search(r'<div class="status">([^<]*)</div>', dom).group(1)
-    assert status.startswith("Drawn in the skin body + clothes: to keep the preview small") or \
-        status.startswith("Drawn in the skin clothes + body: to keep the preview small"), status
+    assert status.startswith(tuple(f"Drawn in the skin {skins}: to keep the preview small"
+                                   for skins in ("body + clothes", "clothes + body"))), status
     assert "budget" not in status
 
 
@@ -359,10 +359,9 @@ def test_a_bent_mesh_is_drawn_without_seams_between_its_triangles(tmp_path):
     """A mesh that bends is drawn triangle by triangle, each clipped with anti-aliased edges: the
     light lattice of half-covered pixels along every shared edge (5% of the worm's inside when
     the triangles were grown by 0.4 pixel from their centroids) must not show a user a torn mesh."""
-    from scipy import ndimage
-
     from browser import canvases, player_result
     from rig_project import make_worm_project
+    from scipy import ndimage
 
     make_worm_project(tmp_path / "in")
     result = upgrade_project(tmp_path / "in", tmp_path / "out", Options(weights="auto"))
