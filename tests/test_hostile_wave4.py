@@ -601,7 +601,7 @@ def test_pose_bounds_what_a_long_times_list_costs(tmp_path):
     (project / "many.json").write_text(json.dumps(many))
     long_list = ",".join(f"{i / 100:g}" for i in range(10_000))
     for skeleton, times, words in (("p/phys.json", ",".join(f"{1666 - i}" for i in range(10)), "game-loop steps"),
-                                   ("p/many.json", long_list, "MB of JSON")):
+                                   ("p/many.json", long_list, "MiB of JSON")):
         before = snapshot(tmp_path)
         with within(60):
             r = run_cli("pose", skeleton, "-a", "turn", "--times", times, "--out", "o.json", cwd=tmp_path)

@@ -129,8 +129,8 @@ def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps
     except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot pose
         raise SpineMeshError(f"the setup pose cannot be posed: {e}", skeleton) from None
     if size > MAX_POSE_OUTPUT_BYTES:
-        raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 1e6:,.0f} MB of "
-                             f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 1e6:,.0f} MB; give fewer times", skeleton)
+        raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 2**20:,.0f} MiB of "
+                             f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 2**20:,.0f} MiB; give fewer times", skeleton)
 
 
 def _skin_names(doc: dict) -> list[str]:
