@@ -304,3 +304,61 @@ def test_skins_combined_draw_each_ones_attachments_and_pose_their_bones():
     assert both.active.all() and np.allclose(both.bone("brim")[:, 2], [0, 7], atol=1e-5)
     assert np.ptp(np.asarray(both.slots[0].vertices)[:, 0]) == pytest.approx(4)   # the first skin's body
     assert Sampler(doc, ("cap", "naked")).pose(None).slots[0].skin == "cap"
+
+
+def _regions_widened(doc: dict) -> dict:
+    """``doc`` with every region attachment 1.5 times as wide: attachments changed, bones not."""
+    import copy
+
+    out = copy.deepcopy(doc)
+    for skin in out["skins"]:
+        for attachments in skin["attachments"].values():
+            for att in attachments.values():
+                if att.get("type", "region") == "region":
+                    att["width"] = 1.5 * att.get("width", 32)
+    return out
+
+
+@pytest.mark.parametrize("skeleton", ["4.2/cloud-pot/cloud-pot.json", "4.2/tank/tank-pro.json"])
+def test_a_pair_played_together_poses_as_each_played_alone(skeleton, examples):
+    """play_pair steps the bones (physics, a path constraint) once for a skeleton and its twin
+    whose attachments differ: each side's poses are exactly those it gives played alone."""
+    from spinemesh.anim import same_motion
+
+    doc = load_skeleton(EXAMPLES / skeleton)
+    twin = _regions_widened(doc)
+    assert same_motion(doc, twin)
+    name = next(iter(doc["animations"]))
+    times = [0.0, 0.3, 1.1]
+    alone = [list(Sampler(d).play(name, times)) for d in (doc, twin)]
+    together = list(Sampler(doc).play_pair(Sampler(twin), name, times))
+    assert len(together) == len(times)
+    for (p, q), a, b in zip(together, *alone):
+        for got, want in ((p, a), (q, b)):
+            assert np.array_equal(got.world, want.world) and np.array_equal(got.exact, want.exact)
+            assert got.why == want.why and got.time == want.time
+            assert [(s.slot, s.key, s.exact) for s in got.slots] == [(s.slot, s.key, s.exact) for s in want.slots]
+            assert all(np.array_equal(s.vertices, t.vertices) and np.array_equal(s.color, t.color)
+                       for s, t in zip(got.slots, want.slots))
+    # the twin's own attachments are drawn, not the original's
+    assert any(not np.array_equal(s.vertices, t.vertices) for s, t in zip(together[1][0].slots, together[1][1].slots))
+
+
+def test_skeletons_move_alike_only_with_the_same_bones_constraints_and_paths(examples):
+    from spinemesh.anim import same_motion
+
+    tank = load_skeleton(EXAMPLES / "4.2/tank/tank-pro.json")
+    assert same_motion(tank, _regions_widened(tank))
+    moved = json.loads(json.dumps(tank))
+    moved["bones"][1]["x"] = moved["bones"][1].get("x", 0) + 1
+    assert not same_motion(tank, moved)
+    target = tank["path"][0]["target"]
+    bent = json.loads(json.dumps(tank))
+    for skin in bent["skins"]:
+        for att in (skin["attachments"].get(target) or {}).values():
+            att["vertices"][0] += 1          # the path the constraint follows
+    assert not same_motion(tank, bent)
+    retimed = json.loads(json.dumps(tank))
+    anim = next(iter(retimed["animations"].values()))
+    retimed["animations"]["extra"] = {**anim, "bones": {}}
+    assert not same_motion(tank, retimed)

@@ -35,9 +35,18 @@ Example
 from __future__ import annotations
 
 from .attachments import RegionGeometry
-from .pose import POSE_ERRORS, DrawnSlot, Pose, Sampler, animation_time, atlas_regions
+from .pose import (
+    POSE_ERRORS,
+    DrawnSlot,
+    Pose,
+    Sampler,
+    animation_time,
+    atlas_regions,
+    same_motion,
+)
 
-__all__ = ["POSE_ERRORS", "DrawnSlot", "Pose", "RegionGeometry", "Sampler", "animation_time", "atlas_regions", "sample_pose"]
+__all__ = ["POSE_ERRORS", "DrawnSlot", "Pose", "RegionGeometry", "Sampler", "animation_time", "atlas_regions",
+           "same_motion", "sample_pose"]
 
 
 def sample_pose(document: dict, animation: str | None, time: float, skin: str | None = None,

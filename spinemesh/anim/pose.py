@@ -19,6 +19,7 @@ frame in the runtime, are applied as in the setup pose.
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
-from ..rig.constraints import Rig, build_rig, skin_names, update_world
+from ..rig.constraints import Rig, build_rig, constraints_of, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
@@ -398,11 +399,7 @@ class Sampler:
         if physics and self.physics:
             steps, dt = steps_of(time, fps)
             return self._finish(time, *next(self._replay(animation, [steps], dt, loop, clock)))
-        anim = self.animation(animation)[0]
-        for state in self.physics:
-            state.mode = RESET
-        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
-        return self._finish(time, frame, *self._pose_bones(frame, flagged=self.physics_bones))
+        return self._finish(time, *self._posed(animation, time, fps, loop))
 
     def play(self, animation: str, times, fps: float = 60.0, loop: bool = True, physics: bool = True):
         """Poses of ``animation`` at each of ``times`` (seconds, ascending) along one game loop.
@@ -417,16 +414,54 @@ class Sampler:
         ------
         Pose
         """
-        times = [float(t) for t in times]
-        if any(b < a for a, b in zip(times, times[1:])):
-            raise ValueError("times must be ascending")
+        times = _ascending(times)
         if not (physics and self.physics):
             for t in times:
                 yield self.pose(animation, t, fps, loop, physics)
             return
-        targets = [max(0, math.floor(t * fps + 0.5)) if math.isfinite(t) else 0 for t in times]
+        targets = _nearest_steps(times, fps)
         for t, result in zip(times, self._replay(animation, targets, 1 / fps, loop, 0.0)):
             yield self._finish(t, *result)
+
+    def play_pair(self, twin: Sampler, animation: str, times, fps: float = 60.0, loop: bool = True,
+                  physics: bool = True):
+        """:meth:`play` of this sampler and of ``twin`` together, the bones posed once for both.
+
+        ``twin`` samples a skeleton whose bones move as this one's (:func:`same_motion`, the
+        same skin): an upgraded skeleton beside its original, which differ in attachments only.
+        Each step of the game loop (constraints, physics) is then computed once and its bone
+        transforms drawn with each skeleton's own attachments, which halves the work of a
+        preview's two sides. Where the twin's animation lasts otherwise (a deform key
+        beyond the bones' last one), each is played on its own.
+
+        Yields
+        ------
+        (Pose, Pose)
+            This sampler's pose and ``twin``'s at each of ``times`` (seconds, ascending).
+        """
+        times = _ascending(times)
+        if self.duration(animation) != twin.duration(animation):
+            yield from zip(self.play(animation, times, fps, loop, physics),
+                           twin.play(animation, times, fps, loop, physics))
+            return
+        if physics and self.physics:
+            targets = _nearest_steps(times, fps)
+            posed = self._replay(animation, targets, 1 / fps, loop, 0.0)
+        else:
+            posed = (self._posed(animation, t, fps, loop) for t in times)
+        for t, (frame, world, exact, why) in zip(times, posed):
+            mine = self._finish(t, frame, world, exact, why)
+            theirs = twin._frame(animation, frame.time, -1.0, physics_resets=False)
+            yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why))
+
+    def _posed(self, animation: str, time: float, fps: float, loop: bool):
+        """``(frame, world, exact, why)`` of :meth:`pose` at ``time`` where no physics is
+        stepped (the bones of physics constraints flagged when there are some)."""
+        anim = self.animation(animation)[0]
+        for state in self.physics:
+            state.mode = RESET
+        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
+        return (frame, *self._pose_bones(frame, flagged=self.physics_bones))
 
     def bone_worlds(self, animation: str, time: float, fps: float = 60.0, loop: bool = True) -> np.ndarray:
         """The bones' world transforms (B, 2, 3) of ``animation`` at track time ``time``, without
@@ -478,9 +513,10 @@ class Sampler:
                 pending.pop(0)
                 yield (frame, *result)
 
-    def _frame(self, animation: str | None, t: float, last: float) -> _Frame:
+    def _frame(self, animation: str | None, t: float, last: float, physics_resets: bool = True) -> _Frame:
         """Every timeline of ``animation`` applied at animation time ``t`` over the setup
-        values (``last``: the time applied the frame before, for physics resets)."""
+        values (``last``: the time applied the frame before, for physics resets; none with
+        ``physics_resets`` False, where another sampler steps the bones)."""
         n_slots = len(self.slot_names)
         frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
                        list(self.slot_setup), [c.copy() for c in self.slot_color], list(range(n_slots)),
@@ -492,7 +528,8 @@ class Sampler:
             self._apply_bones(anim, t, frame.local, frame.inherit, active)
             self._apply_constraints(anim, t, frame.data)
             self._apply_slots(anim, t, frame.names, frame.colors, active)
-            self._physics_resets(anim, last, t)
+            if physics_resets:
+                self._physics_resets(anim, last, t)
             if anim.draw_order is not None:
                 i = search(anim.draw_order.times, t)
                 order = anim.draw_order.order(i) if i >= 0 else None
@@ -668,6 +705,67 @@ class Sampler:
             if clip is not None and clip[1] == self.slot_names[s]:
                 clip = None
         return out
+
+
+def _ascending(times) -> list[float]:
+    """``times`` as floats; a ValueError where one comes before the time before it."""
+    times = [float(t) for t in times]
+    if any(b < a for a, b in itertools.pairwise(times)):
+        raise ValueError("times must be ascending")
+    return times
+
+
+def _nearest_steps(times: list[float], fps: float) -> list[int]:
+    """The game-loop step (of ``1 / fps`` s from 0) nearest to each time, as a player shows it."""
+    return [max(0, math.floor(t * fps + 0.5)) if math.isfinite(t) else 0 for t in times]
+
+
+#: Keys of an animation that hold attachments' timelines (deform, sequence), by version.
+_ATTACHMENT_TIMELINES = ("deform", "ffd", "attachments")
+
+
+def _motion_view(doc: dict) -> dict:
+    """What of a skeleton document moves its bones: everything but the attachments (and their
+    deform and sequence timelines), those of path constraints' target slots kept (a path
+    constraint follows the path attachment its slot shows)."""
+    targets = {str(c.get("target")) for c in constraints_of(doc, "path")}
+
+    def kept(by_slot):
+        return {k: v for k, v in by_slot.items() if str(k) in targets} if isinstance(by_slot, dict) else by_slot
+
+    skins = doc.get("skins")
+    if isinstance(skins, list):  # 3.8+: [{name, attachments, bones, ...}]
+        skins = [{k: kept(v) if k == "attachments" else v for k, v in s.items()} if isinstance(s, dict) else s
+                 for s in skins]
+    elif isinstance(skins, dict):  # 3.5-3.7: {name: {slot: {attachment: ...}}}
+        skins = {name: kept(by_slot) for name, by_slot in skins.items()}
+    animations = doc.get("animations")
+    if isinstance(animations, dict):
+        animations = {name: {k: ({skin: kept(by_slot) for skin, by_slot in v.items()}
+                                 if k in _ATTACHMENT_TIMELINES and isinstance(v, dict) else v)
+                             for k, v in a.items()} if isinstance(a, dict) else a
+                      for name, a in animations.items()}
+    return {**doc, "skins": skins, "animations": animations}
+
+
+def same_motion(a: dict, b: dict) -> bool:
+    """Whether the bones of skeleton documents ``a`` and ``b`` move alike in every animation and
+    skin: the same bones, constraints, skins' bone and constraint lists, physics settings,
+    bone, constraint, slot and draw order timelines, and the same path attachments (with
+    their timelines) where a path constraint reads them. An upgrade changes attachments
+    only, so an upgraded skeleton moves as its original: its poses can share the original's
+    bone transforms (:meth:`Sampler.play_pair`). A value that is not a number (NaN) compares
+    unequal to itself: such documents are not taken as alike.
+
+    Examples
+    --------
+    >>> a = {"bones": [{"name": "root"}], "skins": [{"name": "default", "attachments": {"s": {"r": {}}}}]}
+    >>> same_motion(a, {**a, "skins": [{"name": "default", "attachments": {"s": {"r": {"type": "mesh"}}}}]})
+    True
+    >>> same_motion(a, {**a, "bones": [{"name": "root", "x": 1}]})
+    False
+    """
+    return _motion_view(a) == _motion_view(b)
 
 
 def _family_43(doc: dict) -> str | None:

@@ -157,6 +157,12 @@ class PoseSampler:
         stepped once through the animation, not replayed from 0 for each time."""
         return [self._drawn(p) for p in self.sampler.play(animation, [float(t) for t in times])]
 
+    def play_pair(self, twin: PoseSampler, animation: str, times) -> list[tuple[tuple, tuple]]:
+        """:meth:`play` of this sampler and ``twin`` at once, their bones posed once for both
+        (:meth:`spinemesh.anim.Sampler.play_pair`: ``twin``'s skeleton moves as this one's)."""
+        return [(self._drawn(p), twin._drawn(q))
+                for p, q in self.sampler.play_pair(twin.sampler, animation, [float(t) for t in times])]
+
     def _drawn(self, pose) -> tuple[list[Drawn], dict[str, str]]:
         out = []
         for s in pose.slots:
@@ -363,8 +369,9 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     An animation that cannot be sampled is left out with one line in ``problems``, as are
     the animations beyond the first :data:`MAX_ANIMATIONS`.
     """
-    from ..anim import POSE_ERRORS
+    from ..anim import POSE_ERRORS, same_motion
 
+    alike = same_motion(before, after)  # an upgrade changes attachments: the bones are stepped once
     chosen = sampled_skins(after)
     skins = [s if isinstance(s, str) else skin_label(s) for s in chosen]
     sides = {label: (PoseSampler(before, None if skin == "default" else skin, regions),
@@ -396,8 +403,12 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
         try:
             for skin, (b, a) in sides.items():
                 poses = [], []
-                for side, sampler in zip(poses, (b, a)):
-                    for drawn, not_exact in sampler.play(name, times):
+                if alike:
+                    pairs = b.play_pair(a, name, times)
+                else:
+                    pairs = zip(b.play(name, times), a.play(name, times))
+                for both in pairs:
+                    for side, (drawn, not_exact) in zip(poses, both):
                         side.append(drawn)
                         why.update(not_exact)
                 anim.by_skin[skin] = poses
