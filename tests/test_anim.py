@@ -362,3 +362,30 @@ def test_skeletons_move_alike_only_with_the_same_bones_constraints_and_paths(exa
     anim = next(iter(retimed["animations"].values()))
     retimed["animations"]["extra"] = {**anim, "bones": {}}
     assert not same_motion(tank, retimed)
+
+
+def _swinging_tread(doc: dict) -> dict:
+    """The tank with a physics bone hung on a tread its path constraint moves: the physics
+    carries the path's motion from step to step (sorted last: a constraint's order is its place)."""
+    bone = {"name": "swing", "parent": doc["path"][0]["bones"][0], "length": 40, "x": 20}
+    physics = {"name": "swing", "bone": "swing", "x": 1, "y": 1, "rotate": 1, "inertia": 0.5, "strength": 60,
+               "damping": 0.8, "mass": 1, "order": 9}
+    return {**doc, "bones": [*doc["bones"], bone], "physics": [physics]}
+
+
+@pytest.mark.parametrize("skeleton", ["4.2/cloud-pot/cloud-pot.json", "4.2/tank/tank-pro.json"])
+def test_steps_between_drawn_frames_pose_the_bones_as_drawn_steps_do(skeleton, examples):
+    """play steps the bones only (no colours, draw order, attachments but a path's) between the
+    times it draws: its poses are exactly those of a play that draws every step."""
+    doc = load_skeleton(EXAMPLES / skeleton)
+    if "tank" in skeleton:
+        doc = _swinging_tread(doc)
+    name = next(iter(doc["animations"]))
+    every = [i / 60 for i in range(90)]
+    drawn = list(Sampler(doc).play(name, every))[::7]
+    sparse = list(Sampler(doc).play(name, every[::7]))
+    assert len(sparse) == len(drawn) == 13
+    for a, b in zip(sparse, drawn):
+        assert np.array_equal(a.world, b.world) and np.array_equal(a.exact, b.exact) and a.why == b.why
+        assert all(np.array_equal(s.vertices, t.vertices) for s, t in zip(a.slots, b.slots))
+    assert not np.array_equal(sparse[1].world, sparse[5].world)  # the bones move

@@ -301,6 +301,11 @@ class Sampler:
         self.slot_blend = [s.get("blend", "normal") if s.get("blend", "normal") in BLEND_MODES else "normal"
                            for s in slots]
         self.skins = {name: atts for name, atts in iter_skins(doc)}
+        self.slot_index = {n: i for i, n in enumerate(self.slot_names)}
+        #: slots whose attachment moves bones (a path constraint's target): a step between drawn
+        #: frames applies these slots' timelines only
+        self.path_slots = sorted({self.slot_index[t] for c in self.rig.constraints if c.kind == "path"
+                                  for t in [str(self.setup_data[id(c)].get("target"))] if t in self.slot_index})
         self._regions = regions or (lambda path: None)
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self.physics_bones = self._physics_bones()
@@ -506,17 +511,25 @@ class Sampler:
                 for state in self.physics:
                     state.clock = clock
             t = (math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track
-            frame = self._frame(animation, t, last)
-            result = self._pose_bones(frame, flagged=self.unstepped_bones)
+            if pending and pending[0] == i:
+                frame = self._frame(animation, t, last)
+                result = self._pose_bones(frame, flagged=self.unstepped_bones)
+            else:  # a step no pose is drawn at: its bones only, for the physics that carries over
+                self._step_bones(self._frame(animation, t, last, drawn=False))
             last = t
             while pending and pending[0] == i:
                 pending.pop(0)
                 yield (frame, *result)
 
-    def _frame(self, animation: str | None, t: float, last: float, physics_resets: bool = True) -> _Frame:
+    def _frame(self, animation: str | None, t: float, last: float, physics_resets: bool = True,
+               drawn: bool = True) -> _Frame:
         """Every timeline of ``animation`` applied at animation time ``t`` over the setup
         values (``last``: the time applied the frame before, for physics resets; none with
-        ``physics_resets`` False, where another sampler steps the bones)."""
+        ``physics_resets`` False, where another sampler steps the bones). Not ``drawn``: only
+        what poses the bones (a step between drawn frames), the slots that no path constraint
+        follows left without colour, order and attachment."""
+        if not drawn and animation is not None:
+            return self._bones_frame(animation, t, last)
         n_slots = len(self.slot_names)
         frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
                        list(self.slot_setup), [c.copy() for c in self.slot_color], list(range(n_slots)),
@@ -539,14 +552,38 @@ class Sampler:
             for sq in anim.sequences:
                 self._apply_sequence(sq, t, shown, frame.sequence)
         frame.shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
-        for s, att in enumerate(frame.shown):
+        self._deform(frame, range(n_slots), deforms)
+        return frame
+
+    def _bones_frame(self, animation: str, t: float, last: float) -> _Frame:
+        """:meth:`_frame` of what poses the bones only: bone and constraint timelines, physics
+        resets, and the attachment (and its deform) of each slot a path constraint follows."""
+        anim, deforms = self.animation(animation)
+        n_slots = len(self.slot_names)
+        frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
+                       list(self.slot_setup), [], [], [])
+        active = [b.active for b in self.rig.bones]
+        self._apply_bones(anim, t, frame.local, frame.inherit, active)
+        self._apply_constraints(anim, t, frame.data)
+        self._physics_resets(anim, last, t)
+        frame.shown = [None] * n_slots
+        if self.path_slots:
+            self._apply_slots(anim, t, frame.names, None, active)
+            for s in self.path_slots:
+                frame.shown[s] = self.attachment(s, frame.names[s])
+            self._deform(frame, self.path_slots, deforms)
+        return frame
+
+    def _deform(self, frame: _Frame, slots, deforms: dict) -> None:
+        """The deformed vertices (where a deform timeline keys them) of ``slots``' shown attachments."""
+        for s in slots:
+            att = frame.shown[s]
             if att is not None and att.timeline_key in deforms:
                 keys, values = deforms[att.timeline_key]
-                i, p = keys.percent(t)
+                i, p = keys.percent(frame.time)
                 if i >= 0:
                     last_key = p == 0 or i == len(values) - 1
                     frame.deform[s] = values[i] if last_key else values[i] + (values[i + 1] - values[i]) * p
-        return frame
 
     def _physics_resets(self, anim: Animation, last: float, t: float) -> None:
         """4.2 reset keys passed since the last frame reset their constraints (all for "")."""
@@ -603,13 +640,14 @@ class Sampler:
         c = self.constraints.get((tl.kind, tl.name))
         return [] if c is None else [c]
 
-    def _apply_slots(self, anim: Animation, t: float, names: list, colors: list, active: list) -> None:
+    def _apply_slots(self, anim: Animation, t: float, names: list, colors: list | None, active: list) -> None:
+        """Attachment and colour timelines (``colors`` None: attachments only)."""
         for tl in anim.attachments:
             if not active[self.slot_bones[tl.slot]]:
                 continue
             i = search(tl.times, t)
             names[tl.slot] = tl.names[i] if i >= 0 else self.slot_setup[tl.slot]
-        for tl in anim.slots:
+        for tl in anim.slots if colors is not None else ():
             v = tl.keys.at(t)
             setup = self.slot_color[tl.slot]
             c = colors[tl.slot]
@@ -641,23 +679,7 @@ class Sampler:
         ``flagged``: bone index to the name of the physics constraint that moves it and is not
         stepped here (those bones and the bones below them are not exact)."""
         rig = self.rig
-        data, shown, deform_now = frame.data, frame.shown, frame.deform
-        for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
-            b.local = tuple(float(v) for v in values)
-            b.inherit = mode
-        slot_index = {n: i for i, n in enumerate(self.slot_names)}
-        for c in rig.constraints:
-            c.data = data[id(c)]
-            if c.kind == "path":
-                s = slot_index.get(str(self.setup_data[id(c)].get("target")))
-                att = shown[s] if s is not None else None
-                ok = att is not None and att.type == "path"
-                c.path = self._path_json(att) if ok else None
-                c.path_deform = list(deform_now[s]) if ok and s in deform_now else None
-        update_world(rig)
-        for b in rig.bones:
-            if not b.active:  # not posed by the runtime without its skin: from its parent
-                b.update_with(b.local)
+        self._step_bones(frame)
         world = np.stack([b.world for b in rig.bones]) if rig.bones else np.zeros((0, 2, 3))
         exact = np.array([b.exact for b in rig.bones], bool)
         why = {b.name: b.why for b in rig.bones if not b.exact}
@@ -669,6 +691,27 @@ class Sampler:
                 why.setdefault(b.name, f"moved by the physics constraint {name!r}, which is not simulated"
                                if name is not None else f"below {b.parent.name!r}: {why.get(b.parent.name, '')}")
         return world, exact, why
+
+    def _step_bones(self, frame: _Frame) -> None:
+        """The frame's bones posed (``updateWorldTransform``: constraints applied, physics
+        stepped), their transforms left on the rig's bones."""
+        rig = self.rig
+        data, shown, deform_now = frame.data, frame.shown, frame.deform
+        for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
+            b.local = tuple(float(v) for v in values)
+            b.inherit = mode
+        for c in rig.constraints:
+            c.data = data[id(c)]
+            if c.kind == "path":
+                s = self.slot_index.get(str(self.setup_data[id(c)].get("target")))
+                att = shown[s] if s is not None else None
+                ok = att is not None and att.type == "path"
+                c.path = self._path_json(att) if ok else None
+                c.path_deform = list(deform_now[s]) if ok and s in deform_now else None
+        update_world(rig)
+        for b in rig.bones:
+            if not b.active:  # not posed by the runtime without its skin: from its parent
+                b.update_with(b.local)
 
     def _path_json(self, att: Prepared) -> dict | None:
         a = ((self.skins.get(att.skin) or {}).get(self.slot_names[att.slot]) or {}).get(att.key)
