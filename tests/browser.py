@@ -39,9 +39,10 @@ def run(url: str, tmp: Path, *args: str, budget_ms: int = 5000) -> subprocess.Co
     return r
 
 
-def player_result(url: str, tmp: Path, budget_ms: int = 5000) -> dict:
-    """What the preview player's test hook wrote in ``<pre id="sm-test">`` (see player.js)."""
-    dom = run(url, tmp, "--dump-dom", budget_ms=budget_ms).stdout
+def player_result(url: str, tmp: Path, *args: str, budget_ms: int = 5000) -> dict:
+    """What the preview player's test hook wrote in ``<pre id="sm-test">`` (see player.js);
+    ``args``: more of the browser's flags (``--window-size=1280,720``)."""
+    dom = run(url, tmp, "--dump-dom", *args, budget_ms=budget_ms).stdout
     found = re.search(r'<pre id="sm-test">(.*?)</pre>', dom, re.S)
     assert found and found.group(1), f"the player wrote no test result:\n{dom[-1500:]}"
     return json.loads(found.group(1).replace("&amp;", "&").replace("&lt;", "<").replace("&gt;", ">"))

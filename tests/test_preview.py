@@ -109,6 +109,24 @@ def test_player_draws_both_sides_in_headless_chromium(page, tmp_path):
     run(path.resolve().as_uri(), tmp_path, "--dump-dom")
 
 
+@pytest.mark.parametrize("size", [(1280, 720), (1920, 1080)])
+def test_the_player_opens_whole_in_the_window_above_the_texel_counts(page, tmp_path, size):
+    """A laptop's window shows the player, both canvases with their captions, without scrolling:
+    it comes right under the title, the texel counts after it."""
+    from browser import player_result
+
+    path, _ = page
+    skeleton = next(path.parent.glob("s/*.html"))
+    text = skeleton.read_text()
+    assert text.index('class="player"') < text.index("Texels drawn")
+    got = player_result(skeleton.resolve().as_uri() + "#at=0,0", tmp_path, f"--window-size={size[0]},{size[1]}")
+    width, height = got["window"]  # the page's part of the window: less the browser's bars
+    assert width == size[0] and 0.7 * size[1] < height <= size[1]
+    top, bottom = got["figure"]
+    assert top < 0.3 * height and bottom <= height, (got["figure"], height)
+    assert bottom - top > 0.6 * height  # and not shrunk to a thumbnail to fit
+
+
 def test_setup_pose_dresses_an_empty_default_skin():
     """A project whose default skin is empty (mix-and-match) is drawn with the skin that
     supplies most of the slots' setup attachments, then the default skin."""
@@ -377,8 +395,8 @@ def test_a_bent_mesh_is_drawn_without_seams_between_its_triangles(tmp_path):
 
 def test_the_player_fills_the_window_at_laptop_and_desktop_sizes(page, tmp_path):
     """At 1280x720 and 1920x1080 the two canvases stand side by side within the window's width,
-    each at most 80% of its height, and a larger window shows the skeleton larger (it was 400
-    pixels at any size: a thumbnail on a desktop screen)."""
+    each at most 80% of its height and ending above its bottom edge, and a larger window shows the
+    skeleton larger (it was 400 pixels at any size: a thumbnail on a desktop screen)."""
     from browser import run
 
     path, _ = page
@@ -391,4 +409,4 @@ def test_the_player_fills_the_window_at_laptop_and_desktop_sizes(page, tmp_path)
         cw, ch = canvases[0]
         assert 2 * cw + 16 + 48 <= w and ch <= 0.8 * h + 20, (w, h, canvases)
         sizes[w] = max(cw, ch)
-    assert sizes[1920] > 1.3 * sizes[1280] and sizes[1280] > 440  # the window less its bars
+    assert sizes[1920] > 1.3 * sizes[1280] and sizes[1280] > 380  # the window less its bars and the title

@@ -13,7 +13,8 @@
  * wire=1, bones=1 (the toggles on). Test hooks: test=S (play S
  * seconds of page time, then write times and canvas checksums to <pre id="sm-test">);
  * at=A,T[,x,y,w,h,ppu] (animation A paused at T seconds, drawn in that world frame at ppu pixels
- * per unit; both canvases then written as PNG data to <pre id="sm-test">).
+ * per unit; both canvases then written as PNG data to <pre id="sm-test">, with the window's size
+ * and where on the page the upgraded canvas's figure starts and ends).
  */
 (function () {
   "use strict";
@@ -165,11 +166,13 @@
     }
 
     /* The pixels the skeleton's larger side takes on each canvas: the two side by side fill the
-     * window's width, and one is at most 80% of its height (240 to 900: readable on a laptop,
-     * not a wall on a large screen). */
+     * window's width, and one is at most 80% of its height and ends above the window's bottom
+     * edge, caption included, where the page opens (240 to 900: readable on a laptop, not a
+     * wall on a large screen). */
     function fit() {
       var w = (window.innerWidth || 800) - 80, h = (window.innerHeight || 600) * 0.8;
-      return Math.round(Math.max(240, Math.min(900, w / 2 - 36, h)));
+      var below = (window.innerHeight || 600) - (stage.getBoundingClientRect().top + window.scrollY) - 44; /* its margin, caption */
+      return Math.round(Math.max(240, Math.min(900, w / 2 - 36, h, below)));
     }
 
     function resize() {
@@ -400,8 +403,10 @@
         var pending = P.model.images.filter(function (_, i) { return P.images[i] && !(P.images[i].complete); });
         if (pending.length) { setTimeout(sample, 50); return; }
         P.draw();
+        var box = sides[1].canvas.parentNode.getBoundingClientRect();
         out.textContent = JSON.stringify({ t: P.t, frame: frameOf(P),
-          before: sides[0].canvas.toDataURL("image/png"), after: sides[1].canvas.toDataURL("image/png") });
+          before: sides[0].canvas.toDataURL("image/png"), after: sides[1].canvas.toDataURL("image/png"),
+          window: [window.innerWidth, window.innerHeight], figure: [box.top + window.scrollY, box.bottom + window.scrollY] });
         return;
       }
       samples.push({ t: P.t, before: checksum(sides[0].canvas), after: checksum(sides[1].canvas) });

@@ -411,10 +411,12 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
         player = _player(folder, pid, page_rel, before, after, source, problems)
     except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:  # the rest of the page still helps
         player, problems = "", [f"the player could not pose this skeleton: {e}"]
-    body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}</h1>{twins}'
-            + _headline_html(rate_total, len(targets)) + _rate_table(rate_total)
-            + "<h2>Original and upgraded, side by side</h2>"
+    # the player first, under the title, where a window opens the page; the texel counts after it
+    body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}: original and upgraded, '
+            f'side by side</h1>{twins}'
             + player + ("<ul>" + "".join(f"<li>{html.escape(p)}</li>" for p in problems) + "</ul>" if problems else "")
+            + ("<h2>Texels drawn</h2>" if rate_total.before else "")
+            + _headline_html(rate_total, len(targets)) + _rate_table(rate_total)
             + "<h2>Upgraded images, largest saving first</h2>"
             + (f'{_LEGEND}<div class="cards">{"".join(c for _, c in cards)}</div>' if cards else
                "<p>No attachment of this skeleton became a mesh.</p>")
