@@ -10,6 +10,8 @@ upgrade. Printed side by side: the largest HTML page, all HTML, the largest scri
 player's data for one animation, loaded when chosen), every file of the preview, the seconds
 to write it, and the seconds headless Chromium needs to open the index beyond a blank
 page (``--dump-dom`` wall time, median of ``--repeat`` runs, minus that of ``about:blank``).
+Compared, it then says whether the player's data (``data/``: every frame of both sides, and the
+attachment tables) is byte for byte the same in the two previews, and else which files differ.
 
 Usage::
 
@@ -77,6 +79,16 @@ def open_seconds(url: str, where: Path, repeat: int) -> float:
     return statistics.median(times)
 
 
+def same_data(a: Path, b: Path) -> str:
+    """Whether the player's data (``data/``) of two previews is byte for byte the same: one line."""
+    files = {p: sorted(q.relative_to(p / "data") for q in (p / "data").rglob("*") if q.is_file()) for p in (a, b)}
+    if files[a] != files[b]:
+        return f"player data: the two previews hold other files ({len(files[a])} and {len(files[b])})"
+    differ = [str(r) for r in files[a] if (a / "data" / r).read_bytes() != (b / "data" / r).read_bytes()]
+    return (f"player data: {len(files[a])} files, byte for byte the same" if not differ else
+            f"player data: {len(differ)} of {len(files[a])} files differ, e.g. {', '.join(differ[:3])}")
+
+
 def weigh(folder: Path) -> dict:
     files = [p for p in folder.rglob("*") if p.is_file()]
     pages = [p for p in files if p.suffix == ".html"]
@@ -112,14 +124,16 @@ def main() -> None:
         result_file = tmp / "result.pickle"
         result_file.write_bytes(pickle.dumps(result))
         trees = {"this tree": REPO} | ({"compared": args.compare_with.resolve()} if args.compare_with else {})
-        rows = {}
+        rows, folders = {}, {}
         blank = open_seconds("about:blank", tmp / "blank", args.repeat)
         for name, tree in trees.items():
             folder = tmp / f"preview-{name.replace(' ', '-')}"
             seconds = write_with(tree, result_file, project, tmp / "out", folder)
+            folders[name] = folder
             rows[name] = {**weigh(folder), "write s": seconds,
                           "open s": open_seconds((folder / "index.html").as_uri(), tmp / name.replace(" ", "-"),
                                                  args.repeat) - blank}
+        same = same_data(*folders.values()) if len(folders) == 2 else None
     names = list(rows)
     print(f"\n{'':<14}" + "".join(f"{n:>16}" for n in names) + ("   ratio" if len(names) == 2 else ""))
     for key in rows[names[0]]:
@@ -128,6 +142,8 @@ def main() -> None:
         ratio = f"   {vals[0] / vals[1]:.3f}" if len(vals) == 2 and vals[1] else ""
         print(f"{key:<14}" + "".join(fmt(v) for v in vals) + ratio)
     print(f"(open s: beyond a blank page, {blank:.2f} s; median of {args.repeat})")
+    if same is not None:
+        print(same)
 
 
 if __name__ == "__main__":
