@@ -175,13 +175,18 @@
       return Math.round(Math.max(240, Math.min(900, w / 2 - 36, h, below)));
     }
 
+    /* Measured when the canvases are sized, not at every frame drawn (reading the page's layout
+     * while the clock's text changes would lay the page out again each frame). */
+    var fitted = 240;
+
     function resize() {
       var b = P.data.box, v = P.view;
+      fitted = fit();
       sides.forEach(function (s) {
         var w, h;
         if (v) { w = Math.max(1, Math.round(v[2] * v[4])); h = Math.max(1, Math.round(v[3] * v[4])); }
         else {
-          var k = Math.min(fit() / (b[2] - b[0]), fit() / (b[3] - b[1]));
+          var k = Math.min(fitted / (b[2] - b[0]), fitted / (b[3] - b[1]));
           w = Math.max(40, Math.round((b[2] - b[0]) * k) + 20); h = Math.max(40, Math.round((b[3] - b[1]) * k) + 20);
         }
         s.canvas.width = w; s.canvas.height = h;
@@ -192,7 +197,7 @@
     function mapping() {
       var b = P.data.box, sx = (b[2] - b[0]) / 65535, sy = (b[3] - b[1]) / 65535, k, ox, oy;
       if (P.view) { var v = P.view; k = v[4]; ox = -v[0] * k; oy = (v[1] + v[3]) * k; }
-      else { k = Math.min(fit() / (b[2] - b[0]), fit() / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
+      else { k = Math.min(fitted / (b[2] - b[0]), fitted / (b[3] - b[1])); ox = 10 - b[0] * k; oy = 10 + b[3] * k; }
       return function (qx, qy) { return [ox + (b[0] + qx * sx) * k, oy - (b[1] + qy * sy) * k]; };
     }
 
@@ -389,7 +394,7 @@
 
   function checksum(canvas) {
     var px = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height).data, s = 0;
-    for (var i = 0; i < px.length; i += 7) s = (s * 31 + px[i]) % 1000000007;
+    for (var i = 0; i < px.length; i++) s = (s * 31 + px[i]) % 1000000007; /* every byte: a small move shows */
     return s;
   }
 
