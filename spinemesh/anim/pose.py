@@ -33,7 +33,7 @@ from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
 from .curves import _number
-from .timelines import Animation, color_channels, read_animation, search
+from .timelines import Animation, color_channels, made_when_needed, read_animation, search
 
 #: What reading or playing an animation raises where a document the loader let through holds
 #: what the sampler cannot play (a field of the wrong type, a key or index that is not there, a
@@ -223,7 +223,7 @@ class DeformKeys:
     vertices added for an unweighted mesh), made when a key is first needed.
 
     Not all at once: a timeline of 100,000 empty keys (``{}``, three bytes each) on a mesh of
-    10,000 numbers would otherwise ask for 8 GB. The last :data:`KEPT` keys made are kept.
+    10,000 numbers would otherwise ask for 8 GB (:func:`~.timelines.made_when_needed`).
 
     Parameters
     ----------
@@ -235,8 +235,6 @@ class DeformKeys:
         Whether the offsets are added to the setup vertices (unweighted) or are the values.
     """
 
-    KEPT = 64
-
     def __init__(self, raw: list, setup: np.ndarray, weighted: bool):
         self.raw, self.setup, self.weighted = raw, setup, weighted
         self._made: dict[int, np.ndarray] = {}
@@ -245,18 +243,17 @@ class DeformKeys:
         return len(self.raw)
 
     def __getitem__(self, i: int) -> np.ndarray:
-        if i not in self._made:
-            if len(self._made) >= self.KEPT:
-                self._made.clear()
-            offset, verts = self.raw[i]
-            values = np.zeros(len(self.setup))
-            if isinstance(verts, list) and 0 <= offset < len(self.setup):
-                v = np.asarray([_number(x, 0.0) for x in verts[:len(self.setup) - offset]], float)
-                values[offset:offset + len(v)] = v
-            if not self.weighted:
-                values += self.setup
-            self._made[i] = values.astype(np.float32).astype(np.float64)
-        return self._made[i]
+        return made_when_needed(self._made, i, self._make)
+
+    def _make(self, i: int) -> np.ndarray:
+        offset, verts = self.raw[i]
+        values = np.zeros(len(self.setup))
+        if isinstance(verts, list) and 0 <= offset < len(self.setup):
+            v = np.asarray([_number(x, 0.0) for x in verts[:len(self.setup) - offset]], float)
+            values[offset:offset + len(v)] = v
+        if not self.weighted:
+            values += self.setup
+        return values.astype(np.float32).astype(np.float64)
 
 
 class Sampler:
@@ -472,11 +469,7 @@ class Sampler:
         """The bones' world transforms (B, 2, 3) of ``animation`` at track time ``time``, without
         physics (its bones keep the animation's pose) and without drawing any attachment: the
         cheap part of :meth:`pose`, for callers that only need where the bones go."""
-        anim = self.animation(animation)[0]
-        for state in self.physics:
-            state.mode = RESET
-        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
-        return self._pose_bones(frame, flagged=self.physics_bones)[0]
+        return self._posed(animation, time, fps, loop)[1]
 
     def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict) -> Pose:
         """The pose of a frame whose bones are posed: its drawn attachments."""

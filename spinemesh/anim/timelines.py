@@ -87,6 +87,21 @@ class DeformTimeline:
     raw: list[tuple[int, list | None]]
 
 
+#: Keys made when a pose needs them that a timeline keeps (the rest are made again when needed).
+KEPT_KEYS = 64
+
+
+def made_when_needed(made: dict, i: int, make):
+    """Key ``i`` of a timeline whose keys are made when a pose needs them, not all up front (a
+    file can hold a million keys, each costly in memory once made): ``make(i)``, kept in
+    ``made`` among the last :data:`KEPT_KEYS` made."""
+    if i not in made:
+        if len(made) >= KEPT_KEYS:
+            made.clear()
+        made[i] = make(i)
+    return made[i]
+
+
 @dataclass
 class DrawOrderTimeline:
     """Per key, its ``offsets`` as stored; :meth:`order` makes a key's draw order when a pose
@@ -99,11 +114,7 @@ class DrawOrderTimeline:
 
     def order(self, i: int) -> list[int] | None:
         """Slot indices in draw order at key ``i``; None: the setup order."""
-        if i not in self._made:
-            if len(self._made) >= 64:
-                self._made.clear()
-            self._made[i] = _draw_order(self.offsets[i], self.slot_index)
-        return self._made[i]
+        return made_when_needed(self._made, i, lambda k: _draw_order(self.offsets[k], self.slot_index))
 
 
 @dataclass
