@@ -204,9 +204,6 @@ def atlas_bars(bars):
                 bars.update(task, total=total(task) + steps)
 
         def step(self, name: str, what: str) -> None:
-            self._say(name, what)
-
-        def _say(self, name: str, what: str) -> None:
             # what the atlas does (its steps are of several kinds: placements, pages), then the atlas:
             # a narrow terminal cuts the end
             if name in self.tasks:
@@ -223,7 +220,7 @@ def atlas_bars(bars):
                     bars.remove_task(self.tasks.pop(name))
                 else:
                     bars.update(task, completed=total(task) or 1, total=total(task) or 1)
-                    self._say(name, "done")
+                    self.step(name, "done")
             if self.whole is not None:
                 bars.advance(self.whole)
 
