@@ -194,6 +194,33 @@ def test_player_plays_every_animation_on_one_time_line(page, tmp_path):
         assert len({s[side] for s in got["samples"]}) >= 5, f"the {side} canvas does not change as it plays"
 
 
+
+@pytest.mark.parametrize("bad, anim", [
+    ("play=%E0%A4%A", "setup pose"),           # a %-escape cut short: decodeURIComponent throws on it
+    ("%E0%A4%A&skin=%ZZ&play=1", "wave"),       # the bad parts left out, the good one kept
+    ("play=99&skin=-2", "setup pose"),          # choices the page does not have
+    ("at=x,-1,0,0,a,-5,0", "setup pose"),       # a still frame of nothing readable: the first, at 0 s
+])
+def test_a_malformed_address_opens_the_player_on_its_first_animation(page, tmp_path, bad, anim):
+    """An address typed, cut short or pasted by hand: what the player cannot read in its #hash is
+    left out, with no page error, and the player opens on its first animation (or the one the
+    readable part names) and plays."""
+    from browser import player_result
+
+    path, _ = page
+    url = next(path.parent.glob("s/*.html")).resolve().as_uri() + "#" + bad
+    if "at=" in bad:  # a still frame: both canvases written, the setup pose at 0 s
+        got = player_result(url, tmp_path)
+        assert (got["t"], got["frame"]) == (0, 0) and got["before"].startswith("data:image/png")
+        return
+    got = player_result(url + "&test=1", tmp_path, budget_ms=4000)
+    assert got["anim"] == anim
+    times = [s["t"] for s in got["samples"]]
+    assert len(got["samples"]) >= 3 and all(t == t for t in times)  # sampled, every time a number
+    if anim == "wave":
+        assert len(set(times)) >= 3, "the player does not play"
+
+
 #: How close a frame of our player comes to the official runtime's render of the same time
 #: (render.mjs, spine-core 4.2, CanvasKit), premultiplied RGBA: at most this share of pixels
 #: off by more than 32/255. Measured, original and upgraded alike: the demo's "wave" at 0.5 s

@@ -52,13 +52,23 @@
     return e;
   }
 
+  /* The page's #hash options. An address is typed, cut short or pasted by hand: an option the
+   * page cannot read (a broken %-escape, which decodeURIComponent throws on) is left out, and the
+   * page opens as it would without it. */
   function hashParams() {
-    var out = {};
+    var out = Object.create(null);
     location.hash.replace(/^#/, "").split("&").forEach(function (kv) {
       var i = kv.indexOf("=");
-      if (i > 0) out[kv.slice(0, i)] = decodeURIComponent(kv.slice(i + 1));
+      if (i <= 0) return;
+      try { out[kv.slice(0, i)] = decodeURIComponent(kv.slice(i + 1)); } catch (e) { /* URIError: left out */ }
     });
     return out;
+  }
+
+  /* An option's choice among count (an animation, a skin): the first (0) unless it names one. */
+  function choice(text, count) {
+    var i = Number(text);
+    return Math.floor(i) === i && i >= 0 && i < count ? i : 0;
   }
 
   /* One side's frames, decoded: per frame the start of its draw list and of its vertices. */
@@ -376,14 +386,16 @@
     SM.players[id] = P;
 
     var h = hashParams();
-    if (h.skin !== undefined) { P.skin = Math.min(+h.skin || 0, model.skins.length - 1); skinSel.value = P.skin; }
+    if (h.skin !== undefined) { P.skin = choice(h.skin, model.skins.length); skinSel.value = P.skin; }
     if (h.wire) { wire.checked = P.wire = true; }
     if (h.bones) { bones.checked = P.bones = true; }
-    if (h.play !== undefined) { P.anim = +h.play || 0; animSel.value = P.anim; }
+    if (h.play !== undefined) { P.anim = choice(h.play, model.anims.length); animSel.value = P.anim; }
     if (h.at !== undefined) {
       var at = h.at.split(",").map(Number);
-      P.anim = at[0]; animSel.value = P.anim; P.t = at[1];
-      if (at.length >= 7) P.view = at.slice(2, 7);
+      P.anim = choice(at[0], model.anims.length); animSel.value = P.anim;
+      P.t = isFinite(at[1]) && at[1] >= 0 ? at[1] : 0;
+      var view = at.slice(2, 7);
+      if (view.length === 5 && view.every(isFinite) && view[2] > 0 && view[3] > 0 && view[4] > 0) P.view = view;
     }
     choose();
     if (h.play !== undefined || h.test !== undefined) setPlaying(true);
