@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from spinemesh.anim import Sampler, animation_time, atlas_regions, sample_pose
-from spinemesh.anim.curves import bezier_points_3, bezier_points_4, percent_3, read_keys, value_4
+from spinemesh.anim.curves import (SPELLING_35, SPELLING_38, bezier_points_3, bezier_points_4, curve_spelling,
+                                   percent_3, read_keys, value_4)
 from spinemesh.anim.dump import dump, pose_errors
 from spinemesh.anim.timelines import _draw_order
 from spinemesh.atlas import read_atlas
@@ -61,6 +62,45 @@ def test_keys_linear_stepped_bezier_and_ends():
     keys = read_keys([{"angle": 170}, {"time": 1, "angle": -170}], lambda f: [f.get("angle", 0)],
                      four=False, angle=True)
     assert keys.at(0.5)[0] % 360 == pytest.approx(180)
+
+
+#: One 3.x key's curve spelled each way a document may spell it, with what 3.5-3.7 and 3.8 make of
+#: it at a quarter of the way (the runtimes' ``readCurve``: 3.5-3.7 read a list only, "stepped"
+#: only as stepped; 3.8 reads a number with c2..c4 beside it, any text as stepped).
+_EASE_IN = {"curve": 0.9, "c2": 0, "c3": 1, "c4": 1}
+_CURVES_3 = [
+    ({"curve": [0.9, 0, 1, 1]}, "bezier", "linear"),
+    (_EASE_IN, "linear", "bezier"),
+    ({"curve": 0.9}, "linear", "bezier"),
+    ({"curve": "stepped"}, "stepped", "stepped"),
+    ({"curve": "linear"}, "linear", "stepped"),
+    ({"curve": None}, "linear", "linear"),
+    ({}, "linear", "linear"),
+]
+
+
+@pytest.mark.parametrize("curve, old, new", _CURVES_3)
+def test_3x_curves_read_as_each_version_reads_them(curve, old, new):
+    ease_in = percent_3(bezier_points_3(0.9, 0, 1, 1), 0.25)
+    expected = {"linear": 2.5, "stepped": 0.0, "bezier": 10 * ease_in}
+    for spelling, drawn in ((SPELLING_35, old), (SPELLING_38, new)):
+        keys = read_keys([{"time": 0, "x": 0, **curve}, {"time": 1, "x": 10}], lambda f: [f.get("x", 0)],
+                         four=False, spelling=spelling)
+        assert keys.at(0.25)[0] == pytest.approx(expected[drawn], abs=1e-6), (spelling, curve)
+
+
+def test_3x_curve_spelling_follows_the_version_through_the_sampler():
+    assert [curve_spelling(v) for v in ("3.5.51", "3.6.53", "3.7.94", "3.8.99", "3.8", "")] == [
+        SPELLING_35, SPELLING_35, SPELLING_35, SPELLING_38, SPELLING_38, SPELLING_38]
+
+    def doc(version):
+        return {"skeleton": {"spine": version}, "bones": [{"name": "root"}],
+                "animations": {"move": {"bones": {"root": {"translate": [
+                    {"time": 0, "x": 0, **_EASE_IN}, {"time": 1, "x": 10}]}}}}}
+
+    # The same keys: 3.7 moves the bone linearly (its runtime passes a number over), 3.8 eases in.
+    assert Sampler(doc("3.7.94")).pose("move", 0.25).bone("root")[0, 2] == pytest.approx(2.5, abs=1e-5)
+    assert Sampler(doc("3.8.99")).pose("move", 0.25).bone("root")[0, 2] < 1.0
 
 
 def test_draw_order_offsets():

@@ -32,7 +32,7 @@ from ..rig.constraints import Rig, build_rig, constraints_of, skin_names, update
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
-from .curves import _number
+from .curves import _number, curve_spelling
 from .timelines import Animation, color_channels, made_when_needed, read_animation, search
 
 #: What reading or playing an animation raises where a document the loader let through holds
@@ -279,6 +279,7 @@ class Sampler:
         version = spine_version(doc)
         m = re.match(r"(\d+)", version)
         self.four = bool(m) and int(m[1]) >= 4 if m else True
+        self.curve_spelling = curve_spelling(version)  # 3.x: how its keys' curves are spelled
         self.skin = skin
         #: the skins an attachment is looked up in before the default skin, first first
         self.looked_in = [n for n in skin_names(skin) if n != "default"]
@@ -355,7 +356,7 @@ class Sampler:
         if name not in self._animations:
             if name not in (self.doc.get("animations") or {}):
                 raise KeyError(name)
-            anim = read_animation(self.doc, name, self.four)
+            anim = read_animation(self.doc, name, self.four, self.curve_spelling)
             deforms = {}
             for d in anim.deforms:
                 att = self.prepared(d.skin, d.slot, d.attachment)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .curves import Keys, _number, f32, read_keys
+from .curves import SPELLING_38, CurveSpelling, Keys, _number, f32, read_keys
 
 
 def color_channels(text, count: int) -> list[float]:
@@ -191,14 +191,14 @@ _TRANSFORM_3 = (("rotateMix", 1), ("translateMix", 1), ("scaleMix", 1), ("shearM
 class _Reader:
     """Reads one animation's timelines, noting every timeline's last key for the duration."""
 
-    def __init__(self, doc: dict, four: bool, out: Animation):
-        self.four, self.out = four, out
+    def __init__(self, doc: dict, four: bool, out: Animation, spelling: CurveSpelling = SPELLING_38):
+        self.four, self.out, self.spelling = four, out, spelling
         self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
         self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
         self.ends: list[float] = []
 
     def keys(self, frames, getter, **kw) -> Keys | None:
-        k = read_keys(frames, getter, self.four, **kw)
+        k = read_keys(frames, getter, self.four, spelling=self.spelling, **kw)
         if k is not None:
             self.ends.append(k.duration)
         return k
@@ -301,8 +301,9 @@ _PATH_MIX_4 = (("mixRotate", 1), ("mixX", 1), ("mixY", "mixX"))
 _PATH_MIX_3 = (("rotateMix", 1), ("translateMix", 1))
 
 
-def read_animation(doc: dict, name: str, four: bool) -> Animation:
-    """The animation ``name`` of ``doc`` (KeyError when it has none), its timelines read.
+def read_animation(doc: dict, name: str, four: bool, spelling: CurveSpelling = SPELLING_38) -> Animation:
+    """The animation ``name`` of ``doc`` (KeyError when it has none), its timelines read
+    (4.x layout when ``four``, else 3.x with its version's curve ``spelling``).
 
     Timelines that name a bone, slot or constraint the skeleton lacks are left out (a runtime
     refuses such a skeleton; the document reader reports them). The duration is the last key
@@ -312,11 +313,11 @@ def read_animation(doc: dict, name: str, four: bool) -> Animation:
     if not isinstance(anim, dict):
         anim = {}
     out = Animation(name, 0.0)
-    r = _Reader(doc, four, out)
+    r = _Reader(doc, four, out, spelling)
     r.bones(_mapping(anim.get("bones")))
     r.slots(_mapping(anim.get("slots")))
     r.constraints(anim)
-    _read_deforms(anim, r.slot_index, four, out, r.ends)
+    _read_deforms(anim, r.slot_index, four, out, r.ends, spelling)
     fr, times = r.discrete(anim.get("drawOrder", anim.get("draworder")))
     if fr:
         out.draw_order = DrawOrderTimeline(times, [f.get("offsets") for f in fr], r.slot_index)
@@ -326,7 +327,8 @@ def read_animation(doc: dict, name: str, four: bool) -> Animation:
     return out
 
 
-def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends: list) -> None:
+def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends: list,
+                  spelling: CurveSpelling) -> None:
     """Deform (and 4.1+ sequence) timelines; the offsets are filled by :mod:`.pose`, which
     knows each attachment's vertices."""
     groups = []
@@ -347,7 +349,8 @@ def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends
             continue
         fr = _dicts(frames)
         if fr:
-            k = read_keys(fr, None, four, percent=True) if four else read_keys(fr, lambda f: [0.0], four)
+            k = (read_keys(fr, None, four, percent=True) if four
+                 else read_keys(fr, lambda f: [0.0], four, spelling=spelling))
             ends.append(k.duration)
             raw = [(int(_number(f.get("offset", 0), 0)), f.get("vertices")) for f in fr]
             out.deforms.append(DeformTimeline(str(skin), slot_index[slot], str(att), k, raw))
