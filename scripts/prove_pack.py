@@ -90,7 +90,8 @@ class Row:
     skeleton: str
     version: str = ""
     atlas: str = ""
-    packed: bool = False            # the atlas was packed (else it was kept, and both sides are equal)
+    packed: bool = False            # its pages were written anew: packed, or cleared outside its rectangles
+                                    # (else it was kept, and both sides hold the same texels)
     renders: int = 0
     worst: int = 0
     off: int = 0
@@ -385,8 +386,8 @@ def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMA
         atlases = pack_as_the_cli_does(source, out, upgrade)
     except SpineMeshError as e:
         return [Row(name, "-", status="FAIL", cause=f"pack refused the project: {e}")]
-    packed = {a.atlas for a in atlases if a.status == "packed"}
-    packed = {a.atlas for a in atlases if a.status == "packed"}
+    # pages written with other texels: packed anew, or cleared outside the regions' rectangles
+    packed = {a.atlas for a in atlases if a.status in ("packed", "cleared")}
     mips = mipmap_results(source, out, packed)
     rows = []
     for skeleton in find_project(source).skeletons:

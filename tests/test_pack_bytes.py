@@ -98,6 +98,10 @@ def test_an_atlas_whose_files_would_grow_is_kept_unless_asked(meshed, tmp_path, 
 
 def test_rectangles_only_when_that_is_smaller(meshed, tmp_path, monkeypatch):
     """Noise between the regions (read by nothing) cleared: the same atlas in fewer bytes, same reads."""
+    from spinemesh.cli.pack import outcome_line
+    from spinemesh.cli.upgrade import packed_line
+    from spinemesh.pack.preview import write_preview
+
     project = tmp_path / "noisy"
     shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
     atlas = read_atlas(project / "demo.atlas")
@@ -116,9 +120,18 @@ def test_rectangles_only_when_that_is_smaller(meshed, tmp_path, monkeypatch):
         raise run.PackRefused("packed, its files would take more bytes")
 
     monkeypatch.setattr(run, "check_bytes_shrink", grows)
-    result = pack_project(project, tmp_path / "out")
+    result = pack_project(project, tmp_path / "out", keep_previews=True)
     (row,) = result.atlases
-    assert row.status == "packed" and "rectangles' texels only" in row.reason, row.reason
+    # its own status, not "packed": its layout is kept, and every consumer says so
+    assert row.status == "cleared" and "rectangles' texels only" in row.reason, row.reason
+    assert outcome_line(result.atlases) == "packed 0 of 1 atlas, 1 cleared outside its rectangles"
+    assert "; 1 atlas cleared outside its rectangles (the layout kept); atlas files" in packed_line(
+        result.atlases, "every region was kept")
+    run.write_report(result, tmp_path / "report.json")
+    assert json.loads((tmp_path / "report.json").read_text())["atlases"][0]["status"] == "cleared"
+    index = write_preview(result, tmp_path / "preview").read_text(encoding="utf-8")
+    kept = index.split("atlases that kept their layout", 1)
+    assert len(kept) == 2 and "demo.atlas" in kept[1] and "rectangles&#x27; texels only" in kept[1], index[-800:]
     assert row.texels_after == row.texels_before and row.bytes_after < row.bytes_before
     assert (tmp_path / "out" / "demo.atlas").read_bytes() == (project / "demo.atlas").read_bytes()
     written = load_rgba(tmp_path / "out" / "demo.png")

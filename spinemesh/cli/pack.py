@@ -156,13 +156,17 @@ def share_change(before: int, after: int) -> str:
 
 
 def outcome_line(atlases: list) -> str:
-    """What a pack run did to its atlases, counted by outcome, e.g. ``"packed 1 of 3 atlases, 2 kept
-    in their layout (the note says why)"``: an atlas counts as packed only where its layout was
-    written anew, not where its pages were only re-encoded."""
+    """What a pack run did to its atlases, counted by outcome, e.g. ``"packed 1 of 4 atlases, 1
+    cleared outside its rectangles, 2 kept in their layout (the note says why)"``: an atlas counts
+    as packed only where its layout was written anew, not where its pages were only cleared
+    outside its regions' rectangles or re-encoded."""
     packed = sum(a.status == "packed" for a in atlases)
+    cleared = sum(a.status == "cleared" for a in atlases)
     kept = sum(a.status == "kept" for a in atlases)
-    failed = len(atlases) - packed - kept
+    failed = len(atlases) - packed - cleared - kept
     line = f"packed {packed} of {len(atlases)} atlas{'es' if len(atlases) > 1 else ''}"
+    if cleared:
+        line += f", {cleared} cleared outside {'its' if cleared == 1 else 'their'} rectangles"
     if kept:
         line += f", {kept} kept in {'its' if kept == 1 else 'their'} layout (the note says why)"
     if failed:

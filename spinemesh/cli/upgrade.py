@@ -315,10 +315,10 @@ def _exit(result, nothing: str) -> None:
 
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
-    if nothing.startswith("nothing to upgrade: every") and any(a.status == "packed" or a.pages_reencoded
-                                                                for a in result.atlases):
-        # --pack did something (packed, or wrote a kept atlas's pages smaller): say what, not that
-        # the run did nothing
+    # --pack did something (packed, cleared pages outside their rectangles, or wrote a kept atlas's
+    # pages smaller): say what, not that the run did nothing
+    packed = any(a.status in ("packed", "cleared") or a.pages_reencoded for a in result.atlases)
+    if nothing.startswith("nothing to upgrade: every") and packed:
         console.print(escape(packed_line(result.atlases, nothing.split(": ", 1)[1])), highlight=False)
         return
     if nothing:
@@ -328,8 +328,8 @@ def _exit(result, nothing: str) -> None:
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:
     """What a run that meshed nothing packed: ``meshed_nothing`` (why), then the atlases packed
-    (pages and page texels), the pages of kept atlases written smaller, and the atlases' bytes
-    (texts and pages)."""
+    (pages and page texels), those cleared outside their rectangles, the pages of kept atlases
+    written smaller, and the atlases' bytes (texts and pages)."""
     packed = [a for a in atlases if a.status == "packed"]
     plural = "es" if len(atlases) > 1 else ""
     if packed:
@@ -340,6 +340,10 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
                f"texels ({1 - after / before:.0%})"]
     else:
         did = [f"packed none of {len(atlases)} atlas{plural}"]
+    cleared = sum(a.status == "cleared" for a in atlases)
+    if cleared:
+        did.append(f"{cleared} atlas{'es' if cleared > 1 else ''} cleared outside {'its' if cleared == 1 else 'their'} "
+                   "rectangles (the layout kept)")
     reencoded = sum(a.pages_reencoded for a in atlases if a.status == "kept")
     if reencoded:
         did.append(f"{reencoded} page{'s' if reencoded > 1 else ''} of kept atlases re-encoded losslessly")

@@ -112,7 +112,10 @@ class AtlasRow:
     """One atlas of the report: what it was, what it became, and why regions kept their rectangles."""
 
     atlas: str
-    status: str  # packed | kept | failed
+    #: packed (its layout written anew); cleared (its layout kept, its pages written with the
+    #: rectangles' texels only: :func:`rectangles_only_outcome`); kept (as it was, its PNG pages
+    #: perhaps re-encoded smaller: ``pages_reencoded``); failed (copied as it was)
+    status: str
     reason: str = ""
     pages_before: int = 0
     pages_after: int = 0
@@ -797,7 +800,7 @@ def rectangles_only_outcome(job: AtlasJob, texels: list[np.ndarray], modes: dict
     except (PackRefused, SpineMeshError, OSError, UnicodeDecodeError):
         return None
     texel_count = sum(int(t.shape[0]) * int(t.shape[1]) for t in texels)
-    row = AtlasRow(job.rel, "packed", f"{why}; written as it was, with the rectangles' texels only",
+    row = AtlasRow(job.rel, "cleared", f"{why}; written as it was, with the rectangles' texels only",
                    len(atlas.pages), len(atlas.pages), texel_count, texel_count, bytes_before, bytes_after,
                    cpu_seconds=round(time.process_time() - t0, 3))
     return AtlasOutcome(row, {name: p.data for name, p in pages.items()}, text)
