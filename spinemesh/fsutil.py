@@ -391,6 +391,80 @@ def atomic_write_json(path: str | Path, obj, indent: int | None = 2) -> None:
     atomic_write_text(path, strict_json(obj, indent, path) + "\n")
 
 
+def strict_json_pieces(head: dict, key: str, items: Iterable, path: str | Path | None = None):
+    """The text of ``strict_json({**head, key: list(items)}, None, path)``, in pieces: the
+    object up to the list's ``[``, then each item's text as the item is taken from ``items``
+    (an iterator may make them one at a time), then ``]}``. So a list too large to hold
+    whole is written as one item at a time, to the same characters.
+
+    Parameters
+    ----------
+    head : dict
+        The object's members before the list; ``key`` must not be one of them.
+    key : str
+        The name of the list, the object's last member.
+    items : iterable
+        The list's items, each turned to text (and checked) when it is taken.
+
+    Yields
+    ------
+    str
+        Pieces of the text, in order.
+
+    Raises
+    ------
+    SpineMeshError
+        When an item holds a non-finite number, as :func:`strict_json` does, when that item is
+        reached: what came before it is already given out.
+    """
+    if key in head:
+        raise ValueError(f"{key!r} is one of the head's members: the list must be the last one")
+    empty = strict_json({**head, key: []}, None, path)
+    yield empty[:-len("[]}")] + "["    # the list, last, closes the text
+    for i, item in enumerate(items):
+        yield (", " if i else "") + strict_json(item, None, path)
+    yield "]}"
+
+
+def atomic_write_pieces(path: str | Path, pieces: Iterable[str]) -> int:
+    """Atomically write text given in pieces (UTF-8), each written to the file as it comes, so
+    that only one piece is held at a time: a temporary file beside ``path``, renamed onto it
+    when the last piece is written. When taking a piece raises (a refused value, Ctrl-C) or
+    the file system refuses, the temporary file is removed and ``path`` keeps what it held.
+
+    Returns
+    -------
+    int
+        Bytes written.
+
+    Raises
+    ------
+    OutputError
+        When the file system refuses (read-only, disk full). What ``pieces`` raises passes through.
+    """
+    written = 0
+
+    def fill(f):
+        nonlocal written
+        for piece in pieces:
+            written += f.write(utf8(piece, path))
+
+    _atomic(Path(path), fill)
+    return written
+
+
+def free_bytes(path: str | Path) -> int | None:
+    """Bytes free to this user on the file system that a file at ``path`` would be written to
+    (its nearest existing folder); None when that cannot be read."""
+    folder = Path(path).absolute().parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return None
+
+
 def atomic_write_png(path: str | Path, image) -> None:
     """Atomically write an RGBA/RGB/gray uint8 array as PNG."""
     import io

@@ -26,7 +26,9 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
 
     ``step()``, when given, is called after each pose (a progress bar). A number that is not
     finite (a degenerate pose) is written as null. As the harness does, one skeleton plays
-    every pose: its clock (which 4.2 physics steps by) runs on from pose to pose.
+    every pose: its clock (which 4.2 physics steps by) runs on from pose to pose. Every pose is
+    held in memory: ``spinemesh pose`` writes :func:`dump_head`, then :func:`dump_poses` one by
+    one, as a stream of the same text.
 
     Returns
     -------
@@ -38,25 +40,12 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
         runtime's; empty when every bone is reproduced) and ``inactive`` (bones the skin does
         not use, which the runtime leaves unposed; here they follow their parents).
     """
-    poses = [("setup", None, 0.0)]
-    seen = {"setup"}
-    for t in times if animation is not None else ():
-        label = f"{animation}@{js_number(t)}"
-        if label not in seen:
-            seen.add(label)
-            poses.append((label, animation, float(t)))
-    out = []
-    clock = 0.0
-    for label, anim, t in poses:
-        pose = sampler.pose(anim, t, fps=fps, clock=clock)
-        if anim is not None:
-            clock = advance_clock(clock, t, fps)
-        entry = {"label": label, "anim": anim, "time": t, **pose.to_dump()}
-        entry["inexact"] = dict(pose.why)
-        entry["inactive"] = [n for n, a in zip(pose.bones, pose.active) if not a]
-        out.append(entry)
-        if step is not None:
-            step()
+    poses = list(dump_poses(sampler, animation, times, fps, step))
+    return {**dump_head(sampler, skeleton_file, fps), "poses": poses}
+
+
+def dump_head(sampler: Sampler, skeleton_file: str = "", fps: float = 60.0) -> dict:
+    """What the dump holds before its ``poses`` (see :func:`dump`): ``input`` and ``skeleton``."""
     return {
         "input": {"skeleton": skeleton_file, "skin": sampler.skin, "fps": fps},
         "skeleton": {
@@ -65,8 +54,41 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
             "skins": list(sampler.skins),
             "animations": [{"name": n, "duration": _duration(sampler, n)} for n in sampler.animation_names()],
         },
-        "poses": out,
     }
+
+
+def dump_labels(animation: str | None, times: list[float]) -> list[tuple[str, str | None, float]]:
+    """The poses a dump holds, ``(label, animation, time)``: the setup pose, then ``animation``
+    at each of ``times`` once (a time given twice is one pose)."""
+    poses = [("setup", None, 0.0)]
+    seen = {"setup"}
+    for t in times if animation is not None else ():
+        label = f"{animation}@{js_number(t)}"
+        if label not in seen:
+            seen.add(label)
+            poses.append((label, animation, float(t)))
+    return poses
+
+
+def dump_poses(sampler: Sampler, animation: str | None, times: list[float], fps: float = 60.0, step=None):
+    """The entries of the dump's ``poses`` (see :func:`dump`), made one at a time as they are asked for.
+
+    Yields
+    ------
+    dict
+        One pose: ``label``, ``anim``, ``time``, ``bones``, ``attachments``, ``inexact``, ``inactive``.
+    """
+    clock = 0.0
+    for label, anim, t in dump_labels(animation, times):
+        pose = sampler.pose(anim, t, fps=fps, clock=clock)
+        if anim is not None:
+            clock = advance_clock(clock, t, fps)
+        entry = {"label": label, "anim": anim, "time": t, **pose.to_dump()}
+        entry["inexact"] = dict(pose.why)
+        entry["inactive"] = [n for n, a in zip(pose.bones, pose.active) if not a]
+        yield entry
+        if step is not None:
+            step()
 
 
 def _duration(sampler: Sampler, name: str) -> float | None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from itertools import chain
 from pathlib import Path
 
 import typer
@@ -59,11 +60,11 @@ def pose(
     Example: spinemesh pose hero.json --animation run --times 0.2,0.5 --out pose.json
     Example: spinemesh pose hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
-    from ..anim import POSE_ERRORS, Sampler, atlas_regions
-    from ..anim.dump import dump
+    from ..anim import Sampler, atlas_regions
+    from ..anim.dump import dump_head, dump_labels, dump_poses
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_json, check_outputs, project_folder, strict_json
+    from ..fsutil import atomic_write_pieces, check_outputs, project_folder, strict_json_pieces
     from ..project import find_project, image_source_for
     from ..skeleton import load_skeleton
     from ._app import progress_bar
@@ -92,28 +93,46 @@ def pose(
             err_console.print("[yellow]warning:[/] no atlas found beside the skeleton: region quads are drawn "
                               "over their whole images (as if no whitespace was stripped)", highlight=False)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
-    _check_pose_bounds(sampler, animation, seconds, fps, skeleton)
+    _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
+    # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
+    # temporary file renamed when the last pose is written, so that a refusal leaves no file.
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
-        try:
-            result = dump(sampler, animation, seconds if animation else [], str(skeleton), fps,
-                          step=lambda: bar.advance(task))
-        except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot play
-            raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
-    if out is None:
-        typer.echo(strict_json(result, None, skeleton))
-    else:
-        atomic_write_json(out, result, indent=None)
-        err_console.print(f"{out}: {len(result['poses'])} poses", highlight=False, markup=False)
+        poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
+                                  step=lambda: bar.advance(task)), animation, skeleton)
+        head = dump_head(sampler, str(skeleton), fps)
+        pieces = chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton), ["\n"])
+        if out is None:
+            for piece in pieces:
+                typer.echo(piece, nl=False)
+        else:
+            atomic_write_pieces(out, pieces)
+    if out is not None:
+        err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
 
 
-def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps: float, skeleton: Path) -> None:
-    """Refuse, naming the skeleton, a pose run whose physics replay or JSON would be over the limits
-    (each time replays the game loop from 0 when physics keeps state)."""
+def _posed(poses, animation: str | None, skeleton: Path):
+    """``poses`` (the dump's, made one by one), what the sampler cannot play refused in one line
+    naming the skeleton (what the document's check let through)."""
     from ..anim import POSE_ERRORS
+    from ..errors import SpineMeshError
+
+    try:
+        yield from poses
+    except POSE_ERRORS as e:
+        raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
+
+
+def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps: float, skeleton: Path,
+                       out: Path | None = None) -> None:
+    """Refuse, naming the skeleton, a pose run whose physics replay or JSON would be over the limits
+    (each time replays the game loop from 0 when physics keeps state), or whose JSON, estimated as
+    the setup pose's size times the poses, would not fit in the space free where ``out`` is written."""
+    from ..anim import POSE_ERRORS
+    from ..anim.dump import dump_labels
     from ..anim.pose import steps_of
     from ..errors import SpineMeshError
-    from ..fsutil import strict_json
+    from ..fsutil import free_bytes, strict_json
     from ..limits import MAX_POSE_OUTPUT_BYTES, MAX_POSE_STEPS
 
     if animation is not None and sampler.physics:
@@ -123,14 +142,19 @@ def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps
             raise SpineMeshError(f"--times: {len(set(seconds)):,} times replay {replayed:,} game-loop steps of "
                                  f"this skeleton's physics in all, over {MAX_POSE_STEPS:,}; give fewer or earlier times",
                                  skeleton)
-    poses = 1 + (len(set(seconds)) if animation is not None else 0)
+    poses = len(dump_labels(animation, seconds))
     try:
         size = poses * len(strict_json(sampler.pose(None).to_dump(), None, skeleton)) if poses > 1 else 0
     except POSE_ERRORS as e:  # what the document's check let through and the sampler cannot pose
         raise SpineMeshError(f"the setup pose cannot be posed: {e}", skeleton) from None
     if size > MAX_POSE_OUTPUT_BYTES:
         raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 2**20:,.0f} MiB of "
-                             f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 2**20:,.0f} MiB; give fewer times", skeleton)
+                             f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 2**30:,.0f} GiB; give fewer times", skeleton)
+    free = free_bytes(out) if out is not None and size else None
+    if free is not None and size > free:
+        raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 2**20:,.0f} MiB of "
+                             f"JSON, more than the {free / 2**20:,.0f} MiB free where --out is; give fewer times "
+                             "or write elsewhere", skeleton)
 
 
 def _skin_names(doc: dict) -> list[str]:
