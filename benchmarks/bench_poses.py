@@ -11,12 +11,24 @@ For each skeleton, its first animation is sampled at 30 frames per second over o
 Times are milliseconds per frame (best of ``--repeat``); the ratio columns are ours / runtime.
 
     .venv/bin/python benchmarks/bench_poses.py [--repeat 3]
+
+``stream``: ``spinemesh pose`` of this checkout beside an older checkout (``--old``, a folder
+holding its ``spinemesh`` package), each run in its own process: wall seconds, peak resident
+memory (the child's own, from ``wait4``), bytes written, whether the two files are the same
+bytes, and the ratios new / old. Each case is ``SKELETON:ANIMATION:TIMES``, the times being
+``0, 1/60, 2/60, ...`` (a long animation sampled at 60 frames per second; the track loops).
+A run that ends in an error is shown as refused with its line.
+
+    .venv/bin/python benchmarks/bench_poses.py stream --old OLD CASE [CASE ...] [--work DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import filecmp
 import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -48,7 +60,65 @@ def best(fn, repeat: int) -> float:
     return min(out)
 
 
+def run_pose(checkout: Path, skeleton: Path, animation: str, count: int, out: Path) -> dict:
+    """``spinemesh pose`` of the package in ``checkout``, in its own process, at ``count`` times
+    60 a second apart: its wall seconds, peak resident memory (bytes), exit status and the last
+    line it printed on failure."""
+    times = ",".join(js_number(i / 60) for i in range(count))
+    args = [sys.executable, "-m", "spinemesh", "pose", str(skeleton), "-a", animation, "--times", times,
+            "--out", str(out)]
+    env = {**os.environ, "PYTHONPATH": str(checkout), "COLUMNS": "200"}
+    out.unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    child = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=checkout)
+    err = child.stderr.read().decode(errors="replace")
+    _, status, usage = os.wait4(child.pid, 0)
+    wall = time.perf_counter() - t0
+    child.returncode = os.waitstatus_to_exitcode(status)
+    lines = [x for x in err.splitlines() if x.startswith("error:")]
+    return {"wall": wall, "rss": usage.ru_maxrss * 1024, "rc": child.returncode,
+            "bytes": out.stat().st_size if out.is_file() else 0, "error": lines[-1] if lines else err[-200:]}
+
+
+def stream(argv) -> int:
+    ap = argparse.ArgumentParser(description="spinemesh pose: this checkout beside an older one")
+    ap.add_argument("--old", type=Path, required=True, help="an older checkout (holding its spinemesh package)")
+    ap.add_argument("cases", nargs="+", metavar="SKELETON:ANIMATION:TIMES")
+    ap.add_argument("--work", type=Path, help="where the outputs are written (default: a temporary folder)")
+    args = ap.parse_args(argv)
+    work = args.work or Path(tempfile.mkdtemp(prefix="bench-pose-stream-"))
+    work.mkdir(parents=True, exist_ok=True)
+    print(f"{'skeleton':40s} {'times':>6s} {'MB':>8s} {'old s':>7s} {'new s':>7s} {'new/old':>7s} "
+          f"{'old MiB':>8s} {'new MiB':>8s} {'new/old':>7s}  same bytes")
+    failed = 0
+    for case in args.cases:
+        skeleton, animation, count = case.rsplit(":", 2)
+        old, new = work / "old.json", work / "new.json"
+        o = run_pose(args.old.resolve(), Path(skeleton).resolve(), animation, int(count), old)
+        n = run_pose(REPO, Path(skeleton).resolve(), animation, int(count), new)
+        failed += n["rc"] != 0
+        name = "/".join(Path(skeleton).parts[-2:])
+        size = f"{n['bytes'] / 1e6:8.1f}" if n["rc"] == 0 else f"{'-':>8s}"
+        if o["rc"] == 0 and n["rc"] == 0:
+            same = "yes" if filecmp.cmp(old, new, shallow=False) else "NO"
+            failed += same != "yes"
+            print(f"{name:40s} {count:>6s} {size} {o['wall']:7.1f} {n['wall']:7.1f} {n['wall'] / o['wall']:7.2f} "
+                  f"{o['rss'] / 2**20:8.0f} {n['rss'] / 2**20:8.0f} {n['rss'] / o['rss']:7.2f}  {same}")
+        else:
+            print(f"{name:40s} {count:>6s} {size} {o['wall']:7.1f} {n['wall']:7.1f} {'-':>7s} "
+                  f"{o['rss'] / 2**20:8.0f} {n['rss'] / 2**20:8.0f} {'-':>7s}  -")
+            for who, r in (("old", o), ("new", n)):
+                if r["rc"]:
+                    print(f"    {who} refused (exit {r['rc']}): {r['error']}")
+        old.unlink(missing_ok=True)
+        new.unlink(missing_ok=True)
+    return 1 if failed else 0
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["stream"]:
+        return stream(argv[1:])
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--tool", type=Path, help="an installed copy of the harness (default: install one)")
