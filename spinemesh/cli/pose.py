@@ -65,10 +65,10 @@ def pose(
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
     from ..fsutil import atomic_write_pieces, check_outputs, project_folder, strict_json_pieces
+    from ..limits import MAX_POSE_STEPS
     from ..project import find_project, image_source_for
     from ..skeleton import load_skeleton
     from ._app import progress_bar
-    from ..limits import MAX_POSE_STEPS
 
     seconds = _times(times)
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
