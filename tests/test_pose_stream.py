@@ -165,3 +165,42 @@ def test_output_must_fit_in_the_space_free(tmp_path):
     # standard output has no such check, and with room the same run writes
     r = _pose(skeleton, "-a", "turn", "--times", times, "--out", tmp_path / "new" / "pose.json")
     assert r.returncode == 0 and (tmp_path / "new" / "pose.json").stat().st_size > 9_000_000, r.stderr
+
+
+def test_standard_output_streams_past_the_progress_bar(tmp_path):
+    """With stderr a terminal the progress bar takes over ``sys.stdout`` while it is drawn (rich
+    sends what is printed there to the terminal, above the bar, a line at a time): the stream
+    goes to the real standard output all the same, the same bytes as --out."""
+    import pty
+    import threading
+
+    skeleton = _project(tmp_path, _many(50))
+    times = ",".join(f"{i / 60:g}" for i in range(40))
+    r = _pose(skeleton, "-a", "turn", "--times", times, "--out", tmp_path / "pose.json")
+    assert r.returncode == 0, r.stderr
+    master, slave = pty.openpty()
+    seen = []
+    drain = threading.Thread(target=lambda: _drain(master, seen), daemon=True)
+    drain.start()
+    env = {**os.environ, "COLUMNS": "100", "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    env.pop("NO_COLOR", None)
+    with open(tmp_path / "stdout.json", "wb") as stdout:
+        done = subprocess.run([sys.executable, "-m", "spinemesh", "pose", str(skeleton), "-a", "turn", "--times", times],
+                              stdout=stdout, stderr=slave, env=env, timeout=120, check=False)
+    os.close(slave)
+    drain.join(10)
+    assert done.returncode == 0, b"".join(seen)[-2000:]
+    assert (tmp_path / "stdout.json").read_bytes() == (tmp_path / "pose.json").read_bytes()
+    assert b'"poses"' not in b"".join(seen)           # none of it on the terminal
+
+
+def _drain(fd: int, into: list) -> None:
+    """Read the terminal's side of a pseudo-terminal until it closes (so that the child never blocks)."""
+    while True:
+        try:
+            data = os.read(fd, 65536)
+        except OSError:
+            return
+        if not data:
+            return
+        into.append(data)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from itertools import chain
 from pathlib import Path
 
@@ -96,6 +97,9 @@ def pose(
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
     # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
     # temporary file renamed when the last pose is written, so that a refusal leaves no file.
+    # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
+    # by a proxy that holds text until a newline and then prints it on stderr.
+    stdout = sys.stdout
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
@@ -104,7 +108,7 @@ def pose(
         pieces = chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton), ["\n"])
         if out is None:
             for piece in pieces:
-                typer.echo(piece, nl=False)
+                typer.echo(piece, nl=False, file=stdout)
         else:
             atomic_write_pieces(out, pieces)
     if out is not None:
