@@ -90,7 +90,7 @@ def test_stream_is_the_whole_document_to_the_byte(tmp_path):
 #: Replaces Sampler.pose: before each pose, notes the bytes of every temporary file beside
 #: --out (the stream's) in ``sizes.json``; the call numbered FAIL (0: the bounds' look at the
 #: setup pose, 1: the setup pose written) fails as KIND says: "raise" (what the sampler cannot
-#: play) or "nan" (a number not finite in what the pose gives to be written).
+#: play), "nan" (a number not finite in what the pose gives to be written) or "interrupt" (Ctrl-C).
 _PATCH = """
 import json, math
 from spinemesh.anim import pose as pose_module
@@ -101,6 +101,9 @@ def noted_pose(self, *args, **kwargs):
     (folder / "sizes.json").write_text(json.dumps(made))
     if len(made) - 1 == fail and kind == "raise":
         raise ValueError("a key this sampler cannot read")
+    if len(made) - 1 == fail and kind == "interrupt":
+        import os, signal
+        os.kill(os.getpid(), signal.SIGINT)
     pose = real_pose(self, *args, **kwargs)
     if len(made) - 1 == fail and kind == "nan":
         whole = pose.to_dump()
@@ -110,10 +113,11 @@ pose_module.Sampler.pose = noted_pose
 """
 
 
-@pytest.mark.parametrize("kind, words", [("raise", "cannot be posed"), ("nan", "non-finite")])
+@pytest.mark.parametrize("kind, words", [("raise", "cannot be posed"), ("nan", "non-finite"), ("interrupt", None)])
 def test_a_pose_failing_mid_stream_leaves_no_file(tmp_path, kind, words):
     """Poses are on disk (in the temporary file) before the next is made; when one fails, the
-    run ends in one line, the temporary file is removed and --out keeps what it held."""
+    run ends in one line (Ctrl-C: in none, exit 130), the temporary file is removed and --out
+    keeps what it held."""
     skeleton = _project(tmp_path, _many(200))
     out_dir = tmp_path / "out"
     out_dir.mkdir()
@@ -121,10 +125,13 @@ def test_a_pose_failing_mid_stream_leaves_no_file(tmp_path, kind, words):
     patch = f"from pathlib import Path\nfolder, fail, kind = Path({str(out_dir)!r}), 4, {kind!r}\n{_PATCH}"
     r = _pose(skeleton, "-a", "turn", "--times", "0.1,0.2,0.3,0.4,0.5", "--out", out_dir / "pose.json", patch=patch)
     stderr = r.stderr.decode()
-    assert r.returncode == 2 and "Traceback" not in stderr, stderr
-    (line,) = [x for x in stderr.splitlines() if x.startswith("error:")]
-    assert words in line, line
-    assert str(skeleton if kind == "raise" else out_dir / "pose.json") in line
+    assert r.returncode == (130 if words is None else 2) and "Traceback" not in stderr, stderr
+    lines = [x for x in stderr.splitlines() if x.startswith("error:")]
+    if words is None:
+        assert not lines, stderr
+    else:
+        (line,) = lines
+        assert words in line and str(skeleton if kind == "raise" else out_dir / "pose.json") in line, line
     assert sorted(p.name for p in out_dir.iterdir()) == ["pose.json", "sizes.json"]
     assert (out_dir / "pose.json").read_text() == "what was there"
     sizes = json.loads((out_dir / "sizes.json").read_text())
