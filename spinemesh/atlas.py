@@ -20,15 +20,13 @@ stripped at the left and at the *bottom* (libGDX counts y up) of the original im
 
 from __future__ import annotations
 
+import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import math
-import sys
-
 from .errors import AtlasError, LimitError, SpineMeshError
-from .limits import (MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_file_size,
-                     check_image_size)
+from .limits import MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_file_size, check_image_size
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
 _V4_KEYS = {"bounds", "offsets", "pma", "scale"}

@@ -17,8 +17,8 @@ import json
 import os
 import shutil
 import tempfile
-from pathlib import Path
 from collections.abc import Iterable
+from pathlib import Path
 
 from .errors import OutputError, SpineMeshError, UnsafePathError
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .mesher.interior import edge_map, long_contours
 from .foreground import foreground
+from .mesher.interior import edge_map, long_contours
 from .mesher.params import PAPER
 from .mesher.raster import (boundary_index_edges, boundary_segments, crossed_pixels, mesh_coverage_mask,
                              polygon_coverage_mask)

@@ -14,9 +14,9 @@ from __future__ import annotations
 import json
 import math
 import re
-from pathlib import Path
 from collections import namedtuple
 from collections.abc import Iterator
+from pathlib import Path
 
 from .errors import LimitError, SkeletonError, SpineMeshError
 from .fsutil import atomic_write_text

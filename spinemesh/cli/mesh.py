@@ -29,10 +29,10 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
          steps: Optional[Path]):
     from ..fsutil import atomic_write_json, atomic_write_png
     from ..images import load_rgba
+    from ..memory import image_memory
     from ..mesher import compute_mask, mesh_image, resolve_params
     from ..mesher.preview import preview as draw_preview
     from ..mesher.preview import steps_figure
-    from ..memory import image_memory
 
     rgba = load_rgba(image_path)
     with image_memory("mesh", image_path, rgba.shape[1], rgba.shape[0]):  # fails as this image

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
+from enum import Enum
 from pathlib import Path
 
 import typer
-
-from enum import Enum
 
 from ._app import Annotated, Optional, app, console, progress_bar
 

@@ -12,13 +12,12 @@ from typing import List
 
 import typer
 
-from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
-from .weights import Weights
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
     progress_bar,
 )
-
+from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
+from .weights import Weights
 
 # The command's options, one declaration each (see --help for what they do).
 _Project = Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder, one skeleton file (.json/.skel), or a folder of "
@@ -210,11 +209,10 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
 
 def _phase_progress(bars):
     """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (one task per phase)."""
-    from ..upgrade.progress import Progress
-
     from rich.markup import escape
 
     from ..runs import short_names
+    from ..upgrade.progress import Progress
 
     def shown(name: str) -> str:
         return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns

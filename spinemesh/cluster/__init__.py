@@ -246,8 +246,9 @@ class SharedArray:
         SpineMeshError
             This answer alone could not be read.
         """
-        import numpy as np
         from multiprocessing.reduction import recv_handle
+
+        import numpy as np
 
         try:
             fd = recv_handle(conn)

@@ -28,6 +28,7 @@ from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
                         iter_skins, linked_source, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
 
+
 def game_of(project: Path) -> str:
     """The game a project belongs to: its source repository, else its folder name.
 

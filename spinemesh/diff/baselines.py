@@ -29,10 +29,10 @@ import cv2
 import numpy as np
 
 from ..errors import ImageError
-from ..mesher import Mesh
 from ..foreground import foreground
-from ..mesher import exterior, triangulate
+from ..mesher import Mesh, exterior, triangulate
 from ..mesher.params import PAPER
+
 # The pipeline's own merge and finishing steps, so that a baseline differs from the paper
 # preset only in where its interior points come from.
 from ..mesher.pipeline import finish_mesh, merge_close_points

@@ -37,10 +37,9 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 
+from .geometry import clamp, clip_loop_to_rect, dp_indices, loop_is_simple, predecessors, signed_area, successors
 from .raster import (any_centre_inside, any_crossed, centres_inside, crossed_pixels, loop_segments, pair_keys,
                      touched_pixels)
-from .geometry import (clamp, clip_loop_to_rect, dp_indices, loop_is_simple, predecessors, signed_area,
-                       successors)
 
 
 # --------------------------------------------------------------------------- paper

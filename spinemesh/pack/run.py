@@ -25,10 +25,10 @@ from ..runs import RunSummary
 from .atlas_pack import AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_settings, plan_layouts
 from .png import (
     IHDR,
+    OptimiserFailed,
     chunk_differences,
     chunk_meaning,
     colour_chunks,
-    OptimiserFailed,
     optimized_png,
     png_bit_depth,
     png_chunks,
@@ -1062,7 +1062,6 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     it, so all of them are read.
     """
     from ..output import check_output_folder, output_folder
-
     from ..project import is_skeleton_file
 
     options = options or PackOptions()

@@ -24,7 +24,6 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-
 #: The kinds ``segment-eval`` scores; the first three are the ones the model card leads with.
 BACKGROUNDS = ("solid", "gradient", "noise", "radial", "perlin", "grain", "texture")
 

@@ -18,7 +18,6 @@ from ..errors import SkelFormatError
 from ..json_style import NumberText
 from .stream import SkelReader, SkelWriter
 
-
 _VERSION = re.compile(r"\d{1,2}\.\d{1,2}(\.\d{1,3})?([-.][\w.-]{1,20})?")
 
 

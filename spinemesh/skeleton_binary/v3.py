@@ -55,11 +55,10 @@ import math
 import re
 import struct
 
-from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import boolean, color, first_use_table, fld, put, text
-
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
+from .stream import RecordedRefs, SkelReader, SkelWriter
+from .symmetric import boolean, color, first_use_table, fld, put, text
 
 SPACING_MODE = ("length", "fixed", "percent")
 

@@ -8,8 +8,8 @@ Widths 1280 -> 256 -> 128 -> 64 -> 32.
 from __future__ import annotations
 
 import torch
-from torch import nn
 import torch.nn.functional as F
+from torch import nn
 
 #: Decoder widths of paper section 3.1.
 DECODER_CHANNELS = (256, 128, 64, 32)

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ..attachment_geometry import mesh_attachment
-from ..cluster import Workers, WorkerLost
+from ..cluster import WorkerLost, Workers
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy
 from ..output import files_needed, files_to_copy, write_skeleton
@@ -101,7 +101,7 @@ def weigh_on(workers: Workers, skeletons: list, max_vertices: int | None,
     same byte for byte. Returns ``(skeleton, targets)`` left to weight here: the skeletons without
     a rig (their weighting reports why per mesh) and the targets of jobs whose worker was lost.
     """
-    from ..rig.upgrade import put_back_weighed, weight_apart, weighing_jobs
+    from ..rig.upgrade import put_back_weighed, weighing_jobs, weight_apart
 
     here, jobs = [(sk, sk.targets) for sk in skeletons if sk.rig is None], {}
     for sk in skeletons:

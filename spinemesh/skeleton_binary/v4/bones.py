@@ -7,7 +7,6 @@ from ..symmetric import boolean, color, fld, text
 from .fields import _names, _to_end, enum, fields, index, ref
 from .layout import Context
 
-
 _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
                 ("shearX", 0), ("shearY", 0), ("length", 0))
 

@@ -8,7 +8,7 @@ from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import boolean, fld, put as _put, text
 from .bones import _bone_list
 from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, fld_u8, index, opt
-from .layout import Context, SPACING_MODE
+from .layout import SPACING_MODE, Context
 
 
 def _bone_target_head(s, node: dict, c: Context) -> None:

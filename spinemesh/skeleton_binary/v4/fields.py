@@ -7,7 +7,6 @@ import struct
 
 from ..symmetric import fld, put as _put
 
-
 _STRUCTS: dict[int, tuple] = {}
 
 

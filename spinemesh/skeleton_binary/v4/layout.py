@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 SPACING_MODE = ("length", "fixed", "percent", "proportional")
 SEQUENCE_MODE = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
 #: 4.3: what a transform constraint or slider reads from a bone, and what it writes to.

@@ -8,7 +8,7 @@ from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 from ..symmetric import boolean, fld, put as _put
 from .constraints import _mix_field
 from .fields import _floats_struct, _same, enum, fields, flag, floats, index, opt, seq
-from .layout import Context, SEQUENCE_MODE
+from .layout import SEQUENCE_MODE, Context
 
 
 def _time(s, frame: dict) -> float:
