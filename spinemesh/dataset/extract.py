@@ -266,8 +266,8 @@ def _sample(w: _Want, rgba: np.ndarray, scale: float, box: tuple, cid: str, resu
            "split": split_of(result.game), "type": "mesh" if mesh is not None else "region",
            "attachment": w.attachment, "name": w.name, "skeleton": w.skeleton, "ref": w.ref,
            "source": _relative(w.where, folder), "width": int(wd), "height": int(h),
-           "scale": scale, "n_vertices": int(len(mesh["vertices"])) if mesh else 0,
-           "n_triangles": int(len(mesh["triangles"])) if mesh else 0, "box": list(box)}
+           "scale": scale, "n_vertices": len(mesh["vertices"]) if mesh else 0,
+           "n_triangles": len(mesh["triangles"]) if mesh else 0, "box": list(box)}
     part = crop(rgba, box)
     return Sample(row, encode_png(part), encode_png(mask_of(part)), encode_mesh(mesh) if mesh else None)
 

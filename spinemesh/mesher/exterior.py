@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from itertools import pairwise
 
 import cv2
 import numpy as np
@@ -740,7 +741,7 @@ def _still_covers(window: np.ndarray, new: np.ndarray, changed: np.ndarray, cove
     if len(first) != 1 or len(last) != 1 or first[0] >= last[0]:
         return _covers_in_box(window, new, changed, cover)
     old = old[first[0]:last[0] + 1]
-    return _swap_keeps_cover(list(zip(old[:-1], old[1:])), list(zip(path[:-1], path[1:])), cover, box)
+    return _swap_keeps_cover(list(pairwise(old)), list(pairwise(path)), cover, box)
 
 
 def _swap_keeps_cover(removed, added, cover: np.ndarray, box: tuple[int, int, int, int]) -> bool:

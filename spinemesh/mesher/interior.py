@@ -7,6 +7,8 @@ them, let the parts deform independently.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import cv2
 import numpy as np
 
@@ -143,7 +145,7 @@ def simplify_chain(c: np.ndarray, dp_ratio: float, max_segment: float) -> np.nda
     idx = dp_indices(c, dp_ratio * length, closed=False)
     pts = []
     cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c, axis=0).T))])
-    for a, b in zip(idx[:-1], idx[1:]):
+    for a, b in pairwise(idx):
         pts.append(c[a])
         arc = cum[b] - cum[a]
         if arc > max_segment:

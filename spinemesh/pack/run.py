@@ -1115,7 +1115,7 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
         except SpineMeshError as e:
             projects.append((folder, e))
     found = [p for _, p in projects if isinstance(p, Project)]
-    if len(found) == len(projects) and not any([project_atlases(p) for p in found]):
+    if len(found) == len(projects) and not any(project_atlases(p) for p in found):
         raise nothing_to_pack(library, [q for p in found for q in p.problems], "no atlas to pack in any of its projects")
     progress.atlases(sum(len(project_atlases(p)) for p in found))
     with output_folder(out, options.overwrite), open_workers(options.jobs, options.dask) as workers:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import zlib
 from collections import Counter
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -210,7 +211,7 @@ def with_habits(data: dict, strict: bool = True, alone: bool = False) -> dict:
         neighbours = neighbour_sets(data, strict)
     base = habits.prior(tallies)
     H = np.concatenate([habits.habit_features(data["X"][s:e], FEATURES, others[m], base)
-                        for m, (s, e) in enumerate(zip(starts[:-1], starts[1:]))])
+                        for m, (s, e) in enumerate(pairwise(starts))])
     return {**data, "X": np.hstack([data["X"], H]), "habit_prior": base, "habit_others": others,
             "habit_neighbours": neighbours}
 
@@ -227,7 +228,7 @@ def neighbour_sets(data: dict, strict: bool = True) -> list[dict[tuple[int, ...]
     col = FEATURES.index("is_slot_bone")
     bound, keys = [], mesh_keys(data) if strict else [set() for _ in data["group"]]
     keys = [k | {f"#{m}"} for m, k in enumerate(keys)]
-    for m, (s, e) in enumerate(zip(starts[:-1], starts[1:])):
+    for m, (s, e) in enumerate(pairwise(starts)):
         slot = data["bone"][s:e][data["X"][s:e, col] == 1]
         chosen = frozenset(data["bone"][s:e][data["y"][s:e]].tolist()) if data["missed"][m] == 0 else frozenset()
         bound.append((str(data["skeleton"][m]), int(slot[0]) if len(slot) else -1, chosen))

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import io
 from concurrent.futures import ProcessPoolExecutor
+from itertools import pairwise
 from pathlib import Path
 
 import cv2
@@ -106,7 +107,7 @@ def write_pack(datasets: list[str | Path], out: str | Path, max_side: int = PACK
 
 def _decode_range(args: tuple[bytes, list[int]]) -> list[np.ndarray]:
     blob, offsets = args
-    return [decode_sprite(blob[a:b]) for a, b in zip(offsets[:-1], offsets[1:])]
+    return [decode_sprite(blob[a:b]) for a, b in pairwise(offsets)]
 
 
 def read_pack(path: str | Path, workers: int = 1) -> dict[str, list]:
