@@ -164,7 +164,7 @@ def upgrade(
                       "before the test of what is worth meshing", highlight=False, markup=False)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
-        _write_preview(result, project, out, preview, images_in)
+        _write_preview(result, project, out, preview, images_in, options.jobs)
     _exit(result, nothing)
 
 
@@ -179,10 +179,10 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool) -> None
         write_report(result, report)
 
 
-def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -> None:
+def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:
     """``--preview``: the page, with a bar of the skeletons drawn, then where it is and the seconds
     it took (written after the run's timing line, so not in it: rendering every skeleton may take
-    longer than the upgrade)."""
+    longer than the upgrade). Skeletons' pages are written over ``--jobs`` processes."""
     import time
 
     from ..upgrade.preview import write_preview
@@ -191,7 +191,7 @@ def _write_preview(result, project: Path, out: Path, preview: Path, images_in) -
     with progress_bar("preview", transient=True, phases=True) as bars:
         task = bars.add_task("preview", total=len(result.written), project="")
         page = write_preview(result, project, out, preview, images_in=images_in,
-                             on_skeleton=lambda: bars.advance(task))
+                             on_skeleton=lambda: bars.advance(task), jobs=jobs)
     console.print(f"preview: {page} ({time.perf_counter() - t0:.1f} s)", highlight=False, markup=False)
 
 

@@ -14,6 +14,7 @@ units for a 1,000-unit skeleton), below a pixel at any size the page shows.
 from __future__ import annotations
 
 import base64
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -218,6 +219,66 @@ class SideTable:
             })
         return self.keys[key]
 
+    def absorb(self, side: "EncodedSide") -> dict:
+        """``side``'s frames (:func:`encode_frames` against a table of its own) with this
+        table's indices: its attachments added in the order it first drew them, as if its
+        frames had been encoded against this table."""
+        where = []
+        for key, row in zip(side.keys, side.rows):
+            if key not in self.keys:
+                self.keys[key] = len(self.rows)
+                self.rows.append({**row, "img": self.image_index(row["img"]) if row["img"] else None})
+            where.append(self.keys[key])
+        draws = list(side.frames["draws"])
+        i = 0
+        while i < len(draws):  # per frame: its count, then 5 numbers per attachment, the table index first
+            count = draws[i]
+            for j in range(i + 1, i + 1 + 5 * count, 5):
+                draws[j] = where[draws[j]]
+            i += 1 + 5 * count
+        return {"draws": draws, "xy": side.frames["xy"]}
+
+
+@dataclass
+class EncodedSide:
+    """One side of an animation as the player's data hold it, against a table of its own:
+    ``frames`` (:func:`encode_frames`), and that table's ``keys`` and ``rows`` in index order
+    (each row's ``img`` the image path, made the page's image index by :meth:`SideTable.absorb`)."""
+
+    frames: dict
+    keys: list
+    rows: list
+
+
+@dataclass
+class EncodedAnimation:
+    """An :class:`Animation` encoded (:func:`encode_animation`): small to send from a worker
+    process (the frames quantised; each attachment's image, UVs and triangles once), and
+    written into a page by :meth:`SideTable.absorb`. ``by_skin``: per skin, ``(frames,
+    box, (original side, upgraded side))``, the box padded (world units)."""
+
+    name: str
+    duration: float
+    rate: float
+    note: str
+    by_skin: dict
+
+
+def encode_animation(anim: Animation) -> EncodedAnimation:
+    """``anim``'s frames quantised over their padded bounds, each side against a table of its own."""
+    by_skin = {}
+    for skin, (before, after) in anim.by_skin.items():
+        box = bounds(before + after)
+        pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
+        box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
+        sides = []
+        for poses in (before, after):
+            table = SideTable(lambda path: path)
+            frames = encode_frames(poses, table, box)
+            sides.append(EncodedSide(frames, list(table.keys), table.rows))
+        by_skin[skin] = (len(before), box, tuple(sides))
+    return EncodedAnimation(anim.name, anim.duration, anim.rate, anim.note, by_skin)
+
 
 #: Largest coordinate, in world units, the player's bounds reach (a skeleton scaled beyond it is
 #: drawn flattened against the box's edge: no page shows it anyway).
@@ -362,6 +423,110 @@ def _note(why: dict[str, str]) -> str:
     return " ".join(parts)
 
 
+@dataclass
+class Sampling:
+    """How the animations of one skeleton's player are sampled, decided once before any is
+    (:func:`plan_sampling`), so that any subset of them can be sampled apart, in any process,
+    to the same frames (:func:`sample_animations`).
+
+    Attributes
+    ----------
+    skins : list of (str, str, tuple of str or None)
+        Per skin shown: its label in the player and the skin both sides are posed in (None:
+        the default skin; a tuple: skins combined, :func:`outfit`).
+    alike : bool
+        Both skeletons move alike (:func:`spinemesh.anim.same_motion`): their bones are stepped once.
+    per_second : float
+        Frames a second at most (the skeleton's budget of :data:`MAX_POSES`).
+    vertices : int
+        The most vertices a frame of the setup pose draws (each animation's budget).
+    durations : dict of str to float
+        The animations shown, seconds each, in the skeleton's order.
+    """
+
+    skins: list
+    alike: bool
+    per_second: float
+    vertices: int
+    durations: dict
+
+
+def sides_of(before: dict, after: dict, sampling_skins: list, regions=None) -> dict:
+    """``{label: (original's PoseSampler, upgraded's PoseSampler)}`` for ``Sampling.skins``."""
+    return {label: (PoseSampler(before, skin, regions), PoseSampler(after, skin, regions))
+            for label, skin in sampling_skins}
+
+
+def plan_sampling(before: dict, after: dict, regions=None,
+                  problems: list | None = None) -> tuple[Animation, Sampling, dict]:
+    """The setup pose of a skeleton's player, how its animations are sampled within the stated
+    budget (:data:`MAX_POSES`), and the samplers of both sides (:func:`sides_of`).
+
+    An animation whose duration cannot be read is left out with one line in ``problems``, as
+    are the animations beyond the first :data:`MAX_ANIMATIONS`.
+    """
+    from ..anim import POSE_ERRORS, same_motion
+
+    problems = problems if problems is not None else []
+    chosen = sampled_skins(after)
+    skins = [(s if isinstance(s, str) else skin_label(s), None if s == "default" else s) for s in chosen]
+    sides = sides_of(before, after, skins, regions)
+    first = sides[skins[0][0]][1]
+    setup = {label: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for label, (b, a) in sides.items()}
+    durations = {}
+    names = first.sampler.animation_names()
+    if len(names) > MAX_ANIMATIONS:
+        problems.append(f"{len(names) - MAX_ANIMATIONS:,} animations not shown: the player shows the first "
+                        f"{MAX_ANIMATIONS:,}")
+    for name in names[:MAX_ANIMATIONS]:
+        try:
+            durations[name] = max(0.0, float(first.sampler.duration(name)))
+        except POSE_ERRORS as e:
+            problems.append(f"animation {name!r} not shown: {e}")
+    seconds = max(1e-6, sum(d for d in durations.values() if np.isfinite(d)))
+    if len(sides) > 1 and MAX_POSES / (len(sides) * seconds) < FPS:  # over budget: one skin first
+        skins, sides = skins[:1], {skins[0][0]: sides[skins[0][0]]}
+    per_second = min(float(FPS), max(MIN_FPS, MAX_POSES / (len(sides) * seconds)))
+    vertices = max((sum(len(d.world) for d in pose) for b, a in setup.values() for pose in b + a), default=1)
+    # an upgrade changes attachments: the bones are stepped once for both sides
+    sampling = Sampling(skins, same_motion(before, after), per_second, vertices, durations)
+    return Animation("setup pose", 0.0, setup), sampling, sides
+
+
+def sample_animations(sides: dict, sampling: Sampling, names) -> Iterator[tuple[str, Animation | str]]:
+    """The animations ``names`` (of ``sampling.durations``) sampled on both sides, one by one:
+    per name, the :class:`Animation`, or the line saying why it is not shown."""
+    from ..anim import POSE_ERRORS
+
+    for name in names:
+        duration = sampling.durations[name]
+        rate = frame_rate(duration, sampling.vertices, sampling.per_second)
+        times = frame_times(duration, rate)
+        anim = Animation(name, duration, rate=rate)
+        why: dict[str, str] = {}
+        try:
+            for label, (b, a) in sides.items():
+                poses = [], []
+                pairs = b.play_pair(a, name, times) if sampling.alike else zip(b.play(name, times), a.play(name, times))
+                for both in pairs:
+                    for side, (drawn, not_exact) in zip(poses, both):
+                        side.append(drawn)
+                        why.update(not_exact)
+                anim.by_skin[label] = poses
+        except POSE_ERRORS as e:
+            yield name, f"animation {name!r} not shown: {e}"
+            continue
+        anim.note = _note(why)
+        yield name, anim
+
+
+def sample_and_encode(sides: dict, sampling: Sampling, names) -> list[tuple[str, EncodedAnimation | str]]:
+    """:func:`sample_animations`, each animation encoded as soon as it is sampled (the poses
+    of one animation held at a time; what a worker process sends back)."""
+    return [(name, got if isinstance(got, str) else encode_animation(got))
+            for name, got in sample_animations(sides, sampling, names)]
+
+
 def animations(before: dict, after: dict, regions=None, problems: list | None = None) -> list[Animation]:
     """The setup pose and every animation of a skeleton, original (``before``) and upgraded
     (``after``), sampled for the player within the stated budget (:data:`MAX_POSES`).
@@ -369,52 +534,17 @@ def animations(before: dict, after: dict, regions=None, problems: list | None = 
     An animation that cannot be sampled is left out with one line in ``problems``, as are
     the animations beyond the first :data:`MAX_ANIMATIONS`.
     """
-    from ..anim import POSE_ERRORS, same_motion
+    problems = problems if problems is not None else []
+    setup, sampling, sides = plan_sampling(before, after, regions, problems)
+    return [setup] + collect(sample_animations(sides, sampling, list(sampling.durations)), problems)
 
-    alike = same_motion(before, after)  # an upgrade changes attachments: the bones are stepped once
-    chosen = sampled_skins(after)
-    skins = [s if isinstance(s, str) else skin_label(s) for s in chosen]
-    sides = {label: (PoseSampler(before, None if skin == "default" else skin, regions),
-                     PoseSampler(after, None if skin == "default" else skin, regions))
-             for label, skin in zip(skins, chosen)}
-    first = sides[skins[0]][1]
-    setup = {skin: ([b.pose(None, 0)[0]], [a.pose(None, 0)[0]]) for skin, (b, a) in sides.items()}
-    out = [Animation("setup pose", 0.0, setup)]
-    durations = {}
-    names = first.sampler.animation_names()
-    if len(names) > MAX_ANIMATIONS:
-        (problems if problems is not None else []).append(
-            f"{len(names) - MAX_ANIMATIONS:,} animations not shown: the player shows the first {MAX_ANIMATIONS:,}")
-    for name in names[:MAX_ANIMATIONS]:
-        try:
-            durations[name] = max(0.0, float(first.sampler.duration(name)))
-        except POSE_ERRORS as e:
-            (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
-    seconds = max(1e-6, sum(d for d in durations.values() if np.isfinite(d)))
-    if len(sides) > 1 and MAX_POSES / (len(sides) * seconds) < FPS:  # over budget: one skin first
-        sides = {skins[0]: sides[skins[0]]}
-    per_second = min(float(FPS), max(MIN_FPS, MAX_POSES / (len(sides) * seconds)))
-    vertices = max((sum(len(d.world) for d in pose) for b, a in setup.values() for pose in b + a), default=1)
-    for name, duration in durations.items():
-        rate = frame_rate(duration, vertices, per_second)
-        times = frame_times(duration, rate)
-        anim = Animation(name, duration, rate=rate)
-        why: dict[str, str] = {}
-        try:
-            for skin, (b, a) in sides.items():
-                poses = [], []
-                if alike:
-                    pairs = b.play_pair(a, name, times)
-                else:
-                    pairs = zip(b.play(name, times), a.play(name, times))
-                for both in pairs:
-                    for side, (drawn, not_exact) in zip(poses, both):
-                        side.append(drawn)
-                        why.update(not_exact)
-                anim.by_skin[skin] = poses
-        except POSE_ERRORS as e:
-            (problems if problems is not None else []).append(f"animation {name!r} not shown: {e}")
-            continue
-        anim.note = _note(why)
-        out.append(anim)
+
+def collect(sampled, problems: list) -> list:
+    """The animations of :func:`sample_animations`' answers, the others' lines put in ``problems``."""
+    out = []
+    for _, got in sampled:
+        if isinstance(got, str):
+            problems.append(got)
+        else:
+            out.append(got)
     return out

@@ -14,7 +14,7 @@ import math
 from importlib import resources
 
 from .files import PreviewFolder
-from .frames import Animation, SideTable, bounds, encode_frames
+from .frames import Animation, EncodedAnimation, SideTable, encode_animation
 
 #: The player's styles, for the pages that show it.
 PLAYER_CSS = """
@@ -32,7 +32,7 @@ def player_script() -> str:
     return resources.files(__package__).joinpath("player.js").read_text(encoding="utf-8")
 
 
-def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: list[Animation],
+def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: list[Animation | EncodedAnimation],
                  image_of) -> str:
     """Write the scripts of one skeleton's player and return the HTML that shows it.
 
@@ -44,8 +44,9 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
     page_rel : str
         The page's path under the preview folder (script and image paths are made relative
         to it).
-    animations : list of Animation
-        At least one (the setup pose as a still animation when nothing else).
+    animations : list of Animation or EncodedAnimation
+        At least one (the setup pose as a still animation when nothing else); encoded here
+        where not yet (:func:`spinemesh.player.frames.encode_animation`).
     image_of : callable
         ``image_of(image path) -> rgba or None``: the attachment's original image (what
         :class:`spinemesh.images.RegionImage` gives), RGBA (H, W, 4) uint8.
@@ -65,18 +66,15 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
         return index[path]
 
     tables = {side: SideTable(image_index) for side in ("before", "after")}
+    animations = [a if isinstance(a, EncodedAnimation) else encode_animation(a) for a in animations]
     skins = list(dict.fromkeys(s for a in animations for s in a.by_skin))
     anims = []
     for i, a in enumerate(animations):
         src = {}
-        for skin, (before, after) in a.by_skin.items():
-            box = bounds(before + after)
-            pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
-            box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
+        for skin, (frames, box, (before, after)) in a.by_skin.items():
             dur = a.duration if math.isfinite(a.duration) else 0.0  # nothing that is not a number is written
-            data = {"n": len(before), "fps": a.rate, "dur": dur, "box": [round(v, 4) for v in box], "note": a.note,
-                    "before": encode_frames(before, tables["before"], box),
-                    "after": encode_frames(after, tables["after"], box)}
+            data = {"n": frames, "fps": a.rate, "dur": dur, "box": [round(v, 4) for v in box], "note": a.note,
+                    "before": tables["before"].absorb(before), "after": tables["after"].absorb(after)}
             rel = f"data/{pid}/{i}.{skins.index(skin)}.js"
             text = json.dumps(data, separators=(",", ":"), allow_nan=False)
             folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{skin}')},{text});\n")
@@ -88,4 +86,3 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
                       f"SM.model({json.dumps(pid)},{json.dumps(model, separators=(',', ':'), allow_nan=False)});\n")
     return (f'<div class="player" id="player-{html.escape(pid)}"></div>'
             f'<script src="{up}player.js"></script><script src="{up}data/{html.escape(pid)}/model.js"></script>')
-

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SpineMeshError
 from ..player import PLAYER_CSS, PreviewFolder, safe_name
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
@@ -36,6 +37,8 @@ CARD_SIZE = 300
 PAGE_SIZE = 640
 #: Most images shown per skeleton (largest saving first), so that the page stays light.
 CARD_LIMIT = 200
+#: What keeps a skeleton's player off its page (the page itself is still written).
+_PLAYER_ERRORS = (SpineMeshError, KeyError, ValueError, TypeError, IndexError)
 
 
 @dataclass
@@ -249,7 +252,6 @@ class _ImageCache:
 
     def rgba_and_content(self, name: str):
         """``(rgba, content box)`` of an image, or None when it cannot be read."""
-        from ..errors import SpineMeshError
 
         try:
             image = self.get(name)
@@ -345,28 +347,28 @@ def twin_of(rels: list[str], signatures: dict[str, str], binary: dict[str, bool]
 
 # --- a skeleton's page ----------------------------------------------------------------------
 
-def _player(folder: PreviewFolder, pid: str, page_rel: str, before: dict, after: dict, source,
-            problems: list[str]) -> str:
-    """The player of one skeleton: its setup pose and every animation, both sides."""
-    from ..anim import atlas_regions
+def _regions_of(source):
+    """The atlases the player's region quads follow (:func:`spinemesh.anim.atlas_regions`), or None."""
     from ..images import AtlasImages
-    from ..player import animations, write_player
 
-    regions = None
-    if source is not None and isinstance(source.source, AtlasImages):
-        regions = atlas_regions(source.source.atlases)
+    return source.source.atlases if source is not None and isinstance(source.source, AtlasImages) else None
+
+
+def _player(folder: PreviewFolder, pid: str, page_rel: str, played: list, source) -> str:
+    """The player of one skeleton: ``played``, its setup pose and every animation, both sides."""
+    from ..player import write_player
 
     def image_of(path: str):
         got = source.rgba_and_content(path) if source is not None else None
         return None if got is None else got[0]
 
-    return write_player(folder, pid, page_rel, animations(before, after, regions, problems), image_of)
+    return write_player(folder, pid, page_rel, played, image_of)
 
 
 def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list, all_targets: list,
-                   before: dict, after: dict, source) -> tuple[str, FillRate]:
-    """Write one skeleton's page; return its path under the preview and its fill rate."""
-    from ..errors import SpineMeshError
+                   before: dict, after: dict, source, played) -> tuple[str, FillRate]:
+    """Write one skeleton's page; return its path under the preview and its fill rate.
+    ``played(problems)`` gives the player's animations (:func:`spinemesh.player.animations`)."""
 
     page_rel = f"s/{pid}.html"
     up = "../"
@@ -408,8 +410,8 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
              "once.</p>" if sk.twins else "")
     problems: list[str] = []
     try:
-        player = _player(folder, pid, page_rel, before, after, source, problems)
-    except (SpineMeshError, KeyError, ValueError, TypeError, IndexError) as e:  # the rest of the page still helps
+        player = _player(folder, pid, page_rel, played(problems), source)
+    except _PLAYER_ERRORS as e:  # the rest of the page still helps
         player, problems = "", [f"the player could not pose this skeleton: {e}"]
     # the player first, under the title, where a window opens the page; the texel counts after it
     body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}: original and upgraded, '
@@ -482,7 +484,6 @@ def _problems(result) -> str:
 def _atlas_pages(folder: PreviewFolder, result, project_root: Path, out: Path) -> str:
     """Every packed atlas's pages before and after (files, loaded when scrolled to)."""
     from ..atlas import read_atlas
-    from ..errors import SpineMeshError
     from ..images import AtlasImages, fit_within, load_rgba
 
     def figures(atlas_path: Path, root: Path) -> str:
@@ -524,7 +525,6 @@ def _read_pairs(skeletons: list[_Skeleton]) -> tuple[dict, dict, dict]:
     """Both files of every skeleton (``{rel: (original, upgraded)}``), the problems of those
     that could not be read (``{rel: error}``), and the twins (:func:`twin_of`), each listed
     under the skeleton it repeats."""
-    from ..errors import SpineMeshError
 
     docs: dict[str, tuple[dict, dict]] = {}
     problems: dict[str, str] = {}
@@ -552,8 +552,147 @@ def _index_row(sk: _Skeleton, link: str | None, rate: FillRate, counts: dict, pr
             f"<td>{_less(rate.transparent_before - rate.transparent_after, rate.transparent_before)}</td></tr>")
 
 
+@dataclass
+class _Page:
+    """One skeleton's page as it is being made: what it shows, and its player's animations
+    being sampled (here, or as ``chunks`` of animations handed to worker processes)."""
+
+    skeleton: _Skeleton
+    pid: str
+    meshed: list
+    targets: list
+    source: object = None
+    problem: str | None = None       # why its images could not be read
+    setup: object = None             # the player's setup pose (spinemesh.player.Animation)
+    sampling: object = None          # spinemesh.player.frames.Sampling
+    sides: dict | None = None        # the samplers, where sampled in this process
+    chunks: list = field(default_factory=list)  # futures of the animations sampled elsewhere
+    failed: Exception | None = None  # why the player cannot be made
+    setup_problems: list = field(default_factory=list)  # what its planning left out, and why
+
+
+#: Seconds of animation a worker samples at least per task (fewer tasks than animations: each
+#: task of a skeleton a worker has not posed yet reads it again).
+CHUNK_SECONDS = 5.0
+
+
+def _chunks(durations: dict[str, float], parts: int) -> list[list[str]]:
+    """The animations split, in order, into at most ``parts`` runs of about equal seconds (each
+    at least :data:`CHUNK_SECONDS` but the last).
+
+    Examples
+    --------
+    >>> _chunks({"a": 4.0, "b": 4.0, "c": 1.0, "d": 7.0}, 2)
+    [['a', 'b'], ['c', 'd']]
+    """
+    total = sum(d for d in durations.values() if np.isfinite(d))
+    size = max(CHUNK_SECONDS, total / max(1, parts))
+    out: list[list[str]] = [[]]
+    filled = 0.0
+    for name, seconds in durations.items():
+        if out[-1] and filled >= size:
+            out.append([])
+            filled = 0.0
+        out[-1].append(name)
+        filled += seconds if np.isfinite(seconds) else 0.0
+    return [c for c in out if c]
+
+
+_WORKER_SIDES: dict = {}
+
+
+def _sample_in_worker(task: tuple) -> list:
+    """:func:`spinemesh.player.frames.sample_and_encode` in a worker process: the skeletons
+    read there (not sent), their samplers kept for the next run of the same skeleton's."""
+    from ..anim import atlas_regions
+    from ..player.frames import sample_and_encode, sides_of
+
+    original, upgraded, atlases, sampling, names = task
+    key = (str(original), str(upgraded), repr(sampling.skins))
+    if key not in _WORKER_SIDES:
+        _WORKER_SIDES.clear()  # one skeleton's samplers at a time
+        regions = atlas_regions(atlases) if atlases is not None else None
+        _WORKER_SIDES[key] = sides_of(load_skeleton(original), load_skeleton(upgraded), sampling.skins, regions)
+    return sample_and_encode(_WORKER_SIDES[key], sampling, names)
+
+
+def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _Page:
+    """Read a page's images and plan its player; with ``workers``, hand its animations out."""
+    from ..anim import atlas_regions
+    from ..player.frames import plan_sampling
+
+    sk = page.skeleton
+    try:
+        source = image_source_for(before, sk.original, sk.project, images=images_in)
+    except SpineMeshError as e:
+        page.problem, source = str(e), None
+    page.source = None if source is None else _ImageCache(source)
+    atlases = _regions_of(page.source)
+    problems: list[str] = []
+    try:
+        page.setup, page.sampling, sides = plan_sampling(before, after, atlas_regions(atlases) if atlases else None,
+                                                         problems)
+    except _PLAYER_ERRORS as e:
+        page.failed = e
+        return page
+    page.setup_problems = problems
+    if workers is None:
+        page.sides = sides
+        return page
+    for names in _chunks(page.sampling.durations, 2 * workers.slots):
+        page.chunks.append(workers.submit(_sample_in_worker, (sk.original, sk.upgraded, atlases, page.sampling, names)))
+    return page
+
+
+def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -> tuple[str, FillRate, str | None]:
+    """Write a started page (:func:`_start_page`): its path, fill rate and problem."""
+    from ..player.frames import collect, sample_and_encode
+
+    def played(problems: list) -> list:
+        if page.failed is not None:
+            raise page.failed
+        problems += page.setup_problems
+        if page.sides is not None:
+            sampled = sample_and_encode(page.sides, page.sampling, list(page.sampling.durations))
+        else:
+            sampled = [got for future in page.chunks for got in future.result()]
+        return [page.setup] + collect(sampled, problems)
+
+    link, rate = _skeleton_page(files, page.skeleton, page.pid, page.meshed, page.targets, before, after,
+                                page.source, played)
+    return link, rate, page.problem
+
+
+def _write_pages(files: PreviewFolder, pages: dict[str, _Page], docs: dict, images_in, jobs: int,
+                 on_skeleton=None) -> dict[str, tuple]:
+    """Every skeleton's page, ``{rel: (path, fill rate, problem)}``. With ``jobs`` over 1, the
+    players' animations are sampled by that many processes, in runs of a few seconds of
+    animation, while this process writes the page before (the same files: each animation is
+    sampled alone, from its time 0)."""
+    from contextlib import nullcontext
+
+    from ..cluster import open_workers
+
+    done: dict[str, tuple] = {}
+
+    def finish(page: _Page) -> None:
+        done[page.skeleton.rel] = _finish_page(files, page, *docs[page.skeleton.rel])
+        if on_skeleton is not None:
+            on_skeleton()
+
+    started: list[_Page] = []
+    with open_workers(jobs) if jobs > 1 and pages else nullcontext() as workers:
+        for rel, page in pages.items():
+            started.append(_start_page(page, *docs[rel], images_in, workers))
+            if len(started) > 1:  # the next page's animations are sampled while this one is written
+                finish(started.pop(0))
+        for page in started:
+            finish(page)
+    return done
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
-                  images_in: str | Path | None = None, on_skeleton=None) -> Path:
+                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
     and player data) and return the index's path.
 
@@ -570,41 +709,41 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         The ``--from-images`` folder, if the run used one.
     on_skeleton : callable, optional
         Called with no argument after each skeleton (for progress bars).
+    jobs : int, default 1
+        Processes writing skeletons' pages at once (each page is one skeleton's work: the same
+        files whatever the number).
     """
-    from ..errors import SpineMeshError
-
     project, out = Path(project), Path(out)
     files = PreviewFolder(folder)
     skeletons = _skeletons(result, project, out)
     docs, problems, twins = _read_pairs(skeletons)
+    pages: dict[str, _Page] = {}
+    used_ids: set[str] = set()
+    for sk in skeletons:
+        if sk.rel in twins:
+            continue
+        mine = [t for t in result.targets if t.skeleton == sk.rel]
+        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
+        while pid in used_ids:
+            pid += "_"
+        used_ids.add(pid)
+        if sk.rel in docs:
+            pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
+    done = _write_pages(files, pages, docs, images_in, jobs, on_skeleton)
     total = FillRate(0, 0, 0, 0)
     rows = []
-    used_ids: set[str] = set()
     for sk in skeletons:
         if sk.rel in twins:
             if on_skeleton is not None:
                 on_skeleton()
             continue
         mine = [t for t in result.targets if t.skeleton == sk.rel]
-        meshed = [t for t in mine if t.status == "meshed"]
         counts = {s: sum(t.status == s for t in mine) for s in ("meshed", "kept", "failed")}
-        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
-        while pid in used_ids:
-            pid += "_"
-        used_ids.add(pid)
-        link, rate = None, FillRate(0, 0, 0, 0)
-        if sk.rel in docs:
-            before, after = docs[sk.rel]
-            try:
-                source = image_source_for(before, sk.original, sk.project, images=images_in)
-            except SpineMeshError as e:
-                problems[sk.rel], source = str(e), None
-            source = None if source is None else _ImageCache(source)
-            link, rate = _skeleton_page(files, sk, pid, meshed, mine, before, after, source)
+        link, rate, problem = done.get(sk.rel, (None, FillRate(0, 0, 0, 0), None))
+        if problem:
+            problems[sk.rel] = problem
         total = total + rate
         rows.append(_index_row(sk, link, rate, counts, problems.get(sk.rel)))
-        if on_skeleton is not None:
-            on_skeleton()
     counts = {s: sum(t.status == s and t.skeleton not in twins for t in result.targets)
               for s in ("meshed", "kept", "failed")}
     headline = (_headline_html(total, counts.get("meshed", 0)) if total.before else
