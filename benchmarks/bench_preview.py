@@ -10,12 +10,15 @@ upgrade. Printed side by side: the largest HTML page, all HTML, the largest scri
 player's data for one animation, loaded when chosen), every file of the preview, the seconds
 to write it, and the seconds headless Chromium needs to open the index beyond a blank
 page (``--dump-dom`` wall time, median of ``--repeat`` runs, minus that of ``about:blank``).
-Compared, it then says whether the player's data (``data/``: every frame of both sides, and the
-attachment tables) is byte for byte the same in the two previews, and else which files differ.
+With ``--jobs N`` (N > 1), this tree's preview is also written over N processes (what
+``upgrade --preview --jobs N`` does), in a column of its own. Compared, it then says whether the
+player's data (``data/``: every frame of both sides, and the attachment tables) of each other
+column is byte for byte the same as the first column's, and else which files differ; each ratio
+is the first column's figure over that column's.
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_preview.py [PROJECT ...] [--compare-with DIR] [--weights auto] [--repeat 5]
+    .venv/bin/python benchmarks/bench_preview.py [PROJECT ...] [--compare-with DIR] [--jobs N] [--weights auto] [--repeat 5]
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ import json, pickle, sys, time
 from spinemesh.upgrade.preview import write_preview
 result = pickle.load(open(sys.argv[1], "rb"))
 t0 = time.perf_counter()
-write_preview(result, sys.argv[2], sys.argv[3], sys.argv[4])
+write_preview(result, sys.argv[2], sys.argv[3], sys.argv[4], **({"jobs": int(sys.argv[5])} if sys.argv[5] != "1" else {}))
 print(json.dumps({"seconds": time.perf_counter() - t0}))
 """
 
@@ -54,9 +57,9 @@ def build_project(projects: list[Path], where: Path) -> Path:
     return root
 
 
-def write_with(tree: Path, result_file: Path, project: Path, out: Path, folder: Path) -> float:
-    """Write the preview with the spinemesh of ``tree``; its seconds."""
-    r = subprocess.run([sys.executable, "-c", _WRITE, str(result_file), str(project), str(out), str(folder)],
+def write_with(tree: Path, result_file: Path, project: Path, out: Path, folder: Path, jobs: int = 1) -> float:
+    """Write the preview with the spinemesh of ``tree`` over ``jobs`` processes; its seconds."""
+    r = subprocess.run([sys.executable, "-c", _WRITE, str(result_file), str(project), str(out), str(folder), str(jobs)],
                        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(tree)}, timeout=3600,
                        cwd=folder.parent)  # not this tree's folder, which python -c would import first
     if r.returncode:
@@ -102,6 +105,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("projects", nargs="*", type=Path)
     ap.add_argument("--compare-with", type=Path, metavar="DIR", help="a spinemesh checkout to compare with")
+    ap.add_argument("--jobs", type=int, default=1, help="also write this tree's preview over N processes")
     ap.add_argument("--weights", default="none", choices=["none", "auto"])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
@@ -123,27 +127,30 @@ def main() -> None:
         print(f"upgrade: {time.perf_counter() - t0:.0f} s, {result.counts()}", flush=True)
         result_file = tmp / "result.pickle"
         result_file.write_bytes(pickle.dumps(result))
-        trees = {"this tree": REPO} | ({"compared": args.compare_with.resolve()} if args.compare_with else {})
+        trees = ({"this tree": (REPO, 1)} | ({f"--jobs {args.jobs}": (REPO, args.jobs)} if args.jobs > 1 else {})
+                 | ({"compared": (args.compare_with.resolve(), 1)} if args.compare_with else {}))
         rows, folders = {}, {}
         blank = open_seconds("about:blank", tmp / "blank", args.repeat)
-        for name, tree in trees.items():
+        for name, (tree, jobs) in trees.items():
             folder = tmp / f"preview-{name.replace(' ', '-')}"
-            seconds = write_with(tree, result_file, project, tmp / "out", folder)
+            seconds = write_with(tree, result_file, project, tmp / "out", folder, jobs)
             folders[name] = folder
             rows[name] = {**weigh(folder), "write s": seconds,
                           "open s": open_seconds((folder / "index.html").as_uri(), tmp / name.replace(" ", "-"),
                                                  args.repeat) - blank}
-        same = same_data(*folders.values()) if len(folders) == 2 else None
+        first = next(iter(folders))
+        same = [f"{name} against {first}: {same_data(folders[first], folder)}"
+                for name, folder in folders.items() if name != first]
     names = list(rows)
-    print(f"\n{'':<14}" + "".join(f"{n:>16}" for n in names) + ("   ratio" if len(names) == 2 else ""))
+    print(f"\n{'':<14}" + "".join(f"{n:>16}" for n in names) + "".join(f"{'ratio':>8}" for _ in names[1:]))
     for key in rows[names[0]]:
         vals = [rows[n][key] for n in names]
         fmt = (lambda v: f"{v:>16.2f}") if key.endswith(" s") else (lambda v: f"{v:>16,}")
-        ratio = f"   {vals[0] / vals[1]:.3f}" if len(vals) == 2 and vals[1] else ""
-        print(f"{key:<14}" + "".join(fmt(v) for v in vals) + ratio)
+        ratios = "".join(f"{vals[0] / v:>8.3f}" if v else f"{'':>8}" for v in vals[1:])
+        print(f"{key:<14}" + "".join(fmt(v) for v in vals) + ratios)
     print(f"(open s: beyond a blank page, {blank:.2f} s; median of {args.repeat})")
-    if same is not None:
-        print(same)
+    for line in same:
+        print(line)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ when it is absent, a failure in CI (``CI=true``), where the proof must run.
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -437,3 +438,60 @@ def test_the_player_fills_the_window_at_laptop_and_desktop_sizes(page, tmp_path)
         assert 2 * cw + 16 + 48 <= w and ch <= 0.8 * h + 20, (w, h, canvases)
         sizes[w] = max(cw, ch)
     assert sizes[1920] > 1.3 * sizes[1280] and sizes[1280] > 380  # the window less its bars and the title
+
+
+def test_the_preview_over_jobs_writes_the_same_files(tmp_path, monkeypatch):
+    """``upgrade --preview --jobs 2``: the players' animations sampled by worker processes, one
+    animation a task, every file the same as one process writes."""
+    import shutil
+
+    from spinemesh.upgrade import preview, upgrade_library
+
+    demo = make_demo_project(tmp_path / "demo")
+    doc = json.loads((demo / "demo.json").read_text())
+    wave = doc["animations"]["wave"]
+    doc["animations"] |= {"slow": {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 3, "value": 90}]}}},
+                          "still": {}, "wave2": wave}
+    (demo / "demo.json").write_text(json.dumps(doc))
+    (demo / "demo-binary.skel").unlink()  # no longer its twin
+    for name in ("a", "b", "c"):
+        shutil.copytree(demo, tmp_path / "lib" / name)
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
+    monkeypatch.setattr(preview, "CHUNK_SECONDS", 0.0)  # a task per animation: runs of several in flight
+    assert preview._chunks({"a": 1.0, "b": 3.0, "c": 0.0}, 8) == [["a"], ["b"], ["c"]]
+    folders = {}
+    for jobs in (1, 2):
+        folders[jobs] = tmp_path / f"preview{jobs}"
+        write_preview(result, tmp_path / "lib", tmp_path / "out", folders[jobs], jobs=jobs)
+    files = {jobs: sorted(p.relative_to(f) for p in f.rglob("*") if p.is_file()) for jobs, f in folders.items()}
+    assert files[1] == files[2] and len([p for p in files[1] if p.parts[0] == "data"]) == 3 * (1 + 5)
+    for rel in files[1]:
+        assert (folders[1] / rel).read_bytes() == (folders[2] / rel).read_bytes(), rel
+
+
+def test_an_animation_encoded_apart_is_written_as_if_encoded_in_the_page(tmp_path):
+    """A worker encodes each animation against tables of its own (:func:`encode_animation`); the
+    page renumbers them (:meth:`SideTable.absorb`) to what encoding all of them against the
+    page's tables gives: the same indices, rows and image indices, in the same order."""
+    from spinemesh.player.frames import SideTable, animations, bounds, encode_animation, encode_frames
+
+    doc = json.loads((make_demo_project(tmp_path / "demo") / "demo.json").read_text())
+    shown = animations(doc, doc)
+    assert len(shown) == 2 and len(shown[1].by_skin["default"][0]) > 10
+    images: list[str] = []
+
+    def image_index(path):
+        if path not in images:
+            images.append(path)
+        return images.index(path)
+
+    direct, renumbered = SideTable(image_index), SideTable(image_index)
+    for anim in shown[::-1] + shown:  # the setup pose's attachments seen in a second order too
+        poses = anim.by_skin["default"][0]
+        box = bounds(poses + anim.by_skin["default"][1])
+        pad = 0.02 * max(box[2] - box[0], box[3] - box[1])
+        box = (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad)
+        want = encode_frames(poses, direct, box)
+        got = renumbered.absorb(encode_animation(anim).by_skin["default"][2][0])
+        assert got == want
+    assert renumbered.rows == direct.rows and renumbered.keys == direct.keys and len(direct.rows) >= 5
