@@ -12,9 +12,9 @@ import importlib
 import pkgutil
 
 import pytest
+from conftest import unavailable
 
 import spinemesh
-from conftest import unavailable
 
 
 def _modules() -> list[str]:
