@@ -56,8 +56,9 @@ _MinSaving = Annotated[Optional[float], typer.Option(
 _DryRun = Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")]
 _Report = Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
                                                  "attachment.")]
-_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing in parallel "
-                                              "(default: the CPU cores this process may use).")]
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing, weighting, "
+                                              "packing and sampling the preview in parallel (default: the CPU "
+                                              "cores this process may use).")]
 _Dask = Annotated[Optional[str], typer.Option(
     "--dask", metavar="ADDRESS", help="Mesh on a Dask cluster: a scheduler address (tcp://host:8786), a "
                                       "scheduler file, or 'local' (--jobs workers here). Same output as a "
