@@ -99,10 +99,10 @@ def check_file_size(path, what: str) -> None:
 MAX_PAGE_STORE_BYTES = 1 << 30
 
 #: Most game-loop steps (time times steps per second) ``spinemesh pose`` takes to reach one
-#: time: a pose with 4.2 physics replays every step from 0, a few milliseconds each.
+#: time: a pose with physics replays every step from 0, a few milliseconds each.
 MAX_POSE_STEPS = 100_000
 
-#: Most steps a second a 4.2 physics constraint is stepped at (its ``fps``; 60 by default, 24 to
+#: Most steps a second a physics constraint (4.2, 4.3) is stepped at (its ``fps``; 60 by default, 24 to
 #: 60 in real projects): each 1/60 s frame costs ``fps / 60`` steps, so an ``fps`` of 1e9 would
 #: make one frame millions of steps. Finer constraints are not stepped; their bones are flagged.
 MAX_PHYSICS_FPS = 1000

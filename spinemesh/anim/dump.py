@@ -26,7 +26,7 @@ def dump(sampler: Sampler, animation: str | None, times: list[float], skeleton_f
 
     ``step()``, when given, is called after each pose (a progress bar). A number that is not
     finite (a degenerate pose) is written as null. As the harness does, one skeleton plays
-    every pose: its clock (which 4.2 physics steps by) runs on from pose to pose. Every pose is
+    every pose: its clock (which physics steps by) runs on from pose to pose. Every pose is
     held in memory: ``spinemesh pose`` writes :func:`dump_head`, then :func:`dump_poses` one by
     one, as a stream of the same text.
 

@@ -10,9 +10,9 @@ pose each time (so a pose does not depend on the poses sampled before it), then 
 bones with the runtime's update cache (:mod:`spinemesh.rig.constraints`) and places every
 drawn attachment (:mod:`.attachments`).
 
-Physics constraints (4.2) keep state from frame to frame: a pose of a skeleton with physics
-replays the game loop from time 0 in the harness's steps (:mod:`spinemesh.rig.physics`), as
-the runtime plays it, reset keys included. Not reproduced: 3.8 local transform constraints
+Physics constraints (4.2, 4.3) keep state from frame to frame: a pose of a skeleton with
+physics replays the game loop from time 0 in the harness's steps (:mod:`spinemesh.rig.physics`),
+as the runtime plays it, reset keys included (4.3 drawing its bones between physics steps). Not reproduced: 3.8 local transform constraints
 that write shear into the bone's own local shear, which then carries over from frame to
 frame in the runtime, are applied as in the setup pose.
 """
@@ -308,10 +308,10 @@ class Sampler:
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self.physics_bones = self._physics_bones()
         self.physics: list[PhysicsState] = []
+        four_three = _family_43(doc) is not None
         for c in self.rig.constraints:
-            # 4.3 physics interpolates between its steps (not reproduced): flagged, not stepped.
-            if c.kind == "physics" and c.active and self.rig.family == "4.2" and not _family_43(doc):
-                settings = PhysicsSettings.from_json(c.data, doc.get("skeleton") or {})
+            if c.kind == "physics" and c.active and self.rig.family == "4.2":
+                settings = PhysicsSettings.from_json(c.data, doc.get("skeleton") or {}, four_three)
                 if settings.step * MAX_PHYSICS_FPS < 1:  # a step per frame for each of millions: flagged
                     continue
                 c.physics = PhysicsState(settings)
@@ -383,7 +383,7 @@ class Sampler:
         """The pose of ``animation`` at track time ``time`` (seconds); the setup pose when
         ``animation`` is None. See :func:`animation_time` for ``fps`` and ``loop``.
 
-        With 4.2 physics constraints (and ``physics``), the game loop is replayed from time 0
+        With physics constraints (4.2, 4.3; and ``physics``), the game loop is replayed from time 0
         in steps of ``1 / fps`` s, as physics needs every frame before the pose: a pose then
         costs one bone update per step. Without ``physics`` the bones physics moves keep the
         animation's pose and are flagged not exact. ``clock`` is the skeleton's time when the
@@ -807,8 +807,9 @@ def same_motion(a: dict, b: dict) -> bool:
 
 def _family_43(doc: dict) -> str | None:
     """4.3 skeletons whose constraints are all IK and physics pose IK as 4.2 does (the same
-    math, checked against spine-core 4.3; physics is not stepped for them); None otherwise
-    (the document's own family: constraints not solved)."""
+    math, checked against spine-core 4.3), their physics stepped as 4.3 steps it
+    (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``); None otherwise (the
+    document's own family: constraints not solved)."""
     if not re.match(r"4\.3\b", spine_version(doc)):
         return None
     items = doc.get("constraints")

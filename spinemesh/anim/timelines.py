@@ -196,6 +196,8 @@ class _Reader:
         self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
         self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
         self.ends: list[float] = []
+        #: 4.3 reads a physics mix key without a value as 1 (4.2: 0)
+        self.four_three = str((doc.get("skeleton") or {}).get("spine") or "").startswith("4.3")
 
     def keys(self, frames, getter, **kw) -> Keys | None:
         k = read_keys(frames, getter, self.four, spelling=self.spelling, **kw)
@@ -271,7 +273,7 @@ class _Reader:
                     self.out.constraints.append(ConstraintTimeline("path", str(cname), fields, k))
 
     def physics(self, timelines: dict) -> None:
-        """4.2: physics values (a constraint's name, or "" for every constraint whose
+        """4.2 and 4.3: physics values (a constraint's name, or "" for every constraint whose
         ``<value>Global`` is set) and resets."""
         for cname, tls in timelines.items():
             for prop, frames in tls.items() if isinstance(tls, dict) else ():
@@ -280,12 +282,13 @@ class _Reader:
                     if len(times):
                         self.out.physics_resets.append((str(cname), times))
                 elif prop in _PHYSICS_VALUES:
-                    k = self.keys(frames, _getter(("value", _PHYSICS_VALUES[prop])))
+                    default = 1 if prop == "mix" and self.four_three else _PHYSICS_VALUES[prop]
+                    k = self.keys(frames, _getter(("value", default)))
                     if k is not None:
                         self.out.constraints.append(ConstraintTimeline("physics", str(cname), (prop,), k))
 
 
-#: 4.2 physics timelines and the JSON default of their values.
+#: Physics timelines and the JSON default of their values (4.3: ``mix`` 1).
 _PHYSICS_VALUES = {"inertia": 0, "strength": 0, "damping": 0, "mass": 0, "wind": 0, "gravity": 0, "mix": 0}
 
 _COLOR_KINDS = {"rgba": "rgba", "color": "rgba", "rgb": "rgb", "alpha": "alpha", "rgba2": "rgba2",

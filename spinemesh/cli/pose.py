@@ -55,7 +55,7 @@ def pose(
     The JSON has the layout of the official-runtime dump: the setup pose, then one pose per
     time, each with "bones" (name: [a, b, c, d, worldX, worldY]) and "attachments" (drawn
     slots in draw order: slot, attachment, type, blend, colour, world vertices, uvs in the
-    original image, triangles). 4.2 physics is stepped from time 0 as a game loop steps it.
+    original image, triangles). Physics (4.2, 4.3) is stepped from time 0 as a game loop steps it.
 
     \b
     Example: spinemesh pose hero.json --animation run --times 0.2,0.5 --out pose.json

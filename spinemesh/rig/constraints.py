@@ -17,7 +17,7 @@ runtime checked against, a port, turns those bones unlike the official one), a c
 only some skins activate, a 4.3
 skeleton or one older than 3.8 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
-children of a bone that is not exact are not exact. Physics constraints (4.2) leave the
+children of a bone that is not exact are not exact. Physics constraints (4.2, 4.3) leave the
 setup pose as it is. The math follows the public runtime sources (EsotericSoftware
 spine-runtimes, spine-ts); the implementation is ours.
 """

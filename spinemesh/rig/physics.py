@@ -1,4 +1,4 @@
-"""4.2 physics constraints, stepped as the official runtime steps them.
+"""Physics constraints (4.2 and 4.3), stepped as the official runtimes step them.
 
 A physics constraint keeps state from frame to frame: how far its bone lags behind where the
 animation puts it (x, y, rotation, scale offsets) and how fast those offsets change. Each
@@ -8,9 +8,15 @@ second) to the offsets, then integrates springs pulling them back (``strength``)
 ``damping``, pushed by ``wind`` and ``gravity``, in fixed steps of ``1 / fps`` seconds (time
 left over carries to the next frame), and moves the bone by the offsets times ``mix``.
 
+4.3 steps the same springs, and shows the bone *between* two steps: each update keeps how far
+the last steps moved each offset (its *lag*) and draws the offset minus the lag times the part
+of a step not yet elapsed (``1 - remaining / step``, at least 0), so that a frame shorter than a
+step no longer shows the offset jump. Its defaults differ too (``inertia`` 0.5, ``damping``
+0.85), and a ``scaleY`` mode carries the x scale to y (``uniform``) or its inverse (``volume``).
+
 :mod:`spinemesh.anim` replays a game loop from time 0 to reproduce a pose: a pose with
 physics depends on every frame before it. The math follows the public runtime source
-(spine-ts 4.2 ``PhysicsConstraint``); the implementation is ours.
+(spine-ts 4.2, spine-core 4.3 ``PhysicsConstraint``); the implementation is ours.
 """
 
 from __future__ import annotations
@@ -35,22 +41,29 @@ class PhysicsSettings:
     limit: float
     step: float
     reference_scale: float
+    lagged: bool = False          # 4.3: the bone shown between steps (see the module's docstring)
+    scale_y: str = "none"         # 4.3: "none", "uniform" or "volume"
 
     @classmethod
-    def from_json(cls, c: dict, skeleton: dict) -> PhysicsSettings:
+    def from_json(cls, c: dict, skeleton: dict, four_three: bool = False) -> PhysicsSettings:
+        """The settings of constraint ``c`` of a skeleton whose ``skeleton`` entry is given;
+        ``four_three``: read as spine-core 4.3 reads them."""
         fps = _num(c, "fps", 60)
+        mode = c.get("scaleY") if four_three else None
         return cls(_num(c, "x", 0), _num(c, "y", 0), _num(c, "rotate", 0), _num(c, "scaleX", 0),
                    _num(c, "shearX", 0), _num(c, "limit", 5000), 1 / fps if fps > 0 else 1 / 60,
-                   _num(skeleton, "referenceScale", 100))
+                   _num(skeleton, "referenceScale", 100), four_three,
+                   mode if mode in ("uniform", "volume") else "none")
 
 
 class _Values:
     """The constraint's current values (setup or animated), as the runtime holds them."""
 
-    def __init__(self, data: dict):
+    def __init__(self, data: dict, four_three: bool = False):
         self.mix = _num(data, "mix", 1)
-        self.inertia, self.strength = _num(data, "inertia", 1), _num(data, "strength", 100)
-        self.damping = _num(data, "damping", 1)
+        # The JSON's defaults: 4.3 changed inertia's and damping's
+        self.inertia, self.strength = _num(data, "inertia", 0.5 if four_three else 1), _num(data, "strength", 100)
+        self.damping = _num(data, "damping", 0.85 if four_three else 1)
         mass = _num(data, "mass", 1)
         self.mass_inverse = 1 / mass if mass != 0 else 0.0
         self.wind, self.gravity = _num(data, "wind", 0), _num(data, "gravity", 0)
@@ -79,12 +92,17 @@ class PhysicsState:
         self.fresh = True
         self.x_offset = self.x_velocity = self.y_offset = self.y_velocity = 0.0
         self.rotate_offset = self.rotate_velocity = self.scale_offset = self.scale_velocity = 0.0
+        # 4.3: how far the last steps of an update moved each offset (0 in 4.2, which has none)
+        self.x_lag = self.y_lag = self.rotate_lag = self.scale_lag = 0.0
 
     def update(self, bone, data: dict) -> None:
         """Move ``bone`` (a :class:`~.constraints.PoseBone`) by the constraint, as ``update(physics)``."""
         s = self.s
-        v = _Values(data)
+        v = _Values(data, s.lagged)
         if v.mix == 0:
+            return
+        if s.lagged:
+            self._update_lagged(bone, v)
             return
         (a, b, wx), (c, d, wy) = bone.world.tolist()
         if self.mode == RESET:
@@ -108,11 +126,142 @@ class PhysicsState:
                 wx += self.x_offset * v.mix * s.x
             if s.y > 0:
                 wy += self.y_offset * v.mix * s.y
-        a, b, c, d = self._turn_and_scale(a, b, c, d, v.mix)
+        self._finish(bone, a, b, c, d, wx, wy, v.mix, 0.0)
+
+    def _finish(self, bone, a, b, c, d, wx, wy, mix: float, z: float) -> None:
+        """The bone turned and scaled by the offsets (less their lags times ``z``), kept."""
+        a, b, c, d = self._turn_and_scale(a, b, c, d, mix, z)
         if self.mode != POSE:
             self.tx, self.ty = bone.length * a, bone.length * c
         bone.world[:] = [[a, b, wx], [c, d, wy]]
         bone.update_applied()
+
+    def _update_lagged(self, bone, v: _Values) -> None:
+        """4.3's update: the same springs, the bone drawn between the last two steps."""
+        s = self.s
+        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        t, z = s.step, 0.0
+        move_x, move_y = s.x > 0, s.y > 0
+        turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0
+        if self.mode == RESET:
+            self.reset()
+        if self.mode in (RESET, UPDATE):
+            delta = max(self.clock - self.last_time, 0.0)
+            before = self.remaining  # the time left over from the last update, for the lags it left
+            self.remaining += delta
+            self.last_time = self.clock
+            if self.fresh:
+                self.fresh = False
+                self.ux, self.uy = wx, wy
+            else:
+                limit = s.limit * delta
+                left, damped = self.remaining, -1.0
+                if move_x or move_y:
+                    left, damped = self._translate_lagged(wx, wy, limit, v)
+                    z = max(0.0, 1 - left / t)
+                    if move_x:
+                        wx += (self.x_offset - self.x_lag * z) * v.mix * s.x
+                    if move_y:
+                        wy += (self.y_offset - self.y_lag * z) * v.mix * s.y
+                if turn or scale:
+                    left = self._rotate_lagged(a, c, wx, wy, limit, bone.length, v, damped, before)
+                    z = max(0.0, 1 - left / t)
+                self.remaining = left
+            self.cx, self.cy = wx, wy
+        else:  # pose: the offsets as they are
+            z = max(0.0, 1 - self.remaining / t)
+            if move_x:
+                wx += (self.x_offset - self.x_lag * z) * v.mix * s.x
+            if move_y:
+                wy += (self.y_offset - self.y_lag * z) * v.mix * s.y
+        self._finish(bone, a, b, c, d, wx, wy, v.mix, z)
+
+    def _translate_lagged(self, bx: float, by: float, limit: float, v: _Values) -> tuple[float, float]:
+        """4.3: the bone's movement added to the x/y offsets, the springs stepped and their lags
+        kept; returns the time left over and the damping used (-1 when not computed)."""
+        s = self.s
+        left, t, damped = self.remaining, s.step, -1.0
+        if s.x > 0:
+            u = (self.ux - bx) * v.inertia
+            self.x_offset += limit if u > limit else -limit if u < -limit else u
+            self.ux = bx
+        if s.y > 0:
+            u = (self.uy - by) * v.inertia
+            self.y_offset += limit if u > limit else -limit if u < -limit else u
+            self.uy = by
+        if left >= t:
+            x0, y0 = self.x_offset, self.y_offset
+            damped = v.damping ** (60 * t)
+            m = t * v.mass_inverse
+            w, g = s.reference_scale * v.wind, s.reference_scale * v.gravity
+            while True:
+                if s.x > 0:
+                    self.x_velocity += (w - self.x_offset * v.strength) * m
+                    self.x_offset += self.x_velocity * t
+                    self.x_velocity *= damped
+                if s.y > 0:
+                    self.y_velocity -= (g + self.y_offset * v.strength) * m
+                    self.y_offset += self.y_velocity * t
+                    self.y_velocity *= damped
+                left -= t
+                if left < t:
+                    break
+            self.x_lag, self.y_lag = self.x_offset - x0, self.y_offset - y0
+        return left, damped
+
+    def _rotate_lagged(self, a_: float, c_: float, wx: float, wy: float, limit: float, length: float,
+                       v: _Values, damped: float, before: float) -> float:
+        """4.3: the bone's turn added to the rotation and scale offsets (measured against the
+        bone as last drawn: the lags of the update before, ``before`` s of a step left then),
+        the springs stepped and their lags kept; returns the time left over."""
+        s = self.s
+        t = s.step
+        turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0
+        ca = math.atan2(c_, a_)
+        mr = 0.0
+        dx = min(max(self.cx - wx, -limit), limit)
+        dy = min(max(self.cy - wy, -limit), limit)
+        shown_before = max(0.0, 1 - before / t)
+        if turn:
+            mr = (s.rotate + s.shear_x) * v.mix
+            lag = self.rotate_lag * shown_before
+            r = math.atan2(dy + self.ty, dx + self.tx) - ca - (self.rotate_offset - lag) * mr
+            self.rotate_offset += (r - math.ceil(r * (1 / PI2) - 0.5) * PI2) * v.inertia
+            r = (self.rotate_offset - lag) * mr + ca
+            c, sn = math.cos(r), math.sin(r)
+            if scale:
+                r = length * math.hypot(a_, c_)
+                if r > 0:
+                    self.scale_offset += (dx * c + dy * sn) * v.inertia / r
+        else:
+            c, sn = math.cos(ca), math.sin(ca)
+            r = length * math.hypot(a_, c_) - self.scale_lag * shown_before
+            if r > 0:
+                self.scale_offset += (dx * c + dy * sn) * v.inertia / r
+        left = self.remaining
+        if left >= t:
+            if damped == -1:
+                damped = v.damping ** (60 * t)
+            m, h = t * v.mass_inverse, length / s.reference_scale
+            r0, s0 = self.rotate_offset, self.scale_offset
+            while True:
+                left -= t
+                if scale:
+                    self.scale_velocity += (v.wind * c - v.gravity * sn - self.scale_offset * v.strength) * m
+                    self.scale_offset += self.scale_velocity * t
+                    self.scale_velocity *= damped
+                if turn:
+                    self.rotate_velocity -= ((v.wind * sn + v.gravity * c) * h + self.rotate_offset * v.strength) * m
+                    self.rotate_offset += self.rotate_velocity * t
+                    self.rotate_velocity *= damped
+                    if left < t:
+                        break
+                    r = self.rotate_offset * mr + ca
+                    c, sn = math.cos(r), math.sin(r)
+                elif left < t:
+                    break
+            self.rotate_lag, self.scale_lag = self.rotate_offset - r0, self.scale_offset - s0
+        return left
 
     def _translate(self, bx: float, by: float, limit: float, v: _Values) -> tuple[float, float, float, float]:
         """The bone's movement since the last frame added to the x/y offsets, the springs
@@ -197,10 +346,11 @@ class PhysicsState:
                     break
         return a
 
-    def _turn_and_scale(self, a, b, c, d, mix):
+    def _turn_and_scale(self, a, b, c, d, mix, z):
         s = self.s
         if s.rotate > 0 or s.shear_x > 0:
-            o = self.rotate_offset * mix
+            # 4.2 has no lags (0): the offset itself
+            o = (self.rotate_offset - self.rotate_lag * z) * mix
             if s.shear_x > 0:
                 r = 0.0
                 if s.rotate > 0:
@@ -216,6 +366,12 @@ class PhysicsState:
                 a, c = cs * a - sn * c, sn * a + cs * c
                 b, d = cs * b - sn * d, sn * b + cs * d
         if s.scale_x > 0:
-            k = 1 + self.scale_offset * mix * s.scale_x
+            k = 1 + (self.scale_offset - self.scale_lag * z) * mix * s.scale_x
             a, c = a * k, c * k
+            if s.scale_y == "uniform":
+                b, d = b * k, d * k
+            elif s.scale_y == "volume":
+                k = abs(k)
+                k = 1 / k if k >= 0.7 else 4 - 3.67347 * k
+                b, d = b * k, d * k
         return a, b, c, d
