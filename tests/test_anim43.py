@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import json
 
-import pytest
-
 from spinemesh.anim import Sampler
 from spinemesh.anim.dump import advance_clock, pose_errors
 
