@@ -15,12 +15,11 @@ import numpy as np
 import pytest
 
 from spinemesh.anim import Sampler, animation_time, atlas_regions, sample_pose
-from spinemesh.anim.curves import (SPELLING_35, SPELLING_38, bezier_points_3, bezier_points_4, curve_spelling,
-                                   percent_3, read_keys, value_4)
+from spinemesh.anim.curves import bezier_points_3, bezier_points_4, percent_3, read_keys, value_4
 from spinemesh.anim.dump import dump, pose_errors
 from spinemesh.anim.timelines import _draw_order
 from spinemesh.atlas import read_atlas
-from spinemesh.skeleton import load_skeleton
+from spinemesh.skeleton import CURVES_35, CURVES_38, curve_spelling, load_skeleton
 
 from conftest import EXAMPLES
 from runtime_tool import pose_dump
@@ -83,7 +82,7 @@ _CURVES_3 = [
 def test_3x_curves_read_as_each_version_reads_them(curve, old, new):
     ease_in = percent_3(bezier_points_3(0.9, 0, 1, 1), 0.25)
     expected = {"linear": 2.5, "stepped": 0.0, "bezier": 10 * ease_in}
-    for spelling, drawn in ((SPELLING_35, old), (SPELLING_38, new)):
+    for spelling, drawn in ((CURVES_35, old), (CURVES_38, new)):
         keys = read_keys([{"time": 0, "x": 0, **curve}, {"time": 1, "x": 10}], lambda f: [f.get("x", 0)],
                          four=False, spelling=spelling)
         assert keys.at(0.25)[0] == pytest.approx(expected[drawn], abs=1e-6), (spelling, curve)
@@ -91,7 +90,7 @@ def test_3x_curves_read_as_each_version_reads_them(curve, old, new):
 
 def test_3x_curve_spelling_follows_the_version_through_the_sampler():
     assert [curve_spelling(v) for v in ("3.5.51", "3.6.53", "3.7.94", "3.8.99", "3.8", "")] == [
-        SPELLING_35, SPELLING_35, SPELLING_35, SPELLING_38, SPELLING_38, SPELLING_38]
+        CURVES_35, CURVES_35, CURVES_35, CURVES_38, CURVES_38, CURVES_38]
 
     def doc(version):
         return {"skeleton": {"spine": version}, "bones": [{"name": "root"}],

@@ -365,3 +365,28 @@ def test_runtime_poses_match(spine_runtime, examples, tmp_path, project, name, a
     c = pose_dump(spine_runtime, atlas, folder / f"{name}.skel", tmp_path / "c.json", anim, TIMES)
     d = pose_dump(spine_runtime, atlas, ours_json, tmp_path / "d.json", anim, TIMES)
     assert max_difference(c, d) == 0.0
+
+
+@pytest.mark.parametrize("version, curve, drawn", [
+    ("3.7.94", {"curve": 0.9, "c2": 0, "c3": 1, "c4": 1}, "linear"),  # 3.7's readers pass a number over
+    ("3.7.94", {"curve": "linear"}, "linear"),
+    ("3.6.53", {"curve": [0.9, 0, 1, 1]}, "bezier"),
+    ("3.8.99", {"curve": "linear"}, "stepped"),                      # 3.8's readers step on any text
+    ("3.8.99", {"curve": [0.9, 0, 1, 1]}, "linear"),                 # 3.8's readers refuse a list
+    ("3.8.99", {"curve": 0.9}, "bezier"),
+])
+def test_a_json_curve_is_written_as_its_versions_runtime_draws_it(version, curve, drawn):
+    """A made 3.x document written as ``.skel``: each key's curve is the one the version's runtime
+    draws reading the JSON, so the binary poses as the JSON does (the sampler reads both alike)."""
+    from spinemesh.anim import Sampler
+
+    skins = [{"name": "default", "attachments": {}}] if version.startswith("3.8") else {"default": {}}
+    doc = {"skeleton": {"spine": version, "hash": "made"}, "bones": [{"name": "root"}], "slots": [], "skins": skins,
+           "animations": {"move": {"bones": {"root": {"translate": [{"time": 0, "x": 0, **curve},
+                                                                    {"time": 1, "x": 10}]}}}}}
+    back = read_skel(write_skel(doc))
+    key = back["animations"]["move"]["bones"]["root"]["translate"][0]
+    got = ("linear" if "curve" not in key else "stepped" if key["curve"] == "stepped" else "bezier")
+    assert got == drawn, key
+    x = [Sampler(d).pose("move", 0.25).bone("root")[0, 2] for d in (doc, back)]
+    assert x[0] == pytest.approx(x[1], abs=1e-5), x

@@ -12,17 +12,19 @@ Two layouts:
 * 3.x: one curve per key over normalised time and value; it turns the elapsed fraction of
   the segment into a *percent* that every value of the key moves by. 3.5 to 3.7 spell it
   ``"curve": [c1, c2, c3, c4]``, 3.8 ``"curve": c1, "c2": ..., "c3": ..., "c4": ...``, and
-  each version's runtime reads its own spelling only (:class:`CurveSpelling`).
+  each version's runtime reads its own spelling only
+  (:class:`spinemesh.skeleton.CurveSpelling`).
 * 4.x: one curve per value, in the timeline's own time and value units
   (``"curve": [cx1, cy1, cx2, cy2]`` per value, one after the other).
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..skeleton import CURVES_38, CurveSpelling
 
 LINEAR, STEPPED, BEZIER = 0, 1, 2
 
@@ -174,56 +176,9 @@ def _number(value, default: float) -> float:
     return v if abs(v) <= FLOAT32_MAX else float(default)
 
 
-@dataclass(frozen=True)
-class CurveSpelling:
-    """How a 3.x version's JSON spells the curve after a key, as its runtime reads it
-    (``SkeletonJson.readCurve`` of spine-libgdx, spine-csharp and spine-ts, 3.5 to 3.8).
-
-    Attributes
-    ----------
-    any_text_steps : bool
-        Any text is stepped (3.8: the reader asks only whether ``curve`` is text); otherwise
-        ``"stepped"`` only, other text drawing linear (3.5 to 3.7).
-    bezier_in_list : bool
-        A Bezier is ``"curve": [c1, c2, c3, c4]`` (3.5 to 3.7: their readers pass a number
-        over, drawing linear); otherwise ``"curve": c1`` with ``c2``, ``c3``, ``c4`` beside it,
-        defaults 0, 1, 1 (3.8: a list there is refused by its readers, read here as linear).
-    """
-
-    any_text_steps: bool
-    bezier_in_list: bool
-
-    def read(self, frame: dict) -> tuple[int, tuple[float, float, float, float] | None]:
-        """``(LINEAR | STEPPED | BEZIER, (c1, c2, c3, c4) for a Bezier else None)`` of a key."""
-        curve = frame.get("curve")
-        if isinstance(curve, str):
-            return (STEPPED if self.any_text_steps or curve == "stepped" else LINEAR), None
-        if self.bezier_in_list:
-            if not isinstance(curve, list) or len(curve) < 4:
-                return LINEAR, None
-            c1, c2, c3, c4 = (_number(v, d) for v, d in zip(curve[:4], (0, 0, 1, 1)))
-        else:
-            if isinstance(curve, bool) or not isinstance(curve, (int, float)):
-                return LINEAR, None
-            c1, c2, c3, c4 = (_number(curve, 0), _number(frame.get("c2", 0), 0),
-                              _number(frame.get("c3", 1), 1), _number(frame.get("c4", 1), 1))
-        return BEZIER, (c1, c2, c3, c4)
-
-
-#: 3.5 to 3.7 (``"curve": [c1, c2, c3, c4]``) and 3.8 (``"curve": c1, "c2": ...``).
-SPELLING_35 = CurveSpelling(any_text_steps=False, bezier_in_list=True)
-SPELLING_38 = CurveSpelling(any_text_steps=True, bezier_in_list=False)
-
-
-def curve_spelling(version: str) -> CurveSpelling:
-    """The 3.x curve spelling of a skeleton written by editor ``version`` (``"3.7.94"``):
-    3.8's for 3.8 and for a version that names no 3.x minor below 8 (4.x reads its own)."""
-    m = re.match(r"3\.(\d+)\b", version)
-    return SPELLING_35 if m and int(m[1]) < 8 else SPELLING_38
-
 
 def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bool = False,
-              spelling: CurveSpelling = SPELLING_38) -> Keys | None:
+              spelling: CurveSpelling = CURVES_38) -> Keys | None:
     """Keys from a timeline's JSON frames.
 
     Parameters
@@ -239,7 +194,8 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     percent : bool
         A 4.x deform timeline: one curve from 0 to 1 (the values are not read here).
     spelling : CurveSpelling
-        3.x: how the version spells a key's curve (:func:`curve_spelling`); default 3.8's.
+        3.x: how the version spells a key's curve (:func:`spinemesh.skeleton.curve_spelling`);
+        default 3.8's.
 
     Returns
     -------
@@ -258,9 +214,12 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     bezier: dict[int, np.ndarray] = {}
     for i, f in enumerate(frames[:-1]):
         if not four:
-            kinds[i], points = spelling.read(f)
-            if points is not None:
-                bezier[i] = bezier_points_3(*points)
+            kind = spelling.kind(f)
+            if kind == "stepped":
+                kinds[i] = STEPPED
+            elif kind == "bezier":
+                kinds[i] = BEZIER
+                bezier[i] = bezier_points_3(*(_number(v, d) for v, d in zip(spelling.controls(f), (0, 0, 1, 1))))
             continue
         curve = f.get("curve")
         if curve == "stepped":

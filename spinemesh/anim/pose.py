@@ -30,9 +30,9 @@ from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
-from ..skeleton import iter_skins, spine_version
+from ..skeleton import curve_spelling, iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
-from .curves import _number, curve_spelling
+from .curves import _number
 from .timelines import Animation, color_channels, made_when_needed, read_animation, search
 
 #: What reading or playing an animation raises where a document the loader let through holds

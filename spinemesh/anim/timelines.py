@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .curves import SPELLING_38, CurveSpelling, Keys, _number, f32, read_keys
+from ..skeleton import CURVES_38, CurveSpelling
+from .curves import Keys, _number, f32, read_keys
 
 
 def color_channels(text, count: int) -> list[float]:
@@ -191,7 +192,7 @@ _TRANSFORM_3 = (("rotateMix", 1), ("translateMix", 1), ("scaleMix", 1), ("shearM
 class _Reader:
     """Reads one animation's timelines, noting every timeline's last key for the duration."""
 
-    def __init__(self, doc: dict, four: bool, out: Animation, spelling: CurveSpelling = SPELLING_38):
+    def __init__(self, doc: dict, four: bool, out: Animation, spelling: CurveSpelling = CURVES_38):
         self.four, self.out, self.spelling = four, out, spelling
         self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
         self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
@@ -304,7 +305,7 @@ _PATH_MIX_4 = (("mixRotate", 1), ("mixX", 1), ("mixY", "mixX"))
 _PATH_MIX_3 = (("rotateMix", 1), ("translateMix", 1))
 
 
-def read_animation(doc: dict, name: str, four: bool, spelling: CurveSpelling = SPELLING_38) -> Animation:
+def read_animation(doc: dict, name: str, four: bool, spelling: CurveSpelling = CURVES_38) -> Animation:
     """The animation ``name`` of ``doc`` (KeyError when it has none), its timelines read
     (4.x layout when ``four``, else 3.x with its version's curve ``spelling``).
 

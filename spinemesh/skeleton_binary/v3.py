@@ -55,6 +55,7 @@ import math
 import re
 import struct
 
+from ..skeleton import curve_spelling
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
@@ -88,7 +89,7 @@ class Layout:
         self.refs = self.minor >= 8               # names through the shared string table
         self.skin_required = self.minor >= 8      # "skin" flag on bones and constraints
         self.skins_list = self.minor >= 8         # JSON skins: list of {name, attachments}
-        self.split_curve = self.minor >= 8        # JSON curve: c1 in "curve", then c2, c3, c4
+        self.curves = curve_spelling(version)      # JSON curve: [c1..c4] before 3.8; 3.8: c1, then c2, c3, c4
         self.time_default = self.minor >= 8       # JSON leaves out a key's time 0
         self.paths_key = "path" if self.minor >= 8 else "paths"
 
@@ -759,7 +760,7 @@ def curve(s, f: dict, c: Context) -> None:
         elif kind == CURVE_BEZIER:
             c1, c2, c3, c4 = struct.unpack(">4f", s.raw(n=16, what="bezier curve"))
             s.float_sum += c1 + c2 + c3 + c4
-            if c.L.split_curve:
+            if not c.L.curves.bezier_in_list:
                 f["curve"] = c1
                 put(f, "c2", c2, 0)
                 put(f, "c3", c3, 1)
@@ -769,16 +770,16 @@ def curve(s, f: dict, c: Context) -> None:
         elif kind != CURVE_LINEAR:
             raise s.fail(f"a curve type 0, 1 or 2, found {kind}", at)
         return
-    cv = f.get("curve", "linear")
-    if isinstance(cv, str) or cv is None:
-        s.u8(CURVE_STEPPED if cv == "stepped" else CURVE_LINEAR)
+    # the curve the version's runtime draws reading the JSON (a 3.7 key's number is linear there)
+    kind = c.L.curves.kind(f)
+    if kind != "bezier":
+        s.u8(CURVE_STEPPED if kind == "stepped" else CURVE_LINEAR)
         return
-    points = cv if isinstance(cv, list) else [cv, f.get("c2", 0), f.get("c3", 1), f.get("c4", 1)]
     s.u8(CURVE_BEZIER)
     try:
-        s.raw(struct.pack(">4f", *points))
+        s.raw(struct.pack(">4f", *c.L.curves.controls(f)))
     except struct.error:
-        raise s.fail(f"a bezier curve of 4 numbers, got {cv!r}") from None
+        raise s.fail(f"a bezier curve of 4 numbers, got {f.get('curve')!r}") from None
 
 
 def frames(s, items, c: Context, values: tuple, what: str = "frame count") -> list:
