@@ -278,11 +278,12 @@ def test_malformed_timelines_are_passed_over():
     json.dumps(pose.to_dump(), allow_nan=False)
 
 
-@pytest.mark.parametrize("name", ["tmd-ar15"])
+@pytest.mark.parametrize("name", ["tmd-ar15", "tmd-npcportrait"])
 def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     """4.3 through the official spine-core 4.3 (tests/runtime43/pose.mjs): every animation, every
-    bone within the goal, IK and physics included (4.3 physics stepped as 4.3 steps it, the
-    harness's clock carried from pose to pose), none flagged, and the attachments they draw."""
+    bone within the goal, IK, physics (tmd-ar15; stepped as 4.3 steps it, the harness's clock
+    carried from pose to pose) and transform constraints (tmd-npcportrait) included, none
+    flagged, and the attachments they draw."""
     from spinemesh.anim.dump import advance_clock
     from runtime_tool import node
 
@@ -294,7 +295,7 @@ def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     assert r.returncode == 0, r.stderr[-2000:]
     theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
     sampler = Sampler(doc, None, atlas_regions(read_atlas(atlas)))
-    assert sampler.physics                      # 4.3 physics is stepped
+    assert bool(sampler.physics) == (name == "tmd-ar15")   # 4.3 physics is stepped
     clock = 0.0
     for pose in theirs:
         mine = sampler.pose(pose["anim"], pose["time"], clock=clock)

@@ -75,6 +75,88 @@ def physics_doc() -> dict:
             "skins": skins, "animations": {"sway": sway, "still": still}}
 
 
+def transform_doc() -> dict:
+    """A 4.3 skeleton whose transform constraints use every mapping form 4.3 has: world and local
+    source, world and local target, every property onto itself and onto others, offsets (the
+    constraint's, each source's and target's), scale, clamp (each way round), additive; sources a
+    constraint changed before (their local values taken back from the world, in every inherit
+    mode), animated mixes, an IK between them and a stretching IK scaling y uniformly."""
+    bones = [{"name": "root"},
+             {"name": "face", "parent": "root", "x": 20, "y": 50, "rotation": 15, "scaleX": 1.1, "length": 40},
+             {"name": "eye", "parent": "face", "x": 30, "y": 5, "rotation": -10, "length": 10},
+             {"name": "brow", "parent": "face", "x": 28, "y": 14, "length": 12, "shearY": 8},
+             {"name": "lid", "parent": "eye", "x": 10, "length": 6, "inherit": "noScale"},
+             {"name": "hat", "parent": "root", "x": -10, "y": 90, "rotation": 100, "length": 30,
+              "inherit": "noRotationOrReflection"},
+             {"name": "feather", "parent": "hat", "x": 30, "length": 20, "scaleY": 0.7},
+             {"name": "tag", "parent": "root", "x": 40, "y": -10, "length": 15, "inherit": "onlyTranslation"},
+             {"name": "torso", "parent": "root", "x": -5, "y": 8, "rotation": 5},
+             {"name": "arm", "parent": "torso", "x": -20, "y": 30, "rotation": -60, "length": 25},
+             {"name": "hand", "parent": "arm", "x": 25, "length": 12, "inherit": "noScaleOrReflection"},
+             {"name": "aim", "parent": "root", "x": -50, "y": 10}]
+    constraints = [
+        # world -> world, every property onto itself, offsets, clamp on x
+        {"type": "transform", "name": "w2w", "source": "face", "bones": ["eye"], "x": -5, "y": 3, "rotation": 12,
+         "scaleX": 0.1, "shearY": 4, "clamp": True,
+         "properties": {"rotate": {"to": {"rotate": {}}}, "x": {"offset": 2, "to": {"x": {"offset": 1, "max": 60, "scale": 0.5}}},
+                        "y": {"to": {"y": {"max": 100}}}, "scaleX": {"to": {"scaleX": {}}},
+                        "scaleY": {"to": {"scaleY": {"scale": 0.8}}}, "shearY": {"to": {"shearY": {}}}},
+         "mixRotate": 0.6, "mixX": 0.5, "mixScaleX": 0.7, "mixShearY": 0.4},
+        # crossed mappings, additive, world
+        {"type": "transform", "name": "cross", "source": "face", "bones": ["brow", "tag"], "additive": True,
+         "properties": {"rotate": {"offset": 10, "to": {"x": {"scale": 0.2}, "shearY": {"scale": 0.3}}},
+                        "scaleX": {"to": {"rotate": {"scale": 20, "offset": -5}, "scaleY": {}}},
+                        "y": {"to": {"scaleX": {"scale": 0.01}}}},
+         "mixRotate": 0.5, "mixX": 0.8, "mixScaleX": 0.5, "mixScaleY": 0.3, "mixShearY": 0.9},
+        # local source -> local target
+        {"type": "transform", "name": "l2l", "source": "arm", "bones": ["hat"], "localSource": True, "localTarget": True,
+         "rotation": 5, "x": 3,
+         "properties": {"rotate": {"to": {"rotate": {}, "shearY": {"scale": 0.1}}}, "x": {"to": {"x": {"max": 50}, "y": {"scale": -1}}},
+                        "scaleX": {"to": {"scaleX": {}, "scaleY": {}}}},
+         "mixRotate": 0.7, "mixX": 0.3, "mixY": 0.9, "mixScaleX": 0.4, "mixShearY": 1},
+        # local source reading a bone a world constraint changed; world target
+        {"type": "transform", "name": "l2w", "source": "eye", "bones": ["feather"], "localSource": True,
+         "properties": {"rotate": {"to": {"rotate": {}}}, "y": {"to": {"y": {"scale": 2}}}, "shearY": {"to": {"shearY": {}}},
+                        "scaleY": {"to": {"scaleX": {}}}},
+         "mixRotate": 0.5, "mixY": 0.5, "mixShearY": 0.5, "mixScaleX": 0.6},
+        # world source -> local target, additive and clamped, on a bone a world constraint changed
+        {"type": "transform", "name": "w2l", "source": "hand", "bones": ["lid", "eye"], "localTarget": True, "additive": True,
+         "clamp": True,
+         "properties": {"x": {"to": {"rotate": {"scale": 0.5, "max": 30, "offset": -30}}},
+                        "rotate": {"to": {"scaleX": {"scale": 0.001, "max": 2}, "x": {"scale": 0.05, "max": 4}}},
+                        "shearY": {"to": {"shearY": {"max": -20, "offset": 20}}}},
+         "mixRotate": 1, "mixX": 0.5, "mixScaleX": 1, "mixShearY": 0.5},
+        {"type": "ik", "name": "reach", "target": "aim", "bones": ["arm", "hand"]},
+        # after IK: reads the IK'd hand in the world
+        {"type": "transform", "name": "after", "source": "hand", "bones": ["tag"],
+         "properties": {"rotate": {"to": {"rotate": {}}}, "x": {"to": {"x": {}}}}, "mixRotate": 0.3, "mixX": 0.2},
+    ]
+    anims = {
+        "look": {
+            "bones": {"face": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 1, "value": -30}, {"time": 1.5, "value": 0}],
+                               "translate": [{"x": 0}, {"time": 0.7, "x": 30, "y": -20}, {"time": 1.5}],
+                               "scale": [{"x": 1}, {"time": 0.6, "x": 1.4, "y": 0.7}, {"time": 1.2, "x": 0.8}]},
+                      "arm": {"rotate": [{"value": 0}, {"time": 0.8, "value": 120}],
+                              "scale": [{"time": 0.3, "x": 1}, {"time": 0.9, "x": -1.2}]},
+                      "aim": {"translate": [{"x": 0}, {"time": 1.0, "x": 40, "y": 30}]},
+                      "eye": {"shear": [{"y": 0}, {"time": 1.0, "y": 20}]}},
+            "transform": {"w2w": [{"mixRotate": 0.6, "mixX": 0.5, "mixScaleX": 0.7, "mixShearY": 0.4},
+                                  {"time": 0.8, "mixRotate": 1, "mixX": 1, "mixY": 0.2, "mixScaleX": 0.1, "mixScaleY": 0.5, "mixShearY": 0}],
+                          "l2l": [{"time": 0.4, "mixRotate": 0.2, "mixX": 0.5}, {"time": 1.1}]},
+        },
+    }
+    slots = [{"name": n, "bone": n, "attachment": "box"} for n in ("eye", "brow", "lid", "feather", "tag", "hand")]
+    skins = [{"name": "default", "attachments": {n: {"box": {"x": 5, "width": 10, "height": 4}} for n in
+                                                  ("eye", "brow", "lid", "feather", "tag", "hand")}}]
+    bones += [{"name": "neck", "parent": "root", "x": 5, "y": 5, "rotation": 70, "length": 20, "scaleY": 0.8},
+              {"name": "nape", "parent": "root", "x": 60, "y": 60}]
+    constraints.append({"type": "ik", "name": "stretchy", "target": "nape", "bones": ["neck"], "stretch": True,
+                        "compress": True, "scaleY": "uniform"})
+    anims["look"]["bones"]["nape"] = {"translate": [{"x": 0}, {"time": 1.0, "x": -70, "y": -55}]}
+    return {"skeleton": {"spine": "4.3.23"}, "bones": bones, "slots": slots, "constraints": constraints,
+            "skins": skins, "animations": anims}
+
+
 def _against_43(runtime, doc: dict, tmp_path, times=TIMES) -> list[dict]:
     """Every animation of ``doc`` at ``times`` by spine-core 4.3 and by the sampler (one skeleton,
     its clock carried from pose to pose, as the harness plays them): the errors of each pose,
@@ -115,3 +197,38 @@ def test_43_physics_moves_its_bones():
     for bone in ("tail", "tip", "ear", "lobe", "cheek", "chin"):
         assert abs(stepped.bone(bone) - still.bone(bone)).max() > 0.01, bone
     assert set(still.why) >= {"tail", "tip", "ear", "lobe", "cheek", "chin"}
+
+
+def test_43_transform_constraints_match_spine_core_43(runtime43, tmp_path):  # noqa: F811
+    """4.3 transform constraints (every mapping form) solved as spine-core 4.3 solves them, in
+    4.3's update order, with IK between them: no bone flagged, all exact."""
+    results = _against_43(runtime43, transform_doc(), tmp_path)
+    _assert_exact(results)
+    assert max(e["bone"] for e in results) < 1e-4
+
+
+def test_43_transform_constraints_move_their_bones():
+    """Each constraint of the fixture moves its bones (none is a no-op the proof passes by)."""
+    doc = transform_doc()
+    posed = Sampler(doc).pose("look", 0.37)
+    for c in doc["constraints"]:
+        if c["type"] != "transform":
+            continue
+        alone = json.loads(json.dumps(doc))
+        alone["constraints"] = [x for x in alone["constraints"] if x["name"] != c["name"]]
+        alone["animations"]["look"]["transform"].pop(c["name"], None)
+        without = Sampler(alone).pose("look", 0.37)
+        assert any(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in c["bones"]), c["name"]
+
+
+def test_43_what_is_not_solved_is_flagged():
+    """A property the runtime does not know, and a 4.3 IK stretch that keeps the bone's area,
+    are not solved: their bones (and those below them) are flagged, never passed as exact."""
+    doc = transform_doc()
+    doc["constraints"][0]["properties"]["shearX"] = {"to": {"x": {}}}
+    pose = Sampler(doc).pose("look", 0.37)
+    assert "unknown property 'shearX'" in pose.why["eye"] and "lid" in pose.why
+    doc = transform_doc()
+    doc["constraints"][-1]["scaleY"] = "volume"
+    pose = Sampler(doc).pose("look", 0.37)
+    assert "volume" in pose.why["neck"] and "face" not in pose.why

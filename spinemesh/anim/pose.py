@@ -806,15 +806,16 @@ def same_motion(a: dict, b: dict) -> bool:
 
 
 def _family_43(doc: dict) -> str | None:
-    """4.3 skeletons whose constraints are all IK and physics pose IK as 4.2 does (the same
-    math, checked against spine-core 4.3), their physics stepped as 4.3 steps it
+    """``"4.2"`` for 4.3 skeletons whose constraints are all IK, transform and physics: IK posed
+    as 4.2 does (the same math, checked against spine-core 4.3), transform constraints in 4.3's
+    property-mapping form (:mod:`spinemesh.rig.transform43`), physics stepped as 4.3 steps it
     (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``); None otherwise (the
-    document's own family: constraints not solved)."""
+    document's own family: constraints not solved, path constraints and sliders in 4.3)."""
     if not re.match(r"4\.3\b", spine_version(doc)):
         return None
     items = doc.get("constraints")
     kinds = {c.get("type") for c in items if isinstance(c, dict)} if isinstance(items, list) else set()
-    return "4.2" if kinds <= {"ik", "physics"} else None
+    return "4.2" if kinds <= {"ik", "physics", "transform"} else None
 
 
 def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:

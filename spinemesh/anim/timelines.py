@@ -187,6 +187,8 @@ _BONE_3 = {"rotate": (("angle", 0),), "translate": (("x", 0), ("y", 0)), "scale"
 _TRANSFORM_4 = (("mixRotate", 1), ("mixX", 1), ("mixY", "mixX"), ("mixScaleX", 1), ("mixScaleY", "mixScaleX"),
                 ("mixShearY", 1))
 _TRANSFORM_3 = (("rotateMix", 1), ("translateMix", 1), ("scaleMix", 1), ("shearMix", 1))
+#: 4.3 reads a key without ``mixScaleY`` as 1 (4.0-4.2: its ``mixScaleX``).
+_TRANSFORM_43 = tuple(p if p[0] != "mixScaleY" else ("mixScaleY", 1) for p in _TRANSFORM_4)
 
 
 class _Reader:
@@ -197,7 +199,8 @@ class _Reader:
         self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
         self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
         self.ends: list[float] = []
-        #: 4.3 reads a physics mix key without a value as 1 (4.2: 0)
+        #: 4.3 reads a physics mix key without a value as 1 (4.2: 0), and a transform key's
+        #: mixScaleY as 1
         self.four_three = str((doc.get("skeleton") or {}).get("spine") or "").startswith("4.3")
 
     def keys(self, frames, getter, **kw) -> Keys | None:
@@ -256,7 +259,7 @@ class _Reader:
                          for f in _dicts(frames)]
                 self.out.constraints.append(ConstraintTimeline("ik", str(cname), ("mix", "softness"), k, flags))
         for cname, frames in _mapping(anim.get("transform")).items():
-            spec = _TRANSFORM_4 if self.four else _TRANSFORM_3
+            spec = (_TRANSFORM_43 if self.four_three else _TRANSFORM_4) if self.four else _TRANSFORM_3
             k = self.keys(frames, _getter(*spec))
             if k is not None:
                 self.out.constraints.append(ConstraintTimeline("transform", str(cname), tuple(p[0] for p in spec), k))

@@ -12,10 +12,15 @@ relative) pull their bones' transforms towards the target's; path constraints (p
 spacing and rotate modes, constant speed or not, open or closed paths) lay their bones along
 the target slot's path.
 
+4.3 skeletons whose constraints are IK, transform and physics only are posed when their
+family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
+properties (:mod:`.transform43`), and 4.3 bones take their local values back from a changed
+world transform lazily, as 4.3 does.
+
 Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
 runtime checked against, a port, turns those bones unlike the official one), a constraint
-only some skins activate, a 4.3
-skeleton or one older than 3.8 (no runtime to check against) leaves the bones it moves not
+only some skins activate, a 4.3 skeleton read without its family or with path constraints
+or sliders, or one older than 3.8 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
 children of a bone that is not exact are not exact. Physics constraints (4.2, 4.3) leave the
 setup pose as it is. The math follows the public runtime sources (EsotericSoftware
@@ -34,6 +39,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
 from .transform import DEG_RAD, INHERIT_MODES, PI, PI2, RAD_DEG, _num, inherit_mode, local_values, world_from_local
+from .transform43 import Unmapped, local_from_world_43, transform_apply_43
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
 FAMILIES = ("3.8", "4.0", "4.1", "4.2")
@@ -85,6 +91,12 @@ class PoseBone:
     active: bool = True
     sorted: bool = False
     children: list[PoseBone] = field(default_factory=list)
+    #: 4.3 computes a bone's world transform once per update unless a constraint resets it:
+    #: ``world_now`` (its world is this update's), ``local_stale`` (a constraint changed its
+    #: world, its applied values are not yet taken back from it). Both unused before 4.3.
+    v43: bool = False
+    world_now: bool = False
+    local_stale: bool = False
 
     # -- the runtime's Bone methods ------------------------------------------------------
     def update_with(self, values) -> None:
@@ -93,9 +105,16 @@ class PoseBone:
         self.applied_valid = True
         self.world = world_from_local(tuple(self.applied), self.inherit,
                                       None if self.parent is None else self.parent.world, self.flat)
+        self.world_now = True
 
     def update(self) -> None:
-        """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones."""
+        """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones
+        (4.3: only where this update has not computed it yet)."""
+        if self.v43:
+            if self.world_now:
+                return
+            if self.local_stale:
+                self.update_applied()
         try:
             if self.family == "3.8":
                 self.update_with(self.local)
@@ -119,8 +138,40 @@ class PoseBone:
         if not self.applied_valid:
             self.update_applied()
 
+    # -- 4.3: a bone's local and world values kept in step lazily -----------------------
+    def modify_world(self) -> None:
+        """4.3 ``modifyWorld``: a constraint is about to change the world transform."""
+        self.local_stale = self.world_now = True
+        self._reset_children()
+
+    def modify_local(self) -> None:
+        """4.3 ``modifyLocal``: a constraint is about to change the applied values (the world
+        transform is then computed again when the update cache reaches the bone)."""
+        if self.local_stale:
+            self.update_applied()
+        self.world_now = False
+        self._reset_children()
+
+    def validate_local(self) -> None:
+        """4.3 ``validateLocalTransform``: the applied values, taken back from a changed world."""
+        if self.local_stale:
+            self.update_applied()
+
+    def _reset_children(self) -> None:
+        for child in self.children:
+            if child.world_now:
+                if child.local_stale:
+                    child.update_applied()
+                child.world_now = False
+                child._reset_children()
+
     def update_applied(self) -> None:
         """``updateAppliedTransform``: local values that give the current world transform."""
+        if self.v43:
+            self.applied = local_from_world_43(self.world, self.inherit,
+                                               None if self.parent is None else self.parent.world)
+            self.local_stale, self.world_now = False, True
+            return
         self.applied_valid = True
         (a, b, wx), (c, d, wy) = self.world.tolist()
         if self.parent is None:
@@ -196,6 +247,8 @@ def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, str
     """One-bone IK: turn (and with compress/stretch, scale) ``bone`` to point at the target."""
     if family == "3.8":
         bone.ensure_applied()
+    if bone.v43:
+        bone.modify_local()
     parent = bone.parent
     (pa, pb, pwx), (pc, pd, pwy) = parent.world.tolist()
     ax, ay, arot, asx, asy, ashx, ashy = bone.applied
@@ -252,6 +305,9 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
         child.ensure_applied()
     elif family == "4.2" and (parent.inherit != "normal" or child.inherit != "normal"):
         return
+    if parent.v43:
+        parent.modify_local()
+        child.modify_local()
     px, py, prot, psx, psy = parent.applied[:5]
     sx, sy = psx, psy
     psx, psy, csx, os1, os2, s2 = _ik_two_signs(psx, psy, child.applied[3])
@@ -931,6 +987,7 @@ class _Constraint:
     reads: list[PoseBone] = field(default_factory=list)  # path: bones its vertices follow, sorted first
     path_deform: list[float] | None = None  # path: the deform an animation gives its attachment
     physics: object | None = None  # physics: its state between frames (rig.physics.PhysicsState)
+    v43: bool = False         # from 4.3's single list (a transform constraint maps properties)
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
@@ -951,9 +1008,10 @@ def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constrai
                 continue
             order = c.get("order", 0)
             order = order if isinstance(order, int) and not isinstance(order, bool) else 0
-            if isinstance(doc.get("constraints"), list):  # 4.3: one list, in update order
+            v43 = isinstance(doc.get("constraints"), list)
+            if v43:  # 4.3: one list, in update order
                 order = next(i for i, x in enumerate(doc["constraints"]) if x is c)
-            out.append(_Constraint(kind, str(c.get("name")), order, c, bones, target))
+            out.append(_Constraint(kind, str(c.get("name")), order, c, bones, target, v43=v43))
     return out
 
 
@@ -966,7 +1024,7 @@ class _Cache:
         self.reset: list[PoseBone] = []   # 3.8: bones whose applied values are reset first
 
     def sort_bone(self, bone: PoseBone) -> None:
-        if bone.sorted:
+        if bone.sorted or not bone.active:
             return
         if bone.parent is not None:
             self.sort_bone(bone.parent)
@@ -999,6 +1057,20 @@ class _Cache:
             self.items.append(c)
             self.sort_reset(parent.children)
             c.bones[-1].sorted = True
+        elif c.kind == "transform" and c.v43:
+            # 4.3: a local source is read as animated, not posed first; bones changed in their
+            # local values are posed after the constraint.
+            world_target = c.data.get("localTarget") is not True
+            if c.data.get("localSource") is not True:
+                self.sort_bone(c.target)
+            if world_target:
+                for bone in c.bones:
+                    self.sort_bone(bone)
+            self.items.append(c)
+            for bone in c.bones:
+                self.sort_reset(bone.children)
+            for bone in c.bones:
+                bone.sorted = world_target
         elif c.kind == "transform":
             self.sort_bone(c.target)
             for bone in c.bones:
@@ -1108,18 +1180,28 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
         mix = _num(d, "mix", 1)
         if mix == 0 and family != "3.8":
             return False
+        uniform = bool(d.get("uniform", False))
+        if c.v43:  # 4.3 names how a stretch scales y: "uniform" (4.2's uniform) or "volume"
+            uniform = d.get("scaleY") == "uniform"
+            if d.get("scaleY") == "volume" and (d.get("stretch") is True or d.get("compress") is True):
+                raise _Unsolved("4.3 volume-keeping IK stretch is not solved")
         tx, ty = (float(v) for v in c.target.world[:, 2])
         if len(c.bones) == 1 and c.bones[0].parent is not None:
             ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
-                   bool(d.get("uniform", False)), mix, family)
+                   uniform, mix, family)
         elif len(c.bones) == 2 and c.bones[0].parent is not None and c.bones[0].parent.parent is not None \
                 and c.bones[1].parent is c.bones[0]:
             bend = 1 if d.get("bendPositive", True) else -1
             ik_two(c.bones[0], c.bones[1], tx, ty, bend, bool(d.get("stretch", False)),
-                   bool(d.get("uniform", False)), _num(d, "softness", 0), mix, family)
+                   uniform, _num(d, "softness", 0), mix, family)
         else:
             raise _Unsolved("a chain it cannot solve")
         return True
+    if c.v43:
+        try:
+            return transform_apply_43(d, c.target, c.bones)
+        except Unmapped as e:
+            raise _Unsolved(str(e)) from None
     return transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
 
 
@@ -1222,7 +1304,7 @@ def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str 
         bone.active = node.get("skin") is not True
         bone.applied = list(bone.local)
         if four_three:
-            bone.flat = 1e-10
+            bone.flat, bone.v43 = 1e-10, True
         if parent is not None:
             parent.children.append(bone)
         bones.append(bone)
@@ -1275,6 +1357,7 @@ def update_world(rig: Rig) -> None:
     for bone in rig.bones:
         bone.applied = list(bone.local)
         bone.applied_valid = bone.applied_exact = bone.exact = True
+        bone.world_now = bone.local_stale = False
         bone.why = ""
     if rig.family is None:
         _without_constraints(rig.bones, rig.constraints, rig.doc, rig.where)

@@ -139,6 +139,7 @@ class PhysicsState:
     def _update_lagged(self, bone, v: _Values) -> None:
         """4.3's update: the same springs, the bone drawn between the last two steps."""
         s = self.s
+        bone.modify_world()
         (a, b, wx), (c, d, wy) = bone.world.tolist()
         t, z = s.step, 0.0
         move_x, move_y = s.x > 0, s.y > 0
