@@ -1130,7 +1130,13 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in
         # The setup pose resets physics, which leaves the bone as it is; an animation steps it
         # (``c.physics``, set by spinemesh.anim) frame after frame.
         if c.physics is not None:
-            c.physics.update(c.bones[0], c.data)
+            bone = c.bones[0]
+            try:
+                c.physics.update(bone, c.data)
+            except (ValueError, OverflowError):  # springs driven past what a float holds (an angle of NaN)
+                bone.world[:] = np.nan
+            if not bone.finite():  # the runtimes draw such a bone nowhere: flagged, those below it too
+                _mark([bone], f"moved {where} by the {c.label()}, whose springs diverge (not a finite number)")
         return
     if _chain_path_38(c, family):
         # The 3.8 runtime checked against (a port) turns chain-mode bones unlike the official one.
