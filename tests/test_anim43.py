@@ -157,6 +157,63 @@ def transform_doc() -> dict:
             "skins": skins, "animations": anims}
 
 
+def path_doc() -> dict:
+    """A 4.3 skeleton whose path constraints (4.3 names the path's slot ``slot``) use each rotate
+    mode (tangent, chain, chain scale), spacing mode (length, spacing animated below the bones'
+    lengths, which 4.3 stops at 0; percent; proportional) and position mode, open, closed and
+    weighted paths, constant speed and stored lengths, an offset rotation, animated positions,
+    spacing and mixes, a deformed path and a path attachment changed by an animation."""
+    bones = [{"name": "root"},
+             {"name": "rail", "parent": "root", "x": -80, "y": 20, "rotation": 10},
+             {"name": "loop", "parent": "root", "x": 60, "y": 80, "scaleX": 1.2},
+             {"name": "ctl", "parent": "root", "x": 0, "y": 150}]
+    for name in ("a", "b", "c"):
+        parent = "root"
+        for i in range(4):
+            bones.append({"name": f"{name}{i}", "parent": parent, "length": 18 + 3 * i, "x": 20 if i else 0,
+                          "rotation": 5 * i})
+            parent = f"{name}{i}"
+    open_path = {"type": "path", "lengths": [180, 360], "vertexCount": 6,
+                 "vertices": [-20, -30, 0, 0, 40, 30, 90, 40, 130, 0, 170, -30]}
+    closed_path = {"type": "path", "closed": True, "lengths": [60, 120, 180, 240], "vertexCount": 12,
+                   "vertices": [-10, -30, 0, -30, 10, -30, 30, -10, 30, 0, 30, 10, 10, 30, 0, 30, -10, 30,
+                                -30, 10, -30, 0, -30, -10]}
+    stored = dict(open_path, constantSpeed=False)
+    weighted = {"type": "path", "lengths": [150, 300], "vertexCount": 6,
+                "vertices": [1, 0, -20, -30, 1, 1, 3, 0, 0, 1, 2, 3, 40, 30, 0.5, 0, 20, 10, 0.5, 1, 3, 90, 40, 1,
+                             1, 3, 40, 0, 1, 2, 3, 80, -30, 0.7, 1, 0, 0, 0.3]}
+    slots = [{"name": "track", "bone": "rail", "attachment": "p"}, {"name": "ring", "bone": "loop", "attachment": "p"},
+             {"name": "cable", "bone": "root", "attachment": "p"}]
+    for name in ("a", "b", "c"):
+        slots += [{"name": f"{name}{i}", "bone": f"{name}{i}", "attachment": "box"} for i in range(4)]
+    atts = {"track": {"p": open_path, "q": stored}, "ring": {"p": closed_path}, "cable": {"p": weighted}}
+    for name in ("a", "b", "c"):
+        for i in range(4):
+            atts[f"{name}{i}"] = {"box": {"x": 6, "width": 12, "height": 4}}
+    constraints = [
+        {"type": "path", "name": "ride", "slot": "track", "bones": ["a0", "a1", "a2", "a3"], "position": 0.1,
+         "spacing": 5, "rotation": 15, "mixX": 0.9},
+        {"type": "path", "name": "spin", "slot": "ring", "bones": ["b0", "b1", "b2", "b3"], "positionMode": "fixed",
+         "position": 30, "spacingMode": "percent", "spacing": 0.12, "rotateMode": "chainScale", "mixRotate": 0.8},
+        {"type": "path", "name": "hang", "slot": "cable", "bones": ["c0", "c1", "c2", "c3"], "spacingMode": "proportional",
+         "spacing": 0.9, "rotateMode": "chain", "mixY": 0.7},
+    ]
+    anims = {"go": {
+        "bones": {"rail": {"rotate": [{"value": 0}, {"time": 1, "value": 30}]},
+                  "loop": {"rotate": [{"value": 0}, {"time": 1.5, "value": 270}]},
+                  "ctl": {"translate": [{"x": 0}, {"time": 0.8, "x": 40, "y": -60}]}},
+        "path": {"ride": {"position": [{"value": 0.1}, {"time": 1, "value": 0.8}],
+                          "spacing": [{"value": 5}, {"time": 0.6, "value": -40}]},
+                 "spin": {"position": [{"value": 30}, {"time": 1.5, "value": 330}],
+                          "mix": [{"mixRotate": 0.8}, {"time": 1, "mixRotate": 0.3, "mixX": 0.6}]}},
+        "slots": {"track": {"attachment": [{"time": 1.2, "name": "q"}]}},
+        "attachments": {"default": {"ring": {"p": {"deform": [{}, {"time": 0.7, "offset": 4, "vertices": [10, 5, 15, 5]},
+                                                             {"time": 1.4}]}}}},
+    }}
+    return {"skeleton": {"spine": "4.3.23"}, "bones": bones, "slots": slots, "constraints": constraints,
+            "skins": [{"name": "default", "attachments": atts}], "animations": anims}
+
+
 def _against_43(runtime, doc: dict, tmp_path, times=TIMES) -> list[dict]:
     """Every animation of ``doc`` at ``times`` by spine-core 4.3 and by the sampler (one skeleton,
     its clock carried from pose to pose, as the harness plays them): the errors of each pose,
@@ -219,6 +276,24 @@ def test_43_transform_constraints_move_their_bones():
         alone["animations"]["look"]["transform"].pop(c["name"], None)
         without = Sampler(alone).pose("look", 0.37)
         assert any(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in c["bones"]), c["name"]
+
+
+def test_43_path_constraints_match_spine_core_43(runtime43, tmp_path):  # noqa: F811
+    """4.3 path constraints solved as spine-core 4.3 solves them: no bone flagged, all exact."""
+    results = _against_43(runtime43, path_doc(), tmp_path)
+    _assert_exact(results)
+    assert max(e["bone"] for e in results) < 1e-4
+
+
+def test_43_path_constraints_move_their_bones():
+    doc = path_doc()
+    posed = Sampler(doc).pose("go", 0.37)
+    for c in doc["constraints"]:
+        alone = json.loads(json.dumps(doc))
+        alone["constraints"] = [x for x in alone["constraints"] if x["name"] != c["name"]]
+        alone["animations"]["go"]["path"].pop(c["name"], None)
+        without = Sampler(alone).pose("go", 0.37)
+        assert all(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in c["bones"]), c["name"]
 
 
 def test_43_what_is_not_solved_is_flagged():

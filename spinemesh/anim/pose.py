@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
-from ..rig.constraints import Rig, build_rig, constraints_of, skin_names, update_world
+from ..rig.constraints import Rig, build_rig, constraints_of, path_slot, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..skeleton import curve_spelling, iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
@@ -303,7 +303,7 @@ class Sampler:
         #: slots whose attachment moves bones (a path constraint's target): a step between drawn
         #: frames applies these slots' timelines only
         self.path_slots = sorted({self.slot_index[t] for c in self.rig.constraints if c.kind == "path"
-                                  for t in [str(self.setup_data[id(c)].get("target"))] if t in self.slot_index})
+                                  for t in [path_slot(self.setup_data[id(c)])] if t in self.slot_index})
         self._regions = regions or (lambda path: None)
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self.physics_bones = self._physics_bones()
@@ -697,7 +697,7 @@ class Sampler:
         for c in rig.constraints:
             c.data = data[id(c)]
             if c.kind == "path":
-                s = self.slot_index.get(str(self.setup_data[id(c)].get("target")))
+                s = self.slot_index.get(path_slot(self.setup_data[id(c)]))
                 att = shown[s] if s is not None else None
                 ok = att is not None and att.type == "path"
                 c.path = self._path_json(att) if ok else None
@@ -765,7 +765,7 @@ def _motion_view(doc: dict) -> dict:
     """What of a skeleton document moves its bones: everything but the attachments (and their
     deform and sequence timelines), those of path constraints' target slots kept (a path
     constraint follows the path attachment its slot shows)."""
-    targets = {str(c.get("target")) for c in constraints_of(doc, "path")}
+    targets = {path_slot(c) for c in constraints_of(doc, "path")}
 
     def kept(by_slot):
         return {k: v for k, v in by_slot.items() if str(k) in targets} if isinstance(by_slot, dict) else by_slot
@@ -806,16 +806,17 @@ def same_motion(a: dict, b: dict) -> bool:
 
 
 def _family_43(doc: dict) -> str | None:
-    """``"4.2"`` for 4.3 skeletons whose constraints are all IK, transform and physics: IK posed
+    """``"4.2"`` for 4.3 skeletons whose constraints are all IK, transform, path and physics: IK posed
     as 4.2 does (the same math, checked against spine-core 4.3), transform constraints in 4.3's
     property-mapping form (:mod:`spinemesh.rig.transform43`), physics stepped as 4.3 steps it
-    (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``); None otherwise (the
-    document's own family: constraints not solved, path constraints and sliders in 4.3)."""
+    (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``), path constraints as 4.2 with
+    4.3's changes; None otherwise (the document's own family: constraints not solved; a 4.3
+    slider)."""
     if not re.match(r"4\.3\b", spine_version(doc)):
         return None
     items = doc.get("constraints")
     kinds = {c.get("type") for c in items if isinstance(c, dict)} if isinstance(items, list) else set()
-    return "4.2" if kinds <= {"ik", "physics", "transform"} else None
+    return "4.2" if kinds <= {"ik", "physics", "transform", "path"} else None
 
 
 def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:

@@ -12,15 +12,13 @@ relative) pull their bones' transforms towards the target's; path constraints (p
 spacing and rotate modes, constant speed or not, open or closed paths) lay their bones along
 the target slot's path.
 
-4.3 skeletons whose constraints are IK, transform and physics only are posed when their
-family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
+4.3 skeletons without sliders are posed when their family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
 properties (:mod:`.transform43`), and 4.3 bones take their local values back from a changed
 world transform lazily, as 4.3 does.
 
 Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
 runtime checked against, a port, turns those bones unlike the official one), a constraint
-only some skins activate, a 4.3 skeleton read without its family or with path constraints
-or sliders, or one older than 3.8 (no runtime to check against) leaves the bones it moves not
+only some skins activate, a 4.3 skeleton read without its family or with sliders, or one older than 3.8 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
 children of a bone that is not exact are not exact. Physics constraints (4.2, 4.3) leave the
 setup pose as it is. The math follows the public runtime sources (EsotericSoftware
@@ -62,6 +60,11 @@ def constraints_of(doc: dict, kind: str) -> list[dict]:
     out = [c for c in doc.get(kind, []) or [] if isinstance(c, dict)]
     out += [c for c in doc.get("constraints", []) or [] if isinstance(c, dict) and c.get("type") == kind]
     return out
+
+
+def path_slot(c: dict) -> str:
+    """The slot whose path a path constraint follows: ``target`` (3.x-4.2), ``slot`` (4.3)."""
+    return str(c["target"] if "target" in c else c.get("slot"))
 
 
 @dataclass(eq=False)
@@ -684,18 +687,19 @@ def _seek(lengths, start: int, p: float) -> tuple[int, float]:
 
 
 def path_positions(att: dict, world: list[float], spaces: list[float], tangents: bool, position: float,
-                   position_mode: str, spacing_mode: str, family: str) -> list[float]:
+                   position_mode: str, spacing_mode: str, family: str, v43: bool = False) -> list[float]:
     """``computeWorldPositions``: ``[x, y, r]`` per space along the path, flat, plus two.
 
     A path whose ``constantSpeed`` is off places its points by the curve lengths the editor
     stored; otherwise the lengths are measured here along the world vertices, as the runtime
-    does, and each curve is walked in ten segments of about equal length."""
+    does, and each curve is walked in ten segments of about equal length (4.3, ``v43``: on a
+    closed path, each point's segment sought from the curve's first)."""
     out = [0.0] * (len(spaces) * 3 + 2)
     if not att.get("constantSpeed", True):
         return _positions_by_stored_lengths(att, world, spaces, tangents, position, position_mode, spacing_mode,
                                             family, out)
     return _positions_at_constant_speed(att, world, spaces, tangents, position, position_mode, spacing_mode,
-                                        family, out)
+                                        family, out, v43)
 
 
 def _start_and_multiplier(position: float, position_mode: str, spacing_mode: str, path_length: float,
@@ -757,7 +761,7 @@ def _positions_by_stored_lengths(att: dict, world: list[float], spaces: list[flo
 
 def _positions_at_constant_speed(att: dict, world: list[float], spaces: list[float], tangents: bool,
                                  position: float, position_mode: str, spacing_mode: str, family: str,
-                                 out: list[float]) -> list[float]:
+                                 out: list[float], v43: bool = False) -> list[float]:
     """:func:`path_positions` with ``constantSpeed`` on: lengths measured along the world vertices."""
     closed = bool(att.get("closed", False))
     vertices_length = len(world)
@@ -787,7 +791,7 @@ def _positions_at_constant_speed(att: dict, world: list[float], spaces: list[flo
             curve_length = segments[9]
             segment = 0
         p *= curve_length
-        segment, frac = _seek(segments, segment, p)
+        segment, frac = _seek(segments, 0 if closed and v43 else segment, p)
         p = frac if segment == 0 else segment + frac
         _put(out, o, _curve_position(p * 0.1, *pts, tangents or (i > 0 and space == 0), family))
     return out
@@ -863,9 +867,10 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
         return False
     rotate_mode, spacing_mode = d.get("rotateMode", "tangent"), d.get("spacingMode", "length")
     tangents, scale = rotate_mode == "tangent", rotate_mode == "chainScale"
+    v43 = bones[0].v43
     spaces, lengths = _path_spaces(bones, _num(d, "spacing", 0), spacing_mode, tangents, scale, family)
     positions = path_positions(att, world, spaces, tangents, _num(d, "position", 0),
-                               d.get("positionMode", "percent"), spacing_mode, family)
+                               d.get("positionMode", "percent"), spacing_mode, family, v43)
     offset = _num(d, "rotation", 0)
     if offset == 0:
         tip = rotate_mode == "chain"
@@ -925,7 +930,10 @@ def _path_spaces(bones: list[PoseBone], spacing: float, spacing_mode: str, tange
                 spaces[i + 1] = length
                 total += length
             else:
-                spaces[i + 1] = (setup + spacing if spacing_mode == "length" else spacing) * length / setup
+                # 4.3 gives a bone no negative length spacing
+                ahead = (max(0.0, setup + spacing) if bone.v43 else setup + spacing) if spacing_mode == "length" \
+                    else spacing
+                spaces[i + 1] = ahead * length / setup
         if spacing_mode == "proportional" and total > 0:
             k = spaces_count / total * spacing
             spaces[1:] = [v * k for v in spaces[1:]]
@@ -940,6 +948,8 @@ def _lay_bones(bones: list[PoseBone], positions: list[float], spaces: list[float
     bone_x, bone_y = positions[0], positions[1]
     for i, bone in enumerate(bones):
         p = 3 * (i + 1)
+        if bone.v43:
+            bone.modify_world()
         (a, b, wx), (c, dd, wy) = bone.world.tolist()
         wx += (bone_x - wx) * mix_x
         wy += (bone_y - wy) * mix_y
@@ -1402,7 +1412,7 @@ def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], b
     the default skin (the only skin of a skeleton without one), and the bones that every path
     attachment of the slot in any skin follows (the runtime sorts them before the constraint)."""
     slots = [s for s in doc.get("slots", []) if isinstance(s, dict)]
-    slot = next((s for s in slots if s.get("name") == c.data.get("target")), None)
+    slot = next((s for s in slots if s.get("name") == path_slot(c.data)), None)
     c.target = by_name.get(str(slot.get("bone"))) if slot else None
     if c.target is None:
         return
