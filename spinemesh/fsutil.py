@@ -16,6 +16,7 @@ import errno
 import json
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path
@@ -451,6 +452,23 @@ def atomic_write_pieces(path: str | Path, pieces: Iterable[str]) -> int:
 
     _atomic(Path(path), fill)
     return written
+
+
+def file_behind(stream) -> Path | None:
+    """The regular file an open ``stream`` writes to (standard output redirected by ``> FILE``
+    or ``>> FILE`` in a shell), so that a command writing there can refuse a file it reads, or
+    one inside its input, as it refuses such an ``--out``; None for a terminal, a pipe, a
+    device, a stream of no file, or where the system cannot name the file (only Linux names
+    it, in ``/proc``)."""
+    try:
+        fd = stream.fileno()
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        path = Path(os.readlink(f"/proc/self/fd/{fd}"))
+        return path if os.path.samestat(os.stat(path), st) else None  # " (deleted)", or another file
+    except (OSError, ValueError, AttributeError):
+        return None
 
 
 def free_bytes(path: str | Path) -> int | None:

@@ -11,9 +11,15 @@ from __future__ import annotations
 
 import copy
 import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 from test_anim43 import physics_doc
+from test_hostile import snapshot
 from test_hostile_wave4 import within
 
 from spinemesh.anim import Sampler
@@ -60,3 +66,76 @@ def test_physics_whose_springs_diverge_flags_its_bones_instead_of_refusing_the_a
     last = out["poses"][-1]
     assert "tail" in last["inexact"] and "tip" in last["inexact"]
     assert last["bones"]["chin"] is not None and "chin" not in last["inexact"]
+
+
+# --- pose's stream on standard output -----------------------------------------------------
+
+def _spinemesh(*args, cwd: Path, stdout, timeout: float = 60) -> subprocess.CompletedProcess:
+    """``python -m spinemesh ARGS`` with its standard output given (a file opened here, a shell's
+    redirection), its stderr read."""
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
+    return subprocess.run([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=env, stdout=stdout,
+                          stderr=subprocess.PIPE, text=True, timeout=timeout, check=False)
+
+
+def _one_error(r: subprocess.CompletedProcess) -> str:
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    return line
+
+
+@pytest.fixture
+def demo_project(tmp_path) -> Path:
+    from spinemesh.demo import make_demo_project
+
+    return make_demo_project(tmp_path / "p")
+
+
+@pytest.mark.parametrize("target", ["p/demo.json", "p/demo.atlas", "p/new.json", "p/images/pose.json"])
+def test_pose_never_streams_into_its_input_through_a_shell_redirection(tmp_path, demo_project, target):
+    """``spinemesh pose hero.json >> hero.json`` once appended the poses to the skeleton itself
+    (exit 0); standard output redirected to a file the run reads, or into its project, is now
+    refused as such an --out is, before anything is written."""
+    before = snapshot(demo_project)
+    with open(tmp_path / target, "a", encoding="utf-8") as stdout:
+        r = _spinemesh("pose", "p/demo.json", "-a", "wave", "--times", "0,0.5", "--atlas", "p/demo.atlas",
+                       cwd=tmp_path, stdout=stdout)
+    line = _one_error(r)
+    assert "standard output" in line and str((tmp_path / target).resolve()) in line, line
+    if target.endswith("pose.json") or target.endswith("new.json"):
+        assert (tmp_path / target).stat().st_size == 0  # made by the shell, nothing written in it
+        (tmp_path / target).unlink()
+    assert snapshot(demo_project) == before
+    # beside the project the same redirection writes the whole document
+    with open(tmp_path / "pose.json", "w", encoding="utf-8") as stdout:
+        r = _spinemesh("pose", "p/demo.json", "-a", "wave", "--times", "0,0.5", cwd=tmp_path, stdout=stdout)
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads((tmp_path / "pose.json").read_text())["poses"]) == 3
+
+
+def test_pose_to_a_closed_or_full_standard_output_is_not_a_success(tmp_path, demo_project):
+    """A closed standard output (``>&-``) once wrote nothing and exited 0; a full one (/dev/full)
+    said only "No space left on device". Each now ends in one line naming standard output."""
+    pose = [sys.executable, "-m", "spinemesh", "pose", "p/demo.json", "-a", "wave", "--times", "0,0.5"]
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
+    closed = subprocess.run(["sh", "-c", '"$@" >&-', "sh", *pose], cwd=tmp_path, env=env, stderr=subprocess.PIPE,
+                            text=True, timeout=60, check=False)
+    assert "standard output is closed" in _one_error(closed)
+    if os.path.exists("/dev/full"):
+        with open("/dev/full", "w") as full:
+            r = _spinemesh(*pose[3:], cwd=tmp_path, stdout=full)
+        assert "standard output: cannot write" in _one_error(r)
+
+
+def test_pose_into_a_pipe_its_reader_closed_ends_quietly(tmp_path, demo_project):
+    """``spinemesh pose ... | head -c 100``: the run ends at its next write after the reader is
+    gone, with no traceback and a status that is not success (1, as the command line ends a
+    closed pipe), within seconds although the whole document is about 8 MB."""
+    times = ",".join(f"{i / 100:g}" for i in range(3000))
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
+    run = subprocess.Popen([sys.executable, "-m", "spinemesh", "pose", "p/demo.json", "-a", "wave", "--times", times],
+                           cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert run.stdout.read(100).startswith(b'{"input"')
+    run.stdout.close()
+    stderr = run.stderr.read().decode()
+    assert run.wait(60) == 1 and "Traceback" not in stderr and "Exception" not in stderr, stderr

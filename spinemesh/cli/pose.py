@@ -77,6 +77,9 @@ def pose(
                                  "game-loop steps; give times within the animation's loop", param_hint="--times")
     project = find_project(skeleton)
     check_outputs([project_folder(skeleton)], files=[out])
+    stdout = sys.stdout
+    if out is None:
+        _check_standard_output(stdout, skeleton, atlas)
     doc = load_skeleton(skeleton)
     anims = [str(a) for a in (doc.get("animations") or {})]
     if animation is not None and animation not in anims:
@@ -99,7 +102,6 @@ def pose(
     # temporary file renamed when the last pose is written, so that a refusal leaves no file.
     # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
     # by a proxy that holds text until a newline and then prints it on stderr.
-    stdout = sys.stdout
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
@@ -107,12 +109,42 @@ def pose(
         head = dump_head(sampler, str(skeleton), fps)
         pieces = chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton), ["\n"])
         if out is None:
-            for piece in pieces:
-                typer.echo(piece, nl=False, file=stdout)
+            _echo_pieces(pieces, stdout)
         else:
             atomic_write_pieces(out, pieces)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
+
+
+def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
+    """Refuse, before any work, a standard output that is closed (the poses would go nowhere, the
+    run claiming success) or redirected to a file that ``--out`` could not name: the skeleton or
+    atlas read (``>> hero.json`` would append to it), or any file inside the skeleton's project."""
+    from ..errors import OutputError
+    from ..fsutil import OutputGuard, file_behind, project_folder
+
+    if stdout is None:
+        raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
+    path = file_behind(stdout)
+    if path is not None:
+        OutputGuard([skeleton, project_folder(skeleton), atlas]).check(path, "standard output")
+
+
+def _echo_pieces(pieces, stdout) -> None:
+    """Write the pieces to standard output as they come; what the system refuses (a full disk)
+    ends in one line naming standard output. A reader that closed the pipe (``| head``) ends the
+    run quietly, as the command line's own handler ends it (exit status 1)."""
+    import errno
+
+    from ..errors import OutputError
+
+    try:
+        for piece in pieces:
+            typer.echo(piece, nl=False, file=stdout)
+    except OSError as e:
+        if e.errno == errno.EPIPE:
+            raise
+        raise OutputError(f"cannot write: {e.strerror or e}", "standard output") from None
 
 
 def _posed(poses, animation: str | None, skeleton: Path):
