@@ -139,3 +139,56 @@ def test_pose_into_a_pipe_its_reader_closed_ends_quietly(tmp_path, demo_project)
     run.stdout.close()
     stderr = run.stderr.read().decode()
     assert run.wait(60) == 1 and "Traceback" not in stderr and "Exception" not in stderr, stderr
+
+
+# --- the preview's animations sampled over --jobs ----------------------------------------------
+
+def _library_of_animations(tmp_path: Path, extra: dict) -> Path:
+    """The demo project, its skeleton given ``extra`` animations (its .skel twin removed)."""
+    from spinemesh.demo import make_demo_project
+
+    demo = make_demo_project(tmp_path / "lib" / "demo")
+    doc = json.loads((demo / "demo.json").read_text())
+    doc["animations"] |= extra
+    (demo / "demo.json").write_text(json.dumps(doc))
+    (demo / "demo-binary.skel").unlink()
+    return demo
+
+
+def _doomed_worker(task):
+    """The preview's task, except that the worker sampling "doomed" is killed (SIGKILL): as the
+    system's out-of-memory killer would kill it, on each of its tries."""
+    import signal
+
+    from spinemesh.upgrade import preview
+
+    if "doomed" in task[-1]:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return preview._sample_in_worker_unpatched(task)
+
+
+def test_a_worker_killed_while_sampling_leaves_out_its_animations_only(tmp_path, monkeypatch):
+    """A worker killed (twice: the task is run again once) while it samples one animation once
+    left the whole player off the skeleton's page; now the page plays the other animations and
+    says, in one line, which were left out and why. No worker outlives the preview."""
+    import multiprocessing
+    import re
+
+    from spinemesh.upgrade import Options, preview, upgrade_library
+    from spinemesh.upgrade.preview import write_preview
+
+    turn = {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 2, "value": 90}]}}}
+    _library_of_animations(tmp_path, {"slow": turn, "doomed": copy.deepcopy(turn), "late": copy.deepcopy(turn)})
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
+    monkeypatch.setattr(preview, "CHUNK_SECONDS", 0.0)  # a task per animation
+    monkeypatch.setattr(preview, "_sample_in_worker_unpatched", preview._sample_in_worker, raising=False)
+    monkeypatch.setattr(preview, "_sample_in_worker", _doomed_worker)  # workers fork after this
+    with within(120):
+        index = write_preview(result, tmp_path / "lib", tmp_path / "out", tmp_path / "v", jobs=2)
+    (page,) = index.parent.glob("s/*.html")
+    model = next(index.parent.glob("data/*/model.js")).read_text(encoding="utf-8")
+    assert re.findall(r'"name":"([^"]+)","dur"', model) == ["setup pose", "wave", "slow", "late"]
+    lines = re.findall(r"<li>([^<]*)</li>", page.read_text(encoding="utf-8"))
+    (line,) = [x for x in lines if "doomed" in x]
+    assert "not shown" in line and "SIGKILL" in line and "2 times" in line, line
+    assert not multiprocessing.active_children()

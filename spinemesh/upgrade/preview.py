@@ -566,7 +566,7 @@ class _Page:
     setup: object = None             # the player's setup pose (spinemesh.player.Animation)
     sampling: object = None          # spinemesh.player.frames.Sampling
     sides: dict | None = None        # the samplers, where sampled in this process
-    chunks: list = field(default_factory=list)  # futures of the animations sampled elsewhere
+    chunks: list = field(default_factory=list)  # (names, future) of the animations sampled elsewhere
     failed: Exception | None = None  # why the player cannot be made
     setup_problems: list = field(default_factory=list)  # what its planning left out, and why
 
@@ -640,12 +640,14 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
         page.sides = sides
         return page
     for names in _chunks(page.sampling.durations, 2 * workers.slots):
-        page.chunks.append(workers.submit(_sample_in_worker, (sk.original, sk.upgraded, atlases, page.sampling, names)))
+        page.chunks.append((names, workers.submit(_sample_in_worker,
+                                                  (sk.original, sk.upgraded, atlases, page.sampling, names))))
     return page
 
 
 def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -> tuple[str, FillRate, str | None]:
     """Write a started page (:func:`_start_page`): its path, fill rate and problem."""
+    from ..cluster import WorkerLost
     from ..player.frames import collect, sample_and_encode
 
     def played(problems: list) -> list:
@@ -655,7 +657,13 @@ def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -
         if page.sides is not None:
             sampled = sample_and_encode(page.sides, page.sampling, list(page.sampling.durations))
         else:
-            sampled = [got for future in page.chunks for got in future.result()]
+            sampled = []
+            for names, future in page.chunks:
+                try:
+                    sampled += future.result()
+                except WorkerLost as e:  # those animations alone are left out: the others are shown
+                    shown = ", ".join(map(repr, names[:5])) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+                    problems.append(f"animation{'s' if len(names) > 1 else ''} {shown} not shown: {e}")
         return [page.setup] + collect(sampled, problems)
 
     link, rate = _skeleton_page(files, page.skeleton, page.pid, page.meshed, page.targets, before, after,
