@@ -471,6 +471,17 @@ def file_behind(stream) -> Path | None:
         return None
 
 
+def file_stamp(path: str | Path) -> tuple[int, int, int, int] | None:
+    """What writing or replacing a file changes: ``(device, inode, size, modification time in
+    ns)``; None when it cannot be read. Taken before a file is read, and again by another
+    process that reads it later, it tells whether both read the same file."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns
+
+
 def free_bytes(path: str | Path) -> int | None:
     """Bytes free to this user on the file system that a file at ``path`` would be written to
     (its nearest existing folder); None when that cannot be read."""

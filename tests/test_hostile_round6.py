@@ -192,3 +192,40 @@ def test_a_worker_killed_while_sampling_leaves_out_its_animations_only(tmp_path,
     (line,) = [x for x in lines if "doomed" in x]
     assert "not shown" in line and "SIGKILL" in line and "2 times" in line, line
     assert not multiprocessing.active_children()
+
+
+def test_a_skeleton_changed_during_the_preview_is_not_mixed_into_its_page(tmp_path, monkeypatch):
+    """The preview plans a page from the skeletons it read, then worker processes read them
+    again to sample the animations: a file changed in between (an artist saving over it) once
+    made the page play the new version's animations over the old one's setup pose, silently.
+    Now every animation shown is the one the page was planned from (byte for byte what one
+    process writes), and those a worker could not read as planned are listed, naming the file."""
+    import re
+
+    from spinemesh.upgrade import Options, preview, upgrade_library
+    from spinemesh.upgrade.preview import write_preview
+
+    demo = _library_of_animations(tmp_path, {"slow": {"bones": {"arm": {"rotate": [
+        {"value": 0}, {"time": 2, "value": 90}]}}}})
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
+    write_preview(result, tmp_path / "lib", tmp_path / "out", tmp_path / "v1", jobs=1)
+    read_pairs = preview._read_pairs
+
+    def read_then_edit(skeletons):
+        got = read_pairs(skeletons)
+        doc = json.loads((demo / "demo.json").read_text())
+        doc["animations"]["slow"]["bones"]["arm"]["rotate"][1]["value"] = -90
+        (demo / "demo.json").write_text(json.dumps(doc))
+        return got
+
+    monkeypatch.setattr(preview, "_read_pairs", read_then_edit)
+    with within(120):
+        index = write_preview(result, tmp_path / "lib", tmp_path / "out", tmp_path / "v2", jobs=2)
+    data1, data2 = (sorted(p.relative_to(v / "data") for p in (v / "data").rglob("*.js") if p.name != "model.js")
+                    for v in (tmp_path / "v1", tmp_path / "v2"))
+    assert len(data1) == 3  # the setup pose, "wave" and "slow"
+    for rel in data2:  # whatever is shown is the version the page was planned from
+        assert (tmp_path / "v2" / "data" / rel).read_bytes() == (tmp_path / "v1" / "data" / rel).read_bytes(), rel
+    (page,) = index.parent.glob("s/*.html")
+    lines = [x for x in re.findall(r"<li>([^<]*)</li>", page.read_text(encoding="utf-8")) if "changed on disk" in x]
+    assert len(data2) < 3 and lines and all(str(demo / "demo.json") in x for x in lines), lines

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..fsutil import file_stamp
 from ..player import PLAYER_CSS, PreviewFolder, safe_name
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
@@ -271,6 +272,7 @@ class _Skeleton:
     upgraded: Path
     project: object
     twins: list[str] = field(default_factory=list)
+    stamps: tuple = ()  # the files' stamps (fsutil.file_stamp) taken before they were read
 
 
 def _skeletons(result, project: Path, out: Path) -> list[_Skeleton]:
@@ -529,6 +531,7 @@ def _read_pairs(skeletons: list[_Skeleton]) -> tuple[dict, dict, dict]:
     docs: dict[str, tuple[dict, dict]] = {}
     problems: dict[str, str] = {}
     for sk in skeletons:
+        sk.stamps = (file_stamp(sk.original), file_stamp(sk.upgraded))  # a worker reading them checks them
         try:
             docs[sk.rel] = (load_skeleton(sk.original), load_skeleton(sk.upgraded))
         except SpineMeshError as e:
@@ -603,16 +606,28 @@ _WORKER_SIDES: dict = {}
 
 def _sample_in_worker(task: tuple) -> list:
     """:func:`spinemesh.player.frames.sample_and_encode` in a worker process: the skeletons
-    read there (not sent), their samplers kept for the next run of the same skeleton's."""
+    read there (not sent), their samplers kept for the next run of the same skeleton's.
+
+    Raises
+    ------
+    SpineMeshError
+        When a file is not the one the page was planned from (``stamps``, taken before this
+        process read it): changed or replaced since, its animations would mix two versions.
+    """
     from ..anim import atlas_regions
     from ..player.frames import sample_and_encode, sides_of
 
-    original, upgraded, atlases, sampling, names = task
-    key = (str(original), str(upgraded), repr(sampling.skins))
+    original, upgraded, stamps, atlases, sampling, names = task
+    key = (str(original), str(upgraded), stamps, repr(sampling.skins))
     if key not in _WORKER_SIDES:
         _WORKER_SIDES.clear()  # one skeleton's samplers at a time
         regions = atlas_regions(atlases) if atlases is not None else None
-        _WORKER_SIDES[key] = sides_of(load_skeleton(original), load_skeleton(upgraded), sampling.skins, regions)
+        docs = load_skeleton(original), load_skeleton(upgraded)
+        for path, stamp in zip((original, upgraded), stamps):
+            if file_stamp(path) != stamp:  # read after its stamp: any change since shows
+                raise SpineMeshError("changed on disk while the preview was written (its animations would mix "
+                                     "two versions); write the preview again", path)
+        _WORKER_SIDES[key] = sides_of(*docs, sampling.skins, regions)
     return sample_and_encode(_WORKER_SIDES[key], sampling, names)
 
 
@@ -641,13 +656,13 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
         return page
     for names in _chunks(page.sampling.durations, 2 * workers.slots):
         page.chunks.append((names, workers.submit(_sample_in_worker,
-                                                  (sk.original, sk.upgraded, atlases, page.sampling, names))))
+                                                  (sk.original, sk.upgraded, sk.stamps, atlases, page.sampling,
+                                                   names))))
     return page
 
 
 def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -> tuple[str, FillRate, str | None]:
     """Write a started page (:func:`_start_page`): its path, fill rate and problem."""
-    from ..cluster import WorkerLost
     from ..player.frames import collect, sample_and_encode
 
     def played(problems: list) -> list:
@@ -661,7 +676,7 @@ def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -
             for names, future in page.chunks:
                 try:
                     sampled += future.result()
-                except WorkerLost as e:  # those animations alone are left out: the others are shown
+                except SpineMeshError as e:  # a worker lost, a file changed: those animations alone are left out
                     shown = ", ".join(map(repr, names[:5])) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
                     problems.append(f"animation{'s' if len(names) > 1 else ''} {shown} not shown: {e}")
         return [page.setup] + collect(sampled, problems)
