@@ -229,3 +229,72 @@ def test_a_skeleton_changed_during_the_preview_is_not_mixed_into_its_page(tmp_pa
     (page,) = index.parent.glob("s/*.html")
     lines = [x for x in re.findall(r"<li>([^<]*)</li>", page.read_text(encoding="utf-8")) if "changed on disk" in x]
     assert len(data2) < 3 and lines and all(str(demo / "demo.json") in x for x in lines), lines
+
+
+# --- 3.x curves of every JSON type ---------------------------------------------------------------
+
+#: What a 3.x key's ``curve`` (or 3.8's ``c2``..``c4``) may hold in a hand-edited file: every JSON
+#: type, lists of every length and depth, numbers past a float32 and integers of 400 digits.
+BIG = int("1" + "0" * 400)
+CURVE_VALUES = [True, False, None, {}, {"a": 1}, [], [1], [[1, 2], [3, 4], [5], 6], [1, 2, 3],
+                [0.1, 0.2, 0.3, 0.4, 0.5], ["a", "b", "c", "d"], [True] * 4, [None] * 4, [BIG] * 4,
+                [1e308, -1e308, 1e308, -1e308], [{}, [], "x", None], BIG, -BIG, 1e308, 1e39, -1, 0,
+                "stepped", "linear", "bezier", "", "\u2028"]
+
+
+def _doc3(version: str, value, field: str = "curve") -> dict:
+    """A 3.x skeleton whose first key of a rotate, a translate and a colour timeline has
+    ``field`` = ``value`` (3.8's ``c2``..``c4`` beside a curve of 0.3)."""
+    first = {"time": 0, "curve": value} if field == "curve" else {"time": 0, "curve": 0.3, field: value}
+    skins = {"default": {"s": {"a": {"width": 10, "height": 4}}}}
+    return {"skeleton": {"spine": version},
+            "bones": [{"name": "root"}, {"name": "arm", "parent": "root", "x": 5, "length": 10}],
+            "slots": [{"name": "s", "bone": "arm", "attachment": "a"}],
+            "skins": [{"name": "default", "attachments": skins["default"]}] if version.startswith("3.8") else skins,
+            "animations": {"a": {
+                "bones": {"arm": {"rotate": [{**first, "angle": 0}, {"time": 1, "angle": 90}],
+                                  "translate": [{**first, "x": 0, "y": 0}, {"time": 1, "x": 5, "y": 5}]}},
+                "slots": {"s": {"color": [{**first, "color": "ffffffff"}, {"time": 1, "color": "00000000"}]}}}}}
+
+
+@pytest.mark.parametrize("version, field", [("3.5.51", "curve"), ("3.6.53", "curve"), ("3.7.94", "curve"),
+                                            ("3.8.99", "curve"), ("3.8.99", "c2"), ("3.8.99", "c3"),
+                                            ("3.8.99", "c4")])
+def test_3x_curves_of_every_json_type_pose_play_and_convert(tmp_path, version, field):
+    """Each read as its version's runtime reads it (a curve it cannot draw as a Bezier is
+    linear): the pose is finite, the player shows the animation, and the binary writer writes
+    it or refuses it in one short line saying what the key holds."""
+    from spinemesh.player.frames import animations
+    from spinemesh.skeleton import load_skeleton
+    from spinemesh.skeleton_binary import SkelFormatError, read_skel, write_skel
+
+    refused = 0
+    with within(60):
+        for value in CURVE_VALUES:
+            path = tmp_path / "x.json"
+            path.write_text(json.dumps(_doc3(version, value, field)))
+            doc = load_skeleton(path)
+            out = _strict(dump(Sampler(doc), "a", [0, 0.3, 0.7]))
+            assert all(p["bones"]["arm"] is not None for p in out["poses"]), value
+            problems: list[str] = []
+            assert [a.name for a in animations(doc, doc, problems=problems)] == ["setup pose", "a"], problems
+            try:
+                _strict(read_skel(write_skel(doc)))
+            except SkelFormatError as e:
+                refused += 1
+                assert len(str(e)) < 300 and "\n" not in str(e), str(e)
+    assert refused < len(CURVE_VALUES)
+
+
+def test_convert_names_what_a_3x_bezier_holds_in_one_short_line(tmp_path):
+    """A Bezier of 400-digit integers once printed them whole (a line of 1,700 characters), a
+    handle of 1e39 a Python OverflowError, and a bad 3.8 ``c3`` the ``curve`` beside it."""
+    cases = {"big.json": _doc3("3.7.94", [BIG] * 4), "wide.json": _doc3("3.6.53", [1e39, 0, 0, 1]),
+             "c3.json": _doc3("3.8.99", {"a": 1}, "c3")}
+    words = {"big.json": "an integer of 401 digits", "wide.json": "the number 1e+39", "c3.json": "an object"}
+    for name, doc in cases.items():
+        (tmp_path / name).write_text(json.dumps(doc))
+        r = _spinemesh("convert", name, name.replace(".json", ".skel"), cwd=tmp_path, stdout=subprocess.PIPE)
+        line = _one_error(r)
+        assert line.startswith(f"error: {name}:") and words[name] in line and len(line) < 300, line
+        assert not (tmp_path / name.replace(".json", ".skel")).exists()

@@ -776,10 +776,14 @@ def curve(s, f: dict, c: Context) -> None:
         s.u8(CURVE_STEPPED if kind == "stepped" else CURVE_LINEAR)
         return
     s.u8(CURVE_BEZIER)
+    controls = c.L.curves.controls(f)
     try:
-        s.raw(struct.pack(">4f", *c.L.curves.controls(f)))
-    except struct.error:
-        raise s.fail(f"a bezier curve of 4 numbers, got {f.get('curve')!r}") from None
+        s.raw(struct.pack(">4f", *controls))
+    except (struct.error, OverflowError):  # not numbers, or beyond a float32 (1e39, 400 digits)
+        from ..skeleton_check import found
+
+        raise s.fail("a bezier curve of 4 numbers a 32-bit float holds, got "
+                     + ", ".join(map(found, controls))) from None
 
 
 def frames(s, items, c: Context, values: tuple, what: str = "frame count") -> list:
