@@ -98,7 +98,8 @@ def transform_doc() -> dict:
         # world -> world, every property onto itself, offsets, clamp on x
         {"type": "transform", "name": "w2w", "source": "face", "bones": ["eye"], "x": -5, "y": 3, "rotation": 12,
          "scaleX": 0.1, "shearY": 4, "clamp": True,
-         "properties": {"rotate": {"to": {"rotate": {}}}, "x": {"offset": 2, "to": {"x": {"offset": 1, "max": 60, "scale": 0.5}}},
+         "properties": {"rotate": {"to": {"rotate": {}}},
+                        "x": {"offset": 2, "to": {"x": {"offset": 1, "max": 60, "scale": 0.5}}},
                         "y": {"to": {"y": {"max": 100}}}, "scaleX": {"to": {"scaleX": {}}},
                         "scaleY": {"to": {"scaleY": {"scale": 0.8}}}, "shearY": {"to": {"shearY": {}}}},
          "mixRotate": 0.6, "mixX": 0.5, "mixScaleX": 0.7, "mixShearY": 0.4},
@@ -109,19 +110,21 @@ def transform_doc() -> dict:
                         "y": {"to": {"scaleX": {"scale": 0.01}}}},
          "mixRotate": 0.5, "mixX": 0.8, "mixScaleX": 0.5, "mixScaleY": 0.3, "mixShearY": 0.9},
         # local source -> local target
-        {"type": "transform", "name": "l2l", "source": "arm", "bones": ["hat"], "localSource": True, "localTarget": True,
-         "rotation": 5, "x": 3,
-         "properties": {"rotate": {"to": {"rotate": {}, "shearY": {"scale": 0.1}}}, "x": {"to": {"x": {"max": 50}, "y": {"scale": -1}}},
+        {"type": "transform", "name": "l2l", "source": "arm", "bones": ["hat"], "localSource": True,
+         "localTarget": True, "rotation": 5, "x": 3,
+         "properties": {"rotate": {"to": {"rotate": {}, "shearY": {"scale": 0.1}}},
+                        "x": {"to": {"x": {"max": 50}, "y": {"scale": -1}}},
                         "scaleX": {"to": {"scaleX": {}, "scaleY": {}}}},
          "mixRotate": 0.7, "mixX": 0.3, "mixY": 0.9, "mixScaleX": 0.4, "mixShearY": 1},
         # local source reading a bone a world constraint changed; world target
         {"type": "transform", "name": "l2w", "source": "eye", "bones": ["feather"], "localSource": True,
-         "properties": {"rotate": {"to": {"rotate": {}}}, "y": {"to": {"y": {"scale": 2}}}, "shearY": {"to": {"shearY": {}}},
+         "properties": {"rotate": {"to": {"rotate": {}}}, "y": {"to": {"y": {"scale": 2}}},
+                        "shearY": {"to": {"shearY": {}}},
                         "scaleY": {"to": {"scaleX": {}}}},
          "mixRotate": 0.5, "mixY": 0.5, "mixShearY": 0.5, "mixScaleX": 0.6},
         # world source -> local target, additive and clamped, on a bone a world constraint changed
-        {"type": "transform", "name": "w2l", "source": "hand", "bones": ["lid", "eye"], "localTarget": True, "additive": True,
-         "clamp": True,
+        {"type": "transform", "name": "w2l", "source": "hand", "bones": ["lid", "eye"], "localTarget": True,
+         "additive": True, "clamp": True,
          "properties": {"x": {"to": {"rotate": {"scale": 0.5, "max": 30, "offset": -30}}},
                         "rotate": {"to": {"scaleX": {"scale": 0.001, "max": 2}, "x": {"scale": 0.05, "max": 4}}},
                         "shearY": {"to": {"shearY": {"max": -20, "offset": 20}}}},
@@ -133,7 +136,8 @@ def transform_doc() -> dict:
     ]
     anims = {
         "look": {
-            "bones": {"face": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 1, "value": -30}, {"time": 1.5, "value": 0}],
+            "bones": {"face": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 1, "value": -30},
+                                          {"time": 1.5, "value": 0}],
                                "translate": [{"x": 0}, {"time": 0.7, "x": 30, "y": -20}, {"time": 1.5}],
                                "scale": [{"x": 1}, {"time": 0.6, "x": 1.4, "y": 0.7}, {"time": 1.2, "x": 0.8}]},
                       "arm": {"rotate": [{"value": 0}, {"time": 0.8, "value": 120}],
@@ -141,7 +145,8 @@ def transform_doc() -> dict:
                       "aim": {"translate": [{"x": 0}, {"time": 1.0, "x": 40, "y": 30}]},
                       "eye": {"shear": [{"y": 0}, {"time": 1.0, "y": 20}]}},
             "transform": {"w2w": [{"mixRotate": 0.6, "mixX": 0.5, "mixScaleX": 0.7, "mixShearY": 0.4},
-                                  {"time": 0.8, "mixRotate": 1, "mixX": 1, "mixY": 0.2, "mixScaleX": 0.1, "mixScaleY": 0.5, "mixShearY": 0}],
+                                  {"time": 0.8, "mixRotate": 1, "mixX": 1, "mixY": 0.2, "mixScaleX": 0.1,
+                                   "mixScaleY": 0.5, "mixShearY": 0}],
                           "l2l": [{"time": 0.4, "mixRotate": 0.2, "mixX": 0.5}, {"time": 1.1}]},
         },
     }
@@ -195,8 +200,8 @@ def path_doc() -> dict:
          "spacing": 5, "rotation": 15, "mixX": 0.9},
         {"type": "path", "name": "spin", "slot": "ring", "bones": ["b0", "b1", "b2", "b3"], "positionMode": "fixed",
          "position": 30, "spacingMode": "percent", "spacing": 0.12, "rotateMode": "chainScale", "mixRotate": 0.8},
-        {"type": "path", "name": "hang", "slot": "cable", "bones": ["c0", "c1", "c2", "c3"], "spacingMode": "proportional",
-         "spacing": 0.9, "rotateMode": "chain", "mixY": 0.7},
+        {"type": "path", "name": "hang", "slot": "cable", "bones": ["c0", "c1", "c2", "c3"],
+         "spacingMode": "proportional", "spacing": 0.9, "rotateMode": "chain", "mixY": 0.7},
     ]
     anims = {"go": {
         "bones": {"rail": {"rotate": [{"value": 0}, {"time": 1, "value": 30}]},
@@ -207,11 +212,51 @@ def path_doc() -> dict:
                  "spin": {"position": [{"value": 30}, {"time": 1.5, "value": 330}],
                           "mix": [{"mixRotate": 0.8}, {"time": 1, "mixRotate": 0.3, "mixX": 0.6}]}},
         "slots": {"track": {"attachment": [{"time": 1.2, "name": "q"}]}},
-        "attachments": {"default": {"ring": {"p": {"deform": [{}, {"time": 0.7, "offset": 4, "vertices": [10, 5, 15, 5]},
+        "attachments": {"default": {"ring": {"p": {"deform": [{}, {"time": 0.7, "offset": 4,
+                                                                   "vertices": [10, 5, 15, 5]},
                                                              {"time": 1.4}]}}}},
     }}
     return {"skeleton": {"spine": "4.3.23"}, "bones": bones, "slots": slots, "constraints": constraints,
             "skins": [{"name": "default", "attachments": atts}], "animations": anims}
+
+
+def slider_doc() -> dict:
+    """A 4.3 skeleton with sliders: one whose time and mix an animation keys, one driven by a
+    bone's world x (looping, additive, mixed), one by a bone's local rotation; their animations
+    rotate, translate, scale and shear bones, both axes and one."""
+    bones = [{"name": "root"},
+             {"name": "knob", "parent": "root", "x": -60, "y": 40},
+             {"name": "dial", "parent": "root", "x": 60, "y": 40, "rotation": 20},
+             {"name": "body", "parent": "root", "y": 10, "length": 40, "rotation": 90},
+             {"name": "head", "parent": "body", "x": 40, "length": 20},
+             {"name": "arm", "parent": "body", "x": 25, "y": 5, "length": 25, "rotation": -100, "scaleX": 1.1},
+             {"name": "hand", "parent": "arm", "x": 25, "length": 10}]
+    anims = {
+        "nod": {"bones": {"head": {"rotate": [{"value": 0}, {"time": 1, "value": 40}, {"time": 2, "value": -20}],
+                                   "translate": [{"time": 0.5, "x": 0}, {"time": 1.5, "x": 5, "y": -3}]},
+                          "arm": {"scale": [{"x": 1, "y": 1}, {"time": 2, "x": 1.5, "y": 0.6}],
+                                  "shear": [{"time": 0.2, "y": 0}, {"time": 1.8, "y": 25}]}}},
+        "wave": {"bones": {"hand": {"rotate": [{"value": -30}, {"time": 0.5, "value": 30}, {"time": 1, "value": -30}],
+                                    "scalex": [{"value": 1}, {"time": 1, "value": 0.5}]},
+                           "arm": {"translatey": [{"value": 0}, {"time": 1, "value": 8}]}}},
+        "play": {"bones": {"knob": {"translate": [{"x": 0}, {"time": 1, "x": 50}, {"time": 2, "x": -20}]},
+                           "dial": {"rotate": [{"value": 0}, {"time": 2, "value": 200}]},
+                           "body": {"rotate": [{"value": 0}, {"time": 1.5, "value": 15}]}},
+                 "slider": {"timed": {"time": [{"value": 0}, {"time": 2, "value": 2}],
+                                      "mix": [{"value": 1}, {"time": 1, "value": 0.4}]}}},
+    }
+    constraints = [
+        {"type": "slider", "name": "timed", "animation": "nod", "time": 0.5},
+        {"type": "slider", "name": "by_x", "animation": "wave", "bone": "knob", "property": "x", "from": -60,
+         "to": 0.1, "scale": 0.02, "loop": True, "mix": 0.8, "additive": True},
+        {"type": "slider", "name": "by_turn", "animation": "nod", "bone": "dial", "property": "rotate", "local": True,
+         "scale": 0.01, "mix": 0.5},
+    ]
+    slots = [{"name": n, "bone": n, "attachment": "box"} for n in ("head", "arm", "hand")]
+    skins = [{"name": "default", "attachments": {n: {"box": {"x": 5, "width": 10, "height": 4}} for n in
+                                                  ("head", "arm", "hand")}}]
+    return {"skeleton": {"spine": "4.3.23"}, "bones": bones, "slots": slots, "constraints": constraints,
+            "skins": skins, "animations": anims}
 
 
 def _against_43(runtime, doc: dict, tmp_path, times=TIMES) -> list[dict]:
@@ -296,6 +341,23 @@ def test_43_path_constraints_move_their_bones():
         assert all(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in c["bones"]), c["name"]
 
 
+def test_43_sliders_match_spine_core_43(runtime43, tmp_path):  # noqa: F811
+    """4.3 sliders played as spine-core 4.3 plays them (their animation over the bones' current
+    values, at a keyed time or one a bone's property drives): no bone flagged, all exact."""
+    results = _against_43(runtime43, slider_doc(), tmp_path)
+    _assert_exact(results)
+    assert max(e["bone"] for e in results) < 1e-4
+
+
+def test_43_sliders_move_their_bones():
+    doc = slider_doc()
+    for c in doc["constraints"]:
+        alone = json.loads(json.dumps(doc))
+        alone["constraints"] = [x for x in alone["constraints"] if x["name"] != c["name"]]
+        posed, without = Sampler(doc).pose("play", 0.8), Sampler(alone).pose("play", 0.8)
+        assert any(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in ("head", "arm", "hand")), c["name"]
+
+
 def test_43_what_is_not_solved_is_flagged():
     """A property the runtime does not know, and a 4.3 IK stretch that keeps the bone's area,
     are not solved: their bones (and those below them) are flagged, never passed as exact."""
@@ -307,3 +369,8 @@ def test_43_what_is_not_solved_is_flagged():
     doc["constraints"][-1]["scaleY"] = "volume"
     pose = Sampler(doc).pose("look", 0.37)
     assert "volume" in pose.why["neck"] and "face" not in pose.why
+    # A slider whose animation changes more than bones: no constraint of the skeleton is solved.
+    doc = slider_doc()
+    doc["animations"]["wave"]["slots"] = {"hand": {"alpha": [{"value": 0.5}]}}
+    pose = Sampler(doc).pose("play", 0.8)
+    assert {"head", "arm", "hand"} <= set(pose.why)

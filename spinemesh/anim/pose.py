@@ -12,8 +12,9 @@ drawn attachment (:mod:`.attachments`).
 
 Physics constraints (4.2, 4.3) keep state from frame to frame: a pose of a skeleton with
 physics replays the game loop from time 0 in the harness's steps (:mod:`spinemesh.rig.physics`),
-as the runtime plays it, reset keys included (4.3 drawing its bones between physics steps). Not reproduced: 3.8 local transform constraints
-that write shear into the bone's own local shear, which then carries over from frame to
+as the runtime plays it, reset keys included (4.3 drawing its bones between physics steps).
+Not reproduced: 3.8 local transform constraints that write shear into the bone's own local
+shear, which then carries over from frame to
 frame in the runtime, are applied as in the setup pose.
 """
 
@@ -30,6 +31,7 @@ from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, path_slot, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
+from ..rig.transform43 import PROPERTIES, source_value_43
 from ..skeleton import curve_spelling, iter_skins, spine_version
 from .attachments import Prepared, RegionGeometry, prepare
 from .curves import _number
@@ -321,6 +323,9 @@ class Sampler:
                                 if not any(c.physics is not None for c in self.rig.constraints
                                            if c.kind == "physics" and c.name == n)}
         self._animations: dict[str, tuple[Animation, dict]] = {}
+        for c in self.rig.constraints:
+            if c.kind == "slider":
+                c.slider = SliderPlayer(self, c.data)
 
     # -- attachments ---------------------------------------------------------------------
     def prepared(self, skin: str, slot: int, key: str) -> Prepared | None:
@@ -805,18 +810,107 @@ def same_motion(a: dict, b: dict) -> bool:
     return _motion_view(a) == _motion_view(b)
 
 
+#: The timelines of a 4.3 slider's animation the sampler applies (bone transforms; events change nothing).
+_SLIDER_TIMELINES = {"rotate", "translate", "translatex", "translatey", "scale", "scalex", "scaley", "shear",
+                     "shearx", "sheary"}
+
+
+def _slider_played(doc: dict, c: dict) -> bool:
+    """Whether a 4.3 slider is played here: its animation poses bones only (no slot, deform,
+    draw order, constraint or inherit timeline), and a driving bone reads a known property."""
+    anim = (doc.get("animations") or {}).get(c.get("animation"))
+    if not isinstance(anim, dict) or set(anim) - {"bones", "events"}:
+        return False
+    bones = anim.get("bones") or {}
+    if not isinstance(bones, dict) or any(not isinstance(t, dict) or set(t) - _SLIDER_TIMELINES
+                                          for t in bones.values()):
+        return False
+    return c.get("bone") is None or c.get("property") in PROPERTIES
+
+
+def _js_sign(x: float) -> float:
+    return 1.0 if x > 0 else -1.0 if x < 0 else x
+
+
+class SliderPlayer:
+    """A 4.3 slider's update: its animation applied, in the middle of the update cache, over the
+    bones' current values at the slider's time (keyed, or read from a bone's property) and mix,
+    replacing or (``additive``) adding, as spine-core 4.3's ``Slider`` applies it
+    (``MixFrom.current``). Bone timelines only (:func:`_slider_played`)."""
+
+    def __init__(self, sampler: Sampler, data: dict):
+        self.anim = sampler.animation(str(data.get("animation")))[0]
+        self.setup = sampler.setup_local
+
+    def update(self, c) -> bool:
+        """Apply the slider ``c`` (the rig's constraint: ``data``, driving bone ``target``, posed
+        ``bones``); False where the runtime returns first."""
+        d = c.data
+        mix = _number(d.get("mix", 1), 1.0)
+        if mix == 0:
+            return False
+        loop, duration = d.get("loop") is True, self.anim.duration
+        time = _number(d.get("time", 0), 0.0)
+        bone = c.target
+        if bone is not None:
+            if not bone.active:
+                return False
+            local = d.get("local") is True
+            if local:
+                bone.validate_local()
+            value = source_value_43(PROPERTIES.index(d.get("property")), bone, local, [0.0] * 6)
+            offset, start = _number(d.get("to", 0), 0.0), _number(d.get("from", 0), 0.0)
+            time = offset + (value - start) * _number(d.get("scale", 1), 1.0)
+            time = duration + math.fmod(time, duration) if loop else max(0.0, time)
+        for b in c.bones:
+            b.modify_local()
+        if loop and duration != 0:
+            time = math.fmod(time, duration)
+        add = d.get("additive") is True
+        bones = {b.index: b for b in c.bones}
+        for tl in self.anim.bones:
+            b = bones.get(tl.bone)
+            if b is not None and b.active:
+                _mix_current(tl.property, tl.keys.at(time), b.applied, self.setup[tl.bone], mix, add)
+        return True
+
+
+def _mix_current(prop: str, v, a: list, setup: tuple, alpha: float, add: bool) -> None:
+    """One bone timeline's value ``v`` (None before its first key: nothing changes) mixed into
+    the bone's current values ``a`` by ``alpha`` from where they are, or added (``add``)."""
+    if v is None:
+        return
+    pairs = {"translate": (0, 1), "translatex": (0,), "translatey": (1,), "rotate": (2,), "scale": (3, 4),
+             "scalex": (3,), "scaley": (4,), "shear": (5, 6), "shearx": (5,), "sheary": (6,)}[prop]
+    for k, i in enumerate(pairs):
+        value = float(v[k])
+        if i in (3, 4):  # scales multiply the setup value
+            value *= setup[i]
+            if alpha == 1 and not add:
+                a[i] = value
+            elif add:
+                a[i] = a[i] + (value - setup[i]) * alpha
+            else:
+                base = abs(a[i]) * _js_sign(value)
+                a[i] = base + (value - base) * alpha
+        else:
+            a[i] = a[i] + (value if add else value + setup[i] - a[i]) * alpha
+
+
 def _family_43(doc: dict) -> str | None:
-    """``"4.2"`` for 4.3 skeletons whose constraints are all IK, transform, path and physics: IK posed
+    """``"4.2"`` for 4.3 skeletons whose constraints are IK, transform, path, physics and sliders: IK posed
     as 4.2 does (the same math, checked against spine-core 4.3), transform constraints in 4.3's
     property-mapping form (:mod:`spinemesh.rig.transform43`), physics stepped as 4.3 steps it
     (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``), path constraints as 4.2 with
-    4.3's changes; None otherwise (the document's own family: constraints not solved; a 4.3
-    slider)."""
+    4.3's changes, sliders by :class:`SliderPlayer`; None otherwise (the document's own
+    family: constraints not solved; a slider :func:`_slider_played` does not play)."""
     if not re.match(r"4\.3\b", spine_version(doc)):
         return None
     items = doc.get("constraints")
-    kinds = {c.get("type") for c in items if isinstance(c, dict)} if isinstance(items, list) else set()
-    return "4.2" if kinds <= {"ik", "physics", "transform", "path"} else None
+    items = [c for c in items if isinstance(c, dict)] if isinstance(items, list) else []
+    if not all(_slider_played(doc, c) for c in items if c.get("type") == "slider"):
+        return None
+    return "4.2" if {c.get("type") for c in items} <= {"ik", "physics", "transform", "path", "slider"} else None
 
 
 def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:

@@ -276,6 +276,15 @@ class _Reader:
                 if k is not None:
                     self.out.constraints.append(ConstraintTimeline("path", str(cname), fields, k))
 
+    def sliders(self, timelines: dict) -> None:
+        """4.3: a slider's ``time`` and ``mix`` (a key without a value: 1)."""
+        for cname, tls in timelines.items():
+            for prop, frames in tls.items() if isinstance(tls, dict) else ():
+                if prop in ("time", "mix"):
+                    k = self.keys(frames, _getter(("value", 1)))
+                    if k is not None:
+                        self.out.constraints.append(ConstraintTimeline("slider", str(cname), (prop,), k))
+
     def physics(self, timelines: dict) -> None:
         """4.2 and 4.3: physics values (a constraint's name, or "" for every constraint whose
         ``<value>Global`` is set) and resets."""
@@ -330,6 +339,7 @@ def read_animation(doc: dict, name: str, four: bool, spelling: CurveSpelling = C
         out.draw_order = DrawOrderTimeline(times, [f.get("offsets") for f in fr], r.slot_index)
     r.discrete(anim.get("events"))
     r.physics(_mapping(anim.get("physics")))
+    r.sliders(_mapping(anim.get("slider")))
     out.duration = max(r.ends, default=0.0)
     return out
 

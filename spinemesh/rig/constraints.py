@@ -12,13 +12,14 @@ relative) pull their bones' transforms towards the target's; path constraints (p
 spacing and rotate modes, constant speed or not, open or closed paths) lay their bones along
 the target slot's path.
 
-4.3 skeletons without sliders are posed when their family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
+4.3 skeletons are posed when their family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
 properties (:mod:`.transform43`), and 4.3 bones take their local values back from a changed
 world transform lazily, as 4.3 does.
 
 Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
 runtime checked against, a port, turns those bones unlike the official one), a constraint
-only some skins activate, a 4.3 skeleton read without its family or with sliders, or one older than 3.8 (no runtime to check against) leaves the bones it moves not
+only some skins activate, a 4.3 skeleton read without its family (or a slider without its
+player), or one older than 3.8 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
 children of a bone that is not exact are not exact. Physics constraints (4.2, 4.3) leave the
 setup pose as it is. The math follows the public runtime sources (EsotericSoftware
@@ -997,23 +998,39 @@ class _Constraint:
     reads: list[PoseBone] = field(default_factory=list)  # path: bones its vertices follow, sorted first
     path_deform: list[float] | None = None  # path: the deform an animation gives its attachment
     physics: object | None = None  # physics: its state between frames (rig.physics.PhysicsState)
+    slider: object | None = None   # 4.3 slider: what applies its animation (spinemesh.anim sets it)
     v43: bool = False         # from 4.3's single list (a transform constraint maps properties)
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
 
 
+def slider_bones(doc: dict, c: dict) -> list[str]:
+    """The bones a 4.3 slider poses: those its animation has bone timelines for, in order."""
+    anim = (doc.get("animations") or {}).get(c.get("animation"))
+    by_bone = anim.get("bones") if isinstance(anim, dict) else None
+    return [str(n) for n, tls in (by_bone.items() if isinstance(by_bone, dict) else ())
+            if isinstance(tls, dict) and any(isinstance(keys, list) and keys for keys in tls.values())]
+
+
 def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constraint]:
-    """Every IK, transform, path and physics constraint (document order within each kind); one
-    that names a missing bone is left out (a runtime refuses such a skeleton)."""
+    """Every IK, transform, path, physics and (4.3) slider constraint (document order within
+    each kind); one that names a missing bone is left out (a runtime refuses such a skeleton).
+    A slider's bones are those its animation poses, its target the bone that drives it, if any."""
     out = []
-    for kind in ("ik", "transform", "path", "physics"):
+    for kind in ("ik", "transform", "path", "physics", "slider"):
         for c in constraints_of(doc, kind):
-            names = c.get("bones") if kind != "physics" else [c.get("bone")]
+            names = c.get("bones") if kind not in ("physics", "slider") else [c.get("bone")]
+            if kind == "slider":
+                names = slider_bones(doc, c)
             names = names if isinstance(names, list) else []
             bones = [by_name.get(str(n)) for n in names]
             # 4.3 names a transform constraint's target bone "source" (what it reads).
             target = by_name.get(str(c.get("target", c.get("source")))) if kind in ("ik", "transform") else None
+            if kind == "slider" and c.get("bone") is not None:
+                target = by_name.get(str(c.get("bone")))
+                if target is None:
+                    continue
             if any(b is None for b in bones) or not bones or (kind in ("ik", "transform") and target is None):
                 continue
             order = c.get("order", 0)
@@ -1101,6 +1118,15 @@ class _Cache:
             for bone in c.bones:
                 self.sort_bone(bone)
             self._push_and_reset(c)
+        elif c.kind == "slider":
+            # 4.3: the driving bone posed first (unless read as animated); the bones its
+            # animation poses are posed again after it
+            if c.target is not None and c.data.get("local") is not True:
+                self.sort_bone(c.target)
+            self.items.append(c)
+            for bone in c.bones:
+                bone.sorted = False
+                self.sort_reset(bone.children)
         else:  # physics (4.2)
             self.sort_bone(c.bones[0])
             self.items.append(c)
@@ -1185,6 +1211,10 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
     """Apply one IK, transform or path constraint to its bones' transforms; False when the
     runtime returns without touching them (mixes 0, no path attachment in the setup pose)."""
     d = c.data
+    if c.kind == "slider":
+        if c.slider is None:
+            raise _Unsolved("sliders are played by spinemesh.anim's sampler only")
+        return c.slider.update(c)
     if c.kind == "path":
         if c.path is None:
             return False
@@ -1292,7 +1322,7 @@ def _skin_entry(doc: dict, skin: str | tuple[str, ...] | None) -> dict:
     if len(entries) == 1:
         return entries[0]
     return {kind: [n for e in entries for n in (e.get(kind) if isinstance(e.get(kind), list) else [])]
-            for kind in ("bones", "ik", "transform", "path", "physics")}
+            for kind in ("bones", "ik", "transform", "path", "physics", "slider")}
 
 
 def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str | None = None) -> Rig:
@@ -1331,7 +1361,8 @@ def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str 
         while bone is not None:
             bone.active = True
             bone = bone.parent
-    listed = {(kind, str(n)) for kind in ("ik", "transform", "path", "physics") for n in entry.get(kind) or []}
+    listed = {(kind, str(n)) for kind in ("ik", "transform", "path", "physics", "slider")
+              for n in entry.get(kind) or []}
     constraints = _read_constraints(doc, by_name)
     if family is None:
         return Rig(None, bones, constraints, [], doc)
@@ -1343,6 +1374,8 @@ def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str 
         reads = [c.target] if c.target is not None else []
         if c.kind == "physics":
             reads = c.bones[:1]
+        elif c.kind == "slider":
+            reads = []  # active whatever its bone (an inactive one leaves it still, each update)
         c.active = all(b.active for b in reads) and not needed
         if c.kind == "path":
             _read_path_target(c, doc, by_name, bones, skin)
@@ -1351,6 +1384,7 @@ def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str 
         bone.sorted = not bone.active
     cache = _Cache(family)
     kinds = ("ik", "transform", "path") + (("physics",) if family == "4.2" else ())
+    kinds += ("slider",) if four_three else ()
     for i in range(sum(1 for c in constraints if c.kind in kinds)):
         for kind in kinds:
             c = next((c for c in constraints if c.kind == kind and c.order == i), None)
@@ -1463,11 +1497,6 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
                     bone.exact = False
                     bone.why = (f"moved {where} by the {c.label()} (constraints are solved "
                                 f"for 3.8-4.2 skeletons; this one is {version or 'of an unknown version'})")
-    for c in constraints_of(doc, "slider"):  # 4.3: an animation drives bones through it
-        for n in (c.get("bones") or [c.get("bone")]) if isinstance(c.get("bones") or [c.get("bone")], list) else []:
-            b = next((x for x in bones if x.name == n), None)
-            if b is not None and b.exact:
-                b.exact, b.why = False, f"moved {where} by the slider constraint {c.get('name')!r}"
     _propagate(bones)
     return bones
 

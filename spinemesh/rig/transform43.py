@@ -173,7 +173,7 @@ def mixes_43(data: dict, mapping) -> list[float]:
     return [rotate, x, y, scale_x, setup(4, scale_x), setup(5, 1)]
 
 
-def _source_value(i: int, source, local: bool, offsets: list[float]) -> float:
+def source_value_43(i: int, source, local: bool, offsets: list[float]) -> float:
     """Source property ``i`` (local values or world transform), the constraint's offset added."""
     if local:
         applied = source.applied
@@ -280,7 +280,7 @@ def transform_apply_43(data: dict, source, bones: list) -> bool:
             (a, b, wx), (c, d, wy) = bone.world.tolist()
             m = [a, b, c, d, wx, wy]
         for i, from_offset, targets in mapping:
-            value = _source_value(i, source, local_source, offsets) - from_offset
+            value = source_value_43(i, source, local_source, offsets) - from_offset
             for j, to_offset, to_max, scale in targets:
                 if mixes[j] == 0:
                     continue
