@@ -298,3 +298,73 @@ def test_convert_names_what_a_3x_bezier_holds_in_one_short_line(tmp_path):
         line = _one_error(r)
         assert line.startswith(f"error: {name}:") and words[name] in line and len(line) < 300, line
         assert not (tmp_path / name.replace(".json", ".skel")).exists()
+
+
+# --- 4.3 physics with hostile numbers through pose and the preview -----------------------------
+
+#: One constraint per hostile setting, each on a bone of its own (the root's included).
+HOSTILE_PHYSICS = {
+    "root": {"x": 1, "y": 1, "rotate": 1, "scaleX": 1, "shearX": 1, "gravity": 1e9},
+    "fps0": {"rotate": 1, "fps": 0}, "fpsneg": {"x": 1, "fps": -5}, "fps1e9": {"rotate": 1, "fps": 1e9},
+    "fpstiny": {"y": 1, "fps": 1e-300},
+    "inertia": {"x": 1, "inertia": 1e9, "limit": 1e9}, "massless": {"rotate": 1, "scaleX": 1, "mass": 0},
+    "stiff": {"x": 1, "rotate": 1, "strength": 1e9, "mass": 1e-9}, "nolimit": {"x": 1, "y": 1, "limit": 0},
+    "windy": {"scaleX": 1, "scaleY": "volume", "wind": -1e9, "damping": 0},
+    "negative": {"rotate": 1, "damping": -1e9, "strength": -1e9, "mix": -1},
+}
+
+
+def _hostile_physics_doc() -> dict:
+    bones = [{"name": "root"}] + [{"name": n, "parent": "root", "x": 10 * i, "length": 20, "rotation": 15 * i}
+                                  for i, n in enumerate(HOSTILE_PHYSICS) if n != "root"]
+    bones += [{"name": f"{n}-tip", "parent": n, "x": 20, "length": 10} for n in HOSTILE_PHYSICS]
+    slots = [{"name": f"{n}-tip", "bone": f"{n}-tip", "attachment": "box"} for n in HOSTILE_PHYSICS]
+    return {"skeleton": {"spine": "4.3.23"}, "bones": bones, "slots": slots,
+            "constraints": [{"type": "physics", "name": n, "bone": n, **c} for n, c in HOSTILE_PHYSICS.items()],
+            "skins": [{"name": "default", "attachments": {s["name"]: {"box": {"width": 8, "height": 4}} for s in slots}}],
+            "animations": {"move": {
+                "bones": {"root": {"translate": [{"x": 0}, {"time": 0.5, "x": 300, "y": -200}, {"time": 1, "x": 0}],
+                                   "rotate": [{"value": 0}, {"time": 1, "value": 720}]}},
+                "physics": {"": {"gravity": [{"value": 0}, {"time": 0.5, "value": 1e30}],
+                                 "reset": [{"time": 0.7}]}}}}}
+
+
+def test_43_physics_with_hostile_numbers_poses_within_seconds(tmp_path):
+    """fps of 0, -5, 1e9 and 1e-300, inertia and gravity of 1e9, mass 0, limit 0, springs that
+    diverge, physics on the root: ``pose`` ends in seconds, writes nothing non-finite, and
+    flags the bones it cannot place (the springs that diverge; a constraint stepping more than
+    1,000 times a second) instead of writing NaN."""
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "phys.json").write_text(json.dumps(_hostile_physics_doc()))
+    before = snapshot(tmp_path)
+    r = _spinemesh("pose", "p/phys.json", "-a", "move", "--times", "0,0.1,0.5,0.75,1.5,3", "--out", "pose.json",
+                   cwd=tmp_path, stdout=subprocess.PIPE, timeout=60)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert {k: v for k, v in snapshot(tmp_path).items() if k != "pose.json"} == before
+    poses = _strict(json.loads((tmp_path / "pose.json").read_text()))["poses"]
+    for pose in poses:  # a bone not placed is flagged, never written as a number that is not one
+        assert {b for b, world in pose["bones"].items() if world is None} <= set(pose["inexact"])
+    assert all("fps1e9" in pose["inexact"] for pose in poses[1:])
+    assert any({"stiff", "stiff-tip"} <= set(pose["inexact"]) for pose in poses)
+    assert all(pose["bones"]["massless-tip"] is not None and "massless" not in pose["inexact"] for pose in poses)
+
+
+def test_43_physics_with_hostile_numbers_plays_in_the_preview_over_jobs(tmp_path):
+    """The same skeleton upgraded with ``--preview --jobs 2``: the player shows the animation
+    (its physics stepped in a worker), no traceback, within the time limit."""
+    from test_hostile import check_run, run_cli
+
+    from PIL import Image
+
+    project = tmp_path / "p"
+    (project / "images").mkdir(parents=True)
+    (project / "phys.json").write_text(json.dumps(_hostile_physics_doc()))
+    disc = Image.new("RGBA", (8, 4))
+    disc.paste((200, 80, 40, 255), (2, 1, 6, 3))
+    disc.save(project / "images" / "box.png")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", "--jobs", "2", cwd=tmp_path, timeout=120)
+    check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
+    model = next((tmp_path / "v" / "data").glob("*/model.js")).read_text(encoding="utf-8")
+    assert '"name":"move"' in model
