@@ -141,6 +141,22 @@ def test_pose_into_a_pipe_its_reader_closed_ends_quietly(tmp_path, demo_project)
     assert run.wait(60) == 1 and "Traceback" not in stderr and "Exception" not in stderr, stderr
 
 
+def test_pose_to_a_disk_that_fills_mid_stream_leaves_no_file(tmp_path, demo_project):
+    """The disk fills (here: a file size limit of 64 KiB) after some poses were streamed to
+    --out: one line naming --out, no temporary file, and what --out held is kept."""
+    from test_hostile import check_run, run_cli
+
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "pose.json").write_text("what was there")
+    times = ",".join(f"{i / 100:g}" for i in range(100))  # about 280 kB of JSON
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/demo.json", "-a", "wave", "--times", times, "--out", "out/pose.json", cwd=tmp_path,
+                file_size=64 * 1024)
+    check_run(r, before, tmp_path, ["out"], codes=(2,))
+    assert "out/pose.json" in _one_error(r) and (tmp_path / "out" / "pose.json").read_text() == "what was there"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["pose.json"]
+
+
 # --- the preview's animations sampled over --jobs ----------------------------------------------
 
 def _library_of_animations(tmp_path: Path, extra: dict) -> Path:
@@ -368,3 +384,55 @@ def test_43_physics_with_hostile_numbers_plays_in_the_preview_over_jobs(tmp_path
     check_run(r, before, tmp_path, ["o", "v"], codes=(0,))
     model = next((tmp_path / "v" / "data").glob("*/model.js")).read_text(encoding="utf-8")
     assert '"name":"move"' in model
+
+
+# --- Ctrl-C and SIGTERM while the preview's workers sample ---------------------------------------
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (Linux: read from /proc)."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                parents[int(entry.name)] = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+    found, todo = set(), [pid]
+    while todo:
+        here = todo.pop()
+        kids = {p for p, parent in parents.items() if parent == here}
+        todo += list(kids - found)
+        found |= kids
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from /proc")
+@pytest.mark.parametrize("sig, code", [("SIGTERM", 143), ("SIGINT", 130)])
+def test_a_signal_while_the_preview_samples_over_jobs_leaves_nothing_behind(tmp_path, sig, code):
+    """The run ends within seconds with 128 + the signal, no traceback, no worker left running
+    and no temporary file, the preview's files written so far each whole."""
+    import signal
+
+    turn = {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 20, "value": 900}]}}}
+    demo = _library_of_animations(tmp_path, {f"a{i}": turn for i in range(30)})
+    for i in range(3):
+        (demo / f"demo{i}.json").write_text((demo / "demo.json").read_text())
+    before = snapshot(tmp_path / "lib")
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
+    run = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", "lib/demo", "--out", "o", "--preview", "v",
+                            "--jobs", "2"], cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 90
+    while not (tmp_path / "v" / "data").exists() and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = _descendants(run.pid)
+    assert run.poll() is None and workers, "the preview ended before the signal: give it more to sample"
+    run.send_signal(getattr(signal, sig))
+    out, err = run.communicate(timeout=30)
+    assert run.returncode == code and b"Traceback" not in out + err, err.decode()[-2000:]
+    time.sleep(0.5)
+    assert not [p for p in workers if Path(f"/proc/{p}").exists()
+                and "Z" not in Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1][:3]]
+    assert not [p for p in tmp_path.rglob("*") if p.name.endswith(".tmp")]
+    assert snapshot(tmp_path / "lib") == before
+    for script in (tmp_path / "v").rglob("*.js"):
+        assert script.read_text(encoding="utf-8").rstrip().endswith(";"), script
