@@ -11,8 +11,12 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from spinemesh.anim import Sampler
 from spinemesh.anim.dump import advance_clock, pose_errors
+from spinemesh.skeleton import load_skeleton
+from spinemesh.skeleton_binary import write_skel
 
 from runtime_tool import node
 from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
@@ -259,12 +263,17 @@ def slider_doc() -> dict:
             "skins": skins, "animations": anims}
 
 
-def _against_43(runtime, doc: dict, tmp_path, times=TIMES) -> list[dict]:
+def _against_43(runtime, doc: dict, tmp_path, times=TIMES, binary: bool = False) -> list[dict]:
     """Every animation of ``doc`` at ``times`` by spine-core 4.3 and by the sampler (one skeleton,
     its clock carried from pose to pose, as the harness plays them): the errors of each pose,
-    with the bones the sampler flags."""
-    path = tmp_path / "skeleton.json"
-    path.write_text(json.dumps(doc), encoding="utf-8")
+    with the bones the sampler flags. ``binary``: both read the ``.skel`` our writer makes of it."""
+    if binary:
+        path = tmp_path / "skeleton.skel"
+        path.write_bytes(write_skel(doc))
+        doc = load_skeleton(path)
+    else:
+        path = tmp_path / "skeleton.json"
+        path.write_text(json.dumps(doc), encoding="utf-8")
     poses = ",".join(f"{a}@{t}" for a in doc["animations"] for t in times)
     r = node(runtime, "pose.mjs", "", path, tmp_path / "d.json", poses)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -356,6 +365,14 @@ def test_43_sliders_move_their_bones():
         alone["constraints"] = [x for x in alone["constraints"] if x["name"] != c["name"]]
         posed, without = Sampler(doc).pose("play", 0.8), Sampler(alone).pose("play", 0.8)
         assert any(abs(posed.bone(b) - without.bone(b)).max() > 0.01 for b in ("head", "arm", "hand")), c["name"]
+
+
+@pytest.mark.parametrize("make", [physics_doc, transform_doc, path_doc, slider_doc])
+def test_43_fixtures_as_skel_match_spine_core_43(make, runtime43, tmp_path):  # noqa: F811
+    """The same four skeletons as binary ``.skel`` (our writer; read by ours and by spine-core
+    4.3): the constraints' settings read from the binary pose alike (float32 values)."""
+    results = _against_43(runtime43, make(), tmp_path, TIMES[::2], binary=True)
+    _assert_exact(results)
 
 
 def test_43_what_is_not_solved_is_flagged():
