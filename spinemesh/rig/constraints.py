@@ -246,9 +246,20 @@ def _wrap_turns(degrees: float) -> float:
 
 
 # -- IK ------------------------------------------------------------------------------------
-def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, stretch: bool, uniform: bool,
+def _stretched_y(sy: float, s: float, scale_y: str) -> float:
+    """A stretched bone's y scale: kept (``"none"``), scaled alike (``"uniform"``; 4.2's
+    ``uniform``), or divided to keep its area (``"volume"``, 4.3; eased below a factor 0.7)."""
+    if scale_y == "uniform":
+        return sy * s
+    if scale_y == "volume":
+        return sy / (0.25 + 0.642857 * s if s < 0.7 else s)
+    return sy
+
+
+def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, stretch: bool, scale_y: str,
            alpha: float, family: str) -> None:
-    """One-bone IK: turn (and with compress/stretch, scale) ``bone`` to point at the target."""
+    """One-bone IK: turn (and with compress/stretch, scale) ``bone`` to point at the target;
+    ``scale_y`` as :func:`_stretched_y`."""
     if family == "3.8":
         bone.ensure_applied()
     if bone.v43:
@@ -293,13 +304,12 @@ def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, str
         if hit:
             s = (dist / b - 1) * alpha + 1
             sx *= s
-            if uniform:
-                sy *= s
+            sy = _stretched_y(sy, s, scale_y)
     bone.update_with((ax, ay, arot + rotation_ik * alpha, sx, sy, ashx, ashy))
 
 
 def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, bend: int, stretch: bool,
-           uniform: bool, softness: float, alpha: float, family: str) -> None:
+           scale_y: str, softness: float, alpha: float, family: str) -> None:
     """Two-bone IK: turn ``parent`` and ``child`` so the child's tip reaches the target."""
     if family == "3.8":
         if alpha == 0:
@@ -327,7 +337,7 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     dx, dy = (x * d - y * b) * inv - px, (y * a - x * c) * inv - py
     l1, l2 = math.hypot(dx, dy), child.length * csx
     if l1 < 0.0001:
-        ik_one(parent, tx_world, ty_world, False, stretch, False, alpha, family)
+        ik_one(parent, tx_world, ty_world, False, stretch, "none", alpha, family)
         ca = child.applied
         child.update_with((cx, cy, 0.0, ca[3], ca[4], ca[5], ca[6]))
         return
@@ -339,8 +349,8 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     if u:
         a1, a2, scale = _ik_two_uniform(l1, l2 * psx, tx, ty, dd, bend, stretch, alpha)
         sx *= scale
-        if uniform and family != "3.8":
-            sy *= scale
+        if family != "3.8" and scale != 1:
+            sy = _stretched_y(sy, scale, scale_y)
     else:
         a1, a2 = _ik_two_nonuniform(l1, l2, psx, psy, tx, ty, dd, bend, family)
     os = math.atan2(cy, cx) * s2
@@ -1226,20 +1236,18 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
         mix = _num(d, "mix", 1)
         if mix == 0 and family != "3.8":
             return False
-        uniform = bool(d.get("uniform", False))
+        scale_y = "uniform" if d.get("uniform", False) else "none"
         if c.v43:  # 4.3 names how a stretch scales y: "uniform" (4.2's uniform) or "volume"
-            uniform = d.get("scaleY") == "uniform"
-            if d.get("scaleY") == "volume" and (d.get("stretch") is True or d.get("compress") is True):
-                raise _Unsolved("4.3 volume-keeping IK stretch is not solved")
+            scale_y = d.get("scaleY") if d.get("scaleY") in ("uniform", "volume") else "none"
         tx, ty = (float(v) for v in c.target.world[:, 2])
         if len(c.bones) == 1 and c.bones[0].parent is not None:
             ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
-                   uniform, mix, family)
+                   scale_y, mix, family)
         elif len(c.bones) == 2 and c.bones[0].parent is not None and c.bones[0].parent.parent is not None \
                 and c.bones[1].parent is c.bones[0]:
             bend = 1 if d.get("bendPositive", True) else -1
             ik_two(c.bones[0], c.bones[1], tx, ty, bend, bool(d.get("stretch", False)),
-                   uniform, _num(d, "softness", 0), mix, family)
+                   scale_y, _num(d, "softness", 0), mix, family)
         else:
             raise _Unsolved("a chain it cannot solve")
         return True
