@@ -15,9 +15,9 @@ from __future__ import annotations
 import errno
 import json
 import os
+import secrets
 import shutil
 import stat
-import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -261,43 +261,46 @@ def make_folder(folder: str | Path) -> Path:
     return folder
 
 
-def _staged(path: Path, fill) -> str:
-    """A unique temporary file beside ``path``, written by ``fill(file)`` and flushed to disk: its name.
+def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:
+    """Write a unique temporary file beside ``path`` by ``fill(file)``, flushed to disk, and
+    list it in ``staged`` as ``(its name, path)``. It is listed before it is made: whatever
+    ends the run, at any instruction (Ctrl-C just after the file was created), the caller
+    holds its name and removes it (:func:`_rename_staged`).
 
     Raises
     ------
     OutputError
-        When the file system refuses; no temporary file stays.
+        When the file system refuses.
     """
     make_folder(path.parent)
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
+    while True:
+        tmp = os.path.join(path.parent, f".{path.name}.{secrets.token_hex(4)}.tmp")
+        staged.append((tmp, path))
+        try:
+            fd = os.open(tmp, flags, 0o666)  # less the umask, as an ordinary open() makes a file
+            break
+        except FileExistsError:  # another file's name (never ours to remove): another name
+            staged.pop()
+        except OSError as e:
+            raise _write_error(e, path) from None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as e:
-        raise _write_error(e, path) from None
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
             fill(f)
             f.flush()
             os.fsync(f.fileno())
-    except BaseException as e:
-        # Also on KeyboardInterrupt and the SystemExit that SIGTERM becomes: no temporary file stays.
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(e, OSError):
-            raise _write_error(e, path) from None
-        raise
-    return tmp
+    except OSError as e:
+        raise _write_error(e, path) from None
 
 
-def _atomic(path: Path, fill) -> None:
-    """Create a unique temporary file beside ``path``, let ``fill(file)`` write it, then rename."""
-    _renamed([(_staged(path, fill), path)])
-
-
-def _renamed(staged: list[tuple[str, Path]]) -> None:
-    """Rename each staged temporary file onto its path, in order; those not renamed are removed
-    (also on KeyboardInterrupt and SystemExit)."""
+def _rename_staged(stage) -> None:
+    """Call ``stage(staged)``, which stages temporary files (:func:`_stage`) into the list it
+    is given, then rename each onto its path, in order. Those not renamed are removed, whatever
+    ends it (also KeyboardInterrupt and the SystemExit that SIGTERM becomes, at any instruction:
+    one try covers the staging and the renames)."""
+    staged: list[tuple[str, Path]] = []
     try:
+        stage(staged)
         while staged:
             tmp, path = staged[0]
             try:
@@ -310,6 +313,11 @@ def _renamed(staged: list[tuple[str, Path]]) -> None:
             Path(tmp).unlink(missing_ok=True)
 
 
+def _atomic(path: Path, fill) -> None:
+    """Create a unique temporary file beside ``path``, let ``fill(file)`` write it, then rename."""
+    _rename_staged(lambda staged: _stage(path, fill, staged))
+
+
 def atomic_write_files(files: dict[Path, bytes]) -> None:
     """Write several files that only make sense together (an atlas and its pages): each one staged
     beside its path first, then all renamed, so that when one cannot be written (disk full,
@@ -320,15 +328,11 @@ def atomic_write_files(files: dict[Path, bytes]) -> None:
     OutputError
         When the file system refuses one of them.
     """
-    staged: list[tuple[str, Path]] = []
-    try:
+    def stage(staged: list) -> None:
         for path, data in files.items():
-            staged.append((_staged(Path(path), lambda f, d=data: f.write(d)), Path(path)))
-    except BaseException:
-        for tmp, _ in staged:
-            Path(tmp).unlink(missing_ok=True)
-        raise
-    _renamed(staged)
+            _stage(Path(path), lambda f, d=data: f.write(d), staged)
+
+    _rename_staged(stage)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:

@@ -157,6 +157,34 @@ def test_pose_to_a_disk_that_fills_mid_stream_leaves_no_file(tmp_path, demo_proj
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["pose.json"]
 
 
+
+def test_an_interruption_just_after_a_temporary_file_is_made_leaves_none(tmp_path, monkeypatch):
+    """Ctrl-C (or the SIGTERM that becomes SystemExit) lands between two instructions: once it
+    landed inside ``tempfile.mkstemp``, after the file was made and before its name came back,
+    and the file stayed (the preview's data scripts, about one run in eight). The name is now
+    held before the file is made: here the interruption comes just as ``open`` returns."""
+    from spinemesh.fsutil import atomic_write_files, atomic_write_text
+
+    real = os.open
+
+    def then_interrupted(path, flags, *args, **kwargs):
+        fd = real(path, flags, *args, **kwargs)
+        if flags & os.O_EXCL:
+            os.close(fd)
+            raise KeyboardInterrupt
+        return fd
+
+    (tmp_path / "kept.txt").write_text("what was there")
+    monkeypatch.setattr(os, "open", then_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_text(tmp_path / "kept.txt", "new")
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_files({tmp_path / "a.atlas": b"a", tmp_path / "a.png": b"p"})
+    monkeypatch.undo()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.txt"]
+    assert (tmp_path / "kept.txt").read_text() == "what was there"
+
+
 # --- the preview's animations sampled over --jobs ----------------------------------------------
 
 def _library_of_animations(tmp_path: Path, extra: dict) -> Path:

@@ -510,20 +510,20 @@ def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, t
     so the atlas and the pages in the output are the originals that go together (copied into OUT,
     or left as they were where ``upgrade --pack`` packs in place); no temporary file stays."""
     import errno
-    import tempfile
+    import os
 
     from spinemesh.pack.run import PackResult, pack_project_into
     from spinemesh.project import find_project
 
-    real, refused = tempfile.mkstemp, []
+    real, refused = os.open, []
 
-    def disk_full_once(*args, prefix="", **kwargs):
-        if prefix.startswith(".demo.atlas.") and not refused:
-            refused.append(prefix)
+    def disk_full_once(path, flags, *args, **kwargs):  # the atlas's temporary file cannot be made
+        if os.path.basename(path).startswith(".demo.atlas.") and flags & os.O_EXCL and not refused:
+            refused.append(path)
             raise OSError(errno.ENOSPC, "No space left on device")
-        return real(*args, prefix=prefix, **kwargs)
+        return real(path, flags, *args, **kwargs)
 
-    monkeypatch.setattr(tempfile, "mkstemp", disk_full_once)
+    monkeypatch.setattr(os, "open", disk_full_once)
     in_place = tmp_path / "in-place"
     shutil.copytree(meshed, in_place)
     result = PackResult()
