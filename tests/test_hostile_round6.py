@@ -464,3 +464,76 @@ def test_a_signal_while_the_preview_samples_over_jobs_leaves_nothing_behind(tmp_
     assert snapshot(tmp_path / "lib") == before
     for script in (tmp_path / "v").rglob("*.js"):
         assert script.read_text(encoding="utf-8").rstrip().endswith(";"), script
+
+
+# --- 4.3 constraints in loops and at extremes ------------------------------------------------------
+
+def _set_all(key, value):
+    def change(doc):
+        for c in doc["constraints"]:
+            c[key] = value
+    return change
+
+
+def _append(*constraints):
+    def change(doc):
+        doc["constraints"] += copy.deepcopy(list(constraints))
+    return change
+
+
+def _slider_keys_itself(doc):
+    doc["constraints"][0]["animation"] = "play"  # "play" keys the slider "timed" itself
+    doc["animations"]["nod"]["slider"] = {"by_turn": {"time": [{"value": 0}, {"time": 1, "value": 1e300}]}}
+    doc["constraints"][2]["animation"] = "play"
+
+
+def _slider_driven_by_what_it_moves(doc):
+    doc["constraints"][1]["bone"] = "hand"  # "wave" turns the hand that drives it
+
+
+def _transform_onto_its_source(doc):
+    doc["constraints"][0]["bones"] = ["face"]
+
+
+def _mappings_of_wrong_types(doc):
+    doc["constraints"][0]["properties"] = {"bogus": {"to": {"rotate": {}}}, "x": [1], "y": "z",
+                                           "rotate": {"to": {"bogus": {}, "x": [], "y": None,
+                                                             "scaleX": {"scale": 1e300, "offset": BIG}}}}
+
+
+HOSTILE_43 = {
+    "a slider playing the animation that keys it": ("slider", _slider_keys_itself),
+    "a slider driven by a bone its animation moves": ("slider", _slider_driven_by_what_it_moves),
+    "sliders of scale, time and range 1e300": ("slider", lambda d: [_set_all(k, 1e300)(d) for k in
+                                                                   ("scale", "time", "from", "to", "mix")]),
+    "sliders of 400-digit numbers and text": ("slider", lambda d: [_set_all(k, v)(d) for k, v in
+                                                                   (("scale", BIG), ("time", "x"), ("to", None))]),
+    "a slider of no animation": ("slider", lambda d: d["constraints"][0].update(animation="nope")),
+    "physics on the bones sliders move and read": ("slider", _append(
+        {"type": "physics", "name": "p", "bone": "hand", "rotate": 1, "x": 1},
+        {"type": "physics", "name": "q", "bone": "knob", "x": 1, "strength": 1e9, "mass": 1e-9})),
+    "a transform onto its own source": ("transform", _transform_onto_its_source),
+    "two transforms in a loop": ("transform", _append({"type": "transform", "name": "back", "source": "eye",
+                                                       "bones": ["face"], "mixRotate": 1,
+                                                       "properties": {"rotate": {"to": {"rotate": {}}}}})),
+    "an IK whose target is its own bone": ("transform", _append({"type": "ik", "name": "me", "target": "arm",
+                                                                 "bones": ["arm"]})),
+    "mappings of wrong types and 1e300": ("transform", _mappings_of_wrong_types),
+}
+
+
+@pytest.mark.parametrize("case", list(HOSTILE_43))
+def test_43_constraints_in_loops_and_at_extremes_pose_finite(tmp_path, case):
+    """Through the document's check and the sampler: every animation poses, finite, in seconds."""
+    from test_anim43 import slider_doc, transform_doc
+
+    from spinemesh.skeleton import load_skeleton
+
+    kind, change = HOSTILE_43[case]
+    doc = slider_doc() if kind == "slider" else transform_doc()
+    change(doc)
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    sampler = Sampler(load_skeleton(tmp_path / "x.json"))
+    with within(30):
+        for name in doc["animations"]:
+            _strict(dump(sampler, name, [0.05, 0.5, 1.5, 3.3]))
