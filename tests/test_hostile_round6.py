@@ -414,6 +414,30 @@ def test_43_physics_with_hostile_numbers_plays_in_the_preview_over_jobs(tmp_path
     assert '"name":"move"' in model
 
 
+
+def test_round_five_hostile_animations_sampled_over_workers_write_the_same_files(tmp_path, monkeypatch):
+    """Round five's hostile animations (keys at 1e300 s, 400-digit values, deforms of the wrong
+    size, draw orders out of slot order, ...), one task each over two workers: each is shown or
+    left out as one process shows it, the same files to the byte."""
+    from test_hostile_wave4 import _hostile_doc
+
+    from spinemesh.upgrade import Options, preview, upgrade_library
+    from spinemesh.upgrade.preview import write_preview
+
+    project = tmp_path / "lib" / "arm"
+    project.mkdir(parents=True)
+    (project / "arm.json").write_text(json.dumps(_hostile_doc()))
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
+    monkeypatch.setattr(preview, "CHUNK_SECONDS", 0.0)
+    with within(120):
+        for jobs in (1, 2):
+            write_preview(result, tmp_path / "lib", tmp_path / "out", tmp_path / f"v{jobs}", jobs=jobs)
+    files = [sorted(p.relative_to(v) for p in v.rglob("*") if p.is_file()) for v in (tmp_path / "v1", tmp_path / "v2")]
+    assert files[0] == files[1] and len([p for p in files[0] if p.parts[0] == "data"]) > 30
+    for rel in files[0]:
+        assert (tmp_path / "v1" / rel).read_bytes() == (tmp_path / "v2" / rel).read_bytes(), rel
+
+
 # --- Ctrl-C and SIGTERM while the preview's workers sample ---------------------------------------
 
 def _descendants(pid: int) -> set[int]:
@@ -537,3 +561,33 @@ def test_43_constraints_in_loops_and_at_extremes_pose_finite(tmp_path, case):
     with within(30):
         for name in doc["animations"]:
             _strict(dump(sampler, name, [0.05, 0.5, 1.5, 3.3]))
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from /proc")
+def test_a_worker_killed_once_while_the_preview_samples_changes_nothing(tmp_path):
+    """``kill -9`` of one of the preview's workers (the run's other processes untouched): its
+    task is run again in a fresh worker, the run exits 0 and writes the same files."""
+    import signal
+
+    turn = {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 20, "value": 900}]}}}
+    _library_of_animations(tmp_path, {f"a{i}": turn for i in range(30)})
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
+    args = [sys.executable, "-m", "spinemesh", "upgrade", "lib/demo", "--jobs", "2"]
+    whole = subprocess.run(args + ["--out", "o1", "--preview", "v1"], cwd=tmp_path, env=env, capture_output=True,
+                           timeout=120, check=False)
+    assert whole.returncode == 0, whole.stderr.decode()[-2000:]
+    run = subprocess.Popen(args + ["--out", "o2", "--preview", "v2"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 90
+    while not (tmp_path / "v2" / "data").exists() and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    workers = sorted(_descendants(run.pid))
+    assert run.poll() is None and workers, "the preview ended before a worker could be killed"
+    os.kill(workers[0], signal.SIGKILL)
+    out, err = run.communicate(timeout=120)
+    assert run.returncode == 0 and b"Traceback" not in out + err, err.decode()[-2000:]
+    files = [sorted(p.relative_to(v) for p in v.rglob("*") if p.is_file()) for v in (tmp_path / "v1", tmp_path / "v2")]
+    assert files[0] == files[1]
+    for rel in files[0]:
+        if rel.name != "index.html":  # which names its output folder
+            assert (tmp_path / "v1" / rel).read_bytes() == (tmp_path / "v2" / rel).read_bytes(), rel
