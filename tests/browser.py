@@ -33,10 +33,16 @@ def run(url: str, tmp: Path, *args: str, budget_ms: int = 5000) -> subprocess.Co
     r = subprocess.run([chromium(), *FLAGS, f"--user-data-dir={profile}", f"--virtual-time-budget={budget_ms}",
                         *args, url], capture_output=True, text=True, timeout=180, env={**os.environ, "HOME": str(tmp)})
     assert r.returncode == 0, r.stderr[-2000:]
-    errors = [line for line in r.stderr.splitlines() if "Uncaught" in line or "net::ERR_FILE_NOT_FOUND" in line
-              or ("CONSOLE" in line and ("Error" in line or "Failed" in line))]
+    errors = page_errors(r.stderr)
     assert not errors, "\n".join(errors)
     return r
+
+
+def page_errors(stderr: str) -> list[str]:
+    """The page's errors in the browser's log (``--enable-logging=stderr``): uncaught
+    exceptions, console errors, files it could not load."""
+    return [line for line in stderr.splitlines() if "Uncaught" in line or "net::ERR_FILE_NOT_FOUND" in line
+            or ("CONSOLE" in line and ("Error" in line or "Failed" in line))]
 
 
 def player_result(url: str, tmp: Path, *args: str, budget_ms: int = 5000) -> dict:
