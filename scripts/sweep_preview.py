@@ -10,7 +10,7 @@ traceback was printed, ``error:`` lines, the upgrade's seconds (its timing line)
 preview's (its last line), the preview's problem lines (a skeleton "not shown", "could not
 pose", animations "not shown", the players' "Not as a game shows it" notes), and the sizes of
 what it wrote (largest page, largest script, all files). Then every skeleton's page is opened
-in headless Chromium twice (the flags of the tests, ``tests/browser.py``): paused in its first
+in headless Chromium twice (the flags of the tests, ``tests/browser.py``): paused in its longest
 animation (its setup pose when it has none) at ``--at`` seconds, both canvases read back
 (visible pixels of each: a blank canvas is a defect until shown otherwise), then playing that
 animation for a second of page time (canvas checksums every 0.1 s: whether the
@@ -41,15 +41,15 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 CORPUS = REPO.parent / "shared" / "spine-corpus"
 
-from browser import FLAGS, chromium, page_errors  # noqa: E402
+from browser import FLAGS, chromium, page_errors
 
-_TIMING = re.compile(r"^read [\d.]+ s\b.*$", re.M)
+_TIMING = re.compile(r"^read [\d.]+ s\b.*$", re.MULTILINE)
 _SECONDS = re.compile(r"([\d.]+) s\b")
-_PREVIEW = re.compile(r"^preview: .* \(([\d.]+) s\)$", re.M)
-_LI = re.compile(r"<li>(.*?)</li>", re.S)
-_NOT_SHOWN = re.compile(r"<small>not shown: (.*?)</small>", re.S)
+_PREVIEW = re.compile(r"^preview: .* \(([\d.]+) s\)$", re.MULTILINE)
+_LI = re.compile(r"<li>(.*?)</li>", re.DOTALL)
+_NOT_SHOWN = re.compile(r"<small>not shown: (.*?)</small>", re.DOTALL)
 _NOTE = re.compile(r'"note":"((?:[^"\\]|\\.)+)"')
-_TEST = re.compile(r'<pre id="sm-test">(.*?)</pre>', re.S)
+_TEST = re.compile(r'<pre id="sm-test">(.*?)</pre>', re.DOTALL)
 
 
 def unescape(text: str) -> str:
@@ -65,7 +65,7 @@ def upgrade(project: Path, scratch: Path, timeout: float) -> dict:
            "--preview", str(scratch / "preview"), "--jobs", "1"]
     t0 = time.perf_counter()
     try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=scratch,
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=scratch, check=False,
                            env={**os.environ, "COLUMNS": "200", "PYTHONPATH": str(REPO)})
         rc, text = r.returncode, r.stdout + "\n" + r.stderr
     except subprocess.TimeoutExpired as e:
@@ -96,26 +96,39 @@ def preview_contents(preview: Path) -> dict:
         problems += [f"{page.stem}: {unescape(m)}" for m in _LI.findall(text)]
         if 'class="player"' not in text:
             no_player.append(page.stem)
-    notes = sorted({f"{p.parent.name}: {json.loads(chr(34) + m + chr(34))}" for p in scripts if p.parent.parent.name == "data"
-                    for m in _NOTE.findall(p.read_text(encoding="utf-8"))})
-    biggest = lambda group: max(((p.stat().st_size, p.relative_to(preview).as_posix()) for p in group), default=(0, ""))  # noqa: E731
+    notes = sorted({f"{p.parent.name}: {json.loads(chr(34) + m + chr(34))}" for p in scripts
+                    if p.parent.parent.name == "data" for m in _NOTE.findall(p.read_text(encoding="utf-8"))})
+
+    def biggest(group: list[Path]) -> tuple[int, str]:
+        return max(((p.stat().st_size, p.relative_to(preview).as_posix()) for p in group), default=(0, ""))
+
     return {"problems": problems, "notes": notes, "no_player": no_player, "files": len(files),
             "bytes": sum(p.stat().st_size for p in files), "largest_page": biggest(pages),
             "largest_script": biggest(scripts), "pages": len(pages) - index.is_file()}
 
 
-def open_page(url: str, tmp: Path, budget_ms: int = 5000) -> tuple[dict | None, list[str], str]:
+#: Times a page is opened again when the browser does not end (headless Chromium, rarely, hangs
+#: on a loaded machine; the same page opened again ends in seconds).
+RETRIES = 2
+
+
+def open_page(url: str, tmp: Path, budget_ms: int = 5000, timeout: float = 90) -> tuple[dict | None, list[str], str]:
     """Open ``url`` in headless Chromium; what the player's test hook wrote, the page errors,
     and why nothing came back (empty when something did)."""
-    profile = tmp / f"profile{len(list(tmp.glob('profile*')))}"
-    try:
-        r = subprocess.run(["nice", "-n", "10", chromium(), *FLAGS, f"--user-data-dir={profile}",
-                            f"--virtual-time-budget={budget_ms}", "--dump-dom", url],
-                           capture_output=True, text=True, timeout=180, env={**os.environ, "HOME": str(tmp)})
-    except subprocess.TimeoutExpired:
-        return None, [], "chromium timed out (180 s)"
-    finally:
-        shutil.rmtree(profile, ignore_errors=True)
+    for attempt in range(RETRIES + 1):
+        profile = tmp / f"profile{attempt}"
+        try:
+            r = subprocess.run(["nice", "-n", "10", chromium(), *FLAGS, f"--user-data-dir={profile}",
+                                f"--virtual-time-budget={budget_ms}", "--dump-dom", url],
+                               capture_output=True, text=True, timeout=timeout, check=False,
+                               env={**os.environ, "HOME": str(tmp)})
+            break
+        except subprocess.TimeoutExpired:
+            print(f"  chromium did not end in {timeout:.0f} s: {url} (try {attempt + 1})", file=sys.stderr, flush=True)
+        finally:
+            shutil.rmtree(profile, ignore_errors=True)
+    else:
+        return None, [], f"chromium did not end in {timeout:.0f} s, {RETRIES + 1} times"
     errors = page_errors(r.stderr)
     found = _TEST.search(r.stdout)
     if r.returncode != 0:
@@ -143,8 +156,9 @@ def in_browser(preview: Path, tmp: Path, at: float) -> dict:
             out[page.stem] = {"no_player": True}
             continue
         anims = json.loads(model.read_text(encoding="utf-8").split(",", 1)[1].rsplit(");", 1)[0])["anims"]
-        anim = 1 if len(anims) > 1 else 0  # the first animation (0 is the setup pose)
-        row = {"anim": anims[anim]["name"], "anims": len(anims) - 1}
+        # the longest animation (0 is the setup pose: still), the first of them
+        anim = max(range(1, len(anims)), key=lambda i: (anims[i]["dur"], -i)) if len(anims) > 1 else 0
+        row = {"anim": anims[anim]["name"], "anims": len(anims) - 1, "dur": anims[anim]["dur"]}
         got, errors, why = open_page(page.resolve().as_uri() + f"#at={anim},{at:g}", tmp)
         row["errors"] = errors
         if got is None:
@@ -158,6 +172,7 @@ def in_browser(preview: Path, tmp: Path, at: float) -> dict:
         else:
             samples = got["samples"]
             row["frames_differ"] = [len({s[k] for s in samples}) for k in ("before", "after")]
+            row["clock"] = max((s["t"] for s in samples), default=0.0)
             row["samples"] = len(samples)
         out[page.stem] = row
     return out
@@ -204,8 +219,10 @@ def defects(row: dict) -> list[str]:
 
 def sweep(out: Path, root: Path, only: list[str], timeout: float, at: float) -> None:
     done = set()
-    if out.is_file():
-        done = {json.loads(line)["project"] for line in out.read_text().splitlines() if line.strip()}
+    if out.is_file():  # go on where a stopped sweep ended; the projects named in ``only`` again
+        rows = [line for line in out.read_text().splitlines() if line.strip()]
+        out.write_text("".join(line + "\n" for line in rows if json.loads(line)["project"] not in only))
+        done = {json.loads(line)["project"] for line in rows} - set(only)
     projects = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
     projects = [p for p in projects if (not only or p.name in only) and p.name not in done]
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -264,7 +281,7 @@ def main() -> None:
     s = sub.add_parser("sweep", help="upgrade --preview every project and open its pages in Chromium")
     s.add_argument("--out", type=Path, required=True, help="JSONL row file (a sweep stopped goes on from it)")
     s.add_argument("--root", type=Path, default=CORPUS, help="folder of project folders (default: the corpus)")
-    s.add_argument("--only", nargs="*", default=[], help="project folder names")
+    s.add_argument("--only", nargs="*", default=[], help="project folder names (swept again if swept before)")
     s.add_argument("--timeout", type=float, default=300.0, help="seconds per upgrade")
     s.add_argument("--at", type=float, default=0.5, help="seconds into the animation of the paused page")
     t = sub.add_parser("table")
