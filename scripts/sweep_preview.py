@@ -12,11 +12,11 @@ pose", animations "not shown", the players' "Not as a game shows it" notes), and
 what it wrote (largest page, largest script, all files). Then every skeleton's page is opened
 in headless Chromium twice (the flags of the tests, ``tests/browser.py``): paused in its longest
 animation (its setup pose when it has none) at ``--at`` seconds, both canvases read back
-(visible pixels of each: a blank canvas is a defect until shown otherwise), then playing that
-animation for a second of page time (canvas checksums every 0.1 s: whether the
-frames drawn change); page errors (uncaught exceptions, console errors, files not found) of
-both runs are recorded. One JSON row per project, appended to the ``--out`` file as each
-ends (a sweep stopped goes on from it); the scratch folder is deleted after each project.
+(visible pixels of each: a blank canvas is a defect until shown otherwise), then its player
+seeking that animation to 8 times over it (:data:`SEEK_PAGE`: whether the frames drawn
+change); page errors (uncaught exceptions, console errors, files not found) of both runs are
+recorded. One JSON row per project, appended to the ``--out`` file as each ends (a sweep
+stopped goes on from it); the scratch folder is deleted after each project.
 
 ``table`` prints the totals, the defects by kind with their projects, and the slowest
 previews against their upgrades.
@@ -49,7 +49,6 @@ _PREVIEW = re.compile(r"^preview: .* \(([\d.]+) s\)$", re.MULTILINE)
 _LI = re.compile(r"<li>(.*?)</li>", re.DOTALL)
 _NOT_SHOWN = re.compile(r"<small>not shown: (.*?)</small>", re.DOTALL)
 _NOTE = re.compile(r'"note":"((?:[^"\\]|\\.)+)"')
-_TEST = re.compile(r'<pre id="sm-test">(.*?)</pre>', re.DOTALL)
 
 
 def unescape(text: str) -> str:
@@ -112,9 +111,10 @@ def preview_contents(preview: Path) -> dict:
 RETRIES = 2
 
 
-def open_page(url: str, tmp: Path, budget_ms: int = 5000, timeout: float = 90) -> tuple[dict | None, list[str], str]:
-    """Open ``url`` in headless Chromium; what the player's test hook wrote, the page errors,
-    and why nothing came back (empty when something did)."""
+def open_page(url: str, tmp: Path, budget_ms: int = 5000, timeout: float = 90,
+              pre: str = "sm-test") -> tuple[dict | None, list[str], str]:
+    """Open ``url`` in headless Chromium; what the page wrote in ``<pre id="PRE">`` (by default
+    the player's test hook), the page errors, and why nothing came back (empty when something did)."""
     for attempt in range(RETRIES + 1):
         profile = tmp / f"profile{attempt}"
         try:
@@ -130,7 +130,7 @@ def open_page(url: str, tmp: Path, budget_ms: int = 5000, timeout: float = 90) -
     else:
         return None, [], f"chromium did not end in {timeout:.0f} s, {RETRIES + 1} times"
     errors = page_errors(r.stderr)
-    found = _TEST.search(r.stdout)
+    found = re.search(f'<pre id="{pre}">(.*?)</pre>', r.stdout, re.DOTALL)
     if r.returncode != 0:
         return None, errors, f"chromium exit {r.returncode}: {r.stderr.strip()[-300:]}"
     if not (found and found.group(1)):
@@ -147,8 +147,57 @@ def visible(data_url: str) -> int:
     return int((rgba[..., 3] > 0).sum())
 
 
+#: A page beside a skeleton's page that loads its player as the page does, paused in an
+#: animation (``#at=A,0``), then, once the player's own test hook has written its result (the
+#: frames and images loaded), seeks the animation to ``SEEKS`` times spread over it: each drawn
+#: once to load its images, then again, with a checksum of each canvas. Not played by the
+#: page's clock: headless Chromium's virtual time and a page that draws every frame hang it, now
+#: and then, for minutes.
+SEEK_PAGE = """<!doctype html><html><head><meta charset="utf-8"></head><body>
+<div class="player" id="player-{pid}"></div><script src="../player.js"></script>
+<script src="../data/{pid}/model.js"></script><script>
+(function () {{
+  var N = {seeks};
+  function sum(c) {{
+    var px = c.getContext("2d").getImageData(0, 0, c.width, c.height).data, s = 0;
+    for (var i = 0; i < px.length; i++) s = (s * 31 + px[i]) % 1000000007;
+    return s;
+  }}
+  function loading(P) {{ return P.images.some(function (im) {{ return im && !im.complete; }}); }}
+  function pass(P, checked) {{
+    var out = [];
+    for (var i = 0; i < N; i++) {{
+      P.t = P.data.dur * i / N;
+      P.draw();
+      if (checked) {{
+        var cs = document.querySelectorAll("#player-{pid} canvas");
+        out.push({{ t: P.t, before: sum(cs[0]), after: sum(cs[1]) }});
+      }}
+    }}
+    return out;
+  }}
+  function go() {{
+    var P = SM.players && SM.players["{pid}"], done = document.getElementById("sm-test");
+    if (!P || !done || !done.textContent) {{ setTimeout(go, 50); return; }}
+    pass(P, false);
+    (function wait() {{
+      if (loading(P)) {{ setTimeout(wait, 50); return; }}
+      var pre = document.createElement("pre");
+      pre.id = "sm-seek";
+      pre.textContent = JSON.stringify(pass(P, true));
+      document.body.appendChild(pre);
+    }})();
+  }}
+  go();
+}})();
+</script></body></html>
+"""
+SEEKS = 8
+
+
 def in_browser(preview: Path, tmp: Path, at: float) -> dict:
-    """Every skeleton page of ``preview`` opened paused and playing: per page what it drew."""
+    """Every skeleton page of ``preview`` opened paused, and its player seeking (:data:`SEEK_PAGE`):
+    per page what it drew."""
     out = {}
     for page in sorted(preview.glob("s/*.html")):
         model = preview / "data" / page.stem / "model.js"
@@ -165,15 +214,14 @@ def in_browser(preview: Path, tmp: Path, at: float) -> dict:
             row["still"] = why
         else:
             row["visible"] = [visible(got["before"]), visible(got["after"])]
-        got, errors, why = open_page(page.resolve().as_uri() + f"#play={anim}&test=1", tmp, budget_ms=2000)
+        seek = page.with_name(f"{page.stem}.seek.html")
+        seek.write_text(SEEK_PAGE.format(pid=page.stem, seeks=SEEKS), encoding="utf-8")
+        got, errors, why = open_page(seek.resolve().as_uri() + f"#at={anim},0", tmp, pre="sm-seek")
         row["errors"] += [e for e in errors if e not in row["errors"]]
         if got is None:
-            row["playing"] = why
+            row["seeking"] = why
         else:
-            samples = got["samples"]
-            row["frames_differ"] = [len({s[k] for s in samples}) for k in ("before", "after")]
-            row["clock"] = max((s["t"] for s in samples), default=0.0)
-            row["samples"] = len(samples)
+            row["frames_differ"] = [len({s[k] for s in got}) for k in ("before", "after")]
         out[page.stem] = row
     return out
 
@@ -210,7 +258,7 @@ def defects(row: dict) -> list[str]:
     pages = row.get("browser", {}).values()
     if any(p.get("errors") for p in pages):
         out.append("page error")
-    if any(p.get("still") or p.get("playing") for p in pages):
+    if any(p.get("still") or p.get("seeking") for p in pages):
         out.append("no test result")
     if any("visible" in p and min(p["visible"]) == 0 for p in pages):
         out.append("blank canvas")
@@ -246,7 +294,7 @@ def table(files: list[Path], slowest: int = 5) -> None:
                                                      for k, v in sorted(exits.items(), key=lambda kv: str(kv[0]))))
     print(f"skeleton pages {len(pages)}; opened paused {sum('visible' in p for p in pages)}, "
           f"both canvases drawn {sum('visible' in p and min(p['visible']) > 0 for p in pages)}; "
-          f"played {sum('frames_differ' in p for p in pages)}, frames changing on both sides "
+          f"seeked {sum('frames_differ' in p for p in pages)}, frames changing on both sides "
           f"{sum(min(p.get('frames_differ', [0])) > 1 for p in pages)}; page errors "
           f"{sum(bool(p.get('errors')) for p in pages)}")
     kinds: dict = {}
