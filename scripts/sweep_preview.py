@@ -12,7 +12,8 @@ pose", animations "not shown", the players' "Not as a game shows it" notes), and
 what it wrote (largest page, largest script, all files). Then every skeleton's page is opened
 in headless Chromium twice (the flags of the tests, ``tests/browser.py``): paused in its longest
 animation (its setup pose when it has none) at ``--at`` seconds, both canvases read back
-(visible pixels of each: a blank canvas is a defect until shown otherwise), then its player
+(visible pixels of each: a blank canvas is a defect until shown otherwise; where that animation
+draws nothing, the setup pose is opened too), then its player
 seeking that animation to 8 times over it (:data:`SEEK_PAGE`: whether the frames drawn
 change); page errors (uncaught exceptions, console errors, files not found) of both runs are
 recorded. One JSON row per project, appended to the ``--out`` file as each ends (a sweep
@@ -214,6 +215,10 @@ def in_browser(preview: Path, tmp: Path, at: float) -> dict:
             row["still"] = why
         else:
             row["visible"] = [visible(got["before"]), visible(got["after"])]
+            if anim and min(row["visible"]) == 0:  # an animation may hide all: the setup pose then
+                got, errors, why = open_page(page.resolve().as_uri() + "#at=0,0", tmp)
+                row["errors"] += [e for e in errors if e not in row["errors"]]
+                row["setup_visible"] = why or [visible(got["before"]), visible(got["after"])]
         seek = page.with_name(f"{page.stem}.seek.html")
         seek.write_text(SEEK_PAGE.format(pid=page.stem, seeks=SEEKS), encoding="utf-8")
         got, errors, why = open_page(seek.resolve().as_uri() + f"#at={anim},0", tmp, pre="sm-seek")
@@ -260,8 +265,13 @@ def defects(row: dict) -> list[str]:
         out.append("page error")
     if any(p.get("still") or p.get("seeking") for p in pages):
         out.append("no test result")
-    if any("visible" in p and min(p["visible"]) == 0 for p in pages):
+    if any("visible" in p and min(p["visible"]) == 0 and min(p.get("setup_visible", [0])) == 0 for p in pages):
         out.append("blank canvas")
+    if any("visible" in p and abs(p["visible"][1] - p["visible"][0]) > max(100, 0.05 * p["visible"][0])
+           for p in pages):
+        out.append("the sides draw unlike areas")
+    if any(min(p.get("frames_differ", [2])) < 2 < 100 * p.get("dur", 0) for p in pages):
+        out.append("frames all alike")
     return out
 
 
