@@ -205,6 +205,26 @@ def test_poses_match_the_official_runtime(skeleton, examples, spine_runtime, tmp
             assert e["bone"] <= 0.01 and e["vertex"] <= 0.01, (animation, a["label"], e)
 
 
+@pytest.mark.parametrize("version", ["4.0.64", "4.1.24", "4.2.22"])
+def test_a_bone_under_a_parent_scaled_to_zero_poses_as_in_the_official_runtime(version, spine_runtime, tmp_path):
+    """Where the runtime divides by a parent's zero determinant and goes on, the pose is its
+    pose, exact (the preview said "Not as a game shows it" of a slot symbol that was)."""
+    from rig_project import make_worm_project
+    from test_rig import flattened_under_a_world_constraint
+
+    path = make_worm_project(tmp_path / "in")
+    doc = flattened_under_a_world_constraint(version)
+    path.write_text(json.dumps(doc))
+    atlas = path.parent / "worm.atlas"
+    theirs = pose_dump(spine_runtime, atlas, path, tmp_path / "d.json", "wiggle", "0,0.5")
+    sampler = Sampler(doc, None, atlas_regions(read_atlas(atlas)))
+    ours = dump(sampler, "wiggle", [0, 0.5])
+    for a, b in zip(ours["poses"], theirs["poses"]):
+        e = pose_errors(a, b)
+        assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (a["label"], e)
+    assert all(sampler.pose("wiggle", t).exact.all() for t in (0, 0.5))
+
+
 def _cli(*args):
     import os
     import subprocess

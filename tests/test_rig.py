@@ -115,6 +115,26 @@ def test_transform_constraint_copies_the_target_rotation_in_update_order():
     assert np.isclose(angle(bones["follower"]), 10) and not np.isclose(angle(bones["seg3"]), 0)
 
 
+def flattened_under_a_world_constraint(version: str) -> dict:
+    """The worm drawn on seg3, seg1 scaled to 0 across (its determinant 0: seg2 under it is a
+    line) and seg2 turned, moved and sheared out of that line by a world transform constraint
+    to ``target``: the runtimes divide by seg1's zero determinant and go on."""
+    doc = _worm_with(version)
+    doc["bones"][1]["scaleY"] = 0
+    doc["bones"][2]["rotation"] = 30
+    doc["slots"][0]["bone"] = "seg3"
+    doc["transform"] = [{"name": "lift", "bones": ["seg2"], "target": "target", "rotation": 20, "shearY": 40}]
+    return doc
+
+
+@pytest.mark.parametrize("version", ["4.0.64", "4.1.24", "4.2.22"])
+def test_a_bone_under_a_parent_scaled_to_zero_is_exact_where_a_constraint_moves_it(version):
+    bones = _posed(flattened_under_a_world_constraint(version))
+    (a, b, x), (c, d, y) = bones["seg2"].world
+    assert abs(a * d - b * c) > 0.1 and np.allclose((x, y), bones["target"].world[:, 2])  # out of the line
+    assert bones["seg2"].exact and bones["seg3"].exact, (bones["seg2"].why, bones["seg3"].why)
+
+
 def _with_rail(doc, **path):
     """A straight path slot ``rail`` on the root, from (-100, 100) to (200, 100), and a path
     constraint on seg2 and seg3 along it."""

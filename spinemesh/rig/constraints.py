@@ -183,7 +183,10 @@ class PoseBone:
                             math.atan2(a * b + c * d, a * d - b * c) * RAD_DEG]
             return
         (pa, pb, pwx), (pc, pd, pwy) = self.parent.world.tolist()
-        pid = 1 / (pa * pd - pb * pc)
+        # A parent scaled to 0 on an axis: the runtimes' floats divide by its zero determinant
+        # and go on (infinite local values, which only a constraint reading them would use);
+        # Python's would stop the pose where the game's world transform is exact.
+        pid = float_divide(1.0, pa * pd - pb * pc)
         ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
         dx, dy = wx - pwx, wy - pwy
         ax, ay = dx * ia - dy * ib, dy * id_ - dx * ic
@@ -191,9 +194,9 @@ class PoseBone:
             ra, rb, rc, rd = a, b, c, d
         else:
             if self.family == "4.2" and self.inherit == "noRotationOrReflection":
-                s = abs(pa * pd - pb * pc) / (pa * pa + pc * pc)
+                s = float_divide(abs(pa * pd - pb * pc), pa * pa + pc * pc)
                 pb, pd = -pc * s, pa * s
-                pid = 1 / (pa * pd - pb * pc)
+                pid = float_divide(1.0, pa * pd - pb * pc)
                 ia, ib = pd * pid, pb * pid
             elif self.family == "4.2" and self.inherit in ("noScale", "noScaleOrReflection"):
                 cos, sin = math.cos(self.local[2] * RAD), math.sin(self.local[2] * RAD)
@@ -207,7 +210,7 @@ class PoseBone:
                     s = -s
                 r = PI / 2 + math.atan2(pc, pa)
                 pb, pd = math.cos(r) * s, math.sin(r) * s
-                pid = 1 / (pa * pd - pb * pc)
+                pid = float_divide(1.0, pa * pd - pb * pc)
                 ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
             ra, rb = ia * a - ib * c, ia * b - ib * d
             rc, rd = id_ * c - ic * a, id_ * d - ic * b
@@ -222,6 +225,22 @@ class PoseBone:
             scale_x, scale_y, shear_y = 0.0, math.hypot(rb, rd), 0.0
             rotation = 90 - math.atan2(rd, rb) * RAD_DEG
         self.applied = [ax, ay, rotation, scale_x, scale_y, 0.0, shear_y]
+
+
+def float_divide(a: float, b: float) -> float:
+    """``a / b`` as the runtimes' floats divide: by zero, an infinity signed as IEEE 754 signs
+    it (NaN for 0 / 0), where Python raises.
+
+    Examples
+    --------
+    >>> float_divide(1.0, -0.0), float_divide(6.0, 3.0)
+    (-inf, 2.0)
+    """
+    if b != 0 or math.isnan(b):
+        return a / b
+    if a == 0 or math.isnan(a):
+        return math.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
 def _wrap180(degrees: float) -> float:
