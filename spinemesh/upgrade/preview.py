@@ -601,6 +601,35 @@ def _chunks(durations: dict[str, float], parts: int) -> list[list[str]]:
     return [c for c in out if c]
 
 
+def _region_table(atlases, docs) -> dict:
+    """What a worker needs of the atlases to pose ``docs``: the geometry
+    (:func:`spinemesh.anim.atlas_regions`) of every region an attachment of theirs can draw, by
+    name, ``table.get`` answering as ``atlas_regions(atlases)`` does. A region is kept where its
+    name is an attachment's path, name or key, or one of those followed by digits (a sequence's
+    frames): a superset of what the sampler asks. Sent in place of the atlases, which were
+    pickled for every task (an atlas of 99,000 regions made the preview over ``--jobs 2`` four
+    times slower than one process)."""
+    from ..anim import atlas_regions
+
+    bases: set[str] = set()
+    for doc in docs:
+        for _, slots in iter_skins(doc):
+            for attachments in slots.values():
+                for key, att in attachments.items() if isinstance(attachments, dict) else ():
+                    bases.add(str(key))
+                    if isinstance(att, dict):
+                        bases.update(str(att[k]) for k in ("name", "path") if att.get(k) is not None)
+    regions = atlas_regions(atlases)
+    table = {}
+    for atlas in atlases:
+        for region in atlas.regions:
+            name = region.name
+            stem = len(name.rstrip("0123456789"))
+            if name not in table and any(name[:k] in bases for k in range(stem, len(name) + 1)):
+                table[name] = regions(name)
+    return table
+
+
 _WORKER_SIDES: dict = {}
 
 
@@ -614,14 +643,13 @@ def _sample_in_worker(task: tuple) -> list:
         When a file is not the one the page was planned from (``stamps``, taken before this
         process read it): changed or replaced since, its animations would mix two versions.
     """
-    from ..anim import atlas_regions
     from ..player.frames import sample_and_encode, sides_of
 
-    original, upgraded, stamps, atlases, sampling, names = task
+    original, upgraded, stamps, table, sampling, names = task
     key = (str(original), str(upgraded), stamps, repr(sampling.skins))
     if key not in _WORKER_SIDES:
         _WORKER_SIDES.clear()  # one skeleton's samplers at a time
-        regions = atlas_regions(atlases) if atlases is not None else None
+        regions = table.get if table is not None else None  # _region_table
         docs = load_skeleton(original), load_skeleton(upgraded)
         for path, stamp in zip((original, upgraded), stamps):
             if file_stamp(path) != stamp:  # read after its stamp: any change since shows
@@ -654,10 +682,10 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
     if workers is None:
         page.sides = sides
         return page
+    table = _region_table(atlases, (before, after)) if atlases else None
     for names in _chunks(page.sampling.durations, 2 * workers.slots):
         page.chunks.append((names, workers.submit(_sample_in_worker,
-                                                  (sk.original, sk.upgraded, sk.stamps, atlases, page.sampling,
-                                                   names))))
+                                                  (sk.original, sk.upgraded, sk.stamps, table, page.sampling, names))))
     return page
 
 
