@@ -274,14 +274,16 @@ def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:
     """
     make_folder(path.parent)
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
-    while True:
+    for tries in range(100, 0, -1):
         tmp = os.path.join(path.parent, f".{path.name}.{secrets.token_hex(4)}.tmp")
         staged.append((tmp, path))
         try:
             fd = os.open(tmp, flags, 0o666)  # less the umask, as an ordinary open() makes a file
             break
-        except FileExistsError:  # another file's name (never ours to remove): another name
+        except FileExistsError as e:  # another file's name (never ours to remove): another name
             staged.pop()
+            if tries == 1:  # a folder that says every name exists
+                raise _write_error(e, path) from None
         except OSError as e:
             raise _write_error(e, path) from None
     try:
