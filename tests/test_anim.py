@@ -19,7 +19,8 @@ from spinemesh.anim.curves import bezier_points_3, bezier_points_4, percent_3, r
 from spinemesh.anim.dump import dump, pose_errors
 from spinemesh.anim.timelines import _draw_order
 from spinemesh.atlas import read_atlas
-from spinemesh.skeleton import CURVES_35, CURVES_38, curve_spelling, load_skeleton
+from spinemesh.skeleton import load_skeleton
+from spinemesh.skeleton_curves import CURVES_35, CURVES_38, curve_spelling
 
 from conftest import EXAMPLES
 from runtime_tool import pose_dump

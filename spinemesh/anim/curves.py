@@ -13,7 +13,7 @@ Two layouts:
   the segment into a *percent* that every value of the key moves by. 3.5 to 3.7 spell it
   ``"curve": [c1, c2, c3, c4]``, 3.8 ``"curve": c1, "c2": ..., "c3": ..., "c4": ...``, and
   each version's runtime reads its own spelling only
-  (:class:`spinemesh.skeleton.CurveSpelling`).
+  (:class:`spinemesh.skeleton_curves.CurveSpelling`).
 * 4.x: one curve per value, in the timeline's own time and value units
   (``"curve": [cx1, cy1, cx2, cy2]`` per value, one after the other).
 """
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..skeleton import CURVES_38, CurveSpelling
+from ..skeleton_curves import CURVES_38, CurveSpelling
 
 LINEAR, STEPPED, BEZIER = 0, 1, 2
 
@@ -194,7 +194,7 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     percent : bool
         A 4.x deform timeline: one curve from 0 to 1 (the values are not read here).
     spelling : CurveSpelling
-        3.x: how the version spells a key's curve (:func:`spinemesh.skeleton.curve_spelling`);
+        3.x: how the version spells a key's curve (:func:`spinemesh.skeleton_curves.curve_spelling`);
         default 3.8's.
 
     Returns

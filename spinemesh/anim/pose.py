@@ -32,7 +32,8 @@ from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, path_slot, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform43 import PROPERTIES, source_value_43
-from ..skeleton import curve_spelling, iter_skins, spine_version
+from ..skeleton import iter_skins, spine_version
+from ..skeleton_curves import curve_spelling
 from .attachments import Prepared, RegionGeometry, prepare
 from .curves import _number
 from .timelines import Animation, color_channels, made_when_needed, read_animation, search

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..skeleton import CURVES_38, CurveSpelling
+from ..skeleton_curves import CURVES_38, CurveSpelling
 from .curves import Keys, _number, f32, read_keys
 
 

@@ -55,7 +55,7 @@ import math
 import re
 import struct
 
-from ..skeleton import curve_spelling
+from ..skeleton_curves import curve_spelling
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
