@@ -113,6 +113,21 @@ def test_pose_never_streams_into_its_input_through_a_shell_redirection(tmp_path,
     assert len(json.loads((tmp_path / "pose.json").read_text())["poses"]) == 3
 
 
+
+def test_pose_never_writes_onto_the_atlas_it_reads(tmp_path, demo_project):
+    """``pose hero.json --atlas shared/hero.atlas --out shared/hero.atlas`` replaced the atlas,
+    read from outside the project, by the poses (exit 0); it is refused as the skeleton is."""
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "x.atlas").write_bytes((demo_project / "demo.atlas").read_bytes())
+    before = snapshot(shared)
+    r = _spinemesh("pose", "p/demo.json", "-a", "wave", "--atlas", "shared/x.atlas", "--out", "shared/x.atlas",
+                   cwd=tmp_path, stdout=subprocess.PIPE)
+    line = _one_error(r)
+    assert "shared/x.atlas" in line and "input" in line, line
+    assert snapshot(shared) == before
+
+
 def test_pose_to_a_closed_or_full_standard_output_is_not_a_success(tmp_path, demo_project):
     """A closed standard output (``>&-``) once wrote nothing and exited 0; a full one (/dev/full)
     said only "No space left on device". Each now ends in one line naming standard output."""

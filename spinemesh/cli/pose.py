@@ -76,7 +76,7 @@ def pose(
         raise typer.BadParameter(f"{max(seconds):g} s at {fps:g} steps per second is over {MAX_POSE_STEPS:,} "
                                  "game-loop steps; give times within the animation's loop", param_hint="--times")
     project = find_project(skeleton)
-    check_outputs([project_folder(skeleton)], files=[out])
+    check_outputs([project_folder(skeleton), atlas], files=[out])  # never onto the --atlas read either
     stdout = sys.stdout
     if out is None:
         _check_standard_output(stdout, skeleton, atlas)
