@@ -102,7 +102,7 @@ def test_pose_never_streams_into_its_input_through_a_shell_redirection(tmp_path,
                        cwd=tmp_path, stdout=stdout)
     line = _one_error(r)
     assert "standard output" in line and str((tmp_path / target).resolve()) in line, line
-    if target.endswith("pose.json") or target.endswith("new.json"):
+    if target.endswith(("pose.json", "new.json")):
         assert (tmp_path / target).stat().st_size == 0  # made by the shell, nothing written in it
         (tmp_path / target).unlink()
     assert snapshot(demo_project) == before
@@ -412,9 +412,8 @@ def test_43_physics_with_hostile_numbers_poses_within_seconds(tmp_path):
 def test_43_physics_with_hostile_numbers_plays_in_the_preview_over_jobs(tmp_path):
     """The same skeleton upgraded with ``--preview --jobs 2``: the player shows the animation
     (its physics stepped in a worker), no traceback, within the time limit."""
-    from test_hostile import check_run, run_cli
-
     from PIL import Image
+    from test_hostile import check_run, run_cli
 
     project = tmp_path / "p"
     (project / "images").mkdir(parents=True)
