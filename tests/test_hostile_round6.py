@@ -641,3 +641,42 @@ def test_an_atlas_of_many_regions_is_not_sent_with_every_task(tmp_path, monkeypa
     assert files[0] == files[1]
     for rel in files[0]:
         assert (tmp_path / "v1" / rel).read_bytes() == (tmp_path / "v2" / rel).read_bytes(), rel
+
+
+# --- the player's address ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def still_page(tmp_path_factory) -> tuple[str, dict]:
+    """The demo's preview page (its address) and the still frame it draws at 0.25 s of "wave",
+    fitted to the page."""
+    from browser import player_result
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options, upgrade_project
+    from spinemesh.upgrade.preview import write_preview
+
+    tmp = tmp_path_factory.mktemp("still")
+    project = make_demo_project(tmp / "p")
+    result = upgrade_project(project, tmp / "o", Options(jobs=1))
+    index = write_preview(result, project, tmp / "o", tmp / "v")
+    page = next(index.parent.glob("s/*.html")).resolve().as_uri()
+    return page, player_result(f"{page}#at=1,0.25", tmp / "chromium")
+
+
+@pytest.mark.parametrize("view", ["0,0,9000,100,1", "0,0,2500,2500,2", "0,0,100,100,1e9"])
+def test_an_address_asking_for_a_huge_still_frame_is_left_out(tmp_path, still_page, view):
+    """``#at=A,T,x,y,w,h,ppu`` sized the canvases at w*ppu by h*ppu pixels whatever they were: a
+    link asking 16,000 x 16,000 made the page take 30 s and 5 GB (headless Chromium). A frame
+    over 8,192 pixels a side or 4,096 x 4,096 in all is left out: the page fits the pose, as
+    without it, and still draws the time asked."""
+    import base64
+    import io
+
+    from browser import player_result
+    from PIL import Image
+
+    page, fitted = still_page
+    got = player_result(f"{page}#at=1,0.25,{view}", tmp_path / "chromium")
+    sizes = [Image.open(io.BytesIO(base64.b64decode(got[k].split(",", 1)[1]))).size for k in ("before", "after")]
+    assert got["t"] == 0.25 and all(max(size) <= 1000 for size in sizes), sizes
+    assert got["before"] == fitted["before"] and got["after"] == fitted["after"]

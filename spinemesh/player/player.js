@@ -14,7 +14,8 @@
  * seconds of page time, then write times and canvas checksums to <pre id="sm-test">);
  * at=A,T[,x,y,w,h,ppu] (animation A paused at T seconds, drawn in that world frame at ppu pixels
  * per unit; both canvases then written as PNG data to <pre id="sm-test">, with the window's size
- * and where on the page the upgraded canvas's figure starts and ends).
+ * and where on the page the upgraded canvas's figure starts and ends). A frame whose canvas would
+ * pass MAX_VIEW_SIDE pixels a side or MAX_VIEW_AREA in all is left out (the page fits the pose).
  */
 (function () {
   "use strict";
@@ -64,6 +65,10 @@
     });
     return out;
   }
+
+  /* The largest still frame an address may ask for (at=): the harness renders at most 8192 pixels
+   * a side; a link asking 16,000 x 16,000 made the page take 30 s and 5 GB for its two canvases. */
+  var MAX_VIEW_SIDE = 8192, MAX_VIEW_AREA = 4096 * 4096;
 
   /* An option's choice among count (an animation, a skin): the first (0) unless it names one. */
   function choice(text, count) {
@@ -395,7 +400,9 @@
       P.anim = choice(at[0], model.anims.length); animSel.value = P.anim;
       P.t = isFinite(at[1]) && at[1] >= 0 ? at[1] : 0;
       var view = at.slice(2, 7);
-      if (view.length === 5 && view.every(isFinite) && view[2] > 0 && view[3] > 0 && view[4] > 0) P.view = view;
+      var side = [view[2] * view[4], view[3] * view[4]];
+      if (view.length === 5 && view.every(isFinite) && view[2] > 0 && view[3] > 0 && view[4] > 0 &&
+          Math.max(side[0], side[1]) <= MAX_VIEW_SIDE && side[0] * side[1] <= MAX_VIEW_AREA) P.view = view;
     }
     choose();
     if (h.play !== undefined || h.test !== undefined) setPlaying(true);
