@@ -452,6 +452,23 @@ def test_round_five_hostile_animations_sampled_over_workers_write_the_same_files
         assert (tmp_path / "v1" / rel).read_bytes() == (tmp_path / "v2" / rel).read_bytes(), rel
 
 
+
+def test_a_disk_that_fills_during_the_preview_ends_the_run(tmp_path):
+    """A player's data script the disk refused (here: a file size limit of 40 KiB) was reported on
+    the page as "the player could not pose this skeleton", and the run exited 0. It ends the run
+    now, in one line naming the file (exit 2), no temporary file left."""
+    from test_hostile import check_run, run_cli
+
+    turn = {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 20, "value": 900}]}}}
+    _library_of_animations(tmp_path, {"long": turn})
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "lib/demo", "--out", "o", "--preview", "v", "--jobs", "2", cwd=tmp_path,
+                file_size=40 * 1024, timeout=120)
+    check_run(r, before, tmp_path, ["o", "v"], codes=(2,))
+    line = _one_error(r)
+    assert "v/data/" in line and "cannot write" in line, line
+
+
 # --- Ctrl-C and SIGTERM while the preview's workers sample ---------------------------------------
 
 def _descendants(pid: int) -> set[int]:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SpineMeshError
+from ..errors import OutputError, SpineMeshError
 from ..fsutil import file_stamp
 from ..player import PLAYER_CSS, PreviewFolder, safe_name
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
@@ -413,6 +413,8 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
     problems: list[str] = []
     try:
         player = _player(folder, pid, page_rel, played(problems), source)
+    except OutputError:  # the disk refused the player's files: not a pose, and the next page would fail too
+        raise
     except _PLAYER_ERRORS as e:  # the rest of the page still helps
         player, problems = "", [f"the player could not pose this skeleton: {e}"]
     # the player first, under the title, where a window opens the page; the texel counts after it
