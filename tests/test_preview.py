@@ -142,6 +142,31 @@ def test_setup_pose_dresses_an_empty_default_skin():
     assert pose_skins(doc) == ["default"]
 
 
+def test_a_character_whose_default_skin_holds_none_of_it_is_played_in_its_own_skin():
+    """A character whose attachments are all in named skins (the setup pose's in none: its
+    animations put them on) and whose default skin holds one effect: the largest skin is
+    offered, and sampled, first. The default skin came first, and over the poses' budget the
+    animations were sampled in it alone: a 3.5 game character played 141 animations drawing
+    nothing, on both sides."""
+    from spinemesh.player.frames import plan_sampling, sampled_skins
+    from spinemesh.upgrade.preview import pose_skins
+
+    quad = {"width": 10, "height": 10}
+    doc = {"skeleton": {"spine": "3.8.99"}, "bones": [{"name": "root"}],
+           "slots": [{"name": "body", "bone": "root", "attachment": "gone"}, {"name": "fx", "bone": "root"}],
+           "skins": [{"name": "default", "attachments": {"fx": {"flash": quad}}},
+                     {"name": "small", "attachments": {"body": {"torso": quad, "arms": quad}}},
+                     {"name": "hero", "attachments": {"body": {"torso": quad, "legs": quad, "arms": quad}}}],
+           "animations": {"walk": {"slots": {"body": {"attachment": [{"name": "torso"}]}}}}}
+    assert pose_skins(doc) == ["default"]  # no skin dresses the setup pose: the runtimes' default
+    assert sampled_skins(doc) == ["hero", "small", "default"]
+    _, sampling, _ = plan_sampling(doc, doc)
+    assert sampling.skins[0][0] == "hero"
+    # a default skin that dresses the setup pose still comes first, before larger skins
+    doc["skins"][0]["attachments"]["body"] = {"gone": quad}
+    assert sampled_skins(doc) == ["default", "hero", "small"]
+
+
 def test_a_packed_project_without_meshes_still_shows_its_pages(tmp_path):
     demo = make_demo_project(tmp_path / "demo")
     result = upgrade_project(demo, tmp_path / "out", Options(pack=True, min_saving=1.0))

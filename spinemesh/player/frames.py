@@ -93,14 +93,16 @@ def pose_skins(doc: dict) -> list[str]:
     the slots' setup attachments (a project whose default skin is empty dresses it in one), then
     ``default``, as a runtime falls back to the default skin."""
     skins = dict(iter_skins(doc))
-    wanted = [(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
-              if isinstance(s, dict) and s.get("attachment") is not None]
+    best = max((k for k in skins if k != "default"), key=lambda k: setup_attachments_in(doc, k), default=None)
+    return (([best] if best is not None and setup_attachments_in(doc, best) else [])
+            + (["default"] if "default" in skins else []))
 
-    def supplies(skin: str) -> int:
-        return sum(isinstance((skins[skin].get(slot) or {}).get(name), dict) for slot, name in wanted)
 
-    best = max((k for k in skins if k != "default"), key=supplies, default=None)
-    return ([best] if best is not None and supplies(best) else []) + (["default"] if "default" in skins else [])
+def setup_attachments_in(doc: dict, skin: str) -> int:
+    """How many of the slots' setup attachments the skin ``skin`` holds (0 for a skin it lacks)."""
+    slots = dict(iter_skins(doc)).get(skin) or {}
+    return sum(isinstance((slots.get(s.get("name")) or {}).get(str(s["attachment"])), dict)
+               for s in doc.get("slots", []) if isinstance(s, dict) and s.get("attachment") is not None)
 
 
 def bone_colours(att: dict | None, count: int, bone_count: int, slot_bone: int) -> np.ndarray:
@@ -406,8 +408,11 @@ def skin_label(skins: tuple[str, ...]) -> str:
 def sampled_skins(doc: dict) -> list[str | tuple[str, ...]]:
     """The skins the player offers, at most :data:`MAX_SKINS`: where several skins together dress
     the setup pose (:func:`outfit`), them combined first; then the setup pose's, then those with
-    the most attachments (whole outfits before single accessories)."""
-    order = pose_skins(doc)
+    the most attachments (whole outfits before single accessories). A default skin that holds
+    none of the setup pose's attachments is one of the others, by its size: a character whose
+    skins are all named and whose default skin holds a few effects is first played dressed
+    (the first skin is the one its animations are sampled in when the budget allows one)."""
+    order = [k for k in pose_skins(doc) if setup_attachments_in(doc, k)]
     sizes = {k: sum(len(v) for v in slots.values() if isinstance(v, dict)) for k, slots in iter_skins(doc)}
     rest = sorted((k for k in sizes if k not in order), key=lambda k: -sizes[k])
     combined = outfit(doc)
