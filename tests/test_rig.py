@@ -189,8 +189,15 @@ def test_spine_43_constraints_list_is_read():
     doc["constraints"] = [{"type": "ik", "name": "reach", "bones": ["seg3"], "target": "seg1"},
                           {"type": "physics", "name": "wobble", "bone": "seg2"}]
     bones = {b.name: b for b in skeleton_bones(doc)}
-    assert not bones["seg3"].exact and bones["seg2"].exact  # physics leaves the setup pose as it is
+    # solved as the sampler solves 4.3 (the IK aims seg3 back at seg1); physics leaves the setup pose as it is
+    assert bones["seg3"].exact and bones["seg2"].exact
+    x_axis, to_target = bones["seg3"].world[:, 0], bones["seg1"].world[:, 2] - bones["seg3"].world[:, 2]
+    assert abs(x_axis[0] * to_target[1] - x_axis[1] * to_target[0]) < 1e-4 and x_axis @ to_target > 0
     assert "ik constraint 'reach'" in bones["seg1"].target_of
+    doc["constraints"].append({"type": "slider", "name": "s", "animation": "wiggle", "bone": "seg1",
+                               "property": "unknown"})  # one constraint not solved: none is
+    bones = {b.name: b for b in skeleton_bones(doc)}
+    assert not bones["seg3"].exact and "4.3.23" in bones["seg3"].why
 
 
 def test_refine_shares_edge_points_and_keeps_vertices_first():

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
-from ..rig.constraints import Rig, build_rig, constraints_of, path_slot, skin_names, update_world
+from ..rig.constraints import Rig, build_rig, constraints_of, is_43, path_slot, posing_family, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform43 import PROPERTIES, source_value_43
 from ..skeleton import iter_skins, spine_version
@@ -286,7 +286,7 @@ class Sampler:
         self.skin = skin
         #: the skins an attachment is looked up in before the default skin, first first
         self.looked_in = [n for n in skin_names(skin) if n != "default"]
-        self.rig: Rig = build_rig(doc, skin, _family_43(doc))
+        self.rig: Rig = build_rig(doc, skin, posing_family(doc))
         self.rig.where = "in this pose"
         self.bone_names = [b.name for b in self.rig.bones]
         self.setup_local = [tuple(b.local) for b in self.rig.bones]
@@ -311,7 +311,7 @@ class Sampler:
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self.physics_bones = self._physics_bones()
         self.physics: list[PhysicsState] = []
-        four_three = _family_43(doc) is not None
+        four_three = is_43(doc) and posing_family(doc) is not None
         for c in self.rig.constraints:
             if c.kind == "physics" and c.active and self.rig.family == "4.2":
                 settings = PhysicsSettings.from_json(c.data, doc.get("skeleton") or {}, four_three)
@@ -811,24 +811,6 @@ def same_motion(a: dict, b: dict) -> bool:
     return _motion_view(a) == _motion_view(b)
 
 
-#: The timelines of a 4.3 slider's animation the sampler applies (bone transforms; events change nothing).
-_SLIDER_TIMELINES = {"rotate", "translate", "translatex", "translatey", "scale", "scalex", "scaley", "shear",
-                     "shearx", "sheary"}
-
-
-def _slider_played(doc: dict, c: dict) -> bool:
-    """Whether a 4.3 slider is played here: its animation poses bones only (no slot, deform,
-    draw order, constraint or inherit timeline), and a driving bone reads a known property."""
-    anim = (doc.get("animations") or {}).get(c.get("animation"))
-    if not isinstance(anim, dict) or set(anim) - {"bones", "events"}:
-        return False
-    bones = anim.get("bones") or {}
-    if not isinstance(bones, dict) or any(not isinstance(t, dict) or set(t) - _SLIDER_TIMELINES
-                                          for t in bones.values()):
-        return False
-    return c.get("bone") is None or c.get("property") in PROPERTIES
-
-
 def _js_sign(x: float) -> float:
     return 1.0 if x > 0 else -1.0 if x < 0 else x
 
@@ -837,7 +819,7 @@ class SliderPlayer:
     """A 4.3 slider's update: its animation applied, in the middle of the update cache, over the
     bones' current values at the slider's time (keyed, or read from a bone's property) and mix,
     replacing or (``additive``) adding, as spine-core 4.3's ``Slider`` applies it
-    (``MixFrom.current``). Bone timelines only (:func:`_slider_played`)."""
+    (``MixFrom.current``). Bone timelines only (:func:`spinemesh.rig.constraints.slider_played`)."""
 
     def __init__(self, sampler: Sampler, data: dict):
         self.anim = sampler.animation(str(data.get("animation")))[0]
@@ -896,22 +878,6 @@ def _mix_current(prop: str, v, a: list, setup: tuple, alpha: float, add: bool) -
                 a[i] = base + (value - base) * alpha
         else:
             a[i] = a[i] + (value if add else value + setup[i] - a[i]) * alpha
-
-
-def _family_43(doc: dict) -> str | None:
-    """``"4.2"`` for 4.3 skeletons whose constraints are IK, transform, path, physics and sliders: IK posed
-    as 4.2 does (the same math, checked against spine-core 4.3), transform constraints in 4.3's
-    property-mapping form (:mod:`spinemesh.rig.transform43`), physics stepped as 4.3 steps it
-    (:class:`~spinemesh.rig.physics.PhysicsSettings` ``lagged``), path constraints as 4.2 with
-    4.3's changes, sliders by :class:`SliderPlayer`; None otherwise (the document's own
-    family: constraints not solved; a slider :func:`_slider_played` does not play)."""
-    if not re.match(r"4\.3\b", spine_version(doc)):
-        return None
-    items = doc.get("constraints")
-    items = [c for c in items if isinstance(c, dict)] if isinstance(items, list) else []
-    if not all(_slider_played(doc, c) for c in items if c.get("type") == "slider"):
-        return None
-    return "4.2" if {c.get("type") for c in items} <= {"ik", "physics", "transform", "path", "slider"} else None
 
 
 def _reset_fires(times: np.ndarray, last: float, t: float) -> bool:

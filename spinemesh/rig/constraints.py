@@ -1,4 +1,4 @@
-"""The setup pose with its constraints applied, as the official runtimes 3.8 to 4.2 compute it.
+"""The setup pose with its constraints applied, as the official runtimes 3.8 to 4.3 compute it.
 
 A game that loads a skeleton sets it to the setup pose and calls ``updateWorldTransform``
 once: the runtime walks an *update cache*, a list of bones and constraints sorted once per
@@ -12,14 +12,16 @@ relative) pull their bones' transforms towards the target's; path constraints (p
 spacing and rotate modes, constant speed or not, open or closed paths) lay their bones along
 the target slot's path.
 
-4.3 skeletons are posed when their family is given (:class:`spinemesh.anim.Sampler` does): 4.3 transform constraints map
-properties (:mod:`.transform43`), and 4.3 bones take their local values back from a changed
-world transform lazily, as 4.3 does.
+4.3 skeletons are posed in the family :func:`posing_family` names, by :func:`setup_pose` and
+:class:`spinemesh.anim.Sampler` alike: 4.3 transform constraints map properties
+(:mod:`.transform43`), and 4.3 bones take their local values back from a changed world transform
+lazily, as 4.3 does.
 
 Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
 runtime checked against, a port, turns those bones unlike the official one), a constraint
-only some skins activate, a 4.3 skeleton read without its family (or a slider without its
-player), or one older than 3.8 (no runtime to check against) leaves the bones it moves not
+only some skins activate, a 4.3 skeleton with a constraint :func:`posing_family` does not solve,
+a slider without its player (the sampler's: :func:`setup_pose` has none), or one older than 3.8
+(no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
 children of a bone that is not exact are not exact. Physics constraints (4.2, 4.3) leave the
 setup pose as it is. The math follows the public runtime sources (EsotericSoftware
@@ -38,7 +40,7 @@ from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
 from .transform import DEG_RAD, INHERIT_MODES, PI, PI2, RAD_DEG, _num, inherit_mode, local_values, world_from_local
-from .transform43 import Unmapped, local_from_world_43, transform_apply_43
+from .transform43 import PROPERTIES, Unmapped, local_from_world_43, transform_apply_43
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
 FAMILIES = ("3.8", "4.0", "4.1", "4.2")
@@ -53,6 +55,57 @@ def runtime_family(doc: dict) -> str | None:
     m = re.match(r"(\d+)\.(\d+)", version)  # "4.1-from-4.2.33": a 4.2 project exported for 4.1
     family = f"{m[1]}.{m[2]}" if m else None
     return family if family in FAMILIES else None
+
+
+def is_43(doc: dict) -> bool:
+    """Whether ``skeleton.spine`` says 4.3 (one ``constraints`` list, 4.3's bones and sliders)."""
+    return re.match(r"4\.3\b", str((doc.get("skeleton") or {}).get("spine") or "")) is not None
+
+
+#: The timelines of a 4.3 slider's animation that are played (bone transforms; events change nothing).
+SLIDER_TIMELINES = {"rotate", "translate", "translatex", "translatey", "scale", "scalex", "scaley", "shear",
+                    "shearx", "sheary"}
+
+
+def slider_played(doc: dict, c: dict) -> bool:
+    """Whether a 4.3 slider is played (by :class:`spinemesh.anim.pose.SliderPlayer`): its animation
+    poses bones only (no slot, deform, draw order, constraint or inherit timeline), and a driving
+    bone reads a known property."""
+    anim = (doc.get("animations") or {}).get(c.get("animation"))
+    if not isinstance(anim, dict) or set(anim) - {"bones", "events"}:
+        return False
+    bones = anim.get("bones") or {}
+    if not isinstance(bones, dict) or any(not isinstance(t, dict) or set(t) - SLIDER_TIMELINES
+                                          for t in bones.values()):
+        return False
+    return c.get("bone") is None or c.get("property") in PROPERTIES
+
+
+def posing_family(doc: dict) -> str | None:
+    """The runtime family whose update cache poses ``doc``, for the setup pose
+    (:func:`setup_pose`) and every animated pose (:class:`spinemesh.anim.Sampler`) alike.
+
+    3.8 to 4.2: :func:`runtime_family`. 4.3: ``"4.2"`` when its constraints are IK, transform,
+    path, physics and sliders (IK posed as 4.2 does, the same math, checked against spine-core
+    4.3; transform constraints in 4.3's property-mapping form, :mod:`.transform43`; physics as
+    4.3 steps it, :class:`~.physics.PhysicsSettings` ``lagged``; path constraints as 4.2 with
+    4.3's changes; sliders that :func:`slider_played` plays); None otherwise (constraints not
+    solved: the bones they move are not exact).
+
+    Examples
+    --------
+    >>> posing_family({"skeleton": {"spine": "4.3.23"}, "constraints": [{"type": "ik"}]})
+    '4.2'
+    >>> posing_family({"skeleton": {"spine": "4.3.23"}, "constraints": [{"type": "unknown"}]}) is None
+    True
+    """
+    if not is_43(doc):
+        return runtime_family(doc)
+    items = doc.get("constraints")
+    items = [c for c in items if isinstance(c, dict)] if isinstance(items, list) else []
+    if not all(slider_played(doc, c) for c in items if c.get("type") == "slider"):
+        return None
+    return "4.2" if {c.get("type") for c in items} <= {"ik", "physics", "transform", "path", "slider"} else None
 
 
 def constraints_of(doc: dict, kind: str) -> list[dict]:
@@ -1362,7 +1415,7 @@ def build_rig(doc: dict, skin: str | tuple[str, ...] | None = None, family: str 
     ``family`` overrides the runtime family read from the document.
     """
     family = family or runtime_family(doc)
-    four_three = re.match(r"4\.3\b", str((doc.get("skeleton") or {}).get("spine") or "")) is not None
+    four_three = is_43(doc)
     nodes = [b for b in doc.get("bones", []) if isinstance(b, dict)]
     index = {str(b.get("name")): i for i, b in enumerate(nodes)}
     bones: list[PoseBone] = []
@@ -1448,7 +1501,7 @@ def update_world(rig: Rig) -> None:
 
 def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
     """:func:`setup_pose`'s bones, and the constraints read (``active`` as in the runtime's cache)."""
-    rig = build_rig(doc)
+    rig = build_rig(doc, family=posing_family(doc))
     bones, constraints, family = rig.bones, rig.constraints, rig.family
     if family is None:
         return _without_constraints(bones, constraints, doc), constraints
