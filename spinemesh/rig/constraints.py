@@ -1228,8 +1228,6 @@ def _inputs_exact(c: _Constraint, where: str = "in the setup pose") -> tuple[boo
     read = ([c.target] if c.target is not None else []) + c.reads
     for bone in c.bones:
         read += [bone] + ([bone.parent] if bone.parent is not None else [])
-    if c.kind == "ik" and len(c.bones) == 2 and c.bones[0].parent is not None:
-        read.append(c.bones[0].parent.parent)  # two-bone IK works in the grandparent's space
     for bone in read:
         if bone is not None and not bone.exact:
             return False, f"moved {where} by the {c.label()}, which reads {bone.name!r}: {bone.why}"
@@ -1315,8 +1313,8 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
         if len(c.bones) == 1 and c.bones[0].parent is not None:
             ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
                    scale_y, mix, family)
-        elif len(c.bones) == 2 and c.bones[0].parent is not None and c.bones[0].parent.parent is not None \
-                and c.bones[1].parent is c.bones[0]:
+        elif len(c.bones) == 2 and c.bones[0].parent is not None and c.bones[1].parent is c.bones[0]:
+            # the runtimes solve in the space of the first bone's parent (the root, for a chain under it)
             bend = 1 if d.get("bendPositive", True) else -1
             ik_two(c.bones[0], c.bones[1], tx, ty, bend, bool(d.get("stretch", False)),
                    scale_y, _num(d, "softness", 0), mix, family)
