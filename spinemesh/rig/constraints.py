@@ -1565,6 +1565,11 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
     constraint moves in the setup pose (and those below it) not exact."""
     version = (doc.get("skeleton") or {}).get("spine")
     four_three = bool(doc.get("constraints"))
+    if is_43(doc):  # posing_family solves 4.3 but for what it does not play
+        why = ("4.3 constraints are solved where each is an IK, transform, path, physics or slider "
+               "constraint whose animation poses bones only; this skeleton has another")
+    else:
+        why = f"constraints are solved for 3.8-4.3 skeletons; this one is {version or 'of an unknown version'}"
     for bone in bones:
         bone.update_with(bone.local)
     for c in constraints:
@@ -1573,8 +1578,7 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
             for bone in c.bones:
                 if bone.exact:
                     bone.exact = False
-                    bone.why = (f"moved {where} by the {c.label()} (constraints are solved "
-                                f"for 3.8-4.2 skeletons; this one is {version or 'of an unknown version'})")
+                    bone.why = f"moved {where} by the {c.label()} ({why})"
     _propagate(bones)
     return bones
 
@@ -1582,7 +1586,7 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
 def solved_constraints(doc: dict) -> dict[str, list[str]]:
     """IK, transform and path constraints this module applies that move bones in the setup pose
     of ``doc`` (a mix not 0, active without a skin; not 3.8 chain paths), by name, with the names of
-    the bones they move; empty for versions whose runtime is not reproduced."""
+    the bones they move; empty for versions other than 3.8 to 4.2 (those the runtime tool plays)."""
     family = runtime_family(doc)
     if family is None:
         return {}
