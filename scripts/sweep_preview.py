@@ -1,6 +1,6 @@
 """Every project of the game corpus through ``upgrade --preview``, its pages opened in Chromium.
 
-    nice -n 10 .venv/bin/python scripts/sweep_preview.py sweep --out build/preview-sweep.jsonl   # about an hour
+    nice -n 10 .venv/bin/python scripts/sweep_preview.py sweep --out build/preview-sweep.jsonl   # about 35 min
     .venv/bin/python scripts/sweep_preview.py table build/preview-sweep.jsonl
 
 ``sweep`` copies each project folder of ``../shared/spine-corpus`` (or ``--root``) to a scratch
