@@ -27,9 +27,9 @@ from test_skeleton_binary_v43 import PROJECTS43, _affine, _corpus_json, _node, r
 SETUP_TOLERANCE = 0.05
 
 
-def _runtime_setup(runtime, path) -> dict:
-    """Every bone's setup-pose world transform by spine-core 4.3, ``name -> (2, 3)``."""
-    out = path.with_name(path.name + ".pose.json")
+def _runtime_setup(runtime, path, out) -> dict:
+    """Every bone's setup-pose world transform by spine-core 4.3, ``name -> (2, 3)`` (its dump
+    written to ``out``, never beside the skeleton: the data's folders are not ours to write)."""
     r = node(runtime, "pose.mjs", "", path, out, "")
     assert r.returncode == 0, r.stderr[-2000:]
     setup = json.loads(out.read_text())["poses"][0]
@@ -37,7 +37,7 @@ def _runtime_setup(runtime, path) -> dict:
     return {n: np.array([[m[0], m[1], m[4]], [m[2], m[3], m[5]]]) for n, m in setup["bones"].items()}
 
 
-def _assert_setup_pose_solved(doc: dict, runtime=None, path=None) -> None:
+def _assert_setup_pose_solved(doc: dict, runtime=None, path=None, out=None) -> None:
     """``setup_pose``: every bone exact, equal to the sampler's setup pose (the same
     computation, to the bit) and, given the runtime, to spine-core 4.3's within the goal."""
     bones = setup_pose(doc)
@@ -46,7 +46,7 @@ def _assert_setup_pose_solved(doc: dict, runtime=None, path=None) -> None:
     assert not sampled.why
     np.testing.assert_array_equal(np.stack([b.world for b in bones]), sampled.world)
     if runtime is not None:
-        theirs = _runtime_setup(runtime, path)
+        theirs = _runtime_setup(runtime, path, out)
         worst = max(float(np.abs(theirs[b.name] - b.world).max()) for b in bones)
         assert worst <= GOAL, worst
 
@@ -66,7 +66,7 @@ def test_43_setup_pose_matches_spine_core_43(make, runtime43, tmp_path):  # noqa
     path = tmp_path / "skeleton.json"
     doc = make()
     path.write_text(json.dumps(doc), encoding="utf-8")
-    _assert_setup_pose_solved(doc, runtime43, path)
+    _assert_setup_pose_solved(doc, runtime43, path, tmp_path / "pose.json")
 
 
 def test_43_setup_pose_constraints_move_bones():
@@ -93,14 +93,14 @@ def test_43_sliders_are_flagged_in_the_setup_pose():
 
 
 @pytest.mark.parametrize("name", PROJECTS43)
-def test_43_corpus_setup_pose_matches_spine_core_43(name, runtime43):  # noqa: F811
+def test_43_corpus_setup_pose_matches_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     """The 4.3 corpus skeletons (IK and physics; ten transform constraints): every bone exact,
     the sampler's and spine-core 4.3's setup pose."""
     path = _corpus_json(name)
     doc = load_skeleton(path)
     moved = {b for c in doc["constraints"] if c["type"] != "physics" for b in c.get("bones", [])}
     assert moved
-    _assert_setup_pose_solved(doc, runtime43, path)
+    _assert_setup_pose_solved(doc, runtime43, path, tmp_path / "pose.json")
 
 
 def _constraint_bones(doc: dict) -> set[str]:
