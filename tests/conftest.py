@@ -155,3 +155,32 @@ def trimmed_project(tmp_path):
     atomic_write_png(folder / "demo.png", page)
     atomic_write_text(folder / "demo.json", json.dumps(demo_skeleton(images), indent=1))
     return folder
+
+
+# --- the data are read, never written -------------------------------------------------------------
+
+def _data_files() -> set[str]:
+    """Every file and folder under the real data (none when it is absent)."""
+    out: set[str] = set()
+    for root in (EXAMPLES, CORPUS):
+        for folder, dirs, files in os.walk(root):
+            out.update(os.path.join(folder, n) for n in dirs + files)
+    return out
+
+
+def pytest_sessionstart(session):
+    if not hasattr(session.config, "workerinput"):  # the controller (or the only process) looks once
+        session.config._data_before = _data_files()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """A test that writes beside the data (a dump next to a corpus skeleton) fails the run: the next
+    test reading that folder would take the file for the project's own."""
+    before = getattr(session.config, "_data_before", None)
+    if before is None:
+        return
+    added = sorted(_data_files() - before)
+    if added:
+        session.config.get_terminal_writer().line(
+            f"tests wrote {len(added)} files into the real data, e.g. {', '.join(added[:3])}", red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
