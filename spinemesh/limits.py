@@ -113,3 +113,7 @@ MAX_PHYSICS_FPS = 1000
 #: real skeleton, 0.49 MB a pose, write 4.9 GB; a pose of over 1.7 MB is needed to reach it. To a
 #: file, the estimate must also fit in the space free where it is written.
 MAX_POSE_OUTPUT_BYTES = 16 * 1024**3
+
+#: Most worker processes a command starts (``--jobs``): a process per task for a mistyped
+#: 100000 would start thousands; machines with more cores than this use ``--dask``.
+MAX_JOBS = 256

@@ -697,3 +697,19 @@ def test_an_address_asking_for_a_huge_still_frame_is_left_out(tmp_path, still_pa
     sizes = [Image.open(io.BytesIO(base64.b64decode(got[k].split(",", 1)[1]))).size for k in ("before", "after")]
     assert got["t"] == 0.25 and all(max(size) <= 1000 for size in sizes), sizes
     assert got["before"] == fitted["before"] and got["after"] == fitted["after"]
+
+
+@pytest.mark.parametrize("command", ["upgrade", "pack", "dataset"])
+def test_a_jobs_count_beyond_the_bound_is_refused_before_anything_starts(tmp_path, command):
+    """``--jobs 100000`` would start a process per task (thousands): refused in the option's own
+    line, nothing written."""
+    from test_hostile import run_cli
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.limits import MAX_JOBS
+
+    project = make_demo_project(tmp_path / "p")
+    before = snapshot(project)
+    r = run_cli(command, project, "--out", tmp_path / "out", "--jobs", MAX_JOBS + 1, cwd=tmp_path)
+    assert r.returncode == 2 and "--jobs" in r.stderr and f"1<=x<={MAX_JOBS}" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "out").exists() and snapshot(project) == before

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..limits import MAX_JOBS
 from ._app import Annotated, Optional, app, console, err_console, progress_bar
 
 
@@ -13,7 +14,7 @@ from ._app import Annotated, Optional, app, console, err_console, progress_bar
 def dataset(
     corpus: Annotated[list[Path], typer.Argument(metavar="FOLDER...", help="Folders holding Spine projects, at any depth.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Data set folder (created, or resumed).")],
-    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Worker processes (default: the CPU "
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=MAX_JOBS, help="Worker processes (default: the CPU "
                                                 "cores this process may use).")] = None,
     dask: Annotated[Optional[str], typer.Option(
         "--dask", metavar="ADDRESS", help="Extract on a Dask cluster: a scheduler address (tcp://host:8786), a "

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from ..limits import MAX_JOBS
 from ._app import Annotated, Optional, app, console, progress_bar
 
 
@@ -32,7 +33,7 @@ _KeepFiles = Annotated[bool, typer.Option(
     "--keep-files-as-exported", help="Copy an atlas that is not packed byte for byte. Default: its PNG pages are "
     "written anew by oxipng where that is smaller, losslessly (same texels, colour type, palette, gamma and "
     "colour profile; checked), its atlas file as it was.")]
-_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, metavar="N", help="Processes packing side by side: "
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=MAX_JOBS, metavar="N", help="Processes packing side by side: "
                                               "atlases, and the placements tried for one atlas (default: the "
                                               "CPU cores this process may use).")]
 

@@ -12,6 +12,7 @@ from typing import List
 
 import typer
 
+from ..limits import MAX_JOBS
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
     progress_bar,
@@ -56,7 +57,7 @@ _MinSaving = Annotated[Optional[float], typer.Option(
 _DryRun = Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")]
 _Report = Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
                                                  "attachment.")]
-_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, help="Processes meshing, weighting, "
+_Jobs = Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=MAX_JOBS, help="Processes meshing, weighting, "
                                               "packing and sampling the preview in parallel (default: the CPU "
                                               "cores this process may use).")]
 _Dask = Annotated[Optional[str], typer.Option(
