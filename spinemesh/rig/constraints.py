@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
-from .transform import DEG_RAD, INHERIT_MODES, PI, PI2, RAD_DEG, _num, inherit_mode, local_values, world_from_local
+from .transform import DEG_RAD, INHERIT_MODES, PI, RAD_DEG, _num, inherit_mode, local_values, world_from_local, wrap_pi
 from .transform43 import PROPERTIES, Unmapped, local_from_world_43, transform_apply_43
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
@@ -302,14 +302,6 @@ def _wrap180(degrees: float) -> float:
     if degrees < -180:
         return degrees + 360
     return degrees
-
-
-def _wrap_pi(r: float) -> float:
-    if r > PI:
-        return r - PI2
-    if r < -PI:
-        return r + PI2
-    return r
 
 
 def _wrap_turns(degrees: float) -> float:
@@ -592,9 +584,9 @@ def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
         modified = False
         if mix.rotate != 0:
             if mix.relative:
-                r = _wrap_pi(math.atan2(tc, ta) + off_rot)
+                r = wrap_pi(math.atan2(tc, ta) + off_rot)
             else:
-                r = _wrap_pi(math.atan2(tc, ta) - math.atan2(c, a) + off_rot)
+                r = wrap_pi(math.atan2(tc, ta) - math.atan2(c, a) + off_rot)
             r *= mix.rotate
             cos, sin = math.cos(r), math.sin(r)
             a, b, c, d = cos * a - sin * c, cos * b - sin * d, sin * a + cos * c, sin * b + cos * d
@@ -624,11 +616,11 @@ def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
             modified = True
         if mix.shear_y > 0:
             if mix.relative:
-                r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta))
+                r = wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta))
                 r = math.atan2(d, b) + (r - PI / 2 + off_shear) * mix.shear_y
             else:
                 by = math.atan2(d, b)
-                r = _wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta) - (by - math.atan2(c, a)))
+                r = wrap_pi(math.atan2(td, tb) - math.atan2(tc, ta) - (by - math.atan2(c, a)))
                 r = by + (r + off_shear) * mix.shear_y
             s = math.hypot(b, d)
             b, d = math.cos(r) * s, math.sin(r) * s
@@ -1056,7 +1048,7 @@ def _lay_bones(bones: list[PoseBone], positions: list[float], spaces: list[float
                 bone_y += (bone.length * (sin * a + cos * c) - dy) * mix_rotate
             else:
                 r += offset
-            r = _wrap_pi(r) * mix_rotate
+            r = wrap_pi(r) * mix_rotate
             cos, sin = math.cos(r), math.sin(r)
             a, b, c, dd = cos * a - sin * c, cos * b - sin * dd, sin * a + cos * c, sin * b + cos * dd
         bone.world = np.array([[a, b, wx], [c, dd, wy]])

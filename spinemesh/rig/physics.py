@@ -180,33 +180,11 @@ class PhysicsState:
     def _translate_lagged(self, bx: float, by: float, limit: float, v: _Values) -> tuple[float, float]:
         """4.3: the bone's movement added to the x/y offsets, the springs stepped and their lags
         kept; returns the time left over and the damping used (-1 when not computed)."""
-        s = self.s
-        left, t, damped = self.remaining, s.step, -1.0
-        if s.x > 0:
-            u = (self.ux - bx) * v.inertia
-            self.x_offset += limit if u > limit else -limit if u < -limit else u
-            self.ux = bx
-        if s.y > 0:
-            u = (self.uy - by) * v.inertia
-            self.y_offset += limit if u > limit else -limit if u < -limit else u
-            self.uy = by
-        if left >= t:
+        left, damped = self.remaining, -1.0
+        self._follow_xy(bx, by, limit, v)
+        if left >= self.s.step:
             x0, y0 = self.x_offset, self.y_offset
-            damped = v.damping ** (60 * t)
-            m = t * v.mass_inverse
-            w, g = s.reference_scale * v.wind, s.reference_scale * v.gravity
-            while True:
-                if s.x > 0:
-                    self.x_velocity += (w - self.x_offset * v.strength) * m
-                    self.x_offset += self.x_velocity * t
-                    self.x_velocity *= damped
-                if s.y > 0:
-                    self.y_velocity -= (g + self.y_offset * v.strength) * m
-                    self.y_offset += self.y_velocity * t
-                    self.y_velocity *= damped
-                left -= t
-                if left < t:
-                    break
+            left, damped = self._step_xy(left, v)
             self.x_lag, self.y_lag = self.x_offset - x0, self.y_offset - y0
         return left, damped
 
@@ -241,26 +219,8 @@ class PhysicsState:
                 self.scale_offset += (dx * c + dy * sn) * v.inertia / r
         left = self.remaining
         if left >= t:
-            if damped == -1:
-                damped = v.damping ** (60 * t)
-            m, h = t * v.mass_inverse, length / s.reference_scale
             r0, s0 = self.rotate_offset, self.scale_offset
-            while True:
-                left -= t
-                if scale:
-                    self.scale_velocity += (v.wind * c - v.gravity * sn - self.scale_offset * v.strength) * m
-                    self.scale_offset += self.scale_velocity * t
-                    self.scale_velocity *= damped
-                if turn:
-                    self.rotate_velocity -= ((v.wind * sn + v.gravity * c) * h + self.rotate_offset * v.strength) * m
-                    self.rotate_offset += self.rotate_velocity * t
-                    self.rotate_velocity *= damped
-                    if left < t:
-                        break
-                    r = self.rotate_offset * mr + ca
-                    c, sn = math.cos(r), math.sin(r)
-                elif left < t:
-                    break
+            left = self._step_turn_scale(left, v, damped, turn, scale, c, sn, mr, ca, length)
             self.rotate_lag, self.scale_lag = self.rotate_offset - r0, self.scale_offset - s0
         return left
 
@@ -269,38 +229,78 @@ class PhysicsState:
         stepped; returns the time left over, the bone's moved position and the damping used
         (-1 when not computed)."""
         s = self.s
-        a, t, damped = self.remaining, s.step, -1.0
+        a, damped = self.remaining, -1.0
         move_x, move_y = s.x > 0, s.y > 0
         if not (move_x or move_y):
             return a, bx, by, damped
-        if move_x:
-            u = (self.ux - bx) * v.inertia
-            self.x_offset += limit if u > limit else -limit if u < -limit else u
-            self.ux = bx
-        if move_y:
-            u = (self.uy - by) * v.inertia
-            self.y_offset += limit if u > limit else -limit if u < -limit else u
-            self.uy = by
-        if a >= t:
-            damped = v.damping ** (60 * t)
-            m, w, g = v.mass_inverse * t, v.wind * s.reference_scale, v.gravity * s.reference_scale
-            while True:
-                if move_x:
-                    self.x_velocity += (w - self.x_offset * v.strength) * m
-                    self.x_offset += self.x_velocity * t
-                    self.x_velocity *= damped
-                if move_y:
-                    self.y_velocity -= (g + self.y_offset * v.strength) * m
-                    self.y_offset += self.y_velocity * t
-                    self.y_velocity *= damped
-                a -= t
-                if a < t:
-                    break
+        self._follow_xy(bx, by, limit, v)
+        if a >= s.step:
+            a, damped = self._step_xy(a, v)
         if move_x:
             bx += self.x_offset * v.mix * s.x
         if move_y:
             by += self.y_offset * v.mix * s.y
         return a, bx, by, damped
+
+    def _follow_xy(self, bx: float, by: float, limit: float, v: _Values) -> None:
+        """The bone's movement since the last frame (at most ``limit`` a side) added to the x/y
+        offsets, by the inertia; the bone's position kept for the next frame."""
+        s = self.s
+        if s.x > 0:
+            u = (self.ux - bx) * v.inertia
+            self.x_offset += limit if u > limit else -limit if u < -limit else u
+            self.ux = bx
+        if s.y > 0:
+            u = (self.uy - by) * v.inertia
+            self.y_offset += limit if u > limit else -limit if u < -limit else u
+            self.uy = by
+
+    def _step_xy(self, left: float, v: _Values) -> tuple[float, float]:
+        """The x/y springs stepped while a whole step of the ``left`` seconds (at least one) is
+        left; returns the time left over and the damping used."""
+        s = self.s
+        t = s.step
+        damped = v.damping ** (60 * t)
+        m, w, g = v.mass_inverse * t, v.wind * s.reference_scale, v.gravity * s.reference_scale
+        while True:
+            if s.x > 0:
+                self.x_velocity += (w - self.x_offset * v.strength) * m
+                self.x_offset += self.x_velocity * t
+                self.x_velocity *= damped
+            if s.y > 0:
+                self.y_velocity -= (g + self.y_offset * v.strength) * m
+                self.y_offset += self.y_velocity * t
+                self.y_velocity *= damped
+            left -= t
+            if left < t:
+                return left, damped
+
+    def _step_turn_scale(self, left: float, v: _Values, damped: float, turn: bool, scale: bool, c: float,
+                         sn: float, mr: float, ca: float, length: float) -> float:
+        """The rotation and scale springs stepped while a whole step of the ``left`` seconds (at
+        least one) is left, ``c``, ``sn`` the cosine and sine of the bone's turn as it is drawn
+        (``mr`` the offset's mix, ``ca`` the bone's own angle); returns the time left over."""
+        s = self.s
+        t = s.step
+        if damped == -1:
+            damped = v.damping ** (60 * t)
+        m, h = v.mass_inverse * t, length / s.reference_scale
+        while True:
+            left -= t
+            if scale:
+                self.scale_velocity += (v.wind * c - v.gravity * sn - self.scale_offset * v.strength) * m
+                self.scale_offset += self.scale_velocity * t
+                self.scale_velocity *= damped
+            if turn:
+                self.rotate_velocity -= ((v.wind * sn + v.gravity * c) * h + self.rotate_offset * v.strength) * m
+                self.rotate_offset += self.rotate_velocity * t
+                self.rotate_velocity *= damped
+                if left < t:
+                    return left
+                r = self.rotate_offset * mr + ca
+                c, sn = math.cos(r), math.sin(r)
+            elif left < t:
+                return left
 
     def _rotate(self, a_: float, c_: float, wx: float, wy: float, limit: float, length: float, v: _Values,
                 damped: float) -> float:
@@ -324,27 +324,9 @@ class PhysicsState:
             r = length * math.hypot(a_, c_)
             if r > 0:
                 self.scale_offset += (dx * c + dy * sn) * v.inertia / r
-        a, t = self.remaining, s.step
-        if a >= t:
-            if damped == -1:
-                damped = v.damping ** (60 * t)
-            m, h = v.mass_inverse * t, length / s.reference_scale
-            while True:
-                a -= t
-                if scale:
-                    self.scale_velocity += (v.wind * c - v.gravity * sn - self.scale_offset * v.strength) * m
-                    self.scale_offset += self.scale_velocity * t
-                    self.scale_velocity *= damped
-                if turn:
-                    self.rotate_velocity -= ((v.wind * sn + v.gravity * c) * h + self.rotate_offset * v.strength) * m
-                    self.rotate_offset += self.rotate_velocity * t
-                    self.rotate_velocity *= damped
-                    if a < t:
-                        break
-                    r = self.rotate_offset * mr + ca
-                    c, sn = math.cos(r), math.sin(r)
-                elif a < t:
-                    break
+        a = self.remaining
+        if a >= s.step:
+            a = self._step_turn_scale(a, v, damped, turn, scale, c, sn, mr, ca, length)
         return a
 
     def _turn_and_scale(self, a, b, c, d, mix, z):

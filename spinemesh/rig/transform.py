@@ -136,3 +136,13 @@ def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
         The parent's world transform; None for the root.
     """
     return world_from_local(local_values(node), inherit_mode(node), parent)
+
+
+def wrap_pi(r: float) -> float:
+    """An angle difference in radians brought within [-pi, pi] by one turn, as the runtimes'
+    constraints wrap it (a difference of two ``atan2``, so one turn is always enough)."""
+    if r > PI:
+        return r - PI2
+    if r < -PI:
+        return r + PI2
+    return r

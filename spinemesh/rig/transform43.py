@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .transform import DEG_RAD, PI, PI2, RAD_DEG, _num
+from .transform import DEG_RAD, PI, RAD_DEG, _num, wrap_pi
 
 #: The runtime's threshold for a zero squared length (``MathUtils.epsilon2``).
 EPSILON2 = 0.00001 * 0.00001
@@ -193,14 +193,6 @@ def source_value_43(i: int, source, local: bool, offsets: list[float]) -> float:
     return (math.atan2(d, b) - math.atan2(c, a)) * RAD_DEG - 90 + offsets[5]
 
 
-def _wrap_pi(r: float) -> float:
-    if r > PI:
-        return r - PI2
-    if r < -PI:
-        return r + PI2
-    return r
-
-
 def _to_local(i: int, values: list[float], value: float, mix: float, additive: bool) -> None:
     """Target property ``i`` of the local values ``[x, y, rotation, scaleX, scaleY, shearX,
     shearY]`` moved towards (or by, ``additive``) ``value``."""
@@ -229,7 +221,7 @@ def _to_world(i: int, m: list[float], value: float, mix: float, additive: bool) 
         value *= DEG_RAD
         if not additive:
             value -= math.atan2(c, a)
-        value = _wrap_pi(value) * mix
+        value = wrap_pi(value) * mix
         cos, sin = math.cos(value), math.sin(value)
         m[:4] = [cos * a - sin * c, cos * b - sin * d, sin * a + cos * c, sin * b + cos * d]
     elif i == 1:
@@ -252,7 +244,7 @@ def _to_world(i: int, m: list[float], value: float, mix: float, additive: bool) 
         if additive:
             value -= PI / 2
         else:
-            value = _wrap_pi(value - (by - math.atan2(c, a)))
+            value = wrap_pi(value - (by - math.atan2(c, a)))
         value = by + value * mix
         s = math.sqrt(b * b + d * d)
         m[1], m[3] = math.cos(value) * s, math.sin(value) * s
