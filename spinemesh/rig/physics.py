@@ -108,13 +108,8 @@ class PhysicsState:
         if self.mode == RESET:
             self.reset()
         if self.mode in (RESET, UPDATE):
-            delta = max(self.clock - self.last_time, 0.0)
-            self.remaining += delta
-            self.last_time = self.clock
-            if self.fresh:
-                self.fresh = False
-                self.ux, self.uy = wx, wy
-            else:
+            delta = self._advance(wx, wy)
+            if delta is not None:
                 limit = s.limit * delta
                 left, wx, wy, damped = self._translate(wx, wy, limit, v)
                 if s.rotate > 0 or s.shear_x > 0 or s.scale_x > 0:
@@ -127,6 +122,19 @@ class PhysicsState:
             if s.y > 0:
                 wy += self.y_offset * v.mix * s.y
         self._finish(bone, a, b, c, d, wx, wy, v.mix, 0.0)
+
+    def _advance(self, wx: float, wy: float) -> float | None:
+        """The skeleton's clock since the last update added to the time left to step; that
+        advance in seconds, or None at the first update (the bone at ``wx, wy`` kept as where
+        it was, nothing stepped)."""
+        delta = max(self.clock - self.last_time, 0.0)
+        self.remaining += delta
+        self.last_time = self.clock
+        if self.fresh:
+            self.fresh = False
+            self.ux, self.uy = wx, wy
+            return None
+        return delta
 
     def _finish(self, bone, a, b, c, d, wx, wy, mix: float, z: float) -> None:
         """The bone turned and scaled by the offsets (less their lags times ``z``), kept."""
@@ -147,14 +155,9 @@ class PhysicsState:
         if self.mode == RESET:
             self.reset()
         if self.mode in (RESET, UPDATE):
-            delta = max(self.clock - self.last_time, 0.0)
             before = self.remaining  # the time left over from the last update, for the lags it left
-            self.remaining += delta
-            self.last_time = self.clock
-            if self.fresh:
-                self.fresh = False
-                self.ux, self.uy = wx, wy
-            else:
+            delta = self._advance(wx, wy)
+            if delta is not None:
                 limit = s.limit * delta
                 left, damped = self.remaining, -1.0
                 if move_x or move_y:
