@@ -211,3 +211,24 @@ def _drain(fd: int, into: list) -> None:
         if not data:
             return
         into.append(data)
+
+
+def test_the_cap_holds_where_the_setup_pose_draws_nothing(tmp_path):
+    """The estimate measures the setup pose; a skeleton whose setup pose draws nothing and whose
+    animation shows hundreds of regions passed it and wrote without a bound. The stream itself
+    now stops at the cap (here made 1 MiB), in one line naming the skeleton, no file written."""
+    doc = _many(300)
+    for slot in doc["slots"][3:]:
+        del slot["attachment"]
+    doc["animations"]["turn"]["slots"].update({s["name"]: {"attachment": [{"name": "a"}]} for s in doc["slots"][3:]})
+    skeleton = _project(tmp_path, doc)
+    times = ",".join(f"{i / 100:g}" for i in range(100))  # about 10 MB of JSON, estimated at 0.2 MB
+    patch = "import spinemesh.limits\nspinemesh.limits.MAX_POSE_OUTPUT_BYTES = 1 << 20"
+    r = _pose(skeleton, "-a", "turn", "--times", times, "--out", tmp_path / "new" / "pose.json", patch=patch)
+    stderr = r.stderr.decode()
+    assert r.returncode == 2 and "Traceback" not in stderr, stderr
+    (line,) = [x for x in stderr.splitlines() if x.startswith("error:")]
+    assert str(skeleton) in line and "passed 0.0009766 GiB of JSON" in line, line
+    assert not (tmp_path / "new" / "pose.json").exists() and not list((tmp_path / "new").glob("*"))
+    r = _pose(skeleton, "-a", "turn", "--times", times, "--out", tmp_path / "new" / "pose.json")
+    assert r.returncode == 0 and (tmp_path / "new" / "pose.json").stat().st_size > 5_000_000, r.stderr

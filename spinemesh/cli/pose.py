@@ -107,13 +107,32 @@ def pose(
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
                                   step=lambda: bar.advance(task)), animation, skeleton)
         head = dump_head(sampler, str(skeleton), fps)
-        pieces = chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton), ["\n"])
+        pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
+                                       ["\n"]), skeleton)
         if out is None:
             _echo_pieces(pieces, stdout)
         else:
             atomic_write_pieces(out, pieces)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
+
+
+def _within_the_cap(pieces, skeleton: Path):
+    """The pieces of the JSON as they come, refused in one line naming the skeleton as soon as
+    they pass :data:`~spinemesh.limits.MAX_POSE_OUTPUT_BYTES`: the estimate made before sampling
+    (:func:`_check_pose_bounds`) measures the setup pose, and an animation may draw far more (a
+    setup pose that draws nothing bounds nothing). To ``--out``, the file is then not written."""
+    from ..errors import SpineMeshError
+    from ..limits import MAX_POSE_OUTPUT_BYTES
+
+    written = 0
+    for piece in pieces:
+        written += len(piece) if piece.isascii() else len(piece.encode("utf-8"))
+        if written > MAX_POSE_OUTPUT_BYTES:
+            raise SpineMeshError(f"--times: the poses passed {MAX_POSE_OUTPUT_BYTES / 2**30:,.4g} GiB of JSON, the "
+                                 "limit (they draw more than the setup pose the estimate measured); give fewer times",
+                                 skeleton)
+        yield piece
 
 
 def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
