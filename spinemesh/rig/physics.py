@@ -198,11 +198,8 @@ class PhysicsState:
         the springs stepped and their lags kept; returns the time left over."""
         s = self.s
         t = s.step
-        turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0
-        ca = math.atan2(c_, a_)
+        turn, scale, ca, dx, dy = self._turn_inputs(a_, c_, wx, wy, limit)
         mr = 0.0
-        dx = min(max(self.cx - wx, -limit), limit)
-        dy = min(max(self.cy - wy, -limit), limit)
         shown_before = max(0.0, 1 - before / t)
         if turn:
             mr = (s.rotate + s.shear_x) * v.mix
@@ -305,16 +302,22 @@ class PhysicsState:
             elif left < t:
                 return left
 
+    def _turn_inputs(self, a_: float, c_: float, wx: float, wy: float,
+                     limit: float) -> tuple[bool, bool, float, float, float]:
+        """What the rotation and scale springs start from: whether they move (``turn``,
+        ``scale``), the bone's angle ``ca`` (``a_``, ``c_`` its world x axis) and how far it
+        moved since the last update (at most ``limit`` a side)."""
+        s = self.s
+        return (s.rotate > 0 or s.shear_x > 0, s.scale_x > 0, math.atan2(c_, a_),
+                min(max(self.cx - wx, -limit), limit), min(max(self.cy - wy, -limit), limit))
+
     def _rotate(self, a_: float, c_: float, wx: float, wy: float, limit: float, length: float, v: _Values,
                 damped: float) -> float:
         """The bone's turn since the last frame added to the rotation and scale offsets, the
         springs stepped; returns the time left over."""
         s = self.s
-        turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0
-        ca = math.atan2(c_, a_)
+        turn, scale, ca, dx, dy = self._turn_inputs(a_, c_, wx, wy, limit)
         mr = 0.0
-        dx = min(max(self.cx - wx, -limit), limit)
-        dy = min(max(self.cy - wy, -limit), limit)
         if turn:
             mr = (s.rotate + s.shear_x) * v.mix
             r = math.atan2(dy + self.ty, dx + self.tx) - ca - self.rotate_offset * mr
