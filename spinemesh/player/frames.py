@@ -92,17 +92,26 @@ def pose_skins(doc: dict) -> list[str]:
     """The skins the setup pose is drawn with, first match first: the skin that supplies most of
     the slots' setup attachments (a project whose default skin is empty dresses it in one), then
     ``default``, as a runtime falls back to the default skin."""
-    skins = dict(iter_skins(doc))
-    best = max((k for k in skins if k != "default"), key=lambda k: setup_attachments_in(doc, k), default=None)
-    return (([best] if best is not None and setup_attachments_in(doc, best) else [])
-            + (["default"] if "default" in skins else []))
+    held = setup_counts(doc)
+    best = max((k for k in held if k != "default"), key=held.get, default=None)
+    return ([best] if best is not None and held[best] else []) + (["default"] if "default" in held else [])
 
 
-def setup_attachments_in(doc: dict, skin: str) -> int:
-    """How many of the slots' setup attachments the skin ``skin`` holds (0 for a skin it lacks)."""
-    slots = dict(iter_skins(doc)).get(skin) or {}
-    return sum(isinstance((slots.get(s.get("name")) or {}).get(str(s["attachment"])), dict)
-               for s in doc.get("slots", []) if isinstance(s, dict) and s.get("attachment") is not None)
+def _setup_attachments(doc: dict) -> list[tuple[str, str]]:
+    """The slots' setup attachments, ``(slot, attachment)``, in slot order."""
+    return [(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
+            if isinstance(s, dict) and s.get("attachment") is not None]
+
+
+def _held(slots: dict, wanted) -> list[tuple[str, str]]:
+    """Those of the ``(slot, attachment)`` pairs ``wanted`` that a skin's ``slots`` holds."""
+    return [(slot, name) for slot, name in wanted if isinstance((slots.get(slot) or {}).get(name), dict)]
+
+
+def setup_counts(doc: dict) -> dict[str, int]:
+    """Per skin, in the document's order, how many of the slots' setup attachments it holds."""
+    wanted = _setup_attachments(doc)
+    return {k: len(_held(slots, wanted)) for k, slots in iter_skins(doc)}
 
 
 def bone_colours(att: dict | None, count: int, bone_count: int, slot_bone: int) -> np.ndarray:
@@ -380,13 +389,11 @@ def outfit(doc: dict) -> tuple[str, ...]:
     ('naked', 'cap')
     """
     skins = dict(iter_skins(doc))
-    default = skins.get("default") or {}
-    missing = {(s.get("name"), str(s["attachment"])) for s in doc.get("slots", [])
-               if isinstance(s, dict) and s.get("attachment") is not None}
-    missing = {(slot, name) for slot, name in missing if not isinstance((default.get(slot) or {}).get(name), dict)}
+    wanted = _setup_attachments(doc)
+    missing = set(wanted) - set(_held(skins.get("default") or {}, wanted))  # the default skin's are never missing
 
     def supplied(skin: str) -> set:
-        return {(slot, name) for slot, name in missing if isinstance((skins[skin].get(slot) or {}).get(name), dict)}
+        return set(_held(skins[skin], missing))
 
     chosen: list[str] = []
     while missing:
@@ -412,7 +419,8 @@ def sampled_skins(doc: dict) -> list[str | tuple[str, ...]]:
     none of the setup pose's attachments is one of the others, by its size: a character whose
     skins are all named and whose default skin holds a few effects is first played dressed
     (the first skin is the one its animations are sampled in when the budget allows one)."""
-    order = [k for k in pose_skins(doc) if setup_attachments_in(doc, k)]
+    held = setup_counts(doc)
+    order = [k for k in pose_skins(doc) if held.get(k)]
     sizes = {k: sum(len(v) for v in slots.values() if isinstance(v, dict)) for k, slots in iter_skins(doc)}
     rest = sorted((k for k in sizes if k not in order), key=lambda k: -sizes[k])
     combined = outfit(doc)

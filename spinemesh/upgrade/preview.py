@@ -603,16 +603,14 @@ def _chunks(durations: dict[str, float], parts: int) -> list[list[str]]:
     return [c for c in out if c]
 
 
-def _region_table(atlases, docs) -> dict:
+def _region_table(atlases, regions, docs) -> dict:
     """What a worker needs of the atlases to pose ``docs``: the geometry
     (:func:`spinemesh.anim.atlas_regions`) of every region an attachment of theirs can draw, by
     name, ``table.get`` answering as ``atlas_regions(atlases)`` does. A region is kept where its
     name is an attachment's path, name or key, or one of those followed by digits (a sequence's
     frames): a superset of what the sampler asks. Sent in place of the atlases, which were
     pickled for every task (an atlas of 99,000 regions made the preview over ``--jobs 2`` four
-    times slower than one process)."""
-    from ..anim import atlas_regions
-
+    times slower than one process). ``regions`` is ``atlas_regions(atlases)``, already made."""
     bases: set[str] = set()
     for doc in docs:
         for _, slots in iter_skins(doc):
@@ -621,7 +619,6 @@ def _region_table(atlases, docs) -> dict:
                     bases.add(str(key))
                     if isinstance(att, dict):
                         bases.update(str(att[k]) for k in ("name", "path") if att.get(k) is not None)
-    regions = atlas_regions(atlases)
     table = {}
     for atlas in atlases:
         for region in atlas.regions:
@@ -673,10 +670,10 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
         page.problem, source = str(e), None
     page.source = None if source is None else _ImageCache(source)
     atlases = _regions_of(page.source)
+    regions = atlas_regions(atlases) if atlases else None
     problems: list[str] = []
     try:
-        page.setup, page.sampling, sides = plan_sampling(before, after, atlas_regions(atlases) if atlases else None,
-                                                         problems)
+        page.setup, page.sampling, sides = plan_sampling(before, after, regions, problems)
     except _PLAYER_ERRORS as e:
         page.failed = e
         return page
@@ -684,7 +681,7 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
     if workers is None:
         page.sides = sides
         return page
-    table = _region_table(atlases, (before, after)) if atlases else None
+    table = _region_table(atlases, regions, (before, after)) if atlases else None
     for names in _chunks(page.sampling.durations, 2 * workers.slots):
         page.chunks.append((names, workers.submit(_sample_in_worker,
                                                   (sk.original, sk.upgraded, sk.stamps, table, page.sampling, names))))
@@ -763,19 +760,22 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
     on_skeleton : callable, optional
         Called with no argument after each skeleton (for progress bars).
     jobs : int, default 1
-        Processes writing skeletons' pages at once (each page is one skeleton's work: the same
-        files whatever the number).
+        Processes sampling the players' animations (:func:`_write_pages`; the same files
+        whatever the number).
     """
     project, out = Path(project), Path(out)
     files = PreviewFolder(folder)
     skeletons = _skeletons(result, project, out)
     docs, problems, twins = _read_pairs(skeletons)
+    targets: dict[str, list] = {}
+    for t in result.targets:
+        targets.setdefault(t.skeleton, []).append(t)
     pages: dict[str, _Page] = {}
     used_ids: set[str] = set()
     for sk in skeletons:
         if sk.rel in twins:
             continue
-        mine = [t for t in result.targets if t.skeleton == sk.rel]
+        mine = targets.get(sk.rel, [])
         pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
         while pid in used_ids:
             pid += "_"
@@ -790,7 +790,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             if on_skeleton is not None:
                 on_skeleton()
             continue
-        mine = [t for t in result.targets if t.skeleton == sk.rel]
+        mine = targets.get(sk.rel, [])
         counts = {s: sum(t.status == s for t in mine) for s in ("meshed", "kept", "failed")}
         link, rate, problem = done.get(sk.rel, (None, FillRate(0, 0, 0, 0), None))
         if problem:
