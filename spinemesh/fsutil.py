@@ -224,21 +224,6 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
             guard.check(file)
 
 
-def _read_umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-#: Read once, at import: reading it means setting it for a moment, which would race with
-#: files and folders created by other threads (upgrade copies files on threads).
-_UMASK = _read_umask()
-
-
-def _umask() -> int:
-    return _UMASK
-
-
 def _write_error(e: OSError, path: Path) -> OutputError:
     if e.errno == errno.ENOSPC:
         reason = "disk full"
@@ -433,31 +418,22 @@ def strict_json_pieces(head: dict, key: str, items: Iterable, path: str | Path |
     yield "]}"
 
 
-def atomic_write_pieces(path: str | Path, pieces: Iterable[str]) -> int:
+def atomic_write_pieces(path: str | Path, pieces: Iterable[str]) -> None:
     """Atomically write text given in pieces (UTF-8), each written to the file as it comes, so
     that only one piece is held at a time: a temporary file beside ``path``, renamed onto it
     when the last piece is written. When taking a piece raises (a refused value, Ctrl-C) or
     the file system refuses, the temporary file is removed and ``path`` keeps what it held.
-
-    Returns
-    -------
-    int
-        Bytes written.
 
     Raises
     ------
     OutputError
         When the file system refuses (read-only, disk full). What ``pieces`` raises passes through.
     """
-    written = 0
-
     def fill(f):
-        nonlocal written
         for piece in pieces:
-            written += f.write(utf8(piece, path))
+            f.write(utf8(piece, path))
 
     _atomic(Path(path), fill)
-    return written
 
 
 def file_behind(stream) -> Path | None:
