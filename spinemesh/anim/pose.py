@@ -81,6 +81,10 @@ class DrawnSlot:
         The world polygon of the clipping attachment that clips this slot, if any.
     exact : bool
         False when a bone it follows is not reproduced exactly (see :attr:`Pose.exact`).
+    dark : ndarray, shape (3,), or None
+        The slot's dark colour (two-colour tint, RGB, 0..1 as keyed: 4.x runtimes do not clamp
+        it), None for a slot without one, which the runtimes draw with the light colour alone.
+        Neither the skeleton's nor the attachment's colour multiplies it.
     """
 
     slot: str
@@ -98,6 +102,7 @@ class DrawnSlot:
     hull: int | None = None
     clip: np.ndarray | None = None
     exact: bool = True
+    dark: np.ndarray | None = None
 
 
 @dataclass
@@ -141,7 +146,7 @@ class Pose:
         """This pose in the layout of the official-runtime harness's dump (one entry of
         ``poses``, without label): ``bones`` name -> ``[a, b, c, d, worldX, worldY]``, and
         ``attachments``, one dict per drawn slot (``slot``, ``bone``, ``attachment``, ``path``,
-        ``type``, ``blend``, ``color``, ``vertices`` flat, ``uvs`` flat (original image),
+        ``type``, ``blend``, ``color``, ``dark`` (only for a slot with a dark colour), ``vertices`` flat, ``uvs`` flat (original image),
         ``triangles``, ``hull``, ``clip``, and ``exact``). Numbers rounded to ``digits`` decimals;
         one that is not finite (a degenerate pose) becomes None."""
         def r(values) -> list[float]:
@@ -150,8 +155,8 @@ class Pose:
         # The runtime's (a, b, c, d) are M[0,0], M[0,1], M[1,0], M[1,1].
         attachments = [{
             "slot": s.slot, "bone": s.bone, "attachment": s.attachment, "path": s.path, "type": s.type,
-            "blend": s.blend, "color": r(s.color), "vertices": r(s.vertices), "uvs": r(s.uvs),
-            "triangles": [int(i) for i in s.triangles], "hull": s.hull,
+            "blend": s.blend, "color": r(s.color), **({} if s.dark is None else {"dark": r(s.dark)}),
+            "vertices": r(s.vertices), "uvs": r(s.uvs), "triangles": [int(i) for i in s.triangles], "hull": s.hull,
             "clip": None if s.clip is None else r(s.clip), "exact": s.exact} for s in self.slots]
         return {"bones": bones, "attachments": attachments}
 
@@ -166,6 +171,7 @@ class _Frame:
     data: dict                       # constraint id -> its current JSON values
     names: list                      # per slot: attachment key or None
     colors: list
+    darks: list                      # per slot: its dark colour (RGB) or None
     order: list[int]
     sequence: list[int]
     shown: list = field(default_factory=list)
@@ -299,6 +305,10 @@ class Sampler:
         self.slot_bones = [bone_index.get(str(s.get("bone")), 0) for s in slots]
         self.slot_setup = [s.get("attachment") for s in slots]
         self.slot_color = [np.array(color_channels(s.get("color", "ffffffff"), 4)) for s in slots]
+        #: per slot, its setup dark colour (two-colour tint) or None: the runtimes give a slot a
+        #: dark colour only where its data has one
+        self.slot_dark = [np.array(color_channels(s["dark"], 3)) if isinstance(s.get("dark"), str) and s["dark"]
+                          else None for s in slots]
         self.slot_blend = [s.get("blend", "normal") if s.get("blend", "normal") in BLEND_MODES else "normal"
                            for s in slots]
         self.skins = {name: atts for name, atts in iter_skins(doc)}
@@ -532,7 +542,8 @@ class Sampler:
             return self._bones_frame(animation, t, last)
         n_slots = len(self.slot_names)
         frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
-                       list(self.slot_setup), [c.copy() for c in self.slot_color], list(range(n_slots)),
+                       list(self.slot_setup), [c.copy() for c in self.slot_color],
+                       [None if d is None else d.copy() for d in self.slot_dark], list(range(n_slots)),
                        [-1] * n_slots)
         deforms: dict = {}
         active = [b.active for b in self.rig.bones]
@@ -540,7 +551,7 @@ class Sampler:
             anim, deforms = self.animation(animation)
             self._apply_bones(anim, t, frame.local, frame.inherit, active)
             self._apply_constraints(anim, t, frame.data)
-            self._apply_slots(anim, t, frame.names, frame.colors, active)
+            self._apply_slots(anim, t, frame.names, frame.colors, active, frame.darks)
             if physics_resets:
                 self._physics_resets(anim, last, t)
             if anim.draw_order is not None:
@@ -561,7 +572,7 @@ class Sampler:
         anim, deforms = self.animation(animation)
         n_slots = len(self.slot_names)
         frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
-                       list(self.slot_setup), [], [], [])
+                       list(self.slot_setup), [], [], [], [])
         active = [b.active for b in self.rig.bones]
         self._apply_bones(anim, t, frame.local, frame.inherit, active)
         self._apply_constraints(anim, t, frame.data)
@@ -640,8 +651,11 @@ class Sampler:
         c = self.constraints.get((tl.kind, tl.name))
         return [] if c is None else [c]
 
-    def _apply_slots(self, anim: Animation, t: float, names: list, colors: list | None, active: list) -> None:
-        """Attachment and colour timelines (``colors`` None: attachments only)."""
+    def _apply_slots(self, anim: Animation, t: float, names: list, colors: list | None, active: list,
+                     darks: list | None = None) -> None:
+        """Attachment and colour timelines (``colors`` None: attachments only), the dark colours
+        of two-colour timelines into ``darks`` (a slot without a setup dark colour keeps none:
+        the runtimes have no dark colour to set there)."""
         for tl in anim.attachments:
             if not active[self.slot_bones[tl.slot]]:
                 continue
@@ -659,6 +673,11 @@ class Sampler:
                 c[:3] = setup[:3] if v is None else v[:3]
             elif tl.property == "alpha":
                 c[3] = setup[3] if v is None else float(v[0])
+            dark = darks[tl.slot] if darks is not None and tl.property in ("rgba2", "rgb2") else None
+            if dark is not None:
+                # the light part's curves drive it; 3.8's Color.set clamps it, 4.x assigns it as it is
+                keyed = None if v is None else np.asarray(v[4:7] if tl.property == "rgba2" else v[3:6], float)
+                dark[:] = self.slot_dark[tl.slot] if keyed is None else keyed if self.four else np.clip(keyed, 0, 1)
 
     def _apply_sequence(self, sq, t: float, shown: list, sequence: list) -> None:
         att = shown[sq.slot]
@@ -744,7 +763,8 @@ class Sampler:
                     path = att.frame_paths[f] if att.frame_paths else att.path
                     out.append(DrawnSlot(self.slot_names[s], self.bone_names[bone], att.name, att.key, att.skin, path,
                                          att.type, self.slot_blend[s], colors[s] * np.array(att.color), verts, uvs,
-                                         att.triangles, att.hull, None if clip is None else clip[0]))
+                                         att.triangles, att.hull, None if clip is None else clip[0],
+                                         dark=None if frame.darks[s] is None else frame.darks[s].copy()))
             if clip is not None and clip[1] == self.slot_names[s]:
                 clip = None
         return out
