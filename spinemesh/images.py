@@ -17,7 +17,7 @@ from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
@@ -302,6 +302,8 @@ def _decode(file, path, data: bytes | None = None) -> np.ndarray:
         raise ImageError("is a folder, not an image", path) from None
     except (Image.DecompressionBombWarning, Image.DecompressionBombError):
         raise ImageError(f"image exceeds the limit of {MAX_IMAGE_PIXELS:,} pixels", path) from None
+    except UnidentifiedImageError:  # Pillow's words name the stream it read (an object's address): ours name the file
+        raise ImageError("cannot decode image: not a PNG, WebP, AVIF or JPEG file", path) from None
     except (OSError, ValueError, SyntaxError, EOFError) as e:
         raise ImageError(f"cannot decode image: {e}", path) from None
 

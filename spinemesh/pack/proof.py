@@ -169,7 +169,9 @@ def _texels(page: np.ndarray, repeat: str, cols: np.ndarray, rows: np.ndarray) -
     return words[rows, cols]
 
 
-def _repeat(page: AtlasPage) -> str:
+def page_repeat(page: AtlasPage) -> str:
+    """The axes a page repeats on, as its ``repeat:`` field says (``x``, ``y``, ``xy``), lower case;
+    ``none`` when it has none."""
     v = page.get("repeat")
     return v[0].strip().lower() if v else "none"
 
@@ -241,8 +243,8 @@ def prove_packed(before: Atlas, before_pages: list[np.ndarray], after: Atlas, af
         for (x0, y0), mask in _reads(r, ga, region_uses, meshes_only):
             jj, ii = np.nonzero(mask)
             ii, jj = ii + x0, jj + y0
-            old = _texels(before_pages[r.page], _repeat(pa), *page_texel(ga, ii, jj))
-            new = _texels(after_pages[n.page], _repeat(pb), *page_texel(gb, ii, jj))
+            old = _texels(before_pages[r.page], page_repeat(pa), *page_texel(ga, ii, jj))
+            new = _texels(after_pages[n.page], page_repeat(pb), *page_texel(gb, ii, jj))
             differ = np.count_nonzero(old != new)
             if differ:
                 raise ProofFailed(f"region {r.name!r}: {differ:,} of the {old.size:,} texels drawing it reads "

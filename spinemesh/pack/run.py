@@ -9,6 +9,7 @@ go on; skeletons are copied byte for byte (packing changes only atlases and page
 from __future__ import annotations
 
 import io
+import struct
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -604,14 +605,21 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
         For a page in a format that cannot be written back texel for texel (JPEG), before any is
         read, and for a PNG page of 16 bits a channel (:func:`check_eight_bits`).
     """
+    from .proof import page_repeat
+
     for page in job.atlas.pages:
         if Path(page.name).suffix.lower() not in PAGE_FORMATS:
             raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
                               "texel for texel (JPEG pages have no alpha and lose texels when written)")
+        if page_repeat(page) != "none":
+            raise PackRefused(f"page {page.name!r} repeats ({page_repeat(page)}): a repeating page is sampled "
+                              "beyond its regions (a tiling texture, UVs a game scrolls), which no skeleton says, "
+                              "so a packed page could not be proven to draw as it")
     on_step(0, 0, STEPS["read"])
     data = [image_file_bytes(f) for f in job.files]
     for d, page in zip(data, job.atlas.pages):
         check_eight_bits(d, page.name)
+        check_one_upright_image(d, page.name)
     return data, [decode_rgba(d, f) for d, f in zip(data, job.files)]
 
 
@@ -819,6 +827,54 @@ def check_eight_bits(data: bytes, name: str) -> None:
     if depth is not None and depth > 8:
         raise PackRefused(f"page {name!r} has 16 bits a channel, and packed pages are written at 8 "
                           "(its texels would lose their low bits)")
+
+
+#: EXIF's orientation tag: 1 is upright; 2 to 8 turn or mirror the stored image to show it.
+EXIF_ORIENTATION = 0x0112
+
+
+def check_one_upright_image(data: bytes, name: str) -> None:
+    """Refuse a page file that runtimes draw differently: an animated one (an APNG, an animated
+    WebP: a browser shows its frames in turn where texture loaders take one, and a packed page
+    holds one) or one whose EXIF orientation turns or mirrors it (browsers turn such an image,
+    texture loaders take its texels as stored). A packed page would silently drop either.
+
+    Raises
+    ------
+    PackRefused
+        Naming the page and what it holds.
+    """
+    from PIL import Image
+
+    frames, exif = 1, None
+    chunks = png_chunks(data)
+    if chunks is not None:
+        kinds = [kind for kind, _ in chunks]
+        if b"acTL" in kinds:  # an APNG: its frames, and its default image where it is not the first
+            frames = kinds.count(b"fcTL")
+            if b"IDAT" in kinds and (b"fcTL" not in kinds or kinds.index(b"IDAT") < kinds.index(b"fcTL")):
+                frames += 1
+        exif = next((body for kind, body in chunks if kind == b"eXIf"), None)
+    else:
+        try:
+            with Image.open(io.BytesIO(data)) as im:
+                frames, exif = getattr(im, "n_frames", 1), im.info.get("exif")
+        except UNREADABLE_IMAGE:  # its decode says why
+            return
+    if frames > 1:
+        raise PackRefused(f"page {name!r} is animated ({frames:,} frames): a browser shows them in turn where "
+                          "texture loaders take one, and a packed page would hold one")
+    orientation = 1
+    if exif:
+        try:
+            orientation = Image.Exif()
+            orientation.load(bytes(exif))
+            orientation = orientation.get(EXIF_ORIENTATION, 1)
+        except (*UNREADABLE_IMAGE, KeyError, TypeError, struct.error):  # unreadable EXIF turns nothing
+            orientation = 1
+    if orientation not in (1, None):
+        raise PackRefused(f"page {name!r} says to show it turned or mirrored (EXIF orientation {orientation}): "
+                          "browsers turn it and texture loaders do not, and a packed page would drop it")
 
 
 def reencoded_page(original: bytes, texels: np.ndarray, name: str) -> bytes:
