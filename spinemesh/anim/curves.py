@@ -20,7 +20,8 @@ Two layouts:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -99,6 +100,10 @@ class Keys:
     runtimes set it). ``bezier``: per BEZIER key's index, its curve: 3.x, (9, 2) percent points;
     4.x, (k, 9, 2) per value (only those keys: a million linear keys hold no curve).
     ``angle``: a 3.x rotate timeline, whose keys turn the shorter way round.
+
+    A player asks for time after time a frame apart, most of them between the same two keys:
+    the span last found is kept, its keys and curve as Python floats (the same float64
+    arithmetic as numpy's, without numpy's cost per call on a few numbers).
     """
 
     times: np.ndarray
@@ -107,6 +112,8 @@ class Keys:
     bezier: dict
     four: bool
     angle: bool = False
+    _span: tuple | None = field(default=None, init=False, repr=False, compare=False)
+    _ascending: bool | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def duration(self) -> float:
@@ -114,49 +121,71 @@ class Keys:
 
     def index(self, time: float) -> int:
         """The last key at or before ``time`` (-1 before the first key)."""
-        return int(np.searchsorted(self.times, time, side="right")) - 1
+        return self._find(time)[0]
 
-    def at(self, time: float) -> np.ndarray | None:
-        """The values (k,) at ``time``; None before the first key (the setup values apply)."""
-        i = self.index(time)
+    def _find(self, time: float) -> tuple:
+        """``(i, t1, t2, kind, a, b, curve)``: the key at or before ``time`` (:meth:`index`), the
+        span ``t1 <= time < t2`` in which that is the answer (-inf before the first key, inf
+        from the last on), the key's kind, its values and the next key's (tuples of float)
+        and its curve (nested lists of float; None unless BEZIER). The span last found is
+        kept and answers while ``time`` stays within it, where the times ascend (a file's
+        keys out of order are searched each time, as numpy searches them)."""
+        span = self._span
+        if span is not None and span[1] <= time < span[2]:
+            return span
+        i = int(np.searchsorted(self.times, time, side="right")) - 1
+        n = len(self.times)
+        if i < 0:
+            span = (-1, -math.inf, float(self.times[0]), STEPPED, (), (), None)
+        elif i == n - 1:
+            row = tuple(self.values[i].tolist())
+            span = (i, float(self.times[i]), math.inf, STEPPED, row, row, None)
+        else:
+            kind = int(self.kinds[i])
+            curve = self.bezier[i].tolist() if kind == BEZIER else None
+            span = (i, float(self.times[i]), float(self.times[i + 1]), kind, tuple(self.values[i].tolist()),
+                    tuple(self.values[i + 1].tolist()), curve)
+        if self._ascending is None:
+            self._ascending = bool(np.all(self.times[1:] >= self.times[:-1]))
+        if self._ascending:
+            self._span = span
+        return span
+
+    def at(self, time: float) -> tuple[float, ...] | None:
+        """The values (k floats) at ``time``; None before the first key (the setup values apply)."""
+        i, t1, t2, kind, a, b, curve = self._find(time)
         if i < 0:
             return None
-        kind = self.kinds[i]
-        if kind == STEPPED or i == len(self.times) - 1:
-            return self.values[i]
-        t1, t2 = float(self.times[i]), float(self.times[i + 1])
-        a, b = self.values[i], self.values[i + 1]
+        if kind == STEPPED:
+            return a
         if self.four:
             if kind == LINEAR:
-                return a + (time - t1) / (t2 - t1) * (b - a)
-            return np.array([value_4(self.bezier[i][c], time, t1, float(a[c]), t2, float(b[c]))
-                             for c in range(len(a))])
+                f = (time - t1) / (t2 - t1)
+                return tuple(x + f * (y - x) for x, y in zip(a, b))
+            return tuple(value_4(curve[c], time, t1, a[c], t2, b[c]) for c in range(len(a)))
         p = (time - t1) / (t2 - t1)
         if kind == BEZIER:
-            p = percent_3(self.bezier[i], p)
+            p = percent_3(curve, p)
         else:
             p = min(1.0, max(0.0, p))
-        change = b - a
         if self.angle:
-            change = np.array([_wrap_turns(float(v)) for v in change])
-        return a + change * p
+            return tuple(x + _wrap_turns(y - x) * p for x, y in zip(a, b))
+        return tuple(x + (y - x) * p for x, y in zip(a, b))
 
     def percent(self, time: float) -> tuple[int, float]:
         """For deform timelines: the key at or before ``time`` and how far (0..1) the value has
         moved towards the next key; ``(-1, 0)`` before the first key."""
-        i = self.index(time)
+        i, t1, t2, kind, _, _, curve = self._find(time)
         if i < 0:
             return -1, 0.0
-        kind = self.kinds[i]
-        if kind == STEPPED or i == len(self.times) - 1:
+        if kind == STEPPED:
             return i, 0.0
-        t1, t2 = float(self.times[i]), float(self.times[i + 1])
         if self.four:
             if kind == LINEAR:
                 return i, (time - t1) / (t2 - t1)
-            return i, value_4(self.bezier[i][0], time, t1, 0.0, t2, 1.0)
+            return i, value_4(curve[0], time, t1, 0.0, t2, 1.0)
         p = (time - t1) / (t2 - t1)
-        return i, percent_3(self.bezier[i], p) if kind == BEZIER else min(1.0, max(0.0, p))
+        return i, percent_3(curve, p) if kind == BEZIER else min(1.0, max(0.0, p))
 
 
 #: The largest magnitude a float32 holds: the runtimes store keys as float32, so a key beyond
