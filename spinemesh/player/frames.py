@@ -73,6 +73,8 @@ class Drawn:
     clip : ndarray, shape (M, 2), or None
         The world polygon of the clipping attachment that clips it (one array object shared by
         every attachment that polygon clips in a pose), if any.
+    dark : (float, float, float) or None
+        0..1: the slot's dark colour (two-colour tint), None where it has none.
     """
 
     key: tuple[str, str, str]
@@ -86,6 +88,7 @@ class Drawn:
     blend: str = "normal"
     bones: np.ndarray | None = None
     clip: np.ndarray | None = None
+    dark: tuple | None = None
 
 
 def pose_skins(doc: dict) -> list[str]:
@@ -189,7 +192,8 @@ class PoseSampler:
             out.append(Drawn(key, s.path or None, world, np.asarray(s.uvs, float).reshape(-1, 2),
                              np.asarray(s.triangles, int).ravel(), s.type == "mesh", float(s.color[3]),
                              tuple(float(c) for c in s.color[:3]), s.blend,
-                             self._colours[key, len(world)], _clip_polygon(s.clip)))
+                             self._colours[key, len(world)], _clip_polygon(s.clip),
+                             None if s.dark is None else tuple(float(c) for c in s.dark)))
         return out, dict(pose.why)
 
 
@@ -230,7 +234,7 @@ class SideTable:
             })
         return self.keys[key]
 
-    def absorb(self, side: "EncodedSide") -> dict:
+    def absorb(self, side: EncodedSide) -> dict:
         """``side``'s frames (:func:`encode_frames` against a table of its own) with this
         table's indices: its attachments added in the order it first drew them, as if its
         frames had been encoded against this table."""
@@ -312,7 +316,7 @@ def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
 
 def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
     """One side of an animation: ``draws`` (per frame: count, then per attachment its table
-    index, alpha 0..255, blend, tint as one 24-bit RGB number and its clipping: 0 none, -1 the
+    index, alpha 0..255, blend, tint (:func:`tint_number`) and its clipping: 0 none, -1 the
     previous attachment's polygon, M > 0 a new polygon of M vertices) and ``xy`` (every vertex,
     frame after frame, each new clipping polygon's before the vertices of the attachment it
     first clips, quantised to 0..65535 over ``box``, little-endian uint16, base64)."""
@@ -324,7 +328,6 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
         draws.append(len(pose))
         previous = None
         for d in pose:
-            r, g, b = (int(round(255 * min(max(c, 0.0), 1.0))) for c in d.tint)
             if d.clip is None:
                 clip = 0
             elif previous is not None and (d.clip is previous or np.array_equal(d.clip, previous)):
@@ -334,11 +337,35 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
                 xy.append(d.clip)
             previous = d.clip
             draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0),
-                      (r << 16) | (g << 8) | b, clip]
+                      tint_number(d.tint, d.dark), clip]
             xy.append(d.world)
     q = np.concatenate(xy) if xy else np.zeros((0, 2))
     q = np.round((q - (x0, y0)) / span * 65535).clip(0, 65535).astype("<u2")
     return {"draws": draws, "xy": base64.b64encode(q.tobytes()).decode("ascii")}
+
+
+def _rgb24(colour) -> int:
+    r, g, b = (int(round(255 * min(max(c, 0.0), 1.0))) for c in colour)
+    return (r << 16) | (g << 8) | b
+
+
+def tint_number(light, dark=None) -> int:
+    """The tint the player draws an attachment with, one number: the light colour (RGB 0..1) as
+    24 bits, plus the dark colour's 24 bits times 2**24 where the slot has a dark colour (the
+    two-colour tint; channels clamped to 0..1). A dark colour of black draws as no dark colour
+    (``dark + texel * (light - dark)`` is then ``texel * light``): both are 0, and a page whose
+    slots have none holds the numbers it held before. At most 2**48, exact in JavaScript.
+
+    Examples
+    --------
+    >>> hex(tint_number((1.0, 0.5, 0.0)))
+    '0xff8000'
+    >>> tint_number((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)) == tint_number((1.0, 1.0, 1.0))
+    True
+    >>> tint_number((1.0, 1.0, 1.0), (1.0, 0.0, 0.0)) == 0xffffff + 0xff0000 * 2 ** 24
+    True
+    """
+    return _rgb24(light) + (0 if dark is None else _rgb24(dark) << 24)
 
 
 def frame_rate(duration: float, vertices_per_frame: int, fps: float = FPS) -> float:

@@ -2,7 +2,8 @@
  *
  * Data comes from scripts beside the page (file:// pages may load <script src>, not fetch):
  * SM.model(id, model) once per skeleton, SM.frames(key, frames) per animation and skin, loaded
- * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint, clipping)
+ * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint: the light
+ * colour's 24 bits plus the dark colour's times 2^24 where a slot has one, clipping)
  * and their vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D
  * canvas, each an affine map of its image clipped to the triangle (one clip and one draw when a
  * whole attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
@@ -87,6 +88,48 @@
     return { draws: d, xy: xy, starts: starts };
   }
 
+  /* The pixels of images tinted in one page (tinted()), and the SVG filters of two-colour tints. */
+  var MAX_TINT_PIXELS = 64 * 1024 * 1024, SVGNS = "http://www.w3.org/2000/svg", filters = null, filterCount = 0;
+
+  /* The image drawn on x as the runtimes' two-colour tint draws it (spine-webgl's two-colour
+   * shader, straight alpha): each texel's colour c becomes dark + c * (light - dark), its alpha
+   * kept. An SVG colour matrix as the canvas's filter: it works on straight colour, and, unlike
+   * reading the pixels back, on a page opened from disk, whose images a browser will not let a
+   * script read. False where the browser has no canvas filters (the light colour alone is drawn). */
+  function twoColour(x, im, light, dark) {
+    if (typeof x.filter !== "string") return false;
+    if (!filters) {
+      var svg = document.createElementNS(SVGNS, "svg");
+      svg.setAttribute("width", "0"); svg.setAttribute("height", "0");
+      svg.setAttribute("style", "position:absolute;width:0;height:0");
+      svg.setAttribute("aria-hidden", "true");
+      filters = document.createElementNS(SVGNS, "defs");
+      svg.appendChild(filters);
+      document.body.appendChild(svg);
+    }
+    var rows = [];
+    for (var k = 0; k < 3; k++) {
+      var shift = 16 - 8 * k, l = (light >> shift & 255) / 255, dk = (dark >> shift & 255) / 255;
+      var row = [0, 0, 0, 0, dk];
+      row[k] = l - dk;
+      rows.push(row.join(" "));
+    }
+    rows.push("0 0 0 1 0");
+    var f = document.createElementNS(SVGNS, "filter"), m = document.createElementNS(SVGNS, "feColorMatrix");
+    var id = "sm-two-colour-" + (++filterCount);
+    f.setAttribute("id", id);
+    f.setAttribute("color-interpolation-filters", "sRGB"); /* the colours as stored, as the shader reads them */
+    m.setAttribute("type", "matrix");
+    m.setAttribute("values", rows.join(" "));
+    f.appendChild(m);
+    filters.appendChild(f);
+    x.filter = "url(#" + id + ")";
+    if (x.filter === "none") return false;
+    x.drawImage(im, 0, 0);
+    x.filter = "none";
+    return true;
+  }
+
   function affine(s, d) { /* s, d: [x0,y0,x1,y1,x2,y2]; returns [a,b,c,e,f,...] as canvas setTransform args */
     var u1 = s[2] - s[0], v1 = s[3] - s[1], u2 = s[4] - s[0], v2 = s[5] - s[1];
     var det = u1 * v2 - u2 * v1;
@@ -138,16 +181,25 @@
       return P.images[i].complete && P.images[i].naturalWidth ? P.images[i] : null;
     }
 
-    /* The image multiplied by a tint (24-bit RGB), its alpha kept: kept for reuse, a few hundred at most. */
-    var tints = {}, tintCount = 0;
-    function tinted(i, rgb) {
+    /* The image as a tint draws it, its alpha kept: multiplied by the light colour (24-bit RGB), or
+     * with a dark colour (two-colour tint; 0: none), as the runtimes' two-colour shader draws it
+     * (twoColour). Kept for reuse: a few hundred at most, MAX_TINT_PIXELS pixels in all (a dark
+     * colour keyed over time makes one per frame). */
+    var tints = {}, tintCount = 0, tintPixels = 0;
+    function tinted(i, rgb, dark) {
       var im = image(i);
-      if (!im || rgb === 0xffffff) return im;
-      var key = i + ":" + rgb;
+      if (!im || (rgb === 0xffffff && !dark)) return im;
+      var key = i + ":" + rgb + ":" + dark;
       if (!tints[key]) {
-        if (++tintCount > 300) { tints = {}; tintCount = 1; }
+        var area = im.naturalWidth * im.naturalHeight;
+        if (++tintCount > 300 || tintPixels + area > MAX_TINT_PIXELS) {
+          tints = {}; tintCount = 1; tintPixels = 0;
+          while (filters.firstChild) filters.removeChild(filters.firstChild);
+        }
+        tintPixels += area;
         var c = document.createElement("canvas"), x = c.getContext("2d");
         c.width = im.naturalWidth; c.height = im.naturalHeight;
+        if (dark && twoColour(x, im, rgb, dark)) return (tints[key] = c);
         x.drawImage(im, 0, 0);
         x.globalCompositeOperation = "multiply";
         x.fillStyle = "#" + (0x1000000 + rgb).toString(16).slice(1);
@@ -227,7 +279,8 @@
       ctx.clearRect(0, 0, s.canvas.width, s.canvas.height);
       var n = d[p++], lines = [], dots = [], clip = null;
       for (var i = 0; i < n; i++) {
-        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3], cl = d[p + 4];
+        var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3] % 16777216,
+            dark = Math.floor(d[p + 3] / 16777216), cl = d[p + 4];
         p += 5;
         if (cl === 0) clip = null;
         else if (cl > 0) { /* a new clipping polygon: its vertices come first */
@@ -244,7 +297,7 @@
           pts[2 * j] = c[0]; pts[2 * j + 1] = c[1];
         }
         v += 2 * nv;
-        var im = tinted(row.img, tint);
+        var im = tinted(row.img, tint, dark);
         ctx.globalAlpha = alpha;
         ctx.globalCompositeOperation = BLEND[blend] || "source-over";
         if (im && clip) {

@@ -1,0 +1,86 @@
+"""The preview player draws a slot's dark colour (two-colour tint) as the runtimes' shader does.
+
+spine-webgl's two-colour fragment shader, straight alpha: ``rgb = dark + texel.rgb * (light -
+dark)``, ``alpha = texel.a * light.a``. A project made here (three flat patches of colour, one
+half transparent, on one region) keys the slot's light and dark colours over time; the player's
+canvases, read back from headless Chromium at two times, must match the formula within 2/255 on
+both sides (1.1/255 at most when written; without the dark colour drawn, 178/255 off). The
+browser check needs Chromium: skipped when it is absent, a failure in CI (``CI=true``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from spinemesh.demo import pack_atlas
+from spinemesh.fsutil import atomic_write_png, atomic_write_text
+from spinemesh.player.frames import tint_number
+from spinemesh.upgrade import Options, upgrade_project
+from spinemesh.upgrade.preview import write_preview
+
+#: The three patches, left to right, each 20 x 20 texels (RGBA 0..255).
+PATCHES = [(200, 120, 40, 255), (40, 200, 160, 255), (240, 240, 240, 128)]
+#: The animation's two keys, at 0 and 1 s: (light RGBA, dark RGB), linear between.
+KEYS = [("ffc080ff", "000000"), ("80ffffff", "ff2040")]
+#: The world frame the player draws (x, y, width, height, pixels per unit): the patches' centres
+#: at (-20, 0), (0, 0), (20, 0) fall on canvas pixels (80, 80), (160, 80), (240, 80).
+VIEW = (-40, -20, 80, 40, 4)
+
+
+def _hex(text: str) -> np.ndarray:
+    return np.array([int(text[i:i + 2], 16) / 255 for i in range(0, len(text), 2)])
+
+
+def make_tinted_project(folder: Path) -> Path:
+    """A 4.2 project: one region of three flat patches, its slot's light and dark colours keyed."""
+    image = np.zeros((20, 60, 4), np.uint8)
+    for i, rgba in enumerate(PATCHES):
+        image[:, 20 * i:20 * (i + 1)] = rgba
+    atlas, page = pack_atlas({"patches": image}, "tint.png")
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(folder / "tint.atlas", atlas)
+    atomic_write_png(folder / "tint.png", page)
+    doc = {
+        "skeleton": {"hash": "dGludA", "spine": "4.2.40", "x": -30, "y": -10, "width": 60, "height": 20},
+        "bones": [{"name": "root"}],
+        "slots": [{"name": "patch", "bone": "root", "attachment": "patches", "dark": "000000"}],
+        "skins": [{"name": "default", "attachments": {"patch": {"patches": {"width": 60, "height": 20}}}}],
+        "animations": {"glow": {"slots": {"patch": {"rgba2": [
+            {"time": t, "light": light, "dark": dark} for t, (light, dark) in enumerate(KEYS)]}}}},
+    }
+    atomic_write_text(folder / "tint.json", json.dumps(doc))
+    return folder
+
+
+def expected(t: float) -> np.ndarray:
+    """(3, 4) RGBA 0..255 of each patch at ``t`` s: the shader's formula on the keyed colours."""
+    light = _hex(KEYS[0][0]) + (_hex(KEYS[1][0]) - _hex(KEYS[0][0])) * t
+    dark = _hex(KEYS[0][1]) + (_hex(KEYS[1][1]) - _hex(KEYS[0][1])) * t
+    out = []
+    for rgba in PATCHES:
+        texel = np.array(rgba, float) / 255
+        out.append(np.append(dark + texel[:3] * (light[:3] - dark), texel[3] * light[3]) * 255)
+    return np.array(out)
+
+
+def test_the_player_draws_the_dark_colour_as_the_two_colour_shader(tmp_path):
+    from browser import canvases, player_result
+
+    project = make_tinted_project(tmp_path / "in")
+    result = upgrade_project(project, tmp_path / "out", Options())
+    index = write_preview(result, project, tmp_path / "out", tmp_path / "preview")
+    data = (index.parent / "data" / "tint" / "1.0.js").read_text(encoding="utf-8")
+    assert str(tint_number(_hex(KEYS[0][0])[:3], _hex(KEYS[0][1]))) in data  # frame 0: a black dark colour
+    url = (index.parent / "s" / "tint.html").resolve().as_uri()
+    view = ",".join(map(str, VIEW))
+    for t in (0.5, 0.9):  # frames 15 and 27 at 30 a second
+        want = expected(t)
+        for side, rgba in zip(("original", "upgraded"), canvases(player_result(url + f"#at=1,{t},{view}",
+                                                                                  tmp_path / f"t{t}"))):
+            assert rgba.shape[:2] == (160, 320), rgba.shape
+            for k, x in enumerate((80, 160, 240)):
+                got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
+                assert np.abs(got - want[k]).max() <= 2, (t, side, k, got, want[k].round(1))
