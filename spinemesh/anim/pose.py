@@ -319,6 +319,7 @@ class Sampler:
                                   for t in [path_slot(self.setup_data[id(c)])] if t in self.slot_index})
         self._regions = regions or (lambda path: None)
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
+        self._found: dict[tuple[int, str], Prepared | None] = {}   # attachment(slot, key)
         self.physics_bones = self._physics_bones()
         self.physics: list[PhysicsState] = []
         four_three = is_43(doc) and posing_family(doc) is not None
@@ -349,14 +350,18 @@ class Sampler:
         return self._prepared[k]
 
     def attachment(self, slot: int, key: str | None) -> Prepared | None:
-        """``Skeleton.getAttachment``: the skeleton's skin first, then the default skin."""
+        """``Skeleton.getAttachment``: the skeleton's skin first, then the default skin (found once)."""
         if key is None:
             return None
-        for skin in self.looked_in:
-            found = self.prepared(skin, slot, key)
-            if found is not None:
-                return found
-        return self.prepared("default", slot, key)
+        k = (slot, key)
+        if k not in self._found:
+            found = None
+            for skin in self.looked_in:
+                found = self.prepared(skin, slot, key)
+                if found is not None:
+                    break
+            self._found[k] = found if found is not None else self.prepared("default", slot, key)
+        return self._found[k]
 
     # -- animations ----------------------------------------------------------------------
     def animation_names(self) -> list[str]:
@@ -470,7 +475,7 @@ class Sampler:
             posed = (self._posed(animation, t, fps, loop) for t in times)
         for t, (frame, world, exact, why) in zip(times, posed):
             mine = self._finish(t, frame, world, exact, why)
-            theirs = twin._frame(animation, frame.time, -1.0, physics_resets=False)
+            theirs = twin._frame(animation, frame.time, -1.0, bones=False)
             yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why))
 
     def _posed(self, animation: str, time: float, fps: float, loop: bool):
@@ -531,13 +536,15 @@ class Sampler:
                 pending.pop(0)
                 yield (frame, *result)
 
-    def _frame(self, animation: str | None, t: float, last: float, physics_resets: bool = True,
+    def _frame(self, animation: str | None, t: float, last: float, bones: bool = True,
                drawn: bool = True) -> _Frame:
         """Every timeline of ``animation`` applied at animation time ``t`` over the setup
-        values (``last``: the time applied the frame before, for physics resets; none with
-        ``physics_resets`` False, where another sampler steps the bones). Not ``drawn``: only
-        what poses the bones (a step between drawn frames), the slots that no path constraint
-        follows left without colour, order and attachment."""
+        values (``last``: the time applied the frame before, for physics resets). Not
+        ``bones``: another sampler poses the bones (:meth:`play_pair`'s twin), so bone and
+        constraint timelines and physics resets are left out (the frame's bone and constraint
+        values stay the setup's). Not ``drawn``: only what poses the bones (a step between
+        drawn frames), the slots that no path constraint follows left without colour, order
+        and attachment."""
         if not drawn and animation is not None:
             return self._bones_frame(animation, t, last)
         n_slots = len(self.slot_names)
@@ -549,20 +556,22 @@ class Sampler:
         active = [b.active for b in self.rig.bones]
         if animation is not None:
             anim, deforms = self.animation(animation)
-            self._apply_bones(anim, t, frame.local, frame.inherit, active)
-            self._apply_constraints(anim, t, frame.data)
+            if bones:
+                self._apply_bones(anim, t, frame.local, frame.inherit, active)
+                self._apply_constraints(anim, t, frame.data)
             self._apply_slots(anim, t, frame.names, frame.colors, active, frame.darks)
-            if physics_resets:
+            if bones:
                 self._physics_resets(anim, last, t)
             if anim.draw_order is not None:
                 i = search(anim.draw_order.times, t)
                 order = anim.draw_order.order(i) if i >= 0 else None
                 if order is not None:
                     frame.order = list(order)
-            shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
+        # the sequence timelines read the attachments shown and change only which image they show
+        frame.shown = [self.attachment(s, name) for s, name in enumerate(frame.names)]
+        if animation is not None:
             for sq in anim.sequences:
-                self._apply_sequence(sq, t, shown, frame.sequence)
-        frame.shown = [self.attachment(s, frame.names[s]) for s in range(n_slots)]
+                self._apply_sequence(sq, t, frame.shown, frame.sequence)
         self._deform(frame, range(n_slots), deforms)
         return frame
 
