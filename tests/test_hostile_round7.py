@@ -140,3 +140,68 @@ def test_a_page_that_is_no_image_names_its_file_not_a_stream(meshed, tmp_path):
     assert row.status == "failed" and "0x" not in row.reason and "BytesIO" not in row.reason, row.reason
     assert "demo.png: cannot decode image: not a PNG, WebP, AVIF or JPEG file" in row.reason, row.reason
     assert (tmp_path / "out" / "demo.png").read_bytes() == (project / "demo.png").read_bytes()
+
+
+# --- the preview: memory refused while one skeleton's animations are sampled ---------------------
+
+def _library(tmp_path: Path) -> Path:
+    """Two copies of the demo project, one whose skeleton has the animations "doomed" and "late"."""
+    import json
+
+    from spinemesh.demo import make_demo_project
+
+    for name in ("a", "b"):
+        demo = make_demo_project(tmp_path / "lib" / name)
+        (demo / "demo-binary.skel").unlink()
+        if name == "a":
+            doc = json.loads((demo / "demo.json").read_text())
+            turn = {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 2, "value": 90}]}}}
+            doc["animations"] |= {"doomed": turn, "late": turn}
+            (demo / "demo.json").write_text(json.dumps(doc))
+    return tmp_path / "lib"
+
+
+def _no_memory_for_doomed(real):
+    def sample(sides, sampling, names):
+        if "doomed" in names:
+            raise MemoryError
+        return real(sides, sampling, names)
+    return sample
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_memory_refused_while_the_preview_samples_costs_those_animations_only(tmp_path, monkeypatch, jobs):
+    """A MemoryError while one skeleton's animations were sampled (in this process, or on a worker,
+    where the task hands it back) ended the whole preview; now with ``--jobs 2`` those
+    animations alone are left out, in one line on the page, and with one process that skeleton's
+    player (the process samples a skeleton's animations together); every other page is written
+    and plays."""
+    import re
+
+    from test_hostile_wave4 import within
+
+    from spinemesh.player import frames
+    from spinemesh.upgrade import Options, preview, upgrade_library
+    from spinemesh.upgrade.preview import write_preview
+
+    lib = _library(tmp_path)
+    result = upgrade_library(lib, tmp_path / "out", Options(jobs=1))
+    monkeypatch.setattr(preview, "CHUNK_SECONDS", 0.0)  # a worker's task per animation
+    monkeypatch.setattr(frames, "sample_and_encode", _no_memory_for_doomed(frames.sample_and_encode))
+    with within(120):
+        index = write_preview(result, lib, tmp_path / "out", tmp_path / "v", jobs=jobs)
+    pages = {p: p.read_text(encoding="utf-8") for p in index.parent.glob("s/*.html")}
+    assert len(pages) == 2
+    lines = [x for text in pages.values() for x in re.findall(r"<li>([^<]*)</li>", text)]
+    (line,) = [x for x in lines if "memory" in x]
+    assert "not enough memory to sample its poses" in line, line
+    models = [m.read_text(encoding="utf-8") for m in index.parent.glob("data/*/model.js")]
+    played = sorted(re.findall(r'"name":"([^"]+)","dur"', m) for m in models)
+    if jobs == 1:
+        assert "the player could not pose this skeleton" in line
+        assert played == [["setup pose", "wave"]]  # the other skeleton's player
+    else:  # the animations sampled with "doomed" in one task are left out with it, no others
+        assert "doomed" in line and "not shown" in line, line
+        assert ["setup pose", "wave"] in played, played  # the other skeleton's, whole
+        assert any("late" in m and "doomed" not in m for m in played), played
+

@@ -42,6 +42,18 @@ CARD_LIMIT = 200
 _PLAYER_ERRORS = (SpineMeshError, KeyError, ValueError, TypeError, IndexError)
 
 
+def _player_failure(error: BaseException) -> str | None:
+    """Why the player of a skeleton (or some of its animations) could not be made, in words, when
+    ``error`` costs that player alone (:data:`_PLAYER_ERRORS`, or memory refused while it was
+    sampled, here or on a worker); None for an error that ends the preview."""
+    from ..memory import out_of_memory
+
+    if out_of_memory(error):
+        detail = "" if isinstance(error, MemoryError) else f" ({error})"  # a library's own words
+        return f"not enough memory to sample its poses{detail}"
+    return str(error) if isinstance(error, _PLAYER_ERRORS) else None
+
+
 @dataclass
 class FillRate:
     """Texels drawn for one attachment before (its stored quad) and after (its mesh)."""
@@ -415,8 +427,11 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
         player = _player(folder, pid, page_rel, played(problems), source)
     except OutputError:  # the disk refused the player's files: not a pose, and the next page would fail too
         raise
-    except _PLAYER_ERRORS as e:  # the rest of the page still helps
-        player, problems = "", [f"the player could not pose this skeleton: {e}"]
+    except Exception as e:  # the rest of the page, and the other skeletons' pages, still help
+        why = _player_failure(e)
+        if why is None:
+            raise
+        player, problems = "", [f"the player could not pose this skeleton: {why}"]
     # the player first, under the title, where a window opens the page; the texel counts after it
     body = (f'<p><a href="../index.html">← all skeletons</a></p><h1>{html.escape(sk.rel)}: original and upgraded, '
             f'side by side</h1>{twins}'
@@ -674,7 +689,9 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
     problems: list[str] = []
     try:
         page.setup, page.sampling, sides = plan_sampling(before, after, regions, problems)
-    except _PLAYER_ERRORS as e:
+    except Exception as e:  # said on the page (_skeleton_page), or the preview ends there
+        if _player_failure(e) is None:
+            raise
         page.failed = e
         return page
     page.setup_problems = problems
@@ -703,9 +720,12 @@ def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -
             for names, future in page.chunks:
                 try:
                     sampled += future.result()
-                except SpineMeshError as e:  # a worker lost, a file changed: those animations alone are left out
+                except Exception as e:  # a worker lost, a file changed, memory refused: those animations alone are left out
+                    why = _player_failure(e)
+                    if why is None:
+                        raise
                     shown = ", ".join(map(repr, names[:5])) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-                    problems.append(f"animation{'s' if len(names) > 1 else ''} {shown} not shown: {e}")
+                    problems.append(f"animation{'s' if len(names) > 1 else ''} {shown} not shown: {why}")
         return [page.setup] + collect(sampled, problems)
 
     link, rate = _skeleton_page(files, page.skeleton, page.pid, page.meshed, page.targets, before, after,
