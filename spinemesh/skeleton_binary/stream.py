@@ -201,7 +201,9 @@ class SkelWriter:
     def f32(self, value, what: str = "float") -> float:
         try:
             self.out += _F32.pack(float(value))
-        except (TypeError, ValueError, OverflowError):
+        except OverflowError:  # a number all the same: what it lacks is a float32's range
+            raise self.fail(f"a number a 32-bit float holds (at most 3.4e+38 in size) for {what}, got {value!r}") from None
+        except (TypeError, ValueError):
             raise self.fail(f"a number for {what}, got {value!r}") from None
         return value
 
