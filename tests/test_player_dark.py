@@ -84,3 +84,38 @@ def test_the_player_draws_the_dark_colour_as_the_two_colour_shader(tmp_path):
             for k, x in enumerate((80, 160, 240)):
                 got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
                 assert np.abs(got - want[k]).max() <= 2, (t, side, k, got, want[k].round(1))
+
+
+def test_more_tints_than_the_players_cache_holds_are_drawn(tmp_path):
+    """320 slots over each other, each drawing the patches in a colour of its own (the first 310 a
+    light colour alone, the last 10 a dark colour too): the page's tint cache (300 images) is
+    emptied while the frame is drawn, before any two-colour tint exists and after; no page
+    error, and the slot on top is drawn as the shader draws it."""
+    from browser import canvases, player_result
+
+    project = make_tinted_project(tmp_path / "in")
+    doc = json.loads((project / "tint.json").read_text(encoding="utf-8"))
+    slot, att = doc["slots"][0], doc["skins"][0]["attachments"]["patch"]
+    doc["slots"], doc["skins"][0]["attachments"] = [], {}
+    colours = []
+    for i in range(320):
+        light, dark = f"{i % 256:02x}{64 * (i // 256):02x}80ff", f"{(3 * i) % 256:02x}2040"  # 320 colours
+        entry = {**slot, "name": f"s{i}", "color": light}
+        if i >= 310:
+            entry["dark"] = dark
+        else:
+            del entry["dark"]
+        doc["slots"].append(entry)
+        doc["skins"][0]["attachments"][f"s{i}"] = att
+        colours.append((light, dark if i >= 310 else None))
+    doc["animations"] = {}
+    (project / "tint.json").write_text(json.dumps(doc), encoding="utf-8")
+    result = upgrade_project(project, tmp_path / "out", Options())
+    index = write_preview(result, project, tmp_path / "out", tmp_path / "preview")
+    url = (index.parent / "s" / "tint.html").resolve().as_uri() + "#at=0,0," + ",".join(map(str, VIEW))
+    light, dark = (_hex(c) for c in colours[-1])
+    for rgba in canvases(player_result(url, tmp_path / "page")):
+        for k, x in enumerate((80, 160)):  # the opaque patches: the slot on top alone shows
+            want = (dark + np.array(PATCHES[k][:3]) / 255 * (light[:3] - dark)) * 255
+            got = np.median(rgba[76:85, x - 4:x + 5, :3].reshape(-1, 3).astype(float), axis=0)
+            assert np.abs(got - want).max() <= 2, (k, got, want.round(1))

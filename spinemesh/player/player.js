@@ -194,7 +194,7 @@
         var area = im.naturalWidth * im.naturalHeight;
         if (++tintCount > 300 || tintPixels + area > MAX_TINT_PIXELS) {
           tints = {}; tintCount = 1; tintPixels = 0;
-          while (filters.firstChild) filters.removeChild(filters.firstChild);
+          while (filters && filters.firstChild) filters.removeChild(filters.firstChild);
         }
         tintPixels += area;
         var c = document.createElement("canvas"), x = c.getContext("2d");
