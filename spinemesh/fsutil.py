@@ -92,6 +92,11 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
     return candidate
 
 
+#: Files of one input folder compared with a file written in place that has several names
+#: (:meth:`OutputGuard.check_in_place`): far above a project's hundreds.
+MAX_LINK_SEARCH = 100_000
+
+
 class OutputGuard:
     """The one check made before writing any file.
 
@@ -159,6 +164,37 @@ class OutputGuard:
             if real(path) != real(root) / rel:
                 raise OutputError(f"{what} passes through a symlink inside the output folder", path)
         self._refuse_inputs(path, what)
+        return path
+
+    def check_in_place(self, path: str | Path, what: str) -> Path:
+        """:meth:`check` of a file written in place, not replaced by a rename (standard output
+        redirected to it by a shell): also refused when it is an input file, or a file inside an
+        input folder, under another name (a hard link), since writing it writes that input. A
+        rename breaks such a link, so files written atomically need no such check.
+
+        Only a file of several names is looked for, among at most :data:`MAX_LINK_SEARCH` files
+        of each input folder (a project has hundreds).
+        """
+        path = self.check(path, what)
+        try:
+            st = os.stat(path)
+        except OSError:
+            return path
+        if st.st_nlink < 2:
+            return path
+        for given, inp in self.inputs:
+            files = [inp] if not inp.is_dir() else (f for _, _, fs in walk_folder(inp, hidden=True) for f in fs)
+            for n, f in enumerate(files):
+                if n >= MAX_LINK_SEARCH:
+                    break
+                try:
+                    same = os.path.samestat(os.stat(f), st)
+                except OSError:
+                    continue
+                if same:
+                    shown = given if f == inp else f
+                    raise OutputError(f"{what} is the input {shown} under another name (a hard link); the input "
+                                      "is never overwritten", path)
         return path
 
     def _refuse_inputs(self, path: Path, what: str) -> None:

@@ -312,3 +312,70 @@ def test_convert_names_a_number_beyond_a_float32_as_such(tmp_path):
     (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
     assert "x.json" in line and "a number a 32-bit float holds" in line and "1e+308" in line, line
     assert not (tmp_path / "x.skel").exists()
+
+
+# --- outputs that are inputs under another name ---------------------------------------------------
+
+@pytest.mark.parametrize("target", ["p/demo.json", "p/demo.atlas", "p/demo.png"])
+def test_pose_never_streams_into_an_input_through_a_hard_link(tmp_path, target):
+    """``spinemesh pose p/hero.json >> elsewhere.json``, where elsewhere.json is a hard link to the
+    skeleton (or to its atlas or page): the check compared paths, so the poses were appended to
+    the skeleton itself (exit 0). A file written in place with several names is now looked for
+    among the inputs and the project's files; an ``--out`` needs no such check (it is renamed
+    into place, which breaks the link)."""
+    import subprocess
+    import sys
+
+    from test_hostile import snapshot
+
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p")
+    (tmp_path / "elsewhere").hardlink_to(tmp_path / target)
+    before = snapshot(tmp_path / "p")
+    with open(tmp_path / "elsewhere", "a", encoding="utf-8") as stdout:
+        r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "p/demo.json", "-a", "wave", "--times", "0,0.5"],
+                           cwd=tmp_path, stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert "standard output" in line and "hard link" in line and Path(target).name in line, line
+    assert snapshot(tmp_path / "p") == before
+    for out in ("--out", None):  # a link replaced by --out's rename, and a file of one name, are written
+        (tmp_path / "elsewhere").unlink()
+        (tmp_path / "elsewhere").hardlink_to(tmp_path / target)
+        args = ["--out", "elsewhere"] if out else []
+        with open(tmp_path / ("other" if out else "fresh.json"), "w", encoding="utf-8") as stdout:
+            r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "p/demo.json", "-a", "wave", "--times",
+                                "0,0.5", *args], cwd=tmp_path, stdout=stdout, stderr=subprocess.PIPE, text=True,
+                               timeout=60)
+        assert r.returncode == 0, r.stderr
+        assert snapshot(tmp_path / "p") == before
+
+
+def test_outputs_hard_linked_to_inputs_and_symlinked_projects_leave_the_inputs_alone(tmp_path, meshed):
+    """An output folder spinemesh wrote, holding hard links to the project's own files, written
+    again with ``--overwrite`` (``upgrade`` and ``pack``): every file is replaced by a rename, so
+    the project keeps its bytes. A project named through a symlink is read as the project, and an
+    output inside it, named through the link, is refused."""
+    from test_hostile import check_run, run_cli, snapshot
+
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    (tmp_path / "link").symlink_to(project, target_is_directory=True)
+    for command in ("upgrade", "pack"):
+        out = tmp_path / f"o-{command}"
+        out.mkdir()
+        (out / ".spinemesh-output").write_bytes((meshed / ".spinemesh-output").read_bytes())
+        for f in project.iterdir():
+            (out / f.name).hardlink_to(f)
+        before = {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("o-")}
+        r = run_cli(command, "p", "--out", out.name, "--overwrite", cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o-upgrade", "o-pack"], codes=(0,))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "link", "--out", "o-link", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o-link"], codes=(0,))
+    for command in ("upgrade", "pack"):
+        before = snapshot(tmp_path)
+        r = run_cli(command, "link", "--out", "link/o", cwd=tmp_path)
+        check_run(r, before, tmp_path, [], codes=(2,))
+        assert "lies inside the input link" in r.stderr, r.stderr

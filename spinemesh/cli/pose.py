@@ -138,7 +138,8 @@ def _within_the_cap(pieces, skeleton: Path):
 def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
     """Refuse, before any work, a standard output that is closed (the poses would go nowhere, the
     run claiming success) or redirected to a file that ``--out`` could not name: the skeleton or
-    atlas read (``>> hero.json`` would append to it), or any file inside the skeleton's project."""
+    atlas read (``>> hero.json`` would append to it), or any file inside the skeleton's project,
+    under its own name or another (a hard link)."""
     from ..errors import OutputError
     from ..fsutil import OutputGuard, file_behind, project_folder
 
@@ -146,7 +147,7 @@ def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
         raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
     path = file_behind(stdout)
     if path is not None:
-        OutputGuard([skeleton, project_folder(skeleton), atlas]).check(path, "standard output")
+        OutputGuard([skeleton, project_folder(skeleton), atlas]).check_in_place(path, "standard output")
 
 
 def _echo_pieces(pieces, stdout) -> None:
