@@ -119,3 +119,26 @@ def test_more_tints_than_the_players_cache_holds_are_drawn(tmp_path):
             want = (dark + np.array(PATCHES[k][:3]) / 255 * (light[:3] - dark)) * 255
             got = np.median(rgba[76:85, x - 4:x + 5, :3].reshape(-1, 3).astype(float), axis=0)
             assert np.abs(got - want).max() <= 2, (k, got, want.round(1))
+
+
+def test_a_light_colour_alone_keeps_half_transparent_texels_exact(tmp_path):
+    """A slot with a light colour and no dark colour: the half-transparent patch is its texel times
+    the light colour, alpha kept (compositing a multiply under the image's alpha drew it up to
+    8/255 towards the light colour)."""
+    from browser import canvases, player_result
+
+    project = make_tinted_project(tmp_path / "in")
+    doc = json.loads((project / "tint.json").read_text(encoding="utf-8"))
+    del doc["slots"][0]["dark"]
+    doc["slots"][0]["color"], doc["animations"] = KEYS[0][0], {}
+    (project / "tint.json").write_text(json.dumps(doc), encoding="utf-8")
+    result = upgrade_project(project, tmp_path / "out", Options())
+    index = write_preview(result, project, tmp_path / "out", tmp_path / "preview")
+    url = (index.parent / "s" / "tint.html").resolve().as_uri() + "#at=0,0," + ",".join(map(str, VIEW))
+    light = _hex(KEYS[0][0])
+    for rgba in canvases(player_result(url, tmp_path / "page")):
+        for k, x in enumerate((80, 160, 240)):
+            texel = np.array(PATCHES[k], float) / 255
+            want = np.append(texel[:3] * light[:3], texel[3]) * 255
+            got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
+            assert np.abs(got - want).max() <= 2, (k, got, want.round(1))

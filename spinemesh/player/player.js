@@ -95,7 +95,7 @@
    * shader, straight alpha): each texel's colour c becomes dark + c * (light - dark), its alpha
    * kept. An SVG colour matrix as the canvas's filter: it works on straight colour, and, unlike
    * reading the pixels back, on a page opened from disk, whose images a browser will not let a
-   * script read. False where the browser has no canvas filters (the light colour alone is drawn). */
+   * script read. A light colour alone is dark 0. False where the browser has no canvas filters. */
   function twoColour(x, im, light, dark) {
     if (typeof x.filter !== "string") return false;
     if (!filters) {
@@ -199,7 +199,10 @@
         tintPixels += area;
         var c = document.createElement("canvas"), x = c.getContext("2d");
         c.width = im.naturalWidth; c.height = im.naturalHeight;
-        if (dark && twoColour(x, im, rgb, dark)) return (tints[key] = c);
+        /* The shader's formula through a colour matrix, exact on half-transparent texels too (a
+         * dark colour 0 is the light colour alone); compositing is the fallback where a browser has
+         * no canvas filters (multiply then the image's alpha: edges a little towards the colour). */
+        if (twoColour(x, im, rgb, dark || 0)) return (tints[key] = c);
         x.drawImage(im, 0, 0);
         x.globalCompositeOperation = "multiply";
         x.fillStyle = "#" + (0x1000000 + rgb).toString(16).slice(1);
