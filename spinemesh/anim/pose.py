@@ -726,7 +726,7 @@ class Sampler:
         rig = self.rig
         data, shown, deform_now = frame.data, frame.shown, frame.deform
         for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
-            b.local = tuple(float(v) for v in values)
+            b.local = tuple(map(float, values))
             b.inherit = mode
         for c in rig.constraints:
             c.data = data[id(c)]

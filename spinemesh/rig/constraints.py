@@ -158,10 +158,10 @@ class PoseBone:
     # -- the runtime's Bone methods ------------------------------------------------------
     def update_with(self, values) -> None:
         """``updateWorldTransformWith``: world from ``values``, which become the applied values."""
-        self.applied = [float(v) for v in values]
+        self.applied = applied = list(map(float, values))
         self.applied_valid = True
-        self.world = world_from_local(tuple(self.applied), self.inherit,
-                                      None if self.parent is None else self.parent.world, self.flat)
+        self.world = world_from_local(applied, self.inherit, None if self.parent is None else self.parent.world,
+                                      self.flat)
         self.world_now = True
 
     def update(self) -> None:
@@ -188,7 +188,9 @@ class PoseBone:
             self.why = "its setup transform is not finite"
 
     def finite(self) -> bool:
-        return all(map(math.isfinite, self.world.ravel().tolist()))  # cheaper than numpy for 6 numbers
+        (a, b, x), (c, d, y) = self.world.tolist()  # plain floats: cheaper than numpy for 6 numbers
+        isfinite = math.isfinite
+        return isfinite(a) and isfinite(b) and isfinite(x) and isfinite(c) and isfinite(d) and isfinite(y)
 
     def ensure_applied(self) -> None:
         """3.8: ``if (!appliedValid) updateAppliedTransform()``."""

@@ -14,6 +14,7 @@ transforms, and :mod:`.bones` reads a skeleton's bones from that pose.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -60,7 +61,7 @@ def local_values(node: dict) -> tuple[float, ...]:
             _num(node, "scaleY", 1), _num(node, "shearX", 0), _num(node, "shearY", 0))
 
 
-def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | None,
+def world_from_local(values: Sequence[float], mode: str, parent: np.ndarray | None,
                      flat: float = 0.0001) -> np.ndarray:
     """A bone's world transform, shape (2, 3), from its local values and its parent's world transform.
 
@@ -70,7 +71,7 @@ def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | 
 
     Parameters
     ----------
-    values : tuple of 7 floats
+    values : sequence of 7 floats
         ``(x, y, rotation, scaleX, scaleY, shearX, shearY)``, degrees for the angles.
     mode : str
         One of :data:`INHERIT_MODES`.
@@ -85,7 +86,7 @@ def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | 
     cy, sny = _cos_sin(rot + 90 + shear_y)
     la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
     if parent is None:
-        return np.array([[la, lb, x], [lc, ld, y]])
+        return np.array((la, lb, x, lc, ld, y)).reshape(2, 3)  # flat, then shaped: cheaper than nested
     (pa, pb, wx), (pc, pd, wy) = parent.tolist()  # plain floats: faster than numpy scalars here
     world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
     if mode == "normal":
@@ -121,7 +122,7 @@ def world_from_local(values: tuple[float, ...], mode: str, parent: np.ndarray | 
         cy, sny = _cos_sin(90 + shear_y)
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
         m = (za * la + zb * lc, za * lb + zb * ld, zc * la + zd * lc, zc * lb + zd * ld)
-    return np.array([[m[0], m[1], world_x], [m[2], m[3], world_y]])
+    return np.array((m[0], m[1], world_x, m[2], m[3], world_y)).reshape(2, 3)
 
 
 def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
