@@ -379,3 +379,46 @@ def test_outputs_hard_linked_to_inputs_and_symlinked_projects_leave_the_inputs_a
         r = run_cli(command, "link", "--out", "link/o", cwd=tmp_path)
         check_run(r, before, tmp_path, [], codes=(2,))
         assert "lies inside the input link" in r.stderr, r.stderr
+
+
+#: 4.3 fields a binary skeleton stores as floats: (document, where the field is, its JSON path).
+_MARK = 0.123456789
+BINARY_43_FIELDS = {
+    "slider mix": ("slider", lambda d: d["constraints"][1], "mix", "/constraints/1/mix"),
+    "slider from": ("slider", lambda d: d["constraints"][1], "from", "/constraints/1/from"),
+    "slider time key": ("slider", lambda d: d["animations"]["play"]["slider"]["timed"]["time"][1], "value",
+                        "/animations/play/slider/timed/time/1/value"),
+    "transform mapping scale": ("transform", lambda d: d["constraints"][0]["properties"]["x"]["to"]["x"], "scale",
+                                "/constraints/0/properties/x/to/x/scale"),
+    "transform mapping max": ("transform", lambda d: d["constraints"][0]["properties"]["x"]["to"]["x"], "max",
+                              "/constraints/0/properties/x/to/x/max"),
+    "path spacing": ("path", lambda d: d["constraints"][0], "spacing", "/constraints/0/spacing"),
+    "physics inertia": ("physics", lambda d: d["constraints"][0], "inertia", "/constraints/0/inertia"),
+}
+
+
+@pytest.mark.parametrize("value", ["nan", "inf"])
+@pytest.mark.parametrize("case", list(BINARY_43_FIELDS))
+def test_a_43_binary_float_that_is_not_finite_is_refused_where_it_lies(tmp_path, case, value):
+    """A .skel whose 4.3 slider, mapping, path or physics float is NaN or infinite (bytes no editor
+    writes): every command that reads it (``pose``, ``convert``, ``upgrade``) refuses it in one
+    line naming the field's place, never sampling it or writing it as JSON."""
+    import struct
+
+    import test_anim43
+
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.skeleton import load_skeleton
+    from spinemesh.skeleton_binary import write_skel
+
+    kind, holder, key, where = BINARY_43_FIELDS[case]
+    doc = getattr(test_anim43, f"{kind}_doc")()
+    holder(doc)[key] = _MARK
+    data = write_skel(doc)
+    for fmt in ("<f", ">f"):  # the writer's byte order, whichever it is
+        data = data.replace(struct.pack(fmt, _MARK), struct.pack(fmt, float(value)))
+    assert data != write_skel(doc)
+    (tmp_path / "x.skel").write_bytes(data)
+    with pytest.raises(SpineMeshError, match="non-finite") as e:
+        load_skeleton(tmp_path / "x.skel")
+    assert where in str(e.value) and "x.skel" in str(e.value)
