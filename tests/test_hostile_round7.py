@@ -422,3 +422,55 @@ def test_a_43_binary_float_that_is_not_finite_is_refused_where_it_lies(tmp_path,
     with pytest.raises(SpineMeshError, match="non-finite") as e:
         load_skeleton(tmp_path / "x.skel")
     assert where in str(e.value) and "x.skel" in str(e.value)
+
+
+# --- premultiplied pages: texels of alpha 0 that still draw ----------------------------------------
+
+def test_a_premultiplied_glow_of_alpha_0_stays_inside_the_meshes_and_packs(tmp_path):
+    """On a ``pma: true`` page a texel of alpha 0 and colour above 0 draws (additive light): a
+    glow ring 4 texels wide around every sprite, alpha 0, must lie inside the meshes ``upgrade``
+    makes (a mask by alpha would cut it away), and ``pack`` must write it where the meshes read."""
+    import cv2
+    from PIL import Image
+
+    from spinemesh.atlas import read_atlas
+    from spinemesh.demo import make_demo_project
+    from spinemesh.images import cut_region, load_rgba
+    from spinemesh.skeleton import iter_skins, load_skeleton
+    from spinemesh.upgrade import Options, upgrade_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    rgba = np.asarray(Image.open(project / "demo.png").convert("RGBA")).astype(np.int32)
+    alpha = rgba[..., 3]
+    stored = rgba.copy()
+    stored[..., :3] = rgba[..., :3] * alpha[..., None] // 255
+    glow = (cv2.dilate((alpha > 0).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0) & (alpha == 0)
+    stored[glow, 0], stored[glow, 1] = 120, 60
+    Image.fromarray(stored.astype(np.uint8)).save(project / "demo.png")
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("filter: Linear, Linear", "filter: Linear, Linear\n\tpma: true", 1))
+    upgrade_project(project, tmp_path / "o", Options(min_saving=None, jobs=1))
+
+    regions = {r.name: r for r in read_atlas(atlas).regions}
+    page = load_rgba(project / "demo.png")
+    checked = 0
+    for _, slots in iter_skins(load_skeleton(tmp_path / "o" / "demo.json")):
+        for key, a in (kv for atts in slots.values() for kv in atts.items()):
+            if a.get("type") != "mesh" or (a.get("path") or key) not in regions:
+                continue
+            image = cut_region(page, regions[a.get("path") or key])
+            h, w = image.shape[:2]
+            shown = image[..., :3].max(axis=2) > 2
+            inside = np.zeros((h, w), np.uint8)
+            points = np.round(np.asarray(a["uvs"], float).reshape(-1, 2) * (w, h) * 16).astype(np.int32)
+            for tri in np.asarray(a["triangles"]).reshape(-1, 3):
+                cv2.fillPoly(inside, [points[tri]], 1, shift=4)
+            inside = cv2.dilate(inside, np.ones((3, 3), np.uint8)).astype(bool)  # texels the edges sample
+            assert not (shown & ~inside).any(), f"{key}: {int((shown & ~inside).sum())} glowing texels cut away"
+            checked += int(shown.sum())
+    assert checked > 30_000
+    result = pack_project(tmp_path / "o", tmp_path / "packed", PackOptions(larger_files=True))
+    (row,) = result.atlases
+    assert row.status == "packed", row.reason
+    assert _same_texels_drawn(tmp_path / "o", tmp_path / "packed") > 20_000
