@@ -166,7 +166,7 @@ class _Frame:
     """The animated values of one frame, before the bones are posed."""
 
     time: float
-    local: list                      # per bone: x, y, rotation, scaleX, scaleY, shearX, shearY
+    local: list                      # per bone: x, y, rotation, scaleX, scaleY, shearX, shearY (the setup tuple until a timeline sets one)
     inherit: list[str]
     data: dict                       # constraint id -> its current JSON values
     names: list                      # per slot: attachment key or None
@@ -295,7 +295,9 @@ class Sampler:
         self.rig: Rig = build_rig(doc, skin, posing_family(doc))
         self.rig.where = "in this pose"
         self.bone_names = [b.name for b in self.rig.bones]
-        self.setup_local = [tuple(b.local) for b in self.rig.bones]
+        #: per bone, its setup values as a tuple of float: a frame's bones hold these very tuples
+        #: until a timeline changes one (copied then, :meth:`_apply_bones`)
+        self.setup_local = [tuple(map(float, b.local)) for b in self.rig.bones]
         self.setup_inherit = [b.inherit for b in self.rig.bones]
         self.setup_data = {id(c): c.data for c in self.rig.constraints}
         self.constraints = {(c.kind, c.name): c for c in self.rig.constraints}
@@ -548,9 +550,9 @@ class Sampler:
         if not drawn and animation is not None:
             return self._bones_frame(animation, t, last)
         n_slots = len(self.slot_names)
-        frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
-                       list(self.slot_setup), [c.copy() for c in self.slot_color],
-                       [None if d is None else d.copy() for d in self.slot_dark], list(range(n_slots)),
+        # the setup values themselves, each copied where a timeline changes it (most stay)
+        frame = _Frame(t, list(self.setup_local), list(self.setup_inherit), dict(self.setup_data),
+                       list(self.slot_setup), list(self.slot_color), list(self.slot_dark), list(range(n_slots)),
                        [-1] * n_slots)
         deforms: dict = {}
         active = [b.active for b in self.rig.bones]
@@ -580,7 +582,7 @@ class Sampler:
         resets, and the attachment (and its deform) of each slot a path constraint follows."""
         anim, deforms = self.animation(animation)
         n_slots = len(self.slot_names)
-        frame = _Frame(t, [list(v) for v in self.setup_local], list(self.setup_inherit), dict(self.setup_data),
+        frame = _Frame(t, list(self.setup_local), list(self.setup_inherit), dict(self.setup_data),
                        list(self.slot_setup), [], [], [], [])
         active = [b.active for b in self.rig.bones]
         self._apply_bones(anim, t, frame.local, frame.inherit, active)
@@ -621,6 +623,8 @@ class Sampler:
             v = tl.keys.at(t)
             setup = self.setup_local[tl.bone]
             row = local[tl.bone]
+            if row is setup:  # the first timeline of this bone: its own values from here on
+                row = local[tl.bone] = list(setup)
             p = tl.property
             if p == "rotate":
                 row[2] = setup[2] + (float(v[0]) if v is not None else 0.0)
@@ -674,6 +678,8 @@ class Sampler:
             v = tl.keys.at(t)
             setup = self.slot_color[tl.slot]
             c = colors[tl.slot]
+            if c is setup:  # the slot's first colour timeline: its own colour from here on
+                c = colors[tl.slot] = setup.copy()
             if tl.property in ("rgba", "rgba2"):
                 # Color.set clamps to 0..1 (a Bezier can overshoot); the rgb and alpha timelines
                 # assign their channels as they are.
@@ -683,6 +689,8 @@ class Sampler:
             elif tl.property == "alpha":
                 c[3] = setup[3] if v is None else float(v[0])
             dark = darks[tl.slot] if darks is not None and tl.property in ("rgba2", "rgb2") else None
+            if dark is not None and dark is self.slot_dark[tl.slot]:
+                dark = darks[tl.slot] = dark.copy()
             if dark is not None:
                 # the light part's curves drive it; 3.8's Color.set clamps it, 4.x assigns it as it is
                 keyed = None if v is None else np.asarray(v[4:7] if tl.property == "rgba2" else v[3:6], float)
@@ -726,7 +734,7 @@ class Sampler:
         rig = self.rig
         data, shown, deform_now = frame.data, frame.shown, frame.deform
         for b, values, mode in zip(rig.bones, frame.local, frame.inherit):
-            b.local = tuple(map(float, values))
+            b.local = values if type(values) is tuple else tuple(map(float, values))  # a tuple: the setup's floats
             b.inherit = mode
         for c in rig.constraints:
             c.data = data[id(c)]
