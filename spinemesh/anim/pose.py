@@ -322,6 +322,7 @@ class Sampler:
         self._regions = regions or (lambda path: None)
         self._prepared: dict[tuple[str, int, str], Prepared | None] = {}
         self._found: dict[tuple[int, str], Prepared | None] = {}   # attachment(slot, key)
+        self._alike: dict[tuple[int, int], tuple] = {}   # another sampler's attachment places as one of ours
         self.physics_bones = self._physics_bones()
         self.physics: list[PhysicsState] = []
         four_three = is_43(doc) and posing_family(doc) is not None
@@ -476,9 +477,10 @@ class Sampler:
         else:
             posed = (self._posed(animation, t, fps, loop) for t in times)
         for t, (frame, world, exact, why) in zip(times, posed):
-            mine = self._finish(t, frame, world, exact, why)
+            placed: dict = {}
+            mine = self._finish(t, frame, world, exact, why, placed=placed)
             theirs = twin._frame(animation, frame.time, -1.0, bones=False)
-            yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why))
+            yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why), like=(self, placed))
 
     def _posed(self, animation: str, time: float, fps: float, loop: bool):
         """``(frame, world, exact, why)`` of :meth:`pose` at ``time`` where no physics is
@@ -495,10 +497,12 @@ class Sampler:
         cheap part of :meth:`pose`, for callers that only need where the bones go."""
         return self._posed(animation, time, fps, loop)[1]
 
-    def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict) -> Pose:
-        """The pose of a frame whose bones are posed: its drawn attachments."""
+    def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict,
+                placed: dict | None = None, like: tuple | None = None) -> Pose:
+        """The pose of a frame whose bones are posed: its drawn attachments (``placed`` and
+        ``like``: see :meth:`_draw`)."""
         active = [b.active for b in self.rig.bones]
-        slots = self._draw(world, frame, active)
+        slots = self._draw(world, frame, active, placed, like)
         if not exact.all():
             for drawn, s in zip(slots, (self.slot_names.index(d.slot) for d in slots)):
                 att = frame.shown[s]
@@ -753,7 +757,15 @@ class Sampler:
         a = ((self.skins.get(att.skin) or {}).get(self.slot_names[att.slot]) or {}).get(att.key)
         return a if isinstance(a, dict) else None
 
-    def _draw(self, world, frame: _Frame, active: list) -> list[DrawnSlot]:
+    def _draw(self, world, frame: _Frame, active: list, placed: dict | None = None,
+              like: tuple | None = None) -> list[DrawnSlot]:
+        """The frame's drawn attachments, placed with the bones' world transforms ``world``.
+
+        ``placed``: filled with, per slot, ``(attachment, sequence frame, deform, vertices)``
+        of what it placed. ``like``: ``(sampler, placed)`` of another sampler drawing the same
+        bones (:meth:`play_pair`): a slot showing an attachment of the same numbers there, with
+        the same deform, takes its vertices from there instead of computing them again (the
+        upgraded skeleton keeps most attachments of its original as they are)."""
         shown, colors, deform_now, sequence = frame.shown, frame.colors, frame.deform, frame.sequence
         order = frame.order
         out: list[DrawnSlot] = []
@@ -764,19 +776,13 @@ class Sampler:
             if att is not None and active[bone]:
                 if att.type == "clipping":
                     if clip is None:
-                        poly = att.geometry.world(world, bone, deform_now.get(s))
+                        poly = self._place(att, 0, world, bone, deform_now.get(s), s, placed, like)
                         clip = (poly, att.end_slot)
                     continue
                 if att.type in ("region", "mesh"):
                     f = att.frame(sequence[s])
-                    if att.type == "region":
-                        offsets = att.offsets[f]
-                        m = world[bone]
-                        verts = offsets @ m[:, :2].T + m[:, 2]
-                        uvs = att.uvs[f]
-                    else:
-                        verts = att.geometry.world(world, bone, deform_now.get(s))
-                        uvs = att.uvs
+                    verts = self._place(att, f, world, bone, deform_now.get(s), s, placed, like)
+                    uvs = att.uvs[f] if att.type == "region" else att.uvs
                     path = att.frame_paths[f] if att.frame_paths else att.path
                     out.append(DrawnSlot(self.slot_names[s], self.bone_names[bone], att.name, att.key, att.skin, path,
                                          att.type, self.slot_blend[s], colors[s] * np.array(att.color), verts, uvs,
@@ -785,6 +791,50 @@ class Sampler:
             if clip is not None and clip[1] == self.slot_names[s]:
                 clip = None
         return out
+
+    def _place(self, att: Prepared, f: int, world: np.ndarray, bone: int, deform: np.ndarray | None, slot: int,
+               placed: dict | None, like: tuple | None) -> np.ndarray:
+        """World vertices (N, 2) of ``att`` (sequence frame ``f``) on ``slot``'s ``bone`` (see :meth:`_draw`)."""
+        if like is not None:
+            other, seen = like
+            was = seen.get(slot)
+            if was is not None and was[1] == f and _same_numbers(was[2], deform):
+                key = (id(was[0]), id(att))
+                if key not in self._alike:  # the pair kept with the answer, so that neither id is reused
+                    self._alike[key] = (was[0], att, _same_placing(was[0], att))
+                if self._alike[key][2]:
+                    return was[3]
+        if att.type == "region":
+            m = world[bone]
+            verts = att.offsets[f] @ m[:, :2].T + m[:, 2]
+        else:
+            verts = att.geometry.world(world, bone, deform)
+        if placed is not None:
+            placed[slot] = (att, f, deform, verts)
+        return verts
+
+
+def _same_numbers(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two arrays (or None) hold the same numbers bit for bit (0.0 and -0.0 told apart)."""
+    if a is None or b is None:
+        return a is b
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _same_placing(a: Prepared, b: Prepared) -> bool:
+    """Whether attachments ``a`` and ``b`` place their vertices from the same numbers: with the
+    same bone transforms and deform, the same vertices to the last bit."""
+    if a.type != b.type:
+        return False
+    if a.type == "region":
+        return _same_numbers(a.offsets, b.offsets)
+    ga, gb = a.geometry, b.geometry
+    if ga is None or gb is None or ga.weighted != gb.weighted or ga.count != gb.count:
+        return False
+    if not ga.weighted:
+        return _same_numbers(ga.local, gb.local)
+    return all(_same_numbers(x, y) for x, y in ((ga.local, gb.local), (ga.bone, gb.bone), (ga.vertex, gb.vertex),
+                                                (ga.weight, gb.weight)))
 
 
 def _ascending(times) -> list[float]:
