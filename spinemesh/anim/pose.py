@@ -288,6 +288,8 @@ class Sampler:
         version = spine_version(doc)
         m = re.match(r"(\d+)", version)
         self.four = bool(m) and int(m[1]) >= 4 if m else True
+        #: 4.3's colour timelines clamp every channel they set (:meth:`_apply_slots`)
+        self.colours_clamped = is_43(doc)
         self.curve_spelling = curve_spelling(version)  # 3.x: how its keys' curves are spelled
         self.skin = skin
         #: the skins an attachment is looked up in before the default skin, first first
@@ -678,6 +680,11 @@ class Sampler:
                 continue
             i = search(tl.times, t)
             names[tl.slot] = tl.names[i] if i >= 0 else self.slot_setup[tl.slot]
+        # Colour channels are clamped to 0..1 (a Bezier can overshoot) where the runtime clamps
+        # them: Color.set (rgba, rgba2's light) always, 3.8's dark colour (Color.set too), and
+        # in 4.3 every channel a timeline sets; 4.0 to 4.2 assign the others as they are.
+        clamp_light = self.colours_clamped
+        clamp_dark = self.colours_clamped or not self.four
         for tl in anim.slots if colors is not None else ():
             v = tl.keys.at(t)
             setup = self.slot_color[tl.slot]
@@ -685,20 +692,17 @@ class Sampler:
             if c is setup:  # the slot's first colour timeline: its own colour from here on
                 c = colors[tl.slot] = setup.copy()
             if tl.property in ("rgba", "rgba2"):
-                # Color.set clamps to 0..1 (a Bezier can overshoot); the rgb and alpha timelines
-                # assign their channels as they are.
                 c[:] = setup if v is None else np.clip(v[:4], 0.0, 1.0)
             elif tl.property in ("rgb", "rgb2"):
-                c[:3] = setup[:3] if v is None else v[:3]
+                c[:3] = setup[:3] if v is None else np.clip(v[:3], 0.0, 1.0) if clamp_light else v[:3]
             elif tl.property == "alpha":
-                c[3] = setup[3] if v is None else float(v[0])
+                c[3] = setup[3] if v is None else min(max(float(v[0]), 0.0), 1.0) if clamp_light else float(v[0])
             dark = darks[tl.slot] if darks is not None and tl.property in ("rgba2", "rgb2") else None
             if dark is not None and dark is self.slot_dark[tl.slot]:
                 dark = darks[tl.slot] = dark.copy()
-            if dark is not None:
-                # the light part's curves drive it; 3.8's Color.set clamps it, 4.x assigns it as it is
+            if dark is not None:  # the light part's curves drive it
                 keyed = None if v is None else np.asarray(v[4:7] if tl.property == "rgba2" else v[3:6], float)
-                dark[:] = self.slot_dark[tl.slot] if keyed is None else keyed if self.four else np.clip(keyed, 0, 1)
+                dark[:] = self.slot_dark[tl.slot] if keyed is None else np.clip(keyed, 0, 1) if clamp_dark else keyed
 
     def _apply_sequence(self, sq, t: float, shown: list, sequence: list) -> None:
         att = shown[sq.slot]

@@ -3,7 +3,9 @@
 // the setup pose with physics reset, then a looping AnimationState stepped from 0 to the time in
 // round(time * 60) equal steps (skeleton clock carried from pose to pose). Writes the harness's
 // layout: {"poses": [{"label", "anim", "time", "bones": {name: [a, b, c, d, worldX, worldY]},
-// "attachments": [{"slot", "attachment", "type", "vertices"}]}]} (setup pose first).
+// "attachments": [{"slot", "attachment", "type", "vertices", "color", ["dark"]}]}]} (setup pose first).
+// "color": the light colour drawn (the slot's times the attachment's, RGBA); "dark": the slot's
+// dark colour (two-colour tint, RGB), only where the slot has one.
 import fs from "node:fs";
 import { loadSkeletonData, spine } from "./load.mjs";
 
@@ -28,6 +30,14 @@ function bones() {
   return out;
 }
 
+/** The colours an attachment is drawn with: light (slot x attachment) and, where the slot has one, dark. */
+function colours(pose, att) {
+  const c = pose.color, a = att.color, d = pose.darkColor;
+  const out = { color: [c.r * a.r, c.g * a.g, c.b * a.b, c.a * a.a].map(r6) };
+  if (d) out.dark = [d.r, d.g, d.b].map(r6);
+  return out;
+}
+
 function attachments() {
   const out = [];
   for (const slot of skeleton.drawOrder.appliedPose ?? skeleton.drawOrder) {
@@ -36,11 +46,13 @@ function attachments() {
     if (att instanceof spine.RegionAttachment) {
       const v = new Array(8).fill(0);
       att.computeWorldVertices(slot, att.getOffsets(pose), v, 0, 2);
-      out.push({ slot: slot.data.name, attachment: att.name, type: "region", vertices: v.map(r6) });
+      out.push({ slot: slot.data.name, attachment: att.name, type: "region", vertices: v.map(r6),
+        ...colours(pose, att) });
     } else if (att instanceof spine.MeshAttachment) {
       const v = new Array(att.worldVerticesLength).fill(0);
       att.computeWorldVertices(skeleton, slot, 0, att.worldVerticesLength, v, 0, 2);
-      out.push({ slot: slot.data.name, attachment: att.name, type: "mesh", vertices: v.map(r6) });
+      out.push({ slot: slot.data.name, attachment: att.name, type: "mesh", vertices: v.map(r6),
+        ...colours(pose, att) });
     }
   }
   return out;
