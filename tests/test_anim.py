@@ -304,7 +304,7 @@ def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
     """4.3 through the official spine-core 4.3 (tests/runtime43/pose.mjs): every animation, every
     bone within the goal, IK, physics (tmd-ar15; stepped as 4.3 steps it, the harness's clock
     carried from pose to pose) and transform constraints (tmd-npcportrait) included, none
-    flagged, and the attachments they draw."""
+    flagged, and the attachments they draw with their light and dark colours."""
     from spinemesh.anim.dump import advance_clock
     from runtime_tool import node
 
@@ -325,6 +325,12 @@ def test_43_poses_match_spine_core_43(name, runtime43, tmp_path):  # noqa: F811
         assert not mine.why and all(d["exact"] for d in mine.to_dump()["attachments"]), (pose["label"], mine.why)
         e = pose_errors(mine.to_dump(), pose)
         assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (pose["label"], e)
+        drawn = {d["slot"]: d for d in mine.to_dump()["attachments"]}
+        for a in pose["attachments"]:  # the colours drawn: light, and dark where the slot has one
+            d = drawn[a["slot"]]
+            assert ("dark" in d) == ("dark" in a), (pose["label"], a["slot"])
+            assert np.allclose(d["color"], a["color"], atol=1e-5), (pose["label"], a["slot"], d["color"], a["color"])
+            assert np.allclose(d.get("dark", 0), a.get("dark", 0), atol=1e-5), (pose["label"], a["slot"])
 
 
 @pytest.mark.parametrize("version, fps", [("4.2.00", 1e9), ("4.3.23", 1e9)])

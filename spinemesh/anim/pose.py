@@ -82,8 +82,8 @@ class DrawnSlot:
     exact : bool
         False when a bone it follows is not reproduced exactly (see :attr:`Pose.exact`).
     dark : ndarray, shape (3,), or None
-        The slot's dark colour (two-colour tint, RGB, 0..1 as keyed: 4.x runtimes do not clamp
-        it), None for a slot without one, which the runtimes draw with the light colour alone.
+        The slot's dark colour (two-colour tint, RGB, 0..1 as keyed: 4.0 to 4.2 do not clamp
+        it, 3.8 and 4.3 do), None for a slot without one, which the runtimes draw with the light colour alone.
         Neither the skeleton's nor the attachment's colour multiplies it.
     """
 
