@@ -59,7 +59,7 @@ def output_folder(out: Path, overwrite: bool):
             if not overwrite:
                 raise SpineMeshError("output folder is not empty; pass --overwrite to replace it as a whole", out)
             if not (out / OUTPUT_MARKER).is_file():
-                raise SpineMeshError("output folder is not empty and was not written by spinemesh upgrade; "
+                raise SpineMeshError("output folder is not empty and was not written by spinemesh; "
                                      "refusing to delete it, choose another --out", out)
             for entry in entries:
                 if entry.is_dir() and not entry.is_symlink():

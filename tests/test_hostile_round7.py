@@ -474,3 +474,26 @@ def test_a_premultiplied_glow_of_alpha_0_stays_inside_the_meshes_and_packs(tmp_p
     (row,) = result.atlases
     assert row.status == "packed", row.reason
     assert _same_texels_drawn(tmp_path / "o", tmp_path / "packed") > 20_000
+
+
+def test_weights_never_replaces_a_users_files_in_its_output_folder(tmp_path, meshed):
+    """``spinemesh weights hero/ --out ~/Documents``: weights wrote into any folder, replacing a
+    user's file named like one of the project's (``demo.json`` here) silently, exit 0. Its OUT is
+    now held as ``upgrade``'s and ``pack``'s are: refused when not empty, unless --overwrite, and
+    --overwrite replaces only a folder spinemesh wrote."""
+    from test_hostile import check_run, run_cli, snapshot
+
+    shutil.copytree(meshed, tmp_path / "p", ignore=shutil.ignore_patterns(".*"))
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "demo.json").write_text("my own notes")
+    before = snapshot(tmp_path)
+    for extra in ([], ["--overwrite"]):
+        r = run_cli("weights", "p", "--out", "docs", *extra, cwd=tmp_path)
+        check_run(r, before, tmp_path, [], codes=(2,))
+        assert "docs: output folder is not empty" in r.stderr, r.stderr
+    for _ in range(2):  # its own folder is written, then replaced whole
+        r = run_cli("weights", "p", "--out", "w", "--overwrite", cwd=tmp_path)
+        check_run(r, before, tmp_path, ["w"], codes=(0,))
+    assert sorted(p.name for p in (tmp_path / "w").iterdir()) == sorted(
+        [".spinemesh-output", *(p.name for p in (tmp_path / "p").iterdir())])

@@ -40,7 +40,9 @@ class WeightMethod(str, Enum):
 def weights(
     project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (not the project folder, not "
-                                      "inside it).")],
+                                      "inside it); refused if not empty, unless --overwrite.")],
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT as a whole (only a folder spinemesh "
+                                            "wrote), so that no stale file stays.")] = False,
     replace: Annotated[bool, typer.Option("--replace", help="Also recompute meshes that are already "
                                           "weighted.")] = False,
     bones: Annotated[BoneChoice, typer.Option(
@@ -91,7 +93,7 @@ def weights(
         guard.check_folder(preview, "preview folder")
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
-    result = weight_project(project, out, options, preview=preview)
+    result = weight_project(project, out, options, preview=preview, overwrite=overwrite)
     if report is not None:
         write_report(result, report)
 

@@ -36,7 +36,7 @@ class WeightResult(RunSummary):
 
 
 def weight_project(project: str | Path, out: str | Path, options: WeightOptions | None = None,
-                   preview: str | Path | None = None) -> WeightResult:
+                   preview: str | Path | None = None, overwrite: bool = False) -> WeightResult:
     """Weight every skeleton of a project into ``out``.
 
     Parameters
@@ -44,16 +44,20 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     project : path
         A project folder or one skeleton file.
     out : path
-        Output folder; refused if it is the project folder or inside it.
+        Output folder; refused if it is the project folder or inside it, and when it is not
+        empty, unless ``overwrite`` (:func:`spinemesh.output.output_folder`: a user's file of a
+        skeleton's name there was replaced).
     options : WeightOptions
     preview : path, optional
         Folder for one picture per weighted attachment (:mod:`.preview`).
+    overwrite : bool, default False
+        Replace ``out`` as a whole, when an earlier run wrote it.
 
     Returns
     -------
     WeightResult
     """
-    from ..output import check_output_folder, copy_other_files, write_skeleton
+    from ..output import check_output_folder, copy_other_files, output_folder, write_skeleton
 
     options = options or WeightOptions()
     out = Path(out)
@@ -74,22 +78,23 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         read.append((path, doc, build_rig(doc, options.sample_motion)))
     if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
         share_project_habits([(doc, rig) for _, doc, rig in read])
-    for path, doc, rig in read:
-        rel = path.relative_to(proj.root).as_posix()
-        outcomes = weight_document(doc, rel, options, rig)
-        result.outcomes += outcomes
-        try:
-            write_skeleton(doc, path, out / rel)
-        except SpineMeshError as e:
-            result.errors.append(f"{rel}: not written: {e}")
-            continue
-        written.add(path.resolve())
-        result.written.append(rel)
-        if preview is not None:
-            from .preview import write_previews
+    with output_folder(out, overwrite):
+        for path, doc, rig in read:
+            rel = path.relative_to(proj.root).as_posix()
+            outcomes = weight_document(doc, rel, options, rig)
+            result.outcomes += outcomes
+            try:
+                write_skeleton(doc, path, out / rel)
+            except SpineMeshError as e:
+                result.errors.append(f"{rel}: not written: {e}")
+                continue
+            written.add(path.resolve())
+            result.written.append(rel)
+            if preview is not None:
+                from .preview import write_previews
 
-            result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview))
-    copy_other_files(proj, out, written)
+                result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview))
+        copy_other_files(proj, out, written)
     result.seconds = time.perf_counter() - start
     return result
 
