@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -138,6 +139,11 @@ class Prepared:
     setup_index: int = 0
     end_slot: str | None = None               # clipping
     frame_paths: list[str] | None = None
+
+    @cached_property
+    def rgba(self) -> np.ndarray:
+        """``color`` as an array (4,), made once (read only: a pose multiplies it into a new one)."""
+        return np.array(self.color)
 
     def frame(self, index: int) -> int:
         """The sequence frame shown for a slot's sequence index (-1: the setup frame)."""

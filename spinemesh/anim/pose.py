@@ -295,6 +295,9 @@ class Sampler:
         #: the skins an attachment is looked up in before the default skin, first first
         self.looked_in = [n for n in skin_names(skin) if n != "default"]
         self.rig: Rig = build_rig(doc, skin, posing_family(doc))
+        #: per bone, whether the skin uses it (set when the rig is built, the same in every pose)
+        self.active = [b.active for b in self.rig.bones]
+        self._active = np.array(self.active)
         self.rig.where = "in this pose"
         self.bone_names = [b.name for b in self.rig.bones]
         #: per bone, its setup values as a tuple of float: a frame's bones hold these very tuples
@@ -503,14 +506,14 @@ class Sampler:
                 placed: dict | None = None, like: tuple | None = None) -> Pose:
         """The pose of a frame whose bones are posed: its drawn attachments (``placed`` and
         ``like``: see :meth:`_draw`)."""
-        active = [b.active for b in self.rig.bones]
+        active = self.active
         slots = self._draw(world, frame, active, placed, like)
         if not exact.all():
             for drawn, s in zip(slots, (self.slot_names.index(d.slot) for d in slots)):
                 att = frame.shown[s]
                 used = att.geometry.bone if att.geometry is not None and att.geometry.weighted else [self.slot_bones[s]]
                 drawn.exact = bool(exact[used].all())
-        return Pose(float(time), frame.time, list(self.bone_names), world, slots, exact, np.array(active), why)
+        return Pose(float(time), frame.time, list(self.bone_names), world, slots, exact, self._active.copy(), why)
 
     def _replay(self, animation: str, targets: list[int], dt: float, loop: bool, clock: float):
         """The harness's game loop: the setup pose with physics reset, the animation applied
@@ -561,7 +564,7 @@ class Sampler:
                        list(self.slot_setup), list(self.slot_color), list(self.slot_dark), list(range(n_slots)),
                        [-1] * n_slots)
         deforms: dict = {}
-        active = [b.active for b in self.rig.bones]
+        active = self.active
         if animation is not None:
             anim, deforms = self.animation(animation)
             if bones:
@@ -590,7 +593,7 @@ class Sampler:
         n_slots = len(self.slot_names)
         frame = _Frame(t, list(self.setup_local), list(self.setup_inherit), dict(self.setup_data),
                        list(self.slot_setup), [], [], [], [])
-        active = [b.active for b in self.rig.bones]
+        active = self.active
         self._apply_bones(anim, t, frame.local, frame.inherit, active)
         self._apply_constraints(anim, t, frame.data)
         self._physics_resets(anim, last, t)
@@ -789,7 +792,7 @@ class Sampler:
                     uvs = att.uvs[f] if att.type == "region" else att.uvs
                     path = att.frame_paths[f] if att.frame_paths else att.path
                     out.append(DrawnSlot(self.slot_names[s], self.bone_names[bone], att.name, att.key, att.skin, path,
-                                         att.type, self.slot_blend[s], colors[s] * np.array(att.color), verts, uvs,
+                                         att.type, self.slot_blend[s], colors[s] * att.rgba, verts, uvs,
                                          att.triangles, att.hull, None if clip is None else clip[0],
                                          dark=None if frame.darks[s] is None else frame.darks[s].copy()))
             if clip is not None and clip[1] == self.slot_names[s]:

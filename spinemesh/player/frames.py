@@ -191,9 +191,9 @@ class PoseSampler:
                                                               self.bone_index.get(s.bone, 0))
             out.append(Drawn(key, s.path or None, world, np.asarray(s.uvs, float).reshape(-1, 2),
                              np.asarray(s.triangles, int).ravel(), s.type == "mesh", float(s.color[3]),
-                             tuple(float(c) for c in s.color[:3]), s.blend,
+                             tuple(np.asarray(s.color, float)[:3].tolist()), s.blend,
                              self._colours[key, len(world)], _clip_polygon(s.clip),
-                             None if s.dark is None else tuple(float(c) for c in s.dark)))
+                             None if s.dark is None else tuple(np.asarray(s.dark, float).tolist())))
         return out, dict(pose.why)
 
 
