@@ -59,6 +59,24 @@ def _animated_webp(project: Path, im) -> None:
     _webp(project, im, save_all=True, append_images=[Image.new("RGBA", im.size, (255, 0, 0, 255))], duration=100)
 
 
+#: The file identifier every KTX 2 texture starts with.
+KTX2_HEAD = b"\xabKTX 20\xbb\r\n\x1a\n"
+
+
+def _renamed_page(project: Path, name: str, write) -> None:
+    (project / "demo.png").unlink()
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("demo.png", name))
+    write(project / name)
+
+
+def _atlas_bytes(edit):
+    def change(project: Path, im) -> None:
+        atlas = project / "demo.atlas"
+        atlas.write_bytes(edit(atlas.read_bytes()))
+    return change
+
+
 def _field(line: str):
     def edit(project: Path, im) -> None:
         atlas = project / "demo.atlas"
@@ -78,6 +96,10 @@ KEPT_PAGES = {
     "a WebP page turned by EXIF": (lambda p, im: _webp(p, im, exif=_exif(8)), "EXIF orientation 8"),
     "a page that repeats on x and y": (_field("filter: Linear, Linear\n\trepeat: xy"), "repeats (xy)"),
     "a page that repeats on x": (_field("filter: Linear, Linear\n\trepeat: x"), "repeats (x)"),
+    # passed as they were: formats spinemesh cannot write are kept, never rewritten under their name
+    "a BMP page": (lambda p, im: _renamed_page(p, "demo.bmp", lambda f: im.save(f, "BMP")), "is not PNG, WebP"),
+    "a KTX2 page": (lambda p, im: _renamed_page(p, "demo.ktx2", lambda f: f.write_bytes(KTX2_HEAD + bytes(64))),
+                    "is not PNG, WebP"),
 }
 
 
@@ -105,6 +127,8 @@ PACKED_PAGES = {
     "a MipMap filter": _field("filter: MipMapLinearLinear, Linear"),
     "repeat: none": _field("filter: Linear, Linear\n\trepeat: none"),
     "a still WebP with EXIF orientation 1": lambda p, im: _webp(p, im, exif=_exif(1)),
+    "an atlas of CRLF lines": _atlas_bytes(lambda b: b.replace(b"\n", b"\r\n")),
+    "an atlas with a byte-order mark": _atlas_bytes(lambda b: b"\xef\xbb\xbf" + b),
 }
 
 
