@@ -485,7 +485,7 @@ class Sampler:
             placed: dict = {}
             mine = self._finish(t, frame, world, exact, why, placed=placed)
             theirs = twin._frame(animation, frame.time, -1.0, bones=False)
-            yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why), like=(self, placed))
+            yield mine, twin._finish(t, theirs, world, exact.copy(), dict(why), like=placed)
 
     def _posed(self, animation: str, time: float, fps: float, loop: bool):
         """``(frame, world, exact, why)`` of :meth:`pose` at ``time`` where no physics is
@@ -503,7 +503,7 @@ class Sampler:
         return self._posed(animation, time, fps, loop)[1]
 
     def _finish(self, time: float, frame: _Frame, world: np.ndarray, exact: np.ndarray, why: dict,
-                placed: dict | None = None, like: tuple | None = None) -> Pose:
+                placed: dict | None = None, like: dict | None = None) -> Pose:
         """The pose of a frame whose bones are posed: its drawn attachments (``placed`` and
         ``like``: see :meth:`_draw`)."""
         active = self.active
@@ -765,12 +765,12 @@ class Sampler:
         return a if isinstance(a, dict) else None
 
     def _draw(self, world, frame: _Frame, active: list, placed: dict | None = None,
-              like: tuple | None = None) -> list[DrawnSlot]:
+              like: dict | None = None) -> list[DrawnSlot]:
         """The frame's drawn attachments, placed with the bones' world transforms ``world``.
 
         ``placed``: filled with, per slot, ``(attachment, sequence frame, deform, vertices)``
-        of what it placed. ``like``: ``(sampler, placed)`` of another sampler drawing the same
-        bones (:meth:`play_pair`): a slot showing an attachment of the same numbers there, with
+        of what it placed. ``like``: ``placed`` of another sampler drawing the same bones
+        (:meth:`play_pair`): a slot showing an attachment of the same numbers there, with
         the same deform, takes its vertices from there instead of computing them again (the
         upgraded skeleton keeps most attachments of its original as they are)."""
         shown, colors, deform_now, sequence = frame.shown, frame.colors, frame.deform, frame.sequence
@@ -800,11 +800,10 @@ class Sampler:
         return out
 
     def _place(self, att: Prepared, f: int, world: np.ndarray, bone: int, deform: np.ndarray | None, slot: int,
-               placed: dict | None, like: tuple | None) -> np.ndarray:
+               placed: dict | None, like: dict | None) -> np.ndarray:
         """World vertices (N, 2) of ``att`` (sequence frame ``f``) on ``slot``'s ``bone`` (see :meth:`_draw`)."""
         if like is not None:
-            other, seen = like
-            was = seen.get(slot)
+            was = like.get(slot)
             if was is not None and was[1] == f and _same_numbers(was[2], deform):
                 key = (id(was[0]), id(att))
                 if key not in self._alike:  # the pair kept with the answer, so that neither id is reused

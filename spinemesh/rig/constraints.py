@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
-from .transform import DEG_RAD, INHERIT_MODES, PI, RAD_DEG, _num, inherit_mode, local_values, world_from_local, wrap_pi
+from .transform import DEG_RAD, INHERIT_MODES, PI, RAD_DEG, _num, inherit_mode, local_values, world_numbers, wrap_pi
 from .transform43 import PROPERTIES, Unmapped, local_from_world_43, transform_apply_43
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
@@ -141,7 +141,7 @@ class PoseBone:
     applied: list[float] = field(default_factory=list)
     world: np.ndarray = field(default_factory=lambda: np.array([[1.0, 0, 0], [0, 1.0, 0]]))
     applied_valid: bool = True        # 3.8 recomputes applied values from the world lazily
-    flat: float = 0.0001              # world_from_local's threshold (4.3: 1e-10)
+    flat: float = 0.0001              # world_numbers's threshold (4.3: 1e-10)
     applied_exact: bool = True
     exact: bool = True
     why: str = ""
@@ -156,13 +156,15 @@ class PoseBone:
     local_stale: bool = False
 
     # -- the runtime's Bone methods ------------------------------------------------------
-    def update_with(self, values) -> None:
-        """``updateWorldTransformWith``: world from ``values``, which become the applied values."""
+    def update_with(self, values) -> tuple[float, ...]:
+        """``updateWorldTransformWith``: world from ``values``, which become the applied values.
+        Returns the world transform's six numbers (:func:`.transform.world_numbers`)."""
         self.applied = applied = list(map(float, values))
         self.applied_valid = True
-        self.world = world_from_local(applied, self.inherit, None if self.parent is None else self.parent.world,
-                                      self.flat)
+        numbers = world_numbers(applied, self.inherit, None if self.parent is None else self.parent.world, self.flat)
+        self.world = np.array(numbers).reshape(2, 3)
         self.world_now = True
+        return numbers
 
     def update(self) -> None:
         """The cache step: 3.8 recomputes from the local values, 4.x from the applied ones
@@ -174,14 +176,16 @@ class PoseBone:
                 self.update_applied()
         try:
             if self.family == "3.8":
-                self.update_with(self.local)
+                numbers = self.update_with(self.local)
                 self.applied_exact = True
             else:
-                self.update_with(self.applied)
+                numbers = self.update_with(self.applied)
+            finite = all(map(math.isfinite, numbers))  # finite(), from the numbers at hand
         except (ValueError, OverflowError):  # an infinite angle left by a degenerate constraint
             self.world = np.full((2, 3), np.nan)
+            finite = False
         parent_ok = self.parent is None or self.parent.exact
-        self.exact = parent_ok and self.applied_exact and self.finite()
+        self.exact = parent_ok and self.applied_exact and finite
         if not parent_ok:
             self.why = f"below {self.parent.name!r}: {self.parent.why}"
         elif not self.exact and self.applied_exact:

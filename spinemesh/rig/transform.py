@@ -63,7 +63,15 @@ def local_values(node: dict) -> tuple[float, ...]:
 
 def world_from_local(values: Sequence[float], mode: str, parent: np.ndarray | None,
                      flat: float = 0.0001) -> np.ndarray:
-    """A bone's world transform, shape (2, 3), from its local values and its parent's world transform.
+    """A bone's world transform, shape (2, 3), from its local values and its parent's world
+    transform: :func:`world_numbers` as an array."""
+    return np.array(world_numbers(values, mode, parent, flat)).reshape(2, 3)  # flat, then shaped: cheaper
+
+
+def world_numbers(values: Sequence[float], mode: str, parent: np.ndarray | None,
+                  flat: float = 0.0001) -> tuple[float, float, float, float, float, float]:
+    """A bone's world transform ``(a, b, worldX, c, d, worldY)``, plain floats, from its local
+    values and its parent's world transform.
 
     Follows the runtimes' ``Bone.updateWorldTransformWith`` for each inherit mode, with the
     skeleton at the origin and scale 1 (the runtimes divide and multiply by the skeleton's
@@ -86,7 +94,7 @@ def world_from_local(values: Sequence[float], mode: str, parent: np.ndarray | No
     cy, sny = _cos_sin(rot + 90 + shear_y)
     la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
     if parent is None:
-        return np.array((la, lb, x, lc, ld, y)).reshape(2, 3)  # flat, then shaped: cheaper than nested
+        return la, lb, x, lc, ld, y
     (pa, pb, wx), (pc, pd, wy) = parent.tolist()  # plain floats: faster than numpy scalars here
     world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
     if mode == "normal":
@@ -122,7 +130,7 @@ def world_from_local(values: Sequence[float], mode: str, parent: np.ndarray | No
         cy, sny = _cos_sin(90 + shear_y)
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
         m = (za * la + zb * lc, za * lb + zb * ld, zc * la + zd * lc, zc * lb + zd * ld)
-    return np.array((m[0], m[1], world_x, m[2], m[3], world_y)).reshape(2, 3)
+    return m[0], m[1], world_x, m[2], m[3], world_y
 
 
 def world_transform(node: dict, parent: np.ndarray | None) -> np.ndarray:
