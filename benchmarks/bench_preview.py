@@ -8,10 +8,11 @@ by this tree and, with ``--compare-with DIR``, by the spinemesh in ``DIR`` (a ch
 example ``git worktree add /tmp/old <commit>``), each into its own folder from the same
 upgrade. Printed side by side: the largest HTML page, all HTML, the largest script (the
 player's data for one animation, loaded when chosen), every file of the preview, the seconds
-to write it, and the seconds headless Chromium needs to open the index beyond a blank
+to write it (wall, and CPU: user and system of the writing process and its workers, which a
+machine shared with other work disturbs less), and the seconds headless Chromium needs to open the index beyond a blank
 page (``--dump-dom`` wall time, median of ``--repeat`` runs, minus that of ``about:blank``).
 With ``--jobs N`` (N > 1), this tree's preview is also written over N processes (what
-``upgrade --preview --jobs N`` does), in a column of its own. Compared, it then says whether the
+``upgrade --preview --jobs N`` does), in a column of its own, and so is the compared one's. Compared, it then says whether the
 player's data (``data/``: every frame of both sides, and the attachment tables) of each other
 column is byte for byte the same as the first column's, and else which files differ; each ratio
 is the first column's figure over that column's.
@@ -39,12 +40,12 @@ CORPUS = REPO.parent / "shared" / "spine-corpus"
 DEFAULT = ["stake-symbols", "kraken-symbols", "gtl-symbols", "dm-symbols", "wg-symbols", "bubble-fx"]
 
 _WRITE = """
-import json, pickle, sys, time
+import json, os, pickle, sys, time
 from spinemesh.upgrade.preview import write_preview
 result = pickle.load(open(sys.argv[1], "rb"))
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), sum(os.times()[:4])
 write_preview(result, sys.argv[2], sys.argv[3], sys.argv[4], **({"jobs": int(sys.argv[5])} if sys.argv[5] != "1" else {}))
-print(json.dumps({"seconds": time.perf_counter() - t0}))
+print(json.dumps({"seconds": time.perf_counter() - t0, "cpu": sum(os.times()[:4]) - c0}))
 """
 
 
@@ -57,14 +58,15 @@ def build_project(projects: list[Path], where: Path) -> Path:
     return root
 
 
-def write_with(tree: Path, result_file: Path, project: Path, out: Path, folder: Path, jobs: int = 1) -> float:
-    """Write the preview with the spinemesh of ``tree`` over ``jobs`` processes; its seconds."""
+def write_with(tree: Path, result_file: Path, project: Path, out: Path, folder: Path, jobs: int = 1) -> dict:
+    """Write the preview with the spinemesh of ``tree`` over ``jobs`` processes: its wall
+    ``seconds`` and ``cpu`` seconds (user and system, the workers' included once they end)."""
     r = subprocess.run([sys.executable, "-c", _WRITE, str(result_file), str(project), str(out), str(folder), str(jobs)],
                        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(tree)}, timeout=3600,
                        cwd=folder.parent)  # not this tree's folder, which python -c would import first
     if r.returncode:
         sys.exit(f"the preview of {tree} failed:\n{r.stderr[-3000:]}")
-    return json.loads(r.stdout.strip().splitlines()[-1])["seconds"]
+    return json.loads(r.stdout.strip().splitlines()[-1])
 
 
 def open_seconds(url: str, where: Path, repeat: int) -> float:
@@ -128,14 +130,16 @@ def main() -> None:
         result_file = tmp / "result.pickle"
         result_file.write_bytes(pickle.dumps(result))
         trees = ({"this tree": (REPO, 1)} | ({f"--jobs {args.jobs}": (REPO, args.jobs)} if args.jobs > 1 else {})
-                 | ({"compared": (args.compare_with.resolve(), 1)} if args.compare_with else {}))
+                 | ({"compared": (args.compare_with.resolve(), 1)} if args.compare_with else {})
+                 | ({f"compared -j{args.jobs}": (args.compare_with.resolve(), args.jobs)}
+                    if args.compare_with and args.jobs > 1 else {}))
         rows, folders = {}, {}
         blank = open_seconds("about:blank", tmp / "blank", args.repeat)
         for name, (tree, jobs) in trees.items():
             folder = tmp / f"preview-{name.replace(' ', '-')}"
-            seconds = write_with(tree, result_file, project, tmp / "out", folder, jobs)
+            written = write_with(tree, result_file, project, tmp / "out", folder, jobs)
             folders[name] = folder
-            rows[name] = {**weigh(folder), "write s": seconds,
+            rows[name] = {**weigh(folder), "write s": written["seconds"], "write cpu s": written["cpu"],
                           "open s": open_seconds((folder / "index.html").as_uri(), tmp / name.replace(" ", "-"),
                                                  args.repeat) - blank}
         first = next(iter(folders))
