@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_hostile_wave4 import _same_texels_drawn
+from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
 
 from spinemesh.pack.run import PackOptions, pack_project
 
@@ -521,3 +522,63 @@ def test_weights_never_replaces_a_users_files_in_its_output_folder(tmp_path, mes
         check_run(r, before, tmp_path, ["w"], codes=(0,))
     assert sorted(p.name for p in (tmp_path / "w").iterdir()) == sorted(
         [".spinemesh-output", *(p.name for p in (tmp_path / "p").iterdir())])
+
+
+# --- colours as the runtimes read them -----------------------------------------------------------
+
+def _colour_spellings_doc() -> dict:
+    """A 4.3 skeleton whose colours are spelt as a hand may write them and the runtimes still read:
+    six digits where eight are read (alpha 1), a leading ``#`` (skipped), on slots, attachments,
+    ``rgba`` keys and a dark colour."""
+    box = {"x": 8, "width": 16, "height": 6}
+    slots = [{"name": "six", "bone": "root", "attachment": "box", "color": "ff8040"},
+             {"name": "hash", "bone": "root", "attachment": "box", "color": "#80c0ffc0", "dark": "#336699"},
+             {"name": "att", "bone": "root", "attachment": "box"},
+             {"name": "keyed", "bone": "root", "attachment": "box"}]
+    atts = {"six": {"box": box}, "hash": {"box": box}, "att": {"box": {**box, "color": "#2040a0"}},
+            "keyed": {"box": box}}
+    keys = {"keyed": {"rgba": [{"time": 0, "color": "#10203040"}, {"time": 1, "color": "e0c0a0"}]}}
+    return {"skeleton": {"spine": "4.3.23"}, "bones": [{"name": "root"}], "slots": slots,
+            "skins": [{"name": "default", "attachments": atts}], "animations": {"tint": {"slots": keys}}}
+
+
+def test_colours_of_six_digits_or_a_hash_are_read_as_spine_core_reads_them(runtime43, tmp_path):  # noqa: F811
+    """The sampler read ``"color": "ff8040"`` on a slot (six digits where eight are read) and any
+    ``#rrggbbaa`` as white, where spine-core (and libGDX) skip the ``#`` and take alpha 1 when
+    there are not eight digits: ``pose`` and the player drew white what a game draws orange, and
+    the ``.skel`` our writer made of it posed orange. Both now pose as spine-core 4.3 draws."""
+    from test_anim43_dark import _colours_43, _compare
+
+    import json
+
+    results = _colours_43(runtime43, _colour_spellings_doc(), tmp_path, binary=False)
+    assert _compare(results)["compared"] >= 4 * 10
+    ours = {a["slot"]: a for a in results[0][2]}
+    assert ours["six"]["color"] == pytest.approx([1.0, 128 / 255, 64 / 255, 1.0], abs=1e-6)
+    # our writer refuses the '#' (one line); without it, the .skel it writes draws alike
+    plain = json.loads(json.dumps(_colour_spellings_doc()).replace('"#', '"'))
+    assert _compare(_colours_43(runtime43, plain, tmp_path, binary=True))["compared"] >= 4 * 10
+
+
+@pytest.mark.parametrize("version", ["4.3", "3.8"])
+@pytest.mark.parametrize("dark", ["ff", "12345", 123])
+def test_convert_refuses_a_dark_colour_no_runtime_reads(tmp_path, dark, version):
+    """A slot's dark colour of fewer than six digits (or a number): our binary writer stored
+    ``"ff"`` as 0000ff, a blue the document never said, exit 0 (and a number ended in a
+    TypeError's words); ``convert`` now refuses it in one line naming the slot's colour."""
+    import json
+    import subprocess
+    import sys
+
+    from test_anim43_dark import dark_doc
+
+    doc = dark_doc() if version == "4.3" else {"skeleton": {"spine": "3.8.99"}, "bones": [{"name": "root"}],
+                                               "slots": [{"name": "s", "bone": "root", "dark": "336699"}]}
+    doc["slots"][0]["dark"] = dark
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "convert", "x.json", "x.skel"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert "x.json" in line and "of six digits" in line and repr(dark) in line, line
+    assert not (tmp_path / "x.skel").exists()
