@@ -365,9 +365,11 @@ def dark(s, node: dict, key: str) -> None:
         s.i32(-1)
         return
     try:
+        if len(v) < 6:  # no colour a runtime reads: "ff" was written as 0000ff, a blue never said
+            raise ValueError
         n = int(v, 16)
     except (TypeError, ValueError):
-        raise s.fail(f"a hex colour for {key!r}, got {v!r}") from None
+        raise s.fail(f"a hex colour of six digits for {key!r}, got {v!r}") from None
     if len(v) > 6:  # eight digits only when the high byte was set (read back above)
         n = n - (1 << 32) if n & 0x80000000 else n
     s.i32(n)

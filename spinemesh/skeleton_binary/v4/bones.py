@@ -85,10 +85,14 @@ def slot(s, node: dict, c: Context) -> None:
 
 
 def _dark_int(s, dark: str) -> int:
+    # fewer than six digits is no colour a runtime reads (spine-core gets NaN): "ff" was written
+    # as 0000ff, a blue the JSON never said
     try:
+        if not isinstance(dark, str) or len(dark) < 6:
+            raise ValueError
         v = int(dark[:6], 16) | (int(dark[6:8], 16) << 24 if len(dark) >= 8 else 0)
     except ValueError:
-        raise s.fail(f"a hex dark colour, got {dark!r}") from None
+        raise s.fail(f"a hex dark colour of six digits, got {dark!r}") from None
     return v - (1 << 32) if v & 0x80000000 else v
 
 
