@@ -25,12 +25,12 @@ def _times(text: str) -> list[float]:
         try:
             t = float(part)
         except ValueError:
-            raise typer.BadParameter(f"{part!r} is not a number of seconds") from None
+            raise typer.BadParameter(f"{part!r} is not a number of seconds", param_hint="--times") from None
         if not math.isfinite(t) or t < 0:
-            raise typer.BadParameter(f"{part!r}: times must be finite and not negative")
+            raise typer.BadParameter(f"{part!r}: times must be finite and not negative", param_hint="--times")
         out.append(t)
     if len(out) > MAX_TIMES:
-        raise typer.BadParameter(f"{len(out)} times; at most {MAX_TIMES}")
+        raise typer.BadParameter(f"{len(out)} times; at most {MAX_TIMES}", param_hint="--times")
     return out
 
 
