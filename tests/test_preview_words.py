@@ -4,13 +4,45 @@ headed, and a bad ``--times`` names the option. Runs on the demo project drawn b
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
 
 from spinemesh.demo import make_demo_project
+from spinemesh.player.frames import FPS, plan_sampling, sample_animations
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def _demo_doc(tmp_path: Path) -> dict:
+    return json.loads((make_demo_project(tmp_path / "demo") / "demo.json").read_text())
+
+
+def _notes(doc: dict) -> dict[str, str]:
+    setup, sampling, sides = plan_sampling(doc, doc)
+    return {"setup pose": setup.note} | {name: got.note for name, got in
+                                         sample_animations(sides, sampling, list(sampling.durations))}
+
+
+def test_the_player_says_why_its_canvases_are_blank_or_its_frames_few(tmp_path):
+    doc = _demo_doc(tmp_path)
+    slots = [s["name"] for s in doc["slots"]]
+    doc["animations"] |= {
+        "hidden": {"slots": {s: {"attachment": [{"name": None}]} for s in slots}},  # every slot emptied
+        "faded": {"slots": {s: {"rgba": [{"color": "ffffff00"}]} for s in slots}},  # every slot transparent
+        "long": {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 40, "value": 90}]}}},  # 300 frames at most
+    }
+    notes = _notes(doc)
+    for name in ("hidden", "faded"):
+        assert notes[name].startswith("Nothing to see: this animation hides every attachment"), notes[name]
+    assert notes["long"].startswith("Shown at 7.5 frames a second, not 30,"), notes["long"]
+    assert notes["wave"] == notes["setup pose"] == ""  # a drawn animation at full rate: no words
+    # a skeleton whose setup pose shows nothing (its slots are given attachments by animations)
+    for slot in doc["slots"]:
+        slot.pop("attachment", None)
+    assert _notes(doc)["setup pose"].startswith("Nothing to see in the setup pose: no slot shows an attachment")
+    assert FPS == 30
 
 
 def test_a_time_that_is_not_one_names_the_option(tmp_path):

@@ -454,8 +454,18 @@ def sampled_skins(doc: dict) -> list[str | tuple[str, ...]]:
     return (([combined] if combined else []) + order[:1] + rest + order[1:])[:MAX_SKINS] or ["default"]
 
 
-def _note(why: dict[str, str]) -> str:
+def _note(why: dict[str, str], rate: float = FPS, empty: bool = False) -> str:
+    """What the player says under an animation: that it draws nothing (``empty``: no frame of the
+    original shows an attachment, so the canvases stay blank on purpose), that it is shown at
+    fewer frames a second than :data:`FPS` (``rate``: the budget's), and the bones not posed as
+    a game poses them (``why``: name -> reason)."""
     parts = []
+    if empty:
+        parts.append("Nothing to see: this animation hides every attachment or makes it fully transparent, "
+                     "as a game shows it.")
+    if rate < FPS - 1e-9:
+        parts.append(f"Shown at {rate:.3g} frames a second, not {FPS}, to keep the preview small (a game "
+                     "plays every frame).")
     if why:
         names = sorted(why)
         parts.append(f"Not as a game shows it: {', '.join(names[:5])}{' and more' if len(names) > 5 else ''} "
@@ -530,7 +540,10 @@ def plan_sampling(before: dict, after: dict, regions=None,
     vertices = max((sum(len(d.world) for d in pose) for b, a in setup.values() for pose in b + a), default=1)
     # an upgrade changes attachments: the bones are stepped once for both sides
     sampling = Sampling(skins, same_motion(before, after), per_second, vertices, durations)
-    return Animation("setup pose", 0.0, setup), sampling, sides
+    blank = all(not any(d.alpha > 0 for d in before[0]) for before, _ in setup.values())
+    note = ("Nothing to see in the setup pose: no slot shows an attachment (or each is fully transparent) "
+            "until an animation sets one; choose an animation." if blank else "")
+    return Animation("setup pose", 0.0, setup, note=note), sampling, sides
 
 
 def sample_animations(sides: dict, sampling: Sampling, names) -> Iterator[tuple[str, Animation | str]]:
@@ -556,7 +569,8 @@ def sample_animations(sides: dict, sampling: Sampling, names) -> Iterator[tuple[
         except POSE_ERRORS as e:
             yield name, f"animation {name!r} not shown: {e}"
             continue
-        anim.note = _note(why)
+        empty = all(not any(d.alpha > 0 for d in pose) for before, _ in anim.by_skin.values() for pose in before)
+        anim.note = _note(why, rate, empty)
         yield name, anim
 
 
