@@ -484,10 +484,13 @@ def test_the_preview_over_jobs_writes_the_same_files(tmp_path, monkeypatch):
     result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(jobs=1))
     monkeypatch.setattr(preview, "CHUNK_SECONDS", 0.0)  # a task per animation: runs of several in flight
     assert preview._chunks({"a": 1.0, "b": 3.0, "c": 0.0}, 8) == [["a"], ["b"], ["c"]]
-    folders = {}
+    folders, told = {}, {}
     for jobs in (1, 2):
-        folders[jobs] = tmp_path / f"preview{jobs}"
-        write_preview(result, tmp_path / "lib", tmp_path / "out", folders[jobs], jobs=jobs)
+        folders[jobs], told[jobs] = tmp_path / f"preview{jobs}", []
+        write_preview(result, tmp_path / "lib", tmp_path / "out", folders[jobs], jobs=jobs,
+                      on_progress=lambda done, total, jobs=jobs: told[jobs].append((done, total)))
+    for calls in told.values():  # the bar: 3 skeletons and their 4 animations each, done in order
+        assert calls[0] == (0, 15) and calls[-1] == (15, 15) and [d for d, _ in calls] == sorted(d for d, _ in calls)
     files = {jobs: sorted(p.relative_to(f) for p in f.rglob("*") if p.is_file()) for jobs, f in folders.items()}
     assert files[1] == files[2] and len([p for p in files[1] if p.parts[0] == "data"]) == 3 * (1 + 5)
     for rel in files[1]:

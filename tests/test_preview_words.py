@@ -11,6 +11,8 @@ from pathlib import Path
 
 from spinemesh.demo import make_demo_project
 from spinemesh.player.frames import FPS, plan_sampling, sample_animations
+from spinemesh.upgrade import Options, upgrade_project
+from spinemesh.upgrade.preview import write_preview
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -43,6 +45,22 @@ def test_the_player_says_why_its_canvases_are_blank_or_its_frames_few(tmp_path):
         slot.pop("attachment", None)
     assert _notes(doc)["setup pose"].startswith("Nothing to see in the setup pose: no slot shows an attachment")
     assert FPS == 30
+
+
+def test_the_preview_bar_counts_animations_and_pages(tmp_path):
+    demo = make_demo_project(tmp_path / "demo")
+    doc = json.loads((demo / "demo.json").read_text())
+    doc["animations"] |= {"wave2": doc["animations"]["wave"], "still": {}}
+    (demo / "demo.json").write_text(json.dumps(doc))
+    (demo / "demo-binary.skel").unlink()  # no longer its twin
+    result = upgrade_project(demo, tmp_path / "out", Options(jobs=1))
+    calls: list[tuple[int, int]] = []
+    write_preview(result, demo, tmp_path / "out", tmp_path / "preview",
+                          on_progress=lambda done, total: calls.append((done, total)))
+    # one skeleton and its three animations
+    assert calls[0] == (0, 4) and calls[-1] == (4, 4)
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls) and {t for _, t in calls} == {4}
+    assert len(calls) == 1 + 3 + 1  # the start, each animation as it is sampled, the page
 
 
 def test_a_time_that_is_not_one_names_the_option(tmp_path):

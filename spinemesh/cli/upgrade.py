@@ -182,7 +182,8 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool) -> None
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:
-    """``--preview``: the page, with a bar of the skeletons drawn, then where it is and the seconds
+    """``--preview``: the page, with a bar of the animations sampled for the players (the work:
+    a skeleton may have hundreds) and the skeletons written, then where it is and the seconds
     it took (written after the run's timing line, so not in it: rendering every skeleton may take
     longer than the upgrade). Skeletons' pages are written over ``--jobs`` processes."""
     import time
@@ -191,9 +192,9 @@ def _write_preview(result, project: Path, out: Path, preview: Path, images_in, j
 
     t0 = time.perf_counter()
     with progress_bar("preview", transient=True, phases=True) as bars:
-        task = bars.add_task("preview", total=len(result.written), project="")
-        page = write_preview(result, project, out, preview, images_in=images_in,
-                             on_skeleton=lambda: bars.advance(task), jobs=jobs)
+        task = bars.add_task("preview", total=None, project="animations sampled, pages written")
+        page = write_preview(result, project, out, preview, images_in=images_in, jobs=jobs,
+                             on_progress=lambda done, total: bars.update(task, completed=done, total=total))
     console.print(f"preview: {page} ({time.perf_counter() - t0:.1f} s)", highlight=False, markup=False)
 
 

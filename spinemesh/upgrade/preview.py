@@ -699,24 +699,34 @@ def _start_page(page: _Page, before: dict, after: dict, images_in, workers) -> _
         page.sides = sides
         return page
     table = _region_table(atlases, regions, (before, after)) if atlases else None
-    for names in _chunks(page.sampling.durations, 2 * workers.slots):
+    # runs of a few seconds each (8 a worker): each worker reads the skeleton once whatever their
+    # number, and the preview's bar moves as each run comes back
+    for names in _chunks(page.sampling.durations, 8 * workers.slots):
         page.chunks.append((names, workers.submit(_sample_in_worker,
                                                   (sk.original, sk.upgraded, sk.stamps, table, page.sampling, names))))
     return page
 
 
-def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -> tuple[str, FillRate, str | None]:
-    """Write a started page (:func:`_start_page`): its path, fill rate and problem."""
+def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict,
+                 on_animations=None) -> tuple[str, FillRate, str | None]:
+    """Write a started page (:func:`_start_page`): its path, fill rate and problem.
+    ``on_animations(n)``: told as each run of ``n`` animations of its player is sampled."""
     from ..player.frames import collect, sample_and_encode
+
+    def sampled_here(n: int) -> None:
+        if on_animations is not None:
+            on_animations(n)
 
     def played(problems: list) -> list:
         if page.failed is not None:
             raise page.failed
         problems += page.setup_problems
+        sampled = []
         if page.sides is not None:
-            sampled = sample_and_encode(page.sides, page.sampling, list(page.sampling.durations))
+            for name in page.sampling.durations:  # each alone, from its time 0: the same frames as in one call
+                sampled += sample_and_encode(page.sides, page.sampling, [name])
+                sampled_here(1)
         else:
-            sampled = []
             for names, future in page.chunks:
                 try:
                     sampled += future.result()
@@ -726,6 +736,7 @@ def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -
                         raise
                     shown = ", ".join(map(repr, names[:5])) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
                     problems.append(f"animation{'s' if len(names) > 1 else ''} {shown} not shown: {why}")
+                sampled_here(len(names))
         return [page.setup] + collect(sampled, problems)
 
     link, rate = _skeleton_page(files, page.skeleton, page.pid, page.meshed, page.targets, before, after,
@@ -734,11 +745,13 @@ def _finish_page(files: PreviewFolder, page: _Page, before: dict, after: dict) -
 
 
 def _write_pages(files: PreviewFolder, pages: dict[str, _Page], docs: dict, images_in, jobs: int,
-                 on_skeleton=None) -> dict[str, tuple]:
+                 on_skeleton=None, on_animations=None) -> dict[str, tuple]:
     """Every skeleton's page, ``{rel: (path, fill rate, problem)}``. With ``jobs`` over 1, the
     players' animations are sampled by that many processes, in runs of a few seconds of
     animation, while this process writes the page before (the same files: each animation is
-    sampled alone, from its time 0)."""
+    sampled alone, from its time 0). ``on_skeleton()`` after each page; ``on_animations(n)`` as
+    its animations are sampled, :func:`_animation_count` of them in all (fewer where a player
+    fails: the rest are told with the page)."""
     from contextlib import nullcontext
 
     from ..cluster import open_workers
@@ -746,7 +759,17 @@ def _write_pages(files: PreviewFolder, pages: dict[str, _Page], docs: dict, imag
     done: dict[str, tuple] = {}
 
     def finish(page: _Page) -> None:
-        done[page.skeleton.rel] = _finish_page(files, page, *docs[page.skeleton.rel])
+        told = [0]
+
+        def sampled(n: int) -> None:
+            told[0] += n
+            if on_animations is not None:
+                on_animations(n)
+
+        done[page.skeleton.rel] = _finish_page(files, page, *docs[page.skeleton.rel], on_animations=sampled)
+        left = _animation_count(docs[page.skeleton.rel][1]) - told[0]
+        if on_animations is not None and left > 0:
+            on_animations(left)
         if on_skeleton is not None:
             on_skeleton()
 
@@ -761,8 +784,17 @@ def _write_pages(files: PreviewFolder, pages: dict[str, _Page], docs: dict, imag
     return done
 
 
+def _animation_count(doc: dict) -> int:
+    """How many animations a skeleton's player samples at most (:data:`~spinemesh.player.frames.MAX_ANIMATIONS`)."""
+    from ..player.frames import MAX_ANIMATIONS
+
+    anims = doc.get("animations") if isinstance(doc, dict) else None
+    return min(len(anims), MAX_ANIMATIONS) if isinstance(anims, dict) else 0
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
-                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1) -> Path:
+                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1,
+                  on_progress=None) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
     and player data) and return the index's path.
 
@@ -782,6 +814,10 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
     jobs : int, default 1
         Processes sampling the players' animations (:func:`_write_pages`; the same files
         whatever the number).
+    on_progress : callable, optional
+        ``on_progress(done, total)``, for a bar with the time left: steps are the animations
+        the players sample (the work) and one per skeleton; called as they are done, and last
+        with ``done == total``.
     """
     project, out = Path(project), Path(out)
     files = PreviewFolder(folder)
@@ -802,13 +838,26 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         used_ids.add(pid)
         if sk.rel in docs:
             pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
-    done = _write_pages(files, pages, docs, images_in, jobs, on_skeleton)
+    steps = [0, len(skeletons) + sum(_animation_count(docs[rel][1]) for rel in pages)]
+
+    def step(n: int = 1) -> None:
+        steps[0] += n
+        if on_progress is not None:
+            on_progress(min(steps[0], steps[1]), steps[1])
+
+    def page_done() -> None:
+        step()
+        if on_skeleton is not None:
+            on_skeleton()
+
+    step(0)
+    done = _write_pages(files, pages, docs, images_in, jobs, page_done, step)
     total = FillRate(0, 0, 0, 0)
     rows = []
     for sk in skeletons:
+        if sk.rel not in pages:  # a twin, or a skeleton not read: no page
+            page_done()
         if sk.rel in twins:
-            if on_skeleton is not None:
-                on_skeleton()
             continue
         mine = targets.get(sk.rel, [])
         counts = {s: sum(t.status == s for t in mine) for s in ("meshed", "kept", "failed")}
