@@ -47,7 +47,7 @@ def test_the_player_says_why_its_canvases_are_blank_or_its_frames_few(tmp_path):
     assert FPS == 30
 
 
-def test_the_preview_bar_counts_animations_and_pages(tmp_path):
+def test_the_preview_bar_counts_animations_and_pages_and_the_reasons_have_a_heading(tmp_path):
     demo = make_demo_project(tmp_path / "demo")
     doc = json.loads((demo / "demo.json").read_text())
     doc["animations"] |= {"wave2": doc["animations"]["wave"], "still": {}}
@@ -55,12 +55,15 @@ def test_the_preview_bar_counts_animations_and_pages(tmp_path):
     (demo / "demo-binary.skel").unlink()  # no longer its twin
     result = upgrade_project(demo, tmp_path / "out", Options(jobs=1))
     calls: list[tuple[int, int]] = []
-    write_preview(result, demo, tmp_path / "out", tmp_path / "preview",
-                          on_progress=lambda done, total: calls.append((done, total)))
+    index = write_preview(result, demo, tmp_path / "out", tmp_path / "preview",
+                                  on_progress=lambda done, total: calls.append((done, total)))
     # one skeleton and its three animations
     assert calls[0] == (0, 4) and calls[-1] == (4, 4)
     assert [d for d, _ in calls] == sorted(d for d, _ in calls) and {t for _, t in calls} == {4}
     assert len(calls) == 1 + 3 + 1  # the start, each animation as it is sampled, the page
+    text = index.read_text(encoding="utf-8")
+    heading = text.index("<h2>Why regions were left as they are</h2>")
+    assert text.index("<h2>Skeletons</h2>") < heading < text.index("<th>left a region</th>")
 
 
 def test_a_time_that_is_not_one_names_the_option(tmp_path):

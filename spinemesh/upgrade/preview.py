@@ -240,8 +240,9 @@ def _reasons_table(result, targets=None) -> str:
         for example, n, variants in reason_groups([t.reason for t in targets if t.status == status]))
     if not rows:
         return ""
-    return ('<table class="sum"><tr><th>left a region</th><th style="text-align:left">why (an example)</th>'
-            f"<th>attachments</th></tr>{rows}</table>")
+    # under its own heading: right after the skeletons' table it read as more rows of it
+    return ('<h2>Why regions were left as they are</h2><table class="sum"><tr><th>left a region</th>'
+            f'<th style="text-align:left">why (an example)</th><th>attachments</th></tr>{rows}</table>')
 
 
 class _ImageCache:
