@@ -492,6 +492,10 @@ def test_kept_notes_say_what_the_footprints_need_and_the_next_page_holds():
     assert kept_note(61 * 1024 * 512 // 100 + 1, 1024 * 512, 1, 1024 * 1024, True) == \
         "its regions need 61% of the page texels; the next smaller power-of-two page holds 50%"
     assert "pages hold 88%" in kept_note(10, 4 * 1024 * 1024, 4, 1024 * 1024, True)  # three pages and a half
+    # a need under what the smaller page holds: the fills tried there failed (shapes, padding)
+    assert kept_note(18 * 2048 * 2048 // 100, 2048 * 2048, 1, 2048 * 2048, True) == \
+        "its regions need 18% of the page texels; the next smaller power-of-two page holds 50%, and no fill " \
+        "tried placed them on it"
     assert kept_note(90, 100, 1, 100, False) == \
         "its regions need 90% of the page texels, and no fill tried placed them on fewer"
     assert largest_pot_pages_below(2048 * 2048, 1, 2048 * 2048) == 2048 * 1024

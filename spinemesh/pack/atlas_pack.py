@@ -414,7 +414,9 @@ def kept_note(needed: int, texels: int | None, pages: int, max_area: int, pot: b
     if below == 0:
         return share + "; no smaller power-of-two page exists under the page rules"
     what = "page holds" if pages == 1 else "pages hold"
-    return share + f"; the next smaller power-of-two {what} {below / texels:.0%}"
+    # a need under what the smaller pages hold reads as a packing forgotten: say the fills failed
+    tried = "" if needed >= below else f", and no fill tried placed them on {'it' if pages == 1 else 'them'}"
+    return share + f"; the next smaller power-of-two {what} {below / texels:.0%}{tried}"
 
 
 def other_orders(candidates) -> list[list[int]]:
