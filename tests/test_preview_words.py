@@ -37,7 +37,8 @@ def test_the_player_says_why_its_canvases_are_blank_or_its_frames_few(tmp_path):
     }
     notes = _notes(doc)
     for name in ("hidden", "faded"):
-        assert notes[name].startswith("Nothing to see: this animation hides every attachment"), notes[name]
+        assert notes[name].startswith("Nothing to see: played alone, as here, this animation shows no attachment"), \
+            notes[name]
     assert notes["long"].startswith("Shown at 7.5 frames a second, not 30,"), notes["long"]
     assert notes["wave"] == notes["setup pose"] == ""  # a drawn animation at full rate: no words
     # a skeleton whose setup pose shows nothing (its slots are given attachments by animations)

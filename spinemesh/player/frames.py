@@ -461,8 +461,8 @@ def _note(why: dict[str, str], rate: float = FPS, empty: bool = False) -> str:
     a game poses them (``why``: name -> reason)."""
     parts = []
     if empty:
-        parts.append("Nothing to see: this animation hides every attachment or makes it fully transparent, "
-                     "as a game shows it.")
+        parts.append("Nothing to see: played alone, as here, this animation shows no attachment (or only fully "
+                     "transparent ones); a game may play it over another animation.")
     if rate < FPS - 1e-9:
         parts.append(f"Shown at {rate:.3g} frames a second, not {FPS}, to keep the preview small (a game "
                      "plays every frame).")
