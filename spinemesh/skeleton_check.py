@@ -118,7 +118,9 @@ PATH = {**_CONSTRAINT, "positionMode": NAME, "spacingMode": NAME, "rotateMode": 
                   "translateMix")}
 PHYSICS = {**_CONSTRAINT, **_fields(NUMBER, "x", "y", "rotate", "scaleX", "shearX", "limit", "fps", "inertia",
                                     "strength", "damping", "mass", "wind", "gravity", "mix")}
-CONSTRAINTS = {"ik": IK, "transform": TRANSFORM, "path": PATH, "physics": PHYSICS, "slider": _CONSTRAINT}
+#: A 4.3 slider's names (its numbers are clamped where they are played, as round six's 1e300 showed).
+SLIDER = {**_CONSTRAINT, "animation": NAME, "property": NAME}
+CONSTRAINTS = {"ik": IK, "transform": TRANSFORM, "path": PATH, "physics": PHYSICS, "slider": SLIDER}
 
 #: The fields of an attachment that the program reads (meshing, weighting, writing .skel).
 ATTACHMENT = {"type": NAME, "name": NAME, "path": NAME, "parent": NAME, "source": NAME, "skin": NAME,

@@ -582,3 +582,64 @@ def test_convert_refuses_a_dark_colour_no_runtime_reads(tmp_path, dark, version)
     (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
     assert "x.json" in line and "of six digits" in line and repr(dark) in line, line
     assert not (tmp_path / "x.skel").exists()
+
+
+# --- what a fuzzer of the 4.3 fixtures found ------------------------------------------------------
+# (random fields of the slider, transform, path and physics fixtures set to 0, -1, +-1e9, 1e-30,
+# 3.4e38, 1e308, 2**31, text, null, true, [] or {}: 17,000 documents, three kinds of failure)
+
+def test_43_bones_under_a_parent_scaled_to_nothing_pose_as_spine_core(runtime43, tmp_path):  # noqa: F811
+    """A 4.3 bone whose local values are taken back from the world under a parent scaled to 0
+    divided by zero: Python raised where spine-core divides to an infinity and goes on, and the
+    bones the constraints move from there were flagged (``brow``, ``tag``), or a whole animation
+    refused ("float division by zero"). They now pose as spine-core 4.3 poses them."""
+    from test_anim43 import _against_43, transform_doc
+
+    doc = transform_doc()
+    next(b for b in doc["bones"] if b["name"] == "face")["scaleX"] = 0
+    results = _against_43(runtime43, doc, tmp_path)
+    for r in results:
+        assert not {"brow", "tag"} & set(r["flagged"]), (r["label"], r["flagged"])
+        assert r["bone"] < 1e-4 and not r["problems"], r
+    assert len(results) >= 10
+
+
+@pytest.mark.parametrize("fps", [45, 60])
+def test_43_physics_damped_below_zero_flags_its_bone_instead_of_refusing_the_animation(fps):
+    """Damping keyed to -1e9 on a constraint stepping 45 times a second: ``damping ** (60 / 45)``
+    is a complex number in Python (NaN in the runtimes), and the animation was refused ("'>' not
+    supported between instances of 'float' and 'complex'"). The bone is flagged, the others posed."""
+    import json
+
+    from test_anim43 import physics_doc
+    from test_hostile_wave4 import within
+
+    from spinemesh.anim import Sampler
+    from spinemesh.anim.dump import dump
+
+    doc = physics_doc()
+    next(c for c in doc["constraints"] if c["name"] == "cheek")["fps"] = fps
+    doc["animations"]["sway"]["physics"]["cheek"]["damping"] = [{"value": -1e9}]
+    with within(30):
+        poses = json.loads(json.dumps(dump(Sampler(doc), "sway", [0.1, 0.7, 1.5]), allow_nan=False))["poses"]
+    assert all(p["bones"]["chin"] is not None and "chin" not in p["inexact"] for p in poses)
+    assert any("cheek" in p["inexact"] for p in poses)
+
+
+def test_a_slider_whose_animation_is_not_a_name_is_refused_in_one_line(tmp_path):
+    """``"animation": {}`` on a 4.3 slider ended every command in a traceback (an object is no
+    dictionary key); the document's check refuses it where it lies, as any name of the wrong type."""
+    import json
+    import subprocess
+    import sys
+
+    from test_anim43 import slider_doc
+
+    doc = slider_doc()
+    doc["constraints"][2]["animation"] = {}
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "x.json", "-a", "nod", "--times", "0.5"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert "x.json" in line and "constraints[2].animation: expected a name, found an object" in line, line

@@ -39,7 +39,18 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
 from .binding import deformed, parse_vertices, setup_world
-from .transform import DEG_RAD, INHERIT_MODES, PI, RAD_DEG, _num, inherit_mode, local_values, world_numbers, wrap_pi
+from .transform import (
+    DEG_RAD,
+    INHERIT_MODES,
+    PI,
+    RAD_DEG,
+    _num,
+    float_divide,
+    inherit_mode,
+    local_values,
+    world_numbers,
+    wrap_pi,
+)
 from .transform43 import PROPERTIES, Unmapped, local_from_world_43, transform_apply_43
 
 #: Runtime families whose setup pose is reproduced, by the skeleton's ``spine`` version prefix.
@@ -284,22 +295,6 @@ class PoseBone:
             scale_x, scale_y, shear_y = 0.0, math.hypot(rb, rd), 0.0
             rotation = 90 - math.atan2(rd, rb) * RAD_DEG
         self.applied = [ax, ay, rotation, scale_x, scale_y, 0.0, shear_y]
-
-
-def float_divide(a: float, b: float) -> float:
-    """``a / b`` as the runtimes' floats divide: by zero, an infinity signed as IEEE 754 signs
-    it (NaN for 0 / 0), where Python raises.
-
-    Examples
-    --------
-    >>> float_divide(1.0, -0.0), float_divide(6.0, 3.0)
-    (-inf, 2.0)
-    """
-    if b != 0 or math.isnan(b):
-        return a / b
-    if a == 0 or math.isnan(a):
-        return math.nan
-    return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
 def _wrap180(degrees: float) -> float:

@@ -29,6 +29,27 @@ from .transform import PI2, _num
 RESET, UPDATE, POSE = "reset", "update", "pose"
 
 
+def damping_power(damping: float, exponent: float) -> float:
+    """``damping ** exponent`` as the runtimes' ``pow`` gives it: NaN for a negative damping and a
+    fractional exponent (a step of 1/45 s: Python gives a complex number, which no comparison
+    takes), an infinity where the power overflows (Python raises). Springs so damped diverge, and
+    the bones they move are flagged.
+
+    Examples
+    --------
+    >>> damping_power(0.25, 0.5), damping_power(-2.0, 2.0)
+    (0.5, 4.0)
+    >>> damping_power(-0.5, 4 / 3), damping_power(-1e9, 61.0)
+    (nan, -inf)
+    """
+    if damping < 0 and not float(exponent).is_integer():
+        return math.nan
+    try:
+        return damping ** exponent
+    except OverflowError:
+        return -math.inf if damping < 0 and exponent % 2 == 1 else math.inf
+
+
 @dataclass
 class PhysicsSettings:
     """The constraint's fixed data: which properties it moves, by how much, and its stepping."""
@@ -260,7 +281,7 @@ class PhysicsState:
         left; returns the time left over and the damping used."""
         s = self.s
         t = s.step
-        damped = v.damping ** (60 * t)
+        damped = damping_power(v.damping, 60 * t)
         m, w, g = v.mass_inverse * t, v.wind * s.reference_scale, v.gravity * s.reference_scale
         while True:
             if s.x > 0:
@@ -283,7 +304,7 @@ class PhysicsState:
         s = self.s
         t = s.step
         if damped == -1:
-            damped = v.damping ** (60 * t)
+            damped = damping_power(v.damping, 60 * t)
         m, h = v.mass_inverse * t, length / s.reference_scale
         while True:
             left -= t

@@ -155,3 +155,19 @@ def wrap_pi(r: float) -> float:
     if r < -PI:
         return r + PI2
     return r
+
+
+def float_divide(a: float, b: float) -> float:
+    """``a / b`` as the runtimes' floats divide: by zero, an infinity signed as IEEE 754 signs
+    it (NaN for 0 / 0), where Python raises.
+
+    Examples
+    --------
+    >>> float_divide(1.0, -0.0), float_divide(6.0, 3.0)
+    (-inf, 2.0)
+    """
+    if b != 0 or math.isnan(b):
+        return a / b
+    if a == 0 or math.isnan(a):
+        return math.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .transform import DEG_RAD, PI, RAD_DEG, _num, wrap_pi
+from .transform import DEG_RAD, PI, RAD_DEG, _num, float_divide, wrap_pi
 
 #: The runtime's threshold for a zero squared length (``MathUtils.epsilon2``).
 EPSILON2 = 0.00001 * 0.00001
@@ -105,7 +105,7 @@ def local_from_world_43(world: np.ndarray, inherit: str, parent: np.ndarray | No
         return [wx, wy, rotation, sx, sy, shx, shy]
     (pa, pb, pwx), (pc, pd, pwy) = parent.tolist()
     pad = pa * pd - pb * pc
-    pid = 1 / pad
+    pid = float_divide(1.0, pad)  # a parent scaled to nothing: infinite, as the runtime divides
     ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
     dx, dy = wx - pwx, wy - pwy
     x, y = dx * ia - dy * ib, dy * id_ - dx * ic
@@ -117,7 +117,7 @@ def local_from_world_43(world: np.ndarray, inherit: str, parent: np.ndarray | No
         r = rotation * DEG_RAD
         cos, sin = math.cos(r), math.sin(r)
         za, zc = pa * cos + pb * sin, pc * cos + pd * sin
-        s = 1 / math.sqrt(za * za + zc * zc)
+        s = float_divide(1.0, math.sqrt(za * za + zc * zc))
         za, zc = za * s, zc * s
         si = -1 if inherit == "noScale" and pad < 0 else 1
         sx, sy, shx, shy = _decompose_sheared(za * a + zc * c, za * b + zc * d, (za * c - zc * a) * si,
@@ -126,7 +126,7 @@ def local_from_world_43(world: np.ndarray, inherit: str, parent: np.ndarray | No
     if inherit == "onlyTranslation":
         m = (a, b, c, d, 0.0)
     elif inherit == "noRotationOrReflection":
-        s, det = 1 / (pa * pa + pc * pc), 1 / abs(pad)
+        s, det = float_divide(1.0, pa * pa + pc * pc), float_divide(1.0, abs(pad))
         m = ((pa * a + pc * c) * s, (pa * b + pc * d) * s, (pa * c - pc * a) * det, (pa * d - pc * b) * det,
              _atan2_deg(pc, pa))
     else:
