@@ -785,6 +785,25 @@ def _write_pages(files: PreviewFolder, pages: dict[str, _Page], docs: dict, imag
     return done
 
 
+class _Steps:
+    """The preview's steps told as they are done: ``on_progress(done, total)`` (from ``(0, total)``
+    on), and ``on_skeleton()`` after each skeleton. Calling it tells ``n`` steps (animations)."""
+
+    def __init__(self, total: int, on_progress=None, on_skeleton=None):
+        self.done, self.total, self.on_progress, self.on_skeleton = 0, total, on_progress, on_skeleton
+        self(0)
+
+    def __call__(self, n: int = 1) -> None:
+        self.done += n
+        if self.on_progress is not None:
+            self.on_progress(min(self.done, self.total), self.total)
+
+    def skeleton(self) -> None:
+        self(1)
+        if self.on_skeleton is not None:
+            self.on_skeleton()
+
+
 def _animation_count(doc: dict) -> int:
     """How many animations a skeleton's player samples at most (:data:`~spinemesh.player.frames.MAX_ANIMATIONS`)."""
     from ..player.frames import MAX_ANIMATIONS
@@ -794,8 +813,7 @@ def _animation_count(doc: dict) -> int:
 
 
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
-                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1,
-                  on_progress=None) -> Path:
+                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1, on_progress=None) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
     and player data) and return the index's path.
 
@@ -816,9 +834,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         Processes sampling the players' animations (:func:`_write_pages`; the same files
         whatever the number).
     on_progress : callable, optional
-        ``on_progress(done, total)``, for a bar with the time left: steps are the animations
-        the players sample (the work) and one per skeleton; called as they are done, and last
-        with ``done == total``.
+        ``on_progress(done, total)`` as steps are done (:class:`_Steps`: each animation sampled, each skeleton).
     """
     project, out = Path(project), Path(out)
     files = PreviewFolder(folder)
@@ -839,27 +855,14 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         used_ids.add(pid)
         if sk.rel in docs:
             pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
-    steps = [0, len(skeletons) + sum(_animation_count(docs[rel][1]) for rel in pages)]
-
-    def step(n: int = 1) -> None:
-        steps[0] += n
-        if on_progress is not None:
-            on_progress(min(steps[0], steps[1]), steps[1])
-
-    def page_done() -> None:
-        step()
-        if on_skeleton is not None:
-            on_skeleton()
-
-    step(0)
-    done = _write_pages(files, pages, docs, images_in, jobs, page_done, step)
-    total = FillRate(0, 0, 0, 0)
-    rows = []
+    told = _Steps(len(skeletons) + sum(_animation_count(docs[rel][1]) for rel in pages), on_progress, on_skeleton)
+    done = _write_pages(files, pages, docs, images_in, jobs, told.skeleton, told)
+    total, rows = FillRate(0, 0, 0, 0), []
     for sk in skeletons:
         if sk.rel not in pages:  # a twin, or a skeleton not read: no page
-            page_done()
-        if sk.rel in twins:
-            continue
+            told.skeleton()
+            if sk.rel in twins:
+                continue
         mine = targets.get(sk.rel, [])
         counts = {s: sum(t.status == s for t in mine) for s in ("meshed", "kept", "failed")}
         link, rate, problem = done.get(sk.rel, (None, FillRate(0, 0, 0, 0), None))
