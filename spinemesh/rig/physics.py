@@ -101,6 +101,9 @@ class PhysicsState:
 
     def __init__(self, settings: PhysicsSettings):
         self.s = settings
+        #: the constraint's values read from the data last given (the setup's, most steps), kept
+        #: with that very dict: each step hands the same one until a timeline keys the values
+        self._read: tuple[dict | None, _Values | None] = (None, None)
         self.clock = 0.0
         self.mode = RESET
         self.ux = self.uy = self.cx = self.cy = self.tx = self.ty = 0.0
@@ -119,7 +122,10 @@ class PhysicsState:
     def update(self, bone, data: dict) -> None:
         """Move ``bone`` (a :class:`~.constraints.PoseBone`) by the constraint, as ``update(physics)``."""
         s = self.s
-        v = _Values(data, s.lagged)
+        read, v = self._read
+        if data is not read:
+            v = _Values(data, s.lagged)
+            self._read = (data, v)
         if v.mix == 0:
             return
         if s.lagged:
