@@ -75,3 +75,31 @@ def test_a_time_that_is_not_one_names_the_option(tmp_path):
                            check=False, capture_output=True, text=True, cwd=REPO)
         assert r.returncode == 2 and f"Invalid value for --times: {why}" in r.stderr, r.stderr
         assert "Traceback" not in r.stderr
+
+
+def test_weights_tells_each_mesh_weighted_and_each_picture_drawn(tmp_path):
+    """``spinemesh weights`` has a bar per phase: every mesh attachment gone through (weighted,
+    skipped or failed) and every picture of ``--preview``, each step told once."""
+    from collections import Counter
+
+    from spinemesh.rig.document import WeightOptions
+    from spinemesh.rig.run import weight_project
+
+    demo = make_demo_project(tmp_path / "demo")
+    upgrade_project(demo / "demo.json", tmp_path / "up", Options(min_saving=0, jobs=1))
+    added, done = Counter(), Counter()
+
+    class Told:
+        def add(self, phase, steps, project=None):
+            added[phase] += steps
+
+        def advance(self, phase, steps=1):
+            done[phase] += steps
+            assert done[phase] <= added[phase], phase  # never past what was announced
+
+    result = weight_project(tmp_path / "up", tmp_path / "w", WeightOptions(bones="keep", only=["demo-b*"]),
+                            preview=tmp_path / "prev", progress=Told())
+    weighted = sum(o.status == "weighted" for o in result.outcomes)
+    assert 0 < weighted < len(result.outcomes)  # --only skips some: they are steps too
+    assert added == done == Counter(weights=len(result.outcomes), preview=weighted)
+    assert len(list((tmp_path / "prev").glob("*.png"))) == weighted

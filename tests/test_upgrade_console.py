@@ -261,11 +261,10 @@ def test_preview_reasons_table_keeps_different_reasons_apart(tmp_path):
 def test_phase_bars_keep_their_counts_and_times_at_80_columns():
     from rich.console import Console
 
-    from spinemesh.cli._app import progress_bar
-    from spinemesh.cli.upgrade import _phase_progress
+    from spinemesh.cli._app import phase_progress, progress_bar
 
     bars = progress_bar("upgrade", phases=True)
-    progress = _phase_progress(bars)
+    progress = phase_progress(bars)
     progress.project("studio-december-2021/spine/characters/hero3/export-b")
     for phase, total in (("read", 120), ("mesh", 3456), ("weights", 2345), ("write", 120)):
         progress.add(phase, total)

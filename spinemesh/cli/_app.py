@@ -106,6 +106,53 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
                 console=err_console.real, transient=transient)
 
 
+def phase_progress(bars):
+    """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (:func:`progress_bar` with
+    ``phases``: one task per phase, made when its steps are first added); ``upgrade`` and ``weights``."""
+    from rich.markup import escape
+
+    from ..runs import short_names
+    from ..upgrade.progress import Progress
+
+    def shown(name: str) -> str:
+        return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns
+
+    class Bars(Progress):
+        def __init__(self) -> None:
+            self.tasks: dict[str, int] = {}
+            self.current = ""
+            self.ahead: set[str] = set()  # phases that name their own project (a library's meshing ahead)
+
+        def add(self, phase: str, steps: int, project: str | None = None) -> None:
+            if phase not in self.tasks:
+                self.tasks[phase] = bars.add_task(phase, total=0, project=self.current)
+            task = self.tasks[phase]
+            bars.update(task, total=(bars.tasks[task].total or 0) + steps)
+            if project is not None:
+                self.ahead.add(phase)
+                bars.update(task, project=shown(project))
+
+        def advance(self, phase: str, steps: int = 1) -> None:
+            if phase in self.tasks:
+                bars.advance(self.tasks[phase], steps)
+
+        def step(self, phase: str, what: str, item: str = "") -> None:
+            # the words first (a narrow terminal cuts the end), then the item, under its project
+            # (a library run), until the next project
+            if phase in self.tasks:
+                where = escape(short_names([item], 30)[item]) if item else ""
+                where = f"{self.current}/{where}" if self.current and where else where or self.current
+                bars.update(self.tasks[phase], project=f"{escape(what)}: {where}" if where else escape(what))
+
+        def project(self, name: str) -> None:
+            self.current = shown(name)
+            for phase, task in self.tasks.items():
+                if phase not in self.ahead:
+                    bars.update(task, project=self.current)
+
+    return Bars()
+
+
 def finite(value: Optional[float]) -> Optional[float]:
     """Option callback: a finite number (None passes); click's ``min=``/``max=`` let NaN through."""
     if value is not None and not math.isfinite(value):
@@ -138,5 +185,5 @@ def _root(
     """
 
 
-__all__ = ["app", "console", "err_console", "progress_bar", "finite", "positive_finite", "Preset", "MaskSource",
+__all__ = ["app", "console", "err_console", "progress_bar", "phase_progress", "finite", "positive_finite", "Preset", "MaskSource",
            "Annotated", "Optional"]

@@ -15,7 +15,7 @@ import typer
 from ..limits import MAX_JOBS
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
-    progress_bar,
+    phase_progress, progress_bar,
 )
 from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
 from .weights import Weights
@@ -210,58 +210,12 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
                              "add --pack (without it, every atlas is copied as exported)")
 
 
-def _phase_progress(bars):
-    """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (one task per phase)."""
-    from rich.markup import escape
-
-    from ..runs import short_names
-    from ..upgrade.progress import Progress
-
-    def shown(name: str) -> str:
-        return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns
-
-    class Bars(Progress):
-        def __init__(self) -> None:
-            self.tasks: dict[str, int] = {}
-            self.current = ""
-            self.ahead: set[str] = set()  # phases that name their own project (a library's meshing ahead)
-
-        def add(self, phase: str, steps: int, project: str | None = None) -> None:
-            if phase not in self.tasks:
-                self.tasks[phase] = bars.add_task(phase, total=0, project=self.current)
-            task = self.tasks[phase]
-            bars.update(task, total=(bars.tasks[task].total or 0) + steps)
-            if project is not None:
-                self.ahead.add(phase)
-                bars.update(task, project=shown(project))
-
-        def advance(self, phase: str, steps: int = 1) -> None:
-            if phase in self.tasks:
-                bars.advance(self.tasks[phase], steps)
-
-        def step(self, phase: str, what: str, item: str = "") -> None:
-            # the words first (a narrow terminal cuts the end), then the item, under its project
-            # (a library run), until the next project
-            if phase in self.tasks:
-                where = escape(short_names([item], 30)[item]) if item else ""
-                where = f"{self.current}/{where}" if self.current and where else where or self.current
-                bars.update(self.tasks[phase], project=f"{escape(what)}: {where}" if where else escape(what))
-
-        def project(self, name: str) -> None:
-            self.current = shown(name)
-            for phase, task in self.tasks.items():
-                if phase not in self.ahead:
-                    bars.update(task, project=self.current)
-
-    return Bars()
-
-
 def _run(project: Path, out: Path, options, library: bool):
     """Upgrade ``project`` (a library when ``library``) with a bar per phase (read, mesh, weights, write)."""
     from ..upgrade import upgrade_library, upgrade_project
 
     with progress_bar("upgrade", transient=True, phases=True) as bars:
-        progress = _phase_progress(bars)
+        progress = phase_progress(bars)
         if library:
             return upgrade_library(project, out, options, progress)
         return upgrade_project(project, out, options, progress)

@@ -8,7 +8,7 @@ from typing import List
 
 import typer
 
-from ._app import Annotated, Optional, app, console, err_console
+from ._app import Annotated, Optional, app, console, err_console, phase_progress, progress_bar
 
 
 class BoneChoice(str, Enum):
@@ -93,7 +93,8 @@ def weights(
         guard.check_folder(preview, "preview folder")
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
-    result = weight_project(project, out, options, preview=preview, overwrite=overwrite)
+    with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
+        result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
     if report is not None:
         write_report(result, report)
 

@@ -261,14 +261,30 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     outcome.status = "weighted"
 
 
-def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig | None = None) -> list[Outcome]:
+def mesh_count(doc: dict) -> int:
+    """How many mesh attachments :func:`weight_document` goes through (its ``on_mesh`` calls)."""
+    return sum(ref.type == "mesh" for ref, _ in checked_attachments(doc))
+
+
+def _telling(pairs, on_mesh):
+    """``pairs`` (attachment, problem) as they come, ``on_mesh()`` called once the loop is done
+    with each mesh attachment (whichever way its turn ends)."""
+    for ref, problem in pairs:
+        yield ref, problem
+        if ref.type == "mesh" and on_mesh is not None:
+            on_mesh()
+
+
+def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig | None = None,
+                    on_mesh=None) -> list[Outcome]:
     """Weight every selected mesh attachment of ``doc`` in place; one outcome per mesh attachment.
 
     One bad attachment never stops the others: it is left as it was and reported failed.
+    ``on_mesh()``: called after each mesh attachment, weighted or not (:func:`mesh_count` of them).
     """
     rig = rig or build_rig(doc, options.sample_motion)
     outcomes = []
-    for ref, problem in checked_attachments(doc):
+    for ref, problem in _telling(checked_attachments(doc), on_mesh):
         if problem:  # a field of the wrong type, weighted vertices that do not fit: as it was
             if ref.type in ("mesh", "linkedmesh"):
                 outcomes.append(Outcome(skeleton, ref.skin, ref.slot, ref.name, status="failed", reason=problem))

@@ -159,8 +159,9 @@ def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarra
     return picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
 
 
-def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path) -> list[str]:
-    """One PNG per weighted attachment in ``folder``; returns problems (one line each)."""
+def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path, on_picture=None) -> list[str]:
+    """One PNG per weighted attachment in ``folder``; returns problems (one line each).
+    ``on_picture()``: called after each weighted attachment, drawn or not."""
     from ..project import image_source_for
 
     problems = []
@@ -180,8 +181,10 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
             sprite = source.get(setup_image(ref)).rgba
         except SpineMeshError as e:
             problems.append(f"{skeleton.name} {ref.slot}/{ref.name}: no preview: {e}")
-            continue
-        image = weighted_picture(doc, ref.attachment, rig, sprite)
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}")
-        atomic_write_png(folder / f"{safe}.png", image)
+        else:
+            image = weighted_picture(doc, ref.attachment, rig, sprite)
+            safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}")
+            atomic_write_png(folder / f"{safe}.png", image)
+        if on_picture is not None:
+            on_picture()
     return problems

@@ -18,7 +18,7 @@ from ..fsutil import atomic_write_json
 from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
-from .document import Outcome, WeightOptions, build_rig, uses_learned, weight_document
+from .document import Outcome, WeightOptions, build_rig, mesh_count, uses_learned, weight_document
 from .learned import share_project_habits
 
 
@@ -36,7 +36,7 @@ class WeightResult(RunSummary):
 
 
 def weight_project(project: str | Path, out: str | Path, options: WeightOptions | None = None,
-                   preview: str | Path | None = None, overwrite: bool = False) -> WeightResult:
+                   preview: str | Path | None = None, overwrite: bool = False, progress=None) -> WeightResult:
     """Weight every skeleton of a project into ``out``.
 
     Parameters
@@ -52,6 +52,9 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         Folder for one picture per weighted attachment (:mod:`.preview`).
     overwrite : bool, default False
         Replace ``out`` as a whole, when an earlier run wrote it.
+    progress : spinemesh.upgrade.progress.Progress, optional
+        Told the steps of the phases ``weights`` (each mesh attachment) and ``preview`` (each
+        picture), as they become known and as they are done.
 
     Returns
     -------
@@ -78,10 +81,13 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         read.append((path, doc, build_rig(doc, options.sample_motion)))
     if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
         share_project_habits([(doc, rig) for _, doc, rig in read])
+    if progress is not None:
+        progress.add("weights", sum(mesh_count(doc) for _, doc, _ in read))
     with output_folder(out, overwrite):
         for path, doc, rig in read:
             rel = path.relative_to(proj.root).as_posix()
-            outcomes = weight_document(doc, rel, options, rig)
+            outcomes = weight_document(doc, rel, options, rig,
+                                       on_mesh=None if progress is None else lambda: progress.advance("weights"))
             result.outcomes += outcomes
             try:
                 write_skeleton(doc, path, out / rel)
@@ -93,7 +99,10 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
             if preview is not None:
                 from .preview import write_previews
 
-                result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview))
+                if progress is not None:
+                    progress.add("preview", sum(o.status == "weighted" for o in outcomes))
+                result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview),
+                                                None if progress is None else lambda: progress.advance("preview"))
         copy_other_files(proj, out, written)
     result.seconds = time.perf_counter() - start
     return result
