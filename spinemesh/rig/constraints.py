@@ -1075,6 +1075,9 @@ class _Constraint:
     physics: object | None = None  # physics: its state between frames (rig.physics.PhysicsState)
     slider: object | None = None   # 4.3 slider: what applies its animation (spinemesh.anim sets it)
     v43: bool = False         # from 4.3's single list (a transform constraint maps properties)
+    #: transform: its mixes read from the data last applied, kept with that very dict (the setup
+    #: values, most frames: the same dict until a timeline keys them)
+    mix_read: tuple = field(default=(None, None), compare=False, repr=False)
 
     def label(self) -> str:
         return f"{self.kind if self.kind != 'ik' else 'IK'} constraint {self.name!r}"
@@ -1319,7 +1322,11 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
             return transform_apply_43(d, c.target, c.bones)
         except Unmapped as e:
             raise _Unsolved(str(e)) from None
-    return transform_apply(TransformMix.from_json(d, family), c.target, c.bones, family)
+    read, mix = c.mix_read
+    if d is not read:
+        mix = TransformMix.from_json(d, family)
+        c.mix_read = (d, mix)
+    return transform_apply(mix, c.target, c.bones, family)
 
 
 def _moves_something(c: _Constraint, family: str | None) -> bool:
