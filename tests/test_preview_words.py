@@ -103,3 +103,19 @@ def test_weights_tells_each_mesh_weighted_and_each_picture_drawn(tmp_path):
     assert 0 < weighted < len(result.outcomes)  # --only skips some: they are steps too
     assert added == done == Counter(weights=len(result.outcomes), preview=weighted)
     assert len(list((tmp_path / "prev").glob("*.png"))) == weighted
+
+
+def test_the_skins_the_player_does_not_offer_are_named_on_the_page(tmp_path):
+    from spinemesh.player.frames import MAX_SKINS
+
+    doc = _demo_doc(tmp_path)
+    arm = doc["skins"][0]["attachments"]["arm"]
+    doc["skins"] += [{"name": f"outfit{i}", "attachments": {"arm": arm}} for i in range(1, 7)]
+    problems: list[str] = []
+    plan_sampling(doc, doc, problems=problems)
+    assert MAX_SKINS == 4 and problems == ["skins outfit5, outfit6 not offered alone: the player offers at most 4 "
+                                           "skins, those that dress the setup pose first"]
+    doc["skins"] = doc["skins"][:4]  # the default skin and three more: all offered
+    problems.clear()
+    plan_sampling(doc, doc, problems=problems)
+    assert problems == []

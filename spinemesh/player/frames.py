@@ -513,12 +513,18 @@ def plan_sampling(before: dict, after: dict, regions=None,
     budget (:data:`MAX_POSES`), and the samplers of both sides (:func:`sides_of`).
 
     An animation whose duration cannot be read is left out with one line in ``problems``, as
-    are the animations beyond the first :data:`MAX_ANIMATIONS`.
+    are the animations beyond the first :data:`MAX_ANIMATIONS`, and the skins not offered alone
+    (beyond :data:`MAX_SKINS`).
     """
     from ..anim import POSE_ERRORS, same_motion
 
     problems = problems if problems is not None else []
     chosen = sampled_skins(after)
+    left = [k for k, slots in iter_skins(after) if k != "default" and k not in chosen and slots]
+    if left:  # else a user looks in vain for a skin in the list
+        problems.append(f"skin{'s' if len(left) > 1 else ''} {', '.join(left[:10])}{' and more' if len(left) > 10 else ''} "
+                        f"not offered alone: the player offers at most {MAX_SKINS} skins, those that dress the setup "
+                        "pose first")
     skins = [(s if isinstance(s, str) else skin_label(s), None if s == "default" else s) for s in chosen]
     sides = sides_of(before, after, skins, regions)
     first = sides[skins[0][0]][1]
