@@ -643,3 +643,61 @@ def test_a_slider_whose_animation_is_not_a_name_is_refused_in_one_line(tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
     (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
     assert "x.json" in line and "constraints[2].animation: expected a name, found an object" in line, line
+
+
+def _path_doc_with(change):
+    from test_anim43 import path_doc
+
+    doc = path_doc()
+    change(doc["skins"][0]["attachments"])
+    return doc
+
+
+#: A path attachment's numbers no load checks (its vertices are read only where a path constraint
+#: follows it): each once ended ``pose`` in a traceback, in "not enough memory", or refused the
+#: setup pose; now the path is unreadable, its constraint's bones flagged, the rest posed.
+BROKEN_PATHS = {
+    "a weighted path's bone index of text": lambda a: a["cable"]["p"]["vertices"].__setitem__(35, "nope"),
+    "a weighted path's weight of a list": lambda a: a["cable"]["p"]["vertices"].__setitem__(28, []),
+    "a path's vertex of an object": lambda a: a["track"]["p"]["vertices"].__setitem__(3, {}),
+    "a vertexCount of 2**31": lambda a: a["cable"]["p"].update(vertexCount=2 ** 31),
+    "a vertexCount of 2**63": lambda a: a["ring"]["p"].update(vertexCount=2 ** 63),
+}
+
+
+@pytest.mark.parametrize("case", list(BROKEN_PATHS))
+def test_a_path_of_broken_numbers_flags_its_bones(tmp_path, case):
+    import json
+    import subprocess
+    import sys
+
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "x.json").write_text(json.dumps(_path_doc_with(BROKEN_PATHS[case])))
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "p/x.json", "-a", "go", "--times", "0.1,0.7",
+                        "--out", "pose.json"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    assert all(p["bones"]["rail"] is not None and "rail" not in p["inexact"] for p in poses)
+
+
+@pytest.mark.parametrize("version", ["4.3", "4.2"])
+@pytest.mark.parametrize("mass", [0, -0.0])
+def test_convert_of_a_physics_mass_of_zero_is_one_line(tmp_path, version, mass):
+    """The binary stores a physics constraint's inverse mass: ``convert`` of a mass of 0 (which
+    the document's check lets through and ``pose`` plays) ended in a ZeroDivisionError traceback."""
+    import json
+    import subprocess
+    import sys
+
+    from test_anim43 import physics_doc
+    from test_hostile_round6 import _as_42
+
+    doc = physics_doc()
+    doc["constraints"][0]["mass"] = mass
+    (tmp_path / "x.json").write_text(json.dumps(doc if version == "4.3" else _as_42(doc)))
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "convert", "x.json", "x.skel"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert "x.json" in line and "mass other than 0" in line, line
+    assert not (tmp_path / "x.skel").exists()

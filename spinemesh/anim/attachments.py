@@ -205,7 +205,10 @@ def prepare(doc_skins: dict, skin: str, slot: int, slot_name: str, key: str, att
         return out
     if kind in ("clipping", "path"):
         count = att.get("vertexCount")
-        if not isinstance(count, int) or isinstance(count, bool) or count <= 0:
+        verts = att.get("vertices")
+        # each vertex takes a number at least: a count beyond them (2**31) is unreadable, never allocated
+        numbers = len(verts) if isinstance(verts, list) else 0
+        if not isinstance(count, int) or isinstance(count, bool) or not 0 < count <= numbers:
             return None
         try:
             out.geometry = VertexGeometry(att, count, bone_count)

@@ -52,7 +52,10 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
         raise SpineMeshError("mesh has no uvs/vertices lists")
     n = len(uvs) // 2
     if len(verts) == 2 * n:
-        return MeshVertices(n, local=np.asarray(verts, float).reshape(n, 2))
+        try:
+            return MeshVertices(n, local=np.asarray(verts, float).reshape(n, 2))
+        except (ValueError, TypeError, OverflowError) as e:  # no number (a path's, which no load checked)
+            raise SpineMeshError(f"vertices do not parse: {e}") from None
     try:  # one walk of the layout for every reader: the one made when the skeleton is read
         problem = vertices_problem(verts, n, bone_count)
     except (ValueError, TypeError, OverflowError) as e:  # an attachment not checked at load
@@ -61,11 +64,14 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
         raise SpineMeshError(problem)
     out = MeshVertices(n)
     i = 0
-    for _ in range(n):
-        k = int(verts[i])
-        out.influences.append([(int(verts[i + 1 + 4 * j]), float(verts[i + 2 + 4 * j]),
-                                float(verts[i + 3 + 4 * j]), float(verts[i + 4 + 4 * j])) for j in range(k)])
-        i += 1 + 4 * k
+    try:  # a value that is no number (text, a list, false), in a list no load checked (a path's)
+        for _ in range(n):
+            k = int(verts[i])
+            out.influences.append([(int(verts[i + 1 + 4 * j]), float(verts[i + 2 + 4 * j]),
+                                    float(verts[i + 3 + 4 * j]), float(verts[i + 4 + 4 * j])) for j in range(k)])
+            i += 1 + 4 * k
+    except (ValueError, TypeError, OverflowError, IndexError) as e:
+        raise SpineMeshError(f"weighted vertices do not parse: {e}") from None
     return out
 
 

@@ -1543,6 +1543,8 @@ def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], b
             count = att.get("vertexCount")
             verts = att.get("vertices") if isinstance(att.get("vertices"), list) else []
             if isinstance(count, int) and len(verts) != 2 * count:  # weighted: its bones
+                if not 0 <= count <= len(verts):  # more vertices than numbers: unreadable, and unallocated
+                    continue
                 try:
                     mesh = parse_vertices({"uvs": [0.0] * (2 * count), "vertices": verts}, len(bones))
                 except SpineMeshError:

@@ -1107,7 +1107,7 @@ def write(writer, doc: dict) -> None:
     try:
         c = header(head, doc, extra)
         body(rest, doc, c)
-    except (AttributeError, TypeError, ValueError, KeyError, IndexError, OverflowError, struct.error) as e:
+    except (AttributeError, TypeError, ValueError, KeyError, IndexError, ArithmeticError, struct.error) as e:
         # A document whose values have the wrong types (e.g. a hand-edited JSON).
         raise (rest if rest.pos else head).fail(
             f"a well-formed 3.x skeleton document ({type(e).__name__}: {e})") from None

@@ -262,7 +262,7 @@ def write(writer, doc: dict) -> None:
     w = _RefWriter(writer.path, extra.get("refs") if extra.get("strings") is not None else None)
     try:
         skeleton(w, doc)
-    except (AttributeError, TypeError, ValueError, KeyError, IndexError, OverflowError, struct.error) as e:
+    except (AttributeError, TypeError, ValueError, KeyError, IndexError, ArithmeticError, struct.error) as e:
         # A document whose values have the wrong types (e.g. a hand-edited JSON).
         raise w.fail(f"a well-formed 4.x skeleton document ({type(e).__name__}: {e})") from None
     writer.raw(w.getvalue())

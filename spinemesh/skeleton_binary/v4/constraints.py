@@ -201,7 +201,10 @@ def _physics_mass_to_mix(s, node: dict, has_mass: bool) -> None:
             s.float_sum += mass  # infinite for a zero inverse, refused like a stored one
             _put(node, "mass", mass, 1)
         else:
-            s.f32(1 / node.get("mass", 1))
+            mass = node.get("mass", 1)
+            if mass == 0:  # the runtimes divide by it, reading JSON; its inverse is no float
+                raise s.fail(f"a physics mass other than 0 (the binary stores its inverse), got {mass!r}")
+            s.f32(1 / mass)
     fld(s, node, "wind", 0)
     fld(s, node, "gravity", 0)
     value_flags = 0 if s.reading else (128 if flag(node, "mix", 1, 1.0) else 0)
