@@ -20,7 +20,7 @@ def _rgba(mask: np.ndarray) -> np.ndarray:
 def test_art_filling_the_region_is_kept_before_any_geometry():
     mask = np.ones((64, 48), bool)
     mask[:3, :3] = False  # 97% filled: no mesh can save 10%
-    assert worth_meshing(mask, 0.10).startswith("not worth meshing: the art fills 100%")
+    assert worth_meshing(mask, 0.10).startswith("not worth meshing: the art fills 99.7%")  # its margin grown
     assert worth_meshing(mask, 0.0) == ""
     with pytest.raises(NotWorthMeshing, match="art fills"):
         mesh_image(_rgba(mask), min_saving=0.10)
@@ -114,6 +114,10 @@ def test_reasons_print_a_saving_below_the_limit_they_name():
     assert percents_below(0.0499, 0.05) == ("4.99%", "95.01%")
     assert percents_below(0.04999, 0.05) == ("under 5%", "over 95%")
     assert percents_below(0.02, 0.05) == ("2%", "98%")
+    # a share above 0 never reads 0% (nor its art 100%): "fills 100% ... at most 0% fewer" was printed
+    assert percents_below(0.004, 0.05) == ("0.4%", "99.6%")
+    assert percents_below(0.00004, 0.05) == ("under 0.01%", "over 99.99%")
+    assert percents_below(0.0, 0.05) == ("0%", "100%")
     square = np.array([[0, 0], [100, 0], [100, 100], [0, 100]], float)
     reason = hull_reason(square, 100 / 0.952 ** 0.5, 100 / 0.952 ** 0.5, 0.05)  # saves 4.8%
     assert "only 4.8% fewer pixels" in reason and "(--min-saving 5%)" in reason

@@ -65,7 +65,8 @@ def percents_below(share: float, limit: float) -> tuple[str, str]:
 
     Rounding to whole percents would print a saving of 4.8% against a limit of 5% as "5%", which
     reads as a contradiction; this uses the fewest decimals (0 to 2) that keep the printed share
-    below the printed limit, or "under" the limit when even two decimals do not.
+    below the printed limit, or "under" the limit when even two decimals do not. A share above 0
+    never prints as "0%" (art filling 99.6% of a region read "fills 100% ... at most 0% fewer").
 
     Returns
     -------
@@ -74,8 +75,11 @@ def percents_below(share: float, limit: float) -> tuple[str, str]:
     """
     share = min(max(share, 0.0), 1.0)
     for digits in (0, 1, 2):
-        if round(100 * share, digits) < round(100 * limit, 2):
+        shown = round(100 * share, digits)
+        if shown < round(100 * limit, 2) and (shown > 0 or share == 0):
             return f"{100 * share:.{digits}f}%", f"{100 * (1 - share):.{digits}f}%"
+    if 0 < share < 0.0001 < limit:
+        return "under 0.01%", "over 99.99%"
     return f"under {percent(limit)}", f"over {percent(1 - limit)}"
 
 
