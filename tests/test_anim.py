@@ -49,6 +49,22 @@ def test_curve_values_3x_and_4x():
     assert value_4(pts, 1.2, 1.0, 5.0, 2.0, 15.0) < 7.0
 
 
+def test_a_curve_point_on_its_key_gives_nan_at_the_key_as_float_division_does():
+    """A 4.x curve whose first sampled point rounds (float32) onto its key's time divides 0 by 0
+    at that time: the runtimes' floats, and the numpy floats the sampler used, give NaN; the
+    sampler's Python floats must too, not raise (which would lose the whole animation)."""
+    import warnings
+
+    keys = read_keys([{"time": 1000, "value": 0, "curve": [1000, 0, 999.963, 1]}, {"time": 1001, "value": 1}],
+                     lambda f: [f.get("value", 0)], four=True)
+    assert keys.bezier[0][0][0][0] == 1000.0          # the first point sits on the key
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                # and no numpy warning either
+        assert math.isnan(keys.at(1000.0)[0]) and math.isnan(keys.percent(1000.0)[1])
+        assert keys.at(1000.5)[0] == pytest.approx(0.8967514693)
+    assert math.isnan(percent_3([[0.0, 0.5]] + [[1.0, 1.0]] * 8, 0.0))    # 3.x: 0 / 0 the same way
+
+
 def test_keys_linear_stepped_bezier_and_ends():
     frames = [{"value": 10, "curve": "stepped"}, {"time": 1, "value": 20}, {"time": 2, "value": 40,
               "curve": [2.25, 40, 2.75, 80]}, {"time": 3, "value": 80}]

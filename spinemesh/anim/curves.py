@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..rig.transform import float_divide
 from ..skeleton_curves import CURVES_38, CurveSpelling
 
 LINEAR, STEPPED, BEZIER = 0, 1, 2
@@ -66,25 +67,31 @@ def bezier_points_4(time1, value1, cx1, cy1, cx2, cy2, time2, value2) -> np.ndar
     return _forward_differences(time1, value1, cx1, cy1, cx2, cy2, time2, value2)
 
 
-def percent_3(points: np.ndarray, percent: float) -> float:
-    """3.x ``getCurvePercent``: the curve's value at ``percent`` of the segment's time."""
+def percent_3(points, percent: float) -> float:
+    """3.x ``getCurvePercent``: the curve's value at ``percent`` of the segment's time.
+
+    ``points``: the nine points (9, 2), an array or nested lists of float. Divisions as the
+    runtimes' floats make them (:func:`~spinemesh.rig.transform.float_divide`: two points at
+    the same time divide by zero and give a NaN or an infinity, as numpy's floats did, where
+    Python's would raise)."""
     percent = min(1.0, max(0.0, percent))
     px, py = 0.0, 0.0
     for x, y in points:
         if x >= percent:
-            return py + (y - py) * (percent - px) / (x - px)
+            return py + float_divide((y - py) * (percent - px), x - px)
         px, py = x, y
-    return py + (1 - py) * (percent - px) / (1 - px)
+    return py + float_divide((1 - py) * (percent - px), 1 - px)
 
 
-def value_4(points: np.ndarray, time: float, time1: float, value1: float, time2: float, value2: float) -> float:
-    """4.x ``getBezierValue``: a value's curve at ``time`` (``time1 <= time < time2``)."""
+def value_4(points, time: float, time1: float, value1: float, time2: float, value2: float) -> float:
+    """4.x ``getBezierValue``: a value's curve at ``time`` (``time1 <= time < time2``); ``points``
+    and divisions as :func:`percent_3` has them."""
     px, py = time1, value1
     for x, y in points:
         if x >= time:
-            return py + (time - px) / (x - px) * (y - py)
+            return py + float_divide(time - px, x - px) * (y - py)
         px, py = x, y
-    return py + (time - px) / (time2 - px) * (value2 - py)
+    return py + float_divide(time - px, time2 - px) * (value2 - py)
 
 
 def _wrap_turns(degrees: float) -> float:
