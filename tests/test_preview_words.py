@@ -1,10 +1,12 @@
-"""What a user reads from ``upgrade --preview`` and ``pose``: the player says why its canvases are
-blank or its frames few, the preview's bar counts the work it waits on, the index's tables are
-headed, and a bad ``--times`` names the option. Runs on the demo project drawn by our own code."""
+"""What a user reads from ``upgrade --preview``, ``pose``, ``weights`` and ``upgrade``'s console: the
+player says why its canvases are blank, its frames few or a skin missing, the bars count the work
+they wait on, the index's tables are headed, a bad ``--times`` names the option, and a broken page
+fails its attachments in one line. Runs on the demo project drawn by our own code."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -113,9 +115,23 @@ def test_the_skins_the_player_does_not_offer_are_named_on_the_page(tmp_path):
     doc["skins"] += [{"name": f"outfit{i}", "attachments": {"arm": arm}} for i in range(1, 7)]
     problems: list[str] = []
     plan_sampling(doc, doc, problems=problems)
-    assert MAX_SKINS == 4 and problems == ["skins outfit5, outfit6 not offered alone: the player offers at most 4 "
-                                           "skins, those that dress the setup pose first"]
+    assert MAX_SKINS == 4 and problems == [("skins outfit5, outfit6 not offered alone: the player offers at most 4 "
+                                            "skins, those that dress the setup pose first")]
     doc["skins"] = doc["skins"][:4]  # the default skin and three more: all offered
     problems.clear()
     plan_sampling(doc, doc, problems=problems)
     assert problems == []
+
+
+def test_a_broken_page_fails_its_attachments_in_one_line(tmp_path):
+    """Every attachment a truncated page holds fails for one reason: one line says it, naming
+    the first attachment, how many more, and the file (it was one line per attachment)."""
+    demo = make_demo_project(tmp_path / "demo")
+    page = demo / "demo.png"
+    page.write_bytes(page.read_bytes()[:300])
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "upgrade", str(demo), "--out", str(tmp_path / "out"),
+                        "--jobs", "1"], check=False, capture_output=True, text=True, cwd=REPO,
+                       env={**os.environ, "COLUMNS": "400"})
+    lines = [line for line in r.stderr.splitlines() if line.startswith("left a region:")]
+    assert r.returncode == 3 and len(lines) == 1, r.stderr
+    assert "attachment 'demo-arm' and 11 more: " in lines[0] and f"{page}: cannot decode image" in lines[0], lines[0]

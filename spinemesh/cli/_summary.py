@@ -48,7 +48,9 @@ def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Ca
 
 def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skipped_label: str, failed_label: str,
                      reason: Callable[[object], str] = lambda row: row.reason) -> None:
-    """Every failed row on stderr, a count per ``reason(row)`` of the rows whose status is ``skipped``, the errors.
+    """The failed rows on stderr, one line per reason (the first row named, and how many more:
+    a broken page fails every attachment it holds, hundreds of lines that say one thing), a count
+    per ``reason(row)`` of the rows whose status is ``skipped``, the errors.
 
     ``skipped_label`` and ``failed_label`` begin the lines (``kept as region``, ``left a region``).
     """
@@ -56,11 +58,16 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
 
     from ..runs import reason_groups
 
+    failed: dict[str, list] = {}
     for row in rows:
         if row.status == "failed":
-            err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
-                f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}: {row.reason}")),
-                highlight=False)
+            failed.setdefault(row.reason, []).append(row)
+    for why, group in failed.items():
+        row = group[0]
+        more = f" and {len(group) - 1} more" if len(group) > 1 else ""
+        err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
+            f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}{more}: {why}")),
+            highlight=False)
     for why, n, variants in reason_groups([reason(row) for row in rows if row.status == skipped]):
         more = f"; {variants - 1} more like it with other figures" if variants > 1 else ""
         console.print(f"{skipped_label}: {n} ({escaped(why)}{more})", highlight=False, markup=False)
