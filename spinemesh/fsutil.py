@@ -203,7 +203,10 @@ class OutputGuard:
             if target == inp:
                 raise OutputError(f"{what} is the input {given}; the input is never overwritten", path)
             if inp.is_dir() and inp in target.parents:
-                raise OutputError(f"{what} lies inside the input {given}; nothing is written there", path)
+                # "the input ." says little: the folder a skeleton lies in is its project, the current one here
+                shown = f"folder {inp}" if str(given) in ("", ".") else str(given)
+                raise OutputError(f"{what} lies inside the input {shown}; nothing is written there: give a path "
+                                  "outside it", path)
 
 
 def project_folder(path: str | Path) -> Path:

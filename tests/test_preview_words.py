@@ -135,3 +135,18 @@ def test_a_broken_page_fails_its_attachments_in_one_line(tmp_path):
     lines = [line for line in r.stderr.splitlines() if line.startswith("left a region:")]
     assert r.returncode == 3 and len(lines) == 1, r.stderr
     assert "attachment 'demo-arm' and 11 more: " in lines[0] and f"{page}: cannot decode image" in lines[0], lines[0]
+
+
+def test_an_output_beside_the_skeleton_run_from_its_folder_says_which_folder_and_what_to_do(tmp_path):
+    """``spinemesh pose hero.skel --out pose.json`` run in the skeleton's folder writes into the
+    project, which is refused: the line names the folder (it said "the input .") and the way out."""
+    project = make_demo_project(tmp_path / "demo")
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "demo-binary.skel", "-a", "wave", "--out", "pose.json"],
+                       check=False, capture_output=True, text=True, cwd=project,
+                       env={**os.environ, "PYTHONPATH": str(REPO), "COLUMNS": "400"})
+    assert r.returncode == 2 and not (project / "pose.json").exists()
+    assert r.stderr.strip() == (f"error: pose.json: output file lies inside the input folder {project.resolve()}; "
+                                "nothing is written there: give a path outside it"), r.stderr
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "demo-binary.skel", "-a", "wave", "--out", "../pose.json"],
+                       check=False, capture_output=True, text=True, cwd=project, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert r.returncode == 0 and (tmp_path / "pose.json").exists(), r.stderr
