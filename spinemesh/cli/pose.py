@@ -58,8 +58,8 @@ def pose(
     original image, triangles). Physics (4.2, 4.3) is stepped from time 0 as a game loop steps it.
 
     \b
-    Example: spinemesh pose hero.json --animation run --times 0.2,0.5 --out pose.json
-    Example: spinemesh pose hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
+    Example: spinemesh pose project/hero.json --animation run --times 0.2,0.5 --out pose.json
+    Example: spinemesh pose project/hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump_head, dump_labels, dump_poses

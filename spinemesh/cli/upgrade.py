@@ -136,7 +136,7 @@ def upgrade(
     \b
     Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
     Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
-    Example: spinemesh upgrade hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
+    Example: spinemesh upgrade project/hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack --pages any --max-page 2048
     """

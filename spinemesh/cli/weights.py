@@ -76,8 +76,8 @@ def weights(
 
     \b
     Example: spinemesh weights project/ --out weighted/ --report weighted/report.json
-    Example: spinemesh weights hero.skel --out weighted/ --replace --bones keep --preview previews/
-    Example: spinemesh weights hero.skel --out weighted/ --replace --bones learned --report report.json
+    Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones keep --preview previews/
+    Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
     from ..anim.motion import sampled_bone_worlds
     from ..fsutil import OutputGuard
