@@ -701,3 +701,22 @@ def test_convert_of_a_physics_mass_of_zero_is_one_line(tmp_path, version, mass):
     (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
     assert "x.json" in line and "mass other than 0" in line, line
     assert not (tmp_path / "x.skel").exists()
+
+
+@pytest.mark.parametrize("command", ["upgrade", "pack"])
+def test_a_preview_never_replaces_a_users_files(tmp_path, meshed, command):
+    """``--preview ~/Documents``: the preview's index.html, player.js, s/, data/ and img/ replaced a
+    user's files of those names (exit 0). A folder that holds files but no spinemesh preview is now
+    refused before anything is written; an earlier preview is written over, as before."""
+    from test_hostile import check_run, run_cli, snapshot
+
+    shutil.copytree(meshed, tmp_path / "p", ignore=shutil.ignore_patterns(".*"))
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "index.html").write_text("my own page")
+    before = snapshot(tmp_path)
+    r = run_cli(command, "p", "--out", "o", "--preview", "docs", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "docs: preview folder is not empty and holds no spinemesh preview" in r.stderr, r.stderr
+    for out in ("o1", "o2"):  # its own preview, written again
+        r = run_cli(command, "p", "--out", out, "--preview", "v", cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o1", "o2", "v"], codes=(0,))
