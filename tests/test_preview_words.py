@@ -150,3 +150,28 @@ def test_an_output_beside_the_skeleton_run_from_its_folder_says_which_folder_and
     r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", "demo-binary.skel", "-a", "wave", "--out", "../pose.json"],
                        check=False, capture_output=True, text=True, cwd=project, env={**os.environ, "PYTHONPATH": str(REPO)})
     assert r.returncode == 0 and (tmp_path / "pose.json").exists(), r.stderr
+
+
+def test_a_kept_atlas_note_is_a_line_of_its_own_in_a_narrow_terminal():
+    """``pack``'s note of 20 words took a line a word in its column at 80 columns: there it is a
+    line under the table; a wide terminal keeps it in the table."""
+    from types import SimpleNamespace
+
+    from spinemesh.cli import pack as pack_cli
+
+    reason = ("its regions need 19% of the page texels; the next smaller power-of-two page holds 50%, and no fill "
+              "tried placed them on it")
+    row = SimpleNamespace(atlas="hero.atlas", pages_before=1, pages_after=1, texels_before=4096, texels_after=4096,
+                          bytes_before=900, bytes_after=800, by_outline=None, by_rectangle=None, reason=reason)
+    console = pack_cli.console
+    width = console.width
+    try:
+        for columns in (80, 200):
+            console.width = columns
+            with console.capture() as got:
+                pack_cli.print_pack_table([row])
+            text = got.get()
+            assert (f"note: hero.atlas: {reason}" in text) == (columns < pack_cli.NOTES_IN_TABLE_FROM), text
+            assert ("┃ note" in text) == (columns >= pack_cli.NOTES_IN_TABLE_FROM), text
+    finally:
+        console.width = width

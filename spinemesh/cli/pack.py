@@ -233,6 +233,10 @@ def atlas_bars(bars):
     return Bars()
 
 
+#: Terminal columns from which the pack table holds its notes (below: a line each under it).
+NOTES_IN_TABLE_FROM = 160
+
+
 def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     """One row per atlas (pages, page texels and bytes before and after, regions by outline and
     by rectangle, why it was kept), then the errors."""
@@ -241,8 +245,11 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
 
     from ._summary import print_errors
 
+    # a note of 20 words in a column of a narrow terminal took a line a word: there, each note is
+    # a line of its own under the table
+    below = console.width < NOTES_IN_TABLE_FROM
     table = Table(title="spinemesh pack")
-    for col in ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle", "note"):
+    for col in ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle") + (() if below else ("note",)):
         table.add_column(col, justify="left" if col in ("atlas", "note") else "right")
 
     def change(before: int, after: int) -> str:
@@ -254,7 +261,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
 
     for a in atlases:
         table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
-                      change(a.bytes_before, a.bytes_after), *regions(a), escape(a.reason))
+                      change(a.bytes_before, a.bytes_after), *regions(a), *(() if below else (escape(a.reason),)))
     if len(atlases) > 1:
         table.add_section()
         from ..pack.run import atlas_totals
@@ -263,7 +270,10 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         table.add_row("total", f"{total['pages_before']} -> {total['pages_after']}",
                       change(total["texels_before"], total["texels_after"]),
                       change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),
-                      str(total["by_rectangle"]), "")
+                      str(total["by_rectangle"]), *(() if below else ("",)))
     if atlases:
         console.print(table)
+        for a in atlases if below else ():
+            if a.reason:
+                console.print(f"note: {a.atlas}: {a.reason}", highlight=False, markup=False, soft_wrap=True)
     print_errors(errors)
