@@ -246,8 +246,11 @@ def refuse_overlapping_outputs(out: Path, others: dict) -> None:
 
 
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
-                  folders: Iterable[str | Path | None] = ()) -> None:
+                  folders: Iterable[str | Path | None] = (), preview: str | Path | None = None) -> None:
     """Check, before any work, every output a command was given (``None`` entries are ignored).
+
+    ``preview``: a ``--preview`` folder of HTML pages, checked as ``folders`` are and by
+    :func:`check_preview_folder`.
 
     Raises
     ------
@@ -255,12 +258,36 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
         For the first output that :class:`OutputGuard` refuses, naming it.
     """
     guard = OutputGuard(inputs)
-    for folder in folders:
+    for folder in [*folders, preview]:
         if folder is not None:
             guard.check_folder(folder)
     for file in files:
         if file is not None:
             guard.check(file)
+    check_preview_folder(preview)
+
+
+def check_preview_folder(folder: str | Path | None) -> None:
+    """Refuse a ``--preview`` folder that holds files but no spinemesh preview: the preview's files
+    (``index.html``, ``player.js``, ``s/``, ``data/``, ``img/``) would replace a user's of the same
+    names (a mistyped ``--preview ~/Documents``). An earlier preview (its ``index.html`` made by
+    ``upgrade`` or ``pack``) is written over, as before.
+
+    Raises
+    ------
+    OutputError
+        Naming the folder.
+    """
+    if folder is None or not Path(folder).is_dir() or next(Path(folder).iterdir(), None) is None:
+        return
+    try:
+        with open(Path(folder) / "index.html", "rb") as f:
+            head = f.read(512)
+    except OSError:
+        head = b""
+    if b"<title>spinemesh " not in head:
+        raise OutputError("preview folder is not empty and holds no spinemesh preview (its files would replace "
+                          "yours); choose an empty folder", folder)
 
 
 def _write_error(e: OSError, path: Path) -> OutputError:

@@ -32,29 +32,6 @@ from .skeleton import dumps_skeleton, is_binary_skeleton
 OUTPUT_MARKER = ".spinemesh-output"
 
 
-def check_preview_folder(folder: Path | None) -> None:
-    """Refuse a ``--preview`` folder that holds files but no spinemesh preview: the preview's files
-    (``index.html``, ``player.js``, ``s/``, ``data/``, ``img/``) would replace a user's of the same
-    names (a mistyped ``--preview ~/Documents``). An earlier preview (its ``index.html`` made by
-    ``upgrade`` or ``pack``) is written over, as before.
-
-    Raises
-    ------
-    SpineMeshError
-        Naming the folder.
-    """
-    if folder is None or not folder.is_dir() or next(folder.iterdir(), None) is None:
-        return
-    try:
-        with open(folder / "index.html", "rb") as f:
-            head = f.read(512)
-    except OSError:
-        head = b""
-    if b"<title>spinemesh " not in head:
-        raise SpineMeshError("preview folder is not empty and holds no spinemesh preview (its files would replace "
-                             "yours); choose an empty folder", folder)
-
-
 def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
     """Refuse an output folder that is an input, lies inside one or holds one (see :class:`OutputGuard`)."""
     OutputGuard([project_root, images_in]).check_folder(out, may_hold_inputs=False)

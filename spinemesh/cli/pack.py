@@ -91,13 +91,11 @@ def pack(
 
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
-    from ..output import check_preview_folder
     from ..pack.atlas_pack import PageRules
     from ..pack.run import PackOptions, pack_library, pack_project
     from ..upgrade import is_library
 
-    check_outputs([project_folder(project)], files=[report], folders=[preview])
-    check_preview_folder(preview)
+    check_outputs([project_folder(project)], files=[report], preview=preview)
     # as upgrade does: pictures of the preview inside OUT would ship with the packed project
     refuse_overlapping_outputs(out, {"--preview": preview})
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,

@@ -142,14 +142,12 @@ def upgrade(
     """
     from ..cluster import available_cores
     from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
-    from ..output import check_preview_folder
     from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
-    check_outputs([project_folder(project), images_in], files=[report], folders=[preview])
-    check_preview_folder(preview)
+    check_outputs([project_folder(project), images_in], files=[report], preview=preview)
     refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
                  if value is not None}
