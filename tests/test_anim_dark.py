@@ -106,3 +106,39 @@ def test_a_slot_without_a_dark_colour_has_none_and_its_pose_has_no_dark_field():
     assert np.allclose(half["tinted"].dark, [0.5, 0.25098, 0], atol=1e-4)  # linear: halfway to ff8000
     dumped = {a["slot"]: a for a in sampler.pose("a", 0.5).to_dump()["attachments"]}
     assert "dark" not in dumped["plain"] and list(dumped["tinted"]).index("dark") == list(dumped["tinted"]).index("color") + 1
+
+
+def _dark_slot_doc(version: str, dark: str) -> dict:
+    """One slot with the dark colour ``dark`` on a skeleton of ``version`` (3.8 also keys it)."""
+    doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}],
+           "slots": [{"name": "s", "bone": "root", "attachment": "r", "dark": dark}],
+           "skins": [{"name": "default", "attachments": {"s": {"r": {"width": 10, "height": 10}}}}]}
+    if version.startswith("3"):
+        doc["skins"] = {"default": doc["skins"][0]["attachments"]}
+        doc["animations"] = {"a": {"slots": {"s": {"twoColor": [{"time": 0, "light": "ffffffff", "dark": dark}]}}}}
+    return doc
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.2.22"])
+def test_a_dark_colour_of_eight_digits_is_written_where_the_runtimes_read_its_rgb(version):
+    """The runtimes read a binary dark colour's low 24 bits as rgb (-1: none) and a JSON's
+    ``rrggbbaa`` as its first six digits. Our 3.x writer stored ``"12345680"`` as 0x12345680
+    (rgb 345680, another colour, silently) and read a high byte back in front
+    (``"80123456"``, posed as 801234); both versions wrote ``"ffffffff"`` as -1, a slot with no
+    dark colour. Now each is written with its rgb where the runtimes read it, and poses alike
+    from the .json and from the .skel."""
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    six, eight = write_skel(_dark_slot_doc(version, "123456")), write_skel(_dark_slot_doc(version, "12345680"))
+    assert eight.replace(b"\x80\x12\x34\x56", b"\x00\x12\x34\x56") == six  # the high byte alone differs
+    back = read_skel(eight)
+    assert back["slots"][0]["dark"] == "12345680"
+    rgb = [0x12 / 255, 0x34 / 255, 0x56 / 255]
+    for doc in (_dark_slot_doc(version, "12345680"), back):
+        sampler = Sampler(doc)
+        assert np.allclose(sampler.pose(None).slots[0].dark, rgb)
+        if version.startswith("3"):
+            assert np.allclose(sampler.pose("a", 0.5).slots[0].dark, rgb)
+    white = read_skel(write_skel(_dark_slot_doc(version, "ffffffff")))
+    assert white["slots"][0].get("dark", "")[:6] == "ffffff"
+    assert np.allclose(Sampler(white).pose(None).slots[0].dark, [1, 1, 1])

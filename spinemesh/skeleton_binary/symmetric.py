@@ -45,6 +45,33 @@ def color(s, node: dict, key: str, default: str | None):
     return s.color(node.get(key, default), what=key)
 
 
+def dark_color(s, node: dict, key: str) -> None:
+    """A dark colour (two-colour tint) as an RGB888 int, ``-1`` for none (a slot without one).
+
+    The runtimes read the low 24 bits as red, green and blue, and a JSON's ``rrggbb[aa]`` as
+    its first six digits: a high byte (no editor sets it) is read as two more digits,
+    ``rrggbbaa``, and written back there, never in the colour's bits. Where it would make the
+    int -1 (``"ffffffff"``), it is left out: -1 would say the slot has no dark colour.
+    """
+    if s.reading:
+        v = s.i32(what=key)
+        if v != -1:
+            node[key] = "%06x" % (v & 0xFFFFFF) + ("%02x" % (v >> 24 & 0xFF) if v >> 24 & 0xFF else "")
+        return
+    v = node.get(key)
+    if v is None:
+        s.i32(-1)
+        return
+    try:
+        if not isinstance(v, str) or len(v) < 6:  # no colour a runtime reads: "ff" would be 0000ff, a blue
+            raise ValueError
+        n = int(v[:6], 16) | (int(v[6:8], 16) << 24 if len(v) >= 8 else 0)
+    except ValueError:
+        raise s.fail(f"a hex dark colour of six digits for {key!r}, got {v!r}") from None
+    n = n & 0xFFFFFF if n == 0xFFFFFFFF else n
+    s.i32(n - (1 << 32) if n & 0x80000000 else n)
+
+
 def text(s, node: dict, key: str):
     """An inline string; null means the key is absent."""
     if s.reading:

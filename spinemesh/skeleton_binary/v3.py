@@ -59,7 +59,7 @@ from ..skeleton_curves import curve_spelling
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import boolean, color, first_use_table, fld, put, text
+from .symmetric import boolean, color, dark_color, first_use_table, fld, put, text
 
 SPACING_MODE = ("length", "fixed", "percent")
 
@@ -353,35 +353,13 @@ def bones(s, doc: dict, c: Context) -> None:
         doc["bones"] = items
 
 
-def dark(s, node: dict, key: str) -> None:
-    """An RGB888 colour as ``rrggbb`` in an int; -1 (slots) means none."""
-    if s.reading:
-        v = s.i32(what=key)
-        if v != -1:
-            node[key] = "%06x" % (v & 0xFFFFFF) if not v >> 24 else "%08x" % (v & 0xFFFFFFFF)
-        return
-    v = node.get(key)
-    if v is None:
-        s.i32(-1)
-        return
-    try:
-        if len(v) < 6:  # no colour a runtime reads: "ff" was written as 0000ff, a blue never said
-            raise ValueError
-        n = int(v, 16)
-    except (TypeError, ValueError):
-        raise s.fail(f"a hex colour of six digits for {key!r}, got {v!r}") from None
-    if len(v) > 6:  # eight digits only when the high byte was set (read back above)
-        n = n - (1 << 32) if n & 0x80000000 else n
-    s.i32(n)
-
-
 def slot(s, node: dict, c: Context) -> None:
     """One slot: bone, colours, setup attachment, blend mode."""
     text(s, node, "name")
     index(s, node, "bone", c.bones, "bone")
     color(s, node, "color", "ffffffff")
     if c.L.two_color:
-        dark(s, node, "dark")
+        dark_color(s, node, "dark")
     name(s, c, node, "attachment")
     enum(s, node, "blend", BLEND, "normal")
 
@@ -735,7 +713,7 @@ def value(s, f: dict, key: str, kind: str, default) -> None:
     elif kind == "rgba":
         color(s, f, key, default)
     elif kind == "rgb":
-        dark(s, f, key)
+        dark_color(s, f, key)
     elif kind == "bend":
         bend(s, f, key)
     else:

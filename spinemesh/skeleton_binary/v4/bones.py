@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..enums import BLEND, INHERIT
-from ..symmetric import boolean, color, fld, text
+from ..symmetric import boolean, color, dark_color, fld, text
 from .fields import _names, _to_end, enum, fields, index, ref
 from .layout import Context
 
@@ -69,31 +69,11 @@ def slot(s, node: dict, c: Context) -> None:
     text(s, node, "name")
     index(s, node, "bone", *c.bones, "bone")
     color(s, node, "color", "ffffffff")
-    if s.reading:
-        dark = s.i32()
-        if dark != -1:
-            node["dark"] = "%06x" % (dark & 0xFFFFFF)
-            if dark >> 24 & 0xFF:
-                node["dark"] += "%02x" % (dark >> 24 & 0xFF)
-    else:
-        dark = node.get("dark")
-        s.i32(-1 if dark is None else _dark_int(s, dark))
+    dark_color(s, node, "dark")
     ref(s, node, "attachment")
     enum(s, node, "blend", BLEND, "normal")
     if c.nonessential and c.L.flags:
         boolean(s, node, "visible", True)
-
-
-def _dark_int(s, dark: str) -> int:
-    # fewer than six digits is no colour a runtime reads (spine-core gets NaN): "ff" was written
-    # as 0000ff, a blue the JSON never said
-    try:
-        if not isinstance(dark, str) or len(dark) < 6:
-            raise ValueError
-        v = int(dark[:6], 16) | (int(dark[6:8], 16) << 24 if len(dark) >= 8 else 0)
-    except ValueError:
-        raise s.fail(f"a hex dark colour of six digits, got {dark!r}") from None
-    return v - (1 << 32) if v & 0x80000000 else v
 
 
 def _bone_list(s, node: dict, c: Context, key: str = "bones") -> None:
