@@ -142,3 +142,36 @@ def test_a_dark_colour_of_eight_digits_is_written_where_the_runtimes_read_its_rg
     white = read_skel(write_skel(_dark_slot_doc(version, "ffffffff")))
     assert white["slots"][0].get("dark", "")[:6] == "ffffff"
     assert np.allclose(Sampler(white).pose(None).slots[0].dark, [1, 1, 1])
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.2.22"])
+def test_colours_not_of_eight_digits_pose_alike_from_the_json_and_our_skel(version):
+    """The runtimes (and our sampler) read a JSON colour's alpha only from exactly eight digits
+    (1 otherwise); our writer padded seven digits with an ``f`` (``"ff80401"``: alpha 0x1f)
+    and cut longer ones to eight (``"ff804000ab"``: alpha 0), a .skel drawn almost or wholly
+    transparent where the .json draws opaque, silently. Slots, attachments and keys now pose
+    alike from both; fewer than six digits (no colour a runtime reads) are refused."""
+    from spinemesh.errors import SkelFormatError
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    box = {"width": 10, "height": 10, "color": "ff80401"}
+    slots = [{"name": "s", "bone": "root", "attachment": "r", "color": "ff804000ab", "dark": "102030"},
+             {"name": "t", "bone": "root", "attachment": "r"}]
+    if version.startswith("3"):
+        keys = {"s": {"twoColor": [{"time": 0, "light": "ff80401", "dark": "000000"}]},
+                "t": {"color": [{"time": 0, "color": "20406080ab"}]}}
+        skins = {"default": {"s": {"r": box}, "t": {"r": box}}}
+    else:
+        keys = {"s": {"rgba2": [{"time": 0, "light": "ff80401", "dark": "000000"}]},
+                "t": {"rgba": [{"time": 0, "color": "20406080ab"}]}}
+        skins = [{"name": "default", "attachments": {"s": {"r": box}, "t": {"r": box}}}]
+    doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}], "slots": slots, "skins": skins,
+           "animations": {"a": {"slots": keys}}}
+    back = read_skel(write_skel(doc))
+    for animation in (None, "a"):
+        want, got = (Sampler(d).pose(animation, 0.5).slots for d in (doc, back))
+        assert [list(s.color) for s in got] == [list(s.color) for s in want]
+        assert all(s.color[3] == 1 for s in got)
+    doc["slots"][1]["color"] = "ff80"
+    with pytest.raises(SkelFormatError, match="six or eight digits"):
+        write_skel(doc)

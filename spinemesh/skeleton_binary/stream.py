@@ -150,6 +150,22 @@ class SkelReader:
         return bytes(self._take(n, what))
 
 
+def colour_bytes(text: str, channels: int) -> bytes:
+    """A JSON colour ``rrggbb[aa]`` as ``channels`` (3 or 4) bytes, read as the runtimes read it:
+    rgb from the first six digits, alpha from the 7th and 8th only where there are exactly
+    eight (else 1: ``"ff804000ab"`` is opaque orange). A ValueError for fewer than six digits
+    or any that is not hex: no colour a runtime reads (spine-core gets NaN, libGDX fails).
+
+    Examples
+    --------
+    >>> colour_bytes("ff8040", 4).hex(), colour_bytes("ff80401", 4).hex(), colour_bytes("12345680", 3).hex()
+    ('ff8040ff', 'ff8040ff', '123456')
+    """
+    if len(text) < 6:
+        raise ValueError(text)
+    return bytes.fromhex(text[:6] + (text[6:8] if len(text) == 8 else "ff"))[:channels]
+
+
 class SkelWriter:
     """Writes primitives; every method writes its value argument and returns it."""
 
@@ -244,12 +260,10 @@ class SkelWriter:
         return value
 
     def color(self, value, what: str = "colour") -> str:
-        text = str(value)
         try:
-            v = int(text.ljust(8, "f")[:8], 16)
+            self.out += colour_bytes(str(value), 4)
         except ValueError:
-            raise self.fail(f"a hex colour for {what}, got {value!r}") from None
-        self.out += _U32.pack(v)
+            raise self.fail(f"a hex colour of six or eight digits for {what}, got {value!r}") from None
         return value
 
     def raw(self, value, n: int = 0, what: str = "bytes") -> bytes:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
+from ..stream import colour_bytes
 from ..symmetric import boolean, fld, put as _put
 from .constraints import _mix_field
 from .fields import _floats_struct, _same, enum, fields, flag, floats, index, opt, seq
@@ -127,9 +128,9 @@ def _color_fn(*keys):
                     raise s.fail(f"a {key} colour in every key of this timeline")
                 v = str(v)
                 try:
-                    s.raw(bytes.fromhex(v[:2 * nbytes].ljust(2 * nbytes, "f")))
+                    s.raw(colour_bytes(v, nbytes))
                 except ValueError:
-                    raise s.fail(f"a hex colour for {key}, got {v!r}") from None
+                    raise s.fail(f"a hex colour of six or eight digits for {key}, got {v!r}") from None
     # For curve_timeline's fast path: (key, byte count, default).
     values.spec = _FrameSpec(keys, sum(nbytes for _, nbytes, _ in keys))
     return values
