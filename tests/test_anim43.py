@@ -274,10 +274,11 @@ def slider_doc() -> dict:
             "skins": skins, "animations": anims}
 
 
-def _against_43(runtime, doc: dict, tmp_path, times=TIMES, binary: bool = False) -> list[dict]:
-    """Every animation of ``doc`` at ``times`` by spine-core 4.3 and by the sampler (one skeleton,
-    its clock carried from pose to pose, as the harness plays them): the errors of each pose,
-    with the bones the sampler flags. ``binary``: both read the ``.skel`` our writer makes of it."""
+def posed_by_both_43(runtime, doc: dict, tmp_path, times, binary: bool = False) -> list[tuple[dict, object]]:
+    """Every animation of ``doc`` at ``times`` (the setup pose first) by spine-core 4.3 and by the
+    sampler, one skeleton each, its clock carried from pose to pose as the harness plays them:
+    per pose, the harness's entry and our :class:`~spinemesh.anim.Pose`. ``binary``: both read
+    the ``.skel`` our writer makes of ``doc``."""
     if binary:
         path = tmp_path / "skeleton.skel"
         path.write_bytes(write_skel(doc))
@@ -290,12 +291,16 @@ def _against_43(runtime, doc: dict, tmp_path, times=TIMES, binary: bool = False)
     assert r.returncode == 0, r.stderr[-2000:]
     sampler, clock, out = Sampler(doc), 0.0, []
     for theirs in json.loads((tmp_path / "d.json").read_text())["poses"]:
-        mine = sampler.pose(theirs["anim"], theirs["time"], clock=clock)
+        out.append((theirs, sampler.pose(theirs["anim"], theirs["time"], clock=clock)))
         if theirs["anim"] is not None:
             clock = advance_clock(clock, theirs["time"])
-        e = pose_errors(mine.to_dump(), theirs, set(mine.why))
-        out.append({"label": theirs["label"], "flagged": dict(mine.why), **e})
     return out
+
+
+def _against_43(runtime, doc: dict, tmp_path, times=TIMES, binary: bool = False) -> list[dict]:
+    """:func:`posed_by_both_43`'s poses compared: the errors of each, with the bones the sampler flags."""
+    return [{"label": theirs["label"], "flagged": dict(mine.why), **pose_errors(mine.to_dump(), theirs, set(mine.why))}
+            for theirs, mine in posed_by_both_43(runtime, doc, tmp_path, times, binary)]
 
 
 def _assert_exact(results: list[dict]) -> None:

@@ -13,16 +13,11 @@ attachment with; the sampler's must match at many times, from the ``.json`` and 
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
-from runtime_tool import node
+from test_anim43 import posed_by_both_43
 from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
 
 from spinemesh.anim import Sampler
-from spinemesh.anim.dump import advance_clock
-from spinemesh.skeleton import load_skeleton
-from spinemesh.skeleton_binary import write_skel
 
 #: Times sampled (seconds): before, on and between keys, past the end (the animation loops).
 TIMES = tuple(round(0.07 * i, 2) for i in range(31)) + (0.3, 0.8, 1.0, 1.2, 1.5, 1.9)
@@ -91,26 +86,11 @@ def dark_doc() -> dict:
 
 
 def _colours_43(runtime, doc: dict, tmp_path, binary: bool) -> list[tuple[str, list[dict], list[dict]]]:
-    """Each pose (setup first, then every animation at :data:`TIMES`, the clock carried from pose
-    to pose as the harness plays them): its label, spine-core 4.3's attachments and ours (dump
-    layout). ``binary``: both read the ``.skel`` our writer makes of ``doc``."""
-    if binary:
-        path = tmp_path / "skeleton.skel"
-        path.write_bytes(write_skel(doc))
-        doc = load_skeleton(path)
-    else:
-        path = tmp_path / "skeleton.json"
-        path.write_text(json.dumps(doc), encoding="utf-8")
-    poses = ",".join(f"{a}@{t}" for a in doc["animations"] for t in TIMES)
-    r = node(runtime, "pose.mjs", "", path, tmp_path / "d.json", poses)
-    assert r.returncode == 0, r.stderr[-2000:]
-    sampler, clock, out = Sampler(doc), 0.0, []
-    for theirs in json.loads((tmp_path / "d.json").read_text())["poses"]:
-        mine = sampler.pose(theirs["anim"], theirs["time"], clock=clock)
-        if theirs["anim"] is not None:
-            clock = advance_clock(clock, theirs["time"])
-        out.append((theirs["label"], theirs["attachments"], mine.to_dump()["attachments"]))
-    return out
+    """Each pose (setup first, then every animation at :data:`TIMES`; see
+    :func:`test_anim43.posed_by_both_43`): its label, spine-core 4.3's attachments and ours
+    (dump layout). ``binary``: both read the ``.skel`` our writer makes of ``doc``."""
+    return [(theirs["label"], theirs["attachments"], mine.to_dump()["attachments"])
+            for theirs, mine in posed_by_both_43(runtime, doc, tmp_path, TIMES, binary)]
 
 
 def _compare(results) -> dict:
