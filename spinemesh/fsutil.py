@@ -246,11 +246,12 @@ def refuse_overlapping_outputs(out: Path, others: dict) -> None:
 
 
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
-                  folders: Iterable[str | Path | None] = (), preview: str | Path | None = None) -> None:
+                  folders: Iterable[str | Path | None] = (), preview: str | Path | None = None,
+                  images: str | Path | None = None) -> None:
     """Check, before any work, every output a command was given (``None`` entries are ignored).
 
-    ``preview``: a ``--preview`` folder of HTML pages, checked as ``folders`` are and by
-    :func:`check_preview_folder`.
+    ``preview``: a ``--preview`` folder of HTML pages, ``images``: an ``--images`` folder of
+    pictures; both checked as ``folders`` are and by :func:`check_written_folder`.
 
     Raises
     ------
@@ -258,20 +259,31 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
         For the first output that :class:`OutputGuard` refuses, naming it.
     """
     guard = OutputGuard(inputs)
-    for folder in [*folders, preview]:
+    for folder in [*folders, preview, images]:
         if folder is not None:
             guard.check_folder(folder)
     for file in files:
         if file is not None:
             guard.check(file)
-    check_preview_folder(preview)
+    check_written_folder(preview)
+    check_written_folder(images, "--images folder", "images")
 
 
-def check_preview_folder(folder: str | Path | None) -> None:
-    """Refuse a ``--preview`` folder that holds files but no spinemesh preview: the preview's files
-    (``index.html``, ``player.js``, ``s/``, ``data/``, ``img/``) would replace a user's of the same
-    names (a mistyped ``--preview ~/Documents``). An earlier preview (its ``index.html`` made by
-    ``upgrade`` or ``pack``) is written over, as before.
+#: A file spinemesh leaves in a folder of pictures it writes beside nothing else of its own
+#: (``upgrade --images``, ``weights --preview``): the folder is its own, written into again.
+WRITTEN_MARKER = ".spinemesh-written"
+
+
+def check_written_folder(folder: str | Path | None, what: str = "preview folder", holds: str = "preview") -> None:
+    """Refuse a folder a command writes files into (a ``--preview``, ``--images``) that holds files
+    but none spinemesh wrote: ours would replace a user's of the same names (a mistyped
+    ``--preview ~/Documents``). A folder spinemesh wrote before (:data:`WRITTEN_MARKER`, or the
+    ``index.html`` of an ``upgrade`` or ``pack`` preview) is written over, as before.
+
+    Parameters
+    ----------
+    what, holds : str
+        The folder and what spinemesh writes there, as the error says them.
 
     Raises
     ------
@@ -280,14 +292,23 @@ def check_preview_folder(folder: str | Path | None) -> None:
     """
     if folder is None or not Path(folder).is_dir() or next(Path(folder).iterdir(), None) is None:
         return
+    if (Path(folder) / WRITTEN_MARKER).is_file():
+        return
     try:
         with open(Path(folder) / "index.html", "rb") as f:
             head = f.read(512)
     except OSError:
         head = b""
     if b"<title>spinemesh " not in head:
-        raise OutputError("preview folder is not empty and holds no spinemesh preview (its files would replace "
+        raise OutputError(f"{what} is not empty and holds no spinemesh {holds} (its files would replace "
                           "yours); choose an empty folder", folder)
+
+
+def mark_written_folder(folder: str | Path) -> None:
+    """Make ``folder`` and mark it as spinemesh's (:data:`WRITTEN_MARKER`), before its files are written:
+    :func:`check_written_folder` lets a later run write into it again."""
+    make_folder(Path(folder))
+    atomic_write_text(Path(folder) / WRITTEN_MARKER, "written by spinemesh; a later run writes its files here again\n")
 
 
 def _write_error(e: OSError, path: Path) -> OutputError:

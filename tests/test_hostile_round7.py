@@ -720,3 +720,30 @@ def test_a_preview_never_replaces_a_users_files(tmp_path, meshed, command):
     for out in ("o1", "o2"):  # its own preview, written again
         r = run_cli(command, "p", "--out", out, "--preview", "v", cwd=tmp_path)
         check_run(r, before, tmp_path, ["o1", "o2", "v"], codes=(0,))
+
+
+@pytest.mark.parametrize("command, option", [("weights", "--preview"), ("upgrade", "--images")])
+def test_pictures_never_replace_a_users_files(tmp_path, meshed, command, option):
+    """``weights --preview ~/Documents`` and ``upgrade --images ~/Documents`` wrote their pictures
+    into a folder of a user's files, replacing those named like ours (exit 0). Such a folder is now
+    refused before anything is written, as the HTML previews are; one they wrote before is written
+    into again."""
+    from test_hostile import check_run, run_cli, snapshot
+
+    from spinemesh.demo import make_demo_project
+
+    if command == "weights":  # meshes to weigh; upgrade cuts the regions of the demo as exported
+        shutil.copytree(meshed, tmp_path / "p", ignore=shutil.ignore_patterns(".*"))
+    else:
+        make_demo_project(tmp_path / "p", with_images_folder=False)
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "notes.txt").write_text("my own notes")
+    before = snapshot(tmp_path)
+    r = run_cli(command, "p", "--out", "o", option, "docs", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    what = "preview folder" if option == "--preview" else "--images folder"
+    assert f"docs: {what} is not empty and holds no spinemesh" in r.stderr, r.stderr
+    for out in ("o1", "o2"):  # its own folder, written into again
+        r = run_cli(command, "p", "--out", out, option, "v", cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o1", "o2", "v"], codes=(0,))
+    assert any(p.suffix == ".png" for p in (tmp_path / "v").rglob("*")), list((tmp_path / "v").rglob("*"))

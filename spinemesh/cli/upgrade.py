@@ -147,7 +147,7 @@ def upgrade(
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
-    check_outputs([project_folder(project), images_in], files=[report], preview=preview)
+    check_outputs([project_folder(project), images_in], files=[report], preview=preview, images=images)
     refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
                  if value is not None}

@@ -80,7 +80,7 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
     from ..anim.motion import sampled_bone_worlds
-    from ..fsutil import OutputGuard
+    from ..fsutil import OutputGuard, check_written_folder
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
@@ -91,6 +91,7 @@ def weights(
         guard.check(report, "report")
     if preview is not None:
         guard.check_folder(preview, "preview folder")
+        check_written_folder(preview)
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview

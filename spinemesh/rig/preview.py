@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_png
+from ..fsutil import atomic_write_png, mark_written_folder
 from ..skeleton import image_paths, iter_attachments
 from .binding import parse_vertices, setup_world
 from .bones import skeleton_bones
@@ -174,6 +174,7 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
         return [f"{skeleton.name}: no previews: {e}"]
     if source is None:
         return [f"{skeleton.name}: no previews: no atlas or images folder holds its images"]
+    mark_written_folder(folder)  # before its first picture: a later run writes into it again
     for ref in iter_attachments(doc):
         if (ref.skin, ref.slot, ref.name) not in done:
             continue

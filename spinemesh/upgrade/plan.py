@@ -25,6 +25,7 @@ from .. import images
 from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
+from ..fsutil import mark_written_folder
 from ..foreground import alpha_above
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
@@ -358,6 +359,8 @@ class Planner:
         if folder is None or self.options.dry_run:
             return
         for frame in frames:
+            if not self.editor_images:  # before its first image: a later run writes into it again
+                mark_written_folder(Path(folder))
             if frame.name not in self.editor_images:
                 self.editor_images.add(frame.name)
                 write_editor_image(frame, Path(folder))
