@@ -10,6 +10,7 @@ traceback, one line naming the file, nothing non-finite written, bounded time.
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -747,3 +748,40 @@ def test_pictures_never_replace_a_users_files(tmp_path, meshed, command, option)
         r = run_cli(command, "p", "--out", out, option, "v", cwd=tmp_path)
         check_run(r, before, tmp_path, ["o1", "o2", "v"], codes=(0,))
     assert any(p.suffix == ".png" for p in (tmp_path / "v").rglob("*")), list((tmp_path / "v").rglob("*"))
+
+
+#: Pages ``upgrade --repack`` would move a sequence's frames off onto a new page drawn otherwise
+#: (still, upright, shared): how the page is made, words the reason must hold.
+NO_NEW_PAGE = {
+    "an APNG page": (lambda p, im: _apng(p, im, False), "animated (2 frames)"),
+    "a PNG page turned by EXIF": (lambda p, im: im.save(p / "demo.png", exif=_exif(6)), "EXIF orientation 6"),
+    "a page that repeats": (_field("filter: Linear, Linear\n\trepeat: xy"), "repeats (xy)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NO_NEW_PAGE))
+def test_repack_never_moves_frames_off_a_page_drawn_otherwise(tmp_path, case):
+    """``upgrade --repack`` cut a differently trimmed sequence's frames from an animated page, a page
+    turned by EXIF or one that repeats onto a new still, upright, shared page (exit 0), what
+    ``pack`` refuses for the same reasons. The sequence now stays a region, with pack's reason."""
+    from PIL import Image
+    from test_hostile import check_run, run_cli, snapshot
+
+    from spinemesh.demo import demo_images, make_demo_project, pack_atlas
+
+    make, words = NO_NEW_PAGE[case]
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    text, page = pack_atlas(demo_images(), "demo.png", rotate={"demo-arm"})   # the spark's frames trimmed
+    (project / "demo.atlas").write_text(text)
+    make(project, Image.fromarray(page, "RGBA"))
+    atlas = (project / "demo.atlas").read_text()
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--repack", "--min-saving", "0", "--report", "r.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o", "r.json"], codes=(0,))
+    assert not sorted((tmp_path / "o").glob("*untrimmed*"))
+    assert (tmp_path / "o" / "demo.atlas").read_text() == atlas
+    report = json.loads((tmp_path / "r.json").read_text())
+    (spark,) = [t for t in report["attachments"] if "spark" in t["name"]]
+    assert spark["status"] == "kept" and words in spark["reason"] and "'demo.png'" in spark["reason"], spark
+    assert words in " ".join(r.stdout.split()), r.stdout   # the console says it too

@@ -605,16 +605,11 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
         For a page in a format that cannot be written back texel for texel (JPEG), before any is
         read, and for a PNG page of 16 bits a channel (:func:`check_eight_bits`).
     """
-    from .proof import page_repeat
-
     for page in job.atlas.pages:
         if Path(page.name).suffix.lower() not in PAGE_FORMATS:
             raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
                               "texel for texel (JPEG pages have no alpha and lose texels when written)")
-        if page_repeat(page) != "none":
-            raise PackRefused(f"page {page.name!r} repeats ({page_repeat(page)}): a repeating page is sampled "
-                              "beyond its regions (a tiling texture, UVs a game scrolls), which no skeleton says, "
-                              "so a packed page could not be proven to draw as it")
+        check_no_repeat(page)
     on_step(0, 0, STEPS["read"])
     data = [image_file_bytes(f) for f in job.files]
     for d, page in zip(data, job.atlas.pages):
@@ -827,6 +822,24 @@ def check_eight_bits(data: bytes, name: str) -> None:
     if depth is not None and depth > 8:
         raise PackRefused(f"page {name!r} has 16 bits a channel, and packed pages are written at 8 "
                           "(its texels would lose their low bits)")
+
+
+def check_no_repeat(page) -> None:
+    """Refuse an atlas page (:class:`~spinemesh.atlas.AtlasPage`) that repeats (``repeat: x``, ``y``,
+    ``xy``): it is sampled beyond its regions (a tiling texture, UVs a game scrolls), which no
+    skeleton says, so no page its regions move to could be proven to draw as it.
+
+    Raises
+    ------
+    PackRefused
+        Naming the page and its axes.
+    """
+    from .proof import page_repeat
+
+    if page_repeat(page) != "none":
+        raise PackRefused(f"page {page.name!r} repeats ({page_repeat(page)}): a repeating page is sampled "
+                          "beyond its regions (a tiling texture, UVs a game scrolls), which no skeleton says, "
+                          "so a packed page could not be proven to draw as it")
 
 
 #: EXIF's orientation tag: 1 is upright; 2 to 8 turn or mirror the stored image to show it.

@@ -14,6 +14,7 @@ met.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass, field
 from functools import partial
@@ -114,24 +115,73 @@ def source_identity(source) -> tuple:
     return ("folder", str(getattr(source, "folder", id(source))))
 
 
-def _sixteen_bit_page(frames: list[RegionImage]) -> str:
-    """Why ``--repack`` cannot store ``frames`` on a new page (written at 8 bits a channel): the
-    page of 16 bits a channel one of them comes from; empty when none does."""
+def why_no_new_page(frames: list[RegionImage], source=None) -> str:
+    """Why ``--repack`` cannot move ``frames`` to a new page; empty when it can.
+
+    A new page is written at 8 bits a channel, still, upright and shared by regions: a page of 16
+    bits a channel would lose its low bits, and a page that repeats, is animated or is turned by
+    its EXIF orientation would be drawn otherwise (``pack``'s tests of those pages,
+    :func:`spinemesh.pack.run.check_no_repeat` and :func:`~spinemesh.pack.run.check_one_upright_image`).
+    ``source``: the :class:`~spinemesh.images.AtlasImages` the frames were cut from, which says their
+    pages (an images folder has none).
+    """
+    from ..pack.atlas_pack import PackRefused
     from ..pack.png import png_file_bit_depth
+    from ..pack.run import check_no_repeat
 
     for f in frames:
         if (png_file_bit_depth(f.source) or 0) > 8:
             return f"their page {Path(f.source).name!r} has 16 bits a channel, and new pages are written at 8"
+    for f in frames:
+        for atlas in getattr(source, "atlases", ()):
+            region = atlas.find(f.name)
+            if region is None or not 0 <= region.page < len(atlas.pages):
+                continue
+            try:
+                check_no_repeat(atlas.pages[region.page])
+            except PackRefused as e:
+                return str(e)
+            if why := _page_drawn_otherwise(str(f.source), atlas.pages[region.page].name):
+                return why
+            break
     return ""
 
 
-def task_for_frames(frames: list[RegionImage], options: Options,
-                    blend: str = "normal") -> tuple[MeshTask | None, str, str]:
+def _page_drawn_otherwise(path: str, name: str) -> str:
+    """Why the page file at ``path`` is drawn otherwise than its texels (animated, turned by EXIF:
+    :func:`spinemesh.pack.run.check_one_upright_image`); empty when it is not, or cannot be read
+    (its decode says why). Each file read once (by path, size and time)."""
+    import os
+
+    try:
+        st = os.stat(path)
+    except OSError:
+        return ""
+    return _page_drawn_otherwise_once(path, name, st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=64)
+def _page_drawn_otherwise_once(path: str, name: str, size: int, mtime_ns: int) -> str:
+    from ..pack.atlas_pack import PackRefused
+    from ..pack.run import check_one_upright_image
+
+    try:
+        check_one_upright_image(images.image_file_bytes(path), name)
+    except PackRefused as e:
+        return str(e)
+    except SpineMeshError:
+        return ""
+    return ""
+
+
+def task_for_frames(frames: list[RegionImage], options: Options, blend: str = "normal",
+                    source=None) -> tuple[MeshTask | None, str, str]:
     """The mesh task of an attachment's frame image(s), or ``(None, status, reason)``.
 
     ``blend`` is the slot's blend mode: with ``normal`` the mesh must cover the texels that
     can show (:attr:`RegionImage.shown`), with any other every texel drawn (see
-    :func:`texels_to_cover`).
+    :func:`texels_to_cover`). ``source``: the image source the frames were cut from, for
+    ``--repack``'s tests of their pages (:func:`why_no_new_page`).
     """
     # Frames of different sizes are compared where the runtime draws them: relative to their size.
     frames = frames_on_one_grid(frames)
@@ -159,9 +209,9 @@ def task_for_frames(frames: list[RegionImage], options: Options,
                    "neighbouring regions")
             if not options.repack:
                 return None, "kept", f"{why}; --repack stores them whole"
-            if wide := _sixteen_bit_page(frames):
-                # the new pages are written at 8 bits: the frames would lose the low bits of every texel
-                return None, "kept", f"{why}, and --repack cannot store them whole: {wide}"
+            if no_page := why_no_new_page(frames, source):
+                # a new page is 8-bit, still, upright, shared: the frames would be drawn otherwise there
+                return None, "kept", f"{why}, and --repack cannot store them whole: {no_page}"
             # --repack stores every frame whole (see needs_repack): the mesh may use the whole image.
             box = (0, 0, rgba.shape[1], rgba.shape[0])
         x0, y0, x1, y1 = box
@@ -335,7 +385,7 @@ class Planner:
             except SpineMeshError as e:
                 self.decided[seen] = ("failed", str(e), "")
             else:
-                task, status, reason = task_for_frames(frames, self.options, blend)
+                task, status, reason = task_for_frames(frames, self.options, blend, source)
                 if task is not None:
                     try:
                         self._write_editor_images(frames)
