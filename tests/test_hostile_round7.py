@@ -785,3 +785,20 @@ def test_repack_never_moves_frames_off_a_page_drawn_otherwise(tmp_path, case):
     (spark,) = [t for t in report["attachments"] if "spark" in t["name"]]
     assert spark["status"] == "kept" and words in spark["reason"] and "'demo.png'" in spark["reason"], spark
     assert words in " ".join(r.stdout.split()), r.stdout   # the console says it too
+
+
+@pytest.mark.parametrize("name, save, words", [
+    ("demo.bmp", lambda im, f: im.save(f, "BMP"), "the page formats spinemesh reads and writes"),
+    ("demo.ktx2", lambda im, f: f.write_bytes(KTX2_HEAD + bytes(64)), "the page formats spinemesh reads and writes"),
+    ("demo.jpg", lambda im, f: im.convert("RGB").save(f, "JPEG", quality=95), "JPEG, which has no alpha"),
+])
+def test_a_kept_page_of_another_format_is_said_as_it_is(meshed, tmp_path, name, save, words):
+    """A BMP or KTX2 page was kept with the reason that JPEG pages have no alpha and lose texels:
+    only a JPEG page is said to be one."""
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    im = _demo_texels(meshed)
+    _renamed_page(project, name, lambda f: save(im, f))
+    (row,) = pack_project(project, tmp_path / "out", PackOptions(larger_files=True)).atlases
+    assert row.status == "kept" and f"page {name!r} is not PNG, WebP or AVIF" in row.reason, row.reason
+    assert words in row.reason and ("JPEG" in row.reason) == name.endswith(".jpg"), row.reason

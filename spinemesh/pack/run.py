@@ -602,13 +602,17 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
     Raises
     ------
     PackRefused
-        For a page in a format that cannot be written back texel for texel (JPEG), before any is
-        read, and for a PNG page of 16 bits a channel (:func:`check_eight_bits`).
+        For a page in a format that cannot be written back texel for texel (JPEG) or is not read
+        at all (BMP, KTX2), before any is read, and for a PNG page of 16 bits a channel (:func:`check_eight_bits`).
     """
     for page in job.atlas.pages:
-        if Path(page.name).suffix.lower() not in PAGE_FORMATS:
-            raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, and would not come back "
-                              "texel for texel (JPEG pages have no alpha and lose texels when written)")
+        suffix = Path(page.name).suffix.lower()
+        if suffix in (".jpg", ".jpeg"):
+            raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF but JPEG, which has no alpha and "
+                              "loses texels when written: it would not come back texel for texel")
+        if suffix not in PAGE_FORMATS:  # a BMP, a KTX2: no format spinemesh decodes, its page passed as it is
+            raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, the page formats spinemesh reads "
+                              "and writes; it is kept as it is")
         check_no_repeat(page)
     on_step(0, 0, STEPS["read"])
     data = [image_file_bytes(f) for f in job.files]
