@@ -556,9 +556,8 @@ def test_colours_of_six_digits_or_a_hash_are_read_as_spine_core_reads_them(runti
     assert _compare(results)["compared"] >= 4 * 10
     ours = {a["slot"]: a for a in results[0][2]}
     assert ours["six"]["color"] == pytest.approx([1.0, 128 / 255, 64 / 255, 1.0], abs=1e-6)
-    # our writer refuses the '#' (one line); without it, the .skel it writes draws alike
-    plain = json.loads(json.dumps(_colour_spellings_doc()).replace('"#', '"'))
-    assert _compare(_colours_43(runtime43, plain, tmp_path, binary=True))["compared"] >= 4 * 10
+    # the .skel our writer makes of it draws alike
+    assert _compare(_colours_43(runtime43, _colour_spellings_doc(), tmp_path, binary=True))["compared"] >= 4 * 10
 
 
 @pytest.mark.parametrize("version", ["4.3", "3.8"])
@@ -802,3 +801,39 @@ def test_a_kept_page_of_another_format_is_said_as_it_is(meshed, tmp_path, name, 
     (row,) = pack_project(project, tmp_path / "out", PackOptions(larger_files=True)).atlases
     assert row.status == "kept" and f"page {name!r} is not PNG, WebP or AVIF" in row.reason, row.reason
     assert words in row.reason and ("JPEG" in row.reason) == name.endswith(".jpg"), row.reason
+
+
+def _colour_spellings_38() -> dict:
+    """A 3.8 skeleton with ``#`` colours on a slot, its dark colour, an attachment and keys."""
+    keys = {"color": [{"time": 0, "color": "#10203040"}, {"time": 1, "color": "e0c0a0"}],
+            "twoColor": [{"time": 0, "light": "#ffffffff", "dark": "#102030"}]}
+    return {"skeleton": {"spine": "3.8.99"}, "bones": [{"name": "root"}],
+            "slots": [{"name": "s", "bone": "root", "attachment": "box", "color": "#ff8040", "dark": "#336699"}],
+            "skins": [{"name": "default", "attachments": {"s": {"box": {"width": 16, "height": 6,
+                                                                        "color": "#2040a0"}}}}],
+            "animations": {"tint": {"slots": {"s": keys}}}}
+
+
+@pytest.mark.parametrize("version", ["4.3", "3.8"])
+def test_convert_reads_a_hash_colour_as_the_sampler_does(tmp_path, version):
+    """``convert`` refused ``"#ff8040"`` (a slot's, an attachment's, a key's, a dark colour) that
+    the sampler, spine-core and libGDX read, skipping the ``#``: it now writes the colour the
+    sampler draws, the ``.skel`` byte for byte that of the same document without the ``#``, and
+    reads it back without one, as Spine writes colours."""
+    import subprocess
+    import sys
+
+    from spinemesh.anim.timelines import color_channels
+
+    doc = _colour_spellings_doc() if version == "4.3" else _colour_spellings_38()
+    plain = json.loads(json.dumps(doc).replace('"#', '"'))
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    (tmp_path / "plain.json").write_text(json.dumps(plain))
+    for source, target in (("x.json", "x.skel"), ("plain.json", "plain.skel"), ("x.skel", "back.json")):
+        r = subprocess.run([sys.executable, "-m", "spinemesh", "convert", source, target], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 0, r.stderr
+    assert (tmp_path / "x.skel").read_bytes() == (tmp_path / "plain.skel").read_bytes()
+    back = (tmp_path / "back.json").read_text()
+    assert "#" not in back and "ff8040" in back, back
+    assert color_channels("#ff804080", 4) == color_channels("ff804080", 4) == [1.0, 128 / 255, 64 / 255, 128 / 255]

@@ -14,27 +14,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..skeleton_colours import read_colour
 from ..skeleton_curves import CURVES_38, CurveSpelling
 from .curves import Keys, _number, f32, read_keys
 
 
 def color_channels(text, count: int) -> list[float]:
-    """``count`` channels (0..1) of a hex colour ``rrggbb[aa]`` as the runtimes read it: a leading
-    ``#`` skipped, alpha (the fourth channel) 1 unless the text has exactly eight digits
-    (spine-core and libGDX read ``"ff8040"`` on a slot as orange, opaque); white where unreadable
-    (fewer than six digits, or not hex, which the runtimes cannot read either)."""
-    if not isinstance(text, str):
-        return [1.0] * count
-    text = text[1:] if text.startswith("#") else text
-    if len(text) < 6:
-        return [1.0] * count
+    """``count`` channels (0..1) of a hex colour ``[#]rrggbb[aa]`` as the runtimes read it
+    (:func:`spinemesh.skeleton_colours.read_colour`): alpha (the fourth channel) 1 unless the
+    text has exactly eight digits (spine-core and libGDX read ``"ff8040"`` on a slot as orange,
+    opaque); white where unreadable (fewer than six digits, or not hex, which the runtimes cannot
+    read either)."""
     try:
-        channels = [int(text[2 * i:2 * i + 2], 16) / 255 for i in range(min(count, 3))]
-        if count > 3:
-            channels.append(int(text[6:8], 16) / 255 if len(text) == 8 else 1.0)
+        r, g, b, a = read_colour(text)
     except ValueError:
         return [1.0] * count
-    return channels
+    return [r / 255, g / 255, b / 255, 1.0 if a is None else a / 255][:count]
 
 
 @dataclass

@@ -23,6 +23,7 @@ import struct
 from pathlib import Path
 
 from ..errors import SkelFormatError
+from ..skeleton_colours import read_colour
 
 _F32 = struct.Struct(">f")
 _I32 = struct.Struct(">i")
@@ -151,19 +152,18 @@ class SkelReader:
 
 
 def colour_bytes(text: str, channels: int) -> bytes:
-    """A JSON colour ``rrggbb[aa]`` as ``channels`` (3 or 4) bytes, read as the runtimes read it:
-    rgb from the first six digits, alpha from the 7th and 8th only where there are exactly
-    eight (else 1: ``"ff804000ab"`` is opaque orange). A ValueError for fewer than six digits
-    or any that is not hex: no colour a runtime reads (spine-core gets NaN, libGDX fails).
+    """A JSON colour ``[#]rrggbb[aa]`` as ``channels`` (3 or 4) bytes, read as the runtimes read it
+    (:func:`spinemesh.skeleton_colours.read_colour`): alpha from the 7th and 8th digits only
+    where there are exactly eight (else 1: ``"ff804000ab"`` is opaque orange). A ValueError for
+    fewer than six digits or any read that is not hex: no colour a runtime reads.
 
     Examples
     --------
-    >>> colour_bytes("ff8040", 4).hex(), colour_bytes("ff80401", 4).hex(), colour_bytes("12345680", 3).hex()
+    >>> colour_bytes("ff8040", 4).hex(), colour_bytes("ff80401", 4).hex(), colour_bytes("#12345680", 3).hex()
     ('ff8040ff', 'ff8040ff', '123456')
     """
-    if len(text) < 6:
-        raise ValueError(text)
-    return bytes.fromhex(text[:6] + (text[6:8] if len(text) == 8 else "ff"))[:channels]
+    r, g, b, a = read_colour(text)
+    return bytes((r, g, b, 255 if a is None else a))[:channels]
 
 
 class SkelWriter:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+from ..skeleton_colours import read_colour
+
 
 def put(node: dict, key: str, v, default) -> None:
     """Set ``node[key] = v`` unless ``v`` is the JSON default (``-0.0`` is kept)."""
@@ -62,10 +64,9 @@ def dark_color(s, node: dict, key: str) -> None:
     if v is None:
         s.i32(-1)
         return
-    try:
-        if not isinstance(v, str) or len(v) < 6:  # no colour a runtime reads: "ff" would be 0000ff, a blue
-            raise ValueError
-        n = int(v[:6], 16) | (int(v[6:8], 16) << 24 if len(v) >= 8 else 0)
+    try:  # no colour a runtime reads ("ff" would be 0000ff, a blue) is refused
+        r, g, b, high = read_colour(v)
+        n = r << 16 | g << 8 | b | (high or 0) << 24
     except ValueError:
         raise s.fail(f"a hex dark colour of six digits for {key!r}, got {v!r}") from None
     n = n & 0xFFFFFF if n == 0xFFFFFFFF else n
