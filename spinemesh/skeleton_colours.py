@@ -30,9 +30,9 @@ def read_colour(text) -> tuple[int, int, int, int | None]:
     >>> read_colour("ff8040"), read_colour("#ff804080"), read_colour("ff80401")
     ((255, 128, 64, None), (255, 128, 64, 128), (255, 128, 64, None))
     """
-    if not isinstance(text, str):
-        raise ValueError(text)
-    digits = text[1:] if text.startswith("#") else text
+    if not isinstance(text, str):  # a number is no colour either: one error for every unreadable one
+        raise ValueError(text)  # noqa: TRY004
+    digits = text.removeprefix("#")
     used = digits[:8] if len(digits) == 8 else digits[:6]
     if len(digits) < 6 or not HEX_DIGITS.issuperset(used):
         raise ValueError(text)

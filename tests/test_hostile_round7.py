@@ -550,8 +550,6 @@ def test_colours_of_six_digits_or_a_hash_are_read_as_spine_core_reads_them(runti
     the ``.skel`` our writer made of it posed orange. Both now pose as spine-core 4.3 draws."""
     from test_anim43_dark import _colours_43, _compare
 
-    import json
-
     results = _colours_43(runtime43, _colour_spellings_doc(), tmp_path, binary=False)
     assert _compare(results)["compared"] >= 4 * 10
     ours = {a["slot"]: a for a in results[0][2]}
@@ -831,7 +829,7 @@ def test_convert_reads_a_hash_colour_as_the_sampler_does(tmp_path, version):
     (tmp_path / "plain.json").write_text(json.dumps(plain))
     for source, target in (("x.json", "x.skel"), ("plain.json", "plain.skel"), ("x.skel", "back.json")):
         r = subprocess.run([sys.executable, "-m", "spinemesh", "convert", source, target], cwd=tmp_path,
-                           capture_output=True, text=True, timeout=60)
+                           capture_output=True, text=True, timeout=60, check=False)
         assert r.returncode == 0, r.stderr
     assert (tmp_path / "x.skel").read_bytes() == (tmp_path / "plain.skel").read_bytes()
     back = (tmp_path / "back.json").read_text()

@@ -26,8 +26,8 @@ from .. import images
 from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
-from ..fsutil import mark_written_folder
 from ..foreground import alpha_above
+from ..fsutil import mark_written_folder
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
