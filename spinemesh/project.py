@@ -85,6 +85,8 @@ class Project:
     #: One line per atlas page that runtimes draw differently from one another (its size line
     #: against its image, see :func:`spinemesh.atlas.page_mismatches`): used all the same.
     warnings: list[str] = field(default_factory=list)
+    #: Each atlas file left out by :func:`project_atlases`, with the reader's own error (one line).
+    broken_atlases: dict[Path, str] = field(default_factory=dict)
     parsed_atlases: dict[Path, Atlas] | None = field(default=None, repr=False)
     page_store: PageStore | None = field(default=None, repr=False)
 
@@ -148,6 +150,7 @@ def project_atlases(project: Project) -> dict[Path, Atlas]:
                 if not page_file.is_file():
                     raise SpineMeshError(f"page image {page.name!r} not found", p, line=page.line)
         except SpineMeshError as e:
+            project.broken_atlases[p] = str(e)
             project.problems.append(f"{e}; atlas not used")
             continue
         atlas.mismatches = page_mismatches(atlas, [image_size(AtlasImages.page_path(atlas, page.name, project.root))

@@ -232,3 +232,25 @@ def test_the_cap_holds_where_the_setup_pose_draws_nothing(tmp_path):
     assert not (tmp_path / "new" / "pose.json").exists() and not list((tmp_path / "new").glob("*"))
     r = _pose(skeleton, "-a", "turn", "--times", times, "--out", tmp_path / "new" / "pose.json")
     assert r.returncode == 0 and (tmp_path / "new" / "pose.json").stat().st_size > 5_000_000, r.stderr
+
+
+@pytest.mark.parametrize("atlas_text, words", [
+    (b"arm.png\n\tsize: 4, 4\na\xff\n", "atlas is not UTF-8 text"),  # broken text
+    (b"gone.png\n\tsize: 4, 4\na\n\tbounds: 0, 0, 1, 1\n", "page image 'gone.png' not found"),
+])
+def test_an_unreadable_atlas_is_named_not_called_missing(tmp_path, atlas_text, words):
+    """An atlas beside the skeleton that cannot be used is named, with what is wrong, in one line."""
+    import io
+
+    from PIL import Image
+
+    skeleton = _project(tmp_path, _doc())
+    buf = io.BytesIO()
+    Image.new("RGBA", (4, 4)).save(buf, format="PNG")
+    (skeleton.parent / "arm.png").write_bytes(buf.getvalue())
+    (skeleton.parent / "arm.atlas").write_bytes(atlas_text)
+    r = _pose(skeleton, "--out", tmp_path / "pose.json")
+    err = r.stderr.decode()
+    assert r.returncode == 0, err
+    line = next(x for x in err.splitlines() if "warning" in x)
+    assert "no atlas found" not in err and "arm.atlas" in line and words in line, err

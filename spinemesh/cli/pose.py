@@ -61,6 +61,8 @@ def pose(
     Example: spinemesh pose project/hero.json --animation run --times 0.2,0.5 --out pose.json
     Example: spinemesh pose project/hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
+    from rich.markup import escape  # file names and their text: never markup
+
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump_head, dump_labels, dump_poses
     from ..atlas import read_atlas
@@ -94,8 +96,12 @@ def pose(
         source = image_source_for(doc, skeleton, project)
         atlases = list(getattr(source, "atlases", None) or [])
         if not atlases:
-            err_console.print("[yellow]warning:[/] no atlas found beside the skeleton: region quads are drawn "
-                              "over their whole images (as if no whitespace was stripped)", highlight=False)
+            # An atlas that is there but cannot be used is named with the reader's own error.
+            broken = list(project.broken_atlases.values())
+            what = (f"atlas not used: {broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
+                    if broken else "no atlas found beside the skeleton")
+            err_console.print(f"[yellow]warning:[/] {escape(what)}: region quads are drawn over their whole images "
+                              "(as if no whitespace was stripped)", highlight=False, soft_wrap=True)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
     # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
