@@ -89,3 +89,24 @@ def test_atomic_write_gives_ordinary_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (tmp_path / "f").stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+@pytest.mark.parametrize("keep", [20, -30])  # inside its header; inside its image data
+def test_info_names_a_page_cut_short(tmp_path, keep):
+    """A page whose file is cut short is named: every attachment image was not found."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.effect_noise((64, 64), 40).convert("RGBA").save(buf, format="PNG")
+    atomic_write_bytes(tmp_path / "p.png", buf.getvalue()[:keep])
+    (tmp_path / "p.atlas").write_text("p.png\n\tsize: 64, 64\nr\n\tbounds: 0, 0, 4, 4\n")
+    (tmp_path / "s.json").write_text('{"skeleton": {"spine": "4.2.1"}, "bones": [{"name": "root"}],'
+                                     '"slots": [{"name": "a", "bone": "root"}],'
+                                     '"skins": [{"name": "default", "attachments": {"a": {"r": {}}}}]}')
+    r = run("info", str(tmp_path / "s.json"))
+    assert "Traceback" not in r.stdout + r.stderr
+    assert "every attachment image was found" not in r.stdout, r.stdout
+    words = "cannot be read as an image" if keep == 20 else "is cut short at byte"
+    assert words in r.stdout and words in r.stderr and r.returncode == 3, (r.stdout, r.stderr)

@@ -76,13 +76,38 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
             if len(missing) > 50:
                 console.print(f"  ... and {len(missing) - 50} more")
         else:
-            console.print("every attachment image was found")
+            unreadable = _unreadable_pages(source, proj.root)
+            if unreadable:
+                console.print(f"[yellow]every attachment's page is present, but {len(unreadable)} page(s) cannot "
+                              "be read:[/]")
+                for line in unreadable:
+                    console.print(f"  {line}", markup=False)
+                proj.problems += [line for line in unreadable if line not in proj.problems]
+            else:
+                console.print("every attachment image was found")
     for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
         err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
     for warning in proj.warnings:  # pages runtimes draw differently (spinemesh.atlas.page_mismatches)
         err_console.print(f"warning: {warning}", markup=False, highlight=False, soft_wrap=True)
     if proj.problems:
         raise typer.Exit(EXIT_PARTIAL)
+
+
+def _unreadable_pages(source, root: Path) -> list[str]:
+    """One line per page of ``source``'s atlases whose file is not a whole image, from its header
+    and, for a PNG, its chunks' heads (a few bytes a chunk: no page is decoded)."""
+    from ..images import image_size
+    from ..pack.png import png_file_cut_short
+
+    out = []
+    for atlas in getattr(source, "atlases", ()):
+        for page in atlas.pages:
+            path = source.page_path(atlas, page.name, root)
+            if image_size(path) is None:
+                out.append(f"{path}: page image {page.name!r} cannot be read as an image")
+            elif (at := png_file_cut_short(path)) is not None:
+                out.append(f"{path}: page image {page.name!r} is cut short at byte {at:,}")
+    return out
 
 
 def _describe(source) -> str:
