@@ -219,14 +219,19 @@ def project_folder(path: str | Path) -> Path:
         ``PATH: no such file or folder``: a missing project is said as such before its outputs
         are checked against it (its folder would be the one it was named from).
     """
+    path = existing(path)
+    return path if path.is_dir() else path.parent
+
+
+def existing(path: str | Path) -> Path:
+    """``path`` if something is there; refused as ``PATH: no such file or folder`` otherwise (the
+    one line every command gives for a missing input, before anything else is checked)."""
     path = Path(path)
-    if path.is_dir():
-        return path
     if not path.exists():
         from .errors import SpineMeshError
 
         raise SpineMeshError("no such file or folder", path)
-    return path.parent
+    return path
 
 
 def refuse_report_over_output(report: Path, out: Path) -> None:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .atlas import Atlas, page_mismatches, read_atlas
 from .errors import SpineMeshError, UnsafePathError
-from .fsutil import is_within, real, regular_file, resolve_inside, walk_folder
+from .fsutil import existing, is_within, real, regular_file, resolve_inside, walk_folder
 from .images import AtlasImages, FolderImages, PageStore, image_size
 from .skeleton import image_paths, iter_attachments
 
@@ -106,9 +106,7 @@ def find_project(path: str | Path) -> Project:
     For a skeleton file, the project root is its folder and only that skeleton is taken.
     Nothing outside the project's real folder is taken (see the module notes).
     """
-    path = Path(path)
-    if not path.exists():
-        raise SpineMeshError("no such file or folder", path)
+    path = existing(path)
     if not path.is_dir():
         regular_file(path, "skeleton")  # a FIFO or device would block or never end
     root = path.parent if path.is_file() else path

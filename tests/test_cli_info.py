@@ -110,3 +110,16 @@ def test_info_names_a_page_cut_short(tmp_path, keep):
     assert "every attachment image was found" not in r.stdout, r.stdout
     words = "cannot be read as an image" if keep == 20 else "is cut short at byte"
     assert words in r.stdout and words in r.stderr and r.returncode == 3, (r.stdout, r.stderr)
+
+
+def test_a_missing_source_is_one_line_in_every_command(tmp_path):
+    """``convert`` says a missing or wrong source in one line naming it, as ``info`` and ``pose``
+    do (not click's usage and three lines)."""
+    (tmp_path / "folder").mkdir()
+    for args in (["info", "nope.skel"], ["pose", "nope.skel"], ["convert", "nope.skel", "out.json"]):
+        r = run(*[str(tmp_path / a) if a.startswith("nope") else a for a in args])
+        assert r.returncode == 2 and r.stderr.strip() == f"error: {tmp_path / 'nope.skel'}: no such file or folder", \
+            (args, r.stderr)
+    r = run("convert", str(tmp_path / "folder"), str(tmp_path / "out.json"))
+    assert r.returncode == 2 and r.stderr.strip() == f"error: {tmp_path / 'folder'}: skeleton is a folder", r.stderr
+    assert not (tmp_path / "out.json").exists()

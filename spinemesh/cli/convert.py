@@ -16,8 +16,7 @@ from .convert_files import KEEP_BINARY_INFO, convert_files
 
 @app.command()
 def convert(
-    source: Annotated[Path, typer.Argument(metavar="SOURCE", help="Skeleton to read: .skel (binary) or .json.", exists=True,
-                                           dir_okay=False)],
+    source: Annotated[Path, typer.Argument(metavar="SOURCE", help="Skeleton to read: .skel (binary) or .json.")],
     target: Annotated[Path, typer.Argument(metavar="TARGET", help="Skeleton to write; its extension (.skel or .json) picks "
                                                 "the format.")],
     keep_binary_info: Annotated[bool, typer.Option(

@@ -34,10 +34,11 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
         target extension that is neither ``.skel``, ``.skel.bytes`` nor ``.json``.
     """
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs
+    from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs, existing, regular_file
     from ..skeleton import dumps_skeleton, load_skeleton, spine_version
     from ..skeleton_binary.enums import EXTRA
 
+    regular_file(existing(source), "skeleton")  # one line naming it, as every command says it
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
     if is_binary_name(target):
@@ -72,7 +73,7 @@ def run_plain_convert(args: list[str]) -> bool:
     """Run ``convert`` for arguments that need no parsing; False (nothing done) for any other.
 
     Plain means: two paths not starting with ``-``, the source an existing readable file (what
-    the typer command checks), and at most the ``--keep-binary-info`` flag. Errors of the work
+    :func:`convert_files` checks), and at most the ``--keep-binary-info`` flag. Errors of the work
     itself are raised as from the typer command.
     """
     keep = KEEP_BINARY_INFO in args
