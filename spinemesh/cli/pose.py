@@ -61,15 +61,13 @@ def pose(
     Example: spinemesh pose project/hero.json --animation run --times 0.2,0.5 --out pose.json
     Example: spinemesh pose project/hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
-    from rich.markup import escape  # file names and their text: never markup
-
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump_head, dump_labels, dump_poses
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
     from ..fsutil import atomic_write_pieces, check_outputs, project_folder, strict_json_pieces
     from ..limits import MAX_POSE_STEPS
-    from ..project import find_project, image_source_for
+    from ..project import find_project
     from ..skeleton import load_skeleton
     from ._app import progress_bar
 
@@ -90,18 +88,7 @@ def pose(
     skins = [name for name in _skin_names(doc)]
     if skin is not None and skin not in skins:
         raise SpineMeshError(f"no skin {skin!r} (the skeleton has: {', '.join(skins[:20]) or 'none'})", skeleton)
-    if atlas is not None:
-        atlases = [read_atlas(atlas)]
-    else:
-        source = image_source_for(doc, skeleton, project)
-        atlases = list(getattr(source, "atlases", None) or [])
-        if not atlases:
-            # An atlas that is there but cannot be used is named with the reader's own error.
-            broken = list(project.broken_atlases.values())
-            what = (f"atlas not used: {broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
-                    if broken else "no atlas found beside the skeleton")
-            err_console.print(f"[yellow]warning:[/] {escape(what)}: region quads are drawn over their whole images "
-                              "(as if no whitespace was stripped)", highlight=False, soft_wrap=True)
+    atlases = [read_atlas(atlas)] if atlas is not None else _project_atlases(doc, skeleton, project)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
     # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
@@ -121,6 +108,24 @@ def pose(
             atomic_write_pieces(out, pieces)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
+
+
+def _project_atlases(doc: dict, skeleton: Path, project) -> list:
+    """The project's atlases that serve the skeleton; without one, a warning says that region
+    quads are drawn over their whole images, and why: an atlas that is there but cannot be used
+    is named with the atlas reader's own error, else none was found."""
+    from rich.markup import escape  # file names and their text: never markup
+
+    from ..project import image_source_for
+
+    atlases = list(getattr(image_source_for(doc, skeleton, project), "atlases", None) or [])
+    if not atlases:
+        broken = list(project.broken_atlases.values())
+        what = (f"atlas not used: {broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
+                if broken else "no atlas found beside the skeleton")
+        err_console.print(f"[yellow]warning:[/] {escape(what)}: region quads are drawn over their whole images "
+                          "(as if no whitespace was stripped)", highlight=False, soft_wrap=True)
+    return atlases
 
 
 def _within_the_cap(pieces, skeleton: Path):
