@@ -175,3 +175,20 @@ def test_a_kept_atlas_note_is_a_line_of_its_own_in_a_narrow_terminal():
             assert ("┃ note" in text) == (columns >= pack_cli.NOTES_IN_TABLE_FROM), text
     finally:
         console.width = width
+
+
+def test_the_preview_indexes_count_in_words(tmp_path):
+    """One of a thing is said in the singular on both indexes: "1 kept as a region", "1 atlas"."""
+    from spinemesh.pack.preview import write_preview as write_pack_preview
+    from spinemesh.pack.run import pack_project
+    from spinemesh.words import counted
+
+    demo = make_demo_project(tmp_path / "demo")  # one skeleton (and its twin), one atlas, one region kept
+    result = upgrade_project(demo, tmp_path / "out", Options(jobs=1))
+    text = write_preview(result, demo, tmp_path / "out", tmp_path / "preview").read_text(encoding="utf-8")
+    assert "<p>1 skeleton (1 more file the same skeleton" in text and ", 1 kept as a region, " in text, text[-2000:]
+    packed = pack_project(tmp_path / "out", tmp_path / "packed", keep_previews=True)
+    text = write_pack_preview(packed, tmp_path / "pack-preview").read_text(encoding="utf-8")
+    assert "<p>1 atlas; page texels" in text, text[-2000:]
+    assert [counted(n, "atlas", "atlases") for n in (0, 1, 2, 1234)] == ["0 atlases", "1 atlas", "2 atlases",
+                                                                          "1,234 atlases"]

@@ -119,13 +119,11 @@ def dataset_stats_cmd(
     from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
+    from ..words import counted
 
     stats = dataset_stats(open_dataset(ds))
-    def count(n: int, what: str) -> str:
-        return f"{n:,} {what}{'' if n == 1 else 's'}"
-
-    console.print(f"{ds}: {count(stats['samples'], 'sample')} from {count(len(stats['by_project']), 'project')} "
-                  f"of {count(len(stats['by_game']), 'game')}", highlight=False)
+    console.print(f"{ds}: {counted(stats['samples'], 'sample')} from {counted(len(stats['by_project']), 'project')} "
+                  f"of {counted(len(stats['by_game']), 'game')}", highlight=False)
     t = Table()
     t.add_column("")
     t.add_column("samples", justify="right")

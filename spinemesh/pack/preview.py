@@ -18,6 +18,7 @@ import numpy as np
 
 from ..images import fit_within
 from ..player import PreviewFolder
+from ..words import counted
 
 #: Largest side, in pixels, of the largest page of an atlas in the picture.
 PAGE_SIZE = 640
@@ -54,7 +55,7 @@ def atlas_section(folder: PreviewFolder, rel: str, before: dict[str, np.ndarray]
     return (f"<h2>{html.escape(rel)}</h2>"
             f"<p>page texels {row.texels_before:,} → {row.texels_after:,} "
             f"({row.texels_after / row.texels_before - 1:+.1%}), bytes {row.bytes_before:,} → {row.bytes_after:,}; "
-            f"{row.by_outline} regions by outline, {row.by_rectangle} by rectangle, padding {row.padding}</p>"
+            f"{counted(row.by_outline, 'region')} by outline, {row.by_rectangle} by rectangle, padding {row.padding}</p>"
             f"<h3>before</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in before.items())}</div>"
             f"<h3>after</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in after.items())}</div>"
             + (f"<h3>kept by rectangle</h3><table><tr><th>reason</th><th>regions</th></tr>{rows}</table>"
@@ -73,7 +74,7 @@ def write_preview(result, folder: str | Path) -> Path:
             f"<tr><td style=\"text-align:left\">{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
             f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
     t = result.totals()
-    summary = (f"<p>{len(result.atlases)} atlases; page texels {t['texels_before']:,} → {t['texels_after']:,}; "
+    summary = (f"<p>{counted(len(result.atlases), 'atlas', 'atlases')}; page texels {t['texels_before']:,} → {t['texels_after']:,}; "
                f"pages {t['pages_before']} → {t['pages_after']}; bytes {t['bytes_before']:,} → "
                f"{t['bytes_after']:,}</p>")
     page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh pack</title>"

@@ -32,6 +32,7 @@ from ..player import PLAYER_CSS, PreviewFolder, safe_name
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
 from ..skeleton import is_binary_skeleton, iter_skins, load_skeleton
+from ..words import counted
 
 #: Largest side of a sprite picture and of an atlas page picture, pixels.
 CARD_SIZE = 300
@@ -457,7 +458,7 @@ def _headline_html(total: FillRate, meshed: int) -> str:
             f'({_less(total.before - total.after, total.before)})</p>'
             f'<p class="second">of them fully transparent: {total.transparent_before:,} → '
             f'{total.transparent_after:,} ({_less(total.transparent_before - total.transparent_after, total.transparent_before)})'
-            f' over the {meshed:,} attachments meshed</p>')
+            f' over the {counted(meshed, "attachment")} meshed</p>')
 
 
 def _rate_table(total: FillRate) -> str:
@@ -477,17 +478,17 @@ def _headline(result, total: FillRate) -> str:
     packed = [a for a in result.atlases if a.status == "packed"]
     if packed and not counts.get("meshed"):
         before, after = sum(a.texels_before for a in packed), sum(a.texels_after for a in packed)
-        return (f"No attachment meshed; {len(packed)} atlas{'es' if len(packed) > 1 else ''} packed anew: page "
+        return (f"No attachment meshed; {counted(len(packed), 'atlas', 'atlases')} packed anew: page "
                 f"texels {before:,} → {after:,} ({_less(before - after, before)}), see the pages below")
     if result.not_read and not counts.get("meshed"):
         n = len(result.not_read)
-        return f"Nothing meshed: {n} skeleton{'s' if n > 1 else ''} could not be read (see below)"
+        return f"Nothing meshed: {counted(n, 'skeleton')} could not be read (see below)"
     if counts.get("failed") and not counts.get("meshed"):
-        return f"Nothing meshed: {counts['failed']} attachments failed (see why below)"
+        return f"Nothing meshed: {counted(counts['failed'], 'attachment')} failed (see why below)"
     if not result.targets:
         return "Nothing to upgrade: no region attachment (every attachment is already a mesh or of another type)"
     if counts.get("meshed"):
-        return f"{counts['meshed']} attachments meshed (their images could not be read for this page)"
+        return f"{counted(counts['meshed'], 'attachment')} meshed (their images could not be read for this page)"
     return "Nothing meshed: every region was kept as it is (see why below)"
 
 
@@ -881,10 +882,10 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
     root = project if project.is_dir() else project.parent
     body = (f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>{headline}"
             + _rate_table(total)
-            + f"<p>{shown} skeleton{'s' if shown != 1 else ''}"
-            + (f" ({len(twins)} more file{'s' if len(twins) > 1 else ''} the same skeleton in the other format, "
-               "counted once)" if twins else "")
-            + f"; attachments: {counts.get('meshed', 0)} meshed, {counts.get('kept', 0)} kept as regions, "
+            + f"<p>{counted(shown, 'skeleton')}" + (f" ({counted(len(twins), 'more file')} the same skeleton "
+                                                    "in the other format, counted once)" if twins else "")
+            + f"; attachments: {counts.get('meshed', 0)} meshed, "
+            f"{counted(counts.get('kept', 0), 'kept as a region', 'kept as regions')}, "
             f"{counts.get('failed', 0)} failed. Each upgraded attachment counts once, in texels of its atlas "
             "image; a region draws the rectangle its atlas stores, a mesh only its triangles.</p>"
             + f"<h2>Skeletons</h2>{table}"
