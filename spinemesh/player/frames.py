@@ -21,6 +21,7 @@ import numpy as np
 
 from ..rig.preview import PALETTE  # the bones' colours of the weights pictures, here by vertex
 from ..skeleton import iter_skins
+from ..words import counted
 
 #: Blend modes by the number the player uses (the runtimes' names; 3.x "additive" too).
 BLENDS = {"normal": 0, "additive": 1, "multiply": 2, "screen": 3}
@@ -532,7 +533,7 @@ def plan_sampling(before: dict, after: dict, regions=None,
     durations = {}
     names = first.sampler.animation_names()
     if len(names) > MAX_ANIMATIONS:
-        problems.append(f"{len(names) - MAX_ANIMATIONS:,} animations not shown: the player shows the first "
+        problems.append(f"{counted(len(names) - MAX_ANIMATIONS, 'animation')} not shown: the player shows the first "
                         f"{MAX_ANIMATIONS:,}")
     for name in names[:MAX_ANIMATIONS]:
         try:
