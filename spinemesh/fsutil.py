@@ -18,6 +18,7 @@ import os
 import secrets
 import shutil
 import stat
+import unicodedata
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -90,6 +91,52 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
     if candidate != root and root not in candidate.parents:
         raise UnsafePathError(f"path {relative!r} leads outside the {what}", source or root)
     return candidate
+
+
+def portable_name(relative: str | Path) -> str:
+    """The one file ``relative`` names on every common disk, as a key to compare names by.
+
+    macOS and Windows disks ignore case and (macOS) Unicode normalisation form, Windows drops a
+    name's trailing dots and spaces and reads a backslash as a folder: ``Hero.png``, ``hero.png``,
+    ``héro`` in NFC or NFD, ``arm.`` and ``arm`` are each one file there, two on Linux.
+    """
+    parts = str(relative).replace("\\", "/").split("/")
+    return "/".join(unicodedata.normalize("NFC", part).rstrip(" .").casefold() for part in parts)
+
+
+class OneFilePerName:
+    """Names of files written into one folder, refusing a second writer of the same file.
+
+    A folder copied to (or written on) a disk that ignores case or Unicode form would otherwise
+    hold one of two outputs, the other overwritten without a word (:func:`portable_name`).
+    """
+
+    def __init__(self) -> None:
+        #: portable name -> (name as written, what it was written for)
+        self.taken: dict[str, tuple[str, str]] = {}
+
+    def claim(self, relative: str | Path, owner: str | Path, what: str = "file",
+              source: str | Path | None = None) -> None:
+        """Take ``relative`` for ``owner`` (what it is written for), or raise naming ``source`` (else ``owner``).
+
+        Raises
+        ------
+        OutputError
+            Naming ``owner``, when another owner took the same file: the same name, or one that
+            is the same file on a disk that ignores case, Unicode form or trailing dots and
+            spaces (macOS, Windows).
+        """
+        name, owner = str(relative), str(owner)
+        other, other_owner = self.taken.setdefault(portable_name(name), (name, owner))
+        if other_owner == owner:
+            return
+        if other == name:
+            raise OutputError(f"{what} {name!r} was written for {other_owner!r} already", source or owner)
+        form = (" (the same letters in another Unicode form)"
+                if unicodedata.normalize("NFC", other) == unicodedata.normalize("NFC", name) else "")
+        raise OutputError(f"{what} {name!r} would be the same file as {other!r}{form}, written for "
+                          f"{other_owner!r}, on macOS and Windows disks (case, Unicode form, trailing dots "
+                          "and spaces ignored)", source or owner)
 
 
 #: Files of one input folder compared with a file written in place that has several names

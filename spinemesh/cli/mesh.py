@@ -107,7 +107,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import OutputGuard, walk_files
+    from ..fsutil import OneFilePerName, OutputGuard, walk_files
     from ..images import IMAGE_EXTENSIONS
 
     # regular files inside the folder by real path: no symlink out, no FIFO, no loop
@@ -116,12 +116,15 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
         raise SpineMeshError("no image files in this folder", image)
     rows = []
     failed = 0
+    # hero.png and hero.webp (or Hero.png on a disk that ignores case) would write one hero.json
+    outputs = OneFilePerName()
     with progress_bar("meshing") as bar:
         task = bar.add_task("", total=len(files))
         for f in files:
             rel = f.relative_to(image).with_suffix("")
             bar.update(task, description=str(rel))
             try:
+                outputs.claim(rel.with_suffix(".json"), f, "its mesh")
                 # Each file too: a symlink planted inside an output folder is not written through.
                 m = _one(f, preset, overrides,
                          OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),

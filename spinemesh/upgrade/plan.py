@@ -27,7 +27,7 @@ from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
 from ..foreground import alpha_above
-from ..fsutil import mark_written_folder
+from ..fsutil import OneFilePerName, mark_written_folder
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
@@ -312,6 +312,8 @@ class Planner:
     #: attachment uses its bending variant instead)
     found: dict[str, MeshTask] = field(default_factory=dict)
     editor_images: set[str] = field(default_factory=set)
+    #: ``--images``: the files written there, one per name on every disk (Hero.png, hero.png)
+    editor_files: OneFilePerName = field(default_factory=OneFilePerName)
     #: ``--repack``: atlas path -> names of the regions to store untrimmed.
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)
     #: Targets read but not decided yet (:meth:`read_skeleton`), with what deciding needs:
@@ -408,6 +410,9 @@ class Planner:
         folder = self.options.images_out
         if folder is None or self.options.dry_run:
             return
+        for frame in frames:  # every frame's name first: no frame of a refused sequence written
+            if frame.name not in self.editor_images:
+                self.editor_files.claim(frame.name + ".png", frame.name, "editor image", frame.source)
         for frame in frames:
             if not self.editor_images:  # before its first image: a later run writes into it again
                 mark_written_folder(Path(folder))

@@ -1,0 +1,91 @@
+"""Hostile input, eighth round: names as other platforms write and read them (case, Unicode form,
+backslashes, trailing dots), and the commands earlier rounds barely touched (mesh, segment,
+dataset, diff, info, upgrade's selection options).
+
+As in the earlier rounds (tests/test_hostile*.py), every project is made here by our own code;
+each case checks what docs/safety.md promises: one clear line naming the file, never a
+traceback, never two outputs silently landing on one file, inputs unchanged.
+"""
+
+from __future__ import annotations
+
+import unicodedata
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_hostile import check_run, run_cli, snapshot
+
+NFD_CAFE = unicodedata.normalize("NFD", "café")
+NFC_CAFE = unicodedata.normalize("NFC", "café")
+
+
+def _png(path: Path, width: int, height: int) -> None:
+    import cv2
+
+    rgba = np.zeros((height, width, 4), np.uint8)
+    rgba[4:-4, 4:-4] = (40, 90, 200, 255)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    assert cv2.imwrite(str(path), rgba, [cv2.IMWRITE_WEBP_QUALITY, 101] if path.suffix == ".webp" else [])
+
+
+def _renamed_demo(folder: Path, names: dict[str, str]) -> Path:
+    """The demo project (JSON skeleton only) with regions renamed in its atlas and skeleton alike."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(folder, with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    for name in ("demo.atlas", "demo.json"):
+        text = (project / name).read_text("utf-8")
+        for old, new in names.items():
+            # JSON spells a backslash twice, the atlas once
+            text = text.replace(old, new.replace("\\", "\\\\") if name.endswith(".json") else new)
+        (project / name).write_text(text, "utf-8")
+    return project
+
+
+# --- two outputs that are one file on another disk --------------------------------------------
+
+def test_mesh_of_a_folder_never_writes_two_images_onto_one_mesh_file(tmp_path):
+    """``hero.png`` and ``hero.webp`` both mesh to ``hero.json``; ``Hero.png`` does too on a
+    macOS or Windows disk. The second and third were written over the first without a word
+    (3 meshes said written, one file left): now each later one is one line, exit 3."""
+    art = tmp_path / "art"
+    _png(art / "Hero.png", 40, 40)
+    _png(art / "hero.png", 60, 40)
+    _png(art / "hero.webp", 50, 30)
+    _png(art / "other.png", 30, 30)
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art", "--out", "meshes", "--preview", "previews", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["meshes/", "previews/"], codes=(3,))
+    assert "2 meshes written" in r.stdout, r.stdout
+    skipped = [line for line in r.stderr.splitlines() if line.startswith("skipped:")]
+    assert len(skipped) == 2, r.stderr
+    assert all("'Hero.json'" in line and "Hero.png" in line for line in skipped), r.stderr
+    assert sorted(p.name for p in (tmp_path / "meshes").iterdir()) == ["Hero.json", "other.json"]
+
+
+@pytest.mark.parametrize("first, second", [
+    ("Hero", "hero"),                 # one file on a disk that ignores case
+    (NFD_CAFE, NFC_CAFE),             # macOS writes NFD, Linux sees two names
+    ("arm\\left", "arm/left"),        # a Windows export's backslash: one file everywhere
+    ("arm./left", "arm/left"),        # Windows drops a folder name's trailing dots
+], ids=["case", "unicode-form", "backslash", "trailing-dot"])
+def test_editor_images_of_two_regions_never_land_on_one_file(tmp_path, first, second):
+    """``upgrade --images`` writes ``<region>.png``: two regions naming one file on some disk
+    wrote both (one lost there, or on every disk for a backslash); now the second region stays a
+    region with one line naming both, and every editor image written is its own region's."""
+    project = _renamed_demo(tmp_path / "p", {"demo-head": first, "demo-body": second})
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--images", "editor", "--jobs", "1", "--min-saving", "0",
+                cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/", "editor/"], codes=(3,))
+    lines = [line for line in r.stderr.splitlines() if "editor image not written" in line]
+    assert len(lines) == 1, r.stdout + r.stderr
+    assert "would be the same file as" in lines[0] or "was written for" in lines[0], lines[0]
+    written = [p.relative_to(tmp_path / "editor").as_posix() for p in (tmp_path / "editor").rglob("*.png")]
+    from spinemesh.fsutil import portable_name
+
+    assert len({portable_name(p) for p in written}) == len(written), written
+    assert len(written) == 8 - 1, written  # the demo's eight region images (three spark frames) but one
+    assert (project / "demo.png").exists()
