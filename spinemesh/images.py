@@ -22,7 +22,7 @@ from PIL import Image, UnidentifiedImageError
 from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
 from .foreground import alpha_above, texels_as_words
-from .fsutil import resolve_inside
+from .fsutil import portable_name, resolve_inside
 from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
 from .memory import image_memory
 
@@ -1144,35 +1144,53 @@ class FolderImages:
     """Images from a folder laid out as the Spine editor's images folder.
 
     ``get("eyes/blink")`` reads ``<folder>/eyes/blink.png`` (or ``.webp``, ``.avif``,
-    ``.jpg``). Scale is 1: editor images are at skeleton size.
+    ``.jpg``). Scale is 1: editor images are at skeleton size. A name found under no spelling of
+    its own is the one image that is that file on a macOS or Windows disk, where the editor that
+    exported the skeleton found it: ``Hero`` for ``hero.png``, ``head`` for ``head.PNG``, ``café``
+    written in the other Unicode form (macOS writes NFD); none when several are.
     """
 
     def __init__(self, folder: str | Path):
         self.folder = Path(folder)
+        #: portable name (:func:`.fsutil.portable_name`) -> images of that name, once a name missed
+        self._portable: dict[str, list[Path]] | None = None
 
     def path_of(self, name: str) -> Path | None:
         for ext in IMAGE_EXTENSIONS:
             p = resolve_inside(self.folder, name + ext)
             if p.is_file():
                 return p
-        return None
+        if self._portable is None:
+            self._portable = {}
+            for p in self._files():
+                self._portable.setdefault(portable_name(self._name(p)), []).append(p)
+        found = self._portable.get(portable_name(name), [])
+        return found[0] if len(found) == 1 else None
+
+    def _files(self) -> list[Path]:
+        from .fsutil import walk_files
+
+        if not self.folder.is_dir():
+            return []
+        return [p for p in walk_files(self.folder) if p.suffix.lower() in IMAGE_EXTENSIONS]
+
+    def _name(self, path: Path) -> str:
+        return path.relative_to(self.folder).with_suffix("").as_posix()
 
     def __contains__(self, name: str) -> bool:
         return self.path_of(name) is not None
 
     def names(self) -> list[str]:
-        from .fsutil import walk_files
-
-        out = []
-        for p in walk_files(self.folder):
-            if p.suffix.lower() in IMAGE_EXTENSIONS:
-                out.append(p.relative_to(self.folder).with_suffix("").as_posix())
-        return out
+        return [self._name(p) for p in self._files()]
 
     def get(self, name: str, coverage: bool = True) -> RegionImage:
         """The image ``name`` at its size; ``coverage`` is for :meth:`AtlasImages.get`'s sake (same here)."""
         p = self.path_of(name)
         if p is None:
+            alike = [q.relative_to(self.folder).as_posix() for q in (self._portable or {}).get(portable_name(name), [])]
+            if alike:  # several: the editor's disk held one of them, which one is unknown here
+                raise ImageError(f"no image {name!r}; {', '.join(alike[:4])} are each that file on a macOS or "
+                                 "Windows disk (case, Unicode form), so which one is meant is unknown", self.folder)
             raise ImageError(f"no image {name!r} (looked for {', '.join(name + e for e in IMAGE_EXTENSIONS)})",
                              self.folder)
         return RegionImage(load_rgba(p), 1.0, name, str(p))

@@ -89,3 +89,36 @@ def test_editor_images_of_two_regions_never_land_on_one_file(tmp_path, first, se
     assert len({portable_name(p) for p in written}) == len(written), written
     assert len(written) == 8 - 1, written  # the demo's eight region images (three spark frames) but one
     assert (project / "demo.png").exists()
+
+
+# --- an editor's images folder written on macOS or Windows, read on Linux ---------------------
+
+def test_from_images_finds_an_image_as_the_editors_disk_did(tmp_path):
+    """A skeleton exported on macOS or Windows names ``demo-head`` for ``Demo-Head.png``,
+    ``demo-arm`` for ``demo-arm.PNG`` and ``démo-ring`` (NFC) for a file macOS wrote in NFD: the
+    editor found each, Linux found none (three regions left as "no image"). The one image that is
+    the file there is read; two such images are one line saying which."""
+    import os
+
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=True)
+    (project / "demo-binary.skel").unlink()
+    images = project / "images"
+    os.rename(images / "demo-head.png", images / "Demo-Head.png")
+    os.rename(images / "demo-arm.png", images / "demo-arm.PNG")
+    os.rename(images / "demo-ring.png", images / f"{unicodedata.normalize('NFD', 'démo-ring')}.png")
+    skeleton = project / "demo.json"
+    skeleton.write_text(skeleton.read_text("utf-8").replace("demo-ring", unicodedata.normalize("NFC", "démo-ring")), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p/demo.json", "--out", "out", "--from-images", "p/images", "--jobs", "1",
+                "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/"], codes=(0,))
+    assert "left a region" not in r.stdout + r.stderr
+
+    (images / "DEMO-head.png").write_bytes((images / "Demo-Head.png").read_bytes())
+    r = run_cli("upgrade", "p/demo.json", "--out", "out2", "--from-images", "p/images", "--jobs", "1",
+                "--min-saving", "0", cwd=tmp_path)
+    assert r.returncode == 3 and "Traceback" not in r.stderr, r.stdout + r.stderr
+    lines = [line for line in r.stderr.splitlines() if "left a region" in line]
+    assert len(lines) == 1 and "DEMO-head.png, Demo-Head.png" in lines[0], r.stderr
