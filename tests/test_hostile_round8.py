@@ -122,3 +122,34 @@ def test_from_images_finds_an_image_as_the_editors_disk_did(tmp_path):
     assert r.returncode == 3 and "Traceback" not in r.stderr, r.stdout + r.stderr
     lines = [line for line in r.stderr.splitlines() if "left a region" in line]
     assert len(lines) == 1 and "DEMO-head.png, Demo-Head.png" in lines[0], r.stderr
+
+
+# --- segment: a model that is not ours -------------------------------------------------------
+
+@pytest.mark.parametrize("change, said", [
+    (lambda c: c.update(input_size=100), "does not take the 1x3x100x100 image"),   # another model's card
+    (lambda c: c.update(input_size=10**9), "input_size is 1000000000"),            # was "not enough memory"
+    (lambda c: c.update(threshold="x"), "threshold is 'x'"),
+    (lambda c: c.update(threshold=float("nan")), "threshold is nan"),
+    (lambda c: c.update(inference={"flips": "yes"}), "inference is not an object"),
+    (lambda c: [c], "card is a JSON list"),                                          # was a traceback
+], ids=["other-size", "huge-size", "text-threshold", "nan-threshold", "text-flips", "list"])
+def test_segment_with_a_model_whose_card_is_not_ours_is_one_line(tmp_path, change, said):
+    """``segment --model`` reads the card beside the model: a card from another model, or one
+    edited by hand, ended in a traceback (onnxruntime's, a KeyError, an AttributeError), or in
+    "not enough memory" for a side of a billion; now one line naming the model or its card."""
+    import json
+    import shutil
+
+    from spinemesh.segment import DEFAULT_MODEL
+
+    shutil.copyfile(DEFAULT_MODEL, tmp_path / "other.onnx")
+    card = json.loads(DEFAULT_MODEL.with_suffix(".json").read_text("utf-8"))
+    card = change(card) or card
+    (tmp_path / "other.json").write_text(json.dumps(card), "utf-8")
+    _png(tmp_path / "art.png", 48, 40)
+    before = snapshot(tmp_path)
+    r = run_cli("segment", "art.png", "--out", "mask.png", "--mask", "model", "--model", "other.onnx", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and said in errors[0] and "other." in errors[0], r.stderr

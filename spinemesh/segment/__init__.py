@@ -34,15 +34,41 @@ class ModelError(SpineMeshError):
     """The segmentation model file is missing or unreadable."""
 
 
+#: Largest square input side a model card may ask for (the shipped model takes 224): one image
+#: at that side is a bounded allocation, whatever a card from elsewhere says.
+MAX_INPUT_SIZE = 2048
+
+
 def model_card(model_path: str | Path | None = None) -> dict:
-    """The JSON card beside a model (``<model>.json``): input size, mean, std, threshold, figures."""
+    """The JSON card beside a model (``<model>.json``): input size, mean, std, threshold, figures.
+
+    Raises
+    ------
+    ModelError
+        Naming the card, when it is missing or unreadable, or what inference reads from it
+        (``input_size``, ``threshold``, ``inference``) is not what our models' cards hold.
+    """
     path = Path(model_path or DEFAULT_MODEL).with_suffix(".json")
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        card = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ModelError("model card not found (it must sit beside the .onnx file)", path) from None
     except (OSError, ValueError) as e:
         raise ModelError(f"unreadable model card: {e}", path) from None
+    if not isinstance(card, dict):
+        raise ModelError(f"the model card is a JSON {type(card).__name__}, not an object of spinemesh's fields", path)
+    size, threshold = card.get("input_size"), card.get("threshold", 0.5)
+    if isinstance(size, bool) or not isinstance(size, int) or not 16 <= size <= MAX_INPUT_SIZE:
+        raise ModelError(f"the model card's input_size is {size!r}, not a side in pixels from 16 to "
+                         f"{MAX_INPUT_SIZE}", path)
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0 < threshold < 1:
+        raise ModelError(f"the model card's threshold is {threshold!r}, not a probability between 0 and 1", path)
+    inference = card.get("inference", {})
+    if not isinstance(inference, dict) or not all(isinstance(inference.get(k, False), bool)
+                                                  for k in ("flips", "floodfill")):
+        raise ModelError("the model card's inference is not an object whose flips and floodfill are true or false",
+                         path)
+    return card
 
 
 @lru_cache(maxsize=4)
@@ -84,11 +110,28 @@ def predict_proba(rgb: np.ndarray, model_path: str | Path | None = None, threads
     sess = _session(path, threads)
     name = sess.get_inputs()[0].name
     x = to_input(rgb[..., :3], size)[None]
-    logits = sess.run(None, {name: x})[0][0, 0]
+    logits = _logits(sess, name, x, path)
     if flips:
-        mirrored = sess.run(None, {name: np.ascontiguousarray(x[..., ::-1])})[0][0, 0]
+        mirrored = _logits(sess, name, np.ascontiguousarray(x[..., ::-1]), path)
         logits = 0.5 * (logits + mirrored[:, ::-1])
     return (1.0 / (1.0 + np.exp(-logits))).astype(np.float32)
+
+
+def _logits(sess, name: str, x: np.ndarray, path: str) -> np.ndarray:
+    """The model's logits for one input ``x`` (1, 3, S, S), as an (S, S) array; a model that
+    does not take it or gives another shape (not one of ours, or its card is another's) is refused."""
+    size = x.shape[-1]
+    try:
+        out = sess.run(None, {name: x})[0]
+    except Exception as e:  # onnxruntime raises its own exception types
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ModelError(f"the model does not take the 1x3x{size}x{size} image its card says ({first})",
+                         path) from None
+    out = np.asarray(out)
+    if out.ndim != 4 or out.shape[:2] != (1, 1) or out.shape[2:] != (size, size):
+        raise ModelError(f"the model gives an output of shape {tuple(out.shape)}, not the 1x1x{size}x{size} "
+                         "logits of spinemesh's segmentation models", path)
+    return out[0, 0]
 
 
 def combine_with_floodfill(prob: np.ndarray, rgb: np.ndarray, unsure: float = 0.25,
