@@ -153,3 +153,40 @@ def test_segment_with_a_model_whose_card_is_not_ours_is_one_line(tmp_path, chang
     check_run(r, before, tmp_path, [], codes=(2,))
     errors = [line for line in r.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and said in errors[0] and "other." in errors[0], r.stderr
+
+
+# --- diff ---------------------------------------------------------------------------------------
+
+def test_diff_says_every_artist_mesh_it_cannot_compare(tmp_path):
+    """An artist mesh of broken numbers (a vertex of 1e308, uvs cut short), in any skin, was
+    neither compared nor listed as skipped: it vanished from the report. Each is now a skipped
+    row with the field that is wrong; a skin sharing a name with the default skin is its own row."""
+    import copy
+    import json
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (demo / "demo-binary.skel").unlink()
+    upgrade_project(demo, tmp_path / "p", Options(min_saving=None, jobs=1))
+    skeleton = tmp_path / "p" / "demo.json"
+    doc = json.loads(skeleton.read_text("utf-8"))
+    meshes = doc["skins"][0]["attachments"]
+    meshes["body"]["demo-body"]["vertices"][1] = 1e308
+    meshes["ring"]["demo-ring"]["uvs"] = meshes["ring"]["demo-ring"]["uvs"][:-2]
+    doc["skins"].append({"name": "other", "attachments": {"head": {
+        "demo-head": copy.deepcopy(meshes["body"]["demo-body"]) | {"path": "demo-head"}}}})
+    skeleton.write_text(json.dumps(doc), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli("diff", "p", "--out", "d", "--methods", "default", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["d/"], codes=(0,))
+    report = json.loads((tmp_path / "d" / "report.json").read_text("utf-8"))
+    compared = {(row["slot"], row["attachment"]) for row in report["rows"]}
+    said = [(s["slot"], s["attachment"], s["reason"]) for s in report["skipped"]]
+    assert ("body", "demo-body") not in compared and ("ring", "demo-ring") not in compared
+    assert any(s[:2] == ("body", "demo-body") and "skins[0]" in s[2] for s in said), said
+    assert any(s[:2] == ("ring", "demo-ring") for s in said), said
+    assert any(s[:2] == ("head", "demo-head") and "skins[1]" in s[2] for s in said), said
+    assert ("head", "demo-head") in compared  # the default skin's head is compared still
+    assert f"{len(report['rows'])} attachments compared, {len(said)} skipped" in r.stdout

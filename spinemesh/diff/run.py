@@ -28,7 +28,7 @@ from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
 from ..project import Project, find_project, image_source_for, skeletons_to_read
-from ..skeleton import image_paths, iter_attachments, load_skeleton
+from ..skeleton import checked_attachments, image_paths, iter_attachments, load_skeleton
 from .baselines import BASELINES, baseline_mesh
 from .compare import artist_mesh, compare
 
@@ -129,9 +129,13 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
         for skel in skeletons_to_read(project.skeletons):
             doc = load_skeleton(skel)
             source = None
-            for ref in iter_attachments(doc):
+            for ref, problem in checked_attachments(doc):
                 where = {"project": project.root.name, "skeleton": skel.name, "slot": ref.slot,
                          "attachment": ref.name}
+                if problem:  # a mesh of broken numbers (a vertex of 1e308, uvs cut short) is said, not lost
+                    if ref.attachment.get("type") in ("mesh", "linkedmesh"):
+                        skipped.append({**where, "reason": problem})
+                    continue
                 if ref.type == "linkedmesh":
                     skipped.append({**where, "reason": "linkedmesh (reuses its parent's mesh)"})
                     continue
