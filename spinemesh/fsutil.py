@@ -385,6 +385,14 @@ def make_folder(folder: str | Path) -> Path:
     return folder
 
 
+def _temporary_name(name: str, token: str) -> str:
+    """``.<name>.<token>.tmp``, the name cut so that the whole stays within :data:`NAME_MAX` bytes:
+    a file whose own name is within the limit (241 to 255 bytes) is written like any other."""
+    tail = f".{token}.tmp"
+    room = NAME_MAX - 1 - len(tail.encode())
+    return "." + os.fsdecode(os.fsencode(name)[:room]) + tail
+
+
 def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:
     """Write a unique temporary file beside ``path`` by ``fill(file)``, flushed to disk, and
     list it in ``staged`` as ``(its name, path)``. It is listed before it is made: whatever
@@ -399,7 +407,7 @@ def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:
     make_folder(path.parent)
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
     for tries in range(100, 0, -1):
-        tmp = os.path.join(path.parent, f".{path.name}.{secrets.token_hex(4)}.tmp")
+        tmp = os.path.join(path.parent, _temporary_name(path.name, secrets.token_hex(4)))
         staged.append((tmp, path))
         try:
             fd = os.open(tmp, flags, 0o666)  # less the umask, as an ordinary open() makes a file

@@ -190,3 +190,27 @@ def test_diff_says_every_artist_mesh_it_cannot_compare(tmp_path):
     assert any(s[:2] == ("head", "demo-head") and "skins[1]" in s[2] for s in said), said
     assert ("head", "demo-head") in compared  # the default skin's head is compared still
     assert f"{len(report['rows'])} attachments compared, {len(said)} skipped" in r.stdout
+
+
+# --- names near the 255-byte limit ------------------------------------------------------------
+
+@pytest.mark.parametrize("stem", ["k" * 250, "é" * 122], ids=["ascii-250", "two-byte-letters"])
+def test_a_skeleton_named_near_the_limit_is_written_like_any_other(tmp_path, stem):
+    """A skeleton whose name is within the 255-byte limit (250 bytes and ``.json``) could not be
+    written: the temporary file beside it, ``.<name>.<token>.tmp``, was 14 bytes longer, and the
+    run ended on "File name too long" with the atlas copied and no skeleton. The temporary name
+    is cut to the limit (inside a two-byte letter too)."""
+    import os
+
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    name = f"{stem}.json"
+    assert 245 <= len(os.fsencode(name)) <= 255
+    os.rename(project / "demo.json", project / name)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--preview", "preview", "--report", "report.json", "--jobs", "1",
+                cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/", "preview/", "report.json"], codes=(0,))
+    assert (tmp_path / "out" / name).is_file() and (tmp_path / "preview" / "index.html").is_file()
