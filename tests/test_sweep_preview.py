@@ -60,3 +60,13 @@ def test_each_defect_kind_is_found_in_a_row_made_to_have_it(row, change, kind):
 def test_a_blank_animation_whose_setup_pose_draws_is_no_defect(row):
     blank = {"visible": [0, 0], "seen": [0, 0], "setup_visible": [9000, 9000]}
     assert sweep.defects({**row, "browser": {k: {**p, **blank} for k, p in row["browser"].items()}}) == []
+
+
+def test_what_the_player_says_of_its_own_limits_is_no_defect(row):
+    told = {"problems": ["hero: skins a, b, c, d, e not offered alone: the player offers at most 4 skins, those "
+                         "that dress the setup pose first"],
+            "notes": ["hero: Nothing to see in the setup pose: no slot shows an attachment ...",
+                      "hero: Shown at 9.5 frames a second, not 30, to keep the preview small ..."]}
+    assert sweep.defects({**row, **told}) == []
+    told["notes"].append("hero: Not as a game shows it: bone ...")
+    assert sweep.defects({**row, **told}) == ["'not as a game shows it' note"]
