@@ -214,3 +214,43 @@ def test_a_skeleton_named_near_the_limit_is_written_like_any_other(tmp_path, ste
                 cwd=tmp_path)
     check_run(r, before, tmp_path, ["out/", "preview/", "report.json"], codes=(0,))
     assert (tmp_path / "out" / name).is_file() and (tmp_path / "preview" / "index.html").is_file()
+
+
+# --- upgrade --from-images: images of other sizes and colour modes --------------------------
+
+def test_from_images_of_other_proportions_than_the_region_stay_regions(tmp_path):
+    """``--from-images`` meshes the folder's image and scales the mesh to the attachment's
+    width and height, over the region the runtime draws. An image cropped to half its height
+    was meshed without a word: its outline, stretched, lay beside the art. It now stays a region
+    with one line giving both sizes; an image at twice the size (another export scale), a
+    palette, grey-and-alpha, 16-bit, 1-bit or CMYK JPEG image is meshed as before."""
+    import json
+
+    from PIL import Image
+
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=True)
+    (project / "demo-binary.skel").unlink()
+    images = project / "images"
+    with Image.open(images / "demo-head.png") as im:
+        im.crop((0, 0, im.width, im.height // 2)).save(images / "demo-head.png")
+    with Image.open(images / "demo-body.png") as im:
+        im.resize((im.width * 2, im.height * 2)).convert("P").save(images / "demo-body.png")
+    for name, mode in (("demo-arm", "LA"), ("demo-ring", "I;16"), ("demo-blobs", "1")):
+        with Image.open(images / f"{name}.png") as im:
+            im.convert(mode).save(images / f"{name}.png")
+    with Image.open(images / "demo-spark" / "frame1.png") as im:
+        im.convert("CMYK").save(images / "demo-spark" / "frame1.jpg")
+    (images / "demo-spark" / "frame1.png").unlink()
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--from-images", "p/images", "--jobs", "1", "--min-saving", "0",
+                "--report", "report.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/", "report.json"], codes=(3,))
+    lines = [line for line in r.stderr.splitlines() if "left a region" in line]
+    assert len(lines) == 1 and "'demo-head'" in lines[0] and "90x45" in lines[0] and "90x90" in lines[0], r.stderr
+    kinds = {name: att.get("type", "region")
+             for slot in json.loads((tmp_path / "out" / "demo.json").read_text("utf-8"))["skins"][0]["attachments"].values()
+             for name, att in slot.items()}
+    assert kinds == {"demo-arm": "mesh", "demo-body": "mesh", "demo-head": "region", "demo-ring": "mesh",
+                     "demo-blobs": "mesh", "spark": "mesh"}, kinds

@@ -296,6 +296,23 @@ def needs_repack(frames: list[RegionImage], task: MeshTask) -> bool:
         tuple(f.content) != (0, 0, f.shape[1], f.shape[0]) for f in frames)
 
 
+def _unlike(image: tuple[int, int], attachment: tuple) -> str:
+    """Why an image of an images folder is another picture than its region attachment, or ``""``.
+
+    The mesh is made on the image and scaled to the attachment's width and height, over the
+    region the runtime draws: an image of other proportions (trimmed, cropped, another
+    drawing) would put the outline beside the art. Another scale of the same proportions (a 2x
+    export) fits; a pixel of rounding on either side is allowed.
+    """
+    (iw, ih), (aw, ah) = image, attachment
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in (aw, ah)):
+        return ""
+    if abs(ih * aw / iw - ah) <= max(1.0, 0.01 * ah) and abs(iw * ah / ih - aw) <= max(1.0, 0.01 * aw):
+        return ""
+    return (f"its image is {iw}x{ih}, other proportions than the attachment's {aw:g}x{ah:g}: another picture "
+            "than the region drawn, which its mesh would not fit")
+
+
 @dataclass
 class Planner:
     """Plans skeletons one after another, sharing what they share.
@@ -317,7 +334,7 @@ class Planner:
     #: ``--repack``: atlas path -> names of the regions to store untrimmed.
     untrimmed: dict[Path, set[str]] = field(default_factory=dict)
     #: Targets read but not decided yet (:meth:`read_skeleton`), with what deciding needs:
-    #: ``(target, source, paths, blend, bends)``, in the order read.
+    #: ``(target, source, paths, blend, bends, (width, height) of the attachment)``, in the order read.
     undecided: list[tuple] = field(default_factory=list)
     #: ``--weights auto``: targets decided to be meshed whose art may bend, each with its test
     #: (``bends(art_box)``), in the order read: tested once meshed (:mod:`.bending`)
@@ -326,7 +343,7 @@ class Planner:
     def pages_to_decode(self) -> list[Path]:
         """The atlas page files :meth:`decide` will cut from, in the order it will first cut them."""
         pages: dict[Path, None] = {}
-        for _, source, paths, _, _ in self.undecided:
+        for _, source, paths, *_ in self.undecided:
             if hasattr(source, "page_files"):  # AtlasImages; an images folder has no pages
                 pages.update(dict.fromkeys(source.page_files(paths)))
         return list(pages)
@@ -334,8 +351,14 @@ class Planner:
     def decide(self) -> None:
         """Decide every target read and not decided yet, in the order read (images cut here)."""
         undecided, self.undecided = self.undecided, []
-        for t, source, paths, blend, bends in undecided:
+        for t, source, paths, blend, bends, size in undecided:
+            held = set(self.tasks)
             t.status, t.reason, t.key = self._decide(source, paths, blend)
+            unlike = t.key and isinstance(source, images.FolderImages) and _unlike(self.found[t.key].size, size)
+            if unlike:  # another picture than the region the runtime draws: its mesh would not fit it
+                if t.key not in held:
+                    del self.tasks[t.key]
+                t.status, t.reason, t.key = "failed", unlike, ""
             if bends is not None and t.key:
                 self.may_bend.append((t, bends))
 
@@ -376,7 +399,8 @@ class Planner:
             else:
                 # only with a keep rule on saving (min_saving > 0): without it every region is meshed
                 bends = partial(bending.bends, ref) if bending is not None and self.options.min_saving else None
-                self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends))
+                size = (ref.attachment.get("width"), ref.attachment.get("height"))
+                self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends, size))
         return targets
 
     def _decide(self, source, paths: list[str], blend: str = "normal") -> tuple[str, str, str]:
