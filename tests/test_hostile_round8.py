@@ -254,3 +254,43 @@ def test_from_images_of_other_proportions_than_the_region_stay_regions(tmp_path)
              for name, att in slot.items()}
     assert kinds == {"demo-arm": "mesh", "demo-body": "mesh", "demo-head": "region", "demo-ring": "mesh",
                      "demo-blobs": "mesh", "spark": "mesh"}, kinds
+
+
+# --- passed as they were, kept as tests ----------------------------------------------------------
+
+@pytest.mark.parametrize("options, code, said", [
+    (["--only", "zzz*"], 2, "not matched by --only"),
+    (["--only", "[demo"], 2, "not matched by --only"),          # regex-like text is a glob, matching nothing
+    (["--exclude", "*"], 2, "matched by --exclude"),
+    (["--only", "*", "--exclude", "demo-head"], 0, "matched by --exclude"),
+    (["--min-size", "1e308"], 0, "smaller than --min-size"),
+    (["--min-size", "inf"], 2, "must be a finite number"),
+    (["--min-size", "nan"], 2, "must be a finite number"),
+], ids=["only-nothing", "only-bracket", "exclude-all", "only-all-exclude-most", "min-size-huge", "min-size-inf",
+        "min-size-nan"])
+def test_selection_options_at_their_extremes(tmp_path, options, code, said):
+    """``--only``/``--exclude``/``--min-size`` matching nothing or everything, regex-like text, a
+    size of 1e308, inf or NaN: the exit status the help promises and the reason said."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--jobs", "1", *options, cwd=tmp_path)
+    text = r.stdout + r.stderr
+    assert r.returncode == code and said in text and "Traceback" not in text, text
+    assert {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("out/")} == before
+
+
+@pytest.mark.parametrize("command", [
+    ["diff", "p", "--out", "p/d"], ["dataset", "p", "--out", "p/ds"], ["mesh", "p", "--out", "p/m"],
+    ["info", "p/demo.atlas"], ["info", "p/demo.png"],
+], ids=["diff-inside", "dataset-inside", "mesh-inside", "info-atlas", "info-image"])
+def test_other_commands_refuse_in_one_line(tmp_path, command):
+    """Outputs inside their input, ``info`` of a file that is no skeleton: one line, nothing written."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    before = snapshot(tmp_path)
+    r = run_cli(*command, cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert len([line for line in r.stderr.splitlines() if line.startswith("error:")]) == 1, r.stderr
