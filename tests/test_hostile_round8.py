@@ -294,3 +294,35 @@ def test_other_commands_refuse_in_one_line(tmp_path, command):
     r = run_cli(*command, cwd=tmp_path)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert len([line for line in r.stderr.splitlines() if line.startswith("error:")]) == 1, r.stderr
+
+
+# --- info ----------------------------------------------------------------------------------------
+
+def test_info_counts_and_says_the_attachments_it_cannot_use(tmp_path):
+    """``info`` counted only the attachments it could use: regions whose width is text, whose x
+    is "1e999", and 30 in another skin whose height is text vanished from the count, exit 0 and
+    "every attachment image was found". They are counted and each is a problem line naming its
+    field (exit 3, as for an unreadable skeleton); past 20, one line counts the rest."""
+    import copy
+    import json
+
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    skeleton = project / "demo.json"
+    doc = json.loads(skeleton.read_text("utf-8"))
+    regions = doc["skins"][0]["attachments"]
+    regions["body"]["demo-body"]["width"] = "wide"
+    regions["head"]["demo-head"]["x"] = "1e999"
+    doc["skins"].append({"name": "crowd", "attachments": {
+        f"slot{i}": {"demo-ring": copy.deepcopy(regions["ring"]["demo-ring"]) | {"height": "tall"}} for i in range(30)}})
+    skeleton.write_text(json.dumps(doc), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli("info", "p", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(3,))
+    problems = [line for line in r.stderr.splitlines() if line.startswith("problem:")]
+    assert any("skins[0].attachments.body.demo-body.width" in line for line in problems), r.stderr
+    assert any("skins[0].attachments.head.demo-head.x" in line for line in problems), r.stderr
+    assert len(problems) == 20 + 1 and "12 more attachments that cannot be used" in problems[-1], r.stderr
+    assert "total           │    36" in r.stdout.replace("┃", "│"), r.stdout

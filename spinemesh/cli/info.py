@@ -9,12 +9,15 @@ import typer
 from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 from ._app import Annotated, app, console, err_console
 
+#: Attachments that cannot be used said one by one per skeleton; the rest are counted in one line.
+MAX_UNUSABLE_SAID = 20
+
 
 @app.command()
 def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder or skeleton file (.json/.skel).")]) -> None:
     """Show the Spine version, attachments by type, atlas pages and regions, and missing images.
 
-    Exits with 2 when no skeleton was found, 3 when a skeleton or atlas could not be read.
+    Exits with 2 when no skeleton was found, 3 when a skeleton, an attachment or atlas could not be read.
 
     \b
     Example: spinemesh info project/
@@ -27,7 +30,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
 
     from ..errors import SpineMeshError
     from ..project import find_project, image_source_for, project_atlases
-    from ..skeleton import image_paths, iter_attachments, load_skeleton, spine_version
+    from ..skeleton import checked_attachments, image_paths, load_skeleton, spine_version
 
     proj = find_project(project)
     atlases = project_atlases(proj)
@@ -48,8 +51,15 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
         except SpineMeshError as e:
             proj.problems.append(f"unreadable skeleton: {e}")
             continue
-        refs = list(iter_attachments(doc))
-        counts = Counter(r.type for r in refs)
+        checked = list(checked_attachments(doc))
+        refs = [r for r, problem in checked if not problem]
+        # an attachment of broken numbers is counted and said, not lost (upgrade fails it alike)
+        unusable = [f"{path}: {problem}" for _, problem in checked if problem]
+        proj.problems += unusable[:MAX_UNUSABLE_SAID]
+        if len(unusable) > MAX_UNUSABLE_SAID:
+            proj.problems.append(f"{path}: ... and {len(unusable) - MAX_UNUSABLE_SAID:,} more attachments "
+                                 "that cannot be used")
+        counts = Counter(str(r.type) for r, _ in checked)
         source = image_source_for(doc, path, proj)
         missing = set()
         for r in refs:
@@ -67,7 +77,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
         t.add_column("count", justify="right")
         for kind, n in sorted(counts.items()):
             t.add_row(escape(str(kind)), str(n))
-        t.add_row("[bold]total[/]", str(len(refs)))
+        t.add_row("[bold]total[/]", str(len(checked)))
         console.print(t)
         if missing:
             console.print(f"[yellow]{len(missing)} attachment image(s) not found:[/]")
