@@ -326,3 +326,30 @@ def test_info_counts_and_says_the_attachments_it_cannot_use(tmp_path):
     assert any("skins[0].attachments.head.demo-head.x" in line for line in problems), r.stderr
     assert len(problems) == 20 + 1 and "12 more attachments that cannot be used" in problems[-1], r.stderr
     assert "total           │    36" in r.stdout.replace("┃", "│"), r.stdout
+
+
+# --- dataset -------------------------------------------------------------------------------------
+
+def test_dataset_counts_the_attachments_it_cannot_use(tmp_path):
+    """A data set left an attachment of broken fields (a mesh vertex of 1e308, a region width of
+    text) out without a word, in neither ``samples`` nor ``skipped``: the project's row counts them
+    now, and its other images are extracted."""
+    import json
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (demo / "demo-binary.skel").unlink()
+    upgrade_project(demo, tmp_path / "corpus" / "p", Options(min_saving=None, jobs=1))
+    skeleton = tmp_path / "corpus" / "p" / "demo.json"
+    doc = json.loads(skeleton.read_text("utf-8"))
+    doc["skins"][0]["attachments"]["body"]["demo-body"]["vertices"][1] = 1e308
+    doc["skins"][0]["attachments"]["ring"]["demo-ring"] = {"width": "wide", "height": 10}
+    skeleton.write_text(json.dumps(doc), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli("dataset", "corpus", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["ds/"], codes=(0, 3))
+    row = json.loads((tmp_path / "ds" / "projects.jsonl").read_text("utf-8").splitlines()[-1])
+    assert row["skipped"].get("attachment of unusable fields") == 2, row
+    assert row["samples_found"] >= 4, row

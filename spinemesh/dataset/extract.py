@@ -24,7 +24,7 @@ from ..images import content_id as image_content_id
 from ..memory import image_memory
 from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
                        images_folder_for, needed_images, project_atlases, project_pages, skeletons_to_read)
-from ..skeleton import (AttachmentRef, image_paths, iter_attachments,
+from ..skeleton import (AttachmentRef, checked_attachments, image_paths,
                         iter_skins, linked_source, load_skeleton, spine_version)
 from .format import VAL_FRACTION, crop, encode_mesh, encode_png, mask_of, tight_box
 
@@ -290,7 +290,11 @@ def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult)
     # images are at skeleton size), so images it has are read from it at full size.
     originals = images_folder_for(doc, skel, project) if isinstance(source, AtlasImages) else None
     originals = FolderImages(originals) if originals is not None else None
-    for ref in iter_attachments(doc):
+    for ref, problem in checked_attachments(doc):
+        if problem:  # counted, not lost: a mesh of broken numbers says nothing true of its art
+            if ref.attachment.get("type", "region") in ("region", "mesh", "linkedmesh"):
+                result.skip("attachment of unusable fields")
+            continue
         mesh = None
         if ref.type == "mesh":
             mesh = ref.attachment
