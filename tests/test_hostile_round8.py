@@ -353,3 +353,28 @@ def test_dataset_counts_the_attachments_it_cannot_use(tmp_path):
     row = json.loads((tmp_path / "ds" / "projects.jsonl").read_text("utf-8").splitlines()[-1])
     assert row["skipped"].get("attachment of unusable fields") == 2, row
     assert row["samples_found"] >= 4, row
+
+
+def test_preview_pages_of_skeletons_named_apart_by_case_only_are_two_files_everywhere(tmp_path):
+    """``Hero.json`` and ``hero.json`` in one project got ``s/Hero.html`` and ``s/hero.html`` and
+    two data folders of those names: one page and one folder, the other's files mixed in, once
+    the preview is copied to a macOS or Windows disk. Each page and folder is its own there."""
+    import os
+    import shutil
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.fsutil import portable_name
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    shutil.copyfile(project / "demo.json", project / "Hero.json")
+    os.rename(project / "demo.json", project / "hero.json")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--preview", "preview", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/", "preview/"], codes=(0,))
+    for folder in ("s", "data"):
+        names = [p.name for p in (tmp_path / "preview" / folder).iterdir()]
+        assert len(names) == 2 and len({portable_name(n) for n in names}) == 2, names
+    index = (tmp_path / "preview" / "index.html").read_text("utf-8")
+    for page in (tmp_path / "preview" / "s").iterdir():
+        assert f'href="s/{page.name}"' in index

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError, SpineMeshError
-from ..fsutil import file_stamp
+from ..fsutil import file_stamp, portable_name
 from ..player import PLAYER_CSS, PreviewFolder, safe_name
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
@@ -851,9 +851,10 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             continue
         mine = targets.get(sk.rel, [])
         pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
-        while pid in used_ids:
+        # Hero.json and hero.json: one page and one data folder on a macOS or Windows disk
+        while portable_name(pid) in used_ids:
             pid += "_"
-        used_ids.add(pid)
+        used_ids.add(portable_name(pid))
         if sk.rel in docs:
             pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
     told = _Steps(len(skeletons) + sum(_animation_count(docs[rel][1]) for rel in pages), on_progress, on_skeleton)
