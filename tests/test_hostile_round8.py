@@ -378,3 +378,18 @@ def test_preview_pages_of_skeletons_named_apart_by_case_only_are_two_files_every
     index = (tmp_path / "preview" / "index.html").read_text("utf-8")
     for page in (tmp_path / "preview" / "s").iterdir():
         assert f'href="s/{page.name}"' in index
+
+
+def test_a_new_page_is_never_named_as_a_page_of_another_case():
+    """An atlas of pages ``hero.png`` and ``Hero-2.png`` whose first page packs onto two pages
+    named the new one ``hero-2.png``: beside ``Hero-2.png``, one file on a macOS or Windows disk,
+    one page's texels lost there. The new page takes the next name free on every disk."""
+    from spinemesh.atlas import parse_atlas
+    from spinemesh.pack.atlas_pack import _page_name
+
+    page = "{}\nsize: 64,64\nformat: RGBA8888\nfilter: Linear,Linear\nrepeat: none\n{}\n  bounds: 0,0,8,8\n"
+    atlas = parse_atlas(page.format("hero.png", "a") + "\n" + page.format("Hero-2.png", "b"))
+    assert [p.name for p in atlas.pages] == ["hero.png", "Hero-2.png"]
+    assert _page_name(atlas, [0], 0, set()) == "hero.png"
+    assert _page_name(atlas, [0], 1, set()) == "hero-3.png"
+    assert _page_name(atlas, [0], 1, {"HERO-3.png"}) == "hero-4.png"

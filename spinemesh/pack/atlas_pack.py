@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
+from ..fsutil import portable_name
 from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
 from .place import PAGE_SHAPES, _grow, fill_pages
 from .uses import RegionUses, rectangle_reason
@@ -829,7 +830,8 @@ def _page_name(atlas: Atlas, page_indices: list[int], index: int, taken: set[str
     if not dot:
         stem, ext = base, "png"
     n = index + 1
-    names = {p.name for p in atlas.pages} | taken
-    while f"{stem}-{n}.{ext}" in names:
+    # Hero-2.png beside hero.png's second page: one file on a macOS or Windows disk
+    names = {portable_name(name) for name in {p.name for p in atlas.pages} | taken}
+    while portable_name(f"{stem}-{n}.{ext}") in names:
         n += 1
     return f"{stem}-{n}.{ext}"
