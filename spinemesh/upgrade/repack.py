@@ -22,6 +22,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry
+from ..fsutil import portable_name
 from ..images import cut_region
 
 #: Transparent texels around each re-packed region (bilinear sampling never reaches a neighbour).
@@ -113,8 +114,9 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
     page_pixels : callable
         ``page_pixels(page_index)`` -> (H, W, 4) uint8, the page's texels as stored.
     taken : set of str, optional
-        File names the new pages may not take, lower case (files beside the atlas, in the
-        project and in the output folder: another atlas of the same stem writes its pages there).
+        File names the new pages may not take, as :func:`.fsutil.portable_name` gives them (one
+        file on every disk; files beside the atlas, in the project and in the output folder:
+        another atlas of the same stem writes its pages there).
 
     Returns
     -------
@@ -128,7 +130,7 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
     if not moved:
         return out, []
     stem = PurePosixPath(atlas.path.name if atlas.path else "atlas").name.split(".")[0]
-    taken = {p.name.lower() for p in out.pages} | set(taken)
+    taken = {portable_name(p.name) for p in out.pages} | set(taken)
     indent = next((e.indent for r in out.regions for e in r.entries), "  " if out.syntax == "3" else "\t")
     new_pages: list[NewPage] = []
     for old_index in sorted({r.page for r in moved}):
@@ -140,10 +142,10 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
         for k, (w, h) in enumerate(sizes):
             n = len(new_pages) + 1
             name = f"{stem}-untrimmed-{n}.png"
-            while name.lower() in taken:
+            while portable_name(name) in taken:
                 n += 1
                 name = f"{stem}-untrimmed-{n}.png"
-            taken.add(name.lower())
+            taken.add(portable_name(name))
             template: AtlasPage = out.pages[old_index]
             entries = [Entry(e.key, [str(w), str(h)] if e.key == "size" else list(e.values), e.indent, e.sep, e.colon)
                        for e in template.entries]
@@ -201,7 +203,7 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
     rel = atlas_path.relative_to(project_root)
     # two atlases of one stem (x.atlas, x.2.atlas) would name their new pages alike: the names of
     # every file beside the atlas, in the project and in the output (pages re-packed before), are taken
-    taken = {f.name.lower() for folder in (atlas_path.parent, out / rel.parent) if folder.is_dir()
+    taken = {portable_name(f.name) for folder in (atlas_path.parent, out / rel.parent) if folder.is_dir()
              for f in folder.iterdir()}
     repacked, pages = repack_atlas(
         atlas, names, lambda i: load_rgba(AtlasImages.page_path(atlas, atlas.pages[i].name, project_root)), taken)
