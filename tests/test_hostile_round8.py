@@ -393,3 +393,23 @@ def test_a_new_page_is_never_named_as_a_page_of_another_case():
     assert _page_name(atlas, [0], 0, set()) == "hero.png"
     assert _page_name(atlas, [0], 1, set()) == "hero-3.png"
     assert _page_name(atlas, [0], 1, {"HERO-3.png"}) == "hero-4.png"
+
+
+def test_diff_of_one_project_given_twice_compares_it_once(tmp_path):
+    """``diff p p/demo.json ./p/`` compared every artist mesh three times and said so (three
+    times the attachments, each row thrice in the report): each skeleton is compared once."""
+    import json
+
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (demo / "demo-binary.skel").unlink()
+    upgrade_project(demo, tmp_path / "p", Options(min_saving=None, jobs=1))
+    r = run_cli("diff", "p", "--out", "once", "--methods", "default", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    before = snapshot(tmp_path)
+    r = run_cli("diff", "p", "p/demo.json", "./p/", "--out", "thrice", "--methods", "default", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["thrice/"], codes=(0,))
+    rows = [json.loads((tmp_path / d / "report.json").read_text("utf-8"))["rows"] for d in ("once", "thrice")]
+    assert len(rows[1]) == len(rows[0]) == 6, [len(r) for r in rows]

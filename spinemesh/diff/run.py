@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..fsutil import real
 from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
@@ -124,9 +125,13 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
         ``{"project", "skeleton", "slot", "attachment", "reason"}``.
     """
     tasks, skipped = [], []
+    seen: set[Path] = set()  # one project given twice (p p, p p/hero.json) is compared once
     for path in paths:
         project = find_project(path)
         for skel in skeletons_to_read(project.skeletons):
+            if real(skel) in seen:
+                continue
+            seen.add(real(skel))
             doc = load_skeleton(skel)
             source = None
             for ref, problem in checked_attachments(doc):
