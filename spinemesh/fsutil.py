@@ -60,6 +60,12 @@ def check_name_lengths(path: str | Path, source: str | Path | None = None, what:
                               source or None)
 
 
+def as_written(relative: str) -> str:
+    """A path as a project file names it, with a Windows export's backslashes as the folder
+    separators they are there: where :func:`resolve_inside` reads it, and where it is written."""
+    return relative.replace("\\", "/")
+
+
 def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None,
                    what: str = "project folder") -> Path:
     """Join ``relative`` to ``root`` and refuse any result outside ``root``.
@@ -81,7 +87,7 @@ def resolve_inside(root: str | Path, relative: str, source: str | Path | None = 
         If ``relative`` is absolute or climbs out of ``root`` (``../``), also through symlinks.
     """
     root = real(root)
-    rel = relative.replace("\\", "/")
+    rel = as_written(relative)
     if "\x00" in rel:
         raise UnsafePathError(f"path {relative!r} holds a NUL character", source or root)
     if os.path.isabs(rel) or (len(rel) > 1 and rel[1] == ":"):

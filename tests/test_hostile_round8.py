@@ -413,3 +413,28 @@ def test_diff_of_one_project_given_twice_compares_it_once(tmp_path):
     check_run(r, before, tmp_path, ["thrice/"], codes=(0,))
     rows = [json.loads((tmp_path / d / "report.json").read_text("utf-8"))["rows"] for d in ("once", "thrice")]
     assert len(rows[1]) == len(rows[0]) == 6, [len(r) for r in rows]
+
+
+@pytest.mark.parametrize("command", [["pack", "p", "--out", "out"],
+                                     ["upgrade", "p", "--out", "out", "--pack", "--jobs", "1"]], ids=["pack", "upgrade-pack"])
+def test_a_page_named_with_a_backslash_is_written_where_it_was_read(tmp_path, command):
+    """An atlas exported on Windows names its page ``pages\\demo.png``: read from
+    ``pages/demo.png``, its packed page was written to a file named ``pages\\demo.png`` at the top
+    of the output (a name Windows cannot hold), ``pages/`` left without it. It is written to
+    ``pages/demo.png``, under the name the atlas says, as it was read."""
+    import os
+
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    (project / "pages").mkdir()
+    os.rename(project / "demo.png", project / "pages" / "demo.png")
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text("utf-8").replace("demo.png", "pages\\demo.png"), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli(*command, cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/"], codes=(0,))
+    written = [p.relative_to(tmp_path / "out").as_posix() for p in (tmp_path / "out").rglob("*") if p.is_file()]
+    assert "pages/demo.png" in written and not any("\\" in name for name in written), written
+    assert (tmp_path / "out" / "demo.atlas").read_text("utf-8").startswith("pages\\demo.png"), written

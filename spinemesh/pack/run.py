@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_copy, atomic_write_files, atomic_write_json, utf8
+from ..fsutil import as_written, atomic_copy, atomic_write_files, atomic_write_json, utf8
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
 from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
@@ -1099,7 +1099,8 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
         result.atlases.append(row)
         return
     dest = out / job.path.relative_to(proj.root)
-    files = {dest.parent / name: data for name, data in outcome.encoded.items()}
+    # pages\hero.png (a Windows export) is written where it was read: pages/hero.png
+    files = {dest.parent / as_written(name): data for name, data in outcome.encoded.items()}
     try:
         if outcome.text is not None:
             files[dest] = utf8(outcome.text, dest)
@@ -1117,7 +1118,7 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
     skip.add(job.path.resolve())
     skip.update(f.resolve() for f in job.files)
     if in_place:  # pages the packed atlas no longer names were dropped
-        kept = {(dest.parent / n).resolve() for n in outcome.encoded}
+        kept = {(dest.parent / as_written(n)).resolve() for n in outcome.encoded}
         for f in set(job.files):
             if f.resolve() not in kept:
                 f.unlink(missing_ok=True)
