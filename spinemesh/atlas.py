@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import AtlasError, LimitError, SpineMeshError
+from .fsutil import as_written
 from .limits import MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_file_size, check_image_size
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
@@ -241,7 +242,7 @@ def page_mismatches(atlas: "Atlas", image_sizes: list[tuple[int, int] | None]) -
     found: list[PageMismatch] = []
     first: dict[str, AtlasPage] = {}
     for page, size in zip(atlas.pages, image_sizes):
-        key = page.name.replace("\\", "/")
+        key = as_written(page.name)
         other = first.setdefault(key, page)
         if other is not page:
             same = [e for e in other.entries if e.key != "size"] == [e for e in page.entries if e.key != "size"]

@@ -106,7 +106,7 @@ def portable_name(relative: str | Path) -> str:
     name's trailing dots and spaces and reads a backslash as a folder: ``Hero.png``, ``hero.png``,
     ``héro`` in NFC or NFD, ``arm.`` and ``arm`` are each one file there, two on Linux.
     """
-    parts = str(relative).replace("\\", "/").split("/")
+    parts = as_written(str(relative)).split("/")
     return "/".join(unicodedata.normalize("NFC", part).rstrip(" .").casefold() for part in parts)
 
 
