@@ -303,6 +303,25 @@ def refuse_overlapping_outputs(out: Path, others: dict) -> None:
                               "beside it", path)
 
 
+def refuse_one_output_twice(paths: Iterable[str | Path | None]) -> None:
+    """Refuse two outputs (files, or folders writing the same names) that are one: on this disk,
+    or on a macOS or Windows one (:func:`portable_name`); the second would replace the first.
+
+    Raises
+    ------
+    OutputError
+        Naming both.
+    """
+    given: dict[str, str | Path] = {}
+    for path in paths:
+        if path is None:
+            continue
+        other = given.setdefault(portable_name(real(path)), path)
+        if other is not path:
+            where = "" if real(other) == real(path) else " on a macOS or Windows disk"
+            raise OutputError(f"{other} and {path} are the same path{where}: give each output its own name", path)
+
+
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
                   folders: Iterable[str | Path | None] = (), preview: str | Path | None = None,
                   images: str | Path | None = None) -> None:
@@ -323,6 +342,7 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
     for file in files:
         if file is not None:
             guard.check(file)
+    refuse_one_output_twice(files)
     check_written_folder(preview)
     check_written_folder(images, "--images folder", "images")
 

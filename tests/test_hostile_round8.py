@@ -438,3 +438,20 @@ def test_a_page_named_with_a_backslash_is_written_where_it_was_read(tmp_path, co
     written = [p.relative_to(tmp_path / "out").as_posix() for p in (tmp_path / "out").rglob("*") if p.is_file()]
     assert "pages/demo.png" in written and not any("\\" in name for name in written), written
     assert (tmp_path / "out" / "demo.atlas").read_text("utf-8").startswith("pages\\demo.png"), written
+
+
+@pytest.mark.parametrize("folder, options", [
+    (False, ["--out", "m.json", "--preview", "a.png", "--steps", "a.png"]),
+    (False, ["--out", "m.json", "--preview", "b.png", "--steps", "B.png"]),
+    (False, ["--out", "m.json", "--preview", "m.json"]),
+    (True, ["--out", "meshes", "--preview", "pictures", "--steps", "Pictures"]),
+], ids=["same-file", "same-file-but-case", "preview-over-mesh", "same-folder-but-case"])
+def test_mesh_never_writes_two_of_its_outputs_to_one_file(tmp_path, folder, options):
+    """``mesh hero.png --preview a.png --steps a.png`` said "wrote m.json, a.png, a.png" and left
+    the steps alone; ``b.png`` and ``B.png`` do the same on a macOS or Windows disk, as two
+    folders whose names differ by case: one line naming both, nothing written."""
+    _png(tmp_path / "art" / "hero.png", 40, 40)
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art" if folder else "art/hero.png", *options, cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "are the same path" in r.stderr, r.stderr

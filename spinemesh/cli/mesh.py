@@ -88,12 +88,13 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
-    from ..fsutil import check_outputs
+    from ..fsutil import check_outputs, refuse_one_output_twice
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
     if image.is_dir():
         check_outputs([image], folders=[target, preview, steps])
+        refuse_one_output_twice([preview, steps])  # both write <image>.png: one folder would keep the steps alone
         _mesh_folder(image, target, preview, steps, preset.value, overrides)
     else:
         check_outputs([image], files=[target, preview, steps])
