@@ -1098,6 +1098,19 @@ class AtlasImages:
             found = self._page_files[key] = self.page_path(atlas, atlas.pages[page_index].name, self.root)
         return found
 
+    def _alike(self, name: str) -> str:
+        """For a name no region has: the regions named so but for case or Unicode form (a project
+        moved between macOS, Windows and Linux), which runtimes do not match either; or ``""``."""
+        if getattr(self, "_portable", None) is None:
+            self._portable: dict[str, list[str]] = {}
+            for other in self._index:
+                self._portable.setdefault(portable_name(other), []).append(other)
+        alike = self._portable.get(portable_name(name), [])
+        if not alike:
+            return ""
+        return (f"; the atlas has {', '.join(map(repr, alike[:3]))}, other in case or Unicode form only, which "
+                "runtimes do not match either")
+
     def get(self, name: str, coverage: bool = True) -> RegionImage:
         """The original-size image of region ``name``. Raises :class:`ImageError` if absent.
 
@@ -1107,7 +1120,8 @@ class AtlasImages:
         """
         found = self._index.get(name)
         if found is None:
-            raise ImageError(f"no atlas region named {name!r}", self.atlases[0].path if self.atlases else None)
+            raise ImageError(f"no atlas region named {name!r}{self._alike(name)}",
+                             self.atlases[0].path if self.atlases else None)
         atlas, region = found
         page_path = self.page_file(atlas, region.page)
         page = atlas.pages[region.page]

@@ -455,3 +455,22 @@ def test_mesh_never_writes_two_of_its_outputs_to_one_file(tmp_path, folder, opti
     r = run_cli("mesh", "art" if folder else "art/hero.png", *options, cwd=tmp_path)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert "are the same path" in r.stderr, r.stderr
+
+
+def test_a_region_named_apart_by_case_or_unicode_form_only_is_said_so(tmp_path):
+    """A skeleton names ``démo-head`` (NFC) where its atlas, saved on macOS, says it in NFD, and
+    ``demo-body`` where the atlas says ``Demo-Body``: runtimes match names exactly and find
+    neither, so both stay regions, but the line said only "no atlas region named": it names the
+    region that differs in case or Unicode form only."""
+    project = _renamed_demo(tmp_path / "p", {})
+    atlas, skeleton = project / "demo.atlas", project / "demo.json"
+    atlas.write_text(atlas.read_text("utf-8").replace("demo-head", unicodedata.normalize("NFD", "démo-head"))
+                     .replace("demo-body", "Demo-Body"), "utf-8")
+    skeleton.write_text(skeleton.read_text("utf-8").replace("demo-head", unicodedata.normalize("NFC", "démo-head")),
+                        "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/"], codes=(3,))
+    lines = [line for line in r.stderr.splitlines() if "left a region" in line]
+    assert len(lines) == 2 and all("other in case or Unicode form only" in line for line in lines), r.stderr
+    assert any("'Demo-Body'" in line for line in lines), r.stderr
