@@ -474,3 +474,22 @@ def test_a_region_named_apart_by_case_or_unicode_form_only_is_said_so(tmp_path):
     lines = [line for line in r.stderr.splitlines() if "left a region" in line]
     assert len(lines) == 2 and all("other in case or Unicode form only" in line for line in lines), r.stderr
     assert any("'Demo-Body'" in line for line in lines), r.stderr
+
+
+@pytest.mark.parametrize("pattern", [unicodedata.normalize("NFC", "café*"), "arms/*"],
+                         ids=["nfc-pattern", "slash-pattern"])
+def test_only_matches_names_from_another_platform(tmp_path, pattern):
+    """``--only 'café*'`` typed on Linux (NFC) matched no region a macOS export names in NFD, and
+    ``--only 'arms/*'`` no image path a Windows export writes ``arms\\left``: every region was
+    kept, exit 2. The pattern matches the same letters in either form, and backslashes as the
+    folders they are."""
+    import json
+
+    _renamed_demo(tmp_path / "p", {"demo-head": unicodedata.normalize("NFD", "café-head"),
+                                   "demo-body": "arms\\left"})
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "out", "--jobs", "1", "--min-saving", "0", "--only", pattern, cwd=tmp_path)
+    check_run(r, before, tmp_path, ["out/"], codes=(0,))
+    meshed = {name for slot in json.loads((tmp_path / "out" / "demo.json").read_text("utf-8"))["skins"][0]
+              ["attachments"].values() for name, att in slot.items() if att.get("type") == "mesh"}
+    assert len(meshed) == 1, meshed

@@ -7,9 +7,11 @@ test (the user's own filters), :meth:`Options.mesh_settings` part of every mesh'
 from __future__ import annotations
 
 import fnmatch
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..fsutil import as_written
 from ..mesher.worth import DEFAULT_MIN_SAVING
 from ..pack.atlas_pack import PageRules
 from ..skeleton import AttachmentRef
@@ -57,8 +59,14 @@ def mask_source_for_upgrade(mask: str) -> str:
 
 
 def _matches(patterns: list[str], ref: AttachmentRef, paths: list[str]) -> bool:
-    names = [ref.slot, ref.name, *paths]
-    return any(fnmatch.fnmatchcase(n, p) for p in patterns for n in names)
+    # in one Unicode form (a name from macOS is NFD, one typed elsewhere NFC: the same letters),
+    # an image path's backslashes (a Windows export) as the folders they are
+    names = [_nfc(n) for n in (ref.slot, ref.name, *paths, *map(as_written, paths))]
+    return any(fnmatch.fnmatchcase(n, _nfc(p)) for p in patterns for n in names)
+
+
+def _nfc(text: str) -> str:
+    return unicodedata.normalize("NFC", str(text))
 
 
 def skip_reason(ref: AttachmentRef, paths: list[str], options: Options) -> str:
