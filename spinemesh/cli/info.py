@@ -69,7 +69,6 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
                 proj.problems.append(f"{path}: skin {r.skin!r} slot {r.slot!r} attachment {r.name!r}: {e}")
                 continue
             missing |= {(r.skin, r.slot, r.name, p) for p in paths if source is None or p not in source}
-        missing = sorted(missing)
         console.print(f"\n[bold]{escape(str(path.relative_to(proj.root)))}[/]  "
                       + escape(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source)}"))
         t = Table()
@@ -79,28 +78,33 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
             t.add_row(escape(str(kind)), str(n))
         t.add_row("[bold]total[/]", str(len(checked)))
         console.print(t)
-        if missing:
-            console.print(f"[yellow]{len(missing)} attachment image(s) not found:[/]")
-            for skin, slot, name, p in missing[:50]:
-                console.print(f"  skin {skin!r} slot {slot!r} attachment {name!r}: image {p!r}", markup=False)
-            if len(missing) > 50:
-                console.print(f"  ... and {len(missing) - 50} more")
-        else:
-            unreadable = _unreadable_pages(source, proj.root)
-            if unreadable:
-                console.print(f"[yellow]every attachment's page is present, but {len(unreadable)} page(s) cannot "
-                              "be read:[/]")
-                for line in unreadable:
-                    console.print(f"  {line}", markup=False)
-                proj.problems += [line for line in unreadable if line not in proj.problems]
-            else:
-                console.print("every attachment image was found")
+        _say_images(missing, source, proj)
     for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
         err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
     for warning in proj.warnings:  # pages runtimes draw differently (spinemesh.atlas.page_mismatches)
         err_console.print(f"warning: {warning}", markup=False, highlight=False, soft_wrap=True)
     if proj.problems:
         raise typer.Exit(EXIT_PARTIAL)
+
+
+def _say_images(missing: set, source, proj) -> None:
+    """The images a skeleton's attachments name that are not found (``missing``: skin, slot,
+    attachment, image), else its atlases' pages that are not whole images (each also a problem)."""
+    if missing:
+        console.print(f"[yellow]{len(missing)} attachment image(s) not found:[/]")
+        for skin, slot, name, p in sorted(missing)[:50]:
+            console.print(f"  skin {skin!r} slot {slot!r} attachment {name!r}: image {p!r}", markup=False)
+        if len(missing) > 50:
+            console.print(f"  ... and {len(missing) - 50} more")
+        return
+    unreadable = _unreadable_pages(source, proj.root)
+    if not unreadable:
+        console.print("every attachment image was found")
+        return
+    console.print(f"[yellow]every attachment's page is present, but {len(unreadable)} page(s) cannot be read:[/]")
+    for line in unreadable:
+        console.print(f"  {line}", markup=False)
+    proj.problems += [line for line in unreadable if line not in proj.problems]
 
 
 def _unreadable_pages(source, root: Path) -> list[str]:

@@ -813,6 +813,25 @@ def _animation_count(doc: dict) -> int:
     return min(len(anims), MAX_ANIMATIONS) if isinstance(anims, dict) else 0
 
 
+def _pages_of(skeletons: list, twins, docs: dict, targets: dict[str, list]) -> dict[str, _Page]:
+    """The page of each skeleton read and not a twin, by its path in the output, each named apart
+    from the others on any disk (its page and data folder)."""
+    pages: dict[str, _Page] = {}
+    used_ids: set[str] = set()
+    for sk in skeletons:
+        if sk.rel in twins:
+            continue
+        mine = targets.get(sk.rel, [])
+        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
+        # Hero.json and hero.json: one page and one data folder on a macOS or Windows disk
+        while portable_name(pid) in used_ids:
+            pid += "_"
+        used_ids.add(portable_name(pid))
+        if sk.rel in docs:
+            pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
+    return pages
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1, on_progress=None) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
@@ -844,19 +863,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
     targets: dict[str, list] = {}
     for t in result.targets:
         targets.setdefault(t.skeleton, []).append(t)
-    pages: dict[str, _Page] = {}
-    used_ids: set[str] = set()
-    for sk in skeletons:
-        if sk.rel in twins:
-            continue
-        mine = targets.get(sk.rel, [])
-        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
-        # Hero.json and hero.json: one page and one data folder on a macOS or Windows disk
-        while portable_name(pid) in used_ids:
-            pid += "_"
-        used_ids.add(portable_name(pid))
-        if sk.rel in docs:
-            pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
+    pages = _pages_of(skeletons, twins, docs, targets)
     told = _Steps(len(skeletons) + sum(_animation_count(docs[rel][1]) for rel in pages), on_progress, on_skeleton)
     done = _write_pages(files, pages, docs, images_in, jobs, told.skeleton, told)
     total, rows = FillRate(0, 0, 0, 0), []
