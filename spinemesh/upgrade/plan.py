@@ -352,13 +352,7 @@ class Planner:
         """Decide every target read and not decided yet, in the order read (images cut here)."""
         undecided, self.undecided = self.undecided, []
         for t, source, paths, blend, bends, size in undecided:
-            held = set(self.tasks)
-            t.status, t.reason, t.key = self._decide(source, paths, blend)
-            unlike = t.key and isinstance(source, images.FolderImages) and _unlike(self.found[t.key].size, size)
-            if unlike:  # another picture than the region the runtime draws: its mesh would not fit it
-                if t.key not in held:
-                    del self.tasks[t.key]
-                t.status, t.reason, t.key = "failed", unlike, ""
+            t.status, t.reason, t.key = self._decide(source, paths, blend, size)
             if bends is not None and t.key:
                 self.may_bend.append((t, bends))
 
@@ -403,7 +397,10 @@ class Planner:
                 self.undecided.append((t, source, paths, blends.get(ref.slot, "normal"), bends, size))
         return targets
 
-    def _decide(self, source, paths: list[str], blend: str = "normal") -> tuple[str, str, str]:
+    def _decide(self, source, paths: list[str], blend: str = "normal",
+                size: tuple = (None, None)) -> tuple[str, str, str]:
+        """``(status, reason, task key)`` of an attachment's image(s), decided once per image and
+        blend; ``size``: the attachment's width and height, which an images folder's image must fit."""
         seen = (source_identity(source), tuple(paths), blend == "normal")
         if seen not in self.decided:
             try:
@@ -426,6 +423,8 @@ class Planner:
                             self.untrimmed.setdefault(atlas.path, set()).add(name)
                 self.decided[seen] = (status, reason, task.key if task else "")
         status, reason, key = self.decided[seen]
+        if key and isinstance(source, images.FolderImages) and (unlike := _unlike(self.found[key].size, size)):
+            return "failed", unlike, ""  # another picture than the region the runtime draws: its mesh would not fit
         if key:
             self.tasks.setdefault(key, self.found[key])
         return status, reason, key
