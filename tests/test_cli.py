@@ -340,10 +340,10 @@ def test_deliberate_skips_exit_0_and_are_counted_as_kept(demo, tmp_path):
     assert {t["status"] for t in rows} == {"meshed", "kept"}
 
 
-def test_only_that_matches_nothing_warns_with_a_hint(demo, tmp_path):
+def test_only_that_matches_nothing_is_refused_with_a_hint(demo, tmp_path):
     r = run("upgrade", str(demo), "--out", str(tmp_path / "o"), "--only", "no-such-*")
     assert r.returncode == 2
-    assert "warning" in r.stderr and "--only 'head*'" in r.stderr
+    assert "error:" in r.stderr and "--only 'head*'" in r.stderr
 
 
 def test_empty_folder_warns_with_a_hint(tmp_path):

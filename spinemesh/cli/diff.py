@@ -8,7 +8,8 @@ from typing import List, Optional
 import typer
 
 from ..runs import EXIT_BAD_INPUT
-from ._app import Annotated, app, console, err_console, progress_bar
+from ._app import Annotated, app, console, progress_bar
+from ._summary import print_errors
 
 
 @app.command()
@@ -51,7 +52,7 @@ def diff(
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else METHODS
     bad = [m for m in chosen if m not in METHODS]
     if bad:
-        err_console.print(f"[bold red]error:[/] unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}")
+        print_errors([f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}"])
         raise typer.Exit(2)
     with progress_bar("comparing") as bar:
         task = bar.add_task("reading projects", total=None)
@@ -61,8 +62,7 @@ def diff(
 
         result = run_diff(projects, chosen, images=images, limit=limit, originals=originals, progress=progress)
     if not result.rows:
-        err_console.print("[bold red]error:[/] no artist mesh attachment found "
-                          f"({len(result.skipped)} skipped)")
+        print_errors([f"no artist mesh attachment found ({len(result.skipped)} skipped)"])
         raise typer.Exit(EXIT_BAD_INPUT)
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)

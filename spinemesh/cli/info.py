@@ -42,8 +42,9 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
                       ",".join(sorted({f"{pg.scale:g}" for pg in a.pages})), "yes" if any(pg.pma for pg in a.pages) else "no")
     console.print(table)
     if not proj.skeletons:
-        err_console.print(f"[yellow]warning:[/] no Spine skeleton (.json with a \"skeleton\" object, or .skel) "
-                          f"found in {project}", highlight=False)
+        from ._summary import print_errors
+
+        print_errors([f"no Spine skeleton (.json with a \"skeleton\" object, or .skel) found in {project}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     for path in proj.skeletons:
         try:

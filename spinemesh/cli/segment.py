@@ -13,6 +13,7 @@ import typer
 
 from ..runs import EXIT_BAD_INPUT
 from ._app import Annotated, MaskSource, Optional, app, console, err_console, finite, progress_bar
+from ._summary import print_errors
 
 DataOption = Annotated[list[Path], typer.Option(
     "--data", help="Data set folder made by `spinemesh dataset` (repeatable); its game split decides "
@@ -98,7 +99,7 @@ def segment_eval(
     kinds = _background_kinds(backgrounds)
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)
     if not sprites:
-        err_console.print(f"no held-out sprites in {', '.join(map(str, data))}", markup=False)
+        print_errors([f"no held-out sprites in {', '.join(map(str, data))}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
     options = {k: v for k, v in (("flips", flips), ("floodfill", floodfill)) if v is not None}
@@ -207,7 +208,7 @@ def train(
         from ..train.loop import TrainConfig
         from ..train.loop import train as run
     except ImportError as e:
-        err_console.print(f"training needs the train extra (pip install 'spinemesh[train]'): {e}", markup=False)
+        print_errors([f"training needs the train extra (pip install 'spinemesh[train]'): {e}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     from ..fsutil import check_outputs
 
@@ -260,7 +261,7 @@ def segment_export(
     train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
     if not train_s or not val_s:
-        err_console.print(f"no training or no held-out sprites in {', '.join(map(str, data))}", markup=False)
+        print_errors([f"no training or no held-out sprites in {', '.join(map(str, data))}"])
         raise typer.Exit(EXIT_BAD_INPUT)
 
     def inputs(sprites, n):

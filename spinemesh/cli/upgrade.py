@@ -263,10 +263,12 @@ def _print_result(result, dry_run: bool) -> None:
 
 
 def _exit(result, nothing: str) -> None:
-    """Exit 3 when something failed; 2 (or 0 with a warning) when there was nothing to upgrade."""
+    """Exit 3 when something failed; 2 with an error when there was nothing to upgrade (no skeleton, or
+    --only/--exclude left nothing), 0 with a warning when every attachment was already done."""
     from rich.markup import escape
 
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+    from ._summary import print_errors
 
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
@@ -276,9 +278,11 @@ def _exit(result, nothing: str) -> None:
     if nothing.startswith("nothing to upgrade: every") and packed:
         console.print(escape(packed_line(result.atlases, nothing.split(": ", 1)[1])), highlight=False)
         return
-    if nothing:
+    if nothing.startswith("nothing to upgrade: every"):  # a finished run with nothing left to do: exit 0
         err_console.print(f"[yellow]warning:[/] {escape(nothing)}", highlight=False)
-        raise typer.Exit(0 if nothing.startswith("nothing to upgrade: every") else EXIT_BAD_INPUT)
+    elif nothing:  # nothing to work on (no skeleton, --only/--exclude left nothing): refused, exit 2
+        print_errors([nothing])
+        raise typer.Exit(EXIT_BAD_INPUT)
 
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:

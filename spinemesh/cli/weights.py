@@ -8,7 +8,7 @@ from typing import List
 
 import typer
 
-from ._app import Annotated, Optional, app, console, err_console, phase_progress, progress_bar
+from ._app import Annotated, Optional, app, console, phase_progress, progress_bar
 
 
 class BoneChoice(str, Enum):
@@ -99,7 +99,7 @@ def weights(
     if report is not None:
         write_report(result, report)
 
-    from ._summary import print_left_alone, skeleton_table
+    from ._summary import print_errors, print_left_alone, skeleton_table
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
@@ -114,6 +114,6 @@ def weights(
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
     if not result.written:
-        err_console.print(f"[yellow]warning:[/] no Spine skeleton found in {project} (a .skel file, or a .json "
-                          "with a \"skeleton\" object); give the folder the editor exported to", highlight=False)
+        print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
+                      "object); give the folder the editor exported to"])
         raise typer.Exit(EXIT_BAD_INPUT)
