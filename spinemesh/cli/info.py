@@ -90,7 +90,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
 
 def _say_images(missing: set, source, proj) -> None:
     """The images a skeleton's attachments name that are not found (``missing``: skin, slot,
-    attachment, image), else its atlases' pages that are not whole images (each also a problem)."""
+    attachment, image), else how many of its atlases' pages are not whole images (each named as a problem)."""
     if missing:
         console.print(f"[yellow]{len(missing)} attachment image(s) not found:[/]")
         for skin, slot, name, p in sorted(missing)[:50]:
@@ -102,9 +102,10 @@ def _say_images(missing: set, source, proj) -> None:
     if not unreadable:
         console.print("every attachment image was found")
         return
-    console.print(f"[yellow]every attachment's page is present, but {len(unreadable)} page(s) cannot be read:[/]")
-    for line in unreadable:
-        console.print(f"  {line}", markup=False)
+    # each page is named once, with the run's other problems on stderr (what a script reads, and
+    # what makes the exit 3); here only how many, so that the skeleton's part does not say "found"
+    console.print(f"[yellow]every attachment's page is present, but {len(unreadable)} page(s) cannot be read "
+                  "(each said as a problem)[/]")
     proj.problems += [line for line in unreadable if line not in proj.problems]
 
 
