@@ -31,6 +31,8 @@ from .limits import MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_f
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.
 _V4_KEYS = {"bounds", "offsets", "pma", "scale"}
+#: The ``rotate:`` degrees the runtimes turn a region by.
+_TURNS = (0, 90, 180, 270)
 
 
 @dataclass(slots=True)
@@ -139,13 +141,15 @@ class AtlasRegion(_Fields):
                 degrees = 0
             else:
                 try:
-                    degrees = int(r) % 360
+                    degrees = int(r)
                 except ValueError:
                     raise AtlasError(f"region {self.name!r}: rotate must be true, false or degrees, found {r!r}",
                                      source, line=self.line) from None
-                if degrees % 90:
-                    raise AtlasError(f"region {self.name!r}: rotate must be a multiple of 90, found {r}",
-                                     source, line=self.line)
+                # The runtimes turn a region by exactly 90, 180 or 270 and draw any other number
+                # (-90, 450) unturned: read modulo 360, such a region was cut and packed turned.
+                if degrees not in _TURNS:
+                    raise AtlasError(f"region {self.name!r}: rotate must be 0, 90, 180 or 270, found {r} "
+                                     "(the Spine runtimes draw it unturned)", source, line=self.line)
         if w < 0 or h < 0 or ow < 0 or oh < 0:
             raise AtlasError(f"region {self.name!r} has a negative size", source, line=self.line)
         check_image_size(w, h, f"region {self.name!r} size", source, self.line)

@@ -1,0 +1,51 @@
+"""Hostile input, ninth round: the output side (a disk that fills mid-write, outputs that are
+files or links), JSON at its edges (keys written twice, UTF-16, numbers of hundreds of digits),
+page pixel formats and atlas dialects.
+
+As in the earlier rounds (tests/test_hostile*.py), every project is made here by our own code;
+each case checks what docs/safety.md promises: one clear line naming the file, never a
+traceback, never a wrong output written silently, inputs unchanged.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from test_hostile import MEMORY_LIMIT, TIME_LIMIT, check_run, run_cli, snapshot
+
+
+def _demo(tmp: Path) -> Path:
+    """The demo project with its JSON skeleton only."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    return project
+
+
+# --- atlas dialects -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("degrees", ["-270", "450", "-90"])
+def test_a_turn_the_runtimes_do_not_make_keeps_its_region(tmp_path, degrees):
+    """``rotate: -270`` or ``450``: spine-core, libGDX and spine-c turn a region by exactly 90,
+    180 or 270 degrees and draw any other number unturned. Read modulo 360, such a region was cut
+    turned, meshed, and ``--pack`` wrote it back as ``rotate: 90`` (exit 0): the game then drew
+    another picture than before. Now the region is refused in one line naming the atlas's line;
+    its attachments stay regions and the atlas is kept, its text byte for byte."""
+    project = _demo(tmp_path)
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("rotate: 90", f"rotate: {degrees}"))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--pack", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert "demo.atlas:16: region 'demo-arm': rotate must be 0, 90, 180 or 270" in r.stderr, r.stderr
+    assert (tmp_path / "o" / "demo.atlas").read_bytes() == atlas.read_bytes()
+    arm = json.loads((tmp_path / "o" / "demo.json").read_text())["skins"][0]["attachments"]["arm"]["demo-arm"]
+    assert arm.get("type", "region") == "region"
