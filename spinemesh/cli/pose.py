@@ -99,7 +99,7 @@ def pose(
         task = bar.add_task(animation or "setup", total=1 + (len(seconds) if animation else 0))
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
                                   step=lambda: bar.advance(task)), animation, skeleton)
-        head = dump_head(sampler, str(skeleton), fps)
+        head = dump_head(sampler, Path(skeleton).name, fps)  # its name: the same bytes from any folder
         pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
                                        ["\n"]), skeleton)
         if out is None:

@@ -20,6 +20,7 @@ quarter of the texels); each upgraded attachment counts once.
 from __future__ import annotations
 
 import html
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -832,6 +833,12 @@ def _pages_of(skeletons: list, twins, docs: dict, targets: dict[str, list]) -> d
     return pages
 
 
+def _shown_name(path: Path) -> str:
+    """A folder or file as the index names it: its own name (``.`` said by the folder's real name),
+    never the path it was given by, which differs from one folder or machine to the next."""
+    return Path(os.path.realpath(path)).name or str(path)
+
+
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
                   images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1, on_progress=None) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
@@ -888,7 +895,9 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
              '<th>texels drawn</th><th>change</th><th>transparent texels drawn</th><th>change</th></tr>'
              + "".join(rows) + "</table>")
     root = project if project.is_dir() else project.parent
-    body = (f"<h1>spinemesh upgrade: {html.escape(str(project))} → {html.escape(str(out))}</h1>{headline}"
+    # names, not paths: the page's bytes stay the same from any folder, under any path (a build cache)
+    body = (f"<h1>spinemesh upgrade: {html.escape(_shown_name(project))} → {html.escape(_shown_name(out))}</h1>"
+            f"{headline}"
             + _rate_table(total)
             + f"<p>{counted(shown, 'skeleton')}" + (f" ({counted(len(twins), 'more file')} the same skeleton "
                                                     "in the other format, counted once)" if twins else "")
@@ -899,5 +908,5 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             + f"<h2>Skeletons</h2>{table}"
             + _atlas_pages(files, result, root, out)
             + _reasons_table(result) + _problems(result))
-    files.write_text("index.html", _html_page(f"spinemesh upgrade: {root.name}", body))
+    files.write_text("index.html", _html_page(f"spinemesh upgrade: {_shown_name(root)}", body))
     return Path(folder) / "index.html"
