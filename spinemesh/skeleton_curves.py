@@ -5,8 +5,9 @@ reader and writer (:mod:`spinemesh.skeleton_binary.v3`) share.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
+
+from .skeleton_version import major_minor
 
 
 @dataclass(frozen=True)
@@ -55,5 +56,5 @@ CURVES_38 = CurveSpelling(any_text_steps=True, bezier_in_list=False)
 def curve_spelling(version: str) -> CurveSpelling:
     """The 3.x curve spelling of a skeleton written by editor ``version`` (``"3.7.94"``):
     3.8's for 3.8 and for a version that names no 3.x minor below 8 (4.x reads its own)."""
-    m = re.match(r"3\.(\d+)\b", version)
-    return CURVES_35 if m and int(m[1]) < 8 else CURVES_38
+    known = major_minor(version)
+    return CURVES_35 if known and known[0] == 3 and known[1] < 8 else CURVES_38

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +33,7 @@ from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform43 import PROPERTIES, source_value_43
 from ..skeleton import iter_skins, spine_version
 from ..skeleton_curves import curve_spelling
+from ..skeleton_version import major_minor
 from .attachments import Prepared, RegionGeometry, prepare
 from .curves import _number
 from .timelines import Animation, color_channels, made_when_needed, read_animation, search
@@ -286,8 +286,8 @@ class Sampler:
     def __init__(self, doc: dict, skin: str | None = None, regions=None):
         self.doc = doc
         version = spine_version(doc)
-        m = re.match(r"(\d+)", version)
-        self.four = bool(m) and int(m[1]) >= 4 if m else True
+        known = major_minor(version)
+        self.four = known is None or known[0] >= 4
         #: 4.3's colour timelines clamp every channel they set (:meth:`_apply_slots`)
         self.colours_clamped = is_43(doc)
         self.curve_spelling = curve_spelling(version)  # 3.x: how its keys' curves are spelled

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..skeleton_colours import read_colour
 from ..skeleton_curves import CURVES_38, CurveSpelling
+from ..skeleton_version import doc_major_minor
 from .curves import Keys, _number, f32, read_keys
 
 
@@ -205,7 +206,7 @@ class _Reader:
         self.ends: list[float] = []
         #: 4.3 reads a physics mix key without a value as 1 (4.2: 0), and a transform key's
         #: mixScaleY as 1
-        self.four_three = str((doc.get("skeleton") or {}).get("spine") or "").startswith("4.3")
+        self.four_three = doc_major_minor(doc) == (4, 3)
 
     def keys(self, frames, getter, **kw) -> Keys | None:
         k = read_keys(frames, getter, self.four, spelling=self.spelling, **kw)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import re
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..skeleton_version import major_minor
 from .format import Dataset
 
 
@@ -30,8 +30,8 @@ def dataset_stats(ds: Dataset) -> dict:
         for k in ("type", "split", "game", "project"):
             by[k][row[k]] += 1
         # "3.8-from-4.0.64", "3.8.99" -> "3.8": editors write many patch versions.
-        major_minor = re.match(r"\d+\.\d+", row["version"] or "")
-        by["version"][major_minor.group(0) if major_minor else "?"] += 1
+        known = major_minor(row["version"])
+        by["version"]["%d.%d" % known if known else "?"] += 1
         games[row["split"]].add(row["game"])
         sides.append(max(row["width"], row["height"]))
         pixels += row["width"] * row["height"]

@@ -14,7 +14,6 @@ region of the name). That can only keep more rectangles, never draw a texel wron
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from ..skeleton import (
     AttachmentRef, attachment_path, image_paths, iter_attachments, iter_skins, linked_source, load_skeleton,
     spine_version,
 )
+from ..skeleton_version import major_minor
 
 
 @dataclass
@@ -105,10 +105,8 @@ def honours_offsets(version: str) -> bool | None:
     ``u2``); from 3.7 on every runtime subtracts the stripped whitespace (``offsetX``,
     ``originalWidth``), so a stored rectangle may be cropped without changing the UVs.
     """
-    m = re.match(r"\s*(\d+)\.(\d+)", version or "")
-    if not m:
-        return None
-    return (int(m.group(1)), int(m.group(2))) >= (3, 7)
+    known = major_minor(version)
+    return None if known is None else known >= (3, 7)
 
 
 def mesh_arrays(att: dict) -> tuple[np.ndarray, np.ndarray] | None:

@@ -31,13 +31,13 @@ spine-runtimes, spine-ts); the implementation is ours.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
+from ..skeleton_version import doc_major_minor
 from .binding import deformed, parse_vertices, setup_world
 from .transform import (
     DEG_RAD,
@@ -62,15 +62,14 @@ RAD = DEG_RAD
 def runtime_family(doc: dict) -> str | None:
     """``"3.8"``, ``"4.0"``, ``"4.1"`` or ``"4.2"`` from ``skeleton.spine``'s leading numbers
     (the runtime a game of that version loads it with); None for others."""
-    version = str((doc.get("skeleton") or {}).get("spine") or "")
-    m = re.match(r"(\d+)\.(\d+)", version)  # "4.1-from-4.2.33": a 4.2 project exported for 4.1
-    family = f"{m[1]}.{m[2]}" if m else None
+    known = doc_major_minor(doc)  # "4.1-from-4.2.33": a 4.2 project exported for 4.1
+    family = "%d.%d" % known if known else None
     return family if family in FAMILIES else None
 
 
 def is_43(doc: dict) -> bool:
     """Whether ``skeleton.spine`` says 4.3 (one ``constraints`` list, 4.3's bones and sliders)."""
-    return re.match(r"4\.3\b", str((doc.get("skeleton") or {}).get("spine") or "")) is not None
+    return doc_major_minor(doc) == (4, 3)
 
 
 #: The timelines of a 4.3 slider's animation that are played (bone transforms; events change nothing).

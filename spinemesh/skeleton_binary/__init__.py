@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import SkelFormatError
 from ..json_style import NumberText
+from ..skeleton_version import major_minor
 from .stream import SkelReader, SkelWriter
 
 _VERSION = re.compile(r"\d{1,2}\.\d{1,2}(\.\d{1,3})?([-.][\w.-]{1,20})?")
@@ -49,10 +50,10 @@ def _codec(version: str, path: str | Path | None = None):
 
     ``path`` is the file read or written, for the error message.
     """
-    major = version.split(".")[0]
-    if major == "3":
+    major = (major_minor(version) or (None,))[0]
+    if major == 3:
         from . import v3 as codec
-    elif major == "4":
+    elif major == 4:
         from . import v4 as codec
     else:
         raise SkelFormatError(f"expected Spine 3.5 to 4.3, found version {version!r}", path, offset=0)

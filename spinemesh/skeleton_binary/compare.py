@@ -22,6 +22,7 @@ import fnmatch
 import math
 from typing import Any, Callable, Iterable, NamedTuple
 
+from ..skeleton_version import doc_major_minor
 from .v4.constraint_list import implied_mix
 
 #: Tolerances for numbers: the editor writes about 2 decimals (``abs``) and, for large
@@ -247,8 +248,7 @@ def default_for(path: tuple, node: dict, key: str, prev: dict | None = None, roo
 
 
 def _is_43(root: Any) -> bool:
-    skel = root.get("skeleton") if isinstance(root, dict) else None
-    return isinstance(skel, dict) and str(skel.get("spine", "")).startswith("4.3")
+    return doc_major_minor(root) == (4, 3)
 
 
 # -- comparison ------------------------------------------------------------------------

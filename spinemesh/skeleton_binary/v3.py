@@ -52,10 +52,10 @@ Facts about the format were learnt from the Spine runtimes' ``SkeletonBinary`` a
 from __future__ import annotations
 
 import math
-import re
 import struct
 
 from ..skeleton_curves import curve_spelling
+from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
@@ -77,7 +77,7 @@ class Layout:
 
     def __init__(self, version: str):
         self.version = version
-        self.minor = int(re.match(r"3\.(\d)", version).group(1))
+        self.minor = major_minor(version)[1]
         self.two_color = self.minor >= 6          # slot dark colour, two-colour timelines
         self.local_relative = self.minor >= 6     # transform constraint local, relative flags
         # Attachment type bytes: 3.6 added point and clipping after the five of 3.5.
@@ -113,7 +113,8 @@ def layout_of(s, version: str) -> Layout:
     exports such as ``3.8-from-4.0.64`` (a 3.8 file). 3.4 and older files have another
     layout (inherit flags for a bone's transform mode, no fps, no constraint order) and are
     refused."""
-    if not re.match(r"3\.[5678](?!\d)", version):
+    known = major_minor(version)
+    if not (known and known[0] == 3 and 5 <= known[1] <= 8):
         raise s.fail(f"Spine 3.5, 3.6, 3.7 or 3.8, found version {version!r}", 0)
     return Layout(version)
 

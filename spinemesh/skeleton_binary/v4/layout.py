@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ...skeleton_version import major_minor
+
 SPACING_MODE = ("length", "fixed", "percent", "proportional")
 SEQUENCE_MODE = ("hold", "once", "loop", "pingpong", "onceReverse", "loopReverse", "pingpongReverse")
 #: 4.3: what a transform constraint or slider reads from a bone, and what it writes to.
@@ -21,7 +23,7 @@ class Layout:
 
     def __init__(self, version: str):
         self.version = version
-        self.minor = int(version.split(".")[1])
+        self.minor = major_minor(version)[1]
         self.flags = self.minor >= 2                 # optional fields behind flag bytes
         self.physics = self.minor >= 2
         self.reference_scale = self.minor >= 2
@@ -41,8 +43,8 @@ class Layout:
 
 
 def _layout(s, version: str) -> Layout:
-    parts = version.split(".")
-    if len(parts) < 2 or not parts[1].isdigit() or parts[0] != "4" or int(parts[1]) > 3:
+    known = major_minor(version)  # "4.1-from-4.2.33": a 4.1 file that editor 4.2 exported
+    if not (known and known[0] == 4 and known[1] <= 3):
         raise s.fail(f"Spine 4.0 to 4.3, found version {version!r}", 8)
     return Layout(version)
 
