@@ -49,3 +49,24 @@ def test_a_turn_the_runtimes_do_not_make_keeps_its_region(tmp_path, degrees):
     assert (tmp_path / "o" / "demo.atlas").read_bytes() == atlas.read_bytes()
     arm = json.loads((tmp_path / "o" / "demo.json").read_text())["skins"][0]["attachments"]["arm"]["demo-arm"]
     assert arm.get("type", "region") == "region"
+
+
+# --- JSON edges ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("value", ["1" + "0" * 400, "1e300", '"wide"'], ids=["400 digits", "1e300", "text"])
+def test_pose_never_draws_an_attachment_of_an_unusable_number_elsewhere(tmp_path, value):
+    """A region attachment whose ``y`` is an integer of 400 digits or 1e300 (no float32 holds
+    either: the runtimes' quad is infinite) was posed with ``y`` 0, the field's default, and
+    ``pose`` ended with 0: a pose no runtime draws. Now such an attachment is not drawn, a warning
+    names its field, and the run ends with 3; the other attachments are posed as before."""
+    project = _demo(tmp_path)
+    skeleton = project / "demo.json"
+    text = skeleton.read_text()
+    skeleton.write_text(text.replace('"y": 10,', f'"y": {value},', 1))
+    assert skeleton.read_text() != text
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/demo.json", "--out", "pose.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(3,))
+    assert "skins[0].attachments.head.demo-head.y: expected a finite number" in r.stderr, r.stderr
+    drawn = [a["slot"] for a in json.loads((tmp_path / "pose.json").read_text())["poses"][0]["attachments"]]
+    assert drawn == ["arm", "body", "ring", "blobs", "spark"], drawn

@@ -22,6 +22,7 @@ from ..errors import SpineMeshError
 from ..rig.binding import parse_vertices
 from ..rig.transform import DEG_RAD
 from ..skeleton import sequence_paths
+from ..skeleton_check import attachment_problem
 from .curves import _number
 from .timelines import color_channels
 
@@ -155,11 +156,16 @@ class Prepared:
 
 def prepare(doc_skins: dict, skin: str, slot: int, slot_name: str, key: str, att: dict, bone_count: int,
             region_of) -> Prepared | None:
-    """Prepare one attachment; None when it cannot be drawn (a broken mesh, a missing parent).
+    """Prepare one attachment; None when it cannot be drawn (a broken mesh, a missing parent, a
+    field :func:`~spinemesh.skeleton_check.attachment_problem` refuses).
 
     ``doc_skins`` maps skin name to ``{slot name: {key: attachment}}``; ``region_of(path)``
     gives the atlas region's geometry or None.
     """
+    # A number no float32 holds (y: 1e300, an integer of 400 digits) is an infinity in the
+    # runtimes; drawn with the field's default, the quad was written where no runtime puts it.
+    if attachment_problem(att):
+        return None
     kind = att.get("type", "region")
     name = str(att.get("name", key))
     path = str(att.get("path") or name)

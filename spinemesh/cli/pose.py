@@ -68,6 +68,7 @@ def pose(
     from ..fsutil import atomic_write_pieces, check_outputs, project_folder, strict_json_pieces
     from ..limits import MAX_POSE_STEPS
     from ..project import find_project
+    from ..runs import EXIT_PARTIAL
     from ..skeleton import load_skeleton
     from ._app import progress_bar
 
@@ -88,6 +89,7 @@ def pose(
     skins = [name for name in _skin_names(doc)]
     if skin is not None and skin not in skins:
         raise SpineMeshError(f"no skin {skin!r} (the skeleton has: {', '.join(skins[:20]) or 'none'})", skeleton)
+    undrawn = _say_undrawn(doc, skin, skeleton)
     atlases = [read_atlas(atlas)] if atlas is not None else _project_atlases(doc, skeleton, project)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
@@ -108,6 +110,24 @@ def pose(
             atomic_write_pieces(out, pieces)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
+    if undrawn:
+        raise typer.Exit(EXIT_PARTIAL)
+
+
+def _say_undrawn(doc: dict, skin: str | None, skeleton: Path, shown: int = 20) -> int:
+    """Warn, one line each (the first ``shown``), of the attachments of the skin posed (and the
+    default skin) whose fields cannot be used, which the poses leave undrawn; returns how many."""
+    from ..skeleton import checked_attachments
+
+    skins = {"default", skin or "default"}
+    problems = [problem for ref, problem in checked_attachments(doc) if problem and ref.skin in skins]
+    for problem in problems[:shown]:
+        err_console.print(f"warning: {skeleton}: {problem}; not drawn", highlight=False, markup=False,
+                          soft_wrap=True)
+    if len(problems) > shown:
+        err_console.print(f"warning: {skeleton}: {len(problems) - shown} more attachments not drawn",
+                          highlight=False, markup=False, soft_wrap=True)
+    return len(problems)
 
 
 def _project_atlases(doc: dict, skeleton: Path, project) -> list:
