@@ -1,6 +1,6 @@
 """``spinemesh pose`` writes its JSON as a stream: the same bytes as the whole document
 serialised at once, each pose on disk before the next is made, nothing left where a pose
-fails mid-way, and bounds that fit a stream (a cap and the space free where --out is)."""
+fails mid-way (no file, nothing on standard output), and bounds that fit a stream (a cap and the space free where --out is)."""
 
 from __future__ import annotations
 
@@ -138,6 +138,27 @@ def test_a_pose_failing_mid_stream_leaves_no_file(tmp_path, kind, words):
     # the setup pose and two more written (each over 50 kB) before the one that fails was made
     assert len(sizes) == 5 and sizes[2] > 50_000, sizes
     assert sizes[3] > sizes[2] + 50_000 and sizes[4] > sizes[3] + 50_000, sizes
+
+
+@pytest.mark.parametrize("kind, words", [("raise", "cannot be posed"), ("nan", "non-finite")])
+def test_a_pose_failing_on_standard_output_leaves_nothing_there(tmp_path, kind, words):
+    """On standard output the document comes whole or not at all: a pose that fails part way
+    (here the fourth, after three of over 50 kB each) leaves no byte there, a script reading it
+    gets nothing to mistake for poses; the error is one line on stderr, exit status 2."""
+    skeleton = _project(tmp_path, _many(200))
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    patch = f"from pathlib import Path\nfolder, fail, kind = Path({str(notes)!r}), 4, {kind!r}\n{_PATCH}"
+    r = _pose(skeleton, "-a", "turn", "--times", "0.1,0.2,0.3,0.4,0.5", patch=patch)
+    stderr = r.stderr.decode()
+    assert r.returncode == 2 and "Traceback" not in stderr, stderr
+    (line,) = [x for x in stderr.splitlines() if x.startswith("error:")]
+    assert words in line, line
+    assert len(json.loads((notes / "sizes.json").read_text())) == 5  # it failed where asked, poses made before
+    assert r.stdout == b"", r.stdout[:200]
+    # and with nothing failing, the same run prints the whole document
+    r = _pose(skeleton, "-a", "turn", "--times", "0.1,0.2,0.3,0.4,0.5")
+    assert r.returncode == 0 and len(json.loads(r.stdout)["poses"]) == 6, r.stderr
 
 
 def test_output_bound_fits_a_stream(tmp_path):

@@ -94,7 +94,9 @@ def pose(
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
     # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
-    # temporary file renamed when the last pose is written, so that a refusal leaves no file.
+    # temporary file renamed when the last pose is written, so that a refusal leaves no file; to
+    # standard output through an anonymous temporary file copied there once the last pose is
+    # written, so that a refusal leaves nothing there either (_echo_whole).
     # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
     # by a proxy that holds text until a newline and then prints it on stderr.
     with progress_bar("pose", transient=True) as bar:
@@ -105,7 +107,7 @@ def pose(
         pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
                                        ["\n"]), skeleton)
         if out is None:
-            _echo_pieces(pieces, stdout)
+            _echo_whole(pieces, stdout)
         else:
             atomic_write_pieces(out, pieces)
     if out is not None:
@@ -198,6 +200,36 @@ def _echo_pieces(pieces, stdout) -> None:
         raise OutputError(f"cannot write: {e.strerror or e}", "standard output") from None
 
 
+def _echo_whole(pieces, stdout) -> None:
+    """The document on standard output whole or not at all: the pieces are held in an anonymous
+    temporary file in the system's temporary folder (on disk: still one pose in memory; the system
+    removes it however the run ends) and copied to standard output once the last one is made.
+
+    A pose that fails part way leaves nothing on standard output, only its error line on stderr
+    and exit status 2, so a script reads one whole JSON document or none, in the documented
+    layout (the same bytes as ``--out``). A temporary folder that cannot hold them ends in one
+    line naming it.
+    """
+    import tempfile
+
+    from ..errors import OutputError
+
+    try:
+        spool = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")  # newline="": "\n" as made
+    except OSError as e:
+        raise OutputError(f"cannot hold the poses for standard output: {e.strerror or e}",
+                          tempfile.gettempdir()) from None
+    with spool:
+        for piece in pieces:
+            try:
+                spool.write(piece)
+            except OSError as e:
+                raise OutputError(f"cannot hold the poses for standard output: {e.strerror or e}",
+                                  tempfile.gettempdir()) from None
+        spool.seek(0)
+        _echo_pieces(iter(lambda: spool.read(1 << 20), ""), stdout)
+
+
 def _posed(poses, animation: str | None, skeleton: Path):
     """``poses`` (the dump's, made one by one), what the sampler cannot play refused in one line
     naming the skeleton (what the document's check let through)."""
@@ -214,7 +246,10 @@ def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps
                        out: Path | None = None) -> None:
     """Refuse, naming the skeleton, a pose run whose physics replay or JSON would be over the limits
     (each time replays the game loop from 0 when physics keeps state), or whose JSON, estimated as
-    the setup pose's size times the poses, would not fit in the space free where ``out`` is written."""
+    the setup pose's size times the poses, would not fit in the space free where ``out`` is written
+    (without ``out``: in the temporary folder that holds standard output's poses)."""
+    import tempfile
+
     from ..anim import POSE_ERRORS
     from ..anim.dump import dump_labels
     from ..anim.pose import steps_of
@@ -237,10 +272,12 @@ def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps
     if size > MAX_POSE_OUTPUT_BYTES:
         raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 2**20:,.0f} MiB of "
                              f"JSON, over the limit of {MAX_POSE_OUTPUT_BYTES / 2**30:,.0f} GiB; give fewer times", skeleton)
-    free = free_bytes(out) if out is not None and size else None
+    # standard output's poses are held in the temporary folder first (_echo_whole)
+    where = "where --out is" if out is not None else f"in the temporary folder {tempfile.gettempdir()} (TMPDIR)"
+    free = free_bytes(out if out is not None else Path(tempfile.gettempdir()) / "poses.json") if size else None
     if free is not None and size > free:
         raise SpineMeshError(f"--times: {poses:,} poses of this skeleton would write about {size / 2**20:,.0f} MiB of "
-                             f"JSON, more than the {free / 2**20:,.0f} MiB free where --out is; give fewer times "
+                             f"JSON, more than the {free / 2**20:,.0f} MiB free {where}; give fewer times "
                              "or write elsewhere", skeleton)
 
 
