@@ -26,7 +26,7 @@ from .limits import (
     MAX_SEQUENCE_FRAMES,
     check_file_size,
 )
-from .skeleton_check import check_document
+from .skeleton_check import KeyedTwice, check_document
 
 #: Attachment types that draw an image from the atlas.
 IMAGE_TYPES = ("region", "mesh", "linkedmesh")
@@ -195,7 +195,9 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
     Refused, each with a :class:`SkeletonError` naming ``source``: invalid JSON (with line and
     column), ``NaN``/``Infinity`` and numbers beyond float range (never meshed, never written),
     nesting deeper than :data:`~spinemesh.limits.MAX_JSON_DEPTH`, integers longer than Python
-    parses, and escaped lone UTF-16 surrogates (no UTF-8 file can hold them).
+    parses, and escaped lone UTF-16 surrogates (no UTF-8 file can hold them). An object that
+    names a key twice, or twice but for case, is a :class:`~spinemesh.skeleton_check.KeyedTwice`
+    (the runtimes read different ones; an attachment so written is not used).
     """
     depth = _json_depth(text)
     if depth > MAX_JSON_DEPTH:
@@ -204,9 +206,11 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
         raise SkeletonError("JSON holds an escaped lone UTF-16 surrogate (\\ud800-\\udfff), "
                             "which is not text", source)
     try:
+        # objects that name a key twice are marked (KeyedTwice): the runtimes read different ones
         if not _may_overflow(text):  # no number can be beyond float range: no hook per float
-            return json.loads(text, parse_constant=_refuse_constant)
-        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+            return json.loads(text, parse_constant=_refuse_constant, object_pairs_hook=KeyedTwice.of)
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float,
+                          object_pairs_hook=KeyedTwice.of)
     except json.JSONDecodeError as e:
         raise SkeletonError(f"invalid JSON: {e.msg} (column {e.colno})", source, line=e.lineno) from None
     except (ValueError, RecursionError) as e:

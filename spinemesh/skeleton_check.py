@@ -369,6 +369,43 @@ def check_document(doc, source: str | Path | None = None) -> None:
         raise LimitError(f"{count:,} attachments exceed the limit of {MAX_ATTACHMENTS:,} per skeleton", source)
 
 
+class KeyedTwice(dict):
+    """A JSON object that names a key twice, or twice but for case (``{"x": 0, "X": 50}``).
+
+    Python's JSON, like spine-ts (``JSON.parse``), keeps the last value of a key; spine-c,
+    spine-cpp and libGDX read the first whose name matches ignoring case. ``twice`` holds those
+    keys, case-folded; :func:`spinemesh.skeleton.parse_skeleton_json` makes such objects.
+    """
+
+    twice: frozenset = frozenset()
+
+    @classmethod
+    def of(cls, pairs: list) -> dict:
+        """The object of JSON ``pairs``: a plain dict, or a :class:`KeyedTwice` where a key repeats."""
+        obj = dict(pairs)
+        if len(obj) == len(pairs) and (len(obj) < 2 or len({k.casefold() for k in obj}) == len(obj)):
+            return obj
+        seen: set = set()
+        twice = {k for k in (key.casefold() for key, _ in pairs) if k in seen or seen.add(k)}
+        marked = cls(obj)
+        marked.twice = frozenset(twice)
+        return marked
+
+
+#: The attachment fields the program reads, case-folded (see :class:`KeyedTwice`).
+_ATTACHMENT_KEYS = frozenset(k.casefold() for k in ATTACHMENT)
+
+
+def _keyed_twice_problem(attachment: dict, where: tuple) -> str:
+    """A field the program reads written twice in ``attachment`` (ignoring case), as an error line, or ``""``."""
+    twice = getattr(attachment, "twice", frozenset()) & _ATTACHMENT_KEYS
+    if not twice:
+        return ""
+    key = next(k for k in attachment if k.casefold() in twice)
+    return (f"{json_path(*where, key)}: written twice (or twice but for case); the Spine runtimes read "
+            "different ones (spine-ts the last, spine-c, spine-cpp and libGDX the first)")
+
+
 def attachment_problem(attachment, where: tuple = (), bone_count: int | None = None) -> str:
     """Why one attachment cannot be used (``"x: expected a finite number ..., found ..."``), or ``""``.
 
@@ -378,7 +415,7 @@ def attachment_problem(attachment, where: tuple = (), bone_count: int | None = N
     """
     if not isinstance(attachment, dict):
         return f"{json_path(*where) or 'attachment'}: expected an object, found {found(attachment)}"
-    problem = _field_problem(attachment, ATTACHMENT, *where)
+    problem = _keyed_twice_problem(attachment, where) or _field_problem(attachment, ATTACHMENT, *where)
     vertices = attachment.get("vertices")
     if problem or bone_count is None or not isinstance(vertices, list):
         return problem
@@ -389,5 +426,5 @@ def attachment_problem(attachment, where: tuple = (), bone_count: int | None = N
     return f"{json_path(*where, 'vertices')}: {problem}" if problem else ""
 
 
-__all__ = ["check_document", "attachment_problem", "document_problem", "bone_tree_problem", "vertices_problem",
+__all__ = ["check_document", "attachment_problem", "KeyedTwice", "document_problem", "bone_tree_problem", "vertices_problem",
            "json_path", "found"]

@@ -70,3 +70,41 @@ def test_pose_never_draws_an_attachment_of_an_unusable_number_elsewhere(tmp_path
     assert "skins[0].attachments.head.demo-head.y: expected a finite number" in r.stderr, r.stderr
     drawn = [a["slot"] for a in json.loads((tmp_path / "pose.json").read_text())["poses"][0]["attachments"]]
     assert drawn == ["arm", "body", "ring", "blobs", "spark"], drawn
+
+
+@pytest.mark.parametrize("keys", ['"x": 50, "x": 0.0', '"X": 50, "x": 0.0'], ids=["twice", "twice but for case"])
+def test_an_attachment_naming_a_field_twice_is_left_as_written(tmp_path, keys):
+    """``{"x": 50, "x": 0}`` (a merge gone wrong): spine-c, spine-cpp and libGDX read the first
+    ``x`` whose name matches ignoring case, spine-ts and Python the last. The region was meshed at
+    the last and written back once, so the C runtimes' head moved by 50 (exit 0). Now such an
+    attachment stays a region, byte for byte, with one line naming the field; ``convert`` and
+    ``pose`` say the same."""
+    project = _demo(tmp_path)
+    skeleton = project / "demo.json"
+    text = skeleton.read_text()
+    head = '"demo-head": {\n\t\t\t\t\t\t"x": 0.0,'
+    assert head in text
+    skeleton.write_text(text.replace(head, '"demo-head": {\n\t\t\t\t\t\t' + keys + ",", 1))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert "demo-head.x: written twice" in r.stderr.replace(".X:", ".x:"), r.stderr
+    written = (tmp_path / "o" / "demo.json").read_text()
+    assert '"demo-head": {\n\t\t\t\t\t\t' + keys + "," in written
+    assert written.count('"type": "mesh"') >= 4  # the others are meshed
+    for args, outputs in ((["convert", "p/demo.json", "c.skel"], []), (["pose", "p/demo.json", "--out", "pose.json"],
+                                                                       ["pose.json"])):
+        r = run_cli(*args, cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o/", *outputs], codes=(2, 3))
+        assert "written twice" in r.stderr, r.stderr
+    assert not (tmp_path / "c.skel").exists()
+
+
+def test_the_json_parser_marks_only_objects_that_name_a_key_twice():
+    """Keys repeated exactly or but for case are marked, in any object; other objects are plain."""
+    from spinemesh.skeleton import parse_skeleton_json
+    from spinemesh.skeleton_check import KeyedTwice
+
+    doc = parse_skeleton_json('{"a": {"x": 1, "X": 2, "y": 3}, "b": {"y": 1, "y": 2}, "c": {"Head": 1, "head2": 2}}')
+    assert doc["a"].twice == {"x"} and doc["b"].twice == {"y"} and doc["b"] == {"y": 2}
+    assert type(doc) is dict and type(doc["c"]) is dict and not isinstance(doc["c"], KeyedTwice)

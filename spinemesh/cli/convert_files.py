@@ -41,6 +41,7 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     regular_file(existing(source), "skeleton")  # one line naming it, as every command says it
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
+    _refuse_unusable_attachment(doc, source)
     if is_binary_name(target):
         from ..errors import SkelFormatError
         from ..skeleton_binary import write_skel
@@ -67,6 +68,18 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     else:
         raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)
     return f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})"
+
+
+def _refuse_unusable_attachment(doc: dict, source: Path) -> None:
+    """Refuse, naming ``source`` and the field, a skeleton with an attachment the program cannot
+    use: a number no float32 holds, or a field written twice, which the runtimes read
+    differently (written once, the converted file would draw as one of them only)."""
+    from ..errors import SpineMeshError
+    from ..skeleton import checked_attachments
+
+    for _, problem in checked_attachments(doc):
+        if problem:
+            raise SpineMeshError(f"not converted: {problem}", source)
 
 
 def run_plain_convert(args: list[str]) -> bool:
