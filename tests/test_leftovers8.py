@@ -68,3 +68,56 @@ def test_a_downgraded_export_converts_and_poses_in_the_official_runtime(corpus, 
     assert max_difference(a, b) < 0.01  # float32 rounding of the JSON's decimals
     c = pose_dump(spine_runtime, atlas, back, tmp_path / "c.json", "idle")
     assert max_difference(a, c) < 0.01  # and back as JSON (float32 values as their shortest decimals)
+
+
+# --- the library refuses a folder of a user's files, as the commands do ---------------------------
+
+def _user_folder(path: Path) -> Path:
+    path.mkdir()
+    (path / "index.html").write_text("<title>my own page</title>")  # a name our previews write too
+    (path / "demo.png").write_bytes(b"mine")                      # and one our images folder would
+    return path
+
+
+def _unchanged(path: Path) -> bool:
+    return (sorted(p.name for p in path.iterdir()) == ["demo.png", "index.html"]
+            and (path / "index.html").read_text() == "<title>my own page</title>"
+            and (path / "demo.png").read_bytes() == b"mine")
+
+
+def test_library_calls_never_write_over_a_users_folder(tmp_path):
+    """``upgrade_project``/``upgrade_library`` with ``images_out``, ``weight_project`` with
+    ``preview``, and the upgrade and pack preview writers refuse, before writing anything, a
+    folder that holds files but none spinemesh wrote; a folder they wrote is written into again."""
+    from spinemesh.errors import OutputError
+    from spinemesh.pack import preview as pack_preview
+    from spinemesh.pack.run import pack_project
+    from spinemesh.rig.document import WeightOptions
+    from spinemesh.rig.run import weight_project
+    from spinemesh.upgrade import Options, upgrade_library, upgrade_project
+    from spinemesh.upgrade import preview as upgrade_preview
+
+    project = make_demo_project(tmp_path / "lib" / "demo", with_images_folder=False)
+    mine = _user_folder(tmp_path / "mine")
+    calls = {
+        "upgrade_project": lambda: upgrade_project(project, tmp_path / "o1", Options(images_out=mine)),
+        "upgrade_library": lambda: upgrade_library(tmp_path / "lib", tmp_path / "o2", Options(images_out=mine)),
+        "weight_project": lambda: weight_project(project, tmp_path / "o3", WeightOptions(bones="auto"), preview=mine),
+    }
+    for name, call in calls.items():
+        with pytest.raises(OutputError, match="not empty and holds no spinemesh"):
+            call()
+        assert _unchanged(mine), name
+    assert not any((tmp_path / o).exists() for o in ("o1", "o2", "o3"))  # refused before any work
+    result = upgrade_project(project, tmp_path / "up")
+    with pytest.raises(OutputError, match="preview folder is not empty"):
+        upgrade_preview.write_preview(result, project, tmp_path / "up", mine)
+    packed = pack_project(project, tmp_path / "packed", keep_previews=True)
+    with pytest.raises(OutputError, match="preview folder is not empty"):
+        pack_preview.write_preview(packed, mine)
+    assert _unchanged(mine)
+    # folders spinemesh wrote are its own: written into again
+    page = pack_preview.write_preview(packed, tmp_path / "pv")
+    assert pack_preview.write_preview(packed, tmp_path / "pv") == page
+    upgrade_project(project, tmp_path / "o4", Options(images_out=tmp_path / "pictures"))
+    upgrade_project(project, tmp_path / "o5", Options(images_out=tmp_path / "pictures"))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_text
+from ..fsutil import atomic_write_bytes, atomic_write_text, check_written_folder
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
@@ -45,6 +45,9 @@ def png_bytes(rgba: np.ndarray) -> bytes:
 class PreviewFolder:
     """Writes the files of one preview under ``root`` and keeps their sizes.
 
+    A ``root`` that holds files but no spinemesh preview is refused
+    (:func:`~spinemesh.fsutil.check_written_folder`: its files would be replaced).
+
     Attributes
     ----------
     sizes : dict of str to int
@@ -52,6 +55,9 @@ class PreviewFolder:
     """
 
     def __init__(self, root: str | Path):
+        # every preview is written through this class: a folder of a user's files is refused
+        # here, whoever calls (the commands check it earlier, before any work)
+        check_written_folder(root)
         self.root = Path(root)
         self.sizes: dict[str, int] = {}
         self._images: dict[int, str] = {}

@@ -60,6 +60,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     -------
     WeightResult
     """
+    from ..fsutil import check_written_folder
     from ..output import check_output_folder, copy_other_files, output_folder, write_skeleton
 
     options = options or WeightOptions()
@@ -68,6 +69,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     check_output_folder(proj.root, out)
     if preview is not None:
         check_output_folder(proj.root, Path(preview))
+        check_written_folder(preview)  # a folder of a user's files: refused, not written over
     result = WeightResult()
     start = time.perf_counter()
     written = set()

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import mark_written_folder
+from ..fsutil import check_written_folder, mark_written_folder
 from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
@@ -60,6 +60,8 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     options = options or Options()
     library, out = Path(library), Path(out)
     check_output_folder(library, out)
+    if options.images_out is not None:  # a user's pictures: refused, not written over
+        check_written_folder(options.images_out, "images folder", "images")
     if options.images_in is not None:
         raise SpineMeshError("--from-images reads one project's images; give one project, not a folder of them",
                              options.images_in)

@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 from ..cluster import Workers
+from ..fsutil import check_written_folder
 from ..output import check_output_folder, output_folder
 from ..project import find_project
 from .bending import bending_tests, start_habits
@@ -77,6 +78,7 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     check_output_folder(proj.root, out, options.images_in)
     if options.images_out is not None:
         check_output_folder(proj.root, Path(options.images_out), options.images_in)
+        check_written_folder(options.images_out, "images folder", "images")  # a user's pictures: refused
     if not proj.skeletons:  # nothing to upgrade (the caller says so): no output folder of copies alone
         return Result()
     with contextlib.ExitStack() as held:
