@@ -68,6 +68,9 @@ def load_skeleton(path: str | Path) -> dict:
         check_file_size(path, "skeleton")
     except OSError as e:
         raise SkeletonError(f"cannot read skeleton: {e.strerror}", path) from None
+    wide = _wide_text(path)
+    if wide:
+        raise SkeletonError(f"skeleton is {wide} text; the Spine runtimes read JSON as UTF-8 only", path)
     if is_binary_skeleton(path):
         from .skeleton_binary import read_skel_finite
 
@@ -260,6 +263,23 @@ def save_skeleton(doc: dict, path: str | Path) -> None:
         atomic_write_bytes(path, write_skel(doc, path))
     else:
         atomic_write_text(path, dumps_skeleton(doc, path))
+
+
+#: Byte-order marks and first characters (``{`` or ``[``) of JSON saved as UTF-16 or UTF-32
+#: (Windows editors' "Unicode"), longest first.
+_WIDE_TEXT = ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"), (b"{\x00\x00\x00", "UTF-32"),
+              (b"[\x00\x00\x00", "UTF-32"), (b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"),
+              (b"{\x00", "UTF-16"), (b"[\x00", "UTF-16"), (b"\x00{", "UTF-16"), (b"\x00[", "UTF-16"))
+
+
+def _wide_text(path: Path) -> str:
+    """``"UTF-16"`` or ``"UTF-32"`` for a skeleton named ``.json`` saved so, else ``""`` (a
+    binary read as one said only "expected a Spine version string")."""
+    if path.name.lower().endswith((".skel", ".skel.bytes", ".skel.txt")) or not path.is_file():
+        return ""
+    with open(path, "rb") as f:
+        head = f.read(4)
+    return next((name for start, name in _WIDE_TEXT if head.startswith(start)), "")
 
 
 def is_binary_skeleton(path: str | Path) -> bool:

@@ -108,3 +108,21 @@ def test_the_json_parser_marks_only_objects_that_name_a_key_twice():
     doc = parse_skeleton_json('{"a": {"x": 1, "X": 2, "y": 3}, "b": {"y": 1, "y": 2}, "c": {"Head": 1, "head2": 2}}')
     assert doc["a"].twice == {"x"} and doc["b"].twice == {"y"} and doc["b"] == {"y": 2}
     assert type(doc) is dict and type(doc["c"]) is dict and not isinstance(doc["c"], KeyedTwice)
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-32"])
+def test_a_skeleton_saved_as_utf16_is_said_so(tmp_path, encoding):
+    """A skeleton a Windows editor saved as "Unicode" (UTF-16 or UTF-32, with or without a
+    byte-order mark) was read as a binary and refused as "expected a Spine version string in the
+    header"; the runtimes read JSON as UTF-8 only, and now the line says what the file is."""
+    project = _demo(tmp_path)
+    skeleton = project / "demo.json"
+    skeleton.write_bytes(skeleton.read_text().encode(encoding))
+    before = snapshot(tmp_path)
+    commands = [["convert", "p/demo.json", "c.skel"]]
+    if encoding != "utf-16-le":  # without a byte-order mark, no "skeleton" object is seen: no skeleton to pose
+        commands.append(["pose", "p/demo.json"])
+    for args in commands:
+        r = run_cli(*args, cwd=tmp_path)
+        check_run(r, before, tmp_path, [], codes=(2,))
+        assert f"demo.json: skeleton is {encoding[:6].upper()} text" in r.stderr, r.stderr
