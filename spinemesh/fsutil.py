@@ -288,10 +288,11 @@ def existing(path: str | Path) -> Path:
 
 
 def refuse_report_over_output(report: Path, out: Path) -> None:
-    """Refuse a ``--report`` that would replace a file the run wrote in OUT (an atlas, a skeleton):
-    OUT was empty when the run began, so any file there at the end is the run's."""
+    """Refuse a ``--report`` that would replace a file in OUT: one the run wrote (an atlas, a
+    skeleton) or one it kept there, not its own (an earlier run's report was removed with its files)."""
     if is_within(report, out) and report.exists():
-        raise OutputError("--report would replace a file this run wrote; name it apart", report)
+        raise OutputError("--report would replace a file in the output folder (this run's, or one it keeps "
+                          "there); name it apart", report)
 
 
 def refuse_overlapping_outputs(out: Path, others: dict) -> None:

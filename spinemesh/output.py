@@ -13,6 +13,7 @@ package to write its output.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 from pathlib import Path
@@ -23,13 +24,19 @@ except ImportError:  # Windows: no lock
     fcntl = None
 
 from .errors import SpineMeshError
-from .fsutil import OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, make_folder
+from .fsutil import (OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, file_stamp, make_folder,
+                     strict_json, walk_folder)
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 
-#: A file that marks a folder as written by ``upgrade``: only such a folder is replaced by
-#: ``overwrite`` (a mistyped ``--out ~/Documents --overwrite`` must not delete a user's files).
+#: A file that marks a folder as written by ``upgrade``, ``pack`` or ``weights``, listing the files
+#: the run wrote there (:func:`output_folder`): only those are removed by ``overwrite`` (a mistyped
+#: ``--out ~/Documents --overwrite`` must not delete a user's files, nor a rerun the files a game
+#: engine or the user added beside the run's: Unity's ``.meta`` files, a ``.gitignore``).
 OUTPUT_MARKER = ".spinemesh-output"
+
+#: Largest marker read (a few hundred bytes per thousand files written).
+MAX_MARKER_BYTES = 64 * 1024 * 1024
 
 
 def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
@@ -39,13 +46,16 @@ def check_output_folder(project_root: Path, out: Path, images_in: Path | None = 
 
 @contextlib.contextmanager
 def output_folder(out: Path, overwrite: bool):
-    """Hold ``out`` for one run: an empty folder marked as ours, or refused.
+    """Hold ``out`` for one run: an empty folder marked as ours, or one an earlier run wrote.
 
-    An existing non-empty ``out`` is refused unless ``overwrite``; then its contents are
-    removed (no stale file of an earlier run stays), but only if an earlier ``upgrade`` wrote
-    it (:data:`OUTPUT_MARKER`). The folder itself is kept and locked (``flock``) while the
-    run lasts: a second run into the same folder waits for the first to end instead of
-    deleting or overwriting its files half-way.
+    An existing non-empty ``out`` is refused unless ``overwrite``, and then unless an earlier
+    run wrote it (:data:`OUTPUT_MARKER`); the files that run wrote are removed, so that no
+    stale page or skeleton stays beside the new ones (a runtime loading the folder could pick
+    it up), and every other file is kept. The marker lists the files this run writes: while
+    it lasts, the files it found (kept, whatever ends the run); once it ends, those it wrote.
+    The folder itself is kept and locked (``flock``) while the run lasts: a second run into
+    the same folder waits for the first to end instead of deleting or overwriting its files
+    half-way.
     """
     if out.exists() and not out.is_dir():
         raise SpineMeshError("output folder exists and is not a folder", out)
@@ -54,22 +64,102 @@ def output_folder(out: Path, overwrite: bool):
     try:
         if fcntl is not None:
             fcntl.flock(fd, fcntl.LOCK_EX)
-        entries = list(out.iterdir())
-        if entries:
+        if next(out.iterdir(), None) is not None:
             if not overwrite:
-                raise SpineMeshError("output folder is not empty; pass --overwrite to replace it as a whole", out)
+                raise SpineMeshError("output folder is not empty; pass --overwrite to write it again", out)
             if not (out / OUTPUT_MARKER).is_file():
                 raise SpineMeshError("output folder is not empty and was not written by spinemesh; "
                                      "refusing to delete it, choose another --out", out)
-            for entry in entries:
-                if entry.is_dir() and not entry.is_symlink():
-                    shutil.rmtree(entry)
-                else:
-                    entry.unlink()
-        atomic_write_text(out / OUTPUT_MARKER, "written by spinemesh upgrade; --overwrite may replace this folder\n")
-        yield out
+            _remove_earlier_run(out)
+        found = _files_under(out)
+        _write_marker(out, {"running": True, "kept": sorted(found)})
+        try:
+            yield out
+        finally:
+            written = sorted(rel for rel, stamp in _files_under(out).items() if found.get(rel) != stamp)
+            with contextlib.suppress(SpineMeshError):  # the running marker stays: found files kept still
+                _write_marker(out, {"written": written})
     finally:
         os.close(fd)  # releases the lock
+
+
+def note_written(out: Path, path: Path) -> None:
+    """List ``path``, a file written in ``out`` once the run holding it ended (a ``--report``), among
+    the run's files in its marker, so that the next ``overwrite`` removes it too."""
+    marker = _read_marker(out)
+    if not isinstance(marker, dict) or not isinstance(marker.get("written"), list):
+        return
+    try:
+        rel = Path(os.path.abspath(path)).relative_to(os.path.abspath(out)).as_posix()
+    except ValueError:
+        return
+    if rel not in marker["written"]:
+        _write_marker(out, {"written": sorted([*marker["written"], rel])})
+
+
+def _files_under(out: Path) -> dict[str, tuple | None]:
+    """Every file under ``out`` (hidden ones too, the marker aside) by its POSIX path under it,
+    with its :func:`file_stamp`: a file replaced or written anew has another."""
+    files = {}
+    for _, _, names in walk_folder(out, hidden=True):
+        for f in names:
+            rel = f.relative_to(out).as_posix()
+            if rel != OUTPUT_MARKER:
+                files[rel] = file_stamp(f)
+    return files
+
+
+def _write_marker(out: Path, what: dict) -> None:
+    atomic_write_text(out / OUTPUT_MARKER, strict_json({"spinemesh": "output folder", **what}, 1) + "\n")
+
+
+def _read_marker(out: Path):
+    """The marker's JSON; None for a marker an older spinemesh wrote (a line of text: it emptied
+    its folder as a whole, so every file there is a run's) or one that cannot be read."""
+    try:
+        with open(out / OUTPUT_MARKER, "rb") as f:
+            data = f.read(MAX_MARKER_BYTES + 1)
+        if len(data) > MAX_MARKER_BYTES:
+            return None
+        return json.loads(data.decode("utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _remove_earlier_run(out: Path) -> None:
+    """Remove from ``out`` the files an earlier run wrote there, as its marker lists them, and the
+    folders they leave empty; any other file stays. A run that did not end (its marker lists what
+    it found) wrote every file but those; an older spinemesh's marker lists none: it emptied the
+    folder as a whole, and so does this."""
+    marker = _read_marker(out)
+    if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
+        for entry in out.iterdir():
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+        return
+    if isinstance(marker.get("written"), list):
+        ours = {rel for rel in marker["written"] if isinstance(rel, str)}
+    else:
+        kept = marker.get("kept") if isinstance(marker.get("kept"), list) else []
+        ours = set(_files_under(out)) - set(kept)
+    root = os.path.realpath(out)
+    for rel in sorted(ours):
+        path = Path(out, rel)
+        # a listed name is a file under OUT, reached through no symlinked folder: nothing else goes
+        if os.path.isabs(rel) or ".." in Path(rel).parts or rel in ("", ".", OUTPUT_MARKER) \
+                or os.path.realpath(path.parent) != os.path.join(root, *Path(rel).parts[:-1]).rstrip(os.sep):
+            continue
+        if path.is_symlink() or path.is_file():
+            path.unlink()
+            for folder in path.parents:
+                if folder == out or not folder.is_relative_to(out):
+                    break
+                try:
+                    folder.rmdir()  # only when empty
+                except OSError:
+                    break
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:

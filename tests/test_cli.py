@@ -286,19 +286,20 @@ def test_a_dry_run_with_pack_says_it_packed_nothing(demo, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_existing_output_is_refused_then_replaced_whole_with_overwrite(demo, tmp_path):
+def test_existing_output_is_refused_then_written_again_with_overwrite(demo, tmp_path):
     out = tmp_path / "out"
     r = run("upgrade", str(demo), "--out", str(out), "--preview", str(tmp_path / "preview"))
     assert r.returncode == 0, r.stderr
     assert f"preview: {tmp_path / 'preview' / 'index.html'} (" in r.stdout.replace("\n", "")
     assert re.search(r"index\.html \(\d+\.\d s\)", r.stdout.replace("\n", "")), r.stdout  # its time: not in the timing line
-    (out / "stale.txt").write_text("from an earlier run")
+    (out / "mine.txt").write_text("not spinemesh's")
     r = run("upgrade", str(demo), "--out", str(out))
     assert r.returncode == 2 and "--overwrite" in r.stderr and "Traceback" not in r.stderr
-    assert (out / "stale.txt").exists()
-    r = run("upgrade", str(demo), "--out", str(out), "--overwrite", "--only", "demo-head")
+    assert (out / "mine.txt").exists()
+    r = run("upgrade", str(demo / "demo.json"), "--out", str(out), "--overwrite", "--only", "demo-head")
     assert r.returncode == 0, r.stderr
-    assert not (out / "stale.txt").exists(), "--overwrite replaces the folder as a whole"
+    assert not (out / "demo-binary.skel").exists(), "--overwrite removes what the earlier run wrote"
+    assert (out / "mine.txt").exists(), "and keeps what it did not write (tests/test_pipeline.py)"
     assert (out / "demo.json").is_file()
 
 

@@ -89,3 +89,96 @@ def test_the_same_bytes_from_any_folder_seed_zone_and_workers(tmp_path):
     for name in reports:
         assert without_times(a[name]) == without_times(b[name]), name
     assert any(k.startswith("preview/") for k in a) and "pose.json" in a
+
+
+# --- reruns into one folder -----------------------------------------------------------------------
+
+def test_overwrite_removes_the_earlier_runs_files_and_keeps_the_users(tmp_path):
+    """A nightly build upgrades into the same folder, which a game engine (Unity's .meta files)
+    or the team (a .gitignore, notes) adds files to. --overwrite removed every file there; now it
+    removes the files the earlier run wrote (its report too), so that no stale skeleton or page
+    stays for a runtime to load, and keeps every other file, byte for byte."""
+    demo = make_demo_project(tmp_path / "demo")
+    r = spinemesh("upgrade", demo, "--out", "X", "--pack", "--report", "X/report.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    first = files_of(tmp_path / "X")
+    assert {"demo-binary.skel", "demo.json", "report.json"} <= set(first)
+    users = {"demo.atlas.meta": b"guid: 1", ".gitignore": b"*.tmp\n", "notes/todo.txt": b"mine",
+             "images/demo-head.png.meta": b"guid: 2"}
+    for name, data in users.items():
+        (tmp_path / "X" / name).parent.mkdir(exist_ok=True)
+        (tmp_path / "X" / name).write_bytes(data)
+    # the skeleton file alone: its twin demo-binary.skel, the report and the images are not written again
+    r = spinemesh("upgrade", demo / "demo.json", "--out", "X", "--overwrite", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    second = files_of(tmp_path / "X")
+    assert {k: second.get(k) for k in users} == users, "a file spinemesh did not write is kept"
+    alone = files_of(tmp_path / "alone") if spinemesh("upgrade", demo / "demo.json", "--out", "alone",
+                                                      cwd=tmp_path).returncode == 0 else {}
+    ours = {k: v for k, v in second.items() if k not in users}
+    assert ours == alone, sorted(set(ours) ^ set(alone))  # what a fresh run writes, and nothing stale
+    assert "demo-binary.skel" not in second and "report.json" not in second
+    marker = json.loads(second[".spinemesh-output"])
+    assert sorted(marker["written"]) == sorted(k for k in alone if k != ".spinemesh-output")
+    r = spinemesh("upgrade", demo, "--out", "X", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--overwrite" in r.stderr, r.stderr
+
+
+def test_a_run_that_did_not_end_is_removed_by_the_next_and_a_users_file_kept(tmp_path):
+    """A run killed half-way (SIGKILL: no clean-up) leaves its files; the marker it wrote first
+    lists the files it found, so the next --overwrite removes all but those."""
+    out = tmp_path / "X"
+    out.mkdir()
+    (out / ".spinemesh-output").write_text("written by spinemesh upgrade; --overwrite may replace this folder\n")
+    (out / "mine.txt").write_text("an earlier spinemesh emptied its folder as a whole: so does this one")
+    code = ("import os, sys\nfrom pathlib import Path\nfrom spinemesh.output import output_folder\n"
+            "out = Path(sys.argv[1])\n"
+            "with output_folder(out, True):\n"
+            "    (out / 'ours.txt').write_text('the run')\n"
+            "(out / 'kept.txt').write_text('mine')\n"
+            "with output_folder(out, True):\n"
+            "    (out / 'sub').mkdir()\n"
+            "    (out / 'sub' / 'half.skel').write_bytes(b'half')\n"
+            "    os._exit(9)\n")
+    r = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(REPO)))
+    assert r.returncode == 9, r.stderr
+    assert not (out / "mine.txt").exists()  # the old marker: the whole folder was the run's
+    assert not (out / "ours.txt").exists()  # the marker's list: removed by the next run
+    assert (out / "sub" / "half.skel").exists() and json.loads((out / ".spinemesh-output").read_text())["running"]
+    from spinemesh.output import output_folder
+
+    with output_folder(out, True):
+        assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*")) == [".spinemesh-output", "kept.txt"]
+
+
+def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
+    """The marker is a file anyone can write: a name that climbs out, is absolute or passes
+    through a symlinked folder removes nothing."""
+    from spinemesh.output import output_folder
+
+    out, elsewhere = tmp_path / "X", tmp_path / "elsewhere"
+    out.mkdir()
+    elsewhere.mkdir()
+    (elsewhere / "precious.txt").write_text("precious")
+    (out / "link").symlink_to(elsewhere)
+    (out / "stale.atlas").write_text("stale")
+    names = ["../elsewhere/precious.txt", str(elsewhere / "precious.txt"), "link/precious.txt", "stale.atlas"]
+    (out / ".spinemesh-output").write_text(json.dumps({"spinemesh": "output folder", "written": names}))
+    with output_folder(out, True):
+        pass
+    assert (elsewhere / "precious.txt").read_text() == "precious" and (out / "link").is_symlink()
+    assert not (out / "stale.atlas").exists()
+
+
+def test_weights_report_never_replaces_a_skeleton_it_wrote(tmp_path):
+    """``weights --report OUT/demo.json`` replaced the weighted skeleton by the report, exit 0; it
+    is refused as ``upgrade``'s and ``pack``'s are, in one line."""
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    upgrade_project(demo, tmp_path / "meshed", Options(min_saving=None, jobs=1))
+    r = spinemesh("weights", "meshed", "--out", "w", "--report", "w/demo.json", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--report would replace a file in the output folder" in r.stderr
+    assert "skeleton" in json.loads((tmp_path / "w" / "demo.json").read_text())

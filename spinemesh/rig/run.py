@@ -51,7 +51,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     preview : path, optional
         Folder for one picture per weighted attachment (:mod:`.preview`).
     overwrite : bool, default False
-        Replace ``out`` as a whole, when an earlier run wrote it.
+        Write ``out`` again when an earlier run wrote it (:func:`~spinemesh.output.output_folder`).
     progress : spinemesh.upgrade.progress.Progress, optional
         Told the steps of the phases ``weights`` (each mesh attachment) and ``preview`` (each
         picture), as they become known and as they are done.
