@@ -25,7 +25,7 @@ except ImportError:  # Windows: no lock
 
 from .errors import SpineMeshError
 from .fsutil import (OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, file_stamp, make_folder,
-                     strict_json, walk_folder)
+                     refuse_report_over_output, strict_json, walk_folder)
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 
@@ -81,6 +81,15 @@ def output_folder(out: Path, overwrite: bool):
                 _write_marker(out, {"written": written})
     finally:
         os.close(fd)  # releases the lock
+
+
+def write_run_report(report: Path, out: Path, write) -> None:
+    """A run's ``--report``, written by ``write(report)`` once the run holding ``out`` ended: refused
+    over a file of ``out`` (:func:`~spinemesh.fsutil.refuse_report_over_output`), and when inside
+    it, listed among the run's files (:func:`note_written`)."""
+    refuse_report_over_output(report, out)
+    write(report)
+    note_written(out, report)
 
 
 def note_written(out: Path, path: Path) -> None:

@@ -45,8 +45,8 @@ def pack(
                                             "under OUT).")],
     out: Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder: not the project folder, not "
                                       "inside it; refused if not empty, unless --overwrite.")],
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Write into OUT again (only a folder spinemesh wrote): the files the earlier run wrote are "
-                                            "removed, so that no stale file stays; any other file is kept.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Write OUT again (only a folder spinemesh "
+                                            "wrote): the files the earlier run wrote are removed, any other kept.")] = False,
     report: Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report: per atlas, "
                                                    "pages, texels and bytes before and after, regions packed by "
                                                    "outline and by rectangle, and why.")] = None,
@@ -120,15 +120,12 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
-    from ..fsutil import refuse_report_over_output
-    from ..output import note_written
+    from ..output import write_run_report
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL
 
     if report is not None:
-        refuse_report_over_output(report, out)  # a report named like a packed atlas would replace it
-        write_report(result, report)
-        note_written(out, report)  # a later --overwrite removes it with the run's files
+        write_run_report(report, out, lambda path: write_report(result, path))
     if preview is not None:
         from ..pack.preview import write_preview
 

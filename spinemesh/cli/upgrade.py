@@ -25,8 +25,8 @@ _Project = Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folde
                                               "projects (each upgraded to the same place under OUT).")]
 _Out = Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder: not the project folder, not inside "
                                     "it; refused if not empty, unless --overwrite.")]
-_Overwrite = Annotated[bool, typer.Option("--overwrite", help="Write into OUT again (only a folder spinemesh wrote): the files the earlier run wrote are "
-                                          "removed, so that no stale file stays; any other file is kept.")]
+_Overwrite = Annotated[bool, typer.Option("--overwrite", help="Write OUT again (only a folder spinemesh "
+                                          "wrote): the files the earlier run wrote are removed, any other kept.")]
 _Preview = Annotated[Optional[Path], typer.Option(
     "--preview", metavar="DIR", help="Write HTML pages that open from disk (DIR/index.html): texels drawn "
                       "before and after, one page per skeleton with the original and upgraded skeleton "
@@ -172,16 +172,14 @@ def upgrade(
 
 def _write_report(result, report: Path | None, out: Path, dry_run: bool) -> None:
     """``--report``: the run's report as JSON, never over a file the run wrote in OUT."""
-    from ..fsutil import refuse_report_over_output
-    from ..output import note_written
+    from ..output import write_run_report
     from ..upgrade import write_report
 
     if report is not None:
-        if not dry_run:
-            refuse_report_over_output(report, out)
-        write_report(result, report)
-        if not dry_run:
-            note_written(out, report)  # a later --overwrite removes it with the run's files
+        if dry_run:  # no output folder
+            write_report(result, report)
+        else:
+            write_run_report(report, out, lambda path: write_report(result, path))
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:

@@ -41,8 +41,8 @@ def weights(
     project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (not the project folder, not "
                                       "inside it); refused if not empty, unless --overwrite.")],
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Write into OUT again (only a folder spinemesh wrote): the files the earlier run wrote are "
-                                            "removed, so that no stale file stays; any other file is kept.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Write OUT again (only a folder spinemesh "
+                                            "wrote): the files the earlier run wrote are removed, any other kept.")] = False,
     replace: Annotated[bool, typer.Option("--replace", help="Also recompute meshes that are already "
                                           "weighted.")] = False,
     bones: Annotated[BoneChoice, typer.Option(
@@ -81,9 +81,11 @@ def weights(
     """
     from ..anim.motion import sampled_bone_worlds
     from ..fsutil import OutputGuard, check_written_folder
+    from ..output import write_run_report
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+    from ._summary import print_errors, print_left_alone, skeleton_table
 
     guard = OutputGuard([project])
     guard.check_folder(out)
@@ -97,14 +99,7 @@ def weights(
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
         result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
     if report is not None:
-        from ..fsutil import refuse_report_over_output
-        from ..output import note_written
-
-        refuse_report_over_output(report, out)  # a report named like a weighted skeleton would replace it
-        write_report(result, report)
-        note_written(out, report)  # a later --overwrite removes it with the run's files
-
-    from ._summary import print_errors, print_left_alone, skeleton_table
+        write_run_report(report, out, lambda path: write_report(result, path))
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
