@@ -142,3 +142,38 @@ def test_a_light_colour_alone_keeps_half_transparent_texels_exact(tmp_path):
             want = np.append(texel[:3] * light[:3], texel[3]) * 255
             got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
             assert np.abs(got - want).max() <= 2, (k, got, want.round(1))
+
+
+def test_colours_overshooting_by_a_bezier_are_clamped_only_as_drawn(tmp_path):
+    """4.0 to 4.2 keep a Bezier curve's overshoot of 0..1 in the light and dark colours an ``rgb2``
+    timeline sets, and their shader clamps only the colour it draws, ``dark + texel * (light -
+    dark)``. Here the light colour rises past 1 and the dark one falls below 0 half way: the player
+    draws the formula on those values (clamping them first drew 40/255 off)."""
+    from browser import canvases, player_result
+
+    from spinemesh.anim import Sampler
+
+    project = make_tinted_project(tmp_path / "in")
+    doc = json.loads((project / "tint.json").read_text(encoding="utf-8"))
+    up, down = [0.8, 0.9, 1.1], [-1.0, -0.8, -1.2]  # each channel's control points past its value
+    curve = [c for lift in up + down for c in (0.25, 0.5 + lift, 0.75, 0.5 + lift)]
+    doc["animations"] = {"glow": {"slots": {"patch": {"rgb2": [
+        {"time": 0, "light": "808080", "dark": "808080", "curve": curve},
+        {"time": 1, "light": "808080", "dark": "808080"}]}}}}
+    (project / "tint.json").write_text(json.dumps(doc), encoding="utf-8")
+    slot = Sampler(doc).pose("glow", 0.5).slots[0]
+    light, dark = np.asarray(slot.color, float), np.asarray(slot.dark, float)
+    assert (light[:3] > 1.05).all() and (dark < -0.05).all(), (light, dark)  # the sampler keeps the overshoot
+    result = upgrade_project(project, tmp_path / "out", Options())
+    index = write_preview(result, project, tmp_path / "out", tmp_path / "preview")
+    url = (index.parent / "s" / "tint.html").resolve().as_uri() + "#at=1,0.5," + ",".join(map(str, VIEW))
+    clamped_off = 0.0
+    for rgba in canvases(player_result(url, tmp_path / "page")):
+        for k, x in enumerate((80, 160, 240)):
+            texel = np.array(PATCHES[k], float) / 255
+            want = np.append(np.clip(dark + texel[:3] * (light[:3] - dark), 0, 1), texel[3] * light[3]) * 255
+            got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
+            assert np.abs(got - want).max() <= 2, (k, got, want.round(1))
+            first = np.clip(dark, 0, 1) + texel[:3] * (np.clip(light[:3], 0, 1) - np.clip(dark, 0, 1))
+            clamped_off = max(clamped_off, np.abs(first * 255 - want[:3]).max())
+    assert clamped_off > 10, clamped_off  # clamping the colours first draws visibly otherwise

@@ -252,7 +252,8 @@ class SideTable:
             for j in range(i + 1, i + 1 + 5 * count, 5):
                 draws[j] = where[draws[j]]
             i += 1 + 5 * count
-        return {"draws": draws, "xy": side.frames["xy"]}
+        tints = {"tints": side.frames["tints"]} if "tints" in side.frames else {}
+        return {"draws": draws, "xy": side.frames["xy"], **tints}
 
 
 @dataclass
@@ -317,13 +318,16 @@ def bounds(poses: list[list[Drawn]]) -> tuple[float, float, float, float]:
 
 def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
     """One side of an animation: ``draws`` (per frame: count, then per attachment its table
-    index, alpha 0..255, blend, tint (:func:`tint_number`) and its clipping: 0 none, -1 the
-    previous attachment's polygon, M > 0 a new polygon of M vertices) and ``xy`` (every vertex,
-    frame after frame, each new clipping polygon's before the vertices of the attachment it
-    first clips, quantised to 0..65535 over ``box``, little-endian uint16, base64)."""
+    index, alpha 0..255, blend, tint (:func:`tint_number`, or ``-1 - k`` for the ``k``-th of
+    ``tints``) and its clipping: 0 none, -1 the previous attachment's polygon, M > 0 a new
+    polygon of M vertices), ``xy`` (every vertex, frame after frame, each new clipping polygon's
+    before the vertices of the attachment it first clips, quantised to 0..65535 over ``box``,
+    little-endian uint16, base64), and, only where a colour overshoots 0..1, ``tints``
+    (:func:`overshooting_tint`)."""
     x0, y0, x1, y1 = box
     span = np.array([x1 - x0, y1 - y0])
     draws: list[int] = []
+    tints: dict[tuple, int] = {}
     xy = []
     for pose in poses:
         draws.append(len(pose))
@@ -337,12 +341,44 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
                 clip = len(d.clip)
                 xy.append(d.clip)
             previous = d.clip
+            unclamped = overshooting_tint(d.tint, d.dark)
+            tint = tint_number(d.tint, d.dark) if unclamped is None else -1 - tints.setdefault(unclamped, len(tints))
             draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0),
-                      tint_number(d.tint, d.dark), clip]
+                      tint, clip]
             xy.append(d.world)
     q = np.concatenate(xy) if xy else np.zeros((0, 2))
     q = np.round((q - (x0, y0)) / span * 65535).clip(0, 65535).astype("<u2")
-    return {"draws": draws, "xy": base64.b64encode(q.tobytes()).decode("ascii")}
+    out = {"draws": draws, "xy": base64.b64encode(q.tobytes()).decode("ascii")}
+    if tints:  # a page whose colours stay within 0..1 holds what it held before
+        out["tints"] = [list(t) for t in tints]
+    return out
+
+
+#: The largest magnitude of an overshooting colour channel a page holds: past it every texel's
+#: colour but one (0 or 1) is the same once the output is clamped; a page holds no infinity.
+MAX_TINT_CHANNEL = 1000.0
+
+
+def overshooting_tint(light, dark=None) -> tuple | None:
+    """``(light r, g, b, dark r, g, b)`` (no dark: the light three alone), rounded to 1e-5 and
+    within :data:`MAX_TINT_CHANNEL`, where a channel is outside 0..1; None where all are within.
+
+    4.0 to 4.2 assign some colour timelines' values as keyed, so a Bezier curve overshoots 0..1,
+    and their shaders clamp only the colour drawn, ``dark + texel * (light - dark)``: the player
+    draws those tints unclamped (its colour matrix clamps its output alike), where
+    :func:`tint_number`, bytes of 0..255, would clamp them first.
+
+    Examples
+    --------
+    >>> overshooting_tint((1.0, 0.5, 0.0)) is None
+    True
+    >>> overshooting_tint((1.25, 0.5, 0.0), (0.0, -0.5, 0.0))
+    (1.25, 0.5, 0.0, 0.0, -0.5, 0.0)
+    """
+    channels = [*light[:3], *(dark[:3] if dark is not None else ())]
+    if all(0.0 <= c <= 1.0 for c in channels):
+        return None
+    return tuple(round(min(max(float(c), -MAX_TINT_CHANNEL), MAX_TINT_CHANNEL), 5) + 0.0 for c in channels)
 
 
 def _rgb24(colour) -> int:

@@ -3,7 +3,8 @@
  * Data comes from scripts beside the page (file:// pages may load <script src>, not fetch):
  * SM.model(id, model) once per skeleton, SM.frames(key, frames) per animation and skin, loaded
  * when chosen. Each frame lists the attachments drawn (table index, alpha, blend, tint: the light
- * colour's 24 bits plus the dark colour's times 2^24 where a slot has one, clipping)
+ * colour's 24 bits plus the dark colour's times 2^24 where a slot has one, or -1 - k for the k-th
+ * of the side's "tints", colours that overshoot 0..1 listed as numbers, clipping)
  * and their vertices, 16-bit over the animation's bounds. Drawing: textured triangles on a 2D
  * canvas, each an affine map of its image clipped to the triangle (one clip and one draw when a
  * whole attachment is one affine map of its image, as a region or an unbent mesh is: no seams).
@@ -85,17 +86,33 @@
       var n = d[p++];
       for (var i = 0; i < n; i++) { v += table[d[p]].uv.length + (d[p + 4] > 0 ? 2 * d[p + 4] : 0); p += 5; }
     }
-    return { draws: d, xy: xy, starts: starts };
+    return { draws: d, xy: xy, starts: starts, tints: side.tints || [] };
   }
 
   /* The pixels of images tinted in one page (tinted()), and the SVG filters of two-colour tints. */
   var MAX_TINT_PIXELS = 64 * 1024 * 1024, SVGNS = "http://www.w3.org/2000/svg", filters = null, filterCount = 0;
 
+  /* A tint's light and dark colours, three numbers each: 0..1 from their 24 bits, or as a side's
+   * "tints" list them where one overshoots 0..1 (an array: the light colour's r, g, b, then the
+   * dark colour's, if any). A light colour alone has a dark colour of 0. */
+  function tintColours(light, dark) {
+    if (typeof light !== "number") return [light.slice(0, 3), light.length > 3 ? light.slice(3, 6) : [0, 0, 0]];
+    var l = [], dk = [];
+    for (var k = 0; k < 3; k++) {
+      var shift = 16 - 8 * k;
+      l.push((light >> shift & 255) / 255);
+      dk.push((dark >> shift & 255) / 255);
+    }
+    return [l, dk];
+  }
+
   /* The image drawn on x as the runtimes' two-colour tint draws it (spine-webgl's two-colour
    * shader, straight alpha): each texel's colour c becomes dark + c * (light - dark), its alpha
    * kept. An SVG colour matrix as the canvas's filter: it works on straight colour, and, unlike
    * reading the pixels back, on a page opened from disk, whose images a browser will not let a
-   * script read. A light colour alone is dark 0. False where the browser has no canvas filters. */
+   * script read. Its coefficients may be any number and only its output is clamped to 0..1, as
+   * the shader's: a colour that overshoots 0..1 (4.0 to 4.2 leave a Bezier's overshoot) is passed
+   * as it is. A light colour alone is dark 0. False where the browser has no canvas filters. */
   function twoColour(x, im, light, dark) {
     if (typeof x.filter !== "string") return false;
     if (!filters) {
@@ -107,11 +124,10 @@
       svg.appendChild(filters);
       document.body.appendChild(svg);
     }
-    var rows = [];
+    var rows = [], c = tintColours(light, dark);
     for (var k = 0; k < 3; k++) {
-      var shift = 16 - 8 * k, l = (light >> shift & 255) / 255, dk = (dark >> shift & 255) / 255;
-      var row = [0, 0, 0, 0, dk];
-      row[k] = l - dk;
+      var row = [0, 0, 0, 0, c[1][k]];
+      row[k] = c[0][k] - c[1][k];
       rows.push(row.join(" "));
     }
     rows.push("0 0 0 1 0");
@@ -205,7 +221,8 @@
         if (twoColour(x, im, rgb, dark || 0)) return (tints[key] = c);
         x.drawImage(im, 0, 0);
         x.globalCompositeOperation = "multiply";
-        x.fillStyle = "#" + (0x1000000 + rgb).toString(16).slice(1);
+        var l = tintColours(rgb, 0)[0];
+        x.fillStyle = "rgb(" + l.map(function (v) { return Math.round(255 * Math.min(Math.max(v, 0), 1)); }).join(",") + ")";
         x.fillRect(0, 0, c.width, c.height);
         x.globalCompositeOperation = "destination-in";
         x.drawImage(im, 0, 0);
@@ -284,6 +301,7 @@
       for (var i = 0; i < n; i++) {
         var row = table[d[p]], alpha = d[p + 1] / 255, blend = d[p + 2], tint = d[p + 3] % 16777216,
             dark = Math.floor(d[p + 3] / 16777216), cl = d[p + 4];
+        if (d[p + 3] < 0) { tint = side.tints[-1 - d[p + 3]]; dark = 0; } /* overshooting 0..1: as listed */
         p += 5;
         if (cl === 0) clip = null;
         else if (cl > 0) { /* a new clipping polygon: its vertices come first */
