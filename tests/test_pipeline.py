@@ -13,6 +13,7 @@ runs where the data are.
 from __future__ import annotations
 
 import json
+import re
 import os
 import subprocess
 import sys
@@ -182,3 +183,48 @@ def test_weights_report_never_replaces_a_skeleton_it_wrote(tmp_path):
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "--report would replace a file in the output folder" in r.stderr
     assert "skeleton" in json.loads((tmp_path / "w" / "demo.json").read_text())
+
+
+def test_a_data_set_is_the_same_bytes_from_any_folder(tmp_path):
+    """``dataset`` wrote each project's errors naming its files by the path given (relative,
+    absolute): the data set's projects.jsonl differed from one folder to the next."""
+    for side in ("a", "b"):
+        demo = make_demo_project(tmp_path / side / "library" / "demo")
+        (demo / "broken.skel").write_bytes(b"\x00not a skeleton")
+    a = spinemesh("dataset", "library", "--out", "ds", "--jobs", "1", cwd=tmp_path / "a")
+    b = spinemesh("dataset", tmp_path / "b" / "library", "--out", tmp_path / "b" / "ds", "--jobs", "2",
+                  cwd=tmp_path, PYTHONHASHSEED="3")
+    assert a.returncode == b.returncode == 0, a.stderr + b.stderr
+    first, second = files_of(tmp_path / "a" / "ds"), files_of(tmp_path / "b" / "ds")
+    assert b"broken.skel" in first["projects.jsonl"]
+    assert sorted(first) == sorted(second)
+    assert [k for k in first if first[k] != second[k]] == []
+
+
+def test_a_reports_counts_come_in_one_order_whatever_the_project(tmp_path):
+    """The report's ``counts`` listed statuses in the order they first occurred: a project whose
+    first attachment was meshed one night and kept the next gave reports whose text differed in
+    the order of two keys."""
+    from spinemesh.upgrade.report import Result, Target, write_report
+
+    texts = []
+    for statuses in (["meshed", "kept", "failed"], ["kept", "failed", "meshed"]):
+        result = Result()
+        result.targets = [Target(skeleton="s.json", skin="default", slot=f"s{i}", name=f"a{i}", paths=[f"a{i}"],
+                                 status=status) for i, status in enumerate(statuses)]
+        write_report(result, tmp_path / "report.json")
+        texts.append(json.loads((tmp_path / "report.json").read_text())["counts"])
+    assert list(texts[0]) == list(texts[1]) == ["failed", "kept", "meshed"]
+
+
+def test_every_command_is_in_the_exit_status_table():
+    """docs/reference/cli.md says each command's exit statuses where a build script looks for
+    them: a new command is named there, or this fails."""
+    from test_cli import COMMANDS
+
+    text = (REPO / "docs" / "reference" / "cli.md").read_text()
+    section = text[text.index("## Exit statuses"):text.index("## In a build pipeline")]
+    for status in ("| 0 |", "| 2 |", "| 3 |", "| 130, 143, 129 |"):
+        assert status in section
+    told = set(re.findall(r"`([a-z-]+)`", section))
+    assert not [c for c in COMMANDS if c not in told], sorted(set(COMMANDS) - told)

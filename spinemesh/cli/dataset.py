@@ -66,7 +66,9 @@ def dataset(
         console.print(_count_table("skipped images", "why", "count", summary.skipped.most_common()))
     _print_problems(summary, out)
     if summary.lost:  # a worker died on them twice: the data set lacks them until --retry-failed
-        raise typer.Exit(3)
+        from ..runs import EXIT_PARTIAL
+
+        raise typer.Exit(EXIT_PARTIAL)
 
 
 def _count_table(title: str, what: str, counted: str, rows):

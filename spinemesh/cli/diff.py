@@ -53,7 +53,7 @@ def diff(
     bad = [m for m in chosen if m not in METHODS]
     if bad:
         print_errors([f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}"])
-        raise typer.Exit(2)
+        raise typer.Exit(EXIT_BAD_INPUT)
     with progress_bar("comparing") as bar:
         task = bar.add_task("reading projects", total=None)
 

@@ -141,7 +141,9 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                   + (f", median {verts[len(verts) // 2]} vertices" if verts else "")
                   + (f"; {failed} image(s) failed" if failed else ""), highlight=False)
     if failed:
-        raise typer.Exit(3 if rows else 2)
+        from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+
+        raise typer.Exit(EXIT_PARTIAL if rows else EXIT_BAD_INPUT)  # none meshed: nothing written, as a refusal
 
 
 def _mesh_file(image: Path, target: Path, preview: Optional[Path], steps: Optional[Path], preset: str,

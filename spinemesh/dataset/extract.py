@@ -182,7 +182,7 @@ def extract_project(folder: str | Path, name: str, min_side: int = 1) -> Project
     try:
         game = game_of(folder)
     except SpineMeshError as e:  # its split cannot be decided: the project is left out, said why
-        return ProjectResult(project=name, game=folder.name, errors=[f"{e}; project not used"])
+        return ProjectResult(project=name, game=folder.name, errors=[f"{e}; project not used".replace(str(folder), name)])
     result = ProjectResult(project=name, game=game)
     try:
         _extract(folder, result, min_side)
@@ -191,6 +191,9 @@ def extract_project(folder: str | Path, name: str, min_side: int = 1) -> Project
         last = traceback.extract_tb(e.__traceback__)[-1]
         result.errors.append(f"{folder}: internal error {type(e).__name__}: {e} "
                              f"({Path(last.filename).name}:{last.lineno})")
+    # the data set names files by the project's name, not by the path it was given by (relative,
+    # absolute, another machine's): the same projects give the same bytes
+    result.errors = [error.replace(str(folder), name) for error in result.errors]
     return result
 
 
