@@ -146,9 +146,11 @@ def test_a_light_colour_alone_keeps_half_transparent_texels_exact(tmp_path):
 
 def test_colours_overshooting_by_a_bezier_are_clamped_only_as_drawn(tmp_path):
     """4.0 to 4.2 keep a Bezier curve's overshoot of 0..1 in the light and dark colours an ``rgb2``
-    timeline sets, and their shader clamps only the colour it draws, ``dark + texel * (light -
-    dark)``. Here the light colour rises past 1 and the dark one falls below 0 half way: the player
-    draws the formula on those values (clamping them first drew 40/255 off)."""
+    timeline sets and in the alpha an ``alpha`` timeline sets, and their shader clamps only the
+    colour it draws, ``dark + texel * (light - dark)`` and ``texel alpha * alpha``. Here the light
+    colour and the alpha rise past 1 and the dark colour falls below 0 half way: the player draws
+    the formula on those values (clamping them first drew 40/255 off, the half-transparent patch's
+    alpha 70/255)."""
     from browser import canvases, player_result
 
     from spinemesh.anim import Sampler
@@ -159,11 +161,12 @@ def test_colours_overshooting_by_a_bezier_are_clamped_only_as_drawn(tmp_path):
     curve = [c for lift in up + down for c in (0.25, 0.5 + lift, 0.75, 0.5 + lift)]
     doc["animations"] = {"glow": {"slots": {"patch": {"rgb2": [
         {"time": 0, "light": "808080", "dark": "808080", "curve": curve},
-        {"time": 1, "light": "808080", "dark": "808080"}]}}}}
+        {"time": 1, "light": "808080", "dark": "808080"}], "alpha": [
+        {"time": 0, "value": 0.8, "curve": [0.25, 1.8, 0.75, 1.8]}, {"time": 1, "value": 0.8}]}}}}
     (project / "tint.json").write_text(json.dumps(doc), encoding="utf-8")
     slot = Sampler(doc).pose("glow", 0.5).slots[0]
     light, dark = np.asarray(slot.color, float), np.asarray(slot.dark, float)
-    assert (light[:3] > 1.05).all() and (dark < -0.05).all(), (light, dark)  # the sampler keeps the overshoot
+    assert (light > 1.05).all() and (dark < -0.05).all(), (light, dark)  # the sampler keeps the overshoot
     result = upgrade_project(project, tmp_path / "out", Options())
     index = write_preview(result, project, tmp_path / "out", tmp_path / "preview")
     url = (index.parent / "s" / "tint.html").resolve().as_uri() + "#at=1,0.5," + ",".join(map(str, VIEW))
@@ -171,9 +174,10 @@ def test_colours_overshooting_by_a_bezier_are_clamped_only_as_drawn(tmp_path):
     for rgba in canvases(player_result(url, tmp_path / "page")):
         for k, x in enumerate((80, 160, 240)):
             texel = np.array(PATCHES[k], float) / 255
-            want = np.append(np.clip(dark + texel[:3] * (light[:3] - dark), 0, 1), texel[3] * light[3]) * 255
+            want = np.clip(np.append(dark + texel[:3] * (light[:3] - dark), texel[3] * light[3]), 0, 1) * 255
             got = np.median(rgba[76:85, x - 4:x + 5].reshape(-1, 4).astype(float), axis=0)
             assert np.abs(got - want).max() <= 2, (k, got, want.round(1))
-            first = np.clip(dark, 0, 1) + texel[:3] * (np.clip(light[:3], 0, 1) - np.clip(dark, 0, 1))
-            clamped_off = max(clamped_off, np.abs(first * 255 - want[:3]).max())
+            lit, dim = np.clip(light, 0, 1), np.clip(dark, 0, 1)
+            first = np.append(dim + texel[:3] * (lit[:3] - dim), texel[3] * lit[3])
+            clamped_off = max(clamped_off, np.abs(first * 255 - want).max())
     assert clamped_off > 10, clamped_off  # clamping the colours first draws visibly otherwise

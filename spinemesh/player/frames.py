@@ -341,8 +341,9 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
                 clip = len(d.clip)
                 xy.append(d.clip)
             previous = d.clip
-            unclamped = overshooting_tint(d.tint, d.dark)
+            unclamped = overshooting_tint(d.tint, d.dark, d.alpha)
             tint = tint_number(d.tint, d.dark) if unclamped is None else -1 - tints.setdefault(unclamped, len(tints))
+            # an alpha past 1 goes with the tint (its matrix multiplies the texels' alpha; the draw's, clamped, is 1)
             draws += [table.index(d), int(round(255 * min(max(d.alpha, 0.0), 1.0))), BLENDS.get(d.blend, 0),
                       tint, clip]
             xy.append(d.world)
@@ -359,26 +360,32 @@ def encode_frames(poses: list[list[Drawn]], table: SideTable, box) -> dict:
 MAX_TINT_CHANNEL = 1000.0
 
 
-def overshooting_tint(light, dark=None) -> tuple | None:
-    """``(light r, g, b, dark r, g, b)`` (no dark: the light three alone), rounded to 1e-5 and
-    within :data:`MAX_TINT_CHANNEL`, where a channel is outside 0..1; None where all are within.
+def overshooting_tint(light, dark=None, alpha: float = 1.0) -> tuple | None:
+    """``(light r, g, b, dark r, g, b, alpha)`` (no dark colour: 0, 0, 0; an alpha of 1 or less:
+    1, the draw's own alpha doing the rest), each rounded to 1e-5 and within
+    :data:`MAX_TINT_CHANNEL`, where a colour channel is outside 0..1 or the alpha above 1; None
+    where all are within.
 
     4.0 to 4.2 assign some colour timelines' values as keyed, so a Bezier curve overshoots 0..1,
-    and their shaders clamp only the colour drawn, ``dark + texel * (light - dark)``: the player
-    draws those tints unclamped (its colour matrix clamps its output alike), where
-    :func:`tint_number`, bytes of 0..255, would clamp them first.
+    and their shaders clamp only the colour drawn, ``dark + texel * (light - dark)`` and ``texel
+    alpha * alpha``: the player draws those tints unclamped (its colour matrix clamps its output
+    alike), where :func:`tint_number`, bytes of 0..255, would clamp them first. An alpha below 0
+    draws nothing either way.
 
     Examples
     --------
-    >>> overshooting_tint((1.0, 0.5, 0.0)) is None
+    >>> overshooting_tint((1.0, 0.5, 0.0), None, 0.5) is None
     True
     >>> overshooting_tint((1.25, 0.5, 0.0), (0.0, -0.5, 0.0))
-    (1.25, 0.5, 0.0, 0.0, -0.5, 0.0)
+    (1.25, 0.5, 0.0, 0.0, -0.5, 0.0, 1.0)
+    >>> overshooting_tint((1.0, 0.5, 0.0), None, 1.5)
+    (1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 1.5)
     """
-    channels = [*light[:3], *(dark[:3] if dark is not None else ())]
-    if all(0.0 <= c <= 1.0 for c in channels):
+    channels = [*light[:3], *(dark[:3] if dark is not None else (0.0, 0.0, 0.0))]
+    if all(0.0 <= c <= 1.0 for c in channels) and not alpha > 1.0:
         return None
-    return tuple(round(min(max(float(c), -MAX_TINT_CHANNEL), MAX_TINT_CHANNEL), 5) + 0.0 for c in channels)
+    bounded = [float(np.clip(np.nan_to_num(c), -MAX_TINT_CHANNEL, MAX_TINT_CHANNEL)) for c in [*channels, max(alpha, 1.0)]]
+    return tuple(round(c, 5) + 0.0 for c in bounded)
 
 
 def _rgb24(colour) -> int:

@@ -92,18 +92,19 @@
   /* The pixels of images tinted in one page (tinted()), and the SVG filters of two-colour tints. */
   var MAX_TINT_PIXELS = 64 * 1024 * 1024, SVGNS = "http://www.w3.org/2000/svg", filters = null, filterCount = 0;
 
-  /* A tint's light and dark colours, three numbers each: 0..1 from their 24 bits, or as a side's
-   * "tints" list them where one overshoots 0..1 (an array: the light colour's r, g, b, then the
-   * dark colour's, if any). A light colour alone has a dark colour of 0. */
+  /* A tint's light and dark colours, three numbers each, and what multiplies the texels' alpha:
+   * 0..1 from their 24 bits (alpha 1, the draw's alpha doing the rest), or as a side's "tints"
+   * list them where one overshoots 0..1 (an array: the light colour's r, g, b, the dark colour's,
+   * the alpha). A light colour alone has a dark colour of 0. */
   function tintColours(light, dark) {
-    if (typeof light !== "number") return [light.slice(0, 3), light.length > 3 ? light.slice(3, 6) : [0, 0, 0]];
+    if (typeof light !== "number") return [light.slice(0, 3), light.slice(3, 6), light[6]];
     var l = [], dk = [];
     for (var k = 0; k < 3; k++) {
       var shift = 16 - 8 * k;
       l.push((light >> shift & 255) / 255);
       dk.push((dark >> shift & 255) / 255);
     }
-    return [l, dk];
+    return [l, dk, 1];
   }
 
   /* The image drawn on x as the runtimes' two-colour tint draws it (spine-webgl's two-colour
@@ -130,7 +131,7 @@
       row[k] = c[0][k] - c[1][k];
       rows.push(row.join(" "));
     }
-    rows.push("0 0 0 1 0");
+    rows.push("0 0 0 " + c[2] + " 0");
     var f = document.createElementNS(SVGNS, "filter"), m = document.createElementNS(SVGNS, "feColorMatrix");
     var id = "sm-two-colour-" + (++filterCount);
     f.setAttribute("id", id);
