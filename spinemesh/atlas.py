@@ -74,14 +74,15 @@ class RegionGeometry:
 
 
 class _Fields:
-    """Lookup of a page's or region's ``key: values`` entries (the first entry of a key wins)."""
+    """Lookup of a page's or region's ``key: values`` entries (the last entry of a key wins: the
+    runtimes set fields line by line)."""
 
     __slots__ = ()
 
     entries: list[Entry]
 
     def get(self, key: str) -> list[str] | None:
-        for e in self.entries:
+        for e in reversed(self.entries):
             if e.key == key:
                 return e.values
         return None
@@ -115,41 +116,21 @@ class AtlasRegion(_Fields):
         """
         if self.error is not None:
             raise self.error
-        ints = lambda key, n: _ints(self, key, n, source)  # noqa: E731
-        bounds = ints("bounds", 4)
-        if bounds is not None:
-            x, y, w, h = bounds
-        else:
-            xy, size = ints("xy", 2), ints("size", 2)
-            if xy is None or size is None:
-                raise AtlasError(f"region {self.name!r} has neither bounds: nor xy:/size:", source, line=self.line)
-            (x, y), (w, h) = xy, size
-        offsets = ints("offsets", 4)
-        if offsets is not None:
-            ox, oy, ow, oh = offsets
-        else:
-            off, orig = ints("offset", 2), ints("orig", 2)
-            ox, oy = off if off is not None else (0, 0)
-            ow, oh = orig if orig is not None else (w, h)
-        rotate = self.get("rotate")
-        degrees = 0
-        if rotate:
-            r = rotate[0].strip().lower()
-            if r == "true":
-                degrees = 90
-            elif r == "false":
-                degrees = 0
-            else:
-                try:
-                    degrees = int(r)
-                except ValueError:
-                    raise AtlasError(f"region {self.name!r}: rotate must be true, false or degrees, found {r!r}",
-                                     source, line=self.line) from None
-                # The runtimes turn a region by exactly 90, 180 or 270 and draw any other number
-                # (-90, 450) unturned: read modulo 360, such a region was cut and packed turned.
-                if degrees not in _TURNS:
-                    raise AtlasError(f"region {self.name!r}: rotate must be 0, 90, 180 or 270, found {r} "
-                                     "(the Spine runtimes draw it unturned)", source, line=self.line)
+        # The runtimes set a region's fields line by line, so a field written twice, or
+        # bounds: and xy: both, take the later line (read by key, the first one was taken).
+        got: dict[str, int] = {}
+        for e in self.entries:
+            fields = _GEOMETRY_FIELDS.get(e.key)
+            if fields is not None:
+                got.update(zip(fields, _ints(self, e.key, len(fields), source, e.values)))
+            elif e.key == "rotate":
+                got["degrees"] = _degrees(self, e.values, source)
+        if not {"x", "y", "w", "h"} <= got.keys():
+            raise AtlasError(f"region {self.name!r} has neither bounds: nor xy:/size:", source, line=self.line)
+        x, y, w, h = got["x"], got["y"], got["w"], got["h"]
+        ox, oy, ow, oh, degrees = (got.get(k, 0) for k in ("ox", "oy", "ow", "oh", "degrees"))
+        if ow == 0 and oh == 0:  # no original size: the packed one, as the runtimes take it
+            ow, oh = w, h
         if w < 0 or h < 0 or ow < 0 or oh < 0:
             raise AtlasError(f"region {self.name!r} has a negative size", source, line=self.line)
         check_image_size(w, h, f"region {self.name!r} size", source, self.line)
@@ -326,8 +307,32 @@ class Atlas:
         }
 
 
-def _ints(item, key: str, n: int, source) -> list[int] | None:
-    values = item.get(key)
+#: The geometry fields of a region line and what each sets, in order.
+_GEOMETRY_FIELDS = {"bounds": ("x", "y", "w", "h"), "xy": ("x", "y"), "size": ("w", "h"),
+                    "offsets": ("ox", "oy", "ow", "oh"), "offset": ("ox", "oy"), "orig": ("ow", "oh")}
+
+
+def _degrees(region, values: list[str], source) -> int:
+    """A ``rotate:`` line's degrees: ``true`` 90, ``false`` 0, else 0, 90, 180 or 270."""
+    r = values[0].strip().lower() if values else "false"
+    if r in ("true", "false"):
+        return 90 if r == "true" else 0
+    try:
+        degrees = int(r)
+    except ValueError:
+        raise AtlasError(f"region {region.name!r}: rotate must be true, false or degrees, found {r!r}",
+                         source, line=region.line) from None
+    # The runtimes turn a region by exactly 90, 180 or 270 and draw any other number
+    # (-90, 450) unturned: read modulo 360, such a region was cut and packed turned.
+    if degrees not in _TURNS:
+        raise AtlasError(f"region {region.name!r}: rotate must be 0, 90, 180 or 270, found {r} "
+                         "(the Spine runtimes draw it unturned)", source, line=region.line)
+    return degrees
+
+
+def _ints(item, key: str, n: int, source, values: list[str] | None = None) -> list[int] | None:
+    """The first ``n`` whole numbers of ``item``'s ``key`` line (or of ``values``), None without one."""
+    values = item.get(key) if values is None else values
     if values is None:
         return None
     if len(values) < n:

@@ -126,3 +126,25 @@ def test_a_skeleton_saved_as_utf16_is_said_so(tmp_path, encoding):
         r = run_cli(*args, cwd=tmp_path)
         check_run(r, before, tmp_path, [], codes=(2,))
         assert f"demo.json: skeleton is {encoding[:6].upper()} text" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("later_line", ["\tbounds: 105, 2, 81, 81", "\txy: 105, 2"], ids=["bounds twice", "bounds then xy"])
+def test_a_region_line_written_twice_is_read_as_the_runtimes_read_it(tmp_path, later_line):
+    """spine-core, libGDX and spine-c set a region's fields line by line: of two ``bounds:``
+    lines, or an ``xy:`` after ``bounds:``, the later line places the region. The first one was
+    taken (the ring's texels cut, meshed and packed as the head's, exit 0). Now the project
+    upgrades and packs exactly as the one with that line alone."""
+    clean = _demo(tmp_path / "clean")
+    r = run_cli("upgrade", "p", "--out", "o", "--pack", "--jobs", "1", cwd=tmp_path / "clean")
+    assert r.returncode == 0, r.stderr
+    project = _demo(tmp_path)
+    atlas = project / "demo.atlas"
+    text = atlas.read_text()
+    head = "demo-head\n\tbounds: 105, 2, 81, 81\n"
+    assert head in text
+    atlas.write_text(text.replace(head, f"demo-head\n\tbounds: 188, 2, 81, 81\n{later_line}\n"))
+    before = snapshot(tmp_path / "p")
+    r = run_cli("upgrade", "p", "--out", "o", "--pack", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path / "p", [], codes=(0,))
+    for name in ("demo.json", "demo.atlas", "demo.png"):
+        assert (tmp_path / "o" / name).read_bytes() == (clean.parent / "o" / name).read_bytes(), name
