@@ -121,3 +121,24 @@ def test_library_calls_never_write_over_a_users_folder(tmp_path):
     assert pack_preview.write_preview(packed, tmp_path / "pv") == page
     upgrade_project(project, tmp_path / "o4", Options(images_out=tmp_path / "pictures"))
     upgrade_project(project, tmp_path / "o5", Options(images_out=tmp_path / "pictures"))
+
+
+def test_every_downgraded_export_of_the_corpus_converts_both_ways(corpus, tmp_path):
+    """Every corpus skeleton whose version says it was exported for an older one (``3.8-from-4.0.64``,
+    ``3.8-from-4.0-from-4.1.19``, ``4.1-from-4.2.43``) is written as a ``.skel`` of that older
+    version, keeping its version text, and read back to the same binary."""
+    import json
+    import re
+
+    from spinemesh.skeleton import load_skeleton
+    from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+
+    found = [p for p in sorted(corpus.rglob("*.json")) if not p.name.startswith(".")
+             and re.search(r'"spine"\s*:\s*"[0-9.]+-from-', p.read_text("utf-8", errors="replace")[:400])]
+    assert len(found) >= 10, found
+    for path in found:
+        doc = load_skeleton(path)
+        data = write_skel(doc, path)
+        assert sniff_version(data) == doc["skeleton"]["spine"], path
+        again = read_skel(data, path)
+        assert write_skel(json.loads(json.dumps(again))) == data, path
