@@ -148,3 +148,35 @@ def test_a_region_line_written_twice_is_read_as_the_runtimes_read_it(tmp_path, l
     check_run(r, before, tmp_path / "p", [], codes=(0,))
     for name in ("demo.json", "demo.atlas", "demo.png"):
         assert (tmp_path / "o" / name).read_bytes() == (clean.parent / "o" / name).read_bytes(), name
+
+
+# --- page pixel formats -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("chunk", ["gAMA", "iCCP"])
+def test_editor_images_say_what_their_page_says_of_its_colours(tmp_path, chunk):
+    """``upgrade --images`` cut each region of a page of gamma 1.0 (or with a colour profile) into
+    a PNG with no colour chunk: an editor or a browser that manages colour showed it in other
+    colours than the page, and re-imported, the art changed. Each editor image now carries its
+    page's colour chunks, as the pages ``pack`` and ``--repack`` write do."""
+    import struct
+    import zlib
+
+    from spinemesh.pack.png import colour_chunks, with_colour_chunks
+
+    project = _demo(tmp_path)
+    page = project / "demo.png"
+    body = struct.pack(">I", 100000) if chunk == "gAMA" else b"mine\0\0" + zlib.compress(_srgb_profile())
+    page.write_bytes(with_colour_chunks(page.read_bytes(), ((chunk.encode(), body),)))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--images", "editor", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/", "editor/"], codes=(0,))
+    written = sorted((tmp_path / "editor").rglob("*.png"))
+    assert len(written) == 8, written
+    for image in written:
+        assert colour_chunks(image.read_bytes()) == ((chunk.encode(), body),), image
+
+
+def _srgb_profile() -> bytes:
+    from PIL import ImageCms
+
+    return ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()

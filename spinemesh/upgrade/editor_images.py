@@ -6,17 +6,32 @@ Written to a folder of its own as the planning stage meets each image
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 
-from ..fsutil import atomic_write_png, resolve_inside
+from ..fsutil import atomic_write_bytes, resolve_inside
 from ..images import RegionImage
+
+
+@lru_cache(maxsize=8)
+def _colour_of(source: str, stamp: tuple) -> tuple:
+    """The colour chunks of the page ``source`` (:func:`spinemesh.pack.run.page_colour`), read once
+    for all of its regions; ``stamp`` (its size and time) reads a changed page again."""
+    from ..pack.run import page_colour
+
+    return page_colour(Path(source).read_bytes())
 
 
 def write_editor_image(frame: RegionImage, folder: Path) -> None:
     """``<folder>/<path>.png``, the original-size image the editor re-imports.
 
-    Atlas images exported at a scale other than 1 are resized back to skeleton size.
+    Atlas images exported at a scale other than 1 are resized back to skeleton size. The image
+    carries the colour chunks of the page it was cut from (a colour profile, sRGB, gamma), as a
+    page ``--repack`` adds does: without them, an editor or an engine that manages colour shows
+    the texels of a page in Display P3 or of gamma 1.0 in other colours.
     """
+    from .repack import page_png
+
     rgba = frame.rgba
     if frame.scale != 1:
         import cv2
@@ -28,4 +43,7 @@ def write_editor_image(frame: RegionImage, folder: Path) -> None:
         # the size the page's scale implies, checked before it is allocated
         check_image_size(*size, f"editor image {frame.name!r} at atlas scale {frame.scale:g}", frame.source)
         rgba = cv2.resize(rgba, size, interpolation=cv2.INTER_CUBIC)
-    atomic_write_png(resolve_inside(folder, frame.name + ".png", folder, "--images folder"), rgba)
+    target = resolve_inside(folder, frame.name + ".png", folder, "--images folder")
+    source = Path(frame.source)
+    stat = source.stat()
+    atomic_write_bytes(target, page_png(rgba, source, _colour_of(str(source), (stat.st_size, stat.st_mtime_ns))))

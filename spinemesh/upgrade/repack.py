@@ -161,10 +161,11 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
     return out, new_pages
 
 
-def page_png(rgba: np.ndarray, source: Path) -> bytes:
+def page_png(rgba: np.ndarray, source: Path, colour: tuple | None = None) -> bytes:
     """A new page's PNG file: ``rgba`` with the colour chunks of the page ``source`` its regions come
     from (gamma, sRGB, colour profile: :func:`spinemesh.pack.run.page_colour`), so that an engine
-    that manages colour draws them in the colours it drew them in."""
+    that manages colour draws them in the colours it drew them in. ``colour``: those chunks, when
+    the caller has read them already."""
     import io
 
     from PIL import Image
@@ -174,7 +175,7 @@ def page_png(rgba: np.ndarray, source: Path) -> bytes:
 
     buf = io.BytesIO()
     Image.fromarray(rgba).save(buf, format="PNG")
-    colour = page_colour(source.read_bytes())
+    colour = page_colour(source.read_bytes()) if colour is None else colour
     return with_colour_chunks(buf.getvalue(), colour) if colour else buf.getvalue()
 
 
