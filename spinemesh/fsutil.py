@@ -390,6 +390,63 @@ def mark_written_folder(folder: str | Path) -> None:
     atomic_write_text(Path(folder) / WRITTEN_MARKER, "written by spinemesh; a later run writes its files here again\n")
 
 
+#: Largest list of written files read back from a marker (a few hundred bytes per thousand files).
+MAX_MARKER_BYTES = 64 * 1024 * 1024
+
+
+def read_marker(path: str | Path):
+    """A marker's JSON (:data:`WRITTEN_MARKER`, an output folder's); None for a marker of a line of
+    text (an older spinemesh's, or :func:`mark_written_folder`'s), or one that cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read(MAX_MARKER_BYTES + 1)
+        return json.loads(data.decode("utf-8")) if len(data) <= MAX_MARKER_BYTES else None
+    except (OSError, ValueError):
+        return None
+
+
+def written_files(folder: str | Path) -> list[str]:
+    """The files the :data:`WRITTEN_MARKER` of ``folder`` lists as written there by spinemesh
+    (:func:`mark_written_files`); none for a marker that lists none."""
+    marker = read_marker(Path(folder) / WRITTEN_MARKER)
+    names = marker.get("written") if isinstance(marker, dict) else None
+    return [n for n in names if isinstance(n, str)] if isinstance(names, list) else []
+
+
+def mark_written_files(folder: str | Path, written: Iterable[str], earlier: Iterable[str] = ()) -> None:
+    """Remove from ``folder`` the files an earlier run wrote there (``earlier``, as
+    :func:`written_files` read them before this run) that this one did not write again, then
+    mark it as spinemesh's listing ``written``: a preview written again into its folder leaves no
+    stale page or picture of the earlier one, and never removes a file spinemesh did not write."""
+    written = sorted(set(written))
+    remove_listed_files(folder, set(earlier) - set(written))
+    atomic_write_text(Path(folder) / WRITTEN_MARKER, strict_json({"spinemesh": "written", "written": written}, 1) + "\n")
+
+
+def remove_listed_files(folder: str | Path, names: Iterable[str]) -> None:
+    """Remove each file ``names`` lists under ``folder`` (POSIX paths, as a marker lists them), and
+    the folders it leaves empty. A name that is absolute, climbs out, names the folder or passes
+    through a symlinked folder removes nothing: a marker is a file anyone could have written."""
+    folder = Path(folder)
+    root = os.path.realpath(folder)
+    for rel in sorted(names):
+        parts = Path(rel).parts
+        if not rel or os.path.isabs(rel) or ".." in parts or rel in (".", WRITTEN_MARKER):
+            continue
+        path = folder.joinpath(*parts)
+        if os.path.realpath(path.parent) != os.path.join(root, *parts[:-1]).rstrip(os.sep):
+            continue
+        if path.is_symlink() or path.is_file():
+            path.unlink()
+            for parent in path.parents:
+                if parent == folder:
+                    break
+                try:
+                    parent.rmdir()  # only when empty
+                except OSError:
+                    break
+
+
 def _write_error(e: OSError, path: Path) -> OutputError:
     if e.errno == errno.ENOSPC:
         reason = "disk full"

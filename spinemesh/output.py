@@ -13,7 +13,6 @@ package to write its output.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import shutil
 from pathlib import Path
@@ -25,7 +24,7 @@ except ImportError:  # Windows: no lock
 
 from .errors import SpineMeshError
 from .fsutil import (OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, file_stamp, make_folder,
-                     refuse_report_over_output, strict_json, walk_folder)
+                     read_marker, refuse_report_over_output, remove_listed_files, strict_json, walk_folder)
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 
@@ -34,10 +33,6 @@ from .skeleton import dumps_skeleton, is_binary_skeleton
 #: ``--out ~/Documents --overwrite`` must not delete a user's files, nor a rerun the files a game
 #: engine or the user added beside the run's: Unity's ``.meta`` files, a ``.gitignore``).
 OUTPUT_MARKER = ".spinemesh-output"
-
-#: Largest marker read (a few hundred bytes per thousand files written).
-MAX_MARKER_BYTES = 64 * 1024 * 1024
-
 
 def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
     """Refuse an output folder that is an input, lies inside one or holds one (see :class:`OutputGuard`)."""
@@ -95,7 +90,7 @@ def write_run_report(report: Path, out: Path, write) -> None:
 def note_written(out: Path, path: Path) -> None:
     """List ``path``, a file written in ``out`` once the run holding it ended (a ``--report``), among
     the run's files in its marker, so that the next ``overwrite`` removes it too."""
-    marker = _read_marker(out)
+    marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or not isinstance(marker.get("written"), list):
         return
     try:
@@ -122,25 +117,12 @@ def _write_marker(out: Path, what: dict) -> None:
     atomic_write_text(out / OUTPUT_MARKER, strict_json({"spinemesh": "output folder", **what}, 1) + "\n")
 
 
-def _read_marker(out: Path):
-    """The marker's JSON; None for a marker an older spinemesh wrote (a line of text: it emptied
-    its folder as a whole, so every file there is a run's) or one that cannot be read."""
-    try:
-        with open(out / OUTPUT_MARKER, "rb") as f:
-            data = f.read(MAX_MARKER_BYTES + 1)
-        if len(data) > MAX_MARKER_BYTES:
-            return None
-        return json.loads(data.decode("utf-8"))
-    except (OSError, ValueError):
-        return None
-
-
 def _remove_earlier_run(out: Path) -> None:
     """Remove from ``out`` the files an earlier run wrote there, as its marker lists them, and the
     folders they leave empty; any other file stays. A run that did not end (its marker lists what
     it found) wrote every file but those; an older spinemesh's marker lists none: it emptied the
     folder as a whole, and so does this."""
-    marker = _read_marker(out)
+    marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
         for entry in out.iterdir():
             if entry.is_dir() and not entry.is_symlink():
@@ -153,22 +135,7 @@ def _remove_earlier_run(out: Path) -> None:
     else:
         kept = marker.get("kept") if isinstance(marker.get("kept"), list) else []
         ours = set(_files_under(out)) - set(kept)
-    root = os.path.realpath(out)
-    for rel in sorted(ours):
-        path = Path(out, rel)
-        # a listed name is a file under OUT, reached through no symlinked folder: nothing else goes
-        if os.path.isabs(rel) or ".." in Path(rel).parts or rel in ("", ".", OUTPUT_MARKER) \
-                or os.path.realpath(path.parent) != os.path.join(root, *Path(rel).parts[:-1]).rstrip(os.sep):
-            continue
-        if path.is_symlink() or path.is_file():
-            path.unlink()
-            for folder in path.parents:
-                if folder == out or not folder.is_relative_to(out):
-                    break
-                try:
-                    folder.rmdir()  # only when empty
-                except OSError:
-                    break
+    remove_listed_files(out, ours - {OUTPUT_MARKER})
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:

@@ -228,3 +228,31 @@ def test_every_command_is_in_the_exit_status_table():
         assert status in section
     told = set(re.findall(r"`([a-z-]+)`", section))
     assert not [c for c in COMMANDS if c not in told], sorted(set(COMMANDS) - told)
+
+
+def test_a_preview_written_again_leaves_no_page_of_the_earlier_one(tmp_path):
+    """``--preview P`` of every nightly build into one folder: a skeleton removed from the project
+    left its page, its players' data and its pictures there (pictures are named by content, so
+    every change of art added more), linked from nowhere. Now the earlier preview's files that
+    the new one does not write again are removed; a file spinemesh did not write stays."""
+    demo = make_demo_project(tmp_path / "demo")
+    r = spinemesh("upgrade", demo, "--out", "o1", "--preview", "P", "--pack", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = spinemesh("pack", "o1", "--out", "p1", "--preview", "Q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    first = files_of(tmp_path / "P")
+    (tmp_path / "P" / "notes.txt").write_text("mine")
+    (demo / "demo-binary.skel").unlink()  # the project loses a skeleton: its page goes
+    r = spinemesh("upgrade", demo, "--out", "o2", "--preview", "P", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = spinemesh("pack", "o2", "--out", "p2", "--preview", "Q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    for name in ("P", "Q"):
+        again = files_of(tmp_path / name)
+        r = spinemesh("upgrade" if name == "P" else "pack", demo if name == "P" else "o2", "--out", f"fresh-{name}",
+                      "--preview", f"fresh{name}", cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        fresh = files_of(tmp_path / f"fresh{name}")
+        assert sorted(k for k in again if k != "notes.txt") == sorted(fresh), name
+    assert (tmp_path / "P" / "notes.txt").read_text() == "mine"
+    assert len(first) > len(files_of(tmp_path / "freshP"))

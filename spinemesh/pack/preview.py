@@ -79,4 +79,6 @@ def write_preview(result, folder: str | Path) -> Path:
                f"{t['bytes_after']:,}</p>")
     page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh pack</title>"
             f"<style>{_CSS}</style></head><body><h1>spinemesh pack</h1>{summary}{''.join(sections)}</body></html>\n")
-    return files.root / files.write_text("index.html", page)
+    files.write_text("index.html", page)
+    files.finish()
+    return files.root / "index.html"

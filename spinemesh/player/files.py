@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_text, check_written_folder
+from ..fsutil import atomic_write_bytes, atomic_write_text, check_written_folder, mark_written_files, written_files
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
@@ -61,6 +61,7 @@ class PreviewFolder:
         self.root = Path(root)
         self.sizes: dict[str, int] = {}
         self._images: dict[int, str] = {}
+        self._earlier = written_files(root)  # an earlier preview's files, removed by finish() unless written again
 
     def write_text(self, rel: str, text: str) -> str:
         """Write ``text`` (UTF-8) at ``rel``; returns ``rel``."""
@@ -87,6 +88,12 @@ class PreviewFolder:
             self.sizes[rel] = len(data)
         self._images[key] = (rgba, rel)  # the array itself is held so that its id stays its own
         return rel
+
+    def finish(self) -> None:
+        """Once every file is written: remove the earlier preview's files that this one did not
+        write again (a skeleton's page, a picture of art since changed), never a file spinemesh did
+        not write, and list this preview's files in the folder's marker for the next one."""
+        mark_written_files(self.root, self.sizes, self._earlier)
 
     def largest_page(self) -> tuple[str, int]:
         """The largest HTML page written: its path and bytes (``("", 0)`` when none)."""

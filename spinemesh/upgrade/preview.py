@@ -909,4 +909,5 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             + _atlas_pages(files, result, root, out)
             + _reasons_table(result) + _problems(result))
     files.write_text("index.html", _html_page(f"spinemesh upgrade: {_shown_name(root)}", body))
+    files.finish()
     return Path(folder) / "index.html"
