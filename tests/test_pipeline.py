@@ -256,3 +256,34 @@ def test_a_preview_written_again_leaves_no_page_of_the_earlier_one(tmp_path):
         assert sorted(k for k in again if k != "notes.txt") == sorted(fresh), name
     assert (tmp_path / "P" / "notes.txt").read_text() == "mine"
     assert len(first) > len(files_of(tmp_path / "freshP"))
+
+
+@pytest.mark.parametrize("project", ["tga-hero", "cm-character"])
+def test_real_projects_give_the_same_bytes_from_any_folder(tmp_path, corpus, project):
+    """A corpus project (binary 3.x; JSON 4.1 exported from 4.2) upgraded with --pack, --weights
+    auto and a preview, and posed: from the corpus by its name with --jobs 1 and hash seed 0,
+    and by its absolute path from elsewhere with --jobs 2, hash seed 1 and another time zone."""
+    skeleton = next(p.name for p in sorted((corpus / project).iterdir())
+                    if p.suffix in (".skel", ".json") and not p.name.startswith("."))
+    animation = next(iter(load_skeleton_animations(corpus / project / skeleton)), None)
+    builds = []
+    for side, jobs, env in (("a", 1, {"PYTHONHASHSEED": "0"}), ("b", 2, {"PYTHONHASHSEED": "1", "TZ": "Asia/Tokyo"})):
+        where = tmp_path / side / "build"
+        given = Path(project) if side == "a" else corpus / project
+        cwd = corpus if side == "a" else tmp_path
+        r = spinemesh("upgrade", given, "--out", where / "out", "--pack", "--weights", "auto", "--jobs", jobs,
+                      "--preview", where / "preview", cwd=cwd, **env)
+        assert r.returncode in (0, 3), r.stderr
+        pose = ["-a", animation, "--times", "0.2,0.5"] if animation else []
+        r = spinemesh("pose", given / skeleton, *pose, "--out", where / "pose.json", cwd=cwd, **env)
+        assert r.returncode in (0, 3), r.stderr
+        builds.append(files_of(where))
+    a, b = builds
+    assert sorted(a) == sorted(b)
+    assert [k for k in a if a[k] != b[k]] == []
+
+
+def load_skeleton_animations(path: Path) -> list[str]:
+    from spinemesh.skeleton import load_skeleton
+
+    return [str(name) for name in (load_skeleton(path).get("animations") or {})]
