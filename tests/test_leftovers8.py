@@ -28,13 +28,30 @@ def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     ["info", "empty"],
 ], ids=["upgrade-only-nothing", "upgrade-exclude-all", "upgrade-no-skeleton", "weights-no-skeleton", "info-no-skeleton"])
 def test_nothing_to_work_on_is_refused_as_one_error_line(tmp_path, command):
-    """A run refused with exit 2 says ``error:`` in one line, as every other refusal does, not ``warning:``."""
+    """A run refused with exit 2 says ``error:`` in one line, as every other refusal does, not
+    ``warning:``, and writes nothing (``--only``/``--exclude`` matching nothing wrote OUT, copies)."""
     make_demo_project(tmp_path / "demo", with_images_folder=False)
     (tmp_path / "empty").mkdir()
     r = run(*command, cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "warning" not in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_selection_of_nothing_writes_nothing_from_the_library(tmp_path):
+    """``upgrade_project`` whose ``only``/``exclude`` leave no region writes nothing, not even OUT,
+    and says why in each row; one that selects something writes as before."""
+    from spinemesh.upgrade import Options, upgrade_project
+    from spinemesh.upgrade.report import selection_left_nothing
+
+    project = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    for options in (Options(only=["no-such-*"]), Options(exclude=["*"]), Options(only=["demo-*"], exclude=["*"])):
+        result = upgrade_project(project, tmp_path / "out", options)
+        assert selection_left_nothing(result) and not result.written and not (tmp_path / "out").exists()
+        assert {t.reason for t in result.targets} <= {"not matched by --only", "matched by --exclude"}
+    result = upgrade_project(project, tmp_path / "out", Options(only=["demo-head"]))
+    assert not selection_left_nothing(result) and result.written and (tmp_path / "out" / "demo.json").is_file()
 
 
 # --- an editor's downgraded export ("4.1-from-4.2.33") is read as the runtimes read it ------------

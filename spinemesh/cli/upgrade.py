@@ -314,13 +314,15 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
 
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> str:
-    """A warning with a hint when the run upgraded nothing, or an empty string."""
+    """Why the run upgraded nothing, with a hint (an error where nothing was written), or an empty string."""
+    from ..upgrade.report import selection_left_nothing
+
     if result.errors or any(t.status in ("meshed", "would mesh", "failed") for t in result.targets):
         return ""
     if not result.written and not result.targets:
         return (f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" object); "
                 "give the folder the editor exported to")
-    if filtered and any("--only" in t.reason or "--exclude" in t.reason for t in result.targets):
+    if filtered and selection_left_nothing(result):
         return ("--only/--exclude left no region attachment to upgrade; patterns match the slot, the "
                 "attachment name or the image path, e.g. --only 'head*' --only 'arms/*'")
     if not result.targets:

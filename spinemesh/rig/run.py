@@ -59,6 +59,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     Returns
     -------
     WeightResult
+        Nothing is written (not even ``out``) when the project has no skeleton.
     """
     from ..fsutil import check_written_folder
     from ..output import check_output_folder, copy_other_files, output_folder, write_skeleton
@@ -71,6 +72,8 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         check_output_folder(proj.root, Path(preview))
         check_written_folder(preview)  # a folder of a user's files: refused, not written over
     result = WeightResult()
+    if not proj.skeletons:  # nothing to weigh (the command says so): no output folder, as upgrade
+        return result
     start = time.perf_counter()
     written = set()
     read = []

@@ -69,12 +69,16 @@ def _nfc(text: str) -> str:
     return unicodedata.normalize("NFC", str(text))
 
 
+#: What :func:`skip_reason` says of a region that ``--only``/``--exclude`` leave alone.
+NOT_SELECTED = ("not matched by --only", "matched by --exclude")
+
+
 def skip_reason(ref: AttachmentRef, paths: list[str], options: Options) -> str:
     """Why the user's options leave this region alone (``""`` when they do not)."""
     if options.only and not _matches(options.only, ref, paths):
-        return "not matched by --only"
+        return NOT_SELECTED[0]
     if options.exclude and _matches(options.exclude, ref, paths):
-        return "matched by --exclude"
+        return NOT_SELECTED[1]
     w, h = float(ref.attachment.get("width", 32)), float(ref.attachment.get("height", 32))
     if max(w, h) < options.min_size:
         return f"smaller than --min-size {options.min_size:g}"

@@ -66,6 +66,16 @@ class Result(RunSummary):
         return self.targets
 
 
+def selection_left_nothing(result: Result) -> bool:
+    """Whether ``--only``/``--exclude`` left no region attachment to upgrade: every skeleton read,
+    every region kept on purpose (none meshed, failed or still to be decided), at least one by
+    them. :func:`~.run.upgrade_project` then writes nothing, and the command refuses in one line."""
+    from .options import NOT_SELECTED
+
+    return (not result.errors and bool(result.targets) and all(t.status == "kept" for t in result.targets)
+            and any(t.reason in NOT_SELECTED for t in result.targets))
+
+
 def mark_would_mesh(result: Result) -> None:
     """A dry run: what would have been meshed says so."""
     for t in result.targets:

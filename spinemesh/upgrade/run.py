@@ -42,7 +42,7 @@ from .options import Options
 from .pack import pack_written
 from .plan import ProjectPlan, decode_pages_ahead, page_prefetch, plan_read_project, read_project
 from .progress import SILENT, Progress
-from .report import Result, mark_would_mesh
+from .report import Result, mark_would_mesh, selection_left_nothing
 from .write import apply_project, copying_other_files, write_repacked_atlases, write_skeletons
 
 
@@ -70,7 +70,9 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     -------
     Result
         Every region attachment with its status, for the report; ``partial`` is true when
-        any attachment or skeleton failed.
+        any attachment or skeleton failed. Nothing is written (not even ``out``) when the
+        project has no skeleton, or when ``options.only``/``options.exclude`` leave no region
+        attachment to upgrade (:func:`~.report.selection_left_nothing`).
     """
     options = options or Options()
     out = Path(out)
@@ -82,10 +84,12 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     if not proj.skeletons:  # nothing to upgrade (the caller says so): no output folder of copies alone
         return Result()
     with contextlib.ExitStack() as held:
-        if not options.dry_run:
-            held.enter_context(output_folder(out, options.overwrite))
         result = Result()
         reading = read_project(proj, options, result, progress)       # 1. read and plan
+        if selection_left_nothing(result):  # --only/--exclude matched nothing: nothing to write
+            return result
+        if not options.dry_run:  # held from here: reading the skeletons writes nothing
+            held.enter_context(output_folder(out, options.overwrite))
         pages = reading.pages_to_decode()
         habits = [sk for sk in reading.skeletons if sk.rig is not None] if not options.dry_run else []
         if workers is None and not options.dry_run and options.jobs > 1 and not options.dask \
