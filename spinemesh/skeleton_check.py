@@ -151,7 +151,15 @@ def json_path(*parts) -> str:
 
 
 def _field_problem(node: dict, spec: dict, *where) -> str:
-    """The first field of ``node`` that is not what ``spec`` expects, as an error line, or ``""``."""
+    """The first field of ``node`` that is not what ``spec`` expects, or that ``node`` names twice
+    (:class:`KeyedTwice`), as an error line, or ``""``."""
+    twice = getattr(node, "twice", None)
+    if twice:
+        read = {k.casefold() for k in spec}
+        key = next((k for k in node if k.casefold() in twice and k.casefold() in read), None)
+        if key is not None:
+            return (f"{json_path(*where, key)}: written twice (or twice but for case); the Spine runtimes read "
+                    "different ones (spine-ts the last, spine-c, spine-cpp and libGDX the first)")
     for key, value in node.items():
         kind = spec.get(key)
         if kind is None or value is None:  # not read by the program / absent in the runtimes' eyes
@@ -210,7 +218,7 @@ def document_problem(doc) -> str:
     """The first problem of a skeleton document's shape outside its attachments, or ``""``."""
     if not isinstance(doc, dict):
         return f"the top level: expected an object, found {found(doc)}"
-    problem = _field_problem(doc, TOP)
+    problem = _field_problem(doc, {**TOP, "skins": None})  # skins: checked below, named twice here
     if problem:
         return problem
     if isinstance(doc.get("skeleton"), dict):
@@ -392,20 +400,6 @@ class KeyedTwice(dict):
         return marked
 
 
-#: The attachment fields the program reads, case-folded (see :class:`KeyedTwice`).
-_ATTACHMENT_KEYS = frozenset(k.casefold() for k in ATTACHMENT)
-
-
-def _keyed_twice_problem(attachment: dict, where: tuple) -> str:
-    """A field the program reads written twice in ``attachment`` (ignoring case), as an error line, or ``""``."""
-    twice = getattr(attachment, "twice", frozenset()) & _ATTACHMENT_KEYS
-    if not twice:
-        return ""
-    key = next(k for k in attachment if k.casefold() in twice)
-    return (f"{json_path(*where, key)}: written twice (or twice but for case); the Spine runtimes read "
-            "different ones (spine-ts the last, spine-c, spine-cpp and libGDX the first)")
-
-
 def attachment_problem(attachment, where: tuple = (), bone_count: int | None = None) -> str:
     """Why one attachment cannot be used (``"x: expected a finite number ..., found ..."``), or ``""``.
 
@@ -415,7 +409,7 @@ def attachment_problem(attachment, where: tuple = (), bone_count: int | None = N
     """
     if not isinstance(attachment, dict):
         return f"{json_path(*where) or 'attachment'}: expected an object, found {found(attachment)}"
-    problem = _keyed_twice_problem(attachment, where) or _field_problem(attachment, ATTACHMENT, *where)
+    problem = _field_problem(attachment, ATTACHMENT, *where)
     vertices = attachment.get("vertices")
     if problem or bone_count is None or not isinstance(vertices, list):
         return problem

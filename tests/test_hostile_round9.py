@@ -180,3 +180,34 @@ def _srgb_profile() -> bytes:
     from PIL import ImageCms
 
     return ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+
+
+@pytest.mark.parametrize("where", ["skins", "a bone's y"])
+def test_a_skeleton_naming_a_part_twice_is_refused_in_one_line(tmp_path, where):
+    """``"skins"`` written twice at the top level: upgrade meshed the second list and wrote the
+    document back with it alone, so the C runtimes, which had drawn the first, drew other art
+    (exit 0). A field the program reads written twice elsewhere in the document (a bone's ``y``)
+    is the same ambiguity: the skeleton is refused in one line naming the field; the project's
+    other skeleton is upgraded."""
+    project = _demo(tmp_path)
+    skeleton = project / "demo.json"
+    text = skeleton.read_text()
+    (project / "other.json").write_text(text)
+    if where == "skins":
+        start, end = text.index('\t"skins"'), text.index('\t"animations"')
+        text = text[:start] + text[start:end] + text[start:end].replace('"y": 10,', '"y": 60,', 1) + text[end:]
+        field = "skins: written twice"
+    else:
+        bone = '"name": "head",\n\t\t\t"parent": "body",\n\t\t\t"y": 120'
+        assert bone in text
+        text = text.replace(bone, bone + ',\n\t\t\t"y": 40', 1)
+        field = "bones[2].y: written twice"
+    skeleton.write_text(text)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert f"demo.json: {field}" in r.stderr, r.stderr
+    assert (tmp_path / "o" / "other.json").read_text().count('"type": "mesh"') >= 4
+    r = run_cli("pose", "p/demo.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(2,))
+    assert field in r.stderr, r.stderr
