@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -37,6 +38,7 @@ def test_nothing_to_work_on_is_refused_as_one_error_line(tmp_path, command):
     errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "warning" not in r.stderr and "Traceback" not in r.stderr, r.stderr
     assert not (tmp_path / "out").exists()
+    assert not re.search(r"\b(mesh|write) [0-9.]+ s", r.stdout), r.stdout  # no timing of phases that never ran
 
 
 def test_a_selection_of_nothing_writes_nothing_from_the_library(tmp_path):
@@ -145,7 +147,6 @@ def test_every_downgraded_export_of_the_corpus_converts_both_ways(corpus, tmp_pa
     ``3.8-from-4.0-from-4.1.19``, ``4.1-from-4.2.43``) is written as a ``.skel`` of that older
     version, keeping its version text, and read back to the same binary."""
     import json
-    import re
 
     from spinemesh.skeleton import load_skeleton
     from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel

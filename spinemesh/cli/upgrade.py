@@ -230,6 +230,7 @@ def _print_result(result, dry_run: bool) -> None:
     from rich.markup import escape
 
     from ..errors import escaped
+    from ..upgrade.report import selection_left_nothing
     from ._summary import print_left_alone, skeleton_table, weights_lines
 
     def cells(targets: list) -> list[str]:
@@ -243,9 +244,11 @@ def _print_result(result, dry_run: bool) -> None:
         columns = ("would mesh", "kept", "failed") if dry_run else ("meshed", "kept", "failed", "median vertices")
         console.print(skeleton_table("spinemesh upgrade" + (" (dry run)" if dry_run else ""), columns,
                                      result.targets, cells, skeletons=result.written))
-    # the phases that ran: a dry run only reads and plans; a run that found no skeleton, none
+    # the phases that ran: a dry run, or one whose --only/--exclude matched nothing, only reads
+    # (and plans); a run that found no skeleton, none
+    read_only = dry_run or selection_left_nothing(result)
     ran = {phase: seconds for phase, seconds in result.seconds.items()
-           if (phase != "weights" or seconds) and (phase == "read" or not dry_run)}
+           if (phase != "weights" or seconds) and (phase == "read" or not read_only)}
     if result.targets or result.written or result.not_read or result.errors:
         console.print(", ".join(f"{phase} {seconds:.1f} s" for phase, seconds in ran.items()), highlight=False)
     if result.atlases:
