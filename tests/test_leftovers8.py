@@ -160,3 +160,27 @@ def test_every_downgraded_export_of_the_corpus_converts_both_ways(corpus, tmp_pa
         assert sniff_version(data) == doc["skeleton"]["spine"], path
         again = read_skel(data, path)
         assert write_skel(json.loads(json.dumps(again))) == data, path
+
+
+def test_a_diff_report_never_replaces_a_users_files(tmp_path, meshed):
+    """``diff --out`` (and ``write_report`` from the library) wrote ``index.html``, ``report.md``,
+    ``report.json`` and ``assets/`` into any folder, replacing a user's files of those names. A
+    folder of someone else's files is refused before any work, in one line; its own is written again."""
+    from spinemesh.diff.report import write_report
+    from spinemesh.diff.run import run_diff
+    from spinemesh.errors import OutputError
+
+    mine = _user_folder(tmp_path / "mine")
+    r = run("diff", str(meshed), "--out", str(mine), "--methods", "hull")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert f"{mine}: report folder is not empty and holds no spinemesh report" in line, line
+    assert _unchanged(mine)
+    result = run_diff([meshed], ("hull",), limit=2)
+    with pytest.raises(OutputError, match="report folder is not empty"):
+        write_report(result, mine)
+    assert _unchanged(mine)
+    for _ in range(2):  # its own folder, written into again
+        r = run("diff", str(meshed), "--out", str(tmp_path / "report"), "--methods", "hull", "--limit", "2")
+        assert r.returncode == 0, r.stderr
+    assert (tmp_path / "report" / "index.html").is_file()

@@ -43,11 +43,12 @@ def diff(
     Example: spinemesh diff hero/ --out hero-diff/
     Example: spinemesh diff projects/*/ --out diff/ --methods default,paper
     """
-    from ..diff.report import aggregate, aggregate_markdown, write_report
+    from ..diff.report import REPORT_FOLDER, aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
-    from ..fsutil import check_outputs, project_folder
+    from ..fsutil import check_outputs, check_written_folder, project_folder
 
     check_outputs([*map(project_folder, projects), images], folders=[out])
+    check_written_folder(out, REPORT_FOLDER, "report")  # before the work; write_report checks it again
 
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else METHODS
     bad = [m for m in chosen if m not in METHODS]

@@ -18,7 +18,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text
+from ..fsutil import (
+    atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, check_written_folder,
+    mark_written_folder,
+)
 from ..mesher import Mesh
 from .run import DiffResult
 
@@ -367,15 +370,30 @@ def to_html(result: DiffResult, agg: list[dict]) -> str:
 """
 
 
+#: What the refusal of a folder of someone else's files calls ``--out``.
+REPORT_FOLDER = "report folder"
+
+
 def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
     """Write ``report.md``, ``report.json``, ``index.html`` and ``assets/`` into folder ``out``.
+
+    A folder that holds files but no spinemesh report is refused (its files would be replaced,
+    :func:`~spinemesh.fsutil.check_written_folder`); the folder written is marked as ours, so a
+    later report is written into it again.
 
     Returns
     -------
     dict
         ``{"markdown", "json", "html"}`` -> written path.
+
+    Raises
+    ------
+    OutputError
+        For a folder of someone else's files, before anything is written.
     """
     out = Path(out)
+    check_written_folder(out, REPORT_FOLDER, "report")
+    mark_written_folder(out)  # before its first file: a report cut short is still ours to write again
     (out / "assets").mkdir(parents=True, exist_ok=True)
     agg = aggregate(result)
     for i, r in enumerate(result.rows):
