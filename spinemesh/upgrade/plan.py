@@ -313,6 +313,19 @@ def _unlike(image: tuple[int, int], attachment: tuple) -> str:
             "than the region drawn, which its mesh would not fit")
 
 
+def _turned_for_meshes_only(source, paths: list[str]) -> str:
+    """Why a region attachment of ``paths`` cannot become a mesh, or ``""``: a region stored
+    turned by 180 or 270 degrees, which every runtime turns for a mesh but draws unturned for a
+    region attachment (it turns one by 90 degrees only), so a mesh would draw other texels."""
+    for name in paths:
+        atlas = next((a for a in getattr(source, "atlases", ()) if a.find(name) is not None), None)
+        degrees = atlas.find(name).geometry(str(atlas.path)).degrees if atlas is not None else 0
+        if degrees in (180, 270):
+            return (f"its atlas region {name!r} is stored turned by {degrees} degrees, which the runtimes turn "
+                    "for a mesh only: they draw this region attachment unturned, which its mesh would not")
+    return ""
+
+
 @dataclass
 class Planner:
     """Plans skeletons one after another, sharing what they share.
@@ -425,6 +438,8 @@ class Planner:
         status, reason, key = self.decided[seen]
         if key and isinstance(source, images.FolderImages) and (unlike := _unlike(self.found[key].size, size)):
             return "failed", unlike, ""  # another picture than the region the runtime draws: its mesh would not fit
+        if key and (turned := _turned_for_meshes_only(source, paths)):
+            return "failed", turned, ""
         if key:
             self.tasks.setdefault(key, self.found[key])
         return status, reason, key
