@@ -287,6 +287,41 @@ def existing(path: str | Path) -> Path:
     return path
 
 
+def named_within(value, folder: str | Path | None):
+    """``value`` (text, or a JSON-able object of texts) with every path into ``folder`` named from
+    the folder's own name: ``/home/ci/build/game/hero/hero.png`` and ``../hero/hero.png``, for a
+    ``folder`` given as ``../hero``, both become ``hero/hero.png``. A report or a page names the
+    project's files so, not by the path that differs from one folder or machine to the next (its
+    bytes then are the same there); the console keeps the whole paths, to open.
+
+    ``folder`` None, or named ``.`` (whose files are named without a folder), changes nothing.
+    """
+    if folder is None:
+        return value
+    really = os.path.realpath(folder)
+    given = os.path.normpath(os.fspath(folder))
+    prefixes = sorted({p for p in (really, os.path.abspath(folder), given) if p not in ("", ".", os.sep)},
+                      key=len, reverse=True)
+    if not prefixes:
+        return value
+    import re
+
+    # a prefix counts where a path begins: not inside another name (``hero/`` in ``superhero/``)
+    pattern = re.compile(r"(?<![\w.\-/])(?:" + "|".join(re.escape(p) for p in prefixes) + r")(?=/)")
+    name = os.path.basename(really)
+
+    def named(v):
+        if isinstance(v, str):
+            return pattern.sub(lambda _: name, v)
+        if isinstance(v, dict):
+            return {named(k): named(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [named(x) for x in v]
+        return v
+
+    return named(value)
+
+
 def refuse_report_over_output(report: Path, out: Path) -> None:
     """Refuse a ``--report`` that would replace a file in OUT: one the run wrote (an atlas, a
     skeleton) or one it kept there, not its own (an earlier run's report was removed with its files)."""

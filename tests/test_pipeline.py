@@ -287,3 +287,31 @@ def load_skeleton_animations(path: Path) -> list[str]:
     from spinemesh.skeleton import load_skeleton
 
     return [str(name) for name in (load_skeleton(path).get("animations") or {})]
+
+
+def test_reports_and_previews_name_a_projects_files_by_the_project_not_the_machine(tmp_path):
+    """A page that cannot be decoded fails its attachments; the reports and previews said why
+    naming the page by its absolute path (or the path given): two checkouts in other folders
+    gave other bytes. Now by the project's name (``demo/demo.png: ...``), from any folder."""
+    builds = []
+    for side in ("a", "b"):
+        demo = make_demo_project(tmp_path / side / "demo", with_images_folder=False)
+        (demo / "demo.png").write_bytes((demo / "demo.png").read_bytes()[:300])  # truncated
+        relative = side == "a"
+        cwd = tmp_path / side if relative else tmp_path
+        at = (lambda p: Path(p)) if relative else (lambda p, s=side: tmp_path / s / p)
+        r = spinemesh("upgrade", at("demo"), "--out", at("o"), "--report", at("upgrade.json"), "--preview",
+                      at("preview"), cwd=cwd)
+        assert r.returncode == 3, r.stderr
+        assert str(tmp_path / side / "demo" / "demo.png") in r.stderr or "demo/demo.png" in r.stderr
+        r = spinemesh("pack", at("demo"), "--out", at("p"), "--report", at("pack.json"), "--preview",
+                      at("pack-preview"), cwd=cwd)
+        assert r.returncode in (2, 3), r.stderr
+        builds.append({k: v for k, v in files_of(tmp_path / side).items() if not k.startswith("demo/")})
+    a, b = builds
+    assert b"demo/demo.png: " in a["upgrade.json"] and str(tmp_path).encode() not in a["upgrade.json"]
+    assert sorted(a) == sorted(b)
+    assert [k for k in a if k not in ("upgrade.json", "pack.json") and a[k] != b[k]] == []
+    for name in ("upgrade.json", "pack.json"):
+        if name in a:
+            assert without_times(a[name]) == without_times(b[name]), name

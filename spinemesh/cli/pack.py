@@ -120,16 +120,17 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
+    from ..fsutil import project_folder
     from ..output import write_run_report
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL
 
     if report is not None:
-        write_run_report(report, out, lambda path: write_report(result, path))
+        write_run_report(report, out, lambda path: write_report(result, path, project_folder(project)))
     if preview is not None:
         from ..pack.preview import write_preview
 
-        write_preview(result, preview)
+        write_preview(result, preview, project_folder(project))
     print_pack_table(result.atlases, result.errors)
     if result.atlases:
         console.print(f"{outcome_line(result.atlases)}; {seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}",

@@ -158,7 +158,7 @@ def upgrade(
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     result = _run(project, out, options, library)
-    _write_report(result, report, out, dry_run)
+    _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
     if dry_run:  # packing reads the meshes written: a dry run writes none
         packed = " nor packed (--pack packs the meshes a run writes)" if pack else ""
@@ -170,16 +170,16 @@ def upgrade(
     _exit(result, nothing)
 
 
-def _write_report(result, report: Path | None, out: Path, dry_run: bool) -> None:
+def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: Path) -> None:
     """``--report``: the run's report as JSON, never over a file the run wrote in OUT."""
     from ..output import write_run_report
     from ..upgrade import write_report
 
     if report is not None:
         if dry_run:  # no output folder
-            write_report(result, report)
+            write_report(result, report, root)
         else:
-            write_run_report(report, out, lambda path: write_report(result, path))
+            write_run_report(report, out, lambda path: write_report(result, path, root))
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:

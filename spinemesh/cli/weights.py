@@ -80,7 +80,7 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
     from ..anim.motion import sampled_bone_worlds
-    from ..fsutil import OutputGuard, check_written_folder
+    from ..fsutil import OutputGuard, check_written_folder, project_folder
     from ..output import write_run_report
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
@@ -99,7 +99,7 @@ def weights(
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
         result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
     if report is not None:
-        write_run_report(report, out, lambda path: write_report(result, path))
+        write_run_report(report, out, lambda path: write_report(result, path, project_folder(project)))
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")

@@ -62,10 +62,11 @@ def atlas_section(folder: PreviewFolder, rel: str, before: dict[str, np.ndarray]
                if rows else ""))
 
 
-def write_preview(result, folder: str | Path) -> Path:
+def write_preview(result, folder: str | Path, project: str | Path | None = None) -> Path:
     """Write ``folder/index.html`` and its pictures (``folder/img/``) for a pack run (one made
-    with ``keep_previews``); return the page's path."""
-    files = PreviewFolder(folder)
+    with ``keep_previews``), the files of ``project`` (the folder packed) named from its name;
+    return the page's path."""
+    files = PreviewFolder(folder, project)
     rows = {a.atlas: a for a in result.atlases}
     sections = [atlas_section(files, rel, before, after, rows[rel]) for rel, before, after in result.previews]
     kept = [a for a in result.atlases if a.status != "packed"]

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_text, check_written_folder, mark_written_files, written_files
+from ..fsutil import (atomic_write_bytes, atomic_write_text, check_written_folder, mark_written_files, named_within,
+                      written_files)
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
@@ -54,7 +55,7 @@ class PreviewFolder:
         Bytes of every file written, by its path relative to ``root``.
     """
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, within: str | Path | None = None):
         # every preview is written through this class: a folder of a user's files is refused
         # here, whoever calls (the commands check it earlier, before any work)
         check_written_folder(root)
@@ -62,11 +63,14 @@ class PreviewFolder:
         self.sizes: dict[str, int] = {}
         self._images: dict[int, str] = {}
         self._earlier = written_files(root)  # an earlier preview's files, removed by finish() unless written again
+        self.within = within  # the project: its files named from its name on the pages (named_within)
 
     def write_text(self, rel: str, text: str) -> str:
-        """Write ``text`` (UTF-8) at ``rel``; returns ``rel``."""
+        """Write ``text`` (UTF-8) at ``rel``, every path into the project named from its name (the
+        same bytes from any folder, :func:`~spinemesh.fsutil.named_within`); returns ``rel``."""
         path = self.root / rel
         path.parent.mkdir(parents=True, exist_ok=True)
+        text = named_within(text, self.within)
         atomic_write_text(path, text)
         self.sizes[rel] = len(text.encode("utf-8"))
         return rel

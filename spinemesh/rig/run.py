@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json
+from ..fsutil import atomic_write_json, named_within
 from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
@@ -113,12 +113,13 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     return result
 
 
-def write_report(result: WeightResult, path: str | Path) -> None:
-    """``report.json``: one row per mesh attachment (bones chosen and why, time), plus totals."""
-    atomic_write_json(path, {
+def write_report(result: WeightResult, path: str | Path, project: str | Path | None = None) -> None:
+    """``report.json``: one row per mesh attachment (bones chosen and why, time), plus totals; the
+    files of ``project`` (the folder weighted) named from its name (:func:`~spinemesh.fsutil.named_within`)."""
+    atomic_write_json(path, named_within({
         "counts": result.counts(),
         "skeletons_written": result.written,
         "errors": result.errors,
         "seconds": round(result.seconds, 3),
         "attachments": [o.row() for o in result.outcomes],
-    })
+    }, project))

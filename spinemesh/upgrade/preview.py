@@ -864,7 +864,7 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         ``on_progress(done, total)`` as steps are done (:class:`_Steps`: each animation sampled, each skeleton).
     """
     project, out = Path(project), Path(out)
-    files = PreviewFolder(folder)
+    files = PreviewFolder(folder, project if project.is_dir() else project.parent)
     skeletons = _skeletons(result, project, out)
     docs, problems, twins = _read_pairs(skeletons)
     targets: dict[str, list] = {}

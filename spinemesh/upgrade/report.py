@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..fsutil import atomic_write_json
+from ..fsutil import atomic_write_json, named_within
 from ..runs import RunSummary
 
 
@@ -99,9 +99,10 @@ def merge(into: Result, part: Result, prefix: str) -> None:
         into.seconds[k] = into.seconds.get(k, 0.0) + v
 
 
-def write_report(result: Result, path: str | Path) -> None:
-    """``report.json``: one row per region attachment, plus totals and timings."""
-    atomic_write_json(path, {
+def write_report(result: Result, path: str | Path, project: str | Path | None = None) -> None:
+    """``report.json``: one row per region attachment, plus totals and timings; the files of
+    ``project`` (the folder upgraded) named from its name (:func:`~spinemesh.fsutil.named_within`)."""
+    atomic_write_json(path, named_within({
         "counts": result.counts(),
         "skeletons_written": result.written,
         "errors": result.errors,
@@ -111,7 +112,7 @@ def write_report(result: Result, path: str | Path) -> None:
         "attachments": [t.row() for t in result.targets],
         **({"atlases": [a.row() for a in result.atlases], "atlas_totals": _atlas_totals(result.atlases)}
            if result.atlases else {}),
-    })
+    }, project))
 
 
 def _atlas_totals(rows: list) -> dict:
