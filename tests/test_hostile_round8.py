@@ -62,7 +62,7 @@ def test_mesh_of_a_folder_never_writes_two_images_onto_one_mesh_file(tmp_path):
     skipped = [line for line in r.stderr.splitlines() if line.startswith("skipped:")]
     assert len(skipped) == 2, r.stderr
     assert all("'Hero.json'" in line and "Hero.png" in line for line in skipped), r.stderr
-    assert sorted(p.name for p in (tmp_path / "meshes").iterdir()) == ["Hero.json", "other.json"]
+    assert sorted(p.name for p in (tmp_path / "meshes").iterdir()) == [".spinemesh-written", "Hero.json", "other.json"]
 
 
 @pytest.mark.parametrize("first, second", [

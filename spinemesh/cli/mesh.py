@@ -26,7 +26,9 @@ def default_out(image: Path) -> Path:
 
 
 def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Optional[Path],
-         steps: Optional[Path]):
+         steps: Optional[Path], before_write=None):
+    """Mesh one image and write its outputs; ``before_write()``, when given, is called once the
+    mesh is made, before the first file is written (a folder run marks its folders then)."""
     from ..fsutil import atomic_write_json, atomic_write_png
     from ..images import load_rgba
     from ..memory import image_memory
@@ -43,6 +45,8 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
         mesh.info["image"] = image_path.name
         doc = mesh.to_json()
         doc["info"].pop("ms", None)  # timing would make the file differ from run to run
+        if before_write is not None:
+            before_write()
         atomic_write_json(out, doc, indent=None)
     with image_memory("draw", image_path, rgba.shape[1], rgba.shape[0]):  # the mesh is written already
         if preview is not None:
@@ -88,17 +92,26 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
-    from ..fsutil import check_outputs, refuse_one_output_twice
+    from ..fsutil import check_outputs, check_written_folder, refuse_one_output_twice
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
     if image.is_dir():
         check_outputs([image], folders=[target, preview, steps])
         refuse_one_output_twice([preview, steps])  # both write <image>.png: one folder would keep the steps alone
+        for folder, what, holds in _written_folders(target, preview, steps):
+            check_written_folder(folder, what, holds)  # a folder of a user's files: refused, not written over
         _mesh_folder(image, target, preview, steps, preset.value, overrides)
     else:
         check_outputs([image], files=[target, preview, steps])
         _mesh_file(image, target, preview, steps, preset.value, overrides)
+
+
+def _written_folders(out_dir: Path, preview: Optional[Path], steps: Optional[Path]) -> list[tuple[Path, str, str]]:
+    """The folders ``mesh DIR`` writes, each with what it is and holds, as a refusal says them."""
+    return [(f, what, holds) for f, what, holds in ((out_dir, "--out folder", "meshes"),
+                                                     (preview, "--preview folder", "previews"),
+                                                     (steps, "--steps folder", "pictures")) if f is not None]
 
 
 def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Optional[Path], preset: str,
@@ -108,8 +121,17 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import OneFilePerName, OutputGuard, walk_files
+    from ..fsutil import OneFilePerName, OutputGuard, mark_written_folder, walk_files
     from ..images import IMAGE_EXTENSIONS
+
+    marked = []
+
+    def mark() -> None:
+        """Mark the folders as spinemesh's before their first file (a run cut short is written again)."""
+        if not marked:
+            for folder, _, _ in _written_folders(out_dir, preview, steps):
+                mark_written_folder(folder)
+            marked.append(True)
 
     # regular files inside the folder by real path: no symlink out, no FIFO, no loop
     files = [p for p in walk_files(image) if p.suffix.lower() in IMAGE_EXTENSIONS]
@@ -130,7 +152,8 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                 m = _one(f, preset, overrides,
                          OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),
                          OutputGuard([image], preview).check(preview / rel.with_suffix(".png")) if preview else None,
-                         OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None)
+                         OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None,
+                         mark)
                 rows.append((str(rel), m))
             except SpineMeshError as e:
                 failed += 1
