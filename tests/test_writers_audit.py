@@ -68,3 +68,32 @@ def test_mesh_of_a_folder_never_writes_over_a_users_folder(tmp_path, option, nam
         r = run("mesh", str(art), "--out", "meshes", "--preview", "previews", "--steps", "steps", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
     assert (tmp_path / "meshes" / "hero.json").is_file() and (tmp_path / "steps" / "hero.png").is_file()
+
+
+# --- dataset --out ----------------------------------------------------------------------------------
+
+def test_a_data_set_is_never_built_in_a_folder_of_a_users_files(tmp_path):
+    """``dataset --out FOLDER`` (and ``build_dataset``) appended its rows to a user's
+    ``index.jsonl`` (cutting its last line when it had no newline), emptied their ``.lock`` and
+    wrote ``meta.json`` and ``shards/`` beside them (exit 0). A folder of someone else's files is
+    refused in one line before anything is written; a data set is resumed as before, also one an
+    earlier spinemesh wrote without marking its folder."""
+    from spinemesh.dataset import build_dataset
+    from spinemesh.demo import make_demo_project
+    from spinemesh.errors import OutputError
+
+    make_demo_project(tmp_path / "corpus" / "demo", with_images_folder=False)
+    mine = tmp_path / "mine"
+    before = _user_folder(mine, "index.jsonl", "projects.jsonl", ".lock")
+    line = _one_error(run("dataset", "corpus", "--out", "mine", cwd=tmp_path))
+    assert "mine: data set folder is not empty and holds no spinemesh data set" in line, line
+    assert _contents(mine) == before
+    with pytest.raises(OutputError, match="data set folder is not empty"):
+        build_dataset([tmp_path / "corpus"], mine)
+    assert _contents(mine) == before
+    ds = tmp_path / "ds"
+    first = build_dataset([tmp_path / "corpus"], ds)
+    assert first.samples > 0
+    (ds / ".spinemesh-written").unlink()  # a data set built before folders were marked
+    again = build_dataset([tmp_path / "corpus"], ds)
+    assert again.samples == 0 and again.projects_done_before == 1

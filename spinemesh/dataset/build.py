@@ -27,7 +27,7 @@ import numpy as np
 
 from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json
+from ..fsutil import atomic_write_json, check_written_folder, mark_written_folder
 from .extract import ProjectResult, extract_project, find_projects, game_of
 from .format import (FORMAT, FORMAT_VERSION, INDEX, MASK_ALPHA_THRESHOLD, META, PROJECTS, SHARDS,
                      VAL_FRACTION, append_jsonl, read_jsonl, repair_tail, write_shard)
@@ -111,22 +111,31 @@ def _project_names(corpora: list[Path]) -> list[tuple[Path, str]]:
     return out
 
 
+def _check_output(out: Path) -> None:
+    """Refuse, before anything is written there, a data set folder that is not one: a
+    ``meta.json`` of another kind, or files but none spinemesh wrote (:func:`check_written_folder`;
+    its ``index.jsonl`` would be appended to, a torn last line of it cut, its ``.lock`` emptied)."""
+    path = out / META
+    if not path.is_file():
+        check_written_folder(out, "data set folder", "data set")
+        return
+    try:
+        old = json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError) as e:  # cut short by a full disk, edited by hand: not resumed
+        raise SpineMeshError(f"unreadable data set metadata ({e}); give a new --out folder, or remove "
+                             "this folder to start over", path) from None
+    if not isinstance(old, dict) or old.get("format") != FORMAT or old.get("version") != FORMAT_VERSION:
+        raise SpineMeshError("folder holds something else than a spinemesh data set of this version", path)
+
+
 def _open_output(out: Path) -> None:
-    out.mkdir(parents=True, exist_ok=True)
+    _check_output(out)  # again, under the lock
     (out / SHARDS).mkdir(exist_ok=True)
     meta = {"format": FORMAT, "version": FORMAT_VERSION, "mask_alpha_threshold": MASK_ALPHA_THRESHOLD,
             "val_fraction": VAL_FRACTION,
             "split": "by game: val when blake2b-64(game) / 2^64 < val_fraction"}
     path = out / META
-    if path.is_file():
-        try:
-            old = json.loads(path.read_text("utf-8"))
-        except (OSError, ValueError) as e:  # cut short by a full disk, edited by hand: not resumed
-            raise SpineMeshError(f"unreadable data set metadata ({e}); give a new --out folder, or remove "
-                                 "this folder to start over", path) from None
-        if not isinstance(old, dict) or old.get("format") != FORMAT or old.get("version") != FORMAT_VERSION:
-            raise SpineMeshError("folder holds something else than a spinemesh data set of this version", path)
-    else:
+    if not path.is_file():
         atomic_write_json(path, meta)
     for name in (INDEX, PROJECTS):
         repair_tail(out / name)
@@ -197,7 +206,8 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
     corpora : list of path
         Folders holding Spine projects (any depth; see :func:`find_projects`).
     out : path
-        The data set folder; created, or resumed when it exists.
+        The data set folder; created, or resumed when it exists. A folder that holds files but no
+        data set (nor anything else spinemesh wrote) is refused with :class:`OutputError`.
     jobs : int
         Worker processes; 1 runs in this process.
     dask : str, optional
@@ -218,7 +228,8 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
     if not projects:  # nothing to do is refused, as everywhere (exit status 2), before OUT is made
         raise SpineMeshError("no Spine skeleton found in this folder (a .skel file, or a .json with a "
                              "\"skeleton\" object), at any depth", corpora[0] if len(corpora) == 1 else None)
-    out.mkdir(parents=True, exist_ok=True)
+    _check_output(out)
+    mark_written_folder(out)  # before its first file: a run cut short is resumed, not refused
     lock = open(out / ".lock", "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
