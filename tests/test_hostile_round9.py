@@ -284,3 +284,24 @@ def test_the_old_atlas_syntax_upgrades_to_the_same_meshes_and_draws_so_in_the_ru
         poses = json.loads((tmp_path / "ring.json").read_text())["poses"]
         uvs.append(next(a["uvs"] for a in poses[0]["attachments"] if a["slot"] == "ring"))
     assert uvs[0] == uvs[1]
+
+
+def test_editor_images_of_a_scaled_page_have_no_dark_fringe(tmp_path):
+    """A page exported at ``scale: 0.5`` gives editor images twice its size. They were resized as
+    straight RGBA, so the black of transparent texels ran into the edge: the head's half-transparent
+    outline, skin-coloured (250, 210, 170) on the page, came out as dark as (21, ...), a dark fringe
+    once re-imported. Resized premultiplied, the outline keeps the skin's colour."""
+    import numpy as np
+    from PIL import Image
+
+    project = _demo(tmp_path)
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("\tfilter: Linear, Linear\n", "\tfilter: Linear, Linear\n\tscale: 0.5\n", 1))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--images", "editor", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/", "editor/"], codes=(0,))
+    head = np.asarray(Image.open(tmp_path / "editor" / "demo-head.png").convert("RGBA")).astype(int)
+    assert head.shape == (180, 180, 4)
+    edge = (head[..., 3] > 20) & (head[..., 3] < 235)
+    assert edge.sum() > 500
+    assert np.abs(head[edge][:, :3] - (250, 210, 170)).max() <= 12, head[edge][:, :3].min(0)
