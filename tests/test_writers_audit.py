@@ -97,3 +97,30 @@ def test_a_data_set_is_never_built_in_a_folder_of_a_users_files(tmp_path):
     (ds / ".spinemesh-written").unlink()  # a data set built before folders were marked
     again = build_dataset([tmp_path / "corpus"], ds)
     assert again.samples == 0 and again.projects_done_before == 1
+
+
+# --- dataset-stats --plots ----------------------------------------------------------------------------
+
+def test_dataset_stats_never_draws_over_a_users_folder(tmp_path):
+    """``dataset-stats DS --plots FOLDER`` wrote its four PNGs into any folder, replacing a user's
+    ``image_sizes.png`` (exit 0), and through a symlink. Such a folder is refused in one line before
+    any work; the folder it drew into is its own, drawn into again, and so is the default DS/stats."""
+    pytest.importorskip("matplotlib")
+    from spinemesh.dataset import build_dataset
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "corpus" / "demo", with_images_folder=False)
+    build_dataset([tmp_path / "corpus"], tmp_path / "ds")
+    mine = tmp_path / "mine"
+    before = _user_folder(mine, "image_sizes.png", "notes.txt")
+    line = _one_error(run("dataset-stats", "ds", "--plots", "mine", cwd=tmp_path))
+    assert "mine: --plots folder is not empty and holds no spinemesh plots" in line, line
+    assert _contents(mine) == before
+    (tmp_path / "link").symlink_to(mine)
+    assert "symlink" in _one_error(run("dataset-stats", "ds", "--plots", "link", cwd=tmp_path))
+    assert _contents(mine) == before
+    for _ in range(2):
+        for plots in (["--plots", "plots"], []):
+            r = run("dataset-stats", "ds", *plots, cwd=tmp_path)
+            assert r.returncode == 0, r.stderr
+    assert (tmp_path / "plots" / "image_sizes.png").is_file() and (tmp_path / "ds" / "stats" / "type_share.png").is_file()

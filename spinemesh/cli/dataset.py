@@ -121,8 +121,12 @@ def dataset_stats_cmd(
     from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
+    from ..fsutil import check_outputs, check_written_folder
     from ..words import counted
 
+    if plots is not None:  # the default, DS/stats, lies in the data set, spinemesh's folder
+        check_outputs([], folders=[plots])  # not a file, not a symlink
+        check_written_folder(plots, "--plots folder", "plots")  # a folder of a user's files: refused
     stats = dataset_stats(open_dataset(ds))
     console.print(f"{ds}: {counted(stats['samples'], 'sample')} from {counted(len(stats['by_project']), 'project')} "
                   f"of {counted(len(stats['by_game']), 'game')}", highlight=False)

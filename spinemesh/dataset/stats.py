@@ -59,10 +59,11 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 
-    from ..fsutil import atomic_write_bytes
+    from ..fsutil import atomic_write_bytes, mark_written_folder
 
     out_dir = Path(out_dir)
     written = []
+    mark_written_folder(out_dir)  # before its first plot: a later run writes into it again
 
     def save(fig, name: str) -> None:
         import io
