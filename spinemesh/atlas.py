@@ -149,7 +149,7 @@ class AtlasPage(_Fields):
     @property
     def pma(self) -> bool:
         v = self.get("pma")
-        return bool(v) and v[0].strip().lower() == "true"
+        return bool(v) and v[0] == "true"  # as the runtimes compare it: "True" is a straight page there
 
     @property
     def scale(self) -> float:

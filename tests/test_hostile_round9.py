@@ -305,3 +305,24 @@ def test_editor_images_of_a_scaled_page_have_no_dark_fringe(tmp_path):
     edge = (head[..., 3] > 20) & (head[..., 3] < 235)
     assert edge.sum() > 500
     assert np.abs(head[edge][:, :3] - (250, 210, 170)).max() <= 12, head[edge][:, :3].min(0)
+
+
+def test_a_page_the_runtimes_read_as_straight_is_cut_straight(tmp_path):
+    """``pma: True``: spine-core, libGDX and spine-c compare the value with ``true`` exactly, so
+    the page is straight there; it was read as premultiplied, and its editor images divided by
+    alpha (their half-transparent texels made brighter). They are now those of a straight page."""
+    import numpy as np
+    from PIL import Image
+
+    for name, pma in (("straight", ""), ("capital", "\tpma: True\n")):
+        project = _demo(tmp_path / name)
+        page = np.asarray(Image.open(project / "demo.png").convert("RGBA")).copy()
+        page[..., 3] //= 2  # half-transparent art
+        Image.fromarray(page).save(project / "demo.png")
+        atlas = project / "demo.atlas"
+        atlas.write_text(atlas.read_text().replace("\tfilter: Linear, Linear\n", "\tfilter: Linear, Linear\n" + pma, 1))
+        r = run_cli("upgrade", "p", "--out", "o", "--images", "editor", "--jobs", "1", cwd=tmp_path / name)
+        assert r.returncode == 0, r.stderr
+    for image in sorted((tmp_path / "straight" / "editor").rglob("*.png")):
+        twin = tmp_path / "capital" / "editor" / image.relative_to(tmp_path / "straight" / "editor")
+        assert twin.read_bytes() == image.read_bytes(), image.name
