@@ -124,3 +124,77 @@ def test_dataset_stats_never_draws_over_a_users_folder(tmp_path):
             r = run("dataset-stats", "ds", *plots, cwd=tmp_path)
             assert r.returncode == 0, r.stderr
     assert (tmp_path / "plots" / "image_sizes.png").is_file() and (tmp_path / "ds" / "stats" / "type_share.png").is_file()
+
+
+# --- segment-export: the model and its card ----------------------------------------------------------
+
+@pytest.fixture
+def checkpoint(tmp_path):
+    """A small untrained checkpoint as the training loop writes one, and inputs to export it with."""
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("onnxruntime")
+    pytest.importorskip("efficientnet_lite_pytorch")
+    from spinemesh.train.loop import half_state
+    from spinemesh.train.model import SegmentationModel
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)  # a shared machine: more threads spin
+    torch.manual_seed(0)
+    model = SegmentationModel("efficientnet-lite0", 64, pretrained=False).eval()
+    path = tmp_path / "best.pt"
+    torch.save({"config": model.config, "model": half_state(model), "metrics": {"epoch": 1}, "meta": {}}, path)
+    inputs = [np.random.default_rng(i).normal(size=(3, 64, 64)).astype(np.float32) for i in range(4)]
+    yield path, inputs
+    torch.set_num_threads(before)
+
+
+def test_an_exported_model_and_its_card_are_written_whole_or_not_at_all(tmp_path, checkpoint, monkeypatch):
+    """``segment-export`` wrote ``OUT.fp32.onnx`` beside OUT (a user's file of that name replaced,
+    then deleted), the model straight onto OUT, and the card with ``json.dumps``: a run that failed
+    after the fp32 export left that file behind, and a checkpoint whose outputs are NaN shipped a
+    card saying ``NaN``. Now both are made apart and written together, strict JSON or nothing."""
+    import spinemesh.train.export as export
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.segment import model_card
+
+    ckpt, inputs = checkpoint
+    out = tmp_path / "models" / "segment.onnx"
+    before = _user_folder(out.parent, "segment.fp32.onnx", "segment.prep.onnx")
+
+    def cut_short(*args):
+        raise KeyboardInterrupt
+
+    real_parity = export.parity
+    with monkeypatch.context() as m:
+        m.setattr(export, "quantize_int8", cut_short)
+        with pytest.raises(KeyboardInterrupt):
+            export.release(ckpt, out, inputs, inputs, int8=True)
+    assert _contents(out.parent) == before
+    with monkeypatch.context() as m:
+        m.setattr(export, "parity", lambda *a: {"max_abs_logit_diff": float("nan"), "mask_pixels_differing": 0.0})
+        with pytest.raises(SpineMeshError, match="non-finite"):
+            export.release(ckpt, out, inputs, inputs, int8=False)
+    assert _contents(out.parent) == before
+    assert export.parity is real_parity
+    card = export.release(ckpt, out, inputs, inputs, int8=True)
+    assert card == model_card(out) and card["precision"] == "int8" and card["size_bytes"] == out.stat().st_size
+    after = _contents(out.parent)
+    assert sorted(after) == sorted([*before, "segment.json", "segment.onnx"])
+    assert all(after[name] == data for name, data in before.items())
+
+
+def test_segment_export_never_writes_its_card_through_a_symlink_or_onto_an_input(tmp_path):
+    """The card beside ``--out`` was not checked: a symlink there was written through, onto any
+    file it named, and ``--out ds/meta.onnx`` would write the card over ``ds/meta.json``, given
+    as ``--data``. Both are refused in one line before any work, as ``--out`` itself is."""
+    (tmp_path / "best.pt").write_bytes(b"not read: refused before")
+    (tmp_path / "ds").mkdir()
+    theirs = tmp_path / "theirs.json"
+    theirs.write_text("{}")
+    (tmp_path / "m.json").symlink_to(theirs)
+    line = _one_error(run("segment-export", "best.pt", "--data", "ds", "--out", "m.onnx", cwd=tmp_path))
+    assert "m.json: output file is a symlink" in line, line
+    line = _one_error(run("segment-export", "best.pt", "--data", "ds/meta.json", "--out", "ds/meta.onnx",
+                          cwd=tmp_path))
+    assert "lies inside the input" in line or "is the input" in line, line
+    assert theirs.read_text() == "{}"

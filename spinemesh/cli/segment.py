@@ -157,9 +157,9 @@ def _scores_table(sprites: list, games: list[str], scores: dict):
 def _record_in_card(model: Optional[Path], per_project: int, result: dict) -> None:
     """``--card``: the scores (less the data folders) and the command that made them, in the model's card."""
     from ..fsutil import atomic_write_json
-    from ..segment import DEFAULT_MODEL, model_card
+    from ..segment import card_path, model_card
 
-    path = Path(model or DEFAULT_MODEL).with_suffix(".json")
+    path = card_path(model)
     c = model_card(model)
     command = "spinemesh segment-eval --data DS" + (f" --per-project {per_project}" if per_project else "")
     c["evaluation"] = {"command": command, **{k: v for k, v in result.items() if k != "data"}}
@@ -250,11 +250,12 @@ def segment_export(
     import numpy as np
 
     from ..fsutil import check_outputs
+    from ..segment import card_path
     from ..segment.samples import load_sprites
     from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise
     from ..train.export import load_checkpoint, release
 
-    check_outputs([checkpoint, *data], files=[out])
+    check_outputs([checkpoint, *data], files=[out, card_path(out)])  # the card too: never onto the model
 
     side = size or load_checkpoint(checkpoint).config["image_size"]
     rng = np.random.default_rng(0)

@@ -39,6 +39,11 @@ class ModelError(SpineMeshError):
 MAX_INPUT_SIZE = 2048
 
 
+def card_path(model_path: str | Path | None = None) -> Path:
+    """Where the card of a model lies: beside it, ``<model>.json`` (the shipped model's by default)."""
+    return Path(model_path or DEFAULT_MODEL).with_suffix(".json")
+
+
 def model_card(model_path: str | Path | None = None) -> dict:
     """The JSON card beside a model (``<model>.json``): input size, mean, std, threshold, figures.
 
@@ -48,7 +53,7 @@ def model_card(model_path: str | Path | None = None) -> dict:
         Naming the card, when it is missing or unreadable, or what inference reads from it
         (``input_size``, ``threshold``, ``inference``) is not what our models' cards hold.
     """
-    path = Path(model_path or DEFAULT_MODEL).with_suffix(".json")
+    path = card_path(model_path)
     try:
         card = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..fsutil import atomic_write_files, atomic_write_json, strict_json, utf8
+from ..segment import card_path
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
 from .model import SegmentationModel, build_model
 
@@ -105,8 +107,9 @@ def parity(model: SegmentationModel, onnx_path: str | Path, inputs: list[np.ndar
     return {"max_abs_logit_diff": worst, "mask_pixels_differing": float(np.mean(flips))}
 
 
-def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
-    """The JSON model card the inference side reads (input size, normalisation, threshold)."""
+def card_of(model: SegmentationModel, extra: dict) -> dict:
+    """The JSON model card the inference side reads (input size, normalisation, threshold),
+    with ``extra`` (precision, parity, training figures) added."""
     card = {
         "format": "onnx",
         "input": "image", "output": "logits",
@@ -121,7 +124,12 @@ def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
         "training_data": "sprites of data sets made by `spinemesh dataset` (no data ships)",
     }
     card.update(extra)
-    Path(path).write_text(json.dumps(card, indent=1) + "\n", encoding="utf-8")
+    return card
+
+
+def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
+    """Write :func:`card_of` to ``path`` atomically, as strict JSON (a NaN is refused, naming it)."""
+    atomic_write_json(path, card_of(model, extra), indent=1)
     return Path(path)
 
 
@@ -129,12 +137,17 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
             int8: bool = True, image_size: int | None = None) -> dict:
     """Export a checkpoint as the model that ships: ONNX (static int8 or fp32) plus its card.
 
+    The fp32 export and the int8 model are made in a temporary folder, removed whatever ends
+    the run; the model and its card are then written together, each atomically (both or
+    neither): no file beside ``out`` is made or replaced but those two.
+
     Parameters
     ----------
     checkpoint : path
         ``best.pt`` from the training loop.
     out : path
-        The ``.onnx`` to write; the card goes beside it as ``.json``.
+        The ``.onnx`` to write; the card goes beside it as ``.json``
+        (:func:`spinemesh.segment.card_path`).
     calibration : list of (3, S, S) float32
         Inputs to calibrate int8 activations on (training composites).
     check : list of (3, S, S) float32
@@ -148,20 +161,33 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
     -------
     dict
         The card written.
+
+    Raises
+    ------
+    SpineMeshError
+        When the card would hold a non-finite number (a parity of NaN: a checkpoint whose
+        weights diverged); nothing is written then.
+    OutputError
+        When the file system refuses either file; neither is written then.
     """
+    import tempfile
+
     out = Path(out)
     model = load_checkpoint(checkpoint, image_size)
     ckpt = torch.load(checkpoint, map_location="cpu", weights_only=False)
-    fp32 = out.with_suffix(".fp32.onnx") if int8 else out
-    export_onnx(model, fp32)
-    extra = {"precision": "int8" if int8 else "fp32",
-             "parity_fp32": parity(model, fp32, check),
-             "training": {"best_epoch": ckpt["metrics"], **ckpt.get("meta", {})}}
-    if int8:
-        quantize_int8(fp32, out, calibration)
-        extra["parity_int8"] = parity(model, out, check)
-        extra["quantisation"] = "static QDQ, per-channel int8 weights, uint8 activations, MinMax calibration"
-        fp32.unlink()
-    extra["size_bytes"] = out.stat().st_size
-    write_card(out.with_suffix(".json"), model, extra)
-    return json.loads(out.with_suffix(".json").read_text())
+    with tempfile.TemporaryDirectory(prefix="spinemesh-export-") as work:
+        fp32 = export_onnx(model, Path(work) / "model.fp32.onnx")
+        extra = {"precision": "int8" if int8 else "fp32",
+                 "parity_fp32": parity(model, fp32, check),
+                 "training": {"best_epoch": ckpt["metrics"], **ckpt.get("meta", {})}}
+        made = fp32
+        if int8:
+            made = quantize_int8(fp32, Path(work) / "model.int8.onnx", calibration)
+            extra["parity_int8"] = parity(model, made, check)
+            extra["quantisation"] = "static QDQ, per-channel int8 weights, uint8 activations, MinMax calibration"
+        data = made.read_bytes()
+    extra["size_bytes"] = len(data)
+    card = card_of(model, extra)
+    card_file = card_path(out)
+    atomic_write_files({out: data, card_file: utf8(strict_json(card, 1, card_file) + "\n", card_file)})
+    return json.loads(card_file.read_text("utf-8"))
