@@ -727,7 +727,7 @@ class Sampler:
         stepped here (those bones and the bones below them are not exact)."""
         rig = self.rig
         self._step_bones(frame)
-        world = np.stack([b.world for b in rig.bones]) if rig.bones else np.zeros((0, 2, 3))
+        world = np.array([b.m for b in rig.bones]).reshape(-1, 2, 3) if rig.bones else np.zeros((0, 2, 3))
         exact = np.array([b.exact for b in rig.bones], bool)
         why = {b.name: b.why for b in rig.bones if not b.exact}
         for b in rig.bones:

@@ -136,9 +136,10 @@ class PoseBone:
     """One bone as the runtime holds it while it computes the pose.
 
     ``local`` is the setup pose (x, y, rotation, scaleX, scaleY, shearX, shearY); ``applied``
-    the values its world transform was last computed from; ``world`` is (2, 3) as in
-    :mod:`.transform`. ``applied_exact`` says whether ``applied`` is reproduced exactly (False once
-    a constraint we do not reproduce has moved the bone).
+    the values its world transform was last computed from; ``m`` is the world transform's six
+    numbers ``(a, b, worldX, c, d, worldY)``, plain floats, and :attr:`world` the same as an
+    array, (2, 3) as in :mod:`.transform`. ``applied_exact`` says whether ``applied`` is
+    reproduced exactly (False once a constraint we do not reproduce has moved the bone).
     """
 
     index: int
@@ -149,7 +150,10 @@ class PoseBone:
     local: tuple[float, ...]
     family: str
     applied: list[float] = field(default_factory=list)
-    world: np.ndarray = field(default_factory=lambda: np.array([[1.0, 0, 0], [0, 1.0, 0]]))
+    #: the world transform, what the update reads and writes: a tuple of six floats, which Python
+    #: unpacks faster than it reads an array's (every bone, every step of every pose)
+    m: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    _world: np.ndarray | None = field(default=None, init=False, repr=False)   # m as an array, once read
     applied_valid: bool = True        # 3.8 recomputes applied values from the world lazily
     flat: float = 0.0001              # world_numbers's threshold (4.3: 1e-10)
     applied_exact: bool = True
@@ -165,14 +169,35 @@ class PoseBone:
     world_now: bool = False
     local_stale: bool = False
 
+    @property
+    def world(self) -> np.ndarray:
+        """The world transform, shape (2, 3): :attr:`m` as an array, made when first read after
+        ``m`` changes (most steps of a pose read none) and read-only (assign it to change it)."""
+        w = self._world
+        if w is None:
+            w = self._world = np.array(self.m).reshape(2, 3)
+            w.flags.writeable = False
+        return w
+
+    @world.setter
+    def world(self, value) -> None:
+        self.set_world(tuple(np.asarray(value, float).ravel().tolist()))  # plain floats, as world_numbers gives
+
+    def set_world(self, numbers: tuple[float, ...]) -> None:
+        """The world transform set to ``numbers``, ``(a, b, worldX, c, d, worldY)``, plain floats
+        (as :attr:`m` holds them; the array :attr:`world` is made again when next read)."""
+        self.m, self._world = numbers, None
+
     # -- the runtime's Bone methods ------------------------------------------------------
     def update_with(self, values) -> tuple[float, ...]:
         """``updateWorldTransformWith``: world from ``values``, which become the applied values.
         Returns the world transform's six numbers (:func:`.transform.world_numbers`)."""
-        self.applied = applied = list(map(float, values))
+        # the update cache's step passes the applied values themselves, floats already: not copied
+        self.applied = applied = values if values is self.applied else list(map(float, values))
         self.applied_valid = True
-        numbers = world_numbers(applied, self.inherit, None if self.parent is None else self.parent.world, self.flat)
-        self.world = np.array(numbers).reshape(2, 3)
+        parent = self.parent
+        self.m = numbers = world_numbers(applied, self.inherit, None if parent is None else parent.m, self.flat)
+        self._world = None
         self.world_now = True
         return numbers
 
@@ -190,9 +215,11 @@ class PoseBone:
                 self.applied_exact = True
             else:
                 numbers = self.update_with(self.applied)
-            finite = all(map(math.isfinite, numbers))  # finite(), from the numbers at hand
+            a, b, x, c, d, y = numbers  # finite(), from the numbers at hand
+            isfinite = math.isfinite
+            finite = isfinite(a) and isfinite(b) and isfinite(x) and isfinite(c) and isfinite(d) and isfinite(y)
         except (ValueError, OverflowError):  # an infinite angle left by a degenerate constraint
-            self.world = np.full((2, 3), np.nan)
+            self.m, self._world = (math.nan,) * 6, None
             finite = False
         parent_ok = self.parent is None or self.parent.exact
         self.exact = parent_ok and self.applied_exact and finite
@@ -202,7 +229,7 @@ class PoseBone:
             self.why = "its setup transform is not finite"
 
     def finite(self) -> bool:
-        (a, b, x), (c, d, y) = self.world.tolist()  # plain floats: cheaper than numpy for 6 numbers
+        a, b, x, c, d, y = self.m
         isfinite = math.isfinite
         return isfinite(a) and isfinite(b) and isfinite(x) and isfinite(c) and isfinite(d) and isfinite(y)
 
@@ -246,12 +273,12 @@ class PoseBone:
             self.local_stale, self.world_now = False, True
             return
         self.applied_valid = True
-        (a, b, wx), (c, d, wy) = self.world.tolist()
+        a, b, wx, c, d, wy = self.m
         if self.parent is None:
             self.applied = [wx, wy, math.atan2(c, a) * RAD_DEG, math.hypot(a, c), math.hypot(b, d), 0.0,
                             math.atan2(a * b + c * d, a * d - b * c) * RAD_DEG]
             return
-        (pa, pb, pwx), (pc, pd, pwy) = self.parent.world.tolist()
+        pa, pb, pwx, pc, pd, pwy = self.parent.m
         # A parent scaled to 0 on an axis: the runtimes' floats divide by its zero determinant
         # and go on (infinite local values, which only a constraint reading them would use);
         # Python's would stop the pose where the game's world transform is exact.
@@ -329,9 +356,9 @@ def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, str
     if bone.v43:
         bone.modify_local()
     parent = bone.parent
-    (pa, pb, pwx), (pc, pd, pwy) = parent.world.tolist()
+    pa, pb, pwx, pc, pd, pwy = parent.m
     ax, ay, arot, asx, asy, ashx, ashy = bone.applied
-    (_, _, bwx), (_, _, bwy) = bone.world.tolist()
+    _, _, bwx, _, _, bwy = bone.m
     rotation_ik = -ashx - arot
     if bone.inherit == "onlyTranslation":
         tx, ty = tx_world - bwx, ty_world - bwy
@@ -391,7 +418,7 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     psx, psy, csx, os1, os2, s2 = _ik_two_signs(psx, psy, child.applied[3])
     u = abs(psx - psy) <= 0.0001
     cx, cy, cwx, cwy = _ik_two_child_position(parent, child, u and not (stretch and family != "3.8"))
-    (a, b, ppwx), (c, d, ppwy) = parent.parent.world.tolist()
+    a, b, ppwx, c, d, ppwy = parent.parent.m
     det = a * d - b * c
     if family in ("4.1", "4.2"):
         inv = 0.0 if abs(det) <= 0.0001 else 1 / det
@@ -446,7 +473,7 @@ def _ik_two_child_position(parent: PoseBone, child: PoseBone, with_y: bool) -> t
     """The child's local ``(cx, cy)`` and world ``(cwx, cwy)`` position; its local y counts only
     with ``with_y`` (uniform parent scale, and no stretch after 3.8)."""
     cx = child.applied[0]
-    (a, b, pwx), (c, d, pwy) = parent.world.tolist()
+    a, b, pwx, c, d, pwy = parent.m
     if not with_y:
         return cx, 0.0, a * cx + pwx, c * cx + pwy
     cy = child.applied[1]
@@ -572,15 +599,14 @@ def transform_apply(mix: TransformMix, target: PoseBone, bones: list[PoseBone], 
 
 
 def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone], family: str) -> None:
-    (ta, tb, _), (tc, td, _) = target.world.tolist()
+    ta, tb, twx, tc, td, twy = target.m
     reflect = RAD if ta * td - tb * tc > 0 else -RAD
     off_rot, off_x, off_y, off_sx, off_sy, off_shear = mix.offset
     off_rot, off_shear = off_rot * reflect, off_shear * reflect
-    tm = target.world
     # 3.8 tests scale and shear mixes with > 0 (and scale against 1e-5), 4.x with != 0.
     scale_on = (lambda m: m > 0) if family == "3.8" else (lambda m: m != 0)
     for bone in bones:
-        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        a, b, wx, c, d, wy = bone.m
         modified = False
         if mix.rotate != 0:
             if mix.relative:
@@ -592,8 +618,8 @@ def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
             a, b, c, d = cos * a - sin * c, cos * b - sin * d, sin * a + cos * c, sin * b + cos * d
             modified = True
         if mix.x != 0 or mix.y != 0:
-            px = float(tm[0, 0] * off_x + tm[0, 1] * off_y + tm[0, 2])
-            py = float(tm[1, 0] * off_x + tm[1, 1] * off_y + tm[1, 2])
+            px = ta * off_x + tb * off_y + twx
+            py = tc * off_x + td * off_y + twy
             if mix.relative:
                 wx, wy = wx + px * mix.x, wy + py * mix.y
             else:
@@ -625,7 +651,7 @@ def _transform_world(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
             s = math.hypot(b, d)
             b, d = math.cos(r) * s, math.sin(r) * s
             modified = True
-        bone.world = np.array([[a, b, wx], [c, d, wy]])
+        bone.set_world((a, b, wx, c, d, wy))
         if family == "3.8":
             if modified:
                 bone.applied_valid = False
@@ -1245,7 +1271,7 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in
             try:
                 c.physics.update(bone, c.data)
             except (ValueError, OverflowError):  # springs driven past what a float holds (an angle of NaN)
-                bone.world[:] = np.nan
+                bone.world = np.full((2, 3), np.nan)
             if not bone.finite():  # the runtimes draw such a bone nowhere: flagged, those below it too
                 _mark([bone], f"moved {where} by the {c.label()}, whose springs diverge (not a finite number)")
         return
@@ -1304,7 +1330,7 @@ def _apply(c: _Constraint, family: str, skeleton: list[PoseBone]) -> bool:
         scale_y = "uniform" if d.get("uniform", False) else "none"
         if c.v43:  # 4.3 names how a stretch scales y: "uniform" (4.2's uniform) or "volume"
             scale_y = d.get("scaleY") if d.get("scaleY") in ("uniform", "volume") else "none"
-        tx, ty = (float(v) for v in c.target.world[:, 2])
+        tx, ty = c.target.m[2], c.target.m[5]
         if len(c.bones) == 1 and c.bones[0].parent is not None:
             ik_one(c.bones[0], tx, ty, bool(d.get("compress", False)), bool(d.get("stretch", False)),
                    scale_y, mix, family)

@@ -131,7 +131,7 @@ class PhysicsState:
         if s.lagged:
             self._update_lagged(bone, v)
             return
-        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        a, b, wx, c, d, wy = bone.m
         if self.mode == RESET:
             self.reset()
         if self.mode in (RESET, UPDATE):
@@ -168,14 +168,14 @@ class PhysicsState:
         a, b, c, d = self._turn_and_scale(a, b, c, d, mix, z)
         if self.mode != POSE:
             self.tx, self.ty = bone.length * a, bone.length * c
-        bone.world[:] = [[a, b, wx], [c, d, wy]]
+        bone.set_world((a, b, wx, c, d, wy))
         bone.update_applied()
 
     def _update_lagged(self, bone, v: _Values) -> None:
         """4.3's update: the same springs, the bone drawn between the last two steps."""
         s = self.s
         bone.modify_world()
-        (a, b, wx), (c, d, wy) = bone.world.tolist()
+        a, b, wx, c, d, wy = bone.m
         t, z = s.step, 0.0
         move_x, move_y = s.x > 0, s.y > 0
         turn, scale = s.rotate > 0 or s.shear_x > 0, s.scale_x > 0

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from math import cos, sin
 
 import numpy as np
 
@@ -64,11 +65,12 @@ def local_values(node: dict) -> tuple[float, ...]:
 def world_from_local(values: Sequence[float], mode: str, parent: np.ndarray | None,
                      flat: float = 0.0001) -> np.ndarray:
     """A bone's world transform, shape (2, 3), from its local values and its parent's world
-    transform: :func:`world_numbers` as an array."""
-    return np.array(world_numbers(values, mode, parent, flat)).reshape(2, 3)  # flat, then shaped: cheaper
+    transform (shape (2, 3), or None for the root): :func:`world_numbers` as an array."""
+    numbers = world_numbers(values, mode, None if parent is None else tuple(parent.ravel().tolist()), flat)
+    return np.array(numbers).reshape(2, 3)  # flat, then shaped: cheaper
 
 
-def world_numbers(values: Sequence[float], mode: str, parent: np.ndarray | None,
+def world_numbers(values: Sequence[float], mode: str, parent: tuple[float, ...] | None,
                   flat: float = 0.0001) -> tuple[float, float, float, float, float, float]:
     """A bone's world transform ``(a, b, worldX, c, d, worldY)``, plain floats, from its local
     values and its parent's world transform.
@@ -83,23 +85,27 @@ def world_numbers(values: Sequence[float], mode: str, parent: np.ndarray | None,
         ``(x, y, rotation, scaleX, scaleY, shearX, shearY)``, degrees for the angles.
     mode : str
         One of :data:`INHERIT_MODES`.
-    parent : ndarray, shape (2, 3), or None
-        The parent's world transform; None for the root.
+    parent : tuple of 6 floats, or None
+        The parent's world transform as the same six numbers ``(a, b, worldX, c, d, worldY)``
+        (plain floats: unpacked faster than an array); None for the root.
     flat : float
         ``noRotationOrReflection``: below this squared length of the parent's x axis, its
         rotation is read from its y axis (3.8 to 4.2: 0.0001; 4.3: 1e-10).
     """
     x, y, rot, sx, sy, shear_x, shear_y = values
-    cx, snx = _cos_sin(rot + shear_x)
-    cy, sny = _cos_sin(rot + 90 + shear_y)
+    # _cos_sin written out: this runs for every bone at every step of every pose
+    r = (rot + shear_x) * DEG_RAD
+    cx, snx = cos(r), sin(r)
+    r = (rot + 90 + shear_y) * DEG_RAD
+    cy, sny = cos(r), sin(r)
     la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
     if parent is None:
         return la, lb, x, lc, ld, y
-    (pa, pb, wx), (pc, pd, wy) = parent.tolist()  # plain floats: faster than numpy scalars here
+    pa, pb, wx, pc, pd, wy = parent
     world_x, world_y = pa * x + pb * y + wx, pc * x + pd * y + wy
-    if mode == "normal":
-        m = (pa * la + pb * lc, pa * lb + pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
-    elif mode == "onlyTranslation":
+    if mode == "normal":  # the most common: returned at once
+        return pa * la + pb * lc, pa * lb + pb * ld, world_x, pc * la + pd * lc, pc * lb + pd * ld, world_y
+    if mode == "onlyTranslation":
         m = (la, lb, lc, ld)
     elif mode == "noRotationOrReflection":
         s = pa * pa + pc * pc
@@ -115,8 +121,8 @@ def world_numbers(values: Sequence[float], mode: str, parent: np.ndarray | None,
         la, lb, lc, ld = cx * sx, cy * sy, snx * sx, sny * sy
         m = (pa * la - pb * lc, pa * lb - pb * ld, pc * la + pd * lc, pc * lb + pd * ld)
     else:  # noScale, noScaleOrReflection
-        cos, sin = _cos_sin(rot)
-        za, zc = pa * cos + pb * sin, pc * cos + pd * sin
+        cr, sr = _cos_sin(rot)
+        za, zc = pa * cr + pb * sr, pc * cr + pd * sr
         s = math.hypot(za, zc)
         if s > 0.00001:
             s = 1 / s
