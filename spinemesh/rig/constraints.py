@@ -268,8 +268,7 @@ class PoseBone:
     def update_applied(self) -> None:
         """``updateAppliedTransform``: local values that give the current world transform."""
         if self.v43:
-            self.applied = local_from_world_43(self.world, self.inherit,
-                                               None if self.parent is None else self.parent.world)
+            self.applied = local_from_world_43(self.m, self.inherit, None if self.parent is None else self.parent.m)
             self.local_stale, self.world_now = False, True
             return
         self.applied_valid = True
@@ -977,7 +976,7 @@ def path_apply(d: dict, att: dict, world: list[float], target_bone: PoseBone, bo
         tip = rotate_mode == "chain"
     else:
         tip = False
-        (pa, pb, _), (pc, pd, _) = target_bone.world.tolist()
+        pa, pb, _, pc, pd, _ = target_bone.m
         offset *= RAD if pa * pd - pb * pc > 0 else -RAD
     _lay_bones(bones, positions, spaces, lengths, mixes, tangents, scale, tip, offset, family)
     return True
@@ -1011,7 +1010,7 @@ def _path_spaces(bones: list[PoseBone], spacing: float, spacing_mode: str, tange
         spaces[1:] = [spacing] * (spaces_count - 1)
     elif spacing_mode == "percent" and family != "3.8":
         for i in range(spaces_count - 1) if scale else ():
-            (a, _, _), (c, _, _) = bones[i].world.tolist()
+            a, _, _, c, _, _ = bones[i].m
             short = family != "4.2" and bones[i].length < _EPSILON  # 4.0-4.1 give short bones no length
             lengths[i] = 0.0 if short else math.hypot(bones[i].length * a, bones[i].length * c)
         spaces[1:] = [spacing] * (spaces_count - 1)
@@ -1024,7 +1023,7 @@ def _path_spaces(bones: list[PoseBone], spacing: float, spacing_mode: str, tange
                 lengths[i] = 0.0
                 spaces[i + 1] = 0.0 if family == "3.8" else spacing
                 continue
-            (a, _, _), (c, _, _) = bone.world.tolist()
+            a, _, _, c, _, _ = bone.m
             length = math.hypot(setup * a, setup * c)
             lengths[i] = length
             if spacing_mode == "proportional" and family != "3.8":
@@ -1051,7 +1050,7 @@ def _lay_bones(bones: list[PoseBone], positions: list[float], spaces: list[float
         p = 3 * (i + 1)
         if bone.v43:
             bone.modify_world()
-        (a, b, wx), (c, dd, wy) = bone.world.tolist()
+        a, b, wx, c, dd, wy = bone.m
         wx += (bone_x - wx) * mix_x
         wy += (bone_y - wy) * mix_y
         x, y = positions[p], positions[p + 1]

@@ -95,15 +95,16 @@ def _decompose_sheared(ra: float, rb: float, rc: float, rd: float) -> list[float
     return [scale_x, scale_y, shear_x, shear_y]
 
 
-def local_from_world_43(world: np.ndarray, inherit: str, parent: np.ndarray | None) -> list[float]:
+def local_from_world_43(world: tuple[float, ...], inherit: str, parent: tuple[float, ...] | None) -> list[float]:
     """A bone's local values ``[x, y, rotation, scaleX, scaleY, shearX, shearY]`` that give its
-    world transform ``world`` (2, 3) under ``parent``'s (None: the root), as 4.3's
-    ``updateLocalTransform`` takes them back for each inherit mode."""
-    (a, b, wx), (c, d, wy) = world.tolist()
+    world transform ``world`` under ``parent``'s (None: the root), as 4.3's
+    ``updateLocalTransform`` takes them back for each inherit mode. Both transforms are six
+    plain floats ``(a, b, worldX, c, d, worldY)`` (a :class:`~.constraints.PoseBone`'s ``m``)."""
+    a, b, wx, c, d, wy = world
     if parent is None:
         rotation, sx, sy, shx, shy = _decompose(a, b, c, d, 0.0)
         return [wx, wy, rotation, sx, sy, shx, shy]
-    (pa, pb, pwx), (pc, pd, pwy) = parent.tolist()
+    pa, pb, pwx, pc, pd, pwy = parent
     pad = pa * pd - pb * pc
     pid = float_divide(1.0, pad)  # a parent scaled to nothing: infinite, as the runtime divides
     ia, ib, ic, id_ = pd * pid, pb * pid, pc * pid, pa * pid
@@ -178,7 +179,7 @@ def source_value_43(i: int, source, local: bool, offsets: list[float]) -> float:
     if local:
         applied = source.applied
         return (applied[2], applied[0], applied[1], applied[3], applied[4], applied[6])[i] + offsets[i]
-    (a, b, wx), (c, d, wy) = source.world.tolist()
+    a, b, wx, c, d, wy = source.m
     if i == 0:
         value = math.atan2(c, a) * RAD_DEG + (offsets[0] if a * d - b * c > 0 else -offsets[0])
         return value + 360 if value < 0 else value
@@ -269,7 +270,7 @@ def transform_apply_43(data: dict, source, bones: list) -> bool:
             values = list(bone.applied)
         else:
             bone.modify_world()
-            (a, b, wx), (c, d, wy) = bone.world.tolist()
+            a, b, wx, c, d, wy = bone.m
             m = [a, b, c, d, wx, wy]
         for i, from_offset, targets in mapping:
             value = source_value_43(i, source, local_source, offsets) - from_offset
