@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import secrets
 import shutil
@@ -588,6 +589,19 @@ def atomic_write_files(files: dict[Path, bytes]) -> None:
     _rename_staged(stage)
 
 
+def atomic_write_stream(path: str | Path, write) -> None:
+    """Atomically write the file that ``write(f)`` writes into ``f``, an open binary file (a
+    library's own saver: ``np.savez``, ``torch.save``), without holding it whole: a temporary
+    file beside ``path``, renamed onto it once ``write`` returned; removed when it raises.
+
+    Raises
+    ------
+    OutputError
+        When the file system refuses. What ``write`` raises passes through.
+    """
+    _atomic(Path(path), write)
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename.
 
@@ -642,6 +656,19 @@ def strict_json(obj, indent=None, path: str | Path | None = None) -> str:
         return json.dumps(obj, indent=indent, ensure_ascii=False, allow_nan=False)
     except ValueError as e:
         raise SpineMeshError(f"not written: it would hold a non-finite number ({e})", path) from None
+
+
+def finite(obj):
+    """``obj`` with every NaN or infinite float (Python's or NumPy's) replaced by None, in dicts,
+    lists and tuples at any depth: strict JSON for figures that may be undefined (a score of no
+    sample, a loss that diverged), where :func:`strict_json` would refuse them."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite(v) for v in obj]
+    return obj
 
 
 def atomic_write_json(path: str | Path, obj, indent: int | None = 2) -> None:

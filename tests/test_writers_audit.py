@@ -198,3 +198,69 @@ def test_segment_export_never_writes_its_card_through_a_symlink_or_onto_an_input
                           cwd=tmp_path))
     assert "lies inside the input" in line or "is the input" in line, line
     assert theirs.read_text() == "{}"
+
+
+# --- train --out: the training folder, its checkpoints and log ----------------------------------------
+
+def test_training_never_writes_into_a_folder_of_a_users_files(tmp_path):
+    """``train --out FOLDER`` (and ``train.loop.train``) wrote ``config.json``, ``split.json``,
+    ``log.jsonl``, ``curves.png`` and the checkpoints into any folder, over a user's files of
+    those names. Such a folder is refused in one line before the data are even read."""
+    pytest.importorskip("torch")
+    from spinemesh.errors import OutputError
+    from spinemesh.train.loop import TrainConfig, train
+
+    mine = tmp_path / "mine"
+    before = _user_folder(mine, "config.json", "best.pt")
+    (tmp_path / "ds").mkdir()
+    line = _one_error(run("train", "--data", "ds", "--out", "mine", cwd=tmp_path))
+    assert "mine: training folder is not empty and holds no spinemesh training run" in line, line
+    with pytest.raises(OutputError, match="training folder is not empty"):
+        train(TrainConfig(data=[str(tmp_path / "ds")], out=str(mine)))
+    assert _contents(mine) == before
+
+
+def test_an_epoch_is_saved_whole_its_log_strict_and_this_runs_own(tmp_path, monkeypatch):
+    """Each epoch's ``best.pt`` and ``last.pt`` were written in place by ``torch.save``: a run
+    stopped while saving (Ctrl-C, the time limit of a cluster job) left half a ``best.pt``, the
+    earlier best lost. ``log.jsonl`` was appended to, as ``json.dumps`` writes (a diverged loss as
+    ``NaN``, which strict readers refuse), after the lines of an earlier run into the folder."""
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("efficientnet_lite_pytorch")
+    import json
+
+    import spinemesh.train.loop as loop
+    from spinemesh.train.model import SegmentationModel
+
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "log.jsonl").write_text('{"epoch": 1, "from": "an earlier run"}\n')
+    model = SegmentationModel("efficientnet-lite0", 64, pretrained=False)
+    val = {"loss": 0.5, "iou": 0.5, "dice": 0.6, "acc": 0.9}
+    best = loop._save_epoch(out, model, {"epoch": 1, "train_loss": 0.7, "val": val}, {}, log := [], {})
+    saved = (out / "best.pt").read_bytes()
+
+    real_save, calls = torch.save, []
+
+    def cut_short(obj, f, *args, **kwargs):  # last.pt saved, best.pt stopped half-way (a path or an open file)
+        calls.append(f)
+        if len(calls) == 1:
+            return real_save(obj, f, *args, **kwargs)
+        if isinstance(f, (str, os.PathLike)):
+            with open(f, "wb") as file:
+                file.write(b"half a checkpoint")
+        else:
+            f.write(b"half a checkpoint")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(torch, "save", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        loop._save_epoch(out, model, {"epoch": 2, "train_loss": float("nan"), "val": {**val, "iou": 0.7}}, {},
+                         log, best)
+    assert len(calls) == 2 and (out / "best.pt").read_bytes() == saved
+    assert not [p.name for p in out.iterdir() if p.name.endswith(".tmp")]
+    lines = (out / "log.jsonl").read_text().splitlines()
+    records = [json.loads(line, parse_constant=lambda c: pytest.fail(f"{c} in log.jsonl")) for line in lines]
+    assert [r["epoch"] for r in records] == [1, 2] and records[1]["train_loss"] is None
+    assert "from" not in records[0]

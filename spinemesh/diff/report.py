@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ..fsutil import (
-    atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, check_written_folder,
+    atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, check_written_folder, finite,
     mark_written_folder,
 )
 from ..mesher import Mesh
@@ -133,17 +133,6 @@ def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
         parts += [f"- {s['project']}/{s['skeleton']} {s['slot']}/{s['attachment']}: {s['reason']}\n"
                   for s in result.skipped]
     return "\n".join(parts)
-
-
-def finite(obj):
-    """``obj`` with every NaN or infinite float replaced by None: strict JSON, which browsers parse."""
-    if isinstance(obj, float):
-        return obj if np.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [finite(v) for v in obj]
-    return obj
 
 
 def to_json(result: DiffResult, agg: list[dict] | None = None) -> dict:

@@ -14,7 +14,6 @@ reaches its floor when the budget ends rather than being cut off half-way.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -26,6 +25,10 @@ import torch
 import torch.nn.functional as F
 from torch.utils.data import DataLoader, IterableDataset
 
+from ..fsutil import (
+    atomic_write_json, atomic_write_stream, atomic_write_text, check_written_folder, finite, mark_written_folder,
+    strict_json,
+)
 from .data import VAL_BACKGROUNDS, flat_sample, normalise, read_pack, training_sample, write_pack
 from .model import SegmentationModel, count_parameters
 
@@ -167,7 +170,7 @@ def plot_curves(log: list[dict], path: Path) -> None:
     b.set_ylim(0, 1)
     b.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    atomic_write_stream(path, lambda f: fig.savefig(f, format="png", dpi=100))
     plt.close(fig)
 
 
@@ -270,7 +273,8 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
     torch.manual_seed(cfg.seed)
     _set_up_device(cfg)
     out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_written_folder(out, "training folder", "training run")  # a folder of a user's files: refused
+    mark_written_folder(out)  # before its first file: a run cut short is written into again
     sprites = sprites if sprites is not None else load_sprites(cfg, max(1, cfg.workers))
     train_s, val_s = _write_split(sprites, cfg.data, out)
     model = _build_model(cfg)
@@ -286,7 +290,7 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
     meta = {"parameters": count_parameters(model), "encoder_parameters": count_parameters(model.encoder),
             "train_sprites": len(train_s), "val_sprites": len(val_s),
             "train_games": len(set(sprites.get("train_games", []))), "val_games": len(set(sprites.get("val_games", [])))}
-    (out / "config.json").write_text(json.dumps({"config": asdict(cfg), **meta}, indent=1))
+    atomic_write_json(out / "config.json", finite({"config": asdict(cfg), **meta}), indent=1)
 
     log: list[dict] = []
     best: dict = {}
@@ -328,9 +332,9 @@ def _write_split(sprites: dict, data: list, out: Path) -> tuple[list, list]:
     if not train_s or not val_s:
         raise ValueError(f"no training or no held-out sprites in {data} (the data sets' game split "
                          f"gives {len(train_s)} and {len(val_s)})")
-    (out / "split.json").write_text(json.dumps({
+    atomic_write_json(out / "split.json", {
         "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
-        "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1))
+        "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1)
     return train_s, val_s
 
 
@@ -399,14 +403,18 @@ def _train_epoch(model: SegmentationModel, opt: torch.optim.Optimizer, base_lrs:
 
 def _save_epoch(out: Path, model: SegmentationModel, rec: dict, meta: dict, log: list[dict], best: dict) -> dict:
     """An epoch's record appended to ``log`` and ``log.jsonl``, the curves redrawn, ``last.pt``
-    written, and ``best.pt`` when its validation IoU is the best yet; returns the best record."""
+    written, and ``best.pt`` when its validation IoU is the best yet; returns the best record.
+
+    Every file is written whole and renamed into place: a run stopped while saving keeps the
+    earlier ``best.pt``. ``log.jsonl`` is this run's epochs (an earlier run's into the same
+    folder are not mixed in), each a line of strict JSON (a loss that diverged is ``null``).
+    """
     log.append(rec)
-    with open(out / "log.jsonl", "a", encoding="utf-8") as f:
-        f.write(json.dumps(rec) + "\n")
+    atomic_write_text(out / "log.jsonl", "".join(strict_json(finite(r)) + "\n" for r in log))
     plot_curves(log, out / "curves.png")
     ckpt = {"config": model.config, "model": half_state(model), "metrics": rec, "meta": meta}
-    torch.save(ckpt, out / "last.pt")
+    atomic_write_stream(out / "last.pt", lambda f: torch.save(ckpt, f))
     if not best or rec["val"]["iou"] > best["val"]["iou"]:
         best = rec
-        torch.save(ckpt, out / "best.pt")
+        atomic_write_stream(out / "best.pt", lambda f: torch.save(ckpt, f))
     return best
