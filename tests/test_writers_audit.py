@@ -264,3 +264,32 @@ def test_an_epoch_is_saved_whole_its_log_strict_and_this_runs_own(tmp_path, monk
     records = [json.loads(line, parse_constant=lambda c: pytest.fail(f"{c} in log.jsonl")) for line in lines]
     assert [r["epoch"] for r in records] == [1, 2] and records[1]["train_loss"] is None
     assert "from" not in records[0]
+
+
+def test_a_sprite_pack_cut_short_leaves_nothing_behind(tmp_path, monkeypatch):
+    """``train --write-pack PACK`` wrote ``.PACK.tmp.npz`` beside it under one fixed name and left
+    it there when the write failed (a full disk, Ctrl-C); two runs shared that name; a folder not
+    made yet was a traceback. Now a uniquely named temporary file is removed whatever ends the run,
+    PACK keeps what it held, and its folder is made as every output's is."""
+    from spinemesh.dataset import build_dataset
+    from spinemesh.demo import make_demo_project
+    from spinemesh.train.data import read_pack, write_pack
+
+    make_demo_project(tmp_path / "corpus" / "demo", with_images_folder=False)
+    build_dataset([tmp_path / "corpus"], tmp_path / "ds")
+    pack = tmp_path / "packs" / "sprites.npz"
+    counts = write_pack([tmp_path / "ds"], pack)
+    assert counts["train"] + counts["val"] > 0
+    held = pack.read_bytes()
+    real_savez = np.savez
+
+    def cut_short(file, **arrays):
+        real_savez(file, blob=arrays["blob"][:10])
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        write_pack([tmp_path / "ds"], pack)
+    monkeypatch.undo()
+    assert [p.name for p in pack.parent.iterdir()] == ["sprites.npz"] and pack.read_bytes() == held
+    assert sum(len(v) for k, v in read_pack(pack).items() if k in ("train", "val")) == counts["train"] + counts["val"]

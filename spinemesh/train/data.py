@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
+from ..fsutil import atomic_write_stream
 from ..images import decode_rgba
 from ..segment.composite import coarse_noise_background, make_background
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD, resize
@@ -98,10 +99,10 @@ def write_pack(datasets: list[str | Path], out: str | Path, max_side: int = PACK
         splits.append(row["split"])
     offsets = np.cumsum([0] + [len(b) for b in blobs]).astype(np.int64)
     out = Path(out)
-    tmp = out.with_name(f".{out.name}.tmp.npz")
-    np.savez(tmp, blob=np.frombuffer(b"".join(blobs), np.uint8), offsets=offsets, ids=np.array(ids),
-             games=np.array(games), splits=np.array(splits), max_side=np.array(max_side))
-    tmp.replace(out)
+    # a uniquely named temporary file beside it, removed whatever ends the run (a fixed name was left behind)
+    atomic_write_stream(out, lambda f: np.savez(
+        f, blob=np.frombuffer(b"".join(blobs), np.uint8), offsets=offsets, ids=np.array(ids),
+        games=np.array(games), splits=np.array(splits), max_side=np.array(max_side)))
     return {"train": splits.count("train"), "val": splits.count("val"), "bytes": out.stat().st_size}
 
 
