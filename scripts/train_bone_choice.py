@@ -26,7 +26,6 @@ Needs scikit-learn and LightGBM (the ``train`` extra); set ``OMP_NUM_THREADS=1``
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -159,7 +158,7 @@ def main() -> None:
                       + (f" --habits {args.habits}" if args.habits != "none" else "")}
         if args.habits != "none":
             model.meta["habit_prior"] = data["habit_prior"].tolist()
-        MODEL_PATH.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
+        tc.write_model(MODEL_PATH, model)
         print(f"\nwrote {MODEL_PATH.relative_to(REPO)} ({MODEL_PATH.stat().st_size / 1024:.0f} KB, "
               f"{len(model.trees)} + {len(model.sets.trees)} trees, {len(model.features)} + {len(model.sets.features)} features)")
 

@@ -293,3 +293,30 @@ def test_a_sprite_pack_cut_short_leaves_nothing_behind(tmp_path, monkeypatch):
     monkeypatch.undo()
     assert [p.name for p in pack.parent.iterdir()] == ["sprites.npz"] and pack.read_bytes() == held
     assert sum(len(v) for k, v in read_pack(pack).items() if k in ("train", "val")) == counts["train"] + counts["val"]
+
+
+# --- the bone choice models the training script writes ------------------------------------------------
+
+def test_bone_choice_models_are_written_strict_and_whole(tmp_path):
+    """``save_fold_models`` (and the script writing the shipped model) wrote ``json.dumps`` text in
+    place: a fit gone wrong wrote ``NaN``, which strict readers refuse. It is refused in one line
+    naming the file, nothing written; a good model is written to the same bytes as the shipped one."""
+    import json
+
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.rig.learned import TreeEnsemble
+    from spinemesh.train.bone_choice import load_fold_models, save_fold_models
+
+    shipped = Path(__file__).resolve().parents[1] / "spinemesh" / "models" / "bone_choice.json"
+    broken = TreeEnsemble.from_json(json.loads(shipped.read_text("utf-8")))
+    broken.threshold = float("nan")
+    with pytest.raises(SpineMeshError, match="fold-0.json: not written: it would hold a non-finite number"):
+        save_fold_models({0: broken}, tmp_path / "broken")
+    assert not (tmp_path / "broken").exists() or not list((tmp_path / "broken").iterdir())
+    from spinemesh.train.bone_choice import write_model
+
+    model = TreeEnsemble.from_json(json.loads(shipped.read_text("utf-8")))
+    write_model(tmp_path / "again.json", model)
+    assert (tmp_path / "again.json").read_bytes() == shipped.read_bytes()
+    save_fold_models({0: model, 1: model}, tmp_path / "folds")
+    assert set(load_fold_models(tmp_path / "folds", folds=2)) == {0, 1}

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..fsutil import atomic_write_stream, atomic_write_text, strict_json
 from ..rig import bone_sets, habits
 from ..rig.document import build_rig
 from ..rig.habits import HABIT_FEATURES
@@ -177,9 +178,8 @@ def build_dataset(pairs: list[tuple[str, Path]], cache: Path | None = None, log=
             "parent": np.concatenate(parent) if parent else np.zeros(0, int),
             "rule": np.concatenate(rule) if rule else np.zeros(0, bool),
             **{k: np.asarray(v) for k, v in per_mesh.items()}}
-    if cache is not None:
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(cache, **data)
+    if cache is not None:  # whole or not at all: a run stopped while writing leaves no cache to misread
+        atomic_write_stream(cache, lambda f: np.savez_compressed(f, **data))
     return data
 
 
@@ -413,13 +413,22 @@ def judge(data: dict, chosen: np.ndarray, meshes: np.ndarray | None = None) -> d
             "too_few": float((count < artists)[meshes].mean())}
 
 
+def write_model(path: str | Path, model: TreeEnsemble) -> None:
+    """Write ``model`` as the compact strict JSON its readers take, atomically.
+
+    Raises
+    ------
+    SpineMeshError
+        When it holds a NaN or an infinite number (a fit gone wrong), naming ``path``; nothing is
+        written then.
+    """
+    atomic_write_text(path, strict_json(model.to_json(), None, path, compact=True) + "\n")
+
+
 def save_fold_models(models: dict[int, TreeEnsemble], folder: Path) -> None:
     """Write each fold's model as ``fold-K.json`` (the benchmarks read them back)."""
-    import json
-
-    folder.mkdir(parents=True, exist_ok=True)
     for k, m in models.items():
-        (folder / f"fold-{k}.json").write_text(json.dumps(m.to_json(), separators=(",", ":")))
+        write_model(folder / f"fold-{k}.json", m)
 
 
 def load_fold_models(folder: Path, folds: int = FOLDS) -> dict[int, TreeEnsemble]:
