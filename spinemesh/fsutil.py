@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import math
@@ -421,9 +422,47 @@ def check_written_folder(folder: str | Path | None, what: str = "preview folder"
 
 def mark_written_folder(folder: str | Path) -> None:
     """Make ``folder`` and mark it as spinemesh's (:data:`WRITTEN_MARKER`), before its files are written:
-    :func:`check_written_folder` lets a later run write into it again."""
+    :func:`check_written_folder` lets a later run write into it again. A marker that lists an
+    earlier run's files is kept: the run removes them once it ends (:func:`rewriting_folder`)."""
     make_folder(Path(folder))
-    atomic_write_text(Path(folder) / WRITTEN_MARKER, "written by spinemesh; a later run writes its files here again\n")
+    if not isinstance(read_marker(Path(folder) / WRITTEN_MARKER), dict):
+        atomic_write_text(Path(folder) / WRITTEN_MARKER, "written by spinemesh; a later run writes its files here again\n")
+
+
+@contextlib.contextmanager
+def rewriting_folder(folder: str | Path | None):
+    """While a run writes its files into ``folder`` (``upgrade --images``, ``weights --preview``):
+    once it ends, the earlier run's files (its marker's list) that this one did not write again
+    are removed, never a file spinemesh did not write, and the marker lists this run's files
+    (:func:`mark_written_files`). A run that does not end, or writes nothing there (refused, or
+    nothing to write), removes nothing: its marker lists the earlier run's files and its own.
+    ``None`` does nothing.
+    """
+    if folder is None:
+        yield
+        return
+    folder = Path(folder)
+    earlier = written_files(folder)
+    before = _stamps(folder)
+    done = False
+    try:
+        yield
+        done = True
+    finally:
+        if folder.is_dir():
+            written = [rel for rel, stamp in _stamps(folder).items() if before.get(rel) != stamp]
+            whole = done and written
+            with contextlib.suppress(SpineMeshError):  # the earlier marker stays: nothing lost
+                mark_written_files(folder, written if whole else [*written, *earlier], earlier if whole else ())
+
+
+def _stamps(folder: Path) -> dict[str, tuple | None]:
+    """Every file under ``folder`` (hidden ones too, its marker aside) by its POSIX path under it,
+    with its :func:`file_stamp`: a file written anew has another."""
+    if not folder.is_dir():
+        return {}
+    return {rel: file_stamp(f) for _, _, files in walk_folder(folder, hidden=True) for f in files
+            if (rel := f.relative_to(folder).as_posix()) != WRITTEN_MARKER}
 
 
 #: Largest list of written files read back from a marker (a few hundred bytes per thousand files).

@@ -315,3 +315,33 @@ def test_reports_and_previews_name_a_projects_files_by_the_project_not_the_machi
     for name in ("upgrade.json", "pack.json"):
         if name in a:
             assert without_times(a[name]) == without_times(b[name]), name
+
+
+def test_images_and_weights_pictures_written_again_leave_none_of_the_earlier_run(tmp_path):
+    """``upgrade --images I`` and ``weights --preview W`` into the same folders every night: a
+    region no longer upgraded or weighted (here: left out by --only) left its pictures there.
+    Now the earlier run's files that the new one did not write again are removed: each folder
+    holds what a fresh run writes, and a user's file stays."""
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    upgrade_project(demo, tmp_path / "meshed", Options(min_saving=None, jobs=1))
+
+    def build(images: str, pictures: str, *only: str) -> None:
+        r = spinemesh("upgrade", demo, "--out", f"o-{images}-{len(only)}", "--images", images, *only, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        r = spinemesh("weights", "meshed", "--out", f"w-{pictures}-{len(only)}", "--preview", pictures, "--replace",
+                      *only, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+
+    build("I", "W")
+    first = {name: files_of(tmp_path / name) for name in ("I", "W")}
+    for name in ("I", "W"):
+        (tmp_path / name / "mine.txt").write_text("mine")
+    build("I", "W", "--only", "demo-head")
+    build("fresh-I", "fresh-W", "--only", "demo-head")
+    for name in ("I", "W"):
+        again, fresh = files_of(tmp_path / name), files_of(tmp_path / f"fresh-{name}")
+        assert again.pop("mine.txt") == b"mine"
+        assert len(fresh) < len(first[name]), name  # the earlier run wrote more
+        assert sorted(again) == sorted(fresh), name

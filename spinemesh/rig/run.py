@@ -61,7 +61,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     WeightResult
         Nothing is written (not even ``out``) when the project has no skeleton.
     """
-    from ..fsutil import check_written_folder
+    from ..fsutil import check_written_folder, rewriting_folder
     from ..output import check_output_folder, copy_other_files, output_folder, write_skeleton
 
     options = options or WeightOptions()
@@ -88,7 +88,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         share_project_habits([(doc, rig) for _, doc, rig in read])
     if progress is not None:
         progress.add("weights", sum(mesh_count(doc) for _, doc, _ in read))
-    with output_folder(out, overwrite):
+    with output_folder(out, overwrite), rewriting_folder(preview):  # no stale picture of an earlier run stays
         for path, doc, rig in read:
             rel = path.relative_to(proj.root).as_posix()
             outcomes = weight_document(doc, rel, options, rig,

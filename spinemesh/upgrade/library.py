@@ -24,7 +24,7 @@ from pathlib import Path
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import check_written_folder, mark_written_folder
+from ..fsutil import check_written_folder, mark_written_folder, rewriting_folder
 from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
@@ -68,6 +68,7 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     with contextlib.ExitStack() as held:
         if not options.dry_run:
             held.enter_context(output_folder(out, options.overwrite))
+            held.enter_context(rewriting_folder(options.images_out))  # no stale image of an earlier run stays
         result = _upgrade_library(library, out, options, progress)
     if options.images_out is not None and Path(options.images_out).is_dir():  # the projects' folders' folder
         mark_written_folder(options.images_out)

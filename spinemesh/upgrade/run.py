@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 from ..cluster import Workers
-from ..fsutil import check_written_folder
+from ..fsutil import check_written_folder, rewriting_folder
 from ..output import check_output_folder, output_folder
 from ..project import find_project
 from .bending import bending_tests, start_habits
@@ -84,6 +84,8 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
     if not proj.skeletons:  # nothing to upgrade (the caller says so): no output folder of copies alone
         return Result()
     with contextlib.ExitStack() as held:
+        if not options.dry_run:  # its images are cut while reading: no stale image of an earlier run stays
+            held.enter_context(rewriting_folder(options.images_out))
         result = Result()
         reading = read_project(proj, options, result, progress)       # 1. read and plan
         if selection_left_nothing(result):  # --only/--exclude matched nothing: nothing to write
