@@ -320,3 +320,23 @@ def test_bone_choice_models_are_written_strict_and_whole(tmp_path):
     assert (tmp_path / "again.json").read_bytes() == shipped.read_bytes()
     save_fold_models({0: model, 1: model}, tmp_path / "folds")
     assert set(load_fold_models(tmp_path / "folds", folds=2)) == {0, 1}
+
+
+# --- what segment-export reads ----------------------------------------------------------------------
+
+def test_segment_export_reads_a_checkpoint_as_data_only(tmp_path):
+    """A checkpoint was read with ``torch.load(weights_only=False)``: a file that is not one was a
+    traceback, and one holding a pickle that runs code ran it (here, making a folder). Both are
+    now one line naming the file, exit 2, and nothing runs."""
+    torch = pytest.importorskip("torch")
+
+    class Runs:
+        def __reduce__(self):
+            return os.mkdir, (str(tmp_path / "ran"),)
+
+    torch.save({"config": Runs(), "model": {}}, tmp_path / "runs.pt")
+    (tmp_path / "junk.pt").write_bytes(b"not a checkpoint")
+    for name in ("runs.pt", "junk.pt"):
+        line = _one_error(run("segment-export", name, "--data", "ds", "--out", "m.onnx", cwd=tmp_path))
+        assert line.startswith(f"error: {name}: not a checkpoint"), line
+    assert not (tmp_path / "ran").exists() and not (tmp_path / "m.onnx").exists()

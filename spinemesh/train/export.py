@@ -16,7 +16,7 @@ import torch
 from ..fsutil import atomic_write_files, atomic_write_json, strict_json, utf8
 from ..segment import card_path
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
-from .model import SegmentationModel, build_model
+from .model import SegmentationModel, build_model, read_checkpoint
 
 
 def load_checkpoint(path: str | Path, image_size: int | None = None) -> SegmentationModel:
@@ -26,7 +26,11 @@ def load_checkpoint(path: str | Path, image_size: int | None = None) -> Segmenta
     32: the network is fully convolutional and its static padding is the same for all of
     them), to trade accuracy for speed at inference.
     """
-    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    ckpt = read_checkpoint(path)
+    if not isinstance(ckpt.get("config"), dict) or not isinstance(ckpt.get("model"), dict):
+        from ..errors import SpineMeshError
+
+        raise SpineMeshError("not a checkpoint of `spinemesh train` (no model and config in it)", path)
     config = dict(ckpt["config"], **({"image_size": image_size} if image_size else {}))
     if config["image_size"] % 32:
         raise ValueError(f"input size must be a multiple of 32, not {config['image_size']}")
@@ -174,7 +178,7 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
 
     out = Path(out)
     model = load_checkpoint(checkpoint, image_size)
-    ckpt = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    ckpt = read_checkpoint(checkpoint)
     with tempfile.TemporaryDirectory(prefix="spinemesh-export-") as work:
         fp32 = export_onnx(model, Path(work) / "model.fp32.onnx")
         extra = {"precision": "int8" if int8 else "fp32",

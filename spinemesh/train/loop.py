@@ -30,7 +30,7 @@ from ..fsutil import (
     strict_json,
 )
 from .data import VAL_BACKGROUNDS, flat_sample, normalise, read_pack, training_sample, write_pack
-from .model import SegmentationModel, count_parameters
+from .model import SegmentationModel, count_parameters, read_checkpoint
 
 
 @dataclass
@@ -223,7 +223,7 @@ def load_sprites(cfg: TrainConfig, workers: int = 1) -> dict[str, list]:
 
 def init_weights(model: SegmentationModel, path: str) -> None:
     """Start from a saved state dict: a whole model's, or the encoder's alone."""
-    state = torch.load(path, map_location="cpu", weights_only=False)
+    state = read_checkpoint(path)
     state = state.get("model", state)
     target = model if any(k.startswith("encoder.") for k in state) else model.encoder
     missing, unexpected = target.load_state_dict({k: v.float() for k, v in state.items()}, strict=False)

@@ -58,3 +58,30 @@ def build_model(config: dict) -> SegmentationModel:
     return SegmentationModel(config["encoder"], config["image_size"], pretrained=False,
                              decoder_channels=tuple(config.get("decoder_channels", DECODER_CHANNELS)),
                              bn_momentum=config.get("bn_momentum"))
+
+
+def read_checkpoint(path) -> dict:
+    """What ``torch.save`` wrote to ``path`` (a checkpoint of the training loop, a state dict),
+    read as data only: tensors, numbers, strings, lists and dicts, never code (a pickle could
+    run any), on the CPU.
+
+    Raises
+    ------
+    SpineMeshError
+        In one line naming the file, when it cannot be read or is not such data.
+    """
+    import pickle
+    import zipfile
+
+    from ..errors import SpineMeshError
+
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise SpineMeshError("no such checkpoint", path) from None
+    except (OSError, EOFError, RuntimeError, ValueError, pickle.UnpicklingError, zipfile.BadZipFile) as e:
+        reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise SpineMeshError(f"not a checkpoint spinemesh can read ({reason[:200]})", path) from None
+    if not isinstance(data, dict):
+        raise SpineMeshError(f"not a checkpoint: it holds a {type(data).__name__}, not a dict", path)
+    return data
