@@ -117,12 +117,14 @@ def pose(
 
 
 def _say_undrawn(doc: dict, skin: str | None, skeleton: Path, shown: int = 20) -> int:
-    """Warn, one line each (the first ``shown``), of the attachments of the skin posed (and the
-    default skin) whose fields cannot be used, which the poses leave undrawn; returns how many."""
-    from ..skeleton import checked_attachments
+    """Warn, one line each (the first ``shown``), of the attachments that draw an image in the skin
+    posed (and the default skin) whose fields cannot be used, which the poses leave undrawn;
+    returns how many. (A path attachment's are said by the bones its constraint leaves flagged.)"""
+    from ..skeleton import IMAGE_TYPES, checked_attachments
 
     skins = {"default", skin or "default"}
-    problems = [problem for ref, problem in checked_attachments(doc) if problem and ref.skin in skins]
+    problems = [problem for ref, problem in checked_attachments(doc)
+                if problem and ref.skin in skins and ref.type in IMAGE_TYPES]
     for problem in problems[:shown]:
         err_console.print(f"warning: {skeleton}: {problem}; not drawn", highlight=False, markup=False,
                           soft_wrap=True)
