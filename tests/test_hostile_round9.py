@@ -326,3 +326,39 @@ def test_a_page_the_runtimes_read_as_straight_is_cut_straight(tmp_path):
     for image in sorted((tmp_path / "straight" / "editor").rglob("*.png")):
         twin = tmp_path / "capital" / "editor" / image.relative_to(tmp_path / "straight" / "editor")
         assert twin.read_bytes() == image.read_bytes(), image.name
+
+
+def _profile_fits(data: bytes) -> bool:
+    """Whether a PNG file's colour profile is of the colour space its texels allow (grey on grey)."""
+    from spinemesh.pack.png import chunk_meaning, png_chunks
+
+    chunks = png_chunks(data)
+    grey = chunks[0][1][9] in (0, 4)
+    spaces = [chunk_meaning(kind, body)[16:20] for kind, body in chunks if kind == b"iCCP"]
+    return all(space == (b"GRAY" if grey else b"RGB ") for space in spaces)
+
+
+def test_a_grey_page_s_colour_profile_is_never_put_on_colour_texels(tmp_path):
+    """A grey-and-alpha page with a grey (``GRAY``) colour profile: ``pack`` wrote it as a palette
+    page carrying that profile, and ``--images`` as RGBA images carrying it; PNG allows a grey
+    profile on grey texels only, so libpng and browsers ignore it there: the profile was dropped
+    in effect. The packed atlas is now kept, with the reason, and the editor images are written
+    grey, carrying the profile."""
+    from PIL import Image
+
+    from spinemesh.pack.png import colour_chunks
+
+    project = _demo(tmp_path)
+    grey_profile = bytearray(_srgb_profile())
+    grey_profile[16:20] = b"GRAY"  # the header's colour space: all a reader looks at to take or leave it
+    Image.open(project / "demo.png").convert("LA").save(project / "demo.png", icc_profile=bytes(grey_profile))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--pack", "--images", "editor", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/", "editor/"], codes=(0,))
+    assert _profile_fits((tmp_path / "o" / "demo.png").read_bytes())
+    assert "would carry a colour profile of the GRAY colour space on colour texels" in r.stdout + r.stderr
+    assert (tmp_path / "o" / "demo.atlas").read_bytes() == (project / "demo.atlas").read_bytes()
+    for image in sorted((tmp_path / "editor").rglob("*.png")):
+        data = image.read_bytes()
+        assert _profile_fits(data) and Image.open(image).mode == "LA", image
+        assert [kind for kind, _ in colour_chunks(data)] == [b"iCCP"]

@@ -299,6 +299,32 @@ def colour_chunks(data: bytes) -> tuple[tuple[bytes, bytes], ...] | None:
     return tuple(c for kind in COLOUR_CHUNKS for c in chunks if c[0] == kind)
 
 
+#: PNG colour types of grey texels (grey, grey and alpha); the others hold colours.
+_GREY_TYPES = (0, 4)
+
+
+def profile_misfit(data: bytes) -> str:
+    """Why the colour profile of the PNG file ``data`` is one its texels cannot carry, or ``""``.
+
+    The PNG specification allows a grey (``GRAY``) profile on grey texels and an ``RGB`` one on
+    colour texels (palette included); libpng and browsers ignore any other, so the texels are
+    shown as sRGB: a grey page's profile carried onto a palette page, or a CMYK JPEG's onto an
+    RGBA image, is a profile dropped.
+    """
+    chunks = png_chunks(data)
+    if not chunks or chunks[0][0] != b"IHDR" or len(chunks[0][1]) < 10:
+        return ""
+    grey = chunks[0][1][9] in _GREY_TYPES
+    for kind, body in chunks:
+        if kind == b"iCCP":
+            space = chunk_meaning(kind, body)[16:20]
+            if space != (b"GRAY" if grey else b"RGB "):
+                said = space.decode("latin-1").strip() or "no"
+                return (f"a colour profile of the {said} colour space on {'grey' if grey else 'colour'} texels, "
+                        "which PNG readers ignore")
+    return ""
+
+
 def png_chunk(kind: bytes, body: bytes) -> bytes:
     """One chunk as a file stores it: length, type, data, CRC of type and data."""
     return CHUNK_HEAD.pack(len(body), kind) + body + struct.pack(">I", zlib.crc32(body, zlib.crc32(kind)))

@@ -34,6 +34,7 @@ from .png import (
     png_bit_depth,
     png_chunks,
     png_differences,
+    profile_misfit,
 )
 from .uses import ProjectUses, collect_uses
 
@@ -480,6 +481,9 @@ def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str, colour: t
         if lost:
             raise PackRefused(f"page {name!r}: the {fmt} written does not say what its original pages say of "
                               f"their colours ({', '.join(lost)} differ), so its pages are kept")
+        misfit = profile_misfit(data) if fmt == "PNG" else ""
+        if misfit:  # a grey page's profile on a palette page: said, but read by no one
+            raise PackRefused(f"page {name!r}: the PNG written would carry {misfit}, so its pages are kept")
 
     try:
         back = decode_rgba(data, name)

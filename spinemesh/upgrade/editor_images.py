@@ -9,8 +9,12 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
+import numpy as np
+
+from ..errors import SpineMeshError
 from ..fsutil import atomic_write_bytes, resolve_inside
 from ..images import RegionImage, premultiply, unpremultiply
+from ..pack.png import profile_misfit
 
 
 @lru_cache(maxsize=8)
@@ -48,4 +52,12 @@ def write_editor_image(frame: RegionImage, folder: Path) -> None:
     target = resolve_inside(folder, frame.name + ".png", folder, "--images folder")
     source = Path(frame.source)
     stat = source.stat()
-    atomic_write_bytes(target, page_png(rgba, source, _colour_of(str(source), (stat.st_size, stat.st_mtime_ns))))
+    colour = _colour_of(str(source), (stat.st_size, stat.st_mtime_ns))
+    data = page_png(rgba, source, colour)
+    if misfit := profile_misfit(data):
+        # a grey page's (grey) profile fits grey texels only: such an image is written grey
+        grey = bool((rgba[..., 0] == rgba[..., 1]).all() and (rgba[..., 1] == rgba[..., 2]).all())
+        data = page_png(np.ascontiguousarray(rgba[..., ::3]), source, colour) if grey else data
+        if not grey or profile_misfit(data):
+            raise SpineMeshError(f"its page's colour profile cannot be carried: {misfit}", frame.source)
+    atomic_write_bytes(target, data)
