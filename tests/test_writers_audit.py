@@ -340,3 +340,30 @@ def test_segment_export_reads_a_checkpoint_as_data_only(tmp_path):
         line = _one_error(run("segment-export", name, "--data", "ds", "--out", "m.onnx", cwd=tmp_path))
         assert line.startswith(f"error: {name}: not a checkpoint"), line
     assert not (tmp_path / "ran").exists() and not (tmp_path / "m.onnx").exists()
+
+
+def test_a_shard_cut_short_leaves_no_temporary_file(tmp_path, monkeypatch):
+    """A data set shard was written to ``.NAME.tmp``, one fixed name, left behind when the write
+    failed (only the next run into the folder removed it). Now it is a uniquely named temporary
+    file removed whatever stops the write; the offsets are those a tar reader finds."""
+    import tarfile
+
+    from spinemesh.dataset.format import write_shard
+
+    members = [("a.png", b"x" * 700), ("b.png", b"y" * 3)]
+    offsets = write_shard(tmp_path / "s.0000.tar", members)
+    with tarfile.open(tmp_path / "s.0000.tar") as tar:
+        for name, data in members:
+            info = tar.getmember(name)
+            assert (info.offset_data, info.size) == offsets[name]
+    real_addfile = tarfile.TarFile.addfile
+
+    def cut_short(self, info, fileobj=None):
+        if info.name == "b.png":
+            raise KeyboardInterrupt
+        return real_addfile(self, info, fileobj)
+
+    monkeypatch.setattr(tarfile.TarFile, "addfile", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        write_shard(tmp_path / "s.0001.tar", members)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.0000.tar"]

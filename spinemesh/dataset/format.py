@@ -51,6 +51,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
+from ..fsutil import atomic_write_stream
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
 
@@ -176,20 +177,21 @@ def write_shard(path: Path, members: list[tuple[str, bytes]]) -> dict[str, tuple
     The offsets are those of the data as written (each member's data follows its header and
     is padded to whole 512-byte blocks), which is where a reader finds it.
     """
-    tmp = path.with_name(f".{path.name}.tmp")
     offsets = {}
-    with tarfile.open(tmp, "w", format=tarfile.USTAR_FORMAT) as tar:
-        for name, data in members:
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            info.mode = 0o644
-            tar.addfile(info, io.BytesIO(data))
-            # the data ends the member, padded to whole blocks: where it starts, as a reader finds it
-            padded = -(-len(data) // tarfile.BLOCKSIZE) * tarfile.BLOCKSIZE
-            offsets[name] = (tar.offset - padded, len(data))
-    with open(tmp, "rb+") as f:
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+
+    def write(f) -> None:
+        with tarfile.open(fileobj=f, mode="w", format=tarfile.USTAR_FORMAT) as tar:
+            for name, data in members:
+                info = tarfile.TarInfo(name)
+                info.size = len(data)
+                info.mode = 0o644
+                tar.addfile(info, io.BytesIO(data))
+                # the data ends the member, padded to whole blocks: where it starts, as a reader finds it
+                padded = -(-len(data) // tarfile.BLOCKSIZE) * tarfile.BLOCKSIZE
+                offsets[name] = (tar.offset - padded, len(data))
+
+    # a uniquely named temporary file, flushed to disk, renamed; removed whatever stops the write
+    atomic_write_stream(path, write)
     return offsets
 
 
