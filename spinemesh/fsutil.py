@@ -394,7 +394,8 @@ def check_written_folder(folder: str | Path | None, what: str = "preview folder"
     """Refuse a folder a command writes files into (a ``--preview``, ``--images``) that holds files
     but none spinemesh wrote: ours would replace a user's of the same names (a mistyped
     ``--preview ~/Documents``). A folder spinemesh wrote before (:data:`WRITTEN_MARKER`, or the
-    ``index.html`` of an ``upgrade`` or ``pack`` preview) is written over, as before.
+    ``index.html`` of an ``upgrade`` or ``pack`` preview) is written over, as before, unless it
+    holds a symlink to a folder (:func:`refuse_linked_folders`).
 
     Parameters
     ----------
@@ -408,16 +409,36 @@ def check_written_folder(folder: str | Path | None, what: str = "preview folder"
     """
     if folder is None or not Path(folder).is_dir() or next(Path(folder).iterdir(), None) is None:
         return
-    if (Path(folder) / WRITTEN_MARKER).is_file():
-        return
-    try:
-        with open(Path(folder) / "index.html", "rb") as f:
-            head = f.read(512)
-    except OSError:
-        head = b""
-    if b"<title>spinemesh " not in head:
-        raise OutputError(f"{what} is not empty and holds no spinemesh {holds} (its files would replace "
-                          "yours); choose an empty folder", folder)
+    if not (Path(folder) / WRITTEN_MARKER).is_file():
+        try:
+            with open(Path(folder) / "index.html", "rb") as f:
+                head = f.read(512)
+        except OSError:
+            head = b""
+        if b"<title>spinemesh " not in head:
+            raise OutputError(f"{what} is not empty and holds no spinemesh {holds} (its files would replace "
+                              "yours); choose an empty folder", folder)
+    refuse_linked_folders(folder, what)
+
+
+def refuse_linked_folders(folder: str | Path, what: str = "output folder") -> None:
+    """Refuse a folder spinemesh writes into again that holds a symlink to a folder, at any depth:
+    a file written below the link (``img/``, ``images/``) would land in the folder it points to,
+    outside, over a file of the same name there. Files that are symlinks do no harm: a file is
+    replaced whole by a rename, the link with it.
+
+    Raises
+    ------
+    OutputError
+        Naming the link.
+    """
+    for here, dirs, _ in os.walk(folder, followlinks=False):
+        for name in sorted(dirs):
+            link = Path(here) / name
+            if link.is_symlink():
+                raise OutputError(f"{what} holds a symlink to a folder ({link.relative_to(folder).as_posix()} -> "
+                                  f"{os.readlink(link)}): what is written there would land outside it; remove "
+                                  "the link", folder)
 
 
 def mark_written_folder(folder: str | Path) -> None:

@@ -24,7 +24,8 @@ except ImportError:  # Windows: no lock
 
 from .errors import SpineMeshError
 from .fsutil import (OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, file_stamp, make_folder,
-                     read_marker, refuse_report_over_output, remove_listed_files, strict_json, walk_folder)
+                     read_marker, refuse_linked_folders, refuse_report_over_output, remove_listed_files, strict_json,
+                     walk_folder)
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 
@@ -65,6 +66,7 @@ def output_folder(out: Path, overwrite: bool):
             if not (out / OUTPUT_MARKER).is_file():
                 raise SpineMeshError("output folder is not empty and was not written by spinemesh; "
                                      "refusing to delete it, choose another --out", out)
+            refuse_linked_folders(out)  # before anything is removed: a page written below one would leave OUT
             _remove_earlier_run(out)
         found = _files_under(out)
         _write_marker(out, {"running": True, "kept": sorted(found)})

@@ -367,3 +367,28 @@ def test_a_shard_cut_short_leaves_no_temporary_file(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         write_shard(tmp_path / "s.0001.tar", members)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.0000.tar"]
+
+
+# --- a folder spinemesh writes again, holding a symlink to a folder elsewhere ---------------------------
+
+def test_a_folder_written_again_never_writes_through_a_linked_folder(tmp_path):
+    """An output folder spinemesh wrote before is written into again (``--overwrite``, a preview
+    rerun). A symlink to a folder planted in it (``OUT/images -> elsewhere``) was followed: the
+    project's images, the preview's pictures were written into ``elsewhere``, over its files of
+    the same names (exit 0). Such a folder is refused in one line naming the link, nothing written."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p")
+    r = run("upgrade", "p", "--out", "out", "--preview", "pv", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    elsewhere = tmp_path / "elsewhere"
+    before = _user_folder(elsewhere, "demo-head.png", "notes.txt")
+    for link in ("out/images", "pv/img"):
+        (tmp_path / link).rename(tmp_path / (link + ".moved"))
+        (tmp_path / link).symlink_to(elsewhere)
+    line = _one_error(run("upgrade", "p", "--out", "out", "--overwrite", cwd=tmp_path))
+    assert "out: output folder holds a symlink to a folder (images -> " in line, line
+    assert (tmp_path / "out" / "demo.json").is_file()  # refused before anything was removed
+    line = _one_error(run("upgrade", "p", "--out", "o2", "--preview", "pv", cwd=tmp_path))
+    assert "pv: preview folder holds a symlink to a folder (img -> " in line, line
+    assert _contents(elsewhere) == before and not (tmp_path / "o2").exists()

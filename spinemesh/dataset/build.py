@@ -27,7 +27,7 @@ import numpy as np
 
 from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, check_written_folder, mark_written_folder
+from ..fsutil import atomic_write_json, check_written_folder, mark_written_folder, refuse_linked_folders
 from .extract import ProjectResult, extract_project, find_projects, game_of
 from .format import (FORMAT, FORMAT_VERSION, INDEX, MASK_ALPHA_THRESHOLD, META, PROJECTS, SHARDS,
                      VAL_FRACTION, append_jsonl, read_jsonl, repair_tail, write_shard)
@@ -126,6 +126,7 @@ def _check_output(out: Path) -> None:
                              "this folder to start over", path) from None
     if not isinstance(old, dict) or old.get("format") != FORMAT or old.get("version") != FORMAT_VERSION:
         raise SpineMeshError("folder holds something else than a spinemesh data set of this version", path)
+    refuse_linked_folders(out, "data set folder")  # shards/ a link: they would be written outside
 
 
 def _open_output(out: Path) -> None:
