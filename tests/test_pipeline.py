@@ -345,3 +345,19 @@ def test_images_and_weights_pictures_written_again_leave_none_of_the_earlier_run
         assert again.pop("mine.txt") == b"mine"
         assert len(fresh) < len(first[name]), name  # the earlier run wrote more
         assert sorted(again) == sorted(fresh), name
+
+
+def test_an_upgrade_of_its_own_output_changes_nothing_and_says_so(tmp_path):
+    """A build step run twice on its own output (a Makefile rule whose input is the last output):
+    every skeleton, atlas and page is copied byte for byte, exit 0, and the run says there was
+    nothing to upgrade."""
+    from spinemesh.upgrade import Options, upgrade_project
+
+    demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
+    upgrade_project(demo, tmp_path / "meshed", Options(min_saving=None, jobs=1))
+    r = spinemesh("upgrade", "meshed", "--out", "again", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "nothing to upgrade: every attachment is already a mesh" in r.stderr, r.stderr
+    first, again = files_of(tmp_path / "meshed"), files_of(tmp_path / "again")
+    first.pop(".spinemesh-output"), again.pop(".spinemesh-output")
+    assert first == again
