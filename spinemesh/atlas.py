@@ -314,7 +314,9 @@ _GEOMETRY_FIELDS = {"bounds": ("x", "y", "w", "h"), "xy": ("x", "y"), "size": ("
 
 def _degrees(region, values: list[str], source) -> int:
     """A ``rotate:`` line's degrees: ``true`` 90, ``false`` 0, else 0, 90, 180 or 270."""
-    r = values[0].strip().lower() if values else "false"
+    # compared exactly, as the 4.x runtimes do: "True" is no turn there (spine-ts parses it as a
+    # number, NaN: drawn unturned; libGDX fails to load), where read case-blind it was 90 degrees
+    r = values[0].strip() if values else "false"
     if r in ("true", "false"):
         return 90 if r == "true" else 0
     try:
