@@ -392,3 +392,27 @@ def test_a_folder_written_again_never_writes_through_a_linked_folder(tmp_path):
     line = _one_error(run("upgrade", "p", "--out", "o2", "--preview", "pv", cwd=tmp_path))
     assert "pv: preview folder holds a symlink to a folder (img -> " in line, line
     assert _contents(elsewhere) == before and not (tmp_path / "o2").exists()
+
+
+# --- segment and segment-eval: the model's card is read too ----------------------------------------
+
+def test_segment_outputs_never_replace_the_model_or_its_card(tmp_path):
+    """``segment``'s ``--out`` and ``segment-eval``'s ``--json``/``--worst`` were checked against
+    the ``--model`` file alone: ``--out m.json`` replaced the card beside ``m.onnx`` (read by the
+    same run), and with the shipped model, nothing kept an output off it or its card. Refused in
+    one line, as an output onto any other input is."""
+    from spinemesh.segment import DEFAULT_MODEL, card_path
+
+    _sprite(tmp_path / "hero.png")
+    (tmp_path / "m.onnx").write_bytes(b"a model")
+    (tmp_path / "m.json").write_text('{"input_size": 64}')
+    line = _one_error(run("segment", "hero.png", "--model", "m.onnx", "--out", "m.json", cwd=tmp_path))
+    assert "m.json: output file is the input m.json" in line, line
+    line = _one_error(run("segment-eval", "--data", "ds", "--model", "m.onnx", "--json", "m.json", cwd=tmp_path))
+    assert "m.json: output file is the input m.json" in line, line
+    assert (tmp_path / "m.json").read_text() == '{"input_size": 64}'
+    shipped = card_path()
+    before = shipped.read_bytes()
+    line = _one_error(run("segment", "hero.png", "--out", str(shipped), cwd=tmp_path))
+    assert "output file is the input" in line, line
+    assert shipped.read_bytes() == before and DEFAULT_MODEL.is_file()

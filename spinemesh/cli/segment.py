@@ -42,9 +42,9 @@ def segment(
     from ..fsutil import atomic_write_png, check_outputs
     from ..images import load_rgba
     from ..memory import image_memory
-    from ..segment import looks_empty, mask_for
+    from ..segment import looks_empty, mask_for, model_files
 
-    check_outputs([image, model], files=[out])  # never onto the image, never through a symlink
+    check_outputs([image, *model_files(model)], files=[out])  # never onto the image, the model or its card
     rgba = load_rgba(image)
     with image_memory("mask", image, rgba.shape[1], rgba.shape[0]):  # one line naming the image
         m, used = mask_for(rgba, mask.value, model)
@@ -91,10 +91,11 @@ def segment_eval(
     Example: spinemesh segment-eval --data ds/ --json scores.json --worst worst.png
     """
     from ..fsutil import atomic_write_json, atomic_write_png, check_outputs
+    from ..segment import model_files
     from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
     from ..segment.samples import load_sprites
 
-    check_outputs([*data, model], files=[json_out, worst])  # never into a data set, never onto the model
+    check_outputs([*data, *model_files(model)], files=[json_out, worst])  # never into a data set, never onto the model
 
     kinds = _background_kinds(backgrounds)
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)

@@ -44,6 +44,12 @@ def card_path(model_path: str | Path | None = None) -> Path:
     return Path(model_path or DEFAULT_MODEL).with_suffix(".json")
 
 
+def model_files(model_path: str | Path | None = None) -> list[Path]:
+    """The files a command reads for a model (the shipped one by default): the ``.onnx`` and its
+    card, which no output may replace."""
+    return [Path(model_path or DEFAULT_MODEL), card_path(model_path)]
+
+
 def model_card(model_path: str | Path | None = None) -> dict:
     """The JSON card beside a model (``<model>.json``): input size, mean, std, threshold, figures.
 
