@@ -155,20 +155,30 @@ def test_a_run_that_did_not_end_is_removed_by_the_next_and_a_users_file_kept(tmp
 
 def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
     """The marker is a file anyone can write: a name that climbs out, is absolute or passes
-    through a symlinked folder removes nothing."""
+    through a symlinked folder removes nothing (an output folder holding a symlinked folder is
+    refused before anything is removed; the rule that removes listed files checks it too)."""
+    from spinemesh.errors import OutputError
+    from spinemesh.fsutil import remove_listed_files
     from spinemesh.output import output_folder
 
     out, elsewhere = tmp_path / "X", tmp_path / "elsewhere"
     out.mkdir()
     elsewhere.mkdir()
     (elsewhere / "precious.txt").write_text("precious")
-    (out / "link").symlink_to(elsewhere)
     (out / "stale.atlas").write_text("stale")
     names = ["../elsewhere/precious.txt", str(elsewhere / "precious.txt"), "link/precious.txt", "stale.atlas"]
     (out / ".spinemesh-output").write_text(json.dumps({"spinemesh": "output folder", "written": names}))
+    (out / "link").symlink_to(elsewhere)
+    remove_listed_files(out, names[:3])
+    assert (elsewhere / "precious.txt").read_text() == "precious" and (out / "link").is_symlink()
+    with pytest.raises(OutputError):
+        with output_folder(out, True):
+            pass
+    assert (out / "stale.atlas").exists() and (elsewhere / "precious.txt").exists()
+    (out / "link").unlink()
     with output_folder(out, True):
         pass
-    assert (elsewhere / "precious.txt").read_text() == "precious" and (out / "link").is_symlink()
+    assert (elsewhere / "precious.txt").read_text() == "precious"
     assert not (out / "stale.atlas").exists()
 
 
