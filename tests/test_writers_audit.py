@@ -416,3 +416,23 @@ def test_segment_outputs_never_replace_the_model_or_its_card(tmp_path):
     line = _one_error(run("segment", "hero.png", "--out", str(shipped), cwd=tmp_path))
     assert "output file is the input" in line, line
     assert shipped.read_bytes() == before and DEFAULT_MODEL.is_file()
+
+
+def test_mesh_of_a_folder_written_again_leaves_no_stale_mesh(tmp_path):
+    """``mesh DIR`` written again into its folders left the mesh and pictures of an image since
+    removed (a game's build step would read a mesh of art that is gone). They are removed, as
+    ``upgrade --images`` and ``weights --preview`` remove theirs; a file spinemesh did not write
+    there stays."""
+    art = tmp_path / "art"
+    _sprite(art / "hero.png")
+    _sprite(art / "gone" / "villain.png", 12)
+    options = ("--out", "meshes", "--preview", "previews")
+    assert run("mesh", "art", *options, cwd=tmp_path).returncode == 0
+    assert (tmp_path / "meshes" / "gone" / "villain.json").is_file()
+    (tmp_path / "meshes" / "notes.txt").write_text("mine")
+    (art / "gone" / "villain.png").unlink()
+    r = run("mesh", "art", *options, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    left = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.glob("[mp]*/**/*") if p.is_file())
+    assert left == ["meshes/.spinemesh-written", "meshes/hero.json", "meshes/notes.txt",
+                    "previews/.spinemesh-written", "previews/hero.png"], left

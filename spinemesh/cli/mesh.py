@@ -121,16 +121,22 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from rich.markup import escape  # file names and messages are never markup
 
     from ..errors import SpineMeshError
-    from ..fsutil import OneFilePerName, OutputGuard, mark_written_folder, walk_files
+    import contextlib
+
+    from ..fsutil import (WRITTEN_MARKER, OneFilePerName, OutputGuard, mark_written_folder, real, rewriting_folder,
+                          walk_files)
     from ..images import IMAGE_EXTENSIONS
 
+    folders = list({real(f): f for f, _, _ in _written_folders(out_dir, preview, steps)}.values())
     marked = []
 
     def mark() -> None:
-        """Mark the folders as spinemesh's before their first file (a run cut short is written again)."""
+        """Mark the folders as spinemesh's before their first file (a run cut short is written into
+        again); a marker there already keeps its list of the earlier run's files."""
         if not marked:
-            for folder, _, _ in _written_folders(out_dir, preview, steps):
-                mark_written_folder(folder)
+            for folder in folders:
+                if not (folder / WRITTEN_MARKER).is_file():
+                    mark_written_folder(folder)
             marked.append(True)
 
     # regular files inside the folder by real path: no symlink out, no FIFO, no loop
@@ -141,7 +147,9 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     failed = 0
     # hero.png and hero.webp (or Hero.png on a disk that ignores case) would write one hero.json
     outputs = OneFilePerName()
-    with progress_bar("meshing") as bar:
+    with contextlib.ExitStack() as held, progress_bar("meshing") as bar:
+        for folder in folders:  # an earlier run's files this one does not write again are removed
+            held.enter_context(rewriting_folder(folder))
         task = bar.add_task("", total=len(files))
         for f in files:
             rel = f.relative_to(image).with_suffix("")
