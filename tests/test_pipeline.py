@@ -371,3 +371,27 @@ def test_an_upgrade_of_its_own_output_changes_nothing_and_says_so(tmp_path):
     first, again = files_of(tmp_path / "meshed"), files_of(tmp_path / "again")
     first.pop(".spinemesh-output"), again.pop(".spinemesh-output")
     assert first == again
+
+
+def test_mesh_of_a_folder_written_again_leaves_no_mesh_of_a_removed_image(tmp_path):
+    """``mesh art/ --out meshes/ --preview previews/`` every night: an image removed from art/
+    left its mesh and picture. Now they go with the next run; a user's file stays."""
+    import shutil
+
+    demo = make_demo_project(tmp_path / "demo")
+    art = tmp_path / "art"
+    shutil.copytree(demo / "images", art)
+    r = spinemesh("mesh", "art", "--out", "meshes", "--preview", "previews", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "meshes" / "mine.txt").write_text("mine")
+    gone = sorted(art.glob("*.png"))[0]
+    gone.unlink()
+    r = spinemesh("mesh", "art", "--out", "meshes", "--preview", "previews", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = spinemesh("mesh", "art", "--out", "fresh-meshes", "--preview", "fresh-previews", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    meshes = files_of(tmp_path / "meshes")
+    assert meshes.pop("mine.txt") == b"mine"
+    assert sorted(meshes) == sorted(files_of(tmp_path / "fresh-meshes"))
+    assert sorted(files_of(tmp_path / "previews")) == sorted(files_of(tmp_path / "fresh-previews"))
+    assert f"{gone.stem}.json" not in meshes
