@@ -165,19 +165,27 @@ class Keys:
             return None
         if kind == STEPPED:
             return a
+        # one value (rotate, and every timeline of one value) written out: a bone's timelines
+        # are asked at every step of every pose, and a generator costs more than the sums
+        one = len(a) == 1
         if self.four:
             if kind == LINEAR:
                 f = (time - t1) / (t2 - t1)
-                return tuple(x + f * (y - x) for x, y in zip(a, b))
-            return tuple(value_4(curve[c], time, t1, a[c], t2, b[c]) for c in range(len(a)))
+                if one:
+                    return (a[0] + f * (b[0] - a[0]),)
+                return tuple([x + f * (y - x) for x, y in zip(a, b)])
+            if one:
+                return (value_4(curve[0], time, t1, a[0], t2, b[0]),)
+            return tuple([value_4(curve[c], time, t1, a[c], t2, b[c]) for c in range(len(a))])
         p = (time - t1) / (t2 - t1)
         if kind == BEZIER:
             p = percent_3(curve, p)
         else:
             p = min(1.0, max(0.0, p))
         if self.angle:
-            return tuple(x + _wrap_turns(y - x) * p for x, y in zip(a, b))
-        return tuple(x + (y - x) * p for x, y in zip(a, b))
+            return (a[0] + _wrap_turns(b[0] - a[0]) * p,) if one else tuple(
+                [x + _wrap_turns(y - x) * p for x, y in zip(a, b)])
+        return (a[0] + (b[0] - a[0]) * p,) if one else tuple([x + (y - x) * p for x, y in zip(a, b)])
 
     def percent(self, time: float) -> tuple[int, float]:
         """For deform timelines: the key at or before ``time`` and how far (0..1) the value has
