@@ -41,6 +41,18 @@ def _one_error(r: subprocess.CompletedProcess) -> str:
     return line
 
 
+def _need(module: str, extra: str = "train"):
+    """``module``, imported; a proof without it fails in CI and skips elsewhere (``unavailable``)."""
+    import importlib
+
+    from conftest import unavailable
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        unavailable(f"{module} is not installed ({e}): pip install 'spinemesh[{extra}]'")
+
+
 def _sprite(path: Path, radius: int = 20) -> Path:
     yy, xx = np.mgrid[:64, :64]
     rgba = np.zeros((64, 64, 4), np.uint8)
@@ -105,7 +117,7 @@ def test_dataset_stats_never_draws_over_a_users_folder(tmp_path):
     """``dataset-stats DS --plots FOLDER`` wrote its four PNGs into any folder, replacing a user's
     ``image_sizes.png`` (exit 0), and through a symlink. Such a folder is refused in one line before
     any work; the folder it drew into is its own, drawn into again, and so is the default DS/stats."""
-    pytest.importorskip("matplotlib")
+    _need("matplotlib", "stats")
     from spinemesh.dataset import build_dataset
     from spinemesh.demo import make_demo_project
 
@@ -131,9 +143,9 @@ def test_dataset_stats_never_draws_over_a_users_folder(tmp_path):
 @pytest.fixture
 def checkpoint(tmp_path):
     """A small untrained checkpoint as the training loop writes one, and inputs to export it with."""
-    torch = pytest.importorskip("torch")
-    pytest.importorskip("onnxruntime")
-    pytest.importorskip("efficientnet_lite_pytorch")
+    torch = _need("torch")
+    _need("onnxruntime")
+    _need("efficientnet_lite_pytorch")
     from spinemesh.train.loop import half_state
     from spinemesh.train.model import SegmentationModel
 
@@ -206,7 +218,7 @@ def test_training_never_writes_into_a_folder_of_a_users_files(tmp_path):
     """``train --out FOLDER`` (and ``train.loop.train``) wrote ``config.json``, ``split.json``,
     ``log.jsonl``, ``curves.png`` and the checkpoints into any folder, over a user's files of
     those names. Such a folder is refused in one line before the data are even read."""
-    pytest.importorskip("torch")
+    _need("torch")
     from spinemesh.errors import OutputError
     from spinemesh.train.loop import TrainConfig, train
 
@@ -225,9 +237,9 @@ def test_an_epoch_is_saved_whole_its_log_strict_and_this_runs_own(tmp_path, monk
     stopped while saving (Ctrl-C, the time limit of a cluster job) left half a ``best.pt``, the
     earlier best lost. ``log.jsonl`` was appended to, as ``json.dumps`` writes (a diverged loss as
     ``NaN``, which strict readers refuse), after the lines of an earlier run into the folder."""
-    torch = pytest.importorskip("torch")
-    pytest.importorskip("matplotlib")
-    pytest.importorskip("efficientnet_lite_pytorch")
+    torch = _need("torch")
+    _need("matplotlib")
+    _need("efficientnet_lite_pytorch")
     import json
 
     import spinemesh.train.loop as loop
@@ -328,7 +340,7 @@ def test_segment_export_reads_a_checkpoint_as_data_only(tmp_path):
     """A checkpoint was read with ``torch.load(weights_only=False)``: a file that is not one was a
     traceback, and one holding a pickle that runs code ran it (here, making a folder). Both are
     now one line naming the file, exit 2, and nothing runs."""
-    torch = pytest.importorskip("torch")
+    torch = _need("torch")
 
     class Runs:
         def __reduce__(self):
