@@ -420,5 +420,13 @@ def attachment_problem(attachment, where: tuple = (), bone_count: int | None = N
     return f"{json_path(*where, 'vertices')}: {problem}" if problem else ""
 
 
-__all__ = ["check_document", "attachment_problem", "KeyedTwice", "document_problem", "bone_tree_problem", "vertices_problem",
-           "json_path", "found"]
+__all__ = [
+    "KeyedTwice",
+    "attachment_problem",
+    "bone_tree_problem",
+    "check_document",
+    "document_problem",
+    "found",
+    "json_path",
+    "vertices_problem",
+]

@@ -10,15 +10,10 @@ traceback, never a wrong output written silently, inputs unchanged.
 from __future__ import annotations
 
 import json
-import os
-import resource
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from test_hostile import MEMORY_LIMIT, TIME_LIMIT, check_run, run_cli, snapshot
+from test_hostile import check_run, run_cli, snapshot
 
 
 def _demo(tmp: Path) -> Path:
@@ -364,3 +359,26 @@ def test_a_grey_page_s_colour_profile_is_never_put_on_colour_texels(tmp_path):
         data = image.read_bytes()
         assert _profile_fits(data) and Image.open(image).mode == "LA", image
         assert [kind for kind, _ in colour_chunks(data)] == [b"iCCP"]
+
+
+@pytest.mark.parametrize("field", ['"x": 0.0, "x": 0.0', '"x": 2e9'], ids=["written twice", "beyond the limit"])
+def test_pack_keeps_the_rectangle_of_a_region_an_unusable_attachment_draws(tmp_path, field):
+    """A second skeleton draws the head as a region attachment that names ``x`` twice (every
+    runtime draws it, at one ``x`` or the other) or places it at 2e9 (drawn, far away): its
+    fields cannot be used, so ``pack`` passed it over and packed the head by the outline of the
+    first skeleton's mesh, where other regions' texels may lie inside its rectangle (exit 0).
+    Now such an attachment pins its region to its stored rectangle, with the reason."""
+    project = _demo(tmp_path)
+    original = (project / "demo.json").read_text()
+    r = run_cli("upgrade", "p", "--out", "m", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    head = '"demo-head": {\n\t\t\t\t\t\t"x": 0.0,'
+    assert head in original
+    (tmp_path / "m" / "other.json").write_text(original.replace(head, '"demo-head": {\n\t\t\t\t\t\t' + field + ","))
+    before = snapshot(tmp_path)
+    r = run_cli("pack", "m", "--out", "k", "--report", "k.json", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["k/", "k.json"], codes=(0,))
+    report = json.loads((tmp_path / "k.json").read_text())
+    (atlas,) = report["atlases"]
+    pinned = {row["region"]: row["reason"] for row in atlas["regions_by_rectangle"]}
+    assert "demo-head" in pinned and "other.json" in pinned["demo-head"], atlas

@@ -22,7 +22,13 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..project import Project, image_source_for, project_atlases
 from ..skeleton import (
-    AttachmentRef, attachment_path, image_paths, iter_attachments, iter_skins, linked_source, load_skeleton,
+    AttachmentRef,
+    attachment_path,
+    checked_attachments,
+    image_paths,
+    iter_skins,
+    linked_source,
+    load_skeleton,
     spine_version,
 )
 from ..skeleton_version import major_minor
@@ -168,7 +174,7 @@ def collect_uses(project: Project, elsewhere: dict[Path, Path] | None = None) ->
         if not getattr(source, "atlases", None):
             continue  # drawn from an images folder: no atlas region is involved
         honours = honours_offsets(spine_version(doc))
-        for ref in iter_attachments(doc):
+        for ref, problem in checked_attachments(doc):
             try:
                 paths = image_paths(ref)
             except SpineMeshError as e:  # a malformed sequence: its path is pinned in every atlas
@@ -178,7 +184,9 @@ def collect_uses(project: Project, elsewhere: dict[Path, Path] | None = None) ->
                 continue
             if not paths:
                 continue
-            mesh, why = (None, "") if ref.type == "region" else _mesh_of(doc, ref)
+            # an attachment of unusable fields is drawn all the same by some runtime (one naming a
+            # field twice by every one): what it draws of its region is not known, so all of it
+            mesh, why = (None, problem) if ref.type == "region" or problem else _mesh_of(doc, ref)
             arrays = mesh_arrays(mesh) if mesh is not None else None
             use = None if arrays is None else MeshUse(arrays[0], arrays[1], honours)
             for name in paths:
@@ -186,7 +194,7 @@ def collect_uses(project: Project, elsewhere: dict[Path, Path] | None = None) ->
                     if atlas.find(name) is None:
                         continue
                     region = uses.of(atlas.path, name)
-                    if ref.type == "region":
+                    if ref.type == "region" and not problem:
                         region.pin(f"drawn as a region attachment ({rel}, slot {ref.slot!r})")
                     elif use is None:
                         region.pin(f"{why or 'mesh with malformed uvs or triangles'} ({rel}, slot {ref.slot!r})")
