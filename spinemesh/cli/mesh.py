@@ -92,7 +92,7 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
-    from ..fsutil import check_outputs, check_written_folder, refuse_one_output_twice, rewriting_folder
+    from ..fsutil import check_outputs, check_written_folder, refuse_one_output_twice
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
@@ -101,9 +101,7 @@ def mesh(
         refuse_one_output_twice([preview, steps])  # both write <image>.png: one folder would keep the steps alone
         for folder, what, holds in _written_folders(target, preview, steps):
             check_written_folder(folder, what, holds)  # a folder of a user's files: refused, not written over
-        # written into again: the earlier run's files this one does not write again go (an image removed)
-        with rewriting_folder(target), rewriting_folder(preview), rewriting_folder(steps):
-            _mesh_folder(image, target, preview, steps, preset.value, overrides)
+        _mesh_folder(image, target, preview, steps, preset.value, overrides)
     else:
         check_outputs([image], files=[target, preview, steps])
         _mesh_file(image, target, preview, steps, preset.value, overrides)
