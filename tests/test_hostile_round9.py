@@ -10,10 +10,15 @@ traceback, never a wrong output written silently, inputs unchanged.
 from __future__ import annotations
 
 import json
+import os
+import resource
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
-from test_hostile import check_run, run_cli, snapshot
+from test_hostile import TIME_LIMIT, check_run, run_cli, snapshot
 
 
 def _demo(tmp: Path) -> Path:
@@ -382,3 +387,40 @@ def test_pack_keeps_the_rectangle_of_a_region_an_unusable_attachment_draws(tmp_p
     (atlas,) = report["atlases"]
     pinned = {row["region"]: row["reason"] for row in atlas["regions_by_rectangle"]}
     assert "demo-head" in pinned and "other.json" in pinned["demo-head"], atlas
+
+
+# --- the output side ----------------------------------------------------------------------------
+
+def _run_with_file_limit(limit: int, *args, cwd: Path) -> subprocess.CompletedProcess:
+    """``python -m spinemesh ARGS`` where no file may grow past ``limit`` bytes: every write past it
+    fails with EFBIG, as on a full disk (SIGXFSZ ignored)."""
+    def limited():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = {**os.environ, "COLUMNS": "60", "NO_COLOR": "1", "OMP_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=TIME_LIMIT, preexec_fn=limited, check=False)
+
+
+@pytest.mark.parametrize("limit", [500, 1000])
+def test_pack_on_a_full_disk_never_leaves_an_atlas_without_its_page(tmp_path, limit):
+    """A disk that fills while ``pack`` writes: the packed atlas and its page are written as one
+    or not at all; then the original atlas was copied (487 bytes fit) while its page (3.6 kB) did
+    not, an atlas that would not load. Now an atlas is copied after its pages and not without
+    them; every file there is whole, none temporary, the run ends with 3 and one line a file."""
+    from spinemesh.atlas import read_atlas
+
+    _demo(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "m", "--jobs", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    before = snapshot(tmp_path)
+    r = _run_with_file_limit(limit, "pack", "m", "--out", "o", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert "File too large" in r.stderr, r.stderr
+    for atlas in (tmp_path / "o").glob("*.atlas"):
+        for page in read_atlas(atlas).pages:
+            assert (atlas.parent / page.name).is_file(), f"{atlas.name} is there without {page.name}"
+    for f in (tmp_path / "o").iterdir():
+        if not f.name.startswith("."):
+            assert f.read_bytes() == (tmp_path / "m" / f.name).read_bytes(), f.name

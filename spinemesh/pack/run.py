@@ -1034,14 +1034,22 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     skip: set[Path] = set()
     for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
-    for f in [] if in_place else proj.files:  # only files inside the project by real path (find_project)
+    # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
+    # runtime would read it and miss its page
+    pages_of = {job.path.resolve(): {f.resolve() for f in job.files} for job in jobs}
+    failed: set[Path] = set()
+    files = [] if in_place else proj.files  # only files inside the project by real path (find_project)
+    for f in sorted(files, key=lambda f: f.resolve() in pages_of):
         if f.resolve() in skip:
             continue
         try:
             target = out / f.relative_to(proj.root)
+            if pages_of.get(f.resolve(), set()) & failed:
+                raise SpineMeshError("a page it names was not copied (without it, the atlas would not load)", target)
             if not target.exists():
                 atomic_copy(f, target)
         except SpineMeshError as e:
+            failed.add(f.resolve())
             result.errors.append(f"not copied: {e}")
 
 
