@@ -188,6 +188,19 @@ def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path
     return pairs
 
 
+def atlas_pages(proj: Project) -> dict[Path, set[Path]]:
+    """The page files (real paths) of each usable atlas of the project, by the atlas's real path.
+
+    A copy of the project copies an atlas after its pages, and not when one of them could not be
+    copied (a full disk): a runtime would read the atlas and miss its page.
+    """
+    from .images import AtlasImages
+    from .project import project_atlases
+
+    return {path.resolve(): {AtlasImages.page_path(atlas, page.name, proj.root).resolve() for page in atlas.pages}
+            for path, atlas in project_atlases(proj).items()}
+
+
 def files_needed(doc: dict, source) -> set[Path]:
     """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
     from .images import AtlasImages, FolderImages

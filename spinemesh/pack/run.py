@@ -1036,7 +1036,9 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
     # runtime would read it and miss its page
-    pages_of = {job.path.resolve(): {f.resolve() for f in job.files} for job in jobs}
+    from ..output import atlas_pages
+
+    pages_of = atlas_pages(proj)
     failed: set[Path] = set()
     files = [] if in_place else proj.files  # only files inside the project by real path (find_project)
     for f in sorted(files, key=lambda f: f.resolve() in pages_of):
