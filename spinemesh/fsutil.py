@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import json
 import math
 import os
@@ -464,26 +465,26 @@ def rewriting_folder(folder: str | Path | None):
         return
     folder = Path(folder)
     earlier = written_files(folder)
-    before = _stamps(folder)
+    before = folder_stamps(folder, WRITTEN_MARKER)
     done = False
     try:
         yield
         done = True
     finally:
         if folder.is_dir():
-            written = [rel for rel, stamp in _stamps(folder).items() if before.get(rel) != stamp]
-            whole = done and written
+            written = [rel for rel, stamp in folder_stamps(folder, WRITTEN_MARKER).items() if before.get(rel) != stamp]
             with contextlib.suppress(SpineMeshError):  # the earlier marker stays: nothing lost
-                mark_written_files(folder, written if whole else [*written, *earlier], earlier if whole else ())
+                mark_written_files(folder, written, earlier, ended=done and bool(written))
 
 
-def _stamps(folder: Path) -> dict[str, tuple | None]:
-    """Every file under ``folder`` (hidden ones too, its marker aside) by its POSIX path under it,
-    with its :func:`file_stamp`: a file written anew has another."""
+def folder_stamps(folder: str | Path, marker: str) -> dict[str, tuple | None]:
+    """Every file under ``folder`` (hidden ones too, its ``marker`` aside) by its POSIX path under
+    it, with its :func:`file_stamp`: a file written anew or replaced has another."""
+    folder = Path(folder)
     if not folder.is_dir():
         return {}
     return {rel: file_stamp(f) for _, _, files in walk_folder(folder, hidden=True) for f in files
-            if (rel := f.relative_to(folder).as_posix()) != WRITTEN_MARKER}
+            if (rel := f.relative_to(folder).as_posix()) != marker}
 
 
 #: Largest list of written files read back from a marker (a few hundred bytes per thousand files).
@@ -501,46 +502,98 @@ def read_marker(path: str | Path):
         return None
 
 
-def written_files(folder: str | Path) -> list[str]:
-    """The files the :data:`WRITTEN_MARKER` of ``folder`` lists as written there by spinemesh
-    (:func:`mark_written_files`); none for a marker that lists none."""
-    marker = read_marker(Path(folder) / WRITTEN_MARKER)
+def listed_files(marker: object) -> dict[str, str | None]:
+    """The files a marker (:func:`read_marker`'s JSON) lists as its run's, by POSIX path, each with
+    the :func:`file_digest` it had when the run ended (None where the marker gives none)."""
     names = marker.get("written") if isinstance(marker, dict) else None
-    return [n for n in names if isinstance(n, str)] if isinstance(names, list) else []
+    digests = marker.get("sha256") if isinstance(marker, dict) else None
+    digests = digests if isinstance(digests, dict) else {}
+    return {name: digest if isinstance(digest := digests.get(name), str) else None
+            for name in (names if isinstance(names, list) else ()) if isinstance(name, str)}
 
 
-def mark_written_files(folder: str | Path, written: Iterable[str], earlier: Iterable[str] = ()) -> None:
-    """Remove from ``folder`` the files an earlier run wrote there (``earlier``, as
-    :func:`written_files` read them before this run) that this one did not write again, then
-    mark it as spinemesh's listing ``written``: a preview written again into its folder leaves no
-    stale page or picture of the earlier one, and never removes a file spinemesh did not write."""
-    written = sorted(set(written))
-    remove_listed_files(folder, set(earlier) - set(written))
-    atomic_write_text(Path(folder) / WRITTEN_MARKER, strict_json({"spinemesh": "written", "written": written}, 1) + "\n")
+def marker_listing(folder: str | Path, listed: dict[str, str | None], written: Iterable[str] = ()) -> dict:
+    """A marker's ``written`` and ``sha256`` (:func:`listed_files` reads them back): the files
+    ``listed`` with the digests given (an earlier marker's, None for none), and the files this run
+    ``written`` under ``folder``, digested now. A digest, unlike an inode, is the same wherever
+    the folder is: the marker is the same bytes for the same files."""
+    digests = {**listed, **{rel: file_digest(Path(folder) / rel) for rel in written}}
+    return {"written": sorted(digests), "sha256": {rel: digests[rel] for rel in sorted(digests) if digests[rel]}}
 
 
-def remove_listed_files(folder: str | Path, names: Iterable[str]) -> None:
-    """Remove each file ``names`` lists under ``folder`` (POSIX paths, as a marker lists them), and
-    the folders it leaves empty. A name that is absolute, climbs out, names the folder or passes
-    through a symlinked folder removes nothing: a marker is a file anyone could have written."""
+def file_digest(path: str | Path) -> str | None:
+    """SHA-256 of a file's bytes, hexadecimal; None when it is not a regular file or cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return None
+            digest = hashlib.sha256()
+            while chunk := f.read(1 << 20):
+                digest.update(chunk)
+            return digest.hexdigest()
+    except (OSError, ValueError):
+        return None
+
+
+def written_files(folder: str | Path) -> dict[str, str | None]:
+    """The files the :data:`WRITTEN_MARKER` of ``folder`` lists as written there by spinemesh
+    (:func:`mark_written_files`), with their digests (:func:`listed_files`); none for a marker
+    that lists none."""
+    return listed_files(read_marker(Path(folder) / WRITTEN_MARKER))
+
+
+def mark_written_files(folder: str | Path, written: Iterable[str], earlier: dict[str, str | None] | None = None,
+                       ended: bool = True) -> None:
+    """Mark ``folder`` as spinemesh's, listing ``written`` (POSIX paths under it) with their digests
+    as they are now. With ``ended``, the files an earlier run wrote there (``earlier``, as
+    :func:`written_files` read them before this run) that this one did not write again are removed
+    first (:func:`remove_listed_files`): a preview written again leaves no stale page or picture of
+    the earlier one. Otherwise they stay listed with the digests the earlier run gave them, so
+    that a file replaced since is not taken for spinemesh's."""
+    folder = Path(folder)
+    written = set(written)
+    left = {rel: digest for rel, digest in (earlier or {}).items() if rel not in written}
+    if ended:
+        remove_listed_files(folder, left)
+        left = {}
+    listing = marker_listing(folder, left, written)
+    atomic_write_text(folder / WRITTEN_MARKER, strict_json({"spinemesh": "written", **listing}, 1) + "\n")
+
+
+def remove_listed_files(folder: str | Path, files: dict[str, str | None]) -> None:
+    """Remove each file of ``files`` under ``folder`` (POSIX paths, as a marker lists them, with the
+    :func:`file_digest` the run left it with) that still holds those bytes, and the folders it
+    leaves empty. A marker is a file anyone could have written or copied: a name that is absolute,
+    climbs out, names the folder, passes through a symlinked folder or is no path (a NUL), names a
+    symlink (a run writes none) or is listed without a digest removes nothing, nor does one whose
+    file was edited or replaced since (a user's now). On a case-insensitive disk a name removes
+    only a file stored under that very name: ``Hero.png`` listed is not the ``hero.png`` a later
+    run wrote, even of the same bytes."""
     folder = Path(folder)
     root = os.path.realpath(folder)
-    for rel in sorted(names):
+    names_in: dict[Path, set[str]] = {}
+    for rel in sorted(files):
         parts = Path(rel).parts
-        if not rel or os.path.isabs(rel) or ".." in parts or rel in (".", WRITTEN_MARKER):
+        if not files[rel] or not rel or os.path.isabs(rel) or ".." in parts or rel in (".", WRITTEN_MARKER):
             continue
         path = folder.joinpath(*parts)
-        if os.path.realpath(path.parent) != os.path.join(root, *parts[:-1]).rstrip(os.sep):
-            continue
-        if path.is_symlink() or path.is_file():
+        try:
+            if os.path.realpath(path.parent) != os.path.join(root, *parts[:-1]).rstrip(os.sep):
+                continue
+            if path.name not in names_in.setdefault(path.parent, set(os.listdir(path.parent))):
+                continue
+            if path.is_symlink() or file_digest(path) != files[rel]:
+                continue
             path.unlink()
-            for parent in path.parents:
-                if parent == folder:
-                    break
-                try:
-                    parent.rmdir()  # only when empty
-                except OSError:
-                    break
+        except (OSError, ValueError):  # a NUL, a name the disk cannot hold, a file gone meanwhile
+            continue
+        for parent in path.parents:
+            if parent == folder:
+                break
+            try:
+                parent.rmdir()  # only when empty
+            except OSError:
+                break
 
 
 def _write_error(e: OSError, path: Path) -> OutputError:

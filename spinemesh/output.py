@@ -22,10 +22,23 @@ try:
 except ImportError:  # Windows: no lock
     fcntl = None
 
-from .errors import SpineMeshError
-from .fsutil import (OutputGuard, atomic_copy, atomic_write_bytes, atomic_write_text, file_stamp, make_folder,
-                     read_marker, refuse_linked_folders, refuse_report_over_output, remove_listed_files, strict_json,
-                     walk_folder)
+from .errors import OutputError, SpineMeshError
+from .fsutil import (
+    OutputGuard,
+    atomic_copy,
+    atomic_write_bytes,
+    atomic_write_text,
+    file_digest,
+    folder_stamps,
+    listed_files,
+    make_folder,
+    marker_listing,
+    read_marker,
+    refuse_linked_folders,
+    refuse_report_over_output,
+    remove_listed_files,
+    strict_json,
+)
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 
@@ -34,6 +47,11 @@ from .skeleton import dumps_skeleton, is_binary_skeleton
 #: ``--out ~/Documents --overwrite`` must not delete a user's files, nor a rerun the files a game
 #: engine or the user added beside the run's: Unity's ``.meta`` files, a ``.gitignore``).
 OUTPUT_MARKER = ".spinemesh-output"
+
+#: The one line an older spinemesh wrote in :data:`OUTPUT_MARKER`, listing nothing: ``overwrite``
+#: then empties the folder as a whole, as that spinemesh did. Any other marker that is not a list
+#: of the run's files (edited by hand, emptied, cut) is refused: nothing of it says what to remove.
+OLDER_OUTPUT_MARKER = "written by spinemesh upgrade; --overwrite may replace this folder"
 
 def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
     """Refuse an output folder that is an input, lies inside one or holds one (see :class:`OutputGuard`)."""
@@ -73,9 +91,9 @@ def output_folder(out: Path, overwrite: bool):
         try:
             yield out
         finally:
-            written = sorted(rel for rel, stamp in _files_under(out).items() if found.get(rel) != stamp)
+            written = [rel for rel, stamp in _files_under(out).items() if found.get(rel) != stamp]
             with contextlib.suppress(SpineMeshError):  # the running marker stays: found files kept still
-                _write_marker(out, {"written": written})
+                _write_marker(out, marker_listing(out, {}, written))
     finally:
         os.close(fd)  # releases the lock
 
@@ -99,20 +117,12 @@ def note_written(out: Path, path: Path) -> None:
         rel = Path(os.path.abspath(path)).relative_to(os.path.abspath(out)).as_posix()
     except ValueError:
         return
-    if rel not in marker["written"]:
-        _write_marker(out, {"written": sorted([*marker["written"], rel])})
+    _write_marker(out, marker_listing(out, listed_files(marker), [rel]))
 
 
 def _files_under(out: Path) -> dict[str, tuple | None]:
-    """Every file under ``out`` (hidden ones too, the marker aside) by its POSIX path under it,
-    with its :func:`file_stamp`: a file replaced or written anew has another."""
-    files = {}
-    for _, _, names in walk_folder(out, hidden=True):
-        for f in names:
-            rel = f.relative_to(out).as_posix()
-            if rel != OUTPUT_MARKER:
-                files[rel] = file_stamp(f)
-    return files
+    """Every file under ``out`` but the marker, with its stamp (:func:`~spinemesh.fsutil.folder_stamps`)."""
+    return folder_stamps(out, OUTPUT_MARKER)
 
 
 def _write_marker(out: Path, what: dict) -> None:
@@ -120,12 +130,15 @@ def _write_marker(out: Path, what: dict) -> None:
 
 
 def _remove_earlier_run(out: Path) -> None:
-    """Remove from ``out`` the files an earlier run wrote there, as its marker lists them, and the
-    folders they leave empty; any other file stays. A run that did not end (its marker lists what
-    it found) wrote every file but those; an older spinemesh's marker lists none: it emptied the
-    folder as a whole, and so does this."""
+    """Remove from ``out`` the files an earlier run wrote there, as its marker lists them (each
+    only while it is the file the run left, :func:`~spinemesh.fsutil.remove_listed_files`), and
+    the folders they leave empty; any other file stays. A run that did not end (its marker lists
+    what it found) wrote every file but those; an older spinemesh's marker lists none: it emptied
+    the folder as a whole, and so does this. Any other marker is refused, every file kept."""
     marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
+        if not _older_marker(out / OUTPUT_MARKER):
+            raise _unknown_marker(out)
         for entry in out.iterdir():
             if entry.is_dir() and not entry.is_symlink():
                 shutil.rmtree(entry)
@@ -133,11 +146,28 @@ def _remove_earlier_run(out: Path) -> None:
                 entry.unlink()
         return
     if isinstance(marker.get("written"), list):
-        ours = {rel for rel in marker["written"] if isinstance(rel, str)}
+        ours = listed_files(marker)
+    elif marker.get("running") is True and isinstance(marker.get("kept"), list):
+        kept = set(marker["kept"])
+        ours = {rel: file_digest(out / rel) for rel in _files_under(out) if rel not in kept}
     else:
-        kept = marker.get("kept") if isinstance(marker.get("kept"), list) else []
-        ours = set(_files_under(out)) - set(kept)
-    remove_listed_files(out, ours - {OUTPUT_MARKER})
+        raise _unknown_marker(out)
+    ours.pop(OUTPUT_MARKER, None)
+    remove_listed_files(out, ours)
+
+
+def _older_marker(path: Path) -> bool:
+    """Whether ``path`` holds :data:`OLDER_OUTPUT_MARKER` (read within a few bytes more than it)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(OLDER_OUTPUT_MARKER) + 8).strip() == OLDER_OUTPUT_MARKER.encode()
+    except OSError:
+        return False
+
+
+def _unknown_marker(out: Path) -> OutputError:
+    return OutputError(f"the folder's {OUTPUT_MARKER} is not one spinemesh wrote (edited?): nothing says which "
+                       "files an earlier run wrote; refusing to delete any, choose another --out", out)
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:

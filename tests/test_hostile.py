@@ -430,7 +430,8 @@ def test_symlink_planted_in_output_is_not_written_through(tmp_path, demo):
     r = run_cli("upgrade", "p", "--out", "o", cwd=tmp_path)
     check_run(r, before, tmp_path, ["o"])
     assert r.returncode == 2
-    (out / ".spinemesh-output").write_text("marker")  # as if an earlier run wrote it
+    older = "written by spinemesh upgrade; --overwrite may replace this folder\n"
+    (out / ".spinemesh-output").write_text(older)  # as an earlier (older) spinemesh wrote it
     before = {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("o/")}
     r = run_cli("upgrade", "p", "--out", "o", "--overwrite", cwd=tmp_path)
     check_run(r, before, tmp_path, ["o"])

@@ -158,7 +158,7 @@ def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
     through a symlinked folder removes nothing (an output folder holding a symlinked folder is
     refused before anything is removed; the rule that removes listed files checks it too)."""
     from spinemesh.errors import OutputError
-    from spinemesh.fsutil import remove_listed_files
+    from spinemesh.fsutil import file_digest, marker_listing, remove_listed_files
     from spinemesh.output import output_folder
 
     out, elsewhere = tmp_path / "X", tmp_path / "elsewhere"
@@ -166,10 +166,12 @@ def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
     elsewhere.mkdir()
     (elsewhere / "precious.txt").write_text("precious")
     (out / "stale.atlas").write_text("stale")
-    names = ["../elsewhere/precious.txt", str(elsewhere / "precious.txt"), "link/precious.txt", "stale.atlas"]
-    (out / ".spinemesh-output").write_text(json.dumps({"spinemesh": "output folder", "written": names}))
+    outside = {name: file_digest(elsewhere / "precious.txt")  # even with the file's own digest
+               for name in ["../elsewhere/precious.txt", str(elsewhere / "precious.txt"), "link/precious.txt"]}
+    listed = marker_listing(out, outside, ["stale.atlas"])
+    (out / ".spinemesh-output").write_text(json.dumps({"spinemesh": "output folder", **listed}))
     (out / "link").symlink_to(elsewhere)
-    remove_listed_files(out, names[:3])
+    remove_listed_files(out, outside)
     assert (elsewhere / "precious.txt").read_text() == "precious" and (out / "link").is_symlink()
     with pytest.raises(OutputError):
         with output_folder(out, True):
