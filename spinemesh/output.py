@@ -87,7 +87,7 @@ def output_folder(out: Path, overwrite: bool):
             refuse_linked_folders(out)  # before anything is removed: a page written below one would leave OUT
             _remove_earlier_run(out)
         found = _files_under(out)
-        _write_marker(out, {"running": True, "kept": sorted(found)})
+        _write_marker(out, {"running": True, "kept": sorted(found), "folder": _identity(out)})
         try:
             yield out
         finally:
@@ -133,7 +133,7 @@ def _remove_earlier_run(out: Path) -> None:
     """Remove from ``out`` the files an earlier run wrote there, as its marker lists them (each
     only while it is the file the run left, :func:`~spinemesh.fsutil.remove_listed_files`), and
     the folders they leave empty; any other file stays. A run that did not end (its marker lists
-    what it found) wrote every file but those; an older spinemesh's marker lists none: it emptied
+    what it found, and names this very folder) wrote every file but those; an older spinemesh's marker lists none: it emptied
     the folder as a whole, and so does this. Any other marker is refused, every file kept."""
     marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
@@ -147,13 +147,22 @@ def _remove_earlier_run(out: Path) -> None:
         return
     if isinstance(marker.get("written"), list):
         ours = listed_files(marker)
-    elif marker.get("running") is True and isinstance(marker.get("kept"), list):
+    elif (marker.get("running") is True and isinstance(marker.get("kept"), list)
+          and marker.get("folder") == _identity(out)):
         kept = set(marker["kept"])
         ours = {rel: file_digest(out / rel) for rel in _files_under(out) if rel not in kept}
     else:
         raise _unknown_marker(out)
     ours.pop(OUTPUT_MARKER, None)
     remove_listed_files(out, ours)
+
+
+def _identity(out: Path) -> list[int]:
+    """The folder itself (device, inode): a running run's marker copied into another folder, or
+    edited, names another, and says nothing of what was written there. Only a marker of a run
+    that did not end holds it (a finished run's marker is the same bytes anywhere)."""
+    st = os.stat(out)
+    return [st.st_dev, st.st_ino]
 
 
 def _older_marker(path: Path) -> bool:
@@ -166,8 +175,8 @@ def _older_marker(path: Path) -> bool:
 
 
 def _unknown_marker(out: Path) -> OutputError:
-    return OutputError(f"the folder's {OUTPUT_MARKER} is not one spinemesh wrote (edited?): nothing says which "
-                       "files an earlier run wrote; refusing to delete any, choose another --out", out)
+    return OutputError(f"the folder's {OUTPUT_MARKER} is not one spinemesh wrote there (edited or copied?): nothing "
+                       "says which files an earlier run wrote; refusing to delete any, choose another --out", out)
 
 
 def write_skeleton(doc: dict, path: Path, dest: Path) -> None:

@@ -5,6 +5,7 @@ write into a project; a user edits and replaces files in an output folder)."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import pytest
@@ -171,3 +172,32 @@ def test_the_marker_is_the_same_bytes_for_the_same_files_anywhere(tmp_path):
             (out / "hero.png").write_bytes(b"page")
         texts.append((out / OUTPUT_MARKER).read_bytes())
     assert texts[0] == texts[1] and b"sha256" in texts[0]
+
+
+def test_a_marker_of_a_run_that_did_not_end_copied_elsewhere_removes_nothing(tmp_path):
+    """A run killed half-way leaves a marker of the files it found (all others its own): copied into
+    a studio's folder, it named every file there as the run's. It names its folder now; the copy
+    is refused, every file kept, and the folder it came from is cleaned as before."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    out, art = tmp_path / "out", tmp_path / "art"
+    code = ("import os, sys\nfrom pathlib import Path\nfrom spinemesh.output import output_folder\n"
+            "out = Path(sys.argv[1])\n"
+            "with output_folder(out, False):\n"
+            "    (out / 'half.skel').write_bytes(b'half')\n"
+            "    os._exit(9)\n")
+    repo = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(repo)), check=False)
+    assert r.returncode == 9, r.stderr
+    art.mkdir()
+    (art / "hero.png").write_bytes(b"the artist's page")
+    shutil.copy(out / OUTPUT_MARKER, art / OUTPUT_MARKER)
+    with pytest.raises(OutputError, match="spinemesh-output"), output_folder(art, True):
+        pass
+    assert (art / "hero.png").read_bytes() == b"the artist's page"
+    with output_folder(out, True):
+        pass
+    assert _listing(out) == [OUTPUT_MARKER]
