@@ -580,7 +580,9 @@ def remove_listed_files(folder: str | Path, files: dict[str, str | None]) -> Non
         try:
             if os.path.realpath(path.parent) != os.path.join(root, *parts[:-1]).rstrip(os.sep):
                 continue
-            if path.name not in names_in.setdefault(path.parent, set(os.listdir(path.parent))):
+            if path.parent not in names_in:
+                names_in[path.parent] = set(os.listdir(path.parent))
+            if path.name not in names_in[path.parent]:  # the name as stored, not another case of it
                 continue
             if path.is_symlink() or file_digest(path) != files[rel]:
                 continue
