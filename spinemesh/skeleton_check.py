@@ -160,8 +160,16 @@ def _field_problem(node: dict, spec: dict, *where) -> str:
         if key is not None:
             return (f"{json_path(*where, key)}: written twice (or twice but for case); the Spine runtimes read "
                     "different ones (spine-ts the last, spine-c, spine-cpp and libGDX the first)")
+    folded = None
     for key, value in node.items():
         kind = spec.get(key)
+        if kind is None and value is not None:
+            # spine-c, spine-cpp and libGDX match a field's name ignoring case: "X" is their x
+            folded = folded or {k.casefold(): k for k in spec}
+            meant = folded.get(key.casefold())
+            if meant is not None and meant not in node:
+                return (f"{json_path(*where, key)}: read as {meant!r} by spine-c, spine-cpp and libGDX (they match "
+                        "names ignoring case), not by spine-ts")
         if kind is None or value is None:  # not read by the program / absent in the runtimes' eyes
             continue
         test, expected = kind

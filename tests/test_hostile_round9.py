@@ -427,3 +427,19 @@ def test_a_full_disk_never_leaves_an_atlas_without_its_page(tmp_path, limit, com
     for f in (tmp_path / "o").iterdir():
         if not f.name.startswith(".") and command == "pack":
             assert f.read_bytes() == (tmp_path / "m" / f.name).read_bytes(), f.name
+
+
+def test_a_field_named_but_for_case_is_left_as_written(tmp_path):
+    """``{"X": 50, "y": 10, ...}`` and no ``x``: spine-c, spine-cpp and libGDX match names ignoring
+    case and place the head at x 50; spine-ts and the program read no ``x`` (0). The region was
+    meshed at 0 and written so, moving the head in the C runtimes (exit 0); now it stays as
+    written, with one line naming the field."""
+    project = _demo(tmp_path)
+    skeleton = project / "demo.json"
+    head = '"demo-head": {\n\t\t\t\t\t\t"x": 0.0,'
+    skeleton.write_text(skeleton.read_text().replace(head, '"demo-head": {\n\t\t\t\t\t\t"X": 50,'))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert "demo-head.X: read as 'x' by spine-c" in r.stderr, r.stderr
+    assert '"demo-head": {\n\t\t\t\t\t\t"X": 50,' in (tmp_path / "o" / "demo.json").read_text()
