@@ -104,7 +104,9 @@ def preview_contents(preview: Path) -> dict:
 
     return {"problems": problems, "notes": notes, "no_player": no_player, "files": len(files),
             "bytes": sum(p.stat().st_size for p in files), "largest_page": biggest(pages),
-            "largest_script": biggest(scripts), "pages": len(pages) - index.is_file()}
+            # the player's own script is one fixed file; what grows with a project is its data
+            "largest_script": biggest([p for p in scripts if p.relative_to(preview).parts[0] == "data"]),
+            "pages": len(pages) - index.is_file()}
 
 
 #: Times a page is opened again when the browser does not end (headless Chromium, rarely, hangs
@@ -342,7 +344,7 @@ def table(files: list[Path], slowest: int = 5) -> None:
         page = max(sized, key=lambda r: r["largest_page"][0])
         script = max(sized, key=lambda r: r["largest_script"][0])
         total = max(sized, key=lambda r: r["bytes"])
-        print(f"largest page {page['largest_page'][0] / 1e6:.2f} MB ({page['project']}), largest script "
+        print(f"largest page {page['largest_page'][0] / 1e6:.2f} MB ({page['project']}), largest data script "
               f"{script['largest_script'][0] / 1e6:.2f} MB ({script['project']}), largest preview "
               f"{total['bytes'] / 1e6:.1f} MB in {total['files']} files ({total['project']}); all previews "
               f"{sum(r['bytes'] for r in sized) / 1e6:.0f} MB")
