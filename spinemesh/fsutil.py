@@ -18,6 +18,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -536,10 +537,28 @@ def file_digest(path: str | Path) -> str | None:
 
 
 def written_files(folder: str | Path) -> dict[str, str | None]:
-    """The files the :data:`WRITTEN_MARKER` of ``folder`` lists as written there by spinemesh
-    (:func:`mark_written_files`), with their digests (:func:`listed_files`); none for a marker
-    that lists none."""
-    return listed_files(read_marker(Path(folder) / WRITTEN_MARKER))
+    """The files spinemesh wrote in ``folder``, with their digests: those its :data:`WRITTEN_MARKER`
+    lists (:func:`mark_written_files`, :func:`listed_files`), and the temporary files of the atomic
+    writer (:func:`is_temporary_name`) that a run killed outright (SIGKILL, a power cut) left at
+    any depth, which no marker lists. A run that ends removes them with the earlier run's files
+    (:func:`remove_listed_files`, only while they hold the bytes read here: one that another run
+    is still writing changes, and is kept)."""
+    folder = Path(folder)
+    return {**temporary_files(folder), **listed_files(read_marker(folder / WRITTEN_MARKER))}
+
+
+def temporary_files(folder: str | Path) -> dict[str, str | None]:
+    """The regular files under ``folder`` (not symlinks) whose names the atomic writer makes
+    (:func:`is_temporary_name`), by POSIX path under it, with their :func:`file_digest`."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return {}
+    found = {}
+    for _, _, files in walk_folder(folder, hidden=True):
+        for f in files:
+            if is_temporary_name(f.name) and not f.is_symlink() and (digest := file_digest(f)):
+                found[f.relative_to(folder).as_posix()] = digest
+    return found
 
 
 def mark_written_files(folder: str | Path, written: Iterable[str], earlier: dict[str, str | None] | None = None,
@@ -626,6 +645,15 @@ def _temporary_name(name: str, token: str) -> str:
     tail = f".{token}.tmp"
     room = NAME_MAX - 1 - len(tail.encode())
     return "." + os.fsdecode(os.fsencode(name)[:room]) + tail
+
+
+#: The names :func:`_temporary_name` makes: ``.``, a name, ``.``, 8 hexadecimal digits, ``.tmp``.
+_TEMPORARY_NAME = re.compile(r"\..+\.[0-9a-f]{8}\.tmp", re.DOTALL)
+
+
+def is_temporary_name(name: str) -> bool:
+    """Whether ``name`` is one the atomic writer gives its temporary files (:func:`_temporary_name`)."""
+    return _TEMPORARY_NAME.fullmatch(name) is not None
 
 
 def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:

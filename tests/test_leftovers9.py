@@ -1,0 +1,120 @@
+"""Left-alone items of the fourth stop, each proven here: a killed run's temporary files removed by
+the next run into its folder, ..."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS="200")
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], capture_output=True, text=True, env=env,
+                          cwd=cwd)
+
+
+# --- a killed run's temporary files ---------------------------------------------------------------
+
+def _plant_leftovers(folder: Path) -> tuple[list[str], list[str]]:
+    """Temporary files a run killed outright (SIGKILL) leaves, named as the atomic writer names
+    them, at the top and one folder down; and files of a user's that look like them but are not
+    ours (another name, a symlink, a folder). Returns (ours, theirs) as POSIX paths."""
+    from spinemesh.fsutil import _temporary_name
+
+    ours = [_temporary_name("hero.json", "0123abcd"), f"img/{_temporary_name('a.png', 'deadbeef')}"]
+    theirs = ["notes.tmp", ".draft.tmp", ".hero.json.xyz.tmp", ".hero.json.0123ABCD.tmp", "img/keep.png"]
+    for rel in ours + theirs:
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_bytes(b"half a file")
+    (folder / "elsewhere.txt").write_bytes(b"a user's")
+    os.symlink("elsewhere.txt", folder / _temporary_name("link.json", "cafebabe"))
+    (folder / _temporary_name("dir.json", "feedf00d")).mkdir()
+    theirs += ["elsewhere.txt", _temporary_name("link.json", "cafebabe")]
+    return ours, theirs
+
+
+def test_a_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
+    """A run killed outright leaves its ``.NAME.xxxxxxxx.tmp`` files; the next run that ends in the
+    folder (rewriting_folder: ``upgrade --images``, ``weights --preview``, ``mesh DIR``) removes
+    them, and only them: a user's file of another name, a symlink and a folder are kept."""
+    from spinemesh.fsutil import atomic_write_bytes, mark_written_folder, rewriting_folder
+
+    folder = tmp_path / "pictures"
+    mark_written_folder(folder)
+    ours, theirs = _plant_leftovers(folder)
+    with rewriting_folder(folder):
+        atomic_write_bytes(folder / "hero.json", b"{}")
+    for rel in ours:
+        assert not (folder / rel).exists(), rel
+    for rel in theirs:
+        assert os.path.lexists(folder / rel), rel
+    assert (folder / ".dir.json.feedf00d.tmp").is_dir()
+
+
+def test_a_run_that_does_not_end_keeps_them_and_the_next_removes_them(tmp_path):
+    """A run that fails removes nothing, as for the earlier run's files; the next that ends does."""
+    from spinemesh.fsutil import atomic_write_bytes, mark_written_folder, rewriting_folder
+
+    folder = tmp_path / "pictures"
+    mark_written_folder(folder)
+    ours, _ = _plant_leftovers(folder)
+    with pytest.raises(RuntimeError), rewriting_folder(folder):
+        atomic_write_bytes(folder / "hero.json", b"{}")
+        raise RuntimeError
+    assert all((folder / rel).exists() for rel in ours)
+    with rewriting_folder(folder):
+        atomic_write_bytes(folder / "hero.json", b"{}")
+    assert not any((folder / rel).exists() for rel in ours)
+
+
+def test_a_temporary_file_written_meanwhile_is_kept(tmp_path):
+    """A temporary file whose bytes changed while the run lasted (another run still writing it) is
+    not the one found at the start: kept."""
+    from spinemesh.fsutil import _temporary_name, atomic_write_bytes, mark_written_folder, rewriting_folder
+
+    folder = tmp_path / "pictures"
+    mark_written_folder(folder)
+    live = folder / _temporary_name("b.png", "01234567")
+    live.write_bytes(b"begun")
+    with rewriting_folder(folder):
+        atomic_write_bytes(folder / "hero.json", b"{}")
+        live.write_bytes(b"begun, and more")
+    assert live.read_bytes() == b"begun, and more"
+
+
+def test_a_preview_written_again_loses_a_killed_runs_temporary_files(tmp_path):
+    """The preview writer (PreviewFolder, every ``--preview``) removes them too once it ends."""
+    from spinemesh.fsutil import mark_written_folder
+    from spinemesh.player.files import PreviewFolder
+
+    folder = tmp_path / "preview"
+    mark_written_folder(folder)
+    ours, theirs = _plant_leftovers(folder)
+    pages = PreviewFolder(folder)
+    pages.write_text("index.html", "<title>spinemesh preview</title>")
+    pages.finish()
+    assert not any((folder / rel).exists() for rel in ours)
+    assert all(os.path.lexists(folder / rel) for rel in theirs)
+
+
+def test_mesh_of_a_folder_run_again_removes_a_killed_runs_temporary_files(tmp_path):
+    """``mesh DIR --out OUT``: OUT written again after a killed run holds no temporary file of it."""
+    from spinemesh.fsutil import _temporary_name
+
+    art = tmp_path / "art"
+    art.mkdir()
+    rgba = np.zeros((48, 48, 4), np.uint8)
+    rgba[8:40, 8:40] = 255
+    Image.fromarray(rgba).save(art / "hero.png")
+    assert run("mesh", str(art), "--out", "out", cwd=tmp_path).returncode == 0
+    left = tmp_path / "out" / _temporary_name("hero.json", "89abcdef")
+    left.write_bytes(b"{\"half")
+    r = run("mesh", str(art), "--out", "out", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert not left.exists() and (tmp_path / "out" / "hero.json").is_file()
