@@ -118,3 +118,37 @@ def test_mesh_of_a_folder_run_again_removes_a_killed_runs_temporary_files(tmp_pa
     r = run("mesh", str(art), "--out", "out", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert not left.exists() and (tmp_path / "out" / "hero.json").is_file()
+
+
+# --- an upgrade whose --report cannot be written ---------------------------------------------------
+
+def test_an_upgrade_whose_report_cannot_be_written_says_what_it_wrote(tmp_path):
+    """The skeletons are written before the report: a report that cannot be written (its folder a
+    file here; a full disk) ends the run done in part (exit 3), after the table of the skeletons
+    written and the preview, with one error line naming the report and saying the skeletons were
+    written; it ended with exit 2 (refused, nothing written) and no word of them."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (tmp_path / "taken").write_text("a file, not a folder")
+    r = run("upgrade", "demo", "--out", "out", "--report", "taken/report.json", "--preview", "look", cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "taken" in errors[0] and "--report not written" in errors[0] and "2 skeletons" in errors[0], errors
+    assert "demo.json" in r.stdout and "demo-binary.skel" in r.stdout and "preview:" in r.stdout, r.stdout
+    assert (tmp_path / "out" / "demo.json").is_file() and (tmp_path / "look" / "index.html").is_file()
+    assert not (tmp_path / "taken").is_dir()
+
+
+def test_an_upgrade_that_wrote_nothing_and_no_report_is_refused(tmp_path):
+    """With nothing written (--only matching nothing) the report's error is the run's one line, exit 2."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (tmp_path / "taken").write_text("a file, not a folder")
+    r = run("upgrade", "demo", "--out", "out", "--only", "no-such-*", "--report", "taken/report.json", cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "taken" in errors[0] and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()

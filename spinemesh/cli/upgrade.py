@@ -124,7 +124,8 @@ def upgrade(
     transparent images, sequences trimmed differently on the atlas page unless --repack, regions a
     mesh would not make cheaper to draw: --min-saving) are counted as
     "kept" with the reason in the report. Exit status: 0 when everything asked was done;
-    3 when some attachment or skeleton failed (it stays as it was; the report says why);
+    3 when some attachment or skeleton failed (it stays as it was; the report says why), or
+    when the skeletons were written but the --report could not be;
     2 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing
     (as for an invalid option). A project with nothing to mesh (already meshes, or every region
     kept) exits 0 with a warning, or, with --pack, with what was packed.
@@ -158,7 +159,7 @@ def upgrade(
                       **({} if min_saving is None else {"min_saving": min_saving}))
     library = is_library(project)
     result = _run(project, out, options, library)
-    _write_report(result, report, out, dry_run, project_folder(project))
+    report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
     if dry_run:  # packing reads the meshes written: a dry run writes none
         packed = " nor packed (--pack packs the meshes a run writes)" if pack else ""
@@ -167,19 +168,36 @@ def upgrade(
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in, options.jobs)
-    _exit(result, nothing)
+    if report_error:  # the run's last line: its output is written, its report is not (exit 3)
+        from ._summary import print_errors
+
+        print_errors([report_error])
+    _exit(result, nothing, report_failed=bool(report_error))
 
 
-def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: Path) -> None:
-    """``--report``: the run's report as JSON, never over a file the run wrote in OUT."""
+def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: Path) -> str:
+    """``--report``: the run's report as JSON, never over a file the run wrote in OUT. Returns ``""``,
+    or, when the report cannot be written once skeletons were, the error line saying so (the run
+    goes on to say what it wrote, and ends done in part); with nothing written, the error is raised
+    (refused, exit 2)."""
+    from ..errors import SpineMeshError
     from ..output import write_run_report
     from ..upgrade import write_report
 
-    if report is not None:
-        if dry_run:  # no output folder
-            write_report(result, report, root)
-        else:
-            write_run_report(report, out, lambda path: write_report(result, path, root))
+    if report is None:
+        return ""
+    if dry_run:  # no output folder
+        write_report(result, report, root)
+        return ""
+    try:
+        write_run_report(report, out, lambda path: write_report(result, path, root))
+    except SpineMeshError as e:
+        if not result.written:
+            raise
+        count = len(result.written)
+        return (f"{e}; --report not written (the {count} skeleton{'s' if count > 1 else ''} listed above "
+                f"{'were' if count > 1 else 'was'} written in {out})")
+    return ""
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:
@@ -266,15 +284,16 @@ def _print_result(result, dry_run: bool) -> None:
                      "kept", "kept as region", "left a region")
 
 
-def _exit(result, nothing: str) -> None:
-    """Exit 3 when something failed; 2 with an error when there was nothing to upgrade (no skeleton, or
-    --only/--exclude left nothing), 0 with a warning when every attachment was already done."""
+def _exit(result, nothing: str, report_failed: bool = False) -> None:
+    """Exit 3 when something failed (an attachment, a skeleton, the report of a run that wrote its
+    skeletons); 2 with an error when there was nothing to upgrade (no skeleton, or --only/--exclude
+    left nothing), 0 with a warning when every attachment was already done."""
     from rich.markup import escape
 
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ._summary import print_errors
 
-    if result.partial:
+    if result.partial or report_failed:
         raise typer.Exit(EXIT_PARTIAL)
     # --pack did something (packed, cleared pages outside their rectangles, or wrote a kept atlas's
     # pages smaller): say what, not that the run did nothing
