@@ -26,6 +26,7 @@ in size, so that nothing computed from them overflows.
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 import re
@@ -408,6 +409,58 @@ class KeyedTwice(dict):
         return marked
 
 
+#: Most lines :func:`animations_keyed_twice` gives, one per animation: a file of thousands says the first.
+MAX_KEYED_TWICE_LINES = 10
+
+
+def animations_keyed_twice(doc) -> list[str]:
+    """One warning line per animation that names a key twice in one of its objects (a slot's
+    ``"attachment"`` timeline written twice, as an exporter left it in a game's skeleton), naming the animation and the JSON paths, up to :data:`MAX_KEYED_TWICE_LINES`
+    lines (then one saying how many more).
+
+    The runtimes read such an animation differently: spine-c, spine-cpp and libGDX go through
+    every entry (both timelines are applied, the later over the earlier), spine-ts
+    (``JSON.parse``) and Python keep the last alone, and so does every skeleton spinemesh writes
+    (JSON or ``.skel``). Animations are passed through, not read: not refused, said.
+    """
+    animations = doc.get("animations") if isinstance(doc, dict) else None
+    if not isinstance(animations, dict):
+        return []
+    lines = [f"animation {name!r}: named twice; {_KEYED_TWICE_READ}" for name in _written_twice(animations)]
+    for name in animations:
+        paths = []
+        stack = [((), animations[name])]
+        while stack:
+            where, node = stack.pop()
+            if isinstance(node, dict):
+                if isinstance(node, KeyedTwice):
+                    paths += [json_path(*where, key) for key in _written_twice(node)]
+                stack += [((*where, key), value) for key, value in node.items() if isinstance(value, (dict, list))]
+            elif isinstance(node, list):
+                stack += [((*where, i), value) for i, value in enumerate(node) if isinstance(value, (dict, list))]
+        if paths:
+            paths.sort()
+            more = f" and {len(paths) - 3} more" if len(paths) > 3 else ""
+            lines.append(f"animation {name!r}: {', '.join(paths[:3])}{more} written twice; "
+                         + _KEYED_TWICE_READ)
+    if len(lines) > MAX_KEYED_TWICE_LINES:
+        lines = lines[:MAX_KEYED_TWICE_LINES] + [f"and {len(lines) - MAX_KEYED_TWICE_LINES} more animations "
+                                                 "naming a key twice"]
+    return lines
+
+
+def _written_twice(node: dict) -> list[str]:
+    """The keys a :class:`KeyedTwice` holds once for two written alike (the first's value lost
+    here); keys that differ but for case are both held, and not among them."""
+    twice = getattr(node, "twice", ())
+    held = collections.Counter(key.casefold() for key in node)
+    return [key for key in node if (fold := key.casefold()) in twice and held[fold] == 1]
+
+
+_KEYED_TWICE_READ = ("spine-c, spine-cpp and libGDX read each (a timeline written twice is applied twice), spine-ts "
+                     "the last only, as a skeleton spinemesh writes keeps it: remove one to play the same everywhere")
+
+
 def attachment_problem(attachment, where: tuple = (), bone_count: int | None = None) -> str:
     """Why one attachment cannot be used (``"x: expected a finite number ..., found ..."``), or ``""``.
 
@@ -430,6 +483,7 @@ def attachment_problem(attachment, where: tuple = (), bone_count: int | None = N
 
 __all__ = [
     "KeyedTwice",
+    "animations_keyed_twice",
     "attachment_problem",
     "bone_tree_problem",
     "check_document",

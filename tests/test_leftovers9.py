@@ -152,3 +152,77 @@ def test_an_upgrade_that_wrote_nothing_and_no_report_is_refused(tmp_path):
     errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "taken" in errors[0] and "Traceback" not in r.stderr, r.stderr
     assert not (tmp_path / "out").exists()
+
+
+# --- an animation's key written twice ---------------------------------------------------------------
+
+TWICE = '"slots": {"spark": {"attachment": [{"name": "spark"}], "attachment": [{"time": 0.5, "name": null}]}}, '
+
+
+def _demo_with_a_timeline_twice(folder: Path) -> Path:
+    """The demo project, its ``wave`` animation keying the spark slot's attachment in two
+    ``"attachment"`` timelines, as an exporter left them in a game's skeleton of the corpus."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(folder, with_images_folder=False)
+    text = (folder / "demo.json").read_text()
+    assert text.count('"wave": {') == 1
+    (folder / "demo.json").write_text(text.replace('"wave": {', '"wave": {' + TWICE))
+    (folder / "demo-binary.skel").unlink()
+    return folder
+
+
+def test_the_lines_name_each_animation_and_its_key_written_twice():
+    """One line per animation, naming it and the key's path in it; keys that differ but for case
+    (both kept, by spine-ts as by spinemesh) and a document without any are not said."""
+    from spinemesh.skeleton import parse_skeleton_json
+    from spinemesh.skeleton_check import MAX_KEYED_TWICE_LINES, animations_keyed_twice
+
+    lines = animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {' + TWICE + '"bones": {}}}}'))
+    assert len(lines) == 1 and lines[0].startswith("animation 'wave': slots.spark.attachment written twice;"), lines
+    assert "spine-ts the last only" in lines[0]
+    assert not animations_keyed_twice(parse_skeleton_json('{"animations": {"a": {"slots": {"s": {"rgba": [], '
+                                                          '"RGBA": []}}}, "A": {}}}'))
+    assert not animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {"slots": {}}}}'))
+    named_twice = animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {}, "wave": {}}}'))
+    assert named_twice and named_twice[0].startswith("animation 'wave': named twice;"), named_twice
+    many = "{" + ", ".join(f'"a{i}": {{{TWICE[:-2]}}}' for i in range(30)) + "}"
+    lines = animations_keyed_twice(parse_skeleton_json('{"animations": ' + many + "}"))
+    assert len(lines) == MAX_KEYED_TWICE_LINES + 1 and lines[-1].startswith("and 20 more animations"), lines[-1]
+
+
+@pytest.mark.parametrize("target", ["demo.skel", "demo-again.json"])
+def test_convert_says_an_animation_key_written_twice(tmp_path, target):
+    """``convert`` keeps the last timeline only (as spine-ts reads it; spine-c, spine-cpp and libGDX
+    apply both): it says so, a warning naming the file and the animation, and writes (exit 0); it
+    was silent."""
+    project = _demo_with_a_timeline_twice(tmp_path / "demo")
+    r = run("convert", str(project / "demo.json"), str(tmp_path / target))
+    assert r.returncode == 0, r.stderr
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("warning: ")]
+    assert len(warnings) == 1 and "demo.json" in warnings[0] and "animation 'wave'" in warnings[0], r.stderr
+    assert "slots.spark.attachment written twice" in warnings[0] and (tmp_path / target).is_file()
+    r = run("convert", str(tmp_path / target), str(tmp_path / "back.json"))
+    assert r.returncode == 0 and "warning" not in r.stderr, r.stderr  # written once: nothing more to say
+
+
+def test_upgrade_says_an_animation_key_written_twice(tmp_path):
+    """``upgrade`` writes the skeleton back with the last timeline: a warning line and the report's."""
+    import json
+
+    project = _demo_with_a_timeline_twice(tmp_path / "demo")
+    r = run("upgrade", str(project), "--out", str(tmp_path / "out"), "--report", str(tmp_path / "report.json"))
+    assert r.returncode == 0, r.stderr
+    warnings = [line for line in r.stderr.splitlines() if "written twice" in line]
+    assert len(warnings) == 1 and warnings[0].startswith("warning: demo.json: animation 'wave'"), r.stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert any("animation 'wave'" in w for w in report["warnings"]), report["warnings"]
+
+
+def test_the_corpus_skeleton_of_a_timeline_written_twice_is_said_so(tmp_path, corpus):
+    """The corpus's redgvin-character keys a slot's attachment twice in eight animations: each said."""
+    source = corpus / "redgvin-character" / "character.json"
+    r = run("convert", str(source), str(tmp_path / "character.skel"))
+    assert r.returncode == 0, r.stderr
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("warning: ")]
+    assert len(warnings) == 8 and all("character.json: animation 'portal_" in w for w in warnings), r.stderr

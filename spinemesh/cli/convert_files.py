@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gc
 import os
+import sys
 from pathlib import Path
 
 _BINARY_SUFFIXES = (".skel", ".skel.bytes")
@@ -37,11 +38,14 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs, existing, regular_file
     from ..skeleton import dumps_skeleton, load_skeleton, spine_version
     from ..skeleton_binary.enums import EXTRA
+    from ..skeleton_check import animations_keyed_twice
 
     regular_file(existing(source), "skeleton")  # one line naming it, as every command says it
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
     _refuse_unusable_attachment(doc, source)
+    for line in animations_keyed_twice(doc):  # both paths (typer or not) say it on stderr
+        print(f"warning: {source}: {line}", file=sys.stderr)
     if is_binary_name(target):
         from ..errors import SkelFormatError
         from ..skeleton_binary import write_skel

@@ -32,6 +32,7 @@ from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, Regio
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, load_skeleton
+from ..skeleton_check import animations_keyed_twice
 from .editor_images import write_editor_image
 from .options import Options, skip_reason
 from .progress import SILENT, Progress
@@ -545,6 +546,7 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
         result.warnings += [f"{rel}: {problem}; copied as the input holds it"
                             for ref, problem in checked_attachments(doc)
                             if problem and ref.type != "region" and isinstance(ref.type, str)]
+        result.warnings += [f"{rel}: {line}" for line in animations_keyed_twice(doc)]  # passed through, said
         skeletons.append(SkeletonPlan(path, rel, doc, targets, source, bending.rig if bending else None))
     result.seconds["read"] += time.perf_counter() - t0
     return ProjectReading(proj, options, result, planner, skeletons)
