@@ -107,6 +107,23 @@ def write_run_report(report: Path, out: Path, write) -> None:
     note_written(out, report)
 
 
+def run_report_error(report: Path | None, out: Path, write, written: str) -> str:
+    """:func:`write_run_report` for a run whose output is written: ``""``, or, when the report cannot
+    be written (its folder a file, a full disk), the one error line saying so and what the run wrote
+    (``written``: ``"the 2 skeletons listed above"``), for the command to say last and end done in
+    part (exit 3): raised, the error would end it refused (exit 2), the status of a run that wrote
+    nothing, before it said what it wrote. With ``written`` empty, raised as it is."""
+    if report is None:
+        return ""
+    try:
+        write_run_report(report, out, write)
+    except SpineMeshError as e:
+        if not written:
+            raise
+        return f"{e}; --report not written (written in {out}: {written})"
+    return ""
+
+
 def note_written(out: Path, path: Path) -> None:
     """List ``path``, a file written in ``out`` once the run holding it ended (a ``--report``), among
     the run's files in its marker, so that the next ``overwrite`` removes it too."""

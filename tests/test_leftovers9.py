@@ -135,10 +135,29 @@ def test_an_upgrade_whose_report_cannot_be_written_says_what_it_wrote(tmp_path):
     assert r.returncode == 3, r.stderr
     errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "Traceback" not in r.stderr, r.stderr
-    assert "taken" in errors[0] and "--report not written" in errors[0] and "2 skeletons" in errors[0], errors
+    assert "taken" in errors[0] and "--report not written" in errors[0] and "2 skeletons listed" in errors[0], errors
     assert "demo.json" in r.stdout and "demo-binary.skel" in r.stdout and "preview:" in r.stdout, r.stdout
     assert (tmp_path / "out" / "demo.json").is_file() and (tmp_path / "look" / "index.html").is_file()
     assert not (tmp_path / "taken").is_dir()
+
+
+@pytest.mark.parametrize("command, written, table", [
+    ("pack", "the 1 atlas listed above", "demo.atlas"),
+    ("weights", "2 skeletons", "spinemesh weights"),
+])
+def test_pack_and_weights_whose_report_cannot_be_written_say_what_they_wrote(tmp_path, command, written, table):
+    """``pack`` and ``weights`` the same way (one function, output.run_report_error): exit 3 after
+    their table, the report's error line last, naming what was written."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "demo", with_images_folder=False)
+    (tmp_path / "taken").write_text("a file, not a folder")
+    r = run(command, "demo", "--out", "out", "--report", "taken/report.json", cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert errors[0].endswith(f"--report not written (written in out: {written})"), errors
+    assert table in r.stdout and (tmp_path / "out" / "demo.json").is_file(), r.stdout
 
 
 def test_an_upgrade_that_wrote_nothing_and_no_report_is_refused(tmp_path):

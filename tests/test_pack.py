@@ -252,12 +252,14 @@ def test_a_preview_inside_or_around_out_is_refused_in_one_line(meshed, tmp_path)
 
 def test_a_report_that_would_replace_a_packed_file_is_refused(meshed, tmp_path):
     """``--report OUT/demo.atlas`` replaced the packed atlas with JSON: refused in one line, the
-    atlas kept; a report of its own name inside OUT is written."""
+    atlas kept, the run done in part (exit 3: the atlas is written, the report not); a report of
+    its own name inside OUT is written."""
     out = tmp_path / "out"
     r = _cli("pack", str(meshed), "--out", str(out), "--report", str(out / "demo.atlas"), "--jobs", "1")
-    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert r.returncode == 3 and "Traceback" not in r.stderr, r.stderr
     (line,) = r.stderr.strip().splitlines()
     assert "--report would replace a file in the output folder" in line and "demo.atlas" in line, line
+    assert "--report not written" in line, line
     assert (out / "demo.atlas").read_text().lstrip()[:1] != "{"
     r = _cli("pack", str(meshed), "--out", str(tmp_path / "out2"), "--report", str(tmp_path / "out2" / "r.json"),
              "--jobs", "1")

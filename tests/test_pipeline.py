@@ -186,14 +186,14 @@ def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
 
 def test_weights_report_never_replaces_a_skeleton_it_wrote(tmp_path):
     """``weights --report OUT/demo.json`` replaced the weighted skeleton by the report, exit 0; it
-    is refused as ``upgrade``'s and ``pack``'s are, in one line."""
+    is refused as ``upgrade``'s and ``pack``'s are, in one line (exit 3: the skeletons are written)."""
     from spinemesh.upgrade import Options, upgrade_project
 
     demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
     upgrade_project(demo, tmp_path / "meshed", Options(min_saving=None, jobs=1))
     r = spinemesh("weights", "meshed", "--out", "w", "--report", "w/demo.json", cwd=tmp_path)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
-    assert "--report would replace a file in the output folder" in r.stderr
+    assert r.returncode == 3 and r.stderr.count("\n") == 1, r.stderr
+    assert "--report would replace a file in the output folder" in r.stderr and "--report not written" in r.stderr
     assert "skeleton" in json.loads((tmp_path / "w" / "demo.json").read_text())
 
 

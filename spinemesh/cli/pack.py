@@ -121,12 +121,14 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
     from ..fsutil import project_folder
-    from ..output import write_run_report
+    from ..output import run_report_error
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL
+    from ._summary import print_errors
 
-    if report is not None:
-        write_run_report(report, out, lambda path: write_report(result, path, project_folder(project)))
+    count = len(result.atlases)
+    report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
+                                    f"the {count} atlas{'es' if count > 1 else ''} listed above" if count else "")
     if preview is not None:
         from ..pack.preview import write_preview
 
@@ -137,6 +139,9 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
                       highlight=False)
     if not result.atlases:
         raise SpineMeshError("no atlas to pack in any of its projects", project)
+    if report_error:  # the run's last line: its atlases are written, its report is not (exit 3)
+        print_errors([report_error])
+        raise typer.Exit(EXIT_PARTIAL)
     if result.partial:
         raise typer.Exit(EXIT_PARTIAL)
 

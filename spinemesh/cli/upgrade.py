@@ -180,24 +180,15 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: P
     or, when the report cannot be written once skeletons were, the error line saying so (the run
     goes on to say what it wrote, and ends done in part); with nothing written, the error is raised
     (refused, exit 2)."""
-    from ..errors import SpineMeshError
-    from ..output import write_run_report
+    from ..output import run_report_error
     from ..upgrade import write_report
 
-    if report is None:
-        return ""
-    if dry_run:  # no output folder
+    if report is not None and dry_run:  # no output folder
         write_report(result, report, root)
         return ""
-    try:
-        write_run_report(report, out, lambda path: write_report(result, path, root))
-    except SpineMeshError as e:
-        if not result.written:
-            raise
-        count = len(result.written)
-        return (f"{e}; --report not written (the {count} skeleton{'s' if count > 1 else ''} listed above "
-                f"{'were' if count > 1 else 'was'} written in {out})")
-    return ""
+    count = len(result.written)
+    written = f"the {count} skeleton{'s' if count > 1 else ''} listed above" if count else ""
+    return run_report_error(report, out, lambda path: write_report(result, path, root), written)
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:

@@ -81,7 +81,7 @@ def weights(
     """
     from ..anim.motion import sampled_bone_worlds
     from ..fsutil import OutputGuard, check_written_folder, project_folder
-    from ..output import write_run_report
+    from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
@@ -98,8 +98,9 @@ def weights(
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
         result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
-    if report is not None:
-        write_run_report(report, out, lambda path: write_report(result, path, project_folder(project)))
+    count = len(result.written)
+    report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
+                                    f"{count} skeleton{'s' if count > 1 else ''}" if count else "")
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
@@ -111,7 +112,9 @@ def weights(
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
-    if result.partial:
+    if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
+        print_errors([report_error])
+    if result.partial or report_error:
         raise typer.Exit(EXIT_PARTIAL)
     if not result.written:
         print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
