@@ -444,8 +444,8 @@ def animations_keyed_twice(doc) -> list[str]:
             lines.append(f"animation {name!r}: {', '.join(paths[:3])}{more} written twice; "
                          + _KEYED_TWICE_READ)
     if len(lines) > MAX_KEYED_TWICE_LINES:
-        lines = lines[:MAX_KEYED_TWICE_LINES] + [f"and {len(lines) - MAX_KEYED_TWICE_LINES} more animations "
-                                                 "naming a key twice"]
+        more = len(lines) - MAX_KEYED_TWICE_LINES
+        lines = [*lines[:MAX_KEYED_TWICE_LINES], f"and {more} more animations naming a key twice"]
     return lines
 
 

@@ -245,3 +245,18 @@ def test_the_corpus_skeleton_of_a_timeline_written_twice_is_said_so(tmp_path, co
     assert r.returncode == 0, r.stderr
     warnings = [line for line in r.stderr.splitlines() if line.startswith("warning: ")]
     assert len(warnings) == 8 and all("character.json: animation 'portal_" in w for w in warnings), r.stderr
+
+
+def test_weights_says_an_animation_key_written_twice(tmp_path):
+    """``weights`` writes the skeleton back too: the same warning line, and in its report."""
+    import json
+
+    from spinemesh.upgrade import Options, upgrade_project
+
+    project = _demo_with_a_timeline_twice(tmp_path / "demo")
+    upgrade_project(project, tmp_path / "meshed", Options(min_saving=None, jobs=1))
+    r = run("weights", "meshed", "--out", "w", "--report", "r.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    warnings = [line for line in r.stderr.splitlines() if "written twice" in line]
+    assert len(warnings) == 1 and warnings[0].startswith("warning: demo.json: animation 'wave'"), r.stderr
+    assert any("animation 'wave'" in w for w in json.loads((tmp_path / "r.json").read_text())["warnings"])

@@ -8,7 +8,7 @@ from typing import List
 
 import typer
 
-from ._app import Annotated, Optional, app, console, phase_progress, progress_bar
+from ._app import Annotated, Optional, app, console, err_console, phase_progress, progress_bar
 
 
 class BoneChoice(str, Enum):
@@ -79,7 +79,10 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones keep --preview previews/
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
+    from rich.markup import escape
+
     from ..anim.motion import sampled_bone_worlds
+    from ..errors import escaped
     from ..fsutil import OutputGuard, check_written_folder, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
@@ -112,6 +115,8 @@ def weights(
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
+    for warning in result.warnings:  # each names its skeleton
+        err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
     if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
         print_errors([report_error])
     if result.partial or report_error:

@@ -18,6 +18,7 @@ from ..fsutil import atomic_write_json, named_within
 from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
+from ..skeleton_check import animations_keyed_twice
 from .document import Outcome, WeightOptions, build_rig, mesh_count, uses_learned, weight_document
 from .learned import share_project_habits
 
@@ -29,6 +30,8 @@ class WeightResult(RunSummary):
     outcomes: list[Outcome] = field(default_factory=list)
     written: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    #: what is written as one runtime reads it only (an animation naming a key twice), each naming its skeleton
+    warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0
 
     def _items(self):
@@ -84,6 +87,8 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
             result.errors.append(str(e))
             continue
         read.append((path, doc, build_rig(doc, options.sample_motion)))
+        rel = path.relative_to(proj.root).as_posix()
+        result.warnings += [f"{rel}: {line}" for line in animations_keyed_twice(doc)]  # passed through, said
     if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
         share_project_habits([(doc, rig) for _, doc, rig in read])
     if progress is not None:
@@ -120,6 +125,7 @@ def write_report(result: WeightResult, path: str | Path, project: str | Path | N
         "counts": result.counts(),
         "skeletons_written": result.written,
         "errors": result.errors,
+        "warnings": result.warnings,
         "seconds": round(result.seconds, 3),
         "attachments": [o.row() for o in result.outcomes],
     }, project))
