@@ -161,18 +161,19 @@ def upgrade(
     result = _run(project, out, options, library)
     report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
-    if dry_run:  # packing reads the meshes written: a dry run writes none
-        packed = " nor packed (--pack packs the meshes a run writes)" if pack else ""
-        console.print(f"dry run: nothing meshed or written{packed}; \"would mesh\" counts the regions planned, "
-                      "before the test of what is worth meshing", highlight=False, markup=False)
+    if dry_run:
+        _say_dry_run(pack)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in, options.jobs)
-    if report_error:  # the run's last line: its output is written, its report is not (exit 3)
-        from ._summary import print_errors
+    _exit(result, nothing, report_error)
 
-        print_errors([report_error])
-    _exit(result, nothing, report_failed=bool(report_error))
+
+def _say_dry_run(pack: bool) -> None:
+    """What a dry run's counts mean; packing reads the meshes written, and a dry run writes none."""
+    packed = " nor packed (--pack packs the meshes a run writes)" if pack else ""
+    console.print(f"dry run: nothing meshed or written{packed}; \"would mesh\" counts the regions planned, "
+                  "before the test of what is worth meshing", highlight=False, markup=False)
 
 
 def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: Path) -> str:
@@ -275,16 +276,19 @@ def _print_result(result, dry_run: bool) -> None:
                      "kept", "kept as region", "left a region")
 
 
-def _exit(result, nothing: str, report_failed: bool = False) -> None:
+def _exit(result, nothing: str, report_error: str = "") -> None:
     """Exit 3 when something failed (an attachment, a skeleton, the report of a run that wrote its
-    skeletons); 2 with an error when there was nothing to upgrade (no skeleton, or --only/--exclude
-    left nothing), 0 with a warning when every attachment was already done."""
+    skeletons: ``report_error`` is then the run's last line); 2 with an error when there was nothing
+    to upgrade (no skeleton, or --only/--exclude left nothing), 0 with a warning when every
+    attachment was already done."""
     from rich.markup import escape
 
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ._summary import print_errors
 
-    if result.partial or report_failed:
+    if report_error:  # its output is written, its report is not
+        print_errors([report_error])
+    if result.partial or report_error:
         raise typer.Exit(EXIT_PARTIAL)
     # --pack did something (packed, cleared pages outside their rectangles, or wrote a kept atlas's
     # pages smaller): say what, not that the run did nothing

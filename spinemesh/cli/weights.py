@@ -79,16 +79,13 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones keep --preview previews/
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
-    from rich.markup import escape
-
     from ..anim.motion import sampled_bone_worlds
-    from ..errors import escaped
     from ..fsutil import OutputGuard, check_written_folder, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
-    from ._summary import print_errors, print_left_alone, skeleton_table
+    from ._summary import print_errors
 
     guard = OutputGuard([project])
     guard.check_folder(out)
@@ -104,6 +101,24 @@ def weights(
     count = len(result.written)
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
                                     f"{count} skeleton{'s' if count > 1 else ''}" if count else "")
+    _print_result(result)
+    if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
+        print_errors([report_error])
+    if result.partial or report_error:
+        raise typer.Exit(EXIT_PARTIAL)
+    if not result.written:
+        print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
+                      "object); give the folder the editor exported to"])
+        raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _print_result(result) -> None:
+    """The run's table (weighted, skipped, failed, median bones per skeleton), what was left as it
+    was and why, its time, and its warnings (each naming its skeleton)."""
+    from rich.markup import escape
+
+    from ..errors import escaped
+    from ._summary import print_left_alone, skeleton_table
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
@@ -115,13 +130,5 @@ def weights(
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
-    for warning in result.warnings:  # each names its skeleton
+    for warning in result.warnings:
         err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
-    if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
-        print_errors([report_error])
-    if result.partial or report_error:
-        raise typer.Exit(EXIT_PARTIAL)
-    if not result.written:
-        print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
-                      "object); give the folder the editor exported to"])
-        raise typer.Exit(EXIT_BAD_INPUT)
