@@ -280,6 +280,18 @@ def project_folder(path: str | Path) -> Path:
     return path if path.is_dir() else path.parent
 
 
+def named_project(path: str | Path) -> Path:
+    """``path`` (a command's project: a folder, or a skeleton file) as a run names it: one whose
+    folder is the current one (``.``, ``hero.json`` given from inside the project) absolute, any
+    other (and one not there, refused as given later) as given. A file of the project is then named by a path that holds the project folder
+    (``/home/me/hero/hero.atlas``, not ``hero.atlas``), which :func:`named_within` names from the
+    folder's name (``hero/hero.atlas``): a report is the same bytes from inside the project as from
+    elsewhere. A path the console shows stays one to open."""
+    path = Path(path)
+    folder = path if path.is_dir() else path.parent
+    return Path(os.path.abspath(path)) if path.exists() and os.path.normpath(folder) == "." else path
+
+
 def existing(path: str | Path) -> Path:
     """``path`` if something is there; refused as ``PATH: no such file or folder`` otherwise (the
     one line every command gives for a missing input, before anything else is checked)."""
@@ -298,7 +310,8 @@ def named_within(value, folder: str | Path | None):
     project's files so, not by the path that differs from one folder or machine to the next (its
     bytes then are the same there); the console keeps the whole paths, to open.
 
-    ``folder`` None, or named ``.`` (whose files are named without a folder), changes nothing.
+    ``folder`` None changes nothing. A project named ``.`` would have its files named without a
+    folder: a command gives it to its run absolute (:func:`named_project`).
     """
     if folder is None:
         return value

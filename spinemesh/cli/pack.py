@@ -90,10 +90,11 @@ def pack(
     import time
 
     from ..cluster import available_cores
-    from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
+    from ..fsutil import check_outputs, named_project, project_folder, refuse_overlapping_outputs
     from ..pack.atlas_pack import PageRules
     from ..pack.run import PackOptions, pack_library, pack_project
     from ..upgrade import is_library
+    project = named_project(project)  # its files named by the folder's name in the report, from anywhere
 
     check_outputs([project_folder(project)], files=[report], preview=preview)
     # as upgrade does: pictures of the preview inside OUT would ship with the packed project

@@ -142,11 +142,12 @@ def upgrade(
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack --pages any --max-page 2048
     """
     from ..cluster import available_cores
-    from ..fsutil import check_outputs, project_folder, refuse_overlapping_outputs
+    from ..fsutil import check_outputs, named_project, project_folder, refuse_overlapping_outputs
     from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
+    project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     # Every output checked before any work: never inside the project, onto an input, or through a symlink.
     check_outputs([project_folder(project), images_in], files=[report], preview=preview, images=images)
     refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})

@@ -80,13 +80,14 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
     """
     from ..anim.motion import sampled_bone_worlds
-    from ..fsutil import OutputGuard, check_written_folder, project_folder
+    from ..fsutil import OutputGuard, check_written_folder, named_project, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ._summary import print_errors
 
+    project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     guard = OutputGuard([project])
     guard.check_folder(out)
     if report is not None:
