@@ -72,3 +72,98 @@ def test_pack_project_named_dot_reports_as_from_elsewhere(tmp_path):
     two = json.loads((inside.parent / "r.json").read_text())
     assert "proj/broken.json" in json.dumps(one), one
     assert _without_seconds(one) == _without_seconds(two)
+
+
+# --- folders spinemesh marks as its own, written again ---------------------------------------------
+
+def _plant_temporaries(folder: Path) -> tuple[list[str], list[str]]:
+    """A killed run's temporary files (named as the atomic writer names them) at the top and one
+    folder down, and a user's files that look like them but are not ours. Returns (ours, theirs)."""
+    from spinemesh.fsutil import _temporary_name
+
+    ours = [_temporary_name("report.json", "0123abcd"), f"assets/{_temporary_name('0.png', 'deadbeef')}"]
+    theirs = ["notes.tmp", ".draft.tmp", ".report.json.0123ABCD.tmp"]
+    for rel in ours + theirs:
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_bytes(b"half a file")
+    return ours, theirs
+
+
+def _sprite(radius: int):
+    import numpy as np
+
+    yy, xx = np.mgrid[:48, :48]
+    rgba = np.zeros((48, 48, 4), np.uint8)
+    rgba[(yy - 24) ** 2 + (xx - 24) ** 2 < radius ** 2] = (200, 80, 40, 255)
+    return rgba
+
+
+def test_diff_report_written_again_loses_the_earlier_reports_files_and_a_killed_runs(tmp_path):
+    """``diff --out`` written again kept the earlier report's pictures (``assets/``) that the new one
+    did not write, and a killed run's temporary files; both go, a user's look-alikes stay."""
+    meshed = _demo_without_page(tmp_path, bad_skeleton=True).parent / "meshed"
+    assert run("upgrade", "proj", "--out", "meshed", cwd=tmp_path).returncode in (0, 3)
+    first = run("diff", "meshed", "--out", "report", "--methods", "hull", "--limit", "3", cwd=tmp_path)
+    assert first.returncode == 0, first.stderr
+    out = tmp_path / "report"
+    assert (out / "assets" / "2.png").is_file() and (out / "assets" / "2-hull.svg").is_file()
+    ours, theirs = _plant_temporaries(out)
+    second = run("diff", "meshed", "--out", "report", "--methods", "hull", "--limit", "1", cwd=tmp_path)
+    assert second.returncode == 0, second.stderr
+    assert (out / "assets" / "0.png").is_file() and (out / "report.json").is_file()
+    assert not (out / "assets" / "2.png").exists() and not (out / "assets" / "1-hull.svg").exists()
+    assert not any((out / rel).exists() for rel in ours), sorted(p.name for p in out.rglob("*"))
+    assert all((out / rel).read_bytes() == b"half a file" for rel in theirs)
+
+
+def _need(module: str, extra: str):
+    """``module``, imported; a proof without it fails in CI and skips elsewhere (``unavailable``)."""
+    import importlib
+
+    from conftest import unavailable
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        unavailable(f"{module} is not installed ({e}): pip install 'spinemesh[{extra}]'")
+
+
+def test_dataset_stats_plots_written_again_lose_a_killed_runs_temporary_files(tmp_path):
+    _need("matplotlib", "stats")
+    from spinemesh.dataset import build_dataset
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "corpus" / "demo", with_images_folder=False)
+    build_dataset([tmp_path / "corpus"], tmp_path / "ds")
+    assert run("dataset-stats", "ds", "--plots", "plots", cwd=tmp_path).returncode == 0
+    ours, theirs = _plant_temporaries(tmp_path / "plots")
+    r = run("dataset-stats", "ds", "--plots", "plots", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "plots" / "image_sizes.png").is_file()
+    assert not any((tmp_path / "plots" / rel).exists() for rel in ours)
+    assert all((tmp_path / "plots" / rel).read_bytes() == b"half a file" for rel in theirs)
+
+
+def test_training_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
+    _need("torch", "train")
+    import torch
+
+    from spinemesh.train.loop import TrainConfig, train
+
+    out = tmp_path / "run"
+    sprites = {"train": [_sprite(r) for r in (10, 14, 18)], "val": [_sprite(12)], "train_games": ["a"],
+               "val_games": ["b"]}
+    cfg = TrainConfig(out=str(out), pretrained=False, image_size=64, epochs=1, epoch_samples=2, batch_size=2,
+                      warmup_steps=1, threads=1)
+    threads = torch.get_num_threads()
+    try:
+        train(cfg, sprites)
+        ours, theirs = _plant_temporaries(out)
+        (out / "sprites.npz").write_bytes(b"a pack read from here")  # a file not the writer's: kept
+        train(cfg, sprites)
+    finally:
+        torch.set_num_threads(threads)
+    assert (out / "best.pt").is_file() and (out / "log.jsonl").is_file()
+    assert not any((out / rel).exists() for rel in ours), sorted(p.name for p in out.rglob("*"))
+    assert all((out / rel).read_bytes() == b"half a file" for rel in theirs)
+    assert (out / "sprites.npz").read_bytes() == b"a pack read from here"

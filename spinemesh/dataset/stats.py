@@ -49,8 +49,19 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
 
     ``samples_per_game.png`` (histogram of samples per game), ``type_share.png`` (region vs
     mesh pie with counts), ``vertex_counts.png`` (mesh vertex counts, median line),
-    ``image_sizes.png`` (max image side in pixels, median line).
+    ``image_sizes.png`` (max image side in pixels, median line). The folder is marked as
+    spinemesh's; once the panels are written, an earlier run's files there that this one did
+    not write again, and a killed run's temporary files, are removed
+    (:func:`~spinemesh.fsutil.rewriting_folder`), never a file spinemesh did not write.
     """
+    from ..fsutil import rewriting_folder
+
+    with rewriting_folder(out_dir):
+        return _plot_panels(stats, Path(out_dir))
+
+
+def _plot_panels(stats: dict, out_dir: Path) -> list[Path]:
+    """:func:`plot_stats`'s panels, written into ``out_dir``."""
     try:
         import matplotlib
     except ImportError:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..fsutil import (
     atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, check_written_folder, finite,
-    mark_written_folder,
+    mark_written_folder, rewriting_folder,
 )
 from ..mesher import Mesh
 from .run import DiffResult
@@ -368,7 +368,9 @@ def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
 
     A folder that holds files but no spinemesh report is refused (its files would be replaced,
     :func:`~spinemesh.fsutil.check_written_folder`); the folder written is marked as ours, so a
-    later report is written into it again.
+    later report is written into it again, and the earlier report's files (``assets/``) this one
+    does not write again are removed then, with a killed run's temporary files
+    (:func:`~spinemesh.fsutil.rewriting_folder`), never a file spinemesh did not write.
 
     Returns
     -------
@@ -382,6 +384,12 @@ def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
     """
     out = Path(out)
     check_written_folder(out, REPORT_FOLDER, "report")
+    with rewriting_folder(out):  # an earlier report's files not written again removed, as a killed run's
+        return _write_files(result, out)
+
+
+def _write_files(result: DiffResult, out: Path) -> dict[str, Path]:
+    """:func:`write_report`'s files, written into ``out`` once it is checked."""
     mark_written_folder(out)  # before its first file: a report cut short is still ours to write again
     (out / "assets").mkdir(parents=True, exist_ok=True)
     agg = aggregate(result)

@@ -27,7 +27,7 @@ from torch.utils.data import DataLoader, IterableDataset
 
 from ..fsutil import (
     atomic_write_json, atomic_write_stream, atomic_write_text, check_written_folder, finite, mark_written_folder,
-    strict_json,
+    remove_listed_files, strict_json, temporary_files,
 )
 from .data import VAL_BACKGROUNDS, flat_sample, normalise, read_pack, training_sample, write_pack
 from .model import SegmentationModel, count_parameters, read_checkpoint
@@ -255,7 +255,7 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
 
     Writes into ``cfg.out``: ``split.json`` (games per side), ``log.jsonl`` (one line per
     epoch), ``curves.png``, ``best.pt`` and ``last.pt`` (``{"config", "model", "metrics",
-    "meta"}``, float16 weights).
+    "meta"}``, float16 weights). A killed run's temporary files there are removed once the run ends.
 
     Parameters
     ----------
@@ -275,6 +275,9 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
     out = Path(cfg.out)
     check_written_folder(out, "training folder", "training run")  # a folder of a user's files: refused
     mark_written_folder(out)  # before its first file: a run cut short is written into again
+    # A killed run's temporary files go once this run ends; not rewriting_folder's earlier files too:
+    # a pack (--data OUT/sprites.npz) or checkpoint (--init OUT/best.pt) read from here is not written again.
+    leftovers = temporary_files(out)
     sprites = sprites if sprites is not None else load_sprites(cfg, max(1, cfg.workers))
     train_s, val_s = _write_split(sprites, cfg.data, out)
     model = _build_model(cfg)
@@ -310,6 +313,7 @@ def _train(cfg: TrainConfig, sprites: dict | None = None, progress=None) -> dict
                      f"({rec['epoch_s']:.0f} s, {wait:.0f} s waiting for data)")
         if stop:
             break
+    remove_listed_files(out, leftovers)  # only those still holding the bytes found: not another run's
     return best
 
 
