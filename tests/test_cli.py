@@ -415,3 +415,17 @@ def test_memory_refused_past_every_stage_ends_in_one_line():
     assert r.returncode == 2, r.stderr[-2000:]
     assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0, r.stderr
     assert r.stderr.startswith("error: not enough memory to finish")
+
+
+@pytest.mark.parametrize("command", ["upgrade", "pack", "weights"])
+@pytest.mark.parametrize("columns", ["80", "100"])
+def test_help_reads_at_the_terminal_width(command, columns):
+    """At 80 (and 100) columns no help line runs past the edge, and no option name is cut at its hyphen."""
+    env = dict(os.environ, COLUMNS=columns)
+    r = subprocess.run([sys.executable, "-m", "spinemesh", command, "--help"], capture_output=True, text=True,
+                       env=env)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert all(len(line) <= int(columns) for line in lines), [line for line in lines if len(line) > int(columns)]
+    cut = [line for line in lines if re.search(r"(^|\s)--?[a-z]+(-[a-z]+)*-$", line)]
+    assert not cut, cut

@@ -75,16 +75,16 @@ def pack(
     rectangle. Rectangles may overlap where outlines do not. Skeletons are copied byte for
     byte; atlases and page images are rewritten, page fields kept. An atlas that cannot be
     packed, or would not get smaller in page texels or in bytes, keeps its layout, with the reason
-    in the report; its PNG pages are re-encoded where smaller (--keep-files-as-exported: copied
-    as they are). Pages are written as small as oxipng makes them (PNG), proven lossless.
+    in the report; its PNG pages are re-encoded where smaller (copied as they
+    are with --keep-files-as-exported). Pages are written as small as oxipng makes them (PNG), proven lossless.
 
     Exit status: 0 when every atlas was packed or kept on purpose; 3 when something failed
     (it is copied as it was; the report says why); 2 when the project (for a folder of projects:
     every one of them) has no usable atlas (nothing is written).
 
     \b
-    Example: spinemesh pack project/ --out packed/ --report pack.json --preview pack-preview/
-    Example: spinemesh pack project/ --out packed/ --pages any --max-page 4096 --jobs 4
+    Example: spinemesh pack project/ --out packed/ --preview pack-preview/
+    Example: spinemesh pack project/ --out packed/ --pages any --max-page 4096
     Example: spinemesh upgrade project/ --out meshed/ --pack
     """
     import time

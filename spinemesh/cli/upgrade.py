@@ -120,10 +120,11 @@ def upgrade(
     page images and other files are copied. For one skeleton file, only that skeleton and
     the atlases or images it uses are written.
 
-    Region attachments left as they are on purpose (--only, --exclude, --min-size, fully
-    transparent images, sequences trimmed differently on the atlas page unless --repack, regions a
-    mesh would not make cheaper to draw: --min-saving) are counted as
-    "kept" with the reason in the report. Exit status: 0 when everything asked was done;
+    Region attachments left as they are on purpose are counted as "kept" with the reason in
+    the report: those that --only, --exclude or --min-size leave out, fully transparent
+    images, sequences trimmed differently on the atlas page unless --repack, and regions a
+    mesh would not make cheaper to draw (see --min-saving).
+    Exit status: 0 when everything asked was done;
     3 when some attachment or skeleton failed (it stays as it was; the report says why), or
     when the skeletons were written but the --report could not be;
     2 when there was nothing to upgrade: no skeleton found, or --only/--exclude matched nothing
@@ -136,10 +137,10 @@ def upgrade(
 
     \b
     Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/
-    Example: spinemesh upgrade library/ --out meshed-library/ --report report.json --jobs 8
-    Example: spinemesh upgrade project/hero.skel --out meshed/ --only 'head*' --min-size 16 --report report.json
+    Example: spinemesh upgrade library/ --out meshed/ --report report.json -j 8
+    Example: spinemesh upgrade project/hero.skel --out meshed/ --only 'head*'
     Example: spinemesh upgrade project/ --out meshed-packed/ --pack
-    Example: spinemesh upgrade project/ --out meshed-packed/ --pack --pages any --max-page 2048
+    Example: spinemesh upgrade project/ --out packed/ --pack --max-page 2048
     """
     from ..cluster import available_cores
     from ..fsutil import check_outputs, named_project, project_folder, refuse_overlapping_outputs

@@ -75,9 +75,9 @@ def weights(
     attachment or skeleton failed.
 
     \b
-    Example: spinemesh weights project/ --out weighted/ --report weighted/report.json
-    Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones keep --preview previews/
-    Example: spinemesh weights project/hero.skel --out weighted/ --replace --bones learned --report report.json
+    Example: spinemesh weights project/ --out weighted/ --report report.json
+    Example: spinemesh weights project/hero.skel --out weighted/ --preview pics/
+    Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.motion import sampled_bone_worlds
     from ..fsutil import OutputGuard, check_written_folder, named_project, project_folder
