@@ -26,7 +26,6 @@ in size, so that nothing computed from them overflows.
 
 from __future__ import annotations
 
-import collections
 import json
 import math
 import re
@@ -391,10 +390,12 @@ class KeyedTwice(dict):
 
     Python's JSON, like spine-ts (``JSON.parse``), keeps the last value of a key; spine-c,
     spine-cpp and libGDX read the first whose name matches ignoring case. ``twice`` holds those
-    keys, case-folded; :func:`spinemesh.skeleton.parse_skeleton_json` makes such objects.
+    keys, case-folded; ``repeated`` those written twice alike, as written (``x`` of ``x``, ``X``,
+    ``x`` too); :func:`spinemesh.skeleton.parse_skeleton_json` makes such objects.
     """
 
     twice: frozenset = frozenset()
+    repeated: frozenset = frozenset()
 
     @classmethod
     def of(cls, pairs: list) -> dict:
@@ -404,8 +405,10 @@ class KeyedTwice(dict):
             return obj
         seen: set = set()
         twice = {k for k in (key.casefold() for key, _ in pairs) if k in seen or seen.add(k)}
+        written: set = set()
         marked = cls(obj)
         marked.twice = frozenset(twice)
+        marked.repeated = frozenset(key for key, _ in pairs if key in written or written.add(key))
         return marked
 
 
@@ -451,10 +454,10 @@ def animations_keyed_twice(doc) -> list[str]:
 
 def _written_twice(node: dict) -> list[str]:
     """The keys a :class:`KeyedTwice` holds once for two written alike (the first's value lost
-    here); keys that differ but for case are both held, and not among them."""
-    twice = getattr(node, "twice", ())
-    held = collections.Counter(key.casefold() for key in node)
-    return [key for key in node if (fold := key.casefold()) in twice and held[fold] == 1]
+    here), beside another case of it or not (``x`` of ``x``, ``X``, ``x``); keys that differ but
+    for case alone are both held, and not among them."""
+    repeated = getattr(node, "repeated", ())
+    return [key for key in node if key in repeated]
 
 
 _KEYED_TWICE_READ = ("spine-c, spine-cpp and libGDX read each (a timeline written twice is applied twice), spine-ts "

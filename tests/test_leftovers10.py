@@ -167,3 +167,21 @@ def test_training_folder_written_again_loses_a_killed_runs_temporary_files(tmp_p
     assert not any((out / rel).exists() for rel in ours), sorted(p.name for p in out.rglob("*"))
     assert all((out / rel).read_bytes() == b"half a file" for rel in theirs)
     assert (out / "sprites.npz").read_bytes() == b"a pack read from here"
+
+
+# --- an animation's key written twice beside another case of it --------------------------------------
+
+def test_an_animation_key_written_twice_beside_another_case_of_it_is_said():
+    """``x``, ``X``, ``x`` in an animation's object: ``x`` is written twice (spine-c, spine-cpp and
+    libGDX read each, spine-ts the last), as the attachment check flags it; ``x`` and ``X`` alone,
+    two names both kept, are not said."""
+    from spinemesh.skeleton import parse_skeleton_json
+    from spinemesh.skeleton_check import animations_keyed_twice
+
+    slots = '{"spark": {"attachment": [], "Attachment": [], "attachment": []}}'
+    lines = animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {"slots": ' + slots + "}}}"))
+    assert len(lines) == 1 and lines[0].startswith("animation 'wave': slots.spark.attachment written twice;"), lines
+    named = animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {}, "Wave": {}, "wave": {}}}'))
+    assert named and named[0].startswith("animation 'wave': named twice;"), named
+    assert not animations_keyed_twice(parse_skeleton_json('{"animations": {"wave": {"slots": {"s": {"rgba": [], '
+                                                          '"RGBA": []}}}, "Wave": {}}}'))
