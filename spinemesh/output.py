@@ -82,8 +82,9 @@ def output_folder(out: Path, overwrite: bool):
             if not overwrite:
                 raise SpineMeshError("output folder is not empty; pass --overwrite to write it again", out)
             if not (out / OUTPUT_MARKER).is_file():
-                raise SpineMeshError("output folder is not empty and was not written by spinemesh; "
-                                     "refusing to delete it, choose another --out", out)
+                raise SpineMeshError("output folder is not empty and was not written by spinemesh "
+                                     "(no .spinemesh-output); nothing is written there: choose another --out",
+                                     out)
             refuse_linked_folders(out)  # before anything is removed: a page written below one would leave OUT
             _remove_earlier_run(out)
         found = _files_under(out)

@@ -309,6 +309,8 @@ def test_overwrite_never_deletes_a_folder_we_did_not_write(demo, tmp_path):
     (mine / "thesis.txt").write_text("precious")
     r = run("upgrade", str(demo), "--out", str(mine), "--overwrite")
     assert r.returncode == 2 and "not written by spinemesh" in r.stderr
+    # --overwrite removes only the files a marker lists: the refusal says nothing is written, not "delete"
+    assert "nothing is written there" in r.stderr and "delete it" not in r.stderr, r.stderr
     assert (mine / "thesis.txt").read_text() == "precious"
 
 
