@@ -101,7 +101,7 @@ def _sprite(radius: int):
 def test_diff_report_written_again_loses_the_earlier_reports_files_and_a_killed_runs(tmp_path):
     """``diff --out`` written again kept the earlier report's pictures (``assets/``) that the new one
     did not write, and a killed run's temporary files; both go, a user's look-alikes stay."""
-    meshed = _demo_without_page(tmp_path, bad_skeleton=True).parent / "meshed"
+    _demo_without_page(tmp_path, bad_skeleton=True)
     assert run("upgrade", "proj", "--out", "meshed", cwd=tmp_path).returncode in (0, 3)
     first = run("diff", "meshed", "--out", "report", "--methods", "hull", "--limit", "3", cwd=tmp_path)
     assert first.returncode == 0, first.stderr

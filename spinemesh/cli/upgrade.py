@@ -159,8 +159,7 @@ def upgrade(
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
                       pack_rules=PageRules(pages.value, max_page), pack_keep_files=keep_files_as_exported,
                       **({} if min_saving is None else {"min_saving": min_saving}))
-    library = is_library(project)
-    result = _run(project, out, options, library)
+    result = _run(project, out, options, is_library(project))
     report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
     if dry_run:
