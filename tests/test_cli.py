@@ -425,9 +425,20 @@ def test_help_reads_at_the_terminal_width(command, columns):
     """At 80 (and 100) columns no help line runs past the edge, and no option name is cut at its hyphen."""
     env = dict(os.environ, COLUMNS=columns)
     r = subprocess.run([sys.executable, "-m", "spinemesh", command, "--help"], capture_output=True, text=True,
-                       env=env)
+                       env=env, check=False)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert all(len(line) <= int(columns) for line in lines), [line for line in lines if len(line) > int(columns)]
     cut = [line for line in lines if re.search(r"(^|\s)--?[a-z]+(-[a-z]+)*-$", line)]
     assert not cut, cut
+
+
+@pytest.mark.parametrize("command", ["upgrade", "pack", "weights"])
+def test_help_names_the_folders_it_speaks_of(command):
+    """--overwrite's help says "Write OUT again": OUT is the name --out shows, and the project is PROJECT."""
+    r = run(command, "--help")
+    assert r.returncode == 0, r.stderr
+    assert "--overwrite" in r.stdout and "OUT again" in r.stdout
+    assert re.search(r"-o, --out OUT\b", r.stdout), r.stdout
+    assert re.search(r"^Usage: .* \{?PROJECT\}?$", r.stdout, re.MULTILINE), r.stdout.splitlines()[0]
+    assert "<path>" not in r.stdout

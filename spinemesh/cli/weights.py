@@ -38,8 +38,8 @@ class WeightMethod(str, Enum):
 
 @app.command()
 def weights(
-    project: Annotated[Path, typer.Argument(help="Project folder, or one skeleton file (.json/.skel).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (not the project folder, not "
+    project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder, or one skeleton file (.json/.skel).")],
+    out: Annotated[Path, typer.Option("--out", "-o", metavar="OUT", help="Output folder (not the project folder, not "
                                       "inside it); refused if not empty, unless --overwrite.")],
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Write OUT again (only a folder spinemesh "
                                             "wrote): the files the earlier run wrote are removed, any other kept.")] = False,
@@ -56,14 +56,14 @@ def weights(
         "--method", help="bbw: bounded biharmonic weights (Jacobson et al. 2011); harmonic: heat-diffusion-"
                          "like weights, faster; biharmonic: unbounded, clipped; geodesic: falling off with the "
                          "distance along the art to each bone (Dionne and de Lasa 2013), fastest.")] = WeightMethod.bbw,
-    only: Annotated[List[str], typer.Option("--only", help="Glob on slot, attachment name or image path; "
+    only: Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
                                             "repeatable.")] = [],
-    exclude: Annotated[List[str], typer.Option("--exclude", help="Glob on slot, attachment name or image "
+    exclude: Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
                                                "path; repeatable.")] = [],
-    report: Annotated[Optional[Path], typer.Option("--report", help="Write a JSON report: per attachment, "
+    report: Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report: per attachment, "
                                                    "the bones chosen and why, and the time.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="Write one PNG per weighted attachment here: the wireframe over the sprite with "
+        "--preview", metavar="DIR", help="Write one PNG per weighted attachment here: the wireframe over the sprite with "
                           "vertices coloured by bone, and the mesh in one bent pose.")] = None,
 ) -> None:
     """Bind the mesh attachments of a project to bones and compute their weights.
