@@ -125,11 +125,12 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     from ..output import run_report_error
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL
+    from ..words import counted
     from ._summary import print_errors
 
-    count = len(result.atlases)
+    listed = f"the {counted(len(result.atlases), 'atlas', 'atlases')} listed above" if result.atlases else ""
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
-                                    f"the {count} atlas{'es' if count > 1 else ''} listed above" if count else "")
+                                    listed)
     if preview is not None:
         from ..pack.preview import write_preview
 

@@ -184,12 +184,12 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: P
     (refused, exit 2)."""
     from ..output import run_report_error
     from ..upgrade import write_report
+    from ..words import counted
 
     if report is not None and dry_run:  # no output folder
         write_report(result, report, root)
         return ""
-    count = len(result.written)
-    written = f"the {count} skeleton{'s' if count > 1 else ''} listed above" if count else ""
+    written = f"the {counted(len(result.written), 'skeleton')} listed above" if result.written else ""
     return run_report_error(report, out, lambda path: write_report(result, path, root), written)
 
 

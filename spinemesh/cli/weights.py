@@ -85,6 +85,7 @@ def weights(
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
+    from ..words import counted
     from ._summary import print_errors
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
@@ -99,9 +100,8 @@ def weights(
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
         result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
-    count = len(result.written)
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
-                                    f"{count} skeleton{'s' if count > 1 else ''}" if count else "")
+                                    counted(len(result.written), "skeleton") if result.written else "")
     _print_result(result)
     if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
         print_errors([report_error])
