@@ -22,7 +22,7 @@ from PIL import Image, UnidentifiedImageError
 from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
 from .foreground import alpha_above, texels_as_words
-from .fsutil import portable_name, resolve_inside
+from .fsutil import portable_name, resolve_inside, walk_files
 from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
 from .memory import image_memory
 
@@ -1042,6 +1042,8 @@ class AtlasImages:
         for atlas in atlases:
             for region in atlas.regions:
                 self._index.setdefault(region.name, (atlas, region))
+        #: portable name (:func:`.fsutil.portable_name`) -> region names of that name, once a name missed
+        self._portable: dict[str, list[str]] | None = None
 
     @classmethod
     def from_files(cls, paths: list[str | Path], root: str | Path | None = None) -> "AtlasImages":
@@ -1101,8 +1103,8 @@ class AtlasImages:
     def _alike(self, name: str) -> str:
         """For a name no region has: the regions named so but for case or Unicode form (a project
         moved between macOS, Windows and Linux), which runtimes do not match either; or ``""``."""
-        if getattr(self, "_portable", None) is None:
-            self._portable: dict[str, list[str]] = {}
+        if self._portable is None:
+            self._portable = {}
             for other in self._index:
                 self._portable.setdefault(portable_name(other), []).append(other)
         alike = self._portable.get(portable_name(name), [])
@@ -1182,8 +1184,6 @@ class FolderImages:
         return found[0] if len(found) == 1 else None
 
     def _files(self) -> list[Path]:
-        from .fsutil import walk_files
-
         if not self.folder.is_dir():
             return []
         return [p for p in walk_files(self.folder) if p.suffix.lower() in IMAGE_EXTENSIONS]
