@@ -283,10 +283,11 @@ def project_folder(path: str | Path) -> Path:
 def named_project(path: str | Path) -> Path:
     """``path`` (a command's project: a folder, or a skeleton file) as a run names it: one whose
     folder is the current one (``.``, ``hero.json`` given from inside the project) absolute, any
-    other (and one not there, refused as given later) as given. A file of the project is then named by a path that holds the project folder
-    (``/home/me/hero/hero.atlas``, not ``hero.atlas``), which :func:`named_within` names from the
-    folder's name (``hero/hero.atlas``): a report is the same bytes from inside the project as from
-    elsewhere. A path the console shows stays one to open."""
+    other (and one not there, refused as given later) as given. A file of the project is then
+    named by a path that holds the project folder (``/home/me/hero/hero.atlas``, not
+    ``hero.atlas``), which :func:`named_within` names from the folder's name (``hero/hero.atlas``):
+    a report is the same bytes from inside the project as from elsewhere. A path the console
+    shows stays one to open."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     return Path(os.path.abspath(path)) if path.exists() and os.path.normpath(folder) == "." else path
@@ -321,8 +322,6 @@ def named_within(value, folder: str | Path | None):
                       key=len, reverse=True)
     if not prefixes:
         return value
-    import re
-
     # a prefix counts where a path begins: not inside another name (``hero/`` in ``superhero/``)
     pattern = re.compile(r"(?<![\w.\-/])(?:" + "|".join(re.escape(p) for p in prefixes) + r")(?=/)")
     name = os.path.basename(really)
