@@ -122,7 +122,7 @@ class AtlasRegion(_Fields):
         for e in self.entries:
             fields = _GEOMETRY_FIELDS.get(e.key)
             if fields is not None:
-                got.update(zip(fields, _ints(self, e.key, len(fields), source, e.values)))
+                got.update(zip(fields, _ints(self, e.key, e.values, len(fields), source)))
             elif e.key == "rotate":
                 got["degrees"] = _degrees(self, e.values, source)
         if not {"x", "y", "w", "h"} <= got.keys():
@@ -332,11 +332,8 @@ def _degrees(region, values: list[str], source) -> int:
     return degrees
 
 
-def _ints(item, key: str, n: int, source, values: list[str] | None = None) -> list[int] | None:
-    """The first ``n`` whole numbers of ``item``'s ``key`` line (or of ``values``), None without one."""
-    values = item.get(key) if values is None else values
-    if values is None:
-        return None
+def _ints(item, key: str, values: list[str], n: int, source) -> list[int]:
+    """The first ``n`` whole numbers of ``values``, ``item``'s ``key`` line."""
     if len(values) < n:
         raise AtlasError(f"{item.name!r}: {key}: needs {n} numbers, found {len(values)}", source, line=item.line)
     try:
