@@ -219,7 +219,7 @@ class PoseBone:
             isfinite = math.isfinite
             finite = isfinite(a) and isfinite(b) and isfinite(x) and isfinite(c) and isfinite(d) and isfinite(y)
         except (ValueError, OverflowError):  # an infinite angle left by a degenerate constraint
-            self.m, self._world = (math.nan,) * 6, None
+            self.set_world((math.nan,) * 6)
             finite = False
         parent_ok = self.parent is None or self.parent.exact
         self.exact = parent_ok and self.applied_exact and finite
@@ -1270,7 +1270,7 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in
             try:
                 c.physics.update(bone, c.data)
             except (ValueError, OverflowError):  # springs driven past what a float holds (an angle of NaN)
-                bone.world = np.full((2, 3), np.nan)
+                bone.set_world((math.nan,) * 6)
             if not bone.finite():  # the runtimes draw such a bone nowhere: flagged, those below it too
                 _mark([bone], f"moved {where} by the {c.label()}, whose springs diverge (not a finite number)")
         return
