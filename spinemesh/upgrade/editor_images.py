@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_bytes, resolve_inside
+from ..fsutil import atomic_write_bytes, file_stamp, resolve_inside
 from ..images import RegionImage, premultiply, unpremultiply
 from ..pack.png import profile_misfit
 
@@ -20,7 +20,7 @@ from ..pack.png import profile_misfit
 @lru_cache(maxsize=8)
 def _colour_of(source: str, stamp: tuple) -> tuple:
     """The colour chunks of the page ``source`` (:func:`spinemesh.pack.run.page_colour`), read once
-    for all of its regions; ``stamp`` (its size and time) reads a changed page again."""
+    for all of its regions; ``stamp`` (:func:`~spinemesh.fsutil.file_stamp`) reads a changed page again."""
     from ..pack.run import page_colour
 
     return page_colour(Path(source).read_bytes())
@@ -51,8 +51,7 @@ def write_editor_image(frame: RegionImage, folder: Path) -> None:
         rgba = unpremultiply(cv2.resize(premultiply(rgba), size, interpolation=cv2.INTER_CUBIC))
     target = resolve_inside(folder, frame.name + ".png", folder, "--images folder")
     source = Path(frame.source)
-    stat = source.stat()
-    colour = _colour_of(str(source), (stat.st_size, stat.st_mtime_ns))
+    colour = _colour_of(str(source), file_stamp(source))
     data = page_png(rgba, source, colour)
     if misfit := profile_misfit(data):
         # a grey page's (grey) profile fits grey texels only: such an image is written grey

@@ -14,10 +14,9 @@ met.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import time
 from dataclasses import dataclass, field
-from functools import partial
+from functools import lru_cache, partial
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +26,7 @@ from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
 from ..foreground import alpha_above
-from ..fsutil import OneFilePerName, mark_written_folder
+from ..fsutil import OneFilePerName, file_stamp, mark_written_folder
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
@@ -151,18 +150,13 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
 def _page_drawn_otherwise(path: str, name: str) -> str:
     """Why the page file at ``path`` is drawn otherwise than its texels (animated, turned by EXIF:
     :func:`spinemesh.pack.run.check_one_upright_image`); empty when it is not, or cannot be read
-    (its decode says why). Each file read once (by path, size and time)."""
-    import os
-
-    try:
-        st = os.stat(path)
-    except OSError:
-        return ""
-    return _page_drawn_otherwise_once(path, name, st.st_size, st.st_mtime_ns)
+    (its decode says why). Each file read once (by path and :func:`~spinemesh.fsutil.file_stamp`)."""
+    stamp = file_stamp(path)
+    return "" if stamp is None else _page_drawn_otherwise_once(path, name, stamp)
 
 
-@functools.lru_cache(maxsize=64)
-def _page_drawn_otherwise_once(path: str, name: str, size: int, mtime_ns: int) -> str:
+@lru_cache(maxsize=64)
+def _page_drawn_otherwise_once(path: str, name: str, stamp: tuple) -> str:
     from ..pack.atlas_pack import PackRefused
     from ..pack.run import check_one_upright_image
 
@@ -170,8 +164,8 @@ def _page_drawn_otherwise_once(path: str, name: str, size: int, mtime_ns: int) -
         check_one_upright_image(images.image_file_bytes(path), name)
     except PackRefused as e:
         return str(e)
-    except SpineMeshError:
-        return ""
+    except SpineMeshError:  # unreadable: its decode says why
+        pass
     return ""
 
 
