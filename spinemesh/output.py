@@ -258,6 +258,13 @@ def atlas_pages(proj: Project) -> dict[Path, set[Path]]:
             for path, atlas in project_atlases(proj).items()}
 
 
+def check_pages_copied(pages: set[Path], failed: set[Path], dest: Path) -> None:
+    """Refuse to copy an atlas to ``dest`` when one of its ``pages`` (:func:`atlas_pages`) is among
+    the ``failed`` copies: a runtime would read the atlas and miss its page."""
+    if pages & failed:
+        raise SpineMeshError("a page it names was not copied (without it, the atlas would not load)", dest)
+
+
 def files_needed(doc: dict, source) -> set[Path]:
     """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
     from .images import AtlasImages, FolderImages

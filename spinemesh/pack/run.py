@@ -1036,22 +1036,21 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
     # runtime would read it and miss its page
-    from ..output import atlas_pages
+    from ..output import atlas_pages, check_pages_copied
 
     pages_of = atlas_pages(proj)
     failed: set[Path] = set()
     files = [] if in_place else proj.files  # only files inside the project by real path (find_project)
-    for f in sorted(files, key=lambda f: f.resolve() in pages_of):
-        if f.resolve() in skip:
+    for f, real in sorted(((f, f.resolve()) for f in files), key=lambda pair: pair[1] in pages_of):
+        if real in skip:
             continue
         try:
             target = out / f.relative_to(proj.root)
-            if pages_of.get(f.resolve(), set()) & failed:
-                raise SpineMeshError("a page it names was not copied (without it, the atlas would not load)", target)
+            check_pages_copied(pages_of.get(real, set()), failed, target)
             if not target.exists():
                 atomic_copy(f, target)
         except SpineMeshError as e:
-            failed.add(f.resolve())
+            failed.add(real)
             result.errors.append(f"not copied: {e}")
 
 

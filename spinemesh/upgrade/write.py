@@ -21,7 +21,7 @@ from ..attachment_geometry import mesh_attachment
 from ..cluster import WorkerLost, Workers
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy
-from ..output import atlas_pages, files_needed, files_to_copy, write_skeleton
+from ..output import atlas_pages, check_pages_copied, files_needed, files_to_copy, write_skeleton
 from ..skeleton import iter_attachments
 from .bending import settle_bending
 from .meshing import MeshResult
@@ -170,8 +170,7 @@ def copying_other_files(plan: ProjectPlan, out: Path, result: Result) -> Iterato
     for source, dest in pairs:
         if source.resolve() in pages_of:
             try:
-                if pages_of[source.resolve()] & failed:
-                    raise SpineMeshError("a page it names was not copied (without it, the atlas would not load)", dest)
+                check_pages_copied(pages_of[source.resolve()], failed, dest)
                 atomic_copy(source, dest)
             except SpineMeshError as e:
                 result.errors.append(f"not copied: {e}")
