@@ -151,8 +151,9 @@ def _remove_earlier_run(out: Path) -> None:
     """Remove from ``out`` the files an earlier run wrote there, as its marker lists them (each
     only while it is the file the run left, :func:`~spinemesh.fsutil.remove_listed_files`), and
     the folders they leave empty; any other file stays. A run that did not end (its marker lists
-    what it found, and names this very folder) wrote every file but those; an older spinemesh's marker lists none: it emptied
-    the folder as a whole, and so does this. Any other marker is refused, every file kept."""
+    what it found, and names this very folder) wrote every file but those; an older spinemesh's
+    marker lists none: it emptied the folder as a whole, and so does this. Any other marker is
+    refused, every file kept."""
     marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
         if not _older_marker(out / OUTPUT_MARKER):

@@ -206,7 +206,6 @@ def png_chunks(data: bytes) -> list[tuple[bytes, bytes]] | None:
     return None
 
 
-
 def png_file_cut_short(path) -> int | None:
     """Where a PNG file at ``path`` is cut short: the byte at which its chunks (walked by their
     heads, seeking over their data, at most :data:`MAX_CHUNKS`) stop before IEND; None when
