@@ -98,7 +98,7 @@ def check_run(r: subprocess.CompletedProcess, before: dict, tmp: Path, outputs: 
         if name.endswith(".json") and after[rel] not in copies:  # what we wrote, not a copied input
             _strict((tmp / rel).read_text("utf-8-sig"), rel)  # a byte-order mark is kept from the input
     if r.returncode == 2:
-        # ours ("error: FILE: why"), the option parser's ("Error: Invalid value for '--x': ..."),
+        # ours ("error: FILE: why"), the option parser's ("error: CMD: Invalid value for '--x': ..."),
         # or, for a folder of images of which none could be meshed, one "skipped: FILE: why" per image
         errors = [line for line in r.stderr.splitlines() if line.lower().startswith(("error:", "skipped:"))]
         assert errors, f"exit 2 without an 'error:' line:\n{r.stderr}"

@@ -15,10 +15,71 @@ from enum import Enum
 from typing import Annotated, Optional
 
 import typer
+from typer.core import TyperGroup
+
+try:
+    from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer 0.28 carries its own click
+except ImportError:  # typer 0.26 and 0.27 use click itself
+    from click.exceptions import NoArgsIsHelpError, UsageError
 
 from .. import __version__
 
+
+def usage_error_line(error: UsageError) -> str:
+    """What a bad option or argument says, one line without the ``error:`` prefix.
+
+    ``upgrade: No such option: --bogus (Possible options: --jobs, --out) (see 'spinemesh
+    upgrade --help')``: the command, click's own message (the option or value it names, the
+    choices), and where the help is; click prints the usage, a hint and a blank line before it.
+    """
+    ctx = error.ctx
+    message = error.format_message().removesuffix(".")
+    if ctx is None:
+        return message
+    names = []
+    while ctx.parent is not None:  # the command (and group) names under the program's
+        names.append(ctx.info_name or "")
+        ctx = ctx.parent
+    command = " ".join(reversed(names))
+    return f"{command + ': ' if command else ''}{message} (see '{error.ctx.command_path} --help')"
+
+
+class _OneLineUsageErrors(TyperGroup):
+    """The application's group: every usage error of every command (an unknown option or
+    command, a missing argument, a bad Enum choice or number, a callback's ``BadParameter``) is
+    one ``error:`` line on stderr, exit status 2 as click's; ``spinemesh`` alone still prints
+    the help. Parsing happens in ``make_context`` (the group's options, the command's name) and
+    in ``invoke`` (the command's own options, then its body)."""
+
+    def make_context(self, info_name, args, parent=None, **extra):
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except UsageError as e:
+            _refuse_usage(e)
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except UsageError as e:
+            _refuse_usage(e)
+
+
+def _refuse_usage(error: UsageError):
+    """Print ``error`` as one line and end the run with its status (2); the help asked for by
+    ``spinemesh`` without a command goes on as click prints it."""
+    if isinstance(error, NoArgsIsHelpError):
+        raise error
+    from rich.markup import escape
+
+    from ..errors import escaped
+
+    err_console.print(f"[bold red]error:[/] {escape(escaped(usage_error_line(error)))}", highlight=False,
+                      soft_wrap=True)
+    raise typer.Exit(error.exit_code)
+
+
 app = typer.Typer(
+    cls=_OneLineUsageErrors,
     name="spinemesh",
     help="Automatic triangle meshes for Spine projects.\n\n"
          "Example: spinemesh upgrade project/ --out meshed/ --preview meshed-preview/",
