@@ -30,7 +30,7 @@ from ..fsutil import OneFilePerName, file_stamp, mark_written_folder
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
-from ..skeleton import checked_attachments, image_paths, load_skeleton
+from ..skeleton import checked_attachments, image_paths, linked_source, load_skeleton
 from ..skeleton_check import animations_keyed_twice
 from .editor_images import write_editor_image
 from .options import Options, skip_reason
@@ -308,6 +308,24 @@ def _unlike(image: tuple[int, int], attachment: tuple) -> str:
             "than the region drawn, which its mesh would not fit")
 
 
+def linked_mesh_parents(refs) -> dict[tuple[str, str, str], str]:
+    """Region attachments a linked mesh names as its parent mesh, by ``(skin, slot, name)``, with why
+    each stays a region.
+
+    No runtime loads such a skeleton (spine-ts and libGDX stop at the linked mesh, spine-c and
+    spine-cpp read the region as a mesh), and spinemesh's sampler draws nothing there. Meshed, the
+    region would make the linked mesh load and draw its own image over the new mesh: a picture
+    the original never showed.
+    """
+    out = {}
+    for ref in refs:
+        if ref.type == "linkedmesh":
+            skin, slot, name = linked_source(ref)
+            out.setdefault((skin, slot, name), f"linked mesh {ref.name!r} of skin {ref.skin!r} names it as its parent "
+                                               "mesh: no runtime loads that, and a mesh here would make it draw")
+    return out
+
+
 def _turned_for_meshes_only(source, paths: list[str]) -> str:
     """Why a region attachment of ``paths`` cannot become a mesh, or ``""``: a region stored
     turned by 180 or 270 degrees, which every runtime turns for a mesh but draws unturned for a
@@ -376,11 +394,16 @@ class Planner:
         targets = []
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
-        for ref, problem in checked_attachments(doc):
+        checked = list(checked_attachments(doc))
+        parents = linked_mesh_parents(ref for ref, _ in checked)
+        for ref, problem in checked:
             if ref.type != "region" and isinstance(ref.type, str):
                 continue
             if problem:  # a field of the wrong type or an unusable number: this one stays as it is
                 targets.append(Target(skeleton, ref.skin, ref.slot, ref.name, [], "failed", problem))
+                continue
+            if linked := parents.get((ref.skin, ref.slot, ref.name)):
+                targets.append(Target(skeleton, ref.skin, ref.slot, ref.name, [], "failed", linked))
                 continue
             try:
                 paths = image_paths(ref)
