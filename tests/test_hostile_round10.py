@@ -134,3 +134,48 @@ def test_a_region_a_linked_mesh_names_as_its_parent_stays_a_region(tmp_path):
         types = _types(tmp_path / out / "demo.json")
         assert types.pop("default/head/demo-head") == "region" and types.pop("alt/head/demo-head") == "linkedmesh"
         assert set(types.values()) == {"mesh"}, types
+
+
+# --- the preview page ------------------------------------------------------------------------------
+
+def test_skins_and_animations_named_like_javascript_internals_play_in_the_preview(tmp_path):
+    """A skin named ``__proto__`` (the page's script wrote each animation's data files in an
+    object keyed by skin name, where that key sets no property) opened the player on "could not
+    load [object Object]" with nothing drawn, whichever animation was chosen. Skins named
+    ``constructor`` or ``toString``, an animation named ``__proto__``, one of 10,000 characters
+    behind a right-to-left override, and bones and slots named with script play too."""
+    from browser import player_result, run
+    from test_hostile_wave4 import PAYLOADS
+
+    project = _demo(tmp_path)
+    long_name = "\u202e" + "x" * 10_000
+
+    def names(doc):
+        atts = doc["skins"][0]["attachments"]
+        for name in ("__proto__", "constructor", "toString"):
+            doc["skins"].append({"name": name, "attachments": copy.deepcopy(atts)})
+        wave = doc["animations"]["wave"]
+        doc["animations"].update({"__proto__": copy.deepcopy(wave), long_name: copy.deepcopy(wave)})
+        doc["bones"][2]["name"] = PAYLOADS[0]      # the head's bone, keyed by the wave
+        for slot in doc["slots"]:
+            if slot["bone"] == "head":
+                slot["bone"] = PAYLOADS[0]
+        wave["bones"][PAYLOADS[0]] = wave["bones"].pop("head")
+        doc["slots"][4]["name"] = PAYLOADS[1]      # the blobs' slot
+        atts[PAYLOADS[1]] = atts.pop("blobs")
+
+    _edit(project, names)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/", "v/"], codes=(0,))
+    page = (tmp_path / "v" / "s" / "demo.html").resolve().as_uri()
+    model = next((tmp_path / "v" / "data").glob("*/model.js")).read_text(encoding="utf-8")
+    skins = json.loads(model[model.index('"skins":') + 8:model.index('],"anims"') + 1])
+    assert sorted(skins) == sorted(["__proto__", "constructor", "toString", "default"])
+    for skin in range(len(skins)):
+        for anim, name in ((1, "wave"), (2, "__proto__"), (3, long_name)):
+            got = player_result(page + f"#skin={skin}&play={anim}&test=1", tmp_path / "chromium", budget_ms=4000)
+            assert got["anim"] == name
+            assert len({s["after"] for s in got["samples"]}) > 1, (skin, name)  # drawn, and moving
+    dom = run(page, tmp_path / "chromium", "--dump-dom").stdout
+    assert "PWNED" not in dom and "could not load" not in dom

@@ -233,9 +233,11 @@
     }
 
     function choose() {
-      var a = model.anims[P.anim], skin = model.skins[P.skin];
-      var src = a.src[skin] || a.src[model.skins[0]];
-      var key = id + "/" + P.anim + "/" + (a.src[skin] ? skin : model.skins[0]);
+      /* a.src: the animation's script per skin, by the skin's place in model.skins (null where
+       * it was not sampled in that skin) */
+      var a = model.anims[P.anim], own = a.src[P.skin];
+      var src = own || a.src[0];
+      var key = id + "/" + P.anim + "/" + (own ? P.skin : 0);
       status.textContent = "loading " + a.name + " …";
       load(key, src, function (data) {
         if (!data.decoded) {
@@ -245,7 +247,7 @@
           };
         }
         P.data = data;
-        status.textContent = (a.src[skin] ? "" : "Drawn in the skin " + model.skins[0] + ": to keep the preview " +
+        status.textContent = (own ? "" : "Drawn in the skin " + model.skins[0] + ": to keep the preview " +
                               "small, this animation was sampled in that skin only (the setup pose shows every skin). ") +
                              (data.note || "");
         resize();
