@@ -324,7 +324,7 @@ def named_within(value, folder: str | Path | None):
         return value
     # a prefix counts where a path begins: not inside another name (``hero/`` in ``superhero/``)
     pattern = re.compile(r"(?<![\w.\-/])(?:" + "|".join(re.escape(p) for p in prefixes) + r")(?=/)")
-    name = os.path.basename(really)
+    name = folder_name(folder)
 
     def named(v):
         if isinstance(v, str):
@@ -336,6 +336,21 @@ def named_within(value, folder: str | Path | None):
         return v
 
     return named(value)
+
+
+def folder_name(folder: str | Path) -> str:
+    """The name a report gives ``folder`` itself: its real folder's own name (``hero`` for
+    ``../hero``, ``/home/ci/hero`` or ``.`` inside it); the paths into it are named from it
+    (:func:`named_within`)."""
+    return os.path.basename(os.path.realpath(folder))
+
+
+def named_from(path: str | Path, folder: str | Path) -> str:
+    """``path`` as a report names it: ``folder`` itself by :func:`folder_name`, a path into it
+    from that name (:func:`named_within`), any other path as given."""
+    if os.path.realpath(path) == os.path.realpath(folder):
+        return folder_name(folder)
+    return named_within(os.fspath(path), folder)
 
 
 def refuse_report_over_output(report: Path, out: Path) -> None:

@@ -213,6 +213,43 @@ def test_a_data_set_is_the_same_bytes_from_any_folder(tmp_path):
     assert [k for k in first if first[k] != second[k]] == []
 
 
+def _pose_mesh_info(where: Path, cwd: Path, at) -> dict[str, bytes]:
+    """``pose``, ``mesh`` (a folder and an image) and ``info`` (a project with an atlas, one with
+    its images folder only) of the demo in ``where``, run from ``cwd`` with paths ``at(p)``:
+    every file written, and info's standard output (what a build keeps in a log file)."""
+    demo = make_demo_project(where / "demo")
+    bare = make_demo_project(where / "bare")
+    for name in ("demo.atlas", "demo.png", "demo-binary.skel"):
+        (bare / name).unlink()
+    steps = [("pose", at("demo/demo.json"), "-a", "wave", "--times", "0.1", "--out", at("pose.json")),
+             ("mesh", at("demo/images"), "--out", at("meshes"), "--preview", at("previews")),
+             ("mesh", at("demo/images/demo-head.png"), "--out", at("head.json"), "--preview", at("head.png"))]
+    for step in steps:
+        r = spinemesh(*step, cwd=cwd)
+        assert r.returncode == 0, (step, r.stderr[-2000:])
+    out = {k: v for k, v in files_of(where).items() if not k.startswith(("demo/", "bare/"))}
+    for name in ("demo", "bare"):
+        r = spinemesh("info", at(name), cwd=cwd)
+        assert r.returncode == 0, r.stderr
+        out[f"info {name}"] = r.stdout.encode()
+    # from inside the project too, as "."
+    for name, project in (("demo", demo), ("bare", bare)):
+        r = spinemesh("info", ".", cwd=project)
+        assert r.stdout.encode() == out[f"info {name}"], (r.stdout, out[f"info {name}"])
+    return out
+
+
+def test_pose_mesh_and_info_are_the_same_bytes_from_any_folder(tmp_path):
+    """``pose``, ``mesh`` and ``info`` name the project's files by its folder's name as the reports
+    do (``fsutil.named_within``): the same bytes by relative paths, absolute ones from elsewhere
+    and ``.`` from inside. ``info`` said "Atlases in " and "images from: " by the paths given."""
+    a = _pose_mesh_info(tmp_path / "a" / "build", tmp_path / "a" / "build", lambda p: Path(p))
+    b = _pose_mesh_info(tmp_path / "b" / "build", tmp_path, lambda p: tmp_path / "b" / "build" / p)
+    assert sorted(a) == sorted(b) and "pose.json" in a and "meshes/demo-head.json" in a
+    assert [k for k in a if a[k] != b[k]] == []
+    assert b"Atlases in bare" in a["info bare"] and b"images from: bare/images" in a["info bare"]
+
+
 def test_a_reports_counts_come_in_one_order_whatever_the_project(tmp_path):
     """The report's ``counts`` listed statuses in the order they first occurred: a project whose
     first attachment was meshed one night and kept the next gave reports whose text differed in

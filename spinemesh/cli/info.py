@@ -29,12 +29,15 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     from rich.table import Table
 
     from ..errors import SpineMeshError
+    from ..fsutil import named_from, named_project
     from ..project import find_project, image_source_for, project_atlases
     from ..skeleton import checked_attachments, image_paths, load_skeleton, spine_version
 
-    proj = find_project(project)
+    # what stdout says (often kept in a file) names the project's folders from its name, the same
+    # bytes from any folder; the problems on stderr give whole paths, to open
+    proj = find_project(named_project(project))
     atlases = project_atlases(proj)
-    table = Table(title="Atlases in " + escape(str(proj.root)))
+    table = Table(title="Atlases in " + escape(named_from(proj.root, proj.root)))
     for col in ("atlas", "syntax", "pages", "regions", "scale", "pma"):
         table.add_column(col)
     for p, a in atlases.items():
@@ -71,7 +74,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
                 continue
             missing |= {(r.skin, r.slot, r.name, p) for p in paths if source is None or p not in source}
         console.print(f"\n[bold]{escape(str(path.relative_to(proj.root)))}[/]  "
-                      + escape(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source)}"))
+                      + escape(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source, proj.root)}"))
         t = Table()
         t.add_column("attachment type")
         t.add_column("count", justify="right")
@@ -126,9 +129,13 @@ def _unreadable_pages(source, root: Path) -> list[str]:
     return out
 
 
-def _describe(source) -> str:
+def _describe(source, root: Path) -> str:
+    """Where a skeleton's images come from: its atlases by name, or the folder of images named
+    from the project's name (:func:`~spinemesh.fsutil.named_from`)."""
+    from ..fsutil import named_from
+
     if source is None:
         return "none"
     if hasattr(source, "atlases"):
         return ", ".join(a.path.name for a in source.atlases)
-    return str(source.folder)
+    return named_from(source.folder, root)
