@@ -240,6 +240,8 @@ def atlas_bars(bars):
 
 #: Terminal columns from which the pack table holds its notes (below: a line each under it).
 NOTES_IN_TABLE_FROM = 160
+#: The narrowest the notes' column gets in a wide terminal (its words wrap).
+NOTE_MIN_WIDTH = 20
 
 
 def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
@@ -248,14 +250,12 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     from rich.markup import escape  # names and reasons come from the project: never markup
     from rich.table import Table
 
+    from ..runs import short_names
     from ._summary import print_errors
 
     # a note of 20 words in a column of a narrow terminal took a line a word: there, each note is
     # a line of its own under the table
     below = console.width < NOTES_IN_TABLE_FROM
-    table = Table(title="spinemesh pack")
-    for col in ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle") + (() if below else ("note",)):
-        table.add_column(col, justify="left" if col in ("atlas", "note") else "right")
 
     def change(before: int, after: int) -> str:
         return f"{before:,} -> {after:,} ({share_change(before, after)})" if before else "-"
@@ -264,21 +264,65 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         # None: its layout was kept (its regions stay where they were), see AtlasRow
         return ("-", "-") if a.by_outline is None else (str(a.by_outline), str(a.by_rectangle))
 
-    for a in atlases:
-        table.add_row(escape(a.atlas), f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
-                      change(a.bytes_before, a.bytes_after), *regions(a), *(() if below else (escape(a.reason),)))
+    rows = [[a.atlas, f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
+             change(a.bytes_before, a.bytes_after), *regions(a)] for a in atlases]
     if len(atlases) > 1:
-        table.add_section()
         from ..pack.run import atlas_totals
 
         total = atlas_totals(atlases)
-        table.add_row("total", f"{total['pages_before']} -> {total['pages_after']}",
-                      change(total["texels_before"], total["texels_after"]),
-                      change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),
-                      str(total["by_rectangle"]), *(() if below else ("",)))
+        rows.append(["total", f"{total['pages_before']} -> {total['pages_after']}",
+                     change(total["texels_before"], total["texels_after"]),
+                     change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),
+                     str(total["by_rectangle"])])
+    columns = ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle")
+    widths = _fitted_widths([list(columns), *rows], console.width - (0 if below else 3 + NOTE_MIN_WIDTH))
+    shown = short_names([a.atlas for a in atlases], widths[0]) if widths else {}
+    table = Table(title="spinemesh pack")
+    for i, col in enumerate(columns):
+        table.add_column(col, justify="left" if i == 0 else "right", no_wrap=i == 0,
+                         width=widths[i] if widths else None)
+    if not below:
+        table.add_column("note", justify="left", min_width=NOTE_MIN_WIDTH)
+    notes = [a.reason for a in atlases] + [""]  # the total's note: none
+    for i, (row, note) in enumerate(zip(rows, notes)):
+        if i == len(atlases):
+            table.add_section()  # the total
+        table.add_row(escape(shown.get(row[0], row[0]) if i < len(atlases) else row[0]), *row[1:],
+                      *(() if below else (escape(note),)))
     if atlases:
         console.print(table)
         for a in atlases if below else ():
             if a.reason:
                 console.print(f"note: {a.atlas}: {a.reason}", highlight=False, markup=False, soft_wrap=True)
     print_errors(errors)
+
+
+def _fitted_widths(cells: list[list[str]], width: int) -> list[int] | None:
+    """The widths of a table's columns (text, without padding or borders) that fit ``width``
+    terminal columns: the first column (names, never wrapped) takes what the others leave, the
+    others (figures, wrapped at their spaces) are never narrower than their longest word; None
+    when the table fits as it is.
+
+    At 80 columns the pack table cut each atlas's name to its first letters (``HalloweenC…``),
+    so the log did not say which atlas was packed, while its figures took two lines anyway.
+
+    Parameters
+    ----------
+    cells : list of list of str
+        The header, then each row, a text per column.
+    width : int
+        Terminal columns the table may take, its borders and padding included.
+    """
+    columns = range(len(cells[0]))
+    natural = [max(len(row[i]) for row in cells) for i in columns]
+    least = [max((len(word) for row in cells for word in row[i].split()), default=1) for i in columns]
+    room = width - 3 * len(natural) - 1  # a space each side of a cell, a border between and around
+    if sum(natural) <= room:
+        return None
+    fitted = [min(natural[0], max(room - sum(least[1:]), len(cells[0][0]))), *least[1:]]
+    spare = room - sum(fitted)
+    for i in sorted(columns[1:], key=lambda i: natural[i] - fitted[i]):  # the shortest whole first: fewer lines
+        grown = min(spare, natural[i] - fitted[i])
+        fitted[i] += grown
+        spare -= grown
+    return fitted
