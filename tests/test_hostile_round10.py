@@ -179,3 +179,114 @@ def test_skins_and_animations_named_like_javascript_internals_play_in_the_previe
             assert len({s["after"] for s in got["samples"]}) > 1, (skin, name)  # drawn, and moving
     dom = run(page, tmp_path / "chromium", "--dump-dom").stdout
     assert "PWNED" not in dom and "could not load" not in dom
+
+
+# --- the pose sampler's inputs, against the official runtime --------------------------------------
+
+#: Times sampled: before, on and between the keys, and past the end (the animation loops).
+POSE_TIMES = "0,0.1,0.2,0.25,0.4,0.5,0.6,0.75,0.9,1,1.3,1.6"
+
+
+def _pose_project(tmp: Path, version: str, animations: dict) -> Path:
+    """The demo skeleton as ``version`` (without its 4.1+ sequence before 4.1), with ``animations``."""
+    project = _demo(tmp)
+
+    def change(doc):
+        doc["skeleton"]["spine"] = version
+        doc["animations"] = animations
+        if version < "4.1":
+            doc["slots"] = [s for s in doc["slots"] if s["name"] != "spark"]
+            del doc["skins"][0]["attachments"]["spark"]
+
+    _edit(project, change)
+    return project
+
+
+def _poses_match_the_runtime(tmp: Path, runtime: Path, project: Path, animation: str, times: str = POSE_TIMES):
+    """``pose`` of ``animation`` at ``times`` (through the command) against the official runtime's dump."""
+    from runtime_tool import pose_dump
+
+    from spinemesh.anim.dump import pose_errors
+
+    before = snapshot(tmp)
+    r = run_cli("pose", "p/demo.json", "-a", animation, "--times", times, "--out", f"{animation}.json", cwd=tmp)
+    check_run(r, before, tmp, [f"{animation}.json"], codes=(0,))
+    ours = json.loads((tmp / f"{animation}.json").read_text())
+    (tmp / "runtime").mkdir(exist_ok=True)
+    theirs = pose_dump(runtime, project / "demo.atlas", project / "demo.json", tmp / "runtime" / f"{animation}.json",
+                       animation, times)
+    assert len(ours["poses"]) == len(theirs["poses"])
+    for a, b in zip(ours["poses"], theirs["poses"]):
+        e = pose_errors(a, b)
+        assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (animation, a["label"], e)
+
+
+@pytest.mark.parametrize("version", ["4.2.40", "4.1.20", "4.0.60", "3.8.99"])
+def test_keys_out_of_time_order_pose_as_the_runtimes_find_them(tmp_path, spine_runtime, version):
+    """Keys whose times do not ascend (the editor never writes them; a tool or a hand can): numpy's
+    bisection found another key than the runtimes do, so ``pose`` and the preview showed a pose
+    no runtime shows (a bone 6 degrees off, the slots in another draw order, a 3.8 bone 60 units
+    away), exit 0. The runtimes disagree among themselves here: 4.x scans for the first later key
+    past the time, 3.8 bisects; each version is now posed as its own runtime poses it, rotate,
+    translate with a stepped key, attachment and draw order timelines alike."""
+    angle = "angle" if version.startswith("3") else "value"
+    keyed = {
+        "bones": {
+            "arm": {"rotate": [{angle: 5}, {"time": 0.7, angle: 40}, {"time": 0.2, angle: -30},
+                               {"time": 0.9, angle: 60}, {"time": 0.4, angle: 10}, {"time": 1.0, angle: 0}]},
+            "head": {"rotate": [{"time": 0.5, angle: 40}, {angle: 0}, {"time": 1, angle: 10}]},
+            "body": {"translate": [{"x": 5}, {"time": 0.7, "x": 40}, {"time": 0.2, "x": -30, "curve": "stepped"},
+                                   {"time": 0.9, "x": 60}, {"time": 0.4, "y": 10}, {"time": 1.0}]},
+        },
+        "slots": {"head": {"attachment": [{"name": None}, {"time": 0.6, "name": "demo-head"},
+                                          {"time": 0.3, "name": None}, {"time": 0.8, "name": "demo-head"}]}},
+        "drawOrder": [{"offsets": [{"slot": "arm", "offset": 3}]}, {"time": 0.7},
+                      {"time": 0.2, "offsets": [{"slot": "head", "offset": -2}]}, {"time": 0.9}],
+    }
+    project = _pose_project(tmp_path, version, {"t": keyed})
+    _poses_match_the_runtime(tmp_path, spine_runtime, project, "t")
+
+
+def test_the_search_of_keys_out_of_order_is_each_runtimes():
+    """The two searches worked by hand: 4.x takes the key before the first later one past the
+    time, 3.x bisects (which here lands elsewhere); ascending keys give the last at or before."""
+    import numpy as np
+
+    from spinemesh.anim.curves import key_times, search
+
+    times = np.array([0.0, 0.7, 0.2, 0.9, 0.4, 1.0])
+    four, three = key_times(times, True), key_times(times, False)
+    assert [search(four, t) for t in (-1, 0.1, 0.3, 0.5, 0.8, 0.95, 1.2)] == [-1, 0, 0, 0, 2, 4, 5]
+    assert [search(three, t) for t in (-1, 0.1, 0.3, 0.5, 0.8, 0.95, 1.2)] == [-1, 0, 2, 2, 2, 4, 5]
+    ascending = np.array([0.0, 0.5, 0.5, 1.0])
+    assert key_times(ascending, True) is ascending
+    assert [search(ascending, t) for t in (-0.5, 0.25, 0.5, 0.75, 1, 2)] == [-1, 0, 2, 2, 3, 3]
+
+
+@pytest.mark.parametrize("version", ["4.2.40", "4.0.60"])
+def test_odd_keys_pose_as_in_the_runtime(tmp_path, spine_runtime, version):
+    """Passed as it was: two keys at one time, keys before 0, Bezier handles far outside their
+    keys' span in time, a stepped last key, curve lists of 0, 3 and 8 numbers on a timeline of
+    one value and of 4 on one of two, an animation of events only, one of no duration and one of
+    1e9 seconds: ``pose`` gives the runtime's pose at every time."""
+    odd = {
+        "bones": {
+            "arm": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 0.5, "value": -40},
+                               {"time": 1, "value": 0, "curve": "stepped"}]},
+            "head": {"rotate": [{"time": -0.5, "value": 20, "curve": [-0.5, 0, 2, 40]}, {"time": 0.5, "value": 40},
+                                {"time": 1, "value": 0}]},
+            "body": {"translate": [{"x": 0, "y": 0, "curve": [0.1, 0, 0.4, 10]}, {"time": 0.5, "x": 30, "y": 20},
+                                   {"time": 1}]},
+            "props": {"rotate": [{"value": 0, "curve": [0.25, 0, 0.75]}, {"time": 0.3, "value": 20, "curve": []},
+                                 {"time": 0.6, "value": 40, "curve": [0.6, 0, 0.7, 40, 0.1, 0, 0.4, 3]},
+                                 {"time": 0.9, "value": -10}],
+                      "scale": [{"x": 1, "curve": [0.4, 80, 0.1, -30, 0.2, 1, 0.3, 2]}, {"time": 0.5, "x": 2, "y": 0.5}]},
+        },
+    }
+    project = _pose_project(tmp_path, version, {
+        "odd": odd, "events": {"events": [{"time": 0.5, "name": "e"}]},
+        "still": {"bones": {"arm": {"rotate": [{"value": 30}, {"value": 50}]}}},
+        "long": {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 1e9, "value": 40}]}}}})
+    _edit(project, lambda doc: doc.update(events={"e": {}}))
+    for animation in ("odd", "events", "still", "long"):
+        _poses_match_the_runtime(tmp_path, spine_runtime, project, animation)

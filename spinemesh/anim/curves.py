@@ -36,6 +36,57 @@ def f32(values) -> np.ndarray:
     return np.asarray(values, np.float64).astype(np.float32).astype(np.float64)
 
 
+class UnorderedTimes(np.ndarray):
+    """Key times that do not ascend (a file written by hand or by a tool, never by the editor),
+    marked so that :func:`search` finds a key among them as the version's runtime does.
+
+    ``reach``: for 4.x, the running maximum of the times after the first (a key is found by the
+    first later key past the time, :func:`search`); None for 3.x, whose runtimes bisect.
+    """
+
+    reach: np.ndarray | None = None
+
+
+def key_times(times: np.ndarray, four: bool) -> np.ndarray:
+    """``times`` (float64, shape (n,)) as :func:`search` searches them: the array itself where
+    they ascend, as every editor writes them, else an :class:`UnorderedTimes` view."""
+    if len(times) < 2 or bool(np.all(times[1:] >= times[:-1])):
+        return times
+    out = times.view(UnorderedTimes)
+    out.reach = np.maximum.accumulate(times[1:]) if four else None
+    return out
+
+
+def search(times: np.ndarray, time: float) -> int:
+    """The key a runtime applies at ``time``: the last at or before it where the times ascend;
+    -1 before the first key.
+
+    Where they do not (:func:`key_times`), the runtimes disagree, and each version's is taken:
+    4.x (spine-core, spine-c, spine-cpp) scans from the second key for the first later than
+    ``time`` and takes the one before it; 3.x takes the last key from its time on, else bisects
+    the keys between, as 3.8's ``Animation.binarySearch`` does. numpy's bisection of keys out of
+    order found yet another key (a pose no runtime showed).
+    """
+    if not isinstance(times, UnorderedTimes):
+        return int(np.searchsorted(times, time, side="right")) - 1
+    n = len(times)
+    if time < times[0]:
+        return -1
+    if times.reach is not None:
+        return int(np.searchsorted(times.reach, time, side="right"))
+    if time >= times[n - 1]:
+        return n - 1
+    low, high = 0, n - 2
+    current = high >> 1
+    while low != high:
+        if times[current + 1] <= time:
+            low = current + 1
+        else:
+            high = current
+        current = (low + high) >> 1
+    return low
+
+
 def _forward_differences(x1, y1, cx1, cy1, cx2, cy2, x2, y2) -> np.ndarray:
     """Nine points of a cubic Bezier from ``(x1, y1)`` to ``(x2, y2)``, shape (9, 2), at
     parameters 0.1 to 0.9, by forward differences in the runtimes' order of operations."""
@@ -120,7 +171,6 @@ class Keys:
     four: bool
     angle: bool = False
     _span: tuple | None = field(default=None, init=False, repr=False, compare=False)
-    _ascending: bool | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def duration(self) -> float:
@@ -136,11 +186,11 @@ class Keys:
         from the last on), the key's kind, its values and the next key's (tuples of float)
         and its curve (nested lists of float; None unless BEZIER). The span last found is
         kept and answers while ``time`` stays within it, where the times ascend (a file's
-        keys out of order are searched each time, as numpy searches them)."""
+        keys out of order are searched each time, as the runtimes search them: :func:`search`)."""
         span = self._span
         if span is not None and span[1] <= time < span[2]:
             return span
-        i = int(np.searchsorted(self.times, time, side="right")) - 1
+        i = search(self.times, time)
         n = len(self.times)
         if i < 0:
             span = (-1, -math.inf, float(self.times[0]), STEPPED, (), (), None)
@@ -152,9 +202,7 @@ class Keys:
             curve = self.bezier[i].tolist() if kind == BEZIER else None
             span = (i, float(self.times[i]), float(self.times[i + 1]), kind, tuple(self.values[i].tolist()),
                     tuple(self.values[i + 1].tolist()), curve)
-        if self._ascending is None:
-            self._ascending = bool(np.all(self.times[1:] >= self.times[:-1]))
-        if self._ascending:
+        if not isinstance(self.times, UnorderedTimes):
             self._span = span
         return span
 
@@ -250,7 +298,7 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     if not frames:
         return None
     n = len(frames)
-    times = f32([_number(f.get("time", 0), 0) for f in frames])
+    times = key_times(f32([_number(f.get("time", 0), 0) for f in frames]), four)
     vals = f32([[0.0] if percent else values(f) for f in frames]).reshape(n, -1)
     k = vals.shape[1]
     kinds = np.full(n, LINEAR, np.int8)

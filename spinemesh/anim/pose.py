@@ -35,8 +35,8 @@ from ..skeleton import iter_skins, spine_version
 from ..skeleton_curves import curve_spelling
 from ..skeleton_version import major_minor
 from .attachments import Prepared, RegionGeometry, prepare
-from .curves import _number
-from .timelines import Animation, color_channels, made_when_needed, read_animation, search
+from .curves import _number, search
+from .timelines import Animation, color_channels, made_when_needed, read_animation
 
 #: What reading or playing an animation raises where a document the loader let through holds
 #: what the sampler cannot play (a field of the wrong type, a key or index that is not there, a

@@ -17,7 +17,7 @@ import numpy as np
 from ..skeleton_colours import read_colour
 from ..skeleton_curves import CURVES_38, CurveSpelling
 from ..skeleton_version import doc_major_minor
-from .curves import Keys, _number, f32, read_keys
+from .curves import Keys, _number, f32, key_times, read_keys
 
 
 def color_channels(text, count: int) -> list[float]:
@@ -151,8 +151,9 @@ class Animation:
     physics_resets: list[tuple[str, np.ndarray]] = field(default_factory=list)  # (constraint or "", key times)
 
 
-def _times(frames: list) -> np.ndarray:
-    return f32([_number(f.get("time", 0), 0) for f in frames if isinstance(f, dict)])
+def _times(frames: list, four: bool) -> np.ndarray:
+    """The keys' times, as :func:`~spinemesh.anim.curves.search` searches them."""
+    return key_times(f32([_number(f.get("time", 0), 0) for f in frames if isinstance(f, dict)]), four)
 
 
 def _mapping(value) -> dict:
@@ -216,7 +217,7 @@ class _Reader:
 
     def discrete(self, frames) -> tuple[list[dict], np.ndarray]:
         fr = _dicts(frames)
-        times = _times(fr)
+        times = _times(fr, self.four)
         if len(times):
             self.ends.append(float(times[-1]))
         return fr, times
@@ -378,8 +379,9 @@ def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends
             out.deforms.append(DeformTimeline(str(skin), slot_index[slot], str(att), k, raw))
         sq = _dicts(seq)
         if sq:
-            out.sequences.append(SequenceTimeline(str(skin), slot_index[slot], str(att), _times(sq), sq))
-            ends.append(float(_times(sq)[-1]))
+            times = _times(sq, four)
+            out.sequences.append(SequenceTimeline(str(skin), slot_index[slot], str(att), times, sq))
+            ends.append(float(times[-1]))
 
 
 def _draw_order(offsets, slot_index: dict) -> list[int] | None:
@@ -420,6 +422,3 @@ def _draw_order(offsets, slot_index: dict) -> list[int] | None:
     return order
 
 
-def search(times: np.ndarray, time: float) -> int:
-    """The last key at or before ``time``; -1 before the first."""
-    return int(np.searchsorted(times, time, side="right")) - 1
