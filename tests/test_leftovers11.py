@@ -61,6 +61,9 @@ def test_a_missing_argument_is_one_line_in_every_command(command):
     (["upgrade", "p", "--out", "o", "--density", "nan"], "Invalid value for '--density'"),
     (["pose", "s.json", "--times=abc"], "Invalid value for --times: 'abc' is not a number of seconds"),
     (["segment", "x.png"], "Missing option '--out'"),
+    # a traceback from deep in the export, once the sprites were read
+    (["segment-export", "best.pt", "--data", "ds", "--out", "m.onnx", "--size", "100"],
+     "Invalid value for '--size': 100 is not a multiple of 32"),
 ])
 def test_a_bad_value_is_one_line(tmp_path, args, words):
     _one_usage_line(run(*args, cwd=tmp_path), args[0], words)

@@ -9,10 +9,6 @@ import typer
 from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 from ._app import Annotated, app, console, err_console
 
-#: Attachments that cannot be used said one by one per skeleton; the rest are counted in one line.
-MAX_UNUSABLE_SAID = 20
-
-
 @app.command()
 def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder or skeleton file (.json/.skel).")]) -> None:
     """Show the Spine version, attachments by type, atlas pages and regions, and missing images.
@@ -32,6 +28,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     from ..fsutil import named_from, named_project
     from ..project import find_project, image_source_for, project_atlases
     from ..skeleton import checked_attachments, image_paths, load_skeleton, spine_version
+    from ..words import unusable_said
 
     # what stdout says (often kept in a file) names the project's folders from its name, the same
     # bytes from any folder; the problems on stderr give whole paths, to open
@@ -58,11 +55,8 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
         checked = list(checked_attachments(doc))
         refs = [r for r, problem in checked if not problem]
         # an attachment of broken numbers is counted and said, not lost (upgrade fails it alike)
-        unusable = [f"{path}: {problem}" for _, problem in checked if problem]
-        proj.problems += unusable[:MAX_UNUSABLE_SAID]
-        if len(unusable) > MAX_UNUSABLE_SAID:
-            proj.problems.append(f"{path}: ... and {len(unusable) - MAX_UNUSABLE_SAID:,} more attachments "
-                                 "that cannot be used")
+        proj.problems += unusable_said([problem for _, problem in checked if problem], path, "{problem}",
+                                       "... and {more:,} more attachments that cannot be used")
         counts = Counter(str(r.type) for r, _ in checked)
         source = image_source_for(doc, path, proj)
         missing = set()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import sys
+from contextlib import contextmanager
 from itertools import chain
 from pathlib import Path
 
@@ -116,21 +117,19 @@ def pose(
         raise typer.Exit(EXIT_PARTIAL)
 
 
-def _say_undrawn(doc: dict, skin: str | None, skeleton: Path, shown: int = 20) -> int:
-    """Warn, one line each (the first ``shown``), of the attachments that draw an image in the skin
-    posed (and the default skin) whose fields cannot be used, which the poses leave undrawn;
-    returns how many. (A path attachment's are said by the bones its constraint leaves flagged.)"""
+def _say_undrawn(doc: dict, skin: str | None, skeleton: Path) -> int:
+    """Warn, one line each (the first :data:`~spinemesh.words.MAX_UNUSABLE_SAID`), of the
+    attachments that draw an image in the skin posed (and the default skin) whose fields cannot
+    be used, which the poses leave undrawn; returns how many. (A path attachment's are said by
+    the bones its constraint leaves flagged.)"""
     from ..skeleton import IMAGE_TYPES, checked_attachments
+    from ..words import unusable_said
 
     skins = {"default", skin or "default"}
     problems = [problem for ref, problem in checked_attachments(doc)
                 if problem and ref.skin in skins and ref.type in IMAGE_TYPES]
-    for problem in problems[:shown]:
-        err_console.print(f"warning: {skeleton}: {problem}; not drawn", highlight=False, markup=False,
-                          soft_wrap=True)
-    if len(problems) > shown:
-        err_console.print(f"warning: {skeleton}: {len(problems) - shown} more attachments not drawn",
-                          highlight=False, markup=False, soft_wrap=True)
+    for line in unusable_said(problems, skeleton, "{problem}; not drawn", "{more} more attachments not drawn"):
+        err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
     return len(problems)
 
 
@@ -214,22 +213,29 @@ def _echo_whole(pieces, stdout) -> None:
     """
     import tempfile
 
+    with _holding():
+        spool = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")  # newline="": "\n" as made
+    with spool:
+        for piece in pieces:  # a pose's own error (made here) passes as it is: only the writes are held
+            with _holding():
+                spool.write(piece)
+        spool.seek(0)
+        _echo_pieces(iter(lambda: spool.read(1 << 20), ""), stdout)
+
+
+@contextmanager
+def _holding():
+    """What the system refuses while the poses are held for standard output (no temporary file,
+    a full temporary folder) as one line naming the temporary folder."""
+    import tempfile
+
     from ..errors import OutputError
 
     try:
-        spool = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")  # newline="": "\n" as made
+        yield
     except OSError as e:
         raise OutputError(f"cannot hold the poses for standard output: {e.strerror or e}",
                           tempfile.gettempdir()) from None
-    with spool:
-        for piece in pieces:
-            try:
-                spool.write(piece)
-            except OSError as e:
-                raise OutputError(f"cannot hold the poses for standard output: {e.strerror or e}",
-                                  tempfile.gettempdir()) from None
-        spool.seek(0)
-        _echo_pieces(iter(lambda: spool.read(1 << 20), ""), stdout)
 
 
 def _posed(poses, animation: str | None, skeleton: Path):

@@ -229,13 +229,21 @@ def train(
     console.print(f"best epoch {best['epoch']}: validation IoU {best['val']['iou']:.4f} -> {out / 'best.pt'}")
 
 
+def _multiple_of_32(value: int) -> int:
+    """``--size``: 0 or a multiple of 32 (the network halves its input five times); any other
+    was a traceback from deep in the export, after the sprites were read."""
+    if value % 32:
+        raise typer.BadParameter(f"{value} is not a multiple of 32 (0: the training side)")
+    return value
+
+
 @app.command("segment-export")
 def segment_export(
     checkpoint: Annotated[Path, typer.Argument(help="best.pt written by spinemesh train.")],
     data: DataOption,
     out: Annotated[Path, typer.Option("--out", help="ONNX file to write; its card is written beside it.")],
     int8: Annotated[bool, typer.Option("--int8/--fp32", help="Static int8 quantisation (default) or fp32.")] = True,
-    size: Annotated[int, typer.Option("--size", min=0, help="Input side of the exported model, a multiple of 32 "
+    size: Annotated[int, typer.Option("--size", min=0, callback=_multiple_of_32, help="Input side of the exported model, a multiple of 32 "
                                       "(0: the training side); smaller is faster.")] = 0,
     calibration: Annotated[int, typer.Option("--calibration", min=1, help="Training composites to calibrate "
                                              "int8 on.")] = 128,
@@ -254,11 +262,13 @@ def segment_export(
     from ..segment import card_path
     from ..segment.samples import load_sprites
     from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise
-    from ..train.export import load_checkpoint, release
+    from ..train.export import checkpoint_config, release
+    from ..train.model import read_checkpoint
 
     check_outputs([checkpoint, *data], files=[out, card_path(out)])  # the card too: never onto the model
 
-    side = size or load_checkpoint(checkpoint).config["image_size"]
+    ckpt = read_checkpoint(checkpoint)  # once: its config here, its weights in release
+    side = size or checkpoint_config(ckpt, checkpoint)["image_size"]
     rng = np.random.default_rng(0)
     train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
@@ -272,6 +282,6 @@ def segment_export(
         import torch
         return list(normalise(torch.from_numpy(np.stack(imgs))).numpy())
 
-    card = release(checkpoint, out, inputs(train_s, calibration), inputs(val_s, 32), int8, size or None)
+    card = release(checkpoint, out, inputs(train_s, calibration), inputs(val_s, 32), int8, size or None, read=ckpt)
     console.print_json(json.dumps({k: card[k] for k in ("precision", "input_size", "size_bytes", "parity_fp32",
                                                         "parity_int8") if k in card}))

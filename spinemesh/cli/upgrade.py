@@ -8,7 +8,7 @@ a progress bar and prints what became of every region attachment.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List
+from typing import List, NamedTuple
 
 import typer
 
@@ -277,7 +277,7 @@ def _print_result(result, dry_run: bool) -> None:
                      "kept", "kept as region", "left a region")
 
 
-def _exit(result, nothing: str, report_error: str = "") -> None:
+def _exit(result, nothing: "NothingDone | None", report_error: str = "") -> None:
     """Exit 3 when something failed (an attachment, a skeleton, the report of a run that wrote its
     skeletons: ``report_error`` is then the run's last line); 2 with an error when there was nothing
     to upgrade (no skeleton, or --only/--exclude left nothing), 0 with a warning when every
@@ -291,17 +291,18 @@ def _exit(result, nothing: str, report_error: str = "") -> None:
         print_errors([report_error])
     if result.partial or report_error:
         raise typer.Exit(EXIT_PARTIAL)
-    # --pack did something (packed, cleared pages outside their rectangles, or wrote a kept atlas's
-    # pages smaller): say what, not that the run did nothing
-    packed = any(a.status in ("packed", "cleared") or a.pages_reencoded for a in result.atlases)
-    if nothing.startswith("nothing to upgrade: every") and packed:
-        console.print(escape(packed_line(result.atlases, nothing.split(": ", 1)[1])), highlight=False)
+    if nothing is None:
         return
-    if nothing.startswith("nothing to upgrade: every"):  # a finished run with nothing left to do: exit 0
-        err_console.print(f"[yellow]warning:[/] {escape(nothing)}", highlight=False)
-    elif nothing:  # nothing to work on (no skeleton, --only/--exclude left nothing): refused, exit 2
-        print_errors([nothing])
+    if nothing.refused:  # nothing to work on (no skeleton, --only/--exclude left nothing): exit 2
+        print_errors([nothing.why])
         raise typer.Exit(EXIT_BAD_INPUT)
+    # a finished run with nothing left to mesh, exit 0; --pack did something (packed, cleared pages
+    # outside their rectangles, or wrote a kept atlas's pages smaller): say what, not that the run
+    # did nothing
+    if any(a.status in ("packed", "cleared") or a.pages_reencoded for a in result.atlases):
+        console.print(escape(packed_line(result.atlases, nothing.why)), highlight=False)
+    else:
+        err_console.print(f"[yellow]warning:[/] {escape(nothing.line)}", highlight=False)
 
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:
@@ -331,18 +332,35 @@ def packed_line(atlases: list, meshed_nothing: str) -> str:
     return f"nothing meshed: {meshed_nothing}; " + "; ".join(did)
 
 
-def _nothing_to_do(result, project: Path, filtered: bool) -> str:
-    """Why the run upgraded nothing, with a hint (an error where nothing was written), or an empty string."""
+class NothingDone(NamedTuple):
+    """Why a run upgraded nothing (:func:`_nothing_to_do`).
+
+    ``refused``: there was nothing to work on (no skeleton, --only/--exclude left nothing), an
+    error, exit 2, ``why`` the whole line; else the run finished with nothing left to mesh, a
+    warning, exit 0, ``why`` the reason (every attachment already a mesh, every region kept).
+    """
+
+    why: str
+    refused: bool
+
+    @property
+    def line(self) -> str:
+        """What the run says."""
+        return self.why if self.refused else f"nothing to upgrade: {self.why}"
+
+
+def _nothing_to_do(result, project: Path, filtered: bool) -> NothingDone | None:
+    """Why the run upgraded nothing, with a hint (an error where nothing was written), or None."""
     from ..upgrade.report import selection_left_nothing
 
     if result.errors or any(t.status in ("meshed", "would mesh", "failed") for t in result.targets):
-        return ""
+        return None
     if not result.written and not result.targets:
-        return (f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" object); "
-                "give the folder the editor exported to")
+        return NothingDone(f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
+                           "object); give the folder the editor exported to", refused=True)
     if filtered and selection_left_nothing(result):
-        return ("--only/--exclude left no region attachment to upgrade; patterns match the slot, the "
-                "attachment name or the image path, e.g. --only 'head*' --only 'arms/*'")
+        return NothingDone("--only/--exclude left no region attachment to upgrade; patterns match the slot, the "
+                           "attachment name or the image path, e.g. --only 'head*' --only 'arms/*'", refused=True)
     if not result.targets:
-        return "nothing to upgrade: every attachment is already a mesh (or of another type); files were copied"
-    return "nothing to upgrade: every region attachment was kept (see the reasons above)"
+        return NothingDone("every attachment is already a mesh (or of another type); files were copied", refused=False)
+    return NothingDone("every region attachment was kept (see the reasons above)", refused=False)

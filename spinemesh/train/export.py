@@ -26,12 +26,22 @@ def load_checkpoint(path: str | Path, image_size: int | None = None) -> Segmenta
     32: the network is fully convolutional and its static padding is the same for all of
     them), to trade accuracy for speed at inference.
     """
-    ckpt = read_checkpoint(path)
+    return model_of(read_checkpoint(path), path, image_size)
+
+
+def checkpoint_config(ckpt: dict, path: str | Path) -> dict:
+    """The training config of ``ckpt`` (what :func:`~.model.read_checkpoint` read from ``path``),
+    refused in one line naming ``path`` when it is no checkpoint of the training loop."""
     if not isinstance(ckpt.get("config"), dict) or not isinstance(ckpt.get("model"), dict):
         from ..errors import SpineMeshError
 
         raise SpineMeshError("not a checkpoint of `spinemesh train` (no model and config in it)", path)
-    config = dict(ckpt["config"], **({"image_size": image_size} if image_size else {}))
+    return ckpt["config"]
+
+
+def model_of(ckpt: dict, path: str | Path, image_size: int | None = None) -> SegmentationModel:
+    """:func:`load_checkpoint` of a checkpoint already read from ``path`` (named by its errors)."""
+    config = dict(checkpoint_config(ckpt, path), **({"image_size": image_size} if image_size else {}))
     if config["image_size"] % 32:
         raise ValueError(f"input size must be a multiple of 32, not {config['image_size']}")
     model = build_model(config)
@@ -138,7 +148,7 @@ def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
 
 
 def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarray], check: list[np.ndarray],
-            int8: bool = True, image_size: int | None = None) -> dict:
+            int8: bool = True, image_size: int | None = None, read: dict | None = None) -> dict:
     """Export a checkpoint as the model that ships: ONNX (static int8 or fp32) plus its card.
 
     The fp32 export and the int8 model are made in a temporary folder, removed whatever ends
@@ -160,6 +170,9 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
         Quantise (default) or ship fp32.
     image_size : int, optional
         Input side of the exported model (default: the training side).
+    read : dict, optional
+        What :func:`~.model.read_checkpoint` read from ``checkpoint``, when the caller read it
+        already (it is read here otherwise: once either way).
 
     Returns
     -------
@@ -177,8 +190,8 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
     import tempfile
 
     out = Path(out)
-    model = load_checkpoint(checkpoint, image_size)
-    ckpt = read_checkpoint(checkpoint)
+    ckpt = read if read is not None else read_checkpoint(checkpoint)
+    model = model_of(ckpt, checkpoint, image_size)
     with tempfile.TemporaryDirectory(prefix="spinemesh-export-") as work:
         fp32 = export_onnx(model, Path(work) / "model.fp32.onnx")
         extra = {"precision": "int8" if int8 else "fp32",
