@@ -6,7 +6,15 @@ Everything runs on the demo project drawn by our own code (no outside data neede
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
 from types import SimpleNamespace
+
+from typer.testing import CliRunner
+
+from spinemesh.cli import app
+
+DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
 
 
 def _pack_table(rows: list, columns: int) -> str:
@@ -48,3 +56,31 @@ def test_the_pack_table_names_each_atlas_at_80_columns():
              and line.split("│")[1].strip() not in ("", "total")]
     assert len(names) == 2 and len(set(names)) == 2 and all(n.endswith(".atlas.txt") for n in names), text
     assert all(len(line) <= 80 for line in text.splitlines()), text
+
+
+def test_weights_on_a_project_without_meshes_says_so(tmp_path):
+    """``spinemesh weights project/`` on an export whose art is all regions (the demo) printed an
+    empty table and the time, exit 0: no skeleton named, no word that there was nothing to
+    weight. Every skeleton is a row, and a warning says why nothing was weighted and what does."""
+    project = tmp_path / "demo"
+    shutil.copytree(DEMO, project)
+    res = CliRunner().invoke(app, ["weights", str(project), "--out", str(tmp_path / "w")], env={"COLUMNS": "100"})
+    assert res.exit_code == 0, res.output
+    rows = [line.split("│")[1].strip() for line in res.output.splitlines() if line.startswith("│")]
+    assert rows == ["demo-binary.skel", "demo.json"], res.output
+    assert "warning: nothing to weight: no skeleton holds a mesh attachment" in res.output, res.output
+    assert "upgrade --weights auto" in res.output, res.output
+
+
+def test_weights_lists_a_skeleton_without_meshes_beside_the_others(tmp_path):
+    """A project of two skeletons, one without a mesh (the corpus's zse-cabin, 3.7): the table
+    listed the other alone, as if the first had not been read; no warning, as something was weighted."""
+    meshed = tmp_path / "meshed"
+    assert CliRunner().invoke(app, ["upgrade", str(DEMO / "demo.json"), "--out", str(meshed)]).exit_code == 0
+    shutil.copy(DEMO / "demo-binary.skel", meshed / "demo-binary.skel")  # its regions: no mesh
+    res = CliRunner().invoke(app, ["weights", str(meshed), "--out", str(tmp_path / "w")], env={"COLUMNS": "100"})
+    assert res.exit_code == 0, res.output
+    rows = {line.split("│")[1].strip(): line for line in res.output.splitlines() if line.startswith("│")}
+    assert sorted(rows) == ["demo-binary.skel", "demo.json"], res.output
+    assert rows["demo-binary.skel"].split("│")[2].strip() == "0", res.output
+    assert "nothing to weight" not in res.output, res.output

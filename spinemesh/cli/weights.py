@@ -126,10 +126,20 @@ def _print_result(result) -> None:
         return [str(len(done)), str(sum(o.status == "skipped" for o in rows)),
                 str(sum(o.status == "failed" for o in rows)), str(done[len(done) // 2]) if done else "-"]
 
+    # every skeleton written is a row, one without a mesh too (it was left out, as if not read)
     console.print(skeleton_table("spinemesh weights", ("weighted", "skipped", "failed", "median bones"),
-                                 result.outcomes, cells))
+                                 result.outcomes, cells, skeletons=result.written))
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
-    for warning in result.warnings:
+    for warning in result.warnings + _nothing_to_weight(result):
         err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
+
+
+def _nothing_to_weight(result) -> list[str]:
+    """Why a run that read its skeletons weighted nothing, where no line above says it: none of them
+    holds a mesh (an export whose art is all regions printed an empty table and its time, exit 0)."""
+    if result.outcomes or not result.written or result.errors:
+        return []
+    return [("nothing to weight: no skeleton holds a mesh attachment (weights binds meshes; "
+             "spinemesh upgrade --weights auto makes meshes of the regions and binds them); files were copied")]
