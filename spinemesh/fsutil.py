@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import hashlib
 import json
@@ -390,12 +389,9 @@ def refuse_one_output_twice(paths: Iterable[str | Path | None]) -> None:
 
 
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
-                  folders: Iterable[str | Path | None] = (), preview: str | Path | None = None,
-                  images: str | Path | None = None) -> None:
+                  folders: Iterable[str | Path | None] = ()) -> None:
     """Check, before any work, every output a command was given (``None`` entries are ignored).
-
-    ``preview``: a ``--preview`` folder of HTML pages, ``images``: an ``--images`` folder of
-    pictures; both checked as ``folders`` are and by :func:`check_written_folder`.
+    A folder written into again is checked by :func:`spinemesh.written_folder.check_written_folder` too.
 
     Raises
     ------
@@ -403,150 +399,13 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
         For the first output that :class:`OutputGuard` refuses, naming it.
     """
     guard = OutputGuard(inputs)
-    for folder in [*folders, preview, images]:
+    for folder in folders:
         if folder is not None:
             guard.check_folder(folder)
     for file in files:
         if file is not None:
             guard.check(file)
     refuse_one_output_twice(files)
-    check_written_folder(preview)
-    check_written_folder(images, "--images folder", "images")
-
-
-#: A file spinemesh leaves in a folder of pictures it writes beside nothing else of its own
-#: (``upgrade --images``, ``weights --preview``): the folder is its own, written into again.
-WRITTEN_MARKER = ".spinemesh-written"
-
-
-def check_written_folder(folder: str | Path | None, what: str = "preview folder", holds: str = "preview") -> None:
-    """Refuse a folder a command writes files into (a ``--preview``, ``--images``) that holds files
-    but none spinemesh wrote: ours would replace a user's of the same names (a mistyped
-    ``--preview ~/Documents``). A folder spinemesh wrote before (:data:`WRITTEN_MARKER`, or the
-    ``index.html`` of an ``upgrade`` or ``pack`` preview) is written over, as before, unless it
-    holds a symlink to a folder (:func:`refuse_linked_folders`).
-
-    Parameters
-    ----------
-    what, holds : str
-        The folder and what spinemesh writes there, as the error says them.
-
-    Raises
-    ------
-    OutputError
-        Naming the folder.
-    """
-    if folder is None or not Path(folder).is_dir() or next(Path(folder).iterdir(), None) is None:
-        return
-    if not (Path(folder) / WRITTEN_MARKER).is_file():
-        try:
-            with open(Path(folder) / "index.html", "rb") as f:
-                head = f.read(512)
-        except OSError:
-            head = b""
-        if b"<title>spinemesh " not in head:
-            raise OutputError(f"{what} is not empty and holds no spinemesh {holds} (its files would replace "
-                              "yours); choose an empty folder", folder)
-    refuse_linked_folders(folder, what)
-
-
-def refuse_linked_folders(folder: str | Path, what: str = "output folder") -> None:
-    """Refuse a folder spinemesh writes into again that holds a symlink to a folder, at any depth:
-    a file written below the link (``img/``, ``images/``) would land in the folder it points to,
-    outside, over a file of the same name there. Files that are symlinks do no harm: a file is
-    replaced whole by a rename, the link with it.
-
-    Raises
-    ------
-    OutputError
-        Naming the link.
-    """
-    for here, dirs, _ in os.walk(folder, followlinks=False):
-        for name in sorted(dirs):
-            link = Path(here) / name
-            if link.is_symlink():
-                raise OutputError(f"{what} holds a symlink to a folder ({link.relative_to(folder).as_posix()} -> "
-                                  f"{os.readlink(link)}): what is written there would land outside it; remove "
-                                  "the link", folder)
-
-
-def mark_written_folder(folder: str | Path) -> None:
-    """Make ``folder`` and mark it as spinemesh's (:data:`WRITTEN_MARKER`), before its files are written:
-    :func:`check_written_folder` lets a later run write into it again. A marker that lists an
-    earlier run's files is kept: the run removes them once it ends (:func:`rewriting_folder`)."""
-    make_folder(Path(folder))
-    if not isinstance(read_marker(Path(folder) / WRITTEN_MARKER), dict):
-        atomic_write_text(Path(folder) / WRITTEN_MARKER, "written by spinemesh; a later run writes its files here again\n")
-
-
-@contextlib.contextmanager
-def rewriting_folder(folder: str | Path | None):
-    """While a run writes its files into ``folder`` (``upgrade --images``, ``weights --preview``):
-    once it ends, the earlier run's files (its marker's list) that this one did not write again
-    are removed, never a file spinemesh did not write, and the marker lists this run's files
-    (:func:`mark_written_files`). A run that does not end, or writes nothing there (refused, or
-    nothing to write), removes nothing: its marker lists the earlier run's files and its own.
-    ``None`` does nothing.
-    """
-    if folder is None:
-        yield
-        return
-    folder = Path(folder)
-    earlier = written_files(folder)
-    before = folder_stamps(folder, WRITTEN_MARKER)
-    done = False
-    try:
-        yield
-        done = True
-    finally:
-        if folder.is_dir():
-            written = [rel for rel, stamp in folder_stamps(folder, WRITTEN_MARKER).items() if before.get(rel) != stamp]
-            with contextlib.suppress(SpineMeshError):  # the earlier marker stays: nothing lost
-                mark_written_files(folder, written, earlier, ended=done and bool(written))
-
-
-def folder_stamps(folder: str | Path, marker: str) -> dict[str, tuple | None]:
-    """Every file under ``folder`` (hidden ones too, its ``marker`` aside) by its POSIX path under
-    it, with its :func:`file_stamp`: a file written anew or replaced has another."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        return {}
-    return {rel: file_stamp(f) for _, _, files in walk_folder(folder, hidden=True) for f in files
-            if (rel := f.relative_to(folder).as_posix()) != marker}
-
-
-#: Largest list of written files read back from a marker (a few hundred bytes per thousand files).
-MAX_MARKER_BYTES = 64 * 1024 * 1024
-
-
-def read_marker(path: str | Path):
-    """A marker's JSON (:data:`WRITTEN_MARKER`, an output folder's); None for a marker of a line of
-    text (an older spinemesh's, or :func:`mark_written_folder`'s), or one that cannot be read."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_MARKER_BYTES + 1)
-        return json.loads(data.decode("utf-8")) if len(data) <= MAX_MARKER_BYTES else None
-    except (OSError, ValueError):
-        return None
-
-
-def listed_files(marker: object) -> dict[str, str | None]:
-    """The files a marker (:func:`read_marker`'s JSON) lists as its run's, by POSIX path, each with
-    the :func:`file_digest` it had when the run ended (None where the marker gives none)."""
-    names = marker.get("written") if isinstance(marker, dict) else None
-    digests = marker.get("sha256") if isinstance(marker, dict) else None
-    digests = digests if isinstance(digests, dict) else {}
-    return {name: digest if isinstance(digest := digests.get(name), str) else None
-            for name in (names if isinstance(names, list) else ()) if isinstance(name, str)}
-
-
-def marker_listing(folder: str | Path, listed: dict[str, str | None], written: Iterable[str] = ()) -> dict:
-    """A marker's ``written`` and ``sha256`` (:func:`listed_files` reads them back): the files
-    ``listed`` with the digests given (an earlier marker's, None for none), and the files this run
-    ``written`` under ``folder``, digested now. A digest, unlike an inode, is the same wherever
-    the folder is: the marker is the same bytes for the same files."""
-    digests = {**listed, **{rel: file_digest(Path(folder) / rel) for rel in written}}
-    return {"written": sorted(digests), "sha256": {rel: digests[rel] for rel in sorted(digests) if digests[rel]}}
 
 
 def file_digest(path: str | Path) -> str | None:
@@ -561,87 +420,6 @@ def file_digest(path: str | Path) -> str | None:
             return digest.hexdigest()
     except (OSError, ValueError):
         return None
-
-
-def written_files(folder: str | Path) -> dict[str, str | None]:
-    """The files spinemesh wrote in ``folder``, with their digests: those its :data:`WRITTEN_MARKER`
-    lists (:func:`mark_written_files`, :func:`listed_files`), and the temporary files of the atomic
-    writer (:func:`is_temporary_name`) that a run killed outright (SIGKILL, a power cut) left at
-    any depth, which no marker lists. A run that ends removes them with the earlier run's files
-    (:func:`remove_listed_files`, only while they hold the bytes read here: one that another run
-    is still writing changes, and is kept)."""
-    folder = Path(folder)
-    return {**temporary_files(folder), **listed_files(read_marker(folder / WRITTEN_MARKER))}
-
-
-def temporary_files(folder: str | Path) -> dict[str, str | None]:
-    """The regular files under ``folder`` (not symlinks) whose names the atomic writer makes
-    (:func:`is_temporary_name`), by POSIX path under it, with their :func:`file_digest`."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        return {}
-    found = {}
-    for _, _, files in walk_folder(folder, hidden=True):
-        for f in files:
-            if is_temporary_name(f.name) and not f.is_symlink() and (digest := file_digest(f)):
-                found[f.relative_to(folder).as_posix()] = digest
-    return found
-
-
-def mark_written_files(folder: str | Path, written: Iterable[str], earlier: dict[str, str | None] | None = None,
-                       ended: bool = True) -> None:
-    """Mark ``folder`` as spinemesh's, listing ``written`` (POSIX paths under it) with their digests
-    as they are now. With ``ended``, the files an earlier run wrote there (``earlier``, as
-    :func:`written_files` read them before this run) that this one did not write again are removed
-    first (:func:`remove_listed_files`): a preview written again leaves no stale page or picture of
-    the earlier one. Otherwise they stay listed with the digests the earlier run gave them, so
-    that a file replaced since is not taken for spinemesh's."""
-    folder = Path(folder)
-    written = set(written)
-    left = {rel: digest for rel, digest in (earlier or {}).items() if rel not in written}
-    if ended:
-        remove_listed_files(folder, left)
-        left = {}
-    listing = marker_listing(folder, left, written)
-    atomic_write_text(folder / WRITTEN_MARKER, strict_json({"spinemesh": "written", **listing}, 1) + "\n")
-
-
-def remove_listed_files(folder: str | Path, files: dict[str, str | None]) -> None:
-    """Remove each file of ``files`` under ``folder`` (POSIX paths, as a marker lists them, with the
-    :func:`file_digest` the run left it with) that still holds those bytes, and the folders it
-    leaves empty. A marker is a file anyone could have written or copied: a name that is absolute,
-    climbs out, names the folder, passes through a symlinked folder or is no path (a NUL), names a
-    symlink (a run writes none) or is listed without a digest removes nothing, nor does one whose
-    file was edited or replaced since (a user's now). On a case-insensitive disk a name removes
-    only a file stored under that very name: ``Hero.png`` listed is not the ``hero.png`` a later
-    run wrote, even of the same bytes."""
-    folder = Path(folder)
-    root = os.path.realpath(folder)
-    names_in: dict[Path, set[str]] = {}
-    for rel in sorted(files):
-        parts = Path(rel).parts
-        if not files[rel] or not rel or os.path.isabs(rel) or ".." in parts or rel in (".", WRITTEN_MARKER):
-            continue
-        path = folder.joinpath(*parts)
-        try:
-            if os.path.realpath(path.parent) != os.path.join(root, *parts[:-1]).rstrip(os.sep):
-                continue
-            if path.parent not in names_in:
-                names_in[path.parent] = set(os.listdir(path.parent))
-            if path.name not in names_in[path.parent]:  # the name as stored, not another case of it
-                continue
-            if path.is_symlink() or file_digest(path) != files[rel]:
-                continue
-            path.unlink()
-        except (OSError, ValueError):  # a NUL, a name the disk cannot hold, a file gone meanwhile
-            continue
-        for parent in path.parents:
-            if parent == folder:
-                break
-            try:
-                parent.rmdir()  # only when empty
-            except OSError:
-                break
 
 
 def _write_error(e: OSError, path: Path) -> OutputError:

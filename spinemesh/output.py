@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import shutil
 from pathlib import Path
 
 try:
@@ -29,29 +28,31 @@ from .fsutil import (
     atomic_write_bytes,
     atomic_write_text,
     file_digest,
-    folder_stamps,
-    listed_files,
     make_folder,
-    marker_listing,
-    read_marker,
-    refuse_linked_folders,
     refuse_report_over_output,
-    remove_listed_files,
-    strict_json,
 )
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
+from .written_folder import (
+    OUTPUT_MARKER,
+    folder_stamps,
+    holds_files,
+    listed_files,
+    marker_listing,
+    read_marker,
+    refuse_users_folder,
+    remove_listed_files,
+    temporary_files,
+    write_marker,
+)
 
-#: A file that marks a folder as written by ``upgrade``, ``pack`` or ``weights``, listing the files
-#: the run wrote there (:func:`output_folder`): only those are removed by ``overwrite`` (a mistyped
-#: ``--out ~/Documents --overwrite`` must not delete a user's files, nor a rerun the files a game
-#: engine or the user added beside the run's: Unity's ``.meta`` files, a ``.gitignore``).
-OUTPUT_MARKER = ".spinemesh-output"
-
-#: The one line an older spinemesh wrote in :data:`OUTPUT_MARKER`, listing nothing: ``overwrite``
-#: then empties the folder as a whole, as that spinemesh did. Any other marker that is not a list
-#: of the run's files (edited by hand, emptied, cut) is refused: nothing of it says what to remove.
+#: The one line an older spinemesh wrote in :data:`OUTPUT_MARKER`, listing nothing. ``overwrite``
+#: then removes every file such a run could have written (:func:`_older_runs_files`), and keeps
+#: the files no upgrade writes: hidden ones (``.gitignore``) and a game engine's ``.meta``. Any
+#: other marker that is not a list of the run's files (edited by hand, emptied, cut) is refused:
+#: nothing of it says what to remove.
 OLDER_OUTPUT_MARKER = "written by spinemesh upgrade; --overwrite may replace this folder"
+
 
 def check_output_folder(project_root: Path, out: Path, images_in: Path | None = None) -> None:
     """Refuse an output folder that is an input, lies inside one or holds one (see :class:`OutputGuard`)."""
@@ -62,10 +63,12 @@ def check_output_folder(project_root: Path, out: Path, images_in: Path | None = 
 def output_folder(out: Path, overwrite: bool):
     """Hold ``out`` for one run: an empty folder marked as ours, or one an earlier run wrote.
 
-    An existing non-empty ``out`` is refused unless ``overwrite``, and then unless an earlier
-    run wrote it (:data:`OUTPUT_MARKER`); the files that run wrote are removed, so that no
+    The first use of :mod:`spinemesh.written_folder`'s marker: an existing ``out`` that holds
+    files is refused unless ``overwrite``, and then unless an earlier run wrote it
+    (:data:`OUTPUT_MARKER`); the files that run wrote are removed BEFORE this one, so that no
     stale page or skeleton stays beside the new ones (a runtime loading the folder could pick
-    it up), and every other file is kept. The marker lists the files this run writes: while
+    it up), and every other file is kept. A killed run's temporary files go in any case (a
+    folder holding only those is empty). The marker lists the files this run writes: while
     it lasts, the files it found (kept, whatever ends the run); once it ends, those it wrote.
     The folder itself is kept and locked (``flock``) while the run lasts: a second run into
     the same folder waits for the first to end instead of deleting or overwriting its files
@@ -78,15 +81,14 @@ def output_folder(out: Path, overwrite: bool):
     try:
         if fcntl is not None:
             fcntl.flock(fd, fcntl.LOCK_EX)
-        if next(out.iterdir(), None) is not None:
+        if holds_files(out):
             if not overwrite:
                 raise SpineMeshError("output folder is not empty; pass --overwrite to write it again", out)
-            if not (out / OUTPUT_MARKER).is_file():
-                raise SpineMeshError("output folder is not empty and was not written by spinemesh "
-                                     "(no .spinemesh-output); nothing is written there: choose another --out",
-                                     out)
-            refuse_linked_folders(out)  # before anything is removed: a page written below one would leave OUT
+            # before anything is removed: a page written below a symlinked folder would leave OUT
+            refuse_users_folder(out, OUTPUT_MARKER, "output folder is not empty and was not written by spinemesh "
+                                "(no .spinemesh-output); nothing is written there: choose another --out")
             _remove_earlier_run(out)
+        remove_listed_files(out, temporary_files(out))  # a killed run's, the folder held: no other run's
         found = _files_under(out)
         _write_marker(out, {"running": True, "kept": sorted(found), "folder": _identity(out)})
         try:
@@ -139,32 +141,27 @@ def note_written(out: Path, path: Path) -> None:
 
 
 def _files_under(out: Path) -> dict[str, tuple | None]:
-    """Every file under ``out`` but the marker, with its stamp (:func:`~spinemesh.fsutil.folder_stamps`)."""
+    """Every file under ``out`` but the marker, with its stamp (:func:`~spinemesh.written_folder.folder_stamps`)."""
     return folder_stamps(out, OUTPUT_MARKER)
 
 
 def _write_marker(out: Path, what: dict) -> None:
-    atomic_write_text(out / OUTPUT_MARKER, strict_json({"spinemesh": "output folder", **what}, 1) + "\n")
+    write_marker(out, OUTPUT_MARKER, "output folder", what)
 
 
 def _remove_earlier_run(out: Path) -> None:
     """Remove from ``out`` the files an earlier run wrote there, as its marker lists them (each
-    only while it is the file the run left, :func:`~spinemesh.fsutil.remove_listed_files`), and
-    the folders they leave empty; any other file stays. A run that did not end (its marker lists
-    what it found, and names this very folder) wrote every file but those; an older spinemesh's
-    marker lists none: it emptied the folder as a whole, and so does this. Any other marker is
-    refused, every file kept."""
+    only while it is the file the run left, :func:`~spinemesh.written_folder.remove_listed_files`),
+    and the folders they leave empty; any other file stays. A run that did not end (its marker
+    lists what it found, and names this very folder) wrote every file but those; an older
+    spinemesh's marker lists none: the files such a run could have written go
+    (:func:`_older_runs_files`). Any other marker is refused, every file kept."""
     marker = read_marker(out / OUTPUT_MARKER)
     if not isinstance(marker, dict) or marker.get("spinemesh") != "output folder":
         if not _older_marker(out / OUTPUT_MARKER):
             raise _unknown_marker(out)
-        for entry in out.iterdir():
-            if entry.is_dir() and not entry.is_symlink():
-                shutil.rmtree(entry)
-            else:
-                entry.unlink()
-        return
-    if isinstance(marker.get("written"), list):
+        ours = _older_runs_files(out)
+    elif isinstance(marker.get("written"), list):
         ours = listed_files(marker)
     elif (marker.get("running") is True and isinstance(marker.get("kept"), list)
           and marker.get("folder") == _identity(out)):
@@ -172,8 +169,18 @@ def _remove_earlier_run(out: Path) -> None:
         ours = {rel: file_digest(out / rel) for rel in _files_under(out) if rel not in kept}
     else:
         raise _unknown_marker(out)
-    ours.pop(OUTPUT_MARKER, None)
     remove_listed_files(out, ours)
+
+
+def _older_runs_files(out: Path) -> dict[str, str | None]:
+    """The files under ``out`` that an older spinemesh's run, whose marker listed none, could have
+    written, with their digests: every file but hidden ones (a name or folder beginning with ``.``:
+    a project's hidden files are never read, so never copied; a ``.gitignore``, ``.git/``) and a
+    game engine's ``.meta`` files (Unity makes one beside each file it imports, holding the id every
+    reference to the file uses). That spinemesh emptied the folder as a whole, a studio's files
+    put there since too."""
+    return {rel: file_digest(out / rel) for rel in _files_under(out)
+            if not any(part.startswith(".") for part in rel.split("/")) and not rel.lower().endswith(".meta")}
 
 
 def _identity(out: Path) -> list[int]:

@@ -43,7 +43,8 @@ def test_a_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
     """A run killed outright leaves its ``.NAME.xxxxxxxx.tmp`` files; the next run that ends in the
     folder (rewriting_folder: ``upgrade --images``, ``weights --preview``, ``mesh DIR``) removes
     them, and only them: a user's file of another name, a symlink and a folder are kept."""
-    from spinemesh.fsutil import atomic_write_bytes, mark_written_folder, rewriting_folder
+    from spinemesh.fsutil import atomic_write_bytes
+    from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
     mark_written_folder(folder)
@@ -59,7 +60,8 @@ def test_a_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
 
 def test_a_run_that_does_not_end_keeps_them_and_the_next_removes_them(tmp_path):
     """A run that fails removes nothing, as for the earlier run's files; the next that ends does."""
-    from spinemesh.fsutil import atomic_write_bytes, mark_written_folder, rewriting_folder
+    from spinemesh.fsutil import atomic_write_bytes
+    from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
     mark_written_folder(folder)
@@ -76,7 +78,8 @@ def test_a_run_that_does_not_end_keeps_them_and_the_next_removes_them(tmp_path):
 def test_a_temporary_file_written_meanwhile_is_kept(tmp_path):
     """A temporary file whose bytes changed while the run lasted (another run still writing it) is
     not the one found at the start: kept."""
-    from spinemesh.fsutil import _temporary_name, atomic_write_bytes, mark_written_folder, rewriting_folder
+    from spinemesh.fsutil import _temporary_name, atomic_write_bytes
+    from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
     mark_written_folder(folder)
@@ -90,8 +93,8 @@ def test_a_temporary_file_written_meanwhile_is_kept(tmp_path):
 
 def test_a_preview_written_again_loses_a_killed_runs_temporary_files(tmp_path):
     """The preview writer (PreviewFolder, every ``--preview``) removes them too once it ends."""
-    from spinemesh.fsutil import mark_written_folder
     from spinemesh.player.files import PreviewFolder
+    from spinemesh.written_folder import mark_written_folder
 
     folder = tmp_path / "preview"
     mark_written_folder(folder)

@@ -11,8 +11,14 @@ import shutil
 import pytest
 
 from spinemesh.errors import OutputError
-from spinemesh.fsutil import WRITTEN_MARKER, mark_written_files, remove_listed_files, rewriting_folder, written_files
 from spinemesh.output import OUTPUT_MARKER, output_folder
+from spinemesh.written_folder import (
+    WRITTEN_MARKER,
+    mark_written_files,
+    remove_listed_files,
+    rewriting_folder,
+    written_files,
+)
 
 
 def _listing(folder):

@@ -13,8 +13,8 @@ runs where the data are.
 from __future__ import annotations
 
 import json
-import re
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -158,8 +158,9 @@ def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
     through a symlinked folder removes nothing (an output folder holding a symlinked folder is
     refused before anything is removed; the rule that removes listed files checks it too)."""
     from spinemesh.errors import OutputError
-    from spinemesh.fsutil import file_digest, marker_listing, remove_listed_files
+    from spinemesh.fsutil import file_digest
     from spinemesh.output import output_folder
+    from spinemesh.written_folder import marker_listing, remove_listed_files
 
     out, elsewhere = tmp_path / "X", tmp_path / "elsewhere"
     out.mkdir()

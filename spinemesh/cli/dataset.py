@@ -121,8 +121,9 @@ def dataset_stats_cmd(
     from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
-    from ..fsutil import check_outputs, check_written_folder
+    from ..fsutil import check_outputs
     from ..words import counted
+    from ..written_folder import check_written_folder
 
     if plots is not None:  # the default, DS/stats, lies in the data set, spinemesh's folder
         check_outputs([], folders=[plots])  # not a file, not a symlink

@@ -45,7 +45,8 @@ def diff(
     """
     from ..diff.report import REPORT_FOLDER, aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
-    from ..fsutil import check_outputs, check_written_folder, project_folder
+    from ..fsutil import check_outputs, project_folder
+    from ..written_folder import check_written_folder
 
     check_outputs([*map(project_folder, projects), images], folders=[out])
     check_written_folder(out, REPORT_FOLDER, "report")  # before the work; write_report checks it again

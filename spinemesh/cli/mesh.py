@@ -92,7 +92,8 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
-    from ..fsutil import check_outputs, check_written_folder, refuse_one_output_twice
+    from ..fsutil import check_outputs, refuse_one_output_twice
+    from ..written_folder import check_written_folder
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
@@ -123,8 +124,8 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from ..errors import SpineMeshError
     import contextlib
 
-    from ..fsutil import (WRITTEN_MARKER, OneFilePerName, OutputGuard, mark_written_folder, real, rewriting_folder,
-                          walk_files)
+    from ..fsutil import OneFilePerName, OutputGuard, real, walk_files
+    from ..written_folder import WRITTEN_MARKER, mark_written_folder, rewriting_folder
     from ..images import IMAGE_EXTENSIONS
 
     folders = list({real(f): f for f, _, _ in _written_folders(out_dir, preview, steps)}.values())

@@ -94,9 +94,12 @@ def pack(
     from ..pack.atlas_pack import PageRules
     from ..pack.run import PackOptions, pack_library, pack_project
     from ..upgrade import is_library
+    from ..written_folder import check_written_folder
+
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
 
-    check_outputs([project_folder(project)], files=[report], preview=preview)
+    check_outputs([project_folder(project)], files=[report], folders=[preview])
+    check_written_folder(preview)  # a folder of a user's files: refused, not written over
     # as upgrade does: pictures of the preview inside OUT would ship with the packed project
     refuse_overlapping_outputs(out, {"--preview": preview})
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,

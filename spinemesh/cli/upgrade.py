@@ -143,15 +143,13 @@ def upgrade(
     Example: spinemesh upgrade project/ --out packed/ --pack --max-page 2048
     """
     from ..cluster import available_cores
-    from ..fsutil import check_outputs, named_project, project_folder, refuse_overlapping_outputs
+    from ..fsutil import named_project, project_folder
     from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
-    # Every output checked before any work: never inside the project, onto an input, or through a symlink.
-    check_outputs([project_folder(project), images_in], files=[report], preview=preview, images=images)
-    refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
+    _check_outputs(project_folder(project), out, report, preview, images, images_in)
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
                  if value is not None}
     options = Options(preset=preset.value, mask=mask.value, only=only, exclude=exclude, min_size=min_size,
@@ -168,6 +166,19 @@ def upgrade(
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in, options.jobs)
     _exit(result, nothing, report_error)
+
+
+def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path | None, images: Path | None,
+                   images_in: Path | None) -> None:
+    """Every output checked before any work: never inside the project, onto an input, or through a
+    symlink; a ``--preview`` or ``--images`` folder of a user's files refused, not written over."""
+    from ..fsutil import check_outputs, refuse_overlapping_outputs
+    from ..written_folder import check_written_folder
+
+    check_outputs([project, images_in], files=[report], folders=[preview, images])
+    check_written_folder(preview)
+    check_written_folder(images, "--images folder", "images")
+    refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
 
 
 def _say_dry_run(pack: bool) -> None:

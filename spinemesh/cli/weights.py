@@ -80,12 +80,13 @@ def weights(
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.motion import sampled_bone_worlds
-    from ..fsutil import OutputGuard, check_written_folder, named_project, project_folder
+    from ..fsutil import OutputGuard, named_project, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..words import counted
+    from ..written_folder import check_written_folder
     from ._summary import print_errors
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere

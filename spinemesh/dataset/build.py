@@ -27,7 +27,10 @@ import numpy as np
 
 from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, check_written_folder, mark_written_folder, refuse_linked_folders
+from ..fsutil import atomic_write_json
+from ..written_folder import (
+    check_written_folder, mark_written_folder, refuse_linked_folders, remove_listed_files, temporary_files,
+)
 from .extract import ProjectResult, extract_project, find_projects, game_of
 from .format import (FORMAT, FORMAT_VERSION, INDEX, MASK_ALPHA_THRESHOLD, META, PROJECTS, SHARDS,
                      VAL_FRACTION, append_jsonl, read_jsonl, repair_tail, write_shard)
@@ -131,6 +134,7 @@ def _check_output(out: Path) -> None:
 
 def _open_output(out: Path) -> None:
     _check_output(out)  # again, under the lock
+    remove_listed_files(out, temporary_files(out))  # a killed run's: the lock held, no other run writes here
     (out / SHARDS).mkdir(exist_ok=True)
     meta = {"format": FORMAT, "version": FORMAT_VERSION, "mask_alpha_threshold": MASK_ALPHA_THRESHOLD,
             "val_fraction": VAL_FRACTION,

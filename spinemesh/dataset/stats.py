@@ -54,7 +54,7 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
     not write again, and a killed run's temporary files, are removed
     (:func:`~spinemesh.fsutil.rewriting_folder`), never a file spinemesh did not write.
     """
-    from ..fsutil import rewriting_folder
+    from ..written_folder import rewriting_folder
 
     with rewriting_folder(out_dir):
         return _plot_panels(stats, Path(out_dir))
@@ -70,7 +70,8 @@ def _plot_panels(stats: dict, out_dir: Path) -> list[Path]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 
-    from ..fsutil import atomic_write_bytes, mark_written_folder
+    from ..fsutil import atomic_write_bytes
+    from ..written_folder import mark_written_folder
 
     out_dir = Path(out_dir)
     written = []

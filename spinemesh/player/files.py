@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import (atomic_write_bytes, atomic_write_text, check_written_folder, mark_written_files, named_within,
-                      written_files)
+from ..fsutil import atomic_write_bytes, atomic_write_text, named_within
+from ..written_folder import check_written_folder, mark_written_files, mark_written_folder, written_files
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
@@ -59,6 +59,7 @@ class PreviewFolder:
         # every preview is written through this class: a folder of a user's files is refused
         # here, whoever calls (the commands check it earlier, before any work)
         check_written_folder(root)
+        mark_written_folder(root)  # before its first file: a preview cut short is written into again
         self.root = Path(root)
         self.sizes: dict[str, int] = {}
         self._images: dict[int, str] = {}

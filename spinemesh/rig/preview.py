@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_png, mark_written_folder
+from ..fsutil import atomic_write_png
 from ..skeleton import image_paths, iter_attachments
+from ..written_folder import mark_written_folder
 from .binding import parse_vertices, setup_world
 from .bones import skeleton_bones
 

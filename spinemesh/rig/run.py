@@ -64,8 +64,8 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     WeightResult
         Nothing is written (not even ``out``) when the project has no skeleton.
     """
-    from ..fsutil import check_written_folder, rewriting_folder
     from ..output import check_output_folder, copy_other_files, output_folder, write_skeleton
+    from ..written_folder import check_written_folder, rewriting_folder
 
     options = options or WeightOptions()
     out = Path(out)

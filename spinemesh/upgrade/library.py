@@ -24,10 +24,10 @@ from pathlib import Path
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import check_written_folder, mark_written_folder, rewriting_folder
 from ..images import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
+from ..written_folder import check_written_folder, mark_written_folder, rewriting_folder
 from .bending import HabitsReading, bending_tests, start_habits
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options

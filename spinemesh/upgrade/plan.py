@@ -26,12 +26,13 @@ from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
 from ..foreground import alpha_above
-from ..fsutil import OneFilePerName, file_stamp, mark_written_folder
+from ..fsutil import OneFilePerName, file_stamp
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, linked_source, load_skeleton
 from ..skeleton_check import animations_keyed_twice
+from ..written_folder import mark_written_folder
 from .editor_images import write_editor_image
 from .options import Options, skip_reason
 from .progress import SILENT, Progress

@@ -33,9 +33,9 @@ import time
 from pathlib import Path
 
 from ..cluster import Workers
-from ..fsutil import check_written_folder, rewriting_folder
 from ..output import check_output_folder, output_folder
 from ..project import find_project
+from ..written_folder import check_written_folder, rewriting_folder
 from .bending import bending_tests, start_habits
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
