@@ -52,7 +52,7 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
     ``image_sizes.png`` (max image side in pixels, median line). The folder is marked as
     spinemesh's; once the panels are written, an earlier run's files there that this one did
     not write again, and a killed run's temporary files, are removed
-    (:func:`~spinemesh.fsutil.rewriting_folder`), never a file spinemesh did not write.
+    (:func:`~spinemesh.written_folder.rewriting_folder`), never a file spinemesh did not write.
     """
     from ..written_folder import rewriting_folder
 

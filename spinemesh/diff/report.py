@@ -365,10 +365,10 @@ def write_report(result: DiffResult, out: str | Path) -> dict[str, Path]:
     """Write ``report.md``, ``report.json``, ``index.html`` and ``assets/`` into folder ``out``.
 
     A folder that holds files but no spinemesh report is refused (its files would be replaced,
-    :func:`~spinemesh.fsutil.check_written_folder`); the folder written is marked as ours, so a
+    :func:`~spinemesh.written_folder.check_written_folder`); the folder written is marked as ours, so a
     later report is written into it again, and the earlier report's files (``assets/``) this one
     does not write again are removed then, with a killed run's temporary files
-    (:func:`~spinemesh.fsutil.rewriting_folder`), never a file spinemesh did not write.
+    (:func:`~spinemesh.written_folder.rewriting_folder`), never a file spinemesh did not write.
 
     Returns
     -------

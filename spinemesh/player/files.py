@@ -47,7 +47,7 @@ class PreviewFolder:
     """Writes the files of one preview under ``root`` and keeps their sizes.
 
     A ``root`` that holds files but no spinemesh preview is refused
-    (:func:`~spinemesh.fsutil.check_written_folder`: its files would be replaced).
+    (:func:`~spinemesh.written_folder.check_written_folder`: its files would be replaced).
 
     Attributes
     ----------
