@@ -308,7 +308,8 @@ def mark_written_files(folder: str | Path, written: Iterable[str], earlier: dict
     if ended:
         remove_listed_files(folder, left)
         left = {}
-    left = {rel: digest for rel, digest in left.items() if rel not in _temporary(left)}  # found anew, not listed
+    for rel in _temporary(left):  # a killed run's temporary files are found anew, never listed
+        del left[rel]
     write_marker(folder, WRITTEN_MARKER, "written", marker_listing(folder, left, written))
 
 
