@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from test_hostile import check_run, run_cli, snapshot
+from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
 
 
 def _demo(tmp: Path) -> Path:
@@ -290,3 +291,47 @@ def test_odd_keys_pose_as_in_the_runtime(tmp_path, spine_runtime, version):
     _edit(project, lambda doc: doc.update(events={"e": {}}))
     for animation in ("odd", "events", "still", "long"):
         _poses_match_the_runtime(tmp_path, spine_runtime, project, animation)
+
+
+def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, runtime43):  # noqa: F811
+    """4.3 lets a linked mesh take its source mesh from another slot (``"slot"``), whose deform
+    keys then drive it too (spine-core adds its slot to the source's timeline slots). The sampler
+    looked for the source in the linked mesh's own slot, found none and drew nothing there:
+    ``pose`` and the preview left the attachment out, exit 0. Now it is posed as spine-core 4.3
+    poses it, deformed with its source."""
+    import numpy as np
+
+    from runtime_tool import node
+
+    from spinemesh.anim.dump import pose_errors
+
+    project = _demo(tmp_path)
+    _edit(project, lambda doc: doc["skeleton"].update(spine="4.3.00"))
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+
+    def linked(doc):
+        head = doc["skins"][0]["attachments"]["head"]["demo-head"]
+        assert head["type"] == "mesh"
+        doc["slots"].append({"name": "ghost", "bone": "props", "attachment": "copy"})
+        doc["skins"][0]["attachments"]["ghost"] = {"copy": {
+            "type": "linkedmesh", "source": "demo-head", "slot": "head", "path": "demo-ring", "width": 100, "height": 100}}
+        deform = [{"time": 0}, {"time": 0.5, "vertices": [5.0] * len(head["vertices"])}, {"time": 1}]
+        doc["animations"]["wave"]["attachments"]["default"]["head"] = {"demo-head": {"deform": deform}}
+
+    _edit(tmp_path / "o", linked)
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "o/demo.json", "-a", "wave", "--times", "0.3,0.5", "--out", "pose.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(0,))
+    ours = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    r = node(runtime43, "pose.mjs", tmp_path / "o" / "demo.atlas", tmp_path / "o" / "demo.json", tmp_path / "d.json",
+             "wave@0.3,wave@0.5")
+    assert r.returncode == 0, r.stderr[-2000:]
+    theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
+    assert len(ours) == len(theirs) == 3
+    for a, b in zip(ours, theirs):
+        assert [x["slot"] for x in a["attachments"]][-1] == "ghost"
+        e = pose_errors(a, b)
+        assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (a["label"], e)
+    ghost = [np.array(p["attachments"][-1]["vertices"]) for p in ours]
+    assert abs(ghost[2] - ghost[0]).max() > 4  # the source's deform moves it

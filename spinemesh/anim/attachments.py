@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import SpineMeshError
 from ..rig.binding import parse_vertices
 from ..rig.transform import DEG_RAD
-from ..skeleton import sequence_paths
+from ..skeleton import AttachmentRef, linked_source, sequence_paths
 from ..skeleton_check import attachment_problem
 from .curves import _number
 from .timelines import color_channels
@@ -155,12 +155,13 @@ class Prepared:
 
 
 def prepare(doc_skins: dict, skin: str, slot: int, slot_name: str, key: str, att: dict, bone_count: int,
-            region_of) -> Prepared | None:
+            region_of, slot_index: dict | None = None) -> Prepared | None:
     """Prepare one attachment; None when it cannot be drawn (a broken mesh, a missing parent, a
     field :func:`~spinemesh.skeleton_check.attachment_problem` refuses).
 
     ``doc_skins`` maps skin name to ``{slot name: {key: attachment}}``; ``region_of(path)``
-    gives the atlas region's geometry or None.
+    gives the atlas region's geometry or None; ``slot_index`` maps slot name to index (a 4.3
+    linked mesh may take its source mesh, and its deform and sequence keys, from another slot).
     """
     # A number no float32 holds (y: 1e300, an integer of 400 digits) is an infinity in the
     # runtimes; drawn with the field's default, the quad was written where no runtime puts it.
@@ -190,14 +191,14 @@ def prepare(doc_skins: dict, skin: str, slot: int, slot_name: str, key: str, att
     if kind in ("mesh", "linkedmesh"):
         source = att
         if kind == "linkedmesh":
-            parent_skin = str(att.get("skin") or "default")
-            parent_key = str(att.get("parent", att.get("source")))
-            source = ((doc_skins.get(parent_skin) or {}).get(slot_name) or {}).get(parent_key)
+            # 4.3: the source mesh may sit in another slot ("slot"), whose keys then drive it too
+            parent_skin, source_slot, parent_key = linked_source(AttachmentRef(skin, slot_name, key, att))
+            source = ((doc_skins.get(parent_skin) or {}).get(source_slot) or {}).get(parent_key)
             if not isinstance(source, dict) or source.get("type", "region") != "mesh":
                 return None
             inherit = att.get("timelines", att.get("deform", True)) is not False
             if inherit:
-                out.timeline_key = (parent_skin, slot, parent_key)
+                out.timeline_key = (parent_skin, (slot_index or {}).get(source_slot, slot), parent_key)
         uvs = source.get("uvs")
         try:
             out.geometry = VertexGeometry(source, len(uvs) // 2 if isinstance(uvs, list) else 0, bone_count, uvs)

@@ -354,7 +354,8 @@ class Sampler:
         if k not in self._prepared:
             att = ((self.skins.get(skin) or {}).get(self.slot_names[slot]) or {}).get(key)
             self._prepared[k] = None if not isinstance(att, dict) else prepare(
-                self.skins, skin, slot, self.slot_names[slot], key, att, len(self.bone_names), self._regions)
+                self.skins, skin, slot, self.slot_names[slot], key, att, len(self.bone_names), self._regions,
+                self.slot_index)
         return self._prepared[k]
 
     def attachment(self, slot: int, key: str | None) -> Prepared | None:
