@@ -84,3 +84,38 @@ def test_weights_lists_a_skeleton_without_meshes_beside_the_others(tmp_path):
     assert sorted(rows) == ["demo-binary.skel", "demo.json"], res.output
     assert rows["demo-binary.skel"].split("│")[2].strip() == "0", res.output
     assert "nothing to weight" not in res.output, res.output
+
+
+def _one_game_data_set(tmp_path: Path) -> Path:
+    shutil.copytree(DEMO, tmp_path / "projects" / "demo")  # one game, on the training side of the split
+    res = CliRunner().invoke(app, ["dataset", str(tmp_path / "projects"), "--out", str(tmp_path / "DS")])
+    assert res.exit_code == 0, res.output
+    return tmp_path / "DS"
+
+
+def test_segment_eval_on_a_data_set_without_held_out_games_says_what_to_do(tmp_path):
+    """The segmentation guide's ``segment-eval`` on a data set of the studio's one or two games said
+    ``error: no held-out sprites in DS`` and no more: why (the split is by game, fixed by a hash of
+    its name) and what to do (more games, another data set) are said in that line."""
+    data = _one_game_data_set(tmp_path)
+    res = CliRunner().invoke(app, ["segment-eval", "--data", str(data)], env={"COLUMNS": "300"})
+    assert res.exit_code == 2, res.output
+    (line,) = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert line.startswith(f"error: no held-out sprites in {data}: none of its games falls on the val side"), line
+    assert "more games" in line and "--data" in line, line
+
+
+def test_train_on_a_data_set_without_held_out_games_is_one_line_and_writes_nothing(tmp_path):
+    """``train`` on such a data set wrote its sprite pack into OUT, then stopped on a traceback
+    (exit 1); it is refused in the one line above, exit 2, OUT not made."""
+    import pytest
+
+    pytest.importorskip("torch")
+    data = _one_game_data_set(tmp_path)
+    out = tmp_path / "runs"
+    res = CliRunner().invoke(app, ["train", "--data", str(data), "--out", str(out), "--time-limit", "1"],
+                             env={"COLUMNS": "300"})
+    assert res.exit_code == 2, res.output
+    assert [line for line in res.output.splitlines() if line.startswith("error:")] == [
+        line for line in res.output.splitlines() if line.startswith(f"error: no held-out sprites in {data}: ")], res.output
+    assert "more games" in res.output and not out.exists(), res.output

@@ -100,7 +100,9 @@ def segment_eval(
     kinds = _background_kinds(backgrounds)
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)
     if not sprites:
-        print_errors([f"no held-out sprites in {', '.join(map(str, data))}"])
+        from ..dataset.extract import empty_side_said
+
+        print_errors([empty_side_said(", ".join(map(str, data)), "val")])
         raise typer.Exit(EXIT_BAD_INPUT)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
     options = {k: v for k, v in (("flips", flips), ("floodfill", floodfill)) if v is not None}
@@ -221,6 +223,13 @@ def train(
         console.print(f"{write_pack}: {counts['train']:,} training and {counts['val']:,} held-out sprites, "
                       f"{counts['bytes'] / 2**20:.1f} MiB")
         return
+    from ..dataset.extract import empty_side_said
+    from ..train.data import empty_sides
+
+    empty = empty_sides(data)  # before OUT is made: a data set of one game was a traceback after writing there
+    if empty:
+        print_errors([empty_side_said(", ".join(map(str, data)), empty[0])])
+        raise typer.Exit(EXIT_BAD_INPUT)
     cfg = TrainConfig(data=[str(d) for d in data], out=str(out), encoder=encoder, pretrained=pretrained,
                       bn_momentum=bn_momentum, image_size=size, epochs=epochs, epoch_samples=epoch_samples,
                       batch_size=batch, time_limit_min=time_limit, device=device, workers=workers,
@@ -273,7 +282,9 @@ def segment_export(
     train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
     if not train_s or not val_s:
-        print_errors([f"no training or no held-out sprites in {', '.join(map(str, data))}"])
+        from ..dataset.extract import empty_side_said
+
+        print_errors([empty_side_said(", ".join(map(str, data)), "train" if not train_s else "val")])
         raise typer.Exit(EXIT_BAD_INPUT)
 
     def inputs(sprites, n):

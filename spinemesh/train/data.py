@@ -106,6 +106,27 @@ def write_pack(datasets: list[str | Path], out: str | Path, max_side: int = PACK
     return {"train": splits.count("train"), "val": splits.count("val"), "bytes": out.stat().st_size}
 
 
+def empty_sides(data: list[str | Path]) -> list[str]:
+    """The sides of the game split (``"train"``, ``"val"``) that ``data`` (data set folders and
+    sprite packs) gives no sprite, read from the indexes and the packs' split lists alone: a run
+    refuses them before writing anything (a data set of one game wrote its pack into OUT, then
+    stopped on a traceback). A pack that cannot be read counts as giving both (the run says why)."""
+    from ..dataset import open_dataset
+
+    sides = set()
+    for path in data:
+        if Path(path).is_dir():
+            ds = open_dataset(path)
+            sides |= {side for side in ("train", "val") if next(iter(ds.rows(side)), None) is not None}
+            continue
+        try:
+            with np.load(path) as z:
+                sides |= set(z["splits"].tolist())
+        except Exception:  # noqa: BLE001 (not this check's to say: the run reads it and names what is wrong)
+            return []
+    return [side for side in ("train", "val") if side not in sides]
+
+
 def _decode_range(args: tuple[bytes, list[int]]) -> list[np.ndarray]:
     blob, offsets = args
     return [decode_sprite(blob[a:b]) for a, b in pairwise(offsets)]

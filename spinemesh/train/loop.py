@@ -332,8 +332,9 @@ def _write_split(sprites: dict, data: list, out: Path) -> tuple[list, list]:
     into ``out``; a ValueError when either side is empty."""
     train_s, val_s = sprites["train"], sprites["val"]
     if not train_s or not val_s:
-        raise ValueError(f"no training or no held-out sprites in {data} (the data sets' game split "
-                         f"gives {len(train_s)} and {len(val_s)})")
+        from ..dataset.extract import empty_side_said
+
+        raise ValueError(empty_side_said(", ".join(map(str, data)), "train" if not train_s else "val"))
     atomic_write_json(out / "split.json", {
         "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
         "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1)
