@@ -28,6 +28,7 @@ without its comment, so that a checker that finds nothing cannot pass.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import spinemesh
@@ -247,3 +248,165 @@ def test_package_layering_check_finds_a_late_import(tmp_path):
         "rig/__init__.py": "def bend():\n    from ..up.run import X\n",
     })
     assert import_cycles(package_graph(import_graph(demo), "demo")) == [["demo.rig", "demo.up"]]
+
+
+# --- docs/architecture.md says what the code is ------------------------------------------------
+#
+# A newcomer reads docs/architecture.md first: its diagram, its table of packages and the names
+# in backticks must be those of the code today. Each check is run first on a small package and
+# page written here, so that a checker that finds nothing cannot pass.
+
+ARCHITECTURE = PACKAGE.parent / "docs" / "architecture.md"
+#: Names in backticks that are not spinemesh's own: typer's option type.
+FOREIGN_NAMES = {"Annotated"}
+
+
+def top_level_names(root: Path) -> set[str]:
+    """The packages and modules right under ``root`` (``__init__`` and ``__main__`` left out)."""
+    names = {p.name for p in root.iterdir() if (p / "__init__.py").is_file()}
+    names |= {p.stem for p in root.glob("*.py") if p.stem not in ("__init__", "__main__")}
+    return names
+
+
+def diagram(text: str) -> tuple[dict[str, set[str]], set[tuple[str, str]]]:
+    """The page's first ``flowchart BT`` (the layers): box id -> the names in its label (outside
+    parentheses, between ``·`` and line breaks), and the arrows drawn ``(from, to)``."""
+    block = re.search(r"```mermaid\s*\nflowchart BT\n(.*?)```", text, re.DOTALL).group(1)
+    boxes, arrows = {}, set()
+    for line in block.splitlines():
+        box = re.match(r'\s*(\w+)\["(.*)"\]\s*$', line)
+        if box:
+            label = re.sub(r"\([^)]*\)", "", box.group(2))
+            boxes[box.group(1)] = {n.strip() for n in re.split(r"·|<br/>", label) if n.strip()}
+            continue
+        arrow = re.match(r"\s*(\w+(?:\s*&\s*\w+)*)\s*-\.?->(?:\|[^|]*\|)?\s*(\w+(?:\s*&\s*\w+)*)\s*$", line)
+        if arrow:
+            for a in re.split(r"\s*&\s*", arrow.group(1)):
+                arrows |= {(a, b) for b in re.split(r"\s*&\s*", arrow.group(2))}
+    return boxes, arrows
+
+
+def diagram_problems(text: str, root: Path) -> list[str]:
+    """What the layer diagram gets wrong about the package at ``root``: a name in no box (or
+    in two, or not in the package), an import between boxes not drawn, an arrow without one."""
+    boxes, arrows = diagram(text)
+    names = top_level_names(root)
+    problems = []
+    box_of = {}
+    for box, inside in sorted(boxes.items()):
+        for name in sorted(inside):
+            if name not in names:
+                problems.append(f"box {box} names {name}, which is not in the package")
+            elif name in box_of:
+                problems.append(f"{name} is in two boxes ({box_of[name]}, {box})")
+            box_of[name] = box
+    problems += [f"{name} is in no box" for name in sorted(names - set(box_of))]
+    graph = package_graph(import_graph(root), root.name)
+    imports = {(box_of[a.split(".")[1]], box_of[b.split(".")[1]])
+               for a, targets in graph.items() for b in targets
+               if "." in a and a.split(".")[1] in box_of and b.split(".")[1] in box_of}
+    imports = {(a, b) for a, b in imports if a != b}
+    problems += [f"{a} imports {b}: no arrow drawn" for a, b in sorted(imports - arrows)]
+    problems += [f"arrow {a} --> {b}: no such import" for a, b in sorted(arrows - imports)]
+    return problems
+
+
+def table_problems(text: str, root: Path) -> list[str]:
+    """A package or module the table of packages (its first column) does not name."""
+    section = text.split("## The packages", 1)[1].split("\n## ", 1)[0]
+    named = {name for row in section.splitlines() if row.startswith("| `")
+             for name in re.findall(r"`([^`]+)`", row.split("|")[1])}
+    return [f"{name} is not in the table of packages" for name in sorted(top_level_names(root) - named)]
+
+
+def defined_names(root: Path) -> tuple[set[str], set[str]]:
+    """Every module's dotted name (and each of its dotted tails: ``upgrade.write``, ``write``)
+    under ``root``; every name defined in them (function, class, assignment, a class's fields
+    and methods), also as ``Owner.name`` and ``module.name`` for each tail of the module."""
+    modules, names = set(), set()
+    for module, (path, _) in _modules(root).items():
+        parts = module.split(".")
+        tails = {".".join(parts[i:]) for i in range(len(parts))}
+        modules |= tails
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        for node in ast.walk(tree):
+            found = []
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                found.append(node.name)
+            elif isinstance(node, ast.Assign):
+                found += [t.id for t in node.targets if isinstance(t, ast.Name)]
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                found.append(node.target.id)
+            names |= set(found)
+            names |= {f"{tail}.{n}" for tail in tails for n in found}
+            if isinstance(node, ast.ClassDef):
+                for child in node.body:
+                    member = (child.name if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)) else
+                              child.target.id if isinstance(child, ast.AnnAssign) and isinstance(child.target, ast.Name)
+                              else None)
+                    if member:
+                        names.add(f"{node.name}.{member}")
+    return modules, names
+
+
+def name_problems(text: str, root: Path) -> list[str]:
+    """Names in backticks that the code does not have: a file (``x.py``, ``a/b.py``, ``x.js``,
+    ``spinemesh/...``) that no file under ``root`` (or the repository, for ``tests/``) is, and a
+    Python name (``mesh_one``, ``run.finish_project``, ``Result.seconds``) that no module under
+    ``root`` defines. Options, commands and data files (``report.json``) are left alone."""
+    modules, names = defined_names(root)
+    files = {p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file()}
+    problems = []
+    for token in sorted(set(re.findall(r"`([^`\n]+)`", text))):
+        if re.fullmatch(r"[\w./]+\.(py|js)|[\w./]+/", token):
+            if token.startswith("tests/"):
+                ok = (root.parent / token).exists()
+            else:
+                inside = token.removeprefix(f"{root.name}/").rstrip("/")
+                ok = any(f == inside or f.endswith("/" + inside) or f.startswith(inside + "/") for f in files)
+            if not ok:
+                problems.append(f"`{token}`: no such file")
+        elif re.fullmatch(r"[\w.]+\.(json|jsonl|onnx|png|md|html)", token):
+            continue  # a data file's or a run's output file's name
+        elif re.fullmatch(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*", token):
+            dotted = token.removeprefix(f"{root.name}.")
+            if token not in (root.name, *FOREIGN_NAMES) and dotted not in modules and dotted not in names:
+                problems.append(f"`{token}`: not in the code")
+    return problems
+
+
+def test_architecture_checks_find_what_they_look_for(tmp_path):
+    """A page that misses a module, draws an arrow without an import and misses one, puts a
+    module in a box that does not exist, and names a function and a file the code lacks."""
+    demo = _write_package(tmp_path, {
+        "__init__.py": "",
+        "low.py": "def helper():\n    pass\n",
+        "mid/__init__.py": "from ..low import helper\n",
+        "mid/run.py": "class Result:\n    seconds: dict\n\n\ndef go():\n    from ..top import X\n",
+        "top.py": "X = 1\n",
+    })
+    page = ("# A\n\n```mermaid\nflowchart BT\n  low[\"low\"]\n  mid[\"mid · gone<br/>(the middle)\"]\n"
+            "  low --> mid\n```\n\n## The packages\n\n| p | job |\n| --- | --- |\n| `low`, `mid` | x |\n\n"
+            "## More\n\n`run.go`, `Result.seconds`, `mid/run.py`, `helper`, `--pack`, `report.json`, "
+            "`run.stop`, `mid/walk.py`, `Result.minutes`\n")
+    assert diagram_problems(page, demo) == [
+        "box mid names gone, which is not in the package", "top is in no box",
+        "mid imports low: no arrow drawn", "arrow low --> mid: no such import"]
+    assert table_problems(page, demo) == ["top is not in the table of packages"]
+    assert name_problems(page, demo) == ["`Result.minutes`: not in the code", "`mid/walk.py`: no such file",
+                                         "`run.stop`: not in the code"]
+
+
+def test_architecture_diagram_draws_the_packages_as_they_import():
+    problems = diagram_problems(ARCHITECTURE.read_text(encoding="utf-8"), PACKAGE)
+    assert not problems, "docs/architecture.md's diagram:\n" + "\n".join(problems)
+
+
+def test_architecture_table_names_every_package():
+    problems = table_problems(ARCHITECTURE.read_text(encoding="utf-8"), PACKAGE)
+    assert not problems, "docs/architecture.md:\n" + "\n".join(problems)
+
+
+def test_architecture_names_only_what_the_code_has():
+    problems = name_problems(ARCHITECTURE.read_text(encoding="utf-8"), PACKAGE)
+    assert not problems, "docs/architecture.md:\n" + "\n".join(problems)

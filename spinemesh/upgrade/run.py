@@ -18,12 +18,13 @@ The stages, in the order they run, each a module of its own, with the data they 
    outlines, in place;
 5. report (:mod:`.report`): the targets, as rows of :func:`~.report.write_report`.
 
-A stage that works on the meshed documents before they are written (packing atlas pages)
-goes between 3 and 4, in :func:`finish_project`. :func:`upgrade_project` runs them for
-one project; :mod:`.library` for every project under a folder, with one set of workers;
-:mod:`.output` holds the output-folder rules both follow. One bad attachment never aborts a
-project: it stays a region and the report says why. The output does not depend on the
-workers: results are put back by image, never by arrival order.
+A stage that changes the meshed documents before they are written goes between 3 and 4, in
+:func:`finish_project`; one that works on the files written (packing atlas pages) after 4.
+:func:`upgrade_project` runs them for one project; :mod:`.library` for every project under a
+folder, with one set of workers; :mod:`spinemesh.output` holds the output-folder rules both
+follow. One bad attachment never aborts a project: it stays a region and the report says
+why. The output does not depend on the workers: results are put back by image, never by
+arrival order.
 """
 
 from __future__ import annotations
@@ -146,7 +147,7 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
         apply_project(plan, meshes, result, progress, workers)
         # A stage that changes the meshed documents before they are written goes here; it
         # sees every skeleton of the project. Files it replaces are left out of the copies
-        # (write.files_to_copy), started above.
+        # (output.files_to_copy, through copying_other_files above).
         write_skeletons(plan, out, result, progress)
     write_repacked_atlases(plan, out, result)
     if plan.options is not None and plan.options.pack:
