@@ -119,3 +119,27 @@ def test_train_on_a_data_set_without_held_out_games_is_one_line_and_writes_nothi
     assert [line for line in res.output.splitlines() if line.startswith("error:")] == [
         line for line in res.output.splitlines() if line.startswith(f"error: no held-out sprites in {data}: ")], res.output
     assert "more games" in res.output and not out.exists(), res.output
+
+
+def test_the_diff_page_counts_the_failures_the_markdown_counts():
+    """The diff guide's page said ``122`` meshes for the paper's preset where ``report.md`` said
+    ``122 (16 failed)`` (the corpus's zse-cabin, faint art under the paper's threshold): a reader
+    of the page took the means for every attachment."""
+    import numpy as np
+
+    from spinemesh.diff.report import aggregate, aggregate_markdown, to_html
+    from spinemesh.diff.run import DiffResult, DiffRow
+    from spinemesh.mesher import mesh_image
+
+    rgba = np.zeros((64, 96, 4), np.uint8)
+    rgba[16:48, 16:80] = (200, 60, 40, 255)
+    mesh = mesh_image(rgba)
+    measured = {"coverage": 1.0, "waste": 0.1, "vertices": mesh.vertex_count, "triangles": mesh.triangle_count}
+    row = DiffRow("hero", "hero.json", "default", "body", "body", "body", 96, 64, rgba,
+                  meshes={"artist": mesh, "default": mesh},
+                  metrics={"artist": measured, "default": measured, "paper": {"error": "no foreground component"}})
+    result = DiffResult([row], ("default", "paper"), [])
+    agg = aggregate(result)
+    assert "| 0 (1 failed) |" in aggregate_markdown(agg)
+    page = to_html(result, agg)
+    assert "<td>0 (1 failed)</td>" in page and "report.md lists them all" in page, page[:3000]

@@ -72,6 +72,12 @@ def _fmt(value, fmt: str) -> str:
     return "-" if value is None else fmt.format(value)
 
 
+def meshes_cell(a: dict) -> str:
+    """The meshes a method made, and how many attachments it failed on (the page said ``122`` where
+    the Markdown said ``122 (16 failed)``, so a reader of the page did not know of the failures)."""
+    return str(a["n"]) + (f" ({a['failed']} failed)" if a["failed"] else "")
+
+
 def aggregate_markdown(agg: list[dict]) -> str:
     """The aggregate table in Markdown (like the paper's comparison table, sec. 5)."""
     head = "| Method | Meshes | " + " | ".join(h for _, h, _ in COLUMNS) + " |"
@@ -79,8 +85,7 @@ def aggregate_markdown(agg: list[dict]) -> str:
     lines = [head, sep]
     for a in agg:
         cells = [_fmt(a[k], f) for k, _, f in COLUMNS]
-        n = str(a["n"]) + (f" ({a['failed']} failed)" if a["failed"] else "")
-        lines.append(f"| {METHOD_LABELS.get(a['method'], a['method'])} | {n} | " + " | ".join(cells) + " |")
+        lines.append(f"| {METHOD_LABELS.get(a['method'], a['method'])} | {meshes_cell(a)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -296,7 +301,8 @@ def _aggregate_html(agg: list[dict]) -> str:
     body = []
     for a in agg:
         cells = "".join(f"<td>{_fmt(a[k], f)}</td>" for k, _, f in COLUMNS)
-        body.append(f"<tr><td>{html.escape(METHOD_LABELS.get(a['method'], a['method']))}</td><td>{a['n']}</td>{cells}</tr>")
+        body.append(f"<tr><td>{html.escape(METHOD_LABELS.get(a['method'], a['method']))}</td><td>{meshes_cell(a)}</td>"
+                    f"{cells}</tr>")
     return "<table>" + head + "".join(body) + "</table>"
 
 
@@ -341,8 +347,10 @@ def to_html(result: DiffResult, agg: list[dict]) -> str:
 <link rel="icon" href="data:,">
 <style>{_CSS}</style></head><body>
 <h1>spinemesh diff: generated meshes against the artists' meshes</h1>
-<p>{len(result.rows)} artist mesh attachments. Means over attachments.</p>
+<p>{len(result.rows)} artist mesh attachments. Means over the attachments each method meshed.</p>
 {_aggregate_html(agg)}
+{"<p>Where a method failed, the attachment's card says why when that method is shown; report.md lists them all.</p>"
+ if any(a["failed"] for a in agg) else ""}
 <p>Show: {radios}</p>
 <p class="legend">{legend}</p>
 <h2>Per attachment</h2>
