@@ -361,6 +361,18 @@ def attachment_path(ref: AttachmentRef) -> str:
     return str(att.get("path") or att.get("name") or ref.name)
 
 
+def first_of_each_name(names) -> dict[str, int]:
+    """Name -> place of the first item of that name, as the runtimes find a slot (``findSlot``:
+    the first whose name matches). No editor names two slots alike (two bones alike are refused,
+    :func:`spinemesh.skeleton_check.bone_tree_problem`); a file that does is posed as a game
+    poses it, the later slot never found by its name (a timeline or a skin naming it gets the
+    first)."""
+    out: dict[str, int] = {}
+    for i, name in enumerate(names):
+        out.setdefault(name, i)
+    return out
+
+
 def linked_source(ref: AttachmentRef) -> tuple[str, str, str]:
     """``(skin, slot, name)`` of the mesh whose geometry a linked mesh reuses.
 

@@ -335,3 +335,18 @@ def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, r
         assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (a["label"], e)
     ghost = [np.array(p["attachments"][-1]["vertices"]) for p in ours]
     assert abs(ghost[2] - ghost[0]).max() > 4  # the source's deform moves it
+
+
+def test_slots_named_twice_pose_as_the_runtimes_find_them(tmp_path, spine_runtime):
+    """Two slots of one name (no editor writes them; a merge of two skeletons can; two bones of
+    one name are refused): the runtimes find the first by its name (``findSlot``) for a
+    timeline and for a skin's attachments, so the later slot draws nothing. The sampler took the
+    last, so ``pose`` and the preview drew the head twice, tinted the later one and keyed its
+    colour there (exit 0). Now each name finds the first, as in the official runtime."""
+    def twice(doc):
+        doc["slots"].insert(3, {"name": "head", "bone": "props", "attachment": "demo-head", "color": "ff000080"})
+
+    wave = {"slots": {"head": {"rgba": [{"color": "ffffffff"}, {"time": 1, "color": "00ff00ff"}]}}}
+    project = _pose_project(tmp_path, "4.2.40", {"t": wave})
+    _edit(project, twice)
+    _poses_match_the_runtime(tmp_path, spine_runtime, project, "t", "0,0.3,0.6")

@@ -31,7 +31,7 @@ from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, is_43, path_slot, posing_family, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform43 import PROPERTIES, source_value_43
-from ..skeleton import iter_skins, spine_version
+from ..skeleton import first_of_each_name, iter_skins, spine_version
 from ..skeleton_curves import curve_spelling
 from ..skeleton_version import major_minor
 from .attachments import Prepared, RegionGeometry, prepare
@@ -319,7 +319,7 @@ class Sampler:
         self.slot_blend = [s.get("blend", "normal") if s.get("blend", "normal") in BLEND_MODES else "normal"
                            for s in slots]
         self.skins = {name: atts for name, atts in iter_skins(doc)}
-        self.slot_index = {n: i for i, n in enumerate(self.slot_names)}
+        self.slot_index = first_of_each_name(self.slot_names)
         #: slots whose attachment moves bones (a path constraint's target): a step between drawn
         #: frames applies these slots' timelines only
         self.path_slots = sorted({self.slot_index[t] for c in self.rig.constraints if c.kind == "path"
@@ -352,7 +352,10 @@ class Sampler:
         """The attachment ``key`` of ``slot`` in ``skin`` (that skin only), prepared once."""
         k = (skin, slot, key)
         if k not in self._prepared:
-            att = ((self.skins.get(skin) or {}).get(self.slot_names[slot]) or {}).get(key)
+            # a skin's attachments are the first slot's of their slot name (findSlot): a later slot
+            # of that name has none
+            name = self.slot_names[slot]
+            att = ((self.skins.get(skin) or {}).get(name) or {}).get(key) if self.slot_index[name] == slot else None
             self._prepared[k] = None if not isinstance(att, dict) else prepare(
                 self.skins, skin, slot, self.slot_names[slot], key, att, len(self.bone_names), self._regions,
                 self.slot_index)

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..skeleton import first_of_each_name
 from ..skeleton_colours import read_colour
 from ..skeleton_curves import CURVES_38, CurveSpelling
 from ..skeleton_version import doc_major_minor
@@ -203,7 +204,7 @@ class _Reader:
     def __init__(self, doc: dict, four: bool, out: Animation, spelling: CurveSpelling = CURVES_38):
         self.four, self.out, self.spelling = four, out, spelling
         self.bone_index = {str(b.get("name")): i for i, b in enumerate(doc.get("bones", [])) if isinstance(b, dict)}
-        self.slot_index = {str(s.get("name")): i for i, s in enumerate(doc.get("slots", [])) if isinstance(s, dict)}
+        self.slot_index = first_of_each_name(str(s.get("name")) for s in doc.get("slots", []) if isinstance(s, dict))
         self.ends: list[float] = []
         #: 4.3 reads a physics mix key without a value as 1 (4.2: 0), and a transform key's
         #: mixScaleY as 1
