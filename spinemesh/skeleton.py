@@ -55,6 +55,27 @@ def load_skeleton(path: str | Path) -> dict:
     The document's shape is checked once here (:func:`spinemesh.skeleton_check.check_document`):
     code that reads it may trust the types of bones, slots, constraints and skins.
 
+    Parameters
+    ----------
+    path : path
+        A skeleton file of Spine 3.5 to 4.3: JSON, or binary by its name or first byte
+        (:func:`is_binary_skeleton`); its size is bounded (:mod:`spinemesh.limits`).
+
+    Returns
+    -------
+    dict
+        The document in the layout of Spine's JSON export, whichever format it came in.
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> folder = make_demo_project("demo")
+    >>> doc = load_skeleton(folder / "demo.json")
+    >>> doc["skeleton"]["spine"], [b["name"] for b in doc["bones"]][:2]
+    ('4.2.40', ['root', 'body'])
+    >>> load_skeleton(folder / "demo-binary.skel")["skeleton"]["spine"]
+    '4.2.40'
+
     Raises
     ------
     SkeletonError
@@ -254,7 +275,24 @@ def dumps_skeleton(doc: dict, path: str | Path | None = None, like: str | None =
 
 
 def save_skeleton(doc: dict, path: str | Path) -> None:
-    """Write ``doc`` atomically, as ``.skel`` if ``path`` is binary, else as JSON."""
+    """Write ``doc`` atomically, as ``.skel`` if ``path`` is binary, else as JSON.
+
+    Parameters
+    ----------
+    doc : dict
+        A document as :func:`load_skeleton` gives it; written for the version it names.
+    path : path
+        The file to write; binary by its name (:func:`is_binary_skeleton`). An existing
+        file is replaced whole or not at all.
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> doc = load_skeleton(make_demo_project("demo") / "demo.json")
+    >>> save_skeleton(doc, "copy.skel")
+    >>> load_skeleton("copy.skel")["slots"] == doc["slots"]
+    True
+    """
     path = Path(path)
     if is_binary_skeleton(path):
         from .fsutil import atomic_write_bytes
@@ -349,6 +387,24 @@ def iter_attachments(doc: dict) -> Iterator[AttachmentRef]:
 
     An attachment whose fields have the wrong type or an unusable number is passed over (left
     as it is in the document); :func:`checked_attachments` says why.
+
+    Parameters
+    ----------
+    doc : dict
+        A document as :func:`load_skeleton` gives it.
+
+    Yields
+    ------
+    AttachmentRef
+        ``(skin, slot, name, attachment)``, the attachment the document's own dict (changing
+        it changes the document); ``type`` is its type (``region`` when the JSON names none).
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> doc = load_skeleton(make_demo_project("demo") / "demo.json")
+    >>> [(ref.slot, ref.name, ref.type) for ref in iter_attachments(doc)][:2]
+    [('arm', 'demo-arm', 'region'), ('body', 'demo-body', 'region')]
     """
     for ref, problem in checked_attachments(doc):
         if not problem:

@@ -53,9 +53,24 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
 
     Projects are found as :func:`spinemesh.project.find_projects` finds them; each is
     upgraded as :func:`.run.upgrade_project` would, to ``out/<its path under library>``, on one
-    set of workers started once. Files outside every project are not copied. In the
-    result, skeletons (and errors) are named by their path under ``library``. ``progress``
-    is told each phase's work as projects are planned, meshed and written (:mod:`.progress`).
+    set of workers started once. Files outside every project are not copied.
+
+    Parameters
+    ----------
+    library : path
+        A folder of project folders (:func:`is_library`).
+    out : path
+        The output folder; refused if it is the library or inside it.
+    options : Options, optional
+        As for one project; ``images_in`` (``--from-images``) is refused. Default: ``Options()``.
+    progress : Progress, optional
+        Told each phase's work as projects are planned, meshed and written (:mod:`.progress`);
+        default: nobody.
+
+    Returns
+    -------
+    Result
+        Every project's targets, skeletons and errors, named by their path under ``library``.
     """
     options = options or Options()
     library, out = Path(library), Path(out)

@@ -95,6 +95,31 @@ def mesh_one(task: MeshTask) -> MeshResult:
     A pure function of the task, so that any worker (local or on a cluster) gives the same
     answer. Problems of the image (:class:`SpineMeshError`), memory that cannot be had for it
     included (:func:`~spinemesh.memory.image_memory`), become the result's ``error``.
+
+    Parameters
+    ----------
+    task : MeshTask
+        The stored part of one unique image, its place in the original image and the mesher
+        settings.
+
+    Returns
+    -------
+    MeshResult
+        ``vertices`` (N, 2) in pixels of the original image, the first ``hull`` the outline;
+        ``triangles`` (T, 3); or ``vertices`` None with ``kept`` (the keep rule of
+        :mod:`spinemesh.mesher.worth`: the region stays) or ``error`` saying why.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from spinemesh.upgrade import Options
+    >>> from spinemesh.upgrade.plan import MeshTask
+    >>> rgba = np.zeros((64, 64, 4), np.uint8)
+    >>> y, x = np.mgrid[:64, :64]
+    >>> rgba[(y - 32) ** 2 + (x - 32) ** 2 < 400] = 255   # an opaque disc in a 64 x 64 region
+    >>> res = mesh_one(MeshTask("disc", rgba, (0, 0), (64, 64), Options().mesh_settings()))
+    >>> res.error, res.kept, res.vertices.shape[1], res.triangles.shape[1], res.hull <= len(res.vertices)
+    ('', '', 2, 3, True)
     """
     try:
         with image_memory("mesh", None, task.rgba.shape[1], task.rgba.shape[0]):
@@ -255,9 +280,27 @@ def mesh_tasks(tasks: dict[str, MeshTask], workers: Workers,
                cache: dict | None = None, arrived: Callable[[MeshResult], None] | None = None) -> dict[str, MeshResult]:
     """Mesh every unique image once (:func:`start_meshing`, then :func:`finish_meshing`).
 
-    ``cache``, if given, keeps results across calls (keyed by image and mesher settings), so
-    that runs over projects sharing images (the same art exported for several Spine
-    versions) mesh each image only once. ``arrived`` is told each mesh as it arrives.
+    Stage 2 of :mod:`.run`.
+
+    Parameters
+    ----------
+    tasks : dict of str to MeshTask
+        The plan's tasks (:attr:`.plan.ProjectPlan.tasks`), by content key.
+    workers : Workers
+        Where :func:`mesh_one` runs (:mod:`spinemesh.cluster`); the answer is the same on any.
+    progress : callable, optional
+        ``progress(n)``: told how many tasks ended, as they end; default: nobody.
+    cache : dict, optional
+        Keeps results across calls (keyed by image and mesher settings), so that runs over
+        projects sharing images (the same art exported for several Spine versions) mesh each
+        image only once; default: none.
+    arrived : callable, optional
+        Told each :class:`MeshResult` as it arrives (``--weights auto``'s bending tests).
+
+    Returns
+    -------
+    dict of str to MeshResult
+        One result per key of ``tasks``, whatever order the workers answered in.
     """
     return finish_meshing(start_meshing(tasks, workers, cache, progress=progress), tasks, workers, cache=cache,
                           arrived=arrived)

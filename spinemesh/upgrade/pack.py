@@ -22,13 +22,28 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
                  source: Project | None = None) -> None:
     """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``.
 
-    ``options`` (:class:`.options.Options`): its page rules, jobs and Dask cluster; ``workers``:
-    the run's workers, else opened from those; ``progress``: told the packing's steps as the
-    ``pack`` phase; ``source``: the project upgraded. Its skeletons that were not written to
-    ``out`` (the others of the folder, when one skeleton file was upgraded) still load its
-    atlases in the game, so what they draw counts in the packing as it is. Its problems are in
-    ``result.errors`` already: the same problem of a copy in ``out`` (an atlas whose page the
-    export lacks) is not said again.
+    The ``--pack`` stage of :mod:`.run`, after the files are written: it changes no document,
+    so it packs by the skeleton files a game loads, in place (:mod:`spinemesh.pack`).
+
+    Parameters
+    ----------
+    out : Path
+        The output folder as written; its atlases and pages are replaced there.
+    result : Result
+        Gets one :class:`spinemesh.pack.run.AtlasRow` per atlas in ``atlases``, the packing's
+        problems in ``errors`` and ``warnings``, its time in ``seconds["pack"]``.
+    options : Options, optional
+        Its page rules, jobs and Dask cluster; default: :class:`spinemesh.pack.run.PackOptions`'s.
+    workers : Workers, optional
+        The run's workers; default: opened from ``options``.
+    progress : Progress, optional
+        Told the packing's steps as the ``pack`` phase; default: nobody.
+    source : Project, optional
+        The project upgraded. Its skeletons that were not written to ``out`` (the others of
+        the folder, when one skeleton file was upgraded) still load its atlases in the game,
+        so what they draw counts in the packing as it is. Its problems are in
+        ``result.errors`` already: the same problem of a copy in ``out`` (an atlas whose page
+        the export lacks) is not said again.
     """
     from ..pack.run import PackOptions, PackResult, pack_project_into
     from ..pack.uses import collect_uses

@@ -526,10 +526,42 @@ class ProjectReading:
 
 
 def plan_project(proj: Project, options: Options, result: Result, progress: Progress = SILENT) -> ProjectPlan:
-    """Read every skeleton of ``proj`` and plan its regions.
+    """Read every skeleton of ``proj`` and plan its regions (stage 1 of :mod:`.run`).
 
-    Unreadable skeletons go to ``result.errors`` and ``result.not_read``; the others are
-    planned all the same. ``progress`` is told each skeleton read (phase ``read``).
+    :func:`read_project`, then :func:`plan_read_project`; :func:`.run.upgrade_project` calls
+    the halves apart, to decode the pages on its workers between them.
+
+    Parameters
+    ----------
+    proj : Project
+        The project (:func:`spinemesh.project.find_project`).
+    options : Options
+        What the user asked for: presets, ``--only``/``--exclude``, ``--weights``, ``--repack``.
+    result : Result
+        Filled in place: one :class:`~.report.Target` per region attachment (status
+        ``planned``, or ``kept``/``failed`` with the reason), ``errors``, ``warnings``, and
+        ``seconds["read"]``. Unreadable skeletons go to ``errors`` and ``not_read``; the others
+        are planned all the same.
+    progress : Progress, optional
+        Told each skeleton read (phase ``read``); default: nobody.
+
+    Returns
+    -------
+    ProjectPlan
+        Per skeleton a :class:`SkeletonPlan`, and one :class:`MeshTask` per unique image
+        (``tasks``, by content key: an image drawn by several attachments or skeletons is
+        meshed once).
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> from spinemesh.project import find_project
+    >>> from spinemesh.upgrade import Options
+    >>> from spinemesh.upgrade.report import Result
+    >>> result = Result()
+    >>> plan = plan_project(find_project(make_demo_project("demo")), Options(), result)
+    >>> [sk.rel for sk in plan.skeletons], len(result.targets), len(plan.tasks)
+    (['demo-binary.skel', 'demo.json'], 12, 6)
     """
     return plan_read_project(read_project(proj, options, result, progress))
 
@@ -539,6 +571,18 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
 
     Between the halves, the pages the second will cut from (:meth:`ProjectReading.pages_to_decode`)
     can be decoded elsewhere (:meth:`spinemesh.images.PageStore.decode_ahead`).
+
+    Parameters
+    ----------
+    proj, options, result, progress
+        As for :func:`plan_project`; ``result`` gets the targets, the skeletons not read and
+        the warnings of attachments copied as they are.
+
+    Returns
+    -------
+    ProjectReading
+        The documents read (with ``--weights auto``, each one's rig) and the planner that
+        :func:`plan_read_project` finishes.
     """
     t0 = time.perf_counter()
     planner = Planner(options)
@@ -612,7 +656,19 @@ def decode_pages_ahead(reading: ProjectReading, prefetch: PagePrefetch | None) -
 
 
 def plan_read_project(reading: ProjectReading) -> ProjectPlan:
-    """The second half of :func:`plan_project`: every target decided (images cut), in the order read."""
+    """The second half of :func:`plan_project`: every target decided (images cut), in the order read.
+
+    Parameters
+    ----------
+    reading : ProjectReading
+        From :func:`read_project`; its ``result`` gets the project's problems and warnings.
+
+    Returns
+    -------
+    ProjectPlan
+        As :func:`plan_project` returns it. The project's decoded pages are released: each
+        :class:`MeshTask` holds the crop it meshes.
+    """
     t0 = time.perf_counter()
     proj, result, planner = reading.project, reading.result, reading.planner
     planner.decide()

@@ -100,8 +100,19 @@ def merge(into: Result, part: Result, prefix: str) -> None:
 
 
 def write_report(result: Result, path: str | Path, project: str | Path | None = None) -> None:
-    """``report.json``: one row per region attachment, plus totals and timings; the files of
-    ``project`` (the folder upgraded) named from its name (:func:`~spinemesh.fsutil.named_within`)."""
+    """``report.json``: one row per region attachment, plus totals and timings.
+
+    Parameters
+    ----------
+    result : Result
+        The run's result (:func:`.run.upgrade_project`, :func:`.library.upgrade_library`).
+    path : path
+        The report file, written atomically as strict JSON.
+    project : path, optional
+        The folder upgraded: its files are named from its name
+        (:func:`~spinemesh.fsutil.named_within`), so the report is the same bytes from any
+        folder; default: paths as they are.
+    """
     atomic_write_json(path, named_within({
         "counts": result.counts(),
         "skeletons_written": result.written,

@@ -122,7 +122,29 @@ def upgrade_project(project: str | Path, out: str | Path, options: Options | Non
 
 def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: Workers | None,
                  progress: Progress, mesh_cache: dict | None) -> dict[str, MeshResult]:
-    """Stage 2 for one project: mesh its unique images on ``workers`` (or ones opened for it)."""
+    """Stage 2 for one project: mesh its unique images on ``workers`` (or ones opened for it).
+
+    Parameters
+    ----------
+    plan : ProjectPlan
+        From stage 1; with ``--weights auto`` its regions that may bend are tested as their
+        meshes arrive (:func:`.bending.bending_tests`).
+    options : Options
+        ``jobs`` and ``dask``: the workers opened when ``workers`` is None.
+    result : Result
+        Gets the meshing time in ``seconds["mesh"]``.
+    workers : Workers or None
+        The caller's workers, kept open after this stage; None opens them for it.
+    progress : Progress
+        Told each image meshed (phase ``mesh``).
+    mesh_cache : dict or None
+        Meshes kept across calls (:func:`~.meshing.mesh_tasks`); None meshes afresh.
+
+    Returns
+    -------
+    dict of str to MeshResult
+        One per key of ``plan.tasks``.
+    """
     t0 = time.perf_counter()
     progress.add("mesh", len(plan.tasks))
     with meshing_workers(options, workers, len(plan.tasks)) as w:
@@ -139,7 +161,25 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
                    progress: Progress = SILENT, workers: Workers | None = None) -> None:
     """Stages 3 and 4 for one project: the meshes into its documents (weighted on ``workers``
     with ``--weights auto``, :func:`.write.apply_project`), then everything written to ``out``
-    (and packed with ``--pack``, on ``workers`` when given)."""
+    (and packed with ``--pack``, on ``workers`` when given).
+
+    Parameters
+    ----------
+    plan : ProjectPlan
+        From stage 1; its documents are changed in place.
+    meshes : dict of str to MeshResult
+        From stage 2, by image key.
+    out : Path
+        The output folder, already checked and held (:func:`spinemesh.output.output_folder`).
+    result : Result
+        Gets the targets' statuses, the skeletons written, the problems, ``--pack``'s atlas
+        rows, and the time of each stage in ``seconds`` (``write`` without the weights, the
+        packing and the bending regions meshed again, which have lines of their own).
+    progress : Progress, optional
+        Told the phases ``weights``, ``write`` and ``pack``; default: nobody.
+    workers : Workers, optional
+        Where the weights and the packing run; default: this process.
+    """
     t0 = time.perf_counter()
     weights_before, pack_before = result.seconds["weights"], result.seconds.get("pack", 0.0)
     mesh_before = result.seconds["mesh"]  # regions meshed again because they bend (.bending)

@@ -69,10 +69,24 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
                   progress: Progress = SILENT, workers: Workers | None = None) -> None:
     """Put the meshes into every document of ``plan``, in place; ``--weights auto`` also weights them.
 
-    The weights' time goes to ``result.seconds["weights"]``, each mesh weighted to ``progress``.
-    With ``workers`` that are not this process, the meshes are weighted on them (:func:`weigh_on`).
-    Before anything goes in, the regions that may bend are settled (:func:`.bending.settle_bending`:
-    ``meshes`` and ``plan.tasks`` get the bending tasks' meshes).
+    Stage 3 of :mod:`.run`. Before anything goes in, the regions that may bend are settled
+    (:func:`.bending.settle_bending`: ``meshes`` and ``plan.tasks`` get the bending tasks' meshes).
+
+    Parameters
+    ----------
+    plan : ProjectPlan
+        Its documents are changed in place: each planned region attachment becomes the mesh
+        attachment of :func:`spinemesh.attachment_geometry.mesh_attachment`, its
+        :class:`~.report.Target` marked ``meshed`` (or ``kept``/``failed`` with the reason).
+    meshes : dict of str to MeshResult
+        From :func:`.meshing.mesh_tasks`, by image key.
+    result : Result, optional
+        Gets the weights' time in ``seconds["weights"]``.
+    progress : Progress, optional
+        Told each mesh weighted (phase ``weights``); default: nobody.
+    workers : Workers, optional
+        With workers that are not this process, the meshes are weighted on them
+        (:func:`weigh_on`); default: here.
     """
     settle_bending(plan, meshes, workers, result, progress)
     for sk in plan.skeletons:
@@ -122,7 +136,23 @@ def weigh_on(workers: Workers, skeletons: list, max_vertices: int | None,
 
 
 def write_skeletons(plan: ProjectPlan, out: Path, result: Result, progress: Progress = SILENT) -> None:
-    """Write every document of ``plan`` under ``out``; those written go to ``result.written``."""
+    """Write every document of ``plan`` under ``out``; those written go to ``result.written``.
+
+    Stage 4 of :mod:`.run`: each skeleton in the format and version it came in, at its path
+    under the project (:func:`spinemesh.output.write_skeleton`).
+
+    Parameters
+    ----------
+    plan : ProjectPlan
+        The documents, meshes applied (:func:`apply_project`).
+    out : Path
+        The output folder, already checked and marked (:func:`spinemesh.output.output_folder`).
+    result : Result
+        Gets each skeleton written (its path under the project) in ``written``; one that cannot
+        be written goes to ``errors``, and its targets that were meshed become ``failed``.
+    progress : Progress, optional
+        Told each skeleton written (phase ``write``); default: nobody.
+    """
     progress.add("write", len(plan.skeletons))
     for sk in plan.skeletons:
         progress.advance("write")
