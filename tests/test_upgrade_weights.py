@@ -430,8 +430,8 @@ def test_meshes_weighted_on_the_workers_give_the_output_of_this_process_byte_for
         unavailable("4.2 example mix-and-match absent")
     monkeypatch.setattr(rig_upgrade, "MESHES_PER_JOB", 3)  # many jobs, out of order
     calls = []
-    monkeypatch.setattr(rig_upgrade, "weighing_jobs",
-                        lambda *a, f=rig_upgrade.weighing_jobs: calls.append(1) or f(*a))
+    monkeypatch.setattr(rig_upgrade, "weighting_jobs",
+                        lambda *a, f=rig_upgrade.weighting_jobs: calls.append(1) or f(*a))
     skeleton = project / "mix-and-match-pro.json"
     here = upgrade_project(skeleton, tmp_path / "here", Options(weights="auto", jobs=1))
     apart = upgrade_project(skeleton, tmp_path / "apart", Options(weights="auto", jobs=2))

@@ -232,7 +232,7 @@ def weight_upgraded(doc: dict, targets, max_vertices: int | None = None, rig: Ri
 MESHES_PER_JOB = 24
 
 
-def weighing_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> list[tuple]:
+def weighting_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> list[tuple]:
     """The jobs of :func:`weight_apart` that together do what :func:`weight_upgraded` does to
     ``doc`` and ``targets``, at most :data:`MESHES_PER_JOB` meshes each.
 
@@ -248,9 +248,9 @@ def weighing_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> lis
 
 
 def weight_apart(job: tuple) -> list[tuple[dict, dict]]:
-    """:func:`weight_upgraded` of one job of :func:`weighing_jobs`, on a worker process: for each
+    """:func:`weight_upgraded` of one job of :func:`weighting_jobs`, on a worker process: for each
     of its targets, in order, the attachment as it ends (weighted, left unweighted or put back
-    as its region) and the target's fields (:func:`put_back_weighed` puts both in place)."""
+    as its region) and the target's fields (:func:`put_back_weighted` puts both in place)."""
     doc, targets, max_vertices, rig = job
     weight_upgraded(doc, targets, max_vertices, rig)
     places = {(t.skin, t.slot, t.name) for t in targets}
@@ -259,10 +259,10 @@ def weight_apart(job: tuple) -> list[tuple[dict, dict]]:
     return [(attachments[(t.skin, t.slot, t.name)], dict(t.__dict__)) for t in targets]
 
 
-def put_back_weighed(doc: dict, targets, weighed: list[tuple[dict, dict]]) -> None:
+def put_back_weighted(doc: dict, targets, weighted: list[tuple[dict, dict]]) -> None:
     """Put what :func:`weight_apart` returned for ``targets`` (the job's, in its order) into
     ``doc`` and the targets, in place: each attachment's own dict keeps its place among its siblings."""
-    by_place = {(t.skin, t.slot, t.name): (t, w) for t, w in zip(targets, weighed)}
+    by_place = {(t.skin, t.slot, t.name): (t, w) for t, w in zip(targets, weighted)}
     for ref in iter_attachments(doc):
         found = by_place.get((ref.skin, ref.slot, ref.name))
         if found is None:

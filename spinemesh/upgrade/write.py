@@ -86,7 +86,7 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
         Told each mesh weighted (phase ``weights``); default: nobody.
     workers : Workers, optional
         With workers that are not this process, the meshes are weighted on them
-        (:func:`weigh_on`); default: here.
+        (:func:`weight_on_workers`); default: here.
     """
     settle_bending(plan, meshes, workers, result, progress)
     for sk in plan.skeletons:
@@ -100,34 +100,34 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
     max_vertices = plan.options.overrides.get("max_vertices")
     here = [(sk, sk.targets) for sk in plan.skeletons]
     if workers is not None and type(workers) is not Workers:
-        here = weigh_on(workers, plan.skeletons, max_vertices, progress)
+        here = weight_on_workers(workers, plan.skeletons, max_vertices, progress)
     for sk, targets in here:
         weight_upgraded(sk.doc, targets, max_vertices, sk.rig, on_mesh=lambda: progress.advance("weights"))
     if result is not None:
         result.seconds["weights"] += time.perf_counter() - t0
 
 
-def weigh_on(workers: Workers, skeletons: list, max_vertices: int | None,
+def weight_on_workers(workers: Workers, skeletons: list, max_vertices: int | None,
              progress: Progress = SILENT) -> list[tuple]:
     """Weight the upgraded meshes of ``skeletons`` on ``workers``, in jobs of a few meshes
-    (:func:`spinemesh.rig.upgrade.weighing_jobs`); the weighting is the same wherever it runs,
+    (:func:`spinemesh.rig.upgrade.weighting_jobs`); the weighting is the same wherever it runs,
     and each job's result is put back by place, never by arrival order, so the output is the
     same byte for byte. Returns ``(skeleton, targets)`` left to weight here: the skeletons without
     a rig (their weighting reports why per mesh) and the targets of jobs whose worker was lost.
     """
-    from ..rig.upgrade import put_back_weighed, weighing_jobs, weight_apart
+    from ..rig.upgrade import put_back_weighted, weighting_jobs, weight_apart
 
     here, jobs = [(sk, sk.targets) for sk in skeletons if sk.rig is None], {}
     for sk in skeletons:
         if sk.rig is not None:
-            for job in weighing_jobs(sk.doc, sk.targets, max_vertices, sk.rig):
+            for job in weighting_jobs(sk.doc, sk.targets, max_vertices, sk.rig):
                 # first: ahead of the meshing of the projects a library run planned ahead, which
                 # would otherwise hold up this project's weights (and its bar) until they are meshed
                 jobs[workers.submit(weight_apart, job, first=True)] = (sk, job[1])
     for future in workers.as_completed(list(jobs)):
         sk, targets = jobs[future]
         try:
-            put_back_weighed(sk.doc, targets, future.result())
+            put_back_weighted(sk.doc, targets, future.result())
         except WorkerLost:  # weighted here instead, the same way
             here.append((sk, targets))
             continue
