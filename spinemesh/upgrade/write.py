@@ -115,7 +115,7 @@ def weight_on_workers(workers: Workers, skeletons: list, max_vertices: int | Non
     same byte for byte. Returns ``(skeleton, targets)`` left to weight here: the skeletons without
     a rig (their weighting reports why per mesh) and the targets of jobs whose worker was lost.
     """
-    from ..rig.upgrade import put_back_weighted, weighting_jobs, weight_apart
+    from ..rig.upgrade import put_back_weighted, weight_apart, weighting_jobs
 
     here, jobs = [(sk, sk.targets) for sk in skeletons if sk.rig is None], {}
     for sk in skeletons:
