@@ -143,3 +143,14 @@ def test_the_diff_page_counts_the_failures_the_markdown_counts():
     assert "| 0 (1 failed) |" in aggregate_markdown(agg)
     page = to_html(result, agg)
     assert "<td>0 (1 failed)</td>" in page and "report.md lists them all" in page, page[:3000]
+
+
+def test_the_pack_total_of_atlases_all_kept_counts_no_region():
+    """Two atlases kept in their layout (the corpus's dm-background: lossy WebP pages) show ``-``
+    under by outline and by rectangle, their regions where they were; the total row said 0 and 0."""
+    rows = [SimpleNamespace(**{**vars(_atlas_row(name, (4096, 4096), (900, 900))), "by_outline": None,
+                               "by_rectangle": None, "reason": "its pages are lossy WebP"})
+            for name in ("background.atlas", "freespinBG_anim.atlas")]
+    text = _pack_table(rows, 120)
+    (total,) = [line for line in text.splitlines() if line.startswith("│ total")]
+    assert [cell.strip() for cell in total.split("│")[5:7]] == ["-", "-"], text

@@ -275,8 +275,10 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         total = atlas_totals(atlases)
         rows.append(["total", f"{total['pages_before']} -> {total['pages_after']}",
                      change(total["texels_before"], total["texels_after"]),
-                     change(total["bytes_before"], total["bytes_after"]), str(total["by_outline"]),
-                     str(total["by_rectangle"])])
+                     change(total["bytes_before"], total["bytes_after"]),
+                     # every atlas kept its layout: "-" as in each row (the total said 0 and 0)
+                     *(("-", "-") if all(a.by_outline is None for a in atlases)
+                       else (str(total["by_outline"]), str(total["by_rectangle"])))])
     columns = ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle")
     widths = _fitted_widths([list(columns), *rows], console.width - (0 if below else 3 + NOTE_MIN_WIDTH))
     shown = short_names([a.atlas for a in atlases], widths[0]) if widths else {}
