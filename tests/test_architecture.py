@@ -350,17 +350,18 @@ def defined_names(root: Path) -> tuple[set[str], set[str]]:
 
 
 def name_problems(text: str, root: Path) -> list[str]:
-    """Names in backticks that the code does not have: a file (``x.py``, ``a/b.py``, ``x.js``,
-    ``spinemesh/...``) that no file under ``root`` (or the repository, for ``tests/``) is, and a
+    """Names in backticks that the code does not have: a file (``x.py``, ``a/b.py``, ``x.js``, ``x.sh``,
+    ``spinemesh/...``) that no file under ``root`` (or the repository, for ``tests/...``) is, and a
     Python name (``mesh_one``, ``run.finish_project``, ``Result.seconds``) that no module under
     ``root`` defines. Options, commands and data files (``report.json``) are left alone."""
     modules, names = defined_names(root)
     files = {p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file()}
     problems = []
     for token in sorted(set(re.findall(r"`([^`\n]+)`", text))):
-        if re.fullmatch(r"[\w./]+\.(py|js)|[\w./]+/", token):
-            if token.startswith("tests/"):
-                ok = (root.parent / token).exists()
+        if re.fullmatch(r"[\w./-]+\.(py|js|sh)|[\w./-]+/", token):
+            first = token.split("/", 1)[0]
+            if "/" in token and first != root.name and (root.parent / first).is_dir():
+                ok = (root.parent / token).exists()  # a folder of the repository: tests/, scripts/
             else:
                 inside = token.removeprefix(f"{root.name}/").rstrip("/")
                 ok = any(f == inside or f.endswith("/" + inside) or f.startswith(inside + "/") for f in files)
@@ -377,7 +378,7 @@ def name_problems(text: str, root: Path) -> list[str]:
 
 def test_architecture_checks_find_what_they_look_for(tmp_path):
     """A page that misses a module, draws an arrow without an import and misses one, puts a
-    module in a box that does not exist, and names a function and a file the code lacks."""
+    module in a box that does not exist, and names a function, a file and a script the code lacks."""
     demo = _write_package(tmp_path, {
         "__init__.py": "",
         "low.py": "def helper():\n    pass\n",
@@ -388,13 +389,15 @@ def test_architecture_checks_find_what_they_look_for(tmp_path):
     page = ("# A\n\n```mermaid\nflowchart BT\n  low[\"low\"]\n  mid[\"mid · gone<br/>(the middle)\"]\n"
             "  low --> mid\n```\n\n## The packages\n\n| p | job |\n| --- | --- |\n| `low`, `mid` | x |\n\n"
             "## More\n\n`run.go`, `Result.seconds`, `mid/run.py`, `helper`, `--pack`, `report.json`, "
-            "`run.stop`, `mid/walk.py`, `Result.minutes`\n")
+            "`run.stop`, `mid/walk.py`, `Result.minutes`, `scripts/go.sh`, `scripts/gone.sh`\n")
+    (tmp_path / "scripts").mkdir()
+    (tmp_path / "scripts" / "go.sh").write_text("", encoding="utf-8")
     assert diagram_problems(page, demo) == [
         "box mid names gone, which is not in the package", "top is in no box",
         "mid imports low: no arrow drawn", "arrow low --> mid: no such import"]
     assert table_problems(page, demo) == ["top is not in the table of packages"]
     assert name_problems(page, demo) == ["`Result.minutes`: not in the code", "`mid/walk.py`: no such file",
-                                         "`run.stop`: not in the code"]
+                                         "`run.stop`: not in the code", "`scripts/gone.sh`: no such file"]
 
 
 def test_architecture_diagram_draws_the_packages_as_they_import():
