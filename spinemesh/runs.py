@@ -21,7 +21,30 @@ EXIT_PARTIAL = 3
 
 class RunSummary:
     """Mixin for a run's result: ``_items()`` yields everything that has a ``status``, and
-    ``errors`` lists the problems that stopped a whole file."""
+    ``errors`` lists the problems that stopped a whole file.
+
+    The results of ``upgrade`` (:class:`spinemesh.upgrade.report.Result`), ``weights`` and
+    ``pack`` are ones; :mod:`spinemesh.cli._summary` prints them, and :attr:`partial` decides
+    the exit status (:data:`EXIT_PARTIAL`).
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass, field
+    >>> @dataclass
+    ... class Item:
+    ...     status: str
+    >>> @dataclass
+    ... class Run(RunSummary):
+    ...     items: list = field(default_factory=list)
+    ...     errors: list = field(default_factory=list)
+    ...     def _items(self):
+    ...         return self.items
+    >>> run = Run([Item("meshed"), Item("kept"), Item("meshed")])
+    >>> run.counts(), run.partial
+    ({'kept': 1, 'meshed': 2}, False)
+    >>> run.items.append(Item("failed")); run.partial
+    True
+    """
 
     errors: list[str]
 

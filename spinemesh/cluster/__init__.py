@@ -86,7 +86,17 @@ class Workers:
     """Runs ``fn(arg)`` tasks; subclasses decide where.
 
     ``submit`` returns a future (``.result()``); ``as_completed`` yields futures as they
-    finish, so results stream back while other tasks still run.
+    finish, so results stream back while other tasks still run. This class runs each task in
+    this process as it is submitted; :class:`ProcessWorkers` and :class:`DaskWorkers` run
+    them elsewhere. ``fn`` must be a module-level function (pickled by name) and ``arg``
+    picklable, so that a task runs the same anywhere.
+
+    Attributes
+    ----------
+    kind : str
+        Where the tasks run, in words (``this process``).
+    slots : int
+        How many tasks run at once (callers keep about twice this many in flight).
     """
 
     kind = "this process"
@@ -614,7 +624,32 @@ def _settle(future: Future, done) -> None:
 
 
 def open_workers(jobs: int = 1, dask: str | None = None, max_tasks_per_child: int | None = None) -> Workers:
-    """The workers a command asked for (``--jobs``, ``--dask``); use it as a context manager."""
+    """The workers a command asked for (``--jobs``, ``--dask``); use it as a context manager.
+
+    Parameters
+    ----------
+    jobs : int, default 1
+        Worker processes on this machine; 1 runs every task in this process.
+    dask : str, optional
+        A Dask scheduler's address, or ``"local"`` for a local cluster of ``jobs`` workers
+        (:class:`DaskWorkers`, the ``cluster`` extra); default: no Dask.
+    max_tasks_per_child : int, optional
+        Local processes only: a worker is replaced after this many tasks (bounds the memory
+        of long runs); default: never.
+
+    Returns
+    -------
+    Workers
+        :class:`Workers` (this process), :class:`ProcessWorkers` or :class:`DaskWorkers`; the
+        same tasks give the same results on any of them.
+
+    Examples
+    --------
+    >>> with open_workers() as workers:
+    ...     futures = [workers.submit(abs, n) for n in (-2, 3)]
+    ...     sorted(f.result() for f in workers.as_completed(futures))
+    [2, 3]
+    """
     if dask:
         return DaskWorkers(dask, jobs)
     if jobs > 1:
