@@ -448,7 +448,27 @@ def parse_atlas(text: str, source: str | Path | None = None, strict: bool = True
 def read_atlas(path: str | Path, strict: bool = True) -> Atlas:
     """Read an atlas file (``.atlas``, ``.atlas.txt``...). Raises :class:`AtlasError`.
 
-    ``strict``: see :func:`parse_atlas`.
+    Parameters
+    ----------
+    path : path
+        The atlas file, in the 3.x (``xy:``/``size:``) or 4.x (``bounds:``) syntax; its size is
+        bounded (:mod:`spinemesh.limits`).
+    strict : bool, default True
+        See :func:`parse_atlas`: false lists unusable regions in ``problems`` instead of
+        refusing the file.
+
+    Returns
+    -------
+    Atlas
+        Its pages and regions in file order, every entry kept so that :meth:`Atlas.dumps`
+        gives back the same text.
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> atlas = read_atlas(make_demo_project("demo") / "demo.atlas")
+    >>> atlas.syntax, [page.name for page in atlas.pages], [r.name for r in atlas.regions][:2]
+    ('4', ['demo.png'], ['demo-body', 'demo-head'])
     """
     path = Path(path)
     try:

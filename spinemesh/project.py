@@ -105,6 +105,24 @@ def find_project(path: str | Path) -> Project:
 
     For a skeleton file, the project root is its folder and only that skeleton is taken.
     Nothing outside the project's real folder is taken (see the module notes).
+
+    Parameters
+    ----------
+    path : path
+        A project folder, or one skeleton file in it.
+
+    Returns
+    -------
+    Project
+        Its skeletons (``.json`` and ``.skel``, sorted), atlases, ``images`` folders and
+        every other file; what was left out is in ``problems``.
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> proj = find_project(make_demo_project("demo"))
+    >>> [p.name for p in proj.skeletons], [p.name for p in proj.atlases], [p.name for p in proj.image_folders]
+    (['demo-binary.skel', 'demo.json'], ['demo.atlas'], ['images'])
     """
     path = existing(path)
     if not path.is_dir():

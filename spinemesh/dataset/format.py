@@ -286,5 +286,21 @@ class Dataset:
 
 
 def open_dataset(path: str | Path) -> Dataset:
-    """Open a data set folder; cheap (reads ``meta.json`` only). See :class:`Dataset`."""
+    """Open a data set folder; cheap (reads ``meta.json`` only). See :class:`Dataset`.
+
+    Parameters
+    ----------
+    path : path
+        A folder written by :func:`spinemesh.dataset.build_dataset` (``spinemesh dataset``).
+
+    Returns
+    -------
+    Dataset
+        Its rows streamed from the index, each member read from its shard when asked for.
+
+    Raises
+    ------
+    SpineMeshError
+        For a folder without ``meta.json``, or of another format or version.
+    """
     return Dataset(path)

@@ -1146,7 +1146,40 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     """Pack every atlas of a project (a folder, or the folder of one skeleton file) into ``out``.
 
     A skeleton file stands for its folder: an atlas is packed for every skeleton that loads
-    it, so all of them are read.
+    it, so all of them are read. The project is written whole to ``out``, skeletons unchanged.
+
+    Parameters
+    ----------
+    project : path
+        A project folder, or a skeleton file in it.
+    out : path
+        The output folder; refused if it is the project or inside it.
+    options : PackOptions, optional
+        What ``spinemesh pack``'s options ask for; default: ``PackOptions()``.
+    keep_previews : bool, default False
+        Keep each atlas's pages before and after in ``result.previews`` (``--preview``).
+    progress : PackProgress, optional
+        Told each atlas's steps; default: nobody.
+
+    Returns
+    -------
+    PackResult
+        One :class:`AtlasRow` per atlas (``packed``, ``cleared``, ``kept`` with the reason, or
+        ``failed``) and the problems met.
+
+    Raises
+    ------
+    SpineMeshError
+        Before anything is written: not a project, no usable atlas, ``out`` refused.
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> from spinemesh.upgrade import upgrade_project
+    >>> _ = upgrade_project(make_demo_project("demo"), "meshed")
+    >>> result = pack_project("meshed", "packed")
+    >>> [(row.atlas, row.status) for row in result.atlases], result.totals()["texels_after"] < 131072
+    ([('demo.atlas', 'packed')], True)
     """
     from ..output import check_output_folder, output_folder
     from ..project import is_skeleton_file
@@ -1183,7 +1216,27 @@ def nothing_to_pack(root: Path, problems: list[str], why: str = "no atlas to pac
 
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
                  on_project=None, progress: PackProgress = SILENT) -> PackResult:
-    """Pack every project under ``library`` into the same place under ``out``; one result."""
+    """Pack every project under ``library`` into the same place under ``out``; one result.
+
+    Parameters
+    ----------
+    library : path
+        A folder of projects (:func:`spinemesh.project.find_projects`).
+    out : path
+        The output folder; refused if it is the library or inside it.
+    options : PackOptions, optional
+        As for :func:`pack_project`; one set of workers packs every project.
+    on_project : callable, optional
+        Told each project's path under ``library`` before it is packed.
+    progress : PackProgress, optional
+        Told each atlas's steps; default: nobody.
+
+    Returns
+    -------
+    PackResult
+        Every project's atlas rows, named by their path under ``library``; a project that
+        cannot be packed is one line of ``errors``, and the others are packed all the same.
+    """
     from ..output import check_output_folder, output_folder
 
     options = options or PackOptions()

@@ -63,6 +63,25 @@ def _codec(version: str, path: str | Path | None = None):
 def read_skel(source: str | Path | bytes, path: str | Path | None = None) -> dict:
     """Read a ``.skel`` into a JSON-equivalent skeleton document.
 
+    Parameters
+    ----------
+    source : path or bytes
+        The file, or its bytes; Spine 3.5 to 4.3, the version read from its header.
+    path : path, optional
+        The file's name for error messages when ``source`` is bytes.
+
+    Returns
+    -------
+    dict
+        The document the editor's JSON export of the same skeleton holds (:mod:`.compare`).
+
+    Examples
+    --------
+    >>> from spinemesh.demo import make_demo_project
+    >>> doc = read_skel(make_demo_project("demo") / "demo-binary.skel")
+    >>> doc["skeleton"]["spine"], read_skel(write_skel(doc)) == doc
+    ('4.2.40', True)
+
     Raises
     ------
     SkelFormatError
@@ -99,7 +118,27 @@ def read_skel_finite(source: str | Path | bytes, path: str | Path | None = None)
 
 
 def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
-    """Encode a skeleton document as ``.skel`` bytes of the version in ``doc["skeleton"]["spine"]``."""
+    """Encode a skeleton document as ``.skel`` bytes of the version in ``doc["skeleton"]["spine"]``.
+
+    Nothing is written: :func:`spinemesh.skeleton.save_skeleton` writes the file.
+
+    Parameters
+    ----------
+    doc : dict
+        A document as :func:`read_skel` or :func:`spinemesh.skeleton.load_skeleton` gives it.
+    path : path, optional
+        The file's name for error messages.
+
+    Returns
+    -------
+    bytes
+        The binary skeleton; :func:`read_skel` of it gives ``doc`` back.
+
+    Raises
+    ------
+    SkelFormatError
+        For a document that the version's format cannot hold.
+    """
     skeleton = doc.get("skeleton") if isinstance(doc, dict) else None
     if not isinstance(skeleton, dict):
         raise SkelFormatError("cannot write: expected a document with a 'skeleton' object", path)
