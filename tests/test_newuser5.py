@@ -154,3 +154,26 @@ def test_the_pack_total_of_atlases_all_kept_counts_no_region():
     text = _pack_table(rows, 120)
     (total,) = [line for line in text.splitlines() if line.startswith("│ total")]
     assert [cell.strip() for cell in total.split("│")[5:7]] == ["-", "-"], text
+
+
+def test_meshes_left_unweighted_for_one_kind_of_reason_are_one_line():
+    """``upgrade --weights auto`` on a 3.5 skeleton with IK legs and head (the corpus's
+    sws-crawler) said ``bones: 1 meshes not weighted (... bone 'r_heel' ... 'R_HEEL_IK' ...)``
+    twelve times, once per bone named; reasons that differ only in the names they quote are one
+    line, and one mesh is said in the singular."""
+    from spinemesh.cli._summary import weights_lines
+
+    def unweighted(bone: str, constraint: str) -> SimpleNamespace:
+        why = (f"setup position depends on bone '{bone}', moved in the setup pose by the IK constraint "
+               f"'{constraint}' (constraints are solved for 3.8-4.3 skeletons; this one is 3.5.46)")
+        return SimpleNamespace(status="meshed", weights={"status": "skipped", "reason": why})
+
+    targets = [unweighted("r_heel", "R_HEEL_IK"), unweighted("l_heel", "L_HEEL_IK"), unweighted("r_heel", "R_HEEL_IK"),
+               unweighted("neck", "HEAD_IK"),
+               SimpleNamespace(status="meshed", weights={"status": "skipped", "reason": "keyed by a deform timeline"}),
+               SimpleNamespace(status="meshed", weights={"status": "weighted", "bones": {"root": 1}})]
+    lines = [line for line in weights_lines(targets) if "not weighted" in line]
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("bones: 4 meshes not weighted (setup position depends on bone 'r_heel'"), lines
+    assert lines[0].endswith("; 2 more like it with other names)"), lines
+    assert lines[1] == "bones: 1 mesh not weighted (keyed by a deform timeline)", lines

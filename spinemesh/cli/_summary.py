@@ -10,9 +10,11 @@ is imported on first use.
 
 from __future__ import annotations
 
+import re
 from typing import Callable, Sequence
 
 from ..errors import escaped
+from ..words import counted
 from ._app import console, err_console
 
 
@@ -118,5 +120,17 @@ def weights_lines(targets: Sequence) -> list[str]:
         lines.append(f"bones: {back} regions that might bend stayed regions (their mesh follows one bone)")
     done = {id(t) for t in weighted}
     unweighted = [t.weights.get("reason") or t.weights.get("status", "") for t in meshed if id(t) not in done]
-    lines += [f"bones: {n} meshes not weighted ({why})" for why, n, _ in reason_groups(unweighted)]
+    # one line per reason, the bones and constraints it names aside: a 3.5 skeleton's IK legs and
+    # head said "1 meshes not weighted (... bone 'r_heel' ... 'R_HEEL_IK' ...)" a dozen times over
+    by_words: dict[str, list[str]] = {}
+    for why in unweighted:
+        by_words.setdefault(_QUOTED.sub("'…'", why), []).append(why)
+    for whys in sorted(by_words.values(), key=len, reverse=True):
+        (why, _, _), *others = reason_groups(whys)
+        more = f"; {len(others)} more like it with other names" if others else ""
+        lines.append(f"bones: {counted(len(whys), 'mesh', 'meshes')} not weighted ({why}{more})")
     return lines
+
+
+#: A name a reason quotes (a bone's, a constraint's): reasons that differ only there are one kind.
+_QUOTED = re.compile(r"'[^']*'")
