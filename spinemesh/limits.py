@@ -10,9 +10,7 @@ numbers of 10,420 in attachments and 5,448 in bones).
 
 from __future__ import annotations
 
-import math
-
-from .errors import LimitError, SpineMeshError
+from .errors import LimitError
 
 #: Largest image, page or original region size, in pixels (Pillow's own bomb threshold,
 #: about 9459 x 9459; the Spine editor packs pages of at most 8192 x 8192 = 67 Mpx).
@@ -67,14 +65,6 @@ def check_image_size(width: int, height: int, what: str, source=None, line: int 
     if width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE or width * height > MAX_IMAGE_PIXELS:
         raise LimitError(f"{what} {width}x{height} exceeds the limit of {MAX_IMAGE_SIDE} pixels a side "
                          f"and {MAX_IMAGE_PIXELS:,} pixels", source, line=line)
-
-
-def finite(value: float, what: str, source=None) -> float:
-    """``value`` as a float, refusing NaN and infinities (never meshed, never written)."""
-    value = float(value)
-    if not math.isfinite(value):
-        raise SpineMeshError(f"{what} is {value!r}; only finite numbers are allowed", source)
-    return value
 
 
 #: Largest skeleton or atlas file read whole into memory (real ones stay under 50 MB).
