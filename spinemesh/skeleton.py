@@ -362,6 +362,20 @@ def iter_skins(doc: dict) -> Iterator[tuple[str, dict]]:
         yield name, slots
 
 
+def skins_by_name(doc: dict) -> dict[str, dict]:
+    """``{skin name: {slot: {attachment name: attachment}}}`` as the runtimes find a skin when
+    two share a name (no editor writes that; a merge of two skeletons can): by name, the first
+    (``findSkin``); the default skin, the last named ``default`` (the JSON readers set it at each).
+    """
+    out: dict[str, dict] = {}
+    for name, slots in iter_skins(doc):
+        if name == "default":
+            out[name] = slots
+        else:
+            out.setdefault(name, slots)
+    return out
+
+
 def checked_attachments(doc: dict) -> Iterator[tuple[AttachmentRef, str]]:
     """Every attachment of every skin, in document order, with why it cannot be used (or ``""``).
 

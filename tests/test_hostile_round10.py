@@ -300,7 +300,6 @@ def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, r
     ``pose`` and the preview left the attachment out, exit 0. Now it is posed as spine-core 4.3
     poses it, deformed with its source."""
     import numpy as np
-
     from runtime_tool import node
 
     from spinemesh.anim.dump import pose_errors
@@ -350,3 +349,36 @@ def test_slots_named_twice_pose_as_the_runtimes_find_them(tmp_path, spine_runtim
     project = _pose_project(tmp_path, "4.2.40", {"t": wave})
     _edit(project, twice)
     _poses_match_the_runtime(tmp_path, spine_runtime, project, "t", "0,0.3,0.6")
+
+
+def test_skins_named_twice_pose_as_the_runtimes_find_them(tmp_path, spine_runtime):
+    """Two skins of one name in a 3.8+ skin list: the runtimes find the first by name
+    (``findSkin``) and take the last named ``default`` as the default skin (their JSON readers set
+    it at each). ``pose --skin red`` and the preview drew the later ``red`` (the head 80 units
+    off, exit 0); the default skin was already right. Now both are found as the runtime finds them."""
+    from runtime_tool import dump
+
+    from spinemesh.anim.dump import pose_errors
+
+    project = _demo(tmp_path)
+
+    def twice(doc):
+        head = doc["skins"][0]["attachments"]["head"].pop("demo-head")
+        for x in (40, -40):
+            doc["skins"].append({"name": "red", "attachments": {"head": {"demo-head": {**head, "x": x}}}})
+        later = copy.deepcopy(doc["skins"][0])
+        later["attachments"]["arm"]["demo-arm"]["x"] = 30
+        doc["skins"].append(later)
+
+    _edit(project, twice)
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/demo.json", "-a", "wave", "--times", "0,0.3", "--skin", "red", "--out", "pose.json",
+                cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(0,))
+    ours = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    dump(spine_runtime, project / "demo.atlas", project / "demo.json", "wave", "0,0.3", tmp_path / "d.json", skin="red")
+    theirs = json.loads((tmp_path / "d.json").read_text())["poses"]
+    assert len(ours) == len(theirs) == 3
+    for a, b in zip(ours, theirs):
+        e = pose_errors(a, b)
+        assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (a["label"], e)

@@ -31,7 +31,7 @@ from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, is_43, path_slot, posing_family, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform43 import PROPERTIES, source_value_43
-from ..skeleton import first_of_each_name, iter_skins, spine_version
+from ..skeleton import first_of_each_name, skins_by_name, spine_version
 from ..skeleton_curves import curve_spelling
 from ..skeleton_version import major_minor
 from .attachments import Prepared, RegionGeometry, prepare
@@ -318,7 +318,7 @@ class Sampler:
                           else None for s in slots]
         self.slot_blend = [s.get("blend", "normal") if s.get("blend", "normal") in BLEND_MODES else "normal"
                            for s in slots]
-        self.skins = {name: atts for name, atts in iter_skins(doc)}
+        self.skins = skins_by_name(doc)
         self.slot_index = first_of_each_name(self.slot_names)
         #: slots whose attachment moves bones (a path constraint's target): a step between drawn
         #: frames applies these slots' timelines only

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rig.preview import PALETTE  # the bones' colours of the weights pictures, here by vertex
-from ..skeleton import iter_skins
+from ..skeleton import iter_skins, skins_by_name
 from ..words import counted
 
 #: Blend modes by the number the player uses (the runtimes' names; 3.x "additive" too).
@@ -159,7 +159,7 @@ class PoseSampler:
 
         self.doc = doc
         self.sampler = Sampler(doc, skin, regions)
-        self.skins = dict(iter_skins(doc))
+        self.skins = skins_by_name(doc)
         self.bone_index = {n: i for i, n in enumerate(self.sampler.bone_names)}
         self._colours: dict = {}
 
@@ -459,7 +459,7 @@ def outfit(doc: dict) -> tuple[str, ...]:
     >>> outfit(doc)
     ('naked', 'cap')
     """
-    skins = dict(iter_skins(doc))
+    skins = skins_by_name(doc)
     wanted = _setup_attachments(doc)
     missing = set(wanted) - set(_held(skins.get("default") or {}, wanted))  # the default skin's are never missing
 
