@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..fsutil import atomic_write_files, atomic_write_json, strict_json, utf8
+from ..fsutil import atomic_write_files, strict_json, utf8
 from ..segment import card_path
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
 from .model import SegmentationModel, build_model, read_checkpoint
@@ -139,12 +139,6 @@ def card_of(model: SegmentationModel, extra: dict) -> dict:
     }
     card.update(extra)
     return card
-
-
-def write_card(path: str | Path, model: SegmentationModel, extra: dict) -> Path:
-    """Write :func:`card_of` to ``path`` atomically, as strict JSON (a NaN is refused, naming it)."""
-    atomic_write_json(path, card_of(model, extra), indent=1)
-    return Path(path)
 
 
 def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarray], check: list[np.ndarray],
