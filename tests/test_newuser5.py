@@ -6,7 +6,10 @@ Everything runs on the demo project drawn by our own code (no outside data neede
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -14,7 +17,8 @@ from typer.testing import CliRunner
 
 from spinemesh.cli import app
 
-DEMO = Path(__file__).resolve().parents[1] / "examples" / "demo"
+REPO = Path(__file__).resolve().parents[1]
+DEMO = REPO / "examples" / "demo"
 
 
 def _pack_table(rows: list, columns: int) -> str:
@@ -177,3 +181,16 @@ def test_meshes_left_unweighted_for_one_kind_of_reason_are_one_line():
     assert lines[0].startswith("bones: 4 meshes not weighted (setup position depends on bone 'r_heel'"), lines
     assert lines[0].endswith("; 2 more like it with other names)"), lines
     assert lines[1] == "bones: 1 mesh not weighted (keyed by a deform timeline)", lines
+
+
+def test_weights_refuses_its_pictures_inside_the_output_folder(tmp_path):
+    """``weights --preview OUT/pics`` wrote its debugging pictures into the folder a game loads
+    (``upgrade`` and ``pack`` refuse a preview there); refused in one line, nothing written."""
+    meshed = tmp_path / "meshed"
+    assert CliRunner().invoke(app, ["upgrade", str(DEMO / "demo.json"), "--out", str(meshed)]).exit_code == 0
+    out = tmp_path / "w"
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "weights", str(meshed), "--out", str(out), "--preview",
+                        str(out / "pics")], check=False, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert r.stderr.startswith("error: ") and "overlaps the output folder" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and not out.exists(), r.stderr

@@ -64,7 +64,8 @@ def weights(
                                                    "the bones chosen and why, and the time.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", metavar="DIR", help="Write one PNG per weighted attachment here: the wireframe over the sprite with "
-                          "vertices coloured by bone, and the mesh in one bent pose.")] = None,
+                          "vertices coloured by bone, and the mesh in one bent pose; a folder beside OUT, not "
+                          "inside it.")] = None,
 ) -> None:
     """Bind the mesh attachments of a project to bones and compute their weights.
 
@@ -80,7 +81,7 @@ def weights(
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.motion import sampled_bone_worlds
-    from ..fsutil import OutputGuard, named_project, project_folder
+    from ..fsutil import OutputGuard, named_project, project_folder, refuse_overlapping_outputs
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
@@ -97,6 +98,9 @@ def weights(
     if preview is not None:
         guard.check_folder(preview, "preview folder")
         check_written_folder(preview)
+        # its pictures are no part of the game: inside OUT they were shipped with it (upgrade and
+        # pack refuse it the same way)
+        refuse_overlapping_outputs(out, {"--preview": preview})
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
