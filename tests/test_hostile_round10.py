@@ -217,6 +217,10 @@ def _poses_match_the_runtime(tmp: Path, runtime: Path, project: Path, animation:
     theirs = pose_dump(runtime, project / "demo.atlas", project / "demo.json", tmp / "runtime" / f"{animation}.json",
                        animation, times)
     assert len(ours["poses"]) == len(theirs["poses"])
+    # a value the runtime could not compute (NaN, dumped as null) would compare as no difference
+    for pose in theirs["poses"]:
+        numbers = [v for m in pose["bones"].values() for v in m] + [v for a in pose["attachments"] for v in a["vertices"]]
+        assert None not in numbers, ("the runtime posed something as not a number", pose["label"])
     for a, b in zip(ours["poses"], theirs["poses"]):
         e = pose_errors(a, b)
         assert not e["problems"] and e["bone"] <= 0.01 and e["vertex"] <= 0.01, (animation, a["label"], e)
@@ -267,21 +271,22 @@ def test_the_search_of_keys_out_of_order_is_each_runtimes():
 @pytest.mark.parametrize("version", ["4.2.40", "4.0.60"])
 def test_odd_keys_pose_as_in_the_runtime(tmp_path, spine_runtime, version):
     """Passed as it was: two keys at one time, keys before 0, Bezier handles far outside their
-    keys' span in time, a stepped last key, curve lists of 0, 3 and 8 numbers on a timeline of
-    one value and of 4 on one of two, an animation of events only, one of no duration and one of
-    1e9 seconds: ``pose`` gives the runtime's pose at every time."""
+    keys' span in time, a stepped last key, curve lists longer than their values need (8 numbers
+    on a timeline of one value, 16 on one of two), an animation of events only, one of no duration
+    and one of 1e9 seconds: ``pose`` gives the runtime's pose at every time."""
     odd = {
         "bones": {
             "arm": {"rotate": [{"value": 0}, {"time": 0.5, "value": 40}, {"time": 0.5, "value": -40},
                                {"time": 1, "value": 0, "curve": "stepped"}]},
             "head": {"rotate": [{"time": -0.5, "value": 20, "curve": [-0.5, 0, 2, 40]}, {"time": 0.5, "value": 40},
                                 {"time": 1, "value": 0}]},
-            "body": {"translate": [{"x": 0, "y": 0, "curve": [0.1, 0, 0.4, 10]}, {"time": 0.5, "x": 30, "y": 20},
-                                   {"time": 1}]},
-            "props": {"rotate": [{"value": 0, "curve": [0.25, 0, 0.75]}, {"time": 0.3, "value": 20, "curve": []},
+            "body": {"translate": [{"x": 0, "y": 0, "curve": [0.1, 0, 0.4, 10, 0.2, 5, 0.3, 15]},
+                                   {"time": 0.5, "x": 30, "y": 20}, {"time": 1}]},
+            "props": {"rotate": [{"value": 0, "curve": 0}, {"time": 0.3, "value": 20, "curve": None},
                                  {"time": 0.6, "value": 40, "curve": [0.6, 0, 0.7, 40, 0.1, 0, 0.4, 3]},
                                  {"time": 0.9, "value": -10}],
-                      "scale": [{"x": 1, "curve": [0.4, 80, 0.1, -30, 0.2, 1, 0.3, 2]}, {"time": 0.5, "x": 2, "y": 0.5}]},
+                      "scale": [{"x": 1, "curve": [0.4, 80, 0.1, -30, 0.2, 1, 0.3, 2, 9, 9, 9, 9, 9, 9, 9, 9]},
+                                {"time": 0.5, "x": 2, "y": 0.5}]},
         },
     }
     project = _pose_project(tmp_path, version, {
@@ -291,6 +296,36 @@ def test_odd_keys_pose_as_in_the_runtime(tmp_path, spine_runtime, version):
     _edit(project, lambda doc: doc.update(events={"e": {}}))
     for animation in ("odd", "events", "still", "long"):
         _poses_match_the_runtime(tmp_path, spine_runtime, project, animation)
+
+
+@pytest.mark.parametrize("curve,values", [([0.25, 0, 0.75], 1), ([], 1), (True, 1), ("linear", 1),
+                                          (["0.1", 0, 0.4, 10], 1), ([0.1, 0, 0.4, 10], 2)],
+                         ids=["3 numbers", "empty", "true", "text", "a number as text", "4 for 2 values"])
+def test_a_4x_curve_no_runtime_plays_is_said(tmp_path, spine_runtime, curve, values):
+    """A 4.x key's ``curve`` that is neither absent, ``"stepped"`` nor a list of 4 numbers per
+    value: spine-ts poses the timeline's values as not a number (the bone, and what it draws, is
+    nowhere: the official runtime's dump holds null; a number written as text it reads as the
+    number), spine-c and spine-cpp read past the list or read text as 0 and libGDX refuses the file. ``pose`` posed it linear without a word (exit 0): a pose no game
+    shows. Now it says so, one line naming the animation, the timeline and the key, exit 3; the
+    runtimes disagree, so the linear pose stays."""
+    key = ({"x": 0, "y": 0} if values == 2 else {"value": 0}) | {"curve": curve}
+    last = {"time": 0.5, "x": 30, "y": 20} if values == 2 else {"time": 0.5, "value": 40}
+    project = _pose_project(tmp_path, "4.2.40", {"t": {"bones": {"arm": {
+        "translate" if values == 2 else "rotate": [key, last]}}}})
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/demo.json", "-a", "t", "--times", "0.2", "--out", "pose.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(3,))
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 2 and lines[1] == "pose.json: 2 poses", r.stderr
+    assert lines[0].startswith("warning: p/demo.json: animation 't': bones.arm.") and "key at 0 s" in lines[0]
+    assert f"need{'' if values > 1 else 's'} a list of {4 * values} numbers" in lines[0], lines[0]
+    from runtime_tool import pose_dump
+
+    theirs = pose_dump(spine_runtime, project / "demo.atlas", project / "demo.json", tmp_path / "d.json", "t", "0.2")
+    # where the runtimes disagree: spine-ts's NaN (a number written as text it reads as the number)
+    assert (None in theirs["poses"][-1]["bones"]["arm"]) is (curve != ["0.1", 0, 0.4, 10])
+    ours = json.loads((tmp_path / "pose.json").read_text())["poses"][-1]["bones"]["arm"]
+    assert None not in ours
 
 
 def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, runtime43):  # noqa: F811

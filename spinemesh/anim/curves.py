@@ -170,6 +170,9 @@ class Keys:
     bezier: dict
     four: bool
     angle: bool = False
+    #: 4.x: the first curve no runtime plays (a list too short for the timeline's values, or
+    #: holding what is not a number), said as text; "" when none. It is posed linear here.
+    unplayable: str = ""
     _span: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -304,6 +307,7 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     kinds = np.full(n, LINEAR, np.int8)
     kinds[-1] = STEPPED
     bezier: dict[int, np.ndarray] = {}
+    unplayable = ""
     for i, f in enumerate(frames[:-1]):
         if not four:
             kind = spelling.kind(f)
@@ -317,6 +321,9 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
         if curve == "stepped":
             kinds[i] = STEPPED
             continue
+        if not unplayable and not curve_4_playable(curve, k):
+            unplayable = (f"the curve of the key at {float(times[i]):g} s is {_shown(curve)}, where its "
+                          f"{k} value{'s' if k > 1 else ''} need{'' if k > 1 else 's'} a list of {4 * k} numbers")
         if not isinstance(curve, list) or len(curve) < 4 * k:
             continue
         kinds[i] = BEZIER
@@ -326,4 +333,24 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
             cx1, cy1, cx2, cy2 = (_number(v, 0) for v in curve[4 * c:4 * c + 4])
             v1, v2 = (0.0, 1.0) if percent else (float(vals[i, c]), float(vals[i + 1, c]))
             bezier[i][c] = bezier_points_4(t1, v1, cx1, cy1, cx2, cy2, t2, v2)
-    return Keys(times, vals, kinds, bezier, four, angle)
+    return Keys(times, vals, kinds, bezier, four, angle, unplayable)
+
+
+def curve_4_playable(curve, values: int) -> bool:
+    """Whether the 4.x runtimes play a key's ``curve`` for ``values`` values alike: absent or falsy
+    (linear), ``"stepped"``, or a list of at least ``4 * values`` numbers. Anything else (a list
+    cut short, text, ``true``) is not a number to spine-ts, which poses the values as NaN (the
+    bone drawn nowhere; a number written as text it reads as the number); spine-c and spine-cpp
+    read past the list or read text as 0, and libGDX refuses the file."""
+    if curve is None or curve is False or curve == 0 or curve == "" or curve == "stepped":
+        return True
+    return (isinstance(curve, list) and len(curve) >= 4 * values
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in curve[:4 * values]))
+
+
+def _shown(value) -> str:
+    """A JSON value as a short text for a message."""
+    import json
+
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."

@@ -150,6 +150,8 @@ class Animation:
     draw_order: DrawOrderTimeline | None = None
     sequences: list[SequenceTimeline] = field(default_factory=list)
     physics_resets: list[tuple[str, np.ndarray]] = field(default_factory=list)  # (constraint or "", key times)
+    #: 4.x curves no runtime plays (:attr:`~spinemesh.anim.curves.Keys.unplayable`), one line each
+    unplayable: list[str] = field(default_factory=list)
 
 
 def _times(frames: list, four: bool) -> np.ndarray:
@@ -210,10 +212,13 @@ class _Reader:
         #: mixScaleY as 1
         self.four_three = doc_major_minor(doc) == (4, 3)
 
-    def keys(self, frames, getter, **kw) -> Keys | None:
+    def keys(self, frames, getter, where: str = "", **kw) -> Keys | None:
+        """The keys of one timeline (``where``: its place in the animation, for what is said of it)."""
         k = read_keys(frames, getter, self.four, spelling=self.spelling, **kw)
         if k is not None:
             self.ends.append(k.duration)
+            if k.unplayable:
+                self.out.unplayable.append(f"{where or 'a timeline'}: {k.unplayable}")
         return k
 
     def discrete(self, frames) -> tuple[list[dict], np.ndarray]:
@@ -236,7 +241,8 @@ class _Reader:
                                                                             for f in fr]))
                     continue
                 spec = (_BONE_4 if self.four else _BONE_3).get(prop)
-                k = self.keys(frames, _getter(*spec), angle=(prop == "rotate" and not self.four)) if spec else None
+                k = self.keys(frames, _getter(*spec), f"bones.{bone}.{prop}",
+                              angle=(prop == "rotate" and not self.four)) if spec else None
                 if k is not None:
                     self.out.bones.append(BoneTimeline(b, prop, k))
 
@@ -253,7 +259,7 @@ class _Reader:
                         self.out.attachments.append(AttachmentTimeline(s, times, names))
                     continue
                 kind = _COLOR_KINDS.get(prop)
-                k = self.keys(frames, _COLOR_GETTERS[kind]) if kind else None
+                k = self.keys(frames, _COLOR_GETTERS[kind], f"slots.{slot}.{prop}") if kind else None
                 if k is not None:
                     self.out.slots.append(SlotTimeline(s, kind, k))
 
@@ -376,6 +382,8 @@ def _read_deforms(anim: dict, slot_index: dict, four: bool, out: Animation, ends
             k = (read_keys(fr, None, four, percent=True) if four
                  else read_keys(fr, lambda f: [0.0], four, spelling=spelling))
             ends.append(k.duration)
+            if k.unplayable:
+                out.unplayable.append(f"deform of {skin}.{slot}.{att}: {k.unplayable}")
             raw = [(int(_number(f.get("offset", 0), 0)), f.get("vertices")) for f in fr]
             out.deforms.append(DeformTimeline(str(skin), slot_index[slot], str(att), k, raw))
         sq = _dicts(seq)

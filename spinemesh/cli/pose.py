@@ -94,6 +94,7 @@ def pose(
     atlases = [read_atlas(atlas)] if atlas is not None else _project_atlases(doc, skeleton, project)
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
+    unplayable = _say_unplayable(sampler, animation, skeleton)
     # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
     # temporary file renamed when the last pose is written, so that a refusal leaves no file; to
     # standard output through an anonymous temporary file copied there once the last pose is
@@ -113,7 +114,7 @@ def pose(
             atomic_write_pieces(out, pieces)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
-    if undrawn:
+    if undrawn or unplayable:
         raise typer.Exit(EXIT_PARTIAL)
 
 
@@ -129,6 +130,27 @@ def _say_undrawn(doc: dict, skin: str | None, skeleton: Path) -> int:
     problems = [problem for ref, problem in checked_attachments(doc)
                 if problem and ref.skin in skins and ref.type in IMAGE_TYPES]
     for line in unusable_said(problems, skeleton, "{problem}; not drawn", "{more} more attachments not drawn"):
+        err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
+    return len(problems)
+
+
+def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
+    """Warn, one line each (the first :data:`~spinemesh.words.MAX_UNUSABLE_SAID`), of the 4.x
+    curves of ``animation`` that no runtime plays (posed linear here, a pose no game shows);
+    returns how many."""
+    from ..anim import POSE_ERRORS
+    from ..words import unusable_said
+
+    if animation is None:
+        return 0
+    try:
+        problems = sampler.animation(animation)[0].unplayable
+    except POSE_ERRORS:
+        return 0  # said where the poses are made
+    name = repr(animation).replace("{", "{{").replace("}", "}}")  # a name is any text; the template is formatted
+    template = (f"animation {name}: {{problem}}; the runtimes play it apart or not at all (spine-ts poses most such "
+                "curves as not a number, the others fail to load them or read other numbers): posed linear here")
+    for line in unusable_said(problems, skeleton, template, "{more} more curves no runtime plays"):
         err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
     return len(problems)
 
