@@ -220,10 +220,25 @@ def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
         atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))
 
 
-def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> None:
-    """Copy every file of the project that is not a skeleton (atlases, pages, anything else)."""
-    for source, dest in files_to_copy(proj, out, written, needed):
-        atomic_copy(source, dest)
+def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None) -> list[str]:
+    """Copy every file of the project that is not a skeleton (atlases, pages, anything else).
+
+    Each atlas is copied after its pages, and not when one of them could not be copied
+    (:func:`check_pages_copied`); a file that cannot be copied does not stop the others.
+    Returns one ``"not copied: ..."`` line per file not copied.
+    """
+    pages_of = atlas_pages(proj)
+    failed: set[Path] = set()
+    errors = []
+    pairs = files_to_copy(proj, out, written, needed)
+    for source, dest in sorted(pairs, key=lambda pair: pair[0].resolve() in pages_of):  # atlases last
+        try:
+            check_pages_copied(pages_of.get(source.resolve(), set()), failed, dest)
+            atomic_copy(source, dest)
+        except SpineMeshError as e:
+            failed.add(source.resolve())
+            errors.append(f"not copied: {e}")
+    return errors
 
 
 def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path] | None = None

@@ -403,22 +403,23 @@ def _run_with_file_limit(limit: int, *args, cwd: Path) -> subprocess.CompletedPr
                           text=True, timeout=TIME_LIMIT, preexec_fn=limited, check=False)
 
 
-@pytest.mark.parametrize("command", ["pack", "upgrade --pack"])
+@pytest.mark.parametrize("command", ["pack", "upgrade --pack", "weights"])
 @pytest.mark.parametrize("limit", [500, 1000])
 def test_a_full_disk_never_leaves_an_atlas_without_its_page(tmp_path, limit, command):
-    """A disk that fills while ``pack`` or ``upgrade --pack`` writes: the packed atlas and its
-    page are written as one or not at all; but the original atlas was copied (487 bytes fit)
-    while its page (3.6 kB) was not, an atlas that would not load. Now an atlas is copied after
-    its pages and not without them; every file there is whole, none temporary, the run ends
-    with 3 and one line a file."""
+    """A disk that fills while ``pack``, ``upgrade --pack`` or ``weights`` writes: the packed atlas
+    and its page are written as one or not at all; but the original atlas was copied (487 bytes
+    fit) while its page (3.6 kB) was not, an atlas that would not load. Now an atlas is copied
+    after its pages and not without them; every file there is whole, none temporary, the run
+    ends with 3 and one line a file."""
     from spinemesh.atlas import read_atlas
 
     _demo(tmp_path)
     r = run_cli("upgrade", "p", "--out", "m", "--jobs", "1", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     before = snapshot(tmp_path)
-    source = "m" if command == "pack" else "p"
-    r = _run_with_file_limit(limit, *command.split(), source, "--out", "o", "--jobs", "1", cwd=tmp_path)
+    source = "p" if command == "upgrade --pack" else "m"
+    jobs = [] if command == "weights" else ["--jobs", "1"]  # weights runs in one process
+    r = _run_with_file_limit(limit, *command.split(), source, "--out", "o", *jobs, cwd=tmp_path)
     check_run(r, before, tmp_path, ["o/"], codes=(3,))
     assert "File too large" in r.stderr, r.stderr
     for atlas in (tmp_path / "o").glob("*.atlas"):

@@ -113,7 +113,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
                     progress.add("preview", sum(o.status == "weighted" for o in outcomes))
                 result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview),
                                                 None if progress is None else lambda: progress.advance("preview"))
-        copy_other_files(proj, out, written)
+        result.errors += copy_other_files(proj, out, written)
     result.seconds = time.perf_counter() - start
     return result
 
