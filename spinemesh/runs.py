@@ -80,13 +80,17 @@ def reason_groups(reasons: list[str]) -> list[tuple[str, int, int]]:
     Returns
     -------
     list of (str, int, int)
-        Per group: its most frequent reason (the example), how many items, and how many
-        distinct reasons (differing only in their figures) it holds.
+        Per group: its most frequent reason (the example), how many items, and how many of
+        them have other figures than the example (the console said "4 (...; 1 more like it
+        with other figures)", counting other wordings, which read as a fifth item).
     """
     groups: dict[str, Counter] = {}
     for reason in reasons:
         groups.setdefault(_FIGURE.sub("#", reason), Counter())[reason] += 1
-    rows = [(counts.most_common(1)[0][0], sum(counts.values()), len(counts)) for counts in groups.values()]
+    rows = []
+    for counts in groups.values():
+        (example, alike), total = counts.most_common(1)[0], sum(counts.values())
+        rows.append((example, total, total - alike))
     return sorted(rows, key=lambda row: (-row[1], row[0]))
 
 

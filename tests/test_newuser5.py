@@ -179,7 +179,7 @@ def test_meshes_left_unweighted_for_one_kind_of_reason_are_one_line():
     lines = [line for line in weights_lines(targets) if "not weighted" in line]
     assert len(lines) == 2, lines
     assert lines[0].startswith("bones: 4 meshes not weighted (setup position depends on bone 'r_heel'"), lines
-    assert lines[0].endswith("; 2 more like it with other names)"), lines
+    assert lines[0].endswith("; 2 of them with other names)"), lines
     assert lines[1] == "bones: 1 mesh not weighted (keyed by a deform timeline)", lines
 
 
@@ -194,3 +194,19 @@ def test_weights_refuses_its_pictures_inside_the_output_folder(tmp_path):
     assert r.returncode == 2, r.stdout + r.stderr
     assert r.stderr.startswith("error: ") and "overlaps the output folder" in r.stderr, r.stderr
     assert "Traceback" not in r.stderr and not out.exists(), r.stderr
+
+
+def test_a_reason_with_other_figures_is_counted_among_its_kind():
+    """``kept as region: 4 (... 4% fewer pixels ...; 1 more like it with other figures)`` counted
+    the other wordings, not attachments, and read as a fifth attachment (the corpus's
+    xasdfb-char, 3.6): it says how many of them have other figures."""
+    from spinemesh.cli import _summary
+    from spinemesh.runs import reason_groups
+
+    share = "not worth meshing: a mesh would draw only {}% fewer pixels than the region"
+    reasons = [share.format(4)] * 3 + [share.format(2)] + [share.format(3)] * 2
+    assert reason_groups(reasons) == [(share.format(4), 6, 3)]
+    rows = [SimpleNamespace(status="kept", reason=r, skeleton="s.json") for r in reasons]
+    with _summary.console.capture() as got:
+        _summary.print_left_alone(rows, [], "kept", "kept as region", "left a region")
+    assert got.get().strip() == f"kept as region: 6 ({share.format(4)}; 3 of them with other figures)", got.get()

@@ -47,7 +47,7 @@ def test_reasons_worded_differently_are_never_folded():
         "not worth meshing: a mesh would draw only 3% fewer pixels than the region (--min-saving 5%)",
         "--only matched nothing"]
     groups = reason_groups(reasons)
-    assert groups[0] == ("not worth meshing: the art fills 99% of the region (--min-saving 5%)", 4, 2)
+    assert groups[0] == ("not worth meshing: the art fills 99% of the region (--min-saving 5%)", 4, 1)
     assert len(groups) == 3 and sum(n for _, n, _ in groups) == len(reasons)
 
 
@@ -255,7 +255,7 @@ def test_preview_reasons_table_keeps_different_reasons_apart(tmp_path):
         result.targets.append(Target("s.json", "default", "slot", f"a{i}", ["a"], status="kept", reason=reason))
     table = _reasons_table(result)
     assert table.count("<tr>") == 4  # the header and three groups
-    assert "1 more like it with other figures" in table and "similar" not in table
+    assert "1 of them with other figures" in table and "similar" not in table
 
 
 def test_phase_bars_keep_their_counts_and_times_at_80_columns():

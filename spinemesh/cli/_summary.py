@@ -70,8 +70,8 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
         err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
             f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}{more}: {why}")),
             highlight=False)
-    for why, n, variants in reason_groups([reason(row) for row in rows if row.status == skipped]):
-        more = f"; {variants - 1} more like it with other figures" if variants > 1 else ""
+    for why, n, others in reason_groups([reason(row) for row in rows if row.status == skipped]):
+        more = f"; {others:,} of them with other figures" if others else ""
         console.print(f"{skipped_label}: {n} ({escaped(why)}{more})", highlight=False, markup=False)
     print_errors(errors)
 
@@ -126,8 +126,9 @@ def weights_lines(targets: Sequence) -> list[str]:
     for why in unweighted:
         by_words.setdefault(_QUOTED.sub("'…'", why), []).append(why)
     for whys in sorted(by_words.values(), key=len, reverse=True):
-        (why, _, _), *others = reason_groups(whys)
-        more = f"; {len(others)} more like it with other names" if others else ""
+        why = reason_groups(whys)[0][0]
+        others = len(whys) - whys.count(why)
+        more = f"; {others:,} of them with other names" if others else ""
         lines.append(f"bones: {counted(len(whys), 'mesh', 'meshes')} not weighted ({why}{more})")
     return lines
 

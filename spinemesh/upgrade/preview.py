@@ -236,10 +236,10 @@ def _reasons_table(result, targets=None) -> str:
     targets = result.targets if targets is None else targets
     rows = "".join(
         f"<tr><td>{html.escape(status)}</td><td style=\"text-align:left\">{html.escape(example)}"
-        + (f" <i>({variants - 1} more like it with other figures)</i>" if variants > 1 else "")
+        + (f" <i>({others:,} of them with other figures)</i>" if others else "")
         + f"</td><td>{n:,}</td></tr>"
         for status in ("kept", "failed")
-        for example, n, variants in reason_groups([t.reason for t in targets if t.status == status]))
+        for example, n, others in reason_groups([t.reason for t in targets if t.status == status]))
     if not rows:
         return ""
     # under its own heading: right after the skeletons' table it read as more rows of it
