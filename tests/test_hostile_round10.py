@@ -111,6 +111,37 @@ def test_upgraded_regions_draw_as_the_originals_in_the_runtime(tmp_path, spine_r
         assert d["lost"] + d["added"] <= 8 and d["off"] <= 8, (pb.name, d)
 
 
+@pytest.mark.parametrize("frame2,meshed", [("\tbounds: 183, 145, 64, 64\n\toffsets: 8, 8, 80, 80\n", False),
+                                           ("\tbounds: 183, 145, 48, 48\n\toffsets: 0, 0, 48, 48\n", True)],
+                         ids=["larger, trimmed otherwise", "smaller, untrimmed"])
+def test_a_sequence_frame_of_another_original_size_draws_alike(tmp_path, spine_runtime, frame2, meshed):
+    """Passed as it was: a sequence whose second frame has another original size than the others
+    (larger with its art placed inside, or smaller): kept a region where the frames are trimmed
+    otherwise (unless --repack), else meshed; either way the runtime draws every frame as the
+    original, with and without --pack."""
+    from runtime_tool import render, render_difference
+
+    project = _demo(tmp_path)
+    atlas = project / "demo.atlas"
+    text = atlas.read_text()
+    assert "demo-spark/frame2\n\tbounds: 183, 145, 64, 64\n" in text
+    atlas.write_text(text.replace("demo-spark/frame2\n\tbounds: 183, 145, 64, 64\n", "demo-spark/frame2\n" + frame2))
+    before = snapshot(tmp_path)
+    for out, pack in (("o", []), ("k", ["--pack"])):
+        r = run_cli("upgrade", "p", "--out", out, "--jobs", "1", "--min-saving", "0", *pack, cwd=tmp_path)
+        check_run(r, before, tmp_path, ["o/", "k/", "r/"], codes=(0,))
+        written = tmp_path / out / "demo.json"
+        assert (_types(written)["default/spark/spark"] == "mesh") is meshed
+        (tmp_path / "r").mkdir(exist_ok=True)
+        a = render(spine_runtime, atlas, project / "demo.json", "wave", "0.05,0.15,0.25", tmp_path / "r" / "a")
+        b = render(spine_runtime, tmp_path / out / "demo.atlas", written, "wave", "0.05,0.15,0.25",
+                   tmp_path / "r" / f"b-{out}", frame_from=tmp_path / "r" / "a.frame.json")
+        assert len(a) == len(b) == 4
+        for pa, pb in zip(a, b):
+            d = render_difference(pa, pb)
+            assert d["lost"] + d["added"] <= 8 and d["off"] <= 8, (pb.name, d)
+
+
 def test_a_region_a_linked_mesh_names_as_its_parent_stays_a_region(tmp_path):
     """A linked mesh whose parent is a region attachment: no runtime loads the skeleton (spine-ts
     and libGDX stop at it, spine-c and spine-cpp read the region as a mesh) and ``pose`` draws
@@ -296,6 +327,20 @@ def test_odd_keys_pose_as_in_the_runtime(tmp_path, spine_runtime, version):
     _edit(project, lambda doc: doc.update(events={"e": {}}))
     for animation in ("odd", "events", "still", "long"):
         _poses_match_the_runtime(tmp_path, spine_runtime, project, animation)
+
+
+def test_38_curve_handles_outside_0_to_1_pose_as_in_the_runtime(tmp_path, spine_runtime):
+    """Passed as it was: 3.8 Bezier handles outside 0..1 in time and value (``curve``, ``c2`` to
+    ``c4`` of -0.5 to 3), on a rotate and on a translate followed by a stepped key, pose as the 3.8
+    runtime poses them."""
+    keyed = {"bones": {
+        "arm": {"rotate": [{"angle": 0, "curve": -0.5, "c2": 2, "c3": 1.5, "c4": -1},
+                           {"time": 0.5, "angle": 40, "curve": 1.5, "c2": 0.2, "c3": -0.4, "c4": 0.9},
+                           {"time": 1, "angle": 0}]},
+        "body": {"translate": [{"x": 0, "curve": 0.5, "c2": 3, "c3": 0.5}, {"time": 0.5, "x": 40, "curve": "stepped"},
+                               {"time": 1, "x": 10}]}}}
+    project = _pose_project(tmp_path, "3.8.99", {"t": keyed})
+    _poses_match_the_runtime(tmp_path, spine_runtime, project, "t")
 
 
 @pytest.mark.parametrize("curve,values", [([0.25, 0, 0.75], 1), ([], 1), (True, 1), ("linear", 1),
