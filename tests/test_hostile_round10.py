@@ -373,6 +373,22 @@ def test_a_4x_curve_no_runtime_plays_is_said(tmp_path, spine_runtime, curve, val
     assert None not in ours
 
 
+def test_the_preview_says_a_4x_curve_the_runtimes_play_apart(tmp_path):
+    """The player shows such a curve linear, as ``pose`` does; its skeleton's page says so in the
+    same words (it showed it without a word)."""
+    import html
+
+    project = _pose_project(tmp_path, "4.2.40", {"t": {"bones": {"arm": {"rotate": [
+        {"value": 0, "curve": [0.25, 0, 0.75]}, {"time": 0.5, "value": 40}]}}}})
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--preview", "v", "--jobs", "1", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/", "v/"], codes=(0,))
+    page = html.unescape((tmp_path / "v" / "s" / "demo.html").read_text(encoding="utf-8"))
+    assert ("<li>animation 't': bones.arm.rotate: the curve of the key at 0 s is [0.25, 0, 0.75], where its 1 value "
+            "needs a list of 4 numbers; the runtimes play it apart or not at all") in page
+    assert project.is_dir()
+
+
 def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, runtime43):  # noqa: F811
     """4.3 lets a linked mesh take its source mesh from another slot (``"slot"``), whose deform
     keys then drive it too (spine-core adds its slot to the source's timeline slots). The sampler

@@ -336,6 +336,11 @@ def read_keys(frames: list, values, four: bool, angle: bool = False, percent: bo
     return Keys(times, vals, kinds, bezier, four, angle, unplayable)
 
 
+#: What is said of a curve :func:`curve_4_playable` refuses (by ``pose`` and the preview).
+UNPLAYABLE_SAID = ("the runtimes play it apart or not at all (spine-ts poses most such curves as not a number, the "
+                   "others fail to load them or read other numbers)")
+
+
 def curve_4_playable(curve, values: int) -> bool:
     """Whether the 4.x runtimes play a key's ``curve`` for ``values`` values alike: absent or falsy
     (linear), ``"stepped"``, or a list of at least ``4 * values`` numbers. Anything else (a list

@@ -139,6 +139,7 @@ def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
     curves of ``animation`` that no runtime plays (posed linear here, a pose no game shows);
     returns how many."""
     from ..anim import POSE_ERRORS
+    from ..anim.curves import UNPLAYABLE_SAID
     from ..words import unusable_said
 
     if animation is None:
@@ -148,8 +149,7 @@ def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
     except POSE_ERRORS:
         return 0  # said where the poses are made
     name = repr(animation).replace("{", "{{").replace("}", "}}")  # a name is any text; the template is formatted
-    template = (f"animation {name}: {{problem}}; the runtimes play it apart or not at all (spine-ts poses most such "
-                "curves as not a number, the others fail to load them or read other numbers): posed linear here")
+    template = f"animation {name}: {{problem}}; {UNPLAYABLE_SAID}: posed linear here"
     for line in unusable_said(problems, skeleton, template, "{more} more curves no runtime plays"):
         err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
     return len(problems)

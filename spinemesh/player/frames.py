@@ -561,6 +561,7 @@ def plan_sampling(before: dict, after: dict, regions=None,
     (beyond :data:`MAX_SKINS`).
     """
     from ..anim import POSE_ERRORS, same_motion
+    from ..anim.curves import UNPLAYABLE_SAID
 
     problems = problems if problems is not None else []
     chosen = sampled_skins(after)
@@ -581,6 +582,9 @@ def plan_sampling(before: dict, after: dict, regions=None,
     for name in names[:MAX_ANIMATIONS]:
         try:
             durations[name] = max(0.0, float(first.sampler.duration(name)))
+            # what pose says too (the upgrade keeps animations as they are: one side says it)
+            problems.extend(f"animation {name!r}: {u}; {UNPLAYABLE_SAID}: shown linear here"
+                            for u in first.sampler.animation(name)[0].unplayable[:3])
         except POSE_ERRORS as e:
             problems.append(f"animation {name!r} not shown: {e}")
     seconds = max(1e-6, sum(d for d in durations.values() if np.isfinite(d)))
