@@ -194,12 +194,21 @@ class SkelWriter:
     def getvalue(self) -> bytes:
         return bytes(self.out)
 
+    def _integer(self, value, low: int, high: int, what: str) -> int:
+        """``value`` as an integer the field holds, refused in one line where it does not: cut to
+        the field's bits it was written as another number (an event's int of 2**40 read back 256)."""
+        v = int(value)
+        if not low <= v <= high:
+            raise self.fail(f"an integer from {low:,} to {high:,} for {what} (the binary format's range), "
+                            f"got {value!r}")
+        return v
+
     def u8(self, value, what: str = "byte") -> int:
-        self.out.append(int(value) & 0xFF)
+        self.out.append(self._integer(value, 0, 0xFF, what))
         return value
 
     def i8(self, value, what: str = "signed byte") -> int:
-        self.out.append(int(value) & 0xFF)
+        self.out.append(self._integer(value, -0x80, 0x7F, what) & 0xFF)
         return value
 
     def bool(self, value, what: str = "boolean") -> bool:
@@ -207,11 +216,11 @@ class SkelWriter:
         return bool(value)
 
     def i32(self, value, what: str = "int") -> int:
-        self.out += _I32.pack(int(value))
+        self.out += _I32.pack(self._integer(value, -1 << 31, (1 << 31) - 1, what))
         return value
 
     def i64(self, value, what: str = "long") -> int:
-        self.out += _I64.pack(int(value))
+        self.out += _I64.pack(self._integer(value, -1 << 63, (1 << 63) - 1, what))
         return value
 
     def f32(self, value, what: str = "float") -> float:
@@ -224,7 +233,8 @@ class SkelWriter:
         return value
 
     def varint(self, value, positive: bool = True, what: str = "varint") -> int:
-        v = int(value)
+        # Read back as a 32-bit int (the runtimes' readInt(optimizePositive)), whichever the sign
+        v = self._integer(value, -1 << 31, (1 << 31) - 1, what)
         if not positive:
             v = ((v << 1) ^ (v >> 31)) & 0xFFFFFFFF
         else:

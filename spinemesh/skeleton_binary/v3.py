@@ -675,7 +675,7 @@ def event(s, node: dict, c: Context) -> None:
     if s.reading:
         put(node, "int", s.varint(positive=False, what="int"), 0)
     else:
-        s.varint(int(node.get("int", 0)), positive=False)
+        s.varint(int(node.get("int", 0)), positive=False, what="the event's int")
     fld(s, node, "float", 0)
     # The editor writes "" for no string, and its JSON leaves that out; a null is kept.
     if s.reading:
@@ -934,7 +934,7 @@ def events_timeline(s, anim: dict, c: Context) -> None:
         if s.reading:
             put(f, "int", s.varint(positive=False, what="int"), data.get("int", 0))
         else:
-            s.varint(int(f.get("int", data.get("int", 0))), positive=False)
+            s.varint(int(f.get("int", data.get("int", 0))), positive=False, what="an event key's int")
         fld(s, f, "float", data.get("float", 0))
         if s.bool("string" in f, what="string flag"):
             text(s, f, "string")

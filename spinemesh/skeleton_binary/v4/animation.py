@@ -154,7 +154,7 @@ def _event_key(s, f: dict, data: dict, c: Context) -> None:
     if s.reading:
         _put(f, "int", s.varint(positive=False), data.get("int", 0))
     else:
-        s.varint(int(f.get("int", data.get("int", 0))), positive=False)
+        s.varint(int(f.get("int", data.get("int", 0))), positive=False, what="an event key's int")
     fld(s, f, "float", data.get("float", 0))
     if c.L.flags:
         text(s, f, "string")
