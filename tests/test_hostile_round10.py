@@ -168,6 +168,27 @@ def test_a_region_a_linked_mesh_names_as_its_parent_stays_a_region(tmp_path):
         assert set(types.values()) == {"mesh"}, types
 
 
+def test_a_43_region_a_linked_mesh_of_another_slot_takes_as_its_source_stays_a_region(tmp_path):
+    """4.3 names the source mesh ``source`` and, in another slot, that ``slot``: a region so named
+    stays a region too, with its one line."""
+    project = _demo(tmp_path)
+
+    def linked(doc):
+        doc["skeleton"]["spine"] = "4.3.00"
+        doc["slots"].append({"name": "ghost", "bone": "props", "attachment": "copy"})
+        doc["skins"][0]["attachments"]["ghost"] = {"copy": {
+            "type": "linkedmesh", "source": "demo-head", "slot": "head", "path": "demo-ring", "width": 100, "height": 100}}
+
+    _edit(project, linked)
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert "slot 'head' attachment 'demo-head': linked mesh 'copy' of skin 'default' names it" in r.stderr, r.stderr
+    types = _types(tmp_path / "o" / "demo.json")
+    assert types.pop("default/head/demo-head") == "region" and types.pop("default/ghost/copy") == "linkedmesh"
+    assert set(types.values()) == {"mesh"}, types
+
+
 # --- the preview page ------------------------------------------------------------------------------
 
 def test_skins_and_animations_named_like_javascript_internals_play_in_the_preview(tmp_path):
