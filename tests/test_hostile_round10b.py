@@ -59,3 +59,109 @@ def test_the_ends_of_the_32_bit_range_go_through(tmp_path):
         assert r.returncode == 0, r.stdout + r.stderr
     back = json.loads((tmp_path / "back.json").read_text())["events"]
     assert back == {"low": {"int": -(2 ** 31)}, "high": {"int": 2 ** 31 - 1}}
+
+
+# --- checkpoints and models that are not ours, or broken ------------------------------------------
+
+_SMALL = {"encoder": "efficientnet-lite0", "image_size": 64, "decoder_channels": [16, 8, 8, 4]}
+
+
+def _weights(config: dict = _SMALL) -> dict:
+    from spinemesh.train.model import build_model
+
+    return build_model(config).state_dict()
+
+
+def _nan(weights: dict) -> dict:
+    import torch
+
+    key = "decoder.blocks.0.reduce.weight"
+    return {**weights, key: torch.full_like(weights[key], float("nan"))}
+
+
+@pytest.mark.parametrize("case, said", [
+    ("size 100", "the checkpoint's image_size is 100, not a multiple of 32 from 32 to 2048"),
+    ("NaN weights", "1 weight(s) of NaN or infinity, the first 'decoder.blocks.0.reduce.weight': the training diverged"),
+])
+def test_segment_export_of_a_checkpoint_it_cannot_make_is_one_line(tmp_path, case, said):
+    """A checkpoint whose ``image_size`` is not a multiple of 32 ended ``segment-export`` in a
+    ValueError traceback, after every data set was read; one of NaN weights was exported (its
+    parity of NaN was read as 0 by ``max``) as a model that masks nothing, exit 0. Both are one
+    line naming the checkpoint now, before the data sets are read (here an empty folder: its
+    own refusal would come later), and nothing is written."""
+    import torch
+
+    weights = _weights()
+    config = dict(_SMALL, image_size=100) if case == "size 100" else _SMALL
+    torch.save({"config": config, "model": _nan(weights) if case == "NaN weights" else weights,
+                "metrics": {}}, tmp_path / "best.pt")
+    (tmp_path / "ds").mkdir()
+    before = snapshot(tmp_path)
+    r = run_cli("segment-export", "best.pt", "--data", "ds", "--out", "m.onnx", "--fp32", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert f"best.pt: {said}" in r.stderr, r.stderr
+
+
+def test_a_checkpoint_of_another_network_is_one_line():
+    """Another encoder, another decoder, weights missing or extra or not tensors, a config that
+    is not one: each was a KeyError, RuntimeError, TypeError or AttributeError traceback from
+    deep in torch; each is now one line naming the checkpoint and what differs."""
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.train.export import model_of
+
+    weights = _weights()
+    first = next(iter(weights))
+    cases = {
+        "no encoder": ({"image_size": 64}, weights, "its config makes none (KeyError: 'encoder')"),
+        "other encoder": (dict(_SMALL, encoder="resnet50"), weights, "unknown encoder 'resnet50'"),
+        "b0's weights": (dict(_SMALL, encoder="efficientnet-b0"), weights, "64 weight(s) missing, the first "),
+        "half the weights": (_SMALL, dict(list(weights.items())[::2]), "weight(s) missing, the first "),
+        "an extra weight": (_SMALL, {**weights, "head.extra": weights[first]}, "1 weight(s) not in the network, "
+                                                                              "the first 'head.extra'"),
+        "other decoder": (dict(_SMALL, decoder_channels=[32, 16, 8, 4]), weights, "of another shape"),
+        "not a tensor": (_SMALL, {**weights, first: 3}, f"1 weight(s) not tensors, the first '{first}'"),
+        "size as text": (dict(_SMALL, image_size="64"), weights, "image_size is '64', not a multiple of 32"),
+        "size 0": (dict(_SMALL, image_size=0), weights, "image_size is 0, not a multiple of 32"),
+    }
+    for name, (config, held, said) in cases.items():
+        with pytest.raises(SpineMeshError) as e:
+            model_of({"config": config, "model": held}, "best.pt")
+        assert str(e.value).startswith("best.pt: ") and said in str(e.value), (name, str(e.value))
+        assert "\n" not in str(e.value), name
+    assert model_of({"config": _SMALL, "model": weights}, "best.pt").config["image_size"] == 64
+
+
+def _nan_model(folder: Path, side: int = 32) -> Path:
+    """An ONNX model of spinemesh's input and output whose logits are all NaN, with its card."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(
+        [helper.make_node("Mul", ["image", "nan"], ["scaled"]),
+         helper.make_node("ReduceMean", ["scaled"], ["logits"], axes=[1], keepdims=1)],
+        "nan", [helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, side, side])],
+        [helper.make_tensor_value_info("logits", TensorProto.FLOAT, [1, 1, side, side])],
+        [helper.make_tensor("nan", TensorProto.FLOAT, [1], [float("nan")])])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    path = folder / "nan.onnx"
+    onnx.save(model, str(path))
+    card = json.loads((Path(__file__).parents[1] / "spinemesh" / "models" / "segment.json").read_text())
+    (folder / "nan.json").write_text(json.dumps(dict(card, input_size=side, inference={})))
+    return path
+
+
+def test_a_model_of_nan_logits_writes_no_mask(tmp_path):
+    """A model whose logits are NaN (a training run that diverged) gave ``segment`` an empty
+    mask, written with a warning that the art looked empty, exit 0. Now it is one line naming
+    the model, and no mask is written."""
+    from PIL import Image
+
+    _nan_model(tmp_path)
+    rgb = np.zeros((40, 50, 3), np.uint8)
+    rgb[10:30, 10:40] = (200, 40, 40)
+    Image.fromarray(rgb).save(tmp_path / "art.png")
+    before = snapshot(tmp_path)
+    r = run_cli("segment", "art.png", "--model", "nan.onnx", "--mask", "model", "--out", "mask.png", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "nan.onnx: the model gives logits of NaN or infinity" in r.stderr, r.stderr

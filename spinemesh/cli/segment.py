@@ -271,13 +271,15 @@ def segment_export(
     from ..segment import card_path
     from ..segment.samples import load_sprites
     from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise
-    from ..train.export import checkpoint_config, release
+    from ..train.export import model_of, release
     from ..train.model import read_checkpoint
 
     check_outputs([checkpoint, *data], files=[out, card_path(out)])  # the card too: never onto the model
 
     ckpt = read_checkpoint(checkpoint)  # once: its config here, its weights in release
-    side = size or checkpoint_config(ckpt, checkpoint)["image_size"]
+    # the network made and its weights checked before the data sets are read: a checkpoint of
+    # another network, side or NaN weights is one line, not a traceback after the sprites
+    side = model_of(ckpt, checkpoint, size or None).config["image_size"]
     rng = np.random.default_rng(0)
     train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)

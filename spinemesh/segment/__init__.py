@@ -142,6 +142,9 @@ def _logits(sess, name: str, x: np.ndarray, path: str) -> np.ndarray:
     if out.ndim != 4 or out.shape[:2] != (1, 1) or out.shape[2:] != (size, size):
         raise ModelError(f"the model gives an output of shape {tuple(out.shape)}, not the 1x1x{size}x{size} "
                          "logits of spinemesh's segmentation models", path)
+    if not np.isfinite(out).all():  # NaN > threshold is False: an empty mask, said as "the art looks empty"
+        raise ModelError("the model gives logits of NaN or infinity (weights of a training run that "
+                         "diverged?): it masks nothing", path)
     return out[0, 0]
 
 

@@ -40,12 +40,46 @@ def checkpoint_config(ckpt: dict, path: str | Path) -> dict:
 
 
 def model_of(ckpt: dict, path: str | Path, image_size: int | None = None) -> SegmentationModel:
-    """:func:`load_checkpoint` of a checkpoint already read from ``path`` (named by its errors)."""
+    """:func:`load_checkpoint` of a checkpoint already read from ``path`` (named by its errors).
+
+    Raises
+    ------
+    SpineMeshError
+        In one line naming ``path``, for a checkpoint this network cannot be made from: an
+        ``image_size`` that is not a multiple of 32 (from 32 to the largest input a model card may
+        say), another encoder or config, weights missing, extra or of other shapes (another
+        architecture), or weights of NaN or infinity (a training run that diverged: its model
+        masks nothing, and its parity of NaN read as 0).
+    """
+    from ..errors import SpineMeshError
+    from ..segment import MAX_INPUT_SIZE
+
     config = dict(checkpoint_config(ckpt, path), **({"image_size": image_size} if image_size else {}))
-    if config["image_size"] % 32:
-        raise ValueError(f"input size must be a multiple of 32, not {config['image_size']}")
-    model = build_model(config)
-    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ckpt["model"].items()})
+    side = config.get("image_size")
+    if isinstance(side, bool) or not isinstance(side, int) or side % 32 or not 32 <= side <= MAX_INPUT_SIZE:
+        raise SpineMeshError(f"the checkpoint's image_size is {side!r}, not a multiple of 32 from 32 to "
+                             f"{MAX_INPUT_SIZE}", path)
+    try:
+        model = build_model(config)
+    except (KeyError, ValueError, TypeError) as e:
+        raise SpineMeshError(f"not a checkpoint of spinemesh's network: its config makes none "
+                             f"({type(e).__name__}: {str(e)[:200]})", path) from None
+    weights, expected = ckpt["model"], model.state_dict()
+    not_tensors = [k for k, v in weights.items() if not isinstance(v, torch.Tensor)]
+    missing = [k for k in expected if k not in weights]
+    extra = [k for k in weights if k not in expected]
+    shaped = [k for k in expected if k in weights and k not in not_tensors
+              and tuple(weights[k].shape) != tuple(expected[k].shape)]
+    for names, what in ((not_tensors, "not tensors"), (missing, "missing"), (extra, "not in the network"),
+                        (shaped, "of another shape than the network's")):
+        if names:
+            raise SpineMeshError(f"not a checkpoint of this network ({config.get('encoder')!r}, U-Net): "
+                                 f"{len(names)} weight(s) {what}, the first {str(names[0])[:100]!r}", path)
+    broken = [k for k, v in weights.items() if v.is_floating_point() and not bool(torch.isfinite(v).all())]
+    if broken:
+        raise SpineMeshError(f"{len(broken)} weight(s) of NaN or infinity, the first {broken[0]!r}: the "
+                             "training diverged", path)
+    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in weights.items()})
     return model.eval()
 
 
@@ -116,7 +150,7 @@ def parity(model: SegmentationModel, onnx_path: str | Path, inputs: list[np.ndar
     for x in inputs:
         ref = model(torch.from_numpy(x[None])).numpy()
         got = sess.run(None, {"image": x[None].astype(np.float32)})[0]
-        worst = max(worst, float(np.abs(ref - got).max()))
+        worst = float(np.max([worst, np.abs(ref - got).max()]))  # a NaN stays one (max() kept 0 over it)
         flips.append(float(((ref > 0) != (got > 0)).mean()))
     return {"max_abs_logit_diff": worst, "mask_pixels_differing": float(np.mean(flips))}
 
@@ -190,7 +224,8 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
         fp32 = export_onnx(model, Path(work) / "model.fp32.onnx")
         extra = {"precision": "int8" if int8 else "fp32",
                  "parity_fp32": parity(model, fp32, check),
-                 "training": {"best_epoch": ckpt["metrics"], **ckpt.get("meta", {})}}
+                 "training": {"best_epoch": ckpt.get("metrics"),
+                              **(ckpt["meta"] if isinstance(ckpt.get("meta"), dict) else {})}}
         made = fp32
         if int8:
             made = quantize_int8(fp32, Path(work) / "model.int8.onnx", calibration)
