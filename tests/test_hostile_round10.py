@@ -168,6 +168,31 @@ def test_a_region_a_linked_mesh_names_as_its_parent_stays_a_region(tmp_path):
         assert set(types.values()) == {"mesh"}, types
 
 
+@pytest.mark.parametrize("version", ["4.2.40", "3.8.99"])
+def test_a_region_an_animation_deforms_stays_a_region(tmp_path, spine_runtime, version):
+    """A deform timeline keyed on a region attachment (4.1+ under ``attachments``, earlier under
+    ``deform``): no runtime loads it (spine-ts stops on the region's missing vertices, libGDX on its
+    type) and ``pose`` deforms nothing. ``upgrade`` meshed the region, so the skeleton then loaded
+    and the animation moved the new mesh's vertices (exit 0). Now the region stays a region with
+    one line naming the animation, exit 3; the rest is meshed."""
+    from runtime_tool import node
+
+    deform = [{"time": 0}, {"time": 0.5, "vertices": [5] * 8}, {"time": 1}]
+    keyed = ({"attachments": {"default": {"head": {"demo-head": {"deform": deform}}}}} if version >= "4.1"
+             else {"deform": {"default": {"head": {"demo-head": deform}}}})
+    project = _pose_project(tmp_path, version, {"wave": keyed})
+    r = node(spine_runtime, "dump.mjs", project / "demo.atlas", project / "demo.json", "--anim", "wave", "--times",
+             "0.5", "--out", tmp_path / "d.json")
+    assert r.returncode != 0  # the official runtime does not load the original
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o/"], codes=(3,))
+    assert ("slot 'head' attachment 'demo-head': animation 'wave' keys a deform of it: no runtime loads that"
+            in r.stderr), r.stderr
+    types = _types(tmp_path / "o" / "demo.json")
+    assert types.pop("default/head/demo-head") == "region" and set(types.values()) == {"mesh"}, types
+
+
 def test_a_43_region_a_linked_mesh_of_another_slot_takes_as_its_source_stays_a_region(tmp_path):
     """4.3 names the source mesh ``source`` and, in another slot, that ``slot``: a region so named
     stays a region too, with its one line."""

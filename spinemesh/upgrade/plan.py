@@ -309,14 +309,14 @@ def _unlike(image: tuple[int, int], attachment: tuple) -> str:
             "than the region drawn, which its mesh would not fit")
 
 
-def linked_mesh_parents(refs) -> dict[tuple[str, str, str], str]:
-    """Region attachments a linked mesh names as its parent mesh, by ``(skin, slot, name)``, with why
-    each stays a region.
+def taken_for_meshes(doc: dict, refs) -> dict[tuple[str, str, str], str]:
+    """Region attachments that a linked mesh names as its parent mesh, or that an animation keys a
+    deform of, by ``(skin, slot, name)``, with why each stays a region.
 
-    No runtime loads such a skeleton (spine-ts and libGDX stop at the linked mesh, spine-c and
-    spine-cpp read the region as a mesh), and spinemesh's sampler draws nothing there. Meshed, the
-    region would make the linked mesh load and draw its own image over the new mesh: a picture
-    the original never showed.
+    No runtime loads such a skeleton (spine-ts and libGDX stop at the linked mesh or the deform,
+    spine-c and spine-cpp read the region as a mesh), and spinemesh's sampler draws neither.
+    Meshed, the region would make it load, the linked mesh drawing its own image over the new
+    mesh, the deform moving its vertices: a picture the original never showed.
     """
     out = {}
     for ref in refs:
@@ -324,7 +324,30 @@ def linked_mesh_parents(refs) -> dict[tuple[str, str, str], str]:
             skin, slot, name = linked_source(ref)
             out.setdefault((skin, slot, name), f"linked mesh {ref.name!r} of skin {ref.skin!r} names it as its parent "
                                                "mesh: no runtime loads that, and a mesh here would make it draw")
+    for animation, keyed in _deforms_keyed(doc):
+        out.setdefault(keyed, f"animation {animation!r} keys a deform of it: no runtime loads that, and a mesh here "
+                              "would play it")
     return out
+
+
+def _deforms_keyed(doc: dict):
+    """``(animation, (skin, slot, attachment))`` of every deform timeline (4.1+ under
+    ``attachments``, earlier ``deform``, 3.x also ``ffd``)."""
+    def mapping(value) -> dict:
+        return value if isinstance(value, dict) else {}
+
+    for animation, anim in mapping(doc.get("animations")).items():
+        anim = mapping(anim)
+        for skin, slots in mapping(anim.get("attachments")).items():
+            for slot, names in mapping(slots).items():
+                for name, timelines in mapping(names).items():
+                    if "deform" in mapping(timelines):
+                        yield animation, (str(skin), str(slot), str(name))
+        for key in ("deform", "ffd"):
+            for skin, slots in mapping(anim.get(key)).items():
+                for slot, names in mapping(slots).items():
+                    for name in mapping(names):
+                        yield animation, (str(skin), str(slot), str(name))
 
 
 def _turned_for_meshes_only(source, paths: list[str]) -> str:
@@ -396,7 +419,7 @@ class Planner:
         # the slot's blend mode decides which faint texels a mesh must cover (texels_to_cover)
         blends = {s.get("name"): s.get("blend", "normal") for s in doc.get("slots", []) if isinstance(s, dict)}
         checked = list(checked_attachments(doc))
-        parents = linked_mesh_parents(ref for ref, _ in checked)
+        parents = taken_for_meshes(doc, [ref for ref, _ in checked])
         for ref, problem in checked:
             if ref.type != "region" and isinstance(ref.type, str):
                 continue
