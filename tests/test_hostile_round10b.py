@@ -165,3 +165,40 @@ def test_a_model_of_nan_logits_writes_no_mask(tmp_path):
     r = run_cli("segment", "art.png", "--model", "nan.onnx", "--mask", "model", "--out", "mask.png", cwd=tmp_path)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert "nan.onnx: the model gives logits of NaN or infinity" in r.stderr, r.stderr
+
+
+# --- names a progress bar shows ---------------------------------------------------------------------
+
+def _sprite(path: Path, size=(20, 30)) -> None:
+    from PIL import Image
+
+    a = np.zeros((*size, 4), np.uint8)
+    a[4:-4, 5:-5] = 255
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(a).save(path)
+
+
+def test_a_file_named_as_markup_is_meshed(tmp_path):
+    """``mesh FOLDER`` names each image in its progress bar, which reads its words as rich markup:
+    an image at ``a[/]b.png`` (a folder ``a[`` holding ``]b.png``) ended the run in a MarkupError
+    traceback, exit 1, a mesh half written. Every image is meshed now, its name shown as it is."""
+    art = tmp_path / "art"
+    _sprite(art / "a[" / "]b.png")
+    _sprite(art / "[bold red]c.png")
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art", "--out", "meshes", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["meshes/"], codes=(0,))
+    assert (tmp_path / "meshes" / "a[" / "]b.json").is_file() and (tmp_path / "meshes" / "[bold red]c.json").is_file()
+
+
+def test_an_animation_named_as_markup_is_posed(tmp_path):
+    """``pose -a 'a[/]b'`` named its progress bar after the animation: a MarkupError traceback."""
+    skeleton = _demo_json(tmp_path)
+    doc = json.loads(skeleton.read_text())
+    animations = doc["animations"]
+    animations["a[/]b"] = animations.pop(next(iter(animations)))
+    skeleton.write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/demo.json", "-a", "a[/]b", "--times", "0.1", "--out", "pose.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(0,))
+    assert len(json.loads((tmp_path / "pose.json").read_text())["poses"]) == 2

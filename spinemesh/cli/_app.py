@@ -167,6 +167,17 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
                 console=err_console.real, transient=transient)
 
 
+def bar_words(name) -> str:
+    """A name from a disk or a project (a file, a project, an animation) as a progress bar's words:
+    its markup and control characters escaped. The bar reads its words as rich markup: a file
+    named ``a[/]b.png`` ended ``mesh FOLDER`` in a MarkupError traceback, and a newline split it."""
+    from rich.markup import escape
+
+    from ..errors import escaped
+
+    return escape(escaped(str(name)))
+
+
 def phase_progress(bars):
     """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (:func:`progress_bar` with
     ``phases``: one task per phase, made when its steps are first added); ``upgrade`` and ``weights``."""

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from ..limits import MAX_JOBS
-from ._app import Annotated, Optional, app, console, err_console, progress_bar
+from ._app import Annotated, Optional, app, bar_words, console, err_console, progress_bar
 
 
 @app.command()
@@ -39,7 +39,7 @@ def dataset(
         task = progress.add_task("", total=None)
 
         def on_project(name: str, done: int, total: int) -> None:
-            progress.update(task, completed=done, total=total, description=name)
+            progress.update(task, completed=done, total=total, description=bar_words(name))
 
         summary = build_dataset(corpus, out, jobs=jobs or available_cores(), retry_failed=retry_failed,
                                 on_project=on_project, dask=dask)

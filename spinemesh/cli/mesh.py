@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from ._app import Annotated, MaskSource, Optional, Preset, app, console, err_console, positive_finite, progress_bar
+from ._app import (Annotated, MaskSource, Optional, Preset, app, bar_words, console, err_console, positive_finite,
+                   progress_bar)
 
 
 def _overrides(density, max_vertices, alpha_threshold, mask) -> dict:
@@ -154,7 +155,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
         task = bar.add_task("", total=len(files))
         for f in files:
             rel = f.relative_to(image).with_suffix("")
-            bar.update(task, description=str(rel))
+            bar.update(task, description=bar_words(rel))
             try:
                 outputs.claim(rel.with_suffix(".json"), f, "its mesh")
                 # Each file too: a symlink planted inside an output folder is not written through.
