@@ -10,8 +10,10 @@ import re
 from pathlib import Path
 
 #: Characters that could split or forge a printed line, or drive the terminal: C0 and C1
-#: controls, DEL, and the Unicode line and paragraph separators.
-_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+#: controls, DEL, and the Unicode line and paragraph separators; and lone surrogates, which
+#: stand for a file name's bytes that are not UTF-8 (printed as they are, they made the output
+#: no UTF-8 either).
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\ud800-\udfff]")
 
 
 def _escape_one(match: re.Match) -> str:

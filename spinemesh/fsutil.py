@@ -578,6 +578,18 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write_bytes(path, utf8(text, path))
 
 
+def name_as_text(name: str) -> str:
+    """A file name read from a disk as text a UTF-8 file can hold: bytes of it that are not UTF-8
+    (which Python keeps as lone surrogates) become U+FFFD, each.
+
+    Examples
+    --------
+    >>> name_as_text(b"hero\\xff.png".decode("utf-8", "surrogateescape"))
+    'hero\ufffd.png'
+    """
+    return name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+
+
 def utf8(text: str, path: str | Path) -> bytes:
     """``text`` as the UTF-8 bytes of the file ``path``.
 

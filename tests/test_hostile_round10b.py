@@ -189,6 +189,11 @@ def test_a_file_named_as_markup_is_meshed(tmp_path):
     r = run_cli("mesh", "art", "--out", "meshes", cwd=tmp_path)
     check_run(r, before, tmp_path, ["meshes/"], codes=(0,))
     assert (tmp_path / "meshes" / "a[" / "]b.json").is_file() and (tmp_path / "meshes" / "[bold red]c.json").is_file()
+    (tmp_path / "o[").mkdir()
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "art/[bold red]c.png", "--out", "o[/]m.json", cwd=tmp_path)  # its line names it too
+    check_run(r, before, tmp_path, ["o[/]m.json"], codes=(0,))
+    assert "wrote o[/]m.json" in r.stdout, r.stdout
 
 
 def test_an_animation_named_as_markup_is_posed(tmp_path):
@@ -202,3 +207,24 @@ def test_an_animation_named_as_markup_is_posed(tmp_path):
     r = run_cli("pose", "p/demo.json", "-a", "a[/]b", "--times", "0.1", "--out", "pose.json", cwd=tmp_path)
     check_run(r, before, tmp_path, ["pose.json"], codes=(0,))
     assert len(json.loads((tmp_path / "pose.json").read_text())["poses"]) == 2
+
+
+@pytest.mark.parametrize("folder", [False, True], ids=["file", "folder"])
+def test_an_image_named_in_bytes_not_utf8_is_meshed(tmp_path, folder):
+    """An image whose name holds bytes that are not UTF-8 (``bad\\xff.png``, from an old archive)
+    was refused ("not written: text holds an invalid character"): the mesh names its image, and
+    that name could not be written as JSON. The mesh is written now, naming the image with U+FFFD
+    for each such byte, under the image's own name."""
+    import os
+
+    name = os.fsdecode(b"bad\xff.png")
+    _sprite(tmp_path / "art" / name)
+    before = snapshot(tmp_path)
+    if folder:
+        r = run_cli("mesh", "art", "--out", "meshes", cwd=tmp_path)
+        written = tmp_path / "meshes" / os.fsdecode(b"bad\xff.json")
+    else:
+        r = run_cli("mesh", f"art/{name}", "--out", "m.json", cwd=tmp_path)
+        written = tmp_path / "m.json"
+    check_run(r, before, tmp_path, ["meshes/" if folder else "m.json"], codes=(0,))
+    assert json.loads(written.read_text())["info"]["image"] == "bad\ufffd.png"

@@ -30,7 +30,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
          steps: Optional[Path], before_write=None):
     """Mesh one image and write its outputs; ``before_write()``, when given, is called once the
     mesh is made, before the first file is written (a folder run marks its folders then)."""
-    from ..fsutil import atomic_write_json, atomic_write_png
+    from ..fsutil import atomic_write_json, atomic_write_png, name_as_text
     from ..images import load_rgba
     from ..memory import image_memory
     from ..mesher import compute_mask, mesh_image, resolve_params
@@ -43,7 +43,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
         mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
         mesh = mesh_image(rgba, params, mask=mask)
         mesh.info["preset"] = preset
-        mesh.info["image"] = image_path.name
+        mesh.info["image"] = name_as_text(image_path.name)  # a name of bytes not UTF-8 refused the mesh
         doc = mesh.to_json()
         doc["info"].pop("ms", None)  # timing would make the file differ from run to run
         if before_write is not None:
@@ -122,7 +122,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     exit status 3 when some failed, 2 when all did."""
     from rich.markup import escape  # file names and messages are never markup
 
-    from ..errors import SpineMeshError
+    from ..errors import SpineMeshError, escaped
     import contextlib
 
     from ..fsutil import OneFilePerName, OutputGuard, real, walk_files
@@ -170,9 +170,9 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                 err_console.print("[yellow]skipped:[/] " + escape(str(e)), highlight=False)
             bar.advance(task)
     verts = sorted(len(m.vertices) for _, m in rows)
-    console.print(f"{len(rows)} meshes written to {out_dir}"
+    console.print(escaped(f"{len(rows)} meshes written to {out_dir}")
                   + (f", median {verts[len(verts) // 2]} vertices" if verts else "")
-                  + (f"; {failed} image(s) failed" if failed else ""), highlight=False)
+                  + (f"; {failed} image(s) failed" if failed else ""), highlight=False, markup=False)
     if failed:
         from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 
@@ -185,11 +185,13 @@ def _mesh_file(image: Path, target: Path, preview: Optional[Path], steps: Option
     from rich.markup import escape
     from rich.table import Table
 
+    from ..errors import escaped
+
     m = _one(image, preset, overrides, target, preview, steps)
-    t = Table(title=escape(image.name) + f" ({m.width}x{m.height}, preset {preset})")
+    t = Table(title=escape(escaped(image.name)) + f" ({m.width}x{m.height}, preset {preset})")
     for col in ("vertices", "hull", "interior", "triangles", "constrained edges"):
         t.add_column(col, justify="right")
     t.add_row(str(len(m.vertices)), str(m.hull), str(int(m.is_interior.sum())), str(len(m.triangles)), str(len(m.edges)))
     console.print(t)
-    console.print(f"wrote {target}" + (f", {preview}" if preview else "") + (f", {steps}" if steps else ""),
-                  highlight=False)
+    console.print(escaped(f"wrote {target}" + (f", {preview}" if preview else "") + (f", {steps}" if steps else "")),
+                  highlight=False, markup=False)  # paths, never markup
