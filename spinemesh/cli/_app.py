@@ -143,6 +143,7 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
         BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
     )
     from rich.table import Column
+    from rich.text import Text
 
     class Bars(Progress):
         def stop(self) -> None:
@@ -157,13 +158,31 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
     # the words end the line and take the room the label, bar, counts and times leave them (about
     # 56 columns), cut short with an ellipsis: else rich cuts the times short instead
     words = Column(no_wrap=True, overflow="ellipsis", max_width=max(12, err_console.real.width - 56))
+
+    class Done(MofNCompleteColumn):
+        # steps that are work, not things (a task made with percent=True: packing's): done in percent
+        def render(self, task):
+            if task.fields.get("percent"):
+                return Text(f"{task.percentage:>3.0f}%", style="progress.percentage")
+            return super().render(task)
+
+    class Remaining(TimeRemainingColumn):
+        # rich's estimate stands still between steps, and one step of work can take many seconds
+        # (a large page encoded): counted down from the last step (its time: the field ``since``)
+        def render(self, task):
+            left, since = task.time_remaining, task.fields.get("since")
+            if left is None or since is None or not task.fields.get("percent") or task.finished:
+                return super().render(task)
+            left = max(0, int(left - (task.get_time() - since)))
+            return Text(f"{left // 3600:d}:{left // 60 % 60:02d}:{left % 60:02d}", style="progress.remaining")
+
     if phases:
-        return Bars(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+        return Bars(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), Done(),
+                    TimeElapsedColumn(), TextColumn("ETA"), Remaining(),
                     TextColumn("{task.fields[project]}", table_column=words), console=err_console.real,
                     transient=transient)
-    return Bars(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}", table_column=words),
+    return Bars(TextColumn(f"[bold]{label}"), BarColumn(), Done(), TimeElapsedColumn(),
+                TextColumn("ETA"), Remaining(), TextColumn("{task.description}", table_column=words),
                 console=err_console.real, transient=transient)
 
 
@@ -184,7 +203,7 @@ def phase_progress(bars):
     from rich.markup import escape
 
     from ..runs import short_names
-    from ..upgrade.progress import Progress
+    from ..upgrade.progress import IN_WORK, Progress
 
     def shown(name: str) -> str:
         return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns
@@ -197,7 +216,7 @@ def phase_progress(bars):
 
         def add(self, phase: str, steps: int, project: str | None = None) -> None:
             if phase not in self.tasks:
-                self.tasks[phase] = bars.add_task(phase, total=0, project=self.current)
+                self.tasks[phase] = bars.add_task(phase, total=0, project=self.current, percent=phase in IN_WORK)
             task = self.tasks[phase]
             bars.update(task, total=(bars.tasks[task].total or 0) + steps)
             if project is not None:
@@ -207,6 +226,7 @@ def phase_progress(bars):
         def advance(self, phase: str, steps: int = 1) -> None:
             if phase in self.tasks:
                 bars.advance(self.tasks[phase], steps)
+                bars.update(self.tasks[phase], since=bars.get_time())
 
         def step(self, phase: str, what: str, item: str = "") -> None:
             # the words first (a narrow terminal cuts the end), then the item, under its project

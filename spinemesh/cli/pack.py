@@ -186,7 +186,8 @@ def outcome_line(atlases: list) -> str:
 
 def atlas_bars(bars):
     """A :class:`spinemesh.pack.run.PackProgress` that shows one bar per atlas on ``bars`` (a rich
-    progress), its steps the placements tried and the pages written, each bar named by its atlas
+    progress), its steps the atlas's work (reading, placing, writing and proving its pages, by
+    their texels: :mod:`spinemesh.pack.progress`) shown done in percent, each bar named by its atlas
     and what that atlas is doing (reading pages, placing regions, ...); with several atlases, a bar
     counts those done and each atlas's own bar goes once it is done. (``upgrade --pack`` shows its
     packing on its ``pack`` phase's bar instead: :class:`spinemesh.upgrade.pack.PhaseProgress`.)"""
@@ -212,7 +213,7 @@ def atlas_bars(bars):
         def atlas(self, name: str, steps: int) -> None:
             if name not in self.tasks:
                 label = self.labels[name] = escape(short_names([name], 30)[name])
-                self.tasks[name] = bars.add_task(label, total=steps)
+                self.tasks[name] = bars.add_task(label, total=steps, percent=True)
             else:
                 task = self.tasks[name]
                 bars.update(task, total=total(task) + steps)
@@ -226,6 +227,7 @@ def atlas_bars(bars):
         def advance(self, name: str, steps: int = 1) -> None:
             if name in self.tasks:
                 bars.advance(self.tasks[name], steps)
+                bars.update(self.tasks[name], since=bars.get_time())
 
         def done(self, name: str) -> None:
             if name in self.tasks:

@@ -606,6 +606,21 @@ class AtlasLayouts:
         return self.items
 
 
+def page_groups(atlas: Atlas) -> list[tuple[int, list[int], list[int]]]:
+    """The groups of ``atlas``'s pages placed each on its own (pages of the same fields,
+    :func:`page_settings`) that hold regions, in the order they are placed: ``(group index,
+    its page indices, its regions' indices)`` each."""
+    by_settings: dict[tuple, list[int]] = {}
+    for i, p in enumerate(atlas.pages):
+        by_settings.setdefault(page_settings(p), []).append(i)
+    groups = []
+    for gi, page_indices in enumerate(by_settings.values()):
+        members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
+        if members:
+            groups.append((gi, page_indices, members))
+    return groups
+
+
 def plan_layouts(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionUses],
                  pinned: str = "", rotate: bool = True, padding: int | None = None,
                  page_names=None, rules: PageRules = PageRules(), fills=None, on_fill=None,
@@ -652,14 +667,8 @@ def plan_layouts(atlas: Atlas, pixels: list[np.ndarray], uses: dict[str, RegionU
     # by default "no larger than the largest original page": no side longer than its longest
     # side, no page of more texels than it has (a page may turn from wide to tall)
     max_side, max_area, pot = rules.limits(sizes)
-    by_settings: dict[tuple, list[int]] = {}
-    for i, p in enumerate(atlas.pages):
-        by_settings.setdefault(page_settings(p), []).append(i)
     groups = []
-    for gi, page_indices in enumerate(by_settings.values()):
-        members = [n for n, r in enumerate(atlas.regions) if r.page in page_indices]
-        if not members:
-            continue
+    for gi, page_indices, members in page_groups(atlas):
         layouts = group_layouts([items[n] for n in members], max_side, max_side, max_area, pot,
                                 max(0, pad - RING_TEXELS), len(page_indices), texels_before, fills, on_fill, keep)
         groups.append((gi, page_indices, members, layouts))

@@ -23,7 +23,9 @@ from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_byte
 from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
-from .atlas_pack import AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_settings, plan_layouts
+from .atlas_pack import (
+    AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_groups, page_settings, plan_layouts,
+)
 from .png import (
     IHDR,
     OptimiserFailed,
@@ -36,6 +38,7 @@ from .png import (
     png_differences,
     profile_misfit,
 )
+from .progress import AtlasMeter, atlas_work, page_kilotexels
 from .uses import ProjectUses, collect_uses
 
 #: Page file formats written, by extension: (Pillow format, save options). Lossless only: a
@@ -69,17 +72,22 @@ class PackOptions:
 class PackProgress:
     """Told how packing goes, atlas by atlas; this base class tells nobody (the Python API's default).
 
-    An atlas's steps are its fills (placements tried) and its pages written; they become known
-    as it goes, so :meth:`atlas` may be called again for the same atlas with more steps, and
-    :meth:`step` says in words what the atlas is doing (:data:`STEPS`).
+    An atlas's steps are its work (:mod:`spinemesh.pack.progress`: its page texels weighed by
+    what each phase costs a texel), told whole before any is done; :meth:`atlas` is called
+    again for the same atlas with more only where another layout is written after the first,
+    and :meth:`step` says in words what the atlas is doing (:data:`STEPS`).
     """
 
     def atlases(self, count: int) -> None:
         """The run packs ``count`` atlases in all (told once, before the first; :func:`pack_project`
         and :func:`pack_library` know them all before they start)."""
 
+    def work(self, steps: int) -> None:
+        """The atlases of a project about to be packed take ``steps`` in all: the sum of what
+        :meth:`atlas` will be told first of each (told once per project, before its first atlas)."""
+
     def atlas(self, name: str, steps: int) -> None:
-        """``steps`` more steps of the atlas ``name`` are known."""
+        """``steps`` more steps of the atlas ``name`` are known (its whole work first)."""
 
     def advance(self, name: str, steps: int = 1) -> None:
         """``steps`` steps of the atlas ``name`` are done."""
@@ -102,11 +110,6 @@ SILENT = PackProgress()
 STEPS = {"read": "reading pages", "place": "placing regions", "sizes": "placing regions, trying page sizes",
          "write": "writing pages", "prove": "proving", "reencode": "re-encoding its pages",
          "rectangles": "writing its rectangles' texels only", "worker": "packing on a worker"}
-
-
-def _silent_step(done: int = 1, planned: int = 0, step: str = "") -> None:
-    """The ``on_step`` of a caller that wants no progress: ``done`` steps ended, ``planned`` more
-    known, ``step`` the words for what comes now (see :func:`pack_atlas_files`)."""
 
 
 @dataclass
@@ -598,7 +601,7 @@ def _encode_packed_pages(pages: dict[str, np.ndarray], modes: dict, colour_of: d
 NO_MEMORY = "not enough memory to pack it (the regions' shapes, the placements tried and the pages take memory by their texels)"
 
 
-def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
+def _read_pages(job: AtlasJob, meter: AtlasMeter) -> tuple[list[bytes], list[np.ndarray]]:
     """Each page file of ``job``'s atlas read once, for everything packing needs of it (texels,
     palette, colour chunks, lossy or not, and the file itself where a kept page is re-encoded),
     and its texels: ``(files' bytes, texels)`` in page order.
@@ -618,12 +621,14 @@ def _read_pages(job: AtlasJob, on_step) -> tuple[list[bytes], list[np.ndarray]]:
             raise PackRefused(f"page {page.name!r} is not PNG, WebP or AVIF, the page formats spinemesh reads "
                               "and writes; it is kept as it is")
         check_no_repeat(page)
-    on_step(0, 0, STEPS["read"])
+    meter.begin("read", [1], STEPS["read"])
     data = [image_file_bytes(f) for f in job.files]
     for d, page in zip(data, job.atlas.pages):
         check_eight_bits(d, page.name)
         check_one_upright_image(d, page.name)
-    return data, [decode_rgba(d, f) for d, f in zip(data, job.files)]
+    texels = [decode_rgba(d, f) for d, f in zip(data, job.files)]
+    meter.end_part()
+    return data, texels
 
 
 def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
@@ -631,14 +636,17 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
 
     ``workers`` (:class:`spinemesh.cluster.Workers` of several slots): the atlas's fills and
     page encodings run on them side by side; default here, one after another. ``on_step(done,
-    planned, step)``: told as steps become known (``planned``) and as they end (``done``), and
-    what the atlas does from now on (``step``, words of :data:`STEPS`; empty: no change).
+    planned, step)``: told the atlas's work (``planned``, :mod:`spinemesh.pack.progress`: all of
+    it first, before any is done; more only where another layout is written) and the work
+    ``done`` as its parts end, and what the atlas does from now on (``step``, words of
+    :data:`STEPS`; empty: no change).
     """
     from .parallel import FillRunner
 
     atlas, files, options = job.atlas, job.files, job.options
     t0 = time.process_time()
-    on_step = on_step or _silent_step
+    meter = AtlasMeter(page_kilotexels(files), [pages for _, pages, _ in page_groups(atlas)], on_step)
+    meter.start()
     bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
     texels: list[np.ndarray] = []
     data: list[bytes] = []
@@ -649,21 +657,21 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     try:
         if job.refused:
             raise PackRefused(job.refused)
-        data, texels = _read_pages(job, on_step)
+        data, texels = _read_pages(job, meter)
         check_page_sizes(atlas, texels)
         reencode_kept = True
         modes = {page.name: page_mode(d) for d, page in zip(data, atlas.pages)}
         colours = [page_colour(d) for d in data]
         group_colour = colours_by_settings(atlas, colours)
         pot = options.rules.limits([(int(t.shape[1]), int(t.shape[0])) for t in texels])[2]
-        on_step(0, 0, STEPS["sizes" if pot else "place"])  # whole page sizes are tried for powers of two
+        meter.say(STEPS["sizes" if pot else "place"])  # whole page sizes are tried for powers of two
         layouts = plan_layouts(atlas, texels, job.uses, job.pinned, rotate=options.rotate, padding=options.padding,
-                               rules=options.rules, fills=FillRunner(workers, on_step) if parallel else None,
-                               on_fill=on_step)
+                               rules=options.rules, fills=FillRunner(workers, meter) if parallel else None,
+                               on_fill=meter)
         packed = compose(layouts)
         layouts.release()  # made again only if another layout is tried
         reencode_kept = False  # a page that does not come back, a packing that fails its proof
-        encoded, text = _written(packed, texels, modes, group_colour, job, workers if parallel else None, on_step)
+        encoded, text = _written(packed, texels, modes, group_colour, job, workers if parallel else None, meter)
         reencode_kept = True
         bytes_after = sum(map(len, encoded.values())) + len(text.encode("utf-8"))
         check_lossy_pages_shrink(data, bytes_before, bytes_after)
@@ -672,9 +680,9 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 check_bytes_shrink(bytes_before, bytes_after, packed.texels_before, packed.texels_after)
             except PackRefused as grows:
                 other = next_layout_outcome(job, layouts, texels, modes, group_colour, bytes_before,
-                                            (packed.texels_after, bytes_after), workers if parallel else None, on_step)
+                                            (packed.texels_after, bytes_after), workers if parallel else None, meter)
                 if other is None:
-                    on_step(0, 0, STEPS["rectangles"])
+                    meter.say(STEPS["rectangles"])
                     other = rectangles_only_outcome(job, texels, modes, colours, bytes_before, str(grows), t0)
                 if other is None:
                     raise
@@ -687,7 +695,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                        bytes_before, bytes_before)
         outcome = AtlasOutcome(row)
         if reencode_kept and not options.keep_files_as_exported:
-            outcome = kept_pages_reencoded(job, texels, data, row, workers if parallel else None, on_step)
+            outcome = kept_pages_reencoded(job, texels, data, row, workers if parallel else None, meter)
         row.cpu_seconds = round(time.process_time() - t0, 3)
         return outcome
     except SpineMeshError as e:
@@ -713,7 +721,7 @@ def _previews(job: AtlasJob, texels: list[np.ndarray], packed: PackedAtlas) -> t
 
 
 def _written(packed: PackedAtlas, texels: list[np.ndarray], modes: dict, group_colour: dict, job: AtlasJob,
-             workers, on_step, layout: str = "") -> tuple[dict[str, bytes], str]:
+             workers, meter: AtlasMeter, layout: str = "") -> tuple[dict[str, bytes], str]:
     """A packed atlas as it would be written, proven: its pages' bytes by name (:func:`encode_page`, on
     ``workers`` when given) and its text, once :func:`prove_written` holds of them.
 
@@ -722,20 +730,22 @@ def _written(packed: PackedAtlas, texels: list[np.ndarray], modes: dict, group_c
     PackRefused
         A page that cannot be written losslessly or does not come back, or a failed proof.
 
-    ``layout``: words that name the layout in the steps told (``on_step``), for one after the first.
+    ``layout``: words that name the layout in the steps told (``meter``), for one after the first.
     """
-    on_step(0, len(packed.pages), layout + STEPS["write"])
+    # a page's encoding takes time by its texels
+    meter.begin("write", [p.shape[0] * p.shape[1] for p in packed.pages.values()], layout + STEPS["write"])
     colour_of = packed_page_colours(packed.atlas, group_colour)
-    encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers, on_step)
+    encoded = _encode_packed_pages(packed.pages, modes, colour_of, workers, meter)
     text = packed.atlas.dumps()
-    on_step(0, 0, layout + STEPS["prove"])
+    meter.begin("prove", [1], layout + STEPS["prove"])
     prove_written(job.atlas, texels, text, encoded, job.uses, job.pinned)
+    meter.end_part()
     return {name: page.data for name, page in encoded.items()}, text
 
 
 def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.ndarray], modes: dict,
                         group_colour: dict, bytes_before: int, first: tuple[int, int], workers=None,
-                        on_step=None) -> AtlasOutcome | None:
+                        meter: AtlasMeter | None = None) -> AtlasOutcome | None:
     """The atlas in the next layouts its fills found, when the one of fewest page texels takes more
     bytes than the atlas as exported (``first``: its page texels and bytes): of those that take
     fewer bytes than the atlas as exported, the one of fewest bytes (the first, of fewer texels,
@@ -747,12 +757,12 @@ def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.nd
     A page's bytes depend on what lies next to what, not only on how many texels there are:
     a layout of a few more texels can take fewer bytes (verse-rabby's).
     """
-    on_step = on_step or _silent_step
+    meter = meter or AtlasMeter(page_kilotexels(job.files))
     best = None
     for rank in range(1, layouts.count):
         try:
             packed = compose(layouts, rank)
-            encoded, text = _written(packed, texels, modes, group_colour, job, workers, on_step,
+            encoded, text = _written(packed, texels, modes, group_colour, job, workers, meter,
                                      f"layout {rank + 1} of {layouts.count}: ")
         except (PackRefused, SpineMeshError):
             continue
@@ -947,7 +957,7 @@ def megabytes(n: int) -> str:
 
 
 def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[bytes], row: AtlasRow,
-                         workers=None, on_step=None) -> AtlasOutcome:
+                         workers=None, meter: AtlasMeter | None = None) -> AtlasOutcome:
     """A kept atlas (``row``) with its PNG pages written smaller by :func:`reencoded_page` where
     that holds, its atlas text and every other page as exported. ``texels`` and ``files``: each
     page's texels and its file's bytes, in page order.
@@ -960,9 +970,10 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[by
              if Path(page.name).suffix.lower() == ".png"]
     if not pages:
         return AtlasOutcome(row)
-    on_step = on_step or _silent_step
-    on_step(0, len(pages), STEPS["reencode"])
-    results = _page_by_page(_reencode_task, pages, workers, on_step)
+    meter = meter or AtlasMeter(page_kilotexels(job.files))
+    meter.begin("write", [t.shape[0] * t.shape[1] for _, _, t in pages], STEPS["reencode"],
+                [i for i, page in enumerate(atlas.pages) if Path(page.name).suffix.lower() == ".png"])
+    results = _page_by_page(_reencode_task, pages, workers, meter)
     written = {name: data for (name, _, _), data in zip(pages, results) if data is not None}
     if not written:
         return AtlasOutcome(row)
@@ -1032,6 +1043,7 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
                              uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews))
     skip: set[Path] = set()
+    progress.work(sum(atlas_work(job.files) for job in jobs))
     for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
@@ -1069,10 +1081,12 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
         def submit() -> None:
             job = next(waiting, None)
             if job is not None:
-                progress.atlas(job.rel, 1)
+                work = atlas_work(job.files)  # told whole as the atlas ends there
+                progress.atlas(job.rel, work)
                 progress.step(job.rel, STEPS["worker"])
                 future = workers.submit(_pack_atlas_task, job)
-                future.add_done_callback(lambda _, rel=job.rel: (progress.advance(rel), progress.done(rel)))
+                future.add_done_callback(lambda _, rel=job.rel, work=work: (progress.advance(rel, work),
+                                                                             progress.done(rel)))
                 ahead.append((job, future))
 
         for _ in range(2 * workers.slots):
@@ -1098,8 +1112,7 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
             if done:
                 progress.advance(rel, done)
 
-        progress.atlas(job.rel, 0)
-        outcome = pack_atlas_files(job, workers, on_step)
+        outcome = pack_atlas_files(job, workers, on_step)  # its bar begins with its whole work
         progress.done(job.rel)
         yield outcome
 

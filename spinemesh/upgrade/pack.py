@@ -80,8 +80,17 @@ class PhaseProgress:
 
     def __init__(self, progress: Progress):
         self.progress = progress
+        self.whole = False  # the project's whole work told: each atlas's first steps are in it
+        self.begun: set[str] = set()
+
+    def work(self, steps: int) -> None:
+        self.progress.add("pack", steps)
+        self.whole = True
 
     def atlas(self, name: str, steps: int) -> None:
+        if self.whole and name not in self.begun:
+            self.begun.add(name)
+            return
         self.progress.add("pack", steps)
 
     def advance(self, name: str, steps: int = 1) -> None:

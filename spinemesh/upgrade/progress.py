@@ -13,6 +13,10 @@ from __future__ import annotations
 
 PHASES = ("read", "mesh", "weights", "write", "pack")
 
+#: The phases whose steps are work (an atlas's page texels weighed by what each step costs a
+#: texel, :mod:`spinemesh.pack.progress`), not things: shown done in percent.
+IN_WORK = ("pack",)
+
 
 class Progress:
     """Receives a run's progress; this base class ignores it (the Python API's default)."""
