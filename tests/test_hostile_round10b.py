@@ -228,3 +228,76 @@ def test_an_image_named_in_bytes_not_utf8_is_meshed(tmp_path, folder):
         written = tmp_path / "m.json"
     check_run(r, before, tmp_path, ["meshes/" if folder else "m.json"], codes=(0,))
     assert json.loads(written.read_text())["info"]["image"] == "bad\ufffd.png"
+
+
+# --- diff: artist meshes of odd fields ------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def artist_project(tmp_path_factory) -> Path:
+    """The demo project upgraded: its meshes stand for an artist's (JSON skeleton, images folder)."""
+    import shutil
+
+    from spinemesh.demo import make_demo_project
+
+    tmp = tmp_path_factory.mktemp("artist")
+    make_demo_project(tmp / "p")
+    r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", cwd=tmp)
+    assert r.returncode == 0, r.stdout + r.stderr
+    (tmp / "o" / "demo-binary.skel").unlink()
+    if not (tmp / "o" / "images").is_dir():
+        shutil.copytree(tmp / "p" / "images", tmp / "o" / "images")
+    return tmp / "o"
+
+
+def _artist_variant(artist_project: Path, tmp: Path, change) -> None:
+    import shutil
+
+    shutil.copytree(artist_project, tmp / "a")
+    doc = json.loads((tmp / "a" / "demo.json").read_text())
+    change(doc["skins"][0]["attachments"])
+    (tmp / "a" / "demo.json").write_text(json.dumps(doc))
+
+
+@pytest.mark.parametrize("field, value, reason", [
+    ("hull", 1000, "mesh attachment hull 1000 is not a count of its {n} vertices"),
+    ("hull", -3, "mesh attachment hull -3 is not a count of its {n} vertices"),
+    ("edges", [0, 2, 4], "mesh attachment edges are not pairs of its {n} vertices (each index times 2)"),
+])
+def test_diff_skips_an_artist_mesh_whose_hull_or_edges_are_no_counts(tmp_path, artist_project, field, value,
+                                                                    reason):
+    """An artist mesh whose ``hull`` is more than its vertices (or below 0) was measured and
+    reported with -980 interior vertices (or more than it has), exit 0; one of an odd count of
+    ``edges`` was skipped with numpy's words ("cannot reshape array of size 3"). Each is a
+    skipped row now, its reason naming the field; the other meshes are compared as before."""
+    _artist_variant(artist_project, tmp_path, lambda atts: atts["body"]["demo-body"].update({field: value}))
+    before = snapshot(tmp_path)
+    r = run_cli("diff", "a", "--out", "r", "--methods", "default", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["r/"], codes=(0,))
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    n = len(json.loads((artist_project / "demo.json").read_text())["skins"][0]["attachments"]["body"]["demo-body"]
+            ["uvs"]) // 2
+    assert [(s["attachment"], s["reason"]) for s in report["skipped"]] == [("demo-body", reason.format(n=n))]
+    assert len(report["rows"]) == 4
+    for row in report["rows"]:
+        artist = row["metrics"]["artist"]
+        assert 0 <= artist["interior"] <= artist["vertices"], row
+
+
+def test_diff_measures_weighted_meshes_uvs_past_the_image_and_a_hull_of_0(tmp_path, artist_project):
+    """Passed as it was: a weighted artist mesh is measured by its uvs as the unweighted one;
+    uvs outside 0..1 (the runtime samples past the region) and a hull of 0 are measured, not
+    refused."""
+    def change(atts):
+        body, head, ring = atts["body"]["demo-body"], atts["head"]["demo-head"], atts["ring"]["demo-ring"]
+        v = body["vertices"]
+        body["vertices"] = [x for i in range(0, len(v), 2) for x in (1, 0, v[i], v[i + 1], 1)]
+        head["uvs"] = [u * 3 - 1 for u in head["uvs"]]
+        ring["hull"] = 0
+
+    _artist_variant(artist_project, tmp_path, change)
+    r = run_cli("diff", "a", "--out", "r", "--methods", "default", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["skipped"] == [] and len(report["rows"]) == 5
+    rows = {row["attachment"]: row["metrics"]["artist"] for row in report["rows"]}
+    assert rows["demo-body"]["vertices"] > 3 and rows["demo-ring"]["interior"] == rows["demo-ring"]["vertices"]

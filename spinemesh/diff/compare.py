@@ -103,7 +103,7 @@ def artist_mesh(attachment: dict, width: int, height: int) -> Mesh:
     Raises
     ------
     ValueError
-        When ``uvs`` or ``triangles`` are missing or inconsistent.
+        When ``uvs``, ``triangles``, ``hull`` or ``edges`` are missing or inconsistent.
     """
     uvs = np.asarray(attachment.get("uvs", []), dtype=np.float64)
     if uvs.size == 0 or uvs.size % 2:
@@ -113,7 +113,12 @@ def artist_mesh(attachment: dict, width: int, height: int) -> Mesh:
         raise ValueError("mesh attachment triangles do not index its uvs")
     verts = uvs.reshape(-1, 2) * [width, height]
     hull = int(attachment.get("hull", len(verts)))
-    edges = np.asarray(attachment.get("edges", []), dtype=np.int64).reshape(-1, 2) // 2
+    if not 0 <= hull <= len(verts):  # its measures said -980 interior vertices
+        raise ValueError(f"mesh attachment hull {hull} is not a count of its {len(verts)} vertices")
+    edges = np.asarray(attachment.get("edges", []), dtype=np.int64)
+    if edges.size % 2 or (edges.size and (edges.min() < 0 or edges.max() >= 2 * len(verts))):
+        raise ValueError(f"mesh attachment edges are not pairs of its {len(verts)} vertices (each index times 2)")
+    edges = edges.reshape(-1, 2) // 2
     return Mesh(vertices=verts, triangles=tris.reshape(-1, 3), hull=hull, edges=edges,
                 width=width, height=height, is_interior=np.arange(len(verts)) >= hull,
                 info={"preset": "artist"})
