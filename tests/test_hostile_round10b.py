@@ -301,3 +301,84 @@ def test_diff_measures_weighted_meshes_uvs_past_the_image_and_a_hull_of_0(tmp_pa
     assert report["skipped"] == [] and len(report["rows"]) == 5
     rows = {row["attachment"]: row["metrics"]["artist"] for row in report["rows"]}
     assert rows["demo-body"]["vertices"] > 3 and rows["demo-ring"]["interior"] == rows["demo-ring"]["vertices"]
+
+
+# --- mesh: images of odd kinds (passed as they were) ------------------------------------------------
+
+def test_an_exif_turned_jpeg_is_meshed_as_stored(tmp_path):
+    """A JPEG whose EXIF orientation is 6 (turn 90 degrees to show it) is meshed as its pixels are
+    stored, 60x40 here: the editor's image loader (libGDX's, stb_image) and the runtimes' read it so
+    and place the attachment by that size; only browsers and photo viewers turn it."""
+    from PIL import Image
+
+    rgb = np.full((40, 60, 3), 30, np.uint8)
+    rgb[5:35, 10:30] = 200
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    Image.fromarray(rgb).save(tmp_path / "turned.jpg", exif=exif.tobytes())
+    r = run_cli("mesh", "turned.jpg", "--out", "m.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    doc = json.loads((tmp_path / "m.json").read_text())
+    assert (doc["width"], doc["height"]) == (60, 40)
+
+
+def test_an_animated_png_is_meshed_by_its_first_frame(tmp_path):
+    """An APNG is meshed by its default image (the first frame), which every PNG reader that
+    knows no animation (the editor's, the runtimes') shows."""
+    from PIL import Image
+
+    first = np.zeros((40, 60, 4), np.uint8)
+    first[5:35, 10:30] = 255
+    Image.fromarray(first).save(tmp_path / "anim.png", save_all=True, duration=100,
+                                append_images=[Image.fromarray(np.full((40, 60, 4), 255, np.uint8))])
+    r = run_cli("mesh", "anim.png", "--out", "m.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    xs, ys = np.array(json.loads((tmp_path / "m.json").read_text())["vertices"]).T
+    assert xs.min() >= 9 and xs.max() <= 31 and ys.min() >= 4 and ys.max() <= 36  # the first frame's square
+
+
+def _odd_images(tmp: Path) -> dict[str, str]:
+    """Images ``mesh`` refuses, each with what its one line says."""
+    import os
+    import struct
+    import zlib
+
+    from PIL import Image
+
+    a = np.zeros((8, 8, 4), np.uint8)
+    Image.fromarray(a).save(tmp / "anim.gif", save_all=True, append_images=[Image.fromarray(a)])
+    Image.fromarray(a).save(tmp / "pages.tiff", save_all=True, append_images=[Image.fromarray(a)])
+    Image.fromarray(np.zeros((8, 8), np.float32)).save(tmp / "float.tiff")
+    (tmp / "empty.png").write_bytes(b"")
+    Image.fromarray(np.full((65535, 1, 4), 255, np.uint8)).save(tmp / "tall.png")
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    (tmp / "bomb.png").write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 6, 0, 0, 0))
+                                   + chunk(b"IDAT", zlib.compress(b"\0" * 1000)) + chunk(b"IEND", b""))
+    os.symlink("/dev/zero", tmp / "zero.png")
+    os.mkfifo(tmp / "fifo.png")
+    decode = "cannot decode image: not a PNG, WebP, AVIF or JPEG file"
+    return {"anim.gif": decode, "pages.tiff": decode, "float.tiff": decode, "empty.png": decode,
+            "tall.png": "image 1x65535 exceeds the limit of 16384 pixels a side",
+            "bomb.png": "image exceeds the limit of 89,478,485 pixels",
+            "zero.png": "image is a device, not a regular file", "fifo.png": "image is a FIFO, not a regular file"}
+
+
+def test_images_mesh_cannot_read_are_one_line_each(tmp_path):
+    """A GIF or TIFF (animated, of pages, of floats: formats the editor's exports do not use), a
+    file of 0 bytes, an image of 1x65535, a PNG whose header claims 100000x100000 (a
+    decompression bomb: refused before a texel is decoded), a link to /dev/zero and a FIFO: one
+    line each, exit 2, nothing written; a 1x1 image is meshed."""
+    from PIL import Image
+
+    said = _odd_images(tmp_path)
+    Image.fromarray(np.full((1, 1, 4), 255, np.uint8)).save(tmp_path / "dot.png")
+    before = snapshot(tmp_path)
+    for name, line in said.items():
+        r = run_cli("mesh", name, "--out", "m.json", cwd=tmp_path, timeout=30)
+        check_run(r, before, tmp_path, [], codes=(2,))
+        assert f"error: {name}: {line}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, (name, r.stderr)
+    r = run_cli("mesh", "dot.png", "--out", "m.json", cwd=tmp_path)
+    assert r.returncode == 0 and json.loads((tmp_path / "m.json").read_text())["width"] == 1, r.stderr
