@@ -382,3 +382,21 @@ def test_images_mesh_cannot_read_are_one_line_each(tmp_path):
         assert f"error: {name}: {line}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, (name, r.stderr)
     r = run_cli("mesh", "dot.png", "--out", "m.json", cwd=tmp_path)
     assert r.returncode == 0 and json.loads((tmp_path / "m.json").read_text())["width"] == 1, r.stderr
+
+
+def test_convert_keeps_u0000_and_refuses_a_lone_surrogate(tmp_path):
+    """Passed as they were: names and event strings holding U+0000 are written to a ``.skel``
+    and read back the same; a JSON ``"\\ud800"`` (no UTF-8 file can hold it) is one line."""
+    skeleton = _demo_json(tmp_path)
+    doc = json.loads(skeleton.read_text())
+    doc["events"] = {"h\u0000it": {"string": "a\u0000b"}}
+    skeleton.write_text(json.dumps(doc))
+    for args in (("p/demo.json", "out.skel"), ("out.skel", "back.json")):
+        r = run_cli("convert", *args, cwd=tmp_path)
+        assert r.returncode == 0, r.stdout + r.stderr
+    assert json.loads((tmp_path / "back.json").read_text())["events"] == {"h\u0000it": {"string": "a\u0000b"}}
+    skeleton.write_text(skeleton.read_text().replace('"a\\u0000b"', '"a\\ud800b"'))
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "p/demo.json", "lone.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "demo.json: JSON holds an escaped lone UTF-16 surrogate" in r.stderr, r.stderr
