@@ -64,8 +64,9 @@ def weights(
                                                    "the bones chosen and why, and the time.")] = None,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", metavar="DIR", help="Write one PNG per weighted attachment here: the wireframe over the sprite with "
-                          "vertices coloured by bone, and the mesh in one bent pose; a folder beside OUT, not "
-                          "inside it.")] = None,
+                          "vertices coloured by bone, and the mesh in one bent pose, with a legend of its bones "
+                          "(number, colour, name); beside it NAME.json names every bone in full. A folder "
+                          "beside OUT, not inside it.")] = None,
 ) -> None:
     """Bind the mesh attachments of a project to bones and compute their weights.
 

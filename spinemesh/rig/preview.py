@@ -1,10 +1,14 @@
-"""Pictures of weighted meshes: the weights overlay and one bent pose.
+"""Pictures of weighted meshes: the weights overlay and one bent pose, with a legend.
 
 Left panel: the sprite with its wireframe, each vertex a dot coloured by its bones (the
 colours of its bones mixed by weight, as the editor's weights overlay shows them), the bone
-segments drawn in their colours. Right panel: the textured mesh deformed by the runtime's
-skinning (each vertex at ``sum(weight * M_bone @ local)``) after every chosen bone but the
-one nearest the root turned by ``BEND`` degrees, so that one sees where the mesh folds.
+segments drawn in their colours, each numbered at its root. Right panel: the textured mesh
+deformed by the runtime's skinning (each vertex at ``sum(weight * M_bone @ local)``) after
+every chosen bone but the one nearest the root turned by ``BEND`` degrees, so that one sees
+where the mesh folds. Under them, the legend: each bone of the mesh, its number, its colour and
+its name (:func:`legend`). OpenCV's font draws printable ASCII only, and a long name or many
+bones do not fit a strip: :func:`write_previews` writes a caption beside each picture
+(:func:`caption`, JSON) that names every bone in full with its number and colour.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_png
+from ..fsutil import atomic_write_json, atomic_write_png
 from ..skeleton import image_paths, iter_attachments
 from ..written_folder import mark_written_folder
 from .binding import parse_vertices, setup_world
@@ -27,6 +31,81 @@ BEND = 25.0
 #: Bone colours (RGB), repeated when a mesh has more bones.
 PALETTE = np.array([(230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180),
                     (70, 240, 240), (240, 50, 230), (210, 245, 60), (0, 128, 128), (170, 110, 40)], float)
+
+
+#: The legend under the panels (:func:`legend`): bones per row, texels a row, rows at most (more
+#: bones: the last entry says how many more, named in the caption).
+LEGEND_COLUMNS = 3
+LEGEND_ROW = 18
+LEGEND_ROWS = 8
+
+
+def bone_colour(index: int) -> tuple[int, int, int]:
+    """The colour (RGB) of a mesh's ``index``-th bone (0-based, in :meth:`.binding.MeshVertices.bones` order)."""
+    return tuple(int(c) for c in PALETTE[index % len(PALETTE)])
+
+
+def drawable(name: str) -> bool:
+    """Whether OpenCV's Hershey font draws ``name``: printable ASCII only (it draws ``?`` for the rest)."""
+    return name.isascii() and name.isprintable()
+
+
+def _fitted(text: str, width: int, scale: float) -> str:
+    """``text`` cut with ``...`` to fit ``width`` texels in the legend's font."""
+    import cv2
+
+    def wide(t: str) -> int:
+        return cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)[0][0]
+
+    if wide(text) <= width:
+        return text
+    while text and wide(text + "...") > width:
+        text = text[:-1]
+    return text + "..."
+
+
+def legend(names: list[str], width: int) -> np.ndarray:
+    """The legend strip: RGB uint8 of shape (rows * :data:`LEGEND_ROW` + 8, ``width``, 3).
+
+    Each bone of ``names`` (a mesh's bones, in :meth:`.binding.MeshVertices.bones` order) gets a swatch of its
+    colour (:func:`bone_colour`; the palette repeats past its 10 colours, the number tells those
+    apart), its number (1-based, as drawn at the bone's root) and its name, cut to its column;
+    a name the font cannot draw (:func:`drawable`) reads ``(name in the caption)``. At most
+    :data:`LEGEND_COLUMNS` x :data:`LEGEND_ROWS` entries; past them the last says how many more.
+    """
+    import cv2
+
+    room = LEGEND_COLUMNS * LEGEND_ROWS
+    entries = [(i, n) for i, n in enumerate(names)]
+    more = 0
+    if len(entries) > room:
+        more = len(entries) - (room - 1)
+        entries = entries[:room - 1]
+    rows = max(1, -(-(len(entries) + (1 if more else 0)) // LEGEND_COLUMNS))
+    strip = np.full((rows * LEGEND_ROW + 8, width, 3), 255, np.uint8)
+    column = width // LEGEND_COLUMNS
+    scale = 0.4
+    for k, (i, name) in enumerate(entries):
+        x, y = (k % LEGEND_COLUMNS) * column + 6, (k // LEGEND_COLUMNS) * LEGEND_ROW + 4
+        cv2.rectangle(strip, (x, y + 2), (x + 12, y + 14), bone_colour(i), -1)
+        cv2.rectangle(strip, (x, y + 2), (x + 12, y + 14), (0, 0, 0), 1)
+        words = f"{i + 1} {name if drawable(name) else '(name in the caption)'}"
+        cv2.putText(strip, _fitted(words, column - 26, scale), (x + 18, y + 13), cv2.FONT_HERSHEY_SIMPLEX,
+                    scale, (0, 0, 0), 1, cv2.LINE_AA)
+    if more:
+        k = len(entries)
+        x, y = (k % LEGEND_COLUMNS) * column + 6, (k // LEGEND_COLUMNS) * LEGEND_ROW + 4
+        cv2.putText(strip, _fitted(f"+{more} more bones (in the caption)", column - 8, scale), (x, y + 13),
+                    cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 1, cv2.LINE_AA)
+    return strip
+
+
+def caption(names: list[str], skin: str, slot: str, attachment: str, picture: str) -> dict:
+    """The caption written beside a weights picture (JSON): which mesh it shows and, for each of
+    its bones in the legend's order, its number, full name and colour (``#rrggbb``)."""
+    return {"picture": picture, "skin": skin, "slot": slot, "attachment": attachment,
+            "bones": [{"number": i + 1, "name": n, "colour": "#%02x%02x%02x" % bone_colour(i)}
+                      for i, n in enumerate(names)]}
 
 
 def bent_worlds(doc: dict, bone_ids: list[int], degrees: float = BEND) -> list[np.ndarray]:
@@ -122,9 +201,12 @@ def picture(sprite: np.ndarray, uvs: np.ndarray, triangles: np.ndarray, mesh, we
     pts = np.round(to_canvas(setup)).astype(np.int32)
     for i, seg in enumerate(segments):
         a, b = np.round(to_canvas(seg)).astype(np.int32)
-        c = tuple(int(x) for x in PALETTE[i % len(PALETTE)])
+        c = bone_colour(i)
         cv2.line(left, tuple(a), tuple(b), c, 3, cv2.LINE_AA)
         cv2.circle(left, tuple(a), 5, c, -1, cv2.LINE_AA)
+        # its number in the legend, beside its root
+        cv2.putText(left, str(i + 1), (int(a[0]) + 6, int(a[1]) - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    (0, 0, 0), 1, cv2.LINE_AA)
     for p, c in zip(pts, colours):
         cv2.circle(left, tuple(p), 4, tuple(int(x) for x in c), -1, cv2.LINE_AA)
         cv2.circle(left, tuple(p), 4, (0, 0, 0), 1, cv2.LINE_AA)
@@ -139,9 +221,15 @@ def setup_image(ref) -> str:
     return frames[setup if isinstance(setup, int) and 0 <= setup < len(frames) else 0]
 
 
+def mesh_bone_names(att: dict, rig) -> list[str]:
+    """The names of the bones weighted mesh ``att`` uses, in the legend's order (:meth:`.binding.MeshVertices.bones`)."""
+    return [rig.bones[b].name for b in parse_vertices(att, len(rig.bones)).bones()]
+
+
 def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarray:
     """:func:`picture` of one weighted mesh attachment ``att`` of ``doc``: its vertices coloured
-    by bone in the setup pose, its bones, and the mesh with its bones turned by :data:`BEND`.
+    by bone in the setup pose, its bones, and the mesh with its bones turned by :data:`BEND`,
+    with its :func:`legend` under them.
 
     ``rig`` is :func:`.document.build_rig` of ``doc``; ``sprite`` the image it draws, RGBA.
     """
@@ -157,12 +245,14 @@ def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarra
     uvs = np.asarray(att["uvs"], float).reshape(-1, 2)
     tris = np.asarray(att["triangles"], int).reshape(-1, 3)
     segs = np.stack([rig.bones[b].segment() for b in ids])
-    return picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
+    panels = picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
+    return np.concatenate([panels, legend([rig.bones[b].name for b in ids], panels.shape[1])])
 
 
 def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path, on_picture=None) -> list[str]:
-    """One PNG per weighted attachment in ``folder``; returns problems (one line each).
-    ``on_picture()``: called after each weighted attachment, drawn or not."""
+    """One PNG per weighted attachment in ``folder``, and beside it its :func:`caption` (the same
+    name, ``.json``); returns problems (one line each). ``on_picture()``: called after each
+    weighted attachment, drawn or not."""
     from ..project import image_source_for
 
     problems = []
@@ -187,6 +277,8 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
             image = weighted_picture(doc, ref.attachment, rig, sprite)
             safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}")
             atomic_write_png(folder / f"{safe}.png", image)
+            atomic_write_json(folder / f"{safe}.json", caption(mesh_bone_names(ref.attachment, rig), ref.skin,
+                                                                ref.slot, ref.name, f"{safe}.png"))
         if on_picture is not None:
             on_picture()
     return problems
