@@ -73,7 +73,7 @@ def test_each_picture_has_a_caption_naming_its_bones_in_full_and_a_legend(tmp_pa
         assert said["picture"] == picture.name and said["bones"], said
         for k, bone in enumerate(said["bones"]):
             assert bone["number"] == k + 1 and bone["name"] in bones
-            assert bone["colour"] == "#%02x%02x%02x" % bone_colour(k)
+            assert bone["colour"] == "#{:02x}{:02x}{:02x}".format(*bone_colour(k))
             named.add(bone["name"])
         image = load_rgba(picture)
         strip = image[-(LEGEND_ROW + 8):, :, :3]  # one row: the demo's meshes have a few bones

@@ -24,7 +24,14 @@ from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
 from .atlas_pack import (
-    AtlasLayouts, PackedAtlas, PackRefused, PageRules, compose, page_groups, page_settings, plan_layouts,
+    AtlasLayouts,
+    PackedAtlas,
+    PackRefused,
+    PageRules,
+    compose,
+    page_groups,
+    page_settings,
+    plan_layouts,
 )
 from .png import (
     IHDR,

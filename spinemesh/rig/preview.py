@@ -104,7 +104,7 @@ def caption(names: list[str], skin: str, slot: str, attachment: str, picture: st
     """The caption written beside a weights picture (JSON): which mesh it shows and, for each of
     its bones in the legend's order, its number, full name and colour (``#rrggbb``)."""
     return {"picture": picture, "skin": skin, "slot": slot, "attachment": attachment,
-            "bones": [{"number": i + 1, "name": n, "colour": "#%02x%02x%02x" % bone_colour(i)}
+            "bones": [{"number": i + 1, "name": n, "colour": "#{:02x}{:02x}{:02x}".format(*bone_colour(i))}
                       for i, n in enumerate(names)]}
 
 
