@@ -400,3 +400,19 @@ def test_convert_keeps_u0000_and_refuses_a_lone_surrogate(tmp_path):
     r = run_cli("convert", "p/demo.json", "lone.skel", cwd=tmp_path)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert "demo.json: JSON holds an escaped lone UTF-16 surrogate" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("data", [b"\x80\x02.", b"\x80\xb3.", b"\x80\x02)R."], ids=["empty stack", "protocol 179",
+                                                                                   "call of nothing"])
+def test_a_checkpoint_of_no_pickle_is_one_line(tmp_path, data):
+    """Bytes torch's weights-only reader stops on in its own stack (a file of another kind, a
+    pickle cut or corrupted) ended ``segment-export`` in an IndexError traceback ("pop from empty
+    list"), with torch's warning of an unknown pickle protocol before it. One line now, naming the
+    checkpoint."""
+    (tmp_path / "best.pt").write_bytes(data)
+    (tmp_path / "ds").mkdir()
+    before = snapshot(tmp_path)
+    r = run_cli("segment-export", "best.pt", "--data", "ds", "--out", "m.onnx", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "best.pt: not a checkpoint spinemesh can read (" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr

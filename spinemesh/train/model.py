@@ -71,15 +71,25 @@ def read_checkpoint(path) -> dict:
         In one line naming the file, when it cannot be read or is not such data.
     """
     import pickle
+    import struct
+    import warnings
     import zipfile
 
     from ..errors import SpineMeshError
 
     try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
+        with warnings.catch_warnings():  # its lines on a pickle protocol it does not know: the refusal is ours
+            warnings.simplefilter("ignore", UserWarning)
+            data = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
         raise SpineMeshError("no such checkpoint", path) from None
-    except (OSError, EOFError, RuntimeError, ValueError, pickle.UnpicklingError, zipfile.BadZipFile) as e:
+    except MemoryError:
+        raise
+    except (OSError, EOFError, RuntimeError, ValueError, pickle.UnpicklingError, zipfile.BadZipFile,
+            # torch's weights-only unpickler on bytes of no pickle (a file cut short, another kind)
+            # raises whatever its stack met: "pop from empty list", a missing key, a struct error
+            IndexError, KeyError, TypeError, AttributeError, AssertionError, OverflowError, struct.error,
+            UnicodeDecodeError) as e:
         reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise SpineMeshError(f"not a checkpoint spinemesh can read ({reason[:200]})", path) from None
     if not isinstance(data, dict):
