@@ -6,7 +6,8 @@ an atlas packed on several processes end together. Counted as steps, and with th
 as they became known, a bar stood still for most of a run with its ETA unknown (rich forgets
 its speed whenever a total changes). So an atlas's bar counts *work*: per phase, the atlas's
 page texels times what a texel costs in that phase (:data:`COST`), all of it known from the
-page images' headers before a page is read (:func:`atlas_work`) and told once. Each phase
+page images' headers when the atlas's job is made, before a page is read (:func:`atlas_work`),
+and told once. Each phase
 hands its share out as its parts end: the fills of a group of pages share that group's part
 of the placing, packed pages share the writing by their texels. Work found later (another
 layout written after the first grew in bytes) adds to the total, which happens rarely.
@@ -42,9 +43,10 @@ def page_kilotexels(files: list[Path]) -> list[int]:
     return [kilotexels(image_size(f)) for f in files]
 
 
-def atlas_work(files: list[Path]) -> int:
-    """The work of packing an atlas of page ``files``: every phase of :data:`COST` over its pages."""
-    return sum(COST.values()) * sum(page_kilotexels(files))
+def atlas_work(pages: list[int]) -> int:
+    """The work of packing an atlas of ``pages`` (each one's kilotexels, :func:`page_kilotexels`):
+    every phase of :data:`COST` over them; what :meth:`AtlasMeter.start` tells."""
+    return sum(COST.values()) * sum(pages)
 
 
 class AtlasMeter:

@@ -566,6 +566,14 @@ class AtlasJob:
     options: PackOptions
     refused: str = ""  # why it is kept before any work (pages shared with another atlas)
     keep_previews: bool = False
+    #: each page's kilotexels, from its file's header as the job is made: the work its bar counts
+    #: (spinemesh.pack.progress), known before packing reads a page
+    pages: list = field(default_factory=list)
+
+
+def _job_pages(job: AtlasJob) -> list[int]:
+    """Each page's kilotexels of ``job`` (one each where the job was made without them)."""
+    return job.pages or [1] * len(job.files)
 
 
 @dataclass
@@ -652,7 +660,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
 
     atlas, files, options = job.atlas, job.files, job.options
     t0 = time.process_time()
-    meter = AtlasMeter(page_kilotexels(files), [pages for _, pages, _ in page_groups(atlas)], on_step)
+    meter = AtlasMeter(_job_pages(job), [pages for _, pages, _ in page_groups(atlas)], on_step)
     meter.start()
     bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
     texels: list[np.ndarray] = []
@@ -764,7 +772,7 @@ def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.nd
     A page's bytes depend on what lies next to what, not only on how many texels there are:
     a layout of a few more texels can take fewer bytes (verse-rabby's).
     """
-    meter = meter or AtlasMeter(page_kilotexels(job.files))
+    meter = meter or AtlasMeter(_job_pages(job))
     best = None
     for rank in range(1, layouts.count):
         try:
@@ -977,7 +985,7 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[by
              if Path(page.name).suffix.lower() == ".png"]
     if not pages:
         return AtlasOutcome(row)
-    meter = meter or AtlasMeter(page_kilotexels(job.files))
+    meter = meter or AtlasMeter(_job_pages(job))
     meter.begin("write", [t.shape[0] * t.shape[1] for _, _, t in pages], STEPS["reencode"],
                 [i for i, page in enumerate(atlas.pages) if Path(page.name).suffix.lower() == ".png"])
     results = _page_by_page(_reencode_task, pages, workers, meter)
@@ -1048,9 +1056,10 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         refused = ("its page images are shared with another atlas" if shared
                    else atlas.mismatches[0].message if atlas.mismatches else "")
         jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
-                             uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews))
+                             uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews,
+                             page_kilotexels(files)))
     skip: set[Path] = set()
-    progress.work(sum(atlas_work(job.files) for job in jobs))
+    progress.work(sum(atlas_work(_job_pages(job)) for job in jobs))
     for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
@@ -1088,7 +1097,7 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
         def submit() -> None:
             job = next(waiting, None)
             if job is not None:
-                work = atlas_work(job.files)  # told whole as the atlas ends there
+                work = atlas_work(_job_pages(job))  # told whole as the atlas ends there
                 progress.atlas(job.rel, work)
                 progress.step(job.rel, STEPS["worker"])
                 future = workers.submit(_pack_atlas_task, job)
