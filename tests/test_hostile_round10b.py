@@ -416,3 +416,24 @@ def test_a_checkpoint_of_no_pickle_is_one_line(tmp_path, data):
     check_run(r, before, tmp_path, [], codes=(2,))
     assert "best.pt: not a checkpoint spinemesh can read (" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_output_paths_and_project_names_of_markup_are_printed_as_they_are(tmp_path, artist_project):
+    """``segment --out 'q[/]m.png'`` (a folder ``q[`` holding ``]m.png``), ``diff --out 'q[/]r'``
+    and ``dataset`` of a project at ``p[/]hero`` into ``q[/]d`` wrote their files, then printed
+    the path or the project's name as rich markup: a MarkupError traceback, exit 1, after the
+    work. Each prints it as it is now, exit 0."""
+    import shutil
+
+    (tmp_path / "q[").mkdir()
+    _sprite(tmp_path / "art.png")
+    r = run_cli("segment", "art.png", "--mask", "alpha", "--out", "q[/]m.png", cwd=tmp_path)
+    assert r.returncode == 0 and "q[/]m.png: 30x20 mask from alpha" in r.stdout, r.stdout + r.stderr
+    r = run_cli("diff", str(artist_project), "--out", "q[/]r", "--methods", "default", "--limit", "1", cwd=tmp_path)
+    assert r.returncode == 0 and "wrote q[/]r/report.md" in r.stdout, r.stdout + r.stderr
+    (tmp_path / "games" / "p[").mkdir(parents=True)
+    shutil.copytree(artist_project, tmp_path / "games" / "p[" / "]hero")
+    r = run_cli("dataset", "games", "--out", "q[/]d", "--jobs", "1", cwd=tmp_path)
+    assert r.returncode == 0 and "samples in q[/]d" in r.stdout and "games/p[/]hero" in r.stdout, r.stdout + r.stderr
+    r = run_cli("dataset-stats", "q[/]d", "--plots", "q[/]plots", cwd=tmp_path)
+    assert r.returncode == 0 and "q[/]d: " in r.stdout, r.stdout + r.stderr

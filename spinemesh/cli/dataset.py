@@ -44,10 +44,14 @@ def dataset(
         summary = build_dataset(corpus, out, jobs=jobs or available_cores(), retry_failed=retry_failed,
                                 on_project=on_project, dask=dask)
 
+    from rich.markup import escape
+
+    from ..errors import escaped
+
     rate = summary.samples / summary.seconds if summary.seconds else 0.0
     console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "
                   f"{summary.seconds:.1f} s ({rate:.0f} samples/s); {summary.projects_done_before} projects "
-                  f"done before; data set now holds {summary.total_samples:,} samples in {out}")
+                  f"done before; data set now holds {summary.total_samples:,} samples in {escape(escaped(str(out)))}")
     from ..dataset import dataset_stats, open_dataset
 
     whole = dataset_stats(open_dataset(out))
@@ -72,14 +76,18 @@ def dataset(
 
 
 def _count_table(title: str, what: str, counted: str, rows):
-    """A two-column table of ``(label, count)`` rows, counts with thousands separators."""
+    """A two-column table of ``(label, count)`` rows, counts with thousands separators; the labels
+    (project folders, reasons) shown as they are, never read as markup."""
+    from rich.markup import escape
     from rich.table import Table
+
+    from ..errors import escaped
 
     t = Table(title=title)
     t.add_column(what)
     t.add_column(counted, justify="right")
     for k, n in rows:
-        t.add_row(k, f"{n:,}")
+        t.add_row(escape(escaped(str(k))), f"{n:,}")
     return t
 
 
@@ -102,7 +110,8 @@ def _print_problems(summary, out: Path) -> None:
         for e in summary.errors[:40]:
             err_console.print(f"  {escaped(e)}", markup=False, highlight=False)
         if len(summary.errors) > 40:
-            err_console.print(f"  ... and {len(summary.errors) - 40} more (see {out}/projects.jsonl)")
+            err_console.print(escaped(f"  ... and {len(summary.errors) - 40} more (see {out}/projects.jsonl)"),
+                              markup=False)
 
 
 @app.command("dataset-stats")
@@ -130,7 +139,7 @@ def dataset_stats_cmd(
         check_written_folder(plots, "--plots folder", "plots")  # a folder of a user's files: refused
     stats = dataset_stats(open_dataset(ds))
     console.print(f"{ds}: {counted(stats['samples'], 'sample')} from {counted(len(stats['by_project']), 'project')} "
-                  f"of {counted(len(stats['by_game']), 'game')}", highlight=False)
+                  f"of {counted(len(stats['by_game']), 'game')}", highlight=False, markup=False)
     t = Table()
     t.add_column("")
     t.add_column("samples", justify="right")
@@ -150,4 +159,4 @@ def dataset_stats_cmd(
     console.print(t)
     console.print(f"total image area {stats['pixels'] / 1e6:.1f} Mpx")
     written = plot_stats(stats, plots or Path(ds) / "stats")
-    console.print("plots: " + ", ".join(str(p) for p in written))
+    console.print("plots: " + ", ".join(str(p) for p in written), markup=False)

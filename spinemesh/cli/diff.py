@@ -69,4 +69,4 @@ def diff(
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(result.rows)} attachments compared, {len(result.skipped)} skipped")
-    console.print(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}")
+    console.print(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}", markup=False)  # paths, no markup

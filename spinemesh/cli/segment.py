@@ -54,7 +54,8 @@ def segment(
         err_console.print(f"warning: {image}: the {used} mask is empty although the image is not uniform; "
                           f"check it, or try --mask {'model' if used == 'alpha' else 'alpha'}",
                           markup=False, highlight=False)
-    console.print(f"{out}: {m.shape[1]}x{m.shape[0]} mask from {used}, {100 * m.mean():.1f}% foreground")
+    console.print(f"{out}: {m.shape[1]}x{m.shape[0]} mask from {used}, {100 * m.mean():.1f}% foreground",
+                  markup=False)  # a path, never markup
 
 
 @app.command("segment-eval")
@@ -114,7 +115,7 @@ def segment_eval(
     console.print(_scores_table(sprites, games, scores))
     if worst:
         atomic_write_png(worst, worst_cases_picture(sprites, per_image, methods["network"]))
-        console.print(f"worst cases: {worst}")
+        console.print(f"worst cases: {worst}", markup=False)
     result = {"sprites": len(sprites), "projects": sorted({s.project for s in sprites}), "games": games,
               "data": [str(d) for d in data], "scores": scores,
               "network_worst": [{"iou": round(iou, 4), "background": kind, "sprite": sprites[si].name}
@@ -221,7 +222,7 @@ def train(
 
         counts = pack(data, write_pack)
         console.print(f"{write_pack}: {counts['train']:,} training and {counts['val']:,} held-out sprites, "
-                      f"{counts['bytes'] / 2**20:.1f} MiB")
+                      f"{counts['bytes'] / 2**20:.1f} MiB", markup=False)
         return
     from ..dataset.extract import empty_side_said
     from ..train.data import empty_sides
@@ -235,7 +236,8 @@ def train(
                       batch_size=batch, time_limit_min=time_limit, device=device, workers=workers,
                       threads=threads, seed=seed)
     best = run(cfg, progress=console.print)
-    console.print(f"best epoch {best['epoch']}: validation IoU {best['val']['iou']:.4f} -> {out / 'best.pt'}")
+    console.print(f"best epoch {best['epoch']}: validation IoU {best['val']['iou']:.4f} -> {out / 'best.pt'}",
+                  markup=False)
 
 
 def _multiple_of_32(value: int) -> int:
