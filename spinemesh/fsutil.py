@@ -113,6 +113,34 @@ def portable_name(relative: str | Path) -> str:
     return "/".join(unicodedata.normalize("NFC", part).rstrip(" .").casefold() for part in parts)
 
 
+def safe_name(text: str, limit: int = 80) -> str:
+    """A file name made of ``text``: letters, digits, ``-_.`` kept, anything else ``_``.
+
+    Examples
+    --------
+    >>> safe_name("hero/walk cycle.json")
+    'hero_walk_cycle.json'
+    """
+    name = re.sub(r"[^A-Za-z0-9._-]", "_", text).strip(".")[:limit]
+    return name or "_"
+
+
+def name_apart(name: str, taken: set[str]) -> str:
+    """``name``, with ``_`` appended until it is no file of ``taken`` on any disk
+    (:func:`portable_name`); its portable name is added to ``taken``.
+
+    Examples
+    --------
+    >>> taken = set()
+    >>> [name_apart(n, taken) for n in ("hero", "Hero", "hero_", "arm")]
+    ['hero', 'Hero_', 'hero__', 'arm']
+    """
+    while portable_name(name) in taken:
+        name += "_"
+    taken.add(portable_name(name))
+    return name
+
+
 class OneFilePerName:
     """Names of files written into one folder, refusing a second writer of the same file.
 

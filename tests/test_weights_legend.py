@@ -80,3 +80,29 @@ def test_each_picture_has_a_caption_naming_its_bones_in_full_and_a_legend(tmp_pa
         assert [_swatch(strip, k) for k in range(len(said["bones"]))] == \
             [bone_colour(k) for k in range(len(said["bones"]))]
     assert "頭の骨" in named, named
+
+
+def test_attachments_of_one_file_name_each_keep_their_picture(tmp_path):
+    """``arm?`` and ``arm!`` are both ``arm_`` as a file name (and ``Arm`` is ``arm`` on a macOS
+    or Windows disk): the second picture and caption replaced the first without a word. Each
+    weighted attachment now has its own picture, named apart (``fsutil.name_apart``)."""
+    from spinemesh.rig.document import WeightOptions
+    from spinemesh.rig.run import weight_project
+    from spinemesh.upgrade import Options, upgrade_project
+
+    upgrade_project(DEMO / "demo.json", tmp_path / "up", Options(min_saving=0))
+    skeleton = tmp_path / "up" / "demo.json"
+    doc = json.loads(skeleton.read_text(encoding="utf-8"))
+    skin = doc["skins"][0]["attachments"]
+    slot, attachments = next((s, a) for s, a in skin.items() if any(v.get("type") == "mesh" for v in a.values()))
+    name, mesh = next((n, v) for n, v in attachments.items() if v.get("type") == "mesh")
+    for twin in (f"{name}?", f"{name}!", name.upper()):
+        attachments[twin] = {**mesh, "path": mesh.get("path", name)}
+    skeleton.write_text(json.dumps(doc), encoding="utf-8")
+    result = weight_project(tmp_path / "up", tmp_path / "w", WeightOptions(bones="auto"), preview=tmp_path / "prev")
+    assert result.errors == []
+    weighted = {(o.slot, o.name) for o in result.outcomes if o.status == "weighted"}
+    assert {(slot, name), (slot, f"{name}?"), (slot, f"{name}!"), (slot, name.upper())} <= weighted
+    captions = [json.loads(p.read_text(encoding="utf-8")) for p in (tmp_path / "prev").glob("*.json")]
+    assert sorted((c["slot"], c["attachment"]) for c in captions) == sorted(weighted)
+    assert len({p.name.casefold() for p in (tmp_path / "prev").glob("*.png")}) == len(weighted)

@@ -8,8 +8,8 @@ vertices, and wireframes and bone colours would double them) and over WebGL (abs
 headless browsers without a GPU); it works from a ``file://`` URL with no network.
 """
 
-from .files import PreviewFolder, safe_name
+from .files import PreviewFolder
 from .frames import Animation, Drawn, animations
 from .page import PLAYER_CSS, write_player
 
-__all__ = ["PLAYER_CSS", "Animation", "Drawn", "PreviewFolder", "animations", "safe_name", "write_player"]
+__all__ = ["PLAYER_CSS", "Animation", "Drawn", "PreviewFolder", "animations", "write_player"]

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import re
 from pathlib import Path
 
 import numpy as np
@@ -20,18 +19,6 @@ from ..written_folder import check_written_folder, mark_written_files, mark_writ
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
-
-
-def safe_name(text: str, limit: int = 80) -> str:
-    """A file name made of ``text``: letters, digits, ``-_.`` kept, anything else ``_``.
-
-    Examples
-    --------
-    >>> safe_name("hero/walk cycle.json")
-    'hero_walk_cycle.json'
-    """
-    name = re.sub(r"[^A-Za-z0-9._-]", "_", text).strip(".")[:limit]
-    return name or "_"
 
 
 def png_bytes(rgba: np.ndarray) -> bytes:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, atomic_write_png
+from ..fsutil import atomic_write_json, atomic_write_png, name_apart, safe_name
 from ..skeleton import image_paths, iter_attachments
 from ..written_folder import mark_written_folder
 from .binding import parse_vertices, setup_world
@@ -249,10 +249,13 @@ def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarra
     return np.concatenate([panels, legend([rig.bones[b].name for b in ids], panels.shape[1])])
 
 
-def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path, on_picture=None) -> list[str]:
+def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path, on_picture=None,
+                   taken: set[str] | None = None) -> list[str]:
     """One PNG per weighted attachment in ``folder``, and beside it its :func:`caption` (the same
     name, ``.json``); returns problems (one line each). ``on_picture()``: called after each
-    weighted attachment, drawn or not."""
+    weighted attachment, drawn or not. ``taken``: the names of the pictures written into
+    ``folder`` so far (:func:`~spinemesh.fsutil.name_apart`), shared by the skeletons of a run."""
+    taken = set() if taken is None else taken
     from ..project import image_source_for
 
     problems = []
@@ -275,7 +278,8 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
             problems.append(f"{skeleton.name} {ref.slot}/{ref.name}: no preview: {e}")
         else:
             image = weighted_picture(doc, ref.attachment, rig, sprite)
-            safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}")
+            # two attachments (or skeletons) of names made one here, or one on a macOS or Windows disk: apart
+            safe = name_apart(safe_name(f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}", 160), taken)
             atomic_write_png(folder / f"{safe}.png", image)
             atomic_write_json(folder / f"{safe}.json", caption(mesh_bone_names(ref.attachment, rig), ref.skin,
                                                                 ref.slot, ref.name, f"{safe}.png"))

@@ -93,6 +93,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         share_project_habits([(doc, rig) for _, doc, rig in read])
     if progress is not None:
         progress.add("weights", sum(mesh_count(doc) for _, doc, _ in read))
+    pictures: set[str] = set()  # the preview's file names so far, every skeleton's apart
     with output_folder(out, overwrite), rewriting_folder(preview):  # no stale picture of an earlier run stays
         for path, doc, rig in read:
             rel = path.relative_to(proj.root).as_posix()
@@ -112,7 +113,8 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
                 if progress is not None:
                     progress.add("preview", sum(o.status == "weighted" for o in outcomes))
                 result.errors += write_previews(doc, path, proj, rig, outcomes, Path(preview),
-                                                None if progress is None else lambda: progress.advance("preview"))
+                                                None if progress is None else lambda: progress.advance("preview"),
+                                                pictures)
         result.errors += copy_other_files(proj, out, written)
     result.seconds = time.perf_counter() - start
     return result

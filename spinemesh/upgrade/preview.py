@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError, SpineMeshError
-from ..fsutil import file_stamp, portable_name
-from ..player import PLAYER_CSS, PreviewFolder, safe_name
+from ..fsutil import file_stamp, name_apart, safe_name
+from ..player import PLAYER_CSS, PreviewFolder
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
 from ..skeleton import is_binary_skeleton, iter_skins, load_skeleton
@@ -823,11 +823,8 @@ def _pages_of(skeletons: list, twins, docs: dict, targets: dict[str, list]) -> d
         if sk.rel in twins:
             continue
         mine = targets.get(sk.rel, [])
-        pid = safe_name(_STEM.sub("", sk.rel).replace("/", "__"))
         # Hero.json and hero.json: one page and one data folder on a macOS or Windows disk
-        while portable_name(pid) in used_ids:
-            pid += "_"
-        used_ids.add(portable_name(pid))
+        pid = name_apart(safe_name(_STEM.sub("", sk.rel).replace("/", "__")), used_ids)
         if sk.rel in docs:
             pages[sk.rel] = _Page(sk, pid, [t for t in mine if t.status == "meshed"], mine)
     return pages
