@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from ..errors import SkelFormatError
 from ..skeleton_colours import read_colour
 
 
@@ -96,3 +97,59 @@ def first_use_table(strings: list[str], refs: list[int]) -> bool:
         elif k > expected:
             return False
     return expected - 1 == len(strings)
+
+
+def name_table(names) -> tuple[list, dict]:
+    """``(names, name -> index of the first of that name)``: a table that indices in the binary
+    point into (read: index to name; written: name to index, the first, as the runtimes'
+    ``findSlot`` and their JSON readers find a name)."""
+    lookup: dict = {}
+    for i, n in enumerate(names):
+        lookup.setdefault(n, i)
+    return list(names), lookup
+
+
+#: What each constraint list (or, in 4.3, each type of its one list) holds, in :func:`names_once`'s line.
+CONSTRAINT_WORDS = {"ik": "IK constraints", "transform": "transform constraints", "path": "path constraints",
+                    "physics": "physics constraints", "slider": "sliders"}
+
+
+def names_once(s, names, key: str, kind: str) -> None:
+    """Refuse a list read from a ``.skel`` that names two items alike, where the file refers to
+    them by place.
+
+    A ``.skel`` refers to slots, constraints, events, skins and animations by index; the
+    document read from it (the JSON's layout) by name, so a timeline, skin entry or linked mesh
+    aimed at the later of two items of one name would be posed as aimed at the first and written
+    back so (a changed animation), and a name-keyed list (events; skins before 3.8; animations)
+    would lose one. No editor writes such a file (two bones of one name are refused alike,
+    :func:`spinemesh.skeleton_check.bone_tree_problem`).
+
+    Parameters
+    ----------
+    s : SkelReader
+        The reader, just past the list (the offset said).
+    names : list
+        The items' names in file order (``None`` where an item of another type sits, in 4.3's
+        one constraint list).
+    key : str
+        The list as the JSON names it (``"slots"``, ``"ik"``, ``"constraints"``...).
+    kind : str
+        What an item is, plural (``"slots"``, ``"IK constraints"``).
+
+    Raises
+    ------
+    SkelFormatError
+        ``expected slots named once each, found 'head' naming two (slots[2] and slots[4]): ...``.
+    """
+    first: dict = {}
+    for i, n in enumerate(names):
+        if n is None:
+            continue
+        if n in first:
+            raise SkelFormatError(
+                f"expected {kind} named once each, found {n!r} naming two ({key}[{first[n]}] and {key}[{i}]): a .skel "
+                "refers to them by place, spinemesh by name, so one would be read and written back as the other; "
+                "refused",
+                s.path, offset=s.pos)
+        first[n] = i

@@ -59,7 +59,7 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import boolean, color, dark_color, first_use_table, fld, put, text
+from .symmetric import CONSTRAINT_WORDS, boolean, color, dark_color, first_use_table, fld, name_table, names_once, put, text
 
 SPACING_MODE = ("length", "fixed", "percent")
 
@@ -129,14 +129,6 @@ class Context:
         self.bones = self.slots = self.ik = self.transform = self.path = self.skins = ([], {})
         self.events: list[dict] = []
         self.event_names = ([], {})
-
-
-def _names(names: list) -> tuple[list, dict]:
-    """``(names, name -> first index)``: a table that indices in the binary point into."""
-    lookup: dict = {}
-    for i, n in enumerate(names):
-        lookup.setdefault(n, i)
-    return list(names), lookup
 
 
 # -- small symmetric helpers -----------------------------------------------------------
@@ -436,7 +428,8 @@ def constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
     items = nodes(s, None if s.reading else doc.get(key, []), fn, c, what=f"{key} constraint count")
     if s.reading and items:
         doc[key] = items
-    return _names([x.get("name") for x in items])
+        names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
+    return name_table([x.get("name") for x in items])
 
 
 # -- attachments -----------------------------------------------------------------------
@@ -633,8 +626,9 @@ def skins(s, doc: dict, c: Context) -> None:
                 skin_members(s, sk, c)
             sk["attachments"] = skin_attachments(s, {}, c)
             listed.append(sk)
+        names_once(s, [sk.get("name") for sk in listed], "skins", "skins")
         doc["skins"] = listed if L.skins_list else {sk["name"]: sk["attachments"] for sk in listed}
-        c.skins = _names([sk.get("name") for sk in listed])
+        c.skins = name_table([sk.get("name") for sk in listed])
         return
     listed = written_skins(doc, L)
     default = next((sk for sk in listed if sk.get("name") == "default"), None)
@@ -648,7 +642,7 @@ def skins(s, doc: dict, c: Context) -> None:
         skin_attachments(s, sk.get("attachments", {}), c)
     # Deform timelines index the runtime's skins: the default one only when it has slots.
     kept = [default] if default and default["attachments"] else []
-    c.skins = _names([sk.get("name") for sk in kept + others])
+    c.skins = name_table([sk.get("name") for sk in kept + others])
 
 
 def written_skins(doc: dict, L: Layout) -> list[dict]:
@@ -972,8 +966,9 @@ def body(s, doc: dict, c: Context) -> None:
     bones(s, doc, c)
     items = nodes(s, None if s.reading else doc.get("slots", []), slot, c, what="slot count")
     if s.reading:
+        names_once(s, [x.get("name") for x in items], "slots", "slots")
         doc["slots"] = items
-    c.slots = _names([x.get("name") for x in items])
+    c.slots = name_table([x.get("name") for x in items])
     c.ik = constraints(s, doc, "ik", ik, c)
     c.transform = constraints(s, doc, "transform", transform, c)
     c.path = constraints(s, doc, "path", path_constraint, c)
@@ -981,20 +976,23 @@ def body(s, doc: dict, c: Context) -> None:
     # Events: a list in the binary, a name-keyed object in the JSON.
     if s.reading:
         items = nodes(s, None, event, c, what="event count")
+        names_once(s, [e.get("name") for e in items], "events", "events")
         c.events = [{k: v for k, v in e.items() if k != "name"} for e in items]
-        c.event_names = _names([e.get("name") for e in items])
+        c.event_names = name_table([e.get("name") for e in items])
         if items:
             doc["events"] = dict(zip(c.event_names[0], c.events))
     else:
         evs = doc.get("events", {})
         c.events = list(evs.values())
-        c.event_names = _names(list(evs))
+        c.event_names = name_table(list(evs))
         nodes(s, [dict(v, name=k) for k, v in evs.items()], event, c, what="event count")
     anims = {} if s.reading else doc.get("animations", {})
     items = list(anims.items())
     n = s.count(len(items), what="animation count")
     for i in range(n):
         key = s.string(None if s.reading else items[i][0], what="animation name")
+        if s.reading and key in anims:
+            names_once(s, [*anims, key], "animations", "animations")
         anim = {} if s.reading else items[i][1]
         animation(s, anim, c)
         anims[key] = anim

@@ -49,7 +49,7 @@ import struct
 
 from ..enums import EXTRA, extra_to_write
 from ..stream import SkelReader
-from ..symmetric import first_use_table
+from ..symmetric import CONSTRAINT_WORDS, first_use_table, names_once
 from .animation import animation
 from .attachments import derived_timeline_slots
 from .bones import bones, slot
@@ -68,6 +68,7 @@ def _constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
         items = seq(s, None, fn, c, what=f"{key} count")
         if items:
             doc[key] = items
+        names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
         return _names(items)
     items = doc.get(key, [])
     seq(s, items, fn, c)
@@ -122,6 +123,7 @@ def _string_table(s, doc: dict, extra: dict, L: Layout) -> None:
 def _slots(s, doc: dict, c: Context) -> None:
     if s.reading:
         items = seq(s, None, slot, c, what="slot count")
+        names_once(s, [x.get("name") for x in items], "slots", "slots")
         doc["slots"] = items
         c.slots = _names(items)
     else:
@@ -140,6 +142,7 @@ def _skins(s, doc: dict, extra: dict, c: Context) -> None:
         skins(s, doc, c)
         return
     skins(s, doc, c)
+    names_once(s, [sk.get("name") for sk in doc["skins"]], "skins", "skins")
     c.skins = _names(doc["skins"])
     for node, at in c.linked:
         i = node["skin"]
@@ -160,6 +163,7 @@ def _events(s, doc: dict, c: Context) -> None:
     """Events: a list in the binary, a name-keyed object in the JSON."""
     if s.reading:
         items = seq(s, None, event, c, what="event count")
+        names_once(s, [e.get("name") for e in items], "events", "events")
         c.events = items
         c.event_names = _names(items)
         if items:
@@ -179,6 +183,8 @@ def _animations(s, doc: dict, extra: dict, c: Context) -> None:
         anims = doc["animations"] = {}
         for _ in range(s.count(what="animation count")):
             name = s.string(what="animation name")
+            if name in anims:
+                names_once(s, [*anims, name], "animations", "animations")
             anim: dict = {}
             animation(s, anim, c, counts, name)
             anims[name] = anim

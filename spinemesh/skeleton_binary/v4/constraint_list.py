@@ -11,7 +11,7 @@ from __future__ import annotations
 import struct
 
 from ..enums import POSITION_MODE, ROTATE_MODE
-from ..symmetric import fld, put as _put
+from ..symmetric import CONSTRAINT_WORDS, fld, names_once, put as _put
 from .bones import _bone_list
 from .constraints import _ik_mix_bits, _ik_mix_softness, _mix_field, _mode_byte, _physics_mass_to_mix
 from .fields import _flag_byte, _same, _to_end, enum, flag, fld_u8, index, opt
@@ -255,6 +255,9 @@ def constraint_list(s, doc: dict, c: Context) -> None:
             items.append(node)
         if items:
             doc["constraints"] = items
+        for kind in CONSTRAINT_TYPES:
+            names_once(s, [x.get("name") if x["type"] == kind else None for x in items], "constraints",
+                       CONSTRAINT_WORDS[kind])
     else:
         items = doc.get("constraints", [])
         s.count(len(items))

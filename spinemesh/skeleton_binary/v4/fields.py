@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import struct
 
-from ..symmetric import fld, put as _put
+from ..symmetric import fld, name_table, put as _put
 
 _STRUCTS: dict[int, tuple] = {}
 
@@ -137,11 +137,8 @@ def seq(s, items: list | None, fn, *args, what: str = "count") -> list:
 
 
 def _names(items) -> tuple[list, dict]:
-    names = [x.get("name") for x in items]
-    lookup = {}
-    for i, n in enumerate(names):
-        lookup.setdefault(n, i)
-    return names, lookup
+    """:func:`~..symmetric.name_table` of the items' names."""
+    return name_table([x.get("name") for x in items])
 
 
 def fld_int(s, node: dict, key: str, default: int = 0) -> int:
