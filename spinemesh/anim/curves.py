@@ -341,6 +341,14 @@ UNPLAYABLE_SAID = ("the runtimes play it apart or not at all (spine-ts poses mos
                    "others fail to load them or read other numbers)")
 
 
+def unplayable_said(animation: str, problem: str, drawn: str) -> str:
+    """The words for a curve :func:`curve_4_playable` refuses in ``animation``: ``problem`` (the
+    timeline and key, :attr:`Keys.unplayable`), what the runtimes do, and how it was read here
+    (``drawn``: ``"shown linear here"``); the preview, the motion guard and the bending checks
+    say it so, as ``pose`` does."""
+    return f"animation {animation!r}: {problem}; {UNPLAYABLE_SAID}: {drawn}"
+
+
 def curve_4_playable(curve, values: int) -> bool:
     """Whether the 4.x runtimes play a key's ``curve`` for ``values`` values alike: absent or falsy
     (linear), ``"stepped"``, or a list of at least ``4 * values`` numbers. Anything else (a list

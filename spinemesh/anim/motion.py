@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .curves import unplayable_said
 from .pose import POSE_ERRORS, Sampler
 
 #: Frames sampled per animation, evenly spaced inside it (1/6, 1/2 and 5/6 of its duration).
 FRAMES_PER_ANIMATION = 3
+
+#: How a curve the runtimes play apart is read where the animations are sampled for the bones.
+SAMPLED_LINEAR = "sampled linear where the bones are chosen"
 
 #: Most animations sampled per skeleton (evenly spread over them): the cost stays bounded on a
 #: skeleton with hundreds of animations.
@@ -19,7 +23,7 @@ MOST_ANIMATIONS = 40
 
 
 def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
-                        most: int = MOST_ANIMATIONS) -> np.ndarray:
+                        most: int = MOST_ANIMATIONS, said: list | None = None) -> np.ndarray:
     """Every bone's world transform in ``frames`` frames of each animation of ``doc``.
 
     Posed with :class:`spinemesh.anim.Sampler` (constraints applied, physics not stepped: the
@@ -34,6 +38,10 @@ def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
         Frames per animation, at ``(k + 0.5) / frames`` of its duration.
     most : int
         Most animations sampled, evenly spread over the skeleton's.
+    said : list of str, optional
+        Gets one line per 4.x curve of the animations sampled that the runtimes play apart or
+        not at all (:func:`spinemesh.anim.curves.curve_4_playable`, as ``pose`` says it): sampled
+        linear, as ``pose`` poses it.
 
     Returns
     -------
@@ -54,6 +62,8 @@ def sampled_bone_worlds(doc: dict, frames: int = FRAMES_PER_ANIMATION,
             poses = [sampler.bone_worlds(name, duration * (k + 0.5) / frames) for k in range(frames)]
         except POSE_ERRORS:
             continue
+        if said is not None:
+            said += [unplayable_said(name, u, SAMPLED_LINEAR) for u in sampler.animation(name)[0].unplayable]
         out += [w for w in poses if np.isfinite(w).all()]
     bones = len(sampler.bone_names)
     return np.stack(out) if out else np.zeros((0, bones, 2, 3))

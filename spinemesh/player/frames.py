@@ -561,7 +561,7 @@ def plan_sampling(before: dict, after: dict, regions=None,
     (beyond :data:`MAX_SKINS`).
     """
     from ..anim import POSE_ERRORS, same_motion
-    from ..anim.curves import UNPLAYABLE_SAID
+    from ..anim.curves import unplayable_said
 
     problems = problems if problems is not None else []
     chosen = sampled_skins(after)
@@ -583,7 +583,7 @@ def plan_sampling(before: dict, after: dict, regions=None,
         try:
             durations[name] = max(0.0, float(first.sampler.duration(name)))
             # what pose says too (the upgrade keeps animations as they are: one side says it)
-            problems.extend(f"animation {name!r}: {u}; {UNPLAYABLE_SAID}: shown linear here"
+            problems.extend(unplayable_said(name, u, "shown linear here")
                             for u in first.sampler.animation(name)[0].unplayable[:3])
         except POSE_ERRORS as e:
             problems.append(f"animation {name!r} not shown: {e}")

@@ -138,7 +138,7 @@ DRIFT_LIMIT = 0.75
 
 
 class Motion:
-    """A skeleton's sampled animations, sampled when first asked for by ``sample(doc)`` (the
+    """A skeleton's sampled animations, sampled when first asked for by ``sample(doc, said=[])`` (the
     weights command passes :func:`spinemesh.anim.motion.sampled_bone_worlds`: the sampler sits
     above the rig, so it is handed down); without ``sample`` there is nothing to guard by.
 
@@ -151,17 +151,31 @@ class Motion:
         self._doc = doc if sample is not None else None
         self._sample = sample
         self._frames: np.ndarray | None = None
+        #: what the sampler said of the animations it read (a 4.x curve the runtimes play apart,
+        #: sampled linear), one line each without the skeleton's name: :meth:`said_lines`
+        self.said: list[str] = []
 
     @property
     def frames(self) -> np.ndarray:
         """Every bone's world transform in each sampled frame, shape (F, B, 2, 3)."""
         if self._frames is None:
-            self._frames = self._sample(self._doc) if self._doc is not None else np.zeros((0, 0, 2, 3))
+            if self._doc is not None:
+                self._frames = self._sample(self._doc, said=self.said)
+            else:
+                self._frames = np.zeros((0, 0, 2, 3))
             self._doc = self._sample = None
         return self._frames
 
+    def said_lines(self, skeleton: str) -> list[str]:
+        """:attr:`said`, each line begun by ``skeleton``, the first
+        :data:`~spinemesh.words.MAX_UNUSABLE_SAID` then how many more: nothing when the animations
+        were never sampled (no choice needed them)."""
+        from ..words import unusable_said
+
+        return unusable_said(self.said, skeleton, "{problem}", "{more} more curves the runtimes play apart")
+
     def __getstate__(self):
-        return {"_doc": None, "_sample": None, "_frames": self.frames}
+        return {"_doc": None, "_sample": None, "_frames": self.frames, "said": self.said}
 
 
 def guard(choice, bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, motion: Motion | None,

@@ -100,6 +100,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
             outcomes = weight_document(doc, rel, options, rig,
                                        on_mesh=None if progress is None else lambda: progress.advance("weights"))
             result.outcomes += outcomes
+            result.warnings += rig.motion.said_lines(rel)  # what the motion guard read linear, if it sampled
             try:
                 write_skeleton(doc, path, out / rel)
             except SpineMeshError as e:

@@ -105,6 +105,9 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
         weight_upgraded(sk.doc, targets, max_vertices, sk.rig, on_mesh=lambda: progress.advance("weights"))
     if result is not None:
         result.seconds["weights"] += time.perf_counter() - t0
+        # what the motion guard and the bending checks read linear, where they sampled the animations
+        result.warnings += [line for sk in plan.skeletons if sk.rig is not None and sk.rig.motion is not None
+                            for line in sk.rig.motion.said_lines(sk.rel)]
 
 
 def weight_on_workers(workers: Workers, skeletons: list, max_vertices: int | None,
