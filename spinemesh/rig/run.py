@@ -78,8 +78,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     if not proj.skeletons:  # nothing to weigh (the command says so): no output folder, as upgrade
         return result
     start = time.perf_counter()
-    written = set()
-    read = []
+    written, read = set(), []
     for path in proj.skeletons:
         try:
             doc = load_skeleton(path)
