@@ -437,3 +437,49 @@ def test_output_paths_and_project_names_of_markup_are_printed_as_they_are(tmp_pa
     assert r.returncode == 0 and "samples in q[/]d" in r.stdout and "games/p[/]hero" in r.stdout, r.stdout + r.stderr
     r = run_cli("dataset-stats", "q[/]d", "--plots", "q[/]plots", cwd=tmp_path)
     assert r.returncode == 0 and "q[/]d: " in r.stdout, r.stdout + r.stderr
+
+
+# --- data sets: what an index row says ------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def built_dataset(artist_project, tmp_path_factory) -> Path:
+    """A data set of the artist project, made by ``spinemesh dataset``."""
+    import shutil
+
+    tmp = tmp_path_factory.mktemp("dataset")
+    (tmp / "games").mkdir()
+    shutil.copytree(artist_project, tmp / "games" / "hero")
+    r = run_cli("dataset", "games", "--out", "ds", "--jobs", "1", cwd=tmp)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return tmp / "ds"
+
+
+@pytest.mark.parametrize("change, said", [
+    ({"shard": "/etc/passwd"}, "index.jsonl: absolute path '/etc/passwd' is not allowed"),
+    ({"shard": "../../../../etc/hostname"}, "index.jsonl: path '../../../../etc/hostname' leads outside the data set"),
+    ({"image": [0, 10 ** 12]}, "index.jsonl:1: index row of another form: image is [0, 1000000000000], not [offset, "),
+    ({"image": [-5, 10]}, "index.jsonl:1: index row of another form: image is [-5, 10], not [offset, size]"),
+    ({"width": 100000, "height": 100000}, "index.jsonl:1: sample 'x' 100000x100000 exceeds the limit"),
+    ({"shard": None}, "index.jsonl:1: index row of another form: shard is None, not text"),
+    ({"box": [0, 0, 100000, 5]}, "index.jsonl:1: index row of another form: box is [0, 0, 100000, 5], not [x, y, w, h]"),
+    ({"width": "wide"}, "index.jsonl:1: index row of another form: width and height are 'wide' and "),
+], ids=["absolute shard", "shard outside", "size 1e12", "offset -5", "100000 px", "no shard", "box outside",
+        "width text"])
+def test_a_data_set_row_is_bounded_and_kept_inside_before_it_is_read(tmp_path, built_dataset, change, said):
+    """A data set's index names a shard and byte spans in it for each sample. A row naming
+    ``/etc/passwd`` or ``../../etc/hostname`` was read there (``train --write-pack``,
+    ``segment-eval``, ``segment-export``); a size of 1e12 or an image of 100000x100000 was "not
+    enough memory"; an offset of -5 "Invalid argument"; a field missing, of text or a box
+    outside its image a KeyError, TypeError or ValueError traceback. Each is one line naming the
+    index (and its line) now, before the row is read."""
+    import shutil
+
+    shutil.copytree(built_dataset, tmp_path / "ds")
+    index = tmp_path / "ds" / "index.jsonl"
+    rows = [json.loads(line) for line in index.read_text().splitlines()]
+    rows[0].update(id="x", **change)
+    index.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    before = snapshot(tmp_path)
+    r = run_cli("train", "--data", "ds", "--write-pack", "pack.npz", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert f"error: ds/{said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -51,9 +51,10 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream
+from ..fsutil import atomic_write_stream, resolve_inside
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
+from ..limits import MAX_IMAGE_PIXELS, check_image_size
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -66,6 +67,70 @@ INDEX = "index.jsonl"
 PROJECTS = "projects.jsonl"
 META = "meta.json"
 SHARDS = "shards"
+
+#: Largest member of a shard a row may point at: the PNG of the largest image, 4 bytes a texel
+#: and a row's filter byte, uncompressed, with room for its chunks (a mesh's .npz is far smaller).
+MAX_MEMBER_BYTES = 5 * MAX_IMAGE_PIXELS + (1 << 20)
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def checked_row(row, root: Path, index: Path, line: int, shards: dict[str, Path]) -> dict:
+    """An index row as the readers use it, or one line naming the index and its line.
+
+    What a row says is bounded and kept inside the data set before anything is read by it: its
+    shard a path inside ``root`` (an index naming ``/etc/passwd`` or ``../..`` was read there),
+    its sizes within the image limits and its box inside them (a width of 100000 asked for tens
+    of gigabytes), its members' ``[offset, size]`` counts of bytes below
+    :data:`MAX_MEMBER_BYTES`; a field missing or of another type was a traceback.
+
+    Parameters
+    ----------
+    row : object
+        One parsed line of ``index.jsonl``.
+    root, index : Path
+        The data set folder and its index file.
+    line : int
+        1-based line number of the row.
+    shards : dict
+        Shard paths as written -> real path, checked once each (filled here).
+
+    Raises
+    ------
+    SpineMeshError
+        Naming ``index`` and ``line``.
+    """
+    def bad(what: str) -> SpineMeshError:
+        return SpineMeshError(f"index row of another form: {what}", index, line=line)
+
+    if not isinstance(row, dict):
+        raise bad(f"a JSON {type(row).__name__}, not an object")
+    for key in ("id", "project", "game", "shard"):
+        if not isinstance(row.get(key), str):
+            raise bad(f"{key} is {row.get(key)!r}, not text")
+    if row.get("split") not in ("train", "val"):
+        raise bad(f"split is {row.get('split')!r}, not 'train' or 'val'")
+    width, height, box = row.get("width"), row.get("height"), row.get("box")
+    if not (_is_int(width) and _is_int(height) and width > 0 and height > 0):
+        raise bad(f"width and height are {width!r} and {height!r}, not sizes in pixels")
+    check_image_size(width, height, f"sample {row['id']!r}", index, line=line)
+    if not (isinstance(box, list) and len(box) == 4 and all(map(_is_int, box))) \
+            or box[0] < 0 or box[1] < 0 or box[2] < 1 or box[3] < 1 \
+            or box[0] + box[2] > width or box[1] + box[3] > height:
+        raise bad(f"box is {box!r}, not [x, y, w, h] inside its {width}x{height} image")
+    for member in ("image", "mask", "mesh"):
+        span = row.get(member)
+        if member == "mesh" and not span:
+            continue
+        if not (isinstance(span, list) and len(span) == 2 and all(map(_is_int, span))) \
+                or span[0] < 0 or not 0 <= span[1] <= MAX_MEMBER_BYTES:
+            raise bad(f"{member} is {span!r}, not [offset, size] of at most {MAX_MEMBER_BYTES:,} bytes")
+    shard = row["shard"]
+    if shard not in shards:
+        shards[shard] = resolve_inside(root, shard, index, what="data set folder")
+    return row
 
 
 def mask_of(rgba: np.ndarray) -> np.ndarray:
@@ -217,12 +282,15 @@ class Dataset:
                                  f"version {self.meta.get('version')!r}", meta_path)
         self._files: OrderedDict[str, int] = OrderedDict()
         self._max_open = max_open
+        self._shards: dict[str, Path] = {}  # shard paths as rows write them -> real paths inside root
 
     def rows(self, split: str | None = None) -> Iterator[dict]:
         """Index rows in write order; ``split`` None (all), ``"train"`` or ``"val"``."""
         if split not in (None, "train", "val"):
             raise ValueError(f"split must be None, 'train' or 'val', not {split!r}")
-        for row in read_jsonl(self.root / INDEX):
+        index = self.root / INDEX
+        for line, row in enumerate(read_jsonl(index), 1):  # one row a line; a torn last one is not read
+            row = checked_row(row, self.root, index, line, self._shards)
             if split is None or row["split"] == split:
                 yield row
 
@@ -234,7 +302,10 @@ class Dataset:
         shard = row["shard"]
         fd = self._files.get(shard)
         if fd is None:
-            fd = os.open(self.root / shard, os.O_RDONLY)
+            # inside the data set, as its row was checked (a row given by a caller is checked here)
+            path = self._shards.get(shard) or resolve_inside(self.root, shard, self.root / INDEX,
+                                                             what="data set folder")
+            fd = os.open(path, os.O_RDONLY)
             self._files[shard] = fd
             while len(self._files) > self._max_open:
                 os.close(self._files.popitem(last=False)[1])
@@ -250,13 +321,21 @@ class Dataset:
     def load_image(self, row: dict) -> np.ndarray:
         """The sample's RGBA image, (H, W, 4) uint8, straight alpha."""
         part = decode_rgba(self._read(row, "image"), self.root / row["shard"])
-        return uncrop(part, row["box"], row["width"], row["height"])
+        return uncrop(self._boxed(part, row), row["box"], row["width"], row["height"])
 
     def load_mask(self, row: dict) -> np.ndarray:
         """The sample's mask (alpha > 128), (H, W) bool."""
         with Image.open(io.BytesIO(self._read(row, "mask"))) as im:
             part = np.asarray(im.convert("1"), dtype=bool)
-        return uncrop(part, row["box"], row["width"], row["height"])
+        return uncrop(self._boxed(part, row), row["box"], row["width"], row["height"])
+
+    def _boxed(self, part: np.ndarray, row: dict) -> np.ndarray:
+        """``part``, refused in one line unless it is the size of the row's box (a broadcast error)."""
+        w, h = row["box"][2:]
+        if part.shape[:2] != (h, w):
+            raise SpineMeshError(f"sample {row['id']}: its member is {part.shape[1]}x{part.shape[0]}, its box "
+                                 f"{w}x{h}", self.root / row["shard"])
+        return part
 
     def load_mesh(self, row: dict) -> dict | None:
         """The artist mesh in pixels (see the module notes), or None for region samples."""
