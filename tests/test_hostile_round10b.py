@@ -483,3 +483,41 @@ def test_a_data_set_row_is_bounded_and_kept_inside_before_it_is_read(tmp_path, b
     r = run_cli("train", "--data", "ds", "--write-pack", "pack.npz", cwd=tmp_path)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert f"error: ds/{said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_a_sprite_pack_of_another_form_is_one_line(tmp_path, built_dataset):
+    """``train --data PACK`` reads a sprite pack ``--write-pack`` wrote. A pack cut short, of a
+    field missing or of objects, of offsets short or out of order, or a side other than train and
+    val was a BadZipFile, KeyError, ValueError or IndexError traceback; junk bytes for a sprite
+    said "cannot decode image" naming no file. Each is one line naming the pack now."""
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.train.data import read_pack
+
+    r = run_cli("train", "--data", str(built_dataset), "--write-pack", "pack.npz", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    good = dict(np.load(tmp_path / "pack.npz"))
+    n = len(good["ids"])
+    good["splits"] = np.array(["train", "val"] * (n // 2) + ["train"] * (n % 2))
+    cases = {
+        "no blob": ({"blob": None}, "'blob is not a file in the archive'"),
+        "side test": ({"splits": np.array(["train"] * (n - 1) + ["test"])}, "a sprite's side is 'test'"),
+        "offsets reversed": ({"offsets": good["offsets"][::-1].copy()}, "its offsets do not cut its bytes in order"),
+        "offsets short": ({"offsets": good["offsets"][:3]}, f"{n} ids, {n} games, {n} sides and 3 offsets"),
+        "objects": ({"ids": np.array([object()] * n, dtype=object)}, "Object arrays cannot be loaded"),
+        "junk bytes": ({"blob": np.zeros_like(good["blob"])}, "a sprite of the pack cannot be read (cannot decode"),
+    }
+    assert len(read_pack(_pack(tmp_path / "good.npz", good, {}))["val"]) == n // 2
+    for name, (change, said) in cases.items():
+        with pytest.raises(SpineMeshError) as e:
+            read_pack(_pack(tmp_path / f"{name}.npz", good, change))
+        assert str(e.value).startswith(f"{tmp_path / name}.npz: ") and said in str(e.value), (name, str(e.value))
+    (tmp_path / "cut.npz").write_bytes((tmp_path / "good.npz").read_bytes()[:500])
+    before = snapshot(tmp_path)
+    r = run_cli("train", "--data", "cut.npz", "--out", "run", "--epochs", "1", "--size", "64", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert "error: cut.npz: not a sprite pack of `spinemesh train --write-pack`: File is not a zip file" in r.stderr
+
+
+def _pack(path: Path, fields: dict, change: dict) -> Path:
+    np.savez(path, **{k: v for k, v in {**fields, **change}.items() if v is not None})
+    return path

@@ -226,7 +226,9 @@ def train(
         return
     from ..dataset.extract import empty_side_said
     from ..train.data import empty_sides
+    from ..written_folder import check_written_folder
 
+    check_written_folder(out, "training folder", "training run")  # first, as the run checks it: a user's files
     empty = empty_sides(data)  # before OUT is made: a data set of one game was a traceback after writing there
     if empty:
         print_errors([empty_side_said(", ".join(map(str, data)), empty[0])])

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
+from ..errors import SpineMeshError
 from ..fsutil import atomic_write_stream
 from ..images import decode_rgba
 from ..segment.composite import coarse_noise_background, make_background
@@ -110,7 +111,8 @@ def empty_sides(data: list[str | Path]) -> list[str]:
     """The sides of the game split (``"train"``, ``"val"``) that ``data`` (data set folders and
     sprite packs) gives no sprite, read from the indexes and the packs' split lists alone: a run
     refuses them before writing anything (a data set of one game wrote its pack into OUT, then
-    stopped on a traceback). A pack that cannot be read counts as giving both (the run says why)."""
+    stopped on a traceback). A pack of another form is refused here too, before anything is written
+    (:func:`read_pack`'s line)."""
     from ..dataset import open_dataset
 
     sides = set()
@@ -119,11 +121,7 @@ def empty_sides(data: list[str | Path]) -> list[str]:
             ds = open_dataset(path)
             sides |= {side for side in ("train", "val") if next(iter(ds.rows(side)), None) is not None}
             continue
-        try:
-            with np.load(path) as z:
-                sides |= set(z["splits"].tolist())
-        except Exception:  # noqa: BLE001 (not this check's to say: the run reads it and names what is wrong)
-            return []
+        sides |= set(_pack_fields(path)[4])
     return [side for side in ("train", "val") if side not in sides]
 
 
@@ -132,22 +130,60 @@ def _decode_range(args: tuple[bytes, list[int]]) -> list[np.ndarray]:
     return [decode_sprite(blob[a:b]) for a, b in pairwise(offsets)]
 
 
+def _pack_fields(path: str | Path) -> tuple[np.ndarray, np.ndarray, list, list, list]:
+    """``blob, offsets, ids, games, splits`` of a sprite pack, checked (see :func:`read_pack`)."""
+    import zipfile
+
+    def bad(what: str) -> SpineMeshError:
+        return SpineMeshError(f"not a sprite pack of `spinemesh train --write-pack`: {what}", path)
+
+    try:
+        with np.load(path) as z:
+            blob, offsets = z["blob"], z["offsets"]
+            ids, games, splits = z["ids"].tolist(), z["games"].tolist(), z["splits"].tolist()
+    except FileNotFoundError:
+        raise SpineMeshError("sprite pack not found", path) from None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        raise bad(str(e).strip().splitlines()[0][:200] if str(e).strip() else type(e).__name__) from None
+    n = len(ids)
+    if blob.dtype != np.uint8 or blob.ndim != 1 or offsets.ndim != 1 or offsets.dtype.kind not in "iu":
+        raise bad("its blob is not bytes or its offsets not integers")
+    if len(offsets) != n + 1 or len(games) != n or len(splits) != n:
+        raise bad(f"{n} ids, {len(games)} games, {len(splits)} sides and {len(offsets)} offsets")
+    if n and (offsets[0] < 0 or offsets[-1] > blob.size or bool((np.diff(offsets) < 0).any())):
+        raise bad("its offsets do not cut its bytes in order")
+    others = sorted({str(s) for s in splits} - {"train", "val"})
+    if others:
+        raise bad(f"a sprite's side is {others[0]!r}, not 'train' or 'val'")
+    return blob, offsets, ids, games, splits
+
+
 def read_pack(path: str | Path, workers: int = 1) -> dict[str, list]:
     """Decode a pack: ``{"train": [...], "val": [...], "train_games", "val_games", "val_ids"}``.
 
     Sprites are (H, W, 4) uint8 straight alpha, cropped to their visible box.
+
+    Raises
+    ------
+    SpineMeshError
+        In one line naming the pack, when it is no pack ``--write-pack`` writes (a file cut
+        short, a field missing or of objects, offsets that do not cut its bytes in order, a
+        side other than train and val) or a sprite in it cannot be decoded; each was a
+        traceback or a line naming no file.
     """
-    with np.load(path) as z:
-        blob, offsets = z["blob"].tobytes(), z["offsets"].tolist()
-        ids, games, splits = z["ids"].tolist(), z["games"].tolist(), z["splits"].tolist()
+    blob, offsets, ids, games, splits = _pack_fields(path)
+    blob, offsets = blob.tobytes(), offsets.tolist()
     n = len(ids)
     chunks = [(i, min(n, i + 256)) for i in range(0, n, 256)]
     jobs = [(blob[offsets[a]:offsets[b]], [o - offsets[a] for o in offsets[a:b + 1]]) for a, b in chunks]
-    if workers > 1:
-        with ProcessPoolExecutor(workers) as pool:
-            parts = list(pool.map(_decode_range, jobs))
-    else:
-        parts = [_decode_range(j) for j in jobs]
+    try:
+        if workers > 1:
+            with ProcessPoolExecutor(workers) as pool:
+                parts = list(pool.map(_decode_range, jobs))
+        else:
+            parts = [_decode_range(j) for j in jobs]
+    except SpineMeshError as e:  # its words name no file: the bytes came from the pack
+        raise SpineMeshError(f"a sprite of the pack cannot be read ({e.message})", path) from None
     sprites = [s for part in parts for s in part]
     out: dict[str, list] = {"train": [], "val": [], "train_games": [], "val_games": [], "val_ids": []}
     for s, g, sp, i in zip(sprites, games, splits, ids):
