@@ -521,3 +521,31 @@ def test_a_sprite_pack_of_another_form_is_one_line(tmp_path, built_dataset):
 def _pack(path: Path, fields: dict, change: dict) -> Path:
     np.savez(path, **{k: v for k, v in {**fields, **change}.items() if v is not None})
     return path
+
+
+@pytest.mark.parametrize("case", ["card FIFO", "card /dev/zero", "model FIFO"])
+def test_a_model_or_card_that_is_no_file_is_one_line(tmp_path, case):
+    """``segment --model m.onnx`` read the card ``m.json`` whatever it was: a FIFO waited for
+    ever, a link to /dev/zero read until the memory ran out; a model that is a FIFO was "not
+    found". Each is one line saying what the file is now."""
+    import os
+    import shutil
+
+    models = Path(__file__).parents[1] / "spinemesh" / "models"
+    if case == "model FIFO":
+        os.mkfifo(tmp_path / "m.onnx")
+        shutil.copy(models / "segment.json", tmp_path / "m.json")
+        said = "m.onnx: segmentation model is a FIFO, not a regular file"
+    else:
+        shutil.copy(models / "segment.onnx", tmp_path / "m.onnx")
+        if case == "card FIFO":
+            os.mkfifo(tmp_path / "m.json")
+        else:
+            os.symlink("/dev/zero", tmp_path / "m.json")
+        said = f"m.json: model card is a {'FIFO' if case == 'card FIFO' else 'device'}, not a regular file"
+    _sprite(tmp_path / "art.png")
+    before = snapshot(tmp_path)
+    r = run_cli("segment", "art.png", "--model", "m.onnx", "--mask", "model", "--out", "mask.png", cwd=tmp_path,
+                timeout=20)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert f"error: {said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

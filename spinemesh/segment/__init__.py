@@ -12,6 +12,7 @@ ONNX Runtime is imported on first use, so meshing images with alpha never loads 
 from __future__ import annotations
 
 import json
+import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -59,7 +60,11 @@ def model_card(model_path: str | Path | None = None) -> dict:
         Naming the card, when it is missing or unreadable, or what inference reads from it
         (``input_size``, ``threshold``, ``inference``) is not what our models' cards hold.
     """
+    from ..limits import check_file_size
+
     path = card_path(model_path)
+    if os.path.lexists(path):  # a FIFO waited for ever, a link to /dev/zero filled the memory
+        check_file_size(path, "model card")
     try:
         card = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -86,8 +91,11 @@ def model_card(model_path: str | Path | None = None) -> dict:
 def _session(model_path: str, threads: int):
     import onnxruntime as ort
 
-    if not Path(model_path).is_file():
+    from ..fsutil import regular_file
+
+    if not os.path.lexists(model_path):
         raise ModelError("segmentation model not found", model_path)
+    regular_file(model_path, "segmentation model")  # a FIFO or device: said so, never read
     opts = ort.SessionOptions()
     if threads:
         opts.intra_op_num_threads = threads
