@@ -549,3 +549,22 @@ def test_a_model_or_card_that_is_no_file_is_one_line(tmp_path, case):
                 timeout=20)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert f"error: {said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+@pytest.mark.parametrize("command", ["segment-export", "train"])
+def test_a_checkpoint_or_pack_that_is_a_fifo_is_one_line(tmp_path, command):
+    """``segment-export best.pt`` and ``train --data PACK`` of a FIFO waited for ever (torch and
+    numpy read it whole); one line says what the file is now."""
+    import os
+
+    (tmp_path / "ds").mkdir()
+    if command == "train":
+        os.mkfifo(tmp_path / "pack.npz")
+        args, said = ("train", "--data", "pack.npz", "--out", "run"), "pack.npz: sprite pack is a FIFO"
+    else:
+        os.mkfifo(tmp_path / "best.pt")
+        args, said = ("segment-export", "best.pt", "--data", "ds", "--out", "m.onnx"), "best.pt: checkpoint is a FIFO"
+    before = snapshot(tmp_path)
+    r = run_cli(*args, cwd=tmp_path, timeout=30)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert f"error: {said}, not a regular file" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

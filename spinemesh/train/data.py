@@ -134,9 +134,12 @@ def _pack_fields(path: str | Path) -> tuple[np.ndarray, np.ndarray, list, list, 
     """``blob, offsets, ids, games, splits`` of a sprite pack, checked (see :func:`read_pack`)."""
     import zipfile
 
+    from ..fsutil import regular_file
+
     def bad(what: str) -> SpineMeshError:
         return SpineMeshError(f"not a sprite pack of `spinemesh train --write-pack`: {what}", path)
 
+    regular_file(path, "sprite pack")  # a FIFO waited for ever: only regular files are read
     try:
         with np.load(path) as z:
             blob, offsets = z["blob"], z["offsets"]

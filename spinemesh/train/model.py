@@ -76,7 +76,9 @@ def read_checkpoint(path) -> dict:
     import zipfile
 
     from ..errors import SpineMeshError
+    from ..fsutil import regular_file
 
+    regular_file(path, "checkpoint")  # a FIFO waited for ever: only regular files are read
     try:
         with warnings.catch_warnings():  # its lines on a pickle protocol it does not know: the refusal is ours
             warnings.simplefilter("ignore", UserWarning)
