@@ -568,3 +568,22 @@ def test_a_checkpoint_or_pack_that_is_a_fifo_is_one_line(tmp_path, command):
     r = run_cli(*args, cwd=tmp_path, timeout=30)
     check_run(r, before, tmp_path, [], codes=(2,))
     assert f"error: {said}, not a regular file" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+@pytest.mark.parametrize("case", ["FIFO", "missing"])
+def test_a_shard_that_is_a_fifo_or_missing_is_one_line(tmp_path, built_dataset, case):
+    """A data set's shard replaced by a FIFO waited for ever (``train --write-pack``); a missing
+    one said "No such file or directory" alone. One line naming the shard now."""
+    import os
+    import shutil
+
+    shutil.copytree(built_dataset, tmp_path / "ds")
+    shard = sorted((tmp_path / "ds" / "shards").iterdir())[0]
+    shard.unlink()
+    if case == "FIFO":
+        os.mkfifo(shard)
+    before = snapshot(tmp_path)
+    r = run_cli("train", "--data", "ds", "--write-pack", "pack.npz", cwd=tmp_path, timeout=30)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    said = "shard is a FIFO, not a regular file" if case == "FIFO" else "shard not found (sample "
+    assert f"shards/{shard.name}: {said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

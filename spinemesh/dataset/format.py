@@ -51,7 +51,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream, resolve_inside
+from ..fsutil import atomic_write_stream, regular_file, resolve_inside
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
 from ..limits import MAX_IMAGE_PIXELS, check_image_size
@@ -129,8 +129,17 @@ def checked_row(row, root: Path, index: Path, line: int, shards: dict[str, Path]
             raise bad(f"{member} is {span!r}, not [offset, size] of at most {MAX_MEMBER_BYTES:,} bytes")
     shard = row["shard"]
     if shard not in shards:
-        shards[shard] = resolve_inside(root, shard, index, what="data set folder")
+        shards[shard] = _shard_path(root, shard, index)
     return row
+
+
+def _shard_path(root: Path, shard: str, index: Path) -> Path:
+    """The real path of a shard a row names: inside the data set, a regular file (opened, a FIFO
+    there waited for ever)."""
+    path = resolve_inside(root, shard, index, what="data set folder")
+    if path.exists():  # a missing shard is said when a member is read, by its sample
+        regular_file(path, "shard")
+    return path
 
 
 def mask_of(rgba: np.ndarray) -> np.ndarray:
@@ -303,9 +312,11 @@ class Dataset:
         fd = self._files.get(shard)
         if fd is None:
             # inside the data set, as its row was checked (a row given by a caller is checked here)
-            path = self._shards.get(shard) or resolve_inside(self.root, shard, self.root / INDEX,
-                                                             what="data set folder")
-            fd = os.open(path, os.O_RDONLY)
+            path = self._shards.get(shard) or _shard_path(self.root, shard, self.root / INDEX)
+            try:
+                fd = os.open(path, os.O_RDONLY)
+            except FileNotFoundError:
+                raise SpineMeshError(f"shard not found (sample {row['id']})", self.root / shard) from None
             self._files[shard] = fd
             while len(self._files) > self._max_open:
                 os.close(self._files.popitem(last=False)[1])
