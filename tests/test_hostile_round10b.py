@@ -105,7 +105,8 @@ def test_segment_export_of_a_checkpoint_it_cannot_make_is_one_line(tmp_path, cas
 def test_a_checkpoint_of_another_network_is_one_line():
     """Another encoder, another decoder, weights missing or extra or not tensors, a config that
     is not one: each was a KeyError, RuntimeError, TypeError or AttributeError traceback from
-    deep in torch; each is now one line naming the checkpoint and what differs."""
+    deep in torch (a decoder of 100000 channels asked for 360 GB first); each is now one line
+    naming the checkpoint and what differs."""
     from spinemesh.errors import SpineMeshError
     from spinemesh.train.export import model_of
 
@@ -122,6 +123,9 @@ def test_a_checkpoint_of_another_network_is_one_line():
         "not a tensor": (_SMALL, {**weights, first: 3}, f"1 weight(s) not tensors, the first '{first}'"),
         "size as text": (dict(_SMALL, image_size="64"), weights, "image_size is '64', not a multiple of 32"),
         "size 0": (dict(_SMALL, image_size=0), weights, "image_size is 0, not a multiple of 32"),
+        "100000 channels": (dict(_SMALL, decoder_channels=[100000, 8, 8, 4]), weights,
+                            "decoder_channels are [100000, 8, 8, 4], not 1 to 8 counts from 1 to 2048"),
+        "-1 channels": (dict(_SMALL, decoder_channels=[-1, 8, 8, 4]), weights, "decoder_channels are [-1, 8, 8, 4]"),
     }
     for name, (config, held, said) in cases.items():
         with pytest.raises(SpineMeshError) as e:

@@ -16,6 +16,7 @@ import torch
 from ..fsutil import atomic_write_files, strict_json, utf8
 from ..segment import card_path
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
+from .decoder import DECODER_CHANNELS
 from .model import SegmentationModel, build_model, read_checkpoint
 
 
@@ -39,6 +40,11 @@ def checkpoint_config(ckpt: dict, path: str | Path) -> dict:
     return ckpt["config"]
 
 
+#: Most channels a checkpoint's decoder stage may have (the shipped model's largest is 256): the
+#: network is built before its weights are compared, so a config of 100000 would ask for 360 GB.
+MAX_DECODER_CHANNELS = 2048
+
+
 def model_of(ckpt: dict, path: str | Path, image_size: int | None = None) -> SegmentationModel:
     """:func:`load_checkpoint` of a checkpoint already read from ``path`` (named by its errors).
 
@@ -59,9 +65,15 @@ def model_of(ckpt: dict, path: str | Path, image_size: int | None = None) -> Seg
     if isinstance(side, bool) or not isinstance(side, int) or side % 32 or not 32 <= side <= MAX_INPUT_SIZE:
         raise SpineMeshError(f"the checkpoint's image_size is {side!r}, not a multiple of 32 from 32 to "
                              f"{MAX_INPUT_SIZE}", path)
+    channels = config.get("decoder_channels", DECODER_CHANNELS)
+    if not (isinstance(channels, (list, tuple)) and 1 <= len(channels) <= 8
+            and all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= MAX_DECODER_CHANNELS
+                    for c in channels)):  # 100000 channels asked torch for 360 GB
+        raise SpineMeshError(f"the checkpoint's decoder_channels are {str(channels)[:100]}, not 1 to 8 counts "
+                             f"from 1 to {MAX_DECODER_CHANNELS}", path)
     try:
         model = build_model(config)
-    except (KeyError, ValueError, TypeError) as e:
+    except (KeyError, ValueError, TypeError, RuntimeError) as e:
         raise SpineMeshError(f"not a checkpoint of spinemesh's network: its config makes none "
                              f"({type(e).__name__}: {str(e)[:200]})", path) from None
     weights, expected = ckpt["model"], model.state_dict()
