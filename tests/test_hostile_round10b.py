@@ -266,12 +266,14 @@ def _artist_variant(artist_project: Path, tmp: Path, change) -> None:
     ("hull", 1000, "mesh attachment hull 1000 is not a count of its {n} vertices"),
     ("hull", -3, "mesh attachment hull -3 is not a count of its {n} vertices"),
     ("edges", [0, 2, 4], "mesh attachment edges are not pairs of its {n} vertices (each index times 2)"),
+    ("triangles", [], "mesh attachment has no triangles"),
 ])
 def test_diff_skips_an_artist_mesh_whose_hull_or_edges_are_no_counts(tmp_path, artist_project, field, value,
                                                                     reason):
     """An artist mesh whose ``hull`` is more than its vertices (or below 0) was measured and
     reported with -980 interior vertices (or more than it has), exit 0; one of an odd count of
-    ``edges`` was skipped with numpy's words ("cannot reshape array of size 3"). Each is a
+    ``edges`` was skipped with numpy's words ("cannot reshape array of size 3"), one of no
+    triangles as one whose "triangles do not index its uvs". Each is a
     skipped row now, its reason naming the field; the other meshes are compared as before."""
     _artist_variant(artist_project, tmp_path, lambda atts: atts["body"]["demo-body"].update({field: value}))
     before = snapshot(tmp_path)

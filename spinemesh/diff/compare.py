@@ -109,7 +109,9 @@ def artist_mesh(attachment: dict, width: int, height: int) -> Mesh:
     if uvs.size == 0 or uvs.size % 2:
         raise ValueError("mesh attachment has no (or an odd number of) uvs")
     tris = np.asarray(attachment.get("triangles", []), dtype=np.int64)
-    if tris.size == 0 or tris.size % 3 or tris.min() < 0 or tris.max() >= uvs.size // 2:
+    if tris.size == 0:  # said apart: "do not index its uvs" read as indices out of range
+        raise ValueError("mesh attachment has no triangles")
+    if tris.size % 3 or tris.min() < 0 or tris.max() >= uvs.size // 2:
         raise ValueError("mesh attachment triangles do not index its uvs")
     verts = uvs.reshape(-1, 2) * [width, height]
     hull = int(attachment.get("hull", len(verts)))
