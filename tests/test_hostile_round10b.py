@@ -593,3 +593,22 @@ def test_a_shard_that_is_a_fifo_or_missing_is_one_line(tmp_path, built_dataset, 
     check_run(r, before, tmp_path, [], codes=(2,))
     said = "shard is a FIFO, not a regular file" if case == "FIFO" else "shard not found (sample "
     assert f"shards/{shard.name}: {said}" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_a_project_named_in_bytes_not_utf8_is_compared_and_gathered(tmp_path, artist_project):
+    """A project folder named in bytes that are not UTF-8 (``bad\\xff``): ``diff`` computed every
+    mesh, then refused its own report.md ("text holds an invalid character"), exit 2, its assets
+    half written; ``dataset`` ended in a UnicodeEncodeError traceback. Both write their files now,
+    naming the project with U+FFFD for each such byte."""
+    import os
+    import shutil
+
+    name = os.fsdecode(b"bad\xff")
+    shutil.copytree(artist_project, tmp_path / "games" / name)
+    r = run_cli("diff", f"games/{name}", "--out", "r", "--methods", "default", "--limit", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert json.loads((tmp_path / "r" / "report.json").read_text())["rows"][0]["project"] == "bad\ufffd"
+    r = run_cli("dataset", "games", "--out", "ds", "--jobs", "1", cwd=tmp_path)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stdout + r.stderr
+    projects = [json.loads(line) for line in (tmp_path / "ds" / "projects.jsonl").read_text("utf-8").splitlines()]
+    assert [(p["project"], p["game"]) for p in projects] == [("games/bad\ufffd", "bad\ufffd")]

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json
+from ..fsutil import atomic_write_json, name_as_text
 from ..written_folder import (
     check_written_folder, mark_written_folder, refuse_linked_folders, remove_listed_files, temporary_files,
 )
@@ -106,7 +106,7 @@ def _project_names(corpora: list[Path]) -> list[tuple[Path, str]]:
         for folder in find_projects(corpus):
             rel = folder.relative_to(corpus).as_posix()
             base = corpus.resolve().name
-            out.append((folder, base if rel == "." else f"{base}/{rel}"))
+            out.append((folder, name_as_text(base if rel == "." else f"{base}/{rel}")))  # written as UTF-8
     names = [n for _, n in out]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
@@ -283,7 +283,7 @@ def _run(out: Path, projects, jobs: int, retry_failed: bool, on_project, t0: flo
                 try:
                     game = game_of(Path(task[0]))
                 except SpineMeshError:
-                    game = Path(task[0]).name
+                    game = name_as_text(Path(task[0]).name)
                 result = ProjectResult(task[1], game, errors=[f"{task[0]}: not read: {e}"])
                 summary.lost += 1
             _write(out, result, known, summary)

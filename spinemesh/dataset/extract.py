@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageMemoryError, SpineMeshError
+from ..fsutil import name_as_text
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
 from ..memory import image_memory
@@ -41,7 +42,7 @@ def game_of(project: Path) -> str:
     """
     source = project / SOURCE_FILE
     if not source.is_file():
-        return project.name
+        return name_as_text(project.name)  # a name of bytes not UTF-8 ended the data set in a traceback
     try:
         doc = json.loads(source.read_text("utf-8"))
     except OSError as e:
@@ -287,7 +288,7 @@ def _sample(w: _Want, rgba: np.ndarray, scale: float, box: tuple, cid: str, resu
 
 def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult) -> None:
     """Add the images one skeleton draws to ``wants``, located in one atlas or folder."""
-    rel = skel.relative_to(project.root).as_posix()
+    rel = name_as_text(skel.relative_to(project.root).as_posix())  # a row's text: UTF-8 whatever the disk holds
     version = spine_version(doc)
     try:
         source = image_source_for(doc, skel, project)
@@ -336,9 +337,9 @@ def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult)
 def _relative(path: Path, folder: Path) -> str:
     """``path`` relative to ``folder`` (real paths), or its name; cached: one per atlas or folder."""
     try:
-        return Path(path).resolve().relative_to(folder.resolve()).as_posix()
+        return name_as_text(Path(path).resolve().relative_to(folder.resolve()).as_posix())
     except ValueError:
-        return Path(path).name
+        return name_as_text(Path(path).name)
 
 
 def _downscaled(source: AtlasImages, where: tuple) -> bool:

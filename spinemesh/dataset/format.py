@@ -51,7 +51,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream, regular_file, resolve_inside
+from ..fsutil import atomic_write_stream, name_as_text, regular_file, resolve_inside
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
 from ..limits import MAX_IMAGE_PIXELS, check_image_size
@@ -240,7 +240,8 @@ def append_jsonl(path: Path, rows: list[dict]) -> None:
         return
     data = "".join(json.dumps(r, ensure_ascii=False, separators=(",", ":")) + "\n" for r in rows)
     with open(path, "ab") as f:
-        f.write(data.encode("utf-8"))
+        # a path in a problem line may hold a file name's bytes that are not UTF-8: U+FFFD each
+        f.write(name_as_text(data).encode("utf-8"))
         f.flush()
         os.fsync(f.fileno())
 

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import real
+from ..fsutil import name_as_text, real
 from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
@@ -135,8 +135,9 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
             doc = load_skeleton(skel)
             source = None
             for ref, problem in checked_attachments(doc):
-                where = {"project": project.root.name, "skeleton": skel.name, "slot": ref.slot,
-                         "attachment": ref.name}
+                # names from the disk as text a report can hold (bytes not UTF-8 refused report.md)
+                where = {"project": name_as_text(project.root.name), "skeleton": name_as_text(skel.name),
+                         "slot": ref.slot, "attachment": ref.name}
                 if problem:  # a mesh of broken numbers (a vertex of 1e308, uvs cut short) is said, not lost
                     if ref.attachment.get("type") in ("mesh", "linkedmesh"):
                         skipped.append({**where, "reason": problem})
@@ -157,7 +158,7 @@ def collect(paths: list[Path], images: Path | None = None, originals: bool = Tru
                 if not names:
                     skipped.append({**where, "reason": "draws no image"})
                     continue
-                tasks.append((project.root.name, skel, ref, source, names[0]))
+                tasks.append((where["project"], skel, ref, source, names[0]))
     return tasks, skipped
 
 
@@ -195,7 +196,7 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
     cache: dict = {}  # (id(source), image) -> (file, rgba, edge pixels, {method: (mesh, metrics)})
     rows = []
     for done, (project, skel, ref, source, name) in enumerate(tasks, 1):
-        where = {"project": project, "skeleton": skel.name, "slot": ref.slot, "attachment": ref.name}
+        where = {"project": project, "skeleton": name_as_text(skel.name), "slot": ref.slot, "attachment": ref.name}
         try:
             key = (id(source), name)
             if key not in cache:
@@ -205,11 +206,12 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
             h, w = rgba.shape[:2]
             artist = artist_mesh(ref.attachment, w, h)
         except (SpineMeshError, ValueError) as e:
-            skipped.append({**where, "reason": str(e)})
+            skipped.append({**where, "reason": name_as_text(str(e))})  # it may name a file
             if progress:
                 progress(done, len(tasks), f"{project}/{ref.name}")
             continue
-        row = DiffRow(project, skel.name, ref.skin, ref.slot, ref.name, name, w, h, rgba, pixels)
+        row = DiffRow(project, where["skeleton"], ref.skin, ref.slot, ref.name, name, w, h, rgba,
+                      name_as_text(str(pixels)))
         row.meshes["artist"] = artist
         row.metrics["artist"] = mesh_metrics(artist, rgba, edge_pixels=edges)
         for m in methods:
