@@ -117,8 +117,8 @@ def test_a_checkpoint_of_another_network_is_one_line():
         "other encoder": (dict(_SMALL, encoder="resnet50"), weights, "unknown encoder 'resnet50'"),
         "b0's weights": (dict(_SMALL, encoder="efficientnet-b0"), weights, "64 weight(s) missing, the first "),
         "half the weights": (_SMALL, dict(list(weights.items())[::2]), "weight(s) missing, the first "),
-        "an extra weight": (_SMALL, {**weights, "head.extra": weights[first]}, "1 weight(s) not in the network, "
-                                                                              "the first 'head.extra'"),
+        "an extra weight": (_SMALL, {**weights, "head.extra": weights[first]},
+                            "1 weight(s) not in the network, the first 'head.extra'"),
         "other decoder": (dict(_SMALL, decoder_channels=[32, 16, 8, 4]), weights, "of another shape"),
         "not a tensor": (_SMALL, {**weights, first: 3}, f"1 weight(s) not tensors, the first '{first}'"),
         "size as text": (dict(_SMALL, image_size="64"), weights, "image_size is '64', not a multiple of 32"),
@@ -584,7 +584,7 @@ def test_a_shard_that_is_a_fifo_or_missing_is_one_line(tmp_path, built_dataset, 
     import shutil
 
     shutil.copytree(built_dataset, tmp_path / "ds")
-    shard = sorted((tmp_path / "ds" / "shards").iterdir())[0]
+    shard = min((tmp_path / "ds" / "shards").iterdir())
     shard.unlink()
     if case == "FIFO":
         os.mkfifo(shard)

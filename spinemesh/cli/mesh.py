@@ -6,8 +6,18 @@ from pathlib import Path
 
 import typer
 
-from ._app import (Annotated, MaskSource, Optional, Preset, app, bar_words, console, err_console, positive_finite,
-                   progress_bar)
+from ._app import (
+    Annotated,
+    MaskSource,
+    Optional,
+    Preset,
+    app,
+    bar_words,
+    console,
+    err_console,
+    positive_finite,
+    progress_bar,
+)
 
 
 def _overrides(density, max_vertices, alpha_threshold, mask) -> dict:
