@@ -612,3 +612,18 @@ def test_a_project_named_in_bytes_not_utf8_is_compared_and_gathered(tmp_path, ar
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stdout + r.stderr
     projects = [json.loads(line) for line in (tmp_path / "ds" / "projects.jsonl").read_text("utf-8").splitlines()]
     assert [(p["project"], p["game"]) for p in projects] == [("games/bad\ufffd", "bad\ufffd")]
+
+
+def test_an_image_with_nothing_to_mesh_is_named(tmp_path):
+    """An image of no opaque pixel said "skipped: the image has no opaque pixel ...: nothing to
+    mesh" in ``mesh FOLDER``, naming no image (the folder's others were meshed: which one was
+    left?); ``mesh IMAGE`` likewise. Both lines name the image now."""
+    from PIL import Image
+
+    _sprite(tmp_path / "art" / "drawn.png")
+    Image.fromarray(np.zeros((20, 20, 4), np.uint8)).save(tmp_path / "art" / "clear.png")
+    r = run_cli("mesh", "art", "--out", "meshes", cwd=tmp_path)
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "skipped: art/clear.png: the image has no opaque pixel (alpha >= 8): nothing to mesh" in r.stderr, r.stderr
+    r = run_cli("mesh", "art/clear.png", "--out", "m.json", cwd=tmp_path)
+    assert r.returncode == 2 and "error: art/clear.png: the image has no opaque pixel" in r.stderr, r.stderr

@@ -40,6 +40,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
          steps: Optional[Path], before_write=None):
     """Mesh one image and write its outputs; ``before_write()``, when given, is called once the
     mesh is made, before the first file is written (a folder run marks its folders then)."""
+    from ..errors import SpineMeshError
     from ..fsutil import atomic_write_json, atomic_write_png, name_as_text
     from ..images import load_rgba
     from ..memory import image_memory
@@ -50,8 +51,13 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
     rgba = load_rgba(image_path)
     with image_memory("mesh", image_path, rgba.shape[1], rgba.shape[0]):  # fails as this image
         params = resolve_params(preset, **overrides)
-        mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
-        mesh = mesh_image(rgba, params, mask=mask)
+        try:
+            mask = compute_mask(rgba, params.mask_source, params.alpha_threshold)
+            mesh = mesh_image(rgba, params, mask=mask)
+        except SpineMeshError as e:
+            if e.path is None:  # the mesher's words name no file ("nothing to mesh"): this image is it
+                e.path = str(image_path)
+            raise
         mesh.info["preset"] = preset
         mesh.info["image"] = name_as_text(image_path.name)  # a name of bytes not UTF-8 refused the mesh
         doc = mesh.to_json()
