@@ -83,7 +83,7 @@ class AtlasMeter:
         """``phase`` begins, in parts of ``weights`` (their shares of its work); ``pages``: the
         indices of the pages its work is of (default: all). A part not ended by now is dropped."""
         self.say(words)
-        work = COST[phase] * sum(self.pages[i] for i in pages) if pages is not None else COST[phase] * sum(self.pages)
+        work = COST[phase] * sum(self.pages[i] for i in (pages if pages is not None else range(len(self.pages))))
         if work > self.left[phase]:  # begun again: new work, told
             more = work - self.left[phase]
             self.total += more
@@ -91,8 +91,10 @@ class AtlasMeter:
             self.on_step(0, more, "")
         self.left[phase] -= work
         weights = [max(0, int(w)) for w in weights] or [1]
-        whole = sum(weights) or len(weights)
-        shares = [work * (w if sum(weights) else 1) // whole for w in weights]
+        if not any(weights):  # parts of no weight share the work evenly
+            weights = [1] * len(weights)
+        whole = sum(weights)
+        shares = [work * w // whole for w in weights]
         shares[-1] += work - sum(shares)
         self.parts = deque(shares)
 
