@@ -227,16 +227,22 @@ def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[P
     (:func:`check_pages_copied`); a file that cannot be copied does not stop the others.
     Returns one ``"not copied: ..."`` line per file not copied.
     """
-    pages_of = atlas_pages(proj)
+    return copy_atlases_last(files_to_copy(proj, out, written, needed), atlas_pages(proj))
+
+
+def copy_atlases_last(pairs: list[tuple[Path, Path]], pages_of: dict[Path, set[Path]], copy=atomic_copy) -> list[str]:
+    """Copy each ``(source, destination)`` of ``pairs`` with ``copy``, the atlases (``pages_of``,
+    :func:`atlas_pages`) last, each only when its pages were copied (:func:`check_pages_copied`);
+    a file that cannot be copied does not stop the others. Returns one ``"not copied: ..."``
+    line per file not copied."""
     failed: set[Path] = set()
     errors = []
-    pairs = files_to_copy(proj, out, written, needed)
-    for source, dest in sorted(pairs, key=lambda pair: pair[0].resolve() in pages_of):  # atlases last
+    for source, dest, real in sorted(((s, d, s.resolve()) for s, d in pairs), key=lambda row: row[2] in pages_of):
         try:
-            check_pages_copied(pages_of.get(source.resolve(), set()), failed, dest)
-            atomic_copy(source, dest)
+            check_pages_copied(pages_of.get(real, set()), failed, dest)
+            copy(source, dest)
         except SpineMeshError as e:
-            failed.add(source.resolve())
+            failed.add(real)
             errors.append(f"not copied: {e}")
     return errors
 

@@ -1064,22 +1064,15 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
     # runtime would read it and miss its page
-    from ..output import atlas_pages, check_pages_copied
+    from ..output import atlas_pages, copy_atlases_last
 
-    pages_of = atlas_pages(proj)
-    failed: set[Path] = set()
+    def copy_unless_written(source: Path, target: Path) -> None:
+        if not target.exists():
+            atomic_copy(source, target)
+
     files = [] if in_place else proj.files  # only files inside the project by real path (find_project)
-    for f, real in sorted(((f, f.resolve()) for f in files), key=lambda pair: pair[1] in pages_of):
-        if real in skip:
-            continue
-        try:
-            target = out / f.relative_to(proj.root)
-            check_pages_copied(pages_of.get(real, set()), failed, target)
-            if not target.exists():
-                atomic_copy(f, target)
-        except SpineMeshError as e:
-            failed.add(real)
-            result.errors.append(f"not copied: {e}")
+    result.errors += copy_atlases_last([(f, out / f.relative_to(proj.root)) for f in files if f.resolve() not in skip],
+                                       atlas_pages(proj), copy_unless_written)
 
 
 def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
