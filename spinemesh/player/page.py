@@ -73,15 +73,16 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
         # by the skin's place in ``skins``, never keyed by its name: a name is any text, and in the
         # script's object literal "__proto__" sets no property (the player loaded "[object Object]")
         src: list[str | None] = [None] * len(skins)
+        dur = a.duration if math.isfinite(a.duration) else 0.0  # nothing that is not a number is written
         for skin, (frames, box, (before, after)) in a.by_skin.items():
-            dur = a.duration if math.isfinite(a.duration) else 0.0  # nothing that is not a number is written
+            at = skins.index(skin)
             data = {"n": frames, "fps": a.rate, "dur": dur, "box": [round(v, 4) for v in box], "note": a.note,
                     "before": tables["before"].absorb(before), "after": tables["after"].absorb(after)}
-            rel = f"data/{pid}/{i}.{skins.index(skin)}.js"
+            rel = f"data/{pid}/{i}.{at}.js"
             text = json.dumps(data, separators=(",", ":"), allow_nan=False)
-            folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{skins.index(skin)}')},{text});\n")
-            src[skins.index(skin)] = up + rel
-        anims.append({"name": a.name, "dur": a.duration if math.isfinite(a.duration) else 0.0, "src": src})
+            folder.write_text(rel, f"SM.frames({json.dumps(f'{pid}/{i}/{at}')},{text});\n")
+            src[at] = up + rel
+        anims.append({"name": a.name, "dur": dur, "src": src})
     model = {"images": images, "skins": skins, "anims": anims,
              "sides": {k: t.rows for k, t in tables.items()}}
     folder.write_text(f"data/{pid}/model.js",
