@@ -76,7 +76,7 @@ def legend(names: list[str], width: int) -> np.ndarray:
     import cv2
 
     room = LEGEND_COLUMNS * LEGEND_ROWS
-    entries = [(i, n) for i, n in enumerate(names)]
+    entries = list(enumerate(names))
     more = 0
     if len(entries) > room:
         more = len(entries) - (room - 1)
