@@ -111,7 +111,7 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
 
 
 def weight_on_workers(workers: Workers, skeletons: list, max_vertices: int | None,
-             progress: Progress = SILENT) -> list[tuple]:
+                      progress: Progress = SILENT) -> list[tuple]:
     """Weight the upgraded meshes of ``skeletons`` on ``workers``, in jobs of a few meshes
     (:func:`spinemesh.rig.upgrade.weighting_jobs`); the weighting is the same wherever it runs,
     and each job's result is put back by place, never by arrival order, so the output is the
