@@ -230,12 +230,14 @@ def copy_other_files(proj: Project, out: Path, written: set[Path], needed: set[P
     return copy_atlases_last(files_to_copy(proj, out, written, needed), atlas_pages(proj))
 
 
-def copy_atlases_last(pairs: list[tuple[Path, Path]], pages_of: dict[Path, set[Path]], copy=atomic_copy) -> list[str]:
+def copy_atlases_last(pairs: list[tuple[Path, Path]], pages_of: dict[Path, set[Path]], copy=atomic_copy,
+                      failed: set[Path] | None = None) -> list[str]:
     """Copy each ``(source, destination)`` of ``pairs`` with ``copy``, the atlases (``pages_of``,
     :func:`atlas_pages`) last, each only when its pages were copied (:func:`check_pages_copied`);
-    a file that cannot be copied does not stop the others. Returns one ``"not copied: ..."``
-    line per file not copied."""
-    failed: set[Path] = set()
+    a file that cannot be copied does not stop the others. ``failed``: the real paths of files
+    not copied before (pages copied apart). Returns one ``"not copied: ..."`` line per file not
+    copied."""
+    failed = set() if failed is None else failed
     errors = []
     for source, dest, real in sorted(((s, d, s.resolve()) for s, d in pairs), key=lambda row: row[2] in pages_of):
         try:

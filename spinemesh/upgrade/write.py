@@ -21,7 +21,7 @@ from ..attachment_geometry import mesh_attachment
 from ..cluster import WorkerLost, Workers
 from ..errors import SpineMeshError
 from ..fsutil import atomic_copy
-from ..output import atlas_pages, check_pages_copied, files_needed, files_to_copy, write_skeleton
+from ..output import atlas_pages, copy_atlases_last, files_needed, files_to_copy, write_skeleton
 from ..skeleton import iter_attachments
 from .bending import settle_bending
 from .meshing import MeshResult
@@ -186,27 +186,21 @@ def copying_other_files(plan: ProjectPlan, out: Path, result: Result) -> Iterato
     needed = set().union(*(files_needed(sk.doc, sk.source) for sk in plan.skeletons)) if plan.only_needed else None
     skeletons = {sk.path.resolve() for sk in plan.skeletons}
     pages_of = atlas_pages(plan.project)
-    pairs = files_to_copy(plan.project, out, skeletons, needed)
+    pairs = [(source, dest, source.resolve()) for source, dest in files_to_copy(plan.project, out, skeletons, needed)]
     copier = ThreadPoolExecutor(COPY_THREADS)
     # atlases last, each only once its pages are copied (a full disk would leave one without them)
-    copies = [(source, copier.submit(atomic_copy, source, dest)) for source, dest in pairs
-              if source.resolve() not in pages_of]
+    copies = [(real, copier.submit(atomic_copy, source, dest)) for source, dest, real in pairs if real not in pages_of]
     yield
     failed = set()
-    for source, copy in copies:
+    for real, copy in copies:
         try:
             copy.result()
         except SpineMeshError as e:
-            failed.add(source.resolve())
+            failed.add(real)
             result.errors.append(f"not copied: {e}")
     copier.shutdown()
-    for source, dest in pairs:
-        if source.resolve() in pages_of:
-            try:
-                check_pages_copied(pages_of[source.resolve()], failed, dest)
-                atomic_copy(source, dest)
-            except SpineMeshError as e:
-                result.errors.append(f"not copied: {e}")
+    result.errors += copy_atlases_last([(source, dest) for source, dest, real in pairs if real in pages_of],
+                                       pages_of, failed=failed)
 
 
 def write_repacked_atlases(plan: ProjectPlan, out: Path, result: Result) -> None:
