@@ -122,6 +122,15 @@ def demo(tmp_path) -> Path:
     return dest
 
 
+def json_demo(tmp: Path) -> Path:
+    """The demo project, drawn by our code into ``tmp / "p"``, with its JSON skeleton only."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    return project
+
+
 def _demo_json(p: Path) -> dict:
     return json.loads((p / "demo.json").read_text())
 

@@ -13,17 +13,8 @@ import json
 from pathlib import Path
 
 import pytest
-from test_hostile import check_run, run_cli, snapshot
+from test_hostile import check_run, json_demo, run_cli, snapshot
 from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
-
-
-def _demo(tmp: Path) -> Path:
-    """The demo project with its JSON skeleton only."""
-    from spinemesh.demo import make_demo_project
-
-    project = make_demo_project(tmp / "p", with_images_folder=False)
-    (project / "demo-binary.skel").unlink()
-    return project
 
 
 def _edit(project: Path, change) -> dict:
@@ -93,7 +84,7 @@ def test_upgraded_regions_draw_as_the_originals_in_the_runtime(tmp_path, spine_r
     are proven by the document only: the slots are written as they were."""
     from runtime_tool import render, render_difference
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     doc = _edit(project, change)
     before = snapshot(tmp_path)
     r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", *(["--pack"] if pack else []),
@@ -121,7 +112,7 @@ def test_a_sequence_frame_of_another_original_size_draws_alike(tmp_path, spine_r
     original, with and without --pack."""
     from runtime_tool import render, render_difference
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     atlas = project / "demo.atlas"
     text = atlas.read_text()
     assert "demo-spark/frame2\n\tbounds: 183, 145, 64, 64\n" in text
@@ -148,7 +139,7 @@ def test_a_region_a_linked_mesh_names_as_its_parent_stays_a_region(tmp_path):
     nothing there. ``upgrade`` meshed the region, so the linked mesh then loaded and drew its own
     image over the new mesh (exit 0): a picture the original never showed. Now the region stays
     a region with one line naming the linked mesh, exit 3; the rest is meshed."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
 
     def linked(doc):
         doc["skins"].append({"name": "alt", "attachments": {"head": {"demo-head": {
@@ -196,7 +187,7 @@ def test_a_region_an_animation_deforms_stays_a_region(tmp_path, spine_runtime, v
 def test_a_43_region_a_linked_mesh_of_another_slot_takes_as_its_source_stays_a_region(tmp_path):
     """4.3 names the source mesh ``source`` and, in another slot, that ``slot``: a region so named
     stays a region too, with its one line."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
 
     def linked(doc):
         doc["skeleton"]["spine"] = "4.3.00"
@@ -225,7 +216,7 @@ def test_skins_and_animations_named_like_javascript_internals_play_in_the_previe
     from browser import player_result, run
     from test_hostile_wave4 import PAYLOADS
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     long_name = "\u202e" + "x" * 10_000
 
     def names(doc):
@@ -267,7 +258,7 @@ POSE_TIMES = "0,0.1,0.2,0.25,0.4,0.5,0.6,0.75,0.9,1,1.3,1.6"
 
 def _pose_project(tmp: Path, version: str, animations: dict) -> Path:
     """The demo skeleton as ``version`` (without its 4.1+ sequence before 4.1), with ``animations``."""
-    project = _demo(tmp)
+    project = json_demo(tmp)
 
     def change(doc):
         doc["skeleton"]["spine"] = version
@@ -446,7 +437,7 @@ def test_a_43_linked_mesh_whose_source_sits_in_another_slot_is_posed(tmp_path, r
 
     from spinemesh.anim.dump import pose_errors
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     _edit(project, lambda doc: doc["skeleton"].update(spine="4.3.00"))
     r = run_cli("upgrade", "p", "--out", "o", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
@@ -502,7 +493,7 @@ def test_skins_named_twice_pose_as_the_runtimes_find_them(tmp_path, spine_runtim
 
     from spinemesh.anim.dump import pose_errors
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
 
     def twice(doc):
         head = doc["skins"][0]["attachments"]["head"].pop("demo-head")

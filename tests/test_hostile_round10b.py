@@ -13,17 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_hostile import check_run, run_cli, snapshot
-
-
-def _demo_json(tmp: Path) -> Path:
-    """The demo project's JSON skeleton alone, in ``tmp``."""
-    from spinemesh.demo import make_demo_project
-
-    project = make_demo_project(tmp / "p", with_images_folder=False)
-    (project / "demo-binary.skel").unlink()
-    return project / "demo.json"
-
+from test_hostile import check_run, json_demo, run_cli, snapshot
 
 # --- convert: integers the binary format cannot hold ----------------------------------------------
 
@@ -34,7 +24,7 @@ def test_an_integer_past_32_bits_is_not_written_cut(tmp_path, value, where):
     written cut to its low bits and read back 256 (2**31 read back -1), exit 0: the game got
     another number than the JSON held. Now the skeleton is refused in one line naming the field,
     and nothing is written."""
-    skeleton = _demo_json(tmp_path)
+    skeleton = json_demo(tmp_path) / "demo.json"
     doc = json.loads(skeleton.read_text())
     doc["events"] = {"hit": {"int": value if where == "event" else 0}}
     key = {"time": 0, "name": "hit", **({"int": value} if where == "key" else {})}
@@ -50,7 +40,7 @@ def test_an_integer_past_32_bits_is_not_written_cut(tmp_path, value, where):
 
 def test_the_ends_of_the_32_bit_range_go_through(tmp_path):
     """The largest and smallest 32-bit ints are written and read back exactly."""
-    skeleton = _demo_json(tmp_path)
+    skeleton = json_demo(tmp_path) / "demo.json"
     doc = json.loads(skeleton.read_text())
     doc["events"] = {"low": {"int": -(2 ** 31)}, "high": {"int": 2 ** 31 - 1}}
     skeleton.write_text(json.dumps(doc))
@@ -202,7 +192,7 @@ def test_a_file_named_as_markup_is_meshed(tmp_path):
 
 def test_an_animation_named_as_markup_is_posed(tmp_path):
     """``pose -a 'a[/]b'`` named its progress bar after the animation: a MarkupError traceback."""
-    skeleton = _demo_json(tmp_path)
+    skeleton = json_demo(tmp_path) / "demo.json"
     doc = json.loads(skeleton.read_text())
     animations = doc["animations"]
     animations["a[/]b"] = animations.pop(next(iter(animations)))
@@ -393,7 +383,7 @@ def test_images_mesh_cannot_read_are_one_line_each(tmp_path):
 def test_convert_keeps_u0000_and_refuses_a_lone_surrogate(tmp_path):
     """Passed as they were: names and event strings holding U+0000 are written to a ``.skel``
     and read back the same; a JSON ``"\\ud800"`` (no UTF-8 file can hold it) is one line."""
-    skeleton = _demo_json(tmp_path)
+    skeleton = json_demo(tmp_path) / "demo.json"
     doc = json.loads(skeleton.read_text())
     doc["events"] = {"h\u0000it": {"string": "a\u0000b"}}
     skeleton.write_text(json.dumps(doc))

@@ -18,17 +18,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_hostile import TIME_LIMIT, check_run, run_cli, snapshot
-
-
-def _demo(tmp: Path) -> Path:
-    """The demo project with its JSON skeleton only."""
-    from spinemesh.demo import make_demo_project
-
-    project = make_demo_project(tmp / "p", with_images_folder=False)
-    (project / "demo-binary.skel").unlink()
-    return project
-
+from test_hostile import TIME_LIMIT, check_run, json_demo, run_cli, snapshot
 
 # --- atlas dialects -----------------------------------------------------------------------------
 
@@ -41,7 +31,7 @@ def test_a_turn_the_runtimes_do_not_make_keeps_its_region(tmp_path, degrees):
     exactly: spine-core draws it unturned, libGDX fails to load it). Now the region is refused in
     one line naming the atlas's line; its attachments stay regions and the atlas is kept, its text
     byte for byte."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     atlas = project / "demo.atlas"
     atlas.write_text(atlas.read_text().replace("rotate: 90", f"rotate: {degrees}"))
     before = snapshot(tmp_path)
@@ -61,7 +51,7 @@ def test_pose_never_draws_an_attachment_of_an_unusable_number_elsewhere(tmp_path
     either: the runtimes' quad is infinite) was posed with ``y`` 0, the field's default, and
     ``pose`` ended with 0: a pose no runtime draws. Now such an attachment is not drawn, a warning
     names its field, and the run ends with 3; the other attachments are posed as before."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     skeleton = project / "demo.json"
     text = skeleton.read_text()
     skeleton.write_text(text.replace('"y": 10,', f'"y": {value},', 1))
@@ -81,7 +71,7 @@ def test_an_attachment_naming_a_field_twice_is_left_as_written(tmp_path, keys):
     the last and written back once, so the C runtimes' head moved by 50 (exit 0). Now such an
     attachment stays a region, byte for byte, with one line naming the field; ``convert`` and
     ``pose`` say the same."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     skeleton = project / "demo.json"
     text = skeleton.read_text()
     head = '"demo-head": {\n\t\t\t\t\t\t"x": 0.0,'
@@ -117,7 +107,7 @@ def test_a_skeleton_saved_as_utf16_is_said_so(tmp_path, encoding):
     """A skeleton a Windows editor saved as "Unicode" (UTF-16 or UTF-32, with or without a
     byte-order mark) was read as a binary and refused as "expected a Spine version string in the
     header"; the runtimes read JSON as UTF-8 only, and now the line says what the file is."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     skeleton = project / "demo.json"
     skeleton.write_bytes(skeleton.read_text().encode(encoding))
     before = snapshot(tmp_path)
@@ -136,10 +126,10 @@ def test_a_region_line_written_twice_is_read_as_the_runtimes_read_it(tmp_path, l
     lines, or an ``xy:`` after ``bounds:``, the later line places the region. The first one was
     taken (the ring's texels cut, meshed and packed as the head's, exit 0). Now the project
     upgrades and packs exactly as the one with that line alone."""
-    clean = _demo(tmp_path / "clean")
+    clean = json_demo(tmp_path / "clean")
     r = run_cli("upgrade", "p", "--out", "o", "--pack", "--jobs", "1", cwd=tmp_path / "clean")
     assert r.returncode == 0, r.stderr
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     atlas = project / "demo.atlas"
     text = atlas.read_text()
     head = "demo-head\n\tbounds: 105, 2, 81, 81\n"
@@ -165,7 +155,7 @@ def test_editor_images_say_what_their_page_says_of_its_colours(tmp_path, chunk):
 
     from spinemesh.pack.png import colour_chunks, with_colour_chunks
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     page = project / "demo.png"
     body = struct.pack(">I", 100000) if chunk == "gAMA" else b"mine\0\0" + zlib.compress(_srgb_profile())
     page.write_bytes(with_colour_chunks(page.read_bytes(), ((chunk.encode(), body),)))
@@ -191,7 +181,7 @@ def test_a_skeleton_naming_a_part_twice_is_refused_in_one_line(tmp_path, where):
     (exit 0). A field the program reads written twice elsewhere in the document (a bone's ``y``)
     is the same ambiguity: the skeleton is refused in one line naming the field; the project's
     other skeleton is upgraded."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     skeleton = project / "demo.json"
     text = skeleton.read_text()
     (project / "other.json").write_text(text)
@@ -222,7 +212,7 @@ def test_a_region_attachment_on_a_region_turned_by_180_or_270_stays_a_region(tmp
     unturned region). Upgraded, the ring's mesh turned the texels, another picture than the game
     drew (exit 0). The Spine editor turns only regions that meshes draw (the corpus's 26 such
     regions are all meshes'), so such a region attachment is left as it is, with the reason."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     atlas = project / "demo.atlas"
     ring = "demo-ring\n\tbounds: 188, 2, 93, 93\n"
     assert ring in atlas.read_text()
@@ -260,8 +250,8 @@ def test_the_old_atlas_syntax_upgrades_to_the_same_meshes_and_draws_so_in_the_ru
     region stored at 270 degrees unturned, the reason such an attachment stays a region."""
     from runtime_tool import compare_dumps, dump
 
-    clean = _demo(tmp_path / "clean")
-    old = _demo(tmp_path)
+    clean = json_demo(tmp_path / "clean")
+    old = json_demo(tmp_path)
     _old_syntax(old / "demo.atlas")
     for cwd in (tmp_path / "clean", tmp_path):
         r = run_cli("upgrade", "p", "--out", "o", "--pack", "--jobs", "1", cwd=cwd)
@@ -296,7 +286,7 @@ def test_editor_images_of_a_scaled_page_have_no_dark_fringe(tmp_path):
     import numpy as np
     from PIL import Image
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     atlas = project / "demo.atlas"
     atlas.write_text(atlas.read_text().replace("\tfilter: Linear, Linear\n", "\tfilter: Linear, Linear\n\tscale: 0.5\n", 1))
     before = snapshot(tmp_path)
@@ -317,7 +307,7 @@ def test_a_page_the_runtimes_read_as_straight_is_cut_straight(tmp_path):
     from PIL import Image
 
     for name, pma in (("straight", ""), ("capital", "\tpma: True\n")):
-        project = _demo(tmp_path / name)
+        project = json_demo(tmp_path / name)
         page = np.asarray(Image.open(project / "demo.png").convert("RGBA")).copy()
         page[..., 3] //= 2  # half-transparent art
         Image.fromarray(page).save(project / "demo.png")
@@ -350,7 +340,7 @@ def test_a_grey_page_s_colour_profile_is_never_put_on_colour_texels(tmp_path):
 
     from spinemesh.pack.png import colour_chunks
 
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     grey_profile = bytearray(_srgb_profile())
     grey_profile[16:20] = b"GRAY"  # the header's colour space: all a reader looks at to take or leave it
     Image.open(project / "demo.png").convert("LA").save(project / "demo.png", icc_profile=bytes(grey_profile))
@@ -373,7 +363,7 @@ def test_pack_keeps_the_rectangle_of_a_region_an_unusable_attachment_draws(tmp_p
     fields cannot be used, so ``pack`` passed it over and packed the head by the outline of the
     first skeleton's mesh, where other regions' texels may lie inside its rectangle (exit 0).
     Now such an attachment pins its region to its stored rectangle, with the reason."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     original = (project / "demo.json").read_text()
     r = run_cli("upgrade", "p", "--out", "m", "--jobs", "1", "--min-saving", "0", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
@@ -413,7 +403,7 @@ def test_a_full_disk_never_leaves_an_atlas_without_its_page(tmp_path, limit, com
     ends with 3 and one line a file."""
     from spinemesh.atlas import read_atlas
 
-    _demo(tmp_path)
+    json_demo(tmp_path)
     r = run_cli("upgrade", "p", "--out", "m", "--jobs", "1", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     before = snapshot(tmp_path)
@@ -435,7 +425,7 @@ def test_a_field_named_but_for_case_is_left_as_written(tmp_path):
     case and place the head at x 50; spine-ts and the program read no ``x`` (0). The region was
     meshed at 0 and written so, moving the head in the C runtimes (exit 0); now it stays as
     written, with one line naming the field."""
-    project = _demo(tmp_path)
+    project = json_demo(tmp_path)
     skeleton = project / "demo.json"
     head = '"demo-head": {\n\t\t\t\t\t\t"x": 0.0,'
     skeleton.write_text(skeleton.read_text().replace(head, '"demo-head": {\n\t\t\t\t\t\t"X": 50,'))
