@@ -65,14 +65,11 @@ def main() -> None:
             sys.exit(128 + interrupted())
         raise
     except (SpineMeshError, OSError) as e:
-        from rich.markup import escape
-
-        from ..errors import escaped
-        from ._app import err_console
+        from ._app import console_text, err_console
 
         if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
             e = SpineMeshError(e.strerror or str(e), e.filename)
-        err_console.print(f"[bold red]error:[/] {escape(escaped(str(e)))}", highlight=False, soft_wrap=True)
+        err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)
     except MemoryError:
         # the last net for memory: each stage refuses what it cannot hold with its own line naming

@@ -69,11 +69,7 @@ def _refuse_usage(error: UsageError):
     ``spinemesh`` without a command goes on as click prints it."""
     if isinstance(error, NoArgsIsHelpError):
         raise error
-    from rich.markup import escape
-
-    from ..errors import escaped
-
-    err_console.print(f"[bold red]error:[/] {escape(escaped(usage_error_line(error)))}", highlight=False,
+    err_console.print(f"[bold red]error:[/] {console_text(usage_error_line(error))}", highlight=False,
                       soft_wrap=True)
     raise typer.Exit(error.exit_code)
 
@@ -186,10 +182,12 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
                 console=err_console.real, transient=transient)
 
 
-def bar_words(name) -> str:
-    """A name from a disk or a project (a file, a project, an animation) as a progress bar's words:
-    its markup and control characters escaped. The bar reads its words as rich markup: a file
-    named ``a[/]b.png`` ended ``mesh FOLDER`` in a MarkupError traceback, and a newline split it."""
+def console_text(name) -> str:
+    """A name or message from a disk or a project (a file, a project, an animation, an error
+    naming them) as rich console text: its markup and control characters escaped
+    (:func:`~spinemesh.errors.escaped`). The console and the bars read text as rich markup: a
+    file named ``a[/]b.png`` ended ``mesh FOLDER`` in a MarkupError traceback, and a newline in
+    a name split one error line in two."""
     from rich.markup import escape
 
     from ..errors import escaped

@@ -15,7 +15,7 @@ from typing import Callable, Sequence
 
 from ..errors import escaped
 from ..words import counted
-from ._app import console, err_console
+from ._app import console, console_text, err_console
 
 
 def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Callable[[list], Sequence[str]],
@@ -26,7 +26,6 @@ def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Ca
     (:func:`spinemesh.runs.short_names`) so that the table fits ``width`` columns (default:
     the console's) and every line still names its own skeleton.
     """
-    from rich.markup import escape
     from rich.table import Table
 
     from ..runs import short_names
@@ -44,7 +43,7 @@ def skeleton_table(title: str, columns: Sequence[str], rows: Sequence, cells: Ca
     for col in columns:
         table.add_column(col, justify="right", no_wrap=True)
     for name, group in by_skel.items():
-        table.add_row(escape(escaped(shown[name])), *cells(group))
+        table.add_row(console_text(shown[name]), *cells(group))
     return table
 
 
@@ -56,7 +55,6 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
 
     ``skipped_label`` and ``failed_label`` begin the lines (``kept as region``, ``left a region``).
     """
-    from rich.markup import escape
 
     from ..runs import reason_groups
 
@@ -67,8 +65,8 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
     for why, group in failed.items():
         row = group[0]
         more = f" and {len(group) - 1} more" if len(group) > 1 else ""
-        err_console.print(f"[yellow]{failed_label}:[/] " + escape(escaped(
-            f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}{more}: {why}")),
+        err_console.print(f"[yellow]{failed_label}:[/] " + console_text(
+            f"{row.skeleton} skin {row.skin!r} slot {row.slot!r} attachment {row.name!r}{more}: {why}"),
             highlight=False)
     for why, n, others in reason_groups([reason(row) for row in rows if row.status == skipped]):
         more = f"; {others:,} of them with other figures" if others else ""
@@ -78,10 +76,9 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
 
 def print_errors(errors: Sequence[str]) -> None:
     """Each of a run's errors on stderr as one line, ``error: ...`` (each names its file)."""
-    from rich.markup import escape
 
     for e in errors:
-        err_console.print(f"[red]error:[/] {escape(escaped(e))}", highlight=False, soft_wrap=True)
+        err_console.print(f"[red]error:[/] {console_text(e)}", highlight=False, soft_wrap=True)
 
 
 def weights_lines(targets: Sequence) -> list[str]:

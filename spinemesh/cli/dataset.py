@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from ..limits import MAX_JOBS
-from ._app import Annotated, Optional, app, bar_words, console, err_console, progress_bar
+from ._app import Annotated, Optional, app, console_text, console, err_console, progress_bar
 
 
 @app.command()
@@ -39,19 +39,17 @@ def dataset(
         task = progress.add_task("", total=None)
 
         def on_project(name: str, done: int, total: int) -> None:
-            progress.update(task, completed=done, total=total, description=bar_words(name))
+            progress.update(task, completed=done, total=total, description=console_text(name))
 
         summary = build_dataset(corpus, out, jobs=jobs or available_cores(), retry_failed=retry_failed,
                                 on_project=on_project, dask=dask)
 
-    from rich.markup import escape
 
-    from ..errors import escaped
 
     rate = summary.samples / summary.seconds if summary.seconds else 0.0
     console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "
                   f"{summary.seconds:.1f} s ({rate:.0f} samples/s); {summary.projects_done_before} projects "
-                  f"done before; data set now holds {summary.total_samples:,} samples in {escape(escaped(str(out)))}")
+                  f"done before; data set now holds {summary.total_samples:,} samples in {console_text(str(out))}")
     from ..dataset import dataset_stats, open_dataset
 
     whole = dataset_stats(open_dataset(out))
@@ -78,16 +76,14 @@ def dataset(
 def _count_table(title: str, what: str, counted: str, rows):
     """A two-column table of ``(label, count)`` rows, counts with thousands separators; the labels
     (project folders, reasons) shown as they are, never read as markup."""
-    from rich.markup import escape
     from rich.table import Table
 
-    from ..errors import escaped
 
     t = Table(title=title)
     t.add_column(what)
     t.add_column(counted, justify="right")
     for k, n in rows:
-        t.add_row(escape(escaped(str(k))), f"{n:,}")
+        t.add_row(console_text(str(k)), f"{n:,}")
     return t
 
 

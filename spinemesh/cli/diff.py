@@ -8,7 +8,7 @@ from typing import List, Optional
 import typer
 
 from ..runs import EXIT_BAD_INPUT
-from ._app import Annotated, app, bar_words, console, progress_bar
+from ._app import Annotated, app, console_text, console, progress_bar
 from ._summary import print_errors
 
 
@@ -60,7 +60,7 @@ def diff(
         task = bar.add_task("reading projects", total=None)
 
         def progress(done: int, total: int, label: str) -> None:
-            bar.update(task, completed=done, total=total, description=bar_words(label))
+            bar.update(task, completed=done, total=total, description=console_text(label))
 
         result = run_diff(projects, chosen, images=images, limit=limit, originals=originals, progress=progress)
     if not result.rows:

@@ -12,7 +12,7 @@ from ._app import (
     Optional,
     Preset,
     app,
-    bar_words,
+    console_text,
     console,
     err_console,
     positive_finite,
@@ -171,7 +171,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
         task = bar.add_task("", total=len(files))
         for f in files:
             rel = f.relative_to(image).with_suffix("")
-            bar.update(task, description=bar_words(rel))
+            bar.update(task, description=console_text(rel))
             try:
                 outputs.claim(rel.with_suffix(".json"), f, "its mesh")
                 # Each file too: a symlink planted inside an output folder is not written through.
@@ -198,13 +198,12 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
 def _mesh_file(image: Path, target: Path, preview: Optional[Path], steps: Optional[Path], preset: str,
                overrides: dict) -> None:
     """``mesh`` on one image: the mesh written to ``target`` and its counts as a table."""
-    from rich.markup import escape
     from rich.table import Table
 
     from ..errors import escaped
 
     m = _one(image, preset, overrides, target, preview, steps)
-    t = Table(title=escape(escaped(image.name)) + f" ({m.width}x{m.height}, preset {preset})")
+    t = Table(title=console_text(image.name) + f" ({m.width}x{m.height}, preset {preset})")
     for col in ("vertices", "hull", "interior", "triangles", "constrained edges"):
         t.add_column(col, justify="right")
     t.add_row(str(len(m.vertices)), str(m.hull), str(int(m.is_interior.sum())), str(len(m.triangles)), str(len(m.edges)))

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import typer
 
-from ._app import Annotated, Optional, app, bar_words, err_console, positive_finite
+from ._app import Annotated, Optional, app, console_text, err_console, positive_finite
 
 #: At most this many times in one call (each is a pose of every bone and attachment).
 MAX_TIMES = 10_000
@@ -102,7 +102,7 @@ def pose(
     # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
     # by a proxy that holds text until a newline and then prints it on stderr.
     with progress_bar("pose", transient=True) as bar:
-        task = bar.add_task(bar_words(animation or "setup"), total=1 + (len(seconds) if animation else 0))
+        task = bar.add_task(console_text(animation or "setup"), total=1 + (len(seconds) if animation else 0))
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
                                   step=lambda: bar.advance(task)), animation, skeleton)
         head = dump_head(sampler, Path(skeleton).name, fps)  # its name: the same bytes from any folder

@@ -14,7 +14,7 @@ import typer
 
 from ..limits import MAX_JOBS
 from ._app import (
-    Annotated, MaskSource, Optional, Preset, app, console, err_console, finite, positive_finite,
+    Annotated, MaskSource, Optional, Preset, app, console, console_text, err_console, finite, positive_finite,
     phase_progress, progress_bar,
 )
 from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
@@ -249,7 +249,6 @@ def _print_result(result, dry_run: bool) -> None:
     were kept, what failed and the other errors."""
     import statistics
 
-    from rich.markup import escape
 
     from ..errors import escaped
     from ..upgrade.report import selection_left_nothing
@@ -280,9 +279,9 @@ def _print_result(result, dry_run: bool) -> None:
     for line in weights_lines(result.targets):
         console.print(escaped(line), highlight=False, markup=False)
     for warning in result.warnings:  # each names its atlas and page
-        err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {console_text(warning)}", highlight=False)
     for error in result.not_read.values():  # each names its file and says why
-        err_console.print(f"[red]not read:[/] {escape(escaped(error))}", highlight=False)
+        err_console.print(f"[red]not read:[/] {console_text(error)}", highlight=False)
     unread = set(result.not_read.values())
     print_left_alone(result.targets, [e for e in result.errors if e not in unread],
                      "kept", "kept as region", "left a region")

@@ -8,7 +8,7 @@ from typing import List
 
 import typer
 
-from ._app import Annotated, Optional, app, console, err_console, phase_progress, progress_bar
+from ._app import Annotated, Optional, app, console, console_text, err_console, phase_progress, progress_bar
 
 
 class BoneChoice(str, Enum):
@@ -122,9 +122,7 @@ def weights(
 def _print_result(result) -> None:
     """The run's table (weighted, skipped, failed, median bones per skeleton), what was left as it
     was and why, its time, and its warnings (each naming its skeleton)."""
-    from rich.markup import escape
 
-    from ..errors import escaped
     from ._summary import print_left_alone, skeleton_table
 
     def cells(rows: list) -> list[str]:
@@ -139,7 +137,7 @@ def _print_result(result) -> None:
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
     for warning in result.warnings + _nothing_to_weight(result):
-        err_console.print(f"[yellow]warning:[/] {escape(escaped(warning))}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {console_text(warning)}", highlight=False)
 
 
 def _nothing_to_weight(result) -> list[str]:
