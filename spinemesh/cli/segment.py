@@ -283,7 +283,8 @@ def segment_export(
     ckpt = read_checkpoint(checkpoint)  # once: its config here, its weights in release
     # the network made and its weights checked before the data sets are read: a checkpoint of
     # another network, side or NaN weights is one line, not a traceback after the sprites
-    side = model_of(ckpt, checkpoint, size or None).config["image_size"]
+    model = model_of(ckpt, checkpoint, size or None)  # once: its side here, itself exported in release
+    side = model.config["image_size"]
     rng = np.random.default_rng(0)
     train_s = load_sprites(data, split="train", max_side=512, limit_per_project=4)
     val_s = load_sprites(data, split="val", max_side=512, limit_per_project=4)
@@ -299,6 +300,7 @@ def segment_export(
         import torch
         return list(normalise(torch.from_numpy(np.stack(imgs))).numpy())
 
-    card = release(checkpoint, out, inputs(train_s, calibration), inputs(val_s, 32), int8, size or None, read=ckpt)
+    card = release(checkpoint, out, inputs(train_s, calibration), inputs(val_s, 32), int8, size or None, read=ckpt,
+                   model=model)
     console.print_json(json.dumps({k: card[k] for k in ("precision", "input_size", "size_bytes", "parity_fp32",
                                                         "parity_int8") if k in card}))

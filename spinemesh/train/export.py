@@ -188,7 +188,8 @@ def card_of(model: SegmentationModel, extra: dict) -> dict:
 
 
 def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarray], check: list[np.ndarray],
-            int8: bool = True, image_size: int | None = None, read: dict | None = None) -> dict:
+            int8: bool = True, image_size: int | None = None, read: dict | None = None,
+            model: SegmentationModel | None = None) -> dict:
     """Export a checkpoint as the model that ships: ONNX (static int8 or fp32) plus its card.
 
     The fp32 export and the int8 model are made in a temporary folder, removed whatever ends
@@ -213,6 +214,9 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
     read : dict, optional
         What :func:`~.model.read_checkpoint` read from ``checkpoint``, when the caller read it
         already (it is read here otherwise: once either way).
+    model : SegmentationModel, optional
+        :func:`model_of` of ``read``, ``checkpoint`` and ``image_size``, when the caller made it
+        already (made here otherwise: built and checked once either way).
 
     Returns
     -------
@@ -231,7 +235,7 @@ def release(checkpoint: str | Path, out: str | Path, calibration: list[np.ndarra
 
     out = Path(out)
     ckpt = read if read is not None else read_checkpoint(checkpoint)
-    model = model_of(ckpt, checkpoint, image_size)
+    model = model if model is not None else model_of(ckpt, checkpoint, image_size)
     with tempfile.TemporaryDirectory(prefix="spinemesh-export-") as work:
         fp32 = export_onnx(model, Path(work) / "model.fp32.onnx")
         extra = {"precision": "int8" if int8 else "fp32",
