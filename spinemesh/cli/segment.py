@@ -103,7 +103,7 @@ def segment_eval(
     if not sprites:
         from ..dataset.extract import empty_side_said
 
-        print_errors([empty_side_said(", ".join(map(str, data)), "val")])
+        print_errors([empty_side_said(data, "val")])
         raise typer.Exit(EXIT_BAD_INPUT)
     names = [b.strip() for b in baselines.split(",") if b.strip()]
     options = {k: v for k, v in (("flips", flips), ("floodfill", floodfill)) if v is not None}
@@ -231,7 +231,7 @@ def train(
     check_written_folder(out, "training folder", "training run")  # first, as the run checks it: a user's files
     empty = empty_sides(data)  # before OUT is made: a data set of one game was a traceback after writing there
     if empty:
-        print_errors([empty_side_said(", ".join(map(str, data)), empty[0])])
+        print_errors([empty_side_said(data, empty[0])])
         raise typer.Exit(EXIT_BAD_INPUT)
     cfg = TrainConfig(data=[str(d) for d in data], out=str(out), encoder=encoder, pretrained=pretrained,
                       bn_momentum=bn_momentum, image_size=size, epochs=epochs, epoch_samples=epoch_samples,
@@ -291,7 +291,7 @@ def segment_export(
     if not train_s or not val_s:
         from ..dataset.extract import empty_side_said
 
-        print_errors([empty_side_said(", ".join(map(str, data)), "train" if not train_s else "val")])
+        print_errors([empty_side_said(data, "train" if not train_s else "val")])
         raise typer.Exit(EXIT_BAD_INPUT)
 
     def inputs(sprites, n):

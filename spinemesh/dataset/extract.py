@@ -65,14 +65,15 @@ def split_of(game: str, val_fraction: float = VAL_FRACTION) -> str:
     return "val" if h / 2.0**64 < val_fraction else "train"
 
 
-def empty_side_said(data: str, side: str) -> str:
-    """The line that says a data set gives no sprite on one ``side`` (``"train"``, ``"val"``) of its
-    game split, and what to do: ``segment-eval``, ``segment-export`` and ``train`` said only
-    "no held-out sprites in DS", which a data set of one or two games always gives."""
+def empty_side_said(data: list, side: str) -> str:
+    """The line that says the data sets ``data`` (paths, named joined by commas) give no sprite on
+    one ``side`` (``"train"``, ``"val"``) of their game split, and what to do: ``segment-eval``,
+    ``segment-export`` and ``train`` said only "no held-out sprites in DS", which a data set of one
+    or two games always gives."""
     held = "held-out" if side == "val" else "training"
-    return (f"no {held} sprites in {data}: none of its games falls on the {side} side of the split (a game's side "
-            f"is fixed by a hash of its name, about one game in {round(1 / VAL_FRACTION)} held out); build the "
-            f"data set from the projects of more games, or add another data set with --data")
+    return (f"no {held} sprites in {', '.join(map(str, data))}: none of its games falls on the {side} side of "
+            f"the split (a game's side is fixed by a hash of its name, about one game in {round(1 / VAL_FRACTION)} "
+            f"held out); build the data set from the projects of more games, or add another data set with --data")
 
 
 def content_id(rgba: np.ndarray, box: tuple | None = None) -> str:

@@ -334,7 +334,7 @@ def _write_split(sprites: dict, data: list, out: Path) -> tuple[list, list]:
     if not train_s or not val_s:
         from ..dataset.extract import empty_side_said
 
-        raise ValueError(empty_side_said(", ".join(map(str, data)), "train" if not train_s else "val"))
+        raise ValueError(empty_side_said(data, "train" if not train_s else "val"))
     atomic_write_json(out / "split.json", {
         "train_games": sorted(set(sprites.get("train_games", []))), "val_games": sorted(set(sprites.get("val_games", []))),
         "train_sprites": len(train_s), "val_sprites": len(val_s), "val_ids": sprites.get("val_ids", [])}, indent=1)
