@@ -139,7 +139,7 @@ def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
     curves of ``animation`` that no runtime plays (posed linear here, a pose no game shows);
     returns how many."""
     from ..anim import POSE_ERRORS
-    from ..anim.curves import UNPLAYABLE_SAID
+    from ..anim.curves import unplayable_said
     from ..words import unusable_said
 
     if animation is None:
@@ -148,9 +148,8 @@ def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
         problems = sampler.animation(animation)[0].unplayable
     except POSE_ERRORS:
         return 0  # said where the poses are made
-    name = repr(animation).replace("{", "{{").replace("}", "}}")  # a name is any text; the template is formatted
-    template = f"animation {name}: {{problem}}; {UNPLAYABLE_SAID}: posed linear here"
-    for line in unusable_said(problems, skeleton, template, "{more} more curves no runtime plays"):
+    said = [unplayable_said(animation, problem, "posed linear here") for problem in problems]
+    for line in unusable_said(said, skeleton, "{problem}", "{more} more curves no runtime plays"):
         err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
     return len(problems)
 
