@@ -27,6 +27,7 @@ from .limits import (
     check_file_size,
 )
 from .skeleton_check import KeyedTwice, check_document
+from .skeleton_names import first_of_each_name  # noqa: F401 (re-exported: where anim finds it)
 
 #: Attachment types that draw an image from the atlas.
 IMAGE_TYPES = ("region", "mesh", "linkedmesh")
@@ -429,18 +430,6 @@ def attachment_path(ref: AttachmentRef) -> str:
     """The image path an attachment draws: ``path``, else ``name``, else its key."""
     att = ref.attachment
     return str(att.get("path") or att.get("name") or ref.name)
-
-
-def first_of_each_name(names) -> dict[str, int]:
-    """Name -> place of the first item of that name, as the runtimes find a slot (``findSlot``:
-    the first whose name matches). No editor names two slots alike (two bones alike are refused,
-    :func:`spinemesh.skeleton_check.bone_tree_problem`); a file that does is posed as a game
-    poses it, the later slot never found by its name (a timeline or a skin naming it gets the
-    first)."""
-    out: dict[str, int] = {}
-    for i, name in enumerate(names):
-        out.setdefault(name, i)
-    return out
 
 
 def linked_source(ref: AttachmentRef) -> tuple[str, str, str]:

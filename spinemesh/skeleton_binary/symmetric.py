@@ -11,6 +11,7 @@ import math
 
 from ..errors import SkelFormatError
 from ..skeleton_colours import read_colour
+from ..skeleton_names import first_of_each_name
 
 
 def put(node: dict, key: str, v, default) -> None:
@@ -102,11 +103,8 @@ def first_use_table(strings: list[str], refs: list[int]) -> bool:
 def name_table(names) -> tuple[list, dict]:
     """``(names, name -> index of the first of that name)``: a table that indices in the binary
     point into (read: index to name; written: name to index, the first, as the runtimes'
-    ``findSlot`` and their JSON readers find a name)."""
-    lookup: dict = {}
-    for i, n in enumerate(names):
-        lookup.setdefault(n, i)
-    return list(names), lookup
+    ``findSlot`` and their JSON readers find a name, :func:`~spinemesh.skeleton_names.first_of_each_name`)."""
+    return list(names), first_of_each_name(names)
 
 
 #: What each constraint list (or, in 4.3, each type of its one list) holds, in :func:`names_once`'s line.
