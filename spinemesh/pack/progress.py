@@ -67,7 +67,7 @@ class AtlasMeter:
         self.groups = deque(groups if groups is not None else [list(range(len(self.pages)))])
         self.on_step = on_step or (lambda done=1, planned=0, step="": None)
         self.left = {phase: COST[phase] * sum(self.pages) for phase in PHASES}
-        self.total = sum(self.left.values())
+        self.total = atlas_work(self.pages)
         self.parts: deque[int] = deque()
 
     def start(self) -> None:
