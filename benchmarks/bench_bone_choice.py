@@ -7,7 +7,7 @@ on that bone's own samples. Both are run on the same inputs, taking turns, and m
 same lengths (the script stops otherwise). Inputs, per skeleton of the given projects:
 
 - *region quads*: every region attachment's rectangle in the setup pose, as
-  ``upgrade --weights auto`` tests it before meshing (:class:`spinemesh.rig.upgrade.BendingRegions`);
+  ``upgrade --weights auto`` tests it before meshing (:class:`spinemesh.rig.upgraded_meshes.BendingRegions`);
 - *artist meshes*: every mesh attachment's setup-pose triangles, as ``spinemesh weights --bones auto``
   measures them.
 
@@ -37,7 +37,7 @@ from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.rig.binding import parse_vertices, setup_world  # noqa: E402
 from spinemesh.rig.choice import distance_to_art, lengths_on_art  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
-from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions  # noqa: E402
+from spinemesh.rig.upgraded_meshes import QUAD_TRIANGLES, QUAD_UV, BendingRegions  # noqa: E402
 from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
 
 SHARED = REPO.parent / "shared"

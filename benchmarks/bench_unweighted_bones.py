@@ -41,7 +41,7 @@ from spinemesh.rig.choice import choose_by_rule  # noqa: E402
 from spinemesh.rig.document import build_rig  # noqa: E402
 from spinemesh.rig.habits import keys_of  # noqa: E402
 from spinemesh.rig.learned import FEATURES, choose_learned, neighbour_sets, share_project_habits  # noqa: E402
-from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions  # noqa: E402
+from spinemesh.rig.upgraded_meshes import QUAD_TRIANGLES, QUAD_UV, BendingRegions  # noqa: E402
 from spinemesh.skeleton import iter_attachments, load_skeleton  # noqa: E402
 
 SHARED = REPO.parent / "shared"

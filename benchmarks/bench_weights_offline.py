@@ -312,7 +312,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
     project's replayed skeletons (``skeletons``, by project), as ``spinemesh weights`` does.
     ``alone``: without them, as a project with no weighted mesh shows. ``unweighted``: as for
     art no artist chose to weight, as ``upgrade --weights auto`` binds
-    (:func:`spinemesh.rig.upgrade.upgrade_choice`). ``unsure``: the model only where it is
+    (:func:`spinemesh.rig.upgraded_meshes.upgrade_choice`). ``unsure``: the model only where it is
     confident, the rule elsewhere: where a candidate's per-bone probability lies inside this
     band, the rule's bones."""
     from spinemesh.train import bone_choice as train_choice

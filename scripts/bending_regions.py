@@ -4,7 +4,7 @@
 
 For every project folder under each argument (or the argument itself, when it is a project),
 every skeleton is read and each region attachment's whole quad is placed in the setup pose
-(:class:`spinemesh.rig.upgrade.BendingRegions`): it *may bend* when the ``auto`` bone choice
+(:class:`spinemesh.rig.upgraded_meshes.BendingRegions`): it *may bend* when the ``auto`` bone choice
 gives it more than one bone (``upgrade --weights auto`` then lets the bone choice on the mesh decide, so
 this is an upper bound). Prints per project: skeletons, region attachments, regions on an
 exact slot bone, regions whose quad may bend, seconds. ``--names`` prints only the names of the
@@ -24,7 +24,7 @@ def scan(folder: Path) -> dict:
     from spinemesh.errors import SpineMeshError
     from spinemesh.project import find_project
     from spinemesh.rig.document import build_rig
-    from spinemesh.rig.upgrade import BendingRegions
+    from spinemesh.rig.upgraded_meshes import BendingRegions
     from spinemesh.skeleton import iter_attachments, load_skeleton
 
     t0 = time.perf_counter()

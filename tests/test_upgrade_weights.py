@@ -155,7 +155,7 @@ def test_testing_only_the_regions_kept_for_bending_gives_what_testing_all_before
     and the report are those of testing every region before meshing (and meshing those that bend
     as bending tasks), with fewer tests."""
     from spinemesh.cluster import Workers
-    from spinemesh.rig.upgrade import BendingRegions
+    from spinemesh.rig.upgraded_meshes import BendingRegions
     from spinemesh.upgrade.bending import gather_habits
     from spinemesh.upgrade.meshing import mesh_tasks
     from spinemesh.upgrade.plan import bending_task
@@ -235,7 +235,7 @@ def test_a_region_whose_art_stops_short_of_the_joint_is_not_meshed_to_bend(tmp_p
     assert bar.status == "kept" and bar.reason.startswith("not worth meshing") and bar.weights is None, bar
     # the whole quad would have bent: over both bones
     from spinemesh.rig.document import build_rig
-    from spinemesh.rig.upgrade import BendingRegions
+    from spinemesh.rig.upgraded_meshes import BendingRegions
 
     doc = json.loads(project.read_text())
     ref = next(r for r in iter_attachments(doc) if r.slot == "bar")
@@ -245,7 +245,7 @@ def test_a_region_whose_art_stops_short_of_the_joint_is_not_meshed_to_bend(tmp_p
 def test_a_mesh_made_to_bend_that_gets_one_bone_is_its_region_again(tmp_path):
     """weight_upgraded puts the region back, before solving weights, when the mesh meshed only to
     bend gets one bone (its art misses every other bone)."""
-    from spinemesh.rig.upgrade import weight_upgraded
+    from spinemesh.rig.upgraded_meshes import weight_upgraded
 
     project = make_bar_project(tmp_path / "p")
     # flag meshed with the rule off, as a bending task would be, then weighted: it gets one bone
@@ -338,7 +338,7 @@ def test_art_no_artist_weighted_gets_several_bones_only_where_another_is_likely(
     (``upgrade``, and ``weights`` on an unweighted mesh), only the slot's bone, and why."""
     from spinemesh.rig.document import build_rig
     from spinemesh.rig.learned import choose_learned
-    from spinemesh.rig.upgrade import QUAD_TRIANGLES, BendingRegions
+    from spinemesh.rig.upgraded_meshes import QUAD_TRIANGLES, BendingRegions
 
     doc = bar_skeleton(lower_x=1000.0)
     rig = build_rig(doc)
@@ -363,7 +363,7 @@ def test_a_rig_makes_each_learned_choice_once_and_afresh_for_another_model(monke
     in, is chosen afresh."""
     from spinemesh.rig import document, learned
     from spinemesh.rig.document import build_rig
-    from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
+    from spinemesh.rig.upgraded_meshes import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
 
     made = []
     monkeypatch.setattr(document, "choose_learned", lambda *a, **k: made.append(1) or learned.choose_learned(*a, **k))
@@ -390,7 +390,7 @@ def test_the_bending_prefilter_reaches_as_far_as_the_candidates_along_the_chain(
     candidates' reach off the chain: the box test that skips the choice must not skip it."""
     from spinemesh.rig.document import build_rig
     from spinemesh.rig.learned import CHAIN_REACH, REACH
-    from spinemesh.rig.upgrade import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
+    from spinemesh.rig.upgraded_meshes import QUAD_TRIANGLES, QUAD_UV, BendingRegions, upgrade_choice
 
     doc = {"skeleton": {"spine": "4.2.22"},
            "bones": [{"name": "root"}, {"name": "arm", "parent": "root", "x": 1000, "length": 100},
@@ -420,7 +420,7 @@ def test_meshes_weighted_on_the_workers_give_the_output_of_this_process_byte_for
     """--weights auto with worker processes weights the meshes on them, a few per job: the
     output and the report are those of one process, byte for byte (a mesh weighted on a worker
     comes back to its own place in its document)."""
-    import spinemesh.rig.upgrade as rig_upgrade
+    import spinemesh.rig.upgraded_meshes as upgraded_meshes
     from conftest import example_projects
 
     project = next((p for p in example_projects("4.2") if p.name == "mix-and-match"), None)
@@ -428,17 +428,17 @@ def test_meshes_weighted_on_the_workers_give_the_output_of_this_process_byte_for
         from conftest import unavailable
 
         unavailable("4.2 example mix-and-match absent")
-    monkeypatch.setattr(rig_upgrade, "MESHES_PER_JOB", 3)  # many jobs, out of order
+    monkeypatch.setattr(upgraded_meshes, "MESHES_PER_JOB", 3)  # many jobs, out of order
     calls = []
-    monkeypatch.setattr(rig_upgrade, "weighting_jobs",
-                        lambda *a, f=rig_upgrade.weighting_jobs: calls.append(1) or f(*a))
+    monkeypatch.setattr(upgraded_meshes, "weighting_jobs",
+                        lambda *a, f=upgraded_meshes.weighting_jobs: calls.append(1) or f(*a))
     skeleton = project / "mix-and-match-pro.json"
     here = upgrade_project(skeleton, tmp_path / "here", Options(weights="auto", jobs=1))
     apart = upgrade_project(skeleton, tmp_path / "apart", Options(weights="auto", jobs=2))
     assert not calls[1:], "one skeleton: its jobs made once, on the run with workers only"
     assert calls, "the run with workers did not weigh on them"
     weighted = [t for t in apart.targets if t.weights and t.weights["status"] == "weighted"]
-    assert len(weighted) > rig_upgrade.MESHES_PER_JOB, "too few meshes weighted to need several jobs"
+    assert len(weighted) > upgraded_meshes.MESHES_PER_JOB, "too few meshes weighted to need several jobs"
     assert _rows(here) == _rows(apart)
     assert _folder_bytes(tmp_path / "here") == _folder_bytes(tmp_path / "apart")
 
@@ -600,7 +600,7 @@ def test_a_mesh_whose_weighting_fails_after_vertices_were_added_is_as_it_was(tmp
     bones, then a failure, leave the attachment and every list of the document as they were
     (the lists are replaced, never changed in place)."""
     from spinemesh.errors import SpineMeshError
-    from spinemesh.rig import upgrade as rig_upgrade
+    from spinemesh.rig import upgraded_meshes as upgraded_meshes
 
     project = make_bar_project(tmp_path / "p")
     result = upgrade_project(project, tmp_path / "meshed", Options(weights="none", min_saving=None))
@@ -615,9 +615,9 @@ def test_a_mesh_whose_weighting_fails_after_vertices_were_added_is_as_it_was(tmp
             r.attachment for r in iter_attachments(before) if (r.slot, r.name) == (ref.slot, ref.name))["uvs"]))
         raise SpineMeshError("a failure after the vertices were added")
 
-    monkeypatch.setattr(rig_upgrade, "weight_mesh", failing)
+    monkeypatch.setattr(upgraded_meshes, "weight_mesh", failing)
     targets = [t for t in result.targets if t.status == "meshed"]
-    rig_upgrade.weight_upgraded(doc, targets)
+    upgraded_meshes.weight_upgraded(doc, targets)
     assert any(grown), "no vertices were added: the test proves nothing"
     assert all(t.weights["status"] == "failed" and t.weights["added_vertices"] == 0 for t in targets)
     assert doc == before

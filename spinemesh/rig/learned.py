@@ -703,7 +703,7 @@ def choose_learned(bones, slot_bone: int, world: np.ndarray, triangles: np.ndarr
     choice one time in four (measured project-held-out: ``docs/guide/bones.md``, *While upgrading*).
 
     ``explain=False``: the same bones, without the reasons (``why`` and ``left_out`` empty), for
-    a caller that only counts them (:meth:`.upgrade.BendingRegions.bends`): the habits' notes
+    a caller that only counts them (:meth:`.upgraded_meshes.BendingRegions.bends`): the habits' notes
     evaluate the model a second time.
 
     ``least_likely``: with the project's habits, bones the per-bone model finds less likely than

@@ -11,7 +11,7 @@ A region whose art bends with the skeleton is meshed even where the keep rule
 (:mod:`spinemesh.mesher.worth`) would keep it for saving too few pixels (its
 :func:`~.plan.bending_task`). That task's mesh differs from the plain one only where the plain
 one is kept: so every image is meshed plain first, and only the regions whose plain mesh the
-rule kept are tested for bending (:meth:`spinemesh.rig.upgrade.BendingRegions.bends`, on the
+rule kept are tested for bending (:meth:`spinemesh.rig.upgraded_meshes.BendingRegions.bends`, on the
 box of their art), as each plain mesh arrives (:class:`BendingTests`, while the workers mesh
 the others), and meshed again as bending tasks; :func:`settle_bending` collects them before the
 meshes go into the documents. Testing every region before meshing gave the same meshes for

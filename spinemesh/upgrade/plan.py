@@ -271,9 +271,9 @@ def bending_task(task: MeshTask) -> MeshTask:
 def art_box(task: MeshTask) -> np.ndarray:
     """The corners (4, 2) of the box around the texels ``task`` must cover, as image points
     (u, v), 0..1 over the original image, in the order of a region's quad
-    (:data:`spinemesh.rig.upgrade.QUAD_UV`); the whole quad when it covers none.
+    (:data:`spinemesh.rig.upgraded_meshes.QUAD_UV`); the whole quad when it covers none.
 
-    What :class:`spinemesh.rig.upgrade.BendingRegions` tests (:mod:`.bending`): the quad reaches
+    What :class:`spinemesh.rig.upgraded_meshes.BendingRegions` tests (:mod:`.bending`): the quad reaches
     past the art wherever the image has transparent margins, and bones there are not the art's.
     """
     ys, xs = np.nonzero(task.drawn)
@@ -411,7 +411,7 @@ class Planner:
 
         Those that need their image are left to :meth:`decide` (:attr:`undecided`), so that
         the pages they are cut from can be decoded meanwhile (:meth:`pages_to_decode`).
-        ``bending`` (:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, with
+        ``bending`` (:class:`spinemesh.rig.upgraded_meshes.BendingRegions` of ``doc``, with
         ``--weights auto``) tells which regions would bend, given the box of their art
         (:func:`art_box`): those the keep rule keeps are tested once meshed (:attr:`may_bend`).
         """
@@ -706,13 +706,13 @@ def plan_read_project(reading: ProjectReading) -> ProjectPlan:
 
 
 def bending_regions(doc: dict):
-    """:class:`spinemesh.rig.upgrade.BendingRegions` of ``doc``, or None when its rig cannot be built.
+    """:class:`spinemesh.rig.upgraded_meshes.BendingRegions` of ``doc``, or None when its rig cannot be built.
 
     The rig samples the skeleton's animations when a choice first needs them (the motion guard
-    of :func:`spinemesh.rig.upgrade.upgrade_choice`)."""
+    of :func:`spinemesh.rig.upgraded_meshes.upgrade_choice`)."""
     from ..anim.motion import sampled_bone_worlds
     from ..rig.document import build_rig
-    from ..rig.upgrade import BendingRegions
+    from ..rig.upgraded_meshes import BendingRegions
 
     try:
         return BendingRegions.of(build_rig(doc, sample_motion=sampled_bone_worlds))

@@ -34,7 +34,7 @@ class Target:
     waste: float | None = None
     seconds: float = 0.0
 
-    weights: dict | None = None      # --weights auto: bones chosen and why (spinemesh.rig.upgrade)
+    weights: dict | None = None      # --weights auto: bones chosen and why (spinemesh.rig.upgraded_meshes)
     # --weights auto, meshed only because it would bend: the keep rule's reason, and the region
     # it replaced (put back if the mesh does not get more than one bone); not report columns
     overruled: str = ""

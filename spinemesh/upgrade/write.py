@@ -93,7 +93,7 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
         apply_meshes(sk.doc, sk.targets, meshes, plan.tasks, str(sk.path))
     if plan.options is None or plan.options.weights != "auto":
         return
-    from ..rig.upgrade import weight_upgraded
+    from ..rig.upgraded_meshes import weight_upgraded
 
     t0 = time.perf_counter()
     progress.add("weights", sum(t.status == "meshed" for sk in plan.skeletons for t in sk.targets))
@@ -113,12 +113,12 @@ def apply_project(plan: ProjectPlan, meshes: dict[str, MeshResult], result: Resu
 def weight_on_workers(workers: Workers, skeletons: list, max_vertices: int | None,
                       progress: Progress = SILENT) -> list[tuple]:
     """Weight the upgraded meshes of ``skeletons`` on ``workers``, in jobs of a few meshes
-    (:func:`spinemesh.rig.upgrade.weighting_jobs`); the weighting is the same wherever it runs,
+    (:func:`spinemesh.rig.upgraded_meshes.weighting_jobs`); the weighting is the same wherever it runs,
     and each job's result is put back by place, never by arrival order, so the output is the
     same byte for byte. Returns ``(skeleton, targets)`` left to weight here: the skeletons without
     a rig (their weighting reports why per mesh) and the targets of jobs whose worker was lost.
     """
-    from ..rig.upgrade import put_back_weighted, weight_apart, weighting_jobs
+    from ..rig.upgraded_meshes import put_back_weighted, weight_apart, weighting_jobs
 
     here, jobs = [(sk, sk.targets) for sk in skeletons if sk.rig is None], {}
     for sk in skeletons:
