@@ -58,7 +58,7 @@ SHARED = REPO.parent / "shared"
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.project import find_project, image_source_for  # noqa: E402
 from spinemesh.rig.binding import bind, parse_vertices, setup_world  # noqa: E402
-from spinemesh.anim.motion import sampled_bone_worlds  # noqa: E402
+from spinemesh.anim.bone_worlds import sampled_bone_worlds  # noqa: E402
 from spinemesh.rig.document import WeightOptions, build_rig, weight_document  # noqa: E402
 from spinemesh.skeleton import dumps_skeleton, iter_attachments, load_skeleton, spine_version  # noqa: E402
 

@@ -53,7 +53,7 @@ dropped instead of below 0.01), ``cap=K`` (at most ``K`` bones per vertex), ``re
 missing the art by at most ``R`` times its diagonal get a handle; ``NEAR`` by default),
 ``method=M`` (:func:`spinemesh.rig.weights.solve_weights`'s method; ``falloff=P`` the exponent of
 ``method=geodesic``), ``driftslot=D`` (the
-motion guard of the product, :func:`spinemesh.rig.motion.guard`, at limit ``D``: bones that would
+motion guard of the product, :func:`spinemesh.rig.drift.guard`, at limit ``D``: bones that would
 carry the art more than ``D`` art diagonals from its slot's bone in the skeleton's animations,
 sampled by our own sampler, left out and the slot's bone bound; ``drift=D`` the same without
 binding the slot's bone unless nothing is left; ``near=R`` the slot's bone taken as where the art
@@ -318,7 +318,7 @@ def learned(fold_models: Path, skeletons: dict[str, list[Path]], alone: bool = F
     from spinemesh.train import bone_choice as train_choice
     from spinemesh.rig.habits import keys_of
     from spinemesh.rig.learned import candidates, choose_learned, neighbour_sets
-    from spinemesh.rig.motion import follows_slot
+    from spinemesh.rig.drift import follows_slot
 
     models: dict[int, object] = {}
     habits: dict[str, object] = {}
@@ -380,10 +380,10 @@ def without_unlikely_but_bound(case: dict, model, others, nearby: dict, chosen: 
     but for the bones the project's artists bound on the other meshes on the same slot bone or its
     mirror image (``nearby``: :func:`spinemesh.rig.learned.neighbour_sets`), kept whatever the
     per-bone model finds (``habitkeep=slot``: only where the slot's bone stands for where the art
-    goes, :func:`spinemesh.rig.motion.follows_slot`; ``habitkeep=most``: only the bones at least
+    goes, :func:`spinemesh.rig.drift.follows_slot`; ``habitkeep=most``: only the bones at least
     half of those meshes bound)."""
     from spinemesh.rig.learned import LEAST_LIKELY, _without_unlikely, candidates
-    from spinemesh.rig.motion import follows_slot
+    from spinemesh.rig.drift import follows_slot
 
     rig, slot_bone = case["rig"], case["slot_bone"]
     if others is None or not np.any(others) or unweighted:
@@ -405,7 +405,7 @@ def without_unlikely_but_bound(case: dict, model, others, nearby: dict, chosen: 
     return sorted(cand.bones[k] for k in taken)
 
 
-#: Each skeleton's sampled bone transforms (:func:`spinemesh.anim.motion.sampled_bone_worlds`), by path.
+#: Each skeleton's sampled bone transforms (:func:`spinemesh.anim.bone_worlds.sampled_bone_worlds`), by path.
 SAMPLED: dict[Path, np.ndarray] = {}
 
 
@@ -413,10 +413,10 @@ def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = 
                   likeliest: int | None = None) -> list[int]:
     """``chosen`` without the bones that would carry the art more than ``limit`` art diagonals
     from where its slot's bone carries it over the skeleton's animations sampled by our own
-    sampler (:func:`spinemesh.rig.motion.guarded`, the ``drift=D`` step).
+    sampler (:func:`spinemesh.rig.drift.guarded`, the ``drift=D`` step).
 
     Where the slot's bone does not stand for where the art goes (the root, or off the art:
-    :func:`spinemesh.rig.motion.follows_slot`), the ``ref=R`` step measures against another
+    :func:`spinemesh.rig.drift.follows_slot`), the ``ref=R`` step measures against another
     bone instead, at the limit ``refdrift=D`` (default ``limit``): ``art``, the bone on the art
     nearest the art's centre (:func:`art_bone`); ``likely``, the chosen bone the model finds
     likeliest (``likeliest``); ``habit``, the chosen bone the project's artists bound most on
@@ -426,7 +426,7 @@ def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = 
     ``likeliest`` alone (``spreadwhere=off``: only where the slot's bone does not stand for the
     art)."""
     from spinemesh.rig.choice import Choice
-    from spinemesh.rig.motion import SLOT_NEAR, follows_slot, guarded
+    from spinemesh.rig.drift import SLOT_NEAR, follows_slot, guarded
 
     rig = case["rig"]
     follows = SOLVE.get("slot_near", 0.0) < 0 or follows_slot(rig.bones, case["slot_bone"], case["world"],
@@ -451,10 +451,10 @@ def guarded_bones(case: dict, chosen: list[int], limit: float, add_slot: bool = 
 
 def drift_between(case: dict, reference: int, bones: list[int]) -> dict[int, float]:
     """How far each of ``bones`` would carry the art from where ``reference`` carries it
-    (:func:`spinemesh.rig.motion.drifts`), over the skeleton's animations sampled by our own
+    (:func:`spinemesh.rig.drift.drifts`), over the skeleton's animations sampled by our own
     sampler; kept on the case."""
-    from spinemesh.anim.motion import sampled_bone_worlds
-    from spinemesh.rig.motion import drifts
+    from spinemesh.anim.bone_worlds import sampled_bone_worlds
+    from spinemesh.rig.drift import drifts
 
     if case["path"] not in SAMPLED:
         SAMPLED[case["path"]] = sampled_bone_worlds(load_skeleton(case["path"]))
@@ -467,10 +467,10 @@ def drift_between(case: dict, reference: int, bones: list[int]) -> dict[int, flo
 
 def art_bone(case: dict) -> int | None:
     """The bone whose segment passes nearest the centre of the art's bounding box among the
-    bones that lie on the art (within :data:`spinemesh.rig.motion.SLOT_NEAR` of its diagonal),
+    bones that lie on the art (within :data:`spinemesh.rig.drift.SLOT_NEAR` of its diagonal),
     not the root, setup transform exact; None when there is none."""
     from spinemesh.rig.choice import distance_to_art
-    from spinemesh.rig.motion import SLOT_NEAR
+    from spinemesh.rig.drift import SLOT_NEAR
 
     if "art_bone" not in case:
         rig, world = case["rig"], case["world"]

@@ -211,7 +211,7 @@ def test_offline_habitkeep_keeps_the_unlikely_bones_the_projects_artists_bound_o
     import numpy as np
 
     import bench_weights_offline as offline
-    from spinemesh.rig import motion
+    from spinemesh.rig import drift
     from spinemesh.rig.habits import TALLY_SIZE
     from spinemesh.rig.learned import TreeEnsemble
     from test_bone_choice_learned import _mesh_of, _tree_model, _worm_mesh_doc
@@ -232,7 +232,7 @@ def test_offline_habitkeep_keeps_the_unlikely_bones_the_projects_artists_bound_o
     assert keep("1", {}, habits=None) == chosen and keep("1", {}, unweighted=True) == chosen
     split = {**bound, (at["seg1"], at["seg2"]): 2}                       # bound on 1 of 3: not by most
     assert keep("1", split) == chosen and keep("most", split) == [at["seg2"]] and keep("most", bound) == chosen
-    monkeypatch.setattr(motion, "follows_slot", lambda *a, **k: False)  # slot's bone off the art
+    monkeypatch.setattr(drift, "follows_slot", lambda *a, **k: False)  # slot's bone off the art
     assert keep("slot", bound) == [at["seg2"]] and keep("1", bound) == chosen
     steps = "learned:driftslot=0.75+habitkeep=slot"
     assert offline.finished({}, steps, np.eye(2), [0, 1], 4).shape == (2, 2)  # a choice step

@@ -6,8 +6,8 @@ import numpy as np
 
 from spinemesh.rig.choice import Choice
 from spinemesh.rig.document import build_rig
-from spinemesh.anim.motion import sampled_bone_worlds
-from spinemesh.rig.motion import DRIFT_LIMIT, drifts, guarded
+from spinemesh.anim.bone_worlds import sampled_bone_worlds
+from spinemesh.rig.drift import DRIFT_LIMIT, drifts, guarded
 
 from rig_project import worm_skeleton
 
@@ -65,7 +65,7 @@ def test_the_guard_leaves_the_flipping_bone_out_and_keeps_the_forearm():
 def test_the_auto_choice_is_guarded_where_the_slot_bone_carries_the_art():
     import pickle
 
-    from spinemesh.rig.motion import Motion, guard
+    from spinemesh.rig.drift import Motion, guard
 
     doc = _worm_with_flap()
     rig = build_rig(doc, sampled_bone_worlds)

@@ -194,7 +194,7 @@ def test_pose_command_on_a_skeleton_full_of_hostile_animations(tmp_path):
 def test_motion_sampling_of_an_animation_hours_long_is_bounded():
     """``weights``' motion guard samples every animation at thirds of its length: a key at
     1e30 s once summed 6e31 game-loop steps."""
-    from spinemesh.anim.motion import sampled_bone_worlds
+    from spinemesh.anim.bone_worlds import sampled_bone_worlds
 
     doc = _doc()
     doc["events"] = {"x": {}}

@@ -81,7 +81,7 @@ def weights(
     Example: spinemesh weights project/hero.skel --out weighted/ --preview pics/
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
-    from ..anim.motion import sampled_bone_worlds
+    from ..anim.bone_worlds import sampled_bone_worlds
     from ..fsutil import OutputGuard, named_project, project_folder, refuse_overlapping_outputs
     from ..output import run_report_error
     from ..rig.document import WeightOptions

@@ -23,7 +23,7 @@ from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
 from .learned import choose_learned, constrained_bones, neighbour_sets
-from .motion import Motion, guard
+from .drift import Motion, guard
 from .weights import solve_weights_once, sparsify
 
 METHODS = ("bbw", "harmonic", "biharmonic", "geodesic")
@@ -49,7 +49,7 @@ class WeightOptions:
     only: list[str] = field(default_factory=list)
     exclude: list[str] = field(default_factory=list)
     # how the skeleton's animations are sampled for the motion guard of the learned choice
-    # (:class:`.motion.Motion`; ``spinemesh weights`` passes spinemesh.anim.motion.sampled_bone_worlds);
+    # (:class:`.drift.Motion`; ``spinemesh weights`` passes spinemesh.anim.bone_worlds.sampled_bone_worlds);
     # None: the choice is not guarded
     sample_motion: object = None
 
@@ -94,7 +94,7 @@ class Rig:
     habits: ProjectHabits | None = None
     # learned choices made on this rig, by everything they depend on (:func:`choose`)
     choices: dict = field(default_factory=dict, repr=False, compare=False)
-    # the skeleton's animations, sampled when a learned choice is first guarded (:func:`.motion.guard`)
+    # the skeleton's animations, sampled when a learned choice is first guarded (:func:`.drift.guard`)
     motion: Motion | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -166,7 +166,7 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
     (``auto``: :data:`AUTO_BONES`; with the project's habits when ``rig.habits`` holds them;
     ``unweighted``: for art no artist chose to weight; ``explain=False``: the learned choice's
     bones without their reasons, :func:`.learned.choose_learned`; ``guarded=False``: without
-    leaving out the bones that would carry the art away, :func:`.motion.guard`)."""
+    leaving out the bones that would carry the art away, :func:`.drift.guard`)."""
     slot_bone = rig.slot_bone[ref.slot]
     if mode == "keep":
         current = mesh.bones() if mesh.weighted else [slot_bone]

@@ -145,7 +145,7 @@ def upgrade_choice(rig: Rig, ref: AttachmentRef, world: np.ndarray, triangles: n
     explain : bool
         False: the bones alone, without the reasons for them and for the bones left out.
     """
-    # guarded (.motion.guard) where the rig can sample the animations: unguarded, a slash effect
+    # guarded (.drift.guard) where the rig can sample the animations: unguarded, a slash effect
     # was bound to a shoe's bone and dragged across the body as she kicked (docs/guide/bones.md,
     # "Bones that would carry the art away")
     return choose(rig, ref, None, world, triangles, "auto", unweighted=True, explain=explain)
@@ -242,7 +242,7 @@ def weighting_jobs(doc: dict, targets, max_vertices: int | None, rig: Rig) -> li
     meshed = [t for t in targets if t.status == "meshed"]
     light = {k: v for k, v in doc.items() if k != "animations"}
     # the choices made before meshing stay here: not the meshes'; the motion goes as its sampled
-    # frames (.motion.Motion), so that the workers guard as this process would
+    # frames (.drift.Motion), so that the workers guard as this process would
     rig = dataclasses.replace(rig, choices={})
     return [(light, meshed[s:s + MESHES_PER_JOB], max_vertices, rig) for s in range(0, len(meshed), MESHES_PER_JOB)]
 

@@ -710,7 +710,7 @@ def bending_regions(doc: dict):
 
     The rig samples the skeleton's animations when a choice first needs them (the motion guard
     of :func:`spinemesh.rig.upgraded_meshes.upgrade_choice`)."""
-    from ..anim.motion import sampled_bone_worlds
+    from ..anim.bone_worlds import sampled_bone_worlds
     from ..rig.document import build_rig
     from ..rig.upgraded_meshes import BendingRegions
 

@@ -59,7 +59,7 @@ def drifts(world: np.ndarray, setup: np.ndarray, frames: np.ndarray, slot_bone: 
     setup : ndarray, shape (B, 2, 3)
         Every bone's setup world transform.
     frames : ndarray, shape (F, B, 2, 3)
-        Every bone's world transform in the sampled frames (:func:`spinemesh.anim.motion.sampled_bone_worlds`).
+        Every bone's world transform in the sampled frames (:func:`spinemesh.anim.bone_worlds.sampled_bone_worlds`).
     slot_bone : int
         The slot's bone.
     bones : iterable of int
@@ -139,7 +139,7 @@ DRIFT_LIMIT = 0.75
 
 class Motion:
     """A skeleton's sampled animations, sampled when first asked for by ``sample(doc, said=[])`` (the
-    weights command passes :func:`spinemesh.anim.motion.sampled_bone_worlds`: the sampler sits
+    weights command passes :func:`spinemesh.anim.bone_worlds.sampled_bone_worlds`: the sampler sits
     above the rig, so it is handed down); without ``sample`` there is nothing to guard by.
 
     Kept on the rig (:class:`.document.Rig`). Sent to another process it carries the sampled

@@ -1,6 +1,6 @@
 """Every bone's world transform over a few frames of each of a skeleton's animations.
 
-What the bone choice's motion guard measures drift on (:mod:`spinemesh.rig.motion`): the
+What the bone choice's motion guard measures drift on (:mod:`spinemesh.rig.drift`): the
 animations are known when a project is weighted, so sampling them is no peeking at an answer.
 """
 
