@@ -103,8 +103,9 @@ def pose(
     # by a proxy that holds text until a newline and then prints it on stderr.
     with progress_bar("pose", transient=True) as bar:
         task = bar.add_task(console_text(animation or "setup"), total=1 + (len(seconds) if animation else 0))
+        not_numbers: dict[str, list[str]] = {}
         poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
-                                  step=lambda: bar.advance(task)), animation, skeleton)
+                                  step=lambda: bar.advance(task)), animation, skeleton, not_numbers)
         head = dump_head(sampler, Path(skeleton).name, fps)  # its name: the same bytes from any folder
         pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
                                        ["\n"]), skeleton)
@@ -112,6 +113,9 @@ def pose(
             _echo_whole(pieces, stdout)
         else:
             atomic_write_pieces(out, pieces)
+    if not_numbers:
+        err_console.print(f"warning: {not_a_number_said(not_numbers, skeleton)}", highlight=False, markup=False,
+                          soft_wrap=True)
     if out is not None:
         err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
     if undrawn or unplayable:
@@ -259,16 +263,34 @@ def _holding():
                           tempfile.gettempdir()) from None
 
 
-def _posed(poses, animation: str | None, skeleton: Path):
+def _posed(poses, animation: str | None, skeleton: Path, not_numbers: dict[str, list[str]]):
     """``poses`` (the dump's, made one by one), what the sampler cannot play refused in one line
-    naming the skeleton (what the document's check let through)."""
+    naming the skeleton (what the document's check let through); the bones a pose leaves without
+    a number (written null) are added to ``not_numbers``, bone name -> the poses' labels."""
     from ..anim import POSE_ERRORS
     from ..errors import SpineMeshError
 
     try:
-        yield from poses
+        for entry in poses:
+            for name, numbers in entry["bones"].items():
+                if None in numbers:
+                    not_numbers.setdefault(name, []).append(entry["label"])
+            yield entry
     except POSE_ERRORS as e:
         raise SpineMeshError(f"animation {animation!r} cannot be posed: {e}", skeleton) from None
+
+
+def not_a_number_said(not_numbers: dict[str, list[str]], skeleton: Path) -> str:
+    """One line naming the bones whose pose is not a number (the first few, and the poses where),
+    written null: the runtime of the skeleton's version computes NaN there and draws nothing."""
+    names = list(not_numbers)
+    labels = list(dict.fromkeys(label for where in not_numbers.values() for label in where))
+    bones = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    poses = ", ".join(labels[:3]) + (f" and {len(labels) - 3} more" if len(labels) > 3 else "")
+    return (f"{skeleton}: {len(names)} bone{'s' if len(names) != 1 else ''} ({bones}) not a number in "
+            f"{len(labels)} pose{'s' if len(labels) != 1 else ''} ({poses}): written null; the runtime of the "
+            "skeleton's version computes no number there either (a degenerate pose, such as a scale of 0 above "
+            "them) and draws nothing of them")
 
 
 def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps: float, skeleton: Path,

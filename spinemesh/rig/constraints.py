@@ -421,8 +421,8 @@ def ik_two(parent: PoseBone, child: PoseBone, tx_world: float, ty_world: float, 
     det = a * d - b * c
     if family in ("4.1", "4.2"):
         inv = 0.0 if abs(det) <= 0.0001 else 1 / det
-    else:
-        inv = 1 / det
+    else:  # 3.8, 4.0: a grandparent scaled to nothing makes these bones NaN there, as in the runtime
+        inv = float_divide(1.0, det)
     x, y = cwx - ppwx, cwy - ppwy
     dx, dy = (x * d - y * b) * inv - px, (y * a - x * c) * inv - py
     l1, l2 = math.hypot(dx, dy), child.length * csx

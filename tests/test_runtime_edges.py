@@ -1,0 +1,93 @@
+"""Poses at the edges where the runtimes of each version part: proved against their dumps.
+
+Each case is a small rig of our own (``rig_project``'s worm) posed by the sampler and by the
+official runtime of the skeleton's version (``../shared/tools/spine-runtime``), compared bone
+by bone and vertex by vertex; where the runtime computes no number (NaN, null in its dump), our
+dump holds null at the same places, and ``spinemesh pose`` says so in one line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from spinemesh.anim import Sampler, atlas_regions
+from spinemesh.anim.dump import dump
+from spinemesh.atlas import read_atlas
+
+from rig_project import make_worm_project, worm_skeleton
+from runtime_tool import pose_dump
+
+VERSIONS = ["3.8.99", "4.0.64", "4.1.24", "4.2.22"]
+
+
+def _worm(version: str) -> dict:
+    """The worm in ``version``'s JSON (3.8 keys a rotation's ``angle``), with a ``target`` bone."""
+    doc = worm_skeleton(version)
+    if version.startswith("3."):
+        for timelines in doc["animations"]["wiggle"]["bones"].values():
+            for key in timelines["rotate"]:
+                key["angle"] = key.pop("value")
+    doc["bones"].append({"name": "target", "parent": "root", "x": 60, "y": 50})
+    return doc
+
+
+def _same_dumps(ours: dict, theirs: dict, tolerance: float = 0.01) -> None:
+    """Every pose's bones and drawn vertices within ``tolerance``, null (no number) at the same places."""
+    assert [p["label"] for p in ours["poses"]] == [p["label"] for p in theirs["poses"]]
+    for a, b in zip(ours["poses"], theirs["poses"]):
+        pairs = [(a["bones"][name], m, name) for name, m in b["bones"].items()]
+        assert [s["slot"] for s in a["attachments"]] == [s["slot"] for s in b["attachments"]], a["label"]
+        pairs += [(x["vertices"], y["vertices"], x["slot"]) for x, y in zip(a["attachments"], b["attachments"])]
+        for mine, runtime, where in pairs:
+            mine, runtime = np.array(mine, float), np.array(runtime, float)  # null -> NaN
+            assert mine.shape == runtime.shape, (a["label"], where)
+            assert (np.isnan(mine) == np.isnan(runtime)).all(), (a["label"], where, mine, runtime)
+            known = ~np.isnan(runtime)
+            assert np.abs(mine[known] - runtime[known]).max(initial=0) <= tolerance, (a["label"], where)
+
+
+def _reach_under_a_flat_grandparent(version: str, scale: str) -> dict:
+    """Two-bone IK on seg2 and seg3, whose grandparent seg1 is scaled to 0 along ``scale``."""
+    doc = _worm(version)
+    doc["bones"][1][scale] = 0
+    doc["slots"][0]["bone"] = "seg3"
+    doc["ik"] = [{"name": "reach", "bones": ["seg2", "seg3"], "target": "target"}]
+    return doc
+
+
+@pytest.mark.parametrize("scale", ["scaleX", "scaleY"])
+@pytest.mark.parametrize("version", VERSIONS)
+def test_two_bone_ik_under_a_grandparent_scaled_to_zero_poses_as_each_runtime(version, scale, spine_runtime,
+                                                                               tmp_path):
+    """3.8 and 4.0 divide by the grandparent's zero determinant: both IK bones and what they
+    draw are NaN there (null in the dumps); 4.1 and 4.2 take the inverse as 0 and pose them."""
+    path = make_worm_project(tmp_path / "in")
+    doc = _reach_under_a_flat_grandparent(version, scale)
+    path.write_text(json.dumps(doc))
+    atlas = path.parent / "worm.atlas"
+    theirs = pose_dump(spine_runtime, atlas, path, tmp_path / "d.json", "wiggle", "0,0.5")
+    ours = dump(Sampler(doc, None, atlas_regions(read_atlas(atlas))), "wiggle", [0, 0.5])
+    _same_dumps(ours, theirs)
+    nan = any(None in p["bones"]["seg3"] for p in theirs["poses"])
+    assert nan == (version[:3] in ("3.8", "4.0"))  # the case is the one each version parts on
+
+
+def test_pose_says_in_one_line_which_bones_the_runtime_leaves_without_a_number(tmp_path):
+    path = make_worm_project(tmp_path / "in")
+    path.write_text(json.dumps(_reach_under_a_flat_grandparent("3.8.99", "scaleX")))
+    out = tmp_path / "pose.json"
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", path, "-a", "wiggle", "--times", "0.5",
+                        "--out", out], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+    assert r.returncode == 0, r.stderr
+    said = [line for line in r.stderr.splitlines() if "not a number" in line]
+    assert len(said) == 1 and "2 bones (seg2, seg3)" in said[0] and "setup, wiggle@0.5" in said[0], r.stderr
+    text = out.read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    pose = json.loads(text)["poses"][1]
+    assert pose["bones"]["seg3"] == [None] * 6 and pose["bones"]["seg1"][0] == 0
