@@ -166,18 +166,3 @@ def test_upgrade_keeps_a_skel_naming_a_slot_twice_as_it_is(tmp_path):
     assert r.returncode != 0 and f"slots named once each, found {NAME!r} naming two" in r.stderr, r.stderr
     assert not written.exists() or written.read_bytes() == (project / "demo-binary.skel").read_bytes()
 
-
-def test_the_same_names_in_json_still_convert(tmp_path):
-    """A JSON naming two slots alike means the first by the name wherever it is named (the
-    runtimes' ``findSlot``), which the ``.skel`` written from it keeps: still converted."""
-    from spinemesh.errors import SkelFormatError
-    from spinemesh.skeleton_binary import read_skel
-
-    doc = _doc_4x("4.2.40")
-    doc["slots"] += [{"name": NAME, "bone": "arm"}, {"name": NAME, "bone": "head"}]
-    doc["animations"]["t"] = {"slots": {NAME: {"rgba": [{"color": "ff000080"}]}}}
-    (tmp_path / "x.json").write_text(json.dumps(doc))
-    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
-    with pytest.raises(SkelFormatError, match="slots named once each"):
-        read_skel(tmp_path / "x.skel")

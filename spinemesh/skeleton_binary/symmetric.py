@@ -113,20 +113,22 @@ CONSTRAINT_WORDS = {"ik": "IK constraints", "transform": "transform constraints"
 
 
 def names_once(s, names, key: str, kind: str) -> None:
-    """Refuse a list read from a ``.skel`` that names two items alike, where the file refers to
-    them by place.
+    """Refuse a list read from a ``.skel``, or to be written to one, that names two items alike,
+    where the file refers to them by place.
 
     A ``.skel`` refers to slots, constraints, events, skins and animations by index; the
     document read from it (the JSON's layout) by name, so a timeline, skin entry or linked mesh
     aimed at the later of two items of one name would be posed as aimed at the first and written
     back so (a changed animation), and a name-keyed list (events; skins before 3.8; animations)
     would lose one. No editor writes such a file (two bones of one name are refused alike,
-    :func:`spinemesh.skeleton_check.bone_tree_problem`).
+    :func:`spinemesh.skeleton_check.bone_tree_problem`). Writing, a JSON's two slots (constraints,
+    skins) of one name are refused in the same words before any file is written: the ``.skel``
+    made of them would be one that this reader refuses.
 
     Parameters
     ----------
-    s : SkelReader
-        The reader, just past the list (the offset said).
+    s : SkelReader or SkelWriter
+        The reader, just past the list (the offset said), or the writer.
     names : list
         The items' names in file order (``None`` where an item of another type sits, in 4.3's
         one constraint list).

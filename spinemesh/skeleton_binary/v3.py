@@ -426,9 +426,9 @@ def path_constraint(s, node: dict, c: Context) -> None:
 def constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
     """A list of constraints under ``doc[key]`` (left out when empty); returns their name table."""
     items = nodes(s, None if s.reading else doc.get(key, []), fn, c, what=f"{key} constraint count")
+    names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
     if s.reading and items:
         doc[key] = items
-        names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
     return name_table([x.get("name") for x in items])
 
 
@@ -631,6 +631,7 @@ def skins(s, doc: dict, c: Context) -> None:
         c.skins = name_table([sk.get("name") for sk in listed])
         return
     listed = written_skins(doc, L)
+    names_once(s, [sk.get("name") for sk in listed], "skins", "skins")
     default = next((sk for sk in listed if sk.get("name") == "default"), None)
     skin_attachments(s, default["attachments"] if default else {}, c)
     others = [sk for sk in listed if sk is not default]
@@ -965,8 +966,8 @@ def body(s, doc: dict, c: Context) -> None:
     """Everything after the header (and the 3.8 string table)."""
     bones(s, doc, c)
     items = nodes(s, None if s.reading else doc.get("slots", []), slot, c, what="slot count")
+    names_once(s, [x.get("name") for x in items], "slots", "slots")
     if s.reading:
-        names_once(s, [x.get("name") for x in items], "slots", "slots")
         doc["slots"] = items
     c.slots = name_table([x.get("name") for x in items])
     c.ik = constraints(s, doc, "ik", ik, c)

@@ -68,10 +68,10 @@ def _constraints(s, doc: dict, key: str, fn, c: Context) -> tuple:
         items = seq(s, None, fn, c, what=f"{key} count")
         if items:
             doc[key] = items
-        names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
-        return _names(items)
-    items = doc.get(key, [])
-    seq(s, items, fn, c)
+    else:
+        items = doc.get(key, [])
+        seq(s, items, fn, c)
+    names_once(s, [x.get("name") for x in items], key, CONSTRAINT_WORDS[key])
     return _names(items)
 
 
@@ -127,6 +127,7 @@ def _slots(s, doc: dict, c: Context) -> None:
         doc["slots"] = items
         c.slots = _names(items)
     else:
+        names_once(s, [x.get("name") for x in doc.get("slots", [])], "slots", "slots")
         c.slots = _names(doc.get("slots", []))
         seq(s, doc.get("slots", []), slot, c)
 
@@ -134,6 +135,7 @@ def _slots(s, doc: dict, c: Context) -> None:
 def _skins(s, doc: dict, extra: dict, c: Context) -> None:
     """Skins; then, reading, each linked mesh's skin index resolved to its name."""
     if not s.reading:
+        names_once(s, [sk.get("name") for sk in _written_skins(doc)], "skins", "skins")
         c.skins = _names(_written_skins(doc))
         if c.L.constraint_list:
             c.timeline_slots = derived_timeline_slots(doc)

@@ -255,11 +255,9 @@ def constraint_list(s, doc: dict, c: Context) -> None:
             items.append(node)
         if items:
             doc["constraints"] = items
-        for kind in CONSTRAINT_TYPES:
-            names_once(s, [x.get("name") if x["type"] == kind else None for x in items], "constraints",
-                       CONSTRAINT_WORDS[kind])
     else:
         items = doc.get("constraints", [])
+        _names_once(s, items)
         s.count(len(items))
         for node in items:
             s.string(node.get("name"))
@@ -268,7 +266,17 @@ def constraint_list(s, doc: dict, c: Context) -> None:
                 raise s.fail(f"a constraint type ({', '.join(CONSTRAINT_TYPES)}), got {kind!r}")
             s.u8(CONSTRAINT_TYPES.index(kind))
             _BODIES[kind](s, node, c)
+    if s.reading:
+        _names_once(s, items)
     _tables(items, c)
+
+
+def _names_once(s, items: list) -> None:
+    """Each type's names once each (:func:`~spinemesh.skeleton_binary.symmetric.names_once`): checked
+    reading after the list, writing before it, so that nothing of such a list is written."""
+    for kind in CONSTRAINT_TYPES:
+        names_once(s, [x.get("name") if x.get("type") == kind else None for x in items], "constraints",
+                   CONSTRAINT_WORDS[kind])
 
 
 def _tables(items: list, c: Context) -> None:

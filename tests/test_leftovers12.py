@@ -1,0 +1,58 @@
+"""Small leftovers of the sixth stop, each proven here: ``convert`` refuses a JSON naming two
+slots (constraints, skins) alike before writing a ``.skel`` its own reader refuses, ..."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from test_hostile import check_run, run_cli, snapshot
+from test_skel_names_twice import NAME, _doc_3x, _doc_4x
+
+
+# --- convert: a JSON naming two items alike -----------------------------------------------------
+
+def _named_twice(version: str, kind: str) -> tuple[dict, str]:
+    """A document of ``version`` whose ``kind`` list holds two items named ``NAME``; the list's key."""
+    doc = _doc_3x(version) if version.startswith("3.") else _doc_4x(version)
+    if kind == "slots":
+        doc["slots"] += [{"name": NAME, "bone": "arm"}, {"name": NAME, "bone": "head"}]
+    elif kind == "ik":
+        doc["ik"] = [{"name": NAME, "bones": ["arm"], "target": "head"} for _ in range(2)]
+    elif kind == "constraints":  # 4.3: one list of every type, the names once per type
+        doc["constraints"] = [{"type": "ik", "name": NAME, "bones": ["arm"], "target": "head"} for _ in range(2)]
+    elif kind == "skins":
+        doc["skins"] += [{"name": NAME, "attachments": {}} for _ in range(2)]
+    return doc, kind
+
+
+CONVERT_CASES = [("4.2.40", "slots"), ("4.2.40", "ik"), ("4.2.40", "skins"), ("4.3.39", "constraints"),
+                 ("4.3.39", "slots"), ("3.8.99", "slots"), ("3.8.99", "skins"), ("3.7.94", "ik")]
+
+
+@pytest.mark.parametrize("version,kind", CONVERT_CASES, ids=[f"{v}-{k}" for v, k in CONVERT_CASES])
+def test_convert_refuses_a_json_naming_two_items_alike(tmp_path, version, kind):
+    """The ``.skel`` written from such a JSON was one our own reader refuses (exit 0): now one line
+    naming the file and the name in the reader's words, exit 2, nothing written."""
+    doc, key = _named_twice(version, kind)
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["x.skel"], codes=(0, 2))
+    assert r.returncode == 2 and not (tmp_path / "x.skel").exists(), r.stderr
+    line = r.stderr.strip()
+    assert "\n" not in line and line.startswith("error: x.json: cannot be written as a binary skeleton: expected "), line
+    assert f"named once each, found {NAME!r} naming two ({key}[" in line, line
+
+
+def test_a_4_3_constraint_list_may_name_two_of_other_types_alike(tmp_path):
+    """4.3's one list is named once per type, as the reader checks it: an IK constraint and a
+    transform constraint of one name convert, and read back."""
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    doc = _doc_4x("4.3.39")
+    doc["constraints"] = [{"type": "ik", "name": NAME, "bones": ["arm"], "target": "head"},
+                          {"type": "transform", "name": NAME, "bones": ["arm"], "source": "head"}]
+    back = read_skel(write_skel(doc))
+    assert [c["name"] for c in back["constraints"]] == [NAME, NAME]
