@@ -159,7 +159,7 @@ def test_testing_only_the_regions_kept_for_bending_gives_what_testing_all_before
     from spinemesh.upgrade.bending import gather_habits
     from spinemesh.upgrade.meshing import mesh_tasks
     from spinemesh.upgrade.plan import bending_task
-    from spinemesh.upgrade.write import apply_project
+    from spinemesh.upgrade.apply import apply_project
 
     tested = []
     monkeypatch.setattr(BendingRegions, "bends", lambda self, ref, *a, f=BendingRegions.bends:
@@ -450,7 +450,7 @@ def test_a_weighing_job_whose_worker_is_lost_is_weighted_here_the_same_way(tmp_p
     from spinemesh.cluster import WorkerLost, Workers
     from spinemesh.upgrade.bending import settle_bending
     from spinemesh.upgrade.meshing import mesh_tasks
-    from spinemesh.upgrade.write import apply_project
+    from spinemesh.upgrade.apply import apply_project
 
     class LosingWorkers(Workers):
         """Runs each job through pickling, as a process would, but loses the first."""

@@ -9,7 +9,7 @@ The stages, in the order they run, each a module of its own, with the data they 
    ``--weights auto`` the project's habits read (:mod:`.bending`);
 2. mesh (:mod:`.meshing`): every task meshed once, on this process, local processes or a
    Dask cluster -> a :class:`~.meshing.MeshResult` per image key;
-3. apply (:mod:`.write`): the meshes put into the documents (and weighted, with
+3. apply (:mod:`.apply`): the meshes put into the documents (and weighted, with
    ``--weights auto``, once the regions the keep rule kept are tested for bending and meshed
    again where they bend, :mod:`.bending`); the documents now hold the mesh attachments;
 4. write (:mod:`.write`): the documents written in the format and version they came in,
@@ -37,6 +37,7 @@ from ..cluster import Workers
 from ..output import check_output_folder, output_folder
 from ..project import find_project
 from ..written_folder import check_written_folder, rewriting_folder
+from .apply import apply_project
 from .bending import bending_tests, start_habits
 from .meshing import MeshResult, mesh_tasks, meshing_workers
 from .options import Options
@@ -44,7 +45,7 @@ from .pack import pack_written
 from .plan import ProjectPlan, decode_pages_ahead, page_prefetch, plan_read_project, read_project
 from .progress import SILENT, Progress
 from .report import Result, mark_would_mesh, selection_left_nothing
-from .write import apply_project, copying_other_files, write_repacked_atlases, write_skeletons
+from .write import copying_other_files, write_repacked_atlases, write_skeletons
 
 
 def upgrade_project(project: str | Path, out: str | Path, options: Options | None = None,
@@ -160,7 +161,7 @@ def mesh_project(plan: ProjectPlan, options: Options, result: Result, workers: W
 def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, result: Result,
                    progress: Progress = SILENT, workers: Workers | None = None) -> None:
     """Stages 3 and 4 for one project: the meshes into its documents (weighted on ``workers``
-    with ``--weights auto``, :func:`.write.apply_project`), then everything written to ``out``
+    with ``--weights auto``, :func:`.apply.apply_project`), then everything written to ``out``
     (and packed with ``--pack``, on ``workers`` when given).
 
     Parameters
