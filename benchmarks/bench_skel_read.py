@@ -28,7 +28,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from spinemesh.skeleton_binary import read_skel, write_skel  # noqa: E402
+from spinemesh.skeleton_binary import encode_skel, read_skel  # noqa: E402
 
 
 def best_times(fns, data: bytes, repeat: int, clock=time.process_time) -> list[float]:
@@ -86,7 +86,7 @@ def main() -> None:
     for path in files:
         data = path.read_bytes()
         doc = read_skel(data)
-        ours, other, write = best_times([read_skel, theirs, lambda _d: write_skel(doc)], data, args.repeat, clock)
+        ours, other, write = best_times([read_skel, theirs, lambda _d: encode_skel(doc)], data, args.repeat, clock)
         rows.append((path, len(data), ours, other, write))
         print(f"{path.name:34} {len(data) / 1024:6.1f} {ours * 1e3:8.2f} {other * 1e3:14.2f} "
               f"{other / ours:8.1f}x {write * 1e3:14.2f}")
@@ -126,13 +126,13 @@ def bench_43(corpus: Path, repeat: int, clock, theirs) -> None:
     print(head)
     print("-" * len(head))
     for js, doc in docs:
-        data = write_skel(doc)
+        data = encode_skel(doc)
         try:
             theirs(data)
             verdict = "reads it"
         except Exception as e:  # whatever it raises: it is only reported
             verdict = f"fails ({type(e).__name__})"
-        read, write = best_times([read_skel, lambda _d: write_skel(doc)], data, repeat, clock)
+        read, write = best_times([read_skel, lambda _d: encode_skel(doc)], data, repeat, clock)
         print(f"{js.stem + '.skel':34} {len(data) / 1024:6.1f} {read * 1e3:13.2f} {write * 1e3:14.2f} {verdict:>24}")
 
 

@@ -50,7 +50,7 @@ from spinemesh.attachment_geometry import region_quad_transform  # noqa: E402
 from spinemesh.cli.convert_files import convert_files  # noqa: E402
 from spinemesh.errors import SpineMeshError  # noqa: E402
 from spinemesh.skeleton import is_binary_skeleton, iter_attachments, load_skeleton  # noqa: E402
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel  # noqa: E402
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version  # noqa: E402
 from spinemesh.skeleton_binary.compare import diff_documents  # noqa: E402
 from spinemesh.skeleton_binary.enums import EXTRA  # noqa: E402
 from spinemesh.upgrade import Options, upgrade_project  # noqa: E402
@@ -204,7 +204,7 @@ def prove_file(path: Path, root: Path, scratch: Path) -> Row:
     version = sniff_version(data)
     row = Row(str(path.relative_to(root)), version, len(data))
     doc = read_skel(data, path)
-    row.bytes_same = write_skel(doc) == data
+    row.bytes_same = encode_skel(doc) == data
     row.regions = sum(1 for a in iter_attachments(doc) if a.type == "region")
     as_json = scratch / (path.stem + ".json")
     back = scratch / (path.stem + ".skel")
@@ -218,13 +218,13 @@ def prove_file(path: Path, root: Path, scratch: Path) -> Row:
         row.twin_diffs, row.twin_unexplained = unexplained(doc, editor, version, path.name)
         row.twin_known = row.twin_diffs - len(row.twin_unexplained)
         try:
-            ours = write_skel(editor)
+            ours = encode_skel(editor)
         except SpineMeshError as e:
             row.twin_refused = str(e)
         else:
             again = read_skel(ours)
             row.twin_writes_back = (not diff_documents(again, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
-                                    and write_skel(again) == ours and sniff_version(ours) == version)
+                                    and encode_skel(again) == ours and sniff_version(ours) == version)
     return row
 
 
@@ -237,7 +237,7 @@ def prove_upgrade(folder: Path, rows: list[Row], root: Path, scratch: Path) -> N
         upgraded = out / src.name
         data = upgraded.read_bytes()
         doc = read_skel(data, upgraded)
-        row.upgraded_reads_back = write_skel(doc) == data and sniff_version(data) == row.version
+        row.upgraded_reads_back = encode_skel(doc) == data and sniff_version(data) == row.version
         row.meshed = sum(1 for a in iter_attachments(doc) if a.type == "mesh") - sum(
             1 for a in iter_attachments(read_skel(src)) if a.type == "mesh")
         if row.twin:

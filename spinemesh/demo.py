@@ -154,9 +154,9 @@ def make_demo_project(folder: str | Path, with_images_folder: bool = True) -> Pa
     # The spark's region key is its sequence's base path; its frames are spark/frame1..3.
     atomic_write_text(folder / "demo.json", json.dumps(doc, indent="\t") + "\n")
     from .fsutil import atomic_write_bytes
-    from .skeleton_binary import write_skel
+    from .skeleton_binary import encode_skel
 
-    atomic_write_bytes(folder / "demo-binary.skel", write_skel(doc))
+    atomic_write_bytes(folder / "demo-binary.skel", encode_skel(doc))
     if with_images_folder:
         for name, rgba in images.items():
             atomic_write_png(folder / "images" / f"{name}.png", rgba)

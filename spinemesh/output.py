@@ -212,9 +212,9 @@ def write_skeleton(doc: dict, path: Path, dest: Path) -> None:
     that a version-control diff shows only the upgraded attachments.
     """
     if is_binary_skeleton(path):
-        from .skeleton_binary import write_skel
+        from .skeleton_binary import encode_skel
 
-        atomic_write_bytes(dest, write_skel(doc, dest))
+        atomic_write_bytes(dest, encode_skel(doc, dest))
     else:
         original = path.read_bytes().decode("utf-8")  # a byte-order mark stays (splice keeps it)
         atomic_write_text(dest, dumps_skeleton(doc, dest, like=original))

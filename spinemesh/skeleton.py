@@ -297,9 +297,9 @@ def save_skeleton(doc: dict, path: str | Path) -> None:
     path = Path(path)
     if is_binary_skeleton(path):
         from .fsutil import atomic_write_bytes
-        from .skeleton_binary import write_skel
+        from .skeleton_binary import encode_skel
 
-        atomic_write_bytes(path, write_skel(doc, path))
+        atomic_write_bytes(path, encode_skel(doc, path))
     else:
         atomic_write_text(path, dumps_skeleton(doc, path))
 

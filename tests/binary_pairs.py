@@ -11,7 +11,7 @@ import fnmatch
 import json
 from pathlib import Path
 
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
@@ -55,7 +55,7 @@ def is_known(known: list, version: str, name: str, doc: dict, path: str) -> bool
 def check_round_trip(skel: Path) -> None:
     """Reading the ``.skel`` and writing it back gives the same bytes."""
     data = skel.read_bytes()
-    assert write_skel(read_skel(data, skel)) == data
+    assert encode_skel(read_skel(data, skel)) == data
 
 
 def check_document_equals_editor_json(skel: Path, js: Path, known: list) -> None:
@@ -75,12 +75,12 @@ def check_json_writes_a_skel_that_reads_back(js: Path, binary_only: frozenset = 
     """The editor's JSON written as ``.skel`` reads back to it (up to float32 rounding), and
     that ``.skel`` is stable; ``binary_only`` are the ``EXTRA`` keys the reader may add."""
     editor = editor_json(js)
-    data = write_skel(editor)
+    data = encode_skel(editor)
     again = read_skel(data)
     assert EXTRA not in again or set(again[EXTRA]) <= binary_only
     diffs = diff_documents(again, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
     assert not diffs, "\n".join(map(str, diffs[:30]))
-    assert write_skel(again) == data
+    assert encode_skel(again) == data
     assert sniff_version(data) == editor["skeleton"]["spine"]
 
 
@@ -88,4 +88,4 @@ def check_survives_json_text(skel: Path) -> None:
     """A document read from ``.skel``, saved as JSON text with its binary-only data and loaded
     again, still writes the original bytes."""
     data = skel.read_bytes()
-    assert write_skel(json.loads(json.dumps(read_skel(data)))) == data
+    assert encode_skel(json.loads(json.dumps(read_skel(data)))) == data

@@ -16,7 +16,7 @@ import pytest
 from spinemesh.anim import Sampler
 from spinemesh.anim.dump import advance_clock, pose_errors
 from spinemesh.skeleton import load_skeleton
-from spinemesh.skeleton_binary import write_skel
+from spinemesh.skeleton_binary import encode_skel
 
 from runtime_tool import node
 from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
@@ -281,7 +281,7 @@ def posed_by_both_43(runtime, doc: dict, tmp_path, times, binary: bool = False) 
     the ``.skel`` our writer makes of ``doc``."""
     if binary:
         path = tmp_path / "skeleton.skel"
-        path.write_bytes(write_skel(doc))
+        path.write_bytes(encode_skel(doc))
         doc = load_skeleton(path)
     else:
         path = tmp_path / "skeleton.json"

@@ -127,9 +127,9 @@ def test_a_dark_colour_of_eight_digits_is_written_where_the_runtimes_read_its_rg
     (``"80123456"``, posed as 801234); both versions wrote ``"ffffffff"`` as -1, a slot with no
     dark colour. Now each is written with its rgb where the runtimes read it, and poses alike
     from the .json and from the .skel."""
-    from spinemesh.skeleton_binary import read_skel, write_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
-    six, eight = write_skel(_dark_slot_doc(version, "123456")), write_skel(_dark_slot_doc(version, "12345680"))
+    six, eight = encode_skel(_dark_slot_doc(version, "123456")), encode_skel(_dark_slot_doc(version, "12345680"))
     assert eight.replace(b"\x80\x12\x34\x56", b"\x00\x12\x34\x56") == six  # the high byte alone differs
     back = read_skel(eight)
     assert back["slots"][0]["dark"] == "12345680"
@@ -139,7 +139,7 @@ def test_a_dark_colour_of_eight_digits_is_written_where_the_runtimes_read_its_rg
         assert np.allclose(sampler.pose(None).slots[0].dark, rgb)
         if version.startswith("3"):
             assert np.allclose(sampler.pose("a", 0.5).slots[0].dark, rgb)
-    white = read_skel(write_skel(_dark_slot_doc(version, "ffffffff")))
+    white = read_skel(encode_skel(_dark_slot_doc(version, "ffffffff")))
     assert white["slots"][0].get("dark", "")[:6] == "ffffff"
     assert np.allclose(Sampler(white).pose(None).slots[0].dark, [1, 1, 1])
 
@@ -152,7 +152,7 @@ def test_colours_not_of_eight_digits_pose_alike_from_the_json_and_our_skel(versi
     transparent where the .json draws opaque, silently. Slots, attachments and keys now pose
     alike from both; fewer than six digits (no colour a runtime reads) are refused."""
     from spinemesh.errors import SkelFormatError
-    from spinemesh.skeleton_binary import read_skel, write_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
     box = {"width": 10, "height": 10, "color": "ff80401"}
     slots = [{"name": "s", "bone": "root", "attachment": "r", "color": "ff804000ab", "dark": "102030"},
@@ -167,11 +167,11 @@ def test_colours_not_of_eight_digits_pose_alike_from_the_json_and_our_skel(versi
         skins = [{"name": "default", "attachments": {"s": {"r": box}, "t": {"r": box}}}]
     doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}], "slots": slots, "skins": skins,
            "animations": {"a": {"slots": keys}}}
-    back = read_skel(write_skel(doc))
+    back = read_skel(encode_skel(doc))
     for animation in (None, "a"):
         want, got = (Sampler(d).pose(animation, 0.5).slots for d in (doc, back))
         assert [list(s.color) for s in got] == [list(s.color) for s in want]
         assert all(s.color[3] == 1 for s in got)
     doc["slots"][1]["color"] = "ff80"
     with pytest.raises(SkelFormatError, match="six or eight digits"):
-        write_skel(doc)
+        encode_skel(doc)

@@ -244,12 +244,12 @@ def test_sequence_limit_fails_one_attachment_only(tmp_path, demo):
 # --- binary .skel mutations -------------------------------------------------------------------
 
 def _mutate_skel(p: Path, change) -> None:
-    from spinemesh.skeleton_binary import read_skel, write_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
     path = p / "demo-binary.skel"
     doc = read_skel(path)
     change(doc)
-    path.write_bytes(write_skel(doc, path))
+    path.write_bytes(encode_skel(doc, path))
 
 
 def _skel_attachment(doc, slot, name):

@@ -300,7 +300,7 @@ def test_43_cycles_and_crowds_pose_finite_and_survive_the_binary(tmp_path, case)
     from test_anim43 import slider_doc, transform_doc
     from test_hostile_wave4 import within
 
-    from spinemesh.skeleton_binary import write_skel
+    from spinemesh.skeleton_binary import encode_skel
 
     kind, change = CYCLES_AND_CROWDS[case]
     doc = slider_doc() if kind == "slider" else transform_doc()
@@ -308,7 +308,7 @@ def test_43_cycles_and_crowds_pose_finite_and_survive_the_binary(tmp_path, case)
     (tmp_path / "x.json").write_text(json.dumps(doc))
     with within(60):
         poses = _poses(doc, tmp_path / "x.json")
-        (tmp_path / "x.skel").write_bytes(write_skel(doc))
+        (tmp_path / "x.skel").write_bytes(encode_skel(doc))
         again = _poses(doc, tmp_path / "x.skel")
     assert np.allclose(_numbers(poses), _numbers(again), rtol=1e-4, atol=1e-2, equal_nan=True)
 
@@ -435,15 +435,15 @@ def test_a_43_binary_float_that_is_not_finite_is_refused_where_it_lies(tmp_path,
 
     from spinemesh.errors import SpineMeshError
     from spinemesh.skeleton import load_skeleton
-    from spinemesh.skeleton_binary import write_skel
+    from spinemesh.skeleton_binary import encode_skel
 
     kind, holder, key, where = BINARY_43_FIELDS[case]
     doc = getattr(test_anim43, f"{kind}_doc")()
     holder(doc)[key] = _MARK
-    data = write_skel(doc)
+    data = encode_skel(doc)
     for fmt in ("<f", ">f"):  # the writer's byte order, whichever it is
         data = data.replace(struct.pack(fmt, _MARK), struct.pack(fmt, float(value)))
-    assert data != write_skel(doc)
+    assert data != encode_skel(doc)
     (tmp_path / "x.skel").write_bytes(data)
     with pytest.raises(SpineMeshError, match="non-finite") as e:
         load_skeleton(tmp_path / "x.skel")

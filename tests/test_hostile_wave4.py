@@ -24,7 +24,7 @@ from spinemesh.anim import Sampler
 from spinemesh.anim.dump import dump
 from spinemesh.anim.timelines import _draw_order
 from spinemesh.skeleton import load_skeleton
-from spinemesh.skeleton_binary import SkelFormatError, read_skel, write_skel
+from spinemesh.skeleton_binary import SkelFormatError, encode_skel, read_skel
 
 
 @contextmanager
@@ -158,7 +158,7 @@ def test_hostile_animations_of_binary_skeletons_pose_finite(version):
     for name, anim in HOSTILE_ANIMATIONS.items():
         one = {**doc, "animations": {name: anim}}
         try:
-            data = write_skel(one)
+            data = encode_skel(one)
         except SkelFormatError:
             continue  # refused in one line: nothing to pose
         written += 1
@@ -516,7 +516,7 @@ def _round_trips(doc: dict) -> None:
     """What was read is written and read back as the same document (the bytes may differ only
     where the file was not the writer's own)."""
     try:
-        data = write_skel(doc)
+        data = encode_skel(doc)
     except SkelFormatError:
         return  # a document the reader let through but no 3.5 file can hold: refused in one line
     assert json.dumps(read_skel(data)) == json.dumps(doc)  # as text: a NaN read equals the NaN written

@@ -59,13 +59,13 @@ def test_a_selection_of_nothing_writes_nothing_from_the_library(tmp_path):
 # --- an editor's downgraded export ("4.1-from-4.2.33") is read as the runtimes read it ------------
 
 def test_major_minor_is_the_leading_numbers():
-    from spinemesh.skeleton_binary import sniff_version, write_skel
+    from spinemesh.skeleton_binary import encode_skel, sniff_version
     from spinemesh.skeleton_version import major_minor
 
     assert [major_minor(v) for v in ("4.1-from-4.2.33", "3.8-from-4.0.64", "4.3.39-beta", "4.10.2", "x4.2", None)] \
         == [(4, 1), (3, 8), (4, 3), (4, 10), None, None]
     doc = {"skeleton": {"spine": "4.1-from-4.2.33"}, "bones": [{"name": "root"}]}
-    assert sniff_version(write_skel(doc)) == "4.1-from-4.2.33"  # written in 4.1's layout, its version kept
+    assert sniff_version(encode_skel(doc)) == "4.1-from-4.2.33"  # written in 4.1's layout, its version kept
 
 
 def test_a_downgraded_export_converts_and_poses_in_the_official_runtime(corpus, spine_runtime, tmp_path):
@@ -149,17 +149,17 @@ def test_every_downgraded_export_of_the_corpus_converts_both_ways(corpus, tmp_pa
     import json
 
     from spinemesh.skeleton import load_skeleton
-    from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 
     found = [p for p in sorted(corpus.rglob("*.json")) if not p.name.startswith(".")
              and re.search(r'"spine"\s*:\s*"[0-9.]+-from-', p.read_text("utf-8", errors="replace")[:400])]
     assert len(found) >= 10, found
     for path in found:
         doc = load_skeleton(path)
-        data = write_skel(doc, path)
+        data = encode_skel(doc, path)
         assert sniff_version(data) == doc["skeleton"]["spine"], path
         again = read_skel(data, path)
-        assert write_skel(json.loads(json.dumps(again))) == data, path
+        assert encode_skel(json.loads(json.dumps(again))) == data, path
 
 
 def test_a_diff_report_never_replaces_a_users_files(tmp_path, meshed):

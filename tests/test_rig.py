@@ -479,7 +479,7 @@ def test_rig_vertices_fold_the_mesh_at_joints_within_budget():
 
 
 def test_weighted_mesh_survives_the_binary_writer(tmp_path):
-    from spinemesh.skeleton_binary import read_skel, write_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
     doc = worm_skeleton()
     att = doc["skins"][0]["attachments"]["worm"]["worm"]
@@ -488,7 +488,7 @@ def test_weighted_mesh_survives_the_binary_writer(tmp_path):
                 "triangles": t.ravel().tolist(), "hull": len(v)})
     weight_document(doc, "w", WeightOptions(bones="auto"))
     path = tmp_path / "worm.skel"
-    path.write_bytes(write_skel(doc, path))
+    path.write_bytes(encode_skel(doc, path))
     back = read_skel(path)
     a = parse_vertices(next(r for r in iter_attachments(back) if r.name == "worm").attachment, 4)
     b = parse_vertices(att, 4)

@@ -93,7 +93,7 @@ def _seeds_43() -> list[tuple[str, bytes]]:
     """4.3 files: no editor export is available, so ours, written from the 4.3 corpus JSON
     and from a document using every 4.3 field (``skel43_features``)."""
     from skel43_features import features_document
-    from spinemesh.skeleton_binary import write_skel
+    from spinemesh.skeleton_binary import encode_skel
 
     from conftest import CORPUS
 
@@ -102,7 +102,7 @@ def _seeds_43() -> list[tuple[str, bytes]]:
         for js in sorted((CORPUS / name).glob("*.json")) if (CORPUS / name).is_dir() else []:
             if not js.name.endswith(".source.json"):
                 docs.append((js.stem + ".skel", json.loads(js.read_text(encoding="utf-8-sig"))))
-    return [(name, write_skel(doc)) for name, doc in docs]
+    return [(name, encode_skel(doc)) for name, doc in docs]
 
 
 def test_mutations_raise_only_skel_format_error_43():
@@ -153,7 +153,7 @@ def _damage(doc, rng: random.Random) -> str:
 def test_broken_documents_raise_only_skel_format_error(version):
     """Hand-edited JSON may hold anything: the writer either writes a file that reads back,
     or raises SkelFormatError."""
-    from spinemesh.skeleton_binary import write_skel
+    from spinemesh.skeleton_binary import encode_skel
 
     if version == "4.3":
         from skel43_features import features_document
@@ -173,7 +173,7 @@ def test_broken_documents_raise_only_skel_format_error(version):
         what = [_damage(doc, rng) for _ in range(rng.randint(1, 3))]
         tried += 1
         try:
-            data = write_skel(doc)
+            data = encode_skel(doc)
         except SkelFormatError:
             continue
         except Exception as e:  # pragma: no cover

@@ -112,13 +112,13 @@ CASES = [("4.2.40", k) for k in ("slots", "ik", "transform", "path", "physics", 
 def _skel(tmp: Path, version: str, kind: str) -> tuple[Path, str, int]:
     """``p/x.skel`` of ``version`` with two items of ``kind`` named alike; the list and the place
     of the item the file's timeline is aimed at."""
-    from spinemesh.skeleton_binary import write_skel
+    from spinemesh.skeleton_binary import encode_skel
 
     doc = _doc_3x(version) if version.startswith("3.") else _doc_4x(version)
     key, later = _twice(doc, kind)
     (tmp / "p").mkdir(parents=True, exist_ok=True)
     path = tmp / "p" / "x.skel"
-    path.write_bytes(_patched(write_skel(doc)))
+    path.write_bytes(_patched(encode_skel(doc)))
     return path, key, later
 
 

@@ -17,7 +17,7 @@ import pytest
 
 from spinemesh.errors import SkelFormatError, SkeletonError
 from spinemesh.skeleton import load_skeleton
-from spinemesh.skeleton_binary import read_skel, read_skel_finite, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, read_skel_finite
 from spinemesh.skeleton_binary.enums import EXTRA
 
 from conftest import EXAMPLES
@@ -80,7 +80,7 @@ def _nan_everywhere(sources) -> set[tuple]:
                 continue
             before = _set(doc, where, math.nan)
             try:
-                changed = write_skel(doc, path)
+                changed = encode_skel(doc, path)
             except SkelFormatError:
                 continue  # a field the writer stores as an int: no NaN can be written there
             finally:
@@ -101,7 +101,7 @@ def test_every_kind_of_4_3_float_counts_in_the_sum():
     """4.3, on the document that holds every structure 4.3 added (no 4.3 .skel is exported)."""
     from skel43_features import features_document
 
-    tested = _nan_everywhere([("features.skel", write_skel(features_document()))])
+    tested = _nan_everywhere([("features.skel", encode_skel(features_document()))])
     assert len(tested) > 20, sorted(tested)
 
 
@@ -110,6 +110,6 @@ def test_load_skeleton_still_says_where(examples, tmp_path):
     doc = read_skel(src)
     doc["bones"][1]["x"] = math.inf
     bad = tmp_path / "bad.skel"
-    bad.write_bytes(write_skel(doc, bad))
+    bad.write_bytes(encode_skel(doc, bad))
     with pytest.raises(SkeletonError, match=r"non-finite number .* at /bones/1/x"):
         load_skeleton(bad)

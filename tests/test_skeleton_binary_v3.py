@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from spinemesh.errors import SkelFormatError
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
@@ -85,11 +85,11 @@ def test_files_without_nonessential_data(skel: Path, js: Path):
     such a file reads back to the document without it, and round-trips byte for byte."""
     doc = read_skel(skel)
     doc.setdefault(EXTRA, {})["nonessential"] = False
-    data = write_skel(doc)
+    data = encode_skel(doc)
     assert len(data) < skel.stat().st_size
     again = read_skel(data)
     assert again[EXTRA]["nonessential"] is False
-    assert write_skel(again) == data
+    assert encode_skel(again) == data
     diffs = diff_documents(again, doc, abs_tol=0, rel_tol=0, ignore=[EXTRA])
     # What differs is nonessential data only (region and slot colours are essential).
     assert diffs and all(d.path.split("/")[-1] in NONESSENTIAL for d in diffs), diffs[:5]
@@ -139,7 +139,7 @@ def test_string_table_kept_in_editor_order(examples):
     table = doc[EXTRA]["strings"]
     assert len(table) == len(set(table)) and "refs" not in doc[EXTRA]
     plain = {k: v for k, v in doc.items() if k != EXTRA}
-    other = write_skel(plain)
+    other = encode_skel(plain)
     assert other != data and len(other) == len(data)
     assert not diff_documents(read_skel(other), plain, abs_tol=0, rel_tol=0)
 
@@ -151,9 +151,9 @@ def test_string_table_with_duplicates_keeps_each_reference(examples):
     doc = read_skel(data)
     table = doc[EXTRA]["strings"]
     assert len(table) == 272 and len(set(table)) == 26 and doc[EXTRA]["refs"]
-    assert write_skel(doc) == data
+    assert encode_skel(doc) == data
     plain = {k: v for k, v in doc.items() if k != EXTRA}
-    other = write_skel(plain)
+    other = encode_skel(plain)
     assert len(other) < len(data)
     assert not diff_documents(read_skel(other), plain, abs_tol=0, rel_tol=0)
 
@@ -173,7 +173,7 @@ def test_default_skin_anywhere_in_json(examples):
     """The binary holds the default skin first; a JSON object may list it anywhere."""
     doc = editor_json(examples / "3.6/goblins/goblins-pro.json")
     doc["skins"] = {k: doc["skins"][k] for k in ("goblin", "default", "goblingirl")}
-    again = read_skel(write_skel(doc))
+    again = read_skel(encode_skel(doc))
     assert list(again["skins"]) == ["default", "goblin", "goblingirl"]
     assert not diff_documents(again, doc, abs_tol=1e-4, rel_tol=1e-6)
 
@@ -251,20 +251,20 @@ def test_writer_rejects_broken_documents(examples):
     doc = editor()
     doc["slots"][0]["bone"] = "no-such-bone"
     with pytest.raises(SkelFormatError, match="no-such-bone"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = editor()
     doc["skeleton"]["spine"] = "3.4.0"
     with pytest.raises(SkelFormatError, match="3.4.0"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = editor()
     doc["bones"][1]["x"] = "left"
     with pytest.raises(SkelFormatError, match="x"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = editor()
     mesh = next(a for atts in doc["skins"]["default"].values() for a in atts.values() if a.get("type") == "mesh")
     mesh["uvs"] = mesh["uvs"][:-2]
     with pytest.raises(SkelFormatError):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 # -- real game exports ---------------------------------------------------------------------
@@ -302,8 +302,8 @@ def test_corpus_binaries_round_trip(corpus):
     for path in files:
         data = path.read_bytes()
         doc = read_skel(data, path)
-        assert write_skel(doc) == data, path
-        again = read_skel(write_skel(json.loads(json.dumps(doc))))
+        assert encode_skel(doc) == data, path
+        again = read_skel(encode_skel(json.loads(json.dumps(doc))))
         assert not diff_documents(again, doc, abs_tol=0, rel_tol=0), path
 
 
@@ -336,7 +336,7 @@ def test_corpus_json_writes_skel_that_reads_back(corpus):
     print(f"{len(docs)} corpus 3.x JSON skeletons written as .skel, {len(skipped)} skipped "
           f"(version not in {READ_3X}): {[p.parent.name for p in skipped]}")
     for path, doc in docs:
-        again = read_skel(write_skel(doc, path))
+        again = read_skel(encode_skel(doc, path))
         diffs = diff_documents(again, doc, abs_tol=1e-4, rel_tol=1e-6)
         assert not diffs, (path, diffs[:5])
 
@@ -356,7 +356,7 @@ def test_runtime_poses_match(spine_runtime, examples, tmp_path, project, name, a
     folder = examples / "3.8" / project
     atlas = folder / f"{project}.atlas"
     ours_skel = tmp_path / f"{name}.skel"
-    ours_skel.write_bytes(write_skel(editor_json(folder / f"{name}.json")))
+    ours_skel.write_bytes(encode_skel(editor_json(folder / f"{name}.json")))
     ours_json = tmp_path / f"{name}.json"
     ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
     a = pose_dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim, TIMES)
@@ -384,7 +384,7 @@ def test_a_json_curve_is_written_as_its_versions_runtime_draws_it(version, curve
     doc = {"skeleton": {"spine": version, "hash": "made"}, "bones": [{"name": "root"}], "slots": [], "skins": skins,
            "animations": {"move": {"bones": {"root": {"translate": [{"time": 0, "x": 0, **curve},
                                                                     {"time": 1, "x": 10}]}}}}}
-    back = read_skel(write_skel(doc))
+    back = read_skel(encode_skel(doc))
     key = back["animations"]["move"]["bones"]["root"]["translate"][0]
     got = ("linear" if "curve" not in key else "stepped" if key["curve"] == "stepped" else "bezier")
     assert got == drawn, key

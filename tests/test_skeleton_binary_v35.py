@@ -27,7 +27,7 @@ import pytest
 
 from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton import iter_attachments, load_skeleton
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
@@ -242,7 +242,7 @@ def test_reading_order_is_the_runtimes(nonessential):
     gives back exactly its bytes."""
     data, doc = encode_35(nonessential), document_35(nonessential)
     assert read_skel(data) == doc
-    assert write_skel(doc) == data
+    assert encode_skel(doc) == data
     assert sniff_version(data) == "3.5.51"
 
 
@@ -260,7 +260,7 @@ def test_the_layout_is_the_versions():
 
 def test_a_document_loaded_from_json_text_writes_the_same_bytes():
     doc = json.loads(json.dumps(document_35(True)))
-    assert write_skel(doc) == encode_35(True)
+    assert encode_skel(doc) == encode_35(True)
 
 
 @pytest.mark.parametrize("kind,fields", [
@@ -271,14 +271,14 @@ def test_attachments_3_5_cannot_hold_are_refused(kind, fields):
     doc = document_35(True)
     doc["skins"]["default"]["body"]["extra"] = {"type": kind, **fields}
     with pytest.raises(SkelFormatError, match=f"3.5.51.*got '{kind}'"):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 def test_two_colour_timelines_are_refused():
     doc = document_35(True)
     doc["animations"]["walk"]["slots"]["body"]["twoColor"] = [{"time": 0, "light": "ffffffff", "dark": "000000"}]
     with pytest.raises(SkelFormatError, match="twoColor"):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 def test_attachment_types_of_later_versions_are_errors():
@@ -341,14 +341,14 @@ def test_corpus_35_json_writes_skel_that_reads_back(corpus35):
     for path in corpus35:
         doc = json.loads(path.read_text(encoding="utf-8-sig"))
         assert doc["skeleton"]["spine"].startswith("3.5")
-        data = write_skel(doc, path)
+        data = encode_skel(doc, path)
         again = read_skel(data, path)
         assert not diff_documents(again, doc, abs_tol=1e-4, rel_tol=1e-6), path
-        assert write_skel(again) == data
-        assert write_skel(json.loads(json.dumps(again))) == data
+        assert encode_skel(again) == data
+        assert encode_skel(json.loads(json.dumps(again))) == data
         again[EXTRA] = {"nonessential": False}
-        lean = write_skel(again)
-        assert len(lean) < len(data) and write_skel(read_skel(lean)) == lean
+        lean = encode_skel(again)
+        assert len(lean) < len(data) and encode_skel(read_skel(lean)) == lean
         kinds |= {a.type for a in iter_attachments(doc)}
     assert {"region", "mesh"} <= kinds
 
@@ -362,7 +362,7 @@ def test_convert_35_both_ways(corpus35, tmp_path):
         r = _cli("convert", str(a), str(b))
         assert r.returncode == 0, r.stderr
         assert "Spine 3.5" in r.stdout
-    assert first.read_bytes() == write_skel(json.loads(src.read_text(encoding="utf-8-sig")))
+    assert first.read_bytes() == encode_skel(json.loads(src.read_text(encoding="utf-8-sig")))
     assert second.read_bytes() == first.read_bytes()
     assert json.loads(text.read_text(encoding="utf-8"))["skeleton"]["spine"].startswith("3.5")
 
@@ -372,7 +372,7 @@ def _project_with_binaries(corpus: Path, project: str, into: Path) -> Path:
     folder = into / project
     shutil.copytree(corpus / project, folder, ignore=shutil.ignore_patterns(".*"))
     for js in folder.rglob("*.json"):
-        js.with_suffix(".skel").write_bytes(write_skel(json.loads(js.read_text(encoding="utf-8-sig")), js))
+        js.with_suffix(".skel").write_bytes(encode_skel(json.loads(js.read_text(encoding="utf-8-sig")), js))
     return folder
 
 
@@ -396,7 +396,7 @@ def test_upgrade_of_a_35_binary_project(corpus, corpus35, tmp_path, project):
         rel = skel.relative_to(folder)
         data = (out / rel).read_bytes()
         doc = read_skel(data, out / rel)
-        assert write_skel(doc) == data and sniff_version(data) == sniff_version(skel.read_bytes())
+        assert encode_skel(doc) == data and sniff_version(data) == sniff_version(skel.read_bytes())
         source = read_skel(skel)
         before = [a.type for a in iter_attachments(source)]
         after = [a.type for a in iter_attachments(doc)]

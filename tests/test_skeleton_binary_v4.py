@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from spinemesh.errors import SkelFormatError
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
@@ -141,11 +141,11 @@ def test_writer_rejects_unknown_references(examples):
     doc = json.loads((examples / "4.2/spineboy/spineboy-pro.json").read_text(encoding="utf-8"))
     doc["slots"][0]["bone"] = "no-such-bone"
     with pytest.raises(SkelFormatError, match="no-such-bone"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = json.loads((examples / "4.2/spineboy/spineboy-pro.json").read_text(encoding="utf-8"))
     doc["skeleton"]["spine"] = "4.4.0"
     with pytest.raises(SkelFormatError, match="4.4.0"):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 def test_writer_checks_mesh_triangle_count(examples):
@@ -153,7 +153,7 @@ def test_writer_checks_mesh_triangle_count(examples):
     mesh = doc["skins"][0]["attachments"]["eye"]["eye-indifferent"]
     mesh["triangles"] = mesh["triangles"][:-3]
     with pytest.raises(SkelFormatError, match="triangles"):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 def test_strings_are_refs_with_duplicates_kept(examples):
@@ -163,10 +163,10 @@ def test_strings_are_refs_with_duplicates_kept(examples):
     doc = read_skel(data)
     table = doc[EXTRA]["strings"]
     assert len(table) > len(set(table))
-    assert write_skel(doc) == data
+    assert encode_skel(doc) == data
     # Without the binary-only data the file is different but reads to the same document.
     plain = {k: v for k, v in doc.items() if k != EXTRA}
-    other = write_skel(plain)
+    other = encode_skel(plain)
     assert other != data
     assert not diff_documents(read_skel(other), plain, abs_tol=0, rel_tol=0, ignore=[EXTRA])
 
@@ -264,7 +264,7 @@ def test_official_runtime_poses_match(spine_runtime, examples, tmp_path, version
     folder = examples / version / project
     atlas = folder / f"{project}.atlas"
     ours_skel = tmp_path / f"{name}.skel"
-    ours_skel.write_bytes(write_skel(json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))))
+    ours_skel.write_bytes(encode_skel(json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))))
     ours_json = tmp_path / f"{name}.json"
     ours_json.write_text(json.dumps(read_skel(folder / f"{name}.skel")), encoding="utf-8")
     a = pose_dump(spine_runtime, atlas, folder / f"{name}.json", tmp_path / "a.json", anim)
@@ -297,9 +297,9 @@ def test_corpus_binaries_round_trip(corpus):
     for path in files:
         data = path.read_bytes()
         doc = read_skel(data, path)
-        assert write_skel(doc) == data, path
+        assert encode_skel(doc) == data, path
         plain = {k: v for k, v in doc.items() if k != EXTRA}
-        again = read_skel(write_skel(json.loads(json.dumps(plain))))
+        again = read_skel(encode_skel(json.loads(json.dumps(plain))))
         assert not diff_documents(again, plain, abs_tol=0, rel_tol=0, ignore=[EXTRA]), path
 
 
@@ -342,10 +342,10 @@ def test_without_nonessential_data(skel: Path, js: Path):
     drops exactly that data, and round-trips."""
     editor = json.loads(js.read_text(encoding="utf-8"))
     editor[EXTRA] = {"nonessential": False}
-    data = write_skel(editor)
+    data = encode_skel(editor)
     doc = read_skel(data)
     assert doc[EXTRA] == {"nonessential": False}
-    assert write_skel(doc) == data
+    assert encode_skel(doc) == data
     diffs = diff_documents(doc, editor, abs_tol=1e-4, rel_tol=1e-6, ignore=[EXTRA])
     assert diffs and all(d.path.rsplit("/", 1)[-1] in NONESSENTIAL for d in diffs), diffs[:10]
     # Region sizes are essential: every region keeps its width and height.

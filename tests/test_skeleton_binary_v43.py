@@ -27,7 +27,7 @@ import pytest
 
 from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton import load_skeleton
-from spinemesh.skeleton_binary import read_skel, sniff_version, write_skel
+from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
@@ -60,15 +60,15 @@ CASES = ["features", *PROJECTS43]
 def test_round_trips(case):
     """``read(write(doc)) == doc`` up to float32 rounding, and ``write(read(bytes)) == bytes``."""
     doc = _document(case)
-    data = write_skel(doc)
+    data = encode_skel(doc)
     assert sniff_version(data) == doc["skeleton"]["spine"]
     again = read_skel(data)
     assert EXTRA not in again, again.get(EXTRA)
     diffs = diff_documents(again, doc, abs_tol=1e-5, rel_tol=1e-6, ignore=[EXTRA])
     assert not diffs, "\n".join(map(str, diffs[:30]))
-    assert write_skel(again) == data
+    assert encode_skel(again) == data
     # Through JSON text and back: still the same bytes.
-    assert write_skel(json.loads(json.dumps(again))) == data
+    assert encode_skel(json.loads(json.dumps(again))) == data
 
 
 def test_features_document_uses_every_4_3_structure():
@@ -89,38 +89,38 @@ def test_mesh_timeline_slots_follow_linked_meshes():
     """4.3 stores, with a mesh, the slots of linked meshes that play its timelines; the
     writer derives them, and a file that stores others keeps them."""
     doc = features_document()
-    data = write_skel(doc)
+    data = encode_skel(doc)
     again = read_skel(data)
     assert EXTRA not in again
     # The same document with the copy keeping its own timelines stores no slot.
     doc["skins"][1]["attachments"]["copy"]["copy"]["timelines"] = False
-    other = write_skel(doc)
+    other = encode_skel(doc)
     assert len(other) == len(data) - 1
     # Recorded slots that the runtime would not derive survive a round trip.
     odd = read_skel(data)
     odd[EXTRA] = {"timelineSlots": [["default", "skin", "skin", ["tip", "box"]]]}
-    kept = read_skel(write_skel(odd))
+    kept = read_skel(encode_skel(odd))
     assert kept[EXTRA] == {"timelineSlots": [["default", "skin", "skin", ["tip", "box"]]]}
-    assert write_skel(kept) == write_skel(odd)
+    assert encode_skel(kept) == encode_skel(odd)
 
 
 def test_writer_errors_name_the_problem():
     doc = features_document()
     doc["constraints"][0]["type"] = "spring"
     with pytest.raises(SkelFormatError, match="spring"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = features_document()
     doc["skins"][1]["slider"] = ["no-such-slider"]
     with pytest.raises(SkelFormatError, match="no-such-slider"):
-        write_skel(doc)
+        encode_skel(doc)
     doc = features_document()
     doc["constraints"][-1]["animation"] = "no-such-animation"
     with pytest.raises(SkelFormatError, match="no-such-animation"):
-        write_skel(doc)
+        encode_skel(doc)
 
 
 def test_truncations_and_constraint_type_errors():
-    data = write_skel(features_document())
+    data = encode_skel(features_document())
     for cut in range(0, len(data), max(1, len(data) // 300)):
         with pytest.raises(SkelFormatError) as e:
             read_skel(data[:cut], "f.skel")
@@ -227,7 +227,7 @@ def test_official_runtime_loads_our_skel_like_the_json(case, runtime43, tmp_path
     doc = _document(case)
     js, skel, back = tmp_path / "doc.json", tmp_path / "doc.skel", tmp_path / "back.json"
     js.write_text(json.dumps(doc), encoding="utf-8")
-    skel.write_bytes(write_skel(doc))
+    skel.write_bytes(encode_skel(doc))
     back.write_text(json.dumps(read_skel(skel)), encoding="utf-8")
     from_json, from_skel, from_back = (_loaded(runtime43, p) for p in (js, skel, back))
     # Proof that the comparison sees the data: everything was loaded.
@@ -278,7 +278,7 @@ def _project_as(name: str, kind: str, tmp_path: Path) -> Path:
     folder.mkdir()
     for f in source.iterdir():
         if f == _corpus_json(name):
-            (folder / f"{f.stem}.skel").write_bytes(write_skel(json.loads(f.read_text(encoding="utf-8-sig"))))
+            (folder / f"{f.stem}.skel").write_bytes(encode_skel(json.loads(f.read_text(encoding="utf-8-sig"))))
         elif f.is_file():
             shutil.copy2(f, folder / f.name)
     return folder
@@ -347,7 +347,7 @@ def test_convert_43_both_ways(tmp_path):
         assert "4.3.23" in r.stdout
     back = load_skeleton(tmp_path / "g.json")
     assert not diff_documents(back, doc, abs_tol=1e-5, rel_tol=1e-6)
-    assert read_skel(tmp_path / "f.skel") == read_skel(write_skel(doc))
+    assert read_skel(tmp_path / "f.skel") == read_skel(encode_skel(doc))
 
 
 # -- 4.3 JSON: lossless, and walked like every other version ----------------------------------
@@ -386,7 +386,7 @@ def test_walker_helpers_follow_4_3_layout():
 def test_compare_knows_4_3_defaults():
     """diff_documents treats a 4.3 value spelled out at its default like one left out."""
     doc = features_document()
-    read_back = read_skel(write_skel(doc))
+    read_back = read_skel(encode_skel(doc))
     c = {x["name"]: x for x in doc["constraints"]}
     c["sway"].update(inertia=0.5, damping=0.85, strength=100, mix=1)
     c["plain"].update(mixY=0, mixX=0, mixRotate=0, localSource=False)  # no bone receives x: mixes 0

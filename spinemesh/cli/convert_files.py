@@ -48,10 +48,10 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
         print(f"warning: {source}: {line}", file=sys.stderr)
     if is_binary_name(target):
         from ..errors import SkelFormatError
-        from ..skeleton_binary import write_skel
+        from ..skeleton_binary import encode_skel
 
         try:
-            data = write_skel(doc)
+            data = encode_skel(doc)
         except SkelFormatError as e:
             # what the binary layout cannot hold came from the source: name it, not a target
             # that is never written

@@ -1,7 +1,7 @@
 """Spine's binary skeleton format (``.skel``), versions 3.5 to 4.3, read and written.
 
 :func:`read_skel` turns a ``.skel`` into the same document that the Spine editor's JSON
-export of that version holds; :func:`write_skel` turns such a document back into bytes.
+export of that version holds; :func:`encode_skel` turns such a document back into bytes.
 Each major version's structures are declared once, in :mod:`.v3` and :mod:`.v4`, as
 functions of a :mod:`.stream` that serve both directions.
 """
@@ -79,7 +79,7 @@ def read_skel(source: str | Path | bytes, path: str | Path | None = None) -> dic
     --------
     >>> from spinemesh.demo import make_demo_project
     >>> doc = read_skel(make_demo_project("demo") / "demo-binary.skel")
-    >>> doc["skeleton"]["spine"], read_skel(write_skel(doc)) == doc
+    >>> doc["skeleton"]["spine"], read_skel(encode_skel(doc)) == doc
     ('4.2.40', True)
 
     Raises
@@ -117,7 +117,7 @@ def read_skel_finite(source: str | Path | bytes, path: str | Path | None = None)
         raise SkelFormatError(f"expected valid skeleton data ({type(e).__name__}: {e})", path, offset=off) from None
 
 
-def write_skel(doc: dict, path: str | Path | None = None) -> bytes:
+def encode_skel(doc: dict, path: str | Path | None = None) -> bytes:
     """Encode a skeleton document as ``.skel`` bytes of the version in ``doc["skeleton"]["spine"]``.
 
     Nothing is written: :func:`spinemesh.skeleton.save_skeleton` writes the file.
