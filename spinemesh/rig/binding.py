@@ -8,8 +8,10 @@ is drawn where the mesh was in the setup pose, whatever the weights are. ``M_bon
 from :mod:`.bones`, which follows the runtime; a bone whose setup transform it cannot
 reproduce is never bound to.
 
-Numbers are rounded for the JSON export (positions to 1e-4, weights to 1e-4 with the
-heaviest taking the remainder so that each vertex's weights still sum to 1).
+Numbers are rounded for the JSON export (positions to what moves the vertex 1e-4 world
+units at most, weights to 1e-4 with the heaviest taking the remainder so that each vertex's
+weights still sum to 1), and the binding is proved before it is written: drawn from the numbers
+as written (and as a runtime of 32-bit floats reads them) the vertices must lie where they were.
 """
 
 from __future__ import annotations
@@ -144,6 +146,41 @@ def rounded_weights(row) -> list[float]:
     return w
 
 
+#: Farthest, in world units, a bound vertex may be drawn from its setup position (:func:`bind`'s
+#: proof), beside a millionth of the position's own size (what a runtime's 32-bit floats can hold).
+BIND_TOLERANCE = 1e-3
+
+
+def local_decimals(m: np.ndarray) -> int:
+    """Decimals a position in the space of a bone of world transform ``m`` (shape (2, 3)) is
+    rounded to: 4, and one more per power of ten the bone scales by, so that rounding moves the
+    drawn vertex 1e-4 world units at most (a bone scaled by 1e6 holds a 240-unit mesh in 2.4e-4;
+    4 decimals drew it at the bone's origin).
+
+    Examples
+    --------
+    >>> local_decimals(np.array([[1.0, 0, 5], [0, 1, 0]])), local_decimals(np.array([[1e6, 0, 0], [0, 2, 0]]))
+    (4, 10)
+    """
+    scale = float(np.linalg.norm(m[:, :2], 2))
+    return 4 + max(0, math.ceil(math.log10(scale))) if math.isfinite(scale) and scale > 1 else 4
+
+
+def _binding_error(world: np.ndarray, vertices: list, worlds: list[np.ndarray]) -> float:
+    """Farthest a vertex of the weighted ``vertices`` list is drawn from ``world`` (N, 2), its
+    positions read as written and as 32-bit floats (the binary format, and the JSON readers of
+    the C, C++, C# and libGDX runtimes)."""
+    mesh = MeshVertices(len(world))
+    i = 0
+    for _ in range(len(world)):
+        k = int(vertices[i])
+        mesh.influences.append([tuple(vertices[i + 1 + 4 * j:i + 5 + 4 * j]) for j in range(k)])
+        i += 1 + 4 * k
+    single = MeshVertices(mesh.count, influences=[[(b, float(np.float32(x)), float(np.float32(y)), w)
+                                                   for b, x, y, w in row] for row in mesh.influences])
+    return max(float(np.abs(setup_world(m, worlds, 0) - world).max()) for m in (mesh, single))
+
+
 def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: list[np.ndarray]) -> list:
     """The JSON ``vertices`` list of a weighted mesh.
 
@@ -162,8 +199,14 @@ def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: li
     -------
     list
         Per vertex: bone count, then (bone index, local x, local y, weight) per bone.
+
+    Raises
+    ------
+    SpineMeshError
+        When a vertex has no weight, a number is not finite, or the list would draw a vertex
+        farther than :data:`BIND_TOLERANCE` from where it is (a bone near no scale at all).
     """
-    local = []
+    local, decimals = [], [local_decimals(worlds[b]) for b in bone_ids]
     for b in bone_ids:
         m = worlds[b]
         inv2 = np.linalg.inv(m[:, :2])
@@ -179,7 +222,11 @@ def bind(world: np.ndarray, weights: np.ndarray, bone_ids: list[int], worlds: li
         out.append(len(keep))
         for c, w in keep:
             x, y = local[c][v]
-            out += [int(bone_ids[c]), round(x, 4), round(y, 4), w]
+            out += [int(bone_ids[c]), round(x, decimals[c]), round(y, decimals[c]), w]
     if not all(math.isfinite(x) for x in out):
         raise SpineMeshError("binding produced a non-finite number")
+    error = _binding_error(world, out, worlds)
+    if not error <= BIND_TOLERANCE + 1e-6 * float(np.abs(world).max(initial=0.0)):
+        raise SpineMeshError(f"bound to its bones it would be drawn {error:.3g} units from where it is "
+                             "in the setup pose")
     return out

@@ -1,0 +1,175 @@
+"""Hostile input, eleventh round: what binds meshes to bones (``weights``, ``upgrade --weights
+auto``) and the readers of weighted meshes.
+
+Every project is made here by our own code (the worm of :mod:`rig_project`, its region made a
+9 x 3 grid mesh); each case checks what docs/safety.md promises: a weighted mesh is drawn where
+the mesh was in the setup pose (by our own reading and, where Node is there, by the official
+runtime), or it is left as it was with one line; never a traceback; inputs unchanged.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rig_project import HEIGHT, WIDTH, make_worm_project, worm_skeleton
+from test_hostile import check_run, run_cli, snapshot
+
+
+def worm_mesh(nx: int = 9, ny: int = 3) -> dict:
+    """The worm's region as an unweighted grid mesh of ``nx`` by ``ny`` vertices, drawn where the
+    region drew (on ``seg1``, 0..240 along it)."""
+    uvs, vertices, triangles = [], [], []
+    for j in range(ny):
+        for i in range(nx):
+            u, v = i / (nx - 1), j / (ny - 1)
+            uvs += [u, v]
+            vertices += [u * WIDTH, HEIGHT / 2 - v * HEIGHT]
+    for j in range(ny - 1):
+        for i in range(nx - 1):
+            a = j * nx + i
+            triangles += [a, a + 1, a + nx, a + 1, a + nx + 1, a + nx]
+    return {"type": "mesh", "uvs": uvs, "triangles": triangles, "vertices": vertices,
+            "hull": 2 * (nx + ny) - 4, "width": WIDTH, "height": HEIGHT}
+
+
+def _bone(doc: dict, name: str) -> dict:
+    return next(b for b in doc["bones"] if b["name"] == name)
+
+
+def _worm_mesh_project(tmp: Path, change=None) -> dict:
+    """The worm project in ``tmp/p`` with its region a grid mesh, ``change(doc)`` applied; the document."""
+    make_worm_project(tmp / "p")
+    doc = worm_skeleton()
+    doc["skins"][0]["attachments"]["worm"]["worm"] = worm_mesh()
+    if change is not None:
+        change(doc)
+    (tmp / "p" / "worm.json").write_text(json.dumps(doc, indent=1))
+    return doc
+
+
+def _setup_vertices(path: Path) -> dict[str, np.ndarray]:
+    """``skin/slot/name`` -> world vertices (N, 2) of every mesh of a skeleton in its setup pose,
+    as our own reading draws them (:func:`spinemesh.rig.binding.setup_world`)."""
+    from spinemesh.rig.binding import parse_vertices, setup_world
+    from spinemesh.rig.document import build_rig
+    from spinemesh.skeleton import iter_attachments, load_skeleton
+
+    doc = load_skeleton(path)
+    rig = build_rig(doc)
+    return {f"{ref.skin}/{ref.slot}/{ref.name}": setup_world(parse_vertices(ref.attachment, len(rig.bones)),
+                                                              rig.worlds, rig.slot_bone[ref.slot])
+            for ref in iter_attachments(doc) if ref.type == "mesh"}
+
+
+def _runtime_vertices(tool: Path, project: Path, skeleton: str = "worm.json") -> dict[str, np.ndarray]:
+    """``slot/attachment`` -> world vertices (N, 2) the official runtime draws in the setup pose."""
+    from runtime_tool import dump
+
+    out = project.parent / f"{project.name}.dump.json"
+    dump(tool, project / "worm.atlas", project / skeleton, None, "0", out)
+    pose = json.loads(out.read_text())["poses"][0]
+    return {f"{a['slot']}/{a['attachment']}": np.array(a["vertices"], float).reshape(-1, 2)
+            for a in pose["attachments"] if a.get("vertices")}
+
+
+def _weights(tmp: Path, *extra, codes=(0, 3)):
+    before = snapshot(tmp)
+    r = run_cli("weights", "p", "--out", "o", *extra, cwd=tmp)
+    check_run(r, before, tmp, ["o"], codes=codes)
+    return r
+
+
+# --- bones whose world transform is extreme in the setup pose --------------------------------------
+
+def _slot_bone_scaled(scale: float):
+    """``seg1`` (the slot's bone) scaled by ``scale``, the mesh's vertices divided by it: the
+    worm is drawn where it was, its vertices' numbers as small (or large) as the scale is large."""
+    def change(doc):
+        _bone(doc, "seg1").update(scaleX=scale, scaleY=scale)
+        mesh = doc["skins"][0]["attachments"]["worm"]["worm"]
+        mesh["vertices"] = [v / scale for v in mesh["vertices"]]
+    return change
+
+
+@pytest.mark.parametrize("scale", [1e6, 1e8])
+def test_a_mesh_on_a_bone_scaled_a_million_times_is_bound_where_it_is(tmp_path, scale):
+    """Positions in a bone's space were rounded to 1e-4 whatever the bone's scale: on a bone
+    scaled by 1e6 the worm's 240 units are 2.4e-4 in its space, and its weighted vertices were
+    written 0.0001 and 0.0002, drawn up to 50 units from the art (exit 0). Now the rounding
+    keeps what the scale needs, and every binding is proved before it is written."""
+    _worm_mesh_project(tmp_path, _slot_bone_scaled(scale))
+    _weights(tmp_path, codes=(0,))
+    before, after = _setup_vertices(tmp_path / "p" / "worm.json"), _setup_vertices(tmp_path / "o" / "worm.json")
+    mesh = json.loads((tmp_path / "o" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+    assert len(mesh["vertices"]) > len(mesh["uvs"])  # weighted
+    assert np.abs(after["default/worm/worm"] - before["default/worm/worm"]).max() < 1e-3
+
+
+def test_a_binding_a_runtime_of_32_bit_floats_draws_elsewhere_is_refused():
+    """A bone whose axes are all but parallel holds a vertex at millions of units in its space:
+    read as 32-bit floats (the binary format; the C, C++, C# and libGDX runtimes' JSON readers)
+    it is drawn centimetres off. The binding says so and writes nothing."""
+    from spinemesh.errors import SpineMeshError
+    from spinemesh.rig.binding import bind
+
+    worlds = [np.array([[1.0, 1.0, 0.0], [0.0, 1e-6, 0.0]])]
+    with pytest.raises(SpineMeshError, match=r"would be drawn 0\.0125 units from where it is in the setup pose"):
+        bind(np.array([[0.3, 0.7]]), np.ones((1, 1)), [0], worlds)
+    assert bind(np.array([[0.3, 0.0]]), np.ones((1, 1)), [0], worlds) == [1, 0, 0.3, 0.0, 1.0]
+
+
+def _set(bone: str, **fields):
+    return lambda doc: _bone(doc, bone).update(fields)
+
+
+def _modes(mode: str, key: str = "inherit", version: str | None = None):
+    """``seg2`` and ``seg3`` of inherit ``mode`` under a mirrored, sheared, turned ``seg1``."""
+    def change(doc):
+        if version:
+            doc["skeleton"]["spine"] = version
+        _bone(doc, "seg1").update(scaleX=-2, scaleY=0.5, rotation=30)
+        _bone(doc, "seg2").update({key: mode, "rotation": 20, "shearX": 10})
+        _bone(doc, "seg3").update({key: mode})
+    return change
+
+
+#: Bones of the worm at the extremes of their setup pose: the mesh is weighted (True) drawn where
+#: it was, or stays as it was (False) with the line's words.
+EXTREME_BONES = {
+    "slot bone scaleX 0": (_set("seg1", scaleX=0), "setup position depends on bone 'seg1', zero scale"),
+    "parent of the slot bone scaleX 0": (_set("root", scaleX=0), "setup position depends on bone 'seg1', zero scale"),
+    "slot bone scale 1e-30": (_set("seg1", scaleX=1e-30), "setup position depends on bone 'seg1', zero scale"),
+    "candidate bone scaleY 0": (_set("seg2", scaleY=0), True),
+    "candidate bone scale 1e-30": (_set("seg2", scaleX=1e-30, scaleY=1e-30), True),
+    "candidate bone shearX 90": (_set("seg2", shearX=90), True),
+    "candidate bone shearY -90 (axes one line)": (_set("seg2", shearY=-90), True),
+    "candidate bone shearY -89.9999": (_set("seg2", shearY=-89.9999), True),
+    "slot bone shearY 89.99": (_set("seg1", shearY=89.99), True),
+    "slot bone scaled 1e6": (_slot_bone_scaled(1e6), True),
+    **{f"{mode} under a mirrored parent": (_modes(mode), True) for mode in
+       ("noScale", "noRotationOrReflection", "onlyTranslation", "noScaleOrReflection")},
+    **{f"3.8 transform {mode}": (_modes(mode, "transform", "3.8.99"), True) for mode in
+       ("noRotationOrReflection", "noScaleOrReflection")},
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXTREME_BONES))
+def test_bones_at_the_extremes_bind_where_the_runtime_draws_the_mesh(tmp_path, spine_runtime, case):
+    """Zero and tiny scales, shears that lay the axes on one line, every inherit mode (3.8's
+    ``transform`` spelling too) under a mirrored parent: the weighted mesh is drawn by the
+    official runtime where the unweighted one was, or it is left as it was with its reason."""
+    change, expected = EXTREME_BONES[case]
+    _worm_mesh_project(tmp_path, change)
+    r = _weights(tmp_path)
+    mesh = json.loads((tmp_path / "o" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+    if expected is True:
+        assert r.returncode == 0 and len(mesh["vertices"]) > len(mesh["uvs"]), r.stdout + r.stderr
+    else:
+        assert mesh["vertices"] == worm_mesh()["vertices"] or mesh["vertices"] == json.loads(
+            (tmp_path / "p" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]["vertices"]
+        assert expected in r.stdout + r.stderr, r.stdout + r.stderr
+    before, after = (_runtime_vertices(spine_runtime, tmp_path / d) for d in ("p", "o"))
+    assert np.abs(after["worm/worm"] - before["worm/worm"]).max() < 1e-3
