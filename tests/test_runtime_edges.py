@@ -15,13 +15,13 @@ import sys
 
 import numpy as np
 import pytest
+from rig_project import make_worm_project, worm_skeleton
+from runtime_tool import pose_dump
+from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
 
 from spinemesh.anim import Sampler, atlas_regions
 from spinemesh.anim.dump import dump
 from spinemesh.atlas import read_atlas
-
-from rig_project import make_worm_project, worm_skeleton
-from runtime_tool import pose_dump
 
 VERSIONS = ["3.8.99", "4.0.64", "4.1.24", "4.2.22"]
 
@@ -83,7 +83,7 @@ def test_pose_says_in_one_line_which_bones_the_runtime_leaves_without_a_number(t
     path.write_text(json.dumps(_reach_under_a_flat_grandparent("3.8.99", "scaleX")))
     out = tmp_path / "pose.json"
     r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", path, "-a", "wiggle", "--times", "0.5",
-                        "--out", out], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+                        "--out", out], capture_output=True, text=True, check=False, env=dict(os.environ, COLUMNS="300"))
     assert r.returncode == 0, r.stderr
     said = [line for line in r.stderr.splitlines() if "not a number" in line]
     assert len(said) == 1 and "2 bones (seg2, seg3)" in said[0] and "setup, wiggle@0.5" in said[0], r.stderr
@@ -91,3 +91,65 @@ def test_pose_says_in_one_line_which_bones_the_runtime_leaves_without_a_number(t
     assert "NaN" not in text and "Infinity" not in text
     pose = json.loads(text)["poses"][1]
     assert pose["bones"]["seg3"] == [None] * 6 and pose["bones"]["seg1"][0] == 0
+
+
+def _spun(version: str, turns: float) -> dict:
+    """seg2 set up at ``turns`` degrees; seg3 keyed 0, ``turns``, ``-turns`` (3.x reaches each key
+    the shorter way round, then takes its value as written: the angle jumps there)."""
+    doc = _worm(version)
+    key = "angle" if version.startswith("3.") else "value"
+    doc["bones"][2]["rotation"] = turns
+    doc["slots"][0]["bone"] = "seg3"
+    doc["animations"]["wiggle"]["bones"]["seg3"]["rotate"] = [
+        {key: 0}, {"time": 0.5, key: turns}, {"time": 1, key: -turns}]
+    return doc
+
+
+SPUN_TIMES = [0.25, 0.5, 0.75, 0.9, 1.6]
+
+
+@pytest.mark.parametrize("turns", [1e6, 1e8, 1e12])
+@pytest.mark.parametrize("version", VERSIONS)
+def test_rotations_of_a_million_to_a_trillion_degrees_pose_as_each_runtime(version, turns, spine_runtime,
+                                                                            tmp_path):
+    """The runtimes turn degrees into radians with their pi of 3.1415927, 9.3e-8 radians a turn
+    from the true one, so an angle and the same angle a million turns on are drawn 5 degrees
+    apart: the angle itself must be the runtime's, not one equal to it modulo 360. 4.x sets it
+    to setup + keyed value (as the sampler does); 3.8 carries it from frame to frame, each step
+    adding the keyed angle's difference brought within half a turn (its whole-number part cut
+    to 32 bits as JavaScript's ``| 0`` cuts it), which the sampler replays. Within 1e-4."""
+    path = make_worm_project(tmp_path / "in")
+    doc = _spun(version, turns)
+    path.write_text(json.dumps(doc))
+    atlas = path.parent / "worm.atlas"
+    theirs = pose_dump(spine_runtime, atlas, path, tmp_path / "d.json", "wiggle", ",".join(map(str, SPUN_TIMES)))
+    ours = dump(Sampler(doc, None, atlas_regions(read_atlas(atlas))), "wiggle", SPUN_TIMES)
+    _same_dumps(ours, theirs, tolerance=1e-4)
+
+
+@pytest.mark.parametrize("turns", [1e6, 1e8, 1e12])
+def test_rotations_of_a_million_to_a_trillion_degrees_pose_as_spine_core_43(turns, runtime43, tmp_path):  # noqa: F811
+    from runtime_tool import node
+
+    path = make_worm_project(tmp_path / "in")
+    doc = _spun("4.3.23", turns)
+    path.write_text(json.dumps(doc))
+    r = node(runtime43, "pose.mjs", path.parent / "worm.atlas", path, tmp_path / "d.json",
+             ",".join(f"wiggle@{t}" for t in SPUN_TIMES))
+    assert r.returncode == 0, r.stderr[-2000:]
+    theirs = json.loads((tmp_path / "d.json").read_text())
+    sampler = Sampler(doc, None, atlas_regions(read_atlas(path.parent / "worm.atlas")))
+    ours = {"poses": [{"label": p["label"], **sampler.pose("wiggle", p["time"]).to_dump()}
+                      for p in theirs["poses"]]}
+    assert len(ours["poses"]) == 1 + len(SPUN_TIMES)  # the setup pose first
+    _same_dumps(ours, theirs, tolerance=1e-4)
+
+
+def test_a_3x_angle_is_replayed_only_where_its_keys_jump_a_half_turn():
+    """3.7 and 3.8 only (3.5, 3.6 and 4.x set the angle from the setup pose each frame)."""
+    calm = Sampler(_worm("3.8.99")).animation("wiggle")[0]
+    spun = Sampler(_spun("3.8.99", 1e6)).animation("wiggle")[0]
+    assert not any(tl.carried for tl in calm.bones)
+    assert [tl.carried for tl in spun.bones] == [False, True]
+    for version in ("3.6.53", "4.2.22"):
+        assert not any(tl.carried for tl in Sampler(_spun(version, 1e6)).animation("wiggle")[0].bones)

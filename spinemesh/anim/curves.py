@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..rig.transform import float_divide
+from ..rig.transform import float_divide, wrap_turns
 from ..skeleton_curves import CURVES_38, CurveSpelling
 
 LINEAR, STEPPED, BEZIER = 0, 1, 2
@@ -145,9 +145,11 @@ def value_4(points, time: float, time1: float, value1: float, time2: float, valu
     return py + float_divide(time - px, time2 - px) * (value2 - py)
 
 
-def _wrap_turns(degrees: float) -> float:
-    """3.x rotate keys: the change brought into -180..180 (the shorter way round)."""
-    return degrees - (16384 - int(16384.499999999996 - degrees / 360)) * 360
+def percent_between_3(time: float, t1: float, t2: float) -> float:
+    """How far ``time`` lies from key time ``t1`` to the next, ``t2``, as the 3.x runtimes work
+    it out: from the next key back, ``1 - (time - t2) / (t1 - t2)``. The same number but for its
+    last bit, which an angle of 1e12 degrees makes a difference of 1e-5 degrees."""
+    return 1 - (time - t2) / (t1 - t2)
 
 
 @dataclass
@@ -228,14 +230,14 @@ class Keys:
             if one:
                 return (value_4(curve[0], time, t1, a[0], t2, b[0]),)
             return tuple([value_4(curve[c], time, t1, a[c], t2, b[c]) for c in range(len(a))])
-        p = (time - t1) / (t2 - t1)
+        p = percent_between_3(time, t1, t2)
         if kind == BEZIER:
             p = percent_3(curve, p)
         else:
             p = min(1.0, max(0.0, p))
         if self.angle:
-            return (a[0] + _wrap_turns(b[0] - a[0]) * p,) if one else tuple(
-                [x + _wrap_turns(y - x) * p for x, y in zip(a, b)])
+            return (a[0] + wrap_turns(b[0] - a[0]) * p,) if one else tuple(
+                [x + wrap_turns(y - x) * p for x, y in zip(a, b)])
         return (a[0] + (b[0] - a[0]) * p,) if one else tuple([x + (y - x) * p for x, y in zip(a, b)])
 
     def percent(self, time: float) -> tuple[int, float]:
@@ -250,7 +252,7 @@ class Keys:
             if kind == LINEAR:
                 return i, (time - t1) / (t2 - t1)
             return i, value_4(curve[0], time, t1, 0.0, t2, 1.0)
-        p = (time - t1) / (t2 - t1)
+        p = percent_between_3(time, t1, t2)
         return i, percent_3(curve, p) if kind == BEZIER else min(1.0, max(0.0, p))
 
 

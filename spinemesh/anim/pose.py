@@ -30,6 +30,7 @@ from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
 from ..rig.constraints import Rig, build_rig, constraints_of, is_43, path_slot, posing_family, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
+from ..rig.transform import wrap_turns
 from ..rig.transform43 import PROPERTIES, source_value_43
 from ..skeleton import first_of_each_name, skins_by_name, spine_version
 from ..skeleton_curves import curve_spelling
@@ -497,7 +498,8 @@ class Sampler:
         anim = self.animation(animation)[0]
         for state in self.physics:
             state.mode = RESET
-        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0)
+        frame = self._frame(animation, animation_time(time, anim.duration, fps, loop), -1.0,
+                            carried=_carried_rotations(anim, self.setup_local, self.active, time, fps, loop))
         return (frame, *self._pose_bones(frame, flagged=self.physics_bones))
 
     def bone_worlds(self, animation: str, time: float, fps: float = 60.0, loop: bool = True) -> np.ndarray:
@@ -552,14 +554,15 @@ class Sampler:
                 yield (frame, *result)
 
     def _frame(self, animation: str | None, t: float, last: float, bones: bool = True,
-               drawn: bool = True) -> _Frame:
+               drawn: bool = True, carried: dict[int, float] | None = None) -> _Frame:
         """Every timeline of ``animation`` applied at animation time ``t`` over the setup
         values (``last``: the time applied the frame before, for physics resets). Not
         ``bones``: another sampler poses the bones (:meth:`play_pair`'s twin), so bone and
         constraint timelines and physics resets are left out (the frame's bone and constraint
         values stay the setup's). Not ``drawn``: only what poses the bones (a step between
         drawn frames), the slots that no path constraint follows left without colour, order
-        and attachment."""
+        and attachment. ``carried``: the angles of 3.7 and 3.8 rotate timelines replayed frame by frame
+        (:func:`_carried_rotations`), by the timeline's place in the animation's bone timelines."""
         if not drawn and animation is not None:
             return self._bones_frame(animation, t, last)
         n_slots = len(self.slot_names)
@@ -572,7 +575,7 @@ class Sampler:
         if animation is not None:
             anim, deforms = self.animation(animation)
             if bones:
-                self._apply_bones(anim, t, frame.local, frame.inherit, active)
+                self._apply_bones(anim, t, frame.local, frame.inherit, active, carried)
                 self._apply_constraints(anim, t, frame.data)
             self._apply_slots(anim, t, frame.names, frame.colors, active, frame.darks)
             if bones:
@@ -629,8 +632,9 @@ class Sampler:
                 if c.kind == "physics" and c.physics is not None and c.active and name in ("", c.name):
                     c.physics.reset()
 
-    def _apply_bones(self, anim: Animation, t: float, local: list, inherit: list, active: list) -> None:
-        for tl in anim.bones:
+    def _apply_bones(self, anim: Animation, t: float, local: list, inherit: list, active: list,
+                     carried: dict[int, float] | None = None) -> None:
+        for k, tl in enumerate(anim.bones):
             if not active[tl.bone]:
                 continue
             v = tl.keys.at(t)
@@ -640,7 +644,7 @@ class Sampler:
                 row = local[tl.bone] = list(setup)
             p = tl.property
             if p == "rotate":
-                row[2] = setup[2] + (float(v[0]) if v is not None else 0.0)
+                row[2] = carried[k] if carried and k in carried else setup[2] + (float(v[0]) if v is not None else 0.0)
             elif p in ("translate", "translatex", "translatey"):
                 _set_pair(row, setup, v, p, 0, lambda s, k: s + k, 0.0)
             elif p in ("scale", "scalex", "scaley"):
@@ -822,6 +826,44 @@ class Sampler:
         if placed is not None:
             placed[slot] = (att, f, deform, verts)
         return verts
+
+
+def _carried_rotations(anim: Animation, setup_local: list, active: list, time: float, fps: float,
+                       loop: bool) -> dict[int, float]:
+    """The angles of ``anim``'s carried 3.7 and 3.8 rotate timelines (``BoneTimeline.carried``) at track
+    time ``time``, as the 3.7 and 3.8 runtimes reach them: from the setup pose, every step of the game
+    loop adds to the bone's angle its keyed angle's difference from it brought within half a
+    turn (``spinemesh.rig.transform.wrap_turns``), so the angle follows the keys the shorter way
+    round and never jumps by a turn. By the timeline's place in ``anim.bones``; empty when no
+    timeline is carried (the angle is then the keyed one, as every 4.x runtime sets it).
+
+    Raises
+    ------
+    SpineMeshError
+        Past :data:`~spinemesh.limits.MAX_POSE_STEPS` steps, each of which would be replayed.
+    """
+    timelines = [(k, tl) for k, tl in enumerate(anim.bones) if tl.carried and active[tl.bone]]
+    if not timelines:
+        return {}
+    steps, dt = steps_of(time, fps)
+    if steps > MAX_POSE_STEPS:
+        raise SpineMeshError(f"{time:g} s is over {MAX_POSE_STEPS:,} game-loop steps, each of which turns a bone "
+                             "the 3.7 and 3.8 runtimes carry from frame to frame")
+    times, track = [], 0.0
+    for i in range(steps + 1):
+        if i:
+            track += dt
+        times.append((math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track)
+    out = {}
+    for k, tl in timelines:
+        setup = setup_local[tl.bone][2]
+        angle = setup
+        for t in times:
+            v = tl.keys.at(t)
+            # the runtime's order of operations: at 1e12 degrees a rounding apart is 5e-4 world units
+            angle += wrap_turns((float(v[0]) if v is not None else 0.0) + (setup - angle))
+        out[k] = angle
+    return out
 
 
 def _same_numbers(a: np.ndarray | None, b: np.ndarray | None) -> bool:

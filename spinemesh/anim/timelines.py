@@ -11,6 +11,7 @@ names (``rotate`` with ``value``, split ``translatex``/``translatey``/``scalex``
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import pairwise
 
 import numpy as np
 
@@ -42,6 +43,19 @@ class BoneTimeline:
     bone: int
     property: str
     keys: Keys
+    #: A 3.7 or 3.8 rotate timeline whose keyed angle jumps by more than half a turn somewhere
+    #: (:func:`jumps_a_half_turn`): there the runtime's angle, carried from frame to frame,
+    #: comes to differ from the keyed one by whole turns, which its pi of 3.1415927 turns into
+    #: a real difference (:meth:`spinemesh.anim.Sampler.pose` replays it frame by frame).
+    carried: bool = False
+
+
+def jumps_a_half_turn(keys: Keys) -> bool:
+    """Whether a 3.x rotate timeline's angle jumps by more than 180 degrees anywhere a game
+    plays it: from key to key (a key is reached the shorter way round, then its value is taken
+    as written), from 0 before the first key, and from the last key back to the first (a loop)."""
+    values = [0.0, *(float(v) for v in keys.values[:, 0]), float(keys.values[0, 0]), 0.0]
+    return any(abs(b - a) > 180 for a, b in pairwise(values))
 
 
 @dataclass
@@ -211,6 +225,9 @@ class _Reader:
         #: 4.3 reads a physics mix key without a value as 1 (4.2: 0), and a transform key's
         #: mixScaleY as 1
         self.four_three = doc_major_minor(doc) == (4, 3)
+        #: 3.7 and 3.8 apply a game's first track as MixBlend.first, which carries a bone's angle
+        #: from frame to frame (3.5 and 3.6 set it from the setup pose, as 4.x does)
+        self.carries_angles = not four and doc_major_minor(doc) in ((3, 7), (3, 8))
 
     def keys(self, frames, getter, where: str = "", **kw) -> Keys | None:
         """The keys of one timeline (``where``: its place in the animation, for what is said of it)."""
@@ -244,7 +261,7 @@ class _Reader:
                 k = self.keys(frames, _getter(*spec), f"bones.{bone}.{prop}",
                               angle=(prop == "rotate" and not self.four)) if spec else None
                 if k is not None:
-                    self.out.bones.append(BoneTimeline(b, prop, k))
+                    self.out.bones.append(BoneTimeline(b, prop, k, carried=self.carries_angles and k.angle and jumps_a_half_turn(k)))
 
     def slots(self, timelines: dict) -> None:
         for slot, tls in timelines.items():

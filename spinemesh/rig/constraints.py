@@ -50,6 +50,7 @@ from .transform import (
     local_values,
     world_numbers,
     wrap_pi,
+    wrap_turns,
 )
 from .transform43 import PROPERTIES, Unmapped, local_from_world_43, transform_apply_43
 
@@ -328,11 +329,6 @@ def _wrap180(degrees: float) -> float:
     if degrees < -180:
         return degrees + 360
     return degrees
-
-
-def _wrap_turns(degrees: float) -> float:
-    """3.8-4.1 local transform constraints: the angle brought near [-180, 180] by whole turns."""
-    return degrees - (16384 - int(16384.499999999996 - degrees / 360)) * 360
 
 
 # -- IK ------------------------------------------------------------------------------------
@@ -687,7 +683,7 @@ def _transform_local(mix: TransformMix, target: PoseBone, bones: list[PoseBone],
                 scale_y *= (t[4] - 1 + off_sy) * mix.scale_y + 1
                 shear_y += (t[6] + off_shear) * mix.shear_y
         else:
-            wrap = _wrap_turns if family != "4.2" else (lambda r: r)
+            wrap = wrap_turns if family != "4.2" else (lambda r: r)
             if mix.rotate != 0:
                 rotation += wrap(t[2] - rotation + off_rot) * mix.rotate
             if family != "3.8" or mix.x != 0:

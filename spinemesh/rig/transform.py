@@ -163,6 +163,34 @@ def wrap_pi(r: float) -> float:
     return r
 
 
+def wrap_turns(degrees: float) -> float:
+    """An angle brought near [-180, 180] by whole turns, as spine-ts 3.8 to 4.1 write it:
+    ``degrees - (16384 - ((16384.499999999996 - degrees / 360) | 0)) * 360`` (3.x rotate keys, the
+    shorter way round; 3.8-4.1 local transform constraints).
+
+    JavaScript's ``| 0`` keeps a whole number's low 32 bits (ToInt32): past 2**31 turns (about
+    7.7e11 degrees) it wraps, and the angle is left far from [-180, 180] as the runtime leaves
+    it; a number that is not finite counts as 0 there.
+
+    Examples
+    --------
+    >>> wrap_turns(370.0), wrap_turns(-190.0)
+    (10.0, 170.0)
+    >>> wrap_turns(1e12)  # ToInt32 wrapped: the runtime's number, not 1e12 - 2777777778 turns
+    1546188226840.0
+    """
+    return degrees - (16384 - js_int32(16384.499999999996 - degrees / 360)) * 360
+
+
+def js_int32(x: float) -> int:
+    """JavaScript's ``x | 0`` (ToInt32): truncated towards 0, its low 32 bits as a signed
+    number; 0 for NaN and the infinities."""
+    if not math.isfinite(x):
+        return 0
+    n = int(x) & 0xFFFFFFFF
+    return n - (1 << 32) if n & 0x80000000 else n
+
+
 def float_divide(a: float, b: float) -> float:
     """``a / b`` as the runtimes' floats divide: by zero, an infinity signed as IEEE 754 signs
     it (NaN for 0 / 0), where Python raises.
