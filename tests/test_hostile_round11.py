@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from rig_project import HEIGHT, WIDTH, make_worm_project, worm_skeleton
 from test_hostile import check_run, run_cli, snapshot
+from test_skeleton_binary_v43 import runtime43  # noqa: F401  (fixture)
 
 
 def worm_mesh(nx: int = 9, ny: int = 3) -> dict:
@@ -173,3 +174,63 @@ def test_bones_at_the_extremes_bind_where_the_runtime_draws_the_mesh(tmp_path, s
         assert expected in r.stdout + r.stderr, r.stdout + r.stderr
     before, after = (_runtime_vertices(spine_runtime, tmp_path / d) for d in ("p", "o"))
     assert np.abs(after["worm/worm"] - before["worm/worm"]).max() < 1e-3
+
+
+# --- meshes `weights` is given ---------------------------------------------------------------------
+
+def _ghost(bone: str, **linked):
+    """4.3: a slot ``ghost`` on ``bone`` whose linked mesh takes the worm's mesh (slot ``worm``) as its source."""
+    def change(doc):
+        doc["skeleton"]["spine"] = "4.3.00"
+        doc["slots"].append({"name": "ghost", "bone": bone, "attachment": "copy"})
+        doc["skins"][0]["attachments"]["ghost"] = {"copy": {
+            "type": "linkedmesh", "source": "worm", "slot": "worm", "path": "worm", "width": WIDTH, "height": HEIGHT,
+            **linked}}
+    return change
+
+
+def _world43(runtime: Path, project: Path) -> dict[str, np.ndarray]:
+    """``skin\\tslot\\tname`` -> world vertices spine-core 4.3 draws in the setup pose (tests/runtime43)."""
+    from runtime_tool import node
+
+    out = project.parent / f"{project.name}.world.json"
+    r = node(runtime, "world.mjs", project / "worm.atlas", project / "worm.json", out)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return {k: np.array(v["world"], float) for k, v in json.loads(out.read_text()).items()}
+
+
+def test_a_43_source_mesh_whose_linked_mesh_sits_on_another_bone_stays_unweighted(tmp_path, runtime43):  # noqa: F811
+    """4.3 lets a linked mesh in one slot take its source from another (``"slot"``): unweighted,
+    it draws the source's vertices in its own slot's bone; bound, in the source's bones. The
+    source was weighted and the ghost on ``seg3`` jumped 160 units onto the worm (exit 0). Now
+    the source is left as it was with the reason; on the same bone it is weighted."""
+    _worm_mesh_project(tmp_path, _ghost("seg3"))
+    r = _weights(tmp_path, codes=(0,))
+    assert "a linked mesh of slot 'ghost' draws its vertices on that slot's bone" in r.stdout, r.stdout
+    assert (tmp_path / "o" / "worm.json").read_bytes() == (tmp_path / "p" / "worm.json").read_bytes()
+    before, after = _world43(runtime43, tmp_path / "p"), _world43(runtime43, tmp_path / "o")
+    assert np.abs(after["default\tghost\tcopy"] - before["default\tghost\tcopy"]).max() < 1e-3
+
+    same = tmp_path / "same"
+    _worm_mesh_project(same, _ghost("seg1"))
+    _weights(same, codes=(0,))
+    mesh = json.loads((same / "o" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+    assert len(mesh["vertices"]) > len(mesh["uvs"])  # weighted
+    before, after = _world43(runtime43, same / "p"), _world43(runtime43, same / "o")
+    for key in before:
+        assert np.abs(after[key] - before[key]).max() < 1e-3, key
+
+
+def test_a_deform_keyed_on_a_43_linked_mesh_of_another_slot_keeps_its_source(tmp_path):
+    """A linked mesh that plays its own deform keys (``"timelines": false``) holds them laid out
+    as its source's vertices: weighting the source changes what they mean. The keys were looked
+    for under the linked mesh's slot, not the source's (4.3's ``"slot"``), and the source was
+    weighted; now it is left as it was with the animation's name."""
+    def change(doc):
+        _ghost("seg1", timelines=False)(doc)
+        doc["animations"]["wiggle"]["attachments"] = {"default": {"ghost": {"copy": {"deform": [
+            {"time": 0}, {"time": 0.5, "vertices": [5.0] * len(worm_mesh()["vertices"])}]}}}}
+    _worm_mesh_project(tmp_path, change)
+    r = _weights(tmp_path, codes=(0,))
+    assert "keyed by a deform timeline" in r.stdout, r.stdout
+    assert (tmp_path / "o" / "worm.json").read_bytes() == (tmp_path / "p" / "worm.json").read_bytes()

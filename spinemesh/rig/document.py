@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..skeleton import AttachmentRef, checked_attachments, image_paths, iter_attachments
+from ..skeleton import AttachmentRef, checked_attachments, image_paths, iter_attachments, linked_source
 from .binding import bind, mesh_triangles, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
@@ -96,6 +96,8 @@ class Rig:
     choices: dict = field(default_factory=dict, repr=False, compare=False)
     # the skeleton's animations, sampled when a learned choice is first guarded (:func:`.drift.guard`)
     motion: Motion | None = field(default=None, repr=False, compare=False)
+    # source meshes (skin, slot, name) of a 4.3 linked mesh in a slot of another bone -> that slot
+    linked_elsewhere: dict[tuple[str, str, str], str] = field(default_factory=dict)
 
     @property
     def worlds(self) -> list[np.ndarray]:
@@ -141,13 +143,19 @@ def build_rig(doc: dict, sample_motion=None) -> Rig:
             if isinstance(skin, dict):
                 skin_bones[str(skin.get("name", ""))] = {index[n] for n in skin.get("bones", []) or [] if n in index}
     keyed = _deform_keys(doc)
-    # A linked mesh plays its parent's deform timelines: keys on it hold the parent too.
+    elsewhere: dict[tuple[str, str, str], str] = {}
     for ref in iter_attachments(doc):
-        if ref.type == "linkedmesh" and (ref.skin, ref.slot, ref.name) in keyed:
-            parent_skin = str(ref.attachment.get("skin") or "default")
-            keyed.setdefault((parent_skin, ref.slot, str(ref.attachment.get("parent"))),
-                             keyed[(ref.skin, ref.slot, ref.name)])
-    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), motion=Motion(doc, sample_motion))
+        if ref.type != "linkedmesh":
+            continue
+        source = linked_source(ref)  # 4.3: perhaps in another slot
+        # A linked mesh plays its parent's deform timelines: keys on it hold the parent too.
+        if (ref.skin, ref.slot, ref.name) in keyed:
+            keyed.setdefault(source, keyed[(ref.skin, ref.slot, ref.name)])
+        # Unweighted, it draws its source's vertices in its own slot's bone: bound to bones, in theirs.
+        if slot_bone.get(ref.slot) != slot_bone.get(source[1]):
+            elsewhere.setdefault(source, ref.slot)
+    return Rig(bones, slot_bone, skin_bones, keyed, constrained_bones(doc), motion=Motion(doc, sample_motion),
+               linked_elsewhere=elsewhere)
 
 
 def _matches(patterns: list[str], ref: AttachmentRef) -> bool:
@@ -227,6 +235,12 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     outcome.vertices = mesh.count
     if mesh.weighted and not options.replace:
         outcome.status, outcome.reason = "skipped", "already weighted (use --replace)"
+        return
+    linked = rig.linked_elsewhere.get((ref.skin, ref.slot, ref.name))
+    if linked is not None and not mesh.weighted:
+        outcome.status = "skipped"
+        outcome.reason = (f"a linked mesh of slot {linked!r} draws its vertices on that slot's bone; "
+                          "bound to bones, it would be drawn where this mesh is")
         return
     slot_bone = rig.slot_bone[ref.slot]
     depends = mesh.bones() if mesh.weighted else [slot_bone]
