@@ -56,3 +56,56 @@ def test_a_4_3_constraint_list_may_name_two_of_other_types_alike(tmp_path):
                           {"type": "transform", "name": NAME, "bones": ["arm"], "source": "head"}]
     back = read_skel(encode_skel(doc))
     assert [c["name"] for c in back["constraints"]] == [NAME, NAME]
+
+
+# --- convert: a number the binary cannot store as it is --------------------------------------------
+
+def _event_doc(value) -> dict:
+    doc = _doc_4x("4.2.40")
+    doc["events"] = {"hit": {"int": value}}
+    doc["animations"]["t"] = {"events": [{"time": 0, "name": "hit"}]}
+    return doc
+
+
+@pytest.mark.parametrize("where", ["event", "key"])
+def test_convert_refuses_a_fraction_where_the_binary_stores_an_integer(tmp_path, where):
+    """An event's ``int`` of 2.5 was written 2 without a word (exit 0; spine-ts plays the JSON's
+    2.5): ``convert`` does one thing whole or refuses, so one line names the field and the value,
+    exit 2, nothing written."""
+    doc = _event_doc(2.5 if where == "event" else 1)
+    if where == "key":
+        doc["animations"]["t"]["events"][0]["int"] = 2.5
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["x.skel"], codes=(0, 2))
+    assert r.returncode == 2 and not (tmp_path / "x.skel").exists(), r.stderr
+    line = r.stderr.strip()
+    field = "the event's int" if where == "event" else "an event key's int"
+    assert "\n" not in line and line.startswith("error: x.json: cannot be written as a binary skeleton: ") \
+        and f"a whole number for {field}" in line and "got 2.5" in line, line
+
+
+def test_a_whole_float_where_the_binary_stores_an_integer_converts(tmp_path):
+    """``4.0`` (as some tools write a whole number) is that number: converted, read back 4."""
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    assert read_skel(write_skel(_event_doc(4.0)))["events"]["hit"]["int"] == 4
+
+
+@pytest.mark.parametrize("count", [-1, 1 << 23, 2.5])
+def test_a_recorded_timeline_count_no_reader_takes_is_refused(count):
+    """``--keep-binary-info``'s ``_skel`` timeline count, edited by hand, was written as given: the
+    runtimes only reserve that much (libGDX, spine-csharp) or skip it, so a count read back is
+    kept, but a negative one (their load stops) or one past what a ``.skel`` is read with (our
+    own reader refused the file) is refused in one line naming the animation."""
+    from spinemesh.errors import SkelFormatError
+    from spinemesh.skeleton_binary import read_skel, write_skel
+
+    doc = _event_doc(1)
+    doc["_skel"] = {"timelines": {"t": 7}}
+    back = read_skel(write_skel(doc))
+    assert back["_skel"]["timelines"] == {"t": 7}  # within the range: kept for the byte-exact round trip
+    doc["_skel"] = {"timelines": {"t": count}}
+    with pytest.raises(SkelFormatError, match=r"animation 't''s timeline count .*got " + str(count)):
+        write_skel(doc)

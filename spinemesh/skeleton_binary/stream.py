@@ -194,10 +194,23 @@ class SkelWriter:
     def getvalue(self) -> bytes:
         return bytes(self.out)
 
+    def whole(self, value, what: str) -> int:
+        """``value`` as the whole number a binary integer field stores, refused in one line where it
+        is not one: cut to its whole part (an event's ``int`` of 2.5 written 2), the ``.skel``
+        would say another number than the JSON, which spine-ts plays as it is. A whole float
+        (``4.0``, as some tools write) is that number."""
+        try:
+            v = int(value)
+        except (TypeError, ValueError, OverflowError):
+            raise self.fail(f"a whole number for {what}, got {value!r}") from None
+        if isinstance(value, float) and v != value:
+            raise self.fail(f"a whole number for {what} (the binary format stores an integer), got {value!r}")
+        return v
+
     def _integer(self, value, low: int, high: int, what: str) -> int:
         """``value`` as an integer the field holds, refused in one line where it does not: cut to
         the field's bits it was written as another number (an event's int of 2**40 read back 256)."""
-        v = int(value)
+        v = self.whole(value, what)
         if not low <= v <= high:
             raise self.fail(f"an integer from {low:,} to {high:,} for {what} (the binary format's range), "
                             f"got {value!r}")
@@ -248,7 +261,14 @@ class SkelWriter:
         return value
 
     def count(self, value, what: str = "count") -> int:
-        return self.varint(value, what=what)
+        """A list length, refused where :meth:`SkelReader.count` would refuse to read it back
+        (below 0, above :data:`MAX_COUNT`): a ``_skel`` timeline count edited by hand is written
+        as given, and libGDX and spine-csharp reserve that many timelines (a negative one stops
+        their load, a huge one takes the memory); the other runtimes skip it."""
+        v = self.whole(value, what)
+        if not 0 <= v <= MAX_COUNT:
+            raise self.fail(f"a count from 0 to {MAX_COUNT:,} for {what} (as a .skel is read back), got {value!r}")
+        return self.varint(v, what=what)
 
     def string(self, value, what: str = "string") -> str | None:
         if value is None:

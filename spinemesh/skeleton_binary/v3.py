@@ -461,11 +461,10 @@ def vertices(s, node: dict, n: int, c: Context) -> None:
     i = 0
     try:
         for _ in range(n):
-            k = int(v[i])
-            s.count(k)
+            k = s.count(v[i], what="weighted vertex bone count")
             i += 1
             for _ in range(k):
-                s.varint(int(v[i]))
+                s.varint(v[i], what="weighted vertex bone")
                 s.raw(struct.pack(">3f", v[i + 1], v[i + 2], v[i + 3]))
                 i += 4
     except (IndexError, ValueError, TypeError, struct.error):
@@ -480,7 +479,7 @@ def vertex_count(s, node: dict) -> int:
         n = s.count(what="vertex count")
         node["vertexCount"] = n
         return n
-    return s.count(int(node.get("vertexCount", 0)), what="vertex count")
+    return s.count(node.get("vertexCount", 0), what="vertex count")
 
 
 def region(s, node: dict, c: Context) -> None:
@@ -515,7 +514,7 @@ def mesh(s, node: dict, c: Context) -> None:
     if s.reading:
         node["hull"] = s.count(what="hull length")
     else:
-        s.count(int(node.get("hull", 0)))
+        s.count(node.get("hull", 0), what="hull length")
     if c.nonessential:
         shorts(s, node, "edges")
         fld(s, node, "width", 0)
@@ -670,7 +669,7 @@ def event(s, node: dict, c: Context) -> None:
     if s.reading:
         put(node, "int", s.varint(positive=False, what="int"), 0)
     else:
-        s.varint(int(node.get("int", 0)), positive=False, what="the event's int")
+        s.varint(node.get("int", 0), positive=False, what="the event's int")
     fld(s, node, "float", 0)
     # The editor writes "" for no string, and its JSON leaves that out; a null is kept.
     if s.reading:
@@ -862,7 +861,7 @@ def deform(s, anim: dict, c: Context) -> None:
             if s.reading:
                 put(f, "offset", s.count(what="deform offset"), 0)
             else:
-                s.count(int(f.get("offset", 0)))
+                s.count(f.get("offset", 0), what="deform offset")
             floats(s, f, "vertices", end)
         if i < n - 1:
             curve(s, f, c)
@@ -901,7 +900,7 @@ def draw_order(s, anim: dict, c: Context) -> None:
         if s.reading:
             o["offset"] = s.varint(what="draw order offset")
         else:
-            s.varint(int(o.get("offset", 0)))
+            s.varint(o.get("offset", 0), what="draw order offset")
         return o
 
     def key(s, f):
@@ -929,7 +928,7 @@ def events_timeline(s, anim: dict, c: Context) -> None:
         if s.reading:
             put(f, "int", s.varint(positive=False, what="int"), data.get("int", 0))
         else:
-            s.varint(int(f.get("int", data.get("int", 0))), positive=False, what="an event key's int")
+            s.varint(f.get("int", data.get("int", 0)), positive=False, what="an event key's int")
         fld(s, f, "float", data.get("float", 0))
         if s.bool("string" in f, what="string flag"):
             text(s, f, "string")

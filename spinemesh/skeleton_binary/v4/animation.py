@@ -88,7 +88,7 @@ def _draw_order_key(s, f: dict, table: tuple) -> None:
     s.count(len(offsets))
     for o in offsets:
         index(s, o, "slot", names, lookup, "slot")
-        s.varint(int(o.get("offset", 0)))
+        s.varint(o.get("offset", 0), what="draw order offset")
 
 
 def draw_order(s, anim: dict, c: Context) -> None:
@@ -154,7 +154,7 @@ def _event_key(s, f: dict, data: dict, c: Context) -> None:
     if s.reading:
         _put(f, "int", s.varint(positive=False), data.get("int", 0))
     else:
-        s.varint(int(f.get("int", data.get("int", 0))), positive=False, what="an event key's int")
+        s.varint(f.get("int", data.get("int", 0)), positive=False, what="an event key's int")
     fld(s, f, "float", data.get("float", 0))
     if c.L.flags:
         text(s, f, "string")
@@ -190,7 +190,7 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
     if s.reading:
         count = s.count(what="timeline count")
     else:
-        count = s.count(extra_counts.get(name, timeline_count(anim, c.L)))
+        count = s.count(extra_counts.get(name, timeline_count(anim, c.L)), what=f"animation {name!r}'s timeline count")
     for key, names_lookup, body, offset in (
             ("slots", c.slots, _slot_body, 0), ("bones", c.bones, _bone_body, 0)):
         got = _typed_groups(s, None if s.reading else anim.get(key, {}), *names_lookup, key[:-1], body, offset)

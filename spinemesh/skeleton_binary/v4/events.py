@@ -16,7 +16,7 @@ def event(s, node: dict, c: Context) -> None:
     if s.reading:
         _put(node, "int", s.varint(positive=False), 0)
     else:
-        s.varint(int(node.get("int", 0)), positive=False, what="the event's int")
+        s.varint(node.get("int", 0), positive=False, what="the event's int")
     fld(s, node, "float", 0)
     if c.L.constraint_list:
         # 4.3: "" for no string, as the 4.2 editor stores it and as SkeletonJson defaults

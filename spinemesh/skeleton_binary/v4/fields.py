@@ -155,7 +155,7 @@ def fld_u8(s, node: dict, key: str, default: int = 0) -> int:
         v = s.u8()
         _put(node, key, v, default)
         return v
-    return s.u8(int(node.get(key, default)))
+    return s.u8(node.get(key, default), what=key)
 
 
 def _flag_byte(s, node: dict, bits: tuple, value_flags: int = 0) -> int:

@@ -306,18 +306,17 @@ class _RefWriter(RecordedRefs, SkelWriter):
 
     def varints(self, values, n: int = 0, what: str = "indices") -> list[int]:
         for v in values:
-            self.varint(int(v))
+            self.varint(v, what=what)
         return values
 
     def weighted(self, values, n: int = 0, nbones: int = 0) -> list:
         i = 0
         try:
             for _ in range(n):
-                k = int(values[i])
-                self.count(k)
+                k = self.count(values[i], what="weighted vertex bone count")
                 i += 1
                 for _ in range(k):
-                    b = int(values[i])
+                    b = self.whole(values[i], "weighted vertex bone")
                     if not 0 <= b < nbones:
                         raise self.fail(f"bone index below {nbones} in weighted vertices, got {b}")
                     self.varint(b)

@@ -437,7 +437,7 @@ def _deform_values(s, f):
         s.count(0)
         return
     s.count(len(verts))
-    s.varint(int(f.get("offset", 0)))
+    s.varint(f.get("offset", 0), what="deform offset")
     floats(s, verts, len(verts), "deform vertices")
 
 
@@ -458,6 +458,6 @@ def _sequence_frames(s, frames: list | None) -> list:
             mode = f.get("mode", "hold")
             if mode not in SEQUENCE_MODE:
                 raise s.fail(f"a sequence mode, got {mode!r}")
-            s.i32((int(f.get("index", 0)) << 4) | SEQUENCE_MODE.index(mode))
+            s.i32((s.whole(f.get("index", 0), "a sequence key's index") << 4) | SEQUENCE_MODE.index(mode))
         last[0] = fld(s, f, "delay", last[0])
     return seq(s, frames, one, what="frame count")
