@@ -38,6 +38,20 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def _standard_streams() -> None:
+    """Make the standard streams safe to write names to, whatever the environment.
+
+    Standard output takes any name: where its encoding cannot write a character
+    (``PYTHONIOENCODING=ascii``, a Windows console's code page, a latin-1 locale), it is written
+    as a Python escape (``\\xe9``), as standard error already writes it; a project named
+    ``héros`` ended every command's table in a UnicodeEncodeError traceback. (``pose`` writes
+    its JSON as UTF-8 bytes, whatever the encoding.)
+    """
+    stdout = sys.stdout
+    if stdout is not None and hasattr(stdout, "reconfigure"):
+        stdout.reconfigure(errors="backslashreplace")
+
+
 def main() -> None:
     """Console-script entry point.
 
@@ -49,6 +63,7 @@ def main() -> None:
     from ..processes import exit_on_terminate, interrupted
 
     exit_on_terminate()
+    _standard_streams()
     try:
         args = sys.argv[1:]
         if args[:1] == ["convert"]:

@@ -212,14 +212,16 @@ def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
 def _echo_pieces(pieces, stdout) -> None:
     """Write the pieces to standard output as they come; what the system refuses (a full disk)
     ends in one line naming standard output. A reader that closed the pipe (``| head``) ends the
-    run quietly, as the command line's own handler ends it (exit status 1)."""
+    run quietly, as the command line's own handler ends it (exit status 1). The document is UTF-8
+    bytes (what JSON is), whatever the console's encoding: a name that encoding cannot write
+    (``PYTHONIOENCODING=ascii``) ended the run in a traceback."""
     import errno
 
     from ..errors import OutputError
 
     try:
         for piece in pieces:
-            typer.echo(piece, nl=False, file=stdout)
+            typer.echo(piece.encode("utf-8"), nl=False, file=stdout)
     except OSError as e:
         if e.errno == errno.EPIPE:
             raise

@@ -1,0 +1,246 @@
+"""Hostile round eleven, second half: the environment a command runs in.
+
+Ten rounds attacked the files; this one attacks what build servers, CI runners, Windows shells and
+Docker images hand a command besides its arguments: the console's encoding, its width, standard
+streams that are full or closed, the temporary folder, the umask, a current folder removed, an
+output on another file system. Every project is made here by our own code; each case runs
+``python -m spinemesh`` in a subprocess with that environment and checks what docs/safety.md
+promises: one clear line naming the file, never a traceback, the run's work never stopped by its
+words, inputs unchanged.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from test_hostile import snapshot
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: A word no 8-bit code page writes whole (``é`` is latin-1, the snowman is not).
+WORD = "démo☃"
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = {**os.environ, "COLUMNS": "100", "NO_COLOR": "1", "OMP_NUM_THREADS": "1",
+           "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    for name in ("PYTHONIOENCODING", "FORCE_COLOR", "TTY_COMPATIBLE", "TTY_INTERACTIVE"):
+        env.pop(name, None)
+    env.update(extra)
+    return env
+
+
+def _run(*args, cwd: Path, env: dict | None = None, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+         umask: int | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
+    """``python -m spinemesh ARGS`` with the environment and standard streams given; bytes out."""
+    return subprocess.run([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=env or _env(),
+                          stdout=stdout, stderr=stderr, timeout=timeout, check=False,
+                          preexec_fn=(lambda: os.umask(umask)) if umask is not None else None)
+
+
+def _no_traceback(r: subprocess.CompletedProcess) -> str:
+    text = (r.stdout or b"").decode("utf-8", "replace") + (r.stderr or b"").decode("utf-8", "replace")
+    assert "Traceback" not in text and "Exception ignored" not in text, text[-3000:]
+    return text
+
+
+def _one_error(r: subprocess.CompletedProcess) -> str:
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    text = _no_traceback(r)
+    lines = [line for line in text.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, text
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def named(tmp_path_factory) -> Path:
+    """The demo project with every name non-ASCII: its folder, files, regions, slots and animation."""
+    from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
+    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+
+    folder = tmp_path_factory.mktemp("env") / "projé"
+    images = {k.replace("demo", WORD): v for k, v in demo_images().items()}
+    atlas, page = pack_atlas(images, f"{WORD}.png", keep_whitespace=(f"{WORD}-spark/",))
+    atomic_write_text(folder / f"{WORD}.atlas", atlas)
+    atomic_write_png(folder / f"{WORD}.png", page)
+    doc = json.loads(json.dumps(demo_skeleton(demo_images())).replace("demo", WORD))
+    doc["animations"] = {"vague☃": doc["animations"]["wave"]}
+    atomic_write_text(folder / f"{WORD}.json", json.dumps(doc, ensure_ascii=False))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def twenty(tmp_path_factory) -> Path:
+    """The demo project with twenty skeletons on its one atlas."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path_factory.mktemp("env") / "p20", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    for k in range(19):
+        shutil.copy(project / "demo.json", project / f"demo{k:02d}.json")
+    return project
+
+
+# --- the console's encoding -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("encoding", ["ascii", "latin-1"])
+def test_names_the_console_cannot_encode_are_escaped(tmp_path, named, encoding):
+    """``PYTHONIOENCODING=ascii`` (or latin-1: a Windows code page, a Docker image's locale) with a
+    project named ``projé/démo☃``: every command's table on standard output ended in a
+    UnicodeEncodeError traceback, exit 1, after its files were written. Names the console cannot
+    write are written as Python escapes, as standard error writes them."""
+    before = snapshot(named)
+    env = _env(PYTHONIOENCODING=encoding)
+    skeleton = named / f"{WORD}.json"
+    runs = {
+        "upgrade": ("upgrade", named, "--out", "up", "--pack", "--weights", "auto", "--preview", "prev"),
+        "info": ("info", named),
+        "mesh": ("mesh", named / f"{WORD}.png", "--out", "m.json"),
+        "convert": ("convert", skeleton, "c.skel"),
+    }
+    if encoding == "ascii":  # the other commands print through the same console
+        runs |= {"pack": ("pack", named, "--out", "pk"), "weights": ("weights", "up", "--out", "w")}
+    shown = {}
+    for name, args in runs.items():
+        r = _run(*args, cwd=tmp_path, env=env)
+        text = _no_traceback(r)
+        assert r.returncode == 0, (name, text[-2000:])
+        shown[name] = r.stdout.decode(encoding)  # all of it in the console's encoding
+    assert ("d\\xe9mo\\u2603" if encoding == "ascii" else "démo\\u2603") in shown["upgrade"], shown["upgrade"]
+    assert snapshot(named) == before
+
+
+def test_pose_writes_utf8_json_whatever_the_console_encoding(tmp_path, named):
+    """``pose`` to standard output with an ASCII console: its JSON (names ``démo☃``, ``vague☃``)
+    ended in a traceback; it is UTF-8 bytes, what JSON is, and the same bytes as ``--out``."""
+    args = ("pose", named / f"{WORD}.json", "-a", "vague☃", "--times", "0,0.5")
+    r = _run(*args, cwd=tmp_path, env=_env(PYTHONIOENCODING="ascii"))
+    _no_traceback(r)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout.decode("utf-8"))
+    assert doc["input"]["skeleton"] == f"{WORD}.json" and len(doc["poses"]) == 3
+    assert _run(*args, "--out", "pose.json", cwd=tmp_path).returncode == 0
+    assert (tmp_path / "pose.json").read_bytes() == r.stdout
+
+
+@pytest.mark.parametrize("locale", ["C", "POSIX"])
+def test_the_c_locale_reads_and_writes_non_ascii_names(tmp_path, named, locale):
+    """``LANG=C``/``LC_ALL=C`` (a bare Docker image): Python reads file names as UTF-8 there, so a
+    project of non-ASCII names upgrades, whole, as in a UTF-8 locale."""
+    env = _env(LC_ALL=locale, LANG=locale)
+    env.pop("PYTHONUTF8", None)
+    r = _run("upgrade", named, "--out", "up", "--pack", cwd=tmp_path, env=env)
+    _no_traceback(r)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "up" / f"{WORD}.json").is_file() and (tmp_path / "up" / f"{WORD}.atlas").is_file()
+
+
+# --- the console's width ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("columns", ["100000", "-5", "abc"])
+def test_odd_widths_print_the_table_whole(tmp_path, twenty, columns):
+    """A huge or unreadable ``COLUMNS`` prints the table as at 80 columns or wider, one row a
+    skeleton."""
+    r = _run("upgrade", twenty, "--out", "up", cwd=tmp_path, env=_env(COLUMNS=columns))
+    rows = [line for line in r.stdout.decode().splitlines() if line.startswith("│")]
+    assert r.returncode == 0 and len(rows) == 20, r.stdout.decode()
+
+
+def test_bars_never_flood_a_log(tmp_path, twenty):
+    """Standard error that is no terminal (a CI log): ``upgrade --pack --preview`` of twenty
+    skeletons writes no progress bar there, not one byte (rich draws bars on terminals only)."""
+    r = _run("upgrade", twenty, "--out", "up", "--pack", "--preview", "prev", "--jobs", "2", cwd=tmp_path,
+             env=_env(TERM="dumb"))
+    assert r.returncode == 0 and r.stderr == b"", r.stderr[-2000:]
+
+
+# --- standard streams full, closed, cut -------------------------------------------------------------
+
+def test_a_log_pipe_its_reader_closed_never_stops_the_run(tmp_path, twenty):
+    """``2>&1 | tee log`` where the reader of standard error is gone: the same, as a closed pipe."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        r = _run("upgrade", twenty, "--out", "b", "--pack", "--preview", "pb", cwd=tmp_path, stderr=write)
+    finally:
+        os.close(write)
+    assert r.returncode == 0 and b"demo07.json" in r.stdout
+    assert (tmp_path / "pb" / "index.html").is_file() and len(list((tmp_path / "b").glob("*.json"))) == 20
+
+
+def test_standard_output_cut_by_its_reader_ends_quietly(tmp_path, twenty):
+    """``spinemesh info PROJECT | head -1``: the run ends at its next write, status 1, no traceback."""
+    run = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", str(twenty), "--out", "up"], cwd=tmp_path,
+                           env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    run.stdout.close()
+    stderr = run.stderr.read().decode()
+    assert run.wait(120) in (0, 1) and "Traceback" not in stderr and "Exception" not in stderr, stderr
+    assert len(list((tmp_path / "up").glob("*.json"))) == 20
+
+
+def test_closed_standard_input_and_output(tmp_path, twenty):
+    """Standard input closed (``<&-``, a daemon), and standard output closed: the run is whole."""
+    r = subprocess.run(["sh", "-c", 'exec "$@" <&- >&-', "sh", sys.executable, "-m", "spinemesh", "upgrade",
+                        str(twenty), "--out", "up", "--pack"], cwd=tmp_path, env=_env(), capture_output=True,
+                       timeout=120, check=False)
+    _no_traceback(r)
+    assert r.returncode == 0 and len(list((tmp_path / "up").glob("*.json"))) == 20
+
+
+# --- the process: its folder, its temporary folder, its umask, another file system -------------------
+
+@pytest.mark.parametrize("tmpdir", ["missing", "a-file"])
+def test_a_temporary_folder_that_is_no_folder(tmp_path, twenty, tmpdir):
+    """``TMPDIR`` missing or a file: ``pose`` holds its stream in the system's temporary folder
+    (Python falls back to /tmp), ``upgrade --pack`` writes its pages; both succeed."""
+    (tmp_path / "a-file").write_text("x")
+    env = _env(TMPDIR=str(tmp_path / tmpdir))
+    r = _run("pose", twenty / "demo.json", "-a", "wave", "--times", "0,0.5", cwd=tmp_path, env=env)
+    assert r.returncode == 0 and len(json.loads(r.stdout)["poses"]) == 3, r.stderr
+    r = _run("upgrade", twenty / "demo.json", "--out", "up", "--pack", cwd=tmp_path, env=env)
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("umask", [0o077, 0o000, 0o022])
+def test_written_files_follow_the_umask(tmp_path, twenty, umask):
+    """Every file and folder written (skeletons, atlases, pages, preview, report, poses, converted
+    skeletons) has the modes an ordinary ``open()``/``mkdir`` gives under the umask: 0600 under
+    077 (a temporary renamed into place is never left 0600 under 022, nor 0666 under 077)."""
+    steps = [("upgrade", twenty, "--out", "up", "--pack", "--preview", "prev", "--report", "r.json"),
+             ("pose", twenty / "demo.json", "-a", "wave", "--times", "0", "--out", "pose.json"),
+             ("convert", twenty / "demo.json", "c.skel")]
+    for args in steps:
+        r = _run(*args, cwd=tmp_path, umask=umask)
+        assert r.returncode == 0, r.stderr
+    modes = {stat.S_IMODE(p.stat().st_mode) for p in tmp_path.rglob("*") if p.is_file()}
+    folders = {stat.S_IMODE(p.stat().st_mode) for p in tmp_path.rglob("*") if p.is_dir()}
+    assert modes == {0o666 & ~umask} and folders == {0o777 & ~umask}, (sorted(map(oct, modes)), sorted(map(oct, folders)))
+
+
+def test_outputs_on_another_file_system_than_the_temporary_folder(tmp_path, twenty):
+    """``--out`` on /dev/shm, the temporary folder on disk: every write is made beside its target
+    and renamed there (never across devices); no temporary file stays."""
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or not os.access(shm, os.W_OK) or shm.stat().st_dev == tmp_path.stat().st_dev:
+        pytest.skip("no second file system to write to")
+    out = Path(os.path.realpath(shm)) / f"spinemesh-env-{os.getpid()}"
+    try:
+        steps = [("upgrade", twenty, "--out", out / "up", "--pack", "--preview", out / "prev", "--report",
+                  out / "r.json"),
+                 ("pack", twenty, "--out", out / "pk"),
+                 ("pose", twenty / "demo.json", "-a", "wave", "--times", "0", "--out", out / "pose.json"),
+                 ("convert", twenty / "demo.json", out / "c.skel")]
+        for args in steps:
+            r = _run(*args, cwd=tmp_path, env=_env(TMPDIR=str(tmp_path)))
+            assert r.returncode == 0, r.stderr
+        left = [p.name for p in out.rglob("*") if p.name.endswith(".tmp") or ".tmp" in p.name]
+        assert not left and len(list((out / "up").glob("*.json"))) == 20
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
