@@ -144,6 +144,21 @@ def test_the_c_locale_reads_and_writes_non_ascii_names(tmp_path, named, locale):
 
 # --- the console's width ----------------------------------------------------------------------------
 
+def test_a_width_of_zero_columns_still_prints_the_table_and_the_errors(tmp_path, twenty):
+    """``COLUMNS=0`` (set by build servers that have no terminal): rich drew at width 0 and
+    nothing came out, neither ``upgrade``'s table nor an error line, the run exiting 2 in
+    silence. It is taken as no width given; a width too narrow for a number is widened."""
+    r = _run("upgrade", tmp_path / "missing", "--out", "x", cwd=tmp_path, env=_env(COLUMNS="0"))
+    assert "missing: no such file or folder" in _one_error(r)
+    r = _run("upgrade", twenty, "--out", "up", cwd=tmp_path, env=_env(COLUMNS="0"))
+    out = r.stdout.decode()
+    assert r.returncode == 0 and "demo07.json" in out and "kept as region" in out, out
+    for columns in ("1", "10"):
+        r = _run("upgrade", twenty, "--out", f"up{columns}", cwd=tmp_path, env=_env(COLUMNS=columns))
+        rows = [line for line in r.stdout.decode().splitlines() if line.startswith("│")]
+        assert r.returncode == 0 and len(rows) == 20 and all("19" in row for row in rows), r.stdout.decode()
+
+
 @pytest.mark.parametrize("columns", ["100000", "-5", "abc"])
 def test_odd_widths_print_the_table_whole(tmp_path, twenty, columns):
     """A huge or unreadable ``COLUMNS`` prints the table as at 80 columns or wider, one row a

@@ -102,6 +102,14 @@ class MaskSource(str, Enum):
     model = "model"
 
 
+#: The narrowest the consoles draw, in columns. ``COLUMNS=0`` (what some build servers set where
+#: there is no terminal) made rich draw at width 0: nothing came out, not the table, not even an
+#: error line; below about 40 columns a table shows no number. A narrower width is taken as this
+#: one (a terminal that narrow wraps the lines), and 0 as no width given (rich's 80, as it takes
+#: a terminal that reports 0).
+NARROWEST_CONSOLE = 40
+
+
 class _LazyConsole:
     """A rich ``Console`` made on first use, so that importing the CLI does not import rich."""
 
@@ -118,6 +126,10 @@ class _LazyConsole:
             # Text is never wrapped by us (tables still fit the width): one error stays one line in
             # a log or a pipe, and a path in a message stays whole, to copy and paste.
             self._console = Console(stderr=self._stderr, soft_wrap=True)
+            if self._console.width <= 0:
+                self._console.width = 80
+            elif self._console.width < NARROWEST_CONSOLE:
+                self._console.width = NARROWEST_CONSOLE
         return self._console
 
     def __getattr__(self, name):
