@@ -178,6 +178,26 @@ def test_bars_never_flood_a_log(tmp_path, twenty):
 
 # --- standard streams full, closed, cut -------------------------------------------------------------
 
+def _files(folder: Path) -> set[str]:
+    return {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()}
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full on this system")
+def test_a_full_log_never_stops_the_run(tmp_path, twenty):
+    """Standard error on a full disk (``2> build.log`` on a build server whose disk filled): the
+    first progress bar's end raised, and the run stopped there, exit 1, the preview and the table
+    never written. Words that cannot be written are dropped: the run is whole, exit 0, its files
+    those of a run with a log; a run that fails still exits 2."""
+    args = ("--pack", "--weights", "auto", "--preview")
+    ok = _run("upgrade", twenty, "--out", "a", *args, "pa", cwd=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    with open("/dev/full", "wb") as full:
+        r = _run("upgrade", twenty, "--out", "b", *args, "pb", cwd=tmp_path, stderr=full)
+        assert r.returncode == 0 and b"demo07.json" in r.stdout
+        assert _files(tmp_path / "b") == _files(tmp_path / "a") and _files(tmp_path / "pb") == _files(tmp_path / "pa")
+        assert _run("upgrade", tmp_path / "missing", "--out", "x", cwd=tmp_path, stderr=full).returncode == 2
+
+
 def test_a_log_pipe_its_reader_closed_never_stops_the_run(tmp_path, twenty):
     """``2>&1 | tee log`` where the reader of standard error is gone: the same, as a closed pipe."""
     read, write = os.pipe()
@@ -188,6 +208,17 @@ def test_a_log_pipe_its_reader_closed_never_stops_the_run(tmp_path, twenty):
         os.close(write)
     assert r.returncode == 0 and b"demo07.json" in r.stdout
     assert (tmp_path / "pb" / "index.html").is_file() and len(list((tmp_path / "b").glob("*.json"))) == 20
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full on this system")
+@pytest.mark.parametrize("command", ["info", "upgrade"])
+def test_a_full_standard_output_is_named(tmp_path, twenty, command):
+    """Standard output on a full disk said only ``error: No space left on device``; it names
+    standard output, as ``pose`` does. (``upgrade``'s files are written before its table.)"""
+    args = ("info", twenty) if command == "info" else ("upgrade", twenty, "--out", "up")
+    with open("/dev/full", "wb") as full:
+        r = _run(*args, cwd=tmp_path, stdout=full)
+    assert "standard output: cannot write: No space left on device" in _one_error(r)
 
 
 def test_standard_output_cut_by_its_reader_ends_quietly(tmp_path, twenty):

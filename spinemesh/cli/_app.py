@@ -10,7 +10,9 @@ typer's rich help imports rich's Markdown renderer, which alone costs about 60 m
 
 from __future__ import annotations
 
+import errno
 import math
+import sys
 from enum import Enum
 from typing import Annotated, Optional
 
@@ -110,6 +112,55 @@ class MaskSource(str, Enum):
 NARROWEST_CONSOLE = 40
 
 
+class _StandardStream:
+    """The standard stream a console writes to, looked up at each write as rich does (a test's
+    capture, rich's live display replace it), through which what the system refuses is told
+    apart by stream.
+
+    Standard error holds only words about the run (bars, warnings, the error line): a log that
+    cannot take them (a full disk behind ``2> build.log``, a closed pipe) ended the run at the
+    next bar (exit status 1, the files after it never written). Writes there that fail are
+    dropped and the run goes on; its exit status still says how it ended. Standard output holds
+    what a command was asked for (its table, ``info``): a write there that fails ends the run in
+    one line naming standard output, and a reader that closed the pipe (``| head``) ends it as
+    the command line does (``BrokenPipeError``, exit status 1).
+    """
+
+    def __init__(self, stderr: bool):
+        self._stderr = stderr
+
+    @property
+    def stream(self):
+        from rich._null_file import NULL_FILE
+
+        stream = sys.stderr if self._stderr else sys.stdout
+        stream = getattr(stream, "rich_proxied_file", stream)  # rich's live display holds the real one
+        return NULL_FILE if stream is None else stream
+
+    def _refused(self, error: OSError) -> None:
+        if self._stderr:
+            return
+        if error.errno == errno.EPIPE:
+            raise error
+        raise OSError(error.errno, f"cannot write: {error.strerror or error}", "standard output") from None
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except OSError as e:
+            self._refused(e)
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except OSError as e:
+            self._refused(e)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 class _LazyConsole:
     """A rich ``Console`` made on first use, so that importing the CLI does not import rich."""
 
@@ -125,7 +176,7 @@ class _LazyConsole:
 
             # Text is never wrapped by us (tables still fit the width): one error stays one line in
             # a log or a pipe, and a path in a message stays whole, to copy and paste.
-            self._console = Console(stderr=self._stderr, soft_wrap=True)
+            self._console = Console(file=_StandardStream(self._stderr), stderr=self._stderr, soft_wrap=True)
             if self._console.width <= 0:
                 self._console.width = 80
             elif self._console.width < NARROWEST_CONSOLE:
