@@ -242,6 +242,18 @@ def test_closed_standard_input_and_output(tmp_path, twenty):
 
 # --- the process: its folder, its temporary folder, its umask, another file system -------------------
 
+def test_a_current_folder_removed_is_named(tmp_path, twenty):
+    """A build step's scratch folder removed under it: a relative ``--out`` ended in a bare
+    ``error: No such file or directory``; the line says the current folder is gone."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    r = subprocess.run(["sh", "-c", 'cd "$1" && rmdir "$1" && shift && exec "$@"', "sh", str(gone), sys.executable,
+                        "-m", "spinemesh", "upgrade", str(twenty), "--out", "rel"], env=_env(PWD=str(gone)),
+                       capture_output=True, timeout=120, check=False)
+    line = _one_error(r)
+    assert "the current folder no longer exists" in line, line
+
+
 @pytest.mark.parametrize("tmpdir", ["missing", "a-file"])
 def test_a_temporary_folder_that_is_no_folder(tmp_path, twenty, tmpdir):
     """``TMPDIR`` missing or a file: ``pose`` holds its stream in the system's temporary folder

@@ -52,6 +52,28 @@ def _standard_streams() -> None:
         stdout.reconfigure(errors="backslashreplace")
 
 
+def _refusal(error: OSError):
+    """What the system refused, as a :class:`~spinemesh.errors.SpineMeshError` naming the file.
+
+    A relative path given from a folder removed under the shell (a build step's scratch folder
+    cleaned while the command starts) cannot be made absolute: Python raises a bare "No such
+    file or directory" naming nothing; it names the folder that is gone (the shell's ``PWD``).
+    """
+    import errno
+    import os
+
+    from ..errors import SpineMeshError
+
+    if error.filename is None and error.errno == errno.ENOENT:
+        try:
+            os.getcwd()
+        except OSError:
+            return SpineMeshError("the current folder no longer exists, so relative paths cannot be found; "
+                                  "run from a folder that exists or give absolute paths",
+                                  os.environ.get("PWD") or None)
+    return SpineMeshError(error.strerror or str(error), error.filename)
+
+
 def main() -> None:
     """Console-script entry point.
 
@@ -83,7 +105,7 @@ def main() -> None:
         from ._app import console_text, err_console
 
         if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
-            e = SpineMeshError(e.strerror or str(e), e.filename)
+            e = _refusal(e)
         err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)
     except MemoryError:
