@@ -4,7 +4,6 @@ slots (constraints, skins) alike before writing a ``.skel`` its own reader refus
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 from test_hostile import check_run, run_cli, snapshot
@@ -109,3 +108,64 @@ def test_a_recorded_timeline_count_no_reader_takes_is_refused(count):
     doc["_skel"] = {"timelines": {"t": count}}
     with pytest.raises(SkelFormatError, match=r"animation 't''s timeline count .*got " + str(count)):
         encode_skel(doc)
+
+
+# --- one function for every printed name: control characters never raw ----------------------------
+
+#: A name holding ESC (a terminal colour sequence), BEL and a carriage return, and markup.
+HOSTILE_NAME = "hero\x1b[31m\x07[b]\rred"
+
+
+def _drawn(bars) -> str:
+    """What the bars print on a terminal (their text, control codes kept as they are)."""
+    import io
+
+    from rich.console import Console
+
+    shown = Console(width=200, file=io.StringIO(), force_terminal=True, color_system=None)
+    shown.print(bars.make_tasks_table(bars.tasks))
+    return shown.file.getvalue()
+
+
+def test_phase_bars_escape_the_control_characters_of_a_project_name(monkeypatch):
+    """``upgrade``'s and ``weights``' bars escaped a project's name for rich's markup only: an ESC
+    in it reached the terminal raw (it coloured the rest of the line), a carriage return went back
+    to the line's start. Now as every printed name (``console_text``): written as ``\\x1b``."""
+    from spinemesh.cli._app import err_console, phase_progress, progress_bar
+
+    monkeypatch.setattr(err_console.real, "width", 200)  # the words' room: the whole name
+    bars = progress_bar("upgrade", phases=True)
+    progress = phase_progress(bars)
+    progress.project(HOSTILE_NAME)
+    progress.add("mesh", 10)
+    progress.step("mesh", "meshing", HOSTILE_NAME + "/x.png")
+    progress.add("read", 10, project=HOSTILE_NAME)
+    drawn = _drawn(bars)
+    assert "\x1b[31m" not in drawn and "\x07" not in drawn and "\r" not in drawn, repr(drawn)
+    assert "hero\\x1b" in drawn and "[b]" in drawn, repr(drawn)
+
+
+def test_pack_bars_escape_the_control_characters_of_an_atlas_name(monkeypatch):
+    from spinemesh.cli._app import err_console, progress_bar
+    from spinemesh.cli.pack import atlas_bars
+
+    monkeypatch.setattr(err_console.real, "width", 200)
+    bars = progress_bar("pack")
+    progress = atlas_bars(bars)
+    progress.atlas(HOSTILE_NAME + ".atlas", 10)
+    progress.step(HOSTILE_NAME + ".atlas", "placing regions")
+    drawn = _drawn(bars)
+    assert "\x1b[31m" not in drawn and "\x07" not in drawn and "\r" not in drawn, repr(drawn)
+    assert "hero\\x1b" in drawn, repr(drawn)
+
+
+def test_info_escapes_the_control_characters_of_a_skeleton_name(tmp_path):
+    """``info``'s standard output escaped a skeleton's and an atlas's file name for markup only."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo.json").rename(project / "de\x1b[31mmo.json")
+    (project / "demo.atlas").rename(project / "at\x1b[31mlas.atlas")
+    r = run_cli("info", "p", cwd=tmp_path)
+    assert "\x1b" not in r.stdout + r.stderr, repr(r.stdout + r.stderr)
+    assert "de\\x1b[31mmo.json" in r.stdout and "at\\x1b[31mlas.atlas" in r.stdout, r.stdout

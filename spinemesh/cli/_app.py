@@ -258,16 +258,25 @@ def console_text(name) -> str:
     return escape(escaped(str(name)))
 
 
+def shortened_text(name, width: int) -> str:
+    """:func:`console_text` of ``name`` shortened to ``width`` characters as the bars and tables
+    show it (:func:`spinemesh.runs.short_names`): its control characters escaped first, so that
+    an ESC, BEL or carriage return in a project's name reaches no terminal raw, and the width
+    counts what is shown."""
+    from ..errors import escaped
+    from ..runs import short_names
+
+    text = escaped(str(name))
+    return console_text(short_names([text], width)[text])
+
+
 def phase_progress(bars):
     """A :class:`spinemesh.upgrade.progress.Progress` that moves ``bars`` (:func:`progress_bar` with
     ``phases``: one task per phase, made when its steps are first added); ``upgrade`` and ``weights``."""
-    from rich.markup import escape
-
-    from ..runs import short_names
     from ..upgrade.progress import IN_WORK, Progress
 
     def shown(name: str) -> str:
-        return escape(short_names([name], 20)[name])  # the bars keep their room at 80 columns
+        return shortened_text(name, 20)  # the bars keep their room at 80 columns
 
     class Bars(Progress):
         def __init__(self) -> None:
@@ -293,9 +302,9 @@ def phase_progress(bars):
             # the words first (a narrow terminal cuts the end), then the item, under its project
             # (a library run), until the next project
             if phase in self.tasks:
-                where = escape(short_names([item], 30)[item]) if item else ""
+                where = shortened_text(item, 30) if item else ""
                 where = f"{self.current}/{where}" if self.current and where else where or self.current
-                bars.update(self.tasks[phase], project=f"{escape(what)}: {where}" if where else escape(what))
+                bars.update(self.tasks[phase], project=f"{console_text(what)}: {where}" if where else console_text(what))
 
         def project(self, name: str) -> None:
             self.current = shown(name)

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
-from ._app import Annotated, app, console, err_console
+from ._app import Annotated, app, console, console_text, err_console
 
 @app.command()
 def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Project folder or skeleton file (.json/.skel).")]) -> None:
@@ -21,7 +21,6 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     """
     from collections import Counter
 
-    from rich.markup import escape  # names come from the project: never markup
     from rich.table import Table
 
     from ..errors import SpineMeshError
@@ -34,11 +33,11 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     # bytes from any folder; the problems on stderr give whole paths, to open
     proj = find_project(named_project(project))
     atlases = project_atlases(proj)
-    table = Table(title="Atlases in " + escape(named_from(proj.root, proj.root)))
+    table = Table(title="Atlases in " + console_text(named_from(proj.root, proj.root)))
     for col in ("atlas", "syntax", "pages", "regions", "scale", "pma"):
         table.add_column(col)
     for p, a in atlases.items():
-        table.add_row(escape(str(p.relative_to(proj.root))), a.syntax, str(len(a.pages)), str(len(a.regions)),
+        table.add_row(console_text(str(p.relative_to(proj.root))), a.syntax, str(len(a.pages)), str(len(a.regions)),
                       ",".join(sorted({f"{pg.scale:g}" for pg in a.pages})), "yes" if any(pg.pma for pg in a.pages) else "no")
     console.print(table)
     if not proj.skeletons:
@@ -67,20 +66,20 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
                 proj.problems.append(f"{path}: skin {r.skin!r} slot {r.slot!r} attachment {r.name!r}: {e}")
                 continue
             missing |= {(r.skin, r.slot, r.name, p) for p in paths if source is None or p not in source}
-        console.print(f"\n[bold]{escape(str(path.relative_to(proj.root)))}[/]  "
-                      + escape(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source, proj.root)}"))
+        console.print(f"\n[bold]{console_text(str(path.relative_to(proj.root)))}[/]  "
+                      + console_text(f"Spine {spine_version(doc) or '?'}  images from: {_describe(source, proj.root)}"))
         t = Table()
         t.add_column("attachment type")
         t.add_column("count", justify="right")
         for kind, n in sorted(counts.items()):
-            t.add_row(escape(str(kind)), str(n))
+            t.add_row(console_text(str(kind)), str(n))
         t.add_row("[bold]total[/]", str(len(checked)))
         console.print(t)
         _say_images(missing, source, proj)
     for problem in proj.problems:  # broken atlases, symlinks leading outside, unreadable skeletons
-        err_console.print(f"problem: {problem}", markup=False, highlight=False, soft_wrap=True)
+        err_console.print(f"problem: {console_text(problem)}", highlight=False, soft_wrap=True)
     for warning in proj.warnings:  # pages runtimes draw differently (spinemesh.atlas.page_mismatches)
-        err_console.print(f"warning: {warning}", markup=False, highlight=False, soft_wrap=True)
+        err_console.print(f"warning: {console_text(warning)}", highlight=False, soft_wrap=True)
     if proj.problems:
         raise typer.Exit(EXIT_PARTIAL)
 

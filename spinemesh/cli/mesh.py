@@ -136,10 +136,9 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                  overrides: dict) -> None:
     """``mesh`` on a folder: every image below it, one line per image that fails, a summary line;
     exit status 3 when some failed, 2 when all did."""
-    from rich.markup import escape  # file names and messages are never markup
+    import contextlib
 
     from ..errors import SpineMeshError, escaped
-    import contextlib
 
     from ..fsutil import OneFilePerName, OutputGuard, real, walk_files
     from ..written_folder import WRITTEN_MARKER, mark_written_folder, rewriting_folder
@@ -183,7 +182,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                 rows.append((str(rel), m))
             except SpineMeshError as e:
                 failed += 1
-                err_console.print("[yellow]skipped:[/] " + escape(str(e)), highlight=False)
+                err_console.print("[yellow]skipped:[/] " + console_text(e), highlight=False)
             bar.advance(task)
     verts = sorted(len(m.vertices) for _, m in rows)
     console.print(escaped(f"{len(rows)} meshes written to {out_dir}")

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from ..limits import MAX_JOBS
-from ._app import Annotated, Optional, app, console, progress_bar
+from ._app import Annotated, Optional, app, console, console_text, progress_bar, shortened_text
 
 
 class PageSides(str, Enum):
@@ -191,10 +191,7 @@ def atlas_bars(bars):
     and what that atlas is doing (reading pages, placing regions, ...); with several atlases, a bar
     counts those done and each atlas's own bar goes once it is done. (``upgrade --pack`` shows its
     packing on its ``pack`` phase's bar instead: :class:`spinemesh.upgrade.pack.PhaseProgress`.)"""
-    from rich.markup import escape
-
     from ..pack.run import PackProgress
-    from ..runs import short_names
 
     def total(task: int) -> float:
         # by id, not by place: tasks done are removed, and rich's list then shifts
@@ -212,7 +209,7 @@ def atlas_bars(bars):
 
         def atlas(self, name: str, steps: int) -> None:
             if name not in self.tasks:
-                label = self.labels[name] = escape(short_names([name], 30)[name])
+                label = self.labels[name] = shortened_text(name, 30)
                 self.tasks[name] = bars.add_task(label, total=steps, percent=True)
             else:
                 task = self.tasks[name]
@@ -222,7 +219,7 @@ def atlas_bars(bars):
             # what the atlas does (its steps are of several kinds: placements, pages), then the atlas:
             # a narrow terminal cuts the end
             if name in self.tasks:
-                bars.update(self.tasks[name], description=f"{escape(what)}: {self.labels[name]}")
+                bars.update(self.tasks[name], description=f"{console_text(what)}: {self.labels[name]}")
 
         def advance(self, name: str, steps: int = 1) -> None:
             if name in self.tasks:
@@ -252,7 +249,6 @@ NOTE_MIN_WIDTH = 20
 def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     """One row per atlas (pages, page texels and bytes before and after, regions by outline and
     by rectangle, why it was kept), then the errors."""
-    from rich.markup import escape  # names and reasons come from the project: never markup
     from rich.table import Table
 
     from ..runs import short_names
@@ -294,13 +290,13 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     for i, (row, note) in enumerate(zip(rows, notes)):
         if i == len(atlases):
             table.add_section()  # the total
-        table.add_row(escape(shown.get(row[0], row[0]) if i < len(atlases) else row[0]), *row[1:],
-                      *(() if below else (escape(note),)))
+        table.add_row(console_text(shown.get(row[0], row[0]) if i < len(atlases) else row[0]), *row[1:],
+                      *(() if below else (console_text(note),)))
     if atlases:
         console.print(table)
         for a in atlases if below else ():
             if a.reason:
-                console.print(f"note: {a.atlas}: {a.reason}", highlight=False, markup=False, soft_wrap=True)
+                console.print(f"note: {console_text(a.atlas)}: {console_text(a.reason)}", highlight=False, soft_wrap=True)
     print_errors(errors)
 
 

@@ -162,8 +162,6 @@ def _project_atlases(doc: dict, skeleton: Path, project) -> list:
     """The project's atlases that serve the skeleton; without one, a warning says that region
     quads are drawn over their whole images, and why: an atlas that is there but cannot be used
     is named with the atlas reader's own error, else none was found."""
-    from rich.markup import escape  # file names and their text: never markup
-
     from ..project import image_source_for
 
     atlases = list(getattr(image_source_for(doc, skeleton, project), "atlases", None) or [])
@@ -171,7 +169,7 @@ def _project_atlases(doc: dict, skeleton: Path, project) -> list:
         broken = list(project.broken_atlases.values())
         what = (f"atlas not used: {broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
                 if broken else "no atlas found beside the skeleton")
-        err_console.print(f"[yellow]warning:[/] {escape(what)}: region quads are drawn over their whole images "
+        err_console.print(f"[yellow]warning:[/] {console_text(what)}: region quads are drawn over their whole images "
                           "(as if no whitespace was stripped)", highlight=False, soft_wrap=True)
     return atlases
 

@@ -292,8 +292,6 @@ def _exit(result, nothing: "NothingDone | None", report_error: str = "") -> None
     skeletons: ``report_error`` is then the run's last line); 2 with an error when there was nothing
     to upgrade (no skeleton, or --only/--exclude left nothing), 0 with a warning when every
     attachment was already done."""
-    from rich.markup import escape
-
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ._summary import print_errors
 
@@ -310,9 +308,9 @@ def _exit(result, nothing: "NothingDone | None", report_error: str = "") -> None
     # outside their rectangles, or wrote a kept atlas's pages smaller): say what, not that the run
     # did nothing
     if any(a.status in ("packed", "cleared") or a.pages_reencoded for a in result.atlases):
-        console.print(escape(packed_line(result.atlases, nothing.why)), highlight=False)
+        console.print(console_text(packed_line(result.atlases, nothing.why)), highlight=False)
     else:
-        err_console.print(f"[yellow]warning:[/] {escape(nothing.line)}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {console_text(nothing.line)}", highlight=False)
 
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:
