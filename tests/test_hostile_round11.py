@@ -122,6 +122,29 @@ def test_a_binding_a_runtime_of_32_bit_floats_draws_elsewhere_is_refused():
     assert bind(np.array([[0.3, 0.0]]), np.ones((1, 1)), [0], worlds) == [1, 0, 0.3, 0.0, 1.0]
 
 
+
+def test_a_skel_bound_to_a_bone_of_all_but_parallel_axes_is_drawn_where_the_region_was(tmp_path, spine_runtime):
+    """``seg2`` sheared -89.9999 degrees: its axes all but one line, a vertex near it lies at
+    millions of units in its space, and the binary format stores 32-bit floats: ``upgrade
+    --weights auto`` of the ``.skel`` wrote a binding the runtime drew 0.75 texels off the art
+    (exit 0). The proof now reads the numbers as 32-bit floats and keeps the mesh unweighted."""
+    from runtime_tool import compare_dumps, dump
+
+    make_worm_project(tmp_path / "p")
+    doc = worm_skeleton()
+    _bone(doc, "seg2")["shearY"] = -89.9999
+    (tmp_path / "worm.json").write_text(json.dumps(doc))
+    assert run_cli("convert", "worm.json", "p/worm.skel", cwd=tmp_path).returncode == 0
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--weights", "auto", "--min-saving", "0", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["o"], codes=(0,))
+    assert "from where it is in the setup pose" in r.stdout + r.stderr, r.stdout + r.stderr
+    for side in ("p", "o"):
+        dump(spine_runtime, tmp_path / side / "worm.atlas", tmp_path / side / "worm.skel", None, "0",
+             tmp_path / f"{side}.dump.json")
+    ok, text = compare_dumps(spine_runtime, tmp_path / "p.dump.json", tmp_path / "o.dump.json")
+    assert ok, text
+
 def _set(bone: str, **fields):
     return lambda doc: _bone(doc, bone).update(fields)
 
