@@ -257,3 +257,40 @@ def test_a_deform_keyed_on_a_43_linked_mesh_of_another_slot_keeps_its_source(tmp
     r = _weights(tmp_path, codes=(0,))
     assert "keyed by a deform timeline" in r.stdout, r.stdout
     assert (tmp_path / "o" / "worm.json").read_bytes() == (tmp_path / "p" / "worm.json").read_bytes()
+
+
+# --- the readers of weighted meshes ----------------------------------------------------------------
+
+def _weighted_worm() -> list:
+    """The grid worm's 27 vertices each bound to ``seg1`` alone (index 1), weight 1."""
+    mesh = worm_mesh()["vertices"]
+    return [n for i in range(0, len(mesh), 2) for n in (1, 1, mesh[i], mesh[i + 1], 1)]
+
+
+BROKEN_COUNTS = {
+    "a negative bone count": ([-1] + _weighted_worm()[1:], "vertex 0 gives -1 as its number of bones"),
+    "a bone count of 1e9": ([1e9] + _weighted_worm()[1:], "vertex 0 gives 1000000000.0 as its number of bones"),
+    "a list that runs past its end": (_weighted_worm()[:-3], "the weighted list ends inside vertex 26 of 27"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN_COUNTS))
+def test_readers_of_a_weighted_mesh_of_broken_counts_say_it_in_one_line(tmp_path, case):
+    """``pose`` draws the rest and warns naming the attachment; ``diff``, with nothing else to
+    compare, says which attachment it passed over and why (it said ``(1 skipped)``, no more);
+    ``dataset`` counts it among its skipped images (a skeleton whose only art it was said
+    nothing: it needed no image, and the count was never reached)."""
+    vertices, why = BROKEN_COUNTS[case]
+    _worm_mesh_project(tmp_path, lambda doc: doc["skins"][0]["attachments"]["worm"]["worm"].update(vertices=vertices))
+    before = snapshot(tmp_path)
+    r = run_cli("pose", "p/worm.json", "--out", "pose.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json"], codes=(3,))
+    assert f"p/worm.json: skins[0].attachments.worm.worm.vertices: {why}" in r.stderr, r.stderr
+    r = run_cli("diff", "p", "--out", "d", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json", "d"], codes=(2,))
+    (line,) = [line for line in r.stderr.splitlines() if line.startswith("error:")]
+    assert "p/worm.json slot 'worm' attachment 'worm': " in line and why in line, r.stderr
+    r = run_cli("dataset", "p", "--out", "ds", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["pose.json", "d", "ds"], codes=(0,))
+    (row,) = [json.loads(line) for line in (tmp_path / "ds" / "projects.jsonl").read_text().splitlines()]
+    assert row["skipped"] == {"attachment of unusable fields": 1}, row

@@ -64,9 +64,28 @@ def diff(
 
         result = run_diff(projects, chosen, images=images, limit=limit, originals=originals, progress=progress)
     if not result.rows:
-        print_errors([f"no artist mesh attachment found ({len(result.skipped)} skipped)"])
+        print_errors([f"no artist mesh attachment found{_skipped_said(result.skipped)}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(result.rows)} attachments compared, {len(result.skipped)} skipped")
     console.print(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}", markup=False)  # paths, no markup
+
+
+def _skipped_said(skipped: list[dict]) -> str:
+    """Why nothing was compared, for the one error line: the first attachment passed over, its
+    skeleton and reason, and how many more (the report that lists them all is not written).
+
+    Examples
+    --------
+    >>> _skipped_said([{"project": "p", "skeleton": "a.json", "slot": "s", "attachment": "m", "reason": "why"}] * 3)
+    " (3 skipped: p/a.json slot 's' attachment 'm': why; and 2 more)"
+    >>> _skipped_said([])
+    ''
+    """
+    if not skipped:
+        return ""
+    first = skipped[0]
+    more = f"; and {len(skipped) - 1} more" if len(skipped) > 1 else ""
+    return (f" ({len(skipped)} skipped: {first['project']}/{first['skeleton']} slot {first['slot']!r} "
+            f"attachment {first['attachment']!r}: {first['reason']}{more})")

@@ -291,6 +291,13 @@ def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult)
     """Add the images one skeleton draws to ``wants``, located in one atlas or folder."""
     rel = name_as_text(skel.relative_to(project.root).as_posix())  # a row's text: UTF-8 whatever the disk holds
     version = spine_version(doc)
+    usable = []
+    for ref, problem in checked_attachments(doc):
+        if problem:  # counted, not lost (a skeleton all of whose art is such needs no image, and says so too)
+            if ref.attachment.get("type", "region") in ("region", "mesh", "linkedmesh"):
+                result.skip("attachment of unusable fields")  # a mesh of broken numbers says nothing true of its art
+            continue
+        usable.append(ref)
     try:
         source = image_source_for(doc, skel, project)
     except SpineMeshError as e:
@@ -305,11 +312,7 @@ def _collect(doc: dict, skel: Path, project, wants: dict, result: ProjectResult)
     # images are at skeleton size), so images it has are read from it at full size.
     originals = images_folder_for(doc, skel, project) if isinstance(source, AtlasImages) else None
     originals = FolderImages(originals) if originals is not None else None
-    for ref, problem in checked_attachments(doc):
-        if problem:  # counted, not lost: a mesh of broken numbers says nothing true of its art
-            if ref.attachment.get("type", "region") in ("region", "mesh", "linkedmesh"):
-                result.skip("attachment of unusable fields")
-            continue
+    for ref in usable:
         mesh = None
         if ref.type == "mesh":
             mesh = ref.attachment
