@@ -302,3 +302,17 @@ def test_outputs_on_another_file_system_than_the_temporary_folder(tmp_path, twen
         assert not left and len(list((out / "up").glob("*.json"))) == 20
     finally:
         shutil.rmtree(out, ignore_errors=True)
+
+
+def test_forced_colours_never_animate_the_bars_into_a_log(tmp_path, twenty):
+    """``FORCE_COLOR=1`` (which CI logs are often given, for colours) made rich take the log for a
+    terminal and redraw every bar into it ten times a second: 45 KB of redraws for 10 s of
+    ``upgrade`` on a corpus project, megabytes for a long run. A stream that is no terminal gets
+    the colours and each bar once, at its end; ``TTY_INTERACTIVE=1`` still asks for the drawing."""
+    r = _run("upgrade", twenty, "--out", "up", "--pack", "--preview", "prev", "--weights", "auto", cwd=tmp_path,
+             env=_env(FORCE_COLOR="1"))
+    assert r.returncode == 0, r.stderr
+    assert b"\x1b[1A" not in r.stderr and len(r.stderr) < 2000, (len(r.stderr), r.stderr[-500:])
+    assert b"\x1b[" in r.stdout  # the colours stay
+    r = _run("upgrade", twenty, "--out", "up2", "--pack", cwd=tmp_path, env=_env(FORCE_COLOR="1", TTY_INTERACTIVE="1"))
+    assert r.returncode == 0 and b"\x1b[1A" in r.stderr

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import errno
 import math
+import os
 import sys
 from enum import Enum
 from typing import Annotated, Optional
@@ -161,6 +162,13 @@ class _StandardStream:
         return getattr(self.stream, name)
 
 
+def _is_a_tty(stream) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
 class _LazyConsole:
     """A rich ``Console`` made on first use, so that importing the CLI does not import rich."""
 
@@ -181,6 +189,11 @@ class _LazyConsole:
                 self._console.width = 80
             elif self._console.width < NARROWEST_CONSOLE:
                 self._console.width = NARROWEST_CONSOLE
+            if self._console.is_interactive and "TTY_INTERACTIVE" not in os.environ and not _is_a_tty(self._console.file):
+                # FORCE_COLOR (which CI logs are given for colours) made rich take a log for a terminal
+                # and redraw the bars into it ten times a second (45 KB in 10 s of `upgrade`): a
+                # stream that is no terminal gets the colours, and each bar once, when it ends
+                self._console.is_interactive = False
         return self._console
 
     def __getattr__(self, name):
