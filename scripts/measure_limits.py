@@ -17,7 +17,8 @@ from spinemesh.anim import POSE_ERRORS, Sampler
 from spinemesh.anim.curves import FLOAT32_MAX
 from spinemesh.atlas import read_atlas
 from spinemesh.errors import SpineMeshError
-from spinemesh.fsutil import strict_json, walk_files
+from spinemesh.files.strict_json import strict_json
+from spinemesh.files.walk import walk_files
 from spinemesh.player.frames import MAX_ANIMATIONS, MAX_WORLD
 from spinemesh.project import ATLAS_SUFFIXES, is_skeleton_file
 from spinemesh.rig.physics import PhysicsSettings

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import AtlasError, LimitError, SpineMeshError
-from .fsutil import as_written
+from .files.inside import as_written
 from .limits import MAX_ATLAS_REGIONS, MAX_ATLAS_SCALE, MIN_ATLAS_SCALE, check_file_size, check_image_size
 
 #: Keys that start a 4.x-only entry; any of them marks an atlas as 4.x syntax.

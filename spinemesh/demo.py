@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from .fsutil import atomic_write_png, atomic_write_text
+from .files.atomic import atomic_write_png, atomic_write_text
 
 
 def _canvas(w: int, h: int) -> tuple[Image.Image, ImageDraw.ImageDraw]:
@@ -153,7 +153,7 @@ def make_demo_project(folder: str | Path, with_images_folder: bool = True) -> Pa
     doc = demo_skeleton(images)
     # The spark's region key is its sequence's base path; its frames are spark/frame1..3.
     atomic_write_text(folder / "demo.json", json.dumps(doc, indent="\t") + "\n")
-    from .fsutil import atomic_write_bytes
+    from .files.atomic import atomic_write_bytes
     from .skeleton_binary import encode_skel
 
     atomic_write_bytes(folder / "demo-binary.skel", encode_skel(doc))

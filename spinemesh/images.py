@@ -21,8 +21,10 @@ from PIL import Image, UnidentifiedImageError
 
 from .atlas import Atlas, AtlasRegion, RegionGeometry, read_atlas
 from .errors import AtlasError, ImageError, UnsafePathError
+from .files.inside import resolve_inside
+from .files.names import portable_name
+from .files.walk import walk_files
 from .foreground import alpha_above, texels_as_words
-from .fsutil import portable_name, resolve_inside, walk_files
 from .limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_image_size
 from .memory import image_memory
 
@@ -216,7 +218,7 @@ def load_rgba(path: str | Path) -> np.ndarray:
     LimitError
         Image larger than the limits.
     """
-    from .fsutil import regular_file
+    from .files.inputs import regular_file
 
     if Path(path).exists():  # a FIFO or device would block or never end: regular files only
         regular_file(path, "image")
@@ -234,7 +236,7 @@ def image_file_bytes(path: str | Path) -> bytes:
     SpineMeshError
         Not a regular file (a FIFO or a device).
     """
-    from .fsutil import regular_file
+    from .files.inputs import regular_file
 
     if Path(path).exists():  # a FIFO or device would block or never end: regular files only
         regular_file(path, "image")
@@ -1042,7 +1044,7 @@ class AtlasImages:
         for atlas in atlases:
             for region in atlas.regions:
                 self._index.setdefault(region.name, (atlas, region))
-        #: portable name (:func:`.fsutil.portable_name`) -> region names of that name, once a name missed
+        #: portable name (:func:`.files.names.portable_name`) -> region names of that name, once a name missed
         self._portable: dict[str, list[str]] | None = None
 
     @classmethod
@@ -1168,7 +1170,7 @@ class FolderImages:
 
     def __init__(self, folder: str | Path):
         self.folder = Path(folder)
-        #: portable name (:func:`.fsutil.portable_name`) -> images of that name, once a name missed
+        #: portable name (:func:`.files.names.portable_name`) -> images of that name, once a name missed
         self._portable: dict[str, list[Path]] | None = None
 
     def path_of(self, name: str) -> Path | None:

@@ -76,7 +76,7 @@ def check_file_size(path, what: str) -> None:
     :data:`MAX_DOCUMENT_BYTES` (a FIFO would block for ever when read)."""
     import os
 
-    from .fsutil import regular_file
+    from .files.inputs import regular_file
 
     regular_file(path, what)
     size = os.stat(path).st_size

@@ -22,15 +22,9 @@ except ImportError:  # Windows: no lock
     fcntl = None
 
 from .errors import OutputError, SpineMeshError
-from .fsutil import (
-    OutputGuard,
-    atomic_copy,
-    atomic_write_bytes,
-    atomic_write_text,
-    file_digest,
-    make_folder,
-    refuse_report_over_output,
-)
+from .files.atomic import atomic_copy, atomic_write_bytes, atomic_write_text, make_folder
+from .files.disk import file_digest
+from .files.guard import OutputGuard, refuse_report_over_output
 from .project import Project
 from .skeleton import dumps_skeleton, is_binary_skeleton
 from .written_folder import (
@@ -103,7 +97,7 @@ def output_folder(out: Path, overwrite: bool):
 
 def write_run_report(report: Path, out: Path, write) -> None:
     """A run's ``--report``, written by ``write(report)`` once the run holding ``out`` ended: refused
-    over a file of ``out`` (:func:`~spinemesh.fsutil.refuse_report_over_output`), and when inside
+    over a file of ``out`` (:func:`~spinemesh.files.guard.refuse_report_over_output`), and when inside
     it, listed among the run's files (:func:`note_written`)."""
     refuse_report_over_output(report, out)
     write(report)

@@ -1,7 +1,7 @@
 """Process hygiene: interruptions that clean up, and workers that end with their parent.
 
 - :func:`exit_on_terminate` makes Ctrl-C, SIGTERM and SIGHUP end the run once, cleanly: SIGTERM
-  and SIGHUP become ``SystemExit``, so the cleanup of :mod:`spinemesh.fsutil` (temporary
+  and SIGHUP become ``SystemExit``, so the cleanup of :mod:`spinemesh.files.atomic` (temporary
   files removed) runs as it does for Ctrl-C; a second signal during that cleanup is not raised
   into it; one that Python swallowed in a finalizer is raised again (:func:`interrupted`).
 - :func:`die_with_parent` is the initializer of every worker process: a watchdog thread ends

@@ -10,7 +10,7 @@ Safety rules, in one place for every command:
 
 - only regular files whose real path lies inside the project are taken; a symlink leading
   outside is skipped with a note in ``Project.problems``, and symlinked folders are not
-  entered (:func:`~spinemesh.fsutil.walk_folder`, the one walk of every command);
+  entered (:func:`~spinemesh.files.walk.walk_folder`, the one walk of every command);
 - :func:`project_atlases` is the one way atlases are read: a broken atlas is reported in
   ``Project.problems`` and left out, and the rest of the project goes on;
 - image folders (the ``skeleton.images`` hint, ``images/`` folders) are used only when their
@@ -26,7 +26,9 @@ from pathlib import Path
 
 from .atlas import Atlas, page_mismatches, read_atlas
 from .errors import SpineMeshError, UnsafePathError
-from .fsutil import existing, is_within, real, regular_file, resolve_inside, walk_folder
+from .files.inputs import existing, regular_file
+from .files.inside import is_within, real, resolve_inside
+from .files.walk import walk_folder
 from .images import AtlasImages, FolderImages, PageStore, image_size
 from .skeleton import image_paths, iter_attachments
 
@@ -92,7 +94,7 @@ class Project:
 
 
 def _walk(root: Path, problems: list[str]) -> tuple[list[Path], list[Path]]:
-    """Non-hidden regular files and folders under ``root``, sorted (:func:`~spinemesh.fsutil.walk_folder`)."""
+    """Non-hidden regular files and folders under ``root``, sorted (:func:`~spinemesh.files.walk.walk_folder`)."""
     files, folders = [], []
     for _, subfolders, found in walk_folder(root, problems):
         folders += subfolders

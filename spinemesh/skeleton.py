@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from .errors import LimitError, SkeletonError, SpineMeshError
-from .fsutil import atomic_write_text
+from .files.atomic import atomic_write_text
 from .limits import (
     MAX_JSON_DEPTH,
     MAX_SEQUENCE_DIGITS,
@@ -296,7 +296,7 @@ def save_skeleton(doc: dict, path: str | Path) -> None:
     """
     path = Path(path)
     if is_binary_skeleton(path):
-        from .fsutil import atomic_write_bytes
+        from .files.atomic import atomic_write_bytes
         from .skeleton_binary import encode_skel
 
         atomic_write_bytes(path, encode_skel(doc, path))

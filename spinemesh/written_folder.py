@@ -33,15 +33,10 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from .errors import OutputError, SpineMeshError
-from .fsutil import (
-    atomic_write_text,
-    file_digest,
-    file_stamp,
-    is_temporary_name,
-    make_folder,
-    strict_json,
-    walk_folder,
-)
+from .files.atomic import atomic_write_text, is_temporary_name, make_folder
+from .files.disk import file_digest, file_stamp
+from .files.strict_json import strict_json
+from .files.walk import walk_folder
 
 #: The marker of a run's output folder (``upgrade``, ``pack``, ``weights``): ``overwrite`` removes
 #: only the files it lists (a mistyped ``--out ~/Documents --overwrite`` must not delete a user's
@@ -76,7 +71,7 @@ def write_marker(folder: str | Path, marker: str, kind: str, what: dict) -> None
 
 def listed_files(marker: object) -> dict[str, str | None]:
     """The files a marker (:func:`read_marker`'s JSON) lists as its run's, by POSIX path, each with
-    the :func:`~spinemesh.fsutil.file_digest` it had when the run ended (None where it gives none)."""
+    the :func:`~spinemesh.files.disk.file_digest` it had when the run ended (None where it gives none)."""
     names = marker.get("written") if isinstance(marker, dict) else None
     digests = marker.get("sha256") if isinstance(marker, dict) else None
     digests = digests if isinstance(digests, dict) else {}
@@ -95,7 +90,7 @@ def marker_listing(folder: str | Path, listed: dict[str, str | None], written: I
 
 def folder_stamps(folder: str | Path, marker: str) -> dict[str, tuple | None]:
     """Every file under ``folder`` (hidden ones too, its ``marker`` aside) by its POSIX path under
-    it, with its :func:`~spinemesh.fsutil.file_stamp`: a file written anew or replaced has another."""
+    it, with its :func:`~spinemesh.files.disk.file_stamp`: a file written anew or replaced has another."""
     folder = Path(folder)
     if not folder.is_dir():
         return {}
@@ -105,7 +100,7 @@ def folder_stamps(folder: str | Path, marker: str) -> dict[str, tuple | None]:
 
 def temporary_files(folder: str | Path) -> dict[str, str | None]:
     """The regular files under ``folder`` (not symlinks) whose names the atomic writer makes
-    (:func:`~spinemesh.fsutil.is_temporary_name`), by POSIX path under it, with their digests: a
+    (:func:`~spinemesh.files.atomic.is_temporary_name`), by POSIX path under it, with their digests: a
     run killed outright (SIGKILL, a power cut) mid-write leaves them, and no marker lists them."""
     folder = Path(folder)
     if not folder.is_dir():
@@ -175,7 +170,7 @@ def refuse_linked_folders(folder: str | Path, what: str = "output folder") -> No
 
 def remove_listed_files(folder: str | Path, files: dict[str, str | None]) -> None:
     """Remove each file of ``files`` under ``folder`` (POSIX paths, as a marker lists them, with the
-    :func:`~spinemesh.fsutil.file_digest` the run left it with) that still holds those bytes, and
+    :func:`~spinemesh.files.disk.file_digest` the run left it with) that still holds those bytes, and
     the folders it leaves empty: the one removal of the earlier run's files, in both uses. A
     marker is a file anyone could have written or copied: a name that is absolute, climbs out,
     names the folder or a marker, passes through a symlinked folder or is no path (a NUL), names

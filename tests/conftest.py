@@ -146,7 +146,7 @@ def trimmed_project(tmp_path):
     import json
 
     from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
-    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+    from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 
     images = demo_images()
     text, page = pack_atlas(images, "demo.png", rotate={"demo-arm", "demo-spark/frame2"})

@@ -8,7 +8,8 @@ import sys
 
 import pytest
 
-from spinemesh.fsutil import atomic_write_bytes, resolve_inside
+from spinemesh.files.atomic import atomic_write_bytes
+from spinemesh.files.inside import resolve_inside
 from spinemesh.errors import OutputError, UnsafePathError
 
 

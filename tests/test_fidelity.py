@@ -18,7 +18,7 @@ import pytest
 
 from spinemesh.atlas import parse_atlas
 from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
-from spinemesh.fsutil import atomic_write_png, atomic_write_text
+from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 from spinemesh.images import FAINT_TEXEL, bleeding_in, premultiply, shown_texels
 from spinemesh.upgrade import Options, upgrade_project
 from spinemesh.attachment_geometry import float32_exact, region_positions

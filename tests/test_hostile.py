@@ -639,7 +639,7 @@ def _alive(pid: int) -> bool:
 
 
 def test_interrupted_write_leaves_no_temporary_file(tmp_path):
-    from spinemesh.fsutil import atomic_copy
+    from spinemesh.files.atomic import atomic_copy
 
     class Interrupted(KeyboardInterrupt):
         pass

@@ -248,7 +248,7 @@ def test_uvs_far_outside_their_image_are_not_proven_nor_allocated(meshed, tmp_pa
 def test_atlases_of_one_stem_repack_onto_pages_of_their_own(tmp_path):
     """``x.atlas`` and ``x.2.atlas`` in one folder: each one's untrimmed frames on its own new page."""
     from spinemesh.demo import demo_images, pack_atlas
-    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+    from spinemesh.files.atomic import atomic_write_png, atomic_write_text
     from spinemesh.images import AtlasImages, cut_region
     from spinemesh.upgrade.repack import write_repacked_atlas
 

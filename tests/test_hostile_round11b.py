@@ -63,7 +63,7 @@ def _one_error(r: subprocess.CompletedProcess) -> str:
 def named(tmp_path_factory) -> Path:
     """The demo project with every name non-ASCII: its folder, files, regions, slots and animation."""
     from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
-    from spinemesh.fsutil import atomic_write_png, atomic_write_text
+    from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 
     folder = tmp_path_factory.mktemp("env") / "projé"
     images = {k.replace("demo", WORD): v for k, v in demo_images().items()}

@@ -178,7 +178,7 @@ def test_an_interruption_just_after_a_temporary_file_is_made_leaves_none(tmp_pat
     landed inside ``tempfile.mkstemp``, after the file was made and before its name came back,
     and the file stayed (the preview's data scripts, about one run in eight). The name is now
     held before the file is made: here the interruption comes just as ``open`` returns."""
-    from spinemesh.fsutil import atomic_write_files, atomic_write_text
+    from spinemesh.files.atomic import atomic_write_files, atomic_write_text
 
     real = os.open
 

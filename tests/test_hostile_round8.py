@@ -84,7 +84,7 @@ def test_editor_images_of_two_regions_never_land_on_one_file(tmp_path, first, se
     assert len(lines) == 1, r.stdout + r.stderr
     assert "would be the same file as" in lines[0] or "was written for" in lines[0], lines[0]
     written = [p.relative_to(tmp_path / "editor").as_posix() for p in (tmp_path / "editor").rglob("*.png")]
-    from spinemesh.fsutil import portable_name
+    from spinemesh.files.names import portable_name
 
     assert len({portable_name(p) for p in written}) == len(written), written
     assert len(written) == 8 - 1, written  # the demo's eight region images (three spark frames) but one
@@ -363,7 +363,7 @@ def test_preview_pages_of_skeletons_named_apart_by_case_only_are_two_files_every
     import shutil
 
     from spinemesh.demo import make_demo_project
-    from spinemesh.fsutil import portable_name
+    from spinemesh.files.names import portable_name
 
     project = make_demo_project(tmp_path / "p", with_images_folder=False)
     (project / "demo-binary.skel").unlink()

@@ -79,7 +79,7 @@ def test_pack_project_named_dot_reports_as_from_elsewhere(tmp_path):
 def _plant_temporaries(folder: Path) -> tuple[list[str], list[str]]:
     """A killed run's temporary files (named as the atomic writer names them) at the top and one
     folder down, and a user's files that look like them but are not ours. Returns (ours, theirs)."""
-    from spinemesh.fsutil import _temporary_name
+    from spinemesh.files.atomic import _temporary_name
 
     ours = [_temporary_name("report.json", "0123abcd"), f"assets/{_temporary_name('0.png', 'deadbeef')}"]
     theirs = ["notes.tmp", ".draft.tmp", ".report.json.0123ABCD.tmp"]

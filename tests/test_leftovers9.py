@@ -25,7 +25,7 @@ def _plant_leftovers(folder: Path) -> tuple[list[str], list[str]]:
     """Temporary files a run killed outright (SIGKILL) leaves, named as the atomic writer names
     them, at the top and one folder down; and files of a user's that look like them but are not
     ours (another name, a symlink, a folder). Returns (ours, theirs) as POSIX paths."""
-    from spinemesh.fsutil import _temporary_name
+    from spinemesh.files.atomic import _temporary_name
 
     ours = [_temporary_name("hero.json", "0123abcd"), f"img/{_temporary_name('a.png', 'deadbeef')}"]
     theirs = ["notes.tmp", ".draft.tmp", ".hero.json.xyz.tmp", ".hero.json.0123ABCD.tmp", "img/keep.png"]
@@ -43,7 +43,7 @@ def test_a_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
     """A run killed outright leaves its ``.NAME.xxxxxxxx.tmp`` files; the next run that ends in the
     folder (rewriting_folder: ``upgrade --images``, ``weights --preview``, ``mesh DIR``) removes
     them, and only them: a user's file of another name, a symlink and a folder are kept."""
-    from spinemesh.fsutil import atomic_write_bytes
+    from spinemesh.files.atomic import atomic_write_bytes
     from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
@@ -60,7 +60,7 @@ def test_a_folder_written_again_loses_a_killed_runs_temporary_files(tmp_path):
 
 def test_a_run_that_does_not_end_keeps_them_and_the_next_removes_them(tmp_path):
     """A run that fails removes nothing, as for the earlier run's files; the next that ends does."""
-    from spinemesh.fsutil import atomic_write_bytes
+    from spinemesh.files.atomic import atomic_write_bytes
     from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
@@ -78,7 +78,7 @@ def test_a_run_that_does_not_end_keeps_them_and_the_next_removes_them(tmp_path):
 def test_a_temporary_file_written_meanwhile_is_kept(tmp_path):
     """A temporary file whose bytes changed while the run lasted (another run still writing it) is
     not the one found at the start: kept."""
-    from spinemesh.fsutil import _temporary_name, atomic_write_bytes
+    from spinemesh.files.atomic import _temporary_name, atomic_write_bytes
     from spinemesh.written_folder import mark_written_folder, rewriting_folder
 
     folder = tmp_path / "pictures"
@@ -108,7 +108,7 @@ def test_a_preview_written_again_loses_a_killed_runs_temporary_files(tmp_path):
 
 def test_mesh_of_a_folder_run_again_removes_a_killed_runs_temporary_files(tmp_path):
     """``mesh DIR --out OUT``: OUT written again after a killed run holds no temporary file of it."""
-    from spinemesh.fsutil import _temporary_name
+    from spinemesh.files.atomic import _temporary_name
 
     art = tmp_path / "art"
     art.mkdir()

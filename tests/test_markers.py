@@ -24,7 +24,7 @@ def _listing(folder: Path) -> list[str]:
 def _killed_mid_write(folder: Path, name: str, before: str = "") -> None:
     """Run ``before`` (Python, ``out`` the folder), then start the atomic write of ``folder/name`` and
     be killed in it (``os._exit``: no clean-up runs, as under SIGKILL)."""
-    code = ("import os, sys\nfrom pathlib import Path\nfrom spinemesh.fsutil import atomic_write_stream\n"
+    code = ("import os, sys\nfrom pathlib import Path\nfrom spinemesh.files.atomic import atomic_write_stream\n"
             "out = Path(sys.argv[1])\n" + before +
             "def killed(f):\n    f.write(b'half')\n    f.flush()\n    os._exit(9)\n"
             "atomic_write_stream(out / sys.argv[2], killed)\n")
@@ -34,7 +34,7 @@ def _killed_mid_write(folder: Path, name: str, before: str = "") -> None:
 
 
 def _temporaries(folder: Path) -> list[str]:
-    from spinemesh.fsutil import is_temporary_name
+    from spinemesh.files.atomic import is_temporary_name
 
     return [rel for rel in _listing(folder) if is_temporary_name(rel.rpartition("/")[2])]
 

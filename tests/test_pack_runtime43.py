@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from spinemesh.atlas import read_atlas
-from spinemesh.fsutil import atomic_write_png, atomic_write_text
+from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 from spinemesh.images import AtlasImages, load_rgba
 from spinemesh.upgrade import Options, upgrade_project
 

@@ -158,7 +158,7 @@ def test_a_marker_never_removes_a_file_outside_its_folder(tmp_path):
     through a symlinked folder removes nothing (an output folder holding a symlinked folder is
     refused before anything is removed; the rule that removes listed files checks it too)."""
     from spinemesh.errors import OutputError
-    from spinemesh.fsutil import file_digest
+    from spinemesh.files.disk import file_digest
     from spinemesh.output import output_folder
     from spinemesh.written_folder import marker_listing, remove_listed_files
 
@@ -242,7 +242,7 @@ def _pose_mesh_info(where: Path, cwd: Path, at) -> dict[str, bytes]:
 
 def test_pose_mesh_and_info_are_the_same_bytes_from_any_folder(tmp_path):
     """``pose``, ``mesh`` and ``info`` name the project's files by its folder's name as the reports
-    do (``fsutil.named_within``): the same bytes by relative paths, absolute ones from elsewhere
+    do (``files.names.named_within``): the same bytes by relative paths, absolute ones from elsewhere
     and ``.`` from inside. ``info`` said "Atlases in " and "images from: " by the paths given."""
     a = _pose_mesh_info(tmp_path / "a" / "build", tmp_path / "a" / "build", lambda p: Path(p))
     b = _pose_mesh_info(tmp_path / "b" / "build", tmp_path, lambda p: tmp_path / "b" / "build" / p)

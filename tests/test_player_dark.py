@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from spinemesh.demo import pack_atlas
-from spinemesh.fsutil import atomic_write_png, atomic_write_text
+from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 from spinemesh.player.frames import tint_number
 from spinemesh.upgrade import Options, upgrade_project
 from spinemesh.upgrade.preview import write_preview

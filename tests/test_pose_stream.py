@@ -16,7 +16,7 @@ from test_anim import _doc
 from spinemesh.anim import Sampler
 from spinemesh.anim.dump import dump
 from spinemesh.errors import SpineMeshError
-from spinemesh.fsutil import strict_json
+from spinemesh.files.strict_json import strict_json
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -52,7 +52,7 @@ def _expected(doc: dict, times: list[float], skeleton: Path) -> bytes:
 
 
 def test_pieces_join_to_the_whole_text():
-    from spinemesh.fsutil import strict_json_pieces
+    from spinemesh.files.strict_json import strict_json_pieces
 
     head = {"input": {"skeleton": "bras·é.json", "skin": None, "fps": 60.0}, "skeleton": {"bones": [1, 2.5]}}
     for items in ([], [{"a": 1}], [{"a": [1.5, None]}, {"é": "x"}, {}], [1, "two", [3]]):

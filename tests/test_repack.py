@@ -16,7 +16,7 @@ import pytest
 
 from spinemesh.atlas import read_atlas
 from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
-from spinemesh.fsutil import atomic_write_png, atomic_write_text
+from spinemesh.files.atomic import atomic_write_png, atomic_write_text
 from spinemesh.images import AtlasImages, load_rgba
 from spinemesh.metrics import uncovered_pixels
 from spinemesh.upgrade import Options, upgrade_project

@@ -85,7 +85,7 @@ def test_each_picture_has_a_caption_naming_its_bones_in_full_and_a_legend(tmp_pa
 def test_attachments_of_one_file_name_each_keep_their_picture(tmp_path):
     """``arm?`` and ``arm!`` are both ``arm_`` as a file name (and ``Arm`` is ``arm`` on a macOS
     or Windows disk): the second picture and caption replaced the first without a word. Each
-    weighted attachment now has its own picture, named apart (``fsutil.name_apart``)."""
+    weighted attachment now has its own picture, named apart (``files.names.name_apart``)."""
     from spinemesh.rig.document import WeightOptions
     from spinemesh.rig.run import weight_project
     from spinemesh.upgrade import Options, upgrade_project

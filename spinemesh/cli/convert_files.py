@@ -35,7 +35,9 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
         target extension that is neither ``.skel``, ``.skel.bytes`` nor ``.json``.
     """
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_bytes, atomic_write_text, check_outputs, existing, regular_file
+    from ..files.atomic import atomic_write_bytes, atomic_write_text
+    from ..files.guard import check_outputs
+    from ..files.inputs import existing, regular_file
     from ..skeleton import dumps_skeleton, load_skeleton, spine_version
     from ..skeleton_binary.enums import EXTRA
     from ..skeleton_check import animations_keyed_twice

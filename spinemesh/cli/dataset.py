@@ -32,7 +32,7 @@ def dataset(
     """
     from ..cluster import available_cores
     from ..dataset import build_dataset
-    from ..fsutil import check_outputs
+    from ..files.guard import check_outputs
 
     check_outputs(corpus, folders=[out])
     with progress_bar("projects", transient=True) as progress:
@@ -126,7 +126,7 @@ def dataset_stats_cmd(
     from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
-    from ..fsutil import check_outputs
+    from ..files.guard import check_outputs
     from ..words import counted
     from ..written_folder import check_written_folder
 

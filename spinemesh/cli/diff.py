@@ -45,7 +45,8 @@ def diff(
     """
     from ..diff.report import REPORT_FOLDER, aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
-    from ..fsutil import check_outputs, project_folder
+    from ..files.guard import check_outputs
+    from ..files.inputs import project_folder
     from ..written_folder import check_written_folder
 
     check_outputs([*map(project_folder, projects), images], folders=[out])

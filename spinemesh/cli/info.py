@@ -24,7 +24,8 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     from rich.table import Table
 
     from ..errors import SpineMeshError
-    from ..fsutil import named_from, named_project
+    from ..files.inputs import named_project
+    from ..files.names import named_from
     from ..project import find_project, image_source_for, project_atlases
     from ..skeleton import checked_attachments, image_paths, load_skeleton, spine_version
     from ..words import unusable_said
@@ -124,8 +125,8 @@ def _unreadable_pages(source, root: Path) -> list[str]:
 
 def _describe(source, root: Path) -> str:
     """Where a skeleton's images come from: its atlases by name, or the folder of images named
-    from the project's name (:func:`~spinemesh.fsutil.named_from`)."""
-    from ..fsutil import named_from
+    from the project's name (:func:`~spinemesh.files.names.named_from`)."""
+    from ..files.names import named_from
 
     if source is None:
         return "none"

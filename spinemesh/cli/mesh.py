@@ -41,7 +41,8 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
     """Mesh one image and write its outputs; ``before_write()``, when given, is called once the
     mesh is made, before the first file is written (a folder run marks its folders then)."""
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_json, atomic_write_png, name_as_text
+    from ..files.atomic import atomic_write_json, atomic_write_png
+    from ..files.names import name_as_text
     from ..images import load_rgba
     from ..memory import image_memory
     from ..mesher import compute_mask, mesh_image, resolve_params
@@ -109,7 +110,7 @@ def mesh(
     Example: spinemesh mesh art/torso.png --preview torso.png --steps torso-steps.png
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
-    from ..fsutil import check_outputs, refuse_one_output_twice
+    from ..files.guard import check_outputs, refuse_one_output_twice
     from ..written_folder import check_written_folder
 
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
@@ -140,7 +141,10 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
 
     from ..errors import SpineMeshError, escaped
 
-    from ..fsutil import OneFilePerName, OutputGuard, real, walk_files
+    from ..files.guard import OutputGuard
+    from ..files.inside import real
+    from ..files.names import OneFilePerName
+    from ..files.walk import walk_files
     from ..written_folder import WRITTEN_MARKER, mark_written_folder, rewriting_folder
     from ..images import IMAGE_EXTENSIONS
 

@@ -90,7 +90,8 @@ def pack(
     import time
 
     from ..cluster import available_cores
-    from ..fsutil import check_outputs, named_project, project_folder, refuse_overlapping_outputs
+    from ..files.guard import check_outputs, refuse_overlapping_outputs
+    from ..files.inputs import named_project, project_folder
     from ..pack.atlas_pack import PageRules
     from ..pack.run import PackOptions, pack_library, pack_project
     from ..upgrade import is_library
@@ -124,7 +125,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
     ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
     from ..errors import SpineMeshError
-    from ..fsutil import project_folder
+    from ..files.inputs import project_folder
     from ..output import run_report_error
     from ..pack.run import write_report
     from ..runs import EXIT_PARTIAL

@@ -66,7 +66,10 @@ def pose(
     from ..anim.dump import dump_head, dump_labels, dump_poses
     from ..atlas import read_atlas
     from ..errors import SpineMeshError
-    from ..fsutil import atomic_write_pieces, check_outputs, project_folder, strict_json_pieces
+    from ..files.atomic import atomic_write_pieces
+    from ..files.guard import check_outputs
+    from ..files.inputs import project_folder
+    from ..files.strict_json import strict_json_pieces
     from ..limits import MAX_POSE_STEPS
     from ..project import find_project
     from ..runs import EXIT_PARTIAL
@@ -198,7 +201,9 @@ def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
     atlas read (``>> hero.json`` would append to it), or any file inside the skeleton's project,
     under its own name or another (a hard link)."""
     from ..errors import OutputError
-    from ..fsutil import OutputGuard, file_behind, project_folder
+    from ..files.disk import file_behind
+    from ..files.guard import OutputGuard
+    from ..files.inputs import project_folder
 
     if stdout is None:
         raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
@@ -305,7 +310,8 @@ def _check_pose_bounds(sampler, animation: str | None, seconds: list[float], fps
     from ..anim.dump import dump_labels
     from ..anim.pose import steps_of
     from ..errors import SpineMeshError
-    from ..fsutil import free_bytes, strict_json
+    from ..files.disk import free_bytes
+    from ..files.strict_json import strict_json
     from ..limits import MAX_POSE_OUTPUT_BYTES, MAX_POSE_STEPS
 
     if animation is not None and sampler.physics:

@@ -39,7 +39,8 @@ def segment(
     """
     import numpy as np
 
-    from ..fsutil import atomic_write_png, check_outputs
+    from ..files.atomic import atomic_write_png
+    from ..files.guard import check_outputs
     from ..images import load_rgba
     from ..memory import image_memory
     from ..segment import looks_empty, mask_for, model_files
@@ -91,7 +92,8 @@ def segment_eval(
     \b
     Example: spinemesh segment-eval --data ds/ --json scores.json --worst worst.png
     """
-    from ..fsutil import atomic_write_json, atomic_write_png, check_outputs
+    from ..files.atomic import atomic_write_json, atomic_write_png
+    from ..files.guard import check_outputs
     from ..segment import model_files
     from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
     from ..segment.samples import load_sprites
@@ -160,7 +162,7 @@ def _scores_table(sprites: list, games: list[str], scores: dict):
 
 def _record_in_card(model: Optional[Path], per_project: int, result: dict) -> None:
     """``--card``: the scores (less the data folders) and the command that made them, in the model's card."""
-    from ..fsutil import atomic_write_json
+    from ..files.atomic import atomic_write_json
     from ..segment import card_path, model_card
 
     path = card_path(model)
@@ -214,7 +216,7 @@ def train(
     except ImportError as e:
         print_errors([f"training needs the train extra (pip install 'spinemesh[train]'): {e}"])
         raise typer.Exit(EXIT_BAD_INPUT)
-    from ..fsutil import check_outputs
+    from ..files.guard import check_outputs
 
     check_outputs(data, files=[write_pack], folders=[None if write_pack else out])  # never into a data set
     if write_pack:
@@ -271,7 +273,7 @@ def segment_export(
     """
     import numpy as np
 
-    from ..fsutil import check_outputs
+    from ..files.guard import check_outputs
     from ..segment import card_path
     from ..segment.samples import load_sprites
     from ..train.data import VAL_BACKGROUNDS, flat_sample, normalise

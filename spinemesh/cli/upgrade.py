@@ -143,7 +143,7 @@ def upgrade(
     Example: spinemesh upgrade project/ --out packed/ --pack --max-page 2048
     """
     from ..cluster import available_cores
-    from ..fsutil import named_project, project_folder
+    from ..files.inputs import named_project, project_folder
     from ..pack.atlas_pack import PageRules
     from ..upgrade import Options, is_library
 
@@ -172,7 +172,7 @@ def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path 
                    images_in: Path | None) -> None:
     """Every output checked before any work: never inside the project, onto an input, or through a
     symlink; a ``--preview`` or ``--images`` folder of a user's files refused, not written over."""
-    from ..fsutil import check_outputs, refuse_overlapping_outputs
+    from ..files.guard import check_outputs, refuse_overlapping_outputs
     from ..written_folder import check_written_folder
 
     check_outputs([project, images_in], files=[report], folders=[preview, images])

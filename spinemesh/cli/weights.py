@@ -82,7 +82,8 @@ def weights(
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.bone_worlds import sampled_bone_worlds
-    from ..fsutil import OutputGuard, named_project, project_folder, refuse_overlapping_outputs
+    from ..files.guard import OutputGuard, refuse_overlapping_outputs
+    from ..files.inputs import named_project, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report

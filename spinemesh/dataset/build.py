@@ -27,7 +27,8 @@ import numpy as np
 
 from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, name_as_text
+from ..files.atomic import atomic_write_json
+from ..files.names import name_as_text
 from ..written_folder import (
     check_written_folder, mark_written_folder, refuse_linked_folders, remove_listed_files, temporary_files,
 )

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageMemoryError, SpineMeshError
-from ..fsutil import name_as_text
+from ..files.names import name_as_text
 from ..images import AtlasImages, FolderImages
 from ..images import content_id as image_content_id
 from ..memory import image_memory

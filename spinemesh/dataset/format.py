@@ -51,7 +51,10 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream, name_as_text, regular_file, resolve_inside
+from ..files.atomic import atomic_write_stream
+from ..files.inputs import regular_file
+from ..files.inside import resolve_inside
+from ..files.names import name_as_text
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
 from ..limits import MAX_IMAGE_PIXELS, check_image_size

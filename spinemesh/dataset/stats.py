@@ -70,7 +70,7 @@ def _plot_panels(stats: dict, out_dir: Path) -> list[Path]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 
-    from ..fsutil import atomic_write_bytes
+    from ..files.atomic import atomic_write_bytes
     from ..written_folder import mark_written_folder
 
     out_dir = Path(out_dir)

@@ -18,7 +18,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text, finite
+from ..files.atomic import atomic_write_bytes, atomic_write_json, atomic_write_png, atomic_write_text
+from ..files.strict_json import finite
 from ..written_folder import check_written_folder, mark_written_folder, rewriting_folder
 from ..mesher import Mesh
 from .run import DiffResult

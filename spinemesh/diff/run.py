@@ -24,7 +24,8 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import name_as_text, real
+from ..files.inside import real
+from ..files.names import name_as_text
 from ..images import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
-from ..fsutil import portable_name
+from ..files.names import portable_name
 from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
 from .place import PAGE_SHAPES, _grow, fill_pages
 from .uses import RegionUses, rectangle_reason

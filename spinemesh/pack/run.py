@@ -18,7 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import as_written, atomic_copy, atomic_write_files, atomic_write_json, named_within, utf8
+from ..files.atomic import atomic_copy, atomic_write_files, atomic_write_json, utf8
+from ..files.inside import as_written
+from ..files.names import named_within
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
 from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
@@ -1297,6 +1299,6 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
 
 def write_report(result: PackResult, path: str | Path, project: str | Path | None = None) -> None:
     """The ``--report`` JSON: totals, then one row per atlas; the files of ``project`` (the folder
-    packed) named from its name (:func:`~spinemesh.fsutil.named_within`)."""
+    packed) named from its name (:func:`~spinemesh.files.names.named_within`)."""
     atomic_write_json(path, named_within({"totals": result.totals(), "errors": result.errors,
                                           "atlases": [a.row() for a in result.atlases]}, project))

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_write_bytes, atomic_write_text, named_within
+from ..files.atomic import atomic_write_bytes, atomic_write_text
+from ..files.names import named_within
 from ..written_folder import check_written_folder, mark_written_files, mark_written_folder, written_files
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
@@ -55,7 +56,7 @@ class PreviewFolder:
 
     def write_text(self, rel: str, text: str) -> str:
         """Write ``text`` (UTF-8) at ``rel``, every path into the project named from its name (the
-        same bytes from any folder, :func:`~spinemesh.fsutil.named_within`); returns ``rel``."""
+        same bytes from any folder, :func:`~spinemesh.files.names.named_within`); returns ``rel``."""
         path = self.root / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         text = named_within(text, self.within)

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, atomic_write_png, name_apart, safe_name
+from ..files.atomic import atomic_write_json, atomic_write_png
+from ..files.names import name_apart, safe_name
 from ..skeleton import image_paths, iter_attachments
 from ..written_folder import mark_written_folder
 from .binding import parse_vertices, setup_world
@@ -254,7 +255,7 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
     """One PNG per weighted attachment in ``folder``, and beside it its :func:`caption` (the same
     name, ``.json``); returns problems (one line each). ``on_picture()``: called after each
     weighted attachment, drawn or not. ``taken``: the names of the pictures written into
-    ``folder`` so far (:func:`~spinemesh.fsutil.name_apart`), shared by the skeletons of a run."""
+    ``folder`` so far (:func:`~spinemesh.files.names.name_apart`), shared by the skeletons of a run."""
     taken = set() if taken is None else taken
     from ..project import image_source_for
 

@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_json, named_within
+from ..files.atomic import atomic_write_json
+from ..files.names import named_within
 from ..project import find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
@@ -122,7 +123,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
 
 def write_report(result: WeightResult, path: str | Path, project: str | Path | None = None) -> None:
     """``report.json``: one row per mesh attachment (bones chosen and why, time), plus totals; the
-    files of ``project`` (the folder weighted) named from its name (:func:`~spinemesh.fsutil.named_within`)."""
+    files of ``project`` (the folder weighted) named from its name (:func:`~spinemesh.files.names.named_within`)."""
     atomic_write_json(path, named_within({
         "counts": result.counts(),
         "skeletons_written": result.written,

@@ -91,7 +91,7 @@ def model_card(model_path: str | Path | None = None) -> dict:
 def _session(model_path: str, threads: int):
     import onnxruntime as ort
 
-    from ..fsutil import regular_file
+    from ..files.inputs import regular_file
 
     if not os.path.lexists(model_path):
         raise ModelError("segmentation model not found", model_path)

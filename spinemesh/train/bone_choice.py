@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream, atomic_write_text, strict_json
+from ..files.atomic import atomic_write_stream, atomic_write_text
+from ..files.strict_json import strict_json
 from ..rig import bone_sets, habits
 from ..rig.document import build_rig
 from ..rig.habits import HABIT_FEATURES

@@ -34,7 +34,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_stream
+from ..files.atomic import atomic_write_stream
 from ..images import decode_rgba
 from ..segment.composite import coarse_noise_background, make_background
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD, resize
@@ -134,7 +134,7 @@ def _pack_fields(path: str | Path) -> tuple[np.ndarray, np.ndarray, list, list, 
     """``blob, offsets, ids, games, splits`` of a sprite pack, checked (see :func:`read_pack`)."""
     import zipfile
 
-    from ..fsutil import regular_file
+    from ..files.inputs import regular_file
 
     def bad(what: str) -> SpineMeshError:
         return SpineMeshError(f"not a sprite pack of `spinemesh train --write-pack`: {what}", path)

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..fsutil import atomic_write_files, strict_json, utf8
+from ..files.atomic import atomic_write_files, utf8
+from ..files.strict_json import strict_json
 from ..segment import card_path
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD
 from .decoder import DECODER_CHANNELS

@@ -25,7 +25,8 @@ import torch
 import torch.nn.functional as F
 from torch.utils.data import DataLoader, IterableDataset
 
-from ..fsutil import atomic_write_json, atomic_write_stream, atomic_write_text, finite, strict_json
+from ..files.atomic import atomic_write_json, atomic_write_stream, atomic_write_text
+from ..files.strict_json import finite, strict_json
 from ..written_folder import check_written_folder, mark_written_folder, remove_listed_files, temporary_files
 from .data import VAL_BACKGROUNDS, flat_sample, normalise, read_pack, training_sample, write_pack
 from .model import SegmentationModel, count_parameters, read_checkpoint

@@ -76,7 +76,7 @@ def read_checkpoint(path) -> dict:
     import zipfile
 
     from ..errors import SpineMeshError
-    from ..fsutil import regular_file
+    from ..files.inputs import regular_file
 
     regular_file(path, "checkpoint")  # a FIFO waited for ever: only regular files are read
     try:

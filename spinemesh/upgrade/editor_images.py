@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_write_bytes, file_stamp, resolve_inside
+from ..files.atomic import atomic_write_bytes
+from ..files.disk import file_stamp
+from ..files.inside import resolve_inside
 from ..images import RegionImage, premultiply, unpremultiply
 from ..pack.png import profile_misfit
 
@@ -20,7 +22,7 @@ from ..pack.png import profile_misfit
 @lru_cache(maxsize=8)
 def _colour_of(source: str, stamp: tuple) -> tuple:
     """The colour chunks of the page ``source`` (:func:`spinemesh.pack.run.page_colour`), read once
-    for all of its regions; ``stamp`` (:func:`~spinemesh.fsutil.file_stamp`) reads a changed page again."""
+    for all of its regions; ``stamp`` (:func:`~spinemesh.files.disk.file_stamp`) reads a changed page again."""
     from ..pack.run import page_colour
 
     return page_colour(Path(source).read_bytes())

@@ -11,7 +11,7 @@ import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..fsutil import as_written
+from ..files.inside import as_written
 from ..mesher.worth import DEFAULT_MIN_SAVING
 from ..pack.atlas_pack import PageRules
 from ..skeleton import AttachmentRef

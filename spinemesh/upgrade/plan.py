@@ -25,8 +25,9 @@ from .. import images
 from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
+from ..files.disk import file_stamp
+from ..files.names import OneFilePerName
 from ..foreground import alpha_above
-from ..fsutil import OneFilePerName, file_stamp
 from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
@@ -151,7 +152,7 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
 def _page_drawn_otherwise(path: str, name: str) -> str:
     """Why the page file at ``path`` is drawn otherwise than its texels (animated, turned by EXIF:
     :func:`spinemesh.pack.run.check_one_upright_image`); empty when it is not, or cannot be read
-    (its decode says why). Each file read once (by path and :func:`~spinemesh.fsutil.file_stamp`)."""
+    (its decode says why). Each file read once (by path and :func:`~spinemesh.files.disk.file_stamp`)."""
     stamp = file_stamp(path)
     return "" if stamp is None else _page_drawn_otherwise_once(path, name, stamp)
 

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError, SpineMeshError
-from ..fsutil import file_stamp, name_apart, safe_name
+from ..files.disk import file_stamp
+from ..files.names import name_apart, safe_name
 from ..player import PLAYER_CSS, PreviewFolder
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
@@ -287,7 +288,7 @@ class _Skeleton:
     upgraded: Path
     project: object
     twins: list[str] = field(default_factory=list)
-    stamps: tuple = ()  # the files' stamps (fsutil.file_stamp) taken before they were read
+    stamps: tuple = ()  # the files' stamps (files.disk.file_stamp) taken before they were read
 
 
 def _skeletons(result, project: Path, out: Path) -> list[_Skeleton]:

@@ -22,7 +22,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry
-from ..fsutil import portable_name
+from ..files.names import portable_name
 from ..images import cut_region
 
 #: Transparent texels around each re-packed region (bilinear sampling never reaches a neighbour).
@@ -114,7 +114,7 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
     page_pixels : callable
         ``page_pixels(page_index)`` -> (H, W, 4) uint8, the page's texels as stored.
     taken : set of str, optional
-        File names the new pages may not take, as :func:`.fsutil.portable_name` gives them (one
+        File names the new pages may not take, as :func:`.files.names.portable_name` gives them (one
         file on every disk; files beside the atlas, in the project and in the output folder:
         another atlas of the same stem writes its pages there).
 
@@ -197,7 +197,7 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
         The new page files written, relative to ``out``.
     """
     from ..atlas import read_atlas
-    from ..fsutil import atomic_write_bytes, atomic_write_text
+    from ..files.atomic import atomic_write_bytes, atomic_write_text
     from ..images import AtlasImages, load_rgba
 
     atlas = read_atlas(atlas_path)

@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..fsutil import atomic_write_json, named_within
+from ..files.atomic import atomic_write_json
+from ..files.names import named_within
 from ..runs import RunSummary
 
 
@@ -110,7 +111,7 @@ def write_report(result: Result, path: str | Path, project: str | Path | None = 
         The report file, written atomically as strict JSON.
     project : path, optional
         The folder upgraded: its files are named from its name
-        (:func:`~spinemesh.fsutil.named_within`), so the report is the same bytes from any
+        (:func:`~spinemesh.files.names.named_within`), so the report is the same bytes from any
         folder; default: paths as they are.
     """
     atomic_write_json(path, named_within({

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ..errors import SpineMeshError
-from ..fsutil import atomic_copy
+from ..files.atomic import atomic_copy
 from ..output import atlas_pages, copy_atlases_last, files_needed, files_to_copy, write_skeleton
 from .plan import ProjectPlan
 from .progress import SILENT, Progress
