@@ -216,3 +216,43 @@ def first_animation(skeleton_json_or_doc) -> str | None:
         doc = json.loads(doc.read_text(encoding="utf-8-sig"))
     anims = doc.get("animations") or {}
     return next(iter(anims), None)
+
+
+#: Why a bone of a 3.8 skeleton is not compared with the harness's 3.8 runtime (a port).
+PORT_38_PATHS = ("the harness's 3.8 runtime (a port) lays this path constraint's bones unlike the official 3.8 one "
+                 "(chain modes never turned to the next point; spacing as before 3.7): proved against the "
+                 "official 4.0 runtime instead (tests/test_runtime_edges.py)")
+
+
+def unlike_official_38(doc: dict, active: set[str] | None = None) -> set[str]:
+    """Bones of a 3.8 skeleton that the harness's 3.8 port poses unlike the official 3.8 runtime:
+    those of a path constraint the two lay apart (``spinemesh.rig.constraints.lays_apart_38``),
+    of the constraints that read them, and every bone below those. Empty for other versions.
+    ``active``: the names of the path constraints the skin posed activates (default: all)."""
+    from spinemesh.skeleton_version import doc_major_minor
+
+    if doc_major_minor(doc) != (3, 8):
+        return set()
+    from spinemesh.rig.constraints import lays_apart_38
+
+    affected = {b for c in doc.get("path") or [] if lays_apart_38(c) and (active is None or c.get("name") in active)
+                for b in c.get("bones") or []}
+    parents = {b.get("name"): b.get("parent") for b in doc.get("bones") or []}
+    slot_bones = {s.get("name"): s.get("bone") for s in doc.get("slots") or []}
+    # each constraint with the bone it reads: an IK's or transform's target, a path's slot's bone
+    readers = [(c, c.get("target")) for kind in ("ik", "transform") for c in doc.get(kind) or []]
+    readers += [(c, slot_bones.get(c.get("target"))) for c in doc.get("path") or []]
+    while True:
+        grown = set(affected)
+        for c, read in readers:
+            if read in grown:
+                grown |= set(c.get("bones") or [])
+        for name in parents:
+            up = name
+            while up is not None and up not in grown:
+                up = parents.get(up)
+            if up is not None:
+                grown.add(name)
+        if grown == affected:
+            return affected
+        affected = grown

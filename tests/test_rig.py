@@ -194,7 +194,7 @@ def test_path_constraint_lays_bones_along_the_path(constant_speed, version):
 
 
 def test_constraints_not_reproduced_leave_bones_and_children_not_exact():
-    doc = _with_rail(worm_skeleton("3.8.99"), rotateMode="chain")  # 3.8 chain paths are not solved
+    doc = _with_rail(worm_skeleton("3.8.99"), rotateMode="chain")  # 3.8 chain paths are not bound to
     bones = _posed(doc)
     assert bones["seg1"].exact and not bones["seg2"].exact and not bones["seg3"].exact
     assert "path constraint 'rail'" in bones["seg2"].why
@@ -448,7 +448,7 @@ def test_deform_keys_and_inexact_bones_leave_meshes_as_they_are():
     out = weight_document(keyed, "w", WeightOptions())
     assert out[0].status == "skipped" and "deform timeline" in out[0].reason
     assert keyed["skins"][0]["attachments"]["worm"]["worm"] == original
-    constrained = _with_rail(copy.deepcopy(doc), rotateMode="chain")  # a 3.8 chain path is not solved
+    constrained = _with_rail(copy.deepcopy(doc), rotateMode="chain")  # a 3.8 chain path is not bound to
     constrained["skeleton"]["spine"] = "3.8.99"
     constrained["path"][0]["bones"] = ["seg1"]
     out = weight_document(constrained, "w", WeightOptions())

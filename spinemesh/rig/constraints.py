@@ -17,9 +17,10 @@ the target slot's path.
 (:mod:`.transform43`), and 4.3 bones take their local values back from a changed world transform
 lazily, as 4.3 does.
 
-Each bone carries an *exact* flag. A 3.8 path constraint in a chain rotate mode (the 3.8
-runtime checked against, a port, turns those bones unlike the official one), a constraint
-only some skins activate, a 4.3 skeleton with a constraint :func:`posing_family` does not solve,
+Each bone carries an *exact* flag. A 3.8 path constraint the 3.8 runtimes lay apart
+(:func:`lays_apart_38`: the official one, which this module follows, and pixi-spine's port)
+leaves its bones not exact in :func:`setup_pose`, the pose bindings are made in (the sampler's
+poses are the official runtime's, exact). A constraint only some skins activate, a 4.3 skeleton with a constraint :func:`posing_family` does not solve,
 a slider without its player (the sampler's: :func:`setup_pose` has none), or one older than 3.8
 (no runtime to check against) leaves the bones it moves not
 exact, with the reason, and so does any constraint that reads a bone that is not exact;
@@ -1002,9 +1003,16 @@ def _path_spaces(bones: list[PoseBone], spacing: float, spacing_mode: str, tange
     spaces_count = count if tangents else count + 1
     spaces = [0.0] * spaces_count
     lengths = [0.0] * count
-    if family == "3.8" and not scale and spacing_mode != "length":
-        spaces[1:] = [spacing] * (spaces_count - 1)
-    elif spacing_mode == "percent" and family != "3.8":
+    if family == "3.8" and spacing_mode == "percent":
+        # 3.8 (since 3.7): a percent spacing is the spacing, whatever the bones' scale; in chain
+        # scale, a bone shorter than the epsilon is given none
+        for i in range(spaces_count - 1):
+            short = bones[i].length < _EPSILON
+            if scale and not short:
+                a, _, _, c, _, _ = bones[i].m
+                lengths[i] = math.hypot(bones[i].length * a, bones[i].length * c)
+            spaces[i + 1] = 0.0 if short and scale else spacing
+    elif spacing_mode == "percent":
         for i in range(spaces_count - 1) if scale else ():
             a, _, _, c, _, _ = bones[i].m
             short = family != "4.2" and bones[i].length < _EPSILON  # 4.0-4.1 give short bones no length
@@ -1270,10 +1278,6 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in
             if not bone.finite():  # the runtimes draw such a bone nowhere: flagged, those below it too
                 _mark([bone], f"moved {where} by the {c.label()}, whose springs diverge (not a finite number)")
         return
-    if _chain_path_38(c, family):
-        # The 3.8 runtime checked against (a port) turns chain-mode bones unlike the official one.
-        _mark(c.bones, f"moved {where} by the {c.label()} (3.8 chain paths are not solved)")
-        return
     ok, why = _inputs_exact(c, where)
     try:
         if not _apply(c, family, skeleton):
@@ -1291,12 +1295,6 @@ def _run(c: _Constraint, family: str, skeleton: list[PoseBone], where: str = "in
         for bone in c.bones:
             bone.applied_exact = True
             bone.exact = True
-
-
-def _chain_path_38(c: _Constraint, family: str) -> bool:
-    """A 3.8 path constraint that turns its bones in a chain mode (not solved here)."""
-    return (c.kind == "path" and family == "3.8" and c.data.get("rotateMode", "tangent") != "tangent"
-            and _num(c.data, "rotateMix", 1) > 0)
 
 
 class _Unsolved(Exception):
@@ -1534,8 +1532,38 @@ def _solve(doc: dict) -> tuple[list[PoseBone], list[_Constraint]]:
     for c in constraints:
         if id(c) not in active and _moves_something(c, family):
             _mark(c.bones, f"moved by the {c.label()}, which only some skins activate")
+    if family == "3.8":
+        # Posed as the official 3.8 runtime poses them, but not bound: the 3.8 runtimes in use
+        # lay them apart (pixi-spine's port, the one the proofs play, otherwise), and a binding
+        # is proved in a runtime before it is written.
+        changed = True
+        while changed:  # and the bones below them, and those of constraints that read them
+            changed = False
+            for c in constraints:
+                if not c.active or not any(b.exact for b in c.bones):
+                    continue
+                if c.kind == "path" and lays_apart_38(c.data):
+                    why = (f"moved by the {c.label()} (3.8 chain paths: the 3.8 runtimes lay its bones apart, "
+                           "so nothing is bound to them)")
+                else:
+                    ok, why = _inputs_exact(c)
+                    if ok:
+                        continue
+                _mark([b for b in c.bones if b.exact], why)
+                changed = True
+            _propagate(bones)
     _propagate(bones)
     return bones, constraints
+
+
+def lays_apart_38(path: dict) -> bool:
+    """Whether the 3.8 runtimes lay a 3.8 path constraint's bones apart (``path``: its JSON):
+    the official one as this module does, pixi-spine's 3.8 port never turning bones in a chain
+    mode to the next point and spacing them as before 3.7 (a fixed spacing not scaled by the
+    bone, a percent one in chain scale scaled)."""
+    rotate, spacing = path.get("rotateMode", "tangent"), path.get("spacingMode", "length")
+    return ((rotate != "tangent" and _num(path, "rotateMix", 1) > 0) or spacing == "fixed"
+            or (spacing == "percent" and rotate == "chainScale"))
 
 
 def _read_path_target(c: _Constraint, doc: dict, by_name: dict[str, PoseBone], bones: list[PoseBone],
@@ -1607,12 +1635,13 @@ def _without_constraints(bones: list[PoseBone], constraints: list[_Constraint], 
 
 def solved_constraints(doc: dict) -> dict[str, list[str]]:
     """IK, transform and path constraints this module applies that move bones in the setup pose
-    of ``doc`` (a mix not 0, active without a skin; not 3.8 chain paths), by name, with the names of
-    the bones they move; empty for versions other than 3.8 to 4.2 (those the runtime tool plays)."""
+    of ``doc`` (a mix not 0, active without a skin; not 3.8 paths :func:`lays_apart_38`), by name,
+    with the names of the bones they move; empty for versions other than 3.8 to 4.2 (those the
+    runtime tool plays)."""
     family = runtime_family(doc)
     if family is None:
         return {}
     _, constraints = _solve(doc)
     return {c.name: [b.name for b in c.bones] for c in constraints
             if c.kind in ("ik", "transform", "path") and c.active and _moves_something(c, family)
-            and not _chain_path_38(c, family)}
+            and not (family == "3.8" and c.kind == "path" and lays_apart_38(c.data))}
