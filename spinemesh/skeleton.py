@@ -26,7 +26,7 @@ from .limits import (
     MAX_SEQUENCE_FRAMES,
     check_file_size,
 )
-from .skeleton_check import KeyedTwice, check_document
+from .skeleton_check import KeyedTwice, check_document, is_int, is_number
 from .skeleton_names import first_of_each_name  # noqa: F401 (re-exported: where anim finds it)
 
 #: Attachment types that draw an image from the atlas.
@@ -481,7 +481,7 @@ def sequence_paths(path: str, sequence: dict) -> list[str]:
         value = sequence.get(key, default)
         if isinstance(value, float) and value.is_integer():
             value = int(value)
-        if isinstance(value, bool) or not isinstance(value, int):
+        if not is_int(value):
             raise SkeletonError(f"sequence of {path!r}: {key!r} must be a whole number, found {value!r}")
         if not low <= value <= high:
             raise LimitError(f"sequence of {path!r}: {key!r} is {value}, outside {low} to {high}")
@@ -514,6 +514,6 @@ def number(att: dict, key: str, default: float, source: str | Path | None = None
     would be written with non-finite vertices that the runtimes reject.
     """
     value = att.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_number(value) or not math.isfinite(value):
         raise SkeletonError(f"{what or 'attachment'}: {key!r} must be a finite number, found {value!r}", source)
     return float(value)

@@ -57,13 +57,37 @@ def found(value) -> str:
     return type(value).__name__
 
 
+def is_int(value) -> bool:
+    """Whether ``value`` is an integer and not true or false (Python's ``bool`` is an ``int``; a
+    JSON ``true`` is no number to any runtime): the one test for a count, a size or an index read
+    from a file.
+
+    Examples
+    --------
+    >>> is_int(3), is_int(True), is_int(3.0)
+    (True, False, False)
+    """
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def is_number(value) -> bool:
+    """Whether ``value`` is an integer or a float and not true or false (see :func:`is_int`).
+
+    Examples
+    --------
+    >>> is_number(2.5), is_number(False), is_number("2")
+    (True, False, False)
+    """
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _number_ok(value) -> bool:
     if isinstance(value, str):  # the runtimes parse numeric text
         try:
             value = float(value)
         except ValueError:
             return False
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         return False
     # abs() of an int is exact: a 400-digit integer compares without overflow
     return abs(value) <= MAX_SKELETON_NUMBER if isinstance(value, int) else (
@@ -357,7 +381,7 @@ def _vertex_count(attachment: dict) -> int | None:
     if isinstance(uvs, list):
         return len(uvs) // 2
     count = attachment.get("vertexCount")
-    if isinstance(count, (int, float)) and not isinstance(count, bool) and count == int(count) and count >= 0:
+    if is_number(count) and count == int(count) and count >= 0:
         return int(count)
     return None
 

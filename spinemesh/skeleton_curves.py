@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .skeleton_check import is_number
 from .skeleton_version import major_minor
 
 
@@ -37,7 +38,7 @@ class CurveSpelling:
             return "stepped" if self.any_text_steps or curve == "stepped" else "linear"
         if self.bezier_in_list:
             return "bezier" if isinstance(curve, list) and len(curve) >= 4 else "linear"
-        return "bezier" if isinstance(curve, (int, float)) and not isinstance(curve, bool) else "linear"
+        return "bezier" if is_number(curve) else "linear"
 
     def controls(self, frame: dict) -> list:
         """A Bezier key's ``[c1, c2, c3, c4]`` as the document holds them (not checked: numbers

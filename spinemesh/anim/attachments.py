@@ -22,7 +22,7 @@ from ..errors import SpineMeshError
 from ..rig.binding import parse_vertices
 from ..rig.transform import DEG_RAD
 from ..skeleton import AttachmentRef, linked_source, sequence_paths
-from ..skeleton_check import attachment_problem
+from ..skeleton_check import attachment_problem, is_int, is_number
 from .curves import _number
 from .timelines import color_channels
 
@@ -208,14 +208,14 @@ def prepare(doc_skins: dict, skin: str, slot: int, slot_name: str, key: str, att
         out.uvs = np.asarray(uvs, np.float64).reshape(-1, 2)
         out.triangles = np.asarray(source.get("triangles") or [], np.intp)
         hull = source.get("hull")
-        out.hull = int(hull) if isinstance(hull, (int, float)) and not isinstance(hull, bool) else None
+        out.hull = int(hull) if is_number(hull) else None
         return out
     if kind in ("clipping", "path"):
         count = att.get("vertexCount")
         verts = att.get("vertices")
         # each vertex takes a number at least: a count beyond them (2**31) is unreadable, never allocated
         numbers = len(verts) if isinstance(verts, list) else 0
-        if not isinstance(count, int) or isinstance(count, bool) or not 0 < count <= numbers:
+        if not is_int(count) or not 0 < count <= numbers:
             return None
         try:
             out.geometry = VertexGeometry(att, count, bone_count)

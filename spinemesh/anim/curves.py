@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rig.transform import float_divide, wrap_turns
+from ..skeleton_check import is_number
 from ..skeleton_curves import CURVES_38, CurveSpelling
 
 LINEAR, STEPPED, BEZIER = 0, 1, 2
@@ -264,7 +265,7 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 def _number(value, default: float) -> float:
     """``value`` as a float; ``default`` for what is not a number a float32 holds (text, a
     boolean, ``1e300``, an integer too large for a float)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         return float(default)
     try:
         v = float(value)
@@ -360,7 +361,7 @@ def curve_4_playable(curve, values: int) -> bool:
     if curve is None or curve is False or curve == 0 or curve == "" or curve == "stepped":
         return True
     return (isinstance(curve, list) and len(curve) >= 4 * values
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in curve[:4 * values]))
+            and all(map(is_number, curve[:4 * values])))
 
 
 def _shown(value) -> str:

@@ -58,6 +58,7 @@ from ..files.names import name_as_text
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
 from ..images import decode_rgba
 from ..limits import MAX_IMAGE_PIXELS, check_image_size
+from ..skeleton_check import is_int
 
 FORMAT = "spinemesh-dataset"
 FORMAT_VERSION = 1
@@ -74,10 +75,6 @@ SHARDS = "shards"
 #: Largest member of a shard a row may point at: the PNG of the largest image, 4 bytes a texel
 #: and a row's filter byte, uncompressed, with room for its chunks (a mesh's .npz is far smaller).
 MAX_MEMBER_BYTES = 5 * MAX_IMAGE_PIXELS + (1 << 20)
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def checked_row(row, root: Path, index: Path, line: int, shards: dict[str, Path]) -> dict:
@@ -116,10 +113,10 @@ def checked_row(row, root: Path, index: Path, line: int, shards: dict[str, Path]
     if row.get("split") not in ("train", "val"):
         raise bad(f"split is {row.get('split')!r}, not 'train' or 'val'")
     width, height, box = row.get("width"), row.get("height"), row.get("box")
-    if not (_is_int(width) and _is_int(height) and width > 0 and height > 0):
+    if not (is_int(width) and is_int(height) and width > 0 and height > 0):
         raise bad(f"width and height are {width!r} and {height!r}, not sizes in pixels")
     check_image_size(width, height, f"sample {row['id']!r}", index, line=line)
-    if not (isinstance(box, list) and len(box) == 4 and all(map(_is_int, box))) \
+    if not (isinstance(box, list) and len(box) == 4 and all(map(is_int, box))) \
             or box[0] < 0 or box[1] < 0 or box[2] < 1 or box[3] < 1 \
             or box[0] + box[2] > width or box[1] + box[3] > height:
         raise bad(f"box is {box!r}, not [x, y, w, h] inside its {width}x{height} image")
@@ -127,7 +124,7 @@ def checked_row(row, root: Path, index: Path, line: int, shards: dict[str, Path]
         span = row.get(member)
         if member == "mesh" and not span:
             continue
-        if not (isinstance(span, list) and len(span) == 2 and all(map(_is_int, span))) \
+        if not (isinstance(span, list) and len(span) == 2 and all(map(is_int, span))) \
                 or span[0] < 0 or not 0 <= span[1] <= MAX_MEMBER_BYTES:
             raise bad(f"{member} is {span!r}, not [offset, size] of at most {MAX_MEMBER_BYTES:,} bytes")
     shard = row["shard"]

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..skeleton import iter_skins
+from ..skeleton_check import is_int
 from ..skeleton_version import doc_major_minor
 from .binding import deformed, parse_vertices, setup_world
 from .transform import (
@@ -722,7 +723,7 @@ def path_world_vertices(att: dict, slot_bone: PoseBone, bones: list[PoseBone],
     offsets per bone influence when weighted), used instead of the setup values."""
     count = att.get("vertexCount")
     verts = att.get("vertices")
-    if not isinstance(count, int) or isinstance(count, bool) or count <= 0 or not isinstance(verts, list):
+    if not is_int(count) or count <= 0 or not isinstance(verts, list):
         return None
     try:  # the mesh reader's layout; a path has no uvs, only its vertex count
         mesh = parse_vertices({"uvs": [0.0] * (2 * count), "vertices": verts}, len(bones))
@@ -1140,7 +1141,7 @@ def _read_constraints(doc: dict, by_name: dict[str, PoseBone]) -> list[_Constrai
             if any(b is None for b in bones) or not bones or (kind in ("ik", "transform") and target is None):
                 continue
             order = c.get("order", 0)
-            order = order if isinstance(order, int) and not isinstance(order, bool) else 0
+            order = order if is_int(order) else 0
             v43 = isinstance(doc.get("constraints"), list)
             if v43:  # 4.3: one list, in update order
                 order = next(i for i, x in enumerate(doc["constraints"]) if x is c)

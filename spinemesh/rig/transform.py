@@ -19,6 +19,8 @@ from math import cos, sin
 
 import numpy as np
 
+from ..skeleton_check import is_number
+
 #: The runtimes' pi (spine-ts, spine-csharp, ... define it as 3.1415927) and the degree
 #: conversions made with it. A bone at 90 degrees then has ``cos = -2.3e-8``, not ``6e-17``:
 #: tiny, but a fully stretched two-bone IK (``acos`` near 1) turns it into 0.01 degrees.
@@ -35,7 +37,7 @@ INHERIT_MODES = ("normal", "onlyTranslation", "noRotationOrReflection", "noScale
 def _num(node: dict, key: str, default: float) -> float:
     """A bone's or constraint's number ``node[key]``; ``default`` when missing or not a finite number."""
     value = node.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_number(value) or not math.isfinite(value):
         return float(default)
     return float(value)
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ImageError, SpineMeshError
 from ..foreground import ALPHA_THRESHOLD, alpha_mask
+from ..skeleton_check import is_int, is_number
 from .preprocess import from_output, to_input
 
 #: Masks modes of ``--mask``: always alpha, always the network, or alpha when meaningful.
@@ -74,10 +75,10 @@ def model_card(model_path: str | Path | None = None) -> dict:
     if not isinstance(card, dict):
         raise ModelError(f"the model card is a JSON {type(card).__name__}, not an object of spinemesh's fields", path)
     size, threshold = card.get("input_size"), card.get("threshold", 0.5)
-    if isinstance(size, bool) or not isinstance(size, int) or not 16 <= size <= MAX_INPUT_SIZE:
+    if not is_int(size) or not 16 <= size <= MAX_INPUT_SIZE:
         raise ModelError(f"the model card's input_size is {size!r}, not a side in pixels from 16 to "
                          f"{MAX_INPUT_SIZE}", path)
-    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0 < threshold < 1:
+    if not is_number(threshold) or not 0 < threshold < 1:
         raise ModelError(f"the model card's threshold is {threshold!r}, not a probability between 0 and 1", path)
     inference = card.get("inference", {})
     if not isinstance(inference, dict) or not all(isinstance(inference.get(k, False), bool)

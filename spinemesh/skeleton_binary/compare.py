@@ -22,6 +22,7 @@ import fnmatch
 import math
 from typing import Any, Callable, Iterable, NamedTuple
 
+from ..skeleton_check import is_number
 from ..skeleton_version import doc_major_minor
 from .v4.constraint_list import implied_mix
 
@@ -262,12 +263,8 @@ def numbers_equal(a: float, b: float, abs_tol: float = ABS_TOL, rel_tol: float =
     return abs(a - b) <= abs_tol or abs(a - b) <= rel_tol * max(abs(a), abs(b))
 
 
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
 def _values_equal(a: Any, b: Any, abs_tol: float, rel_tol: float) -> bool:
-    if _is_number(a) and _is_number(b):
+    if is_number(a) and is_number(b):
         return numbers_equal(a, b, abs_tol, rel_tol)
     if isinstance(a, str) and isinstance(b, str):
         return a.lower() == b.lower() if _looks_hex(a) and _looks_hex(b) else a == b

@@ -60,15 +60,16 @@ def model_of(ckpt: dict, path: str | Path, image_size: int | None = None) -> Seg
     """
     from ..errors import SpineMeshError
     from ..segment import MAX_INPUT_SIZE
+    from ..skeleton_check import is_int
 
     config = dict(checkpoint_config(ckpt, path), **({"image_size": image_size} if image_size else {}))
     side = config.get("image_size")
-    if isinstance(side, bool) or not isinstance(side, int) or side % 32 or not 32 <= side <= MAX_INPUT_SIZE:
+    if not is_int(side) or side % 32 or not 32 <= side <= MAX_INPUT_SIZE:
         raise SpineMeshError(f"the checkpoint's image_size is {side!r}, not a multiple of 32 from 32 to "
                              f"{MAX_INPUT_SIZE}", path)
     channels = config.get("decoder_channels", DECODER_CHANNELS)
     if not (isinstance(channels, (list, tuple)) and 1 <= len(channels) <= 8
-            and all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= MAX_DECODER_CHANNELS
+            and all(is_int(c) and 1 <= c <= MAX_DECODER_CHANNELS
                     for c in channels)):  # 100000 channels asked torch for 360 GB
         raise SpineMeshError(f"the checkpoint's decoder_channels are {str(channels)[:100]}, not 1 to 8 counts "
                              f"from 1 to {MAX_DECODER_CHANNELS}", path)

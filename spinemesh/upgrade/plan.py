@@ -32,7 +32,7 @@ from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, Regio
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, linked_source, load_skeleton
-from ..skeleton_check import animations_keyed_twice
+from ..skeleton_check import animations_keyed_twice, is_number
 from ..written_folder import mark_written_folder
 from .editor_images import write_editor_image
 from .options import Options, skip_reason
@@ -302,7 +302,7 @@ def _unlike(image: tuple[int, int], attachment: tuple) -> str:
     export) fits; a pixel of rounding on either side is allowed.
     """
     (iw, ih), (aw, ah) = image, attachment
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in (aw, ah)):
+    if not all(is_number(v) and v > 0 for v in (aw, ah)):
         return ""
     if abs(ih * aw / iw - ah) <= max(1.0, 0.01 * ah) and abs(iw * ah / ih - aw) <= max(1.0, 0.01 * aw):
         return ""
