@@ -142,6 +142,23 @@ def test_the_c_locale_reads_and_writes_non_ascii_names(tmp_path, named, locale):
     assert (tmp_path / "up" / f"{WORD}.json").is_file() and (tmp_path / "up" / f"{WORD}.atlas").is_file()
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="file names in the locale's encoding: a POSIX system's")
+def test_a_locale_whose_file_names_cannot_hold_a_projects_names(tmp_path, named):
+    """The C locale with UTF-8 mode turned off (``PYTHONUTF8=0 PYTHONCOERCECLOCALE=0``, as a
+    non-UTF-8 locale such as latin-1 does to letters outside it): Python's file names are ASCII
+    there, and the atlas's page ``démo☃.png`` ended ``upgrade``, ``pack``, ``info`` and ``pose``
+    in a UnicodeEncodeError traceback. One line names the file and the way out."""
+    env = _env(LC_ALL="C", LANG="C", PYTHONUTF8="0", PYTHONCOERCECLOCALE="0")
+    before = snapshot(named)
+    for args in (("upgrade", named, "--out", "up"), ("pack", named, "--out", "pk"), ("info", named),
+                 ("pose", named / f"{WORD}.json")):
+        r = _run(*args, cwd=tmp_path, env=env)
+        line = _one_error(r)
+        assert "mo\\u2603.png: this name cannot be a file name here" in line and "PYTHONUTF8=1" in line, line
+    assert snapshot(named) == before
+    assert not (tmp_path / "up").exists() or not any((tmp_path / "up").glob("*.json"))
+
+
 # --- the console's width ----------------------------------------------------------------------------
 
 def test_a_width_of_zero_columns_still_prints_the_table_and_the_errors(tmp_path, twenty):
@@ -316,3 +333,5 @@ def test_forced_colours_never_animate_the_bars_into_a_log(tmp_path, twenty):
     assert b"\x1b[" in r.stdout  # the colours stay
     r = _run("upgrade", twenty, "--out", "up2", "--pack", cwd=tmp_path, env=_env(FORCE_COLOR="1", TTY_INTERACTIVE="1"))
     assert r.returncode == 0 and b"\x1b[1A" in r.stderr
+
+

@@ -74,6 +74,17 @@ def _refusal(error: OSError):
     return SpineMeshError(error.strerror or str(error), error.filename)
 
 
+def _file_name_encoding(encoding: str) -> bool:
+    """Whether ``encoding`` is the one Python names files in (a UnicodeEncodeError in it: a name
+    this system's file names cannot hold)."""
+    import codecs
+
+    try:
+        return codecs.lookup(encoding).name == codecs.lookup(sys.getfilesystemencoding()).name
+    except LookupError:
+        return False
+
+
 def main() -> None:
     """Console-script entry point.
 
@@ -107,6 +118,18 @@ def main() -> None:
         if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
             e = _refusal(e)
         err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
+        sys.exit(2)
+    except UnicodeEncodeError as e:
+        if not _file_name_encoding(e.encoding):
+            raise
+        from ._app import console_text, err_console
+
+        # Python's file names are UTF-8 in every UTF-8 locale and in the C locale; a locale of another
+        # encoding (latin-1), or the C locale with UTF-8 mode turned off (PYTHONUTF8=0), cannot name a
+        # file whose name a project gives in other letters: one line saying so, not a traceback
+        err_console.print(f"[bold red]error:[/] {console_text(e.object)}: this name cannot be a file name here "
+                          f"(file names are {sys.getfilesystemencoding()} in this locale); run with a UTF-8 "
+                          "locale (LC_ALL=C.UTF-8) or PYTHONUTF8=1", highlight=False, soft_wrap=True)
         sys.exit(2)
     except MemoryError:
         # the last net for memory: each stage refuses what it cannot hold with its own line naming
