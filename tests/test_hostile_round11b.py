@@ -335,3 +335,23 @@ def test_forced_colours_never_animate_the_bars_into_a_log(tmp_path, twenty):
     assert r.returncode == 0 and b"\x1b[1A" in r.stderr
 
 
+# --- determinism on a real project ------------------------------------------------------------------
+
+def test_a_game_project_upgrades_to_the_same_bytes_in_any_environment(tmp_path, corpus):
+    """A game's binary project (``.skel.bytes``, two skeletons), ``upgrade --pack --weights auto``
+    by relative paths with ``--jobs 1``, hash seed 0, UTC, then by absolute paths from another
+    folder with ``--jobs 2``, hash seed 77, another time zone and the C locale: every file written
+    is the same bytes (tests/test_pipeline.py proves it on the demo)."""
+    project = corpus / "chyo-sd"
+    if not project.is_dir():
+        pytest.skip("chyo-sd is not in this corpus")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    args = ("upgrade", project, "--pack", "--weights", "auto")
+    r = _run(*args, "--out", "out", "--jobs", "1", cwd=tmp_path / "a", env=_env(PYTHONHASHSEED="0", TZ="UTC"))
+    assert r.returncode == 0, r.stderr[-2000:]
+    r = _run(*args, "--out", tmp_path / "b" / "out", "--jobs", "2", cwd=tmp_path,
+             env=_env(PYTHONHASHSEED="77", TZ="Asia/Kathmandu", LC_ALL="C", LANG="C"))
+    assert r.returncode == 0, r.stderr[-2000:]
+    a, b = (snapshot(tmp_path / side / "out") for side in "ab")
+    assert a == b and any(name.endswith((".skel", ".skel.bytes")) for name in a), sorted(set(a) ^ set(b))
