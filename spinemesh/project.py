@@ -27,7 +27,7 @@ from pathlib import Path
 from .atlas import Atlas, page_mismatches, read_atlas
 from .errors import SpineMeshError, UnsafePathError
 from .files.inputs import existing, regular_file
-from .files.inside import is_within, real, resolve_inside
+from .files.inside import is_within, page_not_found_said, real, resolve_inside
 from .files.walk import walk_folder
 from .images import AtlasImages, FolderImages, PageStore, image_size
 from .skeleton import image_paths, iter_attachments
@@ -166,7 +166,7 @@ def project_atlases(project: Project) -> dict[Path, Atlas]:
             for page in atlas.pages:
                 page_file = AtlasImages.page_path(atlas, page.name, project.root)
                 if not page_file.is_file():
-                    raise SpineMeshError(f"page image {page.name!r} not found", p, line=page.line)
+                    raise SpineMeshError(page_not_found_said(page.name, p.parent), p, line=page.line)
         except SpineMeshError as e:
             project.broken_atlases[p] = str(e)
             project.problems.append(f"{e}; atlas not used")

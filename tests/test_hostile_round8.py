@@ -9,6 +9,7 @@ traceback, never two outputs silently landing on one file, inputs unchanged.
 
 from __future__ import annotations
 
+import os
 import unicodedata
 from pathlib import Path
 
@@ -438,6 +439,28 @@ def test_a_page_named_with_a_backslash_is_written_where_it_was_read(tmp_path, co
     written = [p.relative_to(tmp_path / "out").as_posix() for p in (tmp_path / "out").rglob("*") if p.is_file()]
     assert "pages/demo.png" in written and not any("\\" in name for name in written), written
     assert (tmp_path / "out" / "demo.atlas").read_text("utf-8").startswith("pages\\demo.png"), written
+
+
+@pytest.mark.parametrize("command", [["pack", "p", "--out", "out"], ["upgrade", "p", "--out", "out", "--jobs", "1"]],
+                         ids=["pack", "upgrade"])
+def test_a_page_file_whose_own_name_holds_a_backslash_is_refused_in_one_line_naming_its_folder(tmp_path, command):
+    """On a Linux or macOS disk ``pages\\demo.png`` can be one file. libGDX and spine-c there load
+    it by that name; Windows and browsers (spine-ts) read the page as ``pages/demo.png``, so the
+    project loads on some runtimes only. It is refused in one line saying so and where to move
+    it; the line said ``page image 'pages\\\\demo.png' not found`` of a file that was there."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    (project / "demo-binary.skel").unlink()
+    os.rename(project / "demo.png", project / "pages\\demo.png")
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text("utf-8").replace("demo.png", "pages\\demo.png"), "utf-8")
+    before = snapshot(tmp_path)
+    r = run_cli(*command, cwd=tmp_path)
+    said = [line for line in r.stderr.splitlines() if "backslash" in line]
+    assert len(said) == 1 and "move it to 'pages/demo.png'" in said[0] and "libGDX" in said[0], r.stderr
+    assert "not found" not in said[0] and "Traceback" not in r.stderr
+    check_run(r, before, tmp_path, ["out/"], codes=(2, 3))
 
 
 @pytest.mark.parametrize("folder, options", [

@@ -57,6 +57,23 @@ def as_written(relative: str) -> str:
     return relative.replace("\\", "/")
 
 
+def page_not_found_said(name: str, folder: str | Path) -> str:
+    """Why a page image ``name`` (as an atlas in ``folder`` writes it) is not where it is read.
+
+    A name holding a backslash is read as the folders a Windows export means (:func:`as_written`),
+    as Windows and browsers read it (spine-ts loads its URL, where ``\\`` is ``/``). libGDX (a
+    ``java.io.File``) and spine-c (``fopen``) on Linux, macOS and Android read it as one file's
+    name: a project that holds such a file loads on those alone, so it is refused, naming the
+    folder to move it to, rather than written as it is."""
+    folders = as_written(name)
+    if "\\" in name and not Path(folders).is_absolute() and ".." not in folders.split("/") \
+            and (Path(folder) / name).is_file():
+        return (f"page image {name!r} is a file whose name holds a backslash, which runtimes read apart: "
+                f"Windows and browsers read the page as {folders!r} (in folders), libGDX and spine-c on Linux, "
+                f"macOS and Android as that one file; move it to {folders!r}, where every runtime finds it")
+    return f"page image {name!r} not found"
+
+
 def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None,
                    what: str = "project folder") -> Path:
     """Join ``relative`` to ``root`` and refuse any result outside ``root``.
