@@ -169,3 +169,113 @@ def test_info_escapes_the_control_characters_of_a_skeleton_name(tmp_path):
     r = run_cli("info", "p", cwd=tmp_path)
     assert "\x1b" not in r.stdout + r.stderr, repr(r.stdout + r.stderr)
     assert "de\\x1b[31mmo.json" in r.stdout and "at\\x1b[31mlas.atlas" in r.stdout, r.stdout
+
+
+# --- a data set's members checked as its rows are ------------------------------------------------
+
+@pytest.fixture(scope="module")
+def small_dataset(tmp_path_factory):
+    """A data set of the demo project upgraded (its meshes stand for an artist's), made by
+    ``spinemesh dataset``."""
+    from spinemesh.demo import make_demo_project
+
+    tmp = tmp_path_factory.mktemp("ds")
+    make_demo_project(tmp / "p")
+    r = run_cli("upgrade", "p", "--out", "games/hero", "--jobs", "1", cwd=tmp)
+    assert r.returncode == 0, r.stdout + r.stderr
+    (tmp / "games" / "hero" / "demo-binary.skel").unlink()
+    if not (tmp / "games" / "hero" / "images").is_dir():
+        import shutil
+
+        shutil.copytree(tmp / "p" / "images", tmp / "games" / "hero" / "images")
+    r = run_cli("dataset", "games", "--out", "ds", "--jobs", "1", cwd=tmp)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return tmp / "ds"
+
+
+def _member_replaced(src, tmp, member: str, data: bytes):
+    """A copy of the data set ``src`` whose first sample of a ``member`` has ``data`` there
+    instead (the index's span made its size); the data set and that row."""
+    import shutil
+
+    from spinemesh.dataset import open_dataset
+
+    shutil.copytree(src, tmp / "ds")
+    index = tmp / "ds" / "index.jsonl"
+    rows = [json.loads(line) for line in index.read_text().splitlines()]
+    i = next(i for i, row in enumerate(rows) if row.get(member))
+    shard = tmp / "ds" / rows[i]["shard"]
+    with open(shard, "ab") as f:
+        offset = f.tell()
+        f.write(data)
+    rows[i][member] = [offset, len(data)]
+    index.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    ds = open_dataset(tmp / "ds")
+    return ds, next(row for row in ds.rows() if row["id"] == rows[i]["id"])
+
+
+def _npz(**arrays) -> bytes:
+    import io
+
+    import numpy as np
+
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def _mesh(**change) -> dict:
+    import numpy as np
+
+    mesh = {"vertices": np.zeros((4, 2), np.float32), "triangles": np.array([[0, 1, 2], [0, 2, 3]], np.int32),
+            "hull": np.arange(4, dtype=np.int32), "edges": np.zeros((0, 2), np.int32)}
+    mesh.update(change)
+    return {k: v for k, v in mesh.items() if v is not None}
+
+
+def _bomb() -> bytes:
+    """A 1-bit PNG of 20000x20000 pixels (over the pixel limit) in a few kilobytes."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("1", (20000, 20000)).save(buf, "PNG")
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("member,data,said", [
+    ("mask", b"junk" * 10, "its mask: cannot decode image"),
+    ("mask", "bomb", "its mask: image exceeds the limit"),
+    ("mesh", b"junk" * 10, "its mesh is of another form: not a numpy .npz archive"),
+    ("mesh", _npz(**_mesh(hull=None)), "its mesh is of another form: no hull array"),
+    ("mesh", _npz(**_mesh(triangles=__import__("numpy").array([[0, 1, 9]], "int32"))),
+     "its mesh is of another form: triangles index 9 is not one of its 4 vertices"),
+    ("mesh", _npz(**_mesh(vertices=__import__("numpy").full((4, 2), float("nan"), "float32"))),
+     "its mesh is of another form: a vertex is not a finite number"),
+    ("mesh", _npz(**_mesh(vertices=__import__("numpy").zeros((4, 3), "float32"))),
+     "its mesh is of another form: vertices is an array of float32 (4, 3)"),
+], ids=["mask junk", "mask bomb", "mesh junk", "mesh no hull", "mesh index", "mesh NaN", "mesh columns"])
+def test_a_data_set_member_is_checked_as_its_row_is(tmp_path, small_dataset, member, data, said):
+    """``Dataset.load_mask`` and ``load_mesh`` (the library's) read a member as it was: junk
+    bytes were a Pillow or numpy traceback, a mask past the pixel limit was decoded whole, a
+    mesh of another form (an array missing, of other columns, NaN, an index past its vertices)
+    was handed on. Each is one line naming the shard and the sample now."""
+    from spinemesh.errors import SpineMeshError
+
+    ds, row = _member_replaced(small_dataset, tmp_path, member, _bomb() if data == "bomb" else data)
+    with pytest.raises(SpineMeshError) as e:
+        (ds.load_mask if member == "mask" else ds.load_mesh)(row)
+    line = str(e.value)
+    assert "\n" not in line and f"shards/" in line and f"sample {row['id']}: {said}" in line, line
+
+
+def test_a_data_set_member_of_the_right_form_still_loads(small_dataset):
+    from spinemesh.dataset import open_dataset
+
+    ds = open_dataset(small_dataset)
+    rows = list(ds.rows())
+    meshes = [ds.load_mesh(row) for row in rows if row["mesh"]]
+    assert meshes and all(len(m["vertices"]) and m["triangles"].shape[1] == 3 for m in meshes)
+    for row in rows:
+        assert (ds.load_mask(row) == (ds.load_image(row)[..., 3] > 128)).all()

@@ -48,9 +48,8 @@ from typing import Iterator
 
 import cv2
 import numpy as np
-from PIL import Image
 
-from ..errors import SpineMeshError
+from ..errors import ImageError, SpineMeshError
 from ..files.atomic import atomic_write_stream
 from ..files.inputs import regular_file
 from ..files.inside import resolve_inside
@@ -195,6 +194,59 @@ def encode_mesh(mesh: dict) -> bytes:
     return buf.getvalue()
 
 
+#: The arrays of a sample's mesh: name -> (kind of number, columns; None for a list).
+MESH_ARRAYS = {"vertices": ("f", 2), "triangles": ("i", 3), "hull": ("i", None), "edges": ("i", 2)}
+
+
+def checked_mesh(data: bytes) -> dict:
+    """The mesh of a data set's ``.npz`` member (:func:`encode_mesh`), checked as an index row is
+    (:func:`checked_row`): its arrays of :data:`MESH_ARRAYS`' kinds and shapes, together at most
+    :data:`MAX_MEMBER_BYTES` unpacked (read from the archive's directory before any is), the
+    vertices finite, every index one of them.
+
+    Raises
+    ------
+    ValueError
+        Saying what is of another form (the caller names the file and the sample).
+    """
+    import zipfile
+
+    def unreadable(e: Exception) -> ValueError:  # not an .npz (numpy: "pickled data"), cut short
+        return ValueError(f"not a numpy .npz archive ({type(e).__name__}: {str(e)[:80]})")
+
+    try:
+        z = np.load(io.BytesIO(data), allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:
+        raise unreadable(e) from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise ValueError("one array, not a numpy .npz archive")
+    with z:
+        unpacked = sum(info.file_size for info in z.zip.infolist())
+        if unpacked > MAX_MEMBER_BYTES:
+            raise ValueError(f"{unpacked:,} bytes unpacked, more than {MAX_MEMBER_BYTES:,}")
+        missing = set(MESH_ARRAYS) - set(z.files)
+        if missing:
+            raise ValueError(f"no {', '.join(sorted(missing))} array")
+        try:
+            mesh = {k: z[k] for k in MESH_ARRAYS}
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:
+            raise unreadable(e) from None
+    for name, (kind, columns) in MESH_ARRAYS.items():
+        a = mesh[name]
+        if a.dtype.kind not in (kind, "u" if kind == "i" else kind) or \
+                a.ndim != (1 if columns is None else 2) or (columns is not None and a.shape[1] != columns):
+            raise ValueError(f"{name} is an array of {a.dtype} {a.shape}, not "
+                             f"{'numbers' if kind == 'f' else 'indices'} in {columns or 1} column(s)")
+    n = len(mesh["vertices"])
+    if not np.isfinite(mesh["vertices"]).all():
+        raise ValueError("a vertex is not a finite number")
+    for name in ("triangles", "hull", "edges"):
+        a = mesh[name]
+        if a.size and (a.min() < 0 or a.max() >= n):
+            raise ValueError(f"{name} index {int(a.max() if a.max() >= n else a.min())} is not one of its {n} vertices")
+    return mesh
+
+
 def read_jsonl(path: Path) -> Iterator[dict]:
     """Rows of a JSONL file, streamed; a torn last line (killed writer) is skipped."""
     if not path.is_file():
@@ -332,14 +384,23 @@ class Dataset:
 
     def load_image(self, row: dict) -> np.ndarray:
         """The sample's RGBA image, (H, W, 4) uint8, straight alpha."""
-        part = decode_rgba(self._read(row, "image"), self.root / row["shard"])
+        part = self._decoded(row, "image")
         return uncrop(self._boxed(part, row), row["box"], row["width"], row["height"])
 
     def load_mask(self, row: dict) -> np.ndarray:
         """The sample's mask (alpha > 128), (H, W) bool."""
-        with Image.open(io.BytesIO(self._read(row, "mask"))) as im:
-            part = np.asarray(im.convert("1"), dtype=bool)
+        part = self._decoded(row, "mask")[..., 0] > 127  # a 1-bit PNG: its set bits read 255
         return uncrop(self._boxed(part, row), row["box"], row["width"], row["height"])
+
+    def _decoded(self, row: dict, member: str) -> np.ndarray:
+        """A member's image, (h, w, 4) uint8, decoded as every image is (its size checked before
+        its pixels, :func:`spinemesh.images.decode_rgba`), refused in one line naming the shard and
+        the sample: junk bytes were a Pillow traceback, a mask of 100000x100000 pixels no error."""
+        shard = self.root / row["shard"]
+        try:
+            return decode_rgba(self._read(row, member), shard)
+        except ImageError as e:
+            raise type(e)(f"sample {row['id']}: its {member}: {e.message}", shard) from None
 
     def _boxed(self, part: np.ndarray, row: dict) -> np.ndarray:
         """``part``, refused in one line unless it is the size of the row's box (a broadcast error)."""
@@ -353,8 +414,11 @@ class Dataset:
         """The artist mesh in pixels (see the module notes), or None for region samples."""
         if not row.get("mesh"):
             return None
-        with np.load(io.BytesIO(self._read(row, "mesh"))) as z:
-            return {k: z[k] for k in z.files}
+        try:
+            return checked_mesh(self._read(row, "mesh"))
+        except ValueError as e:
+            raise SpineMeshError(f"sample {row['id']}: its mesh is of another form: {e}",
+                                 self.root / row["shard"]) from None
 
     def close(self) -> None:
         for fd in self._files.values():
