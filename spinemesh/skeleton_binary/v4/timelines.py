@@ -238,8 +238,6 @@ def _type_byte(s, kind, table_names, what):
     return s.u8(table_names.index(kind))
 
 
-_SLOT_NAMES = [t[0] for t in SLOT_TIMELINES]
-_BONE_NAMES = [t[0] for t in BONE_TIMELINES]
 _PATH_NAMES = [t[0] for t in PATH_TIMELINES]
 _PHYSICS_NAMES = [PHYSICS_TIMELINES.get(i) for i in range(9)]
 
@@ -278,28 +276,27 @@ def _inherit_mode(s, frame: dict) -> None:
     enum(s, frame, "inherit", INHERIT, "normal", as_byte=True)
 
 
-def _slot_body(s, timelines, kind):
-    t = _type_byte(s, kind, _SLOT_NAMES, "slot")
-    name, values, channels = SLOT_TIMELINES[t]
-    frames = None if s.reading else timelines[kind]
-    if name == "attachment":
-        frames = _frames_without_curves(s, frames, _attachment_name)
-    else:
-        frames = curve_timeline(s, frames, values, channels)
-    if s.reading:
-        timelines[name] = frames
+def _typed_body(table: tuple, what: str, uncurved: str, uncurved_value):
+    """The body of one timeline of a slot's or a bone's: its type byte (an index into ``table``,
+    whose rows are ``(name, values, channels)``), then its frames, with curves but for the type
+    ``uncurved``, whose frames are a time and ``uncurved_value(s, frame)``."""
+    names = [t[0] for t in table]
+
+    def body(s, timelines, kind):
+        name, values, channels = table[_type_byte(s, kind, names, what)]
+        frames = None if s.reading else timelines[kind]
+        if name == uncurved:
+            frames = _frames_without_curves(s, frames, uncurved_value)
+        else:
+            frames = curve_timeline(s, frames, values, channels)
+        if s.reading:
+            timelines[name] = frames
+
+    return body
 
 
-def _bone_body(s, timelines, kind):
-    t = _type_byte(s, kind, _BONE_NAMES, "bone")
-    name, values, channels = BONE_TIMELINES[t]
-    frames = None if s.reading else timelines[kind]
-    if name == "inherit":
-        frames = _frames_without_curves(s, frames, _inherit_mode)
-    else:
-        frames = curve_timeline(s, frames, values, channels)
-    if s.reading:
-        timelines[name] = frames
+_slot_body = _typed_body(SLOT_TIMELINES, "slot", "attachment", _attachment_name)
+_bone_body = _typed_body(BONE_TIMELINES, "bone", "inherit", _inherit_mode)
 
 
 def _path_body(s, timelines, kind):
