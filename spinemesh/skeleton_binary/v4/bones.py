@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..enums import BLEND, INHERIT
 from ..symmetric import boolean, color, dark_color, fld, text
-from .fields import _names, _to_end, enum, fields, index, ref
+from .fields import _names, _to_end, enum, fields, index, index_list, ref
 from .layout import Context
 
 _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
@@ -77,19 +77,5 @@ def slot(s, node: dict, c: Context) -> None:
 
 
 def _bone_list(s, node: dict, c: Context, key: str = "bones") -> None:
-    names, lookup = c.bones
-    if s.reading:
-        out = node[key] = []
-        for _ in range(s.count(what="bone count")):
-            at = s.pos
-            i = s.varint()
-            if not 0 <= i < len(names):
-                raise s.fail(f"bone index below {len(names)}, found {i}", at)
-            out.append(names[i])
-        return
-    items = node.get(key, [])
-    s.count(len(items))
-    for name in items:
-        if name not in lookup:
-            raise s.fail(f"a known bone, got {name!r}")
-        s.varint(lookup[name])
+    """The bones a constraint or a skin names (:func:`.fields.index_list`), kept when empty."""
+    index_list(s, node, key, c.bones, "bone", "bone count")

@@ -6,7 +6,7 @@ from ..symmetric import color, text
 from .attachments import attachment
 from .bones import _bone_list
 from .constraint_list import skin_constraints
-from .fields import ref, seq
+from .fields import index_list, ref, seq
 from .layout import Context
 
 
@@ -43,24 +43,8 @@ def skin_attachments(s, skin: dict, c: Context, nslots: int | None = None) -> No
 
 
 def _constraint_names(s, skin: dict, key: str, table: tuple) -> None:
-    names, lookup = table
-    if s.reading:
-        n = s.count(what=f"skin {key} count")
-        if n:
-            out = skin[key] = []
-            for _ in range(n):
-                at = s.pos
-                i = s.varint()
-                if not 0 <= i < len(names):
-                    raise s.fail(f"{key} index below {len(names)}, found {i}", at)
-                out.append(names[i])
-        return
-    items = skin.get(key, [])
-    s.count(len(items))
-    for name in items:
-        if name not in lookup:
-            raise s.fail(f"a known {key} constraint, got {name!r}")
-        s.varint(lookup[name])
+    """The constraints of one type a skin holds (:func:`.fields.index_list`), left out when none."""
+    index_list(s, skin, key, table, f"{key} constraint", f"skin {key} count", keep_empty=False)
 
 
 def skin(s, node: dict, c: Context) -> None:
