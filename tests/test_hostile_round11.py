@@ -79,7 +79,7 @@ def _runtime_vertices(tool: Path, project: Path, skeleton: str = "worm.json") ->
 def _weights(tmp: Path, *extra, codes=(0, 3)):
     before = snapshot(tmp)
     r = run_cli("weights", "p", "--out", "o", *extra, cwd=tmp)
-    check_run(r, before, tmp, ["o"], codes=codes)
+    check_run(r, before, tmp, ["o", "r.json"], codes=codes)
     return r
 
 
@@ -258,6 +258,51 @@ def test_a_deform_keyed_on_a_43_linked_mesh_of_another_slot_keeps_its_source(tmp
     assert "keyed by a deform timeline" in r.stdout, r.stdout
     assert (tmp_path / "o" / "worm.json").read_bytes() == (tmp_path / "p" / "worm.json").read_bytes()
 
+
+
+def _bound_bones(mesh: dict) -> set[int]:
+    """The bone indices a weighted ``vertices`` list names."""
+    v, i, out = mesh["vertices"], 0, set()
+    while i < len(v):
+        out |= {v[i + 1 + 4 * j] for j in range(int(v[i]))}
+        i += 1 + 4 * int(v[i])
+    return out
+
+
+def test_a_bone_below_a_bone_of_another_skin_is_not_bound_to(tmp_path, spine_runtime):
+    """``seg2`` is a skin bone (``"skin": true``) of no skin: the runtimes never pose it, and
+    ``seg3`` below it (no skin bone itself: the editor makes every bone below a skin bone one)
+    is posed from its never-updated transform. The learned choice left ``seg2`` out but bound
+    the worm to ``seg3``, which the runtime drew 120 units off (exit 0). In a skin that lists
+    ``seg2`` (``red``, drawn with that skin) ``seg3`` was bound at the place the setup pose,
+    taken without a skin, gives it, 40 units from the runtime's. Now such a bone is left out with
+    that reason; ``seg2`` itself is bound in ``red``."""
+    from runtime_tool import dump
+
+    _worm_mesh_project(tmp_path, lambda doc: _bone(doc, "seg2").update(skin=True))
+    _weights(tmp_path, "--report", "r.json", codes=(0,))
+    (row,) = json.loads((tmp_path / "r.json").read_text())["attachments"]
+    assert row["status"] == "weighted" and set(row["bones"]) == {"seg1"}, row
+    assert row["left_out"]["seg3"] == "below bone 'seg2', which only some skins activate", row
+    before, after = (_runtime_vertices(spine_runtime, tmp_path / d) for d in ("p", "o"))
+    assert np.abs(after["worm/worm"] - before["worm/worm"]).max() < 1e-3
+
+    red = tmp_path / "red"
+
+    def in_red(doc):
+        _bone(doc, "seg2")["skin"] = True
+        mesh = doc["skins"][0]["attachments"].pop("worm")
+        doc["skins"].append({"name": "red", "bones": ["seg2"], "attachments": {"worm": mesh}})
+    _worm_mesh_project(red, in_red)
+    _weights(red, codes=(0,))
+    mesh = json.loads((red / "o" / "worm.json").read_text())["skins"][1]["attachments"]["worm"]["worm"]
+    assert 2 in _bound_bones(mesh) and 3 not in _bound_bones(mesh), mesh["vertices"][:40]
+    for side in ("p", "o"):
+        dump(spine_runtime, red / side / "worm.atlas", red / side / "worm.json", None, "0", red / f"{side}.json",
+             skin="red")
+    drawn = [json.loads((red / f"{side}.json").read_text())["poses"][0]["attachments"][0]["vertices"]
+             for side in ("p", "o")]
+    assert np.abs(np.subtract(*drawn)).max() < 1e-3
 
 # --- the readers of weighted meshes ----------------------------------------------------------------
 

@@ -99,9 +99,46 @@ class Rig:
     # source meshes (skin, slot, name) of a 4.3 linked mesh in a slot of another bone -> that slot
     linked_elsewhere: dict[tuple[str, str, str], str] = field(default_factory=dict)
 
+    # :meth:`unposed` of each skin asked for
+    _unposed: dict = field(default_factory=dict, repr=False, compare=False)
+
     @property
     def worlds(self) -> list[np.ndarray]:
         return [b.world for b in self.bones]
+
+    def unposed(self, skin: str) -> dict[int, str]:
+        """Bones whose world transform is not the runtimes' whenever ``skin``'s attachments are
+        drawn, with why: a bone only active in other skins (``"skin": true``, neither among this
+        skin's bones nor above one of them) and every bone below it; and, in every skin, a bone
+        that is no skin bone below one (the editor makes every bone below a skin bone one):
+        without the skin its world transform comes from a parent the runtimes never update, and
+        this setup pose, taken without a skin, holds that one (:func:`.constraints.setup_pose`).
+        """
+        out = self._unposed.get(skin)
+        if out is None:
+            # the default skin's attachments are drawn under every skin (its fallback) and under
+            # none, so the bones its own list would activate are not posed for them every time
+            listed, above = set() if skin == "default" else self.skin_bones.get(skin, set()), set()
+            for b in listed:
+                while b is not None and b not in above:
+                    above.add(b)
+                    b = self.bones[b].parent
+            out, skin_bone = {}, {}  # skin_bone: the skin bone a bone is (or hangs below)
+            for bone in self.bones:  # parents first
+                up = skin_bone.get(bone.parent) if bone.parent is not None else None
+                if bone.skin_required or up is not None:
+                    skin_bone[bone.index] = bone.index if bone.skin_required and up is None else up
+                if up is not None and (not bone.skin_required or bone.parent in out and
+                                       out[bone.parent].endswith("some skins activate")):
+                    out[bone.index] = f"below bone {self.bones[up].name!r}, which only some skins activate"
+                elif bone.skin_required and bone.index not in above:
+                    out[bone.index] = "only active in other skins"
+                elif bone.parent in out:  # named by the bone of another skin it hangs below
+                    why = out[bone.parent]
+                    out[bone.index] = why if why.startswith("below") else \
+                        f"below bone {self.bones[bone.parent].name!r}, only active in other skins"
+            self._unposed[skin] = out
+        return out
 
 
 def _deform_keys(doc: dict) -> dict[tuple[str, str, str], str]:
@@ -245,9 +282,12 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     slot_bone = rig.slot_bone[ref.slot]
     depends = mesh.bones() if mesh.weighted else [slot_bone]
     inexact = [rig.bones[b] for b in depends if not rig.bones[b].exact]
+    unposed = rig.unposed(ref.skin)
+    inexact += [rig.bones[b] for b in depends if b in unposed and rig.bones[b].exact]
     if inexact:
+        first = inexact[0]
         outcome.status = "skipped"
-        outcome.reason = f"setup position depends on bone {inexact[0].name!r}, {inexact[0].why}"
+        outcome.reason = f"setup position depends on bone {first.name!r}, {unposed.get(first.index, first.why)}"
         return
     world = setup_world(mesh, rig.worlds, slot_bone)
     try:
@@ -257,6 +297,9 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
         return
     if choice is None:  # a mesh its artist did not weight is bound as upgrade binds new ones
         choice = choose(rig, ref, mesh, world, triangles, options.bones, unweighted=not mesh.weighted)
+    if any(b in unposed for b in choice.bones):  # a bone below one of another skin's: not posed in this one
+        choice = Choice([b for b in choice.bones if b not in unposed], choice.why,
+                        {**choice.left_out, **{b: unposed[b] for b in choice.bones if b in unposed}})
     outcome.left_out = {rig.bones[b].name: w for b, w in choice.left_out.items()}
     if not choice.bones:
         outcome.status, outcome.reason = "skipped", "none of its bones has an exact setup transform"
