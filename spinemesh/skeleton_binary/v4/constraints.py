@@ -7,7 +7,7 @@ import math
 from ..enums import POSITION_MODE, ROTATE_MODE
 from ..symmetric import boolean, fld, put as _put, text
 from .bones import _bone_list
-from .fields import _flag_byte, _same, _to_end, enum, flag, fld_int, fld_u8, index, opt
+from .fields import _flag_byte, _same, _to_end, bend, enum, flag, fld_int, fld_u8, index, opt
 from .layout import SPACING_MODE, Context
 
 
@@ -27,10 +27,7 @@ def ik(s, node: dict, c: Context) -> None:
     if not c.L.flags:
         fld(s, node, "mix", 1)
         fld(s, node, "softness", 0)
-        if s.reading:
-            _put(node, "bendPositive", s.i8() != -1, True)
-        else:
-            s.i8(1 if node.get("bendPositive", True) else -1)
+        bend(s, node)
         boolean(s, node, "compress")
         boolean(s, node, "stretch")
         boolean(s, node, "uniform")

@@ -122,6 +122,16 @@ def index_list(s, node: dict, key: str, table: tuple, what: str, count_what: str
             raise s.fail(f"a known {what}, got {name!r}")
         s.varint(lookup[name])
 
+
+def bend(s, node: dict, key: str = "bendPositive") -> None:
+    """A bend direction byte (4.0 and 4.1; 4.2 keeps it in a flag bit) as the JSON's
+    ``bendPositive``: -1 is False, any other byte True."""
+    if s.reading:
+        _put(node, key, s.i8() != -1, True)
+    else:
+        s.i8(1 if node.get(key, True) else -1)
+
+
 def enum(s, node: dict, key: str, names: tuple, default: str, as_byte: bool = False):
     if s.reading:
         at = s.pos

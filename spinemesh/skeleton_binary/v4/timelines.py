@@ -8,7 +8,7 @@ from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 from ..stream import colour_bytes
 from ..symmetric import boolean, fld, put as _put
 from .constraints import _mix_field
-from .fields import _floats_struct, _same, enum, fields, flag, floats, index, opt, seq
+from .fields import _floats_struct, _same, bend, enum, fields, flag, floats, index, opt, seq
 from .layout import SEQUENCE_MODE, Context
 
 
@@ -391,10 +391,7 @@ def curve_timeline_ik40(s, frames: list | None) -> list:
         fld(s, f, "softness", 0)
 
     def tail(s, f):
-        if s.reading:
-            _put(f, "bendPositive", s.i8() != -1, True)
-        else:
-            s.i8(1 if f.get("bendPositive", True) else -1)
+        bend(s, f)
         boolean(s, f, "compress")
         boolean(s, f, "stretch")
 
