@@ -238,6 +238,29 @@ def test_a_full_standard_output_is_named(tmp_path, twenty, command):
     assert "standard output: cannot write: No space left on device" in _one_error(r)
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="the file behind standard output is named on Linux")
+@pytest.mark.parametrize("command", ["upgrade", "info", "pack", "weights", "convert", "mesh", "dataset", "diff"])
+def test_standard_output_redirected_into_the_project_is_refused(tmp_path, command):
+    """``spinemesh upgrade hero/ --out out/ >> hero/hero.json``: every command but ``pose``
+    appended its table to the skeleton (exit 0), changing its input; ``> hero/log.txt`` wrote
+    inside it. Standard output redirected into an input is refused as such an output file is,
+    before any work, in one line naming it."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    before = snapshot(project)
+    args = {"upgrade": ("upgrade", "p", "--out", "o"), "info": ("info", "p"), "pack": ("pack", "p", "--out", "o"),
+            "weights": ("weights", "p", "--out", "o"), "convert": ("convert", "p/demo-binary.skel", "o.json"),
+            "mesh": ("mesh", "p", "--out", "o"), "dataset": ("dataset", "p", "--out", "o"),
+            "diff": ("diff", "p/demo.json", "p/demo-binary.skel", "--out", "o")}[command]
+    target = project / ("demo-binary.skel" if command == "convert" else "demo.json")
+    with open(target, "ab") as appended:
+        r = _run(*args, cwd=tmp_path, stdout=appended)
+    line = _one_error(r)
+    assert f"{target}: standard output " in line and "input" in line, line
+    assert snapshot(project) == before and not (tmp_path / "o").exists() and not (tmp_path / "o.json").exists()
+
+
 def test_standard_output_cut_by_its_reader_ends_quietly(tmp_path, twenty):
     """``spinemesh info PROJECT | head -1``: the run ends at its next write, status 1, no traceback."""
     run = subprocess.Popen([sys.executable, "-m", "spinemesh", "upgrade", str(twenty), "--out", "up"], cwd=tmp_path,

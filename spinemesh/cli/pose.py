@@ -65,7 +65,7 @@ def pose(
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump_head, dump_labels, dump_poses
     from ..atlas import read_atlas
-    from ..errors import SpineMeshError
+    from ..errors import OutputError, SpineMeshError
     from ..files.atomic import atomic_write_pieces
     from ..files.guard import check_outputs
     from ..files.inputs import project_folder
@@ -81,10 +81,10 @@ def pose(
         raise typer.BadParameter(f"{max(seconds):g} s at {fps:g} steps per second is over {MAX_POSE_STEPS:,} "
                                  "game-loop steps; give times within the animation's loop", param_hint="--times")
     project = find_project(skeleton)
-    check_outputs([project_folder(skeleton), atlas], files=[out])  # never onto the --atlas read either
+    check_outputs([project_folder(skeleton), atlas], files=[out])  # nor onto the --atlas read (standard output too)
     stdout = sys.stdout
-    if out is None:
-        _check_standard_output(stdout, skeleton, atlas)
+    if out is None and stdout is None:
+        raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
     doc = load_skeleton(skeleton)
     anims = [str(a) for a in (doc.get("animations") or {})]
     if animation is not None and animation not in anims:
@@ -193,23 +193,6 @@ def _within_the_cap(pieces, skeleton: Path):
                                  "limit (they draw more than the setup pose the estimate measured); give fewer times",
                                  skeleton)
         yield piece
-
-
-def _check_standard_output(stdout, skeleton: Path, atlas: Path | None) -> None:
-    """Refuse, before any work, a standard output that is closed (the poses would go nowhere, the
-    run claiming success) or redirected to a file that ``--out`` could not name: the skeleton or
-    atlas read (``>> hero.json`` would append to it), or any file inside the skeleton's project,
-    under its own name or another (a hard link)."""
-    from ..errors import OutputError
-    from ..files.disk import file_behind
-    from ..files.guard import OutputGuard
-    from ..files.inputs import project_folder
-
-    if stdout is None:
-        raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
-    path = file_behind(stdout)
-    if path is not None:
-        OutputGuard([skeleton, project_folder(skeleton), atlas]).check_in_place(path, "standard output")
 
 
 def _echo_pieces(pieces, stdout) -> None:

@@ -94,6 +94,7 @@ def weights(
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     guard = OutputGuard([project])
+    guard.check_standard_output()
     guard.check_folder(out)
     if report is not None:
         guard.check(report, "report")

@@ -6,10 +6,12 @@ a symlink (:class:`OutputGuard`; every command checks each path it writes before
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterable
 from pathlib import Path
 
 from ..errors import OutputError
+from .disk import file_behind
 from .inputs import special_kind
 from .inside import check_name_lengths, is_within, real
 from .names import portable_name
@@ -120,6 +122,16 @@ class OutputGuard:
                                       "is never overwritten", path)
         return path
 
+    def check_standard_output(self) -> None:
+        """:meth:`check_in_place` of the file behind standard output, where a shell redirected it
+        to one and the system names it (Linux): a command's table or document goes there.
+        Redirected into an input (``spinemesh upgrade hero/ --out out/ >> hero/hero.json``, or
+        ``> hero/log.txt``), every command but ``pose`` wrote its table there, appending it to the
+        skeleton; it is refused as such an output file is."""
+        path = file_behind(sys.stdout)
+        if path is not None:
+            self.check_in_place(path, "standard output")
+
     def _refuse_inputs(self, path: Path, what: str) -> None:
         target = real(path)
         for given, inp in self.inputs:
@@ -173,12 +185,15 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
     """Check, before any work, every output a command was given (``None`` entries are ignored).
     A folder written into again is checked by :func:`spinemesh.written_folder.check_written_folder` too.
 
+    Standard output is one of them (:meth:`OutputGuard.check_standard_output`).
+
     Raises
     ------
     OutputError
         For the first output that :class:`OutputGuard` refuses, naming it.
     """
     guard = OutputGuard(inputs)
+    guard.check_standard_output()
     for folder in folders:
         if folder is not None:
             guard.check_folder(folder)
