@@ -303,11 +303,58 @@ def _decode(file, path, data: bytes | None = None) -> np.ndarray:
     except IsADirectoryError:
         raise ImageError("is a folder, not an image", path) from None
     except (Image.DecompressionBombWarning, Image.DecompressionBombError):
+        # Pillow refuses before it tells the size: the header's, in the words of every other size
+        size = claimed_size(file)
+        if size is not None:
+            check_image_size(*size, "image", path)
         raise ImageError(f"image exceeds the limit of {MAX_IMAGE_PIXELS:,} pixels", path) from None
     except UnidentifiedImageError:  # Pillow's words name the stream it read (an object's address): ours name the file
         raise ImageError("cannot decode image: not a PNG, WebP, AVIF or JPEG file", path) from None
     except (OSError, ValueError, SyntaxError, EOFError) as e:
         raise ImageError(f"cannot decode image: {e}", path) from None
+
+
+def claimed_size(file) -> tuple[int, int] | None:
+    """The ``(width, height)`` an image's header claims, read past Pillow's decompression-bomb
+    check, which refuses an image of too many pixels before it says how wide and high it is.
+
+    Each decodable format's own opener is tried as :func:`PIL.Image.open` tries them (its
+    ``accept`` test on the first bytes, then the opener, which reads the header only): the
+    check lives in ``open`` alone, and lifting Pillow's limit for a moment would lift it for
+    every other thread's images too. Nothing is decoded.
+
+    Parameters
+    ----------
+    file : path or binary stream
+        The image (a stream is read from its start and left there).
+
+    Returns
+    -------
+    tuple of int or None
+        None when no opener reads the header (the decode says why).
+    """
+    import contextlib
+
+    with contextlib.ExitStack() as stack:
+        try:
+            fp = stack.enter_context(open(file, "rb")) if isinstance(file, (str, Path)) else file
+            fp.seek(0)
+            prefix = fp.read(16)
+        except OSError:
+            return None
+        for fmt in _decodable_formats():
+            factory, accept = Image.OPEN[fmt]
+            if accept is not None and not accept(prefix):
+                continue
+            try:
+                fp.seek(0)
+                im = factory(fp, "")
+                return int(im.width), int(im.height)
+            except Exception:  # noqa: BLE001 - any opener's refusal: the next format's is tried, as Pillow does
+                continue
+            finally:
+                fp.seek(0)
+    return None
 
 
 #: PNG colour types imagecodecs' libpng decoder turns into the texels Pillow gives (grey,

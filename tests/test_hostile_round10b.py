@@ -358,7 +358,7 @@ def _odd_images(tmp: Path) -> dict[str, str]:
     decode = "cannot decode image: not a PNG, WebP, AVIF or JPEG file"
     return {"anim.gif": decode, "pages.tiff": decode, "float.tiff": decode, "empty.png": decode,
             "tall.png": "image 1x65535 exceeds the limit of 16384 pixels a side",
-            "bomb.png": "image exceeds the limit of 89,478,485 pixels",
+            "bomb.png": "image 100000x100000 exceeds the limit of 16384 pixels a side and 89,478,485 pixels",
             "zero.png": "image is a device, not a regular file", "fifo.png": "image is a FIFO, not a regular file"}
 
 

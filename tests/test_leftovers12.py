@@ -246,7 +246,7 @@ def _bomb() -> bytes:
 
 @pytest.mark.parametrize("member,data,said", [
     ("mask", b"junk" * 10, "its mask: cannot decode image"),
-    ("mask", "bomb", "its mask: image exceeds the limit"),
+    ("mask", "bomb", "its mask: image 20000x20000 exceeds the limit of 16384 pixels a side and 89,478,485 pixels"),
     ("mesh", b"junk" * 10, "its mesh is of another form: not a numpy .npz archive"),
     ("mesh", _npz(**_mesh(hull=None)), "its mesh is of another form: no hull array"),
     ("mesh", _npz(**_mesh(triangles=__import__("numpy").array([[0, 1, 9]], "int32"))),
@@ -279,3 +279,21 @@ def test_a_data_set_member_of_the_right_form_still_loads(small_dataset):
     assert meshes and all(len(m["vertices"]) and m["triangles"].shape[1] == 3 for m in meshes)
     for row in rows:
         assert (ds.load_mask(row) == (ds.load_image(row)[..., 3] > 128)).all()
+
+
+# --- a decompression bomb's size said ---------------------------------------------------------------
+
+@pytest.mark.parametrize("size", [(20000, 20000), (10000, 10000), (16000, 8000)])
+def test_an_image_past_the_pixel_limit_is_said_with_its_size(tmp_path, size):
+    """Pillow refuses an image of too many pixels before it says its size, and the line said
+    "image exceeds the limit of 89,478,485 pixels", whatever it claimed. Its header's size is
+    said now, in the words of every other size refused (``limits.check_image_size``)."""
+    from PIL import Image
+
+    Image.new("1", size).save(tmp_path / "big.png")
+    before = snapshot(tmp_path)
+    r = run_cli("mesh", "big.png", "--out", "m.json", cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    w, h = size
+    assert r.stderr.strip() == (f"error: big.png: image {w}x{h} exceeds the limit of 16384 pixels a side and "
+                                "89,478,485 pixels"), r.stderr

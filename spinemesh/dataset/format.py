@@ -49,7 +49,7 @@ from typing import Iterator
 import cv2
 import numpy as np
 
-from ..errors import ImageError, SpineMeshError
+from ..errors import ImageError, LimitError, SpineMeshError
 from ..files.atomic import atomic_write_stream
 from ..files.inputs import regular_file
 from ..files.inside import resolve_inside
@@ -399,7 +399,7 @@ class Dataset:
         shard = self.root / row["shard"]
         try:
             return decode_rgba(self._read(row, member), shard)
-        except ImageError as e:
+        except (ImageError, LimitError) as e:
             raise type(e)(f"sample {row['id']}: its {member}: {e.message}", shard) from None
 
     def _boxed(self, part: np.ndarray, row: dict) -> np.ndarray:
