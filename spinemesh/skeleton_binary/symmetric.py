@@ -85,6 +85,16 @@ def text(s, node: dict, key: str):
     return s.string(node.get(key), what=key)
 
 
+def ref(s, node: dict, key: str):
+    """A string-table reference (3.8 and 4.x); null means the key is absent."""
+    if s.reading:
+        v = s.string_ref(what=key)
+        if v is not None:
+            node[key] = v
+        return v
+    return s.string_ref(node.get(key), what=key)
+
+
 def first_use_table(strings: list[str], refs: list[int]) -> bool:
     """Whether numbering strings in first-use order gives this string table and these
     references (the writer's own table): no duplicate, and the references, in file order,

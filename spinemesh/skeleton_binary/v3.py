@@ -59,7 +59,8 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import CONSTRAINT_WORDS, boolean, color, dark_color, first_use_table, fld, name_table, names_once, put, text
+from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, first_use_table, fld, name_table, names_once,
+                        put, ref, text)
 
 SPACING_MODE = ("length", "fixed", "percent")
 
@@ -140,14 +141,7 @@ _NEVER = object()  # a default no value equals: the value is always kept
 
 def name(s, c: Context, node: dict, key: str):
     """A name: a string-table reference in 3.8, an inline string before; null is absent."""
-    if not c.L.refs:
-        return text(s, node, key)
-    if s.reading:
-        v = s.string_ref(what=key)
-        if v is not None:
-            node[key] = v
-        return v
-    return s.string_ref(node.get(key), what=key)
+    return ref(s, node, key) if c.L.refs else text(s, node, key)
 
 
 def name_value(s, c: Context, value=None, what: str = "name"):

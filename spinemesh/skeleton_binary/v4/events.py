@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from ..symmetric import fld, put as _put, text
-from .fields import ref
+from ..symmetric import fld, put as _put, ref, text
 from .layout import Context
 
 

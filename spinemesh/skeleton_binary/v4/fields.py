@@ -69,16 +69,6 @@ def flag(node: dict, key: str, default, stored_default=0.0) -> bool:
     return not _same(v, stored_default) if isinstance(v, (int, float)) else v != stored_default
 
 
-def ref(s, node: dict, key: str):
-    """A string-table reference; null means the key is absent."""
-    if s.reading:
-        v = s.string_ref()
-        if v is not None:
-            node[key] = v
-        return v
-    return s.string_ref(node.get(key))
-
-
 def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
     """A varint index into ``names`` stored as the name itself in the document."""
     if s.reading:

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from ..symmetric import color, text
+from ..symmetric import color, ref, text
 from .attachments import attachment
 from .bones import _bone_list
 from .constraint_list import skin_constraints
-from .fields import index_list, ref, seq
+from .fields import index_list, seq
 from .layout import Context
 
 
