@@ -177,6 +177,17 @@ EXTREME_BONES = {
        ("noScale", "noRotationOrReflection", "onlyTranslation", "noScaleOrReflection")},
     **{f"3.8 transform {mode}": (_modes(mode, "transform", "3.8.99"), True) for mode in
        ("noRotationOrReflection", "noScaleOrReflection")},
+    # constraints in the setup pose over the bones the worm may be bound to
+    "IK of mix 0.5 on seg2 and seg3": (lambda doc: (
+        doc["bones"].append({"name": "target", "parent": "root", "x": 60, "y": 80}),
+        doc.update(ik=[{"name": "ik", "bones": ["seg2", "seg3"], "target": "target", "mix": 0.5}])), True),
+    "transform constraint with offsets on seg3": (lambda doc: (
+        doc["bones"].append({"name": "target", "parent": "root", "x": 60, "y": 80, "rotation": 20, "scaleX": 1.5}),
+        doc.update(transform=[{"name": "tc", "bones": ["seg3"], "target": "target", "rotation": 30, "x": 10,
+                               "shearY": 5, "mixRotate": 0.7, "mixX": 0.5, "mixScaleX": 0.3, "mixShearY": 1}])), True),
+    "4.2 physics on seg2 (the setup pose is before physics)": (lambda doc: doc.update(physics=[{
+        "name": "ph", "bone": "seg2", "rotate": 1, "x": 1, "inertia": 0.5, "strength": 100, "damping": 0.9, "mass": 1,
+        "gravity": 500, "wind": 300}]), True),
 }
 
 
@@ -198,6 +209,30 @@ def test_bones_at_the_extremes_bind_where_the_runtime_draws_the_mesh(tmp_path, s
     before, after = (_runtime_vertices(spine_runtime, tmp_path / d) for d in ("p", "o"))
     assert np.abs(after["worm/worm"] - before["worm/worm"]).max() < 1e-3
 
+
+
+AT_43 = {
+    "slot bone scaled 1e6": _slot_bone_scaled(1e6),
+    "noScale under a mirrored parent": _modes("noScale"),
+    "noRotationOrReflection under a mirrored parent": _modes("noRotationOrReflection"),
+    "IK of mix 0.5": lambda doc: (doc["bones"].append({"name": "target", "parent": "root", "x": 60, "y": 80}),
+                                  doc.update(constraints=[{"type": "ik", "name": "ik", "bones": ["seg2", "seg3"],
+                                                           "target": "target", "mix": 0.5}])),
+}
+
+
+@pytest.mark.parametrize("case", sorted(AT_43))
+def test_43_bones_at_the_extremes_bind_where_spine_core_43_draws_the_mesh(tmp_path, runtime43, case):  # noqa: F811
+    """The same for 4.3 (its own transforms, :mod:`spinemesh.rig.transform43`), in spine-core 4.3."""
+    def change(doc):
+        doc["skeleton"]["spine"] = "4.3.00"
+        AT_43[case](doc)
+    _worm_mesh_project(tmp_path, change)
+    _weights(tmp_path, codes=(0,))
+    mesh = json.loads((tmp_path / "o" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+    assert len(mesh["vertices"]) > len(mesh["uvs"])  # weighted
+    before, after = _world43(runtime43, tmp_path / "p"), _world43(runtime43, tmp_path / "o")
+    assert np.abs(after["default\tworm\tworm"] - before["default\tworm\tworm"]).max() < 1e-3
 
 # --- meshes `weights` is given ---------------------------------------------------------------------
 
@@ -303,6 +338,35 @@ def test_a_bone_below_a_bone_of_another_skin_is_not_bound_to(tmp_path, spine_run
     drawn = [json.loads((red / f"{side}.json").read_text())["poses"][0]["attachments"][0]["vertices"]
              for side in ("p", "o")]
     assert np.abs(np.subtract(*drawn)).max() < 1e-3
+
+
+def _artist_weights(entry):
+    """The worm's vertices weighted by ``entry(i, x, y)`` (x, y in ``seg1``'s space; ``seg2`` is 80 further)."""
+    def change(doc):
+        mesh = doc["skins"][0]["attachments"]["worm"]["worm"]
+        v = mesh["vertices"]
+        mesh["vertices"] = [n for i in range(len(v) // 2) for n in entry(i, v[2 * i], v[2 * i + 1])]
+    return change
+
+
+ODD_WEIGHTS = {
+    "weights summing to 2": _artist_weights(lambda i, x, y: [2, 1, x, y, 1.0, 2, x - 80, y, 1.0]),
+    "a vertex of 0 bones": _artist_weights(lambda i, x, y: [0] if i == 4 else [1, 1, x, y, 1.0]),
+    "a negative weight": _artist_weights(lambda i, x, y: [2, 1, x, y, 1.5, 2, x - 80, y, -0.5]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(ODD_WEIGHTS))
+def test_artist_weights_the_runtime_draws_as_it_reads_them_are_rebound_where_it_drew(tmp_path, spine_runtime, case):
+    """``weights --replace`` of weights no editor writes (a sum of 2, a vertex of no bone, drawn
+    at the origin, a negative weight): the new binding is drawn where the runtime drew the old."""
+    _worm_mesh_project(tmp_path, ODD_WEIGHTS[case])
+    _weights(tmp_path, "--replace", codes=(0,))
+    mesh = json.loads((tmp_path / "o" / "worm.json").read_text())["skins"][0]["attachments"]["worm"]["worm"]
+    assert mesh["vertices"] != json.loads((tmp_path / "p" / "worm.json").read_text())["skins"][0][
+        "attachments"]["worm"]["worm"]["vertices"]  # bound again
+    before, after = (_runtime_vertices(spine_runtime, tmp_path / d) for d in ("p", "o"))
+    assert np.abs(after["worm/worm"] - before["worm/worm"]).max() < 1e-3
 
 # --- the readers of weighted meshes ----------------------------------------------------------------
 
