@@ -297,3 +297,27 @@ def test_an_image_past_the_pixel_limit_is_said_with_its_size(tmp_path, size):
     w, h = size
     assert r.stderr.strip() == (f"error: big.png: image {w}x{h} exceeds the limit of 16384 pixels a side and "
                                 "89,478,485 pixels"), r.stderr
+
+
+# --- mesh FOLDER names each image as found ----------------------------------------------------------
+
+def test_mesh_folder_names_each_image_from_the_folder(tmp_path):
+    """``mesh FOLDER``'s ``info.image`` said ``x.png`` for ``sprites/x.png`` and
+    ``sprites/sub/x.png`` alike; each is named from the folder's name now, as reports name a
+    project's files, and the same bytes from another folder."""
+    import numpy as np
+    from PIL import Image
+
+    a = np.zeros((24, 24, 4), np.uint8)
+    a[4:20, 4:20] = 255
+    (tmp_path / "sprites" / "sub").mkdir(parents=True)
+    Image.fromarray(a).save(tmp_path / "sprites" / "x.png")
+    Image.fromarray(a).save(tmp_path / "sprites" / "sub" / "x.png")
+    r = run_cli("mesh", "sprites", "--out", "m", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    named = {rel: json.loads((tmp_path / "m" / rel).read_text())["info"]["image"] for rel in ("x.json", "sub/x.json")}
+    assert named == {"x.json": "sprites/x.png", "sub/x.json": "sprites/sub/x.png"}, named
+    (tmp_path / "elsewhere").mkdir()
+    r = run_cli("mesh", str(tmp_path / "sprites"), "--out", "m2", cwd=tmp_path / "elsewhere")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "elsewhere" / "m2" / "sub" / "x.json").read_bytes() == (tmp_path / "m" / "sub" / "x.json").read_bytes()

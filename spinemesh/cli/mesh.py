@@ -37,12 +37,15 @@ def default_out(image: Path) -> Path:
 
 
 def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Optional[Path],
-         steps: Optional[Path], before_write=None):
+         steps: Optional[Path], before_write=None, folder: Optional[Path] = None):
     """Mesh one image and write its outputs; ``before_write()``, when given, is called once the
-    mesh is made, before the first file is written (a folder run marks its folders then)."""
+    mesh is made, before the first file is written (a folder run marks its folders then). The
+    ``info`` names the image by its file name, or, in a ``folder`` run, from the folder's name
+    as reports name a project's files (:func:`~spinemesh.files.names.named_from`):
+    ``images/sub/x.png`` and ``images/x.png`` are two images."""
     from ..errors import SpineMeshError
     from ..files.atomic import atomic_write_json, atomic_write_png
-    from ..files.names import name_as_text
+    from ..files.names import name_as_text, named_from
     from ..images import load_rgba
     from ..memory import image_memory
     from ..mesher import compute_mask, mesh_image, resolve_params
@@ -60,7 +63,8 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
                 e.path = str(image_path)
             raise
         mesh.info["preset"] = preset
-        mesh.info["image"] = name_as_text(image_path.name)  # a name of bytes not UTF-8 refused the mesh
+        # a name of bytes not UTF-8 refused the mesh
+        mesh.info["image"] = name_as_text(image_path.name if folder is None else named_from(image_path, folder))
         doc = mesh.to_json()
         doc["info"].pop("ms", None)  # timing would make the file differ from run to run
         if before_write is not None:
@@ -182,7 +186,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                          OutputGuard([image], out_dir).check(out_dir / rel.with_suffix(".json")),
                          OutputGuard([image], preview).check(preview / rel.with_suffix(".png")) if preview else None,
                          OutputGuard([image], steps).check(steps / rel.with_suffix(".png")) if steps else None,
-                         mark)
+                         mark, folder=image)
                 rows.append((str(rel), m))
             except SpineMeshError as e:
                 failed += 1
