@@ -221,7 +221,8 @@ def test_an_image_named_in_bytes_not_utf8_is_meshed(tmp_path, folder):
         r = run_cli("mesh", f"art/{name}", "--out", "m.json", cwd=tmp_path)
         written = tmp_path / "m.json"
     check_run(r, before, tmp_path, ["meshes/" if folder else "m.json"], codes=(0,))
-    assert json.loads(written.read_text())["info"]["image"] == "bad\ufffd.png"
+    # a folder run names it from the folder's name (as reports name a project's files)
+    assert json.loads(written.read_text())["info"]["image"] == ("art/" if folder else "") + "bad\ufffd.png"
 
 
 # --- diff: artist meshes of odd fields ------------------------------------------------------------
