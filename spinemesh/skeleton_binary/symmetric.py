@@ -85,6 +85,26 @@ def text(s, node: dict, key: str):
     return s.string(node.get(key), what=key)
 
 
+def enum(s, node: dict, key: str, names: tuple, default: str | None, as_byte: bool = False) -> str:
+    """An index into a fixed tuple of names, a varint (a byte, ``as_byte``: 4.x's inherit modes,
+    properties and scale modes), as the name in the document."""
+    if s.reading:
+        at = s.pos
+        i = s.u8(what=key) if as_byte else s.varint(what=key)
+        if not 0 <= i < len(names):
+            raise s.fail(f"{key} between 0 and {len(names) - 1}, found {i}", at)
+        put(node, key, names[i], default)
+        return names[i]
+    v = node.get(key, default)
+    if v not in names:
+        raise s.fail(f"{key} one of {', '.join(names)}, got {v!r}")
+    if as_byte:
+        s.u8(names.index(v), what=key)
+    else:
+        s.varint(names.index(v), what=key)
+    return v
+
+
 def ref(s, node: dict, key: str):
     """A string-table reference (3.8 and 4.x); null means the key is absent."""
     if s.reading:

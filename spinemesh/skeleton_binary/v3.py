@@ -59,8 +59,8 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, first_use_table, fld, name_table, names_once,
-                        put, ref, text)
+from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, enum, first_use_table, fld, name_table,
+                        names_once, put, ref, text)
 
 SPACING_MODE = ("length", "fixed", "percent")
 
@@ -170,22 +170,6 @@ def index_value(s, value, table: tuple, what: str):
     """:func:`index` for a bare value."""
     box = {"v": value}
     return index(s, box, "v", table, what)
-
-
-def enum(s, node: dict, key: str, names: tuple, default: str) -> str:
-    """A varint index into a fixed tuple of names."""
-    if s.reading:
-        at = s.pos
-        i = s.varint(what=key)
-        if not 0 <= i < len(names):
-            raise s.fail(f"{key} below {len(names)}, found {i}", at)
-        put(node, key, names[i], default)
-        return names[i]
-    v = node.get(key, default)
-    if v not in names:
-        raise s.fail(f"{key} one of {names}, got {v!r}")
-    s.varint(names.index(v))
-    return v
 
 
 def name_list(s, node: dict, key: str, table: tuple, what: str) -> None:

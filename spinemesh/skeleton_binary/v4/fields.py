@@ -122,20 +122,6 @@ def bend(s, node: dict, key: str = "bendPositive") -> None:
         s.i8(1 if node.get(key, True) else -1)
 
 
-def enum(s, node: dict, key: str, names: tuple, default: str, as_byte: bool = False):
-    if s.reading:
-        at = s.pos
-        i = s.u8() if as_byte else s.varint()
-        if not 0 <= i < len(names):
-            raise s.fail(f"{key} between 0 and {len(names) - 1}, found {i}", at)
-        _put(node, key, names[i], default)
-        return names[i]
-    v = node.get(key, default)
-    if v not in names:
-        raise s.fail(f"{key} one of {', '.join(names)}, got {v!r}")
-    return s.u8(names.index(v)) if as_byte else s.varint(names.index(v))
-
-
 def floats(s, values, n: int, what: str = "floats") -> list:
     """``n`` float32 values in one go (bulk arrays: vertices, uvs, deform offsets)."""
     if s.reading:
