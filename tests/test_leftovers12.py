@@ -26,6 +26,19 @@ def _named_twice(version: str, kind: str) -> tuple[dict, str]:
     return doc, kind
 
 
+def _convert_refused(tmp_path, doc: dict) -> str:
+    """``convert x.json x.skel`` of ``doc`` in ``tmp_path``, refused: exit 2, nothing written, and
+    the one line it says (returned)."""
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
+    check_run(r, before, tmp_path, ["x.skel"], codes=(0, 2))
+    assert r.returncode == 2 and not (tmp_path / "x.skel").exists(), r.stderr
+    line = r.stderr.strip()
+    assert "\n" not in line, line
+    return line
+
+
 CONVERT_CASES = [("4.2.40", "slots"), ("4.2.40", "ik"), ("4.2.40", "skins"), ("4.3.39", "constraints"),
                  ("4.3.39", "slots"), ("3.8.99", "slots"), ("3.8.99", "skins"), ("3.7.94", "ik")]
 
@@ -35,13 +48,8 @@ def test_convert_refuses_a_json_naming_two_items_alike(tmp_path, version, kind):
     """The ``.skel`` written from such a JSON was one our own reader refuses (exit 0): now one line
     naming the file and the name in the reader's words, exit 2, nothing written."""
     doc, key = _named_twice(version, kind)
-    (tmp_path / "x.json").write_text(json.dumps(doc))
-    before = snapshot(tmp_path)
-    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
-    check_run(r, before, tmp_path, ["x.skel"], codes=(0, 2))
-    assert r.returncode == 2 and not (tmp_path / "x.skel").exists(), r.stderr
-    line = r.stderr.strip()
-    assert "\n" not in line and line.startswith("error: x.json: cannot be written as a binary skeleton: expected "), line
+    line = _convert_refused(tmp_path, doc)
+    assert line.startswith("error: x.json: cannot be written as a binary skeleton: expected "), line
     assert f"named once each, found {NAME!r} naming two ({key}[" in line, line
 
 
@@ -74,14 +82,9 @@ def test_convert_refuses_a_fraction_where_the_binary_stores_an_integer(tmp_path,
     doc = _event_doc(2.5 if where == "event" else 1)
     if where == "key":
         doc["animations"]["t"]["events"][0]["int"] = 2.5
-    (tmp_path / "x.json").write_text(json.dumps(doc))
-    before = snapshot(tmp_path)
-    r = run_cli("convert", "x.json", "x.skel", cwd=tmp_path)
-    check_run(r, before, tmp_path, ["x.skel"], codes=(0, 2))
-    assert r.returncode == 2 and not (tmp_path / "x.skel").exists(), r.stderr
-    line = r.stderr.strip()
+    line = _convert_refused(tmp_path, doc)
     field = "the event's int" if where == "event" else "an event key's int"
-    assert "\n" not in line and line.startswith("error: x.json: cannot be written as a binary skeleton: ") \
+    assert line.startswith("error: x.json: cannot be written as a binary skeleton: ") \
         and f"a whole number for {field}" in line and "got 2.5" in line, line
 
 
