@@ -174,6 +174,17 @@ def _pose_cli(tmp_path, skeleton, *args, out="pose.json"):
     return r
 
 
+def _posed(tmp_path, doc: dict, animation: str, times: str) -> list:
+    """The poses ``spinemesh pose`` writes of ``animation`` of ``doc`` (a project ``p`` in
+    ``tmp_path``) at ``times``; the command must succeed."""
+    project = tmp_path / "p"
+    project.mkdir()
+    (project / "x.json").write_text(json.dumps(doc))
+    r = _pose_cli(tmp_path, "p/x.json", "-a", animation, "--times", times)
+    assert r.returncode == 0, r.stderr
+    return json.loads((tmp_path / "pose.json").read_text())["poses"]
+
+
 def test_pose_command_on_a_skeleton_full_of_hostile_animations(tmp_path):
     """One line or a finite pose, never a traceback; the good animation poses as it would alone."""
     project = tmp_path / "p"
@@ -759,12 +770,7 @@ def test_a_deform_of_many_empty_keys_on_a_large_mesh_costs_what_it_draws(tmp_pat
                                                    "vertices": [float(i % 97) for i in range(2 * n)], "hull": 3}
     doc["animations"]["fat"] = {"attachments": {"default": {"m": {"mesh": {"deform": [
         {"time": 0, "offset": 2, "vertices": [7, 7]}] + [{"time": i * 1e-3} for i in range(1, 100_001)]}}}}}
-    project = tmp_path / "p"
-    project.mkdir()
-    (project / "fat.json").write_text(json.dumps(doc))
-    r = _pose_cli(tmp_path, "p/fat.json", "-a", "fat", "--times", "0,50")
-    assert r.returncode == 0, r.stderr
-    poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    poses = _posed(tmp_path, doc, "fat", "0,50")
     first, later = (next(a for a in p["attachments"] if a["slot"] == "m") for p in poses[1:])
     assert first["vertices"][:4] == [0, 1, 9, 10]   # the first key: 7 added to the second vertex's x, y
     assert later["vertices"][:4] == [0, 1, 2, 3]
@@ -777,12 +783,7 @@ def test_a_draw_order_of_many_keys_on_many_slots_costs_what_it_draws(tmp_path):
     doc["slots"] += [{"name": f"z{i}", "bone": "root"} for i in range(500)]
     doc["animations"]["busy"] = {"drawOrder": [{"time": 0, "offsets": [{"slot": "s", "offset": 2}]}] + [
         {"time": i * 1e-4, "offsets": []} for i in range(1, 300_000)]}
-    project = tmp_path / "p"
-    project.mkdir()
-    (project / "busy.json").write_text(json.dumps(doc))
-    r = _pose_cli(tmp_path, "p/busy.json", "-a", "busy", "--times", "0,20")
-    assert r.returncode == 0, r.stderr
-    poses = json.loads((tmp_path / "pose.json").read_text())["poses"]
+    poses = _posed(tmp_path, doc, "busy", "0,20")
     assert [a["slot"] for a in poses[1]["attachments"]] == ["m", "w", "s"]   # the first key: s moved after w
     assert [a["slot"] for a in poses[2]["attachments"]] == ["s", "m", "w"]
 
