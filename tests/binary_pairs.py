@@ -11,6 +11,9 @@ import fnmatch
 import json
 from pathlib import Path
 
+import pytest
+
+from spinemesh.errors import SkelFormatError
 from spinemesh.skeleton_binary import encode_skel, read_skel, sniff_version
 from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
@@ -89,3 +92,19 @@ def check_survives_json_text(skel: Path) -> None:
     again, still writes the original bytes."""
     data = skel.read_bytes()
     assert encode_skel(json.loads(json.dumps(read_skel(data)))) == data
+
+
+def check_truncation_says_where_and_what(data: bytes) -> None:
+    """A cut file (``data``, a prefix of a real one) is the one format error, naming the file,
+    an offset inside what there is, and what was expected there."""
+    with pytest.raises(SkelFormatError) as e:
+        read_skel(data, "spineboy-pro.skel")
+    assert e.value.offset is not None and 0 <= e.value.offset <= len(data)
+    assert "expected" in e.value.message and e.value.path == "spineboy-pro.skel"
+
+
+def check_trailing_bytes_refused(data: bytes) -> None:
+    """A byte after a whole file (``data``) is an error at the offset where the file should end."""
+    with pytest.raises(SkelFormatError, match="end of file") as e:
+        read_skel(data + b"\0")
+    assert e.value.offset == len(data)

@@ -24,7 +24,8 @@ from spinemesh.skeleton_binary.compare import diff_documents
 from spinemesh.skeleton_binary.enums import EXTRA
 
 from binary_pairs import (check_document_equals_editor_json, check_json_writes_a_skel_that_reads_back,
-                          check_round_trip, check_survives_json_text, editor_json, no_motion)
+                          check_round_trip, check_survives_json_text, check_trailing_bytes_refused,
+                          check_truncation_says_where_and_what, editor_json, no_motion)
 from conftest import EXAMPLES, skel_json_pairs
 from runtime_tool import max_difference, pose_dump
 
@@ -193,11 +194,7 @@ def spineboy3(examples, request) -> bytes:
 
 @pytest.mark.parametrize("cut", [0, 3, 20, 40, 100, 1000, 20000, -1])
 def test_truncated_file_names_offset_and_expectation(spineboy3, cut):
-    data = spineboy3[:cut]
-    with pytest.raises(SkelFormatError) as e:
-        read_skel(data, "spineboy-pro.skel")
-    assert e.value.offset is not None and 0 <= e.value.offset <= len(data)
-    assert "expected" in e.value.message and e.value.path == "spineboy-pro.skel"
+    check_truncation_says_where_and_what(spineboy3[:cut])
 
 
 def test_every_truncation_is_a_format_error(examples):
@@ -224,9 +221,7 @@ def test_corrupted_bytes_are_format_errors(spineboy3):
 
 
 def test_trailing_bytes_are_an_error(spineboy3):
-    with pytest.raises(SkelFormatError, match="end of file") as e:
-        read_skel(spineboy3 + b"\0")
-    assert e.value.offset == len(spineboy3)
+    check_trailing_bytes_refused(spineboy3)
 
 
 def _with_version(data: bytes, version: str) -> bytes:
