@@ -82,28 +82,16 @@ def weights(
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.bone_worlds import sampled_bone_worlds
-    from ..files.guard import OutputGuard, refuse_overlapping_outputs
     from ..files.inputs import named_project, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..words import counted
-    from ..written_folder import check_written_folder
     from ._summary import print_errors
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
-    guard = OutputGuard([project])
-    guard.check_standard_output()
-    guard.check_folder(out)
-    if report is not None:
-        guard.check(report, "report")
-    if preview is not None:
-        guard.check_folder(preview, "preview folder")
-        check_written_folder(preview)
-        # its pictures are no part of the game: inside OUT they were shipped with it (upgrade and
-        # pack refuse it the same way)
-        refuse_overlapping_outputs(out, {"--preview": preview})
+    _check_outputs(project, out, report, preview)
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
@@ -119,6 +107,25 @@ def weights(
         print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
                       "object); give the folder the editor exported to"])
         raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path | None) -> None:
+    """Refuse, before any work, an output inside the project or onto it (standard output too),
+    and a ``--preview`` folder of a user's files or overlapping OUT."""
+    from ..files.guard import OutputGuard, refuse_overlapping_outputs
+    from ..written_folder import check_written_folder
+
+    guard = OutputGuard([project])
+    guard.check_standard_output()
+    guard.check_folder(out)
+    if report is not None:
+        guard.check(report, "report")
+    if preview is not None:
+        guard.check_folder(preview, "preview folder")
+        check_written_folder(preview)
+        # its pictures are no part of the game: inside OUT they were shipped with it (upgrade and
+        # pack refuse it the same way)
+        refuse_overlapping_outputs(out, {"--preview": preview})
 
 
 def _print_result(result) -> None:
