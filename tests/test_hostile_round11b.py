@@ -306,6 +306,22 @@ def test_a_temporary_folder_that_is_no_folder(tmp_path, twenty, tmpdir):
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.parametrize("home", ["unset", "missing"])
+def test_no_home_is_needed_and_nothing_is_written_there(tmp_path, twenty, home):
+    """``HOME`` unset (a service account, ``env -i``) or naming a folder that does not exist: every
+    command that could keep a cache runs (the preview, the learned bone choice, the shipped
+    segmentation model), and nothing is made at ``HOME``."""
+    env = _env(HOME=str(tmp_path / "home"))
+    if home == "unset":
+        env.pop("HOME")
+    for args in (("upgrade", twenty, "--out", "up", "--pack", "--weights", "auto", "--preview", "prev"),
+                 ("segment", twenty / "demo.png", "--out", "mask.png", "--mask", "model")):
+        r = _run(*args, cwd=tmp_path, env=env)
+        _no_traceback(r)
+        assert r.returncode == 0, r.stderr[-2000:]
+    assert not (tmp_path / "home").exists()
+
+
 @pytest.mark.parametrize("umask", [0o077, 0o000, 0o022])
 def test_written_files_follow_the_umask(tmp_path, twenty, umask):
     """Every file and folder written (skeletons, atlases, pages, preview, report, poses, converted

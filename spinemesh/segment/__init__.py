@@ -88,9 +88,25 @@ def model_card(model_path: str | Path | None = None) -> dict:
     return card
 
 
+def onnx_runtime():
+    """The ``onnxruntime`` module, imported with its telemetry turned off.
+
+    ONNX Runtime's wheels (1.32 here) collect usage telemetry on Linux too: loading a model wrote
+    a device id and a telemetry database of about 900 KB under ``~/.cache/Microsoft/DeveloperTools``
+    (making ``HOME`` where it did not exist) and, a few seconds into a run, looked up its
+    collector's address on the network (spinemesh uses no network at run time). Its
+    ``ORT_DISABLE_TELEMETRY`` turns all of it off, read once, when the module is first imported;
+    ``disable_telemetry_events()`` does not. Every import of it in spinemesh goes through here.
+    """
+    os.environ["ORT_DISABLE_TELEMETRY"] = "1"
+    import onnxruntime
+
+    return onnxruntime
+
+
 @lru_cache(maxsize=4)
 def _session(model_path: str, threads: int):
-    import onnxruntime as ort
+    ort = onnx_runtime()
 
     from ..files.inputs import regular_file
 
@@ -291,5 +307,5 @@ def mask_for(rgba: np.ndarray, mode: str = "auto", model_path: str | Path | None
     return predict_mask(rgba, model_path, threads=threads), "model"
 
 
-__all__ = ["MASK_MODES", "DEFAULT_MODEL", "ModelError", "ImageError", "model_card", "predict_proba",
+__all__ = ["MASK_MODES", "DEFAULT_MODEL", "ModelError", "ImageError", "model_card", "onnx_runtime", "predict_proba",
            "predict_mask", "combine_with_floodfill", "looks_empty", "has_meaningful_alpha", "mask_for"]

@@ -157,9 +157,9 @@ def parity(model: SegmentationModel, onnx_path: str | Path, inputs: list[np.ndar
     Returns the largest absolute logit difference, and the mean fraction of pixels whose
     thresholded mask differs.
     """
-    import onnxruntime as ort
+    from ..segment import onnx_runtime
 
-    sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
+    sess = onnx_runtime().InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
     worst, flips = 0.0, []
     for x in inputs:
         ref = model(torch.from_numpy(x[None])).numpy()
