@@ -262,6 +262,17 @@ def test_writer_rejects_broken_documents(examples):
         encode_skel(doc)
 
 
+def test_writer_refuses_a_weighted_vertex_on_a_bone_past_the_last(examples):
+    """The 3.x writer checks a weighted vertex's bone as the reader does (the one writer of
+    weighted vertices, shared with 4.x): a file naming bone 999 of 60 is never written."""
+    doc = editor_json(examples / "3.7/spineboy/spineboy-pro.json")
+    mesh = next(a for atts in doc["skins"]["default"].values() for a in atts.values()
+                if a.get("type") == "mesh" and len(a["vertices"]) != len(a["uvs"]))
+    mesh["vertices"][1] = 999  # the first vertex's first bone
+    with pytest.raises(SkelFormatError, match=f"bone index below {len(doc['bones'])} in weighted vertices, got 999"):
+        encode_skel(doc)
+
+
 # -- real game exports ---------------------------------------------------------------------
 
 #: The 3.x versions the binary codec reads and writes; other 3.x exports in the corpus (none

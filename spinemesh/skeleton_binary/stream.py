@@ -29,6 +29,8 @@ _F32 = struct.Struct(">f")
 _I32 = struct.Struct(">i")
 _U32 = struct.Struct(">I")
 _I64 = struct.Struct(">q")
+#: A weighted vertex's x, y and weight for one bone.
+XYW = struct.Struct(">3f")
 
 #: Largest string the reader accepts, as a guard against corrupted length prefixes.
 MAX_STRING_BYTES = 1 << 20
@@ -259,6 +261,28 @@ class SkelWriter:
             self.out.append((v & 0x7F) | 0x80)
             v >>= 7
         return value
+
+    def weighted(self, values, n: int = 0, nbones: int = 0) -> list:
+        """``n`` weighted vertices, flat as in the JSON (per vertex a bone count, then
+        ``(bone, x, y, weight)`` per bone), each bone an index below ``nbones``: a file whose
+        bone the reader would refuse is refused here, before it is written."""
+        i = 0
+        try:
+            for _ in range(n):
+                k = self.count(values[i], what="weighted vertex bone count")
+                i += 1
+                for _ in range(k):
+                    b = self.whole(values[i], "weighted vertex bone")
+                    if not 0 <= b < nbones:
+                        raise self.fail(f"bone index below {nbones} in weighted vertices, got {b}")
+                    self.varint(b)
+                    self.out += XYW.pack(values[i + 1], values[i + 2], values[i + 3])
+                    i += 4
+        except (IndexError, ValueError, TypeError, struct.error):
+            raise self.fail("weighted vertices [boneCount, (bone, x, y, weight)...]") from None
+        if i != len(values):
+            raise self.fail(f"{i} numbers of weighted vertices, got {len(values)}")
+        return values
 
     def count(self, value, what: str = "count") -> int:
         """A list length, refused where :meth:`SkelReader.count` would refuse to read it back

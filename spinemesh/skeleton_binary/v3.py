@@ -436,19 +436,7 @@ def vertices(s, node: dict, n: int, c: Context) -> None:
         s.float_sum += sum(out)  # its counts and bone indices are small ints
         node["vertices"] = out
         return
-    i = 0
-    try:
-        for _ in range(n):
-            k = s.count(v[i], what="weighted vertex bone count")
-            i += 1
-            for _ in range(k):
-                s.varint(v[i], what="weighted vertex bone")
-                s.raw(struct.pack(">3f", v[i + 1], v[i + 2], v[i + 3]))
-                i += 4
-    except (IndexError, ValueError, TypeError, struct.error):
-        raise s.fail("weighted vertices [boneCount, (bone, x, y, weight)...]") from None
-    if i != len(v):
-        raise s.fail(f"{i} numbers of weighted vertices, got {len(v)}")
+    s.weighted(v, n, nbones)
 
 
 def vertex_count(s, node: dict) -> int:

@@ -6,7 +6,7 @@ import math
 import struct
 
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED
-from ..stream import MAX_COUNT, MAX_STRING_BYTES, RecordedRefs, SkelReader, SkelWriter
+from ..stream import MAX_COUNT, MAX_STRING_BYTES, XYW, RecordedRefs, SkelReader, SkelWriter
 from .fields import _floats_struct
 from .timelines import _FrameSpec
 
@@ -233,7 +233,7 @@ class _RefReader(SkelReader):
         buf, pos = self.buf, self.pos
         out = []
         append, extend = out.append, out.extend
-        unpack = _XYW.unpack_from
+        unpack = XYW.unpack_from
         # A vertex's bones in one unpack, (bone, x, y, weight) per bone, when every bone index is
         # one byte and names a bone; else bone by bone below. Half the time of a mesh-heavy file.
         fast_below = min(nbones, 0x80)
@@ -293,7 +293,6 @@ class _RefReader(SkelReader):
         return self.strings[i - 1]
 
 
-_XYW = struct.Struct(">3f")
 #: By bone count k (1 to 8): k times a one-byte bone index and x, y, weight as float32.
 _BONES_XYW = (None, *(struct.Struct(">" + "B3f" * k) for k in range(1, 9)))
 
@@ -307,25 +306,6 @@ class _RefWriter(RecordedRefs, SkelWriter):
     def varints(self, values, n: int = 0, what: str = "indices") -> list[int]:
         for v in values:
             self.varint(v, what=what)
-        return values
-
-    def weighted(self, values, n: int = 0, nbones: int = 0) -> list:
-        i = 0
-        try:
-            for _ in range(n):
-                k = self.count(values[i], what="weighted vertex bone count")
-                i += 1
-                for _ in range(k):
-                    b = self.whole(values[i], "weighted vertex bone")
-                    if not 0 <= b < nbones:
-                        raise self.fail(f"bone index below {nbones} in weighted vertices, got {b}")
-                    self.varint(b)
-                    self.out += _XYW.pack(values[i + 1], values[i + 2], values[i + 3])
-                    i += 4
-        except (IndexError, ValueError, TypeError, struct.error):
-            raise self.fail("weighted vertices [boneCount, (bone, x, y, weight)...]") from None
-        if i != len(values):
-            raise self.fail(f"{i} numbers of weighted vertices, got {len(values)}")
         return values
 
     def __init__(self, path=None, refs: list[int] | None = None):
