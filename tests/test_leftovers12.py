@@ -324,3 +324,29 @@ def test_mesh_folder_names_each_image_from_the_folder(tmp_path):
     r = run_cli("mesh", str(tmp_path / "sprites"), "--out", "m2", cwd=tmp_path / "elsewhere")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "elsewhere" / "m2" / "sub" / "x.json").read_bytes() == (tmp_path / "m" / "sub" / "x.json").read_bytes()
+
+
+# --- the weights pictures: a colour per bone ----------------------------------------------------------
+
+def test_every_bone_of_a_mesh_has_a_colour_of_its_own():
+    """The weights pictures' palette had 10 colours, repeated from the 11th bone (the corpus has
+    meshes of 20 and more bones): each bone's colour is its own now, the first 32 far apart, and
+    the legend, the caption and the player draw the same colours."""
+    import itertools
+    import math
+
+    from spinemesh.player.frames import bone_colours as vertex_colours
+    from spinemesh.rig.preview import bone_colour, caption
+
+    colours = [bone_colour(i) for i in range(256)]
+    assert len(set(colours)) == 256
+    assert min(math.dist(a, b) for a, b in itertools.combinations(colours[:32], 2)) > 25
+    names = [f"b{i}" for i in range(30)]
+    said = caption(names, "default", "s", "a", "a.png")["bones"]
+    assert [b["colour"] for b in said] == ["#{:02x}{:02x}{:02x}".format(*bone_colour(i)) for i in range(30)]
+    # the player: a region on the 25th bone is that bone's colour, not the 5th's
+    assert tuple(vertex_colours(None, 4, 30, 24)[0]) == bone_colour(24) != bone_colour(4)
+    # and a vertex weighted whole on the 25th bone
+    mesh = {"type": "mesh", "uvs": [0, 0, 1, 0, 1, 1], "triangles": [0, 1, 2], "hull": 3,
+            "vertices": [1, 24, 0, 0, 1, 1, 24, 1, 0, 1, 1, 3, 1, 1, 1]}
+    assert [tuple(c) for c in vertex_colours(mesh, 3, 30, 0)] == [bone_colour(24), bone_colour(24), bone_colour(3)]

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..rig.preview import PALETTE  # the bones' colours of the weights pictures, here by vertex
+from ..rig.preview import bone_colour, bone_palette  # the bones' colours of the weights pictures, here by vertex
 from ..skeleton import iter_skins, skins_by_name
 from ..words import counted
 
@@ -119,12 +119,13 @@ def setup_counts(doc: dict) -> dict[str, int]:
 
 
 def bone_colours(att: dict | None, count: int, bone_count: int, slot_bone: int) -> np.ndarray:
-    """Per-vertex RGB (count, 3) of an attachment: its bones' :data:`PALETTE` colours mixed by
-    weight (a region, an unweighted or a linked mesh: its slot bone's colour)."""
+    """Per-vertex RGB (count, 3) of an attachment: its bones' colours (:func:`~spinemesh.rig.preview.bone_colour`
+    of each bone's place in the skeleton) mixed by weight (a region, an unweighted or a linked mesh:
+    its slot bone's colour)."""
     from ..errors import SpineMeshError
     from ..rig.binding import parse_vertices
 
-    own = np.tile(PALETTE[slot_bone % len(PALETTE)], (count, 1))
+    own = np.tile(np.array(bone_colour(slot_bone), float), (count, 1))
     if not isinstance(att, dict) or att.get("type") != "mesh":
         return own
     try:
@@ -134,9 +135,10 @@ def bone_colours(att: dict | None, count: int, bone_count: int, slot_bone: int) 
     if not mesh.weighted or mesh.count != count:
         return own
     out = np.zeros((count, 3))
+    palette = bone_palette(bone_count)
     for v, entry in enumerate(mesh.influences):
         for b, _, _, w in entry:
-            out[v] += w * PALETTE[b % len(PALETTE)]
+            out[v] += w * palette[b]
     return out.clip(0, 255)
 
 

@@ -29,9 +29,15 @@ from .bones import skeleton_bones
 #: Turn of each bent bone in the right panel, degrees.
 BEND = 25.0
 
-#: Bone colours (RGB), repeated when a mesh has more bones.
+#: The first bones' colours (RGB): twenty colours told apart at a glance (Sasha Trubetskoy's
+#: list), the ten strongest first; the bones past them get :func:`bone_colour`'s own.
 PALETTE = np.array([(230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180),
-                    (70, 240, 240), (240, 50, 230), (210, 245, 60), (0, 128, 128), (170, 110, 40)], float)
+                    (70, 240, 240), (240, 50, 230), (210, 245, 60), (0, 128, 128), (170, 110, 40),
+                    (255, 225, 25), (0, 0, 128), (128, 0, 0), (128, 128, 0), (128, 128, 128),
+                    (250, 190, 190), (230, 190, 255), (170, 255, 195), (255, 215, 180), (255, 250, 200)], float)
+
+#: Past :data:`PALETTE`: (saturation, value) taken in turn, each at the next hue.
+_SHADES = ((1.0, 0.75), (0.45, 0.9), (0.8, 0.45))
 
 
 #: The legend under the panels (:func:`legend`): bones per row, texels a row, rows at most (more
@@ -42,8 +48,30 @@ LEGEND_ROWS = 8
 
 
 def bone_colour(index: int) -> tuple[int, int, int]:
-    """The colour (RGB) of a mesh's ``index``-th bone (0-based, in :meth:`.binding.MeshVertices.bones` order)."""
-    return tuple(int(c) for c in PALETTE[index % len(PALETTE)])
+    """The colour (RGB) of a mesh's ``index``-th bone (0-based, in :meth:`.binding.MeshVertices.bones` order).
+
+    :data:`PALETTE`'s first, then hues a golden-ratio turn apart at three shades in turn: no two
+    bones of a mesh share a colour (they repeated past the tenth), and the legend's numbers still
+    tell close ones apart.
+
+    Examples
+    --------
+    >>> bone_colour(0), bone_colour(20), len({bone_colour(i) for i in range(256)})
+    ((230, 25, 75), (191, 0, 57), 256)
+    """
+    if index < len(PALETTE):
+        return tuple(int(c) for c in PALETTE[index])
+    import colorsys
+
+    k = index - len(PALETTE)
+    saturation, value = _SHADES[k % len(_SHADES)]
+    rgb = colorsys.hsv_to_rgb((0.95 + k * 0.6180339887498949) % 1.0, saturation, value)
+    return tuple(round(255 * c) for c in rgb)
+
+
+def bone_palette(count: int) -> np.ndarray:
+    """The colours of bones ``0`` to ``count - 1`` (:func:`bone_colour`), float RGB of shape (count, 3)."""
+    return np.array([bone_colour(i) for i in range(count)], float).reshape(-1, 3)
 
 
 def drawable(name: str) -> bool:
@@ -69,8 +97,7 @@ def legend(names: list[str], width: int) -> np.ndarray:
     """The legend strip: RGB uint8 of shape (rows * :data:`LEGEND_ROW` + 8, ``width``, 3).
 
     Each bone of ``names`` (a mesh's bones, in :meth:`.binding.MeshVertices.bones` order) gets a swatch of its
-    colour (:func:`bone_colour`; the palette repeats past its 10 colours, the number tells those
-    apart), its number (1-based, as drawn at the bone's root) and its name, cut to its column;
+    colour (:func:`bone_colour`, one per bone), its number (1-based, as drawn at the bone's root) and its name, cut to its column;
     a name the font cannot draw (:func:`drawable`) reads ``(name in the caption)``. At most
     :data:`LEGEND_COLUMNS` x :data:`LEGEND_ROWS` entries; past them the last says how many more.
     """
@@ -194,7 +221,7 @@ def picture(sprite: np.ndarray, uvs: np.ndarray, triangles: np.ndarray, mesh, we
     src = uvs * (w, h)
     for panel, where in ((left, setup), (right, bent)):
         _warp_triangles(panel, sprite, src, to_canvas(where), triangles)
-    colours = weights_by_bone @ PALETTE[np.arange(weights_by_bone.shape[1]) % len(PALETTE)]
+    colours = weights_by_bone @ bone_palette(weights_by_bone.shape[1])
     for panel, where in ((left, setup), (right, bent)):
         pts = np.round(to_canvas(where)).astype(np.int32)
         for t in triangles:
