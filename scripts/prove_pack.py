@@ -21,8 +21,12 @@ The harness draws without mipmaps. ``--mipmaps`` proves a copy of each project w
 have a ``MipMap`` min filter (so packing pads for mipmaps), and checks mipmap bleeding texel by
 texel: per region, the deepest level at which what it draws reads no texel of another region
 (:func:`mip_clean_level`), on the original and the packed pages. Every region must be clean at
-``MIP_REQUIRED``; regions clean to a lower level than before are counted, not failed. Atlases
-whose own pages use ``MipMap`` filters get the same check without ``--mipmaps``.
+``MIP_REQUIRED``; regions clean to a lower level than before are counted, not failed. And per
+level, the texels each region's drawn texels read there on the packed page against the original
+page's, downscaled with the region's blocks falling as they fall on the packed page
+(:func:`mip_texel_differences`): within ``TOLERANCE`` at every level up to ``MIP_REQUIRED``,
+deeper levels reported. Atlases whose own pages use ``MipMap`` filters get the same checks
+without ``--mipmaps``.
 
     .venv/bin/python scripts/prove_pack.py                                # examples + corpus (slow: nice)
     .venv/bin/python scripts/prove_pack.py ../shared/spine-examples/4.2/spineboy --json build/pack-proof.json
@@ -105,6 +109,10 @@ class Row:
     mip_before: int | None = None
     mip_after: int | None = None
     mip_worse: list = field(default_factory=list)
+    #: per mipmap level 1..MIP_LEVELS: ``[level, largest difference /255, regions over TOLERANCE,
+    #: regions compared]`` of the level's texels under the regions, packed against the original
+    #: with blocks falling alike (:func:`mip_texel_differences`)
+    mip_texels: list = field(default_factory=list)
 
 
 def pose_frame(tool: Path, atlas: Path, skeleton: Path, doc: dict, prefix: Path, skin: str | None,
@@ -288,7 +296,10 @@ def mip_levels(atlas, region_uses: dict, pinned: str, own_rectangles: bool) -> d
     ``own_rectangles``: a region's whole stored rectangle is its own (true of exported atlases,
     whose rectangles never overlap; packed rectangles may overlap where outlines do not).
     """
+    import cv2
+
     from spinemesh.images import load_rgba
+    from spinemesh.pack.atlas_pack import uses_mipmaps
     from spinemesh.pack.outlines import footprint
     from spinemesh.pack.uses import RegionUses
 
@@ -310,6 +321,10 @@ def mip_levels(atlas, region_uses: dict, pinned: str, own_rectangles: bool) -> d
         rr1, cc1 = min(r0 + core.shape[0], wr1), min(c0 + core.shape[1], wc1)
         sampled[rr0 - wr0:rr1 - wr0, cc0 - wc0:cc1 - wc0] = core[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
         own = sampled.copy()
+        if not own_rectangles and uses_mipmaps(atlas.pages[region.page]):
+            # packing copies, on a MipMap page, the region's own art within a texel of its core
+            # (spinemesh.pack.outlines.grown_for_mipmaps); the padding keeps others further away
+            own = cv2.dilate(own.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
         if own_rectangles:
             h, w = (g.width, g.height) if g.degrees in (90, 270) else (g.height, g.width)
             own[max(0, g.y - wr0):max(0, g.y + h - wr0), max(0, g.x - wc0):max(0, g.x + w - wc0)] = True
@@ -318,11 +333,128 @@ def mip_levels(atlas, region_uses: dict, pinned: str, own_rectangles: bool) -> d
     return out
 
 
-def prove_mipmaps(source: Path, out: Path, atlas_rel: str, uses) -> tuple[int, int, list[str]]:
+def _page_window(rgba: np.ndarray, r0: int, r1: int, c0: int, c1: int, own=None) -> np.ndarray:
+    """Rows ``r0:r1`` and columns ``c0:c1`` of a page, as float; past its edges, its edge texels
+    (a sample there reads them: clamp to edge, the pages' wrap, which packing copies into the
+    ring it gives a region that lay on the edge). ``own``: ``((row0, col0, row1, col1), core,
+    (row, col))``, a region's stored rectangle and its footprint core at ``(row, col)``: the
+    texels kept (every other one of the page reads as zero)."""
+    h, w = rgba.shape[:2]
+    rows, cols = np.arange(r0, r1), np.arange(c0, c1)
+    out = rgba[np.clip(rows, 0, h - 1)[:, None], np.clip(cols, 0, w - 1)[None, :]].astype(np.float64)
+    if own is not None:
+        (y0, x0, y1, x1), core, (cr, cc) = own
+        keep = ((rows >= y0) & (rows < y1))[:, None] & ((cols >= x0) & (cols < x1))[None, :]
+        a0, a1 = max(cr, r0), min(cr + core.shape[0], r1)
+        b0, b1 = max(cc, c0), min(cc + core.shape[1], c1)
+        if a0 < a1 and b0 < b1:
+            keep[a0 - r0:a1 - r0, b0 - c0:b1 - c0] |= core[a0 - cr:a1 - cr, b0 - cc:b1 - cc]
+        out[~keep] = 0
+    return out
+
+
+def _bilinear(level: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``level`` (H, W, C) sampled bilinearly at level texel coordinates (centres at integers)."""
+    h, w = level.shape[:2]
+    y0, x0 = np.floor(y).astype(int), np.floor(x).astype(int)
+    fy, fx = (y - y0)[:, None], (x - x0)[:, None]
+    def at(r, c):
+        return level[np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)]
+    return (at(y0, x0) * (1 - fy) * (1 - fx) + at(y0, x0 + 1) * (1 - fy) * fx
+            + at(y0 + 1, x0) * fy * (1 - fx) + at(y0 + 1, x0 + 1) * fy * fx)
+
+
+def mip_texel_difference(original: np.ndarray, packed: np.ndarray, at_original: tuple[int, int],
+                         at_packed: tuple[int, int], drawn: np.ndarray, level: int, pma: bool,
+                         own: tuple[int, int, int, int] | None = None, core: np.ndarray | None = None) -> float:
+    """How far (/255, premultiplied) the packed page's mipmap level ``level`` reads from the
+    original's under a region, with its blocks falling as they fall on the packed page.
+
+    A level-``L`` texel averages a block of ``2**L`` page texels (blocks aligned to the page's
+    corner, as GPUs build mipmaps); the region's drawn texels (``drawn``, as stored, its top-left
+    at ``at_original`` and ``at_packed``, row and column) sample it bilinearly at their centres.
+    Packing moves a region by any number of texels, so its blocks fall otherwise than on the
+    original page (any repacking does: a level texel then averages other texels of the art); the
+    original is therefore downscaled as if its blocks fell as the packed page's do, and what is
+    left is what the packed page holds otherwise within a level texel's reach: what lies beyond
+    the footprint (zero when packed; on the original another region's texels, or art the meshes
+    do not draw). ``pma``: the pages hold premultiplied colour (else straight, premultiplied
+    after sampling, as blending does). ``own``: the region's stored rectangle on the original
+    page, ``(row0, col0, row1, col1)``, and ``core`` its footprint core there (at
+    ``at_original``, what packing copies); texels outside both are other regions' (or the
+    exporter's padding), which the original's levels read where its padding is too narrow and a
+    packed page is not to copy: they count as zero. Both pages RGBA uint8."""
+    s = 1 << level
+    margin = 2 * s
+    h, w = drawn.shape
+    (ro, co), (rp, cp) = at_original, at_packed
+    a, b = (rp - margin) // s, -(-(rp + h + margin) // s)
+    c, d = (cp - margin) // s, -(-(cp + w + margin) // s)
+    dr, dc = rp - ro, cp - co
+    levels = []
+    kept_original = None if own is None else (own, core if core is not None else np.zeros((0, 0), bool), at_original)
+    for page, r, cc, kept in ((packed, a * s, c * s, None), (original, a * s - dr, c * s - dc, kept_original)):
+        window = _page_window(page, r, r + (b - a) * s, cc, cc + (d - c) * s, kept)
+        levels.append(window.reshape(b - a, s, d - c, s, 4).mean(axis=(1, 3)))
+    rows, cols = np.nonzero(drawn)
+    y = (rows + rp - a * s + 0.5) / s - 0.5
+    x = (cols + cp - c * s + 0.5) / s - 0.5
+    samples = [_bilinear(lv, y, x) for lv in levels]
+    if not pma:
+        samples = [np.concatenate([v[:, :3] * v[:, 3:] / 255, v[:, 3:]], axis=1) for v in samples]
+    return float(np.abs(samples[0] - samples[1]).max(initial=0))
+
+
+def mip_texel_differences(original_atlas, packed_atlas, region_uses: dict, pinned: str,
+                          levels: int = MIP_LEVELS) -> dict:
+    """Per level ``1..levels``: ``(largest difference /255, regions over TOLERANCE, regions
+    compared)`` of :func:`mip_texel_difference` over the regions of two atlases of one project
+    (a region stored turned otherwise after packing is not compared)."""
+    import cv2
+
+    from spinemesh.images import load_rgba
+    from spinemesh.pack.outlines import footprint
+    from spinemesh.pack.uses import RegionUses
+
+    def pages(atlas):
+        return [load_rgba(atlas.path.parent / p.name) for p in atlas.pages]
+
+    def placed(atlas):
+        out = {}
+        for region in atlas.regions:
+            g = region.geometry(str(atlas.path))
+            uses = RegionUses(pinned=pinned) if pinned else region_uses.get(region.name)
+            r0, c0, core = core_on_page(g, footprint(g, uses))
+            key = (region.name, region.get("index")[0] if region.get("index") else "-1")
+            pma = (atlas.pages[region.page].get("pma") or ["false"])[0].lower() == "true"
+            h, w = (g.width, g.height) if g.degrees in (90, 270) else (g.height, g.width)
+            out[key] = (region.page, r0, c0, core, g.degrees, pma, (g.y, g.x, g.y + h, g.x + w))
+        return out
+
+    before, after = placed(original_atlas), placed(packed_atlas)
+    orig_pages, packed_pages = pages(original_atlas), pages(packed_atlas)
+    result = {}
+    for level in range(1, levels + 1):
+        worst, over, compared = 0.0, 0, 0
+        for key, (page, r0, c0, core, degrees, pma, _) in after.items():
+            if key not in before or before[key][4] != degrees or before[key][3].shape != core.shape:
+                continue
+            drawn = cv2.erode(core.astype(np.uint8), np.ones((3, 3), np.uint8), borderValue=0).astype(bool)
+            o = before[key]
+            e = mip_texel_difference(orig_pages[o[0]], packed_pages[page], (o[1], o[2]), (r0, c0), drawn, level, pma,
+                                     own=o[6], core=o[3])
+            worst, over, compared = max(worst, e), over + (e > TOLERANCE), compared + 1
+        result[level] = (worst, over, compared)
+    return result
+
+
+def prove_mipmaps(source: Path, out: Path, atlas_rel: str, uses) -> tuple[int, int, list[str], list]:
     """Mipmap bleeding before and after packing one atlas whose pages use MipMap filters.
 
-    Returns the worst region's clean level before and after, and the regions whose clean level
-    packing lowered below what they had (at most :data:`MIP_LEVELS`).
+    Returns the worst region's clean level before and after, the regions whose clean level
+    packing lowered below what they had (at most :data:`MIP_LEVELS`), and per level the texels
+    read under the regions against the original's (:func:`mip_texel_differences`, as
+    :attr:`Row.mip_texels` lists them).
     """
     from spinemesh.atlas import read_atlas
 
@@ -333,7 +465,9 @@ def prove_mipmaps(source: Path, out: Path, atlas_rel: str, uses) -> tuple[int, i
     after = mip_levels(packed, table_uses, uses.everything_pinned, False)
     worse = [f"{name}: level {before[(name, i)]} -> {level}" for (name, i), level in after.items()
              if (name, i) in before and level < before[(name, i)]]
-    return min(before.values(), default=MIP_LEVELS), min(after.values(), default=MIP_LEVELS), worse
+    texels = mip_texel_differences(original, packed, table_uses, uses.everything_pinned)
+    return (min(before.values(), default=MIP_LEVELS), min(after.values(), default=MIP_LEVELS), worse,
+            [[level, round(worst, 2), over, compared] for level, (worst, over, compared) in texels.items()])
 
 
 def mipmap_results(source: Path, out: Path, packed: set[str]) -> dict:
@@ -404,10 +538,14 @@ def prove_project(tool: Path, project: Path, work: Path, animations: int = ANIMA
         except subprocess.TimeoutExpired as e:  # a slow render (a busy machine): prove it again alone
             row.status, row.cause = "FAIL", f"harness timed out after {e.timeout:g} s"
         if row.atlas in mips:
-            row.mip_before, row.mip_after, row.mip_worse = mips[row.atlas]
+            row.mip_before, row.mip_after, row.mip_worse, row.mip_texels = mips[row.atlas]
             if row.mip_after < MIP_REQUIRED:
                 row.status = "FAIL"
                 row.details.append(f"a region reads another's texels at mipmap level {row.mip_after + 1}")
+            for level, worst, over, _ in row.mip_texels:
+                if level <= MIP_REQUIRED and over:
+                    row.status = "FAIL"
+                    row.details.append(f"{over} regions read mipmap level {level} {worst:g}/255 off the original's")
         rows.append(row)
     return rows
 

@@ -74,6 +74,11 @@ def test_packed_corpus_project_renders_alike(name, corpus, spine_runtime, tmp_pa
         from prove_pack import MIP_REQUIRED
 
         assert all(r.mip_after is not None and r.mip_after >= MIP_REQUIRED for r in proved), proved
+        # the first level's texels under every region are the original's (blocks falling alike):
+        # jt-mia's hands hold art their meshes do not draw, which that level averages in
+        for r in proved:
+            level1 = next(t for t in r.mip_texels if t[0] == 1)
+            assert level1[1] <= 2 and level1[2] == 0 and level1[3] >= 10, r.mip_texels
 
 
 def _turned(atlas: Path) -> int:
@@ -92,6 +97,32 @@ def test_packed_rotated_regions_render_alike(corpus, spine_runtime, tmp_path):
 def test_upgraded_and_packed_demo_renders_alike(spine_runtime, tmp_path):
     demo = make_demo_project(tmp_path / "demo", with_images_folder=False)
     _prove(spine_runtime, demo, tmp_path / "work", upgrade=True)
+
+
+def test_mip_texel_check_sees_art_beyond_what_is_drawn_and_not_where_blocks_fall():
+    """The proof's texel check of a mipmap level: a region moved by one texel reads the same
+    level-1 texels as before once its blocks fall alike (0), but not when the page it is moved to
+    lacks art of the region beyond what is drawn (the level averages it in), nor at level 2 when
+    a neighbour of the original lies within that level's reach and counts only when its own."""
+    from prove_pack import mip_texel_difference
+
+    original = np.zeros((64, 64, 4), np.uint8)
+    original[16:32, 16:32] = 200         # the region's stored rectangle, all art
+    drawn = np.zeros((16, 16), bool)
+    drawn[1:12, 1:15] = True             # its mesh draws rows 17-27 only: rows 28-31 are art not drawn
+    packed = np.zeros_like(original)
+    packed[22:38, 25:41] = original[16:32, 16:32]   # moved by (6, 9): its columns' blocks fall otherwise
+    own = (16, 16, 32, 32)
+    assert mip_texel_difference(original, packed, (16, 16), (22, 25), drawn, 1, True, own=own) == 0
+    cut = packed.copy()
+    # the art beyond the drawn rows and their ring left out (last drawn row 33, ring 34): the
+    # last drawn row lies in the second half of its block, whose level texel reads rows 34-35
+    cut[22 + 13:38] = 0
+    assert mip_texel_difference(original, cut, (16, 16), (22, 25), drawn, 1, True, own=own) > 2
+    neighbour = original.copy()
+    neighbour[16:32, 33:35] = 255         # another region 1 texel right of the rectangle
+    assert mip_texel_difference(neighbour, packed, (16, 16), (22, 25), drawn, 2, True, own=own) == 0
+    assert mip_texel_difference(neighbour, packed, (16, 16), (22, 25), drawn, 2, True) > 2
 
 
 @pytest.mark.parametrize("column,level", [(33, 0), (34, 1), (35, 1), (36, 2), (39, 2), (40, 3), (48, 4)])

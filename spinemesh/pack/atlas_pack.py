@@ -30,7 +30,7 @@ import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry, RegionGeometry
 from ..files.names import portable_name
-from .outlines import Footprint, footprint, hard_texels, stored_index, window_texels
+from .outlines import Footprint, footprint, grown_for_mipmaps, hard_texels, stored_index, window_texels
 from .place import PAGE_SHAPES, _grow, fill_pages
 from .uses import RegionUses, rectangle_reason
 
@@ -741,6 +741,8 @@ def _items(atlas: Atlas, geometries: list[RegionGeometry], pixels: list[np.ndarr
                 raise PackRefused(f"region {r.name!r} lies outside its page")
         reason = rectangle_reason(r, first_of_name[r.name] is r, uses.get(r.name), pinned)
         foot = footprint(g, RegionUses(pinned=reason) if reason else uses.get(r.name))
+        if uses_mipmaps(atlas.pages[r.page]):
+            foot = grown_for_mipmaps(g, foot)
         texels = window_texels(pixels[r.page], g, foot.window)
         item = _Item(r, g, foot, texels, orientations(g.degrees, rotate))
         item.masks = _item_masks(item, foot.core)

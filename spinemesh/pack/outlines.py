@@ -211,6 +211,31 @@ def mesh_footprint(g: RegionGeometry, meshes: list[MeshUse]) -> Footprint | str:
                      tuple(int(v) for v in content), True)
 
 
+def grown_for_mipmaps(g: RegionGeometry, fp: Footprint) -> Footprint:
+    """A footprint by outline grown by the region's own stored texels that its first mipmap
+    level reads: the texel beyond the core (drawn texels and their ring) within its stored
+    rectangle. A level-1 texel averages a block of 2 x 2 and bilinear sampling reads the next
+    block too, so it reaches 2 texels beyond what is drawn; art the meshes do not draw lies
+    there, which the original's level averages in, and the packed page then holds it too (with
+    the region's blocks falling alike, its level-1 texels under every mesh are the original's).
+    Beyond the stored rectangle lie the exporter's padding and other regions: not copied. A
+    footprint by rectangle already holds its whole rectangle: returned as it is."""
+    if not fp.by_outline:
+        return fp
+    wx0, wy0, wx1, wy1 = fp.window
+    core = np.pad(fp.core, 1)
+    grown = core.copy()
+    grown[1:, :] |= core[:-1, :]
+    grown[:-1, :] |= core[1:, :]
+    near = grown.copy()
+    near[:, 1:] |= grown[:, :-1]
+    near[:, :-1] |= grown[:, 1:]
+    x0, y0, x1, y1 = content_box(g)
+    own = np.zeros_like(core)
+    own[max(0, y0 - wy0 + 1):max(0, y1 - wy0 + 1), max(0, x0 - wx0 + 1):max(0, x1 - wx0 + 1)] = True
+    return Footprint((wx0 - 1, wy0 - 1, wx1 + 1, wy1 + 1), core | (near & own), fp.content, True, fp.reason)
+
+
 def footprint(g: RegionGeometry, uses: RegionUses | None) -> Footprint:
     """The footprint of a region from how it is drawn (by outline when only meshes draw it)."""
     if uses is None or (not uses.meshes and not uses.pinned):
