@@ -340,6 +340,33 @@ def test_a_bone_below_a_bone_of_another_skin_is_not_bound_to(tmp_path, spine_run
     assert np.abs(np.subtract(*drawn)).max() < 1e-3
 
 
+def test_a_default_skin_mesh_on_a_skin_bone_is_bound_to_the_bones_every_skin_drawing_it_poses(tmp_path, spine_runtime):
+    """The default skin's attachments are drawn under every skin; on a skin bone, under those that
+    activate it. The worm on skin bones ``seg1`` to ``seg3`` (``blue`` activates ``seg1`` and
+    ``seg2``, ``red`` all three) was bound to the root alone, every skin bone left out: exact in
+    the setup pose, it stayed behind whenever its slot's bone moved (exit 0). Now it is bound to
+    the bones both skins activate and drawn, with either skin, where it was; ``seg3`` is left out."""
+    from runtime_tool import dump
+
+    def skins(doc):
+        for name in ("seg1", "seg2", "seg3"):
+            _bone(doc, name)["skin"] = True
+        doc["skins"] += [{"name": "red", "bones": ["seg3"], "attachments": {}},
+                         {"name": "blue", "bones": ["seg1", "seg2"], "attachments": {}}]
+    _worm_mesh_project(tmp_path, skins)
+    _weights(tmp_path, "--report", "r.json", codes=(0,))
+    (row,) = json.loads((tmp_path / "r.json").read_text())["attachments"]
+    assert row["status"] == "weighted" and set(row["bones"]) <= {"seg1", "seg2"} and "seg2" in row["bones"], row
+    assert row["left_out"]["seg3"] == "only active in other skins", row
+    for skin in ("red", "blue"):
+        for side in ("p", "o"):
+            dump(spine_runtime, tmp_path / side / "worm.atlas", tmp_path / side / "worm.json", None, "0",
+                 tmp_path / f"{side}.{skin}.json", skin=skin)
+        drawn = [json.loads((tmp_path / f"{side}.{skin}.json").read_text())["poses"][0]["attachments"][0]["vertices"]
+                 for side in ("p", "o")]
+        assert np.abs(np.subtract(*drawn)).max() < 1e-3, skin
+
+
 def _artist_weights(entry):
     """The worm's vertices weighted by ``entry(i, x, y)`` (x, y in ``seg1``'s space; ``seg2`` is 80 further)."""
     def change(doc):

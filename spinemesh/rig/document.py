@@ -99,30 +99,57 @@ class Rig:
     # source meshes (skin, slot, name) of a 4.3 linked mesh in a slot of another bone -> that slot
     linked_elsewhere: dict[tuple[str, str, str], str] = field(default_factory=dict)
 
-    # :meth:`unposed` of each skin asked for
+    # :meth:`posed_skin_bones` and :meth:`unposed` of each skin (and slot bone) asked for
+    _posed: dict = field(default_factory=dict, repr=False, compare=False)
     _unposed: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def worlds(self) -> list[np.ndarray]:
         return [b.world for b in self.bones]
 
-    def unposed(self, skin: str) -> dict[int, str]:
-        """Bones whose world transform is not the runtimes' whenever ``skin``'s attachments are
-        drawn, with why: a bone only active in other skins (``"skin": true``, neither among this
-        skin's bones nor above one of them) and every bone below it; and, in every skin, a bone
-        that is no skin bone below one (the editor makes every bone below a skin bone one):
-        without the skin its world transform comes from a parent the runtimes never update, and
-        this setup pose, taken without a skin, holds that one (:func:`.constraints.setup_pose`).
-        """
-        out = self._unposed.get(skin)
+    def _activated(self, skin: str) -> frozenset[int]:
+        """The bones ``skin`` activates: those it lists and every bone above them (``updateCache``)."""
+        out: set[int] = set()
+        for b in self.skin_bones.get(skin, set()):
+            while b is not None and b not in out:
+                out.add(b)
+                b = self.bones[b].parent
+        return frozenset(out)
+
+    def posed_skin_bones(self, skin: str, slot_bone: int) -> frozenset[int]:
+        """The skin bones (``"skin": true``) the runtimes pose whenever ``skin``'s attachments
+        on a slot of ``slot_bone`` are drawn: those the skin activates. The default skin's are
+        drawn under every skin (its fallback) and under none: on a skin bone, under the skins
+        that activate it, so the bones all of those activate; else only bones of no skin (its
+        own list, which no editor writes, activates nothing when no skin is set)."""
+        key = (skin, slot_bone if skin == "default" else None)
+        out = self._posed.get(key)
         if out is None:
-            # the default skin's attachments are drawn under every skin (its fallback) and under
-            # none, so the bones its own list would activate are not posed for them every time
-            listed, above = set() if skin == "default" else self.skin_bones.get(skin, set()), set()
-            for b in listed:
-                while b is not None and b not in above:
-                    above.add(b)
-                    b = self.bones[b].parent
+            bone, of_skins = self.bones[slot_bone], False  # whether a skin bone is it or above it
+            while bone is not None and not of_skins:
+                of_skins = bone.skin_required
+                bone = None if bone.parent is None else self.bones[bone.parent]
+            if skin != "default":
+                out = self._activated(skin)
+            elif of_skins:
+                having = [a for a in map(self._activated, self.skin_bones) if slot_bone in a]
+                out = frozenset.intersection(*having) if having else frozenset()
+            else:
+                out = frozenset()
+            self._posed[key] = out
+        return out
+
+    def unposed(self, skin: str, slot_bone: int) -> dict[int, str]:
+        """Bones whose world transform is not the runtimes' whenever ``skin``'s attachments on a
+        slot of ``slot_bone`` are drawn, with why: a skin bone (``"skin": true``) not among
+        :meth:`posed_skin_bones` and every bone below it; and, in every skin, a bone that is no
+        skin bone below one (the editor makes every bone below a skin bone one): without the
+        skin its world transform comes from a parent the runtimes never update, and this setup
+        pose, taken without a skin, holds that one (:func:`.constraints.setup_pose`).
+        """
+        above = self.posed_skin_bones(skin, slot_bone)
+        out = self._unposed.get(above)
+        if out is None:
             out, skin_bone = {}, {}  # skin_bone: the skin bone a bone is (or hangs below)
             for bone in self.bones:  # parents first
                 up = skin_bone.get(bone.parent) if bone.parent is not None else None
@@ -137,7 +164,7 @@ class Rig:
                     why = out[bone.parent]
                     out[bone.index] = why if why.startswith("below") else \
                         f"below bone {self.bones[bone.parent].name!r}, only active in other skins"
-            self._unposed[skin] = out
+            self._unposed[above] = out
         return out
 
 
@@ -223,11 +250,11 @@ def choose(rig: Rig, ref: AttachmentRef, mesh, world: np.ndarray, triangles: np.
         keys = keys_of(ref.slot, ref.name)
         others = rig.habits.others(keys) if rig.habits is not None else None
         neighbours = neighbour_sets(rig.habits, rig.bones, slot_bone, keys)
-        skin_bones = rig.skin_bones.get(ref.skin, set())
+        skin_bones = rig.posed_skin_bones(ref.skin, slot_bone)
         made = _remembered(rig, (slot_bone, world, triangles, skin_bones, others, neighbours, unweighted, explain))
         # a bone that would carry the art far from where its slot's bone does is a wrong choice
         return guard(made, rig.bones, slot_bone, world, triangles, rig.motion) if guarded else made
-    return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.skin_bones.get(ref.skin, set()))
+    return choose_by_rule(rig.bones, slot_bone, world, triangles, rig.posed_skin_bones(ref.skin, slot_bone))
 
 
 def _remembered(rig: Rig, inputs: tuple) -> Choice:
@@ -282,7 +309,7 @@ def weight_mesh(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: O
     slot_bone = rig.slot_bone[ref.slot]
     depends = mesh.bones() if mesh.weighted else [slot_bone]
     inexact = [rig.bones[b] for b in depends if not rig.bones[b].exact]
-    unposed = rig.unposed(ref.skin)
+    unposed = rig.unposed(ref.skin, slot_bone)
     inexact += [rig.bones[b] for b in depends if b in unposed and rig.bones[b].exact]
     if inexact:
         first = inexact[0]

@@ -342,7 +342,7 @@ def weighted_meshes(doc: dict, rig, reach: float = REACH, chain_reach: float = C
         world = setup_world(mesh, rig.worlds, slot_bone)
         if not np.isfinite(world).all() or np.ptp(world, axis=0).max() <= 0:
             continue
-        skin_bones = rig.skin_bones.get(ref.skin, set())
+        skin_bones = rig.posed_skin_bones(ref.skin, slot_bone)
         key = (slot_bone, world.shape, world.tobytes(), tris.shape, tris.tobytes(), frozenset(skin_bones))
         if key not in measured:
             measured[key] = candidates(rig.bones, slot_bone, world, tris, skin_bones, rig.constrained,
