@@ -213,3 +213,23 @@ def test_38_path_constraints_pose_as_the_official_38_runtime(rotate, mode, spaci
     for a, b in zip(ours["poses"], port["poses"]):
         for name in ("root", "seg1", "rail", "target"):
             assert np.allclose(a["bones"][name], b["bones"][name], atol=1e-6)
+
+
+@pytest.mark.parametrize("inherit", ["normal", "noRotationOrReflection"])
+@pytest.mark.parametrize("extra", [{}, {"compress": True}, {"stretch": True}], ids=["plain", "compress", "stretch"])
+@pytest.mark.parametrize("version", VERSIONS)
+def test_one_bone_ik_under_a_parent_scaled_to_zero_poses_as_each_runtime(version, extra, inherit, spine_runtime,
+                                                                          tmp_path):
+    """seg3 aimed by one-bone IK, its parent seg2 scaled to 0 along x: 3.8 and 4.0 divide by the
+    parent's zero determinant (NaN there, nothing drawn), 4.1 and 4.2 take the target as at the bone."""
+    path = make_worm_project(tmp_path / "in")
+    doc = _worm(version)
+    doc["bones"][2]["scaleX"] = 0
+    doc["bones"][3]["inherit" if version.startswith("4.2") else "transform"] = inherit
+    doc["slots"][0]["bone"] = "seg3"
+    doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target", **extra}]
+    path.write_text(json.dumps(doc))
+    atlas = path.parent / "worm.atlas"
+    theirs = pose_dump(spine_runtime, atlas, path, tmp_path / "d.json", "wiggle", "0,0.5")
+    _same_dumps(dump(Sampler(doc, None, atlas_regions(read_atlas(atlas))), "wiggle", [0, 0.5]), theirs)
+    assert any(None in p["bones"]["seg3"] for p in theirs["poses"]) == (version[:3] in ("3.8", "4.0"))

@@ -364,15 +364,15 @@ def ik_one(bone: PoseBone, tx_world: float, ty_world: float, compress: bool, str
             den = pa * pa + pc * pc
             if family in ("4.1", "4.2"):
                 den = max(0.0001, den)
-            s = abs(pa * pd - pb * pc) / den
+            s = float_divide(abs(pa * pd - pb * pc), den)  # 3.8, 4.0: NaN under a parent scaled to 0
             pb, pd = -pc * s, pa * s
             rotation_ik += math.atan2(pc, pa) * RAD_DEG
         x, y = tx_world - pwx, ty_world - pwy
         d = pa * pd - pb * pc
         if family in ("4.1", "4.2") and abs(d) <= 0.0001:
             tx = ty = 0.0
-        else:
-            tx, ty = (x * pd - y * pb) / d - ax, (y * pa - x * pc) / d - ay
+        else:  # 3.8, 4.0: a parent scaled to 0 makes the bone NaN there, as in the runtime
+            tx, ty = float_divide(x * pd - y * pb, d) - ax, float_divide(y * pa - x * pc, d) - ay
     rotation_ik += math.atan2(ty, tx) * RAD_DEG
     if asx < 0:
         rotation_ik += 180
