@@ -52,8 +52,13 @@ def is_skeleton_file(path: Path) -> bool:
         return False
     if name.endswith((".skel", ".skel.bytes")):
         return True
-    with open(path, "rb") as f:
-        head = f.read(4096)
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        # a file of a skeleton's name it may not read (permission denied) may be one: reading it
+        # says why, as that skeleton's line; it ended every command on the project in one error
+        return True
     stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
     if not stripped.startswith(b"{"):
         # Binary skeletons shipped under a .json name: version string in the header.

@@ -86,14 +86,15 @@ def load_skeleton(path: str | Path) -> dict:
         With the byte offset, for a broken ``.skel``.
     """
     path = Path(path)
-    try:
+    try:  # a file it may not read (permission denied) is that skeleton's line, never the run's end
         check_file_size(path, "skeleton")
+        wide = _wide_text(path)
+        binary = not wide and is_binary_skeleton(path)
     except OSError as e:
         raise SkeletonError(f"cannot read skeleton: {e.strerror}", path) from None
-    wide = _wide_text(path)
     if wide:
         raise SkeletonError(f"skeleton is {wide} text; the Spine runtimes read JSON as UTF-8 only", path)
-    if is_binary_skeleton(path):
+    if binary:
         from .skeleton_binary import read_skel_finite
 
         doc, finite = read_skel_finite(path)

@@ -280,6 +280,45 @@ def test_closed_standard_input_and_output(tmp_path, twenty):
     assert r.returncode == 0 and len(list((tmp_path / "up").glob("*.json"))) == 20
 
 
+# --- files the user running it may not read --------------------------------------------------------
+
+def _as_a_user() -> list[str]:
+    """The command prefix that runs as a user whom file modes bind: none for one; for root, the
+    capabilities that pass over them dropped (``setpriv``), or a skip where that cannot be done."""
+    if os.geteuid() != 0:
+        return []
+    setpriv = shutil.which("setpriv")
+    if setpriv is None or subprocess.run([setpriv, "--bounding-set", "-dac_override", "true"],
+                                         capture_output=True, check=False).returncode != 0:
+        pytest.skip("running as root, with no way to drop the capabilities that pass over file modes")
+    return [setpriv, "--bounding-set", "-dac_override,-dac_read_search,-fowner"]
+
+
+def _run_as_a_user(*args, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([*_as_a_user(), sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=_env(),
+                          capture_output=True, timeout=120, check=False)
+
+
+def test_a_skeleton_the_user_may_not_read_is_that_skeletons_line(tmp_path, twenty):
+    """One skeleton of twenty the user may not read (mode 000: copied from another account, a
+    build cache): project discovery opened it and the ``PermissionError`` ended ``upgrade``,
+    ``info``, ``pack`` and ``weights`` on the whole project (exit 2, nothing written). It is that
+    skeleton's line now, as a broken one is, and the other nineteen are written (exit 3)."""
+    project = tmp_path / "p"
+    shutil.copytree(twenty, project)
+    (project / "demo05.json").chmod(0)
+    try:
+        for args in (("upgrade", "p", "--out", "up"), ("info", "p"), ("pack", "p", "--out", "pk"),
+                     ("weights", "p", "--out", "w")):
+            r = _run_as_a_user(*args, cwd=tmp_path)
+            text = _no_traceback(r)
+            assert r.returncode == 3, (args, text[-2000:])
+            assert "demo05.json: cannot read skeleton: Permission denied" in text, text[-2000:]
+        assert len(list((tmp_path / "up").glob("*.json"))) == 19
+    finally:
+        (project / "demo05.json").chmod(0o644)
+
+
 # --- the process: its folder, its temporary folder, its umask, another file system -------------------
 
 def test_a_current_folder_removed_is_named(tmp_path, twenty):
