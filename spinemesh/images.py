@@ -302,6 +302,8 @@ def _decode(file, path, data: bytes | None = None) -> np.ndarray:
         raise ImageError("image file not found", path) from None
     except IsADirectoryError:
         raise ImageError("is a folder, not an image", path) from None
+    except PermissionError as e:  # the system's words, not Python's repr naming the path again
+        raise ImageError(f"cannot read image: {e.strerror}", path) from None
     except (Image.DecompressionBombWarning, Image.DecompressionBombError):
         # Pillow refuses before it tells the size: the header's, in the words of every other size
         size = claimed_size(file)

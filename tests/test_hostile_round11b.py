@@ -319,6 +319,25 @@ def test_a_skeleton_the_user_may_not_read_is_that_skeletons_line(tmp_path, twent
         (project / "demo05.json").chmod(0o644)
 
 
+def test_a_page_the_user_may_not_read_is_said_of_the_page(tmp_path, twenty):
+    """A page the user may not read: ``pack`` and ``upgrade`` said ``not copied:
+    OUT/demo.png: cannot write: permission denied (read-only?)``, of the output, sending the
+    user to fix a folder that was writable. The line names the page read, and why."""
+    project = tmp_path / "p"
+    shutil.copytree(twenty, project)
+    (project / "demo.png").chmod(0)
+    try:
+        for args in (("pack", "p", "--out", "pk"), ("upgrade", "p", "--out", "up", "--pack")):
+            r = _run_as_a_user(*args, cwd=tmp_path)
+            text = _no_traceback(r)
+            assert r.returncode == 3, (args, text[-2000:])
+            assert "not copied: p/demo.png: cannot read: Permission denied" in text, text[-2000:]
+            assert "cannot write" not in text, text[-2000:]
+        assert "demo.png: cannot read image: Permission denied" in text, text[-2000:]
+    finally:
+        (project / "demo.png").chmod(0o644)
+
+
 # --- the process: its folder, its temporary folder, its umask, another file system -------------------
 
 def test_a_current_folder_removed_is_named(tmp_path, twenty):

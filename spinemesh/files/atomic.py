@@ -164,12 +164,18 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 
 
 def atomic_copy(source: str | Path, path: str | Path) -> None:
-    """Copy the file ``source`` to ``path`` atomically (see :func:`atomic_write_bytes`)."""
-    def fill(f):
-        with open(source, "rb") as src:
-            shutil.copyfileobj(src, f, 1 << 20)
+    """Copy the file ``source`` to ``path`` atomically (see :func:`atomic_write_bytes`).
 
-    _atomic(Path(path), fill)
+    A source that cannot be opened (permission denied) is said of the source, before anything
+    is staged: it was said of ``path`` as ``cannot write: permission denied (read-only?)``, sending
+    the user to a writable output folder.
+    """
+    try:
+        src = open(source, "rb")
+    except OSError as e:
+        raise SpineMeshError(f"cannot read: {e.strerror or e}", source) from None
+    with src:
+        _atomic(Path(path), lambda f: shutil.copyfileobj(src, f, 1 << 20))
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
