@@ -350,3 +350,35 @@ def test_every_bone_of_a_mesh_has_a_colour_of_its_own():
     mesh = {"type": "mesh", "uvs": [0, 0, 1, 0, 1, 1], "triangles": [0, 1, 2], "hull": 3,
             "vertices": [1, 24, 0, 0, 1, 1, 24, 1, 0, 1, 1, 3, 1, 1, 1]}
     assert [tuple(c) for c in vertex_colours(mesh, 3, 30, 0)] == [bone_colour(24), bone_colour(24), bone_colour(3)]
+
+
+# --- train refuses a side the export refuses ----------------------------------------------------------
+
+@pytest.mark.parametrize("size", ["100", "4096"])
+def test_train_refuses_a_side_its_checkpoint_could_not_be_exported_at(tmp_path, size):
+    """``segment-export`` refuses a checkpoint whose ``image_size`` is not a multiple of 32 from 32
+    to 2048; ``train --size 100`` trained such a network for as long as asked. Refused first now,
+    in one line, as any bad option (exit 2, nothing read or written)."""
+    before = snapshot(tmp_path)
+    r = run_cli("train", "--data", "nowhere", "--out", "o", "--size", size, cwd=tmp_path)
+    check_run(r, before, tmp_path, [], codes=(2,))
+    assert r.stderr.startswith(f"error: train: Invalid value for '--size': {size} is not a multiple of 32 from 32 "
+                               "to 2048"), r.stderr
+
+
+def test_a_weights_picture_reads_its_mesh_once(tmp_path, monkeypatch):
+    """``write_previews`` read each mesh's vertices twice (the picture, then its caption's names)."""
+    import spinemesh.rig.preview as preview
+    from spinemesh.demo import make_demo_project
+    from spinemesh.rig.document import WeightOptions
+    from spinemesh.rig.run import weight_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    r = run_cli("upgrade", "p", "--out", "u", "--jobs", "1", "--weights", "auto", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    calls = []
+    real = preview.parse_vertices
+    monkeypatch.setattr(preview, "parse_vertices", lambda *a, **k: calls.append(1) or real(*a, **k))
+    result = weight_project(tmp_path / "u", tmp_path / "w", WeightOptions(replace=True), preview=tmp_path / "pics")
+    pictures = sorted((tmp_path / "pics").glob("*.png"))
+    assert pictures and len(calls) == len(pictures), (len(calls), len(pictures), result.errors)

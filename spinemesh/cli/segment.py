@@ -172,6 +172,18 @@ def _record_in_card(model: Optional[Path], per_project: int, result: dict) -> No
     atomic_write_json(path, c, indent=1)
 
 
+def _network_side(value: int) -> int:
+    """``train --size``: a side the network takes, a multiple of 32 (it halves its input five
+    times) up to the largest a model card may say (``segment.MAX_INPUT_SIZE``), as
+    ``segment-export`` checks a checkpoint's (:func:`spinemesh.train.export.model_of`): at 100 the
+    network trained for hours, and its checkpoint was then refused by ``segment-export``."""
+    from ..segment import MAX_INPUT_SIZE
+
+    if value % 32 or value > MAX_INPUT_SIZE:
+        raise typer.BadParameter(f"{value} is not a multiple of 32 from 32 to {MAX_INPUT_SIZE}")
+    return value
+
+
 @app.command()
 def train(
     data: DataOption,
@@ -183,8 +195,8 @@ def train(
                                              "(Lite0 only: they ship inside a pip wheel).")] = True,
     bn_momentum: Annotated[float, typer.Option("--bn-momentum", min=0, callback=finite, help="Encoder BatchNorm momentum (0: the "
                                                "library's 0.01; use 0.1 with --scratch).")] = 0.0,
-    size: Annotated[int, typer.Option("--size", min=32, help="Model input side, pixels, a multiple of 32 "
-                                      "(paper: 256; CPU: 160).")] = 256,
+    size: Annotated[int, typer.Option("--size", min=32, callback=_network_side, help="Model input side, pixels, a "
+                                      "multiple of 32 (paper: 256; CPU: 160).")] = 256,
     epochs: Annotated[int, typer.Option("--epochs", min=1, help="Epochs of the cosine schedule (paper: 30).")] = 30,
     epoch_samples: Annotated[int, typer.Option("--epoch-samples", min=0, help="Samples per epoch (0: as many as "
                                                "training sprites).")] = 0,
@@ -245,8 +257,8 @@ def train(
 
 
 def _multiple_of_32(value: int) -> int:
-    """``--size``: 0 or a multiple of 32 (the network halves its input five times); any other
-    was a traceback from deep in the export, after the sprites were read."""
+    """``segment-export --size``: 0 or a multiple of 32 (the network halves its input five times);
+    any other was a traceback from deep in the export, after the sprites were read."""
     if value % 32:
         raise typer.BadParameter(f"{value} is not a multiple of 32 (0: the training side)")
     return value

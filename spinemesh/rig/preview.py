@@ -249,19 +249,21 @@ def setup_image(ref) -> str:
     return frames[setup if isinstance(setup, int) and 0 <= setup < len(frames) else 0]
 
 
-def mesh_bone_names(att: dict, rig) -> list[str]:
-    """The names of the bones weighted mesh ``att`` uses, in the legend's order (:meth:`.binding.MeshVertices.bones`)."""
-    return [rig.bones[b].name for b in parse_vertices(att, len(rig.bones)).bones()]
+def mesh_bone_names(mesh, rig) -> list[str]:
+    """The names of the bones a weighted mesh uses (``mesh``: its :func:`.binding.parse_vertices`),
+    in the legend's order (:meth:`.binding.MeshVertices.bones`)."""
+    return [rig.bones[b].name for b in mesh.bones()]
 
 
-def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarray:
+def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray, mesh=None) -> np.ndarray:
     """:func:`picture` of one weighted mesh attachment ``att`` of ``doc``: its vertices coloured
     by bone in the setup pose, its bones, and the mesh with its bones turned by :data:`BEND`,
     with its :func:`legend` under them.
 
-    ``rig`` is :func:`.document.build_rig` of ``doc``; ``sprite`` the image it draws, RGBA.
+    ``rig`` is :func:`.document.build_rig` of ``doc``; ``sprite`` the image it draws, RGBA;
+    ``mesh`` its vertices as :func:`.binding.parse_vertices` reads them, when read already.
     """
-    mesh = parse_vertices(att, len(rig.bones))
+    mesh = parse_vertices(att, len(rig.bones)) if mesh is None else mesh
     ids = mesh.bones()
     col = {b: i for i, b in enumerate(ids)}
     wb = np.zeros((mesh.count, len(ids)))
@@ -274,7 +276,7 @@ def weighted_picture(doc: dict, att: dict, rig, sprite: np.ndarray) -> np.ndarra
     tris = np.asarray(att["triangles"], int).reshape(-1, 3)
     segs = np.stack([rig.bones[b].segment() for b in ids])
     panels = picture(sprite, uvs, tris, mesh, wb, setup, bent, segs)
-    return np.concatenate([panels, legend([rig.bones[b].name for b in ids], panels.shape[1])])
+    return np.concatenate([panels, legend(mesh_bone_names(mesh, rig), panels.shape[1])])
 
 
 def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Path, on_picture=None,
@@ -305,11 +307,12 @@ def write_previews(doc: dict, skeleton: Path, project, rig, outcomes, folder: Pa
         except SpineMeshError as e:
             problems.append(f"{skeleton.name} {ref.slot}/{ref.name}: no preview: {e}")
         else:
-            image = weighted_picture(doc, ref.attachment, rig, sprite)
+            mesh = parse_vertices(ref.attachment, len(rig.bones))  # once, for the picture and its caption
+            image = weighted_picture(doc, ref.attachment, rig, sprite, mesh)
             # two attachments (or skeletons) of names made one here, or one on a macOS or Windows disk: apart
             safe = name_apart(safe_name(f"{skeleton.stem}-{ref.skin}-{ref.slot}-{ref.name}", 160), taken)
             atomic_write_png(folder / f"{safe}.png", image)
-            atomic_write_json(folder / f"{safe}.json", caption(mesh_bone_names(ref.attachment, rig), ref.skin,
+            atomic_write_json(folder / f"{safe}.json", caption(mesh_bone_names(mesh, rig), ref.skin,
                                                                 ref.slot, ref.name, f"{safe}.png"))
         if on_picture is not None:
             on_picture()
