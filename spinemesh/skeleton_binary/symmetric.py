@@ -77,13 +77,34 @@ def dark_color(s, node: dict, key: str) -> None:
 
 def text(s, node: dict, key: str):
     """An inline string; null means the key is absent."""
+    return _string_or_absent(s, s.string, node, key)
+
+
+def _string_or_absent(s, io, node: dict, key: str):
+    """``io`` (the stream's ``string`` or ``string_ref``) of ``node[key]``; null is the key absent."""
     if s.reading:
-        v = s.string(what=key)
+        v = io(what=key)
         if v is not None:
             node[key] = v
         return v
-    return s.string(node.get(key), what=key)
+    return io(node.get(key), what=key)
 
+
+def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
+    """A varint index into ``names`` (``lookup``: name to index), the name itself in the document."""
+    if s.reading:
+        at = s.pos
+        i = s.varint(what=f"{what} index") - offset
+        if not 0 <= i < len(names) or names[i] is None:
+            # None: in 4.3's one constraint list, a constraint of another type.
+            raise s.fail(f"a {what} index below {len(names)}, found {i}", at)
+        node[key] = names[i]
+        return names[i]
+    name = node.get(key)
+    if name not in lookup:
+        raise s.fail(f"a known {what} for {key!r}, got {name!r}")
+    s.varint(lookup[name] + offset)
+    return name
 
 def enum(s, node: dict, key: str, names: tuple, default: str | None, as_byte: bool = False) -> str:
     """An index into a fixed tuple of names, a varint (a byte, ``as_byte``: 4.x's inherit modes,
@@ -107,12 +128,7 @@ def enum(s, node: dict, key: str, names: tuple, default: str | None, as_byte: bo
 
 def ref(s, node: dict, key: str):
     """A string-table reference (3.8 and 4.x); null means the key is absent."""
-    if s.reading:
-        v = s.string_ref(what=key)
-        if v is not None:
-            node[key] = v
-        return v
-    return s.string_ref(node.get(key), what=key)
+    return _string_or_absent(s, s.string_ref, node, key)
 
 
 def first_use_table(strings: list[str], refs: list[int]) -> bool:

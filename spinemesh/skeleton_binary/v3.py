@@ -59,7 +59,7 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, enum, first_use_table, fld, name_table,
+from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, enum, first_use_table, fld, index, name_table,
                         names_once, put, ref, text)
 
 SPACING_MODE = ("length", "fixed", "percent")
@@ -149,27 +149,10 @@ def name_value(s, c: Context, value=None, what: str = "name"):
     return (s.string_ref if c.L.refs else s.string)(value, what=what)
 
 
-def index(s, node: dict, key: str, table: tuple, what: str):
-    """A varint index into ``table`` (``(names, lookup)``), a name in the document."""
-    names, lookup = table
-    if s.reading:
-        at = s.pos
-        i = s.varint(what=f"{what} index")
-        if not 0 <= i < len(names):
-            raise s.fail(f"{what} index below {len(names)}, found {i}", at)
-        node[key] = names[i]
-        return names[i]
-    v = node.get(key)
-    if v not in lookup:
-        raise s.fail(f"a known {what} for {key!r}, got {v!r}")
-    s.varint(lookup[v])
-    return v
-
-
 def index_value(s, value, table: tuple, what: str):
     """:func:`index` for a bare value."""
     box = {"v": value}
-    return index(s, box, "v", table, what)
+    return index(s, box, "v", *table, what)
 
 
 def name_list(s, node: dict, key: str, table: tuple, what: str) -> None:
@@ -276,7 +259,7 @@ def bone(s, node: dict, c: Context, i: int) -> None:
     """One bone; the root (``i == 0``) has no parent index."""
     text(s, node, "name")
     if i > 0:
-        index(s, node, "parent", c.bones, "bone")
+        index(s, node, "parent", *c.bones, "bone")
     for key, d in _BONE_FIELDS:
         fld(s, node, key, d)
     enum(s, node, "transform", TRANSFORM_MODE, "normal")
@@ -327,7 +310,7 @@ def bones(s, doc: dict, c: Context) -> None:
 def slot(s, node: dict, c: Context) -> None:
     """One slot: bone, colours, setup attachment, blend mode."""
     text(s, node, "name")
-    index(s, node, "bone", c.bones, "bone")
+    index(s, node, "bone", *c.bones, "bone")
     color(s, node, "color", "ffffffff")
     if c.L.two_color:
         dark_color(s, node, "dark")
@@ -352,7 +335,7 @@ def _constraint_head(s, node: dict, c: Context) -> None:
 def ik(s, node: dict, c: Context) -> None:
     """One IK constraint."""
     _constraint_head(s, node, c)
-    index(s, node, "target", c.bones, "bone")
+    index(s, node, "target", *c.bones, "bone")
     fld(s, node, "mix", 1)
     if c.L.softness:
         fld(s, node, "softness", 0)
@@ -382,7 +365,7 @@ _TRANSFORM_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 0), ("scale
 def transform(s, node: dict, c: Context) -> None:
     """One transform constraint: target, local/relative flags, offsets, mixes."""
     _constraint_head(s, node, c)
-    index(s, node, "target", c.bones, "bone")
+    index(s, node, "target", *c.bones, "bone")
     if c.L.local_relative:
         boolean(s, node, "local")
         boolean(s, node, "relative")
@@ -393,7 +376,7 @@ def transform(s, node: dict, c: Context) -> None:
 def path_constraint(s, node: dict, c: Context) -> None:
     """One path constraint; its target is a slot."""
     _constraint_head(s, node, c)
-    index(s, node, "target", c.slots, "slot")
+    index(s, node, "target", *c.slots, "slot")
     enum(s, node, "positionMode", POSITION_MODE, "percent")
     enum(s, node, "spacingMode", SPACING_MODE, "length")
     enum(s, node, "rotateMode", ROTATE_MODE, "tangent")
@@ -520,7 +503,7 @@ def point(s, node: dict, c: Context) -> None:
 
 def clipping(s, node: dict, c: Context) -> None:
     """A clipping attachment, clipping up to the ``end`` slot."""
-    index(s, node, "end", c.slots, "slot")
+    index(s, node, "end", *c.slots, "slot")
     vertices(s, node, vertex_count(s, node), c)
     if c.nonessential:
         color(s, node, "color", _NEVER if s.reading else "ce3a3aff")  # the editor writes it
@@ -561,7 +544,7 @@ def skin_attachments(s, slots: dict, c: Context) -> dict:
     for i in range(n):
         slot_name, atts = (None, None) if s.reading else items[i]
         box = {"slot": slot_name}
-        index(s, box, "slot", c.slots, "slot")
+        index(s, box, "slot", *c.slots, "slot")
         keys = [] if s.reading else list(atts.items())
         m = s.count(len(keys), what="attachment count")
         got = out.setdefault(box["slot"], {})
@@ -811,7 +794,7 @@ def keyed(s, anim: dict, key: str, table: tuple, what: str, body) -> None:
     out: dict = {}
     for i in range(n):
         box = {} if s.reading else {"k": items[i][0]}
-        index(s, box, "k", table, what)
+        index(s, box, "k", *table, what)
         out[box["k"]] = body(s, None if s.reading else items[i][1])
     if s.reading and out:
         anim[key] = out
@@ -862,7 +845,7 @@ def draw_order(s, anim: dict, c: Context) -> None:
     """Draw order keys: per key, the slots that move and by how many places."""
     def offset(s, o):
         o = {} if o is None else o
-        index(s, o, "slot", c.slots, "slot")
+        index(s, o, "slot", *c.slots, "slot")
         if s.reading:
             o["offset"] = s.varint(what="draw order offset")
         else:
@@ -889,7 +872,7 @@ def events_timeline(s, anim: dict, c: Context) -> None:
     def key(s, f):
         f = {} if f is None else f
         time(s, f, c)
-        index(s, f, "name", c.event_names, "event")
+        index(s, f, "name", *c.event_names, "event")
         data = defs[c.event_names[1][f["name"]]]
         if s.reading:
             put(f, "int", s.varint(positive=False, what="int"), data.get("int", 0))

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..symmetric import color, fld, put as _put, text
-from .fields import index, seq
+from ..symmetric import color, fld, index, put as _put, text
+from .fields import seq
 from .layout import Context, Layout
 from .timelines import (_bone_body, _deform_values, _path_body, _physics_body, _physics_body_43,
                         _sequence_frames, _slider_body, _slot_body, _time, _transform_values,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import struct
 
 from ..enums import ATTACHMENT_TYPES
-from ..symmetric import boolean, color, fld, put as _put, ref
-from .fields import _to_end, fields, flag, fld_int, floats, index, opt
+from ..symmetric import boolean, color, fld, index, put as _put, ref
+from .fields import _to_end, fields, flag, fld_int, floats, opt
 from .layout import Context, Layout
 
 

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from ..enums import BLEND, INHERIT
-from ..symmetric import boolean, color, dark_color, enum, fld, ref, text
-from .fields import _names, _to_end, fields, index, index_list
+from ..symmetric import boolean, color, dark_color, enum, fld, index, ref, text
+from .fields import _names, _to_end, fields, index_list
 from .layout import Context
 
 _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),

@@ -11,10 +11,10 @@ from __future__ import annotations
 import struct
 
 from ..enums import POSITION_MODE, ROTATE_MODE
-from ..symmetric import CONSTRAINT_WORDS, enum, fld, names_once, put as _put
+from ..symmetric import CONSTRAINT_WORDS, enum, fld, index, names_once, put as _put
 from .bones import _bone_list
 from .constraints import _ik_mix_bits, _ik_mix_softness, _mix_field, _mode_byte, _physics_mass_to_mix
-from .fields import _flag_byte, _same, _to_end, flag, fld_u8, index, opt
+from .fields import _flag_byte, _same, _to_end, flag, fld_u8, opt
 from .layout import PROPERTIES, SCALE_Y_MODE, SPACING_MODE, Context
 
 #: Constraint types by their type byte.

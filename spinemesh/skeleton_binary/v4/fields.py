@@ -69,24 +69,6 @@ def flag(node: dict, key: str, default, stored_default=0.0) -> bool:
     return not _same(v, stored_default) if isinstance(v, (int, float)) else v != stored_default
 
 
-def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
-    """A varint index into ``names`` stored as the name itself in the document."""
-    if s.reading:
-        at = s.pos
-        i = s.varint(what=what) - offset
-        if not 0 <= i < len(names) or names[i] is None:
-            # None: in 4.3's one constraint list, a constraint of another type.
-            raise s.fail(f"a {what} index below {len(names)}, found {i}", at)
-        node[key] = names[i]
-        return names[i]
-    name = node.get(key)
-    if name not in lookup:
-        raise s.fail(f"a known {what} for {key!r}, got {name!r}")
-    s.varint(lookup[name] + offset)
-    return name
-
-
-
 def index_list(s, node: dict, key: str, table: tuple, what: str, count_what: str, keep_empty: bool = True) -> None:
     """A varint count, then that many varint indices into ``table`` (``(names, lookup)``): a list
     of names in the document, under ``key``. Read, an empty list is left out unless ``keep_empty``.
