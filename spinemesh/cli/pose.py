@@ -63,18 +63,15 @@ def pose(
     Example: spinemesh pose project/hero.skel -a walk --times 0,0.1,0.2 --skin red --out walk.json
     """
     from ..anim import Sampler, atlas_regions
-    from ..anim.dump import dump_head, dump_labels, dump_poses
+    from ..anim.dump import dump_labels
     from ..atlas import read_atlas
     from ..errors import OutputError, SpineMeshError
-    from ..files.atomic import atomic_write_pieces
     from ..files.guard import check_outputs
     from ..files.inputs import project_folder
-    from ..files.strict_json import strict_json_pieces
     from ..limits import MAX_POSE_STEPS
     from ..project import find_project
     from ..runs import EXIT_PARTIAL
     from ..skeleton import load_skeleton
-    from ._app import progress_bar
 
     seconds = _times(times)
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
@@ -98,24 +95,7 @@ def pose(
     sampler = Sampler(doc, skin, atlas_regions(atlases) if atlases else None)
     _check_pose_bounds(sampler, animation, seconds, fps, skeleton, out)
     unplayable = _say_unplayable(sampler, animation, skeleton)
-    # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
-    # temporary file renamed when the last pose is written, so that a refusal leaves no file; to
-    # standard output through an anonymous temporary file copied there once the last pose is
-    # written, so that a refusal leaves nothing there either (_echo_whole).
-    # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
-    # by a proxy that holds text until a newline and then prints it on stderr.
-    with progress_bar("pose", transient=True) as bar:
-        task = bar.add_task(console_text(animation or "setup"), total=1 + (len(seconds) if animation else 0))
-        not_numbers: dict[str, list[str]] = {}
-        poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
-                                  step=lambda: bar.advance(task)), animation, skeleton, not_numbers)
-        head = dump_head(sampler, Path(skeleton).name, fps)  # its name: the same bytes from any folder
-        pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
-                                       ["\n"]), skeleton)
-        if out is None:
-            _echo_whole(pieces, stdout)
-        else:
-            atomic_write_pieces(out, pieces)
+    not_numbers = _write_poses(sampler, animation, seconds, fps, skeleton, out, stdout)
     if not_numbers:
         err_console.print(f"warning: {not_a_number_said(not_numbers, skeleton)}", highlight=False, markup=False,
                           soft_wrap=True)
@@ -249,6 +229,36 @@ def _holding():
     except OSError as e:
         raise OutputError(f"cannot hold the poses for standard output: {e.strerror or e}",
                           tempfile.gettempdir()) from None
+
+
+def _write_poses(sampler, animation: str | None, seconds: list[float], fps: float, skeleton: Path,
+                 out: Path | None, stdout) -> dict[str, list[str]]:
+    """Write the dump (to ``out``, else to ``stdout``) with a bar; returns the bones a pose left
+    without a number, bone name -> the poses' labels."""
+    from ..anim.dump import dump_head, dump_poses
+    from ..files.atomic import atomic_write_pieces
+    from ..files.strict_json import strict_json_pieces
+    from ._app import progress_bar
+
+    # The JSON is written as a stream, one pose at a time (only one is held); to --out through a
+    # temporary file renamed when the last pose is written, so that a refusal leaves no file; to
+    # standard output through an anonymous temporary file copied there once the last pose is
+    # written, so that a refusal leaves nothing there either (_echo_whole).
+    # Standard output is taken before the bar starts: on a terminal the bar replaces sys.stdout
+    # by a proxy that holds text until a newline and then prints it on stderr.
+    not_numbers: dict[str, list[str]] = {}
+    with progress_bar("pose", transient=True) as bar:
+        task = bar.add_task(console_text(animation or "setup"), total=1 + (len(seconds) if animation else 0))
+        poses = _posed(dump_poses(sampler, animation, seconds if animation else [], fps,
+                                  step=lambda: bar.advance(task)), animation, skeleton, not_numbers)
+        head = dump_head(sampler, Path(skeleton).name, fps)  # its name: the same bytes from any folder
+        pieces = _within_the_cap(chain(strict_json_pieces(head, "poses", poses, out if out is not None else skeleton),
+                                       ["\n"]), skeleton)
+        if out is None:
+            _echo_whole(pieces, stdout)
+        else:
+            atomic_write_pieces(out, pieces)
+    return not_numbers
 
 
 def _posed(poses, animation: str | None, skeleton: Path, not_numbers: dict[str, list[str]]):
