@@ -338,6 +338,27 @@ def test_a_page_the_user_may_not_read_is_said_of_the_page(tmp_path, twenty):
         (project / "demo.png").chmod(0o644)
 
 
+def test_a_folder_the_user_may_not_list_is_said(tmp_path):
+    """A subfolder of the project the user may not list (mode 000), holding a skeleton: the
+    walk every command makes left it out without a word (``info`` exit 0, the skeleton in it
+    never upgraded). Each command says it, one line naming the folder (exit 3)."""
+    from spinemesh.demo import make_demo_project
+
+    project = make_demo_project(tmp_path / "p")
+    (project / "sub").mkdir()
+    shutil.copy(project / "demo.json", project / "sub" / "hidden.json")
+    (project / "sub").chmod(0)
+    try:
+        for args in (("upgrade", "p", "--out", "up"), ("info", "p"), ("pack", "p", "--out", "pk"),
+                     ("weights", "p", "--out", "w"), ("mesh", "p", "--out", "m")):
+            r = _run_as_a_user(*args, cwd=tmp_path)
+            text = _no_traceback(r)
+            assert r.returncode == 3, (args, text[-2000:])
+            assert "p/sub: folder not read (Permission denied); the files in it were left out" in text, text[-2000:]
+    finally:
+        (project / "sub").chmod(0o755)
+
+
 # --- the process: its folder, its temporary folder, its umask, another file system -------------------
 
 def test_a_current_folder_removed_is_named(tmp_path, twenty):

@@ -165,7 +165,10 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
             marked.append(True)
 
     # regular files inside the folder by real path: no symlink out, no FIFO, no loop
-    files = [p for p in walk_files(image) if p.suffix.lower() in IMAGE_EXTENSIONS]
+    left_out: list[str] = []  # a folder not read (permission denied), a symlink leading out: each said
+    files = [p for p in walk_files(image, left_out) if p.suffix.lower() in IMAGE_EXTENSIONS]
+    for line in left_out:
+        err_console.print("[yellow]skipped:[/] " + console_text(line), highlight=False)
     if not files:
         raise SpineMeshError("no image files in this folder", image)
     rows = []
@@ -196,7 +199,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     console.print(escaped(f"{len(rows)} meshes written to {out_dir}")
                   + (f", median {verts[len(verts) // 2]} vertices" if verts else "")
                   + (f"; {failed} image(s) failed" if failed else ""), highlight=False, markup=False)
-    if failed:
+    if failed or left_out:
         from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
 
         raise typer.Exit(EXIT_PARTIAL if rows else EXIT_BAD_INPUT)  # none meshed: nothing written, as a refusal

@@ -30,14 +30,22 @@ def walk_folder(root: str | Path, problems: list[str] | None = None, hidden: boo
     root : path
         The folder walked.
     problems : list of str, optional
-        Gets one line per symlink left out because it leads outside ``root``.
+        Gets one line per symlink left out because it leads outside ``root``, and one per
+        folder that could not be listed (permission denied).
     hidden : bool
         Whether hidden files and folders are walked too.
     """
     root = Path(root)
     top = real(root)
     seen: set[Path] = set()
-    for here, dirs, names in os.walk(root, followlinks=False):
+
+    def unreadable(error: OSError) -> None:
+        # a folder the user may not list (mode 000, another account's) was left out without a
+        # word, the skeletons in it not upgraded, exit 0
+        if problems is not None:
+            problems.append(f"{error.filename}: folder not read ({error.strerror}); the files in it were left out")
+
+    for here, dirs, names in os.walk(root, onerror=unreadable, followlinks=False):
         here_path = Path(here)
         here_real = real(here_path)
         if here_real in seen or not (here_real == top or top in here_real.parents):

@@ -75,7 +75,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     if preview is not None:
         check_output_folder(proj.root, Path(preview))
         check_written_folder(preview)  # a folder of a user's files: refused, not written over
-    result = WeightResult()
+    result = WeightResult(errors=list(proj.problems))  # files left out (a folder not read, a symlink out), said
     if not proj.skeletons:  # nothing to weigh (the command says so): no output folder, as upgrade
         return result
     start = time.perf_counter()
