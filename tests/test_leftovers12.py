@@ -382,3 +382,60 @@ def test_a_weights_picture_reads_its_mesh_once(tmp_path, monkeypatch):
     result = weight_project(tmp_path / "u", tmp_path / "w", WeightOptions(replace=True), preview=tmp_path / "pics")
     pictures = sorted((tmp_path / "pics").glob("*.png"))
     assert pictures and len(calls) == len(pictures), (len(calls), len(pictures), result.errors)
+
+
+# --- a library's packing total known before it packs ---------------------------------------------------
+
+def test_a_library_upgrade_tells_its_whole_packing_work_before_packing(tmp_path):
+    """``upgrade LIBRARY --pack`` told each project's packing work as it began packing it: the
+    ``pack`` bar's total grew once per project and its time left jumped each time. The whole
+    library's work is told at the first packing now, each project then telling only how far its
+    own differs (nothing here: its copies' pages are the project's), and the work done meets it."""
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import Options
+    from spinemesh.upgrade.library import upgrade_library
+    from spinemesh.upgrade.progress import Progress
+
+    class Recorded(Progress):
+        def __init__(self):
+            self.told, self.done = [], 0
+
+        def add(self, phase, steps, project=None):
+            if phase == "pack":
+                self.told.append((steps, self.done))
+
+        def advance(self, phase, steps=1):
+            if phase == "pack":
+                self.done += steps
+
+    for name in ("hero", "villain", "zombie"):
+        make_demo_project(tmp_path / "lib" / name, with_images_folder=False)
+    progress = Recorded()
+    result = upgrade_library(tmp_path / "lib", tmp_path / "out", Options(pack=True, jobs=1), progress)
+    assert result.atlases, result.errors
+    (first, before), *later = progress.told
+    assert before == 0 and first > 0, progress.told
+    assert all(steps <= 0 for steps, _ in later), progress.told  # never grown after the first tell
+    assert sum(steps for steps, _ in progress.told) == progress.done, (progress.told, progress.done)
+
+
+def test_packing_told_ahead_for_a_project_not_packed_is_taken_back():
+    """A project whose packing did not happen (unreadable, failed first) takes its share of the
+    work told ahead back, so the work done still meets the total."""
+    from spinemesh.upgrade.pack import PackAhead, PhaseProgress
+    from spinemesh.upgrade.progress import Progress
+
+    class Recorded(Progress):
+        def __init__(self):
+            self.total = 0
+
+        def add(self, phase, steps, project=None):
+            self.total += steps
+
+    progress, ahead = Recorded(), PackAhead({"a": 10, "b": 20, "c": 5})
+    ahead.settle(progress, "c")  # before any packing: left out of the whole
+    PhaseProgress(progress, lambda: ahead.tell(progress, "a")).work(12)  # a's pages grew by 2
+    assert progress.total == 32
+    ahead.settle(progress, "a")  # packed: nothing to take back
+    ahead.settle(progress, "b")  # not packed
+    assert progress.total == 12

@@ -545,6 +545,13 @@ def _page_files(atlas, root: Path) -> list[Path]:
     return [AtlasImages.page_path(atlas, p.name, root) for p in atlas.pages]
 
 
+def project_pack_work(proj) -> int:
+    """The work :func:`pack_project_into` tells for packing ``proj`` (a :class:`~spinemesh.project.Project`):
+    each usable atlas's :func:`~spinemesh.pack.progress.atlas_work` of its pages' kilotexels, read from
+    their headers. A library run sums it over its projects before the first is packed."""
+    return sum(atlas_work(page_kilotexels(_page_files(a, proj.root))) for a in project_atlases(proj).values())
+
+
 def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int) -> AtlasRow:
     rect = [r for r in packed.regions if not r.by_outline]
     reasons = Counter(r.reason.split(" (")[0] for r in rect)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from ..written_folder import check_written_folder, mark_written_folder, rewritin
 from .bending import HabitsReading, bending_tests, start_habits
 from .meshing import Meshing, finish_meshing, start_meshing
 from .options import Options
+from .pack import PackAhead
 from .plan import ProjectPlan, ProjectReading, decode_pages_ahead, page_prefetch, plan_read_project, read_project
 from .progress import SILENT, Progress
 from .report import Result, mark_would_mesh, merge
@@ -98,19 +100,22 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
     # docstring); how far ahead is bounded by the pixels sent and not yet written.
     cache: dict = {}
     inflight: dict = {}
+    folders = find_projects(library)
+    # --pack: the whole packing work known before the first project is packed (its total grew by projects)
+    packing = PackAhead.of(library, folders) if options.pack and not options.dry_run else None
     with open_workers(options.jobs, options.dask) as workers:
         prefetch = page_prefetch(workers)
         ahead: deque[_LibraryProject] = deque()
         read: _LibraryProject | None = None  # read, its pages decoding, not planned yet
-        for folder in [*find_projects(library), None]:
+        for folder in [*folders, None]:
             following = _read_library_project(library, folder, options, workers, prefetch, progress) if folder else None
             if read is not None:
                 ahead.append(_plan_library_project(read, workers, cache, inflight, progress))
                 while ahead and sum(p.pixels for p in ahead) > AHEAD_PIXELS:
-                    _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
+                    _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress, packing)
             read = following
         while ahead:
-            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress)
+            _finish_library_project(ahead.popleft(), out, workers, cache, inflight, result, progress, packing)
     return result
 
 
@@ -182,11 +187,13 @@ def _plan_library_project(p: _LibraryProject, workers: Workers, cache: dict, inf
 
 
 def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cache: dict, inflight: dict,
-                            result: Result, progress: Progress) -> None:
+                            result: Result, progress: Progress, packing: PackAhead | None = None) -> None:
     progress.project(p.rel)
     if p.plan is not None and p.options.dry_run:
         mark_would_mesh(p.result)
     elif p.plan is not None:
+        if packing is not None:
+            p.plan.pack_told = functools.partial(packing.tell, progress, p.rel)
         t0 = time.perf_counter()
         tests = bending_tests(p.plan, workers)  # --weights auto: tested as their meshes arrive
         meshes = finish_meshing(p.meshing, p.plan.tasks, workers, cache=cache, inflight=inflight,
@@ -196,4 +203,6 @@ def _finish_library_project(p: _LibraryProject, out: Path, workers: Workers, cac
             finish_project(p.plan, meshes, out / p.rel, p.result, progress, workers)
         except SpineMeshError as e:
             p.result.errors.append(str(e))
+    if packing is not None:
+        packing.settle(progress, p.rel)
     merge(result, p.result, "" if p.rel == "." else p.rel + "/")

@@ -19,7 +19,7 @@ from .report import Result
 
 
 def pack_written(out: Path, result: Result, options=None, workers=None, progress: Progress = SILENT,
-                 source: Project | None = None) -> None:
+                 source: Project | None = None, told=None) -> None:
     """Pack every atlas of the project just written to ``out``; rows go to ``result.atlases``.
 
     The ``--pack`` stage of :mod:`.run`, after the files are written: it changes no document,
@@ -44,6 +44,9 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
         so what they draw counts in the packing as it is. Its problems are in
         ``result.errors`` already: the same problem of a copy in ``out`` (an atlas whose page
         the export lacks) is not said again.
+    told : callable, optional
+        ``told()``: the work of this packing the ``pack`` phase was told ahead (a library run's
+        :meth:`PackAhead.tell`), so that its own tells only the difference; default: none.
     """
     from ..pack.run import PackOptions, PackResult, pack_project_into
     from ..pack.uses import collect_uses
@@ -64,7 +67,7 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
             if path not in given and is_skeleton_file(path)
             and not (out / (rel := path.relative_to(source.root))).is_file()}
         pack_project_into(written, out, pack_options, packed, uses=collect_uses(written, others), workers=workers,
-                          progress=PhaseProgress(progress))
+                          progress=PhaseProgress(progress, told))
     except SpineMeshError as e:
         result.errors.append(f"not packed: {e}")
     result.atlases += packed.atlases
@@ -76,15 +79,19 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
 
 
 class PhaseProgress:
-    """Packing's progress (:class:`spinemesh.pack.run.PackProgress`) told as the upgrade's ``pack`` phase."""
+    """Packing's progress (:class:`spinemesh.pack.run.PackProgress`) told as the upgrade's ``pack``
+    phase; ``told()``: the part of the project's work told ahead (:class:`PackAhead`), if any."""
 
-    def __init__(self, progress: Progress):
+    def __init__(self, progress: Progress, told=None):
         self.progress = progress
+        self.told = told
         self.whole = False  # the project's whole work told: each atlas's first steps are in it
         self.begun: set[str] = set()
 
     def work(self, steps: int) -> None:
-        self.progress.add("pack", steps)
+        ahead = self.told() if self.told is not None else 0
+        if steps != ahead:  # told ahead alike (the upgraded copies' pages are the project's): the total stands
+            self.progress.add("pack", steps - ahead)
         self.whole = True
 
     def atlas(self, name: str, steps: int) -> None:
@@ -101,3 +108,46 @@ class PhaseProgress:
 
     def done(self, name: str) -> None:
         pass
+
+
+class PackAhead:
+    """A library run's packing work, known before its first project is packed: each project's
+    (:func:`spinemesh.pack.run.project_pack_work`, from the projects as found; their upgraded
+    copies' pages are the same files), told to the ``pack`` phase as a whole when the first
+    is packed, so that its total and time left stand from then on; they grew project by project.
+
+    ``work``: each project's work by its path under the library.
+    """
+
+    def __init__(self, work: dict[str, int]):
+        self.work = dict(work)
+        self.told = False
+
+    def tell(self, progress: Progress, rel: str) -> int:
+        """The work of project ``rel`` told ahead (the whole, first, at the first call); its own
+        packing tells only how far it differs (:class:`PhaseProgress`)."""
+        if not self.told:
+            self.told = True
+            progress.add("pack", sum(self.work.values()))
+        return self.work.pop(rel, 0)
+
+    def settle(self, progress: Progress, rel: str) -> None:
+        """Project ``rel`` is done: work told ahead for a packing that did not happen (the project
+        could not be read, or failed before its packing) is taken back."""
+        left = self.work.pop(rel, 0)
+        if left and self.told:
+            progress.add("pack", -left)
+
+    @classmethod
+    def of(cls, library: Path, folders: list[Path]) -> "PackAhead":
+        """The packing work of the projects in ``folders`` under ``library`` (0 for one that
+        cannot be found as a project: said when it is upgraded)."""
+        from ..pack.run import project_pack_work
+
+        work = {}
+        for folder in folders:
+            try:
+                work[folder.relative_to(library).as_posix()] = project_pack_work(find_project(folder))
+            except SpineMeshError:
+                continue
+        return cls(work)

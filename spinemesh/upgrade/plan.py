@@ -532,6 +532,9 @@ class ProjectPlan:
     #: --weights auto: the regions that may bend being tested as their meshes arrive
     #: (:func:`.bending.bending_tests`), until :func:`.bending.settle_bending`
     bending: object = None
+    #: --pack in a library run: ``pack_told()``, the packing work told ahead for this project
+    #: (:meth:`.pack.PackAhead.tell`)
+    pack_told: object = None
 
 
 @dataclass

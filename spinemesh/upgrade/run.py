@@ -194,7 +194,7 @@ def finish_project(plan: ProjectPlan, meshes: dict[str, MeshResult], out: Path, 
     if plan.options is not None and plan.options.pack:
         # --pack changes no document: it packs the atlases by the skeleton files written
         # (a game loads those), --repack's untrimmed pages included, so it runs last, in place
-        pack_written(out, result, plan.options, workers, progress, source=plan.project)
+        pack_written(out, result, plan.options, workers, progress, source=plan.project, told=plan.pack_told)
     # every stage counted once: the meshing, the weights and the packing have lines of their own
     others = (result.seconds["weights"] - weights_before) + (result.seconds.get("pack", 0.0) - pack_before) \
         + (result.seconds["mesh"] - mesh_before)
