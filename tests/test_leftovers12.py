@@ -439,3 +439,15 @@ def test_packing_told_ahead_for_a_project_not_packed_is_taken_back():
     ahead.settle(progress, "a")  # packed: nothing to take back
     ahead.settle(progress, "b")  # not packed
     assert progress.total == 12
+
+
+
+def test_pose_says_its_output_with_control_characters_escaped(tmp_path):
+    """``pose --out`` said the file it wrote as given: an ESC in its name reached the terminal raw
+    (as every line a command prints, the name is escaped now)."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    r = run_cli("pose", "p/demo.json", "--out", "po\x1b[31mses.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "\x1b" not in r.stderr and "po\\x1b[31mses.json: 1 poses" in r.stderr, repr(r.stderr)

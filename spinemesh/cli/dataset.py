@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..errors import escaped
 from ..limits import MAX_JOBS
 from ._app import Annotated, Optional, app, console_text, console, err_console, progress_bar
 
@@ -155,4 +156,4 @@ def dataset_stats_cmd(
     console.print(t)
     console.print(f"total image area {stats['pixels'] / 1e6:.1f} Mpx")
     written = plot_stats(stats, plots or Path(ds) / "stats")
-    console.print("plots: " + ", ".join(str(p) for p in written), markup=False)
+    console.print(escaped("plots: " + ", ".join(str(p) for p in written)), markup=False)

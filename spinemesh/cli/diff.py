@@ -7,6 +7,7 @@ from typing import List, Optional
 
 import typer
 
+from ..errors import escaped
 from ..runs import EXIT_BAD_INPUT
 from ._app import Annotated, app, console_text, console, progress_bar
 from ._summary import print_errors
@@ -70,7 +71,7 @@ def diff(
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(result.rows)} attachments compared, {len(result.skipped)} skipped")
-    console.print(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}", markup=False)  # paths, no markup
+    console.print(escaped(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}"), markup=False)  # paths, no markup
 
 
 def _skipped_said(skipped: list[dict]) -> str:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import typer
 
+from ..errors import escaped
 from ._app import Annotated, Optional, app, console_text, err_console, positive_finite
 
 #: At most this many times in one call (each is a pose of every bone and attachment).
@@ -97,10 +98,10 @@ def pose(
     unplayable = _say_unplayable(sampler, animation, skeleton)
     not_numbers = _write_poses(sampler, animation, seconds, fps, skeleton, out, stdout)
     if not_numbers:
-        err_console.print(f"warning: {not_a_number_said(not_numbers, skeleton)}", highlight=False, markup=False,
+        err_console.print(escaped(f"warning: {not_a_number_said(not_numbers, skeleton)}"), highlight=False, markup=False,
                           soft_wrap=True)
     if out is not None:
-        err_console.print(f"{out}: {len(dump_labels(animation, seconds))} poses", highlight=False, markup=False)
+        err_console.print(escaped(f"{out}: {len(dump_labels(animation, seconds))} poses"), highlight=False, markup=False)
     if undrawn or unplayable:
         raise typer.Exit(EXIT_PARTIAL)
 
@@ -117,7 +118,7 @@ def _say_undrawn(doc: dict, skin: str | None, skeleton: Path) -> int:
     problems = [problem for ref, problem in checked_attachments(doc)
                 if problem and ref.skin in skins and ref.type in IMAGE_TYPES]
     for line in unusable_said(problems, skeleton, "{problem}; not drawn", "{more} more attachments not drawn"):
-        err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
+        err_console.print(escaped(f"warning: {line}"), highlight=False, markup=False, soft_wrap=True)
     return len(problems)
 
 
@@ -137,7 +138,7 @@ def _say_unplayable(sampler, animation: str | None, skeleton: Path) -> int:
         return 0  # said where the poses are made
     said = [unplayable_said(animation, problem, "posed linear here") for problem in problems]
     for line in unusable_said(said, skeleton, "{problem}", "{more} more curves no runtime plays"):
-        err_console.print(f"warning: {line}", highlight=False, markup=False, soft_wrap=True)
+        err_console.print(escaped(f"warning: {line}"), highlight=False, markup=False, soft_wrap=True)
     return len(problems)
 
 

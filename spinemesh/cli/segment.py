@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 
+from ..errors import escaped
 from ..runs import EXIT_BAD_INPUT
 from ._app import Annotated, MaskSource, Optional, app, console, err_console, finite, progress_bar
 from ._summary import print_errors
@@ -117,7 +118,7 @@ def segment_eval(
     console.print(_scores_table(sprites, games, scores))
     if worst:
         atomic_write_png(worst, worst_cases_picture(sprites, per_image, methods["network"]))
-        console.print(f"worst cases: {worst}", markup=False)
+        console.print(escaped(f"worst cases: {worst}"), markup=False)
     result = {"sprites": len(sprites), "projects": sorted({s.project for s in sprites}), "games": games,
               "data": [str(d) for d in data], "scores": scores,
               "network_worst": [{"iou": round(iou, 4), "background": kind, "sprite": sprites[si].name}
