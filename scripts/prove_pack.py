@@ -408,8 +408,8 @@ def mip_texel_difference(original: np.ndarray, packed: np.ndarray, at_original: 
 def mip_texel_differences(original_atlas, packed_atlas, region_uses: dict, pinned: str,
                           levels: int = MIP_LEVELS) -> dict:
     """Per level ``1..levels``: ``(largest difference /255, regions over TOLERANCE, regions
-    compared)`` of :func:`mip_texel_difference` over the regions of two atlases of one project
-    (a region stored turned otherwise after packing is not compared)."""
+    compared)`` of :func:`mip_texel_difference` over the regions of two atlases of one project,
+    each region's original neighbourhood turned as packing stored it (:func:`_turned_like`)."""
     import cv2
 
     from spinemesh.images import load_rgba
@@ -433,19 +433,43 @@ def mip_texel_differences(original_atlas, packed_atlas, region_uses: dict, pinne
 
     before, after = placed(original_atlas), placed(packed_atlas)
     orig_pages, packed_pages = pages(original_atlas), pages(packed_atlas)
+    # each region's original neighbourhood turned as it is stored on the packed page
+    turned = {key: _turned_like(orig_pages[before[key][0]], before[key], core, packed_pages[page], (r0, c0))
+              for key, (page, r0, c0, core, *_) in after.items() if key in before}
     result = {}
     for level in range(1, levels + 1):
         worst, over, compared = 0.0, 0, 0
         for key, (page, r0, c0, core, degrees, pma, _) in after.items():
-            if key not in before or before[key][4] != degrees or before[key][3].shape != core.shape:
+            if turned.get(key) is None:
                 continue
             drawn = cv2.erode(core.astype(np.uint8), np.ones((3, 3), np.uint8), borderValue=0).astype(bool)
-            o = before[key]
-            e = mip_texel_difference(orig_pages[o[0]], packed_pages[page], (o[1], o[2]), (r0, c0), drawn, level, pma,
-                                     own=o[6], core=o[3])
+            window, at = turned[key]
+            e = mip_texel_difference(window, packed_pages[page], at, (r0, c0), drawn, level, pma)
             worst, over, compared = max(worst, e), over + (e > TOLERANCE), compared + 1
         result[level] = (worst, over, compared)
     return result
+
+
+def _turned_like(page: np.ndarray, placed: tuple, core: np.ndarray, packed: np.ndarray, at_packed: tuple[int, int]):
+    """A region's neighbourhood on its original page (its own texels only: its stored rectangle
+    and footprint core, the rest zero; the page's edge repeated past it) turned as the region is
+    stored on the packed page, and where its core lies in it: ``(window, (row, column))``. The
+    turn is the one that brings the original's texels under the core onto the packed page's
+    (packing copies them unchanged); None when no turn does (not compared)."""
+    _, r0, c0, core0, _, _, own = placed
+    m = 2 << MIP_LEVELS
+    h, w = core0.shape
+    window = _page_window(page, r0 - m, r0 + h + m, c0 - m, c0 + w + m, (own, core0, (r0, c0)))
+    mine = packed[at_packed[0]:at_packed[0] + core.shape[0], at_packed[1]:at_packed[1] + core.shape[1]]
+    for k in range(4):
+        turned = np.rot90(window, k)
+        turned_core = np.rot90(core0, k)
+        if turned_core.shape != core.shape or not np.array_equal(turned_core, core):
+            continue
+        there = turned[m:m + core.shape[0], m:m + core.shape[1]]
+        if mine.shape == there.shape and np.array_equal(mine[core], there[core]):
+            return turned, (m, m)
+    return None
 
 
 def prove_mipmaps(source: Path, out: Path, atlas_rel: str, uses) -> tuple[int, int, list[str], list]:

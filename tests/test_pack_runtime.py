@@ -78,7 +78,7 @@ def test_packed_corpus_project_renders_alike(name, corpus, spine_runtime, tmp_pa
         # jt-mia's hands hold art their meshes do not draw, which that level averages in
         for r in proved:
             level1 = next(t for t in r.mip_texels if t[0] == 1)
-            assert level1[1] <= 2 and level1[2] == 0 and level1[3] >= 10, r.mip_texels
+            assert level1[1] <= 2 and level1[2] == 0 and level1[3] >= 30, r.mip_texels
 
 
 def _turned(atlas: Path) -> int:
