@@ -1057,12 +1057,16 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     result.errors += uses.problems
     # a page image named by two atlases (twin exports) would be rewritten under the other's feet
     by_page = Counter(f.resolve() for a in atlases.values() for f in set(_page_files(a, proj.root)))
+    named_by_unused = pages_named_by_unused(proj, set(by_page))
     jobs = []
     for path, atlas in atlases.items():
         files = _page_files(atlas, proj.root)
         shared = any(by_page[f.resolve()] > 1 for f in files)
+        unused = next((named_by_unused[f.resolve()] for f in files if f.resolve() in named_by_unused), None)
         # pages that disagree with their images or with each other (page_mismatches) are kept as they are
         refused = ("its page images are shared with another atlas" if shared
+                   else f"its page images are also named by {unused.relative_to(proj.root).as_posix()}, an atlas "
+                        "spinemesh does not use but a runtime may load" if unused is not None
                    else atlas.mismatches[0].message if atlas.mismatches else "")
         jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
                              uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews,
@@ -1082,6 +1086,44 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     files = [] if in_place else proj.files  # only files inside the project by real path (find_project)
     result.errors += copy_atlases_last([(f, out / f.relative_to(proj.root)) for f in files if f.resolve() not in skip],
                                        atlas_pages(proj), copy_unless_written)
+
+
+def pages_named_by_unused(proj: Project, pages: set[Path]) -> dict[Path, Path]:
+    """The page files of ``pages`` (real paths) that an atlas of ``proj`` left out names, each with
+    that atlas (``proj.broken_atlases``, filled by :func:`~spinemesh.project.project_atlases`).
+
+    spinemesh leaves such an atlas out (its line says why), but a runtime may load it all the
+    same (a page ``scale:`` beyond the limits, a region field the runtimes pass over): a page it
+    names is shared, and packed for another atlas it would draw other texels. Its lines are
+    scanned, not parsed (it may not parse): a line that names one of ``pages`` from the atlas's
+    folder counts (a region named like a page file only keeps more atlases). A file that cannot
+    be read at all, or is beyond the atlas size limit, counts as naming every one of ``pages``.
+    """
+    from ..files.inside import resolve_inside
+    from ..limits import check_file_size
+
+    found: dict[Path, Path] = {}
+    names = {p.name for p in pages}
+    root = proj.root.resolve()
+    for path in proj.broken_atlases:
+        try:
+            check_file_size(path, "atlas")
+            text = path.read_bytes().decode("utf-8", "replace")
+            folder = path.parent.resolve().relative_to(root).as_posix()
+        except (OSError, SpineMeshError, ValueError):
+            found.update((p, path) for p in pages if p not in found)
+            continue
+        for line in text.splitlines():
+            name = line.strip().lstrip("\ufeff").strip()
+            if not name or as_written(name).rsplit("/", 1)[-1] not in names:
+                continue
+            try:
+                page = resolve_inside(proj.root, f"{folder}/{name}", path).resolve()
+            except (SpineMeshError, OSError):  # a name that leaves the project names none of them
+                continue
+            if page in pages:
+                found.setdefault(page, path)
+    return found
 
 
 def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):

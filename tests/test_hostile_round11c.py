@@ -1,0 +1,107 @@
+"""Hostile round eleven, third part: what ``pack`` and ``upgrade --pack`` may get wrong.
+
+``pack`` rewrites the page images every runtime samples. Each case is the demo project upgraded to
+meshes (``meshed``, made by our own code), then given what an export or a studio's folder may
+hold: pages shared across atlases, atlases that disagree with their pages, page formats that are
+already as small as they get. What is promised (docs/safety.md, "Pages that pack and upgrade
+--pack write"): packing one atlas never breaks another, a page is written only when it comes back
+texel for texel, and an atlas's files never grow.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _copy(meshed: Path, dest: Path) -> Path:
+    shutil.copytree(meshed, dest, ignore=shutil.ignore_patterns(".*"))
+    return dest
+
+
+def _cli(*args, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "COLUMNS": "250", "NO_COLOR": "1"}
+    r = subprocess.run([sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=env,
+                       capture_output=True, text=True, timeout=120, check=False)
+    assert "Traceback" not in r.stdout + r.stderr, r.stderr[-3000:]
+    return r
+
+
+def _rows(report: Path) -> dict[str, dict]:
+    return {row["atlas"]: row for row in json.loads(report.read_text())["atlases"]}
+
+
+# --- pages shared across atlases --------------------------------------------------------------
+
+#: A second atlas naming the demo's page that spinemesh leaves out but a runtime loads: a page
+#: ``scale:`` beyond spinemesh's limits (the runtimes do not read it), and one naming a page the
+#: export lacks besides (a runtime fails on it; the atlas still names the page).
+UNUSED_TWINS = {
+    "scale": lambda text: text.replace("filter: Linear, Linear", "filter: Linear, Linear\n\tscale: 5000", 1),
+    "missing page": lambda text: text + "\nmissing.png\n\tsize: 64, 64\nzz\n\tbounds: 0, 0, 8, 8\n",
+}
+
+
+@pytest.mark.parametrize("twin", list(UNUSED_TWINS))
+@pytest.mark.parametrize("command", ["pack", "upgrade"])
+def test_a_page_an_unused_atlas_names_is_never_packed_for_another(meshed, tmp_path, twin, command):
+    """``b.atlas`` names ``demo.png`` as ``demo.atlas`` does, but spinemesh leaves it out (its line
+    says why): packed for ``demo.atlas``, the page drew other texels under ``b.atlas`` (the official
+    4.2 runtime loads it, scale and all), with exit 3 for ``b.atlas``'s line alone."""
+    project = _copy(meshed, tmp_path / "p")
+    (project / "b.atlas").write_text(UNUSED_TWINS[twin]((project / "demo.atlas").read_text()))
+    extra = ["--pack"] if command == "upgrade" else []
+    r = _cli(command, project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1", *extra,
+             cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    assert "b.atlas" in r.stderr and "atlas not used" in r.stderr
+    row = _rows(tmp_path / "r.json")["demo.atlas"]
+    assert row["status"] == "kept" and "also named by b.atlas" in row["reason"], row
+    assert (tmp_path / "o" / "demo.png").read_bytes() == (project / "demo.png").read_bytes()
+    assert (tmp_path / "o" / "b.atlas").read_bytes() == (project / "b.atlas").read_bytes()
+
+
+def test_the_unused_atlas_draws_as_before_in_the_runtime(meshed, tmp_path, spine_runtime):
+    """The proof behind the case above: ``b.atlas`` (page ``scale: 5000``) loads in the official
+    4.2 runtime and draws the demo; after ``pack`` it draws the same pixels (it drew 23,056 of them
+    otherwise, the page packed for ``demo.atlas``)."""
+    from runtime_tool import render, render_difference
+
+    project = _copy(meshed, tmp_path / "p")
+    (project / "b.atlas").write_text(UNUSED_TWINS["scale"]((project / "demo.atlas").read_text()))
+    _cli("pack", project, "--out", tmp_path / "o", "-j", "1", cwd=tmp_path)
+    before = render(spine_runtime, project / "b.atlas", project / "demo.json", None, "0", tmp_path / "r" / "a")
+    after = render(spine_runtime, tmp_path / "o" / "b.atlas", tmp_path / "o" / "demo.json", None, "0",
+                   tmp_path / "r" / "b", frame_from=tmp_path / "r" / "a.frame.json")
+    assert before and len(before) == len(after)
+    for a, b in zip(before, after):
+        diff = render_difference(a, b)
+        assert diff["off"] == 0 and diff["lost"] == 0, diff
+
+
+def test_an_atlas_that_cannot_be_read_keeps_every_page(meshed, tmp_path):
+    """An atlas beyond the size limit (or unreadable) may name any page: none is packed."""
+    from spinemesh.pack.run import pages_named_by_unused
+    from spinemesh.project import find_project, project_atlases
+
+    project = _copy(meshed, tmp_path / "p")
+    big = project / "big.atlas"
+    with open(big, "wb") as f:
+        f.truncate(256 * 1024 * 1024 + 1)  # sparse: one byte over MAX_DOCUMENT_BYTES
+    (project / "other.atlas").write_text("demo.png\nsize: 512, 256\nscale: 1e9\n")
+    proj = find_project(project)
+    pages = {f.resolve() for a in project_atlases(proj).values() for f in [project / a.pages[0].name]}
+    found = pages_named_by_unused(proj, pages)
+    assert set(found) == pages and found[(project / "demo.png").resolve()] in (big, project / "other.atlas")
+    big.unlink()
+    proj = find_project(project)
+    project_atlases(proj)
+    assert pages_named_by_unused(proj, pages) == {(project / "demo.png").resolve(): project / "other.atlas"}
