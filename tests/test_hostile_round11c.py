@@ -105,3 +105,52 @@ def test_an_atlas_that_cannot_be_read_keeps_every_page(meshed, tmp_path):
     proj = find_project(project)
     project_atlases(proj)
     assert pages_named_by_unused(proj, pages) == {(project / "demo.png").resolve(): project / "other.atlas"}
+
+
+# --- what the table and the report say of an atlas written as it was ---------------------------
+
+def _jpeg_twin(project: Path) -> None:
+    from PIL import Image
+
+    Image.open(project / "demo.png").convert("RGB").save(project / "other.jpg", quality=90)
+    (project / "other.atlas").write_text((project / "demo.atlas").read_text().replace("demo.png", "other.jpg", 1))
+
+
+def _broken_twin(project: Path) -> None:
+    """A second atlas whose page's header reads but whose image data does not decode."""
+    shutil.copy(project / "demo.png", project / "other.png")
+    (project / "other.atlas").write_text((project / "demo.atlas").read_text().replace("demo.png", "other.png", 1))
+    data = bytearray((project / "other.png").read_bytes())
+    at = data.find(b"IDAT")
+    data[at + 20:at + 60] = bytes(40)
+    (project / "other.png").write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize(("twin", "status", "code"), [(_jpeg_twin, "kept", 0), (_broken_twin, "failed", 3)],
+                         ids=["jpeg page kept", "page that does not decode"])
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_an_atlas_written_as_it_was_counts_its_texels_and_bytes(meshed, tmp_path, twin, status, code, jobs):
+    """An atlas kept before its pages are decoded (a JPEG page) or failed was counted as 0 page
+    texels: the total said ``131,072 -> 65,536 (-50%)`` for a project whose pages went from
+    262,144 to 196,608 texels (-25%). Its texels come from its pages' headers, its bytes are its
+    files' on disk, and the totals are the rows' sums."""
+    from PIL import Image
+
+    project = _copy(meshed, tmp_path / "p")
+    twin(project)
+    r = _cli("pack", project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", jobs, cwd=tmp_path)
+    assert r.returncode == code, r.stderr
+    report = json.loads((tmp_path / "r.json").read_text())
+    row = {a["atlas"]: a for a in report["atlases"]}["other.atlas"]
+    page = next(project.glob("other.*g"))
+    with Image.open(page) as im:
+        texels = im.width * im.height
+    on_disk = page.stat().st_size + (project / "other.atlas").stat().st_size
+    assert row["status"] == status
+    assert (row["texels_before"], row["texels_after"], row["bytes_before"], row["bytes_after"]) == \
+        (texels, texels, on_disk, on_disk), row
+    for key in ("texels_before", "texels_after", "bytes_before", "bytes_after"):
+        assert report["totals"][key] == sum(a[key] for a in report["atlases"])
+    total = report["totals"]
+    assert total["texels_before"] == 2 * texels  # both pages, each of the demo's size
+    assert f"{total['texels_before']:,} -> {total['texels_after']:,}" in r.stdout

@@ -596,6 +596,38 @@ class AtlasOutcome:
     previews: tuple | None = None
 
 
+def files_bytes(job: AtlasJob) -> int:
+    """The bytes of ``job``'s atlas file and its page files (each once) on disk; a file that cannot
+    be read counts 0 (its atlas fails, and says why)."""
+    total = 0
+    for f in {*job.files, job.path}:
+        try:
+            total += f.stat().st_size
+        except OSError:
+            continue
+    return total
+
+
+def untouched_row(job: AtlasJob, status: str, reason: str, texels: list[np.ndarray] | None = None) -> AtlasRow:
+    """The row of an atlas written as it was (``kept`` or ``failed``): its pages, page texels and
+    bytes, the same before and after.
+
+    ``texels``: its pages as decoded, where they were read; else each page's size is read from
+    its image's header (an atlas kept before its pages are read: pages shared with another atlas,
+    a JPEG page, a ``size:`` line its image disagrees with; one whose worker was lost), 0 for a
+    page whose header cannot be read. The totals of a run sum these: an atlas counted as 0 texels
+    made a project's saving look larger than it is.
+    """
+    from ..images import image_size
+
+    sizes = ([(int(t.shape[1]), int(t.shape[0])) for t in texels] if texels
+             else [image_size(f) or (0, 0) for f in job.files])
+    texel_count = sum(w * h for w, h in sizes)
+    size = files_bytes(job)
+    return AtlasRow(job.rel, status, reason, len(job.atlas.pages), len(job.atlas.pages), texel_count, texel_count,
+                    size, size)
+
+
 def _page_by_page(task, args: list[tuple], workers, on_step) -> list:
     """``task(arg)`` for each of ``args``, in order: on ``workers`` side by side when given (all
     submitted first), else here one after another; ``on_step(1)`` as each ends."""
@@ -667,11 +699,11 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
     """
     from .parallel import FillRunner
 
-    atlas, files, options = job.atlas, job.files, job.options
+    atlas, options = job.atlas, job.options
     t0 = time.process_time()
     meter = AtlasMeter(_job_pages(job), [pages for _, pages, _ in page_groups(atlas)], on_step)
     meter.start()
-    bytes_before = sum(f.stat().st_size for f in set(files)) + job.path.stat().st_size
+    bytes_before = files_bytes(job)
     texels: list[np.ndarray] = []
     data: list[bytes] = []
     parallel = workers is not None and workers.slots > 1
@@ -713,25 +745,22 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
                 other.row.cpu_seconds = round(time.process_time() - t0, 3)
                 return other
     except PackRefused as e:
-        sizes = [(int(t.shape[1]), int(t.shape[0])) for t in texels] or [(0, 0)] * len(atlas.pages)
-        texel_count = sum(w * h for w, h in sizes)
-        row = AtlasRow(job.rel, "kept", str(e), len(atlas.pages), len(atlas.pages), texel_count, texel_count,
-                       bytes_before, bytes_before)
+        row = untouched_row(job, "kept", str(e), texels)
         outcome = AtlasOutcome(row)
         if reencode_kept and not options.keep_files_as_exported:
             outcome = kept_pages_reencoded(job, texels, data, row, workers if parallel else None, meter)
         row.cpu_seconds = round(time.process_time() - t0, 3)
         return outcome
     except SpineMeshError as e:
-        return AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(atlas.pages), len(atlas.pages),
-                                     bytes_before=bytes_before, bytes_after=bytes_before,
-                                     cpu_seconds=round(time.process_time() - t0, 3)))
+        row = untouched_row(job, "failed", str(e), texels)
+        row.cpu_seconds = round(time.process_time() - t0, 3)
+        return AtlasOutcome(row)
     except Exception as e:  # memory refused here or on a worker (MemoryError, OpenCV's, a library's): this atlas alone
         if not out_of_memory(e):
             raise
-        return AtlasOutcome(AtlasRow(job.rel, "failed", NO_MEMORY, len(atlas.pages), len(atlas.pages),
-                                     bytes_before=bytes_before, bytes_after=bytes_before,
-                                     cpu_seconds=round(time.process_time() - t0, 3)))
+        row = untouched_row(job, "failed", NO_MEMORY, texels)
+        row.cpu_seconds = round(time.process_time() - t0, 3)
+        return AtlasOutcome(row)
     row = _row_from(packed, job.rel, bytes_before, bytes_after)
     row.cpu_seconds = round(time.process_time() - t0, 3)
     return AtlasOutcome(row, encoded, text, _previews(job, texels, packed))
@@ -1156,11 +1185,11 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
             try:
                 yield future.result()
             except WorkerLost as e:
-                yield AtlasOutcome(AtlasRow(job.rel, "failed", str(e), len(job.atlas.pages), len(job.atlas.pages)))
+                yield AtlasOutcome(untouched_row(job, "failed", str(e)))
             except Exception as e:  # no memory to hand the atlas over or its outcome back: this atlas alone
                 if not out_of_memory(e):
                     raise
-                yield AtlasOutcome(AtlasRow(job.rel, "failed", NO_MEMORY, len(job.atlas.pages), len(job.atlas.pages)))
+                yield AtlasOutcome(untouched_row(job, "failed", NO_MEMORY))
             submit()
         return
     for job in jobs:
@@ -1194,7 +1223,7 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
         atomic_write_files(files)
     except SpineMeshError as e:
         result.atlases.append(AtlasRow(row.atlas, "failed", f"not written: {e}", row.pages_before, row.pages_before,
-                                       bytes_before=row.bytes_before, bytes_after=row.bytes_before))
+                                       row.texels_before, row.texels_before, row.bytes_before, row.bytes_before))
         return
     if outcome.text is None:  # kept, some pages re-encoded: the atlas and its other pages are copied as they are
         files = dict(zip((p.name for p in job.atlas.pages), job.files))
