@@ -347,3 +347,16 @@ def test_without_nonessential_data(skel: Path, js: Path):
     regions = [a for sk in doc["skins"] for sl in sk.get("attachments", {}).values() for a in sl.values()
                if a.get("type", "region") == "region"]
     assert regions and all("width" in a and "height" in a for a in regions)
+
+
+@pytest.mark.parametrize("given", ["gen-h1-1784752710547", "dGludA", "not base64!", 12345])
+def test_writer_refuses_a_hash_a_skel_cannot_hold(given):
+    """A 4.x .skel holds the editor's 8-byte hash; other tools write other strings there
+    (`gen-h1-...`), which were refused as "Incorrect padding". The line says what to do."""
+    doc = {"skeleton": {"hash": given, "spine": "4.2.40"}, "bones": [{"name": "root"}]}
+    with pytest.raises(SkelFormatError, match=r"hash of 8 bytes in base64.*remove the hash"):
+        encode_skel(doc)
+    doc["skeleton"]["hash"] = "itfFESDjM+Q"
+    assert read_skel(encode_skel(doc))["skeleton"]["hash"] == "itfFESDjM+Q"
+    del doc["skeleton"]["hash"]
+    assert read_skel(encode_skel(doc))["bones"] == [{"name": "root"}]

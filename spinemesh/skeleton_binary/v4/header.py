@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import binascii
 import struct
 
 from ..symmetric import fld, text
@@ -19,11 +20,7 @@ def header(s, doc: dict, extra: dict) -> tuple[Layout, bool]:
             raise s.fail("a version string", 8)
         sk["spine"] = version
     else:
-        h = sk.get("hash")
-        raw = base64.b64decode(h + "=" * (-len(h) % 4)) if h else b"\0" * 8
-        if len(raw) != 8:
-            raise s.fail(f"an 8-byte base64 hash, got {h!r}")
-        s.raw(raw)
+        s.raw(_hash_bytes(s, sk.get("hash")))
         version = s.string(str(sk.get("spine", "")))
     layout = _layout(s, version)
     for key in ("x", "y", "width", "height"):
@@ -41,3 +38,22 @@ def header(s, doc: dict, extra: dict) -> tuple[Layout, bool]:
     if s.reading and not nonessential:
         extra["nonessential"] = False
     return layout, nonessential
+
+
+def _hash_bytes(s, h) -> bytes:
+    """The 8 bytes a 4.x ``.skel`` holds for the JSON's ``hash`` (their base64); zeros for none.
+
+    Tools besides the editor write other hashes (``"gen-h1-1784752710547"``): a ``.skel`` has no
+    room for them, and dropping one would not be the skeleton as written, so it is refused in
+    words that say what to do (``base64`` alone skipped the ``-`` and said "Incorrect padding").
+    """
+    if not h:
+        return b"\0" * 8
+    try:
+        raw = base64.b64decode(h + "=" * (-len(h) % 4), validate=True) if isinstance(h, str) else b""
+    except (binascii.Error, ValueError):
+        raw = b""
+    if len(raw) != 8:
+        raise s.fail(f"a skeleton hash of 8 bytes in base64 as the Spine editor writes, got {h!r}"
+                     " (a .skel has room for no other: remove the hash from the JSON to convert it)")
+    return raw
