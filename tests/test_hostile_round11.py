@@ -145,6 +145,30 @@ def test_a_skel_bound_to_a_bone_of_all_but_parallel_axes_is_drawn_where_the_regi
     ok, text = compare_dumps(spine_runtime, tmp_path / "p.dump.json", tmp_path / "o.dump.json")
     assert ok, text
 
+
+@pytest.mark.parametrize("bone", [{"scaleX": 1e9, "scaleY": 1e9}, {"length": 1e9}], ids=["scaled 1e9", "1e9 long"])
+def test_upgrade_weights_a_region_crossed_by_a_bone_a_billion_units_long_in_seconds(tmp_path, spine_runtime, bone):
+    """The rig-aware vertices of ``upgrade --weights auto`` stepped along every bone segment
+    point by point, the points off the art dropped after: ``seg2`` a billion units long was
+    stepped through for hours, its memory growing (the run never ended). Only the steps over the
+    art's box are taken now; the worm is weighted and drawn where the region was."""
+    from runtime_tool import compare_dumps, dump
+
+    make_worm_project(tmp_path / "p")
+    doc = worm_skeleton()
+    _bone(doc, "seg2").update(bone)
+    (tmp_path / "p" / "worm.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    r = run_cli("upgrade", "p", "--out", "o", "--weights", "auto", "--min-saving", "0", cwd=tmp_path, timeout=60)
+    check_run(r, before, tmp_path, ["o"], codes=(0,))
+    assert "1 of 1 new meshes weighted" in r.stdout + r.stderr, r.stdout + r.stderr
+    for side in ("p", "o"):
+        dump(spine_runtime, tmp_path / side / "worm.atlas", tmp_path / side / "worm.json", None, "0",
+             tmp_path / f"{side}.dump.json")
+    ok, text = compare_dumps(spine_runtime, tmp_path / "p.dump.json", tmp_path / "o.dump.json")
+    assert ok, text
+
+
 def _set(bone: str, **fields):
     return lambda doc: _bone(doc, bone).update(fields)
 

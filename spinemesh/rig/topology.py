@@ -84,6 +84,29 @@ def _row(loop: np.ndarray, start: np.ndarray, normal: np.ndarray, spacing: float
     return list(cand[_inside(loop, cand, min(margin, reach / (count + 1) / 2))])
 
 
+def _steps_over(a: np.ndarray, d: np.ndarray, n: float, spacing: float, lo: np.ndarray,
+                hi: np.ndarray) -> tuple[int, int]:
+    """The first and last ``k`` (from 1) whose point ``a + d * k * spacing / n``, of the segment
+    from ``a`` along ``d`` (length ``n``), lies in the box ``lo``..``hi``; ``(1, 0)`` for none.
+
+    Examples
+    --------
+    >>> _steps_over(np.array([-1e9, 0.0]), np.array([2e9, 0.0]), 2e9, 4.0, np.zeros(2), np.full(2, 10.0))
+    (250000000, 250000002)
+    """
+    t0, t1 = 0.0, 1.0  # the part of the segment in the box (Liang and Barsky's clipping)
+    for axis in range(2):
+        if d[axis] == 0:
+            if not lo[axis] <= a[axis] <= hi[axis]:
+                return 1, 0
+            continue
+        ends = sorted(((lo[axis] - a[axis]) / d[axis], (hi[axis] - a[axis]) / d[axis]))
+        t0, t1 = max(t0, ends[0]), min(t1, ends[1])
+    if t0 > t1:
+        return 1, 0
+    return max(1, int(np.ceil(t0 * n / spacing))), int(np.floor(t1 * n / spacing))
+
+
 def rig_points(vertices: np.ndarray, hull: int, segments: np.ndarray, parents: list[int | None],
                budget: int) -> np.ndarray:
     """Candidate vertices for the joints, rows across joints and bone segments, in priority order.
@@ -124,8 +147,10 @@ def rig_points(vertices: np.ndarray, hull: int, segments: np.ndarray, parents: l
                 normal = np.array([-direction[1], direction[0]]) / np.linalg.norm(direction)
                 rows += _row(loop, a, normal, spacing, margin) + _row(loop, a, -normal, spacing, margin)
         if n > 0:
-            steps = int(n // spacing)
-            for k in range(1, steps + 1):
+            # the steps over the art's box alone: the others are not on the art (a bone a billion
+            # units long was stepped through, point by point, for hours)
+            first, last = _steps_over(a, d, n, spacing, vertices.min(axis=0), vertices.max(axis=0))
+            for k in range(first, last + 1):
                 along.append(a + d * (k * spacing / n))
     cands = np.array(joints + rows + along, float).reshape(-1, 2)
     if len(cands) == 0:
