@@ -184,8 +184,8 @@ def atlas_totals(rows: list[AtlasRow]) -> dict:
 
 def page_mode(page: bytes | Path):
     """How the original page (its file's bytes, or its path) stores colours: its palette, shape
-    (n, 4) uint8 RGBA, for a palette PNG; ``"RGB"`` for a PNG without alpha (and without a
-    transparent colour: one with a tRNS chunk has texels that are not opaque, written as RGBA);
+    (n, 4) uint8 RGBA, for a palette PNG; ``"RGB"`` for a PNG without alpha, colour or grey (and
+    without a transparent colour: one with a tRNS chunk has texels that are not opaque, written as RGBA);
     else None (RGBA)."""
     from PIL import Image
 
@@ -198,7 +198,8 @@ def page_mode(page: bytes | Path):
             if "transparency" in im.info:  # tRNS: alpha per entry, or one transparent entry
                 index.info["transparency"] = im.info["transparency"]
             return np.asarray(index.convert("RGBA"))[0]
-        return "RGB" if im.format == "PNG" and im.mode == "RGB" and "transparency" not in im.info else None
+        # grey pages (of 1 to 8 bits) too: written as RGB, oxipng stores grey texels grey again
+    return "RGB" if im.format == "PNG" and im.mode in ("RGB", "L", "1") and "transparency" not in im.info else None
 
 
 #: What each colour chunk says, in words (the reason an atlas whose pages disagree is kept).
