@@ -156,6 +156,24 @@ def test_an_atlas_written_as_it_was_counts_its_texels_and_bytes(meshed, tmp_path
     assert f"{total['texels_before']:,} -> {total['texels_after']:,}" in r.stdout
 
 
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_failed_atlas_is_named_on_stderr_and_the_others_written(meshed, tmp_path, jobs):
+    """One atlas of two fails (its page does not decode), over one process and side by side: the
+    other is packed, the failed one copied byte for byte and named in one ``error:`` line on
+    stderr, as ``upgrade --pack`` names it and the exit table says (exit 3); it was in the table's
+    note on stdout alone."""
+    project = _copy(meshed, tmp_path / "p")
+    _broken_twin(project)
+    r = _cli("pack", project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", jobs, cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    (line,) = [line for line in r.stderr.splitlines() if line.strip()]
+    assert line.startswith("error: other.atlas: not packed: ") and "other.png" in line, r.stderr
+    rows = _rows(tmp_path / "r.json")
+    assert rows["demo.atlas"]["status"] == "packed" and rows["other.atlas"]["status"] == "failed"
+    for name in ("other.atlas", "other.png"):
+        assert (tmp_path / "o" / name).read_bytes() == (project / name).read_bytes()
+
+
 # --- bytes never grow ----------------------------------------------------------------------------
 
 def _png_header(data: bytes) -> tuple[int, int]:

@@ -127,7 +127,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     from ..errors import SpineMeshError
     from ..files.inputs import project_folder
     from ..output import run_report_error
-    from ..pack.run import write_report
+    from ..pack.run import failed_lines, write_report
     from ..runs import EXIT_PARTIAL
     from ..words import counted
     from ._summary import print_errors
@@ -139,7 +139,8 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
         from ..pack.preview import write_preview
 
         write_preview(result, preview, project_folder(project))
-    print_pack_table(result.atlases, result.errors)
+    # a failed atlas is named on stderr, as upgrade --pack names it (exit 3)
+    print_pack_table(result.atlases, [*result.errors, *failed_lines(result.atlases)])
     if result.atlases:
         console.print(f"{outcome_line(result.atlases)}; {seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}",
                       highlight=False)

@@ -182,6 +182,12 @@ def atlas_totals(rows: list[AtlasRow]) -> dict:
     return {k: sum(getattr(a, k) or 0 for a in rows) for k in keys}  # None: a kept atlas's regions
 
 
+def failed_lines(rows: list[AtlasRow]) -> list[str]:
+    """The error line of each atlas of ``rows`` that failed (its files copied as they were), as
+    ``pack`` and ``upgrade --pack`` print them on stderr: ``hero.atlas: not packed: why``."""
+    return [f"{a.atlas}: not packed: {a.reason}" for a in rows if a.status == "failed"]
+
+
 def page_mode(page: bytes | Path):
     """How the original page (its file's bytes, or its path) stores colours: its palette, shape
     (n, 4) uint8 RGBA, for a palette PNG; ``"RGB"`` for a PNG without alpha, colour or grey (and

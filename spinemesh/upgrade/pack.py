@@ -48,7 +48,7 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
         ``told()``: the work of this packing the ``pack`` phase was told ahead (a library run's
         :meth:`PackAhead.tell`), so that its own tells only the difference; default: none.
     """
-    from ..pack.run import PackOptions, PackResult, pack_project_into
+    from ..pack.run import PackOptions, PackResult, failed_lines, pack_project_into
     from ..pack.uses import collect_uses
 
     t0 = time.perf_counter()
@@ -71,7 +71,7 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
     except SpineMeshError as e:
         result.errors.append(f"not packed: {e}")
     result.atlases += packed.atlases
-    result.errors += [f"{a.atlas}: not packed: {a.reason}" for a in packed.atlases if a.status == "failed"]
+    result.errors += failed_lines(packed.atlases)
     said = set(result.errors)
     result.errors += [f"packing: {e}" for e in packed.errors
                       if source is None or not e.startswith(str(out)) or str(source.root) + e[len(str(out)):] not in said]
