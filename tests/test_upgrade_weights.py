@@ -566,16 +566,16 @@ def test_auto_on_workers_gives_the_output_of_this_process_for_a_project_and_a_li
     settle_bending to test, and the bending tasks are already sent."""
     import shutil
 
-    from spinemesh.upgrade import upgrade_library, write
+    from spinemesh.upgrade import apply, upgrade_library
 
     settled = []
 
-    def settle(plan, *a, f=write.settle_bending, **k):
+    def settle(plan, *a, f=apply.settle_bending, **k):
         if plan.bending is not None:
             settled.append((len(plan.bending.waiting), len(plan.bending.tasks)))
         return f(plan, *a, **k)
 
-    monkeypatch.setattr(write, "settle_bending", settle)
+    monkeypatch.setattr(apply, "settle_bending", settle)  # where the apply stage calls it
     library = tmp_path / "lib"
     _weighted_worm_and_bar(library / "both", tmp_path)
     _bar_and_half_project(library / "half")
