@@ -359,6 +359,62 @@ def test_a_folder_the_user_may_not_list_is_said(tmp_path):
         (project / "sub").chmod(0o755)
 
 
+def test_workers_the_system_refuses_to_start_never_hang_the_run(monkeypatch):
+    """``ulimit -n`` low (or a container's pids limit): starting a worker process raised
+    ``Too many open files`` in the thread that hands out tasks, which ended in a traceback while
+    the run waited for its answers for ever (``upgrade --jobs 2`` under ``ulimit -n 12``). The
+    pool goes on with the workers it has; with none, every queued task fails saying why."""
+    import errno
+    from concurrent.futures import wait as wait_all
+
+    from spinemesh.cluster import ProcessWorkers
+    from spinemesh.errors import SpineMeshError
+
+    started = []
+    real_start = ProcessWorkers._start_worker
+
+    def second_refused(self):
+        if started:
+            raise OSError(errno.EMFILE, "Too many open files")
+        started.append(True)
+        return real_start(self)
+
+    monkeypatch.setattr(ProcessWorkers, "_start_worker", second_refused)
+    with ProcessWorkers(2) as w:  # one worker starts, the second is refused: the one does the work
+        assert sorted(f.result(timeout=60) for f in [w.submit(abs, -i) for i in range(8)]) == list(range(8))
+
+    def refused(self):
+        raise OSError(errno.EMFILE, "Too many open files")
+
+    monkeypatch.setattr(ProcessWorkers, "_start_worker", refused)
+    with ProcessWorkers(2) as w:
+        futures = [w.submit(abs, -i) for i in range(4)]
+        done, waiting = wait_all(futures, timeout=30)
+        assert not waiting, "the run waits for ever"
+        for future in futures:
+            with pytest.raises(SpineMeshError, match="cannot start a worker process: Too many open files"):
+                future.result()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="descriptor limits as Linux counts them")
+def test_upgrade_under_a_low_descriptor_limit_ends(tmp_path, twenty):
+    """``upgrade --pack --jobs 2`` under ``ulimit -n 12`` and a few more: it ends within its time
+    (it hung), in one line or with every file written, never a traceback."""
+    import resource
+
+    for limit in (12, 14, 16):
+        def low(limit=limit):
+            resource.setrlimit(resource.RLIMIT_NOFILE, (limit, limit))
+
+        r = subprocess.run([sys.executable, "-m", "spinemesh", "upgrade", str(twenty), "--out", f"up{limit}",
+                            "--pack", "--preview", f"pv{limit}", "--jobs", "2"], cwd=tmp_path, env=_env(),
+                           capture_output=True, timeout=120, check=False, preexec_fn=low)
+        text = _no_traceback(r)
+        assert r.returncode in (0, 2, 3), (limit, text[-2000:])
+        if r.returncode == 2:
+            assert len([line for line in text.splitlines() if line.startswith("error:")]) == 1, text
+
+
 # --- the process: its folder, its temporary folder, its umask, another file system -------------------
 
 def test_a_current_folder_removed_is_named(tmp_path, twenty):

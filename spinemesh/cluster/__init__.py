@@ -402,10 +402,24 @@ class ProcessWorkers(Workers):
 
     def _start_worker(self) -> _Worker:
         parent_end, child_end = self._context.Pipe()
-        process = self._context.Process(target=_worker_main, args=(child_end, self._max_tasks), daemon=True)
-        process.start()
-        child_end.close()
+        try:
+            process = self._context.Process(target=_worker_main, args=(child_end, self._max_tasks), daemon=True)
+            process.start()
+        except BaseException:
+            parent_end.close()
+            raise
+        finally:
+            child_end.close()
         return _Worker(process, parent_end)
+
+    def _refuse_queued(self, error: OSError) -> None:
+        """Fail every queued task: no worker runs and the system refuses to start one."""
+        refusal = SpineMeshError(f"cannot start a worker process: {error.strerror or error} (try fewer --jobs, or "
+                                 "raise the limit: ulimit -n, ulimit -u)")
+        while self._first or self._queue:
+            task = (self._first or self._queue).popleft()
+            if task.lost or task.future.set_running_or_notify_cancel():
+                task.future.set_exception(refusal)
 
     def _hand_out(self) -> None:
         """Give queued tasks to idle workers, starting workers (up to ``jobs``) as needed."""
@@ -415,7 +429,18 @@ class ProcessWorkers(Workers):
                 if idle is None:
                     if len(self._workers) >= self.slots:
                         return
-                    idle = self._start_worker()
+                    try:
+                        idle = self._start_worker()
+                    except OSError as e:
+                        # the system refuses a process (too many open files under `ulimit -n`, no
+                        # process left under a container's pids limit): this thread ended in a
+                        # traceback and the run waited for ever. It goes on with the workers it
+                        # has; with none, the queued tasks fail, saying why
+                        if self._workers:
+                            self.slots = len(self._workers)
+                        else:
+                            self._refuse_queued(e)
+                        return
                     self._workers.append(idle)
                 task = (self._first or self._queue).popleft()
                 if not task.lost and not task.future.set_running_or_notify_cancel():
