@@ -315,6 +315,8 @@ def limit_of(reason: str, fill: float) -> str:
         return "bytes: lossy WebP pages would grow written losslessly"
     if "--larger-files" in reason:
         return "bytes: the files would grow"
+    if "under the page rules" in reason:
+        return "page rule: the pages the rules allow hold less than the footprints need"
     if "regions need" in reason:
         need = reason.split("need ")[1].split(" of")[0] + " of the page texels"
         if "no packing" in reason:

@@ -36,6 +36,7 @@ def test_limits_are_read_from_the_reasons_pack_gives(tmp_path):
             "bytes: written as it was, with the rectangles' texels only",
         next_layout_reason((800, 210), 200, (850, 190)): "bytes: packed in the next layout of fewer bytes, 81% full",
         kept_note(120, 100, 1, 100, False): "need: the footprints need 120% of the page texels",
+        kept_note(90, 100, 1, 40, False): "page rule: the pages the rules allow hold less than the footprints need",
         kept_note(90, 100, 1, 100, False):
             "placement: the footprints need 90% of the page texels, no fill placed them on fewer",
         kept_note(61 * 1024 * 512 // 100 + 1, 1024 * 512, 1, 1024 * 1024, True):

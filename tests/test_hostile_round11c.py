@@ -201,3 +201,18 @@ def test_a_grey_page_is_packed_grey(meshed, tmp_path, mode):
     assert row["status"] == "packed", row
     depth, colour_type = _png_header((tmp_path / "o" / "demo.png").read_bytes())
     assert colour_type == 0 and depth <= (1 if mode == "1" else 8), (depth, colour_type)
+
+
+# --- page rules at their edges ------------------------------------------------------------------
+
+def test_an_atlas_the_page_rules_leave_no_room_for_says_so(meshed, tmp_path):
+    """``--max-page 150``: one page of at most 150 x 150 texels cannot hold what the demo's regions
+    take, and no atlas gets more pages than it had. The note blamed the fills ("no fill tried
+    placed them on fewer"); it says what the rules allow against what the regions need. The atlas
+    is kept, its page re-encoded losslessly."""
+    r = _cli("pack", meshed, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1",
+             "--max-page", "150", "--pages", "any", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    row = _rows(tmp_path / "r.json")["demo.atlas"]
+    assert row["status"] == "kept" and "no fill tried" not in row["reason"], row
+    assert "more than one page of at most 22,500 texels holds under the page rules" in row["reason"], row

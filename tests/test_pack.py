@@ -500,6 +500,9 @@ def test_kept_notes_say_what_the_footprints_need_and_the_next_page_holds():
         "tried placed them on it"
     assert kept_note(90, 100, 1, 100, False) == \
         "its regions need 90% of the page texels, and no fill tried placed them on fewer"
+    # fewer texels than the atlas has, more than the pages the rules allow hold (--max-page)
+    assert kept_note(90, 100, 2, 40, False) == \
+        "its regions need 90 texels, more than 2 pages of at most 40 texels hold under the page rules (--max-page, --pages)"
     assert largest_pot_pages_below(2048 * 2048, 1, 2048 * 2048) == 2048 * 1024
     assert largest_pot_pages_below(3 * 512 * 512, 2, 512 * 512) == 2 * 512 * 512
     assert largest_pot_pages_below(256, 1, 2048 * 2048) == 0

@@ -409,6 +409,10 @@ def kept_note(needed: int, texels: int | None, pages: int, max_area: int, pot: b
     share = f"its regions need {needed / texels:.0%} of the page texels"
     if needed >= texels:
         return share + ", so no packing stores fewer"
+    if needed > pages * max_area:  # the page rules (--max-page), not the fills, left no room
+        held = "one page of at most" if pages == 1 else f"{pages} pages of at most"
+        return (f"its regions need {needed:,} texels, more than {held} {max_area:,} texels "
+                f"hold{'s' if pages == 1 else ''} under the page rules (--max-page, --pages)")
     if not pot:
         return share + ", and no fill tried placed them on fewer"
     below = largest_pot_pages_below(texels, pages, max_area, smallest=16 * 16)
