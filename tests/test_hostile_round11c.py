@@ -216,3 +216,107 @@ def test_an_atlas_the_page_rules_leave_no_room_for_says_so(meshed, tmp_path):
     row = _rows(tmp_path / "r.json")["demo.atlas"]
     assert row["status"] == "kept" and "no fill tried" not in row["reason"], row
     assert "more than one page of at most 22,500 texels holds under the page rules" in row["reason"], row
+
+
+# --- passed as they were, kept as tests --------------------------------------------------------
+
+def _as_page(project: Path, ext: str, **save) -> None:
+    """The demo's page stored again (another format or an optimal PNG), the atlas naming it."""
+    from PIL import Image
+
+    with Image.open(project / "demo.png") as im:
+        rgba = im.convert("RGBA")
+    (project / "demo.png").unlink()
+    if ext == ".png-palette":
+        rgba.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(project / "demo.png")
+        ext = ".png"
+    elif ext == ".jpg":
+        rgba.convert("RGB").save(project / "demo.jpg", **save)
+    else:
+        rgba.save(project / f"demo{ext}", **save)
+    if ext == ".png":
+        import oxipng
+
+        oxipng.optimize(project / "demo.png", level=6)  # as small as oxipng makes it
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace("demo.png", f"demo{ext}", 1))
+
+
+@pytest.mark.parametrize(("ext", "save"), [(".png", {}), (".png-palette", {}), (".jpg", {"quality": 90}),
+                                           (".webp", {"lossless": True, "quality": 100, "method": 6, "exact": True})],
+                         ids=["optimal RGBA PNG", "optimal palette PNG", "JPEG", "lossless WebP"])
+def test_pages_already_small_never_grow(meshed, tmp_path, ext, save):
+    """A page already as small as it gets is never written larger: packed, each of these took more
+    bytes than as exported, so the atlas is kept, its files byte for byte, and the table and the
+    report say the bytes on disk before and after."""
+    from spinemesh.atlas import read_atlas
+
+    project = _copy(meshed, tmp_path / "p")
+    _as_page(project, ext, **save)
+    r = _cli("pack", project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    row = _rows(tmp_path / "r.json")["demo.atlas"]
+    page = read_atlas(project / "demo.atlas").pages[0].name
+    on_disk = sum((folder / name).stat().st_size for folder in [tmp_path / "o"] for name in ("demo.atlas", page))
+    assert row["status"] == "kept" and row["bytes_after"] == row["bytes_before"] == on_disk, row
+    assert f"{on_disk:,} -> {on_disk:,} (same)" in r.stdout
+    for name in ("demo.atlas", page):
+        assert (tmp_path / "o" / name).read_bytes() == (project / name).read_bytes()
+
+
+def _second_atlas(project: Path, page: str, folder: str = "") -> None:
+    (project / folder).mkdir(exist_ok=True)
+    (project / folder / "b.atlas").write_text((project / "demo.atlas").read_text().replace("demo.png", page, 1))
+
+
+@pytest.mark.parametrize("how", ["./demo.png", "..\\demo.png", "symlink", "hard link"])
+def test_one_page_under_two_names_packs_for_neither_or_each_apart(meshed, tmp_path, how):
+    """A second atlas naming the demo's page another way (``./``, a Windows export's ``..\\`` from a
+    folder below, a symlink) shares it: both atlases are kept, the page copied once. A hard link is
+    two files in OUT: each atlas is packed onto its own page, and the project's files stay as they
+    were."""
+    project = _copy(meshed, tmp_path / "p")
+    if how in ("symlink", "hard link"):
+        (os.symlink if how == "symlink" else os.link)("demo.png" if how == "symlink" else project / "demo.png",
+                                                     project / "demo2.png")
+        _second_atlas(project, "demo2.png")
+    else:
+        _second_atlas(project, how, "sub" if how.startswith("..") else "")
+    before = {p: p.read_bytes() for p in project.rglob("*") if p.is_file()}
+    r = _cli("pack", project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    statuses = {row["status"] for row in _rows(tmp_path / "r.json").values()}
+    assert statuses == ({"packed"} if how == "hard link" else {"kept"}), statuses
+    if how != "hard link":
+        assert (tmp_path / "o" / "demo.png").read_bytes() == before[project / "demo.png"]
+    assert {p: p.read_bytes() for p in project.rglob("*") if p.is_file()} == before
+
+
+#: Atlas lines that disagree with the page or with themselves, which pack packs, proven by the
+#: official runtime: an ``orig`` smaller than the stored rectangle, offsets below 0 or past it,
+#: two regions on the same texels (one of them turned).
+ODD_REGIONS = {
+    "orig smaller": ("offsets: 5, 4, 90, 90", "offsets: 0, 0, 40, 40"),
+    "offsets below 0": ("offsets: 5, 4, 90, 90", "offsets: -20, -20, 90, 90"),
+    "offsets past the rectangle": ("offsets: 5, 4, 90, 90", "offsets: 30, 30, 90, 90"),
+    "overlapping turned": ("bounds: 2, 145, 25, 113", "bounds: 2, 2, 25, 113"),
+}
+
+
+@pytest.mark.parametrize("case", list(ODD_REGIONS))
+def test_regions_that_disagree_with_their_page_pack_and_draw_alike(meshed, tmp_path, spine_runtime, case):
+    from runtime_tool import render, render_difference
+
+    project = _copy(meshed, tmp_path / "p")
+    old, new = ODD_REGIONS[case]
+    atlas = project / "demo.atlas"
+    atlas.write_text(atlas.read_text().replace(old, new, 1))
+    r = _cli("pack", project, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0 and _rows(tmp_path / "r.json")["demo.atlas"]["status"] == "packed", r.stdout
+    before = render(spine_runtime, atlas, project / "demo.json", "wave", "0,0.3", tmp_path / "r" / "a")
+    after = render(spine_runtime, tmp_path / "o" / "demo.atlas", tmp_path / "o" / "demo.json", "wave", "0,0.3",
+                   tmp_path / "r" / "b", frame_from=tmp_path / "r" / "a.frame.json")
+    assert before and len(before) == len(after)
+    for a, b in zip(before, after):
+        diff = render_difference(a, b)
+        assert diff["off"] == 0 and diff["lost"] == 0, (a.name, diff)
