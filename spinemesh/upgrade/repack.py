@@ -114,7 +114,7 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
     page_pixels : callable
         ``page_pixels(page_index)`` -> (H, W, 4) uint8, the page's texels as stored.
     taken : set of str, optional
-        File names the new pages may not take, as :func:`.files.names.portable_name` gives them (one
+        File names the new pages may not take, as :func:`spinemesh.files.names.portable_name` gives them (one
         file on every disk; files beside the atlas, in the project and in the output folder:
         another atlas of the same stem writes its pages there).
 
