@@ -270,7 +270,7 @@ def test_a_data_set_member_is_checked_as_its_row_is(tmp_path, small_dataset, mem
     with pytest.raises(SpineMeshError) as e:
         (ds.load_mask if member == "mask" else ds.load_mesh)(row)
     line = str(e.value)
-    assert "\n" not in line and f"shards/" in line and f"sample {row['id']}: {said}" in line, line
+    assert "\n" not in line and "shards/" in line and f"sample {row['id']}: {said}" in line, line
 
 
 def test_a_data_set_member_of_the_right_form_still_loads(small_dataset):
