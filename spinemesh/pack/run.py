@@ -1129,11 +1129,12 @@ def pages_named_by_unused(proj: Project, pages: set[Path]) -> dict[Path, Path]:
     that atlas (``proj.broken_atlases``, filled by :func:`~spinemesh.project.project_atlases`).
 
     spinemesh leaves such an atlas out (its line says why), but a runtime may load it all the
-    same (a page ``scale:`` beyond the limits, a region field the runtimes pass over): a page it
-    names is shared, and packed for another atlas it would draw other texels. Its lines are
-    scanned, not parsed (it may not parse): a line that names one of ``pages`` from the atlas's
-    folder counts (a region named like a page file only keeps more atlases). A file that cannot
-    be read at all, or is beyond the atlas size limit, counts as naming every one of ``pages``.
+    same (a page ``scale:`` beyond the limits, which the runtimes do not read; more regions than
+    the limit): a page it names is shared, and packed for another atlas it would draw other
+    texels. Its lines are scanned, not parsed (it may not parse): a line that names one of
+    ``pages`` from the atlas's folder counts (a region named like a page file only keeps more
+    atlases). A file that cannot be read at all, or is beyond the atlas size limit, counts as
+    naming every one of ``pages``.
     """
     from ..files.inside import resolve_inside
     from ..limits import check_file_size
