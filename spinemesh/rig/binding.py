@@ -153,16 +153,21 @@ BIND_TOLERANCE = 1e-3
 
 def local_decimals(m: np.ndarray) -> int:
     """Decimals a position in the space of a bone of world transform ``m`` (shape (2, 3)) is
-    rounded to: 4, and one more per power of ten the bone scales by, so that rounding moves the
-    drawn vertex 1e-4 world units at most (a bone scaled by 1e6 holds a 240-unit mesh in 2.4e-4;
-    4 decimals drew it at the bone's origin).
+    rounded to: the fewest, and 4 at least, that move the drawn vertex 1e-4 world units at most
+    (a bone scaled by 1e6 holds a 240-unit mesh in 2.4e-4; 4 decimals drew it at the bone's
+    origin). Rounding to ``d`` decimals moves a position ``sqrt(2) / 2 * 10**-d`` at most, which
+    the bone stretches by its largest scale: 4 decimals hold up to a scale of ``sqrt(2)``, so the
+    bones of ordinary rigs (a scale of 1 read as 1.00000001 from a .skel's 32-bit floats, or
+    1.0000000000000002 from a turned bone's norm) keep 4.
 
     Examples
     --------
     >>> local_decimals(np.array([[1.0, 0, 5], [0, 1, 0]])), local_decimals(np.array([[1e6, 0, 0], [0, 2, 0]]))
     (4, 10)
+    >>> local_decimals(np.array([[0.6, -0.8, 0], [0.8, 0.6, 0]]) * 1.00000001), local_decimals(np.diag([3.0, 1.0, 0])[:2])
+    (4, 5)
     """
-    scale = float(np.linalg.norm(m[:, :2], 2))
+    scale = float(np.linalg.norm(m[:, :2], 2)) / math.sqrt(2)
     return 4 + max(0, math.ceil(math.log10(scale))) if math.isfinite(scale) and scale > 1 else 4
 
 
