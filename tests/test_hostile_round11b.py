@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import unavailable
 from test_hostile import snapshot
 
 REPO = Path(__file__).resolve().parents[1]
@@ -518,7 +519,7 @@ def test_a_game_project_upgrades_to_the_same_bytes_in_any_environment(tmp_path, 
     is the same bytes (tests/test_pipeline.py proves it on the demo)."""
     project = corpus / "chyo-sd"
     if not project.is_dir():
-        pytest.skip("chyo-sd is not in this corpus")
+        unavailable("chyo-sd is not in this corpus")
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
     args = ("upgrade", project, "--pack", "--weights", "auto")
