@@ -390,7 +390,7 @@ def test_workers_the_system_refuses_to_start_never_hang_the_run(monkeypatch):
     monkeypatch.setattr(ProcessWorkers, "_start_worker", refused)
     with ProcessWorkers(2) as w:
         futures = [w.submit(abs, -i) for i in range(4)]
-        done, waiting = wait_all(futures, timeout=30)
+        _, waiting = wait_all(futures, timeout=30)
         assert not waiting, "the run waits for ever"
         for future in futures:
             with pytest.raises(SpineMeshError, match="cannot start a worker process: Too many open files"):
