@@ -122,14 +122,21 @@ def test_a_binding_a_runtime_of_32_bit_floats_draws_elsewhere_is_refused():
     assert bind(np.array([[0.3, 0.0]]), np.ones((1, 1)), [0], worlds) == [1, 0, 0.3, 0.0, 1.0]
 
 
+def _drawn_alike(tool: Path, tmp: Path, skeleton: str) -> None:
+    """The official runtime draws ``tmp/o``'s worm in the setup pose where it draws ``tmp/p``'s."""
+    from runtime_tool import compare_dumps, dump
+
+    for side in ("p", "o"):
+        dump(tool, tmp / side / "worm.atlas", tmp / side / skeleton, None, "0", tmp / f"{side}.dump.json")
+    ok, text = compare_dumps(tool, tmp / "p.dump.json", tmp / "o.dump.json")
+    assert ok, text
+
 
 def test_a_skel_bound_to_a_bone_of_all_but_parallel_axes_is_drawn_where_the_region_was(tmp_path, spine_runtime):
     """``seg2`` sheared -89.9999 degrees: its axes all but one line, a vertex near it lies at
     millions of units in its space, and the binary format stores 32-bit floats: ``upgrade
     --weights auto`` of the ``.skel`` wrote a binding the runtime drew 0.75 texels off the art
     (exit 0). The proof now reads the numbers as 32-bit floats and keeps the mesh unweighted."""
-    from runtime_tool import compare_dumps, dump
-
     make_worm_project(tmp_path / "p")
     doc = worm_skeleton()
     _bone(doc, "seg2")["shearY"] = -89.9999
@@ -139,11 +146,7 @@ def test_a_skel_bound_to_a_bone_of_all_but_parallel_axes_is_drawn_where_the_regi
     r = run_cli("upgrade", "p", "--out", "o", "--weights", "auto", "--min-saving", "0", cwd=tmp_path)
     check_run(r, before, tmp_path, ["o"], codes=(0,))
     assert "from where it is in the setup pose" in r.stdout + r.stderr, r.stdout + r.stderr
-    for side in ("p", "o"):
-        dump(spine_runtime, tmp_path / side / "worm.atlas", tmp_path / side / "worm.skel", None, "0",
-             tmp_path / f"{side}.dump.json")
-    ok, text = compare_dumps(spine_runtime, tmp_path / "p.dump.json", tmp_path / "o.dump.json")
-    assert ok, text
+    _drawn_alike(spine_runtime, tmp_path, "worm.skel")
 
 
 @pytest.mark.parametrize("bone", [{"scaleX": 1e9, "scaleY": 1e9}, {"length": 1e9}], ids=["scaled 1e9", "1e9 long"])
@@ -152,8 +155,6 @@ def test_upgrade_weights_a_region_crossed_by_a_bone_a_billion_units_long_in_seco
     point by point, the points off the art dropped after: ``seg2`` a billion units long was
     stepped through for hours, its memory growing (the run never ended). Only the steps over the
     art's box are taken now; the worm is weighted and drawn where the region was."""
-    from runtime_tool import compare_dumps, dump
-
     make_worm_project(tmp_path / "p")
     doc = worm_skeleton()
     _bone(doc, "seg2").update(bone)
@@ -162,11 +163,7 @@ def test_upgrade_weights_a_region_crossed_by_a_bone_a_billion_units_long_in_seco
     r = run_cli("upgrade", "p", "--out", "o", "--weights", "auto", "--min-saving", "0", cwd=tmp_path, timeout=60)
     check_run(r, before, tmp_path, ["o"], codes=(0,))
     assert "1 of 1 new meshes weighted" in r.stdout + r.stderr, r.stdout + r.stderr
-    for side in ("p", "o"):
-        dump(spine_runtime, tmp_path / side / "worm.atlas", tmp_path / side / "worm.json", None, "0",
-             tmp_path / f"{side}.dump.json")
-    ok, text = compare_dumps(spine_runtime, tmp_path / "p.dump.json", tmp_path / "o.dump.json")
-    assert ok, text
+    _drawn_alike(spine_runtime, tmp_path, "worm.json")
 
 
 def _set(bone: str, **fields):
