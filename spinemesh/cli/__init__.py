@@ -89,7 +89,8 @@ def main() -> None:
     """Console-script entry point.
 
     A :class:`~spinemesh.errors.SpineMeshError` is printed as one line (never wrapped, even
-    when stderr is not a terminal, so that scripts can grep it) and exits with 2. SIGTERM and
+    when stderr is not a terminal, so that scripts can grep it) and exits with 2, as does an
+    ``OPENCV_*`` environment variable OpenCV cannot parse (checked first). SIGTERM and
     SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out.
     """
     from ..errors import SpineMeshError
@@ -98,6 +99,9 @@ def main() -> None:
     exit_on_terminate()
     _standard_streams()
     try:
+        from ..opencv_environment import check_opencv_environment
+
+        check_opencv_environment()  # a value OpenCV cannot parse aborts the process at its import
         args = sys.argv[1:]
         if args[:1] == ["convert"]:
             from .convert_files import run_plain_convert
