@@ -655,3 +655,23 @@ def test_one_bone_with_handles_builds_no_operator(monkeypatch):
     monkeypatch.setattr(rig_weights, "biharmonic_qp", lambda *a: pytest.fail("operator built"))
     w = rig_weights.bounded_biharmonic(p, f, b, np.c_[np.ones(len(b)), np.zeros(len(b))])
     assert (w[:, 0] == 1.0).all() and (w[:, 1] == 0.0).all()
+
+
+def test_a_skin_bone_no_skin_activates_is_said_active_in_no_skin():
+    """A skin bone (``"skin": true``) that no skin lists, nor a bone below it, is posed by no
+    skin: it was said "only active in other skins" (gm-21483 has 97 attachments on such bones,
+    which its runtimes never draw). One some skin activates is still said so, and the bones below
+    either are named by it."""
+    doc = worm_skeleton()
+    for bone in doc["bones"]:
+        bone["skin"] = bone["name"] in ("seg2", "seg3")
+    rig = build_rig(doc)
+    seg1, seg2, seg3 = (rig.bones[i].index for i in (1, 2, 3))
+    assert rig.unposed("default", seg1) == {seg2: "active in no skin", seg3: "active in no skin"}
+    doc["skins"].append({"name": "red", "bones": ["seg2"], "attachments": {}})
+    for bone in doc["bones"]:
+        bone["skin"] = bone["name"] == "seg2"
+    rig = build_rig(doc)
+    assert rig.unposed("default", seg1) == {seg2: "only active in other skins",
+                                            seg3: "below bone 'seg2', which only some skins activate"}
+    assert rig.unposed("red", seg1) == {seg3: "below bone 'seg2', which only some skins activate"}

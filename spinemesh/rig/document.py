@@ -151,6 +151,7 @@ class Rig:
         out = self._unposed.get(above)
         if out is None:
             out, skin_bone = {}, {}  # skin_bone: the skin bone a bone is (or hangs below)
+            some = frozenset().union(*map(self._activated, self.skin_bones))  # bones some skin activates
             for bone in self.bones:  # parents first
                 up = skin_bone.get(bone.parent) if bone.parent is not None else None
                 if bone.skin_required or up is not None:
@@ -159,11 +160,8 @@ class Rig:
                                        out[bone.parent].endswith("some skins activate")):
                     out[bone.index] = f"below bone {self.bones[up].name!r}, which only some skins activate"
                 elif bone.skin_required and bone.index not in above:
-                    out[bone.index] = "only active in other skins"
-                elif bone.parent in out:  # named by the bone of another skin it hangs below
-                    why = out[bone.parent]
-                    out[bone.index] = why if why.startswith("below") else \
-                        f"below bone {self.bones[bone.parent].name!r}, only active in other skins"
+                    # a skin bone no skin lists (nor a bone below it) is posed, and drawn, by none
+                    out[bone.index] = "only active in other skins" if bone.index in some else "active in no skin"
             self._unposed[above] = out
         return out
 
