@@ -54,3 +54,41 @@ def test_the_rules_are_opencvs_own():
                            capture_output=True, timeout=60)
         refused = opencv_variable_problem(name, value) is not None
         assert refused == (r.returncode != 0), (name, value, r.returncode)
+
+
+# --- a closed standard output ---------------------------------------------------------------------
+
+def _closed_stdout(*args, cwd) -> subprocess.CompletedProcess:
+    """``spinemesh ARGS >&-``."""
+    return subprocess.run(["sh", "-c", 'exec "$@" >&-', "sh", sys.executable, "-m", "spinemesh", *map(str, args)],
+                          cwd=cwd, env={**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}, stderr=subprocess.PIPE,
+                          text=True, timeout=120, check=False)
+
+
+def _dot(path):
+    import cv2
+    import numpy as np
+
+    art = np.zeros((64, 64, 4), np.uint8)
+    cv2.circle(art, (32, 32), 20, (255, 255, 255, 255), -1)
+    cv2.imwrite(str(path), art)
+
+
+def test_info_to_a_closed_standard_output_is_refused(tmp_path):
+    """``info``'s table is all it makes: ``info P >&-`` wrote nothing and exited 0; now refused
+    before any work, in one line naming standard output (exit 2), as ``pose`` is."""
+    (tmp_path / "p").mkdir()
+    _dot(tmp_path / "p" / "dot.png")
+    r = _closed_stdout("info", "p", cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, (r.returncode, r.stderr)
+    assert r.stderr.strip() == "error: standard output is closed: the table would go nowhere; give it a file (> FILE)"
+
+
+def test_a_command_making_files_says_its_table_is_not_written(tmp_path):
+    """A command whose files are what it makes runs whole (a daemon closes standard output), and
+    says once that its table is not written; it said nothing (exit 0 either way)."""
+    _dot(tmp_path / "dot.png")
+    r = _closed_stdout("mesh", "dot.png", "-o", "out", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.count("warning: standard output is closed: this command's table is not written") == 1, r.stderr
+    assert (tmp_path / "out").is_file() and (tmp_path / "out").stat().st_size > 0

@@ -146,6 +146,8 @@ class _StandardStream:
         raise OSError(error.errno, f"cannot write: {error.strerror or error}", "standard output") from None
 
     def write(self, text: str) -> int:
+        if not self._stderr and sys.stdout is None:
+            _say_standard_output_closed()
         try:
             return self.stream.write(text)
         except OSError as e:
@@ -160,6 +162,22 @@ class _StandardStream:
 
     def __getattr__(self, name):
         return getattr(self.stream, name)
+
+
+#: Whether the run said that standard output is closed (once a run).
+_said_closed = []
+
+
+def _say_standard_output_closed() -> None:
+    """One warning, at a command's first write to a closed standard output (``>&-``, a daemon):
+    its table is dropped, and its files (what it makes) are whole. A command whose standard
+    output is all it makes (``info``, ``pose``) refuses it before any work instead
+    (``files.guard.check_outputs``)."""
+    if _said_closed:
+        return
+    _said_closed.append(True)
+    err_console.print("[yellow]warning:[/] standard output is closed: this command's table is not written "
+                      "(its files are)", highlight=False, soft_wrap=True)
 
 
 def _is_a_tty(stream) -> bool:

@@ -34,7 +34,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     # what stdout says (often kept in a file) names the project's folders from its name, the same
     # bytes from any folder; the problems on stderr give whole paths, to open
     proj = find_project(named_project(project))
-    check_outputs([proj.root])  # its table (standard output) never into the project
+    check_outputs([proj.root], product="the table")  # its table (standard output) never into the project
     atlases = project_atlases(proj)
     table = Table(title="Atlases in " + console_text(named_from(proj.root, proj.root)))
     for col in ("atlas", "syntax", "pages", "regions", "scale", "pma"):

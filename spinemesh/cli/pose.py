@@ -66,7 +66,7 @@ def pose(
     from ..anim import Sampler, atlas_regions
     from ..anim.dump import dump_labels
     from ..atlas import read_atlas
-    from ..errors import OutputError, SpineMeshError
+    from ..errors import SpineMeshError
     from ..files.guard import check_outputs
     from ..files.inputs import project_folder
     from ..limits import MAX_POSE_STEPS
@@ -79,10 +79,10 @@ def pose(
         raise typer.BadParameter(f"{max(seconds):g} s at {fps:g} steps per second is over {MAX_POSE_STEPS:,} "
                                  "game-loop steps; give times within the animation's loop", param_hint="--times")
     project = find_project(skeleton)
-    check_outputs([project_folder(skeleton), atlas], files=[out])  # nor onto the --atlas read (standard output too)
+    # nor onto the --atlas read (standard output too)
+    check_outputs([project_folder(skeleton), atlas], files=[out],
+                  product="the poses" if out is None else None)
     stdout = sys.stdout
-    if out is None and stdout is None:
-        raise OutputError("standard output is closed: the poses would go nowhere; give --out FILE")
     doc = load_skeleton(skeleton)
     anims = [str(a) for a in (doc.get("animations") or {})]
     if animation is not None and animation not in anims:

@@ -122,12 +122,20 @@ class OutputGuard:
                                       "is never overwritten", path)
         return path
 
-    def check_standard_output(self) -> None:
+    def check_standard_output(self, product: str | None = None) -> None:
         """:meth:`check_in_place` of the file behind standard output, where a shell redirected it
         to one and the system names it (Linux): a command's table or document goes there.
         Redirected into an input (``spinemesh upgrade hero/ --out out/ >> hero/hero.json``, or
         ``> hero/log.txt``), every command but ``pose`` wrote its table there, appending it to the
-        skeleton; it is refused as such an output file is."""
+        skeleton; it is refused as such an output file is.
+
+        ``product`` names what a command writes there as all it makes (``"the poses"``, ``info``'s
+        ``"the table"``): a closed standard output (``>&-``) is refused for it, as an output that
+        cannot be written; such a run wrote nothing and exited 0. A command whose files are what it
+        makes (its table a summary) runs whole, its table dropped with one warning
+        (``cli._app``)."""
+        if product is not None and sys.stdout is None:
+            raise OutputError(f"standard output is closed: {product} would go nowhere; give it a file (> FILE)")
         path = file_behind(sys.stdout)
         if path is not None:
             self.check_in_place(path, "standard output")
@@ -181,11 +189,12 @@ def refuse_one_output_twice(paths: Iterable[str | Path | None]) -> None:
 
 
 def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Path | None] = (),
-                  folders: Iterable[str | Path | None] = ()) -> None:
+                  folders: Iterable[str | Path | None] = (), product: str | None = None) -> None:
     """Check, before any work, every output a command was given (``None`` entries are ignored).
     A folder written into again is checked by :func:`spinemesh.written_folder.check_written_folder` too.
 
-    Standard output is one of them (:meth:`OutputGuard.check_standard_output`).
+    Standard output is one of them (:meth:`OutputGuard.check_standard_output`); ``product``
+    names what the command writes there as all it makes (a closed standard output refused).
 
     Raises
     ------
@@ -193,7 +202,7 @@ def check_outputs(inputs: Iterable[str | Path | None], files: Iterable[str | Pat
         For the first output that :class:`OutputGuard` refuses, naming it.
     """
     guard = OutputGuard(inputs)
-    guard.check_standard_output()
+    guard.check_standard_output(product)
     for folder in folders:
         if folder is not None:
             guard.check_folder(folder)
