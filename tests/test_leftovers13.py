@@ -92,3 +92,14 @@ def test_a_command_making_files_says_its_table_is_not_written(tmp_path):
     assert r.returncode == 0, r.stderr
     assert r.stderr.count("warning: standard output is closed: this command's table is not written") == 1, r.stderr
     assert (tmp_path / "out").is_file() and (tmp_path / "out").stat().st_size > 0
+
+
+# --- diff's bar on a standard error that is no terminal ------------------------------------------
+
+def test_diff_refusing_prints_only_its_error_line(tmp_path):
+    """On a pipe, ``diff`` printed its bar's last state before the error line; now the line alone,
+    as the other commands (their bars are transient)."""
+    (tmp_path / "empty").mkdir()
+    r = run_cli("diff", "empty", "-o", "report", cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr == "error: no artist mesh attachment found\n", r.stderr

@@ -58,7 +58,7 @@ def diff(
     if bad:
         print_errors([f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}"])
         raise typer.Exit(EXIT_BAD_INPUT)
-    with progress_bar("comparing") as bar:
+    with progress_bar("comparing", transient=True) as bar:  # a pipe or a log gets no bar, as with the others
         task = bar.add_task("reading projects", total=None)
 
         def progress(done: int, total: int, label: str) -> None:
