@@ -103,3 +103,33 @@ def test_diff_refusing_prints_only_its_error_line(tmp_path):
     r = run_cli("diff", "empty", "-o", "report", cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     assert r.stderr == "error: no artist mesh attachment found\n", r.stderr
+
+
+# --- pack's totals: a page two atlases share ----------------------------------------------------
+
+def test_pack_totals_count_a_page_two_kept_atlases_share_once(meshed, tmp_path):
+    """``b.atlas`` names ``demo.png`` as ``demo.atlas`` does: both are kept, each row counts the
+    page (each is right), and the total counted it twice (2 pages, its texels and bytes twice).
+    The total counts each page file once, and its note says so."""
+    import json
+    import shutil
+
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project, ignore=shutil.ignore_patterns(".*"))
+    (project / "b.atlas").write_text((project / "demo.atlas").read_text())
+    env = {**os.environ, "COLUMNS": "250", "NO_COLOR": "1"}
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pack", "p", "--out", "o", "--report", "r.json", "-j", "1"],
+                       cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120, check=False)
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "r.json").read_text())
+    rows = report["atlases"]
+    assert [row["status"] for row in rows] == ["kept", "kept"] and all(row["pages_before"] == 1 for row in rows)
+    page = project / "demo.png"
+    atlases = sum((project / name).stat().st_size for name in ("b.atlas", "demo.atlas"))
+    totals = report["totals"]
+    assert totals["pages_before"] == totals["pages_after"] == 1, totals
+    assert totals["bytes_before"] == totals["bytes_after"] == page.stat().st_size + atlases, totals
+    assert totals["texels_before"] == rows[0]["texels_before"] and totals["shared_pages"] == 1, totals
+    assert "page_files" not in rows[0]
+    total = next(line for line in r.stdout.splitlines() if line.startswith("│ total"))
+    assert "1 -> 1" in total and "1 page file named by several atlases counted once" in total, total

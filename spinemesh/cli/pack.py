@@ -254,6 +254,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
     from rich.table import Table
 
     from ..runs import short_names
+    from ..words import counted
     from ._summary import print_errors
 
     # a note of 20 words in a column of a narrow terminal took a line a word: there, each note is
@@ -269,6 +270,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
 
     rows = [[a.atlas, f"{a.pages_before} -> {a.pages_after}", change(a.texels_before, a.texels_after),
              change(a.bytes_before, a.bytes_after), *regions(a)] for a in atlases]
+    total_note = ""
     if len(atlases) > 1:
         from ..pack.run import atlas_totals
 
@@ -279,6 +281,9 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
                      # every atlas kept its layout: "-" as in each row (the total said 0 and 0)
                      *(("-", "-") if all(a.by_outline is None for a in atlases)
                        else (str(total["by_outline"]), str(total["by_rectangle"])))])
+        if total["shared_pages"]:  # each row counts it: the total would not be the sum of the rows
+            total_note = (f"{counted(total['shared_pages'], 'page file')} named by several atlases "
+                          "counted once")
     columns = ("atlas", "pages", "page texels", "bytes", "by outline", "by rectangle")
     widths = _fitted_widths([list(columns), *rows], console.width - (0 if below else 3 + NOTE_MIN_WIDTH))
     shown = short_names([a.atlas for a in atlases], widths[0]) if widths else {}
@@ -288,7 +293,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
                          width=widths[i] if widths else None)
     if not below:
         table.add_column("note", justify="left", min_width=NOTE_MIN_WIDTH)
-    notes = [a.reason for a in atlases] + [""]  # the total's note: none
+    notes = [a.reason for a in atlases] + [total_note]
     for i, (row, note) in enumerate(zip(rows, notes)):
         if i == len(atlases):
             table.add_section()  # the total
@@ -299,6 +304,8 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
         for a in atlases if below else ():
             if a.reason:
                 console.print(f"note: {console_text(a.atlas)}: {console_text(a.reason)}", highlight=False, soft_wrap=True)
+        if below and total_note:
+            console.print(f"note: total: {total_note}", highlight=False, soft_wrap=True)
     print_errors(errors)
 
 

@@ -152,9 +152,14 @@ class AtlasRow:
     #: how full its pages are
     texels_used: int | None = None
     pages_reencoded: int = 0  # kept: its PNG pages written smaller, losslessly, the atlas as it was
+    #: an atlas written as it was (:func:`untouched_row`): each page file it names, once, as
+    #: (real path, texels, bytes), so that totals count a page two atlases share once; not in the report
+    page_files: tuple = field(default=(), repr=False)
 
     def row(self) -> dict:
-        return dict(self.__dict__)
+        row = dict(self.__dict__)
+        del row["page_files"]
+        return row
 
 
 @dataclass
@@ -176,10 +181,28 @@ class PackResult(RunSummary):
 def atlas_totals(rows: list[AtlasRow]) -> dict:
     """Pages, page texels and bytes before and after, summed over ``rows``, and regions by outline and
     by rectangle over those whose layout was written anew (the report's ``totals``; ``upgrade
-    --pack``'s ``atlas_totals``)."""
+    --pack``'s ``atlas_totals``).
+
+    A page file that several atlases name (each kept as it was) is counted once: each row counts
+    it, and the totals said twice the pages, texels and bytes there are. ``shared_pages``: how
+    many such files were counted once (0 where none).
+    """
     keys = ("pages_before", "pages_after", "texels_before", "texels_after", "bytes_before", "bytes_after",
             "by_outline", "by_rectangle")
-    return {k: sum(getattr(a, k) or 0 for a in rows) for k in keys}  # None: a kept atlas's regions
+    totals = {k: sum(getattr(a, k) or 0 for a in rows) for k in keys}  # None: a kept atlas's regions
+    seen: set[str] = set()
+    shared: set[str] = set()
+    for a in rows:
+        for path, texels, size in a.page_files:
+            if path in seen:  # counted in an earlier row, the same before and after (kept as it was)
+                shared.add(path)
+                for side in ("before", "after"):
+                    totals[f"pages_{side}"] -= 1
+                    totals[f"texels_{side}"] -= texels
+                    totals[f"bytes_{side}"] -= size
+            seen.add(path)
+    totals["shared_pages"] = len(shared)
+    return totals
 
 
 def failed_lines(rows: list[AtlasRow]) -> list[str]:
@@ -632,7 +655,22 @@ def untouched_row(job: AtlasJob, status: str, reason: str, texels: list[np.ndarr
     texel_count = sum(w * h for w, h in sizes)
     size = files_bytes(job)
     return AtlasRow(job.rel, status, reason, len(job.atlas.pages), len(job.atlas.pages), texel_count, texel_count,
-                    size, size)
+                    size, size, page_files=_page_files_once(job.files, sizes))
+
+
+def _page_files_once(files: list[Path], sizes: list[tuple[int, int]]) -> tuple:
+    """Each of ``files`` once (the first of its names), as (real path, texels, bytes) by its ``sizes``
+    (width, height); a file whose bytes cannot be read counts 0 bytes, as :func:`files_bytes` does."""
+    once = {}
+    for f, (w, h) in zip(files, sizes):
+        key = str(f.resolve())
+        if key not in once:
+            try:
+                size = f.stat().st_size
+            except OSError:
+                size = 0
+            once[key] = (key, w * h, size)
+    return tuple(once.values())
 
 
 def _page_by_page(task, args: list[tuple], workers, on_step) -> list:
