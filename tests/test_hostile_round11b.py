@@ -530,3 +530,16 @@ def test_a_game_project_upgrades_to_the_same_bytes_in_any_environment(tmp_path, 
     assert r.returncode == 0, r.stderr[-2000:]
     a, b = (snapshot(tmp_path / side / "out") for side in "ab")
     assert a == b and any(name.endswith((".skel", ".skel.bytes")) for name in a), sorted(set(a) ^ set(b))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the file behind standard output is named on Linux")
+def test_standard_output_into_the_project_says_to_redirect_it(tmp_path):
+    """``spinemesh info p > p/log.txt``: the user gave no path, they redirected standard output;
+    the line says what to do in those words (it said "give a path outside it")."""
+    from spinemesh.demo import make_demo_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    with open(tmp_path / "p" / "log.txt", "wb") as log:
+        r = _run("info", "p", cwd=tmp_path, stdout=log)
+    line = _one_error(r)
+    assert "standard output lies inside the input" in line and line.endswith("redirect it outside it"), line

@@ -148,8 +148,9 @@ class OutputGuard:
             if inp.is_dir() and inp in target.parents:
                 # "the input ." says little: the folder a skeleton lies in is its project, the current one here
                 shown = f"folder {inp}" if str(given) in ("", ".") else str(given)
-                raise OutputError(f"{what} lies inside the input {shown}; nothing is written there: give a path "
-                                  "outside it", path)
+                # standard output is no path the user gave: they redirected it (> FILE)
+                where = "redirect it outside it" if what == "standard output" else "give a path outside it"
+                raise OutputError(f"{what} lies inside the input {shown}; nothing is written there: {where}", path)
 
 
 def refuse_report_over_output(report: Path, out: Path) -> None:
