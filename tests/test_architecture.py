@@ -413,3 +413,119 @@ def test_architecture_table_names_every_package():
 def test_architecture_names_only_what_the_code_has():
     problems = name_problems(ARCHITECTURE.read_text(encoding="utf-8"), PACKAGE)
     assert not problems, "docs/architecture.md:\n" + "\n".join(problems)
+
+
+# --- cross-references in docstrings -----------------------------------------------------------
+
+#: A Sphinx cross-reference to a Python object: its role and its target (``~`` shows the last part).
+CROSS_REFERENCE = re.compile(r":(class|func|mod|meth|attr|data|exc):`~?([^`<>\s]+)`")
+
+
+def _module_names(tree: ast.Module) -> tuple[set[str], dict[str, set[str]]]:
+    """The names a module defines or imports at its top, and each of its classes' members
+    (methods, class attributes, fields, and what its methods assign to ``self``)."""
+    names, classes = set(), {}
+    for node in tree.body:
+        if isinstance(node, ast.If):  # TYPE_CHECKING imports, definitions by platform
+            nodes = node.body + node.orelse
+        elif isinstance(node, ast.Try):
+            nodes = node.body + [n for h in node.handlers for n in h.body]
+        else:
+            nodes = [node]
+        for n in nodes:
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                names.add(n.name)
+            elif isinstance(n, ast.Assign):  # ``A, B = 3, 0.7`` too
+                names |= {t.id for target in n.targets for t in ast.walk(target) if isinstance(t, ast.Name)}
+            elif isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name):
+                names.add(n.target.id)
+            elif isinstance(n, (ast.Import, ast.ImportFrom)):
+                names |= {(a.asname or a.name).split(".")[0] for a in n.names}
+            # a class made from a call (a namedtuple's fields) has members the code does not spell out
+            if isinstance(n, ast.ClassDef) and not any(isinstance(b, ast.Call) for b in n.bases):
+                members = classes[n.name] = set()
+                for child in ast.walk(n):
+                    if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                        members.add(child.name)
+                    elif isinstance(child, ast.AnnAssign) and isinstance(child.target, ast.Name):
+                        members.add(child.target.id)
+                    elif isinstance(child, ast.Assign):
+                        members |= {t.id for t in child.targets if isinstance(t, ast.Name)}
+                    if isinstance(child, ast.Attribute) and isinstance(child.value, ast.Name) \
+                            and child.value.id == "self" and isinstance(child.ctx, ast.Store):
+                        members.add(child.attr)
+    return names, classes
+
+
+def _resolves(target: str, index: dict) -> bool:
+    """Whether ``target`` (dotted, absolute) names a module under the package, or a name one
+    defines or imports (and, for a class it defines, one of its members)."""
+    parts = target.split(".")
+    for i in range(len(parts), 0, -1):
+        module = ".".join(parts[:i])
+        if module not in index:
+            continue
+        rest = parts[i:]
+        if not rest:
+            return True
+        names, classes = index[module]
+        if rest[0] not in names:
+            return False
+        return len(rest) == 1 or rest[0] not in classes or (len(rest) == 2 and rest[1] in classes[rest[0]])
+    return False
+
+
+def cross_reference_problems(root: Path) -> list[str]:
+    """Each ``:class:``/``:func:``/``:mod:`` (and ``:meth:``, ``:attr:``, ``:data:``, ``:exc:``)
+    target under ``root`` that names nothing the package has: a relative one (``.stream.SkelReader``)
+    read from the module's package, an absolute one (``spinemesh.files.atomic``) as it is, any
+    other from the module, its package or the top package. A bare method or attribute (a member of
+    the docstring's class) and a name from another library (``numpy.ndarray``) are left alone."""
+    import importlib.util
+
+    modules = _modules(root)
+    index = {m: _module_names(ast.parse(p.read_text(encoding="utf-8"), str(p))) for m, (p, _) in modules.items()}
+    top = root.name
+    problems = []
+    for module, (path, is_package) in modules.items():
+        package = module if is_package else module.rpartition(".")[0]
+        text = path.read_text(encoding="utf-8")
+        for match in CROSS_REFERENCE.finditer(text):
+            role, target = match.groups()
+            if role in ("meth", "attr") and "." not in target:
+                continue
+            if target.startswith("."):
+                dots = len(target) - len(target.lstrip("."))
+                base = package.split(".")[:len(package.split(".")) - dots + 1]
+                found = _resolves(".".join(base) + "." + target.lstrip("."), index)
+            elif target.split(".")[0] == top:
+                found = _resolves(target, index)
+            else:
+                first = target.split(".")[0]
+                found = any(_resolves(f"{where}.{target}", index) for where in (module, package, top)) or (
+                    first not in index[module][0] and "." in target and importlib.util.find_spec(first) is not None)
+            if not found:
+                line = text.count("\n", 0, match.start()) + 1
+                problems.append(f"{path.relative_to(root.parent).as_posix()}:{line}: :{role}:`{target}`")
+    return problems
+
+
+def test_the_cross_reference_check_finds_what_it_looks_for(tmp_path):
+    demo = _write_package(tmp_path, {
+        "__init__.py": "",
+        "low.py": "class Reader:\n    def read(self):\n        self.at = 0\n",
+        "mid/__init__.py": '"""A :class:`.low.Reader` (wrong: no mid.low), :class:`~demo.low.Reader`, '
+                           ':meth:`demo.low.Reader.read`, :attr:`demo.low.Reader.at`, :meth:`demo.low.Reader.gone`, '
+                           ':mod:`.run`, :func:`.run.go`, :func:`go` (not here), :class:`numpy.ndarray`, '
+                           ':meth:`local`."""\n',
+        "mid/run.py": '"""See :func:`go`, :mod:`.run` (mid.run), :func:`low.helper`."""\ndef go():\n    pass\n',
+    })
+    assert [p.split(": ", 1)[1] for p in cross_reference_problems(demo)] == [
+        ":class:`.low.Reader`", ":meth:`demo.low.Reader.gone`", ":func:`go`", ":func:`low.helper`"]
+
+
+def test_docstring_cross_references_name_what_the_code_has():
+    """``.stream.SkelReader`` in ``skeleton_binary/v4`` named a module that does not exist (the
+    stream is ``skeleton_binary.stream``): every cross-reference resolves, or this names it."""
+    problems = cross_reference_problems(PACKAGE)
+    assert not problems, "\n".join(problems)

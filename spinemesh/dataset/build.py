@@ -213,7 +213,7 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
         Folders holding Spine projects (any depth; see :func:`find_projects`).
     out : path
         The data set folder; created, or resumed when it exists. A folder that holds files but no
-        data set (nor anything else spinemesh wrote) is refused with :class:`OutputError`.
+        data set (nor anything else spinemesh wrote) is refused with :class:`~spinemesh.errors.OutputError`.
     jobs : int
         Worker processes; 1 runs in this process.
     dask : str, optional

@@ -384,7 +384,7 @@ def mesh_coverage_mask(vertices: np.ndarray, triangles: np.ndarray, shape: tuple
     triangles : ndarray, shape (M, 3)
     shape : (H, W)
     rule : {"inside", "touch", "centre"}
-        ``"inside"``: the pixel square lies entirely in the mesh (what :func:`coverage` uses);
+        ``"inside"``: the pixel square lies entirely in the mesh (what :func:`spinemesh.metrics.coverage` uses);
         ``"touch"``: the pixel square meets the mesh; ``"centre"``: the pixel centre is in it.
 
     Returns

@@ -542,7 +542,7 @@ def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str, colour: t
 
 
 def check_page_sizes(atlas, texels: list[np.ndarray]) -> None:
-    """Refuse an atlas whose decoded pages disagree with its pages' fields (:func:`page_mismatches`).
+    """Refuse an atlas whose decoded pages disagree with its pages' fields (:func:`spinemesh.atlas.page_mismatches`).
 
     :func:`spinemesh.project.project_atlases` checked the images' headers already; this is the
     same rule on the texels the atlas is packed from.

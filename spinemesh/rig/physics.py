@@ -94,7 +94,7 @@ class PhysicsState:
     """One physics constraint's state between frames, and its update.
 
     The sampler sets ``clock`` (the skeleton's time, seconds) and ``mode`` (``"reset"``,
-    ``"update"`` or ``"pose"``) before each ``updateWorldTransform``; :func:`update` is what the
+    ``"update"`` or ``"pose"``) before each ``updateWorldTransform``; :meth:`update` is what the
     update cache runs for the constraint, with its current values (``inertia``, ``strength``,
     ``damping``, ``mass``, ``wind``, ``gravity``, ``mix``: setup or animated) in ``data``.
     """

@@ -2,9 +2,10 @@
 
 Every declaration in this package (one module per structure: :mod:`.header`, :mod:`.bones`,
 :mod:`.constraints`, :mod:`.constraint_list`, :mod:`.attachments`, :mod:`.skins`, :mod:`.events`,
-:mod:`.timelines`, :mod:`.animation`) takes a stream ``s`` (a :class:`~.stream.SkelReader` or
-:class:`~.stream.SkelWriter`) and the document node it fills (reading) or encodes
-(writing). The document is the one the Spine editor's JSON export of the same version
+:mod:`.timelines`, :mod:`.animation`) takes a stream ``s`` (a
+:class:`~spinemesh.skeleton_binary.stream.SkelReader` or
+:class:`~spinemesh.skeleton_binary.stream.SkelWriter`) and the document node it fills (reading)
+or encodes (writing). The document is the one the Spine editor's JSON export of the same version
 holds: same keys, same nesting, values equal to their defaults left out.
 
 What the four versions change is read as data from a :class:`Layout`: 4.1 added
@@ -29,7 +30,7 @@ writing a ``.skel`` gives back the same bytes:
   used. The editor's table may hold a string twice and in any order; the writer's own
   table (:func:`string_table`) holds each once, in order of first use;
 - ``"timelines"``: per animation, the stored timeline count where it is not the one
-  :func:`timeline_count` derives (never seen in the examples);
+  :func:`.animation.timeline_count` derives (never seen in the examples);
 - ``"timelineSlots"`` (4.3): ``[skin, slot, mesh, [slot, ...]]`` for meshes whose stored
   timeline slots differ from those the runtime derives from linked meshes
   (:func:`~.attachments.derived_timeline_slots`).

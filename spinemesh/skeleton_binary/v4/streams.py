@@ -121,7 +121,7 @@ class _RefReader(SkelReader):
 
     def plain_frames(self, n: int, spec: _FrameSpec) -> list[dict]:
         """Frames of a timeline whose values are float32s or colour bytes, the hot loop of
-        animations: the same result as :func:`curve_timeline`, in fewer steps."""
+        animations: the same result as :func:`.timelines.curve_timeline`, in fewer steps."""
         buf = self.buf
         layout = spec.layout
         unpack, size = spec.unpack, spec.size
