@@ -222,7 +222,12 @@ def animation_time(time: float, duration: float, fps: float = 60.0, loop: bool =
     their product, so that a key at ``1e30`` s costs no more than one at 1 s.
     """
     steps, dt = steps_of(time, fps)
-    track = summed(0.0, dt, steps)
+    return _track_to_animation(summed(0.0, dt, steps), duration, loop)
+
+
+def _track_to_animation(track: float, duration: float, loop: bool) -> float:
+    """The animation time a track at ``track`` s applies: looping, ``track % duration`` (0.0 for
+    an animation of no duration); else ``track`` itself."""
     if not loop:
         return track
     return math.fmod(track, duration) if duration > 0 else 0.0
@@ -542,7 +547,7 @@ class Sampler:
                 clock += dt
                 for state in self.physics:
                     state.clock = clock
-            t = (math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track
+            t = _track_to_animation(track, anim.duration, loop)
             if pending and pending[0] == i:
                 frame = self._frame(animation, t, last)
                 result = self._pose_bones(frame, flagged=self.unstepped_bones)
@@ -853,7 +858,7 @@ def _carried_rotations(anim: Animation, setup_local: list, active: list, time: f
     for i in range(steps + 1):
         if i:
             track += dt
-        times.append((math.fmod(track, anim.duration) if anim.duration > 0 else 0.0) if loop else track)
+        times.append(_track_to_animation(track, anim.duration, loop))
     out = {}
     for k, tl in timelines:
         setup = setup_local[tl.bone][2]
