@@ -106,6 +106,7 @@ def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset:
     s.varint(lookup[name] + offset)
     return name
 
+
 def enum(s, node: dict, key: str, names: tuple, default: str | None, as_byte: bool = False) -> str:
     """An index into a fixed tuple of names, a varint (a byte, ``as_byte``: 4.x's inherit modes,
     properties and scale modes), as the name in the document."""

@@ -128,16 +128,18 @@ def _slots(s, doc: dict, c: Context) -> None:
         doc["slots"] = items
         c.slots = _names(items)
     else:
-        names_once(s, [x.get("name") for x in doc.get("slots", [])], "slots", "slots")
-        c.slots = _names(doc.get("slots", []))
-        seq(s, doc.get("slots", []), slot, c)
+        items = doc.get("slots", [])
+        names_once(s, [x.get("name") for x in items], "slots", "slots")
+        c.slots = _names(items)
+        seq(s, items, slot, c)
 
 
 def _skins(s, doc: dict, extra: dict, c: Context) -> None:
     """Skins; then, reading, each linked mesh's skin index resolved to its name."""
     if not s.reading:
-        names_once(s, [sk.get("name") for sk in _written_skins(doc)], "skins", "skins")
-        c.skins = _names(_written_skins(doc))
+        listed = _written_skins(doc)
+        names_once(s, [sk.get("name") for sk in listed], "skins", "skins")
+        c.skins = _names(listed)
         if c.L.constraint_list:
             c.timeline_slots = derived_timeline_slots(doc)
             for skin_name, slot_name, name, slots in extra.get("timelineSlots", []):
