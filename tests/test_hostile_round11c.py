@@ -18,13 +18,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from test_hostile_pages import _copy
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def _copy(meshed: Path, dest: Path) -> Path:
-    shutil.copytree(meshed, dest, ignore=shutil.ignore_patterns(".*"))
-    return dest
 
 
 def _cli(*args, cwd: Path) -> subprocess.CompletedProcess:
