@@ -9,6 +9,7 @@ import pytest
 from test_hostile import check_run, run_cli, snapshot
 from test_skel_names_twice import NAME, _doc_3x, _doc_4x
 
+from spinemesh.dataset.format import encode_mesh
 
 # --- convert: a JSON naming two items alike -----------------------------------------------------
 
@@ -90,7 +91,7 @@ def test_convert_refuses_a_fraction_where_the_binary_stores_an_integer(tmp_path,
 
 def test_a_whole_float_where_the_binary_stores_an_integer_converts(tmp_path):
     """``4.0`` (as some tools write a whole number) is that number: converted, read back 4."""
-    from spinemesh.skeleton_binary import read_skel, encode_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
     assert read_skel(encode_skel(_event_doc(4.0)))["events"]["hit"]["int"] == 4
 
@@ -102,7 +103,7 @@ def test_a_recorded_timeline_count_no_reader_takes_is_refused(count):
     kept, but a negative one (their load stops) or one past what a ``.skel`` is read with (our
     own reader refused the file) is refused in one line naming the animation."""
     from spinemesh.errors import SkelFormatError
-    from spinemesh.skeleton_binary import read_skel, encode_skel
+    from spinemesh.skeleton_binary import encode_skel, read_skel
 
     doc = _event_doc(1)
     doc["_skel"] = {"timelines": {"t": 7}}
@@ -217,16 +218,6 @@ def _member_replaced(src, tmp, member: str, data: bytes):
     return ds, next(row for row in ds.rows() if row["id"] == rows[i]["id"])
 
 
-def _npz(**arrays) -> bytes:
-    import io
-
-    import numpy as np
-
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    return buf.getvalue()
-
-
 def _mesh(**change) -> dict:
     import numpy as np
 
@@ -251,12 +242,12 @@ def _bomb() -> bytes:
     ("mask", b"junk" * 10, "its mask: cannot decode image"),
     ("mask", "bomb", "its mask: image 20000x20000 exceeds the limit of 16384 pixels a side and 89,478,485 pixels"),
     ("mesh", b"junk" * 10, "its mesh is of another form: not a numpy .npz archive"),
-    ("mesh", _npz(**_mesh(hull=None)), "its mesh is of another form: no hull array"),
-    ("mesh", _npz(**_mesh(triangles=__import__("numpy").array([[0, 1, 9]], "int32"))),
+    ("mesh", encode_mesh(_mesh(hull=None)), "its mesh is of another form: no hull array"),
+    ("mesh", encode_mesh(_mesh(triangles=__import__("numpy").array([[0, 1, 9]], "int32"))),
      "its mesh is of another form: triangles index 9 is not one of its 4 vertices"),
-    ("mesh", _npz(**_mesh(vertices=__import__("numpy").full((4, 2), float("nan"), "float32"))),
+    ("mesh", encode_mesh(_mesh(vertices=__import__("numpy").full((4, 2), float("nan"), "float32"))),
      "its mesh is of another form: a vertex is not a finite number"),
-    ("mesh", _npz(**_mesh(vertices=__import__("numpy").zeros((4, 3), "float32"))),
+    ("mesh", encode_mesh(_mesh(vertices=__import__("numpy").zeros((4, 3), "float32"))),
      "its mesh is of another form: vertices is an array of float32 (4, 3)"),
 ], ids=["mask junk", "mask bomb", "mesh junk", "mesh no hull", "mesh index", "mesh NaN", "mesh columns"])
 def test_a_data_set_member_is_checked_as_its_row_is(tmp_path, small_dataset, member, data, said):
