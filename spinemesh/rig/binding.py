@@ -64,16 +64,20 @@ def parse_vertices(att: dict, bone_count: int) -> MeshVertices:
         problem = f"weighted vertices do not parse: {e}"
     if problem:
         raise SpineMeshError(problem)
-    out = MeshVertices(n)
-    i = 0
     try:  # a value that is no number (text, a list, false), in a list no load checked (a path's)
-        for _ in range(n):
-            k = int(verts[i])
-            out.influences.append([(int(verts[i + 1 + 4 * j]), float(verts[i + 2 + 4 * j]),
-                                    float(verts[i + 3 + 4 * j]), float(verts[i + 4 + 4 * j])) for j in range(k)])
-            i += 1 + 4 * k
+        return MeshVertices(n, influences=_influences(verts, n))
     except (ValueError, TypeError, OverflowError, IndexError) as e:
         raise SpineMeshError(f"weighted vertices do not parse: {e}") from None
+
+
+def _influences(verts: list, n: int) -> list[list[tuple[int, float, float, float]]]:
+    """The ``n`` vertices of a weighted ``vertices`` list, each as its (bone, x, y, weight) influences."""
+    out, i = [], 0
+    for _ in range(n):
+        k = int(verts[i])
+        out.append([(int(verts[i + 1 + 4 * j]), float(verts[i + 2 + 4 * j]), float(verts[i + 3 + 4 * j]),
+                     float(verts[i + 4 + 4 * j])) for j in range(k)])
+        i += 1 + 4 * k
     return out
 
 
@@ -175,12 +179,7 @@ def _binding_error(world: np.ndarray, vertices: list, worlds: list[np.ndarray]) 
     """Farthest a vertex of the weighted ``vertices`` list is drawn from ``world`` (N, 2), its
     positions read as written and as 32-bit floats (the binary format, and the JSON readers of
     the C, C++, C# and libGDX runtimes)."""
-    mesh = MeshVertices(len(world))
-    i = 0
-    for _ in range(len(world)):
-        k = int(vertices[i])
-        mesh.influences.append([tuple(vertices[i + 1 + 4 * j:i + 5 + 4 * j]) for j in range(k)])
-        i += 1 + 4 * k
+    mesh = MeshVertices(len(world), influences=_influences(vertices, len(world)))
     single = MeshVertices(mesh.count, influences=[[(b, float(np.float32(x)), float(np.float32(y)), w)
                                                    for b, x, y, w in row] for row in mesh.influences])
     return max(float(np.abs(setup_world(m, worlds, 0) - world).max()) for m in (mesh, single))
