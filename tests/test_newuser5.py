@@ -37,7 +37,8 @@ def _pack_table(rows: list, columns: int) -> str:
 
 def _atlas_row(name: str, texels: tuple[int, int], size: tuple[int, int]) -> SimpleNamespace:
     return SimpleNamespace(atlas=name, pages_before=1, pages_after=1, texels_before=texels[0], texels_after=texels[1],
-                           bytes_before=size[0], bytes_after=size[1], by_outline=25, by_rectangle=5, reason="")
+                           bytes_before=size[0], bytes_after=size[1], by_outline=25, by_rectangle=5, reason="",
+                           page_files=())
 
 
 def test_the_pack_table_names_each_atlas_at_80_columns():
