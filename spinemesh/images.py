@@ -12,6 +12,7 @@ scale, so that ``skeleton units = atlas pixels / scale``.
 from __future__ import annotations
 
 import functools
+import struct
 import warnings
 from collections import OrderedDict
 from pathlib import Path
@@ -352,7 +353,7 @@ def claimed_size(file) -> tuple[int, int] | None:
                 fp.seek(0)
                 im = factory(fp, "")
                 return int(im.width), int(im.height)
-            except Exception:  # noqa: BLE001 - any opener's refusal: the next format's is tried, as Pillow does
+            except (SyntaxError, IndexError, TypeError, struct.error):  # what Image.open passes over to the next
                 continue
             finally:
                 fp.seek(0)
