@@ -30,8 +30,10 @@ WORD = "démo☃"
 
 
 def _env(**extra: str) -> dict[str, str]:
+    # No empty PYTHONPATH entry: Python reads one as the current folder and cannot even start
+    # where that folder is gone (test_a_current_folder_removed_is_named).
     env = {**os.environ, "COLUMNS": "100", "NO_COLOR": "1", "OMP_NUM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))}
     for name in ("PYTHONIOENCODING", "FORCE_COLOR", "TTY_COMPATIBLE", "TTY_INTERACTIVE"):
         env.pop(name, None)
     env.update(extra)

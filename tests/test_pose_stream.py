@@ -41,7 +41,7 @@ def _pose(*args, patch: str = "") -> subprocess.CompletedProcess:
     replace a function, to fail a pose on purpose), through the console entry point."""
     code = f"import sys\n{patch}\nfrom spinemesh.cli import main\nsys.argv = ['spinemesh', 'pose', *sys.argv[1:]]\nmain()\n"
     env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1", "PYTHONPATH": os.pathsep.join(
-        [str(REPO), str(REPO / "tests"), os.environ.get("PYTHONPATH", "")])}
+        filter(None, [str(REPO), str(REPO / "tests"), os.environ.get("PYTHONPATH")]))}
     return subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, env=env,
                           check=False)
 
@@ -210,7 +210,7 @@ def test_standard_output_streams_past_the_progress_bar(tmp_path):
     seen = []
     drain = threading.Thread(target=lambda: _drain(master, seen), daemon=True)
     drain.start()
-    env = {**os.environ, "COLUMNS": "100", "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    env = {**os.environ, "COLUMNS": "100", "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))}
     env.pop("NO_COLOR", None)
     with open(tmp_path / "stdout.json", "wb") as stdout:
         done = subprocess.run([sys.executable, "-m", "spinemesh", "pose", str(skeleton), "-a", "turn", "--times", times],
