@@ -303,7 +303,9 @@ def find_projects(folder: str | Path) -> list[Path]:
     """Project folders under ``folder``, sorted; hidden folders skipped.
 
     A project is the first folder, walking down, that directly holds a skeleton, an atlas
-    or a :data:`SOURCE_FILE`; nothing below it is searched for further projects.
+    or a :data:`SOURCE_FILE`; nothing below it is searched for further projects. Sibling
+    folders of which some hold only skeletons and the others only atlases (``art/`` and
+    ``spine/``) are one project, their parent (:func:`_joined_halves`).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -315,7 +317,33 @@ def find_projects(folder: str | Path) -> list[Path]:
         if any(p.name == SOURCE_FILE or _has_suffix(p, ATLAS_SUFFIXES) or is_skeleton_file(p) for p in files):
             out.append(here)
             subfolders[:] = []
-    return out
+    return _joined_halves(out)
+
+
+def _holds(folder: Path) -> tuple[bool, bool]:
+    """Whether ``folder``, searched as :func:`find_project` searches it, holds a skeleton; an atlas."""
+    files, _ = _walk(folder, [])
+    return any(is_skeleton_file(p) for p in files), any(_has_suffix(p, ATLAS_SUFFIXES) for p in files)
+
+
+def _joined_halves(found: list[Path]) -> list[Path]:
+    """``found`` (:func:`find_projects`) with each set of sibling folders that are halves of one
+    project replaced by their parent: every one of them holds skeletons only or atlases only,
+    and both kinds are there. A game keeps its atlases in ``art/`` and its skeletons in
+    ``spine/``: taken apart, the skeletons would find no atlas and ``pack`` no skeleton drawing
+    the atlas's regions (every region kept its rectangle). Siblings of which one holds both, or
+    beside a project deeper under their parent, stay projects of their own."""
+    by_parent: dict[Path, list[Path]] = {}
+    for folder in found:
+        by_parent.setdefault(folder.parent, []).append(folder)
+    joined = set(found)
+    for parent, siblings in by_parent.items():
+        if len(siblings) < 2 or any(parent in f.parents[1:] for f in found):
+            continue
+        kinds = {_holds(folder) for folder in siblings}
+        if kinds == {(True, False), (False, True)}:
+            joined = (joined - set(siblings)) | {parent}
+    return sorted(joined)
 
 
 def _stem(path: Path) -> tuple[Path, str]:
