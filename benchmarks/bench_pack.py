@@ -706,7 +706,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pages", nargs="+", default=["original"], choices=("original", "any", "power-of-two", "multiple-of-4"),
                     help="page rules to pack under, each reported apart (default: original)")
     ap.add_argument("--larger-files", action="store_true", help="pack as --larger-files does: an atlas whose "
-                    "files would take more bytes is written all the same (lossy WebP pages are still kept)")
+                    "files would take more bytes is written all the same, lossy WebP pages too")
     ap.add_argument("--limits", metavar="RULE", choices=("original", "any", "power-of-two", "multiple-of-4"),
                     help="with --tables-from: per atlas, what (b) saved under this page rule and what limits it")
     ap.add_argument("--gap", type=Path, metavar="JSON", help="with --limits: rows of scripts/pack_gap.py --json "
