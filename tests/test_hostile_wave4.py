@@ -446,10 +446,11 @@ def _page_as(meshed, dest, how):
     return dest, name
 
 
-#: How each page format must come out of ``pack``: packed with the very texels drawn, or kept
-#: byte for byte (16 bits a channel once came out packed at 8, its low bits gone, exit 0).
+#: How each page format must come out of ``pack --larger-files``: packed with the very texels drawn
+#: (a lossy WebP page written losslessly: the texels it decodes to), or kept byte for byte (16 bits a
+#: channel once came out packed at 8, its low bits gone, exit 0).
 PAGE_FORMATS = {"8-bit RGBA": "packed", "palette with tRNS": "packed", "grey and alpha": "packed",
-                "RGB": "packed", "webp lossless": "packed", "16-bit": "kept", "webp lossy": "kept", "jpeg": "kept"}
+                "RGB": "packed", "webp lossless": "packed", "16-bit": "kept", "webp lossy": "packed", "jpeg": "kept"}
 
 
 @pytest.mark.parametrize("how", sorted(PAGE_FORMATS))

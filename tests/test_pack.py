@@ -172,13 +172,18 @@ def test_regions_keep_rectangles_and_say_why(tmp_path):
         or row.status == "kept"
 
 
-def test_jpeg_pages_are_kept(meshed, tmp_path):
+def _jpeg_project(meshed: Path, dest: Path) -> Path:
     from PIL import Image
 
-    project = _copy(meshed, tmp_path / "jpeg", skip=(".png",))
+    project = _copy(meshed, dest, skip=(".png",))
     Image.open(meshed / "demo.png").convert("RGB").save(project / "demo.jpg")
     text = (meshed / "demo.atlas").read_text().replace("demo.png", "demo.jpg")
     (project / "demo.atlas").write_text(text)
+    return project
+
+
+def test_jpeg_pages_are_kept(meshed, tmp_path):
+    project = _jpeg_project(meshed, tmp_path / "jpeg")
     result = pack_project(project, tmp_path / "out")
     (row,) = result.atlases
     assert row.status == "kept" and "JPEG" in row.reason
@@ -219,20 +224,20 @@ def test_the_last_line_counts_atlases_packed_and_kept_and_a_kept_row_counts_no_r
     library = tmp_path / "library"
     library.mkdir()
     _copy(meshed, library / "meshed")
-    _webp_project(meshed, library / "lossy", lossless=False)  # kept: lossless pages would grow
+    _jpeg_project(meshed, library / "jpeg")  # kept: JPEG is never written again
     report = tmp_path / "report.json"
     r = _cli("pack", str(library), "--out", str(tmp_path / "out"), "--jobs", "1", "--larger-files",
              "--report", str(report))
     assert r.returncode == 0, r.stdout + r.stderr
     lines = r.stdout.splitlines()
     assert lines[-1].startswith("packed 1 of 2 atlases, 1 kept in its layout (the note says why); "), lines[-1]
-    kept = next(line for line in lines if line.startswith("│ lossy"))
+    kept = next(line for line in lines if line.startswith("│ jpeg"))
     packed = next(line for line in lines if line.startswith("│ meshed"))
     assert [c.strip() for c in kept.split("│")[5:7]] == ["-", "-"], kept
     assert [c.strip() for c in packed.split("│")[5:7]] != ["-", "-"], packed
     rows = {row["atlas"].split("/")[0]: row for row in json.loads(report.read_text())["atlases"]}
     counts = ("by_outline", "by_rectangle", "rotated", "texels_used")
-    assert rows["lossy"]["status"] == "kept" and [rows["lossy"][k] for k in counts] == [None] * 4, rows["lossy"]
+    assert rows["jpeg"]["status"] == "kept" and [rows["jpeg"][k] for k in counts] == [None] * 4, rows["jpeg"]
     assert rows["meshed"]["status"] == "packed" and rows["meshed"]["by_outline"] > 0, rows["meshed"]
     assert 0 < rows["meshed"]["texels_used"] <= rows["meshed"]["texels_after"]
     assert "footprint_texels" not in rows["meshed"]
