@@ -97,6 +97,29 @@ class Preset(str, Enum):
     paper = "paper"
 
 
+def refuse_default_preset_options(preset: Preset, given: dict[str, object]) -> None:
+    """Refuse, before any work, the options that tune the default preset alone with ``--preset paper``.
+
+    The paper preset meshes as the paper's section 3, to the letter: it reads no density, vertex
+    budget or saving, so a run given them made the same meshes as without them and said nothing
+    (``--max-vertices 60`` gave meshes of 94 vertices).
+
+    Parameters
+    ----------
+    preset : Preset
+        The ``--preset`` given.
+    given : dict
+        Option name (``--density``) to its value, None where it was not given.
+    """
+    from ..errors import SpineMeshError
+
+    named = [name for name, value in given.items() if value is not None]
+    if preset is Preset.paper and named:
+        raise SpineMeshError(f"{' and '.join(named)} {'tunes' if len(named) == 1 else 'tune'} the default preset "
+                             "only: --preset paper meshes as the paper's section 3, to the letter; leave "
+                             f"{'it' if len(named) == 1 else 'them'} out, or leave out --preset paper")
+
+
 class MaskSource(str, Enum):
     """Where the foreground comes from (:data:`spinemesh.segment.MASK_MODES`)."""
 

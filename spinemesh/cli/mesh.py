@@ -17,6 +17,7 @@ from ._app import (
     err_console,
     positive_finite,
     progress_bar,
+    refuse_default_preset_options,
 )
 
 
@@ -93,9 +94,9 @@ def mesh(
         "--steps", metavar="PATH", help="PNG of the paper's six-panel pipeline figure (a folder for a folder).")] = None,
     density: Annotated[Optional[float], typer.Option(
         "--density", callback=positive_finite,
-        help="Vertex density, above 0: 1 artist-like (default), about 4 paper-like.")] = None,
+        help="Vertex density, above 0: 1 artist-like (default), about 4 paper-like. Default preset only.")] = None,
     max_vertices: Annotated[Optional[int], typer.Option(
-        "--max-vertices", min=3, help="Hard vertex budget per image.")] = None,
+        "--max-vertices", min=3, help="Hard vertex budget per image. Default preset only.")] = None,
     alpha_threshold: Annotated[Optional[int], typer.Option(
         "--alpha-threshold", min=1, max=255, help="Art is alpha >= this (default 8; paper 129).")] = None,
     mask: Annotated[MaskSource, typer.Option(
@@ -117,6 +118,7 @@ def mesh(
     from ..files.guard import check_outputs, refuse_one_output_twice
     from ..written_folder import check_written_folder
 
+    refuse_default_preset_options(preset, {"--density": density, "--max-vertices": max_vertices})
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
     if image.is_dir():

@@ -16,7 +16,7 @@ from ..errors import escaped
 from ..limits import MAX_JOBS
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, console_text, err_console, finite, positive_finite,
-    phase_progress, progress_bar,
+    phase_progress, progress_bar, refuse_default_preset_options,
 )
 from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
 from .weights import Weights
@@ -34,15 +34,16 @@ _Preview = Annotated[Optional[Path], typer.Option(
                       "side by side in a player, every upgraded image's old quad and new mesh; for a "
                       "folder of projects, one index for all.")]
 _Preset = Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
-                                         "paper (the paper's section 3 exactly).")]
+                                         "paper (the paper's section 3 exactly: every region meshed, no "
+                                         "--density, --max-vertices or --min-saving).")]
 _Mask = Annotated[MaskSource, typer.Option(
     "--mask", help="Where the foreground comes from. auto (here: alpha, which is what the runtime draws); "
                    "alpha; model (the segmentation network, which may cut drawn pixels).")]
 _Density = Annotated[Optional[float], typer.Option(
     "--density", callback=positive_finite, help="Vertex density, above 0: below 1 sparser, above 1 "
-                                                "denser (default 1).")]
+                                                "denser (default 1). Default preset only.")]
 _MaxVertices = Annotated[Optional[int], typer.Option("--max-vertices", min=3,
-                                                     help="Hard vertex budget per mesh.")]
+                                                     help="Hard vertex budget per mesh. Default preset only.")]
 _Only = Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
                                           "repeatable. Others are kept as regions.")]
 _Exclude = Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
@@ -54,7 +55,7 @@ _MinSaving = Annotated[Optional[float], typer.Option(
     help="Keep a region when its mesh would draw less than this share fewer pixels than the region's "
          "quad (0..1; default 0.05). Art whose outline needs over 200 vertices (many scattered "
          "islands) and saves under 500 pixels per vertex is kept a region too. Kept regions are "
-         "reported with the reason.")]
+         "reported with the reason. Default preset only.")]
 _DryRun = Annotated[bool, typer.Option("--dry-run", help="Plan and report only; write nothing.")]
 _Report = Annotated[Optional[Path], typer.Option("--report", metavar="FILE", help="Write a JSON report of every "
                                                  "attachment.")]
@@ -149,6 +150,8 @@ def upgrade(
     from ..upgrade import Options, is_library
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
+    refuse_default_preset_options(preset, {"--density": density, "--max-vertices": max_vertices,
+                                           "--min-saving": min_saving})
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     _check_outputs(project_folder(project), out, report, preview, images, images_in)
     overrides = {name: value for name, value in (("density", density), ("max_vertices", max_vertices))
