@@ -22,7 +22,8 @@ PLAYER_CSS = """
 .player .controls input[type=range]{width:260px}.player .clock{font-variant-numeric:tabular-nums;min-width:110px}
 .player .stage{display:flex;flex-wrap:wrap;gap:16px}.player figure{margin:0}
 .player figcaption{font-size:12px;color:#555;text-align:center}
-.player .status{color:#555;font-size:12px;min-height:1.2em}
+.player .status{color:#555;font-size:12px;min-height:1.2em;overflow-wrap:anywhere}
+.player select{max-width:100%}.player .found{color:#555;font-size:12px}
 .checker{background:repeating-conic-gradient(#d8d8d8 0 25%,#f4f4f4 0 50%) 0 0/16px 16px;border:1px solid #bbb}
 """
 

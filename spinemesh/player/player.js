@@ -78,6 +78,36 @@
     return Math.floor(i) === i && i >= 0 && i < count ? i : 0;
   }
 
+  /* An animation list this long gets a box to find one by a part of its name (a native list finds
+   * only by the first letters typed). */
+  var FIND_FROM = 12;
+
+  /* A name as a list shows it: at most LABEL_CHARS characters (whole code points), its end cut to
+   * an ellipsis, the whole name in the option's title; a name of thousands of characters made the
+   * list, and the page with it, tens of thousands of pixels wide. */
+  var LABEL_CHARS = 60;
+  function label(name) {
+    var chars = Array.from(String(name));
+    return chars.length > LABEL_CHARS ? chars.slice(0, LABEL_CHARS - 1).join("") + "…" : chars.join("");
+  }
+
+  /* Only the options of list whose item's name holds text (any case) shown, their count said in
+   * found; the option chosen, when hidden so, gives way to the first shown (chosen: the list
+   * shows, and the canvases draw, the same animation). */
+  function filter(list, items, text, found) {
+    var q = text.toLowerCase(), first = -1, shown = 0;
+    items.forEach(function (item, i) {
+      var hit = item.name.toLowerCase().indexOf(q) >= 0;
+      list.options[i].hidden = !hit;
+      if (hit) { shown++; if (first < 0) first = i; }
+    });
+    found.textContent = q ? shown + " of " + items.length : "";
+    if (first >= 0 && list.options[list.selectedIndex].hidden) {
+      list.value = first;
+      list.onchange();
+    }
+  }
+
   /* One side's frames, decoded: per frame the start of its draw list and of its vertices. */
   function decodeSide(side, table) {
     var xy = u16(side.xy), d = side.draws, starts = [], p = 0, v = 0;
@@ -163,10 +193,13 @@
     var P = { id: id, model: model, anim: 0, skin: 0, t: 0, playing: false, speed: 1, data: null,
               images: [], wire: false, bones: false, view: null, last: null };
     var bar = el("div", { "class": "controls" }, root);
+    var find = model.anims.length >= FIND_FROM ?
+      el("input", { type: "search", placeholder: "find an animation", "aria-label": "find an animation", size: 18 }, bar) : null;
     var animSel = el("select", { "aria-label": "animation" }, bar);
-    model.anims.forEach(function (a, i) { el("option", { value: i }, animSel, a.name + " (" + a.dur.toFixed(2) + " s)"); });
+    model.anims.forEach(function (a, i) { el("option", { value: i, title: a.name }, animSel, label(a.name) + " (" + a.dur.toFixed(2) + " s)"); });
+    var found = el("span", { "class": "found", "aria-live": "polite" }, bar);
     var skinSel = el("select", { "aria-label": "skin" }, bar);
-    model.skins.forEach(function (s, i) { el("option", { value: i }, skinSel, "skin: " + s); });
+    model.skins.forEach(function (s, i) { el("option", { value: i, title: s }, skinSel, "skin: " + label(s)); });
     var play = el("button", { type: "button" }, bar, "▶ play");
     var scrub = el("input", { type: "range", min: 0, max: 1000, value: 0, "aria-label": "time" }, bar);
     var clock = el("span", { "class": "clock" }, bar, "0.00 s");
@@ -239,7 +272,11 @@
       var src = own || a.src[0];
       var key = id + "/" + P.anim + "/" + (own ? P.skin : 0);
       status.textContent = "loading " + a.name + " …";
+      P.wanted = key;
       load(key, src, function (data) {
+        /* chosen again while this loaded (a keyboard's arrows choose at every press): the frames
+         * drawn are those of the last choice, never of a script that came in after it */
+        if (P.wanted !== key) return;
         if (!data.decoded) {
           data.decoded = {
             before: decodeSide(data.before, model.sides.before),
@@ -252,7 +289,8 @@
                              (data.note || "");
         resize();
         draw();
-      }, function (s) { status.textContent = "could not load " + s; });
+        run();
+      }, function (s) { if (P.wanted === key) status.textContent = "could not load " + s; });
     }
 
     /* The pixels the skeleton's larger side takes on each canvas: the two side by side fill the
@@ -429,36 +467,66 @@
       ctx.closePath();
     }
 
+    /* The frame and the frames drawn last: a tick draws again only when the picture changes (a
+     * page left playing a still pose, or a slow animation between its frames, redraws nothing). */
+    var drawn = { frame: -1, data: null };
+
     function draw() {
       if (!P.data) return;
       var f = frameIndex(), map = mapping();
       drawSide(sides[0], P.data.decoded.before, model.sides.before, f, map);
       drawSide(sides[1], P.data.decoded.after, model.sides.after, f, map);
+      drawn.frame = f; drawn.data = P.data;
       clock.textContent = P.t.toFixed(2) + " / " + P.data.dur.toFixed(2) + " s";
       scrub.value = P.data.dur > 0 ? Math.round(P.t / P.data.dur * 1000) : 0;
     }
 
+    /* The one tick asked for, [0, animation frame] or [1, timer], or null: one loop at most,
+     * and none while nothing can move (paused, waiting for its frames, or a still: the setup
+     * pose, an animation of 0 s). Between frames far apart (an animation sampled sparsely, a slow
+     * speed) it sleeps on a timer until the next one is due, not waking at every screen frame. */
+    var pending = null;
+
     function tick(now) {
-      if (!P.playing) { P.last = null; return; }
-      if (P.last !== null && P.data) {
+      pending = null;
+      if (!P.playing || !P.data || P.data.n < 2) { P.last = null; return; }
+      if (P.last !== null) {
         P.t += (now - P.last) / 1000 * P.speed;
-        if (P.data.dur > 0) P.t %= P.data.dur; else P.t = 0;
-        draw();
+        P.t = P.data.dur > 0 ? P.t % P.data.dur : 0;
+        if (frameIndex() !== drawn.frame || P.data !== drawn.data) draw();
       }
       P.last = now;
-      requestAnimationFrame(tick);
+      var due = (Math.min((frameIndex() + 1) / P.data.fps, P.data.dur) - P.t) / P.speed * 1000;
+      pending = due > 100 ? [1, setTimeout(function () { pending = [0, requestAnimationFrame(tick)]; }, due - 50)]
+                          : [0, requestAnimationFrame(tick)];
+    }
+
+    function stop() {
+      if (pending) (pending[0] ? clearTimeout : cancelAnimationFrame)(pending[1]);
+      pending = null;
+    }
+
+    /* (Re)starts the loop: at once, whatever it slept for (a new animation, a new speed). */
+    function run() {
+      stop();
+      if (P.playing) pending = [0, requestAnimationFrame(tick)];
     }
 
     function setPlaying(on) {
       P.playing = on;
+      P.last = null; /* the time paused is not played */
       play.textContent = on ? "❚❚ pause" : "▶ play";
-      if (on) requestAnimationFrame(tick);
+      run();
     }
 
     play.onclick = function () { setPlaying(!P.playing); };
     scrub.oninput = function () { if (P.data) { P.t = scrub.value / 1000 * P.data.dur; draw(); } };
-    speedSel.onchange = function () { P.speed = parseFloat(speedSel.value); };
+    speedSel.onchange = function () { P.speed = parseFloat(speedSel.value); run(); };
     animSel.onchange = function () { P.anim = +animSel.value; P.t = 0; choose(); };
+    if (find) {
+      find.oninput = function () { filter(animSel, model.anims, find.value, found); };
+      find.onkeydown = function (e) { if (e.key === "Enter") animSel.focus(); }; /* then the arrows go through the matches */
+    }
     skinSel.onchange = function () { P.skin = +skinSel.value; choose(); };
     wire.onchange = function () { P.wire = wire.checked; draw(); };
     bones.onchange = function () { P.bones = bones.checked; draw(); };

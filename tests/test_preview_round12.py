@@ -1,0 +1,176 @@
+"""The preview's player at any size of project, in headless Chromium: a skeleton of 500
+animations with hostile names (thousands of characters, HTML and script, emoji), one of 0 s and
+one of an hour. The player draws the animation its list shows however fast choices come, redraws
+nothing while nothing moves, stays as wide as the window, and finds an animation by a part of
+its name. Each page is driven by a script added to a copy of it (the page itself is unchanged)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from spinemesh.demo import make_demo_project
+from spinemesh.upgrade import Options, upgrade_project
+from spinemesh.upgrade.preview import write_preview
+
+#: Hostile names: each must reach the page as text, never as markup or script.
+LONG = "L" * 3000
+SMILES = "\U0001F642" * 100  # characters outside the 16-bit plane: a cut between halves shows as garbage
+MARKUP = "<img src=x onerror=window.smInjected=1>"
+SCRIPT = "</script><script>window.smInjected=2</script>"
+SKELETON = "<b>x<i>\"onload=window.smInjected=3'" + "S" * 180
+
+
+@pytest.fixture(scope="module")
+def crowded(tmp_path_factory) -> tuple[Path, list[str]]:
+    """The demo's skeleton with 500 more animations and hostile names, previewed: its page and
+    the player's animation list (the setup pose first)."""
+    tmp = tmp_path_factory.mktemp("crowded")
+    demo = make_demo_project(tmp / "demo")
+    doc = json.loads((demo / "demo.json").read_text())
+    wave = doc["animations"]["wave"]
+    doc["animations"] = {"wave": wave, "still": {},
+                         "hour": {"bones": {"arm": {"rotate": [{"value": 0}, {"time": 3600, "value": 90}]}}},
+                         MARKUP: wave, SCRIPT: wave, "__proto__": wave, LONG: wave, SMILES: wave}
+    doc["animations"] |= {f"anim {i:03d} {'walk' if i % 3 else 'idle'}": wave for i in range(500)}
+    (demo / "demo-binary.skel").unlink()
+    (demo / "demo.json").unlink()
+    (demo / f"{SKELETON}.json").write_text(json.dumps(doc))
+    result = upgrade_project(demo, tmp / "out", Options(jobs=1))
+    index = write_preview(result, demo, tmp / "out", tmp / "preview")
+    return next(index.parent.glob("s/*.html")), ["setup pose", *doc["animations"]]
+
+
+#: What every driver script starts with: the page's player, a wait, the report the tests read.
+DRIVER = """
+var P = window.SM ? Object.values(SM.players)[0] : null, list = document.querySelector('select[aria-label=animation]');
+function when(ok, then) { (function poll() { if (ok()) then(); else setTimeout(poll, 20); })(); }
+function pick(i) { list.value = String(i); list.dispatchEvent(new Event('change')); }
+function report(o) { var pre = document.createElement('pre'); pre.id = 'sm-test'; pre.textContent = JSON.stringify(o);
+                     document.body.appendChild(pre); }
+"""
+
+
+def driven(page: Path, script: str, tmp_path: Path, *args: str, budget_ms: int = 6000) -> dict:
+    """Open a copy of ``page`` (beside it) running :data:`DRIVER` and ``script`` once the page has
+    loaded; what the script reported."""
+    from browser import player_result
+
+    copy = page.with_name(f"driven-{tmp_path.name}.html")
+    text = page.read_text(encoding="utf-8")
+    copy.write_text(text.replace("</body>", f"<script>{DRIVER}{script}</script></body>"), encoding="utf-8")
+    try:
+        return player_result(copy.resolve().as_uri(), tmp_path, *args, budget_ms=budget_ms)
+    finally:
+        copy.unlink()
+
+
+def test_the_player_draws_the_animation_its_list_shows_however_fast_it_is_chosen(crowded, tmp_path):
+    """A keyboard's arrows choose an animation at every press: the frames of an animation still
+    loading when another is chosen never replace the other's (the list said "setup pose", the
+    canvases played "wave")."""
+    page, names = crowded
+    got = driven(page, """
+    when(function () { return P.data; }, function () {
+      pick(1); pick(0);  // wave's frames are loading when the setup pose (loaded) is chosen again
+      setTimeout(function () {
+        var seen = { listed: +list.value, anim: P.anim, drawn: P.data.dur, n: P.data.n };
+        pick(1);  // loaded by now: drawn at once
+        seen.waveLoaded = P.data.dur;
+        report(seen);
+      }, 1500);
+    });""", tmp_path)
+    assert names[1] == "wave" and got["waveLoaded"] > 0, got
+    assert got["listed"] == got["anim"] == 0 and (got["drawn"], got["n"]) == (0, 1), got
+
+
+def test_the_player_redraws_nothing_while_nothing_moves(crowded, tmp_path):
+    """Playing a still (the setup pose, an animation of 0 s) or an animation between its frames (an
+    hour sampled every 12 s) draws nothing and asks the browser for no frame until the next is due:
+    a page left playing burnt a core redrawing the same picture 60 times a second. A moving
+    animation still plays, drawn once per frame of its own. The browser's frames and timers are
+    played by the test on a clock of its own (headless Chromium on virtual time makes a few frames
+    a second, whatever a page asks)."""
+    page, names = crowded
+    got = driven(page, """
+    var clears = 0, clear = CanvasRenderingContext2D.prototype.clearRect, requests = 0, clock = 0, queued = [], timers = [];
+    CanvasRenderingContext2D.prototype.clearRect = function () { clears++; return clear.apply(this, arguments); };
+    var realTimeout = window.setTimeout.bind(window);
+    window.requestAnimationFrame = function (f) { requests++; queued.push(f); return queued.length; };
+    window.cancelAnimationFrame = function () {};
+    window.setTimeout = function (f, ms) { timers.push([clock + (ms || 0), f]); return -timers.length; };
+    window.clearTimeout = function () {};
+    function second() {  // 60 frames of 1/60 s: the timers due, then the frames asked for
+      clears = 0; requests = 0;
+      var seen = {};
+      for (var k = 0; k < 60; k++) {
+        clock += 1000 / 60;
+        timers.filter(function (t) { return t[0] <= clock; }).forEach(function (t) { timers.splice(timers.indexOf(t), 1); t[1](); });
+        var now = queued; queued = [];
+        now.forEach(function (f) { f(clock); });
+        seen[Math.floor(P.t * P.data.fps + 1e-6)] = 1;
+      }
+      return { draws: clears / 2, requests: requests, frames: Object.keys(seen).length, t: P.t };
+    }
+    var out = {}, steps = [['setup', 0], ['still', %d], ['hour', %d], ['wave', %d]];
+    function next() {
+      if (!steps.length) { report(out); return; }
+      var step = steps.shift(), i = step[1];
+      pick(i);
+      (function ready() {  // its frames loaded (the page's scripts come in on the browser's own time)
+        if (P.data && P.anim === i && P.data.dur === P.model.anims[i].dur) { out[step[0]] = second(); next(); }
+        else realTimeout(ready, 20);
+      })();
+    }
+    (function start() { if (P.data) { document.querySelector('.player button').click(); next(); } else realTimeout(start, 20); })();
+    """ % (names.index("still"), names.index("hour"), names.index("wave")), tmp_path, budget_ms=8000)
+    for name in ("setup", "still", "hour"):
+        assert got[name]["draws"] == 0 and got[name]["requests"] <= 1, (name, got)
+    wave = got["wave"]  # sampled at 2 frames a second (the hour spends the skeleton's budget)
+    assert wave["t"] > 0.9 and wave["frames"] >= 2 and wave["frames"] - 1 <= wave["draws"] <= wave["frames"], got
+
+
+@pytest.mark.parametrize("width", [1280, 500])
+def test_names_of_any_length_or_markup_leave_the_page_as_wide_as_the_window(crowded, tmp_path, width):
+    """A name of 3,000 characters made the animation list 22,000 pixels wide and the page scroll
+    sideways; names with markup and script reach the page as text; a name cut for the list is cut
+    between characters (never between the halves of an emoji) and is whole in its title."""
+    page, names = crowded
+    got = driven(page, """
+    when(function () { return P.data; }, function () {
+      var o = [].map.call(list.options, function (x) { return [x.textContent, x.title]; });
+      report({ scroll: document.documentElement.scrollWidth, window: innerWidth, options: o,
+               injected: window.smInjected || 0, title: document.title, h1: document.querySelector('h1').textContent });
+    });""", tmp_path, f"--window-size={width},800")
+    assert got["injected"] == 0 and SKELETON in got["title"] and SKELETON in got["h1"], got["title"]
+    assert got["scroll"] <= got["window"], (got["scroll"], got["window"])
+    if width == 1280:  # the index too, its table naming the skeleton (at 500, its columns of figures scroll)
+        index = driven(page.parent.parent / "index.html", "report({ scroll: document.documentElement.scrollWidth, "
+                       "window: innerWidth });", tmp_path, f"--window-size={width},800")
+        assert index["scroll"] <= index["window"], index
+    assert [title for _, title in got["options"]] == names
+    labels = {title: text for text, title in got["options"]}
+    assert labels[MARKUP].startswith(MARKUP) and labels[SCRIPT].startswith(SCRIPT)
+    assert labels[LONG] == "L" * 59 + "… (1.00 s)", labels[LONG]
+    assert labels[SMILES] == SMILES[:59] + "… (1.00 s)", labels[SMILES]
+
+
+def test_an_animation_is_found_by_a_part_of_its_name(crowded, tmp_path):
+    """Among 508 animations a list's own search finds only by the first letters typed: the player
+    offers a box that narrows the list to the names holding the text typed, and shows the first."""
+    page, names = crowded
+    got = driven(page, """
+    when(function () { return P.data; }, function () {
+      var find = document.querySelector('input[type=search]');
+      find.value = '9 IDLE'; find.dispatchEvent(new Event('input'));
+      var shown = [].filter.call(list.options, function (o) { return !o.hidden; }).map(function (o) { return o.title; });
+      when(function () { return P.data && P.data.dur > 0; }, function () {
+        report({ shown: shown, listed: +list.value, anim: P.anim, found: document.querySelector('.found').textContent });
+      });
+    });""", tmp_path)
+    wanted = [n for n in names if "9 idle" in n]
+    assert len(wanted) == 17 and got["shown"] == wanted, got["shown"]
+    assert got["listed"] == got["anim"] == names.index("anim 009 idle"), got
+    assert got["found"] == f"17 of {len(names)}", got["found"]
