@@ -107,6 +107,26 @@ def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset:
     return name
 
 
+def bend(s, node: dict, key: str = "bendPositive") -> None:
+    """A bend direction byte (3.5 to 4.1; 4.2 keeps it in a flag bit) as the JSON's ``bendPositive``.
+
+    Every runtime of these versions (spine-libgdx, spine-csharp, spine-c, spine-cpp, spine-ts)
+    reads the byte as a signed byte and multiplies the two-bone IK's angles by it, and their JSON
+    loaders give it 1 or -1 (``bendPositive``): a file with another byte (0 straightens the
+    chain, 2 doubles its bend) poses in the game as no document says, so it is refused, in
+    every version alike, rather than read as one of the two.
+    """
+    if s.reading:
+        at = s.pos
+        v = s.i8(what="bend direction")
+        if v not in (1, -1):
+            raise s.fail(f"a bend direction of 1 or -1, found {v} (the runtimes multiply the IK's angles by it, "
+                         "and a JSON holds no other)", at)
+        put(node, key, v > 0, True)
+    else:
+        s.i8(1 if node.get(key, True) else -1)
+
+
 def enum(s, node: dict, key: str, names: tuple, default: str | None, as_byte: bool = False) -> str:
     """An index into a fixed tuple of names, a varint (a byte, ``as_byte``: 4.x's inherit modes,
     properties and scale modes), as the name in the document."""

@@ -59,7 +59,7 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import (CONSTRAINT_WORDS, boolean, color, dark_color, enum, first_use_table, fld, index, name_table,
+from .symmetric import (CONSTRAINT_WORDS, bend, boolean, color, dark_color, enum, first_use_table, fld, index, name_table,
                         names_once, put, ref, text)
 
 SPACING_MODE = ("length", "fixed", "percent")
@@ -344,18 +344,6 @@ def ik(s, node: dict, c: Context) -> None:
         boolean(s, node, "compress")
         boolean(s, node, "stretch")
         boolean(s, node, "uniform")
-
-
-def bend(s, node: dict, key: str) -> None:
-    """A bend direction byte (1 or -1) as the JSON's ``bendPositive``."""
-    if s.reading:
-        at = s.pos
-        v = s.i8(what="bend direction")
-        if v not in (1, -1):
-            raise s.fail(f"a bend direction of 1 or -1, found {v}", at)
-        put(node, key, v > 0, True)
-    else:
-        s.i8(1 if node.get(key, True) else -1)
 
 
 _TRANSFORM_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 0), ("scaleY", 0), ("shearY", 0),

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 from ..enums import POSITION_MODE, ROTATE_MODE
-from ..symmetric import boolean, enum, fld, index, put as _put, text
+from ..symmetric import bend, boolean, enum, fld, index, put as _put, text
 from .bones import _bone_list
-from .fields import _flag_byte, _same, _to_end, bend, flag, fld_int, fld_u8, opt
+from .fields import _flag_byte, _same, _to_end, flag, fld_int, fld_u8, opt
 from .layout import SPACING_MODE, Context
 
 

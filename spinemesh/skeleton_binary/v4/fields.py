@@ -95,15 +95,6 @@ def index_list(s, node: dict, key: str, table: tuple, what: str, count_what: str
         s.varint(lookup[name])
 
 
-def bend(s, node: dict, key: str = "bendPositive") -> None:
-    """A bend direction byte (4.0 and 4.1; 4.2 keeps it in a flag bit) as the JSON's
-    ``bendPositive``: -1 is False, any other byte True."""
-    if s.reading:
-        _put(node, key, s.i8() != -1, True)
-    else:
-        s.i8(1 if node.get(key, True) else -1)
-
-
 def floats(s, values, n: int, what: str = "floats") -> list:
     """``n`` float32 values in one go (bulk arrays: vertices, uvs, deform offsets)."""
     if s.reading:

@@ -6,9 +6,9 @@ import struct
 
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED, INHERIT
 from ..stream import colour_bytes
-from ..symmetric import boolean, enum, fld, index, put as _put
+from ..symmetric import bend, boolean, enum, fld, index, put as _put
 from .constraints import _mix_field
-from .fields import _floats_struct, _same, bend, fields, flag, floats, opt, seq
+from .fields import _floats_struct, _same, fields, flag, floats, opt, seq
 from .layout import SEQUENCE_MODE, Context
 
 

@@ -1,0 +1,52 @@
+"""Hostile round twelve, part three: the ``.skel`` readers and writers.
+
+The IK bend byte read as the runtimes read it, one index-list reading for every version, and the
+runtimes' pi at the one spot each uses it; then hostile files (claimed lengths, long varints,
+truncations, counts past the end, bad text) and round trips of every real skeleton.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from spinemesh.errors import SkelFormatError
+from spinemesh.skeleton_binary import encode_skel, read_skel
+
+
+def _ik_document(version: str, bend_positive: bool) -> dict:
+    """Two bones bent by one IK constraint, and one IK key: a bend byte in the constraint and one in the key."""
+    return {
+        "skeleton": {"spine": version},
+        "bones": [{"name": "root"}, {"name": "upper", "parent": "root", "length": 10},
+                  {"name": "lower", "parent": "upper", "x": 10, "length": 10}, {"name": "aim", "parent": "root"}],
+        "ik": [{"name": "reach", "bones": ["upper", "lower"], "target": "aim", "bendPositive": bend_positive}],
+        "animations": {"bend": {"ik": {"reach": [{"bendPositive": bend_positive}]}}},
+    }
+
+
+def _bend_offsets(version: str) -> tuple[bytes, list[int]]:
+    """The ``.skel`` of :func:`_ik_document` bending negatively, and the offsets of its bend bytes
+    (where it differs from the one bending positively: -1 against 1)."""
+    negative = encode_skel(_ik_document(version, False))
+    positive = encode_skel(_ik_document(version, True))
+    assert len(negative) == len(positive)
+    offsets = [i for i, (a, b) in enumerate(zip(negative, positive)) if a != b]
+    assert [negative[i] for i in offsets] == [0xFF] * len(offsets) and [positive[i] for i in offsets] == [1] * 2
+    return negative, offsets
+
+
+@pytest.mark.parametrize("version", ["3.5.51", "3.7.94", "3.8.99", "4.0.64", "4.1.24"])
+@pytest.mark.parametrize("byte", [0, 2, 0x80])
+@pytest.mark.parametrize("where", [0, 1], ids=["constraint", "key"])
+def test_a_bend_byte_other_than_one_or_minus_one_is_refused_in_every_version(version, byte, where):
+    """Every runtime of 3.5 to 4.1 reads the bend as a signed byte and multiplies the IK's angles
+    by it (0 straightens the chain, 2 doubles the bend); the JSON says 1 or -1 only. 4.0 and 4.1
+    read any byte but -1 as bending positively: a chain the game straightens was posed and
+    written back bent."""
+    data, offsets = _bend_offsets(version)
+    assert read_skel(data)["ik"][0]["bendPositive"] is False
+    hostile = bytearray(data)
+    hostile[offsets[where]] = byte
+    with pytest.raises(SkelFormatError, match="bend direction of 1 or -1") as e:
+        read_skel(bytes(hostile), "bent.skel")
+    assert e.value.offset == offsets[where] and "bent.skel" in str(e.value) and "\n" not in str(e.value)
