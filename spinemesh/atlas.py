@@ -265,6 +265,9 @@ class Atlas:
     #: Pages that disagree with their images or with each other (:func:`page_mismatches`), once
     #: the images were looked at (:func:`spinemesh.project.project_atlases`).
     mismatches: list[PageMismatch] = field(default_factory=list)
+    #: Per page, its image's ``(width, height)`` from the file's header (None: unreadable), read
+    #: once by :func:`spinemesh.project.project_atlases`; empty until then.
+    image_sizes: list[tuple[int, int] | None] = field(default_factory=list)
 
     def find(self, name: str) -> AtlasRegion | None:
         """The first region called ``name``, as the runtimes' ``findRegion`` returns it."""

@@ -176,8 +176,8 @@ def project_atlases(project: Project) -> dict[Path, Atlas]:
             project.broken_atlases[p] = str(e)
             project.problems.append(f"{e}; atlas not used")
             continue
-        atlas.mismatches = page_mismatches(atlas, [image_size(AtlasImages.page_path(atlas, page.name, project.root))
-                                                   for page in atlas.pages])
+        atlas.image_sizes = [image_size(AtlasImages.page_path(atlas, page.name, project.root)) for page in atlas.pages]
+        atlas.mismatches = page_mismatches(atlas, atlas.image_sizes)
         project.warnings += [f"{p}: {m.message}" for m in atlas.mismatches if m.runtimes_disagree]
         for problem in atlas.problems:
             project.problems.append(f"{problem}; attachments drawing this region are left as they are")

@@ -76,3 +76,80 @@ def test_larger_files_packs_lossy_webp_pages_and_they_draw_alike(meshed, tmp_pat
     r = _cli("pack", project, "--out", tmp_path / "o2", "--report", tmp_path / "r2.json", "-j", "1", cwd=tmp_path)
     (row,) = _rows(tmp_path / "r2.json").values()  # without it: kept, and the reason names the option
     assert row["status"] == "kept" and "lossy WebP" in row["reason"] and "--larger-files" in row["reason"], row
+
+
+def test_an_atlas_kept_before_its_pages_are_read_reads_each_header_once(meshed, tmp_path, monkeypatch):
+    """Pages shared by two atlases keep both before a page is decoded: their rows' texels came
+    from each page's header read again (after the read that checks them against their ``size:``
+    lines and the one that sized the bar), three opens of each page for its header. Now once."""
+    from PIL import Image
+
+    from spinemesh.pack.run import PackOptions, pack_project
+
+    project = tmp_path / "p"
+    shutil.copytree(meshed, project)
+    (project / "twin.atlas").write_text((project / "demo.atlas").read_text())
+    page = (project / "demo.png").resolve()
+    opened: list[Path] = []
+    real_open = Image.open
+
+    def counted(fp, *args, **kwargs):
+        if isinstance(fp, (str, Path)) and Path(fp).resolve() == page:
+            opened.append(Path(fp))
+        return real_open(fp, *args, **kwargs)
+
+    monkeypatch.setattr(Image, "open", counted)
+    rows = pack_project(project, tmp_path / "o", PackOptions(jobs=1)).atlases
+    assert [r.status for r in rows] == ["kept", "kept"] and all("shared" in r.reason for r in rows), rows
+    with real_open(page) as im:
+        assert all(r.texels_before == r.texels_after == im.width * im.height for r in rows), rows
+    assert len(opened) == 2, opened  # each atlas's page header once, when the atlas is read
+
+
+def _bar_line(bars) -> str:
+    import io
+
+    from rich.console import Console
+
+    shown = Console(width=120, file=io.StringIO(), color_system=None)
+    shown.print(bars.make_tasks_table(bars.tasks))
+    return shown.file.getvalue().splitlines()[0]
+
+
+def test_a_bar_is_seen_working_through_one_long_step(monkeypatch):
+    """One large page through oxipng is one step of many seconds with nothing to count: the bar
+    stood still (its percent, its bar) and looked hung. Every command's bar (one ``progress_bar``)
+    turns a spinner while its task is under way; none before its first step nor once done."""
+    from spinemesh.cli._app import err_console, progress_bar
+    from spinemesh.cli.pack import atlas_bars
+
+    monkeypatch.setattr(err_console.real, "width", 120)
+    for phases in (False, True):
+        clock = [0.0]
+        bars = progress_bar("pack", phases=phases)
+        bars.get_time = lambda: clock[0]  # the time the bars' tasks read (a task takes it when made)
+        if phases:
+            task = bars.add_task("write", total=100, project="hero")
+        else:
+            atlas_bars(bars).atlas("hero.atlas", 100)
+            task = bars.tasks[0].id
+        waiting = _bar_line(bars)
+        bars.update(task, completed=40)  # under way: writing its one large page
+        lines = []
+        for tick in range(8):
+            clock[0] = 1.0 + tick * 0.1
+            lines.append(_bar_line(bars))
+        # the same percent, times and words; the spinner before them turning
+        assert len({line[:2] for line in lines}) > 2 and len({line[2:] for line in lines}) == 1, lines
+        bars.update(task, completed=100)
+        done = []
+        for tick in range(4):
+            clock[0] = 2.0 + tick * 0.1
+            done.append(_bar_line(bars))
+        assert waiting[:2] == "  " and {line[:2] for line in done} == {"  "}, (waiting, done)
+    # a console in ASCII (or a code page) turns a spinner of its own characters: each braille dot
+    # was escaped there, six characters wide
+    monkeypatch.setattr(type(err_console.real), "encoding", property(lambda self: "ascii"))
+    bars = progress_bar("pack")
+    bars.add_task("writing pages", total=100, completed=40)
+    assert _bar_line(bars)[0] in "-\\|/", _bar_line(bars)

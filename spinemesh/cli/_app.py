@@ -246,14 +246,16 @@ err_console = _LazyConsole(stderr=True)
 
 
 def progress_bar(label: str, transient: bool = False, phases: bool = False):
-    """A rich progress bar on stderr: label, bar, done/total, elapsed, time remaining, current item.
+    """A rich progress bar on stderr: a spinner, label, bar, done/total, elapsed, time remaining,
+    current item.
 
     With ``phases``, one bar per task, each named by its description (a phase: ``read``,
     ``mesh``, ...) instead of ``label``, and ended by its ``project`` field (the project a
     library run is on).
     """
     from rich.progress import (
-        BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
+        BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn,
+        TimeRemainingColumn,
     )
     from rich.table import Column
     from rich.text import Text
@@ -268,9 +270,23 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
                 return
             super().stop()
 
-    # the words end the line and take the room the label, bar, counts and times leave them (about
-    # 56 columns), cut short with an ellipsis: else rich cuts the times short instead
-    words = Column(no_wrap=True, overflow="ellipsis", max_width=max(12, err_console.real.width - 56))
+    # the words end the line and take the room the spinner, label, bar, counts and times leave them
+    # (about 58 columns), cut short with an ellipsis: else rich cuts the times short instead
+    words = Column(no_wrap=True, overflow="ellipsis", max_width=max(12, err_console.real.width - 58))
+
+    class Working(SpinnerColumn):
+        # one step can take many seconds with nothing to count (oxipng encoding one large page, a
+        # placement tried): the spinner turns while a task is under way (some of it done, or of no
+        # known total), so a bar that stands still is seen working (rich redraws it ten times a
+        # second); a task done, or waiting for its first step (a later phase), shows none
+        def render(self, task):
+            if task.finished or (not task.completed and task.total is not None):
+                return self.finished_text
+            return super().render(task)
+
+    # braille dots where the console encodes them; a console in ASCII or a code page (where rich
+    # draws the bar in hyphens) would get each dot escaped, six characters wide
+    working = Working("dots" if err_console.real.encoding.lower().startswith("utf") else "line", finished_text=" ")
 
     class Done(MofNCompleteColumn):
         # steps that are work, not things (a task made with percent=True: packing's): done in percent
@@ -290,11 +306,11 @@ def progress_bar(label: str, transient: bool = False, phases: bool = False):
             return Text(f"{left // 3600:d}:{left // 60 % 60:02d}:{left % 60:02d}", style="progress.remaining")
 
     if phases:
-        return Bars(TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), Done(),
+        return Bars(working, TextColumn("[bold]{task.description:<8}"), BarColumn(bar_width=16), Done(),
                     TimeElapsedColumn(), TextColumn("ETA"), Remaining(),
                     TextColumn("{task.fields[project]}", table_column=words), console=err_console.real,
                     transient=transient)
-    return Bars(TextColumn(f"[bold]{label}"), BarColumn(), Done(), TimeElapsedColumn(),
+    return Bars(working, TextColumn(f"[bold]{label}"), BarColumn(), Done(), TimeElapsedColumn(),
                 TextColumn("ETA"), Remaining(), TextColumn("{task.description}", table_column=words),
                 console=err_console.real, transient=transient)
 

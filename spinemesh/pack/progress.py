@@ -6,7 +6,7 @@ an atlas packed on several processes end together. Counted as steps, and with th
 as they became known, a bar stood still for most of a run with its ETA unknown (rich forgets
 its speed whenever a total changes). So an atlas's bar counts *work*: per phase, the atlas's
 page texels times what a texel costs in that phase (:data:`COST`), all of it known from the
-page images' headers when the atlas's job is made, before a page is read (:func:`atlas_work`),
+page images' headers as the project's atlases are read, before a page is decoded (:func:`atlas_work`),
 and told once. Each phase
 hands its share out as its parts end: the fills of a group of pages share that group's part
 of the placing, packed pages share the writing by their texels. Work found later (another
@@ -16,7 +16,6 @@ layout written after the first grew in bytes) adds to the total, which happens r
 from __future__ import annotations
 
 from collections import deque
-from pathlib import Path
 
 #: What one kilotexel of the atlas's pages costs in each phase, relative to reading it (page
 #: decoded). Measured with ``spinemesh pack --jobs 1`` (CPU seconds per megatexel of the pages
@@ -36,11 +35,10 @@ def kilotexels(size: tuple[int, int] | None) -> int:
     return max(1, -(-int(size[0]) * int(size[1]) // 1000))
 
 
-def page_kilotexels(files: list[Path]) -> list[int]:
-    """Each page file's :func:`kilotexels`, read from its header (:func:`spinemesh.images.image_size`)."""
-    from ..images import image_size
-
-    return [kilotexels(image_size(f)) for f in files]
+def page_kilotexels(sizes: list[tuple[int, int] | None]) -> list[int]:
+    """Each page's :func:`kilotexels` of its image's ``sizes`` (``Atlas.image_sizes``: read from
+    the files' headers once, by :func:`spinemesh.project.project_atlases`)."""
+    return [kilotexels(size) for size in sizes]
 
 
 def atlas_work(pages: list[int]) -> int:

@@ -579,9 +579,9 @@ def _page_files(atlas, root: Path) -> list[Path]:
 
 def project_pack_work(proj) -> int:
     """The work :func:`pack_project_into` tells for packing ``proj`` (a :class:`~spinemesh.project.Project`):
-    each usable atlas's :func:`~spinemesh.pack.progress.atlas_work` of its pages' kilotexels, read from
-    their headers. A library run sums it over its projects before the first is packed."""
-    return sum(atlas_work(page_kilotexels(_page_files(a, proj.root))) for a in project_atlases(proj).values())
+    each usable atlas's :func:`~spinemesh.pack.progress.atlas_work` of its pages' kilotexels, from
+    their headers as read with the atlas. A library run sums it over its projects before the first is packed."""
+    return sum(atlas_work(_atlas_pages(a)) for a in project_atlases(proj).values())
 
 
 def _row_from(packed: PackedAtlas, rel: str, bytes_before: int, bytes_after: int) -> AtlasRow:
@@ -607,14 +607,13 @@ class AtlasJob:
     options: PackOptions
     refused: str = ""  # why it is kept before any work (pages shared with another atlas)
     keep_previews: bool = False
-    #: each page's kilotexels, from its file's header as the job is made: the work its bar counts
-    #: (spinemesh.pack.progress), known before packing reads a page
-    pages: list = field(default_factory=list)
 
 
-def _job_pages(job: AtlasJob) -> list[int]:
-    """Each page's kilotexels of ``job`` (one each where the job was made without them)."""
-    return job.pages or [1] * len(job.files)
+def _atlas_pages(atlas) -> list[int]:
+    """Each page's kilotexels of ``atlas`` (:func:`~spinemesh.pack.progress.page_kilotexels` of its
+    ``image_sizes``; one each where its images were not looked at): the work its bar counts,
+    known before packing decodes a page."""
+    return page_kilotexels(atlas.image_sizes or [None] * len(atlas.pages))
 
 
 @dataclass
@@ -644,20 +643,28 @@ def untouched_row(job: AtlasJob, status: str, reason: str, texels: list[np.ndarr
     """The row of an atlas written as it was (``kept`` or ``failed``): its pages, page texels and
     bytes, the same before and after.
 
-    ``texels``: its pages as decoded, where they were read; else each page's size is read from
-    its image's header (an atlas kept before its pages are read: pages shared with another atlas,
-    a JPEG page, a ``size:`` line its image disagrees with; one whose worker was lost), 0 for a
-    page whose header cannot be read. The totals of a run sum these: an atlas counted as 0 texels
-    made a project's saving look larger than it is.
+    ``texels``: its pages as decoded, where they were read; else each page's size from its
+    image's header, as read with the atlas (``Atlas.image_sizes``: an atlas kept before its pages
+    are read: pages shared with another atlas, a JPEG page, a ``size:`` line its image disagrees
+    with; one whose worker was lost), 0 for a page whose header cannot be read. The totals of a
+    run sum these: an atlas counted as 0 texels made a project's saving look larger than it is.
     """
-    from ..images import image_size
-
     sizes = ([(int(t.shape[1]), int(t.shape[0])) for t in texels] if texels
-             else [image_size(f) or (0, 0) for f in job.files])
+             else [size or (0, 0) for size in _image_sizes(job.atlas, job.files)])
     texel_count = sum(w * h for w, h in sizes)
     size = files_bytes(job)
     return AtlasRow(job.rel, status, reason, len(job.atlas.pages), len(job.atlas.pages), texel_count, texel_count,
                     size, size, page_files=_page_files_once(job.files, sizes))
+
+
+def _image_sizes(atlas, files: list[Path]) -> list[tuple[int, int] | None]:
+    """Each page image's ``(width, height)``: ``atlas.image_sizes`` as read with the atlas, or from
+    ``files``' headers where the atlas was read without its images."""
+    if len(atlas.image_sizes) == len(files):
+        return atlas.image_sizes
+    from ..images import image_size
+
+    return [image_size(f) for f in files]
 
 
 def _page_files_once(files: list[Path], sizes: list[tuple[int, int]]) -> tuple:
@@ -748,7 +755,7 @@ def pack_atlas_files(job: AtlasJob, workers=None, on_step=None) -> AtlasOutcome:
 
     atlas, options = job.atlas, job.options
     t0 = time.process_time()
-    meter = AtlasMeter(_job_pages(job), [pages for _, pages, _ in page_groups(atlas)], on_step)
+    meter = AtlasMeter(_atlas_pages(job.atlas), [pages for _, pages, _ in page_groups(atlas)], on_step)
     meter.start()
     bytes_before = files_bytes(job)
     texels: list[np.ndarray] = []
@@ -857,7 +864,7 @@ def next_layout_outcome(job: AtlasJob, layouts: AtlasLayouts, texels: list[np.nd
     A page's bytes depend on what lies next to what, not only on how many texels there are:
     a layout of a few more texels can take fewer bytes (verse-rabby's).
     """
-    meter = meter or AtlasMeter(_job_pages(job))
+    meter = meter or AtlasMeter(_atlas_pages(job.atlas))
     best = None
     for rank in range(1, layouts.count):
         try:
@@ -1070,7 +1077,7 @@ def kept_pages_reencoded(job: AtlasJob, texels: list[np.ndarray], files: list[by
              if Path(page.name).suffix.lower() == ".png"]
     if not pages:
         return AtlasOutcome(row)
-    meter = meter or AtlasMeter(_job_pages(job))
+    meter = meter or AtlasMeter(_atlas_pages(job.atlas))
     meter.begin("write", [t.shape[0] * t.shape[1] for _, _, t in pages], STEPS["reencode"],
                 [i for i, page in enumerate(atlas.pages) if Path(page.name).suffix.lower() == ".png"])
     results = _page_by_page(_reencode_task, pages, workers, meter)
@@ -1145,10 +1152,9 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
                         "spinemesh does not use but a runtime may load" if unused is not None
                    else atlas.mismatches[0].message if atlas.mismatches else "")
         jobs.append(AtlasJob(path, atlas, prefix + path.relative_to(proj.root).as_posix(), files,
-                             uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews,
-                             page_kilotexels(files)))
+                             uses.regions.get(path, {}), uses.everything_pinned, options, refused, keep_previews))
     skip: set[Path] = set()
-    progress.work(sum(atlas_work(_job_pages(job)) for job in jobs))
+    progress.work(sum(atlas_work(_atlas_pages(job.atlas)) for job in jobs))
     for job, outcome in zip(jobs, _outcomes(jobs, workers, progress)):
         _write_outcome(job, outcome, proj, out, in_place, result, skip)
     # an atlas is copied after its pages, and not when one of them could not be (a full disk): a
@@ -1218,7 +1224,7 @@ def _outcomes(jobs: list[AtlasJob], workers, progress: PackProgress):
         def submit() -> None:
             job = next(waiting, None)
             if job is not None:
-                work = atlas_work(_job_pages(job))  # told whole as the atlas ends there
+                work = atlas_work(_atlas_pages(job.atlas))  # told whole as the atlas ends there
                 progress.atlas(job.rel, work)
                 progress.step(job.rel, STEPS["worker"])
                 future = workers.submit(_pack_atlas_task, job)
