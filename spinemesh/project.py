@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import re
+import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,11 +31,8 @@ from .files.inputs import existing, regular_file
 from .files.inside import is_within, page_not_found_said, real, resolve_inside
 from .files.walk import walk_folder
 from .images import AtlasImages, FolderImages, PageStore, image_size
-from .skeleton import image_paths, iter_attachments
+from .skeleton import SKELETON_SUFFIXES, image_paths, iter_attachments
 
-#: Skeleton file names: the editor's, Unity's (``.json.txt``, ``.skel.bytes``) and Godot's
-#: (``.spine-json``).
-SKELETON_SUFFIXES = (".json", ".skel", ".json.txt", ".skel.bytes", ".spine-json")
 ATLAS_SUFFIXES = (".atlas", ".atlas.txt")
 
 
@@ -107,7 +105,7 @@ def _walk(root: Path, problems: list[str]) -> tuple[list[Path], list[Path]]:
     return sorted(files), sorted(folders)
 
 
-def find_project(path: str | Path) -> Project:
+def find_project(path: str | Path, folder_taken: bool = True) -> Project:
     """Collect a project from a folder (searched recursively) or from one skeleton file.
 
     For a skeleton file, the project root is its folder and only that skeleton is taken.
@@ -117,6 +115,9 @@ def find_project(path: str | Path) -> Project:
     ----------
     path : path
         A project folder, or one skeleton file in it.
+    folder_taken : bool
+        Whether the command takes a project's folder, which a file that is no skeleton is told
+        to give instead (``pose`` takes a skeleton only).
 
     Returns
     -------
@@ -140,13 +141,41 @@ def find_project(path: str | Path) -> Project:
     project.files = files
     if path.is_file():
         if not is_skeleton_file(path):
-            raise SpineMeshError("not a Spine skeleton (.json or .skel)", path)
+            raise SpineMeshError(not_a_skeleton_said(path, [p for p in files if is_skeleton_file(p)], folder_taken),
+                                 path)
         project.skeletons = [path]
     else:
         project.skeletons = [p for p in files if is_skeleton_file(p)]
     project.atlases = [p for p in files if _has_suffix(p, ATLAS_SUFFIXES)]
     project.image_folders = [d for d in folders if d.name == "images"]
     return project
+
+
+def not_a_skeleton_said(path: Path, skeletons: list[Path], folder_taken: bool = True) -> str:
+    """Why a file given for a project is refused when it is no skeleton (its atlas, a page image),
+    and what to give instead: one of ``skeletons`` (those found in its folder), or with
+    ``folder_taken`` the folder itself.
+
+    A user who drops the atlas or the page onto the command was told only ``not a Spine
+    skeleton``; the folder is written as a shell takes it (quoted when it holds a space).
+
+    Examples
+    --------
+    >>> not_a_skeleton_said(Path("my hero/hero.atlas"), [Path("my hero/hero.json")])
+    "not a Spine skeleton (.json or .skel): give the project's folder, 'my hero', or a skeleton in it (hero.json)"
+    >>> not_a_skeleton_said(Path("my hero/hero.atlas"), [Path("my hero/hero.json")], folder_taken=False)
+    'not a Spine skeleton (.json or .skel): give a skeleton of its folder (hero.json)'
+    """
+    folder = shlex.quote(str(path.parent))
+    if not skeletons:
+        return (f"not a Spine skeleton (.json or .skel), and its folder {folder} holds none: give "
+                f"{'the folder' if folder_taken else 'a skeleton'} of the project as exported from the Spine "
+                "editor")
+    names = [p.relative_to(path.parent).as_posix() for p in skeletons[:3]]
+    listed = f"({', '.join(names)}{f' and {len(skeletons) - 3} more' if len(skeletons) > 3 else ''})"
+    if not folder_taken:
+        return f"not a Spine skeleton (.json or .skel): give a skeleton of its folder {listed}"
+    return f"not a Spine skeleton (.json or .skel): give the project's folder, {folder}, or a skeleton in it {listed}"
 
 
 def project_atlases(project: Project) -> dict[Path, Atlas]:
@@ -307,9 +336,9 @@ def find_projects(folder: str | Path) -> list[Path]:
     folders of which some hold only skeletons and the others only atlases (``art/`` and
     ``spine/``) are one project, their parent (:func:`_joined_halves`).
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise SpineMeshError("folder not found", folder)
+    folder = existing(folder)
+    if not folder.is_dir():  # a project's skeleton or atlas: its folder is what is read
+        raise SpineMeshError(f"not a folder: give the folder that holds it, {shlex.quote(str(folder.parent))}", folder)
     out: list[Path] = []
     # walk_folder: symlinked folders are not entered (a link to outside, or ``ln -s . loop``)
     for here, subfolders, files in walk_folder(folder, hidden=True):  # SOURCE_FILE is hidden

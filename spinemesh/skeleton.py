@@ -305,6 +305,10 @@ def save_skeleton(doc: dict, path: str | Path) -> None:
         atomic_write_text(path, dumps_skeleton(doc, path))
 
 
+#: Skeleton file names: the editor's, Unity's (``.json.txt``, ``.skel.bytes``) and Godot's
+#: (``.spine-json``).
+SKELETON_SUFFIXES = (".json", ".skel", ".json.txt", ".skel.bytes", ".spine-json")
+
 #: Byte-order marks and first characters (``{`` or ``[``) of JSON saved as UTF-16 or UTF-32
 #: (Windows editors' "Unicode"), longest first.
 _WIDE_TEXT = ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"), (b"{\x00\x00\x00", "UTF-32"),

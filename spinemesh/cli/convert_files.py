@@ -38,11 +38,17 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     from ..files.atomic import atomic_write_bytes, atomic_write_text
     from ..files.guard import check_outputs
     from ..files.inputs import existing, regular_file
-    from ..skeleton import dumps_skeleton, load_skeleton, spine_version
+    from ..skeleton import SKELETON_SUFFIXES, dumps_skeleton, load_skeleton, spine_version
     from ..skeleton_binary.enums import EXTRA
     from ..skeleton_check import animations_keyed_twice
 
     regular_file(existing(source), "skeleton")  # one line naming it, as every command says it
+    if not source.name.lower().endswith((*SKELETON_SUFFIXES, ".skel.txt")):  # .skel.txt: read as binary
+        from ..project import find_project
+
+        # an atlas or a page image was read as a binary skeleton ("expected a Spine version string in
+        # the header"): refused as every command refuses it, naming the skeletons beside it
+        find_project(source, folder_taken=False)
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
     doc = load_skeleton(source)
     _refuse_unusable_attachment(doc, source)

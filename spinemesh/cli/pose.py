@@ -78,7 +78,7 @@ def pose(
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
         raise typer.BadParameter(f"{max(seconds):g} s at {fps:g} steps per second is over {MAX_POSE_STEPS:,} "
                                  "game-loop steps; give times within the animation's loop", param_hint="--times")
-    project = find_project(skeleton)
+    project = find_project(skeleton, folder_taken=False)
     # nor onto the --atlas read (standard output too)
     check_outputs([project_folder(skeleton), atlas], files=[out],
                   product="the poses" if out is None else None)

@@ -1338,13 +1338,11 @@ def pack_project(project: str | Path, out: str | Path, options: PackOptions | No
     ([('demo.atlas', 'packed')], True)
     """
     from ..output import check_output_folder, output_folder
-    from ..project import is_skeleton_file
 
     options = options or PackOptions()
     project, out = Path(project), Path(out)
-    if project.is_file() and not is_skeleton_file(project):
-        raise SpineMeshError("not a Spine skeleton (.json or .skel) nor a folder: give the project's folder",
-                             project)
+    if project.is_file():
+        find_project(project)  # refuses a file that is no skeleton (an atlas, a page), saying what to give
     folder = project.parent if project.is_file() else project
     proj = find_project(folder)
     if not project_atlases(proj):
