@@ -7,6 +7,7 @@ Everything runs on the demo project drawn by our own code (no outside data neede
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 from test_pipeline import spinemesh
@@ -38,3 +39,45 @@ def test_the_paper_preset_refuses_the_options_it_does_not_read(tmp_path):
     # the default preset takes them; the paper preset alone runs as before
     assert _run("mesh", DEMO / "images", "--out", "d", "--max-vertices", "12", cwd=tmp_path).returncode == 0
     assert _run("mesh", DEMO / "images", "--out", "p", "--preset", "paper", cwd=tmp_path).returncode == 0
+
+
+def test_a_project_given_as_its_atlas_or_page_is_told_what_to_give(tmp_path):
+    """A user who drops the atlas (or the page, or a skeleton to ``dataset``) onto a command was
+    told ``not a Spine skeleton (.json or .skel)`` and no more; ``convert`` read an atlas as a
+    binary skeleton (``expected a Spine version string in the header``), and ``dataset`` said
+    ``folder not found`` of a file that is there. Each line now names what to give, in a form a
+    shell takes (a folder with a space and an accent here)."""
+    project = tmp_path / "Mes projets" / "héros 2"
+    shutil.copytree(DEMO, project)
+    said = f"give the project's folder, '{project}', or a skeleton in it (demo-binary.skel, demo.json)"
+    for args in (("upgrade", project / "demo.atlas", "--out", "u"), ("pack", project / "demo.png", "--out", "p"),
+                 ("info", project / "demo.atlas"), ("weights", project / "demo.atlas", "--out", "w")):
+        r = _run(*args, cwd=tmp_path)
+        assert r.returncode == 2 and r.stderr.strip().endswith(said), (args, r.stderr)
+    for args in (("pose", project / "demo.png", "-a", "wave", "--out", "pose.json"),
+                 ("convert", project / "demo.atlas", "demo.skel")):
+        r = _run(*args, cwd=tmp_path)
+        assert r.returncode == 2, (args, r.stdout + r.stderr)
+        assert r.stderr.strip().endswith("give a skeleton of its folder (demo-binary.skel, demo.json)"), r.stderr
+    r = _run("dataset", project / "demo.json", "--out", "DS", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.strip().endswith(f"not a folder: give the folder that holds it, "
+                                                           f"'{project}'"), r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["Mes projets"]  # nothing written
+
+
+def test_a_windows_path_is_told_what_to_write(tmp_path):
+    """A path pasted from Windows (``héros 2\\demo.json``) was said ``no such file or folder``
+    alone of a project that was there (``mesh``: click's ``Path ... does not exist``); the line
+    says that folders are separated by ``/`` and, where it is there, the path meant."""
+    shutil.copytree(DEMO, tmp_path / "héros 2")
+    for args in (("info", "héros 2\\demo.json"), ("upgrade", "héros 2\\", "--out", "u"),
+                 ("mesh", "héros 2\\images", "--out", "m"), ("convert", "héros 2\\demo-binary.skel", "d.json")):
+        r = _run(*args, cwd=tmp_path)
+        meant = args[1].replace("\\", "/")
+        assert r.returncode == 2, (args, r.stdout + r.stderr)
+        assert r.stderr.strip() == (f"error: {args[1]}: no such file or folder (folders are separated by '/' here, "
+                                    f"not '\\': did you mean '{meant}'?)"), r.stderr
+    r = _run("upgrade", "C:\\Users\\art\\héros 2", "--out", "u", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.strip().endswith("no such file or folder (folders are separated by '/' "
+                                                           "here, not '\\')"), r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["héros 2"]  # nothing written

@@ -81,8 +81,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
 
 @app.command()
 def mesh(
-    image: Annotated[Path, typer.Argument(metavar="IMAGE", help="An image (PNG, WebP, AVIF, JPEG) or a folder of images.",
-                                          exists=True)],
+    image: Annotated[Path, typer.Argument(metavar="IMAGE", help="An image (PNG, WebP, AVIF, JPEG) or a folder of images.")],
     preset: Annotated[Preset, typer.Option("--preset", "-p", help="default: for animation; paper: the "
                                            "paper's section 3 exactly.")] = Preset.default,
     out: Annotated[Optional[Path], typer.Option(
@@ -116,9 +115,11 @@ def mesh(
     Example: spinemesh mesh art/ --out art-meshes/ --preview art-previews/ --density 2
     """
     from ..files.guard import check_outputs, refuse_one_output_twice
+    from ..files.inputs import existing
     from ..written_folder import check_written_folder
 
     refuse_default_preset_options(preset, {"--density": density, "--max-vertices": max_vertices})
+    existing(image)  # one line as every command says it, a Windows path told what to write
     overrides = _overrides(density, max_vertices, alpha_threshold, mask.value)
     target = out or default_out(image)
     if image.is_dir():

@@ -42,11 +42,12 @@ def segment(
 
     from ..files.atomic import atomic_write_png
     from ..files.guard import check_outputs
+    from ..files.inputs import existing
     from ..images import load_rgba
     from ..memory import image_memory
     from ..segment import looks_empty, mask_for, model_files
 
-    check_outputs([image, *model_files(model)], files=[out])  # never onto the image, the model or its card
+    check_outputs([existing(image), *model_files(model)], files=[out])  # never onto the image, the model or its card
     rgba = load_rgba(image)
     with image_memory("mask", image, rgba.shape[1], rgba.shape[0]):  # one line naming the image
         m, used = mask_for(rgba, mask.value, model)

@@ -5,6 +5,7 @@ one line; the folder a project input stands for, and how a run names it.
 from __future__ import annotations
 
 import os
+import shlex
 import stat
 from pathlib import Path
 
@@ -43,8 +44,28 @@ def existing(path: str | Path) -> Path:
     one line every command gives for a missing input, before anything else is checked)."""
     path = Path(path)
     if not path.exists():
-        raise SpineMeshError("no such file or folder", path)
+        raise SpineMeshError(missing_said(path), path)
     return path
+
+
+def missing_said(path: str | Path, what: str = "file or folder") -> str:
+    r"""``no such WHAT``, and for a path written with backslashes (a Windows path pasted where
+    folders are separated by ``/``) what to write instead: it was said ``no such file or folder``
+    alone, of a project that was there.
+
+    Examples
+    --------
+    >>> missing_said("hero")
+    'no such file or folder'
+    >>> missing_said("C:\\art\\hero", "skeleton")
+    "no such skeleton (folders are separated by '/' here, not '\\')"
+    """
+    text = os.fspath(path)
+    if "\\" not in text:
+        return f"no such {what}"
+    slashed = text.replace("\\", "/")
+    meant = f": did you mean {shlex.quote(slashed)}?" if os.path.exists(slashed) else ""
+    return f"no such {what} (folders are separated by '/' here, not '\\'{meant})"
 
 
 def regular_file(path: str | Path, what: str = "file") -> Path:
@@ -61,7 +82,7 @@ def regular_file(path: str | Path, what: str = "file") -> Path:
     try:
         mode = os.stat(path).st_mode
     except FileNotFoundError:
-        raise SpineMeshError(f"no such {what}", path) from None
+        raise SpineMeshError(missing_said(path, what), path) from None
     except OSError as e:
         raise SpineMeshError(f"cannot read {what}: {e.strerror}", path) from None
     if stat.S_ISDIR(mode):
