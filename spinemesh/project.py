@@ -332,9 +332,9 @@ def find_projects(folder: str | Path) -> list[Path]:
     """Project folders under ``folder``, sorted; hidden folders skipped.
 
     A project is the first folder, walking down, that directly holds a skeleton, an atlas
-    or a :data:`SOURCE_FILE`; nothing below it is searched for further projects. Sibling
-    folders of which some hold only skeletons and the others only atlases (``art/`` and
-    ``spine/``) are one project, their parent (:func:`_joined_halves`).
+    or a :data:`SOURCE_FILE`; nothing below it is searched for further projects. Folders of
+    which some hold only skeletons and the others only atlases (``spine/`` and ``art/``) are one
+    project, the nearest folder above them all (:func:`_joined_halves`).
     """
     folder = existing(folder)
     if not folder.is_dir():  # a project's skeleton or atlas: its folder is what is read
@@ -346,7 +346,7 @@ def find_projects(folder: str | Path) -> list[Path]:
         if any(p.name == SOURCE_FILE or _has_suffix(p, ATLAS_SUFFIXES) or is_skeleton_file(p) for p in files):
             out.append(here)
             subfolders[:] = []
-    return _joined_halves(out)
+    return _joined_halves(out, folder)
 
 
 def _holds(folder: Path) -> tuple[bool, bool]:
@@ -355,23 +355,35 @@ def _holds(folder: Path) -> tuple[bool, bool]:
     return any(is_skeleton_file(p) for p in files), any(_has_suffix(p, ATLAS_SUFFIXES) for p in files)
 
 
-def _joined_halves(found: list[Path]) -> list[Path]:
-    """``found`` (:func:`find_projects`) with each set of sibling folders that are halves of one
-    project replaced by their parent: every one of them holds skeletons only or atlases only,
-    and both kinds are there. A game keeps its atlases in ``art/`` and its skeletons in
-    ``spine/``: taken apart, the skeletons would find no atlas and ``pack`` no skeleton drawing
-    the atlas's regions (every region kept its rectangle). Siblings of which one holds both, or
-    beside a project deeper under their parent, stay projects of their own."""
-    by_parent: dict[Path, list[Path]] = {}
+def _joined_halves(found: list[Path], root: Path) -> list[Path]:
+    """``found`` (:func:`find_projects` under ``root``) with the halves of one project joined: the
+    folders under one folder of ``root`` (itself included) that each hold skeletons only or
+    atlases only, both kinds there, and no folder under it holding both, are one project: that
+    folder, the nearest such. A game keeps its atlases in ``art/`` (or ``art/characters/`` and
+    ``art/ui/``) and its skeletons in ``spine/``: taken apart, the skeletons found no atlas and
+    ``pack`` no skeleton drawing the atlases' regions (every region kept its rectangle). Halves
+    beside a whole project stay projects of their own: which skeletons load which atlas is not
+    known there."""
+    under: dict[Path, list[Path]] = {}
     for folder in found:
-        by_parent.setdefault(folder.parent, []).append(folder)
+        for above in folder.parents:
+            if above != root and root not in above.parents:
+                break
+            under.setdefault(above, []).append(folder)
+    kinds: dict[Path, tuple[bool, bool]] = {}
     joined = set(found)
-    for parent, siblings in by_parent.items():
-        if len(siblings) < 2 or any(parent in f.parents[1:] for f in found):
-            continue
-        kinds = {_holds(folder) for folder in siblings}
-        if kinds == {(True, False), (False, True)}:
-            joined = (joined - set(siblings)) | {parent}
+    for above in sorted(under, key=lambda p: len(p.parts), reverse=True):  # the nearest first
+        halves = under[above]
+        seen = set()
+        for folder in halves:
+            if folder not in kinds:
+                kinds[folder] = _holds(folder)
+            seen.add(kinds[folder])
+            if not (seen <= {(True, False), (False, True)}):
+                break  # a whole project (or a folder of neither) under it: never joined, nor above
+        if len(halves) > 1 and seen == {(True, False), (False, True)}:
+            joined = (joined - set(halves)) | {above}
+            kinds.update((folder, (True, True)) for folder in halves)  # whole now, for the folders above
     return sorted(joined)
 
 

@@ -26,7 +26,8 @@ def _split(meshed: Path, project: Path) -> Path:
 def test_an_atlas_beside_its_skeletons_folder_is_packed_by_their_outlines(meshed, tmp_path):
     """``art/`` and ``spine/`` were taken for two projects of a folder of projects: the atlas was
     packed without a skeleton drawing it, every region by its rectangle ("not drawn by any
-    skeleton"). Sibling folders that hold only atlases and only skeletons are one project."""
+    skeleton"). Folders that hold only atlases and only skeletons are one project, the nearest
+    folder above them all."""
     from spinemesh.project import find_projects
 
     project = _split(meshed, tmp_path / "game")
@@ -35,10 +36,23 @@ def test_an_atlas_beside_its_skeletons_folder_is_packed_by_their_outlines(meshed
     assert r.returncode == 0, r.stderr
     (row,) = _rows(tmp_path / "r.json").values()
     assert row["status"] == "packed" and row["by_outline"] == 8 and row["by_rectangle"] == 0, row
-    # halves beside a whole project stay projects of their own: which skeletons draw what is unknown
+    # halves in a folder of their own are joined there; beside a whole project they stay projects
+    # of their own (which skeletons draw which atlas is not known there)
     _split(meshed, tmp_path / "lib" / "a")
     shutil.copytree(meshed, tmp_path / "lib" / "b")
     assert find_projects(tmp_path / "lib") == [tmp_path / "lib" / "a", tmp_path / "lib" / "b"]
+    for half in ("art", "spine"):
+        (tmp_path / "lib" / "a" / half).rename(tmp_path / "lib" / half)
+    assert find_projects(tmp_path / "lib") == [tmp_path / "lib" / "art", tmp_path / "lib" / "b",
+                                               tmp_path / "lib" / "spine"]
+    # atlases a folder deeper than the skeletons (art/characters/, art/ui/): one project all the same
+    deeper = tmp_path / "deeper"
+    _split(meshed, deeper)
+    (deeper / "art").rename(deeper / "characters")
+    (deeper / "art").mkdir()
+    (deeper / "characters").rename(deeper / "art" / "characters")
+    shutil.copytree(deeper / "art" / "characters", deeper / "art" / "ui")
+    assert find_projects(deeper) == [deeper]
 
 
 def _draws_alike(tool: Path, before: Path, after: Path, scratch: Path, atlas: str = "demo.atlas") -> int:
