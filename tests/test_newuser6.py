@@ -114,3 +114,16 @@ def test_the_wheel_holds_every_package_file_and_builds_without_a_deprecation(tmp
     assert "License-Expression: MIT" in wheel.read(meta).decode().splitlines()
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     assert "spinemesh = spinemesh.cli:main" in wheel.read(entry).decode()
+
+
+def test_a_page_named_in_other_letter_case_is_said(tmp_path):
+    """A project exported on Windows or macOS whose atlas names ``demo.png`` where the file is
+    ``Demo.png`` loads there (their disks find it whatever the case) and nowhere else; on Linux
+    every command said ``page image 'demo.png' not found`` beside the file it wanted."""
+    project = tmp_path / "hero"
+    shutil.copytree(DEMO, project)
+    (project / "demo.png").rename(project / "Demo.png")
+    r = _run("info", project, cwd=tmp_path)
+    assert (f"{project / 'demo.atlas'}:1: page image 'demo.png' not found: 'Demo.png' is there, its name in other "
+            "letter case") in r.stderr, r.stderr
+    assert "rename the file or the atlas's page line so that they match" in r.stderr, r.stderr

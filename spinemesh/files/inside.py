@@ -71,7 +71,26 @@ def page_not_found_said(name: str, folder: str | Path) -> str:
         return (f"page image {name!r} is a file whose name holds a backslash, which runtimes read apart: "
                 f"Windows and browsers read the page as {folders!r} (in folders), libGDX and spine-c on Linux, "
                 f"macOS and Android as that one file; move it to {folders!r}, where every runtime finds it")
+    other = named_in_other_case(Path(folder) / folders)
+    if other is not None:
+        # exported on Windows or macOS, whose disks find the page whatever its letters' case
+        return (f"page image {name!r} not found: {other!r} is there, its name in other letter case, which Windows "
+                "and macOS disks take for it and Linux, Android and web servers do not; rename the file or the "
+                "atlas's page line so that they match")
     return f"page image {name!r} not found"
+
+
+def named_in_other_case(path: Path, most: int = 10_000) -> str | None:
+    """The name of a file beside ``path`` that is its name in other letter case (``Hero.png`` for
+    ``hero.png``), or None; the first ``most`` entries of its folder are looked at."""
+    try:
+        with os.scandir(path.parent) as entries:
+            for _, entry in zip(range(most), entries):
+                if entry.name != path.name and entry.name.lower() == path.name.lower() and entry.is_file():
+                    return entry.name
+    except OSError:  # no such folder, or one it may not read: nothing to say beyond "not found"
+        return None
+    return None
 
 
 def resolve_inside(root: str | Path, relative: str, source: str | Path | None = None,
