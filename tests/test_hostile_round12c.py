@@ -167,3 +167,17 @@ def test_a_bar_is_seen_working_through_one_long_step(monkeypatch):
     bars = progress_bar("pack")
     bars.add_task("writing pages", total=100, completed=40)
     assert _bar_line(bars)[0] in "-\\|/", _bar_line(bars)
+
+
+def test_an_atlas_packed_without_any_skeleton_says_why_each_region_keeps_its_rectangle(meshed, tmp_path):
+    """``pack art/`` (the atlas's folder, its skeletons in ``spine/`` beside it) packs every region by
+    its rectangle: the report said "not drawn by any skeleton" of each, as of regions a game looks
+    up in code. It says that the project holds no skeleton, and what to give instead."""
+    project = _split(meshed, tmp_path / "game")
+    r = _cli("pack", project / "art", "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1",
+             cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    (row,) = _rows(tmp_path / "r.json").values()
+    assert row["by_outline"] == 0 and row["by_rectangle"] == 8, row
+    assert all("holds no skeleton" in region["reason"] and "pack the folder that also holds the skeletons" in
+               region["reason"] for region in row["regions_by_rectangle"]), row["regions_by_rectangle"]

@@ -200,6 +200,9 @@ def collect_uses(project: Project, elsewhere: dict[Path, Path] | None = None) ->
                         region.pin(f"{why or 'mesh with malformed uvs or triangles'} ({rel}, slot {ref.slot!r})")
                     elif not region.pinned:
                         region.meshes.append(use)
+    if not project.skeletons and not elsewhere:  # an atlas given apart from its skeletons (art/ alone)
+        uses.everything_pinned = ("the project holds no skeleton, so nothing says how its regions are drawn: "
+                                  "pack the folder that also holds the skeletons that load it")
     for atlas in atlases.values():
         uses.regions.setdefault(atlas.path, {})
     return uses
