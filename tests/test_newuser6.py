@@ -127,3 +127,17 @@ def test_a_page_named_in_other_letter_case_is_said(tmp_path):
     assert (f"{project / 'demo.atlas'}:1: page image 'demo.png' not found: 'Demo.png' is there, its name in other "
             "letter case") in r.stderr, r.stderr
     assert "rename the file or the atlas's page line so that they match" in r.stderr, r.stderr
+
+
+def test_a_report_named_as_the_output_folder_is_refused_before_the_work(tmp_path):
+    """``--report meshed`` beside ``--out meshed`` (a report that was meant to go in it) passed
+    every check, the run wrote OUT, and only then the report was refused, exit 3: ``upgrade``,
+    ``pack`` and ``weights`` alike. It is refused first, in one line saying what to write."""
+    for command, out in (("upgrade", "m"), ("pack", "p"), ("weights", "w/inner")):
+        report = out.split("/")[0]
+        r = _run(command, DEMO, "--out", out, "--report", report, cwd=tmp_path)
+        assert r.returncode == 2, (command, r.stdout + r.stderr)
+        assert r.stderr.strip() == (f"error: {report}: --report names the output folder (--out {out}) or one above "
+                                    f"it; give the report a file's name, beside the folder or in it "
+                                    f"({out}/report.json)"), r.stderr
+        assert list(tmp_path.iterdir()) == [], command  # nothing written

@@ -102,7 +102,7 @@ def pack(
     check_outputs([project_folder(project)], files=[report], folders=[preview])
     check_written_folder(preview)  # a folder of a user's files: refused, not written over
     # as upgrade does: pictures of the preview inside OUT would ship with the packed project
-    refuse_overlapping_outputs(out, {"--preview": preview})
+    refuse_overlapping_outputs(out, {"--preview": preview}, report)
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
                           rules=PageRules(pages.value, max_page), jobs=jobs or available_cores(),
                           larger_files=larger_files, keep_files_as_exported=keep_files_as_exported)

@@ -182,7 +182,7 @@ def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path 
     check_outputs([project, images_in], files=[report], folders=[preview, images])
     check_written_folder(preview)
     check_written_folder(images, "--images folder", "images")
-    refuse_overlapping_outputs(out, {"--images": images, "--preview": preview})
+    refuse_overlapping_outputs(out, {"--images": images, "--preview": preview}, report)
 
 
 def _say_dry_run(pack: bool) -> None:

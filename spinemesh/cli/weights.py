@@ -120,6 +120,7 @@ def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path 
     guard.check_folder(out)
     if report is not None:
         guard.check(report, "report")
+    refuse_overlapping_outputs(out, {}, report)  # the report is no folder, nor above OUT
     if preview is not None:
         guard.check_folder(preview, "preview folder")
         check_written_folder(preview)

@@ -161,13 +161,18 @@ def refuse_report_over_output(report: Path, out: Path) -> None:
                           "there); name it apart", report)
 
 
-def refuse_overlapping_outputs(out: Path, others: dict) -> None:
+def refuse_overlapping_outputs(out: Path, others: dict, report: Path | None = None) -> None:
     """Refuse an output folder given as OUT, inside OUT or holding OUT: a file of one would
-    silently replace a file of the other (an editor image named like a page)."""
+    silently replace a file of the other (an editor image named like a page); and a ``report``
+    file that is OUT or a folder above it (inside OUT it is a file of its own), which the run
+    made a folder and then refused once its work was done (exit 3)."""
     for option, path in others.items():
         if path is not None and (is_within(path, out) or is_within(out, path)):
             raise OutputError(f"{option} {path} overlaps the output folder {out}; give a folder or file "
                               "beside it", path)
+    if report is not None and is_within(out, report):
+        raise OutputError(f"--report names the output folder (--out {out}) or one above it; give the report a "
+                          f"file's name, beside the folder or in it ({out / 'report.json'})", report)
 
 
 def refuse_one_output_twice(paths: Iterable[str | Path | None]) -> None:
