@@ -93,12 +93,13 @@ def main() -> None:
     ``OPENCV_*`` environment variable OpenCV cannot parse (checked first). SIGTERM and
     SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out.
     """
-    from ..errors import SpineMeshError
-    from ..processes import exit_on_terminate, interrupted
+    try:  # from the first import on: a Ctrl-C while the command is imported (~50 ms) ended in a traceback
+        from ..processes import exit_on_terminate
 
-    exit_on_terminate()
-    _standard_streams()
-    try:
+        exit_on_terminate()
+        from ..errors import SpineMeshError
+
+        _standard_streams()
         from ..opencv_environment import check_opencv_environment
 
         check_opencv_environment()  # a value OpenCV cannot parse aborts the process at its import
@@ -112,17 +113,12 @@ def main() -> None:
     except KeyboardInterrupt:  # where typer does not catch it (start-up, the plain convert)
         sys.exit(130)  # what typer ends Ctrl-C with: 128 + SIGINT, nothing printed
     except SystemExit as e:
+        from ..processes import interrupted
+
         # a signal came: whatever ended the command, the run was not a success
         if interrupted() and e.code in (0, None):
             sys.exit(128 + interrupted())
         raise
-    except (SpineMeshError, OSError) as e:
-        from ._app import console_text, err_console
-
-        if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
-            e = _refusal(e)
-        err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
-        sys.exit(2)
     except UnicodeEncodeError as e:
         if not _file_name_encoding(e.encoding):
             raise
@@ -143,4 +139,11 @@ def main() -> None:
         err_console.print("[bold red]error:[/] not enough memory to finish: the files written so far are whole, "
                           "the others were not written (try fewer --jobs, or one project at a time)",
                           highlight=False, soft_wrap=True)
+        sys.exit(2)
+    except (SpineMeshError, OSError) as e:  # last: SpineMeshError is bound once the command is imported
+        from ._app import console_text, err_console
+
+        if isinstance(e, OSError):  # the last net: what the system refused, as one line naming the file
+            e = _refusal(e)
+        err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)
