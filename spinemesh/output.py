@@ -22,7 +22,7 @@ except ImportError:  # Windows: no lock
     fcntl = None
 
 from .errors import OutputError, SpineMeshError
-from .files.atomic import atomic_copy, atomic_write_bytes, atomic_write_text, make_folder
+from .files.atomic import atomic_copy, atomic_write_bytes, atomic_write_text, make_folder, write_refused
 from .files.disk import file_digest
 from .files.guard import OutputGuard, refuse_report_over_output
 from .project import Project
@@ -71,7 +71,10 @@ def output_folder(out: Path, overwrite: bool):
     if out.exists() and not out.is_dir():
         raise SpineMeshError("output folder exists and is not a folder", out)
     make_folder(out)
-    fd = os.open(out, os.O_RDONLY)
+    try:
+        fd = os.open(out, os.O_RDONLY)
+    except OSError as e:  # a folder made under umask 777: it was said as a bare "Permission denied"
+        raise write_refused(e, out) from None
     try:
         if fcntl is not None:
             fcntl.flock(fd, fcntl.LOCK_EX)

@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from .errors import OutputError, SpineMeshError
-from .files.atomic import atomic_write_text, is_temporary_name, make_folder
+from .files.atomic import atomic_write_text, folders_made, is_temporary_name, make_folder
 from .files.disk import file_digest, file_stamp
 from .files.strict_json import strict_json
 from .files.walk import walk_folder
@@ -206,6 +206,33 @@ def remove_listed_files(folder: str | Path, files: dict[str, str | None]) -> Non
                 parent.rmdir()  # only when empty
             except OSError:
                 break
+
+
+def remove_made_folders_left_empty() -> None:
+    """Remove the folders this process made (:func:`~spinemesh.files.atomic.folders_made`) that hold
+    nothing but a marker, innermost first: what a run that did not succeed calls as it ends. A run
+    refused by a umask of 777, a full disk or Ctrl-C before it wrote anything left its output
+    folder behind, empty, or holding the marker it had just written. A folder holding anything
+    else is kept, as is one another run holds (its marker lists the files it found, or is being
+    written)."""
+    for folder in reversed(folders_made()):
+        try:
+            os.rmdir(folder)  # an empty folder, also one this run may not list (umask 777)
+            continue
+        except OSError:
+            pass
+        with contextlib.suppress(OSError):
+            names = os.listdir(folder)
+            if names and set(names) <= {OUTPUT_MARKER, WRITTEN_MARKER} and not any(
+                    listed_files(marker := read_marker(folder / name)) or _found(marker) for name in names):
+                for name in names:
+                    os.unlink(folder / name)
+                os.rmdir(folder)
+
+
+def _found(marker: object) -> bool:
+    """Whether an output folder's marker says its run found files there (``kept``)."""
+    return isinstance(marker, dict) and bool(marker.get("kept"))
 
 
 # -- the second use: a folder of pictures or pages, its earlier files removed after the run --

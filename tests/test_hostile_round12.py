@@ -10,12 +10,14 @@ and checks what docs/safety.md promises.
 
 from __future__ import annotations
 
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from test_hostile_round11b import _env, twenty  # noqa: F401 (a fixture)
+from test_hostile_round11b import _as_a_user, _env, _no_traceback, _one_error, twenty  # noqa: F401 (a fixture)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -48,3 +50,88 @@ def test_ctrl_c_while_the_command_is_imported_ends_quietly(tmp_path, twenty, mod
     r = subprocess.run([sys.executable, "-c", _INTERRUPTED_AT_IMPORT, module, "info", str(twenty)], cwd=tmp_path,
                        env=_env(), capture_output=True, timeout=120, check=False)
     assert r.returncode == 130 and r.stderr == b"" and r.stdout == b"", (r.returncode, r.stderr.decode()[-2000:])
+
+
+# --- an output the system refuses: umask 777, a full disk ---------------------------------------------
+
+#: One run of each command that writes into a folder it makes: (arguments, the output folder).
+MAKING_FOLDERS = {
+    "upgrade": (("upgrade", "p", "--out", "o/up"), "o"),
+    "upgrade --preview": (("upgrade", "p", "--out", "o/up", "--preview", "o/pv"), "o"),
+    "pack": (("pack", "p", "--out", "o"), "o"),
+    "weights": (("weights", "p", "--out", "o"), "o"),
+    "mesh DIR": (("mesh", "p", "--out", "o"), "o"),
+    "mesh": (("mesh", "p/demo.png", "--out", "o/m.json"), "o"),
+    "dataset": (("dataset", "p", "--out", "o"), "o"),
+    "convert": (("convert", "p/demo.json", "o/x.skel"), "o"),
+    "pose": (("pose", "p/demo.json", "--out", "o/pose.json"), "o"),
+    "segment": (("segment", "p/demo.png", "--out", "o/mask.png"), "o"),
+}
+
+
+def _run_limited(args, cwd: Path, umask: int | None = None, file_size: int | None = None,
+                 prefix: list[str] = ()) -> subprocess.CompletedProcess:
+    """``python -m spinemesh ARGS`` under ``umask`` and a largest file of ``file_size`` bytes
+    (``ulimit -f``: a write past it fails with EFBIG, as on a full disk with ENOSPC)."""
+    import resource
+
+    def limits():
+        if umask is not None:
+            os.umask(umask)
+        if file_size is not None:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (file_size, file_size))
+
+    return subprocess.run([*prefix, sys.executable, "-m", "spinemesh", *map(str, args)], cwd=cwd, env=_env(),
+                          capture_output=True, timeout=180, check=False, preexec_fn=limits)
+
+
+@pytest.fixture()
+def project_in(tmp_path, twenty):  # noqa: F811
+    """``tmp_path/p``: a copy of ``twenty`` with its demo page beside it (``mesh``, ``segment``)."""
+    shutil.copytree(twenty, tmp_path / "p")
+    return tmp_path
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="umask and permissions as Linux reads them")
+@pytest.mark.parametrize("command", list(MAKING_FOLDERS))
+def test_umask_777_leaves_no_empty_output_folder(project_in, command):
+    """``umask 777`` (a misconfigured service account): every command made its output folder (mode
+    000), could not write in it, and left it behind, empty, with ``error: o: Permission denied`` or a
+    line naming a temporary file (``o/.x.skel.0afae324.tmp: Permission denied``: the cleanup's error
+    in place of the write's). One line names the output and the umask; no folder is left."""
+    args, out = MAKING_FOLDERS[command]
+    r = _run_limited(args, project_in, umask=0o777, prefix=_as_a_user())
+    line = _one_error(r)
+    assert "cannot write: permission denied: the umask (0777)" in line and ".tmp" not in line, line
+    assert not (project_in / out).exists() and not os.path.lexists(project_in / out), line
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the file size limit as Linux applies it")
+@pytest.mark.parametrize("command", list(MAKING_FOLDERS))
+def test_a_full_disk_leaves_no_empty_output_folder(project_in, command):
+    """A disk with no room (``ulimit -f``: no byte may be written): every command ended in one line
+    (exit 2) and left its output folder behind, empty. It is removed."""
+    args, out = MAKING_FOLDERS[command]
+    r = _run_limited(args, project_in, file_size=1)
+    line = _one_error(r)
+    assert "cannot write: File too large" in line, line
+    assert not (project_in / out).exists(), sorted(p.name for p in (project_in / out).rglob("*"))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the file size limit as Linux applies it")
+@pytest.mark.parametrize("command", ["upgrade", "pack", "weights"])
+def test_a_disk_that_fills_leaves_no_folder_of_a_marker(project_in, command):
+    """A disk that fills as the run writes (room for the folder's marker, none for a skeleton or a
+    page): the run said each file it could not write (exit 3) and left OUT holding only its marker,
+    listing nothing. Nothing of the run is left."""
+    r = _run_limited((command, "p", "--out", "o"), project_in, file_size=1000)
+    text = _no_traceback(r)
+    assert r.returncode == 3 and "cannot write: File too large" in text, text[-2000:]
+    assert not (project_in / "o").exists(), sorted(p.name for p in (project_in / "o").rglob("*"))
+
+
+def test_mesh_of_a_folder_draws_no_bar_into_a_log(project_in):
+    """``mesh DIR 2> build.log``: its bar, alone of every command's, was drawn into the log at its end
+    (a line of 300 bar characters); a log gets none, as from the others."""
+    r = _run_limited(("mesh", "p", "--out", "o"), project_in)
+    assert r.returncode == 0 and r.stderr == b"", r.stderr[-500:]

@@ -91,8 +91,28 @@ def main() -> None:
     A :class:`~spinemesh.errors.SpineMeshError` is printed as one line (never wrapped, even
     when stderr is not a terminal, so that scripts can grep it) and exits with 2, as does an
     ``OPENCV_*`` environment variable OpenCV cannot parse (checked first). SIGTERM and
-    SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out.
+    SIGHUP end the run like Ctrl-C does, so temporary files are removed on the way out. A run
+    that does not succeed leaves none of the folders it made empty behind.
     """
+    try:
+        _run_command()
+    except BaseException as e:
+        if not isinstance(e, SystemExit) or e.code not in (0, None):
+            _remove_made_folders_left_empty()
+        raise
+
+
+def _remove_made_folders_left_empty() -> None:
+    """:func:`~spinemesh.written_folder.remove_made_folders_left_empty`, where this process could have
+    made a folder (the module making them was imported)."""
+    if f"{__package__.rpartition('.')[0]}.files.atomic" in sys.modules:
+        from ..written_folder import remove_made_folders_left_empty
+
+        remove_made_folders_left_empty()
+
+
+def _run_command() -> None:
+    """The command line run: its errors said in one line each, its exit status set (:func:`main`)."""
     try:  # from the first import on: a Ctrl-C while the command is imported (~50 ms) ended in a traceback
         from ..processes import exit_on_terminate
 

@@ -178,9 +178,10 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     failed = 0
     # hero.png and hero.webp (or Hero.png on a disk that ignores case) would write one hero.json
     outputs = OneFilePerName()
-    with contextlib.ExitStack() as held, progress_bar("meshing") as bar:
+    with contextlib.ExitStack() as held, progress_bar("meshing", transient=True) as bar:  # no bar in a log
         for folder in folders:  # an earlier run's files this one does not write again are removed
             held.enter_context(rewriting_folder(folder))
+        mark()  # before the first image: a folder the system refuses (full, umask 777) ends the run in one line
         task = bar.add_task("", total=len(files))
         for f in files:
             rel = f.relative_to(image).with_suffix("")

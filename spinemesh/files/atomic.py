@@ -8,6 +8,7 @@ all staged before any is renamed (:func:`atomic_write_files`).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import re
@@ -21,9 +22,14 @@ from .inside import NAME_MAX
 from .strict_json import strict_json
 
 
-def _write_error(e: OSError, path: Path) -> OutputError:
+def write_refused(e: OSError, path: str | Path) -> OutputError:
+    """What the system refused writing ``path`` (making it, or a folder for it), said in one line
+    naming it: a full disk, a read-only folder, a umask that leaves its owner no right to write in
+    the folders it makes (``umask 777``)."""
     if e.errno == errno.ENOSPC:
         reason = "disk full"
+    elif e.errno in (errno.EACCES, errno.EPERM) and (umask := _umask()) is not None and umask & 0o300:
+        reason = f"permission denied: the umask ({umask:04o}) leaves a new folder's owner no right to write in it"
     elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
         reason = "permission denied (read-only?)"
     else:
@@ -31,16 +37,47 @@ def _write_error(e: OSError, path: Path) -> OutputError:
     return OutputError(f"cannot write: {reason}", path)
 
 
+def _umask() -> int | None:
+    """This process's umask as Linux says it (``/proc/self/status``); None where it does not say it
+    (``os.umask`` reads it only by setting it, under the feet of other threads making files)."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+#: The folders :func:`make_folder` made in this process (absolute paths, outermost first): a run
+#: that does not succeed removes those it left empty (:func:`~spinemesh.written_folder.remove_made_folders_left_empty`).
+_MADE_FOLDERS: list[str] = []
+
+
 def make_folder(folder: str | Path) -> Path:
-    """``mkdir -p`` that reports a failure as :class:`OutputError` naming the folder."""
+    """``mkdir -p`` that reports a failure as :class:`OutputError` naming the folder, and notes the
+    folders it made (:func:`folders_made`)."""
     folder = Path(folder)
+    missing = []
+    for path in (folder, *folder.parents):
+        if os.path.lexists(path):
+            break
+        missing.append(os.path.abspath(path))
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         raise OutputError("cannot create folder: a file of that name exists", folder) from None
     except OSError as e:
-        raise _write_error(e, folder) from None
+        raise write_refused(e, folder) from None
+    finally:  # also those made before a deeper one was refused
+        _MADE_FOLDERS.extend(path for path in reversed(missing) if os.path.isdir(path))
     return folder
+
+
+def folders_made() -> list[Path]:
+    """The folders :func:`make_folder` made in this process, outermost first."""
+    return [Path(folder) for folder in _MADE_FOLDERS]
 
 
 def _temporary_name(name: str, token: str) -> str:
@@ -82,16 +119,16 @@ def _stage(path: Path, fill, staged: list[tuple[str, Path]]) -> None:
         except FileExistsError as e:  # another file's name (never ours to remove): another name
             staged.pop()
             if tries == 1:  # a folder that says every name exists
-                raise _write_error(e, path) from None
+                raise write_refused(e, path) from None
         except OSError as e:
-            raise _write_error(e, path) from None
+            raise write_refused(e, path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             fill(f)
             f.flush()
             os.fsync(f.fileno())
     except OSError as e:
-        raise _write_error(e, path) from None
+        raise write_refused(e, path) from None
 
 
 def _rename_staged(stage) -> None:
@@ -107,11 +144,14 @@ def _rename_staged(stage) -> None:
             try:
                 os.replace(tmp, path)
             except OSError as e:
-                raise _write_error(e, path) from None
+                raise write_refused(e, path) from None
             staged.pop(0)
     finally:
         for tmp, _ in staged:
-            Path(tmp).unlink(missing_ok=True)
+            # never in place of the error that ends the write: a temporary file the folder refused
+            # to create (umask 777, read-only) cannot be removed either, raising EACCES, not ENOENT
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
 def _atomic(path: Path, fill) -> None:
