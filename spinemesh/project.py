@@ -31,7 +31,7 @@ from .files.inputs import existing, regular_file
 from .files.inside import is_within, page_not_found_said, real, resolve_inside
 from .files.walk import walk_folder
 from .images import AtlasImages, FolderImages, PageStore, image_size
-from .skeleton import SKELETON_SUFFIXES, image_paths, iter_attachments
+from .skeleton import SKELETON_SUFFIXES, image_paths, iter_attachments, load_skeleton
 
 ATLAS_SUFFIXES = (".atlas", ".atlas.txt")
 
@@ -355,6 +355,41 @@ def _holds(folder: Path) -> tuple[bool, bool]:
     return any(is_skeleton_file(p) for p in files), any(_has_suffix(p, ATLAS_SUFFIXES) for p in files)
 
 
+def _drawn_shares(folders: list[Path]) -> list[float]:
+    """For each readable skeleton in ``folders`` that draws images, the share of its images that
+    are regions of the atlases in ``folders`` (searched as :func:`find_project` searches them)."""
+    files = [p for folder in folders for p in _walk(folder, [])[0]]
+    regions: set[str] = set()
+    for p in files:
+        if _has_suffix(p, ATLAS_SUFFIXES):
+            try:
+                regions.update(r.name for r in read_atlas(p, strict=False).regions)
+            except (SpineMeshError, OSError):
+                continue  # whoever reads the project says why
+    shares = []
+    for p in files:
+        if is_skeleton_file(p):
+            try:
+                needed = needed_images(load_skeleton(p))
+            except (SpineMeshError, OSError):
+                continue
+            if needed:
+                shares.append(len(needed & regions) / len(needed))
+    return shares
+
+
+def _draw_from_each_other(halves: list[Path]) -> bool:
+    """Whether the skeletons of ``halves`` draw from their atlases: each readable one finds at
+    least half of its images among the atlases' regions.
+
+    Folders of two games (one's atlases, the other's skeletons) were joined by their kinds alone,
+    and ``pack`` then packed one game's regions by the other's meshes of the same name
+    (``head``, ``torso``), cutting art its own skeletons draw.
+    """
+    shares = _drawn_shares(halves)
+    return bool(shares) and min(shares) >= 0.5
+
+
 def _joined_halves(found: list[Path], root: Path) -> list[Path]:
     """``found`` (:func:`find_projects` under ``root``) with the halves of one project joined: the
     folders under one folder of ``root`` (itself included) that each hold skeletons only or
@@ -363,7 +398,8 @@ def _joined_halves(found: list[Path], root: Path) -> list[Path]:
     ``art/ui/``) and its skeletons in ``spine/``: taken apart, the skeletons found no atlas and
     ``pack`` no skeleton drawing the atlases' regions (every region kept its rectangle). Halves
     beside a whole project stay projects of their own: which skeletons load which atlas is not
-    known there."""
+    known there; so do halves whose skeletons do not draw from their atlases
+    (:func:`_draw_from_each_other`)."""
     under: dict[Path, list[Path]] = {}
     for folder in found:
         for above in folder.parents:
@@ -381,7 +417,7 @@ def _joined_halves(found: list[Path], root: Path) -> list[Path]:
             seen.add(kinds[folder])
             if not (seen <= {(True, False), (False, True)}):
                 break  # a whole project (or a folder of neither) under it: never joined, nor above
-        if len(halves) > 1 and seen == {(True, False), (False, True)}:
+        if len(halves) > 1 and seen == {(True, False), (False, True)} and _draw_from_each_other(halves):
             joined = (joined - set(halves)) | {above}
             kinds.update((folder, (True, True)) for folder in halves)  # whole now, for the folders above
     return sorted(joined)

@@ -55,6 +55,37 @@ def test_an_atlas_beside_its_skeletons_folder_is_packed_by_their_outlines(meshed
     assert find_projects(deeper) == [deeper]
 
 
+def test_an_atlas_beside_another_games_skeletons_is_not_joined_to_them(meshed, tmp_path):
+    """A library whose root held one game's atlases (``alpha-art/``) and another game's skeletons
+    (``beta-spine/``) was taken for one project by the folders' kinds alone, and ``pack`` packed
+    the atlas's ``demo-head`` by the other game's mesh of that name (exit 0): the halves are one
+    project only where the skeletons draw from the atlases."""
+    import json
+
+    from spinemesh.project import find_projects
+
+    lib = tmp_path / "lib"
+    for name in ("demo.atlas", "demo.png"):
+        (lib / "alpha-art").mkdir(parents=True, exist_ok=True)
+        shutil.copy(meshed / name, lib / "alpha-art" / name)
+    doc = json.loads((meshed / "demo.json").read_text())
+    for skin in doc["skins"]:
+        for slot in skin["attachments"].values():
+            for key, att in slot.items():
+                if (att.get("path") or key) != "demo-head":  # the one name the two games share
+                    att["path"] = "beta-" + (att.get("path") or key)
+    (lib / "beta-spine").mkdir()
+    (lib / "beta-spine" / "beta.json").write_text(json.dumps(doc))
+    assert find_projects(lib) == [lib / "alpha-art", lib / "beta-spine"]
+    r = _cli("pack", lib, "--out", tmp_path / "o", "--report", tmp_path / "r.json", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    (row,) = _rows(tmp_path / "r.json").values()
+    assert row["by_outline"] in (0, None), row
+    # the same game's halves are still one project
+    shutil.copy(meshed / "demo.json", lib / "beta-spine" / "beta.json")
+    assert find_projects(lib) == [lib]
+
+
 def _draws_alike(tool: Path, before: Path, after: Path, scratch: Path, atlas: str = "demo.atlas") -> int:
     """Renders of ``demo.json`` in the official 4.2 runtime with ``before``'s atlas and with
     ``after``'s, the setup pose: each pixel alike (within the harness's tolerance); how many renders."""
