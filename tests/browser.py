@@ -7,6 +7,7 @@ import os
 import re
 import shutil
 import subprocess
+import time
 from pathlib import Path
 
 from conftest import unavailable
@@ -90,3 +91,128 @@ def against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_in
         Image.fromarray(ours).save(tmp / f"ours{i}.png")
         out.append(render_difference(theirs[i], tmp / f"ours{i}.png", tol=32))
     return out
+
+
+class DevTools:
+    """Headless Chromium on real time, driven over ``--remote-debugging-pipe`` (the Chrome DevTools
+    protocol: JSON messages ended by a NUL byte, commands on the browser's file descriptor 3,
+    answers on 4; no library needed), attached to its one page: what a flag cannot ask (a phone's
+    screen, key presses, the browser's CPU and memory; ``benchmarks/bench_player.py``)."""
+
+    def __init__(self, profile: Path, size: str = "1280,800"):
+        commands, self._to = os.pipe()
+        self._from, answers = os.pipe()
+        flags = [f for f in FLAGS if f not in ("--enable-logging=stderr", "--v=0")]
+        self.profile = str(profile)
+
+        def pipes():  # in the child: the two ends where Chromium looks for them
+            os.dup2(commands, 3)
+            os.dup2(answers, 4)
+
+        self.process = subprocess.Popen(
+            [chromium(), *flags, f"--user-data-dir={profile}", f"--window-size={size}", "--remote-debugging-pipe",
+             "about:blank"], preexec_fn=pipes, pass_fds=(3, 4), stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL, env={**os.environ, "HOME": str(profile)})
+        os.close(commands)
+        os.close(answers)
+        self._buffer, self._count, self.session = b"", 0, None
+        page = next(t for t in self.call("Target.getTargets")["targetInfos"] if t["type"] == "page")
+        self.session = self.call("Target.attachToTarget", targetId=page["targetId"], flatten=True)["sessionId"]
+        for domain in ("Page", "Runtime", "Performance"):
+            self.call(f"{domain}.enable")
+
+    def _message(self) -> dict:
+        while b"\0" not in self._buffer:
+            chunk = os.read(self._from, 1 << 16)
+            if not chunk:
+                raise EOFError("the browser closed its pipe")
+            self._buffer += chunk
+        message, self._buffer = self._buffer.split(b"\0", 1)
+        return json.loads(message)
+
+    def call(self, method: str, **params) -> dict:
+        """Send one command (to the page once attached) and return its result."""
+        self._count += 1
+        message = {"id": self._count, "method": method, "params": params}
+        if self.session:
+            message["sessionId"] = self.session
+        os.write(self._to, json.dumps(message).encode() + b"\0")
+        while True:
+            got = self._message()
+            if got.get("id") == self._count:
+                if "error" in got:
+                    raise RuntimeError(f"{method}: {got['error']}")
+                return got["result"]
+
+    def js(self, expression: str):
+        """The value of ``expression`` in the page."""
+        got = self.call("Runtime.evaluate", expression=expression, returnByValue=True)
+        if "exceptionDetails" in got:
+            raise RuntimeError(got["exceptionDetails"])
+        return got["result"].get("value")
+
+    def wait(self, expression: str, timeout: float = 120) -> bool:
+        """Whether ``expression`` came true within ``timeout`` seconds."""
+        end = time.perf_counter() + timeout
+        while time.perf_counter() < end:
+            if self.js(expression):
+                return True
+            time.sleep(0.02)
+        return False
+
+    def processes(self) -> list[int]:
+        """The browser's process and every process under it."""
+        parents = {}
+        for entry in os.listdir("/proc"):
+            if entry.isdigit():
+                try:
+                    stat = Path(f"/proc/{entry}/stat").read_text()
+                except OSError:
+                    continue
+                parents[int(entry)] = int(stat[stat.rindex(")") + 2:].split()[1])
+        ours, grown = {self.process.pid}, True
+        while grown:
+            new = {p for p, parent in parents.items() if parent in ours} - ours
+            ours |= new
+            grown = bool(new)
+        return sorted(ours)
+
+    def cpu_share(self, seconds: float) -> float:
+        """Percent of one core the browser's processes took over the next ``seconds``."""
+        def jiffies() -> int:
+            total = 0
+            for pid in self.processes():
+                try:
+                    stat = Path(f"/proc/{pid}/stat").read_text()
+                except OSError:
+                    continue
+                fields = stat[stat.rindex(")") + 2:].split()
+                total += int(fields[11]) + int(fields[12])
+            return total
+
+        start = jiffies()
+        time.sleep(seconds)
+        return round(100 * (jiffies() - start) / os.sysconf("SC_CLK_TCK") / seconds, 1)
+
+    def renderer_mb(self) -> float:
+        """Proportional set size of the browser's renderer processes, MB."""
+        total = 0
+        for pid in self.processes():
+            try:
+                if b"--type=renderer" not in Path(f"/proc/{pid}/cmdline").read_bytes():
+                    continue
+                rollup = Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines()
+            except OSError:
+                continue
+            total += 1024 * int(next(line for line in rollup if line.startswith("Pss:")).split()[1])
+        return round(total / 1e6, 1)
+
+    def close(self) -> None:
+        try:
+            self.call("Browser.close")
+        except (EOFError, OSError, RuntimeError):
+            pass
+        try:
+            self.process.wait(10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()

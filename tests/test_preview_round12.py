@@ -174,3 +174,25 @@ def test_an_animation_is_found_by_a_part_of_its_name(crowded, tmp_path):
     assert len(wanted) == 17 and got["shown"] == wanted, got["shown"]
     assert got["listed"] == got["anim"] == names.index("anim 009 idle"), got
     assert got["found"] == f"17 of {len(names)}", got["found"]
+
+
+def test_a_phone_shows_the_player_at_its_own_width(crowded, tmp_path):
+    """On a phone's screen (360 pixels, a mobile browser) the page is laid out at the screen's
+    width, the canvases within it: without a viewport a phone lays a page out at 980 pixels and
+    shrinks it, the player's canvases a third of the screen wide."""
+    from browser import DevTools
+
+    page, _ = crowded
+    tools = DevTools(tmp_path / "profile")
+    try:
+        tools.call("Emulation.setDeviceMetricsOverride", width=360, height=740, deviceScaleFactor=2, mobile=True)
+        tools.call("Page.navigate", url=page.resolve().as_uri())
+        assert tools.wait("!!(window.SM && SM.players && Object.values(SM.players)[0].data)", timeout=60)
+        got = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, canvases: "
+                       "[].map.call(document.querySelectorAll('canvas'), function (c) { "
+                       "var r = c.getBoundingClientRect(); return [r.left, r.right]; }) })")
+    finally:
+        tools.close()
+    assert got["window"] == 360 and got["scroll"] <= 360, got
+    assert len(got["canvases"]) == 2 and all(0 <= left and right <= 360 for left, right in got["canvases"]), got
+    assert min(right - left for left, right in got["canvases"]) > 240, got  # and not a thumbnail

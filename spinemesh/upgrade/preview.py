@@ -178,7 +178,9 @@ def _less(part: int, whole: int) -> str:
 
 
 def _html_page(title: str, body: str) -> str:
-    return (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
+    # a phone lays out a page without a viewport at 980 pixels, shrunk: the player's canvases a third of the screen
+    return (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{html.escape(title)}</title>"
             f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
 
 
