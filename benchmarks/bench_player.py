@@ -12,7 +12,7 @@ Chrome DevTools protocol over ``--remote-debugging-pipe``, no library needed) an
   every image it draws decoded;
 - **CPU, % of a core**: the browser's processes over ``--seconds`` (jiffies from ``/proc``),
   paused, then playing the setup pose (a still: nothing moves), then playing the longest
-  animation;
+  animation; and while playing, the frames the player drew a second (both canvases cleared);
 - **every animation**: each chosen in turn and drawn at 0, 0.37 and 0.71 of its duration: how
   many loaded, are of 0 s, draw nothing, show frames that change, show one picture throughout;
 - **renderer memory**: the proportional set size of the page's renderer processes once every
@@ -78,6 +78,20 @@ def every_animation(tools: DevTools) -> dict:
     return out
 
 
+#: Counts the canvases cleared (each drawing of a frame clears both) in ``window.smCleared``.
+COUNT_DRAWS = ("(function(){if(window.smCleared!==undefined)return;window.smCleared=0;"
+               "var p=CanvasRenderingContext2D.prototype,f=p.clearRect;"
+               "p.clearRect=function(){window.smCleared++;return f.apply(this,arguments);};})()")
+
+
+def playing(tools: DevTools, seconds: float) -> tuple[float, float]:
+    """Over the next ``seconds``: percent of a core the browser took, and frames the player drew a second."""
+    tools.js(COUNT_DRAWS)
+    cleared = tools.js("window.smCleared")
+    cpu = tools.cpu_share(seconds)
+    return cpu, round((tools.js("window.smCleared") - cleared) / 2 / seconds, 1)
+
+
 def measure_page(page: Path, seconds: float) -> dict:
     """The figures of one skeleton page (the module's list), in a browser of its own."""
     profile = Path(tempfile.mkdtemp(prefix="bench-player-"))
@@ -91,7 +105,7 @@ def measure_page(page: Path, seconds: float) -> dict:
         out["CPU paused, %"] = tools.cpu_share(seconds)
         tools.js(f"{PLAYER}.setPlaying(true)")
         time.sleep(1)
-        out["CPU playing the setup pose, %"] = tools.cpu_share(seconds)
+        out["CPU playing the setup pose, %"], out["frames drawn a second, the setup pose"] = playing(tools, seconds)
         tools.js(f"{PLAYER}.setPlaying(false)")
         out |= every_animation(tools)
         out["renderer MB after every animation"] = tools.renderer_mb()
@@ -100,7 +114,7 @@ def measure_page(page: Path, seconds: float) -> dict:
         tools.js(f"(function(){{var P={PLAYER};P.data=null;P.anim={longest};P.choose();P.setPlaying(true)}})()")
         tools.wait(f"!!{PLAYER}.data")
         time.sleep(1)
-        out["CPU playing the longest, %"] = tools.cpu_share(seconds)
+        out["CPU playing the longest, %"], out["frames drawn a second, the longest"] = playing(tools, seconds)
         out["the longest's frames a second"] = round(tools.js(f"{PLAYER}.data.fps"), 2)
     finally:
         tools.close()

@@ -196,3 +196,37 @@ def test_a_phone_shows_the_player_at_its_own_width(crowded, tmp_path):
     assert got["window"] == 360 and got["scroll"] <= 360, got
     assert len(got["canvases"]) == 2 and all(0 <= left and right <= 360 for left, right in got["canvases"]), got
     assert min(right - left for left, right in got["canvases"]) > 240, got  # and not a thumbnail
+
+
+def test_a_page_shown_every_animation_keeps_the_frames_of_the_last_few(crowded, tmp_path):
+    """Each animation's frames are a script of up to 4 MB: a page shown each of 500 animations in
+    turn kept every one (and its script element). It keeps those of the last 12 shown: one shown
+    again after more is read again from its file, the last shown is not, and the scripts run are
+    taken out of the page."""
+    page, names = crowded
+    got = driven(page, """
+    var added = [];
+    new MutationObserver(function (changes) {
+      changes.forEach(function (c) { [].forEach.call(c.addedNodes, function (n) { if (n.src) added.push(n.src); }); });
+    }).observe(document.head, { childList: true });
+    var first = %d, order = [];
+    for (var i = 0; i < 20; i++) order.push(first + i);
+    function show(list, then) {
+      if (!list.length) { then(); return; }
+      var i = list.shift();
+      pick(i);
+      when(function () { return P.data && P.anim === i && !/^loading/.test(document.querySelector('.player .status').textContent); },
+           function () { setTimeout(function () { show(list, then); }, 0); });  // the observer told
+    }
+    show(order, function () {
+      var before = added.length;
+      show([first + 19], function () {  // the last shown: held
+        var again = added.length;
+        show([first], function () {  // shown 19 choices ago: read again
+          report({ loaded: before, lastAgain: again - before, firstAgain: added.length - again,
+                   scripts: document.querySelectorAll('script[src*="/data/"]').length });
+        });
+      });
+    });""" % names.index("anim 000 idle"), tmp_path, budget_ms=15000)
+    assert got["loaded"] == 20 and got["lastAgain"] == 0 and got["firstAgain"] == 1, got
+    assert got["scripts"] == 1, got  # the model's, in the page itself

@@ -25,19 +25,33 @@
   var frames = {}, waiting = {};
   var BLEND = ["source-over", "lighter", "multiply", "screen"];
 
+  /* The frames kept: those of the HELD animations shown last (the latest last). An animation's
+   * frames take up to 4 MB of script; a page shown each of 200 animations in turn held them all,
+   * and one shown again after HELD others is read again from its file. */
+  var HELD = 12, held = [];
+
+  function hold(key) {
+    var at = held.indexOf(key);
+    if (at >= 0) held.splice(at, 1);
+    held.push(key);
+    while (held.length > HELD) delete frames[held.shift()];
+  }
+
   SM.frames = function (key, data) {
     frames[key] = data;
+    hold(key);
     (waiting[key] || []).forEach(function (f) { f(data); });
     delete waiting[key];
   };
 
   function load(key, src, done, fail) {
-    if (frames[key]) { done(frames[key]); return; }
+    if (frames[key]) { hold(key); done(frames[key]); return; }
     if (waiting[key]) { waiting[key].push(done); return; }
     waiting[key] = [done];
     var s = document.createElement("script");
     s.src = src;
-    s.onerror = function () { delete waiting[key]; fail(src); };
+    s.onload = function () { s.remove(); }; /* run: the page needs it no more */
+    s.onerror = function () { s.remove(); delete waiting[key]; fail(src); };
     document.head.appendChild(s);
   }
 
@@ -282,6 +296,7 @@
             before: decodeSide(data.before, model.sides.before),
             after: decodeSide(data.after, model.sides.after)
           };
+          data.before.xy = data.after.xy = null; /* decoded: their text (base64, a third more) is not needed */
         }
         P.data = data;
         status.textContent = (own ? "" : "Drawn in the skin " + model.skins[0] + ": to keep the preview " +
