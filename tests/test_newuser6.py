@@ -141,3 +141,18 @@ def test_a_report_named_as_the_output_folder_is_refused_before_the_work(tmp_path
                                     f"it; give the report a file's name, beside the folder or in it "
                                     f"({out}/report.json)"), r.stderr
         assert list(tmp_path.iterdir()) == [], command  # nothing written
+
+
+def test_pack_and_weights_say_where_their_preview_is(tmp_path, meshed):
+    """``upgrade --preview`` ends with the page to open; ``pack --preview`` and ``weights
+    --preview`` wrote theirs without a word, so a user looked for the page (or the pictures) in
+    the folder. Each says it on its last line."""
+    r = _run("pack", meshed, "--out", "packed", "--preview", "packed-preview", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "preview: packed-preview/index.html", r.stdout
+    assert (tmp_path / "packed-preview" / "index.html").is_file()
+    r = _run("weights", meshed, "--out", "weighted", "--preview", "weighted-preview", cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    pictures = sorted((tmp_path / "weighted-preview").glob("*.png"))
+    assert pictures and r.stdout.strip().splitlines()[-1] == f"preview: weighted-preview ({len(pictures)} pictures)", \
+        r.stdout

@@ -74,6 +74,12 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
     print_errors(errors)
 
 
+def say_preview(where, detail: str = "") -> None:
+    """The line that says where a run's ``--preview`` is (the page to open, or the pictures' folder),
+    with ``detail`` in brackets: ``pack`` and ``weights`` wrote theirs without a word of it."""
+    console.print(escaped(f"preview: {where}" + (f" ({detail})" if detail else "")), highlight=False, markup=False)
+
+
 def print_errors(errors: Sequence[str]) -> None:
     """Each of a run's errors on stderr as one line, ``error: ...`` (each names its file)."""
 

@@ -130,20 +130,23 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     from ..pack.run import failed_lines, write_report
     from ..runs import EXIT_PARTIAL
     from ..words import counted
-    from ._summary import print_errors
+    from ._summary import print_errors, say_preview
 
     listed = f"the {counted(len(result.atlases), 'atlas', 'atlases')} listed above" if result.atlases else ""
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
                                     listed)
+    page = None
     if preview is not None:
         from ..pack.preview import write_preview
 
-        write_preview(result, preview, project_folder(project))
+        page = write_preview(result, preview, project_folder(project))
     # a failed atlas is named on stderr, as upgrade --pack names it (exit 3)
     print_pack_table(result.atlases, [*result.errors, *failed_lines(result.atlases)])
     if result.atlases:
         console.print(f"{outcome_line(result.atlases)}; {seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}",
                       highlight=False)
+    if page is not None:
+        say_preview(page)
     if not result.atlases:
         raise SpineMeshError("no atlas to pack in any of its projects", project)
     if report_error:  # the run's last line: its atlases are written, its report is not (exit 3)

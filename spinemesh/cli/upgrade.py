@@ -12,7 +12,6 @@ from typing import List, NamedTuple
 
 import typer
 
-from ..errors import escaped
 from ..limits import MAX_JOBS
 from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, console_text, err_console, finite, positive_finite,
@@ -216,13 +215,14 @@ def _write_preview(result, project: Path, out: Path, preview: Path, images_in, j
     import time
 
     from ..upgrade.preview import write_preview
+    from ._summary import say_preview
 
     t0 = time.perf_counter()
     with progress_bar("preview", transient=True, phases=True) as bars:
         task = bars.add_task("preview", total=None, project="animations sampled, pages written")
         page = write_preview(result, project, out, preview, images_in=images_in, jobs=jobs,
                              on_progress=lambda done, total: bars.update(task, completed=done, total=total))
-    console.print(escaped(f"preview: {page} ({time.perf_counter() - t0:.1f} s)"), highlight=False, markup=False)
+    say_preview(page, f"{time.perf_counter() - t0:.1f} s")
 
 
 def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: bool) -> None:

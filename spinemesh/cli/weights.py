@@ -88,7 +88,7 @@ def weights(
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..words import counted
-    from ._summary import print_errors
+    from ._summary import print_errors, say_preview
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     _check_outputs(project, out, report, preview)
@@ -99,6 +99,8 @@ def weights(
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
                                     counted(len(result.written), "skeleton") if result.written else "")
     _print_result(result)
+    if preview is not None:
+        say_preview(preview, counted(sum(o.status == "weighted" for o in result.outcomes), "picture"))
     if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
         print_errors([report_error])
     if result.partial or report_error:
