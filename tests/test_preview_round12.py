@@ -230,3 +230,54 @@ def test_a_page_shown_every_animation_keeps_the_frames_of_the_last_few(crowded, 
     });""" % names.index("anim 000 idle"), tmp_path, budget_ms=15000)
     assert got["loaded"] == 20 and got["lastAgain"] == 0 and got["firstAgain"] == 1, got
     assert got["scripts"] == 1, got  # the model's, in the page itself
+
+
+def test_a_time_or_speed_set_while_the_player_sleeps_between_frames_starts_from_then(crowded, tmp_path):
+    """Between frames far apart (an hour sampled every 12 s) the player sleeps on a timer: a speed
+    chosen meanwhile played the seconds slept before it at the new speed (6 s at 1x, then 2x, showed
+    the frame of 12 s at once), and a time scrubbed to, or an animation chosen, meanwhile had them
+    added (the next frame came early). The browser's frames, timers and clock are played by the test on a clock of its own."""
+    page, names = crowded
+    got = driven(page, """
+    var clock = 0, queued = [], timers = [], realTimeout = window.setTimeout.bind(window);
+    window.requestAnimationFrame = function (f) { queued.push(f); return queued.length; };
+    window.cancelAnimationFrame = function (id) { queued[id - 1] = null; };
+    window.setTimeout = function (f, ms) { timers.push([clock + (ms || 0), f]); return timers.length; };
+    window.clearTimeout = function (id) { if (timers[id - 1]) timers[id - 1][1] = null; };
+    performance.now = function () { return clock; };
+    function play(ms) {  // frames of 1/60 s for ms: the timers due, then the frames asked for
+      for (var end = clock + ms; clock < end;) {
+        clock += 1000 / 60;
+        timers.forEach(function (t) { if (t[1] && t[0] <= clock) { var f = t[1]; t[1] = null; f(); } });
+        var now = queued; queued = [];
+        now.forEach(function (f) { if (f) f(clock); });
+      }
+      return Math.floor(P.t * P.data.fps + 1e-6);  // the frame shown
+    }
+    var hour = %d, out = {};
+    (function start() {
+      if (!(P.data && P.anim === 0)) { realTimeout(start, 20); return; }
+      pick(hour);
+      (function ready() {
+        if (!(P.data && P.anim === hour && P.data.dur === P.model.anims[hour].dur)) { realTimeout(ready, 20); return; }
+        document.querySelector('.player button').click();
+        out.fps = P.data.fps;
+        play(6000);  // asleep till the next frame, 12 s on
+        var speed = document.querySelector('select[aria-label=speed]');
+        speed.value = '2'; speed.dispatchEvent(new Event('change'));
+        out.speed = [play(1000), play(2200)];  // 12 s reached 3 s after, at 2x
+        var scrub = document.querySelector('input[type=range]');
+        scrub.value = '500'; scrub.dispatchEvent(new Event('input'));
+        out.scrub = Math.floor(P.t * P.data.fps + 1e-6);
+        out.scrubbed = [play(5500), play(1000)];  // the frame after it 6 s after, at 2x
+        play(3000);  // asleep again
+        pick(hour);  // chosen again (its frames kept): from its start, at 2x
+        out.chosen = [play(5500), play(1000)];
+        report(out);
+      })();
+    })();
+    """ % names.index("hour"), tmp_path, budget_ms=8000)
+    assert abs(got["fps"] - 1 / 12) < 1e-9, got
+    assert got["speed"] == [0, 1], got
+    assert got["scrubbed"] == [got["scrub"], got["scrub"] + 1], got
+    assert got["chosen"] == [0, 1], got

@@ -502,15 +502,22 @@
      * speed) it sleeps on a timer until the next one is due, not waking at every screen frame. */
     var pending = null;
 
+    /* The time played from the last tick to now, at the speed in effect (a clock a frame behind
+     * another plays nothing backwards). */
+    function advance(now) {
+      if (P.last !== null) {
+        P.t += Math.max(0, now - P.last) / 1000 * P.speed;
+        P.t = P.data.dur > 0 ? P.t % P.data.dur : 0;
+      }
+      P.last = now;
+    }
+
     function tick(now) {
       pending = null;
       if (!P.playing || !P.data || P.data.n < 2) { P.last = null; return; }
-      if (P.last !== null) {
-        P.t += (now - P.last) / 1000 * P.speed;
-        P.t = P.data.dur > 0 ? P.t % P.data.dur : 0;
-        if (frameIndex() !== drawn.frame || P.data !== drawn.data) draw();
-      }
-      P.last = now;
+      var moved = P.last !== null;
+      advance(now);
+      if (moved && (frameIndex() !== drawn.frame || P.data !== drawn.data)) draw();
       var due = (Math.min((frameIndex() + 1) / P.data.fps, P.data.dur) - P.t) / P.speed * 1000;
       pending = due > 100 ? [1, setTimeout(function () { pending = [0, requestAnimationFrame(tick)]; }, due - 50)]
                           : [0, requestAnimationFrame(tick)];
@@ -535,9 +542,19 @@
     }
 
     play.onclick = function () { setPlaying(!P.playing); };
-    scrub.oninput = function () { if (P.data) { P.t = scrub.value / 1000 * P.data.dur; draw(); } };
-    speedSel.onchange = function () { P.speed = parseFloat(speedSel.value); run(); };
-    animSel.onchange = function () { P.anim = +animSel.value; P.t = 0; choose(); };
+    /* The loop may sleep seconds between frames far apart: a time set, a speed or an animation
+     * chosen, while it sleeps restarts it from that moment (the time slept before a scrub or a
+     * choice was added to the time set, and the time slept before a new speed was played at the
+     * new speed). */
+    scrub.oninput = function () {
+      if (P.data) { P.t = scrub.value / 1000 * P.data.dur; P.last = null; draw(); run(); }
+    };
+    speedSel.onchange = function () {
+      if (P.playing && P.data && P.data.n > 1) advance(performance.now());
+      P.speed = parseFloat(speedSel.value);
+      run();
+    };
+    animSel.onchange = function () { P.anim = +animSel.value; P.t = 0; P.last = null; choose(); };
     if (find) {
       find.oninput = function () { filter(animSel, model.anims, find.value, found); };
       find.onkeydown = function (e) { if (e.key === "Enter") animSel.focus(); }; /* then the arrows go through the matches */
