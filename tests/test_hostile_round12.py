@@ -135,3 +135,84 @@ def test_mesh_of_a_folder_draws_no_bar_into_a_log(project_in):
     (a line of 300 bar characters); a log gets none, as from the others."""
     r = _run_limited(("mesh", "p", "--out", "o"), project_in)
     assert r.returncode == 0 and r.stderr == b"", r.stderr[-500:]
+
+
+# --- a closed standard output: one rule for every command ----------------------------------------------
+
+def _closed_stdout(*args, cwd: Path) -> subprocess.CompletedProcess:
+    """``spinemesh ARGS >&-`` (a daemon, a service that closes its standard output)."""
+    return subprocess.run(["sh", "-c", 'exec "$@" >&-', "sh", sys.executable, "-m", "spinemesh", *map(str, args)],
+                          cwd=cwd, env=_env(), capture_output=True, timeout=180, check=False)
+
+
+@pytest.fixture(scope="module")
+def data_set(tmp_path_factory, twenty):  # noqa: F811
+    """A data set built from ``twenty`` (``dataset``)."""
+    where = tmp_path_factory.mktemp("ds")
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "dataset", str(twenty), "--out", "ds"], cwd=where,
+                       env=_env(), capture_output=True, timeout=180, check=False)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return where / "ds"
+
+
+#: Commands whose standard output is all they make, refused when it is closed: what the line names.
+ALL_ON_STANDARD_OUTPUT = {
+    "dataset-stats": (("dataset-stats", "{ds}"), "the counts"),
+    "segment-eval": (("segment-eval", "--data", "{ds}"), "the scores"),
+    "--version": (("--version",), "the version"),
+}
+
+
+@pytest.mark.parametrize("command", list(ALL_ON_STANDARD_OUTPUT))
+def test_a_closed_standard_output_is_refused_where_it_is_all_a_command_makes(tmp_path, data_set, command):
+    """``dataset-stats`` (its counts, which no plot holds), ``segment-eval`` without ``--json`` or
+    ``--card`` (its scores) and ``--version`` wrote their one product to a closed standard output:
+    exit 0 with a warning, or in silence. Refused as ``info`` and ``pose`` are, before any work."""
+    args, product = ALL_ON_STANDARD_OUTPUT[command]
+    r = _closed_stdout(*(a.format(ds=data_set) for a in args), cwd=tmp_path)
+    line = _one_error(r)
+    assert line == f"error: standard output is closed: {product} would go nowhere; give it a file (> FILE)", line
+
+
+@pytest.mark.parametrize("plain", [True, False], ids=["plain", "typer"])
+def test_convert_to_a_closed_standard_output_says_its_line_is_not_written(tmp_path, twenty, plain):  # noqa: F811
+    """``convert`` with standard output closed dropped its ``wrote ...`` line in silence (exit 0), on
+    both of its paths (plain, and parsed by typer); its file is what it makes: it is written, and the
+    run says once that its words are not, as every command making files does."""
+    extra = () if plain else ("--",)  # `--` sends it to typer
+    r = _closed_stdout("convert", twenty / "demo.json", "c.skel", *extra, cwd=tmp_path)
+    text = _no_traceback(r)
+    assert r.returncode == 0 and (tmp_path / "c.skel").stat().st_size > 0, text
+    assert text.count("warning: standard output is closed: this command's table is not written (its files are)") == 1, text
+
+
+# --- a worker the system refuses once ------------------------------------------------------------------
+
+def test_a_worker_refused_once_is_started_when_the_system_allows(monkeypatch):
+    """One start refused (``ulimit -n`` reached for a moment, while a stage held files open): the pool
+    ran the rest of the run on the workers it had, one of ``--jobs 3`` here, however many
+    descriptors were freed. It tries again a moment later (``START_RETRY_SECONDS``) and runs on three."""
+    import errno
+    import time
+
+    from spinemesh.cluster import ProcessWorkers
+
+    starts = []
+    real_start = ProcessWorkers._start_worker
+
+    def second_refused_once(self):
+        starts.append(True)
+        if len(starts) == 2:
+            raise OSError(errno.EMFILE, "Too many open files")
+        return real_start(self)
+
+    monkeypatch.setattr(ProcessWorkers, "_start_worker", second_refused_once)
+    most = 0
+    with ProcessWorkers(3) as w:
+        futures = [w.submit(time.sleep, 0.2) for _ in range(10 * 3)]
+        deadline = time.monotonic() + 60
+        while not all(f.done() for f in futures) and time.monotonic() < deadline:
+            most = max(most, len(w.pids))
+            time.sleep(0.02)
+        assert all(f.done() and f.exception() is None for f in futures)
+    assert most == 3, most

@@ -199,8 +199,9 @@ def _say_standard_output_closed() -> None:
     if _said_closed:
         return
     _said_closed.append(True)
-    err_console.print("[yellow]warning:[/] standard output is closed: this command's table is not written "
-                      "(its files are)", highlight=False, soft_wrap=True)
+    from ..files.guard import STANDARD_OUTPUT_CLOSED
+
+    err_console.print(f"[yellow]warning:[/] {STANDARD_OUTPUT_CLOSED}", highlight=False, soft_wrap=True)
 
 
 def _is_a_tty(stream) -> bool:
@@ -401,6 +402,9 @@ def positive_finite(value: Optional[float]) -> Optional[float]:
 
 def _print_version(value: bool) -> None:
     if value:
+        from ..files.guard import OutputGuard
+
+        OutputGuard([]).check_standard_output("the version")  # all it makes: refused where it is closed
         print(f"spinemesh {__version__}")
         raise typer.Exit()
 

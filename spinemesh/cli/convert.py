@@ -11,7 +11,7 @@ from pathlib import Path
 import typer
 
 from ._app import Annotated, app
-from .convert_files import KEEP_BINARY_INFO, convert_files
+from .convert_files import KEEP_BINARY_INFO, convert_files, say_converted
 
 
 @app.command()
@@ -31,5 +31,5 @@ def convert(
     \b
     Example: spinemesh convert hero.skel hero.json
     """
-    # Plain echo: a rich console would cost more start-up than the conversion of a small skeleton.
-    typer.echo(convert_files(source, target, keep_binary_info))
+    # Plain print: a rich console would cost more start-up than the conversion of a small skeleton.
+    say_converted(convert_files(source, target, keep_binary_info))

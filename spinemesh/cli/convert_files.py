@@ -82,6 +82,18 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     return f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})"
 
 
+def say_converted(line: str) -> None:
+    """``convert``'s line on standard output (``wrote x.skel ...``); where standard output is closed
+    (``>&-``), the warning every command whose files are what it makes gives: it was dropped in
+    silence (``print`` and ``typer.echo`` write nothing to a closed standard output)."""
+    if sys.stdout is None:
+        from ..files.guard import STANDARD_OUTPUT_CLOSED
+
+        print(f"warning: {STANDARD_OUTPUT_CLOSED}", file=sys.stderr)
+    else:
+        print(line)
+
+
 def _refuse_unusable_attachment(doc: dict, source: Path) -> None:
     """Refuse, naming ``source`` and the field, a skeleton with an attachment the program cannot
     use: a number no float32 holds, or a field written twice, which the runtimes read
@@ -113,6 +125,6 @@ def run_plain_convert(args: list[str]) -> bool:
     # and the full collection the interpreter runs at exit would walk every module's objects
     # (~4 ms): frozen, they are left out of it.
     gc.disable()
-    print(convert_files(source, target, keep))
+    say_converted(convert_files(source, target, keep))
     gc.freeze()
     return True

@@ -131,8 +131,9 @@ def dataset_stats_cmd(
     from ..words import counted
     from ..written_folder import check_written_folder
 
+    # the counts, which no plot holds, never to a closed standard output; --plots not a file, not a symlink
+    check_outputs([], folders=[plots], product="the counts")
     if plots is not None:  # the default, DS/stats, lies in the data set, spinemesh's folder
-        check_outputs([], folders=[plots])  # not a file, not a symlink
         check_written_folder(plots, "--plots folder", "plots")  # a folder of a user's files: refused
     stats = dataset_stats(open_dataset(ds))
     console.print(f"{ds}: {counted(stats['samples'], 'sample')} from {counted(len(stats['by_project']), 'project')} "

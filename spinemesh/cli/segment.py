@@ -100,7 +100,10 @@ def segment_eval(
     from ..segment.evaluate import default_methods, evaluate_methods, worst_cases_picture
     from ..segment.samples import load_sprites
 
-    check_outputs([*data, *model_files(model)], files=[json_out, worst])  # never into a data set, never onto the model
+    # never into a data set, never onto the model; the scores, all it makes without --json or --card,
+    # never to a closed standard output
+    check_outputs([*data, *model_files(model)], files=[json_out, worst],
+                  product=None if json_out or card else "the scores")
 
     kinds = _background_kinds(backgrounds)
     sprites = load_sprites(data, split="val", max_side=512, limit_per_project=per_project or None)

@@ -27,6 +27,7 @@ import pickle
 import signal
 import sys
 import threading
+import time
 from collections import deque
 from concurrent.futures import Future, as_completed
 from dataclasses import dataclass, field
@@ -75,6 +76,11 @@ def _one_opencv_thread() -> int:
 #: 0.2 ms, 0.6 s with no busy thread). It bounds only that wait: a thread switches only when
 #: another asks for the GIL, which the dispatcher does a few times per task.
 DISPATCH_SWITCH_INTERVAL = 0.0002
+
+#: Seconds a pool the system refused a worker process (``ulimit -n``, a container's pids limit) runs
+#: on the workers it has before it tries to start one again: the descriptors or processes a moment
+#: held (a stage's open files, another program) are often free again.
+START_RETRY_SECONDS = 1.0
 
 
 def _start_worker() -> None:
@@ -373,6 +379,7 @@ class ProcessWorkers(Workers):
         self._workers: list[_Worker] = []
         self._lock = threading.Lock()
         self._closing = False
+        self._refused_at: float | None = None  # when the system last refused a worker (START_RETRY_SECONDS)
         self._wake_read, self._wake_write = self._context.Pipe(duplex=False)
         self._dispatcher = threading.Thread(target=self._dispatch, name="spinemesh-workers", daemon=True)
         self._dispatcher.start()
@@ -427,7 +434,8 @@ class ProcessWorkers(Workers):
             while self._first or self._queue:
                 idle = next((w for w in self._workers if w.task is None), None)
                 if idle is None:
-                    if len(self._workers) >= self.slots:
+                    if len(self._workers) >= self.slots or (
+                            self._refused_at is not None and time.monotonic() - self._refused_at < START_RETRY_SECONDS):
                         return
                     try:
                         idle = self._start_worker()
@@ -435,12 +443,14 @@ class ProcessWorkers(Workers):
                         # the system refuses a process (too many open files under `ulimit -n`, no
                         # process left under a container's pids limit): this thread ended in a
                         # traceback and the run waited for ever. It goes on with the workers it
-                        # has; with none, the queued tasks fail, saying why
-                        if self._workers:
-                            self.slots = len(self._workers)
-                        else:
+                        # has, and tries again a moment later (it ran the rest of the run on
+                        # them, however many descriptors were freed); with none, the queued
+                        # tasks fail, saying why
+                        self._refused_at = time.monotonic()
+                        if not self._workers:
                             self._refuse_queued(e)
                         return
+                    self._refused_at = None
                     self._workers.append(idle)
                 task = (self._first or self._queue).popleft()
                 if not task.lost and not task.future.set_running_or_notify_cancel():

@@ -17,6 +17,10 @@ from .inside import check_name_lengths, is_within, real
 from .names import portable_name
 from .walk import walk_folder
 
+#: What a command whose files are what it makes says, once, where standard output is closed (``>&-``,
+#: a daemon): it runs whole (:meth:`OutputGuard.check_standard_output`).
+STANDARD_OUTPUT_CLOSED = "standard output is closed: this command's table is not written (its files are)"
+
 #: Files of one input folder compared with a file written in place that has several names
 #: (:meth:`OutputGuard.check_in_place`): far above a project's hundreds.
 MAX_LINK_SEARCH = 100_000
@@ -133,7 +137,7 @@ class OutputGuard:
         ``"the table"``): a closed standard output (``>&-``) is refused for it, as an output that
         cannot be written; such a run wrote nothing and exited 0. A command whose files are what it
         makes (its table a summary) runs whole, its table dropped with one warning
-        (``cli._app``)."""
+        (:data:`STANDARD_OUTPUT_CLOSED`, said by ``cli._app`` and ``convert``)."""
         if product is not None and sys.stdout is None:
             raise OutputError(f"standard output is closed: {product} would go nowhere; give it a file (> FILE)")
         path = file_behind(sys.stdout)
