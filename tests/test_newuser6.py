@@ -68,6 +68,15 @@ def test_a_project_given_as_its_atlas_or_page_is_told_what_to_give(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["Mes projets"]  # nothing written
 
 
+def test_convert_reads_a_binary_skeleton_of_any_name(tmp_path):
+    """``convert`` reads a binary skeleton by its first bytes whatever its name (``hero.bytes``,
+    as some Unity projects name it): refusing an atlas given to it refused every name but the
+    skeletons' suffixes (``not a Spine skeleton``, exit 2)."""
+    shutil.copy(DEMO / "demo-binary.skel", tmp_path / "demo.bytes")
+    r = _run("convert", "demo.bytes", "demo.json", cwd=tmp_path)
+    assert r.returncode == 0 and (tmp_path / "demo.json").is_file(), r.stdout + r.stderr
+
+
 def test_a_windows_path_is_told_what_to_write(tmp_path):
     """A path pasted from Windows (``héros 2\\demo.json``) was said ``no such file or folder``
     alone of a project that was there (``mesh``: click's ``Path ... does not exist``); the line

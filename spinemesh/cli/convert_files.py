@@ -43,14 +43,18 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
     from ..skeleton_check import animations_keyed_twice
 
     regular_file(existing(source), "skeleton")  # one line naming it, as every command says it
-    if not source.name.lower().endswith((*SKELETON_SUFFIXES, ".skel.txt")):  # .skel.txt: read as binary
-        from ..project import find_project
-
-        # an atlas or a page image was read as a binary skeleton ("expected a Spine version string in
-        # the header"): refused as every command refuses it, naming the skeletons beside it
-        find_project(source, folder_taken=False)
     check_outputs([source], files=[target])  # never onto the source, never through a symlink
-    doc = load_skeleton(source)
+    try:
+        doc = load_skeleton(source)
+    except SpineMeshError:
+        if not source.name.lower().endswith((*SKELETON_SUFFIXES, ".skel.txt")):  # .skel.txt: read as binary
+            from ..project import find_project
+
+            # an atlas or a page image was read as a binary skeleton ("expected a Spine version
+            # string in the header"): refused as every command refuses it, naming the skeletons
+            # beside it; a binary skeleton of another name (``hero.bytes``) is read as it was
+            find_project(source, folder_taken=False)
+        raise
     _refuse_unusable_attachment(doc, source)
     for line in animations_keyed_twice(doc):  # both paths (typer or not) say it on stderr
         print(f"warning: {source}: {line}", file=sys.stderr)
