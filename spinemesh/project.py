@@ -334,7 +334,8 @@ def find_projects(folder: str | Path) -> list[Path]:
     A project is the first folder, walking down, that directly holds a skeleton, an atlas
     or a :data:`SOURCE_FILE`; nothing below it is searched for further projects. Folders of
     which some hold only skeletons and the others only atlases (``spine/`` and ``art/``) are one
-    project, the nearest folder above them all (:func:`_joined_halves`).
+    project, the nearest folder above them all, where the skeletons draw from those atlases
+    (:func:`_joined_halves`).
     """
     folder = existing(folder)
     if not folder.is_dir():  # a project's skeleton or atlas: its folder is what is read
