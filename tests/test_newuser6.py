@@ -7,6 +7,7 @@ Everything runs on the demo project drawn by our own code (no outside data neede
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -165,3 +166,30 @@ def test_pack_and_weights_say_where_their_preview_is(tmp_path, meshed):
     pictures = sorted((tmp_path / "weighted-preview").glob("*.png"))
     assert pictures and r.stdout.strip().splitlines()[-1] == f"preview: weighted-preview ({len(pictures)} pictures)", \
         r.stdout
+
+
+def _stats_without_matplotlib(ds: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """``spinemesh dataset-stats DS ARGS`` where matplotlib is not installed (``pip install .``)."""
+    code = ("import sys; sys.modules['matplotlib'] = None; from spinemesh.cli import main; "
+            f"sys.argv = ['spinemesh', 'dataset-stats', {str(ds)!r}, *{list(args)!r}]; main()")
+    return subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(REPO), "COLUMNS": "200"})
+
+
+def test_dataset_stats_without_the_stats_extra_prints_its_counts_and_exits_0(tmp_path):
+    """``spinemesh dataset-stats DS`` (the data set guide's example) on a plain ``pip install .``
+    printed its counts and then ``error: dataset-stats plots need matplotlib``, exit 2, the plots
+    being the ``stats`` extra's; ``--plots DIR``, which asks for them, was refused only after the
+    counts. The counts end with a warning (exit 0); ``--plots`` is refused first."""
+    from test_newuser5 import _one_game_data_set
+
+    ds = _one_game_data_set(tmp_path)
+    r = _stats_without_matplotlib(ds, cwd=tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "samples" in r.stdout and "Traceback" not in r.stderr, r.stdout + r.stderr
+    assert r.stderr.strip() == ("warning: no plots written: dataset-stats plots need matplotlib: "
+                                "pip install 'spinemesh[stats]'"), r.stderr
+    assert not (ds / "stats").exists()
+    r = _stats_without_matplotlib(ds, "--plots", "plots", cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == "", r.stdout + r.stderr
+    assert r.stderr.strip() == "error: --plots: dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'"

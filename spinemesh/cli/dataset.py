@@ -127,12 +127,17 @@ def dataset_stats_cmd(
     from rich.table import Table
 
     from ..dataset import dataset_stats, open_dataset, plot_stats
+    from ..dataset.stats import PLOTS_NEED, can_plot
+    from ..errors import SpineMeshError
     from ..files.guard import check_outputs
     from ..words import counted
     from ..written_folder import check_written_folder
 
     # the counts, which no plot holds, never to a closed standard output; --plots not a file, not a symlink
     check_outputs([], folders=[plots], product="the counts")
+    plotting = can_plot()
+    if plots is not None and not plotting:  # asked for: refused before any work
+        raise SpineMeshError(f"--plots: {PLOTS_NEED}")
     if plots is not None:  # the default, DS/stats, lies in the data set, spinemesh's folder
         check_written_folder(plots, "--plots folder", "plots")  # a folder of a user's files: refused
     stats = dataset_stats(open_dataset(ds))
@@ -156,5 +161,8 @@ def dataset_stats_cmd(
                       f"{v.mean():.1f}")
     console.print(t)
     console.print(f"total image area {stats['pixels'] / 1e6:.1f} Mpx")
+    if not plotting:  # the counts are the command's answer; the plots an extra's (exit 0, as documented)
+        err_console.print(f"warning: no plots written: {PLOTS_NEED}", highlight=False, markup=False)
+        return
     written = plot_stats(stats, plots or Path(ds) / "stats")
     console.print(escaped("plots: " + ", ".join(str(p) for p in written)), markup=False)

@@ -60,12 +60,25 @@ def plot_stats(stats: dict, out_dir: str | Path) -> list[Path]:
         return _plot_panels(stats, Path(out_dir))
 
 
+#: What a run without matplotlib (the ``stats`` extra) is told of the plots.
+PLOTS_NEED = "dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'"
+
+
+def can_plot() -> bool:
+    """Whether matplotlib, which draws the plots, is installed (the ``stats`` extra)."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def _plot_panels(stats: dict, out_dir: Path) -> list[Path]:
     """:func:`plot_stats`'s panels, written into ``out_dir``."""
     try:
         import matplotlib
     except ImportError:
-        raise SpineMeshError("dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'") from None
+        raise SpineMeshError(PLOTS_NEED) from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
