@@ -177,9 +177,11 @@ def test_an_animation_is_found_by_a_part_of_its_name(crowded, tmp_path):
 
 
 def test_a_phone_shows_the_player_at_its_own_width(crowded, tmp_path):
-    """On a phone's screen (360 pixels, a mobile browser) the page is laid out at the screen's
+    """On a phone's screen (360 pixels, a mobile browser) the pages are laid out at the screen's
     width, the canvases within it: without a viewport a phone lays a page out at 980 pixels and
-    shrinks it, the player's canvases a third of the screen wide."""
+    shrinks it, the player's canvases a third of the screen wide; the index's tables, wider than
+    a phone, scroll in their own box, where they widened the page or broke its names a letter a
+    line."""
     from browser import DevTools
 
     page, _ = crowded
@@ -191,11 +193,19 @@ def test_a_phone_shows_the_player_at_its_own_width(crowded, tmp_path):
         got = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, canvases: "
                        "[].map.call(document.querySelectorAll('canvas'), function (c) { "
                        "var r = c.getBoundingClientRect(); return [r.left, r.right]; }) })")
+        tools.call("Page.navigate", url=(page.parent.parent / "index.html").resolve().as_uri())
+        assert tools.wait("document.readyState === 'complete'", timeout=60)
+        index = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, names: "
+                         "[].map.call(document.querySelectorAll('table.sum td:first-child'), function (c) { "
+                         "return c.getBoundingClientRect().width; }) })")
     finally:
         tools.close()
     assert got["window"] == 360 and got["scroll"] <= 360, got
     assert len(got["canvases"]) == 2 and all(0 <= left and right <= 360 for left, right in got["canvases"]), got
     assert min(right - left for left, right in got["canvases"]) > 240, got  # and not a thumbnail
+    # the index too: its tables scroll in their own box, their names readable (not a letter a line)
+    assert index["window"] == 360 and index["scroll"] <= 360, index
+    assert index["names"] and min(index["names"]) > 150, index
 
 
 def test_a_page_shown_every_animation_keeps_the_frames_of_the_last_few(crowded, tmp_path):

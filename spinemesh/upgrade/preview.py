@@ -146,8 +146,8 @@ def _mesh_svg(uvs: np.ndarray, tris: np.ndarray, hull: int, to_xy, stroke: float
 _CSS = """
 body{font:14px/1.4 system-ui,sans-serif;margin:24px;color:#222;background:#fff}
 h1{font-size:22px;overflow-wrap:anywhere}h2{font-size:18px;margin-top:32px}
-table.sum{border-collapse:collapse}table.sum td,table.sum th{padding:3px 10px;border-bottom:1px solid #ddd;text-align:right}
-table.sum td:first-child,table.sum th:first-child{text-align:left}table.sum td:first-child{overflow-wrap:anywhere}
+table.sum{border-collapse:collapse;display:block;max-width:100%;overflow-x:auto}table.sum td,table.sum th{padding:3px 10px;border-bottom:1px solid #ddd;text-align:right}
+table.sum td:first-child,table.sum th:first-child{text-align:left}table.sum td:first-child{overflow-wrap:anywhere;min-width:12em}
 .big{font-size:20px;font-weight:600;color:#146c2e;margin:4px 0}.second{font-size:16px;color:#333;margin:2px 0 12px}
 .cards{display:flex;flex-wrap:wrap;gap:14px}
 .card{border:1px solid #ccc;border-radius:6px;padding:8px;width:300px}
