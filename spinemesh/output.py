@@ -70,14 +70,8 @@ def output_folder(out: Path, overwrite: bool):
     """
     if out.exists() and not out.is_dir():
         raise SpineMeshError("output folder exists and is not a folder", out)
-    make_folder(out)
+    fd = _locked_folder(out)
     try:
-        fd = os.open(out, os.O_RDONLY)
-    except OSError as e:  # a folder made under umask 777: it was said as a bare "Permission denied"
-        raise write_refused(e, out) from None
-    try:
-        if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_EX)
         if holds_files(out):
             if not overwrite:
                 raise SpineMeshError("output folder is not empty; pass --overwrite to write it again", out)
@@ -96,6 +90,31 @@ def output_folder(out: Path, overwrite: bool):
                 _write_marker(out, marker_listing(out, {}, written))
     finally:
         os.close(fd)  # releases the lock
+
+
+def _locked_folder(out: Path) -> int:
+    """A descriptor of the folder ``out``, made where missing, locked (``flock``) for this run. Taken
+    again when the folder was removed while this run waited for the lock: a run that fails removes
+    the folder it made and left empty, and this one would have held the lock of a folder gone, while
+    its files went into a new one of the same name that a third run could enter."""
+    for _ in range(100):
+        make_folder(out)
+        try:
+            fd = os.open(out, os.O_RDONLY)
+        except OSError as e:  # a folder made under umask 777: it was said as a bare "Permission denied"
+            raise write_refused(e, out) from None
+        try:
+            if fcntl is None:
+                return fd
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            with contextlib.suppress(OSError):
+                if os.path.samestat(os.fstat(fd), os.stat(out)):
+                    return fd
+        except BaseException:
+            os.close(fd)
+            raise
+        os.close(fd)
+    raise OutputError("the output folder was removed again and again while this run waited for it", out)
 
 
 def write_run_report(report: Path, out: Path, write) -> None:

@@ -231,8 +231,9 @@ def remove_made_folders_left_empty() -> None:
 
 
 def _found(marker: object) -> bool:
-    """Whether an output folder's marker says its run found files there (``kept``)."""
-    return isinstance(marker, dict) and bool(marker.get("kept"))
+    """Whether an output folder's marker says a run holds the folder (``running``: another run into the
+    same OUT, which took it over as this one ended) or found files there (``kept``)."""
+    return isinstance(marker, dict) and (marker.get("running") is True or bool(marker.get("kept")))
 
 
 # -- the second use: a folder of pictures or pages, its earlier files removed after the run --

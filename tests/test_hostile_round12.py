@@ -216,3 +216,56 @@ def test_a_worker_refused_once_is_started_when_the_system_allows(monkeypatch):
             time.sleep(0.02)
         assert all(f.done() and f.exception() is None for f in futures)
     assert most == 3, most
+
+
+# --- two runs into one OUT ---------------------------------------------------------------------------
+
+@pytest.mark.skipif(sys.platform == "win32", reason="flock: POSIX")
+def test_a_run_waiting_for_out_locks_the_folder_its_files_go_to(tmp_path):
+    """Two ``upgrade`` runs into one new OUT: the second waits for the first's lock. The first fails
+    (Ctrl-C before it wrote anything) and removes the folder it made; the second then held the lock
+    of that folder, gone, while its files went into a new one of the same name, unlocked (a third
+    run could enter it). It locks the folder its files go to."""
+    import fcntl
+    import threading
+    import time
+
+    from spinemesh.output import output_folder
+
+    out = tmp_path / "o"
+    out.mkdir()
+    first = os.open(out, os.O_RDONLY)
+    fcntl.flock(first, fcntl.LOCK_EX)
+    locked = []
+
+    def second():
+        with output_folder(out, overwrite=False):
+            probe = os.open(out, os.O_RDONLY)
+            try:
+                fcntl.flock(probe, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                locked.append(False)
+            except BlockingIOError:
+                locked.append(True)
+            finally:
+                os.close(probe)
+
+    waiting = threading.Thread(target=second)
+    waiting.start()
+    time.sleep(0.5)
+    os.rmdir(out)  # the first run ends, failed: the folder it made goes, empty
+    os.close(first)
+    waiting.join(30)
+    assert locked == [True]
+
+
+def test_a_failed_run_leaves_the_folder_another_run_holds(tmp_path):
+    """The first of two runs into one new OUT fails as the second takes the folder over (its running
+    marker written, nothing else yet): the first's cleanup removed that marker and the folder under
+    the second. A folder whose marker says a run holds it is kept."""
+    from spinemesh.files.atomic import make_folder
+    from spinemesh.written_folder import OUTPUT_MARKER, remove_made_folders_left_empty, write_marker
+
+    out = make_folder(tmp_path / "o")  # made by this process: the failed run
+    write_marker(out, OUTPUT_MARKER, "output folder", {"running": True, "kept": [], "folder": [1, 2]})
+    remove_made_folders_left_empty()
+    assert (out / OUTPUT_MARKER).is_file()
