@@ -50,3 +50,49 @@ def test_a_bend_byte_other_than_one_or_minus_one_is_refused_in_every_version(ver
     with pytest.raises(SkelFormatError, match="bend direction of 1 or -1") as e:
         read_skel(bytes(hostile), "bent.skel")
     assert e.value.offset == offsets[where] and "bent.skel" in str(e.value) and "\n" not in str(e.value)
+
+
+VERSIONS = ["3.5.51", "3.8.99", "4.0.64", "4.2.40"]
+
+
+def _index_offset(version: str) -> tuple[bytes, int]:
+    """The ``.skel`` of :func:`_ik_document` and the offset of the IK constraint's first bone index
+    (where it differs from the one naming the bone ``aim``)."""
+    data = encode_skel(_ik_document(version, True))
+    other = _ik_document(version, True)
+    other["ik"][0]["bones"] = ["aim", "lower"]
+    changed = [i for i, (a, b) in enumerate(zip(data, encode_skel(other))) if a != b]
+    assert len(changed) == 1 and data[changed[0]] == 1
+    return data, changed[0]
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_a_bone_index_past_the_last_is_refused_in_the_same_words_in_every_version(version):
+    """One reading of a list of indices serves 3.x and 4.x (it was three near-copies: 4.x said
+    ``bone index below 4``, 3.x and single indices ``a bone index below 4``)."""
+    data, at = _index_offset(version)
+    hostile = bytearray(data)
+    hostile[at] = 9
+    with pytest.raises(SkelFormatError) as e:
+        read_skel(bytes(hostile), "far.skel")
+    assert str(e.value) == f"far.skel (byte {at}): expected a bone index below 4, found 9"
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_writing_a_constraint_naming_no_bone_is_refused_in_the_same_words_in_every_version(version):
+    """Writing, the list says which field names the unknown bone, as a single index (``target``)
+    does: 3.x said ``for 'v'``, 4.x named no field."""
+    doc = _ik_document(version, True)
+    doc["ik"][0]["bones"] = ["ghost", "lower"]
+    with pytest.raises(SkelFormatError) as e:
+        encode_skel(doc, "ghost.skel")
+    assert str(e.value).split("): ", 1)[1] == "cannot write: expected a known bone for 'bones', got 'ghost'"
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.1.24", "4.2.40"])
+def test_a_skin_naming_no_ik_constraint_is_refused_in_the_same_words_in_every_version(version):
+    doc = _ik_document(version, True)
+    doc["skins"] = [{"name": "default"}, {"name": "armour", "ik": ["missing"]}]
+    with pytest.raises(SkelFormatError) as e:
+        encode_skel(doc, "skin.skel")
+    assert str(e.value).split("): ", 1)[1] == "cannot write: expected a known IK constraint for 'ik', got 'missing'"

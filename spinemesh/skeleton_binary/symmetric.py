@@ -90,21 +90,45 @@ def _string_or_absent(s, io, node: dict, key: str):
     return io(node.get(key), what=key)
 
 
-def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
-    """A varint index into ``names`` (``lookup``: name to index), the name itself in the document."""
+def index_value(s, value, table: tuple, what: str, key: str, offset: int = 0):
+    """A varint index into a name table (``(names, lookup)``, :func:`name_table`), the name itself
+    in the document: read, the name at that index; written, ``value``'s index (``key`` names the
+    field in the error). Read or written, one wording for every field and list of every version."""
+    names, lookup = table
     if s.reading:
         at = s.pos
         i = s.varint(what=f"{what} index") - offset
         if not 0 <= i < len(names) or names[i] is None:
             # None: in 4.3's one constraint list, a constraint of another type.
             raise s.fail(f"a {what} index below {len(names)}, found {i}", at)
-        node[key] = names[i]
         return names[i]
-    name = node.get(key)
-    if name not in lookup:
-        raise s.fail(f"a known {what} for {key!r}, got {name!r}")
-    s.varint(lookup[name] + offset)
+    if value not in lookup:
+        raise s.fail(f"a known {what} for {key!r}, got {value!r}")
+    s.varint(lookup[value] + offset)
+    return value
+
+
+def index(s, node: dict, key: str, names: list, lookup: dict, what: str, offset: int = 0):
+    """:func:`index_value` of ``node[key]``."""
+    name = index_value(s, None if s.reading else node.get(key), (names, lookup), what, key, offset)
+    if s.reading:
+        node[key] = name
     return name
+
+
+def index_list(s, node: dict, key: str, table: tuple, what: str, keep_empty: bool = True) -> None:
+    """A varint count, then that many :func:`index_value` indices into ``table``: a list of names
+    under ``key`` (a constraint's bones, a skin's constraints). Read, an empty list is left out
+    unless ``keep_empty``. ``what`` names an item in the errors (``bone``; the count: ``bone count``)."""
+    if s.reading:
+        items = [index_value(s, None, table, what, key) for _ in range(s.count(what=f"{what} count"))]
+        if items or keep_empty:
+            node[key] = items
+        return
+    items = node.get(key, [])
+    s.count(len(items), what=f"{what} count")
+    for name in items:
+        index_value(s, name, table, what, key)
 
 
 def bend(s, node: dict, key: str = "bendPositive") -> None:

@@ -59,8 +59,8 @@ from ..skeleton_version import major_minor
 from .enums import ATTACHMENT_TYPES, BLEND, EXTRA, POSITION_MODE, ROTATE_MODE, extra_to_write  # noqa: F401
 from .enums import INHERIT as TRANSFORM_MODE
 from .stream import RecordedRefs, SkelReader, SkelWriter
-from .symmetric import (CONSTRAINT_WORDS, bend, boolean, color, dark_color, enum, first_use_table, fld, index, name_table,
-                        names_once, put, ref, text)
+from .symmetric import (CONSTRAINT_WORDS, bend, boolean, color, dark_color, enum, first_use_table, fld, index, index_list,
+                        name_table, names_once, put, ref, text)
 
 SPACING_MODE = ("length", "fixed", "percent")
 
@@ -147,19 +147,6 @@ def name(s, c: Context, node: dict, key: str):
 def name_value(s, c: Context, value=None, what: str = "name"):
     """:func:`name` for a bare value rather than a key of a node."""
     return (s.string_ref if c.L.refs else s.string)(value, what=what)
-
-
-def index_value(s, value, table: tuple, what: str):
-    """:func:`index` for a bare value."""
-    box = {"v": value}
-    return index(s, box, "v", *table, what)
-
-
-def name_list(s, node: dict, key: str, table: tuple, what: str) -> None:
-    """A count and that many indices into ``table``; an empty list is left out."""
-    items = seq(s, node.get(key, []), lambda s, v: index_value(s, v, table, what), what=f"{what} count")
-    if s.reading and items:
-        node[key] = items
 
 
 def seq(s, items, fn, *args, what: str = "count") -> list:
@@ -327,9 +314,7 @@ def _constraint_head(s, node: dict, c: Context) -> None:
         s.varint(node.get("order", 0))
     if c.L.skin_required:
         boolean(s, node, "skin")
-    name_list(s, node, "bones", c.bones, "bone")
-    if s.reading and "bones" not in node:
-        node["bones"] = []
+    index_list(s, node, "bones", c.bones, "bone")
 
 
 def ik(s, node: dict, c: Context) -> None:
@@ -592,10 +577,9 @@ def written_skins(doc: dict, L: Layout) -> list[dict]:
 
 def skin_members(s, sk: dict, c: Context) -> None:
     """The bones and constraints a 3.8 skin requires."""
-    name_list(s, sk, "bones", c.bones, "bone")
-    name_list(s, sk, "ik", c.ik, "IK constraint")
-    name_list(s, sk, "transform", c.transform, "transform constraint")
-    name_list(s, sk, "path", c.path, "path constraint")
+    index_list(s, sk, "bones", c.bones, "bone", keep_empty=False)
+    for key, table in (("ik", c.ik), ("transform", c.transform), ("path", c.path)):
+        index_list(s, sk, key, table, CONSTRAINT_WORDS[key][:-1], keep_empty=False)
 
 
 # -- events ----------------------------------------------------------------------------

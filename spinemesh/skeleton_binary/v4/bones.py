@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from ..enums import BLEND, INHERIT
-from ..symmetric import boolean, color, dark_color, enum, fld, index, ref, text
-from .fields import _names, _to_end, fields, index_list
+from ..symmetric import boolean, color, dark_color, enum, fld, index, index_list, ref, text
+from .fields import _names, _to_end, fields
 from .layout import Context
 
 _BONE_FIELDS = (("rotation", 0), ("x", 0), ("y", 0), ("scaleX", 1), ("scaleY", 1),
@@ -77,5 +77,5 @@ def slot(s, node: dict, c: Context) -> None:
 
 
 def _bone_list(s, node: dict, c: Context, key: str = "bones") -> None:
-    """The bones a constraint or a skin names (:func:`.fields.index_list`), kept when empty."""
-    index_list(s, node, key, c.bones, "bone", "bone count")
+    """The bones a constraint or a skin names (:func:`~..symmetric.index_list`), kept when empty."""
+    index_list(s, node, key, c.bones, "bone")

@@ -69,32 +69,6 @@ def flag(node: dict, key: str, default, stored_default=0.0) -> bool:
     return not _same(v, stored_default) if isinstance(v, (int, float)) else v != stored_default
 
 
-def index_list(s, node: dict, key: str, table: tuple, what: str, count_what: str, keep_empty: bool = True) -> None:
-    """A varint count, then that many varint indices into ``table`` (``(names, lookup)``): a list
-    of names in the document, under ``key``. Read, an empty list is left out unless ``keep_empty``.
-
-    ``what`` names an item in the errors (``bone``), ``count_what`` the count (``bone count``).
-    """
-    names, lookup = table
-    if s.reading:
-        n = s.count(what=count_what)
-        if n or keep_empty:
-            out = node[key] = []
-            for _ in range(n):
-                at = s.pos
-                i = s.varint()
-                if not 0 <= i < len(names):
-                    raise s.fail(f"{what} index below {len(names)}, found {i}", at)
-                out.append(names[i])
-        return
-    items = node.get(key, [])
-    s.count(len(items))
-    for name in items:
-        if name not in lookup:
-            raise s.fail(f"a known {what}, got {name!r}")
-        s.varint(lookup[name])
-
-
 def floats(s, values, n: int, what: str = "floats") -> list:
     """``n`` float32 values in one go (bulk arrays: vertices, uvs, deform offsets)."""
     if s.reading:

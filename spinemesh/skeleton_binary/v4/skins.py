@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from ..symmetric import color, ref, text
+from ..symmetric import CONSTRAINT_WORDS, color, index_list, ref, text
 from .attachments import attachment
 from .bones import _bone_list
 from .constraint_list import skin_constraints
-from .fields import index_list, seq
+from .fields import seq
 from .layout import Context
 
 
@@ -43,8 +43,8 @@ def skin_attachments(s, skin: dict, c: Context, nslots: int | None = None) -> No
 
 
 def _constraint_names(s, skin: dict, key: str, table: tuple) -> None:
-    """The constraints of one type a skin holds (:func:`.fields.index_list`), left out when none."""
-    index_list(s, skin, key, table, f"{key} constraint", f"skin {key} count", keep_empty=False)
+    """The constraints of one type a skin holds (:func:`~..symmetric.index_list`), left out when none."""
+    index_list(s, skin, key, table, CONSTRAINT_WORDS[key][:-1], keep_empty=False)
 
 
 def skin(s, node: dict, c: Context) -> None:
