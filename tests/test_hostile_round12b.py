@@ -7,10 +7,18 @@ truncations, counts past the end, bad text) and round trips of every real skelet
 
 from __future__ import annotations
 
+import json
+
+import numpy as np
 import pytest
 
 from spinemesh.errors import SkelFormatError
+from spinemesh.rig.bones import skeleton_bones
 from spinemesh.skeleton_binary import encode_skel, read_skel
+
+from rig_project import make_worm_project
+from runtime_tool import node
+from test_ik_chain_runtime import ATLAS
 
 
 def _ik_document(version: str, bend_positive: bool) -> dict:
@@ -96,3 +104,50 @@ def test_a_skin_naming_no_ik_constraint_is_refused_in_the_same_words_in_every_ve
     with pytest.raises(SkelFormatError) as e:
         encode_skel(doc, "skin.skel")
     assert str(e.value).split("): ", 1)[1] == "cannot write: expected a known IK constraint for 'ik', got 'missing'"
+
+
+def _no_scale_reach(version: str) -> dict:
+    """A ``noScale`` bone under a turned, sheared, unevenly scaled parent, moved by a transform
+    constraint and then by a one-bone IK (which starts from the applied values the transform
+    constraint left: 4.2 takes them back from the world through ``updateAppliedTransform``), with
+    a child 100,000 units out along both of its axes, where the pi of 3.1415927 against
+    ``Math.PI`` moves it by a thousandth of a unit."""
+    inherit = "inherit" if version.startswith("4.2") else "transform"
+    bones = [{"name": "root"},
+             {"name": "parent", "parent": "root", "x": 5, "y": 3, "rotation": 37, "scaleX": 2.5, "scaleY": 0.4,
+              "shearY": 11},
+             {"name": "free", "parent": "parent", "x": 300, "y": 120, "rotation": 29, "length": 400,
+              inherit: "noScale", "scaleX": 1.7, "scaleY": 0.8},
+             {"name": "far", "parent": "free", "x": 100000, "y": 100000},
+             {"name": "aim", "parent": "root", "x": -200, "y": 500},
+             {"name": "pull", "parent": "root", "x": 100, "y": 50, "rotation": 71, "scaleX": 1.3}]
+    mixes = ({"mixRotate": 0.5, "mixX": 0.3, "mixY": 0.3, "mixScaleX": 0, "mixScaleY": 0, "mixShearY": 0}
+             if version.startswith("4.") else
+             {"rotateMix": 0.5, "translateMix": 0.3, "scaleMix": 0, "shearMix": 0})
+    return {"skeleton": {"spine": version}, "bones": bones,
+            "slots": [{"name": "worm", "bone": "far", "attachment": "worm"}],
+            "skins": [{"name": "default", "attachments": {"worm": {"worm": {"width": 240, "height": 60}}}}],
+            "transform": [{"name": "pulled", "order": 0, "bones": ["free"], "target": "pull", **mixes}],
+            "ik": [{"name": "reach", "order": 1, "bones": ["free"], "target": "aim", "mix": 0.7}],
+            "animations": {}}
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.0.64", "4.1.24", "4.2.22"])
+def test_no_scale_bones_use_the_pi_each_runtime_uses_there(version, spine_runtime, tmp_path):
+    """``Bone.updateWorldTransform``'s noScale maths use ``Math.PI`` (pixi-spine 3.8, spine-core
+    4.0 to 4.2: ``rig.transform``), 4.2's ``updateAppliedTransform`` ``MathUtils.PI`` = 3.1415927
+    (``rig.constraints``). Either one swapped for the other moves ``far`` by 8e-4 (3.8 to 4.1)
+    and 2e-3 to 3e-3 (4.2) units; as they are, ours and the runtime's dump (6 decimals) agree
+    within 5e-7."""
+    make_worm_project(tmp_path)
+    (tmp_path / "worm.atlas").write_text(ATLAS)
+    doc = _no_scale_reach(version)
+    path = tmp_path / "reach.json"
+    path.write_text(json.dumps(doc))
+    r = node(spine_runtime, "dump.mjs", tmp_path / "worm.atlas", path, "--out", tmp_path / "d.json")
+    assert r.returncode == 0, r.stderr[-2000:]
+    theirs = json.loads((tmp_path / "d.json").read_text())["poses"][0]["bones"]
+    for bone in skeleton_bones(doc):
+        assert bone.exact, (bone.name, bone.why)
+        a, b, c, d, x, y = theirs[bone.name]
+        assert np.abs(np.array([[a, b, x], [c, d, y]]) - bone.world).max() < 1e-5, bone.name

@@ -306,6 +306,7 @@ class PoseBone:
                 s = math.hypot(pa, pc)
                 if self.inherit == "noScale" and pid < 0:
                     s = -s
+                # MathUtils.PI here (4.2), where updateWorldTransform uses Math.PI (rig.transform)
                 r = PI / 2 + math.atan2(pc, pa)
                 pb, pd = math.cos(r) * s, math.sin(r) * s
                 pid = float_divide(1.0, pa * pd - pb * pc)
