@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 from collections import namedtuple
 from collections.abc import Iterator
 from pathlib import Path
@@ -152,6 +153,15 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _whole_number(text: str) -> int:
+    """A JSON integer, refused in words where it has more digits than Python turns into a number
+    (4,300 by default): its own error says to call ``sys.set_int_max_str_digits``."""
+    digits = len(text.lstrip("-"))
+    if digits > sys.get_int_max_str_digits() > 0:
+        raise ValueError(f"a number of {digits:,} digits is beyond the range of a number")
+    return int(text)
+
+
 #: Digits to 0 and ``E`` to ``e``, for :func:`_may_overflow`'s search.
 _NUMBER_SHAPES = str.maketrans("123456789E", "000000000e")
 
@@ -236,7 +246,7 @@ def parse_skeleton_json(text: str, source: str | Path | None = None):
         if not _may_overflow(text):  # no number can be beyond float range: no hook per float
             return json.loads(text, parse_constant=_refuse_constant, object_pairs_hook=KeyedTwice.of)
         return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float,
-                          object_pairs_hook=KeyedTwice.of)
+                          parse_int=_whole_number, object_pairs_hook=KeyedTwice.of)
     except json.JSONDecodeError as e:
         raise SkeletonError(f"invalid JSON: {e.msg} (column {e.colno})", source, line=e.lineno) from None
     except (ValueError, RecursionError) as e:
