@@ -151,3 +151,46 @@ def test_no_scale_bones_use_the_pi_each_runtime_uses_there(version, spine_runtim
         assert bone.exact, (bone.name, bone.why)
         a, b, c, d, x, y = theirs[bone.name]
         assert np.abs(np.array([[a, b, x], [c, d, y]]) - bone.world).max() < 1e-5, bone.name
+
+
+@pytest.mark.parametrize("sign", ["", "-"])
+def test_a_json_integer_of_thousands_of_digits_is_refused_in_words(tmp_path, sign):
+    """Python turns at most 4,300 digits into an integer; its own error told the user to call
+    ``sys.set_int_max_str_digits()``."""
+    from spinemesh.errors import SkeletonError
+    from spinemesh.skeleton import load_skeleton
+
+    path = tmp_path / "long.json"
+    path.write_text('{"skeleton": {"spine": "4.2.40"}, "bones": [{"name": "root", "x": ' + sign + "9" * 5000 + "}]}")
+    with pytest.raises(SkeletonError) as e:
+        load_skeleton(path)
+    assert str(e.value) == f"{path}: invalid JSON: a number of 5,000 digits is beyond the range of a number"
+
+
+@pytest.mark.parametrize("version", ["3.5.51", "3.8.99", "4.2.40"])
+def test_a_string_the_reader_refuses_is_refused_before_it_is_written(version):
+    """``convert`` wrote a JSON's 2 MB event string into a ``.skel`` (exit 0) that it then refused
+    to read: the writer refuses what the reader refuses, in the reader's words."""
+    doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}],
+           "events": {"long": {"string": "x" * (2 << 20)}}, "animations": {}}
+    with pytest.raises(SkelFormatError) as e:
+        encode_skel(doc, "long.skel")
+    assert str(e.value).split("): ", 1)[1] == ("cannot write: expected a string of at most 1,048,576 bytes "
+                                               "(as a .skel is read back), found a length of 2,097,152")
+    doc["events"]["long"]["string"] = "x" * (1 << 20)
+    assert read_skel(encode_skel(doc))["events"]["long"]["string"] == doc["events"]["long"]["string"]
+
+
+@pytest.mark.parametrize("version", ["3.8.99", "4.2.40"])
+@pytest.mark.parametrize("length,said", [(b"\xff\xff\xff\xff\x07", "2,147,483,646"),
+                                         (b"\x80\x80\x80\x80\x08", "-2,147,483,649")])
+def test_a_claimed_string_of_two_gigabytes_is_refused_before_it_is_allocated(version, length, said):
+    """A bone name claiming 2 GB (or, past 2^31, a negative length as the runtimes' ints read it)
+    is refused at its length, saying the bound."""
+    doc = {"skeleton": {"spine": version}, "bones": [{"name": "root"}, {"name": "MARKER", "parent": "root"}]}
+    data = encode_skel(doc)
+    at = data.index(b"MARKER") - 1
+    with pytest.raises(SkelFormatError) as e:
+        read_skel(data[:at] + length + data[at + 1:], "big.skel")
+    assert e.value.offset == at
+    assert str(e.value).split("): ", 1)[1].endswith(f"name of at most 1,048,576 bytes, found a length of {said}")

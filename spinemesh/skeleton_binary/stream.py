@@ -38,6 +38,14 @@ MAX_STRING_BYTES = 1 << 20
 MAX_COUNT = 1 << 22
 
 
+def string_too_long(s, n: int, what: str, at: int | None = None):
+    """The refusal, read or written, of a string whose length prefix ``n`` (its bytes + 1, as the
+    format stores it) is below 1 or says more than :data:`MAX_STRING_BYTES` bytes (a Java int
+    past 2^31 reads negative)."""
+    written = "" if s.reading else " (as a .skel is read back)"
+    return s.fail(f"a {what} of at most {MAX_STRING_BYTES:,} bytes{written}, found a length of {n - 1:,}", at)
+
+
 class SkelReader:
     """Reads primitives from ``data``; every method's value argument is ignored.
 
@@ -129,7 +137,7 @@ class SkelReader:
         if n == 0:
             return None
         if n < 0 or n - 1 > MAX_STRING_BYTES:
-            raise self.fail(f"{what} length, found {n - 1} bytes", at)
+            raise string_too_long(self, n, what, at)
         raw = self._take(n - 1, what)
         try:
             return bytes(raw).decode("utf-8")
@@ -299,6 +307,8 @@ class SkelWriter:
             self.varint(0)
             return None
         raw = str(value).encode("utf-8")
+        if len(raw) > MAX_STRING_BYTES:
+            raise string_too_long(self, len(raw) + 1, what)
         self.varint(len(raw) + 1)
         self.out += raw
         return value

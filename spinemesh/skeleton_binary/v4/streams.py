@@ -6,7 +6,7 @@ import math
 import struct
 
 from ..enums import CURVE_BEZIER, CURVE_LINEAR, CURVE_STEPPED
-from ..stream import MAX_COUNT, MAX_STRING_BYTES, XYW, RecordedRefs, SkelReader, SkelWriter
+from ..stream import MAX_COUNT, MAX_STRING_BYTES, XYW, RecordedRefs, SkelReader, SkelWriter, string_too_long
 from .fields import _floats_struct
 from .timelines import _FrameSpec
 
@@ -79,7 +79,7 @@ class _RefReader(SkelReader):
         if n == 0:
             return None
         if n < 0 or n - 1 > MAX_STRING_BYTES:
-            raise self.fail(f"{what} length, found {n - 1} bytes", at)
+            raise string_too_long(self, n, what, at)
         raw = self.raw(n=n - 1, what=what)
         try:
             return raw.decode("utf-8")
