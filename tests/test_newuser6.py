@@ -193,3 +193,19 @@ def test_dataset_stats_without_the_stats_extra_prints_its_counts_and_exits_0(tmp
     r = _stats_without_matplotlib(ds, "--plots", "plots", cwd=tmp_path)
     assert r.returncode == 2 and r.stdout == "", r.stdout + r.stderr
     assert r.stderr.strip() == "error: --plots: dataset-stats plots need matplotlib: pip install 'spinemesh[stats]'"
+
+
+def test_getting_started_draws_the_demo_for_a_wheel_without_the_checkout(tmp_path):
+    """Getting started tries the demo at ``examples/demo``, a folder of the checkout that no wheel
+    holds: a user who installed the wheel had no project to try. The page gives the line that
+    draws it from the installed package; run as written, it draws the checkout's demo byte for byte."""
+    import shlex
+
+    page = (REPO / "docs" / "getting-started.md").read_text(encoding="utf-8")
+    line = next(line for line in page.splitlines() if line.startswith("python -c ") and "make_demo_project" in line)
+    args = shlex.split(line)
+    subprocess.run([sys.executable, *args[1:]], cwd=tmp_path, check=True, timeout=120,
+                   env={**os.environ, "PYTHONPATH": str(REPO)})
+    drawn = tmp_path / "examples" / "demo"
+    assert sorted(p.relative_to(drawn) for p in drawn.rglob("*")) == sorted(p.relative_to(DEMO) for p in DEMO.rglob("*"))
+    assert all(p.read_bytes() == (drawn / p.relative_to(DEMO)).read_bytes() for p in DEMO.rglob("*") if p.is_file())
