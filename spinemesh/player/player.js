@@ -492,8 +492,17 @@
       drawSide(sides[0], P.data.decoded.before, model.sides.before, f, map);
       drawSide(sides[1], P.data.decoded.after, model.sides.after, f, map);
       drawn.frame = f; drawn.data = P.data;
+      showTime(performance.now());
+    }
+
+    /* The clock and the time line: at every frame drawn and, between frames far apart, every
+     * CLOCK_MS (an hour sampled every 12 s shows its time moving, not 12 s frozen). */
+    var CLOCK_MS = 250, timeShown = -Infinity;
+
+    function showTime(now) {
       clock.textContent = P.t.toFixed(2) + " / " + P.data.dur.toFixed(2) + " s";
       scrub.value = P.data.dur > 0 ? Math.round(P.t / P.data.dur * 1000) : 0;
+      timeShown = now;
     }
 
     /* The one tick asked for, [0, animation frame] or [1, timer], or null: one loop at most,
@@ -518,7 +527,8 @@
       var moved = P.last !== null;
       advance(now);
       if (moved && (frameIndex() !== drawn.frame || P.data !== drawn.data)) draw();
-      var due = (Math.min((frameIndex() + 1) / P.data.fps, P.data.dur) - P.t) / P.speed * 1000;
+      else if (moved && now - timeShown >= CLOCK_MS) showTime(now);
+      var due = Math.min((Math.min((frameIndex() + 1) / P.data.fps, P.data.dur) - P.t) / P.speed * 1000, CLOCK_MS);
       pending = due > 100 ? [1, setTimeout(function () { pending = [0, requestAnimationFrame(tick)]; }, due - 50)]
                           : [0, requestAnimationFrame(tick)];
     }
