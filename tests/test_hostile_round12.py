@@ -269,3 +269,32 @@ def test_a_failed_run_leaves_the_folder_another_run_holds(tmp_path):
     write_marker(out, OUTPUT_MARKER, "output folder", {"running": True, "kept": [], "folder": [1, 2]})
     remove_made_folders_left_empty()
     assert (out / OUTPUT_MARKER).is_file()
+
+
+@pytest.mark.parametrize("command", ["upgrade", "mesh DIR"])
+def test_an_output_below_a_file_names_the_file(project_in, command):
+    """``--out build/x`` where ``build`` is a file: ``upgrade`` and ``mesh DIR`` said ``build/x:
+    cannot write: Not a directory``; ``convert`` and ``pose`` named the file in the way. Every
+    command names it, in the same words."""
+    (project_in / "build").write_text("a file")
+    args = {"upgrade": ("upgrade", "p"), "mesh DIR": ("mesh", "p")}[command]
+    line = _one_error(_run_limited((*args, "--out", "build/x/y"), project_in))
+    assert line == "error: build: cannot create folder: a file of that name exists", line
+
+
+# --- a home of its own ---------------------------------------------------------------------------------
+
+def test_dataset_stats_writes_nothing_at_home(tmp_path, data_set):
+    """``dataset-stats``: matplotlib, which draws its plots, made ``~/.config/matplotlib`` and
+    ``~/.cache/matplotlib`` (its font list) in the user's home, where no other command writes, and
+    where home is read-only printed four lines of warning. Nothing is made at home."""
+    pytest.importorskip("matplotlib")
+    home = tmp_path / "home"
+    home.mkdir()
+    env = _env(HOME=str(home))
+    for name in ("MPLCONFIGDIR", "XDG_CONFIG_HOME", "XDG_CACHE_HOME"):
+        env.pop(name, None)
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "dataset-stats", str(data_set), "--plots", "plots"],
+                       cwd=tmp_path, env=env, capture_output=True, timeout=180, check=False)
+    assert r.returncode == 0 and r.stderr == b"", r.stderr[-2000:]
+    assert len(list((tmp_path / "plots").glob("*.png"))) == 4 and list(home.iterdir()) == []

@@ -67,16 +67,43 @@ PLOTS_NEED = "dataset-stats plots need matplotlib: pip install 'spinemesh[stats]
 def can_plot() -> bool:
     """Whether matplotlib, which draws the plots, is installed (the ``stats`` extra)."""
     try:
-        import matplotlib  # noqa: F401
+        _matplotlib()
     except ImportError:
         return False
     return True
 
 
+def _matplotlib():
+    """matplotlib, imported with its configuration and font cache in a temporary folder of this
+    process, removed at its exit, unless ``MPLCONFIGDIR`` names one: it made ``~/.config/matplotlib``
+    and ``~/.cache/matplotlib`` in the user's home (nothing else is written there), and printed
+    four lines of warning where home is read-only. Building the font list anew costs about a second.
+
+    Raises
+    ------
+    ImportError
+        Without the ``stats`` extra.
+    """
+    import os
+    import sys
+
+    if "matplotlib" not in sys.modules and "MPLCONFIGDIR" not in os.environ:
+        import atexit
+        import shutil
+        import tempfile
+
+        folder = tempfile.mkdtemp(prefix="spinemesh-matplotlib-")
+        atexit.register(shutil.rmtree, folder, True)
+        os.environ["MPLCONFIGDIR"] = folder
+    import matplotlib
+
+    return matplotlib
+
+
 def _plot_panels(stats: dict, out_dir: Path) -> list[Path]:
     """:func:`plot_stats`'s panels, written into ``out_dir``."""
     try:
-        import matplotlib
+        matplotlib = _matplotlib()
     except ImportError:
         raise SpineMeshError(PLOTS_NEED) from None
     matplotlib.use("Agg")

@@ -68,6 +68,9 @@ def make_folder(folder: str | Path) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         raise OutputError("cannot create folder: a file of that name exists", folder) from None
+    except NotADirectoryError:  # a file where a folder above it should be: said of that file, as above
+        blocking = next((path for path in folder.parents if os.path.lexists(path)), folder)
+        raise OutputError("cannot create folder: a file of that name exists", blocking) from None
     except OSError as e:
         raise write_refused(e, folder) from None
     finally:  # also those made before a deeper one was refused
