@@ -101,11 +101,12 @@ def test_the_wheel_holds_every_package_file_and_builds_without_a_deprecation(tmp
     licence table in pyproject.toml is deprecated and that builds stop working on 2027-02-18;
     the wheel's METADATA gave no licence a tool reads (``License: MIT`` free text). It builds
     without the warning, with ``License-Expression: MIT``, and holds every file of the package:
-    the segmentation model and its card, the bone choice, the preview player."""
+    the segmentation model and its card, the bone choice, the preview player, and the licence's
+    text, which the MIT licence asks every copy to carry (the wheel held none)."""
     from conftest import unavailable
 
     source = tmp_path / "src"  # built from a copy: the build writes build/ and *.egg-info beside its sources
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
         source.mkdir(exist_ok=True)
         shutil.copy2(REPO / name, source / name)
     shutil.copytree(REPO / "spinemesh", source / "spinemesh", ignore=shutil.ignore_patterns("__pycache__"))
@@ -122,6 +123,8 @@ def test_the_wheel_holds_every_package_file_and_builds_without_a_deprecation(tmp
     assert package - names == set(), sorted(package - names)
     meta = next(n for n in names if n.endswith(".dist-info/METADATA"))
     assert "License-Expression: MIT" in wheel.read(meta).decode().splitlines()
+    licence = next((n for n in names if n.endswith(".dist-info/licenses/LICENSE")), None)
+    assert licence and wheel.read(licence) == (REPO / "LICENSE").read_bytes(), sorted(names)[-8:]
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     assert "spinemesh = spinemesh.cli:main" in wheel.read(entry).decode()
 
