@@ -559,6 +559,29 @@ def test_preview_opens_in_headless_chromium_with_its_pictures(meshed, tmp_path):
     assert coloured.sum() > 2000, coloured.sum()
 
 
+def test_preview_on_a_phone_shows_its_pages_at_the_screens_width(meshed, tmp_path):
+    """On a phone's screen (360 pixels) the page is laid out at the screen's width, its pictures
+    within it: without a viewport a phone laid it out at 980 pixels and shrank it, and a page
+    picture of 512 pixels widened the page past the screen."""
+    from browser import DevTools
+
+    r = runner.invoke(app, ["pack", str(meshed), "--out", str(tmp_path / "out"), "--preview", str(tmp_path / "pv")])
+    assert r.exit_code == 0, r.output
+    tools = DevTools(tmp_path / "profile")
+    try:
+        tools.call("Emulation.setDeviceMetricsOverride", width=360, height=740, deviceScaleFactor=2, mobile=True)
+        tools.call("Page.navigate", url=(tmp_path / "pv" / "index.html").resolve().as_uri())
+        assert tools.wait("document.readyState === 'complete'", timeout=60)
+        got = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, pictures: "
+                       "[].map.call(document.querySelectorAll('img'), function (c) { "
+                       "var r = c.getBoundingClientRect(); return [r.left, r.right]; }) })")
+    finally:
+        tools.close()
+    assert got["window"] == 360 and got["scroll"] <= 360, got
+    assert len(got["pictures"]) == 2 and all(0 <= left and right <= 360 for left, right in got["pictures"]), got
+    assert min(right - left for left, right in got["pictures"]) > 200, got  # and not a thumbnail
+
+
 def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "demo.atlas") -> int:
     """Every mesh of ``a``'s skeleton samples the same on ``b``'s pages as on ``a``'s; how many regions checked."""
     before, after = read_atlas(a / atlas), read_atlas(b / atlas)

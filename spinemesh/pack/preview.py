@@ -18,6 +18,7 @@ import numpy as np
 
 from ..images import fit_within
 from ..player import PreviewFolder
+from ..player.files import html_page
 from ..words import counted
 
 #: Largest side, in pixels, of the largest page of an atlas in the picture.
@@ -30,7 +31,10 @@ figure{margin:0}
 figcaption{font-size:12px;color:#555}
 img{background:repeating-conic-gradient(#ddd 0 25%,#fff 0 50%) 0 0/16px 16px;border:1px solid #999;
 image-rendering:pixelated}
-table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
+table{border-collapse:collapse;display:block;max-width:100%;overflow-x:auto}
+td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}td:first-child,th.text{text-align:left}
+img{max-width:100%;height:auto}
+@media (max-width:600px){body{margin:8px}.pages{gap:12px}}
 """
 
 
@@ -50,7 +54,7 @@ def atlas_section(folder: PreviewFolder, rel: str, before: dict[str, np.ndarray]
     largest = max(max(p.shape[:2]) for p in list(before.values()) + list(after.values()))
     scale = min(1.0, PAGE_SIZE / largest)
     reasons = Counter(r["reason"].split(" (")[0] for r in row.regions_by_rectangle)
-    rows = "".join(f"<tr><td style=\"text-align:left\">{html.escape(k)}</td><td>{v}</td></tr>"
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{v}</td></tr>"
                    for k, v in reasons.most_common())
     return (f"<h2>{html.escape(rel)}</h2>"
             f"<p>page texels {row.texels_before:,} → {row.texels_after:,} "
@@ -58,7 +62,7 @@ def atlas_section(folder: PreviewFolder, rel: str, before: dict[str, np.ndarray]
             f"{counted(row.by_outline, 'region')} by outline, {row.by_rectangle} by rectangle, padding {row.padding}</p>"
             f"<h3>before</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in before.items())}</div>"
             f"<h3>after</h3><div class=\"pages\">{''.join(_figure(folder, n, p, scale) for n, p in after.items())}</div>"
-            + (f"<h3>kept by rectangle</h3><table><tr><th>reason</th><th>regions</th></tr>{rows}</table>"
+            + (f"<h3>kept by rectangle</h3><table><tr><th class=\"text\">reason</th><th>regions</th></tr>{rows}</table>"
                if rows else ""))
 
 
@@ -71,15 +75,15 @@ def write_preview(result, folder: str | Path, project: str | Path | None = None)
     sections = [atlas_section(files, rel, before, after, rows[rel]) for rel, before, after in result.previews]
     kept = [a for a in result.atlases if a.status != "packed"]
     if kept:
-        sections.append("<h2>atlases that kept their layout</h2><table><tr><th>atlas</th><th>why</th></tr>" + "".join(
-            f"<tr><td style=\"text-align:left\">{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
+        sections.append("<h2>atlases that kept their layout</h2><table><tr><th class=\"text\">atlas</th>"
+                        "<th class=\"text\">why</th></tr>" + "".join(
+            f"<tr><td>{html.escape(a.atlas)}</td><td style=\"text-align:left\">"
             f"{html.escape(a.reason)}</td></tr>" for a in kept) + "</table>")
     t = result.totals()
     summary = (f"<p>{counted(len(result.atlases), 'atlas', 'atlases')}; page texels {t['texels_before']:,} → {t['texels_after']:,}; "
                f"pages {t['pages_before']} → {t['pages_after']}; bytes {t['bytes_before']:,} → "
                f"{t['bytes_after']:,}</p>")
-    page = (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>spinemesh pack</title>"
-            f"<style>{_CSS}</style></head><body><h1>spinemesh pack</h1>{summary}{''.join(sections)}</body></html>\n")
+    page = html_page("spinemesh pack", _CSS, f"<h1>spinemesh pack</h1>{summary}{''.join(sections)}")
     files.write_text("index.html", page)
     files.finish()
     return files.root / "index.html"

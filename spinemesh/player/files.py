@@ -9,6 +9,7 @@ two pages show is written once) and the player's data (``.js`` files loaded with
 from __future__ import annotations
 
 import hashlib
+import html
 import io
 from pathlib import Path
 
@@ -20,6 +21,22 @@ from ..written_folder import check_written_folder, mark_written_files, mark_writ
 
 #: Largest side, in pixels, of an image written for a page (a sprite, an atlas page).
 IMAGE_SIZE = 1024
+
+
+def html_page(title: str, css: str, body: str) -> str:
+    """A preview's HTML page: ``title`` (text, escaped here), its style sheet ``css`` and its
+    ``body`` (HTML), in UTF-8, laid out at the width of the screen that shows it.
+
+    Examples
+    --------
+    >>> page = html_page("a < b", "p{margin:0}", "<p>x</p>")
+    >>> page[page.index("<title>"):page.index("</title>")]
+    '<title>a &lt; b'
+    """
+    # a phone lays out a page without a viewport at 980 pixels, shrunk: the player's canvases a third of the screen
+    return (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{html.escape(title)}</title>"
+            f"<style>{css}</style></head><body>{body}</body></html>\n")
 
 
 def png_bytes(rgba: np.ndarray) -> bytes:

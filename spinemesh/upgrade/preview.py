@@ -31,6 +31,7 @@ from ..errors import OutputError, SpineMeshError
 from ..files.disk import file_stamp
 from ..files.names import name_apart, safe_name
 from ..player import PLAYER_CSS, PreviewFolder
+from ..player.files import html_page
 from ..player.frames import pose_skins  # noqa: F401  (the setup pose's skins, here since the page began)
 from ..project import find_project, image_source_for
 from ..skeleton import is_binary_skeleton, iter_skins, load_skeleton
@@ -175,13 +176,6 @@ def _pct(part: int, whole: int) -> str:
 def _less(part: int, whole: int) -> str:
     """``part`` fewer out of ``whole`` as a change ("−20.1%"), or "-" when there is no whole."""
     return f"−{_pct(part, whole)}" if whole else "-"
-
-
-def _html_page(title: str, body: str) -> str:
-    # a phone lays out a page without a viewport at 980 pixels, shrunk: the player's canvases a third of the screen
-    return (f"<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{html.escape(title)}</title>"
-            f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
 
 
 def _card(folder: PreviewFolder, up: str, rgba: np.ndarray, box, att: dict, names: list[str], rate: FillRate,
@@ -448,7 +442,7 @@ def _skeleton_page(folder: PreviewFolder, sk: _Skeleton, pid: str, targets: list
             + (f'{_LEGEND}<div class="cards">{"".join(c for _, c in cards)}</div>' if cards else
                "<p>No attachment of this skeleton became a mesh.</p>")
             + _reasons_table(None, all_targets))
-    folder.write_text(page_rel, _html_page(f"spinemesh upgrade: {sk.rel}", body))
+    folder.write_text(page_rel, html_page(f"spinemesh upgrade: {sk.rel}", _CSS, body))
     return page_rel, rate_total
 
 
@@ -908,6 +902,6 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
             + f"<h2>Skeletons</h2>{table}"
             + _atlas_pages(files, result, root, out)
             + _reasons_table(result) + _problems(result))
-    files.write_text("index.html", _html_page(f"spinemesh upgrade: {_shown_name(root)}", body))
+    files.write_text("index.html", html_page(f"spinemesh upgrade: {_shown_name(root)}", _CSS, body))
     files.finish()
     return Path(folder) / "index.html"
