@@ -102,3 +102,27 @@ class LimitError(SpineMeshError):
 class OutputError(SpineMeshError):
     """An output path that may not be written (inside the input, onto an input file, through a
     symlink) or that the file system refused (read-only, full disk)."""
+
+    #: The system's error number where the file system refused the write (``errno.ENOSPC``), else None.
+    errno: int | None = None
+
+
+class OutputStopped(Exception):
+    """A write the output's file system refused for a reason that holds for every later write too
+    (a full disk, a file size limit, a read-only file system, a quota): the run stops at once with
+    one line, rather than one per file left. Not a :class:`SpineMeshError`, so that no per-file
+    handler takes it for one file's failure.
+
+    Parameters
+    ----------
+    refused : OutputError
+        The write refused (:func:`~spinemesh.files.atomic.write_refused`), naming its file.
+    """
+
+    def __init__(self, refused: OutputError):
+        self.refused = refused
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        return (f"{self.refused}: every later write to the output would be refused too, so the run "
+                "stopped; the files it wrote are whole")

@@ -22,7 +22,8 @@ except ImportError:  # Windows: no lock
     fcntl = None
 
 from .errors import OutputError, SpineMeshError
-from .files.atomic import atomic_copy, atomic_write_bytes, atomic_write_text, make_folder, write_refused
+from .files.atomic import (atomic_copy, atomic_write_bytes, atomic_write_text, make_folder, stop_if_every_write_refused,
+                           write_refused)
 from .files.disk import file_digest
 from .files.guard import OutputGuard, refuse_report_over_output
 from .project import Project
@@ -260,6 +261,7 @@ def copy_atlases_last(pairs: list[tuple[Path, Path]], pages_of: dict[Path, set[P
             check_pages_copied(pages_of.get(real, set()), failed, dest)
             copy(source, dest)
         except SpineMeshError as e:
+            stop_if_every_write_refused(e)
             failed.add(real)
             errors.append(f"not copied: {e}")
     return errors

@@ -298,3 +298,37 @@ def test_dataset_stats_writes_nothing_at_home(tmp_path, data_set):
                        cwd=tmp_path, env=env, capture_output=True, timeout=180, check=False)
     assert r.returncode == 0 and r.stderr == b"", r.stderr[-2000:]
     assert len(list((tmp_path / "plots").glob("*.png"))) == 4 and list(home.iterdir()) == []
+
+
+# --- a disk that fills mid-run: said once, the run ended there -------------------------------------------
+
+#: Runs that write many files into OUT: (arguments, whether the input is a library of projects).
+FILLING = {
+    "upgrade": ("upgrade", "p", "--out", "o"),
+    "upgrade --pack": ("upgrade", "p", "--out", "o", "--pack"),
+    "pack": ("pack", "p", "--out", "o"),
+    "weights": ("weights", "p", "--out", "o"),
+    "upgrade LIBRARY": ("upgrade", "lib", "--out", "o"),
+}
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the file size limit as Linux applies it")
+@pytest.mark.parametrize("command", list(FILLING))
+def test_a_disk_that_fills_is_said_once_and_ends_the_run(project_in, command):
+    """A disk that fills as the run writes (``ulimit -f``: room for the folder's marker, none for a
+    skeleton): one ``cannot write`` line per skeleton and per file copied, 23 lines for twenty
+    skeletons and hundreds for a library, each run on to the end. A refusal that holds for every later
+    write (full, size limit, read-only, quota) is said once, naming the file and the condition, and the
+    run ends there (exit 3); no temporary file, no atlas without its page."""
+    library = project_in / "lib"
+    for name in ("a", "b", "c"):
+        shutil.copytree(project_in / "p", library / name)
+    r = _run_limited(FILLING[command], project_in, file_size=1000)
+    text = _no_traceback(r)
+    lines = [line for line in text.splitlines() if line.startswith("error:")]
+    assert r.returncode == 3 and len(lines) == 1, text[-3000:]
+    assert "o/" in lines[0] and "cannot write: File too large" in lines[0] and "the run stopped" in lines[0], lines
+    left = [p for p in project_in.rglob("*") if p.is_file()]
+    assert not [p for p in left if p.name.endswith(".tmp")], left
+    for atlas in (p for p in left if p.suffix == ".atlas" and "o" in p.relative_to(project_in).parts[:1]):
+        assert (atlas.parent / "demo.png").exists(), sorted(map(str, left))

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from spinemesh.atlas import read_atlas
 from spinemesh.images import cut_region, load_rgba
@@ -508,10 +509,12 @@ def test_a_next_layout_whose_pages_do_not_come_back_is_never_written(meshed, tmp
 def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, tmp_path, monkeypatch):
     """The packed atlas cannot be written (disk full) after its pages could: none of its files is,
     so the atlas and the pages in the output are the originals that go together (copied into OUT,
-    or left as they were where ``upgrade --pack`` packs in place); no temporary file stays."""
+    or left as they were where ``upgrade --pack`` packs in place); no temporary file stays. A full
+    disk refuses every later write too: the run stops there, saying so once."""
     import errno
     import os
 
+    from spinemesh.errors import OutputStopped
     from spinemesh.pack.run import PackResult, pack_project_into
     from spinemesh.project import find_project
 
@@ -526,13 +529,13 @@ def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, t
     monkeypatch.setattr(os, "open", disk_full_once)
     in_place = tmp_path / "in-place"
     shutil.copytree(meshed, in_place)
-    result = PackResult()
-    pack_project_into(find_project(in_place), in_place, PackOptions(), result)
-    (kept_in_place,) = result.atlases
+    with pytest.raises(OutputStopped, match="disk full"):
+        pack_project_into(find_project(in_place), in_place, PackOptions(), PackResult())
+    for name in ("demo.atlas", "demo.png"):
+        assert (in_place / name).read_bytes() == (meshed / name).read_bytes(), name
     refused.clear()
-    (copied,) = pack_project(meshed, tmp_path / "out").atlases
-    for row, out in ((kept_in_place, in_place), (copied, tmp_path / "out")):
-        assert row.status == "failed" and "disk full" in row.reason, row.reason
-        for name in ("demo.atlas", "demo.png"):
-            assert (out / name).read_bytes() == (meshed / name).read_bytes(), name
-        assert not [p for p in out.rglob("*.tmp")]
+    with pytest.raises(OutputStopped, match="disk full"):
+        pack_project(meshed, tmp_path / "out")
+    out = tmp_path / "out"  # neither the packed page nor the atlas: none is written without the other
+    assert not (out / "demo.atlas").exists() and not (out / "demo.png").exists(), sorted(out.rglob("*"))
+    assert not [p for p in (*in_place.rglob("*.tmp"), *out.rglob("*.tmp"))]

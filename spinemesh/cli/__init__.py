@@ -117,7 +117,7 @@ def _run_command() -> None:
         from ..processes import exit_on_terminate
 
         exit_on_terminate()
-        from ..errors import SpineMeshError
+        from ..errors import OutputStopped, SpineMeshError
 
         _standard_streams()
         from ..opencv_environment import check_opencv_environment
@@ -160,6 +160,11 @@ def _run_command() -> None:
                           "the others were not written (try fewer --jobs, or one project at a time)",
                           highlight=False, soft_wrap=True)
         sys.exit(2)
+    except OutputStopped as e:  # a full disk, said once: every later write would be refused too
+        from ._app import console_text, err_console
+
+        err_console.print(f"[bold red]error:[/] {console_text(str(e))}", highlight=False, soft_wrap=True)
+        sys.exit(3)
     except (SpineMeshError, OSError) as e:  # last: SpineMeshError is bound once the command is imported
         from ._app import console_text, err_console
 

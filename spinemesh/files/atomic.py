@@ -17,7 +17,7 @@ import shutil
 from collections.abc import Iterable
 from pathlib import Path
 
-from ..errors import OutputError, SpineMeshError
+from ..errors import OutputError, OutputStopped, SpineMeshError
 from .inside import NAME_MAX
 from .strict_json import strict_json
 
@@ -34,7 +34,23 @@ def write_refused(e: OSError, path: str | Path) -> OutputError:
         reason = "permission denied (read-only?)"
     else:
         reason = e.strerror or str(e)
-    return OutputError(f"cannot write: {reason}", path)
+    refused = OutputError(f"cannot write: {reason}", path)
+    refused.errno = e.errno
+    return refused
+
+
+#: What a file system refuses every write for once it refuses one: full, past the file size limit,
+#: read-only, past the user's quota.
+EVERY_WRITE_REFUSED = frozenset({errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT})
+
+
+def stop_if_every_write_refused(error: SpineMeshError) -> None:
+    """Raise :class:`~spinemesh.errors.OutputStopped` where ``error`` is a write the output's file
+    system would refuse every later write for (:data:`EVERY_WRITE_REFUSED`): called by each handler
+    that says one file's failure and goes on, so a full disk is said once and the run ends there,
+    not one line per file left."""
+    if isinstance(error, OutputError) and error.errno in EVERY_WRITE_REFUSED:
+        raise OutputStopped(error) from None
 
 
 def _umask() -> int | None:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpineMeshError
-from ..files.atomic import atomic_copy, atomic_write_files, atomic_write_json, utf8
+from ..files.atomic import atomic_copy, atomic_write_files, atomic_write_json, stop_if_every_write_refused, utf8
 from ..files.inside import as_written
 from ..files.names import named_within
 from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
@@ -1276,6 +1276,7 @@ def _write_outcome(job: AtlasJob, outcome: AtlasOutcome, proj: Project, out: Pat
         # as one: a page written beside an atlas that is not (disk full) would draw other texels
         atomic_write_files(files)
     except SpineMeshError as e:
+        stop_if_every_write_refused(e)
         result.atlases.append(AtlasRow(row.atlas, "failed", f"not written: {e}", row.pages_before, row.pages_before,
                                        row.texels_before, row.texels_before, row.bytes_before, row.bytes_before))
         return

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import SpineMeshError
-from ..files.atomic import atomic_write_json
+from ..files.atomic import atomic_write_json, stop_if_every_write_refused
 from ..files.names import named_within
-from ..project import find_project
+from ..project import Project, find_project
 from ..runs import RunSummary
 from ..skeleton import load_skeleton
 from ..skeleton_check import animations_keyed_twice
@@ -79,16 +79,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
     if not proj.skeletons:  # nothing to weigh (the command says so): no output folder, as upgrade
         return result
     start = time.perf_counter()
-    written, read = set(), []
-    for path in proj.skeletons:
-        try:
-            doc = load_skeleton(path)
-        except SpineMeshError as e:
-            result.errors.append(str(e))
-            continue
-        read.append((path, doc, build_rig(doc, options.sample_motion)))
-        rel = path.relative_to(proj.root).as_posix()
-        result.warnings += [f"{rel}: {line}" for line in animations_keyed_twice(doc)]  # passed through, said
+    written, read = set(), _read_skeletons(proj, options, result)
     if uses_learned(options):  # the learned choice reads the artists' habits over every skeleton first
         share_project_habits([(doc, rig) for _, doc, rig in read])
     if progress is not None:
@@ -104,6 +95,7 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
             try:
                 write_skeleton(doc, path, out / rel)
             except SpineMeshError as e:
+                stop_if_every_write_refused(e)
                 result.errors.append(f"{rel}: not written: {e}")
                 continue
             written.add(path.resolve())
@@ -119,6 +111,22 @@ def weight_project(project: str | Path, out: str | Path, options: WeightOptions 
         result.errors += copy_other_files(proj, out, written)
     result.seconds = time.perf_counter() - start
     return result
+
+
+def _read_skeletons(proj: Project, options: WeightOptions, result: WeightResult) -> list[tuple[Path, dict, object]]:
+    """``(path, document, rig)`` of each skeleton of ``proj`` that loads (:func:`build_rig`); one
+    that does not goes to ``result.errors``, an animation keyed twice to its warnings."""
+    read = []
+    for path in proj.skeletons:
+        try:
+            doc = load_skeleton(path)
+        except SpineMeshError as e:
+            result.errors.append(str(e))
+            continue
+        read.append((path, doc, build_rig(doc, options.sample_motion)))
+        rel = path.relative_to(proj.root).as_posix()
+        result.warnings += [f"{rel}: {line}" for line in animations_keyed_twice(doc)]  # passed through, said
+    return read
 
 
 def write_report(result: WeightResult, path: str | Path, project: str | Path | None = None) -> None:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ..errors import SpineMeshError
-from ..files.atomic import atomic_copy
+from ..files.atomic import atomic_copy, stop_if_every_write_refused
 from ..output import atlas_pages, copy_atlases_last, files_needed, files_to_copy, write_skeleton
 from .plan import ProjectPlan
 from .progress import SILENT, Progress
@@ -47,6 +47,7 @@ def write_skeletons(plan: ProjectPlan, out: Path, result: Result, progress: Prog
         try:
             write_skeleton(sk.doc, sk.path, out / sk.rel)
         except SpineMeshError as e:
+            stop_if_every_write_refused(e)
             result.errors.append(f"{sk.path}: not written: {e}")
             for t in sk.targets:  # not counted as meshed: the output does not hold them
                 if t.status == "meshed":
@@ -75,14 +76,19 @@ def copying_other_files(plan: ProjectPlan, out: Path, result: Result) -> Iterato
     copier = ThreadPoolExecutor(COPY_THREADS)
     # atlases last, each only once its pages are copied (a full disk would leave one without them)
     copies = [(real, copier.submit(atomic_copy, source, dest)) for source, dest, real in pairs if real not in pages_of]
-    yield
     failed = set()
-    for real, copy in copies:
-        try:
-            copy.result()
-        except SpineMeshError as e:
-            failed.add(real)
-            result.errors.append(f"not copied: {e}")
+    try:
+        yield
+        for real, copy in copies:
+            try:
+                copy.result()
+            except SpineMeshError as e:
+                stop_if_every_write_refused(e)
+                failed.add(real)
+                result.errors.append(f"not copied: {e}")
+    except BaseException:  # the run stops (a full disk, Ctrl-C): no copy not yet started starts
+        copier.shutdown(cancel_futures=True)
+        raise
     copier.shutdown()
     result.errors += copy_atlases_last([(source, dest) for source, dest, real in pairs if real in pages_of],
                                        pages_of, failed=failed)
@@ -94,4 +100,5 @@ def write_repacked_atlases(plan: ProjectPlan, out: Path, result: Result) -> None
         try:
             write_repacked_atlas(atlas_path, names, plan.project.root, out)
         except SpineMeshError as e:
+            stop_if_every_write_refused(e)
             result.errors.append(f"{atlas_path}: not re-packed: {e}")
