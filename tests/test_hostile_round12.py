@@ -332,3 +332,29 @@ def test_a_disk_that_fills_is_said_once_and_ends_the_run(project_in, command):
     assert not [p for p in left if p.name.endswith(".tmp")], left
     for atlas in (p for p in left if p.suffix == ".atlas" and "o" in p.relative_to(project_in).parts[:1]):
         assert (atlas.parent / "demo.png").exists(), sorted(map(str, left))
+
+
+def test_a_page_cut_short_mid_run_is_said_of_the_input(tmp_path, monkeypatch):
+    """A page the export replaced or cut short after the upgrade read it, before its copy into OUT:
+    ``upgrade --pack`` decoded the copy and said ``o/demo.png: cannot decode image``, a file of its
+    own output the user cannot fix. It names the project's page, which the copy's bytes came from."""
+    from spinemesh.demo import make_demo_project
+    from spinemesh.upgrade import write
+    from spinemesh.upgrade.options import Options
+    from spinemesh.upgrade.run import upgrade_project
+
+    make_demo_project(tmp_path / "p", with_images_folder=False)
+    copy = write.atomic_copy
+
+    def cut_short_first(source, dest):  # the half-written export a game's build replaces it with
+        if Path(source).suffix == ".png":
+            Path(source).write_bytes(Path(source).read_bytes()[:100])
+        return copy(source, dest)
+
+    monkeypatch.setattr(write, "atomic_copy", cut_short_first)
+    monkeypatch.chdir(tmp_path)
+    result = upgrade_project(Path("p"), Path("o"), Options(pack=True))
+    (row,) = result.atlases
+    assert row.status == "failed" and row.reason.startswith("p/demo.png: cannot decode image"), row.reason
+    assert any(line.startswith("demo.atlas: not packed: p/demo.png: cannot decode image") for line in result.errors), \
+        result.errors

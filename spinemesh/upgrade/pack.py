@@ -70,12 +70,29 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
                           progress=PhaseProgress(progress, told))
     except SpineMeshError as e:
         result.errors.append(f"not packed: {e}")
+    if source is not None:
+        for row in packed.atlases:
+            row.reason = said_of_input(row.reason, out, source.root)
     result.atlases += packed.atlases
     result.errors += failed_lines(packed.atlases)
     said = set(result.errors)
     result.errors += [f"packing: {e}" for e in packed.errors
                       if source is None or not e.startswith(str(out)) or str(source.root) + e[len(str(out)):] not in said]
     result.seconds["pack"] = result.seconds.get("pack", 0.0) + time.perf_counter() - t0
+
+
+def said_of_input(reason: str, out: Path, root: Path) -> str:
+    """``reason`` (a packed atlas's row) that names a file of ``out`` it could not read, said of the
+    file of the project ``root`` it was copied from: the upgrade copied it there a moment before
+    (the same bytes: an export replaced or cut short mid-run), and that one is the file the user
+    must fix (``hero/page.png: cannot decode image``, not ``out/page.png``). Other reasons are
+    returned as they are."""
+    path, colon, said = reason.partition(": ")
+    try:
+        rel = Path(path).resolve().relative_to(out.resolve())  # the packing names the folder it found
+    except (ValueError, OSError):
+        return reason
+    return f"{root / rel}{colon}{said}" if colon and (root / rel).is_file() else reason
 
 
 class PhaseProgress:
