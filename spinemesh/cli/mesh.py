@@ -148,6 +148,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
 
     from ..errors import SpineMeshError, escaped
 
+    from ..files.atomic import stop_if_every_write_refused
     from ..files.guard import OutputGuard
     from ..files.inside import real
     from ..files.names import OneFilePerName
@@ -196,6 +197,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
                          mark, folder=image)
                 rows.append((str(rel), m))
             except SpineMeshError as e:
+                stop_if_every_write_refused(e)
                 failed += 1
                 err_console.print("[yellow]skipped:[/] " + console_text(e), highlight=False)
             bar.advance(task)
