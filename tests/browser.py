@@ -93,6 +93,10 @@ def against_the_runtime(tool: Path, tmp: Path, preview: Path, page: str, anim_in
     return out
 
 
+#: A phone's screen width in CSS pixels (:meth:`DevTools.as_a_phone`).
+PHONE_WIDTH = 360
+
+
 class DevTools:
     """Headless Chromium on real time, driven over ``--remote-debugging-pipe`` (the Chrome DevTools
     protocol: JSON messages ended by a NUL byte, commands on the browser's file descriptor 3,
@@ -159,6 +163,19 @@ class DevTools:
                 return True
             time.sleep(0.02)
         return False
+
+    def as_a_phone(self) -> None:
+        """Lay pages out as a phone's browser does: :data:`PHONE_WIDTH` pixels wide, mobile."""
+        self.call("Emulation.setDeviceMetricsOverride", width=PHONE_WIDTH, height=740, deviceScaleFactor=2, mobile=True)
+
+    def layout(self, selector: str, width: bool = False) -> dict:
+        """The page's layout: the window's width (``window``), the page's (``scroll``), and the
+        left and right edges of each element ``selector`` finds (``boxes``; their widths alone
+        with ``width``)."""
+        box = "r.width" if width else "[r.left, r.right]"
+        return self.js(f"({{ window: innerWidth, scroll: document.documentElement.scrollWidth, boxes: "
+                       f"[].map.call(document.querySelectorAll({selector!r}), function (c) {{ "
+                       f"var r = c.getBoundingClientRect(); return {box}; }}) }})")
 
     def processes(self) -> list[int]:
         """The browser's process and every process under it."""

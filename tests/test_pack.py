@@ -569,17 +569,15 @@ def test_preview_on_a_phone_shows_its_pages_at_the_screens_width(meshed, tmp_pat
     assert r.exit_code == 0, r.output
     tools = DevTools(tmp_path / "profile")
     try:
-        tools.call("Emulation.setDeviceMetricsOverride", width=360, height=740, deviceScaleFactor=2, mobile=True)
+        tools.as_a_phone()
         tools.call("Page.navigate", url=(tmp_path / "pv" / "index.html").resolve().as_uri())
         assert tools.wait("document.readyState === 'complete'", timeout=60)
-        got = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, pictures: "
-                       "[].map.call(document.querySelectorAll('img'), function (c) { "
-                       "var r = c.getBoundingClientRect(); return [r.left, r.right]; }) })")
+        got = tools.layout("img")
     finally:
         tools.close()
     assert got["window"] == 360 and got["scroll"] <= 360, got
-    assert len(got["pictures"]) == 2 and all(0 <= left and right <= 360 for left, right in got["pictures"]), got
-    assert min(right - left for left, right in got["pictures"]) > 200, got  # and not a thumbnail
+    assert len(got["boxes"]) == 2 and all(0 <= left and right <= 360 for left, right in got["boxes"]), got
+    assert min(right - left for left, right in got["boxes"]) > 200, got  # and not a thumbnail
 
 
 def _sampled_alike(a: Path, b: Path, skeleton: str = "demo.json", atlas: str = "demo.atlas") -> int:

@@ -193,25 +193,21 @@ def test_a_phone_shows_the_player_at_its_own_width(crowded, tmp_path):
     page, _ = crowded
     tools = DevTools(tmp_path / "profile")
     try:
-        tools.call("Emulation.setDeviceMetricsOverride", width=360, height=740, deviceScaleFactor=2, mobile=True)
+        tools.as_a_phone()
         tools.call("Page.navigate", url=page.resolve().as_uri())
         assert tools.wait("!!(window.SM && SM.players && Object.values(SM.players)[0].data)", timeout=60)
-        got = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, canvases: "
-                       "[].map.call(document.querySelectorAll('canvas'), function (c) { "
-                       "var r = c.getBoundingClientRect(); return [r.left, r.right]; }) })")
+        got = tools.layout("canvas")
         tools.call("Page.navigate", url=(page.parent.parent / "index.html").resolve().as_uri())
         assert tools.wait("document.readyState === 'complete'", timeout=60)
-        index = tools.js("({ window: innerWidth, scroll: document.documentElement.scrollWidth, names: "
-                         "[].map.call(document.querySelectorAll('table.sum td:first-child'), function (c) { "
-                         "return c.getBoundingClientRect().width; }) })")
+        index = tools.layout("table.sum td:first-child", width=True)
     finally:
         tools.close()
     assert got["window"] == 360 and got["scroll"] <= 360, got
-    assert len(got["canvases"]) == 2 and all(0 <= left and right <= 360 for left, right in got["canvases"]), got
-    assert min(right - left for left, right in got["canvases"]) > 240, got  # and not a thumbnail
+    assert len(got["boxes"]) == 2 and all(0 <= left and right <= 360 for left, right in got["boxes"]), got
+    assert min(right - left for left, right in got["boxes"]) > 240, got  # and not a thumbnail
     # the index too: its tables scroll in their own box, their names readable (not a letter a line)
     assert index["window"] == 360 and index["scroll"] <= 360, index
-    assert index["names"] and min(index["names"]) > 150, index
+    assert index["boxes"] and min(index["boxes"]) > 150, index
 
 
 def test_a_page_shown_every_animation_keeps_the_frames_of_the_last_few(crowded, tmp_path):
