@@ -1081,15 +1081,19 @@ def test_newline_in_a_file_name_cannot_forge_an_error_line(tmp_path, demo):
 
 
 def test_a_skeleton_not_written_is_not_counted_as_meshed(tmp_path, demo):
-    """The skeleton's write fails (a file-size limit, as a full disk would): its rows say failed."""
+    """The skeleton's write fails (a file-size limit, as a full disk would): nothing says it was
+    meshed. Every later write would fail too, so the run stops there in one line (exit 3); a
+    report, where one is written, lists no skeleton written and counts nothing meshed."""
     _json_only(demo)
     doc = _demo_json(demo)
     doc["padding"] = "x" * 200_000  # the skeleton is far larger than the report
     _write_json(demo / "demo.json", doc)
     r = _upgrade(tmp_path, demo, "--report", "r.json", outputs=("o", "r.json"), file_size=150_000)
     assert r.returncode == 3
-    report = json.loads((tmp_path / "r.json").read_text())
-    assert report["skeletons_written"] == [] and "meshed" not in report["counts"]
+    assert "so the run stopped" in r.stderr and r.stderr.count("error:") == 1, r.stderr
+    if (tmp_path / "r.json").exists():
+        report = json.loads((tmp_path / "r.json").read_text())
+        assert report["skeletons_written"] == [] and "meshed" not in report["counts"]
 
 
 def test_byte_order_mark_is_kept(tmp_path, demo):

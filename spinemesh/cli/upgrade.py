@@ -33,8 +33,8 @@ _Preview = Annotated[Optional[Path], typer.Option(
                       "side by side in a player, every upgraded image's old quad and new mesh; for a "
                       "folder of projects, one index for all.")]
 _Preset = Annotated[Preset, typer.Option("--preset", "-p", help="Mesher preset: default (for animation) or "
-                                         "paper (the paper's section 3 exactly: every region meshed, no "
-                                         "--density, --max-vertices or --min-saving).")]
+                                         "paper (the paper's section 3 exactly: every region meshed; the "
+                                         "options that tune the default preset are refused with it).")]
 _Mask = Annotated[MaskSource, typer.Option(
     "--mask", help="Where the foreground comes from. auto (here: alpha, which is what the runtime draws); "
                    "alpha; model (the segmentation network, which may cut drawn pixels).")]
