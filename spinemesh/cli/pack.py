@@ -94,7 +94,7 @@ def pack(
     from ..files.inputs import named_project, project_folder
     from ..pack.atlas_pack import PageRules
     from ..pack.run import PackOptions, pack_library, pack_project
-    from ..upgrade import is_library
+    from ..upgrade import library_projects
     from ..written_folder import check_written_folder
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
@@ -106,14 +106,14 @@ def pack(
     options = PackOptions(overwrite=overwrite, rotate=rotate, padding=padding,
                           rules=PageRules(pages.value, max_page), jobs=jobs or available_cores(),
                           larger_files=larger_files, keep_files_as_exported=keep_files_as_exported)
-    library = is_library(project)
-    if library and preview is not None:
+    projects = library_projects(project)  # found once, handed to the run
+    if projects is not None and preview is not None:
         raise typer.BadParameter("--preview shows one project; give one project, not a folder of them")
     t0 = time.perf_counter()
     with progress_bar("pack", transient=True) as bars:
         progress = atlas_bars(bars)
-        if library:
-            result = pack_library(project, out, options, progress=progress)
+        if projects is not None:
+            result = pack_library(project, out, options, progress=progress, folders=projects)
         else:
             result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
     finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project, out)

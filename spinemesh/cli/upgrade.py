@@ -146,7 +146,7 @@ def upgrade(
     from ..cluster import available_cores
     from ..files.inputs import named_project, project_folder
     from ..pack.atlas_pack import PageRules
-    from ..upgrade import Options, is_library
+    from ..upgrade import Options
 
     _refuse_pack_options_without_pack(pack, pages, max_page, keep_files_as_exported)
     refuse_default_preset_options(preset, {"--density": density, "--max-vertices": max_vertices,
@@ -160,14 +160,14 @@ def upgrade(
                       images_in=images_in, overrides=overrides, overwrite=overwrite, repack=repack, pack=pack, weights=weights.value,
                       pack_rules=PageRules(pages.value, max_page), pack_keep_files=keep_files_as_exported,
                       **({} if min_saving is None else {"min_saving": min_saving}))
-    result = _run(project, out, options, is_library(project))
+    result, projects = _run(project, out, options)
     report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
     if dry_run:
         _say_dry_run(pack)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
-        _write_preview(result, project, out, preview, images_in, options.jobs)
+        _write_preview(result, project, out, preview, images_in, options.jobs, projects)
     _exit(result, nothing, report_error)
 
 
@@ -207,7 +207,8 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: P
     return run_report_error(report, out, lambda path: write_report(result, path, root), written)
 
 
-def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int) -> None:
+def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int,
+                   projects: list[Path] | None) -> None:
     """``--preview``: the page, with a bar of the animations sampled for the players (the work:
     a skeleton may have hundreds) and the skeletons written, then where it is and the seconds
     it took (written after the run's timing line, so not in it: rendering every skeleton may take
@@ -220,7 +221,7 @@ def _write_preview(result, project: Path, out: Path, preview: Path, images_in, j
     t0 = time.perf_counter()
     with progress_bar("preview", transient=True, phases=True) as bars:
         task = bars.add_task("preview", total=None, project="animations sampled, pages written")
-        page = write_preview(result, project, out, preview, images_in=images_in, jobs=jobs,
+        page = write_preview(result, project, out, preview, images_in=images_in, jobs=jobs, projects=projects,
                              on_progress=lambda done, total: bars.update(task, completed=done, total=total))
     say_preview(page, f"{time.perf_counter() - t0:.1f} s")
 
@@ -237,15 +238,17 @@ def _refuse_pack_options_without_pack(pack: bool, pages, max_page, keep_files: b
                              "add --pack (without it, every atlas is copied as exported)")
 
 
-def _run(project: Path, out: Path, options, library: bool):
-    """Upgrade ``project`` (a library when ``library``) with a bar per phase (read, mesh, weights, write)."""
-    from ..upgrade import upgrade_library, upgrade_project
+def _run(project: Path, out: Path, options) -> tuple:
+    """Upgrade ``project`` with a bar per phase (read, mesh, weights, write). Returns the result and
+    the projects of a library (``None`` for one project), found once: the preview uses them too."""
+    from ..upgrade import library_projects, upgrade_library, upgrade_project
 
+    projects = library_projects(project)
     with progress_bar("upgrade", transient=True, phases=True) as bars:
         progress = phase_progress(bars)
-        if library:
-            return upgrade_library(project, out, options, progress)
-        return upgrade_project(project, out, options, progress)
+        if projects is not None:
+            return upgrade_library(project, out, options, progress, projects), projects
+        return upgrade_project(project, out, options, progress), None
 
 
 def _print_result(result, dry_run: bool) -> None:

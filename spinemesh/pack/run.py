@@ -1370,7 +1370,7 @@ def nothing_to_pack(root: Path, problems: list[str], why: str = "no atlas to pac
 
 
 def pack_library(library: str | Path, out: str | Path, options: PackOptions | None = None,
-                 on_project=None, progress: PackProgress = SILENT) -> PackResult:
+                 on_project=None, progress: PackProgress = SILENT, folders: list[Path] | None = None) -> PackResult:
     """Pack every project under ``library`` into the same place under ``out``; one result.
 
     Parameters
@@ -1385,6 +1385,9 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
         Told each project's path under ``library`` before it is packed.
     progress : PackProgress, optional
         Told each atlas's steps; default: nobody.
+    folders : list of path, optional
+        The projects under ``library`` as the caller found them
+        (:func:`spinemesh.upgrade.library_projects`); found when not given.
 
     Returns
     -------
@@ -1404,7 +1407,7 @@ def pack_library(library: str | Path, out: str | Path, options: PackOptions | No
     # has a usable atlas is refused as one project is, nothing written (one that could not be
     # read is said on its own line: finish_pack refuses the run after)
     projects: list[tuple[Path, Project | SpineMeshError]] = []
-    for folder in find_projects(library):
+    for folder in find_projects(library) if folders is None else folders:
         try:
             projects.append((folder, find_project(folder)))
         except SpineMeshError as e:

@@ -12,10 +12,10 @@ sequences stored whole, :mod:`.preview` the HTML page.
 
 from ..attachment_geometry import mesh_attachment, region_quad_transform, uvs_of
 from ..runs import EXIT_PARTIAL
-from .library import is_library, upgrade_library
+from .library import is_library, library_projects, upgrade_library
 from .options import Options
 from .report import Result, write_report
 from .run import upgrade_project
 
 __all__ = ["mesh_attachment", "region_quad_transform", "uvs_of", "EXIT_PARTIAL", "Options",
-           "Result", "is_library", "upgrade_library", "upgrade_project", "write_report"]
+           "Result", "is_library", "library_projects", "upgrade_library", "upgrade_project", "write_report"]

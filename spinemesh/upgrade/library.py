@@ -40,17 +40,29 @@ from .run import finish_project
 
 
 def is_library(folder: str | Path) -> bool:
-    """Whether ``folder`` holds several projects (or one below it) rather than being one project.
+    """Whether ``folder`` holds several projects (or one below it) rather than being one project
+    (:func:`library_projects`)."""
+    return library_projects(folder) is not None
+
+
+def library_projects(folder: str | Path) -> list[Path] | None:
+    """The projects under ``folder`` (:func:`spinemesh.project.find_projects`) when it holds
+    several (or one below it); ``None`` when it is one project.
 
     A folder holding none (empty, or no skeleton nor atlas in it or below it) is one project, to
-    be refused as one: it is no folder of projects, whatever was meant.
+    be refused as one: it is no folder of projects, whatever was meant. A run hands the list to
+    :func:`upgrade_library` (or ``pack_library``, the preview): finding the projects reads the
+    skeletons of folders that may be halves of one project, work not worth doing twice.
     """
     folder = Path(folder)
-    return folder.is_dir() and find_projects(folder) not in ([folder], [])
+    if not folder.is_dir():
+        return None
+    projects = find_projects(folder)
+    return None if projects in ([folder], []) else projects
 
 
 def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
-                    progress: Progress = SILENT) -> Result:
+                    progress: Progress = SILENT, projects: list[Path] | None = None) -> Result:
     """Upgrade every project under ``library`` into the same place under ``out``; one result.
 
     Projects are found as :func:`spinemesh.project.find_projects` finds them; each is
@@ -68,6 +80,8 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
     progress : Progress, optional
         Told each phase's work as projects are planned, meshed and written (:mod:`.progress`);
         default: nobody.
+    projects : list of path, optional
+        The projects under ``library``, as :func:`library_projects` found them; found when not given.
 
     Returns
     -------
@@ -86,13 +100,14 @@ def upgrade_library(library: str | Path, out: str | Path, options: Options | Non
         if not options.dry_run:
             held.enter_context(output_folder(out, options.overwrite))
             held.enter_context(rewriting_folder(options.images_out))  # no stale image of an earlier run stays
-        result = _upgrade_library(library, out, options, progress)
+        folders = find_projects(library) if projects is None else [Path(p) for p in projects]
+        result = _upgrade_library(library, folders, out, options, progress)
     if options.images_out is not None and Path(options.images_out).is_dir():  # the projects' folders' folder
         mark_written_folder(options.images_out)
     return result
 
 
-def _upgrade_library(library: Path, out: Path, options: Options, progress: Progress) -> Result:
+def _upgrade_library(library: Path, folders: list[Path], out: Path, options: Options, progress: Progress) -> Result:
     result = Result()
     from .. import mesher  # noqa: F401  (loaded before workers fork, see meshing_workers)
 
@@ -100,7 +115,6 @@ def _upgrade_library(library: Path, out: Path, options: Options, progress: Progr
     # docstring); how far ahead is bounded by the pixels sent and not yet written.
     cache: dict = {}
     inflight: dict = {}
-    folders = find_projects(library)
     # --pack: the whole packing work known before the first project is packed (its total grew by projects)
     packing = PackAhead.of(library, folders) if options.pack and not options.dry_run else None
     with open_workers(options.jobs, options.dask) as workers:

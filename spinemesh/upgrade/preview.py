@@ -287,12 +287,14 @@ class _Skeleton:
     stamps: tuple = ()  # the files' stamps (files.disk.file_stamp) taken before they were read
 
 
-def _skeletons(result, project: Path, out: Path) -> list[_Skeleton]:
-    """Every written skeleton with its original file and project (a library: each skeleton's own)."""
-    from ..project import find_projects
+def _skeletons(result, project: Path, out: Path, projects: list[Path] | None = None) -> list[_Skeleton]:
+    """Every written skeleton with its original file and project (a library: each skeleton's own,
+    among ``projects``, the library's projects, found when not given)."""
+    from .library import library_projects
 
-    roots = ({p.relative_to(project).as_posix(): p for p in find_projects(project)}
-             if project.is_dir() and _is_library(project) else None)
+    if projects is None:
+        projects = library_projects(project)
+    roots = {Path(p).relative_to(project).as_posix(): Path(p) for p in projects} if projects is not None else None
     single = find_project(project) if roots is None else None
     cache: dict = {}
     out_list = []
@@ -309,12 +311,6 @@ def _skeletons(result, project: Path, out: Path) -> list[_Skeleton]:
             original = project / rel
         out_list.append(_Skeleton(rel, original, out / rel, proj))
     return out_list
-
-
-def _is_library(folder: Path) -> bool:
-    from .library import is_library
-
-    return is_library(folder)
 
 
 _STEM = re.compile(r"(\.json|\.skel|\.json\.txt|\.skel\.bytes|\.spine-json)$", re.I)
@@ -834,7 +830,8 @@ def _shown_name(path: Path) -> str:
 
 
 def write_preview(result, project: str | Path, out: str | Path, folder: str | Path,
-                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1, on_progress=None) -> Path:
+                  images_in: str | Path | None = None, on_skeleton=None, jobs: int = 1, on_progress=None,
+                  projects: list[Path] | None = None) -> Path:
     """Write the preview under ``folder`` (``index.html``, one page per skeleton, their images
     and player data) and return the index's path.
 
@@ -856,10 +853,13 @@ def write_preview(result, project: str | Path, out: str | Path, folder: str | Pa
         whatever the number).
     on_progress : callable, optional
         ``on_progress(done, total)`` as steps are done (:class:`_Steps`: each animation sampled, each skeleton).
+    projects : list of path, optional
+        A library's projects as the run found them (:func:`~spinemesh.upgrade.library_projects`);
+        found again when not given.
     """
     project, out = Path(project), Path(out)
     files = PreviewFolder(folder, project if project.is_dir() else project.parent)
-    skeletons = _skeletons(result, project, out)
+    skeletons = _skeletons(result, project, out, projects)
     docs, problems, twins = _read_pairs(skeletons)
     targets: dict[str, list] = {}
     for t in result.targets:

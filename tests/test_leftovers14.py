@@ -1,0 +1,56 @@
+"""Leftovers of earlier stops: a library's projects found once per run, ``pack``'s project
+warnings, ``weights --jobs``, Windows paths given as outputs, an empty ``edges`` list in convert.
+
+Everything runs on the demo project drawn by our own code (no ../shared data needed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from spinemesh.cli import app
+from spinemesh.demo import make_demo_project
+
+runner = CliRunner()
+
+
+def _library(tmp_path: Path) -> Path:
+    library = tmp_path / "library"
+    make_demo_project(library / "heroes" / "knight")
+    make_demo_project(library / "props")
+    return library
+
+
+def _count_searches(monkeypatch) -> list[Path]:
+    """The folders searched for projects (:func:`spinemesh.project.find_projects` joins the halves
+    of each search's projects once), as a run goes."""
+    from spinemesh import project as project_module
+
+    searched: list[Path] = []
+    join = project_module._joined_halves
+
+    def counted(found, root):
+        searched.append(root)
+        return join(found, root)
+
+    monkeypatch.setattr(project_module, "_joined_halves", counted)
+    return searched
+
+
+def test_a_library_run_searches_for_its_projects_once(tmp_path, monkeypatch):
+    """``upgrade LIBRARY`` (with its preview) and ``pack LIBRARY`` searched the library two to
+    four times (is it a library, which projects, the preview's again), reading the skeletons of
+    folders that may be halves of one project each time."""
+    library = _library(tmp_path)
+    searched = _count_searches(monkeypatch)
+    r = runner.invoke(app, ["upgrade", str(library), "--out", str(tmp_path / "up"), "--preview",
+                            str(tmp_path / "view"), "-j", "1"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "view" / "index.html").is_file()
+    assert searched == [library]
+    searched.clear()
+    r = runner.invoke(app, ["pack", str(tmp_path / "up"), "--out", str(tmp_path / "packed"), "-j", "1"])
+    assert r.exit_code == 0, r.output
+    assert searched == [tmp_path / "up"]
