@@ -441,4 +441,4 @@ def test_pose_says_its_output_with_control_characters_escaped(tmp_path):
     make_demo_project(tmp_path / "p", with_images_folder=False)
     r = run_cli("pose", "p/demo.json", "--out", "po\x1b[31mses.json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "\x1b" not in r.stderr and "po\\x1b[31mses.json: 1 poses" in r.stderr, repr(r.stderr)
+    assert "\x1b" not in r.stderr and "po\\x1b[31mses.json: 1 pose" in r.stderr, repr(r.stderr)

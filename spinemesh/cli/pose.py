@@ -73,6 +73,7 @@ def pose(
     from ..project import find_project
     from ..runs import EXIT_PARTIAL
     from ..skeleton import load_skeleton
+    from ..words import counted
 
     seconds = _times(times)
     if animation is not None and seconds and max(seconds) * fps > MAX_POSE_STEPS:
@@ -85,9 +86,14 @@ def pose(
     stdout = sys.stdout
     doc = load_skeleton(skeleton)
     anims = [str(a) for a in (doc.get("animations") or {})]
+    known = ", ".join(anims[:20]) + (", ..." if len(anims) > 20 else "") if anims else "none"
     if animation is not None and animation not in anims:
-        known = ", ".join(anims[:20]) + (", ..." if len(anims) > 20 else "") if anims else "none"
         raise SpineMeshError(f"no animation {animation!r} (the skeleton has: {known})", skeleton)
+    if animation is None and any(seconds):
+        # without an animation there is nothing to sample at a time: the times were dropped in
+        # silence and the file held the setup pose alone ("1 poses")
+        raise SpineMeshError(f"--times {times} samples an animation: add --animation NAME (the skeleton has: "
+                             f"{known}); without it the setup pose alone is written", skeleton)
     skins = [name for name in _skin_names(doc)]
     if skin is not None and skin not in skins:
         raise SpineMeshError(f"no skin {skin!r} (the skeleton has: {', '.join(skins[:20]) or 'none'})", skeleton)
@@ -101,7 +107,8 @@ def pose(
         err_console.print(escaped(f"warning: {not_a_number_said(not_numbers, skeleton)}"), highlight=False, markup=False,
                           soft_wrap=True)
     if out is not None:
-        err_console.print(escaped(f"{out}: {len(dump_labels(animation, seconds))} poses"), highlight=False, markup=False)
+        err_console.print(escaped(f"{out}: {counted(len(dump_labels(animation, seconds)), 'pose')}"), highlight=False,
+                          markup=False)
     if undrawn or unplayable:
         raise typer.Exit(EXIT_PARTIAL)
 
