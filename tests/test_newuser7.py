@@ -8,6 +8,7 @@ Everything runs on the demo project drawn by our own code (no outside data neede
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 from test_pipeline import spinemesh
@@ -39,3 +40,19 @@ def test_pose_times_without_an_animation_are_refused_naming_the_animations(tmp_p
         assert [p["label"] for p in json.loads((tmp_path / "s.json").read_text())["poses"]] == ["setup"]
     r = _run("pose", DEMO / "demo.json", "-a", "wave", "--times", "0.5,1", "--out", "w.json", cwd=tmp_path)
     assert r.returncode == 0 and r.stderr == "w.json: 3 poses\n", r.stderr
+
+
+def test_diff_of_a_project_without_meshes_names_it_and_says_why(tmp_path):
+    """``diff project/`` on an export of regions (the guide's own ``project/`` before ``upgrade``)
+    said ``error: no artist mesh attachment found`` and no more, naming no project; a folder
+    without a skeleton said the same. Each line names what was given and what is missing."""
+    shutil.copytree(DEMO, tmp_path / "project")
+    (tmp_path / "empty").mkdir()
+    r = _run("diff", "project", "--out", "d", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith("error: project: no artist mesh attachment found: diff compares each mesh attachment "
+                               "your artists drew with ours, and the skeletons there hold none"), r.stderr
+    assert "'spinemesh upgrade' meshes them" in r.stderr
+    r = _run("diff", "empty", "--out", "d", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("error: empty: no Spine skeleton found (a .skel file"), r.stderr
+    assert not (tmp_path / "d").exists()

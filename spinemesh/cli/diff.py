@@ -66,12 +66,28 @@ def diff(
 
         result = run_diff(projects, chosen, images=images, limit=limit, originals=originals, progress=progress)
     if not result.rows:
-        print_errors([f"no artist mesh attachment found{_skipped_said(result.skipped)}"])
+        print_errors([_nothing_compared_said(projects, result.skipped)])
         raise typer.Exit(EXIT_BAD_INPUT)
     paths = write_report(result, out)
     console.print(aggregate_markdown(aggregate(result)), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(result.rows)} attachments compared, {len(result.skipped)} skipped")
     console.print(escaped(f"wrote {paths['markdown']}, {paths['json']}, {paths['html']}"), markup=False)  # paths, no markup
+
+
+def _nothing_compared_said(projects: list[Path], skipped: list[dict]) -> str:
+    """The one error line of a run that compared nothing, naming the projects given: what was
+    skipped, or that they hold no skeleton, or no mesh (a project of regions: the line said
+    ``no artist mesh attachment found`` and no more, naming nothing)."""
+    from ..project import find_project
+
+    named = ", ".join(map(str, projects))
+    if skipped:
+        return f"{named}: no artist mesh attachment found{_skipped_said(skipped)}"
+    if not any(find_project(p).skeletons for p in projects):
+        return (f"{named}: no Spine skeleton found (a .skel file, or a .json with a \"skeleton\" object); give "
+                "the folder the editor exported to")
+    return (f"{named}: no artist mesh attachment found: diff compares each mesh attachment your artists drew "
+            "with ours, and the skeletons there hold none (regions only: 'spinemesh upgrade' meshes them)")
 
 
 def _skipped_said(skipped: list[dict]) -> str:
