@@ -67,6 +67,14 @@ def check_image_size(width: int, height: int, what: str, source=None, line: int 
                          f"and {MAX_IMAGE_PIXELS:,} pixels", source, line=line)
 
 
+#: Most items one binary skeleton may list, all its lengths summed (bones, slots, skins, their
+#: attachments, vertices, animations, timelines, keys): each costs tens to hundreds of bytes of
+#: memory once read (a key of 5 bytes in the file is a dict of about 250), so a 5 MB ``.skel`` of
+#: attachment keys took 250 MB. The largest real skeleton lists 70,560; a million costs at most
+#: a few hundred MB and tens of seconds.
+MAX_SKELETON_ITEMS = 1_000_000
+
+
 #: Largest skeleton or atlas file read whole into memory (real ones stay under 50 MB).
 MAX_DOCUMENT_BYTES = 256 * 1024 * 1024
 

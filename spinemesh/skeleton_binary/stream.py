@@ -23,6 +23,7 @@ import struct
 from pathlib import Path
 
 from ..errors import SkelFormatError
+from ..limits import MAX_SKELETON_ITEMS
 from ..skeleton_colours import read_colour
 
 _F32 = struct.Struct(">f")
@@ -44,6 +45,14 @@ def string_too_long(s, n: int, what: str, at: int | None = None):
     past 2^31 reads negative)."""
     written = "" if s.reading else " (as a .skel is read back)"
     return s.fail(f"a {what} of at most {MAX_STRING_BYTES:,} bytes{written}, found a length of {n - 1:,}", at)
+
+
+def items_beyond_limit(reading: bool) -> str:
+    """What a reader or writer expected when the lengths of a skeleton's lists sum past
+    :data:`MAX_SKELETON_ITEMS`."""
+    written = "" if reading else " (as a .skel is read back)"
+    return (f"at most {MAX_SKELETON_ITEMS:,} items in one skeleton (bones, slots, skins, attachments, vertices, "
+            f"animations, keys), found more{written}")
 
 
 class SkelReader:
@@ -69,6 +78,8 @@ class SkelReader:
         #: float32 values cannot overflow it and a NaN or infinity makes it NaN or infinite.
         #: One addition per value (or per bulk read) instead of a walk over the document.
         self.float_sum = 0.0
+        #: The sum of every list length read, held to :data:`MAX_SKELETON_ITEMS`.
+        self.items = 0
 
     # -- errors ---------------------------------------------------------------------
     def fail(self, expected: str, at: int | None = None) -> SkelFormatError:
@@ -129,6 +140,14 @@ class SkelReader:
         n = self.varint(what=what)
         if n < 0 or n > MAX_COUNT:
             raise self.fail(f"{what} between 0 and {MAX_COUNT}, found {n}", at)
+        return self.counted(n, at)
+
+    def counted(self, n: int, at: int) -> int:
+        """``n``, a list length read at offset ``at``, once the lengths read so far stay within
+        :data:`MAX_SKELETON_ITEMS` (what the document will hold bounds its memory)."""
+        self.items += n
+        if self.items > MAX_SKELETON_ITEMS:
+            raise self.fail(items_beyond_limit(self.reading), at)
         return n
 
     def string(self, value=None, what: str = "string") -> str | None:
@@ -186,6 +205,8 @@ class SkelWriter:
         self.path = str(path) if path is not None else None
         self.strings: list[str] = []
         self._string_index: dict[str, int] = {}
+        #: The sum of every list length written, held to what :meth:`SkelReader.count` reads back.
+        self.items = 0
 
     @property
     def pos(self) -> int:
@@ -300,6 +321,9 @@ class SkelWriter:
         v = self.whole(value, what)
         if not 0 <= v <= MAX_COUNT:
             raise self.fail(f"a count from 0 to {MAX_COUNT:,} for {what} (as a .skel is read back), got {value!r}")
+        self.items += v
+        if self.items > MAX_SKELETON_ITEMS:
+            raise self.fail(items_beyond_limit(False))
         return self.varint(v, what=what)
 
     def string(self, value, what: str = "string") -> str | None:

@@ -179,11 +179,11 @@ class _RefReader(SkelReader):
         at = self.pos
         if at < self.end and self.buf[at] < 0x80:
             self.pos = at + 1
-            return self.buf[at]
+            return self.counted(self.buf[at], at)
         n = self.varint(what=what)
         if n < 0 or n > MAX_COUNT:
             raise self.fail(f"{what} between 0 and {MAX_COUNT}, found {n}", at)
-        return n
+        return self.counted(n, at)
 
     def f32s(self, n: int, what: str = "floats") -> list[float]:
         """``n`` float32s as a list (bulk arrays and runs of fields)."""
