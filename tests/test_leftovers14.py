@@ -54,3 +54,25 @@ def test_a_library_run_searches_for_its_projects_once(tmp_path, monkeypatch):
     r = runner.invoke(app, ["pack", str(tmp_path / "up"), "--out", str(tmp_path / "packed"), "-j", "1"])
     assert r.exit_code == 0, r.output
     assert searched == [tmp_path / "up"]
+
+
+def test_pack_warns_of_an_atlas_runtimes_draw_differently_as_upgrade_does(tmp_path):
+    """An atlas whose ``size:`` line disagrees with its image: ``upgrade`` says ``warning:`` (and
+    in its report's ``warnings``); ``pack`` said nothing when the atlas was kept for another
+    reason (its page shared with a twin atlas), and its report had no ``warnings``."""
+    import json
+
+    project = make_demo_project(tmp_path / "p")
+    atlas = project / "demo.atlas"
+    (project / "twin.atlas").write_bytes(atlas.read_bytes())  # the same page: kept, "shared"
+    atlas.write_text(atlas.read_text().replace("size: 512, 256", "size: 1024, 512"))
+    said = {}
+    for command in ("upgrade", "pack"):
+        r = runner.invoke(app, [command, str(project), "--out", str(tmp_path / command), "-j", "1",
+                                "--report", str(tmp_path / f"{command}.json")])
+        assert r.exit_code == 0, r.output
+        said[command] = [line for line in r.output.splitlines() if line.startswith("warning:")]
+        assert json.loads((tmp_path / f"{command}.json").read_text())["warnings"] == [
+            "p/demo.atlas: page 'demo.png' (line 1): its size line says 1024, 512 but its image is 512x256; "
+            "spine-c scales UVs by the size line, libGDX by the image, so they draw it differently"]
+    assert len(said["upgrade"]) == 1 and said["pack"] == said["upgrade"], said

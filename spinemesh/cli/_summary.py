@@ -80,6 +80,12 @@ def say_preview(where, detail: str = "") -> None:
     console.print(escaped(f"preview: {where}" + (f" ({detail})" if detail else "")), highlight=False, markup=False)
 
 
+def print_warnings(warnings: Sequence[str]) -> None:
+    """Each of a run's warnings on stderr as one line, ``warning: ...`` (each names its file)."""
+    for warning in warnings:
+        err_console.print(f"[yellow]warning:[/] {console_text(warning)}", highlight=False)
+
+
 def print_errors(errors: Sequence[str]) -> None:
     """Each of a run's errors on stderr as one line, ``error: ...`` (each names its file)."""
 

@@ -141,7 +141,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
 
         page = write_preview(result, preview, project_folder(project))
     # a failed atlas is named on stderr, as upgrade --pack names it (exit 3)
-    print_pack_table(result.atlases, [*result.errors, *failed_lines(result.atlases)])
+    print_pack_table(result.atlases, [*result.errors, *failed_lines(result.atlases)], result.warnings)
     if result.atlases:
         console.print(f"{outcome_line(result.atlases)}; {seconds:.1f} s on {jobs} process{'es' if jobs > 1 else ''}",
                       highlight=False)
@@ -251,14 +251,14 @@ NOTES_IN_TABLE_FROM = 160
 NOTE_MIN_WIDTH = 20
 
 
-def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
+def print_pack_table(atlases: list, errors: list[str] = (), warnings: list[str] = ()) -> None:
     """One row per atlas (pages, page texels and bytes before and after, regions by outline and
-    by rectangle, why it was kept), then the errors."""
+    by rectangle, why it was kept), then the warnings and the errors."""
     from rich.table import Table
 
     from ..runs import short_names
     from ..words import counted
-    from ._summary import print_errors
+    from ._summary import print_errors, print_warnings
 
     # a note of 20 words in a column of a narrow terminal took a line a word: there, each note is
     # a line of its own under the table
@@ -309,6 +309,7 @@ def print_pack_table(atlases: list, errors: list[str] = ()) -> None:
                 console.print(f"note: {console_text(a.atlas)}: {console_text(a.reason)}", highlight=False, soft_wrap=True)
         if below and total_note:
             console.print(f"note: total: {total_note}", highlight=False, soft_wrap=True)
+    print_warnings(warnings)
     print_errors(errors)
 
 

@@ -259,7 +259,7 @@ def _print_result(result, dry_run: bool) -> None:
 
     from ..errors import escaped
     from ..upgrade.report import selection_left_nothing
-    from ._summary import print_left_alone, skeleton_table, weights_lines
+    from ._summary import print_left_alone, print_warnings, skeleton_table, weights_lines
 
     def cells(targets: list) -> list[str]:
         verts = [t.vertices for t in targets if t.status == "meshed"]
@@ -285,8 +285,7 @@ def _print_result(result, dry_run: bool) -> None:
         print_pack_table(result.atlases)
     for line in weights_lines(result.targets):
         console.print(escaped(line), highlight=False, markup=False)
-    for warning in result.warnings:  # each names its atlas and page
-        err_console.print(f"[yellow]warning:[/] {console_text(warning)}", highlight=False)
+    print_warnings(result.warnings)  # each names its atlas and page
     for error in result.not_read.values():  # each names its file and says why
         err_console.print(f"[red]not read:[/] {console_text(error)}", highlight=False)
     unread = set(result.not_read.values())
@@ -317,7 +316,7 @@ def _exit(result, nothing: "NothingDone | None", report_error: str = "") -> None
     if any(a.status in ("packed", "cleared") or a.pages_reencoded for a in result.atlases):
         console.print(console_text(packed_line(result.atlases, nothing.why)), highlight=False)
     else:
-        err_console.print(f"[yellow]warning:[/] {console_text(nothing.line)}", highlight=False)
+        print_warnings([nothing.line])
 
 
 def packed_line(atlases: list, meshed_nothing: str) -> str:

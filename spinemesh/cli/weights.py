@@ -8,7 +8,7 @@ from typing import List
 
 import typer
 
-from ._app import Annotated, Optional, app, console, console_text, err_console, phase_progress, progress_bar
+from ._app import Annotated, Optional, app, console, phase_progress, progress_bar
 
 
 class BoneChoice(str, Enum):
@@ -135,7 +135,7 @@ def _print_result(result) -> None:
     """The run's table (weighted, skipped, failed, median bones per skeleton), what was left as it
     was and why, its time, and its warnings (each naming its skeleton)."""
 
-    from ._summary import print_left_alone, skeleton_table
+    from ._summary import print_left_alone, print_warnings, skeleton_table
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
@@ -148,8 +148,7 @@ def _print_result(result) -> None:
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
     console.print(f"{result.seconds:.1f} s", highlight=False)
-    for warning in result.warnings + _nothing_to_weight(result):
-        err_console.print(f"[yellow]warning:[/] {console_text(warning)}", highlight=False)
+    print_warnings(result.warnings + _nothing_to_weight(result))
 
 
 def _nothing_to_weight(result) -> list[str]:

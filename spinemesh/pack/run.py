@@ -168,6 +168,8 @@ class PackResult(RunSummary):
 
     atlases: list[AtlasRow] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    #: One line per atlas page that runtimes draw differently (``Project.warnings``), as ``upgrade`` says them
+    warnings: list[str] = field(default_factory=list)
     #: (atlas path, before pages, after pages) for previews: page images by name
     previews: list = field(default_factory=list, repr=False)
 
@@ -1138,6 +1140,7 @@ def pack_project_into(proj: Project, out: Path, options: PackOptions, result: Pa
     uses = uses or collect_uses(proj)
     result.errors += [f"{p}" for p in proj.problems]
     result.errors += uses.problems
+    result.warnings += [w for w in proj.warnings if w not in result.warnings]
     # a page image named by two atlases (twin exports) would be rewritten under the other's feet
     by_page = Counter(f.resolve() for a in atlases.values() for f in set(_page_files(a, proj.root)))
     named_by_unused = pages_named_by_unused(proj, set(by_page))
@@ -1435,4 +1438,5 @@ def write_report(result: PackResult, path: str | Path, project: str | Path | Non
     """The ``--report`` JSON: totals, then one row per atlas; the files of ``project`` (the folder
     packed) named from its name (:func:`~spinemesh.files.names.named_within`)."""
     atomic_write_json(path, named_within({"totals": result.totals(), "errors": result.errors,
+                                          "warnings": result.warnings,
                                           "atlases": [a.row() for a in result.atlases]}, project))
