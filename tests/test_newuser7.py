@@ -9,19 +9,9 @@ from __future__ import annotations
 
 import json
 import shutil
-from pathlib import Path
 
-from test_pipeline import spinemesh
-
-REPO = Path(__file__).resolve().parents[1]
-DEMO = REPO / "examples" / "demo"
-
-
-def _run(*args, cwd: Path):
-    """``spinemesh ARGS`` as a user runs it, from ``cwd``: never a traceback."""
-    r = spinemesh(*args, cwd=cwd)
-    assert "Traceback" not in r.stdout + r.stderr, r.stderr[-3000:]
-    return r
+from rig_project import make_worm_project
+from test_newuser6 import DEMO, _run
 
 
 def test_pose_times_without_an_animation_are_refused_naming_the_animations(tmp_path):
@@ -56,3 +46,18 @@ def test_diff_of_a_project_without_meshes_names_it_and_says_why(tmp_path):
     r = _run("diff", "empty", "--out", "d", cwd=tmp_path)
     assert r.returncode == 2 and r.stderr.startswith("error: empty: no Spine skeleton found (a .skel file"), r.stderr
     assert not (tmp_path / "d").exists()
+
+
+def test_weights_says_how_many_meshes_bend(tmp_path, meshed):
+    """``weights`` on a corpus effects rig (49 meshes) printed ``weighted 49``, ``median bones 1``:
+    read as 49 meshes that now bend, where each followed its one bone as before. It says, as
+    ``upgrade --weights auto`` does, how many bend over how many bones and how many follow one."""
+    r = _run("weights", meshed, "--out", "w", "--replace", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "bones: 12 meshes weighted, each to one bone (no other bone is likely to bend their art)\n" in r.stdout
+    r = _run("weights", meshed, "--out", "k", "--replace", "--bones", "keep", cwd=tmp_path)
+    assert "bones: 12 meshes weighted, each to one bone (--bones keep: the bone each was bound to)\n" in r.stdout
+    make_worm_project(tmp_path / "worm")
+    assert _run("upgrade", "worm", "--out", "wu", cwd=tmp_path).returncode == 0
+    r = _run("weights", "wu", "--out", "ww", "--bones", "rule", cwd=tmp_path)
+    assert r.returncode == 0 and "bones: 1 mesh weighted: 1 bend over 3 bones (median 3), 0 follow one bone\n" in r.stdout

@@ -93,6 +93,33 @@ def print_errors(errors: Sequence[str]) -> None:
         err_console.print(f"[red]error:[/] {console_text(e)}", highlight=False, soft_wrap=True)
 
 
+#: Why a mesh the bone choice gives one bone follows it alone (``auto``, ``rule``, ``learned``):
+#: not "no bone crosses their art": bones over the art are left out too when unlikely (another part).
+ONE_BONE_CHOSEN = "no other bone is likely to bend their art"
+
+
+def bending_said(bones: Sequence[int], one_bone: str = ONE_BONE_CHOSEN) -> str:
+    """How many weighted meshes bend (two bones or more) and over how many bones, and how many
+    follow one bone, to follow a count of weighted meshes; ``""`` for none. ``bones``: each
+    weighted mesh's number of bones; ``one_bone``: why, when every mesh follows one bone.
+
+    Examples
+    --------
+    >>> bending_said([1, 3, 3, 2])
+    ': 3 bend over 2-3 bones (median 3), 1 follow one bone'
+    >>> bending_said([1, 1])
+    ', each to one bone (no other bone is likely to bend their art)'
+    """
+    import statistics
+
+    bending = [n for n in bones if n > 1]
+    if bending:
+        spread = f"{min(bending)}-{max(bending)}" if min(bending) < max(bending) else f"{min(bending)}"
+        return (f": {len(bending)} bend over {spread} bones (median {statistics.median(bending):g}), "
+                f"{len(bones) - len(bending)} follow one bone")
+    return f", each to one bone ({one_bone})" if bones else ""
+
+
 def weights_lines(targets: Sequence) -> list[str]:
     """What ``upgrade --weights auto`` did, in a few lines (none when weights were not asked for).
 
@@ -100,8 +127,6 @@ def weights_lines(targets: Sequence) -> list[str]:
     bend), the regions meshed only because they bend, those put back as regions because their
     mesh got one bone, and the meshes left unweighted, by reason.
     """
-    import statistics
-
     from ..runs import reason_groups
 
     asked = [t for t in targets if t.weights is not None]
@@ -109,16 +134,8 @@ def weights_lines(targets: Sequence) -> list[str]:
         return []
     meshed = [t for t in asked if t.status == "meshed"]
     weighted = [t for t in meshed if t.weights.get("status") == "weighted"]
-    bones = [len(t.weights.get("bones") or {}) for t in weighted]
-    bending = [n for n in bones if n > 1]
-    line = f"bones: {len(weighted)} of {len(meshed)} new meshes weighted"
-    if bending:
-        spread = f"{min(bending)}-{max(bending)}" if min(bending) < max(bending) else f"{min(bending)}"
-        line += (f": {len(bending)} bend over {spread} bones"
-                 f" (median {statistics.median(bending):g}), {len(bones) - len(bending)} follow one bone")
-    elif weighted:
-        # not "no bone crosses their art": bones over the art are left out too when unlikely (another part)
-        line += ", each to one bone (no other bone is likely to bend their art)"
+    line = (f"bones: {len(weighted)} of {len(meshed)} new meshes weighted"
+            f"{bending_said([len(t.weights.get('bones') or {}) for t in weighted])}")
     to_bend = sum(bool(t.weights.get("meshed_to_bend")) for t in meshed)
     back = sum(t.status == "kept" and t.weights.get("meshed_to_bend") is False for t in asked)
     if to_bend:

@@ -88,7 +88,7 @@ def weights(
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
     from ..words import counted
-    from ._summary import print_errors, say_preview
+    from ._summary import ONE_BONE_CHOSEN, print_errors, say_preview
 
     project = named_project(project)  # its files named by the folder's name in the report, from anywhere
     _check_outputs(project, out, report, preview)
@@ -98,7 +98,7 @@ def weights(
         result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
                                     counted(len(result.written), "skeleton") if result.written else "")
-    _print_result(result)
+    _print_result(result, ONE_BONE_KEPT if bones.value == "keep" else ONE_BONE_CHOSEN)
     if preview is not None:
         say_preview(preview, counted(sum(o.status == "weighted" for o in result.outcomes), "picture"))
     if report_error:  # the run's last line: its skeletons are written, its report is not (exit 3)
@@ -109,6 +109,10 @@ def weights(
         print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
                       "object); give the folder the editor exported to"])
         raise typer.Exit(EXIT_BAD_INPUT)
+
+
+#: Why every mesh weighted with ``--bones keep`` follows one bone.
+ONE_BONE_KEPT = "--bones keep: the bone each was bound to"
 
 
 def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path | None) -> None:
@@ -131,11 +135,13 @@ def _check_outputs(project: Path, out: Path, report: Path | None, preview: Path 
         refuse_overlapping_outputs(out, {"--preview": preview})
 
 
-def _print_result(result) -> None:
+def _print_result(result, one_bone: str) -> None:
     """The run's table (weighted, skipped, failed, median bones per skeleton), what was left as it
-    was and why, its time, and its warnings (each naming its skeleton)."""
+    was and why, how many meshes bend, its time, and its warnings (each naming its skeleton).
+    ``one_bone``: why every weighted mesh follows one bone, where they all do."""
 
-    from ._summary import print_left_alone, print_warnings, skeleton_table
+    from ..words import counted
+    from ._summary import bending_said, print_left_alone, print_warnings, skeleton_table
 
     def cells(rows: list) -> list[str]:
         done = sorted(len(o.bones) for o in rows if o.status == "weighted")
@@ -147,6 +153,10 @@ def _print_result(result) -> None:
                                  result.outcomes, cells, skeletons=result.written))
     print_left_alone(result.outcomes, result.errors, "skipped", "left as it was", "left as it was",
                      reason=lambda o: o.reason.split(" (")[0] if o.reason.startswith("keyed") else o.reason)
+    weighted = [len(o.bones) for o in result.outcomes if o.status == "weighted"]
+    if weighted:  # "weighted" alone read as bending: most meshes of an effects rig follow one bone
+        console.print(f"bones: {counted(len(weighted), 'mesh', 'meshes')} weighted"
+                      f"{bending_said(weighted, one_bone)}", highlight=False)
     console.print(f"{result.seconds:.1f} s", highlight=False)
     print_warnings(result.warnings + _nothing_to_weight(result))
 
