@@ -12,6 +12,7 @@ import shutil
 
 from rig_project import make_worm_project
 from test_newuser6 import DEMO, _run
+from test_pipeline import spinemesh
 
 
 def test_pose_times_without_an_animation_are_refused_naming_the_animations(tmp_path):
@@ -61,3 +62,16 @@ def test_weights_says_how_many_meshes_bend(tmp_path, meshed):
     assert _run("upgrade", "worm", "--out", "wu", cwd=tmp_path).returncode == 0
     r = _run("weights", "wu", "--out", "ww", "--bones", "rule", cwd=tmp_path)
     assert r.returncode == 0 and "bones: 1 mesh weighted: 1 bend over 3 bones (median 3), 0 follow one bone\n" in r.stdout
+
+
+def test_help_says_the_default_of_the_vertex_budget_and_of_diffs_limit(tmp_path):
+    """``--max-vertices`` (``mesh``, ``upgrade``) said ``Hard vertex budget per mesh. Default preset
+    only.`` (a user read "Default" as its default, and found none), and ``diff --limit`` said
+    nothing of what it takes without it. Each help names its default."""
+    for command, words in (("mesh", "Hard vertex budget per image (default: none, as many as the art's outline and "
+                                    "--density ask)"),
+                           ("upgrade", "Hard vertex budget per mesh (default: none, as many as the art's outline and "
+                                       "--density ask)"),
+                           ("diff", "Compare at most this many attachments, the first found (default: every one)")):
+        r = spinemesh(command, "--help", cwd=tmp_path)
+        assert r.returncode == 0 and words in " ".join(r.stdout.split()), (command, r.stdout)

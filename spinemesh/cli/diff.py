@@ -24,7 +24,7 @@ def diff(
     images: Annotated[Optional[Path], typer.Option(
         "--images", help="Take the images from this folder instead of the atlases.")] = None,
     limit: Annotated[Optional[int], typer.Option("--limit", min=1, help="Compare at most this many "
-                                                 "attachments.")] = None,
+                                                 "attachments, the first found (default: every one).")] = None,
     originals: Annotated[bool, typer.Option(
         "--originals/--atlas", help="Mesh the editor's original images when an images folder holds them "
                                     "(default), or the atlas regions at atlas resolution.")] = True,

@@ -95,7 +95,8 @@ def mesh(
         "--density", callback=positive_finite,
         help="Vertex density, above 0: 1 artist-like (default), about 4 paper-like. Default preset only.")] = None,
     max_vertices: Annotated[Optional[int], typer.Option(
-        "--max-vertices", min=3, help="Hard vertex budget per image. Default preset only.")] = None,
+        "--max-vertices", min=3, help="Hard vertex budget per image (default: none, as many as the art's outline and "
+             "--density ask). Default preset only.")] = None,
     alpha_threshold: Annotated[Optional[int], typer.Option(
         "--alpha-threshold", min=1, max=255, help="Art is alpha >= this (default 8; paper 129).")] = None,
     mask: Annotated[MaskSource, typer.Option(

@@ -42,7 +42,8 @@ _Density = Annotated[Optional[float], typer.Option(
     "--density", callback=positive_finite, help="Vertex density, above 0: below 1 sparser, above 1 "
                                                 "denser (default 1). Default preset only.")]
 _MaxVertices = Annotated[Optional[int], typer.Option("--max-vertices", min=3,
-                                                     help="Hard vertex budget per mesh. Default preset only.")]
+                                                     help="Hard vertex budget per mesh (default: none, as many as the "
+                                                          "art's outline and --density ask). Default preset only.")]
 _Only = Annotated[List[str], typer.Option("--only", metavar="GLOB", help="Glob on slot, attachment name or image path; "
                                           "repeatable. Others are kept as regions.")]
 _Exclude = Annotated[List[str], typer.Option("--exclude", metavar="GLOB", help="Glob on slot, attachment name or image "
