@@ -11,7 +11,7 @@ import json
 import shutil
 
 from rig_project import make_worm_project
-from test_newuser6 import DEMO, _run
+from test_newuser6 import DEMO, REPO, _run
 from test_pipeline import spinemesh
 
 
@@ -75,3 +75,27 @@ def test_help_says_the_default_of_the_vertex_budget_and_of_diffs_limit(tmp_path)
                            ("diff", "Compare at most this many attachments, the first found (default: every one)")):
         r = spinemesh(command, "--help", cwd=tmp_path)
         assert r.returncode == 0 and words in " ".join(r.stdout.split()), (command, r.stdout)
+
+
+def _report_section() -> str:
+    """The upgrade guide's section on ``--report``, to its next heading."""
+    text = (REPO / "docs" / "guide" / "upgrade.md").read_text()
+    start = text.index("\n## The report\n")
+    return text[start:text.index("\n## ", start + 1)]
+
+
+def test_the_upgrade_guide_names_every_field_of_the_report(tmp_path):
+    """A user reading ``report.json`` found no page saying what its fields are (``paths`` a list,
+    ``coverage`` a share or a percent, ``counts`` without ``failed`` when none failed, what a
+    ``weights`` object holds): the guide said only that the report holds "per attachment, its
+    vertices, triangles, coverage, transparent area and time". Its section names every field a
+    report of ``--pack --weights auto`` holds, at every level."""
+    r = _run("upgrade", DEMO, "--out", "o", "--pack", "--weights", "auto", "--report", "r.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "r.json").read_text())
+    fields = set(report) | set(report["seconds"]) | set(report["counts"])
+    for row in report["attachments"]:
+        fields |= set(row) | set(row.get("weights") or {})
+    assert any(row.get("weights") for row in report["attachments"]) and "atlases" in report
+    section = _report_section()
+    assert not [f for f in sorted(fields) if f"`{f}`" not in section], section
