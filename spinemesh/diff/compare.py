@@ -21,31 +21,30 @@ from ..mesher import Mesh
 from ..metrics import mesh_coverage_mask, mesh_metrics
 
 
-def directed_mean_distance(a: np.ndarray, b: np.ndarray, chunk: int = 256) -> float:
+def directed_mean_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Mean over points of ``a`` of the distance to the nearest point of ``b`` (px).
+
+    Nearest points are found in a k-d tree of ``b``: memory grows with ``len(a) + len(b)``, not
+    their product (a distance matrix of an artist mesh of 90,000 vertices took 1.2 GB).
 
     Parameters
     ----------
     a, b : ndarray, shape (N, 2) and (M, 2)
-    chunk : int
-        Rows of ``a`` per block, to bound the (chunk, M) distance matrix in memory.
 
     Returns
     -------
     float
         ``inf`` when ``b`` is empty and ``a`` is not; 0 when ``a`` is empty.
     """
+    from scipy.spatial import cKDTree
+
     a = np.asarray(a, dtype=np.float64).reshape(-1, 2)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 2)
     if len(a) == 0:
         return 0.0
     if len(b) == 0:
         return float("inf")
-    total = 0.0
-    for i in range(0, len(a), chunk):
-        d = np.linalg.norm(a[i:i + chunk, None, :] - b[None, :, :], axis=2)
-        total += float(d.min(axis=1).sum())
-    return total / len(a)
+    return float(cKDTree(b).query(a)[0].sum()) / len(a)
 
 
 def chamfer_distance(a: np.ndarray, b: np.ndarray) -> float:
