@@ -76,3 +76,23 @@ def test_pack_warns_of_an_atlas_runtimes_draw_differently_as_upgrade_does(tmp_pa
             "p/demo.atlas: page 'demo.png' (line 1): its size line says 1024, 512 but its image is 512x256; "
             "spine-c scales UVs by the size line, libGDX by the image, so they draw it differently"]
     assert len(said["upgrade"]) == 1 and said["pack"] == said["upgrade"], said
+
+
+def test_weights_takes_jobs_and_writes_the_same_bytes_on_any_number(tmp_path, meshed):
+    """``weights`` had no ``-j/--jobs``; on two processes its skeletons, copies and report (but for
+    the times) are those of one, each mesh put back in its place whatever order the jobs end in."""
+    import json
+
+    reports = []
+    for jobs in ("1", "2"):
+        r = runner.invoke(app, ["weights", str(meshed), "--out", str(tmp_path / jobs), "--replace",
+                                "--jobs", jobs, "--report", str(tmp_path / f"{jobs}.json")])
+        assert r.exit_code == 0, r.output
+        report = json.loads((tmp_path / f"{jobs}.json").read_text())
+        reports.append({key: value if key != "attachments" else [{k: v for k, v in row.items() if k != "seconds"}
+                                                                  for row in value]
+                        for key, value in report.items() if key != "seconds"})
+    assert reports[0] == reports[1] and reports[0]["counts"].get("weighted", 0) >= 4, reports[0]["counts"]
+    files = sorted(p.relative_to(tmp_path / "1") for p in (tmp_path / "1").rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(tmp_path / "2") for p in (tmp_path / "2").rglob("*") if p.is_file())
+    assert all((tmp_path / "1" / f).read_bytes() == (tmp_path / "2" / f).read_bytes() for f in files)

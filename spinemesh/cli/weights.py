@@ -8,6 +8,7 @@ from typing import List
 
 import typer
 
+from ..limits import MAX_JOBS
 from ._app import Annotated, Optional, app, console, phase_progress, progress_bar
 
 
@@ -67,6 +68,9 @@ def weights(
                           "vertices coloured by bone, and the mesh in one bent pose, with a legend of its bones "
                           "(number, colour, name); beside it NAME.json names every bone in full. A folder "
                           "beside OUT, not inside it.")] = None,
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=MAX_JOBS, metavar="N", help="Processes "
+                                                "weighting the meshes in parallel (default: the CPU cores this "
+                                                "process may use).")] = None,
 ) -> None:
     """Bind the mesh attachments of a project to bones and compute their weights.
 
@@ -82,6 +86,7 @@ def weights(
     Example: spinemesh weights project/ --out weighted/ --replace --bones keep
     """
     from ..anim.bone_worlds import sampled_bone_worlds
+    from ..cluster import available_cores
     from ..files.inputs import named_project, project_folder
     from ..output import run_report_error
     from ..rig.document import WeightOptions
@@ -95,7 +100,8 @@ def weights(
     options = WeightOptions(bones=bones.value, max_bones=max_bones, replace=replace, method=method.value,
                             only=only, exclude=exclude, sample_motion=sampled_bone_worlds)
     with progress_bar("weights", transient=True, phases=True) as bars:  # a bar per phase: weights, preview
-        result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars))
+        result = weight_project(project, out, options, preview=preview, overwrite=overwrite, progress=phase_progress(bars),
+                                jobs=jobs or available_cores())
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
                                     counted(len(result.written), "skeleton") if result.written else "")
     _print_result(result, ONE_BONE_KEPT if bones.value == "keep" else ONE_BONE_CHOSEN)

@@ -358,11 +358,13 @@ def _telling(pairs, on_mesh):
 
 
 def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig | None = None,
-                    on_mesh=None) -> list[Outcome]:
+                    on_mesh=None, weigh=None) -> list[Outcome]:
     """Weight every selected mesh attachment of ``doc`` in place; one outcome per mesh attachment.
 
     One bad attachment never stops the others: it is left as it was and reported failed.
     ``on_mesh()``: called after each mesh attachment, weighted or not (:func:`mesh_count` of them).
+    ``weigh(ref, outcome)``: given, each selected mesh is handed to it instead of weighted here
+    (``weights --jobs``: on the workers, :func:`weigh_meshes`); its outcome is filled later.
     """
     rig = rig or build_rig(doc, options.sample_motion)
     outcomes = []
@@ -386,12 +388,35 @@ def weight_document(doc: dict, skeleton: str, options: WeightOptions, rig: Rig |
         if options.exclude and _matches(options.exclude, ref):
             o.status, o.reason = "skipped", "matched by --exclude"
             continue
-        start = time.perf_counter()
-        before = ref.attachment.get("vertices")
-        try:
-            weight_mesh(rig, ref, options, o)
-        except SpineMeshError as e:
-            ref.attachment["vertices"] = before
-            o.status, o.reason = "failed", str(e)
-        o.seconds = round(time.perf_counter() - start, 4)
+        if weigh is None:
+            _weigh_timed(rig, ref, options, o)
+        else:
+            weigh(ref, o)
     return outcomes
+
+
+def _weigh_timed(rig: Rig, ref: AttachmentRef, options: WeightOptions, outcome: Outcome) -> None:
+    """:func:`weight_mesh` of one selected mesh, timed; one that fails is left as it was."""
+    start = time.perf_counter()
+    before = ref.attachment.get("vertices")
+    try:
+        weight_mesh(rig, ref, options, outcome)
+    except SpineMeshError as e:
+        ref.attachment["vertices"] = before
+        outcome.status, outcome.reason = "failed", str(e)
+    outcome.seconds = round(time.perf_counter() - start, 4)
+
+
+def weigh_meshes(job: tuple) -> tuple[list[tuple[dict, Outcome]], bool]:
+    """One job of ``weights --jobs``, on a worker: ``(doc, skeleton, options, rig, places)``, the
+    document without its animations and the ``(skin, slot, name)`` of the meshes to weigh.
+    Returns each of those meshes, in document order, as it ends with its outcome, and whether
+    the motion guard asked for the animations (:attr:`.drift.Motion.asked`: said only then)."""
+    doc, skeleton, options, rig, places = job
+    done = []
+    for ref in iter_attachments(doc):
+        if ref.type == "mesh" and (ref.skin, ref.slot, ref.name) in places:
+            outcome = Outcome(skeleton, ref.skin, ref.slot, ref.name)
+            _weigh_timed(rig, ref, options, outcome)
+            done.append((ref.attachment, outcome))
+    return done, rig.motion is not None and rig.motion.asked

@@ -154,10 +154,18 @@ class Motion:
         #: what the sampler said of the animations it read (a 4.x curve the runtimes play apart,
         #: sampled linear), one line each without the skeleton's name: :meth:`said_lines`
         self.said: list[str] = []
+        #: whether a choice asked for :attr:`frames` here (a copy sent to a worker starts without:
+        #: the sender samples them to send them, whether or not a choice will need them)
+        self.asked = False
 
     @property
     def frames(self) -> np.ndarray:
         """Every bone's world transform in each sampled frame, shape (F, B, 2, 3)."""
+        self.asked = True
+        return self._sampled()
+
+    def _sampled(self) -> np.ndarray:
+        """:attr:`frames`, sampled on the first call, without counting as asked for."""
         if self._frames is None:
             if self._doc is not None:
                 self._frames = self._sample(self._doc, said=self.said)
@@ -175,7 +183,7 @@ class Motion:
         return unusable_said(self.said, skeleton, "{problem}", "{more} more curves the runtimes play apart")
 
     def __getstate__(self):
-        return {"_doc": None, "_sample": None, "_frames": self.frames, "said": self.said}
+        return {"_doc": None, "_sample": None, "_frames": self._sampled(), "said": self.said, "asked": False}
 
 
 def guard(choice, bones, slot_bone: int, world: np.ndarray, triangles: np.ndarray, motion: Motion | None,
