@@ -99,3 +99,18 @@ def test_the_upgrade_guide_names_every_field_of_the_report(tmp_path):
     assert any(row.get("weights") for row in report["attachments"]) and "atlases" in report
     section = _report_section()
     assert not [f for f in sorted(fields) if f"`{f}`" not in section], section
+
+
+def test_upgrade_says_where_its_editor_images_went(tmp_path):
+    """``upgrade project/ --out meshed/ --images meshed-images/`` (getting started's way to bring
+    the meshes into the editor) wrote the images without a word: the table and the last lines
+    speak of OUT only, as ``pack --preview`` and ``weights --preview`` did of their pictures. The
+    run says where they are and how many, as the previews' lines do; a dry run writes none and
+    says nothing of them."""
+    r = _run("upgrade", DEMO, "--out", "meshed", "--images", "meshed-images", cwd=tmp_path)
+    written = sorted((tmp_path / "meshed-images").rglob("*.png"))
+    assert r.returncode == 0 and written, r.stderr
+    assert (f"images: meshed-images ({len(written)} images at their original size, for the editor's images folder)\n"
+            in r.stdout), r.stdout
+    r = _run("upgrade", DEMO, "--out", "dry", "--images", "dry-images", "--dry-run", cwd=tmp_path)
+    assert r.returncode == 0 and "images:" not in r.stdout, r.stdout

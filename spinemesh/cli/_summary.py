@@ -74,10 +74,11 @@ def print_left_alone(rows: Sequence, errors: Sequence[str], skipped: str, skippe
     print_errors(errors)
 
 
-def say_preview(where, detail: str = "") -> None:
+def say_preview(where, detail: str = "", what: str = "preview") -> None:
     """The line that says where a run's ``--preview`` is (the page to open, or the pictures' folder),
-    with ``detail`` in brackets: ``pack`` and ``weights`` wrote theirs without a word of it."""
-    console.print(escaped(f"preview: {where}" + (f" ({detail})" if detail else "")), highlight=False, markup=False)
+    with ``detail`` in brackets: ``pack`` and ``weights`` wrote theirs without a word of it.
+    ``what``: the output named, ``images`` for ``upgrade --images``' folder."""
+    console.print(escaped(f"{what}: {where}" + (f" ({detail})" if detail else "")), highlight=False, markup=False)
 
 
 def print_warnings(warnings: Sequence[str]) -> None:

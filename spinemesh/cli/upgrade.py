@@ -164,8 +164,7 @@ def upgrade(
     result, projects = _run(project, out, options)
     report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
-    if dry_run:
-        _say_dry_run(pack)
+    _say_written(dry_run, pack, images)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:
         _write_preview(result, project, out, preview, images_in, options.jobs, projects)
@@ -206,6 +205,27 @@ def _write_report(result, report: Path | None, out: Path, dry_run: bool, root: P
         return ""
     written = f"the {counted(len(result.written), 'skeleton')} listed above" if result.written else ""
     return run_report_error(report, out, lambda path: write_report(result, path, root), written)
+
+
+def _say_written(dry_run: bool, pack: bool, images: Path | None) -> None:
+    """The line after the table: that a dry run wrote nothing, else where ``--images`` wrote."""
+    if dry_run:
+        _say_dry_run(pack)
+    elif images is not None:
+        _say_images(images)
+
+
+def _say_images(images: Path) -> None:
+    """Where ``--images`` wrote the original-size images, and how many: the run wrote them without
+    a word, and the table above speaks of OUT only."""
+    from ..words import counted
+    from ._summary import say_preview
+
+    written = sum(1 for _ in images.rglob("*.png")) if images.is_dir() else 0
+    if not written:  # nothing meshed: the lines above say why
+        return
+    say_preview(images, f"{counted(written, 'image')} at their original size, for the editor's images folder",
+                what="images")
 
 
 def _write_preview(result, project: Path, out: Path, preview: Path, images_in, jobs: int,
