@@ -121,3 +121,16 @@ def test_diff_measures_an_artist_mesh_of_many_vertices_in_little_memory():
     exact = np.mean([np.min(np.hypot(*(theirs - p).T)) for p in ours])
     assert near == pytest.approx(exact, rel=1e-12)
     assert chamfer_distance(ours, ours[::-1]) == 0.0
+
+
+# --- the command line -------------------------------------------------------------------------------
+
+def test_upgrade_of_a_project_already_upgraded_says_so_without_a_traceback(meshed, tmp_path):
+    """Upgrading a project whose attachments are all meshes already (a build step run twice) ends
+    with one warning and exit 0: the warning's printer was not imported where the run says it, and
+    such a run ended in a NameError traceback after writing its output."""
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "upgrade", str(meshed), "--out", str(tmp_path / "again")],
+                       capture_output=True, env=_env(), timeout=120)
+    text = _no_traceback(r)
+    assert r.returncode == 0, text
+    assert [line for line in text.splitlines() if line.startswith("warning:")], text

@@ -320,7 +320,7 @@ def _exit(result, nothing: "NothingDone | None", report_error: str = "") -> None
     to upgrade (no skeleton, or --only/--exclude left nothing), 0 with a warning when every
     attachment was already done."""
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
-    from ._summary import print_errors
+    from ._summary import print_errors, print_warnings
 
     if report_error:  # its output is written, its report is not
         print_errors([report_error])
