@@ -6,6 +6,9 @@ Everything runs on the demo project drawn by our own code (no ../shared data nee
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 from typer.testing import CliRunner
@@ -96,3 +99,31 @@ def test_weights_takes_jobs_and_writes_the_same_bytes_on_any_number(tmp_path, me
     files = sorted(p.relative_to(tmp_path / "1") for p in (tmp_path / "1").rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(tmp_path / "2") for p in (tmp_path / "2").rglob("*") if p.is_file())
     assert all((tmp_path / "1" / f).read_bytes() == (tmp_path / "2" / f).read_bytes() for f in files)
+
+
+def _spinemesh(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "spinemesh", *args], capture_output=True, text=True, cwd=cwd,
+                          env=dict(os.environ, COLUMNS="200"))
+
+
+def test_an_output_given_as_a_windows_path_is_refused_with_the_inputs_hint(tmp_path):
+    """``--out 'C:\\out'`` made a folder of that name here and said nothing, where a project given
+    so got ``folders are separated by '/' here``; every output (OUT, ``--report``, ``--preview``)
+    now gets that hint, before any work; one of that very name already there is written to."""
+    make_demo_project(tmp_path / "p")
+    hint = "(folders are separated by '/' here, not '\\')"
+    for args, said in ((["upgrade", "p", "--out", "C:\\out"], "C:\\out: output folder not made"),
+                       (["upgrade", "p", "--out", "o", "--report", "C:\\r.json"], "C:\\r.json: output file not made"),
+                       (["upgrade", "p", "--out", "o", "--preview", "C:\\v"], "C:\\v: output folder not made"),
+                       (["pack", "p", "--out", "q\\x"], "q\\x: output folder not made"),
+                       (["weights", "p", "--out", "C:\\w", "-j", "1"], "C:\\w: output folder not made")):
+        r = _spinemesh(*args, cwd=tmp_path)
+        assert r.returncode == 2, (args, r.stdout + r.stderr)
+        assert r.stderr.strip() == f"error: {said} {hint}", (args, r.stderr)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["p"], args  # nothing written
+    (tmp_path / "builds").mkdir()
+    r = _spinemesh("pack", "p", "--out", "builds\\y", cwd=tmp_path)  # its folder is there: named with slashes
+    assert r.stderr.strip().endswith("(folders are separated by '/' here, not '\\': did you mean builds/y?)"), r.stderr
+    (tmp_path / "C:\\out").mkdir()  # a folder of that very name: written to as given
+    r = _spinemesh("upgrade", "p", "--out", "C:\\out", "--overwrite", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr

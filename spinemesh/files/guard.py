@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 from .disk import file_behind
-from .inputs import special_kind
+from .inputs import backslash_hint, special_kind
 from .inside import check_name_lengths, is_within, real
 from .names import portable_name
 from .walk import walk_folder
@@ -57,6 +57,7 @@ class OutputGuard:
         """
         folder = Path(folder)
         check_name_lengths(folder, what=what)
+        refuse_windows_path(folder, what)
         if folder.is_symlink():
             raise OutputError(f"{what} is a symlink; give the real folder", folder)
         if folder.exists() and not folder.is_dir():
@@ -73,6 +74,8 @@ class OutputGuard:
         """Return ``path`` if it may be written; raise :class:`OutputError` otherwise."""
         path = Path(path)
         check_name_lengths(path, what=what)
+        if self.root is None:  # a path the user gave (below the root: a project's file names)
+            refuse_windows_path(path, what)
         if path.is_symlink():
             raise OutputError(f"{what} is a symlink; refusing to write through it", path)
         if path.is_dir():
@@ -155,6 +158,18 @@ class OutputGuard:
                 # standard output is no path the user gave: they redirected it (> FILE)
                 where = "redirect it outside it" if what == "standard output" else "give a path outside it"
                 raise OutputError(f"{what} lies inside the input {shown}; nothing is written there: {where}", path)
+
+
+def refuse_windows_path(path: Path, what: str) -> None:
+    r"""Refuse an output given with backslashes that is not there yet (``--out 'C:\out'``), with the
+    hint a missing input gets (:func:`.inputs.backslash_hint`): here a backslash is a letter of a
+    name, so the run made one folder named ``C:\out`` in the current one, and said nothing. One
+    there already (a folder of that very name) is written to as given."""
+    if os.path.lexists(path):
+        return
+    hint = backslash_hint(path, lambda slashed: os.path.isdir(os.path.dirname(slashed.rstrip("/")) or "."))
+    if hint:
+        raise OutputError(f"{what} not made{hint}", path)
 
 
 def refuse_report_over_output(report: Path, out: Path) -> None:

@@ -60,12 +60,21 @@ def missing_said(path: str | Path, what: str = "file or folder") -> str:
     >>> missing_said("C:\\art\\hero", "skeleton")
     "no such skeleton (folders are separated by '/' here, not '\\')"
     """
+    return f"no such {what}{backslash_hint(path)}"
+
+
+def backslash_hint(path: str | Path, worth_naming=os.path.exists) -> str:
+    r"""For a path written with backslashes (a Windows path, ``C:\art\hero``), what to write
+    instead: `` (folders are separated by '/' here, not '\')``, with ``: did you mean
+    'art/hero'?`` where ``worth_naming(the path with slashes)`` (default: it exists); ``""``
+    for any other path. Inputs that are not there (:func:`missing_said`) and outputs
+    (:mod:`.guard`) say it alike."""
     text = os.fspath(path)
     if "\\" not in text:
-        return f"no such {what}"
+        return ""
     slashed = text.replace("\\", "/")
-    meant = f": did you mean {shlex.quote(slashed)}?" if os.path.exists(slashed) else ""
-    return f"no such {what} (folders are separated by '/' here, not '\\'{meant})"
+    meant = f": did you mean {shlex.quote(slashed)}?" if worth_naming(slashed) else ""
+    return f" (folders are separated by '/' here, not '\\'{meant})"
 
 
 def regular_file(path: str | Path, what: str = "file") -> Path:
