@@ -114,3 +114,19 @@ def test_upgrade_says_where_its_editor_images_went(tmp_path):
             in r.stdout), r.stdout
     r = _run("upgrade", DEMO, "--out", "dry", "--images", "dry-images", "--dry-run", cwd=tmp_path)
     assert r.returncode == 0 and "images:" not in r.stdout, r.stdout
+
+
+def test_every_option_has_a_help_and_train_says_what_0_minutes_is(tmp_path):
+    """``train --help`` showed ``--seed <int> [default: 0]`` with no word of what it seeds, and
+    ``--time-limit`` as ``Minutes; the cosine schedule then ends with the budget. [default: 0]``:
+    0 minutes read as no training at all, where it is no limit. Every option of every command
+    has a help; the limit's says what 0 is."""
+    import typer
+
+    from spinemesh.cli import app
+
+    bare = [(name, param.opts) for name, command in typer.main.get_command(app).commands.items()
+            for param in command.params if param.param_type_name == "option" and not (param.help or "").strip()]
+    assert not bare, bare
+    r = spinemesh("train", "--help", cwd=tmp_path)
+    assert r.returncode == 0 and "Minutes of training (0: no limit, --epochs alone)" in " ".join(r.stdout.split())

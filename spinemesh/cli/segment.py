@@ -206,13 +206,14 @@ def train(
     epoch_samples: Annotated[int, typer.Option("--epoch-samples", min=0, help="Samples per epoch (0: as many as "
                                                "training sprites).")] = 0,
     batch: Annotated[int, typer.Option("--batch", min=1, help="Batch size (paper: 32).")] = 32,
-    time_limit: Annotated[float, typer.Option("--time-limit", min=0, callback=finite, help="Minutes; the cosine schedule then "
-                                              "ends with the budget.")] = 0,
+    time_limit: Annotated[float, typer.Option("--time-limit", min=0, callback=finite, help="Minutes of training (0: no limit, "
+                                              "--epochs alone); the cosine schedule then ends with the budget.")] = 0,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
     workers: Annotated[int, typer.Option("--workers", min=0, help="Processes compositing samples (0: in the "
                                          "training process).")] = 0,
     threads: Annotated[int, typer.Option("--threads", min=0, help="CPU threads for torch (0: its default).")] = 0,
-    seed: Annotated[int, typer.Option("--seed")] = 0,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the samples' compositing and of torch's random "
+                                      "numbers.")] = 0,
     write_pack: Annotated[Optional[Path], typer.Option("--write-pack", help="Only gather the data sets' sprites "
                                                        "into this .npz pack (to train elsewhere with --data "
                                                        "PACK) and stop.")] = None,
