@@ -130,3 +130,19 @@ def test_every_option_has_a_help_and_train_says_what_0_minutes_is(tmp_path):
     assert not bare, bare
     r = spinemesh("train", "--help", cwd=tmp_path)
     assert r.returncode == 0 and "Minutes of training (0: no limit, --epochs alone)" in " ".join(r.stdout.split())
+
+
+def test_convert_writes_json_under_the_names_unity_and_godot_load(tmp_path):
+    """Every command reads ``hero.json.txt`` (Unity) and ``hero.spine-json`` (spine-godot, which
+    reads a ``.json`` as binary), but ``convert hero.skel hero.spine-json`` was refused (``target
+    must end in .skel, .skel.bytes or .json``). Both are written as JSON, the bytes a ``.json``
+    gets; another name is refused listing every name taken."""
+    source = DEMO / "demo-binary.skel"
+    assert _run("convert", source, "hero.json", cwd=tmp_path).returncode == 0
+    for name in ("hero.json.txt", "hero.spine-json"):
+        r = _run("convert", source, name, cwd=tmp_path)
+        assert r.returncode == 0 and r.stdout.startswith(f"wrote {name} (JSON, Spine "), r.stderr
+        assert (tmp_path / name).read_bytes() == (tmp_path / "hero.json").read_bytes()
+    r = _run("convert", source, "hero.txt", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr == ("error: hero.txt: target must end in .skel, .skel.bytes (binary) or "
+                                              ".json, .json.txt, .spine-json (JSON)\n"), r.stderr

@@ -17,8 +17,9 @@ from .convert_files import KEEP_BINARY_INFO, convert_files, say_converted
 @app.command()
 def convert(
     source: Annotated[Path, typer.Argument(metavar="SOURCE", help="Skeleton to read: .skel (binary) or .json.")],
-    target: Annotated[Path, typer.Argument(metavar="TARGET", help="Skeleton to write; its extension (.skel or .json) picks "
-                                                "the format.")],
+    target: Annotated[Path, typer.Argument(metavar="TARGET", help="Skeleton to write; its extension picks the format: .skel "
+                                                "or .skel.bytes (binary), .json, .json.txt (Unity) or .spine-json "
+                                                "(Godot).")],
     keep_binary_info: Annotated[bool, typer.Option(
         KEEP_BINARY_INFO,
         help="Keep the binary-only data (string table order) in the JSON, so that converting it back "

@@ -16,6 +16,8 @@ import sys
 from pathlib import Path
 
 _BINARY_SUFFIXES = (".skel", ".skel.bytes")
+#: JSON skeleton names written: the editor's, Unity's and Godot's (every one the readers take).
+_JSON_SUFFIXES = (".json", ".json.txt", ".spine-json")
 KEEP_BINARY_INFO = "--keep-binary-info"
 
 
@@ -71,7 +73,7 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
                                  + e.message.removeprefix("cannot write: "), source) from None
         atomic_write_bytes(target, data)
         kind = "binary"
-    elif target.suffix.lower() == ".json":
+    elif target.name.lower().endswith(_JSON_SUFFIXES):  # Unity's hero.json.txt, Godot's hero.spine-json
         if not keep_binary_info:
             doc = {k: v for k, v in doc.items() if k != EXTRA}
         numbers = None
@@ -82,7 +84,8 @@ def convert_files(source: Path, target: Path, keep_binary_info: bool = False) ->
         atomic_write_text(target, dumps_skeleton(doc, target, numbers=numbers))
         kind = "JSON"
     else:
-        raise SpineMeshError("target must end in .skel, .skel.bytes or .json", target)
+        raise SpineMeshError(f"target must end in {', '.join(_BINARY_SUFFIXES)} (binary) or "
+                             f"{', '.join(_JSON_SUFFIXES)} (JSON)", target)
     return f"wrote {target} ({kind}, Spine {spine_version(doc) or '?'})"
 
 
