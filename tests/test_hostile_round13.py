@@ -134,3 +134,29 @@ def test_upgrade_of_a_project_already_upgraded_says_so_without_a_traceback(meshe
     text = _no_traceback(r)
     assert r.returncode == 0, text
     assert [line for line in text.splitlines() if line.startswith("warning:")], text
+
+
+def test_an_interior_chain_is_split_no_finer_than_its_pixels():
+    """A contour's points lie a pixel apart: splitting its segments finer picks the same points
+    again. ``--density 1e9`` divided the split length by a billion, and ``upgrade`` of the demo ran
+    past 300 s and 3.8 GB (``--density 1e300``: a ValueError traceback)."""
+    from spinemesh.mesher.interior import simplify_chain
+
+    c = np.array([(x, 0) for x in range(60)] + [(59, y) for y in range(1, 60)], np.float64)
+    fine = simplify_chain(c, 0.012, 1e-4)
+    assert len(fine) <= len(c)
+    assert np.array_equal(fine, simplify_chain(c, 0.012, 1.0))
+
+
+@pytest.mark.parametrize("density", ["1e9", "1e300"])
+def test_mesh_at_an_enormous_density_is_the_finest_mesh(tmp_path, density):
+    """``mesh --density`` of any finite number meshes, within seconds, the mesh density 1000 gives."""
+    image = make_demo_project(tmp_path / "p") / "images" / "demo-head.png"
+    meshes = {}
+    for d in (density, "1000"):
+        out = tmp_path / f"d{d}.json"
+        r = subprocess.run([sys.executable, "-m", "spinemesh", "mesh", str(image), "--out", str(out), "--density", d],
+                           capture_output=True, env=_env(), timeout=60, preexec_fn=_limit_memory(2048))
+        assert r.returncode == 0, _no_traceback(r)
+        meshes[d] = out.read_bytes()
+    assert meshes[density] == meshes["1000"]

@@ -141,6 +141,9 @@ def simplify_chain(c: np.ndarray, dp_ratio: float, max_segment: float) -> np.nda
     -------
     ndarray, shape (k, 2): vertices along the chain, in order.
     """
+    # The chain's points lie a pixel or more apart, so a segment split finer than a pixel picks
+    # the same points again: --density 1e9 asked billions of them (minutes and gigabytes).
+    max_segment = max(max_segment, 1.0)
     length = float(np.hypot(*np.diff(c, axis=0).T).sum())
     idx = dp_indices(c, dp_ratio * length, closed=False)
     pts = []
