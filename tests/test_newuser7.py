@@ -146,3 +146,21 @@ def test_convert_writes_json_under_the_names_unity_and_godot_load(tmp_path):
     r = _run("convert", source, "hero.txt", cwd=tmp_path)
     assert r.returncode == 2 and r.stderr == ("error: hero.txt: target must end in .skel, .skel.bytes (binary) or "
                                               ".json, .json.txt, .spine-json (JSON)\n"), r.stderr
+
+
+def test_the_diff_report_names_images_from_the_project_not_this_machine(tmp_path, meshed):
+    """``report.json`` and ``index.html`` of ``diff`` gave each image's ``source`` as an absolute
+    path of the machine (``/home/me/work/meshed/images/demo-body.png``), and a project given as
+    ``.`` had ``"project": ""``: a report differed from one folder or machine to the next and
+    showed the user's folders to whoever it was sent to. They name them from the project's
+    folder (``meshed/images/demo-body.png``), the same bytes from inside the project as from
+    beside it, as ``upgrade``'s report does."""
+    shutil.copytree(meshed, tmp_path / "meshed")
+    assert _run("diff", "meshed", "--out", "beside", "--methods", "hull", cwd=tmp_path).returncode == 0
+    assert _run("diff", ".", "--out", "../inside", "--methods", "hull", cwd=tmp_path / "meshed").returncode == 0
+    for name in ("report.json", "index.html", "report.md"):
+        beside = (tmp_path / "beside" / name).read_bytes()
+        assert beside == (tmp_path / "inside" / name).read_bytes(), name
+        assert str(tmp_path).encode() not in beside, name
+    rows = json.loads((tmp_path / "beside" / "report.json").read_text())["rows"]
+    assert rows and all(row["source"].startswith("meshed/") and row["project"] == "meshed" for row in rows), rows

@@ -47,8 +47,10 @@ def diff(
     from ..diff.report import REPORT_FOLDER, aggregate, aggregate_markdown, write_report
     from ..diff.run import METHODS, run_diff
     from ..files.guard import check_outputs
-    from ..files.inputs import project_folder
+    from ..files.inputs import named_project, project_folder
     from ..written_folder import check_written_folder
+
+    projects = [named_project(p) for p in projects]  # "." named by its folder's name in the report
 
     check_outputs([*map(project_folder, projects), images], folders=[out])
     check_written_folder(out, REPORT_FOLDER, "report")  # before the work; write_report checks it again

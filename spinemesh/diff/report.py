@@ -139,10 +139,22 @@ def to_markdown(result: DiffResult, agg: list[dict] | None = None) -> str:
     return "\n".join(parts)
 
 
+def _rows_json(result: DiffResult) -> list[dict]:
+    """The rows as the report writes them, each image file named from its project folder's name
+    (``meshed/images/demo-body.png``): the absolute path of this machine was written, the same
+    report differing from one folder or machine to the next."""
+    from ..files.names import named_within
+
+    rows = [r.to_json() for r in result.rows]
+    for folder in result.given:
+        rows = named_within(rows, folder)
+    return rows
+
+
 def to_json(result: DiffResult, agg: list[dict] | None = None) -> dict:
     """``report.json``: ``methods``, ``aggregate``, ``rows``, ``skipped`` (no NaN or Infinity)."""
     agg = aggregate(result) if agg is None else agg
-    return finite({"methods": list(result.methods), "aggregate": agg, "rows": [r.to_json() for r in result.rows],
+    return finite({"methods": list(result.methods), "aggregate": agg, "rows": _rows_json(result),
                    "skipped": result.skipped})
 
 
@@ -336,7 +348,7 @@ def to_html(result: DiffResult, agg: list[dict]) -> str:
     legend = "".join(f'<span style="background:{COLOURS[k]}"></span>{label}' for k, label in (
         ("artist", "artist mesh"), ("ours", "generated mesh"), ("exterior", "exterior vertex"),
         ("interior", "interior vertex")))
-    data = finite({"methods": list(result.methods), "rows": [r.to_json() for r in result.rows],
+    data = finite({"methods": list(result.methods), "rows": _rows_json(result),
                    "formats": _js_formats()})
     # "</" must not appear inside a <script> element
     data_json = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")

@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SpineMeshError
+from ..files.inputs import project_folder
 from ..files.inside import real
 from ..files.names import name_as_text
 from ..images import FolderImages
@@ -89,6 +90,9 @@ class DiffResult:
     rows: list[DiffRow]
     methods: tuple[str, ...]
     skipped: list[dict]
+    #: the project folders (or skeletons) given: the report names its files from their names
+    #: (:func:`~spinemesh.files.names.named_within`), not by a path of this machine
+    given: tuple[Path, ...] = ()
 
 
 def make_mesh(rgba: np.ndarray, method: str) -> Mesh:
@@ -225,7 +229,7 @@ def run_diff(paths: list[str | Path], methods: tuple[str, ...] = METHODS, images
         rows.append(row)
         if progress:
             progress(done, len(tasks), f"{project}/{ref.name}")
-    return DiffResult(rows, tuple(methods), skipped)
+    return DiffResult(rows, tuple(methods), skipped, tuple(project_folder(p).absolute() for p in paths))
 
 
 def _generate(rgba: np.ndarray, methods: tuple[str, ...]):
