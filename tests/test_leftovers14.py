@@ -127,3 +127,32 @@ def test_an_output_given_as_a_windows_path_is_refused_with_the_inputs_hint(tmp_p
     (tmp_path / "C:\\out").mkdir()  # a folder of that very name: written to as given
     r = _spinemesh("upgrade", "p", "--out", "C:\\out", "--overwrite", "-j", "1", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+
+
+_PARENT = os.getpid()
+
+
+def _weigh_killed_on_workers(job):
+    """``weigh_meshes``, except on a worker process, which is killed (SIGKILL) on each of its tries."""
+    import signal
+
+    from spinemesh.rig import document
+
+    if os.getpid() != _PARENT:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return document.weigh_meshes(job)
+
+
+def test_weights_on_workers_that_are_killed_weighs_here_the_same(tmp_path, meshed, monkeypatch):
+    """``weights --jobs 2`` whose every worker is killed while it weighs: each job is weighed in
+    this process instead, the same skeletons byte for byte as ``--jobs 1``, every mesh weighted."""
+    from spinemesh.rig import run
+    from spinemesh.rig.document import WeightOptions
+
+    one = run.weight_project(meshed, tmp_path / "1", WeightOptions(replace=True), jobs=1)
+    monkeypatch.setattr(run, "weigh_meshes", _weigh_killed_on_workers)
+    two = run.weight_project(meshed, tmp_path / "2", WeightOptions(replace=True), jobs=2)
+    assert [o.row() | {"seconds": 0} for o in two.outcomes] == [o.row() | {"seconds": 0} for o in one.outcomes]
+    assert sum(o.status == "weighted" for o in two.outcomes) >= 4 and not two.errors, two.errors
+    for rel in one.written:
+        assert (tmp_path / "2" / rel).read_bytes() == (tmp_path / "1" / rel).read_bytes(), rel

@@ -9,6 +9,7 @@ copied. The input is never modified and the output folder may not be inside it.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from dataclasses import dataclass, field
@@ -143,15 +144,15 @@ def _weight_on_workers(workers: Workers, doc: dict, rel: str, options: WeightOpt
     # two jobs a worker at least: one skeleton of 30 meshes was 24 and 6, one worker weighing 80%
     size = max(1, min(MESHES_PER_JOB, -(-len(handed) // (2 * workers.slots))))
     chunks = [handed[s:s + size] for s in range(0, len(handed), size)]
-    futures = {workers.submit(weigh_meshes, (light, rel, options, sent, {(r.skin, r.slot, r.name) for r, _ in chunk})):
-               chunk for chunk in chunks}
+    jobs = [(chunk, (light, rel, options, sent, {(r.skin, r.slot, r.name) for r, _ in chunk})) for chunk in chunks]
+    futures = {workers.submit(weigh_meshes, job): (chunk, job) for chunk, job in jobs}
     asked = rig.motion is not None and rig.motion.asked
     for future in workers.as_completed(list(futures)):
-        chunk = futures[future]
+        chunk, job = futures[future]
         try:
             done, asked_there = future.result()
-        except WorkerLost:  # weighed here instead, the same way
-            done, asked_there = weigh_meshes((light, rel, options, sent, {(r.skin, r.slot, r.name) for r, _ in chunk}))
+        except WorkerLost:  # weighed here instead, on a copy as a worker gets (the job weighs in place)
+            done, asked_there = weigh_meshes(copy.deepcopy(job))
         asked = asked or asked_there
         for (ref, outcome), (attachment, made) in zip(chunk, done):
             ref.attachment.clear()  # the attachment's own dict keeps its place among its siblings
