@@ -160,3 +160,15 @@ def test_mesh_at_an_enormous_density_is_the_finest_mesh(tmp_path, density):
         assert r.returncode == 0, _no_traceback(r)
         meshes[d] = out.read_bytes()
     assert meshes[density] == meshes["1000"]
+
+
+def test_diff_methods_naming_none_is_refused(tmp_path):
+    """``diff --methods ,`` (a list of none, a script's empty variable joined) compared no method and
+    wrote a report of the artists' meshes alone, exit 0; it is refused in one line now."""
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "diff", str(project), "--out", str(tmp_path / "d"),
+                        "--methods", " , "], capture_output=True, env=_env(), timeout=60)
+    text = _no_traceback(r)
+    assert r.returncode == 2, text
+    assert "error: no method named in ' , '; choose from default, paper" in text
+    assert not (tmp_path / "d" / "report.json").exists()

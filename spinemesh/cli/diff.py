@@ -55,10 +55,12 @@ def diff(
     check_outputs([*map(project_folder, projects), images], folders=[out])
     check_written_folder(out, REPORT_FOLDER, "report")  # before the work; write_report checks it again
 
-    chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else METHODS
+    # each named once, in the order given
+    chosen = tuple(dict.fromkeys(m.strip() for m in methods.split(",") if m.strip())) if methods else METHODS
     bad = [m for m in chosen if m not in METHODS]
-    if bad:
-        print_errors([f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}"])
+    if bad or not chosen:  # `--methods ,` named none: a report of the artists' meshes alone, exit 0
+        named = f"unknown method(s) {', '.join(bad)}" if bad else f"no method named in {methods!r}"
+        print_errors([f"{named}; choose from {', '.join(METHODS)}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     with progress_bar("comparing", transient=True) as bar:  # a pipe or a log gets no bar, as with the others
         task = bar.add_task("reading projects", total=None)
