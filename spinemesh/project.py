@@ -151,6 +151,25 @@ def find_project(path: str | Path, folder_taken: bool = True) -> Project:
     return project
 
 
+def no_skeleton_said(at_any_depth: bool = False) -> str:
+    """Why a folder given for a project (or a library) is refused when it holds no skeleton, and
+    what to give instead; the caller names the folder before it, ``FOLDER: ...``, as every error
+    names its file. ``at_any_depth``: the folders below it were searched too (a library).
+
+    One line for every command: ``upgrade``, ``weights``, ``info``, ``diff`` and ``dataset`` each
+    had their own words for it.
+
+    Examples
+    --------
+    >>> print(no_skeleton_said())
+    no Spine skeleton found (a .skel file, or a .json with a "skeleton" object); give the folder the editor exported to
+    >>> print(no_skeleton_said(at_any_depth=True).split("; ")[1])
+    give the folder that holds the exported projects
+    """
+    depth, folder = (" at any depth", "that holds the exported projects") if at_any_depth else ("", "the editor exported to")
+    return f"no Spine skeleton found{depth} (a .skel file, or a .json with a \"skeleton\" object); give the folder {folder}"
+
+
 def not_a_skeleton_said(path: Path, skeletons: list[Path], folder_taken: bool = True) -> str:
     """Why a file given for a project is refused when it is no skeleton (its atlas, a page image),
     and what to give instead: one of ``skeletons`` (those found in its folder), or with

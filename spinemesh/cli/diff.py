@@ -82,14 +82,13 @@ def _nothing_compared_said(projects: list[Path], skipped: list[dict]) -> str:
     """The one error line of a run that compared nothing, naming the projects given: what was
     skipped, or that they hold no skeleton, or no mesh (a project of regions: the line said
     ``no artist mesh attachment found`` and no more, naming nothing)."""
-    from ..project import find_project
+    from ..project import find_project, no_skeleton_said
 
     named = ", ".join(map(str, projects))
     if skipped:
         return f"{named}: no artist mesh attachment found{_skipped_said(skipped)}"
     if not any(find_project(p).skeletons for p in projects):
-        return (f"{named}: no Spine skeleton found (a .skel file, or a .json with a \"skeleton\" object); give "
-                "the folder the editor exported to")
+        return f"{named}: {no_skeleton_said()}"
     return (f"{named}: no artist mesh attachment found: diff compares each mesh attachment your artists drew "
             "with ours, and the skeletons there hold none (regions only: 'spinemesh upgrade' meshes them)")
 

@@ -27,7 +27,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     from ..files.guard import check_outputs
     from ..files.inputs import named_project
     from ..files.names import named_from
-    from ..project import find_project, image_source_for, project_atlases
+    from ..project import find_project, image_source_for, no_skeleton_said, project_atlases
     from ..skeleton import checked_attachments, image_paths, load_skeleton, spine_version
     from ..words import unusable_said
 
@@ -46,7 +46,7 @@ def info(project: Annotated[Path, typer.Argument(metavar="PROJECT", help="Projec
     if not proj.skeletons:
         from ._summary import print_errors
 
-        print_errors([f"no Spine skeleton (.json with a \"skeleton\" object, or .skel) found in {project}"])
+        print_errors([f"{project}: {no_skeleton_said()}"])
         raise typer.Exit(EXIT_BAD_INPUT)
     for path in proj.skeletons:
         try:

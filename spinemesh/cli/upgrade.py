@@ -386,13 +386,13 @@ class NothingDone(NamedTuple):
 
 def _nothing_to_do(result, project: Path, filtered: bool) -> NothingDone | None:
     """Why the run upgraded nothing, with a hint (an error where nothing was written), or None."""
+    from ..project import no_skeleton_said
     from ..upgrade.report import selection_left_nothing
 
     if result.errors or any(t.status in ("meshed", "would mesh", "failed") for t in result.targets):
         return None
     if not result.written and not result.targets:
-        return NothingDone(f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
-                           "object); give the folder the editor exported to", refused=True)
+        return NothingDone(f"{project}: {no_skeleton_said()}", refused=True)
     if filtered and selection_left_nothing(result):
         return NothingDone("--only/--exclude left no region attachment to upgrade; patterns match the slot, the "
                            "attachment name or the image path, e.g. --only 'head*' --only 'arms/*'", refused=True)

@@ -89,6 +89,7 @@ def weights(
     from ..cluster import available_cores
     from ..files.inputs import named_project, project_folder
     from ..output import run_report_error
+    from ..project import no_skeleton_said
     from ..rig.document import WeightOptions
     from ..rig.run import weight_project, write_report
     from ..runs import EXIT_BAD_INPUT, EXIT_PARTIAL
@@ -112,8 +113,7 @@ def weights(
     if result.partial or report_error:
         raise typer.Exit(EXIT_PARTIAL)
     if not result.written:
-        print_errors([f"no Spine skeleton found in {project} (a .skel file, or a .json with a \"skeleton\" "
-                      "object); give the folder the editor exported to"])
+        print_errors([f"{project}: {no_skeleton_said()}"])
         raise typer.Exit(EXIT_BAD_INPUT)
 
 

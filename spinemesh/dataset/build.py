@@ -29,6 +29,7 @@ from ..cluster import WorkerLost, open_workers
 from ..errors import SpineMeshError
 from ..files.atomic import atomic_write_json
 from ..files.names import name_as_text
+from ..project import no_skeleton_said
 from ..written_folder import (
     check_written_folder, mark_written_folder, refuse_linked_folders, remove_listed_files, temporary_files,
 )
@@ -232,8 +233,7 @@ def build_dataset(corpora: list[str | Path], out: str | Path, jobs: int = 1, ret
     out = Path(out)
     projects = _project_names([Path(c) for c in corpora])
     if not projects:  # nothing to do is refused, as everywhere (exit status 2), before OUT is made
-        raise SpineMeshError("no Spine skeleton found in this folder (a .skel file, or a .json with a "
-                             "\"skeleton\" object), at any depth", corpora[0] if len(corpora) == 1 else None)
+        raise SpineMeshError(no_skeleton_said(at_any_depth=True), ", ".join(map(str, corpora)))
     _check_output(out)
     mark_written_folder(out)  # before its first file: a run cut short is resumed, not refused
     lock = open(out / ".lock", "w")
