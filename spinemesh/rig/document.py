@@ -22,7 +22,7 @@ from .binding import bind, mesh_triangles, parse_vertices, setup_world
 from .bones import Bone, skeleton_bones
 from .choice import NEAR, Choice, choose_by_rule
 from .habits import ProjectHabits, keys_of
-from .learned import choose_learned, constrained_bones, neighbour_sets
+from .learned import BELOW_THRESHOLD, choose_learned, constrained_bones, neighbour_sets
 from .drift import Motion, guard
 from .weights import solve_weights_once, sparsify
 
@@ -57,6 +57,30 @@ class WeightOptions:
 #: Why a chosen bone is not written: the weights left every vertex at 0 for it.
 UNWEIGHTED_BONE = "no vertex weighted to it: its segment is not on or near the art"
 
+#: At most this many bones left out are listed for a mesh in a report (``left_out``), the others
+#: counted (``left_out_more``): the learned choice weighs every bone within reach of the art, and
+#: listing them all made a report of 756 bones per mesh (4.3 MB for 49 meshes of one skeleton).
+LEFT_OUT_LISTED = 12
+
+
+def left_out_reported(left_out: dict[str, str]) -> dict:
+    """A mesh's bones left out (bone name -> why) as its report row gives them: ``left_out``, at
+    most :data:`LEFT_OUT_LISTED` of them, first those left out for a reason of their own (another
+    skin's, no exact setup transform, no vertex weighted to it, more than enough bones), then
+    those the model found likeliest; ``left_out_more``, how many more were left out.
+
+    Examples
+    --------
+    >>> why = {f"b{i}": f"learned: 0.0{i}, below the threshold 0.50" for i in range(9, -1, -1)}
+    >>> why.update({f"skin{i}": "only active in other skins" for i in range(5)})
+    >>> row = left_out_reported(why)
+    >>> list(row["left_out"]), row["left_out_more"]
+    (['skin0', 'skin1', 'skin2', 'skin3', 'skin4', 'b9', 'b8', 'b7', 'b6', 'b5', 'b4', 'b3'], 3)
+    """
+    unlikely = [b for b, why in left_out.items() if BELOW_THRESHOLD in why]  # likeliest first
+    listed = ([b for b, why in left_out.items() if BELOW_THRESHOLD not in why] + unlikely)[:LEFT_OUT_LISTED]
+    return {"left_out": {b: left_out[b] for b in listed}, "left_out_more": len(left_out) - len(listed)}
+
 
 @dataclass
 class Outcome:
@@ -74,7 +98,8 @@ class Outcome:
     seconds: float = 0.0
 
     def row(self) -> dict:
-        return dict(self.__dict__)
+        """The report's row: the bones left out listed as :func:`left_out_reported` gives them."""
+        return dict(self.__dict__) | left_out_reported(self.left_out)
 
     def chosen(self) -> set[str]:
         """The bones chosen for the mesh (their names): those written and those the weights left at 0."""

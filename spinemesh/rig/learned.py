@@ -807,6 +807,11 @@ def _habit_notes(cand: Candidates, p: np.ndarray, habits: np.ndarray | None,
             for k in np.flatnonzero(np.abs(p - alone) >= HABIT_MATTERS).tolist()}
 
 
+#: The words of a bone left out only because the model finds it unlikely, the reason of most
+#: bones left out (:func:`.document.left_out_reported` lists the others first).
+BELOW_THRESHOLD = "below the threshold"
+
+
 def _explain(bones, cand: Candidates, p: np.ndarray, order: list[int], take: list[int], slot_bone: int,
              threshold: float, chosen_set: str, left_out: dict[int, str],
              notes: dict[int, str] | None = None) -> dict[int, str]:
@@ -834,5 +839,5 @@ def _explain(bones, cand: Candidates, p: np.ndarray, order: list[int], take: lis
         elif p[k] >= threshold:
             left_out[i] = f"learned: {p[k]:.2f}, but more than {MAX_AUTO_BONES} bones qualify; {text}"
         else:
-            left_out[i] = f"learned: {p[k]:.2f}, below the threshold {threshold:.2f}; {text}"
+            left_out[i] = f"learned: {p[k]:.2f}, {BELOW_THRESHOLD} {threshold:.2f}; {text}"
     return why

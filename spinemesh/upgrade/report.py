@@ -42,8 +42,15 @@ class Target:
     region: dict | None = None
 
     def row(self) -> dict:
-        return {k: v for k, v in self.__dict__.items()
-                if k not in ("key", "overruled", "region") and not (k == "weights" and v is None)}
+        """The report's row: the bones left out listed as
+        :func:`~spinemesh.rig.document.left_out_reported` gives them."""
+        from ..rig.document import left_out_reported
+
+        row = {k: v for k, v in self.__dict__.items()
+               if k not in ("key", "overruled", "region") and not (k == "weights" and v is None)}
+        if self.weights is not None and "left_out" in self.weights:
+            row["weights"] = self.weights | left_out_reported(self.weights["left_out"])
+        return row
 
 
 @dataclass
