@@ -35,7 +35,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.images import load_rgba  # noqa: E402
+from spinemesh.images.decode import load_rgba  # noqa: E402
 from spinemesh.mesher import mesh_image  # noqa: E402
 from spinemesh.metrics import (angle_ratio, boundary_adherence, coverage,  # noqa: E402
                                mesh_problems, opaque_mask, significant_edges, waste)

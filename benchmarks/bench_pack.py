@@ -45,7 +45,7 @@ sys.path.insert(0, str(REPO))
 
 from spinemesh.atlas import read_atlas  # noqa: E402
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.images import AtlasImages  # noqa: E402
+from spinemesh.images.sources import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
     PageRules, candidate_widths, default_padding, is_power_of_two, round_page,
 )
@@ -494,7 +494,7 @@ def layouts_table(projects: list[Path], sides: str = "any") -> str:
     against the atlas as exported, and the CPU seconds of making and encoding it. When the first
     takes more bytes than exported, ``pack`` writes the one of fewest bytes of the others that
     take fewer (``spinemesh.pack.run.next_layout_outcome``)."""
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
     from spinemesh.pack.atlas_pack import PackRefused, compose, plan_layouts
     from spinemesh.pack.run import colours_by_settings, encode_page, packed_page_colours, page_colour, page_mode
     from spinemesh.pack.uses import collect_uses
@@ -542,7 +542,7 @@ def png_encoders(pages: list[Path], levels=(1, 2, 3)) -> str:
     import oxipng
     from PIL import Image
 
-    from spinemesh.images import decode_rgba, load_rgba
+    from spinemesh.images.decode import decode_rgba, load_rgba
 
     cols = ["Pillow (default)"] + [f"oxipng {level}" for level in levels]
     totals = {c: [0, 0.0] for c in cols}
@@ -615,7 +615,7 @@ def png_level_child(pages: list[str], level: int) -> list[dict]:
 def _png_level_row(path: Path, spent: list) -> dict:
     """One page of :func:`png_level_child`: its texels, export bytes, and per use ``[bytes, wall s,
     CPU s]`` (``spent``: oxipng's seconds, counted by the caller's wrapper)."""
-    from spinemesh.images import decode_rgba
+    from spinemesh.images.decode import decode_rgba
     from spinemesh.pack.atlas_pack import PackRefused
     from spinemesh.pack.run import encode_page, page_colour, page_mode, reencoded_page
 

@@ -82,7 +82,7 @@ PROJECTS = (
 #: in shared memory, so that those of forked worker processes (pages decoded ahead of the
 #: planning) count as the planning process's own do; encodes are the planning process's.
 COUNTERS = r"""
-import multiprocessing, cv2, PIL.Image, spinemesh.images as _im
+import multiprocessing, cv2, PIL.Image, spinemesh.images.decode as _im
 DECODES = multiprocessing.Value("q", 0)
 ENCODES = [0]
 def _counting(f, key):
@@ -119,7 +119,7 @@ SPRITE = r"""
 import json, os, sys, time
 from pathlib import Path
 from spinemesh.cli.mesh import _one
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.mesher import compute_mask, mesh_image, resolve_params
 image, out, repeat = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
 params = resolve_params("default", mask_source="auto")
@@ -302,7 +302,7 @@ def bench_decoders(images: list[Path]) -> None:
     import numpy as np
     from PIL import Image
 
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
 
     def pil_array(p):
         with Image.open(p) as im:
@@ -374,7 +374,7 @@ def bench_decode_corpus(roots: list[Path]) -> bool:
     import numpy as np
     from PIL import Image
 
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
 
     codec_of = {".png": imagecodecs.png_decode, ".webp": imagecodecs.webp_decode, ".jpg": imagecodecs.jpeg8_decode}
 

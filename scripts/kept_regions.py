@@ -43,7 +43,8 @@ sys.path.insert(0, str(REPO / "scripts"))
 from pack_gap import GapRow, project_gaps, share  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.images import AtlasImages, load_rgba  # noqa: E402
+from spinemesh.images.decode import load_rgba  # noqa: E402
+from spinemesh.images.sources import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import RING_TEXELS, _items, default_padding  # noqa: E402
 from spinemesh.pack.uses import collect_uses  # noqa: E402
 from spinemesh.project import find_project, project_atlases  # noqa: E402

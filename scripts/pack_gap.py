@@ -42,7 +42,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.images import AtlasImages, load_rgba  # noqa: E402
+from spinemesh.images.decode import load_rgba  # noqa: E402
+from spinemesh.images.sources import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
     RING_TEXELS, PackRefused, PageRules, _items, default_padding, footprint_share, largest_pot_pages_below,
     pack_atlas, page_settings,

@@ -19,7 +19,7 @@ from collections import Counter
 from pathlib import Path
 
 from spinemesh.errors import SpineMeshError
-from spinemesh.images import AtlasImages
+from spinemesh.images.sources import AtlasImages
 from spinemesh.pack.atlas_pack import PackRefused
 from spinemesh.pack.run import colour_words, colours_by_settings, page_colour
 from spinemesh.project import find_project, find_projects, project_atlases

@@ -18,7 +18,7 @@ investigation, or what kept the skeleton from being rendered.
 
 "Visible" is alpha >= 8 (the dump check's ``alpha-tol``); anything fainter that differs counts
 in the pixels over the tolerance. The upgrade agrees with that: in normal slots it leaves out
-only texels whose premultiplied channels are at most 2/255 (``spinemesh.images.FAINT_TEXEL``),
+only texels whose premultiplied channels are at most 2/255 (``spinemesh.images.texels.FAINT_TEXEL``),
 which move no pixel by more than the tolerance in one layer, so a pixel it loses or adds on its
 own is never visible; stacked faint layers can add up, and show as pixels over the tolerance.
 

@@ -298,7 +298,7 @@ def mip_levels(atlas, region_uses: dict, pinned: str, own_rectangles: bool) -> d
     """
     import cv2
 
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
     from spinemesh.pack.atlas_pack import uses_mipmaps
     from spinemesh.pack.outlines import footprint
     from spinemesh.pack.uses import RegionUses
@@ -412,7 +412,7 @@ def mip_texel_differences(original_atlas, packed_atlas, region_uses: dict, pinne
     each region's original neighbourhood turned as packing stored it (:func:`_turned_like`)."""
     import cv2
 
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
     from spinemesh.pack.outlines import footprint
     from spinemesh.pack.uses import RegionUses
 

@@ -278,7 +278,7 @@ def frames_on_one_grid(frames: list) -> list:
     """
     import cv2
 
-    from .images import RegionImage
+    from .images.sources import RegionImage
 
     if len({f.shape[:2] for f in frames}) <= 1:
         return frames

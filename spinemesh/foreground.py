@@ -20,7 +20,7 @@ def texels_as_words(rgba: np.ndarray) -> np.ndarray:
 
     A texel is all zeros exactly when its word is 0, and its alpha exceeds ``t`` exactly when
     its word is at least ``(t + 1) << 24``: one comparison of contiguous words per texel where
-    :func:`~spinemesh.images.channel_max` makes three passes over four planes (about 4x
+    :func:`~spinemesh.images.texels.channel_max` makes three passes over four planes (about 4x
     faster) and a slice of the alpha plane reads every fourth byte (about 3.5x slower on a
     page). A view of ``rgba`` when its texels lie four bytes apart (a page, or a rectangle of
     one); else (a turned view) of a contiguous copy.

@@ -277,7 +277,7 @@ def files_to_copy(proj: Project, out: Path, written: set[Path], needed: set[Path
     skeleton asked for does not bring its twins (``hero.json`` beside ``hero.skel``) or other
     skeletons' atlases along; other files (a licence, audio) still come.
     """
-    from .images import IMAGE_EXTENSIONS
+    from .images.decode import IMAGE_EXTENSIONS
     from .project import ATLAS_SUFFIXES, is_skeleton_file
 
     pairs = []
@@ -300,7 +300,7 @@ def atlas_pages(proj: Project) -> dict[Path, set[Path]]:
     A copy of the project copies an atlas after its pages, and not when one of them could not be
     copied (a full disk): a runtime would read the atlas and miss its page.
     """
-    from .images import AtlasImages
+    from .images.sources import AtlasImages
     from .project import project_atlases
 
     return {path.resolve(): {AtlasImages.page_path(atlas, page.name, proj.root).resolve() for page in atlas.pages}
@@ -316,7 +316,7 @@ def check_pages_copied(pages: set[Path], failed: set[Path], dest: Path) -> None:
 
 def files_needed(doc: dict, source) -> set[Path]:
     """The files a skeleton needs beside it (real paths): its atlases and their pages, or its images."""
-    from .images import AtlasImages, FolderImages
+    from .images.sources import AtlasImages, FolderImages
     from .project import needed_images
 
     if isinstance(source, AtlasImages):

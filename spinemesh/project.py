@@ -30,7 +30,9 @@ from .errors import SpineMeshError, UnsafePathError
 from .files.inputs import existing, regular_file
 from .files.inside import is_within, page_not_found_said, real, resolve_inside
 from .files.walk import walk_folder
-from .images import AtlasImages, FolderImages, PageStore, image_size
+from .images.decode import image_size
+from .images.pages import PageStore
+from .images.sources import AtlasImages, FolderImages
 from .skeleton import SKELETON_SUFFIXES, image_paths, iter_attachments, load_skeleton
 
 ATLAS_SUFFIXES = (".atlas", ".atlas.txt")
@@ -269,7 +271,7 @@ def needed_images(doc: dict) -> set[str]:
 def project_pages(project: Project) -> PageStore:
     """The project's one store of decoded atlas pages, shared by every skeleton's image source.
 
-    Every :class:`~spinemesh.images.AtlasImages` that :func:`image_source_for` makes for the
+    Every :class:`~spinemesh.images.sources.AtlasImages` that :func:`image_source_for` makes for the
     project decodes through it, so a page that several skeletons, skins or sequences use is
     decoded once. Call ``project_pages(project).release()`` once the regions are cut.
     """

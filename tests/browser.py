@@ -59,7 +59,7 @@ def canvases(got: dict) -> list:
     """The player's two canvases (original, upgraded) its test hook wrote, RGBA arrays."""
     import base64
 
-    from spinemesh.images import decode_rgba
+    from spinemesh.images.decode import decode_rgba
 
     return [decode_rgba(base64.b64decode(got[k].split(",", 1)[1])) for k in ("before", "after")]
 

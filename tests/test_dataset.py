@@ -17,7 +17,8 @@ from spinemesh.atlas import read_atlas
 from spinemesh.cli import app
 from spinemesh.dataset import build_dataset, content_id, find_projects, open_dataset, split_of
 from spinemesh.dataset.format import INDEX, PROJECTS
-from spinemesh.images import load_rgba, premultiply
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.texels import premultiply
 from spinemesh.skeleton import image_paths, iter_attachments, load_skeleton
 
 

@@ -19,7 +19,8 @@ import pytest
 from spinemesh.atlas import parse_atlas
 from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
 from spinemesh.files.atomic import atomic_write_png, atomic_write_text
-from spinemesh.images import FAINT_TEXEL, bleeding_in, premultiply, shown_texels
+from spinemesh.images.regions import bleeding_in
+from spinemesh.images.texels import FAINT_TEXEL, premultiply, shown_texels
 from spinemesh.upgrade import Options, upgrade_project
 from spinemesh.attachment_geometry import float32_exact, region_positions
 
@@ -202,7 +203,8 @@ def test_bleeding_border_is_the_dilation_of_the_whole_frame():
     import cv2
 
     from spinemesh.atlas import parse_atlas
-    from spinemesh.images import bleeding_border, texels_as_words
+    from spinemesh.foreground import texels_as_words
+    from spinemesh.images.regions import bleeding_border
 
     rng = np.random.default_rng(0)
     checked = 0

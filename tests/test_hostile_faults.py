@@ -348,7 +348,8 @@ def test_pages_decoded_ahead_stay_within_their_budget(tmp_path):
     import numpy as np
     from PIL import Image
 
-    from spinemesh import images
+    from spinemesh.images.decode import load_rgba
+    from spinemesh.images.pages import PagePrefetch, PageStore
 
     paths = []
     for i, side in enumerate([100, 100, 100, 200, 100]):  # 40,000 bytes of texels, one of 160,000
@@ -358,12 +359,12 @@ def test_pages_decoded_ahead_stay_within_their_budget(tmp_path):
 
     def submit(path):
         future = Future()
-        future.set_result(images.load_rgba(path))
+        future.set_result(load_rgba(path))
         submitted.append(path)
         return future
 
-    prefetch = images.PagePrefetch(submit, window=10, max_bytes=100_000)
-    store = images.PageStore(max_bytes=120_000)
+    prefetch = PagePrefetch(submit, window=10, max_bytes=100_000)
+    store = PageStore(max_bytes=120_000)
     store.prefetch = prefetch
     store.decode_ahead(paths)
     for path in paths:

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from spinemesh.atlas import read_atlas
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.pack.atlas_pack import PackRefused
 from spinemesh.pack.run import encode_page, pack_library, pack_project
 
@@ -59,7 +59,7 @@ def test_lossless_pages_decode_to_the_texels_written(ext):
 
 
 def load_rgba_bytes(data: bytes) -> np.ndarray:
-    from spinemesh.images import decode_rgba
+    from spinemesh.images.decode import decode_rgba
 
     return decode_rgba(data)
 
@@ -249,7 +249,8 @@ def test_atlases_of_one_stem_repack_onto_pages_of_their_own(tmp_path):
     """``x.atlas`` and ``x.2.atlas`` in one folder: each one's untrimmed frames on its own new page."""
     from spinemesh.demo import demo_images, pack_atlas
     from spinemesh.files.atomic import atomic_write_png, atomic_write_text
-    from spinemesh.images import AtlasImages, cut_region
+    from spinemesh.images.regions import cut_region
+    from spinemesh.images.sources import AtlasImages
     from spinemesh.upgrade.repack import write_repacked_atlas
 
     images = demo_images()

@@ -461,7 +461,8 @@ def test_a_premultiplied_glow_of_alpha_0_stays_inside_the_meshes_and_packs(tmp_p
 
     from spinemesh.atlas import read_atlas
     from spinemesh.demo import make_demo_project
-    from spinemesh.images import cut_region, load_rgba
+    from spinemesh.images.decode import load_rgba
+    from spinemesh.images.regions import cut_region
     from spinemesh.skeleton import iter_skins, load_skeleton
     from spinemesh.upgrade import Options, upgrade_project
 

@@ -8,8 +8,11 @@ from PIL import Image
 
 from spinemesh.atlas import parse_atlas, read_atlas
 from spinemesh.errors import AtlasError, ImageError, UnsafePathError
-from spinemesh.images import (AtlasImages, FolderImages, PageStore, channel_max, cut_region, load_rgba, premultiply,
-                              unpremultiply)
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.pages import PageStore
+from spinemesh.images.regions import cut_region
+from spinemesh.images.sources import AtlasImages, FolderImages
+from spinemesh.images.texels import channel_max, premultiply, unpremultiply
 
 from conftest import example_projects, memory_files_left
 
@@ -258,7 +261,8 @@ def _lose_the_worker(path):
 
 def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_path, monkeypatch):
     """Same texels, read-only, each page counted once, and none decoded by this process."""
-    from spinemesh import images
+    from spinemesh.images import decode
+    from spinemesh.images.pages import PagePrefetch
     from spinemesh.cluster import open_workers
     from spinemesh.upgrade.plan import decode_page_shared
 
@@ -267,11 +271,11 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
     with open_workers(2) as workers:
         workers.submit(abs, -1).result()  # the workers are forked before this process's decoder is watched
         decoded_here = []
-        real = images.load_rgba
-        monkeypatch.setattr(images, "load_rgba", lambda path: decoded_here.append(path) or real(path))
+        real = decode.load_rgba
+        monkeypatch.setattr(decode, "load_rgba", lambda path: decoded_here.append(path) or real(path))
         store = PageStore()
-        store.prefetch = images.PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
-                                             window=2)  # the third waits for a turn
+        store.prefetch = PagePrefetch(lambda path: workers.submit(decode_page_shared, path, first=True),
+                                      window=2)  # the third waits for a turn
         store.decode_ahead(pages + pages[:1])
         for path, want in zip(pages, expected):
             got = store.page(path)
@@ -288,7 +292,7 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
 def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_result(tmp_path):
     """A worker lost under a page (twice), or one that cannot decode it: this process decodes the
     page itself, so its texels, or its error, are what they are without workers."""
-    from spinemesh import images
+    from spinemesh.images.pages import PagePrefetch
     from spinemesh.cluster import open_workers
     from spinemesh.upgrade.plan import decode_page_shared
 
@@ -298,12 +302,12 @@ def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_r
     with open_workers(2) as workers:
         lost = []
         store = PageStore()
-        store.prefetch = images.PagePrefetch(
+        store.prefetch = PagePrefetch(
             lambda path: lost.append(path) or workers.submit(_lose_the_worker, path, first=True), window=4)
         store.decode_ahead(pages[:1])
         assert np.array_equal(store.page(pages[0]), load_rgba(pages[0])) and lost == pages[:1]
         store = PageStore()
-        store.prefetch = images.PagePrefetch(lambda path: workers.submit(decode_page_shared, path), window=4)
+        store.prefetch = PagePrefetch(lambda path: workers.submit(decode_page_shared, path), window=4)
         store.decode_ahead([bad, pages[1]])
         with pytest.raises(ImageError) as ahead:
             store.page(bad)
@@ -392,7 +396,7 @@ def _png_kinds(tmp_path) -> dict:
 def test_every_png_kind_decodes_to_pillows_texels(tmp_path):
     """8-bit PNG of every colour type goes through imagecodecs; 1- to 4-bit, 16-bit and interlaced
     PNG through Pillow; the texels are Pillow's either way (palettes and tRNS included)."""
-    from spinemesh.images import _codec_rgba
+    from spinemesh.images.decode import _codec_rgba
 
     for name, (path, fast) in _png_kinds(tmp_path).items():
         with Image.open(path) as im:
@@ -415,7 +419,7 @@ def test_a_png_imagecodecs_refuses_is_decoded_by_pillow_as_before(tmp_path):
 
 def test_webp_still_through_imagecodecs_animated_through_pillow(tmp_path):
     """Lossless and lossy still WebP decode to Pillow's texels; an animated one to its first frame."""
-    from spinemesh.images import _codec_rgba
+    from spinemesh.images.decode import _codec_rgba
 
     yy, xx = np.mgrid[0:24, 0:32]
     rgba = np.stack([xx * 8, yy * 10, (xx + yy) * 4, np.where(xx > 4, 255, 0)], -1).astype(np.uint8)
@@ -454,7 +458,7 @@ def test_real_page_images_of_every_kind_decode_to_pillows_texels(examples, corpu
 def test_turned_clockwise_is_numpys_turn_copied():
     """OpenCV turns bytes and booleans of up to four channels, numpy anything else: the values
     of np.rot90(values, -quarters) either way, contiguous, from views whose rows lie apart."""
-    from spinemesh.images import turned_clockwise
+    from spinemesh.images.regions import turned_clockwise
 
     rng = np.random.default_rng(0)
     for shape in [(5, 7), (5, 7, 1), (5, 7, 2), (5, 7, 4), (5, 7, 5), (1, 1, 4), (0, 3, 4)]:
@@ -472,7 +476,7 @@ def test_part_content_id_is_equal_exactly_for_equal_texels_and_masks():
     """The key of a part (and of its mask) depends on the values only: a view of a page whose rows
     lie apart, a turned copy and a contiguous copy of the same texels agree; one texel or one
     mask bit apart, or the same texels elsewhere, they differ."""
-    from spinemesh.images import content_id, part_content_id
+    from spinemesh.images.content_ids import content_id, part_content_id
 
     rng = np.random.default_rng(1)
     page = rng.integers(0, 256, (40, 50, 4)).astype(np.uint8)
@@ -503,7 +507,8 @@ def test_part_content_id_is_equal_exactly_for_equal_texels_and_masks():
 def test_lazy_masks_are_the_eager_defaults():
     """A straight page's region without bleed leaves its masks to from_stored's defaults: the
     same masks as alpha > 0 and alpha > FAINT_TEXEL, made when asked for, each on its own."""
-    from spinemesh.images import FAINT_TEXEL, RegionImage
+    from spinemesh.images.sources import RegionImage
+    from spinemesh.images.texels import FAINT_TEXEL
 
     rng = np.random.default_rng(2)
     rgba = rng.integers(0, 5, (6, 9, 4)).astype(np.uint8)
@@ -519,7 +524,7 @@ def test_lazy_masks_are_the_eager_defaults():
 def test_shown_texels_of_premultiplied_rectangles_is_the_channel_maximum():
     """On a premultiplied page a texel shows where any channel exceeds FAINT_TEXEL: OpenCV's
     threshold on rectangles of a page (rows apart) gives what the channel maximum gives."""
-    from spinemesh.images import FAINT_TEXEL, shown_texels
+    from spinemesh.images.texels import FAINT_TEXEL, shown_texels
 
     rng = np.random.default_rng(3)
     for high in (6, 256):
@@ -546,7 +551,8 @@ def test_alpha_above_compares_words_as_the_alpha_plane_does():
 def _decoded_as_before(path):
     """What ``load_rgba`` gave for an 8-bit PNG before the stored rows: libpng's texels for the file
     as it is, else Pillow's, else the error's kind."""
-    from spinemesh.images import _imagecodecs, rgba_from_samples
+    from spinemesh.images.decode import rgba_from_samples
+    from spinemesh.images.png_rows import _imagecodecs
 
     codecs = _imagecodecs()
     try:
@@ -575,7 +581,7 @@ def test_png_rows_inflated_by_libdeflate_give_libpngs_texels(tmp_path):
 
     import cv2
 
-    from spinemesh.images import _imagecodecs, png_with_stored_rows
+    from spinemesh.images.png_rows import _imagecodecs, png_with_stored_rows
 
     png_decode = _imagecodecs().png_decode
     kinds = _png_kinds(tmp_path)

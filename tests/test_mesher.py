@@ -11,7 +11,7 @@ import pytest
 
 from conftest import EXAMPLES
 from spinemesh.errors import ImageError
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.mesher import PRESETS, Mesh, compute_mask, mesh_image
 from spinemesh.metrics import _min_pair_distance, coverage, mesh_problems, opaque_mask, waste
 

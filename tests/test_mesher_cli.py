@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from conftest import EXAMPLES
 from spinemesh.cli import app
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.mesher import Mesh
 from spinemesh.metrics import coverage, opaque_mask
 

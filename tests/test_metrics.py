@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.metrics import (angle_ratio, boundary_adherence, coverage, mesh_coverage_mask, mesh_problems,
                                opaque_mask, triangle_areas, waste)
 

@@ -21,7 +21,9 @@ from typer.testing import CliRunner
 from spinemesh.atlas import read_atlas
 from spinemesh.cli import app
 from spinemesh.demo import make_demo_project
-from spinemesh.images import AtlasImages, cut_region, load_rgba
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.regions import cut_region
+from spinemesh.images.sources import AtlasImages
 from spinemesh.pack.atlas_pack import PageRules, measured_padding
 from spinemesh.pack.place import fill_pages
 from spinemesh.pack.run import PackOptions, pack_project

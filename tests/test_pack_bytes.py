@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from spinemesh.atlas import read_atlas
-from spinemesh.images import cut_region, load_rgba
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.regions import cut_region
 from spinemesh.pack import run
 from spinemesh.pack.atlas_pack import PageRules
 from spinemesh.pack.run import PackOptions, pack_project
@@ -51,7 +52,7 @@ def test_png_pages_are_written_through_oxipng(meshed, tmp_path):
 
 
 def load_rgba_bytes(data: bytes) -> np.ndarray:
-    from spinemesh.images import decode_rgba
+    from spinemesh.images.decode import decode_rgba
 
     return decode_rgba(data)
 

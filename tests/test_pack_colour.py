@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from conftest import CORPUS, unavailable
 
-from spinemesh.images import load_rgba
+from spinemesh.images.decode import load_rgba
 from spinemesh.pack import run
 from spinemesh.pack.png import (
     chunk_differences,
@@ -233,7 +233,7 @@ def test_an_rgb_page_with_a_transparent_colour_is_written_with_alpha(tmp_path):
 def _corpus_atlases_with_colour(most_bytes: int = 1_000_000) -> list[tuple[Path, str]]:
     """Corpus projects and their atlases whose pages say something of their colours, pages of at
     most ``most_bytes`` in all (the largest, of 34 million texels, is left to scripts/page_colours.py)."""
-    from spinemesh.images import AtlasImages
+    from spinemesh.images.sources import AtlasImages
     from spinemesh.project import find_project, find_projects, project_atlases
 
     found = []

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from spinemesh.images import image_size
+from spinemesh.images.decode import image_size
 from spinemesh.pack.atlas_pack import PageRules
 from spinemesh.pack.progress import COST, AtlasMeter, atlas_work, kilotexels, page_kilotexels
 from spinemesh.pack.run import PackOptions, PackProgress, pack_project

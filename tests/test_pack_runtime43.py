@@ -21,7 +21,8 @@ import pytest
 
 from spinemesh.atlas import read_atlas
 from spinemesh.files.atomic import atomic_write_png, atomic_write_text
-from spinemesh.images import AtlasImages, load_rgba
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.sources import AtlasImages
 from spinemesh.upgrade import Options, upgrade_project
 
 from test_pack import bilinear

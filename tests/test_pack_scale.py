@@ -167,7 +167,8 @@ def test_measured_padding_block_by_block_is_every_pair(monkeypatch):
 
 
 def test_fill_counts_the_texels_under_footprints_once(meshed, tmp_path):
-    from spinemesh.images import AtlasImages, load_rgba
+    from spinemesh.images.decode import load_rgba
+    from spinemesh.images.sources import AtlasImages
     from spinemesh.pack.atlas_pack import pack_atlas
     from spinemesh.pack.uses import collect_uses
     from spinemesh.project import find_project, project_atlases

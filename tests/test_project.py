@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from spinemesh.images import AtlasImages, FolderImages
+from spinemesh.images.sources import AtlasImages, FolderImages
 from spinemesh.project import find_project, image_source_for, needed_images
 from spinemesh.skeleton import load_skeleton
 
@@ -135,12 +135,12 @@ def test_images_hint_is_contained_by_real_path(tmp_path):
 
 def test_skeletons_sharing_an_atlas_decode_each_page_once(corpus, tmp_path, monkeypatch):
     """Nine skeletons on one atlas page: one decode for the whole plan, not one per skeleton."""
-    import spinemesh.images as images
+    import spinemesh.images.decode as decode
     from spinemesh.upgrade import Options, upgrade_project
 
     decoded = []
-    load = images.load_rgba
-    monkeypatch.setattr(images, "load_rgba", lambda path: decoded.append(path) or load(path))
+    load = decode.load_rgba
+    monkeypatch.setattr(decode, "load_rgba", lambda path: decoded.append(path) or load(path))
     result = upgrade_project(corpus / "stake-symbols", tmp_path / "out", Options(dry_run=True))
     assert result.counts().get("would mesh", 0) > 50
     assert len(decoded) == len(set(decoded)) == 1

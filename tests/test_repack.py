@@ -17,7 +17,8 @@ import pytest
 from spinemesh.atlas import read_atlas
 from spinemesh.demo import demo_images, demo_skeleton, pack_atlas
 from spinemesh.files.atomic import atomic_write_png, atomic_write_text
-from spinemesh.images import AtlasImages, load_rgba
+from spinemesh.images.decode import load_rgba
+from spinemesh.images.sources import AtlasImages
 from spinemesh.metrics import uncovered_pixels
 from spinemesh.upgrade import Options, upgrade_project
 from spinemesh.upgrade.repack import shelf_pack

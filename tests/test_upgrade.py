@@ -97,7 +97,7 @@ def test_demo_upgrade_json_and_skel(demo, tmp_path):
 
 
 def test_sequence_mesh_covers_every_frame(demo, tmp_path):
-    from spinemesh.images import FolderImages
+    from spinemesh.images.sources import FolderImages
     from spinemesh.metrics import coverage, opaque_mask
 
     out = tmp_path / "out"
@@ -229,7 +229,7 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
     that fails there, to report its own error), the output is that of one process, and no
     memory of theirs is left, after a run or after one stopped by Ctrl-C."""
     from conftest import memory_files_left, shared_memory_segments
-    from spinemesh import images
+    from spinemesh.images import decode
     from spinemesh.upgrade import upgrade_library
     from spinemesh.upgrade.progress import Progress
 
@@ -238,8 +238,8 @@ def test_a_library_run_decodes_pages_on_its_workers_and_leaves_no_memory_behind(
         make_demo_project(library / name)
     (library / "c" / "demo.png").write_bytes(b"\x89PNG\r\n\x1a\n not a page")
     shm = shared_memory_segments()
-    here, parent, real = [], os.getpid(), images.load_rgba
-    monkeypatch.setattr(images, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
+    here, parent, real = [], os.getpid(), decode.load_rgba
+    monkeypatch.setattr(decode, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
     alone = upgrade_library(library, tmp_path / "alone", Options())
     decoded_alone, here[:] = list(here), []
     result = upgrade_library(library, tmp_path / "workers", Options(jobs=2))
@@ -271,15 +271,15 @@ def test_one_projects_pages_are_decoded_by_the_workers_that_mesh_it(tmp_path, mo
     import shutil
 
     from conftest import memory_files_left
-    from spinemesh import images
+    from spinemesh.images import decode
 
     project = tmp_path / "project"
     make_demo_project(project, with_images_folder=False)
     shutil.copy(project / "demo.png", project / "demo2.png")
     shutil.copy(project / "demo.json", project / "demo2.json")
     (project / "demo2.atlas").write_text((project / "demo.atlas").read_text().replace("demo.png", "demo2.png"))
-    here, parent, real = [], os.getpid(), images.load_rgba
-    monkeypatch.setattr(images, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
+    here, parent, real = [], os.getpid(), decode.load_rgba
+    monkeypatch.setattr(decode, "load_rgba", lambda path: (os.getpid() == parent and here.append(path)) or real(path))
     alone = upgrade_project(project, tmp_path / "alone", Options())
     assert sorted(p.name for p in set(here)) == ["demo.png", "demo2.png"]  # without workers: here
     here[:] = []

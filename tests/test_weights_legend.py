@@ -53,7 +53,7 @@ def _renamed(doc: dict, old: str, new: str) -> None:
 
 
 def test_each_picture_has_a_caption_naming_its_bones_in_full_and_a_legend(tmp_path):
-    from spinemesh.images import load_rgba
+    from spinemesh.images.decode import load_rgba
     from spinemesh.rig.document import WeightOptions
     from spinemesh.rig.run import weight_project
     from spinemesh.upgrade import Options, upgrade_project

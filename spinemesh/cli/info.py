@@ -111,7 +111,7 @@ def _say_images(missing: set, source, proj) -> None:
 def _unreadable_pages(source, root: Path) -> list[str]:
     """One line per page of ``source``'s atlases whose file is not a whole image, from its header
     and, for a PNG, its chunks' heads (a few bytes a chunk: no page is decoded)."""
-    from ..images import image_size
+    from ..images.decode import image_size
     from ..pack.png import png_file_cut_short
 
     out = []

@@ -47,7 +47,7 @@ def _one(image_path: Path, preset: str, overrides: dict, out: Path, preview: Opt
     from ..errors import SpineMeshError
     from ..files.atomic import atomic_write_json, atomic_write_png
     from ..files.names import name_as_text, named_from
-    from ..images import load_rgba
+    from ..images.decode import load_rgba
     from ..memory import image_memory
     from ..mesher import compute_mask, mesh_image, resolve_params
     from ..mesher.preview import preview as draw_preview
@@ -155,7 +155,7 @@ def _mesh_folder(image: Path, out_dir: Path, preview: Optional[Path], steps: Opt
     from ..files.names import OneFilePerName
     from ..files.walk import walk_files
     from ..written_folder import WRITTEN_MARKER, mark_written_folder, rewriting_folder
-    from ..images import IMAGE_EXTENSIONS
+    from ..images.decode import IMAGE_EXTENSIONS
 
     folders = list({real(f): f for f, _, _ in _written_folders(out_dir, preview, steps)}.values())
     marked = []

@@ -43,7 +43,7 @@ def segment(
     from ..files.atomic import atomic_write_png
     from ..files.guard import check_outputs
     from ..files.inputs import existing
-    from ..images import load_rgba
+    from ..images.decode import load_rgba
     from ..memory import image_memory
     from ..segment import looks_empty, mask_for, model_files
 

@@ -20,8 +20,8 @@ import numpy as np
 
 from ..errors import ImageMemoryError, SpineMeshError
 from ..files.names import name_as_text
-from ..images import AtlasImages, FolderImages
-from ..images import content_id as image_content_id
+from ..images.sources import AtlasImages, FolderImages
+from ..images.content_ids import content_id as image_content_id
 from ..memory import image_memory
 from ..project import (SOURCE_FILE, find_project, find_projects, image_source_for,  # noqa: F401 (re-exported)
                        images_folder_for, needed_images, project_atlases, project_pages, skeletons_to_read)
@@ -77,7 +77,7 @@ def empty_side_said(data: list, side: str) -> str:
 
 
 def content_id(rgba: np.ndarray, box: tuple | None = None) -> str:
-    """:func:`spinemesh.images.content_id` over the image's tight box.
+    """:func:`spinemesh.images.content_ids.content_id` over the image's tight box.
 
     Only the pixels inside ``box`` (:func:`~spinemesh.dataset.format.tight_box`, computed
     when not given) are hashed, with the size and the box: everything outside is zero, so

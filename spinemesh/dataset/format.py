@@ -55,7 +55,7 @@ from ..files.inputs import regular_file
 from ..files.inside import resolve_inside
 from ..files.names import name_as_text
 from ..foreground import ALPHA_THRESHOLD, alpha_mask, texels_as_words
-from ..images import decode_rgba
+from ..images.decode import decode_rgba
 from ..limits import MAX_IMAGE_PIXELS, check_image_size
 from ..skeleton_check import is_int
 
@@ -394,7 +394,7 @@ class Dataset:
 
     def _decoded(self, row: dict, member: str) -> np.ndarray:
         """A member's image, (h, w, 4) uint8, decoded as every image is (its size checked before
-        its pixels, :func:`spinemesh.images.decode_rgba`), refused in one line naming the shard and
+        its pixels, :func:`spinemesh.images.decode.decode_rgba`), refused in one line naming the shard and
         the sample: junk bytes were a Pillow traceback, a mask of 100000x100000 pixels no error."""
         shard = self.root / row["shard"]
         try:

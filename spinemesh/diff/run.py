@@ -27,7 +27,7 @@ from ..errors import SpineMeshError
 from ..files.inputs import project_folder
 from ..files.inside import real
 from ..files.names import name_as_text
-from ..images import FolderImages
+from ..images.sources import FolderImages
 from ..mesher import Mesh, mesh_image
 from ..metrics import mesh_metrics, significant_edges
 from ..project import Project, find_project, image_source_for, skeletons_to_read

@@ -251,7 +251,7 @@ def footprint(g: RegionGeometry, uses: RegionUses | None) -> Footprint:
 def stored_index(i, j, width: int, height: int, k: int):
     """Where texel ``(i, j)`` of an upright ``width x height`` image lies once stored turned by ``k`` x 90 degrees.
 
-    The atlas convention (:func:`spinemesh.images.upright_at_original_size`): a region stored
+    The atlas convention (:func:`spinemesh.images.regions.upright_at_original_size`): a region stored
     with ``rotate: 90`` holds its upright image turned counter-clockwise. Returns ``(row,
     column)`` in the stored array; works for indices outside the image too (linear).
     """

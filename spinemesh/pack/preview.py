@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..images import fit_within
+from ..images.texels import fit_within
 from ..player import PreviewFolder
 from ..player.files import html_page
 from ..words import counted

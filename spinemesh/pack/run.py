@@ -21,7 +21,8 @@ from ..errors import SpineMeshError
 from ..files.atomic import atomic_copy, atomic_write_files, atomic_write_json, stop_if_every_write_refused, utf8
 from ..files.inside import as_written
 from ..files.names import named_within
-from ..images import UNREADABLE_IMAGE, AtlasImages, decode_rgba, image_file_bytes
+from ..images.decode import UNREADABLE_IMAGE, decode_rgba, image_file_bytes
+from ..images.sources import AtlasImages
 from ..memory import out_of_memory
 from ..project import Project, find_project, find_projects, project_atlases
 from ..runs import RunSummary
@@ -520,7 +521,7 @@ def decoded_as(data: bytes, expected: np.ndarray, name: str, fmt: str, colour: t
         When it does not decode, decodes to another size, any texel differs, or its colour
         chunks say otherwise.
     """
-    from ..images import decode_rgba
+    from ..images.decode import decode_rgba
 
     if colour is not None:
         lost = chunk_differences(colour, page_colour(data))
@@ -664,7 +665,7 @@ def _image_sizes(atlas, files: list[Path]) -> list[tuple[int, int] | None]:
     ``files``' headers where the atlas was read without its images."""
     if len(atlas.image_sizes) == len(files):
         return atlas.image_sizes
-    from ..images import image_size
+    from ..images.decode import image_size
 
     return [image_size(f) for f in files]
 
@@ -1031,7 +1032,7 @@ def reencoded_page(original: bytes, texels: np.ndarray, name: str) -> bytes:
     original : bytes
         The page's file as exported.
     texels : ndarray, shape (H, W, 4), uint8
-        What it decodes to (:func:`spinemesh.images.load_rgba`).
+        What it decodes to (:func:`spinemesh.images.decode.load_rgba`).
     name : str
         The page's name in its atlas.
 

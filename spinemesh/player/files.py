@@ -84,7 +84,7 @@ class PreviewFolder:
     def image(self, rgba: np.ndarray, size: int = IMAGE_SIZE) -> str:
         """Write ``rgba`` shrunk to fit ``size`` as ``img/<content hash>.png`` (once per
         content) and return that path, relative to ``root``."""
-        from ..images import fit_within
+        from ..images.texels import fit_within
 
         key = id(rgba)
         if key in self._images and self._images[key][0] is rgba:

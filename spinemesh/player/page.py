@@ -50,7 +50,7 @@ def write_player(folder: PreviewFolder, pid: str, page_rel: str, animations: lis
         where not yet (:func:`spinemesh.player.frames.encode_animation`).
     image_of : callable
         ``image_of(image path) -> rgba or None``: the attachment's original image (what
-        :class:`spinemesh.images.RegionImage` gives), RGBA (H, W, 4) uint8.
+        :class:`spinemesh.images.sources.RegionImage` gives), RGBA (H, W, 4) uint8.
     """
     up = "../" * page_rel.count("/")
     if "player.js" not in folder.sizes:

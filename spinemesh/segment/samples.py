@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ..foreground import alpha_mask
-from ..images import premultiply, unpremultiply
+from ..images.texels import premultiply, unpremultiply
 
 
 @dataclass

@@ -35,7 +35,7 @@ from PIL import Image
 
 from ..errors import SpineMeshError
 from ..files.atomic import atomic_write_stream
-from ..images import decode_rgba
+from ..images.decode import decode_rgba
 from ..segment.composite import coarse_noise_background, make_background
 from ..segment.preprocess import IMAGENET_MEAN, IMAGENET_STD, resize
 from ..segment.samples import dataset_rows, shrink, useful

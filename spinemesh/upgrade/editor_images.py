@@ -15,7 +15,8 @@ from ..errors import SpineMeshError
 from ..files.atomic import atomic_write_bytes
 from ..files.disk import file_stamp
 from ..files.inside import resolve_inside
-from ..images import RegionImage, premultiply, unpremultiply
+from ..images.sources import RegionImage
+from ..images.texels import premultiply, unpremultiply
 from ..pack.png import profile_misfit
 
 

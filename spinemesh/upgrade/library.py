@@ -8,7 +8,7 @@ its :class:`~.report.Result` is merged into the library's.
 With local worker processes, the atlas pages are decoded on the workers too: each project's
 skeletons are read one project ahead of its planning (:func:`.plan.read_project`), which
 names the pages the planning will cut from, and those are decoded by the workers ahead of
-their meshing (:class:`~spinemesh.images.PagePrefetch`) while this process plans the
+their meshing (:class:`~spinemesh.images.pages.PagePrefetch`) while this process plans the
 project before. Decoding was most of this process's reading and planning, the one part of a
 run that no added core shortened.
 """
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ..cluster import Workers, open_workers
 from ..errors import SpineMeshError
-from ..images import PagePrefetch
+from ..images.pages import PagePrefetch
 from ..output import check_output_folder, output_folder
 from ..project import find_project, find_projects
 from ..written_folder import check_written_folder, mark_written_folder, rewriting_folder

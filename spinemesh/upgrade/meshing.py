@@ -79,7 +79,7 @@ def drawn_art(task: MeshTask, params, overrides: dict) -> np.ndarray:
     :func:`~.plan.texels_to_cover`): in additive, multiply and screen slots every texel the runtime
     draws (faint glows stacked over each other add up, and a premultiplied page's light,
     alpha 0 and colour > 0, adds to what lies below); in normal slots those that can move a
-    pixel by more than :data:`~spinemesh.images.FAINT_TEXEL`/255. A single alpha threshold
+    pixel by more than :data:`~spinemesh.images.texels.FAINT_TEXEL`/255. A single alpha threshold
     would lose pixels the original draws. Otherwise the mesher's own mask.
     """
     from ..mesher import compute_mask

@@ -21,14 +21,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import images
 from ..attachment_geometry import frames_on_one_grid
 from ..cluster import ProcessWorkers, Workers, shared_array
 from ..errors import SpineMeshError
 from ..files.disk import file_stamp
 from ..files.names import OneFilePerName
 from ..foreground import alpha_above
-from ..images import FAINT_TEXEL, PREFETCH_PAGES_PER_WORKER, PagePrefetch, RegionImage, part_content_id
+from ..images import decode
+from ..images.content_ids import part_content_id
+from ..images.pages import PREFETCH_PAGES_PER_WORKER, PagePrefetch
+from ..images.sources import FolderImages, RegionImage
+from ..images.texels import FAINT_TEXEL
 from ..processes import keep_buffers_on_heap
 from ..project import Project, image_source_for, project_pages
 from ..skeleton import checked_attachments, image_paths, linked_source, load_skeleton
@@ -47,7 +50,7 @@ class MeshTask:
     Attributes
     ----------
     key : str
-        Content key of the image: :func:`spinemesh.images.part_content_id` of the stored part
+        Content key of the image: :func:`spinemesh.images.content_ids.part_content_id` of the stored part
         and of ``drawn``.
     rgba : ndarray, shape (h, w, 4), uint8
         The part of the original image that the atlas stores (straight alpha).
@@ -124,7 +127,7 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
     bits a channel would lose its low bits, and a page that repeats, is animated or is turned by
     its EXIF orientation would be drawn otherwise (``pack``'s tests of those pages,
     :func:`spinemesh.pack.run.check_no_repeat` and :func:`~spinemesh.pack.run.check_one_upright_image`).
-    ``source``: the :class:`~spinemesh.images.AtlasImages` the frames were cut from, which says their
+    ``source``: the :class:`~spinemesh.images.sources.AtlasImages` the frames were cut from, which says their
     pages (an images folder has none).
     """
     from ..pack.atlas_pack import PackRefused
@@ -163,7 +166,7 @@ def _page_drawn_otherwise_once(path: str, name: str, stamp: tuple) -> str:
     from ..pack.run import check_one_upright_image
 
     try:
-        check_one_upright_image(images.image_file_bytes(path), name)
+        check_one_upright_image(decode.image_file_bytes(path), name)
     except PackRefused as e:
         return str(e)
     except SpineMeshError:  # unreadable: its decode says why
@@ -226,7 +229,7 @@ def texels_to_cover(frames: list[RegionImage], blend: str) -> list[np.ndarray]:
     """Per frame, the texels a mesh drawn in a slot with this ``blend`` mode must cover.
 
     Normal blending: the texels that can move a pixel by more than
-    :data:`~spinemesh.images.FAINT_TEXEL`/255 (:attr:`RegionImage.shown`); fainter ones
+    :data:`~spinemesh.images.texels.FAINT_TEXEL`/255 (:attr:`RegionImage.shown`); fainter ones
     cannot, in one layer, wherever and however large they are drawn. Additive, multiply and
     screen slots are made to be stacked (glows, particles), where faint layers add up: every
     texel drawn (:attr:`RegionImage.drawn`). Measured with the runtime proof: leaving texels
@@ -479,7 +482,7 @@ class Planner:
                             self.untrimmed.setdefault(atlas.path, set()).add(name)
                 self.decided[seen] = (status, reason, task.key if task else "")
         status, reason, key = self.decided[seen]
-        if key and isinstance(source, images.FolderImages) and (unlike := _unlike(self.found[key].size, size)):
+        if key and isinstance(source, FolderImages) and (unlike := _unlike(self.found[key].size, size)):
             return "failed", unlike, ""  # another picture than the region the runtime draws: its mesh would not fit
         if key and (turned := _turned_for_meshes_only(source, paths)):
             return "failed", turned, ""
@@ -597,7 +600,7 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
     """The first half of :func:`plan_project`: every skeleton read and its targets listed, no image cut.
 
     Between the halves, the pages the second will cut from (:meth:`ProjectReading.pages_to_decode`)
-    can be decoded elsewhere (:meth:`spinemesh.images.PageStore.decode_ahead`).
+    can be decoded elsewhere (:meth:`spinemesh.images.pages.PageStore.decode_ahead`).
 
     Parameters
     ----------
@@ -642,15 +645,15 @@ def read_project(proj: Project, options: Options, result: Result, progress: Prog
 
 
 def decode_page_shared(path: Path):
-    """:func:`~spinemesh.images.load_rgba` on a local worker, answered as shared memory
+    """:func:`~spinemesh.images.decode.load_rgba` on a local worker, answered as shared memory
     (:func:`~spinemesh.cluster.shared_array`): a page decoded ahead of the planning.
 
     ``path`` is a page's real path, checked to lie inside its project by the planning process
-    (:meth:`~spinemesh.images.AtlasImages.page_file`); the size limits are ``load_rgba``'s.
+    (:meth:`~spinemesh.images.sources.AtlasImages.page_file`); the size limits are ``load_rgba``'s.
     """
     # looked up on its module at each call, as PageStore.page does: whoever wraps it (a
     # benchmark counting decodes) sees the decodes of both processes
-    return shared_array(images.load_rgba(path))
+    return shared_array(decode.load_rgba(path))
 
 
 def page_prefetch(workers: Workers | None) -> PagePrefetch | None:
@@ -658,7 +661,7 @@ def page_prefetch(workers: Workers | None) -> PagePrefetch | None:
 
     Only where the workers share this machine's memory: on Dask the texels would travel
     through the network, and one process has no one to decode ahead. Pages go to the workers
-    before their queued meshes, at most :data:`~spinemesh.images.PREFETCH_PAGES_PER_WORKER`
+    before their queued meshes, at most :data:`~spinemesh.images.pages.PREFETCH_PAGES_PER_WORKER`
     per worker not yet taken.
     """
     if not isinstance(workers, ProcessWorkers):

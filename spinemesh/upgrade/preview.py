@@ -250,7 +250,7 @@ class _ImageCache:
     orders that would make a two-page cache decode pages again and again."""
 
     def __init__(self, source):
-        from ..images import AtlasImages
+        from ..images.sources import AtlasImages
 
         if isinstance(source, AtlasImages):
             pages = sum(len(a.pages) for a in source.atlases)
@@ -359,7 +359,7 @@ def twin_of(rels: list[str], signatures: dict[str, str], binary: dict[str, bool]
 
 def _regions_of(source):
     """The atlases the player's region quads follow (:func:`spinemesh.anim.atlas_regions`), or None."""
-    from ..images import AtlasImages
+    from ..images.sources import AtlasImages
 
     return source.source.atlases if source is not None and isinstance(source.source, AtlasImages) else None
 
@@ -499,7 +499,9 @@ def _problems(result) -> str:
 def _atlas_pages(folder: PreviewFolder, result, project_root: Path, out: Path) -> str:
     """Every packed atlas's pages before and after (files, loaded when scrolled to)."""
     from ..atlas import read_atlas
-    from ..images import AtlasImages, fit_within, load_rgba
+    from ..images.decode import load_rgba
+    from ..images.sources import AtlasImages
+    from ..images.texels import fit_within
 
     def figures(atlas_path: Path, root: Path) -> str:
         atlas = read_atlas(atlas_path, strict=False)

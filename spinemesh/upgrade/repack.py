@@ -23,7 +23,7 @@ import numpy as np
 
 from ..atlas import Atlas, AtlasPage, AtlasRegion, Entry
 from ..files.names import portable_name
-from ..images import cut_region
+from ..images.regions import cut_region
 
 #: Transparent texels around each re-packed region (bilinear sampling never reaches a neighbour).
 PADDING = 2
@@ -198,7 +198,8 @@ def write_repacked_atlas(atlas_path: Path, names: set[str], project_root: Path, 
     """
     from ..atlas import read_atlas
     from ..files.atomic import atomic_write_bytes, atomic_write_text
-    from ..images import AtlasImages, load_rgba
+    from ..images.decode import load_rgba
+    from ..images.sources import AtlasImages
 
     atlas = read_atlas(atlas_path)
     rel = atlas_path.relative_to(project_root)
