@@ -261,9 +261,9 @@ def _lose_the_worker(path):
 
 def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_path, monkeypatch):
     """Same texels, read-only, each page counted once, and none decoded by this process."""
+    from spinemesh.cluster import open_workers
     from spinemesh.images import decode
     from spinemesh.images.pages import PagePrefetch
-    from spinemesh.cluster import open_workers
     from spinemesh.upgrade.plan import decode_page_shared
 
     pages, _ = _page_files(tmp_path)
@@ -292,8 +292,8 @@ def test_pages_decoded_ahead_by_workers_are_the_pages_this_process_decodes(tmp_p
 def test_a_decode_ahead_that_fails_or_is_lost_is_done_again_here_with_the_same_result(tmp_path):
     """A worker lost under a page (twice), or one that cannot decode it: this process decodes the
     page itself, so its texels, or its error, are what they are without workers."""
-    from spinemesh.images.pages import PagePrefetch
     from spinemesh.cluster import open_workers
+    from spinemesh.images.pages import PagePrefetch
     from spinemesh.upgrade.plan import decode_page_shared
 
     pages, bad = _page_files(tmp_path)

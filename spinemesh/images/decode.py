@@ -22,7 +22,6 @@ from ..limits import MAX_IMAGE_PIXELS, check_image_size
 from ..memory import image_memory
 from .png_rows import _imagecodecs, png_with_stored_rows
 
-
 #: What opening an image that Pillow cannot read raises (a header cut short, broken or too large).
 UNREADABLE_IMAGE = (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError)
 

@@ -13,7 +13,6 @@ import numpy as np
 
 from ..limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
 
-
 #: Samples per pixel of each PNG colour type (grey, RGB, palette, grey + alpha, RGBA), and the
 #: bit depths the format allows for it.
 _PNG_SAMPLES = {0: (1, (1, 2, 4, 8, 16)), 2: (3, (8, 16)), 3: (1, (1, 2, 4, 8)), 4: (2, (8, 16)), 6: (4, (8, 16))}

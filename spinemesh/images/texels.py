@@ -10,7 +10,6 @@ import numpy as np
 
 from ..foreground import alpha_above, texels_as_words
 
-
 #: A texel none of whose premultiplied channels exceeds this (/255) changes no pixel by more
 #: than this much when drawn once with normal blending: below the 2/255 the runtime proof
 #: tolerates (see :func:`shown_texels`).
