@@ -49,7 +49,8 @@ from spinemesh.images.sources import AtlasImages  # noqa: E402
 from spinemesh.pack.atlas_pack import (  # noqa: E402
     PageRules, candidate_widths, default_padding, is_power_of_two, round_page,
 )
-from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
+from spinemesh.pack.report import PackResult  # noqa: E402
+from spinemesh.pack.run import PackOptions, pack_project_into  # noqa: E402
 from spinemesh.project import find_project, project_atlases  # noqa: E402
 
 SHARED = REPO.parent / "shared"
@@ -496,7 +497,8 @@ def layouts_table(projects: list[Path], sides: str = "any") -> str:
     take fewer (``spinemesh.pack.run.next_layout_outcome``)."""
     from spinemesh.images.decode import load_rgba
     from spinemesh.pack.atlas_pack import PackRefused, compose, plan_layouts
-    from spinemesh.pack.run import colours_by_settings, encode_page, packed_page_colours, page_colour, page_mode
+    from spinemesh.pack.page_colours import colours_by_settings, packed_page_colours, page_colour
+    from spinemesh.pack.page_files import encode_page, page_mode
     from spinemesh.pack.uses import collect_uses
 
     lines = ["| project | atlas | as exported: page texels | bytes | layout | page texels | bytes | against "
@@ -590,8 +592,8 @@ def png_level_child(pages: list[str], level: int) -> list[dict]:
     """In a fresh process (its own oxipng thread pool, sized by ``RAYON_NUM_THREADS``): each page
     through both of ``pack``'s uses of oxipng at ``level``, timed on oxipng's calls alone (wall and
     CPU seconds, its threads' included): written from its texels as a packed page is
-    (:func:`spinemesh.pack.run.encode_page`: palette, RGB or RGBA as the page was, colour chunks),
-    and re-encoded as a kept atlas's page is (:func:`~spinemesh.pack.run.reencoded_page`: the
+    (:func:`spinemesh.pack.page_files.encode_page`: palette, RGB or RGBA as the page was, colour chunks),
+    and re-encoded as a kept atlas's page is (:func:`~spinemesh.pack.page_files.reencoded_page`: the
     export's bytes when that is not smaller). ``pack``'s oxipng is as it was on return."""
     from spinemesh.pack import png
 
@@ -617,7 +619,8 @@ def _png_level_row(path: Path, spent: list) -> dict:
     CPU s]`` (``spent``: oxipng's seconds, counted by the caller's wrapper)."""
     from spinemesh.images.decode import decode_rgba
     from spinemesh.pack.atlas_pack import PackRefused
-    from spinemesh.pack.run import encode_page, page_colour, page_mode, reencoded_page
+    from spinemesh.pack.page_colours import page_colour
+    from spinemesh.pack.page_files import encode_page, page_mode, reencoded_page
 
     data = path.read_bytes()
     rgba = decode_rgba(data, path)

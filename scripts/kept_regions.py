@@ -190,7 +190,8 @@ def kept_rows(name: str, default: Path, relaxed: Path, reasons: dict[str, str]) 
 
 def packed_texels(root: Path, scratch: Path) -> dict[str, tuple[int, int]]:
     """Per atlas (path relative to ``root``): page texels before and after ``pack`` of the project at ``root``."""
-    from spinemesh.pack.run import PackOptions, PackResult, pack_project_into
+    from spinemesh.pack.report import PackResult
+    from spinemesh.pack.run import PackOptions, pack_project_into
 
     out = scratch / "packed"
     shutil.rmtree(out, ignore_errors=True)

@@ -2,8 +2,8 @@
 
 A PNG page may carry colour chunks (gamma, chromaticities, sRGB, a colour profile, ...; a WebP
 or AVIF page a colour profile): an engine or a browser that manages colour reads them. ``pack``
-writes them on every page it packs (:func:`spinemesh.pack.run.page_colour`), and keeps an atlas
-whose pages packed together say different things (:func:`spinemesh.pack.run.colours_by_settings`).
+writes them on every page it packs (:func:`spinemesh.pack.page_colours.page_colour`), and keeps an atlas
+whose pages packed together say different things (:func:`spinemesh.pack.page_colours.colours_by_settings`).
 This script counts, over every project in the given folders, the atlases whose pages say
 something, by what they say, and those whose pages disagree.
 
@@ -21,7 +21,7 @@ from pathlib import Path
 from spinemesh.errors import SpineMeshError
 from spinemesh.images.sources import AtlasImages
 from spinemesh.pack.atlas_pack import PackRefused
-from spinemesh.pack.run import colour_words, colours_by_settings, page_colour
+from spinemesh.pack.page_colours import colour_words, colours_by_settings, page_colour
 from spinemesh.project import find_project, find_projects, project_atlases
 
 

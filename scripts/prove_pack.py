@@ -58,7 +58,8 @@ from prove_corpus import (CORPUS, RENDERABLE, TOLERANCE, harness_atlas, harness_
 from runtime_tool import dump, install, render, render_difference  # noqa: E402
 
 from spinemesh.errors import SpineMeshError  # noqa: E402
-from spinemesh.pack.run import PackOptions, PackResult, pack_project_into  # noqa: E402
+from spinemesh.pack.report import PackResult  # noqa: E402
+from spinemesh.pack.run import PackOptions, pack_project_into  # noqa: E402
 from spinemesh.project import find_project  # noqa: E402
 from spinemesh.skeleton import is_binary_skeleton  # noqa: E402
 

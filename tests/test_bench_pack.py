@@ -10,7 +10,8 @@ from conftest import REPO
 from PIL import Image
 
 from spinemesh.pack.atlas_pack import PackRefused, kept_note
-from spinemesh.pack.run import check_bytes_shrink, check_lossy_pages_shrink, next_layout_reason
+from spinemesh.pack.checks import check_bytes_shrink, check_lossy_pages_shrink
+from spinemesh.pack.run import next_layout_reason
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 

@@ -461,7 +461,8 @@ def test_an_atlas_whose_fills_kill_their_workers_is_kept_as_it_was(tmp_path, mes
     the atlas is copied as it was with the reason, and nothing packed is written."""
     from spinemesh.cluster import ProcessWorkers
     from spinemesh.pack import parallel
-    from spinemesh.pack.run import PackOptions, PackResult, pack_project_into
+    from spinemesh.pack.report import PackResult
+    from spinemesh.pack.run import PackOptions, pack_project_into
     from spinemesh.project import find_project
 
     monkeypatch.setattr(parallel, "fill_task", _die_on_a_fill)
@@ -516,7 +517,8 @@ def test_an_atlas_whose_fills_run_out_of_memory_fails_alone(tmp_path, meshed, mo
     line, its files copied as they were, and the run goes on: never a traceback."""
     from spinemesh.cluster import ProcessWorkers
     from spinemesh.pack import atlas_pack, parallel
-    from spinemesh.pack.run import NO_MEMORY, PackOptions, PackResult, pack_project_into
+    from spinemesh.pack.report import PackResult
+    from spinemesh.pack.run import NO_MEMORY, PackOptions, pack_project_into
     from spinemesh.project import find_project
 
     monkeypatch.setattr(parallel, "fill_task", _no_memory_for_a_fill)

@@ -25,7 +25,8 @@ import pytest
 from spinemesh.atlas import read_atlas
 from spinemesh.images.decode import load_rgba
 from spinemesh.pack.atlas_pack import PackRefused
-from spinemesh.pack.run import encode_page, pack_library, pack_project
+from spinemesh.pack.page_files import encode_page
+from spinemesh.pack.run import pack_library, pack_project
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -107,7 +107,7 @@ def test_larger_files_packs_lossy_webp_pages_and_they_draw_alike(meshed, tmp_pat
     lossy ones decode to: packed, it draws what it drew."""
     from test_pack import _webp_project
 
-    from spinemesh.pack.run import is_lossy_webp
+    from spinemesh.pack.checks import is_lossy_webp
 
     project = _webp_project(meshed, tmp_path / "p", lossless=False)
     assert is_lossy_webp(project / "demo.webp")

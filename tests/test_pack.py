@@ -203,7 +203,7 @@ def _webp_project(meshed: Path, dest: Path, lossless: bool) -> Path:
 
 def test_lossy_webp_pages_are_kept_when_lossless_pages_would_be_larger(meshed, tmp_path):
     """A lossy page written back losslessly grows on disk: the atlas keeps its pages, saying why."""
-    from spinemesh.pack.run import is_lossy_webp
+    from spinemesh.pack.checks import is_lossy_webp
 
     lossy = _webp_project(meshed, tmp_path / "lossy", lossless=False)
     assert is_lossy_webp(lossy / "demo.webp")

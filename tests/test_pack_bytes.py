@@ -21,8 +21,11 @@ import pytest
 from spinemesh.atlas import read_atlas
 from spinemesh.images.decode import load_rgba
 from spinemesh.images.regions import cut_region
-from spinemesh.pack import run
-from spinemesh.pack.atlas_pack import PageRules
+from spinemesh.pack import page_files, run
+from spinemesh.pack.atlas_pack import PackRefused, PageRules
+from spinemesh.pack.checks import is_lossy_webp
+from spinemesh.pack.png import png_chunks
+from spinemesh.pack.report import write_report
 from spinemesh.pack.run import PackOptions, pack_project
 
 REPO = Path(__file__).resolve().parents[1]
@@ -87,7 +90,7 @@ def _bloated(image, keep_format=False, colour=None) -> bytes:
 
 
 def test_an_atlas_whose_files_would_grow_is_kept_unless_asked(meshed, tmp_path, monkeypatch):
-    monkeypatch.setattr(run, "optimized_png", _bloated)
+    monkeypatch.setattr(page_files, "optimized_png", _bloated)
     result = pack_project(meshed, tmp_path / "kept")
     (row,) = result.atlases
     assert row.status == "kept" and "bytes against" in row.reason and "--larger-files" in row.reason, row.reason
@@ -119,7 +122,7 @@ def test_rectangles_only_when_that_is_smaller(meshed, tmp_path, monkeypatch):
     Image.fromarray(page).save(project / "demo.png")
 
     def grows(*args):
-        raise run.PackRefused("packed, its files would take more bytes")
+        raise PackRefused("packed, its files would take more bytes")
 
     monkeypatch.setattr(run, "check_bytes_shrink", grows)
     result = pack_project(project, tmp_path / "out", keep_previews=True)
@@ -129,7 +132,7 @@ def test_rectangles_only_when_that_is_smaller(meshed, tmp_path, monkeypatch):
     assert outcome_line(result.atlases) == "packed 0 of 1 atlas, 1 cleared outside its rectangles"
     assert "; 1 atlas cleared outside its rectangles (the layout kept); atlas files" in packed_line(
         result.atlases, "every region was kept")
-    run.write_report(result, tmp_path / "report.json")
+    write_report(result, tmp_path / "report.json")
     assert json.loads((tmp_path / "report.json").read_text())["atlases"][0]["status"] == "cleared"
     index = write_preview(result, tmp_path / "preview").read_text(encoding="utf-8")
     kept = index.split("atlases that kept their layout", 1)
@@ -282,7 +285,7 @@ def test_lossy_webp_and_jpeg_pages_are_never_reencoded(tmp_path):
     lossy = io.BytesIO()
     Image.fromarray(_full_page()).save(lossy, format="WEBP", quality=80)
     project = _kept_project(tmp_path / "mixed", {"a.png": _loose_png(_full_page()), "b.webp": lossy.getvalue()})
-    assert run.is_lossy_webp(project / "b.webp")
+    assert is_lossy_webp(project / "b.webp")
     (row,) = pack_project(project, tmp_path / "out").atlases
     assert row.status == "kept" and row.pages_reencoded == 1 and "1 of its 2 pages" in row.reason, row.reason
     assert (tmp_path / "out" / "b.webp").read_bytes() == lossy.getvalue()
@@ -311,19 +314,19 @@ def test_a_tampered_reencode_is_caught_and_the_page_copied(tmp_path, monkeypatch
 
     def no_gamma(image, keep_format=False, colour=None):
         data = optimized_png(image, keep_format=keep_format)
-        return b"".join([data[:8]] + [_chunk(k, v) for k, v in run.png_chunks(data) if k != b"gAMA"])
+        return b"".join([data[:8]] + [_chunk(k, v) for k, v in png_chunks(data) if k != b"gAMA"])
 
     def original_chunks(*kinds):
-        return [_chunk(k, v) for k, v in run.png_chunks(original) if k in kinds]
+        return [_chunk(k, v) for k, v in png_chunks(original) if k in kinds]
 
     for tamper, why in ((one_texel_off, "texel for texel"), (no_gamma, "gAMA")):
-        monkeypatch.setattr(run, "optimized_png", tamper)
+        monkeypatch.setattr(page_files, "optimized_png", tamper)
         data = tamper(original)
         assert len(data) < len(original)  # it would have been written, were it not checked
         try:
-            run.reencoded_page(original, load_rgba(project / "full.png"), "full.png")
+            page_files.reencoded_page(original, load_rgba(project / "full.png"), "full.png")
             raise AssertionError("not caught")
-        except run.PackRefused as e:
+        except PackRefused as e:
             assert why in str(e), e
         out = tmp_path / f"out-{why[:4]}"
         (row,) = pack_project(project, out).atlases
@@ -383,7 +386,7 @@ def _bloating(packed: list, ranks: set[int]):
     """An encoder that writes the pages of the layouts ``ranks`` of ``packed`` uncompressed (more bytes
     than the atlas as exported), the others as oxipng does."""
     sizes = {(p.shape[1], p.shape[0]) for rank in ranks for p in packed[rank].pages.values()}
-    real = run.optimized_png
+    real = page_files.optimized_png
 
     def encode(image, keep_format=False, colour=None):
         if not isinstance(image, (bytes, bytearray)) and (image.shape[1], image.shape[0]) in sizes:
@@ -405,7 +408,7 @@ def test_when_the_best_layout_grows_in_bytes_the_next_layout_of_fewest_bytes_is_
     others = range(1, len(packed))
     fewest = min(others, key=lambda r: (sizes[r], r))
     for bloated, expected in (({0}, fewest), ({0, fewest}, min(set(others) - {fewest}, key=lambda r: (sizes[r], r)))):
-        monkeypatch.setattr(run, "optimized_png", _bloating(packed, bloated))
+        monkeypatch.setattr(page_files, "optimized_png", _bloating(packed, bloated))
         out = tmp_path / f"out-{len(bloated)}"
         result = pack_project(meshed, out, PackOptions(rules=rules))
         (row,) = result.atlases
@@ -415,7 +418,7 @@ def test_when_the_best_layout_grows_in_bytes_the_next_layout_of_fewest_bytes_is_
         assert (out / "demo.atlas").read_text() == packed[expected].atlas.dumps()
         np.testing.assert_array_equal(load_rgba(out / "demo.png"), packed[expected].pages["demo.png"])
     # every layout larger than exported: none of them is written (the rectangles-only rewrite or the atlas kept)
-    monkeypatch.setattr(run, "optimized_png", _bloating(packed, set(range(len(packed)))))
+    monkeypatch.setattr(page_files, "optimized_png", _bloating(packed, set(range(len(packed)))))
     result = pack_project(meshed, tmp_path / "none", PackOptions(rules=rules))
     (row,) = result.atlases
     assert "another layout" not in row.reason and row.bytes_after <= row.bytes_before, row.reason
@@ -471,7 +474,7 @@ def test_each_page_is_read_once_while_its_atlas_is_packed(meshed, tmp_path, monk
         monkeypatch.undo()
     # the files would grow: the other layouts, the rectangles-only rewrite and the kept pages read nothing more
     opens = _opens_while_packing(monkeypatch, [meshed / "demo.png"])
-    monkeypatch.setattr(run, "optimized_png", _bloated)
+    monkeypatch.setattr(page_files, "optimized_png", _bloated)
     (row,) = pack_project(meshed, tmp_path / "grows", PackOptions(rules=PageRules("any"))).atlases
     assert row.status == "kept" and "bytes against" in row.reason, row.reason
     assert opens == {"demo.png": 1}, opens
@@ -498,7 +501,7 @@ def test_a_next_layout_whose_pages_do_not_come_back_is_never_written(meshed, tmp
             return optimized_png(rgba)
         return bloating(image, keep_format, colour)
 
-    monkeypatch.setattr(run, "optimized_png", encode)
+    monkeypatch.setattr(page_files, "optimized_png", encode)
     out = tmp_path / "out"
     (row,) = pack_project(meshed, out, PackOptions(rules=rules)).atlases
     assert row.status == "packed" and "another layout" in row.reason, row.reason
@@ -516,7 +519,8 @@ def test_an_atlas_that_cannot_be_written_leaves_its_pages_as_they_were(meshed, t
     import os
 
     from spinemesh.errors import OutputStopped
-    from spinemesh.pack.run import PackResult, pack_project_into
+    from spinemesh.pack.report import PackResult
+    from spinemesh.pack.run import pack_project_into
     from spinemesh.project import find_project
 
     real, refused = os.open, []

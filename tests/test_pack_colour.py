@@ -17,11 +17,15 @@ import pytest
 from conftest import CORPUS, unavailable
 
 from spinemesh.images.decode import load_rgba
-from spinemesh.pack import run
+from spinemesh.pack import page_files
+from spinemesh.pack.atlas_pack import PackRefused
+from spinemesh.pack.page_colours import colours_by_settings, packed_page_colours, page_colour
 from spinemesh.pack.png import (
     chunk_differences,
     colour_chunks,
     png_chunk,
+    png_chunks,
+    png_differences,
     with_colour_chunks,
 )
 from spinemesh.pack.run import PackOptions, pack_project
@@ -66,7 +70,7 @@ def _two_pages(meshed: Path, dest: Path) -> Path:
 
 
 def _said(page: Path):
-    return run.page_colour(page.read_bytes())
+    return page_colour(page.read_bytes())
 
 
 def _written_pages(out: Path, suffix: str = ".png") -> list[Path]:
@@ -91,7 +95,7 @@ def test_packed_pages_carry_the_colour_chunks_of_their_pages(meshed, tmp_path, c
     kinds = [k for k, _ in colour_chunks(page.read_bytes())]
     assert sorted(kinds) == sorted(k for k, _ in colour)
     # where the PNG specification wants them: after the header, before the image data
-    order = [k for k, _ in run.png_chunks(page.read_bytes())]
+    order = [k for k, _ in png_chunks(page.read_bytes())]
     assert order[0] == b"IHDR" and max(order.index(k) for k in kinds) < order.index(b"IDAT")
 
 
@@ -146,7 +150,7 @@ def test_pages_in_different_colour_spaces_keep_the_atlas(meshed, tmp_path, first
     assert (tmp_path / "out" / "demo.atlas").read_bytes() == (project / "demo.atlas").read_bytes()
     for name in ("demo.png", "demo2.png"):  # as exported, or re-encoded with every chunk kept
         written = (tmp_path / "out" / name).read_bytes()
-        assert run.png_differences((project / name).read_bytes(), written) == ""
+        assert png_differences((project / name).read_bytes(), written) == ""
         np.testing.assert_array_equal(load_rgba(tmp_path / "out" / name), load_rgba(project / name))
 
 
@@ -175,24 +179,24 @@ def test_a_dropped_colour_chunk_is_caught_and_the_atlas_kept(meshed, tmp_path, m
     decode-back check; the atlas keeps its pages, which keep theirs."""
     project = _copy(meshed, tmp_path / "in")
     _say(project / "demo.png", [SRGB, GAMMA])
-    real = run.optimized_png
+    real = page_files.optimized_png
 
     def no_gamma(image, keep_format=False, colour=None):
         data = real(image, keep_format=keep_format, colour=colour)
         if colour is None:  # the kept atlas's re-encode: untouched
             return data
-        return b"".join([data[:8]] + [png_chunk(k, v) for k, v in run.png_chunks(data) if k != b"gAMA"])
+        return b"".join([data[:8]] + [png_chunk(k, v) for k, v in png_chunks(data) if k != b"gAMA"])
 
-    monkeypatch.setattr(run, "optimized_png", no_gamma)
+    monkeypatch.setattr(page_files, "optimized_png", no_gamma)
     (row,) = pack_project(project, tmp_path / "out", PackOptions(larger_files=True)).atlases
     assert row.status == "kept" and "does not say what its original pages say" in row.reason, row.reason
     assert "gAMA" in row.reason
     written = (tmp_path / "out" / "demo.png").read_bytes()
-    assert run.png_differences((project / "demo.png").read_bytes(), written) == ""
+    assert png_differences((project / "demo.png").read_bytes(), written) == ""
     # the same page, checked directly
     rgba = np.array(load_rgba(project / "demo.png"))
-    with pytest.raises(run.PackRefused, match="gAMA"):
-        run.encode_page(rgba, "demo.png", None, ((b"sRGB", b"\x00"), GAMMA))
+    with pytest.raises(PackRefused, match="gAMA"):
+        page_files.encode_page(rgba, "demo.png", None, ((b"sRGB", b"\x00"), GAMMA))
 
 
 def test_webp_pages_carry_their_colour_profile(meshed, tmp_path):
@@ -209,8 +213,8 @@ def test_webp_pages_carry_their_colour_profile(meshed, tmp_path):
     assert Image.open(page).info.get("icc_profile") == profile
     # a WebP page cannot say a gamma: such an atlas is kept, not written without it
     rgba = np.array(load_rgba(page))
-    with pytest.raises(run.PackRefused, match="cannot say"):
-        run.encode_page(rgba, "p.webp", None, (GAMMA,))
+    with pytest.raises(PackRefused, match="cannot say"):
+        page_files.encode_page(rgba, "p.webp", None, (GAMMA,))
 
 
 def test_an_rgb_page_with_a_transparent_colour_is_written_with_alpha(tmp_path):
@@ -223,10 +227,10 @@ def test_an_rgb_page_with_a_transparent_colour_is_written_with_alpha(tmp_path):
     buf = io.BytesIO()
     Image.fromarray(rgb).save(buf, format="PNG", transparency=(0, 255, 0))
     (tmp_path / "p.png").write_bytes(buf.getvalue())
-    assert run.page_mode(tmp_path / "p.png") is None
+    assert page_files.page_mode(tmp_path / "p.png") is None
     rgba = np.array(load_rgba(tmp_path / "p.png"))
     assert rgba[6, 6, 3] == 0
-    page = run.encode_page(rgba, "p.png", run.page_mode(tmp_path / "p.png"))
+    page = page_files.encode_page(rgba, "p.png", page_files.page_mode(tmp_path / "p.png"))
     np.testing.assert_array_equal(page.texels, rgba)
 
 
@@ -267,7 +271,7 @@ def test_corpus_pages_with_colour_chunks_keep_them(tmp_path):
             written = tmp_path / str(n) / row.atlas
             before = parse_atlas((project / row.atlas).read_text(), project / row.atlas)
             folder = (project / row.atlas).parent
-            said = run.colours_by_settings(before, [_said(folder / p.name) for p in before.pages])
+            said = colours_by_settings(before, [_said(folder / p.name) for p in before.pages])
             for page in parse_atlas(written.read_text(), written).pages:
                 assert chunk_differences(said[page_settings(page)], _said(written.parent / page.name)) == [], page.name
     assert "packed" in statuses and "disagree" in statuses, statuses
@@ -297,6 +301,6 @@ def test_a_packed_page_of_unknown_settings_takes_the_colours_all_pages_share():
     other = (("filter", ("nearest",)),)
     assert page_settings(page) != other
     atlas = SimpleNamespace(pages=[page])
-    assert run.packed_page_colours(atlas, {other: (GAMMA,)}) == {"new.png": (GAMMA,)}
+    assert packed_page_colours(atlas, {other: (GAMMA,)}) == {"new.png": (GAMMA,)}
     with pytest.raises(PackRefused, match="cannot be told"):
-        run.packed_page_colours(atlas, {other: (GAMMA,), (("wrap", ("x",)),): (SRGB,)})
+        packed_page_colours(atlas, {other: (GAMMA,), (("wrap", ("x",)),): (SRGB,)})

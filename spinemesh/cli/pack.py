@@ -127,7 +127,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
     from ..errors import SpineMeshError
     from ..files.inputs import project_folder
     from ..output import run_report_error
-    from ..pack.run import failed_lines, write_report
+    from ..pack.report import failed_lines, write_report
     from ..runs import EXIT_PARTIAL
     from ..words import counted
     from ._summary import print_errors, say_preview
@@ -275,7 +275,7 @@ def print_pack_table(atlases: list, errors: list[str] = (), warnings: list[str] 
              change(a.bytes_before, a.bytes_after), *regions(a)] for a in atlases]
     total_note = ""
     if len(atlases) > 1:
-        from ..pack.run import atlas_totals
+        from ..pack.report import atlas_totals
 
         total = atlas_totals(atlases)
         rows.append(["total", f"{total['pages_before']} -> {total['pages_after']}",

@@ -139,7 +139,7 @@ def optimized_png(image: np.ndarray | bytes, keep_format: bool = False,
         Every colour of every texel kept, transparent ones included (no alpha optimisation);
         oxipng stores the texels with fewer bits (a palette, grey, fewer bits per channel) only
         where that loses nothing. Callers writing what a runtime reads decode it back first
-        (:func:`spinemesh.pack.run.encode_page`).
+        (:func:`spinemesh.pack.page_files.encode_page`).
     """
     global _used_here
     if isinstance(image, np.ndarray):
@@ -271,7 +271,7 @@ def chunk_differences(before, after) -> list[str]:
     name); ``["order"]`` when only their order differs; empty when they say the same.
 
     The one chunk comparison: of a page re-encoded as it is (:func:`png_differences`) and of
-    the colour chunks a page written anew carries (:func:`spinemesh.pack.run.decoded_as`).
+    the colour chunks a page written anew carries (:func:`spinemesh.pack.page_files.decoded_as`).
     """
     a = [(k, chunk_meaning(k, v)) for k, v in before]
     b = [(k, chunk_meaning(k, v)) for k, v in after]

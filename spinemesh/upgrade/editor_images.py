@@ -22,9 +22,9 @@ from ..pack.png import profile_misfit
 
 @lru_cache(maxsize=8)
 def _colour_of(source: str, stamp: tuple) -> tuple:
-    """The colour chunks of the page ``source`` (:func:`spinemesh.pack.run.page_colour`), read once
+    """The colour chunks of the page ``source`` (:func:`spinemesh.pack.page_colours.page_colour`), read once
     for all of its regions; ``stamp`` (:func:`~spinemesh.files.disk.file_stamp`) reads a changed page again."""
-    from ..pack.run import page_colour
+    from ..pack.page_colours import page_colour
 
     return page_colour(Path(source).read_bytes())
 

@@ -30,7 +30,7 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
     out : Path
         The output folder as written; its atlases and pages are replaced there.
     result : Result
-        Gets one :class:`spinemesh.pack.run.AtlasRow` per atlas in ``atlases``, the packing's
+        Gets one :class:`spinemesh.pack.report.AtlasRow` per atlas in ``atlases``, the packing's
         problems in ``errors`` and ``warnings``, its time in ``seconds["pack"]``.
     options : Options, optional
         Its page rules, jobs and Dask cluster; default: :class:`spinemesh.pack.run.PackOptions`'s.
@@ -48,7 +48,8 @@ def pack_written(out: Path, result: Result, options=None, workers=None, progress
         ``told()``: the work of this packing the ``pack`` phase was told ahead (a library run's
         :meth:`PackAhead.tell`), so that its own tells only the difference; default: none.
     """
-    from ..pack.run import PackOptions, PackResult, failed_lines, pack_project_into
+    from ..pack.report import PackResult, failed_lines
+    from ..pack.run import PackOptions, pack_project_into
     from ..pack.uses import collect_uses
 
     t0 = time.perf_counter()

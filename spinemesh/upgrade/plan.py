@@ -126,13 +126,13 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
     A new page is written at 8 bits a channel, still, upright and shared by regions: a page of 16
     bits a channel would lose its low bits, and a page that repeats, is animated or is turned by
     its EXIF orientation would be drawn otherwise (``pack``'s tests of those pages,
-    :func:`spinemesh.pack.run.check_no_repeat` and :func:`~spinemesh.pack.run.check_one_upright_image`).
+    :func:`spinemesh.pack.checks.check_no_repeat` and :func:`~spinemesh.pack.checks.check_one_upright_image`).
     ``source``: the :class:`~spinemesh.images.sources.AtlasImages` the frames were cut from, which says their
     pages (an images folder has none).
     """
     from ..pack.atlas_pack import PackRefused
     from ..pack.png import png_file_bit_depth
-    from ..pack.run import check_no_repeat
+    from ..pack.checks import check_no_repeat
 
     for f in frames:
         if (png_file_bit_depth(f.source) or 0) > 8:
@@ -154,7 +154,7 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
 
 def _page_drawn_otherwise(path: str, name: str) -> str:
     """Why the page file at ``path`` is drawn otherwise than its texels (animated, turned by EXIF:
-    :func:`spinemesh.pack.run.check_one_upright_image`); empty when it is not, or cannot be read
+    :func:`spinemesh.pack.checks.check_one_upright_image`); empty when it is not, or cannot be read
     (its decode says why). Each file read once (by path and :func:`~spinemesh.files.disk.file_stamp`)."""
     stamp = file_stamp(path)
     return "" if stamp is None else _page_drawn_otherwise_once(path, name, stamp)
@@ -163,7 +163,7 @@ def _page_drawn_otherwise(path: str, name: str) -> str:
 @lru_cache(maxsize=64)
 def _page_drawn_otherwise_once(path: str, name: str, stamp: tuple) -> str:
     from ..pack.atlas_pack import PackRefused
-    from ..pack.run import check_one_upright_image
+    from ..pack.checks import check_one_upright_image
 
     try:
         check_one_upright_image(decode.image_file_bytes(path), name)

@@ -163,7 +163,7 @@ def repack_atlas(atlas: Atlas, names: set[str], page_pixels, taken: set[str] = f
 
 def page_png(rgba: np.ndarray, source: Path, colour: tuple | None = None) -> bytes:
     """A new page's PNG file: ``rgba`` with the colour chunks of the page ``source`` its regions come
-    from (gamma, sRGB, colour profile: :func:`spinemesh.pack.run.page_colour`), so that an engine
+    from (gamma, sRGB, colour profile: :func:`spinemesh.pack.page_colours.page_colour`), so that an engine
     that manages colour draws them in the colours it drew them in. ``colour``: those chunks, when
     the caller has read them already."""
     import io
@@ -171,7 +171,7 @@ def page_png(rgba: np.ndarray, source: Path, colour: tuple | None = None) -> byt
     from PIL import Image
 
     from ..pack.png import with_colour_chunks
-    from ..pack.run import page_colour
+    from ..pack.page_colours import page_colour
 
     buf = io.BytesIO()
     Image.fromarray(rgba).save(buf, format="PNG")

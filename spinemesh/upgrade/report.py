@@ -67,7 +67,7 @@ class Result(RunSummary):
     #: which is in ``errors`` too); the project's other skeletons are upgraded all the same
     not_read: dict[str, str] = field(default_factory=dict)
     seconds: dict = field(default_factory=lambda: {"read": 0.0, "mesh": 0.0, "weights": 0.0, "write": 0.0})
-    #: ``--pack``: one :class:`spinemesh.pack.run.AtlasRow` per atlas written
+    #: ``--pack``: one :class:`spinemesh.pack.report.AtlasRow` per atlas written
     atlases: list = field(default_factory=list)
 
     def _items(self):
@@ -135,6 +135,6 @@ def write_report(result: Result, path: str | Path, project: str | Path | None = 
 
 
 def _atlas_totals(rows: list) -> dict:
-    from ..pack.run import atlas_totals  # pack is loaded only by runs that packed
+    from ..pack.report import atlas_totals  # pack is loaded only by runs that packed
 
     return atlas_totals(rows)
