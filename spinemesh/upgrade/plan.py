@@ -131,8 +131,8 @@ def why_no_new_page(frames: list[RegionImage], source=None) -> str:
     pages (an images folder has none).
     """
     from ..pack.atlas_pack import PackRefused
-    from ..pack.png import png_file_bit_depth
     from ..pack.checks import check_no_repeat
+    from ..pack.png import png_file_bit_depth
 
     for f in frames:
         if (png_file_bit_depth(f.source) or 0) > 8:

@@ -170,8 +170,8 @@ def page_png(rgba: np.ndarray, source: Path, colour: tuple | None = None) -> byt
 
     from PIL import Image
 
-    from ..pack.png import with_colour_chunks
     from ..pack.page_colours import page_colour
+    from ..pack.png import with_colour_chunks
 
     buf = io.BytesIO()
     Image.fromarray(rgba).save(buf, format="PNG")
