@@ -27,7 +27,12 @@ weights below ``min_weight`` dropped, the rest renormalised to sum 1.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:  # the annotation only: scipy is imported where a solve needs it
+    import scipy.sparse
 
 #: Upper bound on the vertices of the refinement the weights are solved on (speed).
 REFINED_VERTEX_BUDGET = 1600
@@ -475,7 +480,7 @@ def biharmonic_qp(v: np.ndarray, f: np.ndarray, free: np.ndarray, b: np.ndarray)
     return rows[:, free].tocsc(), rows[:, b]
 
 
-def solve_box_qps(q: "scipy.sparse.csc_matrix", linear: np.ndarray, tolerance: float | None = None,
+def solve_box_qps(q: scipy.sparse.csc_matrix, linear: np.ndarray, tolerance: float | None = None,
                   **settings) -> np.ndarray | None:
     """Minimise ``x^T q x / 2 + c^T x`` subject to ``0 <= x <= 1`` for each column ``c`` of ``linear``.
 
