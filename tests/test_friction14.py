@@ -8,9 +8,13 @@ import re
 from pathlib import Path
 
 import pytest
+from conftest import skel_json_pairs
 from test_hostile import run_cli
 
+from spinemesh.cli.convert_files import convert_files
 from spinemesh.project import no_skeleton_said
+from spinemesh.skeleton import load_skeleton
+from spinemesh.skeleton_binary.enums import EXTRA
 from spinemesh.rig.document import LEFT_OUT_LISTED, UNWEIGHTED_BONE
 from spinemesh.upgrade.report import Target
 
@@ -77,3 +81,38 @@ def test_an_upgrade_report_lists_the_bones_left_out_for_a_reason_of_their_own_fi
     assert list(weights["left_out"]) == ["cape", "hand", *[f"far{i}" for i in range(LEFT_OUT_LISTED - 2)]]
     assert weights["left_out_more"] == 22 - LEFT_OUT_LISTED
     assert len(target.weights["left_out"]) == 22  # the run's own record is whole
+
+
+# --- convert of a 4.1/4.2 .skel: the editor's JSON, no "name": null --------------------------------
+
+NULL_NAME = re.compile(r'"name":\s*null')
+
+
+@pytest.mark.parametrize("version", ["4.1", "4.2"])
+def test_convert_of_a_4_1_or_4_2_skel_writes_no_null_attachment_name(examples, tmp_path, version):
+    """Attachment keys with no attachment came out as ``"name": null``, which the 4.1/4.2 editors
+    leave out (3.8/4.0 write it): 78 on celestial-circus. Now as the editor's JSON beside each
+    ``.skel``, and the ``.skel`` written back from that JSON reads the same."""
+    pairs = skel_json_pairs(version)
+    assert len(pairs) >= 10
+    for skel, editor_json in pairs:
+        assert not NULL_NAME.search(editor_json.read_text(encoding="utf-8")), editor_json
+        converted = tmp_path / f"{skel.stem}.json"
+        convert_files(skel, converted)
+        assert not NULL_NAME.search(converted.read_text(encoding="utf-8")), skel
+        back = tmp_path / f"{skel.stem}.skel"
+        convert_files(converted, back)
+        assert _without_binary_info(load_skeleton(back)) == _without_binary_info(load_skeleton(skel)), skel
+
+
+def _without_binary_info(doc: dict) -> dict:
+    """A document read from a ``.skel`` without its string table's order (not in the JSON)."""
+    return {k: v for k, v in doc.items() if k != EXTRA}
+
+
+def test_convert_of_a_4_0_skel_keeps_its_null_attachment_names(examples, tmp_path):
+    """The 4.0 editor writes the null: so does ``convert``, as many as in its JSON."""
+    skel = examples / "4.0" / "spineboy" / "spineboy-pro.skel"
+    convert_files(skel, tmp_path / "s.json")
+    assert (len(NULL_NAME.findall((tmp_path / "s.json").read_text(encoding="utf-8"))) ==
+            len(NULL_NAME.findall(skel.with_suffix(".json").read_text(encoding="utf-8"))) > 0)

@@ -33,6 +33,9 @@ class Layout:
         self.attachment_timelines = self.minor >= 1  # "attachments": deform + sequence
         self.linked_key = "timelines" if self.minor >= 1 else "deform"
         self.short_arrays = self.minor < 2           # triangles, edges as int16
+        # an attachment key with no attachment: the 4.0 editor exports "name": null, 4.1 on leave
+        # the field out (the binary stores a null string either way)
+        self.null_attachment_names = self.minor < 1
         # 4.3 keeps every constraint in one list ("constraints", each with its "type", sliders
         # new), which skins and timelines index; bones store their length after the
         # inherit mode and an icon size and rotation; weighted vertices are preceded by the
