@@ -172,3 +172,16 @@ def test_diff_methods_naming_none_is_refused(tmp_path):
     assert r.returncode == 2, text
     assert "error: no method named in ' , '; choose from default, paper" in text
     assert not (tmp_path / "d" / "report.json").exists()
+
+
+@pytest.mark.parametrize("times", ["", " , "])
+def test_pose_times_naming_none_is_refused(tmp_path, times):
+    """``pose -a wave --times "$T"`` with ``T`` empty wrote the setup pose alone, exit 0, the
+    animation never posed; a list naming no time is refused in the option's one line."""
+    project = make_demo_project(tmp_path / "p", with_images_folder=False)
+    out = tmp_path / "pose.json"
+    r = subprocess.run([sys.executable, "-m", "spinemesh", "pose", str(project / "demo.json"), "-a", "wave",
+                        "--times", times, "--out", str(out)], capture_output=True, env=_env(), timeout=60)
+    text = _no_traceback(r)
+    assert r.returncode == 2, text
+    assert "names no time" in text and not out.exists()

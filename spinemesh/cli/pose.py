@@ -31,6 +31,9 @@ def _times(text: str) -> list[float]:
         if not math.isfinite(t) or t < 0:
             raise typer.BadParameter(f"{part!r}: times must be finite and not negative", param_hint="--times")
         out.append(t)
+    if not out:  # `--times ""` (a script's empty variable): the animation was not posed at all, exit 0
+        raise typer.BadParameter(f"{text!r} names no time; give one or more seconds, 0 for the start",
+                                 param_hint="--times")
     if len(out) > MAX_TIMES:
         raise typer.BadParameter(f"{len(out)} times; at most {MAX_TIMES}", param_hint="--times")
     return out
