@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
 from conftest import skel_json_pairs
-from test_hostile import run_cli
+from test_hostile import run_cli, snapshot
 
 from spinemesh.cli.convert_files import convert_files
 from spinemesh.project import no_skeleton_said
@@ -116,3 +117,35 @@ def test_convert_of_a_4_0_skel_keeps_its_null_attachment_names(examples, tmp_pat
     convert_files(skel, tmp_path / "s.json")
     assert (len(NULL_NAME.findall((tmp_path / "s.json").read_text(encoding="utf-8"))) ==
             len(NULL_NAME.findall(skel.with_suffix(".json").read_text(encoding="utf-8"))) > 0)
+
+
+# --- a library's files in no project: said once ------------------------------------------------------
+
+def _library_with_notes(examples, root):
+    """A library of one 4.2 example project, with a note beside it and a folder of documents."""
+    shutil.copytree(examples / "4.2" / "coin", root / "lib" / "coin")
+    (root / "lib" / "NOTES.txt").write_text("meshes for the slot game\n")
+    (root / "lib" / "docs").mkdir()
+    (root / "lib" / "docs" / "brief.md").write_text("# brief\n")
+    return root / "lib"
+
+
+@pytest.mark.parametrize("command", [("upgrade", "--dry-run"), ("pack",)], ids=["upgrade", "pack"])
+def test_a_library_run_says_the_files_it_does_not_copy(examples, tmp_path, command):
+    """``NOTES.txt`` beside the projects was left out of OUT without a word; now one line, with
+    how many files lie in no project and the first one."""
+    _library_with_notes(examples, tmp_path)
+    before = snapshot(tmp_path / "lib")
+    r = run_cli(command[0], "lib", "--out", "out", *command[1:], cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("not copied: 2 files in no project (NOTES.txt and 1 more)") == 1, r.stdout
+    assert snapshot(tmp_path / "lib") == before
+    if command[0] == "pack":
+        assert not (tmp_path / "out" / "NOTES.txt").exists()
+
+
+def test_a_single_project_run_says_nothing_of_files_outside(examples, tmp_path):
+    """One project is copied whole: no such line."""
+    shutil.copytree(examples / "4.2" / "coin", tmp_path / "coin")
+    r = run_cli("upgrade", "coin", "--out", "out", "--dry-run", cwd=tmp_path)
+    assert r.returncode == 0 and "not copied" not in r.stdout, (r.stdout, r.stderr)

@@ -81,6 +81,22 @@ def say_preview(where, detail: str = "", what: str = "preview") -> None:
     console.print(escaped(f"{what}: {where}" + (f" ({detail})" if detail else "")), highlight=False, markup=False)
 
 
+def say_files_outside(library, projects: Sequence | None) -> None:
+    """The one line on the files of a library that lie in no project, which a library run
+    (``upgrade``, ``pack``) does not copy: how many, and the first; a ``NOTES.txt`` beside the
+    projects was left out without a word. ``projects`` None: one project, copied whole, nothing said."""
+    from pathlib import Path
+
+    from ..upgrade.library import files_outside_projects
+
+    outside = files_outside_projects(library, projects) if projects is not None else []
+    if outside:
+        first = outside[0].relative_to(Path(library)).as_posix()
+        more = f" and {len(outside) - 1:,} more" if len(outside) > 1 else ""
+        console.print(escaped(f"not copied: {counted(len(outside), 'file')} in no project ({first}{more})"),
+                      highlight=False, markup=False)
+
+
 def print_warnings(warnings: Sequence[str]) -> None:
     """Each of a run's warnings on stderr as one line, ``warning: ...`` (each names its file)."""
     for warning in warnings:

@@ -116,21 +116,22 @@ def pack(
             result = pack_library(project, out, options, progress=progress, folders=projects)
         else:
             result = pack_project(project, out, options, keep_previews=preview is not None, progress=progress)
-    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project, out)
+    finish_pack(result, time.perf_counter() - t0, options.jobs, report, preview, project, out, projects)
 
 
 def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], preview: Optional[Path],
-                project: Path, out: Path) -> None:
+                project: Path, out: Path, projects: Optional[list] = None) -> None:
     """Write what a pack run was asked for (report, preview), print its table and exit as it ended:
     a run that packed no atlas at all (all of them failed to load) ends with one line naming
-    ``project`` (exit 2); a project or folder without a usable atlas was refused before."""
+    ``project`` (exit 2); a project or folder without a usable atlas was refused before.
+    ``projects``: a library's (its files in no project are said), ``None`` for one project."""
     from ..errors import SpineMeshError
     from ..files.inputs import project_folder
     from ..output import run_report_error
     from ..pack.report import failed_lines, write_report
     from ..runs import EXIT_PARTIAL
     from ..words import counted
-    from ._summary import print_errors, say_preview
+    from ._summary import print_errors, say_files_outside, say_preview
 
     listed = f"the {counted(len(result.atlases), 'atlas', 'atlases')} listed above" if result.atlases else ""
     report_error = run_report_error(report, out, lambda path: write_report(result, path, project_folder(project)),
@@ -147,6 +148,7 @@ def finish_pack(result, seconds: float, jobs: int, report: Optional[Path], previ
                       highlight=False)
     if page is not None:
         say_preview(page)
+    say_files_outside(project, projects)
     if not result.atlases:
         raise SpineMeshError("no atlas to pack in any of its projects", project)
     if report_error:  # the run's last line: its atlases are written, its report is not (exit 3)

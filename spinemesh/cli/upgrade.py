@@ -17,6 +17,7 @@ from ._app import (
     Annotated, MaskSource, Optional, Preset, app, console, console_text, err_console, finite, positive_finite,
     phase_progress, progress_bar, refuse_default_preset_options,
 )
+from ._summary import say_files_outside
 from .pack import PageSides, _KeepFiles, _MaxPage, _Pages, share_change
 from .weights import Weights
 
@@ -164,6 +165,7 @@ def upgrade(
     result, projects = _run(project, out, options)
     report_error = _write_report(result, report, out, dry_run, project_folder(project))
     _print_result(result, dry_run)
+    say_files_outside(project, projects)
     _say_written(dry_run, pack, images)
     nothing = _nothing_to_do(result, project, only or exclude)
     if preview is not None and not dry_run and result.written:

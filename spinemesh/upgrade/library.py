@@ -61,6 +61,32 @@ def library_projects(folder: str | Path) -> list[Path] | None:
     return None if projects in ([folder], []) else projects
 
 
+def files_outside_projects(library: str | Path, projects: list[Path]) -> list[Path]:
+    """The files under ``library`` that lie in none of its ``projects`` (:func:`library_projects`),
+    which a library run does not copy (a ``NOTES.txt`` beside the projects), walked as
+    :func:`spinemesh.project.find_projects` walks (hidden files and folders left out), sorted.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> for name in ("hero/hero.json", "NOTES.txt", "docs/brief.md", ".DS_Store"):
+    ...     (root / name).parent.mkdir(exist_ok=True)
+    ...     _ = (root / name).write_text("{}")
+    >>> [p.relative_to(root).as_posix() for p in files_outside_projects(root, [root / "hero"])]
+    ['NOTES.txt', 'docs/brief.md']
+    """
+    from ..files.walk import walk_folder
+
+    inside = {Path(p) for p in projects}
+    outside: list[Path] = []
+    for here, subfolders, files in walk_folder(library):
+        subfolders[:] = [p for p in subfolders if p not in inside]
+        if here not in inside:
+            outside.extend(files)
+    return sorted(outside)
+
+
 def upgrade_library(library: str | Path, out: str | Path, options: Options | None = None,
                     progress: Progress = SILENT, projects: list[Path] | None = None) -> Result:
     """Upgrade every project under ``library`` into the same place under ``out``; one result.
