@@ -47,13 +47,14 @@ def dataset(
 
 
 
-    rate = summary.samples / summary.seconds if summary.seconds else 0.0
-    console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "
-                  f"{summary.seconds:.1f} s ({rate:.0f} samples/s); {summary.projects_done_before} projects "
-                  f"done before; data set now holds {summary.total_samples:,} samples in {console_text(str(out))}")
     from ..dataset import dataset_stats, open_dataset
 
     whole = dataset_stats(open_dataset(out))
+    if summary.projects:  # a re-run reads none: "0 new samples from 0 projects in 0.0 s" said nothing
+        rate = summary.samples / summary.seconds if summary.seconds else 0.0
+        console.print(f"[bold]{summary.samples:,}[/] new samples from {summary.projects} projects in "
+                      f"{summary.seconds:.1f} s ({rate:.0f} samples/s); {summary.projects_done_before} projects "
+                      f"done before; data set now holds {summary.total_samples:,} samples in {console_text(str(out))}")
     if summary.samples:
         console.print(_count_table("new samples", "by type", "count", [
             *sorted(summary.by_type.items()), *((f"split {k}", n) for k, n in sorted(summary.by_split.items()))]))
