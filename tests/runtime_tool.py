@@ -226,14 +226,14 @@ PORT_38_PATHS = ("the harness's 3.8 runtime (a port) lays this path constraint's
 
 def unlike_official_38(doc: dict, active: set[str] | None = None) -> set[str]:
     """Bones of a 3.8 skeleton that the harness's 3.8 port poses unlike the official 3.8 runtime:
-    those of a path constraint the two lay apart (``spinemesh.rig.constraints.lays_apart_38``),
+    those of a path constraint the two lay apart (``spinemesh.rig.constraints.solver.lays_apart_38``),
     of the constraints that read them, and every bone below those. Empty for other versions.
     ``active``: the names of the path constraints the skin posed activates (default: all)."""
     from spinemesh.skeleton_version import doc_major_minor
 
     if doc_major_minor(doc) != (3, 8):
         return set()
-    from spinemesh.rig.constraints import lays_apart_38
+    from spinemesh.rig.constraints.solver import lays_apart_38
 
     affected = {b for c in doc.get("path") or [] if lays_apart_38(c) and (active is None or c.get("name") in active)
                 for b in c.get("bones") or []}

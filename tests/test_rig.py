@@ -120,26 +120,26 @@ def test_a_posed_bones_world_array_follows_its_six_numbers():
     read: read, posed again and read again, it is the new pose's, as computed from scratch (the
     array read before keeps the old pose); it cannot be written in place, which its numbers would
     not follow; assigned, the numbers follow it. Every step of a preview's poses relies on this."""
-    from spinemesh.rig import constraints
+    from spinemesh.rig.constraints.solver import build_rig, update_world
     from spinemesh.rig.transform import world_from_local
 
     doc = _worm_with()
     doc["ik"] = [{"name": "aim", "bones": ["seg3"], "target": "target"}]  # a constraint writes one too
-    rig = constraints.build_rig(doc)
-    constraints.update_world(rig)
+    rig = build_rig(doc)
+    update_world(rig)
     before = [b.world for b in rig.bones]
     assert all(not w.flags.writeable for w in before)
     with pytest.raises(ValueError):
         before[1][0, 2] = 5.0
     rig.bones[0].local = (0.0, 0.0, 30.0, 1.0, 1.0, 0.0, 0.0)  # the root turned: every bone moves
-    constraints.update_world(rig)
+    update_world(rig)
     for b, old in zip(rig.bones, before):
         assert np.array_equal(b.world, np.array(b.m).reshape(2, 3)) and not np.array_equal(b.world, old)
         if b.name != "seg3":  # the IK turns seg3 from its setup values
             parent = None if b.parent is None else b.parent.world
             assert np.array_equal(b.world, world_from_local(b.local, b.inherit, parent)), b.name
     again = [b.world.copy() for b in rig.bones]
-    constraints.update_world(rig)  # the same pose again: the same numbers
+    update_world(rig)  # the same pose again: the same numbers
     assert all(np.array_equal(b.world, w) for b, w in zip(rig.bones, again))
     seg1 = rig.bones[1]
     seg1.world = np.array([[0.0, -1.0, 7.0], [1.0, 0.0, -2.0]])

@@ -1,8 +1,8 @@
-"""Spine 4.3 setup poses for binding: :func:`spinemesh.rig.constraints.setup_pose` solves 4.3
+"""Spine 4.3 setup poses for binding: :func:`spinemesh.rig.constraints.solver.setup_pose` solves 4.3
 constraints as the pose sampler does, against the official spine-core 4.3 (``tests/runtime43``).
 
 ``weights`` and ``upgrade --weights`` bind meshes in the setup pose that ``setup_pose`` computes,
-and never on a bone it calls not exact. Its family (:func:`~spinemesh.rig.constraints.posing_family`)
+and never on a bone it calls not exact. Its family (:func:`~spinemesh.rig.constraints.families.posing_family`)
 is the sampler's, so a 4.3 skeleton's IK, transform, path and physics constraints are solved in
 both: the bones equal the sampler's setup pose and spine-core 4.3's, every one exact, and the
 meshes the constraints' bones carry are bound and drawn by spine-core where they were.
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from spinemesh.anim import Sampler
-from spinemesh.rig.constraints import setup_pose
+from spinemesh.rig.constraints.solver import setup_pose
 from spinemesh.skeleton import iter_attachments, load_skeleton
 
 from runtime_tool import node

@@ -21,7 +21,7 @@ import pytest
 from spinemesh.errors import SpineMeshError
 from spinemesh.project import find_project, image_source_for
 from spinemesh.rig.bones import skeleton_bones
-from spinemesh.rig.constraints import solved_constraints
+from spinemesh.rig.constraints.solver import solved_constraints
 from spinemesh.rig.document import WeightOptions
 from spinemesh.rig.run import weight_project
 from spinemesh.rig.binding import parse_vertices, setup_world

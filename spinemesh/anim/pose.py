@@ -28,7 +28,8 @@ import numpy as np
 
 from ..errors import SpineMeshError
 from ..limits import MAX_PHYSICS_FPS, MAX_POSE_STEPS
-from ..rig.constraints import Rig, build_rig, constraints_of, is_43, path_slot, posing_family, skin_names, update_world
+from ..rig.constraints.families import constraints_of, is_43, path_slot, posing_family
+from ..rig.constraints.solver import Rig, build_rig, skin_names, update_world
 from ..rig.physics import RESET, UPDATE, PhysicsSettings, PhysicsState
 from ..rig.transform import wrap_turns
 from ..rig.transform43 import PROPERTIES, source_value_43
@@ -282,7 +283,7 @@ class Sampler:
         The skin to show (default: none, the default skin only), as ``Skeleton.setSkin``; a
         tuple: those skins combined, as a game dresses a mix-and-match character (each
         attachment looked up in them in order, then in the default skin; their bones and
-        constraints all active; :func:`spinemesh.rig.constraints.skin_names`).
+        constraints all active; :func:`spinemesh.rig.constraints.solver.skin_names`).
     regions : callable, optional
         ``regions(path) -> RegionGeometry | None``: the atlas region a region attachment draws
         (its stored size and offsets decide the quad). See :func:`atlas_regions`. Without it
@@ -963,7 +964,7 @@ class SliderPlayer:
     """A 4.3 slider's update: its animation applied, in the middle of the update cache, over the
     bones' current values at the slider's time (keyed, or read from a bone's property) and mix,
     replacing or (``additive``) adding, as spine-core 4.3's ``Slider`` applies it
-    (``MixFrom.current``). Bone timelines only (:func:`spinemesh.rig.constraints.slider_played`)."""
+    (``MixFrom.current``). Bone timelines only (:func:`spinemesh.rig.constraints.families.slider_played`)."""
 
     def __init__(self, sampler: Sampler, data: dict):
         self.anim = sampler.animation(str(data.get("animation")))[0]

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constraints import constraints_of, setup_pose
+from .constraints.families import constraints_of
+from .constraints.solver import setup_pose
 
 
 @dataclass
@@ -101,7 +102,7 @@ def skeleton_bones(doc: dict) -> list[Bone]:
     """Every bone of ``doc`` with its setup-pose world transform, in document order.
 
     Bones come parents first (the format requires it). The setup pose is the runtime's,
-    constraints applied (:func:`.constraints.setup_pose`); a bone whose transform that module
+    constraints applied (:func:`.constraints.solver.setup_pose`); a bone whose transform that module
     does not reproduce, and every bone below it, is marked not exact with the reason; so is a
     bone whose transform is not invertible (a zero scale), which nothing can be bound to.
     """

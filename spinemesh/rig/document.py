@@ -170,7 +170,7 @@ class Rig:
         :meth:`posed_skin_bones` and every bone below it; and, in every skin, a bone that is no
         skin bone below one (the editor makes every bone below a skin bone one): without the
         skin its world transform comes from a parent the runtimes never update, and this setup
-        pose, taken without a skin, holds that one (:func:`.constraints.setup_pose`).
+        pose, taken without a skin, holds that one (:func:`.constraints.solver.setup_pose`).
         """
         above = self.posed_skin_bones(skin, slot_bone)
         out = self._unposed.get(above)

@@ -37,7 +37,7 @@ from . import bone_sets
 from .binding import mesh_triangles, parse_vertices, setup_world
 from .bones import bone_segments
 from .choice import MAX_AUTO_BONES, NEAR, ArtDistance, Choice, choose_by_rule, rule_near, rule_samples
-from .constraints import constraints_of
+from .constraints.families import constraints_of
 from .habits import (HABIT_FEATURES, TALLY_SIZE, ProjectHabits, habit_features, keys_of, meshes_in, mirror_counts,
                      pattern_shares, rig_key, tally)
 from .habits import reason as habit_reason

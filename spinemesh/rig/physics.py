@@ -120,7 +120,7 @@ class PhysicsState:
         self.x_lag = self.y_lag = self.rotate_lag = self.scale_lag = 0.0
 
     def update(self, bone, data: dict) -> None:
-        """Move ``bone`` (a :class:`~.constraints.PoseBone`) by the constraint, as ``update(physics)``."""
+        """Move ``bone`` (a :class:`~.constraints.pose_bone.PoseBone`) by the constraint, as ``update(physics)``."""
         s = self.s
         read, v = self._read
         if data is not read:

@@ -99,7 +99,7 @@ def local_from_world_43(world: tuple[float, ...], inherit: str, parent: tuple[fl
     """A bone's local values ``[x, y, rotation, scaleX, scaleY, shearX, shearY]`` that give its
     world transform ``world`` under ``parent``'s (None: the root), as 4.3's
     ``updateLocalTransform`` takes them back for each inherit mode. Both transforms are six
-    plain floats ``(a, b, worldX, c, d, worldY)`` (a :class:`~.constraints.PoseBone`'s ``m``)."""
+    plain floats ``(a, b, worldX, c, d, worldY)`` (a :class:`~.constraints.pose_bone.PoseBone`'s ``m``)."""
     a, b, wx, c, d, wy = world
     if parent is None:
         rotation, sx, sy, shx, shy = _decompose(a, b, c, d, 0.0)
@@ -253,7 +253,7 @@ def _to_world(i: int, m: list[float], value: float, mix: float, additive: bool) 
 
 def transform_apply_43(data: dict, source, bones: list) -> bool:
     """Apply a 4.3 transform constraint with current values ``data`` to ``bones``
-    (:class:`~.constraints.PoseBone`, 4.3), reading ``source``; False when the runtime returns
+    (:class:`~.constraints.pose_bone.PoseBone`, 4.3), reading ``source``; False when the runtime returns
     first (every mix 0). Raises :class:`Unmapped` for a mapping the runtime refuses."""
     mapping = mapping_43(data)
     mixes = mixes_43(data, mapping)
