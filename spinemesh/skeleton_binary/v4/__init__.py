@@ -207,8 +207,6 @@ def _finish_read(s, doc: dict, extra: dict, c: Context) -> None:
     """The end of the file, and what the document keeps under ``EXTRA``."""
     for e in c.events:
         e.pop("name", None)
-    if not c.L.null_attachment_names:
-        _drop_null_attachment_names(doc)
     if not s.at_end:
         raise s.fail(f"end of file, found {len(s.data) - s.pos} more bytes")
     refs = getattr(s, "refs", [])
@@ -217,17 +215,6 @@ def _finish_read(s, doc: dict, extra: dict, c: Context) -> None:
         extra["refs"] = list(refs)
     if extra:
         doc[EXTRA] = extra
-
-
-def _drop_null_attachment_names(doc: dict) -> None:
-    """Leave out ``"name": null`` of the attachment keys with no attachment, as the editor's JSON
-    export does from 4.1 on (:attr:`.layout.Layout.null_attachment_names`); writing the ``.skel``
-    back reads a missing name as null."""
-    for anim in doc.get("animations", {}).values():
-        for timelines in anim.get("slots", {}).values():
-            for frame in timelines.get("attachment", []):
-                if frame.get("name", "") is None:
-                    del frame["name"]
 
 
 def string_table(doc: dict, L: Layout) -> list[str]:

@@ -6,8 +6,8 @@ from ..symmetric import color, fld, index, put as _put, text
 from .fields import seq
 from .layout import Context, Layout
 from .timelines import (_bone_body, _deform_values, _path_body, _physics_body, _physics_body_43,
-                        _sequence_frames, _slider_body, _slot_body, _time, _transform_values,
-                        _transform_values_43, _typed_groups, curve_timeline, ik_timeline)
+                        _sequence_frames, _slider_body, _time, _transform_values,
+                        _transform_values_43, _typed_groups, curve_timeline, ik_timeline, slot_body)
 
 
 def attachment_timelines(s, anim: dict, c: Context) -> None:
@@ -192,7 +192,7 @@ def animation(s, anim: dict, c: Context, extra_counts: dict, name: str) -> None:
     else:
         count = s.count(extra_counts.get(name, timeline_count(anim, c.L)), what=f"animation {name!r}'s timeline count")
     for key, names_lookup, body, offset in (
-            ("slots", c.slots, _slot_body, 0), ("bones", c.bones, _bone_body, 0)):
+            ("slots", c.slots, slot_body(c.L), 0), ("bones", c.bones, _bone_body, 0)):
         got = _typed_groups(s, None if s.reading else anim.get(key, {}), *names_lookup, key[:-1], body, offset)
         if s.reading and got:
             anim[key] = got

@@ -9,7 +9,7 @@ from ..stream import colour_bytes
 from ..symmetric import bend, boolean, enum, fld, index, put as _put
 from .constraints import _mix_field
 from .fields import _floats_struct, _same, fields, flag, floats, opt, seq
-from .layout import SEQUENCE_MODE, Context
+from .layout import SEQUENCE_MODE, Context, Layout
 
 
 def _time(s, frame: dict) -> float:
@@ -264,9 +264,21 @@ def _frames_without_curves(s, frames: list | None, value) -> list:
 
 
 def _attachment_name(s, frame: dict) -> None:
-    """An attachment key's name: a string reference; null (no attachment) is kept as None."""
+    """An attachment key's name: a string reference; null (no attachment) is kept as None, as the
+    4.0 editor's JSON writes it."""
     if s.reading:
         frame["name"] = s.string_ref()
+    else:
+        s.string_ref(frame.get("name"))
+
+
+def _attachment_name_or_none(s, frame: dict) -> None:
+    """An attachment key's name: null (no attachment) is left out, as the editors' JSON from 4.1 on
+    leaves it (:attr:`.layout.Layout.null_attachment_names`); a missing name is written as null."""
+    if s.reading:
+        name = s.string_ref()
+        if name is not None:
+            frame["name"] = name
     else:
         s.string_ref(frame.get("name"))
 
@@ -296,6 +308,12 @@ def _typed_body(table: tuple, what: str, uncurved: str, uncurved_value):
 
 
 _slot_body = _typed_body(SLOT_TIMELINES, "slot", "attachment", _attachment_name)
+_slot_body_names_only = _typed_body(SLOT_TIMELINES, "slot", "attachment", _attachment_name_or_none)
+
+
+def slot_body(L: Layout):
+    """The slot timelines' body of layout ``L``: its attachment keys with or without a null name."""
+    return _slot_body if L.null_attachment_names else _slot_body_names_only
 _bone_body = _typed_body(BONE_TIMELINES, "bone", "inherit", _inherit_mode)
 
 
